@@ -1,0 +1,24 @@
+"""Where the default sensor library and the bundled fixture scenarios are.
+
+A wheel carries them inside the package (``sensorsel/_data``); a source checkout or an editable
+install finds them at the repository's top level (``configs/``, ``data/kitti_fixtures``).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+_PACKAGE_DATA = Path(__file__).resolve().parent / "_data"
+_REPO_ROOT = Path(__file__).resolve().parents[2]
+
+
+def default_library_path() -> Path:
+    """Path of the default sensor library YAML (the paper's Table I, 62 placed sensors)."""
+    packaged = _PACKAGE_DATA / "sensor_library.yaml"
+    return packaged if packaged.is_file() else _REPO_ROOT / "configs" / "sensor_library.yaml"
+
+
+def fixtures_dir() -> Path:
+    """Folder of the bundled synthetic fixture scenarios (KITTI pose format + landmark CSVs)."""
+    packaged = _PACKAGE_DATA / "kitti_fixtures"
+    return packaged if packaged.is_dir() else _REPO_ROOT / "data" / "kitti_fixtures"

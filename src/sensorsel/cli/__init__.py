@@ -1,0 +1,32 @@
+"""The ``sensorsel`` command line: a click group, one module per command group.
+
+Commands only load inputs, call one pipeline function and save; bad input becomes one line on stderr
+and exit code 2 (see :func:`sensorsel.cli.options.run`).
+"""
+
+from __future__ import annotations
+
+import click
+
+from .. import __version__
+from . import core
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
+@click.version_option(__version__, prog_name="sensorsel")
+def cli() -> None:
+    """Choose and place autonomous-vehicle sensors by the SLAM information they give.
+
+    Every command runs on the bundled synthetic scenario unless given a route: --seq NN (real KITTI
+    ground truth, with --kitti-root or $SENSORSEL_KITTI_ROOT) or --poses FILE (any route in KITTI's
+    pose format).
+    """
+
+
+for _module in (core,):
+    for _command in _module.COMMANDS:
+        cli.add_command(_command)
+
+
+def main() -> None:
+    cli(prog_name="sensorsel")

@@ -1,0 +1,121 @@
+"""Options shared by the commands, and the error handling every command runs under."""
+
+from __future__ import annotations
+
+import functools
+import json
+import os
+import sys
+from pathlib import Path
+from typing import Any, Callable
+
+import click
+
+from ..errors import SensorselError
+from ..pipeline import load_problem
+from ..problem import Problem
+from ..scenario import KITTI_ROOT_ENV, ScenarioSpec
+
+
+def run(fn: Callable[..., Any]) -> Callable[..., Any]:
+    """Turn sensorsel's input errors into one clear line and exit code 2 (no traceback)."""
+
+    @functools.wraps(fn)
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        try:
+            return fn(*args, **kwargs)
+        except SensorselError as exc:
+            click.echo(f"sensorsel: error: {exc}", err=True)
+            sys.exit(2)
+        except KeyboardInterrupt:
+            click.echo("sensorsel: interrupted", err=True)
+            sys.exit(130)
+
+    return wrapper
+
+
+def scenario_options(fn: Callable[..., Any]) -> Callable[..., Any]:
+    """--seq/--kitti-root/--poses/--times/--fixture/--landmarks/--landmark-seed/--rate/--library."""
+    opts = [
+        click.option("--seq", metavar="NN", help="KITTI odometry sequence (e.g. 03, 00); needs --kitti-root or $" + KITTI_ROOT_ENV + "."),
+        click.option("--kitti-root", type=click.Path(file_okay=False, path_type=str), envvar=KITTI_ROOT_ENV, show_envvar=True,
+                     help="KITTI odometry dataset/ folder (poses/NN.txt, sequences/NN/times.txt)."),
+        click.option("--poses", type=click.Path(dir_okay=False, path_type=str), help="A route in KITTI's pose format (12 numbers a line)."),
+        click.option("--times", type=click.Path(dir_okay=False, path_type=str), help="Timestamps for --poses (default: 10 Hz)."),
+        click.option("--fixture", default="suburb", show_default=True, help="Bundled synthetic scenario used when neither --seq nor --poses is given."),
+        click.option("--landmarks", type=click.Path(dir_okay=False, path_type=str), help="Landmark CSV (x,y in metres); default: generated (synthetic)."),
+        click.option("--landmark-seed", type=int, default=0, show_default=True, help="Seed of the synthetic landmark generator."),
+        click.option("--rate", "keyframe_rate_hz", type=float, default=1.0, show_default=True, help="Keyframe rate along the route [Hz]."),
+        click.option("--library", "library_path", type=click.Path(dir_okay=False, path_type=str), help="Sensor library YAML (default: the paper's Table I)."),
+    ]
+    for opt in reversed(opts):
+        fn = opt(fn)
+    return fn
+
+
+def spec_from(kw: dict[str, Any]) -> ScenarioSpec:
+    """Pop the scenario options out of a command's keyword arguments."""
+    if kw.get("poses") and kw.get("seq"):
+        raise click.UsageError("give either --seq or --poses, not both")
+    return ScenarioSpec(
+        seq=kw.pop("seq"),
+        kitti_root=kw.pop("kitti_root"),
+        poses=kw.pop("poses"),
+        times=kw.pop("times"),
+        fixture=kw.pop("fixture"),
+        landmarks=kw.pop("landmarks"),
+        landmark_seed=kw.pop("landmark_seed"),
+        keyframe_rate_hz=kw.pop("keyframe_rate_hz"),
+    )
+
+
+def problem_from(kw: dict[str, Any]) -> tuple[Problem, ScenarioSpec]:
+    """Load the library and scenario named by the options (pops them from ``kw``)."""
+    spec = spec_from(kw)
+    return load_problem(spec, kw.pop("library_path")), spec
+
+
+def engine_options(fn: Callable[..., Any]) -> Callable[..., Any]:
+    """--engine and --jobs."""
+    from ..objective import ENGINES
+
+    fn = click.option("--jobs", type=click.IntRange(min=1), default=os.cpu_count() or 1, show_default="all cores",
+                      help="Processes scoring candidates in parallel (results do not depend on it).")(fn)
+    fn = click.option("--engine", type=click.Choice(sorted(ENGINES)), default=None,
+                      help="Scoring engine (default: the fastest; 'reference' rebuilds the GTSAM graph per suite).")(fn)
+    return fn
+
+
+def echo_json(text: str) -> None:
+    click.echo(text, nl=False)
+
+
+def table(rows: list[list[str]], header: list[str]) -> str:
+    """Plain fixed-width table; numbers right-aligned."""
+    cols = list(zip(*([header] + rows))) if rows else [(h,) for h in header]
+    widths = [max(len(str(c)) for c in col) for col in cols]
+
+    def fmt(row: list[str]) -> str:
+        out = []
+        for v, w in zip(row, widths):
+            s = str(v)
+            out.append(s.rjust(w) if _numeric(s) else s.ljust(w))
+        return "  ".join(out).rstrip()
+
+    return "\n".join([fmt(header), "  ".join("-" * w for w in widths)] + [fmt(r) for r in rows])
+
+
+def _numeric(s: str) -> bool:
+    try:
+        float(s.replace(",", "").replace("$", "").replace("%", ""))
+        return True
+    except ValueError:
+        return False
+
+
+def output_path(path: str | None) -> Path | None:
+    return Path(path) if path else None
+
+
+def dump(obj: Any) -> str:
+    return json.dumps(obj, indent=2)

@@ -1,0 +1,292 @@
+"""The sensor library: sensor models (Table I of the paper) and their placements on the car.
+
+A :class:`SensorLibrary` is an ordered tuple of :class:`PlacedSensor`; everywhere else in sensorsel a
+sensor is referred to by its position in that tuple (``int``) or by its readable id (``"LRR-12"``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Iterable, Sequence
+
+import numpy as np
+import yaml
+
+from ._resources import default_library_path
+from .errors import InputError, LibraryError
+
+SENSOR_TYPES = ("lidar", "radar", "stereo")
+MOUNTS = ("roof", "clock")
+_TWO_PI = 2.0 * math.pi
+
+_COMMON_KEYS = {"code", "name", "type", "digit", "mount", "range_m", "fov_rad", "cost_usd"}
+_TYPE_KEYS = {
+    "lidar": {"sigma_range_m", "sigma_bearing_rad"},
+    "radar": {"sigma_range_m", "sigma_bearing_rad"},
+    "stereo": {"baseline_m", "focal_px", "sigma_disparity_px", "sigma_pixel_px"},
+}
+
+
+@dataclass(frozen=True)
+class SensorModel:
+    """One sensor model of Table I.
+
+    Attributes:
+        code: short unique code used in sensor ids ("LRL", "HD2K").
+        name: human-readable name.
+        type: "lidar", "radar" or "stereo".
+        digit: the paper's type digit, first digit of a placed sensor's index (0-9).
+        mount: "roof" (one placement) or "clock" (one per clock position).
+        range_m: maximum sensing range [m].
+        fov_rad: full field of view, centred on the sensor's facing [rad], in (0, 2*pi].
+        cost_usd: price of one unit [$].
+        sigma_range_m, sigma_bearing_rad: measurement noise std (lidar, radar) [m], [rad].
+        baseline_m, focal_px, sigma_disparity_px, sigma_pixel_px: stereo parameters [m], [px].
+    """
+
+    code: str
+    name: str
+    type: str
+    digit: int
+    mount: str
+    range_m: float
+    fov_rad: float
+    cost_usd: float
+    sigma_range_m: float | None = None
+    sigma_bearing_rad: float | None = None
+    baseline_m: float | None = None
+    focal_px: float | None = None
+    sigma_disparity_px: float | None = None
+    sigma_pixel_px: float | None = None
+
+    def range_sigma(self, distance_m: np.ndarray) -> np.ndarray:
+        """Range noise std [m] at the given distances [m] (shape preserved).
+
+        Stereo: z^2 / (f b) * sigma_d (the paper's eq. 5, z = range); others: constant.
+        """
+        z = np.asarray(distance_m, dtype=float)
+        if self.type == "stereo":
+            assert self.focal_px and self.baseline_m and self.sigma_disparity_px
+            return z * z / (self.focal_px * self.baseline_m) * self.sigma_disparity_px
+        assert self.sigma_range_m is not None
+        return np.full_like(z, self.sigma_range_m)
+
+    def bearing_sigma(self) -> float:
+        """Bearing noise std [rad]: sigma_px / f for stereo cameras, the table's value otherwise."""
+        if self.type == "stereo":
+            assert self.sigma_pixel_px and self.focal_px
+            return self.sigma_pixel_px / self.focal_px
+        assert self.sigma_bearing_rad is not None
+        return self.sigma_bearing_rad
+
+
+@dataclass(frozen=True)
+class PlacedSensor:
+    """A sensor model mounted at one place on the car.
+
+    Attributes:
+        id: readable, stable id: "<code>-<clock>" or "<code>-roof".
+        index: the paper's numeric index (type digit followed by clock position 0..11).
+        model: the sensor model.
+        clock: clock position 1..12 (12 = straight ahead), or None on the roof.
+        mount_angle_rad: facing relative to the car's heading, counter-clockwise positive [rad]
+            (3 o'clock, the car's right, is -pi/2).
+    """
+
+    id: str
+    index: int
+    model: SensorModel
+    clock: int | None
+    mount_angle_rad: float
+
+    @property
+    def cost_usd(self) -> float:
+        return self.model.cost_usd
+
+    @property
+    def position_label(self) -> str:
+        return "roof" if self.clock is None else f"{self.clock} o'clock"
+
+
+@dataclass(frozen=True)
+class SensorLibrary:
+    """An ordered collection of placed sensors, with the file it was read from."""
+
+    sensors: tuple[PlacedSensor, ...]
+    source: str = "<memory>"
+
+    def __len__(self) -> int:
+        return len(self.sensors)
+
+    def __iter__(self):
+        return iter(self.sensors)
+
+    def __getitem__(self, i: int) -> PlacedSensor:
+        return self.sensors[i]
+
+    @property
+    def ids(self) -> tuple[str, ...]:
+        return tuple(s.id for s in self.sensors)
+
+    @property
+    def costs(self) -> np.ndarray:
+        """Cost of each sensor [$], shape (n_sensors,)."""
+        return np.array([s.cost_usd for s in self.sensors], dtype=float)
+
+    def position(self, sensor_id: str) -> int:
+        """Position in the library of the sensor with this id (or paper index as a string)."""
+        for i, s in enumerate(self.sensors):
+            if s.id == sensor_id or str(s.index) == sensor_id:
+                return i
+        raise InputError(f"unknown sensor id {sensor_id!r} (see `sensorsel library` for the ids)")
+
+    def parse_suite(self, text: str | Iterable[str]) -> tuple[int, ...]:
+        """Positions of a comma-separated list of ids (or indices); sorted, duplicates refused."""
+        items = [t.strip() for t in text.split(",")] if isinstance(text, str) else list(text)
+        items = [t for t in items if t]
+        positions = [self.position(t) for t in items]
+        if len(set(positions)) != len(positions):
+            raise InputError(f"suite {','.join(items)!r} names a sensor twice")
+        return tuple(sorted(positions))
+
+    def suite_ids(self, suite: Iterable[int]) -> tuple[str, ...]:
+        return tuple(self.sensors[i].id for i in suite)
+
+    def cost(self, suite: Iterable[int]) -> float:
+        """Total cost of a suite [$]."""
+        return float(sum(self.sensors[i].cost_usd for i in suite))
+
+    def subset(self, positions: Sequence[int]) -> "SensorLibrary":
+        """A smaller library of the sensors at these positions, in this order."""
+        return SensorLibrary(tuple(self.sensors[i] for i in positions), self.source)
+
+
+def clock_to_angle(clock: int) -> float:
+    """Mounting angle [rad] of a clock position: 12 -> 0, 3 -> -pi/2, 9 -> +pi/2."""
+    return -(clock % 12) * math.pi / 6.0
+
+
+def _number(value: Any, path: Path, key: str, *, positive: bool = True) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise LibraryError(path, key, f"expected a number, got {value!r}")
+    v = float(value)
+    if not math.isfinite(v):
+        raise LibraryError(path, key, f"expected a finite number, got {value!r}")
+    if positive and v <= 0:
+        raise LibraryError(path, key, f"must be positive, got {value!r}")
+    return v
+
+
+def _string(value: Any, path: Path, key: str) -> str:
+    if not isinstance(value, str) or not value.strip():
+        raise LibraryError(path, key, f"expected a non-empty string, got {value!r}")
+    return value.strip()
+
+
+def _parse_model(raw: Any, path: Path, key: str) -> SensorModel:
+    if not isinstance(raw, dict):
+        raise LibraryError(path, key, f"expected a mapping of model fields, got {type(raw).__name__}")
+    stype = raw.get("type")
+    if stype not in SENSOR_TYPES:
+        raise LibraryError(path, f"{key}.type", f"unknown sensor type {stype!r}; expected one of {', '.join(SENSOR_TYPES)}")
+    allowed = _COMMON_KEYS | _TYPE_KEYS[stype]
+    for k in raw:
+        if k not in allowed:
+            raise LibraryError(path, f"{key}.{k}", f"unknown key for a {stype} model; allowed: {', '.join(sorted(allowed))}")
+    for k in sorted(allowed):
+        if k not in raw:
+            raise LibraryError(path, f"{key}.{k}", "missing required field")
+    code = _string(raw["code"], path, f"{key}.code")
+    if not code.replace("_", "").isalnum():
+        raise LibraryError(path, f"{key}.code", f"must be letters, digits or '_', got {code!r}")
+    digit = raw["digit"]
+    if isinstance(digit, bool) or not isinstance(digit, int) or not 0 <= digit <= 9:
+        raise LibraryError(path, f"{key}.digit", f"expected an integer 0..9, got {digit!r}")
+    mount = raw["mount"]
+    if mount not in MOUNTS:
+        raise LibraryError(path, f"{key}.mount", f"expected one of {', '.join(MOUNTS)}, got {mount!r}")
+    fov = _number(raw["fov_rad"], path, f"{key}.fov_rad")
+    if fov > _TWO_PI + 1e-9:
+        raise LibraryError(path, f"{key}.fov_rad", f"must be in (0, 2*pi], got {raw['fov_rad']!r}")
+    fields = {k: _number(raw[k], path, f"{key}.{k}") for k in sorted(allowed - {"code", "name", "type", "digit", "mount", "fov_rad"})}
+    return SensorModel(
+        code=code,
+        name=_string(raw["name"], path, f"{key}.name"),
+        type=stype,
+        digit=digit,
+        mount=mount,
+        fov_rad=min(fov, _TWO_PI),
+        **fields,
+    )
+
+
+def parse_library(data: Any, path: str | Path = "<memory>") -> SensorLibrary:
+    """Validate a parsed library document and expand its models into placed sensors.
+
+    Raises:
+        LibraryError: naming ``path`` and the key path of the first problem found.
+    """
+    path = Path(path)
+    if not isinstance(data, dict):
+        raise LibraryError(path, "", f"expected a mapping with keys 'clock_positions' and 'models', got {type(data).__name__}")
+    for k in data:
+        if k not in ("clock_positions", "models"):
+            raise LibraryError(path, str(k), "unknown top-level key; allowed: clock_positions, models")
+    clocks = data.get("clock_positions", list(range(1, 13)))
+    if not isinstance(clocks, list) or not clocks:
+        raise LibraryError(path, "clock_positions", f"expected a non-empty list of clock positions 1..12, got {clocks!r}")
+    for j, c in enumerate(clocks):
+        if isinstance(c, bool) or not isinstance(c, int) or not 1 <= c <= 12:
+            raise LibraryError(path, f"clock_positions[{j}]", f"expected an integer 1..12, got {c!r}")
+    if len(set(clocks)) != len(clocks):
+        raise LibraryError(path, "clock_positions", f"repeats a position: {clocks!r}")
+    models_raw = data.get("models")
+    if not isinstance(models_raw, list) or not models_raw:
+        raise LibraryError(path, "models", "expected a non-empty list of sensor models")
+
+    models = [_parse_model(m, path, f"models[{i}]") for i, m in enumerate(models_raw)]
+    for field in ("code", "digit"):
+        seen: dict[Any, int] = {}
+        for i, m in enumerate(models):
+            v = getattr(m, field)
+            if v in seen:
+                raise LibraryError(path, f"models[{i}].{field}", f"duplicate {field} {v!r} (also models[{seen[v]}])")
+            seen[v] = i
+
+    sensors: list[PlacedSensor] = []
+    for m in models:
+        if m.mount == "roof":
+            sensors.append(PlacedSensor(f"{m.code}-roof", m.digit, m, None, 0.0))
+        else:
+            for c in clocks:
+                sensors.append(PlacedSensor(f"{m.code}-{c}", int(f"{m.digit}{c % 12}"), m, c, clock_to_angle(c)))
+    ids = [s.id for s in sensors]
+    indices = [s.index for s in sensors]
+    if len(set(ids)) != len(ids) or len(set(indices)) != len(indices):
+        raise LibraryError(path, "models", "placed sensor ids or indices collide")
+    return SensorLibrary(tuple(sensors), str(path))
+
+
+def load_library(path: str | Path | None = None) -> SensorLibrary:
+    """Read and validate a sensor library YAML file (safe loading); default: the paper's Table I.
+
+    Raises:
+        LibraryError: missing file, malformed YAML (with its line), or an invalid field.
+    """
+    path = Path(path) if path is not None else default_library_path()
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise LibraryError(path, "", "file not found") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise LibraryError(path, "", f"cannot read: {exc}") from None
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f"line {mark.line + 1}, column {mark.column + 1}: " if mark is not None else ""
+        problem = getattr(exc, "problem", None) or str(exc)
+        raise LibraryError(path, "", f"malformed YAML: {where}{problem}") from None
+    return parse_library(data, path)
