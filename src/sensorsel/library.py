@@ -7,6 +7,7 @@ sensor is referred to by its position in that tuple (``int``) or by its readable
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterable, Sequence
@@ -170,13 +171,24 @@ def clock_to_angle(clock: int) -> float:
 
 def _number(value: Any, path: Path, key: str, *, positive: bool = True) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise LibraryError(path, key, f"expected a number, got {value!r}")
+        hint = ""
+        if isinstance(value, str) and _is_float_text(value):
+            hint = " (a number in quotes is text: remove the quotes)"
+        raise LibraryError(path, key, f"expected a number, got {value!r}{hint}")
     v = float(value)
     if not math.isfinite(v):
         raise LibraryError(path, key, f"expected a finite number, got {value!r}")
     if positive and v <= 0:
         raise LibraryError(path, key, f"must be positive, got {value!r}")
     return v
+
+
+def _is_float_text(text: str) -> bool:
+    try:
+        float(text)
+        return True
+    except ValueError:
+        return False
 
 
 def _string(value: Any, path: Path, key: str) -> str:
@@ -188,8 +200,10 @@ def _string(value: Any, path: Path, key: str) -> str:
 def _parse_model(raw: Any, path: Path, key: str) -> SensorModel:
     if not isinstance(raw, dict):
         raise LibraryError(path, key, f"expected a mapping of model fields, got {type(raw).__name__}")
-    stype = raw.get("type")
-    if stype not in SENSOR_TYPES:
+    if "type" not in raw:
+        raise LibraryError(path, f"{key}.type", f"missing required field; expected one of {', '.join(SENSOR_TYPES)}")
+    stype = raw["type"]
+    if not isinstance(stype, str) or stype not in SENSOR_TYPES:
         raise LibraryError(path, f"{key}.type", f"unknown sensor type {stype!r}; expected one of {', '.join(SENSOR_TYPES)}")
     allowed = _COMMON_KEYS | _TYPE_KEYS[stype]
     for k in raw:
@@ -207,8 +221,8 @@ def _parse_model(raw: Any, path: Path, key: str) -> SensorModel:
     mount = raw["mount"]
     if mount not in MOUNTS:
         raise LibraryError(path, f"{key}.mount", f"expected one of {', '.join(MOUNTS)}, got {mount!r}")
-    fov = _number(raw["fov_rad"], path, f"{key}.fov_rad")
-    if fov > _TWO_PI + 1e-9:
+    fov = _number(raw["fov_rad"], path, f"{key}.fov_rad", positive=False)
+    if not 0.0 < fov <= _TWO_PI + 1e-9:
         raise LibraryError(path, f"{key}.fov_rad", f"must be in (0, 2*pi], got {raw['fov_rad']!r}")
     fields = {k: _number(raw[k], path, f"{key}.{k}") for k in sorted(allowed - {"code", "name", "type", "digit", "mount", "fov_rad"})}
     return SensorModel(
@@ -262,11 +276,52 @@ def parse_library(data: Any, path: str | Path = "<memory>") -> SensorLibrary:
         else:
             for c in clocks:
                 sensors.append(PlacedSensor(f"{m.code}-{c}", int(f"{m.digit}{c % 12}"), m, c, clock_to_angle(c)))
-    ids = [s.id for s in sensors]
-    indices = [s.index for s in sensors]
-    if len(set(ids)) != len(ids) or len(set(indices)) != len(indices):
-        raise LibraryError(path, "models", "placed sensor ids or indices collide")
+    # Distinct codes and digits can still collide: a roof model with digit d and a clock model with
+    # digit 0 at d o'clock both get index d.
+    owner = {id(m): i for i, m in enumerate(models)}
+    for field, value_of in (("code", lambda s: s.id), ("digit", lambda s: s.index)):
+        first: dict[Any, PlacedSensor] = {}
+        for s in sensors:
+            v = value_of(s)
+            if v in first:
+                o = first[v]
+                raise LibraryError(
+                    path, f"models[{owner[id(s.model)]}].{field}",
+                    f"placed sensor {s.id} (index {s.index}) collides with {o.id} (index {o.index}) "
+                    f"of models[{owner[id(o.model)]}]",
+                )
+            first[v] = s
     return SensorLibrary(tuple(sensors), str(path))
+
+
+class _StrictLoader(yaml.SafeLoader):
+    """SafeLoader that refuses a key repeated in one mapping (PyYAML silently keeps the last one,
+    so an edited copy of the library could carry two ``range_m`` and use the one not meant)."""
+
+    def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:
+        seen: dict[Any, int] = {}
+        for key_node, _ in node.value:
+            key = self.construct_object(key_node, deep=deep)
+            try:
+                hash(key)
+            except TypeError:
+                continue  # the base class reports unhashable keys with their line
+            if key in seen:
+                raise yaml.constructor.ConstructorError(
+                    "while constructing a mapping", node.start_mark,
+                    f"key {key!r} repeated (first on line {seen[key]})", key_node.start_mark,
+                )
+            seen[key] = key_node.start_mark.line + 1
+        return super().construct_mapping(node, deep=deep)
+
+
+# PyYAML follows YAML 1.1, where 1e-3 and 2.5e3 (no dot, or no exponent sign) are text; read them as
+# numbers as YAML 1.2 (and every user) does.
+_StrictLoader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"^[-+]?[0-9][0-9_]*(?:\.[0-9_]*)?[eE][-+]?[0-9]+$"),
+    list("-+0123456789"),
+)
 
 
 def load_library(path: str | Path | None = None) -> SensorLibrary:
@@ -283,10 +338,18 @@ def load_library(path: str | Path | None = None) -> SensorLibrary:
     except (OSError, UnicodeDecodeError) as exc:
         raise LibraryError(path, "", f"cannot read: {exc}") from None
     try:
-        data = yaml.safe_load(text)
+        data = yaml.load(text, Loader=_StrictLoader)  # a SafeLoader: plain data only
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
-        where = f"line {mark.line + 1}, column {mark.column + 1}: " if mark is not None else ""
-        problem = getattr(exc, "problem", None) or str(exc)
-        raise LibraryError(path, "", f"malformed YAML: {where}{problem}") from None
+        if mark is not None:
+            where = f"line {mark.line + 1}, column {mark.column + 1}: "
+            problem = getattr(exc, "problem", None) or str(exc)
+        elif isinstance(exc, yaml.reader.ReaderError):  # bad bytes: no mark, a character position
+            line = text.count("\n", 0, exc.position) + 1
+            char = f"#x{exc.character:04x}" if isinstance(exc.character, int) else repr(exc.character)
+            where, problem = f"line {line}: ", f"unacceptable character {char}: {exc.reason}"
+        else:
+            where, problem = "", str(exc)
+        raise LibraryError(path, "", "malformed YAML: " + " ".join(f"{where}{problem}".split())) from None
     return parse_library(data, path)
+
