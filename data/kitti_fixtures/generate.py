@@ -10,11 +10,13 @@ Fixtures:
             scenario of every command.
     tiny    ~70 m straight then a slight curve (9 s), ~40 landmarks: small enough for brute force.
 
-Run:  python data/kitti_fixtures/generate.py   (deterministic: same files every time)
+Run:  python data/kitti_fixtures/generate.py [OUT_DIR]   (deterministic: same files every time;
+      OUT_DIR defaults to this folder, tests regenerate into a temporary one and compare)
 """
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -48,17 +50,21 @@ FIXTURES = {
 }
 
 
-def main() -> None:
+def main(out_dir: str | Path = HERE) -> list[Path]:
+    """Write every fixture under ``out_dir`` (KITTI layout + landmarks/); returns the files written."""
+    out = Path(out_dir)
+    written = []
     for name, spec in FIXTURES.items():
         planar = drive(spec["segments"], spec["speed"])
         times = np.arange(len(planar)) / RATE_HZ
-        write_kitti_poses(HERE / "poses" / f"{name}.txt", planar)
-        atomic_write_text(HERE / "sequences" / name / "times.txt", "".join(f"{t:.6e}\n" for t in times))
+        written.append(write_kitti_poses(out / "poses" / f"{name}.txt", planar))
+        written.append(atomic_write_text(out / "sequences" / name / "times.txt", "".join(f"{t:.6e}\n" for t in times)))
         route = Trajectory(planar, times, np.arange(len(planar)), name)
         landmarks = generate_landmarks(route, spec["model"], spec["seed"])
-        write_landmarks_csv(HERE / "landmarks" / f"{name}.csv", landmarks)
+        written.append(write_landmarks_csv(out / "landmarks" / f"{name}.csv", landmarks))
         print(f"{name}: {len(planar)} frames, {route.length_m:.0f} m, {len(landmarks)} landmarks")
+    return written
 
 
 if __name__ == "__main__":
-    main()
+    main(sys.argv[1] if len(sys.argv) > 1 else HERE)

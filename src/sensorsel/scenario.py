@@ -355,21 +355,30 @@ def _densify(xy: np.ndarray, step: float) -> np.ndarray:
 
 
 def read_landmarks_csv(path: str | Path) -> np.ndarray:
-    """Read landmarks from a CSV of ``x,y`` rows [m] (an optional header line ``x,y``).
+    """Read landmarks from a CSV of ``x,y`` rows [m] (an optional header line ``x,y``; blank lines and
+    ``#`` comments are skipped).
 
     Raises:
-        ScenarioError: missing file, a row without two finite numbers (names the line).
+        ScenarioError: missing file, a row without two finite numbers (names the line), no landmark.
     """
     path = Path(path)
     rows = []
+    header_allowed = True  # the header may follow leading comments, but not a data row
     for lineno, line in enumerate(_read_lines(path, "landmark"), start=1):
         s = line.strip()
-        if not s or s.startswith("#") or (lineno == 1 and s.replace(" ", "").lower() == "x,y"):
+        if not s or s.startswith("#"):
             continue
+        if header_allowed and s.replace(" ", "").lower() == "x,y":
+            header_allowed = False
+            continue
+        header_allowed = False
         parts = [p.strip() for p in s.split(",")]
         if len(parts) != 2:
             raise ScenarioError(path, f"expected 2 comma-separated numbers (x,y), found {len(parts)} fields", lineno)
         rows.append(_parse_row(" ".join(parts), path, lineno, 2, "x,y"))
+    if not rows:
+        # an empty map would silently make every suite score 0
+        raise ScenarioError(path, "landmark file has no landmarks: expected rows of x,y in metres")
     return np.asarray(rows, dtype=float).reshape(-1, 2)
 
 
