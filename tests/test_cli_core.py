@@ -1,0 +1,142 @@
+"""The first commands: ``sensorsel library``, ``score``, ``scene``."""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from sensorsel import results
+from sensorsel.cli import cli
+from sensorsel.objective import ReferenceEvaluator
+from sensorsel.pipeline import ScoreResult
+
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+
+def invoke(*args: str):
+    return CliRunner().invoke(cli, list(args))
+
+
+def ok(*args: str) -> str:
+    result = invoke(*args)
+    assert result.exit_code == 0, (result.output, result.exception)
+    return result.stdout
+
+
+def fails(*args: str) -> str:
+    result = invoke(*args)
+    assert result.exit_code == 2, result.output
+    assert isinstance(result.exception, SystemExit) and "Traceback" not in result.output
+    err = result.stderr.strip()
+    assert len(err.splitlines()) == 1 and err.startswith("sensorsel: error: "), err
+    return err
+
+
+def _sensorsel_command() -> list[str]:
+    script = Path(sys.executable).parent / "sensorsel"
+    if script.is_file():
+        return [str(script)]
+    found = shutil.which("sensorsel")
+    return [found] if found else [sys.executable, "-c", "from sensorsel.cli import main; main()"]
+
+
+def test_library_lists_62_rows(library):
+    out = ok("library").splitlines()
+    header, rule = out[0].split(), out[1]
+    assert header[:3] == ["id", "index", "model"] and "cost_usd" in header
+    assert set(rule.replace(" ", "")) == {"-"}
+    rows = out[2:out.index("")]
+    assert len(rows) == 62
+    assert [r.split()[0] for r in rows] == list(library.ids)
+    assert [int(r.split()[1]) for r in rows] == [s.index for s in library]
+    lrr12 = next(r for r in rows if r.startswith("LRR-12 "))
+    assert "12 o'clock" in lrr12 and "250" in lrr12 and "1,493" in lrr12
+    assert out[-1].startswith("62 sensors from ")
+
+
+def test_score_prints_cost_and_score(suburb_problem):
+    out = ok("score", "--suite", "LRL-roof")
+    assert re.search(r"^cost\s+\$100,000$", out, re.M), out
+    m = re.search(r"^score\s+(-?\d+\.\d+) nats", out, re.M)
+    assert m, out
+    expect = ReferenceEvaluator(suburb_problem).score(suburb_problem.library.parse_suite("LRL-roof"))
+    assert float(m.group(1)) == pytest.approx(expect, abs=5e-4)
+    assert "suburb: 53 keyframes, 182 landmarks" in out
+
+
+def test_score_accepts_paper_indices(tiny_problem):
+    by_id = json.loads(ok("score", "--fixture", "tiny", "--suite", "LRR-12,MRR-6", "--json"))
+    by_index = json.loads(ok("score", "--fixture", "tiny", "--suite", "30,26", "--json"))
+    assert by_id == by_index
+    assert by_id["suite"] == ["MRR-6", "LRR-12"] and by_id["cost_usd"] == 1493 + 2830
+
+
+def test_score_json_round_trips(tmp_path):
+    text = ok("score", "--fixture", "tiny", "--suite", "LRL-roof,WSC-12", "--json")
+    data = json.loads(text)
+    assert data["suite"] == ["LRL-roof", "WSC-12"] and data["cost_usd"] == 102_990
+    path = tmp_path / "score.json"
+    path.write_text(text)
+    res = results.load(ScoreResult, path)
+    assert isinstance(res, ScoreResult) and res.suite == ("LRL-roof", "WSC-12")
+    assert res.score == data["score"] and res.problem.scenario == "tiny" and res.problem.n_sensors == 62
+    assert results.dumps(res) == text  # same bytes back
+    # deterministic: the same command prints the same bytes
+    assert ok("score", "--fixture", "tiny", "--suite", "LRL-roof,WSC-12", "--json") == text
+
+
+@pytest.mark.parametrize("suite,fragment", [("LRL-roof,NOPE-3", "'NOPE-3'"), ("LRR-13", "'LRR-13'"),
+                                            ("LRR-12,30", "names a sensor twice"), ("999", "'999'")])
+def test_score_bad_suite(suite, fragment):
+    assert fragment in fails("score", "--fixture", "tiny", "--suite", suite)
+
+
+def test_scene_writes_a_png(tmp_path):
+    out = tmp_path / "scene.png"
+    assert str(out) in ok("scene", "--fixture", "tiny", "-o", str(out))
+    assert out.read_bytes()[:8] == PNG_SIGNATURE
+    cones = tmp_path / "cones.png"
+    ok("scene", "--fixture", "tiny", "--suite", "LRL-roof,LRR-12,WSC-3", "--pose", "2", "-o", str(cones))
+    assert cones.read_bytes()[:8] == PNG_SIGNATURE and cones.read_bytes() != out.read_bytes()
+
+
+def test_scene_refuses_other_formats_and_bad_pose(tmp_path):
+    out = tmp_path / "x.txt"
+    err = fails("scene", "--fixture", "tiny", "-o", str(out))
+    assert str(out) in err and ".txt" in err
+    assert not out.exists() and list(tmp_path.iterdir()) == []
+    assert "999" in fails("scene", "--fixture", "tiny", "--suite", "LRL-roof", "--pose", "999", "-o", str(tmp_path / "y.png"))
+    assert "'NOPE'" in fails("scene", "--fixture", "tiny", "--suite", "NOPE", "-o", str(tmp_path / "y.png"))
+
+
+def test_commands_work_from_another_directory(tmp_path):
+    env = {k: v for k, v in os.environ.items() if k != "SENSORSEL_KITTI_ROOT"}
+    cmd = _sensorsel_command()
+    lib = subprocess.run([*cmd, "library"], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120)
+    assert lib.returncode == 0, lib.stderr
+    assert "62 sensors from" in lib.stdout
+    score = subprocess.run([*cmd, "score", "--fixture", "tiny", "--suite", "LRL-roof", "--json"], cwd=tmp_path, env=env,
+                           capture_output=True, text=True, timeout=120)
+    assert score.returncode == 0, score.stderr
+    assert json.loads(score.stdout)["problem"]["scenario"] == "tiny"
+    scene = subprocess.run([*cmd, "scene", "-o", "s.png", "--fixture", "tiny"], cwd=tmp_path, env=env, capture_output=True,
+                           text=True, timeout=120)
+    assert scene.returncode == 0, scene.stderr
+    assert (tmp_path / "s.png").read_bytes()[:8] == PNG_SIGNATURE
+    bad = subprocess.run([*cmd, "score", "--suite", "NOPE"], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120)
+    assert bad.returncode == 2 and "NOPE" in bad.stderr and "Traceback" not in bad.stderr
+
+
+@pytest.mark.kitti
+def test_score_on_kitti_03(kitti_root):
+    data = json.loads(ok("score", "--seq", "03", "--kitti-root", str(kitti_root), "--suite", "LRL-roof", "--json"))
+    assert data["problem"]["scenario"] == "03" and 78 <= data["problem"]["n_poses"] <= 84
+    assert data["score"] > 0 and data["n_measurements"] > 0
