@@ -405,3 +405,10 @@ def test_fixture_files_equal_what_the_generator_writes(tmp_path):
     for path in written:
         rel = Path(path).relative_to(tmp_path)
         assert (fixtures_dir() / rel).read_bytes() == Path(path).read_bytes(), rel
+
+
+def test_times_without_poses_is_refused(tmp_path):
+    times = _write(tmp_path / "times.txt", ["0", "1"])
+    result = CliRunner().invoke(cli, ["score", "--times", str(times), "--suite", "LRL-roof"])
+    assert result.exit_code == 2 and "Traceback" not in result.output
+    assert "--times" in result.output and "--poses" in result.output

@@ -57,6 +57,9 @@ def spec_from(kw: dict[str, Any]) -> ScenarioSpec:
     """Pop the scenario options out of a command's keyword arguments."""
     if kw.get("poses") and kw.get("seq"):
         raise click.UsageError("give either --seq or --poses, not both")
+    if kw.get("times") and not kw.get("poses"):
+        # a --seq or a fixture reads its own times.txt: a --times here would be silently ignored
+        raise click.UsageError(f"--times {kw['times']} goes with --poses FILE (a --seq or fixture has its own times.txt)")
     return ScenarioSpec(
         seq=kw.pop("seq"),
         kitti_root=kw.pop("kitti_root"),
