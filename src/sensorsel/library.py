@@ -352,4 +352,3 @@ def load_library(path: str | Path | None = None) -> SensorLibrary:
             where, problem = "", str(exc)
         raise LibraryError(path, "", "malformed YAML: " + " ".join(f"{where}{problem}".split())) from None
     return parse_library(data, path)
-
