@@ -1,5 +1,166 @@
-"""Commands of this group (filled in by its issue)."""
+"""``sensorsel simulate``: Monte-Carlo SLAM of one or two suites, with failures, against the ground truth."""
 
 from __future__ import annotations
 
-COMMANDS: list = []
+import json
+import math
+import os
+import sys
+from pathlib import Path
+from typing import Any
+
+import click
+
+from .. import results
+from ..errors import InputError, ResultFileError
+from ..library import SensorLibrary
+from .options import problem_from, run, scenario_options, table
+
+
+def read_suite(text: str, library: SensorLibrary, what: str) -> tuple[tuple[int, ...], str, tuple[str, ...]]:
+    """A suite from comma-separated ids, or from a result JSON of ``sensorsel greedy``/``resilient``.
+
+    Returns:
+        (library positions, label, sensors the result file assumes to fail (its "failed" key)).
+    Raises:
+        ResultFileError: a JSON file that cannot be read or has no list of ids under "suite".
+        InputError: an unknown id.
+    """
+    path = Path(text)
+    if text.lower().endswith(".json") or path.is_file():
+        try:
+            data = json.loads(path.read_text(encoding="utf-8"))
+        except FileNotFoundError:
+            raise ResultFileError(path, f"{what}: file not found") from None
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+            raise ResultFileError(path, f"{what}: not a JSON result file: {exc}") from None
+        ids = data.get("suite") if isinstance(data, dict) else None
+        if not isinstance(ids, list) or not all(isinstance(s, str) for s in ids):
+            raise ResultFileError(path, f"{what}: expected a top-level key \"suite\" holding a list of sensor ids, got {ids!r}")
+        failed = data.get("failed", [])
+        if not isinstance(failed, list) or not all(isinstance(s, str) for s in failed):
+            raise ResultFileError(path, f"{what}: key \"failed\" must be a list of sensor ids, got {failed!r}")
+        try:
+            positions = library.parse_suite(ids)
+        except InputError as exc:
+            raise ResultFileError(path, f"{what}: key \"suite\": {exc}") from None
+        return positions, path.stem, tuple(failed)
+    try:
+        return library.parse_suite(text), what.lstrip("-"), ()
+    except InputError as exc:
+        raise InputError(f"{what} {text!r}: {exc}") from None
+
+
+def _fmt(v: float | None, digits: int = 3) -> str:
+    return "n/a" if v is None else f"{v:.{digits}f}"
+
+
+@click.command("simulate")
+@scenario_options
+@click.option("--suite", required=True, help="Comma-separated sensor ids, or a result JSON of `sensorsel greedy`/`resilient` (its \"suite\").")
+@click.option("--compare", default=None, help="A second suite (same forms) simulated with the same noise and drawn beside the first.")
+@click.option("--fail", "fail", default=None, metavar="ID[@FROM-TO],...",
+              help="Failed sensors: ID for the whole route, ID@20-40 for keyframes 20..39, ID@30s-60s for a period in seconds. "
+                   "Applied to each simulated suite that has the sensor.")
+@click.option("--runs", type=click.IntRange(min=1), default=20, show_default=True, help="Monte-Carlo runs.")
+@click.option("--solver", type=click.Choice(["lm", "isam2"]), default="lm", show_default=True,
+              help="lm: batch Levenberg-Marquardt; isam2: incremental, keyframes in order.")
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True, help="Base seed; run r draws from (seed, r).")
+@click.option("--noise-scale", type=float, default=1.0, show_default=True, help="Factor on every noise sigma (odometry, prior, sensors).")
+@click.option("--jobs", type=click.IntRange(min=1), default=os.cpu_count() or 1, show_default="all cores",
+              help="Processes running the Monte-Carlo draws (results do not depend on it).")
+@click.option("-o", "--output", "outdir", required=True, type=click.Path(file_okay=False, path_type=str),
+              help="Output folder: simulation.json (every run), trajectories, error_along_route and simulate plots.")
+@click.option("--format", "fmt", type=click.Choice(["png", "svg", "pdf"]), default="png", show_default=True, help="Plot file format.")
+@click.option("--quiet", "-q", is_flag=True, help="No progress bar.")
+@run
+def simulate_cmd(suite: str, compare: str | None, fail: str | None, runs: int, solver: str, seed: int, noise_scale: float, jobs: int,
+                 outdir: str, fmt: str, quiet: bool, **kw: Any) -> None:
+    """Validate designs by running SLAM on them: N noisy Monte-Carlo runs solved with GTSAM.
+
+    Prints pose, heading and landmark RMSE, the worst position error along the route, the errors the
+    information matrix predicts, and the average NEES of the poses with its 95 % chi-square bounds;
+    writes the plots and a JSON of every run to OUTPUT.
+    """
+    from ..plotting import plot_error_along_route, plot_simulation_comparison, plot_simulation_overview, save_figure
+    from ..simulate import SimulationReport, parse_failures, simulate
+
+    if not (math.isfinite(noise_scale) and noise_scale > 0):
+        raise click.BadParameter(f"must be a positive number, got {noise_scale!r}", param_hint="--noise-scale")
+    problem, spec = problem_from(kw)
+    lib = problem.library
+    designs = [read_suite(suite, lib, "--suite")]
+    if compare is not None:
+        designs.append(read_suite(compare, lib, "--compare"))
+    if len(designs) == 2 and designs[0][1] == designs[1][1]:
+        designs = [(designs[0][0], designs[0][1] + " (suite)", designs[0][2]), (designs[1][0], designs[1][1] + " (compare)", designs[1][2])]
+    failures = parse_failures(fail, problem) if fail else ()
+    named = {f.sensor for f in failures}
+    for positions, label, assumed in designs:
+        ids = set(lib.suite_ids(positions))
+        missing = sorted(named - ids)
+        if missing:
+            click.echo(f"note: {label} has no {', '.join(missing)}: that failure does not apply to it", err=True)
+        if assumed and not set(assumed) <= named:
+            click.echo(f"note: {label} assumes {', '.join(assumed)} fail(s); add --fail {','.join(assumed)} to simulate that", err=True)
+    if named and not any(named & set(lib.suite_ids(p)) for p, _, _ in designs):
+        raise InputError(f"--fail {fail!r}: no simulated suite has {', '.join(sorted(named))}")
+
+    show = not quiet and sys.stderr.isatty()
+    sims = []
+    for positions, label, _ in designs:
+        ids = set(lib.suite_ids(positions))
+        mine = tuple(f for f in failures if f.sensor in ids)
+        if show:
+            with click.progressbar(length=runs, label=f"simulating {label}", file=sys.stderr) as bar:
+                res = simulate(problem, positions, failures=mine, runs=runs, solver=solver, seed=seed, noise_scale=noise_scale,
+                               jobs=jobs, label=label, spec=spec, progress=lambda: bar.update(1))
+        else:
+            res = simulate(problem, positions, failures=mine, runs=runs, solver=solver, seed=seed, noise_scale=noise_scale,
+                           jobs=jobs, label=label, spec=spec)
+        sims.append(res)
+
+    out = Path(outdir)
+    json_path = results.save(SimulationReport(tuple(sims)), out / "simulation.json")
+    sc = problem.scenario
+    paths = [json_path]
+    axes = plot_simulation_comparison(sims, sc)
+    paths.append(save_figure(axes[0].figure, out / f"trajectories.{fmt}"))
+    ax = plot_error_along_route(sims, sc)
+    paths.append(save_figure(ax.figure, out / f"error_along_route.{fmt}"))
+    paths.append(save_figure(plot_simulation_overview(sims, sc), out / f"simulate.{fmt}"))
+
+    click.echo(f"scenario  {sc.name}: {sc.n_poses} keyframes, {sc.n_landmarks} landmarks ({sc.landmark_source})")
+    click.echo(f"runs      {runs} per suite, solver {solver}, seed {seed}" + (f", noise x{noise_scale:g}" if noise_scale != 1 else ""))
+    for s in sims:
+        click.echo(f"{s.label:<9} {','.join(s.suite) or '(no sensor)'}  (${s.cost_usd:,.0f}); "
+                   f"{s.n_measurements} measurements/run ({s.n_measurements_failed} lost to failures), "
+                   f"{len(s.unmeasured_landmarks)} landmarks never measured")
+    click.echo("")
+    rows = []
+    for s in sims:
+        lo_c, hi_c = s.nees_bounds_correlated
+        lo, hi = s.nees_bounds
+        rows.append([
+            s.label,
+            ",".join(f.describe(sc.n_poses) for f in s.failures) or "-",
+            f"{s.position_rmse_m:.3f}", f"{s.predicted_position_rmse_m:.3f}",
+            f"{math.degrees(s.heading_rmse_rad):.4f}", f"{math.degrees(s.predicted_heading_rmse_rad):.4f}",
+            _fmt(s.landmark_rmse_m), _fmt(s.predicted_landmark_rmse_m),
+            f"{s.max_position_error_m:.3f}", f"{s.initial_position_rmse_m:.2f}",
+            f"{s.nees_mean:.2f} [{lo_c:.2f},{hi_c:.2f}]",
+            f"{s.nees_joint_mean:.2f} [{lo:.2f},{hi:.2f}]",
+            "yes" if s.nees_joint_inside_bounds else "NO",
+        ])
+    click.echo(table(rows, ["design", "failed", "pos_rmse_m", "pred_m", "hdg_rmse_deg", "pred_deg", "lm_rmse_m", "pred_m",
+                            "max_pos_err_m", "dead_reck_m", "nees/pose [95%]", "joint_nees [95%]", "consistent"]))
+    click.echo("")
+    click.echo("pred: predicted by the information matrix at the truth. nees/pose: average 3-dof pose NEES (expect 3), bounds allow "
+               "for the correlation of poses; joint_nees: NEES of the whole trajectory / K, exact chi-square bounds.")
+    t = sum(s.timing.total_s for s in sims if s.timing)
+    click.echo(f"time      {t:.1f} s ({jobs} job{'s' if jobs > 1 else ''})")
+    for p in paths:
+        click.echo(f"wrote     {p}")
+
+
+COMMANDS = [simulate_cmd]
