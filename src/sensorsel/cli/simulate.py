@@ -155,8 +155,9 @@ def simulate_cmd(suite: str, compare: str | None, fail: str | None, runs: int, s
     click.echo(table(rows, ["design", "failed", "pos_rmse_m", "pred_m", "hdg_rmse_deg", "pred_deg", "lm_rmse_m", "pred_m",
                             "max_pos_err_m", "dead_reck_m", "nees/pose [95%]", "joint_nees [95%]", "consistent"]))
     click.echo("")
-    click.echo("pred: predicted by the information matrix at the truth. nees/pose: average 3-dof pose NEES (expect 3), bounds allow "
-               "for the correlation of poses; joint_nees: NEES of the whole trajectory / K, exact chi-square bounds.")
+    click.echo("pred: predicted by the information matrix at the truth; dead_reck: RMSE of the dead-reckoned start.\n"
+               "nees/pose: average 3-dof pose NEES (expect 3), 95 % bounds allowing for the correlation of poses along the route;\n"
+               "joint_nees: NEES of the whole trajectory / K, exact 95 % chi-square bounds; consistent: joint_nees inside them.")
     t = sum(s.timing.total_s for s in sims if s.timing)
     click.echo(f"time      {t:.1f} s ({jobs} job{'s' if jobs > 1 else ''})")
     for p in paths:
