@@ -300,3 +300,143 @@ def plot_simulation_overview(results: "Sequence[SimulationResult]", scenario: Sc
     plot_simulation_comparison(results, scenario, axes)
     plot_error_along_route(results, scenario, bottom.subplots())
     return fig
+
+
+if TYPE_CHECKING:  # resilient needs no matplotlib; plotting needs only its grid type
+    from .resilient import SelectionGrid
+
+
+def plot_selection_grid(grid: "SelectionGrid", ax: Axes | None = None, *, title: str | None = None) -> Axes:
+    """The per-period selection grid (the paper's Fig. 5): rows = periods, columns = sensors.
+
+    Columns are grouped by sensor model (group label: the model code; column label: the clock
+    position or "roof"); sensors assumed to fail are red, active sensors green, others blank.
+    Without ``ax`` the figure is sized for the grid (about 0.2 in per column, 0.24 in per row), so
+    that the 62 columns of the paper's library stay readable.
+
+    Args:
+        grid: a :class:`sensorsel.resilient.SelectionGrid`.
+        ax: axes to draw on; a new figure when None.
+        title: the axes' title (default: "Resilient selection per period").
+    Returns:
+        The axes drawn on.
+    """
+    from matplotlib.colors import to_rgb
+    from matplotlib.patches import Patch
+
+    n_rows, n_cols = len(grid.cells), len(grid.sensors)
+    if ax is None:
+        ax = new_axes(figsize=(max(6.0, 0.2 * n_cols + 2.6), max(2.6, 0.24 * n_rows + 1.9)))
+    colours = {"failed": to_rgb("tab:red"), "active": to_rgb("tab:green"), "": (1.0, 1.0, 1.0)}
+    img = np.ones((max(n_rows, 1), max(n_cols, 1), 3))
+    for r, row in enumerate(grid.cells):
+        for c, state in enumerate(row):
+            img[r, c] = colours[state]
+    ax.imshow(img, aspect="auto", interpolation="nearest", extent=(-0.5, n_cols - 0.5, max(n_rows, 1) - 0.5, -0.5))
+    # thin cell borders, thick borders between sensor models
+    ax.set_xticks(np.arange(-0.5, n_cols, 1.0), minor=True)
+    ax.set_yticks(np.arange(-0.5, n_rows, 1.0), minor=True)
+    ax.grid(True, which="minor", color="0.8", lw=0.5)
+    ax.tick_params(which="minor", length=0)
+    groups: list[tuple[str, int, int]] = []  # (model code, first column, last column)
+    for c, m in enumerate(grid.models):
+        if groups and groups[-1][0] == m:
+            groups[-1] = (m, groups[-1][1], c)
+        else:
+            groups.append((m, c, c))
+    for _, a, b in groups[1:]:
+        ax.axvline(a - 0.5, color="k", lw=1.2)
+    for m, a, b in groups:
+        ax.text((a + b) / 2, -0.6, m, ha="center", va="bottom", fontsize=8, fontweight="bold",
+                transform=ax.transData, clip_on=False)
+    ax.set_xticks(np.arange(n_cols))
+    ax.set_xticklabels(grid.positions, fontsize=6.5)
+    for lab, pos in zip(ax.get_xticklabels(), grid.positions):
+        if len(pos) > 2:
+            lab.set_rotation(90)
+    ax.set_yticks(np.arange(n_rows))
+    ax.set_yticklabels(grid.period_labels, fontsize=7)
+    ax.tick_params(axis="both", which="major", length=2, pad=1.5)
+    ax.set_xlabel("sensor: clock position (12 = ahead, 3 = right) or roof, grouped by model", fontsize=8)
+    ax.set_ylabel("period", fontsize=8)
+    ax.set_title(title or "Resilient selection per period", fontsize=10, pad=14)
+    ax.legend(handles=[Patch(color=colours["failed"], label="assumed to fail"), Patch(color=colours["active"], label="active")],
+              loc="upper left", bbox_to_anchor=(1.005, 1.0), fontsize=8, frameon=False)
+    return ax
+
+
+if TYPE_CHECKING:  # plotting needs only the tradespace's result type
+    from .tradespace import TradespaceResult
+
+#: Colours and markers of the selectors in the tradespace plot (the paper's Fig. 4: uniform orange,
+#: cost-benefit blue). Hollow markers of different shapes keep suites made by several rules visible.
+SELECTOR_STYLES = {
+    "uniform": ("tab:orange", "o", 60),
+    "cost-benefit": ("tab:blue", "s", 34),
+    "marginal": ("tab:green", "^", 30),
+    "best-of": ("tab:purple", "D", 16),
+}
+
+
+def plot_tradespace(result: "TradespaceResult", ax: Axes | None = None, *, log_cost: bool = True,
+                    fractions: Sequence[float] = (0.99, 0.95), title: str | None = None) -> Axes:
+    """The cost-performance tradespace (the paper's Fig. 4).
+
+    Every architecture is a hollow marker coloured by the selector that made it (one marker per
+    selector when several made it); the Pareto front is a dashed red step line: from a front point
+    the line stays flat until the next front point's cost, since between two front architectures a
+    larger budget buys no better recorded architecture. The cheapest architectures reaching each of
+    ``fractions`` of the best score are starred and labelled.
+
+    Args:
+        result: a :class:`sensorsel.tradespace.TradespaceResult`.
+        ax: axes to draw on; a new figure when None.
+        log_cost: logarithmic cost axis (the costs span $449 to $200,000 in the paper's library).
+        fractions: fractions of the best score whose cheapest architecture to mark.
+        title: the axes' title (default: names the scenario and the counts).
+    Returns:
+        The axes drawn on.
+    """
+    from matplotlib.ticker import FuncFormatter
+
+    ax = ax or new_axes((8.0, 5.5))
+    archs = result.architectures
+    if not archs:
+        raise InputError("plot_tradespace: the tradespace has no architectures (every budget is below the cheapest sensor)")
+    for name in result.selectors:
+        pts = [(a.cost_usd, a.normalized) for a in archs if name in a.selectors]
+        colour, marker, size = SELECTOR_STYLES.get(name, ("tab:gray", "x", 30))
+        if pts:
+            x, y = np.array(pts).T
+            ax.scatter(x, y, s=size, marker=marker, facecolors="none", edgecolors=colour, linewidths=1.1,
+                       label=f"{name} ({len(pts)})", zorder=3)
+    front = result.front
+    fx = np.array([a.cost_usd for a in front])
+    fy = np.array([a.normalized for a in front])
+    ax.step(fx, fy, where="post", ls="--", color="red", lw=1.4, label=f"Pareto front ({len(front)})", zorder=2)
+    ax.scatter(fx, fy, s=10, color="red", zorder=4)
+    for k, frac in enumerate(fractions):
+        a = result.cheapest_reaching(frac)
+        if a is None:
+            continue
+        ax.axhline(frac, color="0.6", lw=0.8, ls=":", zorder=1)
+        ax.scatter([a.cost_usd], [a.normalized], s=160, marker="*", color="gold", edgecolors="k", linewidths=0.7, zorder=5)
+        ax.annotate(f"{frac:.0%} of best: ${a.cost_usd:,.0f}\n({a.n_sensors} sensors)", (a.cost_usd, a.normalized),
+                    xytext=(12, -28 - 26 * k), textcoords="offset points", fontsize=8.5,
+                    arrowprops=dict(arrowstyle="-", color="0.4", lw=0.7),
+                    bbox=dict(boxstyle="round,pad=0.25", fc="white", ec="0.7", alpha=0.9))
+    if log_cost:
+        ax.set_xscale("log")
+    ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"${v / 1000:,.0f}k" if v >= 1000 else f"${v:,.0f}"))
+    lo = min(a.normalized for a in archs)
+    ax.set_ylim(max(0.0, lo - 0.05), 1.03)
+    ax.set_xlabel("suite cost [$]" + (" (log scale)" if log_cost else ""))
+    ax.set_ylabel("normalized performance  f(S) / max f")
+    p = result.problem
+    where = f"scenario {p.scenario}: " if p is not None else ""
+    ax.set_title(title or f"{where}{len(archs)} architectures from {len(result.runs)} greedy runs "
+                          f"({len(result.budgets_usd)} budgets)", fontsize=10)
+    ax.grid(True, which="major", alpha=0.3)
+    ax.grid(True, which="minor", alpha=0.1)
+    ax.legend(loc="lower right", fontsize=8.5, title="made by", title_fontsize=8.5)
+    return ax
