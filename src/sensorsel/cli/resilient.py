@@ -1,5 +1,108 @@
-"""Commands of this group (filled in by its issue)."""
+"""``sensorsel resilient``: resilient selection against failures, whole route and period by period."""
 
 from __future__ import annotations
 
-COMMANDS: list = []
+import sys
+from collections import Counter
+from pathlib import Path
+from typing import Any
+
+import click
+
+from .. import results
+from ..selection import SELECTORS
+from .options import engine_options, problem_from, run, scenario_options, table
+
+
+@click.command("resilient")
+@scenario_options
+@engine_options
+@click.option("--budget", type=float, default=110_000.0, show_default=True, help="Budget [$], the sensors assumed to fail included.")
+@click.option("--failures", "alpha", type=int, default=1, show_default=True,
+              help="Number of sensors assumed to fail (alpha); 0 is plain greedy selection.")
+@click.option("--period", "period_s", type=float, default=10.0, show_default=True,
+              help="Length of a period of the per-period selection [s of keyframe timestamps].")
+@click.option("--objective", type=click.Choice(list(SELECTORS)), default="uniform", show_default=True,
+              help="Greedy rule spending the budget left after the failing sensors.")
+@click.option("-o", "--output", "outdir", required=True, type=click.Path(file_okay=False, path_type=str),
+              help="Output folder: resilient.json, grid.csv, the grid plot, and periods/ (one file per period).")
+@click.option("--format", "fmt", type=click.Choice(["png", "svg", "pdf"]), default="png", show_default=True, help="Grid plot format.")
+@click.option("--resume", is_flag=True, help="Reuse the results in OUTPUT/periods/ whose inputs match this run (after an interruption).")
+@click.option("--quiet", "-q", is_flag=True, help="No progress on stderr.")
+@run
+def resilient_cmd(budget: float, alpha: int, period_s: float, objective: str, outdir: str, fmt: str, resume: bool, quiet: bool,
+                  engine: str | None, jobs: int, **kw: Any) -> None:
+    """Resilient sensor selection (the paper's Algorithm 2, for ALPHA failures).
+
+    The ALPHA sensors with the largest individual scores are bought and assumed to fail; the rest of
+    the budget goes to greedy selection on the library without them. Prints greedy versus resilient
+    selection on the whole route (nominal score, worst-case score after the worst ALPHA failures,
+    and that failure set), then runs the selection on each period of the route and draws the grid of
+    failed (red) and active (green) sensors per period (the paper's Fig. 5).
+    """
+    from ..plotting import plot_selection_grid, save_figure
+    from ..resilient import check_alpha, check_period, resilient_report, save_grid_csv, split_periods
+    from ..selection import check_budget
+
+    budget = check_budget(budget)
+    alpha = check_alpha(alpha)
+    period_s = check_period(period_s)
+    problem, spec = problem_from(kw)
+    sc = problem.scenario
+    n_periods = len(split_periods(sc.keyframes.times, period_s))
+    show = not quiet and sys.stderr.isatty()
+    out = Path(outdir)
+    if show:
+        click.echo(f"whole route: greedy and resilient selection on {sc.n_poses} keyframes, {sc.n_landmarks} landmarks ...", err=True)
+        with click.progressbar(length=n_periods, label=f"{n_periods} periods of {period_s:g} s", file=sys.stderr) as bar:
+            def progress(done: int, total: int) -> None:
+                bar.update(done - bar.pos)
+
+            report = resilient_report(problem, budget, alpha, period_s=period_s, objective=objective, engine=engine, jobs=jobs,
+                                      spec=spec, outdir=out, resume=resume, progress=progress)
+    else:
+        report = resilient_report(problem, budget, alpha, period_s=period_s, objective=objective, engine=engine, jobs=jobs,
+                                  spec=spec, outdir=out, resume=resume)
+
+    per = report.per_period
+    assert per is not None
+    json_path = results.save(report, out / "resilient.json")
+    csv_path = save_grid_csv(per.grid, out / "grid.csv")
+    title = f"{sc.name}: resilient selection per {period_s:g} s period, {alpha} failure(s), budget ${budget:,.0f}"
+    ax = plot_selection_grid(per.grid, title=title)
+    img_path = save_figure(ax.figure, out / f"grid.{fmt}")
+
+    c = report.comparison
+    click.echo(f"scenario  {sc.name}: {sc.n_poses} keyframes, {sc.n_landmarks} landmarks ({sc.landmark_source})")
+    click.echo(f"budget    ${budget:,.0f}, {alpha} failure(s), objective {objective}, engine {c.engine}")
+    r = c.resilient
+    if r.failed:
+        fails = ", ".join(f"{s} (f = {v:.2f})" for s, v in zip(r.failed, r.failed_scores))
+        click.echo(f"assumed to fail: {fails}; ${r.failed_cost_usd:,.0f} of the budget")
+    if r.failure_note:
+        click.echo(f"note: {r.failure_note}")
+    click.echo("")
+    rows = []
+    for label, suite, cost, w in (("greedy", c.greedy.suite, c.greedy.cost_usd, c.greedy_worst),
+                                  ("resilient", r.suite, r.cost_usd, c.resilient_worst)):
+        rows.append([label, ",".join(suite) or "(none)", f"{cost:,.0f}", f"{w.nominal_score:.2f}", f"{w.score:.2f}",
+                     ",".join(w.failures) or "-"])
+    click.echo(table(rows, ["design", "suite", "cost_usd", "nominal", "worst_case", "worst_failure"]))
+    if c.greedy_worst.score > 0:
+        gain = 100.0 * (c.resilient_worst.score - c.greedy_worst.score) / c.greedy_worst.score
+        click.echo(f"\nworst case: resilient {gain:+.1f} % versus greedy (scores in nats: f(S) = log det L(S) - log det L(empty))")
+
+    n = len(per.periods)
+    failed = Counter(s for p in per.periods for s in p.result.failed)
+    active = Counter(s for p in per.periods for s in p.result.active)
+    click.echo(f"\nper period: {n} periods of {period_s:g} s")
+    if failed:
+        click.echo("  assumed to fail: " + ", ".join(f"{s} in {k}/{n}" for s, k in failed.most_common()))
+    if active:
+        click.echo("  most used active: " + ", ".join(f"{s} in {k}/{n}" for s, k in active.most_common(8)))
+    for p in (json_path, csv_path, img_path):
+        click.echo(f"wrote {p}")
+    click.echo(f"wrote {n} period files under {out / 'periods'}")
+
+
+COMMANDS = [resilient_cmd]
