@@ -36,8 +36,10 @@ from typing import Callable, ClassVar
 import numpy as np
 
 from .errors import InputError
-from .objective import Evaluator
-from .pipeline import ProblemInfo
+from .objective import Evaluator, make_evaluator
+from .pipeline import ProblemInfo, problem_info
+from .problem import Problem
+from .scenario import ScenarioSpec
 
 #: Relative tolerance under which two objective values are tied, and a gain counts as zero.
 REL_TOL = 1e-9
@@ -276,14 +278,24 @@ class BestOfGreedy(Selector):
         t0 = time.perf_counter()
         kw = dict(lazy=self.lazy, exclude=self.exclude, progress=self.progress)
         runs = [cls(self.evaluator, **kw).select(budget_usd, start=start, info=info) for cls in (UniformGreedy, MarginalGreedy)]
-        # higher score wins; a tie (to round-off) goes to the cheaper suite, then to uniform
-        best = max(runs, key=lambda r: (round(r.score / max(1.0, abs(r.score)), 9), -r.cost_usd))
+        best = better_run(runs)
         return GreedyResult(
             objective=self.name, budget_usd=best.budget_usd, suite=best.suite, cost_usd=best.cost_usd, score=best.score,
             steps=best.steps, stop_reason=best.stop_reason, n_evaluations=sum(r.n_evaluations for r in runs),
             engine=best.engine, lazy=best.lazy, chosen_rule=best.chosen_rule, problem=info,
             seconds=round(time.perf_counter() - t0, 6),
         )
+
+
+def better_run(runs: "list[GreedyResult]") -> GreedyResult:
+    """The run best-of keeps: the higher score; scores within a relative :data:`REL_TOL` are tied,
+    and a tie goes to the cheaper suite, then to the earlier run (uniform before marginal)."""
+    best = runs[0]
+    for r in runs[1:]:
+        tol = REL_TOL * max(1.0, abs(best.score), abs(r.score))
+        if r.score > best.score + tol or (abs(r.score - best.score) <= tol and r.cost_usd < best.cost_usd):
+            best = r
+    return best
 
 
 SELECTORS: dict[str, type[Selector]] = {c.name: c for c in (UniformGreedy, CostBenefitGreedy, MarginalGreedy, BestOfGreedy)}
@@ -297,3 +309,18 @@ def greedy(evaluator: Evaluator, budget_usd: float, objective: str = "uniform", 
         raise InputError(f"unknown objective {objective!r}; available: {', '.join(SELECTORS)}")
     sel = SELECTORS[objective](evaluator, lazy=lazy, exclude=exclude, progress=progress)
     return sel.select(budget_usd, start=start, info=info)
+
+
+def run_greedy(problem: Problem, budget_usd: float, objective: str = "uniform", *, engine: str | None = None, jobs: int = 1,
+               lazy: bool = True, progress: Progress | None = None, spec: ScenarioSpec = ScenarioSpec()) -> GreedyResult:
+    """The ``sensorsel greedy`` pipeline: :func:`greedy` with a fresh evaluator of ``engine``, recording
+    what the problem is (``spec``: the scenario as the user stated it).
+
+    Raises:
+        InputError: a bad budget or objective (before any evaluator is built).
+    """
+    check_budget(budget_usd)
+    if objective not in SELECTORS:
+        raise InputError(f"unknown objective {objective!r}; available: {', '.join(SELECTORS)}")
+    ev = make_evaluator(problem, engine, jobs=jobs)
+    return greedy(ev, budget_usd, objective, lazy=lazy, progress=progress, info=problem_info(problem, spec))
