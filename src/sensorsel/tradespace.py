@@ -1,0 +1,421 @@
+"""The cost-performance tradespace (the paper's Section V and Fig. 4).
+
+The greedy selectors of :mod:`sensorsel.selection` are run over a grid of budgets; every intermediate
+architecture of every run (the suite after each pick) is recorded, identical suites are merged
+(keeping which selectors made them), and the Pareto front of cost against score is computed.
+
+    result = run_tradespace(problem)                    # default budgets and selectors
+    result.front                                        # the non-dominated architectures, cheapest first
+    result.cheapest_reaching(0.99)                      # cheapest architecture with >= 99% of the best score
+    write_csv(result, "architectures.csv")
+
+Definitions (costs in $, scores f(S) in nats, see :mod:`sensorsel.objective`):
+
+* Architecture a **dominates** b when cost(a) <= cost(b) and score(a) >= score(b), with at least one of
+  the two strict. Comparisons are exact on the recorded floats (no tolerance, so dominance is a strict
+  partial order and the front is unambiguous). Two architectures with equal cost and equal score do
+  not dominate each other: both are on the front.
+* The **Pareto front** is the set of architectures no recorded architecture dominates.
+* **Normalized performance** = score / the largest score recorded (so the best architecture is 1.0).
+* The empty suite (cost 0, score 0) is not an architecture: the runs only record suites after a pick.
+
+Avoiding redundant runs (exact): a greedy rule's pick depends on the budget only through which
+sensors still fit. A run at a larger budget therefore makes the same picks as the run at budget B
+for as long as each of its picks also fits B; from the first pick that does not, the B-run continues
+on its own. :func:`tradespace` resumes each smaller budget from the longest such prefix of a run it
+has already made (``share_prefix=True``) instead of starting from the empty suite. The one departure
+from independent runs is theoretical: with two candidates within the selectors' relative tie tolerance
+(1e-9) of each other, where the better one does not fit B, the tie window can shift; the tests check
+that shared and independent runs agree (``share_prefix=False`` runs every budget from scratch).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable, Iterable, Sequence
+
+import numpy as np
+
+from .errors import InputError
+from .fileio import atomic_write_text
+from .library import SensorLibrary
+from .objective import Evaluator, make_evaluator
+from .pipeline import ProblemInfo, problem_info
+from .problem import Problem
+from .scenario import ScenarioSpec
+from .selection import SELECTORS, GreedyResult, Step, better_run, check_budget, greedy
+
+#: The selectors of the paper's Fig. 4 (uniform, cost-benefit) and the classic marginal rule.
+DEFAULT_SELECTORS: tuple[str, ...] = ("uniform", "cost-benefit", "marginal")
+#: Budgets in the default log-spaced grid.
+DEFAULT_N_BUDGETS = 14
+
+#: progress(done, total): called after each (selector, budget) run.
+Progress = Callable[[int, int], None]
+
+
+@dataclass(frozen=True)
+class Architecture:
+    """One suite the selectors produced (identical suites merged).
+
+    Attributes:
+        suite: sensor ids, in library order.
+        cost_usd: total cost [$].
+        score: f(suite) [nats] (as first recorded, in selector order then budget order then pick order).
+        normalized: score / the best score of the tradespace (1.0 for the best).
+        selectors: the rules whose runs produced this suite, in the tradespace's selector order.
+        on_front: True when no recorded architecture dominates it.
+    """
+
+    suite: tuple[str, ...]
+    cost_usd: float
+    score: float
+    normalized: float
+    selectors: tuple[str, ...]
+    on_front: bool
+
+    @property
+    def n_sensors(self) -> int:
+        return len(self.suite)
+
+
+@dataclass(frozen=True)
+class TradespaceRun:
+    """Summary of one greedy run of the tradespace (its architectures are in ``architectures``).
+
+    Attributes:
+        selector: the rule.
+        budget_usd: the run's budget [$].
+        suite: the final suite, ids in pick order.
+        cost_usd: its cost [$].
+        score: its score [nats].
+        n_steps: picks made (intermediate architectures).
+        shared_steps: leading picks taken from an earlier run at a larger budget (not recomputed).
+        stop_reason: why selection stopped.
+        n_evaluations: suites scored by this run (0 for best-of: it reuses the uniform and marginal runs).
+        chosen_rule: for best-of, the run it kept; else the selector.
+    """
+
+    selector: str
+    budget_usd: float
+    suite: tuple[str, ...]
+    cost_usd: float
+    score: float
+    n_steps: int
+    shared_steps: int
+    stop_reason: str
+    n_evaluations: int
+    chosen_rule: str
+
+
+@dataclass(frozen=True)
+class TradespaceResult:
+    """Every architecture of the greedy runs over a grid of budgets, and the Pareto front.
+
+    Attributes:
+        budgets_usd: the budgets [$], ascending.
+        selectors: the rules run, in the order given.
+        architectures: unique suites, sorted by cost (ascending), then score (descending), then ids.
+        runs: one summary per (selector, budget), selectors in order, budgets ascending.
+        best_score: the largest score recorded [nats] (0.0 when nothing was bought).
+        engine: the evaluator used.
+        lazy: whether lazy (Minoux) evaluation was used where the rule allows it.
+        share_prefix: whether smaller budgets resumed from larger budgets' runs.
+        n_evaluations: suites scored in total.
+        problem: what it was computed on.
+        seconds: wall time [s] (the only field that varies between runs).
+    """
+
+    budgets_usd: tuple[float, ...]
+    selectors: tuple[str, ...]
+    architectures: tuple[Architecture, ...]
+    runs: tuple[TradespaceRun, ...]
+    best_score: float
+    engine: str
+    lazy: bool
+    share_prefix: bool
+    n_evaluations: int
+    problem: ProblemInfo | None = None
+    seconds: float = 0.0
+
+    @property
+    def front(self) -> tuple[Architecture, ...]:
+        """The Pareto front, cheapest first (ties: higher score first, then ids)."""
+        return tuple(a for a in self.architectures if a.on_front)
+
+    @property
+    def best(self) -> Architecture | None:
+        """The architecture with the best score (ties: the cheapest), or None when there are none."""
+        return self.cheapest_reaching(1.0) if self.architectures else None
+
+    def cheapest_reaching(self, fraction: float) -> Architecture | None:
+        """The cheapest architecture whose score is at least ``fraction`` of the best score.
+
+        ``score >= fraction * best_score`` is tested on the recorded floats. Among equally cheap
+        ones, the higher score wins (then ids), so the answer is always on the front.
+
+        Args:
+            fraction: in (0, 1], e.g. 0.99.
+        Returns:
+            The architecture, or None when the tradespace is empty.
+        Raises:
+            InputError: a fraction outside (0, 1].
+        """
+        if isinstance(fraction, bool) or not isinstance(fraction, (int, float)) or not 0.0 < float(fraction) <= 1.0:
+            raise InputError(f"fraction of the best score must be in (0, 1], got {fraction!r}")
+        threshold = float(fraction) * self.best_score
+        for a in self.architectures:  # sorted by cost, then score descending
+            if a.score >= threshold:
+                return a
+        return None
+
+
+# ----------------------------------------------------------------------------------------- budgets
+
+
+def default_budgets(library: SensorLibrary, n: int = DEFAULT_N_BUDGETS) -> tuple[float, ...]:
+    """``n`` log-spaced budgets [$] from the cheapest sensor to the whole library's cost.
+
+    Inner budgets are rounded to whole dollars; the ends are exact.
+    """
+    if isinstance(n, bool) or not isinstance(n, int) or n < 1:
+        raise InputError(f"number of budgets must be a positive integer, got {n!r}")
+    costs = library.costs
+    lo, hi = float(costs.min()), float(costs.sum())
+    if n == 1 or hi <= lo:
+        return (hi,)
+    grid = [float(round(b)) for b in np.geomspace(lo, hi, n)]
+    grid[0], grid[-1] = lo, hi
+    return tuple(sorted(set(grid)))
+
+
+def parse_budgets(text: str, name: str = "--budgets") -> tuple[float, ...]:
+    """Budgets [$] from comma-separated numbers (``"5000,27000,110000"``; ``$`` and ``_`` allowed).
+
+    Returns them sorted, duplicates removed. Raises InputError naming ``name`` and the bad item.
+    """
+    items = [t.strip() for t in str(text).split(",")]
+    if not any(items):
+        raise InputError(f"{name}: expected comma-separated budgets in dollars, got {text!r}")
+    out = []
+    for t in items:
+        if not t:
+            raise InputError(f"{name}: empty item in {text!r}")
+        try:
+            v = float(t.replace("$", "").replace("_", ""))
+        except ValueError:
+            raise InputError(f"{name}: {t!r} is not a number of dollars") from None
+        try:
+            out.append(check_budget(v))
+        except InputError:
+            raise InputError(f"{name}: {t!r} is not a finite, non-negative number of dollars") from None
+    return tuple(sorted(set(out)))
+
+
+def parse_selectors(text: str | Iterable[str], name: str = "--selectors") -> tuple[str, ...]:
+    """Selector names from ``"uniform,cost-benefit"`` or a sequence; order kept, duplicates dropped."""
+    items = [t.strip() for t in text.split(",")] if isinstance(text, str) else [str(t).strip() for t in text]
+    items = [t for t in items if t]
+    if not items:
+        raise InputError(f"{name}: no selector given; available: {', '.join(SELECTORS)}")
+    for t in items:
+        if t not in SELECTORS:
+            raise InputError(f"{name}: unknown selector {t!r}; available: {', '.join(SELECTORS)}")
+    return tuple(dict.fromkeys(items))
+
+
+# ------------------------------------------------------------------------------------ Pareto front
+
+
+def dominates(cost_a: float, score_a: float, cost_b: float, score_b: float) -> bool:
+    """True when (cost_a, score_a) dominates (cost_b, score_b): no worse in both, better in one."""
+    return cost_a <= cost_b and score_a >= score_b and (cost_a < cost_b or score_a > score_b)
+
+
+def pareto_mask(costs: Sequence[float], scores: Sequence[float]) -> np.ndarray:
+    """Which points are on the Pareto front (lower cost, higher score), shape (n,) of bool.
+
+    O(n log n): sweep the points by cost; within one cost only the highest score can be on the front,
+    and it is when it beats the best score of every strictly cheaper point.
+    """
+    c = np.asarray(costs, dtype=float)
+    s = np.asarray(scores, dtype=float)
+    if c.shape != s.shape or c.ndim != 1:
+        raise InputError(f"pareto_mask: costs and scores must be 1-D of equal length, got {c.shape} and {s.shape}")
+    if not (np.all(np.isfinite(c)) and np.all(np.isfinite(s))):
+        raise InputError("pareto_mask: costs and scores must be finite")
+    mask = np.zeros(len(c), dtype=bool)
+    order = np.lexsort((-s, c))  # by cost, then score descending
+    best_cheaper = -math.inf
+    i = 0
+    while i < len(order):
+        j = i
+        while j < len(order) and c[order[j]] == c[order[i]]:
+            j += 1
+        group = order[i:j]
+        top = s[group[0]]
+        if top > best_cheaper:
+            mask[group[s[group] == top]] = True
+        best_cheaper = max(best_cheaper, top)
+        i = j
+    return mask
+
+
+# -------------------------------------------------------------------------------------- the runs
+
+
+def _shared_prefix(steps: tuple[Step, ...], budget: float) -> int:
+    """How many leading picks of ``steps`` also fit ``budget`` (same feasibility test as the selectors)."""
+    prev = 0.0
+    for k, st in enumerate(steps):
+        if st.sensor_cost_usd > budget - prev + 1e-9:
+            return k
+        prev = st.cost_usd
+    return len(steps)
+
+
+def _rule_runs(evaluator: Evaluator, rule: str, budgets_desc: list[float], *, lazy: bool, share_prefix: bool,
+               tick: Callable[[], None]) -> dict[float, tuple[GreedyResult, int]]:
+    """Runs of one rule at every budget (largest first): budget -> (result with all steps, shared steps)."""
+    lib = evaluator.problem.library
+    done: dict[float, tuple[GreedyResult, int]] = {}
+    for b in budgets_desc:
+        k, src = 0, None
+        if share_prefix:
+            for run, _ in done.values():  # largest budgets first: the first longest prefix wins
+                n = _shared_prefix(run.steps, b)
+                if n > k:
+                    k, src = n, run
+        prefix = src.steps[:k] if src is not None else ()
+        start = tuple(lib.position(i) for i in prefix[-1].suite) if prefix else ()
+        cont = greedy(evaluator, b, rule, lazy=lazy, start=start)
+        steps = tuple(prefix) + cont.steps
+        full = GreedyResult(
+            objective=rule, budget_usd=cont.budget_usd, suite=steps[-1].suite if steps else (),
+            cost_usd=steps[-1].cost_usd if steps else 0.0, score=steps[-1].score if steps else 0.0, steps=steps,
+            stop_reason=cont.stop_reason, n_evaluations=cont.n_evaluations, engine=cont.engine, lazy=cont.lazy,
+            chosen_rule=rule,
+        )
+        done[b] = (full, k)
+        tick()
+    return done
+
+
+def tradespace(evaluator: Evaluator, budgets: Iterable[float] | None = None, selectors: Iterable[str] = DEFAULT_SELECTORS,
+               *, lazy: bool = True, share_prefix: bool = True, progress: Progress | None = None,
+               info: ProblemInfo | None = None) -> TradespaceResult:
+    """Run each selector at each budget and collect the architectures and the Pareto front.
+
+    Args:
+        evaluator: scores suites of one problem.
+        budgets: budgets [$] (default: :func:`default_budgets` of the problem's library).
+        selectors: rules of :data:`sensorsel.selection.SELECTORS`. ``best-of`` is assembled from the
+            uniform and marginal runs at the same budget (run for it if not requested).
+        lazy: lazy (Minoux) evaluation where the rule allows it (same picks, fewer evaluations).
+        share_prefix: resume smaller budgets from larger budgets' runs (see the module docstring).
+        progress: called as progress(done, total) after each (rule, budget) run.
+        info: what the problem is (recorded in the result).
+    Returns:
+        The :class:`TradespaceResult`.
+    """
+    t0 = time.perf_counter()
+    lib = evaluator.problem.library
+    sel = parse_selectors(selectors, "selectors")
+    grid = default_budgets(lib) if budgets is None else tuple(sorted({check_budget(b) for b in budgets}))
+    if not grid:
+        raise InputError("the tradespace needs at least one budget")
+    rules = [r for r in sel if r != "best-of"]
+    if "best-of" in sel:
+        rules += [r for r in ("uniform", "marginal") if r not in rules]
+    n0 = evaluator.n_evaluations
+    total = len(rules) * len(grid)
+    count = [0]
+
+    def tick() -> None:
+        count[0] += 1
+        if progress:
+            progress(count[0], total)
+
+    desc = sorted(grid, reverse=True)
+    per_rule = {r: _rule_runs(evaluator, r, desc, lazy=lazy, share_prefix=share_prefix, tick=tick) for r in rules}
+
+    runs: list[TradespaceRun] = []
+    found: dict[frozenset[int], tuple[float, set[str]]] = {}  # suite -> (score as first recorded, selectors)
+    for name in sel:
+        for b in grid:
+            if name == "best-of":
+                u, m = per_rule["uniform"][b][0], per_rule["marginal"][b][0]
+                res, shared, evals = better_run([u, m]), 0, 0
+            else:
+                res, shared = per_rule[name][b]
+                evals = res.n_evaluations
+            runs.append(TradespaceRun(name, b, res.suite, res.cost_usd, res.score, len(res.steps), shared,
+                                      res.stop_reason, evals, res.chosen_rule))
+            for st in res.steps:
+                key = frozenset(lib.position(i) for i in st.suite)
+                if key not in found:
+                    found[key] = (st.score, set())
+                found[key][1].add(name)
+
+    rows = _architectures(lib, sel, found)
+    best = max((score for _, _, score, _ in rows), default=0.0)
+    on_front = pareto_mask([cost for _, cost, _, _ in rows], [score for _, _, score, _ in rows])
+    archs = tuple(Architecture(ids, cost, score, score / best if best > 0 else 0.0, made_by, bool(f))
+                  for (ids, cost, score, made_by), f in zip(rows, on_front))
+    return TradespaceResult(
+        budgets_usd=grid, selectors=sel, architectures=archs, runs=tuple(runs), best_score=best, engine=evaluator.name,
+        lazy=lazy, share_prefix=share_prefix, n_evaluations=evaluator.n_evaluations - n0, problem=info,
+        seconds=round(time.perf_counter() - t0, 6),
+    )
+
+
+def _architectures(lib: SensorLibrary, sel: tuple[str, ...], found: dict[frozenset[int], tuple[float, set[str]]]
+                   ) -> list[tuple[tuple[str, ...], float, float, tuple[str, ...]]]:
+    """(ids in library order, cost, score, selectors) per unique suite, sorted by cost, -score, ids."""
+    rows = []
+    for key, (score, made_by) in found.items():
+        pos = sorted(key)
+        rows.append((lib.suite_ids(pos), lib.cost(pos), float(score), tuple(s for s in sel if s in made_by)))
+    rows.sort(key=lambda r: (r[1], -r[2], r[0]))
+    return rows
+
+
+def run_tradespace(problem: Problem, budgets: Iterable[float] | None = None, selectors: Iterable[str] = DEFAULT_SELECTORS,
+                   *, engine: str | None = None, jobs: int = 1, lazy: bool = True, share_prefix: bool = True,
+                   progress: Progress | None = None, spec: ScenarioSpec = ScenarioSpec()) -> TradespaceResult:
+    """The ``sensorsel pareto`` pipeline: :func:`tradespace` with a fresh evaluator of ``engine``."""
+    sel = parse_selectors(selectors, "selectors")  # bad input fails before the evaluator is built
+    grid = None if budgets is None else tuple(check_budget(b) for b in budgets)
+    ev = make_evaluator(problem, engine, jobs=jobs)
+    return tradespace(ev, grid, sel, lazy=lazy, share_prefix=share_prefix, progress=progress,
+                      info=problem_info(problem, spec))
+
+
+# ------------------------------------------------------------------------------------------ output
+
+CSV_COLUMNS = ("cost_usd", "score", "normalized_score", "on_front", "n_sensors", "selectors", "suite")
+
+
+def csv_text(result: TradespaceResult) -> str:
+    """The architectures as CSV: one row each, in the result's order.
+
+    Columns: cost_usd, score (nats), normalized_score, on_front (1/0), n_sensors, selectors
+    (``+``-separated), suite (comma-separated ids, quoted; paste into ``sensorsel score --suite``).
+    """
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(CSV_COLUMNS)
+    for a in result.architectures:
+        w.writerow([f"{a.cost_usd:.2f}", repr(a.score), repr(a.normalized), int(a.on_front), a.n_sensors,
+                    "+".join(a.selectors), ",".join(a.suite)])
+    return buf.getvalue()
+
+
+def write_csv(result: TradespaceResult, path: str | Path) -> Path:
+    """Write :func:`csv_text` to ``path`` atomically."""
+    return atomic_write_text(path, csv_text(result))
