@@ -363,3 +363,79 @@ def plot_selection_grid(grid: "SelectionGrid", ax: Axes | None = None, *, title:
               loc="upper left", bbox_to_anchor=(1.005, 1.0), fontsize=8, frameon=False)
     return ax
 
+
+if TYPE_CHECKING:  # plotting needs only the tradespace's result type
+    from .tradespace import TradespaceResult
+
+#: Colours and markers of the selectors in the tradespace plot (the paper's Fig. 4: uniform orange,
+#: cost-benefit blue). Hollow markers of different shapes keep suites made by several rules visible.
+SELECTOR_STYLES = {
+    "uniform": ("tab:orange", "o", 60),
+    "cost-benefit": ("tab:blue", "s", 34),
+    "marginal": ("tab:green", "^", 30),
+    "best-of": ("tab:purple", "D", 16),
+}
+
+
+def plot_tradespace(result: "TradespaceResult", ax: Axes | None = None, *, log_cost: bool = True,
+                    fractions: Sequence[float] = (0.99, 0.95), title: str | None = None) -> Axes:
+    """The cost-performance tradespace (the paper's Fig. 4).
+
+    Every architecture is a hollow marker coloured by the selector that made it (one marker per
+    selector when several made it); the Pareto front is a dashed red step line: from a front point
+    the line stays flat until the next front point's cost, since between two front architectures a
+    larger budget buys no better recorded architecture. The cheapest architectures reaching each of
+    ``fractions`` of the best score are starred and labelled.
+
+    Args:
+        result: a :class:`sensorsel.tradespace.TradespaceResult`.
+        ax: axes to draw on; a new figure when None.
+        log_cost: logarithmic cost axis (the costs span $449 to $200,000 in the paper's library).
+        fractions: fractions of the best score whose cheapest architecture to mark.
+        title: the axes' title (default: names the scenario and the counts).
+    Returns:
+        The axes drawn on.
+    """
+    from matplotlib.ticker import FuncFormatter
+
+    ax = ax or new_axes((8.0, 5.5))
+    archs = result.architectures
+    if not archs:
+        raise InputError("plot_tradespace: the tradespace has no architectures (every budget is below the cheapest sensor)")
+    for name in result.selectors:
+        pts = [(a.cost_usd, a.normalized) for a in archs if name in a.selectors]
+        colour, marker, size = SELECTOR_STYLES.get(name, ("tab:gray", "x", 30))
+        if pts:
+            x, y = np.array(pts).T
+            ax.scatter(x, y, s=size, marker=marker, facecolors="none", edgecolors=colour, linewidths=1.1,
+                       label=f"{name} ({len(pts)})", zorder=3)
+    front = result.front
+    fx = np.array([a.cost_usd for a in front])
+    fy = np.array([a.normalized for a in front])
+    ax.step(fx, fy, where="post", ls="--", color="red", lw=1.4, label=f"Pareto front ({len(front)})", zorder=2)
+    ax.scatter(fx, fy, s=10, color="red", zorder=4)
+    for k, frac in enumerate(fractions):
+        a = result.cheapest_reaching(frac)
+        if a is None:
+            continue
+        ax.axhline(frac, color="0.6", lw=0.8, ls=":", zorder=1)
+        ax.scatter([a.cost_usd], [a.normalized], s=160, marker="*", color="gold", edgecolors="k", linewidths=0.7, zorder=5)
+        ax.annotate(f"{frac:.0%} of best: ${a.cost_usd:,.0f}\n({a.n_sensors} sensors)", (a.cost_usd, a.normalized),
+                    xytext=(12, -28 - 26 * k), textcoords="offset points", fontsize=8.5,
+                    arrowprops=dict(arrowstyle="-", color="0.4", lw=0.7),
+                    bbox=dict(boxstyle="round,pad=0.25", fc="white", ec="0.7", alpha=0.9))
+    if log_cost:
+        ax.set_xscale("log")
+    ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"${v / 1000:,.0f}k" if v >= 1000 else f"${v:,.0f}"))
+    lo = min(a.normalized for a in archs)
+    ax.set_ylim(max(0.0, lo - 0.05), 1.03)
+    ax.set_xlabel("suite cost [$]" + (" (log scale)" if log_cost else ""))
+    ax.set_ylabel("normalized performance  f(S) / max f")
+    p = result.problem
+    where = f"scenario {p.scenario}: " if p is not None else ""
+    ax.set_title(title or f"{where}{len(archs)} architectures from {len(result.runs)} greedy runs "
+                          f"({len(result.budgets_usd)} budgets)", fontsize=10)
+    ax.grid(True, which="major", alpha=0.3)
+    ax.grid(True, which="minor", alpha=0.1)
+    ax.legend(loc="lower right", fontsize=8.5, title="made by", title_fontsize=8.5)
+    return ax
