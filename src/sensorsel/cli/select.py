@@ -1,5 +1,226 @@
-"""Commands of this group (filled in by its issue)."""
+"""Selection commands: ``greedy`` (one suite under a budget) and ``pareto`` (the cost-performance tradespace)."""
 
 from __future__ import annotations
 
-COMMANDS: list = []
+import math
+import sys
+from pathlib import Path
+from typing import Any, Callable
+
+import click
+
+from .. import results
+from ..errors import InputError
+from ..library import SensorLibrary
+from ..selection import SELECTORS, GreedyResult, run_greedy
+from ..tradespace import DEFAULT_SELECTORS, Architecture, parse_budgets, parse_selectors, run_tradespace, write_csv
+from .options import engine_options, problem_from, run, scenario_options, table
+
+
+class BudgetType(click.ParamType):
+    """A budget in dollars: ``110000``, ``110,000``, ``$110000`` or ``110_000``; finite and >= 0."""
+
+    name = "DOLLARS"
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> float:
+        if isinstance(value, (int, float)) and not isinstance(value, bool):
+            v = float(value)
+        else:
+            text = str(value).strip().replace("$", "").replace(",", "").replace("_", "")
+            try:
+                v = float(text)
+            except ValueError:
+                self.fail(f"{value!r} is not a number of dollars (e.g. 110000)", param, ctx)
+        if not math.isfinite(v) or v < 0:
+            self.fail(f"{value!r}: a budget must be a finite, non-negative number of dollars", param, ctx)
+        return v
+
+
+class _Bar:
+    """progress(done, total) -> a click progress bar on stderr; ``phases`` runs fill one bar in turn."""
+
+    def __init__(self, label: str, phases: int = 1) -> None:
+        self.label, self.phases = label, phases
+        self.bar: Any = None
+        self.offset = self.last = self.last_total = 0
+
+    def __enter__(self) -> "_Bar":
+        return self
+
+    def __call__(self, done: int, total: int) -> None:
+        if self.bar is None:
+            self.bar = click.progressbar(length=max(1, total * self.phases), label=self.label, file=sys.stderr,
+                                         show_pos=True)
+            self.bar.__enter__()
+        if done < self.last:  # the next phase (best-of: the marginal run after the uniform one)
+            self.offset += self.last_total
+        self.last, self.last_total = done, total
+        self.bar.length = max(1, self.offset + total, self.phases * total)
+        self.bar.pos = min(self.bar.length, self.offset + done)
+        self.bar.render_progress()
+
+    def __exit__(self, *exc: Any) -> None:
+        if self.bar is not None:
+            if exc[0] is None:  # the totals are upper bounds: show the run as complete
+                self.bar.pos = self.bar.length
+                self.bar.render_progress()
+            self.bar.__exit__(*exc)
+
+
+def _progress(quiet: bool, label: str, phases: int = 1) -> tuple[_Bar | None, Callable[[int, int], None] | None]:
+    """A progress bar on stderr, or nothing with --quiet or when stderr is not a terminal."""
+    if quiet or not sys.stderr.isatty():
+        return None, None
+    bar = _Bar(label, phases)
+    return bar, bar
+
+
+def _position(lib: SensorLibrary, sensor_id: str) -> tuple[str, str]:
+    s = lib[lib.position(sensor_id)]
+    return s.model.name, s.position_label
+
+
+def _print_greedy(res: GreedyResult, lib: SensorLibrary) -> None:
+    p = res.problem
+    if p is not None:
+        click.echo(f"scenario   {p.scenario}: {p.n_poses} keyframes, {p.n_landmarks} landmarks ({p.landmark_source})")
+    rule = res.objective + (f" (kept the {res.chosen_rule} run)" if res.objective == "best-of" else "")
+    click.echo(f"budget     ${res.budget_usd:,.0f}   objective {rule}   engine {res.engine}{' (lazy)' if res.lazy else ''}")
+    click.echo("")
+    rows = []
+    for k, st in enumerate(res.steps, 1):
+        model, where = _position(lib, st.pick)
+        rows.append([str(k), st.pick, model, where, f"{st.sensor_cost_usd:,.0f}", f"{st.gain:.3f}", f"{st.score:.3f}"])
+    click.echo(table(rows, ["pick", "id", "model", "position", "cost_usd", "gain_nats", "score_nats"]))
+    if not rows:
+        click.echo("(empty suite)")
+    click.echo("")
+    click.echo(f"suite      {','.join(res.suite) or '(empty)'}  ({len(res.suite)} sensors)")
+    click.echo(f"cost       ${res.cost_usd:,.0f} of ${res.budget_usd:,.0f}")
+    click.echo(f"score      {res.score:.3f} nats")
+    click.echo(f"evaluated  {res.n_evaluations} suites in {res.seconds:.2f} s")
+    click.echo(f"stopped    {res.stop_reason}")
+
+
+@click.command("greedy")
+@scenario_options
+@engine_options
+@click.option("--budget", required=True, type=BudgetType(), help="Budget in dollars, e.g. 110000.")
+@click.option("--objective", type=click.Choice(list(SELECTORS)), default="uniform", show_default=True,
+              help="uniform: f(S+s); cost-benefit: f(S+s)/Cost(S+s) (the paper); marginal: gain/cost(s); "
+                   "best-of: the better of uniform and marginal.")
+@click.option("--lazy/--no-lazy", default=True, show_default=True, help="Lazy (Minoux) evaluation: same picks, fewer evaluations.")
+@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=str), help="Write the full result as JSON.")
+@click.option("--json", "as_json", is_flag=True, help="Print the full result as JSON instead of the table.")
+@click.option("--quiet", is_flag=True, help="No progress bar.")
+@run
+def greedy_cmd(budget: float, objective: str, lazy: bool, output: str | None, as_json: bool, quiet: bool,
+               engine: str | None, jobs: int, **kw: Any) -> None:
+    """Greedy sensor selection under a budget (the paper's Algorithm 1 and its cost-aware variants).
+
+    Prints the suite in pick order with each pick's marginal gain, the cost, the score
+    f(S) = log det L(S) - log det L(empty) [nats], and why selection stopped. A budget below the
+    cheapest sensor prints the empty suite, says so on stderr and exits with status 2.
+    """
+    problem, spec = problem_from(kw)
+    bar, progress = _progress(quiet, f"greedy {objective}", phases=2 if objective == "best-of" else 1)
+    if bar is not None:
+        with bar:
+            res = run_greedy(problem, budget, objective, engine=engine, jobs=jobs, lazy=lazy, progress=progress, spec=spec)
+    else:
+        res = run_greedy(problem, budget, objective, engine=engine, jobs=jobs, lazy=lazy, progress=progress, spec=spec)
+    if output:
+        results.save(res, output)
+    if as_json:
+        click.echo(results.dumps(res), nl=False)
+    else:
+        _print_greedy(res, problem.library)
+        if output:
+            click.echo(f"wrote      {output}")
+    cheapest = float(problem.library.costs.min())
+    if not res.suite and budget < cheapest:
+        click.echo(f"sensorsel: the suite is empty: {res.stop_reason}", err=True)
+        sys.exit(2)
+
+
+def _compact(suite: tuple[str, ...]) -> str:
+    """Ids grouped by model: ``LRL-roof HD2K-{2,4,12} LRR-6`` (the full ids are in the CSV)."""
+    groups: dict[str, list[str]] = {}
+    for sid in suite:
+        code, _, where = sid.rpartition("-")
+        groups.setdefault(code, []).append(where)
+    return " ".join(f"{c}-{w[0]}" if len(w) == 1 else f"{c}-{{{','.join(w)}}}" for c, w in groups.items())
+
+
+def _arch_row(a: Architecture) -> list[str]:
+    return [f"{a.cost_usd:,.0f}", f"{a.score:.3f}", f"{a.normalized:.4f}", str(a.n_sensors), "+".join(a.selectors), _compact(a.suite)]
+
+
+@click.command("pareto")
+@scenario_options
+@engine_options
+@click.option("--budgets", default=None, metavar="B1,B2,...",
+              help="Budgets in dollars (default: 14 log-spaced from the cheapest sensor to the whole library).")
+@click.option("--selectors", default=",".join(DEFAULT_SELECTORS), show_default=True,
+              help=f"Comma-separated rules among {', '.join(SELECTORS)}.")
+@click.option("--lazy/--no-lazy", default=True, show_default=True, help="Lazy (Minoux) evaluation: same picks, fewer evaluations.")
+@click.option("-o", "--output", "outdir", required=True, type=click.Path(file_okay=False, path_type=str),
+              help="Folder for pareto.<fmt>, architectures.csv and tradespace.json.")
+@click.option("--plot-format", type=click.Choice(["png", "svg", "pdf"]), default="png", show_default=True)
+@click.option("--quiet", is_flag=True, help="No progress bar.")
+@run
+def pareto_cmd(budgets: str | None, selectors: str, lazy: bool, outdir: str, plot_format: str, quiet: bool,
+               engine: str | None, jobs: int, **kw: Any) -> None:
+    """The cost-performance tradespace (the paper's Fig. 4): greedy runs over a grid of budgets,
+    every intermediate architecture, and the Pareto front (lower cost, higher score).
+
+    Writes the plot, a CSV of every architecture (cost, score, normalized score, selectors, suite,
+    on-front flag) and the full result as JSON; prints the front and the cheapest architectures that
+    reach 99% and 95% of the best score.
+    """
+    grid = parse_budgets(budgets) if budgets is not None else None
+    rules = parse_selectors(selectors)
+    if Path(outdir).exists() and not Path(outdir).is_dir():
+        raise InputError(f"-o {outdir}: exists and is not a folder")
+    problem, spec = problem_from(kw)
+    bar, progress = _progress(quiet, "tradespace runs")
+    if bar is not None:
+        with bar:
+            res = run_tradespace(problem, grid, rules, engine=engine, jobs=jobs, lazy=lazy, progress=progress, spec=spec)
+    else:
+        res = run_tradespace(problem, grid, rules, engine=engine, jobs=jobs, lazy=lazy, progress=progress, spec=spec)
+
+    out = Path(outdir)
+    written = [results.save(res, out / "tradespace.json"), write_csv(res, out / "architectures.csv")]
+    if res.architectures:
+        from ..plotting import plot_tradespace, save_figure
+
+        ax = plot_tradespace(res)
+        written.insert(0, save_figure(ax.figure, out / f"pareto.{plot_format}"))
+
+    p = res.problem
+    if p is not None:
+        click.echo(f"scenario   {p.scenario}: {p.n_poses} keyframes, {p.n_landmarks} landmarks ({p.landmark_source})")
+    click.echo(f"runs       {len(res.runs)} ({', '.join(res.selectors)} x {len(res.budgets_usd)} budgets "
+               f"${res.budgets_usd[0]:,.0f}..${res.budgets_usd[-1]:,.0f}); engine {res.engine}{' (lazy)' if res.lazy else ''}; "
+               f"{res.n_evaluations} suites evaluated in {res.seconds:.1f} s")
+    click.echo(f"found      {len(res.architectures)} architectures, {len(res.front)} on the Pareto front; "
+               f"best score {res.best_score:.3f} nats")
+    if not res.architectures:
+        click.echo("every budget is below the cheapest sensor: nothing was bought", err=True)
+        sys.exit(2)
+    click.echo("\nPareto front (cheapest first):")
+    click.echo(table([_arch_row(a) for a in res.front], ["cost_usd", "score", "normalized", "n", "selectors", "suite"]))
+    click.echo("")
+    for frac in (0.99, 0.95):
+        a = res.cheapest_reaching(frac)
+        assert a is not None
+        click.echo(f"cheapest reaching {frac:.0%} of the best: ${a.cost_usd:,.0f}, normalized {a.normalized:.4f}, "
+                   f"{a.n_sensors} sensors: {','.join(a.suite)}")
+    best = res.best
+    assert best is not None
+    click.echo(f"best: ${best.cost_usd:,.0f}, {best.n_sensors} sensors: {','.join(best.suite)}")
+    click.echo("wrote " + ", ".join(str(w) for w in written))
+
+
+COMMANDS = [greedy_cmd, pareto_cmd]
