@@ -201,8 +201,11 @@ def plot_simulation(
     if colorbar:
         ax.figure.colorbar(sc, ax=ax, label="position error [m]", shrink=0.8)
     lm_txt = "n/a" if result.runs[k].landmark_rmse_m is None else f"{result.runs[k].landmark_rmse_m:.2f} m"
+    import textwrap
+
+    suite = textwrap.fill(", ".join(result.suite) or "(no sensor)", 60)
     ax.set_title(
-        f"{result.label}: {','.join(result.suite) or '(no sensor)'}\n{_failure_text(result)} | {result.solver}, "
+        f"{result.label}: {suite}\n{_failure_text(result)} | {result.solver}, "
         f"run {k} (median of {len(result.runs)})\nposition RMSE {result.runs[k].position_rmse_m:.2f} m, "
         f"max {result.runs[k].max_position_error_m:.2f} m, landmarks {lm_txt}",
         fontsize=9,
@@ -300,6 +303,7 @@ def plot_simulation_overview(results: "Sequence[SimulationResult]", scenario: Sc
     plot_simulation_comparison(results, scenario, axes)
     plot_error_along_route(results, scenario, bottom.subplots())
     return fig
+
 
 if TYPE_CHECKING:  # resilient needs no matplotlib; plotting needs only its grid type
     from .resilient import SelectionGrid
