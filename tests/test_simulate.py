@@ -252,11 +252,24 @@ def test_cli_reads_result_files_and_writes_everything(tmp_path):
                                  "--fail", "LRL-roof", "--runs", "2", "--jobs", "1", "-o", str(out)])
     assert r.exit_code == 0, r.output
     assert "greedy" in r.output and "resilient" in r.output and "pos_rmse_m" in r.output
+    assert "resilient assumes LRL-roof" not in r.output  # the failure it assumes is simulated: no hint
     for name in ("simulation.json", "trajectories.png", "error_along_route.png", "simulate.png"):
         assert (out / name).stat().st_size > 0
     rep = results.load(SimulationReport, out / "simulation.json")
     assert [s.label for s in rep.simulations] == ["greedy", "resilient"]
     assert all(s.failures[0].sensor == "LRL-roof" and len(s.runs) == 2 for s in rep.simulations)
+
+
+def test_cli_labels_and_hint_for_an_assumed_failure(tmp_path):
+    resilient = tmp_path / "resilient.json"
+    resilient.write_text(json.dumps({"suite": ["LRL-roof", "MRL-roof"], "failed": ["LRL-roof"]}))
+    r = CliRunner().invoke(cli, ["simulate", "--fixture", "tiny", "--suite", "LRL-roof,WSC-12", "--label", "Greedy03",
+                                 "--compare", str(resilient), "--runs", "1", "--jobs", "1", "-o", str(tmp_path / "o")])
+    assert r.exit_code == 0, r.output
+    assert "add --fail LRL-roof" in r.output
+    rep = results.load(SimulationReport, tmp_path / "o" / "simulation.json")
+    assert [s.label for s in rep.simulations] == ["Greedy03", "resilient"]
+    assert all(s.failures == () for s in rep.simulations)
 
 
 @pytest.mark.parametrize("args, word", [
@@ -267,6 +280,7 @@ def test_cli_reads_result_files_and_writes_everything(tmp_path):
     (["--suite", "LRL-roof", "--fail", "LRL-roof@x"], "LRL-roof@x"),
     (["--suite", "LRL-roof", "--runs", "0"], "--runs"),
     (["--suite", "LRL-roof", "--solver", "gauss"], "gauss"),
+    (["--suite", "LRL-roof", "--compare-label", "x"], "--compare"),
 ])
 def test_cli_bad_input_is_one_line_and_exit_2(tmp_path, args, word):
     (tmp_path / "bad.json").write_text(json.dumps({"picks": ["LRL-roof"]}))

@@ -59,6 +59,8 @@ def _fmt(v: float | None, digits: int = 3) -> str:
 @scenario_options
 @click.option("--suite", required=True, help="Comma-separated sensor ids, or a result JSON of `sensorsel greedy`/`resilient` (its \"suite\").")
 @click.option("--compare", default=None, help="A second suite (same forms) simulated with the same noise and drawn beside the first.")
+@click.option("--label", default=None, help="Name of --suite in the table and plots (default: the result file's name, or \"suite\").")
+@click.option("--compare-label", default=None, help="Name of --compare (default: the result file's name, or \"compare\").")
 @click.option("--fail", "fail", default=None, metavar="ID[@FROM-TO],...",
               help="Failed sensors: ID for the whole route, ID@20-40 for keyframes 20..39, ID@30s-60s for a period in seconds. "
                    "Applied to each simulated suite that has the sensor.")
@@ -74,8 +76,8 @@ def _fmt(v: float | None, digits: int = 3) -> str:
 @click.option("--format", "fmt", type=click.Choice(["png", "svg", "pdf"]), default="png", show_default=True, help="Plot file format.")
 @click.option("--quiet", "-q", is_flag=True, help="No progress bar.")
 @run
-def simulate_cmd(suite: str, compare: str | None, fail: str | None, runs: int, solver: str, seed: int, noise_scale: float, jobs: int,
-                 outdir: str, fmt: str, quiet: bool, **kw: Any) -> None:
+def simulate_cmd(suite: str, compare: str | None, label: str | None, compare_label: str | None, fail: str | None, runs: int, solver: str,
+                 seed: int, noise_scale: float, jobs: int, outdir: str, fmt: str, quiet: bool, **kw: Any) -> None:
     """Validate designs by running SLAM on them: N noisy Monte-Carlo runs solved with GTSAM.
 
     Prints pose, heading and landmark RMSE, the worst position error along the route, the errors the
@@ -87,37 +89,44 @@ def simulate_cmd(suite: str, compare: str | None, fail: str | None, runs: int, s
 
     if not (math.isfinite(noise_scale) and noise_scale > 0):
         raise click.BadParameter(f"must be a positive number, got {noise_scale!r}", param_hint="--noise-scale")
+    if compare_label is not None and compare is None:
+        raise click.UsageError("--compare-label needs --compare")
     problem, spec = problem_from(kw)
     lib = problem.library
     designs = [read_suite(suite, lib, "--suite")]
     if compare is not None:
         designs.append(read_suite(compare, lib, "--compare"))
+    for i, name in enumerate((label, compare_label)[:len(designs)]):
+        if name is not None:
+            if not name.strip():
+                raise click.BadParameter("must not be empty", param_hint="--label" if i == 0 else "--compare-label")
+            designs[i] = (designs[i][0], name.strip(), designs[i][2])
     if len(designs) == 2 and designs[0][1] == designs[1][1]:
         designs = [(designs[0][0], designs[0][1] + " (suite)", designs[0][2]), (designs[1][0], designs[1][1] + " (compare)", designs[1][2])]
     failures = parse_failures(fail, problem) if fail else ()
     named = {f.sensor for f in failures}
-    for positions, label, assumed in designs:
+    for positions, name, assumed in designs:
         ids = set(lib.suite_ids(positions))
         missing = sorted(named - ids)
         if missing:
-            click.echo(f"note: {label} has no {', '.join(missing)}: that failure does not apply to it", err=True)
+            click.echo(f"note: {name} has no {', '.join(missing)}: that failure does not apply to it", err=True)
         if assumed and not set(assumed) <= named:
-            click.echo(f"note: {label} assumes {', '.join(assumed)} fail(s); add --fail {','.join(assumed)} to simulate that", err=True)
+            click.echo(f"note: {name} assumes {', '.join(assumed)} fail(s); add --fail {','.join(assumed)} to simulate that", err=True)
     if named and not any(named & set(lib.suite_ids(p)) for p, _, _ in designs):
         raise InputError(f"--fail {fail!r}: no simulated suite has {', '.join(sorted(named))}")
 
     show = not quiet and sys.stderr.isatty()
     sims = []
-    for positions, label, _ in designs:
+    for positions, name, _ in designs:
         ids = set(lib.suite_ids(positions))
         mine = tuple(f for f in failures if f.sensor in ids)
         if show:
-            with click.progressbar(length=runs, label=f"simulating {label}", file=sys.stderr) as bar:
+            with click.progressbar(length=runs, label=f"simulating {name}", file=sys.stderr) as bar:
                 res = simulate(problem, positions, failures=mine, runs=runs, solver=solver, seed=seed, noise_scale=noise_scale,
-                               jobs=jobs, label=label, spec=spec, progress=lambda: bar.update(1))
+                               jobs=jobs, label=name, spec=spec, progress=lambda: bar.update(1))
         else:
             res = simulate(problem, positions, failures=mine, runs=runs, solver=solver, seed=seed, noise_scale=noise_scale,
-                           jobs=jobs, label=label, spec=spec)
+                           jobs=jobs, label=name, spec=spec)
         sims.append(res)
 
     out = Path(outdir)
@@ -130,10 +139,11 @@ def simulate_cmd(suite: str, compare: str | None, fail: str | None, runs: int, s
     paths.append(save_figure(ax.figure, out / f"error_along_route.{fmt}"))
     paths.append(save_figure(plot_simulation_overview(sims, sc), out / f"simulate.{fmt}"))
 
-    click.echo(f"scenario  {sc.name}: {sc.n_poses} keyframes, {sc.n_landmarks} landmarks ({sc.landmark_source})")
+    click.echo(f"{'scenario':<9} {sc.name}: {sc.n_poses} keyframes, {sc.n_landmarks} landmarks ({sc.landmark_source})")
     click.echo(f"runs      {runs} per suite, solver {solver}, seed {seed}" + (f", noise x{noise_scale:g}" if noise_scale != 1 else ""))
+    w = max(9, *(len(s.label) for s in sims))
     for s in sims:
-        click.echo(f"{s.label:<9} {','.join(s.suite) or '(no sensor)'}  (${s.cost_usd:,.0f}); "
+        click.echo(f"{s.label:<{w}} {','.join(s.suite) or '(no sensor)'}  (${s.cost_usd:,.0f}); "
                    f"{s.n_measurements} measurements/run ({s.n_measurements_failed} lost to failures), "
                    f"{len(s.unmeasured_landmarks)} landmarks never measured")
     click.echo("")
