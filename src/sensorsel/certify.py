@@ -446,7 +446,8 @@ class OptimumResult:
         cost_usd: its cost [$].
         score: its score f [nats].
         proved_optimal: True when every other suite was ruled out (up to a relative 1e-9).
-        upper_bound: no suite within the budget scores above this [nats] (= score when proved).
+        upper_bound: no suite within the budget scores above this [nats] (= score when proved): the
+            smaller of the highest bound left in the search and the greedy run's certificate bound.
         gap: upper_bound - score [nats].
         gap_percent: 100 * gap / upper_bound: how much better than ``suite`` the optimum may be.
         stop_reason: why the search stopped.
@@ -462,6 +463,7 @@ class OptimumResult:
         greedy_score: its score [nats].
         greedy_percent_of_best: 100 * greedy_score / score (of the best found).
         greedy_percent_of_bound: 100 * greedy_score / upper_bound (a guarantee even when not proved).
+        greedy_certificate_bound: the greedy run's own certificate bound (:func:`certificate`) [nats].
         engine: the evaluator used.
         problem: what it was computed on.
         seconds: wall time [s] (the only field that varies between runs, unless ``max_seconds`` stopped it).
@@ -487,6 +489,7 @@ class OptimumResult:
     greedy_score: float
     greedy_percent_of_best: float
     greedy_percent_of_bound: float
+    greedy_certificate_bound: float
     engine: str
     problem: ProblemInfo | None = None
     seconds: float = 0.0
@@ -508,8 +511,9 @@ def optimal(evaluator: Evaluator, budget_usd: float, *, max_nodes: int = DEFAULT
 
     (all m children's knapsacks come from one DP over the items in reverse order). Nodes are expanded
     highest bound first; when the highest bound left does not beat the best suite found (by more than
-    a relative 1e-9), that suite is optimal. Otherwise, at the node or time limit, the highest bound
-    left is an upper bound on the optimum.
+    a relative 1e-9), that suite is optimal; so it is when the certificate bound of the greedy run
+    (:func:`certificate`) does not beat it. Otherwise, at the node or time limit, the highest bound
+    left (or the certificate bound, if smaller) is an upper bound on the optimum.
 
     Args:
         budget_usd: the budget B [$].
@@ -543,6 +547,9 @@ def optimal(evaluator: Evaluator, budget_usd: float, *, max_nodes: int = DEFAULT
         raise InputError(f"the incumbent greedy run does not belong to this library: {exc}") from None
     if set(inc_pos) & exclude:
         raise InputError("the incumbent greedy suite contains an excluded sensor")
+    # The certificate of the greedy run bounds the optimum from the start (valid whatever the search
+    # does); the search can only tighten it.
+    cert_bound = certificate(ev, incumbent, max_cells=max_cells).bound
     units = cost_units(costs, budget)
     w_all = units.costs
     cap_root = units.capacity
@@ -570,7 +577,7 @@ def optimal(evaluator: Evaluator, budget_usd: float, *, max_nodes: int = DEFAULT
     stop = ""
     while heap:
         neg_ub, _, s, f_s, c_s, r = heap[0]
-        if -neg_ub <= best_score + tol(best_score):
+        if min(-neg_ub, cert_bound) <= best_score + tol(best_score):
             pruned += len(heap)
             heap.clear()
             break
@@ -619,7 +626,7 @@ def optimal(evaluator: Evaluator, budget_usd: float, *, max_nodes: int = DEFAULT
         stop = "every other suite ruled out by its bound"
         upper = best_score
     else:
-        upper = max(best_score, -heap[0][0])
+        upper = max(best_score, min(-heap[0][0], cert_bound))
     gap = max(0.0, upper - best_score)
     g_score = incumbent.score if incumbent.engine == ev.name else (ev.score(inc_pos) if inc_pos else 0.0)
     return OptimumResult(
@@ -629,7 +636,7 @@ def optimal(evaluator: Evaluator, budget_usd: float, *, max_nodes: int = DEFAULT
         bound_method="+".join(sorted(methods)) or "none", greedy_rule=incumbent.chosen_rule, greedy_suite=incumbent.suite,
         greedy_cost_usd=incumbent.cost_usd, greedy_score=g_score,
         greedy_percent_of_best=100.0 * g_score / best_score if best_score > 0 else 100.0,
-        greedy_percent_of_bound=100.0 * g_score / upper if upper > 0 else 100.0,
+        greedy_percent_of_bound=100.0 * g_score / upper if upper > 0 else 100.0, greedy_certificate_bound=cert_bound,
         engine=ev.name, problem=info, seconds=round(time.perf_counter() - t0, 6),
     )
 
