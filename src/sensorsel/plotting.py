@@ -206,7 +206,7 @@ def plot_simulation(
     suite = textwrap.fill(", ".join(result.suite) or "(no sensor)", 60)
     ax.set_title(
         f"{result.label}: {suite}\n{_failure_text(result)} | {result.solver}, "
-        f"run {k} {'(median of' if k == typical_run(result) else '(of'} {len(result.runs)})\nposition RMSE {result.runs[k].position_rmse_m:.2f} m, "
+        f"run {k} {'(median' if k == typical_run(result) else '(of'} {len(result.runs)})\nposition RMSE {result.runs[k].position_rmse_m:.2f} m, "
         f"max {result.runs[k].max_position_error_m:.2f} m, landmarks {lm_txt}",
         fontsize=9,
     )
