@@ -294,7 +294,7 @@ def suite_bound(evaluator: Evaluator, suite: Sequence[int], budget_usd: float, *
                 exclude: frozenset[int] = frozenset(), max_cells: int = MAX_DP_CELLS) -> SuiteBound:
     """U(S) >= f(OPT) for the best suite OPT within ``budget_usd`` (see the module docstring).
 
-    Costs one sweep: ``scores_with(S, every sensor outside S)``. Negative gains (round-off of a
+    Costs one sweep: ``scores_with(S, every sensor outside S that fits the budget)``. Negative gains (round-off of a
     sensor that adds nothing) count as zero, which can only raise the bound.
 
     Args:
@@ -308,9 +308,11 @@ def suite_bound(evaluator: Evaluator, suite: Sequence[int], budget_usd: float, *
     s = tuple(int(i) for i in suite)
     f_s = evaluator.score(s) if score is None else float(score)
     inside = set(s) | set(exclude)
-    cand = [i for i in range(len(lib)) if i not in inside]
+    costs = lib.costs
+    # a sensor dearer than the whole budget is in no feasible T: no need to score it
+    cand = [i for i in range(len(lib)) if i not in inside and costs[i] <= budget * (1 + 1e-12) + 1e-9]
     gains = np.maximum(evaluator.scores_with(s, cand) - f_s, 0.0) if cand else np.zeros(0)
-    ks = knapsack(gains, lib.costs[cand], budget, max_cells=max_cells)
+    ks = knapsack(gains, costs[cand], budget, max_cells=max_cells)
     return SuiteBound(
         suite=lib.suite_ids(s), score=f_s, bound=f_s + ks.value,
         knapsack_suite=lib.suite_ids(sorted(cand[i] for i in ks.chosen)),
