@@ -445,3 +445,12 @@ def test_cli_optimal_bad_input_is_one_line(args, message):
     assert r.exit_code == 2
     assert message in r.output
     assert "Traceback" not in r.output
+
+
+def test_reduced_library_is_one_model_per_type_of_table_i():
+    reduced = load_library(REPO / "configs" / "reduced_library.yaml")
+    assert len(reduced) == 25
+    assert sorted({s.model.type for s in reduced}) == ["lidar", "radar", "stereo"]
+    assert len({s.model.code for s in reduced}) == 3
+    for s in reduced:  # same ids, paper indices, models and costs as the full library
+        assert s == LIBRARY[LIBRARY.position(s.id)]
