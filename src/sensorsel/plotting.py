@@ -206,7 +206,7 @@ def plot_simulation(
     suite = textwrap.fill(", ".join(result.suite) or "(no sensor)", 60)
     ax.set_title(
         f"{result.label}: {suite}\n{_failure_text(result)} | {result.solver}, "
-        f"run {k} {'(median' if k == typical_run(result) else '(of'} {len(result.runs)})\nposition RMSE {result.runs[k].position_rmse_m:.2f} m, "
+        f"run {k} {'(median of' if k == typical_run(result) else '(of'} {len(result.runs)})\nposition RMSE {result.runs[k].position_rmse_m:.2f} m, "
         f"max {result.runs[k].max_position_error_m:.2f} m, landmarks {lm_txt}",
         fontsize=9,
     )
@@ -231,9 +231,9 @@ def plot_simulation_comparison(
         results: simulations of the same scenario.
         scenario: the scenario (ground truth).
         axes: one axes per result; a new figure with one column per result when None.
-        runs: which run to draw for each result (default: the first result's median run for all:
-            run r draws the same odometry noise and the same noise of shared sensors for every
-            suite, so the panels compare the designs on the same draw).
+        runs: which run to draw for each result (default: each one's median run, a typical outcome
+            of each design; pass the same run for all to compare the designs on the same draw of
+            odometry noise and of the shared sensors' noise).
     Returns:
         The axes drawn on, in the order of ``results``.
     """
@@ -246,7 +246,7 @@ def plot_simulation_comparison(
         axes = list(fig.subplots(1, len(results), squeeze=False)[0])
     if len(axes) != len(results):
         raise InputError(f"plot_simulation_comparison: {len(results)} results but {len(axes)} axes")
-    picks = [typical_run(results[0])] * len(results) if runs is None else list(runs)
+    picks = [None] * len(results) if runs is None else list(runs)
     picks = [typical_run(r) if k is None else k for r, k in zip(results, picks)]
     vmax = 0.0
     for res, k in zip(results, picks):
