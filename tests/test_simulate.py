@@ -276,6 +276,20 @@ def test_cli_labels_and_hint_for_an_assumed_failure(tmp_path):
     assert all(s.failures == () for s in rep.simulations)
 
 
+def test_cli_start_sigmas_set_the_first_pose_prior(tmp_path, tiny_problem):
+    from sensorsel.problem import GraphSettings
+
+    r = CliRunner().invoke(cli, ["simulate", "--fixture", "tiny", "--suite", "LRL-roof", "--start-sigmas", "1e-4,1e-4,1e-5",
+                                 "--runs", "2", "--jobs", "1", "-o", str(tmp_path)])
+    assert r.exit_code == 0, r.output
+    (sim,) = results.load(SimulationReport, tmp_path / "simulation.json").simulations
+    assert sim.problem.settings.first_pose_sigmas == (1e-4, 1e-4, 1e-5)
+    tight = simulate(build_problem(tiny_problem.library, tiny_problem.scenario, GraphSettings(first_pose_sigmas=(1e-4, 1e-4, 1e-5))),
+                     "LRL-roof", runs=2)
+    assert results.dumps(without_timing(sim).runs) == results.dumps(tight.runs)
+    assert sim.predicted_position_rmse_m < simulate(tiny_problem, "LRL-roof", runs=1).predicted_position_rmse_m
+
+
 @pytest.mark.parametrize("args, word", [
     (["--suite", "LRL-roof,NOPE-3"], "NOPE-3"),
     (["--suite", "{tmp}/missing.json"], "missing.json"),
@@ -285,6 +299,8 @@ def test_cli_labels_and_hint_for_an_assumed_failure(tmp_path):
     (["--suite", "LRL-roof", "--runs", "0"], "--runs"),
     (["--suite", "LRL-roof", "--solver", "gauss"], "gauss"),
     (["--suite", "LRL-roof", "--compare-label", "x"], "--compare"),
+    (["--suite", "LRL-roof", "--start-sigmas", "1,2"], "--start-sigmas"),
+    (["--suite", "LRL-roof", "--start-sigmas", "1,0,1"], "'1,0,1'"),
 ])
 def test_cli_bad_input_is_one_line_and_exit_2(tmp_path, args, word):
     (tmp_path / "bad.json").write_text(json.dumps({"picks": ["LRL-roof"]}))

@@ -14,7 +14,9 @@ import click
 from .. import results
 from ..errors import InputError, ResultFileError
 from ..library import SensorLibrary
-from .options import problem_from, run, scenario_options, table
+from ..pipeline import load_problem
+from ..problem import GraphSettings
+from .options import run, scenario_options, spec_from, table
 
 
 def read_suite(text: str, library: SensorLibrary, what: str) -> tuple[tuple[int, ...], str, tuple[str, ...]]:
@@ -64,6 +66,9 @@ def _fmt(v: float | None, digits: int = 3) -> str:
 @click.option("--fail", "fail", default=None, metavar="ID[@FROM-TO],...",
               help="Failed sensors: ID for the whole route, ID@20-40 for keyframes 20..39, ID@30s-60s for a period in seconds. "
                    "Applied to each simulated suite that has the sensor.")
+@click.option("--start-sigmas", default=None, metavar="X,Y,HEADING",
+              help="Std of the prior on the first pose [m, m, rad] (default: the score's, 0.01,0.01,0.001). Its heading "
+                   "uncertainty turns the whole map about the start; make it small to see the design's own errors.")
 @click.option("--runs", type=click.IntRange(min=1), default=20, show_default=True, help="Monte-Carlo runs.")
 @click.option("--solver", type=click.Choice(["lm", "isam2"]), default="lm", show_default=True,
               help="lm: batch Levenberg-Marquardt; isam2: incremental, keyframes in order.")
@@ -76,8 +81,8 @@ def _fmt(v: float | None, digits: int = 3) -> str:
 @click.option("--format", "fmt", type=click.Choice(["png", "svg", "pdf"]), default="png", show_default=True, help="Plot file format.")
 @click.option("--quiet", "-q", is_flag=True, help="No progress bar.")
 @run
-def simulate_cmd(suite: str, compare: str | None, label: str | None, compare_label: str | None, fail: str | None, runs: int, solver: str,
-                 seed: int, noise_scale: float, jobs: int, outdir: str, fmt: str, quiet: bool, **kw: Any) -> None:
+def simulate_cmd(suite: str, compare: str | None, label: str | None, compare_label: str | None, fail: str | None, start_sigmas: str | None,
+                 runs: int, solver: str, seed: int, noise_scale: float, jobs: int, outdir: str, fmt: str, quiet: bool, **kw: Any) -> None:
     """Validate designs by running SLAM on them: N noisy Monte-Carlo runs solved with GTSAM.
 
     Prints pose, heading and landmark RMSE, the worst position error along the route, the errors the
@@ -91,7 +96,17 @@ def simulate_cmd(suite: str, compare: str | None, label: str | None, compare_lab
         raise click.BadParameter(f"must be a positive number, got {noise_scale!r}", param_hint="--noise-scale")
     if compare_label is not None and compare is None:
         raise click.UsageError("--compare-label needs --compare")
-    problem, spec = problem_from(kw)
+    settings = GraphSettings()
+    if start_sigmas is not None:
+        try:
+            sig = tuple(float(v) for v in start_sigmas.split(","))
+        except ValueError:
+            raise click.BadParameter(f"expected three numbers X,Y,HEADING, got {start_sigmas!r}", param_hint="--start-sigmas") from None
+        if len(sig) != 3 or not all(math.isfinite(v) and v > 0 for v in sig):
+            raise click.BadParameter(f"expected three positive numbers X,Y,HEADING, got {start_sigmas!r}", param_hint="--start-sigmas")
+        settings = GraphSettings(first_pose_sigmas=(sig[0], sig[1], sig[2]))
+    spec = spec_from(kw)
+    problem = load_problem(spec, kw.pop("library_path"), settings)
     lib = problem.library
     designs = [read_suite(suite, lib, "--suite")]
     if compare is not None:
@@ -140,7 +155,8 @@ def simulate_cmd(suite: str, compare: str | None, label: str | None, compare_lab
     paths.append(save_figure(plot_simulation_overview(sims, sc), out / f"simulate.{fmt}"))
 
     click.echo(f"{'scenario':<9} {sc.name}: {sc.n_poses} keyframes, {sc.n_landmarks} landmarks ({sc.landmark_source})")
-    click.echo(f"runs      {runs} per suite, solver {solver}, seed {seed}" + (f", noise x{noise_scale:g}" if noise_scale != 1 else ""))
+    click.echo(f"runs      {runs} per suite, solver {solver}, seed {seed}" + (f", noise x{noise_scale:g}" if noise_scale != 1 else "")
+               + ("" if start_sigmas is None else f", first-pose prior sigmas {','.join(f'{v:g}' for v in settings.first_pose_sigmas)}"))
     w = max(9, *(len(s.label) for s in sims))
     for s in sims:
         click.echo(f"{s.label:<{w}} {','.join(s.suite) or '(no sensor)'}  (${s.cost_usd:,.0f}); "
