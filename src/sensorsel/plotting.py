@@ -419,19 +419,24 @@ def plot_tradespace(result: "TradespaceResult", ax: Axes | None = None, *, log_c
     fx = np.array([a.cost_usd for a in front])
     fy = np.array([a.normalized for a in front])
     ax.step(fx, fy, where="post", ls="--", color="red", lw=1.4, label=f"Pareto front ({len(front)})", zorder=2)
-    ax.scatter(fx, fy, s=10, color="red", zorder=4)
+    ax.scatter(fx, fy, s=5, color="red", zorder=4)
+    if log_cost:
+        ax.set_xscale("log")
+    costs = np.array([a.cost_usd for a in archs])
+    lo_x, hi_x = (np.log(costs.min()), np.log(costs.max())) if log_cost else (costs.min(), costs.max())
     for k, frac in enumerate(fractions):
         a = result.cheapest_reaching(frac)
         if a is None:
             continue
         ax.axhline(frac, color="0.6", lw=0.8, ls=":", zorder=1)
         ax.scatter([a.cost_usd], [a.normalized], s=160, marker="*", color="gold", edgecolors="k", linewidths=0.7, zorder=5)
+        # the label goes below the point, towards the middle of the plot, so it stays inside the axes
+        x = np.log(a.cost_usd) if log_cost else a.cost_usd
+        right = x > (lo_x + hi_x) / 2
         ax.annotate(f"{frac:.0%} of best: ${a.cost_usd:,.0f}\n({a.n_sensors} sensors)", (a.cost_usd, a.normalized),
-                    xytext=(12, -28 - 26 * k), textcoords="offset points", fontsize=8.5,
-                    arrowprops=dict(arrowstyle="-", color="0.4", lw=0.7),
-                    bbox=dict(boxstyle="round,pad=0.25", fc="white", ec="0.7", alpha=0.9))
-    if log_cost:
-        ax.set_xscale("log")
+                    xytext=(-14 if right else 14, -30 - 30 * k), textcoords="offset points", fontsize=8.5,
+                    ha="right" if right else "left", va="top", arrowprops=dict(arrowstyle="-", color="0.4", lw=0.7),
+                    bbox=dict(boxstyle="round,pad=0.25", fc="white", ec="0.7", alpha=0.9), zorder=6)
     ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"${v / 1000:,.0f}k" if v >= 1000 else f"${v:,.0f}"))
     lo = min(a.normalized for a in archs)
     ax.set_ylim(max(0.0, lo - 0.05), 1.03)
