@@ -279,7 +279,7 @@ def test_unseen_landmark_prior_cancels_in_the_score(library):
 
 
 def test_score_suite_reports_what_the_evaluator_computes(tiny_problem):
-    res = score_suite(tiny_problem, "LRR-12,LRL-roof")
+    res = score_suite(tiny_problem, "LRR-12,LRL-roof", engine="reference")
     suite = tiny_problem.library.parse_suite("LRR-12,LRL-roof")
     ev = ReferenceEvaluator(tiny_problem)
     assert res.suite == ("LRL-roof", "LRR-12") and res.cost_usd == 101_493

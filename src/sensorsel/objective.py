@@ -93,8 +93,15 @@ class ReferenceEvaluator(Evaluator):
         return self._builder.logdet(suite)
 
 
-ENGINES: dict[str, Callable[..., Evaluator]] = {"reference": ReferenceEvaluator}
-DEFAULT_ENGINE = "reference"
+def _fast_evaluator(problem: Problem, *, jobs: int = 1) -> Evaluator:
+    """The fast engine (sensorsel.fast), imported on first use: fast.py builds on this module."""
+    from .fast import FastEvaluator
+
+    return FastEvaluator(problem, jobs=jobs)
+
+
+ENGINES: dict[str, Callable[..., Evaluator]] = {"reference": ReferenceEvaluator, "fast": _fast_evaluator}
+DEFAULT_ENGINE = "fast"
 
 
 def make_evaluator(problem: Problem, engine: str | None = None, *, jobs: int = 1) -> Evaluator:
