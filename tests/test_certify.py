@@ -454,3 +454,41 @@ def test_reduced_library_is_one_model_per_type_of_table_i():
     assert len({s.model.code for s in reduced}) == 3
     for s in reduced:  # same ids, paper indices, models and costs as the full library
         assert s == LIBRARY[LIBRARY.position(s.id)]
+
+
+def test_cli_certify_runs_greedy_or_reads_its_result(tmp_path):
+    lib_path = _small_library_yaml(tmp_path)
+    base = ["--fixture", "tiny", "--library", str(lib_path), "--engine", "reference", "--jobs", "1"]
+    r = CliRunner().invoke(cli, ["certify", *base, "--budget", "5000", "--objective", "marginal", "-q", "-o", str(tmp_path / "c.json")])
+    assert r.exit_code == 0, r.output
+    cert = results.load(Certificate, tmp_path / "c.json")
+    assert format_certificate(cert) in r.output
+    problem = build_problem(load_library(lib_path), load_scenario(ScenarioSpec(fixture="tiny")))
+    ev = make_evaluator(problem, "reference")
+    expected = certificate(ev, greedy(ev, 5000.0, "marginal"))
+    assert (cert.score, cert.bound, cert.step_bounds) == (expected.score, expected.bound, expected.step_bounds)
+    # certify a saved greedy result: the same certificate
+    r = CliRunner().invoke(cli, ["greedy", *base, "--budget", "5000", "--objective", "marginal", "--quiet", "-o", str(tmp_path / "g.json")])
+    assert r.exit_code == 0, r.output
+    r = CliRunner().invoke(cli, ["certify", *base, "--result", str(tmp_path / "g.json"), "--json"])
+    assert r.exit_code == 0, r.output
+    assert json.loads(r.output)["bound"] == expected.bound
+
+
+@pytest.mark.parametrize("extra, message", [
+    ([], "give --result FILE"),
+    (["--budget", "100", "--result", "x.json"], "not both"),
+    (["--result", "missing.json"], "missing.json: file not found"),
+    (["--budget", "-3"], "budget must be a finite, non-negative number"),
+])
+def test_cli_certify_bad_input_is_one_line(extra, message):
+    r = CliRunner().invoke(cli, ["certify", "--fixture", "tiny", "-q", "--engine", "reference"] + extra)
+    assert r.exit_code == 2 and message in r.output and "Traceback" not in r.output
+
+
+def test_cli_certify_refuses_a_result_of_another_scenario(tmp_path):
+    problem = small_problem("cheap8")
+    res = greedy(make_evaluator(problem, "reference"), 3000.0, "uniform", info=problem_info(problem, ScenarioSpec(fixture="tiny")))
+    path = results.save(res, tmp_path / "g.json")
+    r = CliRunner().invoke(cli, ["certify", "--fixture", "suburb", "-q", "--result", str(path)])
+    assert r.exit_code == 2 and "computed with scenario = 'tiny'" in r.output

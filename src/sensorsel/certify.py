@@ -47,8 +47,9 @@ from typing import Callable, Sequence
 import numpy as np
 
 from .errors import InputError
-from .objective import Evaluator
+from .objective import Evaluator, make_evaluator
 from .pipeline import ProblemInfo
+from .problem import Problem
 from .selection import REL_TOL, GreedyResult, check_budget, greedy
 
 #: Largest dynamic-programming table (items x capacity cells) solved by DP; above it, branch and bound.
@@ -413,9 +414,16 @@ def certificate(evaluator: Evaluator, greedy_result: GreedyResult, *, progress: 
     )
 
 
-def certify_greedy(evaluator: Evaluator, result: GreedyResult) -> Certificate:
-    """The certificate of a greedy result (what ``sensorsel greedy`` prints); see :func:`certificate`."""
-    return certificate(evaluator, result)
+def certify_greedy(source: Evaluator | Problem, result: GreedyResult, *, jobs: int = 1,
+                   progress: Progress | None = None) -> Certificate:
+    """The certificate of a greedy result (what ``sensorsel greedy`` prints); see :func:`certificate`.
+
+    Args:
+        source: the evaluator the run used, or its problem (then a fresh evaluator of the run's
+            engine is made, with ``jobs`` processes).
+    """
+    ev = source if isinstance(source, Evaluator) else make_evaluator(source, result.engine, jobs=jobs)
+    return certificate(ev, result, progress=progress)
 
 
 def format_certificate(cert: Certificate) -> str:
@@ -459,13 +467,15 @@ class OptimumResult:
         max_nodes: the node limit.
         bound_method: how the node knapsacks were solved: "dp", "fractional" (LP relaxation, when
             the DP table was too large), or both.
-        greedy_rule: the greedy run that gave the first incumbent.
+        greedy_rule: the greedy run that gave the first incumbent ("best-of (marginal)": the
+            marginal run won).
         greedy_suite: its suite (ids, pick order).
         greedy_cost_usd: its cost [$].
         greedy_score: its score [nats].
         greedy_percent_of_best: 100 * greedy_score / score (of the best found).
         greedy_percent_of_bound: 100 * greedy_score / upper_bound (a guarantee even when not proved).
-        greedy_certificate_bound: the greedy run's own certificate bound (:func:`certificate`) [nats].
+        greedy_certificate_bound: the greedy runs' certificate bound (:func:`certificate`; for
+            best-of the smaller of the uniform and marginal runs' bounds) [nats].
         engine: the evaluator used.
         problem: what it was computed on.
         seconds: wall time [s] (the only field that varies between runs, unless ``max_seconds`` stopped it).
@@ -502,7 +512,8 @@ def optimal(evaluator: Evaluator, budget_usd: float, *, max_nodes: int = DEFAULT
             progress: Progress | None = None, info: ProblemInfo | None = None, max_cells: int = MAX_DP_CELLS) -> OptimumResult:
     """The best suite within ``budget_usd`` by best-first branch and bound.
 
-    The first incumbent is a greedy suite (``incumbent``, or a ``greedy_rule`` run now). A node is
+    The first incumbent is a greedy suite (``incumbent``, or a ``greedy_rule`` run now; for
+    "best-of", both its uniform and marginal runs, keeping the better). A node is
     (S, R): the suites S ∪ T with T ⊆ R. Expanding it sweeps Δ(e | S) for e in R (one
     ``scores_with``), drops the sensors that add nothing (by submodularity they add nothing to any
     larger suite either) or no longer fit, orders the rest by gain e_1, ..., e_m, and splits the
@@ -513,7 +524,7 @@ def optimal(evaluator: Evaluator, budget_usd: float, *, max_nodes: int = DEFAULT
 
     (all m children's knapsacks come from one DP over the items in reverse order). Nodes are expanded
     highest bound first; when the highest bound left does not beat the best suite found (by more than
-    a relative 1e-9), that suite is optimal; so it is when the certificate bound of the greedy run
+    a relative 1e-9), that suite is optimal; so it is when the certificate bound of a greedy run
     (:func:`certificate`) does not beat it. Otherwise, at the node or time limit, the highest bound
     left (or the certificate bound, if smaller) is an upper bound on the optimum.
 
@@ -540,18 +551,26 @@ def optimal(evaluator: Evaluator, budget_usd: float, *, max_nodes: int = DEFAULT
     ids = lib.ids
     exclude = frozenset(int(i) for i in exclude)
     if incumbent is None:
-        incumbent = greedy(ev, budget, greedy_rule, exclude=exclude, info=info)
+        # best-of: both runs kept (not only the winner), so that both certificates bound the optimum
+        rules = ("uniform", "marginal") if greedy_rule == "best-of" else (greedy_rule,)
+        runs = [greedy(ev, budget, r, exclude=exclude, info=info) for r in rules]
+        # the winner as BestOfGreedy picks it: higher score (to 9 digits), then cheaper, then uniform
+        incumbent = max(runs, key=lambda r: (round(r.score / max(1.0, abs(r.score)), 9), -r.cost_usd))
+        rule_label = f"best-of ({incumbent.chosen_rule})" if greedy_rule == "best-of" else greedy_rule
     elif abs(incumbent.budget_usd - budget) > 1e-9 * max(1.0, budget):
         raise InputError(f"the incumbent greedy run has budget ${incumbent.budget_usd:,.0f}, not ${budget:,.0f}")
+    else:
+        runs = [incumbent]
+        rule_label = incumbent.objective + (f" ({incumbent.chosen_rule})" if incumbent.objective == "best-of" else "")
     try:
         inc_pos = tuple(sorted(lib.position(x) for x in incumbent.suite))
     except InputError as exc:
         raise InputError(f"the incumbent greedy run does not belong to this library: {exc}") from None
     if set(inc_pos) & exclude:
         raise InputError("the incumbent greedy suite contains an excluded sensor")
-    # The certificate of the greedy run bounds the optimum from the start (valid whatever the search
-    # does); the search can only tighten it.
-    cert_bound = certificate(ev, incumbent, max_cells=max_cells).bound
+    # The certificates of the greedy runs bound the optimum from the start (valid whatever the search
+    # does); the search can only tighten that.
+    cert_bound = min(certificate(ev, r, max_cells=max_cells).bound for r in runs)
     units = cost_units(costs, budget)
     w_all = units.costs
     cap_root = units.capacity
@@ -635,7 +654,7 @@ def optimal(evaluator: Evaluator, budget_usd: float, *, max_nodes: int = DEFAULT
         budget_usd=budget, suite=lib.suite_ids(best_suite), cost_usd=best_cost, score=best_score,
         proved_optimal=proved, upper_bound=upper, gap=gap, gap_percent=100.0 * gap / upper if upper > 0 else 0.0,
         stop_reason=stop, n_nodes=nodes, n_pruned=pruned, n_evaluations=ev.n_evaluations - n0, max_nodes=max_nodes,
-        bound_method="+".join(sorted(methods)) or "none", greedy_rule=incumbent.chosen_rule, greedy_suite=incumbent.suite,
+        bound_method="+".join(sorted(methods)) or "none", greedy_rule=rule_label, greedy_suite=incumbent.suite,
         greedy_cost_usd=incumbent.cost_usd, greedy_score=g_score,
         greedy_percent_of_best=100.0 * g_score / best_score if best_score > 0 else 100.0,
         greedy_percent_of_bound=100.0 * g_score / upper if upper > 0 else 100.0, greedy_certificate_bound=cert_bound,

@@ -1,4 +1,5 @@
 """``sensorsel optimal``: the exact best suite within a budget (branch and bound), and greedy beside it.
+``sensorsel certify``: how close a greedy suite is to the best possible (an upper bound on the optimum).
 
 The certificate line of ``sensorsel greedy`` comes from :func:`certificate_line` (see
 :mod:`sensorsel.certify` for the bound).
@@ -12,16 +13,21 @@ from typing import Any
 import click
 
 from .. import results
-from ..certify import DEFAULT_MAX_NODES, certify_greedy, format_certificate, optimal
+from ..certify import DEFAULT_MAX_NODES, Certificate, certify_greedy, format_certificate, optimal
+from ..errors import InputError
 from ..objective import Evaluator, make_evaluator
 from ..pipeline import problem_info
-from ..selection import GreedyResult, check_budget
+from ..problem import Problem
+from ..selection import SELECTORS, GreedyResult, check_budget, greedy
 from .options import engine_options, problem_from, run, scenario_options
 
 
-def certificate_line(evaluator: Evaluator, result: GreedyResult) -> str:
-    """The line ``sensorsel greedy`` prints under its result: 'certificate: at least X% of the best possible ...'."""
-    return format_certificate(certify_greedy(evaluator, result))
+def certificate_line(source: Evaluator | Problem, result: GreedyResult, *, jobs: int = 1) -> str:
+    """The line ``sensorsel greedy`` prints under its result: 'certificate: at least X% of the best possible ...'.
+
+    ``source``: the evaluator of the run, or its problem (a fresh evaluator of the run's engine is made).
+    """
+    return format_certificate(certify_greedy(source, result, jobs=jobs))
 
 
 def _suite_text(ids: tuple[str, ...]) -> str:
@@ -80,7 +86,7 @@ def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output
         click.echo(f"best found {_suite_text(res.suite)}  (${res.cost_usd:,.0f})  f = {res.score:.3f} nats  [not proved: {res.stop_reason}]")
         click.echo(f"gap        the optimum scores at most {res.upper_bound:.3f} nats: at most {res.gap:.3f} nats "
                    f"({res.gap_percent:.2f}%) above the best found")
-    rule = "best-of" + (f" ({res.greedy_rule})" if res.greedy_rule != "best-of" else "")
+    rule = res.greedy_rule
     rel = (f"{res.greedy_percent_of_best:.2f}% of the optimum" if res.proved_optimal
            else f"{res.greedy_percent_of_best:.2f}% of the best found, >= {res.greedy_percent_of_bound:.2f}% of the optimum")
     click.echo(f"greedy     {rule}: {_suite_text(res.greedy_suite)}  (${res.greedy_cost_usd:,.0f})  f = {res.greedy_score:.3f} nats = {rel}")
@@ -90,4 +96,93 @@ def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output
         click.echo(f"wrote      {output}")
 
 
-COMMANDS = [optimal_cmd]
+def _bar(quiet: bool, label: str):
+    """A progress(done, total) callback drawing a bar on stderr, and a closer; nothing with --quiet."""
+    if quiet:
+        return None, lambda: None
+    state: dict[str, Any] = {}
+
+    def progress(done: int, total: int) -> None:
+        if "bar" not in state:
+            state["bar"] = click.progressbar(length=max(1, total), label=label, file=sys.stderr)
+            state["bar"].__enter__()
+        bar = state["bar"]
+        bar.length = max(1, total)
+        bar.pos = min(done, bar.length)
+        bar.render_progress()
+
+    def close() -> None:
+        if "bar" in state:
+            state["bar"].__exit__(None, None, None)
+
+    return progress, close
+
+
+def _check_same_problem(res: GreedyResult, problem: Problem, spec: Any, path: str) -> None:
+    """Refuse to certify a result computed on another scenario or library (its bound would mean nothing)."""
+    if res.problem is None:
+        return
+    here = problem_info(problem, spec)
+    for key in ("scenario", "n_poses", "n_landmarks", "n_sensors"):
+        theirs, ours = getattr(res.problem, key), getattr(here, key)
+        if theirs != ours:
+            raise InputError(f"{path}: the greedy result was computed with {key} = {theirs!r}, this problem has {ours!r}; "
+                             "give the same scenario and library options as the greedy run")
+
+
+@click.command("certify")
+@scenario_options
+@engine_options
+@click.option("--result", "result_path", type=click.Path(dir_okay=False, path_type=str), default=None,
+              help="A greedy result JSON (`sensorsel greedy -o FILE`) to certify; it must be of the same scenario and library.")
+@click.option("--budget", type=float, default=None, help="Without --result: run greedy at this budget [$] and certify it.")
+@click.option("--objective", type=click.Choice(list(SELECTORS)), default="best-of", show_default=True,
+              help="Without --result: the greedy rule.")
+@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=str), default=None, help="Write the certificate as JSON here.")
+@click.option("--json", "as_json", is_flag=True, help="Print the certificate as JSON.")
+@click.option("--quiet", "-q", is_flag=True, help="No progress bar.")
+@run
+def certify_cmd(result_path: str | None, budget: float | None, objective: str, output: str | None, as_json: bool, quiet: bool,
+                engine: str | None, jobs: int, **kw: Any) -> None:
+    """How close is a greedy suite to the best possible suite of its budget?
+
+    Evaluates the submodular upper bound f(S) + knapsack of the marginal gains (capacity: the
+    budget) at every intermediate suite of the greedy run and keeps the smallest: no suite within
+    the budget scores above it. One sweep of the library per greedy step.
+    """
+    if result_path is not None and budget is not None:
+        raise InputError("give either --result FILE (a greedy result) or --budget DOLLARS (run greedy now), not both")
+    if result_path is None and budget is None:
+        raise InputError("give --result FILE (a greedy result to certify) or --budget DOLLARS (run greedy now)")
+    problem, spec = problem_from(kw)
+    if result_path is not None:
+        res = results.load(GreedyResult, result_path)
+        _check_same_problem(res, problem, spec, result_path)
+        ev = make_evaluator(problem, engine or res.engine, jobs=jobs)
+    else:
+        ev = make_evaluator(problem, engine, jobs=jobs)
+        res = greedy(ev, check_budget(budget), objective, info=problem_info(problem, spec))
+    progress, close = _bar(quiet or as_json, "certificate (greedy steps)")
+    try:
+        cert: Certificate = certify_greedy(ev, res, progress=progress)
+    finally:
+        close()
+    if output:
+        results.save(cert, output)
+    if as_json:
+        click.echo(results.dumps(cert), nl=False)
+        return
+    p = res.problem
+    if p is not None:
+        click.echo(f"scenario   {p.scenario}: {p.n_poses} keyframes, {p.n_landmarks} landmarks ({p.landmark_source})")
+    rule = res.objective + (f" (kept the {res.chosen_rule} run)" if res.objective == "best-of" else "")
+    click.echo(f"greedy     {rule}: {_suite_text(res.suite)}  (${res.cost_usd:,.0f} of ${res.budget_usd:,.0f})")
+    click.echo(f"score      {cert.score:.3f} nats")
+    click.echo(f"bound      {cert.bound:.3f} nats: no suite within ${cert.budget_usd:,.0f} scores more "
+               f"(gap {cert.gap:.3f} nats; knapsack: {cert.knapsack_method})")
+    click.echo(format_certificate(cert))
+    if output:
+        click.echo(f"wrote      {output}")
+
+
+COMMANDS = [optimal_cmd, certify_cmd]
