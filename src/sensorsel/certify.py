@@ -461,8 +461,10 @@ class OptimumResult:
         gap: upper_bound - score [nats].
         gap_percent: 100 * gap / upper_bound: how much better than ``suite`` the optimum may be.
         stop_reason: why the search stopped.
-        n_nodes: suites whose marginal gains were swept (the unit of ``max_nodes``).
+        n_nodes: nodes expanded (the unit of ``max_nodes``): their marginal gains swept, or, when
+            every candidate left fits the budget, the node solved by scoring S ∪ R.
         n_pruned: nodes dropped because their bound could not beat the best found.
+        n_solved: nodes (among ``n_nodes``) settled by monotonicity: everything left fitted.
         n_evaluations: suites scored (including the greedy incumbent's run).
         max_nodes: the node limit.
         bound_method: how the node knapsacks were solved: "dp", "fractional" (LP relaxation, when
@@ -492,6 +494,7 @@ class OptimumResult:
     stop_reason: str
     n_nodes: int
     n_pruned: int
+    n_solved: int
     n_evaluations: int
     max_nodes: int
     bound_method: str
@@ -515,7 +518,8 @@ def optimal(evaluator: Evaluator, budget_usd: float, *, max_nodes: int = DEFAULT
     The first incumbent is a greedy suite (``incumbent``, or a ``greedy_rule`` run now; for
     "best-of", both its uniform and marginal runs, keeping the better). A node is
     (S, R): the suites S ∪ T with T ⊆ R. Expanding it sweeps Δ(e | S) for e in R (one
-    ``scores_with``), drops the sensors that add nothing (by submodularity they add nothing to any
+    ``scores_with``; but when every sensor of R fits the remaining budget together, S ∪ R is the
+    node's best suite by monotonicity and one evaluation settles it), drops the sensors that add nothing (by submodularity they add nothing to any
     larger suite either) or no longer fit, orders the rest by gain e_1, ..., e_m, and splits the
     node into the children (S + e_k, {e_(k+1), ..., e_m}), which together cover every suite of the
     node but S itself. Each child is bounded from the parent's gains, before its own sweep:
@@ -594,7 +598,7 @@ def optimal(evaluator: Evaluator, budget_usd: float, *, max_nodes: int = DEFAULT
     # heap of (-bound, tie counter, suite S (pick order), f(S), Cost(S) [units], R (candidates))
     root_r = tuple(i for i in range(len(lib)) if i not in exclude and w_all[i] <= cap_root)
     heap: list[tuple[float, int, tuple[int, ...], float, int, tuple[int, ...]]] = [(-math.inf, 0, (), 0.0, 0, root_r)]
-    nodes = pruned = 0
+    nodes = pruned = solved = 0
     stop = ""
     while heap:
         neg_ub, _, s, f_s, c_s, r = heap[0]
@@ -612,6 +616,11 @@ def optimal(evaluator: Evaluator, budget_usd: float, *, max_nodes: int = DEFAULT
         nodes += 1
         room = cap_root - c_s
         r = tuple(e for e in r if w_all[e] <= room)  # what fitted the parent may not fit here
+        if len(r) > 1 and int(w_all[list(r)].sum()) <= room:
+            # everything left fits: by monotonicity S ∪ R is the node's best suite (one evaluation)
+            offer(s + r, ev.score(s + r))
+            solved += 1
+            continue
         vals = ev.scores_with(s, list(r)) if r else np.zeros(0)
         for e, v in zip(r, vals):
             offer(s + (e,), float(v))
@@ -653,7 +662,7 @@ def optimal(evaluator: Evaluator, budget_usd: float, *, max_nodes: int = DEFAULT
     return OptimumResult(
         budget_usd=budget, suite=lib.suite_ids(best_suite), cost_usd=best_cost, score=best_score,
         proved_optimal=proved, upper_bound=upper, gap=gap, gap_percent=100.0 * gap / upper if upper > 0 else 0.0,
-        stop_reason=stop, n_nodes=nodes, n_pruned=pruned, n_evaluations=ev.n_evaluations - n0, max_nodes=max_nodes,
+        stop_reason=stop, n_nodes=nodes, n_pruned=pruned, n_solved=solved, n_evaluations=ev.n_evaluations - n0, max_nodes=max_nodes,
         bound_method="+".join(sorted(methods)) or "none", greedy_rule=rule_label, greedy_suite=incumbent.suite,
         greedy_cost_usd=incumbent.cost_usd, greedy_score=g_score,
         greedy_percent_of_best=100.0 * g_score / best_score if best_score > 0 else 100.0,

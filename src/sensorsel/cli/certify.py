@@ -90,7 +90,7 @@ def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output
     rel = (f"{res.greedy_percent_of_best:.2f}% of the optimum" if res.proved_optimal
            else f"{res.greedy_percent_of_best:.2f}% of the best found, >= {res.greedy_percent_of_bound:.2f}% of the optimum")
     click.echo(f"greedy     {rule}: {_suite_text(res.greedy_suite)}  (${res.greedy_cost_usd:,.0f})  f = {res.greedy_score:.3f} nats = {rel}")
-    click.echo(f"search     {res.n_nodes:,} nodes expanded, {res.n_pruned:,} pruned, {res.n_evaluations:,} suites scored "
+    click.echo(f"search     {res.n_nodes:,} nodes expanded ({res.n_solved:,} settled whole), {res.n_pruned:,} pruned, {res.n_evaluations:,} suites scored "
                f"({res.engine} engine, {res.bound_method} bounds), {res.seconds:.1f} s")
     if output:
         click.echo(f"wrote      {output}")
