@@ -174,7 +174,7 @@ def test_lazy_and_plain_greedy_pick_the_same_suites(library, tiny):
     prob = sub_problem(library, tiny, ids)
     for objective in ("uniform", "marginal", "best-of"):
         for b in (1000.0, 5000.0, 12000.0, 110000.0):
-            lazy_ev, plain_ev = make_evaluator(prob, "reference"), make_evaluator(prob, "reference")
+            lazy_ev, plain_ev = make_evaluator(prob), make_evaluator(prob)  # the default engine: this tests the selector
             lazy = greedy(lazy_ev, b, objective, lazy=True)
             plain = greedy(plain_ev, b, objective, lazy=False)
             assert lazy.lazy and not plain.lazy
