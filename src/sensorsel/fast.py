@@ -260,8 +260,10 @@ class _Structure:
         self.base_ll = np.stack([bl[:, 0, 0], bl[:, 0, 1], bl[:, 1, 1]], 1)
         k3 = 3 * np.arange(K)
         self.diag_index = np.stack([(k3 + j) * self.n + k3 + i for i, j in _SYM3], 1)  # (K, 6) lower-triangle flat
-        bp = np.abs(lin.base_pose_information.toarray().reshape(K, 3, K, 3)).sum(axis=(1, 3)) > 0
-        self.base_pattern = np.tril(bp | np.eye(K, dtype=bool))
+        bp = np.eye(K, dtype=bool)
+        coo = lin.base_pose_information.tocoo()
+        bp[coo.row // 3, coo.col // 3] = True
+        self.base_pattern = np.tril(bp)
         # landmark groups: seen landmarks in route order, GROUP_SIZE per group
         seen = np.zeros(M, dtype=bool)
         seen[self.pair_landmark] = True

@@ -154,8 +154,11 @@ def linearize_library(problem: Problem) -> LibraryLinearization:
     d = points[pair_landmark] - poses[pair_pose, :2]
     bearing = np.arctan2(d[:, 1], d[:, 0]) - poses[pair_pose, 2]
     rng = np.hypot(d[:, 0], d[:, 1])
-    for k, j, b, r in zip(pair_pose.tolist(), pair_landmark.tolist(), bearing.tolist(), rng.tolist()):
-        graph.add(gtsam.BearingRangeFactor2D(X(k), L(j), gtsam.Rot2.fromAngle(b), r, unit))
+    # symbol keys computed as integers (X(k) == x_key + k), the loop does nothing but construct
+    x_key, l_key = X(0), L(0)
+    factor, rot, add = gtsam.BearingRangeFactor2D, gtsam.Rot2.fromAngle, graph.add
+    for k, j, b, r in zip((pair_pose + x_key).tolist(), (pair_landmark + l_key).tolist(), bearing.tolist(), rng.tolist()):
+        add(factor(k, j, rot(b), r, unit))
     n_cols = 2 * n_landmarks + 3 * n_poses
     if graph.size() == 0:
         trip = np.zeros((3, 0))
@@ -176,11 +179,11 @@ def linearize_library(problem: Problem) -> LibraryLinearization:
     ps = slice(2 * n_landmarks, n_cols)
     if info[lm, ps].count_nonzero():
         raise AssertionError("base graph couples poses and landmarks: unexpected column layout")
-    dense_lm = info[lm, lm].toarray()
+    two = 2 * np.arange(n_landmarks)
     base_lm = np.zeros((n_landmarks, 2, 2))
     for a in range(2):
         for c in range(2):
-            base_lm[:, a, c] = dense_lm[2 * np.arange(n_landmarks) + a, 2 * np.arange(n_landmarks) + c]
+            base_lm[:, a, c] = np.asarray(info[two + a, two + c]).ravel()
 
     # pair rows: 2 per pair; columns mapped to [pose (3), landmark (2)] within the pair
     r, c, v = rows[~is_base] - base_rows, cols[~is_base], vals[~is_base]
