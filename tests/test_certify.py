@@ -185,6 +185,8 @@ def test_exact_search_equals_brute_force(name, budget):
     opt, _ = brute_optimum(problem, small_scores(name), budget)
     res = optimal(make_evaluator(problem, "reference"), budget)
     assert res.proved_optimal, res.stop_reason
+    best_of = greedy(make_evaluator(problem, "reference"), budget, "best-of")  # the incumbent it started from
+    assert (res.greedy_suite, res.greedy_score, res.greedy_rule) == (best_of.suite, best_of.score, f"best-of ({best_of.chosen_rule})")
     assert res.score == pytest.approx(opt, rel=TOL, abs=TOL)
     positions = problem.library.parse_suite(",".join(res.suite)) if res.suite else ()
     assert res.cost_usd == problem.library.cost(positions) <= budget

@@ -50,7 +50,7 @@ from .errors import InputError
 from .objective import Evaluator, make_evaluator
 from .pipeline import ProblemInfo
 from .problem import Problem
-from .selection import REL_TOL, GreedyResult, check_budget, greedy
+from .selection import REL_TOL, GreedyResult, better_run, check_budget, greedy
 
 #: Largest dynamic-programming table (items x capacity cells) solved by DP; above it, branch and bound.
 MAX_DP_CELLS = 50_000_000
@@ -558,8 +558,7 @@ def optimal(evaluator: Evaluator, budget_usd: float, *, max_nodes: int = DEFAULT
         # best-of: both runs kept (not only the winner), so that both certificates bound the optimum
         rules = ("uniform", "marginal") if greedy_rule == "best-of" else (greedy_rule,)
         runs = [greedy(ev, budget, r, exclude=exclude, info=info) for r in rules]
-        # the winner as BestOfGreedy picks it: higher score (to 9 digits), then cheaper, then uniform
-        incumbent = max(runs, key=lambda r: (round(r.score / max(1.0, abs(r.score)), 9), -r.cost_usd))
+        incumbent = better_run(runs)  # the run BestOfGreedy keeps
         rule_label = f"best-of ({incumbent.chosen_rule})" if greedy_rule == "best-of" else greedy_rule
     elif abs(incumbent.budget_usd - budget) > 1e-9 * max(1.0, budget):
         raise InputError(f"the incumbent greedy run has budget ${incumbent.budget_usd:,.0f}, not ${budget:,.0f}")
