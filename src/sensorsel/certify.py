@@ -613,6 +613,8 @@ def optimal(evaluator: Evaluator, budget_usd: float, *, max_nodes: int = DEFAULT
             break
         heapq.heappop(heap)
         nodes += 1
+        if progress:
+            progress(nodes, max_nodes)
         room = cap_root - c_s
         r = tuple(e for e in r if w_all[e] <= room)  # what fitted the parent may not fit here
         if len(r) > 1 and int(w_all[list(r)].sum()) <= room:
@@ -647,9 +649,7 @@ def optimal(evaluator: Evaluator, budget_usd: float, *, max_nodes: int = DEFAULT
                 pruned += 1 if rest else 0
                 continue
             counter += 1
-            heapq.heappush(heap, (-ub, counter, s + (items[k],), f_s + float(g[k]), c_s + int(w[k]), rest))
-        if progress:
-            progress(nodes, max_nodes)
+            heapq.heappush(heap, (-ub, counter, s + (items[k],), float(vals[keep[k]]), c_s + int(w[k]), rest))
     proved = not heap
     if proved:
         stop = "every other suite ruled out by its bound"
