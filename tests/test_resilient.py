@@ -390,3 +390,13 @@ def test_cli_bad_input_exits_2(tmp_path, opts, needle):
     assert r.exit_code == 2, r.output
     assert "Traceback" not in r.output and needle in r.output
     assert not (tmp_path / "o" / "resilient.json").exists()
+
+
+def test_default_engine_gives_the_reference_selection(tiny):
+    """Engines differ in speed, not in answers: the same suites, failures and grid as the reference."""
+    fast = run_periods(tiny, 110_000, 1, period_s=3.0)  # the default engine
+    ref = run_periods(tiny, 110_000, 1, period_s=3.0, engine="reference")
+    assert fast.grid == ref.grid
+    for a, b in zip(fast.periods, ref.periods):
+        assert a.result.suite == b.result.suite and a.worst.failures == b.worst.failures
+        assert close(a.result.score, b.result.score) and close(a.worst.score, b.worst.score)
