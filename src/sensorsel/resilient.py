@@ -17,8 +17,8 @@ Constraints" (arXiv 1804.01013), Algorithm 1, with the matroid replaced by the c
 
 The resilient suite is the union; alpha = 0 is plain greedy selection.
 
-**Worst case** of any suite S: min over F subset of S, \\|F\\| = alpha of f(S minus F), computed exactly
-by enumerating the C(\\|S\\|, alpha) failure sets (one evaluation each; \\|S\\| for alpha = 1). A suite of
+**Worst case** of any suite S: min over F subset of S, |F| = alpha of f(S minus F), computed exactly
+by enumerating the C(|S|, alpha) failure sets (one evaluation each; |S| for alpha = 1). A suite of
 alpha sensors or fewer loses all of them (worst case 0).
 
 **Per period.** The route is split into periods of ``period_s`` seconds of the keyframe
@@ -79,11 +79,11 @@ class WorstCase:
         suite: ids of the suite, in library order.
         alpha: failures considered (at most the suite's size are applied).
         nominal_score: f(suite) with nothing failed [nats].
-        score: min over failure sets F (\\|F\\| = min(alpha, \\|S\\|)) of f(S minus F) [nats].
+        score: min over failure sets F (|F| = min(alpha, |S|)) of f(S minus F) [nats].
         failures: ids of the failure set attaining it (ties within a relative 1e-9: the first in
             library order, i.e. lexicographic on library positions).
         survivors: ids left working in that case.
-        n_failure_sets: failure sets enumerated, C(\\|S\\|, alpha).
+        n_failure_sets: failure sets enumerated, C(|S|, alpha).
         n_evaluations: suites scored.
     """
 
@@ -419,7 +419,7 @@ def worst_case(evaluator: Evaluator, suite: Sequence[int] | str, alpha: int, *, 
         alpha: failures (a suite of alpha sensors or fewer loses them all).
         max_failure_sets: refuse to enumerate more failure sets than this.
     Raises:
-        InputError: negative alpha, or C(\\|S\\|, alpha) above ``max_failure_sets``.
+        InputError: negative alpha, or C(|S|, alpha) above ``max_failure_sets``.
     """
     alpha = check_alpha(alpha)
     lib = evaluator.problem.library
