@@ -67,7 +67,7 @@ from .objective import Evaluator, Suite, as_suite
 from .problem import Problem
 
 #: landmarks per group (tile) of the Schur product
-GROUP_SIZE = 24
+GROUP_SIZE = 16
 #: below this fraction of non-zero pose blocks the pose matrix is factored as a sparse matrix
 SPARSE_BELOW = 0.11
 #: runs of keyframes of a group's tile closer than this are joined (zero rows in between)
@@ -194,8 +194,8 @@ class _Layout:
 
     act: np.ndarray  # (Pa,) active pair indices, sorted
     landmark: np.ndarray  # (Pa,) landmark of each active pair
-    hpl: np.ndarray  # (Pa, 12) hl_r (x) hp_r of each active pair, r = bearing (0:6), range (6:12)
-    flat: np.ndarray  # (Pa * 6,) index into the tile buffer of each entry of Yᵀ (Pa, 2, 3)
+    hpl: np.ndarray  # (12, Pa) hl_r (x) hp_r of each active pair, r = bearing (0:6), range (6:12)
+    flat: np.ndarray  # (6 * Pa,) index into the tile buffer of each entry of Yᵀ, as (2, 3, Pa)
     size: int  # tile buffer length
     calls: list  # (a_off, b_off, c_off, m, n, k, same): P[c_off block m x n] -= A[a_off] @ A[b_off].T
     pattern: np.ndarray  # (K, K) bool: pose blocks of the lower triangle that can be non-zero
@@ -223,11 +223,11 @@ class _Base:
     """A base suite's state, shared by every candidate scored with it."""
 
     suite: Suite
-    w: np.ndarray  # (P, 2) information of each measurement row of each pair (0: not measured)
+    w: np.ndarray  # (2, P) information of each measurement row (bearing, range) of each pair (0: not measured)
     d: np.ndarray  # (M, 3) landmark information d00, d01, d11
     a: np.ndarray  # (K, 6) measurement information on the pose diagonal blocks (unique entries)
     layout: _Layout
-    wpl: np.ndarray  # (Pa, 6) W_p = sum_r w_r hp_r hl_r^T of each active pair
+    wpl: np.ndarray  # (6, Pa) W_p = sum_r w_r hp_r hl_r^T of each active pair, entry c * 3 + a = W[a, c]
 
 
 class _Structure:
@@ -245,21 +245,22 @@ class _Structure:
         self.pair_landmark = lin.pair_landmark
         jac = lin.pair_jacobian
         hp, hl = jac[:, :, :3], jac[:, :, 3:]
-        # rank-one pieces of one measurement row r (0 bearing, 1 range) at unit information
-        self.hll = tuple(np.ascontiguousarray(np.stack([hl[:, r, 0] ** 2, hl[:, r, 0] * hl[:, r, 1], hl[:, r, 1] ** 2], 1)) for r in range(2))
-        # W_p = sum_r w_r hp_r hl_r^T is kept transposed, (2, 3) row-major: entry c * 3 + a = W[a, c]
-        self.hpl = np.ascontiguousarray((hl[:, :, :, None] * hp[:, :, None, :]).reshape(-1, 12))
-        self.hpp = tuple(np.ascontiguousarray(np.stack([hp[:, r, i] * hp[:, r, j] for i, j in _SYM3], 1)) for r in range(2))
+        # rank-one pieces of one measurement row r (0 bearing, 1 range) at unit information, stored
+        # one component per contiguous row (vector operations run over pairs, not over 2x3 blocks)
+        self.hll = np.stack([np.stack([hl[:, r, 0] ** 2, hl[:, r, 0] * hl[:, r, 1], hl[:, r, 1] ** 2]) for r in range(2)])  # (2, 3, P)
+        self.hpp = np.stack([np.stack([hp[:, r, i] * hp[:, r, j] for i, j in _SYM3]) for r in range(2)])  # (2, 6, P)
+        # W_p = sum_r w_r hp_r hl_r^T is kept transposed: entry c * 3 + a = W[a, c]; rows 0:6 bearing, 6:12 range
+        self.hpl = np.ascontiguousarray((hl[:, :, :, None] * hp[:, :, None, :]).reshape(-1, 12).T)  # (12, P)
         self.sensor_pairs = lin.sensor_pairs
-        self.sensor_w = tuple(np.ascontiguousarray(1.0 / s**2) for s in lin.sensor_sigmas)  # (n_s, 2)
+        self.sensor_w = tuple(np.ascontiguousarray((1.0 / s**2).T) for s in lin.sensor_sigmas)  # (2, n_s)
         low = sp.tril(lin.base_pose_information).tocoo()
         self.base_index = low.row.astype(np.int64) * self.n + low.col  # lower triangle of the base on the poses
         self.base_values = low.data.copy()
         self._local = threading.local()
         bl = lin.base_landmark_information
-        self.base_ll = np.stack([bl[:, 0, 0], bl[:, 0, 1], bl[:, 1, 1]], 1)
+        self.base_ll = np.stack([bl[:, 0, 0], bl[:, 0, 1], bl[:, 1, 1]])  # (3, M)
         k3 = 3 * np.arange(K)
-        self.diag_index = np.stack([(k3 + j) * self.n + k3 + i for i, j in _SYM3], 1)  # (K, 6) lower-triangle flat
+        self.diag_index = np.stack([(k3 + j) * self.n + k3 + i for i, j in _SYM3])  # (6, K) lower-triangle flat
         bp = np.eye(K, dtype=bool)
         coo = lin.base_pose_information.tocoo()
         bp[coo.row // 3, coo.col // 3] = True
@@ -278,25 +279,30 @@ class _Structure:
 
     def base(self, suite: Suite) -> _Base:
         """State of a suite: pair weights, sums, layout and W of its active pairs."""
-        w = np.zeros((len(self.pair_pose), 2))
+        w = np.zeros((2, len(self.pair_pose)))
         for s in suite:
-            w[self.sensor_pairs[s]] += self.sensor_w[s]
-        act = np.flatnonzero(w[:, 0] + w[:, 1] > 0)
+            w[:, self.sensor_pairs[s]] += self.sensor_w[s]
+        act = np.flatnonzero(w[0] + w[1] > 0)
         d = self.base_ll.copy()
-        a = np.zeros((self.n_poses, 6))
-        self._accumulate(d, a, act, w[act])
+        a = np.zeros((6, self.n_poses))
+        self._accumulate(d, a, act, w[:, act])
         layout = self.layout(act)
-        wa = w[act]
-        wpl = wa[:, 0:1] * layout.hpl[:, :6] + wa[:, 1:2] * layout.hpl[:, 6:]
-        return _Base(suite, w, d, a, layout, wpl)
+        return _Base(suite, w, d, a, layout, self._wpl(w[:, act], layout.hpl))
+
+    @staticmethod
+    def _wpl(w: np.ndarray, hpl: np.ndarray) -> np.ndarray:
+        """W of pairs with row weights ``w`` (2, n) and pieces ``hpl`` (12, n): (6, n)."""
+        return w[0] * hpl[:6] + w[1] * hpl[6:]
 
     def _accumulate(self, d: np.ndarray, a: np.ndarray, pairs: np.ndarray, w: np.ndarray) -> None:
-        """Add the landmark and pose-diagonal information of ``pairs`` with row weights ``w`` (n, 2)."""
+        """Add the landmark (d: 3, M) and pose-diagonal (a: 6, K) information of ``pairs`` with row weights ``w`` (2, n)."""
         lm, ps = self.pair_landmark[pairs], self.pair_pose[pairs]
+        hll = np.take(self.hll, pairs, axis=2)
+        hpp = np.take(self.hpp, pairs, axis=2)
         for i in range(3):
-            d[:, i] += np.bincount(lm, w[:, 0] * self.hll[0][pairs, i] + w[:, 1] * self.hll[1][pairs, i], self.n_landmarks)
+            d[i] += np.bincount(lm, w[0] * hll[0, i] + w[1] * hll[1, i], self.n_landmarks)
         for i in range(6):
-            a[:, i] += np.bincount(ps, w[:, 0] * self.hpp[0][pairs, i] + w[:, 1] * self.hpp[1][pairs, i], self.n_poses)
+            a[i] += np.bincount(ps, w[0] * hpp[0, i] + w[1] * hpp[1, i], self.n_poses)
 
     def layout(self, act: np.ndarray) -> _Layout:
         """Tiles and BLAS calls of the Schur product for the active pairs ``act`` (sorted pair indices)."""
@@ -332,7 +338,8 @@ class _Structure:
         run = np.searchsorted(rg * K + rs, g * K + ps, side="right") - 1  # the run holding each pair's keyframe
         local = row0[run] + ps - rs[run]
         base = off[g] + 3 * local * ncols[g] + col_of[lm]
-        flat = (base[:, None, None] + np.arange(2)[None, :, None] + np.arange(3)[None, None, :] * ncols[g][:, None, None]).ravel()
+        nc = ncols[g]
+        flat = np.concatenate([base + c + i * nc for c in range(2) for i in range(3)])
         # run pairs (a, b) of the same group with b <= a: the lower triangle
         cnt = np.arange(len(rg)) - first_run[rg] + 1
         ia = np.repeat(np.arange(len(rg)), cnt)
@@ -348,7 +355,7 @@ class _Structure:
         mf = mask.astype(np.float32)
         pattern = np.tril(((mf.T @ mf) > 0) | self.base_pattern)
         density = (2 * int(np.count_nonzero(pattern)) - K) / float(K * K)
-        return _Layout(act, lm, np.take(self.hpl, act, axis=0), flat, int(off[-1]), calls, pattern, density)
+        return _Layout(act, lm, np.take(self.hpl, act, axis=1), flat, int(off[-1]), calls, pattern, density)
 
     def _scratch(self) -> "_Scratch":
         """This thread's reusable zeroed buffers (the large arrays of one evaluation)."""
@@ -358,20 +365,21 @@ class _Structure:
         return sc
 
     def logdet(self, wpl: np.ndarray, d: np.ndarray, a: np.ndarray, layout: _Layout) -> float:
-        """log det L [nats] from W of the active pairs ``wpl`` (Pa, 6; overwritten), landmark sums ``d``, pose sums ``a``."""
+        """log det L [nats] from W of the active pairs ``wpl`` (6, Pa; overwritten), landmark sums ``d``
+        (3, M), pose-diagonal sums ``a`` (6, K)."""
         # landmark blocks: D_j = L_j L_j^T (2x2 Cholesky, vectorized)
-        l11 = np.sqrt(d[:, 0])
-        l21 = d[:, 1] / l11
-        l22 = np.sqrt(d[:, 2] - l21 * l21)
+        l11 = np.sqrt(d[0])
+        l21 = d[1] / l11
+        l22 = np.sqrt(d[2] - l21 * l21)
         logdet = 2.0 * float(np.sum(np.log(l11 * l22)))
         # Y_p = W_p L_j^{-T}, in place on wpl (its (2, 3) rows are W's columns): with L^{-1} =
         # [[1/l11, 0], [-l21/(l11 l22), 1/l22]], Y[:, 0] = W[:, 0] / l11 and
         # Y[:, 1] = W[:, 1] / l22 - W[:, 0] l21 / (l11 l22)
         lm = layout.landmark
-        y = wpl.reshape(-1, 2, 3)
-        y[:, 1, :] *= np.take(1.0 / l22, lm)[:, None]
-        y[:, 1, :] -= y[:, 0, :] * np.take(l21 / (l11 * l22), lm)[:, None]
-        y[:, 0, :] *= np.take(1.0 / l11, lm)[:, None]
+        y = wpl.reshape(2, 3, -1)
+        y[1] *= np.take(1.0 / l22, lm)
+        y[1] -= y[0] * np.take(l21 / (l11 * l22), lm)
+        y[0] *= np.take(1.0 / l11, lm)
         scratch = self._scratch()
         buf = scratch.array("tiles", layout.size)
         buf[layout.flat] = wpl.ravel()
@@ -428,14 +436,12 @@ class _Structure:
         if len(pairs) and (at[-1] >= len(act) or np.any(act[np.minimum(at, len(act) - 1)] != pairs)):
             # the candidate measures pairs the base does not: a layout of its own
             w = base.w.copy()
-            w[pairs] += wc
-            layout = self.layout(np.flatnonzero(w[:, 0] + w[:, 1] > 0))
-            wa = w[layout.act]
-            wpl = wa[:, 0:1] * layout.hpl[:, :6] + wa[:, 1:2] * layout.hpl[:, 6:]
+            w[:, pairs] += wc
+            layout = self.layout(np.flatnonzero(w[0] + w[1] > 0))
+            wpl = self._wpl(w[:, layout.act], layout.hpl)
         else:
             wpl = base.wpl.copy()
-            h = np.take(self.hpl, pairs, axis=0)
-            wpl[at] += wc[:, 0:1] * h[:, :6] + wc[:, 1:2] * h[:, 6:]
+            wpl[:, at] += self._wpl(wc, np.take(self.hpl, pairs, axis=1))
         return self.logdet(wpl, d, a, layout)
 
 
