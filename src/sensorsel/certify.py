@@ -29,7 +29,8 @@ bounds the node. A node whose bound does not exceed the best suite found is drop
 Knapsacks are solved exactly by dynamic programming over costs in units of the library's cost
 resolution (the gcd of the costs, after scaling them to integers); when the table would be too
 large, by an exact branch and bound with a node limit, whose unfinished search still gives a valid
-upper bound (never below the true maximum). Which one was used is recorded.
+upper bound (never below the true maximum); inside the exact search, by the LP relaxation (a
+valid, looser bound). Which one was used is recorded.
 
 Everything here is deterministic for a deterministic evaluator: same inputs, same bytes out (the
 wall time sits in a separate ``seconds`` field). Numbers are exact up to floating-point round-off of
