@@ -42,3 +42,12 @@ class ResultFileError(SensorselError):
     def __init__(self, path: str | Path, message: str) -> None:
         self.path = str(path)
         super().__init__(f"{path}: {message}")
+
+
+class OutputError(SensorselError):
+    """An output file or folder cannot be written (no such folder, not a folder, no permission, disk full)."""
+
+    def __init__(self, path: str | Path, message: str) -> None:
+        self.path = str(path)
+        self.reason = message
+        super().__init__(f"{path}: cannot write: {message}")

@@ -4,17 +4,17 @@ from __future__ import annotations
 
 import sys
 from collections import Counter
-from pathlib import Path
 from typing import Any
 
 import click
 
 from .. import results
+from ..fileio import output_dir
 from ..selection import SELECTORS
 from .options import engine_options, problem_from, run, scenario_options, table
 
 
-@click.command("resilient")
+@click.command("resilient", short_help="Resilient selection against failing sensors, whole route and per period (grid).")
 @scenario_options
 @engine_options
 @click.option("--budget", type=float, default=110_000.0, show_default=True, help="Budget [$], the sensors assumed to fail included.")
@@ -47,11 +47,11 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, objective: str, ou
     budget = check_budget(budget)
     alpha = check_alpha(alpha)
     period_s = check_period(period_s)
+    out = output_dir(outdir)
     problem, spec = problem_from(kw)
     sc = problem.scenario
     n_periods = len(split_periods(sc.keyframes.times, period_s))
     show = not quiet and sys.stderr.isatty()
-    out = Path(outdir)
     if show:
         click.echo(f"whole route: greedy and resilient selection on {sc.n_poses} keyframes, {sc.n_landmarks} landmarks ...", err=True)
         with click.progressbar(length=n_periods, label=f"{n_periods} periods of {period_s:g} s", file=sys.stderr) as bar:

@@ -13,6 +13,7 @@ import click
 
 from .. import results
 from ..errors import InputError, ResultFileError
+from ..fileio import output_dir
 from ..library import SensorLibrary
 from ..pipeline import load_problem
 from ..problem import GraphSettings
@@ -57,7 +58,7 @@ def _fmt(v: float | None, digits: int = 3) -> str:
     return "n/a" if v is None else f"{v:.{digits}f}"
 
 
-@click.command("simulate")
+@click.command("simulate", short_help="Monte-Carlo SLAM with GTSAM on one or two suites, with failures.")
 @scenario_options
 @click.option("--suite", required=True, help="Comma-separated sensor ids, or a result JSON of `sensorsel greedy`/`resilient` (its \"suite\").")
 @click.option("--compare", default=None, help="A second suite (same forms) simulated with the same noise and drawn beside the first.")
@@ -96,6 +97,7 @@ def simulate_cmd(suite: str, compare: str | None, label: str | None, compare_lab
         raise click.BadParameter(f"must be a positive number, got {noise_scale!r}", param_hint="--noise-scale")
     if compare_label is not None and compare is None:
         raise click.UsageError("--compare-label needs --compare")
+    out = output_dir(outdir)
     settings = GraphSettings()
     if start_sigmas is not None:
         try:
@@ -144,7 +146,6 @@ def simulate_cmd(suite: str, compare: str | None, label: str | None, compare_lab
                            jobs=jobs, label=name, spec=spec)
         sims.append(res)
 
-    out = Path(outdir)
     json_path = results.save(SimulationReport(tuple(sims)), out / "simulation.json")
     sc = problem.scenario
     paths = [json_path]

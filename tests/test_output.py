@@ -1,0 +1,88 @@
+"""Output files: written atomically, and a place that cannot be written is one clear error, found before the run."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from sensorsel.cli import cli
+from sensorsel.errors import OutputError
+from sensorsel.fileio import atomic_write_text, output_dir, output_file
+
+
+def _fails_before_work(*args: str) -> str:
+    """Exit 2 with one line naming the output path, and without the scenario even being loaded."""
+    result = CliRunner().invoke(cli, list(args))
+    assert result.exit_code == 2, result.output
+    assert "Traceback" not in result.output
+    err = result.stderr.strip()
+    assert len(err.splitlines()) == 1 and err.startswith("sensorsel: error: "), err
+    assert "cannot write" in err
+    # the scenario summary is printed only after a run; nothing of it may appear
+    assert "keyframes" not in result.stdout
+    return err
+
+
+def test_atomic_write_replaces_whole_file_and_leaves_no_temporary(tmp_path: Path):
+    target = tmp_path / "sub" / "out.json"
+    atomic_write_text(target, "first")
+    atomic_write_text(target, "second")
+    assert target.read_text() == "second"
+    assert sorted(p.name for p in target.parent.iterdir()) == ["out.json"]
+
+
+def test_write_into_a_file_as_folder_names_the_path(tmp_path: Path):
+    blocker = tmp_path / "blocker"
+    blocker.write_text("x")
+    with pytest.raises(OutputError) as exc:
+        atomic_write_text(blocker / "out.json", "data")
+    assert str(blocker / "out.json") in str(exc.value)
+    assert blocker.read_text() == "x"
+
+
+def test_output_to_an_existing_folder_is_refused(tmp_path: Path):
+    with pytest.raises(OutputError, match="is a folder"):
+        atomic_write_text(tmp_path, "data")
+    with pytest.raises(OutputError, match="is a folder"):
+        output_file(tmp_path)
+
+
+def test_output_dir_refuses_a_file_and_creates_parents(tmp_path: Path):
+    f = tmp_path / "f"
+    f.write_text("x")
+    with pytest.raises(OutputError, match="not a folder"):
+        output_dir(f)
+    made = output_dir(tmp_path / "a" / "b")
+    assert made.is_dir()
+
+
+@pytest.mark.skipif(not Path("/proc/self").is_dir(), reason="needs Linux's /proc, where nothing can be created")
+def test_a_folder_the_system_refuses_is_an_output_error():
+    # /proc refuses new entries even to root, so this holds whoever runs the tests
+    with pytest.raises(OutputError, match="/proc/sensorsel-test/out.json: cannot write"):
+        output_file("/proc/sensorsel-test/out.json")
+    with pytest.raises(OutputError, match="/proc/sensorsel-test.json: cannot write"):
+        atomic_write_text("/proc/sensorsel-test.json", "data")
+
+
+def test_commands_refuse_an_unwritable_output_before_running(tmp_path: Path):
+    blocker = tmp_path / "blocker"
+    blocker.write_text("x")
+    bad = str(blocker / "out")
+    assert bad in _fails_before_work("greedy", "--fixture", "tiny", "--budget", "5000", "-o", bad + ".json")
+    assert bad in _fails_before_work("pareto", "--fixture", "tiny", "-o", bad)
+    assert bad in _fails_before_work("resilient", "--fixture", "tiny", "--budget", "5000", "-o", bad)
+    assert bad in _fails_before_work("simulate", "--fixture", "tiny", "--suite", "LRL-roof", "--runs", "1", "-o", bad)
+    assert bad in _fails_before_work("certify", "--fixture", "tiny", "--budget", "5000", "-o", bad + ".json")
+    assert bad in _fails_before_work("optimal", "--fixture", "tiny", "--budget", "5000", "-o", bad + ".json")
+    assert blocker.read_text() == "x"
+
+
+def test_scene_into_a_missing_place_is_one_clear_error(tmp_path: Path):
+    blocker = tmp_path / "blocker"
+    blocker.write_text("x")
+    result = CliRunner().invoke(cli, ["scene", "--fixture", "tiny", "-o", str(blocker / "scene.png")])
+    assert result.exit_code == 2 and "Traceback" not in result.output
+    assert str(blocker / "scene.png") in result.stderr and "cannot write" in result.stderr
