@@ -27,14 +27,13 @@ from sensorsel import results
 from sensorsel.certify import (Certificate, KnapsackSolution, OptimumResult, SuiteBound, certificate, certify_greedy,
                                cost_units, format_certificate, knapsack, optimal, suite_bound)
 from sensorsel.cli import cli
-from sensorsel.cli.certify import certificate_line
 from sensorsel.errors import InputError
 from sensorsel.library import load_library
 from sensorsel.objective import make_evaluator
 from sensorsel.pipeline import problem_info
 from sensorsel.problem import build_problem
 from sensorsel.scenario import ScenarioSpec, load_scenario
-from sensorsel.selection import SELECTORS, greedy
+from sensorsel.selection import SELECTORS, GreedyResult, greedy, run_greedy
 
 REPO = Path(__file__).resolve().parents[1]
 LIBRARY = load_library()
@@ -388,8 +387,7 @@ def test_certificate_line():
     ev = make_evaluator(problem, "reference")
     res = greedy(ev, 6000.0, "best-of")
     cert = certify_greedy(ev, res)
-    line = certificate_line(ev, res)
-    assert line == format_certificate(cert)
+    line = format_certificate(cert)
     assert line.startswith("certificate: at least ") and "of the best possible suite under $6,000" in line
     shown = float(line.split("at least ")[1].split("%")[0])
     assert shown <= cert.percent_of_best and cert.percent_of_best - shown < 0.1 + 1e-9
@@ -398,7 +396,43 @@ def test_certificate_line():
     assert "at least 99.9%" in format_certificate(almost)
 
 
+def test_run_greedy_carries_its_certificate_and_it_round_trips(tmp_path):
+    """run_greedy(certify=True): the same certificate as certifying the run afterwards, above the
+    brute-force optimum, saved and loaded with the greedy result."""
+    problem = small_problem("mixed10")
+    opt, _ = brute_optimum(problem, small_scores("mixed10"), 6000.0)
+    res = run_greedy(problem, 6000.0, "best-of", engine="reference", certify=True)
+    plain = run_greedy(problem, 6000.0, "best-of", engine="reference")
+    assert plain.certificate is None and res.suite == plain.suite
+    cert = res.certificate
+    assert cert is not None
+    again = certificate(make_evaluator(problem, "reference"), plain)
+    assert (cert.score, cert.bound, cert.step_bounds) == (again.score, again.bound, again.step_bounds)
+    assert close_or_above(cert.bound, opt) and cert.score == res.score
+    loaded = results.load(GreedyResult, results.save(res, tmp_path / "g.json"))
+    assert loaded == res
+
+
 # -------------------------------------------------------------------------------------- the CLI
+
+
+def test_cli_greedy_prints_the_certificate_line_and_saves_it(tmp_path):
+    lib_path = _small_library_yaml(tmp_path)
+    base = ["greedy", "--fixture", "tiny", "--library", str(lib_path), "--budget", "5000", "--engine", "reference",
+            "--jobs", "1", "--quiet"]
+    r = CliRunner().invoke(cli, base + ["-o", str(tmp_path / "g.json")])
+    assert r.exit_code == 0, r.output
+    res = results.load(GreedyResult, tmp_path / "g.json")
+    assert res.certificate is not None
+    assert format_certificate(res.certificate) in r.output.splitlines()
+    problem = build_problem(load_library(lib_path), load_scenario(ScenarioSpec(fixture="tiny")))
+    opt, _ = brute_optimum(problem, all_scores(problem), 5000.0)
+    assert close_or_above(res.certificate.bound, opt) and res.certificate.score == res.score <= opt + TOL * opt
+    r = CliRunner().invoke(cli, base + ["--no-certificate", "--json"])
+    assert r.exit_code == 0, r.output
+    assert json.loads(r.output)["certificate"] is None and "certificate:" not in r.output
+
+
 
 
 def _small_library_yaml(tmp_path: Path) -> Path:

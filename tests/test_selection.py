@@ -10,7 +10,6 @@ import json
 import math
 from pathlib import Path
 
-import numpy as np
 import pytest
 import yaml
 from click.testing import CliRunner
@@ -225,6 +224,18 @@ def test_results_are_byte_identical_across_runs(mixed):
         assert _without_timing(a) == _without_timing(b)
 
 
+def test_jobs_do_not_change_a_byte_of_the_result(suburb_problem):
+    """--jobs 1 and --jobs 2: the same picks, scores and evaluation counts, with the fast engine's
+    threads used whatever the route's size (the threaded path itself)."""
+    from sensorsel.fast import FastEvaluator
+
+    for objective in ("uniform", "best-of"):
+        one = greedy(FastEvaluator(suburb_problem, jobs=1), 12_000.0, objective)
+        two = greedy(FastEvaluator(suburb_problem, jobs=2, threads_from_keyframes=0), 12_000.0, objective)
+        assert len(one.steps) >= 3
+        assert _without_timing(one) == _without_timing(two)
+
+
 def test_greedy_result_round_trips_through_json(mixed, tmp_path):
     res = run_greedy(mixed, 9000.0, "best-of", engine="reference", spec=ScenarioSpec(fixture="tiny"))
     assert res.problem is not None and res.problem.scenario == "tiny" and res.steps
@@ -284,3 +295,20 @@ def test_cli_greedy_table_and_json_output(small_library, tmp_path):
     data = json.loads(j.stdout)
     assert data["suite"] == list(res.suite) and data["score"] == res.score
     assert len(data["steps"]) == len(res.steps)
+
+
+def test_cli_jobs_1_and_2_write_the_same_bytes(tmp_path):
+    """`sensorsel greedy --jobs 1` and `--jobs 2` (fast engine, certificate included): the same JSON
+    apart from the wall times."""
+
+    def run(jobs: str) -> dict:
+        out = tmp_path / f"g{jobs}.json"
+        r = CliRunner().invoke(cli, ["greedy", "--budget", "8000", "--jobs", jobs, "--quiet", "-o", str(out)])
+        assert r.exit_code == 0, r.output
+        data = json.loads(out.read_text())
+        data.pop("seconds")
+        data["certificate"].pop("seconds")
+        return data
+
+    one, two = run("1"), run("2")
+    assert one["steps"] and one == two

@@ -51,7 +51,7 @@ from .errors import InputError
 from .objective import Evaluator, make_evaluator
 from .pipeline import ProblemInfo
 from .problem import Problem
-from .selection import REL_TOL, GreedyResult, better_run, check_budget, greedy
+from .selection import REL_TOL, Certificate, GreedyResult, better_run, check_budget, greedy
 
 #: Largest dynamic-programming table (items x capacity cells) solved by DP; above it, branch and bound.
 MAX_DP_CELLS = 50_000_000
@@ -322,54 +322,6 @@ def suite_bound(evaluator: Evaluator, suite: Sequence[int], budget_usd: float, *
     )
 
 
-@dataclass(frozen=True)
-class Certificate:
-    """How close a greedy suite is to the best possible suite of its budget.
-
-    Attributes:
-        objective: the greedy rule that chose the suite.
-        budget_usd: the budget B [$].
-        suite: ids of the greedy suite.
-        cost_usd: its cost [$].
-        score: its score f [nats].
-        bound: an upper bound on the score of every suite within the budget [nats]: the smallest
-            U(S) over the empty suite and the greedy run's intermediate suites (and never below
-            ``score``).
-        ratio: score / bound in [0, 1]: the greedy suite scores at least this fraction of the best
-            possible (1 when the bound is 0: nothing informative is affordable).
-        percent_of_best: 100 * ratio: "at least X% of the best possible".
-        gap: bound - score [nats]: the most the best possible suite can score above the greedy one.
-        bound_step: where the smallest bound was attained: 0 = the empty suite, k = after the k-th pick.
-        bound_suite: ids of that intermediate suite.
-        step_bounds: U at the empty suite and after each pick [nats], shape (n_steps + 1,).
-        knapsack_method: how the knapsacks were solved ("dp", or every method used, joined by "+").
-        knapsack_exact: whether every knapsack was solved exactly (the bound is valid either way).
-        n_evaluations: suites scored for the certificate.
-        engine: the evaluator used.
-        problem: what it was computed on.
-        seconds: wall time [s] (the only field that varies between runs).
-    """
-
-    objective: str
-    budget_usd: float
-    suite: tuple[str, ...]
-    cost_usd: float
-    score: float
-    bound: float
-    ratio: float
-    percent_of_best: float
-    gap: float
-    bound_step: int
-    bound_suite: tuple[str, ...]
-    step_bounds: tuple[float, ...]
-    knapsack_method: str
-    knapsack_exact: bool
-    n_evaluations: int
-    engine: str
-    problem: ProblemInfo | None = None
-    seconds: float = 0.0
-
-
 def certificate(evaluator: Evaluator, greedy_result: GreedyResult, *, progress: Progress | None = None,
                 max_cells: int = MAX_DP_CELLS) -> Certificate:
     """Certify a greedy run: an upper bound on the best possible score within its budget.
@@ -553,7 +505,6 @@ def optimal(evaluator: Evaluator, budget_usd: float, *, max_nodes: int = DEFAULT
     lib = ev.problem.library
     n0 = ev.n_evaluations
     costs = lib.costs
-    ids = lib.ids
     exclude = frozenset(int(i) for i in exclude)
     if incumbent is None:
         # best-of: both runs kept (not only the winner), so that both certificates bound the optimum

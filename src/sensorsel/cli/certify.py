@@ -1,13 +1,12 @@
 """``sensorsel optimal``: the exact best suite within a budget (branch and bound), and greedy beside it.
-``sensorsel certify``: how close a greedy suite is to the best possible (an upper bound on the optimum).
-
-The certificate line of ``sensorsel greedy`` comes from :func:`certificate_line` (see
-:mod:`sensorsel.certify` for the bound).
+``sensorsel certify``: how close a greedy suite (run now, or read from a result file) is to the best
+possible one (an upper bound on the optimum; ``sensorsel greedy`` prints the same certificate line).
 """
 
 from __future__ import annotations
 
 import sys
+from contextlib import nullcontext
 from typing import Any
 
 import click
@@ -15,26 +14,19 @@ import click
 from .. import results
 from ..certify import DEFAULT_MAX_NODES, Certificate, certify_greedy, format_certificate, optimal
 from ..errors import InputError
-from ..objective import Evaluator, make_evaluator
+from ..fileio import output_file
+from ..objective import make_evaluator
 from ..pipeline import problem_info
 from ..problem import Problem
 from ..selection import SELECTORS, GreedyResult, check_budget, greedy
-from .options import engine_options, problem_from, run, scenario_options
-
-
-def certificate_line(source: Evaluator | Problem, result: GreedyResult, *, jobs: int = 1) -> str:
-    """The line ``sensorsel greedy`` prints under its result: 'certificate: at least X% of the best possible ...'.
-
-    ``source``: the evaluator of the run, or its problem (a fresh evaluator of the run's engine is made).
-    """
-    return format_certificate(certify_greedy(source, result, jobs=jobs))
+from .options import engine_options, problem_from, progress_bar, run, scenario_options
 
 
 def _suite_text(ids: tuple[str, ...]) -> str:
     return ",".join(ids) if ids else "(no sensor)"
 
 
-@click.command("optimal")
+@click.command("optimal", short_help="Exact best suite within a budget (branch and bound), with greedy beside it.")
 @scenario_options
 @engine_options
 @click.option("--budget", type=float, required=True, help="Budget per car [$].")
@@ -56,6 +48,8 @@ def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output
     62-sensor library expect the node limit and a remaining gap.
     """
     budget = check_budget(budget)
+    if output:
+        output_file(output)
     problem, spec = problem_from(kw)
     info = problem_info(problem, spec)
     ev = make_evaluator(problem, engine, jobs=jobs)
@@ -96,28 +90,6 @@ def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output
         click.echo(f"wrote      {output}")
 
 
-def _bar(quiet: bool, label: str):
-    """A progress(done, total) callback drawing a bar on stderr, and a closer; nothing with --quiet."""
-    if quiet:
-        return None, lambda: None
-    state: dict[str, Any] = {}
-
-    def progress(done: int, total: int) -> None:
-        if "bar" not in state:
-            state["bar"] = click.progressbar(length=max(1, total), label=label, file=sys.stderr)
-            state["bar"].__enter__()
-        bar = state["bar"]
-        bar.length = max(1, total)
-        bar.pos = min(done, bar.length)
-        bar.render_progress()
-
-    def close() -> None:
-        if "bar" in state:
-            state["bar"].__exit__(None, None, None)
-
-    return progress, close
-
-
 def _check_same_problem(res: GreedyResult, problem: Problem, spec: Any, path: str) -> None:
     """Refuse to certify a result computed on another scenario or library (its bound would mean nothing)."""
     if res.problem is None:
@@ -130,7 +102,7 @@ def _check_same_problem(res: GreedyResult, problem: Problem, spec: Any, path: st
                              "give the same scenario and library options as the greedy run")
 
 
-@click.command("certify")
+@click.command("certify", short_help="How close a greedy suite is to the best possible one (an upper bound).")
 @scenario_options
 @engine_options
 @click.option("--result", "result_path", type=click.Path(dir_okay=False, path_type=str), default=None,
@@ -154,6 +126,8 @@ def certify_cmd(result_path: str | None, budget: float | None, objective: str, o
         raise InputError("give either --result FILE (a greedy result) or --budget DOLLARS (run greedy now), not both")
     if result_path is None and budget is None:
         raise InputError("give --result FILE (a greedy result to certify) or --budget DOLLARS (run greedy now)")
+    if output:
+        output_file(output)
     problem, spec = problem_from(kw)
     if result_path is not None:
         res = results.load(GreedyResult, result_path)
@@ -162,11 +136,9 @@ def certify_cmd(result_path: str | None, budget: float | None, objective: str, o
     else:
         ev = make_evaluator(problem, engine, jobs=jobs)
         res = greedy(ev, check_budget(budget), objective, info=problem_info(problem, spec))
-    progress, close = _bar(quiet or as_json, "certificate (greedy steps)")
-    try:
+    bar, progress = progress_bar(quiet or as_json, "certificate (greedy steps)")
+    with bar or nullcontext():
         cert: Certificate = certify_greedy(ev, res, progress=progress)
-    finally:
-        close()
     if output:
         results.save(cert, output)
     if as_json:

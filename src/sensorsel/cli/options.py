@@ -3,10 +3,8 @@
 from __future__ import annotations
 
 import functools
-import json
 import os
 import sys
-from pathlib import Path
 from typing import Any, Callable
 
 import click
@@ -83,14 +81,50 @@ def engine_options(fn: Callable[..., Any]) -> Callable[..., Any]:
     from ..objective import ENGINES
 
     fn = click.option("--jobs", type=click.IntRange(min=1), default=os.cpu_count() or 1, show_default="all cores",
-                      help="Processes scoring candidates in parallel (results do not depend on it).")(fn)
+                      help="Threads scoring candidate suites in parallel, fast engine (results do not depend on it).")(fn)
     fn = click.option("--engine", type=click.Choice(sorted(ENGINES)), default=None,
                       help="Scoring engine (default: the fastest; 'reference' rebuilds the GTSAM graph per suite).")(fn)
     return fn
 
 
-def echo_json(text: str) -> None:
-    click.echo(text, nl=False)
+class _Bar:
+    """progress(done, total) -> a click progress bar on stderr; ``phases`` runs fill one bar in turn."""
+
+    def __init__(self, label: str, phases: int = 1) -> None:
+        self.label, self.phases = label, phases
+        self.bar: Any = None
+        self.offset = self.last = self.last_total = 0
+
+    def __enter__(self) -> "_Bar":
+        return self
+
+    def __call__(self, done: int, total: int) -> None:
+        if self.bar is None:
+            self.bar = click.progressbar(length=max(1, total * self.phases), label=self.label, file=sys.stderr,
+                                         show_pos=True)
+            self.bar.__enter__()
+        if done < self.last:  # the next phase (best-of: the marginal run after the uniform one)
+            self.offset += self.last_total
+        self.last, self.last_total = done, total
+        self.bar.length = max(1, self.offset + total, self.phases * total)
+        self.bar.pos = min(self.bar.length, self.offset + done)
+        self.bar.render_progress()
+
+    def __exit__(self, *exc: Any) -> None:
+        if self.bar is not None:
+            if exc[0] is None:  # the totals are upper bounds: show the run as complete
+                self.bar.pos = self.bar.length
+                self.bar.render_progress()
+            self.bar.__exit__(*exc)
+
+
+def progress_bar(quiet: bool, label: str, phases: int = 1) -> tuple[_Bar | None, Callable[[int, int], None] | None]:
+    """(bar, progress): a progress bar on stderr, used as ``with bar:`` around the run that calls
+    ``progress(done, total)``; (None, None) with --quiet or when stderr is not a terminal."""
+    if quiet or not sys.stderr.isatty():
+        return None, None
+    bar = _Bar(label, phases)
+    return bar, bar
 
 
 def table(rows: list[list[str]], header: list[str]) -> str:
@@ -115,10 +149,3 @@ def _numeric(s: str) -> bool:
     except ValueError:
         return False
 
-
-def output_path(path: str | None) -> Path | None:
-    return Path(path) if path else None
-
-
-def dump(obj: Any) -> str:
-    return json.dumps(obj, indent=2)

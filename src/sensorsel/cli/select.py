@@ -4,17 +4,19 @@ from __future__ import annotations
 
 import math
 import sys
+from contextlib import nullcontext
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import click
 
 from .. import results
-from ..errors import InputError
+from ..certify import format_certificate
+from ..fileio import output_dir, output_file
 from ..library import SensorLibrary
 from ..selection import SELECTORS, GreedyResult, run_greedy
 from ..tradespace import DEFAULT_SELECTORS, Architecture, parse_budgets, parse_selectors, run_tradespace, write_csv
-from .options import engine_options, problem_from, run, scenario_options, table
+from .options import engine_options, problem_from, progress_bar, run, scenario_options, table
 
 
 class BudgetType(click.ParamType):
@@ -34,45 +36,6 @@ class BudgetType(click.ParamType):
         if not math.isfinite(v) or v < 0:
             self.fail(f"{value!r}: a budget must be a finite, non-negative number of dollars", param, ctx)
         return v
-
-
-class _Bar:
-    """progress(done, total) -> a click progress bar on stderr; ``phases`` runs fill one bar in turn."""
-
-    def __init__(self, label: str, phases: int = 1) -> None:
-        self.label, self.phases = label, phases
-        self.bar: Any = None
-        self.offset = self.last = self.last_total = 0
-
-    def __enter__(self) -> "_Bar":
-        return self
-
-    def __call__(self, done: int, total: int) -> None:
-        if self.bar is None:
-            self.bar = click.progressbar(length=max(1, total * self.phases), label=self.label, file=sys.stderr,
-                                         show_pos=True)
-            self.bar.__enter__()
-        if done < self.last:  # the next phase (best-of: the marginal run after the uniform one)
-            self.offset += self.last_total
-        self.last, self.last_total = done, total
-        self.bar.length = max(1, self.offset + total, self.phases * total)
-        self.bar.pos = min(self.bar.length, self.offset + done)
-        self.bar.render_progress()
-
-    def __exit__(self, *exc: Any) -> None:
-        if self.bar is not None:
-            if exc[0] is None:  # the totals are upper bounds: show the run as complete
-                self.bar.pos = self.bar.length
-                self.bar.render_progress()
-            self.bar.__exit__(*exc)
-
-
-def _progress(quiet: bool, label: str, phases: int = 1) -> tuple[_Bar | None, Callable[[int, int], None] | None]:
-    """A progress bar on stderr, or nothing with --quiet or when stderr is not a terminal."""
-    if quiet or not sys.stderr.isatty():
-        return None, None
-    bar = _Bar(label, phases)
-    return bar, bar
 
 
 def _position(lib: SensorLibrary, sensor_id: str) -> tuple[str, str]:
@@ -100,9 +63,11 @@ def _print_greedy(res: GreedyResult, lib: SensorLibrary) -> None:
     click.echo(f"score      {res.score:.3f} nats")
     click.echo(f"evaluated  {res.n_evaluations} suites in {res.seconds:.2f} s")
     click.echo(f"stopped    {res.stop_reason}")
+    if res.certificate is not None:
+        click.echo(format_certificate(res.certificate))
 
 
-@click.command("greedy")
+@click.command("greedy", short_help="Greedy suite under a budget, with its certificate of near-optimality.")
 @scenario_options
 @engine_options
 @click.option("--budget", required=True, type=BudgetType(), help="Budget in dollars, e.g. 110000.")
@@ -112,23 +77,28 @@ def _print_greedy(res: GreedyResult, lib: SensorLibrary) -> None:
 @click.option("--lazy/--no-lazy", default=True, show_default=True, help="Lazy (Minoux) evaluation: same picks, fewer evaluations.")
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=str), help="Write the full result as JSON.")
 @click.option("--json", "as_json", is_flag=True, help="Print the full result as JSON instead of the table.")
+@click.option("--certificate/--no-certificate", "certify", default=True, show_default=True,
+              help="Also bound the best possible score within the budget (one extra sweep of the library per pick) "
+                   "and print how close the suite is to it.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 @run
-def greedy_cmd(budget: float, objective: str, lazy: bool, output: str | None, as_json: bool, quiet: bool,
+def greedy_cmd(budget: float, objective: str, lazy: bool, output: str | None, as_json: bool, certify: bool, quiet: bool,
                engine: str | None, jobs: int, **kw: Any) -> None:
     """Greedy sensor selection under a budget (the paper's Algorithm 1 and its cost-aware variants).
 
     Prints the suite in pick order with each pick's marginal gain, the cost, the score
-    f(S) = log det L(S) - log det L(empty) [nats], and why selection stopped. A budget below the
-    cheapest sensor prints the empty suite, says so on stderr and exits with status 2.
+    f(S) = log det L(S) - log det L(empty) [nats], why selection stopped, and a certificate: an
+    upper bound on the score of any suite within the budget, so "at least X% of the best possible".
+    A budget below the cheapest sensor prints the empty suite, says so on stderr and exits with status 2.
     """
+    if output:
+        output_file(output)
     problem, spec = problem_from(kw)
-    bar, progress = _progress(quiet, f"greedy {objective}", phases=2 if objective == "best-of" else 1)
-    if bar is not None:
-        with bar:
-            res = run_greedy(problem, budget, objective, engine=engine, jobs=jobs, lazy=lazy, progress=progress, spec=spec)
-    else:
-        res = run_greedy(problem, budget, objective, engine=engine, jobs=jobs, lazy=lazy, progress=progress, spec=spec)
+    bar, progress = progress_bar(quiet, f"greedy {objective}", phases=2 if objective == "best-of" else 1)
+    cert_bar, cert_progress = progress_bar(quiet or not certify, "certificate")
+    with bar or nullcontext(), cert_bar or nullcontext():
+        res = run_greedy(problem, budget, objective, engine=engine, jobs=jobs, lazy=lazy, progress=progress, spec=spec,
+                         certify=certify, certify_progress=cert_progress)
     if output:
         results.save(res, output)
     if as_json:
@@ -156,7 +126,7 @@ def _arch_row(a: Architecture) -> list[str]:
     return [f"{a.cost_usd:,.0f}", f"{a.score:.3f}", f"{a.normalized:.4f}", str(a.n_sensors), "+".join(a.selectors), _compact(a.suite)]
 
 
-@click.command("pareto")
+@click.command("pareto", short_help="Cost-performance tradespace and its Pareto front (plot, CSV, JSON).")
 @scenario_options
 @engine_options
 @click.option("--budgets", default=None, metavar="B1,B2,...",
@@ -180,14 +150,10 @@ def pareto_cmd(budgets: str | None, selectors: str, lazy: bool, outdir: str, plo
     """
     grid = parse_budgets(budgets) if budgets is not None else None
     rules = parse_selectors(selectors)
-    if Path(outdir).exists() and not Path(outdir).is_dir():
-        raise InputError(f"-o {outdir}: exists and is not a folder")
+    output_dir(outdir)
     problem, spec = problem_from(kw)
-    bar, progress = _progress(quiet, "tradespace runs")
-    if bar is not None:
-        with bar:
-            res = run_tradespace(problem, grid, rules, engine=engine, jobs=jobs, lazy=lazy, progress=progress, spec=spec)
-    else:
+    bar, progress = progress_bar(quiet, "tradespace runs")
+    with bar or nullcontext():
         res = run_tradespace(problem, grid, rules, engine=engine, jobs=jobs, lazy=lazy, progress=progress, spec=spec)
 
     out = Path(outdir)
