@@ -39,7 +39,8 @@ every keyframe: with the LiDAR in the suite, each later candidate changes 750-1,
 from all 455 keyframes. Every lemma form (pose space, landmark space, full space) is larger than
 the 1,365 × 1,365 pose matrix itself, so factoring P is the cheapest exact step.
 
-Parallelism: candidates are scored on ``jobs`` threads. numpy's array code and the ctypes BLAS
+Parallelism: candidates are scored on ``jobs`` threads (from :data:`THREADS_FROM_KEYFRAMES` on:
+smaller problems are quicker on one). numpy's array code and the ctypes BLAS
 calls release the GIL; threads share the linearized problem without pickling (a linearized GTSAM
 graph does not pickle) and without fork (forked workers after multithreaded BLAS were seen to
 hang, see the shared GTSAM notes). OpenBLAS is held at one thread per caller while scoring: its
@@ -52,6 +53,7 @@ from __future__ import annotations
 
 import ctypes
 import threading
+import weakref
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -72,6 +74,12 @@ GROUP_SIZE = 16
 SPARSE_BELOW = 0.11
 #: runs of keyframes of a group's tile closer than this are joined (zero rows in between)
 RUN_GAP = 6
+#: candidates are scored on several threads only from this many keyframes on. Below it a candidate
+#: costs ~2 ms, mostly interpreter work that holds the GIL, and two threads were measured slower
+#: than one (KITTI 03, 81 keyframes: lazy greedy 0.39-0.48 s on 2 threads, 0.31-0.32 s on 1);
+#: on KITTI 00 (455 keyframes) the dense factorizations release the GIL and 2 threads took 7.4 s
+#: against 10.1 s on 1.
+THREADS_FROM_KEYFRAMES = 200
 
 _SYM3 = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))  # unique entries of a symmetric 3x3
 
@@ -450,10 +458,21 @@ class FastEvaluator(Evaluator):
 
     name = "fast"
 
-    def __init__(self, problem: Problem, *, jobs: int = 1) -> None:
+    def __init__(self, problem: Problem, *, jobs: int = 1, threads_from_keyframes: int = THREADS_FROM_KEYFRAMES) -> None:
+        """``threads_from_keyframes``: use the ``jobs`` threads only on routes with at least this many
+        keyframes (speed only: the numbers are the same either way)."""
         super().__init__(problem, jobs=jobs)
+        self._threads_from = int(threads_from_keyframes)
         self._s = _Structure(problem)
         self._base: _Base | None = None
+        self._pool: ThreadPoolExecutor | None = None
+
+    def _threads(self) -> ThreadPoolExecutor:
+        """The evaluator's worker threads, started once (a pool per call cost more than a 03 candidate)."""
+        if self._pool is None:
+            self._pool = ThreadPoolExecutor(max_workers=self.jobs, thread_name_prefix="sensorsel-fast")
+            weakref.finalize(self, self._pool.shutdown, wait=False)
+        return self._pool
 
     def _base_for(self, suite: Suite) -> _Base:
         if self._base is None or self._base.suite != suite:
@@ -474,9 +493,8 @@ class FastEvaluator(Evaluator):
         baseline = self.baseline_logdet
         with self._s.blas.single_thread():
             b = self._base_for(base)
-            if self.jobs > 1 and len(cands) > 1:
-                with ThreadPoolExecutor(max_workers=min(self.jobs, len(cands))) as pool:
-                    vals = list(pool.map(lambda c: self._s.candidate(b, c), cands))
+            if self.jobs > 1 and len(cands) > 1 and self._s.n_poses >= self._threads_from:
+                vals = list(self._threads().map(lambda c: self._s.candidate(b, c), cands))
             else:
                 vals = [self._s.candidate(b, c) for c in cands]
         self.n_evaluations += len(cands)
