@@ -10,6 +10,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 from click.testing import CliRunner
 
@@ -17,6 +18,7 @@ from sensorsel import results
 from sensorsel.cli import cli
 from sensorsel.objective import ReferenceEvaluator
 from sensorsel.pipeline import ScoreResult
+from sensorsel.scenario import ScenarioSpec
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
@@ -140,3 +142,59 @@ def test_score_on_kitti_03(kitti_root):
     data = json.loads(ok("score", "--seq", "03", "--kitti-root", str(kitti_root), "--suite", "LRL-roof", "--json"))
     assert data["problem"]["scenario"] == "03" and 78 <= data["problem"]["n_poses"] <= 84
     assert data["score"] > 0 and data["n_measurements"] > 0
+
+
+def _tiny_route_options() -> list[str]:
+    from sensorsel._resources import fixtures_dir
+
+    root = fixtures_dir()
+    return ["--poses", str(root / "poses" / "tiny.txt"), "--times", str(root / "sequences" / "tiny" / "times.txt")]
+
+
+def test_landmarks_writes_the_generated_map_and_it_scores_the_same(tmp_path):
+    from sensorsel.scenario import LandmarkModel, generate_landmarks, load_route, read_landmarks_csv
+
+    route_opts = _tiny_route_options()
+    out = tmp_path / "lm.csv"
+    assert "landmarks to" in ok("landmarks", *route_opts, "--landmark-seed", "4", "-o", str(out))
+    route, _, _ = load_route(ScenarioSpec(poses=route_opts[1], times=route_opts[3]))
+    expect = generate_landmarks(route, LandmarkModel(), 4)
+    assert read_landmarks_csv(out) == pytest.approx(expect, abs=1e-6)  # written with 6 decimals
+    # the written map, passed back, scores as the map generated on the fly
+    from_file = json.loads(ok("score", *route_opts, "--landmarks", str(out), "--suite", "LRR-12,WSC-3", "--json"))
+    generated = json.loads(ok("score", *route_opts, "--landmark-seed", "4", "--suite", "LRR-12,WSC-3", "--json"))
+    assert from_file["score"] == pytest.approx(generated["score"], rel=1e-6)
+    assert from_file["n_measurements"] == generated["n_measurements"]
+
+
+def test_landmarks_density_options_change_the_map(tmp_path):
+    from sensorsel.scenario import read_landmarks_csv
+
+    route_opts = _tiny_route_options()
+    ok("landmarks", *route_opts, "--far-spacing", "1e6", "-o", str(tmp_path / "a.csv"))
+    ok("landmarks", *route_opts, "--far-spacing", "1e6", "--near-spacing", "2.5", "-o", str(tmp_path / "b.csv"))
+    a, b = read_landmarks_csv(tmp_path / "a.csv"), read_landmarks_csv(tmp_path / "b.csv")
+    assert 1.6 * len(a) <= len(b) <= 2.4 * len(a)  # half the spacing: about twice the near landmarks
+    ok("landmarks", *route_opts, "--near-offset", "20,30", "--far-spacing", "1e6", "-o", str(tmp_path / "c.csv"))
+    c = read_landmarks_csv(tmp_path / "c.csv")
+    from sensorsel.scenario import load_route
+
+    route, _, _ = load_route(ScenarioSpec(poses=route_opts[1], times=route_opts[3]))
+    dist = np.min(np.hypot(c[:, None, 0] - route.poses[None, :, 0], c[:, None, 1] - route.poses[None, :, 1]), axis=1)
+    assert dist.min() >= 20 - 1.0 and dist.max() <= 30 + 1.0  # 10 Hz route: ~0.8 m between its points
+
+
+@pytest.mark.parametrize("args, fragment", [
+    (["--near-offset", "4"], "--near-offset '4': expected two distances"),
+    (["--far-offset", "80,25"], "far_offset_m must be 0 <= low <= high"),
+    (["--near-spacing", "0"], "near_spacing_m must be positive"),
+    (["--clearance", "nan"], "clearance_m must be >= 0"),
+])
+def test_landmarks_bad_model_is_one_line(tmp_path, args, fragment):
+    assert fragment in fails("landmarks", "--fixture", "tiny", *args, "-o", str(tmp_path / "x.csv"))
+    assert not (tmp_path / "x.csv").exists()
+
+
+def test_landmarks_refuses_an_input_map(tmp_path):
+    result = invoke("landmarks", "--fixture", "tiny", "--landmarks", "a.csv", "-o", str(tmp_path / "x.csv"))
+    assert result.exit_code == 2 and "this command writes one" in result.output

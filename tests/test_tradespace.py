@@ -114,7 +114,6 @@ def test_architectures_are_unique_scored_and_normalized(ts, mixed):
 def test_every_step_of_every_independent_run_is_recorded(ts, mixed):
     """Independent greedy runs (no prefix sharing) at each budget: each intermediate suite is an
     architecture of the tradespace, labelled with the rule that made it."""
-    lib = mixed.library
     by_suite = {frozenset(a.suite): a for a in ts.architectures}
     ev = make_evaluator(mixed, "reference")
     made = set()

@@ -415,23 +415,33 @@ def fixture_names() -> list[str]:
     return sorted(p.stem for p in (fixtures_dir() / "poses").glob("*.txt"))
 
 
+def load_route(spec: ScenarioSpec = ScenarioSpec()) -> tuple[Trajectory, str, Path | None]:
+    """The full-rate route of ``spec``: (route, scenario name, the fixture's landmark CSV or None)."""
+    if spec.poses is not None:
+        return load_trajectory(spec.poses, spec.times), Path(spec.poses).stem, None
+    if spec.seq is not None:
+        return load_sequence(resolve_kitti_root(spec.kitti_root), spec.seq), spec.seq, None
+    root = fixtures_dir()
+    if spec.fixture not in fixture_names():
+        raise InputError(f"unknown fixture {spec.fixture!r}; bundled fixtures: {', '.join(fixture_names())}")
+    return load_sequence(root, spec.fixture), spec.fixture, root / "landmarks" / f"{spec.fixture}.csv"
+
+
+def route_landmarks(spec: ScenarioSpec = ScenarioSpec()) -> np.ndarray:
+    """Synthetic landmarks along the route of ``spec`` from ``spec.landmark_model`` and
+    ``spec.landmark_seed``, always generated (a fixture's bundled CSV and ``spec.landmarks`` are not
+    read): the file a user writes once and edits, or passes back with ``--landmarks``.
+
+    Returns:
+        (M, 2) positions [m] in the planar frame.
+    """
+    route, _, _ = load_route(spec)
+    return generate_landmarks(route, spec.landmark_model, spec.landmark_seed)
+
+
 def load_scenario(spec: ScenarioSpec = ScenarioSpec()) -> Scenario:
     """Build a scenario: read the route, take keyframes, read or generate landmarks."""
-    if spec.poses is not None:
-        route = load_trajectory(spec.poses, spec.times)
-        name = Path(spec.poses).stem
-        default_landmarks = None
-    elif spec.seq is not None:
-        route = load_sequence(resolve_kitti_root(spec.kitti_root), spec.seq)
-        name = spec.seq
-        default_landmarks = None
-    else:
-        root = fixtures_dir()
-        if spec.fixture not in fixture_names():
-            raise InputError(f"unknown fixture {spec.fixture!r}; bundled fixtures: {', '.join(fixture_names())}")
-        route = load_sequence(root, spec.fixture)
-        name = spec.fixture
-        default_landmarks = root / "landmarks" / f"{spec.fixture}.csv"
+    route, name, default_landmarks = load_route(spec)
     keyframes = route.select(select_keyframes(route.times, spec.keyframe_rate_hz))
     if len(keyframes) < 2:
         raise InputError(f"route {route.source} gives {len(keyframes)} keyframe(s) at {spec.keyframe_rate_hz} Hz; need at least 2")

@@ -3,17 +3,20 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import Any
 
 import click
 
 from .. import results
+from ..errors import InputError
 from ..library import load_library
 from ..pipeline import score_suite
-from .options import engine_options, problem_from, run, scenario_options, table
+from ..scenario import LandmarkModel, route_landmarks, write_landmarks_csv
+from .options import engine_options, problem_from, run, scenario_options, spec_from, table
 
 
-@click.command("library")
+@click.command("library", short_help="List the 62 placed sensors of the library (id, index, model, cost).")
 @click.option("--library", "library_path", type=click.Path(dir_okay=False, path_type=str), help="Sensor library YAML (default: the paper's Table I).")
 @run
 def library_cmd(library_path: str | None) -> None:
@@ -28,7 +31,7 @@ def library_cmd(library_path: str | None) -> None:
     click.echo(f"\n{len(lib)} sensors from {lib.source}")
 
 
-@click.command("score")
+@click.command("score", short_help="Score a suite: cost and f(S) = log det gain over no sensor [nats].")
 @scenario_options
 @engine_options
 @click.option("--suite", required=True, help="Comma-separated sensor ids or indices, e.g. LRL-roof,LRR-12 (see `sensorsel library`).")
@@ -49,7 +52,7 @@ def score_cmd(suite: str, as_json: bool, engine: str | None, jobs: int, **kw: An
     click.echo(f"measures   {res.n_measurements} range-bearing measurements of {res.n_landmarks_seen} landmarks")
 
 
-@click.command("scene")
+@click.command("scene", short_help="Draw the route, landmarks and a suite's sensing cones (PNG/SVG/PDF).")
 @scenario_options
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False, path_type=str), help="Image file (.png, .svg, .pdf).")
 @click.option("--suite", default=None, help="Draw these sensors' cones (comma-separated ids).")
@@ -66,4 +69,50 @@ def scene_cmd(output: str, suite: str | None, pose_index: int | None, **kw: Any)
     click.echo(f"wrote {path}")
 
 
-COMMANDS = [library_cmd, score_cmd, scene_cmd]
+def _range_m(text: str, option: str) -> tuple[float, float]:
+    """'LOW,HIGH' [m] -> (low, high); the landmark model checks 0 <= low <= high."""
+    try:
+        lo, hi = (float(v) for v in text.split(","))
+    except ValueError:
+        raise InputError(f"{option} {text!r}: expected two distances LOW,HIGH in metres, e.g. 4,12") from None
+    return lo, hi
+
+
+_DEFAULT_MODEL = LandmarkModel()
+
+
+@click.command("landmarks", short_help="Generate synthetic landmarks along a route and write them as CSV.")
+@scenario_options
+@click.option("--near-spacing", type=float, default=_DEFAULT_MODEL.near_spacing_m, show_default=True,
+              help="Route length between two near landmarks on each roadside [m].")
+@click.option("--near-offset", default="{:g},{:g}".format(*_DEFAULT_MODEL.near_offset_m), show_default=True, metavar="LOW,HIGH",
+              help="Distance of near landmarks (poles, trees, facades) from the route [m].")
+@click.option("--far-spacing", type=float, default=_DEFAULT_MODEL.far_spacing_m, show_default=True,
+              help="Route length between two far landmarks, on a random side [m].")
+@click.option("--far-offset", default="{:g},{:g}".format(*_DEFAULT_MODEL.far_offset_m), show_default=True, metavar="LOW,HIGH",
+              help="Distance of far landmarks (buildings, hills) from the route [m].")
+@click.option("--clearance", type=float, default=_DEFAULT_MODEL.clearance_m, show_default=True,
+              help="No landmark closer than this to any point of the route (the road itself) [m].")
+@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False, path_type=str), help="CSV file to write (x,y in metres).")
+@run
+def landmarks_cmd(near_spacing: float, near_offset: str, far_spacing: float, far_offset: str, clearance: float, output: str,
+                  **kw: Any) -> None:
+    """Generate synthetic landmarks along the route with the given densities and distances (seeded by
+    --landmark-seed) and write them as CSV (x,y in sensorsel's planar frame, metres).
+
+    Edit the file, or pass it to any command with --landmarks FILE. A real map can be written in the
+    same format. The bundled fixtures' own landmark files are not read here: landmarks are always
+    generated.
+    """
+    kw.pop("library_path")
+    if kw.get("landmarks"):
+        raise click.UsageError("--landmarks reads a landmark file; this command writes one (leave --landmarks out)")
+    model = LandmarkModel(near_spacing_m=near_spacing, near_offset_m=_range_m(near_offset, "--near-offset"),
+                          far_spacing_m=far_spacing, far_offset_m=_range_m(far_offset, "--far-offset"), clearance_m=clearance)
+    spec = replace(spec_from(kw), landmark_model=model)
+    landmarks = route_landmarks(spec)
+    path = write_landmarks_csv(output, landmarks)
+    click.echo(f"wrote {len(landmarks)} landmarks to {path}")
+
+
+COMMANDS = [library_cmd, score_cmd, scene_cmd, landmarks_cmd]
