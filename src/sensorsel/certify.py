@@ -14,8 +14,9 @@ the sensors it adds to S may use the whole budget). This is the "online bound" o
 
     U(S) = f(S) + max { Σ_{e ∈ T} Δ(e | S) : T ⊆ V \\ S, Cost(T) <= B }  >=  f(OPT)
 
-:func:`certificate` evaluates U at the empty suite and at every intermediate suite of a greedy run
-(one sweep of ``scores_with`` per suite) and keeps the smallest. The greedy suite then scores at
+:func:`certificate` keeps the smallest U over the empty suite and every intermediate suite of a
+greedy run (one sweep of ``scores_with`` per suite, skipping the suites whose U provably cannot be
+smaller). The greedy suite then scores at
 least ``score / bound`` of the best possible.
 
 :func:`optimal` finds the best suite exactly by best-first branch and bound. A node is a suite S
@@ -293,7 +294,8 @@ class SuiteBound:
 
 
 def suite_bound(evaluator: Evaluator, suite: Sequence[int], budget_usd: float, *, score: float | None = None,
-                exclude: frozenset[int] = frozenset(), max_cells: int = MAX_DP_CELLS) -> SuiteBound:
+                exclude: frozenset[int] = frozenset(), max_cells: int = MAX_DP_CELLS,
+                gains_out: np.ndarray | None = None) -> SuiteBound:
     """U(S) >= f(OPT) for the best suite OPT within ``budget_usd`` (see the module docstring).
 
     Costs one sweep: ``scores_with(S, every sensor outside S that fits the budget)``. Negative gains (round-off of a
@@ -304,6 +306,8 @@ def suite_bound(evaluator: Evaluator, suite: Sequence[int], budget_usd: float, *
         budget_usd: the budget B [$]; the knapsack capacity is all of B.
         score: f(S) if already known [nats] (saves one evaluation).
         exclude: sensors that may not join (e.g. assumed failed); leaving them in only loosens the bound.
+        gains_out: (n_sensors,) array; the swept sensors' marginal gains Δ(e | S) [nats] are written
+            into it (others left as they are).
     """
     budget = check_budget(budget_usd)
     lib = evaluator.problem.library
@@ -314,6 +318,8 @@ def suite_bound(evaluator: Evaluator, suite: Sequence[int], budget_usd: float, *
     # a sensor dearer than the whole budget is in no feasible T: no need to score it
     cand = [i for i in range(len(lib)) if i not in inside and costs[i] <= budget * (1 + 1e-12) + 1e-9]
     gains = np.maximum(evaluator.scores_with(s, cand) - f_s, 0.0) if cand else np.zeros(0)
+    if gains_out is not None:
+        gains_out[cand] = gains
     ks = knapsack(gains, costs[cand], budget, max_cells=max_cells)
     return SuiteBound(
         suite=lib.suite_ids(s), score=f_s, bound=f_s + ks.value,
@@ -323,13 +329,22 @@ def suite_bound(evaluator: Evaluator, suite: Sequence[int], budget_usd: float, *
 
 
 def certificate(evaluator: Evaluator, greedy_result: GreedyResult, *, progress: Progress | None = None,
-                max_cells: int = MAX_DP_CELLS) -> Certificate:
+                max_cells: int = MAX_DP_CELLS, prune: bool = True) -> Certificate:
     """Certify a greedy run: an upper bound on the best possible score within its budget.
 
-    Evaluates U(S) (:func:`suite_bound`) at the empty suite and at every ``greedy_result.steps``
-    suite with the same evaluator, one sweep each, and keeps the smallest. Valid for any suite the
-    greedy returned, whatever its rule; with starting sensors or exclusions the bound over the whole
-    library is still an upper bound (on a larger set of suites).
+    The bound is the smallest U(S) (:func:`suite_bound`) over the empty suite and every
+    ``greedy_result.steps`` suite. Valid for any suite the greedy returned, whatever its rule; with
+    starting sensors or exclusions the bound over the whole library is still an upper bound (on a
+    larger set of suites).
+
+    Sweeps run from the final suite backwards. With ``prune``, a step is swept only if it could
+    lower the bound: submodularity gives lower bounds on its marginal gains (a sensor's gain at S_k
+    is at least its gain at any later, larger S_m already swept, and a later pick's gain at S_k is
+    at least the gain it was bought with), so f(S_k) + the knapsack of those lower bounds is a lower
+    bound on U(S_k); when it is not below the smallest U found (to a relative 1e-9), U(S_k) cannot
+    improve the certificate and its sweep is skipped. On KITTI 03 and 00 at $110,000 this leaves
+    two sweeps of eleven to fourteen (the final suite and the empty one). ``prune=False`` sweeps
+    every step.
 
     Raises:
         InputError: the result names sensors that are not in the evaluator's library.
@@ -338,32 +353,61 @@ def certificate(evaluator: Evaluator, greedy_result: GreedyResult, *, progress: 
     lib = evaluator.problem.library
     n0 = evaluator.n_evaluations
     res = greedy_result
+    budget = check_budget(res.budget_usd)
     try:
         step_suites = [()] + [tuple(lib.position(x) for x in st.suite) for st in res.steps]
-        final = tuple(lib.position(x) for x in res.suite)
     except InputError as exc:
         raise InputError(f"the greedy result does not belong to this library: {exc}") from None
-    same_engine = res.engine == evaluator.name
+    n_steps = len(step_suites)
     # f at each suite: the run's own numbers when it used this engine (no re-evaluation)
-    step_scores: list[float | None] = [0.0] + [st.score if same_engine else None for st in res.steps]
-    bounds: list[SuiteBound] = []
-    for k, (s, f_s) in enumerate(zip(step_suites, step_scores)):
-        bounds.append(suite_bound(evaluator, s, res.budget_usd, score=f_s, max_cells=max_cells))
+    if res.engine == evaluator.name:
+        step_scores = [0.0] + [st.score for st in res.steps]
+    else:
+        step_scores = [0.0] + [evaluator.score(s) for s in step_suites[1:]]
+    # step j bought one sensor on top of step j - 1 (not so from the empty suite to a run's first
+    # step when it started from given sensors): its gain there is a lower bound on its gain earlier
+    later_picks = [(step_suites[j][-1], step_scores[j] - step_scores[j - 1]) if step_suites[j][:-1] == step_suites[j - 1]
+                   else None for j in range(1, n_steps)]
+    costs = lib.costs
+    gain_low = np.zeros(len(lib))  # lower bounds on each sensor's gain at the step being looked at
+    bounds: list[SuiteBound | None] = [None] * n_steps
+    best = math.inf
+    for done, k in enumerate(range(n_steps - 1, -1, -1), start=1):
+        s = step_suites[k]
+        if prune and math.isfinite(best):
+            low = gain_low.copy()
+            for pick_gain in later_picks[k:]:  # sensors bought after step k
+                if pick_gain is not None:
+                    low[pick_gain[0]] = max(low[pick_gain[0]], pick_gain[1])
+            inside = set(s)
+            out = [i for i in range(len(lib)) if i not in inside and costs[i] <= budget * (1 + 1e-12) + 1e-9]
+            lower = step_scores[k] + knapsack(np.maximum(low[out], 0.0), costs[out], budget, max_cells=max_cells).value
+            if lower >= best - REL_TOL * max(1.0, abs(best)):
+                if progress:
+                    progress(done, n_steps)
+                continue
+        gains = np.zeros(len(lib))
+        b = suite_bound(evaluator, s, budget, score=step_scores[k], max_cells=max_cells, gains_out=gains)
+        np.maximum(gain_low, gains, out=gain_low)
+        bounds[k] = b
+        best = min(best, b.bound)
         if progress:
-            progress(k + 1, len(step_suites))
-    score = res.score if same_engine else (evaluator.score(final) if final else 0.0)
-    values = [b.bound for b in bounds]
-    k_best = int(np.argmin(values))  # first of equal minima: deterministic
+            progress(done, n_steps)
+    final = tuple(lib.position(x) for x in res.suite)
+    score = res.score if res.engine == evaluator.name else (evaluator.score(final) if final else 0.0)
+    swept = [k for k in range(n_steps) if bounds[k] is not None]
+    k_best = min(swept, key=lambda k: (bounds[k].bound, k))  # first of equal minima: deterministic
     # U(S) >= f(OPT) >= score in exact arithmetic; round-off could put U a hair below: keep it valid.
-    bound = max(values[k_best], score)
+    bound = max(bounds[k_best].bound, score)
     ratio = 1.0 if bound <= 0 else min(1.0, max(0.0, score / bound))
-    methods = sorted({b.knapsack_method for b in bounds})
+    methods = sorted({bounds[k].knapsack_method for k in swept})
     return Certificate(
         objective=res.objective, budget_usd=res.budget_usd, suite=res.suite, cost_usd=res.cost_usd, score=score,
         bound=bound, ratio=ratio, percent_of_best=100.0 * ratio, gap=bound - score, bound_step=k_best,
-        bound_suite=bounds[k_best].suite, step_bounds=tuple(values), knapsack_method="+".join(methods),
-        knapsack_exact=all(b.knapsack_exact for b in bounds), n_evaluations=evaluator.n_evaluations - n0,
-        engine=evaluator.name, problem=res.problem, seconds=round(time.perf_counter() - t0, 6),
+        bound_suite=bounds[k_best].suite, step_bounds=tuple(None if b is None else b.bound for b in bounds),
+        knapsack_method="+".join(methods), knapsack_exact=all(bounds[k].knapsack_exact for k in swept),
+        n_evaluations=evaluator.n_evaluations - n0, engine=evaluator.name, problem=res.problem,
+        seconds=round(time.perf_counter() - t0, 6),
     )
 
 
@@ -385,7 +429,7 @@ def format_certificate(cert: Certificate) -> str:
     return (
         f"certificate: at least {_pct(cert.percent_of_best)}% of the best possible suite under ${cert.budget_usd:,.0f} "
         f"(f = {cert.score:.3f} nats; best possible <= {cert.bound:.3f} nats, bound from {where}; "
-        f"{cert.n_evaluations:,} evaluations)"
+        f"{cert.n_evaluations:,} evaluations, {cert.seconds:.1f} s)"
     )
 
 

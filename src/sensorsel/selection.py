@@ -101,7 +101,8 @@ class Certificate:
         gap: bound - score [nats]: the most the best possible suite can score above the greedy one.
         bound_step: where the smallest bound was attained: 0 = the empty suite, k = after the k-th pick.
         bound_suite: ids of that intermediate suite.
-        step_bounds: U at the empty suite and after each pick [nats], shape (n_steps + 1,).
+        step_bounds: U at the empty suite and after each pick [nats], shape (n_steps + 1,); None
+            where the sweep was skipped because a lower bound on U there already reached ``bound``.
         knapsack_method: how the knapsacks were solved ("dp", or every method used, joined by "+").
         knapsack_exact: whether every knapsack was solved exactly (the bound is valid either way).
         n_evaluations: suites scored for the certificate.
@@ -121,7 +122,7 @@ class Certificate:
     gap: float
     bound_step: int
     bound_suite: tuple[str, ...]
-    step_bounds: tuple[float, ...]
+    step_bounds: tuple[float | None, ...]
     knapsack_method: str
     knapsack_exact: bool
     n_evaluations: int
