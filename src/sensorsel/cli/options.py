@@ -88,10 +88,14 @@ def engine_options(fn: Callable[..., Any]) -> Callable[..., Any]:
 
 
 class _Bar:
-    """progress(done, total) -> a click progress bar on stderr; ``phases`` runs fill one bar in turn."""
+    """progress(done, total) -> a click progress bar on stderr; ``phases`` runs fill one bar in turn.
 
-    def __init__(self, label: str, phases: int = 1) -> None:
-        self.label, self.phases = label, phases
+    ``after``: a bar of the previous stage of the same run, completed when this one starts (so two
+    bars never draw over each other).
+    """
+
+    def __init__(self, label: str, phases: int = 1, after: "_Bar | None" = None) -> None:
+        self.label, self.phases, self.after = label, phases, after
         self.bar: Any = None
         self.offset = self.last = self.last_total = 0
 
@@ -99,7 +103,11 @@ class _Bar:
         return self
 
     def __call__(self, done: int, total: int) -> None:
+        if self.bar is False:  # closed
+            return
         if self.bar is None:
+            if self.after is not None:
+                self.after.__exit__(None, None, None)
             self.bar = click.progressbar(length=max(1, total * self.phases), label=self.label, file=sys.stderr,
                                          show_pos=True)
             self.bar.__enter__()
@@ -111,19 +119,24 @@ class _Bar:
         self.bar.render_progress()
 
     def __exit__(self, *exc: Any) -> None:
-        if self.bar is not None:
+        """Complete and close the bar (once; later calls do nothing)."""
+        if self.bar is not None and self.bar is not False:
             if exc[0] is None:  # the totals are upper bounds: show the run as complete
                 self.bar.pos = self.bar.length
                 self.bar.render_progress()
             self.bar.__exit__(*exc)
+            self.bar = False  # closed: never reopened by a late progress call
+        elif self.bar is None:
+            self.bar = False
 
 
-def progress_bar(quiet: bool, label: str, phases: int = 1) -> tuple[_Bar | None, Callable[[int, int], None] | None]:
+def progress_bar(quiet: bool, label: str, phases: int = 1, after: _Bar | None = None) -> tuple[_Bar | None, Callable[[int, int], None] | None]:
     """(bar, progress): a progress bar on stderr, used as ``with bar:`` around the run that calls
-    ``progress(done, total)``; (None, None) with --quiet or when stderr is not a terminal."""
+    ``progress(done, total)``; (None, None) with --quiet or when stderr is not a terminal. ``after``:
+    the bar of the previous stage, completed when this one starts."""
     if quiet or not sys.stderr.isatty():
         return None, None
-    bar = _Bar(label, phases)
+    bar = _Bar(label, phases, after)
     return bar, bar
 
 

@@ -95,7 +95,7 @@ def greedy_cmd(budget: float, objective: str, lazy: bool, output: str | None, as
         output_file(output)
     problem, spec = problem_from(kw)
     bar, progress = progress_bar(quiet, f"greedy {objective}", phases=2 if objective == "best-of" else 1)
-    cert_bar, cert_progress = progress_bar(quiet or not certify, "certificate")
+    cert_bar, cert_progress = progress_bar(quiet or not certify, "certificate", after=bar)
     with bar or nullcontext(), cert_bar or nullcontext():
         res = run_greedy(problem, budget, objective, engine=engine, jobs=jobs, lazy=lazy, progress=progress, spec=spec,
                          certify=certify, certify_progress=cert_progress)
