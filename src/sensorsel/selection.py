@@ -379,8 +379,8 @@ def run_greedy(problem: Problem, budget_usd: float, objective: str = "uniform", 
     what the problem is (``spec``: the scenario as the user stated it).
 
     With ``certify``, the result carries its :class:`Certificate` (an upper bound on the best possible
-    score within the budget), computed with the same evaluator: one sweep of the library per greedy
-    step (``certify_progress(done, total)`` after each).
+    score within the budget), computed with the same evaluator: at most one sweep of the library per greedy
+    step, fewer where a step provably cannot lower the bound (``certify_progress(done, total)`` after each).
 
     Raises:
         InputError: a bad budget or objective (before any evaluator is built).

@@ -120,7 +120,8 @@ def certify_cmd(result_path: str | None, budget: float | None, objective: str, o
 
     Evaluates the submodular upper bound f(S) + knapsack of the marginal gains (capacity: the
     budget) at every intermediate suite of the greedy run and keeps the smallest: no suite within
-    the budget scores above it. One sweep of the library per greedy step.
+    the budget scores above it. At most one sweep of the library per greedy step (steps that
+    provably cannot lower the bound are skipped).
     """
     if result_path is not None and budget is not None:
         raise InputError("give either --result FILE (a greedy result) or --budget DOLLARS (run greedy now), not both")

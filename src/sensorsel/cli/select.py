@@ -78,7 +78,7 @@ def _print_greedy(res: GreedyResult, lib: SensorLibrary) -> None:
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=str), help="Write the full result as JSON.")
 @click.option("--json", "as_json", is_flag=True, help="Print the full result as JSON instead of the table.")
 @click.option("--certificate/--no-certificate", "certify", default=True, show_default=True,
-              help="Also bound the best possible score within the budget (one extra sweep of the library per pick) "
+              help="Also bound the best possible score within the budget (at most one extra sweep of the library per pick) "
                    "and print how close the suite is to it.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 @run
