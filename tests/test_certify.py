@@ -30,7 +30,6 @@ from sensorsel.cli import cli
 from sensorsel.errors import InputError
 from sensorsel.library import load_library
 from sensorsel.objective import make_evaluator
-from sensorsel.pipeline import problem_info
 from sensorsel.problem import build_problem
 from sensorsel.scenario import ScenarioSpec, load_scenario
 from sensorsel.selection import SELECTORS, GreedyResult, greedy, run_greedy
@@ -368,7 +367,7 @@ def _without_seconds(text: str) -> dict:
 
 def test_results_are_deterministic_and_round_trip(tmp_path):
     problem = small_problem("mixed10")
-    info = problem_info(problem, ScenarioSpec(fixture="tiny"))
+    info = problem.info
     runs = []
     for _ in range(2):
         ev = make_evaluator(problem, "reference")
@@ -547,7 +546,7 @@ def test_cli_certify_bad_input_is_one_line(extra, message):
 
 def test_cli_certify_refuses_a_result_of_another_scenario(tmp_path):
     problem = small_problem("cheap8")
-    res = greedy(make_evaluator(problem, "reference"), 3000.0, "uniform", info=problem_info(problem, ScenarioSpec(fixture="tiny")))
+    res = greedy(make_evaluator(problem, "reference"), 3000.0, "uniform", info=problem.info)
     path = results.save(res, tmp_path / "g.json")
     r = CliRunner().invoke(cli, ["certify", "--fixture", "suburb", "-q", "--result", str(path)])
     assert r.exit_code == 2 and "computed with scenario = 'tiny'" in r.output

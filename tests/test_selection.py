@@ -217,10 +217,9 @@ def _without_timing(res):
 
 
 def test_results_are_byte_identical_across_runs(mixed):
-    spec = ScenarioSpec(fixture="tiny")
     for objective in SELECTORS:
-        a = run_greedy(mixed, 9000.0, objective, engine="reference", spec=spec)
-        b = run_greedy(mixed, 9000.0, objective, engine="reference", spec=spec)
+        a = run_greedy(mixed, 9000.0, objective, engine="reference")
+        b = run_greedy(mixed, 9000.0, objective, engine="reference")
         assert _without_timing(a) == _without_timing(b)
 
 
@@ -237,7 +236,7 @@ def test_jobs_do_not_change_a_byte_of_the_result(suburb_problem):
 
 
 def test_greedy_result_round_trips_through_json(mixed, tmp_path):
-    res = run_greedy(mixed, 9000.0, "best-of", engine="reference", spec=ScenarioSpec(fixture="tiny"))
+    res = run_greedy(mixed, 9000.0, "best-of", engine="reference")
     assert res.problem is not None and res.problem.scenario == "tiny" and res.steps
     path = results.save(res, tmp_path / "g.json")
     back = results.load(GreedyResult, path)

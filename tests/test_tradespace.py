@@ -39,14 +39,13 @@ def tiny():
 
 @pytest.fixture(scope="module")
 def mixed(library, tiny):
-    return build_problem(library.subset([library.position(i) for i in MIXED]), tiny)
+    return build_problem(library.subset([library.position(i) for i in MIXED]), tiny, spec=ScenarioSpec(fixture="tiny"))
 
 
 @pytest.fixture(scope="module")
 def ts(mixed):
     """The tradespace of the mixed library: default budgets, every selector."""
-    return run_tradespace(mixed, selectors=("uniform", "cost-benefit", "marginal", "best-of"), engine="reference",
-                          spec=ScenarioSpec(fixture="tiny"))
+    return run_tradespace(mixed, selectors=("uniform", "cost-benefit", "marginal", "best-of"), engine="reference")
 
 
 def _brute_front(points):
@@ -216,7 +215,7 @@ def _without_timing(res: TradespaceResult) -> str:
 
 
 def test_byte_identical_across_runs_and_json_round_trip(mixed, ts, tmp_path):
-    again = run_tradespace(mixed, selectors=ts.selectors, engine="reference", spec=ScenarioSpec(fixture="tiny"))
+    again = run_tradespace(mixed, selectors=ts.selectors, engine="reference")
     assert _without_timing(again) == _without_timing(ts)
     assert csv_text(again) == csv_text(ts)
     back = results.load(TradespaceResult, results.save(ts, tmp_path / "t.json"))

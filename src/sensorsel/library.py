@@ -118,6 +118,9 @@ class SensorLibrary:
     sensors: tuple[PlacedSensor, ...]
     source: str = "<memory>"
 
+    def __repr__(self) -> str:
+        return f"SensorLibrary({len(self.sensors)} sensors from {self.source!r})"
+
     def __len__(self) -> int:
         return len(self.sensors)
 
@@ -145,12 +148,39 @@ class SensorLibrary:
 
     def parse_suite(self, text: str | Iterable[str]) -> tuple[int, ...]:
         """Positions of a comma-separated list of ids (or indices); sorted, duplicates refused."""
-        items = [t.strip() for t in text.split(",")] if isinstance(text, str) else list(text)
+        items = [t.strip() for t in text.split(",")] if isinstance(text, str) else [str(t).strip() for t in text]
         items = [t for t in items if t]
         positions = [self.position(t) for t in items]
         if len(set(positions)) != len(positions):
             raise InputError(f"suite {','.join(items)!r} names a sensor twice")
         return tuple(sorted(positions))
+
+    def resolve_suite(self, suite: "str | Iterable[str | int]") -> tuple[int, ...]:
+        """The canonical form of a suite, however it is given: sorted unique library positions.
+
+        Accepts comma-separated ids (``"LRL-roof,LRR-12"``), an iterable of ids (a result's
+        ``suite``), or an iterable of library positions (ints, numpy ints included).
+
+        Raises:
+            InputError: an unknown id, a position outside 0..n-1, an id named twice, or a value that
+                is neither an id nor a position.
+        """
+        if isinstance(suite, str):
+            return self.parse_suite(suite)
+        items = list(suite)
+        if all(isinstance(x, str) for x in items):
+            return self.parse_suite(items)  # type: ignore[arg-type]
+        positions: list[int] = []
+        for x in items:
+            if isinstance(x, str):
+                positions.append(self.position(x))
+            elif isinstance(x, (bool, np.bool_)) or not isinstance(x, (int, np.integer)):
+                raise InputError(f"a suite holds sensor ids or library positions, got {x!r}")
+            elif not 0 <= int(x) < len(self.sensors):
+                raise InputError(f"sensor position {int(x)} is outside the library (0..{len(self.sensors) - 1})")
+            else:
+                positions.append(int(x))
+        return tuple(sorted(set(positions)))
 
     def suite_ids(self, suite: Iterable[int]) -> tuple[str, ...]:
         return tuple(self.sensors[i].id for i in suite)

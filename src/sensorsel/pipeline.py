@@ -6,52 +6,13 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from pathlib import Path
+from dataclasses import dataclass
 from typing import Iterable
 
-from .library import load_library
-from .objective import as_suite, make_evaluator
-from .problem import GraphSettings, Problem, build_problem
-from .scenario import ScenarioSpec, load_scenario
+from .objective import make_evaluator
+from .problem import Problem, ProblemInfo, load_problem
 
-
-@dataclass(frozen=True)
-class ProblemInfo:
-    """What a result was computed on (recorded in every result file)."""
-
-    scenario: str
-    n_poses: int
-    n_landmarks: int
-    route_length_m: float
-    duration_s: float
-    landmark_source: str
-    library: str
-    n_sensors: int
-    spec: ScenarioSpec = field(default_factory=ScenarioSpec)
-    settings: GraphSettings = field(default_factory=GraphSettings)
-
-
-def load_problem(spec: ScenarioSpec = ScenarioSpec(), library: str | Path | None = None, settings: GraphSettings = GraphSettings()) -> Problem:
-    """Read the library (default: Table I) and the scenario, and compute what each sensor sees."""
-    return build_problem(load_library(library), load_scenario(spec), settings)
-
-
-def problem_info(problem: Problem, spec: ScenarioSpec = ScenarioSpec()) -> ProblemInfo:
-    sc = problem.scenario
-    route = sc.route or sc.keyframes
-    return ProblemInfo(
-        scenario=sc.name,
-        n_poses=sc.n_poses,
-        n_landmarks=sc.n_landmarks,
-        route_length_m=round(route.length_m, 3),
-        duration_s=round(route.duration_s, 3),
-        landmark_source=sc.landmark_source,
-        library=problem.library.source,
-        n_sensors=problem.n_sensors,
-        spec=spec,
-        settings=problem.settings,
-    )
+__all__ = ["ProblemInfo", "ScoreResult", "load_problem", "score_suite"]
 
 
 @dataclass(frozen=True)
@@ -81,10 +42,10 @@ class ScoreResult:
     problem: ProblemInfo
 
 
-def score_suite(problem: Problem, suite: str | Iterable[int], *, engine: str | None = None, spec: ScenarioSpec = ScenarioSpec()) -> ScoreResult:
-    """Score a suite given as comma-separated ids (``"LRL-roof,LRR-12"``) or library positions."""
+def score_suite(problem: Problem, suite: str | Iterable[str | int], *, engine: str | None = None) -> ScoreResult:
+    """Score a suite given as comma-separated ids (``"LRL-roof,LRR-12"``), ids, or library positions."""
     lib = problem.library
-    positions = lib.parse_suite(suite) if isinstance(suite, str) else as_suite(suite)
+    positions = lib.resolve_suite(suite)
     ev = make_evaluator(problem, engine)
     logdet = ev.logdet(positions)
     seen: set[int] = set()
@@ -99,5 +60,5 @@ def score_suite(problem: Problem, suite: str | Iterable[int], *, engine: str | N
         n_measurements=sum(len(problem.observations[i]) for i in positions),
         n_landmarks_seen=len(seen),
         engine=ev.name,
-        problem=problem_info(problem, spec),
+        problem=problem.info,
     )

@@ -7,10 +7,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Iterable
 
 from .errors import InputError
-from .library import SensorLibrary
-from .scenario import Scenario
+from .library import SensorLibrary, load_library
+from .scenario import Scenario, ScenarioSpec, load_scenario
 from .sensing import SensorObservations, observe
 
 
@@ -43,6 +45,35 @@ class GraphSettings:
             raise InputError(f"graph settings: landmark_prior_sigma_m must be positive, got {s!r}")
 
 
+@dataclass(frozen=True)
+class ProblemInfo:
+    """What a result was computed on (recorded in every result file).
+
+    Attributes:
+        scenario: the scenario's name.
+        n_poses: keyframes.
+        n_landmarks: landmarks.
+        route_length_m: length of the full-rate route [m].
+        duration_s: its duration [s].
+        landmark_source: where the landmarks came from (a file, or "generated (seed N)").
+        library: the library file.
+        n_sensors: sensors in the library.
+        spec: the scenario as the user stated it (None when the problem was built from objects).
+        settings: the graph's noise settings.
+    """
+
+    scenario: str
+    n_poses: int
+    n_landmarks: int
+    route_length_m: float
+    duration_s: float
+    landmark_source: str
+    library: str
+    n_sensors: int
+    spec: ScenarioSpec | None = None
+    settings: GraphSettings = field(default_factory=GraphSettings)
+
+
 @dataclass(frozen=True, eq=False)
 class Problem:
     """A library on a scenario: the input of every evaluator.
@@ -52,18 +83,61 @@ class Problem:
         scenario: keyframes and landmarks.
         settings: odometry and prior noise.
         observations: what each sensor sees, one entry per library sensor.
+        spec: what the scenario was loaded from (set by :func:`load_problem`; None when the
+            problem was built from objects). Results record it through :attr:`info`.
     """
 
     library: SensorLibrary
     scenario: Scenario
     settings: GraphSettings = field(default_factory=GraphSettings)
     observations: tuple[SensorObservations, ...] = ()
+    spec: ScenarioSpec | None = None
+
+    def __repr__(self) -> str:
+        sc = self.scenario
+        return (f"Problem({sc.name!r}: {sc.n_poses} keyframes, {sc.n_landmarks} landmarks, "
+                f"{self.n_sensors} sensors, {sum(len(o) for o in self.observations)} measurements)")
 
     @property
     def n_sensors(self) -> int:
         return len(self.library)
 
+    @property
+    def info(self) -> ProblemInfo:
+        """What this problem is, as results record it."""
+        sc = self.scenario
+        route = sc.route or sc.keyframes
+        return ProblemInfo(
+            scenario=sc.name,
+            n_poses=sc.n_poses,
+            n_landmarks=sc.n_landmarks,
+            route_length_m=round(route.length_m, 3),
+            duration_s=round(route.duration_s, 3),
+            landmark_source=sc.landmark_source,
+            library=self.library.source,
+            n_sensors=self.n_sensors,
+            spec=self.spec,
+            settings=self.settings,
+        )
 
-def build_problem(library: SensorLibrary, scenario: Scenario, settings: GraphSettings = GraphSettings()) -> Problem:
-    """Compute what every sensor of ``library`` sees along ``scenario`` and bundle it."""
-    return Problem(library, scenario, settings, observe(library, scenario))
+    def resolve_suite(self, suite: "str | Iterable[str | int]") -> tuple[int, ...]:
+        """Sorted library positions of a suite given as ids or positions (see
+        :meth:`SensorLibrary.resolve_suite`)."""
+        return self.library.resolve_suite(suite)
+
+
+def build_problem(library: SensorLibrary, scenario: Scenario, settings: GraphSettings | None = None, *,
+                  spec: ScenarioSpec | None = None) -> Problem:
+    """Compute what every sensor of ``library`` sees along ``scenario`` and bundle it.
+
+    ``spec``: what the scenario was loaded from, recorded as the problem's provenance.
+    """
+    return Problem(library, scenario, settings or GraphSettings(), observe(library, scenario), spec)
+
+
+def load_problem(spec: ScenarioSpec | None = None, library: str | Path | None = None,
+                 settings: GraphSettings | None = None) -> Problem:
+    """Read the library (default: Table I) and the scenario (default: the bundled fixture), and
+    compute what each sensor sees. The problem remembers ``spec``: results computed on it record it."""
+    spec = spec or ScenarioSpec()
+    return build_problem(load_library(library), load_scenario(spec), settings, spec=spec)

@@ -47,9 +47,8 @@ from . import results
 from .errors import InputError, ResultFileError
 from .fileio import atomic_write_text
 from .objective import Evaluator, as_suite, make_evaluator
-from .pipeline import ProblemInfo, problem_info
-from .problem import Problem, build_problem
-from .scenario import Scenario, ScenarioSpec
+from .problem import Problem, ProblemInfo, build_problem
+from .scenario import Scenario
 from .selection import REL_TOL, SELECTORS, GreedyResult, check_budget, greedy
 
 #: progress(done, total): called after each period (computed or reused).
@@ -460,14 +459,14 @@ def _array_digest(*arrays: np.ndarray) -> str:
     return h.hexdigest()
 
 
-def _fingerprint(problem: Problem, spec: ScenarioSpec, budget: float, alpha: int, objective: str, engine: str, lazy: bool,
+def _fingerprint(problem: Problem, budget: float, alpha: int, objective: str, engine: str, lazy: bool,
                  what: dict) -> str:
     """Digest of everything a result depends on: scenario (spec and actual numbers), library (source
     and content), graph settings, budget, alpha, rule, engine, and ``what`` (e.g. the period bounds)."""
     sc = problem.scenario
     return _digest({
         "format": _FORMAT,
-        "spec": results.to_jsonable(spec),
+        "spec": results.to_jsonable(problem.spec),
         "scenario": _array_digest(sc.keyframes.poses, sc.keyframes.times, sc.landmarks),
         "library_source": problem.library.source,
         "library": _digest(results.to_jsonable(problem.library.sensors)),
@@ -499,7 +498,7 @@ def _load_matching(cls: type, path: Path, fingerprint: str):
 
 
 def compare(problem: Problem, budget_usd: float, alpha: int, objective: str = "uniform", *, engine: str | None = None,
-            jobs: int = 1, lazy: bool = True, spec: ScenarioSpec = ScenarioSpec(), cache: str | Path | None = None,
+            jobs: int = 1, lazy: bool = True, cache: str | Path | None = None,
             resume: bool = False) -> Comparison:
     """Greedy and resilient selection at the same budget, with the worst case of each suite.
 
@@ -509,13 +508,13 @@ def compare(problem: Problem, budget_usd: float, alpha: int, objective: str = "u
     t0 = time.perf_counter()
     budget, alpha, objective = check_budget(budget_usd), check_alpha(alpha), check_objective(objective)
     name = _engine_name(engine)
-    fp = _fingerprint(problem, spec, budget, alpha, objective, name, lazy, {"what": "whole route"})
+    fp = _fingerprint(problem, budget, alpha, objective, name, lazy, {"what": "whole route"})
     if cache is not None and resume:
         old = _load_matching(Comparison, Path(cache), fp)
         if old is not None:
             return old
     ev = make_evaluator(problem, name, jobs=jobs)
-    info = problem_info(problem, spec)
+    info = problem.info
     g = greedy(ev, budget, objective, lazy=lazy, info=info)
     r = resilient_select(ev, budget, alpha, objective, lazy=lazy, info=info)
     lib = problem.library
@@ -579,7 +578,7 @@ def period_file(outdir: str | Path, index: int) -> Path:
 
 def run_periods(problem: Problem, budget_usd: float, alpha: int, *, period_s: float = DEFAULT_PERIOD_S,
                 objective: str = "uniform", engine: str | None = None, jobs: int = 1, lazy: bool = True,
-                spec: ScenarioSpec = ScenarioSpec(), outdir: str | Path | None = None, resume: bool = False,
+                outdir: str | Path | None = None, resume: bool = False,
                 progress: Progress | None = None) -> PerPeriodResult:
     """Resilient selection on each period of the route.
 
@@ -598,15 +597,15 @@ def run_periods(problem: Problem, budget_usd: float, alpha: int, *, period_s: fl
     out: list[PeriodResult] = []
     for n_done, (k, a, b, kf) in enumerate(spans, start=1):
         sc = period_scenario(problem, kf, a, b, f"{problem.scenario.name} {a:g}-{b:g} s")
-        sub = build_problem(problem.library, sc, problem.settings)
+        sub = build_problem(problem.library, sc, problem.settings, spec=problem.spec)
         span = PeriodSpan(index=k, start_s=a, end_s=b, first_keyframe=int(kf[0]), n_keyframes=len(kf), n_landmarks=sc.n_landmarks)
-        fp = _fingerprint(sub, spec, budget, alpha, objective, name, lazy,
+        fp = _fingerprint(sub, budget, alpha, objective, name, lazy,
                           {"what": "period", "period_s": period, "span": results.to_jsonable(span)})
         path = period_file(outdir, k) if outdir is not None else None
         res = _load_matching(PeriodResult, path, fp) if (path is not None and resume) else None
         if res is None:
             ev = make_evaluator(sub, name, jobs=jobs)
-            info = problem_info(sub, spec)
+            info = sub.info
             r = resilient_select(ev, budget, alpha, objective, lazy=lazy, info=info)
             w = worst_case(ev, [sub.library.position(s) for s in r.suite], alpha)
             res = PeriodResult(fingerprint=fp, period=span, result=r, worst=w)
@@ -651,7 +650,7 @@ def save_grid_csv(grid: SelectionGrid, path: str | Path) -> Path:
 
 def resilient_report(problem: Problem, budget_usd: float, alpha: int, *, period_s: float | None = DEFAULT_PERIOD_S,
                      objective: str = "uniform", engine: str | None = None, jobs: int = 1, lazy: bool = True,
-                     spec: ScenarioSpec = ScenarioSpec(), outdir: str | Path | None = None, resume: bool = False,
+                     outdir: str | Path | None = None, resume: bool = False,
                      progress: Progress | None = None) -> ResilientReport:
     """The whole-route comparison and (unless ``period_s`` is None) the per-period selection.
 
@@ -663,11 +662,11 @@ def resilient_report(problem: Problem, budget_usd: float, alpha: int, *, period_
     if period_s is not None:
         check_period(period_s)
     cache = Path(outdir) / "periods" / "route.json" if outdir is not None else None
-    cmp_ = compare(problem, budget, alpha, objective, engine=engine, jobs=jobs, lazy=lazy, spec=spec, cache=cache, resume=resume)
+    cmp_ = compare(problem, budget, alpha, objective, engine=engine, jobs=jobs, lazy=lazy, cache=cache, resume=resume)
     per = None
     if period_s is not None:
         per = run_periods(problem, budget, alpha, period_s=period_s, objective=objective, engine=engine, jobs=jobs,
-                          lazy=lazy, spec=spec, outdir=outdir, resume=resume, progress=progress)
+                          lazy=lazy, outdir=outdir, resume=resume, progress=progress)
     return ResilientReport(suite=cmp_.resilient.suite, failed=cmp_.resilient.failed, alpha=alpha, budget_usd=budget,
                            objective=objective, engine=cmp_.engine, comparison=cmp_, per_period=per,
                            seconds=round(time.perf_counter() - t0, 6))

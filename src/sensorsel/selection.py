@@ -37,9 +37,8 @@ import numpy as np
 
 from .errors import InputError
 from .objective import Evaluator, make_evaluator
-from .pipeline import ProblemInfo, problem_info
+from .problem import ProblemInfo
 from .problem import Problem
-from .scenario import ScenarioSpec
 
 #: Relative tolerance under which two objective values are tied, and a gain counts as zero.
 REL_TOL = 1e-9
@@ -373,7 +372,7 @@ def greedy(evaluator: Evaluator, budget_usd: float, objective: str = "uniform", 
 
 
 def run_greedy(problem: Problem, budget_usd: float, objective: str = "uniform", *, engine: str | None = None, jobs: int = 1,
-               lazy: bool = True, progress: Progress | None = None, spec: ScenarioSpec = ScenarioSpec(),
+               lazy: bool = True, progress: Progress | None = None,
                certify: bool = False, certify_progress: Progress | None = None) -> GreedyResult:
     """The ``sensorsel greedy`` pipeline: :func:`greedy` with a fresh evaluator of ``engine``, recording
     what the problem is (``spec``: the scenario as the user stated it).
@@ -389,7 +388,7 @@ def run_greedy(problem: Problem, budget_usd: float, objective: str = "uniform", 
     if objective not in SELECTORS:
         raise InputError(f"unknown objective {objective!r}; available: {', '.join(SELECTORS)}")
     ev = make_evaluator(problem, engine, jobs=jobs)
-    res = greedy(ev, budget_usd, objective, lazy=lazy, progress=progress, info=problem_info(problem, spec))
+    res = greedy(ev, budget_usd, objective, lazy=lazy, progress=progress, info=problem.info)
     if not certify:
         return res
     # imported here: certify builds on this module (greedy, GreedyResult), not the other way round

@@ -60,9 +60,8 @@ from scipy.stats import chi2
 
 from .errors import InputError
 from .objective import as_suite
-from .pipeline import ProblemInfo, problem_info
+from .problem import ProblemInfo
 from .problem import Problem
-from .scenario import ScenarioSpec
 from .sensing import wrap_angle
 
 SOLVERS = ("lm", "isam2")
@@ -574,7 +573,6 @@ def simulate(
     noise_scale: float = 1.0,
     jobs: int = 1,
     label: str = "suite",
-    spec: ScenarioSpec = ScenarioSpec(),
     progress: Callable[[], None] | None = None,
 ) -> SimulationResult:
     """Monte-Carlo SLAM of ``suite`` on ``problem``: ``runs`` seeded draws, each solved with GTSAM.
@@ -589,7 +587,6 @@ def simulate(
         noise_scale: factor on every sigma (> 0); 1 is the sensor models.
         jobs: worker processes for the runs (results do not depend on it).
         label: name of this design in tables and plots.
-        spec: the scenario spec, recorded in the result.
         progress: called once after each finished run.
     Raises:
         InputError: bad suite, failure, solver, runs, seed, noise scale or jobs (names the value).
@@ -636,7 +633,7 @@ def simulate(
     pred = _predict(payload)
     t_end = time.perf_counter()
     timing = SimulationTiming(total_s=round(t_end - t0, 3), runs_s=round(t_cov - t_runs, 3), covariance_s=round(t_end - t_cov, 3), jobs=jobs)
-    return _summarise(problem, payload, positions, failures_t, raw, pred, label=label, noise_scale=float(noise_scale), spec=spec, timing=timing)
+    return _summarise(problem, payload, positions, failures_t, raw, pred, label=label, noise_scale=float(noise_scale), timing=timing)
 
 
 def _errors(p: _Payload, pred: _Prediction, run: int, out: dict, measured: np.ndarray) -> RunResult:
@@ -691,7 +688,7 @@ def nees_bounds(n_runs: int, n_poses: int, dof: int = 3, confidence: float = NEE
 
 
 def _summarise(problem: Problem, p: _Payload, positions: tuple[int, ...], failures: tuple[Failure, ...], raw: Sequence[dict], pred: _Prediction, *,
-               label: str, noise_scale: float, spec: ScenarioSpec, timing: SimulationTiming) -> SimulationResult:
+               label: str, noise_scale: float, timing: SimulationTiming) -> SimulationResult:
     measured = np.unique(p.landmark[p.keep]).astype(int)
     unmeasured = np.setdiff1d(np.arange(len(p.landmarks)), measured)
     rr = tuple(_errors(p, pred, r, out, measured) for r, out in enumerate(raw))
@@ -742,7 +739,7 @@ def _summarise(problem: Problem, p: _Payload, positions: tuple[int, ...], failur
         nees_inside_bounds=bool(lbounds[0] <= nees_mean <= lbounds[1]),
         nees_joint_inside_bounds=bool(lbounds[0] <= nees_joint <= lbounds[1]),
         covariance=COVARIANCE_NOTE,
-        problem=problem_info(problem, spec),
+        problem=problem.info,
         runs=rr,
         timing=timing,
     )

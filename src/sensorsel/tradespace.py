@@ -45,9 +45,8 @@ from .errors import InputError
 from .fileio import atomic_write_text
 from .library import SensorLibrary
 from .objective import Evaluator, make_evaluator
-from .pipeline import ProblemInfo, problem_info
+from .problem import ProblemInfo
 from .problem import Problem
-from .scenario import ScenarioSpec
 from .selection import SELECTORS, GreedyResult, Step, better_run, check_budget, greedy
 
 #: The selectors of the paper's Fig. 4 (uniform, cost-benefit) and the classic marginal rule.
@@ -387,13 +386,13 @@ def _architectures(lib: SensorLibrary, sel: tuple[str, ...], found: dict[frozens
 
 def run_tradespace(problem: Problem, budgets: Iterable[float] | None = None, selectors: Iterable[str] = DEFAULT_SELECTORS,
                    *, engine: str | None = None, jobs: int = 1, lazy: bool = True, share_prefix: bool = True,
-                   progress: Progress | None = None, spec: ScenarioSpec = ScenarioSpec()) -> TradespaceResult:
+                   progress: Progress | None = None) -> TradespaceResult:
     """The ``sensorsel pareto`` pipeline: :func:`tradespace` with a fresh evaluator of ``engine``."""
     sel = parse_selectors(selectors, "selectors")  # bad input fails before the evaluator is built
     grid = None if budgets is None else tuple(check_budget(b) for b in budgets)
     ev = make_evaluator(problem, engine, jobs=jobs)
     return tradespace(ev, grid, sel, lazy=lazy, share_prefix=share_prefix, progress=progress,
-                      info=problem_info(problem, spec))
+                      info=problem.info)
 
 
 # ------------------------------------------------------------------------------------------ output

@@ -16,7 +16,6 @@ from ..certify import DEFAULT_MAX_NODES, Certificate, certify_greedy, format_cer
 from ..errors import InputError
 from ..fileio import output_file
 from ..objective import make_evaluator
-from ..pipeline import problem_info
 from ..problem import Problem
 from ..selection import SELECTORS, GreedyResult, check_budget, greedy
 from .options import engine_options, problem_from, progress_bar, run, scenario_options
@@ -50,8 +49,8 @@ def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output
     budget = check_budget(budget)
     if output:
         output_file(output)
-    problem, spec = problem_from(kw)
-    info = problem_info(problem, spec)
+    problem = problem_from(kw)
+    info = problem.info
     ev = make_evaluator(problem, engine, jobs=jobs)
     if quiet or as_json:
         res = optimal(ev, budget, max_nodes=max_nodes, max_seconds=max_seconds, info=info)
@@ -90,11 +89,11 @@ def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output
         click.echo(f"wrote      {output}")
 
 
-def _check_same_problem(res: GreedyResult, problem: Problem, spec: Any, path: str) -> None:
+def _check_same_problem(res: GreedyResult, problem: Problem, path: str) -> None:
     """Refuse to certify a result computed on another scenario or library (its bound would mean nothing)."""
     if res.problem is None:
         return
-    here = problem_info(problem, spec)
+    here = problem.info
     for key in ("scenario", "n_poses", "n_landmarks", "n_sensors"):
         theirs, ours = getattr(res.problem, key), getattr(here, key)
         if theirs != ours:
@@ -129,14 +128,14 @@ def certify_cmd(result_path: str | None, budget: float | None, objective: str, o
         raise InputError("give --result FILE (a greedy result to certify) or --budget DOLLARS (run greedy now)")
     if output:
         output_file(output)
-    problem, spec = problem_from(kw)
+    problem = problem_from(kw)
     if result_path is not None:
         res = results.load(GreedyResult, result_path)
-        _check_same_problem(res, problem, spec, result_path)
+        _check_same_problem(res, problem, result_path)
         ev = make_evaluator(problem, engine or res.engine, jobs=jobs)
     else:
         ev = make_evaluator(problem, engine, jobs=jobs)
-        res = greedy(ev, check_budget(budget), objective, info=problem_info(problem, spec))
+        res = greedy(ev, check_budget(budget), objective, info=problem.info)
     bar, progress = progress_bar(quiet or as_json, "certificate (greedy steps)")
     with bar or nullcontext():
         cert: Certificate = certify_greedy(ev, res, progress=progress)

@@ -39,8 +39,8 @@ def library_cmd(library_path: str | None) -> None:
 @run
 def score_cmd(suite: str, as_json: bool, engine: str | None, jobs: int, **kw: Any) -> None:
     """Score a sensor suite: cost and f(S) = log det L(S) - log det L(empty) in nats."""
-    problem, spec = problem_from(kw)
-    res = score_suite(problem, suite, engine=engine, spec=spec)
+    problem = problem_from(kw)
+    res = score_suite(problem, suite, engine=engine)
     if as_json:
         click.echo(results.dumps(res), nl=False)
         return
@@ -62,7 +62,7 @@ def scene_cmd(output: str, suite: str | None, pose_index: int | None, **kw: Any)
     """Draw the route and landmarks (the paper's Fig. 2), optionally a suite's sensing cones."""
     from ..plotting import plot_scene, save_figure
 
-    problem, _ = problem_from(kw)
+    problem = problem_from(kw)
     positions = problem.library.parse_suite(suite) if suite else ()
     ax = plot_scene(problem.scenario, library=problem.library, suite=positions, pose_index=pose_index)
     path = save_figure(ax.figure, output)

@@ -70,10 +70,11 @@ def spec_from(kw: dict[str, Any]) -> ScenarioSpec:
     )
 
 
-def problem_from(kw: dict[str, Any]) -> tuple[Problem, ScenarioSpec]:
-    """Load the library and scenario named by the options (pops them from ``kw``)."""
+def problem_from(kw: dict[str, Any]) -> Problem:
+    """Load the library and scenario named by the options (pops them from ``kw``); the problem
+    records them as its provenance."""
     spec = spec_from(kw)
-    return load_problem(spec, kw.pop("library_path")), spec
+    return load_problem(spec, kw.pop("library_path"))
 
 
 def engine_options(fn: Callable[..., Any]) -> Callable[..., Any]:

@@ -48,7 +48,7 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, objective: str, ou
     alpha = check_alpha(alpha)
     period_s = check_period(period_s)
     out = output_dir(outdir)
-    problem, spec = problem_from(kw)
+    problem = problem_from(kw)
     sc = problem.scenario
     n_periods = len(split_periods(sc.keyframes.times, period_s))
     show = not quiet and sys.stderr.isatty()
@@ -59,10 +59,10 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, objective: str, ou
                 bar.update(done - bar.pos)
 
             report = resilient_report(problem, budget, alpha, period_s=period_s, objective=objective, engine=engine, jobs=jobs,
-                                      spec=spec, outdir=out, resume=resume, progress=progress)
+                                      outdir=out, resume=resume, progress=progress)
     else:
         report = resilient_report(problem, budget, alpha, period_s=period_s, objective=objective, engine=engine, jobs=jobs,
-                                  spec=spec, outdir=out, resume=resume)
+                                  outdir=out, resume=resume)
 
     per = report.per_period
     assert per is not None

@@ -93,11 +93,11 @@ def greedy_cmd(budget: float, objective: str, lazy: bool, output: str | None, as
     """
     if output:
         output_file(output)
-    problem, spec = problem_from(kw)
+    problem = problem_from(kw)
     bar, progress = progress_bar(quiet, f"greedy {objective}", phases=2 if objective == "best-of" else 1)
     cert_bar, cert_progress = progress_bar(quiet or not certify, "certificate", after=bar)
     with bar or nullcontext(), cert_bar or nullcontext():
-        res = run_greedy(problem, budget, objective, engine=engine, jobs=jobs, lazy=lazy, progress=progress, spec=spec,
+        res = run_greedy(problem, budget, objective, engine=engine, jobs=jobs, lazy=lazy, progress=progress,
                          certify=certify, certify_progress=cert_progress)
     if output:
         results.save(res, output)
@@ -151,10 +151,10 @@ def pareto_cmd(budgets: str | None, selectors: str, lazy: bool, outdir: str, plo
     grid = parse_budgets(budgets) if budgets is not None else None
     rules = parse_selectors(selectors)
     output_dir(outdir)
-    problem, spec = problem_from(kw)
+    problem = problem_from(kw)
     bar, progress = progress_bar(quiet, "tradespace runs")
     with bar or nullcontext():
-        res = run_tradespace(problem, grid, rules, engine=engine, jobs=jobs, lazy=lazy, progress=progress, spec=spec)
+        res = run_tradespace(problem, grid, rules, engine=engine, jobs=jobs, lazy=lazy, progress=progress)
 
     out = Path(outdir)
     written = [results.save(res, out / "tradespace.json"), write_csv(res, out / "architectures.csv")]

@@ -140,10 +140,10 @@ def simulate_cmd(suite: str, compare: str | None, label: str | None, compare_lab
         if show:
             with click.progressbar(length=runs, label=f"simulating {name}", file=sys.stderr) as bar:
                 res = simulate(problem, positions, failures=mine, runs=runs, solver=solver, seed=seed, noise_scale=noise_scale,
-                               jobs=jobs, label=name, spec=spec, progress=lambda: bar.update(1))
+                               jobs=jobs, label=name, progress=lambda: bar.update(1))
         else:
             res = simulate(problem, positions, failures=mine, runs=runs, solver=solver, seed=seed, noise_scale=noise_scale,
-                           jobs=jobs, label=name, spec=spec)
+                           jobs=jobs, label=name)
         sims.append(res)
 
     json_path = results.save(SimulationReport(tuple(sims)), out / "simulation.json")
