@@ -293,7 +293,7 @@ def _parse_route(c: _Checker, raw: Any, key: str, rline: int, shared: ScenarioSp
     sources = [k for k in ("seq", "route", "fixture") if k in raw]
     if len(sources) != 1:
         c.fail(key, f"expected exactly one of seq, route, fixture; got {', '.join(sources) or 'none'}",
-               line(sources[1]) if len(sources) > 1 else raw.line)
+               max(line(k) for k in sources) if len(sources) > 1 else raw.line)
     source = sources[0]
     for k, only in (("kitti_root", "seq"), ("format", "route"), ("times", "route")):
         if k in raw and source != only:
