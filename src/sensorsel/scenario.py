@@ -1,16 +1,25 @@
 """Scenarios: a route (planar keyframe poses) and the landmarks standing along it.
 
-Routes come from KITTI odometry ground truth (``poses/NN.txt`` + ``sequences/NN/times.txt``), from any
-file in KITTI's pose format (a user's own drive), or from the bundled synthetic fixtures. Landmarks
-come from a CSV file (x, y) or from a seeded generator (:class:`LandmarkModel`).
+Routes come from KITTI odometry ground truth (``poses/NN.txt`` + ``sequences/NN/times.txt``), from a
+route file in one of three formats (:data:`ROUTE_FORMATS`: KITTI poses, TUM trajectories, planar
+CSV), or from the bundled synthetic fixtures. Landmarks come from a real map (a KITTI sequence's
+``landmarks/NN.csv`` pole map, used by default when the KITTI folder has one), from a user's CSV
+file, or from a seeded generator (:class:`LandmarkModel`). Every landmark set is checked the same
+way (:class:`LandmarkReport`): exact duplicates are merged, landmarks standing on the road are
+counted and, with a clearance, dropped; nothing is dropped without being counted, and
+:func:`scenario_notes` says what was done in lines a command prints on stderr.
 
 Frames: KITTI's camera frame has x right, y down, z forward; the ground plane is x-z. sensorsel's
 planar frame is right-handed seen from above: X = z (forward at frame 0), Y = -x (left at frame 0),
-heading counter-clockwise from X.
+heading counter-clockwise from X. A TUM trajectory is taken as z-up (ground plane x-y, the
+convention of TUM's own ground-truth files and of ROS ``map``/``odom`` frames): planar X, Y = the
+file's tx, ty, heading = the yaw of its quaternion (rotation about z); tz, roll and pitch are not
+used. A planar CSV is already in the planar frame.
 """
 
 from __future__ import annotations
 
+import csv
 import math
 import os
 from dataclasses import dataclass, field
@@ -25,6 +34,13 @@ from .fileio import atomic_write_text
 
 KITTI_ROOT_ENV = "SENSORSEL_KITTI_ROOT"
 DEFAULT_FIXTURE = "suburb"
+ROUTE_FORMATS = ("kitti", "tum", "csv")
+DEFAULT_FRAME_RATE_HZ = 10.0  # assumed for a KITTI pose file without timestamps (KITTI's own rate)
+ON_ROAD_M = 3.0  # landmarks closer than this to the route are counted as "on the road" (report only)
+SYNTHETIC = "synthetic"  # ScenarioSpec.landmarks: always generate
+REAL = "real"  # ScenarioSpec.landmarks: the KITTI sequence's pole map, an error if there is none
+# file stems that say nothing about the drive: such a route is named after its folder
+_GENERIC_STEMS = {"poses", "pose", "groundtruth", "ground_truth", "gt", "trajectory", "traj", "route", "odometry", "data"}
 
 
 def _frozen(a: np.ndarray) -> np.ndarray:
@@ -80,8 +96,12 @@ class Scenario:
         name: short label ("03", "suburb", a file name).
         keyframes: the keyframe trajectory (one Pose2 each in the factor graph).
         landmarks: (M, 2) landmark positions [m] in the planar frame.
-        landmark_source: "generated (seed N)" or the CSV path.
+        landmark_source: "generated (seed N)", "KITTI pole map <path>" or the CSV path.
         route: the full-rate trajectory the keyframes were taken from (for drawing).
+        landmark_report: what was read, merged and dropped to get ``landmarks`` (None when the
+            scenario was built from arrays).
+        notes: what a user should be told about how the scenario was built (an assumed frame
+            rate, the landmark counts): see :func:`scenario_notes`.
     """
 
     name: str
@@ -89,6 +109,8 @@ class Scenario:
     landmarks: np.ndarray
     landmark_source: str = "<memory>"
     route: Trajectory | None = None
+    landmark_report: "LandmarkReport | None" = None
+    notes: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         lm = np.asarray(self.landmarks, dtype=float).reshape(-1, 2)
@@ -238,6 +260,190 @@ def load_trajectory(poses_path: str | Path, times_path: str | Path | None = None
     return Trajectory(planar_from_kitti(poses), times, np.arange(len(poses)), str(poses_path))
 
 
+# ---------------------------------------------------------------------------------- route formats
+
+
+def _data_lines(path: Path, what: str) -> list[tuple[int, str]]:
+    """(line number, stripped text) of the non-blank lines not starting with ``#``."""
+    out = []
+    for lineno, line in enumerate(_read_lines(path, what), start=1):
+        s = line.strip()
+        if s and not s.startswith("#"):
+            out.append((lineno, s))
+    return out
+
+
+def _increasing(times: list[float], path: Path, lines: list[int]) -> None:
+    for i in range(1, len(times)):
+        if times[i] <= times[i - 1]:
+            raise ScenarioError(path, f"timestamps must increase: {times[i]} after {times[i - 1]}", lines[i])
+
+
+def yaw_from_quaternion(qx: np.ndarray, qy: np.ndarray, qz: np.ndarray, qw: np.ndarray) -> np.ndarray:
+    """Yaw [rad] (rotation about z, the heading of a z-up frame) of unit quaternions (x, y, z, w)."""
+    return np.arctan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
+
+
+def read_tum_trajectory(path: str | Path) -> Trajectory:
+    """Read a TUM trajectory: one pose a line, ``timestamp tx ty tz qx qy qz qw`` (spaces; ``#``
+    comments and blank lines skipped), timestamps strictly increasing.
+
+    Planar frame: the file's x-y plane is the ground (z up): planar (x, y) = (tx, ty), heading = the
+    yaw of the quaternion. tz, roll and pitch are not used.
+
+    Raises:
+        ScenarioError: missing or empty file, a line without 8 finite numbers, a zero quaternion,
+            timestamps that do not increase (each names the line).
+    """
+    return _read_tum(path)[0]
+
+
+def _read_tum(path: str | Path) -> tuple[Trajectory, np.ndarray]:
+    """The route of a TUM file and its tz column."""
+    path = Path(path)
+    rows, lines = [], []
+    for lineno, s in _data_lines(path, "TUM trajectory"):
+        row = _parse_row(s, path, lineno, 8, "timestamp tx ty tz qx qy qz qw")
+        if math.hypot(*row[4:]) < 1e-9:
+            raise ScenarioError(path, "quaternion qx qy qz qw is zero", lineno)
+        rows.append(row)
+        lines.append(lineno)
+    if not rows:
+        raise ScenarioError(path, "TUM trajectory is empty: expected lines of 'timestamp tx ty tz qx qy qz qw'")
+    a = np.asarray(rows)
+    _increasing(a[:, 0].tolist(), path, lines)
+    q = a[:, 4:8] / np.linalg.norm(a[:, 4:8], axis=1)[:, None]
+    heading = yaw_from_quaternion(q[:, 0], q[:, 1], q[:, 2], q[:, 3])
+    return Trajectory(np.column_stack([a[:, 1], a[:, 2], heading]), a[:, 0], np.arange(len(a)), str(path)), a[:, 3]
+
+
+def write_tum_trajectory(path: str | Path, planar: np.ndarray, times: np.ndarray) -> Path:
+    """Write planar poses as a TUM trajectory (z = 0, quaternion of the heading about z; atomically)."""
+    planar = np.asarray(planar, dtype=float)
+    body = "".join(f"{t!r} {x!r} {y!r} 0 0 0 {math.sin(a / 2)!r} {math.cos(a / 2)!r}\n"
+                   for t, (x, y, a) in zip(np.asarray(times, dtype=float).tolist(), planar.tolist()))
+    return atomic_write_text(path, "# timestamp tx ty tz qx qy qz qw\n" + body)
+
+
+PLANAR_CSV_COLUMNS = ("t", "x", "y", "heading")
+
+
+def _csv_fields(line: str) -> list[str]:
+    return [f.strip() for f in next(csv.reader([line]))]
+
+
+def read_planar_csv(path: str | Path) -> Trajectory:
+    """Read a planar route CSV: a header naming the columns ``t,x,y,heading`` (any order; other
+    columns are ignored), then one pose a row: time [s], x [m], y [m], heading [rad] counter-clockwise
+    from planar X. ``#`` comments and blank lines are skipped; times strictly increasing.
+
+    Raises:
+        ScenarioError: missing file, no header or a header without those columns, a row with another
+            number of fields than the header or a bad number, no rows, times that do not increase.
+    """
+    path = Path(path)
+    lines = _data_lines(path, "route CSV")
+    if not lines:
+        raise ScenarioError(path, "route CSV is empty: expected a header t,x,y,heading and one pose a row")
+    hline, header = lines[0][0], [f.lower() for f in _csv_fields(lines[0][1])]
+    missing = [c for c in PLANAR_CSV_COLUMNS if c not in header]
+    if missing:
+        raise ScenarioError(path, f"route CSV header {','.join(header)!r} lacks column(s) {', '.join(missing)}: "
+                            "expected a header naming t,x,y,heading (heading in radians)", hline)
+    dup = sorted({c for c in header if header.count(c) > 1 and c in PLANAR_CSV_COLUMNS})
+    if dup:
+        raise ScenarioError(path, f"route CSV header names column(s) {', '.join(dup)} twice", hline)
+    cols = [header.index(c) for c in PLANAR_CSV_COLUMNS]
+    rows, linenos = [], []
+    for lineno, s in lines[1:]:
+        fields = _csv_fields(s)
+        if len(fields) != len(header):
+            raise ScenarioError(path, f"expected {len(header)} comma-separated fields as in the header, found {len(fields)}", lineno)
+        rows.append(_parse_row(" ".join(fields[c] for c in cols), path, lineno, 4, "t,x,y,heading"))
+        linenos.append(lineno)
+    if not rows:
+        raise ScenarioError(path, "route CSV has a header but no poses")
+    a = np.asarray(rows)
+    _increasing(a[:, 0].tolist(), path, linenos)
+    return Trajectory(a[:, 1:4], a[:, 0], np.arange(len(a)), str(path))
+
+
+def write_planar_csv(path: str | Path, planar: np.ndarray, times: np.ndarray) -> Path:
+    """Write planar poses as a route CSV ``t,x,y,heading`` (full float precision; atomically)."""
+    body = "".join(f"{t!r},{x!r},{y!r},{h!r}\n"
+                   for t, (x, y, h) in zip(np.asarray(times, dtype=float).tolist(), np.asarray(planar, dtype=float).tolist()))
+    return atomic_write_text(path, "t,x,y,heading\n" + body)
+
+
+def sniff_route_format(path: str | Path) -> str:
+    """The format of a route file when none is given: ``csv`` for a ``.csv`` file; otherwise by the
+    first line that is not blank or a ``#`` comment: a header (a field that is not a number) means
+    ``csv``, 12 numbers ``kitti`` (a 3x4 pose matrix), 8 numbers ``tum``.
+
+    Raises:
+        ScenarioError: missing or empty file, or a first line that fits none of the formats.
+    """
+    path = Path(path)
+    if path.suffix.lower() == ".csv":
+        return "csv"
+    lines = _data_lines(path, "route")
+    if not lines:
+        raise ScenarioError(path, "route file is empty")
+    lineno, first = lines[0]
+    parts = first.replace(",", " ").split()
+    if not all(_is_float(p) for p in parts):
+        return "csv"
+    by_count = {12: "kitti", 8: "tum"}
+    if len(parts) not in by_count:
+        raise ScenarioError(path, f"cannot tell the route format: {len(parts)} numbers on the first line "
+                            "(KITTI poses have 12, TUM trajectories 8, a planar CSV has a header t,x,y,heading); "
+                            "give the format (--route-format kitti|tum|csv)", lineno)
+    return by_count[len(parts)]
+
+
+def load_route_file(path: str | Path, fmt: str | None = None, times: str | Path | None = None,
+                    *, frame_rate_hz: float = DEFAULT_FRAME_RATE_HZ) -> tuple[Trajectory, tuple[str, ...]]:
+    """Read a route in ``fmt`` (``kitti``, ``tum``, ``csv``; None: :func:`sniff_route_format`).
+
+    ``times`` goes with a KITTI pose file only (TUM and CSV routes carry their own timestamps); a
+    KITTI pose file without it is taken at ``frame_rate_hz``, and the returned notes say so.
+
+    Returns:
+        (route, notes): notes are lines to tell the user (an assumed rate, a TUM file that does not
+        look z-up).
+    """
+    path = Path(path)
+    if fmt is None:
+        fmt = sniff_route_format(path)
+    if fmt not in ROUTE_FORMATS:
+        raise InputError(f"unknown route format {fmt!r}; expected one of {', '.join(ROUTE_FORMATS)}")
+    if times is not None and fmt != "kitti":
+        raise InputError(f"timestamps {times} go with a KITTI pose file; a {fmt} route ({path}) carries its own")
+    notes: list[str] = []
+    if fmt == "kitti":
+        route = load_trajectory(path, times, frame_rate_hz=frame_rate_hz)
+        if times is None:
+            notes.append(f"route {path} has no timestamps: assumed {frame_rate_hz:g} Hz (give its times file to use real ones)")
+    elif fmt == "csv":
+        route = read_planar_csv(path)
+    else:
+        route, z = _read_tum(path)
+        extent = max(float(np.ptp(route.poses[:, 0])), float(np.ptp(route.poses[:, 1])))
+        if np.ptp(z) > 1.0 and np.ptp(z) > 0.5 * extent:
+            notes.append(f"route {path}: tz spans {np.ptp(z):.1f} m against {extent:.1f} m in x-y; sensorsel takes a TUM "
+                         "file as z-up (ground plane x-y): a camera-frame (y-down) trajectory must be converted first")
+    return route, tuple(notes)
+
+
+def route_name(path: str | Path) -> str:
+    """The name of a scenario read from a route file: the file's stem, or its folder's name when the
+    stem says nothing about the drive (``poses``, ``groundtruth``, ``trajectory``, ...)."""
+    path = Path(path)
+    if path.stem.lower() in _GENERIC_STEMS and path.resolve().parent.name:
+        return path.resolve().parent.name
+    return path.stem
+
+
 def resolve_kitti_root(explicit: str | Path | None) -> Path:
     """The KITTI ``dataset/`` folder: the explicit path, else ``$SENSORSEL_KITTI_ROOT``.
 
@@ -355,31 +561,138 @@ def _densify(xy: np.ndarray, step: float) -> np.ndarray:
 
 
 def read_landmarks_csv(path: str | Path) -> np.ndarray:
-    """Read landmarks from a CSV of ``x,y`` rows [m] (an optional header line ``x,y``; blank lines and
-    ``#`` comments are skipped).
+    """Read landmarks [m] from a CSV file, one landmark a row, as written (duplicates kept).
+
+    Blank lines and ``#`` comments are skipped. The first other line is a header when any of its
+    fields is not a number: it must name columns ``x`` and ``y`` (any case, any order), other columns
+    (``z``, ``kind``, ``id``, ...) are ignored. Without a header, x and y are the first two columns
+    and further columns are ignored. Every row has as many fields as the first (fields may be
+    quoted, as CSV allows).
 
     Raises:
-        ScenarioError: missing file, a row without two finite numbers (names the line), no landmark.
+        ScenarioError: missing file, a header without x and y, a row with another number of fields
+            or a bad x or y (names the line), no landmark.
     """
     path = Path(path)
+    lines = _data_lines(path, "landmark")
+    cols, n_fields, start = (0, 1), None, 0
+    if lines:
+        hline, first = lines[0]
+        fields = _csv_fields(first)
+        if not all(_is_float(f) for f in fields):
+            header = [f.lower() for f in fields]
+            missing = [c for c in ("x", "y") if c not in header]
+            if missing:
+                raise ScenarioError(path, f"header {first!r} names no {' and no '.join(missing)} column: expected a header "
+                                    "naming x and y (metres; other columns are ignored) or rows of numbers", hline)
+            for c in ("x", "y"):
+                if header.count(c) > 1:
+                    raise ScenarioError(path, f"header {first!r} names column {c} twice", hline)
+            cols, n_fields, start = (header.index("x"), header.index("y")), len(header), 1
     rows = []
-    header_allowed = True  # the header may follow leading comments, but not a data row
-    for lineno, line in enumerate(_read_lines(path, "landmark"), start=1):
-        s = line.strip()
-        if not s or s.startswith("#"):
-            continue
-        if header_allowed and s.replace(" ", "").lower() == "x,y":
-            header_allowed = False
-            continue
-        header_allowed = False
-        parts = [p.strip() for p in s.split(",")]
-        if len(parts) != 2:
-            raise ScenarioError(path, f"expected 2 comma-separated numbers (x,y), found {len(parts)} fields", lineno)
-        rows.append(_parse_row(" ".join(parts), path, lineno, 2, "x,y"))
+    for lineno, s in lines[start:]:
+        fields = _csv_fields(s)
+        if n_fields is None:
+            n_fields = len(fields)
+            if n_fields < 2:
+                raise ScenarioError(path, f"expected comma-separated x,y (metres), found {n_fields} fields", lineno)
+        if len(fields) != n_fields:
+            raise ScenarioError(path, f"expected {n_fields} comma-separated fields as in the {'header' if start else 'first row'}, "
+                                f"found {len(fields)} fields", lineno)
+        rows.append(_parse_row(f"{fields[cols[0]]} {fields[cols[1]]}", path, lineno, 2, "x,y"))
     if not rows:
         # an empty map would silently make every suite score 0
         raise ScenarioError(path, "landmark file has no landmarks: expected rows of x,y in metres")
     return np.asarray(rows, dtype=float).reshape(-1, 2)
+
+
+@dataclass(frozen=True)
+class LandmarkReport:
+    """What was done to a landmark set before it became a scenario's landmarks.
+
+    Attributes:
+        source: where the landmarks came from (as :attr:`Scenario.landmark_source`).
+        n_read: landmarks read (or generated), duplicates included.
+        n_duplicates: rows that repeat an earlier row exactly (same x and y): always merged.
+        on_road_m: the distance to the route polyline under which a landmark counts as on the road:
+            the clearance when one is given, else :data:`ON_ROAD_M` (then only counted).
+        n_on_road: distinct landmarks closer than ``on_road_m`` to the route.
+        clearance_m: the clearance asked for (None: no landmark dropped for standing on the road).
+        n_dropped: landmarks dropped for the clearance (``n_on_road`` when it is given, else 0).
+        min_distance_m: smallest distance of a kept landmark to the route [m] (inf: none kept).
+    """
+
+    source: str
+    n_read: int
+    n_duplicates: int
+    on_road_m: float
+    n_on_road: int
+    clearance_m: float | None
+    n_dropped: int
+    min_distance_m: float
+
+    @property
+    def n_kept(self) -> int:
+        return self.n_read - self.n_duplicates - self.n_dropped
+
+    def notes(self, always: bool = True) -> list[str]:
+        """One line saying what was read, merged and dropped (``always=False``: only when something
+        was merged, dropped or stands on the road)."""
+        if not always and not (self.n_duplicates or self.n_on_road):
+            return []
+        parts = [f"{self.n_read} read"]
+        if self.n_duplicates:
+            parts.append(f"{self.n_duplicates} exact duplicate(s) merged")
+        if self.clearance_m is not None:
+            parts.append(f"{self.n_dropped} closer than the clearance {self.clearance_m:g} m to the route dropped")
+        elif self.n_on_road:
+            parts.append(f"{self.n_on_road} within {self.on_road_m:g} m of the route kept (a clearance drops them: --clearance {self.on_road_m:g})")
+        return [f"landmarks: {self.source}: {', '.join(parts)}: {self.n_kept} used"]
+
+
+def distance_to_route(points: np.ndarray, xy: np.ndarray, chunk: int = 256) -> np.ndarray:
+    """Exact distance [m] of each point (M, 2) to the polyline through ``xy`` (K, 2)."""
+    points = np.asarray(points, dtype=float).reshape(-1, 2)
+    xy = np.asarray(xy, dtype=float).reshape(-1, 2)
+    if len(xy) == 1:
+        return np.hypot(*(points - xy[0]).T)
+    a, ab = xy[:-1], np.diff(xy, axis=0)
+    ab2 = np.maximum(np.einsum("sk,sk->s", ab, ab), 1e-300)
+    out = np.empty(len(points))
+    for i in range(0, len(points), chunk):
+        p = points[i:i + chunk, None, :] - a[None]
+        t = np.clip(np.einsum("psk,sk->ps", p, ab) / ab2, 0.0, 1.0)
+        d = p - t[..., None] * ab[None]
+        out[i:i + chunk] = np.sqrt(np.min(np.einsum("psk,psk->ps", d, d), axis=1))
+    return out
+
+
+def clean_landmarks(landmarks: np.ndarray, route: Trajectory, clearance_m: float | None = None,
+                    source: str = "<memory>") -> tuple[np.ndarray, LandmarkReport]:
+    """Merge exact duplicates (first occurrence kept, order kept), count the landmarks standing on
+    the road (closer than ``clearance_m``, or :data:`ON_ROAD_M` when None, to the polyline of the
+    full-rate ``route``) and drop them when ``clearance_m`` is given.
+
+    Returns:
+        (landmarks kept, the report of what was done).
+    """
+    if clearance_m is not None and not (isinstance(clearance_m, (int, float)) and math.isfinite(clearance_m) and clearance_m >= 0):
+        raise InputError(f"clearance must be a number of metres >= 0, got {clearance_m!r}")
+    lm = np.asarray(landmarks, dtype=float).reshape(-1, 2)
+    n_read = len(lm)
+    if n_read:
+        _, first = np.unique(lm, axis=0, return_index=True)
+        lm = lm[np.sort(first)]
+    n_duplicates = n_read - len(lm)
+    on_road_m = ON_ROAD_M if clearance_m is None else float(clearance_m)
+    dist = distance_to_route(lm, route.poses[:, :2]) if len(lm) else np.zeros(0)
+    near = dist < on_road_m
+    dropped = int(near.sum()) if clearance_m is not None else 0
+    if clearance_m is not None:
+        lm, dist = lm[~near], dist[~near]
+    report = LandmarkReport(source, n_read, n_duplicates, on_road_m, int(near.sum()), None if clearance_m is None else float(clearance_m), dropped,
+                            float(dist.min()) if len(dist) else math.inf)
+    return lm, report
 
 
 def write_landmarks_csv(path: str | Path, landmarks: np.ndarray) -> Path:
@@ -395,8 +708,20 @@ def write_landmarks_csv(path: str | Path, landmarks: np.ndarray) -> Path:
 class ScenarioSpec:
     """Everything that defines a scenario, as a user states it (and as results record it).
 
-    Exactly one route source is used: ``poses`` (a KITTI-format file), else ``seq`` (under
-    ``kitti_root`` / ``$SENSORSEL_KITTI_ROOT``), else the bundled fixture ``fixture``.
+    Exactly one route source is used: ``route`` (a route file in ``route_format``: ``kitti``,
+    ``tum`` or ``csv``; None: sniffed, see :func:`sniff_route_format`), else ``poses`` (a KITTI pose
+    file, the older spelling of ``route`` + ``route_format="kitti"``), else ``seq`` (under
+    ``kitti_root`` / ``$SENSORSEL_KITTI_ROOT``), else the bundled fixture ``fixture``. ``times``
+    goes with a KITTI pose file (without it: 10 Hz, and a note says so).
+
+    ``landmarks``: None (default) uses the route's own map: a sequence's ``landmarks/NN.csv`` pole
+    map when the KITTI folder has one, a fixture's bundled CSV, else generated; ``"real"`` requires
+    the sequence's pole map; ``"synthetic"`` always generates (``landmark_model``, ``landmark_seed``);
+    anything else is a landmark CSV file (:func:`read_landmarks_csv`).
+
+    ``clearance_m``: drop landmarks closer than this to the route (None: count them, keep them).
+    ``name``: the scenario's name (default: the sequence, the fixture, or the route file's name as
+    :func:`route_name` gives it).
     """
 
     seq: str | None = None
@@ -408,6 +733,10 @@ class ScenarioSpec:
     landmark_seed: int = 0
     keyframe_rate_hz: float = 1.0
     landmark_model: LandmarkModel = field(default_factory=LandmarkModel)
+    route: str | None = None
+    route_format: str | None = None
+    clearance_m: float | None = None
+    name: str | None = None
 
 
 def fixture_names() -> list[str]:
@@ -415,22 +744,66 @@ def fixture_names() -> list[str]:
     return sorted(p.stem for p in (fixtures_dir() / "poses").glob("*.txt"))
 
 
-def load_route(spec: ScenarioSpec = ScenarioSpec()) -> tuple[Trajectory, str, Path | None]:
-    """The full-rate route of ``spec``: (route, scenario name, the fixture's landmark CSV or None)."""
-    if spec.poses is not None:
-        return load_trajectory(spec.poses, spec.times), Path(spec.poses).stem, None
+@dataclass(frozen=True)
+class _Route:
+    route: Trajectory
+    name: str
+    own_landmarks: Path | None  # the route's own map (a pole map, a fixture's CSV), if it has one
+    own_label: str  # how to name that map as a landmark source
+    notes: tuple[str, ...]
+    missing_map: str | None = None  # why a sequence has no own map (for the notes)
+
+
+def kitti_map_path(root: str | Path, seq: str) -> Path:
+    """Where a KITTI folder keeps the pole map of sequence ``seq``: ``landmarks/NN.csv``."""
+    return Path(root) / "landmarks" / f"{seq}.csv"
+
+
+def _load_route(spec: ScenarioSpec) -> _Route:
+    if spec.route is not None and spec.poses is not None:
+        raise InputError(f"give one route file: route {spec.route} or poses {spec.poses}, not both")
+    if spec.route_format is not None and spec.route is None:
+        raise InputError(f"a route format ({spec.route_format}) goes with a route file")
+    if spec.times is not None and spec.route is None and spec.poses is None:
+        raise InputError(f"timestamps {spec.times} go with a KITTI pose file (a sequence or fixture has its own times.txt)")
+    if spec.route is not None or spec.poses is not None:
+        path, fmt = (spec.route, spec.route_format) if spec.route is not None else (spec.poses, "kitti")
+        route, notes = load_route_file(path, fmt, spec.times)
+        return _Route(route, route_name(path), None, "", notes)
     if spec.seq is not None:
-        return load_sequence(resolve_kitti_root(spec.kitti_root), spec.seq), spec.seq, None
+        root = resolve_kitti_root(spec.kitti_root)
+        lm = kitti_map_path(root, spec.seq)
+        route = load_sequence(root, spec.seq)
+        if lm.is_file():
+            return _Route(route, spec.seq, lm, f"KITTI pole map {lm}", ())
+        return _Route(route, spec.seq, None, "", (), f"no pole map {lm}")
     root = fixtures_dir()
     if spec.fixture not in fixture_names():
         raise InputError(f"unknown fixture {spec.fixture!r}; bundled fixtures: {', '.join(fixture_names())}")
-    return load_sequence(root, spec.fixture), spec.fixture, root / "landmarks" / f"{spec.fixture}.csv"
+    lm = root / "landmarks" / f"{spec.fixture}.csv"
+    return _Route(load_sequence(root, spec.fixture), spec.fixture, lm, str(lm), ())
+
+
+def load_route(spec: ScenarioSpec = ScenarioSpec()) -> tuple[Trajectory, str, Path | None]:
+    """The full-rate route of ``spec``: (route, scenario name, the route's own landmark map or None:
+    a sequence's pole map, a fixture's CSV)."""
+    r = _load_route(spec)
+    return r.route, _name(spec, r.name), r.own_landmarks
+
+
+def _name(spec: ScenarioSpec, default: str) -> str:
+    if spec.name is None:
+        return default
+    if not isinstance(spec.name, str) or not spec.name.strip() or any(c in spec.name for c in "\r\n\t"):
+        raise InputError(f"scenario name must be a non-empty line of text, got {spec.name!r}")
+    return spec.name.strip()
 
 
 def route_landmarks(spec: ScenarioSpec = ScenarioSpec()) -> np.ndarray:
     """Synthetic landmarks along the route of ``spec`` from ``spec.landmark_model`` and
-    ``spec.landmark_seed``, always generated (a fixture's bundled CSV and ``spec.landmarks`` are not
-    read): the file a user writes once and edits, or passes back with ``--landmarks``.
+    ``spec.landmark_seed``, always generated (a fixture's bundled CSV, a sequence's pole map and
+    ``spec.landmarks`` are not read): the file a user writes once and edits, or passes back with
+    ``--landmarks``.
 
     Returns:
         (M, 2) positions [m] in the planar frame.
@@ -440,16 +813,47 @@ def route_landmarks(spec: ScenarioSpec = ScenarioSpec()) -> np.ndarray:
 
 
 def load_scenario(spec: ScenarioSpec = ScenarioSpec()) -> Scenario:
-    """Build a scenario: read the route, take keyframes, read or generate landmarks."""
-    route, name, default_landmarks = load_route(spec)
+    """Build a scenario: read the route, take keyframes, read or generate landmarks, merge their
+    exact duplicates and count (with ``spec.clearance_m``: drop) those standing on the road.
+
+    What was assumed, merged or dropped is in the scenario's ``notes`` (:func:`scenario_notes`) and
+    ``landmark_report``.
+    """
+    r = _load_route(spec)
+    route, name = r.route, _name(spec, r.name)
     keyframes = route.select(select_keyframes(route.times, spec.keyframe_rate_hz))
     if len(keyframes) < 2:
         raise InputError(f"route {route.source} gives {len(keyframes)} keyframe(s) at {spec.keyframe_rate_hz} Hz; need at least 2")
-    lm_path = spec.landmarks or (str(default_landmarks) if default_landmarks else None)
-    if lm_path is not None:
-        landmarks = read_landmarks_csv(lm_path)
-        source = str(lm_path)
-    else:
-        landmarks = generate_landmarks(route, spec.landmark_model, spec.landmark_seed)
+    notes = list(r.notes)
+    choice = spec.landmarks
+    if choice == REAL:
+        if spec.seq is None or spec.route is not None or spec.poses is not None:
+            raise InputError("landmarks 'real' means a KITTI sequence's pole map: it goes with a sequence (--seq NN)")
+        if r.own_landmarks is None:
+            raise InputError(f"landmarks 'real': {r.missing_map} (the KITTI folder has no landmarks/{spec.seq}.csv)")
+    if choice == SYNTHETIC or (choice is None and r.own_landmarks is None):
+        raw = generate_landmarks(route, spec.landmark_model, spec.landmark_seed)
         source = f"generated (seed {spec.landmark_seed})"
-    return Scenario(name, keyframes, landmarks, source, route)
+        if choice is None and r.missing_map:
+            notes.append(f"landmarks: {r.missing_map}: generated synthetic landmarks (seed {spec.landmark_seed})")
+        elif choice is None:
+            notes.append(f"landmarks: the route has no map: generated synthetic landmarks (seed {spec.landmark_seed}; "
+                         "give a landmark file for a real one)")
+    elif choice is None or choice == REAL:
+        assert r.own_landmarks is not None
+        raw, source = read_landmarks_csv(r.own_landmarks), r.own_label
+    else:
+        raw, source = read_landmarks_csv(choice), str(choice)
+    landmarks, report = clean_landmarks(raw, route, spec.clearance_m, source)
+    notes.extend(report.notes(always=not source.startswith("generated")))
+    if not len(landmarks):
+        raise InputError(f"no landmark left of the {report.n_read} of {source} (clearance {spec.clearance_m} m): every suite would score 0")
+    return Scenario(name, keyframes, landmarks, source, route, report, tuple(notes))
+
+
+def scenario_notes(scenario: Scenario) -> list[str]:
+    """Lines a command prints on stderr before its output: what was assumed in building the
+    scenario (a frame rate, synthetic landmarks for want of a map) and what was done to its
+    landmarks (read, duplicates merged, on the road kept or dropped). Empty for a scenario built
+    from arrays."""
+    return list(scenario.notes)

@@ -12,7 +12,7 @@ import click
 from ..errors import SensorselError
 from ..pipeline import load_problem
 from ..problem import Problem
-from ..scenario import KITTI_ROOT_ENV, ScenarioSpec
+from ..scenario import KITTI_ROOT_ENV, ROUTE_FORMATS, ScenarioSpec
 
 
 def run(fn: Callable[..., Any]) -> Callable[..., Any]:
@@ -33,31 +33,54 @@ def run(fn: Callable[..., Any]) -> Callable[..., Any]:
 
 
 def scenario_options(fn: Callable[..., Any]) -> Callable[..., Any]:
-    """--seq/--kitti-root/--poses/--times/--fixture/--landmarks/--landmark-seed/--rate/--library."""
+    """--seq/--kitti-root/--route/--route-format/--poses/--times/--fixture/--name/--landmarks/
+    --landmark-seed/--clearance/--rate/--library."""
     opts = [
-        click.option("--seq", metavar="NN", help="KITTI odometry sequence (e.g. 03, 00); needs --kitti-root or $" + KITTI_ROOT_ENV + "."),
+        click.option("--seq", metavar="NN", help="KITTI odometry sequence (e.g. 03, 00); needs --kitti-root or $" + KITTI_ROOT_ENV + ". "
+                     "Its landmarks are the folder's pole map landmarks/NN.csv when there is one."),
         click.option("--kitti-root", type=click.Path(file_okay=False, path_type=str), envvar=KITTI_ROOT_ENV, show_envvar=True,
-                     help="KITTI odometry dataset/ folder (poses/NN.txt, sequences/NN/times.txt)."),
-        click.option("--poses", type=click.Path(dir_okay=False, path_type=str), help="A route in KITTI's pose format (12 numbers a line)."),
-        click.option("--times", type=click.Path(dir_okay=False, path_type=str), help="Timestamps for --poses (default: 10 Hz)."),
-        click.option("--fixture", default="suburb", show_default=True, help="Bundled synthetic scenario used when neither --seq nor --poses is given."),
-        click.option("--landmarks", type=click.Path(dir_okay=False, path_type=str), help="Landmark CSV (x,y in metres); default: generated (synthetic)."),
+                     help="KITTI odometry dataset/ folder (poses/NN.txt, sequences/NN/times.txt, optional landmarks/NN.csv)."),
+        click.option("--route", type=click.Path(dir_okay=False, path_type=str),
+                     help="A route file: KITTI poses (12 numbers a line), a TUM trajectory (timestamp tx ty tz qx qy qz qw; "
+                          "x-y is the ground, heading = yaw) or a planar CSV (header t,x,y,heading; radians)."),
+        click.option("--route-format", type=click.Choice(list(ROUTE_FORMATS)),
+                     help="Format of --route (default: csv for a .csv file, else by its first line: 12 numbers kitti, "
+                          "8 numbers tum, a header csv)."),
+        click.option("--poses", type=click.Path(dir_okay=False, path_type=str), help="A route in KITTI's pose format (as --route FILE --route-format kitti)."),
+        click.option("--times", type=click.Path(dir_okay=False, path_type=str), help="Timestamps for a KITTI pose file (default: 10 Hz, said on stderr)."),
+        click.option("--fixture", default="suburb", show_default=True, help="Bundled synthetic scenario used when no route is given."),
+        click.option("--name", "scenario_name", metavar="TEXT", help="Name of the scenario (default: the sequence, fixture or route file's name)."),
+        click.option("--landmarks", metavar="real|synthetic|FILE",
+                     help="Landmarks: 'real' (the sequence's pole map), 'synthetic' (generated), or a CSV file (x,y columns, "
+                          "metres; other columns ignored). Default: the route's own map, else synthetic."),
         click.option("--landmark-seed", type=int, default=0, show_default=True, help="Seed of the synthetic landmark generator."),
+        click.option("--clearance", "clearance_m", type=click.FloatRange(min=0.0), metavar="METRES",
+                     help="Drop landmarks closer than this to the route (standing on the road). Default: keep them, counted on "
+                          "stderr; exact duplicates are always merged."),
         click.option("--rate", "keyframe_rate_hz", type=float, default=1.0, show_default=True, help="Keyframe rate along the route [Hz]."),
         click.option("--library", "library_path", type=click.Path(dir_okay=False, path_type=str), help="Sensor library YAML (default: the paper's Table I)."),
     ]
+    # A command's own option of the same name wins (`landmarks` has its generator's --clearance, the
+    # same rule applied while generating): the shared one is then not added, and spec_from leaves
+    # its field at the default.
+    own = {o for p in getattr(fn, "__click_params__", []) for o in getattr(p, "opts", [])}
     for opt in reversed(opts):
-        fn = opt(fn)
+        probe = opt(lambda: None).__click_params__[0]
+        if not own.intersection(probe.opts):
+            fn = opt(fn)
     return fn
 
 
 def spec_from(kw: dict[str, Any]) -> ScenarioSpec:
     """Pop the scenario options out of a command's keyword arguments."""
-    if kw.get("poses") and kw.get("seq"):
-        raise click.UsageError("give either --seq or --poses, not both")
-    if kw.get("times") and not kw.get("poses"):
+    given = [f"--{k}" for k in ("seq", "route", "poses") if kw.get(k)]
+    if len(given) > 1:
+        raise click.UsageError(f"give one route: {' or '.join(given)}, not {len(given) == 2 and 'both' or 'several'}")
+    if kw.get("route_format") and not kw.get("route"):
+        raise click.UsageError(f"--route-format {kw['route_format']} goes with --route FILE")
+    if kw.get("times") and not (kw.get("poses") or kw.get("route")):
         # a --seq or a fixture reads its own times.txt: a --times here would be silently ignored
-        raise click.UsageError(f"--times {kw['times']} goes with --poses FILE (a --seq or fixture has its own times.txt)")
+        raise click.UsageError(f"--times {kw['times']} goes with --poses FILE or a KITTI --route FILE (a --seq or fixture has its own times.txt)")
     return ScenarioSpec(
         seq=kw.pop("seq"),
         kitti_root=kw.pop("kitti_root"),
@@ -67,6 +90,10 @@ def spec_from(kw: dict[str, Any]) -> ScenarioSpec:
         landmarks=kw.pop("landmarks"),
         landmark_seed=kw.pop("landmark_seed"),
         keyframe_rate_hz=kw.pop("keyframe_rate_hz"),
+        route=kw.pop("route"),
+        route_format=kw.pop("route_format"),
+        clearance_m=kw.pop("clearance_m", None),
+        name=kw.pop("scenario_name"),
     )
 
 
