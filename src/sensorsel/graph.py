@@ -67,8 +67,8 @@ def odometry_factor(k: int, step: gtsam.Pose2, noise: gtsam.noiseModel.Base) -> 
     return gtsam.BetweenFactorPose2(X(k - 1), X(k), step, noise)
 
 
-def landmark_prior(j: int, point: gtsam.Point2, noise: gtsam.noiseModel.Base) -> gtsam.NonlinearFactor:
-    """A prior on landmark j at ``point``."""
+def landmark_prior(j: int, point: np.ndarray, noise: gtsam.noiseModel.Base) -> gtsam.NonlinearFactor:
+    """A prior on landmark j at ``point`` (a ``Point2``: (x, y) [m])."""
     return gtsam.PriorFactorPoint2(L(j), point, noise)
 
 
