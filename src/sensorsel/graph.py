@@ -251,19 +251,8 @@ def linearize_library(problem: Problem) -> LibraryLinearization:
     rows, cols, vals = rows[keep], cols[keep], vals[keep]
     assert graph.size() - n_base == len(uniq)
 
-    # base graph: pose part and landmark part (the base couples no pose with a landmark)
     is_base = rows < base_rows
-    jb = sp.csr_matrix((vals[is_base], (rows[is_base], cols[is_base])), shape=(base_rows, n_cols))
-    info = (jb.T @ jb).tocsr()
-    lm = slice(0, 2 * n_landmarks)
-    ps = slice(2 * n_landmarks, n_cols)
-    if info[lm, ps].count_nonzero():
-        raise AssertionError("base graph couples poses and landmarks: unexpected column layout")
-    two = 2 * np.arange(n_landmarks)
-    base_lm = np.zeros((n_landmarks, 2, 2))
-    for a in range(2):
-        for c in range(2):
-            base_lm[:, a, c] = np.asarray(info[two + a, two + c]).ravel()
+    base_pose, base_lm = _base_information(rows[is_base], cols[is_base], vals[is_base], base_rows, n_landmarks, n_cols)
 
     # pair rows: 2 per pair; columns mapped to [pose (3), landmark (2)] within the pair
     r, c, v = rows[~is_base] - base_rows, cols[~is_base], vals[~is_base]
@@ -278,5 +267,23 @@ def linearize_library(problem: Problem) -> LibraryLinearization:
     sigmas = tuple(np.column_stack([o.sigma_bearing_rad, o.sigma_range_m]).astype(float) for o in obs)
     return LibraryLinearization(
         pair_pose=pair_pose, pair_landmark=pair_landmark, pair_jacobian=jac, sensor_pairs=sensor_pairs,
-        sensor_sigmas=sigmas, base_pose_information=info[ps, ps].tocsr(), base_landmark_information=base_lm,
+        sensor_sigmas=sigmas, base_pose_information=base_pose, base_landmark_information=base_lm,
     )
+
+
+def _base_information(rows: np.ndarray, cols: np.ndarray, vals: np.ndarray, base_rows: int, n_landmarks: int,
+                      n_cols: int) -> tuple[sp.csr_matrix, np.ndarray]:
+    """The base graph's information from its Jacobian triplets: (pose part (3K, 3K) sparse, landmark
+    part (M, 2, 2)); the base couples no pose with a landmark (checked)."""
+    jb = sp.csr_matrix((vals, (rows, cols)), shape=(base_rows, n_cols))
+    info = (jb.T @ jb).tocsr()
+    lm = slice(0, 2 * n_landmarks)
+    ps = slice(2 * n_landmarks, n_cols)
+    if info[lm, ps].count_nonzero():
+        raise AssertionError("base graph couples poses and landmarks: unexpected column layout")
+    two = 2 * np.arange(n_landmarks)
+    base_lm = np.zeros((n_landmarks, 2, 2))
+    for a in range(2):
+        for c in range(2):
+            base_lm[:, a, c] = np.asarray(info[two + a, two + c]).ravel()
+    return info[ps, ps].tocsr(), base_lm
