@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -24,7 +25,7 @@ from sensorsel.graph import GraphBuilder
 from sensorsel.objective import make_evaluator
 from sensorsel.problem import build_problem
 from sensorsel.resilient import (
-    ACTIVE, FAILED, PerPeriodResult, ResilientReport, SelectionGrid, check_period, compare, period_file, period_scenario,
+    ACTIVE, FAILED, CacheWarning, PerPeriodResult, ResilientReport, SelectionGrid, check_period, compare, period_file, period_scenario,
     resilient_report, resilient_select, run_periods, split_periods, worst_case,
 )
 from sensorsel.scenario import Scenario, ScenarioSpec, Trajectory, load_scenario
@@ -298,15 +299,35 @@ def test_resume_after_deleting_periods_and_after_changing_inputs(tiny, tmp_path)
     for k in (1, 3):
         period_file(out, k).unlink()
     assert _text(_report(tiny, out, resume=True)) == _text(full)
-    # another budget: every stored file has the wrong fingerprint and is recomputed
-    cheaper = _report(tiny, out, resume=True, budget=105_000)
+    # another budget: every stored file has the wrong fingerprint, is reported by name and recomputed
+    with pytest.warns(CacheWarning) as caught:
+        cheaper = _report(tiny, out, resume=True, budget=105_000)
+    named = {str(w.message).split(":")[0] for w in caught}
+    assert named == {str(out / "periods" / "route.json")} | {str(period_file(out, k)) for k in range(len(full.per_period.periods))}
+    assert all("other inputs" in str(w.message) for w in caught)
     fresh = _report(tiny, tmp_path / "fresh", budget=105_000)
     assert _text(cheaper) == _text(fresh) and _text(cheaper) != _text(full)
     stored = results.load(ResilientReport, results.save(cheaper, tmp_path / "c.json"))
     assert stored.per_period.periods[0].result.budget_usd == 105_000
-    # a damaged period file is recomputed, not trusted
+    # a damaged period file is reported and recomputed, not trusted; the matching ones are reused quietly
     period_file(out, 0).write_text("{ not json")
-    assert _text(_report(tiny, out, resume=True, budget=105_000)) == _text(fresh)
+    with pytest.warns(CacheWarning) as caught:
+        assert _text(_report(tiny, out, resume=True, budget=105_000)) == _text(fresh)
+    assert [str(w.message).split(":")[0] for w in caught] == [str(period_file(out, 0))]
+    assert "cannot be read" in str(caught[0].message)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert _text(_report(tiny, out, resume=True, budget=105_000)) == _text(fresh)
+
+
+def test_damaged_route_cache_is_reported(tiny, tmp_path):
+    cache = tmp_path / "route.json"
+    first = compare(tiny, 110_000, 1, engine="reference", cache=cache)
+    cache.write_text(json.dumps({"alpha": 1}))  # JSON, but not a Comparison
+    with pytest.warns(CacheWarning, match="route.json: not reused, it cannot be read as a Comparison"):
+        again = compare(tiny, 110_000, 1, engine="reference", cache=cache, resume=True)
+    assert _text(again) == _text(first)
+    assert results.load(type(first), cache).fingerprint == first.fingerprint  # overwritten with a good file
 
 
 # ---------------------------------------------------------------------------------- plot

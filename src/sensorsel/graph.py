@@ -1,6 +1,6 @@
 """The GTSAM factor graph of a sensor suite, and the reference score read off R's diagonal.
 
-This module (with :mod:`sensorsel.simulate`) is where gtsam is imported. Following GTSAM's Python
+This module (with :mod:`sensorsel.simulate`) is where gtsam is imported, and the only place factors are built. Following GTSAM's Python
 examples: poses are ``X(k)`` (``Pose2``), landmarks ``L(j)`` (``Point2``), each measurement a
 ``BearingRangeFactor2D``; noise models that do not vary per measurement are built once.
 
@@ -13,7 +13,7 @@ Cholesky: the fast path of the gtsam wheel, see shared notes) gives the Bayes tr
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Iterable
+from typing import Iterable, Sequence
 
 import gtsam
 import numpy as np
@@ -23,17 +23,107 @@ from gtsam.symbol_shorthand import L, X
 from .problem import Problem
 
 
+# ------------------------------------------------------------------ factor construction
+#
+# Every factor of the project is built by the functions below: the score's graph (GraphBuilder),
+# the library linearization and the Monte-Carlo simulation (sensorsel.simulate) all call them.
+# Keys follow GTSAM's examples: X(k) is keyframe k (Pose2), L(j) landmark j (Point2); because a
+# symbol is its character in the top byte plus its index, X(k) == X(0) + k, which the bulk
+# measurement loop uses to stay cheap on ~160k factors.
+
+
+def diagonal(sigmas: Sequence[float] | np.ndarray) -> gtsam.noiseModel.Base:
+    """A diagonal Gaussian noise model with these standard deviations."""
+    return gtsam.noiseModel.Diagonal.Sigmas(np.asarray(sigmas, dtype=float))
+
+
+def pose2(pose: Sequence[float] | np.ndarray) -> gtsam.Pose2:
+    """``Pose2`` of (x [m], y [m], heading [rad])."""
+    x, y, t = pose
+    return gtsam.Pose2(float(x), float(y), float(t))
+
+
+class MeasurementNoise:
+    """Diagonal (bearing [rad], range [m]) noise models, one per distinct pair of sigmas (built once)."""
+
+    def __init__(self) -> None:
+        self._cache: dict[tuple[float, float], gtsam.noiseModel.Base] = {}
+
+    def __call__(self, sigma_bearing_rad: float, sigma_range_m: float) -> gtsam.noiseModel.Base:
+        key = (float(sigma_bearing_rad), float(sigma_range_m))
+        model = self._cache.get(key)
+        if model is None:
+            model = self._cache[key] = diagonal(key)
+        return model
+
+
+def first_pose_prior(pose: gtsam.Pose2, noise: gtsam.noiseModel.Base) -> gtsam.NonlinearFactor:
+    """The prior anchoring keyframe 0 at ``pose``."""
+    return gtsam.PriorFactorPose2(X(0), pose, noise)
+
+
+def odometry_factor(k: int, step: gtsam.Pose2, noise: gtsam.noiseModel.Base) -> gtsam.NonlinearFactor:
+    """Odometry from keyframe k - 1 to keyframe k: the relative pose ``step`` (in the frame of k - 1)."""
+    return gtsam.BetweenFactorPose2(X(k - 1), X(k), step, noise)
+
+
+def landmark_prior(j: int, point: np.ndarray, noise: gtsam.noiseModel.Base) -> gtsam.NonlinearFactor:
+    """A prior on landmark j at ``point`` (a ``Point2``: (x, y) [m])."""
+    return gtsam.PriorFactorPoint2(L(j), point, noise)
+
+
+def bearing_range_factor(k: int, j: int, bearing_rad: float, range_m: float, noise: gtsam.noiseModel.Base) -> gtsam.NonlinearFactor:
+    """Landmark j measured from keyframe k at ``bearing_rad`` (in the keyframe's frame), ``range_m``."""
+    return gtsam.BearingRangeFactor2D(X(int(k)), L(int(j)), gtsam.Rot2.fromAngle(float(bearing_rad)), float(range_m), noise)
+
+
+def add_pose_chain(graph: gtsam.NonlinearFactorGraph, first: gtsam.Pose2, steps: Sequence[gtsam.Pose2],
+                   prior_noise: gtsam.noiseModel.Base, odometry_noise: gtsam.noiseModel.Base) -> None:
+    """Append the first-pose prior at ``first`` and odometry ``steps[k - 1]`` from keyframe k - 1 to k."""
+    graph.add(first_pose_prior(first, prior_noise))
+    for k, step in enumerate(steps, start=1):
+        graph.add(odometry_factor(k, step, odometry_noise))
+
+
+def add_bearing_range(graph: gtsam.NonlinearFactorGraph, pose: np.ndarray, landmark: np.ndarray, bearing_rad: np.ndarray,
+                      range_m: np.ndarray, noise: gtsam.noiseModel.Base | Sequence[gtsam.noiseModel.Base]) -> None:
+    """Append one ``BearingRangeFactor2D`` per measurement, in the given order (what
+    :func:`bearing_range_factor` builds; keys computed as integers, the loop only constructs).
+
+    Args:
+        pose, landmark: (n,) keyframe and landmark index of each measurement.
+        bearing_rad, range_m: (n,) the measured values.
+        noise: one model for all, or one per measurement.
+    """
+    n = len(pose)
+    models = [noise] * n if isinstance(noise, gtsam.noiseModel.Base) else noise
+    x_key, l_key = X(0), L(0)
+    factor, rot, add = gtsam.BearingRangeFactor2D, gtsam.Rot2.fromAngle, graph.add
+    keys_x = (np.asarray(pose, np.int64) + x_key).tolist()
+    keys_l = (np.asarray(landmark, np.int64) + l_key).tolist()
+    for k, j, b, r, m in zip(keys_x, keys_l, np.asarray(bearing_rad, float).tolist(), np.asarray(range_m, float).tolist(), models):
+        add(factor(k, j, rot(b), r, m))
+
+
+def truth_steps(poses: Sequence[gtsam.Pose2]) -> list[gtsam.Pose2]:
+    """The exact odometry of a route: ``poses[k - 1].between(poses[k])`` for k = 1 .. K - 1."""
+    return [poses[k - 1].between(poses[k]) for k in range(1, len(poses))]
+
+
+# ------------------------------------------------------------------------ the score's graph
+
+
 class GraphBuilder:
     """Builds the factor graph of any suite of a problem; fixed noise models are made once."""
 
     def __init__(self, problem: Problem) -> None:
         self.problem = problem
         s = problem.settings
-        self._first_prior = gtsam.noiseModel.Diagonal.Sigmas(np.asarray(s.first_pose_sigmas, float))
-        self._odometry = gtsam.noiseModel.Diagonal.Sigmas(np.asarray(s.odometry_sigmas, float))
+        self._first_prior = diagonal(s.first_pose_sigmas)
+        self._odometry = diagonal(s.odometry_sigmas)
         self._landmark_prior = gtsam.noiseModel.Isotropic.Sigma(2, s.landmark_prior_sigma_m)
-        poses = problem.scenario.keyframes.poses
-        self._poses = [gtsam.Pose2(float(x), float(y), float(t)) for x, y, t in poses]
+        self._measurement = MeasurementNoise()
+        self._poses = [pose2(q) for q in problem.scenario.keyframes.poses]
         self._points = [gtsam.Point2(float(x), float(y)) for x, y in problem.scenario.landmarks]
         values = gtsam.Values()
         for k, p in enumerate(self._poses):
@@ -45,11 +135,9 @@ class GraphBuilder:
     def base_graph(self) -> gtsam.NonlinearFactorGraph:
         """Prior on the first pose, odometry between keyframes, weak prior on every landmark."""
         g = gtsam.NonlinearFactorGraph()
-        g.add(gtsam.PriorFactorPose2(X(0), self._poses[0], self._first_prior))
-        for k in range(1, len(self._poses)):
-            g.add(gtsam.BetweenFactorPose2(X(k - 1), X(k), self._poses[k - 1].between(self._poses[k]), self._odometry))
+        add_pose_chain(g, self._poses[0], truth_steps(self._poses), self._first_prior, self._odometry)
         for j, q in enumerate(self._points):
-            g.add(gtsam.PriorFactorPoint2(L(j), q, self._landmark_prior))
+            g.add(landmark_prior(j, q, self._landmark_prior))
         return g
 
     def add_sensor(self, graph: gtsam.NonlinearFactorGraph, sensor: int) -> None:
@@ -57,11 +145,8 @@ class GraphBuilder:
         obs = self.problem.observations[sensor]
         if len(obs) == 0:
             return
-        constant = np.ptp(obs.sigma_range_m) == 0.0
-        shared = gtsam.noiseModel.Diagonal.Sigmas(np.array([obs.sigma_bearing_rad[0], obs.sigma_range_m[0]])) if constant else None
-        for k, j, b, r, sb, sr in zip(obs.pose, obs.landmark, obs.bearing_rad, obs.range_m, obs.sigma_bearing_rad, obs.sigma_range_m):
-            noise = shared or gtsam.noiseModel.Diagonal.Sigmas(np.array([sb, sr]))
-            graph.add(gtsam.BearingRangeFactor2D(X(int(k)), L(int(j)), gtsam.Rot2.fromAngle(float(b)), float(r), noise))
+        noise = [self._measurement(sb, sr) for sb, sr in zip(obs.sigma_bearing_rad.tolist(), obs.sigma_range_m.tolist())]
+        add_bearing_range(graph, obs.pose, obs.landmark, obs.bearing_rad, obs.range_m, noise)
 
     def graph(self, suite: Iterable[int]) -> gtsam.NonlinearFactorGraph:
         """The full nonlinear factor graph of a suite (library positions)."""
@@ -149,16 +234,11 @@ def linearize_library(problem: Problem) -> LibraryLinearization:
     graph = builder.base_graph()
     n_base = graph.size()
     base_rows = 3 * n_poses + 2 * n_landmarks  # prior 3 + odometry 3 each + landmark priors 2 each
-    unit = gtsam.noiseModel.Unit.Create(2)
     poses, points = sc.keyframes.poses, sc.landmarks
     d = points[pair_landmark] - poses[pair_pose, :2]
     bearing = np.arctan2(d[:, 1], d[:, 0]) - poses[pair_pose, 2]
     rng = np.hypot(d[:, 0], d[:, 1])
-    # symbol keys computed as integers (X(k) == x_key + k), the loop does nothing but construct
-    x_key, l_key = X(0), L(0)
-    factor, rot, add = gtsam.BearingRangeFactor2D, gtsam.Rot2.fromAngle, graph.add
-    for k, j, b, r in zip((pair_pose + x_key).tolist(), (pair_landmark + l_key).tolist(), bearing.tolist(), rng.tolist()):
-        add(factor(k, j, rot(b), r, unit))
+    add_bearing_range(graph, pair_pose, pair_landmark, bearing, rng, gtsam.noiseModel.Unit.Create(2))
     n_cols = 2 * n_landmarks + 3 * n_poses
     if graph.size() == 0:
         trip = np.zeros((3, 0))
@@ -171,19 +251,8 @@ def linearize_library(problem: Problem) -> LibraryLinearization:
     rows, cols, vals = rows[keep], cols[keep], vals[keep]
     assert graph.size() - n_base == len(uniq)
 
-    # base graph: pose part and landmark part (the base couples no pose with a landmark)
     is_base = rows < base_rows
-    jb = sp.csr_matrix((vals[is_base], (rows[is_base], cols[is_base])), shape=(base_rows, n_cols))
-    info = (jb.T @ jb).tocsr()
-    lm = slice(0, 2 * n_landmarks)
-    ps = slice(2 * n_landmarks, n_cols)
-    if info[lm, ps].count_nonzero():
-        raise AssertionError("base graph couples poses and landmarks: unexpected column layout")
-    two = 2 * np.arange(n_landmarks)
-    base_lm = np.zeros((n_landmarks, 2, 2))
-    for a in range(2):
-        for c in range(2):
-            base_lm[:, a, c] = np.asarray(info[two + a, two + c]).ravel()
+    base_pose, base_lm = _base_information(rows[is_base], cols[is_base], vals[is_base], base_rows, n_landmarks, n_cols)
 
     # pair rows: 2 per pair; columns mapped to [pose (3), landmark (2)] within the pair
     r, c, v = rows[~is_base] - base_rows, cols[~is_base], vals[~is_base]
@@ -198,5 +267,23 @@ def linearize_library(problem: Problem) -> LibraryLinearization:
     sigmas = tuple(np.column_stack([o.sigma_bearing_rad, o.sigma_range_m]).astype(float) for o in obs)
     return LibraryLinearization(
         pair_pose=pair_pose, pair_landmark=pair_landmark, pair_jacobian=jac, sensor_pairs=sensor_pairs,
-        sensor_sigmas=sigmas, base_pose_information=info[ps, ps].tocsr(), base_landmark_information=base_lm,
+        sensor_sigmas=sigmas, base_pose_information=base_pose, base_landmark_information=base_lm,
     )
+
+
+def _base_information(rows: np.ndarray, cols: np.ndarray, vals: np.ndarray, base_rows: int, n_landmarks: int,
+                      n_cols: int) -> tuple[sp.csr_matrix, np.ndarray]:
+    """The base graph's information from its Jacobian triplets: (pose part (3K, 3K) sparse, landmark
+    part (M, 2, 2)); the base couples no pose with a landmark (checked)."""
+    jb = sp.csr_matrix((vals, (rows, cols)), shape=(base_rows, n_cols))
+    info = (jb.T @ jb).tocsr()
+    lm = slice(0, 2 * n_landmarks)
+    ps = slice(2 * n_landmarks, n_cols)
+    if info[lm, ps].count_nonzero():
+        raise AssertionError("base graph couples poses and landmarks: unexpected column layout")
+    two = 2 * np.arange(n_landmarks)
+    base_lm = np.zeros((n_landmarks, 2, 2))
+    for a in range(2):
+        for c in range(2):
+            base_lm[:, a, c] = np.asarray(info[two + a, two + c]).ravel()
+    return info[ps, ps].tocsr(), base_lm

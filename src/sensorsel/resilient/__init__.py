@@ -1,0 +1,84 @@
+"""Resilient sensor selection against alpha failures (the paper's Section VI, Algorithm 2).
+
+After Tzoumas, Jadbabaie & Pappas, "Resilient Non-Submodular Maximization over Matroid
+Constraints" (arXiv 1804.01013), Algorithm 1, with the matroid replaced by the cost budget:
+
+1. **Failing set.** The alpha sensors with the largest individual scores f({e}) are bought and
+   assumed to fail. They are picked greedily by f({e}): at each of alpha steps, among the sensors not
+   yet picked that are *affordable* (the failing set's total cost stays within the budget once the
+   sensor is added) and *informative* (f({e}) above round-off), the one with the largest f({e}) is
+   picked; ties (relative 1e-9, as in :mod:`sensorsel.selection`) go to the cheaper sensor, then
+   the smaller id. A sensor that does not fit is skipped and the next one is tried, as Tzoumas et
+   al. skip an element that would leave the matroid. Fewer than alpha sensors are picked only when
+   fewer are informative and fit (the result says so).
+2. **Active set.** The rest of the budget (budget minus the failing set's cost) is spent by greedy
+   selection (:func:`sensorsel.selection.greedy`, the uniform rule by default) on the library
+   without the failing sensors, starting from the empty suite.
+
+The resilient suite is the union; alpha = 0 is plain greedy selection.
+
+**Worst case** of any suite S: min over F subset of S, |F| = alpha of f(S minus F), computed exactly
+by enumerating the C(|S|, alpha) failure sets (one evaluation each; |S| for alpha = 1). A suite of
+alpha sensors or fewer loses all of them (worst case 0).
+
+**Per period.** The route is split into periods of ``period_s`` seconds of the keyframe
+timestamps; each period gets its own scenario (its keyframes, the first one anchored by the
+first-pose prior, and the landmarks any library sensor sees from them) and its own resilient
+selection. The resulting grid of failed / active sensors is the paper's Fig. 5. Each period's result
+is written to its own file as it completes, stamped with a fingerprint of its inputs, so an
+interrupted run resumes where it stopped and ends with the same result as an uninterrupted one.
+A period file that exists but cannot be reused (damaged, or computed from other inputs) is reported
+with a :class:`CacheWarning` naming it, then recomputed and overwritten.
+
+Modules: :mod:`.records` (result records), :mod:`.algorithm` (failing set, resilient selection,
+worst case, whole-route comparison), :mod:`.periods` (periods, their run, the grid) and
+:mod:`.cache` (fingerprints and resume).
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+from ..problem import Problem
+from ..selection import check_budget
+from .algorithm import MAX_FAILURE_SETS, check_alpha, check_objective, compare, failing_set, resilient_select, worst_case
+from .cache import CacheWarning
+from .periods import (
+    DEFAULT_PERIOD_S, Progress, check_period, make_grid, period_file, period_scenario, run_periods, save_grid_csv, split_periods,
+)
+from .records import (
+    ACTIVE, FAILED, UNUSED, Comparison, PerPeriodResult, PeriodResult, PeriodSpan, ResilientReport, ResilientResult, SelectionGrid,
+    WorstCase,
+)
+
+__all__ = [
+    "ACTIVE", "DEFAULT_PERIOD_S", "FAILED", "MAX_FAILURE_SETS", "UNUSED", "CacheWarning", "Comparison", "PerPeriodResult",
+    "PeriodResult", "PeriodSpan", "Progress", "ResilientReport", "ResilientResult", "SelectionGrid", "WorstCase",
+    "check_alpha", "check_objective", "check_period", "compare", "failing_set", "make_grid", "period_file",
+    "period_scenario", "resilient_report", "resilient_select", "run_periods", "save_grid_csv", "split_periods", "worst_case",
+]
+
+
+def resilient_report(problem: Problem, budget_usd: float, alpha: int, *, period_s: float | None = DEFAULT_PERIOD_S,
+                     objective: str = "uniform", engine: str | None = None, jobs: int = 1, lazy: bool = True,
+                     outdir: str | Path | None = None, resume: bool = False,
+                     progress: Progress | None = None) -> ResilientReport:
+    """The whole-route comparison and (unless ``period_s`` is None) the per-period selection.
+
+    With ``outdir``, the comparison is cached in ``outdir/periods/route.json`` and each period in
+    ``outdir/periods/period-NNNN.json``; ``resume`` reuses those whose inputs match (and warns about the others).
+    """
+    t0 = time.perf_counter()
+    budget, alpha, objective = check_budget(budget_usd), check_alpha(alpha), check_objective(objective)
+    if period_s is not None:
+        check_period(period_s)
+    cache = Path(outdir) / "periods" / "route.json" if outdir is not None else None
+    cmp_ = compare(problem, budget, alpha, objective, engine=engine, jobs=jobs, lazy=lazy, cache=cache, resume=resume)
+    per = None
+    if period_s is not None:
+        per = run_periods(problem, budget, alpha, period_s=period_s, objective=objective, engine=engine, jobs=jobs,
+                          lazy=lazy, outdir=outdir, resume=resume, progress=progress)
+    return ResilientReport(suite=cmp_.resilient.suite, failed=cmp_.resilient.failed, alpha=alpha, budget_usd=budget,
+                           objective=objective, engine=cmp_.engine, comparison=cmp_, per_period=per,
+                           seconds=round(time.perf_counter() - t0, 6))

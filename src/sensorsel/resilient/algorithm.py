@@ -1,0 +1,180 @@
+"""The resilient selection itself: the failing set, the active set, worst cases, and greedy versus
+resilient on one scenario (see the package docstring for the algorithm)."""
+
+from __future__ import annotations
+
+import itertools
+import math
+import time
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from .. import objective as _objective
+from .. import results
+from ..errors import InputError
+from ..objective import Evaluator, as_suite, make_evaluator
+from ..problem import Problem, ProblemInfo
+from ..selection import REL_TOL, SELECTORS, check_budget, greedy
+from .cache import fingerprint, load_matching
+from .records import Comparison, ResilientResult, WorstCase
+
+#: Enumeration limit of the worst-case evaluation (failure sets scored).
+MAX_FAILURE_SETS = 200_000
+
+
+def check_alpha(alpha: int) -> int:
+    """The number of failures as an int; refuses negatives and non-integers."""
+    if isinstance(alpha, bool) or not isinstance(alpha, (int, np.integer)) or alpha < 0:
+        raise InputError(f"failures (alpha) must be a non-negative integer, got {alpha!r}")
+    return int(alpha)
+
+
+def check_objective(objective: str) -> str:
+    """The greedy rule of the active set, if it is one of :data:`sensorsel.selection.SELECTORS`."""
+    if objective not in SELECTORS:
+        raise InputError(f"unknown objective {objective!r}; available: {', '.join(SELECTORS)}")
+    return objective
+
+
+def engine_name(engine: str | None) -> str:
+    """The engine to use: ``engine`` or the default, if registered."""
+    name = engine or _objective.DEFAULT_ENGINE  # read at call time: faster engines register later
+    if name not in _objective.ENGINES:
+        raise InputError(f"unknown engine {name!r}; available: {', '.join(sorted(_objective.ENGINES))}")
+    return name
+
+
+def failing_set(evaluator: Evaluator, budget_usd: float, alpha: int) -> tuple[list[int], list[float], str]:
+    """The alpha sensors assumed to fail: largest f({e}) first, skipping those that do not fit.
+
+    Returns:
+        (library positions in pick order, their f({e}) [nats], note: "" or why fewer than alpha).
+    """
+    budget = check_budget(budget_usd)
+    alpha = check_alpha(alpha)
+    lib = evaluator.problem.library
+    if alpha == 0:
+        return [], [], ""
+    costs, ids = lib.costs, lib.ids
+    singles = evaluator.scores_with((), list(range(len(lib))))
+    gain_tol = REL_TOL  # f(empty) = 0: the round-off scale of a singleton's gain
+    picked: list[int] = []
+    spent = 0.0
+    left = np.ones(len(lib), dtype=bool)
+    for _ in range(alpha):
+        ok = left & (costs <= budget - spent + 1e-9) & (singles > gain_tol)
+        if not ok.any():
+            break
+        cand = np.flatnonzero(ok)
+        best = singles[cand].max()
+        tied = cand[singles[cand] >= best - REL_TOL * max(1.0, abs(best))]
+        pick = int(min(tied, key=lambda i: (costs[i], ids[i])))
+        picked.append(pick)
+        left[pick] = False
+        spent += float(costs[pick])
+    note = ""
+    if len(picked) < alpha:
+        note = (f"only {len(picked)} informative sensor(s) fit the budget ${budget:,.0f} as failing sensors; "
+                f"{alpha} requested")
+    return picked, [float(singles[i]) for i in picked], note
+
+
+def resilient_select(evaluator: Evaluator, budget_usd: float, alpha: int, objective: str = "uniform", *, lazy: bool = True,
+                     info: ProblemInfo | None = None) -> ResilientResult:
+    """Resilient selection for ``alpha`` failures under ``budget_usd`` (see the module docstring).
+
+    Args:
+        evaluator: scores suites of the problem.
+        budget_usd: total budget [$], the failing sensors included.
+        alpha: number of failures (0: plain greedy).
+        objective: greedy rule of the active set (see :data:`sensorsel.selection.SELECTORS`).
+        lazy: lazy (Minoux) evaluation in the greedy run (same picks).
+        info: what the problem is, recorded in the result.
+    """
+    t0 = time.perf_counter()
+    budget = check_budget(budget_usd)
+    alpha = check_alpha(alpha)
+    check_objective(objective)
+    n0 = evaluator.n_evaluations
+    lib = evaluator.problem.library
+    failed, failed_scores, note = failing_set(evaluator, budget, alpha)
+    failed_cost = lib.cost(failed)
+    rest = max(0.0, budget - failed_cost)  # never negative: the failing set fits by construction
+    run = greedy(evaluator, rest, objective, lazy=lazy, exclude=frozenset(failed), start=(), info=info)
+    active = [lib.position(s) for s in run.suite]
+    suite = failed + active
+    score = evaluator.score(suite) if failed else run.score
+    return ResilientResult(
+        alpha=alpha, budget_usd=budget, objective=objective, suite=lib.suite_ids(suite), failed=lib.suite_ids(failed),
+        failed_scores=tuple(failed_scores), failure_note=note, active=run.suite, failed_cost_usd=failed_cost,
+        cost_usd=lib.cost(suite), score=float(score), active_score=run.score, greedy=run,
+        n_evaluations=evaluator.n_evaluations - n0, engine=evaluator.name, problem=info,
+        seconds=round(time.perf_counter() - t0, 6),
+    )
+
+
+def worst_case(evaluator: Evaluator, suite: Sequence[int] | str, alpha: int, *, max_failure_sets: int = MAX_FAILURE_SETS) -> WorstCase:
+    """Exact worst case of a suite under ``alpha`` failures, by enumeration of the failure sets.
+
+    Args:
+        evaluator: scores suites of the problem.
+        suite: library positions, or comma-separated ids.
+        alpha: failures (a suite of alpha sensors or fewer loses them all).
+        max_failure_sets: refuse to enumerate more failure sets than this.
+    Raises:
+        InputError: negative alpha, or C(|S|, alpha) above ``max_failure_sets``.
+    """
+    alpha = check_alpha(alpha)
+    lib = evaluator.problem.library
+    s = lib.parse_suite(suite) if isinstance(suite, str) else as_suite(suite)
+    k = min(alpha, len(s))
+    n_sets = math.comb(len(s), k)
+    if n_sets > max_failure_sets:
+        raise InputError(f"worst case of a {len(s)}-sensor suite with {alpha} failures needs {n_sets:,} evaluations "
+                         f"(limit {max_failure_sets:,}); use fewer failures")
+    n0 = evaluator.n_evaluations
+    nominal = evaluator.score(s)
+    # combinations() of a sorted tuple come in lexicographic order of library positions
+    sets = list(itertools.combinations(s, k))
+    vals = np.array([evaluator.score(tuple(i for i in s if i not in f)) if k < len(s) else 0.0 for f in sets])
+    lo = vals.min()
+    tied = np.flatnonzero(vals <= lo + REL_TOL * max(1.0, abs(lo)))
+    worst = sets[int(tied[0])]
+    return WorstCase(
+        suite=lib.suite_ids(s), alpha=alpha, nominal_score=float(nominal), score=float(vals[tied[0]]),
+        failures=lib.suite_ids(worst), survivors=lib.suite_ids(i for i in s if i not in worst),
+        n_failure_sets=n_sets, n_evaluations=evaluator.n_evaluations - n0,
+    )
+
+
+def compare(problem: Problem, budget_usd: float, alpha: int, objective: str = "uniform", *, engine: str | None = None,
+            jobs: int = 1, lazy: bool = True, cache: str | Path | None = None,
+            resume: bool = False) -> Comparison:
+    """Greedy and resilient selection at the same budget, with the worst case of each suite.
+
+    Args:
+        cache: a file to save the result in (atomically); with ``resume``, reused when its inputs match.
+    """
+    t0 = time.perf_counter()
+    budget, alpha, objective = check_budget(budget_usd), check_alpha(alpha), check_objective(objective)
+    name = engine_name(engine)
+    fp = fingerprint(problem, budget, alpha, objective, name, lazy, {"what": "whole route"})
+    if cache is not None and resume:
+        old = load_matching(Comparison, Path(cache), fp)
+        if old is not None:
+            return old
+    ev = make_evaluator(problem, name, jobs=jobs)
+    info = problem.info
+    g = greedy(ev, budget, objective, lazy=lazy, info=info)
+    r = resilient_select(ev, budget, alpha, objective, lazy=lazy, info=info)
+    lib = problem.library
+    gw = worst_case(ev, [lib.position(s) for s in g.suite], alpha)
+    rw = worst_case(ev, [lib.position(s) for s in r.suite], alpha)
+    out = Comparison(alpha=alpha, budget_usd=budget, objective=objective, greedy=g, resilient=r, greedy_worst=gw,
+                     resilient_worst=rw, engine=ev.name, fingerprint=fp, problem=info,
+                     seconds=round(time.perf_counter() - t0, 6))
+    if cache is not None:
+        results.save(out, cache)
+    return out

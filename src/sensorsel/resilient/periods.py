@@ -1,0 +1,160 @@
+"""Resilient selection period by period: splitting the route, each period's scenario, the run (each
+period written to its own file as it completes, reused on resume), and the failed / active grid."""
+
+from __future__ import annotations
+
+import math
+import time
+from pathlib import Path
+from typing import Callable, Sequence
+
+import numpy as np
+
+from .. import results
+from ..errors import InputError
+from ..fileio import atomic_write_text
+from ..library import SensorLibrary
+from ..objective import make_evaluator
+from ..problem import Problem, build_problem
+from ..scenario import Scenario
+from ..selection import check_budget
+from .algorithm import check_alpha, check_objective, engine_name, resilient_select, worst_case
+from .cache import fingerprint, load_matching
+from .records import ACTIVE, FAILED, UNUSED, PeriodResult, PeriodSpan, PerPeriodResult, SelectionGrid
+
+#: progress(done, total): called after each period (computed or reused).
+Progress = Callable[[int, int], None]
+
+#: Default length of a period [s] (the paper says "several seconds").
+DEFAULT_PERIOD_S = 10.0
+
+
+def check_period(period_s: float) -> float:
+    """A period length [s]; refuses zero, negative, NaN and infinite values."""
+    if isinstance(period_s, bool) or not isinstance(period_s, (int, float)) or not math.isfinite(period_s) or period_s <= 0:
+        raise InputError(f"period must be a positive number of seconds, got {period_s!r}")
+    return float(period_s)
+
+
+def split_periods(times: np.ndarray, period_s: float) -> list[tuple[int, float, float, np.ndarray]]:
+    """Split keyframe timestamps into periods of ``period_s`` seconds from the first one.
+
+    Keyframe i belongs to period k = floor((t_i - t_0) / period_s) (a 1e-9 s tolerance keeps a
+    timestamp written as exactly k * period in period k despite round-off), so each keyframe is in
+    exactly one period. Periods without keyframes (gaps in the timestamps) are left out.
+
+    Returns:
+        [(k, start_s, end_s, keyframe indices)] in time order; start_s = t_0 + k * period_s.
+    """
+    period = check_period(period_s)
+    t = np.asarray(times, dtype=float)
+    if len(t) == 0:
+        return []
+    k = np.floor((t - t[0]) / period + 1e-9).astype(int)
+    out = []
+    for kk in np.unique(k):
+        idx = np.flatnonzero(k == kk)
+        out.append((int(kk), float(t[0] + kk * period), float(t[0] + (kk + 1) * period), idx))
+    return out
+
+
+def period_scenario(problem: Problem, keyframes: np.ndarray, start_s: float, end_s: float, name: str) -> Scenario:
+    """The scenario of one period: its keyframes (the first gets the first-pose prior when a problem
+    is built on it) and the landmarks some library sensor sees from them, re-indexed 0..m-1."""
+    kf = np.asarray(keyframes, dtype=int)
+    seen: set[int] = set()
+    for obs in problem.observations:
+        seen.update(obs.landmark[np.isin(obs.pose, kf)].tolist())
+    lm = np.asarray(sorted(seen), dtype=int)
+    sc = problem.scenario
+    route = None
+    if sc.route is not None:
+        r = sc.route
+        route = r.select(np.flatnonzero((r.times >= start_s) & (r.times < end_s)))
+        if len(route) == 0:
+            route = None
+    return Scenario(name, sc.keyframes.select(kf), sc.landmarks[lm].reshape(-1, 2), sc.landmark_source, route)
+
+
+def period_file(outdir: str | Path, index: int) -> Path:
+    """Where period ``index``'s result is written."""
+    return Path(outdir) / "periods" / f"period-{index:04d}.json"
+
+
+def run_periods(problem: Problem, budget_usd: float, alpha: int, *, period_s: float = DEFAULT_PERIOD_S,
+                objective: str = "uniform", engine: str | None = None, jobs: int = 1, lazy: bool = True,
+                outdir: str | Path | None = None, resume: bool = False,
+                progress: Progress | None = None) -> PerPeriodResult:
+    """Resilient selection on each period of the route.
+
+    Args:
+        problem: the whole route (its observations tell which landmarks each period sees).
+        period_s: period length [s] of the keyframe timestamps.
+        outdir: folder whose ``periods/`` receives one JSON file per period as it completes.
+        resume: reuse period files whose fingerprint matches this run's inputs (a file that does not
+            match is reported with a :class:`~sensorsel.resilient.cache.CacheWarning` and recomputed).
+        progress: progress(periods done, total) after each period.
+    """
+    t0 = time.perf_counter()
+    budget, alpha, objective = check_budget(budget_usd), check_alpha(alpha), check_objective(objective)
+    period = check_period(period_s)
+    name = engine_name(engine)
+    spans = split_periods(problem.scenario.keyframes.times, period)
+    out: list[PeriodResult] = []
+    for n_done, (k, a, b, kf) in enumerate(spans, start=1):
+        path = period_file(outdir, k) if outdir is not None else None
+        out.append(_one_period(problem, k, a, b, kf, budget, alpha, objective, name, jobs, lazy, period, path, resume))
+        if progress:
+            progress(n_done, len(spans))
+    if outdir is not None:
+        # files of periods this run does not have (an earlier run with another period length) would mislead
+        keep = {period_file(outdir, k).name for k, *_ in spans}
+        for f in sorted((Path(outdir) / "periods").glob("period-*.json")):
+            if f.name not in keep:
+                f.unlink()
+    return PerPeriodResult(period_s=period, alpha=alpha, budget_usd=budget, objective=objective, engine=name,
+                           periods=tuple(out), grid=make_grid(problem.library, out),
+                           seconds=round(time.perf_counter() - t0, 6))
+
+
+def _one_period(problem: Problem, k: int, a: float, b: float, kf: np.ndarray, budget: float, alpha: int, objective: str,
+                engine: str, jobs: int, lazy: bool, period: float, path: Path | None, resume: bool) -> PeriodResult:
+    """Period ``k`` (keyframes ``kf``, times [a, b)): reused from ``path`` when resuming and it matches,
+    else computed (and written to ``path``)."""
+    sc = period_scenario(problem, kf, a, b, f"{problem.scenario.name} {a:g}-{b:g} s")
+    sub = build_problem(problem.library, sc, problem.settings, spec=problem.info.spec)
+    span = PeriodSpan(index=k, start_s=a, end_s=b, first_keyframe=int(kf[0]), n_keyframes=len(kf), n_landmarks=sc.n_landmarks)
+    fp = fingerprint(sub, budget, alpha, objective, engine, lazy, {"what": "period", "period_s": period, "span": results.to_jsonable(span)})
+    old = load_matching(PeriodResult, path, fp) if (path is not None and resume) else None
+    if old is not None:
+        return old
+    ev = make_evaluator(sub, engine, jobs=jobs)
+    r = resilient_select(ev, budget, alpha, objective, lazy=lazy, info=sub.info)
+    w = worst_case(ev, [sub.library.position(s) for s in r.suite], alpha)
+    res = PeriodResult(fingerprint=fp, period=span, result=r, worst=w)
+    if path is not None:
+        results.save(res, path)
+    return res
+
+
+def make_grid(library: SensorLibrary, periods: Sequence[PeriodResult]) -> SelectionGrid:
+    """The failed / active grid of per-period results (columns: the library, in its order)."""
+    ids = library.ids
+    rows = []
+    for p in periods:
+        failed, active = set(p.result.failed), set(p.result.active)
+        rows.append(tuple(FAILED if s in failed else ACTIVE if s in active else UNUSED for s in ids))
+    return SelectionGrid(
+        sensors=ids,
+        models=tuple(s.model.code for s in library),
+        positions=tuple("roof" if s.clock is None else str(s.clock) for s in library),
+        period_labels=tuple(p.period.label for p in periods),
+        period_start_s=tuple(p.period.start_s for p in periods),
+        period_end_s=tuple(p.period.end_s for p in periods),
+        cells=tuple(rows),
+    )
+
+
+def save_grid_csv(grid: SelectionGrid, path: str | Path) -> Path:
+    """Write the grid as CSV, atomically."""
+    return atomic_write_text(path, grid.to_csv())

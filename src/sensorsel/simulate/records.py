@@ -1,0 +1,166 @@
+"""The records of a Monte-Carlo simulation: failures, runs, timings, a suite's result, the report.
+
+Plain frozen dataclasses of numbers and strings (they serialize with :mod:`sensorsel.results`);
+nothing here imports gtsam, so :mod:`sensorsel.plotting` can use them for type checking.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+from ..problem import ProblemInfo
+
+
+@dataclass(frozen=True)
+class Failure:
+    """A sensor of the suite that returns nothing on keyframes ``start .. stop - 1``.
+
+    Attributes:
+        sensor: sensor id (``"LRL-roof"``).
+        start: first failed keyframe index.
+        stop: one past the last failed keyframe; None = to the end of the route.
+    """
+
+    sensor: str
+    start: int = 0
+    stop: int | None = None
+
+    def describe(self, n_poses: int | None = None) -> str:
+        """``LRL-roof`` for the whole route, else ``LRL-roof@20-40`` (keyframes, half-open)."""
+        whole = self.start == 0 and (self.stop is None or self.stop == n_poses)
+        return self.sensor if whole else f"{self.sensor}@{self.start}-{'end' if self.stop is None else self.stop}"
+
+
+@dataclass(frozen=True)
+class RunResult:
+    """One Monte-Carlo run: its errors against the ground truth and its estimate.
+
+    Attributes:
+        run: run number r (its random streams are seeded by (seed, r)).
+        position_rmse_m: RMS over keyframes of the position error [m].
+        heading_rmse_rad: RMS over keyframes of the heading error [rad].
+        landmark_rmse_m: RMS over measured landmarks of the position error [m]; None if none measured.
+        max_position_error_m: largest position error along the route [m].
+        initial_position_rmse_m: position RMSE of the dead-reckoned start [m] (what SLAM improved on).
+        nees_mean: average over keyframes of the 3-dof pose NEES (expected 3).
+        nees_joint: joint NEES of all poses / K (expected 3).
+        iterations: LM iterations, or iSAM2 updates.
+        final_error: the graph's error 0.5 * sum of squared whitened residuals at the estimate.
+        position_error_m: (K,) position error at each keyframe [m].
+        heading_error_rad: (K,) signed heading error at each keyframe [rad].
+        poses: (K,) estimated (x [m], y [m], heading [rad]).
+        landmarks: estimated (x [m], y [m]) of each measured landmark, in the order of
+            :attr:`SimulationResult.measured_landmarks`.
+    """
+
+    run: int
+    position_rmse_m: float
+    heading_rmse_rad: float
+    landmark_rmse_m: float | None
+    max_position_error_m: float
+    initial_position_rmse_m: float
+    nees_mean: float
+    nees_joint: float
+    iterations: int
+    final_error: float
+    position_error_m: tuple[float, ...]
+    heading_error_rad: tuple[float, ...]
+    poses: tuple[tuple[float, float, float], ...]
+    landmarks: tuple[tuple[float, float], ...]
+
+
+@dataclass(frozen=True)
+class SimulationTiming:
+    """Wall times [s] (kept apart: they are the only part of a result that varies between runs)."""
+
+    total_s: float
+    runs_s: float
+    covariance_s: float
+    jobs: int
+
+
+@dataclass(frozen=True)
+class SimulationResult:
+    """N Monte-Carlo runs of one suite (with its failures): summary, prediction and every run.
+
+    Attributes:
+        label: name shown in tables and plots ("greedy", "resilient", "suite").
+        suite: sensor ids, in library order.
+        cost_usd: total cost of the suite [$].
+        failures: failed sensors and their keyframe ranges (stop resolved to the route's end).
+        solver: "lm" (Levenberg-Marquardt, batch) or "isam2" (incremental, keyframes in order).
+        seed: base seed; run r uses (seed, r).
+        n_runs: N.
+        noise_scale: factor applied to every sigma (odometry, prior, measurements); 1 = the models.
+        n_measurements: range-bearing measurements per run (after failures).
+        n_measurements_failed: measurements the suite would have made but lost to failures.
+        measured_landmarks: indices of the landmarks measured at least once (estimated).
+        unmeasured_landmarks: indices of the landmarks never measured (left out of the estimate).
+        position_rmse_m, heading_rmse_rad: RMS over all runs and keyframes [m], [rad].
+        landmark_rmse_m: RMS over all runs and measured landmarks [m]; None if none measured.
+        max_position_error_m: largest position error over all runs and keyframes [m].
+        mean_max_position_error_m: per-run maximum position error, averaged over runs [m].
+        initial_position_rmse_m: RMSE of the dead-reckoned starting points [m].
+        predicted_position_rmse_m: sqrt(mean_k trace of P_k's position block) [m].
+        predicted_heading_rmse_rad: sqrt(mean_k P_k's heading variance) [rad].
+        predicted_landmark_rmse_m: sqrt(mean_j trace P_j) over measured landmarks [m]; None if none.
+        position_rmse_along_route_m: (K,) RMS over runs of the position error at each keyframe [m].
+        predicted_position_sigma_m: (K,) sqrt(trace of P_k's position block) [m].
+        nees_mean: average 3-dof pose NEES over N runs and K poses (expected 3).
+        nees_joint_mean: joint NEES of the K poses / K, averaged over runs (expected 3).
+        nees_bounds: two-sided 95 % chi-square bounds (lower, upper) of either average, for N K
+            independent 3-dof terms (exact for ``nees_joint_mean``).
+        nees_bounds_correlated: 95 % bounds of ``nees_mean`` that account for the correlation of
+            the poses along the route (moment-matched scaled chi-square, see :func:`nees_bounds`).
+        nees_inside_bounds, nees_joint_inside_bounds: whether each average lies inside them.
+        covariance: how the predicted covariance was obtained.
+        problem: what it was computed on.
+        runs: every run.
+        timing: wall times (None once stripped for comparisons).
+    """
+
+    label: str
+    suite: tuple[str, ...]
+    cost_usd: float
+    failures: tuple[Failure, ...]
+    solver: str
+    seed: int
+    n_runs: int
+    noise_scale: float
+    n_measurements: int
+    n_measurements_failed: int
+    measured_landmarks: tuple[int, ...]
+    unmeasured_landmarks: tuple[int, ...]
+    position_rmse_m: float
+    heading_rmse_rad: float
+    landmark_rmse_m: float | None
+    max_position_error_m: float
+    mean_max_position_error_m: float
+    initial_position_rmse_m: float
+    predicted_position_rmse_m: float
+    predicted_heading_rmse_rad: float
+    predicted_landmark_rmse_m: float | None
+    position_rmse_along_route_m: tuple[float, ...]
+    predicted_position_sigma_m: tuple[float, ...]
+    nees_mean: float
+    nees_joint_mean: float
+    nees_bounds: tuple[float, float]
+    nees_bounds_correlated: tuple[float, float]
+    nees_inside_bounds: bool
+    nees_joint_inside_bounds: bool
+    covariance: str
+    problem: ProblemInfo
+    runs: tuple[RunResult, ...]
+    timing: SimulationTiming | None = None
+
+
+@dataclass(frozen=True)
+class SimulationReport:
+    """What ``sensorsel simulate`` writes: one :class:`SimulationResult` per suite simulated."""
+
+    simulations: tuple[SimulationResult, ...] = field(default_factory=tuple)
+
+
+def without_timing(result: SimulationResult) -> SimulationResult:
+    """The result with its wall times removed (what is byte-identical between equal runs)."""
+    return replace(result, timing=None)

@@ -1,0 +1,181 @@
+"""The driver: ``simulate`` checks its arguments, runs the Monte-Carlo draws (in worker processes when
+``jobs > 1``), predicts the covariance once and summarises everything into a :class:`SimulationResult`.
+
+Worker processes are started by ``forkserver`` (``spawn`` where it does not exist): they never
+inherit the parent's BLAS threads or gtsam objects, and only numbers travel between processes (the
+payload once per worker, the estimates back; see the shared gtsam notes on pickling).
+"""
+
+from __future__ import annotations
+
+import math
+import multiprocessing
+import time
+from concurrent.futures import ProcessPoolExecutor
+from typing import Callable, Iterable, Sequence
+
+import numpy as np
+
+from ..errors import InputError
+from ..objective import as_suite
+from ..problem import Problem
+from .consistency import COVARIANCE_NOTE, Prediction, correlated_nees_bounds, nees_bounds, predict, rms, run_errors
+from .failures import resolve_failures
+from .noise import Payload, make_payload
+from .records import Failure, SimulationResult, SimulationTiming
+from .solve import DEFAULT_SOLVER, SOLVERS, solve_run
+
+
+def simulate(
+    problem: Problem,
+    suite: str | Iterable[int],
+    *,
+    failures: Iterable[Failure] = (),
+    runs: int = 20,
+    solver: str = DEFAULT_SOLVER,
+    seed: int = 0,
+    noise_scale: float = 1.0,
+    jobs: int = 1,
+    label: str = "suite",
+    progress: Callable[[], None] | None = None,
+) -> SimulationResult:
+    """Monte-Carlo SLAM of ``suite`` on ``problem``: ``runs`` seeded draws, each solved with GTSAM.
+
+    Args:
+        problem: library, scenario (keyframes, landmarks), odometry/prior noise, observations.
+        suite: comma-separated sensor ids, or library positions.
+        failures: sensors of the suite that return nothing on some keyframes (or the whole route).
+        runs: number of Monte-Carlo runs N (>= 1).
+        solver: "lm" (batch Levenberg-Marquardt) or "isam2" (incremental, keyframes in order).
+        seed: base seed (>= 0); run r draws from streams seeded by (seed, r).
+        noise_scale: factor on every sigma (> 0); 1 is the sensor models.
+        jobs: worker processes for the runs (results do not depend on it).
+        label: name of this design in tables and plots.
+        progress: called once after each finished run.
+    Raises:
+        InputError: bad suite, failure, solver, runs, seed, noise scale or jobs (names the value).
+    """
+    t0 = time.perf_counter()
+    positions = problem.library.parse_suite(suite) if isinstance(suite, str) else as_suite(suite)
+    _check_args(problem, positions, solver, runs, seed, noise_scale, jobs)
+    failures_t = resolve_failures(failures, problem, positions)
+    payload = make_payload(problem, positions, failures_t, float(noise_scale), solver, seed)
+    t_runs = time.perf_counter()
+    raw = _run_all(payload, runs, jobs, progress)
+    t_cov = time.perf_counter()
+    pred = predict(payload)
+    t_end = time.perf_counter()
+    timing = SimulationTiming(total_s=round(t_end - t0, 3), runs_s=round(t_cov - t_runs, 3), covariance_s=round(t_end - t_cov, 3), jobs=jobs)
+    return _summarise(problem, payload, positions, failures_t, raw, pred, label=label, noise_scale=float(noise_scale), timing=timing)
+
+
+def _check_args(problem: Problem, positions: tuple[int, ...], solver: str, runs: int, seed: int, noise_scale: float, jobs: int) -> None:
+    """Raise InputError naming the first bad argument of :func:`simulate`."""
+    for i in positions:
+        if not 0 <= i < problem.n_sensors:
+            raise InputError(f"sensor position {i} is outside the library (0..{problem.n_sensors - 1})")
+    if solver not in SOLVERS:
+        raise InputError(f"unknown solver {solver!r}; choose one of {', '.join(SOLVERS)}")
+    if isinstance(runs, bool) or not isinstance(runs, int) or runs < 1:
+        raise InputError(f"runs must be a positive integer, got {runs!r}")
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise InputError(f"seed must be a non-negative integer, got {seed!r}")
+    if not (isinstance(noise_scale, (int, float)) and math.isfinite(noise_scale) and noise_scale > 0):
+        raise InputError(f"noise scale must be a positive number, got {noise_scale!r}")
+    if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
+        raise InputError(f"jobs must be a positive integer, got {jobs!r}")
+
+
+# ------------------------------------------------------------------------------- process pool
+
+
+def _run_all(payload: Payload, runs: int, jobs: int, progress: Callable[[], None] | None) -> list[dict]:
+    """Every run's raw output, in run order, in this process or in ``jobs`` workers."""
+    raw: list[dict] = []
+    if jobs == 1 or runs == 1:
+        for r in range(runs):
+            raw.append(solve_run(payload, r))
+            if progress:
+                progress()
+        return raw
+    with ProcessPoolExecutor(max_workers=min(jobs, runs), mp_context=_mp_context(), initializer=_init_worker, initargs=(payload,)) as ex:
+        for out in ex.map(_worker_run, range(runs)):
+            raw.append(out)
+            if progress:
+                progress()
+    return raw
+
+
+# worker processes only: the payload they were started with (see _init_worker)
+_WORKER_PAYLOAD: Payload | None = None
+
+
+def _init_worker(payload: Payload) -> None:
+    global _WORKER_PAYLOAD
+    _WORKER_PAYLOAD = payload
+
+
+def _worker_run(run: int) -> dict[str, np.ndarray | float | int]:
+    assert _WORKER_PAYLOAD is not None
+    return solve_run(_WORKER_PAYLOAD, run)
+
+
+def _mp_context() -> multiprocessing.context.BaseContext:
+    methods = multiprocessing.get_all_start_methods()
+    return multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
+
+
+# ---------------------------------------------------------------------------------- summary
+
+
+def _summarise(problem: Problem, p: Payload, positions: tuple[int, ...], failures: tuple[Failure, ...], raw: Sequence[dict], pred: Prediction, *,
+               label: str, noise_scale: float, timing: SimulationTiming) -> SimulationResult:
+    # long only because SimulationResult has 34 fields, each computed in one line
+    measured = np.unique(p.landmark[p.keep]).astype(int)
+    unmeasured = np.setdiff1d(np.arange(len(p.landmarks)), measured)
+    rr = tuple(run_errors(p, pred, r, out, measured) for r, out in enumerate(raw))
+    pos = np.array([r.position_error_m for r in rr])  # (N, K)
+    hdg = np.array([r.heading_error_rad for r in rr])
+    lm = np.concatenate([np.hypot(*(np.asarray(r.landmarks).reshape(-1, 2) - p.landmarks[measured]).T) for r in rr]) if len(measured) else np.zeros(0)
+    blocks = pred.pose_blocks()
+    pos_var = blocks[:, 0, 0] + blocks[:, 1, 1]
+    lbounds = nees_bounds(len(rr), len(p.poses))
+    nees_mean = float(np.mean([r.nees_mean for r in rr]))
+    nees_joint = float(np.mean([r.nees_joint for r in rr]))
+    lcov = pred.landmark_cov[measured]
+    dr = np.array([r.initial_position_rmse_m for r in rr])
+    return SimulationResult(
+        label=label,
+        suite=problem.library.suite_ids(positions),
+        cost_usd=problem.library.cost(positions),
+        failures=failures,
+        solver=p.solver,
+        seed=p.seed,
+        n_runs=len(rr),
+        noise_scale=noise_scale,
+        n_measurements=int(np.count_nonzero(p.keep)),
+        n_measurements_failed=int(np.count_nonzero(~p.keep)),
+        measured_landmarks=tuple(int(j) for j in measured),
+        unmeasured_landmarks=tuple(int(j) for j in unmeasured),
+        position_rmse_m=rms(pos),
+        heading_rmse_rad=rms(hdg),
+        landmark_rmse_m=rms(lm) if len(lm) else None,
+        max_position_error_m=float(np.max(pos)),
+        mean_max_position_error_m=float(np.mean(np.max(pos, axis=1))),
+        initial_position_rmse_m=float(np.sqrt(np.mean(dr**2))),
+        predicted_position_rmse_m=float(np.sqrt(np.mean(pos_var))),
+        predicted_heading_rmse_rad=float(np.sqrt(np.mean(blocks[:, 2, 2]))),
+        predicted_landmark_rmse_m=float(np.sqrt(np.mean(lcov[:, 0, 0] + lcov[:, 1, 1]))) if len(measured) else None,
+        position_rmse_along_route_m=tuple(float(v) for v in np.sqrt(np.mean(pos**2, axis=0))),
+        predicted_position_sigma_m=tuple(float(v) for v in np.sqrt(pos_var)),
+        nees_mean=nees_mean,
+        nees_joint_mean=nees_joint,
+        nees_bounds=lbounds,
+        nees_bounds_correlated=correlated_nees_bounds(pred, len(rr)),
+        nees_inside_bounds=bool(lbounds[0] <= nees_mean <= lbounds[1]),
+        nees_joint_inside_bounds=bool(lbounds[0] <= nees_joint <= lbounds[1]),
+        covariance=COVARIANCE_NOTE,
+        problem=problem.info,
+        runs=rr,
+        timing=timing,
+    )

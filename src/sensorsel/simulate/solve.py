@@ -1,0 +1,154 @@
+"""Solving one run: the factor graph of a draw (built by :mod:`sensorsel.graph`), batch
+Levenberg-Marquardt or incremental iSAM2, both started from dead reckoning (never from the truth)."""
+
+from __future__ import annotations
+
+import math
+
+import gtsam
+import numpy as np
+from gtsam.symbol_shorthand import L, X
+
+from ..graph import MeasurementNoise, add_bearing_range, add_pose_chain, bearing_range_factor, diagonal, first_pose_prior, odometry_factor
+from .noise import Draw, Payload, draw
+
+SOLVERS = ("lm", "isam2")
+DEFAULT_SOLVER = "lm"
+LM_MAX_ITERATIONS = 100
+ISAM2_MAX_FINAL_UPDATES = 20
+
+
+class Noise:
+    """A payload's noise models: first-pose prior, odometry, and one per distinct measurement sigmas."""
+
+    def __init__(self, p: Payload) -> None:
+        self.prior = diagonal(p.first_pose_sigmas)
+        self.odometry = diagonal(p.odometry_sigmas)
+        self._p = p
+        self._models = MeasurementNoise()
+
+    def measurement(self, i: int) -> gtsam.noiseModel.Base:
+        """The model of measurement ``i`` of the payload."""
+        return self._models(self._p.sigma_bearing_rad[i], self._p.sigma_range_m[i])
+
+
+def build_graph(p: Payload, noise: Noise, d: Draw) -> gtsam.NonlinearFactorGraph:
+    """Prior, odometry, then the kept measurements in keyframe order, holding the values of ``d``.
+
+    No landmark prior (a car has none; at the true position it would leak the truth)."""
+    g = gtsam.NonlinearFactorGraph()
+    add_pose_chain(g, d.prior, d.odometry, noise.prior, noise.odometry)
+    order = p.order()
+    add_bearing_range(g, p.pose[order], p.landmark[order], d.bearing_rad[order], d.range_m[order], [noise.measurement(i) for i in order])
+    return g
+
+
+def landmark_from(pose: gtsam.Pose2, bearing: float, rng_m: float) -> np.ndarray:
+    """The point at ``bearing`` [rad] and ``rng_m`` [m] from ``pose``."""
+    return pose.transformFrom(gtsam.Point2(rng_m * math.cos(bearing), rng_m * math.sin(bearing)))
+
+
+def pose_array(values: gtsam.Values, n: int) -> np.ndarray:
+    """(n, 3) poses X(0..n-1) of ``values`` as (x, y, heading)."""
+    out = np.empty((n, 3))
+    for k in range(n):
+        q = values.atPose2(X(k))
+        out[k] = q.x(), q.y(), q.theta()
+    return out
+
+
+def _flat(values: gtsam.Values) -> np.ndarray:
+    """All poses and points of ``values`` as one vector (to see when iSAM2 stops moving)."""
+    return np.concatenate([gtsam.utilities.extractPose2(values).ravel(), gtsam.utilities.extractPoint2(values).ravel()])
+
+
+def solve_lm(p: Payload, noise: Noise, d: Draw, dead: list[gtsam.Pose2]) -> tuple[gtsam.Values, int, gtsam.NonlinearFactorGraph]:
+    """Batch Levenberg-Marquardt from dead reckoning; each landmark starts at its first measurement
+    seen from the dead-reckoned pose. Returns (estimate, iterations, graph)."""
+    graph = build_graph(p, noise, d)
+    initial = gtsam.Values()
+    for k, q in enumerate(dead):
+        initial.insert(X(k), q)
+    for i in p.order():
+        j = int(p.landmark[i])
+        if not initial.exists(L(j)):
+            initial.insert(L(j), landmark_from(dead[int(p.pose[i])], float(d.bearing_rad[i]), float(d.range_m[i])))
+    params = gtsam.LevenbergMarquardtParams()
+    params.setMaxIterations(LM_MAX_ITERATIONS)
+    params.setRelativeErrorTol(1e-10)
+    params.setAbsoluteErrorTol(1e-12)
+    opt = gtsam.LevenbergMarquardtOptimizer(graph, initial, params)
+    estimate = opt.optimize()
+    return estimate, int(opt.iterations()), graph
+
+
+def solve_isam2(p: Payload, noise: Noise, d: Draw) -> tuple[gtsam.Values, int, gtsam.NonlinearFactorGraph]:
+    """Keyframes in order, as a car would: each new pose starts at the current estimate of the previous
+    one composed with the odometry, each new landmark at its first measurement from that pose.
+    Returns (estimate, updates, every factor added)."""
+    params = gtsam.ISAM2Params()
+    params.setRelinearizeThreshold(0.01)
+    params.relinearizeSkip = 1
+    isam = gtsam.ISAM2(params)
+    full = gtsam.NonlinearFactorGraph()
+    order = p.order()
+    by_pose = np.split(order, np.searchsorted(p.pose[order], np.arange(1, len(p.poses))))
+    seen: set[int] = set()
+    updates = 0
+    for k, meas in enumerate(by_pose):
+        g, v = gtsam.NonlinearFactorGraph(), gtsam.Values()
+        if k == 0:
+            g.add(first_pose_prior(d.prior, noise.prior))
+            start = d.prior
+        else:
+            g.add(odometry_factor(k, d.odometry[k - 1], noise.odometry))
+            start = isam.calculateEstimatePose2(X(k - 1)).compose(d.odometry[k - 1])
+        v.insert(X(k), start)
+        for i in meas:
+            g.add(bearing_range_factor(p.pose[i], p.landmark[i], d.bearing_rad[i], d.range_m[i], noise.measurement(i)))
+            j = int(p.landmark[i])
+            if j not in seen:
+                seen.add(j)
+                v.insert(L(j), landmark_from(start, float(d.bearing_rad[i]), float(d.range_m[i])))
+        isam.update(g, v)
+        full.push_back(g)
+        updates += 1
+    updates += _settle(isam)
+    return isam.calculateEstimate(), updates, full
+
+
+def _settle(isam: gtsam.ISAM2) -> int:
+    """A few more updates relinearize what moved since it was last linearized (the last keyframes);
+    stops when nothing moves by 1e-10. Returns the updates made."""
+    updates = 0
+    last = _flat(isam.calculateEstimate())
+    for _ in range(ISAM2_MAX_FINAL_UPDATES):
+        isam.update()
+        updates += 1
+        now = _flat(isam.calculateEstimate())
+        done = np.max(np.abs(now - last)) < 1e-10
+        last = now
+        if done:
+            break
+    return updates
+
+
+def solve_run(p: Payload, run: int) -> dict[str, np.ndarray | float | int]:
+    """Draw, initialise, solve one run. Returns numbers only (estimates; errors are computed by the caller)."""
+    d = draw(p, run)
+    noise = Noise(p)
+    dead = d.dead_reckoning()
+    if p.solver == "lm":
+        estimate, iterations, graph = solve_lm(p, noise, d, dead)
+    else:
+        estimate, iterations, graph = solve_isam2(p, noise, d)
+    lm_est = np.full((len(p.landmarks), 2), np.nan)
+    for j in np.unique(p.landmark[p.order()]):
+        lm_est[j] = estimate.atPoint2(L(int(j)))
+    return {
+        "poses": pose_array(estimate, len(p.poses)),
+        "landmarks": lm_est,
+        "dead_reckoning": np.array([[q.x(), q.y(), q.theta()] for q in dead]),
+        "iterations": iterations,
+        "final_error": float(graph.error(estimate)),
+    }
