@@ -42,11 +42,10 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from . import objective as _objective
 from . import results
 from .errors import InputError, ResultFileError
+from .evaluators import DEFAULT_ENGINE, ENGINES, Evaluator, as_suite, make_evaluator
 from .fileio import atomic_write_text
-from .objective import Evaluator, as_suite, make_evaluator
 from .problem import Problem, ProblemInfo, build_problem
 from .scenario import Scenario
 from .selection import REL_TOL, SELECTORS, GreedyResult, check_budget, greedy
@@ -477,9 +476,9 @@ def _fingerprint(problem: Problem, budget: float, alpha: int, objective: str, en
 
 
 def _engine_name(engine: str | None) -> str:
-    name = engine or _objective.DEFAULT_ENGINE  # read at call time: faster engines register later
-    if name not in _objective.ENGINES:
-        raise InputError(f"unknown engine {name!r}; available: {', '.join(sorted(_objective.ENGINES))}")
+    name = engine or DEFAULT_ENGINE
+    if name not in ENGINES:
+        raise InputError(f"unknown engine {name!r}; available: {', '.join(sorted(ENGINES))}")
     return name
 
 

@@ -59,7 +59,7 @@ from gtsam.symbol_shorthand import L, X
 from scipy.stats import chi2
 
 from .errors import InputError
-from .objective import as_suite
+from .evaluators import as_suite
 from .problem import ProblemInfo
 from .problem import Problem
 from .sensing import wrap_angle
