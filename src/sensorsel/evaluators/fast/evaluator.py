@@ -7,7 +7,6 @@ from concurrent.futures import ThreadPoolExecutor
 from typing import Iterable, Sequence
 
 import numpy as np
-import scipy.sparse as sp
 
 from ...problem import Problem
 from ..base import Evaluator, Suite, as_suite
@@ -48,7 +47,7 @@ class FastEvaluator(Evaluator):
         base_pattern[coo.row // 3, coo.col // 3] = True
         planner = Planner(problem, lin.pair_pose, lin.pair_landmark, np.tril(base_pattern))
         self._states = StateBuilder(lin, planner)
-        self.kernel = Kernel(K, sp.csr_matrix(lin.base_pose_information), Blas(), sparse_below=sparse_below, inplace=inplace_blas)
+        self.kernel = Kernel(K, lin.base_pose_information, Blas(), sparse_below=sparse_below, inplace=inplace_blas)
         self._threads_from = int(threads_from_keyframes)
         self._base: BaseState | None = None
         self._pool: ThreadPoolExecutor | None = None

@@ -20,7 +20,8 @@ from .plan import Layout
 #: below this fraction of non-zero pose blocks the pose matrix is factored as a sparse matrix
 SPARSE_BELOW = 0.11
 
-_SYM3 = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))  # unique entries of a symmetric 3x3
+#: the unique entries (row, column) of a symmetric 3x3, in the order of the pose-diagonal sums
+SYM3 = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))  # unique entries of a symmetric 3x3
 
 
 class _Scratch:
@@ -68,7 +69,7 @@ class Kernel:
         self.base_index = low.row.astype(np.int64) * n + low.col  # lower triangle of the base on the poses
         self.base_values = low.data.copy()
         k3 = 3 * np.arange(n_poses)
-        self.diag_index = np.stack([(k3 + j) * n + k3 + i for i, j in _SYM3])  # (6, K) lower-triangle flat
+        self.diag_index = np.stack([(k3 + j) * n + k3 + i for i, j in SYM3])  # (6, K) lower-triangle flat
         self._ldc = np.array([n], dtype=np.intc)  # leading dimension of the pose matrix, for BLAS
         self._local = threading.local()
         self._lock = threading.Lock()

@@ -9,12 +9,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..base import Suite
+from .kernel import SYM3
 from .plan import Layout, Planner
 
 if TYPE_CHECKING:  # graph imports gtsam: only where a library is linearized
     from ...graph import LibraryLinearization
-
-_SYM3 = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))  # unique entries of a symmetric 3x3
 
 
 @dataclass(frozen=True, eq=False)
@@ -57,7 +56,7 @@ class StateBuilder:
         jac = lin.pair_jacobian
         hp, hl = jac[:, :, :3], jac[:, :, 3:]
         self.hll = np.stack([np.stack([hl[:, r, 0] ** 2, hl[:, r, 0] * hl[:, r, 1], hl[:, r, 1] ** 2]) for r in range(2)])  # (2, 3, P)
-        self.hpp = np.stack([np.stack([hp[:, r, i] * hp[:, r, j] for i, j in _SYM3]) for r in range(2)])  # (2, 6, P)
+        self.hpp = np.stack([np.stack([hp[:, r, i] * hp[:, r, j] for i, j in SYM3]) for r in range(2)])  # (2, 6, P)
         # W_p = sum_r w_r hp_r hl_r^T is kept transposed: entry c * 3 + a = W[a, c]; rows 0:6 bearing, 6:12 range
         self.hpl = np.ascontiguousarray((hl[:, :, :, None] * hp[:, :, None, :]).reshape(-1, 12).T)  # (12, P)
         self.sensor_pairs = lin.sensor_pairs
