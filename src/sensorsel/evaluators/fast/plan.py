@@ -83,7 +83,7 @@ class Planner:
     def layout(self, act: np.ndarray) -> Layout:
         """Tiles and BLAS calls of the Schur product for the active pairs ``act`` (sorted pair indices).
 
-        Long (~65 lines) on purpose: one vectorized pass from pairs to tiles, runs and calls, each
+        Long (~60 lines) on purpose: one vectorized pass from pairs to tiles, runs and calls, each
         step reading the previous one's arrays; split, the pieces would only pass a dozen arrays on.
         """
         K, M, n = self.n_poses, self.n_landmarks, self.n
