@@ -29,7 +29,7 @@ from sensorsel.certify import (Certificate, KnapsackSolution, OptimumResult, Sui
 from sensorsel.cli import cli
 from sensorsel.errors import InputError
 from sensorsel.library import load_library
-from sensorsel.objective import make_evaluator
+from sensorsel.evaluators import make_evaluator
 from sensorsel.problem import build_problem
 from sensorsel.scenario import ScenarioSpec, load_scenario
 from sensorsel.selection import SELECTORS, GreedyResult, greedy, run_greedy

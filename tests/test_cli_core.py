@@ -16,7 +16,7 @@ from click.testing import CliRunner
 
 from sensorsel import results
 from sensorsel.cli import cli
-from sensorsel.objective import ReferenceEvaluator
+from sensorsel.evaluators import ReferenceEvaluator
 from sensorsel.pipeline import ScoreResult
 from sensorsel.scenario import ScenarioSpec
 

@@ -12,11 +12,10 @@ import gtsam
 import numpy as np
 import pytest
 
-from sensorsel import fast
 from sensorsel.errors import InputError
-from sensorsel.fast import FastEvaluator
+from sensorsel.evaluators import DEFAULT_ENGINE, ENGINES, FastEvaluator, ReferenceEvaluator, make_evaluator, register
+from sensorsel.evaluators.fast.blas import Blas
 from sensorsel.graph import GraphBuilder, linearize_library
-from sensorsel.objective import DEFAULT_ENGINE, ENGINES, ReferenceEvaluator, make_evaluator
 
 REL = 1e-9
 
@@ -185,19 +184,111 @@ def test_bad_sensor_positions_are_input_errors(tiny_problem):
 
 
 @pytest.mark.parametrize("sparse_below", [0.0, 1.1])
-@pytest.mark.parametrize("use_blas", [True, False])
-def test_every_factorization_path_agrees_with_the_reference(suburb_problem, monkeypatch, sparse_below, use_blas):
-    """Dense (in-place BLAS or numpy) and sparse factorizations of the pose matrix: same numbers."""
-    monkeypatch.setattr(fast, "SPARSE_BELOW", sparse_below)
-    fe, re = FastEvaluator(suburb_problem), ReferenceEvaluator(suburb_problem)
-    if not use_blas:
-        fe._s.blas.available = False
+@pytest.mark.parametrize("inplace", [True, False])
+def test_every_factorization_path_agrees_with_the_reference(suburb_problem, sparse_below, inplace):
+    """Dense (Cholesky) and sparse (LU) factorizations, Schur products by in-place BLAS or numpy: same numbers."""
+    fe = FastEvaluator(suburb_problem, sparse_below=sparse_below, inplace_blas=inplace)
+    re = ReferenceEvaluator(suburb_problem)
     lib = suburb_problem.library
     for s in [(), lib.parse_suite("LRR-12"), lib.parse_suite("LRL-roof,WSC-3,HD2K-9"), tuple(range(suburb_problem.n_sensors))]:
         assert close(fe.logdet(s), re.logdet(s)), s
     base = lib.parse_suite("LRL-roof")
     for c, v in zip([1, 30, 50], fe.scores_with(base, [1, 30, 50])):
         assert close(v, re.score(base + (c,)))
+    counts = fe.kernel.counts
+    assert counts["splu" if sparse_below > 1 else "potrf"] > 0 and counts["potrf" if sparse_below > 1 else "splu"] == 0
+    if inplace:
+        assert counts["syrk"] > 0 and counts["gemm"] > 0 and counts["numpy"] == 0
+    else:
+        assert counts["numpy"] > 0 and counts["syrk"] == counts["gemm"] == 0
+
+
+def test_the_in_place_blas_path_is_the_default_and_is_taken(suburb_problem):
+    """By default the Schur products go through scipy's BLAS function pointers (syrk on a tile's
+    diagonal blocks, gemm off it) and the dense pose matrix through dpotrf, and they give numpy's numbers."""
+    fe, plain = FastEvaluator(suburb_problem, sparse_below=0.0), FastEvaluator(suburb_problem, sparse_below=0.0, inplace_blas=False)
+    suite = tuple(range(suburb_problem.n_sensors))
+    got, want = fe.logdet(suite), plain.logdet(suite)
+    layout = fe._base_for(suite).layout
+    n_same = sum(1 for call in layout.calls if call[-1])
+    assert n_same > 0 and len(layout.calls) - n_same > 0
+    assert fe.kernel.counts == {"syrk": n_same, "gemm": len(layout.calls) - n_same, "potrf": 1}
+    assert abs(got - want) <= 1e-12 * abs(want)
+    # the default engine of the registry is this one
+    assert make_evaluator(suburb_problem).kernel.inplace
+
+
+def test_blas_function_pointers_against_numpy():
+    """syrk/gemm on row-major sub-blocks with a leading dimension, and dpotrf, through the Fortran pointers."""
+    blas = Blas()
+    rng = np.random.default_rng(1)
+    a, b = rng.standard_normal((7, 5)), rng.standard_normal((4, 5))
+    dims = np.array([7, 4, 5, 12], dtype=np.intc)  # m, n, k, ldc
+    pd = dims.ctypes.data
+    c = rng.standard_normal((10, 12))
+    want = c.copy()
+    blas.syrk_sub(c.ctypes.data + 8 * (1 * 12 + 2), pd + 12, a.ctypes.data, pd, pd + 8)
+    block = want[1:8, 2:9]
+    block[np.tril_indices(7)] -= (a @ a.T)[np.tril_indices(7)]  # lower triangle only; the rest untouched
+    np.testing.assert_allclose(c, want, rtol=0, atol=1e-13)
+    blas.gemm_sub(c.ctypes.data + 8 * (2 * 12 + 3), pd + 12, a.ctypes.data, b.ctypes.data, pd, pd + 4, pd + 8)
+    want[2:9, 3:7] -= a @ b.T
+    np.testing.assert_allclose(c, want, rtol=0, atol=1e-13)
+    spd = a.T @ a + np.eye(5)
+    assert abs(blas.cholesky_logdet(np.tril(spd).copy()) - np.linalg.slogdet(spd)[1]) <= 1e-12 * 10
+    with pytest.raises(np.linalg.LinAlgError):
+        blas.cholesky_logdet(-np.eye(3))
+
+
+def test_blas_runs_on_one_thread_while_scoring_and_is_restored(tiny_problem):
+    from threadpoolctl import threadpool_info
+
+    fe = FastEvaluator(tiny_problem)
+    before = [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"]
+    with fe.kernel.blas.single_thread():
+        assert all(i["num_threads"] == 1 for i in threadpool_info() if i["user_api"] == "blas")
+    assert [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"] == before
+
+
+def test_logdet_and_scores_with_do_not_mutate_their_inputs(suburb_problem):
+    """Neither the kernel's inputs (the shared base state) nor the callers' arrays are written to."""
+    lib = suburb_problem.library
+    fe = FastEvaluator(suburb_problem, sparse_below=0.0)
+    base = np.array(lib.parse_suite("LRL-roof,LRR-12"))
+    cands = np.arange(suburb_problem.n_sensors)
+    base0, cands0 = base.copy(), cands.copy()
+    first = fe.scores_with(base, cands)
+    state = fe._base_for(tuple(base.tolist()))
+    snapshot = {k: getattr(state, k).copy() for k in ("w", "d", "a", "wpl")}
+    assert np.array_equal(fe.scores_with(base, cands), first)  # same state reused: same bits
+    assert fe._base_for(tuple(base.tolist())) is state
+    for k, v in snapshot.items():
+        assert np.array_equal(getattr(state, k), v), k
+    np.testing.assert_array_equal(base, base0)
+    np.testing.assert_array_equal(cands, cands0)
+    # the kernel directly: its array arguments come back unchanged, and it can be called twice
+    args = (state.wpl, state.d, state.a)
+    copies = [x.copy() for x in args]
+    with fe.kernel.blas.single_thread():  # as the evaluator calls it (the same bits)
+        one = fe.kernel.logdet(*args, state.layout)
+        assert fe.kernel.logdet(*args, state.layout) == one
+    for x, y in zip(args, copies):
+        assert np.array_equal(x, y)
+    assert one == fe.logdet(base)
+
+
+def test_registry_holds_classes_and_names_unknown_engines(tiny_problem):
+    assert ENGINES == {"reference": ReferenceEvaluator, "fast": FastEvaluator}
+    assert all(isinstance(cls, type) for cls in ENGINES.values())
+    with pytest.raises(InputError, match=r"unknown engine 'nope'; available: fast, reference"):
+        make_evaluator(tiny_problem, "nope")
+    with pytest.raises(ValueError, match="already registered"):
+
+        @register
+        class Other(ReferenceEvaluator):
+            name = "fast"
+
+    assert ENGINES["fast"] is FastEvaluator
 
 
 def test_a_sensor_that_sees_nothing_adds_exactly_nothing(tiny_problem):

@@ -22,7 +22,7 @@ from hypothesis import HealthCheck, given, settings
 
 from scenario_strategies import problems
 from sensorsel.library import load_library
-from sensorsel.objective import ENGINES, make_evaluator
+from sensorsel.evaluators import ENGINES, make_evaluator
 from sensorsel.problem import build_problem
 from sensorsel.scenario import ScenarioSpec, load_scenario
 

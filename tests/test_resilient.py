@@ -22,7 +22,7 @@ from sensorsel._resources import default_library_path
 from sensorsel.cli import cli
 from sensorsel.errors import InputError
 from sensorsel.graph import GraphBuilder
-from sensorsel.objective import make_evaluator
+from sensorsel.evaluators import make_evaluator
 from sensorsel.problem import build_problem
 from sensorsel.resilient import (
     ACTIVE, FAILED, CacheWarning, PerPeriodResult, ResilientReport, SelectionGrid, check_period, compare, period_file, period_scenario,

@@ -19,7 +19,7 @@ from sensorsel._resources import default_library_path
 from sensorsel.cli import cli
 from sensorsel.errors import InputError
 from sensorsel.library import SensorLibrary
-from sensorsel.objective import make_evaluator
+from sensorsel.evaluators import make_evaluator
 from sensorsel.problem import build_problem
 from sensorsel.scenario import ScenarioSpec, load_scenario
 from sensorsel.selection import SELECTORS, GreedyResult, better_run, greedy, run_greedy
@@ -226,7 +226,7 @@ def test_results_are_byte_identical_across_runs(mixed):
 def test_jobs_do_not_change_a_byte_of_the_result(suburb_problem):
     """--jobs 1 and --jobs 2: the same picks, scores and evaluation counts, with the fast engine's
     threads used whatever the route's size (the threaded path itself)."""
-    from sensorsel.fast import FastEvaluator
+    from sensorsel.evaluators import FastEvaluator
 
     for objective in ("uniform", "best-of"):
         one = greedy(FastEvaluator(suburb_problem, jobs=1), 12_000.0, objective)

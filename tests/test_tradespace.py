@@ -19,7 +19,7 @@ from sensorsel import results
 from sensorsel._resources import default_library_path
 from sensorsel.cli import cli
 from sensorsel.errors import InputError
-from sensorsel.objective import make_evaluator
+from sensorsel.evaluators import make_evaluator
 from sensorsel.problem import build_problem
 from sensorsel.scenario import ScenarioSpec, load_scenario
 from sensorsel.selection import greedy

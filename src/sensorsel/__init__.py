@@ -5,7 +5,7 @@ of what the suite measures along a route (Collin & Teran Espinoza, arXiv 1907.08
 
 Data flows one way::
 
-    library + scenario -> sensing (what each sensor sees) -> graph / objective (log det)
+    library + scenario -> sensing (what each sensor sees) -> graph / evaluators (log det)
                        -> selectors -> results -> plots and CLI
 """
 
@@ -14,8 +14,8 @@ from __future__ import annotations
 __version__ = "0.1.0"
 
 from .errors import InputError, LibraryError, ResultFileError, ScenarioError, SensorselError
+from .evaluators import ENGINES, Evaluator, make_evaluator
 from .library import PlacedSensor, SensorLibrary, SensorModel, load_library
-from .objective import ENGINES, Evaluator, make_evaluator
 from .pipeline import ProblemInfo, ScoreResult, load_problem, score_suite
 from .problem import GraphSettings, Problem, build_problem
 from .scenario import LandmarkModel, Scenario, ScenarioSpec, Trajectory, load_scenario

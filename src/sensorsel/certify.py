@@ -49,7 +49,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from .errors import InputError
-from .objective import Evaluator, make_evaluator
+from .evaluators import Evaluator, make_evaluator
 from .pipeline import ProblemInfo
 from .problem import Problem
 from .selection import REL_TOL, Certificate, GreedyResult, better_run, check_budget, greedy

@@ -9,7 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Iterable
 
-from .objective import make_evaluator
+from .evaluators import make_evaluator
 from .problem import Problem, ProblemInfo, load_problem
 
 __all__ = ["ProblemInfo", "ScoreResult", "load_problem", "score_suite"]

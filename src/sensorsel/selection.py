@@ -36,7 +36,7 @@ from typing import Callable, ClassVar
 import numpy as np
 
 from .errors import InputError
-from .objective import Evaluator, make_evaluator
+from .evaluators import Evaluator, make_evaluator
 from .problem import ProblemInfo
 from .problem import Problem
 

@@ -9,7 +9,7 @@ architecture of every run (the suite after each pick) is recorded, identical sui
     result.cheapest_reaching(0.99)                      # cheapest architecture with >= 99% of the best score
     write_csv(result, "architectures.csv")
 
-Definitions (costs in $, scores f(S) in nats, see :mod:`sensorsel.objective`):
+Definitions (costs in $, scores f(S) in nats, see :mod:`sensorsel.evaluators.base`):
 
 * Architecture a **dominates** b when cost(a) <= cost(b) and score(a) >= score(b), with at least one of
   the two strict. Comparisons are exact on the recorded floats (no tolerance, so dominance is a strict
@@ -42,9 +42,9 @@ from typing import Callable, Iterable, Sequence
 import numpy as np
 
 from .errors import InputError
+from .evaluators import Evaluator, make_evaluator
 from .fileio import atomic_write_text
 from .library import SensorLibrary
-from .objective import Evaluator, make_evaluator
 from .problem import ProblemInfo
 from .problem import Problem
 from .selection import SELECTORS, GreedyResult, Step, better_run, check_budget, greedy

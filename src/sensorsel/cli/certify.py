@@ -14,8 +14,8 @@ import click
 from .. import results
 from ..certify import DEFAULT_MAX_NODES, Certificate, certify_greedy, format_certificate, optimal
 from ..errors import InputError
+from ..evaluators import make_evaluator
 from ..fileio import output_file
-from ..objective import make_evaluator
 from ..problem import Problem
 from ..selection import SELECTORS, GreedyResult, check_budget, greedy
 from .options import engine_options, problem_from, progress_bar, run, scenario_options

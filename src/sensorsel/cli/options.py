@@ -106,7 +106,7 @@ def problem_from(kw: dict[str, Any]) -> Problem:
 
 def engine_options(fn: Callable[..., Any]) -> Callable[..., Any]:
     """--engine and --jobs."""
-    from ..objective import ENGINES
+    from ..evaluators import ENGINES
 
     fn = click.option("--jobs", type=click.IntRange(min=1), default=os.cpu_count() or 1, show_default="all cores",
                       help="Threads scoring candidate suites in parallel, fast engine (results do not depend on it).")(fn)

@@ -11,10 +11,9 @@ from typing import Sequence
 
 import numpy as np
 
-from .. import objective as _objective
 from .. import results
 from ..errors import InputError
-from ..objective import Evaluator, as_suite, make_evaluator
+from ..evaluators import DEFAULT_ENGINE, ENGINES, Evaluator, as_suite, make_evaluator
 from ..problem import Problem, ProblemInfo
 from ..selection import REL_TOL, SELECTORS, check_budget, greedy
 from .cache import fingerprint, load_matching
@@ -40,9 +39,9 @@ def check_objective(objective: str) -> str:
 
 def engine_name(engine: str | None) -> str:
     """The engine to use: ``engine`` or the default, if registered."""
-    name = engine or _objective.DEFAULT_ENGINE  # read at call time: faster engines register later
-    if name not in _objective.ENGINES:
-        raise InputError(f"unknown engine {name!r}; available: {', '.join(sorted(_objective.ENGINES))}")
+    name = engine or DEFAULT_ENGINE
+    if name not in ENGINES:
+        raise InputError(f"unknown engine {name!r}; available: {', '.join(sorted(ENGINES))}")
     return name
 
 

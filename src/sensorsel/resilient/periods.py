@@ -14,7 +14,7 @@ from .. import results
 from ..errors import InputError
 from ..fileio import atomic_write_text
 from ..library import SensorLibrary
-from ..objective import make_evaluator
+from ..evaluators import make_evaluator
 from ..problem import Problem, build_problem
 from ..scenario import Scenario
 from ..selection import check_budget

@@ -17,7 +17,7 @@ from typing import Callable, Iterable, Sequence
 import numpy as np
 
 from ..errors import InputError
-from ..objective import as_suite
+from ..evaluators import as_suite
 from ..problem import Problem
 from .consistency import COVARIANCE_NOTE, Prediction, correlated_nees_bounds, nees_bounds, predict, rms, run_errors
 from .failures import resolve_failures

@@ -8,19 +8,20 @@ greedy guarantees and the lazy evaluation rely on.
 
 Evaluators compute these numbers; they differ in speed, not in answers. ``reference`` rebuilds,
 relinearizes and eliminates the GTSAM graph for every suite (the paper's method, and the oracle of
-the tests); faster engines register themselves in :data:`ENGINES`.
+the tests); faster engines are registered in :data:`sensorsel.evaluators.ENGINES`.
 """
 
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from typing import Callable, ClassVar, Iterable, Sequence
+from typing import ClassVar, Iterable, Sequence
 
 import numpy as np
 
-from .errors import InputError
-from .problem import Problem
+from ..errors import InputError
+from ..problem import Problem
 
+#: a canonical suite: sorted tuple of unique library positions
 Suite = tuple[int, ...]
 
 
@@ -30,13 +31,15 @@ def as_suite(suite: Iterable[int]) -> Suite:
 
 
 class Evaluator(ABC):
-    """Scores suites of one problem. Subclasses implement :meth:`logdet`.
+    """Scores suites of one problem. Subclasses implement :meth:`_logdet`.
 
     Attributes:
         problem: the library and scenario being scored.
+        jobs: threads the engine may use (>= 1; engines that do not use threads ignore it).
         n_evaluations: how many suites have been scored (each log det computed counts one).
     """
 
+    #: the engine's name in :data:`sensorsel.evaluators.ENGINES`
     name: ClassVar[str] = ""
 
     def __init__(self, problem: Problem, *, jobs: int = 1) -> None:
@@ -49,12 +52,16 @@ class Evaluator(ABC):
     def _logdet(self, suite: Suite) -> float:
         """log det L(suite) [nats] for a canonical suite."""
 
+    def _check_positions(self, positions: Iterable[int]) -> None:
+        """Raise :class:`InputError` for a position outside the library (0..n_sensors - 1)."""
+        for i in positions:
+            if not 0 <= i < self.problem.n_sensors:
+                raise InputError(f"sensor position {i} is outside the library (0..{self.problem.n_sensors - 1})")
+
     def logdet(self, suite: Iterable[int]) -> float:
         """log det of the information matrix of the suite [nats]."""
         s = as_suite(suite)
-        for i in s:
-            if not 0 <= i < self.problem.n_sensors:
-                raise InputError(f"sensor position {i} is outside the library (0..{self.problem.n_sensors - 1})")
+        self._check_positions(s)
         self.n_evaluations += 1
         return self._logdet(s)
 
@@ -76,37 +83,3 @@ class Evaluator(ABC):
         """
         base = as_suite(suite)
         return np.array([self.score(base + (c,)) for c in candidates], dtype=float)
-
-
-class ReferenceEvaluator(Evaluator):
-    """The paper's method: build the GTSAM graph, linearize, eliminate, 2 log|det R|, every time."""
-
-    name = "reference"
-
-    def __init__(self, problem: Problem, *, jobs: int = 1) -> None:
-        super().__init__(problem, jobs=jobs)
-        from .graph import GraphBuilder  # gtsam only where graphs are built
-
-        self._builder = GraphBuilder(problem)
-
-    def _logdet(self, suite: Suite) -> float:
-        return self._builder.logdet(suite)
-
-
-def _fast_evaluator(problem: Problem, *, jobs: int = 1) -> Evaluator:
-    """The fast engine (sensorsel.fast), imported on first use: fast.py builds on this module."""
-    from .fast import FastEvaluator
-
-    return FastEvaluator(problem, jobs=jobs)
-
-
-ENGINES: dict[str, Callable[..., Evaluator]] = {"reference": ReferenceEvaluator, "fast": _fast_evaluator}
-DEFAULT_ENGINE = "fast"
-
-
-def make_evaluator(problem: Problem, engine: str | None = None, *, jobs: int = 1) -> Evaluator:
-    """An evaluator of the named engine (default: the fastest registered)."""
-    name = engine or DEFAULT_ENGINE
-    if name not in ENGINES:
-        raise InputError(f"unknown engine {name!r}; available: {', '.join(sorted(ENGINES))}")
-    return ENGINES[name](problem, jobs=jobs)

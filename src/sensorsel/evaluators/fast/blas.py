@@ -1,0 +1,108 @@
+"""BLAS/LAPACK on sub-blocks of numpy arrays, through scipy's Cython BLAS/LAPACK function pointers,
+and the BLAS thread count, through threadpoolctl.
+
+numpy has no ``C -= A @ B.T`` on a strided view, nor an in-place Cholesky. scipy exports the BLAS
+and LAPACK it links (``scipy.linalg.cython_blas`` / ``cython_lapack``) as C function pointers in
+each module's ``__pyx_capi__`` (PyCapsules); :class:`Blas` casts them to ctypes functions with the
+Fortran calling convention (every argument by pointer, column-major, 32-bit integers). This works
+wherever scipy does, whatever BLAS scipy was built against. ctypes releases the GIL during each
+call, so candidates scored on separate threads run in parallel.
+
+Row-major vs column-major: a C-contiguous (m, n) block with leading dimension ``ld`` is, to
+Fortran, the (n, m) block of its transpose with the same leading dimension; so the lower triangle
+of a row-major matrix is the upper triangle of the column-major one, and ``C -= A Bᵀ`` on row-major
+blocks is ``Cᵀ -= B Aᵀ`` on column-major ones.
+"""
+
+from __future__ import annotations
+
+import ctypes
+from contextlib import contextmanager
+from typing import Any, Iterator
+
+import numpy as np
+from scipy.linalg import cython_blas, cython_lapack
+from threadpoolctl import ThreadpoolController
+
+_P = ctypes.c_void_p  # every Fortran argument: a pointer
+_INT = ctypes.c_int  # scipy's Cython BLAS/LAPACK take ``int *`` (LP64)
+
+#: Fortran signatures: name -> (module, number of pointer arguments)
+_SIGNATURES = {"dsyrk": (cython_blas, 10), "dgemm": (cython_blas, 13), "dpotrf": (cython_lapack, 5)}
+
+
+def _function_pointer(module: Any, name: str, n_args: int) -> Any:
+    """The C function ``name`` exported by a scipy Cython module, as a ctypes function of ``n_args`` pointers."""
+    capsule = module.__pyx_capi__[name]
+    # own prototypes of the C API functions (setting argtypes on ctypes.pythonapi's would change them for everyone)
+    get_name = ctypes.PYFUNCTYPE(ctypes.c_char_p, ctypes.py_object)(("PyCapsule_GetName", ctypes.pythonapi))
+    get_pointer = ctypes.PYFUNCTYPE(ctypes.c_void_p, ctypes.py_object, ctypes.c_char_p)(("PyCapsule_GetPointer", ctypes.pythonapi))
+    signature = get_name(capsule)  # the capsule's name is the C signature, e.g. b"void (char *, int *, ...)"
+    if not signature.startswith(b"void (") or signature.count(b"*") != n_args:
+        raise ImportError(f"scipy's {name} has an unexpected signature: {signature!r}")
+    address = get_pointer(capsule, signature)
+    return ctypes.CFUNCTYPE(None, *([_P] * n_args))(address)
+
+
+class Blas:
+    """In-place dense kernels on raw float64 blocks, and the BLAS thread count while scoring.
+
+    One per evaluator: the function pointers and the threadpoolctl controller are looked up once.
+    Pointers to the constant arguments (``uplo``, ``trans``, alpha = -1, beta = 1) live in the
+    instance, so a call builds no ctypes object beyond the integer addresses.
+    """
+
+    def __init__(self) -> None:
+        self._syrk = _function_pointer(cython_blas, "dsyrk", _SIGNATURES["dsyrk"][1])
+        self._gemm = _function_pointer(cython_blas, "dgemm", _SIGNATURES["dgemm"][1])
+        self._potrf = _function_pointer(cython_lapack, "dpotrf", _SIGNATURES["dpotrf"][1])
+        self._chars = {c: ctypes.c_char(c) for c in (b"U", b"N", b"T")}  # kept alive: BLAS reads them by address
+        self._char = {c: ctypes.addressof(v) for c, v in self._chars.items()}
+        self._pu, self._pn, self._pt = self._char[b"U"], self._char[b"N"], self._char[b"T"]
+        self._minus_one, self._one = ctypes.c_double(-1.0), ctypes.c_double(1.0)
+        self.p_minus_one, self.p_one = ctypes.addressof(self._minus_one), ctypes.addressof(self._one)
+        # created after scipy's BLAS is loaded (the import above), so that it sees it and numpy's
+        self._controller = ThreadpoolController()
+
+    @contextmanager
+    def single_thread(self) -> Iterator[None]:
+        """Run the block with every loaded BLAS on one thread per caller, then restore it.
+
+        Why: (1) determinism: OpenBLAS's threaded Cholesky blocks the matrix by its thread count,
+        so the last bits of a log det could depend on it; one BLAS thread per candidate keeps every
+        number identical whatever ``jobs`` is. (2) speed: parallelism comes from scoring candidates
+        on separate threads; on a busy 2-core machine OpenBLAS's own spinning threads were measured
+        10-20x slower than one thread.
+        """
+        with self._controller.limit(limits=1, user_api="blas"):
+            yield
+
+    def syrk_sub(self, pc: int, p_ldc: int, pa: int, p_m: int, p_k: int) -> None:
+        """C -= A Aᵀ, lower triangle of C only, on row-major float64 blocks (addresses).
+
+        A is (m, k) with leading dimension k at ``pa``; C is (m, m) with leading dimension ldc at
+        ``pc``. ``p_m``, ``p_k``, ``p_ldc`` are addresses of C ints holding m, k, ldc. Column-major:
+        C's upper triangle -= Aᵀᵀ Aᵀ, i.e. dsyrk('U', 'T', n=m, k, -1, Aᵀ, lda=k, 1, Cᵀ, ldc).
+        """
+        self._syrk(self._pu, self._pt, p_m, p_k, self.p_minus_one, pa, p_k, self.p_one, pc, p_ldc)
+
+    def gemm_sub(self, pc: int, p_ldc: int, pa: int, pb: int, p_m: int, p_n: int, p_k: int) -> None:
+        """C -= A Bᵀ on row-major float64 blocks (addresses).
+
+        A (m, k) at ``pa`` and B (n, k) at ``pb``, leading dimension k; C (m, n) with leading
+        dimension ldc at ``pc``; ``p_m``, ``p_n``, ``p_k``, ``p_ldc`` are addresses of C ints.
+        Column-major: Cᵀ (n, m) -= B Aᵀ = (Bᵀ)ᵀ Aᵀ, i.e. dgemm('T', 'N', n, m, k, -1, Bᵀ, k, Aᵀ, k, 1, Cᵀ, ldc).
+        """
+        self._gemm(self._pt, self._pn, p_n, p_m, p_k, self.p_minus_one, pb, p_k, pa, p_k, self.p_one, pc, p_ldc)
+
+    def cholesky_logdet(self, p: np.ndarray) -> float:
+        """log det [nats] of the symmetric positive definite (n, n) C-contiguous float64 ``p`` whose
+        lower triangle is filled; ``p`` is overwritten by its Cholesky factor (pass a scratch array)."""
+        if not (p.flags.c_contiguous and p.dtype == np.float64 and p.ndim == 2 and p.shape[0] == p.shape[1]):
+            raise ValueError("cholesky_logdet needs a square C-contiguous float64 array")
+        n, info = _INT(p.shape[0]), _INT(0)
+        # row-major lower triangle = column-major upper triangle
+        self._potrf(self._pu, ctypes.addressof(n), p.ctypes.data, ctypes.addressof(n), ctypes.addressof(info))
+        if info.value != 0:
+            raise np.linalg.LinAlgError(f"pose information matrix is not positive definite (dpotrf info {info.value})")
+        return 2.0 * float(np.sum(np.log(np.diagonal(p))))

@@ -1,0 +1,92 @@
+"""FastEvaluator: the fast engine's interface (method and reasons: :mod:`sensorsel.evaluators.fast`)."""
+
+from __future__ import annotations
+
+import weakref
+from concurrent.futures import ThreadPoolExecutor
+from typing import Iterable, Sequence
+
+import numpy as np
+
+from ...problem import Problem
+from ..base import Evaluator, Suite, as_suite
+from .blas import Blas
+from .kernel import SPARSE_BELOW, Kernel
+from .plan import Planner
+from .state import BaseState, StateBuilder
+
+#: candidates are scored on several threads only from this many keyframes on. Below it a candidate
+#: costs ~2 ms, mostly interpreter work that holds the GIL, and two threads were measured slower
+#: than one (KITTI 03, 81 keyframes: lazy greedy 0.39-0.48 s on 2 threads, 0.31-0.32 s on 1);
+#: on KITTI 00 (455 keyframes) the dense factorizations release the GIL and 2 threads took 7.4 s
+#: against 10.1 s on 1.
+THREADS_FROM_KEYFRAMES = 200
+
+
+class FastEvaluator(Evaluator):
+    """Exact log det from per-sensor linearized pieces computed once (see :mod:`sensorsel.evaluators.fast`).
+
+    Attributes:
+        kernel: the numeric kernel (its ``counts`` tell which paths were taken).
+    """
+
+    name = "fast"
+
+    def __init__(self, problem: Problem, *, jobs: int = 1, threads_from_keyframes: int = THREADS_FROM_KEYFRAMES,
+                 sparse_below: float = SPARSE_BELOW, inplace_blas: bool = True) -> None:
+        """``threads_from_keyframes``: use the ``jobs`` threads only on routes with at least this many
+        keyframes. ``sparse_below``, ``inplace_blas``: the kernel's choice of paths (see
+        :class:`~sensorsel.evaluators.fast.kernel.Kernel`). All three change speed, not the numbers."""
+        super().__init__(problem, jobs=jobs)
+        from ...graph import linearize_library  # gtsam is imported where a library is linearized, when one is
+
+        lin = linearize_library(problem)
+        K = problem.scenario.n_poses
+        coo = lin.base_pose_information.tocoo()
+        base_pattern = np.eye(K, dtype=bool)
+        base_pattern[coo.row // 3, coo.col // 3] = True
+        planner = Planner(problem, lin.pair_pose, lin.pair_landmark, np.tril(base_pattern))
+        self._states = StateBuilder(lin, planner)
+        self.kernel = Kernel(K, lin.base_pose_information, Blas(), sparse_below=sparse_below, inplace=inplace_blas)
+        self._threads_from = int(threads_from_keyframes)
+        self._base: BaseState | None = None
+        self._pool: ThreadPoolExecutor | None = None
+
+    def _threads(self) -> ThreadPoolExecutor:
+        """The evaluator's worker threads, started once (a pool per call cost more than a 03 candidate)."""
+        if self._pool is None:
+            self._pool = ThreadPoolExecutor(max_workers=self.jobs, thread_name_prefix="sensorsel-fast")
+            weakref.finalize(self, self._pool.shutdown, wait=False)
+        return self._pool
+
+    def _base_for(self, suite: Suite) -> BaseState:
+        """The state of ``suite``, kept for the next call (greedy scores many candidates on one base)."""
+        if self._base is None or self._base.suite != suite:
+            self._base = self._states.base(suite)
+        return self._base
+
+    def _candidate_logdet(self, base: BaseState, c: int) -> float:
+        """log det L(base + {c}) [nats]."""
+        x = self._states.candidate(base, c)
+        return self.kernel.logdet(x.wpl, x.d, x.a, x.layout)
+
+    def _logdet(self, suite: Suite) -> float:
+        with self.kernel.blas.single_thread():
+            b = self._base_for(suite)
+            return self.kernel.logdet(b.wpl, b.d, b.a, b.layout)
+
+    def scores_with(self, suite: Iterable[int], candidates: Sequence[int]) -> np.ndarray:
+        """f(S + {c}) for each candidate c [nats], shape (len(candidates),); the base's state is
+        computed once and shared (on ``jobs`` threads from ``threads_from_keyframes`` keyframes on)."""
+        base = as_suite(suite)
+        cands = [int(c) for c in candidates]
+        self._check_positions(base + tuple(cands))
+        baseline = self.baseline_logdet
+        with self.kernel.blas.single_thread():
+            b = self._base_for(base)
+            if self.jobs > 1 and len(cands) > 1 and self.problem.scenario.n_poses >= self._threads_from:
+                vals = list(self._threads().map(lambda c: self._candidate_logdet(b, c), cands))
+            else:
+                vals = [self._candidate_logdet(b, c) for c in cands]
+        self.n_evaluations += len(cands)
+        return np.array(vals, dtype=float) - baseline

@@ -1,0 +1,169 @@
+"""The numeric kernel: log det of a suite's information from its sums, by the Schur complement on
+the poses and a dense Cholesky (LAPACK dpotrf) or a sparse LU (SuperLU) of it.
+
+The kernel never writes to its inputs: the tiles, Y and the pose matrix are scratch buffers it
+owns, one set per thread.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections import Counter
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from .blas import Blas
+from .plan import Layout
+
+#: below this fraction of non-zero pose blocks the pose matrix is factored as a sparse matrix
+SPARSE_BELOW = 0.11
+
+#: the unique entries (row, column) of a symmetric 3x3, in the order of the pose-diagonal sums
+SYM3 = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))  # unique entries of a symmetric 3x3
+
+
+class _Scratch:
+    """Reusable float64 buffers of one thread, handed out zeroed."""
+
+    def __init__(self) -> None:
+        self._arrays: dict[str, np.ndarray] = {}
+
+    def array(self, name: str, size: int, *, zeroed: bool = True) -> np.ndarray:
+        """A (size,) view of this thread's buffer ``name``, zero-filled unless ``zeroed`` is False."""
+        a = self._arrays.get(name)
+        if a is None or a.size < size:
+            a = self._arrays[name] = np.zeros(max(size, 1))
+            return a[:size]
+        a = a[:size]
+        if zeroed:
+            a.fill(0.0)
+        return a
+
+
+class Kernel:
+    """log det L [nats] of one problem's suites from their landmark, pose and coupling sums.
+
+    Args:
+        n_poses: K, the number of keyframes (the pose matrix is 3K x 3K).
+        base_pose_information: (3K, 3K) sparse information of the base graph on the poses.
+        blas: the BLAS/LAPACK access (function pointers, thread control).
+        sparse_below: factor the pose matrix with SuperLU when fewer than this fraction of its
+            pose blocks can be non-zero, else with dense Cholesky.
+        inplace: accumulate the Schur product with in-place BLAS calls (True) or with numpy
+            (``P[block] -= A @ B.T``, a temporary per call; a cross-check, same numbers to round-off).
+
+    Attributes:
+        counts: how many times each path was taken, by name: "syrk", "gemm" (in-place BLAS calls),
+            "numpy" (numpy block products), "potrf" (dense Cholesky), "splu" (sparse LU).
+    """
+
+    def __init__(self, n_poses: int, base_pose_information: sp.spmatrix, blas: Blas, *,
+                 sparse_below: float = SPARSE_BELOW, inplace: bool = True) -> None:
+        self.n = n = 3 * n_poses
+        self.blas = blas
+        self.sparse_below = float(sparse_below)
+        self.inplace = bool(inplace)
+        low = sp.tril(base_pose_information).tocoo()
+        self.base_index = low.row.astype(np.int64) * n + low.col  # lower triangle of the base on the poses
+        self.base_values = low.data.copy()
+        k3 = 3 * np.arange(n_poses)
+        self.diag_index = np.stack([(k3 + j) * n + k3 + i for i, j in SYM3])  # (6, K) lower-triangle flat
+        self._ldc = np.array([n], dtype=np.intc)  # leading dimension of the pose matrix, for BLAS
+        self._local = threading.local()
+        self._lock = threading.Lock()
+        self.counts: Counter[str] = Counter()
+
+    def _scratch(self) -> _Scratch:
+        """This thread's reusable buffers (the large arrays of one evaluation)."""
+        sc = getattr(self._local, "scratch", None)
+        if sc is None:
+            sc = self._local.scratch = _Scratch()
+        return sc
+
+    def _count(self, **paths: int) -> None:
+        with self._lock:
+            self.counts.update(paths)
+
+    def logdet(self, wpl: np.ndarray, d: np.ndarray, a: np.ndarray, layout: Layout) -> float:
+        """log det L [nats]; no argument is written to.
+
+        Args:
+            wpl: (6, Pa) W of each active pair of ``layout``: entry c * 3 + a = W[a, c], W = Σ_r w_r hp_r hl_rᵀ
+                (pose rows a, landmark columns c).
+            d: (3, M) landmark information sums d00, d01, d11.
+            a: (6, K) pose-diagonal information sums from measurements (unique entries of each 3x3).
+            layout: the tiles and calls of the active pairs.
+        """
+        # landmark blocks: D_j = L_j L_j^T (2x2 Cholesky, vectorized)
+        l11 = np.sqrt(d[0])
+        l21 = d[1] / l11
+        l22 = np.sqrt(d[2] - l21 * l21)
+        logdet = 2.0 * float(np.sum(np.log(l11 * l22)))
+        # Y_p = W_p L_j^{-T} (its (2, 3) rows are W's columns): with L^{-1} =
+        # [[1/l11, 0], [-l21/(l11 l22), 1/l22]], Y[:, 0] = W[:, 0] / l11 and
+        # Y[:, 1] = W[:, 1] / l22 - W[:, 0] l21 / (l11 l22)
+        lm = layout.landmark
+        scratch = self._scratch()
+        w = wpl.reshape(2, 3, -1)
+        y = scratch.array("y", wpl.size, zeroed=False).reshape(w.shape)
+        np.multiply(w[1], np.take(1.0 / l22, lm), out=y[1])
+        y[1] -= w[0] * np.take(l21 / (l11 * l22), lm)
+        np.multiply(w[0], np.take(1.0 / l11, lm), out=y[0])
+        buf = scratch.array("tiles", layout.size)
+        buf[layout.flat] = y.ravel()
+        # pose Schur complement (lower triangle): base + measurement diagonal - sum_j Y_j Y_j^T
+        P = scratch.array("pose", self.n * self.n).reshape(self.n, self.n)
+        P.ravel()[self.base_index] = self.base_values
+        P.ravel()[self.diag_index] += a
+        self._subtract_products(P, buf, layout)
+        if layout.density < self.sparse_below:
+            self._count(splu=1)
+            return logdet + self._sparse_logdet(P, layout.pattern)
+        self._count(potrf=1)
+        return logdet + self.blas.cholesky_logdet(P)
+
+    def _subtract_products(self, P: np.ndarray, buf: np.ndarray, layout: Layout) -> None:
+        """P[block] -= A @ B.T for every call of ``layout`` (tiles in ``buf``), lower triangle of P."""
+        n = self.n
+        if not self.inplace:
+            for a_off, b_off, c_off, m, nn, k, _ in layout.calls:
+                t = buf[a_off: a_off + m * k].reshape(m, k)
+                u = buf[b_off: b_off + nn * k].reshape(nn, k)
+                r0, c0 = divmod(c_off, n)
+                P[r0: r0 + m, c0: c0 + nn] -= t @ u.T
+            self._count(numpy=len(layout.calls))
+            return
+        syrk, gemm = self.blas.syrk_sub, self.blas.gemm_sub
+        pa, pc, pd, pldc = buf.ctypes.data, P.ctypes.data, layout.dims.ctypes.data, self._ldc.ctypes.data
+        n_same = 0
+        for i, (a_off, b_off, c_off, _, _, _, same) in enumerate(layout.calls):
+            p_m = pd + 12 * i  # dims[i] = (m, n, k), 4-byte C ints
+            if same:
+                syrk(pc + 8 * c_off, pldc, pa + 8 * a_off, p_m, p_m + 8)
+                n_same += 1
+            else:
+                gemm(pc + 8 * c_off, pldc, pa + 8 * a_off, pa + 8 * b_off, p_m, p_m + 4, p_m + 8)
+        self._count(syrk=n_same, gemm=len(layout.calls) - n_same)
+
+    @staticmethod
+    def _sparse_logdet(P: np.ndarray, pattern: np.ndarray) -> float:
+        """log det [nats] of the (3K, 3K) matrix whose lower triangle is in ``P`` (not written to),
+        non-zero only on the (K, K) ``pattern`` of pose blocks."""
+        kr, kc = np.nonzero(pattern)
+        i = (3 * kr[:, None] + np.arange(3)[None, :]).repeat(3, axis=1).ravel()
+        j = np.tile(3 * kc[:, None] + np.arange(3)[None, :], (1, 3)).ravel()
+        low = i >= j
+        i, j = i[low], j[low]
+        v = P[i, j]
+        off = i > j
+        rows = np.concatenate([i, j[off]])
+        cols = np.concatenate([j, i[off]])
+        vals = np.concatenate([v, v[off]])
+        S = sp.csc_matrix((vals, (rows, cols)), shape=P.shape)
+        lu = spla.splu(S, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options=dict(SymmetricMode=True))
+        u = lu.U.diagonal()
+        if np.any(u <= 0):
+            raise np.linalg.LinAlgError("pose information matrix is not positive definite")
+        return float(np.sum(np.log(u)))

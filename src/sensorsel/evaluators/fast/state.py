@@ -1,0 +1,114 @@
+"""The incremental state: a suite as pair weights and sums, built once per base suite and shared by
+every candidate scored with it (each candidate adds its own few thousand pairs to copies)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..base import Suite
+from .kernel import SYM3
+from .plan import Layout, Planner
+
+if TYPE_CHECKING:  # graph imports gtsam: only where a library is linearized
+    from ...graph import LibraryLinearization
+
+
+@dataclass(frozen=True, eq=False)
+class BaseState:
+    """A base suite's state, shared (read-only) by every candidate scored with it.
+
+    P pairs, M landmarks, K keyframes, Pa active pairs (measured by the suite).
+    """
+
+    suite: Suite
+    w: np.ndarray  # (2, P) information of each measurement row (bearing [1/rad²], range [1/m²]) of each pair (0: not measured)
+    d: np.ndarray  # (3, M) landmark information d00, d01, d11
+    a: np.ndarray  # (6, K) measurement information on the pose diagonal blocks (unique entries)
+    layout: Layout
+    wpl: np.ndarray  # (6, Pa) W_p = sum_r w_r hp_r hl_r^T of each active pair, entry c * 3 + a = W[a, c]
+
+
+@dataclass(frozen=True, eq=False)
+class KernelInput:
+    """What the kernel needs for one suite (see :meth:`sensorsel.evaluators.fast.kernel.Kernel.logdet`)."""
+
+    wpl: np.ndarray  # (6, Pa)
+    d: np.ndarray  # (3, M)
+    a: np.ndarray  # (6, K)
+    layout: Layout
+
+
+class StateBuilder:
+    """The per-pair pieces of a linearized library, and the suite states built from them.
+
+    Every measurement row r (0 bearing, 1 range) of a pair contributes ``ω_r h_r h_rᵀ`` at weight
+    ω_r = Σ 1/σ_r² over the suite's sensors measuring the pair; its rank-one pieces at unit weight are
+    stored one component per contiguous row (vector operations run over pairs, not over 2x3 blocks).
+    """
+
+    def __init__(self, lin: LibraryLinearization, planner: Planner) -> None:
+        self.planner = planner
+        self.n_poses, self.n_landmarks = planner.n_poses, planner.n_landmarks
+        self.pair_pose, self.pair_landmark = lin.pair_pose, lin.pair_landmark
+        jac = lin.pair_jacobian
+        hp, hl = jac[:, :, :3], jac[:, :, 3:]
+        self.hll = np.stack([np.stack([hl[:, r, 0] ** 2, hl[:, r, 0] * hl[:, r, 1], hl[:, r, 1] ** 2]) for r in range(2)])  # (2, 3, P)
+        self.hpp = np.stack([np.stack([hp[:, r, i] * hp[:, r, j] for i, j in SYM3]) for r in range(2)])  # (2, 6, P)
+        # W_p = sum_r w_r hp_r hl_r^T is kept transposed: entry c * 3 + a = W[a, c]; rows 0:6 bearing, 6:12 range
+        self.hpl = np.ascontiguousarray((hl[:, :, :, None] * hp[:, :, None, :]).reshape(-1, 12).T)  # (12, P)
+        self.sensor_pairs = lin.sensor_pairs
+        self.sensor_w = tuple(np.ascontiguousarray((1.0 / s**2).T) for s in lin.sensor_sigmas)  # (2, n_s)
+        bl = lin.base_landmark_information
+        self.base_ll = np.stack([bl[:, 0, 0], bl[:, 0, 1], bl[:, 1, 1]])  # (3, M)
+
+    def base(self, suite: Suite) -> BaseState:
+        """State of a canonical suite: pair weights, sums, layout and W of its active pairs."""
+        w = np.zeros((2, len(self.pair_pose)))
+        for s in suite:
+            w[:, self.sensor_pairs[s]] += self.sensor_w[s]
+        act = np.flatnonzero(w[0] + w[1] > 0)
+        d = self.base_ll.copy()
+        a = np.zeros((6, self.n_poses))
+        self._accumulate(d, a, act, w[:, act])
+        layout = self.planner.layout(act)
+        return BaseState(suite, w, d, a, layout, self._wpl(w[:, act], np.take(self.hpl, act, axis=1)))
+
+    def candidate(self, base: BaseState, c: int) -> KernelInput:
+        """The kernel's input for ``base.suite + {c}``; ``base`` is not written to."""
+        if c in base.suite:
+            return KernelInput(base.wpl, base.d, base.a, base.layout)
+        pairs, wc = self.sensor_pairs[c], self.sensor_w[c]
+        d, a = base.d.copy(), base.a.copy()
+        self._accumulate(d, a, pairs, wc)
+        layout = base.layout
+        act = layout.act
+        at = np.searchsorted(act, pairs)
+        if len(pairs) and (at[-1] >= len(act) or np.any(act[np.minimum(at, len(act) - 1)] != pairs)):
+            # the candidate measures pairs the base does not: a layout of its own
+            w = base.w.copy()
+            w[:, pairs] += wc
+            layout = self.planner.layout(np.flatnonzero(w[0] + w[1] > 0))
+            wpl = self._wpl(w[:, layout.act], np.take(self.hpl, layout.act, axis=1))
+        else:
+            wpl = base.wpl.copy()
+            wpl[:, at] += self._wpl(wc, np.take(self.hpl, pairs, axis=1))
+        return KernelInput(wpl, d, a, layout)
+
+    @staticmethod
+    def _wpl(w: np.ndarray, hpl: np.ndarray) -> np.ndarray:
+        """W of pairs with row weights ``w`` (2, n) and pieces ``hpl`` (12, n): (6, n)."""
+        return w[0] * hpl[:6] + w[1] * hpl[6:]
+
+    def _accumulate(self, d: np.ndarray, a: np.ndarray, pairs: np.ndarray, w: np.ndarray) -> None:
+        """Add, in place, the landmark (d: 3, M) and pose-diagonal (a: 6, K) information of
+        ``pairs`` (n,) with row weights ``w`` (2, n)."""
+        lm, ps = self.pair_landmark[pairs], self.pair_pose[pairs]
+        hll = np.take(self.hll, pairs, axis=2)
+        hpp = np.take(self.hpp, pairs, axis=2)
+        for i in range(3):
+            d[i] += np.bincount(lm, w[0] * hll[0, i] + w[1] * hll[1, i], self.n_landmarks)
+        for i in range(6):
+            a[i] += np.bincount(ps, w[0] * hpp[0, i] + w[1] * hpp[1, i], self.n_poses)
