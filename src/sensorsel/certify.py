@@ -310,7 +310,7 @@ def suite_bound(evaluator: Evaluator, suite: Sequence[int], budget_usd: float, *
             into it (others left as they are).
     """
     budget = check_budget(budget_usd)
-    lib = evaluator.problem.library
+    lib = evaluator.library
     s = tuple(int(i) for i in suite)
     f_s = evaluator.score(s) if score is None else float(score)
     inside = set(s) | set(exclude)
@@ -350,7 +350,7 @@ def certificate(evaluator: Evaluator, greedy_result: GreedyResult, *, progress: 
         InputError: the result names sensors that are not in the evaluator's library.
     """
     t0 = time.perf_counter()
-    lib = evaluator.problem.library
+    lib = evaluator.library
     n0 = evaluator.n_evaluations
     res = greedy_result
     budget = check_budget(res.budget_usd)
@@ -546,7 +546,7 @@ def optimal(evaluator: Evaluator, budget_usd: float, *, max_nodes: int = DEFAULT
     if max_seconds is not None and not (isinstance(max_seconds, (int, float)) and max_seconds > 0):
         raise InputError(f"max_seconds must be a positive number of seconds, got {max_seconds!r}")
     ev = evaluator
-    lib = ev.problem.library
+    lib = ev.library
     n0 = ev.n_evaluations
     costs = lib.costs
     exclude = frozenset(int(i) for i in exclude)

@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Iterable
 
 from .errors import InputError
+from .domain import load_domain_file, load_domain_scenarios
 from .library import SensorLibrary, load_library
 from .scenario import Scenario, ScenarioSpec, load_scenario
 from .sensing import SensorObservations, observe
@@ -141,3 +142,109 @@ def load_problem(spec: ScenarioSpec | None = None, library: str | Path | None = 
     compute what each sensor sees. The problem remembers ``spec``: results computed on it record it."""
     spec = spec or ScenarioSpec()
     return build_problem(load_library(library), load_scenario(spec), settings, spec=spec)
+
+
+# ----------------------------------------------------------------------------------------- domains
+
+
+@dataclass(frozen=True, eq=False)
+class DomainRoute:
+    """One route of an operating domain, as a problem.
+
+    Attributes:
+        name: the route's name in the domain (unique).
+        problem: the library on this route's scenario.
+        weight: its share of the fleet's driving, in ``unit`` (> 0).
+        unit: "hours" or "km" (the domain file's ``weight_unit``).
+    """
+
+    name: str
+    problem: Problem
+    weight: float
+    unit: str = "hours"
+
+
+@dataclass(frozen=True)
+class RouteInfo:
+    """What a domain result records of each route: its name, weight and problem."""
+
+    name: str
+    weight: float
+    unit: str
+    problem: ProblemInfo
+
+
+@dataclass(frozen=True)
+class DomainInfo:
+    """What a domain result was computed on: the domain file and each route."""
+
+    source: str
+    routes: tuple[RouteInfo, ...]
+
+
+@dataclass(frozen=True, eq=False)
+class Domain:
+    """An operating domain: routes scored with one sensor library, one suite for all of them.
+
+    Attributes:
+        routes: the routes, in the domain file's order.
+        source: the domain file (or a description).
+
+    Raises:
+        InputError: no route, a name used twice, a weight that is not positive and finite, or routes
+            built on different libraries (a suite's ids would mean different sensors).
+    """
+
+    routes: tuple[DomainRoute, ...]
+    source: str = "<memory>"
+
+    def __post_init__(self) -> None:
+        if not self.routes:
+            raise InputError(f"domain {self.source}: no route")
+        names = [r.name for r in self.routes]
+        dup = sorted({n for n in names if names.count(n) > 1})
+        if dup:
+            raise InputError(f"domain {self.source}: route name(s) {', '.join(dup)} used twice")
+        for r in self.routes:
+            if not (math.isfinite(r.weight) and r.weight > 0):
+                raise InputError(f"domain {self.source}: route {r.name!r} has weight {r.weight!r}; expected > 0")
+        first = self.routes[0].problem.library
+        for r in self.routes[1:]:
+            if r.problem.library.sensors != first.sensors:
+                raise InputError(f"domain {self.source}: route {r.name!r} uses another sensor library than route "
+                                 f"{self.routes[0].name!r}; one suite needs one library")
+
+    def __repr__(self) -> str:
+        return f"Domain({len(self.routes)} routes from {self.source!r}: {', '.join(r.name for r in self.routes)})"
+
+    @property
+    def library(self) -> SensorLibrary:
+        return self.routes[0].problem.library
+
+    @property
+    def n_sensors(self) -> int:
+        return len(self.library)
+
+    @property
+    def info(self) -> DomainInfo:
+        return DomainInfo(self.source, tuple(RouteInfo(r.name, r.weight, r.unit, r.problem.info) for r in self.routes))
+
+    def resolve_suite(self, suite: "str | Iterable[str | int]") -> tuple[int, ...]:
+        """Sorted library positions of a suite given as ids or positions."""
+        return self.library.resolve_suite(suite)
+
+    def route(self, name: str) -> DomainRoute:
+        for r in self.routes:
+            if r.name == name:
+                return r
+        raise InputError(f"domain {self.source}: no route named {name!r} (routes: {', '.join(r.name for r in self.routes)})")
+
+
+def load_domain(path: str | Path, library: str | Path | None = None, settings: GraphSettings | None = None) -> Domain:
+    """Read an operating-domain file (:mod:`sensorsel.domain`), load every route and compute what each
+    sensor sees on it. ``library`` overrides the file's ``library`` (default: the paper's Table I)."""
+    spec = load_domain_file(path)
+    lib = load_library(library if library is not None else spec.library)
+    routes = tuple(DomainRoute(d.name, build_problem(lib, d.scenario, settings, spec=d.spec), d.weight, d.unit)
+                   for d in load_domain_scenarios(spec))
+    return Domain(routes, spec.source)

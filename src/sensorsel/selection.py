@@ -208,7 +208,7 @@ class Selector:
         t0 = time.perf_counter()
         budget = check_budget(budget_usd)
         ev = self.evaluator
-        lib = ev.problem.library
+        lib = ev.library
         costs = lib.costs
         ids = lib.ids
         n0 = ev.n_evaluations

@@ -281,7 +281,7 @@ def _shared_prefix(steps: tuple[Step, ...], budget: float) -> int:
 def _rule_runs(evaluator: Evaluator, rule: str, budgets_desc: list[float], *, lazy: bool, share_prefix: bool,
                tick: Callable[[], None]) -> dict[float, tuple[GreedyResult, int]]:
     """Runs of one rule at every budget (largest first): budget -> (result with all steps, shared steps)."""
-    lib = evaluator.problem.library
+    lib = evaluator.library
     done: dict[float, tuple[GreedyResult, int]] = {}
     for b in budgets_desc:
         k, src = 0, None
@@ -323,7 +323,7 @@ def tradespace(evaluator: Evaluator, budgets: Iterable[float] | None = None, sel
         The :class:`TradespaceResult`.
     """
     t0 = time.perf_counter()
-    lib = evaluator.problem.library
+    lib = evaluator.library
     sel = parse_selectors(selectors, "selectors")
     grid = default_budgets(lib) if budgets is None else tuple(sorted({check_budget(b) for b in budgets}))
     if not grid:

@@ -19,6 +19,7 @@ from typing import ClassVar, Iterable, Sequence
 import numpy as np
 
 from ..errors import InputError
+from ..library import SensorLibrary
 from ..problem import Problem
 
 #: a canonical suite: sorted tuple of unique library positions
@@ -31,32 +32,66 @@ def as_suite(suite: Iterable[int]) -> Suite:
 
 
 class Evaluator(ABC):
-    """Scores suites of one problem. Subclasses implement :meth:`_logdet`.
+    """The one small interface every selector, certificate and robust design talks to: the score
+    f(S) of a suite of one library's sensors, monotone submodular, f(empty) = 0.
+
+    Subclasses: :class:`ProblemEvaluator` (one route: f(S) = log det L(S) - log det L(empty)) and
+    :class:`~sensorsel.evaluators.domain.DomainEvaluator` (a weighted combination over routes).
+
+    Attributes:
+        library: the sensors; suites are sorted tuples of positions in it.
+        jobs: threads the engine may use (>= 1; engines that do not use threads ignore it).
+        n_evaluations: how many suites have been scored.
+    """
+
+    #: the engine's name (in :data:`sensorsel.evaluators.ENGINES` for per-problem engines)
+    name: ClassVar[str] = ""
+
+    def __init__(self, library: SensorLibrary, *, jobs: int = 1) -> None:
+        self.library = library
+        self.jobs = max(1, int(jobs))
+        self.n_evaluations = 0
+
+    @property
+    def n_sensors(self) -> int:
+        return len(self.library)
+
+    def _check_positions(self, positions: Iterable[int]) -> None:
+        """Raise :class:`InputError` for a position outside the library (0..n_sensors - 1)."""
+        n = len(self.library)
+        for i in positions:
+            if not 0 <= i < n:
+                raise InputError(f"sensor position {i} is outside the library (0..{n - 1})")
+
+    @abstractmethod
+    def score(self, suite: Iterable[int]) -> float:
+        """f(S): the information the suite adds (>= 0; units: nats, or a share for a normalised domain)."""
+
+    def scores_with(self, suite: Iterable[int], candidates: Sequence[int]) -> np.ndarray:
+        """f(S + {c}) for each candidate c, shape (len(candidates),).
+
+        Engines override this to reuse the work shared by the candidates (same base suite).
+        """
+        base = as_suite(suite)
+        return np.array([self.score(base + (c,)) for c in candidates], dtype=float)
+
+
+class ProblemEvaluator(Evaluator):
+    """Scores suites on one problem (one route) by log det. Subclasses implement :meth:`_logdet`.
 
     Attributes:
         problem: the library and scenario being scored.
-        jobs: threads the engine may use (>= 1; engines that do not use threads ignore it).
-        n_evaluations: how many suites have been scored (each log det computed counts one).
+        n_evaluations: each log det computed counts one.
     """
 
-    #: the engine's name in :data:`sensorsel.evaluators.ENGINES`
-    name: ClassVar[str] = ""
-
     def __init__(self, problem: Problem, *, jobs: int = 1) -> None:
+        super().__init__(problem.library, jobs=jobs)
         self.problem = problem
-        self.jobs = max(1, int(jobs))
-        self.n_evaluations = 0
         self._baseline: float | None = None
 
     @abstractmethod
     def _logdet(self, suite: Suite) -> float:
         """log det L(suite) [nats] for a canonical suite."""
-
-    def _check_positions(self, positions: Iterable[int]) -> None:
-        """Raise :class:`InputError` for a position outside the library (0..n_sensors - 1)."""
-        for i in positions:
-            if not 0 <= i < self.problem.n_sensors:
-                raise InputError(f"sensor position {i} is outside the library (0..{self.problem.n_sensors - 1})")
 
     def logdet(self, suite: Iterable[int]) -> float:
         """log det of the information matrix of the suite [nats]."""
@@ -75,11 +110,3 @@ class Evaluator(ABC):
     def score(self, suite: Iterable[int]) -> float:
         """f(S) = log det L(S) - log det L(empty) [nats]."""
         return self.logdet(suite) - self.baseline_logdet
-
-    def scores_with(self, suite: Iterable[int], candidates: Sequence[int]) -> np.ndarray:
-        """f(S + {c}) for each candidate c [nats], shape (len(candidates),).
-
-        Engines override this to reuse the work shared by the candidates (same base suite).
-        """
-        base = as_suite(suite)
-        return np.array([self.score(base + (c,)) for c in candidates], dtype=float)

@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 from ..problem import Problem
-from .base import Evaluator, Suite
+from .base import ProblemEvaluator, Suite
 
 
-class ReferenceEvaluator(Evaluator):
+class ReferenceEvaluator(ProblemEvaluator):
     """The paper's method: build the GTSAM graph, linearize, eliminate, 2 log|det R|, every time."""
 
     name = "reference"

@@ -53,7 +53,7 @@ def failing_set(evaluator: Evaluator, budget_usd: float, alpha: int) -> tuple[li
     """
     budget = check_budget(budget_usd)
     alpha = check_alpha(alpha)
-    lib = evaluator.problem.library
+    lib = evaluator.library
     if alpha == 0:
         return [], [], ""
     costs, ids = lib.costs, lib.ids
@@ -97,7 +97,7 @@ def resilient_select(evaluator: Evaluator, budget_usd: float, alpha: int, object
     alpha = check_alpha(alpha)
     check_objective(objective)
     n0 = evaluator.n_evaluations
-    lib = evaluator.problem.library
+    lib = evaluator.library
     failed, failed_scores, note = failing_set(evaluator, budget, alpha)
     failed_cost = lib.cost(failed)
     rest = max(0.0, budget - failed_cost)  # never negative: the failing set fits by construction
@@ -126,7 +126,7 @@ def worst_case(evaluator: Evaluator, suite: Sequence[int] | str, alpha: int, *, 
         InputError: negative alpha, or C(|S|, alpha) above ``max_failure_sets``.
     """
     alpha = check_alpha(alpha)
-    lib = evaluator.problem.library
+    lib = evaluator.library
     s = lib.parse_suite(suite) if isinstance(suite, str) else as_suite(suite)
     k = min(alpha, len(s))
     n_sets = math.comb(len(s), k)

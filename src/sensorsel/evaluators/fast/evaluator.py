@@ -9,7 +9,7 @@ from typing import Iterable, Sequence
 import numpy as np
 
 from ...problem import Problem
-from ..base import Evaluator, Suite, as_suite
+from ..base import ProblemEvaluator, Suite, as_suite
 from .blas import Blas
 from .kernel import SPARSE_BELOW, Kernel
 from .plan import Planner
@@ -23,7 +23,7 @@ from .state import BaseState, StateBuilder
 THREADS_FROM_KEYFRAMES = 200
 
 
-class FastEvaluator(Evaluator):
+class FastEvaluator(ProblemEvaluator):
     """Exact log det from per-sensor linearized pieces computed once (see :mod:`sensorsel.evaluators.fast`).
 
     Attributes:

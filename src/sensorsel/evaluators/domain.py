@@ -1,0 +1,111 @@
+"""The score of an operating domain: one suite for every route a fleet drives.
+
+A domain (:class:`~sensorsel.problem.Domain`) is routes r = 1..R with weights w_r (the share of the
+fleet's driving each stands for, in kilometres or hours), all with one sensor library. Its score is
+
+    normalised (default):  F(S) = sum_r  w̄_r f_r(S) / f_r(L)     a share of the best, in [0, 1]
+    raw:                   F(S) = sum_r  w̄_r f_r(S)              [nats]
+
+with w̄_r = w_r / sum_q w_q the normalised weights and L the whole library: f_r(L) is the most any
+suite can get on route r, so a long route does not drown a short one. Each term is a non-negative
+multiple of a monotone submodular function, so F is monotone submodular: greedy and its lazy
+evaluation, the certificate's knapsack bound and the exact search keep their guarantees unchanged.
+With one route, F is f scaled by a positive constant (normalised) or f itself (raw), so every
+selector picks exactly what it picks on the route alone.
+
+Each route keeps its own engine (built once); a candidate's domain score is the weighted sum of its
+routes' scores, added in route order (one fixed order: the same bytes however many threads).
+"""
+
+from __future__ import annotations
+
+from typing import Iterable, Sequence
+
+import numpy as np
+
+from ..errors import InputError
+from ..problem import Domain
+from .base import Evaluator, ProblemEvaluator, as_suite
+from .registry import check_engine, make_evaluator
+
+#: how a domain combines its routes' scores (see the module's documentation)
+AGGREGATES = ("normalised", "raw")
+
+
+def check_aggregate(aggregate: str) -> str:
+    """``aggregate`` if it is one of :data:`AGGREGATES` (else an InputError naming the choices)."""
+    if aggregate not in AGGREGATES:
+        raise InputError(f"unknown aggregate {aggregate!r}; available: {', '.join(AGGREGATES)}")
+    return aggregate
+
+
+class DomainEvaluator(Evaluator):
+    """F(S) of a domain from one engine's evaluator per route.
+
+    Args:
+        domain: the routes and their weights.
+        engine: the per-route engine (default: the fastest registered).
+        jobs: threads each route's engine may use.
+        aggregate: "normalised" (default) or "raw" (see the module's documentation).
+
+    Attributes:
+        routes: the per-route evaluators, in the domain's order.
+        weights: w̄_r, shape (R,), summing to 1.
+        best: f_r(L), the whole library's score on each route [nats], shape (R,).
+        scale: the factor of each route's score in F, shape (R,).
+
+    Raises:
+        InputError: an unknown engine or aggregate, or a route on which no sensor of the library
+            measures anything (f_r(L) = 0: its share of the best is undefined).
+    """
+
+    name = "domain"
+
+    def __init__(self, domain: Domain, engine: str | None = None, *, jobs: int = 1, aggregate: str = "normalised") -> None:
+        super().__init__(domain.library, jobs=jobs)
+        self.domain = domain
+        self.engine = check_engine(engine)
+        self.aggregate = check_aggregate(aggregate)
+        self.routes: tuple[ProblemEvaluator, ...] = tuple(make_evaluator(r.problem, self.engine, jobs=jobs) for r in domain.routes)
+        w = np.array([r.weight for r in domain.routes], dtype=float)
+        self.weights = w / w.sum()
+        everything = tuple(range(len(self.library)))
+        self.best = np.array([ev.score(everything) for ev in self.routes], dtype=float)
+        for r, f_all in zip(domain.routes, self.best):
+            if not f_all > 0:
+                raise InputError(f"domain {domain.source}: route {r.name!r}: no sensor of the library measures any "
+                                 f"landmark ({r.problem.scenario.landmark_source}); its share of the best is undefined")
+        self.scale = self.weights / self.best if self.aggregate == "normalised" else self.weights.copy()
+
+    def __repr__(self) -> str:
+        return f"DomainEvaluator({len(self.routes)} routes, engine {self.engine!r}, {self.aggregate})"
+
+    def route_scores(self, suite: Iterable[int]) -> np.ndarray:
+        """f_r(S) of each route [nats], shape (R,)."""
+        s = as_suite(suite)
+        self._check_positions(s)
+        return np.array([ev.score(s) for ev in self.routes], dtype=float)
+
+    def combine(self, route_scores: np.ndarray) -> np.ndarray:
+        """F from per-route scores of shape (R,) or (R, n), summed in route order."""
+        out = np.zeros(np.shape(route_scores)[1:], dtype=float)
+        for k in range(len(self.routes)):  # a fixed order of additions: the same bytes every run
+            out = out + self.scale[k] * route_scores[k]
+        return out
+
+    def score(self, suite: Iterable[int]) -> float:
+        """F(S): the domain's score of the suite (a share of the best when normalised, else nats)."""
+        self.n_evaluations += 1
+        return float(self.combine(self.route_scores(suite)))
+
+    def scores_with(self, suite: Iterable[int], candidates: Sequence[int]) -> np.ndarray:
+        """F(S + {c}) for each candidate c, shape (len(candidates),): each route's engine scores the
+        candidates against the shared base suite, then the routes are combined."""
+        base = as_suite(suite)
+        cand = [int(c) for c in candidates]
+        self._check_positions(base + tuple(cand))
+        self.n_evaluations += len(cand)
+        if not cand:
+            return np.zeros(0)
+        per_route = np.stack([ev.scores_with(base, cand) for ev in self.routes])
+        return self.combine(per_route)

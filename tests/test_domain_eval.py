@@ -1,0 +1,145 @@
+"""The score of an operating domain, against each route scored on its own, and greedy on it."""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+import pytest
+
+from sensorsel.errors import InputError
+from sensorsel.evaluators import DomainEvaluator, make_evaluator
+from sensorsel.problem import Domain, DomainRoute, build_problem, load_domain
+from sensorsel.scenario import ScenarioSpec, load_scenario
+from sensorsel.selection import greedy
+
+MIXED = ("LRL-roof", "MRL-roof", "LRR-12", "LRR-3", "MRR-6", "WSC-9", "HD2K-4", "HD2K-10", "LSC-2", "WSC-3")
+SAME_COST = tuple(f"HD2K-{k}" for k in range(1, 13))  # twelve identical cameras: a budget is a cardinality
+
+
+def _domain(library, ids, weights=(3.0, 1.0, 0.5)):
+    lib = library.subset([library.position(i) for i in ids])
+    specs = [ScenarioSpec(fixture="tiny"), ScenarioSpec(fixture="tiny", landmarks="synthetic", landmark_seed=3),
+             ScenarioSpec(fixture="tiny", landmarks="synthetic", landmark_seed=7, keyframe_rate_hz=2.0)]
+    routes = tuple(DomainRoute(f"r{k}", build_problem(lib, load_scenario(s), spec=s), w)
+                   for k, (s, w) in enumerate(zip(specs, weights)))
+    return Domain(routes[: len(weights)], "test")
+
+
+@pytest.fixture(scope="module")
+def mixed_domain(library):
+    return _domain(library, MIXED)
+
+
+def test_domain_score_is_the_weighted_sum_of_routes_scored_on_their_own(mixed_domain):
+    dom = DomainEvaluator(mixed_domain, "fast")
+    raw = DomainEvaluator(mixed_domain, "fast", aggregate="raw")
+    # the oracle: a fresh reference (GTSAM) evaluator per route, each route scored alone
+    refs = [make_evaluator(r.problem, "reference") for r in mixed_domain.routes]
+    w = np.array([r.weight for r in mixed_domain.routes])
+    w = w / w.sum()
+    n = mixed_domain.n_sensors
+    best = [ev.score(range(n)) for ev in refs]
+    rng = np.random.default_rng(0)
+    suites = [(), tuple(range(n))] + [tuple(sorted(rng.choice(n, size=k, replace=False))) for k in (1, 2, 3, 5, 7)]
+    for s in suites:
+        per = [ev.score(s) for ev in refs]
+        want_norm = sum(wk * fk / bk for wk, fk, bk in zip(w, per, best))
+        want_raw = sum(wk * fk for wk, fk in zip(w, per))
+        assert dom.score(s) == pytest.approx(want_norm, rel=1e-9, abs=1e-12)
+        assert raw.score(s) == pytest.approx(want_raw, rel=1e-9, abs=1e-9)
+    assert dom.score(range(n)) == pytest.approx(1.0, rel=1e-12)
+
+
+def test_scores_with_matches_one_suite_at_a_time(mixed_domain):
+    dom = DomainEvaluator(mixed_domain, "fast")
+    base = (0, 4)
+    cands = [i for i in range(mixed_domain.n_sensors) if i not in base]
+    batch = dom.scores_with(base, cands)
+    one = [dom.score(base + (c,)) for c in cands]
+    np.testing.assert_allclose(batch, one, rtol=1e-12)
+
+
+def test_one_route_domain_gives_exactly_the_single_route_answer(library):
+    dom = _domain(library, MIXED, weights=(2.5,))
+    prob = dom.routes[0].problem
+    for rule in ("uniform", "cost-benefit", "marginal", "best-of"):
+        alone = greedy(make_evaluator(prob, "fast"), 9000.0, rule)
+        norm = greedy(DomainEvaluator(dom, "fast"), 9000.0, rule)
+        raw = greedy(DomainEvaluator(dom, "fast", aggregate="raw"), 9000.0, rule)
+        assert norm.suite == alone.suite == raw.suite, rule
+        assert raw.score == alone.score  # raw with one route: the same number, bit for bit
+        f_all = make_evaluator(prob, "fast").score(range(prob.n_sensors))
+        assert norm.score == pytest.approx(alone.score / f_all, rel=1e-12)
+
+
+def _brute_force_optimum(ev, costs, budget):
+    n = len(costs)
+    best = 0.0
+    for k in range(n + 1):
+        for c in itertools.combinations(range(n), k):
+            if sum(costs[i] for i in c) <= budget + 1e-9:
+                best = max(best, ev.score(c))
+    return best
+
+
+def test_domain_greedy_keeps_the_budget_and_the_cardinality_guarantee(library):
+    dom = _domain(library, SAME_COST)
+    ev = DomainEvaluator(dom, "fast")
+    cost = float(dom.library.costs[0])
+    assert np.all(dom.library.costs == cost)
+    for k in (1, 2, 3, 4):
+        budget = k * cost
+        res = greedy(ev, budget, "uniform")
+        assert res.cost_usd <= budget and len(res.suite) <= k
+        opt = _brute_force_optimum(ev, dom.library.costs, budget)
+        assert res.score >= (1 - 1 / math.e) * opt - 1e-12
+        assert res.score <= opt + 1e-12
+
+
+def test_domain_best_of_keeps_the_budgeted_guarantee(mixed_domain):
+    ev = DomainEvaluator(mixed_domain, "fast")
+    costs = mixed_domain.library.costs
+    for budget in (1500.0, 5000.0, 12000.0):
+        res = greedy(ev, budget, "best-of")
+        assert res.cost_usd <= budget
+        opt = _brute_force_optimum(ev, costs, budget)
+        assert (1 - 1 / math.e) / 2 * opt - 1e-12 <= res.score <= opt + 1e-12
+
+
+def test_domain_refuses_bad_routes(library, mixed_domain):
+    r = mixed_domain.routes[0]
+    with pytest.raises(InputError, match="used twice"):
+        Domain((r, r), "x.yaml")
+    with pytest.raises(InputError, match="weight"):
+        Domain((DomainRoute("a", r.problem, 0.0),), "x.yaml")
+    other = build_problem(library, r.problem.scenario)
+    with pytest.raises(InputError, match="another sensor library"):
+        Domain((r, DomainRoute("b", other, 1.0)), "x.yaml")
+    with pytest.raises(InputError, match="aggregate"):
+        DomainEvaluator(mixed_domain, "fast", aggregate="mean")
+
+
+def test_a_route_no_sensor_can_see_is_refused(library):
+    tiny = load_scenario(ScenarioSpec(fixture="tiny"))
+    from sensorsel.scenario import Scenario
+
+    far = Scenario("far", tiny.keyframes, tiny.landmarks + 1e5, "shifted")
+    lib = library.subset([library.position(i) for i in MIXED])
+    dom = Domain((DomainRoute("near", build_problem(lib, tiny), 1.0), DomainRoute("far", build_problem(lib, far), 1.0)), "d.yaml")
+    with pytest.raises(InputError, match="'far'.*no sensor"):
+        DomainEvaluator(dom, "fast")
+
+
+def test_the_bundled_fixture_domain_loads_and_scores(library):
+    dom = load_domain(_fixture_domain_path())
+    assert [r.name for r in dom.routes] == ["suburb", "tiny"]
+    ev = DomainEvaluator(dom)
+    assert 0.0 < ev.score([library.position("MRL-roof")]) < 1.0
+
+
+def _fixture_domain_path():
+    from pathlib import Path
+
+    return Path(__file__).resolve().parents[1] / "configs" / "domain_fixtures.yaml"
