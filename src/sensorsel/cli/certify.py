@@ -130,7 +130,7 @@ def certify_cmd(result_path: str | None, budget: float | None, objective: str, o
         output_file(output)
     problem = problem_from(kw)
     if result_path is not None:
-        res = results.load(GreedyResult, result_path)
+        res = results.load(result_path, GreedyResult)
         _check_same_problem(res, problem, result_path)
         ev = make_evaluator(problem, engine or res.engine, jobs=jobs)
     else:
