@@ -208,9 +208,9 @@ def test_runs_do_not_depend_on_how_many_there_are(tiny_problem):
 def test_jobs_do_not_change_results(tiny_problem):
     one = simulate(tiny_problem, "LRL-roof,WSC-6", runs=4, jobs=1, seed=2)
     calls = []
-    two = simulate(tiny_problem, "LRL-roof,WSC-6", runs=4, jobs=2, seed=2, progress=lambda: calls.append(1))
+    two = simulate(tiny_problem, "LRL-roof,WSC-6", runs=4, jobs=2, seed=2, progress=lambda d, t: calls.append((d, t)))
     assert _same(one, two)
-    assert len(calls) == 4
+    assert calls == [(1, 4), (2, 4), (3, 4), (4, 4)]  # progress(done, total), as everywhere
     assert two.timing is not None and two.timing.jobs == 2
 
 

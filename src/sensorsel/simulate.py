@@ -51,7 +51,7 @@ import multiprocessing
 import time
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
-from typing import Callable, Iterable, Sequence
+from typing import Iterable, Sequence
 
 import gtsam
 import numpy as np
@@ -62,6 +62,7 @@ from .errors import InputError
 from .objective import as_suite
 from .problem import ProblemInfo
 from .problem import Problem
+from .progress import Progress
 from .sensing import wrap_angle
 
 SOLVERS = ("lm", "isam2")
@@ -573,7 +574,7 @@ def simulate(
     noise_scale: float = 1.0,
     jobs: int = 1,
     label: str = "suite",
-    progress: Callable[[], None] | None = None,
+    progress: Progress | None = None,
 ) -> SimulationResult:
     """Monte-Carlo SLAM of ``suite`` on ``problem``: ``runs`` seeded draws, each solved with GTSAM.
 
@@ -587,7 +588,7 @@ def simulate(
         noise_scale: factor on every sigma (> 0); 1 is the sensor models.
         jobs: worker processes for the runs (results do not depend on it).
         label: name of this design in tables and plots.
-        progress: called once after each finished run.
+        progress: called as progress(runs done, runs) after each finished run.
     Raises:
         InputError: bad suite, failure, solver, runs, seed, noise scale or jobs (names the value).
     """
@@ -622,13 +623,13 @@ def simulate(
         for r in range(runs):
             raw.append(_solve_run(payload, r))
             if progress:
-                progress()
+                progress(len(raw), runs)
     else:
         with ProcessPoolExecutor(max_workers=min(jobs, runs), mp_context=_mp_context(), initializer=_init_worker, initargs=(payload,)) as ex:
             for out in ex.map(_worker_run, range(runs)):
                 raw.append(out)
                 if progress:
-                    progress()
+                    progress(len(raw), runs)
     t_cov = time.perf_counter()
     pred = _predict(payload)
     t_end = time.perf_counter()

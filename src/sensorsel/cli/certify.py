@@ -5,7 +5,6 @@ possible one (an upper bound on the optimum; ``sensorsel greedy`` prints the sam
 
 from __future__ import annotations
 
-import sys
 from contextlib import nullcontext
 from typing import Any
 
@@ -52,17 +51,9 @@ def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output
     problem = problem_from(kw)
     info = problem.info
     ev = make_evaluator(problem, engine, jobs=jobs)
-    if quiet or as_json:
-        res = optimal(ev, budget, max_nodes=max_nodes, max_seconds=max_seconds, info=info)
-    else:
-        with click.progressbar(length=max_nodes, label="branch and bound (nodes)", file=sys.stderr) as bar:
-            done = [0]
-
-            def step(n: int, _total: int) -> None:
-                bar.update(n - done[0])
-                done[0] = n
-
-            res = optimal(ev, budget, max_nodes=max_nodes, max_seconds=max_seconds, info=info, progress=step)
+    bar, progress = progress_bar(quiet or as_json, "branch and bound (nodes)")
+    with bar or nullcontext():
+        res = optimal(ev, budget, max_nodes=max_nodes, max_seconds=max_seconds, info=info, progress=progress)
     if output:
         results.save(res, output)
     if as_json:

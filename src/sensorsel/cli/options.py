@@ -12,6 +12,7 @@ import click
 from ..errors import SensorselError
 from ..pipeline import load_problem
 from ..problem import Problem
+from ..progress import Progress
 from ..scenario import KITTI_ROOT_ENV, ScenarioSpec
 
 
@@ -131,11 +132,16 @@ class _Bar:
             self.bar = False
 
 
-def progress_bar(quiet: bool, label: str, phases: int = 1, after: _Bar | None = None) -> tuple[_Bar | None, Callable[[int, int], None] | None]:
-    """(bar, progress): a progress bar on stderr, used as ``with bar:`` around the run that calls
-    ``progress(done, total)``; (None, None) with --quiet or when stderr is not a terminal. ``after``:
-    the bar of the previous stage, completed when this one starts."""
-    if quiet or not sys.stderr.isatty():
+def _on_terminal() -> bool:
+    return sys.stderr.isatty()
+
+
+def progress_bar(quiet: bool, label: str, phases: int = 1, after: _Bar | None = None) -> tuple[_Bar | None, Progress | None]:
+    """(bar, progress): the one CLI adapter of :data:`sensorsel.progress.Progress`, a progress bar on
+    stderr, used as ``with bar or nullcontext():`` around the run that calls ``progress(done, total)``;
+    (None, None) with --quiet or when stderr is not a terminal. ``after``: the bar of the previous
+    stage, completed when this one starts."""
+    if quiet or not _on_terminal():
         return None, None
     bar = _Bar(label, phases, after)
     return bar, bar

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-import sys
 from collections import Counter
+from contextlib import nullcontext
 from typing import Any
 
 import click
@@ -11,7 +11,7 @@ import click
 from .. import results
 from ..fileio import output_dir
 from ..selection import SELECTORS
-from .options import engine_options, problem_from, run, scenario_options, table
+from .options import engine_options, problem_from, progress_bar, run, scenario_options, table
 
 
 @click.command("resilient", short_help="Resilient selection against failing sensors, whole route and per period (grid).")
@@ -51,18 +51,12 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, objective: str, ou
     problem = problem_from(kw)
     sc = problem.scenario
     n_periods = len(split_periods(sc.keyframes.times, period_s))
-    show = not quiet and sys.stderr.isatty()
-    if show:
+    bar, progress = progress_bar(quiet, f"{n_periods} periods of {period_s:g} s")
+    if bar is not None:
         click.echo(f"whole route: greedy and resilient selection on {sc.n_poses} keyframes, {sc.n_landmarks} landmarks ...", err=True)
-        with click.progressbar(length=n_periods, label=f"{n_periods} periods of {period_s:g} s", file=sys.stderr) as bar:
-            def progress(done: int, total: int) -> None:
-                bar.update(done - bar.pos)
-
-            report = resilient_report(problem, budget, alpha, period_s=period_s, objective=objective, engine=engine, jobs=jobs,
-                                      outdir=out, resume=resume, progress=progress)
-    else:
+    with bar or nullcontext():
         report = resilient_report(problem, budget, alpha, period_s=period_s, objective=objective, engine=engine, jobs=jobs,
-                                  outdir=out, resume=resume)
+                                  outdir=out, resume=resume, progress=progress)
 
     per = report.per_period
     assert per is not None

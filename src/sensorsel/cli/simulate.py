@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 import math
 import os
-import sys
+from contextlib import nullcontext
 from pathlib import Path
 from typing import Any
 
@@ -17,7 +17,7 @@ from ..fileio import output_dir
 from ..library import SensorLibrary
 from ..pipeline import load_problem
 from ..problem import GraphSettings
-from .options import run, scenario_options, spec_from, table
+from .options import progress_bar, run, scenario_options, spec_from, table
 
 
 def read_suite(text: str, library: SensorLibrary, what: str) -> tuple[tuple[int, ...], str, tuple[str, ...]]:
@@ -132,18 +132,14 @@ def simulate_cmd(suite: str, compare: str | None, label: str | None, compare_lab
     if named and not any(named & set(lib.suite_ids(p)) for p, _, _ in designs):
         raise InputError(f"--fail {fail!r}: no simulated suite has {', '.join(sorted(named))}")
 
-    show = not quiet and sys.stderr.isatty()
     sims = []
     for positions, name, _ in designs:
         ids = set(lib.suite_ids(positions))
         mine = tuple(f for f in failures if f.sensor in ids)
-        if show:
-            with click.progressbar(length=runs, label=f"simulating {name}", file=sys.stderr) as bar:
-                res = simulate(problem, positions, failures=mine, runs=runs, solver=solver, seed=seed, noise_scale=noise_scale,
-                               jobs=jobs, label=name, progress=lambda: bar.update(1))
-        else:
+        bar, progress = progress_bar(quiet, f"simulating {name}")
+        with bar or nullcontext():
             res = simulate(problem, positions, failures=mine, runs=runs, solver=solver, seed=seed, noise_scale=noise_scale,
-                           jobs=jobs, label=name)
+                           jobs=jobs, label=name, progress=progress)
         sims.append(res)
 
     json_path = results.save(SimulationReport(tuple(sims)), out / "simulation.json")
