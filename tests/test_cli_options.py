@@ -49,3 +49,32 @@ def test_every_bar_is_the_one_adapter_fed_done_and_total(terminal, tmp_path, arg
     r = invoke(*(a.replace("{tmp}", str(tmp_path / "q")) for a in args), "-q")
     assert r.exit_code == 0, (r.output, r.exception)
     assert len([c for c in terminal if label in c[0]]) == len(mine)  # -q: no bar
+
+
+# ------------------------------------------------------------------------------ notebook hygiene
+
+
+def test_importing_plotting_leaves_the_backend_alone(tmp_path):
+    """A notebook's backend (here svg, chosen by MPLBACKEND) survives importing sensorsel.plotting."""
+    import os
+    import subprocess
+    import sys
+
+    code = ("import matplotlib; before = matplotlib.get_backend(); import sensorsel.plotting; "
+            "print(before, matplotlib.get_backend())")
+    env = {**os.environ, "MPLBACKEND": "svg", "MPLCONFIGDIR": str(tmp_path)}
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True).stdout.split()
+    assert out == ["svg", "svg"]
+
+
+def test_plots_draw_on_the_given_axes_and_never_show(tiny_problem, monkeypatch):
+    import matplotlib.pyplot as plt
+
+    from sensorsel.plotting import plot_scene
+
+    monkeypatch.setattr(plt, "show", lambda *a, **k: pytest.fail("a plot called plt.show()"))
+    fig, ax = plt.subplots()
+    try:
+        assert plot_scene(tiny_problem.scenario, ax) is ax
+    finally:
+        plt.close(fig)

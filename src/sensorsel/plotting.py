@@ -2,6 +2,9 @@
 
 Every function takes ``ax=None`` (a new figure is made when omitted) and returns what it drew.
 :func:`save_figure` writes PNG, SVG or PDF by the file's extension, atomically.
+
+Importing this module leaves matplotlib's backend alone (a notebook keeps its inline or widget
+backend). Programs that only write files, like the CLI, call :func:`use_file_backend` first.
 """
 
 from __future__ import annotations
@@ -11,18 +14,16 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Iterable, Sequence
 
 import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
+from matplotlib.patches import Wedge
 
-matplotlib.use("Agg")  # files only: no display on a server or in CI
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.axes import Axes  # noqa: E402
-from matplotlib.figure import Figure  # noqa: E402
-from matplotlib.patches import Wedge  # noqa: E402
-
-from .errors import InputError  # noqa: E402
-from .fileio import atomic_write_bytes  # noqa: E402
-from .library import SensorLibrary  # noqa: E402
-from .scenario import Scenario  # noqa: E402
+from .errors import InputError
+from .fileio import atomic_write_bytes
+from .library import SensorLibrary
+from .scenario import Scenario
 
 if TYPE_CHECKING:  # simulate imports gtsam; plotting needs only its result types
     from .simulate import SimulationResult
@@ -36,8 +37,18 @@ def new_axes(figsize: tuple[float, float] = (7.0, 6.0)) -> Axes:
     return fig.add_subplot()
 
 
-def save_figure(fig: Figure, path: str | Path, *, dpi: int = 150) -> Path:
-    """Save ``fig`` as PNG/SVG/PDF (by extension) atomically, then close it.
+def use_file_backend() -> None:
+    """Draw to files only: select matplotlib's non-interactive Agg backend (no window, no display).
+
+    For programs that only save plots (the CLI calls it before drawing); never called at import, so
+    that a notebook's backend stays the user's choice.
+    """
+    matplotlib.use("Agg")
+
+
+def save_figure(fig: Figure, path: str | Path, *, dpi: int = 150, close: bool = False) -> Path:
+    """Save ``fig`` as PNG/SVG/PDF (by extension) atomically; ``close``: then close it (a notebook
+    keeps it open to display it).
 
     Raises:
         InputError: an extension other than .png, .svg, .pdf.
@@ -50,7 +61,8 @@ def save_figure(fig: Figure, path: str | Path, *, dpi: int = 150) -> Path:
     # fixed metadata so that the same plot gives the same bytes
     meta = {"Software": None} if fmt == "png" else ({"Date": None} if fmt == "svg" else {"CreationDate": None})
     fig.savefig(buf, format=fmt, dpi=dpi, metadata=meta)
-    plt.close(fig)
+    if close:
+        plt.close(fig)
     return atomic_write_bytes(path, buf.getvalue())
 
 

@@ -60,12 +60,14 @@ def score_cmd(suite: str, as_json: bool, engine: str | None, jobs: int, **kw: An
 @run
 def scene_cmd(output: str, suite: str | None, pose_index: int | None, **kw: Any) -> None:
     """Draw the route and landmarks (the paper's Fig. 2), optionally a suite's sensing cones."""
-    from ..plotting import plot_scene, save_figure
+    from ..plotting import plot_scene, save_figure, use_file_backend
+
+    use_file_backend()
 
     problem = problem_from(kw)
     positions = problem.library.parse_suite(suite) if suite else ()
     ax = plot_scene(problem.scenario, library=problem.library, suite=positions, pose_index=pose_index)
-    path = save_figure(ax.figure, output)
+    path = save_figure(ax.figure, output, close=True)
     click.echo(f"wrote {path}")
 
 

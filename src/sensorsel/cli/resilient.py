@@ -40,7 +40,7 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, objective: str, ou
     and that failure set), then runs the selection on each period of the route and draws the grid of
     failed (red) and active (green) sensors per period (the paper's Fig. 5).
     """
-    from ..plotting import plot_selection_grid, save_figure
+    from ..plotting import plot_selection_grid, save_figure, use_file_backend
     from ..resilient import check_alpha, check_period, resilient_report, save_grid_csv, split_periods
     from ..selection import check_budget
 
@@ -62,9 +62,10 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, objective: str, ou
     assert per is not None
     json_path = results.save(report, out / "resilient.json")
     csv_path = save_grid_csv(per.grid, out / "grid.csv")
+    use_file_backend()
     title = f"{sc.name}: resilient selection per {period_s:g} s period, {alpha} failure(s), budget ${budget:,.0f}"
     ax = plot_selection_grid(per.grid, title=title)
-    img_path = save_figure(ax.figure, out / f"grid.{fmt}")
+    img_path = save_figure(ax.figure, out / f"grid.{fmt}", close=True)
 
     c = report.comparison
     click.echo(f"scenario  {sc.name}: {sc.n_poses} keyframes, {sc.n_landmarks} landmarks ({sc.landmark_source})")

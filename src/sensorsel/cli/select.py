@@ -159,10 +159,11 @@ def pareto_cmd(budgets: str | None, selectors: str, lazy: bool, outdir: str, plo
     out = Path(outdir)
     written = [results.save(res, out / "tradespace.json"), write_csv(res, out / "architectures.csv")]
     if res.architectures:
-        from ..plotting import plot_tradespace, save_figure
+        from ..plotting import plot_tradespace, save_figure, use_file_backend
 
+        use_file_backend()
         ax = plot_tradespace(res)
-        written.insert(0, save_figure(ax.figure, out / f"pareto.{plot_format}"))
+        written.insert(0, save_figure(ax.figure, out / f"pareto.{plot_format}", close=True))
 
     p = res.problem
     if p is not None:

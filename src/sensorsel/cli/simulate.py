@@ -90,7 +90,8 @@ def simulate_cmd(suite: str, compare: str | None, label: str | None, compare_lab
     information matrix predicts, and the average NEES of the poses with its 95 % chi-square bounds;
     writes the plots and a JSON of every run to OUTPUT.
     """
-    from ..plotting import plot_error_along_route, plot_simulation_comparison, plot_simulation_overview, save_figure
+    from ..plotting import (plot_error_along_route, plot_simulation_comparison, plot_simulation_overview, save_figure,
+                            use_file_backend)
     from ..simulate import SimulationReport, parse_failures, simulate
 
     if not (math.isfinite(noise_scale) and noise_scale > 0):
@@ -145,11 +146,12 @@ def simulate_cmd(suite: str, compare: str | None, label: str | None, compare_lab
     json_path = results.save(SimulationReport(tuple(sims)), out / "simulation.json")
     sc = problem.scenario
     paths = [json_path]
+    use_file_backend()
     axes = plot_simulation_comparison(sims, sc)
-    paths.append(save_figure(axes[0].figure, out / f"trajectories.{fmt}"))
+    paths.append(save_figure(axes[0].figure, out / f"trajectories.{fmt}", close=True))
     ax = plot_error_along_route(sims, sc)
-    paths.append(save_figure(ax.figure, out / f"error_along_route.{fmt}"))
-    paths.append(save_figure(plot_simulation_overview(sims, sc), out / f"simulate.{fmt}"))
+    paths.append(save_figure(ax.figure, out / f"error_along_route.{fmt}", close=True))
+    paths.append(save_figure(plot_simulation_overview(sims, sc), out / f"simulate.{fmt}", close=True))
 
     click.echo(f"{'scenario':<9} {sc.name}: {sc.n_poses} keyframes, {sc.n_landmarks} landmarks ({sc.landmark_source})")
     click.echo(f"runs      {runs} per suite, solver {solver}, seed {seed}" + (f", noise x{noise_scale:g}" if noise_scale != 1 else "")
