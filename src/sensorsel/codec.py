@@ -16,7 +16,7 @@ import math
 import types
 import typing
 from pathlib import Path
-from typing import Any, Mapping, TypeVar
+from typing import Any, Mapping, TypeVar, cast
 
 from .errors import ResultFileError
 from .fileio import atomic_write_text
@@ -55,8 +55,8 @@ def _convert(value: Any, hint: Any) -> Any:
             except (TypeError, ValueError, KeyError):
                 continue
         raise ValueError(f"{value!r} matches none of {hint}")
-    if dataclasses.is_dataclass(hint):
-        return from_jsonable(hint, value)
+    if isinstance(hint, type) and dataclasses.is_dataclass(hint):
+        return from_jsonable(cast(type, hint), value)
     if origin is tuple:
         if not isinstance(value, list):
             raise TypeError(f"expected a list, got {value!r}")
@@ -94,7 +94,7 @@ def from_jsonable(cls: type[T], data: Any) -> T:
         raise TypeError(f"expected an object for {cls.__name__}, got {type(data).__name__}")
     hints = typing.get_type_hints(cls)
     kwargs = {}
-    for f in dataclasses.fields(cls):
+    for f in dataclasses.fields(cast(Any, cls)):
         if f.name not in data:
             if f.default is not dataclasses.MISSING or f.default_factory is not dataclasses.MISSING:
                 continue

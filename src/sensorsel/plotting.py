@@ -17,7 +17,7 @@ import matplotlib
 import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.axes import Axes
-from matplotlib.figure import Figure
+from matplotlib.figure import Figure, SubFigure
 from matplotlib.patches import Wedge
 
 from .errors import InputError
@@ -46,7 +46,7 @@ def use_file_backend() -> None:
     matplotlib.use("Agg")
 
 
-def save_figure(fig: Figure, path: str | Path, *, dpi: int = 150, close: bool = False) -> Path:
+def save_figure(fig: Figure | SubFigure, path: str | Path, *, dpi: int = 150, close: bool = False) -> Path:
     """Save ``fig`` as PNG/SVG/PDF (by extension) atomically; ``close``: then close it (a notebook
     keeps it open to display it).
 
@@ -57,6 +57,8 @@ def save_figure(fig: Figure, path: str | Path, *, dpi: int = 150, close: bool = 
     fmt = FORMATS.get(path.suffix.lower())
     if fmt is None:
         raise InputError(f"{path}: unsupported plot format {path.suffix or '(none)'!r}; use .png, .svg or .pdf")
+    if isinstance(fig, SubFigure):  # e.g. ax.figure of axes in a subfigure: save the whole figure
+        fig = fig.figure
     buf = io.BytesIO()
     # fixed metadata so that the same plot gives the same bytes
     meta = {"Software": None} if fmt == "png" else ({"Date": None} if fmt == "svg" else {"CreationDate": None})
@@ -258,8 +260,8 @@ def plot_simulation_comparison(
         axes = list(fig.subplots(1, len(results), squeeze=False)[0])
     if len(axes) != len(results):
         raise InputError(f"plot_simulation_comparison: {len(results)} results but {len(axes)} axes")
-    picks = [None] * len(results) if runs is None else list(runs)
-    picks = [typical_run(r) if k is None else k for r, k in zip(results, picks)]
+    given: list[int | None] = [None] * len(results) if runs is None else list(runs)
+    picks = [typical_run(r) if k is None else k for r, k in zip(results, given)]
     vmax = 0.0
     for res, k in zip(results, picks):
         _, pos_err, _, lm_err = _run_errors(res, scenario, k)
@@ -312,7 +314,7 @@ def plot_error_along_route(results: "Sequence[SimulationResult]", scenario: Scen
 def plot_simulation_overview(results: "Sequence[SimulationResult]", scenario: Scenario) -> Figure:
     """The designs side by side (top) above the error along the route (bottom), in one figure."""
     fig = plt.figure(figsize=(max(6.5, 5.5 * len(results) + 1.0), 12.0), layout="constrained")
-    top, bottom = fig.subfigures(2, 1, height_ratios=[2.3, 1.0])
+    top, bottom = fig.subfigures(2, 1, height_ratios=[2.3, 1.0])  # type: ignore[misc]  # an array of 2 subfigures
     axes = list(top.subplots(1, len(results), squeeze=False)[0])
     plot_simulation_comparison(results, scenario, axes)
     plot_error_along_route(results, scenario, bottom.subplots())
