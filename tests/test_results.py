@@ -97,3 +97,26 @@ def test_codec_is_a_base_layer_module():
     tree = ast.parse(inspect.getsource(codec))
     local = {n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom) and n.level > 0}
     assert local <= {"errors", "fileio"}, local
+
+
+def test_resume_reads_period_files_by_kind(tiny_problem, tmp_path):
+    """resilient --resume reuses a period file of kind 'resilient-period' (or one written before kinds),
+    and recomputes one whose kind is another (never misreads it)."""
+    from sensorsel.resilient import period_file, resilient_report
+
+    def report(resume):
+        return resilient_report(tiny_problem, 5000.0, 1, period_s=3.0, engine="reference", outdir=tmp_path, resume=resume)
+
+    first = report(False)
+    p0, p1 = period_file(tmp_path, first.per_period.periods[0].period.index), period_file(tmp_path, first.per_period.periods[1].period.index)
+    assert json.loads(p0.read_text())["kind"] == "resilient-period"
+    data = json.loads(p0.read_text())
+    p0.write_text(json.dumps({k: v for k, v in data.items() if k not in ("kind", "format")}))  # an old file
+    other = json.loads(p1.read_text())
+    p1.write_text(json.dumps({**other, "kind": "resilient-comparison"}))  # right fields, wrong kind
+    before = p0.stat().st_mtime_ns
+    again = report(True)
+    assert [(p.fingerprint, p.result.suite) for p in again.per_period.periods] == \
+        [(p.fingerprint, p.result.suite) for p in first.per_period.periods]
+    assert p0.stat().st_mtime_ns == before  # reused
+    assert json.loads(p1.read_text())["kind"] == "resilient-period"  # recomputed and rewritten
