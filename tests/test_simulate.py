@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 
@@ -10,7 +11,7 @@ import pytest
 from click.testing import CliRunner
 from scipy.stats import chi2
 
-from sensorsel import results
+from sensorsel import codec, results
 from sensorsel.cli import cli
 from sensorsel.errors import InputError
 from sensorsel.problem import build_problem
@@ -208,9 +209,9 @@ def test_runs_do_not_depend_on_how_many_there_are(tiny_problem):
 def test_jobs_do_not_change_results(tiny_problem):
     one = simulate(tiny_problem, "LRL-roof,WSC-6", runs=4, jobs=1, seed=2)
     calls = []
-    two = simulate(tiny_problem, "LRL-roof,WSC-6", runs=4, jobs=2, seed=2, progress=lambda: calls.append(1))
+    two = simulate(tiny_problem, "LRL-roof,WSC-6", runs=4, jobs=2, seed=2, progress=lambda d, t: calls.append((d, t)))
     assert _same(one, two)
-    assert len(calls) == 4
+    assert calls == [(1, 4), (2, 4), (3, 4), (4, 4)]  # progress(done, total), as everywhere
     assert two.timing is not None and two.timing.jobs == 2
 
 
@@ -246,11 +247,22 @@ def test_plots_draw_each_design_on_one_error_scale(tiny_problem):
 # --------------------------------------------------------------------------------------------- CLI
 
 
-def test_cli_reads_result_files_and_writes_everything(tmp_path):
-    greedy = tmp_path / "greedy.json"
-    greedy.write_text(json.dumps({"suite": ["LRL-roof", "HD2K-12"], "budget": 1}))
-    resilient = tmp_path / "resilient.json"
-    resilient.write_text(json.dumps({"suite": ["LRL-roof", "MRL-roof"], "failed": ["LRL-roof"]}))
+def _suite_file(problem, path, suite, failed=()):
+    """A result file naming ``suite``: a score result, or with ``failed`` a resilient selection
+    (computed on the problem, then given this suite and these assumed failures)."""
+    from sensorsel.objective import make_evaluator
+    from sensorsel.pipeline import score_suite
+    from sensorsel.resilient import resilient_select
+
+    if not failed:
+        return results.save(score_suite(problem, suite, engine="reference"), path)
+    r = resilient_select(make_evaluator(problem, None), 5000.0, 1, "uniform", info=problem.info)
+    return results.save(dataclasses.replace(r, suite=tuple(suite.split(",")), failed=tuple(failed)), path)
+
+
+def test_cli_reads_result_files_and_writes_everything(tmp_path, tiny_problem):
+    greedy = _suite_file(tiny_problem, tmp_path / "greedy.json", "LRL-roof,HD2K-12")
+    resilient = _suite_file(tiny_problem, tmp_path / "resilient.json", "LRL-roof,MRL-roof", ["LRL-roof"])
     out = tmp_path / "out"
     r = CliRunner().invoke(cli, ["simulate", "--fixture", "tiny", "--suite", str(greedy), "--compare", str(resilient),
                                  "--fail", "LRL-roof", "--runs", "2", "--jobs", "1", "-o", str(out)])
@@ -264,9 +276,8 @@ def test_cli_reads_result_files_and_writes_everything(tmp_path):
     assert all(s.failures[0].sensor == "LRL-roof" and len(s.runs) == 2 for s in rep.simulations)
 
 
-def test_cli_labels_and_hint_for_an_assumed_failure(tmp_path):
-    resilient = tmp_path / "resilient.json"
-    resilient.write_text(json.dumps({"suite": ["LRL-roof", "MRL-roof"], "failed": ["LRL-roof"]}))
+def test_cli_labels_and_hint_for_an_assumed_failure(tmp_path, tiny_problem):
+    resilient = _suite_file(tiny_problem, tmp_path / "resilient.json", "LRL-roof,MRL-roof", ["LRL-roof"])
     r = CliRunner().invoke(cli, ["simulate", "--fixture", "tiny", "--suite", "LRL-roof,WSC-12", "--label", "Greedy03",
                                  "--compare", str(resilient), "--runs", "1", "--jobs", "1", "-o", str(tmp_path / "o")])
     assert r.exit_code == 0, r.output
@@ -286,14 +297,15 @@ def test_cli_start_sigmas_set_the_first_pose_prior(tmp_path, tiny_problem):
     assert sim.problem.settings.first_pose_sigmas == (1e-4, 1e-4, 1e-5)
     tight = simulate(build_problem(tiny_problem.library, tiny_problem.scenario, GraphSettings(first_pose_sigmas=(1e-4, 1e-4, 1e-5))),
                      "LRL-roof", runs=2)
-    assert results.dumps(without_timing(sim).runs) == results.dumps(tight.runs)
+    assert codec.dumps(without_timing(sim).runs) == codec.dumps(tight.runs)
     assert sim.predicted_position_rmse_m < simulate(tiny_problem, "LRL-roof", runs=1).predicted_position_rmse_m
 
 
 @pytest.mark.parametrize("args, word", [
     (["--suite", "LRL-roof,NOPE-3"], "NOPE-3"),
     (["--suite", "{tmp}/missing.json"], "missing.json"),
-    (["--suite", "{tmp}/bad.json"], "\"suite\""),
+    (["--suite", "{tmp}/bad.json"], "no \"kind\""),
+    (["--suite", "{tmp}/simulation.json"], "is a 'simulation' result, expected a 'greedy'"),
     (["--suite", "LRL-roof", "--fail", "WSC-12"], "WSC-12"),
     (["--suite", "LRL-roof", "--fail", "LRL-roof@x"], "LRL-roof@x"),
     (["--suite", "LRL-roof", "--runs", "0"], "--runs"),
@@ -304,6 +316,7 @@ def test_cli_start_sigmas_set_the_first_pose_prior(tmp_path, tiny_problem):
 ])
 def test_cli_bad_input_is_one_line_and_exit_2(tmp_path, args, word):
     (tmp_path / "bad.json").write_text(json.dumps({"picks": ["LRL-roof"]}))
+    results.save(SimulationReport(()), tmp_path / "simulation.json")
     args = [a.replace("{tmp}", str(tmp_path)) for a in args]
     r = CliRunner().invoke(cli, ["simulate", "--fixture", "tiny", "--runs", "1", "--jobs", "1", "-o", str(tmp_path / "o")] + args)
     assert r.exit_code == 2

@@ -41,6 +41,7 @@ class ResultFileError(SensorselError):
 
     def __init__(self, path: str | Path, message: str) -> None:
         self.path = str(path)
+        self.reason = message
         super().__init__(f"{path}: {message}")
 
 

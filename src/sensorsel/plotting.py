@@ -2,6 +2,9 @@
 
 Every function takes ``ax=None`` (a new figure is made when omitted) and returns what it drew.
 :func:`save_figure` writes PNG, SVG or PDF by the file's extension, atomically.
+
+Importing this module leaves matplotlib's backend alone (a notebook keeps its inline or widget
+backend). Programs that only write files, like the CLI, call :func:`use_file_backend` first.
 """
 
 from __future__ import annotations
@@ -11,18 +14,16 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Iterable, Sequence
 
 import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure, SubFigure
+from matplotlib.patches import Wedge
 
-matplotlib.use("Agg")  # files only: no display on a server or in CI
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.axes import Axes  # noqa: E402
-from matplotlib.figure import Figure  # noqa: E402
-from matplotlib.patches import Wedge  # noqa: E402
-
-from .errors import InputError  # noqa: E402
-from .fileio import atomic_write_bytes  # noqa: E402
-from .library import SensorLibrary  # noqa: E402
-from .scenario import Scenario  # noqa: E402
+from .errors import InputError
+from .fileio import atomic_write_bytes
+from .library import SensorLibrary
+from .scenario import Scenario
 
 if TYPE_CHECKING:  # simulate imports gtsam; plotting needs only its result types
     from .simulate import SimulationResult
@@ -36,8 +37,18 @@ def new_axes(figsize: tuple[float, float] = (7.0, 6.0)) -> Axes:
     return fig.add_subplot()
 
 
-def save_figure(fig: Figure, path: str | Path, *, dpi: int = 150) -> Path:
-    """Save ``fig`` as PNG/SVG/PDF (by extension) atomically, then close it.
+def use_file_backend() -> None:
+    """Draw to files only: select matplotlib's non-interactive Agg backend (no window, no display).
+
+    For programs that only save plots (the CLI calls it before drawing); never called at import, so
+    that a notebook's backend stays the user's choice.
+    """
+    matplotlib.use("Agg")
+
+
+def save_figure(fig: Figure | SubFigure, path: str | Path, *, dpi: int = 150, close: bool = False) -> Path:
+    """Save ``fig`` as PNG/SVG/PDF (by extension) atomically; ``close``: then close it (a notebook
+    keeps it open to display it).
 
     Raises:
         InputError: an extension other than .png, .svg, .pdf.
@@ -46,11 +57,14 @@ def save_figure(fig: Figure, path: str | Path, *, dpi: int = 150) -> Path:
     fmt = FORMATS.get(path.suffix.lower())
     if fmt is None:
         raise InputError(f"{path}: unsupported plot format {path.suffix or '(none)'!r}; use .png, .svg or .pdf")
+    if isinstance(fig, SubFigure):  # e.g. ax.figure of axes in a subfigure: save the whole figure
+        fig = fig.figure
     buf = io.BytesIO()
     # fixed metadata so that the same plot gives the same bytes
     meta = {"Software": None} if fmt == "png" else ({"Date": None} if fmt == "svg" else {"CreationDate": None})
     fig.savefig(buf, format=fmt, dpi=dpi, metadata=meta)
-    plt.close(fig)
+    if close:
+        plt.close(fig)
     return atomic_write_bytes(path, buf.getvalue())
 
 
@@ -246,8 +260,8 @@ def plot_simulation_comparison(
         axes = list(fig.subplots(1, len(results), squeeze=False)[0])
     if len(axes) != len(results):
         raise InputError(f"plot_simulation_comparison: {len(results)} results but {len(axes)} axes")
-    picks = [None] * len(results) if runs is None else list(runs)
-    picks = [typical_run(r) if k is None else k for r, k in zip(results, picks)]
+    given: list[int | None] = [None] * len(results) if runs is None else list(runs)
+    picks = [typical_run(r) if k is None else k for r, k in zip(results, given)]
     vmax = 0.0
     for res, k in zip(results, picks):
         _, pos_err, _, lm_err = _run_errors(res, scenario, k)
@@ -300,7 +314,7 @@ def plot_error_along_route(results: "Sequence[SimulationResult]", scenario: Scen
 def plot_simulation_overview(results: "Sequence[SimulationResult]", scenario: Scenario) -> Figure:
     """The designs side by side (top) above the error along the route (bottom), in one figure."""
     fig = plt.figure(figsize=(max(6.5, 5.5 * len(results) + 1.0), 12.0), layout="constrained")
-    top, bottom = fig.subfigures(2, 1, height_ratios=[2.3, 1.0])
+    top, bottom = fig.subfigures(2, 1, height_ratios=[2.3, 1.0])  # type: ignore[misc]  # an array of 2 subfigures
     axes = list(top.subplots(1, len(results), squeeze=False)[0])
     plot_simulation_comparison(results, scenario, axes)
     plot_error_along_route(results, scenario, bottom.subplots())

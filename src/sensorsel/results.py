@@ -1,130 +1,189 @@
-"""Result records: frozen dataclasses that round-trip through JSON.
+"""Result files: every record sensorsel writes says what it is (``kind``) and in which ``format``.
 
-:func:`to_jsonable` / :func:`from_jsonable` convert any (nested) frozen dataclass of numbers,
-strings, tuples, ``None`` and dataclasses to plain JSON values and back, by the dataclass's type
-hints. :func:`dumps` is deterministic (fixed key order, ``repr`` floats), so the same result gives
-the same bytes.
+A result file is the JSON of one record (a frozen dataclass, see :mod:`sensorsel.codec`) with two
+keys in front::
+
+    {"kind": "greedy", "format": 1, "suite": [...], ...}
+
+:data:`KINDS` maps each kind to its record class as ``"module:Class"`` (relative to the package),
+imported only when a file of that kind is loaded: the record classes do not import this module, and
+this module imports no record class until it needs one.
+
+:func:`load` reads a file as the kind the caller expects and refuses anything else: a file of
+another kind (the message names the file, the kind found and the kind expected), a format newer than
+this sensorsel reads, or a file that does not parse. Files written before kinds existed (no
+``kind`` key) are read when they parse as the expected class and have no key it lacks.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import json
-import math
-import types
-import typing
+import importlib
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any, Iterable, TypeVar, overload
 
+from .codec import dumps as _dumps
+from .codec import from_jsonable, read_json, to_jsonable
 from .errors import ResultFileError
 from .fileio import atomic_write_text
 
+__all__ = ["FORMAT", "KINDS", "dumps", "from_jsonable", "kind_of", "load", "record_class", "save", "to_jsonable"]
+
 T = TypeVar("T")
 
+#: The result format this version writes, and the newest it reads. Bump it when a record changes in
+#: a way older versions would misread (a renamed or re-typed field), not for an added field with a
+#: default.
+FORMAT = 1
 
-def to_jsonable(obj: Any) -> Any:
-    """Plain JSON value of a dataclass / tuple / list / dict / scalar (NaN and inf become strings)."""
-    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
-        return {f.name: to_jsonable(getattr(obj, f.name)) for f in dataclasses.fields(obj)}
-    if isinstance(obj, (tuple, list)):
-        return [to_jsonable(v) for v in obj]
-    if isinstance(obj, dict):
-        return {str(k): to_jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, float):
-        return obj if math.isfinite(obj) else repr(obj)
-    if hasattr(obj, "item") and callable(obj.item):  # numpy scalar
-        return to_jsonable(obj.item())
-    return obj
+#: kind -> "module:Class" (module relative to the sensorsel package). Class names are unique.
+KINDS: dict[str, str] = {
+    "score": "pipeline:ScoreResult",
+    "greedy": "selection:GreedyResult",
+    "certificate": "selection:Certificate",
+    "optimum": "certify:OptimumResult",
+    "suite-bound": "certify:SuiteBound",
+    "knapsack": "certify:KnapsackSolution",
+    "tradespace": "tradespace:TradespaceResult",
+    "resilient": "resilient:ResilientReport",
+    "resilient-comparison": "resilient:Comparison",
+    "resilient-selection": "resilient:ResilientResult",
+    "resilient-worst-case": "resilient:WorstCase",
+    "resilient-period": "resilient:PeriodResult",
+    "resilient-periods": "resilient:PerPeriodResult",
+    "resilient-grid": "resilient:SelectionGrid",
+    "simulation": "simulate:SimulationReport",
+    "simulation-suite": "simulate:SimulationResult",
+}
 
-
-def _convert(value: Any, hint: Any) -> Any:
-    origin = typing.get_origin(hint)
-    args = typing.get_args(hint)
-    if hint is Any:
-        return value
-    if origin in (typing.Union, types.UnionType):
-        if value is None and type(None) in args:
-            return None
-        for a in args:
-            if a is type(None):
-                continue
-            try:
-                return _convert(value, a)
-            except (TypeError, ValueError, KeyError):
-                continue
-        raise ValueError(f"{value!r} matches none of {hint}")
-    if dataclasses.is_dataclass(hint):
-        return from_jsonable(hint, value)
-    if origin is tuple:
-        if not isinstance(value, list):
-            raise TypeError(f"expected a list, got {value!r}")
-        if len(args) == 2 and args[1] is Ellipsis:
-            return tuple(_convert(v, args[0]) for v in value)
-        return tuple(_convert(v, a) for v, a in zip(value, args, strict=True))
-    if origin is list:
-        return [_convert(v, args[0]) for v in value]
-    if origin is dict:
-        return {_convert(k, args[0]): _convert(v, args[1]) for k, v in value.items()}
-    if hint is float:
-        if isinstance(value, str) and value in ("nan", "inf", "-inf"):
-            return float(value)
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise TypeError(f"expected a number, got {value!r}")
-        return float(value)
-    if hint is int:
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise TypeError(f"expected an integer, got {value!r}")
-        return value
-    if hint is str:
-        if not isinstance(value, str):
-            raise TypeError(f"expected a string, got {value!r}")
-        return value
-    if hint is bool:
-        if not isinstance(value, bool):
-            raise TypeError(f"expected true/false, got {value!r}")
-        return value
-    return value
+_KIND_OF_NAME = {target.partition(":")[2]: kind for kind, target in KINDS.items()}
+assert len(_KIND_OF_NAME) == len(KINDS), "two kinds name the same class"
+_HEADER = ("kind", "format")
 
 
-def from_jsonable(cls: type[T], data: Any) -> T:
-    """Rebuild a dataclass ``cls`` from :func:`to_jsonable` output (checks types as it goes)."""
-    if not isinstance(data, dict):
-        raise TypeError(f"expected an object for {cls.__name__}, got {type(data).__name__}")
-    hints = typing.get_type_hints(cls)
-    kwargs = {}
-    for f in dataclasses.fields(cls):
-        if f.name not in data:
-            if f.default is not dataclasses.MISSING or f.default_factory is not dataclasses.MISSING:
-                continue
-            raise KeyError(f"{cls.__name__}.{f.name} is missing")
-        kwargs[f.name] = _convert(data[f.name], hints[f.name])
-    return cls(**kwargs)
+def record_class(kind: str) -> type:
+    """The record class of ``kind`` (imports its module).
+
+    Raises:
+        KeyError: an unknown kind (names the known ones).
+    """
+    try:
+        target = KINDS[kind]
+    except KeyError:
+        raise KeyError(f"unknown result kind {kind!r}; known: {', '.join(KINDS)}") from None
+    module, _, name = target.partition(":")
+    cls = getattr(importlib.import_module(f"{__package__}.{module}"), name)
+    assert isinstance(cls, type)
+    return cls
+
+
+def kind_of(obj: Any) -> str:
+    """The kind of a record or record class.
+
+    Raises:
+        TypeError: not a record kind sensorsel writes.
+    """
+    cls = obj if isinstance(obj, type) else type(obj)
+    kind = _KIND_OF_NAME.get(cls.__name__)
+    if kind is None or not dataclasses.is_dataclass(cls):
+        raise TypeError(f"{cls.__name__} is not a result kind sensorsel writes (kinds: {', '.join(KINDS)})")
+    return kind
 
 
 def dumps(obj: Any) -> str:
-    """Deterministic JSON text of a result."""
-    return json.dumps(to_jsonable(obj), indent=2, allow_nan=False) + "\n"
+    """Deterministic JSON text of a result, with its kind and format in front."""
+    return _dumps(obj, {"kind": kind_of(obj), "format": FORMAT})
 
 
 def save(obj: Any, path: str | Path) -> Path:
-    """Write a result as JSON, atomically."""
+    """Write a result as JSON (with its kind and format), atomically."""
     return atomic_write_text(path, dumps(obj))
 
 
-def load(cls: type[T], path: str | Path) -> T:
-    """Read a result of type ``cls`` from a JSON file written by :func:`save`.
+Expected = type | str
+
+
+def _wanted(expected: Expected | Iterable[Expected] | None) -> list[tuple[str, type | None]]:
+    """[(kind, class or None when not imported yet)] of what the caller accepts."""
+    if expected is None:
+        return [(k, None) for k in KINDS]
+    items = [expected] if isinstance(expected, (type, str)) else list(expected)
+    out: list[tuple[str, type | None]] = []
+    for e in items:
+        if isinstance(e, str):
+            if e not in KINDS:
+                raise KeyError(f"unknown result kind {e!r}; known: {', '.join(KINDS)}")
+            out.append((e, None))
+        else:
+            out.append((kind_of(e), e))
+    return out
+
+
+def _names(wanted: list[tuple[str, type | None]]) -> str:
+    kinds = [repr(k) for k, _ in wanted]
+    return kinds[0] if len(kinds) == 1 else ", ".join(kinds[:-1]) + " or " + kinds[-1]
+
+
+def _parse_legacy(cls: type[T], data: dict[str, Any]) -> T:
+    """``cls`` from a file without a kind: every key must be a field of ``cls`` (strict, since
+    classes whose fields all have defaults would otherwise accept any object)."""
+    extra = sorted(set(data) - {f.name for f in dataclasses.fields(cls)})  # type: ignore[arg-type]
+    if extra:
+        raise KeyError(f"{cls.__name__} has no field {', '.join(map(repr, extra))}")
+    return from_jsonable(cls, data)
+
+
+@overload
+def load(path: type[T], expected: str | Path) -> T: ...  # the order before kinds: load(cls, path)
+@overload
+def load(path: str | Path, expected: type[T]) -> T: ...
+@overload
+def load(path: str | Path, expected: str | Iterable[Expected] | None = None) -> Any: ...
+
+
+def load(path: Any, expected: Any = None) -> Any:
+    """Read the result file ``path`` as ``expected``: a record class, a kind, several of them, or
+    None for any kind (the file must then say its kind).
+
+    ``load(cls, path)``, the order before kinds existed, is accepted too.
 
     Raises:
-        ResultFileError: missing file, not JSON, or not a ``cls`` record (names the field).
+        ResultFileError: missing or not JSON; a result of another kind (names the file, the kind
+            found and the kind expected); a format newer than :data:`FORMAT`; a file without kind
+            that does not parse as the expected class; a record that does not parse.
     """
+    if isinstance(path, type):
+        path, expected = expected, path
     path = Path(path)
+    wanted = _wanted(expected)
+    data = read_json(path)
+    if not isinstance(data, dict):
+        raise ResultFileError(path, f"not a result file: holds a JSON {type(data).__name__}, expected an object")
+    if "kind" not in data:
+        errors = []
+        for kind, cls in wanted:
+            cls = cls or record_class(kind)
+            try:
+                return _parse_legacy(cls, data)
+            except (TypeError, ValueError, KeyError) as exc:
+                errors.append(f"not a {kind!r} result: {str(exc).strip(chr(34) + chr(39))}")
+        raise ResultFileError(path, "has no \"kind\" key (a file from before result kinds, or not a result) and "
+                                    + "; ".join(errors))
+    kind = data["kind"]
+    found = dict(wanted)
+    if not isinstance(kind, str) or kind not in found:
+        what = f"{kind!r} result" if isinstance(kind, str) and kind in KINDS else (
+            f"result of kind {kind!r}, a kind this sensorsel does not know" if isinstance(kind, str) else f"file with \"kind\": {kind!r}")
+        raise ResultFileError(path, f"is a {what}, expected a {_names(wanted)} result")
+    fmt = data.get("format")
+    if isinstance(fmt, bool) or not isinstance(fmt, int) or fmt < 1:
+        raise ResultFileError(path, f"\"format\" must be a positive integer, got {fmt!r}")
+    if fmt > FORMAT:
+        raise ResultFileError(path, f"a {kind!r} result in format {fmt}, written by a newer sensorsel; this one reads "
+                                    f"formats up to {FORMAT}: upgrade sensorsel to read it")
+    cls = found[kind] or record_class(kind)
+    body = {k: v for k, v in data.items() if k not in _HEADER}
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise ResultFileError(path, "file not found") from None
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise ResultFileError(path, f"not a JSON file sensorsel wrote: {exc}") from None
-    try:
-        return from_jsonable(cls, data)
+        return from_jsonable(cls, body)
     except (TypeError, ValueError, KeyError) as exc:
-        raise ResultFileError(path, f"not a {cls.__name__} result: {exc}") from None
+        raise ResultFileError(path, f"not a valid {kind!r} result: {str(exc).strip(chr(34) + chr(39))}") from None

@@ -5,7 +5,6 @@ possible one (an upper bound on the optimum; ``sensorsel greedy`` prints the sam
 
 from __future__ import annotations
 
-import sys
 from contextlib import nullcontext
 from typing import Any
 
@@ -18,7 +17,8 @@ from ..evaluators import make_evaluator
 from ..fileio import output_file
 from ..problem import Problem
 from ..selection import SELECTORS, GreedyResult, check_budget, greedy
-from .options import engine_options, problem_from, progress_bar, run, scenario_options
+from .options import (not_empty, budget_option, engine_options, json_option, output_option, problem_from, progress_bar, quiet_option,
+                      run, scenario_options)
 
 
 def _suite_text(ids: tuple[str, ...]) -> str:
@@ -28,14 +28,14 @@ def _suite_text(ids: tuple[str, ...]) -> str:
 @click.command("optimal", short_help="Exact best suite within a budget (branch and bound), with greedy beside it.")
 @scenario_options
 @engine_options
-@click.option("--budget", type=float, required=True, help="Budget per car [$].")
+@budget_option(required=True, help="Budget per car in dollars: 110000, 110,000, $110,000 or 110_000.")
 @click.option("--max-nodes", type=click.IntRange(min=1), default=DEFAULT_MAX_NODES, show_default=True,
               help="Stop after expanding this many nodes (each scores one suite plus each candidate).")
 @click.option("--max-seconds", type=click.FloatRange(min=0, min_open=True), default=None,
               help="Also stop after this much wall time [s] (the result then depends on the machine's speed).")
-@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=str), default=None, help="Write the result as JSON here.")
-@click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
-@click.option("--quiet", "-q", is_flag=True, help="No progress bar.")
+@output_option(help="Write the result as JSON here.")
+@json_option
+@quiet_option
 @run
 def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output: str | None, as_json: bool, quiet: bool,
                 engine: str | None, jobs: int, **kw: Any) -> None:
@@ -52,17 +52,9 @@ def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output
     problem = problem_from(kw)
     info = problem.info
     ev = make_evaluator(problem, engine, jobs=jobs)
-    if quiet or as_json:
-        res = optimal(ev, budget, max_nodes=max_nodes, max_seconds=max_seconds, info=info)
-    else:
-        with click.progressbar(length=max_nodes, label="branch and bound (nodes)", file=sys.stderr) as bar:
-            done = [0]
-
-            def step(n: int, _total: int) -> None:
-                bar.update(n - done[0])
-                done[0] = n
-
-            res = optimal(ev, budget, max_nodes=max_nodes, max_seconds=max_seconds, info=info, progress=step)
+    bar, progress = progress_bar(quiet or as_json, "branch and bound (nodes)")
+    with bar or nullcontext():
+        res = optimal(ev, budget, max_nodes=max_nodes, max_seconds=max_seconds, info=info, progress=progress)
     if output:
         results.save(res, output)
     if as_json:
@@ -104,14 +96,14 @@ def _check_same_problem(res: GreedyResult, problem: Problem, path: str) -> None:
 @click.command("certify", short_help="How close a greedy suite is to the best possible one (an upper bound).")
 @scenario_options
 @engine_options
-@click.option("--result", "result_path", type=click.Path(dir_okay=False, path_type=str), default=None,
+@click.option("--result", "result_path", type=click.Path(dir_okay=False, path_type=str), default=None, callback=not_empty,
               help="A greedy result JSON (`sensorsel greedy -o FILE`) to certify; it must be of the same scenario and library.")
-@click.option("--budget", type=float, default=None, help="Without --result: run greedy at this budget [$] and certify it.")
+@budget_option(help="Without --result: run greedy at this budget in dollars (110000, 110,000, $110,000 or 110_000) and certify it.")
 @click.option("--objective", type=click.Choice(list(SELECTORS)), default="best-of", show_default=True,
               help="Without --result: the greedy rule.")
-@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=str), default=None, help="Write the certificate as JSON here.")
-@click.option("--json", "as_json", is_flag=True, help="Print the certificate as JSON.")
-@click.option("--quiet", "-q", is_flag=True, help="No progress bar.")
+@output_option(help="Write the certificate as JSON here.")
+@json_option
+@quiet_option
 @run
 def certify_cmd(result_path: str | None, budget: float | None, objective: str, output: str | None, as_json: bool, quiet: bool,
                 engine: str | None, jobs: int, **kw: Any) -> None:
@@ -130,10 +122,11 @@ def certify_cmd(result_path: str | None, budget: float | None, objective: str, o
         output_file(output)
     problem = problem_from(kw)
     if result_path is not None:
-        res = results.load(GreedyResult, result_path)
+        res = results.load(result_path, GreedyResult)
         _check_same_problem(res, problem, result_path)
         ev = make_evaluator(problem, engine or res.engine, jobs=jobs)
     else:
+        assert budget is not None
         ev = make_evaluator(problem, engine, jobs=jobs)
         res = greedy(ev, check_budget(budget), objective, info=problem.info)
     bar, progress = progress_bar(quiet or as_json, "certificate (greedy steps)")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import replace
 from typing import Any
@@ -10,18 +11,36 @@ import click
 
 from .. import results
 from ..errors import InputError
-from ..library import load_library
+from ..library import SensorLibrary, load_library
 from ..pipeline import score_suite
 from ..scenario import LandmarkModel, route_landmarks, write_landmarks_csv
-from .options import engine_options, problem_from, run, scenario_options, spec_from, table
+from .options import engine_options, json_option, output_option, plot_format_option, problem_from, run, scenario_options, spec_from, table
+from .options import plot_format as plot_format_of
+
+
+def library_json(lib: SensorLibrary) -> str:
+    """The library as JSON: its source and each placed sensor (id, index, model, clock, range, FOV, noise, cost)."""
+    sensors = [{
+        "id": s.id, "index": s.index, "model": s.model.code, "model_name": s.model.name, "type": s.model.type,
+        "clock": s.clock, "position": s.position_label, "mount_angle_deg": round(math.degrees(s.mount_angle_rad), 9),
+        "range_m": s.model.range_m, "fov_deg": round(math.degrees(s.model.fov_rad), 9),
+        "sigma_bearing_rad": s.model.bearing_sigma(),
+        "sigma_range_m": None if s.model.type == "stereo" else s.model.sigma_range_m,  # stereo: z^2 model
+        "cost_usd": s.cost_usd,
+    } for s in lib]
+    return json.dumps({"source": lib.source, "n_sensors": len(lib), "sensors": sensors}, indent=2, allow_nan=False) + "\n"
 
 
 @click.command("library", short_help="List the 62 placed sensors of the library (id, index, model, cost).")
 @click.option("--library", "library_path", type=click.Path(dir_okay=False, path_type=str), help="Sensor library YAML (default: the paper's Table I).")
+@json_option
 @run
-def library_cmd(library_path: str | None) -> None:
+def library_cmd(library_path: str | None, as_json: bool) -> None:
     """List the placed sensors of the library (id, paper index, model, position, range, FOV, cost)."""
     lib = load_library(library_path)
+    if as_json:
+        click.echo(library_json(lib), nl=False)
+        return
     rows = [
         [s.id, str(s.index), s.model.name, s.position_label, f"{s.model.range_m:g}", f"{math.degrees(s.model.fov_rad):.1f}",
          f"{s.model.bearing_sigma():.5f}", "z^2 model" if s.model.type == "stereo" else f"{s.model.sigma_range_m:g}", f"{s.cost_usd:,.0f}"]
@@ -35,7 +54,7 @@ def library_cmd(library_path: str | None) -> None:
 @scenario_options
 @engine_options
 @click.option("--suite", required=True, help="Comma-separated sensor ids or indices, e.g. LRL-roof,LRR-12 (see `sensorsel library`).")
-@click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
+@json_option
 @run
 def score_cmd(suite: str, as_json: bool, engine: str | None, jobs: int, **kw: Any) -> None:
     """Score a sensor suite: cost and f(S) = log det L(S) - log det L(empty) in nats."""
@@ -54,18 +73,24 @@ def score_cmd(suite: str, as_json: bool, engine: str | None, jobs: int, **kw: An
 
 @click.command("scene", short_help="Draw the route, landmarks and a suite's sensing cones (PNG/SVG/PDF).")
 @scenario_options
-@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False, path_type=str), help="Image file (.png, .svg, .pdf).")
+@output_option(required=True, help="Image file (.png, .svg, .pdf).")
+@plot_format_option
 @click.option("--suite", default=None, help="Draw these sensors' cones (comma-separated ids).")
 @click.option("--pose", "pose_index", type=int, default=None, help="Keyframe at which to draw the cones (default: the middle one).")
 @run
-def scene_cmd(output: str, suite: str | None, pose_index: int | None, **kw: Any) -> None:
-    """Draw the route and landmarks (the paper's Fig. 2), optionally a suite's sensing cones."""
-    from ..plotting import plot_scene, save_figure
+def scene_cmd(output: str, plot_format: str | None, suite: str | None, pose_index: int | None, **kw: Any) -> None:
+    """Draw the route and landmarks (the paper's Fig. 2), optionally a suite's sensing cones.
 
+    The format is --format, or else the extension of -o (.png, .svg, .pdf); the two must agree.
+    """
+    from ..plotting import plot_scene, save_figure, use_file_backend
+
+    plot_format_of(plot_format, output)
     problem = problem_from(kw)
     positions = problem.library.parse_suite(suite) if suite else ()
+    use_file_backend()
     ax = plot_scene(problem.scenario, library=problem.library, suite=positions, pose_index=pose_index)
-    path = save_figure(ax.figure, output)
+    path = save_figure(ax.figure, output, close=True)
     click.echo(f"wrote {path}")
 
 
@@ -93,7 +118,7 @@ _DEFAULT_MODEL = LandmarkModel()
               help="Distance of far landmarks (buildings, hills) from the route [m].")
 @click.option("--clearance", type=float, default=_DEFAULT_MODEL.clearance_m, show_default=True,
               help="No landmark closer than this to any point of the route (the road itself) [m].")
-@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False, path_type=str), help="CSV file to write (x,y in metres).")
+@output_option(required=True, help="CSV file to write (x,y in metres).")
 @run
 def landmarks_cmd(near_spacing: float, near_offset: str, far_spacing: float, far_offset: str, clearance: float, output: str,
                   **kw: Any) -> None:

@@ -1,17 +1,27 @@
-"""Options shared by the commands, and the error handling every command runs under."""
+"""Options shared by the commands, and the error handling every command runs under.
+
+Every command that takes a budget uses :func:`budget_option` (110000, 110,000, $110,000, 110_000);
+every command that draws progress has :func:`quiet_option` (-q/--quiet); every command that produces
+a result has :func:`json_option` (--json: the result's JSON on stdout); every command that draws a
+plot has :func:`plot_format_option` (--format png|svg|pdf; default: a file output's extension, else
+png); every -o uses :func:`output_option`, which refuses an empty name.
+"""
 
 from __future__ import annotations
 
 import functools
+import math
 import os
 import sys
-from typing import Any, Callable
+from pathlib import Path
+from typing import Any, Callable, TypeVar
 
 import click
 
-from ..errors import SensorselError
+from ..errors import InputError, SensorselError
 from ..pipeline import load_problem
 from ..problem import Problem
+from ..progress import Progress
 from ..scenario import KITTI_ROOT_ENV, ROUTE_FORMATS, ScenarioSpec
 
 
@@ -30,6 +40,87 @@ def run(fn: Callable[..., Any]) -> Callable[..., Any]:
             sys.exit(130)
 
     return wrapper
+
+
+F = TypeVar("F", bound=Callable[..., Any])
+
+
+class BudgetType(click.ParamType):
+    """A budget in dollars: ``110000``, ``110,000``, ``$110,000`` or ``110_000``; finite and >= 0."""
+
+    name = "DOLLARS"
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> float:
+        if isinstance(value, (int, float)) and not isinstance(value, bool):
+            v = float(value)
+        else:
+            text = str(value).strip().replace("$", "").replace(",", "").replace("_", "")
+            try:
+                v = float(text)
+            except ValueError:
+                self.fail(f"{value!r} is not a number of dollars (e.g. 110000)", param, ctx)
+        if not math.isfinite(v) or v < 0:
+            self.fail(f"{value!r}: a budget must be a finite, non-negative number of dollars", param, ctx)
+        return v
+
+
+BUDGET = BudgetType()
+
+
+def budget_option(*, required: bool = False, default: float | None = None, multiple: bool = False,
+                  help: str = "Budget in dollars: 110000, 110,000, $110,000 or 110_000.") -> Callable[[F], F]:
+    """--budget DOLLARS, parsed by :class:`BudgetType`."""
+    return click.option("--budget", type=BUDGET, required=required, default=default, multiple=multiple,
+                        show_default=default is not None, help=help)
+
+
+def quiet_option(fn: F) -> F:
+    """-q/--quiet: no progress bar."""
+    return click.option("-q", "--quiet", is_flag=True, help="No progress bar on stderr.")(fn)
+
+
+def json_option(fn: F) -> F:
+    """--json: print the result as JSON on stdout (the files a command writes are still written)."""
+    return click.option("--json", "as_json", is_flag=True,
+                        help="Print the result as JSON on stdout (its \"kind\" and \"format\" first) instead of the summary.")(fn)
+
+
+PLOT_FORMATS = ("png", "svg", "pdf")
+
+
+def plot_format_option(fn: F) -> F:
+    """--format png|svg|pdf (--plot-format is the same option): the plots' file format."""
+    return click.option("--format", "--plot-format", "plot_format", type=click.Choice(PLOT_FORMATS), default=None,
+                        help="Plot file format [default: the extension of a file -o, else png].")(fn)
+
+
+def plot_format(chosen: str | None, output_file: str | None = None) -> str:
+    """The plot format: --format, else the extension of the output file, else png.
+
+    Raises:
+        InputError: an output file whose extension is not a plot format, or contradicts --format.
+    """
+    if output_file is None:
+        return chosen or "png"
+    ext = Path(output_file).suffix.lower().lstrip(".")
+    if ext not in PLOT_FORMATS:
+        raise InputError(f"-o {output_file}: unsupported plot format {'.' + ext if ext else '(none)'!r}; use .png, .svg or .pdf")
+    if chosen is not None and chosen != ext:
+        raise InputError(f"-o {output_file} is a .{ext} file but --format is {chosen}: give one or make them agree")
+    return ext
+
+
+def not_empty(ctx: click.Context, param: click.Parameter, value: str | None) -> str | None:
+    if value is not None and not value.strip():
+        raise click.BadParameter("must not be empty (give a file or folder name)", ctx=ctx, param=param)
+    return value
+
+
+def output_option(*, folder: bool = False, required: bool = False, dest: str = "output",
+                  help: str = "Write the result as JSON here.") -> Callable[[F], F]:
+    """-o/--output FILE (or FOLDER); an empty name is an error naming the option, not a silent no-op."""
+    return click.option("-o", "--output", dest, required=required, callback=not_empty,
+                        type=click.Path(file_okay=not folder, dir_okay=folder, path_type=str), help=help)
 
 
 def scenario_options(fn: Callable[..., Any]) -> Callable[..., Any]:
@@ -158,11 +249,16 @@ class _Bar:
             self.bar = False
 
 
-def progress_bar(quiet: bool, label: str, phases: int = 1, after: _Bar | None = None) -> tuple[_Bar | None, Callable[[int, int], None] | None]:
-    """(bar, progress): a progress bar on stderr, used as ``with bar:`` around the run that calls
-    ``progress(done, total)``; (None, None) with --quiet or when stderr is not a terminal. ``after``:
-    the bar of the previous stage, completed when this one starts."""
-    if quiet or not sys.stderr.isatty():
+def _on_terminal() -> bool:
+    return sys.stderr.isatty()
+
+
+def progress_bar(quiet: bool, label: str, phases: int = 1, after: _Bar | None = None) -> tuple[_Bar | None, Progress | None]:
+    """(bar, progress): the one CLI adapter of :data:`sensorsel.progress.Progress`, a progress bar on
+    stderr, used as ``with bar or nullcontext():`` around the run that calls ``progress(done, total)``;
+    (None, None) with --quiet or when stderr is not a terminal. ``after``: the bar of the previous
+    stage, completed when this one starts."""
+    if quiet or not _on_terminal():
         return None, None
     bar = _Bar(label, phases, after)
     return bar, bar

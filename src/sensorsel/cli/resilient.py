@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-import sys
 from collections import Counter
+from contextlib import nullcontext
 from typing import Any
 
 import click
@@ -11,27 +11,30 @@ import click
 from .. import results
 from ..fileio import output_dir
 from ..selection import SELECTORS
-from .options import engine_options, problem_from, run, scenario_options, table
+from .options import (budget_option, engine_options, json_option, output_option, plot_format_option, problem_from, progress_bar,
+                      quiet_option, run, scenario_options, table)
+from .options import plot_format as plot_format_of
 
 
 @click.command("resilient", short_help="Resilient selection against failing sensors, whole route and per period (grid).")
 @scenario_options
 @engine_options
-@click.option("--budget", type=float, default=110_000.0, show_default=True, help="Budget [$], the sensors assumed to fail included.")
+@budget_option(default=110_000.0, help="Budget in dollars (110000, 110,000, $110,000 or 110_000), the sensors assumed to fail included.")
 @click.option("--failures", "alpha", type=int, default=1, show_default=True,
               help="Number of sensors assumed to fail (alpha); 0 is plain greedy selection.")
 @click.option("--period", "period_s", type=float, default=10.0, show_default=True,
               help="Length of a period of the per-period selection [s of keyframe timestamps].")
 @click.option("--objective", type=click.Choice(list(SELECTORS)), default="uniform", show_default=True,
               help="Greedy rule spending the budget left after the failing sensors.")
-@click.option("-o", "--output", "outdir", required=True, type=click.Path(file_okay=False, path_type=str),
-              help="Output folder: resilient.json, grid.csv, the grid plot, and periods/ (one file per period).")
-@click.option("--format", "fmt", type=click.Choice(["png", "svg", "pdf"]), default="png", show_default=True, help="Grid plot format.")
+@output_option(folder=True, required=True, dest="outdir",
+               help="Output folder: resilient.json, grid.csv, the grid plot, and periods/ (one file per period).")
+@plot_format_option
 @click.option("--resume", is_flag=True, help="Reuse the results in OUTPUT/periods/ whose inputs match this run (after an interruption).")
-@click.option("--quiet", "-q", is_flag=True, help="No progress on stderr.")
+@json_option
+@quiet_option
 @run
-def resilient_cmd(budget: float, alpha: int, period_s: float, objective: str, outdir: str, fmt: str, resume: bool, quiet: bool,
-                  engine: str | None, jobs: int, **kw: Any) -> None:
+def resilient_cmd(budget: float, alpha: int, period_s: float, objective: str, outdir: str, plot_format: str | None, resume: bool,
+                  as_json: bool, quiet: bool, engine: str | None, jobs: int, **kw: Any) -> None:
     """Resilient sensor selection (the paper's Algorithm 2, for ALPHA failures).
 
     The ALPHA sensors with the largest individual scores are bought and assumed to fail; the rest of
@@ -40,38 +43,37 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, objective: str, ou
     and that failure set), then runs the selection on each period of the route and draws the grid of
     failed (red) and active (green) sensors per period (the paper's Fig. 5).
     """
-    from ..plotting import plot_selection_grid, save_figure
+    from ..plotting import plot_selection_grid, save_figure, use_file_backend
     from ..resilient import check_alpha, check_period, resilient_report, save_grid_csv, split_periods
     from ..selection import check_budget
 
     budget = check_budget(budget)
+    fmt = plot_format_of(plot_format)
     alpha = check_alpha(alpha)
     period_s = check_period(period_s)
     out = output_dir(outdir)
     problem = problem_from(kw)
     sc = problem.scenario
     n_periods = len(split_periods(sc.keyframes.times, period_s))
-    show = not quiet and sys.stderr.isatty()
-    if show:
+    bar, progress = progress_bar(quiet, f"{n_periods} periods of {period_s:g} s")
+    if bar is not None:
         click.echo(f"whole route: greedy and resilient selection on {sc.n_poses} keyframes, {sc.n_landmarks} landmarks ...", err=True)
-        with click.progressbar(length=n_periods, label=f"{n_periods} periods of {period_s:g} s", file=sys.stderr) as bar:
-            def progress(done: int, total: int) -> None:
-                bar.update(done - bar.pos)
-
-            report = resilient_report(problem, budget, alpha, period_s=period_s, objective=objective, engine=engine, jobs=jobs,
-                                      outdir=out, resume=resume, progress=progress)
-    else:
+    with bar or nullcontext():
         report = resilient_report(problem, budget, alpha, period_s=period_s, objective=objective, engine=engine, jobs=jobs,
-                                  outdir=out, resume=resume)
+                                  outdir=out, resume=resume, progress=progress)
 
     per = report.per_period
     assert per is not None
     json_path = results.save(report, out / "resilient.json")
     csv_path = save_grid_csv(per.grid, out / "grid.csv")
+    use_file_backend()
     title = f"{sc.name}: resilient selection per {period_s:g} s period, {alpha} failure(s), budget ${budget:,.0f}"
     ax = plot_selection_grid(per.grid, title=title)
-    img_path = save_figure(ax.figure, out / f"grid.{fmt}")
+    img_path = save_figure(ax.figure, out / f"grid.{fmt}", close=True)
 
+    if as_json:
+        click.echo(results.dumps(report), nl=False)
+        return
     c = report.comparison
     click.echo(f"scenario  {sc.name}: {sc.n_poses} keyframes, {sc.n_landmarks} landmarks ({sc.landmark_source})")
     click.echo(f"budget    ${budget:,.0f}, {alpha} failure(s), objective {objective}, engine {c.engine}")

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 import sys
 from contextlib import nullcontext
 from pathlib import Path
@@ -16,26 +15,9 @@ from ..fileio import output_dir, output_file
 from ..library import SensorLibrary
 from ..selection import SELECTORS, GreedyResult, run_greedy
 from ..tradespace import DEFAULT_SELECTORS, Architecture, parse_budgets, parse_selectors, run_tradespace, write_csv
-from .options import engine_options, problem_from, progress_bar, run, scenario_options, table
-
-
-class BudgetType(click.ParamType):
-    """A budget in dollars: ``110000``, ``110,000``, ``$110000`` or ``110_000``; finite and >= 0."""
-
-    name = "DOLLARS"
-
-    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> float:
-        if isinstance(value, (int, float)) and not isinstance(value, bool):
-            v = float(value)
-        else:
-            text = str(value).strip().replace("$", "").replace(",", "").replace("_", "")
-            try:
-                v = float(text)
-            except ValueError:
-                self.fail(f"{value!r} is not a number of dollars (e.g. 110000)", param, ctx)
-        if not math.isfinite(v) or v < 0:
-            self.fail(f"{value!r}: a budget must be a finite, non-negative number of dollars", param, ctx)
-        return v
+from .options import (budget_option, engine_options, json_option, output_option, plot_format_option, problem_from, progress_bar,
+                      quiet_option, run, scenario_options, table)
+from .options import plot_format as plot_format_of
 
 
 def _position(lib: SensorLibrary, sensor_id: str) -> tuple[str, str]:
@@ -70,17 +52,17 @@ def _print_greedy(res: GreedyResult, lib: SensorLibrary) -> None:
 @click.command("greedy", short_help="Greedy suite under a budget, with its certificate of near-optimality.")
 @scenario_options
 @engine_options
-@click.option("--budget", required=True, type=BudgetType(), help="Budget in dollars, e.g. 110000.")
+@budget_option(required=True)
 @click.option("--objective", type=click.Choice(list(SELECTORS)), default="uniform", show_default=True,
               help="uniform: f(S+s); cost-benefit: f(S+s)/Cost(S+s) (the paper); marginal: gain/cost(s); "
                    "best-of: the better of uniform and marginal.")
 @click.option("--lazy/--no-lazy", default=True, show_default=True, help="Lazy (Minoux) evaluation: same picks, fewer evaluations.")
-@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=str), help="Write the full result as JSON.")
-@click.option("--json", "as_json", is_flag=True, help="Print the full result as JSON instead of the table.")
+@output_option(help="Write the full result as JSON.")
+@json_option
 @click.option("--certificate/--no-certificate", "certify", default=True, show_default=True,
               help="Also bound the best possible score within the budget (at most one extra sweep of the library per pick) "
                    "and print how close the suite is to it.")
-@click.option("--quiet", is_flag=True, help="No progress bar.")
+@quiet_option
 @run
 def greedy_cmd(budget: float, objective: str, lazy: bool, output: str | None, as_json: bool, certify: bool, quiet: bool,
                engine: str | None, jobs: int, **kw: Any) -> None:
@@ -130,17 +112,20 @@ def _arch_row(a: Architecture) -> list[str]:
 @scenario_options
 @engine_options
 @click.option("--budgets", default=None, metavar="B1,B2,...",
-              help="Budgets in dollars (default: 14 log-spaced from the cheapest sensor to the whole library).")
+              help="Comma-separated budgets in dollars, e.g. 5000,27_000,$110000 (default: 14 log-spaced from the "
+                   "cheapest sensor to the whole library).")
+@budget_option(multiple=True, help="A budget in dollars (110000, 110,000, $110,000 or 110_000); repeat it for several; "
+                                   "adds to --budgets.")
 @click.option("--selectors", default=",".join(DEFAULT_SELECTORS), show_default=True,
               help=f"Comma-separated rules among {', '.join(SELECTORS)}.")
 @click.option("--lazy/--no-lazy", default=True, show_default=True, help="Lazy (Minoux) evaluation: same picks, fewer evaluations.")
-@click.option("-o", "--output", "outdir", required=True, type=click.Path(file_okay=False, path_type=str),
-              help="Folder for pareto.<fmt>, architectures.csv and tradespace.json.")
-@click.option("--plot-format", type=click.Choice(["png", "svg", "pdf"]), default="png", show_default=True)
-@click.option("--quiet", is_flag=True, help="No progress bar.")
+@output_option(folder=True, required=True, dest="outdir", help="Folder for pareto.<format>, architectures.csv and tradespace.json.")
+@plot_format_option
+@json_option
+@quiet_option
 @run
-def pareto_cmd(budgets: str | None, selectors: str, lazy: bool, outdir: str, plot_format: str, quiet: bool,
-               engine: str | None, jobs: int, **kw: Any) -> None:
+def pareto_cmd(budgets: str | None, budget: tuple[float, ...], selectors: str, lazy: bool, outdir: str, plot_format: str | None,
+               as_json: bool, quiet: bool, engine: str | None, jobs: int, **kw: Any) -> None:
     """The cost-performance tradespace (the paper's Fig. 4): greedy runs over a grid of budgets,
     every intermediate architecture, and the Pareto front (lower cost, higher score).
 
@@ -149,6 +134,9 @@ def pareto_cmd(budgets: str | None, selectors: str, lazy: bool, outdir: str, plo
     reach 99% and 95% of the best score.
     """
     grid = parse_budgets(budgets) if budgets is not None else None
+    if budget:
+        grid = tuple(sorted(set(grid or ()) | set(budget)))
+    fmt = plot_format_of(plot_format)
     rules = parse_selectors(selectors)
     output_dir(outdir)
     problem = problem_from(kw)
@@ -159,11 +147,17 @@ def pareto_cmd(budgets: str | None, selectors: str, lazy: bool, outdir: str, plo
     out = Path(outdir)
     written = [results.save(res, out / "tradespace.json"), write_csv(res, out / "architectures.csv")]
     if res.architectures:
-        from ..plotting import plot_tradespace, save_figure
+        from ..plotting import plot_tradespace, save_figure, use_file_backend
 
+        use_file_backend()
         ax = plot_tradespace(res)
-        written.insert(0, save_figure(ax.figure, out / f"pareto.{plot_format}"))
+        written.insert(0, save_figure(ax.figure, out / f"pareto.{fmt}", close=True))
 
+    if as_json:
+        click.echo(results.dumps(res), nl=False)
+        if not res.architectures:
+            sys.exit(2)
+        return
     p = res.problem
     if p is not None:
         click.echo(f"scenario   {p.scenario}: {p.n_poses} keyframes, {p.n_landmarks} landmarks ({p.landmark_source})")

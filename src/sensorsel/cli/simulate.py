@@ -2,10 +2,9 @@
 
 from __future__ import annotations
 
-import json
 import math
 import os
-import sys
+from contextlib import nullcontext
 from pathlib import Path
 from typing import Any
 
@@ -17,36 +16,37 @@ from ..fileio import output_dir
 from ..library import SensorLibrary
 from ..pipeline import load_problem
 from ..problem import GraphSettings
-from .options import run, scenario_options, spec_from, table
+from .options import json_option, output_option, plot_format_option, progress_bar, quiet_option, run, scenario_options, spec_from, table
+from .options import plot_format as plot_format_of
+
+
+#: Result kinds that name a suite: simulate --suite/--compare read these (resilient ones also say
+#: which sensors they assume to fail).
+SUITE_KINDS = ("greedy", "resilient", "resilient-selection", "optimum", "score")
 
 
 def read_suite(text: str, library: SensorLibrary, what: str) -> tuple[tuple[int, ...], str, tuple[str, ...]]:
-    """A suite from comma-separated ids, or from a result JSON of ``sensorsel greedy``/``resilient``.
+    """A suite from comma-separated ids, or from a result file of a kind in :data:`SUITE_KINDS`
+    (e.g. of ``sensorsel greedy -o`` or ``sensorsel resilient``), read by :func:`sensorsel.results.load`.
 
     Returns:
-        (library positions, label, sensors the result file assumes to fail (its "failed" key)).
+        (library positions, label, sensors the result assumes to fail (resilient kinds)).
     Raises:
-        ResultFileError: a JSON file that cannot be read or has no list of ids under "suite".
+        ResultFileError: a file that cannot be read or is not a result of those kinds (names the kind found).
         InputError: an unknown id.
     """
     path = Path(text)
     if text.lower().endswith(".json") or path.is_file():
         try:
-            data = json.loads(path.read_text(encoding="utf-8"))
-        except FileNotFoundError:
-            raise ResultFileError(path, f"{what}: file not found") from None
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-            raise ResultFileError(path, f"{what}: not a JSON result file: {exc}") from None
-        ids = data.get("suite") if isinstance(data, dict) else None
-        if not isinstance(ids, list) or not all(isinstance(s, str) for s in ids):
-            raise ResultFileError(path, f"{what}: expected a top-level key \"suite\" holding a list of sensor ids, got {ids!r}")
-        failed = data.get("failed", [])
-        if not isinstance(failed, list) or not all(isinstance(s, str) for s in failed):
-            raise ResultFileError(path, f"{what}: key \"failed\" must be a list of sensor ids, got {failed!r}")
+            rec = results.load(path, SUITE_KINDS)
+        except ResultFileError as exc:
+            raise ResultFileError(path, f"{what}: {exc.reason}") from None
+        ids: tuple[str, ...] = rec.suite
+        failed: tuple[str, ...] = getattr(rec, "failed", ())
         try:
-            positions = library.parse_suite(ids)
+            positions = library.parse_suite(list(ids))
         except InputError as exc:
-            raise ResultFileError(path, f"{what}: key \"suite\": {exc}") from None
+            raise ResultFileError(path, f"{what}: its suite: {exc} (a result of another library?)") from None
         return positions, path.stem, tuple(failed)
     try:
         return library.parse_suite(text), what.lstrip("-"), ()
@@ -77,26 +77,30 @@ def _fmt(v: float | None, digits: int = 3) -> str:
 @click.option("--noise-scale", type=float, default=1.0, show_default=True, help="Factor on every noise sigma (odometry, prior, sensors).")
 @click.option("--jobs", type=click.IntRange(min=1), default=os.cpu_count() or 1, show_default="all cores",
               help="Processes running the Monte-Carlo draws (results do not depend on it).")
-@click.option("-o", "--output", "outdir", required=True, type=click.Path(file_okay=False, path_type=str),
-              help="Output folder: simulation.json (every run), trajectories, error_along_route and simulate plots.")
-@click.option("--format", "fmt", type=click.Choice(["png", "svg", "pdf"]), default="png", show_default=True, help="Plot file format.")
-@click.option("--quiet", "-q", is_flag=True, help="No progress bar.")
+@output_option(folder=True, required=True, dest="outdir",
+               help="Output folder: simulation.json (every run), trajectories, error_along_route and simulate plots.")
+@plot_format_option
+@json_option
+@quiet_option
 @run
 def simulate_cmd(suite: str, compare: str | None, label: str | None, compare_label: str | None, fail: str | None, start_sigmas: str | None,
-                 runs: int, solver: str, seed: int, noise_scale: float, jobs: int, outdir: str, fmt: str, quiet: bool, **kw: Any) -> None:
+                 runs: int, solver: str, seed: int, noise_scale: float, jobs: int, outdir: str, plot_format: str | None, as_json: bool,
+                 quiet: bool, **kw: Any) -> None:
     """Validate designs by running SLAM on them: N noisy Monte-Carlo runs solved with GTSAM.
 
     Prints pose, heading and landmark RMSE, the worst position error along the route, the errors the
     information matrix predicts, and the average NEES of the poses with its 95 % chi-square bounds;
     writes the plots and a JSON of every run to OUTPUT.
     """
-    from ..plotting import plot_error_along_route, plot_simulation_comparison, plot_simulation_overview, save_figure
+    from ..plotting import (plot_error_along_route, plot_simulation_comparison, plot_simulation_overview, save_figure,
+                            use_file_backend)
     from ..simulate import SimulationReport, parse_failures, simulate
 
     if not (math.isfinite(noise_scale) and noise_scale > 0):
         raise click.BadParameter(f"must be a positive number, got {noise_scale!r}", param_hint="--noise-scale")
     if compare_label is not None and compare is None:
         raise click.UsageError("--compare-label needs --compare")
+    fmt = plot_format_of(plot_format)
     out = output_dir(outdir)
     settings = GraphSettings()
     if start_sigmas is not None:
@@ -132,29 +136,30 @@ def simulate_cmd(suite: str, compare: str | None, label: str | None, compare_lab
     if named and not any(named & set(lib.suite_ids(p)) for p, _, _ in designs):
         raise InputError(f"--fail {fail!r}: no simulated suite has {', '.join(sorted(named))}")
 
-    show = not quiet and sys.stderr.isatty()
     sims = []
     for positions, name, _ in designs:
         ids = set(lib.suite_ids(positions))
         mine = tuple(f for f in failures if f.sensor in ids)
-        if show:
-            with click.progressbar(length=runs, label=f"simulating {name}", file=sys.stderr) as bar:
-                res = simulate(problem, positions, failures=mine, runs=runs, solver=solver, seed=seed, noise_scale=noise_scale,
-                               jobs=jobs, label=name, progress=lambda: bar.update(1))
-        else:
+        bar, progress = progress_bar(quiet, f"simulating {name}")
+        with bar or nullcontext():
             res = simulate(problem, positions, failures=mine, runs=runs, solver=solver, seed=seed, noise_scale=noise_scale,
-                           jobs=jobs, label=name)
+                           jobs=jobs, label=name, progress=progress)
         sims.append(res)
 
-    json_path = results.save(SimulationReport(tuple(sims)), out / "simulation.json")
+    report = SimulationReport(tuple(sims))
+    json_path = results.save(report, out / "simulation.json")
     sc = problem.scenario
     paths = [json_path]
+    use_file_backend()
     axes = plot_simulation_comparison(sims, sc)
-    paths.append(save_figure(axes[0].figure, out / f"trajectories.{fmt}"))
+    paths.append(save_figure(axes[0].figure, out / f"trajectories.{fmt}", close=True))
     ax = plot_error_along_route(sims, sc)
-    paths.append(save_figure(ax.figure, out / f"error_along_route.{fmt}"))
-    paths.append(save_figure(plot_simulation_overview(sims, sc), out / f"simulate.{fmt}"))
+    paths.append(save_figure(ax.figure, out / f"error_along_route.{fmt}", close=True))
+    paths.append(save_figure(plot_simulation_overview(sims, sc), out / f"simulate.{fmt}", close=True))
 
+    if as_json:
+        click.echo(results.dumps(report), nl=False)
+        return
     click.echo(f"{'scenario':<9} {sc.name}: {sc.n_poses} keyframes, {sc.n_landmarks} landmarks ({sc.landmark_source})")
     click.echo(f"runs      {runs} per suite, solver {solver}, seed {seed}" + (f", noise x{noise_scale:g}" if noise_scale != 1 else "")
                + ("" if start_sigmas is None else f", first-pose prior sigmas {','.join(f'{v:g}' for v in settings.first_pose_sigmas)}"))

@@ -12,13 +12,14 @@ import math
 import multiprocessing
 import time
 from concurrent.futures import ProcessPoolExecutor
-from typing import Callable, Iterable, Sequence
+from typing import Iterable, Sequence
 
 import numpy as np
 
 from ..errors import InputError
 from ..evaluators import as_suite
 from ..problem import Problem
+from ..progress import Progress
 from .consistency import COVARIANCE_NOTE, Prediction, correlated_nees_bounds, nees_bounds, predict, rms, run_errors
 from .failures import resolve_failures
 from .noise import Payload, make_payload
@@ -37,7 +38,7 @@ def simulate(
     noise_scale: float = 1.0,
     jobs: int = 1,
     label: str = "suite",
-    progress: Callable[[], None] | None = None,
+    progress: Progress | None = None,
 ) -> SimulationResult:
     """Monte-Carlo SLAM of ``suite`` on ``problem``: ``runs`` seeded draws, each solved with GTSAM.
 
@@ -51,7 +52,7 @@ def simulate(
         noise_scale: factor on every sigma (> 0); 1 is the sensor models.
         jobs: worker processes for the runs (results do not depend on it).
         label: name of this design in tables and plots.
-        progress: called once after each finished run.
+        progress: called as progress(runs done, runs) after each finished run.
     Raises:
         InputError: bad suite, failure, solver, runs, seed, noise scale or jobs (names the value).
     """
@@ -89,20 +90,20 @@ def _check_args(problem: Problem, positions: tuple[int, ...], solver: str, runs:
 # ------------------------------------------------------------------------------- process pool
 
 
-def _run_all(payload: Payload, runs: int, jobs: int, progress: Callable[[], None] | None) -> list[dict]:
+def _run_all(payload: Payload, runs: int, jobs: int, progress: Progress | None) -> list[dict]:
     """Every run's raw output, in run order, in this process or in ``jobs`` workers."""
     raw: list[dict] = []
     if jobs == 1 or runs == 1:
         for r in range(runs):
             raw.append(solve_run(payload, r))
             if progress:
-                progress()
+                progress(len(raw), runs)
         return raw
     with ProcessPoolExecutor(max_workers=min(jobs, runs), mp_context=_mp_context(), initializer=_init_worker, initargs=(payload,)) as ex:
         for out in ex.map(_worker_run, range(runs)):
             raw.append(out)
             if progress:
-                progress()
+                progress(len(raw), runs)
     return raw
 
 
