@@ -250,7 +250,7 @@ def test_plots_draw_each_design_on_one_error_scale(tiny_problem):
 def _suite_file(problem, path, suite, failed=()):
     """A result file naming ``suite``: a score result, or with ``failed`` a resilient selection
     (computed on the problem, then given this suite and these assumed failures)."""
-    from sensorsel.objective import make_evaluator
+    from sensorsel.evaluators import make_evaluator
     from sensorsel.pipeline import score_suite
     from sensorsel.resilient import resilient_select
 
