@@ -37,7 +37,7 @@ import math
 import os
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 import yaml
 
@@ -192,7 +192,7 @@ class _Checker:
         self.path = path
         self.folder = path.resolve().parent
 
-    def fail(self, key: str, message: str, line: int | None) -> None:
+    def fail(self, key: str, message: str, line: int | None) -> NoReturn:
         raise DomainError(self.path, key, message, line)
 
     def keys(self, m: _Map, key: str, allowed: tuple[str, ...]) -> None:

@@ -156,8 +156,8 @@ def scenario_options(fn: Callable[..., Any]) -> Callable[..., Any]:
     # its field at the default.
     own = {o for p in getattr(fn, "__click_params__", []) for o in getattr(p, "opts", [])}
     for opt in reversed(opts):
-        probe = opt(lambda: None).__click_params__[0]
-        if not own.intersection(probe.opts):
+        probe: Any = opt(lambda: None)  # the click.Option the decorator would add, to read its flags
+        if not own.intersection(probe.__click_params__[0].opts):
             fn = opt(fn)
     return fn
 
