@@ -200,7 +200,7 @@ class _Checker:
             if k not in allowed:
                 self.fail(f"{key}.{k}" if key else str(k), f"unknown key; allowed: {', '.join(allowed)}", m.lines.get(k, m.line))
 
-    def number(self, value: Any, key: str, line: int, *, minimum: float = 0.0, strict: bool = True) -> float:
+    def number(self, value: Any, key: str, line: int | None, *, minimum: float = 0.0, strict: bool = True) -> float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             hint = " (a number in quotes is text: remove the quotes)" if isinstance(value, str) and _is_float(value) else ""
             self.fail(key, f"expected a number, got {value!r}{hint}", line)
@@ -209,12 +209,12 @@ class _Checker:
             self.fail(key, f"expected a finite number {'>' if strict else '>='} {minimum:g}, got {value!r}", line)
         return v
 
-    def string(self, value: Any, key: str, line: int, what: str = "a non-empty string") -> str:
+    def string(self, value: Any, key: str, line: int | None, what: str = "a non-empty string") -> str:
         if not isinstance(value, str) or not value.strip():
             self.fail(key, f"expected {what}, got {value!r}", line)
         return value.strip()
 
-    def file(self, value: Any, key: str, line: int, *, folder: bool = False) -> str:
+    def file(self, value: Any, key: str, line: int | None, *, folder: bool = False) -> str:
         text = self.string(value, key, line, "a path")
         p = Path(os.path.expanduser(text))
         p = p if p.is_absolute() else self.folder / p
@@ -222,7 +222,7 @@ class _Checker:
             self.fail(key, f"{'folder' if folder else 'file'} not found: {p}", line)
         return str(p)
 
-    def kitti_root(self, value: Any, key: str, line: int) -> str:
+    def kitti_root(self, value: Any, key: str, line: int | None) -> str:
         root = self.file(value, key, line, folder=True)
         if not (Path(root) / "poses").is_dir():
             self.fail(key, f"{root} is not a KITTI odometry dataset folder (expected {Path(root) / 'poses'}/NN.txt)", line)
@@ -249,7 +249,10 @@ def parse_domain(data: Any, path: str | Path = "<memory>") -> DomainSpec:
     if not isinstance(data, _Map):
         c.fail("", f"expected a mapping with a list of routes (routes: ...), got {type(data).__name__}", getattr(data, "line", None))
     c.keys(data, "", _TOP_KEYS)
-    line = data.lines.get
+
+    def line(key: str) -> int | None:
+        return data.lines.get(key)
+
     root = None
     if "kitti_root" in data:
         root = c.kitti_root(data["kitti_root"], "kitti_root", line("kitti_root"))
