@@ -1,0 +1,115 @@
+"""One suite for a whole operating domain, and what it costs each route.
+
+:func:`design_domain` runs greedy selection on a domain's score (:mod:`sensorsel.evaluators.domain`)
+and then, route by route, compares the domain suite S with two references on that route alone:
+
+    share of best   f_r(S) / f_r(L)      what S gets of everything the library could give there
+    share of own    f_r(S) / f_r(G_r)    G_r: the suite the same rule picks for route r alone, at the
+                                         same budget: the price, on r, of buying one suite for all
+
+A share of own below 1 is what route r gives up for the others; above 1 is possible (greedy is not
+optimal on r either). The route with the lowest share of own is named the worst route.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+
+from .evaluators import DomainEvaluator
+from .problem import Domain, DomainInfo
+from .progress import Progress
+from .selection import GreedyResult, check_budget, greedy
+
+
+@dataclass(frozen=True)
+class RouteShare:
+    """How the domain suite does on one route.
+
+    Attributes:
+        name: the route.
+        weight: its normalised weight w̄_r in the domain score (the weights sum to 1).
+        score: f_r(S) of the domain suite [nats].
+        best_score: f_r(L), the whole library [nats].
+        share_of_best: score / best_score.
+        own_suite: ids of the suite the same rule picks for this route alone, same budget.
+        own_cost_usd: its cost [$].
+        own_score: f_r(G_r) [nats].
+        share_of_own: score / own_score (1 when both are 0).
+    """
+
+    name: str
+    weight: float
+    score: float
+    best_score: float
+    share_of_best: float
+    own_suite: tuple[str, ...]
+    own_cost_usd: float
+    own_score: float
+    share_of_own: float
+
+
+@dataclass(frozen=True)
+class DomainDesign:
+    """A domain's suite and its per-route breakdown.
+
+    Attributes:
+        greedy: the greedy run on the domain score (its ``problem`` is the domain's
+            :class:`~sensorsel.problem.DomainInfo`; its scores are domain scores).
+        aggregate: "normalised" or "raw" (see :mod:`sensorsel.evaluators.domain`).
+        routes: the breakdown, in the domain's route order.
+        worst_route: the route with the lowest share of its own design.
+        domain: what it was computed on.
+        seconds: wall time of the whole design, breakdown included [s].
+    """
+
+    KIND: ClassVar[str] = "domain-design"
+
+    greedy: GreedyResult
+    aggregate: str
+    routes: tuple[RouteShare, ...]
+    worst_route: str
+    domain: DomainInfo
+    seconds: float = 0.0
+
+
+def route_breakdown(evaluator: DomainEvaluator, result: GreedyResult, *, lazy: bool = True,
+                    progress: Progress | None = None) -> tuple[RouteShare, ...]:
+    """Each route's share of its best and of its own design for the domain suite of ``result``
+    (own designs: greedy with ``result``'s rule and budget on each route's own evaluator)."""
+    lib = evaluator.library
+    suite = lib.resolve_suite(result.suite)
+    scores = evaluator.route_scores(suite)
+    out = []
+    for k, (route, ev) in enumerate(zip(evaluator.domain.routes, evaluator.routes)):
+        own = greedy(ev, result.budget_usd, result.rule, lazy=lazy)
+        f_s, f_own = float(scores[k]), float(own.score)
+        out.append(RouteShare(
+            name=route.name, weight=float(evaluator.weights[k]), score=f_s, best_score=float(evaluator.best[k]),
+            share_of_best=f_s / float(evaluator.best[k]), own_suite=own.suite, own_cost_usd=own.cost_usd,
+            own_score=f_own, share_of_own=f_s / f_own if f_own > 0 else 1.0,
+        ))
+        if progress:
+            progress(k + 1, len(evaluator.routes))
+    return tuple(out)
+
+
+def design_domain(domain: Domain, budget_usd: float, rule: str = "uniform", *, engine: str | None = None, jobs: int = 1,
+                  aggregate: str = "normalised", lazy: bool = True, progress: Progress | None = None,
+                  breakdown_progress: Progress | None = None) -> DomainDesign:
+    """Greedy selection of one suite for every route of ``domain``, and its per-route breakdown.
+
+    Raises:
+        InputError: a bad budget, rule, engine or aggregate, or a route no sensor can measure.
+    """
+    t0 = time.perf_counter()
+    budget = check_budget(budget_usd)
+    ev = DomainEvaluator(domain, engine, jobs=jobs, aggregate=aggregate)
+    res = greedy(ev, budget, rule, lazy=lazy, progress=progress, info=domain.info)
+    shares = route_breakdown(ev, res, lazy=lazy, progress=breakdown_progress)
+    worst = shares[int(np.argmin([s.share_of_own for s in shares]))].name
+    return DomainDesign(greedy=res, aggregate=ev.aggregate, routes=shares, worst_route=worst, domain=domain.info,
+                        seconds=round(time.perf_counter() - t0, 6))
