@@ -169,10 +169,12 @@ def build_problem(library: SensorLibrary, scenario: Scenario, settings: GraphSet
     return Problem(library, scenario, settings or GraphSettings(), observe(library, scenario), spec)
 
 
-def check_problem_size(library: SensorLibrary, scenario: Scenario, limit_bytes: int = MAX_MEASUREMENT_BYTES) -> int:
+def check_problem_size(library: SensorLibrary, scenario: Scenario, limit_bytes: int | None = None) -> int:
     """Estimated bytes of the measurements of ``library`` along ``scenario``; InputError beyond
-    ``limit_bytes``. The estimate counts the (keyframe, landmark) pairs within each sensor's range,
-    times the share of the circle its field of view covers, times :data:`BYTES_PER_MEASUREMENT`."""
+    ``limit_bytes`` (default :data:`MAX_MEASUREMENT_BYTES`). The estimate counts the (keyframe,
+    landmark) pairs within each sensor's range, times the share of the circle its field of view
+    covers, times :data:`BYTES_PER_MEASUREMENT`."""
+    limit_bytes = MAX_MEASUREMENT_BYTES if limit_bytes is None else limit_bytes
     n = estimate_measurements(library, scenario, fov_share=True)
     need = n * BYTES_PER_MEASUREMENT
     if need > limit_bytes:
