@@ -7,14 +7,20 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 from typing import Iterable
+
+import numpy as np
 
 from .errors import InputError
 from .domain import load_domain_file, load_domain_scenarios
 from .library import SensorLibrary, load_library
-from .scenario import Scenario, ScenarioSpec, load_scenario
-from .sensing import SensorObservations, observe
+from .scenario import Scenario, ScenarioSpec, distance_to_route, load_scenario
+from .sensing import BYTES_PER_MEASUREMENT, SensorObservations, estimate_measurements, observe
+
+# Limits and checks (docs/scenarios.md, "Limits and checks"):
+MAX_MEASUREMENT_BYTES = 2 * 2**30  # most memory the measurements of a problem may take (estimated before observing)
 
 
 @dataclass(frozen=True)
@@ -121,6 +127,28 @@ class Problem:
             settings=self.settings,
         )
 
+    @cached_property
+    def landmarks_in_reach(self) -> np.ndarray:
+        """Sorted indices of the landmarks some library sensor sees from some keyframe."""
+        seen = [o.landmark for o in self.observations if len(o)]
+        return np.unique(np.concatenate(seen)) if seen else np.zeros(0, dtype=int)
+
+    @property
+    def n_landmarks_out_of_reach(self) -> int:
+        """Landmarks no sensor of the library sees from any keyframe: they add nothing to any suite."""
+        return self.scenario.n_landmarks - len(self.landmarks_in_reach)
+
+    @property
+    def notes(self) -> list[str]:
+        """Lines a command prints on stderr: the scenario's notes (:func:`scenario_notes`), then how
+        many landmarks are out of every sensor's reach, when some are."""
+        notes = list(self.scenario.notes)
+        out, m = self.n_landmarks_out_of_reach, self.scenario.n_landmarks
+        if out and self.observations:
+            notes.append(f"landmarks: {out} of {m} landmarks ({self.scenario.landmark_source}) are out of every sensor's reach "
+                         f"from every keyframe: they add nothing to any suite")
+        return notes
+
     def resolve_suite(self, suite: "str | Iterable[str | int]") -> tuple[int, ...]:
         """Sorted library positions of a suite given as ids or positions (see
         :meth:`SensorLibrary.resolve_suite`)."""
@@ -132,16 +160,60 @@ def build_problem(library: SensorLibrary, scenario: Scenario, settings: GraphSet
     """Compute what every sensor of ``library`` sees along ``scenario`` and bundle it.
 
     ``spec``: what the scenario was loaded from, recorded as the problem's provenance.
+
+    Raises:
+        InputError: the measurements would take more than :data:`MAX_MEASUREMENT_BYTES` (estimated
+            from the landmarks within each sensor's range and its field of view, before anything is
+            allocated).
     """
+    check_problem_size(library, scenario)
     return Problem(library, scenario, settings or GraphSettings(), observe(library, scenario), spec)
+
+
+def check_problem_size(library: SensorLibrary, scenario: Scenario, limit_bytes: int | None = None) -> int:
+    """Estimated bytes of the measurements of ``library`` along ``scenario``; InputError beyond
+    ``limit_bytes`` (default :data:`MAX_MEASUREMENT_BYTES`). The estimate counts the (keyframe,
+    landmark) pairs within each sensor's range, times the share of the circle its field of view
+    covers, times :data:`BYTES_PER_MEASUREMENT`."""
+    limit_bytes = MAX_MEASUREMENT_BYTES if limit_bytes is None else limit_bytes
+    n = estimate_measurements(library, scenario, fov_share=True)
+    need = n * BYTES_PER_MEASUREMENT
+    if need > limit_bytes:
+        raise InputError(
+            f"problem too large: {scenario.n_poses:,} keyframes of {scenario.name} and {scenario.n_landmarks:,} landmarks "
+            f"({scenario.landmark_source}) give about {n:,} measurements for the {len(library)} sensors, "
+            f"{need / 2**30:.1f} GiB, beyond the limit of {limit_bytes / 2**30:g} GiB: use a lower keyframe rate (--rate) "
+            "or fewer landmarks")
+    return need
+
+
+def check_reach(problem: Problem) -> None:
+    """InputError when no sensor of the library sees any landmark from any keyframe: the map is out
+    of the route's reach (another frame or origin?), and every suite would score 0."""
+    sc = problem.scenario
+    if sc.n_landmarks and problem.n_sensors and not len(problem.landmarks_in_reach):
+        route = sc.route or sc.keyframes
+        nearest = float(distance_to_route(sc.landmarks, route.poses[:, :2]).min())
+        longest = max(s.model.range_m for s in problem.library)
+        raise InputError(
+            f"landmarks {sc.landmark_source}: none of the {sc.n_landmarks} landmarks is within reach of any sensor "
+            f"from any keyframe of the route {route.source} (nearest {nearest:,.0f} m from the route, longest sensor range "
+            f"{longest:g} m): is the map in the route's frame? Every suite would score 0")
 
 
 def load_problem(spec: ScenarioSpec | None = None, library: str | Path | None = None,
                  settings: GraphSettings | None = None) -> Problem:
     """Read the library (default: Table I) and the scenario (default: the bundled fixture), and
-    compute what each sensor sees. The problem remembers ``spec``: results computed on it record it."""
+    compute what each sensor sees. The problem remembers ``spec``: results computed on it record it.
+
+    Raises:
+        InputError: besides the scenario's and library's own errors, a problem too large
+            (:func:`check_problem_size`) or a map no sensor can see from the route (:func:`check_reach`).
+    """
     spec = spec or ScenarioSpec()
-    return build_problem(load_library(library), load_scenario(spec), settings, spec=spec)
+    problem = build_problem(load_library(library), load_scenario(spec), settings, spec=spec)
+    check_reach(problem)
+    return problem
 
 
 # ----------------------------------------------------------------------------------------- domains
@@ -245,6 +317,9 @@ def load_domain(path: str | Path, library: str | Path | None = None, settings: G
     sensor sees on it. ``library`` overrides the file's ``library`` (default: the paper's Table I)."""
     spec = load_domain_file(path)
     lib = load_library(library if library is not None else spec.library)
-    routes = tuple(DomainRoute(d.name, build_problem(lib, d.scenario, settings, spec=d.spec), d.weight, d.unit)
-                   for d in load_domain_scenarios(spec))
-    return Domain(routes, spec.source)
+    routes = []
+    for d in load_domain_scenarios(spec):
+        problem = build_problem(lib, d.scenario, settings, spec=d.spec)
+        check_reach(problem)  # a route no sensor can measure has no share of a best to be scored on
+        routes.append(DomainRoute(d.name, problem, d.weight, d.unit))
+    return Domain(tuple(routes), spec.source)

@@ -37,6 +37,11 @@ DEFAULT_FIXTURE = "suburb"
 ROUTE_FORMATS = ("kitti", "tum", "csv")
 DEFAULT_FRAME_RATE_HZ = 10.0  # assumed for a KITTI pose file without timestamps (KITTI's own rate)
 ON_ROAD_M = 3.0  # landmarks closer than this to the route are counted as "on the road" (report only)
+# Limits and checks (docs/scenarios.md, "Limits and checks"):
+ROTATION_TOL = 1e-3  # max |R R^T - I| and |det R - 1| of a KITTI pose's rotation block (KITTI's own: < 3e-7)
+QUATERNION_TOL = 1e-3  # max | |q| - 1 | of a TUM quaternion (a 4-decimal file is within 2e-4)
+MAX_COORD_M = 1e8  # max |x|, |y| of a route position or landmark [m]: 2.5 times the Earth's circumference
+MAX_LANDMARKS = 2_000_000  # most landmarks the generator makes (estimated from route length / spacing first)
 SYNTHETIC = "synthetic"  # ScenarioSpec.landmarks: always generate
 REAL = "real"  # ScenarioSpec.landmarks: the KITTI sequence's pole map, an error if there is none
 # file stems that say nothing about the drive: such a route is named after its folder
@@ -169,14 +174,38 @@ def read_kitti_poses(path: str | Path) -> np.ndarray:
         ScenarioError: missing file, empty file, a line without 12 finite numbers (names the line).
     """
     path = Path(path)
-    rows = []
+    rows, linenos = [], []
     for lineno, line in enumerate(_read_lines(path, "pose"), start=1):
         if not line.strip():
             continue
         rows.append(_parse_row(line, path, lineno, 12, "a row-major 3x4 pose matrix"))
+        linenos.append(lineno)
     if not rows:
         raise ScenarioError(path, "pose file is empty: expected one line of 12 numbers per frame")
-    return np.asarray(rows).reshape(-1, 3, 4)
+    poses = np.asarray(rows).reshape(-1, 3, 4)
+    _check_rotations(poses[:, :, :3], path, linenos)
+    _check_coordinates(poses[:, :, 3], path, linenos, "position")
+    return poses
+
+
+def _check_rotations(r: np.ndarray, path: Path, linenos: list[int]) -> None:
+    """Every (3, 3) block is a rotation: |R R^T - I| and |det R - 1| within :data:`ROTATION_TOL`."""
+    orth = np.abs(r @ r.transpose(0, 2, 1) - np.eye(3)).max(axis=(1, 2))
+    det = np.linalg.det(r)
+    bad = np.flatnonzero(~((orth <= ROTATION_TOL) & (np.abs(det - 1.0) <= ROTATION_TOL)))
+    if len(bad):
+        i = int(bad[0])
+        raise ScenarioError(path, f"the 3x3 block R of the pose is not a rotation (max |R R^T - I| = {orth[i]:.3g}, det R = {det[i]:.6g}; "
+                            f"allowed {ROTATION_TOL:g}); {len(bad)} such line(s) in the file", linenos[i])
+
+
+def _check_coordinates(xy: np.ndarray, path: Path, linenos: list[int], what: str) -> None:
+    """No coordinate beyond :data:`MAX_COORD_M` (a value that is no place on a map)."""
+    far = np.flatnonzero(np.abs(np.asarray(xy, dtype=float)).max(axis=1) > MAX_COORD_M)
+    if len(far):
+        i = int(far[0])
+        raise ScenarioError(path, f"{what} {np.asarray(xy)[i].tolist()!r} is beyond the limit of {MAX_COORD_M:g} m from the origin "
+                            f"(in metres? no map is that large); {len(far)} such line(s) in the file", linenos[i])
 
 
 def read_times(path: str | Path) -> np.ndarray:
@@ -231,8 +260,8 @@ def write_kitti_poses(path: str | Path, planar: np.ndarray) -> Path:
 
 def select_keyframes(times: np.ndarray, rate_hz: float) -> np.ndarray:
     """Indices of keyframes: the first frame, then each first frame at least 1/rate_hz later."""
-    if not (isinstance(rate_hz, (int, float)) and math.isfinite(rate_hz) and rate_hz > 0):
-        raise InputError(f"keyframe rate must be a positive number of Hz, got {rate_hz!r}")
+    if isinstance(rate_hz, bool) or not (isinstance(rate_hz, (int, float)) and math.isfinite(rate_hz) and rate_hz > 0):
+        raise InputError(f"keyframe rate (--rate) must be a positive, finite number of Hz, got {rate_hz!r}")
     step = 1.0 / rate_hz
     keep = [0]
     for i in range(1, len(times)):
@@ -240,6 +269,13 @@ def select_keyframes(times: np.ndarray, rate_hz: float) -> np.ndarray:
         if times[i] - times[keep[-1]] >= step - 0.02 * step:
             keep.append(i)
     return np.asarray(keep, dtype=int)
+
+
+def route_rate_hz(route: Trajectory) -> float:
+    """The route's own frame rate [Hz]: 1 / its median frame interval (inf for a single pose)."""
+    if len(route.times) < 2:
+        return math.inf
+    return 1.0 / float(np.median(np.diff(route.times)))
 
 
 def load_trajectory(poses_path: str | Path, times_path: str | Path | None = None, *, frame_rate_hz: float = 10.0) -> Trajectory:
@@ -304,14 +340,19 @@ def _read_tum(path: str | Path) -> tuple[Trajectory, np.ndarray]:
     rows, lines = [], []
     for lineno, s in _data_lines(path, "TUM trajectory"):
         row = _parse_row(s, path, lineno, 8, "timestamp tx ty tz qx qy qz qw")
-        if math.hypot(*row[4:]) < 1e-9:
+        norm = math.hypot(*row[4:])
+        if norm < 1e-9:
             raise ScenarioError(path, "quaternion qx qy qz qw is zero", lineno)
+        if abs(norm - 1.0) > QUATERNION_TOL:
+            raise ScenarioError(path, f"quaternion qx qy qz qw has norm {norm:.6g}, not 1 (allowed {QUATERNION_TOL:g}): not a rotation "
+                                "(columns in another order or another unit?)", lineno)
         rows.append(row)
         lines.append(lineno)
     if not rows:
         raise ScenarioError(path, "TUM trajectory is empty: expected lines of 'timestamp tx ty tz qx qy qz qw'")
     a = np.asarray(rows)
     _increasing(a[:, 0].tolist(), path, lines)
+    _check_coordinates(a[:, 1:3], path, lines, "position")
     q = a[:, 4:8] / np.linalg.norm(a[:, 4:8], axis=1)[:, None]
     heading = yaw_from_quaternion(q[:, 0], q[:, 1], q[:, 2], q[:, 3])
     return Trajectory(np.column_stack([a[:, 1], a[:, 2], heading]), a[:, 0], np.arange(len(a)), str(path)), a[:, 3]
@@ -365,6 +406,7 @@ def read_planar_csv(path: str | Path) -> Trajectory:
         raise ScenarioError(path, "route CSV has a header but no poses")
     a = np.asarray(rows)
     _increasing(a[:, 0].tolist(), path, linenos)
+    _check_coordinates(a[:, 1:3], path, linenos, "position")
     return Trajectory(a[:, 1:4], a[:, 0], np.arange(len(a)), str(path))
 
 
@@ -502,8 +544,28 @@ class LandmarkModel:
             lo, hi = getattr(self, name)
             if not (0 <= lo <= hi and math.isfinite(hi)):
                 raise InputError(f"landmark model: {name} must be 0 <= low <= high, got {(lo, hi)!r}")
+            if hi > MAX_COORD_M:
+                raise InputError(f"landmark model: {name} ({_OPTION[name]}) {hi:g} m is beyond the limit of {MAX_COORD_M:g} m")
         if not (math.isfinite(self.clearance_m) and self.clearance_m >= 0):
             raise InputError(f"landmark model: clearance_m must be >= 0, got {self.clearance_m!r}")
+
+
+# the CLI option of each LandmarkModel field (`sensorsel landmarks`), named in its errors
+_OPTION = {"near_spacing_m": "--near-spacing", "far_spacing_m": "--far-spacing", "near_offset_m": "--near-offset",
+           "far_offset_m": "--far-offset", "clearance_m": "--clearance"}
+
+
+def check_landmark_seed(seed: object) -> int:
+    """The seed of the landmark generator: an integer >= 0 (``--landmark-seed``), else InputError."""
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise InputError(f"landmark seed (--landmark-seed) must be an integer >= 0, got {seed!r}")
+    return int(seed)
+
+
+def estimate_landmark_count(length_m: float, model: LandmarkModel) -> int:
+    """How many landmarks :func:`generate_landmarks` makes along a route of ``length_m`` before the
+    clearance drops some: two roadsides of near ones, one row of far ones (an upper bound)."""
+    return int(2 * (length_m // model.near_spacing_m) + length_m // model.far_spacing_m)
 
 
 def generate_landmarks(route: Trajectory, model: LandmarkModel = LandmarkModel(), seed: int = 0) -> np.ndarray:
@@ -511,7 +573,18 @@ def generate_landmarks(route: Trajectory, model: LandmarkModel = LandmarkModel()
 
     Returns:
         (M, 2) positions [m], deterministic for a given route, model and seed.
+    Raises:
+        InputError: a negative seed; spacings that would make more than :data:`MAX_LANDMARKS`
+            landmarks along this route (estimated before anything is allocated).
     """
+    seed = check_landmark_seed(seed)
+    length = route.length_m
+    n_est = estimate_landmark_count(length, model)
+    if n_est > MAX_LANDMARKS:
+        near, far = 2 * (length // model.near_spacing_m), length // model.far_spacing_m
+        name = "near_spacing_m" if near >= far else "far_spacing_m"
+        raise InputError(f"landmark model: {name} ({_OPTION[name]}) {getattr(model, name):g} m along the {length:,.0f} m route would "
+                         f"generate about {n_est:,} landmarks, more than the limit of {MAX_LANDMARKS:,}: use a larger spacing")
     rng = np.random.default_rng(seed)
     xy = route.poses[:, :2]
     if len(xy) < 2:
@@ -589,7 +662,7 @@ def read_landmarks_csv(path: str | Path) -> np.ndarray:
                 if header.count(c) > 1:
                     raise ScenarioError(path, f"header {first!r} names column {c} twice", hline)
             cols, n_fields, start = (header.index("x"), header.index("y")), len(header), 1
-    rows = []
+    rows, linenos = [], []
     for lineno, s in lines[start:]:
         fields = _csv_fields(s)
         if n_fields is None:
@@ -600,6 +673,9 @@ def read_landmarks_csv(path: str | Path) -> np.ndarray:
             raise ScenarioError(path, f"expected {n_fields} comma-separated fields as in the {'header' if start else 'first row'}, "
                                 f"found {len(fields)} fields", lineno)
         rows.append(_parse_row(f"{fields[cols[0]]} {fields[cols[1]]}", path, lineno, 2, "x,y"))
+        linenos.append(lineno)
+    if rows:
+        _check_coordinates(np.asarray(rows), path, linenos, "landmark")
     if not rows:
         # an empty map would silently make every suite score 0
         raise ScenarioError(path, "landmark file has no landmarks: expected rows of x,y in metres")
@@ -819,12 +895,19 @@ def load_scenario(spec: ScenarioSpec = ScenarioSpec()) -> Scenario:
     What was assumed, merged or dropped is in the scenario's ``notes`` (:func:`scenario_notes`) and
     ``landmark_report``.
     """
+    check_landmark_seed(spec.landmark_seed)
     r = _load_route(spec)
     route, name = r.route, _name(spec, r.name)
     keyframes = route.select(select_keyframes(route.times, spec.keyframe_rate_hz))
     if len(keyframes) < 2:
         raise InputError(f"route {route.source} gives {len(keyframes)} keyframe(s) at {spec.keyframe_rate_hz} Hz; need at least 2")
     notes = list(r.notes)
+    own_rate = route_rate_hz(route)
+    if spec.keyframe_rate_hz > own_rate:
+        used = f"every frame ({len(route)})" if len(keyframes) == len(route) else f"{len(keyframes)} of {len(route)} frames"
+        notes.append(f"keyframes: the rate {spec.keyframe_rate_hz:g} Hz is above the route's own {own_rate:.3g} Hz (median frame "
+                     f"interval {1.0 / own_rate:.4g} s): used {used} as keyframes, at {(len(keyframes) - 1) / keyframes.duration_s:.3g} Hz "
+                     "on average")
     choice = spec.landmarks
     if choice == REAL:
         if spec.seq is None or spec.route is not None or spec.poses is not None:

@@ -8,12 +8,17 @@ sensor model, stereo range noise growing with the square of the distance.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from .library import PlacedSensor, SensorLibrary
 from .scenario import Scenario
+
+BYTES_PER_MEASUREMENT = 48  # the six 8-byte arrays of SensorObservations
+_CHUNK_PAIRS = 1 << 21  # (keyframe, landmark) pairs whose geometry observe() holds at once
 
 
 def wrap_angle(a: np.ndarray) -> np.ndarray:
@@ -63,27 +68,59 @@ def in_cone(sensor: PlacedSensor, bearing_rad: np.ndarray, range_m: np.ndarray) 
     return ok
 
 
-def relative_geometry(scenario: Scenario) -> tuple[np.ndarray, np.ndarray]:
-    """Car-relative bearing [rad] and range [m] of every landmark from every keyframe, (K, M) each."""
-    p = scenario.keyframes.poses
+def relative_geometry(scenario: Scenario, rows: slice = slice(None)) -> tuple[np.ndarray, np.ndarray]:
+    """Car-relative bearing [rad] and range [m] of every landmark from every keyframe (of ``rows``),
+    (K, M) each."""
+    p = scenario.keyframes.poses[rows]
     d = scenario.landmarks[None, :, :] - p[:, None, :2]
     rng = np.hypot(d[..., 0], d[..., 1])
     brg = wrap_angle(np.arctan2(d[..., 1], d[..., 0]) - p[:, 2:3])
     return brg, rng
 
 
+def estimate_measurements(library: SensorLibrary, scenario: Scenario, fov_share: bool = False) -> int:
+    """The measurements :func:`observe` would return, computed without the dense geometry: for each
+    sensor, the (keyframe, landmark) pairs within its range (an upper bound), times the share of
+    the circle its field of view covers with ``fov_share`` (an estimate)."""
+    if not scenario.n_landmarks or not len(library):
+        return 0
+    tree = cKDTree(scenario.landmarks)
+    xy = scenario.keyframes.poses[:, :2]
+    per_range: dict[float, int] = {}
+    total = 0.0
+    for sensor in library:
+        r = float(sensor.model.range_m)
+        if r not in per_range:
+            per_range[r] = int(np.sum(tree.query_ball_point(xy, r, return_length=True)))
+        total += per_range[r] * (min(1.0, sensor.model.fov_rad / (2.0 * np.pi)) if fov_share else 1.0)
+    return int(math.ceil(total))
+
+
 def observe(library: SensorLibrary, scenario: Scenario) -> tuple[SensorObservations, ...]:
     """The measurements of every sensor of the library along the scenario's keyframes.
+
+    The geometry is computed a block of keyframes at a time (at most about two million
+    keyframe-landmark pairs), so memory grows with the measurements, not with keyframes x landmarks.
 
     Returns:
         One :class:`SensorObservations` per library sensor, in library order. Measurements are
         sorted by (pose, landmark).
     """
-    brg, rng = relative_geometry(scenario)
+    n_k, n_m = scenario.n_poses, scenario.n_landmarks
+    step = max(1, _CHUNK_PAIRS // max(1, n_m))
+    parts: list[list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]] = [[] for _ in library]
+    for start in range(0, n_k, step):
+        brg, rng = relative_geometry(scenario, slice(start, start + step))
+        for i, sensor in enumerate(library):
+            k, l = np.nonzero(in_cone(sensor, brg, rng))
+            parts[i].append((k + start, l, brg[k, l], rng[k, l]))
     out = []
     for i, sensor in enumerate(library):
-        k, l = np.nonzero(in_cone(sensor, brg, rng))
-        b, r = brg[k, l], rng[k, l]
+        if parts[i]:
+            k, l, b, r = (np.concatenate(a) for a in zip(*parts[i]))
+        else:
+            k = l = np.zeros(0, dtype=np.intp)
+            b = r = np.zeros(0)
         out.append(
             SensorObservations(
                 sensor=i,
