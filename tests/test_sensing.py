@@ -173,3 +173,22 @@ def test_fixture_observations_are_consistent(request, fixture_name):
         assert np.all(np.diff(key) > 0)
     lidar = p.observations[p.library.position("LRL-roof")]
     assert len(lidar) > 0
+
+
+def test_landmarks_nearer_than_the_minimum_range_are_not_measured(library):
+    # a pole of a real map lying on the route, 0.1 m from a keyframe, stands inside the car: measuring
+    # it would add a bearing information ~1/r^2 (here 100x that of a pole at 1 m), an artifact
+    from sensorsel.evaluators import make_evaluator
+    from sensorsel.problem import build_problem
+    from sensorsel.sensing import MIN_RANGE_M
+
+    lidar = library.subset([library.position("LRL-roof")])
+    kf = Trajectory(np.array([[0.0, 0.0, 0.0], [10.0, 0.0, 0.0]]), np.array([0.0, 1.0]), np.arange(2))
+    for r, seen in ((0.1, False), (MIN_RANGE_M - 1e-6, False), (MIN_RANGE_M, True), (2.0, True)):
+        sc = Scenario("near", kf, np.array([[10.0 + r, 0.0]]))
+        obs = observe(lidar, sc)[0]
+        assert (1 in obs.pose.tolist()) == seen, r
+    # however near the pole, the suite's score stays finite: the far keyframe's measurement only
+    near = build_problem(lidar, Scenario("near", kf, np.array([[10.0 + 1e-6, 0.0]])))
+    assert near.observations[0].pose.tolist() == [0]
+    assert math.isfinite(make_evaluator(near, "reference").score([0])) and make_evaluator(near, "fast").score([0]) > 0
