@@ -11,7 +11,7 @@ import click
 from .. import results
 from ..errors import InputError
 from ..library import load_library
-from ..pipeline import score_suite
+from ..api import score_suite
 from ..scenario import LandmarkModel, route_landmarks, write_landmarks_csv
 from .options import engine_options, problem_from, run, scenario_options, spec_from, table
 

@@ -10,7 +10,7 @@ from typing import Any, Callable
 import click
 
 from ..errors import SensorselError
-from ..pipeline import load_problem
+from ..problem import load_problem
 from ..problem import Problem
 from ..scenario import KITTI_ROOT_ENV, ScenarioSpec
 

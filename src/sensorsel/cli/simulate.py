@@ -15,7 +15,7 @@ from .. import results
 from ..errors import InputError, ResultFileError
 from ..fileio import output_dir
 from ..library import SensorLibrary
-from ..pipeline import load_problem
+from ..problem import load_problem
 from ..problem import GraphSettings
 from .options import run, scenario_options, spec_from, table
 
