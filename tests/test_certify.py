@@ -405,6 +405,22 @@ def test_input_errors():
         optimal(ev, 9_000.0, incumbent=greedy(ev, 5_000.0, "uniform"))
 
 
+def test_exact_search_starts_from_any_registered_rule():
+    """Every rule of the registry gives the incumbent; a strategy is labelled with the run it kept."""
+    name, budget = "cheap8", 9000.0
+    problem = small_problem(name)
+    opt, _ = brute_optimum(problem, small_scores(name), budget)
+    for rule in RULES:
+        ev = make_evaluator(problem, "reference")
+        res = optimal(ev, budget, rule=rule)
+        g = greedy(make_evaluator(problem, "reference"), budget, rule)
+        assert res.proved_optimal and res.score == pytest.approx(opt, rel=TOL)
+        assert res.greedy_rule == (rule if g.winning_rule == rule else f"{rule} ({g.winning_rule})")
+        assert res.greedy_suite == g.suite and close_or_above(res.greedy_certificate_bound, opt)
+    with pytest.raises(InputError, match="unknown rule 'nope'"):
+        optimal(make_evaluator(problem, "reference"), budget, rule="nope")
+
+
 def test_certificate_line():
     problem = small_problem("mixed10")
     ev = make_evaluator(problem, "reference")

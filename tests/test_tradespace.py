@@ -7,6 +7,7 @@ from __future__ import annotations
 import csv
 import dataclasses
 import io
+import itertools
 import math
 from pathlib import Path
 
@@ -153,6 +154,24 @@ def test_best_of_architectures_come_from_its_uniform_or_marginal_runs(ts):
             twins = {x.rule: x for x in ts.runs if x.budget_usd == r.budget_usd and x.rule in ("uniform", "marginal")}
             assert r.score == max(twins["uniform"].score, twins["marginal"].score)
             assert r.suite == twins[r.winning_rule].suite
+
+
+def test_runs_against_the_brute_force_optimum_of_each_budget(ts, mixed):
+    """Oracle: the best suite of each budget among all 2^10 suites, scored one by one. No run and no
+    architecture within the budget beats it; best-of keeps (1 - 1/e)/2 of it (Leskovec et al. 2007)."""
+    ev = make_evaluator(mixed, "reference")
+    n = mixed.n_sensors
+    table = [(mixed.library.cost(c), ev.score(c) if c else 0.0)
+             for r in range(n + 1) for c in itertools.combinations(range(n), r)]
+    for b in ts.budgets_usd:
+        opt = max(f for c, f in table if c <= b)
+        runs = [r for r in ts.runs if r.budget_usd == b]
+        assert len(runs) == len(ts.rules)
+        for r in runs:
+            assert r.cost_usd <= b and r.score <= opt + 1e-9 * max(1.0, opt)
+            if r.rule == "best-of":
+                assert r.score >= (1 - 1 / math.e) / 2 * opt
+        assert all(a.score <= opt + 1e-9 * max(1.0, opt) for a in ts.architectures if a.cost_usd <= b)
 
 
 def test_cheapest_reaching(ts):
