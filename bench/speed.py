@@ -35,7 +35,7 @@ def worker(seq: str, kitti_root: str, engine: str, budget: float, jobs: int) -> 
     """One greedy run in this process; returns its measurements."""
     sys.path.insert(0, str(REPO / "src"))
     from sensorsel.evaluators import make_evaluator
-    from sensorsel.pipeline import load_problem
+    from sensorsel.problem import load_problem
     from sensorsel.scenario import ScenarioSpec
     from sensorsel.selection import greedy
 

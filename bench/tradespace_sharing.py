@@ -22,7 +22,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "src"))
 
 from sensorsel.evaluators import make_evaluator  # noqa: E402
-from sensorsel.pipeline import load_problem  # noqa: E402
+from sensorsel.problem import load_problem  # noqa: E402
 from sensorsel.scenario import ScenarioSpec  # noqa: E402
 from sensorsel.tradespace import tradespace  # noqa: E402
 

@@ -24,7 +24,8 @@ from hypothesis import strategies as st
 
 from scenario_strategies import problems
 from sensorsel import results
-from sensorsel.certify import (Certificate, KnapsackSolution, OptimumResult, SuiteBound, certificate, certify_greedy,
+from sensorsel.api import run_greedy
+from sensorsel.certify import (Certificate, CertifiedGreedyResult, KnapsackSolution, OptimumResult, SuiteBound, certificate, certify_greedy,
                                cost_units, format_certificate, knapsack, optimal, suite_bound)
 from sensorsel.cli import cli
 from sensorsel.errors import InputError
@@ -32,7 +33,7 @@ from sensorsel.library import load_library
 from sensorsel.evaluators import make_evaluator
 from sensorsel.problem import build_problem
 from sensorsel.scenario import ScenarioSpec, load_scenario
-from sensorsel.selection import SELECTORS, GreedyResult, greedy, run_greedy
+from sensorsel.selection import RULES, GreedyResult, greedy
 
 REPO = Path(__file__).resolve().parents[1]
 LIBRARY = load_library()
@@ -184,7 +185,7 @@ def test_exact_search_equals_brute_force(name, budget):
     res = optimal(make_evaluator(problem, "reference"), budget)
     assert res.proved_optimal, res.stop_reason
     best_of = greedy(make_evaluator(problem, "reference"), budget, "best-of")  # the incumbent it started from
-    assert (res.greedy_suite, res.greedy_score, res.greedy_rule) == (best_of.suite, best_of.score, f"best-of ({best_of.chosen_rule})")
+    assert (res.greedy_suite, res.greedy_score, res.greedy_rule) == (best_of.suite, best_of.score, f"best-of ({best_of.winning_rule})")
     assert res.score == pytest.approx(opt, rel=TOL, abs=TOL)
     positions = problem.library.parse_suite(",".join(res.suite)) if res.suite else ()
     assert res.cost_usd == problem.library.cost(positions) <= budget
@@ -214,7 +215,7 @@ def test_greedy_certificate_brackets_the_brute_force_optimum(name, budget):
     ev = make_evaluator(problem, "reference")
     ev.baseline_logdet  # computed once per evaluator; not part of any sweep below
     lib = problem.library
-    for rule in sorted(SELECTORS):
+    for rule in sorted(RULES):
         res = greedy(ev, budget, rule)
         full = certificate(ev, res, prune=False)
         cert = certificate(ev, res)
@@ -404,6 +405,22 @@ def test_input_errors():
         optimal(ev, 9_000.0, incumbent=greedy(ev, 5_000.0, "uniform"))
 
 
+def test_exact_search_starts_from_any_registered_rule():
+    """Every rule of the registry gives the incumbent; a strategy is labelled with the run it kept."""
+    name, budget = "cheap8", 9000.0
+    problem = small_problem(name)
+    opt, _ = brute_optimum(problem, small_scores(name), budget)
+    for rule in RULES:
+        ev = make_evaluator(problem, "reference")
+        res = optimal(ev, budget, rule=rule)
+        g = greedy(make_evaluator(problem, "reference"), budget, rule)
+        assert res.proved_optimal and res.score == pytest.approx(opt, rel=TOL)
+        assert res.greedy_rule == (rule if g.winning_rule == rule else f"{rule} ({g.winning_rule})")
+        assert res.greedy_suite == g.suite and close_or_above(res.greedy_certificate_bound, opt)
+    with pytest.raises(InputError, match="unknown rule 'nope'"):
+        optimal(make_evaluator(problem, "reference"), budget, rule="nope")
+
+
 def test_certificate_line():
     problem = small_problem("mixed10")
     ev = make_evaluator(problem, "reference")
@@ -431,7 +448,7 @@ def test_run_greedy_carries_its_certificate_and_it_round_trips(tmp_path):
     again = certificate(make_evaluator(problem, "reference"), plain)
     assert (cert.score, cert.bound, cert.step_bounds) == (again.score, again.bound, again.step_bounds)
     assert close_or_above(cert.bound, opt) and cert.score == res.score
-    loaded = results.load(GreedyResult, results.save(res, tmp_path / "g.json"))
+    loaded = results.load(CertifiedGreedyResult, results.save(res, tmp_path / "g.json"))
     assert loaded == res
 
 
@@ -444,7 +461,7 @@ def test_cli_greedy_prints_the_certificate_line_and_saves_it(tmp_path):
             "--jobs", "1", "--quiet"]
     r = CliRunner().invoke(cli, base + ["-o", str(tmp_path / "g.json")])
     assert r.exit_code == 0, r.output
-    res = results.load(GreedyResult, tmp_path / "g.json")
+    res = results.load(CertifiedGreedyResult, tmp_path / "g.json")
     assert res.certificate is not None
     assert format_certificate(res.certificate) in r.output.splitlines()
     problem = build_problem(load_library(lib_path), load_scenario(ScenarioSpec(fixture="tiny")))
@@ -517,7 +534,7 @@ def test_reduced_library_is_one_model_per_type_of_table_i():
 def test_cli_certify_runs_greedy_or_reads_its_result(tmp_path):
     lib_path = _small_library_yaml(tmp_path)
     base = ["--fixture", "tiny", "--library", str(lib_path), "--engine", "reference", "--jobs", "1"]
-    r = CliRunner().invoke(cli, ["certify", *base, "--budget", "5000", "--objective", "marginal", "-q", "-o", str(tmp_path / "c.json")])
+    r = CliRunner().invoke(cli, ["certify", *base, "--budget", "5000", "--rule", "marginal", "-q", "-o", str(tmp_path / "c.json")])
     assert r.exit_code == 0, r.output
     cert = results.load(Certificate, tmp_path / "c.json")
     assert format_certificate(cert) in r.output
@@ -526,7 +543,7 @@ def test_cli_certify_runs_greedy_or_reads_its_result(tmp_path):
     expected = certificate(ev, greedy(ev, 5000.0, "marginal"))
     assert (cert.score, cert.bound, cert.step_bounds) == (expected.score, expected.bound, expected.step_bounds)
     # certify a saved greedy result: the same certificate
-    r = CliRunner().invoke(cli, ["greedy", *base, "--budget", "5000", "--objective", "marginal", "--quiet", "-o", str(tmp_path / "g.json")])
+    r = CliRunner().invoke(cli, ["greedy", *base, "--budget", "5000", "--rule", "marginal", "--quiet", "-o", str(tmp_path / "g.json")])
     assert r.exit_code == 0, r.output
     r = CliRunner().invoke(cli, ["certify", *base, "--result", str(tmp_path / "g.json"), "--json"])
     assert r.exit_code == 0, r.output

@@ -17,7 +17,7 @@ from click.testing import CliRunner
 from sensorsel import results
 from sensorsel.cli import cli
 from sensorsel.evaluators import ReferenceEvaluator
-from sensorsel.pipeline import ScoreResult
+from sensorsel.api import ScoreResult
 from sensorsel.scenario import ScenarioSpec
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from sensorsel import InputError, ScenarioSpec, load_problem, score_suite
-from sensorsel.selection import run_greedy
+from sensorsel.api import run_greedy
 
 
 @pytest.fixture(scope="module")

@@ -11,7 +11,7 @@ import pytest
 
 from sensorsel import codec, results
 from sensorsel.errors import ResultFileError
-from sensorsel.pipeline import ScoreResult, score_suite
+from sensorsel.api import ScoreResult, score_suite
 from sensorsel.selection import GreedyResult, run_greedy
 
 

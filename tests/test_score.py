@@ -23,7 +23,7 @@ import pytest
 
 from sensorsel.errors import InputError
 from sensorsel.evaluators import ReferenceEvaluator, make_evaluator
-from sensorsel.pipeline import score_suite
+from sensorsel.api import score_suite
 from sensorsel.problem import GraphSettings, build_problem
 from sensorsel.scenario import Scenario, Trajectory
 

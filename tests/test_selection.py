@@ -22,7 +22,9 @@ from sensorsel.library import SensorLibrary
 from sensorsel.evaluators import make_evaluator
 from sensorsel.problem import build_problem
 from sensorsel.scenario import ScenarioSpec, load_scenario
-from sensorsel.selection import SELECTORS, GreedyResult, better_run, greedy, run_greedy
+from sensorsel.api import run_greedy
+from sensorsel.certify import CertifiedGreedyResult
+from sensorsel.selection import RULES, GreedyResult, better_run, check_rule, greedy
 
 # Ten sensors of every kind, one of which (LRR-12) sees nothing on the tiny route.
 MIXED = ("LRL-roof", "MRL-roof", "HD2K-12", "HD2K-6", "LSC-4", "WSC-12", "WSC-6", "LRR-6", "MRR-5", "LRR-12")
@@ -58,12 +60,12 @@ def _positions(lib: SensorLibrary, ids) -> frozenset[int]:
 # ------------------------------------------------------------------------------- budget and steps
 
 
-@pytest.mark.parametrize("objective", list(SELECTORS))
-def test_budget_never_exceeded_and_steps_are_consistent(mixed, mixed_scores, objective):
+@pytest.mark.parametrize("rule", list(RULES))
+def test_budget_never_exceeded_and_steps_are_consistent(mixed, mixed_scores, rule):
     lib = mixed.library
     ev = make_evaluator(mixed, "reference")
     for b in BUDGETS:
-        res = greedy(ev, b, objective)
+        res = greedy(ev, b, rule)
         assert res.cost_usd <= b
         assert res.cost_usd == pytest.approx(lib.cost(_positions(lib, res.suite)), abs=1e-9)
         prev_score, prev_suite = 0.0, ()
@@ -96,8 +98,8 @@ def test_full_library_budget_respected(tiny_problem):
 
 def test_budget_below_cheapest_sensor_gives_empty_suite(mixed):
     ev = make_evaluator(mixed, "reference")
-    for objective in SELECTORS:
-        res = greedy(ev, 448.99, objective)
+    for rule in RULES:
+        res = greedy(ev, 448.99, rule)
         assert res.suite == () and res.steps == () and res.cost_usd == 0.0 and res.score == 0.0
         assert "below the cheapest sensor" in res.stop_reason and "$449" in res.stop_reason
 
@@ -111,9 +113,11 @@ def test_bad_budget_is_an_input_error(mixed, bad):
         run_greedy(mixed, bad)
 
 
-def test_unknown_objective(mixed):
-    with pytest.raises(InputError, match="unknown objective 'greediest'.*uniform"):
+def test_unknown_rule(mixed):
+    with pytest.raises(InputError, match="unknown rule 'greediest'.*uniform"):
         run_greedy(mixed, 1000.0, "greediest")
+    with pytest.raises(InputError, match="unknown rule 'greediest'.*best-of"):
+        greedy(make_evaluator(mixed, "reference"), 1000.0, "greediest")
 
 
 # -------------------------------------------------------------------------- brute-force optimum
@@ -129,13 +133,13 @@ def test_best_of_meets_half_one_minus_inv_e_of_the_budgeted_optimum(mixed, mixed
     bound = (1 - 1 / math.e) / 2
     for b in BUDGETS[2:]:
         opt = _budgeted_opt(mixed_scores, lib, b)
-        runs = {o: greedy(ev, b, o) for o in SELECTORS}
+        runs = {o: greedy(ev, b, o) for o in RULES}
         for o, r in runs.items():
             assert r.score <= opt + 1e-9 * opt, o  # nothing beats the optimum
         assert runs["best-of"].score >= bound * opt
         # best-of keeps the better of uniform and marginal
         assert runs["best-of"].score == pytest.approx(max(runs["uniform"].score, runs["marginal"].score), rel=1e-12)
-        assert runs["best-of"].chosen_rule in ("uniform", "marginal")
+        assert runs["best-of"].winning_rule in ("uniform", "marginal")
 
 
 def test_best_of_keeps_the_higher_score_even_when_dearer():
@@ -165,19 +169,74 @@ def test_uniform_greedy_meets_one_minus_inv_e_under_a_cardinality_limit(library,
             assert res.score == pytest.approx(opt, rel=1e-12)
 
 
+def _oracle_greedy(scores: dict, lib: SensorLibrary, budget: float, rule: str) -> tuple[list[str], float]:
+    """Plain greedy written out again on the table of every suite's score: J of each rule as the
+    docs define it, ties within a relative 1e-9 to the cheaper sensor, then the smaller id."""
+    suite: frozenset[int] = frozenset()
+    cost, f, picks = 0.0, 0.0, []
+    while True:
+        cands = []
+        for i in range(len(lib)):
+            c = float(lib.costs[i])
+            if i in suite or c > budget - cost + 1e-9:
+                continue
+            f_new = scores[suite | {i}]
+            if f_new - f <= 1e-9 * max(1.0, abs(f)):
+                continue  # adds nothing: never bought
+            j = {"uniform": f_new, "cost-benefit": f_new / (cost + c), "marginal": (f_new - f) / c}[rule]
+            cands.append((j, c, lib[i].id, i, f_new))
+        if not cands:
+            return picks, f
+        top = max(x[0] for x in cands)
+        _, c, sid, i, f = min((x for x in cands if x[0] >= top - 1e-9 * max(1.0, abs(top))), key=lambda x: (x[1], x[2]))
+        picks.append(sid)
+        suite, cost = suite | {i}, cost + c
+
+
+@pytest.mark.parametrize("lazy", [True, False])
+def test_every_rule_picks_what_plain_greedy_on_the_brute_force_table_picks(mixed, mixed_scores, lazy):
+    """The engine (lazy or not) against the oracle above; best-of against the better oracle run."""
+    lib = mixed.library
+    ev = make_evaluator(mixed, "reference")
+    for b in BUDGETS:
+        oracle = {r: _oracle_greedy(mixed_scores, lib, b, r) for r in ("uniform", "cost-benefit", "marginal")}
+        for r, (picks, f) in oracle.items():
+            res = greedy(ev, b, r, lazy=lazy)
+            assert [st.pick for st in res.steps] == picks, (r, b)
+            assert res.score == pytest.approx(f, rel=1e-9, abs=1e-9)
+            assert (res.rule, res.winning_rule) == (r, r)
+        best = greedy(ev, b, "best-of", lazy=lazy)
+        (pu, fu), (pm, fm) = oracle["uniform"], oracle["marginal"]
+        assert best.score == pytest.approx(max(fu, fm), rel=1e-9, abs=1e-9)
+        if abs(fm - fu) > 1e-9 * max(1.0, fu, fm):  # not tied: the better run's picks
+            assert [st.pick for st in best.steps] == (pm if fm > fu else pu)
+        assert best.rule == "best-of" and best.winning_rule in ("uniform", "marginal")
+
+
+def test_the_registry_holds_rules_and_strategies_checked_in_one_place():
+    assert list(RULES) == ["uniform", "cost-benefit", "marginal", "best-of"]
+    assert RULES["best-of"].component_rules == ("uniform", "marginal")
+    assert all(RULES[r].component_rules == (r,) for r in ("uniform", "cost-benefit", "marginal"))
+    for bad in ("greediest", "", None, 3):
+        with pytest.raises(InputError, match=f"unknown rule {bad!r}; available: uniform, cost-benefit, marginal, best-of"):
+            check_rule(bad)
+    with pytest.raises(TypeError):
+        RULES["mine"] = RULES["uniform"]  # type: ignore[index]
+
+
 # --------------------------------------------------------------------------------- lazy, ties
 
 
 def test_lazy_and_plain_greedy_pick_the_same_suites(library, tiny):
     ids = MIXED + ("HD2K-2", "HD2K-4", "HD2K-8", "HD2K-10", "LSC-8", "WSC-3", "MRR-7", "LRR-7", "LRR-9", "LSC-12")
     prob = sub_problem(library, tiny, ids)
-    for objective in ("uniform", "marginal", "best-of"):
+    for rule in ("uniform", "marginal", "best-of"):
         for b in (1000.0, 5000.0, 12000.0, 110000.0):
             lazy_ev, plain_ev = make_evaluator(prob), make_evaluator(prob)  # the default engine: this tests the selector
-            lazy = greedy(lazy_ev, b, objective, lazy=True)
-            plain = greedy(plain_ev, b, objective, lazy=False)
+            lazy = greedy(lazy_ev, b, rule, lazy=True)
+            plain = greedy(plain_ev, b, rule, lazy=False)
             assert lazy.lazy and not plain.lazy
-            assert [s.pick for s in lazy.steps] == [s.pick for s in plain.steps], (objective, b)
+            assert [s.pick for s in lazy.steps] == [s.pick for s in plain.steps], (rule, b)
             assert lazy.score == pytest.approx(plain.score, rel=1e-12)
             assert lazy.n_evaluations <= plain.n_evaluations
 
@@ -196,17 +255,17 @@ def test_ties_break_cheaper_first_then_by_id(library, tiny):
     ev = make_evaluator(prob, "reference")
     f = ev.scores_with((), [1, 2])
     assert f[0] == pytest.approx(f[1], rel=1e-12) and f[0] > ev.score([0])
-    for objective in SELECTORS:
-        res = greedy(ev, 449.0, objective)
-        assert res.suite == ("CAM-a",), objective  # equal cost: the smaller id, whatever the library order
+    for rule in RULES:
+        res = greedy(ev, 449.0, rule)
+        assert res.suite == ("CAM-a",), rule  # equal cost: the smaller id, whatever the library order
 
     # same information, one twin cheaper: uniform (J = f) ties on f and takes the cheaper one,
     # even though its id sorts last and it comes last in the library
     lib2 = SensorLibrary((weak, _twin(s, "CAM-a"), _twin(s, "CAM-z", cost=400.0)))
     ev2 = make_evaluator(build_problem(lib2, tiny), "reference")
-    for objective in SELECTORS:
-        res = greedy(ev2, 10000.0, objective)
-        assert res.steps[0].pick == "CAM-z", objective
+    for rule in RULES:
+        res = greedy(ev2, 10000.0, rule)
+        assert res.steps[0].pick == "CAM-z", rule
 
 
 # ------------------------------------------------------------------------ determinism and JSON
@@ -217,9 +276,9 @@ def _without_timing(res):
 
 
 def test_results_are_byte_identical_across_runs(mixed):
-    for objective in SELECTORS:
-        a = run_greedy(mixed, 9000.0, objective, engine="reference")
-        b = run_greedy(mixed, 9000.0, objective, engine="reference")
+    for rule in RULES:
+        a = run_greedy(mixed, 9000.0, rule, engine="reference")
+        b = run_greedy(mixed, 9000.0, rule, engine="reference")
         assert _without_timing(a) == _without_timing(b)
 
 
@@ -228,9 +287,9 @@ def test_jobs_do_not_change_a_byte_of_the_result(suburb_problem):
     threads used whatever the route's size (the threaded path itself)."""
     from sensorsel.evaluators import FastEvaluator
 
-    for objective in ("uniform", "best-of"):
-        one = greedy(FastEvaluator(suburb_problem, jobs=1), 12_000.0, objective)
-        two = greedy(FastEvaluator(suburb_problem, jobs=2, threads_from_keyframes=0), 12_000.0, objective)
+    for rule in ("uniform", "best-of"):
+        one = greedy(FastEvaluator(suburb_problem, jobs=1), 12_000.0, rule)
+        two = greedy(FastEvaluator(suburb_problem, jobs=2, threads_from_keyframes=0), 12_000.0, rule)
         assert len(one.steps) >= 3
         assert _without_timing(one) == _without_timing(two)
 
@@ -239,8 +298,10 @@ def test_greedy_result_round_trips_through_json(mixed, tmp_path):
     res = run_greedy(mixed, 9000.0, "best-of", engine="reference")
     assert res.problem is not None and res.problem.scenario == "tiny" and res.steps
     path = results.save(res, tmp_path / "g.json")
-    back = results.load(GreedyResult, path)
+    back = results.load(CertifiedGreedyResult, path)
     assert back == res
+    plain = results.load(GreedyResult, path)  # any greedy result file reads as a GreedyResult
+    assert plain.suite == res.suite and plain.winning_rule == res.winning_rule
     assert results.dumps(back) == results.dumps(res)
 
 
@@ -280,16 +341,16 @@ def test_cli_budget_below_cheapest_sensor(small_library):
 
 def test_cli_greedy_table_and_json_output(small_library, tmp_path):
     out = tmp_path / "res" / "greedy.json"
-    r = _greedy(small_library, "--budget", "$6,000", "--objective", "marginal", "-o", str(out))
+    r = _greedy(small_library, "--budget", "$6,000", "--rule", "marginal", "-o", str(out))
     assert r.exit_code == 0, r.output
     res = results.load(GreedyResult, out)
-    assert res.objective == "marginal" and res.budget_usd == 6000.0 and res.cost_usd <= 6000.0
+    assert res.rule == "marginal" and res.budget_usd == 6000.0 and res.cost_usd <= 6000.0
     assert res.problem is not None and res.problem.scenario == "tiny" and res.problem.n_sensors == 7
     assert f"suite      {','.join(res.suite)}" in r.stdout
     assert f"${res.cost_usd:,.0f} of $6,000" in r.stdout
     for k, st in enumerate(res.steps, 1):  # one table row per pick, in order
         assert any(line.split()[:2] == [str(k), st.pick] for line in r.stdout.splitlines())
-    j = _greedy(small_library, "--budget", "6000", "--objective", "marginal", "--json")
+    j = _greedy(small_library, "--budget", "6000", "--rule", "marginal", "--json")
     assert j.exit_code == 0
     data = json.loads(j.stdout)
     assert data["suite"] == list(res.suite) and data["score"] == res.score
@@ -311,3 +372,19 @@ def test_cli_jobs_1_and_2_write_the_same_bytes(tmp_path):
 
     one, two = run("1"), run("2")
     assert one["steps"] and one == two
+
+
+def test_cli_objective_is_a_hidden_deprecated_alias_of_rule(small_library):
+    new = _greedy(small_library, "--budget", "6000", "--rule", "marginal", "--json", "--no-certificate")
+    old = _greedy(small_library, "--budget", "6000", "--objective", "marginal", "--json", "--no-certificate")
+    assert new.exit_code == old.exit_code == 0, old.output
+    a, b = json.loads(new.stdout), json.loads(old.stdout)
+    a.pop("seconds"), b.pop("seconds")
+    assert a == b and a["rule"] == "marginal"
+    assert "--objective is deprecated; use --rule" in old.stderr and "deprecated" not in new.stderr
+    both = _greedy(small_library, "--budget", "6000", "--rule", "uniform", "--objective", "marginal")
+    assert both.exit_code == 2 and "give only --rule" in both.output
+    bad = _greedy(small_library, "--budget", "6000", "--rule", "greediest")
+    assert bad.exit_code == 2 and "unknown rule 'greediest'" in bad.output and "Traceback" not in bad.output
+    help_text = CliRunner().invoke(cli, ["greedy", "--help"]).output
+    assert "--rule" in help_text and "--objective" not in help_text and "best-of" in help_text

@@ -251,7 +251,7 @@ def _suite_file(problem, path, suite, failed=()):
     """A result file naming ``suite``: a score result, or with ``failed`` a resilient selection
     (computed on the problem, then given this suite and these assumed failures)."""
     from sensorsel.evaluators import make_evaluator
-    from sensorsel.pipeline import score_suite
+    from sensorsel.api import score_suite
     from sensorsel.resilient import resilient_select
 
     if not failed:

@@ -38,9 +38,10 @@ FORMAT = 1
 
 #: kind -> "module:Class" (module relative to the sensorsel package). Class names are unique.
 KINDS: dict[str, str] = {
-    "score": "pipeline:ScoreResult",
-    "greedy": "selection:GreedyResult",
-    "certificate": "selection:Certificate",
+    "score": "api:ScoreResult",
+    "greedy": "certify:CertifiedGreedyResult",
+    "greedy-run": "selection:GreedyResult",
+    "certificate": "certify:Certificate",
     "optimum": "certify:OptimumResult",
     "suite-bound": "certify:SuiteBound",
     "knapsack": "certify:KnapsackSolution",
@@ -54,6 +55,7 @@ KINDS: dict[str, str] = {
     "resilient-grid": "resilient:SelectionGrid",
     "simulation": "simulate:SimulationReport",
     "simulation-suite": "simulate:SimulationResult",
+    "domain-design": "domain_design:DomainDesign",
 }
 
 _KIND_OF_NAME = {target.partition(":")[2]: kind for kind, target in KINDS.items()}

@@ -1,10 +1,10 @@
 """The cost-performance tradespace (the paper's Section V and Fig. 4).
 
-The greedy selectors of :mod:`sensorsel.selection` are run over a grid of budgets; every intermediate
+The greedy rules of :mod:`sensorsel.selection` are run over a grid of budgets; every intermediate
 architecture of every run (the suite after each pick) is recorded, identical suites are merged
-(keeping which selectors made them), and the Pareto front of cost against score is computed.
+(keeping which rules made them), and the Pareto front of cost against score is computed.
 
-    result = run_tradespace(problem)                    # default budgets and selectors
+    result = run_tradespace(problem)                    # default budgets and rules
     result.front                                        # the non-dominated architectures, cheapest first
     result.cheapest_reaching(0.99)                      # cheapest architecture with >= 99% of the best score
     write_csv(result, "architectures.csv")
@@ -24,7 +24,7 @@ sensors still fit. A run at a larger budget therefore makes the same picks as th
 for as long as each of its picks also fits B; from the first pick that does not, the B-run continues
 on its own. :func:`tradespace` resumes each smaller budget from the longest such prefix of a run it
 has already made (``share_prefix=True``) instead of starting from the empty suite. The one departure
-from independent runs is theoretical: with two candidates within the selectors' relative tie tolerance
+from independent runs is theoretical: with two candidates within the rules' relative tie tolerance
 (1e-9) of each other, where the better one does not fit B, the tie window can shift; the tests check
 that shared and independent runs agree (``share_prefix=False`` runs every budget from scratch).
 """
@@ -47,27 +47,27 @@ from .fileio import atomic_write_text
 from .library import SensorLibrary
 from .problem import ProblemInfo
 from .problem import Problem
-from .selection import SELECTORS, GreedyResult, Step, better_run, check_budget, greedy
+from .selection import RULES, GreedyResult, Rule, Step, check_budget, check_rule, greedy
 
-#: The selectors of the paper's Fig. 4 (uniform, cost-benefit) and the classic marginal rule.
-DEFAULT_SELECTORS: tuple[str, ...] = ("uniform", "cost-benefit", "marginal")
+#: The rules of the paper's Fig. 4 (uniform, cost-benefit) and the classic marginal rule.
+DEFAULT_RULES: tuple[str, ...] = ("uniform", "cost-benefit", "marginal")
 #: Budgets in the default log-spaced grid.
 DEFAULT_N_BUDGETS = 14
 
-#: progress(done, total): called after each (selector, budget) run.
+#: progress(done, total): called after each (rule, budget) run.
 Progress = Callable[[int, int], None]
 
 
 @dataclass(frozen=True)
 class Architecture:
-    """One suite the selectors produced (identical suites merged).
+    """One suite the greedy runs produced (identical suites merged).
 
     Attributes:
         suite: sensor ids, in library order.
         cost_usd: total cost [$].
-        score: f(suite) [nats] (as first recorded, in selector order then budget order then pick order).
+        score: f(suite) [nats] (as first recorded, in rule order then budget order then pick order).
         normalized: score / the best score of the tradespace (1.0 for the best).
-        selectors: the rules whose runs produced this suite, in the tradespace's selector order.
+        rules: the rules whose runs produced this suite, in the tradespace's rule order.
         on_front: True when no recorded architecture dominates it.
     """
 
@@ -75,12 +75,17 @@ class Architecture:
     cost_usd: float
     score: float
     normalized: float
-    selectors: tuple[str, ...]
+    rules: tuple[str, ...]
     on_front: bool
 
     @property
     def n_sensors(self) -> int:
         return len(self.suite)
+
+    @property
+    def selectors(self) -> tuple[str, ...]:
+        """Deprecated name of :attr:`rules`."""
+        return self.rules
 
 
 @dataclass(frozen=True)
@@ -88,7 +93,7 @@ class TradespaceRun:
     """Summary of one greedy run of the tradespace (its architectures are in ``architectures``).
 
     Attributes:
-        selector: the rule.
+        rule: the rule (a name of :data:`sensorsel.selection.RULES`).
         budget_usd: the run's budget [$].
         suite: the final suite, ids in pick order.
         cost_usd: its cost [$].
@@ -96,11 +101,12 @@ class TradespaceRun:
         n_steps: picks made (intermediate architectures).
         shared_steps: leading picks taken from an earlier run at a larger budget (not recomputed).
         stop_reason: why selection stopped.
-        n_evaluations: suites scored by this run (0 for best-of: it reuses the uniform and marginal runs).
-        chosen_rule: for best-of, the run it kept; else the selector.
+        n_evaluations: suites scored by this run (0 for a strategy such as best-of: it reuses its
+            component rules' runs).
+        winning_rule: for a strategy, the component run it kept; else the rule.
     """
 
-    selector: str
+    rule: str
     budget_usd: float
     suite: tuple[str, ...]
     cost_usd: float
@@ -109,7 +115,7 @@ class TradespaceRun:
     shared_steps: int
     stop_reason: str
     n_evaluations: int
-    chosen_rule: str
+    winning_rule: str
 
 
 @dataclass(frozen=True)
@@ -118,9 +124,9 @@ class TradespaceResult:
 
     Attributes:
         budgets_usd: the budgets [$], ascending.
-        selectors: the rules run, in the order given.
+        rules: the rules run, in the order given.
         architectures: unique suites, sorted by cost (ascending), then score (descending), then ids.
-        runs: one summary per (selector, budget), selectors in order, budgets ascending.
+        runs: one summary per (rule, budget), rules in order, budgets ascending.
         best_score: the largest score recorded [nats] (0.0 when nothing was bought).
         engine: the evaluator used.
         lazy: whether lazy (Minoux) evaluation was used where the rule allows it.
@@ -131,7 +137,7 @@ class TradespaceResult:
     """
 
     budgets_usd: tuple[float, ...]
-    selectors: tuple[str, ...]
+    rules: tuple[str, ...]
     architectures: tuple[Architecture, ...]
     runs: tuple[TradespaceRun, ...]
     best_score: float
@@ -141,6 +147,11 @@ class TradespaceResult:
     n_evaluations: int
     problem: ProblemInfo | None = None
     seconds: float = 0.0
+
+    @property
+    def selectors(self) -> tuple[str, ...]:
+        """Deprecated name of :attr:`rules`."""
+        return self.rules
 
     @property
     def front(self) -> tuple[Architecture, ...]:
@@ -216,15 +227,17 @@ def parse_budgets(text: str, name: str = "--budgets") -> tuple[float, ...]:
     return tuple(sorted(set(out)))
 
 
-def parse_selectors(text: str | Iterable[str], name: str = "--selectors") -> tuple[str, ...]:
-    """Selector names from ``"uniform,cost-benefit"`` or a sequence; order kept, duplicates dropped."""
+def parse_rules(text: str | Iterable[str], name: str = "--rules") -> tuple[str, ...]:
+    """Rule names from ``"uniform,cost-benefit"`` or a sequence; order kept, duplicates dropped."""
     items = [t.strip() for t in text.split(",")] if isinstance(text, str) else [str(t).strip() for t in text]
     items = [t for t in items if t]
     if not items:
-        raise InputError(f"{name}: no selector given; available: {', '.join(SELECTORS)}")
+        raise InputError(f"{name}: no rule given; available: {', '.join(RULES)}")
     for t in items:
-        if t not in SELECTORS:
-            raise InputError(f"{name}: unknown selector {t!r}; available: {', '.join(SELECTORS)}")
+        try:
+            check_rule(t)
+        except InputError as exc:
+            raise InputError(f"{name}: {exc}") from None
     return tuple(dict.fromkeys(items))
 
 
@@ -269,7 +282,7 @@ def pareto_mask(costs: Sequence[float], scores: Sequence[float]) -> np.ndarray:
 
 
 def _shared_prefix(steps: tuple[Step, ...], budget: float) -> int:
-    """How many leading picks of ``steps`` also fit ``budget`` (same feasibility test as the selectors)."""
+    """How many leading picks of ``steps`` also fit ``budget`` (same feasibility test as the greedy engine)."""
     prev = 0.0
     for k, st in enumerate(steps):
         if st.sensor_cost_usd > budget - prev + 1e-9:
@@ -295,44 +308,42 @@ def _rule_runs(evaluator: Evaluator, rule: str, budgets_desc: list[float], *, la
         cont = greedy(evaluator, b, rule, lazy=lazy, start=start)
         steps = tuple(prefix) + cont.steps
         full = GreedyResult(
-            objective=rule, budget_usd=cont.budget_usd, suite=steps[-1].suite if steps else (),
+            rule=rule, budget_usd=cont.budget_usd, suite=steps[-1].suite if steps else (),
             cost_usd=steps[-1].cost_usd if steps else 0.0, score=steps[-1].score if steps else 0.0, steps=steps,
             stop_reason=cont.stop_reason, n_evaluations=cont.n_evaluations, engine=cont.engine, lazy=cont.lazy,
-            chosen_rule=rule,
+            winning_rule=rule,
         )
         done[b] = (full, k)
         tick()
     return done
 
 
-def tradespace(evaluator: Evaluator, budgets: Iterable[float] | None = None, selectors: Iterable[str] = DEFAULT_SELECTORS,
+def tradespace(evaluator: Evaluator, budgets: Iterable[float] | None = None, rules: Iterable[str] = DEFAULT_RULES,
                *, lazy: bool = True, share_prefix: bool = True, progress: Progress | None = None,
                info: ProblemInfo | None = None) -> TradespaceResult:
-    """Run each selector at each budget and collect the architectures and the Pareto front.
+    """Run each rule at each budget and collect the architectures and the Pareto front.
 
     Args:
         evaluator: scores suites of one problem.
         budgets: budgets [$] (default: :func:`default_budgets` of the problem's library).
-        selectors: rules of :data:`sensorsel.selection.SELECTORS`. ``best-of`` is assembled from the
-            uniform and marginal runs at the same budget (run for it if not requested).
+        rules: names of :data:`sensorsel.selection.RULES`. A strategy (best-of) is assembled from its
+            component rules' runs at the same budget (run for it if not requested).
         lazy: lazy (Minoux) evaluation where the rule allows it (same picks, fewer evaluations).
         share_prefix: resume smaller budgets from larger budgets' runs (see the module docstring).
-        progress: called as progress(done, total) after each (rule, budget) run.
+        progress: called as progress(done, total) after each (single rule, budget) run.
         info: what the problem is (recorded in the result).
     Returns:
         The :class:`TradespaceResult`.
     """
     t0 = time.perf_counter()
     lib = evaluator.library
-    sel = parse_selectors(selectors, "selectors")
+    sel = parse_rules(rules, "rules")
     grid = default_budgets(lib) if budgets is None else tuple(sorted({check_budget(b) for b in budgets}))
     if not grid:
         raise InputError("the tradespace needs at least one budget")
-    rules = [r for r in sel if r != "best-of"]
-    if "best-of" in sel:
-        rules += [r for r in ("uniform", "marginal") if r not in rules]
+    singles = _single_rules(sel)
     n0 = evaluator.n_evaluations
-    total = len(rules) * len(grid)
+    total = len(singles) * len(grid)
     count = [0]
 
     def tick() -> None:
@@ -341,20 +352,20 @@ def tradespace(evaluator: Evaluator, budgets: Iterable[float] | None = None, sel
             progress(count[0], total)
 
     desc = sorted(grid, reverse=True)
-    per_rule = {r: _rule_runs(evaluator, r, desc, lazy=lazy, share_prefix=share_prefix, tick=tick) for r in rules}
+    per_rule = {r: _rule_runs(evaluator, r, desc, lazy=lazy, share_prefix=share_prefix, tick=tick) for r in singles}
 
     runs: list[TradespaceRun] = []
-    found: dict[frozenset[int], tuple[float, set[str]]] = {}  # suite -> (score as first recorded, selectors)
+    found: dict[frozenset[int], tuple[float, set[str]]] = {}  # suite -> (score as first recorded, rules)
     for name in sel:
+        entry = RULES[name]
         for b in grid:
-            if name == "best-of":
-                u, m = per_rule["uniform"][b][0], per_rule["marginal"][b][0]
-                res, shared, evals = better_run([u, m]), 0, 0
-            else:
+            if isinstance(entry, Rule):
                 res, shared = per_rule[name][b]
                 evals = res.n_evaluations
+            else:  # a strategy: the run it keeps among its components' runs, which scored the suites
+                res, shared, evals = entry.keep([per_rule[c][b][0] for c in entry.component_rules]), 0, 0
             runs.append(TradespaceRun(name, b, res.suite, res.cost_usd, res.score, len(res.steps), shared,
-                                      res.stop_reason, evals, res.chosen_rule))
+                                      res.stop_reason, evals, res.winning_rule))
             for st in res.steps:
                 key = frozenset(lib.position(i) for i in st.suite)
                 if key not in found:
@@ -367,15 +378,23 @@ def tradespace(evaluator: Evaluator, budgets: Iterable[float] | None = None, sel
     archs = tuple(Architecture(ids, cost, score, score / best if best > 0 else 0.0, made_by, bool(f))
                   for (ids, cost, score, made_by), f in zip(rows, on_front))
     return TradespaceResult(
-        budgets_usd=grid, selectors=sel, architectures=archs, runs=tuple(runs), best_score=best, engine=evaluator.name,
+        budgets_usd=grid, rules=sel, architectures=archs, runs=tuple(runs), best_score=best, engine=evaluator.name,
         lazy=lazy, share_prefix=share_prefix, n_evaluations=evaluator.n_evaluations - n0, problem=info,
         seconds=round(time.perf_counter() - t0, 6),
     )
 
 
+def _single_rules(names: tuple[str, ...]) -> list[str]:
+    """The single rules to run: those named, in order, then the components of the strategies named."""
+    singles = [r for r in names if isinstance(RULES[r], Rule)]
+    for r in names:
+        singles += [c for c in RULES[r].component_rules if c not in singles]
+    return singles
+
+
 def _architectures(lib: SensorLibrary, sel: tuple[str, ...], found: dict[frozenset[int], tuple[float, set[str]]]
                    ) -> list[tuple[tuple[str, ...], float, float, tuple[str, ...]]]:
-    """(ids in library order, cost, score, selectors) per unique suite, sorted by cost, -score, ids."""
+    """(ids in library order, cost, score, rules) per unique suite, sorted by cost, -score, ids."""
     rows = []
     for key, (score, made_by) in found.items():
         pos = sorted(key)
@@ -384,11 +403,11 @@ def _architectures(lib: SensorLibrary, sel: tuple[str, ...], found: dict[frozens
     return rows
 
 
-def run_tradespace(problem: Problem, budgets: Iterable[float] | None = None, selectors: Iterable[str] = DEFAULT_SELECTORS,
+def run_tradespace(problem: Problem, budgets: Iterable[float] | None = None, rules: Iterable[str] = DEFAULT_RULES,
                    *, engine: str | None = None, jobs: int = 1, lazy: bool = True, share_prefix: bool = True,
                    progress: Progress | None = None) -> TradespaceResult:
     """The ``sensorsel pareto`` pipeline: :func:`tradespace` with a fresh evaluator of ``engine``."""
-    sel = parse_selectors(selectors, "selectors")  # bad input fails before the evaluator is built
+    sel = parse_rules(rules, "rules")  # bad input fails before the evaluator is built
     grid = None if budgets is None else tuple(check_budget(b) for b in budgets)
     ev = make_evaluator(problem, engine, jobs=jobs)
     return tradespace(ev, grid, sel, lazy=lazy, share_prefix=share_prefix, progress=progress,
@@ -397,13 +416,13 @@ def run_tradespace(problem: Problem, budgets: Iterable[float] | None = None, sel
 
 # ------------------------------------------------------------------------------------------ output
 
-CSV_COLUMNS = ("cost_usd", "score", "normalized_score", "on_front", "n_sensors", "selectors", "suite")
+CSV_COLUMNS = ("cost_usd", "score", "normalized_score", "on_front", "n_sensors", "rules", "suite")
 
 
 def csv_text(result: TradespaceResult) -> str:
     """The architectures as CSV: one row each, in the result's order.
 
-    Columns: cost_usd, score (nats), normalized_score, on_front (1/0), n_sensors, selectors
+    Columns: cost_usd, score (nats), normalized_score, on_front (1/0), n_sensors, rules
     (``+``-separated), suite (comma-separated ids, quoted; paste into ``sensorsel score --suite``).
     """
     buf = io.StringIO()
@@ -411,7 +430,7 @@ def csv_text(result: TradespaceResult) -> str:
     w.writerow(CSV_COLUMNS)
     for a in result.architectures:
         w.writerow([f"{a.cost_usd:.2f}", repr(a.score), repr(a.normalized), int(a.on_front), a.n_sensors,
-                    "+".join(a.selectors), ",".join(a.suite)])
+                    "+".join(a.rules), ",".join(a.suite)])
     return buf.getvalue()
 
 

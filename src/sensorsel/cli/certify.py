@@ -11,14 +11,15 @@ from typing import Any
 import click
 
 from .. import results
-from ..certify import DEFAULT_MAX_NODES, Certificate, certify_greedy, format_certificate, optimal
+from ..certify import DEFAULT_MAX_NODES, Certificate, CertifiedGreedyResult, certify_greedy, format_certificate, optimal
 from ..errors import InputError
 from ..evaluators import make_evaluator
 from ..fileio import output_file
 from ..problem import Problem
-from ..selection import SELECTORS, GreedyResult, check_budget, greedy
+from ..selection import GreedyResult, check_budget, greedy
 from .options import (not_empty, budget_option, engine_options, json_option, output_option, problem_from, progress_bar, quiet_option,
                       run, scenario_options)
+from .rules import kept_label, rule_option
 
 
 def _suite_text(ids: tuple[str, ...]) -> str:
@@ -99,13 +100,12 @@ def _check_same_problem(res: GreedyResult, problem: Problem, path: str) -> None:
 @click.option("--result", "result_path", type=click.Path(dir_okay=False, path_type=str), default=None, callback=not_empty,
               help="A greedy result JSON (`sensorsel greedy -o FILE`) to certify; it must be of the same scenario and library.")
 @budget_option(help="Without --result: run greedy at this budget in dollars (110000, 110,000, $110,000 or 110_000) and certify it.")
-@click.option("--objective", type=click.Choice(list(SELECTORS)), default="best-of", show_default=True,
-              help="Without --result: the greedy rule.")
+@rule_option("best-of", "Without --result: the greedy rule.")
 @output_option(help="Write the certificate as JSON here.")
 @json_option
 @quiet_option
 @run
-def certify_cmd(result_path: str | None, budget: float | None, objective: str, output: str | None, as_json: bool, quiet: bool,
+def certify_cmd(result_path: str | None, budget: float | None, rule: str, output: str | None, as_json: bool, quiet: bool,
                 engine: str | None, jobs: int, **kw: Any) -> None:
     """How close is a greedy suite to the best possible suite of its budget?
 
@@ -122,13 +122,13 @@ def certify_cmd(result_path: str | None, budget: float | None, objective: str, o
         output_file(output)
     problem = problem_from(kw)
     if result_path is not None:
-        res = results.load(result_path, GreedyResult)
+        res = results.load(result_path, (CertifiedGreedyResult, GreedyResult))
         _check_same_problem(res, problem, result_path)
         ev = make_evaluator(problem, engine or res.engine, jobs=jobs)
     else:
         assert budget is not None
         ev = make_evaluator(problem, engine, jobs=jobs)
-        res = greedy(ev, check_budget(budget), objective, info=problem.info)
+        res = greedy(ev, check_budget(budget), rule, info=problem.info)
     bar, progress = progress_bar(quiet or as_json, "certificate (greedy steps)")
     with bar or nullcontext():
         cert: Certificate = certify_greedy(ev, res, progress=progress)
@@ -140,8 +140,7 @@ def certify_cmd(result_path: str | None, budget: float | None, objective: str, o
     p = res.problem
     if p is not None:
         click.echo(f"scenario   {p.scenario}: {p.n_poses} keyframes, {p.n_landmarks} landmarks ({p.landmark_source})")
-    rule = res.objective + (f" (kept the {res.chosen_rule} run)" if res.objective == "best-of" else "")
-    click.echo(f"greedy     {rule}: {_suite_text(res.suite)}  (${res.cost_usd:,.0f} of ${res.budget_usd:,.0f})")
+    click.echo(f"greedy     {kept_label(res.rule, res.winning_rule)}: {_suite_text(res.suite)}  (${res.cost_usd:,.0f} of ${res.budget_usd:,.0f})")
     click.echo(f"score      {cert.score:.3f} nats")
     click.echo(f"bound      {cert.bound:.3f} nats: no suite within ${cert.budget_usd:,.0f} scores more "
                f"(gap {cert.gap:.3f} nats; knapsack: {cert.knapsack_method})")

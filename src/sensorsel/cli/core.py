@@ -12,7 +12,7 @@ import click
 from .. import results
 from ..errors import InputError
 from ..library import SensorLibrary, load_library
-from ..pipeline import score_suite
+from ..api import score_suite
 from ..scenario import LandmarkModel, route_landmarks, write_landmarks_csv
 from .options import engine_options, json_option, output_option, plot_format_option, problem_from, run, scenario_options, spec_from, table
 from .options import plot_format as plot_format_of

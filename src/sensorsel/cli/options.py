@@ -19,7 +19,7 @@ from typing import Any, Callable, TypeVar
 import click
 
 from ..errors import InputError, SensorselError
-from ..pipeline import load_problem
+from ..problem import load_problem
 from ..problem import Problem
 from ..progress import Progress
 from ..scenario import KITTI_ROOT_ENV, ROUTE_FORMATS, ScenarioSpec

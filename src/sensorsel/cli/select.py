@@ -10,14 +10,16 @@ from typing import Any
 import click
 
 from .. import results
-from ..certify import format_certificate
+from ..api import run_greedy
+from ..certify import CertifiedGreedyResult, format_certificate
 from ..fileio import output_dir, output_file
 from ..library import SensorLibrary
-from ..selection import SELECTORS, GreedyResult, run_greedy
-from ..tradespace import DEFAULT_SELECTORS, Architecture, parse_budgets, parse_selectors, run_tradespace, write_csv
+from ..selection import RULES
+from ..tradespace import DEFAULT_RULES, Architecture, parse_budgets, parse_rules, run_tradespace, write_csv
 from .options import (budget_option, engine_options, json_option, output_option, plot_format_option, problem_from, progress_bar,
                       quiet_option, run, scenario_options, table)
 from .options import plot_format as plot_format_of
+from .rules import kept_label, rule_option, rules_option
 
 
 def _position(lib: SensorLibrary, sensor_id: str) -> tuple[str, str]:
@@ -25,12 +27,12 @@ def _position(lib: SensorLibrary, sensor_id: str) -> tuple[str, str]:
     return s.model.name, s.position_label
 
 
-def _print_greedy(res: GreedyResult, lib: SensorLibrary) -> None:
+def _print_greedy(res: CertifiedGreedyResult, lib: SensorLibrary) -> None:
     p = res.problem
     if p is not None:
         click.echo(f"scenario   {p.scenario}: {p.n_poses} keyframes, {p.n_landmarks} landmarks ({p.landmark_source})")
-    rule = res.objective + (f" (kept the {res.chosen_rule} run)" if res.objective == "best-of" else "")
-    click.echo(f"budget     ${res.budget_usd:,.0f}   objective {rule}   engine {res.engine}{' (lazy)' if res.lazy else ''}")
+    rule = kept_label(res.rule, res.winning_rule)
+    click.echo(f"budget     ${res.budget_usd:,.0f}   rule {rule}   engine {res.engine}{' (lazy)' if res.lazy else ''}")
     click.echo("")
     rows = []
     for k, st in enumerate(res.steps, 1):
@@ -53,9 +55,7 @@ def _print_greedy(res: GreedyResult, lib: SensorLibrary) -> None:
 @scenario_options
 @engine_options
 @budget_option(required=True)
-@click.option("--objective", type=click.Choice(list(SELECTORS)), default="uniform", show_default=True,
-              help="uniform: f(S+s); cost-benefit: f(S+s)/Cost(S+s) (the paper); marginal: gain/cost(s); "
-                   "best-of: the better of uniform and marginal.")
+@rule_option("uniform")
 @click.option("--lazy/--no-lazy", default=True, show_default=True, help="Lazy (Minoux) evaluation: same picks, fewer evaluations.")
 @output_option(help="Write the full result as JSON.")
 @json_option
@@ -64,7 +64,7 @@ def _print_greedy(res: GreedyResult, lib: SensorLibrary) -> None:
                    "and print how close the suite is to it.")
 @quiet_option
 @run
-def greedy_cmd(budget: float, objective: str, lazy: bool, output: str | None, as_json: bool, certify: bool, quiet: bool,
+def greedy_cmd(budget: float, rule: str, lazy: bool, output: str | None, as_json: bool, certify: bool, quiet: bool,
                engine: str | None, jobs: int, **kw: Any) -> None:
     """Greedy sensor selection under a budget (the paper's Algorithm 1 and its cost-aware variants).
 
@@ -76,10 +76,10 @@ def greedy_cmd(budget: float, objective: str, lazy: bool, output: str | None, as
     if output:
         output_file(output)
     problem = problem_from(kw)
-    bar, progress = progress_bar(quiet, f"greedy {objective}", phases=2 if objective == "best-of" else 1)
+    bar, progress = progress_bar(quiet, f"greedy {rule}", phases=len(RULES[rule].component_rules))
     cert_bar, cert_progress = progress_bar(quiet or not certify, "certificate", after=bar)
     with bar or nullcontext(), cert_bar or nullcontext():
-        res = run_greedy(problem, budget, objective, engine=engine, jobs=jobs, lazy=lazy, progress=progress,
+        res = run_greedy(problem, budget, rule, engine=engine, jobs=jobs, lazy=lazy, progress=progress,
                          certify=certify, certify_progress=cert_progress)
     if output:
         results.save(res, output)
@@ -105,7 +105,7 @@ def _compact(suite: tuple[str, ...]) -> str:
 
 
 def _arch_row(a: Architecture) -> list[str]:
-    return [f"{a.cost_usd:,.0f}", f"{a.score:.3f}", f"{a.normalized:.4f}", str(a.n_sensors), "+".join(a.selectors), _compact(a.suite)]
+    return [f"{a.cost_usd:,.0f}", f"{a.score:.3f}", f"{a.normalized:.4f}", str(a.n_sensors), "+".join(a.rules), _compact(a.suite)]
 
 
 @click.command("pareto", short_help="Cost-performance tradespace and its Pareto front (plot, CSV, JSON).")
@@ -116,15 +116,14 @@ def _arch_row(a: Architecture) -> list[str]:
                    "cheapest sensor to the whole library).")
 @budget_option(multiple=True, help="A budget in dollars (110000, 110,000, $110,000 or 110_000); repeat it for several; "
                                    "adds to --budgets.")
-@click.option("--selectors", default=",".join(DEFAULT_SELECTORS), show_default=True,
-              help=f"Comma-separated rules among {', '.join(SELECTORS)}.")
+@rules_option(",".join(DEFAULT_RULES))
 @click.option("--lazy/--no-lazy", default=True, show_default=True, help="Lazy (Minoux) evaluation: same picks, fewer evaluations.")
 @output_option(folder=True, required=True, dest="outdir", help="Folder for pareto.<format>, architectures.csv and tradespace.json.")
 @plot_format_option
 @json_option
 @quiet_option
 @run
-def pareto_cmd(budgets: str | None, budget: tuple[float, ...], selectors: str, lazy: bool, outdir: str, plot_format: str | None,
+def pareto_cmd(budgets: str | None, budget: tuple[float, ...], rules: str, lazy: bool, outdir: str, plot_format: str | None,
                as_json: bool, quiet: bool, engine: str | None, jobs: int, **kw: Any) -> None:
     """The cost-performance tradespace (the paper's Fig. 4): greedy runs over a grid of budgets,
     every intermediate architecture, and the Pareto front (lower cost, higher score).
@@ -137,12 +136,12 @@ def pareto_cmd(budgets: str | None, budget: tuple[float, ...], selectors: str, l
     if budget:
         grid = tuple(sorted(set(grid or ()) | set(budget)))
     fmt = plot_format_of(plot_format)
-    rules = parse_selectors(selectors)
+    names = parse_rules(rules)
     output_dir(outdir)
     problem = problem_from(kw)
     bar, progress = progress_bar(quiet, "tradespace runs")
     with bar or nullcontext():
-        res = run_tradespace(problem, grid, rules, engine=engine, jobs=jobs, lazy=lazy, progress=progress)
+        res = run_tradespace(problem, grid, names, engine=engine, jobs=jobs, lazy=lazy, progress=progress)
 
     out = Path(outdir)
     written = [results.save(res, out / "tradespace.json"), write_csv(res, out / "architectures.csv")]
@@ -161,7 +160,7 @@ def pareto_cmd(budgets: str | None, budget: tuple[float, ...], selectors: str, l
     p = res.problem
     if p is not None:
         click.echo(f"scenario   {p.scenario}: {p.n_poses} keyframes, {p.n_landmarks} landmarks ({p.landmark_source})")
-    click.echo(f"runs       {len(res.runs)} ({', '.join(res.selectors)} x {len(res.budgets_usd)} budgets "
+    click.echo(f"runs       {len(res.runs)} ({', '.join(res.rules)} x {len(res.budgets_usd)} budgets "
                f"${res.budgets_usd[0]:,.0f}..${res.budgets_usd[-1]:,.0f}); engine {res.engine}{' (lazy)' if res.lazy else ''}; "
                f"{res.n_evaluations} suites evaluated in {res.seconds:.1f} s")
     click.echo(f"found      {len(res.architectures)} architectures, {len(res.front)} on the Pareto front; "
@@ -170,7 +169,7 @@ def pareto_cmd(budgets: str | None, budget: tuple[float, ...], selectors: str, l
         click.echo("every budget is below the cheapest sensor: nothing was bought", err=True)
         sys.exit(2)
     click.echo("\nPareto front (cheapest first):")
-    click.echo(table([_arch_row(a) for a in res.front], ["cost_usd", "score", "normalized", "n", "selectors", "suite"]))
+    click.echo(table([_arch_row(a) for a in res.front], ["cost_usd", "score", "normalized", "n", "rules", "suite"]))
     click.echo("")
     for frac in (0.99, 0.95):
         a = res.cheapest_reaching(frac)

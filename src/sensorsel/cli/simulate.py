@@ -14,7 +14,7 @@ from .. import results
 from ..errors import InputError, ResultFileError
 from ..fileio import output_dir
 from ..library import SensorLibrary
-from ..pipeline import load_problem
+from ..problem import load_problem
 from ..problem import GraphSettings
 from .options import json_option, output_option, plot_format_option, progress_bar, quiet_option, run, scenario_options, spec_from, table
 from .options import plot_format as plot_format_of
@@ -22,7 +22,7 @@ from .options import plot_format as plot_format_of
 
 #: Result kinds that name a suite: simulate --suite/--compare read these (resilient ones also say
 #: which sensors they assume to fail).
-SUITE_KINDS = ("greedy", "resilient", "resilient-selection", "optimum", "score")
+SUITE_KINDS = ("greedy", "greedy-run", "resilient", "resilient-selection", "optimum", "score")
 
 
 def read_suite(text: str, library: SensorLibrary, what: str) -> tuple[tuple[int, ...], str, tuple[str, ...]]:

@@ -1,7 +1,11 @@
-"""Pipeline functions: what each CLI command calls, usable as-is from scripts and notebooks.
+"""The public run functions: what each CLI command calls, usable as-is from scripts and notebooks.
 
     problem = load_problem(ScenarioSpec(seq="03", kitti_root="../shared/kitti"))
     result = score_suite(problem, "LRL-roof,LRR-12")
+    greedy = run_greedy(problem, 110_000, "best-of", certify=True)
+
+Each takes a :class:`~sensorsel.problem.Problem`, builds its evaluator, and records ``problem.info``.
+This is the top of the library's layers: nothing below it imports it.
 """
 
 from __future__ import annotations
@@ -9,10 +13,14 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Iterable
 
+from .certify import CertifiedGreedyResult, certificate
 from .evaluators import make_evaluator
 from .problem import Problem, ProblemInfo, load_problem
+from .selection import Progress, check_budget, check_rule, greedy
+from .tradespace import run_tradespace
 
-__all__ = ["ProblemInfo", "ScoreResult", "load_problem", "score_suite"]
+__all__ = ["CertifiedGreedyResult", "ProblemInfo", "ScoreResult", "load_problem", "run_greedy", "run_tradespace",
+           "score_suite"]
 
 
 @dataclass(frozen=True)
@@ -62,3 +70,25 @@ def score_suite(problem: Problem, suite: str | Iterable[str | int], *, engine: s
         engine=ev.name,
         problem=problem.info,
     )
+
+
+def run_greedy(problem: Problem, budget_usd: float, rule: str = "uniform", *, engine: str | None = None, jobs: int = 1,
+               lazy: bool = True, progress: Progress | None = None,
+               certify: bool = False, certify_progress: Progress | None = None) -> CertifiedGreedyResult:
+    """The ``sensorsel greedy`` run: :func:`~sensorsel.selection.greedy` with a fresh evaluator of
+    ``engine``, recording what the problem is.
+
+    With ``certify``, the result carries its :class:`~sensorsel.certify.Certificate` (an upper bound
+    on the best possible score within the budget), computed with the same evaluator: at most one sweep
+    of the library per greedy step, fewer where a step provably cannot lower the bound
+    (``certify_progress(done, total)`` after each); else its ``certificate`` is None.
+
+    Raises:
+        InputError: a bad budget or rule (before any evaluator is built).
+    """
+    check_budget(budget_usd)
+    check_rule(rule)
+    ev = make_evaluator(problem, engine, jobs=jobs)
+    res = greedy(ev, budget_usd, rule, lazy=lazy, progress=progress, info=problem.info)
+    cert = certificate(ev, res, progress=certify_progress) if certify else None
+    return CertifiedGreedyResult.of(res, cert)
