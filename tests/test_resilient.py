@@ -402,6 +402,7 @@ def test_cli_writes_the_comparison_grid_and_periods(small_library_yaml, tmp_path
     (["--budget", "-10"], "budget"),
     (["--budget", "inf"], "budget"),
     (["--failures", "two"], "two"),
+    (["--rule", "best"], "best"),
     (["--objective", "best"], "best"),
     (["--format", "jpg"], "jpg"),
 ])

@@ -12,7 +12,9 @@ import pytest
 from sensorsel import codec, results
 from sensorsel.errors import ResultFileError
 from sensorsel.api import ScoreResult, score_suite
-from sensorsel.selection import GreedyResult, run_greedy
+from sensorsel.api import run_greedy
+from sensorsel.certify import CertifiedGreedyResult
+from sensorsel.selection import GreedyResult
 
 
 @pytest.fixture(scope="module")
@@ -75,7 +77,7 @@ def test_old_files_without_kind_load_when_they_parse_as_the_expected_class(score
     assert results.load(old, ScoreResult) == score
     old_greedy = tmp_path / "old_greedy.json"
     old_greedy.write_text(codec.dumps(greedy_result))
-    assert results.load(old_greedy, GreedyResult) == greedy_result
+    assert results.load(old_greedy, CertifiedGreedyResult) == greedy_result
     # an old file of another class does not parse as the expected one: refused, naming the file
     with pytest.raises(ResultFileError) as exc:
         results.load(old, GreedyResult)

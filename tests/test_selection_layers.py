@@ -50,7 +50,7 @@ def test_only_the_cli_and_the_package_import_api():
 
 
 def test_the_import_parser_sees_relative_imports():
-    assert {"selection", "objective", "problem", "errors"} <= _imports(SRC / "selection" / "greedy.py")
+    assert {"selection", "evaluators", "problem", "errors"} <= _imports(SRC / "selection" / "greedy.py")
     assert {"certify", "results", "selection"} <= _imports(SRC / "cli" / "select.py")
-    assert {"selection", "objective"} <= _imports(SRC / "certify" / "exact.py")
+    assert {"selection", "evaluators"} <= _imports(SRC / "certify" / "exact.py")
     assert "certify" in _imports(SRC / "api.py")

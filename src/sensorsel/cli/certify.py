@@ -122,7 +122,7 @@ def certify_cmd(result_path: str | None, budget: float | None, rule: str, output
         output_file(output)
     problem = problem_from(kw)
     if result_path is not None:
-        res = results.load(result_path, (CertifiedGreedyResult, GreedyResult))
+        res = results.load(result_path, CertifiedGreedyResult)
         _check_same_problem(res, problem, result_path)
         ev = make_evaluator(problem, engine or res.engine, jobs=jobs)
     else:

@@ -10,10 +10,10 @@ import click
 
 from .. import results
 from ..fileio import output_dir
-from ..selection import SELECTORS
 from .options import (budget_option, engine_options, json_option, output_option, plot_format_option, problem_from, progress_bar,
                       quiet_option, run, scenario_options, table)
 from .options import plot_format as plot_format_of
+from .rules import rule_option
 
 
 @click.command("resilient", short_help="Resilient selection against failing sensors, whole route and per period (grid).")
@@ -24,8 +24,7 @@ from .options import plot_format as plot_format_of
               help="Number of sensors assumed to fail (alpha); 0 is plain greedy selection.")
 @click.option("--period", "period_s", type=float, default=10.0, show_default=True,
               help="Length of a period of the per-period selection [s of keyframe timestamps].")
-@click.option("--objective", type=click.Choice(list(SELECTORS)), default="uniform", show_default=True,
-              help="Greedy rule spending the budget left after the failing sensors.")
+@rule_option("uniform", "Greedy rule spending the budget left after the failing sensors.")
 @output_option(folder=True, required=True, dest="outdir",
                help="Output folder: resilient.json, grid.csv, the grid plot, and periods/ (one file per period).")
 @plot_format_option
@@ -33,7 +32,7 @@ from .options import plot_format as plot_format_of
 @json_option
 @quiet_option
 @run
-def resilient_cmd(budget: float, alpha: int, period_s: float, objective: str, outdir: str, plot_format: str | None, resume: bool,
+def resilient_cmd(budget: float, alpha: int, period_s: float, rule: str, outdir: str, plot_format: str | None, resume: bool,
                   as_json: bool, quiet: bool, engine: str | None, jobs: int, **kw: Any) -> None:
     """Resilient sensor selection (the paper's Algorithm 2, for ALPHA failures).
 
@@ -59,7 +58,7 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, objective: str, ou
     if bar is not None:
         click.echo(f"whole route: greedy and resilient selection on {sc.n_poses} keyframes, {sc.n_landmarks} landmarks ...", err=True)
     with bar or nullcontext():
-        report = resilient_report(problem, budget, alpha, period_s=period_s, objective=objective, engine=engine, jobs=jobs,
+        report = resilient_report(problem, budget, alpha, period_s=period_s, rule=rule, engine=engine, jobs=jobs,
                                   outdir=out, resume=resume, progress=progress)
 
     per = report.per_period
@@ -76,7 +75,7 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, objective: str, ou
         return
     c = report.comparison
     click.echo(f"scenario  {sc.name}: {sc.n_poses} keyframes, {sc.n_landmarks} landmarks ({sc.landmark_source})")
-    click.echo(f"budget    ${budget:,.0f}, {alpha} failure(s), objective {objective}, engine {c.engine}")
+    click.echo(f"budget    ${budget:,.0f}, {alpha} failure(s), rule {rule}, engine {c.engine}")
     r = c.resilient
     if r.failed:
         fails = ", ".join(f"{s} (f = {v:.2f})" for s, v in zip(r.failed, r.failed_scores))

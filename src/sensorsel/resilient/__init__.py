@@ -42,7 +42,7 @@ from pathlib import Path
 
 from ..problem import Problem
 from ..selection import check_budget
-from .algorithm import MAX_FAILURE_SETS, check_alpha, check_objective, compare, failing_set, resilient_select, worst_case
+from .algorithm import MAX_FAILURE_SETS, check_alpha, check_rule, compare, failing_set, resilient_select, worst_case
 from .cache import CacheWarning
 from .periods import (
     DEFAULT_PERIOD_S, Progress, check_period, make_grid, period_file, period_scenario, run_periods, save_grid_csv, split_periods,
@@ -55,13 +55,13 @@ from .records import (
 __all__ = [
     "ACTIVE", "DEFAULT_PERIOD_S", "FAILED", "MAX_FAILURE_SETS", "UNUSED", "CacheWarning", "Comparison", "PerPeriodResult",
     "PeriodResult", "PeriodSpan", "Progress", "ResilientReport", "ResilientResult", "SelectionGrid", "WorstCase",
-    "check_alpha", "check_objective", "check_period", "compare", "failing_set", "make_grid", "period_file",
+    "check_alpha", "check_rule", "check_period", "compare", "failing_set", "make_grid", "period_file",
     "period_scenario", "resilient_report", "resilient_select", "run_periods", "save_grid_csv", "split_periods", "worst_case",
 ]
 
 
 def resilient_report(problem: Problem, budget_usd: float, alpha: int, *, period_s: float | None = DEFAULT_PERIOD_S,
-                     objective: str = "uniform", engine: str | None = None, jobs: int = 1, lazy: bool = True,
+                     rule: str = "uniform", engine: str | None = None, jobs: int = 1, lazy: bool = True,
                      outdir: str | Path | None = None, resume: bool = False,
                      progress: Progress | None = None) -> ResilientReport:
     """The whole-route comparison and (unless ``period_s`` is None) the per-period selection.
@@ -70,15 +70,15 @@ def resilient_report(problem: Problem, budget_usd: float, alpha: int, *, period_
     ``outdir/periods/period-NNNN.json``; ``resume`` reuses those whose inputs match (and warns about the others).
     """
     t0 = time.perf_counter()
-    budget, alpha, objective = check_budget(budget_usd), check_alpha(alpha), check_objective(objective)
+    budget, alpha, rule = check_budget(budget_usd), check_alpha(alpha), check_rule(rule)
     if period_s is not None:
         check_period(period_s)
     cache = Path(outdir) / "periods" / "route.json" if outdir is not None else None
-    cmp_ = compare(problem, budget, alpha, objective, engine=engine, jobs=jobs, lazy=lazy, cache=cache, resume=resume)
+    cmp_ = compare(problem, budget, alpha, rule, engine=engine, jobs=jobs, lazy=lazy, cache=cache, resume=resume)
     per = None
     if period_s is not None:
-        per = run_periods(problem, budget, alpha, period_s=period_s, objective=objective, engine=engine, jobs=jobs,
+        per = run_periods(problem, budget, alpha, period_s=period_s, rule=rule, engine=engine, jobs=jobs,
                           lazy=lazy, outdir=outdir, resume=resume, progress=progress)
     return ResilientReport(suite=cmp_.resilient.suite, failed=cmp_.resilient.failed, alpha=alpha, budget_usd=budget,
-                           objective=objective, engine=cmp_.engine, comparison=cmp_, per_period=per,
+                           rule=rule, engine=cmp_.engine, comparison=cmp_, per_period=per,
                            seconds=round(time.perf_counter() - t0, 6))

@@ -15,7 +15,7 @@ from .. import results
 from ..errors import InputError
 from ..evaluators import DEFAULT_ENGINE, ENGINES, Evaluator, as_suite, make_evaluator
 from ..problem import Problem, ProblemInfo
-from ..selection import REL_TOL, SELECTORS, check_budget, greedy
+from ..selection import REL_TOL, check_budget, check_rule, greedy
 from .cache import fingerprint, load_matching
 from .records import Comparison, ResilientResult, WorstCase
 
@@ -30,11 +30,6 @@ def check_alpha(alpha: int) -> int:
     return int(alpha)
 
 
-def check_objective(objective: str) -> str:
-    """The greedy rule of the active set, if it is one of :data:`sensorsel.selection.SELECTORS`."""
-    if objective not in SELECTORS:
-        raise InputError(f"unknown objective {objective!r}; available: {', '.join(SELECTORS)}")
-    return objective
 
 
 def engine_name(engine: str | None) -> str:
@@ -80,7 +75,7 @@ def failing_set(evaluator: Evaluator, budget_usd: float, alpha: int) -> tuple[li
     return picked, [float(singles[i]) for i in picked], note
 
 
-def resilient_select(evaluator: Evaluator, budget_usd: float, alpha: int, objective: str = "uniform", *, lazy: bool = True,
+def resilient_select(evaluator: Evaluator, budget_usd: float, alpha: int, rule: str = "uniform", *, lazy: bool = True,
                      info: ProblemInfo | None = None) -> ResilientResult:
     """Resilient selection for ``alpha`` failures under ``budget_usd`` (see the module docstring).
 
@@ -88,25 +83,25 @@ def resilient_select(evaluator: Evaluator, budget_usd: float, alpha: int, object
         evaluator: scores suites of the problem.
         budget_usd: total budget [$], the failing sensors included.
         alpha: number of failures (0: plain greedy).
-        objective: greedy rule of the active set (see :data:`sensorsel.selection.SELECTORS`).
+        rule: greedy rule of the active set (see :data:`sensorsel.selection.RULES`).
         lazy: lazy (Minoux) evaluation in the greedy run (same picks).
         info: what the problem is, recorded in the result.
     """
     t0 = time.perf_counter()
     budget = check_budget(budget_usd)
     alpha = check_alpha(alpha)
-    check_objective(objective)
+    check_rule(rule)
     n0 = evaluator.n_evaluations
     lib = evaluator.library
     failed, failed_scores, note = failing_set(evaluator, budget, alpha)
     failed_cost = lib.cost(failed)
     rest = max(0.0, budget - failed_cost)  # never negative: the failing set fits by construction
-    run = greedy(evaluator, rest, objective, lazy=lazy, exclude=frozenset(failed), start=(), info=info)
+    run = greedy(evaluator, rest, rule, lazy=lazy, exclude=frozenset(failed), start=(), info=info)
     active = [lib.position(s) for s in run.suite]
     suite = failed + active
     score = evaluator.score(suite) if failed else run.score
     return ResilientResult(
-        alpha=alpha, budget_usd=budget, objective=objective, suite=lib.suite_ids(suite), failed=lib.suite_ids(failed),
+        alpha=alpha, budget_usd=budget, rule=rule, suite=lib.suite_ids(suite), failed=lib.suite_ids(failed),
         failed_scores=tuple(failed_scores), failure_note=note, active=run.suite, failed_cost_usd=failed_cost,
         cost_usd=lib.cost(suite), score=float(score), active_score=run.score, greedy=run,
         n_evaluations=evaluator.n_evaluations - n0, engine=evaluator.name, problem=info,
@@ -148,7 +143,7 @@ def worst_case(evaluator: Evaluator, suite: Sequence[int] | str, alpha: int, *, 
     )
 
 
-def compare(problem: Problem, budget_usd: float, alpha: int, objective: str = "uniform", *, engine: str | None = None,
+def compare(problem: Problem, budget_usd: float, alpha: int, rule: str = "uniform", *, engine: str | None = None,
             jobs: int = 1, lazy: bool = True, cache: str | Path | None = None,
             resume: bool = False) -> Comparison:
     """Greedy and resilient selection at the same budget, with the worst case of each suite.
@@ -157,21 +152,21 @@ def compare(problem: Problem, budget_usd: float, alpha: int, objective: str = "u
         cache: a file to save the result in (atomically); with ``resume``, reused when its inputs match.
     """
     t0 = time.perf_counter()
-    budget, alpha, objective = check_budget(budget_usd), check_alpha(alpha), check_objective(objective)
+    budget, alpha, rule = check_budget(budget_usd), check_alpha(alpha), check_rule(rule)
     name = engine_name(engine)
-    fp = fingerprint(problem, budget, alpha, objective, name, lazy, {"what": "whole route"})
+    fp = fingerprint(problem, budget, alpha, rule, name, lazy, {"what": "whole route"})
     if cache is not None and resume:
         old = load_matching(Comparison, Path(cache), fp)
         if old is not None:
             return old
     ev = make_evaluator(problem, name, jobs=jobs)
     info = problem.info
-    g = greedy(ev, budget, objective, lazy=lazy, info=info)
-    r = resilient_select(ev, budget, alpha, objective, lazy=lazy, info=info)
+    g = greedy(ev, budget, rule, lazy=lazy, info=info)
+    r = resilient_select(ev, budget, alpha, rule, lazy=lazy, info=info)
     lib = problem.library
     gw = worst_case(ev, [lib.position(s) for s in g.suite], alpha)
     rw = worst_case(ev, [lib.position(s) for s in r.suite], alpha)
-    out = Comparison(alpha=alpha, budget_usd=budget, objective=objective, greedy=g, resilient=r, greedy_worst=gw,
+    out = Comparison(alpha=alpha, budget_usd=budget, rule=rule, greedy=g, resilient=r, greedy_worst=gw,
                      resilient_worst=rw, engine=ev.name, fingerprint=fp, problem=info,
                      seconds=round(time.perf_counter() - t0, 6))
     if cache is not None:

@@ -42,7 +42,7 @@ def _array_digest(*arrays: np.ndarray) -> str:
     return h.hexdigest()
 
 
-def fingerprint(problem: Problem, budget: float, alpha: int, objective: str, engine: str, lazy: bool, what: dict) -> str:
+def fingerprint(problem: Problem, budget: float, alpha: int, rule: str, engine: str, lazy: bool, what: dict) -> str:
     """Digest of everything a result depends on: scenario (its provenance and actual numbers), library
     (source and content), graph settings, budget, alpha, rule, engine, and ``what`` (e.g. the period bounds)."""
     sc = problem.scenario
@@ -54,7 +54,7 @@ def fingerprint(problem: Problem, budget: float, alpha: int, objective: str, eng
         "library_source": info.library,
         "library": _digest(results.to_jsonable(problem.library.sensors)),
         "settings": results.to_jsonable(info.settings),
-        "budget_usd": budget, "alpha": alpha, "objective": objective, "engine": engine, "lazy": lazy,
+        "budget_usd": budget, "alpha": alpha, "rule": rule, "engine": engine, "lazy": lazy,
         **what,
     })
 

@@ -18,7 +18,7 @@ from ..evaluators import make_evaluator
 from ..problem import Problem, build_problem
 from ..scenario import Scenario
 from ..selection import check_budget
-from .algorithm import check_alpha, check_objective, engine_name, resilient_select, worst_case
+from .algorithm import check_alpha, check_rule, engine_name, resilient_select, worst_case
 from .cache import fingerprint, load_matching
 from .records import ACTIVE, FAILED, UNUSED, PeriodResult, PeriodSpan, PerPeriodResult, SelectionGrid
 
@@ -82,7 +82,7 @@ def period_file(outdir: str | Path, index: int) -> Path:
 
 
 def run_periods(problem: Problem, budget_usd: float, alpha: int, *, period_s: float = DEFAULT_PERIOD_S,
-                objective: str = "uniform", engine: str | None = None, jobs: int = 1, lazy: bool = True,
+                rule: str = "uniform", engine: str | None = None, jobs: int = 1, lazy: bool = True,
                 outdir: str | Path | None = None, resume: bool = False,
                 progress: Progress | None = None) -> PerPeriodResult:
     """Resilient selection on each period of the route.
@@ -96,14 +96,14 @@ def run_periods(problem: Problem, budget_usd: float, alpha: int, *, period_s: fl
         progress: progress(periods done, total) after each period.
     """
     t0 = time.perf_counter()
-    budget, alpha, objective = check_budget(budget_usd), check_alpha(alpha), check_objective(objective)
+    budget, alpha, rule = check_budget(budget_usd), check_alpha(alpha), check_rule(rule)
     period = check_period(period_s)
     name = engine_name(engine)
     spans = split_periods(problem.scenario.keyframes.times, period)
     out: list[PeriodResult] = []
     for n_done, (k, a, b, kf) in enumerate(spans, start=1):
         path = period_file(outdir, k) if outdir is not None else None
-        out.append(_one_period(problem, k, a, b, kf, budget, alpha, objective, name, jobs, lazy, period, path, resume))
+        out.append(_one_period(problem, k, a, b, kf, budget, alpha, rule, name, jobs, lazy, period, path, resume))
         if progress:
             progress(n_done, len(spans))
     if outdir is not None:
@@ -112,24 +112,24 @@ def run_periods(problem: Problem, budget_usd: float, alpha: int, *, period_s: fl
         for f in sorted((Path(outdir) / "periods").glob("period-*.json")):
             if f.name not in keep:
                 f.unlink()
-    return PerPeriodResult(period_s=period, alpha=alpha, budget_usd=budget, objective=objective, engine=name,
+    return PerPeriodResult(period_s=period, alpha=alpha, budget_usd=budget, rule=rule, engine=name,
                            periods=tuple(out), grid=make_grid(problem.library, out),
                            seconds=round(time.perf_counter() - t0, 6))
 
 
-def _one_period(problem: Problem, k: int, a: float, b: float, kf: np.ndarray, budget: float, alpha: int, objective: str,
+def _one_period(problem: Problem, k: int, a: float, b: float, kf: np.ndarray, budget: float, alpha: int, rule: str,
                 engine: str, jobs: int, lazy: bool, period: float, path: Path | None, resume: bool) -> PeriodResult:
     """Period ``k`` (keyframes ``kf``, times [a, b)): reused from ``path`` when resuming and it matches,
     else computed (and written to ``path``)."""
     sc = period_scenario(problem, kf, a, b, f"{problem.scenario.name} {a:g}-{b:g} s")
     sub = build_problem(problem.library, sc, problem.settings, spec=problem.info.spec)
     span = PeriodSpan(index=k, start_s=a, end_s=b, first_keyframe=int(kf[0]), n_keyframes=len(kf), n_landmarks=sc.n_landmarks)
-    fp = fingerprint(sub, budget, alpha, objective, engine, lazy, {"what": "period", "period_s": period, "span": results.to_jsonable(span)})
+    fp = fingerprint(sub, budget, alpha, rule, engine, lazy, {"what": "period", "period_s": period, "span": results.to_jsonable(span)})
     old = load_matching(PeriodResult, path, fp) if (path is not None and resume) else None
     if old is not None:
         return old
     ev = make_evaluator(sub, engine, jobs=jobs)
-    r = resilient_select(ev, budget, alpha, objective, lazy=lazy, info=sub.info)
+    r = resilient_select(ev, budget, alpha, rule, lazy=lazy, info=sub.info)
     w = worst_case(ev, [sub.library.position(s) for s in r.suite], alpha)
     res = PeriodResult(fingerprint=fp, period=span, result=r, worst=w)
     if path is not None:

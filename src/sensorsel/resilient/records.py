@@ -48,7 +48,7 @@ class ResilientResult:
     Attributes:
         alpha: failures designed for.
         budget_usd: the whole budget [$] (the failing sensors count against it).
-        objective: the greedy rule of the active set ("uniform", ...).
+        rule: the greedy rule of the active set ("uniform", ...).
         suite: ids of the whole resilient suite: the failing set, then the active set, in pick order.
         failed: ids assumed to fail, in pick order (largest f({e}) first).
         failed_scores: f({e}) of each failing sensor [nats].
@@ -67,7 +67,7 @@ class ResilientResult:
 
     alpha: int
     budget_usd: float
-    objective: str
+    rule: str
     suite: tuple[str, ...]
     failed: tuple[str, ...]
     failed_scores: tuple[float, ...]
@@ -91,7 +91,7 @@ class Comparison:
     Attributes:
         alpha: failures designed for and evaluated.
         budget_usd: the budget of both [$].
-        objective: the greedy rule of both.
+        rule: the greedy rule of both.
         greedy: the plain greedy run.
         resilient: the resilient selection.
         greedy_worst: worst case of the greedy suite.
@@ -104,7 +104,7 @@ class Comparison:
 
     alpha: int
     budget_usd: float
-    objective: str
+    rule: str
     greedy: GreedyResult
     resilient: ResilientResult
     greedy_worst: WorstCase
@@ -219,7 +219,7 @@ class PerPeriodResult:
 
     Attributes:
         period_s: period length [s].
-        alpha, budget_usd, objective, engine: as in each period's selection.
+        alpha, budget_usd, rule, engine: as in each period's selection.
         periods: one result per non-empty period, in time order.
         grid: the failed / active grid.
         seconds: wall time of this run [s] (periods reused from files count their stored time no more).
@@ -228,7 +228,7 @@ class PerPeriodResult:
     period_s: float
     alpha: int
     budget_usd: float
-    objective: str
+    rule: str
     engine: str
     periods: tuple[PeriodResult, ...]
     grid: SelectionGrid
@@ -242,7 +242,7 @@ class ResilientReport:
     Attributes:
         suite: ids of the whole-route resilient suite, the failing sensors included.
         failed: ids of the sensors assumed to fail.
-        alpha, budget_usd, objective, engine: the run's inputs.
+        alpha, budget_usd, rule, engine: the run's inputs.
         comparison: greedy versus resilient on the whole route.
         per_period: the per-period selection and its grid (None when not run).
         seconds: wall time [s].
@@ -252,7 +252,7 @@ class ResilientReport:
     failed: tuple[str, ...]
     alpha: int
     budget_usd: float
-    objective: str
+    rule: str
     engine: str
     comparison: Comparison
     per_period: PerPeriodResult | None = None
