@@ -143,3 +143,58 @@ def _fixture_domain_path():
     from pathlib import Path
 
     return Path(__file__).resolve().parents[1] / "configs" / "domain_fixtures.yaml"
+
+
+# ------------------------------------------------------------------------------------------- CLI
+
+
+def _cli(*args):
+    from click.testing import CliRunner
+
+    from sensorsel.cli import cli
+
+    return CliRunner().invoke(cli, list(args), catch_exceptions=False)
+
+
+def test_cli_greedy_on_a_domain_writes_the_design_breakdown_and_plot(tmp_path):
+    from sensorsel import results
+    from sensorsel.domain_design import DomainDesign
+
+    domain = str(_fixture_domain_path())
+    out, plot = tmp_path / "d.json", tmp_path / "d.png"
+    r = _cli("greedy", "--domain", domain, "--budget", "8,000", "-o", str(out), "--plot", str(plot), "-q")
+    assert r.exit_code == 0, r.output
+    assert "per route" in r.output and "worst route" in r.output
+    design = results.load(out, DomainDesign)
+    assert [x.name for x in design.routes] == ["suburb", "tiny"] and plot.stat().st_size > 0
+    # the breakdown against an independent oracle: each route scored alone, and its own greedy design
+    dom = load_domain(_fixture_domain_path())
+    for route, share in zip(dom.routes, design.routes):
+        ev = make_evaluator(route.problem)
+        f = ev.score(dom.library.resolve_suite(design.greedy.suite))
+        own = greedy(make_evaluator(route.problem), 8000.0, "uniform")
+        assert share.score == pytest.approx(f, rel=1e-12)
+        assert share.own_suite == own.suite and share.share_of_own == pytest.approx(f / own.score, rel=1e-12)
+    assert design.greedy.certificate is not None and design.greedy.certificate.bound >= design.greedy.score
+
+
+@pytest.mark.parametrize("command, extra", [
+    ("score", ["--suite", "MRL-roof,HD2K-4"]),
+    ("pareto", ["--budgets", "3000,9000", "-o", "{tmp}/p"]),
+    ("resilient", ["--budget", "9000", "-o", "{tmp}/r"]),
+    ("optimal", ["--budget", "1500", "--library", "configs/reduced_library.yaml"]),
+    ("certify", ["--budget", "3000"]),
+])
+def test_every_selection_command_takes_a_domain(tmp_path, command, extra):
+    repo = _fixture_domain_path().parents[1]
+    args = [a.replace("{tmp}", str(tmp_path)).replace("configs/", f"{repo}/configs/") for a in extra]
+    r = _cli(command, "--domain", str(_fixture_domain_path()), "--json", "-q" if command != "score" else "--json", *args)
+    assert r.exit_code == 0, r.output
+    assert '"routes"' in r.output and "suburb" in r.output
+
+
+def test_a_domain_with_a_route_option_is_a_usage_error():
+    r = _cli("greedy", "--domain", str(_fixture_domain_path()), "--seq", "03", "--budget", "5000")
+    assert r.exit_code == 2 and "--seq" in r.output and "Traceback" not in r.output
+    r = _cli("greedy", "--fixture", "tiny", "--budget", "5000", "--plot", "x.png")
+    assert r.exit_code == 2 and "--plot" in r.output

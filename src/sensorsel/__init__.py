@@ -13,16 +13,26 @@ from __future__ import annotations
 
 __version__ = "0.1.0"
 
+from .api import (CertifiedGreedyResult, DomainDesign, DomainScoreResult, ScoreResult, certify_result, design_domain,
+                  resilient_report, run_greedy, run_optimal, run_tradespace, score_domain_suite, score_suite, simulate)
 from .errors import InputError, LibraryError, ResultFileError, ScenarioError, SensorselError
-from .evaluators import ENGINES, Evaluator, make_evaluator
+from .evaluators import ENGINES, Evaluator, evaluator_for, make_evaluator
 from .library import PlacedSensor, SensorLibrary, SensorModel, load_library
-from .api import ProblemInfo, ScoreResult, load_problem, run_greedy, score_suite
-from .problem import GraphSettings, Problem, build_problem
+from .problem import Domain, GraphSettings, Problem, ProblemInfo, build_problem, load_domain, load_problem
 from .scenario import LandmarkModel, Scenario, ScenarioSpec, Trajectory, load_scenario
 
 __all__ = [
-    "ENGINES", "Evaluator", "GraphSettings", "InputError", "LandmarkModel", "LibraryError", "PlacedSensor",
-    "Problem", "ProblemInfo", "ResultFileError", "Scenario", "ScenarioError", "ScenarioSpec", "ScoreResult",
-    "SensorLibrary", "SensorModel", "SensorselError", "Trajectory", "build_problem", "load_library",
-    "load_problem", "load_scenario", "make_evaluator", "run_greedy", "score_suite",
+    # run functions (sensorsel.api)
+    "score_suite", "score_domain_suite", "run_greedy", "design_domain", "run_tradespace", "resilient_report",
+    "certify_result", "run_optimal", "simulate",
+    # inputs
+    "Domain", "GraphSettings", "LandmarkModel", "PlacedSensor", "Problem", "ProblemInfo", "Scenario", "ScenarioSpec",
+    "SensorLibrary", "SensorModel", "Trajectory", "build_problem", "load_domain", "load_library", "load_problem",
+    "load_scenario",
+    # evaluators
+    "ENGINES", "Evaluator", "evaluator_for", "make_evaluator",
+    # results
+    "CertifiedGreedyResult", "DomainDesign", "DomainScoreResult", "ScoreResult",
+    # errors
+    "InputError", "LibraryError", "ResultFileError", "ScenarioError", "SensorselError",
 ]

@@ -1,26 +1,40 @@
 """The public run functions: what each CLI command calls, usable as-is from scripts and notebooks.
 
-    problem = load_problem(ScenarioSpec(seq="03", kitti_root="../shared/kitti"))
-    result = score_suite(problem, "LRL-roof,LRR-12")
-    greedy = run_greedy(problem, 110_000, "best-of", certify=True)
+Each takes a :class:`~sensorsel.problem.Problem` (one route) or, where it makes sense, a
+:class:`~sensorsel.problem.Domain` (an operating domain of routes, one suite for all), builds the
+evaluator, and records what it ran on (``target.info``). This is the top of the library's layers:
+nothing below it imports it. Everything here is importable from ``sensorsel`` itself.
 
-Each takes a :class:`~sensorsel.problem.Problem`, builds its evaluator, and records ``problem.info``.
-This is the top of the library's layers: nothing below it imports it.
+>>> from sensorsel import ScenarioSpec, load_problem, run_greedy, score_suite
+>>> problem = load_problem(ScenarioSpec(fixture="tiny"))          # a bundled synthetic route
+>>> res = run_greedy(problem, 5000, "uniform", certify=True)
+>>> res.suite, res.cost_usd
+(('MRL-roof', 'HD2K-10', 'HD2K-4'), 4898.0)
+>>> round(res.score, 3), round(res.certificate.percent_of_best, 1)   # nats; at least X% of the best possible
+(1560.721, 86.4)
+>>> round(score_suite(problem, res.suite).score, 3)                 # a result's suite scores as ids
+1560.721
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Iterable
 
-from .certify import CertifiedGreedyResult, certificate
-from .evaluators import make_evaluator
-from .problem import Problem, ProblemInfo, load_problem
-from .selection import Progress, check_budget, check_rule, greedy
-from .tradespace import run_tradespace
+from .certify import DEFAULT_MAX_NODES, Certificate, CertifiedGreedyResult, OptimumResult, certificate, optimal
+from .domain_design import DomainDesign, design_domain
+from .errors import InputError
+from .evaluators import DomainEvaluator, evaluator_for, make_evaluator
+from .problem import Domain, DomainInfo, Problem, ProblemInfo, Target, load_domain, load_problem
+from .resilient import ResilientReport, resilient_report
+from .selection import GreedyResult, Progress, check_budget, check_rule, greedy
+from .simulate import SimulationResult, simulate
+from .tradespace import TradespaceResult, run_tradespace
 
-__all__ = ["CertifiedGreedyResult", "ProblemInfo", "ScoreResult", "load_problem", "run_greedy", "run_tradespace",
-           "score_suite"]
+__all__ = ["CertifiedGreedyResult", "DomainDesign", "DomainScoreResult", "ProblemInfo", "RouteScore", "ScoreResult",
+           "certify_result", "design_domain", "load_domain", "load_problem", "resilient_report", "run_greedy",
+           "run_optimal", "run_tradespace", "score_domain_suite", "score_suite", "simulate"]
 
 
 @dataclass(frozen=True)
@@ -72,11 +86,11 @@ def score_suite(problem: Problem, suite: str | Iterable[str | int], *, engine: s
     )
 
 
-def run_greedy(problem: Problem, budget_usd: float, rule: str = "uniform", *, engine: str | None = None, jobs: int = 1,
-               lazy: bool = True, progress: Progress | None = None,
+def run_greedy(problem: Target, budget_usd: float, rule: str = "uniform", *, engine: str | None = None, jobs: int = 1,
+               lazy: bool = True, aggregate: str = "normalised", progress: Progress | None = None,
                certify: bool = False, certify_progress: Progress | None = None) -> CertifiedGreedyResult:
     """The ``sensorsel greedy`` run: :func:`~sensorsel.selection.greedy` with a fresh evaluator of
-    ``engine``, recording what the problem is.
+    ``engine`` for a problem or a domain (its routes combined by ``aggregate``), recording what it ran on.
 
     With ``certify``, the result carries its :class:`~sensorsel.certify.Certificate` (an upper bound
     on the best possible score within the budget), computed with the same evaluator: at most one sweep
@@ -88,7 +102,89 @@ def run_greedy(problem: Problem, budget_usd: float, rule: str = "uniform", *, en
     """
     check_budget(budget_usd)
     check_rule(rule)
-    ev = make_evaluator(problem, engine, jobs=jobs)
+    ev = evaluator_for(problem, engine, jobs=jobs, aggregate=aggregate)
     res = greedy(ev, budget_usd, rule, lazy=lazy, progress=progress, info=problem.info)
     cert = certificate(ev, res, progress=certify_progress) if certify else None
     return CertifiedGreedyResult.of(res, cert)
+
+
+@dataclass(frozen=True)
+class RouteScore:
+    """A suite's score on one route of a domain.
+
+    Attributes:
+        name: the route.
+        weight: its normalised weight in the domain score.
+        score: f_r(S) [nats].
+        best_score: f_r(L), the whole library [nats].
+        share_of_best: score / best_score.
+    """
+
+    name: str
+    weight: float
+    score: float
+    best_score: float
+    share_of_best: float
+
+
+@dataclass(frozen=True)
+class DomainScoreResult:
+    """The score of one suite on an operating domain.
+
+    Attributes:
+        suite: sensor ids, in library order.
+        cost_usd: total cost [$].
+        score: the domain score F(S) (a share of the best when normalised, else nats).
+        aggregate: "normalised" or "raw".
+        routes: each route's score.
+        engine: the per-route engine.
+        domain: what it was computed on.
+    """
+
+    suite: tuple[str, ...]
+    cost_usd: float
+    score: float
+    aggregate: str
+    routes: tuple[RouteScore, ...]
+    engine: str
+    domain: DomainInfo
+
+
+def score_domain_suite(domain: Domain, suite: str | Iterable[str | int], *, engine: str | None = None,
+                       aggregate: str = "normalised") -> DomainScoreResult:
+    """Score a suite on every route of ``domain`` and combine the routes (see
+    :mod:`sensorsel.evaluators.domain`)."""
+    lib = domain.library
+    positions = lib.resolve_suite(suite)
+    ev = DomainEvaluator(domain, engine, aggregate=aggregate)
+    per = ev.route_scores(positions)
+    routes = tuple(RouteScore(r.name, float(w), float(f), float(b), float(f / b))
+                   for r, w, f, b in zip(domain.routes, ev.weights, per, ev.best))
+    return DomainScoreResult(suite=lib.suite_ids(positions), cost_usd=lib.cost(positions), score=float(ev.combine(per)),
+                             aggregate=ev.aggregate, routes=routes, engine=ev.engine, domain=domain.info)
+
+
+def certify_result(target: Target, result: GreedyResult, *, engine: str | None = None, jobs: int = 1,
+                   aggregate: str = "normalised", progress: Progress | None = None) -> Certificate:
+    """The certificate of a greedy result on ``target`` (an upper bound on the best possible score
+    within its budget; see :func:`sensorsel.certify.certificate`), with a fresh evaluator of
+    ``engine`` (default: the result's own)."""
+    ev = evaluator_for(target, engine or _engine_of(result), jobs=jobs, aggregate=aggregate)
+    return certificate(ev, result, progress=progress)
+
+
+def run_optimal(target: Target, budget_usd: float, *, engine: str | None = None, jobs: int = 1,
+                aggregate: str = "normalised", max_nodes: int = DEFAULT_MAX_NODES, max_seconds: float | None = None,
+                rule: str = "best-of", progress: Progress | None = None) -> OptimumResult:
+    """The ``sensorsel optimal`` run: the best suite within the budget by branch and bound
+    (:func:`sensorsel.certify.optimal`), on a problem or a domain."""
+    check_budget(budget_usd)
+    check_rule(rule)
+    ev = evaluator_for(target, engine, jobs=jobs, aggregate=aggregate)
+    return optimal(ev, budget_usd, max_nodes=max_nodes, max_seconds=max_seconds, rule=rule, progress=progress,
+                   info=target.info)
+
+
+def _engine_of(result: GreedyResult) -> str | None:
+    """The per-route engine a result was computed with ("domain[fast]" style names are not engines)."""
+    return None if result.engine == DomainEvaluator.name else result.engine

@@ -19,6 +19,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from .certify import CertifiedGreedyResult, certificate
 from .evaluators import DomainEvaluator
 from .problem import Domain, DomainInfo
 from .progress import Progress
@@ -58,7 +59,8 @@ class DomainDesign:
 
     Attributes:
         greedy: the greedy run on the domain score (its ``problem`` is the domain's
-            :class:`~sensorsel.problem.DomainInfo`; its scores are domain scores).
+            :class:`~sensorsel.problem.DomainInfo`; its scores are domain scores), with its
+            certificate when one was asked for.
         aggregate: "normalised" or "raw" (see :mod:`sensorsel.evaluators.domain`).
         routes: the breakdown, in the domain's route order.
         worst_route: the route with the lowest share of its own design.
@@ -68,7 +70,7 @@ class DomainDesign:
 
     KIND: ClassVar[str] = "domain-design"
 
-    greedy: GreedyResult
+    greedy: CertifiedGreedyResult
     aggregate: str
     routes: tuple[RouteShare, ...]
     worst_route: str
@@ -98,9 +100,10 @@ def route_breakdown(evaluator: DomainEvaluator, result: GreedyResult, *, lazy: b
 
 
 def design_domain(domain: Domain, budget_usd: float, rule: str = "uniform", *, engine: str | None = None, jobs: int = 1,
-                  aggregate: str = "normalised", lazy: bool = True, progress: Progress | None = None,
-                  breakdown_progress: Progress | None = None) -> DomainDesign:
-    """Greedy selection of one suite for every route of ``domain``, and its per-route breakdown.
+                  aggregate: str = "normalised", lazy: bool = True, certify: bool = False, progress: Progress | None = None,
+                  certify_progress: Progress | None = None, breakdown_progress: Progress | None = None) -> DomainDesign:
+    """Greedy selection of one suite for every route of ``domain``, and its per-route breakdown; with
+    ``certify``, the run's certificate on the domain score (F is monotone submodular, so the bound holds).
 
     Raises:
         InputError: a bad budget, rule, engine or aggregate, or a route no sensor can measure.
@@ -109,7 +112,8 @@ def design_domain(domain: Domain, budget_usd: float, rule: str = "uniform", *, e
     budget = check_budget(budget_usd)
     ev = DomainEvaluator(domain, engine, jobs=jobs, aggregate=aggregate)
     res = greedy(ev, budget, rule, lazy=lazy, progress=progress, info=domain.info)
+    cert = certificate(ev, res, progress=certify_progress) if certify else None
     shares = route_breakdown(ev, res, lazy=lazy, progress=breakdown_progress)
     worst = shares[int(np.argmin([s.share_of_own for s in shares]))].name
-    return DomainDesign(greedy=res, aggregate=ev.aggregate, routes=shares, worst_route=worst, domain=domain.info,
+    return DomainDesign(greedy=CertifiedGreedyResult.of(res, cert), aggregate=ev.aggregate, routes=shares, worst_route=worst, domain=domain.info,
                         seconds=round(time.perf_counter() - t0, 6))

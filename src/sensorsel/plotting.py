@@ -26,6 +26,7 @@ from .library import SensorLibrary
 from .scenario import Scenario
 
 if TYPE_CHECKING:  # simulate imports gtsam; plotting needs only its result types
+    from .domain_design import DomainDesign
     from .simulate import SimulationResult
 
 FORMATS = {".png": "png", ".svg": "svg", ".pdf": "pdf"}
@@ -457,10 +458,51 @@ def plot_tradespace(result: "TradespaceResult", ax: Axes | None = None, *, log_c
     ax.set_xlabel("suite cost [$]" + (" (log scale)" if log_cost else ""))
     ax.set_ylabel("normalized performance  f(S) / max f")
     p = result.problem
-    where = f"scenario {p.scenario}: " if p is not None else ""
+    where = (f"scenario {p.scenario}: " if hasattr(p, "scenario") else
+             f"domain of {len(p.routes)} routes: " if hasattr(p, "routes") else "")
     ax.set_title(title or f"{where}{len(archs)} architectures from {len(result.runs)} greedy runs "
                           f"({len(result.budgets_usd)} budgets)", fontsize=10)
     ax.grid(True, which="major", alpha=0.3)
     ax.grid(True, which="minor", alpha=0.1)
     ax.legend(loc="lower right", fontsize=8.5, title="made by", title_fontsize=8.5)
+    return ax
+
+
+def plot_domain_breakdown(design: "DomainDesign", ax: Axes | None = None, *, title: str | None = None) -> Axes:
+    """The price of one suite for a whole domain, route by route.
+
+    For each route (one row), the share of the route's best f_r(S)/f_r(all sensors) reached by the
+    domain suite (filled dot) and by the suite the same rule picks for that route alone at the same
+    budget (hollow dot), joined by a line: the gap is what the route gives up for the others. The
+    worst route (lowest share of its own design) is labelled in red.
+
+    Args:
+        design: a :class:`sensorsel.domain_design.DomainDesign`.
+        ax: axes to draw on; a new figure when None.
+    Returns:
+        The axes drawn on.
+    """
+    routes = design.routes
+    ax = ax if ax is not None else new_axes((7.0, 0.45 * len(routes) + 1.8))
+    y = np.arange(len(routes))[::-1]
+    domain_share = np.array([r.share_of_best for r in routes])
+    own_share = np.array([r.own_score / r.best_score if r.best_score > 0 else 0.0 for r in routes])
+    for yi, a, b in zip(y, domain_share, own_share):
+        ax.plot([a, b], [yi, yi], color="0.7", lw=2, zorder=1)
+    ax.scatter(own_share, y, s=60, facecolors="white", edgecolors="tab:blue", lw=1.5, zorder=2,
+               label="each route's own design (same budget and rule)")
+    ax.scatter(domain_share, y, s=60, color="tab:blue", zorder=3, label="the domain suite")
+    labels = [f"{r.name} ({r.weight:.1%})" for r in routes]
+    ax.set_yticks(y, labels)
+    for tick, r in zip(ax.get_yticklabels(), routes):
+        if r.name == design.worst_route:
+            tick.set_color("tab:red")
+    ax.set_xlabel("share of the route's best score, f_r(S) / f_r(all sensors)")
+    ax.set_xlim(min(0.9, float(min(domain_share.min(), own_share.min())) - 0.02), 1.0)
+    ax.grid(axis="x", alpha=0.3)
+    ax.legend(loc="lower left", fontsize="small")
+    budget = design.greedy.budget_usd
+    # "\\$" is a literal dollar: a bare $ starts matplotlib's mathtext
+    ax.set_title(title or f"One suite for {len(routes)} routes at \\${budget:,.0f}: \\${design.greedy.cost_usd:,.0f}, "
+                          f"{len(design.greedy.suite)} sensors (weights in brackets)", fontsize="medium")
     return ax

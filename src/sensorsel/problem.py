@@ -323,3 +323,9 @@ def load_domain(path: str | Path, library: str | Path | None = None, settings: G
         check_reach(problem)  # a route no sensor can measure has no share of a best to be scored on
         routes.append(DomainRoute(d.name, problem, d.weight, d.unit))
     return Domain(tuple(routes), spec.source)
+
+
+#: what a run is computed on: one route, or an operating domain of several
+Target = Problem | Domain
+#: what a result records of its target
+TargetInfo = ProblemInfo | DomainInfo

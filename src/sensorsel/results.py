@@ -55,6 +55,7 @@ KINDS: dict[str, str] = {
     "simulation": "simulate:SimulationReport",
     "simulation-suite": "simulate:SimulationResult",
     "domain-design": "domain_design:DomainDesign",
+    "domain-score": "api:DomainScoreResult",
 }
 
 _KIND_OF_NAME = {target.partition(":")[2]: kind for kind, target in KINDS.items()}

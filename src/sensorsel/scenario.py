@@ -928,7 +928,7 @@ def load_scenario(spec: ScenarioSpec = ScenarioSpec()) -> Scenario:
     else:
         raw, source = read_landmarks_csv(choice), str(choice)
     landmarks, report = clean_landmarks(raw, route, spec.clearance_m, source)
-    notes.extend(report.notes(always=not source.startswith("generated")))
+    notes.extend(report.notes(always=False))  # the source itself is on every result's scenario line
     if not len(landmarks):
         raise InputError(f"no landmark left of the {report.n_read} of {source} (clearance {spec.clearance_m} m): every suite would score 0")
     return Scenario(name, keyframes, landmarks, source, route, report, tuple(notes))

@@ -42,11 +42,10 @@ from typing import Callable, Iterable, Sequence
 import numpy as np
 
 from .errors import InputError
-from .evaluators import Evaluator, make_evaluator
+from .evaluators import Evaluator, evaluator_for
 from .fileio import atomic_write_text
 from .library import SensorLibrary
-from .problem import ProblemInfo
-from .problem import Problem
+from .problem import ProblemInfo, Target, TargetInfo
 from .selection import RULES, GreedyResult, Rule, Step, check_budget, check_rule, greedy
 
 #: The rules of the paper's Fig. 4 (uniform, cost-benefit) and the classic marginal rule.
@@ -145,7 +144,7 @@ class TradespaceResult:
     lazy: bool
     share_prefix: bool
     n_evaluations: int
-    problem: ProblemInfo | None = None
+    problem: TargetInfo | None = None
     seconds: float = 0.0
 
     @property
@@ -403,15 +402,16 @@ def _architectures(lib: SensorLibrary, sel: tuple[str, ...], found: dict[frozens
     return rows
 
 
-def run_tradespace(problem: Problem, budgets: Iterable[float] | None = None, rules: Iterable[str] = DEFAULT_RULES,
+def run_tradespace(target: Target, budgets: Iterable[float] | None = None, rules: Iterable[str] = DEFAULT_RULES,
                    *, engine: str | None = None, jobs: int = 1, lazy: bool = True, share_prefix: bool = True,
-                   progress: Progress | None = None) -> TradespaceResult:
-    """The ``sensorsel pareto`` pipeline: :func:`tradespace` with a fresh evaluator of ``engine``."""
+                   aggregate: str = "normalised", progress: Progress | None = None) -> TradespaceResult:
+    """The ``sensorsel pareto`` pipeline: :func:`tradespace` with a fresh evaluator of ``engine`` for
+    a problem or a domain (``aggregate``: how a domain combines its routes)."""
     sel = parse_rules(rules, "rules")  # bad input fails before the evaluator is built
     grid = None if budgets is None else tuple(check_budget(b) for b in budgets)
-    ev = make_evaluator(problem, engine, jobs=jobs)
+    ev = evaluator_for(target, engine, jobs=jobs, aggregate=aggregate)
     return tradespace(ev, grid, sel, lazy=lazy, share_prefix=share_prefix, progress=progress,
-                      info=problem.info)
+                      info=target.info)
 
 
 # ------------------------------------------------------------------------------------------ output

@@ -33,7 +33,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..evaluators import Evaluator, make_evaluator
-from ..problem import Problem, ProblemInfo
+from ..problem import Problem, ProblemInfo, TargetInfo
 from ..selection import REL_TOL, GreedyResult, check_budget
 from .knapsack import MAX_DP_CELLS, knapsack
 
@@ -88,7 +88,7 @@ class Certificate:
     knapsack_exact: bool
     n_evaluations: int
     engine: str
-    problem: ProblemInfo | None = None
+    problem: TargetInfo | None = None
     seconds: float = 0.0
 
 

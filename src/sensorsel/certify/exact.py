@@ -24,7 +24,7 @@ import numpy as np
 from ..errors import InputError
 from ..library import SensorLibrary
 from ..evaluators import Evaluator
-from ..problem import ProblemInfo
+from ..problem import ProblemInfo, TargetInfo
 from ..selection import REL_TOL, RULES, GreedyResult, check_budget, check_rule, greedy
 from .certificate import certificate
 from .knapsack import MAX_DP_CELLS, CostUnits, cost_units, fractional_bound
@@ -99,7 +99,7 @@ class OptimumResult:
     greedy_percent_of_bound: float
     greedy_certificate_bound: float
     engine: str
-    problem: ProblemInfo | None = None
+    problem: TargetInfo | None = None
     seconds: float = 0.0
 
 

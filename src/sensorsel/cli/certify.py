@@ -13,12 +13,13 @@ import click
 from .. import results
 from ..certify import DEFAULT_MAX_NODES, Certificate, CertifiedGreedyResult, certify_greedy, format_certificate, optimal
 from ..errors import InputError
-from ..evaluators import make_evaluator
+from ..domain_design import DomainDesign
+from ..evaluators import DomainEvaluator, evaluator_for
 from ..fileio import output_file
-from ..problem import Problem
+from ..problem import DomainInfo, Target
 from ..selection import GreedyResult, check_budget, greedy
 from .options import (not_empty, budget_option, engine_options, json_option, output_option, problem_from, progress_bar, quiet_option,
-                      run, scenario_options)
+                      print_target, run, target_from, target_options)
 from .rules import kept_label, rule_option
 
 
@@ -27,7 +28,7 @@ def _suite_text(ids: tuple[str, ...]) -> str:
 
 
 @click.command("optimal", short_help="Exact best suite within a budget (branch and bound), with greedy beside it.")
-@scenario_options
+@target_options
 @engine_options
 @budget_option(required=True, help="Budget per car in dollars: 110000, 110,000, $110,000 or 110_000.")
 @click.option("--max-nodes", type=click.IntRange(min=1), default=DEFAULT_MAX_NODES, show_default=True,
@@ -39,7 +40,7 @@ def _suite_text(ids: tuple[str, ...]) -> str:
 @quiet_option
 @run
 def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output: str | None, as_json: bool, quiet: bool,
-                engine: str | None, jobs: int, **kw: Any) -> None:
+                aggregate: str, engine: str | None, jobs: int, **kw: Any) -> None:
     """The best suite within --budget, by branch and bound with the submodular knapsack bound.
 
     Starts from the greedy (best-of) suite and proves it optimal or improves on it. At the node
@@ -50,9 +51,9 @@ def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output
     budget = check_budget(budget)
     if output:
         output_file(output)
-    problem = problem_from(kw)
+    problem = target_from(kw)
     info = problem.info
-    ev = make_evaluator(problem, engine, jobs=jobs)
+    ev = evaluator_for(problem, engine, jobs=jobs, aggregate=aggregate)
     bar, progress = progress_bar(quiet or as_json, "branch and bound (nodes)")
     with bar or nullcontext():
         res = optimal(ev, budget, max_nodes=max_nodes, max_seconds=max_seconds, info=info, progress=progress)
@@ -61,10 +62,8 @@ def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output
     if as_json:
         click.echo(results.dumps(res), nl=False)
         return
-    p = res.problem
-    assert p is not None
-    click.echo(f"scenario   {p.scenario}: {p.n_poses} keyframes, {p.n_landmarks} landmarks ({p.landmark_source})")
-    click.echo(f"library    {p.n_sensors} sensors from {p.library}")
+    print_target(res.problem)
+    click.echo(f"library    {problem.n_sensors} sensors from {problem.library.source}")
     click.echo(f"budget     ${res.budget_usd:,.0f}")
     if res.proved_optimal:
         click.echo(f"optimum    {_suite_text(res.suite)}  (${res.cost_usd:,.0f})  f = {res.score:.3f} nats  [proved optimal]")
@@ -82,11 +81,16 @@ def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output
         click.echo(f"wrote      {output}")
 
 
-def _check_same_problem(res: GreedyResult, problem: Problem, path: str) -> None:
+def _check_same_problem(res: GreedyResult, problem: Target, path: str) -> None:
     """Refuse to certify a result computed on another scenario or library (its bound would mean nothing)."""
     if res.problem is None:
         return
     here = problem.info
+    if type(res.problem) is not type(here) or isinstance(here, DomainInfo):
+        if res.problem != here:
+            raise InputError(f"{path}: the greedy result was computed on another {'domain' if isinstance(here, DomainInfo) else 'scenario'}"
+                             " than this one; give the same --domain or scenario and library options as the greedy run")
+        return
     for key in ("scenario", "n_poses", "n_landmarks", "n_sensors"):
         theirs, ours = getattr(res.problem, key), getattr(here, key)
         if theirs != ours:
@@ -95,7 +99,7 @@ def _check_same_problem(res: GreedyResult, problem: Problem, path: str) -> None:
 
 
 @click.command("certify", short_help="How close a greedy suite is to the best possible one (an upper bound).")
-@scenario_options
+@target_options
 @engine_options
 @click.option("--result", "result_path", type=click.Path(dir_okay=False, path_type=str), default=None, callback=not_empty,
               help="A greedy result JSON (`sensorsel greedy -o FILE`) to certify; it must be of the same scenario and library.")
@@ -106,7 +110,7 @@ def _check_same_problem(res: GreedyResult, problem: Problem, path: str) -> None:
 @quiet_option
 @run
 def certify_cmd(result_path: str | None, budget: float | None, rule: str, output: str | None, as_json: bool, quiet: bool,
-                engine: str | None, jobs: int, **kw: Any) -> None:
+                aggregate: str, engine: str | None, jobs: int, **kw: Any) -> None:
     """How close is a greedy suite to the best possible suite of its budget?
 
     Evaluates the submodular upper bound f(S) + knapsack of the marginal gains (capacity: the
@@ -120,14 +124,16 @@ def certify_cmd(result_path: str | None, budget: float | None, rule: str, output
         raise InputError("give --result FILE (a greedy result to certify) or --budget DOLLARS (run greedy now)")
     if output:
         output_file(output)
-    problem = problem_from(kw)
+    problem = target_from(kw)
     if result_path is not None:
-        res = results.load(result_path, CertifiedGreedyResult)
+        loaded = results.load(result_path, (CertifiedGreedyResult, DomainDesign))
+        res = loaded.greedy if isinstance(loaded, DomainDesign) else loaded
         _check_same_problem(res, problem, result_path)
-        ev = make_evaluator(problem, engine or res.engine, jobs=jobs)
+        run_engine = None if res.engine == DomainEvaluator.name else res.engine
+        ev = evaluator_for(problem, engine or run_engine, jobs=jobs, aggregate=aggregate)
     else:
         assert budget is not None
-        ev = make_evaluator(problem, engine, jobs=jobs)
+        ev = evaluator_for(problem, engine, jobs=jobs, aggregate=aggregate)
         res = greedy(ev, check_budget(budget), rule, info=problem.info)
     bar, progress = progress_bar(quiet or as_json, "certificate (greedy steps)")
     with bar or nullcontext():
@@ -137,9 +143,7 @@ def certify_cmd(result_path: str | None, budget: float | None, rule: str, output
     if as_json:
         click.echo(results.dumps(cert), nl=False)
         return
-    p = res.problem
-    if p is not None:
-        click.echo(f"scenario   {p.scenario}: {p.n_poses} keyframes, {p.n_landmarks} landmarks ({p.landmark_source})")
+    print_target(res.problem)
     click.echo(f"greedy     {kept_label(res.rule, res.winning_rule)}: {_suite_text(res.suite)}  (${res.cost_usd:,.0f} of ${res.budget_usd:,.0f})")
     click.echo(f"score      {cert.score:.3f} nats")
     click.echo(f"bound      {cert.bound:.3f} nats: no suite within ${cert.budget_usd:,.0f} scores more "

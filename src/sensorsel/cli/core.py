@@ -12,9 +12,11 @@ import click
 from .. import results
 from ..errors import InputError
 from ..library import SensorLibrary, load_library
-from ..api import score_suite
+from ..api import score_domain_suite, score_suite
+from ..problem import Domain
 from ..scenario import LandmarkModel, route_landmarks, write_landmarks_csv
-from .options import engine_options, json_option, output_option, plot_format_option, problem_from, run, scenario_options, spec_from, table
+from .options import (engine_options, json_option, output_option, plot_format_option, print_target, problem_from, run,
+                      scenario_options, spec_from, table, target_from, target_options)
 from .options import plot_format as plot_format_of
 
 
@@ -51,14 +53,30 @@ def library_cmd(library_path: str | None, as_json: bool) -> None:
 
 
 @click.command("score", short_help="Score a suite: cost and f(S) = log det gain over no sensor [nats].")
-@scenario_options
+@target_options
 @engine_options
 @click.option("--suite", required=True, help="Comma-separated sensor ids or indices, e.g. LRL-roof,LRR-12 (see `sensorsel library`).")
 @json_option
 @run
-def score_cmd(suite: str, as_json: bool, engine: str | None, jobs: int, **kw: Any) -> None:
-    """Score a sensor suite: cost and f(S) = log det L(S) - log det L(empty) in nats."""
-    problem = problem_from(kw)
+def score_cmd(suite: str, as_json: bool, aggregate: str, engine: str | None, jobs: int, **kw: Any) -> None:
+    """Score a sensor suite: cost and f(S) = log det L(S) - log det L(empty) in nats.
+
+    With --domain FILE: the suite's score on every route, each as a share of the route's best, and
+    the domain score (their weighted sum, --aggregate)."""
+    problem = target_from(kw)
+    if isinstance(problem, Domain):
+        dres = score_domain_suite(problem, suite, engine=engine, aggregate=aggregate)
+        if as_json:
+            click.echo(results.dumps(dres), nl=False)
+            return
+        print_target(dres.domain)
+        click.echo(f"suite      {','.join(dres.suite)}")
+        click.echo(f"cost       ${dres.cost_usd:,.0f}")
+        rows = [[r.name, f"{r.weight:.3f}", f"{r.score:.3f}", f"{r.best_score:.3f}", f"{r.share_of_best:.4f}"] for r in dres.routes]
+        click.echo(table(rows, ["route", "weight", "score_nats", "best_nats", "of_best"]))
+        unit = "(weighted share of the best)" if dres.aggregate == "normalised" else "nats (weighted)"
+        click.echo(f"score      {dres.score:.4f} {unit}")
+        return
     res = score_suite(problem, suite, engine=engine)
     if as_json:
         click.echo(results.dumps(res), nl=False)

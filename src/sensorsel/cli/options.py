@@ -19,7 +19,8 @@ from typing import Any, Callable, TypeVar
 import click
 
 from ..errors import InputError, SensorselError
-from ..problem import load_problem
+from ..evaluators import AGGREGATES
+from ..problem import DomainInfo, ProblemInfo, Target, TargetInfo, load_domain, load_problem
 from ..problem import Problem
 from ..progress import Progress
 from ..scenario import KITTI_ROOT_ENV, ROUTE_FORMATS, ScenarioSpec
@@ -190,9 +191,48 @@ def spec_from(kw: dict[str, Any]) -> ScenarioSpec:
 
 def problem_from(kw: dict[str, Any]) -> Problem:
     """Load the library and scenario named by the options (pops them from ``kw``); the problem
-    records them as its provenance."""
+    records them as its provenance. What was assumed, merged or dropped is said on stderr."""
     spec = spec_from(kw)
-    return load_problem(spec, kw.pop("library_path"))
+    problem = load_problem(spec, kw.pop("library_path"))
+    for note in problem.notes:
+        click.echo(f"sensorsel: note: {note}", err=True)
+    return problem
+
+
+def target_options(fn: Callable[..., Any]) -> Callable[..., Any]:
+    """The scenario options, plus --domain FILE (an operating domain of routes instead of one route)
+    and --aggregate (how a domain combines its routes' scores)."""
+    fn = click.option("--aggregate", type=click.Choice(list(AGGREGATES)), default=AGGREGATES[0], show_default=True,
+                      help="With --domain: normalised = the weighted sum of each route's share of its best, "
+                           "f_r(S)/f_r(all sensors); raw = the weighted sum of f_r(S) in nats.")(fn)
+    fn = click.option("--domain", "domain_path", type=click.Path(dir_okay=False, path_type=str), metavar="FILE",
+                      help="An operating-domain YAML file (routes, landmarks, weights; see configs/domain_fixtures.yaml): "
+                           "choose one suite for all its routes. Replaces the route options.")(fn)
+    return scenario_options(fn)
+
+
+#: scenario options that choose a route or its landmarks: refused together with --domain
+_ROUTE_OPTIONS = ("seq", "route", "poses", "times", "landmarks", "scenario_name", "clearance_m")
+
+
+def target_from(kw: dict[str, Any]) -> Target:
+    """The problem, or with --domain the domain, named by the options (pops them from ``kw``).
+
+    Raises:
+        click.UsageError: --domain together with an option that picks a route or its landmarks.
+    """
+    path = kw.pop("domain_path", None)
+    if path is None:
+        return problem_from(kw)
+    given = [f"--{k.replace('_m', '').replace('scenario_name', 'name').replace('_', '-')}" for k in _ROUTE_OPTIONS if kw.get(k)]
+    if given:
+        raise click.UsageError(f"--domain {path} lists its own routes and landmarks: drop {', '.join(given)}")
+    spec_from(kw)  # consumes the (unused) scenario options
+    domain = load_domain(path, kw.pop("library_path"))
+    for r in domain.routes:
+        for note in r.problem.notes:
+            click.echo(f"sensorsel: note: route {r.name}: {note}", err=True)
+    return domain
 
 
 def engine_options(fn: Callable[..., Any]) -> Callable[..., Any]:
@@ -286,3 +326,13 @@ def _numeric(s: str) -> bool:
     except ValueError:
         return False
 
+
+def print_target(info: TargetInfo | None) -> None:
+    """The 'scenario' line (one route) or the 'domain' lines (each route) of a result."""
+    if isinstance(info, ProblemInfo):
+        click.echo(f"scenario   {info.scenario}: {info.n_poses} keyframes, {info.n_landmarks} landmarks ({info.landmark_source})")
+    elif isinstance(info, DomainInfo):
+        click.echo(f"domain     {info.source}: {len(info.routes)} routes")
+        for r in info.routes:
+            p = r.problem
+            click.echo(f"  {r.name:<12} weight {r.weight:g} {r.unit}; {p.n_poses} keyframes, {p.n_landmarks} landmarks ({p.landmark_source})")

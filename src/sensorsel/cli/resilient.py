@@ -10,14 +10,15 @@ import click
 
 from .. import results
 from ..fileio import output_dir
+from ..problem import Domain
 from .options import (budget_option, engine_options, json_option, output_option, plot_format_option, problem_from, progress_bar,
-                      quiet_option, run, scenario_options, table)
+                      print_target, quiet_option, run, table, target_from, target_options)
 from .options import plot_format as plot_format_of
 from .rules import rule_option
 
 
 @click.command("resilient", short_help="Resilient selection against failing sensors, whole route and per period (grid).")
-@scenario_options
+@target_options
 @engine_options
 @budget_option(default=110_000.0, help="Budget in dollars (110000, 110,000, $110,000 or 110_000), the sensors assumed to fail included.")
 @click.option("--failures", "alpha", type=int, default=1, show_default=True,
@@ -33,7 +34,7 @@ from .rules import rule_option
 @quiet_option
 @run
 def resilient_cmd(budget: float, alpha: int, period_s: float, rule: str, outdir: str, plot_format: str | None, resume: bool,
-                  as_json: bool, quiet: bool, engine: str | None, jobs: int, **kw: Any) -> None:
+                  as_json: bool, quiet: bool, aggregate: str, engine: str | None, jobs: int, **kw: Any) -> None:
     """Resilient sensor selection (the paper's Algorithm 2, for ALPHA failures).
 
     The ALPHA sensors with the largest individual scores are bought and assumed to fail; the rest of
@@ -41,6 +42,9 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, rule: str, outdir:
     selection on the whole route (nominal score, worst-case score after the worst ALPHA failures,
     and that failure set), then runs the selection on each period of the route and draws the grid of
     failed (red) and active (green) sensors per period (the paper's Fig. 5).
+
+    With --domain FILE the comparison is on the domain's score (one suite for all its routes); there
+    are no periods then (a period is a stretch of one route).
     """
     from ..plotting import plot_selection_grid, save_figure, use_file_backend
     from ..resilient import check_alpha, check_period, resilient_report, save_grid_csv, split_periods
@@ -51,30 +55,33 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, rule: str, outdir:
     alpha = check_alpha(alpha)
     period_s = check_period(period_s)
     out = output_dir(outdir)
-    problem = problem_from(kw)
-    sc = problem.scenario
-    n_periods = len(split_periods(sc.keyframes.times, period_s))
-    bar, progress = progress_bar(quiet, f"{n_periods} periods of {period_s:g} s")
-    if bar is not None:
-        click.echo(f"whole route: greedy and resilient selection on {sc.n_poses} keyframes, {sc.n_landmarks} landmarks ...", err=True)
-    with bar or nullcontext():
-        report = resilient_report(problem, budget, alpha, period_s=period_s, rule=rule, engine=engine, jobs=jobs,
-                                  outdir=out, resume=resume, progress=progress)
-
-    per = report.per_period
-    assert per is not None
-    json_path = results.save(report, out / "resilient.json")
-    csv_path = save_grid_csv(per.grid, out / "grid.csv")
-    use_file_backend()
-    title = f"{sc.name}: resilient selection per {period_s:g} s period, {alpha} failure(s), budget ${budget:,.0f}"
-    ax = plot_selection_grid(per.grid, title=title)
-    img_path = save_figure(ax.figure, out / f"grid.{fmt}", close=True)
+    problem = target_from(kw)
+    if isinstance(problem, Domain):
+        report = resilient_report(problem, budget, alpha, period_s=None, rule=rule, engine=engine, jobs=jobs,
+                                  aggregate=aggregate)
+        written = [results.save(report, out / "resilient.json")]
+    else:
+        sc = problem.scenario
+        n_periods = len(split_periods(sc.keyframes.times, period_s))
+        bar, progress = progress_bar(quiet, f"{n_periods} periods of {period_s:g} s")
+        if bar is not None:
+            click.echo(f"whole route: greedy and resilient selection on {sc.n_poses} keyframes, {sc.n_landmarks} landmarks ...", err=True)
+        with bar or nullcontext():
+            report = resilient_report(problem, budget, alpha, period_s=period_s, rule=rule, engine=engine, jobs=jobs,
+                                      outdir=out, resume=resume, progress=progress)
+        per = report.per_period
+        assert per is not None
+        written = [results.save(report, out / "resilient.json"), save_grid_csv(per.grid, out / "grid.csv")]
+        use_file_backend()
+        title = f"{sc.name}: resilient selection per {period_s:g} s period, {alpha} failure(s), budget ${budget:,.0f}"
+        ax = plot_selection_grid(per.grid, title=title)
+        written.append(save_figure(ax.figure, out / f"grid.{fmt}", close=True))
 
     if as_json:
         click.echo(results.dumps(report), nl=False)
         return
     c = report.comparison
-    click.echo(f"scenario  {sc.name}: {sc.n_poses} keyframes, {sc.n_landmarks} landmarks ({sc.landmark_source})")
+    print_target(c.problem)
     click.echo(f"budget    ${budget:,.0f}, {alpha} failure(s), rule {rule}, engine {c.engine}")
     r = c.resilient
     if r.failed:
@@ -93,6 +100,11 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, rule: str, outdir:
         gain = 100.0 * (c.resilient_worst.score - c.greedy_worst.score) / c.greedy_worst.score
         click.echo(f"\nworst case: resilient {gain:+.1f} % versus greedy (scores in nats: f(S) = log det L(S) - log det L(empty))")
 
+    per = report.per_period
+    if per is None:
+        for p in written:
+            click.echo(f"wrote {p}")
+        return
     n = len(per.periods)
     failed = Counter(s for p in per.periods for s in p.result.failed)
     active = Counter(s for p in per.periods for s in p.result.active)
@@ -101,7 +113,7 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, rule: str, outdir:
         click.echo("  assumed to fail: " + ", ".join(f"{s} in {k}/{n}" for s, k in failed.most_common()))
     if active:
         click.echo("  most used active: " + ", ".join(f"{s} in {k}/{n}" for s, k in active.most_common(8)))
-    for p in (json_path, csv_path, img_path):
+    for p in written:
         click.echo(f"wrote {p}")
     click.echo(f"wrote {n} period files under {out / 'periods'}")
 

@@ -10,14 +10,17 @@ from typing import Any
 import click
 
 from .. import results
-from ..api import run_greedy
+from ..api import design_domain, run_greedy
+from ..domain_design import DomainDesign
+from ..problem import Domain, DomainInfo
 from ..certify import CertifiedGreedyResult, format_certificate
 from ..fileio import output_dir, output_file
 from ..library import SensorLibrary
 from ..selection import RULES
 from ..tradespace import DEFAULT_RULES, Architecture, parse_budgets, parse_rules, run_tradespace, write_csv
 from .options import (budget_option, engine_options, json_option, output_option, plot_format_option, problem_from, progress_bar,
-                      quiet_option, run, scenario_options, table)
+                      print_target, quiet_option, run, table, target_from, target_options)
+from .options import plot_format
 from .options import plot_format as plot_format_of
 from .rules import kept_label, rule_option, rules_option
 
@@ -28,9 +31,8 @@ def _position(lib: SensorLibrary, sensor_id: str) -> tuple[str, str]:
 
 
 def _print_greedy(res: CertifiedGreedyResult, lib: SensorLibrary) -> None:
-    p = res.problem
-    if p is not None:
-        click.echo(f"scenario   {p.scenario}: {p.n_poses} keyframes, {p.n_landmarks} landmarks ({p.landmark_source})")
+    print_target(res.problem)
+    unit = "" if isinstance(res.problem, DomainInfo) else "_nats"
     rule = kept_label(res.rule, res.winning_rule)
     click.echo(f"budget     ${res.budget_usd:,.0f}   rule {rule}   engine {res.engine}{' (lazy)' if res.lazy else ''}")
     click.echo("")
@@ -38,21 +40,30 @@ def _print_greedy(res: CertifiedGreedyResult, lib: SensorLibrary) -> None:
     for k, st in enumerate(res.steps, 1):
         model, where = _position(lib, st.pick)
         rows.append([str(k), st.pick, model, where, f"{st.sensor_cost_usd:,.0f}", f"{st.gain:.3f}", f"{st.score:.3f}"])
-    click.echo(table(rows, ["pick", "id", "model", "position", "cost_usd", "gain_nats", "score_nats"]))
+    click.echo(table(rows, ["pick", "id", "model", "position", "cost_usd", f"gain{unit}", f"score{unit}"]))
     if not rows:
         click.echo("(empty suite)")
     click.echo("")
     click.echo(f"suite      {','.join(res.suite) or '(empty)'}  ({len(res.suite)} sensors)")
     click.echo(f"cost       ${res.cost_usd:,.0f} of ${res.budget_usd:,.0f}")
-    click.echo(f"score      {res.score:.3f} nats")
+    click.echo(f"score      {res.score:.3f}{unit.replace('_', ' ')}")
     click.echo(f"evaluated  {res.n_evaluations} suites in {res.seconds:.2f} s")
     click.echo(f"stopped    {res.stop_reason}")
     if res.certificate is not None:
         click.echo(format_certificate(res.certificate))
 
 
+def _print_breakdown(design: DomainDesign) -> None:
+    click.echo(f"\nper route (the domain suite against each route's own {design.greedy.rule} design at the same budget):")
+    rows = [[r.name, f"{r.weight:.3f}", f"{r.score:.3f}", f"{r.share_of_best:.4f}", f"{r.own_score:.3f}",
+             f"{r.share_of_own:.4f}", f"{r.own_cost_usd:,.0f}", _compact(r.own_suite)] for r in design.routes]
+    click.echo(table(rows, ["route", "weight", "score_nats", "of_best", "own_nats", "of_own", "own_cost_usd", "own_suite"]))
+    worst = next(r for r in design.routes if r.name == design.worst_route)
+    click.echo(f"worst route {worst.name}: the domain suite reaches {worst.share_of_own:.1%} of what its own design reaches there")
+
+
 @click.command("greedy", short_help="Greedy suite under a budget, with its certificate of near-optimality.")
-@scenario_options
+@target_options
 @engine_options
 @budget_option(required=True)
 @rule_option("uniform")
@@ -62,33 +73,58 @@ def _print_greedy(res: CertifiedGreedyResult, lib: SensorLibrary) -> None:
 @click.option("--certificate/--no-certificate", "certify", default=True, show_default=True,
               help="Also bound the best possible score within the budget (at most one extra sweep of the library per pick) "
                    "and print how close the suite is to it.")
+@click.option("--plot", "plot_path", type=click.Path(dir_okay=False, path_type=str), default=None,
+              help="With --domain: draw the per-route breakdown here (png, svg or pdf by its extension).")
 @quiet_option
 @run
 def greedy_cmd(budget: float, rule: str, lazy: bool, output: str | None, as_json: bool, certify: bool, quiet: bool,
-               engine: str | None, jobs: int, **kw: Any) -> None:
+               plot_path: str | None, aggregate: str, engine: str | None, jobs: int, **kw: Any) -> None:
     """Greedy sensor selection under a budget (the paper's Algorithm 1 and its cost-aware variants).
 
     Prints the suite in pick order with each pick's marginal gain, the cost, the score
     f(S) = log det L(S) - log det L(empty) [nats], why selection stopped, and a certificate: an
     upper bound on the score of any suite within the budget, so "at least X% of the best possible".
     A budget below the cheapest sensor prints the empty suite, says so on stderr and exits with status 2.
+
+    With --domain FILE, one suite for every route of an operating domain: the domain score is the
+    weighted sum of each route's share of its best (--aggregate), and a per-route breakdown compares
+    the suite with each route's own design at the same budget (--plot draws it).
     """
     if output:
         output_file(output)
-    problem = problem_from(kw)
+    if plot_path:
+        output_file(plot_path)
+        plot_format(None, plot_path)
+    problem = target_from(kw)
+    if plot_path and not isinstance(problem, Domain):
+        raise click.UsageError("--plot draws a domain's per-route breakdown: it goes with --domain FILE")
     bar, progress = progress_bar(quiet, f"greedy {rule}", phases=len(RULES[rule].component_rules))
     cert_bar, cert_progress = progress_bar(quiet or not certify, "certificate", after=bar)
+    out: CertifiedGreedyResult | DomainDesign
     with bar or nullcontext(), cert_bar or nullcontext():
-        res = run_greedy(problem, budget, rule, engine=engine, jobs=jobs, lazy=lazy, progress=progress,
-                         certify=certify, certify_progress=cert_progress)
+        if isinstance(problem, Domain):
+            out = design_domain(problem, budget, rule, engine=engine, jobs=jobs, aggregate=aggregate, lazy=lazy,
+                                certify=certify, progress=progress, certify_progress=cert_progress)
+            res = out.greedy
+        else:
+            out = res = run_greedy(problem, budget, rule, engine=engine, jobs=jobs, lazy=lazy, progress=progress,
+                                   certify=certify, certify_progress=cert_progress)
     if output:
-        results.save(res, output)
+        results.save(out, output)
+    if isinstance(out, DomainDesign) and plot_path:
+        from ..plotting import plot_domain_breakdown, save_figure, use_file_backend
+
+        use_file_backend()
+        save_figure(plot_domain_breakdown(out).figure, plot_path, close=True)
     if as_json:
-        click.echo(results.dumps(res), nl=False)
+        click.echo(results.dumps(out), nl=False)
     else:
         _print_greedy(res, problem.library)
-        if output:
-            click.echo(f"wrote      {output}")
+        if isinstance(out, DomainDesign):
+            _print_breakdown(out)
+        for path in (output, plot_path):
+            if path:
+                click.echo(f"wrote      {path}")
     cheapest = float(problem.library.costs.min())
     if not res.suite and budget < cheapest:
         click.echo(f"sensorsel: the suite is empty: {res.stop_reason}", err=True)
@@ -109,7 +145,7 @@ def _arch_row(a: Architecture) -> list[str]:
 
 
 @click.command("pareto", short_help="Cost-performance tradespace and its Pareto front (plot, CSV, JSON).")
-@scenario_options
+@target_options
 @engine_options
 @click.option("--budgets", default=None, metavar="B1,B2,...",
               help="Comma-separated budgets in dollars, e.g. 5000,27_000,$110000 (default: 14 log-spaced from the "
@@ -124,7 +160,7 @@ def _arch_row(a: Architecture) -> list[str]:
 @quiet_option
 @run
 def pareto_cmd(budgets: str | None, budget: tuple[float, ...], rules: str, lazy: bool, outdir: str, plot_format: str | None,
-               as_json: bool, quiet: bool, engine: str | None, jobs: int, **kw: Any) -> None:
+               as_json: bool, quiet: bool, aggregate: str, engine: str | None, jobs: int, **kw: Any) -> None:
     """The cost-performance tradespace (the paper's Fig. 4): greedy runs over a grid of budgets,
     every intermediate architecture, and the Pareto front (lower cost, higher score).
 
@@ -138,10 +174,10 @@ def pareto_cmd(budgets: str | None, budget: tuple[float, ...], rules: str, lazy:
     fmt = plot_format_of(plot_format)
     names = parse_rules(rules)
     output_dir(outdir)
-    problem = problem_from(kw)
+    problem = target_from(kw)
     bar, progress = progress_bar(quiet, "tradespace runs")
     with bar or nullcontext():
-        res = run_tradespace(problem, grid, names, engine=engine, jobs=jobs, lazy=lazy, progress=progress)
+        res = run_tradespace(problem, grid, names, engine=engine, jobs=jobs, lazy=lazy, aggregate=aggregate, progress=progress)
 
     out = Path(outdir)
     written = [results.save(res, out / "tradespace.json"), write_csv(res, out / "architectures.csv")]
@@ -157,9 +193,7 @@ def pareto_cmd(budgets: str | None, budget: tuple[float, ...], rules: str, lazy:
         if not res.architectures:
             sys.exit(2)
         return
-    p = res.problem
-    if p is not None:
-        click.echo(f"scenario   {p.scenario}: {p.n_poses} keyframes, {p.n_landmarks} landmarks ({p.landmark_source})")
+    print_target(res.problem)
     click.echo(f"runs       {len(res.runs)} ({', '.join(res.rules)} x {len(res.budgets_usd)} budgets "
                f"${res.budgets_usd[0]:,.0f}..${res.budgets_usd[-1]:,.0f}); engine {res.engine}{' (lazy)' if res.lazy else ''}; "
                f"{res.n_evaluations} suites evaluated in {res.seconds:.1f} s")

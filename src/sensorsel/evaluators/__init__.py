@@ -11,11 +11,21 @@ only :class:`Evaluator`: ``library``, ``score(suite)``, ``scores_with(suite, can
 
 from __future__ import annotations
 
+from ..problem import Domain, Target
 from .base import Evaluator, ProblemEvaluator, Suite, as_suite
-from .domain import AGGREGATES, DomainEvaluator
+from .domain import AGGREGATES, DomainEvaluator, check_aggregate
 from .fast import FastEvaluator
 from .reference import ReferenceEvaluator
 from .registry import DEFAULT_ENGINE, ENGINES, check_engine, make_evaluator, register
 
 __all__ = ["Evaluator", "ProblemEvaluator", "Suite", "as_suite", "ENGINES", "DEFAULT_ENGINE", "register",
-           "make_evaluator", "check_engine", "ReferenceEvaluator", "FastEvaluator", "DomainEvaluator", "AGGREGATES"]
+           "make_evaluator", "check_engine", "ReferenceEvaluator", "FastEvaluator", "DomainEvaluator", "AGGREGATES", "check_aggregate", "evaluator_for"]
+
+
+def evaluator_for(target: Target, engine: str | None = None, *, jobs: int = 1, aggregate: str = "normalised") -> Evaluator:
+    """The evaluator of a problem (an engine of :data:`ENGINES`) or of a domain (a
+    :class:`DomainEvaluator` over that engine's per-route evaluators, combined by ``aggregate``)."""
+    if isinstance(target, Domain):
+        return DomainEvaluator(target, engine, jobs=jobs, aggregate=aggregate)
+    check_aggregate(aggregate)  # one route: any aggregate picks the same suites, but a typo is still one
+    return make_evaluator(target, engine, jobs=jobs)

@@ -40,7 +40,8 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from ..problem import Problem
+from ..errors import InputError
+from ..problem import Problem, Target
 from ..selection import check_budget
 from .algorithm import MAX_FAILURE_SETS, check_alpha, check_rule, compare, failing_set, resilient_select, worst_case
 from .cache import CacheWarning
@@ -60,23 +61,28 @@ __all__ = [
 ]
 
 
-def resilient_report(problem: Problem, budget_usd: float, alpha: int, *, period_s: float | None = DEFAULT_PERIOD_S,
+def resilient_report(problem: Target, budget_usd: float, alpha: int, *, period_s: float | None = DEFAULT_PERIOD_S,
                      rule: str = "uniform", engine: str | None = None, jobs: int = 1, lazy: bool = True,
-                     outdir: str | Path | None = None, resume: bool = False,
+                     aggregate: str = "normalised", outdir: str | Path | None = None, resume: bool = False,
                      progress: Progress | None = None) -> ResilientReport:
     """The whole-route comparison and (unless ``period_s`` is None) the per-period selection.
 
     With ``outdir``, the comparison is cached in ``outdir/periods/route.json`` and each period in
     ``outdir/periods/period-NNNN.json``; ``resume`` reuses those whose inputs match (and warns about the others).
+    On a :class:`~sensorsel.problem.Domain` the comparison is on the domain's score and there are no
+    periods (a period is a stretch of one route): ``period_s`` must then be None.
     """
     t0 = time.perf_counter()
     budget, alpha, rule = check_budget(budget_usd), check_alpha(alpha), check_rule(rule)
     if period_s is not None:
         check_period(period_s)
+    if period_s is not None and not isinstance(problem, Problem):
+        raise InputError("a per-period selection runs on one route, not on a domain: give no period (period_s=None)")
     cache = Path(outdir) / "periods" / "route.json" if outdir is not None else None
-    cmp_ = compare(problem, budget, alpha, rule, engine=engine, jobs=jobs, lazy=lazy, cache=cache, resume=resume)
+    cmp_ = compare(problem, budget, alpha, rule, engine=engine, jobs=jobs, lazy=lazy, aggregate=aggregate, cache=cache,
+                   resume=resume)
     per = None
-    if period_s is not None:
+    if period_s is not None and isinstance(problem, Problem):
         per = run_periods(problem, budget, alpha, period_s=period_s, rule=rule, engine=engine, jobs=jobs,
                           lazy=lazy, outdir=outdir, resume=resume, progress=progress)
     return ResilientReport(suite=cmp_.resilient.suite, failed=cmp_.resilient.failed, alpha=alpha, budget_usd=budget,

@@ -13,8 +13,8 @@ import numpy as np
 
 from .. import results
 from ..errors import InputError
-from ..evaluators import DEFAULT_ENGINE, ENGINES, Evaluator, as_suite, make_evaluator
-from ..problem import Problem, ProblemInfo
+from ..evaluators import DEFAULT_ENGINE, ENGINES, Evaluator, as_suite, evaluator_for, make_evaluator
+from ..problem import Problem, ProblemInfo, Target, TargetInfo
 from ..selection import REL_TOL, check_budget, check_rule, greedy
 from .cache import fingerprint, load_matching
 from .records import Comparison, ResilientResult, WorstCase
@@ -143,32 +143,36 @@ def worst_case(evaluator: Evaluator, suite: Sequence[int] | str, alpha: int, *, 
     )
 
 
-def compare(problem: Problem, budget_usd: float, alpha: int, rule: str = "uniform", *, engine: str | None = None,
-            jobs: int = 1, lazy: bool = True, cache: str | Path | None = None,
+def compare(target: Target, budget_usd: float, alpha: int, rule: str = "uniform", *, engine: str | None = None,
+            jobs: int = 1, lazy: bool = True, aggregate: str = "normalised", cache: str | Path | None = None,
             resume: bool = False) -> Comparison:
-    """Greedy and resilient selection at the same budget, with the worst case of each suite.
+    """Greedy and resilient selection at the same budget, with the worst case of each suite, on one
+    route or on a domain (the domain's score, combined by ``aggregate``).
 
     Args:
-        cache: a file to save the result in (atomically); with ``resume``, reused when its inputs match.
+        cache: a file to save the result in (atomically); with ``resume``, reused when its inputs match
+            (one route only: a domain's comparison is not cached).
     """
     t0 = time.perf_counter()
     budget, alpha, rule = check_budget(budget_usd), check_alpha(alpha), check_rule(rule)
     name = engine_name(engine)
-    fp = fingerprint(problem, budget, alpha, rule, name, lazy, {"what": "whole route"})
-    if cache is not None and resume:
-        old = load_matching(Comparison, Path(cache), fp)
-        if old is not None:
-            return old
-    ev = make_evaluator(problem, name, jobs=jobs)
-    info = problem.info
+    fp = ""
+    if isinstance(target, Problem):
+        fp = fingerprint(target, budget, alpha, rule, name, lazy, {"what": "whole route"})
+        if cache is not None and resume:
+            old = load_matching(Comparison, Path(cache), fp)
+            if old is not None:
+                return old
+    ev = evaluator_for(target, name, jobs=jobs, aggregate=aggregate)
+    info = target.info
     g = greedy(ev, budget, rule, lazy=lazy, info=info)
     r = resilient_select(ev, budget, alpha, rule, lazy=lazy, info=info)
-    lib = problem.library
+    lib = target.library
     gw = worst_case(ev, [lib.position(s) for s in g.suite], alpha)
     rw = worst_case(ev, [lib.position(s) for s in r.suite], alpha)
     out = Comparison(alpha=alpha, budget_usd=budget, rule=rule, greedy=g, resilient=r, greedy_worst=gw,
                      resilient_worst=rw, engine=ev.name, fingerprint=fp, problem=info,
                      seconds=round(time.perf_counter() - t0, 6))
-    if cache is not None:
+    if cache is not None and isinstance(target, Problem):
         results.save(out, cache)
     return out

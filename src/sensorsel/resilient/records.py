@@ -8,7 +8,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ..errors import InputError
-from ..problem import ProblemInfo
+from ..problem import ProblemInfo, TargetInfo
 from ..selection import GreedyResult
 
 #: Cell states of the selection grid.
@@ -80,7 +80,7 @@ class ResilientResult:
     greedy: GreedyResult
     n_evaluations: int
     engine: str
-    problem: ProblemInfo | None = None
+    problem: TargetInfo | None = None
     seconds: float = 0.0
 
 
@@ -111,7 +111,7 @@ class Comparison:
     resilient_worst: WorstCase
     engine: str
     fingerprint: str
-    problem: ProblemInfo | None = None
+    problem: TargetInfo | None = None
     seconds: float = 0.0
 
 

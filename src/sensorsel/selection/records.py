@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable
 
-from ..problem import ProblemInfo
+from ..problem import ProblemInfo, TargetInfo
 
 #: progress(done, total): called after each pick; total is an upper bound on the number of picks.
 Progress = Callable[[int, int], None]
@@ -69,7 +69,7 @@ class GreedyResult:
     engine: str
     lazy: bool
     winning_rule: str
-    problem: ProblemInfo | None = None
+    problem: TargetInfo | None = None
     seconds: float = 0.0
 
     @property
