@@ -57,7 +57,7 @@ import numpy as np
 from ..certify import MAX_DP_CELLS, cost_units, knapsack
 from ..objective import Evaluator, as_suite
 from ..resilient import worst_case
-from ..selection import REL_TOL
+from ..selection import REL_TOL, greedy
 from .records import BoundLeaf, RobustBound
 
 #: Default number of case-split nodes of the bound.
@@ -128,7 +128,7 @@ def _adversary(ev: Evaluator, suite: tuple[int, ...], alpha: int) -> float:
 
 def robust_bound(evaluator: Evaluator, budget_usd: float, alpha: int, *, anchors: Sequence[Sequence[int]] = (),
                  incumbent: float = 0.0, max_nodes: int = DEFAULT_BOUND_NODES, max_anchors: int = MAX_ANCHORS,
-                 max_exact_sets: int = MAX_EXACT_SETS) -> RobustBound:
+                 max_exact_sets: int = MAX_EXACT_SETS, leaf_greedy: bool = True) -> RobustBound:
     """Upper bound on max { g_alpha(S) : Cost(S) <= budget } (see the module docstring for the proof).
 
     Args:
@@ -137,6 +137,7 @@ def robust_bound(evaluator: Evaluator, budget_usd: float, alpha: int, *, anchors
             best candidates); the empty suite is always tried first.
         incumbent: a worst case already achieved [nats]: leaves at or below it are not refined.
         max_nodes: nodes of the case split (1: no split).
+        leaf_greedy: anchor each leaf without failures left at a uniform greedy run on its library and budget.
     """
     t0 = time.perf_counter()
     ev = evaluator
@@ -165,12 +166,22 @@ def robust_bound(evaluator: Evaluator, budget_usd: float, alpha: int, *, anchors
             return
         best, how = math.inf, ""
         tried = 0
-        for x in [()] + anchor_list:
-            xs = tuple(i for i in x if i not in gone)
+        seen: set[tuple[int, ...]] = set()
+        # anchors inside the node's library; those the node can afford first (a suite of the node)
+        node_anchors = [tuple(i for i in x if i not in gone) for x in anchor_list]
+        if node.alpha == 0 and leaf_greedy:
+            # a nominal leaf: the greedy suite of its library and budget (for the failed-sensor branch of
+            # the paper's failing sensor this is Algorithm 2's own greedy run: already scored)
+            run = greedy(ev, node.budget, "uniform", exclude=frozenset(node.removed))
+            node_anchors.insert(0, as_suite(lib.position(i) for i in run.suite))
+        node_anchors.sort(key=lambda x: lib.cost(x) > node.budget + 1e-9)  # stable: keeps the given order
+        for x in [()] + node_anchors:
+            xs = x
             if tried >= max_anchors:
                 break
-            if tried and xs == ():
+            if tried and (xs == () or xs in seen):
                 continue
+            seen.add(xs)
             tried += 1
             items = [i for i in aff if i not in xs]
             f_x = ev.score(xs) if xs else 0.0

@@ -52,8 +52,13 @@ class Family(ABC):
         """(weights (T,), values (T,)) of the members at S."""
 
     @abstractmethod
-    def terms_with(self, suite: Sequence[int], candidates: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
-        """(weights (T,), values (T, len(candidates))) of the members at S + e for each candidate e."""
+    def terms_with(self, suite: Sequence[int], candidates: Sequence[int], *,
+                   cap: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """(weights (T,), values (T, len(candidates))) of the members at S + e for each candidate e.
+
+        With ``cap``, a member already >= cap at S may be reported as ``cap`` for every candidate
+        without scoring (it stays >= cap by monotonicity): enough for truncated sums min(f_i, cap).
+        """
 
     @abstractmethod
     def worst(self, suite: Sequence[int]) -> tuple[float, str]:
@@ -89,7 +94,8 @@ class FailureFamily(Family):
         v = np.array([ev.score(tuple(i for i in s if i not in g)) for g in groups], dtype=float)
         return w, v
 
-    def terms_with(self, suite: Sequence[int], candidates: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
+    def terms_with(self, suite: Sequence[int], candidates: Sequence[int], *,
+                   cap: float | None = None) -> tuple[np.ndarray, np.ndarray]:
         s = as_suite(suite)
         cands = [int(c) for c in candidates]
         ev, a, rest = self.evaluator, self.alpha, self.n - len(s) - 1
@@ -98,7 +104,11 @@ class FailureFamily(Family):
             w = math.comb(rest, a - len(g))
             if w > 0:
                 ws.append(w)
-                rows.append(ev.scores_with(tuple(i for i in s if i not in g), cands))
+                base = tuple(i for i in s if i not in g)
+                if cap is not None and ev.score(base) >= cap:
+                    rows.append(np.full(len(cands), float(cap)))
+                else:
+                    rows.append(ev.scores_with(base, cands))
         for g in self._groups(s, a - 1):  # F ∋ e: e is lost, S minus G stays
             w = math.comb(rest, a - 1 - len(g))
             if w > 0:
@@ -142,9 +152,15 @@ class EvaluatorFamily(Family):
         s = as_suite(suite)
         return np.ones(self.n_members), np.array([e.score(s) / n for e, n in zip(self.members, self.norms)])
 
-    def terms_with(self, suite: Sequence[int], candidates: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
+    def terms_with(self, suite: Sequence[int], candidates: Sequence[int], *,
+                   cap: float | None = None) -> tuple[np.ndarray, np.ndarray]:
         s = as_suite(suite)
-        rows = [e.scores_with(s, list(candidates)) / n for e, n in zip(self.members, self.norms)]
+        rows = []
+        for e, n in zip(self.members, self.norms):
+            if cap is not None and e.score(s) / n >= cap:
+                rows.append(np.full(len(candidates), float(cap)))
+            else:
+                rows.append(e.scores_with(s, list(candidates)) / n)
         return np.ones(self.n_members), np.array(rows, dtype=float).reshape(self.n_members, len(candidates))
 
     def worst(self, suite: Sequence[int]) -> tuple[float, str]:

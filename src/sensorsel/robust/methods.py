@@ -122,7 +122,7 @@ def _cover(family: Family, budget: float, c: float, stop_at: int | None) -> tupl
                 break
             stale.sort(key=lambda i: (-bound[i] / costs[i], costs[i], ids[i]))
             batch = stale[:SATURATE_BATCH]
-            wt, vals = family.terms_with(tuple(suite), batch)
+            wt, vals = family.terms_with(tuple(suite), batch, cap=c)
             gains = wt @ np.minimum(vals, c) - cur
             for i, g in zip(batch, gains):
                 fresh[i] = float(g)
