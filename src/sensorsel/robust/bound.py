@@ -54,7 +54,7 @@ from typing import Sequence
 
 import numpy as np
 
-from ..certify import MAX_DP_CELLS, cost_units, knapsack
+from ..certify import MAX_DP_CELLS, cost_units, knapsack, optimal
 from ..objective import Evaluator, as_suite
 from ..resilient import worst_case
 from ..selection import REL_TOL, greedy
@@ -64,8 +64,10 @@ from .records import BoundLeaf, RobustBound
 DEFAULT_BOUND_NODES = 16
 #: A leaf whose whole library fits is solved exactly when it has at most this many failure sets.
 MAX_EXACT_SETS = 256
+#: Node limit of the nominal branch and bound run on a leaf without failures left.
+LEAF_SEARCH_NODES = 30
 #: Anchors tried per node (the empty suite counts one).
-MAX_ANCHORS = 3
+MAX_ANCHORS = 2
 
 
 def knapsack_drop(values: Sequence[float], costs: Sequence[float], capacity: float, drop: int, *,
@@ -128,7 +130,8 @@ def _adversary(ev: Evaluator, suite: tuple[int, ...], alpha: int) -> float:
 
 def robust_bound(evaluator: Evaluator, budget_usd: float, alpha: int, *, anchors: Sequence[Sequence[int]] = (),
                  incumbent: float = 0.0, max_nodes: int = DEFAULT_BOUND_NODES, max_anchors: int = MAX_ANCHORS,
-                 max_exact_sets: int = MAX_EXACT_SETS, leaf_greedy: bool = True) -> RobustBound:
+                 max_exact_sets: int = MAX_EXACT_SETS, leaf_greedy: bool = True,
+                 leaf_search_nodes: int = LEAF_SEARCH_NODES) -> RobustBound:
     """Upper bound on max { g_alpha(S) : Cost(S) <= budget } (see the module docstring for the proof).
 
     Args:
@@ -137,6 +140,9 @@ def robust_bound(evaluator: Evaluator, budget_usd: float, alpha: int, *, anchors
             best candidates); the empty suite is always tried first.
         incumbent: a worst case already achieved [nats]: leaves at or below it are not refined.
         max_nodes: nodes of the case split (1: no split).
+        leaf_search_nodes: on a leaf without failures left whose knapsack bound is above the incumbent,
+            run :func:`sensorsel.certify.optimal` (excluding the removed sensors) with this node limit
+            and keep its upper bound if smaller (0: never).
         leaf_greedy: anchor each leaf without failures left at a uniform greedy run on its library and budget.
     """
     t0 = time.perf_counter()
@@ -193,6 +199,12 @@ def robust_bound(evaluator: Evaluator, budget_usd: float, alpha: int, *, anchors
                 best, how = b, "knapsack at " + (",".join(lib.suite_ids(xs)) or "the empty suite")
             if best <= incumbent + tol:
                 break
+        if node.alpha == 0 and leaf_search_nodes > 0 and best > incumbent + tol:
+            # a nominal leaf: certify's branch and bound (its upper bound is valid even when stopped early)
+            opt = optimal(ev, node.budget, max_nodes=leaf_search_nodes, exclude=frozenset(node.removed))
+            if opt.upper_bound < best:
+                best = opt.upper_bound
+                how = "nominal optimum (proved)" if opt.proved_optimal else f"nominal branch and bound ({opt.n_nodes} nodes)"
         node.own, node.how = best, how
 
     counter = 0

@@ -118,6 +118,7 @@ def robust_select(evaluator: Evaluator, budget_usd: float, alpha: int, *, rules:
     bnd = robust_bound(ev, budget, alpha, anchors=anchors(), incumbent=best().worst_score, max_nodes=bound_nodes)
 
     proved = bnd.proved
+    n_before = len(cands)
     for m in methods:
         if proved and skip_when_proved:
             skipped.append(f"{m}: the bound proves the best candidate optimal")
@@ -156,7 +157,8 @@ def robust_select(evaluator: Evaluator, budget_usd: float, alpha: int, *, rules:
         if not proved and bnd.bound <= best().worst_score + REL_TOL * max(1.0, abs(best().worst_score)):
             proved = True
     win = best()
-    if not bnd.proved and methods and not (proved and skip_when_proved and len(skipped) == len(methods)):
+    if not bnd.proved and len(cands) > n_before:
+        # new suites: their survivors are new anchors, and a better incumbent settles more leaves
         bnd = robust_bound(ev, budget, alpha, anchors=anchors(), incumbent=win.worst_score, max_nodes=bound_nodes)
     bound = max(bnd.bound, win.worst_score)
     return RobustResult(
