@@ -308,3 +308,19 @@ def test_algorithm_2_can_lose_to_greedy_and_the_robust_answer_beats_both():
     assert r.worst_score == best and r.bound >= best
     o = robust_optimum(CoverageEvaluator(lib, covers), budget, 1)
     assert o.proved_optimal and o.worst_score == best
+
+
+def test_bad_inputs_are_refused():
+    from sensorsel.errors import InputError
+
+    ev = table_eval("tiny12")
+    with pytest.raises(InputError, match="failures"):
+        robust_select(ev, 1_000.0, -1)
+    with pytest.raises(InputError, match="greedy rule"):
+        robust_select(ev, 1_000.0, 1, rules=("nope",))
+    with pytest.raises(InputError, match="robust method"):
+        robust_select(ev, 1_000.0, 1, methods=("nope",))
+    with pytest.raises(InputError, match="budget"):
+        robust_optimum(ev, -5.0, 1)
+    with pytest.raises(InputError, match="failures"):
+        robust_bound(ev, 1_000.0, 1.5)

@@ -56,8 +56,8 @@ import numpy as np
 
 from ..certify import MAX_DP_CELLS, cost_units, knapsack, optimal
 from ..objective import Evaluator, as_suite
-from ..resilient import worst_case
-from ..selection import REL_TOL, greedy
+from ..resilient import check_alpha, worst_case
+from ..selection import REL_TOL, check_budget, greedy
 from .records import BoundLeaf, RobustBound
 
 #: Default number of case-split nodes of the bound.
@@ -146,6 +146,7 @@ def robust_bound(evaluator: Evaluator, budget_usd: float, alpha: int, *, anchors
         leaf_greedy: anchor each leaf without failures left at a uniform greedy run on its library and budget.
     """
     t0 = time.perf_counter()
+    budget_usd, alpha = check_budget(budget_usd), check_alpha(alpha)
     ev = evaluator
     lib = ev.problem.library
     n0 = ev.n_evaluations

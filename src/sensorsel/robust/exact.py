@@ -32,7 +32,7 @@ from typing import Sequence
 import numpy as np
 
 from ..objective import Evaluator, as_suite
-from ..resilient import worst_case
+from ..resilient import check_alpha, worst_case
 from ..selection import REL_TOL, check_budget
 from .bound import knapsack_drop
 from .records import RobustOptimum
@@ -51,7 +51,7 @@ def robust_optimum(evaluator: Evaluator, budget_usd: float, alpha: int, *, incum
         max_nodes: nodes expanded at most.
     """
     t0 = time.perf_counter()
-    budget = check_budget(budget_usd)
+    budget, alpha = check_budget(budget_usd), check_alpha(alpha)
     ev = evaluator
     lib = ev.problem.library
     costs, ids, n = lib.costs, lib.ids, len(lib)

@@ -47,6 +47,11 @@ class Family(ABC):
     def library(self):
         return self.evaluator.problem.library
 
+    @property
+    def n_evaluations(self) -> int:
+        """Suites scored so far by the family's evaluators."""
+        return self.evaluator.n_evaluations
+
     @abstractmethod
     def terms(self, suite: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
         """(weights (T,), values (T,)) of the members at S."""

@@ -35,7 +35,6 @@ from __future__ import annotations
 
 import itertools
 import math
-import time
 from typing import Sequence
 
 import numpy as np
@@ -72,10 +71,9 @@ def saturate(family: Family, budget: float, lo: float, hi: float, *, levels: int
     """SATURATE's bisection between ``lo`` (a level known reachable) and ``hi`` (an upper bound).
 
     Returns every level's suite as (level c, fully covered, suite) and a note. A level whose greedy
-    run hits ``max_evaluations`` (counted on ``family.evaluator``) ends the bisection.
+    run hits ``max_evaluations`` (counted by ``family.n_evaluations``) ends the bisection.
     """
-    ev = family.evaluator
-    n0 = ev.n_evaluations
+    n0 = family.n_evaluations
     out: list[tuple[float, bool, tuple[int, ...]]] = []
     note = ""
     for _ in range(levels):
@@ -96,7 +94,6 @@ def saturate(family: Family, budget: float, lo: float, hi: float, *, levels: int
 
 def _cover(family: Family, budget: float, c: float, stop_at: int | None) -> tuple[bool, tuple[int, ...], bool]:
     """Cost-effective lazy greedy on F_c until full coverage: (covered, suite, finished within the limit)."""
-    ev = family.evaluator
     lib = family.library
     costs, ids, n = lib.costs, lib.ids, len(lib)
     suite: list[int] = []
@@ -108,7 +105,7 @@ def _cover(family: Family, budget: float, c: float, stop_at: int | None) -> tupl
     while True:
         if cur >= total * (1 - 1e-9):
             return True, as_suite(suite), True
-        if stop_at is not None and ev.n_evaluations > stop_at:
+        if stop_at is not None and family.n_evaluations > stop_at:
             return False, as_suite(suite), False
         feas = [i for i in range(n) if i not in suite and _fits(spent + costs[i], budget) and bound[i] > 0]
         if not feas:
