@@ -70,7 +70,7 @@ LEAF_SEARCH_NODES = 30
 MAX_ANCHORS = 2
 
 
-def knapsack_drop(values: Sequence[float], costs: Sequence[float], capacity: float, drop: int, *,
+def knapsack_drop(values: Sequence[float] | np.ndarray, costs: Sequence[float] | np.ndarray, capacity: float, drop: int, *,
                   max_cells: int = MAX_DP_CELLS) -> float:
     """max over T with Σ costs <= capacity of Σ_T values - (sum of the ``drop`` largest values in T).
 
@@ -81,8 +81,8 @@ def knapsack_drop(values: Sequence[float], costs: Sequence[float], capacity: flo
     v = np.asarray(values, dtype=float).reshape(-1)
     c = np.asarray(costs, dtype=float).reshape(-1)
     if drop <= 0:
-        return knapsack(v, c, capacity, max_cells=max_cells).value
-    units = cost_units(c, capacity)
+        return knapsack(v.tolist(), c.tolist(), capacity, max_cells=max_cells).value
+    units = cost_units(c.tolist(), capacity)
     keep = np.flatnonzero((v > 0) & (units.costs <= units.capacity))
     if len(keep) <= drop:
         return 0.0
@@ -90,7 +90,7 @@ def knapsack_drop(values: Sequence[float], costs: Sequence[float], capacity: flo
     w = units.costs[order]
     cap = int(min(units.capacity, w.sum()))
     if len(order) * (cap + 1) > max_cells:
-        return knapsack(v, c, capacity, max_cells=max_cells).value
+        return knapsack(v.tolist(), c.tolist(), capacity, max_cells=max_cells).value
     neg = -np.inf
     dp = np.full((drop + 1, cap + 1), neg)  # dp[j, k]: best value, j items dropped (j = drop: from then on they count)
     dp[0, :] = 0.0

@@ -26,7 +26,7 @@ class MemoEvaluator(Evaluator):
         self.inner = inner
         self.problem = inner.problem
         self.jobs = inner.jobs
-        self.name = inner.name
+        self.name = inner.name  # type: ignore[misc]  # the wrapped engine's name, per instance
         self.n_evaluations = 0
         self.n_lookups = 0
         self._baseline = None
