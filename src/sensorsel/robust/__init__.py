@@ -1,0 +1,28 @@
+"""Robust sensor selection: the best worst case under alpha failures within a budget (issue 13).
+
+Maximise g(S) = min over F ⊆ S, |F| <= alpha, of f(S minus F) over suites with Cost(S) <= B.
+
+* :func:`robust_select` runs several methods (plain greedy, the paper's Algorithm 2, Oblivious-Greedy,
+  SATURATE, local search; :mod:`.methods` states each one's guarantee), scores every suite by its
+  **exact** worst case and keeps the best: never below plain greedy's worst case nor Algorithm 2's,
+  by construction.
+* :func:`robust_bound` bounds the best achievable worst case from above (proof in :mod:`.bound`);
+  every answer reports it and its gap.
+* :func:`robust_optimum` finds the exact optimum on small libraries by branch and bound (:mod:`.exact`).
+* :mod:`.family` is the max-min machinery over any finite family of monotone submodular functions
+  (failure sets now; routes of a domain or periods of a route through :class:`EvaluatorFamily`).
+"""
+
+from .bound import knapsack_drop, robust_bound
+from .exact import robust_optimum
+from .family import EvaluatorFamily, FailureFamily, Family
+from .memo import MemoEvaluator, memoized
+from .methods import local_search, oblivious_greedy, saturate
+from .records import BoundLeaf, Candidate, RobustBound, RobustOptimum, RobustResult
+from .select import DEFAULT_RULES, EXTRA_METHODS, robust_select, run_robust
+
+__all__ = [
+    "BoundLeaf", "Candidate", "DEFAULT_RULES", "EXTRA_METHODS", "EvaluatorFamily", "FailureFamily", "Family",
+    "MemoEvaluator", "RobustBound", "RobustOptimum", "RobustResult", "knapsack_drop", "local_search", "memoized",
+    "oblivious_greedy", "robust_bound", "robust_optimum", "robust_select", "run_robust", "saturate",
+]

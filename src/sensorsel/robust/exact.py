@@ -1,0 +1,124 @@
+"""The exact robust optimum max { g(S) : Cost(S) <= B } by best-first branch and bound (small libraries).
+
+Sensors are ordered by f({e}) (largest first; ties: cheaper, then library order). A node is a suite
+S_in with a position k in that order: it stands for the suites S_in ∪ T, T ⊆ R, where R are the sensors
+after k that fit the budget left. Expanding it:
+
+* if all of R fits together, S_in ∪ R is the node's best suite (g is monotone, see :mod:`.bound`):
+  one worst-case computation settles the node;
+* else its bound is the smallest, over j = 0 .. min(alpha, |S_in|), of
+
+      f(S_in minus F_j) + K_{alpha-j}(gains Δ(e | S_in minus F_j) over R, budget left)
+
+  with F_j the j-subset of S_in that leaves the least, and K_m the knapsack whose m most valuable
+  items count nothing (:func:`.bound.knapsack_drop`). Valid: for a completion S_in ∪ T, fail F_j
+  and the alpha - j sensors of T of largest gain D; f(S_in ∪ T minus F_j minus D) <= f(S_in minus F_j)
+  + Σ_{T minus D} Δ(e | S_in minus F_j) (monotone, submodular);
+* the node is dropped when its bound does not beat the best worst case found by more than a relative
+  1e-9; otherwise it splits on the first sensor r of R: r in (S_in + r) or r out.
+
+The best found is proved optimal when no node is left; at the node limit, the largest bound left is
+an upper bound on the optimum.
+"""
+
+from __future__ import annotations
+
+import heapq
+import itertools
+import math
+import time
+from typing import Sequence
+
+import numpy as np
+
+from ..objective import Evaluator, as_suite
+from ..resilient import check_alpha, worst_case
+from ..selection import REL_TOL, check_budget
+from .bound import knapsack_drop
+from .records import RobustOptimum
+
+#: Default node limit of the exact search.
+DEFAULT_EXACT_NODES = 20_000
+
+
+def robust_optimum(evaluator: Evaluator, budget_usd: float, alpha: int, *, incumbent: Sequence[int] = (),
+                   max_nodes: int = DEFAULT_EXACT_NODES) -> RobustOptimum:
+    """Best worst case within the budget (see the module docstring).
+
+    Args:
+        incumbent: a suite to start from (e.g. the robust selection's answer); the search only has
+            to rule out better ones.
+        max_nodes: nodes expanded at most.
+    """
+    t0 = time.perf_counter()
+    budget, alpha = check_budget(budget_usd), check_alpha(alpha)
+    ev = evaluator
+    lib = ev.problem.library
+    costs, ids, n = lib.costs, lib.ids, len(lib)
+    n0 = ev.n_evaluations
+    singles = ev.scores_with((), list(range(n)))
+    order = sorted(range(n), key=lambda i: (-singles[i], costs[i], ids[i]))
+
+    def gval(s: tuple[int, ...]) -> float:
+        return worst_case(ev, s, alpha).score if s else 0.0
+
+    best_s: tuple[int, ...] = as_suite(incumbent) if incumbent and lib.cost(incumbent) <= budget + 1e-9 else ()
+    best_g = gval(best_s)
+
+    def offer(s: tuple[int, ...], g: float) -> None:
+        nonlocal best_s, best_g
+        s = as_suite(s)
+        tol = REL_TOL * max(1.0, abs(best_g))
+        if g > best_g + tol or (abs(g - best_g) <= tol and (lib.cost(s), lib.suite_ids(s)) < (lib.cost(best_s), lib.suite_ids(best_s))):
+            best_s, best_g = s, g
+
+    heap: list[tuple[float, int, tuple[int, ...], int, float]] = [(-math.inf, 0, (), 0, budget)]
+    counter = nodes = pruned = 0
+    stop = ""
+    while heap:
+        neg, _, s, k, left = heap[0]
+        if -neg <= best_g + REL_TOL * max(1.0, abs(best_g)):
+            pruned += len(heap)
+            heap.clear()
+            break
+        if nodes >= max_nodes:
+            stop = f"node limit ({max_nodes:,}) reached"
+            break
+        heapq.heappop(heap)
+        nodes += 1
+        rest = [order[j] for j in range(k, n) if costs[order[j]] <= left + 1e-9]
+        if float(costs[rest].sum()) <= left + 1e-9 if rest else True:
+            full = as_suite(s + tuple(rest))
+            offer(full, gval(full))
+            continue
+        ub = -neg
+        for j in range(min(alpha, len(s)) + 1):
+            fails = {f: ev.score(tuple(i for i in s if i not in f)) if j < len(s) else 0.0 for f in itertools.combinations(s, j)}
+            fj = min(fails, key=lambda f: (fails[f], f))
+            base = tuple(i for i in s if i not in fj)
+            f_base = fails[fj]
+            if j == min(alpha, len(s)) and len(s) > 0:
+                offer(s, f_base)
+            gains = np.maximum(ev.scores_with(base, rest) - f_base, 0.0)
+            ub = min(ub, f_base + knapsack_drop(gains, costs[rest], left, alpha - j))
+        if ub <= best_g + REL_TOL * max(1.0, abs(best_g)):
+            pruned += 1
+            continue
+        r = rest[0]
+        nxt = order.index(r) + 1
+        counter += 1
+        heapq.heappush(heap, (-ub, counter, s + (r,), nxt, left - float(costs[r])))
+        counter += 1
+        heapq.heappush(heap, (-ub, counter, s, nxt, left))
+    proved = not heap
+    upper = best_g if proved else max(best_g, -heap[0][0])
+    if proved:
+        stop = "every other suite ruled out by its bound"
+    w = worst_case(ev, best_s, alpha) if best_s else None
+    return RobustOptimum(
+        alpha=alpha, budget_usd=budget, suite=lib.suite_ids(best_s), cost_usd=lib.cost(best_s),
+        nominal_score=w.nominal_score if w else 0.0, worst_score=best_g, failures=w.failures if w else (),
+        proved_optimal=proved, upper_bound=float(upper), gap_percent=100.0 * (upper - best_g) / upper if upper > 0 else 0.0,
+        n_nodes=nodes, n_pruned=pruned, n_evaluations=ev.n_evaluations - n0, stop_reason=stop,
+        seconds=round(time.perf_counter() - t0, 6),
+    )

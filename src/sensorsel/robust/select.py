@@ -1,0 +1,179 @@
+"""Robust selection: run the candidate methods, score each by its exact worst case, keep the best.
+
+Order of work (each suite is scored at most once: the evaluator is memoized):
+
+1. plain greedy with each rule of ``rules`` (default uniform, the paper's Algorithm 1, and marginal);
+2. the paper's Algorithm 2 (:func:`sensorsel.resilient.resilient_select`);
+3. the upper bound (:func:`.bound.robust_bound`) anchored at the candidates' worst-case survivors;
+   when it already equals the best candidate's worst case, that candidate is optimal and the
+   remaining methods are skipped (``skip_when_proved``; they could not do better);
+4. Oblivious-Greedy (eta = 2), SATURATE between the best worst case and the bound, and local search
+   from the best candidate;
+5. the bound again, anchored at the new best, if it changed.
+
+The answer is the candidate with the highest exact worst case; ties (relative 1e-9) go to the higher
+nominal score, then the lower cost, then the smaller ids in library order. Since the uniform greedy
+suite and Algorithm 2's suite are candidates scored with the same exact :func:`~sensorsel.resilient.worst_case`,
+**the answer's worst case is never below greedy's nor below Algorithm 2's**, and never above the bound.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Sequence
+
+from ..errors import InputError
+from ..objective import Evaluator, as_suite, make_evaluator
+from ..problem import Problem, ProblemInfo
+from ..resilient import check_alpha, resilient_select, worst_case
+from ..selection import REL_TOL, SELECTORS, check_budget, greedy
+from .bound import DEFAULT_BOUND_NODES, robust_bound
+from .family import FailureFamily
+from .memo import memoized
+from .methods import DEFAULT_SATURATE_LEVELS, local_search, oblivious_greedy, saturate
+from .records import Candidate, RobustResult
+
+DEFAULT_RULES = ("uniform", "marginal")
+#: Methods run after the bound: all of them by default.
+EXTRA_METHODS = ("oblivious", "saturate", "local-search")
+
+
+def _better(a: Candidate, b: Candidate, lib) -> bool:
+    """True when ``a`` beats ``b``: worst case, then nominal, then cheaper, then ids."""
+    tol = REL_TOL * max(1.0, abs(a.worst_score), abs(b.worst_score))
+    if abs(a.worst_score - b.worst_score) > tol:
+        return a.worst_score > b.worst_score
+    tol = REL_TOL * max(1.0, abs(a.nominal_score), abs(b.nominal_score))
+    if abs(a.nominal_score - b.nominal_score) > tol:
+        return a.nominal_score > b.nominal_score
+    if a.cost_usd != b.cost_usd:
+        return a.cost_usd < b.cost_usd
+    return a.suite < b.suite
+
+
+def robust_select(evaluator: Evaluator, budget_usd: float, alpha: int, *, rules: Sequence[str] = DEFAULT_RULES,
+                  methods: Sequence[str] = EXTRA_METHODS, skip_when_proved: bool = True,
+                  saturate_levels: int = DEFAULT_SATURATE_LEVELS, saturate_evaluations: int | None = 2_000,
+                  local_rounds: int = 10, local_evaluations: int = 2_000, bound_nodes: int = DEFAULT_BOUND_NODES,
+                  info: ProblemInfo | None = None) -> RobustResult:
+    """The best suite within ``budget_usd`` against ``alpha`` failures among the methods' suites.
+
+    Args:
+        evaluator: scores suites (wrapped in a memo if it is not one).
+        rules: plain greedy rules run as candidates ("uniform" is always run: the answer's floor).
+        methods: the further methods: "oblivious", "saturate", "local-search".
+        skip_when_proved: skip the further methods when the bound proves a candidate optimal.
+        saturate_levels, saturate_evaluations: SATURATE's bisection levels and evaluation limit.
+        local_rounds, local_evaluations: local search's move and evaluation limits.
+        bound_nodes: nodes of the bound's case split.
+    """
+    t_start = time.perf_counter()
+    budget, alpha = check_budget(budget_usd), check_alpha(alpha)
+    for r in rules:
+        if r not in SELECTORS:
+            raise InputError(f"unknown greedy rule {r!r}; available: {', '.join(SELECTORS)}")
+    for m in methods:
+        if m not in EXTRA_METHODS:
+            raise InputError(f"unknown robust method {m!r}; available: {', '.join(EXTRA_METHODS)}")
+    rules = ("uniform",) + tuple(r for r in rules if r != "uniform")
+    ev = memoized(evaluator)
+    lib = ev.problem.library
+    n_start = ev.n_evaluations
+    cands: list[Candidate] = []
+    skipped: list[str] = []
+
+    def add(method: str, suite: Sequence[int], note: str, n0: int, t0: float) -> Candidate:
+        s = as_suite(suite)
+        w = worst_case(ev, s, alpha)
+        c = Candidate(method=method, suite=lib.suite_ids(s), cost_usd=lib.cost(s), nominal_score=w.nominal_score,
+                      worst_score=w.score, failures=w.failures, note=note, n_evaluations=ev.n_evaluations - n0,
+                      seconds=round(time.perf_counter() - t0, 6))
+        cands.append(c)
+        return c
+
+    def best() -> Candidate:
+        b = cands[0]
+        for c in cands[1:]:
+            if _better(c, b, lib):
+                b = c
+        return b
+
+    def anchors() -> list[tuple[int, ...]]:
+        ranked = sorted(cands, key=lambda c: (-c.worst_score, -c.nominal_score, c.cost_usd, c.suite))
+        out: list[tuple[int, ...]] = []
+        for c in ranked:
+            x = as_suite(lib.position(i) for i in c.suite if i not in c.failures)
+            if x not in out:
+                out.append(x)
+        return out
+
+    for r in rules:
+        n0, t0 = ev.n_evaluations, time.perf_counter()
+        g = greedy(ev, budget, r)
+        add(f"greedy-{r}", [lib.position(i) for i in g.suite], g.stop_reason, n0, t0)
+    greedy_worst = cands[0].worst_score
+    n0, t0 = ev.n_evaluations, time.perf_counter()
+    a2 = resilient_select(ev, budget, alpha)
+    a2c = add("algorithm-2", [lib.position(i) for i in a2.suite], f"failing set {','.join(a2.failed)}" + (f"; {a2.failure_note}" if a2.failure_note else ""), n0, t0)
+    bnd = robust_bound(ev, budget, alpha, anchors=anchors(), incumbent=best().worst_score, max_nodes=bound_nodes)
+
+    proved = bnd.proved
+    n_before = len(cands)
+    for m in methods:
+        if proved and skip_when_proved:
+            skipped.append(f"{m}: the bound proves the best candidate optimal")
+            continue
+        n0, t0 = ev.n_evaluations, time.perf_counter()
+        if m == "oblivious":
+            s, note = oblivious_greedy(ev, budget, alpha, eta=2.0)
+            add("oblivious-eta2", s, note, n0, t0)
+        elif m == "saturate":
+            lo = best().worst_score
+            levels, note = saturate(FailureFamily(ev, alpha), budget, lo, bnd.bound, levels=saturate_levels,
+                                    max_evaluations=saturate_evaluations)
+            tried = [s for _, _, s in levels]
+            if not tried:
+                skipped.append("saturate: no level between the best worst case and the bound")
+                continue
+            covered = [c for c, ok, _ in levels if ok]
+            note = f"{note}; covered levels: {', '.join(f'{c:.3f}' for c in covered) or 'none'}"
+            # every level's suite is scored; the best is the method's candidate
+            sub = []
+            for s in dict.fromkeys(tried):
+                sub.append(add("saturate", s, note, n0, t0))
+                n0 = ev.n_evaluations
+            keep = sub[0]
+            for c in sub[1:]:
+                if _better(c, keep, lib):
+                    keep = c
+            for c in sub:
+                if c is not keep:
+                    cands.remove(c)
+        elif m == "local-search":
+            start = best()
+            s, note = local_search(ev, [lib.position(i) for i in start.suite], budget, alpha, max_rounds=local_rounds,
+                                   max_evaluations=local_evaluations)
+            add("local-search", s, f"from {start.method}; {note}", n0, t0)
+        if not proved and bnd.bound <= best().worst_score + REL_TOL * max(1.0, abs(best().worst_score)):
+            proved = True
+    win = best()
+    if not bnd.proved and len(cands) > n_before:
+        # new suites: their survivors are new anchors, and a better incumbent settles more leaves
+        bnd = robust_bound(ev, budget, alpha, anchors=anchors(), incumbent=win.worst_score, max_nodes=bound_nodes)
+    bound = max(bnd.bound, win.worst_score)
+    return RobustResult(
+        alpha=alpha, budget_usd=budget, method=win.method, suite=win.suite, cost_usd=win.cost_usd,
+        nominal_score=win.nominal_score, worst_score=win.worst_score, failures=win.failures,
+        greedy_worst_score=greedy_worst, algorithm2_worst_score=a2c.worst_score, bound=bound,
+        gap_percent=100.0 * (bound - win.worst_score) / bound if bound > 0 else 0.0, candidates=tuple(cands),
+        skipped=tuple(skipped), bound_detail=bnd, n_evaluations=ev.n_evaluations - n_start, engine=ev.name, problem=info,
+        seconds=round(time.perf_counter() - t_start, 6),
+    )
+
+
+def run_robust(problem: Problem, budget_usd: float, alpha: int, *, engine: str | None = None, jobs: int = 1,
+               **kwargs) -> RobustResult:
+    """:func:`robust_select` with a fresh evaluator of ``engine`` (what a ``sensorsel robust`` command would call)."""
+    check_budget(budget_usd)
+    check_alpha(alpha)
+    return robust_select(make_evaluator(problem, engine, jobs=jobs), budget_usd, alpha, info=problem.info, **kwargs)
