@@ -56,6 +56,8 @@ KINDS: dict[str, str] = {
     "simulation-suite": "simulate:SimulationResult",
     "domain-design": "domain_design:DomainDesign",
     "domain-score": "api:DomainScoreResult",
+    "robust": "robust:RobustResult",
+    "robust-optimum": "robust:RobustOptimum",
 }
 
 _KIND_OF_NAME = {target.partition(":")[2]: kind for kind, target in KINDS.items()}

@@ -55,7 +55,7 @@ from typing import Sequence
 import numpy as np
 
 from ..certify import MAX_DP_CELLS, cost_units, knapsack, optimal
-from ..objective import Evaluator, as_suite
+from ..evaluators import Evaluator, as_suite
 from ..resilient import check_alpha, worst_case
 from ..selection import REL_TOL, check_budget, greedy
 from .records import BoundLeaf, RobustBound
@@ -148,7 +148,7 @@ def robust_bound(evaluator: Evaluator, budget_usd: float, alpha: int, *, anchors
     t0 = time.perf_counter()
     budget_usd, alpha = check_budget(budget_usd), check_alpha(alpha)
     ev = evaluator
-    lib = ev.problem.library
+    lib = ev.library
     n0 = ev.n_evaluations
     costs, ids, n = lib.costs, lib.ids, len(lib)
     singles = ev.scores_with((), list(range(n)))

@@ -31,7 +31,7 @@ from typing import Sequence
 
 import numpy as np
 
-from ..objective import Evaluator, as_suite
+from ..evaluators import Evaluator, as_suite
 from ..resilient import check_alpha, worst_case
 from ..selection import REL_TOL, check_budget
 from .bound import knapsack_drop
@@ -53,7 +53,7 @@ def robust_optimum(evaluator: Evaluator, budget_usd: float, alpha: int, *, incum
     t0 = time.perf_counter()
     budget, alpha = check_budget(budget_usd), check_alpha(alpha)
     ev = evaluator
-    lib = ev.problem.library
+    lib = ev.library
     costs, ids, n = lib.costs, lib.ids, len(lib)
     n0 = ev.n_evaluations
     singles = ev.scores_with((), list(range(n)))

@@ -26,7 +26,7 @@ from typing import Sequence
 
 import numpy as np
 
-from ..objective import Evaluator, Suite, as_suite
+from ..evaluators import Evaluator, Suite, as_suite
 from ..resilient import worst_case
 
 
@@ -45,7 +45,7 @@ class Family(ABC):
 
     @property
     def library(self):
-        return self.evaluator.problem.library
+        return self.evaluator.library
 
     @property
     def n_evaluations(self) -> int:
@@ -85,7 +85,7 @@ class FailureFamily(Family):
     def __init__(self, evaluator: Evaluator, alpha: int) -> None:
         self.evaluator = evaluator
         self.alpha = int(alpha)
-        self.n = len(evaluator.problem.library)
+        self.n = len(evaluator.library)
         self.n_members = math.comb(self.n, self.alpha)
 
     def _groups(self, s: Suite, cap: int) -> list[tuple[int, ...]]:
@@ -140,8 +140,8 @@ class EvaluatorFamily(Family):
     def __init__(self, evaluators: Sequence[Evaluator], labels: Sequence[str], norms: Sequence[float] | None = None) -> None:
         if not evaluators or len(evaluators) != len(labels):
             raise ValueError("one label per evaluator, at least one evaluator")
-        ids = evaluators[0].problem.library.ids
-        if any(e.problem.library.ids != ids for e in evaluators):
+        ids = evaluators[0].library.ids
+        if any(e.library.ids != ids for e in evaluators):
             raise ValueError("every member must score the same library")
         self.members = list(evaluators)
         self.labels = list(labels)

@@ -2,7 +2,7 @@
 
 The robust methods score many suites more than once (the greedy runs share their first sweep, the
 worst case of a suite re-scores the greedy prefix it came from, the bound re-scores survivors, local
-search revisits neighbours). :class:`MemoEvaluator` wraps any :class:`~sensorsel.objective.Evaluator`
+search revisits neighbours). :class:`MemoEvaluator` wraps any :class:`~sensorsel.evaluators.Evaluator`
 and keeps f(S) for every canonical suite it has seen. Its ``n_evaluations`` counts the suites the
 wrapped engine really scored; ``n_lookups`` counts every request.
 
@@ -16,31 +16,18 @@ from typing import Iterable, Sequence
 
 import numpy as np
 
-from ..objective import Evaluator, Suite, as_suite
+from ..evaluators import Evaluator, Suite, as_suite
 
 
 class MemoEvaluator(Evaluator):
     """Evaluator that caches f(S) of ``inner`` by canonical suite (same interface as any engine)."""
 
-    def __init__(self, inner: Evaluator) -> None:  # noqa: D107 - no super().__init__: nothing of its own to build
+    def __init__(self, inner: Evaluator) -> None:
+        super().__init__(inner.library, jobs=inner.jobs)
         self.inner = inner
-        self.problem = inner.problem
-        self.jobs = inner.jobs
         self.name = inner.name  # type: ignore[misc]  # the wrapped engine's name, per instance
-        self.n_evaluations = 0
         self.n_lookups = 0
-        self._baseline = None
         self._f: dict[Suite, float] = {(): 0.0}
-
-    def _logdet(self, suite: Suite) -> float:  # pragma: no cover - score() is overridden
-        return self.inner.logdet(suite)
-
-    @property
-    def baseline_logdet(self) -> float:
-        return self.inner.baseline_logdet
-
-    def logdet(self, suite: Iterable[int]) -> float:
-        return self.score(suite) + self.inner.baseline_logdet
 
     def score(self, suite: Iterable[int]) -> float:
         s = as_suite(suite)

@@ -39,7 +39,7 @@ from typing import Sequence
 
 import numpy as np
 
-from ..objective import Evaluator, as_suite
+from ..evaluators import Evaluator, as_suite
 from ..resilient import failing_set
 from ..selection import REL_TOL, greedy
 from .family import Family
@@ -58,7 +58,7 @@ def oblivious_greedy(evaluator: Evaluator, budget: float, alpha: int, *, eta: fl
                      rule: str = "uniform") -> tuple[tuple[int, ...], str]:
     """Oblivious-Greedy (knapsack variant, see the module docstring): (suite, note)."""
     k = int(math.ceil(eta * alpha))
-    lib = evaluator.problem.library
+    lib = evaluator.library
     picked, _, note = failing_set(evaluator, budget, k)
     rest = max(0.0, budget - lib.cost(picked))
     run = greedy(evaluator, rest, rule, exclude=frozenset(picked))
@@ -165,7 +165,7 @@ def local_search(evaluator: Evaluator, start: Sequence[int], budget: float, alph
     scored in order of how bad they were for S, and scoring stops at the first one at or below g(S).
     """
     ev = evaluator
-    lib = ev.problem.library
+    lib = ev.library
     costs, ids, n = lib.costs, lib.ids, len(lib)
     n0 = ev.n_evaluations
     s = as_suite(start)

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..problem import ProblemInfo
+from ..problem import ProblemInfo, TargetInfo
 
 
 @dataclass(frozen=True)
@@ -129,7 +129,7 @@ class RobustResult:
     bound_detail: RobustBound
     n_evaluations: int
     engine: str
-    problem: ProblemInfo | None = None
+    problem: TargetInfo | None = None
     seconds: float = 0.0
 
 

@@ -20,13 +20,13 @@ suite and Algorithm 2's suite are candidates scored with the same exact :func:`~
 from __future__ import annotations
 
 import time
-from typing import Sequence
+from typing import Any, Sequence
 
 from ..errors import InputError
-from ..objective import Evaluator, as_suite, make_evaluator
-from ..problem import Problem, ProblemInfo
+from ..evaluators import Evaluator, as_suite, evaluator_for
+from ..problem import ProblemInfo, Target, TargetInfo
 from ..resilient import check_alpha, resilient_select, worst_case
-from ..selection import REL_TOL, SELECTORS, check_budget, greedy
+from ..selection import REL_TOL, check_budget, check_rule, greedy
 from .bound import DEFAULT_BOUND_NODES, robust_bound
 from .family import FailureFamily
 from .memo import memoized
@@ -55,7 +55,7 @@ def robust_select(evaluator: Evaluator, budget_usd: float, alpha: int, *, rules:
                   methods: Sequence[str] = EXTRA_METHODS, skip_when_proved: bool = True,
                   saturate_levels: int = DEFAULT_SATURATE_LEVELS, saturate_evaluations: int | None = 2_000,
                   local_rounds: int = 10, local_evaluations: int = 2_000, bound_nodes: int = DEFAULT_BOUND_NODES,
-                  info: ProblemInfo | None = None) -> RobustResult:
+                  info: TargetInfo | None = None) -> RobustResult:
     """The best suite within ``budget_usd`` against ``alpha`` failures among the methods' suites.
 
     Args:
@@ -70,14 +70,13 @@ def robust_select(evaluator: Evaluator, budget_usd: float, alpha: int, *, rules:
     t_start = time.perf_counter()
     budget, alpha = check_budget(budget_usd), check_alpha(alpha)
     for r in rules:
-        if r not in SELECTORS:
-            raise InputError(f"unknown greedy rule {r!r}; available: {', '.join(SELECTORS)}")
+        check_rule(r)
     for m in methods:
         if m not in EXTRA_METHODS:
             raise InputError(f"unknown robust method {m!r}; available: {', '.join(EXTRA_METHODS)}")
     rules = ("uniform",) + tuple(r for r in rules if r != "uniform")
     ev = memoized(evaluator)
-    lib = ev.problem.library
+    lib = ev.library
     n_start = ev.n_evaluations
     cands: list[Candidate] = []
     skipped: list[str] = []
@@ -171,9 +170,10 @@ def robust_select(evaluator: Evaluator, budget_usd: float, alpha: int, *, rules:
     )
 
 
-def run_robust(problem: Problem, budget_usd: float, alpha: int, *, engine: str | None = None, jobs: int = 1,
-               **kwargs) -> RobustResult:
-    """:func:`robust_select` with a fresh evaluator of ``engine`` (what a ``sensorsel robust`` command would call)."""
+def run_robust(problem: Target, budget_usd: float, alpha: int, *, engine: str | None = None, jobs: int = 1,
+               aggregate: str = "normalised", **kwargs: Any) -> RobustResult:
+    """:func:`robust_select` with a fresh evaluator of ``engine`` for a problem or a domain."""
     check_budget(budget_usd)
     check_alpha(alpha)
-    return robust_select(make_evaluator(problem, engine, jobs=jobs), budget_usd, alpha, info=problem.info, **kwargs)
+    ev = evaluator_for(problem, engine, jobs=jobs, aggregate=aggregate)
+    return robust_select(ev, budget_usd, alpha, info=problem.info, **kwargs)
