@@ -23,6 +23,7 @@ from matplotlib.patches import Wedge
 from .errors import InputError
 from .fileio import atomic_write_bytes
 from .library import SensorLibrary
+from .problem import DomainInfo, ProblemInfo
 from .scenario import Scenario
 
 if TYPE_CHECKING:  # simulate imports gtsam; plotting needs only its result types
@@ -458,8 +459,8 @@ def plot_tradespace(result: "TradespaceResult", ax: Axes | None = None, *, log_c
     ax.set_xlabel("suite cost [$]" + (" (log scale)" if log_cost else ""))
     ax.set_ylabel("normalized performance  f(S) / max f")
     p = result.problem
-    where = (f"scenario {p.scenario}: " if hasattr(p, "scenario") else
-             f"domain of {len(p.routes)} routes: " if hasattr(p, "routes") else "")
+    where = (f"scenario {p.scenario}: " if isinstance(p, ProblemInfo) else
+             f"domain of {len(p.routes)} routes: " if isinstance(p, DomainInfo) else "")
     ax.set_title(title or f"{where}{len(archs)} architectures from {len(result.runs)} greedy runs "
                           f"({len(result.budgets_usd)} budgets)", fontsize=10)
     ax.grid(True, which="major", alpha=0.3)

@@ -211,7 +211,7 @@ def _check_coordinates(xy: np.ndarray, path: Path, linenos: list[int], what: str
 def read_times(path: str | Path) -> np.ndarray:
     """Read a KITTI ``times.txt``: one timestamp [s] a line, strictly increasing."""
     path = Path(path)
-    out = []
+    out: list[float] = []
     for lineno, line in enumerate(_read_lines(path, "timestamp"), start=1):
         if not line.strip():
             continue
@@ -613,9 +613,9 @@ def generate_landmarks(route: Trajectory, model: LandmarkModel = LandmarkModel()
     n = int(total // model.far_spacing_m)
     s = (np.arange(n) + rng.uniform(0.0, 1.0, n)) * model.far_spacing_m
     p, nrm = along(s)
-    side = rng.choice([-1.0, 1.0], n)
+    far_side = rng.choice([-1.0, 1.0], n)
     off = rng.uniform(*model.far_offset_m, n)
-    out.append(p + (side * off)[:, None] * nrm)
+    out.append(p + (far_side * off)[:, None] * nrm)
     lm = np.concatenate(out)
     if model.clearance_m > 0 and len(lm):
         dist, _ = cKDTree(_densify(xy, 0.5)).query(lm)
@@ -843,7 +843,8 @@ def _load_route(spec: ScenarioSpec) -> _Route:
     if spec.times is not None and spec.route is None and spec.poses is None:
         raise InputError(f"timestamps {spec.times} go with a KITTI pose file (a sequence or fixture has its own times.txt)")
     if spec.route is not None or spec.poses is not None:
-        path, fmt = (spec.route, spec.route_format) if spec.route is not None else (spec.poses, "kitti")
+        path: str = spec.route if spec.route is not None else spec.poses  # type: ignore[assignment]  # one is set
+        fmt = spec.route_format if spec.route is not None else "kitti"
         route, notes = load_route_file(path, fmt, spec.times)
         return _Route(route, route_name(path), None, "", notes)
     if spec.seq is not None:

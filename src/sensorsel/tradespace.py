@@ -319,7 +319,7 @@ def _rule_runs(evaluator: Evaluator, rule: str, budgets_desc: list[float], *, la
 
 def tradespace(evaluator: Evaluator, budgets: Iterable[float] | None = None, rules: Iterable[str] = DEFAULT_RULES,
                *, lazy: bool = True, share_prefix: bool = True, progress: Progress | None = None,
-               info: ProblemInfo | None = None) -> TradespaceResult:
+               info: TargetInfo | None = None) -> TradespaceResult:
     """Run each rule at each budget and collect the architectures and the Pareto front.
 
     Args:

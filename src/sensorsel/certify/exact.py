@@ -105,7 +105,7 @@ class OptimumResult:
 
 def optimal(evaluator: Evaluator, budget_usd: float, *, max_nodes: int = DEFAULT_MAX_NODES, max_seconds: float | None = None,
             exclude: frozenset[int] = frozenset(), incumbent: GreedyResult | None = None, rule: str = "best-of",
-            progress: Progress | None = None, info: ProblemInfo | None = None, max_cells: int = MAX_DP_CELLS) -> OptimumResult:
+            progress: Progress | None = None, info: TargetInfo | None = None, max_cells: int = MAX_DP_CELLS) -> OptimumResult:
     """The best suite within ``budget_usd`` by best-first branch and bound.
 
     The first incumbent is a greedy suite (``incumbent``, or a ``rule`` run now; for a strategy such
@@ -180,7 +180,7 @@ def _check_limits(max_nodes: object, max_seconds: object) -> None:
 
 
 def _greedy_start(ev: Evaluator, budget: float, rule: str, incumbent: GreedyResult | None, exclude: frozenset[int],
-                  info: ProblemInfo | None) -> tuple[GreedyResult, list[GreedyResult], str]:
+                  info: TargetInfo | None) -> tuple[GreedyResult, list[GreedyResult], str]:
     """(the first incumbent, the greedy runs whose certificates bound the optimum, its label).
 
     Without ``incumbent``: every component run of ``rule`` is kept (not only the one the rule keeps),

@@ -76,7 +76,7 @@ def failing_set(evaluator: Evaluator, budget_usd: float, alpha: int) -> tuple[li
 
 
 def resilient_select(evaluator: Evaluator, budget_usd: float, alpha: int, rule: str = "uniform", *, lazy: bool = True,
-                     info: ProblemInfo | None = None) -> ResilientResult:
+                     info: TargetInfo | None = None) -> ResilientResult:
     """Resilient selection for ``alpha`` failures under ``budget_usd`` (see the module docstring).
 
     Args:

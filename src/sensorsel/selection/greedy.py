@@ -24,7 +24,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..evaluators import Evaluator
-from ..problem import ProblemInfo
+from ..problem import ProblemInfo, TargetInfo
 from .records import GreedyResult, Progress, Step
 from .registry import RULES, check_rule
 from .rules import REL_TOL, Rule
@@ -50,7 +50,7 @@ def check_budget(budget_usd: object) -> float:
 
 def greedy(evaluator: Evaluator, budget_usd: float, rule: str = "uniform", *, lazy: bool = True,
            exclude: frozenset[int] = frozenset(), start: tuple[int, ...] = (), progress: Progress | None = None,
-           info: ProblemInfo | None = None) -> GreedyResult:
+           info: TargetInfo | None = None) -> GreedyResult:
     """Greedy selection under a budget with the named rule or strategy of :data:`RULES`.
 
     Args:
@@ -91,7 +91,7 @@ class Selector:
         self.exclude = frozenset(exclude)
         self.progress = progress
 
-    def select(self, budget_usd: float, *, start: tuple[int, ...] = (), info: ProblemInfo | None = None) -> GreedyResult:
+    def select(self, budget_usd: float, *, start: tuple[int, ...] = (), info: TargetInfo | None = None) -> GreedyResult:
         """Run greedy selection; ``start`` sensors are already in the suite (counted in cost)."""
         t0 = time.perf_counter()
         budget = check_budget(budget_usd)

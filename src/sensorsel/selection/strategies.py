@@ -13,7 +13,7 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from typing import ClassVar, Sequence
 
-from ..problem import ProblemInfo
+from ..problem import ProblemInfo, TargetInfo
 from .records import GreedyResult
 from .rules import REL_TOL
 
@@ -36,7 +36,7 @@ class Strategy(ABC):
     def keep(self, runs: Sequence[GreedyResult]) -> GreedyResult:
         """The run kept among the component runs (same order as ``component_rules``)."""
 
-    def combine(self, runs: Sequence[GreedyResult], *, info: ProblemInfo | None, seconds: float) -> GreedyResult:
+    def combine(self, runs: Sequence[GreedyResult], *, info: TargetInfo | None, seconds: float) -> GreedyResult:
         """The strategy's result: the kept run, named after the strategy, counting every run's evaluations."""
         best = self.keep(runs)
         return GreedyResult(
