@@ -278,8 +278,8 @@ def _short(suite: list[str]) -> str:
     if not _LIBRARY_IDS:
         from sensorsel.library import load_library  # the default library (Table I): all steps use it
         _LIBRARY_IDS.extend(load_library().ids)
-    if len(suite) > len(_LIBRARY_IDS) // 2 and set(suite) <= set(_LIBRARY_IDS):
-        missing = [i for i in _LIBRARY_IDS if i not in suite]
+    missing = [i for i in _LIBRARY_IDS if i not in suite]
+    if len(missing) <= 3 and set(suite) <= set(_LIBRARY_IDS):
         return "all but " + ", ".join(missing) if missing else f"all {len(_LIBRARY_IDS)}"
     groups: dict[str, list[str]] = {}
     for s in suite:
@@ -398,6 +398,15 @@ def tables(root: Path) -> str:
         if rows:
             out += [f"## Tradespace {seq} (`sensorsel pareto --seq {seq} -o DIR`): cheapest architecture reaching a share of a reference", "",
                     "| map | reference | reference f | 99% reached at | 95% reached at | matched (100%) at |", "|---|---|---:|---|---|---|", *rows, ""]
+            for kind, d in kinds:
+                t = _load(d / f"pareto{seq}" / "tradespace.json")
+                if t:
+                    with open(d / f"pareto{seq}" / "architectures.csv", newline="") as f:
+                        front = sum(r["on_front"] == "1" for r in csv.DictReader(f))
+                    out.append(f"- {kind}: {len(t['architectures'])} distinct architectures, {front} on the Pareto front, "
+                               f"{t['n_evaluations']:,} suites scored ({len(t['runs'])} runs: {', '.join(t['selectors'])} "
+                               f"at {len(t['budgets_usd'])} budgets)")
+            out.append("")
 
     rows = []
     for seq in ("03", "00"):
