@@ -12,8 +12,8 @@ else ``python -m sensorsel.cli``) on KITTI 03 and 00 and writes what they produc
 
 Usage (from anywhere; the KITTI folder as for ``--kitti-root``)::
 
-    python docs/regenerate.py --kitti-root ../shared/kitti              # everything but the slow steps' ...
-    python docs/regenerate.py --skip-slow                               # ... skip optimal00 and pareto00
+    python docs/regenerate.py --kitti-root ../shared/kitti              # everything (~20 min on 2 cores)
+    python docs/regenerate.py --skip-slow                               # without pareto00, certify00, optimal00
     python docs/regenerate.py --only greedy03 certify03 tables          # some steps (or groups: greedy, certify)
     python docs/regenerate.py --maps real                               # real maps only
 
