@@ -103,7 +103,7 @@ class Ctx:
 
     def run(self, *args: str, stdout: Path | None = None) -> None:
         cmd = [*sensorsel_cmd(), *args]
-        shown = " ".join(a.replace(self.kitti_root, "$KITTI") for a in ["sensorsel", *args])
+        shown = " ".join(a.replace(self.kitti_root, "$KITTI").replace(str(REPO) + os.sep, "") for a in ["sensorsel", *args])
         print(f"  $ {shown}", flush=True)
         self.log.append(shown)
         p = subprocess.run(cmd, capture_output=True, text=True)
