@@ -12,12 +12,12 @@ import click
 
 from .. import results
 from ..certify import DEFAULT_MAX_NODES, Certificate, CertifiedGreedyResult, certify_greedy, format_certificate, optimal
-from ..errors import InputError
+from ..errors import InputError, ResultFileError
 from ..evaluators import make_evaluator
 from ..fileio import output_file
-from ..problem import Problem
+from ..problem import check_result_problem
 from ..selection import GreedyResult, check_budget, greedy
-from .options import (not_empty, budget_option, engine_options, json_option, output_option, problem_from, progress_bar, quiet_option,
+from .options import (not_empty, budget_option, force_option, engine_options, json_option, output_option, problem_from, progress_bar, quiet_option,
                       run, scenario_options)
 from .rules import kept_label, rule_option
 
@@ -82,30 +82,20 @@ def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output
         click.echo(f"wrote      {output}")
 
 
-def _check_same_problem(res: GreedyResult, problem: Problem, path: str) -> None:
-    """Refuse to certify a result computed on another scenario or library (its bound would mean nothing)."""
-    if res.problem is None:
-        return
-    here = problem.info
-    for key in ("scenario", "n_poses", "n_landmarks", "n_sensors"):
-        theirs, ours = getattr(res.problem, key), getattr(here, key)
-        if theirs != ours:
-            raise InputError(f"{path}: the greedy result was computed with {key} = {theirs!r}, this problem has {ours!r}; "
-                             "give the same scenario and library options as the greedy run")
-
-
 @click.command("certify", short_help="How close a greedy suite is to the best possible one (an upper bound).")
 @scenario_options
 @engine_options
 @click.option("--result", "result_path", type=click.Path(dir_okay=False, path_type=str), default=None, callback=not_empty,
-              help="A greedy result JSON (`sensorsel greedy -o FILE`) to certify; it must be of the same scenario and library.")
+              help="A greedy result JSON (`sensorsel greedy -o FILE`) to certify; it must be of the same library, route, rate and "
+                   "landmarks (checked by content; see --force).")
 @budget_option(help="Without --result: run greedy at this budget in dollars (110000, 110,000, $110,000 or 110_000) and certify it.")
 @rule_option("best-of", "Without --result: the greedy rule.")
+@force_option
 @output_option(help="Write the certificate as JSON here.")
 @json_option
 @quiet_option
 @run
-def certify_cmd(result_path: str | None, budget: float | None, rule: str, output: str | None, as_json: bool, quiet: bool,
+def certify_cmd(result_path: str | None, budget: float | None, rule: str, force: bool, output: str | None, as_json: bool, quiet: bool,
                 engine: str | None, jobs: int, **kw: Any) -> None:
     """How close is a greedy suite to the best possible suite of its budget?
 
@@ -123,7 +113,11 @@ def certify_cmd(result_path: str | None, budget: float | None, rule: str, output
     problem = problem_from(kw)
     if result_path is not None:
         res = results.load(result_path, CertifiedGreedyResult)
-        _check_same_problem(res, problem, result_path)
+        check_result_problem(res.problem, problem, result_path, force=force, what="the greedy result")
+        try:
+            problem.library.parse_suite(list(res.suite))
+        except InputError as exc:
+            raise ResultFileError(result_path, f"its suite: {exc} (a result of another library?)") from None
         ev = make_evaluator(problem, engine or res.engine, jobs=jobs)
     else:
         assert budget is not None

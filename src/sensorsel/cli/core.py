@@ -14,7 +14,7 @@ from ..errors import InputError
 from ..library import SensorLibrary, load_library
 from ..api import score_suite
 from ..scenario import LandmarkModel, route_landmarks, write_landmarks_csv
-from .options import engine_options, json_option, output_option, plot_format_option, problem_from, run, scenario_options, spec_from, table
+from .options import engine_options, json_option, output_option, plot_format_option, problem_from, run, scenario_options, spec_from, suite_text, table
 from .options import plot_format as plot_format_of
 
 
@@ -53,7 +53,7 @@ def library_cmd(library_path: str | None, as_json: bool) -> None:
 @click.command("score", short_help="Score a suite: cost and f(S) = log det gain over no sensor [nats].")
 @scenario_options
 @engine_options
-@click.option("--suite", required=True, help="Comma-separated sensor ids or indices, e.g. LRL-roof,LRR-12 (see `sensorsel library`).")
+@click.option("--suite", required=True, callback=suite_text, help="Comma-separated sensor ids or indices, e.g. LRL-roof,LRR-12 (see `sensorsel library`).")
 @json_option
 @run
 def score_cmd(suite: str, as_json: bool, engine: str | None, jobs: int, **kw: Any) -> None:
@@ -75,7 +75,7 @@ def score_cmd(suite: str, as_json: bool, engine: str | None, jobs: int, **kw: An
 @scenario_options
 @output_option(required=True, help="Image file (.png, .svg, .pdf).")
 @plot_format_option
-@click.option("--suite", default=None, help="Draw these sensors' cones (comma-separated ids).")
+@click.option("--suite", default=None, callback=suite_text, help="Draw these sensors' cones (comma-separated ids).")
 @click.option("--pose", "pose_index", type=int, default=None, help="Keyframe at which to draw the cones (default: the middle one).")
 @run
 def scene_cmd(output: str, plot_format: str | None, suite: str | None, pose_index: int | None, **kw: Any) -> None:

@@ -156,7 +156,7 @@ def compare(problem: Problem, budget_usd: float, alpha: int, rule: str = "unifor
     name = engine_name(engine)
     fp = fingerprint(problem, budget, alpha, rule, name, lazy, {"what": "whole route"})
     if cache is not None and resume:
-        old = load_matching(Comparison, Path(cache), fp)
+        old = load_matching(Comparison, Path(cache), fp, problem)
         if old is not None:
             return old
     ev = make_evaluator(problem, name, jobs=jobs)
