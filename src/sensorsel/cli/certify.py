@@ -16,7 +16,7 @@ from ..errors import InputError, ResultFileError
 from ..evaluators import make_evaluator
 from ..fileio import output_file
 from ..problem import check_result_problem
-from ..selection import GreedyResult, check_budget, greedy
+from ..selection import check_affordable, check_budget, greedy
 from .options import (not_empty, budget_option, force_option, engine_options, json_option, output_option, problem_from, progress_bar, quiet_option,
                       run, scenario_options)
 from .rules import kept_label, rule_option
@@ -51,6 +51,7 @@ def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output
     if output:
         output_file(output)
     problem = problem_from(kw)
+    check_affordable(problem.library, budget)
     info = problem.info
     ev = make_evaluator(problem, engine, jobs=jobs)
     bar, progress = progress_bar(quiet or as_json, "branch and bound (nodes)")
@@ -122,7 +123,7 @@ def certify_cmd(result_path: str | None, budget: float | None, rule: str, force:
     else:
         assert budget is not None
         ev = make_evaluator(problem, engine, jobs=jobs)
-        res = greedy(ev, check_budget(budget), rule, info=problem.info)
+        res = greedy(ev, check_affordable(problem.library, budget), rule, info=problem.info)
     bar, progress = progress_bar(quiet or as_json, "certificate (greedy steps)")
     with bar or nullcontext():
         cert: Certificate = certify_greedy(ev, res, progress=progress)

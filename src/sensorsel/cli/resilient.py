@@ -44,7 +44,7 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, rule: str, outdir:
     """
     from ..plotting import plot_selection_grid, save_figure, use_file_backend
     from ..resilient import check_alpha, check_period, resilient_report, save_grid_csv, split_periods
-    from ..selection import check_budget
+    from ..selection import check_affordable, check_budget
 
     budget = check_budget(budget)
     fmt = plot_format_of(plot_format)
@@ -52,6 +52,7 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, rule: str, outdir:
     period_s = check_period(period_s)
     out = output_dir(outdir)
     problem = problem_from(kw)
+    check_affordable(problem.library, budget, alpha)
     sc = problem.scenario
     n_periods = len(split_periods(sc.keyframes.times, period_s))
     bar, progress = progress_bar(quiet, f"{n_periods} periods of {period_s:g} s")

@@ -14,7 +14,7 @@ from ..api import run_greedy
 from ..certify import CertifiedGreedyResult, format_certificate
 from ..fileio import output_dir, output_file
 from ..library import SensorLibrary
-from ..selection import RULES
+from ..selection import RULES, check_affordable
 from ..tradespace import DEFAULT_RULES, Architecture, parse_budgets, parse_rules, run_tradespace, write_csv
 from .options import (budget_option, engine_options, json_option, output_option, plot_format_option, problem_from, progress_bar,
                       quiet_option, run, scenario_options, table)
@@ -71,11 +71,12 @@ def greedy_cmd(budget: float, rule: str, lazy: bool, output: str | None, as_json
     Prints the suite in pick order with each pick's marginal gain, the cost, the score
     f(S) = log det L(S) - log det L(empty) [nats], why selection stopped, and a certificate: an
     upper bound on the score of any suite within the budget, so "at least X% of the best possible".
-    A budget below the cheapest sensor prints the empty suite, says so on stderr and exits with status 2.
+    A budget below the cheapest sensor is an error (exit status 2) naming the cheapest sensor.
     """
     if output:
         output_file(output)
     problem = problem_from(kw)
+    check_affordable(problem.library, budget)
     bar, progress = progress_bar(quiet, f"greedy {rule}", phases=len(RULES[rule].component_rules))
     cert_bar, cert_progress = progress_bar(quiet or not certify, "certificate", after=bar)
     with bar or nullcontext(), cert_bar or nullcontext():
@@ -89,10 +90,6 @@ def greedy_cmd(budget: float, rule: str, lazy: bool, output: str | None, as_json
         _print_greedy(res, problem.library)
         if output:
             click.echo(f"wrote      {output}")
-    cheapest = float(problem.library.costs.min())
-    if not res.suite and budget < cheapest:
-        click.echo(f"sensorsel: the suite is empty: {res.stop_reason}", err=True)
-        sys.exit(2)
 
 
 def _compact(suite: tuple[str, ...]) -> str:
@@ -139,6 +136,8 @@ def pareto_cmd(budgets: str | None, budget: tuple[float, ...], rules: str, lazy:
     names = parse_rules(rules)
     output_dir(outdir)
     problem = problem_from(kw)
+    if grid:
+        check_affordable(problem.library, max(grid), budget_option="--budgets" if budgets is not None else "--budget")
     bar, progress = progress_bar(quiet, "tradespace runs")
     with bar or nullcontext():
         res = run_tradespace(problem, grid, names, engine=engine, jobs=jobs, lazy=lazy, progress=progress)
