@@ -9,6 +9,7 @@ from typing import Any
 import click
 
 from .. import results
+from ..errors import InputError
 from ..fileio import output_dir
 from .options import (budget_option, engine_options, json_option, output_option, plot_format_option, problem_from, progress_bar,
                       quiet_option, run, scenario_options, table)
@@ -62,6 +63,12 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, rule: str, outdir:
         report = resilient_report(problem, budget, alpha, period_s=period_s, rule=rule, engine=engine, jobs=jobs,
                                   outdir=out, resume=resume, progress=progress)
 
+    r = report.comparison.resilient
+    if alpha and len(r.suite) <= alpha:
+        # the failing set took what the budget buys: every sensor of the suite could fail
+        raise InputError(f"--failures {alpha}: the resilient suite within --budget ${budget:,.0f} holds only {len(r.suite)} "
+                         f"sensor(s) ({', '.join(r.suite) or 'none'}; {r.failure_note or 'the failing sensors take the budget'}), "
+                         f"so every one could fail (worst case 0): give fewer --failures or a larger --budget")
     per = report.per_period
     assert per is not None
     json_path = results.save(report, out / "resilient.json")
