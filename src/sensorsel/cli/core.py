@@ -88,6 +88,9 @@ def scene_cmd(output: str, plot_format: str | None, suite: str | None, pose_inde
     plot_format_of(plot_format, output)
     problem = problem_from(kw)
     positions = problem.library.parse_suite(suite) if suite else ()
+    n = problem.scenario.n_poses
+    if pose_index is not None and not 0 <= pose_index < n:
+        raise InputError(f"--pose {pose_index}: the scenario {problem.scenario.name} has keyframes 0..{n - 1}")
     use_file_backend()
     ax = plot_scene(problem.scenario, library=problem.library, suite=positions, pose_index=pose_index)
     path = save_figure(ax.figure, output, close=True)
