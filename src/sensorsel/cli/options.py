@@ -84,8 +84,10 @@ BUDGET = BudgetType()
 def budget_option(*, required: bool = False, default: float | None = None, multiple: bool = False,
                   help: str = "Budget in dollars: 110000, 110,000, $110,000 or 110_000.") -> Callable[[F], F]:
     """--budget DOLLARS, parsed by :class:`BudgetType`."""
-    return click.option("--budget", type=BUDGET, required=required, default=default, multiple=multiple,
-                        show_default=default is not None, help=help)
+    # no default=None: click 8.5 takes an explicit None for a given default, and a required
+    # --budget left out then reached the command as None instead of "Missing option '--budget'"
+    extra: dict[str, Any] = {} if default is None else {"default": default, "show_default": True}
+    return click.option("--budget", type=BUDGET, required=required, multiple=multiple, help=help, **extra)
 
 
 def quiet_option(fn: F) -> F:
