@@ -566,4 +566,4 @@ def test_cli_certify_refuses_a_result_of_another_scenario(tmp_path):
     res = greedy(make_evaluator(problem, "reference"), 3000.0, "uniform", info=problem.info)
     path = results.save(res, tmp_path / "g.json")
     r = CliRunner().invoke(cli, ["certify", "--fixture", "suburb", "-q", "--result", str(path)])
-    assert r.exit_code == 2 and "computed with scenario = 'tiny'" in r.output
+    assert r.exit_code == 2 and "computed on another problem (another library" in r.output and "another route" in r.output

@@ -333,10 +333,10 @@ def test_cli_bad_budget_exits_2(small_library, bad, msg):
 
 
 def test_cli_budget_below_cheapest_sensor(small_library):
+    # refused up front (issue 17: one behaviour for "nothing fits" across the commands)
     r = _greedy(small_library, "--budget", "300")
-    assert r.exit_code == 2
-    assert "(empty suite)" in r.stdout and "$0 of $300" in r.stdout
-    assert "below the cheapest sensor" in r.stderr and "$449" in r.stderr
+    assert r.exit_code == 2 and r.stdout == ""
+    assert "--budget $300 is below the cheapest sensor" in r.stderr and "$449" in r.stderr
 
 
 def test_cli_greedy_table_and_json_output(small_library, tmp_path):

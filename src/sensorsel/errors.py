@@ -52,3 +52,8 @@ class OutputError(SensorselError):
         self.path = str(path)
         self.reason = message
         super().__init__(f"{path}: cannot write: {message}")
+
+
+class SensorselWarning(UserWarning):
+    """Base class of the warnings sensorsel gives about input it still uses (the CLI prints them as
+    one line ``sensorsel: warning: ...`` on stderr, exit status unchanged)."""

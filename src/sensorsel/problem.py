@@ -5,15 +5,18 @@ Built once per (library, scenario) and shared by every evaluator and selector.
 
 from __future__ import annotations
 
+import hashlib
+import json
 import math
-from dataclasses import dataclass, field
+import warnings
+from dataclasses import asdict, dataclass, field
 from functools import cached_property
 from pathlib import Path
 from typing import Iterable
 
 import numpy as np
 
-from .errors import InputError
+from .errors import InputError, ResultFileError, SensorselWarning
 from .domain import load_domain_file, load_domain_scenarios
 from .library import SensorLibrary, load_library
 from .scenario import Scenario, ScenarioSpec, distance_to_route, load_scenario
@@ -53,6 +56,66 @@ class GraphSettings:
 
 
 @dataclass(frozen=True)
+class Fingerprint:
+    """What a result was computed on, by content: sha256 digests (hex) of four parts of a problem.
+
+    The same data under another path or name gives the same fingerprint; one changed price, one
+    moved landmark or another keyframe rate gives another.
+
+    Attributes:
+        library: every placed sensor in library order: its id, index, mounting, and its model's
+            numbers (type, range, field of view, noise, cost); not the file's path nor model names.
+        route: the keyframes' poses and timestamps (so the route and the keyframe rate).
+        landmarks: the landmarks' coordinates, in order.
+        settings: the graph settings (odometry, first-pose and landmark prior noise).
+    """
+
+    library: str
+    route: str
+    landmarks: str
+    settings: str
+
+    #: (field, what a difference means), in the order differences are reported.
+    PARTS = (
+        ("library", "another library: sensor costs or models differ"),
+        ("route", "another route or keyframe rate"),
+        ("landmarks", "another landmark map"),
+        ("settings", "other graph settings"),
+    )
+
+    @classmethod
+    def of(cls, library: SensorLibrary, scenario: Scenario, settings: GraphSettings) -> "Fingerprint":
+        sensors = []
+        for s in library.sensors:
+            model = {k: v for k, v in asdict(s.model).items() if k != "name"}
+            sensors.append({"id": s.id, "index": s.index, "clock": s.clock, "mount_angle_rad": s.mount_angle_rad, "model": model})
+        kf = scenario.keyframes
+        return cls(
+            library=_json_digest(sensors),
+            route=_array_digest(kf.poses, kf.times),
+            landmarks=_array_digest(scenario.landmarks),
+            settings=_json_digest(asdict(settings)),
+        )
+
+    def differences(self, other: "Fingerprint", ignore: tuple[str, ...] = ()) -> list[str]:
+        """What differs between two fingerprints, in words (empty when they are equal), but the parts in ``ignore``."""
+        return [what for name, what in self.PARTS if name not in ignore and getattr(self, name) != getattr(other, name)]
+
+
+def _json_digest(obj: object) -> str:
+    return hashlib.sha256(json.dumps(obj, sort_keys=True, allow_nan=False).encode("utf-8")).hexdigest()
+
+
+def _array_digest(*arrays: np.ndarray) -> str:
+    h = hashlib.sha256()
+    for a in arrays:
+        a = np.ascontiguousarray(a, dtype=np.float64)
+        h.update(str(a.shape).encode())
+        h.update(a.tobytes())
+    return h.hexdigest()
+
+
+@dataclass(frozen=True)
 class ProblemInfo:
     """What a result was computed on (recorded in every result file).
 
@@ -67,6 +130,8 @@ class ProblemInfo:
         n_sensors: sensors in the library.
         spec: the scenario as the user stated it (None when the problem was built from objects).
         settings: the graph's noise settings.
+        fingerprint: digests of the library, route, landmarks and settings by content
+            (:class:`Fingerprint`); None in files written before fingerprints existed.
     """
 
     scenario: str
@@ -79,6 +144,7 @@ class ProblemInfo:
     n_sensors: int
     spec: ScenarioSpec | None = None
     settings: GraphSettings = field(default_factory=GraphSettings)
+    fingerprint: Fingerprint | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -125,7 +191,13 @@ class Problem:
             n_sensors=self.n_sensors,
             spec=self.spec,
             settings=self.settings,
+            fingerprint=self.fingerprint,
         )
+
+    @cached_property
+    def fingerprint(self) -> Fingerprint:
+        """What this problem is, by content (computed once)."""
+        return Fingerprint.of(self.library, self.scenario, self.settings)
 
     @cached_property
     def landmarks_in_reach(self) -> np.ndarray:
@@ -153,6 +225,63 @@ class Problem:
         """Sorted library positions of a suite given as ids or positions (see
         :meth:`SensorLibrary.resolve_suite`)."""
         return self.library.resolve_suite(suite)
+
+
+class ProblemMismatchWarning(SensorselWarning):
+    """A result of another problem (or without a fingerprint) used anyway, because of ``force``."""
+
+
+def check_result_problem(recorded: "TargetInfo | None", problem: "Target", path: str | Path, *, force: bool = False,
+                         what: str = "the result", ignore: tuple[str, ...] = ()) -> None:
+    """Check that a result read from ``path`` was computed on ``problem``: the same library (sensor
+    models and costs), route and keyframe rate, landmarks and graph settings, by content (see
+    :class:`Fingerprint`; the paths and names the files had do not matter). For a domain: the same
+    routes, in the same order, with the same weights, each checked so.
+
+    Args:
+        recorded: the ``problem`` the result records (its :class:`ProblemInfo` or :class:`DomainInfo`).
+        force: warn (:class:`ProblemMismatchWarning`) instead of refusing.
+        what: how to name the result in the message.
+        ignore: parts of the :class:`Fingerprint` not compared (``simulate --start-sigmas`` changes
+            the settings on purpose: ``("settings",)``).
+    Raises:
+        ResultFileError: (without ``force``) the result names no problem, records no fingerprint (a
+            file of an older sensorsel), or was computed on another problem; the message names the
+            file and what differs.
+    """
+    hint = ("give the same library, route, rate, landmark and noise options (or --domain file) as the run that wrote it, "
+            "or --force to use it anyway")
+    if isinstance(problem, Domain) or isinstance(recorded, DomainInfo):
+        if not (isinstance(problem, Domain) and isinstance(recorded, DomainInfo)):
+            one, other = ("one route", "this domain") if isinstance(problem, Domain) else ("a domain", "this route")
+            _refuse(path, f"{what} was computed on {one}, not on {other}", hint, force)
+            return
+        here = problem.info
+        theirs = [(r.name, r.weight, r.unit) for r in recorded.routes]
+        ours = [(r.name, r.weight, r.unit) for r in here.routes]
+        if theirs != ours:
+            _refuse(path, f"{what} was computed on another domain (routes and weights {theirs} against {ours})", hint, force)
+            return
+        for r_theirs, r_ours in zip(recorded.routes, problem.routes):
+            check_result_problem(r_theirs.problem, r_ours.problem, path, force=force, what=f"{what} (route {r_ours.name})",
+                                 ignore=ignore)
+        return
+    if recorded is None or recorded.fingerprint is None:
+        why = ("records no problem it was computed on" if recorded is None else
+               "records no fingerprint of what it was computed on (written before fingerprints)")
+        msg = (f"{what} {why}, so it cannot be checked against this library, route and landmarks")
+        _refuse(path, msg, "rerun the command that wrote it, or give --force to use it anyway", force)
+        return
+    diffs = recorded.fingerprint.differences(problem.fingerprint, ignore)
+    if diffs:
+        _refuse(path, f"{what} was computed on another problem ({'; '.join(diffs)})", hint, force)
+
+
+def _refuse(path: str | Path, msg: str, hint: str, force: bool) -> None:
+    if force:
+        warnings.warn(f"{path}: {msg}; used anyway (--force)", ProblemMismatchWarning, stacklevel=3)
+    else:
+        raise ResultFileError(path, f"{msg}; {hint}")
 
 
 def build_problem(library: SensorLibrary, scenario: Scenario, settings: GraphSettings | None = None, *,

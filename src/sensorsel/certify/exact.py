@@ -9,6 +9,10 @@ bounds the node (f monotone submodular; see :mod:`sensorsel.certify.certificate`
 bound does not exceed the best suite found is dropped. The knapsacks are exact DP over the costs at
 their resolution (:mod:`.knapsack`), or their LP relaxation when the table would be too large.
 Deterministic for a deterministic evaluator (the wall time sits in a separate ``seconds`` field).
+
+Nothing fits: :func:`optimal` answers a budget below the cheapest sensor with the empty suite,
+proved optimal, whose ``stop_reason`` says why (a library caller sweeping budgets may want it). The
+CLI refuses such a request up front with :func:`sensorsel.selection.check_affordable` (exit 2).
 """
 
 from __future__ import annotations
@@ -154,6 +158,8 @@ def optimal(evaluator: Evaluator, budget_usd: float, *, max_nodes: int = DEFAULT
     proved = not search.heap
     if proved:
         stop = "every other suite ruled out by its bound"
+        if not best.suite and not incumbent.suite and incumbent.stop_reason:
+            stop = f"the empty suite is the best: {incumbent.stop_reason}"  # e.g. a budget below the cheapest sensor
         upper = best.score
     else:
         upper = max(best.score, min(-search.heap[0][0], cert_bound))

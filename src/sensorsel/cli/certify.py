@@ -12,13 +12,13 @@ import click
 
 from .. import results
 from ..certify import DEFAULT_MAX_NODES, Certificate, CertifiedGreedyResult, certify_greedy, format_certificate, optimal
-from ..errors import InputError
 from ..domain_design import DomainDesign
+from ..errors import InputError, ResultFileError
 from ..evaluators import DomainEvaluator, evaluator_for
 from ..fileio import output_file
-from ..problem import DomainInfo, Target
-from ..selection import GreedyResult, check_budget, greedy
-from .options import (not_empty, budget_option, engine_options, json_option, output_option, problem_from, progress_bar, quiet_option,
+from ..problem import check_result_problem
+from ..selection import check_affordable, check_budget, greedy
+from .options import (not_empty, budget_option, force_option, engine_options, json_option, output_option, progress_bar, quiet_option,
                       print_target, run, target_from, target_options)
 from .rules import kept_label, rule_option
 
@@ -52,6 +52,7 @@ def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output
     if output:
         output_file(output)
     problem = target_from(kw)
+    check_affordable(problem.library, budget)
     info = problem.info
     ev = evaluator_for(problem, engine, jobs=jobs, aggregate=aggregate)
     bar, progress = progress_bar(quiet or as_json, "branch and bound (nodes)")
@@ -81,35 +82,20 @@ def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output
         click.echo(f"wrote      {output}")
 
 
-def _check_same_problem(res: GreedyResult, problem: Target, path: str) -> None:
-    """Refuse to certify a result computed on another scenario or library (its bound would mean nothing)."""
-    if res.problem is None:
-        return
-    here = problem.info
-    if type(res.problem) is not type(here) or isinstance(here, DomainInfo):
-        if res.problem != here:
-            raise InputError(f"{path}: the greedy result was computed on another {'domain' if isinstance(here, DomainInfo) else 'scenario'}"
-                             " than this one; give the same --domain or scenario and library options as the greedy run")
-        return
-    for key in ("scenario", "n_poses", "n_landmarks", "n_sensors"):
-        theirs, ours = getattr(res.problem, key), getattr(here, key)
-        if theirs != ours:
-            raise InputError(f"{path}: the greedy result was computed with {key} = {theirs!r}, this problem has {ours!r}; "
-                             "give the same scenario and library options as the greedy run")
-
-
 @click.command("certify", short_help="How close a greedy suite is to the best possible one (an upper bound).")
 @target_options
 @engine_options
 @click.option("--result", "result_path", type=click.Path(dir_okay=False, path_type=str), default=None, callback=not_empty,
-              help="A greedy result JSON (`sensorsel greedy -o FILE`) to certify; it must be of the same scenario and library.")
+              help="A greedy result JSON (`sensorsel greedy -o FILE`) to certify; it must be of the same library, route, rate and "
+                   "landmarks (checked by content; see --force).")
 @budget_option(help="Without --result: run greedy at this budget in dollars (110000, 110,000, $110,000 or 110_000) and certify it.")
 @rule_option("best-of", "Without --result: the greedy rule.")
+@force_option
 @output_option(help="Write the certificate as JSON here.")
 @json_option
 @quiet_option
 @run
-def certify_cmd(result_path: str | None, budget: float | None, rule: str, output: str | None, as_json: bool, quiet: bool,
+def certify_cmd(result_path: str | None, budget: float | None, rule: str, force: bool, output: str | None, as_json: bool, quiet: bool,
                 aggregate: str, engine: str | None, jobs: int, **kw: Any) -> None:
     """How close is a greedy suite to the best possible suite of its budget?
 
@@ -128,13 +114,17 @@ def certify_cmd(result_path: str | None, budget: float | None, rule: str, output
     if result_path is not None:
         loaded = results.load(result_path, (CertifiedGreedyResult, DomainDesign))
         res = loaded.greedy if isinstance(loaded, DomainDesign) else loaded
-        _check_same_problem(res, problem, result_path)
+        check_result_problem(res.problem, problem, result_path, force=force, what="the greedy result")
+        try:
+            problem.library.parse_suite(list(res.suite))
+        except InputError as exc:
+            raise ResultFileError(result_path, f"its suite: {exc} (a result of another library?)") from None
         run_engine = None if res.engine == DomainEvaluator.name else res.engine
         ev = evaluator_for(problem, engine or run_engine, jobs=jobs, aggregate=aggregate)
     else:
         assert budget is not None
         ev = evaluator_for(problem, engine, jobs=jobs, aggregate=aggregate)
-        res = greedy(ev, check_budget(budget), rule, info=problem.info)
+        res = greedy(ev, check_affordable(problem.library, budget), rule, info=problem.info)
     bar, progress = progress_bar(quiet or as_json, "certificate (greedy steps)")
     with bar or nullcontext():
         cert: Certificate = certify_greedy(ev, res, progress=progress)

@@ -16,7 +16,7 @@ from ..api import score_domain_suite, score_suite
 from ..problem import Domain
 from ..scenario import LandmarkModel, route_landmarks, write_landmarks_csv
 from .options import (engine_options, json_option, output_option, plot_format_option, print_target, problem_from, run,
-                      scenario_options, spec_from, table, target_from, target_options)
+                      scenario_options, spec_from, suite_text, table, target_from, target_options)
 from .options import plot_format as plot_format_of
 
 
@@ -55,7 +55,7 @@ def library_cmd(library_path: str | None, as_json: bool) -> None:
 @click.command("score", short_help="Score a suite: cost and f(S) = log det gain over no sensor [nats].")
 @target_options
 @engine_options
-@click.option("--suite", required=True, help="Comma-separated sensor ids or indices, e.g. LRL-roof,LRR-12 (see `sensorsel library`).")
+@click.option("--suite", required=True, callback=suite_text, help="Comma-separated sensor ids or indices, e.g. LRL-roof,LRR-12 (see `sensorsel library`).")
 @json_option
 @run
 def score_cmd(suite: str, as_json: bool, aggregate: str, engine: str | None, jobs: int, **kw: Any) -> None:
@@ -93,7 +93,7 @@ def score_cmd(suite: str, as_json: bool, aggregate: str, engine: str | None, job
 @scenario_options
 @output_option(required=True, help="Image file (.png, .svg, .pdf).")
 @plot_format_option
-@click.option("--suite", default=None, help="Draw these sensors' cones (comma-separated ids).")
+@click.option("--suite", default=None, callback=suite_text, help="Draw these sensors' cones (comma-separated ids).")
 @click.option("--pose", "pose_index", type=int, default=None, help="Keyframe at which to draw the cones (default: the middle one).")
 @run
 def scene_cmd(output: str, plot_format: str | None, suite: str | None, pose_index: int | None, **kw: Any) -> None:
@@ -106,6 +106,9 @@ def scene_cmd(output: str, plot_format: str | None, suite: str | None, pose_inde
     plot_format_of(plot_format, output)
     problem = problem_from(kw)
     positions = problem.library.parse_suite(suite) if suite else ()
+    n = problem.scenario.n_poses
+    if pose_index is not None and not 0 <= pose_index < n:
+        raise InputError(f"--pose {pose_index}: the scenario {problem.scenario.name} has keyframes 0..{n - 1}")
     use_file_backend()
     ax = plot_scene(problem.scenario, library=problem.library, suite=positions, pose_index=pose_index)
     path = save_figure(ax.figure, output, close=True)

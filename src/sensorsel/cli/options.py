@@ -13,12 +13,13 @@ import functools
 import math
 import os
 import sys
+import warnings
 from pathlib import Path
 from typing import Any, Callable, TypeVar
 
 import click
 
-from ..errors import InputError, SensorselError
+from ..errors import InputError, SensorselError, SensorselWarning
 from ..evaluators import AGGREGATES
 from ..problem import DomainInfo, ProblemInfo, Target, TargetInfo, load_domain, load_problem
 from ..problem import Problem
@@ -27,12 +28,25 @@ from ..scenario import KITTI_ROOT_ENV, ROUTE_FORMATS, ScenarioSpec
 
 
 def run(fn: Callable[..., Any]) -> Callable[..., Any]:
-    """Turn sensorsel's input errors into one clear line and exit code 2 (no traceback)."""
+    """Turn sensorsel's input errors into one clear line and exit code 2 (no traceback); print
+    sensorsel's warnings (:class:`~sensorsel.errors.SensorselWarning`) as one line
+    ``sensorsel: warning: ...`` on stderr."""
 
     @functools.wraps(fn)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
         try:
-            return fn(*args, **kwargs)
+            with warnings.catch_warnings():
+                warnings.simplefilter("always", SensorselWarning)
+                shown = warnings.showwarning
+
+                def show(message: Any, category: type[Warning], *rest: Any, **kw: Any) -> None:
+                    if issubclass(category, SensorselWarning):
+                        click.echo(f"sensorsel: warning: {message}", err=True)
+                    else:
+                        shown(message, category, *rest, **kw)
+
+                warnings.showwarning = show
+                return fn(*args, **kwargs)
         except SensorselError as exc:
             click.echo(f"sensorsel: error: {exc}", err=True)
             sys.exit(2)
@@ -71,8 +85,10 @@ BUDGET = BudgetType()
 def budget_option(*, required: bool = False, default: float | None = None, multiple: bool = False,
                   help: str = "Budget in dollars: 110000, 110,000, $110,000 or 110_000.") -> Callable[[F], F]:
     """--budget DOLLARS, parsed by :class:`BudgetType`."""
-    return click.option("--budget", type=BUDGET, required=required, default=default, multiple=multiple,
-                        show_default=default is not None, help=help)
+    # no default=None: click 8.5 takes an explicit None for a given default, and a required
+    # --budget left out then reached the command as None instead of "Missing option '--budget'"
+    extra: dict[str, Any] = {} if default is None else {"default": default, "show_default": True}
+    return click.option("--budget", type=BUDGET, required=required, multiple=multiple, help=help, **extra)
 
 
 def quiet_option(fn: F) -> F:
@@ -336,3 +352,18 @@ def print_target(info: TargetInfo | None) -> None:
         for r in info.routes:
             p = r.problem
             click.echo(f"  {r.name:<12} weight {r.weight:g} {r.unit}; {p.n_poses} keyframes, {p.n_landmarks} landmarks ({p.landmark_source})")
+
+
+def force_option(fn: F) -> F:
+    """--force: use a result file computed on another problem (or without a fingerprint), with a warning."""
+    return click.option("--force", is_flag=True,
+                        help="Use a result file even when it was computed on another library, route, rate, landmark map or "
+                             "graph settings, or records no fingerprint (a warning on stderr instead of an error).")(fn)
+
+
+def suite_text(ctx: click.Context, param: click.Parameter, value: str | None) -> str | None:
+    """Callback of a --suite/--compare option: an empty suite (``""``, ``","``) is a usage error naming it."""
+    if value is not None and not [t for t in value.split(",") if t.strip()]:
+        raise click.BadParameter(f"names no sensor ({value!r}): give comma-separated sensor ids (see `sensorsel library`)",
+                                 ctx=ctx, param=param)
+    return value

@@ -9,6 +9,7 @@ from typing import Any
 import click
 
 from .. import results
+from ..errors import InputError
 from ..fileio import output_dir
 from ..problem import Domain
 from .options import (budget_option, engine_options, json_option, output_option, plot_format_option, problem_from, progress_bar,
@@ -48,7 +49,7 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, rule: str, outdir:
     """
     from ..plotting import plot_selection_grid, save_figure, use_file_backend
     from ..resilient import check_alpha, check_period, resilient_report, save_grid_csv, split_periods
-    from ..selection import check_budget
+    from ..selection import check_affordable, check_budget
 
     budget = check_budget(budget)
     fmt = plot_format_of(plot_format)
@@ -56,6 +57,7 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, rule: str, outdir:
     period_s = check_period(period_s)
     out = output_dir(outdir)
     problem = target_from(kw)
+    check_affordable(problem.library, budget, alpha)
     if isinstance(problem, Domain):
         report = resilient_report(problem, budget, alpha, period_s=None, rule=rule, engine=engine, jobs=jobs,
                                   aggregate=aggregate)
@@ -69,6 +71,14 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, rule: str, outdir:
         with bar or nullcontext():
             report = resilient_report(problem, budget, alpha, period_s=period_s, rule=rule, engine=engine, jobs=jobs,
                                       outdir=out, resume=resume, progress=progress)
+        written = []
+    r = report.comparison.resilient
+    if alpha and len(r.suite) <= alpha:
+        # the failing set took what the budget buys: every sensor of the suite could fail
+        raise InputError(f"--failures {alpha}: the resilient suite within --budget ${budget:,.0f} holds only {len(r.suite)} "
+                         f"sensor(s) ({', '.join(r.suite) or 'none'}; {r.failure_note or 'the failing sensors take the budget'}), "
+                         f"so every one could fail (worst case 0): give fewer --failures or a larger --budget")
+    if not isinstance(problem, Domain):
         per = report.per_period
         assert per is not None
         written = [results.save(report, out / "resilient.json"), save_grid_csv(per.grid, out / "grid.csv")]

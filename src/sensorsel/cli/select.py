@@ -16,7 +16,7 @@ from ..problem import Domain, DomainInfo
 from ..certify import CertifiedGreedyResult, format_certificate
 from ..fileio import output_dir, output_file
 from ..library import SensorLibrary
-from ..selection import RULES
+from ..selection import RULES, check_affordable
 from ..tradespace import DEFAULT_RULES, Architecture, parse_budgets, parse_rules, run_tradespace, write_csv
 from .options import (budget_option, engine_options, json_option, output_option, plot_format_option, problem_from, progress_bar,
                       print_target, quiet_option, run, table, target_from, target_options)
@@ -84,7 +84,7 @@ def greedy_cmd(budget: float, rule: str, lazy: bool, output: str | None, as_json
     Prints the suite in pick order with each pick's marginal gain, the cost, the score
     f(S) = log det L(S) - log det L(empty) [nats], why selection stopped, and a certificate: an
     upper bound on the score of any suite within the budget, so "at least X% of the best possible".
-    A budget below the cheapest sensor prints the empty suite, says so on stderr and exits with status 2.
+    A budget below the cheapest sensor is an error (exit status 2) naming the cheapest sensor.
 
     With --domain FILE, one suite for every route of an operating domain: the domain score is the
     weighted sum of each route's share of its best (--aggregate), and a per-route breakdown compares
@@ -98,6 +98,7 @@ def greedy_cmd(budget: float, rule: str, lazy: bool, output: str | None, as_json
     problem = target_from(kw)
     if plot_path and not isinstance(problem, Domain):
         raise click.UsageError("--plot draws a domain's per-route breakdown: it goes with --domain FILE")
+    check_affordable(problem.library, budget)
     bar, progress = progress_bar(quiet, f"greedy {rule}", phases=len(RULES[rule].component_rules))
     cert_bar, cert_progress = progress_bar(quiet or not certify, "certificate", after=bar)
     out: CertifiedGreedyResult | DomainDesign
@@ -125,10 +126,6 @@ def greedy_cmd(budget: float, rule: str, lazy: bool, output: str | None, as_json
         for path in (output, plot_path):
             if path:
                 click.echo(f"wrote      {path}")
-    cheapest = float(problem.library.costs.min())
-    if not res.suite and budget < cheapest:
-        click.echo(f"sensorsel: the suite is empty: {res.stop_reason}", err=True)
-        sys.exit(2)
 
 
 def _compact(suite: tuple[str, ...]) -> str:
@@ -175,6 +172,8 @@ def pareto_cmd(budgets: str | None, budget: tuple[float, ...], rules: str, lazy:
     names = parse_rules(rules)
     output_dir(outdir)
     problem = target_from(kw)
+    if grid:
+        check_affordable(problem.library, max(grid), budget_option="--budgets" if budgets is not None else "--budget")
     bar, progress = progress_bar(quiet, "tradespace runs")
     with bar or nullcontext():
         res = run_tradespace(problem, grid, names, engine=engine, jobs=jobs, lazy=lazy, aggregate=aggregate, progress=progress)

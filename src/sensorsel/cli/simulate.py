@@ -14,9 +14,8 @@ from .. import results
 from ..errors import InputError, ResultFileError
 from ..fileio import output_dir
 from ..library import SensorLibrary
-from ..problem import load_problem
-from ..problem import GraphSettings
-from .options import json_option, output_option, plot_format_option, progress_bar, quiet_option, run, scenario_options, spec_from, table
+from ..problem import GraphSettings, Problem, ProblemInfo, check_result_problem, load_problem
+from .options import force_option, json_option, output_option, suite_text, plot_format_option, progress_bar, quiet_option, run, scenario_options, spec_from, table
 from .options import plot_format as plot_format_of
 
 
@@ -25,9 +24,12 @@ from .options import plot_format as plot_format_of
 SUITE_KINDS = ("greedy", "resilient", "resilient-selection", "optimum", "score")
 
 
-def read_suite(text: str, library: SensorLibrary, what: str) -> tuple[tuple[int, ...], str, tuple[str, ...]]:
+def read_suite(text: str, library: SensorLibrary, what: str, problem: Problem | None = None,
+               force: bool = False, ignore: tuple[str, ...] = ()) -> tuple[tuple[int, ...], str, tuple[str, ...]]:
     """A suite from comma-separated ids, or from a result file of a kind in :data:`SUITE_KINDS`
     (e.g. of ``sensorsel greedy -o`` or ``sensorsel resilient``), read by :func:`sensorsel.results.load`.
+    With ``problem``, a result file must have been computed on it
+    (:func:`~sensorsel.problem.check_result_problem`; ``force``: a warning instead).
 
     Returns:
         (library positions, label, sensors the result assumes to fail (resilient kinds)).
@@ -42,6 +44,9 @@ def read_suite(text: str, library: SensorLibrary, what: str) -> tuple[tuple[int,
         except ResultFileError as exc:
             raise ResultFileError(path, f"{what}: {exc.reason}") from None
         ids: tuple[str, ...] = rec.suite
+        if problem is not None:
+            check_result_problem(_recorded_problem(rec), problem, path, force=force,
+                                 what=f"{what}: the {results.kind_of(rec)} result", ignore=ignore)
         failed: tuple[str, ...] = getattr(rec, "failed", ())
         try:
             positions = library.parse_suite(list(ids))
@@ -54,14 +59,22 @@ def read_suite(text: str, library: SensorLibrary, what: str) -> tuple[tuple[int,
         raise InputError(f"{what} {text!r}: {exc}") from None
 
 
+def _recorded_problem(rec: Any) -> ProblemInfo | None:
+    """The problem a suite result records (a resilient report's: its comparison's)."""
+    info = getattr(rec, "problem", None)
+    if info is None:
+        info = getattr(getattr(rec, "comparison", None), "problem", None)
+    return info if isinstance(info, ProblemInfo) else None
+
+
 def _fmt(v: float | None, digits: int = 3) -> str:
     return "n/a" if v is None else f"{v:.{digits}f}"
 
 
 @click.command("simulate", short_help="Monte-Carlo SLAM with GTSAM on one or two suites, with failures.")
 @scenario_options
-@click.option("--suite", required=True, help="Comma-separated sensor ids, or a result JSON of `sensorsel greedy`/`resilient` (its \"suite\").")
-@click.option("--compare", default=None, help="A second suite (same forms) simulated with the same noise and drawn beside the first.")
+@click.option("--suite", required=True, callback=suite_text, help="Comma-separated sensor ids, or a result JSON of `sensorsel greedy`/`resilient` (its \"suite\").")
+@click.option("--compare", default=None, callback=suite_text, help="A second suite (same forms) simulated with the same noise and drawn beside the first.")
 @click.option("--label", default=None, help="Name of --suite in the table and plots (default: the result file's name, or \"suite\").")
 @click.option("--compare-label", default=None, help="Name of --compare (default: the result file's name, or \"compare\").")
 @click.option("--fail", "fail", default=None, metavar="ID[@FROM-TO],...",
@@ -80,11 +93,12 @@ def _fmt(v: float | None, digits: int = 3) -> str:
 @output_option(folder=True, required=True, dest="outdir",
                help="Output folder: simulation.json (every run), trajectories, error_along_route and simulate plots.")
 @plot_format_option
+@force_option
 @json_option
 @quiet_option
 @run
 def simulate_cmd(suite: str, compare: str | None, label: str | None, compare_label: str | None, fail: str | None, start_sigmas: str | None,
-                 runs: int, solver: str, seed: int, noise_scale: float, jobs: int, outdir: str, plot_format: str | None, as_json: bool,
+                 runs: int, solver: str, seed: int, noise_scale: float, jobs: int, outdir: str, plot_format: str | None, force: bool, as_json: bool,
                  quiet: bool, **kw: Any) -> None:
     """Validate designs by running SLAM on them: N noisy Monte-Carlo runs solved with GTSAM.
 
@@ -114,9 +128,10 @@ def simulate_cmd(suite: str, compare: str | None, label: str | None, compare_lab
     spec = spec_from(kw)
     problem = load_problem(spec, kw.pop("library_path"), settings)
     lib = problem.library
-    designs = [read_suite(suite, lib, "--suite")]
+    ignore = ("settings",) if start_sigmas is not None else ()  # --start-sigmas changes the first-pose prior on purpose
+    designs = [read_suite(suite, lib, "--suite", problem, force, ignore)]
     if compare is not None:
-        designs.append(read_suite(compare, lib, "--compare"))
+        designs.append(read_suite(compare, lib, "--compare", problem, force, ignore))
     for i, name in enumerate((label, compare_label)[:len(designs)]):
         if name is not None:
             if not name.strip():

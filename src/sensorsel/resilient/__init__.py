@@ -30,6 +30,12 @@ interrupted run resumes where it stopped and ends with the same result as an uni
 A period file that exists but cannot be reused (damaged, or computed from other inputs) is reported
 with a :class:`CacheWarning` naming it, then recomputed and overwritten.
 
+**Nothing fits.** The library functions answer what they are asked: a budget below the cheapest
+sensor gives empty suites with the greedy stop reason, and fewer than alpha affordable informative
+sensors give a failing set that says so (``failure_note``); a per-period run or a budget sweep may
+ask for that. A command's request that cannot buy more sensors than alpha is refused up front by
+:func:`sensorsel.selection.check_affordable` (exit 2, naming ``--budget`` or ``--failures``).
+
 Modules: :mod:`.records` (result records), :mod:`.algorithm` (failing set, resilient selection,
 worst case, whole-route comparison), :mod:`.periods` (periods, their run, the grid) and
 :mod:`.cache` (fingerprints and resume).

@@ -160,7 +160,7 @@ def compare(target: Target, budget_usd: float, alpha: int, rule: str = "uniform"
     if isinstance(target, Problem):
         fp = fingerprint(target, budget, alpha, rule, name, lazy, {"what": "whole route"})
         if cache is not None and resume:
-            old = load_matching(Comparison, Path(cache), fp)
+            old = load_matching(Comparison, Path(cache), fp, target)
             if old is not None:
                 return old
     ev = evaluator_for(target, name, jobs=jobs, aggregate=aggregate)

@@ -13,19 +13,17 @@ import warnings
 from pathlib import Path
 from typing import TypeVar
 
-import numpy as np
-
 from .. import results
-from ..errors import ResultFileError
-from ..problem import Problem
+from ..errors import ResultFileError, SensorselWarning
+from ..problem import Problem, ProblemInfo
 
 #: Bumped whenever what a period file holds, or how it is computed, changes (invalidates resume).
-FORMAT = 1
+FORMAT = 2  # 2: the problem by content (Problem.fingerprint), not the scenario's spec and paths
 
 T = TypeVar("T")
 
 
-class CacheWarning(UserWarning):
+class CacheWarning(SensorselWarning):
     """A stored result was found but not reused (it is recomputed and overwritten)."""
 
 
@@ -33,37 +31,26 @@ def _digest(obj: object) -> str:
     return hashlib.sha256(json.dumps(obj, sort_keys=True, allow_nan=False).encode("utf-8")).hexdigest()
 
 
-def _array_digest(*arrays: np.ndarray) -> str:
-    h = hashlib.sha256()
-    for a in arrays:
-        a = np.ascontiguousarray(a, dtype=float)
-        h.update(str(a.shape).encode())
-        h.update(a.tobytes())
-    return h.hexdigest()
-
-
 def fingerprint(problem: Problem, budget: float, alpha: int, rule: str, engine: str, lazy: bool, what: dict) -> str:
-    """Digest of everything a result depends on: scenario (its provenance and actual numbers), library
-    (source and content), graph settings, budget, alpha, rule, engine, and ``what`` (e.g. the period bounds)."""
-    sc = problem.scenario
-    info = problem.info
+    """Digest of everything a result depends on: the problem by content (library, route and keyframe
+    rate, landmarks, graph settings: :attr:`Problem.fingerprint`; not the files' paths), budget,
+    alpha, rule, engine, and ``what`` (e.g. the period bounds)."""
+    fp = problem.fingerprint
     return _digest({
         "format": FORMAT,
-        "spec": results.to_jsonable(info.spec),
-        "scenario": _array_digest(sc.keyframes.poses, sc.keyframes.times, sc.landmarks),
-        "library_source": info.library,
-        "library": _digest(results.to_jsonable(problem.library.sensors)),
-        "settings": results.to_jsonable(info.settings),
+        "problem": results.to_jsonable(fp),
         "budget_usd": budget, "alpha": alpha, "rule": rule, "engine": engine, "lazy": lazy,
         **what,
     })
 
 
-def load_matching(cls: type[T], path: Path, fingerprint: str) -> T | None:
+def load_matching(cls: type[T], path: Path, fingerprint: str, problem: Problem | None = None) -> T | None:
     """The result stored at ``path`` if it is a ``cls`` with this fingerprint, else None.
 
     None without a word when there is no file; with a :class:`CacheWarning` naming the file when
-    there is one that cannot be reused (unreadable, or computed from other inputs).
+    there is one that cannot be reused (unreadable, or computed from other inputs: with ``problem``,
+    the warning says what differs when the stored result was computed on another problem). A stored
+    result is never reused for another problem: resume has no ``force``.
     """
     if not path.is_file():
         return None
@@ -75,7 +62,22 @@ def load_matching(cls: type[T], path: Path, fingerprint: str) -> T | None:
                       CacheWarning, stacklevel=3)
         return None
     if getattr(old, "fingerprint", None) != fingerprint:
+        recorded = _recorded_problem(old)
+        if problem is not None and recorded is not None and recorded.fingerprint is not None:
+            diffs = recorded.fingerprint.differences(problem.fingerprint)
+            if diffs:
+                warnings.warn(f"{path}: not reused, it was computed on another problem ({'; '.join(diffs)}); "
+                              "recomputing and overwriting it", CacheWarning, stacklevel=3)
+                return None
         warnings.warn(f"{path}: not reused, it was computed from other inputs (scenario, library, settings, budget, "
                       f"failures, rule, engine or period); recomputing and overwriting it", CacheWarning, stacklevel=3)
         return None
     return old
+
+
+def _recorded_problem(old: object) -> "ProblemInfo | None":
+    """The problem a stored result records (a Comparison's, or a period's resilient result's)."""
+    info = getattr(old, "problem", None)
+    if info is None:
+        info = getattr(getattr(old, "result", None), "problem", None)
+    return info if isinstance(info, ProblemInfo) else None

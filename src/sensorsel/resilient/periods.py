@@ -125,7 +125,7 @@ def _one_period(problem: Problem, k: int, a: float, b: float, kf: np.ndarray, bu
     sub = build_problem(problem.library, sc, problem.settings, spec=problem.info.spec)
     span = PeriodSpan(index=k, start_s=a, end_s=b, first_keyframe=int(kf[0]), n_keyframes=len(kf), n_landmarks=sc.n_landmarks)
     fp = fingerprint(sub, budget, alpha, rule, engine, lazy, {"what": "period", "period_s": period, "span": results.to_jsonable(span)})
-    old = load_matching(PeriodResult, path, fp) if (path is not None and resume) else None
+    old = load_matching(PeriodResult, path, fp, sub) if (path is not None and resume) else None
     if old is not None:
         return old
     ev = make_evaluator(sub, engine, jobs=jobs)

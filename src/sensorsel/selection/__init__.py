@@ -5,14 +5,14 @@
 
 Modules: :mod:`.rules` (uniform, cost-benefit, marginal: the objective J), :mod:`.strategies`
 (best-of: the better of uniform and marginal), :mod:`.registry` (:data:`RULES`, :func:`check_rule`),
-:mod:`.greedy` (the engine, lazy evaluation, :func:`check_budget`), :mod:`.records` (:class:`Step`,
+:mod:`.greedy` (the engine, lazy evaluation, :func:`check_budget`, :func:`check_affordable`: what to do when nothing fits), :mod:`.records` (:class:`Step`,
 :class:`GreedyResult`). This package builds on the evaluators only; certificates and the run
 functions that make evaluators live above it (:mod:`sensorsel.certify`, :mod:`sensorsel.api`).
 """
 
 from __future__ import annotations
 
-from .greedy import LAZY_BATCH, Selector, check_budget, greedy
+from .greedy import LAZY_BATCH, Selector, check_affordable, check_budget, greedy
 from .records import GreedyResult, Progress, Step
 from .registry import RULES, RuleOrStrategy, check_rule, rules_help
 from .rules import REL_TOL, CostBenefit, Marginal, Rule, Uniform
@@ -23,6 +23,6 @@ SELECTORS = RULES
 
 __all__ = [
     "LAZY_BATCH", "REL_TOL", "RULES", "SELECTORS", "BestOf", "CostBenefit", "GreedyResult", "Marginal", "Progress",
-    "Rule", "RuleOrStrategy", "Selector", "Step", "Strategy", "Uniform", "better_run", "check_budget", "check_rule",
+    "Rule", "RuleOrStrategy", "Selector", "Step", "Strategy", "Uniform", "better_run", "check_affordable", "check_budget", "check_rule",
     "greedy", "rules_help",
 ]

@@ -5,6 +5,13 @@ current suite S; the one with the best J of the rule (:mod:`.rules`) is bought. 
 no information (gain below round-off) are never bought; selection stops when no informative sensor
 fits. A strategy (:mod:`.strategies`) runs its component rules and keeps one run.
 
+Nothing fits: :func:`greedy` answers a budget below the cheapest sensor with the empty suite and a
+stop reason that says so ("budget $300 is below the cheapest sensor (HD2K-3, $449)"): tradespace
+grids, per-period runs and the active set of resilient selection legitimately ask for such budgets.
+A *request* that can buy nothing (a command's --budget, or a budget that buys no more than the
+sensors assumed to fail) is refused up front by :func:`check_affordable`, an :class:`InputError`
+naming the option; every command (greedy, pareto, optimal, certify, resilient) calls it.
+
 Ties: candidates whose J is within a relative 1e-9 of the best are tied (so that engines that agree
 to round-off pick alike); among them the cheaper sensor wins, then the smaller id.
 
@@ -24,12 +31,13 @@ import numpy as np
 
 from ..errors import InputError
 from ..evaluators import Evaluator
+from ..library import SensorLibrary
 from ..problem import ProblemInfo, TargetInfo
 from .records import GreedyResult, Progress, Step
 from .registry import RULES, check_rule
 from .rules import REL_TOL, Rule
 
-__all__ = ["LAZY_BATCH", "REL_TOL", "Selector", "check_budget", "greedy"]
+__all__ = ["LAZY_BATCH", "REL_TOL", "Selector", "check_affordable", "check_budget", "greedy"]
 
 #: Lazy evaluation re-scores the candidates with the largest bounds this many at a time (in
 #: parallel when the evaluator has threads). Fixed, not the job count, so that the suites scored,
@@ -46,6 +54,39 @@ def check_budget(budget_usd: object) -> float:
     if not math.isfinite(b) or b < 0:
         raise InputError(f"budget must be a finite, non-negative number of dollars, got {budget_usd!r}")
     return b
+
+
+def check_affordable(library: SensorLibrary, budget_usd: float, alpha: int = 0, *, budget_option: str = "--budget",
+                     alpha_option: str = "--failures") -> float:
+    """The budget, when it buys at least one sensor more than the ``alpha`` assumed to fail.
+
+    Raises:
+        InputError: the library is empty; the budget is below the cheapest sensor (names
+            ``budget_option``, the cheapest sensor and its cost); or, with ``alpha`` > 0, the budget
+            buys at most ``alpha`` sensors, so every sensor bought could fail and every worst case
+            is 0 (names ``alpha_option`` and ``budget_option``, how many sensors the budget buys and
+            what ``alpha`` + 1 sensors cost).
+    """
+    budget = check_budget(budget_usd)
+    if len(library) == 0:
+        raise InputError(f"the library {library.source} has no sensor: nothing can be bought")
+    costs = np.asarray(library.costs, dtype=float)
+    order = np.argsort(costs, kind="stable")
+    cheapest = int(order[0])
+    total = np.cumsum(costs[order])
+    k = int(np.sum(total <= budget + 1e-9))  # most sensors the budget buys
+    if k == 0:
+        c = costs[cheapest]
+        raise InputError(f"{budget_option} ${budget:,.0f} is below the cheapest sensor ({library.ids[cheapest]}, ${c:,.0f}): "
+                         f"nothing can be bought; give {budget_option} {c:.0f} or more")
+    if alpha > 0 and k <= alpha:
+        if alpha >= len(library):
+            raise InputError(f"{alpha_option} {alpha}: the library has {len(library)} sensors, so all of them could fail "
+                             f"(every worst case 0); give {alpha_option} {len(library) - 1} or less")
+        raise InputError(f"{alpha_option} {alpha}: {budget_option} ${budget:,.0f} buys at most {k} sensor(s), so every sensor "
+                         f"bought could fail (every worst case 0); give {alpha_option} {k - 1} or less, or {budget_option} "
+                         f"{total[alpha]:.0f} or more (the {alpha + 1} cheapest sensors)")
+    return budget
 
 
 def greedy(evaluator: Evaluator, budget_usd: float, rule: str = "uniform", *, lazy: bool = True,
