@@ -150,6 +150,23 @@ def step_greedy(seq: str) -> Callable[[Ctx], None]:
     return run
 
 
+def step_domain(c: Ctx) -> None:
+    """One suite for the seven KITTI routes (configs/domain_kitti.yaml, real pole maps only: the
+    domain file names its landmarks), with the per-route breakdown and its plot."""
+    if c.landmarks != "real":
+        return
+    env_root = os.environ.get("SENSORSEL_KITTI_ROOT")
+    os.environ["SENSORSEL_KITTI_ROOT"] = c.kitti_root  # the domain file's routes are under $SENSORSEL_KITTI_ROOT
+    try:
+        c.run("greedy", "--domain", str(REPO / "configs" / "domain_kitti.yaml"), "--budget", BUDGET, rule_option(), "uniform",
+              "-q", "-o", str(c.out / "domain.json"), "--plot", str(c.img / "domain.png"), stdout=c.out / "domain.txt")
+    finally:
+        if env_root is None:
+            del os.environ["SENSORSEL_KITTI_ROOT"]
+        else:
+            os.environ["SENSORSEL_KITTI_ROOT"] = env_root
+
+
 def step_pareto(seq: str) -> Callable[[Ctx], None]:
     def run(c: Ctx) -> None:
         d = c.out / f"pareto{seq}"
@@ -247,6 +264,7 @@ STEPS: list[Step] = [
     Step("optimal03", "optimal", step_optimal("03")),
     Step("optimal00", "optimal", step_optimal("00"), slow=True),
     Step("simulate03", "simulate", step_simulate("03")),
+    Step("domain", "domain", step_domain),
 ]
 
 

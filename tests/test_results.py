@@ -117,7 +117,11 @@ def test_resume_reads_period_files_by_kind(tiny_problem, tmp_path):
     other = json.loads(p1.read_text())
     p1.write_text(json.dumps({**other, "kind": "resilient-comparison"}))  # right fields, wrong kind
     before = p0.stat().st_mtime_ns
-    again = report(True)
+    from sensorsel.resilient import CacheWarning
+
+    with pytest.warns(CacheWarning, match=f"{p1}.*'resilient-comparison'") as caught:
+        again = report(True)
+    assert len(caught) == 1  # the old file without a kind is reused silently
     assert [(p.fingerprint, p.result.suite) for p in again.per_period.periods] == \
         [(p.fingerprint, p.result.suite) for p in first.per_period.periods]
     assert p0.stat().st_mtime_ns == before  # reused
