@@ -116,15 +116,7 @@ def simulate_cmd(suite: str, compare: str | None, label: str | None, compare_lab
         raise click.UsageError("--compare-label needs --compare")
     fmt = plot_format_of(plot_format)
     out = output_dir(outdir)
-    settings = GraphSettings()
-    if start_sigmas is not None:
-        try:
-            sig = tuple(float(v) for v in start_sigmas.split(","))
-        except ValueError:
-            raise click.BadParameter(f"expected three numbers X,Y,HEADING, got {start_sigmas!r}", param_hint="--start-sigmas") from None
-        if len(sig) != 3 or not all(math.isfinite(v) and v > 0 for v in sig):
-            raise click.BadParameter(f"expected three positive numbers X,Y,HEADING, got {start_sigmas!r}", param_hint="--start-sigmas")
-        settings = GraphSettings(first_pose_sigmas=(sig[0], sig[1], sig[2]))
+    settings = _settings(start_sigmas)
     spec = spec_from(kw)
     problem = load_problem(spec, kw.pop("library_path"), settings)
     lib = problem.library
@@ -132,24 +124,9 @@ def simulate_cmd(suite: str, compare: str | None, label: str | None, compare_lab
     designs = [read_suite(suite, lib, "--suite", problem, force, ignore)]
     if compare is not None:
         designs.append(read_suite(compare, lib, "--compare", problem, force, ignore))
-    for i, name in enumerate((label, compare_label)[:len(designs)]):
-        if name is not None:
-            if not name.strip():
-                raise click.BadParameter("must not be empty", param_hint="--label" if i == 0 else "--compare-label")
-            designs[i] = (designs[i][0], name.strip(), designs[i][2])
-    if len(designs) == 2 and designs[0][1] == designs[1][1]:
-        designs = [(designs[0][0], designs[0][1] + " (suite)", designs[0][2]), (designs[1][0], designs[1][1] + " (compare)", designs[1][2])]
+    designs = _labelled(designs, label, compare_label)
     failures = parse_failures(fail, problem) if fail else ()
-    named = {f.sensor for f in failures}
-    for positions, name, assumed in designs:
-        ids = set(lib.suite_ids(positions))
-        missing = sorted(named - ids)
-        if missing:
-            click.echo(f"note: {name} has no {', '.join(missing)}: that failure does not apply to it", err=True)
-        if assumed and not set(assumed) <= named:
-            click.echo(f"note: {name} assumes {', '.join(assumed)} fail(s); add --fail {','.join(assumed)} to simulate that", err=True)
-    if named and not any(named & set(lib.suite_ids(p)) for p, _, _ in designs):
-        raise InputError(f"--fail {fail!r}: no simulated suite has {', '.join(sorted(named))}")
+    _check_failures(designs, failures, lib, fail)
 
     sims = []
     for positions, name, _ in designs:
@@ -175,6 +152,62 @@ def simulate_cmd(suite: str, compare: str | None, label: str | None, compare_lab
     if as_json:
         click.echo(results.dumps(report), nl=False)
         return
+    _print_report(sims, sc, runs, solver, seed, noise_scale, start_sigmas, settings)
+    t = sum(s.timing.total_s for s in sims if s.timing)
+    click.echo(f"time      {t:.1f} s ({jobs} job{'s' if jobs > 1 else ''})")
+    for p in paths:
+        click.echo(f"wrote     {p}")
+
+
+COMMANDS = [simulate_cmd]
+
+
+def _settings(start_sigmas: str | None) -> GraphSettings:
+    """The graph settings of the simulation: the default, or --start-sigmas X,Y,HEADING as the first-pose prior."""
+    if start_sigmas is None:
+        return GraphSettings()
+    try:
+        sig = tuple(float(v) for v in start_sigmas.split(","))
+    except ValueError:
+        raise click.BadParameter(f"expected three numbers X,Y,HEADING, got {start_sigmas!r}", param_hint="--start-sigmas") from None
+    if len(sig) != 3 or not all(math.isfinite(v) and v > 0 for v in sig):
+        raise click.BadParameter(f"expected three positive numbers X,Y,HEADING, got {start_sigmas!r}", param_hint="--start-sigmas")
+    return GraphSettings(first_pose_sigmas=(sig[0], sig[1], sig[2]))
+
+
+Design = tuple[tuple[int, ...], str, tuple[str, ...]]  # (positions, label, sensors the source assumed to fail)
+
+
+def _labelled(designs: list[Design], label: str | None, compare_label: str | None) -> list[Design]:
+    """The designs with --label/--compare-label applied, and two equal labels told apart."""
+    for i, name in enumerate((label, compare_label)[:len(designs)]):
+        if name is not None:
+            if not name.strip():
+                raise click.BadParameter("must not be empty", param_hint="--label" if i == 0 else "--compare-label")
+            designs[i] = (designs[i][0], name.strip(), designs[i][2])
+    if len(designs) == 2 and designs[0][1] == designs[1][1]:
+        designs = [(designs[0][0], designs[0][1] + " (suite)", designs[0][2]), (designs[1][0], designs[1][1] + " (compare)", designs[1][2])]
+    return designs
+
+
+def _check_failures(designs: list[Design], failures: tuple[Any, ...], lib: SensorLibrary, fail: str | None) -> None:
+    """Notes for a failure a design does not have or a failure a design assumed but is not simulated;
+    an error when no design has any of the failed sensors."""
+    named = {f.sensor for f in failures}
+    for positions, name, assumed in designs:
+        ids = set(lib.suite_ids(positions))
+        missing = sorted(named - ids)
+        if missing:
+            click.echo(f"note: {name} has no {', '.join(missing)}: that failure does not apply to it", err=True)
+        if assumed and not set(assumed) <= named:
+            click.echo(f"note: {name} assumes {', '.join(assumed)} fail(s); add --fail {','.join(assumed)} to simulate that", err=True)
+    if named and not any(named & set(lib.suite_ids(p)) for p, _, _ in designs):
+        raise InputError(f"--fail {fail!r}: no simulated suite has {', '.join(sorted(named))}")
+
+
+def _print_report(sims: list[Any], sc: Any, runs: int, solver: str, seed: int, noise_scale: float, start_sigmas: str | None,
+                  settings: GraphSettings) -> None:
+    """The simulation table: errors, their predictions, NEES and consistency, one row per design."""
     click.echo(f"{'scenario':<9} {sc.name}: {sc.n_poses} keyframes, {sc.n_landmarks} landmarks ({sc.landmark_source})")
     click.echo(f"runs      {runs} per suite, solver {solver}, seed {seed}" + (f", noise x{noise_scale:g}" if noise_scale != 1 else "")
                + ("" if start_sigmas is None else f", first-pose prior sigmas {','.join(f'{v:g}' for v in settings.first_pose_sigmas)}"))
@@ -205,10 +238,3 @@ def simulate_cmd(suite: str, compare: str | None, label: str | None, compare_lab
     click.echo("pred: predicted by the information matrix at the truth; dead_reck: RMSE of the dead-reckoned start.\n"
                "nees/pose: average 3-dof pose NEES (expect 3), 95 % bounds allowing for the correlation of poses along the route;\n"
                "joint_nees: NEES of the whole trajectory / K, exact 95 % chi-square bounds; consistent: joint_nees inside them.")
-    t = sum(s.timing.total_s for s in sims if s.timing)
-    click.echo(f"time      {t:.1f} s ({jobs} job{'s' if jobs > 1 else ''})")
-    for p in paths:
-        click.echo(f"wrote     {p}")
-
-
-COMMANDS = [simulate_cmd]
