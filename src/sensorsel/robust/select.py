@@ -20,6 +20,7 @@ suite and Algorithm 2's suite are candidates scored with the same exact :func:`~
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 from typing import Any, Sequence
 
 from ..errors import InputError
@@ -106,18 +107,40 @@ def robust_select(evaluator: Evaluator, budget_usd: float, alpha: int, *, rules:
                 out.append(x)
         return out
 
-    for r in rules:
+    def run_rule(r: str) -> None:
         n0, t0 = ev.n_evaluations, time.perf_counter()
         g = greedy(ev, budget, r)
         add(f"greedy-{r}", [lib.position(i) for i in g.suite], g.stop_reason, n0, t0)
+
+    def tol_of(x: float) -> float:
+        return REL_TOL * max(1.0, abs(x))
+
+    run_rule("uniform")
     greedy_worst = cands[0].worst_score
     n0, t0 = ev.n_evaluations, time.perf_counter()
     a2 = resilient_select(ev, budget, alpha)
     a2c = add("algorithm-2", [lib.position(i) for i in a2.suite], f"failing set {','.join(a2.failed)}" + (f"; {a2.failure_note}" if a2.failure_note else ""), n0, t0)
     bnd = robust_bound(ev, budget, alpha, anchors=anchors(), incumbent=best().worst_score, max_nodes=bound_nodes)
-
+    # an "exact" leaf with no sensor assumed failed is a feasible suite (the whole leaf library fits
+    # the budget) whose worst case the bound has just computed: a free candidate
+    for leaf in bnd.leaves:
+        if leaf.how == "exact" and not leaf.failed and leaf.bound > best().worst_score + tol_of(best().worst_score):
+            n0, t0 = ev.n_evaluations, time.perf_counter()
+            gone = set(leaf.removed)
+            add("bound-leaf", [i for i in range(len(lib)) if lib.ids[i] not in gone],
+                f"the bound's exact leaf without {','.join(leaf.removed) or 'nothing'}", n0, t0)
     proved = bnd.proved
+    if not proved and bnd.bound <= best().worst_score + tol_of(best().worst_score):
+        proved = True
+        bnd = replace(bnd, proved=True)
     n_before = len(cands)
+    # the other greedy rules: skipped too when the bound already proves a candidate optimal
+    for r in rules[1:]:
+        if proved and skip_when_proved:
+            skipped.append(f"greedy-{r}: the bound proves the best candidate optimal")
+        else:
+            run_rule(r)
+
     for m in methods:
         if proved and skip_when_proved:
             skipped.append(f"{m}: the bound proves the best candidate optimal")
@@ -153,10 +176,12 @@ def robust_select(evaluator: Evaluator, budget_usd: float, alpha: int, *, rules:
             s, note = local_search(ev, [lib.position(i) for i in start.suite], budget, alpha, max_rounds=local_rounds,
                                    max_evaluations=local_evaluations)
             add("local-search", s, f"from {start.method}; {note}", n0, t0)
-        if not proved and bnd.bound <= best().worst_score + REL_TOL * max(1.0, abs(best().worst_score)):
+        if not proved and bnd.bound <= best().worst_score + tol_of(best().worst_score):
             proved = True
     win = best()
-    if not bnd.proved and len(cands) > n_before:
+    if proved and not bnd.proved:
+        bnd = replace(bnd, proved=True)
+    if not proved and len(cands) > n_before:
         # new suites: their survivors are new anchors, and a better incumbent settles more leaves
         bnd = robust_bound(ev, budget, alpha, anchors=anchors(), incumbent=win.worst_score, max_nodes=bound_nodes)
     bound = max(bnd.bound, win.worst_score)
