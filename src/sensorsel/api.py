@@ -29,7 +29,7 @@ from .evaluators import DomainEvaluator, evaluator_for, make_evaluator
 from .problem import Domain, DomainInfo, Problem, ProblemInfo, Target, load_domain, load_problem
 from .resilient import ResilientReport
 from .resilient import resilient_report as _resilient_report
-from .robust import RobustResult, worst_route_select
+from .robust import RobustResult, robust_choice, worst_route_select
 from .robust import run_robust as _run_robust
 from .selection import GreedyResult, Progress, check_budget, check_rule, greedy
 from .simulate import SimulationResult, simulate
@@ -220,4 +220,12 @@ def run_robust(target: Target, budget_usd: float, alpha: int, *, engine: str | N
     return _run_robust(target, budget_usd, alpha, engine=engine, jobs=jobs, aggregate=aggregate, **kwargs)
 
 
-resilient_report = _resilient_report
+def resilient_report(problem: Target, budget_usd: float, alpha: int, *, method: str = "paper", **kwargs) -> ResilientReport:
+    """The ``sensorsel resilient`` run (:func:`sensorsel.resilient.resilient_report`): the whole-route
+    comparison and the per-period selection. ``method``: "paper" (the paper's Algorithm 2, the
+    default: published results unchanged) or "robust" (:func:`sensorsel.robust.robust_select` for the
+    whole route and each period; its worst case is never below greedy's nor Algorithm 2's)."""
+    if method not in RESILIENT_METHODS:
+        raise InputError(f"unknown method {method!r}; available: {', '.join(RESILIENT_METHODS)}")
+    return _resilient_report(problem, budget_usd, alpha, method=method,
+                             selector=robust_choice if method == "robust" else None, **kwargs)

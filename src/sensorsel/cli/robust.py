@@ -37,15 +37,15 @@ def _csv(xs: Any) -> str:
               help="Number of sensors that may fail (alpha); the design maximises the score left after the worst ALPHA.")
 @click.option("--rules", default="uniform,marginal", show_default=True,
               help="Plain greedy rules run as candidates, comma-separated (uniform always runs).")
-@click.option("--methods", default="oblivious,saturate,local-search", show_default=True,
-              help="Further methods, comma-separated (oblivious, saturate, local-search; 'none' for none). "
-                   "With --aggregate worst: saturate, local-search.")
+@click.option("--methods", default=None,
+              help="Further methods, comma-separated, or 'none' [default: oblivious,saturate,local-search; "
+                   "with --aggregate worst: saturate,local-search].")
 @click.option("--no-skip", is_flag=True, help="Run every method even when the bound already proves a candidate optimal.")
 @output_option(help="Write the result as JSON here (kind \"robust\").")
 @json_option
 @quiet_option
 @run
-def robust_cmd(budget: float, alpha: int, rules: str, methods: str, no_skip: bool, output: str | None, as_json: bool,
+def robust_cmd(budget: float, alpha: int, rules: str, methods: str | None, no_skip: bool, output: str | None, as_json: bool,
                quiet: bool, aggregate: str, engine: str | None, jobs: int, **kw: Any) -> None:
     """Robust sensor selection: maximise the worst-case score after ALPHA sensors fail.
 
@@ -63,7 +63,14 @@ def robust_cmd(budget: float, alpha: int, rules: str, methods: str, no_skip: boo
 
     budget, alpha = check_budget(budget), check_alpha(alpha)
     rule_list = tuple(r.strip() for r in rules.split(",") if r.strip())
-    method_list = () if methods.strip() in ("", "none") else tuple(m.strip() for m in methods.split(",") if m.strip())
+    from ..robust import EXTRA_METHODS, WORST_METHODS
+
+    if methods is None:
+        method_list = WORST_METHODS if aggregate == "worst" else EXTRA_METHODS
+    elif methods.strip() in ("", "none"):
+        method_list = ()
+    else:
+        method_list = tuple(m.strip() for m in methods.split(",") if m.strip())
     target = target_from(kw)
     if not quiet:
         click.echo(f"robust selection: ${budget:,.0f}, {alpha} failure(s) ...", err=True)

@@ -26,7 +26,7 @@ from typing import Any, Sequence
 from ..errors import InputError
 from ..evaluators import Evaluator, as_suite, evaluator_for
 from ..problem import ProblemInfo, Target, TargetInfo
-from ..resilient import check_alpha, resilient_select, worst_case
+from ..resilient import RobustChoice, WorstCase, check_alpha, resilient_select, worst_case
 from ..selection import REL_TOL, check_budget, check_rule, greedy
 from .bound import DEFAULT_BOUND_NODES, robust_bound
 from .family import FailureFamily
@@ -202,3 +202,16 @@ def run_robust(problem: Target, budget_usd: float, alpha: int, *, engine: str | 
     check_alpha(alpha)
     ev = evaluator_for(problem, engine, jobs=jobs, aggregate=aggregate)
     return robust_select(ev, budget_usd, alpha, info=problem.info, **kwargs)
+
+
+def robust_choice(evaluator: Evaluator, budget_usd: float, alpha: int, info: TargetInfo | None = None,
+                  **kwargs: Any) -> tuple[RobustChoice, WorstCase]:
+    """:func:`robust_select` in the shape ``sensorsel resilient --method robust`` records (whole route and
+    each period): the choice in short and its exact worst case (scored with the same memo: no re-scoring)."""
+    ev = memoized(evaluator)
+    r = robust_select(ev, budget_usd, alpha, info=info, **kwargs)
+    w = worst_case(ev, [ev.library.position(i) for i in r.suite], r.alpha)
+    return RobustChoice(method=r.method, suite=r.suite, cost_usd=r.cost_usd, nominal_score=r.nominal_score,
+                        worst_score=r.worst_score, failures=r.failures, greedy_worst_score=r.greedy_worst_score,
+                        algorithm2_worst_score=r.algorithm2_worst_score, bound=r.bound, gap_percent=r.gap_percent,
+                        n_evaluations=r.n_evaluations, seconds=r.seconds), w
