@@ -65,6 +65,7 @@ def robust_cmd(budget: float, alpha: int, rules: str, methods: str | None, no_sk
     rule_list = tuple(r.strip() for r in rules.split(",") if r.strip())
     from ..robust import EXTRA_METHODS, WORST_METHODS
 
+    method_list: tuple[str, ...]
     if methods is None:
         method_list = WORST_METHODS if aggregate == "worst" else EXTRA_METHODS
     elif methods.strip() in ("", "none"):
@@ -96,7 +97,7 @@ def print_robust(res: Any) -> None:
     click.echo(f"budget     ${res.budget_usd:,.0f}, {res.alpha} failure(s), engine {res.engine}; worst case = {what} "
                f"after the worst {res.alpha} failure(s)")
     click.echo("")
-    first = {}
+    first: dict[str, Any] = {}
     for c in res.candidates:
         first.setdefault(c.method, c)
     win = next(c for c in res.candidates if c.method == res.method and tuple(c.suite) == tuple(res.suite))

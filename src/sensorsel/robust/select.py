@@ -2,14 +2,17 @@
 
 Order of work (each suite is scored at most once: the evaluator is memoized):
 
-1. plain greedy with each rule of ``rules`` (default uniform, the paper's Algorithm 1, and marginal);
+1. plain greedy with the uniform rule (the paper's Algorithm 1: the answer's floor);
 2. the paper's Algorithm 2 (:func:`sensorsel.resilient.resilient_select`);
-3. the upper bound (:func:`.bound.robust_bound`) anchored at the candidates' worst-case survivors;
-   when it already equals the best candidate's worst case, that candidate is optimal and the
-   remaining methods are skipped (``skip_when_proved``; they could not do better);
-4. Oblivious-Greedy (eta = 2), SATURATE between the best worst case and the bound, and local search
+3. the upper bound (:func:`.bound.robust_bound`) anchored at the candidates' worst-case survivors.
+   Its "exact" leaves with no sensor assumed failed are suites within the budget whose worst case it
+   has computed: each becomes a candidate ("bound-leaf", free: memoized). When the bound equals the
+   best candidate's worst case, that candidate is optimal and the remaining work is skipped
+   (``skip_when_proved``; it could not do better);
+4. plain greedy with the other rules of ``rules`` (default: marginal);
+5. Oblivious-Greedy (eta = 2), SATURATE between the best worst case and the bound, and local search
    from the best candidate;
-5. the bound again, anchored at the new best, if it changed.
+6. the bound again, anchored at the new best, if it changed and nothing is proved yet.
 
 The answer is the candidate with the highest exact worst case; ties (relative 1e-9) go to the higher
 nominal score, then the lower cost, then the smaller ids in library order. Since the uniform greedy

@@ -49,7 +49,7 @@ class RouteFailureFamily(Family):
 
     kind = "routes-failures"
 
-    def __init__(self, evaluators: Sequence[Evaluator], labels: Sequence[str], norms: Sequence[float], alpha: int) -> None:
+    def __init__(self, evaluators: Sequence[Evaluator], labels: Sequence[str], norms: Sequence[float] | np.ndarray, alpha: int) -> None:
         self.parts = [FailureFamily(e, alpha) for e in evaluators]
         self.labels = list(labels)
         self.norms = np.asarray(norms, dtype=float)
