@@ -436,7 +436,7 @@ def tables(root: Path) -> str:
                     with open(d / f"pareto{seq}" / "architectures.csv", newline="") as f:
                         front = sum(r["on_front"] == "1" for r in csv.DictReader(f))
                     out.append(f"- {kind}: {len(t['architectures'])} distinct architectures, {front} on the Pareto front, "
-                               f"{t['n_evaluations']:,} suites scored ({len(t['runs'])} runs: {', '.join(t['selectors'])} "
+                               f"{t['n_evaluations']:,} suites scored ({len(t['runs'])} runs: {', '.join(t.get('rules', t.get('selectors', [])))} "
                                f"at {len(t['budgets_usd'])} budgets)")
             out.append("")
 

@@ -15,12 +15,13 @@ import os
 import sys
 import warnings
 from pathlib import Path
-from typing import Any, Callable, TypeVar
+from typing import Any, Callable, TypeVar, Sequence
 
 import click
 
 from ..errors import InputError, SensorselError, SensorselWarning
 from ..evaluators import AGGREGATES
+from ..library import SensorLibrary
 from ..problem import DomainInfo, ProblemInfo, Target, TargetInfo, load_domain, load_problem
 from ..problem import Problem
 from ..progress import Progress
@@ -367,3 +368,17 @@ def suite_text(ctx: click.Context, param: click.Parameter, value: str | None) ->
         raise click.BadParameter(f"names no sensor ({value!r}): give comma-separated sensor ids (see `sensorsel library`)",
                                  ctx=ctx, param=param)
     return value
+
+
+def compact_suite(suite: Sequence[str], library: SensorLibrary | None = None) -> str:
+    """A suite for a table: ids grouped by model, ``LRL-roof HD2K-{2,4,12} LRR-6``; with ``library``,
+    a suite of all but at most three of its sensors is ``all but LRL-roof`` (the full ids are in the JSON)."""
+    if library is not None and len(suite) > 3:
+        missing = [i for i in library.ids if i not in set(suite)]
+        if len(missing) <= 3 and len(suite) + len(missing) == len(library):
+            return "all but " + ", ".join(missing) if missing else f"all {len(library)} sensors"
+    groups: dict[str, list[str]] = {}
+    for sid in suite:
+        code, _, where = sid.rpartition("-")
+        groups.setdefault(code, []).append(where)
+    return " ".join(f"{c}-{w[0]}" if len(w) == 1 else f"{c}-{{{','.join(w)}}}" for c, w in groups.items())

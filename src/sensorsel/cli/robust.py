@@ -7,8 +7,9 @@ from typing import Any
 import click
 
 from .. import results
-from .options import (budget_option, engine_options, json_option, output_option, print_target, quiet_option, run, table,
-                      target_from, target_options)
+from ..library import SensorLibrary
+from .options import (budget_option, compact_suite, engine_options, json_option, output_option, print_target, quiet_option,
+                      run, table, target_from, target_options)
 
 #: --aggregate of this command: the domain's combined score (as elsewhere), or its worst route
 ROBUST_AGGREGATES = ("normalised", "raw", "worst")
@@ -81,12 +82,12 @@ def robust_cmd(budget: float, alpha: int, rules: str, methods: str | None, no_sk
     if as_json:
         click.echo(results.dumps(res), nl=False)
         return
-    print_robust(res)
+    print_robust(res, target.library)
     if written is not None:
         click.echo(f"wrote {written}")
 
 
-def print_robust(res: Any) -> None:
+def print_robust(res: Any, lib: SensorLibrary | None = None) -> None:
     """The summary of a :class:`~sensorsel.robust.RobustResult`: greedy, Algorithm 2 and the robust design
     side by side, the winning method, every candidate, and (worst route) the per-route breakdown."""
     worst = res.aggregate == "worst"
@@ -106,7 +107,7 @@ def print_robust(res: Any) -> None:
         if c is None:
             continue
         fail = _csv(c.failures) + (f" on {c.worst_member}" if c.worst_member else "")
-        rows.append([label, _csv(c.suite), f"{c.cost_usd:,.0f}", fmt(c.nominal_score), fmt(c.worst_score), fail,
+        rows.append([label, compact_suite(c.suite, lib), f"{c.cost_usd:,.0f}", fmt(c.nominal_score), fmt(c.worst_score), fail,
                      fmt(res.bound), f"{100.0 * (res.bound - c.worst_score) / res.bound if res.bound > 0 else 0.0:.2f}%"])
     click.echo(table(rows, ["design", "suite", "cost_usd", "nominal", "worst_case", "worst_failures", "bound", "gap"]))
     click.echo(f"\nwinner: {res.method}; worst case {fmt(res.worst_score)} ({unit}), bound {fmt(res.bound)}, "
@@ -119,7 +120,7 @@ def print_robust(res: Any) -> None:
         click.echo(table([[m.name, f"{m.best_score:,.2f}", f"{m.nominal_share:.4f}", f"{m.worst_share:.4f}", _csv(m.failures)]
                           for m in res.members], ["route", "best_nats", "nominal_share", "worst_share", "worst_failures"]))
     click.echo("\ncandidates")
-    click.echo(table([[c.method, _csv(c.suite), f"{c.cost_usd:,.0f}", fmt(c.nominal_score), fmt(c.worst_score),
+    click.echo(table([[c.method, compact_suite(c.suite, lib), f"{c.cost_usd:,.0f}", fmt(c.nominal_score), fmt(c.worst_score),
                        _csv(c.failures) + (f" on {c.worst_member}" if c.worst_member else ""), str(c.n_evaluations),
                        f"{c.seconds:.1f}"] for c in res.candidates],
                      ["method", "suite", "cost_usd", "nominal", "worst_case", "worst_failures", "evaluations", "seconds"]))

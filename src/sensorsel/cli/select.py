@@ -19,7 +19,8 @@ from ..library import SensorLibrary
 from ..selection import RULES, check_affordable
 from ..tradespace import DEFAULT_RULES, Architecture, parse_budgets, parse_rules, run_tradespace, write_csv
 from .options import (budget_option, engine_options, json_option, output_option, plot_format_option, problem_from, progress_bar,
-                      print_target, quiet_option, run, table, target_from, target_options)
+                      compact_suite, print_target, quiet_option, run, table, target_from,
+                      target_options)
 from .options import plot_format
 from .options import plot_format as plot_format_of
 from .rules import kept_label, rule_option, rules_option
@@ -56,7 +57,7 @@ def _print_greedy(res: CertifiedGreedyResult, lib: SensorLibrary) -> None:
 def _print_breakdown(design: DomainDesign) -> None:
     click.echo(f"\nper route (the domain suite against each route's own {design.greedy.rule} design at the same budget):")
     rows = [[r.name, f"{r.weight:.3f}", f"{r.score:.3f}", f"{r.share_of_best:.4f}", f"{r.own_score:.3f}",
-             f"{r.share_of_own:.4f}", f"{r.own_cost_usd:,.0f}", _compact(r.own_suite)] for r in design.routes]
+             f"{r.share_of_own:.4f}", f"{r.own_cost_usd:,.0f}", compact_suite(r.own_suite)] for r in design.routes]
     click.echo(table(rows, ["route", "weight", "score_nats", "of_best", "own_nats", "of_own", "own_cost_usd", "own_suite"]))
     worst = next(r for r in design.routes if r.name == design.worst_route)
     click.echo(f"worst route {worst.name}: the domain suite reaches {worst.share_of_own:.1%} of what its own design reaches there")
@@ -128,17 +129,8 @@ def greedy_cmd(budget: float, rule: str, lazy: bool, output: str | None, as_json
                 click.echo(f"wrote      {path}")
 
 
-def _compact(suite: tuple[str, ...]) -> str:
-    """Ids grouped by model: ``LRL-roof HD2K-{2,4,12} LRR-6`` (the full ids are in the CSV)."""
-    groups: dict[str, list[str]] = {}
-    for sid in suite:
-        code, _, where = sid.rpartition("-")
-        groups.setdefault(code, []).append(where)
-    return " ".join(f"{c}-{w[0]}" if len(w) == 1 else f"{c}-{{{','.join(w)}}}" for c, w in groups.items())
-
-
 def _arch_row(a: Architecture) -> list[str]:
-    return [f"{a.cost_usd:,.0f}", f"{a.score:.3f}", f"{a.normalized:.4f}", str(a.n_sensors), "+".join(a.rules), _compact(a.suite)]
+    return [f"{a.cost_usd:,.0f}", f"{a.score:.3f}", f"{a.normalized:.4f}", str(a.n_sensors), "+".join(a.rules), compact_suite(a.suite)]
 
 
 @click.command("pareto", short_help="Cost-performance tradespace and its Pareto front (plot, CSV, JSON).")
