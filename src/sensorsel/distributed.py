@@ -95,6 +95,12 @@ class DaskCluster:
             except (OSError, TimeoutError, ValueError) as exc:
                 raise ClusterError(f"no Dask scheduler answered at {self.scheduler} within {self.connect_timeout_s:g} s "
                                    f"({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''})") from None
+            try:
+                self.client.wait_for_workers(1, timeout=self.connect_timeout_s)
+            except (OSError, TimeoutError) as exc:
+                self.close()
+                raise ClusterError(f"the Dask scheduler at {self.scheduler} has no worker after {self.connect_timeout_s:g} s "
+                                   f"({type(exc).__name__})") from None
             self.echo(f"sensorsel: dask scheduler {self.scheduler}: {len(self.client.scheduler_info()['workers'])} workers")
             return self
         import logging
