@@ -55,12 +55,12 @@ def cluster():
 
 
 def test_domain_greedy_and_tradespace_on_two_workers_equal_in_process(cluster, domain):
-    local = design_domain(domain, 20_000, certify=True)
+    local = design_domain(domain, 12_000, certify=True)
     ev = DistributedDomainEvaluator(cluster.client, domain)
-    remote = design_domain(domain, 20_000, certify=True, evaluator=ev)
+    remote = design_domain(domain, 12_000, certify=True, evaluator=ev)
     assert _untimed(remote) == _untimed(local)
     assert ev.step_bytes and max(s + r for s, r in ev.step_bytes) < 2_000  # suites and numbers, never matrices
-    grid, rules = [5_000, 20_000], ["uniform", "cost-benefit", "best-of"]
+    grid, rules = [4_000, 12_000], ["best-of"]  # its two component rules: two tasks
     assert _untimed(run_tradespace_on(cluster.client, domain, grid, rules)) == _untimed(run_tradespace(domain, grid, rules))
 
 
@@ -92,7 +92,7 @@ def _cli(*args: str, timeout: float = 120) -> subprocess.CompletedProcess[str]:
     return subprocess.run([str(BIN / "sensorsel"), *args], capture_output=True, text=True, env=ENV, cwd=REPO, timeout=timeout)
 
 
-def test_cli_greedy_on_a_scheduler_and_two_workers_started_here(tmp_path):
+def test_cli_greedy_on_a_scheduler_and_two_workers_started_here(tmp_path, domain):
     port = _free_port()
     address = f"tcp://127.0.0.1:{port}"
     procs = [subprocess.Popen([str(BIN / "dask"), "scheduler", "--host", "127.0.0.1", "--port", str(port), "--no-dashboard"],
@@ -104,12 +104,10 @@ def test_cli_greedy_on_a_scheduler_and_two_workers_started_here(tmp_path):
                                           env=ENV, cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
         with distributed.Client(address, timeout=30) as client:
             client.wait_for_workers(2, timeout=60)
-        args = ["greedy", "--domain", str(FIXTURES), "--budget", "20000", "--json", "-q"]
-        here = _cli(*args)
+        args = ["greedy", "--domain", str(FIXTURES), "--budget", "12000", "--json", "-q"]
         there = _cli(*args, "--scheduler", address)
-        assert here.returncode == 0, here.stderr
         assert there.returncode == 0, there.stderr
-        assert _untimed(there.stdout) == _untimed(here.stdout)
+        assert _untimed(there.stdout) == _untimed(design_domain(domain, 12_000, certify=True))  # what --json prints in-process
     finally:
         for p in reversed(procs):
             p.terminate()
@@ -131,7 +129,7 @@ _PLAIN_RUN = """
 import sys
 from sensorsel.cli import cli
 try:
-    cli(["greedy", "--domain", sys.argv[1], "--budget", "20000", "-q"], prog_name="sensorsel")
+    cli(["greedy", "--domain", sys.argv[1], "--budget", "4000", "-q", "--no-certificate"], prog_name="sensorsel")
 except SystemExit as e:
     assert not e.code, e.code
 print(sorted(m for m in sys.modules if m.split(".")[0] in ("dask", "distributed")))
