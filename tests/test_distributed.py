@@ -64,6 +64,25 @@ def test_domain_greedy_and_tradespace_on_two_workers_equal_in_process(cluster, d
     assert _untimed(run_tradespace_on(cluster.client, domain, grid, rules)) == _untimed(run_tradespace(domain, grid, rules))
 
 
+def test_resilient_periods_as_tasks_equal_in_process_and_resume(cluster, tmp_path):
+    from sensorsel.distributed import resilient_report_on
+    from sensorsel.problem import load_problem
+    from sensorsel.resilient import resilient_report
+    from sensorsel.scenario import ScenarioSpec
+
+    problem = load_problem(ScenarioSpec(fixture="suburb"))
+    local = resilient_report(problem, 8_000, 1, period_s=20.0, outdir=tmp_path / "here")
+    there = tmp_path / "there"
+    remote = resilient_report_on(cluster.client, problem, 8_000, 1, period_s=20.0, outdir=str(there))
+    assert _untimed(remote) == _untimed(local)
+    files = sorted((there / "periods").glob("period-*.json"))
+    assert len(files) == len(local.per_period.periods) > 1
+    stamps = [f.stat().st_mtime_ns for f in files]
+    again = resilient_report_on(cluster.client, problem, 8_000, 1, period_s=20.0, outdir=str(there), resume=True)
+    assert _untimed(again) == _untimed(local)
+    assert [f.stat().st_mtime_ns for f in files] == stamps  # finished periods were read back, not recomputed
+
+
 def test_a_worker_killed_mid_run_loses_nothing(cluster, domain):
     local = design_domain(domain, 20_000)
     ev = DistributedDomainEvaluator(cluster.client, domain)

@@ -457,3 +457,84 @@ class _NamedEvaluator(Evaluator):
 
     def score(self, suite: Iterable[int]) -> float:
         raise AssertionError("a tradespace run as tasks scores nothing on the client")
+
+
+# ------------------------------------------------------------------------ resilient periods as tasks
+
+
+def _period_task(problem: Problem, span: tuple[int, float, float, np.ndarray], budget: float, alpha: int, rule: str,
+                 engine: str, jobs: int, lazy: bool, period: float, path: str | None, resume: bool) -> Any:
+    """One period on a worker: :func:`sensorsel.resilient.periods._one_period` (which reuses a
+    matching period file when resuming and writes the file it computes)."""
+    from pathlib import Path
+
+    from .resilient.periods import _one_period
+
+    k, a, b, kf = span
+    return _one_period(problem, k, a, b, kf, budget, alpha, rule, engine, jobs, lazy, period,
+                       Path(path) if path is not None else None, resume)
+
+
+def _compare_task(problem: Problem, budget: float, alpha: int, rule: str, engine: str | None, jobs: int, lazy: bool,
+                  cache: str | None, resume: bool) -> Any:
+    from pathlib import Path
+
+    from .resilient import compare
+
+    return compare(problem, budget, alpha, rule, engine=engine, jobs=jobs, lazy=lazy,
+                   cache=Path(cache) if cache is not None else None, resume=resume)
+
+
+def resilient_report_on(client: Any, problem: Problem, budget_usd: float, alpha: int, *, period_s: float, rule: str = "uniform",
+                        engine: str | None = None, jobs: int = 1, lazy: bool = True, outdir: str | None = None,
+                        resume: bool = False, progress: Callable[[int, int], None] | None = None) -> Any:
+    """:func:`sensorsel.resilient.resilient_report` on one route with the whole-route comparison and
+    every period as Dask tasks (the problem is sent once to each worker; the period files are
+    written by the workers, so ``outdir`` must be on a file system they share). ``--resume``: a
+    period whose file matches is read back, not recomputed. Results gathered in period order."""
+    from pathlib import Path
+
+    from .resilient import check_alpha, check_period, check_rule, split_periods
+    from .resilient.algorithm import engine_name
+    from .resilient.periods import make_grid, period_file
+    from .resilient.records import PerPeriodResult, ResilientReport
+    from .selection import check_budget
+
+    distributed = _import_distributed()
+    t0 = time.perf_counter()
+    budget, alpha, rule = check_budget(budget_usd), check_alpha(alpha), check_rule(rule)
+    period = check_period(period_s)
+    name = engine_name(engine)
+    spans = split_periods(problem.scenario.keyframes.times, period)
+    shared = client.scatter(problem, broadcast=True)
+    cache = str(Path(outdir) / "periods" / "route.json") if outdir is not None else None
+    cmp_fut = client.submit(_compare_task, shared, budget, alpha, rule, engine, jobs, lazy, cache, resume, pure=False)
+    futs = {client.submit(_period_task, shared, span, budget, alpha, rule, name, jobs, lazy, period,
+                          str(period_file(outdir, span[0])) if outdir is not None else None, resume, pure=False): i
+            for i, span in enumerate(spans)}
+    got: dict[int, Any] = {}
+    for fut in distributed.as_completed(list(futs)):
+        got[futs[fut]] = _result(fut, f"period {spans[futs[fut]][0]}")
+        if progress:
+            progress(len(got), len(spans))
+    cmp_ = _result(cmp_fut, "the whole-route comparison")
+    out = [got[i] for i in range(len(spans))]
+    if outdir is not None:  # as in-process: files of periods this run does not have would mislead
+        keep = {period_file(outdir, k).name for k, *_ in spans}
+        for f in sorted((Path(outdir) / "periods").glob("period-*.json")):
+            if f.name not in keep:
+                f.unlink()
+    per = PerPeriodResult(period_s=period, alpha=alpha, budget_usd=budget, rule=rule, engine=name, periods=tuple(out),
+                          grid=make_grid(problem.library, out), seconds=round(time.perf_counter() - t0, 6))
+    return ResilientReport(suite=cmp_.resilient.suite, failed=cmp_.resilient.failed, alpha=alpha, budget_usd=budget,
+                           rule=rule, engine=cmp_.engine, comparison=cmp_, per_period=per,
+                           seconds=round(time.perf_counter() - t0, 6))
+
+
+def _result(fut: Any, what: str) -> Any:
+    try:
+        return fut.result()
+    except SensorselError:
+        raise
+    except Exception as exc:
+        raise ClusterError(f"{what} failed on the cluster ({type(exc).__name__}: {exc})") from None

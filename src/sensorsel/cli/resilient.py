@@ -11,6 +11,7 @@ import click
 from .. import results
 from ..fileio import output_dir
 from ..problem import Domain
+from .options import cluster_from, cluster_options
 from .options import (budget_option, engine_options, json_option, output_option, plot_format_option, problem_from, progress_bar,
                       print_target, quiet_option, run, table, target_from, target_options)
 from .options import plot_format as plot_format_of
@@ -20,6 +21,7 @@ from .rules import rule_option
 @click.command("resilient", short_help="Resilient selection against failing sensors, whole route and per period (grid).")
 @target_options
 @engine_options
+@cluster_options
 @budget_option(default=110_000.0, help="Budget in dollars (110000, 110,000, $110,000 or 110_000), the sensors assumed to fail included.")
 @click.option("--failures", "alpha", type=int, default=1, show_default=True,
               help="Number of sensors assumed to fail (alpha); 0 is plain greedy selection.")
@@ -55,7 +57,10 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, rule: str, outdir:
     alpha = check_alpha(alpha)
     period_s = check_period(period_s)
     out = output_dir(outdir)
+    cluster = cluster_from(kw)
     problem = target_from(kw)
+    if cluster is not None and isinstance(problem, Domain):
+        raise click.UsageError("--scheduler/--workers run a route's periods as tasks: a domain has no periods")
     if isinstance(problem, Domain):
         report = resilient_report(problem, budget, alpha, period_s=None, rule=rule, engine=engine, jobs=jobs,
                                   aggregate=aggregate)
@@ -66,9 +71,16 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, rule: str, outdir:
         bar, progress = progress_bar(quiet, f"{n_periods} periods of {period_s:g} s")
         if bar is not None:
             click.echo(f"whole route: greedy and resilient selection on {sc.n_poses} keyframes, {sc.n_landmarks} landmarks ...", err=True)
-        with bar or nullcontext():
-            report = resilient_report(problem, budget, alpha, period_s=period_s, rule=rule, engine=engine, jobs=jobs,
-                                      outdir=out, resume=resume, progress=progress)
+        if cluster is not None:
+            from ..distributed import resilient_report_on
+
+            with cluster, bar or nullcontext():  # the whole route and every period as tasks
+                report = resilient_report_on(cluster.client, problem, budget, alpha, period_s=period_s, rule=rule,
+                                             engine=engine, outdir=str(out), resume=resume, progress=progress)
+        else:
+            with bar or nullcontext():
+                report = resilient_report(problem, budget, alpha, period_s=period_s, rule=rule, engine=engine, jobs=jobs,
+                                          outdir=out, resume=resume, progress=progress)
         per = report.per_period
         assert per is not None
         written = [results.save(report, out / "resilient.json"), save_grid_csv(per.grid, out / "grid.csv")]
