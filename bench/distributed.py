@@ -9,9 +9,10 @@ One run of each (timings depend on the machine's load; the ratio is what this ru
 2. the same greedy with a :class:`DistributedDomainEvaluator` on a LocalCluster of ``--workers``
    processes (routes built on the workers, in parallel); the results must be equal (timings aside);
    bytes per greedy step (pickled arguments and results of every route's call);
-3. per route, in-process: time and resident memory to build its evaluator, and the time of one
-   greedy step (every sensor scored against an empty base), the inputs of the model in
-   docs/distributed.md; and the client's CPU time per route call during the distributed run.
+3. per route: in-process, the time to build its evaluator and of one full greedy step (every sensor
+   scored against an empty base); on its worker, the time and resident memory its actor's build
+   added; the client's CPU time per route call during the distributed run: the inputs of the model
+   in docs/distributed.md.
 
 Prints one JSON document (and a short summary on stderr).
 """
@@ -90,7 +91,7 @@ def main() -> None:
         res_dist = greedy(ev, args.budget, args.rule, lazy=True, info=domain.info)
         greedy_dist = time.perf_counter() - t1
         client_cpu = time.process_time() - c1
-        workers_rss = ev.memory()
+        worker_costs = ev.costs()
     calls = len(ev.step_bytes) * len(domain.routes)
     steps = ev.step_bytes
     out["distributed"] = {
@@ -101,14 +102,15 @@ def main() -> None:
         "bytes_per_step_sent": {"mean": round(sum(s for s, _ in steps) / max(1, len(steps)), 1), "max": max((s for s, _ in steps), default=0)},
         "bytes_per_step_received": {"mean": round(sum(r for _, r in steps) / max(1, len(steps)), 1), "max": max((r for _, r in steps), default=0)},
         "bytes_total_sent": ev.bytes_sent, "bytes_total_received": ev.bytes_received,
-        "worker_peak_rss_bytes_by_route": workers_rss,
+        "worker_build_s_by_route": {k: round(v[0], 3) for k, v in worker_costs.items()},
+        "worker_rss_bytes_by_route": {k: v[1] for k, v in worker_costs.items()},
         "same_result": untimed(results.dumps(res_dist)) == untimed(results.dumps(res_local)),
     }
     # 3. per route, in-process (also the in-process build, route by route)
     per = []
     for r in domain.routes:
         problem = RouteRecipe.of(r.name, r.problem).build()  # afresh: nothing cached by the runs above
-        m1, t1 = rss(), time.perf_counter()
+        t1 = time.perf_counter()
         ev = make_evaluator(problem)
         ev.score(tuple(range(n)))  # its normaliser f_r(L)
         build = time.perf_counter() - t1
@@ -117,7 +119,7 @@ def main() -> None:
         step = time.perf_counter() - t2
         per.append({"route": r.name, "poses": problem.scenario.n_poses, "landmarks": problem.scenario.n_landmarks,
                     "measurements": sum(len(o) for o in problem.observations), "build_s": round(build, 3),
-                    "first_step_s": round(step, 3), "rss_bytes": rss() - m1})
+                    "first_step_s": round(step, 3)})
         del ev, problem
     out["routes"] = per
 

@@ -103,12 +103,10 @@ class DaskCluster:
                                    f"({type(exc).__name__})") from None
             self.echo(f"sensorsel: dask scheduler {self.scheduler}: {len(self.client.scheduler_info()['workers'])} workers")
             return self
+        import importlib.util
         import logging
-        try:
-            import bokeh  # noqa: F401  (the dashboard needs it)
-            dashboard: str | None = "127.0.0.1:0"
-        except ImportError:
-            dashboard = None
+
+        dashboard = "127.0.0.1:0" if importlib.util.find_spec("bokeh") is not None else None  # the dashboard needs bokeh
         self._local = distributed.LocalCluster(n_workers=self.workers, threads_per_worker=1, processes=True,
                                                host="127.0.0.1", scheduler_port=0, dashboard_address=dashboard,
                                                silence_logs=logging.ERROR,
@@ -152,7 +150,11 @@ class RouteRecipe:
         return cls(name, problem.library, problem.settings, problem.spec, None if problem.spec is not None else problem.scenario)
 
     def build(self) -> Problem:
-        sc = self.scenario if self.scenario is not None else load_scenario(self.spec)
+        if self.scenario is not None:
+            sc = self.scenario
+        else:
+            assert self.spec is not None
+            sc = load_scenario(self.spec)
         problem = build_problem(self.library, sc, self.settings, spec=self.spec)
         check_reach(problem)
         return problem
@@ -162,20 +164,34 @@ class RouteActor:
     """One route's evaluator, built once on a worker (a Dask actor) and kept there."""
 
     def __init__(self, recipe: RouteRecipe, engine: str, jobs: int = 1) -> None:
+        m0, t0 = _rss(), time.perf_counter()
         self.recipe = recipe
         self.evaluator: ProblemEvaluator = make_evaluator(recipe.build(), engine, jobs=jobs)
+        self.best = float(self.evaluator.score(tuple(range(len(recipe.library)))))  # f_r(L), the normaliser
+        self.built = (time.perf_counter() - t0, _rss() - m0)  # building the problem, its engine and f_r(L) [s], [bytes]
 
     def score(self, suite: tuple[int, ...]) -> float:
         return float(self.evaluator.score(suite))
 
+    def normaliser(self) -> float:
+        """f_r(L): the whole library's score on this route [nats] (computed when the actor was built)."""
+        return self.best
+
     def scores_with(self, suite: tuple[int, ...], candidates: list[int]) -> np.ndarray:
         return np.asarray(self.evaluator.scores_with(suite, candidates), dtype=float)
 
-    def memory(self) -> int:
-        """Resident bytes of the worker process (what the route's evaluator costs, with the worker's own)."""
-        import resource
+    def cost(self) -> tuple[float, int]:
+        """(seconds to build this route on its worker, resident bytes that added there: its problem and
+        its engine after scoring the whole library; a measure, not an accounting: the allocator keeps
+        freed memory, and routes built later on the same worker reuse it)."""
+        return self.built[0], self.built[1]
 
-        return int(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss) * 1024
+
+def _rss() -> int:
+    """Resident bytes of this process now (psutil, which Dask's distributed itself needs)."""
+    import psutil
+
+    return int(psutil.Process().memory_info().rss)
 
 
 class _RemoteRoute(Evaluator):
@@ -235,11 +251,10 @@ class DistributedDomainEvaluator(DomainEvaluator):
         self.step_bytes: list[tuple[int, int]] = []
         self._actors: list[Any] = [None] * len(self.recipes)
         self._place([r.problem for r in domain.routes])
-        self.routes = tuple(_RemoteRoute(self, k) for k in range(len(self.recipes)))  # type: ignore[assignment]
+        self.routes = tuple(_RemoteRoute(self, k) for k in range(len(self.recipes)))  # type: ignore[assignment, misc]
         w = np.array([r.weight for r in domain.routes], dtype=float)
         self.weights = w / w.sum()
-        everything = tuple(range(len(self.library)))
-        got = self._call({k: ("score", (everything,)) for k in range(len(self.recipes))})
+        got = self._call({k: ("normaliser", ()) for k in range(len(self.recipes))})
         self.best = np.array([float(got[k]) for k in range(len(self.recipes))], dtype=float)
         for r, f_all in zip(domain.routes, self.best):
             if not f_all > 0:
@@ -321,9 +336,9 @@ class DistributedDomainEvaluator(DomainEvaluator):
             if not failed:
                 return out
             if attempt == self.retries:
-                k, exc = next(iter(failed.items()))
+                k, err = next(iter(failed.items()))
                 raise ClusterError(f"route {self.recipes[k].name!r}: its worker was lost {self.retries + 1} times "
-                                   f"({type(exc).__name__}: {exc})")
+                                   f"({type(err).__name__}: {err})")
             time.sleep(0.2 * (attempt + 1))  # let the scheduler notice the dead worker
             for k in failed:
                 self.n_rebuilt += 1
@@ -352,10 +367,10 @@ class DistributedDomainEvaluator(DomainEvaluator):
         per_route = np.stack([np.asarray(got[k], dtype=float) for k in range(len(self.recipes))])
         return self.combine(per_route)
 
-    def memory(self) -> dict[str, int]:
-        """Peak resident bytes of each worker holding routes (its routes' evaluators and its own)."""
-        got = self._call({k: ("memory", ()) for k in range(len(self.recipes))})
-        return {self.recipes[k].name: int(v) for k, v in got.items()}
+    def costs(self) -> dict[str, tuple[float, int]]:
+        """Each route's (build seconds, resident bytes) on its worker (see :meth:`RouteActor.cost`)."""
+        got = self._call({k: ("cost", ()) for k in range(len(self.recipes))})
+        return {self.recipes[k].name: (float(got[k][0]), int(got[k][1])) for k in range(len(self.recipes))}
 
 
 # --------------------------------------------------------------------------- tradespace as tasks
