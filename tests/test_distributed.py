@@ -54,14 +54,24 @@ def cluster():
         yield c
 
 
-def test_domain_greedy_and_tradespace_on_two_workers_equal_in_process(cluster, domain):
+def test_domain_greedy_on_two_workers_equals_in_process(cluster, domain):
     local = design_domain(domain, 12_000, certify=True)
     ev = DistributedDomainEvaluator(cluster.client, domain)
     remote = design_domain(domain, 12_000, certify=True, evaluator=ev)
     assert _untimed(remote) == _untimed(local)
     assert ev.step_bytes and max(s + r for s, r in ev.step_bytes) < 2_000  # suites and numbers, never matrices
+
+
+
+def test_tradespace_rules_as_tasks_equal_in_process_and_resume(cluster, domain, tmp_path):
     grid, rules = [4_000, 12_000], ["best-of"]  # its two component rules: two tasks
-    assert _untimed(run_tradespace_on(cluster.client, domain, grid, rules)) == _untimed(run_tradespace(domain, grid, rules))
+    local = _untimed(run_tradespace(domain, grid, rules))
+    assert _untimed(run_tradespace_on(cluster.client, domain, grid, rules, outdir=str(tmp_path))) == local
+    files = sorted((tmp_path / "runs").glob("rule-*.json"))
+    assert len(files) == 2
+    stamps = [f.stat().st_mtime_ns for f in files]
+    assert _untimed(run_tradespace_on(cluster.client, domain, grid, rules, outdir=str(tmp_path), resume=True)) == local
+    assert [f.stat().st_mtime_ns for f in files] == stamps  # finished rules were read back, not run again
 
 
 def test_resilient_periods_as_tasks_equal_in_process_and_resume(cluster, tmp_path):

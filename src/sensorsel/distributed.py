@@ -189,7 +189,7 @@ class RouteActor:
 
 def _rss() -> int:
     """Resident bytes of this process now (psutil, which Dask's distributed itself needs)."""
-    import psutil
+    import psutil  # type: ignore[import-untyped]
 
     return int(psutil.Process().memory_info().rss)
 
@@ -417,26 +417,102 @@ def _rule_task(recipe: TargetRecipe, rule: str, budgets_desc: list[float], engin
     return runs, ev.n_evaluations - n0
 
 
+@dataclass(frozen=True)
+class RuleRunsRecord:
+    """A finished tradespace task, as written to ``OUTDIR/runs/rule-NAME.json`` (read back by ``--resume``).
+
+    Attributes:
+        fingerprint: digest of everything the runs depend on (target, library, settings, budgets,
+            rule, engine, laziness, prefix sharing, aggregate, whether it counts the baseline).
+        rule: the single rule.
+        budgets_usd: the budgets, largest first.
+        runs: the run at each budget (all its steps).
+        shared: each run's picks taken from a larger budget's run.
+        n_evaluations: suites the task scored.
+    """
+
+    fingerprint: str
+    rule: str
+    budgets_usd: tuple[float, ...]
+    runs: tuple[Any, ...]
+    shared: tuple[int, ...]
+    n_evaluations: int
+
+
+def _rule_fingerprint(target: Target, rule: str, desc: list[float], engine: str | None, lazy: bool, share_prefix: bool,
+                      aggregate: str, first: bool) -> str:
+    from .resilient.cache import _digest, fingerprint
+
+    problems = [r.problem for r in target.routes] if isinstance(target, Domain) else [target]
+    weights = [r.weight for r in target.routes] if isinstance(target, Domain) else [1.0]
+    what = {"what": "tradespace-rule", "budgets": list(desc), "share_prefix": share_prefix, "aggregate": aggregate,
+            "first": first, "weights": weights}
+    return _digest([fingerprint(p, 0.0, 0, rule, check_engine(engine), lazy, what) for p in problems])
+
+
+def _rule_record_path(outdir: str, rule: str) -> Any:
+    from pathlib import Path
+
+    return Path(outdir) / "runs" / f"rule-{rule}.json"
+
+
+def _load_rule_record(path: Any, fp: str) -> RuleRunsRecord | None:
+    import warnings
+
+    from .codec import from_jsonable, read_json
+    from .resilient.cache import CacheWarning
+    from .selection import GreedyResult
+
+    if not path.is_file():
+        return None
+    try:
+        data = read_json(path)
+        rec = RuleRunsRecord(fingerprint=str(data["fingerprint"]), rule=str(data["rule"]),
+                             budgets_usd=tuple(float(b) for b in data["budgets_usd"]),
+                             runs=tuple(from_jsonable(GreedyResult, r) for r in data["runs"]),
+                             shared=tuple(int(k) for k in data["shared"]), n_evaluations=int(data["n_evaluations"]))
+    except (SensorselError, KeyError, TypeError, ValueError) as exc:
+        warnings.warn(f"{path}: not reused, it cannot be read ({exc}); recomputing and overwriting it", CacheWarning, stacklevel=2)
+        return None
+    if rec.fingerprint != fp:
+        warnings.warn(f"{path}: not reused, it was computed from other inputs; recomputing and overwriting it",
+                      CacheWarning, stacklevel=2)
+        return None
+    return rec
+
+
 def rule_runs_on(client: Any, target: Target, *, engine: str | None = None, jobs: int = 1, aggregate: str = "normalised",
-                 retries: int = 3) -> Callable[..., Any]:
+                 retries: int = 3, outdir: str | None = None, resume: bool = False) -> Callable[..., Any]:
     """A runner for :func:`sensorsel.tradespace.tradespace` (``rule_runs=``) that runs each single
-    rule's chain of budgets as one Dask task (retried on another worker if its worker dies), gathered
-    in rule order; ``tick`` is called as each rule's runs arrive (once per budget)."""
+    rule's chain of budgets as one Dask task (rerun elsewhere if its worker dies), gathered in rule
+    order; ``tick`` is called as each rule's runs arrive (once per budget). With ``outdir``, each
+    finished task is written to ``outdir/runs/rule-NAME.json`` by the client; ``resume`` reads back
+    those whose inputs match instead of running them again."""
     distributed = _import_distributed()
     recipe = TargetRecipe.of(target)
 
     def run(singles: list[str], desc: list[float], lazy: bool, share_prefix: bool,
             tick: Callable[[], None]) -> tuple[dict[str, dict[float, Any]], int]:
-        futs = {client.submit(_rule_task, recipe, r, desc, engine, jobs, lazy, share_prefix, aggregate, r == singles[0],
-                              pure=False, retries=retries): r for r in singles}
+        from .codec import save
+
+        fps = {r: _rule_fingerprint(target, r, desc, engine, lazy, share_prefix, aggregate, r == singles[0]) for r in singles}
         got: dict[str, tuple[dict[float, Any], int]] = {}
+        if outdir is not None and resume:
+            for r in singles:
+                old = _load_rule_record(_rule_record_path(outdir, r), fps[r])
+                if old is not None:
+                    got[r] = ({b: (run_, k) for b, run_, k in zip(old.budgets_usd, old.runs, old.shared)}, old.n_evaluations)
+                    for _ in desc:
+                        tick()
+        futs = {client.submit(_rule_task, recipe, r, desc, engine, jobs, lazy, share_prefix, aggregate, r == singles[0],
+                              pure=False, retries=retries): r for r in singles if r not in got}
         for fut in distributed.as_completed(list(futs)):
-            try:
-                got[futs[fut]] = fut.result()
-            except SensorselError:
-                raise
-            except Exception as exc:
-                raise ClusterError(f"tradespace rule {futs[fut]!r} failed on the cluster ({type(exc).__name__}: {exc})") from None
+            r = futs[fut]
+            got[r] = _result(fut, f"tradespace rule {r!r}")
+            if outdir is not None:
+                runs = got[r][0]
+                save(RuleRunsRecord(fps[r], r, tuple(runs), tuple(v[0] for v in runs.values()),
+                                    tuple(v[1] for v in runs.values()), got[r][1]), _rule_record_path(outdir, r))
             for _ in desc:
                 tick()
         return {r: got[r][0] for r in singles}, sum(got[r][1] for r in singles)
@@ -446,10 +522,10 @@ def rule_runs_on(client: Any, target: Target, *, engine: str | None = None, jobs
 
 def run_tradespace_on(client: Any, target: Target, budgets: Iterable[float] | None = None,
                       rules: Iterable[str] | None = None, *, engine: str | None = None, jobs: int = 1, lazy: bool = True,
-                      share_prefix: bool = True, aggregate: str = "normalised", progress: Callable[[int, int], None] | None = None
-                      ) -> Any:
+                      share_prefix: bool = True, aggregate: str = "normalised", progress: Callable[[int, int], None] | None = None,
+                      outdir: str | None = None, resume: bool = False) -> Any:
     """:func:`sensorsel.tradespace.run_tradespace` with each single rule's runs as a Dask task: the
-    same result (timings aside) as in-process."""
+    same result (timings aside) as in-process. ``outdir``/``resume``: see :func:`rule_runs_on`."""
     from .evaluators.registry import ENGINES
     from .selection import check_budget
     from .tradespace import DEFAULT_RULES, parse_rules, tradespace
@@ -458,7 +534,7 @@ def run_tradespace_on(client: Any, target: Target, budgets: Iterable[float] | No
     grid = None if budgets is None else tuple(check_budget(b) for b in budgets)
     check_aggregate(aggregate)
     name = DomainEvaluator.name if isinstance(target, Domain) else ENGINES[check_engine(engine)].name
-    runner = rule_runs_on(client, target, engine=engine, jobs=jobs, aggregate=aggregate)
+    runner = rule_runs_on(client, target, engine=engine, jobs=jobs, aggregate=aggregate, outdir=outdir, resume=resume)
     return tradespace(_NamedEvaluator(target.library, name), grid, sel, lazy=lazy, share_prefix=share_prefix,
                       progress=progress, info=target.info, rule_runs=runner)
 

@@ -168,11 +168,13 @@ def _arch_row(a: Architecture) -> list[str]:
 @click.option("--lazy/--no-lazy", default=True, show_default=True, help="Lazy (Minoux) evaluation: same picks, fewer evaluations.")
 @output_option(folder=True, required=True, dest="outdir", help="Folder for pareto.<format>, architectures.csv and tradespace.json.")
 @plot_format_option
+@click.option("--resume", is_flag=True, help="With --scheduler/--workers: reuse the rules' runs an interrupted run left in "
+                                             "OUTPUT/runs/ whose inputs match (each rule's runs are written there as they finish).")
 @json_option
 @quiet_option
 @run
 def pareto_cmd(budgets: str | None, budget: tuple[float, ...], rules: str, lazy: bool, outdir: str, plot_format: str | None,
-               as_json: bool, quiet: bool, aggregate: str, engine: str | None, jobs: int, **kw: Any) -> None:
+               resume: bool, as_json: bool, quiet: bool, aggregate: str, engine: str | None, jobs: int, **kw: Any) -> None:
     """The cost-performance tradespace (the paper's Fig. 4): greedy runs over a grid of budgets,
     every intermediate architecture, and the Pareto front (lower cost, higher score).
 
@@ -187,6 +189,8 @@ def pareto_cmd(budgets: str | None, budget: tuple[float, ...], rules: str, lazy:
     names = parse_rules(rules)
     output_dir(outdir)
     cluster = cluster_from(kw)
+    if resume and cluster is None:
+        raise click.UsageError("--resume reads the runs a --scheduler/--workers run wrote: give one of them")
     problem = target_from(kw)
     bar, progress = progress_bar(quiet, "tradespace runs")
     if cluster is not None:
@@ -194,7 +198,7 @@ def pareto_cmd(budgets: str | None, budget: tuple[float, ...], rules: str, lazy:
 
         with cluster, bar or nullcontext():  # each rule's chain of budgets is one task
             res = run_tradespace_on(cluster.client, problem, grid, names, engine=engine, lazy=lazy, aggregate=aggregate,
-                                    progress=progress)
+                                    progress=progress, outdir=outdir, resume=resume)
     else:
         with bar or nullcontext():
             res = run_tradespace(problem, grid, names, engine=engine, jobs=jobs, lazy=lazy, aggregate=aggregate, progress=progress)
