@@ -252,6 +252,35 @@ def target_from(kw: dict[str, Any]) -> Target:
     return domain
 
 
+def cluster_options(fn: Callable[..., Any]) -> Callable[..., Any]:
+    """--scheduler ADDRESS and --workers N: run on a Dask cluster (the ``sensorsel[dask]`` extra).
+    Read by :func:`cluster_from`; without either, nothing imports Dask."""
+    fn = click.option("--workers", "dask_workers", type=click.IntRange(min=1), default=None, metavar="N",
+                      help="Start a local Dask cluster of N worker processes for this run (stopped at its end; "
+                           "needs the extra: pip install \"sensorsel[dask]\").")(fn)
+    fn = click.option("--scheduler", "dask_scheduler", metavar="ADDRESS", default=None,
+                      help="Run on an existing Dask cluster, e.g. tcp://10.0.0.5:8786 (every worker must read the same "
+                           "files at the same paths). Results do not depend on it.")(fn)
+    return fn
+
+
+def cluster_from(kw: dict[str, Any]) -> Any:
+    """The :class:`sensorsel.distributed.DaskCluster` asked for by --scheduler / --workers (not yet
+    started: use it as a context manager), or None (pops the options from ``kw``).
+
+    Raises:
+        click.UsageError: both options.
+    """
+    address, n = kw.pop("dask_scheduler", None), kw.pop("dask_workers", None)
+    if address is not None and n is not None:
+        raise click.UsageError(f"--scheduler {address} uses an existing cluster, --workers {n} starts one: give one of them")
+    if address is None and n is None:
+        return None
+    from ..distributed import DaskCluster  # imports Dask itself only when started
+
+    return DaskCluster(scheduler=address, workers=n, echo=lambda line: click.echo(line, err=True))
+
+
 def engine_options(fn: Callable[..., Any]) -> Callable[..., Any]:
     """--engine and --jobs."""
     from ..evaluators import ENGINES

@@ -12,6 +12,7 @@ from .. import results
 from ..errors import InputError
 from ..fileio import output_dir
 from ..problem import Domain
+from .options import cluster_from, cluster_options
 from .options import (budget_option, engine_options, json_option, output_option, plot_format_option, problem_from, progress_bar,
                       print_target, quiet_option, run, table, target_from, target_options)
 from .options import plot_format as plot_format_of
@@ -21,6 +22,7 @@ from .rules import rule_option
 @click.command("resilient", short_help="Resilient selection against failing sensors, whole route and per period (grid).")
 @target_options
 @engine_options
+@cluster_options
 @budget_option(default=110_000.0, help="Budget in dollars (110000, 110,000, $110,000 or 110_000), the sensors assumed to fail included.")
 @click.option("--failures", "alpha", type=int, default=1, show_default=True,
               help="Number of sensors assumed to fail (alpha); 0 is plain greedy selection.")
@@ -65,8 +67,11 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, rule: str, method:
     alpha = check_alpha(alpha)
     period_s = check_period(period_s)
     out = output_dir(outdir)
+    cluster = cluster_from(kw)
     problem = target_from(kw)
     check_affordable(problem.library, budget, alpha)
+    if cluster is not None and isinstance(problem, Domain):
+        raise click.UsageError("--scheduler/--workers run a route's periods as tasks: a domain has no periods")
     if isinstance(problem, Domain):
         report = resilient_report(problem, budget, alpha, period_s=None, rule=rule, engine=engine, jobs=jobs,
                                   aggregate=aggregate, method=method)
@@ -77,9 +82,18 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, rule: str, method:
         bar, progress = progress_bar(quiet, f"{n_periods} periods of {period_s:g} s")
         if bar is not None:
             click.echo(f"whole route: greedy and resilient selection on {sc.n_poses} keyframes, {sc.n_landmarks} landmarks ...", err=True)
-        with bar or nullcontext():
-            report = resilient_report(problem, budget, alpha, period_s=period_s, rule=rule, engine=engine, jobs=jobs,
-                                      outdir=out, resume=resume, progress=progress, method=method)
+        if cluster is not None:
+            from ..distributed import resilient_report_on
+
+            if method != "paper":
+                raise click.UsageError("--scheduler/--workers run the paper's method's periods as tasks: drop --method robust")
+            with cluster, bar or nullcontext():  # the whole route and every period as tasks
+                report = resilient_report_on(cluster.client, problem, budget, alpha, period_s=period_s, rule=rule,
+                                             engine=engine, outdir=str(out), resume=resume, progress=progress)
+        else:
+            with bar or nullcontext():
+                report = resilient_report(problem, budget, alpha, period_s=period_s, rule=rule, engine=engine, jobs=jobs,
+                                          outdir=out, resume=resume, progress=progress, method=method)
     r = report.comparison.resilient
     if alpha and len(r.suite) <= alpha:
         # the failing set took what the budget buys: every sensor of the suite could fail
