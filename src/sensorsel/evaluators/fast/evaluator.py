@@ -43,9 +43,7 @@ class FastEvaluator(ProblemEvaluator):
         lin = linearize_library(problem)
         K = problem.scenario.n_poses
         coo = lin.base_pose_information.tocoo()
-        base_pattern = np.eye(K, dtype=bool)
-        base_pattern[coo.row // 3, coo.col // 3] = True
-        planner = Planner(problem, lin.pair_pose, lin.pair_landmark, np.tril(base_pattern))
+        planner = Planner(problem, lin.pair_pose, lin.pair_landmark, (coo.row // 3, coo.col // 3))
         self._states = StateBuilder(lin, planner)
         self.kernel = Kernel(K, lin.base_pose_information, Blas(), sparse_below=sparse_below, inplace=inplace_blas)
         self._threads_from = int(threads_from_keyframes)

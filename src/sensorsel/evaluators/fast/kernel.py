@@ -66,10 +66,13 @@ class Kernel:
         self.sparse_below = float(sparse_below)
         self.inplace = bool(inplace)
         low = sp.tril(base_pose_information).tocoo()
-        self.base_index = low.row.astype(np.int64) * n + low.col  # lower triangle of the base on the poses
+        # lower triangle of the base on the poses, and of the pose-diagonal sums (6, K): (row, column)
+        self._base_rc = (low.row.astype(np.int64), low.col.astype(np.int64))
         self.base_values = low.data.copy()
         k3 = 3 * np.arange(n_poses)
-        self.diag_index = np.stack([(k3 + j) * n + k3 + i for i, j in SYM3])  # (6, K) lower-triangle flat
+        self._diag_rc = (np.stack([k3 + j for i, j in SYM3]), np.stack([k3 + i for i, j in SYM3]))
+        self.base_index = self._base_rc[0] * n + self._base_rc[1]
+        self.diag_index = self._diag_rc[0] * n + self._diag_rc[1]
         self._ldc = np.array([n], dtype=np.intc)  # leading dimension of the pose matrix, for BLAS
         self._local = threading.local()
         self._lock = threading.Lock()
@@ -114,7 +117,8 @@ class Kernel:
         buf = scratch.array("tiles", layout.size)
         buf[layout.flat] = y.ravel()
         # pose Schur complement (lower triangle): base + measurement diagonal - sum_j Y_j Y_j^T
-        P = scratch.array("pose", self.n * self.n).reshape(self.n, self.n)
+        n = self.n
+        P = scratch.array("pose", n * n).reshape(n, n)
         P.ravel()[self.base_index] = self.base_values
         P.ravel()[self.diag_index] += a
         self._subtract_products(P, buf, layout)
@@ -126,25 +130,24 @@ class Kernel:
 
     def _subtract_products(self, P: np.ndarray, buf: np.ndarray, layout: Layout) -> None:
         """P[block] -= A @ B.T for every call of ``layout`` (tiles in ``buf``), lower triangle of P."""
-        n = self.n
         if not self.inplace:
-            for a_off, b_off, c_off, m, nn, k, _ in layout.calls:
+            for a_off, b_off, row, col, m, nn, k, _ in layout.calls:
                 t = buf[a_off: a_off + m * k].reshape(m, k)
                 u = buf[b_off: b_off + nn * k].reshape(nn, k)
-                r0, c0 = divmod(c_off, n)
-                P[r0: r0 + m, c0: c0 + nn] -= t @ u.T
+                P[row: row + m, col: col + nn] -= t @ u.T
             self._count(numpy=len(layout.calls))
             return
+        n = self.n
         syrk, gemm = self.blas.syrk_sub, self.blas.gemm_sub
         pa, pc, pd, pldc = buf.ctypes.data, P.ctypes.data, layout.dims.ctypes.data, self._ldc.ctypes.data
         n_same = 0
-        for i, (a_off, b_off, c_off, _, _, _, same) in enumerate(layout.calls):
+        for i, (a_off, b_off, row, col, _, _, _, same) in enumerate(layout.calls):
             p_m = pd + 12 * i  # dims[i] = (m, n, k), 4-byte C ints
             if same:
-                syrk(pc + 8 * c_off, pldc, pa + 8 * a_off, p_m, p_m + 8)
+                syrk(pc + 8 * (row * n + col), pldc, pa + 8 * a_off, p_m, p_m + 8)
                 n_same += 1
             else:
-                gemm(pc + 8 * c_off, pldc, pa + 8 * a_off, pa + 8 * b_off, p_m, p_m + 4, p_m + 8)
+                gemm(pc + 8 * (row * n + col), pldc, pa + 8 * a_off, pa + 8 * b_off, p_m, p_m + 4, p_m + 8)
         self._count(syrk=n_same, gemm=len(layout.calls) - n_same)
 
     @staticmethod
