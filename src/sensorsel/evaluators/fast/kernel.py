@@ -1,5 +1,6 @@
-"""The numeric kernel: log det of a suite's information from its sums, by the Schur complement on
-the poses and a dense Cholesky (LAPACK dpotrf) or a sparse LU (SuperLU) of it.
+"""The numeric kernel: log det of a suite's information from its sums, by a route-order block
+Cholesky of the whole information matrix (:mod:`.front`), or by the Schur complement on the poses
+and a dense Cholesky (LAPACK dpotrf) or a sparse LU (SuperLU) of it.
 
 The kernel never writes to its inputs: the tiles, Y and the pose matrix are scratch buffers it
 owns, one set per thread.
@@ -8,6 +9,7 @@ owns, one set per thread.
 from __future__ import annotations
 
 import threading
+import weakref
 from collections import Counter
 
 import numpy as np
@@ -15,10 +17,16 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from .blas import Blas
+from .front import CHUNK_POSES, FrontPlan, front_logdet, plan_front
 from .plan import Layout
 
 #: below this fraction of non-zero pose blocks the pose matrix is factored as a sparse matrix
 SPARSE_BELOW = 0.11
+
+#: the route-order (frontal) path is taken when its predicted flops are below this fraction of the
+#: dense pose Cholesky's (3K)³/3 (it also skips the dense path's Schur assembly; crossover measured
+#: in bench/scaling.py, see docs/speed.md)
+FRONT_BELOW = 0.25
 
 #: the unique entries (row, column) of a symmetric 3x3, in the order of the pose-diagonal sums
 SYM3 = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))  # unique entries of a symmetric 3x3
@@ -56,16 +64,22 @@ class Kernel:
 
     Attributes:
         counts: how many times each path was taken, by name: "syrk", "gemm" (in-place BLAS calls),
-            "numpy" (numpy block products), "potrf" (dense Cholesky), "splu" (sparse LU).
+            "numpy" (numpy block products), "potrf" (dense Cholesky), "splu" (sparse LU), "front"
+            (route-order elimination, :mod:`.front`).
     """
 
     def __init__(self, n_poses: int, base_pose_information: sp.spmatrix, blas: Blas, *,
-                 sparse_below: float = SPARSE_BELOW, inplace: bool = True) -> None:
+                 sparse_below: float = SPARSE_BELOW, front_below: float = FRONT_BELOW, chunk_poses: int = CHUNK_POSES,
+                 inplace: bool = True) -> None:
         self.n = n = 3 * n_poses
+        self.n_poses = n_poses
+        self.front_below = float(front_below)
+        self.chunk_poses = int(chunk_poses)
+        self._fronts: weakref.WeakKeyDictionary[Layout, FrontPlan | None] = weakref.WeakKeyDictionary()
         self.blas = blas
         self.sparse_below = float(sparse_below)
         self.inplace = bool(inplace)
-        low = sp.tril(base_pose_information).tocoo()
+        low = sp.tril(base_pose_information).tocsr().tocoo()  # duplicates summed
         # lower triangle of the base on the poses, and of the pose-diagonal sums (6, K): (row, column)
         self._base_rc = (low.row.astype(np.int64), low.col.astype(np.int64))
         self.base_values = low.data.copy()
@@ -77,6 +91,25 @@ class Kernel:
         self._local = threading.local()
         self._lock = threading.Lock()
         self.counts: Counter[str] = Counter()
+
+    def front_plan(self, layout: Layout, n_landmarks: int) -> FrontPlan | None:
+        """The route-order plan of ``layout`` (built once per layout, shared by threads), or None."""
+        with self._lock:
+            if layout in self._fronts:
+                return self._fronts[layout]
+        plan = plan_front(layout.pose, layout.landmark, self.n_poses, n_landmarks, self._base_rc, self.base_values,
+                          self.chunk_poses)
+        with self._lock:
+            self._fronts[layout] = plan
+        return plan
+
+    def uses_front(self, layout: Layout, n_landmarks: int) -> bool:
+        """Whether ``layout`` is factored by the route-order path: predicted flops below
+        ``front_below`` times the dense Cholesky's."""
+        if self.front_below <= 0:
+            return False
+        plan = self.front_plan(layout, n_landmarks)
+        return plan is not None and plan.flops < self.front_below * self.n**3 / 3.0
 
     def _scratch(self) -> _Scratch:
         """This thread's reusable buffers (the large arrays of one evaluation)."""
@@ -99,6 +132,14 @@ class Kernel:
             a: (6, K) pose-diagonal information sums from measurements (unique entries of each 3x3).
             layout: the tiles and calls of the active pairs.
         """
+        if self.uses_front(layout, d.shape[1]):
+            plan = self._fronts[layout]
+            assert plan is not None
+            scratch = self._scratch()
+            size = plan.max_front**2
+            self._count(front=1)
+            return front_logdet(plan, wpl, d, a, self.blas,
+                                (scratch.array("front0", size, zeroed=False), scratch.array("front1", size, zeroed=False)))
         # landmark blocks: D_j = L_j L_j^T (2x2 Cholesky, vectorized)
         l11 = np.sqrt(d[0])
         l21 = d[1] / l11

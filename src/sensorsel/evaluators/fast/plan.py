@@ -48,6 +48,7 @@ class Layout:
 
     act: np.ndarray  # (Pa,) active pair indices, sorted
     landmark: np.ndarray  # (Pa,) landmark of each active pair
+    pose: np.ndarray  # (Pa,) keyframe of each active pair
     flat: np.ndarray  # (6 * Pa,) index into the tile buffer of each entry of Yᵀ, as (2, 3, Pa)
     size: int  # tile buffer length [entries]
     calls: list[tuple[int, int, int, int, int, int, int, bool]]  # (a_off, b_off, row, col, m, n, k, same):
@@ -156,4 +157,4 @@ class Planner:
         calls = list(zip(a_off.tolist(), b_off.tolist(), row.tolist(), col.tolist(), m_rows.tolist(), n_rows.tolist(),
                          k.tolist(), (ia == ib).tolist()))
         dims = np.ascontiguousarray(np.column_stack([m_rows, n_rows, k]), dtype=np.intc).reshape(-1, 3)
-        return Layout(act, lm, flat, int(off[-1]), calls, dims, (gk, pk), self.base_blocks, K)
+        return Layout(act, lm, ps, flat, int(off[-1]), calls, dims, (gk, pk), self.base_blocks, K)
