@@ -13,7 +13,8 @@ selection seconds, peak RSS (total and per keyframe), which kernel paths ran, an
 speed-up and whether the picks and every step's score agree (1e-9 relative). Then the fitted
 exponent of selection time against keyframes for each sequence run at several rates.
 
-A run SPEC is ``SEQ@HZ:ENGINES``, e.g. ``02@3:old,new`` or ``02@10:new``.
+A run SPEC is ``SEQ@HZ:ENGINES``, e.g. ``02@3:old,new`` or ``02@10:new``; an engine ``fb=X`` is the
+new one with ``front_below=X`` (to measure the crossover).
 """
 
 from __future__ import annotations
@@ -47,7 +48,8 @@ def worker(seq: str, hz: float, engine: str, kitti_root: str, budget: float, job
     t0 = time.perf_counter()
     problem = load_problem(ScenarioSpec(seq=seq, kitti_root=kitti_root, keyframe_rate_hz=hz))
     t1 = time.perf_counter()
-    ev = FastEvaluator(problem, jobs=jobs, **({"front_below": 0.0} if engine == "old" else {}))
+    kw = {"front_below": 0.0} if engine == "old" else {"front_below": float(engine[3:])} if engine.startswith("fb=") else {}
+    ev = FastEvaluator(problem, jobs=jobs, **kw)
     t2 = time.perf_counter()
     c0 = time.process_time()
     res = greedy(ev, budget, "uniform", lazy=True)

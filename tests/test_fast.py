@@ -219,6 +219,14 @@ def test_the_route_order_path_agrees_with_the_reference(fixture, chunk_poses, re
     for c, v in zip(cands, fe.scores_with(base, cands)):
         assert close(v, re.score(base + (c,))), c
     assert fe.kernel.counts["front"] > 0 and fe.kernel.counts["potrf"] == fe.kernel.counts["splu"] == 0
+    # every candidate keyframe order (route, sweeps, RCM) on its own: the same numbers
+    orders = dict(fe.kernel.pose_orders)
+    assert set(orders) == {"route", "sweep-x", "sweep-y", "rcm"}
+    for name, order in orders.items():
+        one = FastEvaluator(problem, front_below=1e9, chunk_poses=chunk_poses)
+        one.kernel.pose_orders = {name: order}
+        for s in [lib.parse_suite("LRL-roof,WSC-3,HD2K-9"), tuple(range(problem.n_sensors))]:
+            assert close(one.logdet(s), re.logdet(s)), (name, s)
     # jobs change no bit on this path either
     two = FastEvaluator(problem, jobs=2, threads_from_keyframes=0, front_below=1e9, chunk_poses=chunk_poses)
     assert fe.scores_with(base, cands).tobytes() == two.scores_with(base, cands).tobytes()

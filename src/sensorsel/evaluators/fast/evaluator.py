@@ -11,7 +11,7 @@ import numpy as np
 from ...problem import Problem
 from ..base import ProblemEvaluator, Suite, as_suite
 from .blas import Blas
-from .front import CHUNK_POSES
+from .front import CHUNK_POSES, keyframe_orders
 from .kernel import FRONT_BELOW, SPARSE_BELOW, Kernel
 from .plan import Planner
 from .state import BaseState, StateBuilder
@@ -48,7 +48,8 @@ class FastEvaluator(ProblemEvaluator):
         planner = Planner(problem, lin.pair_pose, lin.pair_landmark, (coo.row // 3, coo.col // 3))
         self._states = StateBuilder(lin, planner)
         self.kernel = Kernel(K, lin.base_pose_information, Blas(), sparse_below=sparse_below,
-                             front_below=front_below, chunk_poses=chunk_poses, inplace=inplace_blas)
+                             front_below=front_below, chunk_poses=chunk_poses,
+                             pose_orders=keyframe_orders(problem.scenario.keyframes.poses[:, :2]), inplace=inplace_blas)
         self._threads_from = int(threads_from_keyframes)
         self._base: BaseState | None = None
         self._pool: ThreadPoolExecutor | None = None

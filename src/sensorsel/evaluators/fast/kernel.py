@@ -70,12 +70,13 @@ class Kernel:
 
     def __init__(self, n_poses: int, base_pose_information: sp.spmatrix, blas: Blas, *,
                  sparse_below: float = SPARSE_BELOW, front_below: float = FRONT_BELOW, chunk_poses: int = CHUNK_POSES,
-                 inplace: bool = True) -> None:
+                 pose_orders: dict[str, np.ndarray] | None = None, inplace: bool = True) -> None:
         self.n = n = 3 * n_poses
+        self.pose_orders = pose_orders or {"route": np.arange(n_poses)}
         self.n_poses = n_poses
         self.front_below = float(front_below)
         self.chunk_poses = int(chunk_poses)
-        self._fronts: weakref.WeakKeyDictionary[Layout, FrontPlan | None] = weakref.WeakKeyDictionary()
+        self._fronts: weakref.WeakKeyDictionary[Layout, FrontPlan] = weakref.WeakKeyDictionary()
         self.blas = blas
         self.sparse_below = float(sparse_below)
         self.inplace = bool(inplace)
@@ -92,13 +93,15 @@ class Kernel:
         self._lock = threading.Lock()
         self.counts: Counter[str] = Counter()
 
-    def front_plan(self, layout: Layout, n_landmarks: int) -> FrontPlan | None:
-        """The route-order plan of ``layout`` (built once per layout, shared by threads), or None."""
+    def front_plan(self, layout: Layout, n_landmarks: int) -> FrontPlan:
+        """The frontal plan of ``layout`` in the cheapest (predicted flops) of :attr:`pose_orders`,
+        built once per layout and shared by threads (the choice depends on the layout alone)."""
         with self._lock:
             if layout in self._fronts:
                 return self._fronts[layout]
-        plan = plan_front(layout.pose, layout.landmark, self.n_poses, n_landmarks, self._base_rc, self.base_values,
-                          self.chunk_poses)
+        plans = [plan_front(layout.pose, layout.landmark, self.n_poses, n_landmarks, self._base_rc, self.base_values,
+                            self.chunk_poses, order, name) for name, order in self.pose_orders.items()]
+        plan = min(plans, key=lambda pl: pl.flops)
         with self._lock:
             self._fronts[layout] = plan
         return plan
@@ -108,8 +111,7 @@ class Kernel:
         ``front_below`` times the dense Cholesky's."""
         if self.front_below <= 0:
             return False
-        plan = self.front_plan(layout, n_landmarks)
-        return plan is not None and plan.flops < self.front_below * self.n**3 / 3.0
+        return self.front_plan(layout, n_landmarks).flops < self.front_below * self.n**3 / 3.0
 
     def _scratch(self) -> _Scratch:
         """This thread's reusable buffers (the large arrays of one evaluation)."""
@@ -133,8 +135,7 @@ class Kernel:
             layout: the tiles and calls of the active pairs.
         """
         if self.uses_front(layout, d.shape[1]):
-            plan = self._fronts[layout]
-            assert plan is not None
+            plan = self.front_plan(layout, d.shape[1])
             scratch = self._scratch()
             size = plan.max_front**2
             self._count(front=1)
