@@ -17,7 +17,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from .blas import Blas
-from .front import CHUNK_POSES, FrontPlan, front_logdet, plan_front
+from .front import CHUNK_POSES, FrontPlan, front_flops, front_logdet, plan_front
 from .plan import Layout
 
 #: below this fraction of non-zero pose blocks the pose matrix is factored as a sparse matrix
@@ -26,7 +26,7 @@ SPARSE_BELOW = 0.11
 #: the route-order (frontal) path is taken when its predicted flops are below this fraction of the
 #: dense pose Cholesky's (3K)³/3 (it also skips the dense path's Schur assembly; crossover measured
 #: in bench/scaling.py, see docs/speed.md)
-FRONT_BELOW = 0.25
+FRONT_BELOW = 1.0
 
 #: the unique entries (row, column) of a symmetric 3x3, in the order of the pose-diagonal sums
 SYM3 = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))  # unique entries of a symmetric 3x3
@@ -77,6 +77,7 @@ class Kernel:
         self.front_below = float(front_below)
         self.chunk_poses = int(chunk_poses)
         self._fronts: weakref.WeakKeyDictionary[Layout, FrontPlan] = weakref.WeakKeyDictionary()
+        self._choices: weakref.WeakKeyDictionary[Layout, tuple[str, float]] = weakref.WeakKeyDictionary()
         self.blas = blas
         self.sparse_below = float(sparse_below)
         self.inplace = bool(inplace)
@@ -93,25 +94,36 @@ class Kernel:
         self._lock = threading.Lock()
         self.counts: Counter[str] = Counter()
 
+    def front_choice(self, layout: Layout, n_landmarks: int) -> tuple[str, float]:
+        """(keyframe order, predicted flops) of the cheapest frontal plan of ``layout`` over
+        :attr:`pose_orders` (from the alive intervals alone; cached per layout, depends on it alone)."""
+        with self._lock:
+            got = self._choices.get(layout)
+        if got is None:
+            got = min(((front_flops(layout.pose, layout.landmark, self.n_poses, n_landmarks, self._base_rc, self.chunk_poses,
+                                    order), name) for name, order in self.pose_orders.items()), key=lambda x: (x[0], x[1]))[::-1]
+            with self._lock:
+                self._choices[layout] = got
+        return got
+
     def front_plan(self, layout: Layout, n_landmarks: int) -> FrontPlan:
-        """The frontal plan of ``layout`` in the cheapest (predicted flops) of :attr:`pose_orders`,
-        built once per layout and shared by threads (the choice depends on the layout alone)."""
+        """The frontal plan of ``layout`` in its cheapest keyframe order, built once per layout."""
         with self._lock:
-            if layout in self._fronts:
-                return self._fronts[layout]
-        plans = [plan_front(layout.pose, layout.landmark, self.n_poses, n_landmarks, self._base_rc, self.base_values,
-                            self.chunk_poses, order, name) for name, order in self.pose_orders.items()]
-        plan = min(plans, key=lambda pl: pl.flops)
-        with self._lock:
-            self._fronts[layout] = plan
+            plan = self._fronts.get(layout)
+        if plan is None:
+            name, _ = self.front_choice(layout, n_landmarks)
+            plan = plan_front(layout.pose, layout.landmark, self.n_poses, n_landmarks, self._base_rc, self.base_values,
+                              self.chunk_poses, self.pose_orders[name], name)
+            with self._lock:
+                self._fronts[layout] = plan
         return plan
 
     def uses_front(self, layout: Layout, n_landmarks: int) -> bool:
-        """Whether ``layout`` is factored by the route-order path: predicted flops below
-        ``front_below`` times the dense Cholesky's."""
+        """Whether ``layout`` is factored by the frontal path: predicted flops below ``front_below``
+        times the dense Cholesky's."""
         if self.front_below <= 0:
             return False
-        return self.front_plan(layout, n_landmarks).flops < self.front_below * self.n**3 / 3.0
+        return self.front_choice(layout, n_landmarks)[1] < self.front_below * self.n**3 / 3.0
 
     def _scratch(self) -> _Scratch:
         """This thread's reusable buffers (the large arrays of one evaluation)."""
