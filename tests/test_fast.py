@@ -205,7 +205,7 @@ def test_every_factorization_path_agrees_with_the_reference(suburb_problem, spar
 
 @pytest.mark.parametrize("fixture", ["tiny", "suburb"])
 @pytest.mark.parametrize("chunk_poses", [1, 3, 32])
-def test_the_route_order_path_agrees_with_the_reference(fixture, chunk_poses, request):
+def test_the_frontal_path_agrees_with_the_reference(fixture, chunk_poses, request):
     """The frontal elimination of the whole information matrix (issue 16), forced on every suite,
     at chunk sizes from one keyframe (every carry path) to many: the reference's numbers."""
     problem = request.getfixturevalue(f"{fixture}_problem")
@@ -233,7 +233,7 @@ def test_the_route_order_path_agrees_with_the_reference(fixture, chunk_poses, re
 
 
 @pytest.mark.kitti
-def test_the_route_order_path_on_kitti03_and_its_choice(kitti03_problem):
+def test_the_frontal_path_on_kitti03_and_its_choice(kitti03_problem):
     """On KITTI 03 the forced frontal path gives the reference's numbers; by default the kernel
     takes it where its predicted flops are below FRONT_BELOW of the dense Cholesky's."""
     from sensorsel.evaluators.fast.kernel import FRONT_BELOW

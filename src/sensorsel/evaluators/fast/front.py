@@ -1,33 +1,36 @@
-"""The route-order (frontal) path: log det of the full information matrix, poses and landmarks, by a
-block Cholesky whose cost grows with the route, not with its cube.
+"""The frontal path: log det of the full information matrix, poses and landmarks, by a block
+Cholesky whose cost grows with the route, not with its cube (issue 16).
 
 Why. The pose Schur complement P couples every two keyframes that see a common landmark: a
 keyframe is coupled to every keyframe within sensor range, so P has ~(keyframe rate x range)
 non-zero blocks per row, and at a fixed route its dense factorization costs (3K)³/3, and even a
-band one grows like K³. Eliminating in route order instead keeps the work per keyframe bounded:
+band one grows like K³. Eliminating poses and landmarks together, along the route, keeps the work
+per keyframe bounded.
 
-Order. Keyframes in route order, cut into chunks of :data:`CHUNK_POSES` consecutive keyframes;
-after each chunk, the landmarks whose last observation (by an active pair) falls in it. When chunk
-t is eliminated, the only other variables it touches are the *open* landmarks (seen before or in
-the chunk and again after it) and the next keyframe (odometry). The frontal matrix of chunk t is
-``[chunk poses | alive landmarks | next pose]``, the alive landmarks (entered at or before t,
-closing at or after t) sorted by (closing chunk, entering chunk, index): those closing at t come
-first, so the eliminated variables (chunk poses and closing landmarks) are a leading block (one
-dpotrf, one dtrsm, one dsyrk: :meth:`Blas.eliminate_leading`), and the Schur complement left on
-(open landmarks, next pose) is carried into the next chunk's front. The carried landmarks keep
-their relative order there (same sort key), so they move by a few block copies (one per run
-between newly entering landmarks), triangle to same triangle; the next pose moves from last to
-first (a transposed 3-row copy). Only the upper triangle of each row-major front (the lower one,
-column-major, for LAPACK) is filled or read.
-log det Λ = Σ over chunks of log det of the eliminated blocks (+ the prior-only landmarks'
-2×2 log dets). The work per keyframe is ~3 (2F)² flops with F the open landmarks: it depends on
-the landmarks within sensor range of a place, not on the keyframe rate or the route's length. A
-route that comes back to a place keeps that place's landmarks open in between (F grows): the
-kernel compares the predicted flops with the dense path's and takes the cheaper (see
+Order. Keyframes in a keyframe order (:func:`keyframe_orders`: route order, x or y sweep, RCM of
+nearby keyframes), cut into chunks of :data:`CHUNK_POSES`. Variables are the poses (3 scalars) and
+the seen landmarks (2). A chunk *touches* its keyframes, the landmarks they see and the keyframes
+the base graph links them to (odometry; each base entry belongs to the earlier chunk of its two
+keyframes); a variable is alive from the first chunk that touches it to the last one, after which
+nothing refers to it any more and it is eliminated. The frontal matrix of chunk t holds the alive
+variables sorted by (closing chunk, entering chunk, id): those closing at t come first, so the
+eliminated variables are a leading block (one dpotrf, one dtrsm, one dsyrk:
+:meth:`Blas.eliminate_leading`), and the Schur complement left on the others is carried into the
+next chunk's front. Carried variables keep their relative order there (same sort key), so they
+move by a few block copies (one per run between newly entering variables), triangle to same
+triangle. Only the upper triangle of each row-major front (the lower one, column-major, for
+LAPACK) is filled or read.
+
+log det Λ = Σ over chunks of log det of the eliminated blocks (+ the prior-only landmarks' 2×2 log
+dets). The work per keyframe is ~3 (2F)² flops with F the open landmarks: it depends on the
+landmarks within sensor range of a place, not on the keyframe rate or the route's length. A route
+that comes back to a place keeps that place's landmarks open until the next pass (F grows): a
+spatial order puts the passes side by side, and the kernel compares the predicted flops of each
+order and of the dense path and takes the cheapest (see
 :data:`sensorsel.evaluators.fast.kernel.FRONT_BELOW`).
 
-A plan depends only on the active pairs (like a :class:`~.plan.Layout`): it is built once per base
-suite and reused by every candidate that adds no pair. Memory: the plan's index arrays (linear in
+A plan depends only on the active pairs (like a :class:`~.plan.Layout`): it is built once per
+pattern of measured pairs and reused by every candidate that adds no pair. Memory: the plan's index arrays (linear in
 the pairs) and two frontal buffers of the largest front (bounded by the landmarks in range, or by
 all landmarks).
 """

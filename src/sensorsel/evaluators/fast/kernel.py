@@ -1,4 +1,4 @@
-"""The numeric kernel: log det of a suite's information from its sums, by a route-order block
+"""The numeric kernel: log det of a suite's information from its sums, by a frontal block
 Cholesky of the whole information matrix (:mod:`.front`), or by the Schur complement on the poses
 and a dense Cholesky (LAPACK dpotrf) or a sparse LU (SuperLU) of it.
 
@@ -23,9 +23,9 @@ from .plan import Layout
 #: below this fraction of non-zero pose blocks the pose matrix is factored as a sparse matrix
 SPARSE_BELOW = 0.11
 
-#: the route-order (frontal) path is taken when its predicted flops are below this fraction of the
+#: the frontal path (:mod:`.front`) is taken when its predicted flops are below this fraction of the
 #: dense pose Cholesky's (3K)³/3 (it also skips the dense path's Schur assembly; crossover measured
-#: in bench/scaling.py, see docs/speed.md)
+#: per evaluation on KITTI 00/02/08 at 1 Hz: equal time at ~1.0-1.2x the flops, see docs/speed.md)
 FRONT_BELOW = 1.0
 
 #: the unique entries (row, column) of a symmetric 3x3, in the order of the pose-diagonal sums
@@ -65,7 +65,7 @@ class Kernel:
     Attributes:
         counts: how many times each path was taken, by name: "syrk", "gemm" (in-place BLAS calls),
             "numpy" (numpy block products), "potrf" (dense Cholesky), "splu" (sparse LU), "front"
-            (route-order elimination, :mod:`.front`).
+            (frontal elimination, :mod:`.front`).
     """
 
     def __init__(self, n_poses: int, base_pose_information: sp.spmatrix, blas: Blas, *,
