@@ -167,6 +167,17 @@ def step_domain(c: Ctx) -> None:
             os.environ["SENSORSEL_KITTI_ROOT"] = env_root
 
 
+def step_robust(seq: str, alpha: int) -> Callable[[Ctx], None]:
+    """Greedy, the paper's Algorithm 2 and the robust design side by side (issue 13), real maps only."""
+    def run(c: Ctx) -> None:
+        if c.landmarks != "real":
+            return
+        name = f"robust{seq}-a{alpha}"
+        c.run("robust", *c.scen(seq), "--budget", BUDGET, "--failures", str(alpha), "-q", "-o", str(c.out / f"{name}.json"),
+              stdout=c.out / f"{name}.txt")
+    return run
+
+
 def step_pareto(seq: str) -> Callable[[Ctx], None]:
     def run(c: Ctx) -> None:
         d = c.out / f"pareto{seq}"
@@ -265,6 +276,9 @@ STEPS: list[Step] = [
     Step("optimal00", "optimal", step_optimal("00"), slow=True),
     Step("simulate03", "simulate", step_simulate("03")),
     Step("domain", "domain", step_domain),
+    Step("robust03-a1", "robust", step_robust("03", 1)),
+    Step("robust03-a2", "robust", step_robust("03", 2)),
+    Step("robust00-a1", "robust", step_robust("00", 1)),
 ]
 
 
@@ -422,7 +436,7 @@ def tables(root: Path) -> str:
                     with open(d / f"pareto{seq}" / "architectures.csv", newline="") as f:
                         front = sum(r["on_front"] == "1" for r in csv.DictReader(f))
                     out.append(f"- {kind}: {len(t['architectures'])} distinct architectures, {front} on the Pareto front, "
-                               f"{t['n_evaluations']:,} suites scored ({len(t['runs'])} runs: {', '.join(t['selectors'])} "
+                               f"{t['n_evaluations']:,} suites scored ({len(t['runs'])} runs: {', '.join(t.get('rules', t.get('selectors', [])))} "
                                f"at {len(t['budgets_usd'])} budgets)")
             out.append("")
 

@@ -203,6 +203,9 @@ CASES: list[tuple[str, list[str], int, list[str]]] = [
     ("simulate-empty-suite", ["simulate", *T, *Q, "--suite", "", "-o", "{d}/s"], 2, ["--suite"]),
     ("simulate-empty-compare", ["simulate", *T, *Q, "--suite", "LRL-roof", "--compare", ",", "-o", "{d}/s"], 2, ["--compare"]),
     ("simulate-unknown-id", ["simulate", *T, *Q, "--suite", "NOPE-1", "-o", "{d}/s"], 2, ["--suite", "NOPE-1"]),
+    # a list of ids longer than a file name may be (it was tried as a path: ENAMETOOLONG, a traceback)
+    ("simulate-long-id-list", ["simulate", *T, *Q, "--suite", ",".join(["HD2K-4"] * 2 + [f"NOPE-{k}" for k in range(60)]),
+                               "-o", "{d}/s"], 2, ["--suite"]),
     ("simulate-result-missing", ["simulate", *T, *Q, "--suite", "{d}/missing.json", "-o", "{d}/s"], 2, ["missing.json"]),
     ("simulate-result-of-another-kind", ["simulate", *T, *Q, "--suite", "{d}/cert.json", "-o", "{d}/s"], 2, ["cert.json", "'certificate'"]),
     ("simulate-result-of-another-scenario", ["simulate", *T, *Q, "--suite", "{d}/g_suburb.json", "-o", "{d}/s"], 2,

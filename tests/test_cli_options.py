@@ -83,12 +83,12 @@ def test_plots_draw_on_the_given_axes_and_never_show(tiny_problem, monkeypatch):
 
 # ----------------------------------------------------------------------- the same options everywhere
 
-RESULT_COMMANDS = {"library", "score", "greedy", "pareto", "resilient", "certify", "optimal", "simulate"}
-PROGRESS_COMMANDS = {"greedy", "pareto", "resilient", "certify", "optimal", "simulate"}
-BUDGET_COMMANDS = {"greedy", "pareto", "resilient", "certify", "optimal"}
+RESULT_COMMANDS = {"library", "score", "greedy", "pareto", "resilient", "certify", "optimal", "simulate", "robust"}
+PROGRESS_COMMANDS = {"greedy", "pareto", "resilient", "certify", "optimal", "simulate", "robust"}
+BUDGET_COMMANDS = {"greedy", "pareto", "resilient", "certify", "optimal", "robust"}
 PLOT_COMMANDS = {"scene", "pareto", "resilient", "simulate"}
 REQUIRED = {  # the other required options of each command, to parse its --budget alone
-    "greedy": [], "pareto": ["-o", "out"], "resilient": ["-o", "out"], "certify": [], "optimal": [],
+    "greedy": [], "pareto": ["-o", "out"], "resilient": ["-o", "out"], "certify": [], "optimal": [], "robust": [],
 }
 
 

@@ -187,7 +187,7 @@ def test_bad_sensor_positions_are_input_errors(tiny_problem):
 @pytest.mark.parametrize("inplace", [True, False])
 def test_every_factorization_path_agrees_with_the_reference(suburb_problem, sparse_below, inplace):
     """Dense (Cholesky) and sparse (LU) factorizations, Schur products by in-place BLAS or numpy: same numbers."""
-    fe = FastEvaluator(suburb_problem, sparse_below=sparse_below, inplace_blas=inplace)
+    fe = FastEvaluator(suburb_problem, sparse_below=sparse_below, front_below=0.0, inplace_blas=inplace)
     re = ReferenceEvaluator(suburb_problem)
     lib = suburb_problem.library
     for s in [(), lib.parse_suite("LRR-12"), lib.parse_suite("LRL-roof,WSC-3,HD2K-9"), tuple(range(suburb_problem.n_sensors))]:
@@ -203,10 +203,61 @@ def test_every_factorization_path_agrees_with_the_reference(suburb_problem, spar
         assert counts["numpy"] > 0 and counts["syrk"] == counts["gemm"] == 0
 
 
+@pytest.mark.parametrize("fixture", ["tiny", "suburb"])
+@pytest.mark.parametrize("chunk_poses", [1, 3, 32])
+def test_the_frontal_path_agrees_with_the_reference(fixture, chunk_poses, request):
+    """The frontal elimination of the whole information matrix (issue 16), forced on every suite,
+    at chunk sizes from one keyframe (every carry path) to many: the reference's numbers."""
+    problem = request.getfixturevalue(f"{fixture}_problem")
+    fe = FastEvaluator(problem, front_below=1e9, chunk_poses=chunk_poses)
+    re = ReferenceEvaluator(problem)
+    lib = problem.library
+    for s in random_suites(problem.n_sensors, 6, seed=chunk_poses)[:8] + [lib.parse_suite("LRL-roof,WSC-3,HD2K-9")]:
+        assert close(fe.logdet(s), re.logdet(s)), s
+    base = lib.parse_suite("LRL-roof")
+    cands = [1, 25, 30, 50, 61]
+    for c, v in zip(cands, fe.scores_with(base, cands)):
+        assert close(v, re.score(base + (c,))), c
+    assert fe.kernel.counts["front"] > 0 and fe.kernel.counts["potrf"] == fe.kernel.counts["splu"] == 0
+    # every candidate keyframe order (route, sweeps, RCM) on its own: the same numbers
+    orders = dict(fe.kernel.pose_orders)
+    assert set(orders) == {"route", "sweep-x", "sweep-y", "rcm"}
+    for name, order in orders.items():
+        one = FastEvaluator(problem, front_below=1e9, chunk_poses=chunk_poses)
+        one.kernel.pose_orders = {name: order}
+        for s in [lib.parse_suite("LRL-roof,WSC-3,HD2K-9"), tuple(range(problem.n_sensors))]:
+            assert close(one.logdet(s), re.logdet(s)), (name, s)
+    # jobs change no bit on this path either
+    two = FastEvaluator(problem, jobs=2, threads_from_keyframes=0, front_below=1e9, chunk_poses=chunk_poses)
+    assert fe.scores_with(base, cands).tobytes() == two.scores_with(base, cands).tobytes()
+
+
+@pytest.mark.kitti
+def test_the_frontal_path_on_kitti03_and_its_choice(kitti03_problem):
+    """On KITTI 03 the forced frontal path gives the reference's numbers; by default the kernel
+    takes it where its predicted flops are below FRONT_BELOW of the dense Cholesky's."""
+    from sensorsel.evaluators.fast.kernel import FRONT_BELOW
+
+    fe, re = FastEvaluator(kitti03_problem, front_below=1e9), ReferenceEvaluator(kitti03_problem)
+    lib = kitti03_problem.library
+    for s in [(), lib.parse_suite("HD2K-4"), lib.parse_suite("LRL-roof,HD2K-4,LRR-6"), tuple(range(kitti03_problem.n_sensors))]:
+        assert close(fe.logdet(s), re.logdet(s)), s
+    default = FastEvaluator(kitti03_problem)
+    for s in [lib.parse_suite("HD2K-4"), tuple(range(kitti03_problem.n_sensors))]:
+        layout = default._base_for(s).layout
+        name, flops = default.kernel.front_choice(layout, kitti03_problem.scenario.n_landmarks)
+        plan = default.kernel.front_plan(layout, kitti03_problem.scenario.n_landmarks)
+        assert plan.order_name == name and abs(plan.flops - flops) <= 1e-9 * flops  # the quick prediction is the plan's
+        want = flops < FRONT_BELOW * default.kernel.n**3 / 3
+        assert default.kernel.uses_front(layout, kitti03_problem.scenario.n_landmarks) == want
+        assert close(default.logdet(s), fe.logdet(s))
+
+
 def test_the_in_place_blas_path_is_the_default_and_is_taken(suburb_problem):
     """By default the Schur products go through scipy's BLAS function pointers (syrk on a tile's
     diagonal blocks, gemm off it) and the dense pose matrix through dpotrf, and they give numpy's numbers."""
-    fe, plain = FastEvaluator(suburb_problem, sparse_below=0.0), FastEvaluator(suburb_problem, sparse_below=0.0, inplace_blas=False)
+    fe = FastEvaluator(suburb_problem, sparse_below=0.0, front_below=0.0)
+    plain = FastEvaluator(suburb_problem, sparse_below=0.0, front_below=0.0, inplace_blas=False)
     suite = tuple(range(suburb_problem.n_sensors))
     got, want = fe.logdet(suite), plain.logdet(suite)
     layout = fe._base_for(suite).layout
@@ -253,7 +304,7 @@ def test_blas_runs_on_one_thread_while_scoring_and_is_restored(tiny_problem):
 def test_logdet_and_scores_with_do_not_mutate_their_inputs(suburb_problem):
     """Neither the kernel's inputs (the shared base state) nor the callers' arrays are written to."""
     lib = suburb_problem.library
-    fe = FastEvaluator(suburb_problem, sparse_below=0.0)
+    fe = FastEvaluator(suburb_problem, sparse_below=0.0, front_below=0.0)
     base = np.array(lib.parse_suite("LRL-roof,LRR-12"))
     cands = np.arange(suburb_problem.n_sensors)
     base0, cands0 = base.copy(), cands.copy()

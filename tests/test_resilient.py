@@ -238,9 +238,9 @@ def test_grid_matches_the_period_results(tiny, small_lib, tmp_path):
     # JSON and CSV round trips
     assert results.dumps(results.load(SelectionGrid, results.save(g, tmp_path / "g.json"))) == results.dumps(g)
     lines = g.to_csv().splitlines()
-    assert lines[0].split(",")[3:] == list(small_lib.ids)
-    for line, row in zip(lines[1:], g.cells):
-        assert tuple(line.split(",")[3:]) == row
+    assert lines[0].split(",")[3:] == [*small_lib.ids, "worst_failures"]
+    for line, row, p in zip(lines[1:], g.cells, res.periods):
+        assert tuple(line.split(",")[3:-1]) == row and line.split(",")[-1] == "+".join(p.worst.failures)
     assert {c for row in g.cells for c in row} <= {FAILED, ACTIVE, ""}
     back = results.load(PerPeriodResult, results.save(res, tmp_path / "r.json"))
     assert results.dumps(back) == results.dumps(res)

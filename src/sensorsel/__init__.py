@@ -14,7 +14,8 @@ from __future__ import annotations
 __version__ = "0.1.0"
 
 from .api import (CertifiedGreedyResult, DomainDesign, DomainScoreResult, ScoreResult, certify_result, design_domain,
-                  resilient_report, run_greedy, run_optimal, run_tradespace, score_domain_suite, score_suite, simulate)
+                  resilient_report, run_greedy, run_optimal, run_robust, run_tradespace, score_domain_suite, score_suite,
+                  simulate)
 from .errors import InputError, LibraryError, ResultFileError, ScenarioError, SensorselError
 from .evaluators import ENGINES, Evaluator, evaluator_for, make_evaluator
 from .library import PlacedSensor, SensorLibrary, SensorModel, load_library
@@ -24,7 +25,7 @@ from .scenario import LandmarkModel, Scenario, ScenarioSpec, Trajectory, load_sc
 __all__ = [
     # run functions (sensorsel.api)
     "score_suite", "score_domain_suite", "run_greedy", "design_domain", "run_tradespace", "resilient_report",
-    "certify_result", "run_optimal", "simulate",
+    "run_robust", "certify_result", "run_optimal", "simulate",
     # inputs
     "Domain", "GraphSettings", "LandmarkModel", "PlacedSensor", "Problem", "ProblemInfo", "Scenario", "ScenarioSpec",
     "SensorLibrary", "SensorModel", "Trajectory", "build_problem", "load_domain", "load_library", "load_problem",

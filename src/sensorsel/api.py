@@ -27,13 +27,16 @@ from .domain_design import DomainDesign, design_domain
 from .errors import InputError
 from .evaluators import DomainEvaluator, evaluator_for, make_evaluator
 from .problem import Domain, DomainInfo, Problem, ProblemInfo, Target, load_domain, load_problem
-from .resilient import ResilientReport, resilient_report
+from .resilient import ResilientReport
+from .resilient import resilient_report as _resilient_report
+from .robust import RobustResult, robust_choice, worst_route_select
+from .robust import run_robust as _run_robust
 from .selection import GreedyResult, Progress, check_budget, check_rule, greedy
 from .simulate import SimulationResult, simulate
 from .tradespace import TradespaceResult, run_tradespace
 
 __all__ = ["CertifiedGreedyResult", "DomainDesign", "DomainScoreResult", "ProblemInfo", "RouteScore", "ScoreResult",
-           "certify_result", "design_domain", "load_domain", "load_problem", "resilient_report", "run_greedy",
+           "certify_result", "design_domain", "load_domain", "load_problem", "resilient_report", "run_greedy", "run_robust", "RobustResult",
            "run_optimal", "run_tradespace", "score_domain_suite", "score_suite", "simulate"]
 
 
@@ -188,3 +191,41 @@ def run_optimal(target: Target, budget_usd: float, *, engine: str | None = None,
 def _engine_of(result: GreedyResult) -> str | None:
     """The per-route engine a result was computed with ("domain[fast]" style names are not engines)."""
     return None if result.engine == DomainEvaluator.name else result.engine
+
+
+#: ``method`` of :func:`resilient_report`: the paper's Algorithm 2, or robust selection.
+RESILIENT_METHODS = ("paper", "robust")
+#: ``aggregate`` of :func:`run_robust`: the domain's combined scores, or its worst route.
+ROBUST_AGGREGATES = ("normalised", "raw", "worst")
+
+
+def run_robust(target: Target, budget_usd: float, alpha: int, *, engine: str | None = None, jobs: int = 1,
+               aggregate: str = "normalised", **kwargs) -> RobustResult:
+    """The ``sensorsel robust`` run: the best worst case under ``alpha`` failures within the budget
+    (:func:`sensorsel.robust.robust_select`), on a problem or a domain.
+
+    ``aggregate``: with a domain, "normalised" or "raw" robustify the combined domain score; "worst"
+    maximises the worst route's share of its best under the failures
+    (:func:`sensorsel.robust.worst_route_select`; a domain only). ``kwargs`` go to the selector.
+
+    Raises:
+        InputError: bad budget, alpha or aggregate; "worst" on a single route.
+    """
+    if aggregate not in ROBUST_AGGREGATES:
+        raise InputError(f"unknown aggregate {aggregate!r}; available: {', '.join(ROBUST_AGGREGATES)}")
+    if aggregate == "worst":
+        if not isinstance(target, Domain):
+            raise InputError("aggregate 'worst' is the worst route of an operating domain: give a domain (--domain FILE)")
+        return worst_route_select(target, budget_usd, alpha, engine=engine, jobs=jobs, **kwargs)
+    return _run_robust(target, budget_usd, alpha, engine=engine, jobs=jobs, aggregate=aggregate, **kwargs)
+
+
+def resilient_report(problem: Target, budget_usd: float, alpha: int, *, method: str = "paper", **kwargs) -> ResilientReport:
+    """The ``sensorsel resilient`` run (:func:`sensorsel.resilient.resilient_report`): the whole-route
+    comparison and the per-period selection. ``method``: "paper" (the paper's Algorithm 2, the
+    default: published results unchanged) or "robust" (:func:`sensorsel.robust.robust_select` for the
+    whole route and each period; its worst case is never below greedy's nor Algorithm 2's)."""
+    if method not in RESILIENT_METHODS:
+        raise InputError(f"unknown method {method!r}; available: {', '.join(RESILIENT_METHODS)}")
+    return _resilient_report(problem, budget_usd, alpha, method=method,
+                             selector=robust_choice if method == "robust" else None, **kwargs)

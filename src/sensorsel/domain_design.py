@@ -101,16 +101,21 @@ def route_breakdown(evaluator: DomainEvaluator, result: GreedyResult, *, lazy: b
 
 def design_domain(domain: Domain, budget_usd: float, rule: str = "uniform", *, engine: str | None = None, jobs: int = 1,
                   aggregate: str = "normalised", lazy: bool = True, certify: bool = False, progress: Progress | None = None,
-                  certify_progress: Progress | None = None, breakdown_progress: Progress | None = None) -> DomainDesign:
+                  certify_progress: Progress | None = None, breakdown_progress: Progress | None = None,
+                  evaluator: DomainEvaluator | None = None) -> DomainDesign:
     """Greedy selection of one suite for every route of ``domain``, and its per-route breakdown; with
     ``certify``, the run's certificate on the domain score (F is monotone submodular, so the bound holds).
+
+    ``evaluator``: the domain's evaluator, already built (e.g. on a Dask cluster,
+    :class:`sensorsel.distributed.DistributedDomainEvaluator`); ``engine``, ``jobs`` and ``aggregate``
+    are then its own.
 
     Raises:
         InputError: a bad budget, rule, engine or aggregate, or a route no sensor can measure.
     """
     t0 = time.perf_counter()
     budget = check_budget(budget_usd)
-    ev = DomainEvaluator(domain, engine, jobs=jobs, aggregate=aggregate)
+    ev = evaluator if evaluator is not None else DomainEvaluator(domain, engine, jobs=jobs, aggregate=aggregate)
     res = greedy(ev, budget, rule, lazy=lazy, progress=progress, info=domain.info)
     cert = certificate(ev, res, progress=certify_progress) if certify else None
     shares = route_breakdown(ev, res, lazy=lazy, progress=breakdown_progress)

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import io
 from pathlib import Path
-from typing import TYPE_CHECKING, Iterable, Sequence
+from typing import TYPE_CHECKING, Any, Iterable, Sequence
 
 import matplotlib
 import matplotlib.pyplot as plt
@@ -331,7 +331,8 @@ def plot_selection_grid(grid: "SelectionGrid", ax: Axes | None = None, *, title:
     """The per-period selection grid (the paper's Fig. 5): rows = periods, columns = sensors.
 
     Columns are grouped by sensor model (group label: the model code; column label: the clock
-    position or "roof"); sensors assumed to fail are red, active sensors green, others blank.
+    position or "roof"); sensors assumed to fail are red, active sensors green, others blank. A black
+    cross marks, in each period, the failure set worst for that period's suite (``grid.worst_failures``).
     Without ``ax`` the figure is sized for the grid (about 0.2 in per column, 0.24 in per row), so
     that the 62 columns of the paper's library stay readable.
 
@@ -380,9 +381,18 @@ def plot_selection_grid(grid: "SelectionGrid", ax: Axes | None = None, *, title:
     ax.tick_params(axis="both", which="major", length=2, pad=1.5)
     ax.set_xlabel("sensor: clock position (12 = ahead, 3 = right) or roof, grouped by model", fontsize=8)
     ax.set_ylabel("period", fontsize=8)
-    ax.set_title(title or "Resilient selection per period", fontsize=10, pad=14)
-    ax.legend(handles=[Patch(color=colours["failed"], label="assumed to fail"), Patch(color=colours["active"], label="active")],
-              loc="upper left", bbox_to_anchor=(1.005, 1.0), fontsize=8, frameon=False)
+    default_title = "Robust selection per period" if getattr(grid, "method", "paper") == "robust" else "Resilient selection per period"
+    ax.set_title(title or default_title, fontsize=10, pad=14)
+    handles: list[Any] = [Patch(color=colours["failed"], label="assumed to fail"), Patch(color=colours["active"], label="active")]
+    col = {s: c for c, s in enumerate(grid.sensors)}
+    xs = [col[s] for r in range(n_rows) for s in grid.worst(r)]
+    ys = [r for r in range(n_rows) for _ in grid.worst(r)]
+    if xs:
+        from matplotlib.lines import Line2D
+
+        ax.scatter(xs, ys, marker="x", s=22, color="k", linewidths=1.1, zorder=3)
+        handles.append(Line2D([], [], ls="", marker="x", color="k", label="worst failure for the suite"))
+    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.005, 1.0), fontsize=8, frameon=False)
     return ax
 
 

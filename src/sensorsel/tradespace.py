@@ -55,6 +55,9 @@ DEFAULT_N_BUDGETS = 14
 
 #: progress(done, total): called after each (rule, budget) run.
 Progress = Callable[[int, int], None]
+#: rule_runs(rules, budgets_desc, lazy, share_prefix, tick) -> (rule -> budget -> (run, shared picks), evaluations)
+RuleRunner = Callable[[list[str], list[float], bool, bool, Callable[[], None]],
+                      tuple[dict[str, dict[float, tuple[GreedyResult, int]]], int]]
 
 
 @dataclass(frozen=True)
@@ -319,7 +322,7 @@ def _rule_runs(evaluator: Evaluator, rule: str, budgets_desc: list[float], *, la
 
 def tradespace(evaluator: Evaluator, budgets: Iterable[float] | None = None, rules: Iterable[str] = DEFAULT_RULES,
                *, lazy: bool = True, share_prefix: bool = True, progress: Progress | None = None,
-               info: TargetInfo | None = None) -> TradespaceResult:
+               info: TargetInfo | None = None, rule_runs: RuleRunner | None = None) -> TradespaceResult:
     """Run each rule at each budget and collect the architectures and the Pareto front.
 
     Args:
@@ -331,6 +334,10 @@ def tradespace(evaluator: Evaluator, budgets: Iterable[float] | None = None, rul
         share_prefix: resume smaller budgets from larger budgets' runs (see the module docstring).
         progress: called as progress(done, total) after each (single rule, budget) run.
         info: what the problem is (recorded in the result).
+        rule_runs: runs the single rules elsewhere (e.g. as Dask tasks, :mod:`sensorsel.distributed`):
+            called as ``rule_runs(rules, budgets_desc, lazy, share_prefix, tick)``, returns (rule ->
+            the runs :func:`_rule_runs` gives, evaluations made); ``evaluator`` then only names the
+            library and the engine.
     Returns:
         The :class:`TradespaceResult`.
     """
@@ -351,7 +358,11 @@ def tradespace(evaluator: Evaluator, budgets: Iterable[float] | None = None, rul
             progress(count[0], total)
 
     desc = sorted(grid, reverse=True)
-    per_rule = {r: _rule_runs(evaluator, r, desc, lazy=lazy, share_prefix=share_prefix, tick=tick) for r in singles}
+    n_evals: int | None = None
+    if rule_runs is None:
+        per_rule = {r: _rule_runs(evaluator, r, desc, lazy=lazy, share_prefix=share_prefix, tick=tick) for r in singles}
+    else:
+        per_rule, n_evals = rule_runs(singles, desc, lazy, share_prefix, tick)
 
     runs: list[TradespaceRun] = []
     found: dict[frozenset[int], tuple[float, set[str]]] = {}  # suite -> (score as first recorded, rules)
@@ -378,7 +389,7 @@ def tradespace(evaluator: Evaluator, budgets: Iterable[float] | None = None, rul
                   for (ids, cost, score, made_by), f in zip(rows, on_front))
     return TradespaceResult(
         budgets_usd=grid, rules=sel, architectures=archs, runs=tuple(runs), best_score=best, engine=evaluator.name,
-        lazy=lazy, share_prefix=share_prefix, n_evaluations=evaluator.n_evaluations - n0, problem=info,
+        lazy=lazy, share_prefix=share_prefix, n_evaluations=evaluator.n_evaluations - n0 if n_evals is None else n_evals, problem=info,
         seconds=round(time.perf_counter() - t0, 6),
     )
 

@@ -15,12 +15,13 @@ import os
 import sys
 import warnings
 from pathlib import Path
-from typing import Any, Callable, TypeVar
+from typing import Any, Callable, TypeVar, Sequence
 
 import click
 
 from ..errors import InputError, SensorselError, SensorselWarning
 from ..evaluators import AGGREGATES
+from ..library import SensorLibrary
 from ..problem import DomainInfo, ProblemInfo, Target, TargetInfo, load_domain, load_problem
 from ..problem import Problem
 from ..progress import Progress
@@ -251,6 +252,35 @@ def target_from(kw: dict[str, Any]) -> Target:
     return domain
 
 
+def cluster_options(fn: Callable[..., Any]) -> Callable[..., Any]:
+    """--scheduler ADDRESS and --workers N: run on a Dask cluster (the ``sensorsel[dask]`` extra).
+    Read by :func:`cluster_from`; without either, nothing imports Dask."""
+    fn = click.option("--workers", "dask_workers", type=click.IntRange(min=1), default=None, metavar="N",
+                      help="Start a local Dask cluster of N worker processes for this run (stopped at its end; "
+                           "needs the extra: pip install \"sensorsel[dask]\").")(fn)
+    fn = click.option("--scheduler", "dask_scheduler", metavar="ADDRESS", default=None,
+                      help="Run on an existing Dask cluster, e.g. tcp://10.0.0.5:8786 (every worker must read the same "
+                           "files at the same paths). Results do not depend on it.")(fn)
+    return fn
+
+
+def cluster_from(kw: dict[str, Any]) -> Any:
+    """The :class:`sensorsel.distributed.DaskCluster` asked for by --scheduler / --workers (not yet
+    started: use it as a context manager), or None (pops the options from ``kw``).
+
+    Raises:
+        click.UsageError: both options.
+    """
+    address, n = kw.pop("dask_scheduler", None), kw.pop("dask_workers", None)
+    if address is not None and n is not None:
+        raise click.UsageError(f"--scheduler {address} uses an existing cluster, --workers {n} starts one: give one of them")
+    if address is None and n is None:
+        return None
+    from ..distributed import DaskCluster  # imports Dask itself only when started
+
+    return DaskCluster(scheduler=address, workers=n, echo=lambda line: click.echo(line, err=True))
+
+
 def engine_options(fn: Callable[..., Any]) -> Callable[..., Any]:
     """--engine and --jobs."""
     from ..evaluators import ENGINES
@@ -367,3 +397,17 @@ def suite_text(ctx: click.Context, param: click.Parameter, value: str | None) ->
         raise click.BadParameter(f"names no sensor ({value!r}): give comma-separated sensor ids (see `sensorsel library`)",
                                  ctx=ctx, param=param)
     return value
+
+
+def compact_suite(suite: Sequence[str], library: SensorLibrary | None = None) -> str:
+    """A suite for a table: ids grouped by model, ``LRL-roof HD2K-{2,4,12} LRR-6``; with ``library``,
+    a suite of all but at most three of its sensors is ``all but LRL-roof`` (the full ids are in the JSON)."""
+    if library is not None and len(suite) > 3:
+        missing = [i for i in library.ids if i not in set(suite)]
+        if len(missing) <= 3 and len(suite) + len(missing) == len(library):
+            return "all but " + ", ".join(missing) if missing else f"all {len(library)} sensors"
+    groups: dict[str, list[str]] = {}
+    for sid in suite:
+        code, _, where = sid.rpartition("-")
+        groups.setdefault(code, []).append(where)
+    return " ".join(f"{c}-{w[0]}" if len(w) == 1 else f"{c}-{{{','.join(w)}}}" for c, w in groups.items())

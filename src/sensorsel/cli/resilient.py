@@ -12,6 +12,7 @@ from .. import results
 from ..errors import InputError
 from ..fileio import output_dir
 from ..problem import Domain
+from .options import cluster_from, cluster_options
 from .options import (budget_option, engine_options, json_option, output_option, plot_format_option, problem_from, progress_bar,
                       print_target, quiet_option, run, table, target_from, target_options)
 from .options import plot_format as plot_format_of
@@ -21,12 +22,16 @@ from .rules import rule_option
 @click.command("resilient", short_help="Resilient selection against failing sensors, whole route and per period (grid).")
 @target_options
 @engine_options
+@cluster_options
 @budget_option(default=110_000.0, help="Budget in dollars (110000, 110,000, $110,000 or 110_000), the sensors assumed to fail included.")
 @click.option("--failures", "alpha", type=int, default=1, show_default=True,
               help="Number of sensors assumed to fail (alpha); 0 is plain greedy selection.")
 @click.option("--period", "period_s", type=float, default=10.0, show_default=True,
               help="Length of a period of the per-period selection [s of keyframe timestamps].")
 @rule_option("uniform", "Greedy rule spending the budget left after the failing sensors.")
+@click.option("--method", type=click.Choice(["paper", "robust"]), default="paper", show_default=True,
+              help="How the suite is chosen, whole route and each period: paper = the paper's Algorithm 2; robust = "
+                   "robust selection (best exact worst case among greedy, Algorithm 2 and more; never below either).")
 @output_option(folder=True, required=True, dest="outdir",
                help="Output folder: resilient.json, grid.csv, the grid plot, and periods/ (one file per period).")
 @plot_format_option
@@ -34,7 +39,7 @@ from .rules import rule_option
 @json_option
 @quiet_option
 @run
-def resilient_cmd(budget: float, alpha: int, period_s: float, rule: str, outdir: str, plot_format: str | None, resume: bool,
+def resilient_cmd(budget: float, alpha: int, period_s: float, rule: str, method: str, outdir: str, plot_format: str | None, resume: bool,
                   as_json: bool, quiet: bool, aggregate: str, engine: str | None, jobs: int, **kw: Any) -> None:
     """Resilient sensor selection (the paper's Algorithm 2, for ALPHA failures).
 
@@ -42,13 +47,19 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, rule: str, outdir:
     the budget goes to greedy selection on the library without them. Prints greedy versus resilient
     selection on the whole route (nominal score, worst-case score after the worst ALPHA failures,
     and that failure set), then runs the selection on each period of the route and draws the grid of
-    failed (red) and active (green) sensors per period (the paper's Fig. 5).
+    failed (red) and active (green) sensors per period (the paper's Fig. 5); a black cross marks the
+    failure set worst for each period's suite (also the worst_failures column of grid.csv).
+
+    --method robust chooses the whole route's suite and each period's by robust selection instead
+    (the best exact worst case among greedy, Algorithm 2 and further methods): no sensor is assumed
+    to fail in advance, so its grid is all active, with the worst failures crossed.
 
     With --domain FILE the comparison is on the domain's score (one suite for all its routes); there
     are no periods then (a period is a stretch of one route).
     """
+    from ..api import resilient_report
     from ..plotting import plot_selection_grid, save_figure, use_file_backend
-    from ..resilient import check_alpha, check_period, resilient_report, save_grid_csv, split_periods
+    from ..resilient import check_alpha, check_period, save_grid_csv, split_periods
     from ..selection import check_affordable, check_budget
 
     budget = check_budget(budget)
@@ -56,11 +67,14 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, rule: str, outdir:
     alpha = check_alpha(alpha)
     period_s = check_period(period_s)
     out = output_dir(outdir)
+    cluster = cluster_from(kw)
     problem = target_from(kw)
     check_affordable(problem.library, budget, alpha)
+    if cluster is not None and isinstance(problem, Domain):
+        raise click.UsageError("--scheduler/--workers run a route's periods as tasks: a domain has no periods")
     if isinstance(problem, Domain):
         report = resilient_report(problem, budget, alpha, period_s=None, rule=rule, engine=engine, jobs=jobs,
-                                  aggregate=aggregate)
+                                  aggregate=aggregate, method=method)
         written = [results.save(report, out / "resilient.json")]
     else:
         sc = problem.scenario
@@ -68,10 +82,18 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, rule: str, outdir:
         bar, progress = progress_bar(quiet, f"{n_periods} periods of {period_s:g} s")
         if bar is not None:
             click.echo(f"whole route: greedy and resilient selection on {sc.n_poses} keyframes, {sc.n_landmarks} landmarks ...", err=True)
-        with bar or nullcontext():
-            report = resilient_report(problem, budget, alpha, period_s=period_s, rule=rule, engine=engine, jobs=jobs,
-                                      outdir=out, resume=resume, progress=progress)
-        written = []
+        if cluster is not None:
+            from ..distributed import resilient_report_on
+
+            if method != "paper":
+                raise click.UsageError("--scheduler/--workers run the paper's method's periods as tasks: drop --method robust")
+            with cluster, bar or nullcontext():  # the whole route and every period as tasks
+                report = resilient_report_on(cluster.client, problem, budget, alpha, period_s=period_s, rule=rule,
+                                             engine=engine, outdir=str(out), resume=resume, progress=progress)
+        else:
+            with bar or nullcontext():
+                report = resilient_report(problem, budget, alpha, period_s=period_s, rule=rule, engine=engine, jobs=jobs,
+                                          outdir=out, resume=resume, progress=progress, method=method)
     r = report.comparison.resilient
     if alpha and len(r.suite) <= alpha:
         # the failing set took what the budget buys: every sensor of the suite could fail
@@ -83,7 +105,8 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, rule: str, outdir:
         assert per is not None
         written = [results.save(report, out / "resilient.json"), save_grid_csv(per.grid, out / "grid.csv")]
         use_file_backend()
-        title = f"{sc.name}: resilient selection per {period_s:g} s period, {alpha} failure(s), budget ${budget:,.0f}"
+        what = "robust" if method == "robust" else "resilient"
+        title = f"{sc.name}: {what} selection per {period_s:g} s period, {alpha} failure(s), budget ${budget:,.0f}"
         ax = plot_selection_grid(per.grid, title=title)
         written.append(save_figure(ax.figure, out / f"grid.{fmt}", close=True))
 
@@ -92,11 +115,11 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, rule: str, outdir:
         return
     c = report.comparison
     print_target(c.problem)
-    click.echo(f"budget    ${budget:,.0f}, {alpha} failure(s), rule {rule}, engine {c.engine}")
+    click.echo(f"budget    ${budget:,.0f}, {alpha} failure(s), rule {rule}, engine {c.engine}, method {method}")
     r = c.resilient
     if r.failed:
         fails = ", ".join(f"{s} (f = {v:.2f})" for s, v in zip(r.failed, r.failed_scores))
-        click.echo(f"assumed to fail: {fails}; ${r.failed_cost_usd:,.0f} of the budget")
+        click.echo(f"{'Algorithm 2: ' if method == 'robust' else ''}assumed to fail: {fails}; ${r.failed_cost_usd:,.0f} of the budget")
     if r.failure_note:
         click.echo(f"note: {r.failure_note}")
     click.echo("")
@@ -105,7 +128,13 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, rule: str, outdir:
                                   ("resilient", r.suite, r.cost_usd, c.resilient_worst)):
         rows.append([label, ",".join(suite) or "(none)", f"{cost:,.0f}", f"{w.nominal_score:.2f}", f"{w.score:.2f}",
                      ",".join(w.failures) or "-"])
+    rb = report.robust
+    if rb is not None:
+        rows.append(["robust", ",".join(rb.suite) or "(none)", f"{rb.cost_usd:,.0f}", f"{rb.nominal_score:.2f}",
+                     f"{rb.worst_score:.2f}", ",".join(rb.failures) or "-"])
     click.echo(table(rows, ["design", "suite", "cost_usd", "nominal", "worst_case", "worst_failure"]))
+    if rb is not None:
+        click.echo(f"robust: method {rb.method}, bound {rb.bound:.2f}, gap {rb.gap_percent:.2f}%")
     if c.greedy_worst.score > 0:
         gain = 100.0 * (c.resilient_worst.score - c.greedy_worst.score) / c.greedy_worst.score
         click.echo(f"\nworst case: resilient {gain:+.1f} % versus greedy (scores in nats: f(S) = log det L(S) - log det L(empty))")
@@ -116,13 +145,16 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, rule: str, outdir:
             click.echo(f"wrote {p}")
         return
     n = len(per.periods)
-    failed = Counter(s for p in per.periods for s in p.result.failed)
-    active = Counter(s for p in per.periods for s in p.result.active)
+    failed = Counter(s for p in per.periods if p.result is not None for s in p.result.failed)
+    active = Counter(s for p in per.periods for s in (p.result.active if p.result is not None else p.worst.suite))
+    worst = Counter(s for p in per.periods for s in p.worst.failures)
     click.echo(f"\nper period: {n} periods of {period_s:g} s")
     if failed:
         click.echo("  assumed to fail: " + ", ".join(f"{s} in {k}/{n}" for s, k in failed.most_common()))
     if active:
         click.echo("  most used active: " + ", ".join(f"{s} in {k}/{n}" for s, k in active.most_common(8)))
+    if worst:
+        click.echo("  worst failure for the suite: " + ", ".join(f"{s} in {k}/{n}" for s, k in worst.most_common(8)))
     for p in written:
         click.echo(f"wrote {p}")
     click.echo(f"wrote {n} period files under {out / 'periods'}")

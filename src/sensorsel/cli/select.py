@@ -16,10 +16,12 @@ from ..problem import Domain, DomainInfo
 from ..certify import CertifiedGreedyResult, format_certificate
 from ..fileio import output_dir, output_file
 from ..library import SensorLibrary
-from ..selection import RULES, check_affordable
+from ..selection import RULES, check_affordable, check_budget
 from ..tradespace import DEFAULT_RULES, Architecture, parse_budgets, parse_rules, run_tradespace, write_csv
+from .options import cluster_from, cluster_options
 from .options import (budget_option, engine_options, json_option, output_option, plot_format_option, problem_from, progress_bar,
-                      print_target, quiet_option, run, table, target_from, target_options)
+                      compact_suite, print_target, quiet_option, run, table, target_from,
+                      target_options)
 from .options import plot_format
 from .options import plot_format as plot_format_of
 from .rules import kept_label, rule_option, rules_option
@@ -56,7 +58,7 @@ def _print_greedy(res: CertifiedGreedyResult, lib: SensorLibrary) -> None:
 def _print_breakdown(design: DomainDesign) -> None:
     click.echo(f"\nper route (the domain suite against each route's own {design.greedy.rule} design at the same budget):")
     rows = [[r.name, f"{r.weight:.3f}", f"{r.score:.3f}", f"{r.share_of_best:.4f}", f"{r.own_score:.3f}",
-             f"{r.share_of_own:.4f}", f"{r.own_cost_usd:,.0f}", _compact(r.own_suite)] for r in design.routes]
+             f"{r.share_of_own:.4f}", f"{r.own_cost_usd:,.0f}", compact_suite(r.own_suite)] for r in design.routes]
     click.echo(table(rows, ["route", "weight", "score_nats", "of_best", "own_nats", "of_own", "own_cost_usd", "own_suite"]))
     worst = next(r for r in design.routes if r.name == design.worst_route)
     click.echo(f"worst route {worst.name}: the domain suite reaches {worst.share_of_own:.1%} of what its own design reaches there")
@@ -65,6 +67,7 @@ def _print_breakdown(design: DomainDesign) -> None:
 @click.command("greedy", short_help="Greedy suite under a budget, with its certificate of near-optimality.")
 @target_options
 @engine_options
+@cluster_options
 @budget_option(required=True)
 @rule_option("uniform")
 @click.option("--lazy/--no-lazy", default=True, show_default=True, help="Lazy (Minoux) evaluation: same picks, fewer evaluations.")
@@ -95,17 +98,25 @@ def greedy_cmd(budget: float, rule: str, lazy: bool, output: str | None, as_json
     if plot_path:
         output_file(plot_path)
         plot_format(None, plot_path)
+    cluster = cluster_from(kw)
     problem = target_from(kw)
     if plot_path and not isinstance(problem, Domain):
         raise click.UsageError("--plot draws a domain's per-route breakdown: it goes with --domain FILE")
+    if cluster is not None and not isinstance(problem, Domain):
+        raise click.UsageError("--scheduler/--workers spread a domain's routes over a cluster: they go with --domain FILE")
     check_affordable(problem.library, budget)
     bar, progress = progress_bar(quiet, f"greedy {rule}", phases=len(RULES[rule].component_rules))
     cert_bar, cert_progress = progress_bar(quiet or not certify, "certificate", after=bar)
     out: CertifiedGreedyResult | DomainDesign
-    with bar or nullcontext(), cert_bar or nullcontext():
+    with cluster or nullcontext(), bar or nullcontext(), cert_bar or nullcontext():
         if isinstance(problem, Domain):
+            ev = None
+            if cluster is not None:
+                from ..distributed import DistributedDomainEvaluator
+
+                ev = DistributedDomainEvaluator(cluster.client, problem, engine, aggregate=aggregate)
             out = design_domain(problem, budget, rule, engine=engine, jobs=jobs, aggregate=aggregate, lazy=lazy,
-                                certify=certify, progress=progress, certify_progress=cert_progress)
+                                certify=certify, progress=progress, certify_progress=cert_progress, evaluator=ev)
             res = out.greedy
         else:
             out = res = run_greedy(problem, budget, rule, engine=engine, jobs=jobs, lazy=lazy, progress=progress,
@@ -128,22 +139,14 @@ def greedy_cmd(budget: float, rule: str, lazy: bool, output: str | None, as_json
                 click.echo(f"wrote      {path}")
 
 
-def _compact(suite: tuple[str, ...]) -> str:
-    """Ids grouped by model: ``LRL-roof HD2K-{2,4,12} LRR-6`` (the full ids are in the CSV)."""
-    groups: dict[str, list[str]] = {}
-    for sid in suite:
-        code, _, where = sid.rpartition("-")
-        groups.setdefault(code, []).append(where)
-    return " ".join(f"{c}-{w[0]}" if len(w) == 1 else f"{c}-{{{','.join(w)}}}" for c, w in groups.items())
-
-
 def _arch_row(a: Architecture) -> list[str]:
-    return [f"{a.cost_usd:,.0f}", f"{a.score:.3f}", f"{a.normalized:.4f}", str(a.n_sensors), "+".join(a.rules), _compact(a.suite)]
+    return [f"{a.cost_usd:,.0f}", f"{a.score:.3f}", f"{a.normalized:.4f}", str(a.n_sensors), "+".join(a.rules), compact_suite(a.suite)]
 
 
 @click.command("pareto", short_help="Cost-performance tradespace and its Pareto front (plot, CSV, JSON).")
 @target_options
 @engine_options
+@cluster_options
 @click.option("--budgets", default=None, metavar="B1,B2,...",
               help="Comma-separated budgets in dollars, e.g. 5000,27_000,$110000 (default: 14 log-spaced from the "
                    "cheapest sensor to the whole library).")
@@ -153,11 +156,13 @@ def _arch_row(a: Architecture) -> list[str]:
 @click.option("--lazy/--no-lazy", default=True, show_default=True, help="Lazy (Minoux) evaluation: same picks, fewer evaluations.")
 @output_option(folder=True, required=True, dest="outdir", help="Folder for pareto.<format>, architectures.csv and tradespace.json.")
 @plot_format_option
+@click.option("--resume", is_flag=True, help="With --scheduler/--workers: reuse the rules' runs an interrupted run left in "
+                                             "OUTPUT/runs/ whose inputs match (each rule's runs are written there as they finish).")
 @json_option
 @quiet_option
 @run
 def pareto_cmd(budgets: str | None, budget: tuple[float, ...], rules: str, lazy: bool, outdir: str, plot_format: str | None,
-               as_json: bool, quiet: bool, aggregate: str, engine: str | None, jobs: int, **kw: Any) -> None:
+               resume: bool, as_json: bool, quiet: bool, aggregate: str, engine: str | None, jobs: int, **kw: Any) -> None:
     """The cost-performance tradespace (the paper's Fig. 4): greedy runs over a grid of budgets,
     every intermediate architecture, and the Pareto front (lower cost, higher score).
 
@@ -171,12 +176,22 @@ def pareto_cmd(budgets: str | None, budget: tuple[float, ...], rules: str, lazy:
     fmt = plot_format_of(plot_format)
     names = parse_rules(rules)
     output_dir(outdir)
+    cluster = cluster_from(kw)
+    if resume and cluster is None:
+        raise click.UsageError("--resume reads the runs a --scheduler/--workers run wrote: give one of them")
     problem = target_from(kw)
     if grid:
         check_affordable(problem.library, max(grid), budget_option="--budgets" if budgets is not None else "--budget")
     bar, progress = progress_bar(quiet, "tradespace runs")
-    with bar or nullcontext():
-        res = run_tradespace(problem, grid, names, engine=engine, jobs=jobs, lazy=lazy, aggregate=aggregate, progress=progress)
+    if cluster is not None:
+        from ..distributed import run_tradespace_on
+
+        with cluster, bar or nullcontext():  # each rule's chain of budgets is one task
+            res = run_tradespace_on(cluster.client, problem, grid, names, engine=engine, lazy=lazy, aggregate=aggregate,
+                                    progress=progress, outdir=outdir, resume=resume)
+    else:
+        with bar or nullcontext():
+            res = run_tradespace(problem, grid, names, engine=engine, jobs=jobs, lazy=lazy, aggregate=aggregate, progress=progress)
 
     out = Path(outdir)
     written = [results.save(res, out / "tradespace.json"), write_csv(res, out / "architectures.csv")]

@@ -24,6 +24,15 @@ from .options import plot_format as plot_format_of
 SUITE_KINDS = ("greedy", "resilient", "resilient-selection", "optimum", "score")
 
 
+def _is_file(path: Path) -> bool:
+    """Whether ``path`` names an existing file; False for text no file system takes as a path (a long
+    list of ids is longer than a file name may be: ENAMETOOLONG)."""
+    try:
+        return path.is_file()
+    except OSError:
+        return False
+
+
 def read_suite(text: str, library: SensorLibrary, what: str, problem: Problem | None = None,
                force: bool = False, ignore: tuple[str, ...] = ()) -> tuple[tuple[int, ...], str, tuple[str, ...]]:
     """A suite from comma-separated ids, or from a result file of a kind in :data:`SUITE_KINDS`
@@ -38,7 +47,7 @@ def read_suite(text: str, library: SensorLibrary, what: str, problem: Problem | 
         InputError: an unknown id.
     """
     path = Path(text)
-    if text.lower().endswith(".json") or path.is_file():
+    if text.lower().endswith(".json") or _is_file(path):
         try:
             rec = results.load(path, SUITE_KINDS)
         except ResultFileError as exc:

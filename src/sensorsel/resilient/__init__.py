@@ -47,20 +47,21 @@ import time
 from pathlib import Path
 
 from ..errors import InputError
+from ..evaluators import evaluator_for
 from ..problem import Problem, Target
 from ..selection import check_budget
 from .algorithm import MAX_FAILURE_SETS, check_alpha, check_rule, compare, failing_set, resilient_select, worst_case
 from .cache import CacheWarning
 from .periods import (
-    DEFAULT_PERIOD_S, Progress, check_period, make_grid, period_file, period_scenario, run_periods, save_grid_csv, split_periods,
+    DEFAULT_PERIOD_S, Progress, Selector, check_method, check_period, make_grid, period_file, period_scenario, run_periods, save_grid_csv, split_periods,
 )
 from .records import (
-    ACTIVE, FAILED, UNUSED, Comparison, PerPeriodResult, PeriodResult, PeriodSpan, ResilientReport, ResilientResult, SelectionGrid,
-    WorstCase,
+    ACTIVE, FAILED, METHODS, UNUSED, Comparison, PerPeriodResult, PeriodResult, PeriodSpan, ResilientReport, ResilientResult,
+    RobustChoice, SelectionGrid, WorstCase,
 )
 
 __all__ = [
-    "ACTIVE", "DEFAULT_PERIOD_S", "FAILED", "MAX_FAILURE_SETS", "UNUSED", "CacheWarning", "Comparison", "PerPeriodResult",
+    "ACTIVE", "DEFAULT_PERIOD_S", "FAILED", "MAX_FAILURE_SETS", "METHODS", "RobustChoice", "Selector", "UNUSED", "check_method", "CacheWarning", "Comparison", "PerPeriodResult",
     "PeriodResult", "PeriodSpan", "Progress", "ResilientReport", "ResilientResult", "SelectionGrid", "WorstCase",
     "check_alpha", "check_rule", "check_period", "compare", "failing_set", "make_grid", "period_file",
     "period_scenario", "resilient_report", "resilient_select", "run_periods", "save_grid_csv", "split_periods", "worst_case",
@@ -70,16 +71,21 @@ __all__ = [
 def resilient_report(problem: Target, budget_usd: float, alpha: int, *, period_s: float | None = DEFAULT_PERIOD_S,
                      rule: str = "uniform", engine: str | None = None, jobs: int = 1, lazy: bool = True,
                      aggregate: str = "normalised", outdir: str | Path | None = None, resume: bool = False,
-                     progress: Progress | None = None) -> ResilientReport:
+                     progress: Progress | None = None, method: str = "paper", selector: Selector | None = None) -> ResilientReport:
     """The whole-route comparison and (unless ``period_s`` is None) the per-period selection.
 
     With ``outdir``, the comparison is cached in ``outdir/periods/route.json`` and each period in
     ``outdir/periods/period-NNNN.json``; ``resume`` reuses those whose inputs match (and warns about the others).
     On a :class:`~sensorsel.problem.Domain` the comparison is on the domain's score and there are no
     periods (a period is a stretch of one route): ``period_s`` must then be None.
+
+    ``method="robust"`` chooses the whole route's suite and each period's with ``selector`` (robust
+    selection, see :data:`~.periods.Selector`; :func:`sensorsel.api.resilient_report` passes it) instead
+    of Algorithm 2; the greedy / Algorithm 2 comparison of the whole route is kept beside it.
     """
     t0 = time.perf_counter()
     budget, alpha, rule = check_budget(budget_usd), check_alpha(alpha), check_rule(rule)
+    method = check_method(method, selector)
     if period_s is not None:
         check_period(period_s)
     if period_s is not None and not isinstance(problem, Problem):
@@ -87,10 +93,14 @@ def resilient_report(problem: Target, budget_usd: float, alpha: int, *, period_s
     cache = Path(outdir) / "periods" / "route.json" if outdir is not None else None
     cmp_ = compare(problem, budget, alpha, rule, engine=engine, jobs=jobs, lazy=lazy, aggregate=aggregate, cache=cache,
                    resume=resume)
+    choice = None
+    if method == "robust":
+        assert selector is not None
+        choice, _ = selector(evaluator_for(problem, engine, jobs=jobs, aggregate=aggregate), budget, alpha, problem.info)
     per = None
     if period_s is not None and isinstance(problem, Problem):
         per = run_periods(problem, budget, alpha, period_s=period_s, rule=rule, engine=engine, jobs=jobs,
-                          lazy=lazy, outdir=outdir, resume=resume, progress=progress)
-    return ResilientReport(suite=cmp_.resilient.suite, failed=cmp_.resilient.failed, alpha=alpha, budget_usd=budget,
-                           rule=rule, engine=cmp_.engine, comparison=cmp_, per_period=per,
-                           seconds=round(time.perf_counter() - t0, 6))
+                          lazy=lazy, outdir=outdir, resume=resume, progress=progress, method=method, selector=selector)
+    return ResilientReport(suite=choice.suite if choice else cmp_.resilient.suite, failed=() if choice else cmp_.resilient.failed,
+                           alpha=alpha, budget_usd=budget, rule=rule, engine=cmp_.engine, comparison=cmp_, per_period=per,
+                           seconds=round(time.perf_counter() - t0, 6), method=method, robust=choice)

@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 import time
 from pathlib import Path
-from typing import Callable, Sequence
+from typing import Any, Callable, Sequence
 
 import numpy as np
 
@@ -14,16 +14,30 @@ from .. import results
 from ..errors import InputError
 from ..fileio import atomic_write_text
 from ..library import SensorLibrary
-from ..evaluators import make_evaluator
+from ..evaluators import Evaluator, make_evaluator
 from ..problem import Problem, build_problem
 from ..scenario import Scenario
 from ..selection import check_budget
 from .algorithm import check_alpha, check_rule, engine_name, resilient_select, worst_case
 from .cache import fingerprint, load_matching
-from .records import ACTIVE, FAILED, UNUSED, PeriodResult, PeriodSpan, PerPeriodResult, SelectionGrid
+from .records import ACTIVE, FAILED, METHODS, UNUSED, PeriodResult, PeriodSpan, PerPeriodResult, RobustChoice, SelectionGrid, WorstCase
 
 #: progress(done, total): called after each period (computed or reused).
 Progress = Callable[[int, int], None]
+
+#: selector(evaluator, budget, alpha, info) -> (choice, its worst case): how ``method="robust"`` chooses a
+#: suite. Robust selection lives in a layer above this package, so its caller passes it in
+#: (:func:`sensorsel.robust.robust_choice`; :func:`sensorsel.api.resilient_report` does).
+Selector = Callable[[Evaluator, float, int, Any], tuple[RobustChoice, WorstCase]]
+
+
+def check_method(method: str, selector: Selector | None) -> str:
+    """``method`` if it is one of :data:`METHODS` and, for "robust", a selector is given."""
+    if method not in METHODS:
+        raise InputError(f"unknown method {method!r}; available: {', '.join(METHODS)}")
+    if method == "robust" and selector is None:
+        raise InputError("method 'robust' needs robust selection: call sensorsel.api.resilient_report (or pass selector=)")
+    return method
 
 #: Default length of a period [s] (the paper says "several seconds").
 DEFAULT_PERIOD_S = 10.0
@@ -84,7 +98,7 @@ def period_file(outdir: str | Path, index: int) -> Path:
 def run_periods(problem: Problem, budget_usd: float, alpha: int, *, period_s: float = DEFAULT_PERIOD_S,
                 rule: str = "uniform", engine: str | None = None, jobs: int = 1, lazy: bool = True,
                 outdir: str | Path | None = None, resume: bool = False,
-                progress: Progress | None = None) -> PerPeriodResult:
+                progress: Progress | None = None, method: str = "paper", selector: Selector | None = None) -> PerPeriodResult:
     """Resilient selection on each period of the route.
 
     Args:
@@ -94,16 +108,20 @@ def run_periods(problem: Problem, budget_usd: float, alpha: int, *, period_s: fl
         resume: reuse period files whose fingerprint matches this run's inputs (a file that does not
             match is reported with a :class:`~sensorsel.resilient.cache.CacheWarning` and recomputed).
         progress: progress(periods done, total) after each period.
+        method: "paper" (Algorithm 2 per period) or "robust" (``selector`` per period).
+        selector: robust selection (see :data:`Selector`), needed by "robust".
     """
     t0 = time.perf_counter()
     budget, alpha, rule = check_budget(budget_usd), check_alpha(alpha), check_rule(rule)
+    method = check_method(method, selector)
     period = check_period(period_s)
     name = engine_name(engine)
     spans = split_periods(problem.scenario.keyframes.times, period)
     out: list[PeriodResult] = []
     for n_done, (k, a, b, kf) in enumerate(spans, start=1):
         path = period_file(outdir, k) if outdir is not None else None
-        out.append(_one_period(problem, k, a, b, kf, budget, alpha, rule, name, jobs, lazy, period, path, resume))
+        out.append(_one_period(problem, k, a, b, kf, budget, alpha, rule, name, jobs, lazy, period, path, resume,
+                               method, selector))
         if progress:
             progress(n_done, len(spans))
     if outdir is not None:
@@ -114,36 +132,50 @@ def run_periods(problem: Problem, budget_usd: float, alpha: int, *, period_s: fl
                 f.unlink()
     return PerPeriodResult(period_s=period, alpha=alpha, budget_usd=budget, rule=rule, engine=name,
                            periods=tuple(out), grid=make_grid(problem.library, out),
-                           seconds=round(time.perf_counter() - t0, 6))
+                           seconds=round(time.perf_counter() - t0, 6), method=method)
 
 
 def _one_period(problem: Problem, k: int, a: float, b: float, kf: np.ndarray, budget: float, alpha: int, rule: str,
-                engine: str, jobs: int, lazy: bool, period: float, path: Path | None, resume: bool) -> PeriodResult:
+                engine: str, jobs: int, lazy: bool, period: float, path: Path | None, resume: bool,
+                method: str = "paper", selector: Selector | None = None) -> PeriodResult:
     """Period ``k`` (keyframes ``kf``, times [a, b)): reused from ``path`` when resuming and it matches,
     else computed (and written to ``path``)."""
     sc = period_scenario(problem, kf, a, b, f"{problem.scenario.name} {a:g}-{b:g} s")
     sub = build_problem(problem.library, sc, problem.settings, spec=problem.info.spec)
     span = PeriodSpan(index=k, start_s=a, end_s=b, first_keyframe=int(kf[0]), n_keyframes=len(kf), n_landmarks=sc.n_landmarks)
-    fp = fingerprint(sub, budget, alpha, rule, engine, lazy, {"what": "period", "period_s": period, "span": results.to_jsonable(span)})
+    what: dict[str, Any] = {"what": "period", "period_s": period, "span": results.to_jsonable(span)}
+    if method != "paper":  # the paper's fingerprints stay as they were: their files are reused
+        what["method"] = method
+    fp = fingerprint(sub, budget, alpha, rule, engine, lazy, what)
     old = load_matching(PeriodResult, path, fp, sub) if (path is not None and resume) else None
     if old is not None:
         return old
     ev = make_evaluator(sub, engine, jobs=jobs)
-    r = resilient_select(ev, budget, alpha, rule, lazy=lazy, info=sub.info)
-    w = worst_case(ev, [sub.library.position(s) for s in r.suite], alpha)
-    res = PeriodResult(fingerprint=fp, period=span, result=r, worst=w)
+    if method == "robust":
+        assert selector is not None
+        choice, w = selector(ev, budget, alpha, sub.info)
+        res = PeriodResult(fingerprint=fp, period=span, result=None, worst=w, method=method, robust=choice)
+    else:
+        r = resilient_select(ev, budget, alpha, rule, lazy=lazy, info=sub.info)
+        w = worst_case(ev, [sub.library.position(s) for s in r.suite], alpha)
+        res = PeriodResult(fingerprint=fp, period=span, result=r, worst=w)
     if path is not None:
         results.save(res, path)
     return res
 
 
 def make_grid(library: SensorLibrary, periods: Sequence[PeriodResult]) -> SelectionGrid:
-    """The failed / active grid of per-period results (columns: the library, in its order)."""
+    """The failed / active grid of per-period results (columns: the library, in its order), with each
+    period's failure set worst for its suite."""
     ids = library.ids
     rows = []
     for p in periods:
-        failed, active = set(p.result.failed), set(p.result.active)
+        if p.result is not None:
+            failed, active = set(p.result.failed), set(p.result.active)
+        else:  # robust selection assumes no sensor failed: its whole suite is active
+            failed, active = set(), set(p.worst.suite)
         rows.append(tuple(FAILED if s in failed else ACTIVE if s in active else UNUSED for s in ids))
+    methods = {p.method for p in periods}
     return SelectionGrid(
         sensors=ids,
         models=tuple(s.model.code for s in library),
@@ -152,6 +184,8 @@ def make_grid(library: SensorLibrary, periods: Sequence[PeriodResult]) -> Select
         period_start_s=tuple(p.period.start_s for p in periods),
         period_end_s=tuple(p.period.end_s for p in periods),
         cells=tuple(rows),
+        worst_failures=tuple(tuple(p.worst.failures) for p in periods),
+        method=methods.pop() if len(methods) == 1 else "paper",
     )
 
 

@@ -145,6 +145,43 @@ class PeriodSpan:
         return range(self.first_keyframe, self.first_keyframe + self.n_keyframes)
 
 
+#: How the suite of ``sensorsel resilient`` is chosen: the paper's Algorithm 2, or robust selection.
+METHODS = ("paper", "robust")
+
+
+@dataclass(frozen=True)
+class RobustChoice:
+    """The suite robust selection chose (:func:`sensorsel.robust.robust_select`), in short.
+
+    Attributes:
+        method: the candidate method that won ("greedy-marginal", "algorithm-2", "saturate", ...).
+        suite: ids, in library order.
+        cost_usd: its cost [$].
+        nominal_score: f(S) [nats].
+        worst_score: its exact worst case [nats]; never below greedy's nor Algorithm 2's.
+        failures: the failure set attaining it.
+        greedy_worst_score: the plain (uniform) greedy suite's exact worst case [nats].
+        algorithm2_worst_score: Algorithm 2's [nats].
+        bound: upper bound on the best achievable worst case [nats].
+        gap_percent: 100 * (bound - worst_score) / bound.
+        n_evaluations: suites scored.
+        seconds: wall time [s].
+    """
+
+    method: str
+    suite: tuple[str, ...]
+    cost_usd: float
+    nominal_score: float
+    worst_score: float
+    failures: tuple[str, ...]
+    greedy_worst_score: float
+    algorithm2_worst_score: float
+    bound: float
+    gap_percent: float
+    n_evaluations: int
+    seconds: float = 0.0
+
+
 @dataclass(frozen=True)
 class PeriodResult:
     """Resilient selection on one period, as written to its own file.
@@ -152,14 +189,24 @@ class PeriodResult:
     Attributes:
         fingerprint: digest of every input of this period (resume reuses the file only if it matches).
         period: the span.
-        result: resilient selection on the period's scenario.
-        worst: worst case of the period's resilient suite on the period's scenario.
+        result: the paper's resilient selection on the period's scenario (None with ``method="robust"``).
+        worst: worst case of the period's chosen suite on the period's scenario (its ``failures`` are the
+            failure set worst for that suite).
+        method: "paper" (Algorithm 2) or "robust".
+        robust: with "robust", the robust selection's choice; else None.
     """
 
     fingerprint: str
     period: PeriodSpan
-    result: ResilientResult
+    result: ResilientResult | None
     worst: WorstCase
+    method: str = "paper"
+    robust: RobustChoice | None = None
+
+    @property
+    def suite(self) -> tuple[str, ...]:
+        """Ids of the period's chosen suite."""
+        return self.worst.suite
 
 
 @dataclass(frozen=True)
@@ -172,7 +219,10 @@ class SelectionGrid:
         positions: clock position of each column ("12", "1", ...) or "roof".
         period_labels: row labels (time spans).
         period_start_s, period_end_s: row bounds [s].
-        cells: rows x columns of "failed", "active" or "".
+        cells: rows x columns of "failed", "active" or "" ("failed": assumed to fail by the paper's
+            Algorithm 2; robust selection assumes no sensor, so its suite is all "active").
+        worst_failures: per row, the failure set worst for the row's suite (ids; empty rows when unknown).
+        method: "paper" or "robust": how each row's suite was chosen.
     """
 
     sensors: tuple[str, ...]
@@ -182,6 +232,8 @@ class SelectionGrid:
     period_start_s: tuple[float, ...]
     period_end_s: tuple[float, ...]
     cells: tuple[tuple[str, ...], ...]
+    worst_failures: tuple[tuple[str, ...], ...] = ()
+    method: str = "paper"
 
     def __post_init__(self) -> None:
         n = len(self.sensors)
@@ -196,6 +248,11 @@ class SelectionGrid:
             for c in row:
                 if c not in (FAILED, ACTIVE, UNUSED):
                     raise InputError(f"selection grid: row {i}: unknown cell state {c!r}")
+        if self.worst_failures and len(self.worst_failures) != r:
+            raise InputError(f"selection grid: {r} rows but {len(self.worst_failures)} worst failure sets")
+        for i, f in enumerate(self.worst_failures):
+            if not set(f) <= set(self.sensors):
+                raise InputError(f"selection grid: row {i}: worst failures {f} are not all sensors of the grid")
 
     def failed(self, row: int) -> set[str]:
         """Ids marked failed in a row."""
@@ -205,11 +262,16 @@ class SelectionGrid:
         """Ids marked active in a row."""
         return {s for s, c in zip(self.sensors, self.cells[row]) if c == ACTIVE}
 
+    def worst(self, row: int) -> tuple[str, ...]:
+        """Ids of the failure set worst for a row's suite (empty when unknown)."""
+        return self.worst_failures[row] if self.worst_failures else ()
+
     def to_csv(self) -> str:
-        """CSV text: one row per period (label, start, end, then one cell per sensor)."""
-        lines = [",".join(["period", "start_s", "end_s", *self.sensors])]
-        for lab, a, b, row in zip(self.period_labels, self.period_start_s, self.period_end_s, self.cells):
-            lines.append(",".join([lab, repr(a), repr(b), *row]))
+        """CSV text: one row per period (label, start, end, one cell per sensor, then ``worst_failures``:
+        the failure set worst for the period's suite, ids joined by "+")."""
+        lines = [",".join(["period", "start_s", "end_s", *self.sensors, "worst_failures"])]
+        for k, (lab, a, b, row) in enumerate(zip(self.period_labels, self.period_start_s, self.period_end_s, self.cells)):
+            lines.append(",".join([lab, repr(a), repr(b), *row, "+".join(self.worst(k))]))
         return "\n".join(lines) + "\n"
 
 
@@ -223,6 +285,7 @@ class PerPeriodResult:
         periods: one result per non-empty period, in time order.
         grid: the failed / active grid.
         seconds: wall time of this run [s] (periods reused from files count their stored time no more).
+        method: "paper" or "robust".
     """
 
     period_s: float
@@ -233,6 +296,7 @@ class PerPeriodResult:
     periods: tuple[PeriodResult, ...]
     grid: SelectionGrid
     seconds: float = 0.0
+    method: str = "paper"
 
 
 @dataclass(frozen=True)
@@ -240,12 +304,16 @@ class ResilientReport:
     """What ``sensorsel resilient`` writes to ``resilient.json``.
 
     Attributes:
-        suite: ids of the whole-route resilient suite, the failing sensors included.
-        failed: ids of the sensors assumed to fail.
+        suite: ids of the whole-route chosen suite: Algorithm 2's (the failing sensors included), or with
+            ``method="robust"`` the robust selection's.
+        failed: ids of the sensors Algorithm 2 assumes to fail (empty with "robust": it assumes none;
+            the failure set worst for its suite is ``robust.failures``).
         alpha, budget_usd, rule, engine: the run's inputs.
         comparison: greedy versus resilient on the whole route.
         per_period: the per-period selection and its grid (None when not run).
         seconds: wall time [s].
+        method: "paper" (Algorithm 2) or "robust" (robust selection, whole route and each period).
+        robust: with "robust", the whole route's robust choice (next to the greedy / Algorithm 2 comparison).
     """
 
     suite: tuple[str, ...]
@@ -257,3 +325,5 @@ class ResilientReport:
     comparison: Comparison
     per_period: PerPeriodResult | None = None
     seconds: float = 0.0
+    method: str = "paper"
+    robust: RobustChoice | None = None

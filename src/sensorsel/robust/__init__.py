@@ -11,6 +11,8 @@ Maximise g(S) = min over F ⊆ S, |F| <= alpha, of f(S minus F) over suites with
 * :func:`robust_optimum` finds the exact optimum on small libraries by branch and bound (:mod:`.exact`).
 * :mod:`.family` is the max-min machinery over any finite family of monotone submodular functions
   (failure sets now; routes of a domain or periods of a route through :class:`EvaluatorFamily`).
+* :func:`worst_route_select` (:mod:`.worst`) is the max-min over a domain's routes (each route's share
+  of its best, under alpha failures): ``--aggregate worst``.
 """
 
 from .bound import knapsack_drop, robust_bound
@@ -18,11 +20,12 @@ from .exact import robust_optimum
 from .family import EvaluatorFamily, FailureFamily, Family
 from .memo import MemoEvaluator, memoized
 from .methods import local_search, oblivious_greedy, saturate
-from .records import BoundLeaf, Candidate, RobustBound, RobustOptimum, RobustResult
-from .select import DEFAULT_RULES, EXTRA_METHODS, robust_select, run_robust
+from .records import BoundLeaf, Candidate, MemberWorst, RobustBound, RobustOptimum, RobustResult
+from .select import DEFAULT_RULES, EXTRA_METHODS, robust_choice, robust_select, run_robust
+from .worst import WORST_METHODS, RouteFailureFamily, worst_route_select
 
 __all__ = [
     "BoundLeaf", "Candidate", "DEFAULT_RULES", "EXTRA_METHODS", "EvaluatorFamily", "FailureFamily", "Family",
-    "MemoEvaluator", "RobustBound", "RobustOptimum", "RobustResult", "knapsack_drop", "local_search", "memoized",
-    "oblivious_greedy", "robust_bound", "robust_optimum", "robust_select", "run_robust", "saturate",
+    "MemberWorst", "MemoEvaluator", "RouteFailureFamily", "WORST_METHODS", "worst_route_select", "RobustBound", "RobustOptimum", "RobustResult", "knapsack_drop", "local_search", "memoized",
+    "oblivious_greedy", "robust_bound", "robust_choice", "robust_optimum", "robust_select", "run_robust", "saturate",
 ]

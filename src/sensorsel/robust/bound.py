@@ -138,7 +138,9 @@ def robust_bound(evaluator: Evaluator, budget_usd: float, alpha: int, *, anchors
         evaluator: scores suites (a :class:`~sensorsel.robust.memo.MemoEvaluator` saves re-scoring).
         anchors: suites X to anchor the knapsacks at, best first (e.g. worst-case survivors of the
             best candidates); the empty suite is always tried first.
-        incumbent: a worst case already achieved [nats]: leaves at or below it are not refined.
+        incumbent: a worst case already achieved [nats]: leaves at or below it are not refined. An
+            "exact" leaf with no sensor assumed failed is a suite within the budget: its worst case
+            raises the incumbent (and ``proved`` then refers to it).
         max_nodes: nodes of the case split (1: no split).
         leaf_search_nodes: on a leaf without failures left whose knapsack bound is above the incumbent,
             run :func:`sensorsel.certify.optimal` (excluding the removed sensors) with this node limit
@@ -157,7 +159,7 @@ def robust_bound(evaluator: Evaluator, budget_usd: float, alpha: int, *, anchors
     tol = REL_TOL * max(1.0, abs(incumbent))
 
     def evaluate(node: _Node) -> None:
-        nonlocal sweeps
+        nonlocal sweeps, incumbent, tol
         gone = set(node.removed)
         aff = tuple(i for i in range(n) if i not in gone and costs[i] <= node.budget * (1 + 1e-12) + 1e-9)
         if not aff or node.budget < 0:
@@ -167,6 +169,10 @@ def robust_bound(evaluator: Evaluator, budget_usd: float, alpha: int, *, anchors
             k = min(node.alpha, len(aff))
             if math.comb(len(aff), k) <= max_exact_sets:
                 node.own, node.how = worst_case(ev, aff, node.alpha, max_failure_sets=max_exact_sets).score, "exact"
+                if not node.failed and node.own > incumbent:
+                    # nothing assumed failed: the leaf's library is a suite within the whole budget, and its
+                    # worst case is achieved: a better incumbent settles the other leaves sooner
+                    incumbent, tol = node.own, REL_TOL * max(1.0, abs(node.own))
             else:
                 node.own, node.how = _adversary(ev, aff, node.alpha), "everything fits (greedy adversary)"
             node.final = True

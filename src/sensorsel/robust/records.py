@@ -26,6 +26,8 @@ class Candidate:
         n_evaluations: suites newly scored by the method and its worst case (memoized: a suite
             scored by an earlier method is free here).
         seconds: wall time of the method [s].
+        worst_member: with ``aggregate="worst"`` over a domain, the route attaining the worst case
+            (``failures`` are then that route's failure set); else empty.
     """
 
     method: str
@@ -37,6 +39,26 @@ class Candidate:
     note: str
     n_evaluations: int
     seconds: float = 0.0
+    worst_member: str = ""
+
+
+@dataclass(frozen=True)
+class MemberWorst:
+    """One route of a domain under the worst-route aggregate: the chosen suite's shares of the route's best.
+
+    Attributes:
+        name: the route.
+        best_score: f_r(L), the whole library's score on the route [nats] (the normaliser).
+        nominal_share: f_r(S) / f_r(L), nothing failed.
+        worst_share: min over failure sets F (|F| = alpha) of f_r(S minus F) / f_r(L).
+        failures: ids of the failure set attaining it on this route.
+    """
+
+    name: str
+    best_score: float
+    nominal_share: float
+    worst_share: float
+    failures: tuple[str, ...]
 
 
 @dataclass(frozen=True)
@@ -110,6 +132,11 @@ class RobustResult:
         engine: the evaluator used.
         problem: what it was computed on.
         seconds: wall time [s].
+        aggregate: empty for one route (or a domain's combined score); "worst" for the max-min over a
+            domain's routes: scores are then shares of each route's best, f_r(S) / f_r(L), the worst case
+            is the minimum over routes and failure sets, and ``nominal_score`` the minimum over routes.
+        worst_member: with "worst", the route attaining the worst case.
+        members: with "worst", every route's shares (the breakdown).
     """
 
     alpha: int
@@ -131,6 +158,9 @@ class RobustResult:
     engine: str
     problem: TargetInfo | None = None
     seconds: float = 0.0
+    aggregate: str = ""
+    worst_member: str = ""
+    members: tuple[MemberWorst, ...] = ()
 
 
 @dataclass(frozen=True)

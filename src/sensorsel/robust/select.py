@@ -2,14 +2,17 @@
 
 Order of work (each suite is scored at most once: the evaluator is memoized):
 
-1. plain greedy with each rule of ``rules`` (default uniform, the paper's Algorithm 1, and marginal);
+1. plain greedy with the uniform rule (the paper's Algorithm 1: the answer's floor);
 2. the paper's Algorithm 2 (:func:`sensorsel.resilient.resilient_select`);
-3. the upper bound (:func:`.bound.robust_bound`) anchored at the candidates' worst-case survivors;
-   when it already equals the best candidate's worst case, that candidate is optimal and the
-   remaining methods are skipped (``skip_when_proved``; they could not do better);
-4. Oblivious-Greedy (eta = 2), SATURATE between the best worst case and the bound, and local search
+3. the upper bound (:func:`.bound.robust_bound`) anchored at the candidates' worst-case survivors.
+   Its "exact" leaves with no sensor assumed failed are suites within the budget whose worst case it
+   has computed: each becomes a candidate ("bound-leaf", free: memoized). When the bound equals the
+   best candidate's worst case, that candidate is optimal and the remaining work is skipped
+   (``skip_when_proved``; it could not do better);
+4. plain greedy with the other rules of ``rules`` (default: marginal);
+5. Oblivious-Greedy (eta = 2), SATURATE between the best worst case and the bound, and local search
    from the best candidate;
-5. the bound again, anchored at the new best, if it changed.
+6. the bound again, anchored at the new best, if it changed and nothing is proved yet.
 
 The answer is the candidate with the highest exact worst case; ties (relative 1e-9) go to the higher
 nominal score, then the lower cost, then the smaller ids in library order. Since the uniform greedy
@@ -20,12 +23,13 @@ suite and Algorithm 2's suite are candidates scored with the same exact :func:`~
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 from typing import Any, Sequence
 
 from ..errors import InputError
 from ..evaluators import Evaluator, as_suite, evaluator_for
 from ..problem import ProblemInfo, Target, TargetInfo
-from ..resilient import check_alpha, resilient_select, worst_case
+from ..resilient import RobustChoice, WorstCase, check_alpha, resilient_select, worst_case
 from ..selection import REL_TOL, check_budget, check_rule, greedy
 from .bound import DEFAULT_BOUND_NODES, robust_bound
 from .family import FailureFamily
@@ -106,18 +110,40 @@ def robust_select(evaluator: Evaluator, budget_usd: float, alpha: int, *, rules:
                 out.append(x)
         return out
 
-    for r in rules:
+    def run_rule(r: str) -> None:
         n0, t0 = ev.n_evaluations, time.perf_counter()
         g = greedy(ev, budget, r)
         add(f"greedy-{r}", [lib.position(i) for i in g.suite], g.stop_reason, n0, t0)
+
+    def tol_of(x: float) -> float:
+        return REL_TOL * max(1.0, abs(x))
+
+    run_rule("uniform")
     greedy_worst = cands[0].worst_score
     n0, t0 = ev.n_evaluations, time.perf_counter()
     a2 = resilient_select(ev, budget, alpha)
     a2c = add("algorithm-2", [lib.position(i) for i in a2.suite], f"failing set {','.join(a2.failed)}" + (f"; {a2.failure_note}" if a2.failure_note else ""), n0, t0)
     bnd = robust_bound(ev, budget, alpha, anchors=anchors(), incumbent=best().worst_score, max_nodes=bound_nodes)
-
+    # an "exact" leaf with no sensor assumed failed is a feasible suite (the whole leaf library fits
+    # the budget) whose worst case the bound has just computed: a free candidate
+    for leaf in bnd.leaves:
+        if leaf.how == "exact" and not leaf.failed and leaf.bound > best().worst_score + tol_of(best().worst_score):
+            n0, t0 = ev.n_evaluations, time.perf_counter()
+            gone = set(leaf.removed)
+            add("bound-leaf", [i for i in range(len(lib)) if lib.ids[i] not in gone],
+                f"the bound's exact leaf without {','.join(leaf.removed) or 'nothing'}", n0, t0)
     proved = bnd.proved
+    if not proved and bnd.bound <= best().worst_score + tol_of(best().worst_score):
+        proved = True
+        bnd = replace(bnd, proved=True)
     n_before = len(cands)
+    # the other greedy rules: skipped too when the bound already proves a candidate optimal
+    for r in rules[1:]:
+        if proved and skip_when_proved:
+            skipped.append(f"greedy-{r}: the bound proves the best candidate optimal")
+        else:
+            run_rule(r)
+
     for m in methods:
         if proved and skip_when_proved:
             skipped.append(f"{m}: the bound proves the best candidate optimal")
@@ -153,10 +179,12 @@ def robust_select(evaluator: Evaluator, budget_usd: float, alpha: int, *, rules:
             s, note = local_search(ev, [lib.position(i) for i in start.suite], budget, alpha, max_rounds=local_rounds,
                                    max_evaluations=local_evaluations)
             add("local-search", s, f"from {start.method}; {note}", n0, t0)
-        if not proved and bnd.bound <= best().worst_score + REL_TOL * max(1.0, abs(best().worst_score)):
+        if not proved and bnd.bound <= best().worst_score + tol_of(best().worst_score):
             proved = True
     win = best()
-    if not bnd.proved and len(cands) > n_before:
+    if proved and not bnd.proved:
+        bnd = replace(bnd, proved=True)
+    if not proved and len(cands) > n_before:
         # new suites: their survivors are new anchors, and a better incumbent settles more leaves
         bnd = robust_bound(ev, budget, alpha, anchors=anchors(), incumbent=win.worst_score, max_nodes=bound_nodes)
     bound = max(bnd.bound, win.worst_score)
@@ -177,3 +205,16 @@ def run_robust(problem: Target, budget_usd: float, alpha: int, *, engine: str | 
     check_alpha(alpha)
     ev = evaluator_for(problem, engine, jobs=jobs, aggregate=aggregate)
     return robust_select(ev, budget_usd, alpha, info=problem.info, **kwargs)
+
+
+def robust_choice(evaluator: Evaluator, budget_usd: float, alpha: int, info: TargetInfo | None = None,
+                  **kwargs: Any) -> tuple[RobustChoice, WorstCase]:
+    """:func:`robust_select` in the shape ``sensorsel resilient --method robust`` records (whole route and
+    each period): the choice in short and its exact worst case (scored with the same memo: no re-scoring)."""
+    ev = memoized(evaluator)
+    r = robust_select(ev, budget_usd, alpha, info=info, **kwargs)
+    w = worst_case(ev, [ev.library.position(i) for i in r.suite], r.alpha)
+    return RobustChoice(method=r.method, suite=r.suite, cost_usd=r.cost_usd, nominal_score=r.nominal_score,
+                        worst_score=r.worst_score, failures=r.failures, greedy_worst_score=r.greedy_worst_score,
+                        algorithm2_worst_score=r.algorithm2_worst_score, bound=r.bound, gap_percent=r.gap_percent,
+                        n_evaluations=r.n_evaluations, seconds=r.seconds), w

@@ -21,6 +21,15 @@ Method
    factored by LAPACK's dense Cholesky (dpotrf at ~peak speed), unless fewer than
    :data:`SPARSE_BELOW` of its blocks are non-zero (e.g. one narrow radar or camera alone, the first
    greedy step), where SuperLU with a minimum-degree order is 2-3x faster (measured per sensor on 00).
+3b. Or the whole matrix, frontally (:mod:`.front`, issue 16). At a fixed route P's non-zero blocks
+   per row grow with the keyframe rate (a keyframe is coupled to every keyframe within sensor
+   range), so the dense factorization costs K³. Instead the full information matrix (poses and
+   landmarks) is eliminated chunk by chunk of keyframes in a keyframe order (route order, x or y
+   sweep, or RCM of nearby keyframes: whichever is predicted cheapest for the suite), each chunk's
+   poses together with the variables seen for the last time, the Schur complement on the
+   still-open variables carried on: ~3 (2F)² flops per keyframe with F the open landmarks, linear
+   in the route. The kernel takes it when its predicted flops are below :data:`FRONT_BELOW` of the
+   dense Cholesky's (measured crossover ~1x: the dense path also pays the Schur assembly below).
 4. Assembly. ``Σ_j W_j D_j⁻¹ W_jᵀ = Σ_j Y_j Y_jᵀ`` with ``Y_j = W_j L_j⁻ᵀ`` (``D_j = L_j L_jᵀ``).
    Landmarks are grouped in route order (:data:`GROUP_SIZE` per group: neighbours on the road are
    seen from the same keyframes on every pass). Each group's Y is a dense tile whose rows are the
@@ -49,13 +58,15 @@ comes from the same code on the same inputs, so results are identical whatever `
 
 Modules: :mod:`.plan` (landmark groups, keyframe runs, BLAS calls), :mod:`.state` (a suite's pair
 weights and sums, built once per base suite), :mod:`.kernel` (Schur complement and factorization),
-:mod:`.blas` (BLAS/LAPACK function pointers, thread control), :mod:`.evaluator` (FastEvaluator).
+:mod:`.blas` (BLAS/LAPACK function pointers, thread control), :mod:`.front` (the frontal path),
+:mod:`.evaluator` (FastEvaluator).
 """
 
 from __future__ import annotations
 
 from .evaluator import THREADS_FROM_KEYFRAMES, FastEvaluator
-from .kernel import SPARSE_BELOW, Kernel
+from .front import CHUNK_POSES
+from .kernel import FRONT_BELOW, SPARSE_BELOW, Kernel
 from .plan import GROUP_SIZE, RUN_GAP
 
-__all__ = ["FastEvaluator", "Kernel", "THREADS_FROM_KEYFRAMES", "SPARSE_BELOW", "GROUP_SIZE", "RUN_GAP"]
+__all__ = ["FastEvaluator", "Kernel", "THREADS_FROM_KEYFRAMES", "SPARSE_BELOW", "FRONT_BELOW", "CHUNK_POSES", "GROUP_SIZE", "RUN_GAP"]

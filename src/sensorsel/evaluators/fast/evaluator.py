@@ -11,7 +11,8 @@ import numpy as np
 from ...problem import Problem
 from ..base import ProblemEvaluator, Suite, as_suite
 from .blas import Blas
-from .kernel import SPARSE_BELOW, Kernel
+from .front import CHUNK_POSES, keyframe_orders
+from .kernel import FRONT_BELOW, SPARSE_BELOW, Kernel
 from .plan import Planner
 from .state import BaseState, StateBuilder
 
@@ -33,9 +34,10 @@ class FastEvaluator(ProblemEvaluator):
     name = "fast"
 
     def __init__(self, problem: Problem, *, jobs: int = 1, threads_from_keyframes: int = THREADS_FROM_KEYFRAMES,
-                 sparse_below: float = SPARSE_BELOW, inplace_blas: bool = True) -> None:
+                 sparse_below: float = SPARSE_BELOW, front_below: float = FRONT_BELOW, chunk_poses: int = CHUNK_POSES,
+                 inplace_blas: bool = True) -> None:
         """``threads_from_keyframes``: use the ``jobs`` threads only on routes with at least this many
-        keyframes. ``sparse_below``, ``inplace_blas``: the kernel's choice of paths (see
+        keyframes. ``sparse_below``, ``front_below``, ``chunk_poses``, ``inplace_blas``: the kernel's choice of paths (see
         :class:`~sensorsel.evaluators.fast.kernel.Kernel`). All three change speed, not the numbers."""
         super().__init__(problem, jobs=jobs)
         from ...graph import linearize_library  # gtsam is imported where a library is linearized, when one is
@@ -43,11 +45,11 @@ class FastEvaluator(ProblemEvaluator):
         lin = linearize_library(problem)
         K = problem.scenario.n_poses
         coo = lin.base_pose_information.tocoo()
-        base_pattern = np.eye(K, dtype=bool)
-        base_pattern[coo.row // 3, coo.col // 3] = True
-        planner = Planner(problem, lin.pair_pose, lin.pair_landmark, np.tril(base_pattern))
+        planner = Planner(problem, lin.pair_pose, lin.pair_landmark, (coo.row // 3, coo.col // 3))
         self._states = StateBuilder(lin, planner)
-        self.kernel = Kernel(K, lin.base_pose_information, Blas(), sparse_below=sparse_below, inplace=inplace_blas)
+        self.kernel = Kernel(K, lin.base_pose_information, Blas(), sparse_below=sparse_below,
+                             front_below=front_below, chunk_poses=chunk_poses,
+                             pose_orders=keyframe_orders(problem.scenario.keyframes.poses[:, :2]), inplace=inplace_blas)
         self._threads_from = int(threads_from_keyframes)
         self._base: BaseState | None = None
         self._pool: ThreadPoolExecutor | None = None

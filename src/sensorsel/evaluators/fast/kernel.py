@@ -1,5 +1,6 @@
-"""The numeric kernel: log det of a suite's information from its sums, by the Schur complement on
-the poses and a dense Cholesky (LAPACK dpotrf) or a sparse LU (SuperLU) of it.
+"""The numeric kernel: log det of a suite's information from its sums, by a frontal block
+Cholesky of the whole information matrix (:mod:`.front`), or by the Schur complement on the poses
+and a dense Cholesky (LAPACK dpotrf) or a sparse LU (SuperLU) of it.
 
 The kernel never writes to its inputs: the tiles, Y and the pose matrix are scratch buffers it
 owns, one set per thread.
@@ -8,6 +9,7 @@ owns, one set per thread.
 from __future__ import annotations
 
 import threading
+import weakref
 from collections import Counter
 
 import numpy as np
@@ -15,10 +17,16 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from .blas import Blas
+from .front import CHUNK_POSES, FrontPlan, front_flops, front_logdet, plan_front
 from .plan import Layout
 
 #: below this fraction of non-zero pose blocks the pose matrix is factored as a sparse matrix
 SPARSE_BELOW = 0.11
+
+#: the frontal path (:mod:`.front`) is taken when its predicted flops are below this fraction of the
+#: dense pose Cholesky's (3K)³/3 (it also skips the dense path's Schur assembly; crossover measured
+#: per evaluation on KITTI 00/02/08 at 1 Hz: equal time at ~1.0-1.2x the flops, see docs/speed.md)
+FRONT_BELOW = 1.0
 
 #: the unique entries (row, column) of a symmetric 3x3, in the order of the pose-diagonal sums
 SYM3 = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))  # unique entries of a symmetric 3x3
@@ -56,24 +64,66 @@ class Kernel:
 
     Attributes:
         counts: how many times each path was taken, by name: "syrk", "gemm" (in-place BLAS calls),
-            "numpy" (numpy block products), "potrf" (dense Cholesky), "splu" (sparse LU).
+            "numpy" (numpy block products), "potrf" (dense Cholesky), "splu" (sparse LU), "front"
+            (frontal elimination, :mod:`.front`).
     """
 
     def __init__(self, n_poses: int, base_pose_information: sp.spmatrix, blas: Blas, *,
-                 sparse_below: float = SPARSE_BELOW, inplace: bool = True) -> None:
+                 sparse_below: float = SPARSE_BELOW, front_below: float = FRONT_BELOW, chunk_poses: int = CHUNK_POSES,
+                 pose_orders: dict[str, np.ndarray] | None = None, inplace: bool = True) -> None:
         self.n = n = 3 * n_poses
+        self.pose_orders = pose_orders or {"route": np.arange(n_poses)}
+        self.n_poses = n_poses
+        self.front_below = float(front_below)
+        self.chunk_poses = int(chunk_poses)
+        self._fronts: weakref.WeakKeyDictionary[Layout, FrontPlan] = weakref.WeakKeyDictionary()
+        self._choices: weakref.WeakKeyDictionary[Layout, tuple[str, float]] = weakref.WeakKeyDictionary()
         self.blas = blas
         self.sparse_below = float(sparse_below)
         self.inplace = bool(inplace)
-        low = sp.tril(base_pose_information).tocoo()
-        self.base_index = low.row.astype(np.int64) * n + low.col  # lower triangle of the base on the poses
+        low = sp.tril(base_pose_information).tocsr().tocoo()  # duplicates summed
+        # lower triangle of the base on the poses, and of the pose-diagonal sums (6, K): (row, column)
+        self._base_rc = (low.row.astype(np.int64), low.col.astype(np.int64))
         self.base_values = low.data.copy()
         k3 = 3 * np.arange(n_poses)
-        self.diag_index = np.stack([(k3 + j) * n + k3 + i for i, j in SYM3])  # (6, K) lower-triangle flat
+        self._diag_rc = (np.stack([k3 + j for i, j in SYM3]), np.stack([k3 + i for i, j in SYM3]))
+        self.base_index = self._base_rc[0] * n + self._base_rc[1]
+        self.diag_index = self._diag_rc[0] * n + self._diag_rc[1]
         self._ldc = np.array([n], dtype=np.intc)  # leading dimension of the pose matrix, for BLAS
         self._local = threading.local()
         self._lock = threading.Lock()
         self.counts: Counter[str] = Counter()
+
+    def front_choice(self, layout: Layout, n_landmarks: int) -> tuple[str, float]:
+        """(keyframe order, predicted flops) of the cheapest frontal plan of ``layout`` over
+        :attr:`pose_orders` (from the alive intervals alone; cached per layout, depends on it alone)."""
+        with self._lock:
+            got = self._choices.get(layout)
+        if got is None:
+            got = min(((front_flops(layout.pose, layout.landmark, self.n_poses, n_landmarks, self._base_rc, self.chunk_poses,
+                                    order), name) for name, order in self.pose_orders.items()), key=lambda x: (x[0], x[1]))[::-1]
+            with self._lock:
+                self._choices[layout] = got
+        return got
+
+    def front_plan(self, layout: Layout, n_landmarks: int) -> FrontPlan:
+        """The frontal plan of ``layout`` in its cheapest keyframe order, built once per layout."""
+        with self._lock:
+            plan = self._fronts.get(layout)
+        if plan is None:
+            name, _ = self.front_choice(layout, n_landmarks)
+            plan = plan_front(layout.pose, layout.landmark, self.n_poses, n_landmarks, self._base_rc, self.base_values,
+                              self.chunk_poses, self.pose_orders[name], name)
+            with self._lock:
+                self._fronts[layout] = plan
+        return plan
+
+    def uses_front(self, layout: Layout, n_landmarks: int) -> bool:
+        """Whether ``layout`` is factored by the frontal path: predicted flops below ``front_below``
+        times the dense Cholesky's."""
+        if self.front_below <= 0:
+            return False
+        return self.front_choice(layout, n_landmarks)[1] < self.front_below * self.n**3 / 3.0
 
     def _scratch(self) -> _Scratch:
         """This thread's reusable buffers (the large arrays of one evaluation)."""
@@ -96,6 +146,13 @@ class Kernel:
             a: (6, K) pose-diagonal information sums from measurements (unique entries of each 3x3).
             layout: the tiles and calls of the active pairs.
         """
+        if self.uses_front(layout, d.shape[1]):
+            plan = self.front_plan(layout, d.shape[1])
+            scratch = self._scratch()
+            size = plan.max_front**2
+            self._count(front=1)
+            return front_logdet(plan, wpl, d, a, self.blas,
+                                (scratch.array("front0", size, zeroed=False), scratch.array("front1", size, zeroed=False)))
         # landmark blocks: D_j = L_j L_j^T (2x2 Cholesky, vectorized)
         l11 = np.sqrt(d[0])
         l21 = d[1] / l11
@@ -114,7 +171,8 @@ class Kernel:
         buf = scratch.array("tiles", layout.size)
         buf[layout.flat] = y.ravel()
         # pose Schur complement (lower triangle): base + measurement diagonal - sum_j Y_j Y_j^T
-        P = scratch.array("pose", self.n * self.n).reshape(self.n, self.n)
+        n = self.n
+        P = scratch.array("pose", n * n).reshape(n, n)
         P.ravel()[self.base_index] = self.base_values
         P.ravel()[self.diag_index] += a
         self._subtract_products(P, buf, layout)
@@ -126,25 +184,24 @@ class Kernel:
 
     def _subtract_products(self, P: np.ndarray, buf: np.ndarray, layout: Layout) -> None:
         """P[block] -= A @ B.T for every call of ``layout`` (tiles in ``buf``), lower triangle of P."""
-        n = self.n
         if not self.inplace:
-            for a_off, b_off, c_off, m, nn, k, _ in layout.calls:
+            for a_off, b_off, row, col, m, nn, k, _ in layout.calls:
                 t = buf[a_off: a_off + m * k].reshape(m, k)
                 u = buf[b_off: b_off + nn * k].reshape(nn, k)
-                r0, c0 = divmod(c_off, n)
-                P[r0: r0 + m, c0: c0 + nn] -= t @ u.T
+                P[row: row + m, col: col + nn] -= t @ u.T
             self._count(numpy=len(layout.calls))
             return
+        n = self.n
         syrk, gemm = self.blas.syrk_sub, self.blas.gemm_sub
         pa, pc, pd, pldc = buf.ctypes.data, P.ctypes.data, layout.dims.ctypes.data, self._ldc.ctypes.data
         n_same = 0
-        for i, (a_off, b_off, c_off, _, _, _, same) in enumerate(layout.calls):
+        for i, (a_off, b_off, row, col, _, _, _, same) in enumerate(layout.calls):
             p_m = pd + 12 * i  # dims[i] = (m, n, k), 4-byte C ints
             if same:
-                syrk(pc + 8 * c_off, pldc, pa + 8 * a_off, p_m, p_m + 8)
+                syrk(pc + 8 * (row * n + col), pldc, pa + 8 * a_off, p_m, p_m + 8)
                 n_same += 1
             else:
-                gemm(pc + 8 * c_off, pldc, pa + 8 * a_off, pa + 8 * b_off, p_m, p_m + 4, p_m + 8)
+                gemm(pc + 8 * (row * n + col), pldc, pa + 8 * a_off, pa + 8 * b_off, p_m, p_m + 4, p_m + 8)
         self._count(syrk=n_same, gemm=len(layout.calls) - n_same)
 
     @staticmethod

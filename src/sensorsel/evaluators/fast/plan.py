@@ -7,8 +7,10 @@ base suite's plan is reused by every candidate that measures no pair the base do
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
+import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
 from ...problem import Problem
@@ -46,14 +48,36 @@ class Layout:
 
     act: np.ndarray  # (Pa,) active pair indices, sorted
     landmark: np.ndarray  # (Pa,) landmark of each active pair
+    pose: np.ndarray  # (Pa,) keyframe of each active pair
     flat: np.ndarray  # (6 * Pa,) index into the tile buffer of each entry of Yᵀ, as (2, 3, Pa)
     size: int  # tile buffer length [entries]
-    calls: list[tuple[int, int, int, int, int, int, bool]]  # (a_off, b_off, c_off, m, n, k, same):
-    #   P[c_off block m x n, leading dimension 3K] -= A[a_off] @ A[b_off].T; A (m x k) and B (n x k)
-    #   row-major tiles of leading dimension k; ``same``: a_off == b_off, lower triangle only
+    calls: list[tuple[int, int, int, int, int, int, int, bool]]  # (a_off, b_off, row, col, m, n, k, same):
+    #   P[row: row + m, col: col + n] -= A[a_off] @ A[b_off].T; A (m x k) and B (n x k) row-major
+    #   tiles of leading dimension k; ``same``: a_off == b_off, lower triangle only
     dims: np.ndarray  # (len(calls), 3) C int (m, n, k) of each call, for BLAS's by-pointer arguments
-    pattern: np.ndarray  # (K, K) bool: pose blocks of the lower triangle that can be non-zero
-    density: float  # fraction of non-zero pose blocks of the full matrix
+    group_pose: tuple[np.ndarray, np.ndarray]  # (group, keyframe) of every distinct pair: the pattern's source
+    base_blocks: tuple[np.ndarray, np.ndarray]  # (row, column) pose blocks non-zero in the base graph
+    n_poses: int
+
+    @cached_property
+    def pattern(self) -> np.ndarray:
+        """(K, K) bool: pose blocks of the lower triangle that can be non-zero (keyframes that see a
+        common group: a superset of the exact pattern whose extra entries are exact zeros). Built on
+        demand (quadratic memory): only the sparse path needs it."""
+        K = self.n_poses
+        g, ps = self.group_pose
+        n_groups = int(g.max()) + 1 if len(g) else 0
+        mf = sp.csr_matrix((np.ones(len(g), dtype=np.float32), (g, ps)), shape=(n_groups, K))
+        pat = (mf.T @ mf).toarray() > 0
+        pat[self.base_blocks] = True
+        pat[np.arange(K), np.arange(K)] = True
+        return np.tril(pat)
+
+    @cached_property
+    def density(self) -> float:
+        """Fraction of non-zero pose blocks of the full matrix."""
+        K = self.n_poses
+        return (2 * int(np.count_nonzero(self.pattern)) - K) / float(K * K)
 
 
 class Planner:
@@ -62,14 +86,16 @@ class Planner:
     Args:
         problem: the scenario (route, landmarks) whose pairs are planned.
         pair_pose, pair_landmark: (P,) keyframe and landmark of each distinct measured pair.
-        base_pattern: (K, K) bool, lower triangle: pose blocks non-zero in the base graph.
+        base_blocks: (row, column) of the pose blocks non-zero in the base graph (any triangle).
     """
 
-    def __init__(self, problem: Problem, pair_pose: np.ndarray, pair_landmark: np.ndarray, base_pattern: np.ndarray) -> None:
+    def __init__(self, problem: Problem, pair_pose: np.ndarray, pair_landmark: np.ndarray,
+                 base_blocks: tuple[np.ndarray, np.ndarray]) -> None:
         self.n_poses = K = problem.scenario.n_poses
         self.n_landmarks = M = problem.scenario.n_landmarks
         self.pair_pose, self.pair_landmark = pair_pose, pair_landmark
-        self.base_pattern = base_pattern
+        br, bc = (np.asarray(x, dtype=np.int64) for x in base_blocks)
+        self.base_blocks = (np.maximum(br, bc), np.minimum(br, bc))  # lower triangle
         # landmark groups: seen landmarks in route order, GROUP_SIZE per group
         seen = np.zeros(M, dtype=bool)
         seen[pair_landmark] = True
@@ -86,7 +112,7 @@ class Planner:
         Long (~60 lines) on purpose: one vectorized pass from pairs to tiles, runs and calls, each
         step reading the previous one's arrays; split, the pieces would only pass a dozen arrays on.
         """
-        K, M, n = self.n_poses, self.n_landmarks, self.n
+        K, M = self.n_poses, self.n_landmarks
         lm, ps = self.pair_landmark[act], self.pair_pose[act]
         g = self.group[lm]
         # columns: the active landmarks of each group, 2 each, in group order
@@ -99,15 +125,14 @@ class Planner:
         col_of = np.zeros(M, dtype=np.int64)
         col_of[self.landmark_order] = 2 * (np.cumsum(on_sorted) - 1 - first_rank[grp_sorted])
         # rows: runs of consecutive keyframes that see each group, 3 rows each; runs of a group
-        # less than RUN_GAP keyframes apart are joined (zero rows in between: fewer, larger calls)
-        mask = np.zeros((self.n_groups, K), dtype=bool)
-        mask[g, ps] = True
-        edge = np.diff(np.pad(mask, ((0, 0), (1, 1))).astype(np.int8), axis=1)
-        rg, rs = np.nonzero(edge == 1)
-        re = np.nonzero(edge == -1)[1]  # runs in (group, start) order, as the starts
-        if len(rg) > 1:
-            join = (rg[1:] == rg[:-1]) & (rs[1:] - re[:-1] <= RUN_GAP)
-            rg, rs, re = rg[np.r_[True, ~join]], rs[np.r_[True, ~join]], re[np.r_[~join, True]]
+        # less than RUN_GAP keyframes apart are joined (zero rows in between: fewer, larger calls).
+        # From the sorted distinct (group, keyframe) pairs: linear in the pairs, not groups x keyframes.
+        key = np.unique(g * K + ps)
+        gk, pk = key // K, key % K
+        start = np.r_[True, (gk[1:] != gk[:-1]) | (pk[1:] - pk[:-1] - 1 > RUN_GAP)] if len(key) else np.zeros(0, bool)
+        first = np.flatnonzero(start)
+        last = np.r_[first[1:] - 1, len(key) - 1] if len(key) else first
+        rg, rs, re = gk[first], pk[first], pk[last] + 1
         length = re - rs
         n_runs = np.bincount(rg, minlength=self.n_groups)
         first_run = np.concatenate([[0], np.cumsum(n_runs)])[:-1]
@@ -127,14 +152,9 @@ class Planner:
         k = ncols[rg[ia]]
         a_off = off[rg[ia]] + 3 * row0[ia] * k
         b_off = off[rg[ia]] + 3 * row0[ib] * k
-        c_off = 3 * rs[ia] * n + 3 * rs[ib]
+        row, col = 3 * rs[ia], 3 * rs[ib]
         m_rows, n_rows = 3 * length[ia], 3 * length[ib]
-        calls = list(zip(a_off.tolist(), b_off.tolist(), c_off.tolist(), m_rows.tolist(), n_rows.tolist(), k.tolist(),
-                         (ia == ib).tolist()))
+        calls = list(zip(a_off.tolist(), b_off.tolist(), row.tolist(), col.tolist(), m_rows.tolist(), n_rows.tolist(),
+                         k.tolist(), (ia == ib).tolist()))
         dims = np.ascontiguousarray(np.column_stack([m_rows, n_rows, k]), dtype=np.intc).reshape(-1, 3)
-        # pose-block pattern of the lower triangle: keyframes that see a common group (a superset
-        # of the exact pattern whose extra entries are exact zeros)
-        mf = mask.astype(np.float32)
-        pattern = np.tril(((mf.T @ mf) > 0) | self.base_pattern)
-        density = (2 * int(np.count_nonzero(pattern)) - K) / float(K * K)
-        return Layout(act, lm, flat, int(off[-1]), calls, dims, pattern, density)
+        return Layout(act, lm, ps, flat, int(off[-1]), calls, dims, (gk, pk), self.base_blocks, K)

@@ -1,0 +1,132 @@
+"""``sensorsel robust``: the best worst case under failures, greedy and Algorithm 2 beside it."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import click
+
+from .. import results
+from ..library import SensorLibrary
+from .options import (budget_option, compact_suite, engine_options, json_option, output_option, print_target, quiet_option,
+                      run, table, target_from, target_options)
+
+#: --aggregate of this command: the domain's combined score (as elsewhere), or its worst route
+ROBUST_AGGREGATES = ("normalised", "raw", "worst")
+
+
+def _worst_aggregate(fn: Any) -> Any:
+    """Widen the shared --aggregate choice with "worst" (the worst route of a domain), for this command only."""
+    for p in getattr(fn, "__click_params__", []):
+        if p.name == "aggregate":
+            p.type = click.Choice(list(ROBUST_AGGREGATES))
+            p.help = ((p.help or "") + " worst = the worst route's share of its best under the failures "
+                      "(max-min over the routes; robust only).")
+    return fn
+
+
+def _csv(xs: Any) -> str:
+    return ",".join(xs) or "-"
+
+
+@click.command("robust", short_help="Robust selection: the best worst case under failing sensors, with its bound.")
+@_worst_aggregate
+@target_options
+@engine_options
+@budget_option(default=110_000.0, help="Budget in dollars (110000, 110,000, $110,000 or 110_000).")
+@click.option("--failures", "alpha", type=int, default=1, show_default=True,
+              help="Number of sensors that may fail (alpha); the design maximises the score left after the worst ALPHA.")
+@click.option("--rules", default="uniform,marginal", show_default=True,
+              help="Plain greedy rules run as candidates, comma-separated (uniform always runs).")
+@click.option("--methods", default=None,
+              help="Further methods, comma-separated, or 'none' [default: oblivious,saturate,local-search; "
+                   "with --aggregate worst: saturate,local-search].")
+@click.option("--no-skip", is_flag=True, help="Run every method even when the bound already proves a candidate optimal.")
+@output_option(help="Write the result as JSON here (kind \"robust\").")
+@json_option
+@quiet_option
+@run
+def robust_cmd(budget: float, alpha: int, rules: str, methods: str | None, no_skip: bool, output: str | None, as_json: bool,
+               quiet: bool, aggregate: str, engine: str | None, jobs: int, **kw: Any) -> None:
+    """Robust sensor selection: maximise the worst-case score after ALPHA sensors fail.
+
+    Runs plain greedy, the paper's Algorithm 2 and further methods, scores every suite by its exact
+    worst case (all failure sets enumerated) and keeps the best, so the answer's worst case is never
+    below greedy's nor Algorithm 2's. An upper bound on the best achievable worst case and the gap to
+    it are printed; gap 0 proves the answer optimal.
+
+    With --domain FILE and --aggregate worst, the design maximises the worst route's share of its best
+    (f_r(S) / f_r(all sensors)) under the failures.
+    """
+    from ..api import run_robust
+    from ..resilient import check_alpha
+    from ..selection import check_budget
+
+    budget, alpha = check_budget(budget), check_alpha(alpha)
+    rule_list = tuple(r.strip() for r in rules.split(",") if r.strip())
+    from ..robust import EXTRA_METHODS, WORST_METHODS
+
+    method_list: tuple[str, ...]
+    if methods is None:
+        method_list = WORST_METHODS if aggregate == "worst" else EXTRA_METHODS
+    elif methods.strip() in ("", "none"):
+        method_list = ()
+    else:
+        method_list = tuple(m.strip() for m in methods.split(",") if m.strip())
+    target = target_from(kw)
+    if not quiet:
+        click.echo(f"robust selection: ${budget:,.0f}, {alpha} failure(s) ...", err=True)
+    res = run_robust(target, budget, alpha, engine=engine, jobs=jobs, aggregate=aggregate, rules=rule_list,
+                     methods=method_list, skip_when_proved=not no_skip)
+    written = results.save(res, output) if output else None
+    if as_json:
+        click.echo(results.dumps(res), nl=False)
+        return
+    print_robust(res, target.library)
+    if written is not None:
+        click.echo(f"wrote {written}")
+
+
+def print_robust(res: Any, lib: SensorLibrary | None = None) -> None:
+    """The summary of a :class:`~sensorsel.robust.RobustResult`: greedy, Algorithm 2 and the robust design
+    side by side, the winning method, every candidate, and (worst route) the per-route breakdown."""
+    worst = res.aggregate == "worst"
+    unit = "share of the route's best" if worst else "nats"
+    fmt = (lambda v: f"{v:.4f}") if worst else (lambda v: f"{v:,.2f}")
+    print_target(res.problem)
+    what = "the worst route's share of its best" if worst else "the score"
+    click.echo(f"budget     ${res.budget_usd:,.0f}, {res.alpha} failure(s), engine {res.engine}; worst case = {what} "
+               f"after the worst {res.alpha} failure(s)")
+    click.echo("")
+    first: dict[str, Any] = {}
+    for c in res.candidates:
+        first.setdefault(c.method, c)
+    win = next(c for c in res.candidates if c.method == res.method and tuple(c.suite) == tuple(res.suite))
+    rows = []
+    for label, c in (("greedy", first.get("greedy-uniform")), ("algorithm 2", first.get("algorithm-2")), ("robust", win)):
+        if c is None:
+            continue
+        fail = _csv(c.failures) + (f" on {c.worst_member}" if c.worst_member else "")
+        rows.append([label, compact_suite(c.suite, lib), f"{c.cost_usd:,.0f}", fmt(c.nominal_score), fmt(c.worst_score), fail,
+                     fmt(res.bound), f"{100.0 * (res.bound - c.worst_score) / res.bound if res.bound > 0 else 0.0:.2f}%"])
+    click.echo(table(rows, ["design", "suite", "cost_usd", "nominal", "worst_case", "worst_failures", "bound", "gap"]))
+    click.echo(f"\nwinner: {res.method}; worst case {fmt(res.worst_score)} ({unit}), bound {fmt(res.bound)}, "
+               f"gap {res.gap_percent:.2f}%" + (" (proved optimal)" if res.bound_detail.proved or res.gap_percent == 0 else ""))
+    if res.greedy_worst_score > 0:
+        click.echo(f"versus greedy {100.0 * (res.worst_score - res.greedy_worst_score) / res.greedy_worst_score:+.1f} %, "
+                   f"versus Algorithm 2 {100.0 * (res.worst_score - res.algorithm2_worst_score) / max(res.algorithm2_worst_score, 1e-300):+.1f} %")
+    if worst and res.members:
+        click.echo(f"\nper route (worst: {res.worst_member})")
+        click.echo(table([[m.name, f"{m.best_score:,.2f}", f"{m.nominal_share:.4f}", f"{m.worst_share:.4f}", _csv(m.failures)]
+                          for m in res.members], ["route", "best_nats", "nominal_share", "worst_share", "worst_failures"]))
+    click.echo("\ncandidates")
+    click.echo(table([[c.method, compact_suite(c.suite, lib), f"{c.cost_usd:,.0f}", fmt(c.nominal_score), fmt(c.worst_score),
+                       _csv(c.failures) + (f" on {c.worst_member}" if c.worst_member else ""), str(c.n_evaluations),
+                       f"{c.seconds:.1f}"] for c in res.candidates],
+                     ["method", "suite", "cost_usd", "nominal", "worst_case", "worst_failures", "evaluations", "seconds"]))
+    for s in res.skipped:
+        click.echo(f"skipped: {s}")
+    click.echo(f"{res.n_evaluations:,} suites scored in {res.seconds:.1f} s")
+
+
+COMMANDS = [robust_cmd]

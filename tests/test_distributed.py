@@ -1,0 +1,180 @@
+"""Domains and sweeps on a real Dask cluster (loopback only, bounded, stopped by the tests).
+
+One LocalCluster of 2 worker processes serves the in-module tests; one test starts `dask scheduler`
+and two `dask worker` processes itself and runs the CLI against them. Results must be the bytes of
+the in-process run, timings aside.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+distributed = pytest.importorskip("distributed")
+
+from sensorsel import results  # noqa: E402
+from sensorsel.domain_design import design_domain  # noqa: E402
+from sensorsel.distributed import DaskCluster, DistributedDomainEvaluator, run_tradespace_on  # noqa: E402
+from sensorsel.problem import load_domain  # noqa: E402
+from sensorsel.tradespace import run_tradespace  # noqa: E402
+
+REPO = Path(__file__).resolve().parents[1]
+FIXTURES = REPO / "configs" / "domain_fixtures.yaml"
+BIN = Path(sys.executable).parent
+ENV = {**os.environ, "PYTHONPATH": str(REPO / "src") + os.pathsep + os.environ.get("PYTHONPATH", "")}
+
+
+def _untimed(obj: object) -> object:
+    """A result's JSON without its timings."""
+    def rec(o: object) -> object:
+        if isinstance(o, dict):
+            return {k: rec(v) for k, v in o.items() if k != "seconds"}
+        if isinstance(o, list):
+            return [rec(v) for v in o]
+        return o
+    return rec(json.loads(obj if isinstance(obj, str) else results.dumps(obj)))
+
+
+@pytest.fixture(scope="module")
+def domain():
+    return load_domain(FIXTURES)
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    with DaskCluster(workers=2, echo=lambda line: None) as c:
+        yield c
+
+
+def test_domain_greedy_on_two_workers_equals_in_process(cluster, domain):
+    local = design_domain(domain, 12_000, certify=True)
+    ev = DistributedDomainEvaluator(cluster.client, domain)
+    remote = design_domain(domain, 12_000, certify=True, evaluator=ev)
+    assert _untimed(remote) == _untimed(local)
+    assert ev.step_bytes and max(s + r for s, r in ev.step_bytes) < 2_000  # suites and numbers, never matrices
+
+
+
+def test_tradespace_rules_as_tasks_equal_in_process_and_resume(cluster, domain, tmp_path):
+    grid, rules = [4_000, 12_000], ["best-of"]  # its two component rules: two tasks
+    local = _untimed(run_tradespace(domain, grid, rules))
+    assert _untimed(run_tradespace_on(cluster.client, domain, grid, rules, outdir=str(tmp_path))) == local
+    files = sorted((tmp_path / "runs").glob("rule-*.json"))
+    assert len(files) == 2
+    stamps = [f.stat().st_mtime_ns for f in files]
+    assert _untimed(run_tradespace_on(cluster.client, domain, grid, rules, outdir=str(tmp_path), resume=True)) == local
+    assert [f.stat().st_mtime_ns for f in files] == stamps  # finished rules were read back, not run again
+
+
+def test_resilient_periods_as_tasks_equal_in_process_and_resume(cluster, tmp_path):
+    from sensorsel.distributed import resilient_report_on
+    from sensorsel.problem import load_problem
+    from sensorsel.resilient import resilient_report
+    from sensorsel.scenario import ScenarioSpec
+
+    problem = load_problem(ScenarioSpec(fixture="suburb"))
+    local = resilient_report(problem, 8_000, 1, period_s=20.0, outdir=tmp_path / "here")
+    there = tmp_path / "there"
+    remote = resilient_report_on(cluster.client, problem, 8_000, 1, period_s=20.0, outdir=str(there))
+    assert _untimed(remote) == _untimed(local)
+    files = sorted((there / "periods").glob("period-*.json"))
+    assert len(files) == len(local.per_period.periods) > 1
+    stamps = [f.stat().st_mtime_ns for f in files]
+    again = resilient_report_on(cluster.client, problem, 8_000, 1, period_s=20.0, outdir=str(there), resume=True)
+    assert _untimed(again) == _untimed(local)
+    assert [f.stat().st_mtime_ns for f in files] == stamps  # finished periods were read back, not recomputed
+
+
+def test_a_worker_killed_mid_run_loses_nothing(cluster, domain):
+    local = design_domain(domain, 20_000)
+    ev = DistributedDomainEvaluator(cluster.client, domain)
+    pids = cluster.client.run(os.getpid)  # worker address -> pid (processes of this test's cluster)
+    killed = []
+
+    def kill_once(done: int, total: int) -> None:
+        if not killed and done >= 1:
+            where = cluster.client.who_has()  # the actors' keys -> workers
+            holder = next(iter(where[ev._actors[0].key]))
+            os.kill(pids[holder], signal.SIGKILL)
+            killed.append(holder)
+
+    remote = design_domain(domain, 20_000, evaluator=ev, progress=kill_once)
+    assert killed and ev.n_rebuilt >= 1
+    assert _untimed(remote) == _untimed(local)
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _cli(*args: str, timeout: float = 120) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([str(BIN / "sensorsel"), *args], capture_output=True, text=True, env=ENV, cwd=REPO, timeout=timeout)
+
+
+def test_cli_greedy_on_a_scheduler_and_two_workers_started_here(tmp_path, domain):
+    port = _free_port()
+    address = f"tcp://127.0.0.1:{port}"
+    procs = [subprocess.Popen([str(BIN / "dask"), "scheduler", "--host", "127.0.0.1", "--port", str(port), "--no-dashboard",
+                               "--idle-timeout", "300"],
+                              env=ENV, cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)]
+    try:
+        for _ in range(2):
+            procs.append(subprocess.Popen([str(BIN / "dask"), "worker", address, "--host", "127.0.0.1", "--nthreads", "1",
+                                           "--no-dashboard", "--death-timeout", "60"],
+                                          env=ENV, cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+        with distributed.Client(address, timeout=30) as client:
+            client.wait_for_workers(2, timeout=60)
+        args = ["greedy", "--domain", str(FIXTURES), "--budget", "12000", "--json", "-q"]
+        there = _cli(*args, "--scheduler", address)
+        assert there.returncode == 0, there.stderr
+        assert _untimed(there.stdout) == _untimed(design_domain(domain, 12_000, certify=True))  # what --json prints in-process
+    finally:
+        for p in reversed(procs):
+            p.terminate()
+        for p in procs:
+            try:
+                p.wait(timeout=15)
+            except subprocess.TimeoutExpired:
+                p.kill()
+
+
+def test_no_scheduler_is_exit_2_naming_the_address():
+    port = _free_port()  # nothing listens there
+    r = _cli("greedy", "--domain", str(FIXTURES), "--budget", "20000", "-q", "--scheduler", f"tcp://127.0.0.1:{port}")
+    assert r.returncode == 2
+    assert f"tcp://127.0.0.1:{port}" in r.stderr and "5 s" in r.stderr and "Traceback" not in r.stderr
+
+
+_PLAIN_RUN = """
+import sys
+from sensorsel.cli import cli
+try:
+    cli(["greedy", "--domain", sys.argv[1], "--budget", "4000", "-q", "--no-certificate"], prog_name="sensorsel")
+except SystemExit as e:
+    assert not e.code, e.code
+print(sorted(m for m in sys.modules if m.split(".")[0] in ("dask", "distributed")))
+"""
+
+
+def test_a_plain_run_does_not_import_dask():
+    r = subprocess.run([sys.executable, "-c", _PLAIN_RUN, str(FIXTURES)], capture_output=True, text=True, env=ENV, timeout=120)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip().splitlines()[-1] == "[]"
+
+
+def test_missing_extra_is_exit_2_with_the_install_hint():
+    code = "import sys; sys.modules['distributed'] = None\nfrom sensorsel.cli import cli\n" \
+           "cli(['greedy', '--domain', sys.argv[1], '--budget', '20000', '-q', '--workers', '2'], prog_name='sensorsel')"
+    r = subprocess.run([sys.executable, "-c", code, str(FIXTURES)], capture_output=True, text=True, env=ENV, timeout=120)
+    assert r.returncode == 2, r.stderr
+    assert 'pip install "sensorsel[dask]"' in r.stderr and "Traceback" not in r.stderr
