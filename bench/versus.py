@@ -26,8 +26,12 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 
 
+#: the CLI of the tree on PYTHONPATH (every version has sensorsel.cli.main; not all have a __main__)
+CLI = [sys.executable, "-c", "import sys; from sensorsel.cli import main; sys.argv[0] = 'sensorsel'; main()"]
+
+
 def _run(src: Path, args: list[str], env: dict[str, str]) -> tuple[float, dict]:
-    cmd = [sys.executable, "-c", "import sys; from sensorsel.cli import main; sys.argv[0] = 'sensorsel'; main()", *args]
+    cmd = [*CLI, *args]
     t = time.perf_counter()
     p = subprocess.run(cmd, capture_output=True, text=True, env={**env, "PYTHONPATH": str(src)}, cwd=src.parent)
     wall = time.perf_counter() - t
@@ -37,9 +41,11 @@ def _run(src: Path, args: list[str], env: dict[str, str]) -> tuple[float, dict]:
 
 
 def _args(src: Path, seq: str, root: str, env: dict[str, str]) -> list[str]:
-    help_text = subprocess.run([sys.executable, "-m", "sensorsel.cli", "greedy", "--help"], capture_output=True, text=True,
-                               env={**env, "PYTHONPATH": str(src)}).stdout
-    extra = ["--landmarks", "synthetic"] if "synthetic" in help_text else []
+    help_text = subprocess.run([*CLI, "greedy", "--help"], capture_output=True, text=True,
+                               env={**env, "PYTHONPATH": str(src)}, cwd=src.parent).stdout
+    if "Usage:" not in help_text:
+        raise SystemExit(f"{src}: could not read `sensorsel greedy --help`")
+    extra = ["--landmarks", "synthetic"] if "real|synthetic" in help_text else []  # older CLIs generate by default
     return ["greedy", "--seq", seq, "--kitti-root", root, "--budget", "110000", "--no-certificate", "--json", *extra]
 
 

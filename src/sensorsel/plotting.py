@@ -511,7 +511,8 @@ def plot_domain_breakdown(design: "DomainDesign", ax: Axes | None = None, *, tit
     ax.set_xlabel("share of the route's best score, f_r(S) / f_r(all sensors)")
     ax.set_xlim(min(0.9, float(min(domain_share.min(), own_share.min())) - 0.02), 1.0)
     ax.grid(axis="x", alpha=0.3)
-    ax.legend(loc="lower left", fontsize="small")
+    ax.set_ylim(-1.6, len(routes) - 0.5)  # a band below the last route for the legend
+    ax.legend(loc="lower left", fontsize="small", ncol=2)
     budget = design.greedy.budget_usd
     # "\\$" is a literal dollar: a bare $ starts matplotlib's mathtext
     ax.set_title(title or f"One suite for {len(routes)} routes at \\${budget:,.0f}: \\${design.greedy.cost_usd:,.0f}, "

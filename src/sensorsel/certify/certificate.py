@@ -33,7 +33,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..evaluators import Evaluator, make_evaluator
-from ..problem import Problem, ProblemInfo, TargetInfo
+from ..problem import DomainInfo, Problem, ProblemInfo, TargetInfo
 from ..selection import REL_TOL, GreedyResult, check_budget
 from .knapsack import MAX_DP_CELLS, knapsack
 
@@ -281,9 +281,10 @@ def certify_greedy(source: Evaluator | Problem, result: GreedyResult, *, jobs: i
 def format_certificate(cert: Certificate) -> str:
     """One line: 'certificate: at least 97.3% of the best possible suite under $110,000 (...)'."""
     where = "the empty suite" if cert.bound_step == 0 else f"step {cert.bound_step} of {len(cert.step_bounds) - 1}"
+    unit = "" if isinstance(cert.problem, DomainInfo) else " nats"  # a domain's score is a weighted share of the best
     return (
         f"certificate: at least {_pct(cert.percent_of_best)}% of the best possible suite under ${cert.budget_usd:,.0f} "
-        f"(f = {cert.score:.3f} nats; best possible <= {cert.bound:.3f} nats, bound from {where}; "
+        f"(f = {cert.score:.3f}{unit}; best possible <= {cert.bound:.3f}{unit}, bound from {where}; "
         f"{cert.n_evaluations:,} evaluations, {cert.seconds:.1f} s)"
     )
 
