@@ -27,6 +27,10 @@ SPARSE_BELOW = 0.11
 #: dense pose Cholesky's (3K)³/3 (it also skips the dense path's Schur assembly; crossover measured
 #: per evaluation on KITTI 00/02/08 at 1 Hz: equal time at ~1.0-1.2x the flops, see docs/speed.md)
 FRONT_BELOW = 1.0
+#: below this many keyframes the frontal path is not even predicted (unless forced by a ``front_below``
+#: above :data:`FRONT_BELOW`): the dense Cholesky of a matrix under 300 x 300 takes ~0.1 ms, and the
+#: prediction (four keyframe orders) cost more than that on KITTI 03, where dense always won
+FRONT_FROM_KEYFRAMES = 100
 
 #: the unique entries (row, column) of a symmetric 3x3, in the order of the pose-diagonal sums
 SYM3 = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))  # unique entries of a symmetric 3x3
@@ -121,7 +125,7 @@ class Kernel:
     def uses_front(self, layout: Layout, n_landmarks: int) -> bool:
         """Whether ``layout`` is factored by the frontal path: predicted flops below ``front_below``
         times the dense Cholesky's."""
-        if self.front_below <= 0:
+        if self.front_below <= 0 or (self.n_poses < FRONT_FROM_KEYFRAMES and self.front_below <= FRONT_BELOW):
             return False
         return self.front_choice(layout, n_landmarks)[1] < self.front_below * self.n**3 / 3.0
 
