@@ -252,15 +252,8 @@ class DistributedDomainEvaluator(DomainEvaluator):
         self._actors: list[Any] = [None] * len(self.recipes)
         self._place([r.problem for r in domain.routes])
         self.routes = tuple(_RemoteRoute(self, k) for k in range(len(self.recipes)))  # type: ignore[assignment, misc]
-        w = np.array([r.weight for r in domain.routes], dtype=float)
-        self.weights = w / w.sum()
         got = self._call({k: ("normaliser", ()) for k in range(len(self.recipes))})
-        self.best = np.array([float(got[k]) for k in range(len(self.recipes))], dtype=float)
-        for r, f_all in zip(domain.routes, self.best):
-            if not f_all > 0:
-                raise InputError(f"domain {domain.source}: route {r.name!r}: no sensor of the library measures any "
-                                 f"landmark ({r.problem.scenario.landmark_source}); its share of the best is undefined")
-        self.scale = self.weights / self.best if self.aggregate == "normalised" else self.weights.copy()
+        self.set_normalisers([float(got[k]) for k in range(len(self.recipes))])
 
     def __repr__(self) -> str:
         return f"DistributedDomainEvaluator({len(self.recipes)} routes, engine {self.engine!r}, {self.aggregate})"

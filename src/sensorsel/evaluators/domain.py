@@ -67,10 +67,20 @@ class DomainEvaluator(Evaluator):
         self.engine = check_engine(engine)
         self.aggregate = check_aggregate(aggregate)
         self.routes: tuple[ProblemEvaluator, ...] = tuple(make_evaluator(r.problem, self.engine, jobs=jobs) for r in domain.routes)
+        everything = tuple(range(len(self.library)))
+        self.set_normalisers([ev.score(everything) for ev in self.routes])
+
+    def set_normalisers(self, best: Sequence[float]) -> None:
+        """Weights, normalisers f_r(L) and each route's factor in F, from f_r(L) of every route
+        (however they were computed: here, or on a cluster's workers).
+
+        Raises:
+            InputError: a route with f_r(L) = 0 (no sensor measures anything there).
+        """
+        domain = self.domain
         w = np.array([r.weight for r in domain.routes], dtype=float)
         self.weights = w / w.sum()
-        everything = tuple(range(len(self.library)))
-        self.best = np.array([ev.score(everything) for ev in self.routes], dtype=float)
+        self.best = np.array(best, dtype=float)
         for r, f_all in zip(domain.routes, self.best):
             if not f_all > 0:
                 raise InputError(f"domain {domain.source}: route {r.name!r}: no sensor of the library measures any "
