@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections import Counter
 from contextlib import nullcontext
+from pathlib import Path
 from typing import Any
 
 import click
@@ -57,9 +58,7 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, rule: str, method:
     With --domain FILE the comparison is on the domain's score (one suite for all its routes); there
     are no periods then (a period is a stretch of one route).
     """
-    from ..api import resilient_report
-    from ..plotting import plot_selection_grid, save_figure, use_file_backend
-    from ..resilient import check_alpha, check_period, save_grid_csv, split_periods
+    from ..resilient import check_alpha, check_period
     from ..selection import check_affordable, check_budget
 
     budget = check_budget(budget)
@@ -72,47 +71,73 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, rule: str, method:
     check_affordable(problem.library, budget, alpha)
     if cluster is not None and isinstance(problem, Domain):
         raise click.UsageError("--scheduler/--workers run a route's periods as tasks: a domain has no periods")
-    if isinstance(problem, Domain):
-        report = resilient_report(problem, budget, alpha, period_s=None, rule=rule, engine=engine, jobs=jobs,
-                                  aggregate=aggregate, method=method)
-        written = [results.save(report, out / "resilient.json")]
-    else:
-        sc = problem.scenario
-        n_periods = len(split_periods(sc.keyframes.times, period_s))
-        bar, progress = progress_bar(quiet, f"{n_periods} periods of {period_s:g} s")
-        if bar is not None:
-            click.echo(f"whole route: greedy and resilient selection on {sc.n_poses} keyframes, {sc.n_landmarks} landmarks ...", err=True)
-        if cluster is not None:
-            from ..distributed import resilient_report_on
-
-            if method != "paper":
-                raise click.UsageError("--scheduler/--workers run the paper's method's periods as tasks: drop --method robust")
-            with cluster, bar or nullcontext():  # the whole route and every period as tasks
-                report = resilient_report_on(cluster.client, problem, budget, alpha, period_s=period_s, rule=rule,
-                                             engine=engine, outdir=str(out), resume=resume, progress=progress)
-        else:
-            with bar or nullcontext():
-                report = resilient_report(problem, budget, alpha, period_s=period_s, rule=rule, engine=engine, jobs=jobs,
-                                          outdir=out, resume=resume, progress=progress, method=method)
+    if cluster is not None and method != "paper":
+        raise click.UsageError("--scheduler/--workers run the paper's method's periods as tasks: drop --method robust")
+    report = _report(problem, budget, alpha, period_s, rule, method, aggregate, engine, jobs, out, resume, quiet, cluster)
     r = report.comparison.resilient
     if alpha and len(r.suite) <= alpha:
         # the failing set took what the budget buys: every sensor of the suite could fail
         raise InputError(f"--failures {alpha}: the resilient suite within --budget ${budget:,.0f} holds only {len(r.suite)} "
                          f"sensor(s) ({', '.join(r.suite) or 'none'}; {r.failure_note or 'the failing sensors take the budget'}), "
                          f"so every one could fail (worst case 0): give fewer --failures or a larger --budget")
-    if not isinstance(problem, Domain):
-        per = report.per_period
-        assert per is not None
-        written = [results.save(report, out / "resilient.json"), save_grid_csv(per.grid, out / "grid.csv")]
-        use_file_backend()
-        what = "robust" if method == "robust" else "resilient"
-        title = f"{sc.name}: {what} selection per {period_s:g} s period, {alpha} failure(s), budget ${budget:,.0f}"
-        ax = plot_selection_grid(per.grid, title=title)
-        written.append(save_figure(ax.figure, out / f"grid.{fmt}", close=True))
-
+    written = _write(report, problem, out, fmt, period_s, alpha, budget, method)
     if as_json:
         click.echo(results.dumps(report), nl=False)
         return
+    _print_comparison(report, budget, alpha, rule, method)
+    _print_periods(report.per_period, period_s)
+    for p in written:
+        click.echo(f"wrote {p}")
+    if report.per_period is not None:
+        click.echo(f"wrote {len(report.per_period.periods)} period files under {out / 'periods'}")
+
+
+def _report(problem: Any, budget: float, alpha: int, period_s: float, rule: str, method: str, aggregate: str,
+            engine: str | None, jobs: int, out: Path, resume: bool, quiet: bool, cluster: Any) -> Any:
+    """The resilient report: a domain's comparison, or a route's comparison and periods (in-process,
+    or as tasks on a cluster), with one progress bar over the periods."""
+    from ..api import resilient_report
+    from ..resilient import split_periods
+
+    if isinstance(problem, Domain):
+        return resilient_report(problem, budget, alpha, period_s=None, rule=rule, engine=engine, jobs=jobs,
+                                aggregate=aggregate, method=method)
+    sc = problem.scenario
+    n_periods = len(split_periods(sc.keyframes.times, period_s))
+    bar, progress = progress_bar(quiet, f"{n_periods} periods of {period_s:g} s")
+    if bar is not None:
+        click.echo(f"whole route: greedy and resilient selection on {sc.n_poses} keyframes, {sc.n_landmarks} landmarks ...", err=True)
+    if cluster is not None:
+        from ..distributed import resilient_report_on
+
+        with cluster, bar or nullcontext():  # the whole route and every period as tasks
+            return resilient_report_on(cluster.client, problem, budget, alpha, period_s=period_s, rule=rule,
+                                       engine=engine, outdir=str(out), resume=resume, progress=progress)
+    with bar or nullcontext():
+        return resilient_report(problem, budget, alpha, period_s=period_s, rule=rule, engine=engine, jobs=jobs,
+                                outdir=out, resume=resume, progress=progress, method=method)
+
+
+def _write(report: Any, problem: Any, out: Path, fmt: str, period_s: float, alpha: int, budget: float, method: str) -> list[Path]:
+    """resilient.json, and for a route grid.csv and the grid plot."""
+    from ..plotting import plot_selection_grid, save_figure, use_file_backend
+    from ..resilient import save_grid_csv
+
+    written = [results.save(report, out / "resilient.json")]
+    per = report.per_period
+    if per is None:
+        return written
+    written.append(save_grid_csv(per.grid, out / "grid.csv"))
+    use_file_backend()
+    what = "robust" if method == "robust" else "resilient"
+    title = f"{problem.scenario.name}: {what} selection per {period_s:g} s period, {alpha} failure(s), budget ${budget:,.0f}"
+    ax = plot_selection_grid(per.grid, title=title)
+    written.append(save_figure(ax.figure, out / f"grid.{fmt}", close=True))
+    return written
+
+
+def _print_comparison(report: Any, budget: float, alpha: int, rule: str, method: str) -> None:
+    """Greedy, the resilient (and robust) design side by side: nominal and worst-case scores."""
     c = report.comparison
     print_target(c.problem)
     click.echo(f"budget    ${budget:,.0f}, {alpha} failure(s), rule {rule}, engine {c.engine}, method {method}")
@@ -139,10 +164,10 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, rule: str, method:
         gain = 100.0 * (c.resilient_worst.score - c.greedy_worst.score) / c.greedy_worst.score
         click.echo(f"\nworst case: resilient {gain:+.1f} % versus greedy (scores in nats: f(S) = log det L(S) - log det L(empty))")
 
-    per = report.per_period
+
+def _print_periods(per: Any, period_s: float) -> None:
+    """Per period: which sensors were assumed to fail, used, and worst for the suite."""
     if per is None:
-        for p in written:
-            click.echo(f"wrote {p}")
         return
     n = len(per.periods)
     failed = Counter(s for p in per.periods if p.result is not None for s in p.result.failed)
@@ -155,9 +180,5 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, rule: str, method:
         click.echo("  most used active: " + ", ".join(f"{s} in {k}/{n}" for s, k in active.most_common(8)))
     if worst:
         click.echo("  worst failure for the suite: " + ", ".join(f"{s} in {k}/{n}" for s, k in worst.most_common(8)))
-    for p in written:
-        click.echo(f"wrote {p}")
-    click.echo(f"wrote {n} period files under {out / 'periods'}")
-
 
 COMMANDS = [resilient_cmd]

@@ -41,6 +41,8 @@ from .records import RobustOptimum
 DEFAULT_EXACT_NODES = 20_000
 
 
+# Long on purpose (~70 lines): one best-first branch and bound loop (expand, bound, prune, incumbent)
+# whose state is local to the loop.
 def robust_optimum(evaluator: Evaluator, budget_usd: float, alpha: int, *, incumbent: Sequence[int] = (),
                    max_nodes: int = DEFAULT_EXACT_NODES) -> RobustOptimum:
     """Best worst case within the budget (see the module docstring).

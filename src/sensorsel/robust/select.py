@@ -55,6 +55,9 @@ def _better(a: Candidate, b: Candidate, lib) -> bool:
     return a.suite < b.suite
 
 
+# Long on purpose (~125 lines): the candidates run in one fixed order (greedy rules, Algorithm 2, the
+# bound's exact leaf, then the further methods unless the bound already proves one), each scored by
+# its exact worst case; splitting the stages apart would pass the memo, bound and tie-break around.
 def robust_select(evaluator: Evaluator, budget_usd: float, alpha: int, *, rules: Sequence[str] = DEFAULT_RULES,
                   methods: Sequence[str] = EXTRA_METHODS, skip_when_proved: bool = True,
                   saturate_levels: int = DEFAULT_SATURATE_LEVELS, saturate_evaluations: int | None = 2_000,

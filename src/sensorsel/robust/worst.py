@@ -135,6 +135,8 @@ def _local_search(fam: RouteFailureFamily, start: Sequence[int], budget: float, 
     return s, (f"moves: {' '.join(moves)}; " if moves else "no move; ") + stop
 
 
+# Long on purpose (~110 lines): as robust_select, for the worst route of a domain: candidates in one
+# fixed order, each scored by its exact worst route.
 def worst_route_select(domain: Domain, budget_usd: float, alpha: int, *, engine: str | None = None, jobs: int = 1,
                        rules: Sequence[str] = ("uniform", "marginal"), methods: Sequence[str] = WORST_METHODS,
                        skip_when_proved: bool = True, saturate_levels: int = DEFAULT_SATURATE_LEVELS,

@@ -154,6 +154,8 @@ def front_flops(pair_pose: np.ndarray, pair_landmark: np.ndarray, n_poses: int, 
     return _flops(m.astype(float), m1.astype(float))
 
 
+# Long on purpose (~60 lines): one pass over the chunks that fixes, in order, which variables each
+# chunk eliminates and carries; the kernel replays it for every candidate.
 def plan_front(pair_pose: np.ndarray, pair_landmark: np.ndarray, n_poses: int, n_landmarks: int,
                base_rc: tuple[np.ndarray, np.ndarray], base_values: np.ndarray, chunk_poses: int = CHUNK_POSES,
                pose_order: np.ndarray | None = None, order_name: str = "route") -> FrontPlan:
