@@ -590,7 +590,10 @@ def resilient_report_on(client: Any, problem: Problem, budget_usd: float, alpha:
     period = check_period(period_s)
     name = engine_name(engine)
     spans = split_periods(problem.scenario.keyframes.times, period)
-    shared = client.scatter(problem, broadcast=True)
+    # hash=False: a key of its own for each call. With the default content hash, a second call on the
+    # same problem scatters to the same key while the first call's release of it may still be on its
+    # way to the scheduler, which then deletes the data under the new tasks ("lost dependencies").
+    shared = client.scatter(problem, broadcast=True, hash=False)
     cache = str(Path(outdir) / "periods" / "route.json") if outdir is not None else None
     cmp_fut = client.submit(_compare_task, shared, budget, alpha, rule, engine, jobs, lazy, cache, resume, pure=False)
     futs = {client.submit(_period_task, shared, span, budget, alpha, rule, name, jobs, lazy, period,
