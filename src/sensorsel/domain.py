@@ -42,7 +42,7 @@ from typing import Any, NoReturn
 import yaml
 
 from .errors import SensorselError
-from .library import _StrictLoader
+from .library import _StrictLoader, is_number_text
 from .scenario import (
     KITTI_ROOT_ENV,
     REAL,
@@ -202,7 +202,7 @@ class _Checker:
 
     def number(self, value: Any, key: str, line: int | None, *, minimum: float = 0.0, strict: bool = True) -> float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
-            hint = " (a number in quotes is text: remove the quotes)" if isinstance(value, str) and _is_float(value) else ""
+            hint = " (a number in quotes is text: remove the quotes)" if isinstance(value, str) and is_number_text(value) else ""
             self.fail(key, f"expected a number, got {value!r}{hint}", line)
         v = float(value)
         if not math.isfinite(v) or v < minimum or (strict and v <= minimum):
@@ -227,14 +227,6 @@ class _Checker:
         if not (Path(root) / "poses").is_dir():
             self.fail(key, f"{root} is not a KITTI odometry dataset folder (expected {Path(root) / 'poses'}/NN.txt)", line)
         return root
-
-
-def _is_float(text: str) -> bool:
-    try:
-        float(text)
-        return True
-    except ValueError:
-        return False
 
 
 def parse_domain(data: Any, path: str | Path = "<memory>") -> DomainSpec:

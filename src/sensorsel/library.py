@@ -202,7 +202,7 @@ def clock_to_angle(clock: int) -> float:
 def _number(value: Any, path: Path, key: str, *, positive: bool = True) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         hint = ""
-        if isinstance(value, str) and _is_float_text(value):
+        if isinstance(value, str) and is_number_text(value):
             hint = " (a number in quotes is text: remove the quotes)"
         raise LibraryError(path, key, f"expected a number, got {value!r}{hint}")
     v = float(value)
@@ -213,7 +213,8 @@ def _number(value: Any, path: Path, key: str, *, positive: bool = True) -> float
     return v
 
 
-def _is_float_text(text: str) -> bool:
+def is_number_text(text: str) -> bool:
+    """Whether ``text`` reads as a number (``float(text)`` succeeds): the one check the file readers use."""
     try:
         float(text)
         return True

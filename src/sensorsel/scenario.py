@@ -30,6 +30,7 @@ from scipy.spatial import cKDTree
 
 from ._resources import fixtures_dir
 from .errors import InputError, ScenarioError
+from .library import is_number_text
 from .fileio import atomic_write_text
 
 KITTI_ROOT_ENV = "SENSORSEL_KITTI_ROOT"
@@ -150,19 +151,11 @@ def _parse_row(line: str, path: Path, lineno: int, n: int, what: str) -> list[fl
     try:
         values = [float(p) for p in parts]
     except ValueError:
-        bad = next(p for p in parts if not _is_float(p))
+        bad = next(p for p in parts if not is_number_text(p))
         raise ScenarioError(path, f"not a number: {bad!r}", lineno) from None
     if not all(math.isfinite(v) for v in values):
         raise ScenarioError(path, "NaN or infinite value", lineno)
     return values
-
-
-def _is_float(s: str) -> bool:
-    try:
-        float(s)
-        return True
-    except ValueError:
-        return False
 
 
 def read_kitti_poses(path: str | Path) -> np.ndarray:
@@ -433,7 +426,7 @@ def sniff_route_format(path: str | Path) -> str:
         raise ScenarioError(path, "route file is empty")
     lineno, first = lines[0]
     parts = first.replace(",", " ").split()
-    if not all(_is_float(p) for p in parts):
+    if not all(is_number_text(p) for p in parts):
         return "csv"
     by_count = {12: "kitti", 8: "tum"}
     if len(parts) not in by_count:
@@ -652,7 +645,7 @@ def read_landmarks_csv(path: str | Path) -> np.ndarray:
     if lines:
         hline, first = lines[0]
         fields = _csv_fields(first)
-        if not all(_is_float(f) for f in fields):
+        if not all(is_number_text(f) for f in fields):
             header = [f.lower() for f in fields]
             missing = [c for c in ("x", "y") if c not in header]
             if missing:

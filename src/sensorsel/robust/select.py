@@ -55,6 +55,21 @@ def _better(a: Candidate, b: Candidate, lib) -> bool:
     return a.suite < b.suite
 
 
+def check_rules_and_methods(rules: Sequence[str], methods: Sequence[str], allowed: Sequence[str], what: str) -> tuple[str, ...]:
+    """The greedy rules to run as candidates, "uniform" first (it is the answer's floor), after
+    checking every rule against the registry and every method against ``allowed``.
+
+    Raises:
+        InputError: an unknown rule or method (naming the choices).
+    """
+    for r in rules:
+        check_rule(r)
+    for m in methods:
+        if m not in allowed:
+            raise InputError(f"unknown {what} {m!r}; available: {', '.join(allowed)}")
+    return ("uniform",) + tuple(r for r in rules if r != "uniform")
+
+
 # Long on purpose (~125 lines): the candidates run in one fixed order (greedy rules, Algorithm 2, the
 # bound's exact leaf, then the further methods unless the bound already proves one), each scored by
 # its exact worst case; splitting the stages apart would pass the memo, bound and tie-break around.
@@ -76,12 +91,7 @@ def robust_select(evaluator: Evaluator, budget_usd: float, alpha: int, *, rules:
     """
     t_start = time.perf_counter()
     budget, alpha = check_budget(budget_usd), check_alpha(alpha)
-    for r in rules:
-        check_rule(r)
-    for m in methods:
-        if m not in EXTRA_METHODS:
-            raise InputError(f"unknown robust method {m!r}; available: {', '.join(EXTRA_METHODS)}")
-    rules = ("uniform",) + tuple(r for r in rules if r != "uniform")
+    rules = check_rules_and_methods(rules, methods, EXTRA_METHODS, "robust method")
     ev = memoized(evaluator)
     lib = ev.library
     n_start = ev.n_evaluations

@@ -28,17 +28,17 @@ from typing import Sequence
 
 import numpy as np
 
-from ..errors import InputError
 from ..evaluators import DomainEvaluator, Evaluator, as_suite
 from ..problem import Domain
 from ..resilient import check_alpha, resilient_select, worst_case
-from ..selection import REL_TOL, check_budget, check_rule, greedy
+from ..selection import REL_TOL, check_budget, greedy
 from .bound import DEFAULT_BOUND_NODES, robust_bound
 from .family import FailureFamily, Family
 from .memo import MemoEvaluator, memoized
 from .methods import DEFAULT_SATURATE_LEVELS, saturate
 from .records import Candidate, MemberWorst, RobustBound, RobustResult
 from .select import _better as _select_better
+from .select import check_rules_and_methods
 
 #: Methods run after the bound on the worst route.
 WORST_METHODS = ("saturate", "local-search")
@@ -146,12 +146,7 @@ def worst_route_select(domain: Domain, budget_usd: float, alpha: int, *, engine:
     failures (see the module docstring); a :class:`RobustResult` with ``aggregate="worst"``."""
     t_start = time.perf_counter()
     budget, alpha = check_budget(budget_usd), check_alpha(alpha)
-    for r in rules:
-        check_rule(r)
-    for m in methods:
-        if m not in WORST_METHODS:
-            raise InputError(f"unknown method {m!r} for the worst route; available: {', '.join(WORST_METHODS)}")
-    rules = ("uniform",) + tuple(r for r in rules if r != "uniform")
+    rules = check_rules_and_methods(rules, methods, WORST_METHODS, "method for the worst route")
     dev = DomainEvaluator(domain, engine, jobs=jobs, aggregate="normalised")
     n_start = sum(e.n_evaluations for e in dev.routes)
     routes: list[MemoEvaluator] = [memoized(e) for e in dev.routes]
