@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import Iterable
 
 from .certify import DEFAULT_MAX_NODES, Certificate, CertifiedGreedyResult, OptimumResult, certificate, optimal
+from .constraints import Constraints, feasible_set
 from .domain_design import DomainDesign, design_domain
 from .errors import InputError
 from .evaluators import DomainEvaluator, evaluator_for, make_evaluator
@@ -91,7 +92,8 @@ def score_suite(problem: Problem, suite: str | Iterable[str | int], *, engine: s
 
 def run_greedy(problem: Target, budget_usd: float, rule: str = "uniform", *, engine: str | None = None, jobs: int = 1,
                lazy: bool = True, aggregate: str = "normalised", progress: Progress | None = None,
-               certify: bool = False, certify_progress: Progress | None = None) -> CertifiedGreedyResult:
+               certify: bool = False, certify_progress: Progress | None = None,
+               constraints: Constraints | None = None) -> CertifiedGreedyResult:
     """The ``sensorsel greedy`` run: :func:`~sensorsel.selection.greedy` with a fresh evaluator of
     ``engine`` for a problem or a domain (its routes combined by ``aggregate``), recording what it ran on.
 
@@ -100,13 +102,19 @@ def run_greedy(problem: Target, budget_usd: float, rule: str = "uniform", *, eng
     of the library per greedy step, fewer where a step provably cannot lower the bound
     (``certify_progress(done, total)`` after each); else its ``certificate`` is None.
 
+    ``constraints``: limits besides the budget (resources, mounting slots, required and excluded
+    sensors, most sensors; :mod:`sensorsel.constraints`), recorded in the result.
+
     Raises:
-        InputError: a bad budget or rule (before any evaluator is built).
+        InputError: a bad budget or rule, or constraints the library cannot meet (before any
+            evaluator is built).
     """
     check_budget(budget_usd)
     check_rule(rule)
+    if constraints is not None:
+        feasible_set(problem.library, budget_usd, constraints)  # refuse a bad request before the evaluator
     ev = evaluator_for(problem, engine, jobs=jobs, aggregate=aggregate)
-    res = greedy(ev, budget_usd, rule, lazy=lazy, progress=progress, info=problem.info)
+    res = greedy(ev, budget_usd, rule, lazy=lazy, progress=progress, info=problem.info, constraints=constraints)
     cert = certificate(ev, res, progress=certify_progress) if certify else None
     return CertifiedGreedyResult.of(res, cert)
 

@@ -19,6 +19,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from .constraints import Constraints
 from .certify import CertifiedGreedyResult, certificate
 from .evaluators import DomainEvaluator
 from .problem import Domain, DomainInfo
@@ -87,7 +88,7 @@ def route_breakdown(evaluator: DomainEvaluator, result: GreedyResult, *, lazy: b
     scores = evaluator.route_scores(suite)
     out = []
     for k, (route, ev) in enumerate(zip(evaluator.domain.routes, evaluator.routes)):
-        own = greedy(ev, result.budget_usd, result.rule, lazy=lazy)
+        own = greedy(ev, result.budget_usd, result.rule, lazy=lazy, constraints=result.constraints)
         f_s, f_own = float(scores[k]), float(own.score)
         out.append(RouteShare(
             name=route.name, weight=float(evaluator.weights[k]), score=f_s, best_score=float(evaluator.best[k]),
@@ -102,13 +103,14 @@ def route_breakdown(evaluator: DomainEvaluator, result: GreedyResult, *, lazy: b
 def design_domain(domain: Domain, budget_usd: float, rule: str = "uniform", *, engine: str | None = None, jobs: int = 1,
                   aggregate: str = "normalised", lazy: bool = True, certify: bool = False, progress: Progress | None = None,
                   certify_progress: Progress | None = None, breakdown_progress: Progress | None = None,
-                  evaluator: DomainEvaluator | None = None) -> DomainDesign:
+                  evaluator: DomainEvaluator | None = None, constraints: Constraints | None = None) -> DomainDesign:
     """Greedy selection of one suite for every route of ``domain``, and its per-route breakdown; with
     ``certify``, the run's certificate on the domain score (F is monotone submodular, so the bound holds).
 
     ``evaluator``: the domain's evaluator, already built (e.g. on a Dask cluster,
     :class:`sensorsel.distributed.DistributedDomainEvaluator`); ``engine``, ``jobs`` and ``aggregate``
-    are then its own.
+    are then its own. ``constraints``: limits besides the budget (:mod:`sensorsel.constraints`),
+    respected by the domain suite and by each route's own design.
 
     Raises:
         InputError: a bad budget, rule, engine or aggregate, or a route no sensor can measure.
@@ -116,7 +118,7 @@ def design_domain(domain: Domain, budget_usd: float, rule: str = "uniform", *, e
     t0 = time.perf_counter()
     budget = check_budget(budget_usd)
     ev = evaluator if evaluator is not None else DomainEvaluator(domain, engine, jobs=jobs, aggregate=aggregate)
-    res = greedy(ev, budget, rule, lazy=lazy, progress=progress, info=domain.info)
+    res = greedy(ev, budget, rule, lazy=lazy, progress=progress, info=domain.info, constraints=constraints)
     cert = certificate(ev, res, progress=certify_progress) if certify else None
     shares = route_breakdown(ev, res, lazy=lazy, progress=breakdown_progress)
     worst = shares[int(np.argmin([s.share_of_own for s in shares]))].name

@@ -23,6 +23,16 @@ MOUNTS = ("roof", "clock")
 _TWO_PI = 2.0 * math.pi
 
 _COMMON_KEYS = {"code", "name", "type", "digit", "mount", "range_m", "fov_rad", "cost_usd"}
+#: Optional keys of a model (every other key is required).
+_OPTIONAL_KEYS = {"resources"}
+#: A resource name: lower-case letters, digits and '_' ("power_w", "mass_kg", "data_rate_mbps").
+_RESOURCE_NAME = re.compile(r"^[a-z][a-z0-9_]*$")
+#: Units shown for resource names by their suffix (anything else is shown without a unit).
+RESOURCE_UNITS = {"_w": "W", "_kg": "kg", "_mbps": "Mbit/s", "_usd": "$", "_l": "l", "_a": "A"}
+#: Places of a slot besides the clock numbers "1".."12": the roof, and every clock position.
+SLOT_PLACES = ("roof", "clock")
+#: Kinds a slot counts besides the sensor types: any sensor.
+SLOT_ANY = "any"
 _TYPE_KEYS = {
     "lidar": {"sigma_range_m", "sigma_bearing_rad"},
     "radar": {"sigma_range_m", "sigma_bearing_rad"},
@@ -45,6 +55,8 @@ class SensorModel:
         cost_usd: price of one unit [$].
         sigma_range_m, sigma_bearing_rad: measurement noise std (lidar, radar) [m], [rad].
         baseline_m, focal_px, sigma_disparity_px, sigma_pixel_px: stereo parameters [m], [px].
+        resources: what one unit draws or weighs, by resource name (``("power_w", 60.0)``, ...;
+            units by the name's suffix, :func:`resource_unit`); empty when the file declares none.
     """
 
     code: str
@@ -61,6 +73,12 @@ class SensorModel:
     focal_px: float | None = None
     sigma_disparity_px: float | None = None
     sigma_pixel_px: float | None = None
+    resources: tuple[tuple[str, float], ...] = ()
+
+    def resource(self, name: str) -> float:
+        """The amount of resource ``name`` one unit uses (0 when the model does not declare it: a
+        limit on it refuses such a library, :mod:`sensorsel.constraints`)."""
+        return dict(self.resources).get(name, 0.0)
 
     def range_sigma(self, distance_m: np.ndarray) -> np.ndarray:
         """Range noise std [m] at the given distances [m] (shape preserved).
@@ -112,11 +130,41 @@ class PlacedSensor:
 
 
 @dataclass(frozen=True)
+class Slot:
+    """A mounting slot: at most ``capacity`` sensors of ``kind`` at one place on the car.
+
+    Attributes:
+        place: "roof", or a clock position "1".."12".
+        kind: a sensor type ("lidar", "radar", "stereo") or "any".
+        capacity: how many such sensors the place holds (>= 0).
+        members: library positions of the sensors this slot counts, ascending.
+    """
+
+    place: str
+    kind: str
+    capacity: int
+    members: tuple[int, ...]
+
+    @property
+    def label(self) -> str:
+        """``"3 o'clock radar"``, ``"roof lidar"``."""
+        where = "roof" if self.place == "roof" else f"{self.place} o'clock"
+        return f"{where} {'sensors' if self.kind == SLOT_ANY else self.kind}"
+
+
+@dataclass(frozen=True)
 class SensorLibrary:
-    """An ordered collection of placed sensors, with the file it was read from."""
+    """An ordered collection of placed sensors, with the file it was read from and its mounting slots.
+
+    Attributes:
+        sensors: the placed sensors; a sensor's position in this tuple is its handle everywhere.
+        source: the file it was read from.
+        slots: the car's mounting capacities (:class:`Slot`), empty when the file declares none.
+    """
 
     sensors: tuple[PlacedSensor, ...]
     source: str = "<memory>"
+    slots: tuple[Slot, ...] = ()
 
     def __repr__(self) -> str:
         return f"SensorLibrary({len(self.sensors)} sensors from {self.source!r})"
@@ -189,9 +237,34 @@ class SensorLibrary:
         """Total cost of a suite [$]."""
         return float(sum(self.sensors[i].cost_usd for i in suite))
 
+    @property
+    def resource_names(self) -> tuple[str, ...]:
+        """The resources any model declares, in file order."""
+        names: dict[str, None] = {}
+        for s in self.sensors:
+            for name, _ in s.model.resources:
+                names.setdefault(name)
+        return tuple(names)
+
+    def resource(self, name: str) -> np.ndarray:
+        """What each sensor uses of resource ``name``, shape (n_sensors,), in the resource's unit."""
+        return np.array([s.model.resource(name) for s in self.sensors], dtype=float)
+
     def subset(self, positions: Sequence[int]) -> "SensorLibrary":
-        """A smaller library of the sensors at these positions, in this order."""
-        return SensorLibrary(tuple(self.sensors[i] for i in positions), self.source)
+        """A smaller library of the sensors at these positions, in this order (slots kept, renumbered)."""
+        new = {int(p): k for k, p in enumerate(positions)}
+        slots = tuple(Slot(sl.place, sl.kind, sl.capacity, tuple(sorted(new[m] for m in sl.members if m in new)))
+                      for sl in self.slots)
+        return SensorLibrary(tuple(self.sensors[i] for i in positions), self.source,
+                             tuple(sl for sl in slots if sl.members))
+
+
+def resource_unit(name: str) -> str:
+    """The unit of a resource, from its name's suffix ("power_w" -> "W"); "" when unknown."""
+    for suffix, unit in RESOURCE_UNITS.items():
+        if name.endswith(suffix):
+            return unit
+    return ""
 
 
 def clock_to_angle(clock: int) -> float:
@@ -238,8 +311,9 @@ def _parse_model(raw: Any, path: Path, key: str) -> SensorModel:
         raise LibraryError(path, f"{key}.type", f"unknown sensor type {stype!r}; expected one of {', '.join(SENSOR_TYPES)}")
     allowed = _COMMON_KEYS | _TYPE_KEYS[stype]
     for k in raw:
-        if k not in allowed:
-            raise LibraryError(path, f"{key}.{k}", f"unknown key for a {stype} model; allowed: {', '.join(sorted(allowed))}")
+        if k not in allowed | _OPTIONAL_KEYS:
+            raise LibraryError(path, f"{key}.{k}", f"unknown key for a {stype} model; allowed: "
+                                                   f"{', '.join(sorted(allowed | _OPTIONAL_KEYS))}")
     for k in sorted(allowed):
         if k not in raw:
             raise LibraryError(path, f"{key}.{k}", "missing required field")
@@ -263,8 +337,65 @@ def _parse_model(raw: Any, path: Path, key: str) -> SensorModel:
         digit=digit,
         mount=mount,
         fov_rad=min(fov, _TWO_PI),
+        resources=_parse_resources(raw.get("resources", {}), path, f"{key}.resources"),
         **fields,
     )
+
+
+def _parse_resources(raw: Any, path: Path, key: str) -> tuple[tuple[str, float], ...]:
+    """A model's ``resources`` mapping (name -> non-negative number), in file order."""
+    if not isinstance(raw, dict):
+        raise LibraryError(path, key, f"expected a mapping of resource name to amount (power_w: 8), got {raw!r}")
+    out = []
+    for name, value in raw.items():
+        if not isinstance(name, str) or not _RESOURCE_NAME.match(name):
+            raise LibraryError(path, f"{key}.{name}", "a resource name is lower-case letters, digits and '_' "
+                                                      "(power_w, mass_kg, data_rate_mbps)")
+        v = _number(value, path, f"{key}.{name}", positive=False)
+        if v < 0:
+            raise LibraryError(path, f"{key}.{name}", f"must be 0 or more, got {value!r}")
+        out.append((name, v))
+    return tuple(out)
+
+
+def _parse_slots(raw: Any, path: Path, sensors: list[PlacedSensor], clocks: list[int]) -> tuple[Slot, ...]:
+    """The ``slots`` section: place -> {kind: capacity}; "clock" applies to each clock position, a
+    clock number ("6") to that position alone (its kinds replacing those of "clock")."""
+    if not isinstance(raw, dict):
+        raise LibraryError(path, "slots", f"expected a mapping of place (roof, clock, 1..12) to capacities, got {raw!r}")
+    per_place: dict[str, dict[str, int]] = {}
+    for place, caps in raw.items():
+        p = str(place)
+        if p not in SLOT_PLACES and not (p.isdigit() and 1 <= int(p) <= 12):
+            raise LibraryError(path, f"slots.{p}", "unknown place; expected roof, clock (each clock position) or 1..12")
+        if p.isdigit() and int(p) not in clocks:
+            raise LibraryError(path, f"slots.{p}", f"clock position {p} is not in clock_positions {clocks}")
+        if not isinstance(caps, dict) or not caps:
+            raise LibraryError(path, f"slots.{p}", f"expected a mapping of sensor type to capacity (radar: 1), got {caps!r}")
+        kinds = {}
+        for kind, cap in caps.items():
+            if kind not in SENSOR_TYPES + (SLOT_ANY,):
+                raise LibraryError(path, f"slots.{p}.{kind}", f"unknown kind; expected {', '.join(SENSOR_TYPES + (SLOT_ANY,))}")
+            if isinstance(cap, bool) or not isinstance(cap, int) or cap < 0:
+                raise LibraryError(path, f"slots.{p}.{kind}", f"expected a whole number of sensors >= 0, got {cap!r}")
+            kinds[kind] = cap
+        per_place[p] = kinds
+    slots = []
+    places = ["roof"] + [str(c) for c in clocks]
+    for p in places:
+        kinds = dict(per_place.get("roof", {})) if p == "roof" else {**per_place.get("clock", {}), **per_place.get(p, {})}
+        for kind, cap in kinds.items():
+            members = tuple(i for i, s in enumerate(sensors)
+                            if (s.clock is None if p == "roof" else s.clock == int(p)) and kind in (SLOT_ANY, s.model.type))
+            if members:
+                slots.append(Slot(p, kind, cap, members))
+    return tuple(slots)
+
+
+#: Top-level keys of a library file.
+_TOP_KEYS = ("extends", "clock_positions", "models", "slots")
+#: Longest chain of ``extends`` followed (a longer one is a loop or a mistake).
+_MAX_EXTENDS = 8
 
 
 def parse_library(data: Any, path: str | Path = "<memory>") -> SensorLibrary:
@@ -276,9 +407,11 @@ def parse_library(data: Any, path: str | Path = "<memory>") -> SensorLibrary:
     path = Path(path)
     if not isinstance(data, dict):
         raise LibraryError(path, "", f"expected a mapping with keys 'clock_positions' and 'models', got {type(data).__name__}")
+    if "extends" in data:
+        raise LibraryError(path, "extends", "only a library file can extend another (load it with load_library)")
     for k in data:
-        if k not in ("clock_positions", "models"):
-            raise LibraryError(path, str(k), "unknown top-level key; allowed: clock_positions, models")
+        if k not in _TOP_KEYS:
+            raise LibraryError(path, str(k), f"unknown top-level key; allowed: {', '.join(_TOP_KEYS)}")
     clocks = data.get("clock_positions", list(range(1, 13)))
     if not isinstance(clocks, list) or not clocks:
         raise LibraryError(path, "clock_positions", f"expected a non-empty list of clock positions 1..12, got {clocks!r}")
@@ -322,7 +455,8 @@ def parse_library(data: Any, path: str | Path = "<memory>") -> SensorLibrary:
                     f"of models[{owner[id(o.model)]}]",
                 )
             first[v] = s
-    return SensorLibrary(tuple(sensors), str(path))
+    slots = _parse_slots(data["slots"], path, sensors, clocks) if "slots" in data else ()
+    return SensorLibrary(tuple(sensors), str(path), slots)
 
 
 class _StrictLoader(yaml.SafeLoader):
@@ -358,10 +492,42 @@ _StrictLoader.add_implicit_resolver(
 def load_library(path: str | Path | None = None) -> SensorLibrary:
     """Read and validate a sensor library YAML file (safe loading); default: the paper's Table I.
 
+    A file may start from another with ``extends: OTHER.yaml`` (a path relative to it): its own
+    top-level sections (``slots``, ``models``, ``clock_positions``) replace the other file's. So a
+    car's mounting slots fit in a few lines on top of the stock library.
+
     Raises:
-        LibraryError: missing file, malformed YAML (with its line), or an invalid field.
+        LibraryError: missing file, malformed YAML (with its line), an invalid field, or an
+            ``extends`` that is missing, loops, or is longer than 8 files.
     """
     path = Path(path) if path is not None else default_library_path()
+    return parse_library(_resolved_document(path, ()), path)
+
+
+def _resolved_document(path: Path, chain: tuple[Path, ...]) -> Any:
+    """The file's document with its ``extends`` chain merged in (each base validated on its own, so
+    that a base's mistake is reported against the base file)."""
+    data = _read_document(path)
+    if not isinstance(data, dict) or "extends" not in data:
+        return data
+    base_name = data["extends"]
+    if not isinstance(base_name, str) or not base_name.strip():
+        raise LibraryError(path, "extends", f"expected the path of another library file, got {base_name!r}")
+    base_path = (path.parent / base_name).resolve()
+    seen = chain + (path.resolve(),)
+    if base_path in seen:
+        raise LibraryError(path, "extends", f"{base_name!r} extends back to this file (a loop)")
+    if len(seen) >= _MAX_EXTENDS:
+        raise LibraryError(path, "extends", f"more than {_MAX_EXTENDS} files extend one another")
+    if not base_path.is_file():
+        raise LibraryError(path, "extends", f"{base_name!r} not found (looked for {base_path})")
+    base = _resolved_document(base_path, seen)
+    parse_library(base, base_path)  # a mistake in the base is reported against the base
+    return {**base, **{k: v for k, v in data.items() if k != "extends"}}
+
+
+def _read_document(path: Path) -> Any:
+    """The YAML document of a library file (a SafeLoader that refuses repeated keys)."""
     try:
         text = path.read_text(encoding="utf-8")
     except FileNotFoundError:
@@ -369,7 +535,7 @@ def load_library(path: str | Path | None = None) -> SensorLibrary:
     except (OSError, UnicodeDecodeError) as exc:
         raise LibraryError(path, "", f"cannot read: {exc}") from None
     try:
-        data = yaml.load(text, Loader=_StrictLoader)  # a SafeLoader: plain data only
+        return yaml.load(text, Loader=_StrictLoader)  # a SafeLoader: plain data only
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         if mark is not None:
@@ -382,4 +548,3 @@ def load_library(path: str | Path | None = None) -> SensorLibrary:
         else:
             where, problem = "", str(exc)
         raise LibraryError(path, "", "malformed YAML: " + " ".join(f"{where}{problem}".split())) from None
-    return parse_library(data, path)

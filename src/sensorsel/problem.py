@@ -87,7 +87,9 @@ class Fingerprint:
     def of(cls, library: SensorLibrary, scenario: Scenario, settings: GraphSettings) -> "Fingerprint":
         sensors = []
         for s in library.sensors:
-            model = {k: v for k, v in asdict(s.model).items() if k != "name"}
+            # resources (power, mass, data rate) do not change a score: a constrained result records
+            # the limits and resource values it used itself (sensorsel.constraints)
+            model = {k: v for k, v in asdict(s.model).items() if k not in ("name", "resources")}
             sensors.append({"id": s.id, "index": s.index, "clock": s.clock, "mount_angle_rad": s.mount_angle_rad, "model": model})
         kf = scenario.keyframes
         return cls(

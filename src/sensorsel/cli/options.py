@@ -411,3 +411,59 @@ def compact_suite(suite: Sequence[str], library: SensorLibrary | None = None) ->
         code, _, where = sid.rpartition("-")
         groups.setdefault(code, []).append(where)
     return " ".join(f"{c}-{w[0]}" if len(w) == 1 else f"{c}-{{{','.join(w)}}}" for c, w in groups.items())
+
+
+def constraint_options(fn: Callable[..., Any]) -> Callable[..., Any]:
+    """--limit RES=VAL (repeatable), --no-slots, --require IDS, --owned, --exclude IDS, --max-sensors N:
+    limits besides the budget (:mod:`sensorsel.constraints`); read them with :func:`constraints_from`."""
+    for deco in reversed([
+        click.option("--limit", "limits", multiple=True, metavar="RESOURCE=VALUE",
+                     help="Most the suite may use of a resource the library declares (repeatable): "
+                          "--limit power_w=100 --limit data_rate_mbps=1000. See `sensorsel library`."),
+        click.option("--no-slots", "no_slots", is_flag=True, default=False,
+                     help="Ignore the library's mounting slots (at most N sensors of a type at a place)."),
+        click.option("--require", "require", default=None, metavar="IDS", callback=suite_text,
+                     help="Sensors every suite must hold (comma-separated ids), e.g. ones already bought."),
+        click.option("--owned", is_flag=True, default=False,
+                     help="With --require: those sensors are already paid for (their price is not counted "
+                          "against the budget; their power, mass and data rate are)."),
+        click.option("--exclude", "exclude", default=None, metavar="IDS", callback=suite_text,
+                     help="Sensors no suite may hold (comma-separated ids)."),
+        click.option("--max-sensors", type=click.IntRange(min=1), default=None, metavar="N",
+                     help="Most sensors in a suite."),
+    ]):
+        fn = deco(fn)
+    return fn
+
+
+def constraints_from(kw: dict[str, Any]) -> Any:
+    """The :class:`~sensorsel.constraints.Constraints` of :func:`constraint_options` (popped from
+    ``kw``); None when none was given (the budget alone, the library's slots honoured)."""
+    from ..constraints import Constraints, parse_limit
+    limits = [parse_limit(t) for t in kw.pop("limits", ()) or ()]
+    no_slots = kw.pop("no_slots", False)
+    require, owned = kw.pop("require", None), kw.pop("owned", False)
+    exclude, max_sensors = kw.pop("exclude", None), kw.pop("max_sensors", None)
+    if owned and not require:
+        raise InputError("--owned says the --require sensors are paid for: give --require IDS with it")
+    split = lambda t: [x.strip() for x in t.split(",") if x.strip()] if t else []  # noqa: E731
+    return Constraints.of(limits=limits, slots=not no_slots, require=split(require), owned=owned,
+                          exclude=split(exclude), max_sensors=max_sensors)
+
+
+def usage_table(rows: Sequence[Any]) -> str:
+    """The resource-use table of a constrained result: each limit, what the suite uses, what is left.
+    ``rows`` are :class:`~sensorsel.constraints.RowUse`; mounting slots are summed into one line."""
+    out, slots_used, slots_cap, full = [], 0.0, 0.0, 0
+    for r in rows:
+        if r.unit == "" and r.name != "sensors":
+            slots_used += r.used
+            slots_cap += r.limit
+            full += int(r.used >= r.limit)
+            continue
+        fmt = (lambda v: f"${v:,.0f}") if r.unit == "$" else (lambda v: f"{v:,.4g} {r.unit}".rstrip())
+        out.append([r.name, fmt(r.used), fmt(r.limit), f"{r.used / r.limit:.0%}" if r.limit > 0 else "-"])
+    if slots_cap:
+        out.append(["mounting slots", f"{slots_used:,.0f} sensors", f"{slots_cap:,.0f} places",
+                    f"{full} full"])
+    return table(out, ["limit", "used", "of", "share"])

@@ -15,10 +15,11 @@ from ..domain_design import DomainDesign
 from ..problem import Domain, DomainInfo
 from ..certify import CertifiedGreedyResult, format_certificate
 from ..fileio import output_dir, output_file
+from ..constraints import feasible_set
 from ..library import SensorLibrary
 from ..selection import RULES, check_affordable, check_budget
 from ..tradespace import DEFAULT_RULES, Architecture, parse_budgets, parse_rules, run_tradespace, write_csv
-from .options import cluster_from, cluster_options
+from .options import cluster_from, cluster_options, constraint_options, constraints_from, usage_table
 from .options import (budget_option, engine_options, json_option, output_option, plot_format_option, problem_from, progress_bar,
                       compact_suite, print_target, quiet_option, run, table, target_from,
                       target_options)
@@ -47,10 +48,15 @@ def _print_greedy(res: CertifiedGreedyResult, lib: SensorLibrary) -> None:
         click.echo("(empty suite)")
     click.echo("")
     click.echo(f"suite      {','.join(res.suite) or '(empty)'}  ({len(res.suite)} sensors)")
-    click.echo(f"cost       ${res.cost_usd:,.0f} of ${res.budget_usd:,.0f}")
+    owned = res.constraints is not None and res.constraints.owned
+    click.echo(f"cost       ${res.cost_usd:,.0f} of ${res.budget_usd:,.0f}{' (owned sensors not counted)' if owned else ''}")
     click.echo(f"score      {res.score:.3f}{unit.replace('_', ' ')}")
     click.echo(f"evaluated  {res.n_evaluations} suites in {res.seconds:.2f} s")
     click.echo(f"stopped    {res.stop_reason}")
+    if res.constraints is not None:
+        click.echo(f"limits     {res.constraints.describe()}")
+        feas = feasible_set(lib, res.budget_usd, res.constraints)
+        click.echo(usage_table(feas.rows_used(lib.resolve_suite(res.suite))))
     if res.certificate is not None:
         click.echo(format_certificate(res.certificate))
 
@@ -69,6 +75,7 @@ def _print_breakdown(design: DomainDesign) -> None:
 @engine_options
 @cluster_options
 @budget_option(required=True)
+@constraint_options
 @rule_option("uniform")
 @click.option("--lazy/--no-lazy", default=True, show_default=True, help="Lazy (Minoux) evaluation: same picks, fewer evaluations.")
 @output_option(help="Write the full result as JSON.")
@@ -99,12 +106,13 @@ def greedy_cmd(budget: float, rule: str, lazy: bool, output: str | None, as_json
         output_file(plot_path)
         plot_format(None, plot_path)
     cluster = cluster_from(kw)
+    constraints = constraints_from(kw)
     problem = target_from(kw)
     if plot_path and not isinstance(problem, Domain):
         raise click.UsageError("--plot draws a domain's per-route breakdown: it goes with --domain FILE")
     if cluster is not None and not isinstance(problem, Domain):
         raise click.UsageError("--scheduler/--workers spread a domain's routes over a cluster: they go with --domain FILE")
-    check_affordable(problem.library, budget)
+    check_affordable(problem.library, budget, constraints=constraints)
     bar, progress = progress_bar(quiet, f"greedy {rule}", phases=len(RULES[rule].component_rules))
     cert_bar, cert_progress = progress_bar(quiet or not certify, "certificate", after=bar)
     out: CertifiedGreedyResult | DomainDesign
@@ -116,11 +124,12 @@ def greedy_cmd(budget: float, rule: str, lazy: bool, output: str | None, as_json
 
                 ev = DistributedDomainEvaluator(cluster.client, problem, engine, aggregate=aggregate)
             out = design_domain(problem, budget, rule, engine=engine, jobs=jobs, aggregate=aggregate, lazy=lazy,
-                                certify=certify, progress=progress, certify_progress=cert_progress, evaluator=ev)
+                                certify=certify, progress=progress, certify_progress=cert_progress, evaluator=ev,
+                                constraints=constraints)
             res = out.greedy
         else:
             out = res = run_greedy(problem, budget, rule, engine=engine, jobs=jobs, lazy=lazy, progress=progress,
-                                   certify=certify, certify_progress=cert_progress)
+                                   certify=certify, certify_progress=cert_progress, constraints=constraints)
     if output:
         results.save(out, output)
     if isinstance(out, DomainDesign) and plot_path:

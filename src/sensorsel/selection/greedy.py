@@ -12,6 +12,12 @@ A *request* that can buy nothing (a command's --budget, or a budget that buys no
 sensors assumed to fail) is refused up front by :func:`check_affordable`, an :class:`InputError`
 naming the option; every command (greedy, pareto, optimal, certify, resilient) calls it.
 
+Constraints (:mod:`sensorsel.constraints`): besides the budget, a run may respect resource limits,
+mounting slots, a largest number of sensors, required and excluded sensors. Required sensors start
+the suite; a candidate is considered only when it fits every limit on top of the suite, so no run
+ever returns a suite outside the feasible set. The cost-aware rules use each sensor's
+dollar-equivalent cost (its price when the budget is the only limit).
+
 Ties: candidates whose J is within a relative 1e-9 of the best are tied (so that engines that agree
 to round-off pick alike); among them the cheaper sensor wins, then the smaller id.
 
@@ -29,6 +35,7 @@ import time
 
 import numpy as np
 
+from ..constraints import Constraints, FeasibleSet, feasible_set
 from ..errors import InputError
 from ..evaluators import Evaluator
 from ..library import SensorLibrary
@@ -57,8 +64,9 @@ def check_budget(budget_usd: object) -> float:
 
 
 def check_affordable(library: SensorLibrary, budget_usd: float, alpha: int = 0, *, budget_option: str = "--budget",
-                     alpha_option: str = "--failures") -> float:
-    """The budget, when it buys at least one sensor more than the ``alpha`` assumed to fail.
+                     alpha_option: str = "--failures", constraints: Constraints | None = None) -> float:
+    """The budget, when it buys at least one sensor more than the ``alpha`` assumed to fail (and,
+    with ``constraints``, when they allow some suite: the required sensors, or one sensor).
 
     Raises:
         InputError: the library is empty; the budget is below the cheapest sensor (names
@@ -70,6 +78,16 @@ def check_affordable(library: SensorLibrary, budget_usd: float, alpha: int = 0, 
     budget = check_budget(budget_usd)
     if len(library) == 0:
         raise InputError(f"the library {library.source} has no sensor: nothing can be bought")
+    if constraints is not None:
+        feas = feasible_set(library, budget, constraints)  # refuses unknown ids and required sensors over a limit
+        if feas.required:
+            return budget
+        none = np.zeros(len(feas.b))
+        if not feas.addable(none).any() and not feas.only_budget:
+            everything = np.ones(len(library), dtype=bool)
+            everything[list(feas.excluded)] = False
+            raise InputError(f"nothing can be bought: every sensor breaks a limit on its own "
+                             f"({feas.why_nothing_fits(none, everything)}); raise {budget_option} or a --limit")
     costs = np.asarray(library.costs, dtype=float)
     order = np.argsort(costs, kind="stable")
     cheapest = int(order[0])
@@ -91,7 +109,7 @@ def check_affordable(library: SensorLibrary, budget_usd: float, alpha: int = 0, 
 
 def greedy(evaluator: Evaluator, budget_usd: float, rule: str = "uniform", *, lazy: bool = True,
            exclude: frozenset[int] = frozenset(), start: tuple[int, ...] = (), progress: Progress | None = None,
-           info: TargetInfo | None = None) -> GreedyResult:
+           info: TargetInfo | None = None, constraints: Constraints | None = None) -> GreedyResult:
     """Greedy selection under a budget with the named rule or strategy of :data:`RULES`.
 
     Args:
@@ -103,13 +121,16 @@ def greedy(evaluator: Evaluator, budget_usd: float, rule: str = "uniform", *, la
         start: library positions already in the suite (counted in its cost).
         progress: called as progress(picks_done, max_picks) after each pick (of each component run).
         info: what the problem is, recorded in the result.
+        constraints: limits besides the budget (:class:`~sensorsel.constraints.Constraints`); None: the
+            budget alone (the library's slots are then ignored).
     """
     entry = RULES[check_rule(rule)]
     if isinstance(entry, Rule):
-        return Selector(evaluator, entry, lazy=lazy, exclude=exclude, progress=progress).select(budget_usd, start=start, info=info)
+        return Selector(evaluator, entry, lazy=lazy, exclude=exclude, progress=progress,
+                        constraints=constraints).select(budget_usd, start=start, info=info)
     t0 = time.perf_counter()
-    runs = [greedy(evaluator, budget_usd, c, lazy=lazy, exclude=exclude, start=start, progress=progress, info=info)
-            for c in entry.component_rules]
+    runs = [greedy(evaluator, budget_usd, c, lazy=lazy, exclude=exclude, start=start, progress=progress, info=info,
+                   constraints=constraints) for c in entry.component_rules]
     return entry.combine(runs, info=info, seconds=round(time.perf_counter() - t0, 6))
 
 
@@ -122,41 +143,49 @@ class Selector:
         lazy: use lazy (Minoux) evaluation where the rule allows it (same picks, fewer evaluations).
         exclude: library positions that may not be bought (e.g. sensors assumed to fail).
         progress: called as progress(picks_done, max_picks) after each pick.
+        constraints: limits besides the budget; None: the budget alone.
     """
 
     def __init__(self, evaluator: Evaluator, rule: Rule, *, lazy: bool = True, exclude: frozenset[int] = frozenset(),
-                 progress: Progress | None = None) -> None:
+                 progress: Progress | None = None, constraints: Constraints | None = None) -> None:
         self.evaluator = evaluator
         self.rule = rule
         self.lazy = lazy and rule.lazy_ok
         self.exclude = frozenset(exclude)
         self.progress = progress
+        self.constraints = constraints
 
     def select(self, budget_usd: float, *, start: tuple[int, ...] = (), info: TargetInfo | None = None) -> GreedyResult:
-        """Run greedy selection; ``start`` sensors are already in the suite (counted in cost)."""
+        """Run greedy selection; ``start`` sensors (and the required ones) are already in the suite."""
         t0 = time.perf_counter()
         budget = check_budget(budget_usd)
         ev = self.evaluator
         lib = ev.library
-        costs = lib.costs
+        feas = feasible_set(lib, budget, self.constraints if self.constraints is not None else Constraints(slots=False))
+        costs = feas.cost  # dollar-equivalent: the price when the budget is the only limit
+        prices = lib.costs
         ids = lib.ids
         n0 = ev.n_evaluations
-        suite: list[int] = list(start)
-        cost = float(sum(costs[i] for i in suite))
-        if cost > budget:
-            raise InputError(f"the starting sensors cost ${cost:,.0f}, above the budget ${budget:,.0f}")
+        suite: list[int] = list(start) + [r for r in feas.required if r not in start]
+        used = feas.usage(suite)
+        if suite and not feas.fits(suite):
+            if feas.only_budget:
+                raise InputError(f"the starting sensors cost ${used[0]:,.0f}, above the budget ${budget:,.0f}")
+            raise InputError(f"the starting sensors {', '.join(ids[i] for i in suite)} break: {'; '.join(feas.violations(suite))}")
+        cost = float(costs[suite].sum()) if suite else 0.0
         f_cur = ev.score(suite) if suite else 0.0
         available = np.ones(len(lib), dtype=bool)
-        available[list(self.exclude | set(suite))] = False
+        available[list(self.exclude | feas.excluded | set(suite))] = False
         # upper bounds on each candidate's gain (lazy), valid while f is submodular
         bound = np.full(len(lib), np.inf)
-        max_picks = int(np.sum(np.cumsum(np.sort(costs[available])) <= budget - cost)) if available.any() else 0
+        room = budget - used[0]
+        max_picks = int(np.sum(np.cumsum(np.sort(feas.A[0, available])) <= room + 1e-9)) if available.any() else 0
         steps: list[Step] = []
         stop = ""
         while True:
-            feasible = available & (costs <= budget - cost + 1e-9)
+            feasible = available & feas.addable(used)
             if not feasible.any():
-                stop = self._why_nothing_fits(available, costs, ids, budget, cost, bool(steps or start))
+                stop = self._why_nothing_fits(feas, available, used, bool(steps or suite))
                 break
             pick, f_new, j_val = self._best(suite, f_cur, cost, feasible, bound, costs, ids)
             if pick is None:
@@ -167,27 +196,32 @@ class Selector:
             gain = f_new - f_cur
             f_cur = f_new
             cost += float(costs[pick])
-            steps.append(Step(ids[pick], lib[pick].index, float(costs[pick]), tuple(ids[i] for i in suite), cost, f_cur, gain, j_val))
+            used = used + feas.A[:, pick]
+            steps.append(Step(ids[pick], lib[pick].index, float(prices[pick]), tuple(ids[i] for i in suite), float(used[0]),
+                              f_cur, gain, j_val))
             if self.progress:
                 self.progress(len(steps), max(max_picks, len(steps)))
         name = self.rule.name
         return GreedyResult(
-            rule=name, budget_usd=budget, suite=tuple(ids[i] for i in suite), cost_usd=cost, score=f_cur,
+            rule=name, budget_usd=budget, suite=tuple(ids[i] for i in suite), cost_usd=float(used[0]), score=f_cur,
             steps=tuple(steps), stop_reason=stop, n_evaluations=ev.n_evaluations - n0, engine=ev.name, lazy=self.lazy,
             winning_rule=name, problem=info, seconds=round(time.perf_counter() - t0, 6),
+            constraints=None if feas.only_budget else feas.constraints,
         )
 
     @staticmethod
-    def _why_nothing_fits(available: np.ndarray, costs: np.ndarray, ids: tuple[str, ...], budget: float, cost: float,
-                          bought: bool) -> str:
-        """The stop reason when no available sensor fits the remaining budget."""
+    def _why_nothing_fits(feas: FeasibleSet, available: np.ndarray, used: np.ndarray, bought: bool) -> str:
+        """The stop reason when no available sensor fits on top of the suite."""
         if not available.any():
             return "every sensor of the library is in the suite or excluded"
+        if not feas.only_budget:
+            return f"no remaining sensor fits: {feas.why_nothing_fits(used, available)}"
+        costs, ids, budget = feas.A[0], feas.library.ids, feas.budget_usd
         cheapest = costs[available].min()
         if not bought:
             i_min = int(np.flatnonzero(available & (costs == cheapest))[0])
             return f"budget ${budget:,.0f} is below the cheapest sensor ({ids[i_min]}, ${cheapest:,.0f})"
-        return f"no remaining sensor fits the remaining budget (${budget - cost:,.0f}; cheapest left ${cheapest:,.0f})"
+        return f"no remaining sensor fits the remaining budget (${budget - used[0]:,.0f}; cheapest left ${cheapest:,.0f})"
 
     def _best(self, suite: list[int], f_cur: float, cost: float, feasible: np.ndarray, bound: np.ndarray,
               costs: np.ndarray, ids: tuple[str, ...]) -> tuple[int | None, float, float]:

@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable
 
+from ..constraints import Constraints
 from ..problem import ProblemInfo, TargetInfo
 
 #: progress(done, total): called after each pick; total is an upper bound on the number of picks.
@@ -56,6 +57,8 @@ class GreedyResult:
             it kept; else ``rule`` itself.
         problem: what it was computed on.
         seconds: wall time of the selection [s] (timings are the only fields that vary between runs).
+        constraints: the limits besides the budget the run respected (:class:`~sensorsel.constraints.Constraints`);
+            None when the budget was the only one (no limit, no slot, nothing required or excluded).
     """
 
     rule: str
@@ -71,6 +74,7 @@ class GreedyResult:
     winning_rule: str
     problem: TargetInfo | None = None
     seconds: float = 0.0
+    constraints: Constraints | None = None
 
     @property
     def rule_label(self) -> str:

@@ -43,6 +43,7 @@ class Strategy(ABC):
             rule=self.name, budget_usd=best.budget_usd, suite=best.suite, cost_usd=best.cost_usd, score=best.score,
             steps=best.steps, stop_reason=best.stop_reason, n_evaluations=sum(r.n_evaluations for r in runs),
             engine=best.engine, lazy=best.lazy, winning_rule=best.winning_rule, problem=info, seconds=seconds,
+            constraints=best.constraints,
         )
 
 
