@@ -114,12 +114,61 @@ def plot_scene(
             drawn.add(s.model.name)
             ax.add_patch(Wedge((x, y), s.model.range_m, centre - half, centre + half, alpha=0.18, color=colour, label=label))
         ax.plot(x, y, "s", color="tab:red", ms=7, label=f"car at keyframe {k}")
+        if library.slots:  # the car's mounting slots, filled by this suite, in a corner
+            plot_mounting(library, suite, ax=ax.inset_axes((0.0, 0.0, 0.38, 0.38)))
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.set_title(f"Scenario {scenario.name}: landmarks {scenario.landmark_source}")
     ax.legend(loc="best", fontsize=8)
     ax.grid(True, alpha=0.3)
+    return ax
+
+
+def plot_mounting(library: SensorLibrary, suite: Iterable[int] = (), ax: Axes | None = None) -> Axes:
+    """The car seen from above with its mounting places (the roof, and each clock position) and, at
+    each, the suite's sensors against the slot capacities ("R1/1": one radar of one); a full slot in red.
+
+    Args:
+        library: the sensors and their slots (:attr:`SensorLibrary.slots`; none: places only).
+        suite: library positions of the suite.
+        ax: axes to draw on; a new figure when None.
+    Returns:
+        The axes drawn on.
+    """
+    from matplotlib.patches import FancyBboxPatch
+
+    ax = ax or new_axes((5.0, 5.0))
+    chosen = set(int(i) for i in suite)
+    ax.add_patch(FancyBboxPatch((-0.45, -0.9), 0.9, 1.8, boxstyle="round,pad=0.05", fc="0.93", ec="0.4"))
+    places: dict[str, tuple[float, float]] = {"roof": (0.0, 0.0)}
+    for s in library:
+        if s.clock is not None and str(s.clock) not in places:
+            a = s.mount_angle_rad + np.pi / 2  # 12 o'clock (ahead) points up the page
+            places[str(s.clock)] = (0.62 * np.cos(a), 1.05 * np.sin(a))
+    short = {"lidar": "L", "radar": "R", "stereo": "C", "any": "*"}
+    for place, (px, py) in places.items():
+        at = [i for i in chosen if (library[i].clock is None) == (place == "roof")
+              and (place == "roof" or str(library[i].clock) == place)]
+        parts, full = [], False
+        for sl in library.slots:
+            if sl.place == place:
+                n = sum(1 for i in sl.members if i in chosen)
+                full |= n >= sl.capacity
+                parts.append(f"{short.get(sl.kind, sl.kind)}{n}/{sl.capacity}")
+        if not library.slots:
+            parts = [library[i].model.code for i in sorted(at)]
+        colour = "tab:red" if full else ("tab:blue" if at else "0.6")
+        ax.plot(px, py, "o", ms=4, color=colour)
+        if parts:  # outward of the place (below the roof's dot)
+            tx, ty = (0.0, -0.12) if place == "roof" else (1.45 * px, 1.22 * py)
+            ax.text(tx, ty, " ".join(parts), ha="center", va="center", fontsize=5.5, color="tab:red" if full else "black")
+    ax.set_xlim(-1.5, 1.5)
+    ax.set_ylim(-1.5, 1.5)
+    ax.set_aspect("equal")
+    ax.set_xticks([])
+    ax.set_yticks([])
+    ax.set_title("slots used/capacity (L lidar, R radar, C camera; red: full)", fontsize=5.5)
     return ax
 
 

@@ -11,7 +11,7 @@ import click
 
 from .. import results
 from ..errors import InputError
-from ..library import SensorLibrary, load_library
+from ..library import SensorLibrary, load_library, resource_unit
 from ..api import score_domain_suite, score_suite
 from ..problem import Domain
 from ..scenario import LandmarkModel, route_landmarks, write_landmarks_csv
@@ -28,9 +28,12 @@ def library_json(lib: SensorLibrary) -> str:
         "range_m": s.model.range_m, "fov_deg": round(math.degrees(s.model.fov_rad), 9),
         "sigma_bearing_rad": s.model.bearing_sigma(),
         "sigma_range_m": None if s.model.type == "stereo" else s.model.sigma_range_m,  # stereo: z^2 model
-        "cost_usd": s.cost_usd,
+        "cost_usd": s.cost_usd, "resources": dict(s.model.resources),
     } for s in lib]
-    return json.dumps({"source": lib.source, "n_sensors": len(lib), "sensors": sensors}, indent=2, allow_nan=False) + "\n"
+    slots = [{"place": sl.place, "kind": sl.kind, "capacity": sl.capacity, "sensors": [lib.ids[i] for i in sl.members]}
+             for sl in lib.slots]
+    return json.dumps({"source": lib.source, "n_sensors": len(lib), "sensors": sensors, "slots": slots},
+                      indent=2, allow_nan=False) + "\n"
 
 
 @click.command("library", short_help="List the 62 placed sensors of the library (id, index, model, cost).")
@@ -38,18 +41,36 @@ def library_json(lib: SensorLibrary) -> str:
 @json_option
 @run
 def library_cmd(library_path: str | None, as_json: bool) -> None:
-    """List the placed sensors of the library (id, paper index, model, position, range, FOV, cost)."""
+    """List the placed sensors of the library (id, paper index, model, position, range, FOV, cost),
+    what each uses of the resources the file declares (what --limit can bound), and its mounting slots."""
     lib = load_library(library_path)
     if as_json:
         click.echo(library_json(lib), nl=False)
         return
+    names = lib.resource_names
     rows = [
         [s.id, str(s.index), s.model.name, s.position_label, f"{s.model.range_m:g}", f"{math.degrees(s.model.fov_rad):.1f}",
          f"{s.model.bearing_sigma():.5f}", "z^2 model" if s.model.type == "stereo" else f"{s.model.sigma_range_m:g}", f"{s.cost_usd:,.0f}"]
+        + [f"{dict(s.model.resources)[n]:g}" if n in dict(s.model.resources) else "-" for n in names]
         for s in lib
     ]
-    click.echo(table(rows, ["id", "index", "model", "position", "range_m", "fov_deg", "sigma_brg_rad", "sigma_rng_m", "cost_usd"]))
+    click.echo(table(rows, ["id", "index", "model", "position", "range_m", "fov_deg", "sigma_brg_rad", "sigma_rng_m", "cost_usd",
+                            *names]))
     click.echo(f"\n{len(lib)} sensors from {lib.source}")
+    if names:
+        declared = ", ".join(f"{n} [{resource_unit(n) or '-'}]" for n in names)
+        click.echo(f"resources  {declared}: bound them with --limit NAME=VALUE")
+    if lib.slots:
+        caps: dict[str, list[str]] = {}
+        for sl in lib.slots:
+            caps.setdefault(sl.place, []).append(f"{sl.kind} {sl.capacity}")
+        groups: dict[str, list[str]] = {}
+        for place, kinds in caps.items():
+            groups.setdefault(", ".join(kinds), []).append("roof" if place == "roof" else place)
+        click.echo("slots      " + "; ".join(f"{'/'.join(ps)}: {k}" for k, ps in groups.items())
+                   + " (at most, per place; --no-slots ignores them)")
+    else:
+        click.echo("slots      none (no mounting limits; a file can add them: see configs/car_one_radar_one_camera.yaml)")
 
 
 @click.command("score", short_help="Score a suite: cost and f(S) = log det gain over no sensor [nats].")
