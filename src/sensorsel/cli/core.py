@@ -10,11 +10,13 @@ from typing import Any
 import click
 
 from .. import results
+from ..constraints import FeasibleSet, feasible_set
 from ..errors import InputError
 from ..library import SensorLibrary, load_library, resource_unit
 from ..api import score_domain_suite, score_suite
 from ..problem import Domain
 from ..scenario import LandmarkModel, route_landmarks, write_landmarks_csv
+from .options import constraint_options, constraints_from, usage_table
 from .options import (engine_options, json_option, output_option, plot_format_option, print_target, problem_from, run,
                       scenario_options, spec_from, suite_text, table, target_from, target_options)
 from .options import plot_format as plot_format_of
@@ -77,14 +79,19 @@ def library_cmd(library_path: str | None, as_json: bool) -> None:
 @target_options
 @engine_options
 @click.option("--suite", required=True, callback=suite_text, help="Comma-separated sensor ids or indices, e.g. LRL-roof,LRR-12 (see `sensorsel library`).")
+@constraint_options
 @json_option
 @run
 def score_cmd(suite: str, as_json: bool, aggregate: str, engine: str | None, jobs: int, **kw: Any) -> None:
     """Score a sensor suite: cost and f(S) = log det L(S) - log det L(empty) in nats.
 
     With --domain FILE: the suite's score on every route, each as a share of the route's best, and
-    the domain score (their weighted sum, --aggregate)."""
+    the domain score (their weighted sum, --aggregate). With --limit, --max-sensors, --require or
+    --exclude (or a library with mounting slots): what the suite uses of each limit, and what it breaks."""
+    constraints = constraints_from(kw)
     problem = target_from(kw)
+    # score has no budget: the whole library is affordable, the other limits apply
+    feas = feasible_set(problem.library, float(problem.library.costs.sum()), constraints)
     if isinstance(problem, Domain):
         dres = score_domain_suite(problem, suite, engine=engine, aggregate=aggregate)
         if as_json:
@@ -97,6 +104,7 @@ def score_cmd(suite: str, as_json: bool, aggregate: str, engine: str | None, job
         click.echo(table(rows, ["route", "weight", "score_nats", "best_nats", "of_best"]))
         unit = "(weighted share of the best)" if dres.aggregate == "normalised" else "nats (weighted)"
         click.echo(f"score      {dres.score:.4f} {unit}")
+        _print_limits(feas, problem.library.resolve_suite(dres.suite))
         return
     res = score_suite(problem, suite, engine=engine)
     if as_json:
@@ -108,6 +116,17 @@ def score_cmd(suite: str, as_json: bool, aggregate: str, engine: str | None, job
     click.echo(f"cost       ${res.cost_usd:,.0f}")
     click.echo(f"score      {res.score:.3f} nats  (log det {res.logdet:.3f}, sensorless {res.baseline_logdet:.3f})")
     click.echo(f"measures   {res.n_measurements} range-bearing measurements of {res.n_landmarks_seen} landmarks")
+    _print_limits(feas, problem.library.resolve_suite(res.suite))
+
+
+def _print_limits(feas: FeasibleSet, suite: tuple[int, ...]) -> None:
+    """The suite against the limits besides money (nothing when there are none)."""
+    if feas.only_budget:
+        return
+    click.echo(f"limits     {feas.constraints.describe()}")
+    click.echo(usage_table([r for r in feas.rows_used(suite) if r.name != "budget"]))
+    broken = feas.violations(suite)
+    click.echo("fits       every limit" if not broken else f"breaks     {'; '.join(broken)}")
 
 
 @click.command("scene", short_help="Draw the route, landmarks and a suite's sensing cones (PNG/SVG/PDF).")
