@@ -61,7 +61,8 @@ def test_library_lists_62_rows(library):
     assert [int(r.split()[1]) for r in rows] == [s.index for s in library]
     lrr12 = next(r for r in rows if r.startswith("LRR-12 "))
     assert "12 o'clock" in lrr12 and "250" in lrr12 and "1,493" in lrr12
-    assert out[-1].startswith("62 sensors from ")
+    assert out[out.index("") + 1].startswith("62 sensors from ")
+    assert out[-2].startswith("resources  power_w [W]") and out[-1].startswith("slots      none")
 
 
 def test_score_prints_cost_and_score(suburb_problem):
