@@ -36,7 +36,7 @@ import numpy as np
 from .errors import InputError
 from .library import SensorLibrary, resource_unit
 
-__all__ = ["Constraints", "FeasibleSet", "RowUse", "feasible_set", "parse_limit"]
+__all__ = ["BUDGET_ONLY", "Constraints", "FeasibleSet", "RowUse", "feasible_set", "parse_limit", "recorded"]
 
 #: Slack on every row, relative to its limit: a suite whose total equals a limit fits despite round-off.
 REL_SLACK = 1e-9
@@ -99,6 +99,16 @@ class Constraints:
         if self.max_sensors is not None:
             parts.append(f"at most {self.max_sensors} sensors")
         return "; ".join(parts)
+
+
+#: The paper's problem: the budget is the only limit (the library's slots ignored).
+BUDGET_ONLY = Constraints(slots=False)
+
+
+def recorded(constraints: Constraints | None) -> Constraints:
+    """The constraints a result was computed under: a result records None when the budget was its
+    only limit (so None here is :data:`BUDGET_ONLY`, whatever slots the library has)."""
+    return BUDGET_ONLY if constraints is None else constraints
 
 
 def parse_limit(text: str, option: str = "--limit") -> tuple[str, float]:

@@ -19,7 +19,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from .constraints import Constraints
+from .constraints import Constraints, recorded
 from .certify import CertifiedGreedyResult, certificate
 from .evaluators import DomainEvaluator
 from .problem import Domain, DomainInfo
@@ -88,7 +88,7 @@ def route_breakdown(evaluator: DomainEvaluator, result: GreedyResult, *, lazy: b
     scores = evaluator.route_scores(suite)
     out = []
     for k, (route, ev) in enumerate(zip(evaluator.domain.routes, evaluator.routes)):
-        own = greedy(ev, result.budget_usd, result.rule, lazy=lazy, constraints=result.constraints)
+        own = greedy(ev, result.budget_usd, result.rule, lazy=lazy, constraints=recorded(result.constraints))
         f_s, f_own = float(scores[k]), float(own.score)
         out.append(RouteShare(
             name=route.name, weight=float(evaluator.weights[k]), score=f_s, best_score=float(evaluator.best[k]),

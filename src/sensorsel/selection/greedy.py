@@ -121,8 +121,8 @@ def greedy(evaluator: Evaluator, budget_usd: float, rule: str = "uniform", *, la
         start: library positions already in the suite (counted in its cost).
         progress: called as progress(picks_done, max_picks) after each pick (of each component run).
         info: what the problem is, recorded in the result.
-        constraints: limits besides the budget (:class:`~sensorsel.constraints.Constraints`); None: the
-            budget alone (the library's slots are then ignored).
+        constraints: limits besides the budget (:class:`~sensorsel.constraints.Constraints`); None: no
+            limit but the budget and the library's mounting slots (if it has any).
     """
     entry = RULES[check_rule(rule)]
     if isinstance(entry, Rule):
@@ -143,7 +143,7 @@ class Selector:
         lazy: use lazy (Minoux) evaluation where the rule allows it (same picks, fewer evaluations).
         exclude: library positions that may not be bought (e.g. sensors assumed to fail).
         progress: called as progress(picks_done, max_picks) after each pick.
-        constraints: limits besides the budget; None: the budget alone.
+        constraints: limits besides the budget; None: the budget and the library's slots.
     """
 
     def __init__(self, evaluator: Evaluator, rule: Rule, *, lazy: bool = True, exclude: frozenset[int] = frozenset(),
@@ -161,7 +161,7 @@ class Selector:
         budget = check_budget(budget_usd)
         ev = self.evaluator
         lib = ev.library
-        feas = feasible_set(lib, budget, self.constraints if self.constraints is not None else Constraints(slots=False))
+        feas = feasible_set(lib, budget, self.constraints)
         costs = feas.cost  # dollar-equivalent: the price when the budget is the only limit
         prices = lib.costs
         ids = lib.ids
