@@ -167,7 +167,8 @@ def robust_bound(evaluator: Evaluator, budget_usd: float, alpha: int, *, anchors
     ev = evaluator
     lib = ev.library
     feas = feasible_set(lib, budget_usd, constraints) if constraints is not None else None
-    relaxation, root_removed = "", ()
+    relaxation = ""
+    root_removed: tuple[int, ...] = ()
     if feas is not None and not (feas.only_budget and not feas.required and not feas.excluded):
         extra = lib.cost(feas.required) if feas.constraints.owned else 0.0
         root_removed = tuple(sorted(feas.excluded))

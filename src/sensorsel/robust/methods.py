@@ -116,7 +116,7 @@ def _cover(family: Family, budget: float, c: float, stop_at: int | None,
     ids, n = lib.ids, len(lib)
     costs = lib.costs if feasible is None else feasible.cost
     suite: list[int] = [] if feasible is None else list(feasible.required)
-    used = None if feasible is None else feasible.usage(suite)
+    used = np.zeros(0) if feasible is None else feasible.usage(suite)
     spent = 0.0
     w, v = family.terms(tuple(suite))
     total = float(w.sum()) * c
