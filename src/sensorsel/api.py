@@ -28,7 +28,7 @@ from .domain_design import DomainDesign, design_domain
 from .errors import InputError
 from .evaluators import DomainEvaluator, evaluator_for, make_evaluator
 from .problem import Domain, DomainInfo, Problem, ProblemInfo, Target, load_domain, load_problem
-from .resilient import ResilientReport
+from .resilient import ResilientReport, recorded
 from .resilient import resilient_report as _resilient_report
 from .robust import RobustResult, robust_choice, worst_route_select
 from .robust import run_robust as _run_robust
@@ -214,13 +214,23 @@ def run_robust(target: Target, budget_usd: float, alpha: int, *, engine: str | N
 
     ``aggregate``: with a domain, "normalised" or "raw" robustify the combined domain score; "worst"
     maximises the worst route's share of its best under the failures
-    (:func:`sensorsel.robust.worst_route_select`; a domain only). ``kwargs`` go to the selector.
+    (:func:`sensorsel.robust.worst_route_select`; a domain only). ``kwargs`` go to the selector;
+    ``constraints=`` (:mod:`sensorsel.constraints`) limits every candidate suite.
 
     Raises:
-        InputError: bad budget, alpha or aggregate; "worst" on a single route.
+        InputError: bad budget, alpha or aggregate; "worst" on a single route; constraints the library
+            cannot meet, or any with "worst" (the worst-route selection keeps the budget alone).
     """
     if aggregate not in ROBUST_AGGREGATES:
         raise InputError(f"unknown aggregate {aggregate!r}; available: {', '.join(ROBUST_AGGREGATES)}")
+    constraints = kwargs.get("constraints")
+    if constraints is not None:
+        feas = feasible_set(target.library, check_budget(budget_usd), constraints)  # refuses a bad request up front
+        if recorded(feas) is None:
+            kwargs.pop("constraints")  # the budget alone
+        elif aggregate == "worst":
+            raise InputError(f"--aggregate worst keeps the budget alone; it does not take limits ({constraints.describe()}): "
+                             "drop them, or use --aggregate normalised")
     if aggregate == "worst":
         if not isinstance(target, Domain):
             raise InputError("aggregate 'worst' is the worst route of an operating domain: give a domain (--domain FILE)")

@@ -393,7 +393,7 @@ class TargetRecipe:
 
 
 def _rule_task(recipe: TargetRecipe, rule: str, budgets_desc: list[float], engine: str | None, jobs: int, lazy: bool,
-               share_prefix: bool, aggregate: str, first: bool) -> tuple[dict[float, Any], int]:
+               share_prefix: bool, aggregate: str, first: bool, constraints: Any = None) -> tuple[dict[float, Any], int]:
     """One single rule's runs at every budget, on a worker: (budget -> (result, shared), evaluations).
 
     In-process, one evaluator serves every rule and a problem's baseline log det is counted once, in
@@ -406,7 +406,7 @@ def _rule_task(recipe: TargetRecipe, rule: str, budgets_desc: list[float], engin
     if isinstance(ev, ProblemEvaluator) and not first:
         ev.baseline_logdet  # counted by the first rule's task only, as in-process
     n0 = ev.n_evaluations
-    runs = _rule_runs(ev, rule, budgets_desc, lazy=lazy, share_prefix=share_prefix, tick=lambda: None)
+    runs = _rule_runs(ev, rule, budgets_desc, lazy=lazy, share_prefix=share_prefix, tick=lambda: None, constraints=constraints)
     return runs, ev.n_evaluations - n0
 
 
@@ -433,13 +433,16 @@ class RuleRunsRecord:
 
 
 def _rule_fingerprint(target: Target, rule: str, desc: list[float], engine: str | None, lazy: bool, share_prefix: bool,
-                      aggregate: str, first: bool) -> str:
+                      aggregate: str, first: bool, constraints: Any = None) -> str:
+    from .constraints import feasible_set
+    from .resilient.algorithm import constraints_key
     from .resilient.cache import _digest, fingerprint
 
     problems = [r.problem for r in target.routes] if isinstance(target, Domain) else [target]
     weights = [r.weight for r in target.routes] if isinstance(target, Domain) else [1.0]
     what = {"what": "tradespace-rule", "budgets": list(desc), "share_prefix": share_prefix, "aggregate": aggregate,
-            "first": first, "weights": weights}
+            "first": first, "weights": weights,
+            **constraints_key(feasible_set(target.library, max(desc), constraints) if constraints is not None else None)}
     return _digest([fingerprint(p, 0.0, 0, rule, check_engine(engine), lazy, what) for p in problems])
 
 
@@ -475,7 +478,8 @@ def _load_rule_record(path: Any, fp: str) -> RuleRunsRecord | None:
 
 
 def rule_runs_on(client: Any, target: Target, *, engine: str | None = None, jobs: int = 1, aggregate: str = "normalised",
-                 retries: int = 3, outdir: str | None = None, resume: bool = False) -> Callable[..., Any]:
+                 retries: int = 3, outdir: str | None = None, resume: bool = False,
+                 constraints: Any = None) -> Callable[..., Any]:
     """A runner for :func:`sensorsel.tradespace.tradespace` (``rule_runs=``) that runs each single
     rule's chain of budgets as one Dask task (rerun elsewhere if its worker dies), gathered in rule
     order; ``tick`` is called as each rule's runs arrive (once per budget). With ``outdir``, each
@@ -488,7 +492,8 @@ def rule_runs_on(client: Any, target: Target, *, engine: str | None = None, jobs
             tick: Callable[[], None]) -> tuple[dict[str, dict[float, Any]], int]:
         from .codec import save
 
-        fps = {r: _rule_fingerprint(target, r, desc, engine, lazy, share_prefix, aggregate, r == singles[0]) for r in singles}
+        fps = {r: _rule_fingerprint(target, r, desc, engine, lazy, share_prefix, aggregate, r == singles[0], constraints)
+               for r in singles}
         got: dict[str, tuple[dict[float, Any], int]] = {}
         if outdir is not None and resume:
             for r in singles:
@@ -498,7 +503,7 @@ def rule_runs_on(client: Any, target: Target, *, engine: str | None = None, jobs
                     for _ in desc:
                         tick()
         futs = {client.submit(_rule_task, recipe, r, desc, engine, jobs, lazy, share_prefix, aggregate, r == singles[0],
-                              pure=False, retries=retries): r for r in singles if r not in got}
+                              constraints, pure=False, retries=retries): r for r in singles if r not in got}
         for fut in distributed.as_completed(list(futs)):
             r = futs[fut]
             got[r] = _result(fut, f"tradespace rule {r!r}")
@@ -516,9 +521,10 @@ def rule_runs_on(client: Any, target: Target, *, engine: str | None = None, jobs
 def run_tradespace_on(client: Any, target: Target, budgets: Iterable[float] | None = None,
                       rules: Iterable[str] | None = None, *, engine: str | None = None, jobs: int = 1, lazy: bool = True,
                       share_prefix: bool = True, aggregate: str = "normalised", progress: Callable[[int, int], None] | None = None,
-                      outdir: str | None = None, resume: bool = False) -> Any:
+                      outdir: str | None = None, resume: bool = False, constraints: Any = None) -> Any:
     """:func:`sensorsel.tradespace.run_tradespace` with each single rule's runs as a Dask task: the
-    same result (timings aside) as in-process. ``outdir``/``resume``: see :func:`rule_runs_on`."""
+    same result (timings aside) as in-process. ``outdir``/``resume``: see :func:`rule_runs_on`;
+    ``constraints``: kept by every run (and part of each rule file's fingerprint)."""
     from .evaluators.registry import ENGINES
     from .selection import check_budget
     from .tradespace import DEFAULT_RULES, parse_rules, tradespace
@@ -527,9 +533,10 @@ def run_tradespace_on(client: Any, target: Target, budgets: Iterable[float] | No
     grid = None if budgets is None else tuple(check_budget(b) for b in budgets)
     check_aggregate(aggregate)
     name = DomainEvaluator.name if isinstance(target, Domain) else ENGINES[check_engine(engine)].name
-    runner = rule_runs_on(client, target, engine=engine, jobs=jobs, aggregate=aggregate, outdir=outdir, resume=resume)
+    runner = rule_runs_on(client, target, engine=engine, jobs=jobs, aggregate=aggregate, outdir=outdir, resume=resume,
+                          constraints=constraints)
     return tradespace(_NamedEvaluator(target.library, name), grid, sel, lazy=lazy, share_prefix=share_prefix,
-                      progress=progress, info=target.info, rule_runs=runner)
+                      progress=progress, info=target.info, rule_runs=runner, constraints=constraints)
 
 
 class _NamedEvaluator(Evaluator):
@@ -547,7 +554,8 @@ class _NamedEvaluator(Evaluator):
 
 
 def _period_task(problem: Problem, span: tuple[int, float, float, np.ndarray], budget: float, alpha: int, rule: str,
-                 engine: str, jobs: int, lazy: bool, period: float, path: str | None, resume: bool) -> Any:
+                 engine: str, jobs: int, lazy: bool, period: float, path: str | None, resume: bool,
+                 constraints: Any = None) -> Any:
     """One period on a worker: :func:`sensorsel.resilient.periods._one_period` (which reuses a
     matching period file when resuming and writes the file it computes)."""
     from pathlib import Path
@@ -556,22 +564,23 @@ def _period_task(problem: Problem, span: tuple[int, float, float, np.ndarray], b
 
     k, a, b, kf = span
     return _one_period(problem, k, a, b, kf, budget, alpha, rule, engine, jobs, lazy, period,
-                       Path(path) if path is not None else None, resume)
+                       Path(path) if path is not None else None, resume, constraints=constraints)
 
 
 def _compare_task(problem: Problem, budget: float, alpha: int, rule: str, engine: str | None, jobs: int, lazy: bool,
-                  cache: str | None, resume: bool) -> Any:
+                  cache: str | None, resume: bool, constraints: Any = None) -> Any:
     from pathlib import Path
 
     from .resilient import compare
 
     return compare(problem, budget, alpha, rule, engine=engine, jobs=jobs, lazy=lazy,
-                   cache=Path(cache) if cache is not None else None, resume=resume)
+                   cache=Path(cache) if cache is not None else None, resume=resume, constraints=constraints)
 
 
 def resilient_report_on(client: Any, problem: Problem, budget_usd: float, alpha: int, *, period_s: float, rule: str = "uniform",
                         engine: str | None = None, jobs: int = 1, lazy: bool = True, outdir: str | None = None,
-                        resume: bool = False, progress: Callable[[int, int], None] | None = None) -> Any:
+                        resume: bool = False, progress: Callable[[int, int], None] | None = None,
+                        constraints: Any = None) -> Any:
     """:func:`sensorsel.resilient.resilient_report` on one route with the whole-route comparison and
     every period as Dask tasks (the problem is sent once to each worker; the period files are
     written by the workers, so ``outdir`` must be on a file system they share). ``--resume``: a
@@ -595,9 +604,11 @@ def resilient_report_on(client: Any, problem: Problem, budget_usd: float, alpha:
     # way to the scheduler, which then deletes the data under the new tasks ("lost dependencies").
     shared = client.scatter(problem, broadcast=True, hash=False)
     cache = str(Path(outdir) / "periods" / "route.json") if outdir is not None else None
-    cmp_fut = client.submit(_compare_task, shared, budget, alpha, rule, engine, jobs, lazy, cache, resume, pure=False)
+    cmp_fut = client.submit(_compare_task, shared, budget, alpha, rule, engine, jobs, lazy, cache, resume, constraints,
+                            pure=False)
     futs = {client.submit(_period_task, shared, span, budget, alpha, rule, name, jobs, lazy, period,
-                          str(period_file(outdir, span[0])) if outdir is not None else None, resume, pure=False): i
+                          str(period_file(outdir, span[0])) if outdir is not None else None, resume, constraints,
+                          pure=False): i
             for i, span in enumerate(spans)}
     got: dict[int, Any] = {}
     for fut in distributed.as_completed(list(futs)):
@@ -612,10 +623,11 @@ def resilient_report_on(client: Any, problem: Problem, budget_usd: float, alpha:
             if f.name not in keep:
                 f.unlink()
     per = PerPeriodResult(period_s=period, alpha=alpha, budget_usd=budget, rule=rule, engine=name, periods=tuple(out),
-                          grid=make_grid(problem.library, out), seconds=round(time.perf_counter() - t0, 6))
+                          grid=make_grid(problem.library, out), seconds=round(time.perf_counter() - t0, 6),
+                          constraints=cmp_.constraints)
     return ResilientReport(suite=cmp_.resilient.suite, failed=cmp_.resilient.failed, alpha=alpha, budget_usd=budget,
                            rule=rule, engine=cmp_.engine, comparison=cmp_, per_period=per,
-                           seconds=round(time.perf_counter() - t0, 6))
+                           seconds=round(time.perf_counter() - t0, 6), constraints=cmp_.constraints)
 
 
 def _result(fut: Any, what: str) -> Any:

@@ -27,6 +27,17 @@ has already made (``share_prefix=True``) instead of starting from the empty suit
 from independent runs is theoretical: with two candidates within the rules' relative tie tolerance
 (1e-9) of each other, where the better one does not fit B, the tie window can shift; the tests check
 that shared and independent runs agree (``share_prefix=False`` runs every budget from scratch).
+
+Constraints (``constraints=``, :mod:`sensorsel.constraints`): every run, at every budget, keeps them
+(a budget sweep with the other limits fixed); an architecture's cost is what it spends of the budget
+(owned required sensors count nothing). Prefix sharing stays exact when the only rows besides the
+budget are capacities (mounting slots, most sensors) and required / excluded sensors: those rows do
+not depend on the budget, so a pick of the larger run that fits B's budget row fits all of B's rows,
+and it beat a superset of B's candidates with the same J. With a **resource limit** it does not:
+the cost-aware rules' dollar-equivalent cost (price + the budget x the share of each limit) depends
+on the budget, so a larger budget ranks candidates differently (and even uniform's tie-break by
+cost can differ). Sharing is then switched off and every budget runs from scratch (the result's
+``share_prefix`` says False).
 """
 
 from __future__ import annotations
@@ -41,6 +52,7 @@ from typing import Callable, Iterable, Sequence
 
 import numpy as np
 
+from .constraints import REL_SLACK, Constraints, feasible_set
 from .errors import InputError
 from .evaluators import Evaluator, evaluator_for
 from .fileio import atomic_write_text
@@ -136,6 +148,8 @@ class TradespaceResult:
         n_evaluations: suites scored in total.
         problem: what it was computed on.
         seconds: wall time [s] (the only field that varies between runs).
+        constraints: the limits besides the budget every run kept (the same at every budget); None:
+            the budget alone.
     """
 
     budgets_usd: tuple[float, ...]
@@ -149,6 +163,7 @@ class TradespaceResult:
     n_evaluations: int
     problem: TargetInfo | None = None
     seconds: float = 0.0
+    constraints: Constraints | None = None
 
     @property
     def selectors(self) -> tuple[str, ...]:
@@ -283,37 +298,48 @@ def pareto_mask(costs: Sequence[float], scores: Sequence[float]) -> np.ndarray:
 # -------------------------------------------------------------------------------------- the runs
 
 
-def _shared_prefix(steps: tuple[Step, ...], budget: float) -> int:
-    """How many leading picks of ``steps`` also fit ``budget`` (same feasibility test as the greedy engine)."""
-    prev = 0.0
+def _shared_prefix(steps: tuple[Step, ...], budget: float, start_cost: float = 0.0) -> int:
+    """How many leading picks of ``steps`` also fit ``budget`` (same feasibility test as the greedy
+    engine's budget row; ``start_cost``: what the sensors in the suite before the first pick spend)."""
+    prev = start_cost
+    slack = REL_SLACK * max(1.0, abs(budget))
     for k, st in enumerate(steps):
-        if st.sensor_cost_usd > budget - prev + 1e-9:
+        if not st.sensor_cost_usd <= budget + slack - prev:
             return k
         prev = st.cost_usd
     return len(steps)
 
 
+def prefix_sharing_exact(constraints: Constraints | None) -> bool:
+    """Whether a run at a larger budget is exactly a prefix source under ``constraints`` (module
+    docstring): yes unless there is a resource limit (its dollar-equivalent cost depends on the budget)."""
+    return constraints is None or not constraints.limits
+
+
 def _rule_runs(evaluator: Evaluator, rule: str, budgets_desc: list[float], *, lazy: bool, share_prefix: bool,
-               tick: Callable[[], None]) -> dict[float, tuple[GreedyResult, int]]:
+               tick: Callable[[], None], constraints: Constraints | None = None) -> dict[float, tuple[GreedyResult, int]]:
     """Runs of one rule at every budget (largest first): budget -> (result with all steps, shared steps)."""
     lib = evaluator.library
     done: dict[float, tuple[GreedyResult, int]] = {}
+    share_prefix = share_prefix and prefix_sharing_exact(constraints)
     for b in budgets_desc:
         k, src = 0, None
         if share_prefix:
+            fb = feasible_set(lib, b, constraints) if constraints is not None else None
+            start_cost = float(fb.usage(fb.required)[0]) if fb is not None else 0.0
             for run, _ in done.values():  # largest budgets first: the first longest prefix wins
-                n = _shared_prefix(run.steps, b)
+                n = _shared_prefix(run.steps, b, start_cost)
                 if n > k:
                     k, src = n, run
         prefix = src.steps[:k] if src is not None else ()
         start = tuple(lib.position(i) for i in prefix[-1].suite) if prefix else ()
-        cont = greedy(evaluator, b, rule, lazy=lazy, start=start)
+        cont = greedy(evaluator, b, rule, lazy=lazy, start=start, constraints=constraints)
         steps = tuple(prefix) + cont.steps
         full = GreedyResult(
             rule=rule, budget_usd=cont.budget_usd, suite=steps[-1].suite if steps else (),
             cost_usd=steps[-1].cost_usd if steps else 0.0, score=steps[-1].score if steps else 0.0, steps=steps,
             stop_reason=cont.stop_reason, n_evaluations=cont.n_evaluations, engine=cont.engine, lazy=cont.lazy,
-            winning_rule=rule,
+            winning_rule=rule, constraints=cont.constraints,
         )
         done[b] = (full, k)
         tick()
@@ -322,7 +348,8 @@ def _rule_runs(evaluator: Evaluator, rule: str, budgets_desc: list[float], *, la
 
 def tradespace(evaluator: Evaluator, budgets: Iterable[float] | None = None, rules: Iterable[str] = DEFAULT_RULES,
                *, lazy: bool = True, share_prefix: bool = True, progress: Progress | None = None,
-               info: TargetInfo | None = None, rule_runs: RuleRunner | None = None) -> TradespaceResult:
+               info: TargetInfo | None = None, rule_runs: RuleRunner | None = None,
+               constraints: Constraints | None = None) -> TradespaceResult:
     """Run each rule at each budget and collect the architectures and the Pareto front.
 
     Args:
@@ -337,7 +364,8 @@ def tradespace(evaluator: Evaluator, budgets: Iterable[float] | None = None, rul
         rule_runs: runs the single rules elsewhere (e.g. as Dask tasks, :mod:`sensorsel.distributed`):
             called as ``rule_runs(rules, budgets_desc, lazy, share_prefix, tick)``, returns (rule ->
             the runs :func:`_rule_runs` gives, evaluations made); ``evaluator`` then only names the
-            library and the engine.
+            library and the engine. It must apply the same ``constraints`` (the runs are checked).
+        constraints: limits besides the budget, kept by every run at every budget (module docstring).
     Returns:
         The :class:`TradespaceResult`.
     """
@@ -345,8 +373,17 @@ def tradespace(evaluator: Evaluator, budgets: Iterable[float] | None = None, rul
     lib = evaluator.library
     sel = parse_rules(rules, "rules")
     grid = default_budgets(lib) if budgets is None else tuple(sorted({check_budget(b) for b in budgets}))
+    if budgets is None and constraints is not None and constraints.require:
+        # the default grid starts at the cheapest sensor: keep the budgets that pay for the required ones
+        whole = feasible_set(lib, grid[-1], constraints)
+        grid = tuple(b for b in grid if b >= float(whole.usage(whole.required)[0])) or grid[-1:]
     if not grid:
         raise InputError("the tradespace needs at least one budget")
+    feas = {b: feasible_set(lib, b, constraints) for b in grid} if constraints is not None else {}
+    top = feas[grid[-1]] if feas else None
+    if top is not None and top.only_budget and not top.required and not top.excluded:
+        constraints, feas, top = None, {}, None  # the budget alone: the paper's tradespace, unchanged
+    share_prefix = share_prefix and prefix_sharing_exact(constraints)
     singles = _single_rules(sel)
     n0 = evaluator.n_evaluations
     total = len(singles) * len(grid)
@@ -360,9 +397,16 @@ def tradespace(evaluator: Evaluator, budgets: Iterable[float] | None = None, rul
     desc = sorted(grid, reverse=True)
     n_evals: int | None = None
     if rule_runs is None:
-        per_rule = {r: _rule_runs(evaluator, r, desc, lazy=lazy, share_prefix=share_prefix, tick=tick) for r in singles}
+        per_rule = {r: _rule_runs(evaluator, r, desc, lazy=lazy, share_prefix=share_prefix, tick=tick,
+                                  constraints=constraints) for r in singles}
     else:
         per_rule, n_evals = rule_runs(singles, desc, lazy, share_prefix, tick)
+    for r in singles:  # no run, here or elsewhere, may leave the feasible set
+        for b, (run, _) in per_rule[r].items():
+            bad = feas[b].violations(lib.resolve_suite(run.suite)) if feas else []
+            if bad or (feas and run.constraints is None):
+                raise InputError(f"the tradespace run {r} at ${b:,.0f} was not made under the limits "
+                                 f"({constraints.describe() if constraints else ''}): {'; '.join(bad) or 'it records none'}")
 
     runs: list[TradespaceRun] = []
     found: dict[frozenset[int], tuple[float, set[str]]] = {}  # suite -> (score as first recorded, rules)
@@ -382,7 +426,7 @@ def tradespace(evaluator: Evaluator, budgets: Iterable[float] | None = None, rul
                     found[key] = (st.score, set())
                 found[key][1].add(name)
 
-    rows = _architectures(lib, sel, found)
+    rows = _architectures(lib, sel, found, None if top is None else top.A[0])
     best = max((score for _, _, score, _ in rows), default=0.0)
     on_front = pareto_mask([cost for _, cost, _, _ in rows], [score for _, _, score, _ in rows])
     archs = tuple(Architecture(ids, cost, score, score / best if best > 0 else 0.0, made_by, bool(f))
@@ -390,7 +434,7 @@ def tradespace(evaluator: Evaluator, budgets: Iterable[float] | None = None, rul
     return TradespaceResult(
         budgets_usd=grid, rules=sel, architectures=archs, runs=tuple(runs), best_score=best, engine=evaluator.name,
         lazy=lazy, share_prefix=share_prefix, n_evaluations=evaluator.n_evaluations - n0 if n_evals is None else n_evals, problem=info,
-        seconds=round(time.perf_counter() - t0, 6),
+        seconds=round(time.perf_counter() - t0, 6), constraints=None if top is None else top.constraints,
     )
 
 
@@ -402,27 +446,34 @@ def _single_rules(names: tuple[str, ...]) -> list[str]:
     return singles
 
 
-def _architectures(lib: SensorLibrary, sel: tuple[str, ...], found: dict[frozenset[int], tuple[float, set[str]]]
-                   ) -> list[tuple[tuple[str, ...], float, float, tuple[str, ...]]]:
-    """(ids in library order, cost, score, rules) per unique suite, sorted by cost, -score, ids."""
+def _architectures(lib: SensorLibrary, sel: tuple[str, ...], found: dict[frozenset[int], tuple[float, set[str]]],
+                   price: np.ndarray | None = None) -> list[tuple[tuple[str, ...], float, float, tuple[str, ...]]]:
+    """(ids in library order, cost, score, rules) per unique suite, sorted by cost, -score, ids.
+    ``price``: (n,) what each sensor spends of the budget (owned sensors 0); default the library's costs."""
     rows = []
     for key, (score, made_by) in found.items():
         pos = sorted(key)
-        rows.append((lib.suite_ids(pos), lib.cost(pos), float(score), tuple(s for s in sel if s in made_by)))
+        cost = lib.cost(pos) if price is None else float(sum(float(price[i]) for i in pos))
+        rows.append((lib.suite_ids(pos), cost, float(score), tuple(s for s in sel if s in made_by)))
     rows.sort(key=lambda r: (r[1], -r[2], r[0]))
     return rows
 
 
 def run_tradespace(target: Target, budgets: Iterable[float] | None = None, rules: Iterable[str] = DEFAULT_RULES,
                    *, engine: str | None = None, jobs: int = 1, lazy: bool = True, share_prefix: bool = True,
-                   aggregate: str = "normalised", progress: Progress | None = None) -> TradespaceResult:
+                   aggregate: str = "normalised", progress: Progress | None = None,
+                   constraints: Constraints | None = None) -> TradespaceResult:
     """The ``sensorsel pareto`` pipeline: :func:`tradespace` with a fresh evaluator of ``engine`` for
-    a problem or a domain (``aggregate``: how a domain combines its routes)."""
+    a problem or a domain (``aggregate``: how a domain combines its routes; ``constraints``: limits
+    besides the budget, kept at every budget)."""
     sel = parse_rules(rules, "rules")  # bad input fails before the evaluator is built
     grid = None if budgets is None else tuple(check_budget(b) for b in budgets)
+    if constraints is not None:
+        for b in grid or (float(target.library.costs.sum()),):
+            feasible_set(target.library, b, constraints)  # refuses a bad request (at every budget) up front
     ev = evaluator_for(target, engine, jobs=jobs, aggregate=aggregate)
     return tradespace(ev, grid, sel, lazy=lazy, share_prefix=share_prefix, progress=progress,
-                      info=target.info)
+                      info=target.info, constraints=constraints)
 
 
 # ------------------------------------------------------------------------------------------ output

@@ -13,7 +13,7 @@ from .. import results
 from ..errors import InputError
 from ..fileio import output_dir
 from ..problem import Domain
-from .options import cluster_from, cluster_options
+from .options import cluster_from, cluster_options, constraint_options, constraints_from, usage_table
 from .options import (budget_option, engine_options, json_option, output_option, plot_format_option, problem_from, progress_bar,
                       print_target, quiet_option, run, table, target_from, target_options)
 from .options import plot_format as plot_format_of
@@ -33,6 +33,7 @@ from .rules import rule_option
 @click.option("--method", type=click.Choice(["paper", "robust"]), default="paper", show_default=True,
               help="How the suite is chosen, whole route and each period: paper = the paper's Algorithm 2; robust = "
                    "robust selection (best exact worst case among greedy, Algorithm 2 and more; never below either).")
+@constraint_options
 @output_option(folder=True, required=True, dest="outdir",
                help="Output folder: resilient.json, grid.csv, the grid plot, and periods/ (one file per period).")
 @plot_format_option
@@ -67,13 +68,15 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, rule: str, method:
     period_s = check_period(period_s)
     out = output_dir(outdir)
     cluster = cluster_from(kw)
+    constraints = constraints_from(kw)
     problem = target_from(kw)
-    check_affordable(problem.library, budget, alpha)
+    check_affordable(problem.library, budget, alpha, constraints=constraints)
     if cluster is not None and isinstance(problem, Domain):
         raise click.UsageError("--scheduler/--workers run a route's periods as tasks: a domain has no periods")
     if cluster is not None and method != "paper":
         raise click.UsageError("--scheduler/--workers run the paper's method's periods as tasks: drop --method robust")
-    report = _report(problem, budget, alpha, period_s, rule, method, aggregate, engine, jobs, out, resume, quiet, cluster)
+    report = _report(problem, budget, alpha, period_s, rule, method, aggregate, engine, jobs, out, resume, quiet, cluster,
+                     constraints)
     r = report.comparison.resilient
     if alpha and len(r.suite) <= alpha:
         # the failing set took what the budget buys: every sensor of the suite could fail
@@ -85,6 +88,7 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, rule: str, method:
         click.echo(results.dumps(report), nl=False)
         return
     _print_comparison(report, budget, alpha, rule, method)
+    _print_usage(report, problem.library)
     _print_periods(report.per_period, period_s)
     for p in written:
         click.echo(f"wrote {p}")
@@ -93,7 +97,7 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, rule: str, method:
 
 
 def _report(problem: Any, budget: float, alpha: int, period_s: float, rule: str, method: str, aggregate: str,
-            engine: str | None, jobs: int, out: Path, resume: bool, quiet: bool, cluster: Any) -> Any:
+            engine: str | None, jobs: int, out: Path, resume: bool, quiet: bool, cluster: Any, constraints: Any = None) -> Any:
     """The resilient report: a domain's comparison, or a route's comparison and periods (in-process,
     or as tasks on a cluster), with one progress bar over the periods."""
     from ..api import resilient_report
@@ -101,7 +105,7 @@ def _report(problem: Any, budget: float, alpha: int, period_s: float, rule: str,
 
     if isinstance(problem, Domain):
         return resilient_report(problem, budget, alpha, period_s=None, rule=rule, engine=engine, jobs=jobs,
-                                aggregate=aggregate, method=method)
+                                aggregate=aggregate, method=method, constraints=constraints)
     sc = problem.scenario
     n_periods = len(split_periods(sc.keyframes.times, period_s))
     bar, progress = progress_bar(quiet, f"{n_periods} periods of {period_s:g} s")
@@ -112,10 +116,11 @@ def _report(problem: Any, budget: float, alpha: int, period_s: float, rule: str,
 
         with cluster, bar or nullcontext():  # the whole route and every period as tasks
             return resilient_report_on(cluster.client, problem, budget, alpha, period_s=period_s, rule=rule,
-                                       engine=engine, outdir=str(out), resume=resume, progress=progress)
+                                       engine=engine, outdir=str(out), resume=resume, progress=progress,
+                                       constraints=constraints)
     with bar or nullcontext():
         return resilient_report(problem, budget, alpha, period_s=period_s, rule=rule, engine=engine, jobs=jobs,
-                                outdir=out, resume=resume, progress=progress, method=method)
+                                outdir=out, resume=resume, progress=progress, method=method, constraints=constraints)
 
 
 def _write(report: Any, problem: Any, out: Path, fmt: str, period_s: float, alpha: int, budget: float, method: str) -> list[Path]:
@@ -163,6 +168,17 @@ def _print_comparison(report: Any, budget: float, alpha: int, rule: str, method:
     if c.greedy_worst.score > 0:
         gain = 100.0 * (c.resilient_worst.score - c.greedy_worst.score) / c.greedy_worst.score
         click.echo(f"\nworst case: resilient {gain:+.1f} % versus greedy (scores in nats: f(S) = log det L(S) - log det L(empty))")
+
+
+def _print_usage(report: Any, lib: Any) -> None:
+    """Under constraints: the limits, and what the whole route's chosen suite uses of each."""
+    if report.constraints is None:
+        return
+    from ..constraints import feasible_set
+
+    click.echo(f"\nlimits    {report.constraints.describe()} (every suite above and every period's); "
+               f"the chosen suite uses:")
+    click.echo(usage_table(feasible_set(lib, report.budget_usd, report.constraints).rows_used(lib.resolve_suite(report.suite))))
 
 
 def _print_periods(per: Any, period_s: float) -> None:

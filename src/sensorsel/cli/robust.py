@@ -8,8 +8,8 @@ import click
 
 from .. import results
 from ..library import SensorLibrary
-from .options import (budget_option, compact_suite, engine_options, json_option, output_option, print_target, quiet_option,
-                      run, table, target_from, target_options)
+from .options import (budget_option, compact_suite, constraint_options, constraints_from, engine_options, json_option,
+                      output_option, print_target, quiet_option, run, table, target_from, target_options, usage_table)
 
 #: --aggregate of this command: the domain's combined score (as elsewhere), or its worst route
 ROBUST_AGGREGATES = ("normalised", "raw", "worst")
@@ -42,6 +42,7 @@ def _csv(xs: Any) -> str:
               help="Further methods, comma-separated, or 'none' [default: oblivious,saturate,local-search; "
                    "with --aggregate worst: saturate,local-search].")
 @click.option("--no-skip", is_flag=True, help="Run every method even when the bound already proves a candidate optimal.")
+@constraint_options
 @output_option(help="Write the result as JSON here (kind \"robust\").")
 @json_option
 @quiet_option
@@ -57,10 +58,13 @@ def robust_cmd(budget: float, alpha: int, rules: str, methods: str | None, no_sk
 
     With --domain FILE and --aggregate worst, the design maximises the worst route's share of its best
     (f_r(S) / f_r(all sensors)) under the failures.
+
+    --limit, --require, --exclude, --max-sensors and the library's slots hold for every candidate;
+    the bound then relaxes them to the budget alone (still an upper bound).
     """
     from ..api import run_robust
     from ..resilient import check_alpha
-    from ..selection import check_budget
+    from ..selection import check_affordable, check_budget
 
     budget, alpha = check_budget(budget), check_alpha(alpha)
     rule_list = tuple(r.strip() for r in rules.split(",") if r.strip())
@@ -73,11 +77,13 @@ def robust_cmd(budget: float, alpha: int, rules: str, methods: str | None, no_sk
         method_list = ()
     else:
         method_list = tuple(m.strip() for m in methods.split(",") if m.strip())
+    constraints = constraints_from(kw)
     target = target_from(kw)
+    check_affordable(target.library, budget, constraints=constraints)
     if not quiet:
         click.echo(f"robust selection: ${budget:,.0f}, {alpha} failure(s) ...", err=True)
     res = run_robust(target, budget, alpha, engine=engine, jobs=jobs, aggregate=aggregate, rules=rule_list,
-                     methods=method_list, skip_when_proved=not no_skip)
+                     methods=method_list, skip_when_proved=not no_skip, constraints=constraints)
     written = results.save(res, output) if output else None
     if as_json:
         click.echo(results.dumps(res), nl=False)
@@ -126,6 +132,12 @@ def print_robust(res: Any, lib: SensorLibrary | None = None) -> None:
                      ["method", "suite", "cost_usd", "nominal", "worst_case", "worst_failures", "evaluations", "seconds"]))
     for s in res.skipped:
         click.echo(f"skipped: {s}")
+    if res.constraints is not None and lib is not None:
+        from ..constraints import feasible_set
+
+        click.echo(f"\nlimits     {res.constraints.describe()}"
+                   + (f"; bound relaxed to the {res.bound_detail.relaxation}" if res.bound_detail.relaxation else ""))
+        click.echo(usage_table(feasible_set(lib, res.budget_usd, res.constraints).rows_used(lib.resolve_suite(res.suite))))
     click.echo(f"{res.n_evaluations:,} suites scored in {res.seconds:.1f} s")
 
 

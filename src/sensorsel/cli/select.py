@@ -162,6 +162,7 @@ def _arch_row(a: Architecture) -> list[str]:
 @budget_option(multiple=True, help="A budget in dollars (110000, 110,000, $110,000 or 110_000); repeat it for several; "
                                    "adds to --budgets.")
 @rules_option(",".join(DEFAULT_RULES))
+@constraint_options
 @click.option("--lazy/--no-lazy", default=True, show_default=True, help="Lazy (Minoux) evaluation: same picks, fewer evaluations.")
 @output_option(folder=True, required=True, dest="outdir", help="Folder for pareto.<format>, architectures.csv and tradespace.json.")
 @plot_format_option
@@ -178,6 +179,9 @@ def pareto_cmd(budgets: str | None, budget: tuple[float, ...], rules: str, lazy:
     Writes the plot, a CSV of every architecture (cost, score, normalized score, selectors, suite,
     on-front flag) and the full result as JSON; prints the front and the cheapest architectures that
     reach 99% and 95% of the best score.
+
+    --limit, --require, --exclude, --max-sensors and the library's slots hold at every budget (a
+    budget sweep with the other limits fixed).
     """
     grid = parse_budgets(budgets) if budgets is not None else None
     if budget:
@@ -188,19 +192,24 @@ def pareto_cmd(budgets: str | None, budget: tuple[float, ...], rules: str, lazy:
     cluster = cluster_from(kw)
     if resume and cluster is None:
         raise click.UsageError("--resume reads the runs a --scheduler/--workers run wrote: give one of them")
+    constraints = constraints_from(kw)
     problem = target_from(kw)
     if grid:
-        check_affordable(problem.library, max(grid), budget_option="--budgets" if budgets is not None else "--budget")
+        check_affordable(problem.library, max(grid), budget_option="--budgets" if budgets is not None else "--budget",
+                         constraints=constraints)
+    else:
+        check_affordable(problem.library, float(problem.library.costs.sum()), constraints=constraints)
     bar, progress = progress_bar(quiet, "tradespace runs")
     if cluster is not None:
         from ..distributed import run_tradespace_on
 
         with cluster, bar or nullcontext():  # each rule's chain of budgets is one task
             res = run_tradespace_on(cluster.client, problem, grid, names, engine=engine, lazy=lazy, aggregate=aggregate,
-                                    progress=progress, outdir=outdir, resume=resume)
+                                    progress=progress, outdir=outdir, resume=resume, constraints=constraints)
     else:
         with bar or nullcontext():
-            res = run_tradespace(problem, grid, names, engine=engine, jobs=jobs, lazy=lazy, aggregate=aggregate, progress=progress)
+            res = run_tradespace(problem, grid, names, engine=engine, jobs=jobs, lazy=lazy, aggregate=aggregate, progress=progress,
+                                 constraints=constraints)
 
     out = Path(outdir)
     written = [results.save(res, out / "tradespace.json"), write_csv(res, out / "architectures.csv")]
@@ -236,6 +245,10 @@ def pareto_cmd(budgets: str | None, budget: tuple[float, ...], rules: str, lazy:
     best = res.best
     assert best is not None
     click.echo(f"best: ${best.cost_usd:,.0f}, {best.n_sensors} sensors: {','.join(best.suite)}")
+    if res.constraints is not None:
+        lib = problem.library
+        click.echo(f"limits     {res.constraints.describe()} (at every budget); the best architecture uses, at the largest budget:")
+        click.echo(usage_table(feasible_set(lib, res.budgets_usd[-1], res.constraints).rows_used(lib.resolve_suite(best.suite))))
     click.echo("wrote " + ", ".join(str(w) for w in written))
 
 

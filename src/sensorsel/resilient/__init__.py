@@ -45,12 +45,14 @@ from __future__ import annotations
 
 import time
 from pathlib import Path
+from typing import Any
 
+from ..constraints import Constraints, feasible_set
 from ..errors import InputError
 from ..evaluators import evaluator_for
 from ..problem import Problem, Target
 from ..selection import check_budget
-from .algorithm import MAX_FAILURE_SETS, check_alpha, check_rule, compare, failing_set, resilient_select, worst_case
+from .algorithm import MAX_FAILURE_SETS, check_alpha, check_rule, compare, failing_set, recorded, resilient_select, worst_case
 from .cache import CacheWarning
 from .periods import (
     DEFAULT_PERIOD_S, Progress, Selector, check_method, check_period, make_grid, period_file, period_scenario, run_periods, save_grid_csv, split_periods,
@@ -71,7 +73,8 @@ __all__ = [
 def resilient_report(problem: Target, budget_usd: float, alpha: int, *, period_s: float | None = DEFAULT_PERIOD_S,
                      rule: str = "uniform", engine: str | None = None, jobs: int = 1, lazy: bool = True,
                      aggregate: str = "normalised", outdir: str | Path | None = None, resume: bool = False,
-                     progress: Progress | None = None, method: str = "paper", selector: Selector | None = None) -> ResilientReport:
+                     progress: Progress | None = None, method: str = "paper", selector: Selector | None = None,
+                     constraints: Constraints | None = None) -> ResilientReport:
     """The whole-route comparison and (unless ``period_s`` is None) the per-period selection.
 
     With ``outdir``, the comparison is cached in ``outdir/periods/route.json`` and each period in
@@ -82,6 +85,10 @@ def resilient_report(problem: Target, budget_usd: float, alpha: int, *, period_s
     ``method="robust"`` chooses the whole route's suite and each period's with ``selector`` (robust
     selection, see :data:`~.periods.Selector`; :func:`sensorsel.api.resilient_report` passes it) instead
     of Algorithm 2; the greedy / Algorithm 2 comparison of the whole route is kept beside it.
+
+    ``constraints``: limits besides the budget (:mod:`sensorsel.constraints`) that every suite of the
+    report keeps: greedy's, Algorithm 2's (failing and active set together), the robust choice's and
+    every period's; recorded in the report and in every cached file's fingerprint.
     """
     t0 = time.perf_counter()
     budget, alpha, rule = check_budget(budget_usd), check_alpha(alpha), check_rule(rule)
@@ -91,16 +98,21 @@ def resilient_report(problem: Target, budget_usd: float, alpha: int, *, period_s
     if period_s is not None and not isinstance(problem, Problem):
         raise InputError("a per-period selection runs on one route, not on a domain: give no period (period_s=None)")
     cache = Path(outdir) / "periods" / "route.json" if outdir is not None else None
+    feas = feasible_set(problem.library, budget, constraints) if constraints is not None else None  # refuses a bad request
     cmp_ = compare(problem, budget, alpha, rule, engine=engine, jobs=jobs, lazy=lazy, aggregate=aggregate, cache=cache,
-                   resume=resume)
+                   resume=resume, constraints=constraints)
     choice = None
     if method == "robust":
         assert selector is not None
-        choice, _ = selector(evaluator_for(problem, engine, jobs=jobs, aggregate=aggregate), budget, alpha, problem.info)
+        extra: dict[str, Any] = {} if constraints is None else {"constraints": constraints}
+        choice, _ = selector(evaluator_for(problem, engine, jobs=jobs, aggregate=aggregate), budget, alpha, problem.info,
+                             **extra)
     per = None
     if period_s is not None and isinstance(problem, Problem):
         per = run_periods(problem, budget, alpha, period_s=period_s, rule=rule, engine=engine, jobs=jobs,
-                          lazy=lazy, outdir=outdir, resume=resume, progress=progress, method=method, selector=selector)
+                          lazy=lazy, outdir=outdir, resume=resume, progress=progress, method=method, selector=selector,
+                          constraints=constraints)
     return ResilientReport(suite=choice.suite if choice else cmp_.resilient.suite, failed=() if choice else cmp_.resilient.failed,
                            alpha=alpha, budget_usd=budget, rule=rule, engine=cmp_.engine, comparison=cmp_, per_period=per,
-                           seconds=round(time.perf_counter() - t0, 6), method=method, robust=choice)
+                           seconds=round(time.perf_counter() - t0, 6), method=method, robust=choice,
+                           constraints=recorded(feas))

@@ -7,11 +7,12 @@ import itertools
 import math
 import time
 from pathlib import Path
-from typing import Sequence
+from typing import Any, Sequence
 
 import numpy as np
 
 from .. import results
+from ..constraints import Constraints, FeasibleSet, feasible_set
 from ..errors import InputError
 from ..evaluators import DEFAULT_ENGINE, ENGINES, Evaluator, as_suite, evaluator_for, make_evaluator
 from ..problem import Problem, ProblemInfo, Target, TargetInfo
@@ -40,8 +41,13 @@ def engine_name(engine: str | None) -> str:
     return name
 
 
-def failing_set(evaluator: Evaluator, budget_usd: float, alpha: int) -> tuple[list[int], list[float], str]:
+def failing_set(evaluator: Evaluator, budget_usd: float, alpha: int,
+                constraints: Constraints | None = None) -> tuple[list[int], list[float], str]:
     """The alpha sensors assumed to fail: largest f({e}) first, skipping those that do not fit.
+
+    With ``constraints``, "fits" means on top of the required sensors and the failing sensors picked
+    so far, every limit kept (a required sensor always fits: it is in the suite anyway, so it may be
+    the one assumed to fail); excluded sensors are never picked.
 
     Returns:
         (library positions in pick order, their f({e}) [nats], note: "" or why fewer than alpha).
@@ -51,6 +57,9 @@ def failing_set(evaluator: Evaluator, budget_usd: float, alpha: int) -> tuple[li
     lib = evaluator.library
     if alpha == 0:
         return [], [], ""
+    feas = feasible_set(lib, budget, constraints) if constraints is not None else None
+    if feas is not None and not is_plain(feas):
+        return _failing_set_within(evaluator, feas, alpha)
     costs, ids = lib.costs, lib.ids
     singles = evaluator.scores_with((), list(range(len(lib))))
     gain_tol = REL_TOL  # f(empty) = 0: the round-off scale of a singleton's gain
@@ -75,8 +84,37 @@ def failing_set(evaluator: Evaluator, budget_usd: float, alpha: int) -> tuple[li
     return picked, [float(singles[i]) for i in picked], note
 
 
+def _failing_set_within(evaluator: Evaluator, feas: FeasibleSet, alpha: int) -> tuple[list[int], list[float], str]:
+    """:func:`failing_set` under a feasible set (see there)."""
+    lib = evaluator.library
+    costs, ids = feas.cost, lib.ids
+    singles = evaluator.scores_with((), list(range(len(lib))))
+    required = np.zeros(len(lib), dtype=bool)
+    required[list(feas.required)] = True
+    used = feas.usage(feas.required)
+    left = np.ones(len(lib), dtype=bool)
+    picked: list[int] = []
+    for _ in range(alpha):
+        ok = left & (feas.addable(used) | required) & (singles > REL_TOL)
+        if not ok.any():
+            break
+        cand = np.flatnonzero(ok)
+        best = singles[cand].max()
+        tied = cand[singles[cand] >= best - REL_TOL * max(1.0, abs(best))]
+        pick = int(min(tied, key=lambda i: (costs[i], ids[i])))
+        picked.append(pick)
+        left[pick] = False
+        if not required[pick]:
+            used = used + feas.A[:, pick]
+    note = ""
+    if len(picked) < alpha:
+        note = (f"only {len(picked)} informative sensor(s) fit the limits ({feas.constraints.describe()}; "
+                f"${feas.budget_usd:,.0f}) as failing sensors; {alpha} requested")
+    return picked, [float(singles[i]) for i in picked], note
+
+
 def resilient_select(evaluator: Evaluator, budget_usd: float, alpha: int, rule: str = "uniform", *, lazy: bool = True,
-                     info: TargetInfo | None = None) -> ResilientResult:
+                     info: TargetInfo | None = None, constraints: Constraints | None = None) -> ResilientResult:
     """Resilient selection for ``alpha`` failures under ``budget_usd`` (see the module docstring).
 
     Args:
@@ -86,6 +124,10 @@ def resilient_select(evaluator: Evaluator, budget_usd: float, alpha: int, rule: 
         rule: greedy rule of the active set (see :data:`sensorsel.selection.RULES`).
         lazy: lazy (Minoux) evaluation in the greedy run (same picks).
         info: what the problem is, recorded in the result.
+        constraints: limits besides the budget (:mod:`sensorsel.constraints`): the failing set and the
+            active set *together* keep every limit (the active greedy run sees the failing set's use of
+            each limit as already spent); required sensors are in the suite (in the failing set or the
+            active set); excluded ones never. None: the budget alone (the paper's algorithm, unchanged).
     """
     t0 = time.perf_counter()
     budget = check_budget(budget_usd)
@@ -93,20 +135,45 @@ def resilient_select(evaluator: Evaluator, budget_usd: float, alpha: int, rule: 
     check_rule(rule)
     n0 = evaluator.n_evaluations
     lib = evaluator.library
-    failed, failed_scores, note = failing_set(evaluator, budget, alpha)
-    failed_cost = lib.cost(failed)
-    rest = max(0.0, budget - failed_cost)  # never negative: the failing set fits by construction
-    run = greedy(evaluator, rest, rule, lazy=lazy, exclude=frozenset(failed), start=(), info=info)
+    failed, failed_scores, note = failing_set(evaluator, budget, alpha, constraints)
+    feas = feasible_set(lib, budget, constraints) if constraints is not None else None
+    if feas is None or is_plain(feas):  # the budget alone: the paper's algorithm, as it always ran
+        failed_cost = lib.cost(failed)
+        rest = max(0.0, budget - failed_cost)  # never negative: the failing set fits by construction
+        run = greedy(evaluator, rest, rule, lazy=lazy, exclude=frozenset(failed), start=(), info=info)
+    else:
+        failed_cost = float(feas.usage(failed)[0])
+        run = greedy(evaluator, budget, rule, lazy=lazy, exclude=frozenset(failed), info=info, constraints=constraints,
+                     reserved=tuple(failed))
     active = [lib.position(s) for s in run.suite]
     suite = failed + active
     score = evaluator.score(suite) if failed else run.score
+    cost = lib.cost(suite) if feas is None or is_plain(feas) else float(feas.usage(suite)[0])
     return ResilientResult(
         alpha=alpha, budget_usd=budget, rule=rule, suite=lib.suite_ids(suite), failed=lib.suite_ids(failed),
         failed_scores=tuple(failed_scores), failure_note=note, active=run.suite, failed_cost_usd=failed_cost,
-        cost_usd=lib.cost(suite), score=float(score), active_score=run.score, greedy=run,
+        cost_usd=cost, score=float(score), active_score=run.score, greedy=run,
         n_evaluations=evaluator.n_evaluations - n0, engine=evaluator.name, problem=info,
-        seconds=round(time.perf_counter() - t0, 6),
+        seconds=round(time.perf_counter() - t0, 6), constraints=recorded(feas),
     )
+
+
+def is_plain(feas: FeasibleSet) -> bool:
+    """True when the budget is the only limit: no other row, nothing required or excluded (the paper's problem)."""
+    return feas.only_budget and not feas.required and not feas.excluded
+
+
+def recorded(feas: FeasibleSet | None) -> Constraints | None:
+    """What a result records of its feasible set: its constraints, or None when the budget is the only
+    limit (:func:`is_plain`)."""
+    return None if feas is None or is_plain(feas) else feas.constraints
+
+
+def constraints_key(feas: FeasibleSet | None) -> dict[str, Any]:
+    """The constraints' part of a cache fingerprint: nothing when the budget is the only limit (so
+    files written before constraints existed are still reused), else the constraints with the digest
+    of the library's resources and slots (so a resume never mixes runs under other limits)."""
+    return {} if feas is None or is_plain(feas) else {"constraints": results.to_jsonable(feas.constraints)}
 
 
 def worst_case(evaluator: Evaluator, suite: Sequence[int] | str, alpha: int, *, max_failure_sets: int = MAX_FAILURE_SETS) -> WorstCase:
@@ -145,34 +212,37 @@ def worst_case(evaluator: Evaluator, suite: Sequence[int] | str, alpha: int, *, 
 
 def compare(target: Target, budget_usd: float, alpha: int, rule: str = "uniform", *, engine: str | None = None,
             jobs: int = 1, lazy: bool = True, aggregate: str = "normalised", cache: str | Path | None = None,
-            resume: bool = False) -> Comparison:
+            resume: bool = False, constraints: Constraints | None = None) -> Comparison:
     """Greedy and resilient selection at the same budget, with the worst case of each suite, on one
     route or on a domain (the domain's score, combined by ``aggregate``).
 
     Args:
         cache: a file to save the result in (atomically); with ``resume``, reused when its inputs match
             (one route only: a domain's comparison is not cached).
+        constraints: limits besides the budget, respected by both selections (recorded, and part of
+            the cache's fingerprint).
     """
     t0 = time.perf_counter()
     budget, alpha, rule = check_budget(budget_usd), check_alpha(alpha), check_rule(rule)
     name = engine_name(engine)
+    feas = feasible_set(target.library, budget, constraints) if constraints is not None else None
     fp = ""
     if isinstance(target, Problem):
-        fp = fingerprint(target, budget, alpha, rule, name, lazy, {"what": "whole route"})
+        fp = fingerprint(target, budget, alpha, rule, name, lazy, {"what": "whole route", **constraints_key(feas)})
         if cache is not None and resume:
             old = load_matching(Comparison, Path(cache), fp, target)
             if old is not None:
                 return old
     ev = evaluator_for(target, name, jobs=jobs, aggregate=aggregate)
     info = target.info
-    g = greedy(ev, budget, rule, lazy=lazy, info=info)
-    r = resilient_select(ev, budget, alpha, rule, lazy=lazy, info=info)
+    g = greedy(ev, budget, rule, lazy=lazy, info=info, constraints=constraints)
+    r = resilient_select(ev, budget, alpha, rule, lazy=lazy, info=info, constraints=constraints)
     lib = target.library
     gw = worst_case(ev, [lib.position(s) for s in g.suite], alpha)
     rw = worst_case(ev, [lib.position(s) for s in r.suite], alpha)
     out = Comparison(alpha=alpha, budget_usd=budget, rule=rule, greedy=g, resilient=r, greedy_worst=gw,
                      resilient_worst=rw, engine=ev.name, fingerprint=fp, problem=info,
-                     seconds=round(time.perf_counter() - t0, 6))
+                     seconds=round(time.perf_counter() - t0, 6), constraints=recorded(feas))
     if cache is not None and isinstance(target, Problem):
         results.save(out, cache)
     return out

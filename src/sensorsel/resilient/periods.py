@@ -11,6 +11,7 @@ from typing import Any, Callable, Sequence
 import numpy as np
 
 from .. import results
+from ..constraints import Constraints, feasible_set
 from ..errors import InputError
 from ..fileio import atomic_write_text
 from ..library import SensorLibrary
@@ -18,17 +19,18 @@ from ..evaluators import Evaluator, make_evaluator
 from ..problem import Problem, build_problem
 from ..scenario import Scenario
 from ..selection import check_budget
-from .algorithm import check_alpha, check_rule, engine_name, resilient_select, worst_case
+from .algorithm import check_alpha, check_rule, constraints_key, engine_name, recorded, resilient_select, worst_case
 from .cache import fingerprint, load_matching
 from .records import ACTIVE, FAILED, METHODS, UNUSED, PeriodResult, PeriodSpan, PerPeriodResult, RobustChoice, SelectionGrid, WorstCase
 
 #: progress(done, total): called after each period (computed or reused).
 Progress = Callable[[int, int], None]
 
-#: selector(evaluator, budget, alpha, info) -> (choice, its worst case): how ``method="robust"`` chooses a
-#: suite. Robust selection lives in a layer above this package, so its caller passes it in
+#: selector(evaluator, budget, alpha, info[, constraints=...]) -> (choice, its worst case): how
+#: ``method="robust"`` chooses a suite (``constraints=`` is passed only when the run has some).
+#: Robust selection lives in a layer above this package, so its caller passes it in
 #: (:func:`sensorsel.robust.robust_choice`; :func:`sensorsel.api.resilient_report` does).
-Selector = Callable[[Evaluator, float, int, Any], tuple[RobustChoice, WorstCase]]
+Selector = Callable[..., tuple[RobustChoice, WorstCase]]
 
 
 def check_method(method: str, selector: Selector | None) -> str:
@@ -98,7 +100,8 @@ def period_file(outdir: str | Path, index: int) -> Path:
 def run_periods(problem: Problem, budget_usd: float, alpha: int, *, period_s: float = DEFAULT_PERIOD_S,
                 rule: str = "uniform", engine: str | None = None, jobs: int = 1, lazy: bool = True,
                 outdir: str | Path | None = None, resume: bool = False,
-                progress: Progress | None = None, method: str = "paper", selector: Selector | None = None) -> PerPeriodResult:
+                progress: Progress | None = None, method: str = "paper", selector: Selector | None = None,
+                constraints: Constraints | None = None) -> PerPeriodResult:
     """Resilient selection on each period of the route.
 
     Args:
@@ -110,18 +113,21 @@ def run_periods(problem: Problem, budget_usd: float, alpha: int, *, period_s: fl
         progress: progress(periods done, total) after each period.
         method: "paper" (Algorithm 2 per period) or "robust" (``selector`` per period).
         selector: robust selection (see :data:`Selector`), needed by "robust".
+        constraints: limits besides the budget every period's suite keeps (part of each period
+            file's fingerprint, so a resume never mixes runs under other limits).
     """
     t0 = time.perf_counter()
     budget, alpha, rule = check_budget(budget_usd), check_alpha(alpha), check_rule(rule)
     method = check_method(method, selector)
     period = check_period(period_s)
     name = engine_name(engine)
+    feas = feasible_set(problem.library, budget, constraints) if constraints is not None else None  # refuses a bad request
     spans = split_periods(problem.scenario.keyframes.times, period)
     out: list[PeriodResult] = []
     for n_done, (k, a, b, kf) in enumerate(spans, start=1):
         path = period_file(outdir, k) if outdir is not None else None
         out.append(_one_period(problem, k, a, b, kf, budget, alpha, rule, name, jobs, lazy, period, path, resume,
-                               method, selector))
+                               method, selector, constraints))
         if progress:
             progress(n_done, len(spans))
     if outdir is not None:
@@ -132,12 +138,13 @@ def run_periods(problem: Problem, budget_usd: float, alpha: int, *, period_s: fl
                 f.unlink()
     return PerPeriodResult(period_s=period, alpha=alpha, budget_usd=budget, rule=rule, engine=name,
                            periods=tuple(out), grid=make_grid(problem.library, out),
-                           seconds=round(time.perf_counter() - t0, 6), method=method)
+                           seconds=round(time.perf_counter() - t0, 6), method=method, constraints=recorded(feas))
 
 
 def _one_period(problem: Problem, k: int, a: float, b: float, kf: np.ndarray, budget: float, alpha: int, rule: str,
                 engine: str, jobs: int, lazy: bool, period: float, path: Path | None, resume: bool,
-                method: str = "paper", selector: Selector | None = None) -> PeriodResult:
+                method: str = "paper", selector: Selector | None = None,
+                constraints: Constraints | None = None) -> PeriodResult:
     """Period ``k`` (keyframes ``kf``, times [a, b)): reused from ``path`` when resuming and it matches,
     else computed (and written to ``path``)."""
     sc = period_scenario(problem, kf, a, b, f"{problem.scenario.name} {a:g}-{b:g} s")
@@ -146,6 +153,8 @@ def _one_period(problem: Problem, k: int, a: float, b: float, kf: np.ndarray, bu
     what: dict[str, Any] = {"what": "period", "period_s": period, "span": results.to_jsonable(span)}
     if method != "paper":  # the paper's fingerprints stay as they were: their files are reused
         what["method"] = method
+    feas = feasible_set(problem.library, budget, constraints) if constraints is not None else None
+    what.update(constraints_key(feas))
     fp = fingerprint(sub, budget, alpha, rule, engine, lazy, what)
     old = load_matching(PeriodResult, path, fp, sub) if (path is not None and resume) else None
     if old is not None:
@@ -153,10 +162,11 @@ def _one_period(problem: Problem, k: int, a: float, b: float, kf: np.ndarray, bu
     ev = make_evaluator(sub, engine, jobs=jobs)
     if method == "robust":
         assert selector is not None
-        choice, w = selector(ev, budget, alpha, sub.info)
+        extra: dict[str, Any] = {} if constraints is None else {"constraints": constraints}
+        choice, w = selector(ev, budget, alpha, sub.info, **extra)
         res = PeriodResult(fingerprint=fp, period=span, result=None, worst=w, method=method, robust=choice)
     else:
-        r = resilient_select(ev, budget, alpha, rule, lazy=lazy, info=sub.info)
+        r = resilient_select(ev, budget, alpha, rule, lazy=lazy, info=sub.info, constraints=constraints)
         w = worst_case(ev, [sub.library.position(s) for s in r.suite], alpha)
         res = PeriodResult(fingerprint=fp, period=span, result=r, worst=w)
     if path is not None:

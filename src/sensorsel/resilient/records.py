@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from ..constraints import Constraints
 from ..errors import InputError
 from ..problem import ProblemInfo, TargetInfo
 from ..selection import GreedyResult
@@ -63,6 +64,8 @@ class ResilientResult:
         engine: the evaluator used.
         problem: what it was computed on.
         seconds: wall time [s] (varies between runs).
+        constraints: the limits besides the budget the failing and the active set together respected
+            (:class:`~sensorsel.constraints.Constraints`); None: the budget alone.
     """
 
     alpha: int
@@ -82,6 +85,7 @@ class ResilientResult:
     engine: str
     problem: TargetInfo | None = None
     seconds: float = 0.0
+    constraints: Constraints | None = None
 
 
 @dataclass(frozen=True)
@@ -100,6 +104,7 @@ class Comparison:
         fingerprint: digest of the inputs (for resuming).
         problem: what it was computed on.
         seconds: wall time [s].
+        constraints: the limits besides the budget both selections respected; None: the budget alone.
     """
 
     alpha: int
@@ -113,6 +118,7 @@ class Comparison:
     fingerprint: str
     problem: TargetInfo | None = None
     seconds: float = 0.0
+    constraints: Constraints | None = None
 
 
 @dataclass(frozen=True)
@@ -286,6 +292,7 @@ class PerPeriodResult:
         grid: the failed / active grid.
         seconds: wall time of this run [s] (periods reused from files count their stored time no more).
         method: "paper" or "robust".
+        constraints: the limits besides the budget every period's suite respected; None: the budget alone.
     """
 
     period_s: float
@@ -297,6 +304,7 @@ class PerPeriodResult:
     grid: SelectionGrid
     seconds: float = 0.0
     method: str = "paper"
+    constraints: Constraints | None = None
 
 
 @dataclass(frozen=True)
@@ -314,6 +322,7 @@ class ResilientReport:
         seconds: wall time [s].
         method: "paper" (Algorithm 2) or "robust" (robust selection, whole route and each period).
         robust: with "robust", the whole route's robust choice (next to the greedy / Algorithm 2 comparison).
+        constraints: the limits besides the budget every suite of the report respected; None: the budget alone.
     """
 
     suite: tuple[str, ...]
@@ -327,3 +336,4 @@ class ResilientReport:
     seconds: float = 0.0
     method: str = "paper"
     robust: RobustChoice | None = None
+    constraints: Constraints | None = None

@@ -39,6 +39,16 @@ minimum of its own bound and the larger of its children's.
 exactly g_a of that set: one worst-case computation (enumerated when C(m, a) is small; else the
 value after a greedy adversary's a removals, an upper bound).
 
+**(4) Constraints** (:mod:`sensorsel.constraints`: resource limits, mounting slots, most sensors,
+required and excluded sensors). The constrained suites are a subset of the suites within a budget
+alone, so the bound of that larger problem bounds them too: the budget row is kept, every other row
+dropped, the excluded sensors removed from the root's library. The budget row is the price, except
+that with ``owned`` the required sensors R cost nothing: a constrained S holds R and prices
+Cost(S minus R) <= B, so Cost(S) <= B + Cost(R), and the relaxation's budget is B + Cost(R). An
+"exact" leaf is then the worst case of a suite that may break a dropped limit: it raises the
+incumbent only when it fits them all. (An integer program over every row would be tighter; this
+relaxation is valid and cheap.)
+
 The case split is explored best-first (the leaf with the highest bound is split, on its sensor of
 largest f({e})), until every leaf is at or below the incumbent (then the incumbent is optimal,
 ``proved``) or ``max_nodes`` nodes were made.
@@ -55,6 +65,7 @@ from typing import Sequence
 import numpy as np
 
 from ..certify import MAX_DP_CELLS, cost_units, knapsack, optimal
+from ..constraints import Constraints, feasible_set
 from ..evaluators import Evaluator, as_suite
 from ..resilient import check_alpha, worst_case
 from ..selection import REL_TOL, check_budget, greedy
@@ -134,7 +145,7 @@ def _adversary(ev: Evaluator, suite: tuple[int, ...], alpha: int) -> float:
 def robust_bound(evaluator: Evaluator, budget_usd: float, alpha: int, *, anchors: Sequence[Sequence[int]] = (),
                  incumbent: float = 0.0, max_nodes: int = DEFAULT_BOUND_NODES, max_anchors: int = MAX_ANCHORS,
                  max_exact_sets: int = MAX_EXACT_SETS, leaf_greedy: bool = True,
-                 leaf_search_nodes: int = LEAF_SEARCH_NODES) -> RobustBound:
+                 leaf_search_nodes: int = LEAF_SEARCH_NODES, constraints: Constraints | None = None) -> RobustBound:
     """Upper bound on max { g_alpha(S) : Cost(S) <= budget } (see the module docstring for the proof).
 
     Args:
@@ -149,11 +160,23 @@ def robust_bound(evaluator: Evaluator, budget_usd: float, alpha: int, *, anchors
             run :func:`sensorsel.certify.optimal` (excluding the removed sensors) with this node limit
             and keep its upper bound if smaller (0: never).
         leaf_greedy: anchor each leaf without failures left at a uniform greedy run on its library and budget.
+        constraints: limits besides the budget: bounded through the budget-only relaxation of fact (4).
     """
     t0 = time.perf_counter()
     budget_usd, alpha = check_budget(budget_usd), check_alpha(alpha)
     ev = evaluator
     lib = ev.library
+    feas = feasible_set(lib, budget_usd, constraints) if constraints is not None else None
+    relaxation = ""
+    root_removed: tuple[int, ...] = ()
+    if feas is not None and not (feas.only_budget and not feas.required and not feas.excluded):
+        extra = lib.cost(feas.required) if feas.constraints.owned else 0.0
+        root_removed = tuple(sorted(feas.excluded))
+        relaxation = (f"budget alone (${budget_usd + extra:,.0f}" + (" = the budget + the owned sensors' price" if extra else "")
+                      + f"); dropped: {feas.constraints.describe()}")
+        budget_usd = budget_usd + extra
+    else:
+        feas = None
     n0 = ev.n_evaluations
     costs, ids, n = lib.costs, lib.ids, len(lib)
     singles = ev.scores_with((), list(range(n)))
@@ -172,7 +195,7 @@ def robust_bound(evaluator: Evaluator, budget_usd: float, alpha: int, *, anchors
             k = min(node.alpha, len(aff))
             if math.comb(len(aff), k) <= max_exact_sets:
                 node.own, node.how = worst_case(ev, aff, node.alpha, max_failure_sets=max_exact_sets).score, "exact"
-                if not node.failed and node.own > incumbent:
+                if not node.failed and node.own > incumbent and (feas is None or feas.fits(aff)):
                     # nothing assumed failed: the leaf's library is a suite within the whole budget, and its
                     # worst case is achieved: a better incumbent settles the other leaves sooner
                     incumbent, tol = node.own, REL_TOL * max(1.0, abs(node.own))
@@ -218,7 +241,7 @@ def robust_bound(evaluator: Evaluator, budget_usd: float, alpha: int, *, anchors
         node.own, node.how = best, how
 
     counter = 0
-    root = _Node((), (), float(budget_usd), int(alpha))
+    root = _Node(root_removed, (), float(budget_usd), int(alpha))
     evaluate(root)
     heap: list[tuple[float, int, _Node]] = [(-root.own, 0, root)]
     n_nodes = 1
@@ -258,4 +281,4 @@ def robust_bound(evaluator: Evaluator, budget_usd: float, alpha: int, *, anchors
     bound = max(top, incumbent)
     return RobustBound(bound=float(bound), leaves=tuple(leaves), n_nodes=n_nodes, n_sweeps=sweeps,
                        proved=bool(top <= incumbent + tol), n_evaluations=ev.n_evaluations - n0,
-                       seconds=round(time.perf_counter() - t0, 6))
+                       seconds=round(time.perf_counter() - t0, 6), relaxation=relaxation)

@@ -17,6 +17,11 @@ after k that fit the budget left. Expanding it:
 * the node is dropped when its bound does not beat the best worst case found by more than a relative
   1e-9; otherwise it splits on the first sensor r of R: r in (S_in + r) or r out.
 
+Constraints (:mod:`sensorsel.constraints`): the root holds the required sensors, excluded ones are
+never in R, and R holds only the sensors that fit every limit on top of S_in (so every node's S_in
+is a feasible suite, and so is S_in ∪ R when it is tried). The knapsack keeps the budget row alone
+(dropping the other rows only enlarges it: the bound stays valid).
+
 The best found is proved optimal when no node is left; at the node limit, the largest bound left is
 an upper bound on the optimum.
 """
@@ -31,6 +36,7 @@ from typing import Sequence
 
 import numpy as np
 
+from ..constraints import Constraints, feasible_set, recorded
 from ..evaluators import Evaluator, as_suite
 from ..resilient import check_alpha, worst_case
 from ..selection import REL_TOL, check_budget
@@ -44,27 +50,33 @@ DEFAULT_EXACT_NODES = 20_000
 # Long on purpose (~70 lines): one best-first branch and bound loop (expand, bound, prune, incumbent)
 # whose state is local to the loop.
 def robust_optimum(evaluator: Evaluator, budget_usd: float, alpha: int, *, incumbent: Sequence[int] = (),
-                   max_nodes: int = DEFAULT_EXACT_NODES) -> RobustOptimum:
+                   max_nodes: int = DEFAULT_EXACT_NODES, constraints: Constraints | None = None) -> RobustOptimum:
     """Best worst case within the budget (see the module docstring).
 
     Args:
         incumbent: a suite to start from (e.g. the robust selection's answer); the search only has
             to rule out better ones.
         max_nodes: nodes expanded at most.
+        constraints: limits besides the budget; only suites that keep them all are explored.
     """
     t0 = time.perf_counter()
     budget, alpha = check_budget(budget_usd), check_alpha(alpha)
     ev = evaluator
     lib = ev.library
-    costs, ids, n = lib.costs, lib.ids, len(lib)
+    ids, n = lib.ids, len(lib)
+    feas = feasible_set(lib, budget, recorded(constraints))
+    costs = feas.A[0]  # the price; 0 for owned required sensors (they are in every suite)
     n0 = ev.n_evaluations
     singles = ev.scores_with((), list(range(n)))
-    order = sorted(range(n), key=lambda i: (-singles[i], costs[i], ids[i]))
+    root = as_suite(feas.required)
+    order = sorted((i for i in range(n) if i not in feas.excluded and i not in root),
+                   key=lambda i: (-singles[i], costs[i], ids[i]))
+    n_order = len(order)
 
     def gval(s: tuple[int, ...]) -> float:
         return worst_case(ev, s, alpha).score if s else 0.0
 
-    best_s: tuple[int, ...] = as_suite(incumbent) if incumbent and lib.cost(incumbent) <= budget + 1e-9 else ()
+    best_s: tuple[int, ...] = as_suite(incumbent) if incumbent and feas.fits(incumbent) else root
     best_g = gval(best_s)
 
     def offer(s: tuple[int, ...], g: float) -> None:
@@ -74,7 +86,7 @@ def robust_optimum(evaluator: Evaluator, budget_usd: float, alpha: int, *, incum
         if g > best_g + tol or (abs(g - best_g) <= tol and (lib.cost(s), lib.suite_ids(s)) < (lib.cost(best_s), lib.suite_ids(best_s))):
             best_s, best_g = s, g
 
-    heap: list[tuple[float, int, tuple[int, ...], int, float]] = [(-math.inf, 0, (), 0, budget)]
+    heap: list[tuple[float, int, tuple[int, ...], int, float]] = [(-math.inf, 0, root, 0, budget - float(feas.usage(root)[0]))]
     counter = nodes = pruned = 0
     stop = ""
     while heap:
@@ -88,8 +100,9 @@ def robust_optimum(evaluator: Evaluator, budget_usd: float, alpha: int, *, incum
             break
         heapq.heappop(heap)
         nodes += 1
-        rest = [order[j] for j in range(k, n) if costs[order[j]] <= left + 1e-9]
-        if float(costs[rest].sum()) <= left + 1e-9 if rest else True:
+        fit = feas.addable(feas.usage(s))
+        rest = [order[j] for j in range(k, n_order) if fit[order[j]]]
+        if feas.fits(s + tuple(rest)):
             full = as_suite(s + tuple(rest))
             offer(full, gval(full))
             continue
@@ -123,4 +136,5 @@ def robust_optimum(evaluator: Evaluator, budget_usd: float, alpha: int, *, incum
         proved_optimal=proved, upper_bound=float(upper), gap_percent=100.0 * (upper - best_g) / upper if upper > 0 else 0.0,
         n_nodes=nodes, n_pruned=pruned, n_evaluations=ev.n_evaluations - n0, stop_reason=stop,
         seconds=round(time.perf_counter() - t0, 6),
+        constraints=None if feas.only_budget and not feas.required and not feas.excluded else feas.constraints,
     )

@@ -29,6 +29,12 @@ Notation: V the library (n sensors), B the budget, alpha the failures, g(S) = mi
 ``local-search``   from the best candidate: add a sensor, or swap one out and one in, when it raises the
                    exact worst case and stays in budget; first improvement in a fixed order; at most
                    ``max_rounds`` moves and ``max_evaluations`` suites scored. Only ever improves g.
+
+Constraints (:mod:`sensorsel.constraints`, a ``feasible`` set): every method returns a suite of
+it. Oblivious-Greedy's oblivious part and its greedy run keep every limit together (as Algorithm 2);
+SATURATE's cover starts from the required sensors and adds only sensors that fit every limit on top
+of the suite, its cost-effectiveness measured in the dollar-equivalent cost of the cost-aware rules;
+local search moves only to suites that fit (required sensors are never swapped out).
 """
 
 from __future__ import annotations
@@ -39,6 +45,7 @@ from typing import Sequence
 
 import numpy as np
 
+from ..constraints import Constraints, FeasibleSet
 from ..evaluators import Evaluator, as_suite
 from ..resilient import failing_set
 from ..selection import REL_TOL, greedy
@@ -55,23 +62,31 @@ def _fits(cost: float, budget: float) -> bool:
 
 
 def oblivious_greedy(evaluator: Evaluator, budget: float, alpha: int, *, eta: float = 2.0,
-                     rule: str = "uniform") -> tuple[tuple[int, ...], str]:
-    """Oblivious-Greedy (knapsack variant, see the module docstring): (suite, note)."""
+                     rule: str = "uniform", constraints: Constraints | None = None) -> tuple[tuple[int, ...], str]:
+    """Oblivious-Greedy (knapsack variant, see the module docstring): (suite, note). With
+    ``constraints``, the oblivious part and the greedy run keep every limit together."""
     k = int(math.ceil(eta * alpha))
     lib = evaluator.library
-    picked, _, note = failing_set(evaluator, budget, k)
-    rest = max(0.0, budget - lib.cost(picked))
-    run = greedy(evaluator, rest, rule, exclude=frozenset(picked))
+    picked, _, note = failing_set(evaluator, budget, k, constraints)
+    if constraints is None:
+        rest = max(0.0, budget - lib.cost(picked))
+        run = greedy(evaluator, rest, rule, exclude=frozenset(picked))
+        what = f"greedy {rule} on ${rest:,.0f}"
+    else:  # the oblivious sensors use their share of every limit; greedy keeps what is left
+        run = greedy(evaluator, budget, rule, exclude=frozenset(picked), constraints=constraints, reserved=tuple(picked))
+        what = f"greedy {rule} on what the limits leave"
     suite = tuple(picked) + tuple(lib.position(s) for s in run.suite)
-    return suite, f"{len(picked)} bought obliviously ({','.join(lib.suite_ids(picked))}); " + (note or f"greedy {rule} on ${rest:,.0f}")
+    return suite, f"{len(picked)} bought obliviously ({','.join(lib.suite_ids(picked))}); " + (note or what)
 
 
 def saturate(family: Family, budget: float, lo: float, hi: float, *, levels: int = DEFAULT_SATURATE_LEVELS,
-             max_evaluations: int | None = None) -> tuple[list[tuple[float, bool, tuple[int, ...]]], str]:
+             max_evaluations: int | None = None, feasible: FeasibleSet | None = None
+             ) -> tuple[list[tuple[float, bool, tuple[int, ...]]], str]:
     """SATURATE's bisection between ``lo`` (a level known reachable) and ``hi`` (an upper bound).
 
     Returns every level's suite as (level c, fully covered, suite) and a note. A level whose greedy
     run hits ``max_evaluations`` (counted by ``family.n_evaluations``) ends the bisection.
+    ``feasible``: every level's suite is one of its suites (None: the budget alone).
     """
     n0 = family.n_evaluations
     out: list[tuple[float, bool, tuple[int, ...]]] = []
@@ -80,7 +95,8 @@ def saturate(family: Family, budget: float, lo: float, hi: float, *, levels: int
         if hi - lo <= REL_TOL * max(1.0, abs(hi)):
             break
         c = 0.5 * (lo + hi)
-        covered, suite, done = _cover(family, budget, c, None if max_evaluations is None else n0 + max_evaluations)
+        covered, suite, done = _cover(family, budget, c, None if max_evaluations is None else n0 + max_evaluations,
+                                      feasible)
         out.append((c, covered, suite))
         if not done:
             note = f"evaluation limit ({max_evaluations:,}) reached at level {c:.3f}"
@@ -92,13 +108,17 @@ def saturate(family: Family, budget: float, lo: float, hi: float, *, levels: int
     return out, note or f"{len(out)} levels, last bracket [{lo:.3f}, {hi:.3f}]"
 
 
-def _cover(family: Family, budget: float, c: float, stop_at: int | None) -> tuple[bool, tuple[int, ...], bool]:
-    """Cost-effective lazy greedy on F_c until full coverage: (covered, suite, finished within the limit)."""
+def _cover(family: Family, budget: float, c: float, stop_at: int | None,
+           feasible: FeasibleSet | None = None) -> tuple[bool, tuple[int, ...], bool]:
+    """Cost-effective lazy greedy on F_c until full coverage: (covered, suite, finished within the limit).
+    With ``feasible``: from its required sensors, adding only sensors that fit every limit."""
     lib = family.library
-    costs, ids, n = lib.costs, lib.ids, len(lib)
-    suite: list[int] = []
+    ids, n = lib.ids, len(lib)
+    costs = lib.costs if feasible is None else feasible.cost
+    suite: list[int] = [] if feasible is None else list(feasible.required)
+    used = np.zeros(0) if feasible is None else feasible.usage(suite)
     spent = 0.0
-    w, v = family.terms(())
+    w, v = family.terms(tuple(suite))
     total = float(w.sum()) * c
     cur = float(np.dot(w, np.minimum(v, c)))
     bound = np.full(n, np.inf)  # upper bounds on each candidate's coverage gain (submodularity)
@@ -107,7 +127,11 @@ def _cover(family: Family, budget: float, c: float, stop_at: int | None) -> tupl
             return True, as_suite(suite), True
         if stop_at is not None and family.n_evaluations > stop_at:
             return False, as_suite(suite), False
-        feas = [i for i in range(n) if i not in suite and _fits(spent + costs[i], budget) and bound[i] > 0]
+        if feasible is None:
+            feas = [i for i in range(n) if i not in suite and _fits(spent + costs[i], budget) and bound[i] > 0]
+        else:
+            ok = feasible.addable(used)
+            feas = [i for i in range(n) if i not in suite and ok[i] and bound[i] > 0]
         if not feas:
             return False, as_suite(suite), True
         fresh: dict[int, float] = {}
@@ -131,6 +155,8 @@ def _cover(family: Family, budget: float, c: float, stop_at: int | None) -> tupl
         pick = min((i for i in good if fresh[i] / costs[i] >= r - REL_TOL * max(1.0, abs(r))), key=lambda i: (costs[i], ids[i]))
         suite.append(pick)
         spent += float(costs[pick])
+        if feasible is not None:
+            used = used + feasible.A[:, pick]
         cur += fresh[pick]
 
 
@@ -156,13 +182,14 @@ def _worst_above(ev: Evaluator, s: tuple[int, ...], alpha: int, level: float, or
 
 
 def local_search(evaluator: Evaluator, start: Sequence[int], budget: float, alpha: int, *, max_rounds: int = 10,
-                 max_evaluations: int = 2_000) -> tuple[tuple[int, ...], str]:
+                 max_evaluations: int = 2_000, feasible: FeasibleSet | None = None) -> tuple[tuple[int, ...], str]:
     """Add / swap local search on the exact worst case (see the module docstring): (suite, note).
 
     A swap S - a + b keeps every failure set that holds b as a failure set of S that holds a
     (S - a + b minus F = S minus (F - b + a)), so it can only help when every failure set of S holding
     a leaves more than g(S): other sensors a are never tried. The failure sets of a neighbour are
     scored in order of how bad they were for S, and scoring stops at the first one at or below g(S).
+    ``feasible``: only suites of it are moved to (None: the budget alone).
     """
     ev = evaluator
     lib = ev.library
@@ -191,10 +218,13 @@ def local_search(evaluator: Evaluator, start: Sequence[int], budget: float, alph
                 if ev.n_evaluations - n0 > max_evaluations:
                     stop = f"evaluation limit ({max_evaluations:,}) reached"
                     break
-                new_cost = cost + costs[b] - (costs[a] if a is not None else 0.0)
-                if not _fits(new_cost, budget):
-                    continue
+                if feasible is None:
+                    new_cost = cost + costs[b] - (costs[a] if a is not None else 0.0)
+                    if not _fits(new_cost, budget):
+                        continue
                 s2 = as_suite([i for i in s if i != a] + [b])
+                if feasible is not None and not feasible.fits(s2):
+                    continue
                 hint2 = {}
                 for f in itertools.combinations(s2, min(alpha, len(s2))):
                     if b not in f:  # S2 minus f = (S - a minus f) + b: f was this bad for S

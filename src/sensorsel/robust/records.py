@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from ..constraints import Constraints
 from ..problem import ProblemInfo, TargetInfo
 
 
@@ -96,6 +97,8 @@ class RobustBound:
         proved: True when the bound equals the incumbent (to a relative 1e-9): it is optimal.
         n_evaluations: suites newly scored for the bound.
         seconds: wall time [s].
+        relaxation: empty, or (under constraints) what the bound relaxed: it bounds the best worst
+            case over a larger set of suites (the budget alone), so it stays an upper bound.
     """
 
     bound: float
@@ -105,6 +108,7 @@ class RobustBound:
     proved: bool
     n_evaluations: int
     seconds: float = 0.0
+    relaxation: str = ""
 
 
 @dataclass(frozen=True)
@@ -137,6 +141,7 @@ class RobustResult:
             is the minimum over routes and failure sets, and ``nominal_score`` the minimum over routes.
         worst_member: with "worst", the route attaining the worst case.
         members: with "worst", every route's shares (the breakdown).
+        constraints: the limits besides the budget every candidate kept; None: the budget alone.
     """
 
     alpha: int
@@ -161,6 +166,7 @@ class RobustResult:
     aggregate: str = ""
     worst_member: str = ""
     members: tuple[MemberWorst, ...] = ()
+    constraints: Constraints | None = None
 
 
 @dataclass(frozen=True)
@@ -182,6 +188,7 @@ class RobustOptimum:
         n_evaluations: suites newly scored.
         stop_reason: why the search stopped.
         seconds: wall time [s].
+        constraints: the limits besides the budget the search kept; None: the budget alone.
     """
 
     alpha: int
@@ -199,3 +206,4 @@ class RobustOptimum:
     n_evaluations: int
     stop_reason: str
     seconds: float = 0.0
+    constraints: Constraints | None = None

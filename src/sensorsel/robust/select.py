@@ -18,6 +18,12 @@ The answer is the candidate with the highest exact worst case; ties (relative 1e
 nominal score, then the lower cost, then the smaller ids in library order. Since the uniform greedy
 suite and Algorithm 2's suite are candidates scored with the same exact :func:`~sensorsel.resilient.worst_case`,
 **the answer's worst case is never below greedy's nor below Algorithm 2's**, and never above the bound.
+
+Constraints (``constraints=``, :mod:`sensorsel.constraints`): every method runs within them (greedy,
+Algorithm 2, Oblivious-Greedy, SATURATE, local search; see :mod:`.methods`), a bound leaf becomes a
+candidate only when its suite keeps every limit, and every candidate is checked against the feasible
+set before it is scored: no answer ever breaks a limit. The bound is the budget-only relaxation
+(:mod:`.bound`, fact (4)), still an upper bound.
 """
 
 from __future__ import annotations
@@ -26,10 +32,11 @@ import time
 from dataclasses import replace
 from typing import Any, Sequence
 
+from ..constraints import Constraints, feasible_set
 from ..errors import InputError
 from ..evaluators import Evaluator, as_suite, evaluator_for
 from ..problem import ProblemInfo, Target, TargetInfo
-from ..resilient import RobustChoice, WorstCase, check_alpha, resilient_select, worst_case
+from ..resilient import RobustChoice, WorstCase, check_alpha, recorded, resilient_select, worst_case
 from ..selection import REL_TOL, check_budget, check_rule, greedy
 from .bound import DEFAULT_BOUND_NODES, robust_bound
 from .family import FailureFamily
@@ -77,7 +84,7 @@ def robust_select(evaluator: Evaluator, budget_usd: float, alpha: int, *, rules:
                   methods: Sequence[str] = EXTRA_METHODS, skip_when_proved: bool = True,
                   saturate_levels: int = DEFAULT_SATURATE_LEVELS, saturate_evaluations: int | None = 2_000,
                   local_rounds: int = 10, local_evaluations: int = 2_000, bound_nodes: int = DEFAULT_BOUND_NODES,
-                  info: TargetInfo | None = None) -> RobustResult:
+                  info: TargetInfo | None = None, constraints: Constraints | None = None) -> RobustResult:
     """The best suite within ``budget_usd`` against ``alpha`` failures among the methods' suites.
 
     Args:
@@ -88,20 +95,26 @@ def robust_select(evaluator: Evaluator, budget_usd: float, alpha: int, *, rules:
         saturate_levels, saturate_evaluations: SATURATE's bisection levels and evaluation limit.
         local_rounds, local_evaluations: local search's move and evaluation limits.
         bound_nodes: nodes of the bound's case split.
+        constraints: limits besides the budget that every candidate keeps (module docstring).
     """
     t_start = time.perf_counter()
     budget, alpha = check_budget(budget_usd), check_alpha(alpha)
     rules = check_rules_and_methods(rules, methods, EXTRA_METHODS, "robust method")
     ev = memoized(evaluator)
     lib = ev.library
+    feas = feasible_set(lib, budget, constraints) if constraints is not None else None
+    kept = recorded(feas)  # None when the budget is the only limit: the methods then run as they always did
+    feas = feas if kept is not None else None
     n_start = ev.n_evaluations
     cands: list[Candidate] = []
     skipped: list[str] = []
 
     def add(method: str, suite: Sequence[int], note: str, n0: int, t0: float) -> Candidate:
         s = as_suite(suite)
+        if feas is not None and not feas.fits(s):  # a method's bug, never the user's input
+            raise AssertionError(f"robust method {method} returned a suite that breaks the limits: {feas.violations(s)}")
         w = worst_case(ev, s, alpha)
-        c = Candidate(method=method, suite=lib.suite_ids(s), cost_usd=lib.cost(s), nominal_score=w.nominal_score,
+        c = Candidate(method=method, suite=lib.suite_ids(s), cost_usd=lib.cost(s) if feas is None else float(feas.usage(s)[0]), nominal_score=w.nominal_score,
                       worst_score=w.score, failures=w.failures, note=note, n_evaluations=ev.n_evaluations - n0,
                       seconds=round(time.perf_counter() - t0, 6))
         cands.append(c)
@@ -125,7 +138,7 @@ def robust_select(evaluator: Evaluator, budget_usd: float, alpha: int, *, rules:
 
     def run_rule(r: str) -> None:
         n0, t0 = ev.n_evaluations, time.perf_counter()
-        g = greedy(ev, budget, r)
+        g = greedy(ev, budget, r, constraints=kept)
         add(f"greedy-{r}", [lib.position(i) for i in g.suite], g.stop_reason, n0, t0)
 
     def tol_of(x: float) -> float:
@@ -134,17 +147,20 @@ def robust_select(evaluator: Evaluator, budget_usd: float, alpha: int, *, rules:
     run_rule("uniform")
     greedy_worst = cands[0].worst_score
     n0, t0 = ev.n_evaluations, time.perf_counter()
-    a2 = resilient_select(ev, budget, alpha)
+    a2 = resilient_select(ev, budget, alpha, constraints=kept)
     a2c = add("algorithm-2", [lib.position(i) for i in a2.suite], f"failing set {','.join(a2.failed)}" + (f"; {a2.failure_note}" if a2.failure_note else ""), n0, t0)
-    bnd = robust_bound(ev, budget, alpha, anchors=anchors(), incumbent=best().worst_score, max_nodes=bound_nodes)
+    bnd = robust_bound(ev, budget, alpha, anchors=anchors(), incumbent=best().worst_score, max_nodes=bound_nodes,
+                       constraints=kept)
     # an "exact" leaf with no sensor assumed failed is a feasible suite (the whole leaf library fits
     # the budget) whose worst case the bound has just computed: a free candidate
     for leaf in bnd.leaves:
         if leaf.how == "exact" and not leaf.failed and leaf.bound > best().worst_score + tol_of(best().worst_score):
             n0, t0 = ev.n_evaluations, time.perf_counter()
             gone = set(leaf.removed)
-            add("bound-leaf", [i for i in range(len(lib)) if lib.ids[i] not in gone],
-                f"the bound's exact leaf without {','.join(leaf.removed) or 'nothing'}", n0, t0)
+            leaf_suite = [i for i in range(len(lib)) if lib.ids[i] not in gone and lib.costs[i] <= leaf.budget_usd + 1e-9]
+            if feas is not None and not feas.fits(leaf_suite):
+                continue  # the relaxed bound's leaf breaks a dropped limit: not a candidate
+            add("bound-leaf", leaf_suite, f"the bound's exact leaf without {','.join(leaf.removed) or 'nothing'}", n0, t0)
     proved = bnd.proved
     if not proved and bnd.bound <= best().worst_score + tol_of(best().worst_score):
         proved = True
@@ -163,12 +179,12 @@ def robust_select(evaluator: Evaluator, budget_usd: float, alpha: int, *, rules:
             continue
         n0, t0 = ev.n_evaluations, time.perf_counter()
         if m == "oblivious":
-            s, note = oblivious_greedy(ev, budget, alpha, eta=2.0)
+            s, note = oblivious_greedy(ev, budget, alpha, eta=2.0, constraints=kept)
             add("oblivious-eta2", s, note, n0, t0)
         elif m == "saturate":
             lo = best().worst_score
             levels, note = saturate(FailureFamily(ev, alpha), budget, lo, bnd.bound, levels=saturate_levels,
-                                    max_evaluations=saturate_evaluations)
+                                    max_evaluations=saturate_evaluations, feasible=feas)
             tried = [s for _, _, s in levels]
             if not tried:
                 skipped.append("saturate: no level between the best worst case and the bound")
@@ -190,7 +206,7 @@ def robust_select(evaluator: Evaluator, budget_usd: float, alpha: int, *, rules:
         elif m == "local-search":
             start = best()
             s, note = local_search(ev, [lib.position(i) for i in start.suite], budget, alpha, max_rounds=local_rounds,
-                                   max_evaluations=local_evaluations)
+                                   max_evaluations=local_evaluations, feasible=feas)
             add("local-search", s, f"from {start.method}; {note}", n0, t0)
         if not proved and bnd.bound <= best().worst_score + tol_of(best().worst_score):
             proved = True
@@ -199,7 +215,8 @@ def robust_select(evaluator: Evaluator, budget_usd: float, alpha: int, *, rules:
         bnd = replace(bnd, proved=True)
     if not proved and len(cands) > n_before:
         # new suites: their survivors are new anchors, and a better incumbent settles more leaves
-        bnd = robust_bound(ev, budget, alpha, anchors=anchors(), incumbent=win.worst_score, max_nodes=bound_nodes)
+        bnd = robust_bound(ev, budget, alpha, anchors=anchors(), incumbent=win.worst_score, max_nodes=bound_nodes,
+                           constraints=kept)
     bound = max(bnd.bound, win.worst_score)
     return RobustResult(
         alpha=alpha, budget_usd=budget, method=win.method, suite=win.suite, cost_usd=win.cost_usd,
@@ -207,7 +224,7 @@ def robust_select(evaluator: Evaluator, budget_usd: float, alpha: int, *, rules:
         greedy_worst_score=greedy_worst, algorithm2_worst_score=a2c.worst_score, bound=bound,
         gap_percent=100.0 * (bound - win.worst_score) / bound if bound > 0 else 0.0, candidates=tuple(cands),
         skipped=tuple(skipped), bound_detail=bnd, n_evaluations=ev.n_evaluations - n_start, engine=ev.name, problem=info,
-        seconds=round(time.perf_counter() - t_start, 6),
+        seconds=round(time.perf_counter() - t_start, 6), constraints=kept,
     )
 
 
@@ -216,6 +233,8 @@ def run_robust(problem: Target, budget_usd: float, alpha: int, *, engine: str | 
     """:func:`robust_select` with a fresh evaluator of ``engine`` for a problem or a domain."""
     check_budget(budget_usd)
     check_alpha(alpha)
+    if kwargs.get("constraints") is not None:
+        feasible_set(problem.library, budget_usd, kwargs["constraints"])  # refuse a bad request before the evaluator
     ev = evaluator_for(problem, engine, jobs=jobs, aggregate=aggregate)
     return robust_select(ev, budget_usd, alpha, info=problem.info, **kwargs)
 

@@ -35,7 +35,7 @@ import time
 
 import numpy as np
 
-from ..constraints import Constraints, FeasibleSet, feasible_set
+from ..constraints import Constraints, FeasibleSet, feasible_set, recorded
 from ..errors import InputError
 from ..evaluators import Evaluator
 from ..library import SensorLibrary
@@ -109,7 +109,8 @@ def check_affordable(library: SensorLibrary, budget_usd: float, alpha: int = 0, 
 
 def greedy(evaluator: Evaluator, budget_usd: float, rule: str = "uniform", *, lazy: bool = True,
            exclude: frozenset[int] = frozenset(), start: tuple[int, ...] = (), progress: Progress | None = None,
-           info: TargetInfo | None = None, constraints: Constraints | None = None) -> GreedyResult:
+           info: TargetInfo | None = None, constraints: Constraints | None = None,
+           reserved: tuple[int, ...] = ()) -> GreedyResult:
     """Greedy selection under a budget with the named rule or strategy of :data:`RULES`.
 
     Args:
@@ -121,16 +122,19 @@ def greedy(evaluator: Evaluator, budget_usd: float, rule: str = "uniform", *, la
         start: library positions already in the suite (counted in its cost).
         progress: called as progress(picks_done, max_picks) after each pick (of each component run).
         info: what the problem is, recorded in the result.
-        constraints: limits besides the budget (:class:`~sensorsel.constraints.Constraints`); None: no
-            limit but the budget and the library's mounting slots (if it has any).
+        constraints: limits besides the budget (:class:`~sensorsel.constraints.Constraints`); None: the
+            budget alone, as everywhere below the API (pass ``Constraints()`` to honour the library's slots).
+        reserved: library positions bought outside the scored suite (Algorithm 2's failing set):
+            they use their share of every limit (the budget included), are never picked and are not
+            scored; the result's cost is the suite's own. Required sensors among them stay reserved.
     """
     entry = RULES[check_rule(rule)]
     if isinstance(entry, Rule):
         return Selector(evaluator, entry, lazy=lazy, exclude=exclude, progress=progress,
-                        constraints=constraints).select(budget_usd, start=start, info=info)
+                        constraints=constraints).select(budget_usd, start=start, info=info, reserved=reserved)
     t0 = time.perf_counter()
     runs = [greedy(evaluator, budget_usd, c, lazy=lazy, exclude=exclude, start=start, progress=progress, info=info,
-                   constraints=constraints) for c in entry.component_rules]
+                   constraints=constraints, reserved=reserved) for c in entry.component_rules]
     return entry.combine(runs, info=info, seconds=round(time.perf_counter() - t0, 6))
 
 
@@ -143,7 +147,7 @@ class Selector:
         lazy: use lazy (Minoux) evaluation where the rule allows it (same picks, fewer evaluations).
         exclude: library positions that may not be bought (e.g. sensors assumed to fail).
         progress: called as progress(picks_done, max_picks) after each pick.
-        constraints: limits besides the budget; None: the budget and the library's slots.
+        constraints: limits besides the budget; None: the budget alone.
     """
 
     def __init__(self, evaluator: Evaluator, rule: Rule, *, lazy: bool = True, exclude: frozenset[int] = frozenset(),
@@ -155,27 +159,30 @@ class Selector:
         self.progress = progress
         self.constraints = constraints
 
-    def select(self, budget_usd: float, *, start: tuple[int, ...] = (), info: TargetInfo | None = None) -> GreedyResult:
-        """Run greedy selection; ``start`` sensors (and the required ones) are already in the suite."""
+    def select(self, budget_usd: float, *, start: tuple[int, ...] = (), info: TargetInfo | None = None,
+               reserved: tuple[int, ...] = ()) -> GreedyResult:
+        """Run greedy selection; ``start`` sensors (and the required ones) are already in the suite;
+        ``reserved`` sensors use their share of every limit outside it (see :func:`greedy`)."""
         t0 = time.perf_counter()
         budget = check_budget(budget_usd)
         ev = self.evaluator
         lib = ev.library
-        feas = feasible_set(lib, budget, self.constraints)
+        feas = feasible_set(lib, budget, recorded(self.constraints))
         costs = feas.cost  # dollar-equivalent: the price when the budget is the only limit
         prices = lib.costs
         ids = lib.ids
         n0 = ev.n_evaluations
-        suite: list[int] = list(start) + [r for r in feas.required if r not in start]
-        used = feas.usage(suite)
-        if suite and not feas.fits(suite):
+        suite: list[int] = list(start) + [r for r in feas.required if r not in start and r not in reserved]
+        outside = feas.usage(reserved)
+        used = feas.usage(suite) + outside
+        if (suite or reserved) and not feas.fits(list(suite) + list(reserved)):
             if feas.only_budget:
                 raise InputError(f"the starting sensors cost ${used[0]:,.0f}, above the budget ${budget:,.0f}")
             raise InputError(f"the starting sensors {', '.join(ids[i] for i in suite)} break: {'; '.join(feas.violations(suite))}")
         cost = float(costs[suite].sum()) if suite else 0.0
         f_cur = ev.score(suite) if suite else 0.0
         available = np.ones(len(lib), dtype=bool)
-        available[list(self.exclude | feas.excluded | set(suite))] = False
+        available[list(self.exclude | feas.excluded | set(suite) | set(reserved))] = False
         # upper bounds on each candidate's gain (lazy), valid while f is submodular
         bound = np.full(len(lib), np.inf)
         room = budget - used[0]
@@ -197,16 +204,18 @@ class Selector:
             f_cur = f_new
             cost += float(costs[pick])
             used = used + feas.A[:, pick]
-            steps.append(Step(ids[pick], lib[pick].index, float(prices[pick]), tuple(ids[i] for i in suite), float(used[0]),
+            steps.append(Step(ids[pick], lib[pick].index, float(prices[pick]), tuple(ids[i] for i in suite),
+                              float(used[0] - outside[0]) if reserved else float(used[0]),
                               f_cur, gain, j_val))
             if self.progress:
                 self.progress(len(steps), max(max_picks, len(steps)))
         name = self.rule.name
         return GreedyResult(
-            rule=name, budget_usd=budget, suite=tuple(ids[i] for i in suite), cost_usd=float(used[0]), score=f_cur,
+            rule=name, budget_usd=budget, suite=tuple(ids[i] for i in suite),
+            cost_usd=float(used[0] - outside[0]) if reserved else float(used[0]), score=f_cur,
             steps=tuple(steps), stop_reason=stop, n_evaluations=ev.n_evaluations - n0, engine=ev.name, lazy=self.lazy,
             winning_rule=name, problem=info, seconds=round(time.perf_counter() - t0, 6),
-            constraints=None if feas.only_budget else feas.constraints,
+            constraints=None if feas.only_budget and not feas.required and not feas.excluded else feas.constraints,
         )
 
     @staticmethod
