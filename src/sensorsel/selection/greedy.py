@@ -206,7 +206,9 @@ class Selector:
             rule=name, budget_usd=budget, suite=tuple(ids[i] for i in suite), cost_usd=float(used[0]), score=f_cur,
             steps=tuple(steps), stop_reason=stop, n_evaluations=ev.n_evaluations - n0, engine=ev.name, lazy=self.lazy,
             winning_rule=name, problem=info, seconds=round(time.perf_counter() - t0, 6),
-            constraints=None if feas.only_budget else feas.constraints,
+            # required or excluded sensors are no row of A: record them too (an owned sensor's price is
+            # not counted, so a certificate that forgot them could bound the wrong problem)
+            constraints=None if feas.only_budget and not feas.required and not feas.excluded else feas.constraints,
         )
 
     @staticmethod
