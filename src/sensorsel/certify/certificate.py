@@ -46,6 +46,7 @@ import numpy as np
 from ..constraints import Constraints, FeasibleSet, feasible_set
 from ..errors import InputError
 from ..evaluators import Evaluator, make_evaluator
+from ..library import SensorLibrary
 from ..problem import DomainInfo, Problem, ProblemInfo, TargetInfo
 from ..selection import REL_TOL, GreedyResult, check_budget
 from .knapsack import MAX_DP_CELLS, KnapsackSolution, knapsack, packing_bound
@@ -354,12 +355,34 @@ def certify_greedy(source: Evaluator | Problem, result: GreedyResult, *, jobs: i
     return certificate(ev, result, progress=progress)
 
 
+def constraints_mismatch(result: GreedyResult, library: SensorLibrary) -> tuple[str, bool] | None:
+    """Why a greedy result's constraints do not fit ``library``, or None when they do.
+
+    Returns (the reason, whether the constraints can still be applied): a library whose resources
+    or mounting slots differ from those the run was checked against (``library_digest``) can be
+    used anyway (a caller's ``--force``); constraints the library cannot express at all (a resource
+    it does not declare, an unknown sensor id) cannot.
+    """
+    c = result.constraints
+    if c is None:
+        return None
+    try:
+        here = feasible_set(library, result.budget_usd, c).constraints.library_digest
+    except InputError as exc:
+        return f"its constraints ({c.describe()}) do not apply to the library {library.source}: {exc}", False
+    if c.library_digest and here != c.library_digest:
+        return (f"its constraints ({c.describe()}) were checked against other resources or mounting slots than the "
+                f"library {library.source} declares (digest {c.library_digest[:12]}, here {here[:12]})"), True
+    return None
+
+
 def format_certificate(cert: Certificate) -> str:
     """One line: 'certificate: at least 97.3% of the best possible suite under $110,000 (...)'."""
     where = "the empty suite" if cert.bound_step == 0 else f"step {cert.bound_step} of {len(cert.step_bounds) - 1}"
     unit = "" if isinstance(cert.problem, DomainInfo) else " nats"  # a domain's score is a weighted share of the best
+    limits = " and its limits" if cert.constraints is not None else ""
     return (
-        f"certificate: at least {_pct(cert.percent_of_best)}% of the best possible suite under ${cert.budget_usd:,.0f} "
+        f"certificate: at least {_pct(cert.percent_of_best)}% of the best possible suite under ${cert.budget_usd:,.0f}{limits} "
         f"(f = {cert.score:.3f}{unit}; best possible <= {cert.bound:.3f}{unit}, bound from {where}; "
         f"{cert.n_evaluations:,} evaluations, {cert.seconds:.1f} s)"
     )
