@@ -263,6 +263,26 @@ class Step:
     slow: bool = False
 
 
+#: The car of issue 15: one radar and one camera per clock position, both LiDARs on the roof, and a
+#: 100 W power limit (the ~200 W a 15 A auxiliary circuit gives at 13.8 V, half kept for the computer).
+CAR_LIBRARY = REPO / "configs" / "car_one_radar_one_camera.yaml"
+POWER_LIMIT_W = "100"
+
+
+def step_constrained(seq: str) -> Callable[[Ctx], None]:
+    """Best-of at $110,000 on the car's slots and power limit (issue 15), beside the unconstrained
+    best-of of step greedy; real maps only."""
+    def run(c: Ctx) -> None:
+        if c.landmarks != "real":
+            return
+        name = f"constrained{seq}"
+        c.run("greedy", *c.scen(seq), "--budget", BUDGET, "--library", str(CAR_LIBRARY), "--limit", f"power_w={POWER_LIMIT_W}",
+              rule_option(), "best-of", "-q", "-o", str(c.out / f"{name}.json"), stdout=c.out / f"{name}.txt")
+        c.run("greedy", *c.scen(seq), "--budget", BUDGET, "--library", str(CAR_LIBRARY), "--limit", f"power_w={POWER_LIMIT_W}",
+              rule_option(), "uniform", "-q", "-o", str(c.out / f"{name}-uniform.json"), stdout=c.out / f"{name}-uniform.txt")
+    return run
+
+
 STEPS: list[Step] = [
     *(Step(f"scene{s}", "scene", step_scene(s)) for s in ("03", "00")),
     *(Step(f"scores{s}", "scores", step_scores(s)) for s in ("03", "00")),
@@ -279,6 +299,7 @@ STEPS: list[Step] = [
     Step("robust03-a1", "robust", step_robust("03", 1)),
     Step("robust03-a2", "robust", step_robust("03", 2)),
     Step("robust00-a1", "robust", step_robust("00", 1)),
+    Step("constrained00", "constrained", step_constrained("00")),
 ]
 
 

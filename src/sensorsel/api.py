@@ -22,7 +22,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterable
 
-from .certify import DEFAULT_MAX_NODES, Certificate, CertifiedGreedyResult, OptimumResult, certificate, optimal
+from .certify import (DEFAULT_MAX_NODES, Certificate, CertifiedGreedyResult, OptimumResult, certificate,
+                      constraints_mismatch, optimal)
 from .constraints import Constraints, feasible_set
 from .domain_design import DomainDesign, design_domain
 from .errors import InputError
@@ -176,24 +177,46 @@ def score_domain_suite(domain: Domain, suite: str | Iterable[str | int], *, engi
 
 
 def certify_result(target: Target, result: GreedyResult, *, engine: str | None = None, jobs: int = 1,
-                   aggregate: str = "normalised", progress: Progress | None = None) -> Certificate:
+                   aggregate: str = "normalised", progress: Progress | None = None, force: bool = False) -> Certificate:
     """The certificate of a greedy result on ``target`` (an upper bound on the best possible score
     within its budget; see :func:`sensorsel.certify.certificate`), with a fresh evaluator of
-    ``engine`` (default: the result's own)."""
+    ``engine`` (default: the result's own).
+
+    The bound respects the constraints the result records (``result.constraints``: resources,
+    mounting slots, required and excluded sensors, most sensors).
+
+    Raises:
+        InputError: the result's constraints were checked against other resources or slots than
+            ``target``'s library declares (``force``: certify anyway), or cannot apply to it at all.
+    """
+    mismatch = constraints_mismatch(result, target.library)
+    if mismatch is not None and not (force and mismatch[1]):
+        raise InputError(f"the greedy result: {mismatch[0]}")
     ev = evaluator_for(target, engine or _engine_of(result), jobs=jobs, aggregate=aggregate)
     return certificate(ev, result, progress=progress)
 
 
 def run_optimal(target: Target, budget_usd: float, *, engine: str | None = None, jobs: int = 1,
                 aggregate: str = "normalised", max_nodes: int = DEFAULT_MAX_NODES, max_seconds: float | None = None,
-                rule: str = "best-of", progress: Progress | None = None) -> OptimumResult:
+                rule: str = "best-of", progress: Progress | None = None,
+                constraints: Constraints | None = None) -> OptimumResult:
     """The ``sensorsel optimal`` run: the best suite within the budget by branch and bound
-    (:func:`sensorsel.certify.optimal`), on a problem or a domain."""
+    (:func:`sensorsel.certify.optimal`), on a problem or a domain.
+
+    ``constraints``: limits besides the budget (:mod:`sensorsel.constraints`); the optimum is the
+    best suite they allow, and the result records them.
+
+    Raises:
+        InputError: a bad budget or rule, or constraints the library cannot meet (before any
+            evaluator is built).
+    """
     check_budget(budget_usd)
     check_rule(rule)
+    if constraints is not None:
+        feasible_set(target.library, budget_usd, constraints)  # refuse a bad request before the evaluator
     ev = evaluator_for(target, engine, jobs=jobs, aggregate=aggregate)
     return optimal(ev, budget_usd, max_nodes=max_nodes, max_seconds=max_seconds, rule=rule, progress=progress,
-                   info=target.info)
+                   info=target.info, constraints=constraints)
 
 
 def _engine_of(result: GreedyResult) -> str | None:

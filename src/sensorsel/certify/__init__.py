@@ -1,6 +1,7 @@
 """How far from the best possible suite? A certificate for every greedy answer, and the exact optimum.
 
-Modules: :mod:`.knapsack` (cost units, exact DP, branch and bound, the fractional bound),
+Modules: :mod:`.knapsack` (cost units, exact DP, branch and bound, the fractional bound, and the
+multi-row :func:`packing_bound` by ``milp`` for constraints besides the budget),
 :mod:`.certificate` (the submodular upper bound U(S), :func:`certificate` of a greedy run,
 :class:`Certificate`, :class:`CertifiedGreedyResult`), :mod:`.exact` (:func:`optimal`, the exact
 best suite by branch and bound). Builds on :mod:`sensorsel.selection`, never the other way round.
@@ -13,12 +14,13 @@ the scores (relative ~1e-12); a gain below round-off counts as zero.
 from __future__ import annotations
 
 from .certificate import (Certificate, CertifiedGreedyResult, SuiteBound, certificate, certify_greedy,
-                          format_certificate, suite_bound)
+                          constraints_mismatch, format_certificate, suite_bound)
 from .exact import DEFAULT_MAX_NODES, OptimumResult, optimal
-from .knapsack import MAX_DP_CELLS, MAX_KNAPSACK_NODES, CostUnits, KnapsackSolution, cost_units, fractional_bound, knapsack
+from .knapsack import (MAX_DP_CELLS, MAX_KNAPSACK_NODES, MAX_MILP_NODES, CostUnits, KnapsackSolution, cost_units,
+                      fractional_bound, knapsack, packing_bound)
 
 __all__ = [
-    "DEFAULT_MAX_NODES", "MAX_DP_CELLS", "MAX_KNAPSACK_NODES", "Certificate", "CertifiedGreedyResult", "CostUnits",
-    "KnapsackSolution", "OptimumResult", "SuiteBound", "certificate", "certify_greedy", "cost_units",
-    "format_certificate", "fractional_bound", "knapsack", "optimal", "suite_bound",
+    "DEFAULT_MAX_NODES", "MAX_DP_CELLS", "MAX_KNAPSACK_NODES", "MAX_MILP_NODES", "Certificate", "CertifiedGreedyResult",
+    "CostUnits", "KnapsackSolution", "OptimumResult", "SuiteBound", "certificate", "certify_greedy", "constraints_mismatch",
+    "cost_units", "format_certificate", "fractional_bound", "knapsack", "optimal", "packing_bound", "suite_bound",
 ]

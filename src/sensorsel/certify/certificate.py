@@ -18,6 +18,18 @@ the sensors it adds to S may use the whole budget). This is the "online bound" o
 greedy run (one sweep of ``scores_with`` per suite, skipping the suites whose U provably cannot be
 smaller). The greedy suite then scores at least ``score / bound`` of the best possible.
 
+**With constraints** (:mod:`sensorsel.constraints`: the feasible suites are those with A x <= b,
+holding the required sensors R and none of the excluded ones) the same argument holds with OPT
+feasible: T = OPT \\ S holds R \\ S, and the rest of it, T \\ R, uses at most b - A 1_R (OPT holds R).
+So the knapsack becomes an integer program over the marginal gains (several knapsack rows, mounting
+slots, a count):
+
+    U(S) = f(S) + Σ_{e ∈ R \\ S} Δ(e | S) + max { Σ_{e ∈ T} Δ(e | S) : T ⊆ V \\ (S ∪ R ∪ X), A 1_T <= b - A 1_R }
+
+(X the excluded sensors), solved by scipy's ``milp`` (HiGHS, :func:`~.knapsack.packing_bound`),
+whose value is its proved dual bound, never below the maximum. When the budget is the only row and
+nothing is required or excluded, the single knapsack is solved by DP exactly as before.
+
 Deterministic for a deterministic evaluator: same inputs, same bytes out (the wall time sits in a
 separate ``seconds`` field). A gain below round-off counts as zero.
 """
@@ -31,11 +43,13 @@ from typing import Callable, Sequence
 
 import numpy as np
 
+from ..constraints import Constraints, FeasibleSet, feasible_set
 from ..errors import InputError
 from ..evaluators import Evaluator, make_evaluator
+from ..library import SensorLibrary
 from ..problem import DomainInfo, Problem, ProblemInfo, TargetInfo
 from ..selection import REL_TOL, GreedyResult, check_budget
-from .knapsack import MAX_DP_CELLS, knapsack
+from .knapsack import MAX_DP_CELLS, KnapsackSolution, knapsack, packing_bound
 
 #: progress(done, total)
 Progress = Callable[[int, int], None]
@@ -64,12 +78,15 @@ class Certificate:
         bound_suite: ids of that intermediate suite.
         step_bounds: U at the empty suite and after each pick [nats], shape (n_steps + 1,); None
             where the sweep was skipped because a lower bound on U there already reached ``bound``.
-        knapsack_method: how the knapsacks were solved ("dp", or every method used, joined by "+").
+        knapsack_method: how the knapsacks were solved ("dp"; "milp" with constraints besides the
+            budget; or every method used, joined by "+").
         knapsack_exact: whether every knapsack was solved exactly (the bound is valid either way).
         n_evaluations: suites scored for the certificate.
         engine: the evaluator used.
         problem: what it was computed on.
         seconds: wall time [s] (the only field that varies between runs).
+        constraints: the limits besides the budget the bound respects (the greedy run's); None:
+            the budget alone.
     """
 
     rule: str
@@ -90,6 +107,7 @@ class Certificate:
     engine: str
     problem: TargetInfo | None = None
     seconds: float = 0.0
+    constraints: Constraints | None = None
 
 
 @dataclass(frozen=True)
@@ -137,7 +155,7 @@ class SuiteBound:
 
 def suite_bound(evaluator: Evaluator, suite: Sequence[int], budget_usd: float, *, score: float | None = None,
                 exclude: frozenset[int] = frozenset(), max_cells: int = MAX_DP_CELLS,
-                gains_out: np.ndarray | None = None) -> SuiteBound:
+                gains_out: np.ndarray | None = None, feas: FeasibleSet | None = None) -> SuiteBound:
     """U(S) >= f(OPT) for the best suite OPT within ``budget_usd`` (see the module docstring).
 
     Costs one sweep: ``scores_with(S, every sensor outside S that fits the budget)``. Negative gains (round-off of a
@@ -150,11 +168,15 @@ def suite_bound(evaluator: Evaluator, suite: Sequence[int], budget_usd: float, *
         exclude: sensors that may not join (e.g. assumed failed); leaving them in only loosens the bound.
         gains_out: (n_sensors,) array; the swept sensors' marginal gains Δ(e | S) [nats] are written
             into it (others left as they are).
+        feas: the feasible set OPT lies in (its budget is used, not ``budget_usd``); None, or one
+            with the budget as its only row and nothing required or excluded: the single knapsack.
     """
     budget = check_budget(budget_usd)
     lib = evaluator.library
     s = tuple(int(i) for i in suite)
     f_s = evaluator.score(s) if score is None else float(score)
+    if feas is not None and not _plain(feas):
+        return _constrained_bound(evaluator, s, f_s, feas, exclude, gains_out)
     inside = set(s) | set(exclude)
     costs = lib.costs
     # a sensor dearer than the whole budget is in no feasible T: no need to score it
@@ -169,6 +191,51 @@ def suite_bound(evaluator: Evaluator, suite: Sequence[int], budget_usd: float, *
         knapsack_method=ks.method, knapsack_exact=ks.exact,
     )
 
+
+def _plain(feas: FeasibleSet) -> bool:
+    """The paper's problem: the budget is the only row and nothing is required or excluded (the
+    single-knapsack DP path, unchanged)."""
+    return feas.only_budget and not feas.required and not feas.excluded
+
+
+def _constrained_bound(evaluator: Evaluator, s: tuple[int, ...], f_s: float, feas: FeasibleSet,
+                       exclude: frozenset[int], gains_out: np.ndarray | None) -> SuiteBound:
+    """U(S) under the constraints of ``feas`` (the module docstring): the required sensors not in S
+    are in every completion; the others pack into what the required sensors leave of each row."""
+    lib = evaluator.library
+    room, cand, forced = _packing_items(feas, s, exclude)
+    swept = sorted(cand + forced)
+    gains = np.maximum(evaluator.scores_with(s, swept) - f_s, 0.0) if swept else np.zeros(0)
+    g = dict(zip(swept, gains))
+    if gains_out is not None and swept:
+        gains_out[swept] = gains
+    ks = _packing(feas, np.array([g[i] for i in cand]), cand, room)
+    return SuiteBound(
+        suite=lib.suite_ids(s), score=f_s, bound=f_s + float(sum(g[i] for i in forced)) + ks.value,
+        knapsack_suite=lib.suite_ids(sorted(forced + [cand[i] for i in ks.chosen])),
+        knapsack_method=ks.method, knapsack_exact=ks.exact,
+    )
+
+
+def _packing_items(feas: FeasibleSet, s: tuple[int, ...], exclude: frozenset[int]
+                   ) -> tuple[np.ndarray, list[int], list[int]]:
+    """(what the required sensors leave of each row (m,), the sensors that may join S besides them
+    and fit that room on their own, the required sensors not in S)."""
+    inside = set(s)
+    required = set(feas.required)
+    room = feas.b - feas.usage(feas.required)
+    fits_alone = np.all(feas.A <= (room + 1e-9 * np.maximum(1.0, np.abs(feas.b)))[:, None], axis=0)
+    cand = [i for i in range(len(feas.library)) if i not in inside and i not in required and i not in feas.excluded
+            and i not in exclude and fits_alone[i]]
+    forced = [i for i in feas.required if i not in inside]
+    return room, cand, forced
+
+
+def _packing(feas: FeasibleSet, values: np.ndarray, cand: list[int], room: np.ndarray) -> KnapsackSolution:
+    """max Σ values over sets of ``cand`` within ``room`` of every row of ``feas`` (an upper bound)."""
+    if not cand:
+        return KnapsackSolution(0.0, (), 0.0, "trivial", True)
+    return packing_bound(values, feas.A[:, cand], room)
 
 
 def certificate(evaluator: Evaluator, greedy_result: GreedyResult, *, progress: Progress | None = None,
@@ -197,6 +264,8 @@ def certificate(evaluator: Evaluator, greedy_result: GreedyResult, *, progress: 
     n0 = evaluator.n_evaluations
     res = greedy_result
     budget = check_budget(res.budget_usd)
+    feas = feasible_set(lib, budget, res.constraints if res.constraints is not None else Constraints(slots=False))
+    constrained = None if _plain(feas) else feas
     try:
         step_suites: list[tuple[int, ...]] = [()] + [tuple(lib.position(x) for x in st.suite) for st in res.steps]
     except InputError as exc:
@@ -217,10 +286,11 @@ def certificate(evaluator: Evaluator, greedy_result: GreedyResult, *, progress: 
     for done, k in enumerate(range(n_steps - 1, -1, -1), start=1):
         s = step_suites[k]
         skip = prune and math.isfinite(best) and _cannot_improve(
-            lib.costs, s, step_scores[k], gain_low, later_picks[k:], budget, best, max_cells)
+            lib.costs, s, step_scores[k], gain_low, later_picks[k:], budget, best, max_cells, constrained)
         if not skip:
             gains = np.zeros(len(lib))
-            b = suite_bound(evaluator, s, budget, score=step_scores[k], max_cells=max_cells, gains_out=gains)
+            b = suite_bound(evaluator, s, budget, score=step_scores[k], max_cells=max_cells, gains_out=gains,
+                            feas=constrained)
             np.maximum(gain_low, gains, out=gain_low)
             bounds[k] = b
             best = min(best, b.bound)
@@ -228,18 +298,25 @@ def certificate(evaluator: Evaluator, greedy_result: GreedyResult, *, progress: 
             progress(done, n_steps)
     final = tuple(lib.position(x) for x in res.suite)
     score = res.score if res.engine == evaluator.name else (evaluator.score(final) if final else 0.0)
-    return _certificate_record(res, bounds, score, evaluator, n0, t0)
+    return _certificate_record(res, bounds, score, evaluator, n0, t0, None if constrained is None else res.constraints)
 
 
 def _cannot_improve(costs: np.ndarray, suite: tuple[int, ...], score: float, gain_low: np.ndarray,
-                    later_picks: Sequence[tuple[int, float] | None], budget: float, best: float, max_cells: int) -> bool:
+                    later_picks: Sequence[tuple[int, float] | None], budget: float, best: float, max_cells: int,
+                    feas: FeasibleSet | None = None) -> bool:
     """True when U(suite) provably cannot go below ``best`` (to a relative 1e-9): f(S) plus the
     knapsack of lower bounds on the gains at S (what was swept at larger suites, and the gains
-    the later picks were bought with) already reaches it."""
+    the later picks were bought with) already reaches it. With constraints (``feas``), the integer
+    program's feasible solution found (its ``achieved``, a lower bound on its maximum) stands for the knapsack."""
     low = gain_low.copy()
     for pick_gain in later_picks:  # sensors bought after this step
         if pick_gain is not None:
             low[pick_gain[0]] = max(low[pick_gain[0]], pick_gain[1])
+    if feas is not None:
+        room, cand, forced = _packing_items(feas, suite, frozenset())
+        packed = _packing(feas, np.maximum(low[cand], 0.0), cand, room).achieved
+        lower_c = score + float(np.maximum(low[forced], 0.0).sum()) + packed
+        return bool(lower_c >= best - REL_TOL * max(1.0, abs(best)))
     inside = set(suite)
     out = [i for i in range(len(costs)) if i not in inside and costs[i] <= budget * (1 + 1e-12) + 1e-9]
     lower = score + knapsack(np.maximum(low[out], 0.0), costs[out], budget, max_cells=max_cells).value
@@ -247,7 +324,7 @@ def _cannot_improve(costs: np.ndarray, suite: tuple[int, ...], score: float, gai
 
 
 def _certificate_record(res: GreedyResult, bounds: list[SuiteBound | None], score: float, evaluator: Evaluator,
-                        n0: int, t0: float) -> Certificate:
+                        n0: int, t0: float, constraints: Constraints | None = None) -> Certificate:
     """The :class:`Certificate` from the swept steps' bounds (None: skipped) and the suite's score."""
     swept = [k for k, b in enumerate(bounds) if b is not None]
     swept_bounds = {k: b for k, b in enumerate(bounds) if b is not None}
@@ -262,7 +339,7 @@ def _certificate_record(res: GreedyResult, bounds: list[SuiteBound | None], scor
         bound_suite=swept_bounds[k_best].suite, step_bounds=tuple(None if b is None else b.bound for b in bounds),
         knapsack_method="+".join(methods), knapsack_exact=all(b.knapsack_exact for b in swept_bounds.values()),
         n_evaluations=evaluator.n_evaluations - n0, engine=evaluator.name, problem=res.problem,
-        seconds=round(time.perf_counter() - t0, 6),
+        seconds=round(time.perf_counter() - t0, 6), constraints=constraints,
     )
 
 
@@ -278,12 +355,34 @@ def certify_greedy(source: Evaluator | Problem, result: GreedyResult, *, jobs: i
     return certificate(ev, result, progress=progress)
 
 
+def constraints_mismatch(result: GreedyResult, library: SensorLibrary) -> tuple[str, bool] | None:
+    """Why a greedy result's constraints do not fit ``library``, or None when they do.
+
+    Returns (the reason, whether the constraints can still be applied): a library whose resources
+    or mounting slots differ from those the run was checked against (``library_digest``) can be
+    used anyway (a caller's ``--force``); constraints the library cannot express at all (a resource
+    it does not declare, an unknown sensor id) cannot.
+    """
+    c = result.constraints
+    if c is None:
+        return None
+    try:
+        here = feasible_set(library, result.budget_usd, c).constraints.library_digest
+    except InputError as exc:
+        return f"its constraints ({c.describe()}) do not apply to the library {library.source}: {exc}", False
+    if c.library_digest and here != c.library_digest:
+        return (f"its constraints ({c.describe()}) were checked against other resources or mounting slots than the "
+                f"library {library.source} declares (digest {c.library_digest[:12]}, here {here[:12]})"), True
+    return None
+
+
 def format_certificate(cert: Certificate) -> str:
     """One line: 'certificate: at least 97.3% of the best possible suite under $110,000 (...)'."""
     where = "the empty suite" if cert.bound_step == 0 else f"step {cert.bound_step} of {len(cert.step_bounds) - 1}"
     unit = "" if isinstance(cert.problem, DomainInfo) else " nats"  # a domain's score is a weighted share of the best
+    limits = " and its limits" if cert.constraints is not None else ""
     return (
-        f"certificate: at least {_pct(cert.percent_of_best)}% of the best possible suite under ${cert.budget_usd:,.0f} "
+        f"certificate: at least {_pct(cert.percent_of_best)}% of the best possible suite under ${cert.budget_usd:,.0f}{limits} "
         f"(f = {cert.score:.3f}{unit}; best possible <= {cert.bound:.3f}{unit}, bound from {where}; "
         f"{cert.n_evaluations:,} evaluations, {cert.seconds:.1f} s)"
     )

@@ -10,6 +10,14 @@ bound does not exceed the best suite found is dropped. The knapsacks are exact D
 their resolution (:mod:`.knapsack`), or their LP relaxation when the table would be too large.
 Deterministic for a deterministic evaluator (the wall time sits in a separate ``seconds`` field).
 
+**Constraints** (:mod:`sensorsel.constraints`): the search starts from the required sensors
+(S = R at the root) and never lets an excluded sensor or one that breaks a row of A x <= b join, so
+every node's suite is feasible. A node's completions T must fit what S leaves of *every* row, so its
+bound is f(S) + the integer program over the gains (:func:`~.knapsack.packing_bound`, HiGHS's
+proved bound), and never above the budget-row knapsack (a relaxation: the other rows dropped),
+which also bounds the children before their own sweep. With the budget as the only row and nothing
+required or excluded, the search is exactly the single-knapsack one above.
+
 Nothing fits: :func:`optimal` answers a budget below the cheapest sensor with the empty suite,
 proved optimal, whose ``stop_reason`` says why (a library caller sweeping budgets may want it). The
 CLI refuses such a request up front with :func:`sensorsel.selection.check_affordable` (exit 2).
@@ -25,13 +33,14 @@ from typing import Callable
 
 import numpy as np
 
+from ..constraints import Constraints, FeasibleSet, feasible_set
 from ..errors import InputError
 from ..library import SensorLibrary
 from ..evaluators import Evaluator
 from ..problem import ProblemInfo, TargetInfo
 from ..selection import REL_TOL, RULES, GreedyResult, check_budget, check_rule, greedy
-from .certificate import certificate
-from .knapsack import MAX_DP_CELLS, CostUnits, cost_units, fractional_bound
+from .certificate import _plain, certificate
+from .knapsack import MAX_DP_CELLS, CostUnits, cost_units, fractional_bound, packing_bound
 
 #: Default node limit of the exact suite search (nodes whose marginal gains are swept).
 DEFAULT_MAX_NODES = 2_000
@@ -39,8 +48,9 @@ DEFAULT_MAX_NODES = 2_000
 #: progress(done, total)
 Progress = Callable[[int, int], None]
 
-#: A node of the search on the heap: (-bound, tie counter, suite S (pick order), f(S), Cost(S) [units], R (candidates)).
-_Node = tuple[float, int, tuple[int, ...], float, int, tuple[int, ...]]
+#: A node of the search on the heap: (-bound, tie counter, suite S (pick order), f(S), Cost(S) [units], R (candidates),
+#: what S uses of each row of the feasible set (m,)).
+_Node = tuple[float, int, tuple[int, ...], float, int, tuple[int, ...], np.ndarray]
 
 
 @dataclass(frozen=True)
@@ -65,7 +75,9 @@ class OptimumResult:
         n_evaluations: suites scored (including the greedy incumbent's run).
         max_nodes: the node limit.
         bound_method: how the node knapsacks were solved: "dp", "fractional" (LP relaxation, when
-            the DP table was too large), or both.
+            the DP table was too large), with constraints also "milp" (the integer program over
+            every row; "milp (node limit: dual bound)" or "lp relaxation" where HiGHS stopped early),
+            each used joined by "+".
         greedy_rule: the greedy run that gave the first incumbent ("best-of (marginal)": the
             marginal run won).
         greedy_suite: its suite (ids, pick order).
@@ -78,6 +90,8 @@ class OptimumResult:
         engine: the evaluator used.
         problem: what it was computed on.
         seconds: wall time [s] (the only field that varies between runs, unless ``max_seconds`` stopped it).
+        constraints: the limits besides the budget every suite searched respects
+            (:class:`~sensorsel.constraints.Constraints`); None: the budget alone.
     """
 
     budget_usd: float
@@ -105,11 +119,13 @@ class OptimumResult:
     engine: str
     problem: TargetInfo | None = None
     seconds: float = 0.0
+    constraints: Constraints | None = None
 
 
 def optimal(evaluator: Evaluator, budget_usd: float, *, max_nodes: int = DEFAULT_MAX_NODES, max_seconds: float | None = None,
             exclude: frozenset[int] = frozenset(), incumbent: GreedyResult | None = None, rule: str = "best-of",
-            progress: Progress | None = None, info: TargetInfo | None = None, max_cells: int = MAX_DP_CELLS) -> OptimumResult:
+            progress: Progress | None = None, info: TargetInfo | None = None, max_cells: int = MAX_DP_CELLS,
+            constraints: Constraints | None = None) -> OptimumResult:
     """The best suite within ``budget_usd`` by best-first branch and bound.
 
     The first incumbent is a greedy suite (``incumbent``, or a ``rule`` run now; for a strategy such
@@ -139,6 +155,13 @@ def optimal(evaluator: Evaluator, budget_usd: float, *, max_nodes: int = DEFAULT
         rule: the greedy rule or strategy (:data:`sensorsel.selection.RULES`) run when ``incumbent`` is None.
         progress: called as progress(nodes_expanded, max_nodes).
         info: what the problem is, recorded in the result.
+        constraints: limits besides the budget (:mod:`sensorsel.constraints`); None: the budget alone
+            (the library's slots ignored). The greedy incumbent runs under them (a given ``incumbent``
+            must have run under the same ones).
+
+    Raises:
+        InputError: a bad budget or limit; constraints the library cannot meet; an incumbent of
+            another library, budget or constraints, or one holding an excluded sensor.
     """
     t0 = time.perf_counter()
     budget = check_budget(budget_usd)
@@ -147,13 +170,19 @@ def optimal(evaluator: Evaluator, budget_usd: float, *, max_nodes: int = DEFAULT
     lib = ev.library
     n0 = ev.n_evaluations
     exclude = frozenset(int(i) for i in exclude)
-    incumbent, runs, rule_label = _greedy_start(ev, budget, rule, incumbent, exclude, info)
-    inc_pos = _incumbent_positions(lib, incumbent, exclude)
+    feas = feasible_set(lib, budget, constraints if constraints is not None else Constraints(slots=False))
+    plain = _plain(feas)
+    recorded = None if plain else feas.constraints
+    incumbent, runs, rule_label = _greedy_start(ev, budget, rule, incumbent, exclude, info,
+                                                None if plain else constraints, recorded)
+    inc_pos = _incumbent_positions(lib, incumbent, exclude, None if plain else feas)
     # The certificates of the greedy runs bound the optimum from the start (valid whatever the search
     # does); the search can only tighten that.
     cert_bound = min(certificate(ev, r, max_cells=max_cells).bound for r in runs)
-    best = _Best(lib, inc_pos, _score_of(ev, incumbent, inc_pos), lib.cost(inc_pos))
-    search = _Search(ev, cost_units(lib.costs, budget), best, exclude, cert_bound, max_cells)
+    best = _Best(lib, inc_pos, _score_of(ev, incumbent, inc_pos), _budget_use(lib, feas, plain, inc_pos),
+                 None if plain else feas)
+    search = _Search(ev, cost_units(lib.costs if plain else feas.A[0], budget), best, exclude, cert_bound, max_cells,
+                     None if plain else feas)
     stop = search.run(max_nodes, max_seconds, t0, progress)
     proved = not search.heap
     if proved:
@@ -174,7 +203,7 @@ def optimal(evaluator: Evaluator, budget_usd: float, *, max_nodes: int = DEFAULT
         greedy_cost_usd=incumbent.cost_usd, greedy_score=g_score,
         greedy_percent_of_best=100.0 * g_score / best.score if best.score > 0 else 100.0,
         greedy_percent_of_bound=100.0 * g_score / upper if upper > 0 else 100.0, greedy_certificate_bound=cert_bound,
-        engine=ev.name, problem=info, seconds=round(time.perf_counter() - t0, 6),
+        engine=ev.name, problem=info, seconds=round(time.perf_counter() - t0, 6), constraints=recorded,
     )
 
 
@@ -186,31 +215,47 @@ def _check_limits(max_nodes: object, max_seconds: object) -> None:
 
 
 def _greedy_start(ev: Evaluator, budget: float, rule: str, incumbent: GreedyResult | None, exclude: frozenset[int],
-                  info: TargetInfo | None) -> tuple[GreedyResult, list[GreedyResult], str]:
+                  info: TargetInfo | None, constraints: Constraints | None = None, recorded: Constraints | None = None
+                  ) -> tuple[GreedyResult, list[GreedyResult], str]:
     """(the first incumbent, the greedy runs whose certificates bound the optimum, its label).
 
     Without ``incumbent``: every component run of ``rule`` is kept (not only the one the rule keeps),
-    so that each certificate bounds the optimum; the label is e.g. "best-of (marginal)".
+    so that each certificate bounds the optimum; the label is e.g. "best-of (marginal)". The runs
+    respect ``constraints``; a given incumbent must record ``recorded`` (its certificate bounds the
+    suites of its own constraints, which must be the search's).
     """
     if incumbent is None:
         entry = RULES[check_rule(rule)]
-        runs = [greedy(ev, budget, r, exclude=exclude, info=info) for r in entry.component_rules]
+        runs = [greedy(ev, budget, r, exclude=exclude, info=info, constraints=constraints) for r in entry.component_rules]
         kept = entry.keep(runs)
         return kept, runs, rule if kept.winning_rule == rule else f"{rule} ({kept.winning_rule})"
     if abs(incumbent.budget_usd - budget) > 1e-9 * max(1.0, budget):
         raise InputError(f"the incumbent greedy run has budget ${incumbent.budget_usd:,.0f}, not ${budget:,.0f}")
+    if incumbent.constraints != recorded:
+        theirs = incumbent.constraints.describe() if incumbent.constraints else "the budget alone"
+        ours = recorded.describe() if recorded else "the budget alone"
+        raise InputError(f"the incumbent greedy run respected {theirs}, not the search's {ours}")
     return incumbent, [incumbent], incumbent.rule_label
 
 
-def _incumbent_positions(lib: SensorLibrary, incumbent: GreedyResult, exclude: frozenset[int]) -> tuple[int, ...]:
-    """The incumbent's suite as sorted library positions; refuses foreign or excluded sensors."""
+def _incumbent_positions(lib: SensorLibrary, incumbent: GreedyResult, exclude: frozenset[int],
+                         feas: FeasibleSet | None = None) -> tuple[int, ...]:
+    """The incumbent's suite as sorted library positions; refuses foreign or excluded sensors, and
+    (with ``feas``) a suite outside the feasible set."""
     try:
         inc_pos = tuple(sorted(lib.position(x) for x in incumbent.suite))
     except InputError as exc:
         raise InputError(f"the incumbent greedy run does not belong to this library: {exc}") from None
     if set(inc_pos) & exclude:
         raise InputError("the incumbent greedy suite contains an excluded sensor")
+    if feas is not None and not feas.fits(inc_pos):
+        raise InputError(f"the incumbent greedy suite breaks the constraints: {'; '.join(feas.violations(inc_pos))}")
     return inc_pos
+
+
+def _budget_use(lib: SensorLibrary, feas: FeasibleSet, plain: bool, suite: tuple[int, ...]) -> float:
+    """What ``suite`` uses of the budget [$] (owned sensors not counted)."""
+    return lib.cost(suite) if plain else float(feas.usage(suite)[0])
 
 
 def _score_of(ev: Evaluator, run: GreedyResult, positions: tuple[int, ...]) -> float:
@@ -223,10 +268,11 @@ def _tol(x: float) -> float:
 
 
 class _Best:
-    """The best suite found so far (sorted positions), its score and cost."""
+    """The best suite found so far (sorted positions), its score and cost (what it uses of the budget)."""
 
-    def __init__(self, lib: SensorLibrary, suite: tuple[int, ...], score: float, cost: float) -> None:
-        self.lib, self.suite, self.score, self.cost = lib, suite, score, cost
+    def __init__(self, lib: SensorLibrary, suite: tuple[int, ...], score: float, cost: float,
+                 feas: FeasibleSet | None = None) -> None:
+        self.lib, self.suite, self.score, self.cost, self.feas = lib, suite, score, cost, feas
 
     def rules_out(self, bound: float) -> bool:
         """True when a bound cannot beat the best score by more than a relative 1e-9."""
@@ -235,7 +281,7 @@ class _Best:
     def offer(self, suite: tuple[int, ...], score: float) -> None:
         """Keep ``suite`` if it scores higher (ties to round-off: the cheaper, then the smaller positions)."""
         s = tuple(sorted(suite))
-        c = self.lib.cost(s)
+        c = self.lib.cost(s) if self.feas is None else float(self.feas.usage(s)[0])
         if score > self.score + _tol(self.score) or (abs(score - self.score) <= _tol(self.score) and (c, s) < (self.cost, self.suite)):
             self.suite, self.score, self.cost = s, score, c
 
@@ -244,14 +290,32 @@ class _Search:
     """The state of the best-first search: the heap of open nodes and the counts the result reports."""
 
     def __init__(self, ev: Evaluator, units: CostUnits, best: _Best, exclude: frozenset[int], cert_bound: float,
-                 max_cells: int) -> None:
+                 max_cells: int, feas: FeasibleSet | None = None) -> None:
         self.ev, self.units, self.best, self.cert_bound, self.max_cells = ev, units, best, cert_bound, max_cells
-        self.costs = ev.library.costs
+        self.feas = feas
+        self.costs = ev.library.costs if feas is None else feas.A[0]
         self.methods: set[str] = set()
         self.counter = 0
         self.nodes = self.pruned = self.solved = 0
-        root_r = tuple(i for i in range(len(self.costs)) if i not in exclude and units.costs[i] <= units.capacity)
-        self.heap: list[_Node] = [(-math.inf, 0, (), 0.0, 0, root_r)]
+        if feas is None:
+            root_s: tuple[int, ...] = ()
+            f_root, used = 0.0, np.zeros(1)
+            fits = np.ones(len(self.costs), dtype=bool)
+            out = set(exclude)
+        else:  # the root holds the required sensors: every suite does
+            root_s = tuple(feas.required)
+            f_root = ev.score(root_s) if root_s else 0.0
+            used = feas.usage(root_s)
+            fits = self._fits(used)
+            out = set(exclude) | set(root_s) | set(feas.excluded)
+        c_root = int(units.costs[list(root_s)].sum()) if root_s else 0
+        root_r = tuple(i for i in range(len(self.costs)) if i not in out and fits[i] and units.costs[i] <= units.capacity - c_root)
+        self.heap: list[_Node] = [(-math.inf, 0, root_s, f_root, c_root, root_r, used)]
+
+    def _fits(self, used: np.ndarray) -> np.ndarray:
+        """(n,) bool: the sensors that fit every row on top of a suite using ``used`` (with constraints)."""
+        assert self.feas is not None
+        return self.feas.addable(used)
 
     def run(self, max_nodes: int, max_seconds: float | None, t0: float, progress: Progress | None) -> str:
         """Expand nodes, highest bound first, until none can beat the best found or a limit stops it
@@ -276,11 +340,14 @@ class _Search:
 
     def _expand(self, node: _Node) -> None:
         """Settle the node whole, or sweep its candidates' gains and push the children that may beat the best."""
-        neg_ub, _, s, f_s, c_s, r = node
-        ev, w_all = self.ev, self.units.costs
+        neg_ub, _, s, f_s, c_s, r, used = node
+        ev, w_all, feas = self.ev, self.units.costs, self.feas
         room = self.units.capacity - c_s
         r = tuple(e for e in r if w_all[e] <= room)  # what fitted the parent may not fit here
-        if len(r) > 1 and int(w_all[list(r)].sum()) <= room:
+        if feas is not None:
+            fits = self._fits(used)
+            r = tuple(e for e in r if fits[e])
+        if len(r) > 1 and int(w_all[list(r)].sum()) <= room and (feas is None or feas.fits(s + r)):
             # everything left fits: by monotonicity S ∪ R is the node's best suite (one evaluation)
             self.best.offer(s + r, ev.score(s + r))
             self.solved += 1
@@ -293,10 +360,10 @@ class _Search:
         # order: largest gain first; ties: cheaper, then library order
         keep.sort(key=lambda k: (-gains[k], self.costs[r[k]], r[k]))
         if keep:
-            self._branch(s, f_s, c_s, int(room), -neg_ub, [r[k] for k in keep], gains[keep], vals[keep])
+            self._branch(s, f_s, c_s, int(room), -neg_ub, [r[k] for k in keep], gains[keep], vals[keep], used)
 
     def _branch(self, s: tuple[int, ...], f_s: float, c_s: int, room: int, parent_ub: float, items: list[int],
-                g: np.ndarray, f_with: np.ndarray) -> None:
+                g: np.ndarray, f_with: np.ndarray, used: np.ndarray) -> None:
         """Bound the node from its gains ``g`` at S (items in branching order) and push its children
         (S + e_k, items after k) whose bound can beat the best found."""
         g = np.asarray(g, dtype=float)
@@ -305,6 +372,12 @@ class _Search:
                                                  self.units.unit_usd)
         self.methods.add(method)
         node_ub = min(node_ub, parent_ub)
+        feas = self.feas
+        if feas is not None and not self.best.rules_out(node_ub):
+            # every row at once: the integer program over the gains (the budget-row DP is its relaxation)
+            ip = packing_bound(g, feas.A[:, items], feas.b - used)
+            self.methods.add(ip.method)
+            node_ub = min(node_ub, f_s + ip.value)
         if self.best.rules_out(node_ub):
             self.pruned += 1
             return
@@ -315,7 +388,9 @@ class _Search:
                 self.pruned += 1 if rest else 0
                 continue
             self.counter += 1
-            heapq.heappush(self.heap, (-ub, self.counter, s + (items[k],), float(f_with[k]), c_s + int(w[k]), rest))
+            child_used = used if feas is None else used + feas.A[:, items[k]]
+            heapq.heappush(self.heap, (-ub, self.counter, s + (items[k],), float(f_with[k]), c_s + int(w[k]), rest,
+                                       child_used))
 
 
 def _node_bounds(gains: np.ndarray, w: np.ndarray, room: int, f_s: float, max_cells: int,

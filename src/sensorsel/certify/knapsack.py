@@ -6,13 +6,21 @@ resolution (the gcd of the costs, after scaling them to integers); when the tabl
 large, by an exact branch and bound with a node limit, whose unfinished search still gives a valid
 upper bound (never below the true maximum). :func:`fractional_bound` is the LP relaxation (a valid,
 looser bound) that the exact suite search falls back on. Which method was used is recorded.
+
+With constraints besides the budget (:mod:`sensorsel.constraints`: resource limits, mounting slots,
+a largest number of sensors) the knapsack has several rows; :func:`packing_bound` solves it with
+scipy's ``milp`` (HiGHS) and always returns a valid upper bound (the proved dual bound, or the LP
+relaxation when HiGHS stops at its node limit without one).
 """
 
 from __future__ import annotations
 
+import contextlib
 import math
+import os
+import sys
 from dataclasses import dataclass
-from typing import Sequence
+from typing import Iterator, Sequence
 
 import numpy as np
 
@@ -223,3 +231,99 @@ def _knapsack_bnb(values: np.ndarray, costs: np.ndarray, capacity: float, max_no
             if ub_in > best:
                 stack.append((k + 1, room - float(c[k]), val_in, taken_in, ub_in))
     return best, [order[i] for i in best_set], best, True
+
+
+#: Node limit of HiGHS's branch and bound in :func:`packing_bound` (deterministic, unlike a time limit);
+#: when it stops there, the bound is HiGHS's dual bound (still never below the maximum).
+MAX_MILP_NODES = 20_000
+#: Relative slack on every capacity of :func:`packing_bound` (as :data:`sensorsel.constraints.REL_SLACK`):
+#: a set of items whose total equals a capacity fits despite round-off.
+_PACKING_SLACK = 1e-9
+
+
+def packing_bound(values: Sequence[float] | np.ndarray, A: np.ndarray, capacity: Sequence[float] | np.ndarray, *,
+                  max_nodes: int = MAX_MILP_NODES) -> KnapsackSolution:
+    """max Σ_{i ∈ T} values[i] subject to Σ_{i ∈ T} A[:, i] <= capacity (every row), over sets T of items:
+    a 0/1 multi-dimensional knapsack (several resources, mounting slots, a count), solved by
+    :func:`scipy.optimize.milp` (HiGHS).
+
+    The value is always an upper bound on the maximum (never below it): HiGHS's proved dual bound
+    (with ``mip_rel_gap`` 0 it equals the optimum, up to HiGHS's absolute gap 1e-6 and feasibility
+    tolerances, which can only loosen it); when HiGHS stops at ``max_nodes`` without one, the LP
+    relaxation's value. ``method`` says which: "milp", "milp (node limit: dual bound)" or "lp
+    relaxation" (plus "trivial" when no item fits or every positive item fits together).
+
+    Args:
+        values: (n,) item values (nats); items with a value <= 0 are never taken.
+        A: (m, n) what each item uses of each row, >= 0.
+        capacity: (m,) what is left of each row; an item using more than a row's capacity is never taken.
+        max_nodes: HiGHS's node limit (deterministic).
+    """
+    v = np.asarray(values, dtype=float).reshape(-1)
+    a = np.asarray(A, dtype=float).reshape(-1, len(v)) if len(v) else np.zeros((len(np.atleast_1d(capacity)), 0))
+    cap = np.asarray(capacity, dtype=float).reshape(-1)
+    if a.shape != (len(cap), len(v)):
+        raise InputError(f"packing bound: A has shape {a.shape}, expected ({len(cap)}, {len(v)})")
+    if np.any(~np.isfinite(v)) or np.any(~np.isfinite(a)) or np.any(a < 0) or np.any(np.isnan(cap)):
+        raise InputError("packing bound: values and A must be finite, A >= 0")
+    room = cap + _PACKING_SLACK * np.maximum(1.0, np.abs(cap))
+    keep = np.flatnonzero((v > 0) & np.all(a <= room[:, None], axis=0))
+    if len(keep) == 0:
+        return KnapsackSolution(0.0, (), 0.0, "trivial", True)
+    ak = a[:, keep]
+    binding = ak.sum(axis=1) > room  # rows that every kept item together would break
+    if not binding.any():
+        total = float(v[keep].sum())
+        return KnapsackSolution(total, tuple(int(i) for i in keep), total, "trivial", True)
+    from scipy.optimize import Bounds, LinearConstraint, milp
+
+    # rows scaled to capacity ~1 so that dollars and slot counts are alike to HiGHS's tolerances
+    scale = 1.0 / np.maximum(np.abs(room[binding]), 1e-12)
+    rows = ak[binding] * scale[:, None]
+    cons = LinearConstraint(rows, -np.inf, np.ones(len(scale)))
+    c = -v[keep]
+    with _quiet_stdout():
+        res = milp(c, constraints=cons, integrality=np.ones(len(keep)), bounds=Bounds(0, 1),
+                   options={"mip_rel_gap": 0.0, "node_limit": int(max_nodes), "presolve": True, "disp": False})
+    chosen: tuple[int, ...] = ()
+    if res.x is not None:
+        pick = np.flatnonzero(res.x > 0.5)
+        if np.all(ak[:, pick].sum(axis=1) <= room):  # keep only a set that truly fits (tolerances aside)
+            chosen = tuple(int(keep[i]) for i in pick)
+    achieved = float(v[list(chosen)].sum()) if chosen else 0.0
+    dual = getattr(res, "mip_dual_bound", None)
+    if dual is not None and math.isfinite(dual):
+        value = max(-float(dual), achieved)
+        if res.status == 0:
+            return KnapsackSolution(value, chosen, achieved, "milp", True)
+        return KnapsackSolution(value, chosen, achieved, "milp (node limit: dual bound)", False)
+    with _quiet_stdout():
+        lp = milp(c, constraints=cons, integrality=np.zeros(len(keep)), bounds=Bounds(0, 1), options={"disp": False})
+    if lp.status == 0 and lp.fun is not None and math.isfinite(lp.fun):
+        return KnapsackSolution(max(-float(lp.fun), achieved), chosen, achieved, "lp relaxation", False)
+    total = float(v[keep].sum())  # nothing solved: every item, the loosest valid bound
+    return KnapsackSolution(total, chosen, achieved, "every item", False)
+
+
+@contextlib.contextmanager
+def _quiet_stdout() -> Iterator[None]:
+    """Send file descriptor 1 to the null device for the duration.
+
+    Why: HiGHS (scipy 1.17's copy) prints a debug line, "HighsMipSolverData::transformNewIntegerFeasibleSolution
+    tmpSolver.run();", straight to the C stdout whatever ``disp`` says (ERGO-Code/HiGHS#2783), which
+    would corrupt a command's ``--json`` output. Python-level output is flushed first, so nothing
+    of ours is lost; progress bars write to stderr.
+    """
+    try:
+        sys.stdout.flush()
+        saved = os.dup(1)
+    except (OSError, ValueError, AttributeError):  # no real fd 1 (embedded): nothing to protect
+        yield
+        return
+    try:
+        with open(os.devnull, "wb") as null:
+            os.dup2(null.fileno(), 1)
+        yield
+    finally:
+        os.dup2(saved, 1)
+        os.close(saved)

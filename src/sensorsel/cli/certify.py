@@ -5,21 +5,26 @@ possible one (an upper bound on the optimum; ``sensorsel greedy`` prints the sam
 
 from __future__ import annotations
 
+import warnings
 from contextlib import nullcontext
 from typing import Any
 
 import click
 
 from .. import results
-from ..certify import DEFAULT_MAX_NODES, Certificate, CertifiedGreedyResult, certify_greedy, format_certificate, optimal
+from ..certify import (DEFAULT_MAX_NODES, Certificate, CertifiedGreedyResult, certify_greedy, constraints_mismatch,
+                       format_certificate, optimal)
+from ..constraints import Constraints, feasible_set
 from ..domain_design import DomainDesign
 from ..errors import InputError, ResultFileError
 from ..evaluators import DomainEvaluator, evaluator_for
 from ..fileio import output_file
-from ..problem import check_result_problem
-from ..selection import check_affordable, check_budget, greedy
+from ..library import SensorLibrary
+from ..problem import ProblemMismatchWarning, check_result_problem
+from ..selection import GreedyResult, check_affordable, check_budget, greedy
 from .options import (not_empty, budget_option, force_option, engine_options, json_option, output_option, progress_bar, quiet_option,
                       print_target, run, target_from, target_options)
+from .options import constraint_options, constraints_from, usage_table
 from .rules import kept_label, rule_option
 
 
@@ -27,10 +32,34 @@ def _suite_text(ids: tuple[str, ...]) -> str:
     return ",".join(ids) if ids else "(no sensor)"
 
 
+def _print_usage(lib: SensorLibrary, budget: float, constraints: Constraints | None, suite: tuple[str, ...]) -> None:
+    """The limits line and the resource-use table of a constrained result (nothing when None)."""
+    if constraints is None:
+        return
+    click.echo(f"limits     {constraints.describe()}")
+    click.echo(usage_table(feasible_set(lib, budget, constraints).rows_used(lib.resolve_suite(suite))))
+
+
+def _check_result_constraints(res: GreedyResult, lib: SensorLibrary, path: str, force: bool) -> None:
+    """Refuse (or, with --force, warn about) a result whose constraints were checked against other
+    resources or mounting slots than this library's; constraints the library cannot express at all
+    are refused even with --force."""
+    mismatch = constraints_mismatch(res, lib)
+    if mismatch is None:
+        return
+    why, usable = mismatch
+    if force and usable:
+        warnings.warn(f"{path}: {why}; used anyway (--force)", ProblemMismatchWarning, stacklevel=2)
+        return
+    hint = "give the library it was run with" + (", or --force to use it anyway" if usable else "")
+    raise ResultFileError(path, f"{why}; {hint}")
+
+
 @click.command("optimal", short_help="Exact best suite within a budget (branch and bound), with greedy beside it.")
 @target_options
 @engine_options
 @budget_option(required=True, help="Budget per car in dollars: 110000, 110,000, $110,000 or 110_000.")
+@constraint_options
 @click.option("--max-nodes", type=click.IntRange(min=1), default=DEFAULT_MAX_NODES, show_default=True,
               help="Stop after expanding this many nodes (each scores one suite plus each candidate).")
 @click.option("--max-seconds", type=click.FloatRange(min=0, min_open=True), default=None,
@@ -47,17 +76,22 @@ def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output
     limit it prints the best suite found and how much better the optimum can be. Exact search is for
     small libraries (e.g. one model per type: --library configs/reduced_library.yaml); on the full
     62-sensor library expect the node limit and a remaining gap.
+
+    With --limit, --require, --exclude, --max-sensors or the library's mounting slots, the optimum
+    is the best suite they allow (node bounds: an integer program over the marginal gains, by HiGHS).
     """
     budget = check_budget(budget)
     if output:
         output_file(output)
+    constraints = constraints_from(kw)
     problem = target_from(kw)
-    check_affordable(problem.library, budget)
+    check_affordable(problem.library, budget, constraints=constraints)
     info = problem.info
     ev = evaluator_for(problem, engine, jobs=jobs, aggregate=aggregate)
     bar, progress = progress_bar(quiet or as_json, "branch and bound (nodes)")
     with bar or nullcontext():
-        res = optimal(ev, budget, max_nodes=max_nodes, max_seconds=max_seconds, info=info, progress=progress)
+        res = optimal(ev, budget, max_nodes=max_nodes, max_seconds=max_seconds, info=info, progress=progress,
+                      constraints=constraints)
     if output:
         results.save(res, output)
     if as_json:
@@ -78,6 +112,7 @@ def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output
     click.echo(f"greedy     {rule}: {_suite_text(res.greedy_suite)}  (${res.greedy_cost_usd:,.0f})  f = {res.greedy_score:.3f} nats = {rel}")
     click.echo(f"search     {res.n_nodes:,} nodes expanded ({res.n_solved:,} settled whole), {res.n_pruned:,} pruned, {res.n_evaluations:,} suites scored "
                f"({res.engine} engine, {res.bound_method} bounds), {res.seconds:.1f} s")
+    _print_usage(problem.library, res.budget_usd, res.constraints, res.suite)
     if output:
         click.echo(f"wrote      {output}")
 
@@ -90,6 +125,7 @@ def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output
                    "landmarks (checked by content; see --force).")
 @budget_option(help="Without --result: run greedy at this budget in dollars (110000, 110,000, $110,000 or 110_000) and certify it.")
 @rule_option("best-of", "Without --result: the greedy rule.")
+@constraint_options
 @force_option
 @output_option(help="Write the certificate as JSON here.")
 @json_option
@@ -103,7 +139,15 @@ def certify_cmd(result_path: str | None, budget: float | None, rule: str, force:
     budget) at every intermediate suite of the greedy run and keeps the smallest: no suite within
     the budget scores above it. At most one sweep of the library per greedy step (steps that
     provably cannot lower the bound are skipped).
+
+    The bound respects the constraints of the run: those a --result file records (its library must
+    declare the same resources and slots; see --force), or, with --budget, --limit, --require,
+    --exclude, --max-sensors and the library's mounting slots (then an integer program, by HiGHS).
     """
+    constraints = constraints_from(kw)
+    if result_path is not None and constraints != Constraints():
+        raise InputError("--result FILE is certified under the constraints it records: give --limit, --no-slots, "
+                         "--require, --owned, --exclude or --max-sensors only with --budget")
     if result_path is not None and budget is not None:
         raise InputError("give either --result FILE (a greedy result) or --budget DOLLARS (run greedy now), not both")
     if result_path is None and budget is None:
@@ -119,12 +163,14 @@ def certify_cmd(result_path: str | None, budget: float | None, rule: str, force:
             problem.library.parse_suite(list(res.suite))
         except InputError as exc:
             raise ResultFileError(result_path, f"its suite: {exc} (a result of another library?)") from None
+        _check_result_constraints(res, problem.library, result_path, force)
         run_engine = None if res.engine == DomainEvaluator.name else res.engine
         ev = evaluator_for(problem, engine or run_engine, jobs=jobs, aggregate=aggregate)
     else:
         assert budget is not None
+        checked = check_affordable(problem.library, budget, constraints=constraints)
         ev = evaluator_for(problem, engine, jobs=jobs, aggregate=aggregate)
-        res = greedy(ev, check_affordable(problem.library, budget), rule, info=problem.info)
+        res = greedy(ev, checked, rule, info=problem.info, constraints=constraints)
     bar, progress = progress_bar(quiet or as_json, "certificate (greedy steps)")
     with bar or nullcontext():
         cert: Certificate = certify_greedy(ev, res, progress=progress)
@@ -136,8 +182,10 @@ def certify_cmd(result_path: str | None, budget: float | None, rule: str, force:
     print_target(res.problem)
     click.echo(f"greedy     {kept_label(res.rule, res.winning_rule)}: {_suite_text(res.suite)}  (${res.cost_usd:,.0f} of ${res.budget_usd:,.0f})")
     click.echo(f"score      {cert.score:.3f} nats")
-    click.echo(f"bound      {cert.bound:.3f} nats: no suite within ${cert.budget_usd:,.0f} scores more "
+    within = f"${cert.budget_usd:,.0f}" + (" and the limits below" if cert.constraints is not None else "")
+    click.echo(f"bound      {cert.bound:.3f} nats: no suite within {within} scores more "
                f"(gap {cert.gap:.3f} nats; knapsack: {cert.knapsack_method})")
+    _print_usage(problem.library, res.budget_usd, res.constraints, res.suite)
     click.echo(format_certificate(cert))
     if output:
         click.echo(f"wrote      {output}")

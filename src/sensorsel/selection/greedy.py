@@ -215,6 +215,8 @@ class Selector:
             cost_usd=float(used[0] - outside[0]) if reserved else float(used[0]), score=f_cur,
             steps=tuple(steps), stop_reason=stop, n_evaluations=ev.n_evaluations - n0, engine=ev.name, lazy=self.lazy,
             winning_rule=name, problem=info, seconds=round(time.perf_counter() - t0, 6),
+            # required or excluded sensors are no row of A: record them too (an owned sensor's price is
+            # not counted, so a certificate that forgot them could bound the wrong problem)
             constraints=None if feas.only_budget and not feas.required and not feas.excluded else feas.constraints,
         )
 
