@@ -93,6 +93,31 @@ def test_resilient_periods_as_tasks_equal_in_process_and_resume(cluster, tmp_pat
     assert [f.stat().st_mtime_ns for f in files] == stamps  # finished periods were read back, not recomputed
 
 
+def test_greedy_interrupted_in_process_resumes_on_two_workers(cluster, domain, tmp_path):
+    from sensorsel.api import design_domain as design_with_checkpoint
+
+    def counts_aside(obj: object) -> object:
+        def rec(o: object) -> object:
+            if isinstance(o, dict):
+                return {k: rec(v) for k, v in o.items() if k != "n_evaluations"}
+            return [rec(v) for v in o] if isinstance(o, list) else o
+        return rec(_untimed(obj))
+
+    whole = design_domain(domain, 12_000, certify=True)
+    ck = tmp_path / "design.json.checkpoint"
+
+    def interrupt(done: int, total: int) -> None:
+        if done == 2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        design_with_checkpoint(domain, 12_000, certify=True, checkpoint=ck, progress=interrupt)
+    ev = DistributedDomainEvaluator(cluster.client, domain)
+    resumed = design_with_checkpoint(domain, 12_000, certify=True, checkpoint=ck, resume=True, evaluator=ev)
+    assert counts_aside(resumed) == counts_aside(whole)
+    assert ev.step_bytes  # the steps after the recorded picks were scored on the workers
+
+
 def test_a_worker_killed_mid_run_loses_nothing(cluster, domain):
     local = design_domain(domain, 20_000)
     ev = DistributedDomainEvaluator(cluster.client, domain)

@@ -23,7 +23,9 @@ from pathlib import Path
 from typing import Iterable
 
 from .certify import DEFAULT_MAX_NODES, Certificate, CertifiedGreedyResult, OptimumResult, certificate, optimal
-from .domain_design import DomainDesign, design_domain
+from .checkpoint import resumable_greedy
+from .domain_design import DomainDesign
+from .domain_design import design_domain as _design_domain
 from .errors import InputError
 from .evaluators import DomainEvaluator, evaluator_for, make_evaluator
 from .problem import Domain, DomainInfo, Problem, ProblemInfo, Target, load_domain, load_problem
@@ -91,7 +93,8 @@ def score_suite(problem: Problem, suite: str | Iterable[str | int], *, engine: s
 
 def run_greedy(problem: Target, budget_usd: float, rule: str = "uniform", *, engine: str | None = None, jobs: int = 1,
                lazy: bool = True, aggregate: str = "normalised", progress: Progress | None = None,
-               certify: bool = False, certify_progress: Progress | None = None) -> CertifiedGreedyResult:
+               certify: bool = False, certify_progress: Progress | None = None, checkpoint: str | Path | None = None,
+               resume: bool = False) -> CertifiedGreedyResult:
     """The ``sensorsel greedy`` run: :func:`~sensorsel.selection.greedy` with a fresh evaluator of
     ``engine`` for a problem or a domain (its routes combined by ``aggregate``), recording what it ran on.
 
@@ -100,15 +103,45 @@ def run_greedy(problem: Target, budget_usd: float, rule: str = "uniform", *, eng
     of the library per greedy step, fewer where a step provably cannot lower the bound
     (``certify_progress(done, total)`` after each); else its ``certificate`` is None.
 
+    ``checkpoint``: a file written after each pick (:mod:`sensorsel.checkpoint`); with ``resume``, an
+    interrupted run's checkpoint there is read back and the run goes on from it (same result but
+    timings and evaluation counts).
+
     Raises:
         InputError: a bad budget or rule (before any evaluator is built).
+        ResultFileError: (resume) a checkpoint written by another run.
     """
     check_budget(budget_usd)
     check_rule(rule)
+    if checkpoint is not None:
+        out = resumable_greedy(problem, budget_usd, rule, checkpoint=checkpoint, resume=resume, engine=engine, jobs=jobs,
+                               aggregate=aggregate, lazy=lazy, certify=certify, progress=progress,
+                               certify_progress=certify_progress, breakdown=False)
+        assert isinstance(out, CertifiedGreedyResult)
+        return out
     ev = evaluator_for(problem, engine, jobs=jobs, aggregate=aggregate)
     res = greedy(ev, budget_usd, rule, lazy=lazy, progress=progress, info=problem.info)
     cert = certificate(ev, res, progress=certify_progress) if certify else None
     return CertifiedGreedyResult.of(res, cert)
+
+
+def design_domain(domain: Domain, budget_usd: float, rule: str = "uniform", *, engine: str | None = None, jobs: int = 1,
+                  aggregate: str = "normalised", lazy: bool = True, certify: bool = False, progress: Progress | None = None,
+                  certify_progress: Progress | None = None, breakdown_progress: Progress | None = None,
+                  evaluator: DomainEvaluator | None = None, checkpoint: str | Path | None = None,
+                  resume: bool = False) -> DomainDesign:
+    """The ``sensorsel greedy --domain`` run: :func:`sensorsel.domain_design.design_domain` (one suite
+    for every route, its certificate, its per-route breakdown). ``checkpoint``/``resume``: as for
+    :func:`run_greedy`; the certificate and each route's breakdown are recorded too."""
+    if checkpoint is None:
+        return _design_domain(domain, budget_usd, rule, engine=engine, jobs=jobs, aggregate=aggregate, lazy=lazy,
+                              certify=certify, progress=progress, certify_progress=certify_progress,
+                              breakdown_progress=breakdown_progress, evaluator=evaluator)
+    out = resumable_greedy(domain, budget_usd, rule, checkpoint=checkpoint, resume=resume, engine=engine, jobs=jobs,
+                           aggregate=aggregate, lazy=lazy, certify=certify, progress=progress,
+                           certify_progress=certify_progress, breakdown_progress=breakdown_progress, evaluator=evaluator)
+    assert isinstance(out, DomainDesign)
+    return out
 
 
 @dataclass(frozen=True)

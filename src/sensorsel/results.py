@@ -55,6 +55,7 @@ KINDS: dict[str, str] = {
     "simulation": "simulate:SimulationReport",
     "simulation-suite": "simulate:SimulationResult",
     "domain-design": "domain_design:DomainDesign",
+    "greedy-checkpoint": "checkpoint:GreedyCheckpoint",
     "domain-score": "api:DomainScoreResult",
     "robust": "robust:RobustResult",
     "robust-optimum": "robust:RobustOptimum",

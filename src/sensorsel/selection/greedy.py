@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import math
 import time
+from typing import Callable, Sequence
 
 import numpy as np
 
@@ -132,8 +133,15 @@ class Selector:
         self.exclude = frozenset(exclude)
         self.progress = progress
 
-    def select(self, budget_usd: float, *, start: tuple[int, ...] = (), info: TargetInfo | None = None) -> GreedyResult:
-        """Run greedy selection; ``start`` sensors are already in the suite (counted in cost)."""
+    def select(self, budget_usd: float, *, start: tuple[int, ...] = (), info: TargetInfo | None = None,
+               resume: Sequence[Step] = (), on_step: Callable[[tuple[Step, ...]], None] | None = None) -> GreedyResult:
+        """Run greedy selection; ``start`` sensors are already in the suite (counted in cost).
+
+        ``resume``: the steps an interrupted run of the same selection recorded; they are taken as
+        recorded (suite, cost and score, not recomputed) and selection goes on from there: the same
+        picks as an uninterrupted run (lazy evaluation is exact), with its own count of evaluations
+        (the lazy bounds start afresh). ``on_step(steps)`` is called after each pick with every step
+        so far (to record them, e.g. :mod:`sensorsel.checkpoint`)."""
         t0 = time.perf_counter()
         budget = check_budget(budget_usd)
         ev = self.evaluator
@@ -152,6 +160,11 @@ class Selector:
         bound = np.full(len(lib), np.inf)
         max_picks = int(np.sum(np.cumsum(np.sort(costs[available])) <= budget - cost)) if available.any() else 0
         steps: list[Step] = []
+        for st in resume:  # an interrupted run's picks, as it recorded them
+            suite.append(lib.position(st.pick))
+            available[suite[-1]] = False
+            steps.append(st)
+            cost, f_cur = st.cost_usd, st.score
         stop = ""
         while True:
             feasible = available & (costs <= budget - cost + 1e-9)
@@ -168,6 +181,8 @@ class Selector:
             f_cur = f_new
             cost += float(costs[pick])
             steps.append(Step(ids[pick], lib[pick].index, float(costs[pick]), tuple(ids[i] for i in suite), cost, f_cur, gain, j_val))
+            if on_step:  # recorded before it is reported: an interruption in the report loses no pick
+                on_step(tuple(steps))
             if self.progress:
                 self.progress(len(steps), max(max_picks, len(steps)))
         name = self.rule.name
