@@ -118,6 +118,28 @@ def test_greedy_interrupted_in_process_resumes_on_two_workers(cluster, domain, t
     assert ev.step_bytes  # the steps after the recorded picks were scored on the workers
 
 
+def test_study_cells_as_tasks_equal_in_process_and_resume(cluster, tmp_path):
+    from sensorsel.distributed import study_cells_on
+    from sensorsel.study import load_study, run_study, study_csv
+
+    path = tmp_path / "study.yaml"
+    path.write_text("target: {fixture: suburb}\ngrid:\n  budgets: [4000, 9000]\n  rules: [uniform, marginal]\n")
+    study = load_study(path)
+    local = run_study(study)
+    remote = run_study(study, runner=study_cells_on(cluster.client), outdir=tmp_path / "out")
+    assert len(remote.rows) == 4 and _untimed(remote) == _untimed(local)
+
+    def untimed_csv(text: str) -> list[list[str]]:
+        return [line.split(",")[:-1] for line in text.splitlines()]  # seconds is the last column
+
+    assert untimed_csv(study_csv(remote)) == untimed_csv(study_csv(local))
+    files = sorted((tmp_path / "out" / "cells").glob("cell-*.json"))
+    stamps = [f.stat().st_mtime_ns for f in files]
+    again = run_study(study, runner=study_cells_on(cluster.client), outdir=tmp_path / "out", resume=True)
+    assert again.n_reused == 4 and [f.stat().st_mtime_ns for f in files] == stamps
+    assert _untimed(again)["rows"] == _untimed(local)["rows"]
+
+
 def test_a_worker_killed_mid_run_loses_nothing(cluster, domain):
     local = design_domain(domain, 20_000)
     ev = DistributedDomainEvaluator(cluster.client, domain)

@@ -56,6 +56,8 @@ KINDS: dict[str, str] = {
     "simulation-suite": "simulate:SimulationResult",
     "domain-design": "domain_design:DomainDesign",
     "greedy-checkpoint": "checkpoint:GreedyCheckpoint",
+    "study": "study:StudyResult",
+    "study-cell": "study:StudyCellRecord",
     "domain-score": "api:DomainScoreResult",
     "robust": "robust:RobustResult",
     "robust-optimum": "robust:RobustOptimum",
