@@ -31,7 +31,7 @@ from .evaluators import DomainEvaluator, evaluator_for, make_evaluator
 from .problem import Domain, DomainInfo, Problem, ProblemInfo, Target, load_domain, load_problem
 from .resilient import ResilientReport
 from .resilient import resilient_report as _resilient_report
-from .robust import RobustResult, robust_choice, worst_route_select
+from .robust import RobustResult, robust_choice, robust_select, worst_route_select
 from .robust import run_robust as _run_robust
 from .selection import GreedyResult, Progress, check_budget, check_rule, greedy
 from .simulate import SimulationResult, simulate
@@ -187,12 +187,13 @@ class DomainScoreResult:
 
 
 def score_domain_suite(domain: Domain, suite: str | Iterable[str | int], *, engine: str | None = None,
-                       aggregate: str = "normalised") -> DomainScoreResult:
+                       aggregate: str = "normalised", evaluator: DomainEvaluator | None = None) -> DomainScoreResult:
     """Score a suite on every route of ``domain`` and combine the routes (see
-    :mod:`sensorsel.evaluators.domain`)."""
+    :mod:`sensorsel.evaluators.domain`). ``evaluator``: the domain's evaluator already built (e.g. on
+    a Dask cluster); ``engine`` and ``aggregate`` are then its own."""
     lib = domain.library
     positions = lib.resolve_suite(suite)
-    ev = DomainEvaluator(domain, engine, aggregate=aggregate)
+    ev = evaluator if evaluator is not None else DomainEvaluator(domain, engine, aggregate=aggregate)
     per = ev.route_scores(positions)
     routes = tuple(RouteScore(r.name, float(w), float(f), float(b), float(f / b))
                    for r, w, f, b in zip(domain.routes, ev.weights, per, ev.best))
@@ -233,13 +234,15 @@ ROBUST_AGGREGATES = ("normalised", "raw", "worst")
 
 
 def run_robust(target: Target, budget_usd: float, alpha: int, *, engine: str | None = None, jobs: int = 1,
-               aggregate: str = "normalised", **kwargs) -> RobustResult:
+               aggregate: str = "normalised", evaluator: DomainEvaluator | None = None, **kwargs) -> RobustResult:
     """The ``sensorsel robust`` run: the best worst case under ``alpha`` failures within the budget
     (:func:`sensorsel.robust.robust_select`), on a problem or a domain.
 
     ``aggregate``: with a domain, "normalised" or "raw" robustify the combined domain score; "worst"
     maximises the worst route's share of its best under the failures
     (:func:`sensorsel.robust.worst_route_select`; a domain only). ``kwargs`` go to the selector.
+    ``evaluator``: a domain's evaluator already built (e.g. on a Dask cluster; "worst" needs a
+    normalised one); ``engine`` and ``aggregate`` are then its own.
 
     Raises:
         InputError: bad budget, alpha or aggregate; "worst" on a single route.
@@ -249,7 +252,10 @@ def run_robust(target: Target, budget_usd: float, alpha: int, *, engine: str | N
     if aggregate == "worst":
         if not isinstance(target, Domain):
             raise InputError("aggregate 'worst' is the worst route of an operating domain: give a domain (--domain FILE)")
-        return worst_route_select(target, budget_usd, alpha, engine=engine, jobs=jobs, **kwargs)
+        return worst_route_select(target, budget_usd, alpha, engine=engine, jobs=jobs, evaluator=evaluator, **kwargs)
+    if evaluator is not None:
+        check_budget(budget_usd)
+        return robust_select(evaluator, budget_usd, alpha, info=target.info, **kwargs)
     return _run_robust(target, budget_usd, alpha, engine=engine, jobs=jobs, aggregate=aggregate, **kwargs)
 
 

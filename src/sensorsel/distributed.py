@@ -363,7 +363,14 @@ class DistributedDomainEvaluator(DomainEvaluator):
         s = as_suite(suite)
         self._check_positions(s)
         got = self._call({k: ("score", (s,)) for k in range(len(self.recipes))})
+        self._count(1)
         return np.array([float(got[k]) for k in range(len(self.recipes))], dtype=float)
+
+    def _count(self, n: int) -> None:
+        """Count ``n`` evaluations on every route's proxy, as each route's own evaluator counts them
+        in-process (robust selection over the worst route reads the routes' counts)."""
+        for r in self.routes:
+            r.n_evaluations += n
 
     def scores_with(self, suite: Iterable[int], candidates: Sequence[int]) -> np.ndarray:
         base = as_suite(suite)
@@ -374,6 +381,7 @@ class DistributedDomainEvaluator(DomainEvaluator):
             return np.zeros(0)
         s0, r0 = self.bytes_sent, self.bytes_received
         got = self._call({k: ("scores_with", (base, cand)) for k in range(len(self.recipes))})
+        self._count(len(cand))
         self.step_bytes.append((self.bytes_sent - s0, self.bytes_received - r0))
         per_route = np.stack([np.asarray(got[k], dtype=float) for k in range(len(self.recipes))])
         return self.combine(per_route)
@@ -686,3 +694,36 @@ def study_cells_on(client: Any, *, retries: int = 3) -> Callable[..., None]:
             client.cancel(list(futs) + list(built.values()))  # an interrupted study leaves nothing running
 
     return run
+
+
+# --------------------------------------------------------------------- simulation runs as tasks
+
+
+def _simulation_run(payload: Any, run: int) -> dict:
+    """One Monte-Carlo run on a worker (draws from (seed, run): the same numbers wherever it runs)."""
+    from .simulate.solve import solve_run
+
+    return solve_run(payload, run)
+
+
+def simulation_runs_on(client: Any, *, retries: int = 3) -> Callable[..., list[dict]]:
+    """A ``run_map`` for :func:`sensorsel.simulate.simulate`: the payload (the suite's measurements and
+    noise, numbers only) is sent once to every worker, each run is one task, the runs' raw outputs
+    are gathered in run order (``progress`` ticks as each completes). Run r draws from streams
+    seeded by (seed, r) wherever it runs, so the result is the in-process one, timings aside."""
+    distributed = _import_distributed()
+
+    def run_map(payload: Any, runs: int, progress: Callable[[int, int], None] | None) -> list[dict]:
+        shared = client.scatter(payload, broadcast=True, hash=False)  # hash=False: see resilient_report_on
+        futs = {client.submit(_simulation_run, shared, r, pure=False, retries=retries): r for r in range(runs)}
+        got: dict[int, dict] = {}
+        try:
+            for fut in distributed.as_completed(list(futs)):
+                got[futs[fut]] = _result(fut, f"simulation run {futs[fut]}")
+                if progress:
+                    progress(len(got), runs)
+        finally:
+            client.cancel(list(futs) + [shared])
+        return [got[r] for r in range(runs)]
+
+    return run_map

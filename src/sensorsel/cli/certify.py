@@ -14,10 +14,12 @@ from .. import results
 from ..certify import DEFAULT_MAX_NODES, Certificate, CertifiedGreedyResult, certify_greedy, format_certificate, optimal
 from ..domain_design import DomainDesign
 from ..errors import InputError, ResultFileError
-from ..evaluators import DomainEvaluator, evaluator_for
+from ..evaluators import DomainEvaluator
 from ..fileio import output_file
 from ..problem import check_result_problem
 from ..selection import check_affordable, check_budget, greedy
+from .cluster import evaluator_on, require_domain
+from .options import cluster_from, cluster_options
 from .options import (not_empty, budget_option, force_option, engine_options, json_option, output_option, progress_bar, quiet_option,
                       print_target, run, target_from, target_options)
 from .rules import kept_label, rule_option
@@ -30,6 +32,7 @@ def _suite_text(ids: tuple[str, ...]) -> str:
 @click.command("optimal", short_help="Exact best suite within a budget (branch and bound), with greedy beside it.")
 @target_options
 @engine_options
+@cluster_options
 @budget_option(required=True, help="Budget per car in dollars: 110000, 110,000, $110,000 or 110_000.")
 @click.option("--max-nodes", type=click.IntRange(min=1), default=DEFAULT_MAX_NODES, show_default=True,
               help="Stop after expanding this many nodes (each scores one suite plus each candidate).")
@@ -46,17 +49,20 @@ def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output
     Starts from the greedy (best-of) suite and proves it optimal or improves on it. At the node
     limit it prints the best suite found and how much better the optimum can be. Exact search is for
     small libraries (e.g. one model per type: --library configs/reduced_library.yaml); on the full
-    62-sensor library expect the node limit and a remaining gap.
+    62-sensor library expect the node limit and a remaining gap. With --domain and
+    --scheduler/--workers, each route is scored on a worker (every node's suites at once).
     """
     budget = check_budget(budget)
     if output:
         output_file(output)
+    cluster = cluster_from(kw)
     problem = target_from(kw)
+    require_domain(cluster, problem)
     check_affordable(problem.library, budget)
     info = problem.info
-    ev = evaluator_for(problem, engine, jobs=jobs, aggregate=aggregate)
     bar, progress = progress_bar(quiet or as_json, "branch and bound (nodes)")
-    with bar or nullcontext():
+    with cluster or nullcontext(), bar or nullcontext():
+        ev = evaluator_on(cluster, problem, engine, jobs, aggregate)
         res = optimal(ev, budget, max_nodes=max_nodes, max_seconds=max_seconds, info=info, progress=progress)
     if output:
         results.save(res, output)
@@ -85,6 +91,7 @@ def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output
 @click.command("certify", short_help="How close a greedy suite is to the best possible one (an upper bound).")
 @target_options
 @engine_options
+@cluster_options
 @click.option("--result", "result_path", type=click.Path(dir_okay=False, path_type=str), default=None, callback=not_empty,
               help="A greedy result JSON (`sensorsel greedy -o FILE`) to certify; it must be of the same library, route, rate and "
                    "landmarks (checked by content; see --force).")
@@ -102,7 +109,8 @@ def certify_cmd(result_path: str | None, budget: float | None, rule: str, force:
     Evaluates the submodular upper bound f(S) + knapsack of the marginal gains (capacity: the
     budget) at every intermediate suite of the greedy run and keeps the smallest: no suite within
     the budget scores above it. At most one sweep of the library per greedy step (steps that
-    provably cannot lower the bound are skipped).
+    provably cannot lower the bound are skipped). With --domain and --scheduler/--workers, each
+    route is scored on a worker.
     """
     if result_path is not None and budget is not None:
         raise InputError("give either --result FILE (a greedy result) or --budget DOLLARS (run greedy now), not both")
@@ -110,24 +118,11 @@ def certify_cmd(result_path: str | None, budget: float | None, rule: str, force:
         raise InputError("give --result FILE (a greedy result to certify) or --budget DOLLARS (run greedy now)")
     if output:
         output_file(output)
+    cluster = cluster_from(kw)
     problem = target_from(kw)
-    if result_path is not None:
-        loaded = results.load(result_path, (CertifiedGreedyResult, DomainDesign))
-        res = loaded.greedy if isinstance(loaded, DomainDesign) else loaded
-        check_result_problem(res.problem, problem, result_path, force=force, what="the greedy result")
-        try:
-            problem.library.parse_suite(list(res.suite))
-        except InputError as exc:
-            raise ResultFileError(result_path, f"its suite: {exc} (a result of another library?)") from None
-        run_engine = None if res.engine == DomainEvaluator.name else res.engine
-        ev = evaluator_for(problem, engine or run_engine, jobs=jobs, aggregate=aggregate)
-    else:
-        assert budget is not None
-        ev = evaluator_for(problem, engine, jobs=jobs, aggregate=aggregate)
-        res = greedy(ev, check_affordable(problem.library, budget), rule, info=problem.info)
-    bar, progress = progress_bar(quiet or as_json, "certificate (greedy steps)")
-    with bar or nullcontext():
-        cert: Certificate = certify_greedy(ev, res, progress=progress)
+    require_domain(cluster, problem)
+    with cluster or nullcontext():
+        res, cert = _certify(problem, cluster, result_path, budget, rule, force, quiet or as_json, engine, jobs, aggregate)
     if output:
         results.save(cert, output)
     if as_json:
@@ -141,6 +136,29 @@ def certify_cmd(result_path: str | None, budget: float | None, rule: str, force:
     click.echo(format_certificate(cert))
     if output:
         click.echo(f"wrote      {output}")
+
+
+def _certify(problem: Any, cluster: Any, result_path: str | None, budget: float | None, rule: str, force: bool, quiet: bool,
+             engine: str | None, jobs: int, aggregate: str) -> tuple[Any, Certificate]:
+    """The greedy result (read from --result, or run now) and its certificate, on ``cluster`` if given."""
+    if result_path is not None:
+        loaded = results.load(result_path, (CertifiedGreedyResult, DomainDesign))
+        res = loaded.greedy if isinstance(loaded, DomainDesign) else loaded
+        check_result_problem(res.problem, problem, result_path, force=force, what="the greedy result")
+        try:
+            problem.library.parse_suite(list(res.suite))
+        except InputError as exc:
+            raise ResultFileError(result_path, f"its suite: {exc} (a result of another library?)") from None
+        run_engine = None if res.engine == DomainEvaluator.name else res.engine
+        ev = evaluator_on(cluster, problem, engine or run_engine, jobs, aggregate)
+    else:
+        assert budget is not None
+        ev = evaluator_on(cluster, problem, engine, jobs, aggregate)
+        res = greedy(ev, check_affordable(problem.library, budget), rule, info=problem.info)
+    bar, progress = progress_bar(quiet, "certificate (greedy steps)")
+    with bar or nullcontext():
+        cert: Certificate = certify_greedy(ev, res, progress=progress)
+    return res, cert
 
 
 COMMANDS = [optimal_cmd, certify_cmd]
