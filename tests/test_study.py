@@ -141,3 +141,19 @@ def test_cli_study_bad_input_is_one_line_exit_2(tmp_path):
     assert r.returncode == 2 and "Traceback" not in r.stderr
     line, = [ln for ln in r.stderr.splitlines() if ln.strip()]
     assert f"{p}:7: grid.colour: unknown key" in line
+
+
+def test_an_interrupted_study_resumes_with_only_the_cells_left(tmp_path):
+    study = load_study(write(tmp_path, SMALL))
+    out = tmp_path / "out"
+
+    def interrupt(done: int, total: int) -> None:
+        if done == 2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        run_study(study, outdir=out, progress=interrupt)
+    assert len(list((out / "cells").glob("cell-*.json"))) == 2  # saved as they finished
+    resumed = run_study(study, outdir=out, resume=True)
+    assert resumed.n_reused == 2
+    assert untimed(resumed.rows) == untimed(run_study(study).rows)
