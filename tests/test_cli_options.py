@@ -83,8 +83,8 @@ def test_plots_draw_on_the_given_axes_and_never_show(tiny_problem, monkeypatch):
 
 # ----------------------------------------------------------------------- the same options everywhere
 
-RESULT_COMMANDS = {"library", "score", "greedy", "pareto", "resilient", "certify", "optimal", "simulate", "robust"}
-PROGRESS_COMMANDS = {"greedy", "pareto", "resilient", "certify", "optimal", "simulate", "robust"}
+RESULT_COMMANDS = {"library", "score", "greedy", "pareto", "resilient", "certify", "optimal", "simulate", "robust", "study"}
+PROGRESS_COMMANDS = {"greedy", "pareto", "resilient", "certify", "optimal", "simulate", "robust", "study"}
 BUDGET_COMMANDS = {"greedy", "pareto", "resilient", "certify", "optimal", "robust"}
 PLOT_COMMANDS = {"scene", "pareto", "resilient", "simulate"}
 REQUIRED = {  # the other required options of each command, to parse its --budget alone

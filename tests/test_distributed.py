@@ -93,6 +93,123 @@ def test_resilient_periods_as_tasks_equal_in_process_and_resume(cluster, tmp_pat
     assert [f.stat().st_mtime_ns for f in files] == stamps  # finished periods were read back, not recomputed
 
 
+def test_greedy_interrupted_in_process_resumes_on_two_workers(cluster, domain, tmp_path):
+    from sensorsel.api import design_domain as design_with_checkpoint
+
+    def counts_aside(obj: object) -> object:
+        def rec(o: object) -> object:
+            if isinstance(o, dict):
+                return {k: rec(v) for k, v in o.items() if k != "n_evaluations"}
+            return [rec(v) for v in o] if isinstance(o, list) else o
+        return rec(_untimed(obj))
+
+    whole = design_domain(domain, 12_000, certify=True)
+    ck = tmp_path / "design.json.checkpoint"
+
+    def interrupt(done: int, total: int) -> None:
+        if done == 2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        design_with_checkpoint(domain, 12_000, certify=True, checkpoint=ck, progress=interrupt)
+    ev = DistributedDomainEvaluator(cluster.client, domain)
+    resumed = design_with_checkpoint(domain, 12_000, certify=True, checkpoint=ck, resume=True, evaluator=ev)
+    assert counts_aside(resumed) == counts_aside(whole)
+    assert ev.step_bytes  # the steps after the recorded picks were scored on the workers
+
+
+def test_study_cells_as_tasks_equal_in_process_and_resume(cluster, tmp_path):
+    from sensorsel.distributed import study_cells_on
+    from sensorsel.study import load_study, run_study, study_csv
+
+    path = tmp_path / "study.yaml"
+    path.write_text("target: {fixture: suburb}\ngrid:\n  budgets: [4000, 9000]\n  rules: [uniform, marginal]\n")
+    study = load_study(path)
+    local = run_study(study)
+    remote = run_study(study, runner=study_cells_on(cluster.client), outdir=tmp_path / "out")
+    assert len(remote.rows) == 4 and _untimed(remote) == _untimed(local)
+
+    def untimed_csv(text: str) -> list[list[str]]:
+        return [line.split(",")[:-1] for line in text.splitlines()]  # seconds is the last column
+
+    assert untimed_csv(study_csv(remote)) == untimed_csv(study_csv(local))
+    files = sorted((tmp_path / "out" / "cells").glob("cell-*.json"))
+    stamps = [f.stat().st_mtime_ns for f in files]
+    again = run_study(study, runner=study_cells_on(cluster.client), outdir=tmp_path / "out", resume=True)
+    assert again.n_reused == 4 and [f.stat().st_mtime_ns for f in files] == stamps
+    assert _untimed(again)["rows"] == _untimed(local)["rows"]
+
+
+def test_score_certify_optimal_robust_on_a_domain_equal_in_process(cluster, domain):
+    from sensorsel.api import run_robust, score_domain_suite
+    from sensorsel.certify import certify_greedy, optimal
+    from sensorsel.evaluators import DomainEvaluator
+    from sensorsel.selection import greedy
+
+    ev = DistributedDomainEvaluator(cluster.client, domain, aggregate="raw")
+    here = DomainEvaluator(domain, aggregate="raw")
+    suite = "MRL-roof,HD2K-8,HD2K-2"
+    assert _untimed(score_domain_suite(domain, suite, aggregate="raw", evaluator=ev)) == \
+        _untimed(score_domain_suite(domain, suite, aggregate="raw"))
+    res = greedy(here, 6_000, "uniform", info=domain.info)
+    assert _untimed(certify_greedy(ev, res)) == _untimed(certify_greedy(here, res))
+    assert _untimed(optimal(ev, 3_000, max_nodes=4, info=domain.info)) == \
+        _untimed(optimal(here, 3_000, max_nodes=4, info=domain.info))  # small: a few hundred node evaluations
+    kw = dict(rules=("uniform",), methods=(), bound_nodes=5)
+    assert _untimed(run_robust(domain, 3_000, 1, aggregate="raw", evaluator=ev, **kw)) == \
+        _untimed(run_robust(domain, 3_000, 1, aggregate="raw", **kw))
+    worst = DistributedDomainEvaluator(cluster.client, domain)  # the worst route: each route's share of its best
+    assert _untimed(run_robust(domain, 3_000, 1, aggregate="worst", evaluator=worst, **kw)) == \
+        _untimed(run_robust(domain, 3_000, 1, aggregate="worst", **kw))
+
+
+def test_simulation_runs_as_tasks_equal_in_process(cluster):
+    from sensorsel.distributed import simulation_runs_on
+    from sensorsel.problem import load_problem
+    from sensorsel.scenario import ScenarioSpec
+    from sensorsel.simulate import simulate
+
+    problem = load_problem(ScenarioSpec(fixture="tiny"))
+    done = []
+    there = simulate(problem, "MRL-roof,HD2K-8", runs=3, seed=5, run_map=simulation_runs_on(cluster.client),
+                     progress=lambda d, t: done.append(d))
+    here = simulate(problem, "MRL-roof,HD2K-8", runs=3, seed=5)
+    assert sorted(done) == [1, 2, 3]
+
+    def untimed(r: object) -> object:
+        d = _untimed(r)
+        d.pop("timing")
+        return d
+
+    assert untimed(there) == untimed(here)
+
+
+def test_cli_score_and_simulate_with_workers_print_the_in_process_json(tmp_path):
+    score = ["score", "--domain", str(FIXTURES), "--suite", "MRL-roof,HD2K-8", "--json"]
+    here, there = _cli(*score), _cli(*score, "--workers", "2")
+    assert there.returncode == 0 and "LocalCluster of 2 worker processes" in there.stderr, there.stderr
+    assert _untimed(there.stdout) == _untimed(here.stdout)
+    sim = ["simulate", "--fixture", "tiny", "--suite", "MRL-roof,HD2K-8", "--runs", "2", "--jobs", "1", "--format", "svg",
+           "--json", "-q"]
+    here, there = _cli(*sim, "-o", str(tmp_path / "here")), _cli(*sim, "-o", str(tmp_path / "there"), "--workers", "2")
+    assert there.returncode == 0, there.stderr
+
+    def untimed(text: str) -> object:
+        d = _untimed(text)
+        for s in d["simulations"]:
+            s.pop("timing")
+        return d
+
+    assert untimed(there.stdout) == untimed(here.stdout)
+
+
+def test_cluster_options_on_one_route_are_a_usage_error_naming_domain():
+    for args in (["certify", "--budget", "5000"], ["optimal", "--budget", "5000"], ["robust", "--budget", "5000"],
+                 ["score", "--suite", "LRL-roof"]):
+        r = _cli(*args, "--fixture", "tiny", "-q" if args[0] != "score" else "--json", "--workers", "2")
+        assert r.returncode == 2 and "go with --domain FILE" in r.stderr and "Traceback" not in r.stderr, (args, r.stderr)
+
+
 def test_a_worker_killed_mid_run_loses_nothing(cluster, domain):
     local = design_domain(domain, 20_000)
     ev = DistributedDomainEvaluator(cluster.client, domain)

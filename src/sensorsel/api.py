@@ -24,14 +24,16 @@ from typing import Iterable
 
 from .certify import (DEFAULT_MAX_NODES, Certificate, CertifiedGreedyResult, OptimumResult, certificate,
                       constraints_mismatch, optimal)
+from .checkpoint import resumable_greedy
 from .constraints import Constraints, feasible_set
-from .domain_design import DomainDesign, design_domain
+from .domain_design import DomainDesign
+from .domain_design import design_domain as _design_domain
 from .errors import InputError
 from .evaluators import DomainEvaluator, evaluator_for, make_evaluator
 from .problem import Domain, DomainInfo, Problem, ProblemInfo, Target, load_domain, load_problem
 from .resilient import ResilientReport, recorded
 from .resilient import resilient_report as _resilient_report
-from .robust import RobustResult, robust_choice, worst_route_select
+from .robust import RobustResult, robust_choice, robust_select, worst_route_select
 from .robust import run_robust as _run_robust
 from .selection import GreedyResult, Progress, check_budget, check_rule, greedy
 from .simulate import SimulationResult, simulate
@@ -93,8 +95,8 @@ def score_suite(problem: Problem, suite: str | Iterable[str | int], *, engine: s
 
 def run_greedy(problem: Target, budget_usd: float, rule: str = "uniform", *, engine: str | None = None, jobs: int = 1,
                lazy: bool = True, aggregate: str = "normalised", progress: Progress | None = None,
-               certify: bool = False, certify_progress: Progress | None = None,
-               constraints: Constraints | None = None) -> CertifiedGreedyResult:
+               certify: bool = False, certify_progress: Progress | None = None, checkpoint: str | Path | None = None,
+               resume: bool = False, constraints: Constraints | None = None) -> CertifiedGreedyResult:
     """The ``sensorsel greedy`` run: :func:`~sensorsel.selection.greedy` with a fresh evaluator of
     ``engine`` for a problem or a domain (its routes combined by ``aggregate``), recording what it ran on.
 
@@ -103,21 +105,53 @@ def run_greedy(problem: Target, budget_usd: float, rule: str = "uniform", *, eng
     of the library per greedy step, fewer where a step provably cannot lower the bound
     (``certify_progress(done, total)`` after each); else its ``certificate`` is None.
 
+    ``checkpoint``: a file written after each pick (:mod:`sensorsel.checkpoint`); with ``resume``, an
+    interrupted run's checkpoint there is read back and the run goes on from it (same result but
+    timings and evaluation counts).
+
     ``constraints``: limits besides the budget (resources, mounting slots, required and excluded
     sensors, most sensors; :mod:`sensorsel.constraints`), recorded in the result.
 
     Raises:
         InputError: a bad budget or rule, or constraints the library cannot meet (before any
             evaluator is built).
+        ResultFileError: (resume) a checkpoint written by another run.
     """
     check_budget(budget_usd)
     check_rule(rule)
     if constraints is not None:
         feasible_set(problem.library, budget_usd, constraints)  # refuse a bad request before the evaluator
+    if checkpoint is not None:
+        out = resumable_greedy(problem, budget_usd, rule, checkpoint=checkpoint, resume=resume, engine=engine, jobs=jobs,
+                               aggregate=aggregate, lazy=lazy, certify=certify, progress=progress,
+                               certify_progress=certify_progress, breakdown=False, constraints=constraints)
+        assert isinstance(out, CertifiedGreedyResult)
+        return out
     ev = evaluator_for(problem, engine, jobs=jobs, aggregate=aggregate)
     res = greedy(ev, budget_usd, rule, lazy=lazy, progress=progress, info=problem.info, constraints=constraints)
     cert = certificate(ev, res, progress=certify_progress) if certify else None
     return CertifiedGreedyResult.of(res, cert)
+
+
+def design_domain(domain: Domain, budget_usd: float, rule: str = "uniform", *, engine: str | None = None, jobs: int = 1,
+                  aggregate: str = "normalised", lazy: bool = True, certify: bool = False, progress: Progress | None = None,
+                  certify_progress: Progress | None = None, breakdown_progress: Progress | None = None,
+                  evaluator: DomainEvaluator | None = None, checkpoint: str | Path | None = None,
+                  resume: bool = False, constraints: Constraints | None = None) -> DomainDesign:
+    """The ``sensorsel greedy --domain`` run: :func:`sensorsel.domain_design.design_domain` (one suite
+    for every route, its certificate, its per-route breakdown). ``checkpoint``/``resume``: as for
+    :func:`run_greedy`; the certificate and each route's breakdown are recorded too. ``constraints``:
+    limits besides the budget, for the domain suite and each route's own design."""
+    if checkpoint is None:
+        return _design_domain(domain, budget_usd, rule, engine=engine, jobs=jobs, aggregate=aggregate, lazy=lazy,
+                              certify=certify, progress=progress, certify_progress=certify_progress,
+                              breakdown_progress=breakdown_progress, evaluator=evaluator, constraints=constraints)
+    out = resumable_greedy(domain, budget_usd, rule, checkpoint=checkpoint, resume=resume, engine=engine, jobs=jobs,
+                           aggregate=aggregate, lazy=lazy, certify=certify, progress=progress,
+                           certify_progress=certify_progress, breakdown_progress=breakdown_progress, evaluator=evaluator,
+                           constraints=constraints)
+    assert isinstance(out, DomainDesign)
+    return out
 
 
 @dataclass(frozen=True)
@@ -163,12 +197,13 @@ class DomainScoreResult:
 
 
 def score_domain_suite(domain: Domain, suite: str | Iterable[str | int], *, engine: str | None = None,
-                       aggregate: str = "normalised") -> DomainScoreResult:
+                       aggregate: str = "normalised", evaluator: DomainEvaluator | None = None) -> DomainScoreResult:
     """Score a suite on every route of ``domain`` and combine the routes (see
-    :mod:`sensorsel.evaluators.domain`)."""
+    :mod:`sensorsel.evaluators.domain`). ``evaluator``: the domain's evaluator already built (e.g. on
+    a Dask cluster); ``engine`` and ``aggregate`` are then its own."""
     lib = domain.library
     positions = lib.resolve_suite(suite)
-    ev = DomainEvaluator(domain, engine, aggregate=aggregate)
+    ev = evaluator if evaluator is not None else DomainEvaluator(domain, engine, aggregate=aggregate)
     per = ev.route_scores(positions)
     routes = tuple(RouteScore(r.name, float(w), float(f), float(b), float(f / b))
                    for r, w, f, b in zip(domain.routes, ev.weights, per, ev.best))
@@ -231,7 +266,7 @@ ROBUST_AGGREGATES = ("normalised", "raw", "worst")
 
 
 def run_robust(target: Target, budget_usd: float, alpha: int, *, engine: str | None = None, jobs: int = 1,
-               aggregate: str = "normalised", **kwargs) -> RobustResult:
+               aggregate: str = "normalised", evaluator: DomainEvaluator | None = None, **kwargs) -> RobustResult:
     """The ``sensorsel robust`` run: the best worst case under ``alpha`` failures within the budget
     (:func:`sensorsel.robust.robust_select`), on a problem or a domain.
 
@@ -239,6 +274,8 @@ def run_robust(target: Target, budget_usd: float, alpha: int, *, engine: str | N
     maximises the worst route's share of its best under the failures
     (:func:`sensorsel.robust.worst_route_select`; a domain only). ``kwargs`` go to the selector;
     ``constraints=`` (:mod:`sensorsel.constraints`) limits every candidate suite.
+    ``evaluator``: a domain's evaluator already built (e.g. on a Dask cluster; "worst" needs a
+    normalised one); ``engine`` and ``aggregate`` are then its own.
 
     Raises:
         InputError: bad budget, alpha or aggregate; "worst" on a single route; constraints the library
@@ -257,7 +294,10 @@ def run_robust(target: Target, budget_usd: float, alpha: int, *, engine: str | N
     if aggregate == "worst":
         if not isinstance(target, Domain):
             raise InputError("aggregate 'worst' is the worst route of an operating domain: give a domain (--domain FILE)")
-        return worst_route_select(target, budget_usd, alpha, engine=engine, jobs=jobs, **kwargs)
+        return worst_route_select(target, budget_usd, alpha, engine=engine, jobs=jobs, evaluator=evaluator, **kwargs)
+    if evaluator is not None:
+        check_budget(budget_usd)
+        return robust_select(evaluator, budget_usd, alpha, info=target.info, **kwargs)
     return _run_robust(target, budget_usd, alpha, engine=engine, jobs=jobs, aggregate=aggregate, **kwargs)
 
 

@@ -222,6 +222,13 @@ class FeasibleSet:
         return f"FeasibleSet(${self.budget_usd:,.0f}; {self.constraints.describe()})"
 
     @property
+    def record(self) -> Constraints | None:
+        """The constraints a result records: None when the budget is the only limit and nothing is
+        required or excluded (the paper's problem, whatever was asked: e.g. slots on a library without
+        any), else :attr:`constraints`."""
+        return None if self.only_budget and not self.required and not self.excluded else self.constraints
+
+    @property
     def only_budget(self) -> bool:
         """True when the budget is the only row (the paper's problem: a single knapsack)."""
         return len(self.names) == 1

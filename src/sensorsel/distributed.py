@@ -17,6 +17,9 @@ are computed by the actors too.
 builds the route's actor again from its recipe on a live worker and repeats that route's call (the
 engines are deterministic: the repeated call gives the same bytes), at most ``retries`` times.
 
+**Study cells as tasks.** :func:`study_cells_on` runs each cell of a design study
+(:mod:`sensorsel.study`) as a task, on a target built once per (library, landmark seed) by a task.
+
 **Tradespace runs as tasks.** :func:`run_tradespace_on` runs each single rule's chain of budgets
 (largest first, sharing prefixes exactly as in-process) as one Dask task; each task builds its
 target on the worker from recipes and returns the runs, gathered in rule order.
@@ -169,16 +172,31 @@ class RouteActor:
         self.evaluator: ProblemEvaluator = make_evaluator(recipe.build(), engine, jobs=jobs)
         self.best = float(self.evaluator.score(tuple(range(len(recipe.library)))))  # f_r(L), the normaliser
         self.built = (time.perf_counter() - t0, _rss() - m0)  # building the problem, its engine and f_r(L) [s], [bytes]
+        self.busy_s, self.calls = 0.0, 0  # time spent scoring in this actor's calls [s], and their number
 
     def score(self, suite: tuple[int, ...]) -> float:
-        return float(self.evaluator.score(suite))
+        t0 = time.perf_counter()
+        out = float(self.evaluator.score(suite))
+        self.busy_s, self.calls = self.busy_s + time.perf_counter() - t0, self.calls + 1
+        return out
 
     def normaliser(self) -> float:
         """f_r(L): the whole library's score on this route [nats] (computed when the actor was built)."""
         return self.best
 
     def scores_with(self, suite: tuple[int, ...], candidates: list[int]) -> np.ndarray:
-        return np.asarray(self.evaluator.scores_with(suite, candidates), dtype=float)
+        t0 = time.perf_counter()
+        out = np.asarray(self.evaluator.scores_with(suite, candidates), dtype=float)
+        self.busy_s, self.calls = self.busy_s + time.perf_counter() - t0, self.calls + 1
+        return out
+
+    def busy(self) -> tuple[float, int, str]:
+        """(seconds this actor spent scoring, calls it answered, its worker's address): the worker's
+        share of a run's time; the rest of a step's wall time is the client, the network and Dask's
+        actor machinery."""
+        from distributed import get_worker
+
+        return self.busy_s, self.calls, str(get_worker().address)
 
     def cost(self) -> tuple[float, int]:
         """(seconds to build this route on its worker, resident bytes that added there: its problem and
@@ -345,7 +363,14 @@ class DistributedDomainEvaluator(DomainEvaluator):
         s = as_suite(suite)
         self._check_positions(s)
         got = self._call({k: ("score", (s,)) for k in range(len(self.recipes))})
+        self._count(1)
         return np.array([float(got[k]) for k in range(len(self.recipes))], dtype=float)
+
+    def _count(self, n: int) -> None:
+        """Count ``n`` evaluations on every route's proxy, as each route's own evaluator counts them
+        in-process (robust selection over the worst route reads the routes' counts)."""
+        for r in self.routes:
+            r.n_evaluations += n
 
     def scores_with(self, suite: Iterable[int], candidates: Sequence[int]) -> np.ndarray:
         base = as_suite(suite)
@@ -356,9 +381,15 @@ class DistributedDomainEvaluator(DomainEvaluator):
             return np.zeros(0)
         s0, r0 = self.bytes_sent, self.bytes_received
         got = self._call({k: ("scores_with", (base, cand)) for k in range(len(self.recipes))})
+        self._count(len(cand))
         self.step_bytes.append((self.bytes_sent - s0, self.bytes_received - r0))
         per_route = np.stack([np.asarray(got[k], dtype=float) for k in range(len(self.recipes))])
         return self.combine(per_route)
+
+    def busy(self) -> dict[str, tuple[float, int, str]]:
+        """Each route's (seconds its actor spent scoring, calls it answered, the worker holding it)."""
+        got = self._call({k: ("busy", ()) for k in range(len(self.recipes))})
+        return {self.recipes[k].name: (float(got[k][0]), int(got[k][1]), str(got[k][2])) for k in range(len(self.recipes))}
 
     def costs(self) -> dict[str, tuple[float, int]]:
         """Each route's (build seconds, resident bytes) on its worker (see :meth:`RouteActor.cost`)."""
@@ -637,3 +668,74 @@ def _result(fut: Any, what: str) -> Any:
         raise
     except Exception as exc:
         raise ClusterError(f"{what} failed on the cluster ({type(exc).__name__}: {exc})") from None
+
+
+# ------------------------------------------------------------------------------ study cells as tasks
+
+
+def _build_target(recipe: Any) -> Target:
+    """A study's target (a route or a domain), built on a worker once for all its cells."""
+    built: Target = recipe.build()
+    return built
+
+
+def _cell_task(target: Target, cell: Any, study: Any) -> tuple[Any, Any]:
+    """One study cell on a worker: (its row, what its target is)."""
+    from .study import run_cell
+
+    return run_cell(target, cell, study, jobs=1), target.info
+
+
+def study_cells_on(client: Any, *, retries: int = 3) -> Callable[..., None]:
+    """A runner for :func:`sensorsel.study.run_study` (``runner=``) that runs each cell as one Dask
+    task. Each target (one per library and landmark seed of the grid) is built once, by a task of its
+    own, and handed to its cells' tasks (Dask moves it between workers if it must); Dask reruns a
+    task whose worker died (``retries`` for a task that raised). ``done(row, info)`` is called on the
+    client as each cell completes: the rows are gathered there, in cell order, by ``run_study``."""
+    distributed = _import_distributed()
+
+    def run(study: Any, cells: Sequence[Any], done: Callable[[Any, Any], None]) -> None:
+        built = {t: client.submit(_build_target, study.targets[t], pure=False, retries=retries)
+                 for t in sorted({c.target for c in cells})}
+        futs = {client.submit(_cell_task, built[c.target], c, study, pure=False, retries=retries): c for c in cells}
+        try:
+            for fut in distributed.as_completed(list(futs)):
+                row, info = _result(fut, f"study cell {futs[fut].index}")
+                done(row, info)
+        finally:
+            client.cancel(list(futs) + list(built.values()))  # an interrupted study leaves nothing running
+
+    return run
+
+
+# --------------------------------------------------------------------- simulation runs as tasks
+
+
+def _simulation_run(payload: Any, run: int) -> dict:
+    """One Monte-Carlo run on a worker (draws from (seed, run): the same numbers wherever it runs)."""
+    from .simulate.solve import solve_run
+
+    return solve_run(payload, run)
+
+
+def simulation_runs_on(client: Any, *, retries: int = 3) -> Callable[..., list[dict]]:
+    """A ``run_map`` for :func:`sensorsel.simulate.simulate`: the payload (the suite's measurements and
+    noise, numbers only) is sent once to every worker, each run is one task, the runs' raw outputs
+    are gathered in run order (``progress`` ticks as each completes). Run r draws from streams
+    seeded by (seed, r) wherever it runs, so the result is the in-process one, timings aside."""
+    distributed = _import_distributed()
+
+    def run_map(payload: Any, runs: int, progress: Callable[[int, int], None] | None) -> list[dict]:
+        shared = client.scatter(payload, broadcast=True, hash=False)  # hash=False: see resilient_report_on
+        futs = {client.submit(_simulation_run, shared, r, pure=False, retries=retries): r for r in range(runs)}
+        got: dict[int, dict] = {}
+        try:
+            for fut in distributed.as_completed(list(futs)):
+                got[futs[fut]] = _result(fut, f"simulation run {futs[fut]}")
+                if progress:
+                    progress(len(got), runs)
+        finally:
+            client.cancel(list(futs) + [shared])
+        return [got[r] for r in range(runs)]
+
+    return run_map

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import ClassVar, Sequence
 
 import numpy as np
 
@@ -79,25 +79,36 @@ class DomainDesign:
     seconds: float = 0.0
 
 
+def route_share(evaluator: DomainEvaluator, k: int, result: GreedyResult, score: float, *, lazy: bool = True) -> RouteShare:
+    """Route ``k``'s share of its best and of its own design for the domain suite of ``result``, whose
+    score f_k(S) on that route is ``score`` [nats] (own design: greedy with ``result``'s rule and
+    budget and limits on the route's own evaluator)."""
+    route, ev = evaluator.domain.routes[k], evaluator.routes[k]
+    own = greedy(ev, result.budget_usd, result.rule, lazy=lazy, constraints=recorded(result.constraints))
+    f_s, f_own = float(score), float(own.score)
+    return RouteShare(
+        name=route.name, weight=float(evaluator.weights[k]), score=f_s, best_score=float(evaluator.best[k]),
+        share_of_best=f_s / float(evaluator.best[k]), own_suite=own.suite, own_cost_usd=own.cost_usd,
+        own_score=f_own, share_of_own=f_s / f_own if f_own > 0 else 1.0,
+    )
+
+
 def route_breakdown(evaluator: DomainEvaluator, result: GreedyResult, *, lazy: bool = True,
                     progress: Progress | None = None) -> tuple[RouteShare, ...]:
     """Each route's share of its best and of its own design for the domain suite of ``result``
     (own designs: greedy with ``result``'s rule and budget on each route's own evaluator)."""
-    lib = evaluator.library
-    suite = lib.resolve_suite(result.suite)
-    scores = evaluator.route_scores(suite)
+    scores = evaluator.route_scores(evaluator.library.resolve_suite(result.suite))
     out = []
-    for k, (route, ev) in enumerate(zip(evaluator.domain.routes, evaluator.routes)):
-        own = greedy(ev, result.budget_usd, result.rule, lazy=lazy, constraints=recorded(result.constraints))
-        f_s, f_own = float(scores[k]), float(own.score)
-        out.append(RouteShare(
-            name=route.name, weight=float(evaluator.weights[k]), score=f_s, best_score=float(evaluator.best[k]),
-            share_of_best=f_s / float(evaluator.best[k]), own_suite=own.suite, own_cost_usd=own.cost_usd,
-            own_score=f_own, share_of_own=f_s / f_own if f_own > 0 else 1.0,
-        ))
+    for k in range(len(evaluator.routes)):
+        out.append(route_share(evaluator, k, result, float(scores[k]), lazy=lazy))
         if progress:
             progress(k + 1, len(evaluator.routes))
     return tuple(out)
+
+
+def worst_route(shares: Sequence[RouteShare]) -> str:
+    """The route with the lowest share of its own design (the first of equals)."""
+    return shares[int(np.argmin([s.share_of_own for s in shares]))].name
 
 
 def design_domain(domain: Domain, budget_usd: float, rule: str = "uniform", *, engine: str | None = None, jobs: int = 1,
@@ -121,6 +132,6 @@ def design_domain(domain: Domain, budget_usd: float, rule: str = "uniform", *, e
     res = greedy(ev, budget, rule, lazy=lazy, progress=progress, info=domain.info, constraints=constraints)
     cert = certificate(ev, res, progress=certify_progress) if certify else None
     shares = route_breakdown(ev, res, lazy=lazy, progress=breakdown_progress)
-    worst = shares[int(np.argmin([s.share_of_own for s in shares]))].name
-    return DomainDesign(greedy=CertifiedGreedyResult.of(res, cert), aggregate=ev.aggregate, routes=shares, worst_route=worst, domain=domain.info,
+    return DomainDesign(greedy=CertifiedGreedyResult.of(res, cert), aggregate=ev.aggregate, routes=shares,
+                        worst_route=worst_route(shares), domain=domain.info,
                         seconds=round(time.perf_counter() - t0, 6))

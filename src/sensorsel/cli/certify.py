@@ -17,11 +17,13 @@ from ..certify import (DEFAULT_MAX_NODES, Certificate, CertifiedGreedyResult, ce
 from ..constraints import Constraints, feasible_set
 from ..domain_design import DomainDesign
 from ..errors import InputError, ResultFileError
-from ..evaluators import DomainEvaluator, evaluator_for
+from ..evaluators import DomainEvaluator
 from ..fileio import output_file
 from ..library import SensorLibrary
 from ..problem import ProblemMismatchWarning, check_result_problem
 from ..selection import GreedyResult, check_affordable, check_budget, greedy
+from .cluster import evaluator_on, require_domain
+from .options import cluster_from, cluster_options
 from .options import (not_empty, budget_option, force_option, engine_options, json_option, output_option, progress_bar, quiet_option,
                       print_target, run, target_from, target_options)
 from .options import constraint_options, constraints_from, usage_table
@@ -58,6 +60,7 @@ def _check_result_constraints(res: GreedyResult, lib: SensorLibrary, path: str, 
 @click.command("optimal", short_help="Exact best suite within a budget (branch and bound), with greedy beside it.")
 @target_options
 @engine_options
+@cluster_options
 @budget_option(required=True, help="Budget per car in dollars: 110000, 110,000, $110,000 or 110_000.")
 @constraint_options
 @click.option("--max-nodes", type=click.IntRange(min=1), default=DEFAULT_MAX_NODES, show_default=True,
@@ -75,7 +78,8 @@ def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output
     Starts from the greedy (best-of) suite and proves it optimal or improves on it. At the node
     limit it prints the best suite found and how much better the optimum can be. Exact search is for
     small libraries (e.g. one model per type: --library configs/reduced_library.yaml); on the full
-    62-sensor library expect the node limit and a remaining gap.
+    62-sensor library expect the node limit and a remaining gap. With --domain and
+    --scheduler/--workers, each route is scored on a worker (every node's suites at once).
 
     With --limit, --require, --exclude, --max-sensors or the library's mounting slots, the optimum
     is the best suite they allow (node bounds: an integer program over the marginal gains, by HiGHS).
@@ -84,12 +88,14 @@ def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output
     if output:
         output_file(output)
     constraints = constraints_from(kw)
+    cluster = cluster_from(kw)
     problem = target_from(kw)
+    require_domain(cluster, problem)
     check_affordable(problem.library, budget, constraints=constraints)
     info = problem.info
-    ev = evaluator_for(problem, engine, jobs=jobs, aggregate=aggregate)
     bar, progress = progress_bar(quiet or as_json, "branch and bound (nodes)")
-    with bar or nullcontext():
+    with cluster or nullcontext(), bar or nullcontext():
+        ev = evaluator_on(cluster, problem, engine, jobs, aggregate)
         res = optimal(ev, budget, max_nodes=max_nodes, max_seconds=max_seconds, info=info, progress=progress,
                       constraints=constraints)
     if output:
@@ -120,6 +126,7 @@ def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output
 @click.command("certify", short_help="How close a greedy suite is to the best possible one (an upper bound).")
 @target_options
 @engine_options
+@cluster_options
 @click.option("--result", "result_path", type=click.Path(dir_okay=False, path_type=str), default=None, callback=not_empty,
               help="A greedy result JSON (`sensorsel greedy -o FILE`) to certify; it must be of the same library, route, rate and "
                    "landmarks (checked by content; see --force).")
@@ -138,7 +145,8 @@ def certify_cmd(result_path: str | None, budget: float | None, rule: str, force:
     Evaluates the submodular upper bound f(S) + knapsack of the marginal gains (capacity: the
     budget) at every intermediate suite of the greedy run and keeps the smallest: no suite within
     the budget scores above it. At most one sweep of the library per greedy step (steps that
-    provably cannot lower the bound are skipped).
+    provably cannot lower the bound are skipped). With --domain and --scheduler/--workers, each
+    route is scored on a worker.
 
     The bound respects the constraints of the run: those a --result file records (its library must
     declare the same resources and slots; see --force), or, with --budget, --limit, --require,
@@ -154,26 +162,12 @@ def certify_cmd(result_path: str | None, budget: float | None, rule: str, force:
         raise InputError("give --result FILE (a greedy result to certify) or --budget DOLLARS (run greedy now)")
     if output:
         output_file(output)
+    cluster = cluster_from(kw)
     problem = target_from(kw)
-    if result_path is not None:
-        loaded = results.load(result_path, (CertifiedGreedyResult, DomainDesign))
-        res = loaded.greedy if isinstance(loaded, DomainDesign) else loaded
-        check_result_problem(res.problem, problem, result_path, force=force, what="the greedy result")
-        try:
-            problem.library.parse_suite(list(res.suite))
-        except InputError as exc:
-            raise ResultFileError(result_path, f"its suite: {exc} (a result of another library?)") from None
-        _check_result_constraints(res, problem.library, result_path, force)
-        run_engine = None if res.engine == DomainEvaluator.name else res.engine
-        ev = evaluator_for(problem, engine or run_engine, jobs=jobs, aggregate=aggregate)
-    else:
-        assert budget is not None
-        checked = check_affordable(problem.library, budget, constraints=constraints)
-        ev = evaluator_for(problem, engine, jobs=jobs, aggregate=aggregate)
-        res = greedy(ev, checked, rule, info=problem.info, constraints=constraints)
-    bar, progress = progress_bar(quiet or as_json, "certificate (greedy steps)")
-    with bar or nullcontext():
-        cert: Certificate = certify_greedy(ev, res, progress=progress)
+    require_domain(cluster, problem)
+    with cluster or nullcontext():
+        res, cert = _certify(problem, cluster, result_path, budget, rule, force, quiet or as_json, engine, jobs, aggregate,
+                             constraints)
     if output:
         results.save(cert, output)
     if as_json:
@@ -189,6 +183,32 @@ def certify_cmd(result_path: str | None, budget: float | None, rule: str, force:
     click.echo(format_certificate(cert))
     if output:
         click.echo(f"wrote      {output}")
+
+
+def _certify(problem: Any, cluster: Any, result_path: str | None, budget: float | None, rule: str, force: bool, quiet: bool,
+             engine: str | None, jobs: int, aggregate: str, constraints: Constraints) -> tuple[Any, Certificate]:
+    """The greedy result (read from --result, under the constraints it records; or run now under
+    ``constraints``) and its certificate, on ``cluster`` if given."""
+    if result_path is not None:
+        loaded = results.load(result_path, (CertifiedGreedyResult, DomainDesign))
+        res = loaded.greedy if isinstance(loaded, DomainDesign) else loaded
+        check_result_problem(res.problem, problem, result_path, force=force, what="the greedy result")
+        try:
+            problem.library.parse_suite(list(res.suite))
+        except InputError as exc:
+            raise ResultFileError(result_path, f"its suite: {exc} (a result of another library?)") from None
+        _check_result_constraints(res, problem.library, result_path, force)
+        run_engine = None if res.engine == DomainEvaluator.name else res.engine
+        ev = evaluator_on(cluster, problem, engine or run_engine, jobs, aggregate)
+    else:
+        assert budget is not None
+        checked = check_affordable(problem.library, budget, constraints=constraints)
+        ev = evaluator_on(cluster, problem, engine, jobs, aggregate)
+        res = greedy(ev, checked, rule, info=problem.info, constraints=constraints)
+    bar, progress = progress_bar(quiet, "certificate (greedy steps)")
+    with bar or nullcontext():
+        cert: Certificate = certify_greedy(ev, res, progress=progress)
+    return res, cert
 
 
 COMMANDS = [optimal_cmd, certify_cmd]

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+from contextlib import nullcontext
 from dataclasses import replace
 from typing import Any
 
@@ -16,7 +17,8 @@ from ..library import SensorLibrary, load_library, resource_unit
 from ..api import score_domain_suite, score_suite
 from ..problem import Domain
 from ..scenario import LandmarkModel, route_landmarks, write_landmarks_csv
-from .options import constraint_options, constraints_from, usage_table
+from .cluster import domain_evaluator_on, require_domain
+from .options import cluster_from, cluster_options, constraint_options, constraints_from, usage_table
 from .options import (engine_options, json_option, output_option, plot_format_option, print_target, problem_from, run,
                       scenario_options, spec_from, suite_text, table, target_from, target_options)
 from .options import plot_format as plot_format_of
@@ -78,6 +80,7 @@ def library_cmd(library_path: str | None, as_json: bool) -> None:
 @click.command("score", short_help="Score a suite: cost and f(S) = log det gain over no sensor [nats].")
 @target_options
 @engine_options
+@cluster_options
 @click.option("--suite", required=True, callback=suite_text, help="Comma-separated sensor ids or indices, e.g. LRL-roof,LRR-12 (see `sensorsel library`).")
 @constraint_options
 @json_option
@@ -86,14 +89,19 @@ def score_cmd(suite: str, as_json: bool, aggregate: str, engine: str | None, job
     """Score a sensor suite: cost and f(S) = log det L(S) - log det L(empty) in nats.
 
     With --domain FILE: the suite's score on every route, each as a share of the route's best, and
-    the domain score (their weighted sum, --aggregate). With --limit, --max-sensors, --require or
-    --exclude (or a library with mounting slots): what the suite uses of each limit, and what it breaks."""
+    the domain score (their weighted sum, --aggregate). With --scheduler/--workers, each route is
+    built, normalised and scored on a worker. With --limit, --max-sensors, --require or --exclude
+    (or a library with mounting slots): what the suite uses of each limit, and what it breaks."""
+    cluster = cluster_from(kw)
     constraints = constraints_from(kw)
     problem = target_from(kw)
+    require_domain(cluster, problem)
     # score has no budget: the whole library is affordable, the other limits apply
     feas = feasible_set(problem.library, float(problem.library.costs.sum()), constraints)
     if isinstance(problem, Domain):
-        dres = score_domain_suite(problem, suite, engine=engine, aggregate=aggregate)
+        with cluster or nullcontext():
+            ev = domain_evaluator_on(cluster, problem, engine, aggregate) if cluster is not None else None
+            dres = score_domain_suite(problem, suite, engine=engine, aggregate=aggregate, evaluator=ev)
         if as_json:
             click.echo(results.dumps(dres), nl=False)
             return

@@ -7,7 +7,10 @@ from typing import Any
 import click
 
 from .. import results
+from ..problem import Domain
 from ..library import SensorLibrary
+from .cluster import domain_evaluator_on, require_domain
+from .options import cluster_from, cluster_options
 from .options import (budget_option, compact_suite, constraint_options, constraints_from, engine_options, json_option,
                       output_option, print_target, quiet_option, run, table, target_from, target_options, usage_table)
 
@@ -33,6 +36,7 @@ def _csv(xs: Any) -> str:
 @_worst_aggregate
 @target_options
 @engine_options
+@cluster_options
 @budget_option(default=110_000.0, help="Budget in dollars (110000, 110,000, $110,000 or 110_000).")
 @click.option("--failures", "alpha", type=int, default=1, show_default=True,
               help="Number of sensors that may fail (alpha); the design maximises the score left after the worst ALPHA.")
@@ -57,7 +61,8 @@ def robust_cmd(budget: float, alpha: int, rules: str, methods: str | None, no_sk
     it are printed; gap 0 proves the answer optimal.
 
     With --domain FILE and --aggregate worst, the design maximises the worst route's share of its best
-    (f_r(S) / f_r(all sensors)) under the failures.
+    (f_r(S) / f_r(all sensors)) under the failures. With --domain and --scheduler/--workers, each
+    route is scored on a worker.
 
     --limit, --require, --exclude, --max-sensors and the library's slots hold for every candidate;
     the bound then relaxes them to the budget alone (still an upper bound).
@@ -78,12 +83,22 @@ def robust_cmd(budget: float, alpha: int, rules: str, methods: str | None, no_sk
     else:
         method_list = tuple(m.strip() for m in methods.split(",") if m.strip())
     constraints = constraints_from(kw)
+    cluster = cluster_from(kw)
     target = target_from(kw)
+    require_domain(cluster, target)
     check_affordable(target.library, budget, constraints=constraints)
     if not quiet:
         click.echo(f"robust selection: ${budget:,.0f}, {alpha} failure(s) ...", err=True)
-    res = run_robust(target, budget, alpha, engine=engine, jobs=jobs, aggregate=aggregate, rules=rule_list,
-                     methods=method_list, skip_when_proved=not no_skip, constraints=constraints)
+    from contextlib import nullcontext
+
+    with cluster or nullcontext():
+        # worst: each route's share of its best, so the routes' normalisers: a normalised evaluator
+        ev = None
+        if cluster is not None:
+            assert isinstance(target, Domain)
+            ev = domain_evaluator_on(cluster, target, engine, "normalised" if aggregate == "worst" else aggregate)
+        res = run_robust(target, budget, alpha, engine=engine, jobs=jobs, aggregate=aggregate, rules=rule_list,
+                         methods=method_list, skip_when_proved=not no_skip, evaluator=ev, constraints=constraints)
     written = results.save(res, output) if output else None
     if as_json:
         click.echo(results.dumps(res), nl=False)

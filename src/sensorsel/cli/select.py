@@ -11,6 +11,7 @@ import click
 
 from .. import results
 from ..api import design_domain, run_greedy
+from ..checkpoint import checkpoint_path, remove_checkpoint
 from ..domain_design import DomainDesign
 from ..problem import Domain, DomainInfo
 from ..certify import CertifiedGreedyResult, format_certificate
@@ -85,10 +86,13 @@ def _print_breakdown(design: DomainDesign) -> None:
                    "and print how close the suite is to it.")
 @click.option("--plot", "plot_path", type=click.Path(dir_okay=False, path_type=str), default=None,
               help="With --domain: draw the per-route breakdown here (png, svg or pdf by its extension).")
+@click.option("--resume", is_flag=True,
+              help="With -o FILE: go on from the checkpoint FILE.checkpoint an interrupted run of the same inputs left "
+                   "(written after each pick; the same result, timings and evaluation counts aside).")
 @quiet_option
 @run
 def greedy_cmd(budget: float, rule: str, lazy: bool, output: str | None, as_json: bool, certify: bool, quiet: bool,
-               plot_path: str | None, aggregate: str, engine: str | None, jobs: int, **kw: Any) -> None:
+               plot_path: str | None, resume: bool, aggregate: str, engine: str | None, jobs: int, **kw: Any) -> None:
     """Greedy sensor selection under a budget (the paper's Algorithm 1 and its cost-aware variants).
 
     Prints the suite in pick order with each pick's marginal gain, the cost, the score
@@ -99,7 +103,12 @@ def greedy_cmd(budget: float, rule: str, lazy: bool, output: str | None, as_json
     With --domain FILE, one suite for every route of an operating domain: the domain score is the
     weighted sum of each route's share of its best (--aggregate), and a per-route breakdown compares
     the suite with each route's own design at the same budget (--plot draws it).
+
+    With -o FILE, a checkpoint FILE.checkpoint is written after each pick (and after the certificate
+    and each route of the breakdown) and deleted once FILE is written; --resume goes on from it.
     """
+    if resume and not output:
+        raise click.UsageError("--resume goes on from the checkpoint of -o FILE (FILE.checkpoint): give -o")
     if output:
         output_file(output)
     if plot_path:
@@ -116,6 +125,9 @@ def greedy_cmd(budget: float, rule: str, lazy: bool, output: str | None, as_json
     bar, progress = progress_bar(quiet, f"greedy {rule}", phases=len(RULES[rule].component_rules))
     cert_bar, cert_progress = progress_bar(quiet or not certify, "certificate", after=bar)
     out: CertifiedGreedyResult | DomainDesign
+    ckpt = checkpoint_path(output) if output else None
+    if resume and ckpt is not None and not ckpt.is_file():
+        click.echo(f"sensorsel: note: no checkpoint {ckpt}: starting from the first pick", err=True)
     with cluster or nullcontext(), bar or nullcontext(), cert_bar or nullcontext():
         if isinstance(problem, Domain):
             ev = None
@@ -125,13 +137,16 @@ def greedy_cmd(budget: float, rule: str, lazy: bool, output: str | None, as_json
                 ev = DistributedDomainEvaluator(cluster.client, problem, engine, aggregate=aggregate)
             out = design_domain(problem, budget, rule, engine=engine, jobs=jobs, aggregate=aggregate, lazy=lazy,
                                 certify=certify, progress=progress, certify_progress=cert_progress, evaluator=ev,
-                                constraints=constraints)
+                                checkpoint=ckpt, resume=resume, constraints=constraints)
             res = out.greedy
         else:
             out = res = run_greedy(problem, budget, rule, engine=engine, jobs=jobs, lazy=lazy, progress=progress,
-                                   certify=certify, certify_progress=cert_progress, constraints=constraints)
+                                   certify=certify, certify_progress=cert_progress, checkpoint=ckpt, resume=resume,
+                                   constraints=constraints)
     if output:
         results.save(out, output)
+        if ckpt is not None:
+            remove_checkpoint(ckpt)  # the result is written: the run is no longer interrupted
     if isinstance(out, DomainDesign) and plot_path:
         from ..plotting import plot_domain_breakdown, save_figure, use_file_backend
 

@@ -15,6 +15,7 @@ from ..errors import InputError, ResultFileError
 from ..fileio import output_dir
 from ..library import SensorLibrary
 from ..problem import GraphSettings, Problem, ProblemInfo, check_result_problem, load_problem
+from .options import cluster_from, cluster_options
 from .options import force_option, json_option, output_option, suite_text, plot_format_option, progress_bar, quiet_option, run, scenario_options, spec_from, table
 from .options import plot_format as plot_format_of
 
@@ -99,6 +100,7 @@ def _fmt(v: float | None, digits: int = 3) -> str:
 @click.option("--noise-scale", type=float, default=1.0, show_default=True, help="Factor on every noise sigma (odometry, prior, sensors).")
 @click.option("--jobs", type=click.IntRange(min=1), default=os.cpu_count() or 1, show_default="all cores",
               help="Processes running the Monte-Carlo draws (results do not depend on it).")
+@cluster_options
 @output_option(folder=True, required=True, dest="outdir",
                help="Output folder: simulation.json (every run), trajectories, error_along_route and simulate plots.")
 @plot_format_option
@@ -113,7 +115,8 @@ def simulate_cmd(suite: str, compare: str | None, label: str | None, compare_lab
 
     Prints pose, heading and landmark RMSE, the worst position error along the route, the errors the
     information matrix predicts, and the average NEES of the poses with its 95 % chi-square bounds;
-    writes the plots and a JSON of every run to OUTPUT.
+    writes the plots and a JSON of every run to OUTPUT. With --scheduler/--workers each Monte-Carlo
+    run is one Dask task (run r draws from (seed, r) wherever it runs: the same result).
     """
     from ..plotting import (plot_error_along_route, plot_simulation_comparison, plot_simulation_overview, save_figure,
                             use_file_backend)
@@ -125,6 +128,7 @@ def simulate_cmd(suite: str, compare: str | None, label: str | None, compare_lab
         raise click.UsageError("--compare-label needs --compare")
     fmt = plot_format_of(plot_format)
     out = output_dir(outdir)
+    cluster = cluster_from(kw)
     settings = _settings(start_sigmas)
     spec = spec_from(kw)
     problem = load_problem(spec, kw.pop("library_path"), settings)
@@ -138,14 +142,20 @@ def simulate_cmd(suite: str, compare: str | None, label: str | None, compare_lab
     _check_failures(designs, failures, lib, fail)
 
     sims = []
-    for positions, name, _ in designs:
-        ids = set(lib.suite_ids(positions))
-        mine = tuple(f for f in failures if f.sensor in ids)
-        bar, progress = progress_bar(quiet, f"simulating {name}")
-        with bar or nullcontext():
-            res = simulate(problem, positions, failures=mine, runs=runs, solver=solver, seed=seed, noise_scale=noise_scale,
-                           jobs=jobs, label=name, progress=progress)
-        sims.append(res)
+    with cluster or nullcontext():
+        run_map = None
+        if cluster is not None:
+            from ..distributed import simulation_runs_on
+
+            run_map = simulation_runs_on(cluster.client)
+        for positions, name, _ in designs:
+            ids = set(lib.suite_ids(positions))
+            mine = tuple(f for f in failures if f.sensor in ids)
+            bar, progress = progress_bar(quiet, f"simulating {name}")
+            with bar or nullcontext():
+                res = simulate(problem, positions, failures=mine, runs=runs, solver=solver, seed=seed, noise_scale=noise_scale,
+                               jobs=jobs, label=name, progress=progress, run_map=run_map)
+            sims.append(res)
 
     report = SimulationReport(tuple(sims))
     json_path = results.save(report, out / "simulation.json")

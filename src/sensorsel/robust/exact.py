@@ -136,5 +136,5 @@ def robust_optimum(evaluator: Evaluator, budget_usd: float, alpha: int, *, incum
         proved_optimal=proved, upper_bound=float(upper), gap_percent=100.0 * (upper - best_g) / upper if upper > 0 else 0.0,
         n_nodes=nodes, n_pruned=pruned, n_evaluations=ev.n_evaluations - n0, stop_reason=stop,
         seconds=round(time.perf_counter() - t0, 6),
-        constraints=None if feas.only_budget and not feas.required and not feas.excluded else feas.constraints,
+        constraints=feas.record,
     )

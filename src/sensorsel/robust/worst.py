@@ -141,13 +141,14 @@ def worst_route_select(domain: Domain, budget_usd: float, alpha: int, *, engine:
                        rules: Sequence[str] = ("uniform", "marginal"), methods: Sequence[str] = WORST_METHODS,
                        skip_when_proved: bool = True, saturate_levels: int = DEFAULT_SATURATE_LEVELS,
                        saturate_evaluations: int | None = 2_000, local_rounds: int = 10, local_evaluations: int = 2_000,
-                       bound_nodes: int = DEFAULT_BOUND_NODES) -> RobustResult:
+                       bound_nodes: int = DEFAULT_BOUND_NODES, evaluator: DomainEvaluator | None = None) -> RobustResult:
     """The suite within ``budget_usd`` maximising the worst route's share of its best under ``alpha``
-    failures (see the module docstring); a :class:`RobustResult` with ``aggregate="worst"``."""
+    failures (see the module docstring); a :class:`RobustResult` with ``aggregate="worst"``.
+    ``evaluator``: the domain's normalised evaluator already built (e.g. on a Dask cluster)."""
     t_start = time.perf_counter()
     budget, alpha = check_budget(budget_usd), check_alpha(alpha)
     rules = check_rules_and_methods(rules, methods, WORST_METHODS, "method for the worst route")
-    dev = DomainEvaluator(domain, engine, jobs=jobs, aggregate="normalised")
+    dev = evaluator if evaluator is not None else DomainEvaluator(domain, engine, jobs=jobs, aggregate="normalised")
     n_start = sum(e.n_evaluations for e in dev.routes)
     routes: list[MemoEvaluator] = [memoized(e) for e in dev.routes]
     names = [r.name for r in domain.routes]

@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import math
 import time
+from typing import Callable, Sequence
 
 import numpy as np
 
@@ -160,9 +161,16 @@ class Selector:
         self.constraints = constraints
 
     def select(self, budget_usd: float, *, start: tuple[int, ...] = (), info: TargetInfo | None = None,
-               reserved: tuple[int, ...] = ()) -> GreedyResult:
+               reserved: tuple[int, ...] = (), resume: Sequence[Step] = (),
+               on_step: Callable[[tuple[Step, ...]], None] | None = None) -> GreedyResult:
         """Run greedy selection; ``start`` sensors (and the required ones) are already in the suite;
-        ``reserved`` sensors use their share of every limit outside it (see :func:`greedy`)."""
+        ``reserved`` sensors use their share of every limit outside it (see :func:`greedy`).
+
+        ``resume``: the steps an interrupted run of the same selection recorded; they are taken as
+        recorded (suite, cost and score, not recomputed) and selection goes on from there: the same
+        picks as an uninterrupted run (lazy evaluation is exact), with its own count of evaluations
+        (the lazy bounds start afresh). ``on_step(steps)`` is called after each pick with every step
+        so far (to record them, e.g. :mod:`sensorsel.checkpoint`)."""
         t0 = time.perf_counter()
         budget = check_budget(budget_usd)
         ev = self.evaluator
@@ -188,6 +196,14 @@ class Selector:
         room = budget - used[0]
         max_picks = int(np.sum(np.cumsum(np.sort(feas.A[0, available])) <= room + 1e-9)) if available.any() else 0
         steps: list[Step] = []
+        for st in resume:  # an interrupted run's picks, as it recorded them
+            done = lib.position(st.pick)
+            suite.append(done)
+            available[done] = False
+            used = used + feas.A[:, done]
+            cost += float(costs[done])
+            steps.append(st)
+            f_cur = st.score
         stop = ""
         while True:
             feasible = available & feas.addable(used)
@@ -207,6 +223,8 @@ class Selector:
             steps.append(Step(ids[pick], lib[pick].index, float(prices[pick]), tuple(ids[i] for i in suite),
                               float(used[0] - outside[0]) if reserved else float(used[0]),
                               f_cur, gain, j_val))
+            if on_step:  # recorded before it is reported: an interruption in the report loses no pick
+                on_step(tuple(steps))
             if self.progress:
                 self.progress(len(steps), max(max_picks, len(steps)))
         name = self.rule.name
@@ -217,7 +235,7 @@ class Selector:
             winning_rule=name, problem=info, seconds=round(time.perf_counter() - t0, 6),
             # required or excluded sensors are no row of A: record them too (an owned sensor's price is
             # not counted, so a certificate that forgot them could bound the wrong problem)
-            constraints=None if feas.only_budget and not feas.required and not feas.excluded else feas.constraints,
+            constraints=feas.record,
         )
 
     @staticmethod

@@ -12,7 +12,7 @@ import math
 import multiprocessing
 import time
 from concurrent.futures import ProcessPoolExecutor
-from typing import Iterable, Sequence
+from typing import Callable, Iterable, Sequence
 
 import numpy as np
 
@@ -39,6 +39,7 @@ def simulate(
     jobs: int = 1,
     label: str = "suite",
     progress: Progress | None = None,
+    run_map: Callable[[Payload, int, Progress | None], list[dict]] | None = None,
 ) -> SimulationResult:
     """Monte-Carlo SLAM of ``suite`` on ``problem``: ``runs`` seeded draws, each solved with GTSAM.
 
@@ -53,6 +54,9 @@ def simulate(
         jobs: worker processes for the runs (results do not depend on it).
         label: name of this design in tables and plots.
         progress: called as progress(runs done, runs) after each finished run.
+        run_map: runs the draws elsewhere: ``run_map(payload, runs, progress)`` returns every run's
+            raw output in run order (:func:`sensorsel.distributed.simulation_runs_on`: one Dask task
+            per run); run r draws from (seed, r) wherever it runs, so the result does not depend on it.
     Raises:
         InputError: bad suite, failure, solver, runs, seed, noise scale or jobs (names the value).
     """
@@ -62,7 +66,7 @@ def simulate(
     failures_t = resolve_failures(failures, problem, positions)
     payload = make_payload(problem, positions, failures_t, float(noise_scale), solver, seed)
     t_runs = time.perf_counter()
-    raw = _run_all(payload, runs, jobs, progress)
+    raw = run_map(payload, runs, progress) if run_map is not None else _run_all(payload, runs, jobs, progress)
     t_cov = time.perf_counter()
     pred = predict(payload)
     t_end = time.perf_counter()

@@ -1,0 +1,72 @@
+"""``sensorsel study``: a design study over a grid of settings, one run per cell (in-process or as Dask tasks)."""
+
+from __future__ import annotations
+
+from contextlib import nullcontext
+from typing import Any
+
+import click
+
+from .. import results
+from ..fileio import output_dir
+from .options import cluster_from, cluster_options, compact_suite, json_option, output_option, progress_bar, quiet_option, run, table
+
+
+def _num(v: float | None, fmt: str = "{:,.3f}") -> str:
+    return "-" if v is None else fmt.format(v)
+
+
+@click.command("study", short_help="A design study: a grid of budgets, rules, failures, maps and libraries, one run per cell.")
+@click.argument("study_file", metavar="FILE.yaml", type=click.Path(dir_okay=False, path_type=str))
+@output_option(folder=True, required=True, dest="outdir",
+               help="Folder for study.csv, study.json and cells/ (each cell written as it finishes).")
+@click.option("--resume", is_flag=True, help="Read back the cells an interrupted run left in OUTPUT/cells/ whose inputs "
+                                             "match, and run only the others.")
+@cluster_options
+@click.option("--jobs", type=click.IntRange(min=1), default=1, show_default=True,
+              help="Threads scoring candidate suites in each in-process cell (results do not depend on it; on a "
+                   "cluster every task uses one).")
+@json_option
+@quiet_option
+@run
+def study_cmd(study_file: str, outdir: str, resume: bool, jobs: int, as_json: bool, quiet: bool, **kw: Any) -> None:
+    """Run a design study: every combination of the grid in FILE.yaml (budgets x rules x failures x
+    landmark seeds x libraries) on its target (a route or an operating domain), one run per cell.
+
+    A cell with no failure is a greedy run with its certificate; a cell with failures runs the
+    paper's Algorithm 2 (or robust selection, `method: robust`) and scores the exact worst case.
+    Writes OUTPUT/study.csv and study.json (one row per cell, in grid order) and each cell to
+    OUTPUT/cells/ as it finishes, so --resume skips finished cells. With --scheduler/--workers each
+    cell is one Dask task; the rows are the same (timings aside). See configs/study_example.yaml.
+    """
+    from ..study import load_study, run_study, write_study
+
+    output_dir(outdir)
+    cluster = cluster_from(kw)
+    study = load_study(study_file)
+    bar, progress = progress_bar(quiet or as_json, "study cells")
+    if cluster is not None:
+        from ..distributed import study_cells_on
+
+        with cluster, bar or nullcontext():
+            res = run_study(study, outdir=outdir, resume=resume, runner=study_cells_on(cluster.client), progress=progress)
+    else:
+        with bar or nullcontext():
+            res = run_study(study, outdir=outdir, resume=resume, jobs=jobs, progress=progress)
+    written = write_study(res, outdir)
+    if as_json:
+        click.echo(results.dumps(res), nl=False)
+        return
+    click.echo(f"study      {res.source}: {len(res.rows)} cells on {len(res.targets)} target(s), engine {res.engine}"
+               + (f", failures by {res.method}" if any(r.failures for r in res.rows) else ""))
+    if res.n_reused:
+        click.echo(f"resumed    {res.n_reused} cells read back from {outdir}/cells")
+    rows = [[str(r.cell), r.library, "-" if r.landmark_seed is None else str(r.landmark_seed), str(r.failures), r.rule,
+             f"{r.budget_usd:,.0f}", compact_suite(r.suite), f"{r.cost_usd:,.0f}", _num(r.score), _num(r.worst_score),
+             _num(r.certificate_percent, "{:.1f}%"), f"{r.seconds:.2f}"] for r in res.rows]
+    click.echo(table(rows, ["cell", "library", "seed", "failures", "rule", "budget_usd", "suite", "cost_usd", "score",
+                            "worst", "certified", "seconds"]))
+    click.echo("wrote " + ", ".join(str(w) for w in written))
+
+
+COMMANDS = [study_cmd]
