@@ -7,14 +7,23 @@ Oracles: brute force over every item set (the knapsack), and over every feasible
 
 from __future__ import annotations
 
+import dataclasses
+import functools
 import itertools
 
 import numpy as np
 import pytest
 
-from sensorsel.robust import knapsack_drop, robust_bound
+from sensorsel.api import run_robust
+from sensorsel.constraints import Constraints, feasible_set
+from sensorsel.errors import InputError
+from sensorsel.evaluators import make_evaluator
+from sensorsel.library import Slot
+from sensorsel.problem import Domain, DomainRoute, build_problem
+from sensorsel.robust import knapsack_drop, robust_bound, worst_route_select
 from sensorsel.robust.bound import knapsack_drop_rows
-from test_constraints_selectors import brute_worst, feasible_suites, random_case, tol
+from sensorsel.scenario import ScenarioSpec, load_scenario
+from test_constraints_selectors import LIBRARY, brute_worst, feasible_suites, random_case, tol
 
 
 def brute_knapsack(values, usage, capacity, drop, forced) -> float:
@@ -115,3 +124,104 @@ def test_the_integer_programs_tighten_the_bound_on_some_random_case():
         b = robust_bound(ev, budget, 1, constraints=c, relax_to_budget=True, max_nodes=1).bound
         tighter += a < b - tol(b)
     assert tighter >= 2
+
+
+# ------------------------------------------------------------------------- the worst route of a domain
+
+WORST_IDS = ("LRL-roof", "MRL-roof", "LRR-12", "LRR-6", "WSC-9", "HD2K-4", "HD2K-10", "LSC-2")
+
+
+@functools.lru_cache(maxsize=None)
+def two_route_problems():
+    """The 8 sensors on two routes: the tiny fixture, and its track with synthetic landmarks."""
+    lib = LIBRARY.subset([LIBRARY.position(i) for i in WORST_IDS])
+    specs = (ScenarioSpec(fixture="tiny"), ScenarioSpec(fixture="tiny", landmarks="synthetic", landmark_seed=3))
+    return tuple(build_problem(lib, load_scenario(s), spec=s) for s in specs)
+
+
+@functools.lru_cache(maxsize=None)
+def route_tables() -> tuple[dict[tuple[int, ...], float], ...]:
+    """f_r of every suite of the 8 sensors on each route (the fast engine, each suite scored once)."""
+    out = []
+    for p in two_route_problems():
+        ev = make_evaluator(p, "fast")
+        n = len(p.library)
+        tab = {(): 0.0}
+        for r in range(n):
+            for s in itertools.combinations(range(n), r):
+                cands = [c for c in range(n) if c > (s[-1] if s else -1)]
+                for c, v in zip(cands, ev.scores_with(s, cands)):
+                    tab[s + (c,)] = float(v)
+        out.append(tab)
+    return tuple(out)
+
+
+def worst_route_case(seed: int):
+    """A 2-route domain on a library with random slots, a budget and random constraints it can meet."""
+    rng = np.random.default_rng(100 + seed)
+    base = two_route_problems()[0].library
+    n = len(base)
+    perm = rng.permutation(n)
+    slots = tuple(Slot(f"{k + 1}", "any", int(rng.integers(1, 3)), tuple(sorted(int(i) for i in perm[3 * k: 3 * k + 3])))
+                  for k in range(2))
+    lib = dataclasses.replace(base, slots=slots)
+    domain = Domain(tuple(DomainRoute(f"r{k}", dataclasses.replace(p, library=lib), 1.0)
+                          for k, p in enumerate(two_route_problems())), "test")
+    budget = float(rng.choice([6_000.0, 12_000.0, 110_000.0]))
+    limits = {"power_w": round(float(rng.uniform(0.25, 0.7)) * float(lib.resource("power_w").sum()), 1)} if rng.random() < 0.7 else {}
+    require = [lib.ids[int(perm[-1])]] if rng.random() < 0.4 else []
+    exclude = [lib.ids[int(perm[-2])]] if rng.random() < 0.4 else []
+    max_sensors = int(rng.integers(2, 5)) if rng.random() < 0.5 else None
+    c = Constraints.of(limits=limits, require=require, owned=bool(require) and rng.random() < 0.5, exclude=exclude,
+                       max_sensors=max_sensors)
+    try:
+        feasible_set(lib, budget, c)
+    except InputError:  # the required sensor breaks a drawn limit
+        c = dataclasses.replace(c, require=(), owned=False)
+    return domain, budget, c
+
+
+def brute_h(s: tuple[int, ...], alpha: int) -> float:
+    """h(S) = min over the routes and the alpha-sets F of f_r(S minus F) / f_r(L)."""
+    tabs = route_tables()
+    n = len(WORST_IDS)
+    vals = []
+    for tab in tabs:
+        norm = tab[tuple(range(n))]
+        k = min(alpha, len(s))
+        vals.append(min(tab[tuple(i for i in s if i not in f)] for f in itertools.combinations(s, k)) / norm if s else 0.0)
+    return min(vals)
+
+
+@pytest.mark.parametrize("seed", range(6))
+@pytest.mark.parametrize("alpha", [1, 2])
+def test_worst_route_under_constraints_against_brute_force(seed, alpha):
+    domain, budget, c = worst_route_case(seed)
+    lib = domain.library
+    feas = feasible_set(lib, budget, c)
+    allowed = [s for s in route_tables()[0] if feas.fits(s)]
+    opt = max(brute_h(s, alpha) for s in allowed)
+    res = run_robust(domain, budget, alpha, engine="fast", aggregate="worst", constraints=c)
+    assert res.aggregate == "worst"
+    assert res.constraints is not None and res.constraints.limits == c.limits and res.constraints.require == c.require
+    for cand in res.candidates:
+        s = tuple(sorted(lib.resolve_suite(cand.suite)))
+        assert feas.fits(s), f"{cand.method}: {cand.suite} breaks {feas.violations(s)} under {c.describe()}"
+        assert abs(cand.worst_score - brute_h(s, alpha)) <= tol(1.0)
+    s = tuple(sorted(lib.resolve_suite(res.suite)))
+    assert feas.fits(s) and abs(res.worst_score - brute_h(s, alpha)) <= tol(1.0)
+    assert res.worst_score <= opt + tol(1.0) and res.bound >= opt - tol(1.0), (res.worst_score, res.bound, opt)
+    assert res.worst_score >= res.greedy_worst_score - tol(1.0) and res.worst_score >= res.algorithm2_worst_score - tol(1.0)
+    if res.bound_detail.proved:
+        assert abs(res.worst_score - opt) <= tol(1.0)
+
+
+def test_worst_route_under_constraints_is_bound_by_them():
+    """The generator's limits bite: on some case the unconstrained answer breaks them, and the
+    constrained one never does."""
+    broken = 0
+    for seed in range(6):
+        domain, budget, c = worst_route_case(seed)
+        free = worst_route_select(domain, budget, 1, engine="fast")
+        broken += not feasible_set(domain.library, budget, c).fits(domain.library.resolve_suite(free.suite))
+    assert broken >= 2
