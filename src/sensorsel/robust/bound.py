@@ -322,11 +322,15 @@ def robust_bound(evaluator: Evaluator, budget_usd: float, alpha: int, *, anchors
     sweeps = 0
     tol = REL_TOL * max(1.0, abs(incumbent))
 
+    def cap_of(node: _Node) -> np.ndarray:
+        assert node.cap is not None  # every node carries its rows under constraints
+        return node.cap
+
     def affordable(node: _Node) -> tuple[int, ...]:
         gone = set(node.removed)
         if rows is None:
             return tuple(i for i in range(n) if i not in gone and costs[i] <= node.budget * (1 + 1e-12) + 1e-9)
-        fit = np.all(A <= (node.cap + slack)[:, None], axis=0)
+        fit = np.all(A <= (cap_of(node) + slack)[:, None], axis=0)
         return tuple(i for i in range(n) if i not in gone and fit[i])
 
     def relaxed_budget(node: _Node) -> float:
@@ -341,7 +345,7 @@ def robust_bound(evaluator: Evaluator, budget_usd: float, alpha: int, *, anchors
         # fact (5): T = S' minus X holds the node's required sensors outside X; those inside X use the rows
         req = [i for i in rows.required if i not in node.failed]
         forced = [k for k, i in enumerate(items) if i in req]
-        cap = node.cap - A[:, [i for i in req if i in xs]].sum(axis=1)
+        cap = cap_of(node) - A[:, [i for i in req if i in xs]].sum(axis=1)
         value, _ = knapsack_drop_rows(gains, A[:, items], cap, node.alpha, forced=forced, slack=slack)
         return value
 
@@ -350,7 +354,7 @@ def robust_bound(evaluator: Evaluator, budget_usd: float, alpha: int, *, anchors
         gone = set(node.removed)
         if rows is not None:
             req = [i for i in rows.required if i not in node.failed]
-            if any(i in gone for i in req) or np.any(rows.usage(req) > node.cap + slack):
+            if any(i in gone for i in req) or np.any(rows.usage(req) > cap_of(node) + slack):
                 node.own, node.how, node.final = 0.0, "infeasible", True  # no suite of the node keeps the limits
                 return
         aff = affordable(node)
@@ -358,7 +362,7 @@ def robust_bound(evaluator: Evaluator, budget_usd: float, alpha: int, *, anchors
             node.own, node.how, node.final = 0.0, "empty", True
             return
         fits_all = (lib.cost(aff) <= node.budget * (1 + 1e-12) + 1e-9 if rows is None
-                    else bool(np.all(A[:, list(aff)].sum(axis=1) <= node.cap + slack)))
+                    else bool(np.all(A[:, list(aff)].sum(axis=1) <= cap_of(node) + slack)))
         if fits_all:
             k = min(node.alpha, len(aff))
             if math.comb(len(aff), k) <= max_exact_sets:
