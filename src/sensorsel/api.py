@@ -279,7 +279,7 @@ def run_robust(target: Target, budget_usd: float, alpha: int, *, engine: str | N
 
     Raises:
         InputError: bad budget, alpha or aggregate; "worst" on a single route; constraints the library
-            cannot meet, or any with "worst" (the worst-route selection keeps the budget alone).
+            cannot meet.
     """
     if aggregate not in ROBUST_AGGREGATES:
         raise InputError(f"unknown aggregate {aggregate!r}; available: {', '.join(ROBUST_AGGREGATES)}")
@@ -288,9 +288,6 @@ def run_robust(target: Target, budget_usd: float, alpha: int, *, engine: str | N
         feas = feasible_set(target.library, check_budget(budget_usd), constraints)  # refuses a bad request up front
         if recorded(feas) is None:
             kwargs.pop("constraints")  # the budget alone
-        elif aggregate == "worst":
-            raise InputError(f"--aggregate worst keeps the budget alone; it does not take limits ({constraints.describe()}): "
-                             "drop them, or use --aggregate normalised")
     if aggregate == "worst":
         if not isinstance(target, Domain):
             raise InputError("aggregate 'worst' is the worst route of an operating domain: give a domain (--domain FILE)")

@@ -151,7 +151,7 @@ def print_robust(res: Any, lib: SensorLibrary | None = None) -> None:
         from ..constraints import feasible_set
 
         click.echo(f"\nlimits     {res.constraints.describe()}"
-                   + (f"; bound relaxed to the {res.bound_detail.relaxation}" if res.bound_detail.relaxation else ""))
+                   + (f"; bound: {res.bound_detail.relaxation}" if res.bound_detail.relaxation else ""))
         click.echo(usage_table(feasible_set(lib, res.budget_usd, res.constraints).rows_used(lib.resolve_suite(res.suite))))
     click.echo(f"{res.n_evaluations:,} suites scored in {res.seconds:.1f} s")
 

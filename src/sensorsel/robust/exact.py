@@ -19,8 +19,9 @@ after k that fit the budget left. Expanding it:
 
 Constraints (:mod:`sensorsel.constraints`): the root holds the required sensors, excluded ones are
 never in R, and R holds only the sensors that fit every limit on top of S_in (so every node's S_in
-is a feasible suite, and so is S_in ∪ R when it is tried). The knapsack keeps the budget row alone
-(dropping the other rows only enlarges it: the bound stays valid).
+is a feasible suite, and so is S_in ∪ R when it is tried). With rows besides the budget, the
+knapsack keeps them all: an integer program over what S_in leaves of every row
+(:func:`.bound.knapsack_drop_rows`); with the budget alone it is the dynamic program as before.
 
 The best found is proved optimal when no node is left; at the node limit, the largest bound left is
 an upper bound on the optimum.
@@ -36,11 +37,11 @@ from typing import Sequence
 
 import numpy as np
 
-from ..constraints import Constraints, feasible_set, recorded
+from ..constraints import REL_SLACK, Constraints, feasible_set, recorded
 from ..evaluators import Evaluator, as_suite
 from ..resilient import check_alpha, worst_case
 from ..selection import REL_TOL, check_budget
-from .bound import knapsack_drop
+from .bound import knapsack_drop, knapsack_drop_rows
 from .records import RobustOptimum
 
 #: Default node limit of the exact search.
@@ -72,6 +73,8 @@ def robust_optimum(evaluator: Evaluator, budget_usd: float, alpha: int, *, incum
     order = sorted((i for i in range(n) if i not in feas.excluded and i not in root),
                    key=lambda i: (-singles[i], costs[i], ids[i]))
     n_order = len(order)
+    rows = not feas.only_budget  # limits besides the budget: the knapsacks keep them all
+    slack = REL_SLACK * np.maximum(1.0, np.abs(feas.b))
 
     def gval(s: tuple[int, ...]) -> float:
         return worst_case(ev, s, alpha).score if s else 0.0
@@ -115,7 +118,11 @@ def robust_optimum(evaluator: Evaluator, budget_usd: float, alpha: int, *, incum
             if j == min(alpha, len(s)) and len(s) > 0:
                 offer(s, f_base)
             gains = np.maximum(ev.scores_with(base, rest) - f_base, 0.0)
-            ub = min(ub, f_base + knapsack_drop(gains, costs[rest], left, alpha - j))
+            if rows:  # every limit: the integer program over what s leaves of each row
+                ub = min(ub, f_base + knapsack_drop_rows(gains, feas.A[:, rest], feas.b - feas.usage(s), alpha - j,
+                                                         slack=slack)[0])
+            else:
+                ub = min(ub, f_base + knapsack_drop(gains, costs[rest], left, alpha - j))
         if ub <= best_g + REL_TOL * max(1.0, abs(best_g)):
             pruned += 1
             continue

@@ -97,8 +97,9 @@ class RobustBound:
         proved: True when the bound equals the incumbent (to a relative 1e-9): it is optimal.
         n_evaluations: suites newly scored for the bound.
         seconds: wall time [s].
-        relaxation: empty, or (under constraints) what the bound relaxed: it bounds the best worst
-            case over a larger set of suites (the budget alone), so it stays an upper bound.
+        relaxation: empty, or (under constraints) how the bound kept them: integer programs over
+            every limit, or what it relaxed (the budget alone: a larger set of suites, so it stays an
+            upper bound).
     """
 
     bound: float

@@ -22,8 +22,8 @@ suite and Algorithm 2's suite are candidates scored with the same exact :func:`~
 Constraints (``constraints=``, :mod:`sensorsel.constraints`): every method runs within them (greedy,
 Algorithm 2, Oblivious-Greedy, SATURATE, local search; see :mod:`.methods`), a bound leaf becomes a
 candidate only when its suite keeps every limit, and every candidate is checked against the feasible
-set before it is scored: no answer ever breaks a limit. The bound is the budget-only relaxation
-(:mod:`.bound`, fact (4)), still an upper bound.
+set before it is scored: no answer ever breaks a limit. The bound keeps every limit in its
+knapsacks (integer programs, :mod:`.bound`, fact (5)).
 """
 
 from __future__ import annotations
@@ -31,6 +31,8 @@ from __future__ import annotations
 import time
 from dataclasses import replace
 from typing import Any, Sequence
+
+import numpy as np
 
 from ..constraints import Constraints, feasible_set
 from ..errors import InputError
@@ -157,9 +159,13 @@ def robust_select(evaluator: Evaluator, budget_usd: float, alpha: int, *, rules:
         if leaf.how == "exact" and not leaf.failed and leaf.bound > best().worst_score + tol_of(best().worst_score):
             n0, t0 = ev.n_evaluations, time.perf_counter()
             gone = set(leaf.removed)
-            leaf_suite = [i for i in range(len(lib)) if lib.ids[i] not in gone and lib.costs[i] <= leaf.budget_usd + 1e-9]
+            if feas is None:
+                leaf_suite = [i for i in range(len(lib)) if lib.ids[i] not in gone and lib.costs[i] <= leaf.budget_usd + 1e-9]
+            else:  # the sensors that fit every limit on their own (what the bound's leaf held)
+                fit = feas.addable(np.zeros(len(feas.b)))
+                leaf_suite = [i for i in range(len(lib)) if lib.ids[i] not in gone and fit[i]]
             if feas is not None and not feas.fits(leaf_suite):
-                continue  # the relaxed bound's leaf breaks a dropped limit: not a candidate
+                continue  # the leaf breaks a limit (all of its sensors do not fit together): not a candidate
             add("bound-leaf", leaf_suite, f"the bound's exact leaf without {','.join(leaf.removed) or 'nothing'}", n0, t0)
     proved = bnd.proved
     if not proved and bnd.bound <= best().worst_score + tol_of(best().worst_score):

@@ -19,6 +19,10 @@ Candidates (each scored by its **exact** h, the minimum over every route's exact
 Upper bound: h(S) <= g_r(S) / b_r for every route, so max h <= min over r of (route r's robust bound
 :func:`~.bound.robust_bound`) / b_r. The answer is never below greedy's h nor Algorithm 2's (both are
 candidates, scored the same exact way); ties as in :func:`~.select.robust_select`.
+
+Constraints (resource limits, slots, most sensors, required / owned and excluded sensors): greedy,
+Algorithm 2, SATURATE's covers and local search all move within them, every candidate is checked
+against them, and each route's bound keeps them (:mod:`.bound`, fact (5)).
 """
 
 from __future__ import annotations
@@ -28,9 +32,10 @@ from typing import Sequence
 
 import numpy as np
 
+from ..constraints import Constraints, FeasibleSet, feasible_set
 from ..evaluators import DomainEvaluator, Evaluator, as_suite
 from ..problem import Domain
-from ..resilient import check_alpha, resilient_select, worst_case
+from ..resilient import check_alpha, recorded, resilient_select, worst_case
 from ..selection import REL_TOL, check_budget, greedy
 from .bound import DEFAULT_BOUND_NODES, robust_bound
 from .family import FailureFamily, Family
@@ -98,8 +103,9 @@ def _better(a: Candidate, b: Candidate) -> bool:
 
 
 def _local_search(fam: RouteFailureFamily, start: Sequence[int], budget: float, max_rounds: int,
-                  max_evaluations: int) -> tuple[tuple[int, ...], str]:
-    """Add / swap moves raising the exact h; first improvement in library order; bounded."""
+                  max_evaluations: int, feasible: FeasibleSet | None = None) -> tuple[tuple[int, ...], str]:
+    """Add / swap moves raising the exact h; first improvement in library order; bounded.
+    ``feasible``: only its suites are moved to (None: the budget alone)."""
     lib = fam.library
     costs, n = lib.costs, len(lib)
     n0 = fam.n_evaluations
@@ -117,9 +123,11 @@ def _local_search(fam: RouteFailureFamily, start: Sequence[int], budget: float, 
                 if fam.n_evaluations - n0 > max_evaluations:
                     stop = f"evaluation limit ({max_evaluations:,}) reached"
                     break
-                if cost + costs[b] - (costs[a] if a is not None else 0.0) > budget + 1e-9:
+                if feasible is None and cost + costs[b] - (costs[a] if a is not None else 0.0) > budget + 1e-9:
                     continue
                 s2 = as_suite([i for i in s if i != a] + [b])
+                if feasible is not None and not feasible.fits(s2):
+                    continue
                 h2 = fam.worst(s2)[0]
                 if h2 > h + REL_TOL * max(1.0, abs(h)):
                     found = (a, b, s2, h2)
@@ -141,10 +149,15 @@ def worst_route_select(domain: Domain, budget_usd: float, alpha: int, *, engine:
                        rules: Sequence[str] = ("uniform", "marginal"), methods: Sequence[str] = WORST_METHODS,
                        skip_when_proved: bool = True, saturate_levels: int = DEFAULT_SATURATE_LEVELS,
                        saturate_evaluations: int | None = 2_000, local_rounds: int = 10, local_evaluations: int = 2_000,
-                       bound_nodes: int = DEFAULT_BOUND_NODES, evaluator: DomainEvaluator | None = None) -> RobustResult:
+                       bound_nodes: int = DEFAULT_BOUND_NODES, evaluator: DomainEvaluator | None = None,
+                       constraints: Constraints | None = None) -> RobustResult:
     """The suite within ``budget_usd`` maximising the worst route's share of its best under ``alpha``
     failures (see the module docstring); a :class:`RobustResult` with ``aggregate="worst"``.
-    ``evaluator``: the domain's normalised evaluator already built (e.g. on a Dask cluster)."""
+    ``evaluator``: the domain's normalised evaluator already built (e.g. on a Dask cluster).
+
+    ``constraints``: limits besides the budget (:mod:`sensorsel.constraints`) that every candidate
+    keeps (checked before it is scored); the bound keeps them too (each route's :func:`robust_bound`).
+    The shares' normalisers b_r stay f_r(L), the whole library's score, as in the domain score."""
     t_start = time.perf_counter()
     budget, alpha = check_budget(budget_usd), check_alpha(alpha)
     rules = check_rules_and_methods(rules, methods, WORST_METHODS, "method for the worst route")
@@ -155,6 +168,9 @@ def worst_route_select(domain: Domain, budget_usd: float, alpha: int, *, engine:
     fam = RouteFailureFamily(routes, names, dev.best, alpha)
     avg = memoized(dev)
     lib = dev.library
+    feas = feasible_set(lib, budget, constraints) if constraints is not None else None
+    kept = recorded(feas)  # None when the budget is the only limit: every method runs as it always did
+    feas = feas if kept is not None else None
     cands: list[Candidate] = []
     skipped: list[str] = []
 
@@ -163,9 +179,12 @@ def worst_route_select(domain: Domain, budget_usd: float, alpha: int, *, engine:
 
     def add(method: str, suite: Sequence[int], note: str, n0: int, t0: float) -> Candidate:
         s = as_suite(suite)
+        if feas is not None and not feas.fits(s):  # a method's bug, never the user's input
+            raise AssertionError(f"worst-route method {method} returned a suite that breaks the limits: {feas.violations(s)}")
         per = fam.route_worst(s)
         k = min(range(len(per)), key=lambda i: per[i][1])
-        c = Candidate(method=method, suite=lib.suite_ids(s), cost_usd=lib.cost(s), nominal_score=min(p[0] for p in per),
+        cost = lib.cost(s) if feas is None else float(feas.usage(s)[0])
+        c = Candidate(method=method, suite=lib.suite_ids(s), cost_usd=cost, nominal_score=min(p[0] for p in per),
                       worst_score=per[k][1], failures=per[k][2], note=note, n_evaluations=work() - n0,
                       seconds=round(time.perf_counter() - t0, 6), worst_member=names[k])
         cands.append(c)
@@ -180,11 +199,11 @@ def worst_route_select(domain: Domain, budget_usd: float, alpha: int, *, engine:
 
     for r in rules:
         n0, t0 = work(), time.perf_counter()
-        g = greedy(avg, budget, r)
+        g = greedy(avg, budget, r, constraints=kept)
         add(f"greedy-{r}", [lib.position(i) for i in g.suite], f"on the domain's normalised average; {g.stop_reason}", n0, t0)
     greedy_worst = cands[0].worst_score
     n0, t0 = work(), time.perf_counter()
-    a2 = resilient_select(avg, budget, alpha)
+    a2 = resilient_select(avg, budget, alpha, constraints=kept)
     a2c = add("algorithm-2", [lib.position(i) for i in a2.suite], f"on the domain's normalised average; failing set {','.join(a2.failed)}", n0, t0)
 
     def bound_now() -> RobustBound:
@@ -195,7 +214,8 @@ def worst_route_select(domain: Domain, budget_usd: float, alpha: int, *, engine:
         for ev, b in zip(routes, fam.norms):
             w = worst_case(ev, x, alpha)
             surv = as_suite(lib.position(i) for i in w.survivors)
-            rb = robust_bound(ev, budget, alpha, anchors=[surv], incumbent=inc.worst_score * b, max_nodes=bound_nodes)
+            rb = robust_bound(ev, budget, alpha, anchors=[surv], incumbent=inc.worst_score * b, max_nodes=bound_nodes,
+                              constraints=kept)
             per_route.append(rb.bound / b)
             nodes += rb.n_nodes
             sweeps += rb.n_sweeps
@@ -214,7 +234,7 @@ def worst_route_select(domain: Domain, budget_usd: float, alpha: int, *, engine:
         n0, t0 = work(), time.perf_counter()
         if m == "saturate":
             levels, note = saturate(fam, budget, best().worst_score, bnd.bound, levels=saturate_levels,
-                                    max_evaluations=saturate_evaluations)
+                                    max_evaluations=saturate_evaluations, feasible=feas)
             if not levels:
                 skipped.append("saturate: no level between the best worst case and the bound")
                 continue
@@ -233,7 +253,8 @@ def worst_route_select(domain: Domain, budget_usd: float, alpha: int, *, engine:
                     cands.remove(c)
         elif m == "local-search":
             start = best()
-            s, note = _local_search(fam, [lib.position(i) for i in start.suite], budget, local_rounds, local_evaluations)
+            s, note = _local_search(fam, [lib.position(i) for i in start.suite], budget, local_rounds, local_evaluations,
+                                    feasible=feas)
             add("local-search", s, f"from {start.method}; {note}", n0, t0)
     win = best()
     if len(cands) > n_before and not bnd.proved:
@@ -249,4 +270,5 @@ def worst_route_select(domain: Domain, budget_usd: float, alpha: int, *, engine:
         gap_percent=100.0 * (bound - win.worst_score) / bound if bound > 0 else 0.0, candidates=tuple(cands),
         skipped=tuple(skipped), bound_detail=bnd, n_evaluations=work() - n_start, engine=dev.engine, problem=domain.info,
         seconds=round(time.perf_counter() - t_start, 6), aggregate="worst", worst_member=win.worst_member, members=members,
+        constraints=kept,
     )
