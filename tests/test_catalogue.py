@@ -50,6 +50,8 @@ def files(tmp_path_factory) -> Path:
     (d / "negcost.yaml").write_text(lib[:first_cost] + "cost_usd: -5" + lib[line_end:])
     (d / "nancost.yaml").write_text(lib[:first_cost] + "cost_usd: .nan" + lib[line_end:])
     (d / "lm2.csv").write_text((REPO / "data" / "kitti_fixtures" / "landmarks" / "tiny.csv").read_text())
+    (d / "study_key.yaml").write_text("target:\n  fixture: tiny\ngrid:\n  budgets: [5000]\n  colours: [red]\n")
+    (d / "study_budget.yaml").write_text("target:\n  fixture: tiny\ngrid:\n  budgets: [5000, lots]\n")
 
     def greedy(out: str, *extra: str) -> None:
         r = _invoke(["greedy", *T, *E, *Q, "--budget", "110000", "--no-certificate", "-o", d / out, *extra])
@@ -224,13 +226,48 @@ CASES: list[tuple[str, list[str], int, list[str]]] = [
     ("simulate-unknown-solver", ["simulate", *T, *Q, "--suite", "LRL-roof", "--solver", "magic", "-o", "{d}/s"], 2, ["--solver"]),
     ("simulate-empty-output", ["simulate", *T, *Q, "--suite", "LRL-roof", "-o", ""], 2, ["--output"]),
     ("simulate-output-is-a-file", ["simulate", *T, *Q, "--suite", "LRL-roof", "-o", "{d}/afile"], 2, ["afile"]),
+    # ---- limits besides money (issue 15)
+    ("greedy-limit-unknown-resource", ["greedy", *T, *E, *Q, "--budget", "5000", "--limit", "heat_w=5"], 2,
+     ["--limit heat_w=5", "power_w"]),
+    ("greedy-limit-text", ["greedy", *T, *E, *Q, "--budget", "5000", "--limit", "power_w=lots"], 2, ["--limit", "'lots'"]),
+    ("greedy-limit-no-value", ["greedy", *T, *E, *Q, "--budget", "5000", "--limit", "power_w"], 2, ["RESOURCE=VALUE"]),
+    ("greedy-limit-negative", ["greedy", *T, *E, *Q, "--budget", "5000", "--limit", "power_w=-1"], 2, ["--limit", ">= 0"]),
+    ("greedy-limit-twice", ["greedy", *T, *E, *Q, "--budget", "5000", "--limit", "power_w=5", "--limit", "power_w=6"], 2,
+     ["power_w", "twice"]),
+    ("greedy-require-unknown", ["greedy", *T, *E, *Q, "--budget", "5000", "--require", "NOPE-1"], 2, ["--require", "NOPE-1"]),
+    ("greedy-require-over-limit", ["greedy", *T, *E, *Q, "--budget", "110000", "--require", "LRL-roof", "--limit", "power_w=10"],
+     2, ["--require LRL-roof", "power_w", "10 W"]),
+    ("greedy-require-over-budget", ["greedy", *T, *E, *Q, "--budget", "5000", "--require", "LRL-roof"], 2,
+     ["--require LRL-roof", "--budget"]),
+    ("greedy-require-and-exclude", ["greedy", *T, *E, *Q, "--budget", "5000", "--require", "HD2K-3", "--exclude", "HD2K-3"], 2,
+     ["--require", "--exclude", "HD2K-3"]),
+    ("greedy-owned-without-require", ["greedy", *T, *E, *Q, "--budget", "5000", "--owned"], 2, ["--owned", "--require"]),
+    ("greedy-max-sensors-zero", ["greedy", *T, *E, *Q, "--budget", "5000", "--max-sensors", "0"], 2, ["--max-sensors"]),
+    ("greedy-limits-buy-nothing", ["greedy", *T, *E, *Q, "--budget", "5000", "--limit", "power_w=0.1"], 2,
+     ["nothing can be bought", "power_w"]),
+    ("score-limit-unknown-resource", ["score", *T, *E, "--suite", "LRL-roof", "--limit", "heat_w=5"], 2, ["heat_w"]),
+    ("pareto-require-over-limit", ["pareto", *T, *E, *Q, "--require", "LRL-roof", "--limit", "power_w=10", "-o", "{d}/p"], 2,
+     ["--require LRL-roof", "power_w"]),
+    ("resilient-limit-unknown-resource", ["resilient", *T, *E, *Q, "--budget", "5000", "--limit", "heat_w=5", "-o", "{d}/r"], 2,
+     ["heat_w"]),
+    ("robust-require-over-limit", ["robust", *T, *E, *Q, "--budget", "110000", "--require", "LRL-roof,MRL-roof",
+                                   "--limit", "power_w=50"], 2, ["--require LRL-roof,MRL-roof", "68 W", "power_w"]),
+    ("optimal-require-over-max-sensors", ["optimal", *T, *E, *Q, "--budget", "110000", "--require", "LRL-roof,MRL-roof",
+                                          "--max-sensors", "1"], 2, ["--require", "--max-sensors"]),
+    ("certify-result-with-limits", ["certify", *T, *E, *Q, "--result", "{d}/g.json", "--limit", "power_w=100"], 2,
+     ["--result", "--limit"]),
+    # ---- study (issue 14)
+    ("study-missing-file", ["study", "{d}/missing.yaml", "-o", "{d}/st"], 2, ["missing.yaml"]),
+    ("study-unknown-key", ["study", "{d}/study_key.yaml", "-o", "{d}/st"], 2, ["study_key.yaml", "colours"]),
+    ("study-bad-budget", ["study", "{d}/study_budget.yaml", "-o", "{d}/st"], 2, ["study_budget.yaml", "lots"]),
 ]
 
 
 def test_the_catalogue_is_large_and_covers_every_command():
     assert len(CASES) >= 60 and len({c[0] for c in CASES}) == len(CASES)
     commands = {c[1][0] for c in CASES}
-    assert commands == {"library", "score", "scene", "landmarks", "greedy", "pareto", "resilient", "certify", "optimal", "simulate"}
+    assert commands == {"library", "score", "scene", "landmarks", "greedy", "pareto", "resilient", "certify", "optimal", "simulate",
+                        "robust", "study"}
 
 
 @pytest.mark.parametrize("name, args, status, fragments", CASES, ids=[c[0] for c in CASES])
