@@ -15,6 +15,7 @@ from hypothesis import HealthCheck, given, settings
 from scenario_strategies import problems
 from sensorsel.constraints import Constraints
 from sensorsel.evaluators import FastEvaluator, ReferenceEvaluator
+from sensorsel.evaluators.fast.evaluator import BOUND_SPARE
 from sensorsel.graph import GraphBuilder
 from sensorsel.library import load_library
 from sensorsel.selection.greedy import BOUND_FROM, Selector, greedy
@@ -69,8 +70,8 @@ def check_bounds(problem, suites) -> int:
     checked = 0
     for suite in suites:
         cands = list(range(n))
-        tight = fe.gain_bounds(suite, cands)
-        trace = fe.gain_bounds(suite, cands, trace=True)
+        tight = fe.gain_bounds(suite, cands, force=True)
+        trace = fe.gain_bounds(suite, cands, trace=True, force=True)
         gains = fe.scores_with(suite, cands) - fe.score(suite)
         f = fe.score(suite)
         tol = 1e-9 * max(1.0, abs(f))
@@ -115,7 +116,7 @@ def test_bound_is_tight_when_the_gains_are_small(suburb_problem):
     suite = tuple(sorted(set(range(n)) - set(out)))
     f = fe.score(suite)
     gains = fe.scores_with(suite, out) - f
-    bounds = fe.gain_bounds(suite, out)
+    bounds = fe.gain_bounds(suite, out, force=True)
     assert np.all(bounds >= gains - 1e-12 * abs(f))  # round-off of a difference of two log dets ~1e4 nats
     small = gains < 2.0
     assert small.sum() >= 3 and np.all(gains > 0)
@@ -133,10 +134,11 @@ def same_run(a, b) -> bool:
 
 
 def runs(problem, budget, rule, constraints=None, jobs=1):
-    """(plain, lazy without bounds, lazy with bounds as shipped, lazy asking for bounds at every step)."""
+    """(plain, lazy without bounds, lazy with bounds as shipped, lazy with bounds at every step where
+    more than one candidate would be re-scored)."""
     out = []
-    for lazy, bound_from in ((False, 0), (True, 0), (True, BOUND_FROM), (True, 1)):
-        ev = FastEvaluator(problem, jobs=jobs)
+    for lazy, bound_from, spare in ((False, 0, 0.0), (True, 0, 0.0), (True, BOUND_FROM, BOUND_SPARE), (True, 1, 0.0)):
+        ev = FastEvaluator(problem, jobs=jobs, bound_spare=spare)
         out.append((Selector(ev, RULES[rule], lazy=lazy, bound_from=bound_from, constraints=constraints).select(budget),
                     ev.n_bounds))
     return out
@@ -167,6 +169,16 @@ def test_bounded_lazy_picks_the_same_on_random_small_problems(problem):
         for rule in ("uniform", "marginal"):
             (plain, _), (lazy, _), (bounded, _), (eager, _) = runs(problem, budget, rule)
             assert same_run(plain, lazy) and same_run(lazy, bounded) and same_run(lazy, eager), (budget, rule)
+
+
+def test_bounds_are_declined_when_predicted_dearer_than_the_candidates(tiny_problem):
+    fe = FastEvaluator(tiny_problem)
+    cost = fe.bound_cost((0,))
+    assert cost >= 3.0  # Cholesky and inverse, (3K)³ flops, against a dense Cholesky's (3K)³/3
+    few = list(range(1, int(np.ceil(BOUND_SPARE * cost))))
+    assert fe.gain_bounds((0,), few) is None and fe.n_bounds == 0
+    assert fe.gain_bounds((0,), few + [len(few) + 1]) is not None and fe.n_bounds == 1
+    assert fe.gain_bounds((0,), few[:1], force=True) is not None and fe.n_bounds == 2
 
 
 def test_engines_without_bounds_say_so(tiny_problem):

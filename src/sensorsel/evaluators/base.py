@@ -77,7 +77,8 @@ class Evaluator(ABC):
 
     def gain_bounds(self, suite: Iterable[int], candidates: Sequence[int]) -> np.ndarray | None:
         """Upper bounds on the gains f(S + {c}) − f(S), shape (len(candidates),), in exact
-        arithmetic (callers allow for round-off), or None when the engine has none (the default).
+        arithmetic (callers allow for round-off), or None when the engine has none (the default)
+        or judges them dearer than scoring that many candidates.
         Computing them is not counted in :attr:`n_evaluations`."""
         return None
 

@@ -107,20 +107,28 @@ def pair_quadratics(states: StateBuilder, planner: Planner, base: BaseState, cov
         Zb = Z[(3 * kb)[:, None, None] + three[None, :, None], (2 * bcol)[:, None, None] + np.arange(2)[None, None, :]]
         contrib = np.einsum("pac,pae->pce", W[bp], Zb)  # (n_b, 2, 2)
         np.add.at(S, bl, contrib)
-    Dj = np.stack([np.stack([dinv[0], dinv[1]], -1), np.stack([dinv[1], dinv[2]], -1)], -2)  # (M, 2, 2)
-    Dp = Dj[pj]
-    Skj = -G @ Dp  # (n, 3, 2)
-    Sjj = Dp + Dp @ S[pj] @ Dp  # (n, 2, 2)
-    kk = (3 * pk[:, None] + three)  # (n, 3)
-    Skk = cov[kk[:, :, None], kk[:, None, :]]  # (n, 3, 3)
-    jac = states.pair_jacobian[pairs]  # (n, 2, 5)
-    hp, hl = jac[:, :, :3], jac[:, :, 3:]
-    # the joint covariance of (pose k, landmark j), (n, 5, 5), and h_r^T Σ h_s for (r, s) = 00, 01, 11
-    sig = np.empty((n, 5, 5))
-    sig[:, :3, :3], sig[:, :3, 3:], sig[:, 3:, :3], sig[:, 3:, 3:] = Skk, Skj, Skj.transpose(0, 2, 1), Sjj
-    hs = np.einsum("nrx,nxy->nry", jac, sig)
-    return np.stack([np.einsum("nx,nx->n", hs[:, 0], jac[:, 0]), np.einsum("nx,nx->n", hs[:, 0], jac[:, 1]),
-                     np.einsum("nx,nx->n", hs[:, 1], jac[:, 1])])
+    # landmark blocks per landmark, then per pair: Σ_jj = D⁻¹ + D⁻¹ S D⁻¹ (M, 2, 2)
+    Dj = np.stack([np.stack([dinv[0], dinv[1]], -1), np.stack([dinv[1], dinv[2]], -1)], -2)
+    Sjj = Dj + Dj @ S @ Dj
+    sjj = [[np.take(Sjj[:, c, e], pj) for e in range(2)] for c in range(2)]
+    e = [[np.take(Dj[:, c, e_], pj) for e_ in range(2)] for c in range(2)]
+    # Σ_kj = −G D⁻¹ (3 x 2 per pair) and Σ_kk (3 x 3 per pair), one (n,) array per entry
+    g = [[np.ascontiguousarray(G[:, a, c]) for c in range(2)] for a in range(3)]
+    skj = [[-(g[a][0] * e[0][c] + g[a][1] * e[1][c]) for c in range(2)] for a in range(3)]
+    skk = [[cov[3 * pk + a, 3 * pk + b] for b in range(3)] for a in range(3)]
+    h = np.take(states.jacobian_rows, pairs, axis=2)  # (2, 5, n): row r, column (pose 3, landmark 2)
+    # Σ h_r of each row r: pose part v (3) and landmark part u (2)
+    sh = []
+    for r in range(2):
+        hp, hl = h[r, :3], h[r, 3:]
+        v = [skk[a][0] * hp[0] + skk[a][1] * hp[1] + skk[a][2] * hp[2] + skj[a][0] * hl[0] + skj[a][1] * hl[1] for a in range(3)]
+        u = [skj[0][c] * hp[0] + skj[1][c] * hp[1] + skj[2][c] * hp[2] + sjj[c][0] * hl[0] + sjj[c][1] * hl[1] for c in range(2)]
+        sh.append(v + u)
+
+    def quad(r: int, s_: int) -> np.ndarray:
+        return sum(h[s_, x] * sh[r][x] for x in range(5))
+
+    return np.stack([quad(0, 0), quad(0, 1), quad(1, 1)])
 
 
 def gain_bounds(kernel: Kernel, states: StateBuilder, planner: Planner, base: BaseState,
