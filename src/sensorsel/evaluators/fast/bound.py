@@ -53,8 +53,10 @@ def pose_covariance(kernel: Kernel, base: BaseState) -> np.ndarray:
     inv, info = lapack.dpotri(c, lower=0, overwrite_c=1)
     if info != 0:
         raise np.linalg.LinAlgError(f"pose information matrix is singular (dpotri info {info})")
-    up = np.triu(inv)  # column-major upper triangle of the inverse
-    return up + np.triu(up, 1).T
+    cov = np.triu(inv)  # the column-major upper triangle holds the inverse
+    cov += cov.T  # (numpy buffers the overlapping transpose)
+    cov.ravel()[:: len(cov) + 1] *= 0.5
+    return cov
 
 
 def pair_quadratics(states: StateBuilder, planner: Planner, base: BaseState, cov: np.ndarray,
