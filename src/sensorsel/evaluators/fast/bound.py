@@ -90,9 +90,9 @@ def pair_quadratics(states: StateBuilder, planner: Planner, base: BaseState, cov
         lms, bcol = np.unique(bl, return_inverse=True)
         keys, brow = np.unique(bk, return_inverse=True)
         Wg = np.zeros((3 * len(keys), 2 * len(lms)))
-        r = 3 * brow[:, None, None] + three[None, :, None]
+        wrow = 3 * brow[:, None, None] + three[None, :, None]
         cc = 2 * bcol[:, None, None] + np.arange(2)[None, None, :]
-        np.add.at(Wg, (np.broadcast_to(r, W[bp].shape), np.broadcast_to(cc, W[bp].shape)), W[bp])
+        np.add.at(Wg, (np.broadcast_to(wrow, W[bp].shape), np.broadcast_to(cc, W[bp].shape)), W[bp])
         # rows: the keyframes of the requested pairs and of the base pairs (for W_jᵀ Σ W_j)
         rows_k = np.union1d(keys, pk[np_])
         r3 = (3 * rows_k[:, None] + three).ravel()
