@@ -25,7 +25,9 @@ Lazy evaluation (Minoux's accelerated greedy) for the rules whose J is a (scaled
 and ``marginal``: f is monotone submodular, so a candidate's gain can only shrink as S grows, and its
 last computed gain is an upper bound. Only candidates whose bound could still reach the best (within
 the tie tolerance) are re-scored, so the picks are exactly those of the plain greedy, with far fewer
-evaluations.
+evaluations. Where the evaluator offers bounds on the gains (:meth:`Evaluator.gain_bounds`: the
+fast engine's per-measurement log det bounds from the base covariance), a candidate's bound is
+also capped by them (issue 16; same picks and scores, fewer evaluations: docs/speed.md).
 """
 
 from __future__ import annotations
@@ -44,7 +46,7 @@ from .records import GreedyResult, Progress, Step
 from .registry import RULES, check_rule
 from .rules import REL_TOL, Rule
 
-__all__ = ["LAZY_BATCH", "REL_TOL", "Selector", "check_affordable", "check_budget", "greedy"]
+__all__ = ["BOUND_FROM", "LAZY_BATCH", "REL_TOL", "Selector", "check_affordable", "check_budget", "greedy"]
 
 #: Lazy evaluation re-scores the candidates with the largest bounds this many at a time (in
 #: parallel when the evaluator has threads). Fixed, not the job count, so that the suites scored,
