@@ -75,6 +75,13 @@ class Evaluator(ABC):
         base = as_suite(suite)
         return np.array([self.score(base + (c,)) for c in candidates], dtype=float)
 
+    def gain_bounds(self, suite: Iterable[int], candidates: Sequence[int]) -> np.ndarray | None:
+        """Upper bounds on the gains f(S + {c}) − f(S), shape (len(candidates),), in exact
+        arithmetic (callers allow for round-off), or None when the engine has none (the default)
+        or judges them dearer than scoring that many candidates.
+        Computing them is not counted in :attr:`n_evaluations`."""
+        return None
+
 
 class ProblemEvaluator(Evaluator):
     """Scores suites on one problem (one route) by log det. Subclasses implement :meth:`_logdet`.

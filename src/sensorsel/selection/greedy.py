@@ -25,7 +25,9 @@ Lazy evaluation (Minoux's accelerated greedy) for the rules whose J is a (scaled
 and ``marginal``: f is monotone submodular, so a candidate's gain can only shrink as S grows, and its
 last computed gain is an upper bound. Only candidates whose bound could still reach the best (within
 the tie tolerance) are re-scored, so the picks are exactly those of the plain greedy, with far fewer
-evaluations.
+evaluations. Where the evaluator offers bounds on the gains (:meth:`Evaluator.gain_bounds`: the
+fast engine's per-measurement log det bounds from the base covariance), a candidate's bound is
+also capped by them (issue 16; same picks and scores, fewer evaluations: docs/speed.md).
 """
 
 from __future__ import annotations
@@ -45,13 +47,18 @@ from .records import GreedyResult, Progress, Step
 from .registry import RULES, check_rule
 from .rules import REL_TOL, Rule
 
-__all__ = ["LAZY_BATCH", "REL_TOL", "Selector", "check_affordable", "check_budget", "greedy"]
+__all__ = ["BOUND_FROM", "LAZY_BATCH", "REL_TOL", "Selector", "check_affordable", "check_budget", "greedy"]
 
 #: Lazy evaluation re-scores the candidates with the largest bounds this many at a time (in
 #: parallel when the evaluator has threads). Fixed, not the job count, so that the suites scored,
 #: and so every number of a result, are the same for any ``--jobs``; 2 fits a 2-core machine and
 #: costs the single-threaded run ~1% more evaluations (KITTI 03: 184 against 183).
 LAZY_BATCH = 2
+
+#: Lazy evaluation asks the evaluator for bounds on the gains (:meth:`Evaluator.gain_bounds`: one
+#: base covariance, ~2-4 evaluations' work on the fast engine) once per step, when more than this
+#: many candidates would still be re-scored after the first batch. 0: never (see docs/speed.md).
+BOUND_FROM = 4
 
 
 def check_budget(budget_usd: object) -> float:
@@ -149,16 +156,21 @@ class Selector:
         exclude: library positions that may not be bought (e.g. sensors assumed to fail).
         progress: called as progress(picks_done, max_picks) after each pick.
         constraints: limits besides the budget; None: the budget alone.
+        bound_from: lazy only: ask the evaluator for gain bounds when more than this many
+            candidates would still be re-scored in a step (0: never). Same picks and scores
+            either way; fewer evaluations when it helps.
     """
 
     def __init__(self, evaluator: Evaluator, rule: Rule, *, lazy: bool = True, exclude: frozenset[int] = frozenset(),
-                 progress: Progress | None = None, constraints: Constraints | None = None) -> None:
+                 progress: Progress | None = None, constraints: Constraints | None = None,
+                 bound_from: int = BOUND_FROM) -> None:
         self.evaluator = evaluator
         self.rule = rule
         self.lazy = lazy and rule.lazy_ok
         self.exclude = frozenset(exclude)
         self.progress = progress
         self.constraints = constraints
+        self.bound_from = int(bound_from)
 
     def select(self, budget_usd: float, *, start: tuple[int, ...] = (), info: TargetInfo | None = None,
                reserved: tuple[int, ...] = (), resume: Sequence[Step] = (),
@@ -272,6 +284,7 @@ class Selector:
             refresh(cand)
         else:
             batch = LAZY_BATCH
+            bounded = self.bound_from <= 0
             while True:
                 informative = fresh & feasible & (f_new - f_cur > gain_tol)
                 if informative.any():
@@ -286,6 +299,15 @@ class Selector:
                 need = np.flatnonzero(stale)[j_bound >= threshold]
                 if len(need) == 0:
                     break
+                if not bounded and len(need) > self.bound_from and fresh.any():
+                    # bounds at the current suite, valid from now on (gains only shrink): a candidate
+                    # whose bound cannot reach the best is never re-scored. The slack (the tie
+                    # tolerance) is far above the round-off of a computed gain or bound.
+                    bounded = True
+                    extra = ev.gain_bounds(tuple(suite), [int(i) for i in need])
+                    if extra is not None:
+                        bound[need] = np.minimum(bound[need], extra * (1.0 + REL_TOL) + gain_tol)
+                        continue
                 order = np.argsort(-value(f_cur + bound[need], f_cur, cost, costs[need]), kind="stable")
                 refresh(need[order[:batch]])
         informative_pos = np.flatnonzero(fresh & feasible & (f_new - f_cur > gain_tol))

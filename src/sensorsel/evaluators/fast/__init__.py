@@ -59,7 +59,8 @@ comes from the same code on the same inputs, so results are identical whatever `
 Modules: :mod:`.plan` (landmark groups, keyframe runs, BLAS calls), :mod:`.state` (a suite's pair
 weights and sums, built once per base suite), :mod:`.kernel` (Schur complement and factorization),
 :mod:`.blas` (BLAS/LAPACK function pointers, thread control), :mod:`.front` (the frontal path),
-:mod:`.evaluator` (FastEvaluator).
+:mod:`.bound` (upper bounds on candidates' gains from a base suite's covariance, for the lazy
+greedy), :mod:`.evaluator` (FastEvaluator).
 """
 
 from __future__ import annotations

@@ -11,6 +11,7 @@ import numpy as np
 from ...problem import Problem
 from ..base import ProblemEvaluator, Suite, as_suite
 from .blas import Blas
+from . import bound
 from .front import CHUNK_POSES, keyframe_orders
 from .kernel import FRONT_BELOW, SPARSE_BELOW, Kernel
 from .plan import Planner
@@ -22,6 +23,15 @@ from .state import BaseState, StateBuilder
 #: on KITTI 00 (455 keyframes) the dense factorizations release the GIL and 2 threads took 7.4 s
 #: against 10.1 s on 1.
 THREADS_FROM_KEYFRAMES = 200
+
+#: :meth:`FastEvaluator.gain_bounds` computes bounds only for at least this many times as many
+#: candidates as the bounds are predicted to cost in evaluations of the base: (3K)³ flops for the
+#: dense Cholesky and inverse against one evaluation's predicted flops (the dense Cholesky's
+#: (3K)³/3, or the frontal path's). Measured (docs/speed.md): the bounds spare most of the
+#: candidates the lazy greedy would re-score on KITTI 00 at 1 Hz (predicted cost 3.3 evaluations,
+#: measured 6-7) and lose on 02 at 3 Hz (predicted 48, measured 26-36, where the frontal path makes
+#: an evaluation cheap and the dense inverse dear).
+BOUND_SPARE = 2.0
 
 
 class FastEvaluator(ProblemEvaluator):
@@ -35,10 +45,11 @@ class FastEvaluator(ProblemEvaluator):
 
     def __init__(self, problem: Problem, *, jobs: int = 1, threads_from_keyframes: int = THREADS_FROM_KEYFRAMES,
                  sparse_below: float = SPARSE_BELOW, front_below: float = FRONT_BELOW, chunk_poses: int = CHUNK_POSES,
-                 inplace_blas: bool = True) -> None:
+                 inplace_blas: bool = True, bound_spare: float = BOUND_SPARE) -> None:
         """``threads_from_keyframes``: use the ``jobs`` threads only on routes with at least this many
         keyframes. ``sparse_below``, ``front_below``, ``chunk_poses``, ``inplace_blas``: the kernel's choice of paths (see
-        :class:`~sensorsel.evaluators.fast.kernel.Kernel`). All three change speed, not the numbers."""
+        :class:`~sensorsel.evaluators.fast.kernel.Kernel`); ``bound_spare``: when :meth:`gain_bounds`
+        computes bounds (:data:`BOUND_SPARE`; 0: always). All change speed, not the numbers."""
         super().__init__(problem, jobs=jobs)
         from ...graph import linearize_library  # gtsam is imported where a library is linearized, when one is
 
@@ -47,11 +58,14 @@ class FastEvaluator(ProblemEvaluator):
         coo = lin.base_pose_information.tocoo()
         planner = Planner(problem, lin.pair_pose, lin.pair_landmark, (coo.row // 3, coo.col // 3))
         self._states = StateBuilder(lin, planner)
+        self._planner = planner
         self.kernel = Kernel(K, lin.base_pose_information, Blas(), sparse_below=sparse_below,
                              front_below=front_below, chunk_poses=chunk_poses,
                              pose_orders=keyframe_orders(problem.scenario.keyframes.poses[:, :2]), inplace=inplace_blas)
         self._threads_from = int(threads_from_keyframes)
+        self._bound_spare = float(bound_spare)
         self._base: BaseState | None = None
+        self.n_bounds = 0  # base suites whose covariance :meth:`gain_bounds` computed
         self._pool: ThreadPoolExecutor | None = None
 
     def _threads(self) -> ThreadPoolExecutor:
@@ -92,3 +106,36 @@ class FastEvaluator(ProblemEvaluator):
                 vals = [self._candidate_logdet(b, c) for c in cands]
         self.n_evaluations += len(cands)
         return np.array(vals, dtype=float) - baseline
+
+    def gain_bounds(self, suite: Iterable[int], candidates: Sequence[int], *, trace: bool = False,
+                    force: bool = False) -> np.ndarray | None:
+        """Upper bounds [nats] on each candidate's gain f(S + {c}) − f(S), shape (len(candidates),)
+        (exact arithmetic; :func:`.bound.gain_bounds`: per measurement log det, or with ``trace``
+        tr(L_S⁻¹ Λ_c)); not counted in :attr:`n_evaluations`.
+
+        They cost one dense Cholesky and inverse of the base's pose matrix: None (unless ``force``)
+        when there are fewer than ``bound_spare`` (:data:`BOUND_SPARE`) times as many candidates as that is predicted
+        to cost in evaluations (:meth:`bound_cost`). The choice depends on the suite's pattern
+        alone, so a run's evaluations are the same on every machine."""
+        base = as_suite(suite)
+        cands = [int(c) for c in candidates]
+        self._check_positions(base + tuple(cands))
+        with self.kernel.blas.single_thread():
+            b = self._base_for(base)
+            if not force and len(cands) < self._bound_spare * self._bound_cost(b):
+                return None
+            out = bound.gain_bounds(self.kernel, self._states, self._planner, b, cands, trace=trace)
+        self.n_bounds += 1
+        return out
+
+    def bound_cost(self, suite: Iterable[int]) -> float:
+        """Predicted cost of :meth:`gain_bounds` on ``suite``, in evaluations of the suite: (3K)³
+        flops (dense Cholesky and inverse) over one evaluation's predicted flops (≥ 3)."""
+        with self.kernel.blas.single_thread():
+            return self._bound_cost(self._base_for(as_suite(suite)))
+
+    def _bound_cost(self, b: BaseState) -> float:
+        k = self.kernel
+        m = b.d.shape[1]
+        per_eval = k.front_choice(b.layout, m)[1] if k.uses_front(b.layout, m) else k.n**3 / 3.0
+        return float(k.n) ** 3 / max(per_eval, 1.0)

@@ -157,6 +157,20 @@ class Kernel:
             self._count(front=1)
             return front_logdet(plan, wpl, d, a, self.blas,
                                 (scratch.array("front0", size, zeroed=False), scratch.array("front1", size, zeroed=False)))
+        scratch = self._scratch()
+        n = self.n
+        P = scratch.array("pose", n * n).reshape(n, n)
+        logdet = self._schur(P, wpl, d, a, layout)
+        if layout.density < self.sparse_below:
+            self._count(splu=1)
+            return logdet + self._sparse_logdet(P, layout.pattern)
+        self._count(potrf=1)
+        return logdet + self.blas.cholesky_logdet(P)
+
+    def _schur(self, P: np.ndarray, wpl: np.ndarray, d: np.ndarray, a: np.ndarray, layout: Layout) -> float:
+        """Fill the lower triangle of the zeroed (3K, 3K) ``P`` with the pose Schur complement
+        (base + measurement diagonal - Σ_j W_j D_j⁻¹ W_jᵀ) and return Σ_j log det D_j [nats]
+        (arguments as in :meth:`logdet`; none but ``P`` is written to)."""
         # landmark blocks: D_j = L_j L_j^T (2x2 Cholesky, vectorized)
         l11 = np.sqrt(d[0])
         l21 = d[1] / l11
@@ -175,16 +189,17 @@ class Kernel:
         buf = scratch.array("tiles", layout.size)
         buf[layout.flat] = y.ravel()
         # pose Schur complement (lower triangle): base + measurement diagonal - sum_j Y_j Y_j^T
-        n = self.n
-        P = scratch.array("pose", n * n).reshape(n, n)
         P.ravel()[self.base_index] = self.base_values
         P.ravel()[self.diag_index] += a
         self._subtract_products(P, buf, layout)
-        if layout.density < self.sparse_below:
-            self._count(splu=1)
-            return logdet + self._sparse_logdet(P, layout.pattern)
-        self._count(potrf=1)
-        return logdet + self.blas.cholesky_logdet(P)
+        return logdet
+
+    def pose_matrix(self, wpl: np.ndarray, d: np.ndarray, a: np.ndarray, layout: Layout) -> np.ndarray:
+        """The pose Schur complement P (3K, 3K) of a suite, lower triangle filled (upper: zeros), a
+        new array (arguments as in :meth:`logdet`): what :mod:`.bound` inverts."""
+        P = np.zeros((self.n, self.n))
+        self._schur(P, wpl, d, a, layout)
+        return P
 
     def _subtract_products(self, P: np.ndarray, buf: np.ndarray, layout: Layout) -> None:
         """P[block] -= A @ B.T for every call of ``layout`` (tiles in ``buf``), lower triangle of P."""

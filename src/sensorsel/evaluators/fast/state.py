@@ -54,6 +54,7 @@ class StateBuilder:
         self.n_poses, self.n_landmarks = planner.n_poses, planner.n_landmarks
         self.pair_pose, self.pair_landmark = lin.pair_pose, lin.pair_landmark
         jac = lin.pair_jacobian
+        self.jacobian_rows = np.ascontiguousarray(jac.transpose(1, 2, 0))  # (2, 5, P), for the gain bounds (:mod:`.bound`)
         hp, hl = jac[:, :, :3], jac[:, :, 3:]
         self.hll = np.stack([np.stack([hl[:, r, 0] ** 2, hl[:, r, 0] * hl[:, r, 1], hl[:, r, 1] ** 2]) for r in range(2)])  # (2, 3, P)
         self.hpp = np.stack([np.stack([hp[:, r, i] * hp[:, r, j] for i, j in SYM3]) for r in range(2)])  # (2, 6, P)

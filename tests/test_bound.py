@@ -1,0 +1,189 @@
+"""Bounds on the candidates' gains, and the lazy greedy that uses them (issue 16, item 2).
+
+Oracles: GTSAM's own dense Hessians of the suite's graph (the reference engine's graphs) for the
+true gain, the trace tr(L_S⁻¹ Λ_c) and the per-measurement log det bound; the plain greedy
+(every candidate scored at every step) and the lazy greedy without bounds for the picks.
+"""
+
+from __future__ import annotations
+
+import gtsam
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+
+from scenario_strategies import problems
+from sensorsel.constraints import Constraints
+from sensorsel.evaluators import FastEvaluator, ReferenceEvaluator
+from sensorsel.evaluators.fast.evaluator import BOUND_SPARE
+from sensorsel.graph import GraphBuilder
+from sensorsel.library import load_library
+from sensorsel.selection.greedy import BOUND_FROM, Selector, greedy
+from sensorsel.selection.registry import RULES
+
+LIBRARY = load_library()
+HYPOTHESIS = settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+
+
+class DenseOracle:
+    """Gains and bounds from GTSAM's dense Hessians (variables in keyVector order, the same for
+    every suite: the base graph holds every pose and landmark)."""
+
+    def __init__(self, problem) -> None:
+        self.builder = GraphBuilder(problem)
+        keys = self.builder.base_graph().linearize(self.builder.values).keyVector()
+        self.col, off = {}, 0
+        for key in keys:
+            self.col[key] = off
+            off += 3 if chr(gtsam.Symbol(key).chr()) == "x" else 2
+
+    def hessian(self, suite) -> np.ndarray:
+        return self.builder.graph(suite).linearize(self.builder.values).hessian()[0]
+
+    def gain_and_bounds(self, suite, c) -> tuple[float, float, float]:
+        """(true gain, Σ_m log det(I + J_m Σ J_mᵀ), tr(L_S⁻¹ Λ_c)) of candidate c on ``suite``."""
+        h0, h1 = self.hessian(suite), self.hessian(tuple(suite) + (c,))
+        gain = np.linalg.slogdet(h1)[1] - np.linalg.slogdet(h0)[1]
+        cov = np.linalg.inv(h0)
+        trace = float(np.trace(np.linalg.solve(h0, h1 - h0)))
+        graph = gtsam.NonlinearFactorGraph()
+        self.builder.add_sensor(graph, c)
+        gauss = graph.linearize(self.builder.values)
+        per = 0.0
+        for i in range(gauss.size()):
+            f = gauss.at(i)
+            jac, _ = f.jacobian()  # whitened rows; columns in the factor's key order
+            cols = np.concatenate([self.col[k] + np.arange(3 if chr(gtsam.Symbol(k).chr()) == "x" else 2) for k in f.keys()])
+            per += np.linalg.slogdet(np.eye(jac.shape[0]) + jac @ cov[np.ix_(cols, cols)] @ jac.T)[1]
+        return float(gain), float(per), trace
+
+
+def close(a: float, b: float, rel: float = 1e-9) -> bool:
+    return abs(a - b) <= rel * max(1.0, abs(b))
+
+
+def check_bounds(problem, suites) -> int:
+    """Every candidate on every suite: the fast engine's bounds equal the dense oracle's, and
+    gain ≤ per-measurement bound ≤ trace (to round-off). Returns how many were checked."""
+    fe, oracle = FastEvaluator(problem), DenseOracle(problem)
+    n = len(problem.library)
+    checked = 0
+    for suite in suites:
+        cands = list(range(n))
+        tight = fe.gain_bounds(suite, cands, force=True)
+        trace = fe.gain_bounds(suite, cands, trace=True, force=True)
+        gains = fe.scores_with(suite, cands) - fe.score(suite)
+        f = fe.score(suite)
+        tol = 1e-9 * max(1.0, abs(f))
+        for c in cands:
+            if c in suite:
+                assert tight[c] == 0.0 and trace[c] == 0.0
+                continue
+            gain, per, tr = oracle.gain_and_bounds(suite, c)
+            assert close(gains[c], gain, 1e-7) or abs(gains[c] - gain) <= tol, (suite, c, gains[c], gain)
+            assert close(tight[c], per) or abs(tight[c] - per) <= tol, (suite, c, tight[c], per)
+            assert close(trace[c], tr) or abs(trace[c] - tr) <= tol, (suite, c, trace[c], tr)
+            # the order of the three, up to round-off of a gain (a difference of two log dets)
+            assert gain <= per + tol and gains[c] <= tight[c] + tol, (suite, c, gain, per)
+            assert per <= tr + tol, (suite, c, per, tr)
+            checked += 1
+    return checked
+
+
+def test_bounds_match_the_dense_oracle_and_bound_the_gain_on_tiny(tiny_problem):
+    rng = np.random.default_rng(16)
+    n = len(tiny_problem.library)
+    suites = [(), (0,), (0, 25)] + [tuple(sorted(rng.choice(n, size=int(rng.integers(1, 8)), replace=False).tolist()))
+                                     for _ in range(3)]
+    assert check_bounds(tiny_problem, suites) > 300
+
+
+@HYPOTHESIS
+@given(problem=problems(LIBRARY, 3, 6))
+def test_bounds_bound_the_gain_on_random_small_problems(problem):
+    n = len(problem.library)
+    rng = np.random.default_rng(n)
+    suites = [(), tuple(sorted(rng.choice(n, size=int(rng.integers(1, n)), replace=False).tolist()))]
+    check_bounds(problem, suites)
+
+
+def test_bound_is_tight_when_the_gains_are_small(suburb_problem):
+    """With all but 8 sensors in the suite the gains are a few nats: the bound is never below the
+    computed gain by more than its round-off, and within a few percent of it (log(1 + x) ≈ x)."""
+    fe = FastEvaluator(suburb_problem)
+    n = len(suburb_problem.library)
+    out = np.random.default_rng(1).choice(n, size=8, replace=False).tolist()
+    suite = tuple(sorted(set(range(n)) - set(out)))
+    f = fe.score(suite)
+    gains = fe.scores_with(suite, out) - f
+    bounds = fe.gain_bounds(suite, out, force=True)
+    assert np.all(bounds >= gains - 1e-12 * abs(f))  # round-off of a difference of two log dets ~1e4 nats
+    small = gains < 2.0
+    assert small.sum() >= 3 and np.all(gains > 0)
+    assert np.all(bounds[small] <= 1.05 * gains[small])
+    assert np.all(bounds <= 1.5 * gains)
+
+
+# --------------------------------------------------------------------------------- the lazy greedy
+
+
+def same_run(a, b) -> bool:
+    """Bit-identical picks and step scores (the evaluation counts may differ: bookkeeping)."""
+    return (a.suite == b.suite and a.score == b.score and a.cost_usd == b.cost_usd and a.stop_reason == b.stop_reason
+            and [(s.pick, s.score, s.gain, s.rule_value) for s in a.steps] == [(s.pick, s.score, s.gain, s.rule_value) for s in b.steps])
+
+
+def runs(problem, budget, rule, constraints=None, jobs=1):
+    """(plain, lazy without bounds, lazy with bounds as shipped, lazy with bounds at every step where
+    more than one candidate would be re-scored)."""
+    out = []
+    for lazy, bound_from, spare in ((False, 0, 0.0), (True, 0, 0.0), (True, BOUND_FROM, BOUND_SPARE), (True, 1, 0.0)):
+        ev = FastEvaluator(problem, jobs=jobs, bound_spare=spare)
+        out.append((Selector(ev, RULES[rule], lazy=lazy, bound_from=bound_from, constraints=constraints).select(budget),
+                    ev.n_bounds))
+    return out
+
+
+@pytest.mark.parametrize("rule", ["uniform", "marginal"])
+@pytest.mark.parametrize("budget", [20_000.0, 110_000.0])
+def test_bounded_lazy_picks_what_plain_and_lazy_greedy_pick_on_suburb(suburb_problem, rule, budget):
+    (plain, _), (lazy, nb0), (bounded, nb), (eager, nb1) = runs(suburb_problem, budget, rule)
+    assert nb0 == 0 and nb > 0 and nb1 >= nb
+    assert same_run(plain, lazy) and same_run(lazy, bounded) and same_run(lazy, eager)
+    assert bounded.n_evaluations < lazy.n_evaluations <= plain.n_evaluations
+    assert len(bounded.steps) >= 3
+
+
+def test_bounded_lazy_picks_the_same_with_constraints_and_threads(tiny_problem):
+    c = Constraints(max_sensors=4)
+    (plain, _), (lazy, _), (bounded, _), (eager, _) = runs(tiny_problem, 60_000.0, "uniform", constraints=c, jobs=2)
+    assert len(plain.suite) == 4
+    assert same_run(plain, lazy) and same_run(lazy, bounded) and same_run(lazy, eager)
+
+
+@settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(problem=problems(LIBRARY, 3, 6))
+def test_bounded_lazy_picks_the_same_on_random_small_problems(problem):
+    costs = np.asarray(problem.library.costs, dtype=float)
+    for budget in (float(costs.min()), float(np.sort(costs)[:3].sum()), float(costs.sum())):
+        for rule in ("uniform", "marginal"):
+            (plain, _), (lazy, _), (bounded, _), (eager, _) = runs(problem, budget, rule)
+            assert same_run(plain, lazy) and same_run(lazy, bounded) and same_run(lazy, eager), (budget, rule)
+
+
+def test_bounds_are_declined_when_predicted_dearer_than_the_candidates(tiny_problem):
+    fe = FastEvaluator(tiny_problem)
+    cost = fe.bound_cost((0,))
+    assert cost >= 3.0  # Cholesky and inverse, (3K)³ flops, against a dense Cholesky's (3K)³/3
+    few = list(range(1, int(np.ceil(BOUND_SPARE * cost))))
+    assert fe.gain_bounds((0,), few) is None and fe.n_bounds == 0
+    assert fe.gain_bounds((0,), few + [len(few) + 1]) is not None and fe.n_bounds == 1
+    assert fe.gain_bounds((0,), few[:1], force=True) is not None and fe.n_bounds == 2
+
+
+def test_engines_without_bounds_say_so(tiny_problem):
+    assert ReferenceEvaluator(tiny_problem).gain_bounds((), [0, 1]) is None
+    small = tiny_problem  # the reference engine's lazy greedy runs as before
+    a = greedy(ReferenceEvaluator(small), 20_000.0, "uniform")
+    b = greedy(FastEvaluator(small), 20_000.0, "uniform")
+    assert a.suite == b.suite
