@@ -118,9 +118,21 @@ def observe(library: SensorLibrary, scenario: Scenario) -> tuple[SensorObservati
     parts: list[list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]] = [[] for _ in library]
     for start in range(0, n_k, step):
         brg, rng = relative_geometry(scenario, slice(start, start + step))
+        brg_flat, rng_flat = brg.ravel(), rng.ravel()
+        # the pairs within each distinct range, found once: the cone test (what :func:`in_cone`
+        # computes, on these pairs alone) then runs over a few percent of the keyframes x landmarks
+        near: dict[float, np.ndarray] = {}
         for i, sensor in enumerate(library):
-            k, l = np.nonzero(in_cone(sensor, brg, rng))
-            parts[i].append((k + start, l, brg[k, l], rng[k, l]))
+            m = sensor.model
+            r = float(m.range_m)
+            if r not in near:
+                near[r] = np.flatnonzero((rng_flat <= m.range_m) & (rng_flat >= MIN_RANGE_M))
+            at = near[r]
+            if m.fov_rad < 2.0 * np.pi:
+                off = np.abs(wrap_angle(brg_flat[at] - sensor.mount_angle_rad))
+                at = at[off <= 0.5 * m.fov_rad + 1e-12]
+            k, l = np.divmod(at, n_m)
+            parts[i].append((k + start, l, brg_flat[at], rng_flat[at]))
     out = []
     for i, sensor in enumerate(library):
         if parts[i]:
