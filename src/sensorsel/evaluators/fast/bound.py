@@ -33,7 +33,7 @@ base: it pays only when it spares more re-scored candidates than that (measured:
 
 from __future__ import annotations
 
-from typing import Sequence
+from typing import Any, Callable, Iterable, Sequence
 
 import numpy as np
 import scipy.linalg.lapack as lapack
@@ -71,9 +71,11 @@ def pose_covariance(kernel: Kernel, base: BaseState) -> np.ndarray:
 
 
 def pair_quadratics(states: StateBuilder, planner: Planner, base: BaseState, cov: np.ndarray,
-                    pairs: np.ndarray) -> np.ndarray:
+                    pairs: np.ndarray, map_: Callable[..., Iterable[Any]] | None = None) -> np.ndarray:
     """(3, n) h_rᵀ Σ_(k,j) h_s of the rows (r, s) = (0, 0), (0, 1), (1, 1) (bearing 0, range 1) of each pair of ``pairs`` (n,) under the
-    base suite's covariance (``cov`` = :func:`pose_covariance`): the trace bound per unit weight."""
+    base suite's covariance (``cov`` = :func:`pose_covariance`): the trace bound per unit weight.
+    ``map_``: runs the landmark groups' products (default: the builtin ``map``; an executor's ``map``
+    runs them on its threads: numpy's gathers and products release the GIL)."""
     pk, pj = states.pair_pose[pairs], states.pair_landmark[pairs]
     n = len(pairs)
     d = base.d
@@ -92,9 +94,8 @@ def pair_quadratics(states: StateBuilder, planner: Planner, base: BaseState, cov
     lo_b, hi_b = np.searchsorted(gb_sorted, groups), np.searchsorted(gb_sorted, groups, side="right")
     lo_n, hi_n = np.searchsorted(gn_sorted, groups), np.searchsorted(gn_sorted, groups, side="right")
     three = np.arange(3)
-    for g, b0, b1, n0, n1 in zip(groups.tolist(), lo_b.tolist(), hi_b.tolist(), lo_n.tolist(), hi_n.tolist()):
-        if b0 == b1:  # no landmark of the group is measured by the base: Σ_kj = 0, Σ_jj = D_j⁻¹
-            continue
+    def group(b0: int, b1: int, n0: int, n1: int) -> None:
+        """G of the group's requested pairs and S of its landmarks (rows and landmarks of no other group)."""
         bp = ob[b0:b1]  # base active pairs of the group
         np_ = on[n0:n1]  # requested pairs of the group
         bk, bl = lay.pose[bp], lay.landmark[bp]
@@ -117,11 +118,16 @@ def pair_quadratics(states: StateBuilder, planner: Planner, base: BaseState, cov
         kr = np.searchsorted(rows_k, pk[sel])
         Z4 = Z.reshape(len(rows_k), 3, len(lms), 2)
         G[sel] = Z4[kr, :, jl, :]
-        # W_jᵀ Σ W_j: Σ over the base pairs of j of W_pᵀ Z[rows of k_p, cols of j], summed in the
-        # pairs' order (a stable sort by landmark, then one sequential sum per landmark)
+        # W_jᵀ Σ W_j: Σ over the base pairs of j of W_pᵀ Z[rows of k_p, cols of j], in the pairs' order
         kb = np.searchsorted(rows_k, bk)
         contrib = np.einsum("pac,pae->pce", Wb, Z4[kb, :, bcol, :])  # (n_b, 2, 2)
         np.add.at(S, bl, contrib)
+
+    # a group with no landmark measured by the base has Σ_kj = 0, Σ_jj = D_j⁻¹: nothing to add
+    todo = [(b0, b1, n0, n1) for b0, b1, n0, n1 in zip(lo_b.tolist(), hi_b.tolist(), lo_n.tolist(), hi_n.tolist()) if b0 < b1]
+    # groups write disjoint rows of G and S, each in its own order: the same numbers on any threads
+    for _ in (map_ or map)(lambda t: group(*t), todo):
+        pass
     # landmark blocks per landmark, then per pair: Σ_jj = D⁻¹ + D⁻¹ S D⁻¹ (M, 2, 2)
     Dj = np.stack([np.stack([dinv[0], dinv[1]], -1), np.stack([dinv[1], dinv[2]], -1)], -2)
     Sjj = Dj + Dj @ S @ Dj
@@ -147,13 +153,15 @@ def pair_quadratics(states: StateBuilder, planner: Planner, base: BaseState, cov
 
 
 def gain_bounds(kernel: Kernel, states: StateBuilder, planner: Planner, base: BaseState,
-                candidates: Sequence[int], *, trace: bool = False) -> np.ndarray:
+                candidates: Sequence[int], *, trace: bool = False,
+                map_: Callable[..., Iterable[Any]] | None = None) -> np.ndarray:
     """Upper bounds [nats] on each candidate's gain log det L(S + {c}) − log det L(S), shape
     (len(candidates),); 0 for a candidate already in S.
 
     ``trace`` False (default): Σ_m log det(I₂ + R_m^{-1/2} J_m Σ_(k,j) J_mᵀ R_m^{-1/2}) over the
     candidate's measurements m (submodularity of log det over its PSD terms, then the determinant
     lemma per measurement); True: tr(L_S⁻¹ Λ_c), which is larger (log(1 + x) ≤ x per eigenvalue).
+    ``map_``: as in :func:`pair_quadratics` (the same numbers either way).
     """
     cands = [int(c) for c in candidates]
     new = [c for c in cands if c not in base.suite]
@@ -161,7 +169,7 @@ def gain_bounds(kernel: Kernel, states: StateBuilder, planner: Planner, base: Ba
     if not new:
         return out
     pairs = np.unique(np.concatenate([states.sensor_pairs[c] for c in new]))
-    q = pair_quadratics(states, planner, base, pose_covariance(kernel, base), pairs)
+    q = pair_quadratics(states, planner, base, pose_covariance(kernel, base), pairs, map_)
     for i, c in enumerate(cands):
         if c in base.suite:
             continue

@@ -124,7 +124,9 @@ class FastEvaluator(ProblemEvaluator):
             b = self._base_for(base)
             if not force and len(cands) < self._bound_spare * self._bound_cost(b):
                 return None
-            out = bound.gain_bounds(self.kernel, self._states, self._planner, b, cands, trace=trace)
+            threads = self.jobs > 1 and self.problem.scenario.n_poses >= self._threads_from
+            out = bound.gain_bounds(self.kernel, self._states, self._planner, b, cands, trace=trace,
+                                    map_=self._threads().map if threads else None)
         self.n_bounds += 1
         return out
 
