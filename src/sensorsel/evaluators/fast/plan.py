@@ -19,6 +19,8 @@ from ...problem import Problem
 GROUP_SIZE = 16
 #: runs of keyframes of a group's tile closer than this are joined (zero rows in between)
 RUN_GAP = 6
+#: :attr:`Layout.pattern` is a dense product below this many groups x K² multiply-adds, else a sparse one
+_DENSE_PATTERN_FLOPS = 1e8
 
 
 def route_order(problem: Problem, landmarks: np.ndarray) -> np.ndarray:
@@ -67,8 +69,15 @@ class Layout:
         K = self.n_poses
         g, ps = self.group_pose
         n_groups = int(g.max()) + 1 if len(g) else 0
-        mf = sp.csr_matrix((np.ones(len(g), dtype=np.float32), (g, ps)), shape=(n_groups, K))
-        pat = (mf.T @ mf).toarray() > 0
+        if n_groups * K * K <= _DENSE_PATTERN_FLOPS:
+            # keyframes sharing a group as a dense (groups, K) 0/1 product: exact small counts, one
+            # BLAS call (the sparse product cost ~3 ms per candidate layout on KITTI 00 at 1 Hz, this ~0.5 ms)
+            mf = np.zeros((n_groups, K), dtype=np.float32)
+            mf[g, ps] = 1.0
+            pat = (mf.T @ mf) > 0
+        else:
+            mf = sp.csr_matrix((np.ones(len(g), dtype=np.float32), (g, ps)), shape=(n_groups, K))
+            pat = (mf.T @ mf).toarray() > 0
         pat[self.base_blocks] = True
         pat[np.arange(K), np.arange(K)] = True
         return np.tril(pat)
