@@ -136,7 +136,9 @@ class Planner:
         # rows: runs of consecutive keyframes that see each group, 3 rows each; runs of a group
         # less than RUN_GAP keyframes apart are joined (zero rows in between: fewer, larger calls).
         # From the sorted distinct (group, keyframe) pairs: linear in the pairs, not groups x keyframes.
-        key = np.unique(g * K + ps)
+        seen = np.zeros(self.n_groups * K, dtype=bool)  # sorted distinct keys by a mask: np.unique hashed and sorted (~3 ms on 00)
+        seen[g * K + ps] = True
+        key = np.flatnonzero(seen)
         gk, pk = key // K, key % K
         start = np.r_[True, (gk[1:] != gk[:-1]) | (pk[1:] - pk[:-1] - 1 > RUN_GAP)] if len(key) else np.zeros(0, bool)
         first = np.flatnonzero(start)
