@@ -124,10 +124,10 @@ def observe(library: SensorLibrary, scenario: Scenario) -> tuple[SensorObservati
         near: dict[float, np.ndarray] = {}
         for i, sensor in enumerate(library):
             m = sensor.model
-            r = float(m.range_m)
-            if r not in near:
-                near[r] = np.flatnonzero((rng_flat <= m.range_m) & (rng_flat >= MIN_RANGE_M))
-            at = near[r]
+            reach = float(m.range_m)
+            if reach not in near:
+                near[reach] = np.flatnonzero((rng_flat <= m.range_m) & (rng_flat >= MIN_RANGE_M))
+            at = near[reach]
             if m.fov_rad < 2.0 * np.pi:
                 off = np.abs(wrap_angle(brg_flat[at] - sensor.mount_angle_rad))
                 at = at[off <= 0.5 * m.fov_rad + 1e-12]

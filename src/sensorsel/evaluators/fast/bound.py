@@ -103,9 +103,9 @@ def pair_quadratics(states: StateBuilder, planner: Planner, base: BaseState, cov
         keys, brow = np.unique(bk, return_inverse=True)
         Wb = W[bp]  # (n_b, 3, 2)
         # each (keyframe, landmark) pair is active once: its block is written once (0.0 + W, as a sum into zeros)
-        Wg = np.zeros((len(keys), 3, len(lms), 2))
-        Wg[brow, :, bcol, :] = Wb + 0.0
-        Wg = Wg.reshape(3 * len(keys), 2 * len(lms))
+        Wg4 = np.zeros((len(keys), 3, len(lms), 2))
+        Wg4[brow, :, bcol, :] = Wb + 0.0
+        Wg = Wg4.reshape(3 * len(keys), 2 * len(lms))
         # rows: the keyframes of the requested pairs and of the base pairs (for W_jᵀ Σ W_j)
         rows_k = np.union1d(keys, pk[np_])
         r3 = (3 * rows_k[:, None] + three).ravel()
