@@ -222,11 +222,16 @@ class FeasibleSet:
         return f"FeasibleSet(${self.budget_usd:,.0f}; {self.constraints.describe()})"
 
     @property
+    def plain(self) -> bool:
+        """The paper's problem: the budget is the only row and nothing is required or excluded
+        (whatever was asked: e.g. slots on a library without any). Every selector runs its
+        budget-only path, unchanged, when this holds."""
+        return self.only_budget and not self.required and not self.excluded
+
+    @property
     def record(self) -> Constraints | None:
-        """The constraints a result records: None when the budget is the only limit and nothing is
-        required or excluded (the paper's problem, whatever was asked: e.g. slots on a library without
-        any), else :attr:`constraints`."""
-        return None if self.only_budget and not self.required and not self.excluded else self.constraints
+        """The constraints a result records: None when :attr:`plain`, else :attr:`constraints`."""
+        return None if self.plain else self.constraints
 
     @property
     def only_budget(self) -> bool:

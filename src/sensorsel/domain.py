@@ -168,20 +168,22 @@ _DomainLoader.add_constructor("tag:yaml.org,2002:map", _construct_map)
 _DomainLoader.add_constructor("tag:yaml.org,2002:seq", _construct_seq)
 
 
-def _read_yaml(path: Path) -> Any:
+def _read_yaml(path: Path, error: type[DomainError] = DomainError, what: str = "operating-domain file") -> Any:
+    """The YAML document of ``path`` with its lines kept (:class:`_DomainLoader`); every failure an
+    ``error`` (DomainError, or a subclass naming another kind of file, ``what``) naming the file."""
     try:
         text = path.read_text(encoding="utf-8")
     except FileNotFoundError:
-        raise DomainError(path, "", "operating-domain file not found") from None
+        raise error(path, "", f"{what} not found") from None
     except (OSError, UnicodeDecodeError) as exc:
-        raise DomainError(path, "", f"cannot read: {exc}") from None
+        raise error(path, "", f"cannot read: {exc}") from None
     try:
         return yaml.load(text, Loader=_DomainLoader)  # a SafeLoader: plain data only
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         line = mark.line + 1 if mark is not None else None
         problem = getattr(exc, "problem", None) or str(exc)
-        raise DomainError(path, "", "malformed YAML: " + " ".join(str(problem).split()), line) from None
+        raise error(path, "", "malformed YAML: " + " ".join(str(problem).split()), line) from None
 
 
 # ------------------------------------------------------------------------------------- validation

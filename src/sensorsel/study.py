@@ -57,15 +57,14 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Callable, ClassVar, NoReturn, Sequence
 
-import yaml
-
 from . import results
 from .certify import certificate
 from .errors import ResultFileError, SensorselError
 from .evaluators import ENGINES, evaluator_for
 from .evaluators.domain import AGGREGATES
 from .evaluators.registry import check_engine
-from .domain import SYNTHETIC, _Checker, _DomainLoader, _Map, _parse_route, _ROUTE_KEYS, _Seq, load_domain_file
+from .domain import SYNTHETIC, DomainError, _Checker, _Map, _parse_route, _ROUTE_KEYS, _Seq, load_domain_file
+from .domain import _read_yaml as _read_domain_yaml
 from .domain import load_domain_scenarios
 from .fileio import atomic_write_text
 from .library import load_library
@@ -88,13 +87,9 @@ _TARGET_KEYS = ("fixture", "seq", "kitti_root", "route", "format", "times", "lan
 _GRID_KEYS = ("budgets", "rules", "failures", "landmark_seeds", "libraries")
 
 
-class StudyError(SensorselError):
-    """A study file is malformed: names the file, the key path and the line."""
-
-    def __init__(self, path: str | Path, key: str, message: str, line: int | None = None) -> None:
-        self.path, self.key, self.line = str(path), key, line
-        where = f"{path}:{line}" if line is not None else f"{path}"
-        super().__init__(f"{where}: {key}: {message}" if key else f"{where}: {message}")
+class StudyError(DomainError):
+    """A study file is malformed: names the file, the key path and the line (as a domain file's
+    errors do: the study file shares the domain file's reader)."""
 
 
 # ------------------------------------------------------------------------------------------ records
@@ -283,19 +278,7 @@ class _StudyChecker(_Checker):
 
 
 def _read_yaml(path: Path) -> Any:
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise StudyError(path, "", "study file not found") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise StudyError(path, "", f"cannot read: {exc}") from None
-    try:
-        return yaml.load(text, Loader=_DomainLoader)  # a SafeLoader: plain data only; lines kept
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        problem = getattr(exc, "problem", None) or str(exc)
-        raise StudyError(path, "", "malformed YAML: " + " ".join(str(problem).split()),
-                         mark.line + 1 if mark is not None else None) from None
+    return _read_domain_yaml(path, StudyError, "study file")
 
 
 def _list(c: _StudyChecker, m: _Map, key: str, default: list[Any] | None) -> tuple[list[Any], list[int]]:

@@ -381,7 +381,7 @@ def tradespace(evaluator: Evaluator, budgets: Iterable[float] | None = None, rul
         raise InputError("the tradespace needs at least one budget")
     feas = {b: feasible_set(lib, b, constraints) for b in grid} if constraints is not None else {}
     top = feas[grid[-1]] if feas else None
-    if top is not None and top.only_budget and not top.required and not top.excluded:
+    if top is not None and top.plain:
         constraints, feas, top = None, {}, None  # the budget alone: the paper's tradespace, unchanged
     share_prefix = share_prefix and prefix_sharing_exact(constraints)
     singles = _single_rules(sel)

@@ -175,7 +175,7 @@ def suite_bound(evaluator: Evaluator, suite: Sequence[int], budget_usd: float, *
     lib = evaluator.library
     s = tuple(int(i) for i in suite)
     f_s = evaluator.score(s) if score is None else float(score)
-    if feas is not None and not _plain(feas):
+    if feas is not None and not feas.plain:
         return _constrained_bound(evaluator, s, f_s, feas, exclude, gains_out)
     inside = set(s) | set(exclude)
     costs = lib.costs
@@ -190,12 +190,6 @@ def suite_bound(evaluator: Evaluator, suite: Sequence[int], budget_usd: float, *
         knapsack_suite=lib.suite_ids(sorted(cand[i] for i in ks.chosen)),
         knapsack_method=ks.method, knapsack_exact=ks.exact,
     )
-
-
-def _plain(feas: FeasibleSet) -> bool:
-    """The paper's problem: the budget is the only row and nothing is required or excluded (the
-    single-knapsack DP path, unchanged)."""
-    return feas.only_budget and not feas.required and not feas.excluded
 
 
 def _constrained_bound(evaluator: Evaluator, s: tuple[int, ...], f_s: float, feas: FeasibleSet,
@@ -265,7 +259,7 @@ def certificate(evaluator: Evaluator, greedy_result: GreedyResult, *, progress: 
     res = greedy_result
     budget = check_budget(res.budget_usd)
     feas = feasible_set(lib, budget, res.constraints if res.constraints is not None else Constraints(slots=False))
-    constrained = None if _plain(feas) else feas
+    constrained = None if feas.plain else feas
     try:
         step_suites: list[tuple[int, ...]] = [()] + [tuple(lib.position(x) for x in st.suite) for st in res.steps]
     except InputError as exc:

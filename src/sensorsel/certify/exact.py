@@ -39,7 +39,7 @@ from ..library import SensorLibrary
 from ..evaluators import Evaluator
 from ..problem import ProblemInfo, TargetInfo
 from ..selection import REL_TOL, RULES, GreedyResult, check_budget, check_rule, greedy
-from .certificate import _plain, certificate
+from .certificate import certificate
 from .knapsack import MAX_DP_CELLS, CostUnits, cost_units, fractional_bound, packing_bound
 
 #: Default node limit of the exact suite search (nodes whose marginal gains are swept).
@@ -171,8 +171,8 @@ def optimal(evaluator: Evaluator, budget_usd: float, *, max_nodes: int = DEFAULT
     n0 = ev.n_evaluations
     exclude = frozenset(int(i) for i in exclude)
     feas = feasible_set(lib, budget, constraints if constraints is not None else Constraints(slots=False))
-    plain = _plain(feas)
-    recorded = None if plain else feas.constraints
+    plain = feas.plain
+    recorded = feas.record
     incumbent, runs, rule_label = _greedy_start(ev, budget, rule, incumbent, exclude, info,
                                                 None if plain else constraints, recorded)
     inc_pos = _incumbent_positions(lib, incumbent, exclude, None if plain else feas)

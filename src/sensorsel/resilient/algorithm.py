@@ -58,7 +58,7 @@ def failing_set(evaluator: Evaluator, budget_usd: float, alpha: int,
     if alpha == 0:
         return [], [], ""
     feas = feasible_set(lib, budget, constraints) if constraints is not None else None
-    if feas is not None and not is_plain(feas):
+    if feas is not None and not feas.plain:
         return _failing_set_within(evaluator, feas, alpha)
     costs, ids = lib.costs, lib.ids
     singles = evaluator.scores_with((), list(range(len(lib))))
@@ -68,12 +68,9 @@ def failing_set(evaluator: Evaluator, budget_usd: float, alpha: int,
     left = np.ones(len(lib), dtype=bool)
     for _ in range(alpha):
         ok = left & (costs <= budget - spent + 1e-9) & (singles > gain_tol)
-        if not ok.any():
+        pick = _most_informative(ok, singles, costs, ids)
+        if pick is None:
             break
-        cand = np.flatnonzero(ok)
-        best = singles[cand].max()
-        tied = cand[singles[cand] >= best - REL_TOL * max(1.0, abs(best))]
-        pick = int(min(tied, key=lambda i: (costs[i], ids[i])))
         picked.append(pick)
         left[pick] = False
         spent += float(costs[pick])
@@ -82,6 +79,17 @@ def failing_set(evaluator: Evaluator, budget_usd: float, alpha: int,
         note = (f"only {len(picked)} informative sensor(s) fit the budget ${budget:,.0f} as failing sensors; "
                 f"{alpha} requested")
     return picked, [float(singles[i]) for i in picked], note
+
+
+def _most_informative(ok: np.ndarray, singles: np.ndarray, costs: np.ndarray, ids: Sequence[str]) -> int | None:
+    """The candidate (``ok``, bool (n,)) with the largest f({e}); ties within :data:`REL_TOL` go to the
+    cheaper sensor, then the smaller id. None when no candidate is left."""
+    if not ok.any():
+        return None
+    cand = np.flatnonzero(ok)
+    best = singles[cand].max()
+    tied = cand[singles[cand] >= best - REL_TOL * max(1.0, abs(best))]
+    return int(min(tied, key=lambda i: (costs[i], ids[i])))
 
 
 def _failing_set_within(evaluator: Evaluator, feas: FeasibleSet, alpha: int) -> tuple[list[int], list[float], str]:
@@ -96,12 +104,9 @@ def _failing_set_within(evaluator: Evaluator, feas: FeasibleSet, alpha: int) -> 
     picked: list[int] = []
     for _ in range(alpha):
         ok = left & (feas.addable(used) | required) & (singles > REL_TOL)
-        if not ok.any():
+        pick = _most_informative(ok, singles, costs, ids)
+        if pick is None:
             break
-        cand = np.flatnonzero(ok)
-        best = singles[cand].max()
-        tied = cand[singles[cand] >= best - REL_TOL * max(1.0, abs(best))]
-        pick = int(min(tied, key=lambda i: (costs[i], ids[i])))
         picked.append(pick)
         left[pick] = False
         if not required[pick]:
@@ -137,7 +142,7 @@ def resilient_select(evaluator: Evaluator, budget_usd: float, alpha: int, rule: 
     lib = evaluator.library
     failed, failed_scores, note = failing_set(evaluator, budget, alpha, constraints)
     feas = feasible_set(lib, budget, constraints) if constraints is not None else None
-    if feas is None or is_plain(feas):  # the budget alone: the paper's algorithm, as it always ran
+    if feas is None or feas.plain:  # the budget alone: the paper's algorithm, as it always ran
         failed_cost = lib.cost(failed)
         rest = max(0.0, budget - failed_cost)  # never negative: the failing set fits by construction
         run = greedy(evaluator, rest, rule, lazy=lazy, exclude=frozenset(failed), start=(), info=info)
@@ -148,7 +153,7 @@ def resilient_select(evaluator: Evaluator, budget_usd: float, alpha: int, rule: 
     active = [lib.position(s) for s in run.suite]
     suite = failed + active
     score = evaluator.score(suite) if failed else run.score
-    cost = lib.cost(suite) if feas is None or is_plain(feas) else float(feas.usage(suite)[0])
+    cost = lib.cost(suite) if feas is None or feas.plain else float(feas.usage(suite)[0])
     return ResilientResult(
         alpha=alpha, budget_usd=budget, rule=rule, suite=lib.suite_ids(suite), failed=lib.suite_ids(failed),
         failed_scores=tuple(failed_scores), failure_note=note, active=run.suite, failed_cost_usd=failed_cost,
@@ -158,22 +163,16 @@ def resilient_select(evaluator: Evaluator, budget_usd: float, alpha: int, rule: 
     )
 
 
-def is_plain(feas: FeasibleSet) -> bool:
-    """True when the budget is the only limit: no other row, nothing required or excluded (the paper's problem)."""
-    return feas.only_budget and not feas.required and not feas.excluded
-
-
 def recorded(feas: FeasibleSet | None) -> Constraints | None:
-    """What a result records of its feasible set: its constraints, or None when the budget is the only
-    limit (:func:`is_plain`)."""
-    return None if feas is None or is_plain(feas) else feas.constraints
+    """What a result records of its feasible set (:attr:`FeasibleSet.record`; None without one)."""
+    return None if feas is None else feas.record
 
 
 def constraints_key(feas: FeasibleSet | None) -> dict[str, Any]:
     """The constraints' part of a cache fingerprint: nothing when the budget is the only limit (so
     files written before constraints existed are still reused), else the constraints with the digest
     of the library's resources and slots (so a resume never mixes runs under other limits)."""
-    return {} if feas is None or is_plain(feas) else {"constraints": results.to_jsonable(feas.constraints)}
+    return {} if feas is None or feas.plain else {"constraints": results.to_jsonable(feas.constraints)}
 
 
 def worst_case(evaluator: Evaluator, suite: Sequence[int] | str, alpha: int, *, max_failure_sets: int = MAX_FAILURE_SETS) -> WorstCase:

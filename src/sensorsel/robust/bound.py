@@ -300,7 +300,7 @@ def robust_bound(evaluator: Evaluator, budget_usd: float, alpha: int, *, anchors
     root_removed: tuple[int, ...] = ()
     rows: FeasibleSet | None = None  # every limit kept (fact (5)); None: the budget knapsack
     owned = False
-    if feas is not None and not (feas.only_budget and not feas.required and not feas.excluded):
+    if feas is not None and not feas.plain:
         extra = lib.cost(feas.required) if feas.constraints.owned else 0.0
         root_removed = tuple(sorted(feas.excluded))
         if relax_to_budget or (feas.only_budget and not feas.required):
