@@ -21,6 +21,7 @@ import pytest
 import yaml
 from click.testing import CliRunner
 
+from oracles import every_suite_score
 from sensorsel import results
 from sensorsel._resources import default_library_path
 from sensorsel.cli import cli
@@ -53,15 +54,7 @@ def problem():
 @functools.lru_cache(maxsize=None)
 def table() -> dict[tuple[int, ...], float]:
     """f of every suite of the 8 sensors, each scored once."""
-    ev = make_evaluator(problem(), "fast")
-    n = len(IDS)
-    out = {(): 0.0}
-    for r in range(n):
-        for s in itertools.combinations(range(n), r):
-            cands = [c for c in range(n) if c > (s[-1] if s else -1)]
-            for c, v in zip(cands, ev.scores_with(s, cands)):
-                out[s + (c,)] = float(v)
-    return out
+    return every_suite_score(make_evaluator(problem(), "fast"))
 
 
 class TableEvaluator(Evaluator):

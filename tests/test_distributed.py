@@ -234,8 +234,9 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
-def _cli(*args: str, timeout: float = 120) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([str(BIN / "sensorsel"), *args], capture_output=True, text=True, env=ENV, cwd=REPO, timeout=timeout)
+def _cli(*args: object, timeout: float = 120) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([str(BIN / "sensorsel"), *map(str, args)], capture_output=True, text=True, env=ENV, cwd=REPO,
+                          timeout=timeout)
 
 
 def test_cli_greedy_on_a_scheduler_and_two_workers_started_here(tmp_path, domain):
@@ -295,3 +296,42 @@ def test_missing_extra_is_exit_2_with_the_install_hint():
     r = subprocess.run([sys.executable, "-c", code, str(FIXTURES)], capture_output=True, text=True, env=ENV, timeout=120)
     assert r.returncode == 2, r.stderr
     assert 'pip install "sensorsel[dask]"' in r.stderr and "Traceback" not in r.stderr
+
+
+def test_pareto_with_limits_and_slots_on_two_workers_equals_in_process(tmp_path):
+    """Issue 15 on a cluster: ``pareto --workers 2`` under a power limit and mounting slots gives the
+    bytes of the in-process run (timings aside), and every architecture keeps the limits."""
+    import yaml
+
+    from sensorsel._resources import default_library_path
+    from sensorsel.constraints import Constraints, feasible_set
+    from sensorsel.library import load_library
+    from sensorsel.tradespace import TradespaceResult
+
+    stock = yaml.safe_load(default_library_path().read_text())
+    stock["clock_positions"] = [12, 3, 6, 9]
+    (tmp_path / "small.yaml").write_text(yaml.safe_dump(stock))
+    car = tmp_path / "car.yaml"  # extends the stock file with one radar and one camera per position
+    car.write_text("extends: small.yaml\nslots:\n  roof: {lidar: 1}\n  clock: {radar: 1, stereo: 1}\n")
+    args = ["pareto", "--fixture", "tiny", "--engine", "fast", "--library", car, "--budgets", "5000,20000,110000",
+            "--rules", "uniform,marginal", "--limit", "power_w=40", "--max-sensors", "6", "-q"]
+    here = _cli(*args, "--jobs", "1", "-o", tmp_path / "here", timeout=240)
+    assert here.returncode == 0, here.stderr
+    there = _cli(*args, "--workers", "2", "-o", tmp_path / "there", timeout=240)
+    assert there.returncode == 0, there.stderr
+    a = (tmp_path / "here" / "tradespace.json").read_text()
+    b = (tmp_path / "there" / "tradespace.json").read_text()
+    assert _untimed(b) == _untimed(a)
+    # and the limits bite and hold: every run's suite fits, and the library's slots were read
+    res = results.load(tmp_path / "there" / "tradespace.json", TradespaceResult)
+    c = Constraints.of(limits={"power_w": 40.0}, max_sensors=6)
+    lib = load_library(car)
+    assert res.constraints is not None and res.constraints.limits == c.limits and res.constraints.slots
+    assert lib.slots
+    tight = 0
+    for r in res.runs:
+        feas = feasible_set(lib, r.budget_usd, c)
+        s = lib.resolve_suite(r.suite)
+        assert feas.fits(s), (r.rule, r.budget_usd, feas.violations(s))
+        tight += len(s) == 6 or feas.usage(s)[1] > 30  # a limit (not the budget) stopped this run
+    assert tight

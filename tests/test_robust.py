@@ -19,6 +19,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from oracles import every_suite_score
 from sensorsel import results
 from sensorsel.library import load_library
 from sensorsel.evaluators import Evaluator, as_suite, make_evaluator
@@ -74,16 +75,7 @@ def small_problem(name: str):
 @functools.lru_cache(maxsize=None)
 def table(name: str) -> dict[tuple[int, ...], float]:
     """f of every suite, each scored once (as an extension of its prefix without its last sensor)."""
-    p = small_problem(name)
-    ev = make_evaluator(p, "fast")
-    n = p.n_sensors
-    out = {(): 0.0}
-    for r in range(n):
-        for s in itertools.combinations(range(n), r):
-            cands = [c for c in range(n) if c > (s[-1] if s else -1)]
-            for c, v in zip(cands, ev.scores_with(s, cands)):
-                out[s + (c,)] = float(v)
-    return out
+    return every_suite_score(make_evaluator(small_problem(name), "fast"))
 
 
 def table_eval(name: str) -> TableEvaluator:

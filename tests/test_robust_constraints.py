@@ -14,6 +14,7 @@ import itertools
 import numpy as np
 import pytest
 
+from oracles import every_suite_score
 from sensorsel.api import run_robust
 from sensorsel.constraints import Constraints, feasible_set
 from sensorsel.errors import InputError
@@ -142,18 +143,7 @@ def two_route_problems():
 @functools.lru_cache(maxsize=None)
 def route_tables() -> tuple[dict[tuple[int, ...], float], ...]:
     """f_r of every suite of the 8 sensors on each route (the fast engine, each suite scored once)."""
-    out = []
-    for p in two_route_problems():
-        ev = make_evaluator(p, "fast")
-        n = len(p.library)
-        tab = {(): 0.0}
-        for r in range(n):
-            for s in itertools.combinations(range(n), r):
-                cands = [c for c in range(n) if c > (s[-1] if s else -1)]
-                for c, v in zip(cands, ev.scores_with(s, cands)):
-                    tab[s + (c,)] = float(v)
-        out.append(tab)
-    return tuple(out)
+    return tuple(every_suite_score(make_evaluator(p, "fast")) for p in two_route_problems())
 
 
 def worst_route_case(seed: int):
