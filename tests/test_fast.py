@@ -291,6 +291,28 @@ def test_blas_function_pointers_against_numpy():
         blas.cholesky_logdet(-np.eye(3))
 
 
+@pytest.mark.parametrize("n", [1, 5, 63, 64, 65, 200])
+@pytest.mark.parametrize("block", [0, 1, 7, 64])
+def test_blocked_cholesky_gives_numpys_log_det_at_every_panel_width(n, block):
+    """The panels (dpotrf, dtrsm, dsyrk on the trailing matrix) against numpy's slogdet, widths that
+    divide n, do not, and exceed it; the factor's lower triangle is numpy's Cholesky factor."""
+    rng = np.random.default_rng(n + block)
+    x = rng.standard_normal((n, n + 3))
+    spd = x @ x.T + 0.1 * np.eye(n)
+    p = np.tril(spd).copy()
+    got = Blas().cholesky_logdet(p, block)
+    want = np.linalg.slogdet(spd)[1]
+    assert abs(got - want) <= 1e-11 * max(1.0, abs(want))
+    np.testing.assert_allclose(np.tril(p), np.linalg.cholesky(spd), rtol=0, atol=1e-9 * np.abs(spd).max())
+
+
+def test_blocked_cholesky_names_the_failing_pivot_past_the_first_panel():
+    spd = np.eye(100)
+    spd[70, 70] = -1.0
+    with pytest.raises(np.linalg.LinAlgError, match="info 71"):
+        Blas().cholesky_logdet(spd.copy(), 64)
+
+
 def test_blas_runs_on_one_thread_while_scoring_and_is_restored(tiny_problem):
     from threadpoolctl import threadpool_info
 
