@@ -58,6 +58,19 @@ class DenseOracle:
         return float(gain), float(per), trace
 
 
+def fischer_oracle(oracle: DenseOracle, suite) -> tuple[float, float]:
+    """(log det of GTSAM's dense Hessian with every pose–landmark coupling dropped (the pose block,
+    and each landmark's 2 × 2 block, factored apart) minus the empty suite's log det [nats], the sum
+    of the magnitudes of those three log dets: the scale of the engine's round-off allowance)."""
+    h = oracle.hessian(suite)
+    pose_cols = np.concatenate([oracle.col[k] + np.arange(3) for k in oracle.col if chr(gtsam.Symbol(k).chr()) == "x"])
+    pose = float(np.linalg.slogdet(h[np.ix_(pose_cols, pose_cols)])[1])
+    landmarks = float(sum(np.linalg.slogdet(h[c:c + 2, c:c + 2])[1] for k, c in oracle.col.items()
+                          if chr(gtsam.Symbol(k).chr()) == "l"))
+    empty = float(np.linalg.slogdet(oracle.hessian(()))[1])
+    return pose + landmarks - empty, abs(pose) + abs(landmarks) + abs(empty)
+
+
 def close(a: float, b: float, rel: float = 1e-9) -> bool:
     return abs(a - b) <= rel * max(1.0, abs(b))
 
@@ -122,6 +135,77 @@ def test_bound_is_tight_when_the_gains_are_small(suburb_problem):
     assert small.sum() >= 3 and np.all(gains > 0)
     assert np.all(bounds[small] <= 1.05 * gains[small])
     assert np.all(bounds <= 1.5 * gains)
+
+
+# --------------------------------------------------------------------------- Fischer's score bounds
+
+
+def check_score_bounds(problem, suites) -> int:
+    """On every suite and every candidate: the fast engine's score bounds equal the decoupled dense
+    Hessian's log det (to the round-off allowance) and are never below the score; exact on ()."""
+    fe, oracle = FastEvaluator(problem), DenseOracle(problem)
+    n = len(problem.library)
+    checked = 0
+    for suite in suites:
+        own, each = fe.score_bounds(suite, list(range(n)))
+        f = fe.score(suite)
+        scores = fe.scores_with(suite, list(range(n)))
+        # the engine raises each bound by 1e-9 of its log dets' magnitudes (its round-off allowance)
+        want, scale = fischer_oracle(oracle, suite)
+        assert abs(own - want) <= 2e-9 * scale and own >= f, (suite, own, want, f)
+        if not suite:
+            assert abs(own - f) <= 2e-9 * scale  # nothing couples a pose with a landmark: Fischer is an equality
+        for c in range(n):
+            want, scale = fischer_oracle(oracle, tuple(sorted(set(suite) | {c})))
+            assert abs(each[c] - want) <= 2e-9 * scale, (suite, c, each[c], want)
+            assert each[c] >= scores[c], (suite, c, each[c], scores[c])
+            checked += 1
+    return checked
+
+
+def test_score_bounds_are_the_decoupled_log_det_and_bound_the_score_on_tiny(tiny_problem):
+    rng = np.random.default_rng(5)
+    n = len(tiny_problem.library)
+    suites = [(), (0,), (3, 17)] + [tuple(sorted(rng.choice(n, size=int(rng.integers(2, 9)), replace=False).tolist()))
+                                    for _ in range(2)]
+    assert check_score_bounds(tiny_problem, suites) == 5 * n
+
+
+@HYPOTHESIS
+@given(problem=problems(LIBRARY, 3, 6))
+def test_score_bounds_bound_the_score_on_random_small_problems(problem):
+    n = len(problem.library)
+    rng = np.random.default_rng(n + 1)
+    check_score_bounds(problem, [(), tuple(sorted(rng.choice(n, size=int(rng.integers(1, n)), replace=False).tolist()))])
+
+
+def test_score_bounds_spare_most_of_the_first_steps_evaluations(suburb_problem):
+    """One pick (at most one sensor): the lazy greedy without bounds scores every sensor; with the
+    score bounds it scores the sensors whose bound reaches the best one's score, and picks alike."""
+    one = Constraints(max_sensors=1)
+    n = len(suburb_problem.library)
+    plain = Selector(FastEvaluator(suburb_problem), RULES["uniform"], lazy=True, bound_from=0, constraints=one).select(110_000.0)
+    ev = FastEvaluator(suburb_problem)
+    bounded = Selector(ev, RULES["uniform"], lazy=True, constraints=one).select(110_000.0)
+    assert same_run(plain, bounded) and len(bounded.steps) == 1
+    assert plain.n_evaluations >= n  # every sensor (and the empty suite, once)
+    own, each = ev.score_bounds((), list(range(n)))
+    reach = int(np.sum(each >= bounded.score))
+    assert bounded.n_evaluations <= max(reach, 2) + 1 < n // 4  # batches of 2, and the empty suite once
+
+
+def test_score_bounds_are_declined_for_a_wide_base_band(tiny_problem):
+    """A base coupling keyframes far apart (a loop-closure prior, say) is no narrow band: no bound
+    is offered (it would cost a dense factorization); the odometry chain's band is."""
+    from sensorsel.evaluators.fast.fischer import MAX_HALF_BANDWIDTH, PoseBand
+    K = 20
+    near = np.array([MAX_HALF_BANDWIDTH]), np.array([0])
+    far = np.array([MAX_HALF_BANDWIDTH + 1]), np.array([0])
+    assert PoseBand(K, near, np.ones(1)).banded and not PoseBand(K, far, np.ones(1)).banded
+    fe = FastEvaluator(tiny_problem)
+    assert fe._pose_band.banded and fe.score_bounds((), [0]) is not None
+    fe._pose_band = PoseBand(tiny_problem.scenario.n_poses, far, np.ones(1))
+    assert fe.score_bounds((), [0]) is None
 
 
 # --------------------------------------------------------------------------------- the lazy greedy

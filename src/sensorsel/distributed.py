@@ -190,6 +190,14 @@ class RouteActor:
         self.busy_s, self.calls = self.busy_s + time.perf_counter() - t0, self.calls + 1
         return out
 
+    def gain_bounds(self, suite: tuple[int, ...], candidates: list[int]) -> np.ndarray | None:
+        """The route's engine's bounds on the gains (None where it has none or declines)."""
+        return self.evaluator.gain_bounds(suite, candidates)
+
+    def score_bounds(self, suite: tuple[int, ...], candidates: list[int]) -> tuple[float, np.ndarray] | None:
+        """The route's engine's cheap bounds on the scores (None where it has none)."""
+        return self.evaluator.score_bounds(suite, candidates)
+
     def busy(self) -> tuple[float, int, str]:
         """(seconds this actor spent scoring, calls it answered, its worker's address): the worker's
         share of a run's time; the rest of a step's wall time is the client, the network and Dask's
@@ -233,6 +241,16 @@ class _RemoteRoute(Evaluator):
         self._check_positions(base + tuple(cand))
         self.n_evaluations += len(cand)
         return np.asarray(self.owner._call({self.k: ("scores_with", (base, cand))})[self.k], dtype=float)
+
+    def gain_bounds(self, suite: Iterable[int], candidates: Sequence[int]) -> np.ndarray | None:
+        base, cand = as_suite(suite), [int(c) for c in candidates]
+        self._check_positions(base + tuple(cand))
+        return self.owner._call({self.k: ("gain_bounds", (base, cand))})[self.k]
+
+    def score_bounds(self, suite: Iterable[int], candidates: Sequence[int]) -> tuple[float, np.ndarray] | None:
+        base, cand = as_suite(suite), [int(c) for c in candidates]
+        self._check_positions(base + tuple(cand))
+        return self.owner._call({self.k: ("score_bounds", (base, cand))})[self.k]
 
 
 def _route_cost(problem: Problem) -> int:
@@ -385,6 +403,28 @@ class DistributedDomainEvaluator(DomainEvaluator):
         self.step_bytes.append((self.bytes_sent - s0, self.bytes_received - r0))
         per_route = np.stack([np.asarray(got[k], dtype=float) for k in range(len(self.recipes))])
         return self.combine(per_route)
+
+    def gain_bounds(self, suite: Iterable[int], candidates: Sequence[int]) -> np.ndarray | None:
+        """The routes' bounds on the gains, combined as in-process (every actor asked at once), or
+        None unless every route's engine gives them."""
+        base, cand = as_suite(suite), [int(c) for c in candidates]
+        self._check_positions(base + tuple(cand))
+        got = self._call({k: ("gain_bounds", (base, cand)) for k in range(len(self.recipes))})
+        if any(got[k] is None for k in range(len(self.recipes))):
+            return None
+        return self.combine(np.stack([np.asarray(got[k], dtype=float) for k in range(len(self.recipes))]))
+
+    def score_bounds(self, suite: Iterable[int], candidates: Sequence[int]) -> tuple[float, np.ndarray] | None:
+        """The routes' cheap bounds on the scores, combined as in-process, or None unless every
+        route's engine gives them."""
+        base, cand = as_suite(suite), [int(c) for c in candidates]
+        self._check_positions(base + tuple(cand))
+        got = self._call({k: ("score_bounds", (base, cand)) for k in range(len(self.recipes))})
+        if any(got[k] is None for k in range(len(self.recipes))):
+            return None
+        own = np.array([float(got[k][0]) for k in range(len(self.recipes))])
+        per_route = np.stack([np.asarray(got[k][1], dtype=float) for k in range(len(self.recipes))])
+        return float(self.combine(own)), self.combine(per_route)
 
     def busy(self) -> dict[str, tuple[float, int, str]]:
         """Each route's (seconds its actor spent scoring, calls it answered, the worker holding it)."""

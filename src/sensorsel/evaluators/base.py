@@ -82,6 +82,15 @@ class Evaluator(ABC):
         Computing them is not counted in :attr:`n_evaluations`."""
         return None
 
+    def score_bounds(self, suite: Iterable[int], candidates: Sequence[int]) -> tuple[float, np.ndarray] | None:
+        """Cheap upper bounds, in exact arithmetic, on f(S) and on each f(S + {c}) (shape
+        (len(candidates),)), or None when the engine has none (the default). Cheap: far below one
+        evaluation per suite (the fast engine: Fischer's inequality, :mod:`.fast.fischer`), so a
+        caller may ask for f(S)'s alone (no candidates) to judge whether they can help: a bound on
+        a gain is the bound on f(S + {c}) minus the exact f(S), so it is at least the gap between
+        the bound on f(S) and f(S). Not counted in :attr:`n_evaluations`."""
+        return None
+
 
 class ProblemEvaluator(Evaluator):
     """Scores suites on one problem (one route) by log det. Subclasses implement :meth:`_logdet`.

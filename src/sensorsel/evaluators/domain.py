@@ -108,6 +108,32 @@ class DomainEvaluator(Evaluator):
         self.n_evaluations += 1
         return float(self.combine(self.route_scores(suite)))
 
+    def gain_bounds(self, suite: Iterable[int], candidates: Sequence[int]) -> np.ndarray | None:
+        """Upper bounds on F(S + {c}) − F(S), shape (len(candidates),): the routes' bounds combined
+        (F is a combination of the routes' scores with non-negative factors), or None unless every
+        route's engine gives them (each judges their cost on its own route)."""
+        per_route = []
+        for ev in self.routes:
+            got = ev.gain_bounds(suite, candidates)
+            if got is None:
+                return None
+            per_route.append(got)
+        return self.combine(np.stack(per_route)) if per_route else None
+
+    def score_bounds(self, suite: Iterable[int], candidates: Sequence[int]) -> tuple[float, np.ndarray] | None:
+        """Upper bounds on F(S) and each F(S + {c}): the routes' cheap bounds combined, or None
+        unless every route's engine gives them."""
+        own, per_route = [], []
+        for ev in self.routes:
+            got = ev.score_bounds(suite, candidates)
+            if got is None:
+                return None
+            own.append(got[0])
+            per_route.append(got[1])
+        if not per_route:
+            return None
+        return float(self.combine(np.array(own))), self.combine(np.stack(per_route))
+
     def scores_with(self, suite: Iterable[int], candidates: Sequence[int]) -> np.ndarray:
         """F(S + {c}) for each candidate c, shape (len(candidates),): each route's engine scores the
         candidates against the shared base suite, then the routes are combined."""

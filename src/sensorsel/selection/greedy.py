@@ -26,8 +26,10 @@ and ``marginal``: f is monotone submodular, so a candidate's gain can only shrin
 last computed gain is an upper bound. Only candidates whose bound could still reach the best (within
 the tie tolerance) are re-scored, so the picks are exactly those of the plain greedy, with far fewer
 evaluations. Where the evaluator offers bounds on the gains (:meth:`Evaluator.gain_bounds`: the
-fast engine's per-measurement log det bounds from the base covariance), a candidate's bound is
-also capped by them (issue 16; same picks and scores, fewer evaluations: docs/speed.md).
+fast engine's per-measurement log det bounds from the base covariance) or on the scores
+(:meth:`Evaluator.score_bounds`: its Fischer bounds, poses and landmarks decoupled, which spare
+most of the first step's evaluations), a candidate's bound is also capped by them (issue 16; same
+picks and scores, fewer evaluations: docs/speed.md).
 """
 
 from __future__ import annotations
@@ -55,9 +57,12 @@ __all__ = ["BOUND_FROM", "LAZY_BATCH", "REL_TOL", "Selector", "check_affordable"
 #: costs the single-threaded run ~1% more evaluations (KITTI 03: 184 against 183).
 LAZY_BATCH = 2
 
-#: Lazy evaluation asks the evaluator for bounds on the gains (:meth:`Evaluator.gain_bounds`: one
-#: base covariance, ~2-4 evaluations' work on the fast engine) once per step, when more than this
-#: many candidates would still be re-scored after the first batch. 0: never (see docs/speed.md).
+#: Lazy evaluation asks the evaluator for bounds once per step, when more than this many candidates
+#: would still be re-scored after the first batch: first its cheap bounds on the scores
+#: (:meth:`Evaluator.score_bounds`: ~1 ms per candidate on the fast engine; also before the first
+#: batch where a candidate was never scored, as in the first step), then, if as many remain, its
+#: bounds on the gains (:meth:`Evaluator.gain_bounds`: one base covariance, ~3-6 evaluations' work
+#: on the fast engine). 0: never (see docs/speed.md).
 BOUND_FROM = 4
 
 
@@ -156,7 +161,7 @@ class Selector:
         exclude: library positions that may not be bought (e.g. sensors assumed to fail).
         progress: called as progress(picks_done, max_picks) after each pick.
         constraints: limits besides the budget; None: the budget alone.
-        bound_from: lazy only: ask the evaluator for gain bounds when more than this many
+        bound_from: lazy only: ask the evaluator for bounds (on the scores, then on the gains) when more than this many
             candidates would still be re-scored in a step (0: never). Same picks and scores
             either way; fewer evaluations when it helps.
     """
@@ -250,6 +255,26 @@ class Selector:
             constraints=feas.record,
         )
 
+    def _relax(self, suite: list[int], need: np.ndarray, f_cur: float, cost: float, costs: np.ndarray,
+               threshold: float, bound: np.ndarray, gain_tol: float) -> bool:
+        """Cap the ``need`` candidates' gain bounds with the evaluator's cheap score bounds
+        (:meth:`Evaluator.score_bounds`); False when it has none or they cannot help: each bound on
+        a gain is at least the gap between the bound on f(S) and f(S), so when a gain of that gap
+        already reaches ``threshold`` (the best J so far) for every candidate, nothing would change."""
+        ev = self.evaluator
+        got = ev.score_bounds(tuple(suite), [])
+        if got is None:
+            return False
+        gap = max(got[0] - f_cur, 0.0)
+        if np.isfinite(threshold) and np.all(self.rule.value(np.full(len(need), f_cur + gap), f_cur, cost, costs[need]) >= threshold):
+            return False
+        got = ev.score_bounds(tuple(suite), [int(i) for i in need])
+        if got is None:
+            return False
+        # the slack (the tie tolerance) as for gain_bounds; the evaluator allowed for its own round-off
+        bound[need] = np.minimum(bound[need], got[1] - f_cur + gain_tol)
+        return True
+
     @staticmethod
     def _why_nothing_fits(feas: FeasibleSet, available: np.ndarray, used: np.ndarray, bought: bool) -> str:
         """The stop reason when no available sensor fits on top of the suite."""
@@ -285,6 +310,7 @@ class Selector:
         else:
             batch = LAZY_BATCH
             bounded = self.bound_from <= 0
+            relaxed = self.bound_from <= 0  # the evaluator's cheap score bounds were asked for in this step
             while True:
                 informative = fresh & feasible & (f_new - f_cur > gain_tol)
                 if informative.any():
@@ -299,6 +325,12 @@ class Selector:
                 need = np.flatnonzero(stale)[j_bound >= threshold]
                 if len(need) == 0:
                     break
+                if not relaxed and (np.isinf(bound[need]).any() or (len(need) > self.bound_from and fresh.any())):
+                    # cheap bounds first: before the first batch where some candidate was never
+                    # scored (they order the batches), else where many would be re-scored
+                    relaxed = True
+                    if self._relax(suite, need, f_cur, cost, costs, threshold, bound, gain_tol):
+                        continue
                 if not bounded and len(need) > self.bound_from and fresh.any():
                     # bounds at the current suite, valid from now on (gains only shrink): a candidate
                     # whose bound cannot reach the best is never re-scored. The slack (the tie

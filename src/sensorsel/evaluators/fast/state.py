@@ -41,6 +41,16 @@ class KernelInput:
     layout: Layout
 
 
+@dataclass(frozen=True, eq=False)
+class SensorSums:
+    """One sensor's own information on the landmark and pose diagonal blocks (what it adds to any suite)."""
+
+    landmarks: np.ndarray  # (m,) landmarks it measures, sorted
+    d: np.ndarray  # (3, m) their information d00, d01, d11
+    poses: np.ndarray  # (k,) keyframes it measures from, sorted
+    a: np.ndarray  # (6, k) their pose-diagonal information (unique entries)
+
+
 class StateBuilder:
     """The per-pair pieces of a linearized library, and the suite states built from them.
 
@@ -64,6 +74,7 @@ class StateBuilder:
         self.sensor_w = tuple(np.ascontiguousarray((1.0 / s**2).T) for s in lin.sensor_sigmas)  # (2, n_s)
         bl = lin.base_landmark_information
         self.base_ll = np.stack([bl[:, 0, 0], bl[:, 0, 1], bl[:, 1, 1]])  # (3, M)
+        self._sensor_sums: dict[int, SensorSums] = {}
 
     def base(self, suite: Suite) -> BaseState:
         """State of a canonical suite: pair weights, sums, layout and W of its active pairs."""
@@ -76,6 +87,17 @@ class StateBuilder:
         self._accumulate(d, a, act, w[:, act])
         layout = self.planner.layout(act)
         return BaseState(suite, w, d, a, layout, self._wpl(w[:, act], np.take(self.hpl, act, axis=1)))
+
+    def sensor_sums(self, c: int) -> SensorSums:
+        """Sensor ``c``'s own landmark and pose-diagonal information (computed once, then kept)."""
+        got = self._sensor_sums.get(c)
+        if got is None:
+            pairs, w = self.sensor_pairs[c], self.sensor_w[c]
+            lm, ps = np.unique(self.pair_landmark[pairs]), np.unique(self.pair_pose[pairs])
+            d, a = np.zeros((3, self.n_landmarks)), np.zeros((6, self.n_poses))
+            self._accumulate(d, a, pairs, w)
+            got = self._sensor_sums[c] = SensorSums(lm, d[:, lm], ps, a[:, ps])
+        return got
 
     def candidate(self, base: BaseState, c: int) -> KernelInput:
         """The kernel's input for ``base.suite + {c}``; ``base`` is not written to."""
