@@ -376,3 +376,22 @@ def test_a_sensor_that_sees_nothing_adds_exactly_nothing(tiny_problem):
     assert ev.logdet(()) == ev.logdet(tuple(range(problem.n_sensors)))
     assert np.all(ev.scores_with((), [0, 1, 2]) == 0.0)
     assert close(ev.baseline_logdet, ReferenceEvaluator(problem).baseline_logdet)
+
+
+def test_a_grown_layout_answers_the_sparse_test_from_its_base_without_its_own_pattern(suburb_problem):
+    """A candidate measuring pairs its base does not gets a layout of its own; its pose-block pattern
+    holds the base's, so where the base is already too dense for the sparse path the candidate's
+    answer is taken from it (no pattern built), and it is the answer its own pattern gives."""
+    from sensorsel.evaluators.fast.kernel import SPARSE_BELOW
+
+    fe = FastEvaluator(suburb_problem)
+    lib = suburb_problem.library
+    base = fe._states.base((lib.position("LRL-roof"),))
+    grown = [x.layout for c in range(len(lib)) if (x := fe._states.candidate(base, c)).layout is not base.layout]
+    assert grown and all(g.grown_from is base.layout for g in grown)
+    assert base.layout.density >= SPARSE_BELOW
+    for g in grown:
+        assert not g.density_below(SPARSE_BELOW) and "pattern" not in g.__dict__
+        assert np.all(g.pattern[base.layout.pattern]) and g.density >= base.layout.density  # a superset, built on demand
+        for limit in (0.0, base.layout.density, g.density, 1.01):
+            assert g.density_below(limit) == (g.density < limit)

@@ -161,7 +161,7 @@ class Kernel:
         n = self.n
         P = scratch.array("pose", n * n).reshape(n, n)
         logdet = self._schur(P, wpl, d, a, layout)
-        if layout.density < self.sparse_below:
+        if layout.density_below(self.sparse_below):
             self._count(splu=1)
             return logdet + self._sparse_logdet(P, layout.pattern)
         self._count(potrf=1)

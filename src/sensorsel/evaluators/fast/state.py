@@ -113,7 +113,7 @@ class StateBuilder:
             # the candidate measures pairs the base does not: a layout of its own
             w = base.w.copy()
             w[:, pairs] += wc
-            layout = self.planner.layout(np.flatnonzero(w[0] + w[1] > 0))
+            layout = self.planner.layout(np.flatnonzero(w[0] + w[1] > 0), grown_from=base.layout)
             wpl = self._wpl(w[:, layout.act], np.take(self.hpl, layout.act, axis=1))
         else:
             wpl = base.wpl.copy()
