@@ -65,6 +65,66 @@ def test_whitened_blocks_are_gtsams_own_linearization(tiny_problem):
     assert checked > 50
 
 
+def _gtsam_pair_jacobians(problem, lin, pairs) -> np.ndarray:
+    """(n, 2, 5) GTSAM's own linearization of one unit-noise BearingRangeFactor2D per pair."""
+    from sensorsel.graph import add_bearing_range
+
+    sc = problem.scenario
+    pk, pj = lin.pair_pose[pairs], lin.pair_landmark[pairs]
+    d = sc.landmarks[pj] - sc.keyframes.poses[pk, :2]
+    graph = gtsam.NonlinearFactorGraph()
+    add_bearing_range(graph, pk, pj, np.arctan2(d[:, 1], d[:, 0]) - sc.keyframes.poses[pk, 2],
+                      np.hypot(d[:, 0], d[:, 1]), gtsam.noiseModel.Unit.Create(2))
+    gauss = graph.linearize(GraphBuilder(problem).values)
+    out = np.zeros((len(pairs), 2, 5))
+    for i in range(gauss.size()):
+        f = gauss.at(i)
+        jac, _ = f.jacobian()  # columns in the factor's key order: X(k) then L(j)
+        assert gtsam.Symbol(f.keys()[0]).chr() == ord("x")
+        out[i] = jac
+    return out
+
+
+@pytest.mark.parametrize("which", ["tiny", "suburb", "kitti03"])
+def test_closed_form_pair_jacobians_are_gtsams_linearization(which, tiny_problem, suburb_problem, request):
+    """Every pair of the fixtures (a random 3,000 of KITTI 03's), against GTSAM's linearization of
+    the pair's BearingRangeFactor2D: to 1e-12 of the row's largest entry."""
+    problem = {"tiny": tiny_problem, "suburb": suburb_problem}.get(which) or request.getfixturevalue("kitti03_problem")
+    lin = linearize_library(problem)
+    n = len(lin.pair_pose)
+    pairs = np.arange(n) if n <= 3000 else np.sort(np.random.default_rng(16).choice(n, 3000, replace=False))
+    want = _gtsam_pair_jacobians(problem, lin, pairs)
+    got = lin.pair_jacobian[pairs]
+    scale = np.abs(want).max(axis=2, keepdims=True)
+    assert np.all(np.abs(got - want) <= 1e-12 * np.maximum(scale, 1.0)), np.abs(got - want).max()
+    assert len(pairs) >= min(n, 3000) > 100
+
+
+def test_closed_form_jacobians_hold_at_every_heading_and_range():
+    """Random geometry through the ±π seam of the heading and the bearing, 1 m to 2 km away."""
+    from sensorsel.graph import bearing_range_jacobians
+
+    rng = np.random.default_rng(7)
+    n = 400
+    poses = np.column_stack([rng.uniform(-500, 500, n), rng.uniform(-500, 500, n),
+                             np.r_[rng.uniform(-np.pi, np.pi, n - 4), [np.pi, -np.pi, np.nextafter(np.pi, 0), 0.0]]])
+    dist = np.exp(rng.uniform(0.0, np.log(2000.0), n))
+    angle = np.r_[rng.uniform(-np.pi, np.pi, n - 4), [np.pi, -np.pi, np.pi / 2, 0.0]]
+    points = poses[:, :2] + dist[:, None] * np.column_stack([np.cos(angle), np.sin(angle)])
+    got = bearing_range_jacobians(poses, points)
+    for i in range(n):
+        pose = gtsam.Pose2(*poses[i])
+        point = gtsam.Point2(*points[i])
+        local = pose.transformTo(point)
+        f = gtsam.BearingRangeFactor2D(gtsam.symbol("x", 0), gtsam.symbol("l", 0), gtsam.Rot2(np.arctan2(local[1], local[0])),
+                                       float(np.hypot(*local)), gtsam.noiseModel.Unit.Create(2))
+        values = gtsam.Values()
+        values.insert(gtsam.symbol("x", 0), pose)
+        values.insert(gtsam.symbol("l", 0), point)
+        jac, _ = f.linearize(values).jacobian()
+        np.testing.assert_allclose(got[i], jac, rtol=0, atol=1e-12 * max(1.0, np.abs(jac).max()))
+
+
 def test_unit_jacobian_matches_hand_geometry(suburb_problem):
     """Bearing and range of landmark l from pose (t, θ), differentiated by hand: local point
     q = R(θ)^T (l - t); pose perturbation (dx, dy, dθ) in the body frame moves q by
