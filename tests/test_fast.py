@@ -455,3 +455,26 @@ def test_a_grown_layout_answers_the_sparse_test_from_its_base_without_its_own_pa
         assert np.all(g.pattern[base.layout.pattern]) and g.density >= base.layout.density  # a superset, built on demand
         for limit in (0.0, base.layout.density, g.density, 1.01):
             assert g.density_below(limit) == (g.density < limit)
+
+
+def test_bases_measuring_the_same_pairs_share_their_layouts_and_give_the_same_bits(suburb_problem):
+    """A step that buys a sensor adding no pair (a camera inside the LiDAR's range) keeps the base's
+    layout and the layouts its candidates grew; every score is the bits a fresh engine computes."""
+    lib = suburb_problem.library
+    lidar = lib.position("LRL-roof")
+    fe = FastEvaluator(suburb_problem)
+    cands = list(range(len(lib)))
+    first = fe.scores_with((lidar,), cands)
+    adds_none = [c for c in cands if c != lidar and fe._states.candidate(fe._base_for((lidar,)), c).layout is fe._base_for((lidar,)).layout]
+    grown = [c for c in cands if fe._states.candidate(fe._base_for((lidar,)), c).layout is not fe._base_for((lidar,)).layout]
+    assert adds_none and grown
+    b1 = fe._base_for((lidar,))
+    grown_before = {c: fe._states.candidate(b1, c).layout for c in grown}
+    s2 = tuple(sorted((lidar, adds_none[0])))
+    second = fe.scores_with(s2, cands)
+    b2 = fe._base_for(s2)
+    assert b2.layout is b1.layout  # same pairs: the same layout object
+    assert sum(fe._states.candidate(b2, c).layout is grown_before[c] for c in grown) >= 1
+    fresh1, fresh2 = FastEvaluator(suburb_problem), FastEvaluator(suburb_problem)
+    assert first.tobytes() == fresh1.scores_with((lidar,), cands).tobytes()
+    assert second.tobytes() == fresh2.scores_with(s2, cands).tobytes()
