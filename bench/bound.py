@@ -5,8 +5,9 @@ bounds of :mod:`sensorsel.evaluators.fast.bound`, side by side, in one run.
 
 A ROUTE is ``suburb`` (the bundled fixture) or ``SEQ@HZ`` (KITTI, real pole maps), default
 ``suburb 03@1 00@1``; ``--landmarks synthetic`` generates the KITTI routes' maps instead. For each route one problem and, per run, a fresh fast evaluator (so no run
-reuses another's cached state); ``off`` is the lazy greedy as before (``bound_from=0``), ``on``
-asks for bounds as shipped (:data:`sensorsel.selection.greedy.BOUND_FROM`; the engine declines
+reuses another's cached state); ``off`` is the lazy greedy without any bound (``bound_from=0``:
+neither the Fischer bounds on the scores nor the covariance bounds on the gains), ``on``
+asks for both as shipped (:data:`sensorsel.selection.greedy.BOUND_FROM`; the engine declines
 where they are predicted not to pay, :data:`sensorsel.evaluators.fast.evaluator.BOUND_SPARE`),
 ``always`` (with ``--always``) computes them wherever asked (``bound_spare=0``). Lazy greedy, uniform
 rule, $110,000, no certificate. The two alternate (off, on, on, off, ...) over ``--repeat`` rounds;
