@@ -319,3 +319,25 @@ def test_bad_inputs_are_refused():
         robust_optimum(ev, -5.0, 1)
     with pytest.raises(InputError, match="failures"):
         robust_bound(ev, 1_000.0, 1.5)
+
+
+def test_the_memo_passes_its_engines_bounds_on_so_robust_runs_score_fewer_suites(suburb_problem):
+    """The memo forwards the engine's bounds (they cost no evaluation); a greedy run through it picks
+    what the bare engine picks, bit for bit, scoring no more suites than the bare engine's run
+    without bounds (bound_from=0)."""
+    from sensorsel.evaluators import FastEvaluator
+    from sensorsel.robust.memo import MemoEvaluator
+    from sensorsel.selection.greedy import Selector
+    from sensorsel.selection.registry import RULES
+
+    n = len(suburb_problem.library)
+    inner = FastEvaluator(suburb_problem)
+    memo = MemoEvaluator(inner)
+    own, each = memo.score_bounds((0,), list(range(n)))
+    want_own, want_each = FastEvaluator(suburb_problem).score_bounds((0,), list(range(n)))
+    assert own == want_own and each.tobytes() == want_each.tobytes()
+    assert memo.gain_bounds((0,), list(range(1, n))).tobytes() == inner.gain_bounds((0,), list(range(1, n))).tobytes()
+    through = Selector(MemoEvaluator(FastEvaluator(suburb_problem)), RULES["uniform"]).select(60_000.0)
+    bare = Selector(FastEvaluator(suburb_problem), RULES["uniform"], bound_from=0).select(60_000.0)
+    assert through.suite == bare.suite and [s.score for s in through.steps] == [s.score for s in bare.steps]
+    assert through.n_evaluations < bare.n_evaluations

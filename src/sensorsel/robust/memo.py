@@ -64,6 +64,15 @@ class MemoEvaluator(Evaluator):
         return np.array([self._f[k] for k in keys], dtype=float)
 
 
+    def gain_bounds(self, suite: Iterable[int], candidates: Sequence[int]) -> np.ndarray | None:
+        """The wrapped engine's bounds on the gains (bounds are not memoized: they cost no evaluation)."""
+        return self.inner.gain_bounds(suite, candidates)
+
+    def score_bounds(self, suite: Iterable[int], candidates: Sequence[int]) -> tuple[float, np.ndarray] | None:
+        """The wrapped engine's cheap bounds on the scores."""
+        return self.inner.score_bounds(suite, candidates)
+
+
 def memoized(evaluator: Evaluator) -> MemoEvaluator:
     """``evaluator`` itself if it memoizes already, else a :class:`MemoEvaluator` around it."""
     return evaluator if isinstance(evaluator, MemoEvaluator) else MemoEvaluator(evaluator)
