@@ -59,7 +59,7 @@ LAZY_BATCH = 2
 
 #: Lazy evaluation asks the evaluator for bounds once per step, when more than this many candidates
 #: would still be re-scored after the first batch: first its cheap bounds on the scores
-#: (:meth:`Evaluator.score_bounds`: ~1 ms per candidate on the fast engine; also before the first
+#: (:meth:`Evaluator.score_bounds`: ~0.2 ms per candidate on the fast engine; also before the first
 #: batch where a candidate was never scored, as in the first step), then, if as many remain, its
 #: bounds on the gains (:meth:`Evaluator.gain_bounds`: one base covariance, ~3-6 evaluations' work
 #: on the fast engine). 0: never (see docs/speed.md).
@@ -266,7 +266,8 @@ class Selector:
         if got is None:
             return False
         gap = max(got[0] - f_cur, 0.0)
-        if np.isfinite(threshold) and np.all(self.rule.value(np.full(len(need), f_cur + gap), f_cur, cost, costs[need]) >= threshold):
+        at_least = self.rule.value(np.full(len(need), f_cur + gap), f_cur, cost, costs[need])  # J of a gain of the gap
+        if np.isfinite(threshold) and np.all(at_least >= threshold):
             return False
         got = ev.score_bounds(tuple(suite), [int(i) for i in need])
         if got is None:
