@@ -33,7 +33,7 @@ from sensorsel.library import load_library
 from sensorsel.evaluators import make_evaluator
 from sensorsel.problem import build_problem
 from sensorsel.scenario import ScenarioSpec, load_scenario
-from sensorsel.selection import RULES, GreedyResult, greedy
+from sensorsel.selection import RULES, greedy
 
 REPO = Path(__file__).resolve().parents[1]
 LIBRARY = load_library()

@@ -30,7 +30,7 @@ from sensorsel.errors import InputError
 from sensorsel.evaluators import Evaluator, as_suite, make_evaluator
 from sensorsel.library import Slot, load_library
 from sensorsel.problem import build_problem
-from sensorsel.resilient import CacheWarning, resilient_select, run_periods, worst_case
+from sensorsel.resilient import CacheWarning, resilient_select, run_periods
 from sensorsel.robust import robust_bound, robust_optimum, robust_select
 from sensorsel.scenario import ScenarioSpec, load_scenario
 from sensorsel.selection import RULES
@@ -79,12 +79,21 @@ def random_case(seed: int) -> tuple[Evaluator, float, Constraints]:
         slots.append(Slot(f"{k + 1}", "any", int(rng.integers(1, 3)), members))
     lib = dataclasses.replace(base, slots=tuple(slots))
     budget = float(rng.choice([6_000.0, 12_000.0, 110_000.0]))
-    power = float(lib.resource("power_w").sum())
-    limits = {"power_w": round(float(rng.uniform(0.2, 0.7)) * power, 1)} if rng.random() < 0.7 else {}
-    if rng.random() < 0.4:
+    return TableEvaluator(lib), budget, draw_constraints(rng, lib, perm, budget)
+
+
+def draw_constraints(rng: np.random.Generator, lib, perm: np.ndarray, budget: float, *,
+                     power_share: tuple[float, float] = (0.2, 0.7), p_mass: float = 0.4, p_pick: float = 0.5) -> Constraints:
+    """Random constraints ``lib`` can meet: a power limit (a ``power_share`` of the library's, 70% of
+    the time), a mass limit (``p_mass`` of the time), the last sensor of ``perm`` required and the one
+    before excluded (``p_pick`` each), a largest number of sensors (half the time), owned (half the
+    time there is a required sensor). A required sensor that breaks a drawn limit is drawn away."""
+    limits = ({"power_w": round(float(rng.uniform(*power_share)) * float(lib.resource("power_w").sum()), 1)}
+              if rng.random() < 0.7 else {})
+    if p_mass and rng.random() < p_mass:
         limits["mass_kg"] = round(float(rng.uniform(0.3, 0.8)) * float(lib.resource("mass_kg").sum()), 2)
-    require = [lib.ids[int(perm[-1])]] if rng.random() < 0.5 else []
-    exclude = [lib.ids[int(perm[-2])]] if rng.random() < 0.5 else []
+    require = [lib.ids[int(perm[-1])]] if rng.random() < p_pick else []
+    exclude = [lib.ids[int(perm[-2])]] if rng.random() < p_pick else []
     max_sensors = int(rng.integers(2, 5)) if rng.random() < 0.5 else None
     c = Constraints.of(limits=limits, require=require, owned=bool(require) and rng.random() < 0.5, exclude=exclude,
                        max_sensors=max_sensors)
@@ -92,7 +101,7 @@ def random_case(seed: int) -> tuple[Evaluator, float, Constraints]:
         feasible_set(lib, budget, c)
     except InputError:  # the required sensor breaks a drawn limit: draw it away
         c = dataclasses.replace(c, require=(), owned=False)
-    return TableEvaluator(lib), budget, c
+    return c
 
 
 def feasible_suites(lib, budget: float, c: Constraints) -> list[tuple[int, ...]]:

@@ -14,7 +14,6 @@ import functools
 import itertools
 import json
 import math
-from types import SimpleNamespace
 
 import numpy as np
 import pytest

@@ -16,15 +16,14 @@ import pytest
 
 from oracles import every_suite_score
 from sensorsel.api import run_robust
-from sensorsel.constraints import Constraints, feasible_set
-from sensorsel.errors import InputError
+from sensorsel.constraints import feasible_set
 from sensorsel.evaluators import make_evaluator
 from sensorsel.library import Slot
 from sensorsel.problem import Domain, DomainRoute, build_problem
 from sensorsel.robust import knapsack_drop, robust_bound, worst_route_select
 from sensorsel.robust.bound import knapsack_drop_rows
 from sensorsel.scenario import ScenarioSpec, load_scenario
-from test_constraints_selectors import LIBRARY, brute_worst, feasible_suites, random_case, tol
+from test_constraints_selectors import LIBRARY, brute_worst, draw_constraints, feasible_suites, random_case, tol
 
 
 def brute_knapsack(values, usage, capacity, drop, forced) -> float:
@@ -158,16 +157,7 @@ def worst_route_case(seed: int):
     domain = Domain(tuple(DomainRoute(f"r{k}", dataclasses.replace(p, library=lib), 1.0)
                           for k, p in enumerate(two_route_problems())), "test")
     budget = float(rng.choice([6_000.0, 12_000.0, 110_000.0]))
-    limits = {"power_w": round(float(rng.uniform(0.25, 0.7)) * float(lib.resource("power_w").sum()), 1)} if rng.random() < 0.7 else {}
-    require = [lib.ids[int(perm[-1])]] if rng.random() < 0.4 else []
-    exclude = [lib.ids[int(perm[-2])]] if rng.random() < 0.4 else []
-    max_sensors = int(rng.integers(2, 5)) if rng.random() < 0.5 else None
-    c = Constraints.of(limits=limits, require=require, owned=bool(require) and rng.random() < 0.5, exclude=exclude,
-                       max_sensors=max_sensors)
-    try:
-        feasible_set(lib, budget, c)
-    except InputError:  # the required sensor breaks a drawn limit
-        c = dataclasses.replace(c, require=(), owned=False)
+    c = draw_constraints(rng, lib, perm, budget, power_share=(0.25, 0.7), p_mass=0.0, p_pick=0.4)
     return domain, budget, c
 
 

@@ -19,7 +19,6 @@ from click.testing import CliRunner
 from sensorsel import problem as problem_mod
 from sensorsel.cli import cli
 from sensorsel.errors import InputError, ScenarioError
-from sensorsel.library import load_library
 from sensorsel.problem import build_problem, check_problem_size, load_problem
 from sensorsel.scenario import (
     MAX_COORD_M,

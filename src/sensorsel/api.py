@@ -36,8 +36,8 @@ from .resilient import resilient_report as _resilient_report
 from .robust import RobustResult, robust_choice, robust_select, worst_route_select
 from .robust import run_robust as _run_robust
 from .selection import GreedyResult, Progress, check_budget, check_rule, greedy
-from .simulate import SimulationResult, simulate
-from .tradespace import TradespaceResult, run_tradespace
+from .simulate import simulate
+from .tradespace import run_tradespace
 
 __all__ = ["CertifiedGreedyResult", "DomainDesign", "DomainScoreResult", "ProblemInfo", "RouteScore", "ScoreResult",
            "certify_result", "design_domain", "load_domain", "load_problem", "resilient_report", "run_greedy", "run_robust", "RobustResult",

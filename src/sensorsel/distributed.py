@@ -38,7 +38,7 @@ from typing import Any, Callable, Iterable, Sequence
 
 import numpy as np
 
-from .errors import InputError, SensorselError
+from .errors import SensorselError
 from .evaluators import Evaluator, ProblemEvaluator, as_suite, make_evaluator
 from .evaluators.domain import DomainEvaluator, check_aggregate
 from .evaluators.registry import check_engine

@@ -68,7 +68,7 @@ from .domain import _read_yaml as _read_domain_yaml
 from .domain import load_domain_scenarios
 from .fileio import atomic_write_text
 from .library import load_library
-from .problem import Domain, Fingerprint, GraphSettings, Target, TargetInfo, load_domain, load_problem
+from .problem import Fingerprint, GraphSettings, Target, TargetInfo, load_domain, load_problem
 from .progress import Progress
 from .resilient import CacheWarning, resilient_select, worst_case
 from .robust import robust_select

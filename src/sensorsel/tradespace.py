@@ -57,7 +57,7 @@ from .errors import InputError
 from .evaluators import Evaluator, evaluator_for
 from .fileio import atomic_write_text
 from .library import SensorLibrary
-from .problem import ProblemInfo, Target, TargetInfo
+from .problem import Target, TargetInfo
 from .selection import RULES, GreedyResult, Rule, Step, check_budget, check_rule, greedy
 
 #: The rules of the paper's Fig. 4 (uniform, cost-benefit) and the classic marginal rule.

@@ -47,7 +47,7 @@ from ..constraints import Constraints, FeasibleSet, feasible_set
 from ..errors import InputError
 from ..evaluators import Evaluator, make_evaluator
 from ..library import SensorLibrary
-from ..problem import DomainInfo, Problem, ProblemInfo, TargetInfo
+from ..problem import DomainInfo, Problem, TargetInfo
 from ..selection import REL_TOL, GreedyResult, check_budget
 from .knapsack import MAX_DP_CELLS, KnapsackSolution, knapsack, packing_bound
 

@@ -37,7 +37,7 @@ from ..constraints import Constraints, FeasibleSet, feasible_set
 from ..errors import InputError
 from ..library import SensorLibrary
 from ..evaluators import Evaluator
-from ..problem import ProblemInfo, TargetInfo
+from ..problem import TargetInfo
 from ..selection import REL_TOL, RULES, GreedyResult, check_budget, check_rule, greedy
 from .certificate import certificate
 from .knapsack import MAX_DP_CELLS, CostUnits, cost_units, fractional_bound, packing_bound

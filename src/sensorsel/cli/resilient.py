@@ -14,7 +14,7 @@ from ..errors import InputError
 from ..fileio import output_dir
 from ..problem import Domain
 from .options import cluster_from, cluster_options, constraint_options, constraints_from, usage_table
-from .options import (budget_option, engine_options, json_option, output_option, plot_format_option, problem_from, progress_bar,
+from .options import (budget_option, engine_options, json_option, output_option, plot_format_option, progress_bar,
                       print_target, quiet_option, run, table, target_from, target_options)
 from .options import plot_format as plot_format_of
 from .rules import rule_option

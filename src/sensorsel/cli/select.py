@@ -18,10 +18,10 @@ from ..certify import CertifiedGreedyResult, format_certificate
 from ..fileio import output_dir, output_file
 from ..constraints import feasible_set
 from ..library import SensorLibrary
-from ..selection import RULES, check_affordable, check_budget
+from ..selection import RULES, check_affordable
 from ..tradespace import DEFAULT_RULES, Architecture, parse_budgets, parse_rules, run_tradespace, write_csv
 from .options import cluster_from, cluster_options, constraint_options, constraints_from, usage_table
-from .options import (budget_option, engine_options, json_option, output_option, plot_format_option, problem_from, progress_bar,
+from .options import (budget_option, engine_options, json_option, output_option, plot_format_option, progress_bar,
                       compact_suite, print_target, quiet_option, run, table, target_from,
                       target_options)
 from .options import plot_format

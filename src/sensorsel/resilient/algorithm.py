@@ -14,8 +14,8 @@ import numpy as np
 from .. import results
 from ..constraints import Constraints, FeasibleSet, feasible_set
 from ..errors import InputError
-from ..evaluators import DEFAULT_ENGINE, ENGINES, Evaluator, as_suite, evaluator_for, make_evaluator
-from ..problem import Problem, ProblemInfo, Target, TargetInfo
+from ..evaluators import DEFAULT_ENGINE, ENGINES, Evaluator, as_suite, evaluator_for
+from ..problem import Problem, Target, TargetInfo
 from ..selection import REL_TOL, check_budget, check_rule, greedy
 from .cache import fingerprint, load_matching
 from .records import Comparison, ResilientResult, WorstCase

@@ -15,7 +15,7 @@ from ..constraints import Constraints, feasible_set
 from ..errors import InputError
 from ..fileio import atomic_write_text
 from ..library import SensorLibrary
-from ..evaluators import Evaluator, make_evaluator
+from ..evaluators import make_evaluator
 from ..problem import Problem, build_problem
 from ..scenario import Scenario
 from ..selection import check_budget

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 from ..constraints import Constraints
 from ..errors import InputError
-from ..problem import ProblemInfo, TargetInfo
+from ..problem import TargetInfo
 from ..selection import GreedyResult
 
 #: Cell states of the selection grid.

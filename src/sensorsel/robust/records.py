@@ -8,7 +8,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ..constraints import Constraints
-from ..problem import ProblemInfo, TargetInfo
+from ..problem import TargetInfo
 
 
 @dataclass(frozen=True)

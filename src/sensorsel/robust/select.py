@@ -37,7 +37,7 @@ import numpy as np
 from ..constraints import Constraints, feasible_set
 from ..errors import InputError
 from ..evaluators import Evaluator, as_suite, evaluator_for
-from ..problem import ProblemInfo, Target, TargetInfo
+from ..problem import Target, TargetInfo
 from ..resilient import RobustChoice, WorstCase, check_alpha, recorded, resilient_select, worst_case
 from ..selection import REL_TOL, check_budget, check_rule, greedy
 from .bound import DEFAULT_BOUND_NODES, robust_bound

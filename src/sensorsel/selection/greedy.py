@@ -44,7 +44,7 @@ from ..constraints import Constraints, FeasibleSet, feasible_set, recorded
 from ..errors import InputError
 from ..evaluators import Evaluator
 from ..library import SensorLibrary
-from ..problem import ProblemInfo, TargetInfo
+from ..problem import TargetInfo
 from .records import GreedyResult, Progress, Step
 from .registry import RULES, check_rule
 from .rules import REL_TOL, Rule

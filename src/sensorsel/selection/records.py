@@ -6,7 +6,7 @@ from dataclasses import dataclass
 from typing import Callable
 
 from ..constraints import Constraints
-from ..problem import ProblemInfo, TargetInfo
+from ..problem import TargetInfo
 
 #: progress(done, total): called after each pick; total is an upper bound on the number of picks.
 Progress = Callable[[int, int], None]

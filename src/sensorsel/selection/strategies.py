@@ -13,7 +13,7 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from typing import ClassVar, Sequence
 
-from ..problem import ProblemInfo, TargetInfo
+from ..problem import TargetInfo
 from .records import GreedyResult
 from .rules import REL_TOL
 
