@@ -47,6 +47,7 @@ _SYM_BLOCK = 128
 #: :func:`pair_quadratics` multiplies spans of covariance rows joining keyframes less than this many
 #: apart (gaps of 1/4/8/16/32 keyframes: 112/87/83/79/80 ms for those products on KITTI 00 at 1 Hz)
 _ROW_GAP = 16
+_KEY_GAP = 4
 
 
 def pose_covariance(kernel: Kernel, base: BaseState) -> np.ndarray:
@@ -72,9 +73,10 @@ def pose_covariance(kernel: Kernel, base: BaseState) -> np.ndarray:
     return cov
 
 
-def _runs(keyframes: np.ndarray) -> list[tuple[int, int]]:
-    """[start, end) positions of the runs of consecutive keyframes in the sorted ``keyframes``."""
-    starts = np.flatnonzero(np.r_[True, np.diff(keyframes) != 1])
+def _runs(keyframes: np.ndarray, gap: int = 1) -> list[tuple[int, int]]:
+    """[start, end) positions of the runs of the sorted ``keyframes`` whose neighbours are at most
+    ``gap`` keyframes apart (1: runs of consecutive keyframes)."""
+    starts = np.flatnonzero(np.r_[True, np.diff(keyframes) > gap])
     return list(zip(starts.tolist(), np.r_[starts[1:], len(keyframes)].tolist()))
 
 
@@ -92,42 +94,51 @@ def pair_quadratics(states: StateBuilder, planner: Planner, base: BaseState, cov
     G = np.zeros((n, 3, 2))  # (Σ_pp W_j)_k of each pair
     S = np.zeros((states.n_landmarks, 2, 2))  # W_jᵀ Σ_pp W_j of each landmark
     lay = base.layout
-    W = base.wpl.reshape(2, 3, -1).transpose(2, 1, 0)  # (Pa, 3, 2): W[a, c] of each active pair
     grp_b = planner.group[lay.landmark]
     grp_n = planner.group[pj]
     ob = np.argsort(grp_b, kind="stable")
     on = np.argsort(grp_n, kind="stable")
     gb_sorted, gn_sorted = grp_b[ob], grp_n[on]
+    # the base pairs in group order, once: each group's are then contiguous slices (pairs are
+    # sorted by keyframe, so within a group too: the sort is stable)
+    W = base.wpl.reshape(2, 3, -1).transpose(2, 1, 0)[ob]  # (Pa, 3, 2): W[a, c] of each active pair
+    bk_all, bl_all = lay.pose[ob], lay.landmark[ob]
     groups = np.unique(grp_n)
     lo_b, hi_b = np.searchsorted(gb_sorted, groups), np.searchsorted(gb_sorted, groups, side="right")
     lo_n, hi_n = np.searchsorted(gn_sorted, groups), np.searchsorted(gn_sorted, groups, side="right")
     three = np.arange(3)
+
     def group(b0: int, b1: int, n0: int, n1: int) -> None:
         """G of the group's requested pairs and S of its landmarks (rows and landmarks of no other group)."""
-        bp = ob[b0:b1]  # base active pairs of the group
         np_ = on[n0:n1]  # requested pairs of the group
-        bk, bl = lay.pose[bp], lay.landmark[bp]
+        bk, bl = bk_all[b0:b1], bl_all[b0:b1]  # keyframe (non-decreasing) and landmark of the base pairs
         lms, bcol = np.unique(bl, return_inverse=True)
-        keys, brow = np.unique(bk, return_inverse=True)
-        Wb = W[bp]  # (n_b, 3, 2)
-        # each (keyframe, landmark) pair is active once: its block is written once (0.0 + W, as a sum into zeros)
-        Wg4 = np.zeros((len(keys), 3, len(lms), 2))
-        Wg4[brow, :, bcol, :] = Wb + 0.0
-        Wg = Wg4.reshape(3 * len(keys), 2 * len(lms))
+        first = np.r_[True, bk[1:] != bk[:-1]]
+        keys = bk[first]
+        # Wg: the group's W on the keyframes of its key spans (keys less than _ROW_GAP apart
+        # joined, zero rows in between: fewer, larger products), 3 rows per keyframe, 2 columns
+        # per landmark; each (keyframe, landmark) pair is active once, so written once
+        key_spans = _runs(keys, _KEY_GAP)
+        span_start = np.array([keys[k0] for k0, _ in key_spans])
+        span_len = np.array([keys[k1 - 1] + 1 - keys[k0] for k0, k1 in key_spans])
+        span_off = np.r_[0, np.cumsum(span_len)[:-1]]
+        key_span = np.repeat(np.arange(len(key_spans)), [k1 - k0 for k0, k1 in key_spans])
+        key_row = span_off[key_span] + keys - span_start[key_span]  # each key's keyframe row in Wg
+        Wg4 = np.zeros((int(span_len.sum()), 3, len(lms), 2))
+        Wg4[key_row[np.cumsum(first) - 1], :, bcol, :] = W[b0:b1] + 0.0
+        Wg = Wg4.reshape(-1, 2 * len(lms))
         # rows: the keyframes of the requested pairs and of the base pairs (for W_jᵀ Σ W_j)
         rows_k = np.union1d(keys, pk[np_])
         # Z = Σ_pp[rows, keys] @ Wg (3 |rows|, 2 |lms|), by products on views of Σ_pp: one per (span of
-        # rows, run of consecutive key keyframes), spans joining rows less than _ROW_GAP keyframes
-        # apart (their extra rows are dropped). Gathering Σ_pp[rows, keys] first was measured 218
-        # against 176 ms for the whole of this function (KITTI 00 at 1 Hz, synthetic map, median of 6)
+        # rows, span of keys), spans joining keyframes less than _ROW_GAP apart (the extra rows of a
+        # row span are dropped). Gathering Σ_pp[rows, keys] first was measured 218 against 176 ms
+        # for the whole of this function (KITTI 00 at 1 Hz, synthetic map, median of 6)
         Z = np.empty((3 * len(rows_k), Wg.shape[1]))
-        key_runs = _runs(keys)
-        starts = np.flatnonzero(np.r_[True, np.diff(rows_k) > _ROW_GAP])
-        for a0, a1 in zip(starts.tolist(), np.r_[starts[1:], len(rows_k)].tolist()):
+        for a0, a1 in _runs(rows_k, _ROW_GAP):
             s0, s1 = int(rows_k[a0]), int(rows_k[a1 - 1]) + 1
             span = np.zeros((3 * (s1 - s0), Wg.shape[1]))
-            for k0, k1 in key_runs:
-                span += cov[3 * s0: 3 * s1, 3 * keys[k0]: 3 * keys[k1 - 1] + 3] @ Wg[3 * k0: 3 * k1]
+            for k0, ln, off in zip(span_start.tolist(), span_len.tolist(), span_off.tolist()):
+                span += cov[3 * s0: 3 * s1, 3 * k0: 3 * (k0 + ln)] @ Wg[3 * off: 3 * (off + ln)]
             Z[3 * a0: 3 * a1] = span[(3 * (rows_k[a0:a1] - s0)[:, None] + three).ravel()]
         # G of the requested pairs whose landmark the base measures
         jl = np.searchsorted(lms, pj[np_])
@@ -136,10 +147,12 @@ def pair_quadratics(states: StateBuilder, planner: Planner, base: BaseState, cov
         kr = np.searchsorted(rows_k, pk[sel])
         Z4 = Z.reshape(len(rows_k), 3, len(lms), 2)
         G[sel] = Z4[kr, :, jl, :]
-        # W_jᵀ Σ W_j: Σ over the base pairs of j of W_pᵀ Z[rows of k_p, cols of j], in the pairs' order
-        kb = np.searchsorted(rows_k, bk)
-        contrib = np.einsum("pac,pae->pce", Wb, Z4[kb, :, bcol, :])  # (n_b, 2, 2)
-        np.add.at(S, bl, contrib)
+        # W_jᵀ Σ W_j of the group's landmarks: the 2 x 2 diagonal blocks of Wgᵀ Z on the keys' rows
+        # (one product; the per-pair einsum and add.at it replaced took ~25 of ~120 ms on KITTI 00)
+        wk = Wg4[key_row].reshape(3 * len(keys), -1)
+        zk = Z4[np.searchsorted(rows_k, keys)].reshape(wk.shape)
+        own = np.arange(len(lms))
+        S[lms] = (wk.T @ zk).reshape(len(lms), 2, len(lms), 2)[own, :, own, :]
 
     # a group with no landmark measured by the base has Σ_kj = 0, Σ_jj = D_j⁻¹: nothing to add
     todo = [(b0, b1, n0, n1) for b0, b1, n0, n1 in zip(lo_b.tolist(), hi_b.tolist(), lo_n.tolist(), hi_n.tolist()) if b0 < b1]
