@@ -192,3 +192,16 @@ def test_landmarks_nearer_than_the_minimum_range_are_not_measured(library):
     near = build_problem(lidar, Scenario("near", kf, np.array([[10.0 + 1e-6, 0.0]])))
     assert near.observations[0].pose.tolist() == [0]
     assert math.isfinite(make_evaluator(near, "reference").score([0])) and make_evaluator(near, "fast").score([0]) > 0
+
+
+def test_off_axis_is_the_angle_between_bearing_and_axis():
+    # oracle: the angle between two unit vectors, from atan2 per element (no wrapping arithmetic)
+    from sensorsel.sensing import off_axis, wrap_angle
+
+    rng = np.random.default_rng(3)
+    bearings = wrap_angle(rng.uniform(-10.0, 10.0, 2000))
+    for mount in (0.0, math.pi, -math.pi, 0.5, -2.9, 3.0 * math.pi / 2, 7.0):
+        want = [abs(math.atan2(math.sin(b - mount), math.cos(b - mount))) for b in bearings]
+        got = off_axis(bearings, mount)
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
+        assert np.all((got >= 0) & (got <= math.pi + 1e-15))

@@ -64,12 +64,22 @@ class SensorObservations:
         return np.unique(self.landmark)
 
 
+def off_axis(wrapped_bearing_rad: np.ndarray, mount_angle_rad: float) -> np.ndarray:
+    """|angle| [rad] in [0, pi] between bearings already wrapped to [-pi, pi) and a sensor's axis.
+
+    The same angle as ``|wrap_angle(bearing - mount)|``, from a subtraction, an absolute value and
+    a minimum: :func:`observe` runs it once per sensor over the pairs in range, and the remainder
+    in :func:`wrap_angle` made that ~0.15 s of loading KITTI 00 (62 sensors)."""
+    d = np.abs(np.asarray(wrapped_bearing_rad) - float(wrap_angle(mount_angle_rad)))  # in [0, 2 pi)
+    return np.minimum(d, 2.0 * np.pi - d)
+
+
 def in_cone(sensor: PlacedSensor, bearing_rad: np.ndarray, range_m: np.ndarray) -> np.ndarray:
     """Boolean mask: which (car-relative bearing [rad], range [m]) pairs the sensor sees."""
     m = sensor.model
     ok = (range_m <= m.range_m) & (range_m >= MIN_RANGE_M)
     if m.fov_rad < 2.0 * np.pi:
-        off = np.abs(wrap_angle(bearing_rad - sensor.mount_angle_rad))
+        off = off_axis(wrap_angle(bearing_rad), sensor.mount_angle_rad)
         # a hair of tolerance so that a landmark exactly on the cone's edge counts as inside
         ok &= off <= 0.5 * m.fov_rad + 1e-12
     return ok
@@ -129,7 +139,7 @@ def observe(library: SensorLibrary, scenario: Scenario) -> tuple[SensorObservati
                 near[reach] = np.flatnonzero((rng_flat <= m.range_m) & (rng_flat >= MIN_RANGE_M))
             at = near[reach]
             if m.fov_rad < 2.0 * np.pi:
-                off = np.abs(wrap_angle(brg_flat[at] - sensor.mount_angle_rad))
+                off = off_axis(brg_flat[at], sensor.mount_angle_rad)  # brg_flat is wrapped
                 at = at[off <= 0.5 * m.fov_rad + 1e-12]
             k, l = np.divmod(at, n_m)
             parts[i].append((k + start, l, brg_flat[at], rng_flat[at]))

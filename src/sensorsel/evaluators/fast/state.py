@@ -85,13 +85,14 @@ class StateBuilder:
         self.planner = planner
         self.n_poses, self.n_landmarks = planner.n_poses, planner.n_landmarks
         self.pair_pose, self.pair_landmark = lin.pair_pose, lin.pair_landmark
-        jac = lin.pair_jacobian
-        self.jacobian_rows = np.ascontiguousarray(jac.transpose(1, 2, 0))  # (2, 5, P), for the gain bounds (:mod:`.bound`)
-        hp, hl = jac[:, :, :3], jac[:, :, 3:]
-        self.hll = np.stack([np.stack([hl[:, r, 0] ** 2, hl[:, r, 0] * hl[:, r, 1], hl[:, r, 1] ** 2]) for r in range(2)])  # (2, 3, P)
-        self.hpp = np.stack([np.stack([hp[:, r, i] * hp[:, r, j] for i, j in SYM3]) for r in range(2)])  # (2, 6, P)
+        # the Jacobians' entries as contiguous rows, so that the products below run over contiguous
+        # arrays (on the (P, 2, 5) array's strided columns they took ~90 of ~100 ms on KITTI 00)
+        jr = self.jacobian_rows = np.ascontiguousarray(lin.pair_jacobian.transpose(1, 2, 0))  # (2, 5, P): row r, column
+        hp, hl = jr[:, :3], jr[:, 3:]  # (2, 3, P) pose and (2, 2, P) landmark columns
+        self.hll = np.stack([hl[:, 0] ** 2, hl[:, 0] * hl[:, 1], hl[:, 1] ** 2], axis=1)  # (2, 3, P)
+        self.hpp = np.stack([hp[:, i] * hp[:, j] for i, j in SYM3], axis=1)  # (2, 6, P)
         # W_p = sum_r w_r hp_r hl_r^T is kept transposed: entry c * 3 + a = W[a, c]; rows 0:6 bearing, 6:12 range
-        self.hpl = np.ascontiguousarray((hl[:, :, :, None] * hp[:, :, None, :]).reshape(-1, 12).T)  # (12, P)
+        self.hpl = (hl[:, :, None, :] * hp[:, None, :, :]).reshape(12, -1)  # (12, P): row r * 6 + c * 3 + a
         self.sensor_pairs = lin.sensor_pairs
         self.sensor_w = tuple(np.ascontiguousarray((1.0 / s**2).T) for s in lin.sensor_sigmas)  # (2, n_s)
         bl = lin.base_landmark_information
