@@ -70,7 +70,8 @@ def off_axis(wrapped_bearing_rad: np.ndarray, mount_angle_rad: float) -> np.ndar
     The same angle as ``|wrap_angle(bearing - mount)|``, from a subtraction, an absolute value and
     a minimum: :func:`observe` runs it once per sensor over the pairs in range, and the remainder
     in :func:`wrap_angle` made that ~0.15 s of loading KITTI 00 (62 sensors)."""
-    d = np.abs(np.asarray(wrapped_bearing_rad) - float(wrap_angle(mount_angle_rad)))  # in [0, 2 pi)
+    axis = float(wrap_angle(np.asarray(mount_angle_rad)))
+    d = np.abs(np.asarray(wrapped_bearing_rad) - axis)  # in [0, 2 pi]
     return np.minimum(d, 2.0 * np.pi - d)
 
 
