@@ -133,15 +133,22 @@ class StateBuilder:
 
     def base(self, suite: Suite) -> BaseState:
         """State of a canonical suite: pair weights, sums, layout and W of its active pairs."""
-        w = np.zeros((2, len(self.pair_pose)))
-        for s in suite:
-            w[:, self.sensor_pairs[s]] += self.sensor_w[s]
-        act = np.flatnonzero(w[0] + w[1] > 0)
         d = self.base_ll.copy()
         a = np.zeros((6, self.n_poses))
-        self._accumulate(d, a, act, w[:, act])
+        for s in suite:  # the sums as those of the sensors' own, in suite order (~1 ms; over the pairs ~15 on KITTI 00)
+            own = self.sensor_sums(s)
+            d[:, own.landmarks] += own.d
+            a[:, own.poses] += own.a
+        # each pair's weights, summed over the suite's sensors in suite order
+        if suite:
+            pairs = np.concatenate([self.sensor_pairs[s] for s in suite])
+            w = np.stack([np.bincount(pairs, np.concatenate([self.sensor_w[s][r] for s in suite]), len(self.pair_pose))
+                          for r in range(2)])
+        else:
+            w = np.zeros((2, len(self.pair_pose)))
+        act = np.flatnonzero(w[0] + w[1] > 0)
         layout = self._base_layout(act)
-        return BaseState(suite, w, d, a, layout, self._wpl(w[:, act], np.take(self.hpl, act, axis=1)))
+        return BaseState(suite, w, d, a, layout, self._pairs_wpl(act, np.take(w, act, axis=1)))
 
     def sensor_sums(self, c: int) -> SensorSums:
         """Sensor ``c``'s own landmark and pose-diagonal information (computed once, then kept)."""
@@ -165,7 +172,7 @@ class StateBuilder:
         d, a = base.d.copy(), base.a.copy()
         d[:, own.landmarks] += own.d
         a[:, own.poses] += own.a
-        piece = self._wpl(wc, np.take(self.hpl, pairs, axis=1))  # c's W on its pairs
+        piece = self._pairs_wpl(pairs, wc)  # c's W on its pairs
         layout = base.layout
         act = layout.act
         at = np.searchsorted(act, pairs)
@@ -184,10 +191,14 @@ class StateBuilder:
             wpl[:, at] += piece
         return KernelInput(wpl, d, a, layout)
 
-    @staticmethod
-    def _wpl(w: np.ndarray, hpl: np.ndarray) -> np.ndarray:
-        """W of pairs with row weights ``w`` (2, n) and pieces ``hpl`` (12, n): (6, n)."""
-        return w[0] * hpl[:6] + w[1] * hpl[6:]
+    def _pairs_wpl(self, pairs: np.ndarray, w: np.ndarray) -> np.ndarray:
+        """W of ``pairs`` (n,) with row weights ``w`` (2, n): (6, n), W_p = Σ_r w_r hp_r hl_rᵀ, a row
+        at a time (a (12, n) gather of the pieces first took ~2x as long on a base of KITTI 00)."""
+        out = np.empty((6, len(pairs)))
+        for i in range(6):
+            np.multiply(w[0], np.take(self.hpl[i], pairs), out=out[i])
+            out[i] += w[1] * np.take(self.hpl[6 + i], pairs)
+        return out
 
     def _accumulate(self, d: np.ndarray, a: np.ndarray, pairs: np.ndarray, w: np.ndarray) -> None:
         """Add, in place, the landmark (d: 3, M) and pose-diagonal (a: 6, K) information of
