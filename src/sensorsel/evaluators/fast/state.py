@@ -140,12 +140,11 @@ class StateBuilder:
             d[:, own.landmarks] += own.d
             a[:, own.poses] += own.a
         # each pair's weights, summed over the suite's sensors in suite order
+        w = np.zeros((2, len(self.pair_pose)))
         if suite:
             pairs = np.concatenate([self.sensor_pairs[s] for s in suite])
-            w = np.stack([np.bincount(pairs, np.concatenate([self.sensor_w[s][r] for s in suite]), len(self.pair_pose))
-                          for r in range(2)])
-        else:
-            w = np.zeros((2, len(self.pair_pose)))
+            for r in range(2):
+                w[r] = np.bincount(pairs, np.concatenate([self.sensor_w[s][r] for s in suite]), len(self.pair_pose))
         act = np.flatnonzero(w[0] + w[1] > 0)
         layout = self._base_layout(act)
         return BaseState(suite, w, d, a, layout, self._pairs_wpl(act, np.take(w, act, axis=1)))
