@@ -31,8 +31,11 @@ THREADS_FROM_KEYFRAMES = 200
 #: (3K)³/3, or the frontal path's). Measured (docs/speed.md): the bounds spare most of the
 #: candidates the lazy greedy would re-score on KITTI 00 at 1 Hz (predicted cost 3.3 evaluations,
 #: measured 6-7) and lose on 02 at 3 Hz (predicted 48, measured 26-36, where the frontal path makes
-#: an evaluation cheap and the dense inverse dear).
-BOUND_SPARE = 2.0
+#: an evaluation cheap and the dense inverse dear). 3, not 2: once evaluations and base states got
+#: cheaper, the bounds asked for 7 or 8 candidates on the synthetic 00 map spared 2 and 6 of them
+#: at ~5 evaluations' cost each (whole selection, median of 4: 3.40 s at 2, 3.01 s at 3; the real
+#: map asks the same 2 bounds either way)
+BOUND_SPARE = 3.0
 
 #: relative round-off allowance of :meth:`FastEvaluator.score_bounds` (of the magnitudes of the log
 #: dets a bound is made of): far above what double precision loses over ~1e4 terms (~1e-13)
