@@ -161,7 +161,9 @@ class Planner:
         row0 = cum - cum[first_run[rg]] if len(rg) else cum  # first keyframe row of each run in its tile
         nrows = 3 * np.bincount(rg, weights=length, minlength=self.n_groups).astype(np.int64)
         off = np.concatenate([[0], np.cumsum(nrows * ncols)])
-        run = np.searchsorted(rg * K + rs, g * K + ps, side="right") - 1  # the run holding each pair's keyframe
+        # the run holding each pair's keyframe: runs number the sorted keys, found by a table over the
+        # (group, keyframe) cells (a searchsorted of every pair took ~6 ms a layout on KITTI 00)
+        run = (np.cumsum(start) - 1)[(np.cumsum(seen) - 1)[g * K + ps]]
         local = row0[run] + ps - rs[run]
         base = off[g] + 3 * local * ncols[g] + col_of[lm]
         nc = ncols[g]

