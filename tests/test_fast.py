@@ -354,7 +354,7 @@ def test_blas_function_pointers_against_numpy():
 @pytest.mark.parametrize("n", [1, 5, 63, 64, 65, 200])
 @pytest.mark.parametrize("block", [0, 1, 7, 64])
 def test_blocked_cholesky_gives_numpys_log_det_at_every_panel_width(n, block):
-    """The panels (dpotrf, dtrsm, dsyrk on the trailing matrix) against numpy's slogdet, widths that
+    """The panels (dpotrf, dtrtri and dtrmm on the panel, dsyrk on the trailing matrix) against numpy's slogdet, widths that
     divide n, do not, and exceed it; the factor's lower triangle is numpy's Cholesky factor."""
     rng = np.random.default_rng(n + block)
     x = rng.standard_normal((n, n + 3))
@@ -364,6 +364,24 @@ def test_blocked_cholesky_gives_numpys_log_det_at_every_panel_width(n, block):
     want = np.linalg.slogdet(spd)[1]
     assert abs(got - want) <= 1e-11 * max(1.0, abs(want))
     np.testing.assert_allclose(np.tril(p), np.linalg.cholesky(spd), rtol=0, atol=1e-9 * np.abs(spd).max())
+
+
+@pytest.mark.parametrize("condition", [1e4, 1e8, 1e11])
+def test_blocked_cholesky_is_accurate_on_ill_conditioned_matrices(condition):
+    """Oracle: a matrix built from known eigenvalues (log det = their log sum), condition numbers
+    up to 1e11; the panels' inverted diagonal blocks lose no more than a plain dpotrf."""
+    rng = np.random.default_rng(int(np.log10(condition)))
+    n = 300
+    q, _ = np.linalg.qr(rng.standard_normal((n, n)))
+    eig = np.logspace(0.0, np.log10(condition), n)
+    spd = (q * eig) @ q.T
+    spd = 0.5 * (spd + spd.T)
+    want = float(np.sum(np.log(eig)))
+    blocked = Blas().cholesky_logdet(np.tril(spd).copy(), 64)
+    whole = Blas().cholesky_logdet(np.tril(spd).copy(), 0)  # one dpotrf
+    # within a small multiple of one dpotrf's error (or of round-off), and of the usual bound
+    assert abs(blocked - want) <= 10.0 * abs(whole - want) + 1e-13 * abs(want)
+    assert abs(blocked - want) <= 1e-16 * condition * n * abs(want) + 1e-13 * abs(want)
 
 
 def test_blocked_cholesky_names_the_failing_pivot_past_the_first_panel():
