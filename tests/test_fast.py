@@ -15,7 +15,8 @@ import pytest
 from sensorsel.errors import InputError
 from sensorsel.evaluators import DEFAULT_ENGINE, ENGINES, FastEvaluator, ReferenceEvaluator, make_evaluator, register
 from sensorsel.evaluators.fast.blas import Blas
-from sensorsel.graph import GraphBuilder, linearize_library
+from sensorsel.graph import GraphBuilder
+from sensorsel.linearize import linearize_library
 
 REL = 1e-9
 
@@ -102,7 +103,7 @@ def test_closed_form_pair_jacobians_are_gtsams_linearization(which, tiny_problem
 
 def test_closed_form_jacobians_hold_at_every_heading_and_range():
     """Random geometry through the ±π seam of the heading and the bearing, 1 m to 2 km away."""
-    from sensorsel.graph import bearing_range_jacobians
+    from sensorsel.linearize import bearing_range_jacobians
 
     rng = np.random.default_rng(7)
     n = 400
@@ -145,11 +146,15 @@ def test_unit_jacobian_matches_hand_geometry(suburb_problem):
         np.testing.assert_allclose(lin.pair_jacobian[p], want, rtol=1e-9, atol=1e-12)
 
 
-def test_base_information_is_gtsams_hessian_of_the_base_graph(tiny_problem):
-    lin = linearize_library(tiny_problem)
-    builder = GraphBuilder(tiny_problem)
+@pytest.mark.parametrize("which", ["tiny", "suburb", "kitti03"])
+def test_base_information_is_gtsams_hessian_of_the_base_graph(which, request):
+    """The closed-form base information (first-pose prior, odometry, landmark priors) against the
+    Hessian of the base graph GTSAM builds and linearizes: routes that turn both ways (KITTI 03)."""
+    problem = request.getfixturevalue(f"{which}_problem")
+    lin = linearize_library(problem)
+    builder = GraphBuilder(problem)
     gauss = builder.base_graph().linearize(builder.values)
-    K, M = tiny_problem.scenario.n_poses, tiny_problem.scenario.n_landmarks
+    K, M = problem.scenario.n_poses, problem.scenario.n_landmarks
     pose_cols, lm_cols = {}, {}
     keys = gauss.keyVector()
     # hessian() orders variables as keyVector(); rebuild the per-variable column offsets

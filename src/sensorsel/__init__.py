@@ -13,14 +13,25 @@ from __future__ import annotations
 
 __version__ = "0.1.0"
 
+from typing import TYPE_CHECKING
+
+from . import simulate as _simulation  # the package (its gtsam-importing modules load when first used)
 from .api import (CertifiedGreedyResult, DomainDesign, DomainScoreResult, ScoreResult, certify_result, design_domain,
-                  resilient_report, run_greedy, run_optimal, run_robust, run_tradespace, score_domain_suite, score_suite,
-                  simulate)
+                  resilient_report, run_greedy, run_optimal, run_robust, run_tradespace, score_domain_suite, score_suite)
 from .errors import InputError, LibraryError, ResultFileError, ScenarioError, SensorselError
 from .evaluators import ENGINES, Evaluator, evaluator_for, make_evaluator
 from .library import PlacedSensor, SensorLibrary, SensorModel, load_library
 from .problem import Domain, GraphSettings, Problem, ProblemInfo, build_problem, load_domain, load_problem
 from .scenario import LandmarkModel, Scenario, ScenarioSpec, Trajectory, load_scenario
+
+if TYPE_CHECKING:
+    from .simulate import simulate
+else:
+    # ``sensorsel.simulate`` is the function (the run function of sensorsel.api), as it always was;
+    # the package of that name was imported above, so that importing its modules later does not
+    # rebind the name to the package. The function itself is looked up when first asked for
+    # (__getattr__ below): it imports gtsam.
+    del simulate
 
 __all__ = [
     # run functions (sensorsel.api)
@@ -37,3 +48,12 @@ __all__ = [
     # errors
     "InputError", "LibraryError", "ResultFileError", "ScenarioError", "SensorselError",
 ]
+
+
+def __getattr__(name: str) -> object:
+    """``simulate``, imported when first asked for (it imports gtsam: see :mod:`sensorsel.api`)."""
+    if name == "simulate":
+        fn = _simulation.simulate
+        globals()["simulate"] = fn
+        return fn
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

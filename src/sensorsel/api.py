@@ -20,7 +20,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterable
+from typing import TYPE_CHECKING, Iterable
 
 from .certify import (DEFAULT_MAX_NODES, Certificate, CertifiedGreedyResult, OptimumResult, certificate,
                       constraints_mismatch, optimal)
@@ -36,8 +36,10 @@ from .resilient import resilient_report as _resilient_report
 from .robust import RobustResult, robust_choice, robust_select, worst_route_select
 from .robust import run_robust as _run_robust
 from .selection import GreedyResult, Progress, check_budget, check_rule, greedy
-from .simulate import simulate
 from .tradespace import run_tradespace
+
+if TYPE_CHECKING:
+    from .simulate import simulate
 
 __all__ = ["CertifiedGreedyResult", "DomainDesign", "DomainScoreResult", "ProblemInfo", "RouteScore", "ScoreResult",
            "certify_result", "design_domain", "load_domain", "load_problem", "resilient_report", "run_greedy", "run_robust", "RobustResult",
@@ -307,3 +309,13 @@ def resilient_report(problem: Target, budget_usd: float, alpha: int, *, method: 
         raise InputError(f"unknown method {method!r}; available: {', '.join(RESILIENT_METHODS)}")
     return _resilient_report(problem, budget_usd, alpha, method=method,
                              selector=robust_choice if method == "robust" else None, **kwargs)
+
+
+def __getattr__(name: str) -> object:
+    """``simulate`` (:func:`sensorsel.simulate.simulate`), imported when first asked for: the
+    simulation imports gtsam (~0.1-0.15 s), which scoring and selecting do not need."""
+    if name == "simulate":
+        from .simulate import simulate
+
+        return simulate
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

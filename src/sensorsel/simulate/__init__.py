@@ -51,11 +51,33 @@ by :mod:`sensorsel.graph`; LM and iSAM2), :mod:`.consistency` (prediction, NEES,
 
 from __future__ import annotations
 
-from .consistency import COVARIANCE_NOTE, NEES_CONFIDENCE, nees_bounds
+from typing import TYPE_CHECKING
+
 from .failures import check_failure, parse_failures
 from .records import Failure, RunResult, SimulationReport, SimulationResult, SimulationTiming, without_timing
-from .run import simulate
-from .solve import DEFAULT_SOLVER, ISAM2_MAX_FINAL_UPDATES, LM_MAX_ITERATIONS, SOLVERS
+
+if TYPE_CHECKING:
+    from .consistency import COVARIANCE_NOTE, NEES_CONFIDENCE, nees_bounds
+    from .run import simulate
+    from .solve import DEFAULT_SOLVER, ISAM2_MAX_FINAL_UPDATES, LM_MAX_ITERATIONS, SOLVERS
+
+#: the names whose modules import gtsam, by module: imported when first asked for (PEP 562), so
+#: that importing sensorsel (every command) does not import gtsam (~0.1-0.15 s) for a simulation
+#: it may never run
+_LAZY = {"COVARIANCE_NOTE": "consistency", "NEES_CONFIDENCE": "consistency", "nees_bounds": "consistency",
+         "simulate": "run", "DEFAULT_SOLVER": "solve", "ISAM2_MAX_FINAL_UPDATES": "solve",
+         "LM_MAX_ITERATIONS": "solve", "SOLVERS": "solve"}
+
+
+def __getattr__(name: str) -> object:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    from importlib import import_module
+
+    value = getattr(import_module(f"{__name__}.{module}"), name)
+    globals()[name] = value
+    return value
 
 __all__ = [
     "COVARIANCE_NOTE", "DEFAULT_SOLVER", "ISAM2_MAX_FINAL_UPDATES", "LM_MAX_ITERATIONS", "NEES_CONFIDENCE", "SOLVERS",

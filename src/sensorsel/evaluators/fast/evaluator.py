@@ -59,7 +59,7 @@ class FastEvaluator(ProblemEvaluator):
         :class:`~sensorsel.evaluators.fast.kernel.Kernel`); ``bound_spare``: when :meth:`gain_bounds`
         computes bounds (:data:`BOUND_SPARE`; 0: always). All change speed, not the numbers."""
         super().__init__(problem, jobs=jobs)
-        from ...graph import linearize_library  # gtsam is imported where a library is linearized, when one is
+        from ...linearize import linearize_library
 
         lin = linearize_library(problem)
         K = problem.scenario.n_poses

@@ -5,16 +5,14 @@ from __future__ import annotations
 
 import threading
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ...linearize import LibraryLinearization
 from ..base import Suite
 from .kernel import SYM3
 from .plan import Layout, Planner
 
-if TYPE_CHECKING:  # graph imports gtsam: only where a library is linearized
-    from ...graph import LibraryLinearization
 
 
 @dataclass(frozen=True, eq=False)
