@@ -459,9 +459,12 @@ def parse_library(data: Any, path: str | Path = "<memory>") -> SensorLibrary:
     return SensorLibrary(tuple(sensors), str(path), slots)
 
 
-class _StrictLoader(yaml.SafeLoader):
+class _StrictLoader(getattr(yaml, "CSafeLoader", yaml.SafeLoader)):  # type: ignore[misc]
     """SafeLoader that refuses a key repeated in one mapping (PyYAML silently keeps the last one,
-    so an edited copy of the library could carry two ``range_m`` and use the one not meant)."""
+    so an edited copy of the library could carry two ``range_m`` and use the one not meant).
+
+    On libyaml's parser where PyYAML has it (``CSafeLoader``: the same safe constructors and
+    resolvers; the library file took ~60 ms to parse in pure Python, a sixth of loading KITTI 00)."""
 
     def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:
         seen: dict[Any, int] = {}
