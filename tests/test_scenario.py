@@ -413,3 +413,22 @@ def test_times_without_poses_is_refused(tmp_path):
     result = CliRunner().invoke(cli, ["score", "--times", str(times), "--suite", "LRL-roof"])
     assert result.exit_code == 2 and "Traceback" not in result.output
     assert "--times" in result.output and "--poses" in result.output
+
+
+def test_pose_files_read_as_pythons_float_reads_each_number(tmp_path):
+    """read_kitti_poses parses all lines at once (numpy) where every line is good: the same numbers
+    as Python's float() on each token, commas and blank lines included."""
+    import numpy as np
+    from sensorsel.scenario import read_kitti_poses
+
+    rng = np.random.default_rng(7)
+    rows = []
+    for k in range(50):
+        c, s = np.cos(0.1 * k), np.sin(0.1 * k)
+        rows.append([c, 0.0, s, rng.normal() * 1e3, 0.0, 1.0, 0.0, rng.normal(), -s, 0.0, c, rng.normal() * 1e-3])
+    text = "\n".join((", " if k % 2 else " ").join(repr(float(v)) for v in r) + ("\n" if k == 10 else "") for k, r in enumerate(rows))
+    path = tmp_path / "poses.txt"
+    path.write_text(text + "\n")
+    want = np.array([[float(t) for t in line.replace(",", " ").split()] for line in text.splitlines() if line.strip()])
+    got = read_kitti_poses(path)
+    assert got.shape == (50, 3, 4) and np.array_equal(got.reshape(50, 12), want)
