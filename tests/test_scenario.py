@@ -432,3 +432,19 @@ def test_pose_files_read_as_pythons_float_reads_each_number(tmp_path):
     want = np.array([[float(t) for t in line.replace(",", " ").split()] for line in text.splitlines() if line.strip()])
     got = read_kitti_poses(path)
     assert got.shape == (50, 3, 4) and np.array_equal(got.reshape(50, 12), want)
+
+
+def test_densified_route_is_each_segment_cut_into_equal_steps():
+    """Oracle: each segment a -> b cut by hand into n = ceil(|b - a| / step) equal steps (a repeated
+    point and a zero-length segment included)."""
+    import numpy as np
+    from sensorsel.scenario import _densify
+
+    xy = np.array([[0.0, 0.0], [1.2, 0.0], [1.2, 0.0], [1.2, -0.7], [4.0, 3.0]])
+    want = [xy[0]]
+    for a, b in zip(xy[:-1], xy[1:]):
+        n = max(1, math.ceil(math.hypot(*(b - a)) / 0.5))
+        want += [a + (k / n) * (b - a) for k in range(1, n + 1)]
+    got = _densify(xy, 0.5)
+    assert got.shape == (len(want), 2) and np.array_equal(got, np.array(want))
+    assert np.all(np.hypot(*np.diff(got, axis=0).T) <= 0.5 + 1e-12)

@@ -626,13 +626,16 @@ def generate_landmarks(route: Trajectory, model: LandmarkModel = LandmarkModel()
 
 
 def _densify(xy: np.ndarray, step: float) -> np.ndarray:
-    """Points along the polyline at most ``step`` apart (for distance-to-route queries)."""
-    pts = [xy[:1]]
-    for a, b in zip(xy[:-1], xy[1:]):
-        n = max(1, int(math.ceil(np.hypot(*(b - a)) / step)))
-        t = np.arange(1, n + 1)[:, None] / n
-        pts.append(a + t * (b - a))
-    return np.concatenate(pts)
+    """Points along the polyline at most ``step`` apart (for distance-to-route queries): its first
+    point, then each segment's n = ceil(length / step) points a + (k / n)(b − a), k = 1..n."""
+    if len(xy) < 2:
+        return np.asarray(xy[:1], dtype=float)
+    d = np.diff(xy, axis=0)
+    n = np.maximum(1, np.ceil(np.hypot(d[:, 0], d[:, 1]) / step).astype(np.int64))
+    seg = np.repeat(np.arange(len(d)), n)  # all segments at once (a loop over them took ~50 ms on 00)
+    k = np.arange(len(seg)) - np.repeat(np.cumsum(n) - n, n) + 1
+    t = (k / n[seg])[:, None]
+    return np.concatenate([xy[:1], xy[:-1][seg] + t * d[seg]])
 
 
 def read_landmarks_csv(path: str | Path) -> np.ndarray:
