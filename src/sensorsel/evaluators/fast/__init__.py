@@ -6,9 +6,10 @@ measured ~1e-14 relative on the fixtures and KITTI 03/00, tested to 1e-9 on ever
 Method
 ------
 1. Linearize once. The linearization point is the truth, so a measurement's information never
-   changes. :func:`sensorsel.graph.linearize_library` linearizes, with GTSAM, every distinct
-   (keyframe, landmark) pair that some sensor measures (unit noise) and the base graph (first-pose
-   prior, odometry, landmark priors). A suite's information is then
+   changes. :func:`sensorsel.linearize.linearize_library` linearizes every distinct (keyframe,
+   landmark) pair that some sensor measures (unit noise) and the base graph (first-pose prior,
+   odometry, landmark priors), in closed form: GTSAM's Jacobians of those factors at the truth,
+   written out (tested against GTSAM's linearization). A suite's information is then
    ``Λ(S) = Λ₀ + Σ_pairs Σ_{r ∈ bearing, range} ω_r h_r h_rᵀ`` where ``h_r`` is the pair's Jacobian row
    and ``ω_r`` the sum of 1/σ_r² over the suite's sensors that measure the pair: a suite is a vector
    of pair weights, and adding a sensor adds its own weights.
