@@ -33,3 +33,19 @@ def test_an_upward_import_breaks_the_build(tmp_path):
     out = _lint(src)
     assert out.returncode != 0
     assert "sensorsel.sensing is not allowed to import sensorsel.plotting" in out.stdout
+
+
+def test_selecting_does_not_import_gtsam_and_simulate_stays_the_function():
+    """gtsam (~0.1-0.15 s to import) is loaded only where a graph is built or a simulation runs:
+    importing the CLI and the API does not; ``sensorsel.simulate`` is still the run function, also
+    after the simulation package's modules are imported."""
+    code = ("import sys, sensorsel.cli, sensorsel.api\n"
+            "assert 'gtsam' not in sys.modules, 'gtsam imported'\n"
+            "import sensorsel, sensorsel.simulate.records\n"
+            "f = sensorsel.simulate\n"
+            "assert callable(f) and f.__name__ == 'simulate' and f.__module__ == 'sensorsel.simulate.run'\n"
+            "import sensorsel.simulate.run\n"
+            "from sensorsel.api import simulate\n"
+            "assert simulate is f and sensorsel.simulate is f and 'gtsam' in sys.modules\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
