@@ -104,7 +104,7 @@ class DaskCluster:
                 self.close()
                 raise ClusterError(f"the Dask scheduler at {self.scheduler} has no worker after {self.connect_timeout_s:g} s "
                                    f"({type(exc).__name__})") from None
-            self.echo(f"sensorsel: dask scheduler {self.scheduler}: {len(self.client.scheduler_info()['workers'])} workers")
+            self.echo(f"sensorsel: dask scheduler {self.scheduler}: {len(self.client.nthreads())} workers")
             return self
         import importlib.util
         import logging
@@ -115,6 +115,12 @@ class DaskCluster:
                                                silence_logs=logging.ERROR,
                                                worker_dashboard_address=None)
         self.client = distributed.Client(self._local)  # actors find their client as the default one
+        try:  # every worker registered before the first placement (the cluster starts them, they report later)
+            self.client.wait_for_workers(self.workers, timeout=self.connect_timeout_s)
+        except (OSError, TimeoutError) as exc:
+            self.close()
+            raise ClusterError(f"the local Dask cluster started fewer than {self.workers} workers within "
+                               f"{self.connect_timeout_s:g} s ({type(exc).__name__})") from None
         where = self.client.dashboard_link if dashboard else "none (install bokeh for one)"
         self.echo(f"sensorsel: dask LocalCluster of {self.workers} worker processes at {self._local.scheduler_address}; "
                   f"dashboard {where}")
@@ -297,7 +303,10 @@ class DistributedDomainEvaluator(DomainEvaluator):
     # -- placement and faults
 
     def _workers(self) -> list[str]:
-        return sorted(self.client.scheduler_info()["workers"])
+        # asked of the scheduler each time: scheduler_info() may answer from the client's cached
+        # identity, which can lack the per-worker entries (seen once in CI: "no workers" with two
+        # workers registered)
+        return sorted(self.client.nthreads())
 
     def _place(self, problems: list[Problem]) -> None:
         """Start every route's actor, the most expensive routes first, each on the least loaded worker."""
