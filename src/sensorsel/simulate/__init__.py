@@ -70,6 +70,7 @@ _LAZY = {"COVARIANCE_NOTE": "consistency", "NEES_CONFIDENCE": "consistency", "ne
 
 
 def __getattr__(name: str) -> object:
+    """One of :data:`_LAZY`'s names, from its module (imported now, kept for the next time)."""
     module = _LAZY.get(name)
     if module is None:
         raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

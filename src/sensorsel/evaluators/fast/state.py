@@ -14,7 +14,6 @@ from .kernel import SYM3
 from .plan import Layout, Planner
 
 
-
 @dataclass(frozen=True, eq=False)
 class BaseState:
     """A base suite's state, shared (read-only) by every candidate scored with it.
