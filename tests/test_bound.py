@@ -75,6 +75,13 @@ def close(a: float, b: float, rel: float = 1e-9) -> bool:
     return abs(a - b) <= rel * max(1.0, abs(b))
 
 
+def draw_suites(n_sensors: int, count: int, *, sizes: tuple[int, int], seed: int) -> list[tuple[int, ...]]:
+    """``count`` random suites (sorted positions, no repeats) of sizes drawn from [sizes[0], sizes[1])."""
+    rng = np.random.default_rng(seed)
+    return [tuple(sorted(rng.choice(n_sensors, size=int(rng.integers(*sizes)), replace=False).tolist()))
+            for _ in range(count)]
+
+
 def check_bounds(problem, suites) -> int:
     """Every candidate on every suite: the fast engine's bounds equal the dense oracle's, and
     gain ≤ per-measurement bound ≤ trace (to round-off). Returns how many were checked."""
@@ -104,10 +111,7 @@ def check_bounds(problem, suites) -> int:
 
 
 def test_bounds_match_the_dense_oracle_and_bound_the_gain_on_tiny(tiny_problem):
-    rng = np.random.default_rng(16)
-    n = len(tiny_problem.library)
-    suites = [(), (0,), (0, 25)] + [tuple(sorted(rng.choice(n, size=int(rng.integers(1, 8)), replace=False).tolist()))
-                                     for _ in range(3)]
+    suites = [(), (0,), (0, 25)] + draw_suites(len(tiny_problem.library), 3, sizes=(1, 8), seed=16)
     assert check_bounds(tiny_problem, suites) > 300
 
 
@@ -164,10 +168,8 @@ def check_score_bounds(problem, suites) -> int:
 
 
 def test_score_bounds_are_the_decoupled_log_det_and_bound_the_score_on_tiny(tiny_problem):
-    rng = np.random.default_rng(5)
     n = len(tiny_problem.library)
-    suites = [(), (0,), (3, 17)] + [tuple(sorted(rng.choice(n, size=int(rng.integers(2, 9)), replace=False).tolist()))
-                                    for _ in range(2)]
+    suites = [(), (0,), (3, 17)] + draw_suites(n, 2, sizes=(2, 9), seed=5)
     assert check_score_bounds(tiny_problem, suites) == 5 * n
 
 

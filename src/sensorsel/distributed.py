@@ -242,21 +242,22 @@ class _RemoteRoute(Evaluator):
         self.n_evaluations += 1
         return float(self.owner._call({self.k: ("score", (s,))})[self.k])
 
-    def scores_with(self, suite: Iterable[int], candidates: Sequence[int]) -> np.ndarray:
+    def _ask(self, method: str, suite: Iterable[int], candidates: Sequence[int]) -> Any:
+        """The actor's answer to ``method(suite, candidates)``, the positions checked here first."""
         base, cand = as_suite(suite), [int(c) for c in candidates]
         self._check_positions(base + tuple(cand))
-        self.n_evaluations += len(cand)
-        return np.asarray(self.owner._call({self.k: ("scores_with", (base, cand))})[self.k], dtype=float)
+        return self.owner._call({self.k: (method, (base, cand))})[self.k]
+
+    def scores_with(self, suite: Iterable[int], candidates: Sequence[int]) -> np.ndarray:
+        got = np.asarray(self._ask("scores_with", suite, candidates), dtype=float)
+        self.n_evaluations += len(got)
+        return got
 
     def gain_bounds(self, suite: Iterable[int], candidates: Sequence[int]) -> np.ndarray | None:
-        base, cand = as_suite(suite), [int(c) for c in candidates]
-        self._check_positions(base + tuple(cand))
-        return self.owner._call({self.k: ("gain_bounds", (base, cand))})[self.k]
+        return self._ask("gain_bounds", suite, candidates)
 
     def score_bounds(self, suite: Iterable[int], candidates: Sequence[int]) -> tuple[float, np.ndarray] | None:
-        base, cand = as_suite(suite), [int(c) for c in candidates]
-        self._check_positions(base + tuple(cand))
-        return self.owner._call({self.k: ("score_bounds", (base, cand))})[self.k]
+        return self._ask("score_bounds", suite, candidates)
 
 
 def _route_cost(problem: Problem) -> int:
@@ -419,9 +420,7 @@ class DistributedDomainEvaluator(DomainEvaluator):
         base, cand = as_suite(suite), [int(c) for c in candidates]
         self._check_positions(base + tuple(cand))
         got = self._call({k: ("gain_bounds", (base, cand)) for k in range(len(self.recipes))})
-        if any(got[k] is None for k in range(len(self.recipes))):
-            return None
-        return self.combine(np.stack([np.asarray(got[k], dtype=float) for k in range(len(self.recipes))]))
+        return self.combined_gain_bounds(got[k] for k in range(len(self.recipes)))
 
     def score_bounds(self, suite: Iterable[int], candidates: Sequence[int]) -> tuple[float, np.ndarray] | None:
         """The routes' cheap bounds on the scores, combined as in-process, or None unless every
@@ -429,11 +428,7 @@ class DistributedDomainEvaluator(DomainEvaluator):
         base, cand = as_suite(suite), [int(c) for c in candidates]
         self._check_positions(base + tuple(cand))
         got = self._call({k: ("score_bounds", (base, cand)) for k in range(len(self.recipes))})
-        if any(got[k] is None for k in range(len(self.recipes))):
-            return None
-        own = np.array([float(got[k][0]) for k in range(len(self.recipes))])
-        per_route = np.stack([np.asarray(got[k][1], dtype=float) for k in range(len(self.recipes))])
-        return float(self.combine(own)), self.combine(per_route)
+        return self.combined_score_bounds(got[k] for k in range(len(self.recipes)))
 
     def busy(self) -> dict[str, tuple[float, int, str]]:
         """Each route's (seconds its actor spent scoring, calls it answered, the worker holding it)."""

@@ -112,27 +112,34 @@ class DomainEvaluator(Evaluator):
         """Upper bounds on F(S + {c}) − F(S), shape (len(candidates),): the routes' bounds combined
         (F is a combination of the routes' scores with non-negative factors), or None unless every
         route's engine gives them (each judges their cost on its own route)."""
-        per_route = []
-        for ev in self.routes:
-            got = ev.gain_bounds(suite, candidates)
-            if got is None:
-                return None
-            per_route.append(got)
-        return self.combine(np.stack(per_route)) if per_route else None
+        return self.combined_gain_bounds(ev.gain_bounds(suite, candidates) for ev in self.routes)
 
     def score_bounds(self, suite: Iterable[int], candidates: Sequence[int]) -> tuple[float, np.ndarray] | None:
         """Upper bounds on F(S) and each F(S + {c}): the routes' cheap bounds combined, or None
         unless every route's engine gives them."""
-        own, per_route = [], []
-        for ev in self.routes:
-            got = ev.score_bounds(suite, candidates)
-            if got is None:
+        return self.combined_score_bounds(ev.score_bounds(suite, candidates) for ev in self.routes)
+
+    def combined_gain_bounds(self, per_route: Iterable[np.ndarray | None]) -> np.ndarray | None:
+        """The routes' bounds on the gains (in route order) combined, or None at the first route
+        without them (the routes after it are not asked, when ``per_route`` is lazy)."""
+        got = []
+        for bounds in per_route:
+            if bounds is None:
                 return None
-            own.append(got[0])
-            per_route.append(got[1])
-        if not per_route:
+            got.append(np.asarray(bounds, dtype=float))
+        return self.combine(np.stack(got)) if got else None
+
+    def combined_score_bounds(self, per_route: Iterable[tuple[float, np.ndarray] | None]) -> tuple[float, np.ndarray] | None:
+        """The routes' (bound on f(S), bounds on each f(S + {c})) combined, as :meth:`combined_gain_bounds`."""
+        own, got = [], []
+        for bounds in per_route:
+            if bounds is None:
+                return None
+            own.append(float(bounds[0]))
+            got.append(np.asarray(bounds[1], dtype=float))
+        if not got:
             return None
-        return float(self.combine(np.array(own))), self.combine(np.stack(per_route))
+        return float(self.combine(np.array(own))), self.combine(np.stack(got))
 
     def scores_with(self, suite: Iterable[int], candidates: Sequence[int]) -> np.ndarray:
         """F(S + {c}) for each candidate c, shape (len(candidates),): each route's engine scores the
