@@ -7,6 +7,7 @@ else ``python -m sensorsel.cli``) on KITTI 03 and 00 and writes what they produc
     docs/results/             real pole maps (``--landmarks real``: the KITTI folder's landmarks/NN.csv)
     docs/results/synthetic/   the same commands on generated landmarks (``--landmarks synthetic``)
     docs/img/real/, docs/img/synthetic/   the plots (scene, Pareto front, resilient grid, simulation)
+    docs/img/tour/scene.png   the README's picture (the bundled route, step tour)
     docs/results/tables.md    every headline table, real and synthetic side by side, built from the files
     docs/results/timings.json wall time of each step of the last run that ran it
 
@@ -283,7 +284,20 @@ def step_constrained(seq: str) -> Callable[[Ctx], None]:
     return run
 
 
+#: The suite the README's tour draws (the start of the bundled route's greedy suite and a wide-angle
+#: camera ahead, so that every kind of cone shows).
+TOUR_SUITE = "LRL-roof,MRL-roof,LRR-11,HD2K-8,HD2K-4,HD2K-10,HD2K-2,WSC-12"
+
+
+def step_tour(c: Ctx) -> None:
+    """The README's picture: the bundled route with a suite's cones (no KITTI needed); once, with the real maps."""
+    if c.landmarks != "real":
+        return
+    c.run("scene", "--suite", TOUR_SUITE, "-o", str(c.img.parent / "tour" / "scene.png"))
+
+
 STEPS: list[Step] = [
+    Step("tour", "tour", step_tour),
     *(Step(f"scene{s}", "scene", step_scene(s)) for s in ("03", "00")),
     *(Step(f"scores{s}", "scores", step_scores(s)) for s in ("03", "00")),
     *(Step(f"greedy{s}", "greedy", step_greedy(s)) for s in ("03", "00")),

@@ -10,6 +10,7 @@ backend). Programs that only write files, like the CLI, call :func:`use_file_bac
 from __future__ import annotations
 
 import io
+import textwrap
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Iterable, Sequence
 
@@ -31,7 +32,6 @@ if TYPE_CHECKING:  # simulate imports gtsam; plotting needs only its result type
     from .simulate import SimulationResult
 
 FORMATS = {".png": "png", ".svg": "svg", ".pdf": "pdf"}
-TYPE_COLOURS = {"lidar": "tab:purple", "radar": "tab:orange", "stereo": "tab:cyan"}
 
 
 def new_axes(figsize: tuple[float, float] = (7.0, 6.0)) -> Axes:
@@ -70,6 +70,58 @@ def save_figure(fig: Figure | SubFigure, path: str | Path, *, dpi: int = 150, cl
     return atomic_write_bytes(path, buf.getvalue())
 
 
+#: One colour per sensor model of the stock library (Table I's codes), none of them the route's blue,
+#: the start's green, the car's red or the landmarks' black; a model of your own library takes the
+#: next unused colour of :data:`EXTRA_MODEL_COLOURS` in library order.
+MODEL_COLOURS = {"LRL": "tab:purple", "MRL": "tab:pink", "LRR": "tab:orange", "MRR": "tab:brown",
+                 "WSC": "tab:cyan", "HD2K": "tab:olive", "LSC": "tab:gray"}
+EXTRA_MODEL_COLOURS = ("gold", "teal", "navy", "lime", "maroon", "magenta", "salmon", "indigo")
+#: A cone shorter than this share of the route's extent is drawn again in a zoom at the car.
+ZOOM_BELOW = 0.1
+
+
+def model_colours(library: SensorLibrary) -> dict[str, str]:
+    """A colour per model code of ``library`` (:data:`MODEL_COLOURS`, then the extra colours in library order)."""
+    out: dict[str, str] = {}
+    extra = iter(EXTRA_MODEL_COLOURS)
+    for s in library:
+        code = s.model.code
+        if code not in out:
+            out[code] = MODEL_COLOURS.get(code) or next(extra, "0.5")
+    return out
+
+
+def _short_source(source: str) -> str:
+    """The landmark source with its folders dropped ("KITTI pole map .../landmarks/03.csv" -> "... 03.csv"):
+    a title names the map, the result file keeps the whole path."""
+    return " ".join(Path(w).name if ("/" in w or "\\" in w) else w for w in source.split())
+
+
+def _draw_cones(ax: Axes, library: SensorLibrary, suite: Sequence[int], pose: np.ndarray,
+                colours: dict[str, str]) -> None:
+    """The suite's sensing cones at one pose (x [m], y [m], heading [rad]), one legend entry per model."""
+    x, y, th = pose
+    count: dict[str, int] = {}
+    for i in suite:
+        count[library[i].model.code] = count.get(library[i].model.code, 0) + 1
+    drawn: set[str] = set()
+    for i in suite:
+        s = library[i]
+        m = s.model
+        centre = np.degrees(th + s.mount_angle_rad)
+        half = np.degrees(m.fov_rad) / 2
+        label = None
+        if m.code not in drawn:
+            label = f"{m.name} ({m.code}, {m.range_m:.0f} m, {np.degrees(m.fov_rad):.0f}°) × {count[m.code]}"
+            drawn.add(m.code)
+        if m.fov_rad >= 2 * np.pi - 1e-9:  # all around: an outline, so that the cones inside it stay readable
+            ax.add_patch(Wedge((x, y), m.range_m, 0.0, 360.0, fill=False, edgecolor=colours[m.code], lw=1.6, ls="--",
+                               label=label))
+        else:
+            ax.add_patch(Wedge((x, y), m.range_m, centre - half, centre + half, alpha=0.35, facecolor=colours[m.code],
+                               edgecolor=colours[m.code], lw=0.8, label=label))
+
+
 def plot_scene(
     scenario: Scenario,
     ax: Axes | None = None,
@@ -80,47 +132,89 @@ def plot_scene(
 ) -> Axes:
     """The route and landmarks (the paper's Fig. 2); with a suite, its sensing cones at one keyframe.
 
+    Each sensor model has its own colour (:func:`model_colours`) and legend entry. Where the shortest
+    cone is small against the route (under :data:`ZOOM_BELOW` of its extent, e.g. 20 m cameras on a
+    3 km route) the car is drawn again, zoomed: beside the route when ``ax`` is None, else in an
+    inset in the upper right of ``ax``.
+
     Args:
-        scenario: route and landmarks.
+        scenario: route and landmarks (coordinates in metres).
         ax: axes to draw on; a new figure when None.
-        library, suite: sensors (library positions) whose cones to draw.
+        library: the sensor library of ``suite`` (needed with a suite).
+        suite: library positions of the sensors whose cones to draw.
         pose_index: keyframe at which to draw the cones (default: the middle one).
     Returns:
-        The axes drawn on.
+        The axes of the whole route.
     """
-    ax = ax or new_axes()
-    route = scenario.route or scenario.keyframes
-    ax.plot(route.poses[:, 0], route.poses[:, 1], "-", color="tab:blue", lw=1.5, label=f"route ({route.length_m:.0f} m)")
-    kf = scenario.keyframes.poses
-    ax.plot(kf[:, 0], kf[:, 1], ".", color="tab:blue", ms=3, label=f"keyframes ({len(kf)})")
-    ax.plot(kf[0, 0], kf[0, 1], "o", color="tab:green", ms=7, label="start")
-    lm = scenario.landmarks
-    ax.scatter(lm[:, 0], lm[:, 1], s=6, c="k", marker="^", label=f"landmarks ({len(lm)})", zorder=3)
     suite = list(suite)
+    route = scenario.route or scenario.keyframes
+    kf = scenario.keyframes.poses
+    lm = scenario.landmarks
+    k = len(kf) // 2 if pose_index is None else pose_index
+    zoom_half_m = 0.0
     if suite:
         if library is None:
             raise InputError("plot_scene: a suite needs its library")
-        k = len(kf) // 2 if pose_index is None else pose_index
         if not 0 <= k < len(kf):
             raise InputError(f"pose index {k} is outside the route (0..{len(kf) - 1})")
-        x, y, th = kf[k]
-        drawn: set[str] = set()
-        for i in suite:
-            s = library[i]
-            centre = np.degrees(th + s.mount_angle_rad)
-            half = np.degrees(s.model.fov_rad) / 2
-            colour = TYPE_COLOURS.get(s.model.type, "tab:gray")
-            label = s.model.name if s.model.name not in drawn else None
-            drawn.add(s.model.name)
-            ax.add_patch(Wedge((x, y), s.model.range_m, centre - half, centre + half, alpha=0.18, color=colour, label=label))
-        ax.plot(x, y, "s", color="tab:red", ms=7, label=f"car at keyframe {k}")
+        extent = float(max(np.ptp(route.poses[:, 0]), np.ptp(route.poses[:, 1]), 1.0))
+        shortest = min(library[i].model.range_m for i in suite)
+        if shortest < ZOOM_BELOW * extent:
+            zoom_half_m = 1.3 * shortest
+    zoom: Axes | None = None
+    if ax is None:
+        if zoom_half_m:
+            fig, (ax, zoom) = plt.subplots(1, 2, figsize=(12.0, 6.0), layout="constrained", width_ratios=(1.25, 1.0))
+        else:
+            ax = new_axes()
+    elif zoom_half_m:
+        zoom = ax.inset_axes((0.6, 0.6, 0.39, 0.39))
+
+    def draw_map(a: Axes, legend: bool) -> None:
+        a.plot(route.poses[:, 0], route.poses[:, 1], "-", color="tab:blue", lw=1.5,
+               label=f"route ({route.length_m:,.0f} m)" if legend else None)
+        a.plot(kf[:, 0], kf[:, 1], ".", color="tab:blue", ms=3, label=f"keyframes ({len(kf)})" if legend else None)
+        a.plot(kf[0, 0], kf[0, 1], "o", color="tab:green", ms=7, label="start" if legend else None)
+        a.scatter(lm[:, 0], lm[:, 1], s=6, c="k", marker="^", label=f"landmarks ({len(lm)})" if legend else None, zorder=3)
+
+    draw_map(ax, True)
+    if suite:
+        assert library is not None
+        colours = model_colours(library)
+        _draw_cones(ax, library, suite, kf[k], colours)
+        ax.plot(kf[k, 0], kf[k, 1], "s", color="tab:red", ms=7, label=f"car at keyframe {k}")
         if library.slots:  # the car's mounting slots, filled by this suite, in a corner
             plot_mounting(library, suite, ax=ax.inset_axes((0.0, 0.0, 0.38, 0.38)))
+        if zoom is not None:
+            draw_map(zoom, False)
+            _draw_cones(zoom, library, suite, kf[k], colours)
+            zoom.plot(kf[k, 0], kf[k, 1], "s", color="tab:red", ms=9)
+            x, y = kf[k, 0], kf[k, 1]
+            zoom.set_xlim(x - zoom_half_m, x + zoom_half_m)
+            zoom.set_ylim(y - zoom_half_m, y + zoom_half_m)
+            zoom.set_aspect("equal")
+            zoom.grid(True, alpha=0.3)
+            zoom.set_title(f"zoom at the car, keyframe {k} ({2 * zoom_half_m:.0f} m across)", fontsize=9)
+            ax.indicate_inset((x - zoom_half_m, y - zoom_half_m, 2 * zoom_half_m, 2 * zoom_half_m), inset_ax=zoom,
+                              edgecolor="tab:red", alpha=0.8)
+            if zoom.get_subplotspec() is not None:  # beside the route: a full-size panel with its own labels
+                zoom.set_xlabel("x [m]")
+                zoom.set_ylabel("y [m]")
+                zoom.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1), fontsize=8, title="sensing cones (dashed: all around)",
+                            title_fontsize=8)
+            else:
+                zoom.tick_params(labelsize=6)
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
-    ax.set_title(f"Scenario {scenario.name}: landmarks {scenario.landmark_source}")
-    ax.legend(loc="best", fontsize=8)
+    ax.set_title(textwrap.fill(f"{scenario.name}: landmarks {_short_source(scenario.landmark_source)}", 60), fontsize=10)
+    if zoom is not None and zoom.get_subplotspec() is not None:
+        # the cones are listed beside their zoom; the route's own legend lists the map
+        handles, labels = ax.get_legend_handles_labels()
+        keep = [(h, lab) for h, lab in zip(handles, labels) if not isinstance(h, Wedge)]
+        ax.legend([h for h, _ in keep], [lab for _, lab in keep], loc="best", fontsize=8)
+    else:
+        ax.legend(loc="best", fontsize=8)
     ax.grid(True, alpha=0.3)
     return ax
 
@@ -543,7 +637,7 @@ def plot_domain_breakdown(design: "DomainDesign", ax: Axes | None = None, *, tit
         The axes drawn on.
     """
     routes = design.routes
-    ax = ax if ax is not None else new_axes((7.0, 0.45 * len(routes) + 1.8))
+    ax = ax if ax is not None else new_axes((7.0, 0.45 * len(routes) + 2.6))
     y = np.arange(len(routes))[::-1]
     domain_share = np.array([r.share_of_best for r in routes])
     own_share = np.array([r.own_score / r.best_score if r.best_score > 0 else 0.0 for r in routes])
@@ -560,8 +654,16 @@ def plot_domain_breakdown(design: "DomainDesign", ax: Axes | None = None, *, tit
     ax.set_xlabel("share of the route's best score, f_r(S) / f_r(all sensors)")
     ax.set_xlim(min(0.9, float(min(domain_share.min(), own_share.min())) - 0.02), 1.0)
     ax.grid(axis="x", alpha=0.3)
-    ax.set_ylim(-1.6, len(routes) - 0.5)  # a band below the last route for the legend
-    ax.legend(loc="lower left", fontsize="small", ncol=2)
+    ax.set_ylim(-2.2, len(routes) - 0.5)  # a band below the last route for the legend
+    handles, labels = ax.get_legend_handles_labels()
+    if design.worst_route:
+        from matplotlib.patches import Patch
+
+        handles.append(Patch(color="none"))
+        labels.append("red name: the route that loses most to its own design")
+    leg = ax.legend(handles, labels, loc="lower left", fontsize="small", ncol=1)
+    if design.worst_route:
+        leg.get_texts()[-1].set_color("tab:red")
     budget = design.greedy.budget_usd
     # "\\$" is a literal dollar: a bare $ starts matplotlib's mathtext
     ax.set_title(title or f"One suite for {len(routes)} routes at \\${budget:,.0f}: \\${design.greedy.cost_usd:,.0f}, "
