@@ -14,6 +14,7 @@ from sensorsel import results
 from sensorsel._resources import default_library_path
 from sensorsel.api import run_robust
 from sensorsel.cli import cli
+from sensorsel.cli.robust import method_words
 from sensorsel.errors import InputError
 from sensorsel.evaluators import DomainEvaluator, make_evaluator
 from sensorsel.problem import Domain, DomainRoute, build_problem
@@ -61,7 +62,8 @@ def test_cli_robust_prints_the_three_designs_and_round_trips(small_library_yaml,
     assert r.exit_code == 0, r.output
     res = results.load(out, RobustResult)
     assert results.dumps(results.load(results.save(res, tmp_path / "again.json"), "robust")) == results.dumps(res)
-    lines = {ln.split()[0]: ln for ln in r.stdout.splitlines() if ln.startswith(("greedy ", "algorithm 2", "robust "))}
+    summary = r.stdout.split("\ncandidates")[0]  # the three designs' table (the candidates' table follows)
+    lines = {ln.split()[0]: ln for ln in summary.splitlines() if ln.startswith(("greedy ", "algorithm 2", "robust "))}
     assert set(lines) == {"greedy", "algorithm", "robust"}
     from sensorsel.cli.options import compact_suite
 
@@ -71,9 +73,12 @@ def test_cli_robust_prints_the_three_designs_and_round_trips(small_library_yaml,
     tail = robust_row.split(compact_suite(res.suite))[1].split()
     assert tail[2] == f"{res.worst_score:,.2f}" and tail[3] == ",".join(res.failures) and tail[-1] == f"{res.gap_percent:.2f}%"
     assert f"{res.greedy_worst_score:,.2f}" in lines["greedy"].split()
-    assert f"winner: {res.method}" in r.stdout and "candidates" in r.stdout
+    # the user reads the methods' words, never their internal keys ("bound-leaf")
+    assert f"chosen by {method_words(res.method)};" in r.stdout and "candidates" in r.stdout
     for c in res.candidates:
-        assert any(ln.startswith(c.method + " ") for ln in r.stdout.splitlines())
+        assert any(ln.startswith(method_words(c.method) + "  ") for ln in r.stdout.splitlines())
+        assert method_words(c.method) != c.method, f"{c.method} is printed under its internal key"
+        assert c.method not in r.stdout.split("candidates")[1], f"{c.method} appears in the candidates table"
     # the guarantee, and the answer's worst case is exact
     assert res.worst_score >= res.greedy_worst_score - tol(res.greedy_worst_score)
     assert res.worst_score >= res.algorithm2_worst_score - tol(res.algorithm2_worst_score)

@@ -17,9 +17,10 @@ from . import certify, core, resilient, robust, select, simulate, study
 def cli() -> None:
     """Choose and place autonomous-vehicle sensors by the SLAM information they give.
 
-    Every command runs on the bundled synthetic scenario unless given a route: --seq NN (real KITTI
-    ground truth, with --kitti-root or $SENSORSEL_KITTI_ROOT) or --poses FILE (any route in KITTI's
-    pose format).
+    Every command runs on the bundled synthetic route unless given one: --seq NN (real KITTI ground
+    truth, with --kitti-root or $SENSORSEL_KITTI_ROOT), --route FILE (your own drive: KITTI poses, a
+    TUM trajectory or a planar CSV) or --domain FILE (many routes, one suite). `sensorsel COMMAND
+    --help` lists each command's options.
     """
 
 

@@ -155,8 +155,11 @@ def scenario_options(fn: Callable[..., Any]) -> Callable[..., Any]:
         click.option("--route-format", type=click.Choice(list(ROUTE_FORMATS)),
                      help="Format of --route (default: csv for a .csv file, else by its first line: 12 numbers kitti, "
                           "8 numbers tum, a header csv)."),
-        click.option("--poses", type=click.Path(dir_okay=False, path_type=str), help="A route in KITTI's pose format (as --route FILE --route-format kitti)."),
-        click.option("--times", type=click.Path(dir_okay=False, path_type=str), help="Timestamps for a KITTI pose file (default: 10 Hz, said on stderr)."),
+        # --poses FILE is --route FILE --route-format kitti under its older name: kept working for
+        # scripts, hidden so that the help names one option per thing
+        click.option("--poses", type=click.Path(dir_okay=False, path_type=str), hidden=True,
+                     help="A route in KITTI's pose format (as --route FILE --route-format kitti)."),
+        click.option("--times", type=click.Path(dir_okay=False, path_type=str), help="Timestamps of a KITTI --route file (default: 10 Hz, said on stderr)."),
         click.option("--fixture", default="suburb", show_default=True, help="Bundled synthetic scenario used when no route is given."),
         click.option("--name", "scenario_name", metavar="TEXT", help="Name of the scenario (default: the sequence, fixture or route file's name)."),
         click.option("--landmarks", metavar="real|synthetic|FILE",
@@ -189,7 +192,7 @@ def spec_from(kw: dict[str, Any]) -> ScenarioSpec:
         raise click.UsageError(f"--route-format {kw['route_format']} goes with --route FILE")
     if kw.get("times") and not (kw.get("poses") or kw.get("route")):
         # a --seq or a fixture reads its own times.txt: a --times here would be silently ignored
-        raise click.UsageError(f"--times {kw['times']} goes with --poses FILE or a KITTI --route FILE (a --seq or fixture has its own times.txt)")
+        raise click.UsageError(f"--times {kw['times']} goes with a KITTI --route FILE (or its older name --poses FILE); a --seq or fixture has its own times.txt")
     return ScenarioSpec(
         seq=kw.pop("seq"),
         kitti_root=kw.pop("kitti_root"),

@@ -108,6 +108,26 @@ def robust_cmd(budget: float, alpha: int, rules: str, methods: str | None, no_sk
         click.echo(f"wrote {written}")
 
 
+#: The words a user reads for each candidate method of a robust result (the result file keeps the
+#: method's key, e.g. "bound-leaf"; a key not listed here is printed as it is).
+METHOD_WORDS = {
+    "greedy-uniform": "greedy (uniform rule)",
+    "greedy-cost-benefit": "greedy (cost-benefit rule)",
+    "greedy-marginal": "greedy (marginal rule)",
+    "algorithm-2": "the paper's Algorithm 2",
+    "bound-leaf": "the upper bound's search",
+    "oblivious-eta2": "Oblivious-Greedy",
+    "oblivious": "Oblivious-Greedy",
+    "saturate": "SATURATE",
+    "local-search": "local search",
+}
+
+
+def method_words(method: str) -> str:
+    """What a robust candidate's method is called in the output ("bound-leaf" -> "the upper bound's search")."""
+    return METHOD_WORDS.get(method, method)
+
+
 def print_robust(res: Any, lib: SensorLibrary | None = None) -> None:
     """The summary of a :class:`~sensorsel.robust.RobustResult`: greedy, Algorithm 2 and the robust design
     side by side, the winning method, every candidate, and (worst route) the per-route breakdown."""
@@ -131,7 +151,7 @@ def print_robust(res: Any, lib: SensorLibrary | None = None) -> None:
         rows.append([label, compact_suite(c.suite, lib), f"{c.cost_usd:,.0f}", fmt(c.nominal_score), fmt(c.worst_score), fail,
                      fmt(res.bound), f"{100.0 * (res.bound - c.worst_score) / res.bound if res.bound > 0 else 0.0:.2f}%"])
     click.echo(table(rows, ["design", "suite", "cost_usd", "nominal", "worst_case", "worst_failures", "bound", "gap"]))
-    click.echo(f"\nwinner: {res.method}; worst case {fmt(res.worst_score)} ({unit}), bound {fmt(res.bound)}, "
+    click.echo(f"\nchosen by {method_words(res.method)}; worst case {fmt(res.worst_score)} ({unit}), bound {fmt(res.bound)}, "
                f"gap {res.gap_percent:.2f}%" + (" (proved optimal)" if res.bound_detail.proved or res.gap_percent == 0 else ""))
     if res.greedy_worst_score > 0:
         click.echo(f"versus greedy {100.0 * (res.worst_score - res.greedy_worst_score) / res.greedy_worst_score:+.1f} %, "
@@ -141,12 +161,13 @@ def print_robust(res: Any, lib: SensorLibrary | None = None) -> None:
         click.echo(table([[m.name, f"{m.best_score:,.2f}", f"{m.nominal_share:.4f}", f"{m.worst_share:.4f}", _csv(m.failures)]
                           for m in res.members], ["route", "best_nats", "nominal_share", "worst_share", "worst_failures"]))
     click.echo("\ncandidates")
-    click.echo(table([[c.method, compact_suite(c.suite, lib), f"{c.cost_usd:,.0f}", fmt(c.nominal_score), fmt(c.worst_score),
+    click.echo(table([[method_words(c.method), compact_suite(c.suite, lib), f"{c.cost_usd:,.0f}", fmt(c.nominal_score), fmt(c.worst_score),
                        _csv(c.failures) + (f" on {c.worst_member}" if c.worst_member else ""), str(c.n_evaluations),
                        f"{c.seconds:.1f}"] for c in res.candidates],
                      ["method", "suite", "cost_usd", "nominal", "worst_case", "worst_failures", "evaluations", "seconds"]))
     for s in res.skipped:
-        click.echo(f"skipped: {s}")
+        method, _, why = s.partition(": ")
+        click.echo(f"skipped: {method_words(method)}: {why}" if why else f"skipped: {s}")
     if res.constraints is not None and lib is not None:
         from ..constraints import feasible_set
 
