@@ -1,0 +1,110 @@
+"""The documentation site builds warning-free in strict mode, with every command in its CLI reference (issue 28).
+
+The build is MkDocs (mkdocs.yml, pages under docs/) with mkdocs-click rendering the click commands and
+mkdocstrings the docstrings; the tools come with the test extra (``sensorsel[docs]``). Strictness is
+tested too: a copy of the site with one broken link, or with a page the nav does not list, must fail.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import yaml
+
+REPO = Path(__file__).resolve().parents[1]
+
+if os.environ.get("CI", "").lower() != "true":  # in CI the docs tools are required, not optional
+    pytest.importorskip("mkdocs")
+    pytest.importorskip("mkdocs_click")
+    pytest.importorskip("mkdocstrings")
+
+
+def _build(config: Path, site: Path) -> subprocess.CompletedProcess[str]:
+    env = {**os.environ, "NO_MKDOCS_2_WARNING": "1"}
+    return subprocess.run([sys.executable, "-m", "mkdocs", "build", "--strict", "-f", str(config), "-d", str(site)],
+                          capture_output=True, text=True, cwd=REPO, env=env, timeout=300)
+
+
+@pytest.fixture(scope="module")
+def site(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("site")
+    p = _build(REPO / "mkdocs.yml", out)
+    assert p.returncode == 0, "the documentation site does not build in strict mode:\n" + p.stdout + p.stderr
+    assert "WARNING" not in p.stderr, p.stderr
+    return out
+
+
+def test_site_builds_with_every_page_of_the_nav(site):
+    nav = yaml.safe_load((REPO / "mkdocs.yml").read_text(encoding="utf-8"))["nav"]
+
+    def pages(items):
+        for it in items:
+            for v in (it.values() if isinstance(it, dict) else [it]):
+                yield from (pages(v) if isinstance(v, list) else [v])
+
+    listed = list(pages(nav))
+    assert "cli.md" in listed and "api.md" in listed
+    for page in listed:
+        html = site / ("index.html" if page == "index.md" else Path(page).with_suffix("") / "index.html")
+        assert html.is_file(), f"{page} is in the nav but was not built"
+
+
+def test_every_command_is_in_the_cli_reference_with_its_help(site):
+    from sensorsel.cli import cli
+
+    html = (site / "cli" / "index.html").read_text(encoding="utf-8")
+    assert cli.commands, "no commands"
+    for name, cmd in cli.commands.items():
+        if cmd.hidden:
+            continue
+        assert (cmd.help or "").strip() and (cmd.get_short_help_str() or "").strip(), f"sensorsel {name} has no help text"
+        assert f'id="sensorsel-{name}"' in html, f"sensorsel {name} is missing from the rendered CLI reference"
+        for opt in cmd.params:
+            for flag in getattr(opt, "opts", []):
+                if flag.startswith("--") and not getattr(opt, "hidden", False):
+                    assert flag in html, f"sensorsel {name} {flag} is missing from the rendered CLI reference"
+
+
+def test_api_reference_is_rendered_from_the_docstrings(site):
+    import inspect
+
+    import sensorsel.api as api
+
+    html = (site / "api" / "index.html").read_text(encoding="utf-8")
+    functions = [n for n, f in inspect.getmembers(api, inspect.isfunction) if f.__module__ == "sensorsel.api" and not n.startswith("_")]
+    assert "run_greedy" in functions
+    for name in functions:
+        assert f'id="sensorsel.api.{name}"' in html, f"sensorsel.api.{name} is missing from the API reference"
+
+
+def _copy_site_sources(tmp: Path) -> dict:
+    docs = tmp / "docs"
+    # the pages and images; result files are excluded from the site anyway
+    shutil.copytree(REPO / "docs", docs, ignore=shutil.ignore_patterns("*.json", "*.csv", "*.txt", "periods", "greedy", "*.py"))
+    cfg = yaml.safe_load((REPO / "mkdocs.yml").read_text(encoding="utf-8"))
+    cfg["docs_dir"] = str(docs)
+    cfg["plugins"][1]["mkdocstrings"]["handlers"]["python"]["paths"] = [str(REPO / "src")]
+    return cfg
+
+
+@pytest.mark.parametrize("breakage", ["broken link", "page not in the nav", "nav entry without its page"])
+def test_strict_build_fails_on_a_broken_site(tmp_path, breakage):
+    cfg = _copy_site_sources(tmp_path)
+    page = tmp_path / "docs" / "guide-extra.md"
+    if breakage == "broken link":
+        page.write_text("# Extra\n\nSee [the missing page](guide-missing.md).\n", encoding="utf-8")
+        cfg["nav"].append({"Extra": "guide-extra.md"})
+    elif breakage == "page not in the nav":
+        page.write_text("# Extra\n\nA page nobody listed.\n", encoding="utf-8")
+    else:
+        cfg["nav"].append({"Extra": "guide-extra.md"})
+    config = tmp_path / "mkdocs.yml"
+    config.write_text(yaml.safe_dump(cfg, sort_keys=False), encoding="utf-8")
+    p = _build(config, tmp_path / "site")
+    assert p.returncode != 0, f"a site with a {breakage} built in strict mode:\n{p.stderr}"
+    assert "guide-" in p.stderr, p.stderr

@@ -1,0 +1,82 @@
+"""The README stays short and true (issue 28): its two commands are CI's, its tour's output is what the
+commands print, its pictures and links exist.
+
+The tour's commands run on the bundled route (no KITTI) in a temporary folder; each line the README
+shows must appear in the command's output, in order (a line ``...`` stands for lines left out; the
+repository's folder is shown as ``...`` and times in seconds are not compared).
+"""
+
+from __future__ import annotations
+
+import re
+import shlex
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from sensorsel.cli import cli
+
+REPO = Path(__file__).resolve().parents[1]
+README = (REPO / "README.md").read_text(encoding="utf-8")
+MAX_LINES = 200
+TIME = re.compile(r"\d+(\.\d+)? s\b")
+
+
+def _blocks(lang: str) -> list[str]:
+    return re.findall(r"```" + lang + r"\n(.*?)```", README, flags=re.S)
+
+
+def _tour() -> list[tuple[str, list[str]]]:
+    """(command, expected output lines) of each ``$ sensorsel ...`` in the README's console blocks."""
+    out: list[tuple[str, list[str]]] = []
+    for block in _blocks("console"):
+        for ln in block.splitlines():
+            if ln.startswith("$ "):
+                out.append((ln[2:], []))
+            elif out:
+                out[-1][1].append(ln)
+    return out
+
+
+def test_readme_fits_on_a_few_screens():
+    assert len(README.splitlines()) <= MAX_LINES
+
+
+def test_the_two_commands_come_first_and_ci_runs_the_second():
+    first = _blocks("bash")[0].splitlines()
+    assert README.index("```bash") < README.index("\n## ")
+    assert first[0] == "python3 -m venv .venv && .venv/bin/pip install . && .venv/bin/sensorsel greedy --budget 110000"
+    assert first[1] == 'python3 -m venv .venv && .venv/bin/pip install -e ".[test]" && .venv/bin/python -m pytest -q'
+    ci = (REPO / ".ci" / "run").read_text(encoding="utf-8")
+    assert '.venv/bin/pip install -q -e ".[test]" && .venv/bin/python -m pytest -q' in ci
+
+
+def test_pictures_and_links_exist():
+    for target in re.findall(r"\]\(([^)#]+)(?:#[^)]*)?\)", README):
+        if "://" in target:
+            continue
+        assert (REPO / target).exists(), f"README.md links to {target}, which does not exist"
+
+
+@pytest.mark.parametrize("command,expected", _tour(), ids=[c.split(" -")[0] for c, _ in _tour()])
+def test_tour_prints_what_the_readme_shows(command, expected, tmp_path, monkeypatch):
+    argv = shlex.split(command)
+    assert argv[0] == "sensorsel"
+    monkeypatch.chdir(tmp_path)
+    r = CliRunner().invoke(cli, argv[1:])
+    assert r.exit_code == 0, r.output
+    got = [TIME.sub("<t> s", ln.replace(str(REPO), "...")).rstrip() for ln in r.stdout.splitlines()]
+    i = 0
+    gap = True  # the shown output may start after some lines (a "..." first) or at the first line
+    for want in expected:
+        if want.strip() == "...":
+            gap = True
+            continue
+        want = TIME.sub("<t> s", want).rstrip()
+        if gap:
+            while i < len(got) and got[i] != want:
+                i += 1
+        assert i < len(got) and got[i] == want, f"`{command}` no longer prints, as README.md shows:\n{want}"
+        i += 1
+        gap = False
