@@ -84,3 +84,16 @@ def test_domain_plot_explains_its_red_route(tmp_path):
     texts = ax.get_legend().get_texts()
     explained = [t for t in texts if "red" in t.get_text()]
     assert len(explained) == 1 and to_rgba(explained[0].get_color()) == to_rgba("tab:red")
+
+
+def test_pareto_plot_explains_every_mark(tiny_problem):
+    from sensorsel import run_tradespace
+    from sensorsel.plotting import plot_tradespace
+
+    ts = run_tradespace(tiny_problem)
+    ax = plot_tradespace(ts)
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert any(lab.startswith("Pareto front") for lab in labels)
+    assert any("of the best" in lab for lab in labels), "the dotted 99%/95% lines are not in the legend"
+    assert any("cheapest" in lab for lab in labels), "the stars are not in the legend"
+    assert any(lab.startswith("made by ") for lab in labels), "the markers do not say which rule made them"

@@ -294,6 +294,10 @@ def _run_errors(result: "SimulationResult", scenario: Scenario, run: int) -> tup
     return poses, np.asarray(r.position_error_m, dtype=float), lms, lm_err
 
 
+#: The solvers' names as a reader knows them (a result records the key, e.g. "lm").
+SOLVER_WORDS = {"lm": "Levenberg-Marquardt", "isam2": "iSAM2"}
+
+
 def _failure_text(result: "SimulationResult") -> str:
     if not result.failures:
         return "no failure"
@@ -364,7 +368,7 @@ def plot_simulation(
 
     suite = textwrap.fill(", ".join(result.suite) or "(no sensor)", 60)
     ax.set_title(
-        f"{result.label}: {suite}\n{_failure_text(result)} | {result.solver}, "
+        f"{result.label}: {suite}\n{_failure_text(result)}; solver {SOLVER_WORDS.get(result.solver, result.solver)}, "
         f"run {k} {'(median of' if k == typical_run(result) else '(of'} {len(result.runs)})\nposition RMSE {result.runs[k].position_rmse_m:.2f} m, "
         f"max {result.runs[k].max_position_error_m:.2f} m, landmarks {lm_txt}",
         fontsize=9,
@@ -436,8 +440,9 @@ def plot_error_along_route(results: "Sequence[SimulationResult]", scenario: Scen
         if res.problem.n_poses != n:
             raise InputError(f"plot_error_along_route: {res.label!r} has {res.problem.n_poses} keyframes, the scenario {n}")
         c = colours[i % len(colours)]
-        for r in res.runs:
-            ax.plot(s, r.position_error_m, "-", color=c, lw=0.5, alpha=0.2)
+        for j, r in enumerate(res.runs):
+            ax.plot(s, r.position_error_m, "-", color=c, lw=0.5, alpha=0.2,
+                    label=f"{res.label}: each run (thin)" if j == 0 else None)
         ax.plot(s, res.position_rmse_along_route_m, "-", color=c, lw=2.0,
                 label=f"{res.label} ({_failure_text(res)}): RMS of {res.n_runs} runs")
         ax.plot(s, res.predicted_position_sigma_m, "--", color=c, lw=1.3, label=f"{res.label}: predicted 1-sigma")
@@ -583,7 +588,7 @@ def plot_tradespace(result: "TradespaceResult", ax: Axes | None = None, *, log_c
         if pts:
             x, y = np.array(pts).T
             ax.scatter(x, y, s=size, marker=marker, facecolors="none", edgecolors=colour, linewidths=1.1,
-                       label=f"{name} ({len(pts)})", zorder=3)
+                       label=f"made by {name} ({len(pts)})", zorder=3)
     front = result.front
     fx = np.array([a.cost_usd for a in front])
     fy = np.array([a.normalized for a in front])
@@ -597,8 +602,11 @@ def plot_tradespace(result: "TradespaceResult", ax: Axes | None = None, *, log_c
         a = result.cheapest_reaching(frac)
         if a is None:
             continue
-        ax.axhline(frac, color="0.6", lw=0.8, ls=":", zorder=1)
-        ax.scatter([a.cost_usd], [a.normalized], s=160, marker="*", color="gold", edgecolors="k", linewidths=0.7, zorder=5)
+        first = k == 0
+        ax.axhline(frac, color="0.6", lw=0.8, ls=":", zorder=1,
+                   label=" and ".join(f"{f:.0%}" for f in fractions) + " of the best" if first else None)
+        ax.scatter([a.cost_usd], [a.normalized], s=160, marker="*", color="gold", edgecolors="k", linewidths=0.7, zorder=5,
+                   label="cheapest suite reaching it" if first else None)
         # the label goes below the point, towards the middle of the plot, so it stays inside the axes
         x = np.log(a.cost_usd) if log_cost else a.cost_usd
         right = x > (lo_x + hi_x) / 2
@@ -618,7 +626,7 @@ def plot_tradespace(result: "TradespaceResult", ax: Axes | None = None, *, log_c
                           f"({len(result.budgets_usd)} budgets)", fontsize=10)
     ax.grid(True, which="major", alpha=0.3)
     ax.grid(True, which="minor", alpha=0.1)
-    ax.legend(loc="lower right", fontsize=8.5, title="made by", title_fontsize=8.5)
+    ax.legend(loc="lower right", fontsize=8.5)
     return ax
 
 
