@@ -80,3 +80,13 @@ def test_tour_prints_what_the_readme_shows(command, expected, tmp_path, monkeypa
         assert i < len(got) and got[i] == want, f"`{command}` no longer prints, as README.md shows:\n{want}"
         i += 1
         gap = False
+
+
+def test_facts_the_readme_states_are_the_library_and_the_bundled_route(library, suburb_problem):
+    """The numbers outside the tour: the library's size and the bundled route's length and counts."""
+    sc = suburb_problem.scenario
+    route = sc.route or sc.keyframes
+    assert f"{len(library)} placed" in README
+    assert f'"suburb": {route.length_m:.0f} m, {sc.n_poses} keyframes, {len(sc.landmarks)} landmarks' in README
+    lrl = library[library.parse_suite("LRL-roof")[0]].model.cost_usd
+    assert f"${lrl:,.0f} LiDAR" in README
