@@ -10,6 +10,7 @@ A package with one module per job, so that a new route format plugs in beside th
 - one module per route format: :mod:`.kitti` (pose files, ``times.txt``, the ``dataset/`` layout),
   :mod:`.tum` (``timestamp tx ty tz qx qy qz qw``), :mod:`.csv_route` (planar ``t,x,y[,heading]``
   and positions-only logs);
+- :mod:`.positions`: :func:`route_from_positions`, (t, x, y) to a route (every positions-only reader);
 - :mod:`.landmarks`: the generator, landmark files (x,y or x,y,z), the duplicate and on-road checks;
 - :mod:`.loading`: :class:`ScenarioSpec`, format sniffing and :func:`load_scenario`.
 
@@ -28,12 +29,14 @@ from .base import (
     ON_ROAD_M,
     QUATERNION_TOL,
     ROTATION_TOL,
+    RouteFile,
     Scenario,
     Trajectory,
     route_rate_hz,
     select_keyframes,
 )
-from .csv_route import PLANAR_CSV_COLUMNS, read_planar_csv, write_planar_csv
+from .csv_route import PLANAR_CSV_COLUMNS, read_csv_route, read_planar_csv, write_planar_csv
+from .frames import Frame, find_frame, headings_from_travel
 from .kitti import (
     KITTI_ROOT_ENV,
     kitti_from_planar,
@@ -42,6 +45,8 @@ from .kitti import (
     load_trajectory,
     planar_from_kitti,
     read_kitti_poses,
+    read_kitti_route,
+    read_sequence,
     read_times,
     resolve_kitti_root,
     write_kitti_poses,
@@ -55,6 +60,7 @@ from .landmarks import (
     estimate_landmark_count,
     generate_landmarks,
     read_landmarks_csv,
+    read_landmarks_file,
     write_landmarks_csv,
 )
 from .loading import (
@@ -67,12 +73,14 @@ from .loading import (
     load_route,
     load_route_file,
     load_scenario,
+    read_route_file,
     route_landmarks,
     route_name,
     scenario_notes,
     sniff_route_format,
 )
-from .tum import read_tum_trajectory, write_tum_trajectory, yaw_from_quaternion
+from .positions import route_from_positions
+from .tum import read_tum_route, read_tum_trajectory, rotations_from_quaternions, write_tum_trajectory, yaw_from_quaternion
 
 __all__ = [
     "DEFAULT_FIXTURE", "DEFAULT_FRAME_RATE_HZ", "KITTI_ROOT_ENV", "MAX_COORD_M", "MAX_LANDMARKS", "ON_ROAD_M",
@@ -84,4 +92,6 @@ __all__ = [
     "read_planar_csv", "read_times", "read_tum_trajectory", "resolve_kitti_root", "route_landmarks", "route_name",
     "route_rate_hz", "scenario_notes", "select_keyframes", "sniff_route_format", "write_kitti_poses",
     "write_landmarks_csv", "write_planar_csv", "write_tum_trajectory", "yaw_from_quaternion",
+    "Frame", "RouteFile", "find_frame", "headings_from_travel", "read_csv_route", "read_kitti_route", "read_landmarks_file",
+    "read_route_file", "read_sequence", "read_tum_route", "rotations_from_quaternions", "route_from_positions",
 ]

@@ -12,6 +12,7 @@ import numpy as np
 
 from ..errors import InputError, ScenarioError
 from ..library import is_number_text
+from .frames import Frame
 
 DEFAULT_FRAME_RATE_HZ = 10.0  # assumed for a KITTI pose file without timestamps (KITTI's own rate)
 ON_ROAD_M = 3.0  # landmarks closer than this to the route are counted as "on the road" (report only)
@@ -229,3 +230,18 @@ def _csv_fields(line: str) -> list[str]:
     return [f.strip() for f in next(csv.reader([line]))]
 
 
+@dataclass(frozen=True, eq=False)
+class RouteFile:
+    """A route as a reader returns it.
+
+    Attributes:
+        route: the planar trajectory.
+        frame: the ground plane and forward axis found for a 3-D file (None: the file is planar, its
+            x, y are the planar frame's).
+        notes: lines to tell the user (a frame found other than the format's own, an assumed rate,
+            headings taken from the direction of travel).
+    """
+
+    route: Trajectory
+    frame: Frame | None
+    notes: tuple[str, ...] = ()

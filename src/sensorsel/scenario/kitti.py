@@ -11,7 +11,8 @@ import numpy as np
 
 from ..errors import InputError, ScenarioError
 from ..fileio import atomic_write_text
-from .base import DEFAULT_FRAME_RATE_HZ, ROTATION_TOL, Trajectory, _check_coordinates, _parse_row, _read_lines
+from .frames import find_frame
+from .base import DEFAULT_FRAME_RATE_HZ, ROTATION_TOL, RouteFile, Trajectory, _check_coordinates, _parse_row, _read_lines
 
 KITTI_ROOT_ENV = "SENSORSEL_KITTI_ROOT"
 
@@ -111,11 +112,15 @@ def write_kitti_poses(path: str | Path, planar: np.ndarray) -> Path:
 
 
 
-def load_trajectory(poses_path: str | Path, times_path: str | Path | None = None, *, frame_rate_hz: float = DEFAULT_FRAME_RATE_HZ) -> Trajectory:
-    """Read a route in KITTI's pose format, with its ``times.txt`` or a fixed frame rate.
+def read_kitti_route(poses_path: str | Path, times_path: str | Path | None = None, *,
+                     frame_rate_hz: float = DEFAULT_FRAME_RATE_HZ, up: str | None = None, forward: str | None = None) -> RouteFile:
+    """Read a route in KITTI's pose format, with its ``times.txt`` or a fixed frame rate, its ground
+    plane and forward axis found (:func:`~sensorsel.scenario.frames.find_frame`; KITTI's own camera
+    frame, y down and z forward, gives exactly :func:`planar_from_kitti`).
 
     Raises:
-        ScenarioError: bad files, or a pose file truncated relative to its timestamps.
+        ScenarioError: bad files, a pose file truncated relative to its timestamps, a route whose
+            frame cannot be told (a car that never moves, ...).
     """
     poses_path = Path(poses_path)
     poses = read_kitti_poses(poses_path)
@@ -126,8 +131,14 @@ def load_trajectory(poses_path: str | Path, times_path: str | Path | None = None
             raise ScenarioError(poses_path, f"pose file is {what}: {len(poses)} poses but {len(times)} timestamps in {times_path}", len(poses))
     else:
         times = np.arange(len(poses)) / frame_rate_hz
-    return Trajectory(planar_from_kitti(poses), times, np.arange(len(poses)), str(poses_path))
+    frame, notes = find_frame(poses[:, :, 3], poses[:, :, :3], poses_path, convention="camera", up=up, forward=forward)
+    planar = frame.planar(poses[:, :, 3], poses[:, :, :3])
+    return RouteFile(Trajectory(planar, times, np.arange(len(poses)), str(poses_path)), frame, tuple(notes))
 
+
+def load_trajectory(poses_path: str | Path, times_path: str | Path | None = None, *, frame_rate_hz: float = DEFAULT_FRAME_RATE_HZ) -> Trajectory:
+    """The planar route of a KITTI pose file (:func:`read_kitti_route`)."""
+    return read_kitti_route(poses_path, times_path, frame_rate_hz=frame_rate_hz).route
 
 
 def resolve_kitti_root(explicit: str | Path | None) -> Path:
@@ -149,15 +160,19 @@ def resolve_kitti_root(explicit: str | Path | None) -> Path:
     return root
 
 
-def load_sequence(root: str | Path, seq: str) -> Trajectory:
-    """Full-rate trajectory of sequence ``seq`` under a KITTI-layout root."""
+def read_sequence(root: str | Path, seq: str) -> RouteFile:
+    """Full-rate route of sequence ``seq`` under a KITTI-layout root, with its frame and notes."""
     root = Path(root)
     poses_path = root / "poses" / f"{seq}.txt"
     if not poses_path.is_file():
         have = sorted(p.stem for p in (root / "poses").glob("*.txt"))
         raise ScenarioError(poses_path, f"sequence {seq!r} not found; this folder has: {', '.join(have) or 'none'}")
-    return load_trajectory(poses_path, root / "sequences" / seq / "times.txt")
+    return read_kitti_route(poses_path, root / "sequences" / seq / "times.txt")
 
+
+def load_sequence(root: str | Path, seq: str) -> Trajectory:
+    """Full-rate trajectory of sequence ``seq`` under a KITTI-layout root."""
+    return read_sequence(root, seq).route
 
 
 def kitti_map_path(root: str | Path, seq: str) -> Path:

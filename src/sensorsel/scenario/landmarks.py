@@ -147,9 +147,18 @@ def read_landmarks_csv(path: str | Path) -> np.ndarray:
         ScenarioError: missing file, a header without x and y, a row with another number of fields
             or a bad x or y (names the line), no landmark.
     """
+    return read_landmarks_file(path)[:, :2]
+
+
+def read_landmarks_file(path: str | Path) -> np.ndarray:
+    """Read landmarks [m] as :func:`read_landmarks_csv` does, keeping a ``z`` column when the header
+    names one: (M, 2) for a 2-D file (planar x, y), (M, 3) for a header naming x, y and z (a 3-D map
+    in the route's world frame, projected into its ground plane by the route's frame).
+    """
     path = Path(path)
     lines = _data_lines(path, "landmark")
-    cols, n_fields, start = (0, 1), None, 0
+    cols: tuple[int, ...] = (0, 1)
+    n_fields, start = None, 0
     if lines:
         hline, first = lines[0]
         fields = _csv_fields(first)
@@ -159,10 +168,12 @@ def read_landmarks_csv(path: str | Path) -> np.ndarray:
             if missing:
                 raise ScenarioError(path, f"header {first!r} names no {' and no '.join(missing)} column: expected a header "
                                     "naming x and y (metres; other columns are ignored) or rows of numbers", hline)
-            for c in ("x", "y"):
+            for c in ("x", "y", "z"):
                 if header.count(c) > 1:
                     raise ScenarioError(path, f"header {first!r} names column {c} twice", hline)
-            cols, n_fields, start = (header.index("x"), header.index("y")), len(header), 1
+            cols = tuple(header.index(c) for c in ("x", "y", "z") if c in header)
+            n_fields, start = len(header), 1
+    what = "x,y,z" if len(cols) == 3 else "x,y"
     rows, linenos = [], []
     for lineno, s in lines[start:]:
         fields = _csv_fields(s)
@@ -173,14 +184,14 @@ def read_landmarks_csv(path: str | Path) -> np.ndarray:
         if len(fields) != n_fields:
             raise ScenarioError(path, f"expected {n_fields} comma-separated fields as in the {'header' if start else 'first row'}, "
                                 f"found {len(fields)} fields", lineno)
-        rows.append(_parse_row(f"{fields[cols[0]]} {fields[cols[1]]}", path, lineno, 2, "x,y"))
+        rows.append(_parse_row(" ".join(fields[c] for c in cols), path, lineno, len(cols), what))
         linenos.append(lineno)
     if rows:
         _check_coordinates(np.asarray(rows), path, linenos, "landmark")
     if not rows:
         # an empty map would silently make every suite score 0
         raise ScenarioError(path, "landmark file has no landmarks: expected rows of x,y in metres")
-    return np.asarray(rows, dtype=float).reshape(-1, 2)
+    return np.asarray(rows, dtype=float).reshape(-1, len(cols))
 
 
 def distance_to_route(points: np.ndarray, xy: np.ndarray, chunk: int = 256) -> np.ndarray:

@@ -12,12 +12,12 @@ import numpy as np
 from .._resources import fixtures_dir
 from ..errors import InputError, ScenarioError
 from ..library import is_number_text
-from .base import Scenario, Trajectory, _data_lines, route_rate_hz, select_keyframes
-from .csv_route import read_planar_csv
-from .base import DEFAULT_FRAME_RATE_HZ
-from .kitti import kitti_map_path, load_sequence, load_trajectory, resolve_kitti_root
-from .landmarks import LandmarkModel, check_landmark_seed, clean_landmarks, generate_landmarks, read_landmarks_csv
-from .tum import _read_tum
+from .base import DEFAULT_FRAME_RATE_HZ, RouteFile, Scenario, Trajectory, _data_lines, route_rate_hz, select_keyframes
+from .csv_route import _header, read_csv_route
+from .frames import Frame, check_not_degrees
+from .kitti import kitti_map_path, read_kitti_route, read_sequence, resolve_kitti_root
+from .landmarks import LandmarkModel, check_landmark_seed, clean_landmarks, generate_landmarks, read_landmarks_file
+from .tum import read_tum_route
 
 DEFAULT_FIXTURE = "suburb"
 ROUTE_FORMATS = ("kitti", "tum", "csv")
@@ -29,8 +29,8 @@ _GENERIC_STEMS = {"poses", "pose", "groundtruth", "ground_truth", "gt", "traject
 
 def sniff_route_format(path: str | Path) -> str:
     """The format of a route file when none is given: ``csv`` for a ``.csv`` file; otherwise by the
-    first line that is not blank or a ``#`` comment: a header (a field that is not a number) means
-    ``csv``, 12 numbers ``kitti`` (a 3x4 pose matrix), 8 numbers ``tum``.
+    first line that is not blank or a ``#`` comment: a header (a field that is not a number, or a
+    ``#`` comment naming t, x and y just before it) means ``csv``, 12 numbers ``kitti`` (a 3x4 pose matrix), 8 numbers ``tum``.
 
     Raises:
         ScenarioError: missing or empty file, or a first line that fits none of the formats.
@@ -43,8 +43,8 @@ def sniff_route_format(path: str | Path) -> str:
         raise ScenarioError(path, "route file is empty")
     lineno, first = lines[0]
     parts = first.replace(",", " ").split()
-    if not all(is_number_text(p) for p in parts):
-        return "csv"
+    if not all(is_number_text(p) for p in parts) or _header(path) is not None:
+        return "csv"  # a header, or a '#' comment naming t,x,y just before the first row
     by_count = {12: "kitti", 8: "tum"}
     if len(parts) not in by_count:
         raise ScenarioError(path, f"cannot tell the route format: {len(parts)} numbers on the first line "
@@ -57,12 +57,26 @@ def load_route_file(path: str | Path, fmt: str | None = None, times: str | Path 
                     *, frame_rate_hz: float = DEFAULT_FRAME_RATE_HZ) -> tuple[Trajectory, tuple[str, ...]]:
     """Read a route in ``fmt`` (``kitti``, ``tum``, ``csv``; None: :func:`sniff_route_format`).
 
+    Returns:
+        (route, notes): see :func:`read_route_file`.
+    """
+    r = read_route_file(path, fmt, times, frame_rate_hz=frame_rate_hz)
+    return r.route, r.notes
+
+
+def read_route_file(path: str | Path, fmt: str | None = None, times: str | Path | None = None, *,
+                    frame_rate_hz: float = DEFAULT_FRAME_RATE_HZ, up: str | None = None, forward: str | None = None) -> RouteFile:
+    """Read a route in ``fmt`` (``kitti``, ``tum``, ``csv``; None: :func:`sniff_route_format`), its
+    ground plane and forward axis found (a 3-D file) and its heading from the direction of travel (a
+    positions-only file).
+
     ``times`` goes with a KITTI pose file only (TUM and CSV routes carry their own timestamps); a
-    KITTI pose file without it is taken at ``frame_rate_hz``, and the returned notes say so.
+    KITTI pose file without it is taken at ``frame_rate_hz``, and the notes say so. ``up`` (a world
+    axis, ``+z``, ``-y``) and ``forward`` (a body axis) state the frame instead of finding it.
 
     Returns:
-        (route, notes): notes are lines to tell the user (an assumed rate, a TUM file that does not
-        look z-up).
+        the route, its frame (None for a planar file) and notes: lines to tell the user (an assumed
+        rate, a frame found other than the format's own, headings from the direction of travel).
     """
     path = Path(path)
     if fmt is None:
@@ -71,20 +85,17 @@ def load_route_file(path: str | Path, fmt: str | None = None, times: str | Path 
         raise InputError(f"unknown route format {fmt!r}; expected one of {', '.join(ROUTE_FORMATS)}")
     if times is not None and fmt != "kitti":
         raise InputError(f"timestamps {times} go with a KITTI pose file; a {fmt} route ({path}) carries its own")
-    notes: list[str] = []
     if fmt == "kitti":
-        route = load_trajectory(path, times, frame_rate_hz=frame_rate_hz)
+        r = read_kitti_route(path, times, frame_rate_hz=frame_rate_hz, up=up, forward=forward)
         if times is None:
-            notes.append(f"route {path} has no timestamps: assumed {frame_rate_hz:g} Hz (give its times file to use real ones)")
-    elif fmt == "csv":
-        route = read_planar_csv(path)
-    else:
-        route, z = _read_tum(path)
-        extent = max(float(np.ptp(route.poses[:, 0])), float(np.ptp(route.poses[:, 1])))
-        if np.ptp(z) > 1.0 and np.ptp(z) > 0.5 * extent:
-            notes.append(f"route {path}: tz spans {np.ptp(z):.1f} m against {extent:.1f} m in x-y; sensorsel takes a TUM "
-                         "file as z-up (ground plane x-y): a camera-frame (y-down) trajectory must be converted first")
-    return route, tuple(notes)
+            r = RouteFile(r.route, r.frame, (f"route {path} has no timestamps: assumed {frame_rate_hz:g} Hz (give its times file "
+                                             "to use real ones)",) + r.notes)
+        return r
+    if fmt == "csv":
+        if forward is not None:
+            raise InputError(f"--forward {forward}: a CSV route ({path}) has no body axes (its heading is a column or the direction of travel)")
+        return read_csv_route(path, up=up)
+    return read_tum_route(path, up=up, forward=forward)
 
 
 def route_name(path: str | Path) -> str:
@@ -113,11 +124,14 @@ class ScenarioSpec:
     ``landmarks``: None (default) uses the route's own map: a sequence's ``landmarks/NN.csv`` pole
     map when the KITTI folder has one, a fixture's bundled CSV, else generated; ``"real"`` requires
     the sequence's pole map; ``"synthetic"`` always generates (``landmark_model``, ``landmark_seed``);
-    anything else is a landmark CSV file (:func:`read_landmarks_csv`).
+    anything else is a landmark CSV file (:func:`~sensorsel.scenario.landmarks.read_landmarks_file`).
 
     ``clearance_m``: drop landmarks closer than this to the route (None: count them, keep them).
     ``name``: the scenario's name (default: the sequence, the fixture, or the route file's name as
     :func:`route_name` gives it).
+    ``up``, ``forward``: with a route file, the world's up axis and the body's forward axis (``+z``,
+    ``-y``, ...) instead of those found from the route (:func:`~sensorsel.scenario.frames.find_frame`).
+    A landmark file naming ``x,y,z`` is in the route's world frame and projected by it.
     """
 
     seq: str | None = None
@@ -133,6 +147,8 @@ class ScenarioSpec:
     route_format: str | None = None
     clearance_m: float | None = None
     name: str | None = None
+    up: str | None = None
+    forward: str | None = None
 
 
 def fixture_names() -> list[str]:
@@ -148,6 +164,7 @@ class _Route:
     own_label: str  # how to name that map as a landmark source
     notes: tuple[str, ...]
     missing_map: str | None = None  # why a sequence has no own map (for the notes)
+    frame: Frame | None = None  # the frame a 3-D route was found in (projects x,y,z landmark files)
 
 
 
@@ -161,20 +178,24 @@ def _load_route(spec: ScenarioSpec) -> _Route:
     if spec.route is not None or spec.poses is not None:
         path: str = spec.route if spec.route is not None else spec.poses  # type: ignore[assignment]  # one is set
         fmt = spec.route_format if spec.route is not None else "kitti"
-        route, notes = load_route_file(path, fmt, spec.times)
-        return _Route(route, route_name(path), None, "", notes)
+        rf = read_route_file(path, fmt, spec.times, up=spec.up, forward=spec.forward)
+        return _Route(rf.route, route_name(path), None, "", rf.notes, frame=rf.frame)
+    for option, value in (("--up", spec.up), ("--forward", spec.forward)):
+        if value is not None:
+            raise InputError(f"{option} {value} goes with a route file (--route FILE); a sequence or fixture is in KITTI's camera frame")
     if spec.seq is not None:
         root = resolve_kitti_root(spec.kitti_root)
         lm = kitti_map_path(root, spec.seq)
-        route = load_sequence(root, spec.seq)
+        rf = read_sequence(root, spec.seq)
         if lm.is_file():
-            return _Route(route, spec.seq, lm, f"KITTI pole map {lm}", ())
-        return _Route(route, spec.seq, None, "", (), f"no pole map {lm}")
+            return _Route(rf.route, spec.seq, lm, f"KITTI pole map {lm}", rf.notes, frame=rf.frame)
+        return _Route(rf.route, spec.seq, None, "", rf.notes, f"no pole map {lm}", rf.frame)
     root = fixtures_dir()
     if spec.fixture not in fixture_names():
         raise InputError(f"unknown fixture {spec.fixture!r}; bundled fixtures: {', '.join(fixture_names())}")
     lm = root / "landmarks" / f"{spec.fixture}.csv"
-    return _Route(load_sequence(root, spec.fixture), spec.fixture, lm, str(lm), ())
+    rf = read_sequence(root, spec.fixture)
+    return _Route(rf.route, spec.fixture, lm, str(lm), rf.notes, frame=rf.frame)
 
 
 def load_route(spec: ScenarioSpec = ScenarioSpec()) -> tuple[Trajectory, str, Path | None]:
@@ -239,11 +260,13 @@ def load_scenario(spec: ScenarioSpec = ScenarioSpec()) -> Scenario:
         elif choice is None:
             notes.append(f"landmarks: the route has no map: generated synthetic landmarks (seed {spec.landmark_seed}; "
                          "give a landmark file for a real one)")
-    elif choice is None or choice == REAL:
-        assert r.own_landmarks is not None
-        raw, source = read_landmarks_csv(r.own_landmarks), r.own_label
     else:
-        raw, source = read_landmarks_csv(choice), str(choice)
+        lm_path = Path(choice) if choice not in (None, REAL) else r.own_landmarks
+        assert lm_path is not None
+        raw = _landmarks_in_plane(lm_path, r, notes)
+        source = str(choice) if choice not in (None, REAL) else r.own_label
+        # longitude, latitude read as metres would stand every landmark within centimetres of each other
+        check_not_degrees(raw, lm_path, "landmarks", route_extent_m=float(np.ptp(route.poses[:, :2], axis=0).max()))
     landmarks, report = clean_landmarks(raw, route, spec.clearance_m, source)
     notes.extend(report.notes(always=False))  # the source itself is on every result's scenario line
     if not len(landmarks):
@@ -257,3 +280,15 @@ def scenario_notes(scenario: Scenario) -> list[str]:
     landmarks (read, duplicates merged, on the road kept or dropped). Empty for a scenario built
     from arrays."""
     return list(scenario.notes)
+
+
+def _landmarks_in_plane(path: Path, r: _Route, notes: list[str]) -> np.ndarray:
+    """A landmark file's positions in the route's planar frame: x,y as they are; x,y,z (a 3-D map in
+    the route's world frame) projected by the route's frame (a planar route: z dropped)."""
+    raw = read_landmarks_file(path)
+    if raw.shape[1] == 2:
+        return raw
+    if r.frame is None:
+        return raw[:, :2]
+    notes.append(f"landmarks: {path}: x,y,z taken in the route's world frame, projected into its ground plane ({r.frame.describe})")
+    return r.frame.project(raw)

@@ -9,7 +9,8 @@ import numpy as np
 
 from ..errors import ScenarioError
 from ..fileio import atomic_write_text
-from .base import QUATERNION_TOL, Trajectory, _check_coordinates, _data_lines, _increasing, _parse_row
+from .frames import find_frame
+from .base import QUATERNION_TOL, RouteFile, Trajectory, _check_coordinates, _data_lines, _increasing, _parse_row
 
 
 def yaw_from_quaternion(qx: np.ndarray, qy: np.ndarray, qz: np.ndarray, qw: np.ndarray) -> np.ndarray:
@@ -17,22 +18,42 @@ def yaw_from_quaternion(qx: np.ndarray, qy: np.ndarray, qz: np.ndarray, qw: np.n
     return np.arctan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
 
 
+def rotations_from_quaternions(q: np.ndarray) -> np.ndarray:
+    """Rotation matrices (N, 3, 3) of unit quaternions (N, 4) as (x, y, z, w); R[1, 0] and R[0, 0]
+    are the very expressions of :func:`yaw_from_quaternion` (a z-up file gives the same heading)."""
+    x, y, z, w = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
+    r = np.empty((len(q), 3, 3))
+    r[:, 0, 0] = 1.0 - 2.0 * (y * y + z * z)
+    r[:, 0, 1] = 2.0 * (x * y - w * z)
+    r[:, 0, 2] = 2.0 * (x * z + w * y)
+    r[:, 1, 0] = 2.0 * (w * z + x * y)
+    r[:, 1, 1] = 1.0 - 2.0 * (x * x + z * z)
+    r[:, 1, 2] = 2.0 * (y * z - w * x)
+    r[:, 2, 0] = 2.0 * (x * z - w * y)
+    r[:, 2, 1] = 2.0 * (y * z + w * x)
+    r[:, 2, 2] = 1.0 - 2.0 * (x * x + y * y)
+    return r
+
+
 def read_tum_trajectory(path: str | Path) -> Trajectory:
     """Read a TUM trajectory: one pose a line, ``timestamp tx ty tz qx qy qz qw`` (spaces; ``#``
     comments and blank lines skipped), timestamps strictly increasing.
 
-    Planar frame: the file's x-y plane is the ground (z up): planar (x, y) = (tx, ty), heading = the
-    yaw of the quaternion. tz, roll and pitch are not used.
+    The ground plane and the forward axis are found from the poses (:func:`read_tum_route`): a
+    z-up file (TUM's own ground truth, ROS ``map`` frames) gives planar (x, y) = (tx, ty) and heading
+    = the yaw of the quaternion; a camera-frame file (as evo writes KITTI poses) the same numbers
+    as the KITTI file.
 
     Raises:
         ScenarioError: missing or empty file, a line without 8 finite numbers, a zero quaternion,
-            timestamps that do not increase (each names the line).
+            timestamps that do not increase (each names the line); a route whose frame cannot be told.
     """
-    return _read_tum(path)[0]
+    return read_tum_route(path).route
 
 
-def _read_tum(path: str | Path) -> tuple[Trajectory, np.ndarray]:
-    """The route of a TUM file and its tz column."""
+def read_tum_route(path: str | Path, *, up: str | None = None, forward: str | None = None) -> RouteFile:
+    """The route of a TUM file with its frame (:func:`~sensorsel.scenario.frames.find_frame`, the
+    format's own convention z up, x forward) and notes."""
     path = Path(path)
     rows, lines = [], []
     for lineno, s in _data_lines(path, "TUM trajectory"):
@@ -49,10 +70,12 @@ def _read_tum(path: str | Path) -> tuple[Trajectory, np.ndarray]:
         raise ScenarioError(path, "TUM trajectory is empty: expected lines of 'timestamp tx ty tz qx qy qz qw'")
     a = np.asarray(rows)
     _increasing(a[:, 0].tolist(), path, lines)
-    _check_coordinates(a[:, 1:3], path, lines, "position")
+    _check_coordinates(a[:, 1:4], path, lines, "position")
     q = a[:, 4:8] / np.linalg.norm(a[:, 4:8], axis=1)[:, None]
-    heading = yaw_from_quaternion(q[:, 0], q[:, 1], q[:, 2], q[:, 3])
-    return Trajectory(np.column_stack([a[:, 1], a[:, 2], heading]), a[:, 0], np.arange(len(a)), str(path)), a[:, 3]
+    rot = rotations_from_quaternions(q)
+    frame, notes = find_frame(a[:, 1:4], rot, path, convention="z-up", up=up, forward=forward)
+    route = Trajectory(frame.planar(a[:, 1:4], rot), a[:, 0], np.arange(len(a)), str(path))
+    return RouteFile(route, frame, tuple(notes))
 
 
 def write_tum_trajectory(path: str | Path, planar: np.ndarray, times: np.ndarray) -> Path:
