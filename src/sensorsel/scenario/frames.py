@@ -127,10 +127,10 @@ class Frame:
         if self.forward is None:
             return f"ground plane: {up}"
         fwd = _describe(self.forward, "forward")
-        same = self.body_up is not None and float(self.up @ self.body_up) > 1 - 1e-12
-        camera = _snap(self.forward, 1e-6) in ((2, 1), (2, -1))
-        name = "camera frame" if camera else "vehicle frame"
-        return f"{name}: {up}, {fwd}" if same else f"world {up}; body ({name}): {_describe(self.body_up, 'up')}, {fwd}"  # type: ignore[arg-type]
+        name = "camera frame" if _snap(self.forward, 1e-6) in ((2, 1), (2, -1)) else "vehicle frame"
+        if self.body_up is None or float(self.up @ self.body_up) > 1 - 1e-12:  # the body's axes are the world's
+            return f"{name}: {up}, {fwd}"
+        return f"world {up}; body ({name}): {_describe(self.body_up, 'up')}, {fwd}"
 
     def project(self, points: np.ndarray) -> np.ndarray:
         """World points (M, 3) [m] -> planar (M, 2) [m]; exact selection for an axis-aligned up."""
