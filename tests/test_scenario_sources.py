@@ -239,8 +239,8 @@ def test_planar_csv_columns_by_name_and_errors(tmp_path):
     route = read_planar_csv(path)
     np.testing.assert_array_equal(route.poses, [[1, 2, 0.5], [3, 4, 0.25]])
     np.testing.assert_array_equal(route.times, [0, 0.5])
-    for rows, line, fragment in ((["t,x,y", "0,1,2"], 1, "lacks column(s) heading"),
-                                 (["0,1,2,0"], 1, "lacks column(s) t, x, y, heading"),
+    for rows, line, fragment in ((["t,x", "0,1"], 1, "lacks column(s) y"),
+                                 (["0,1,2,0"], 1, "lacks column(s) t, x, y"),
                                  (["t,x,y,heading", "0,1,2"], 2, "found 3"),
                                  (["t,x,y,heading", "0,1,2,0", "0,1,2,0"], 3, "must increase"),
                                  (["t,x,y,heading"], None, "no poses")):

@@ -124,6 +124,7 @@ def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output
 
 
 @click.command("certify", short_help="How close a greedy suite is to the best possible one (an upper bound).")
+@click.argument("result", required=False, default=None, type=click.Path(dir_okay=False, path_type=str), metavar="[RESULT]")
 @target_options
 @engine_options
 @cluster_options
@@ -138,9 +139,11 @@ def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output
 @json_option
 @quiet_option
 @run
-def certify_cmd(result_path: str | None, budget: float | None, rule: str, force: bool, output: str | None, as_json: bool, quiet: bool,
-                aggregate: str, engine: str | None, jobs: int, **kw: Any) -> None:
+def certify_cmd(result: str | None, result_path: str | None, budget: float | None, rule: str, force: bool, output: str | None,
+                as_json: bool, quiet: bool, aggregate: str, engine: str | None, jobs: int, **kw: Any) -> None:
     """How close is a greedy suite to the best possible suite of its budget?
+
+    RESULT (or --result FILE): a greedy result JSON to certify, as `simulate --suite FILE` takes one.
 
     Evaluates the submodular upper bound f(S) + knapsack of the marginal gains (capacity: the
     budget) at every intermediate suite of the greedy run and keeps the smallest: no suite within
@@ -153,6 +156,9 @@ def certify_cmd(result_path: str | None, budget: float | None, rule: str, force:
     --exclude, --max-sensors and the library's mounting slots (then an integer program, by HiGHS).
     """
     constraints = constraints_from(kw)
+    if result is not None and result_path is not None and result != result_path:
+        raise InputError(f"give the greedy result once: {result} or --result {result_path}, not both")
+    result_path = result_path if result_path is not None else result
     if result_path is not None and constraints != Constraints():
         raise InputError("--result FILE is certified under the constraints it records: give --limit, --no-slots, "
                          "--require, --owned, --exclude or --max-sensors only with --budget")

@@ -15,13 +15,15 @@ from ..constraints import FeasibleSet, feasible_set
 from ..errors import InputError
 from ..library import SensorLibrary, load_library, resource_unit
 from ..api import score_domain_suite, score_suite
-from ..problem import Domain
+from ..problem import Domain, Problem
 from ..scenario import LandmarkModel, route_landmarks, write_landmarks_csv
 from .cluster import domain_evaluator_on, require_domain
 from .options import cluster_from, cluster_options, constraint_options, constraints_from, usage_table
 from .options import (engine_options, json_option, output_option, plot_format_option, print_target, problem_from, run,
                       scenario_options, spec_from, suite_text, table, target_from, target_options)
+from .options import force_option
 from .options import plot_format as plot_format_of
+from .simulate import is_result_file, read_suite
 
 
 def library_json(lib: SensorLibrary) -> str:
@@ -81,11 +83,13 @@ def library_cmd(library_path: str | None, as_json: bool) -> None:
 @target_options
 @engine_options
 @cluster_options
-@click.option("--suite", required=True, callback=suite_text, help="Comma-separated sensor ids or indices, e.g. LRL-roof,LRR-12 (see `sensorsel library`).")
+@click.option("--suite", required=True, callback=suite_text, help="Comma-separated sensor ids or indices, e.g. LRL-roof,LRR-12 (see "
+              "`sensorsel library`), or a result JSON (`sensorsel greedy -o FILE`, ...: its suite; computed on the same problem, see --force).")
 @constraint_options
+@force_option
 @json_option
 @run
-def score_cmd(suite: str, as_json: bool, aggregate: str, engine: str | None, jobs: int, **kw: Any) -> None:
+def score_cmd(suite: str, as_json: bool, aggregate: str, engine: str | None, jobs: int, force: bool, **kw: Any) -> None:
     """Score a sensor suite: cost and f(S) = log det L(S) - log det L(empty) in nats.
 
     With --domain FILE: the suite's score on every route, each as a share of the route's best, and
@@ -99,6 +103,8 @@ def score_cmd(suite: str, as_json: bool, aggregate: str, engine: str | None, job
     # score has no budget: the whole library is affordable, the other limits apply
     feas = feasible_set(problem.library, float(problem.library.costs.sum()), constraints)
     if isinstance(problem, Domain):
+        if is_result_file(suite):
+            raise InputError(f"--suite {suite}: a result file names a suite for one route; with --domain give the suite's ids")
         with cluster or nullcontext():
             ev = domain_evaluator_on(cluster, problem, engine, aggregate) if cluster is not None else None
             dres = score_domain_suite(problem, suite, engine=engine, aggregate=aggregate, evaluator=ev)
@@ -114,7 +120,7 @@ def score_cmd(suite: str, as_json: bool, aggregate: str, engine: str | None, job
         click.echo(f"score      {dres.score:.4f} {unit}")
         _print_limits(feas, problem.library.resolve_suite(dres.suite))
         return
-    res = score_suite(problem, suite, engine=engine)
+    res = score_suite(problem, _suite_positions(suite, problem, force), engine=engine)
     if as_json:
         click.echo(results.dumps(res), nl=False)
         return
@@ -125,6 +131,12 @@ def score_cmd(suite: str, as_json: bool, aggregate: str, engine: str | None, job
     click.echo(f"score      {res.score:.3f} nats  (log det {res.logdet:.3f}, sensorless {res.baseline_logdet:.3f})")
     click.echo(f"measures   {res.n_measurements} range-bearing measurements of {res.n_landmarks_seen} landmarks")
     _print_limits(feas, problem.library.resolve_suite(res.suite))
+
+
+def _suite_positions(text: str, problem: Problem, force: bool) -> tuple[int, ...]:
+    """A --suite: ids or library positions, or a result file's suite (checked to be of ``problem``,
+    as ``simulate --suite FILE``)."""
+    return read_suite(text, problem.library, "--suite", problem, force)[0]
 
 
 def _print_limits(feas: FeasibleSet, suite: tuple[int, ...]) -> None:
@@ -141,10 +153,12 @@ def _print_limits(feas: FeasibleSet, suite: tuple[int, ...]) -> None:
 @scenario_options
 @output_option(required=True, help="Image file (.png, .svg, .pdf).")
 @plot_format_option
-@click.option("--suite", default=None, callback=suite_text, help="Draw these sensors' cones (comma-separated ids).")
+@click.option("--suite", default=None, callback=suite_text, help="Draw these sensors' cones: comma-separated ids, or a result JSON "
+              "(`sensorsel greedy -o FILE`, ...: its suite; computed on the same problem, see --force).")
 @click.option("--pose", "pose_index", type=int, default=None, help="Keyframe at which to draw the cones (default: the middle one).")
+@force_option
 @run
-def scene_cmd(output: str, plot_format: str | None, suite: str | None, pose_index: int | None, **kw: Any) -> None:
+def scene_cmd(output: str, plot_format: str | None, suite: str | None, pose_index: int | None, force: bool, **kw: Any) -> None:
     """Draw the route and landmarks (the paper's Fig. 2), optionally a suite's sensing cones.
 
     The format is --format, or else the extension of -o (.png, .svg, .pdf); the two must agree.
@@ -153,7 +167,7 @@ def scene_cmd(output: str, plot_format: str | None, suite: str | None, pose_inde
 
     plot_format_of(plot_format, output)
     problem = problem_from(kw)
-    positions = problem.library.parse_suite(suite) if suite else ()
+    positions = _suite_positions(suite, problem, force) if suite else ()
     n = problem.scenario.n_poses
     if pose_index is not None and not 0 <= pose_index < n:
         raise InputError(f"--pose {pose_index}: the scenario {problem.scenario.name} has keyframes 0..{n - 1}")

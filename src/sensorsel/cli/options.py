@@ -150,11 +150,16 @@ def scenario_options(fn: Callable[..., Any]) -> Callable[..., Any]:
         click.option("--kitti-root", type=click.Path(file_okay=False, path_type=str), envvar=KITTI_ROOT_ENV, show_envvar=True,
                      help="KITTI odometry dataset/ folder (poses/NN.txt, sequences/NN/times.txt, optional landmarks/NN.csv)."),
         click.option("--route", type=click.Path(dir_okay=False, path_type=str),
-                     help="A route file: KITTI poses (12 numbers a line), a TUM trajectory (timestamp tx ty tz qx qy qz qw; "
-                          "x-y is the ground, heading = yaw) or a planar CSV (header t,x,y,heading; radians)."),
+                     help="A route file: KITTI poses (12 numbers a line), a TUM trajectory (timestamp tx ty tz qx qy qz qw), "
+                          "a planar CSV (header t,x,y,heading; radians) or positions only (t,x,y or Time,X,Y,Z: heading from "
+                          "the direction of travel). The ground plane and forward axis are found from the route (--up, --forward)."),
         click.option("--route-format", type=click.Choice(list(ROUTE_FORMATS)),
                      help="Format of --route (default: csv for a .csv file, else by its first line: 12 numbers kitti, "
                           "8 numbers tum, a header csv)."),
+        click.option("--up", metavar="AXIS", help="With --route: the world axis that points up (+z, -y, ...), instead of the one "
+                     "found from the route (the plane of its positions and the axis its rotations turn about)."),
+        click.option("--forward", metavar="AXIS", help="With a KITTI or TUM --route: the body axis that points ahead (+x, +z, ...), "
+                     "instead of the one found along the direction of travel."),
         # --poses FILE is --route FILE --route-format kitti under its older name: kept working for
         # scripts, hidden so that the help names one option per thing
         click.option("--poses", type=click.Path(dir_okay=False, path_type=str), hidden=True,
@@ -164,7 +169,8 @@ def scenario_options(fn: Callable[..., Any]) -> Callable[..., Any]:
         click.option("--name", "scenario_name", metavar="TEXT", help="Name of the scenario (default: the sequence, fixture or route file's name)."),
         click.option("--landmarks", metavar="real|synthetic|FILE",
                      help="Landmarks: 'real' (the sequence's pole map), 'synthetic' (generated), or a CSV file (x,y columns, "
-                          "metres; other columns ignored). Default: the route's own map, else synthetic."),
+                          "metres, planar; or x,y,z in the route's frame, projected into its ground plane; other columns "
+                          "ignored). Default: the route's own map, else synthetic."),
         click.option("--landmark-seed", type=int, default=0, show_default=True, help="Seed of the synthetic landmark generator."),
         click.option("--clearance", "clearance_m", type=click.FloatRange(min=0.0), metavar="METRES",
                      help="Drop landmarks closer than this to the route (standing on the road). Default: keep them, counted on "
@@ -190,6 +196,9 @@ def spec_from(kw: dict[str, Any]) -> ScenarioSpec:
         raise click.UsageError(f"give one route: {' or '.join(given)}, not {len(given) == 2 and 'both' or 'several'}")
     if kw.get("route_format") and not kw.get("route"):
         raise click.UsageError(f"--route-format {kw['route_format']} goes with --route FILE")
+    for option in ("up", "forward"):
+        if kw.get(option) and not (kw.get("poses") or kw.get("route")):
+            raise click.UsageError(f"--{option} {kw[option]} goes with --route FILE (a --seq or fixture is in KITTI's camera frame)")
     if kw.get("times") and not (kw.get("poses") or kw.get("route")):
         # a --seq or a fixture reads its own times.txt: a --times here would be silently ignored
         raise click.UsageError(f"--times {kw['times']} goes with a KITTI --route FILE (or its older name --poses FILE); a --seq or fixture has its own times.txt")
@@ -206,6 +215,8 @@ def spec_from(kw: dict[str, Any]) -> ScenarioSpec:
         route_format=kw.pop("route_format"),
         clearance_m=kw.pop("clearance_m", None),
         name=kw.pop("scenario_name"),
+        up=kw.pop("up", None),
+        forward=kw.pop("forward", None),
     )
 
 
@@ -232,7 +243,7 @@ def target_options(fn: Callable[..., Any]) -> Callable[..., Any]:
 
 
 #: scenario options that choose a route or its landmarks: refused together with --domain
-_ROUTE_OPTIONS = ("seq", "route", "poses", "times", "landmarks", "scenario_name", "clearance_m")
+_ROUTE_OPTIONS = ("seq", "route", "poses", "times", "landmarks", "scenario_name", "clearance_m", "up", "forward")
 
 
 def target_from(kw: dict[str, Any]) -> Target:

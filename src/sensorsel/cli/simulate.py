@@ -34,6 +34,11 @@ def _is_file(path: Path) -> bool:
         return False
 
 
+def is_result_file(text: str) -> bool:
+    """Whether a suite option's value names a result file (``.json``, or an existing file) rather than ids."""
+    return text.lower().endswith(".json") or _is_file(Path(text))
+
+
 def read_suite(text: str, library: SensorLibrary, what: str, problem: Problem | None = None,
                force: bool = False, ignore: tuple[str, ...] = ()) -> tuple[tuple[int, ...], str, tuple[str, ...]]:
     """A suite from comma-separated ids, or from a result file of a kind in :data:`SUITE_KINDS`
@@ -48,7 +53,7 @@ def read_suite(text: str, library: SensorLibrary, what: str, problem: Problem | 
         InputError: an unknown id.
     """
     path = Path(text)
-    if text.lower().endswith(".json") or _is_file(path):
+    if is_result_file(text):
         try:
             rec = results.load(path, SUITE_KINDS)
         except ResultFileError as exc:

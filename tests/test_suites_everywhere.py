@@ -1,0 +1,60 @@
+"""A suite is the same thing on every command (issue 25): ids, library positions or a result file,
+and a result file is checked to be of the problem it is used on (its fingerprint), as
+``simulate --suite FILE`` always did: ``certify RESULT``, ``scene --suite RESULT``, ``score --suite RESULT``."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from click.testing import CliRunner
+
+from sensorsel.cli import cli
+
+TINY = ["--fixture", "tiny", "--landmarks", "synthetic"]
+
+
+@pytest.fixture(scope="module")
+def greedy_tiny(tmp_path_factory):
+    out = tmp_path_factory.mktemp("suites") / "greedy.json"
+    res = CliRunner().invoke(cli, ["greedy", *TINY, "--budget", "10000", "--no-certificate", "-o", str(out), "--quiet"])
+    assert res.exit_code == 0, res.output
+    return out, json.loads(out.read_text())["suite"]
+
+
+def test_score_takes_a_result_file_as_its_ids(greedy_tiny):
+    path, suite = greedy_tiny
+    by_ids = CliRunner().invoke(cli, ["score", *TINY, "--suite", ",".join(suite), "--json"])
+    by_file = CliRunner().invoke(cli, ["score", *TINY, "--suite", str(path), "--json"])
+    assert by_ids.exit_code == 0 and by_file.exit_code == 0, by_file.output
+    a, b = json.loads(by_ids.stdout), json.loads(by_file.stdout)
+    assert a["suite"] == b["suite"] and sorted(b["suite"]) == sorted(suite) and a["score"] == b["score"]
+
+
+def test_certify_takes_the_result_as_an_argument(greedy_tiny):
+    path, _ = greedy_tiny
+    pos = CliRunner().invoke(cli, ["certify", str(path), *TINY, "--json"])
+    opt = CliRunner().invoke(cli, ["certify", "--result", str(path), *TINY, "--json"])
+    assert pos.exit_code == 0 and opt.exit_code == 0, pos.output
+    assert json.loads(pos.stdout)["bound"] == json.loads(opt.stdout)["bound"]
+
+
+def test_scene_draws_a_result_files_suite(greedy_tiny, tmp_path):
+    path, _ = greedy_tiny
+    res = CliRunner().invoke(cli, ["scene", *TINY, "--suite", str(path), "-o", str(tmp_path / "s.png")])
+    assert res.exit_code == 0, res.output
+    assert (tmp_path / "s.png").stat().st_size > 0
+
+
+@pytest.mark.parametrize("argv", [
+    ["certify", "{path}"],
+    ["scene", "--suite", "{path}", "-o", "{tmp}/s.png"],
+    ["score", "--suite", "{path}"],
+])
+def test_a_result_of_another_problem_is_refused_everywhere(greedy_tiny, tmp_path, argv):
+    path, _ = greedy_tiny
+    args = [a.format(path=path, tmp=tmp_path) for a in argv]
+    res = CliRunner().invoke(cli, [*args, "--fixture", "suburb"])  # another route than the result's
+    assert res.exit_code == 2 and str(path) in res.output and "sensorsel: error:" in res.output, res.output
+    res = CliRunner().invoke(cli, [*args, "--fixture", "suburb", "--force"])
+    assert res.exit_code == 0 and "warning" in res.output, res.output
