@@ -290,7 +290,7 @@ def read_osm(path: str | Path, *, bbox: tuple[float, float, float, float] | None
     try:
         fp = osmium.FileProcessor(osmium.io.File(str(path), fmt), osmium.osm.NODE | osmium.osm.WAY).with_locations()
         for obj in fp:
-            if obj.is_node():
+            if isinstance(obj, osmium.osm.Node):
                 loc = obj.location
                 if not loc.valid():
                     continue
@@ -311,7 +311,7 @@ def read_osm(path: str | Path, *, bbox: tuple[float, float, float, float] | None
                         lm_lat.append(lat)
                         lm_cls.append(cls[0])
                         lm_id.append(obj.id)
-            elif obj.is_way():
+            elif isinstance(obj, osmium.osm.Way):
                 hw = obj.tags.get("highway")
                 if hw is None or hw not in keep_roads:
                     continue

@@ -44,7 +44,8 @@ def track_domain(osm_path: str | Path, bbox: tuple[float, float, float, float] |
     else:
         assert route_file is not None and georef is not None
         ref = GeoRef.parse(georef)
-        traj = load_route_file(route_file)
+        traj, rnotes = load_route_file(route_file)
+        notes += list(rnotes)
         frame = ref.frame()
         extract = read_osm(osm_path, bbox=bbox, roads=roads, frame=frame)
         poses, times = np.asarray(traj.poses), np.asarray(traj.times)
