@@ -244,6 +244,10 @@ def test_sample_domain_runs_greedy_end_to_end(tmp_path):
     g = CliRunner().invoke(cli, ["greedy", "--domain", str(out / "domain.yaml"), "--budget", "110000"])
     assert g.exit_code == 0, g.output
     assert "domain" in g.stdout
+    png = tmp_path / "city.png"
+    sc = CliRunner().invoke(cli, ["scene", "--domain", str(out / "domain.yaml"), "-o", str(png)])
+    assert sc.exit_code == 0, sc.output
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
 # ------------------------------------------------------------------------------------------ GPX
