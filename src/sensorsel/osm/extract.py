@@ -335,7 +335,7 @@ def read_osm(path: str | Path, *, bbox: tuple[float, float, float, float] | None
     if frame is None:
         frame = LocalFrame.around((bounds[0] + bounds[2]) / 2.0, (bounds[1] + bounds[3]) / 2.0)
     # ways cut to the runs of their nodes inside the bbox (a run of one node is no road)
-    ways: list[OsmWay] = []
+    runs: list[tuple[int, str, list[int], list[float], list[float], float]] = []
     for wid, hw, ids, lons, lats, hwidth in raw_ways:
         run: list[int] = []
         for i in range(len(ids) + 1):
@@ -343,9 +343,16 @@ def read_osm(path: str | Path, *, bbox: tuple[float, float, float, float] | None
                 run.append(i)
                 continue
             if len(run) >= 2:
-                xy = frame.project(np.array([lons[j] for j in run]), np.array([lats[j] for j in run]))
-                ways.append(OsmWay(wid, hw, tuple(ids[j] for j in run), xy, hwidth))
+                runs.append((wid, hw, [ids[j] for j in run], [lons[j] for j in run], [lats[j] for j in run], hwidth))
             run = []
+    # one projection call for every road vertex (a pyproj transformer is costly to make)
+    flat = frame.project(np.array([v for r in runs for v in r[3]]), np.array([v for r in runs for v in r[4]])) \
+        if runs else np.zeros((0, 2))
+    ways: list[OsmWay] = []
+    at = 0
+    for wid, hw, ids_, lons_, _, hwidth in runs:
+        ways.append(OsmWay(wid, hw, tuple(ids_), flat[at:at + len(ids_)], hwidth))
+        at += len(ids_)
     lm_xy = frame.project(np.array(lm_lon), np.array(lm_lat)) if lm_lon else np.zeros((0, 2))
     moved = _move_to_kerb(lm_xy, lm_cls, lm_id, ways)
     notes = [f"projection: {frame.describe()}"]
