@@ -219,6 +219,53 @@ def plot_scene(
     return ax
 
 
+def plot_domain_scene(domain_path: str | Path, ax: Axes | None = None) -> Axes:
+    """An operating domain seen from above: every route, and the landmarks by class when the
+    landmark files say it (a ``class`` column, as ``sensorsel osm`` writes them), else in black.
+
+    Args:
+        domain_path: the domain YAML file (read as every ``--domain`` command reads it).
+        ax: axes to draw on; a new figure when None.
+    Returns:
+        The axes drawn on.
+    """
+    from .domain import load_domain_file, load_domain_scenarios
+    from .osm.city import ATTRIBUTION, read_landmark_classes
+
+    ax = ax or new_axes((8.0, 8.0))
+    spec = load_domain_file(domain_path)
+    loaded = load_domain_scenarios(spec)
+    cmap = plt.get_cmap("tab20")
+    for i, d in enumerate(loaded):
+        r = d.scenario.route or d.scenario.keyframes
+        ax.plot(r.poses[:, 0], r.poses[:, 1], "-", color=cmap(i % 20), lw=1.2, alpha=0.8)
+    by_class: dict[str, dict[tuple[float, float], None]] = {}
+    osm = False
+    for d in loaded:
+        got = read_landmark_classes(d.spec.landmarks) if d.spec.landmarks not in (None, "real", "synthetic") else None
+        xy, classes = got if got is not None else (d.scenario.landmarks, ("landmark",) * d.scenario.n_landmarks)
+        osm = osm or got is not None
+        for (x, y), c in zip(np.asarray(xy).tolist(), classes):
+            by_class.setdefault(c, {})[(round(x, 3), round(y, 3))] = None
+    markers = {"tree": ("o", "tab:green"), "street_lamp": ("^", "goldenrod"), "traffic_sign": ("s", "tab:red"),
+               "traffic_signals": ("D", "tab:purple"), "utility_pole": ("v", "tab:brown"), "power_pole": ("v", "tab:gray"),
+               "flagpole": ("P", "tab:cyan"), "stop": ("X", "darkred"), "give_way": ("x", "tab:pink"), "survey": ("*", "k")}
+    for c in sorted(by_class, key=lambda c: -len(by_class[c])):
+        pts = np.array(list(by_class[c]), dtype=float).reshape(-1, 2)
+        m, col = markers.get(c, ("^", "k"))
+        ax.scatter(pts[:, 0], pts[:, 1], s=6, marker=m, color=col, label=f"{c} ({len(pts)})", zorder=3)
+    km = sum(d.weight for d in loaded) if spec.weight_unit == "km" else None
+    ax.set_title(f"{Path(domain_path).parent.name or domain_path}: {len(loaded)} routes"
+                 + (f", {km:.1f} km" if km is not None else ""))
+    if osm:
+        ax.annotate(ATTRIBUTION, (0.0, -0.08), xycoords="axes fraction", fontsize=6)
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.legend(loc="upper right", fontsize=7, markerscale=2)
+    return ax
+
+
 def plot_mounting(library: SensorLibrary, suite: Iterable[int] = (), ax: Axes | None = None) -> Axes:
     """The car seen from above with its mounting places (the roof, and each clock position) and, at
     each, the suite's sensors against the slot capacities ("R1/1": one radar of one); a full slot in red.

@@ -156,16 +156,26 @@ def _print_limits(feas: FeasibleSet, suite: tuple[int, ...]) -> None:
 @click.option("--suite", default=None, callback=suite_text, help="Draw these sensors' cones: comma-separated ids, or a result JSON "
               "(`sensorsel greedy -o FILE`, ...: its suite; computed on the same problem, see --force).")
 @click.option("--pose", "pose_index", type=int, default=None, help="Keyframe at which to draw the cones (default: the middle one).")
+@click.option("--domain", "domain_path", type=click.Path(dir_okay=False, path_type=str), metavar="FILE", default=None,
+              help="Draw an operating domain instead: every route, and its landmarks by class (sensorsel osm's domains).")
 @force_option
 @run
-def scene_cmd(output: str, plot_format: str | None, suite: str | None, pose_index: int | None, force: bool, **kw: Any) -> None:
+def scene_cmd(output: str, plot_format: str | None, suite: str | None, pose_index: int | None, domain_path: str | None,
+              force: bool, **kw: Any) -> None:
     """Draw the route and landmarks (the paper's Fig. 2), optionally a suite's sensing cones.
 
     The format is --format, or else the extension of -o (.png, .svg, .pdf); the two must agree.
     """
-    from ..plotting import plot_scene, save_figure, use_file_backend
+    from ..plotting import plot_domain_scene, plot_scene, save_figure, use_file_backend
 
     plot_format_of(plot_format, output)
+    if domain_path is not None:
+        if suite is not None or pose_index is not None:
+            raise click.UsageError("--domain draws the routes and landmarks only: drop --suite and --pose")
+        use_file_backend()
+        ax = plot_domain_scene(domain_path)
+        click.echo(f"wrote {save_figure(ax.figure, output, close=True)}")
+        return
     problem = problem_from(kw)
     positions = _suite_positions(suite, problem, force) if suite else ()
     n = problem.scenario.n_poses
