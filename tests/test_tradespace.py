@@ -259,7 +259,9 @@ def test_plot_draws_every_architecture_and_the_front(ts, tmp_path):
     from sensorsel.plotting import plot_tradespace, save_figure
 
     ax = plot_tradespace(ts)
-    drawn = {c.get_label().split(" (")[0]: len(c.get_offsets()) for c in ax.collections if not c.get_label().startswith("_")}
+    # the markers' legend entries read "made by RULE (N)"
+    drawn = {c.get_label().split(" (")[0].removeprefix("made by "): len(c.get_offsets()) for c in ax.collections
+             if not c.get_label().startswith("_")}
     for name in ts.rules:
         assert drawn[name] == sum(name in a.rules for a in ts.architectures)
     line = next(ln for ln in ax.get_lines() if ln.get_label().startswith("Pareto front"))
