@@ -45,6 +45,7 @@ KINDS: dict[str, str] = {
     "suite-bound": "certify:SuiteBound",
     "knapsack": "certify:KnapsackSolution",
     "tradespace": "tradespace:TradespaceResult",
+    "tradespace-rule-runs": "tradespace:RuleRunsRecord",
     "resilient": "resilient:ResilientReport",
     "resilient-comparison": "resilient:Comparison",
     "resilient-selection": "resilient:ResilientResult",

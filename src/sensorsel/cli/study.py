@@ -45,14 +45,9 @@ def study_cmd(study_file: str, outdir: str, resume: bool, jobs: int, as_json: bo
     cluster = cluster_from(kw)
     study = load_study(study_file)
     bar, progress = progress_bar(quiet or as_json, "study cells")
-    if cluster is not None:
-        from ..distributed import study_cells_on
-
-        with cluster, bar or nullcontext():
-            res = run_study(study, outdir=outdir, resume=resume, runner=study_cells_on(cluster.client), progress=progress)
-    else:
-        with bar or nullcontext():
-            res = run_study(study, outdir=outdir, resume=resume, jobs=jobs, progress=progress)
+    with cluster or nullcontext(), bar or nullcontext():  # with a cluster, each cell is one task there
+        res = run_study(study, outdir=outdir, resume=resume, jobs=jobs, progress=progress,
+                        executor=cluster.executor if cluster is not None else None)
     written = write_study(res, outdir)
     if as_json:
         click.echo(results.dumps(res), nl=False)
