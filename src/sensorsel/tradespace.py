@@ -383,8 +383,10 @@ def rule_step(state: Evaluator | tuple[Target, EvaluatorRecipe], task: RuleTask)
     else:
         target, recipe = state
         ev = evaluator_for(target, recipe.engine, jobs=recipe.jobs, aggregate=recipe.aggregate)
-        if isinstance(ev, ProblemEvaluator) and not task.first:
-            ev.baseline_logdet  # counted by the first rule's task only, as in-process
+    if isinstance(ev, ProblemEvaluator) and not task.first:
+        # counted by the first rule's task only, as by one evaluator in one uninterrupted run (also when
+        # the first rule's runs were read back from a store and this evaluator has not computed it yet)
+        ev.baseline_logdet
     n0 = ev.n_evaluations
     runs = rule_runs(ev, task.rule, task.budgets_desc, lazy=task.lazy, share_prefix=task.share_prefix,
                      constraints=task.constraints)
