@@ -399,3 +399,7 @@ def load_domain_scenarios(domain: DomainSpec) -> tuple[DomainScenario, ...]:
             weight = route.length_m / 1000.0 if domain.weight_unit == "km" else route.duration_s / 3600.0
         out.append(DomainScenario(r.name, r.spec, sc, float(weight), domain.weight_unit))
     return tuple(out)
+
+
+# The reader's parts the study file's reader shares (sensorsel.study): one home, public names.
+Checker, Map, Seq, ROUTE_KEYS, parse_route, read_yaml = _Checker, _Map, _Seq, _ROUTE_KEYS, _parse_route, _read_yaml

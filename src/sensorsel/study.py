@@ -63,9 +63,9 @@ from .errors import SensorselError
 from .evaluators import ENGINES, evaluator_for
 from .evaluators.domain import AGGREGATES
 from .evaluators.registry import check_engine
-from .domain import SYNTHETIC, DomainError, _Checker, _Map, _parse_route, _ROUTE_KEYS, _Seq, load_domain_file
-from .domain import _read_yaml as _read_domain_yaml
-from .domain import load_domain_scenarios
+from .domain import (ROUTE_KEYS, SYNTHETIC, Checker, DomainError, Map, Seq, load_domain_file, load_domain_scenarios,
+                     parse_route)
+from .domain import read_yaml as _read_domain_yaml
 from .fileio import atomic_write_text
 from .library import load_library
 from .problem import Fingerprint, GraphSettings, Target, TargetInfo, load_domain, load_problem
@@ -273,7 +273,7 @@ class StudyResult:
 # ------------------------------------------------------------------------------------------ parsing
 
 
-class _StudyChecker(_Checker):
+class _StudyChecker(Checker):
     def fail(self, key: str, message: str, line: int | None) -> NoReturn:
         raise StudyError(self.path, key, message, line)
 
@@ -282,14 +282,14 @@ def _read_yaml(path: Path) -> Any:
     return _read_domain_yaml(path, StudyError, "study file")
 
 
-def _list(c: _StudyChecker, m: _Map, key: str, default: list[Any] | None) -> tuple[list[Any], list[int]]:
+def _list(c: _StudyChecker, m: Map, key: str, default: list[Any] | None) -> tuple[list[Any], list[int]]:
     """The list under ``grid.key`` and each item's line (``default`` when absent; required when None)."""
     if key not in m:
         if default is None:
             c.fail(f"grid.{key}", "missing: expected a non-empty list", m.line)
         return list(default), [m.line] * len(default)
     v = m[key]
-    if not isinstance(v, _Seq) or not v:
+    if not isinstance(v, Seq) or not v:
         c.fail(f"grid.{key}", f"expected a non-empty list, e.g. [a, b], got {v!r}", m.lines[key])
     return list(v), list(v.lines)
 
@@ -320,7 +320,7 @@ def parse_study(data: Any, path: str | Path = "<memory>") -> Study:
     """
     path = Path(path)
     c = _StudyChecker(path)
-    if not isinstance(data, _Map):
+    if not isinstance(data, Map):
         c.fail("", f"expected a mapping with target and grid, got {type(data).__name__}", getattr(data, "line", None))
     c.keys(data, "", _TOP_KEYS)
     for k in ("target", "grid"):
@@ -338,7 +338,7 @@ def parse_study(data: Any, path: str | Path = "<memory>") -> Study:
     spec, domain, aggregate, fixed_seed = _parse_target(c, data["target"], data.lines["target"])
 
     grid = data["grid"]
-    if not isinstance(grid, _Map):
+    if not isinstance(grid, Map):
         c.fail("grid", f"expected a mapping (budgets, rules, failures, landmark_seeds, libraries), got {grid!r}",
                data.lines["grid"])
     c.keys(grid, "grid", _GRID_KEYS)
@@ -394,7 +394,7 @@ def parse_study(data: Any, path: str | Path = "<memory>") -> Study:
 
 def _parse_target(c: _StudyChecker, raw: Any, line: int) -> tuple[ScenarioSpec | None, str | None, str, bool]:
     """(route spec or None, domain file or None, aggregate, whether the landmarks fix a seed)."""
-    if not isinstance(raw, _Map):
+    if not isinstance(raw, Map):
         c.fail("target", f"expected a mapping (fixture, seq or route, landmarks, rate; or domain), got {raw!r}", line)
     c.keys(raw, "target", _TARGET_KEYS)
     ln = lambda k: raw.lines.get(k, raw.line)  # noqa: E731
@@ -412,12 +412,12 @@ def _parse_target(c: _StudyChecker, raw: Any, line: int) -> tuple[ScenarioSpec |
     rate = c.number(raw["rate"], "target.rate", ln("rate")) if "rate" in raw else 1.0
     clearance = c.number(raw["clearance_m"], "target.clearance_m", ln("clearance_m"), strict=False) if "clearance_m" in raw else None
     name = c.string(raw["name"], "target.name", ln("name")) if "name" in raw else None
-    route = _Map({k: v for k, v in raw.items() if k in _ROUTE_KEYS})
+    route = Map({k: v for k, v in raw.items() if k in ROUTE_KEYS})
     route.line, route.lines = raw.line, raw.lines
     route["name"] = name or "target"
-    r = _parse_route(c, route, "target", line, ScenarioSpec(keyframe_rate_hz=rate, clearance_m=clearance), None, "hours")
+    r = parse_route(c, route, "target", line, ScenarioSpec(keyframe_rate_hz=rate, clearance_m=clearance), None, "hours")
     landmarks = raw.get("landmarks")
-    return replace(r.spec, name=name), None, "", isinstance(landmarks, _Map)
+    return replace(r.spec, name=name), None, "", isinstance(landmarks, Map)
 
 
 def _check_budgets(c: _StudyChecker, cells: list[Cell], targets: list[TargetFiles], budgets: list[float],
