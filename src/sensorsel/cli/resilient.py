@@ -13,7 +13,7 @@ from .. import results
 from ..errors import InputError
 from ..fileio import output_dir
 from ..problem import Domain
-from .options import cluster_from, cluster_options, constraint_options, constraints_from, usage_table
+from .options import cluster_from, cluster_options, resume_option, constraint_options, constraints_from, usage_table
 from .options import (budget_option, engine_options, json_option, output_option, plot_format_option, progress_bar,
                       print_target, quiet_option, run, table, target_from, target_options)
 from .options import plot_format as plot_format_of
@@ -37,7 +37,7 @@ from .rules import rule_option
 @output_option(folder=True, required=True, dest="outdir",
                help="Output folder: resilient.json, grid.csv, the grid plot, and periods/ (one file per period).")
 @plot_format_option
-@click.option("--resume", is_flag=True, help="Reuse the results in OUTPUT/periods/ whose inputs match this run (after an interruption).")
+@resume_option
 @json_option
 @quiet_option
 @run
