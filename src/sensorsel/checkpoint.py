@@ -25,8 +25,6 @@ command deletes it once the result itself is written.
 
 from __future__ import annotations
 
-import hashlib
-import json
 import time
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -40,6 +38,7 @@ from .errors import ResultFileError
 from .evaluators import DomainEvaluator, Evaluator, evaluator_for
 from .evaluators.domain import check_aggregate
 from .evaluators.registry import check_engine
+from .pipeline import digest
 from .problem import Domain, DomainInfo, Problem, ProblemInfo, Target, TargetInfo
 from .progress import Progress
 from .selection import GreedyResult, Step, check_budget, check_rule, greedy
@@ -90,10 +89,6 @@ def checkpoint_path(output: str | Path) -> Path:
     return p.with_name(p.name + ".checkpoint")
 
 
-def _digest(obj: object) -> str:
-    return hashlib.sha256(json.dumps(obj, sort_keys=True, allow_nan=False).encode("utf-8")).hexdigest()
-
-
 def run_fingerprint(target: Target, budget: float, rule: str, engine: str, aggregate: str, lazy: bool,
                     constraints: Constraints | None = None) -> str:
     """Digest of what a greedy run depends on: each route by content (library, route and rate,
@@ -102,7 +97,7 @@ def run_fingerprint(target: Target, budget: float, rule: str, engine: str, aggre
     ``jobs``, not where it runs)."""
     routes = ([(r.name, r.weight, r.unit, r.problem) for r in target.routes] if isinstance(target, Domain)
               else [("", 1.0, "", target)])
-    return _digest({"format": FORMAT, "what": "greedy-checkpoint", "budget_usd": budget, "rule": rule, "engine": engine,
+    return digest({"format": FORMAT, "what": "greedy-checkpoint", "budget_usd": budget, "rule": rule, "engine": engine,
                     "aggregate": aggregate, "lazy": lazy,
                     **({"constraints": results.to_jsonable(constraints)} if constraints is not None else {}),
                     "routes": [[n, w, u, results.to_jsonable(p.fingerprint)] for n, w, u, p in routes]})

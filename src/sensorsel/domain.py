@@ -402,4 +402,9 @@ def load_domain_scenarios(domain: DomainSpec) -> tuple[DomainScenario, ...]:
 
 
 # The reader's parts the study file's reader shares (sensorsel.study): one home, public names.
-Checker, Map, Seq, ROUTE_KEYS, parse_route, read_yaml = _Checker, _Map, _Seq, _ROUTE_KEYS, _parse_route, _read_yaml
+Checker = _Checker
+Map = _Map
+Seq = _Seq
+ROUTE_KEYS = _ROUTE_KEYS
+parse_route = _parse_route
+read_yaml = _read_yaml

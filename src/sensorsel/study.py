@@ -70,7 +70,7 @@ from .fileio import atomic_write_text
 from .library import load_library
 from .problem import Fingerprint, GraphSettings, Target, TargetInfo, load_domain, load_problem
 from .progress import Progress
-from .pipeline import Executor, FileStore, NoStore, Plan, Store, execute
+from .pipeline import Executor, FileStore, NoStore, Plan, Store, digest, execute
 from .resilient import resilient_select, worst_case
 from .robust import robust_select
 from .scenario import ScenarioSpec, load_scenario
@@ -495,7 +495,7 @@ def cell_fingerprint(study: Study, cell: Cell, target_fp: list[Any]) -> str:
             "landmark_seed": cell.landmark_seed, "failures": cell.failures, "rule": cell.rule, "budget_usd": cell.budget_usd,
             "method": study.method if cell.failures else "", "engine": check_engine(study.engine), "aggregate": study.aggregate,
             "lazy": study.lazy, "certificate": study.certificate and (cell.failures == 0 or study.method == "robust")}
-    return hashlib.sha256(json.dumps(what, sort_keys=True, allow_nan=False).encode()).hexdigest()
+    return digest(what)
 
 
 def cell_file(outdir: str | Path, cell: Cell) -> Path:
