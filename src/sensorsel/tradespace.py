@@ -60,7 +60,7 @@ from .evaluators.domain import check_aggregate
 from .evaluators.registry import check_engine
 from .fileio import atomic_write_text
 from .library import SensorLibrary
-from .pipeline import Executor, InProcess, FileStore, NoStore, Plan, Store, digest, execute
+from .pipeline import Executor, FileStore, InProcess, NoStore, Plan, Store, digest, execute
 from .problem import Domain, DomainInfo, ProblemInfo, Target, TargetInfo, TargetRecipe
 from .selection import RULES, GreedyResult, Rule, Step, check_budget, check_rule, greedy
 
@@ -73,8 +73,7 @@ DEFAULT_N_BUDGETS = 14
 Progress = Callable[[int, int], None]
 #: a single rule's runs: budget -> (the run with all its steps, picks shared from a larger budget's run)
 RuleRuns = dict[float, tuple[GreedyResult, int]]
-#: Bumped when what a rule's file (``OUTDIR/runs/rule-NAME.json``) holds, or how it is computed, changes.
-RULE_FORMAT = 1
+RULE_FORMAT = 1  # bumped when a rule's file (OUTDIR/runs/rule-NAME.json) or how it is computed changes
 
 
 @dataclass(frozen=True)
@@ -353,9 +352,8 @@ def rule_runs(evaluator: Evaluator, rule: str, budgets_desc: Sequence[float], *,
 
 @dataclass(frozen=True)
 class RuleTask:
-    """One single rule's chain of budgets (a plan's task): the runs of ``rule`` at every budget,
-    largest first, sharing prefixes as in-process. ``first``: whether it counts the problem's
-    baseline log det (the first rule does, as one in-process evaluator counts it once)."""
+    """One single rule's chain of budgets (a plan's task), largest first, sharing prefixes as in-process.
+    ``first``: whether it counts the problem's baseline log det (as one in-process evaluator: once)."""
 
     rule: str
     budgets_desc: tuple[float, ...]
@@ -374,6 +372,10 @@ class EvaluatorRecipe:
     jobs: int = 1
     aggregate: str = "normalised"
 
+    def build(self) -> tuple[Target, "EvaluatorRecipe"]:
+        """The target, built where the rules run, once for all of them (each rule's evaluator is its own)."""
+        return self.target.build(), self
+
 
 def rule_step(state: Evaluator | tuple[Target, EvaluatorRecipe], task: RuleTask) -> tuple[RuleRuns, int]:
     """One rule's runs and the suites it scored: on the caller's evaluator (in-process, shared by the
@@ -383,34 +385,19 @@ def rule_step(state: Evaluator | tuple[Target, EvaluatorRecipe], task: RuleTask)
     else:
         target, recipe = state
         ev = evaluator_for(target, recipe.engine, jobs=recipe.jobs, aggregate=recipe.aggregate)
-    if isinstance(ev, ProblemEvaluator) and not task.first:
-        # counted by the first rule's task only, as by one evaluator in one uninterrupted run (also when
-        # the first rule's runs were read back from a store and this evaluator has not computed it yet)
-        ev.baseline_logdet
+    if isinstance(ev, ProblemEvaluator) and not task.first:  # the baseline is counted by the first rule only,
+        ev.baseline_logdet  # as by one evaluator in one run (also when the first rule's runs were read back)
     n0 = ev.n_evaluations
     runs = rule_runs(ev, task.rule, task.budgets_desc, lazy=task.lazy, share_prefix=task.share_prefix,
                      constraints=task.constraints)
     return runs, ev.n_evaluations - n0
 
 
-def _build_state(recipe: EvaluatorRecipe) -> tuple[Target, EvaluatorRecipe]:
-    """A tradespace's target, built on a worker once for all its rules."""
-    return recipe.target.build(), recipe
-
-
 @dataclass(frozen=True)
 class RuleRunsRecord:
-    """A finished rule's runs, as written to ``OUTDIR/runs/rule-NAME.json`` (read back by ``--resume``).
-
-    Attributes:
-        fingerprint: digest of everything the runs depend on (target by content, budgets, rule,
-            engine, laziness, prefix sharing, aggregate, limits, whether it counts the baseline).
-        rule: the single rule.
-        budgets_usd: the budgets, largest first.
-        runs: the run at each budget (all its steps).
-        shared: each run's picks taken from a larger budget's run.
-        n_evaluations: suites the task scored.
-    """
+    """A finished rule's runs as written to ``OUTDIR/runs/rule-NAME.json`` (read back by ``--resume``):
+    its inputs' fingerprint (:func:`rule_fingerprint`), the rule, the budgets (largest first), the run at
+    each budget (all its steps), the picks each took from a larger budget's run, the suites it scored."""
 
     fingerprint: str
     rule: str
@@ -422,9 +409,8 @@ class RuleRunsRecord:
 
 def rule_fingerprint(info: TargetInfo | None, engine: str, aggregate: str, task: RuleTask,
                      limits: Constraints | None = None) -> str:
-    """Digest of what a rule's runs depend on: each route by content (library, route, landmarks,
-    settings) with its weight, the engine, the aggregate, every field of ``task`` and ``limits`` (the
-    constraints as recorded, with the digest of the library's resources and slots they read)."""
+    """Digest of what a rule's runs depend on: each route by content with its weight, the engine, the
+    aggregate, every field of ``task`` and ``limits`` (as recorded: with the library's resources' digest)."""
     routes: list[tuple[str, float, str, ProblemInfo | None]] = (
         [(r.name, r.weight, r.unit, r.problem) for r in info.routes] if isinstance(info, DomainInfo) else [("", 1.0, "", info)])
     return digest({"format": RULE_FORMAT, "what": "tradespace-rule", "engine": engine, "aggregate": aggregate,
@@ -468,13 +454,10 @@ def tradespace(evaluator: Evaluator, budgets: Iterable[float] | None = None, rul
         progress: called as progress(done, total) after each (single rule, budget) run.
         info: what the problem is (recorded in the result).
         constraints: limits besides the budget, kept by every run at every budget (module docstring).
-        executor: where each single rule's chain of budgets runs, one task per rule
-            (:mod:`sensorsel.pipeline`; default this process, on ``evaluator``). Elsewhere, the
-            target is rebuilt from ``recipe``. The result is the same, timings aside.
-        outdir, resume: each rule's runs are written to ``OUTDIR/runs/rule-NAME.json`` as they finish;
-            ``resume`` reads back those whose inputs match (needs ``info`` with fingerprints).
-    Returns:
-        The :class:`TradespaceResult`.
+        executor: where each rule's chain of budgets runs, one task per rule (:mod:`sensorsel.pipeline`;
+            default here, on ``evaluator``; elsewhere on the target rebuilt from ``recipe``): same result.
+        outdir, resume: each rule's runs go to ``OUTDIR/runs/rule-NAME.json`` as they finish; ``resume``
+            reads back those whose inputs match. Returns the :class:`TradespaceResult`.
     """
     t0 = time.perf_counter()
     lib = evaluator.library
@@ -501,19 +484,16 @@ def tradespace(evaluator: Evaluator, budgets: Iterable[float] | None = None, rul
             if progress:
                 progress(count[0], total)
 
-    desc = tuple(sorted(grid, reverse=True))
-    if resume and outdir is None:
-        raise InputError("resume reads the rules' runs of an output folder: give outdir")
-    if outdir is not None and (info is None or recipe is None):
-        raise InputError("a tradespace written to an output folder needs the target's info and recipe (run_tradespace)")
-    tasks = tuple(RuleTask(r, desc, lazy, share_prefix, k == 0, constraints) for k, r in enumerate(singles))
-    plan: Plan[tuple[RuleRuns, int]] = Plan("tradespace rule", rule_step, tasks, states=(recipe,),
-                                            build=_build_state, local=(evaluator,))
-    engine_key = "" if recipe is None else str(recipe.engine)
-    aggregate = "" if recipe is None else recipe.aggregate
+    if (outdir is not None or resume) and (outdir is None or info is None or recipe is None):
+        raise InputError("a tradespace stored in (or resumed from) a folder needs outdir, info and recipe: use run_tradespace")
     if recipe is None and executor is not None and not isinstance(executor, InProcess):
         raise InputError("a tradespace run elsewhere rebuilds its target from a recipe: use run_tradespace")
-    store = rule_store(tasks, info, engine_key, aggregate, outdir, resume, None if top is None else top.constraints)
+    tasks = tuple(RuleTask(r, tuple(sorted(grid, reverse=True)), lazy, share_prefix, k == 0, constraints)
+                  for k, r in enumerate(singles))
+    plan: Plan[tuple[RuleRuns, int]] = Plan("tradespace rule", rule_step, tasks, states=(recipe,),
+                                            build=EvaluatorRecipe.build, local=(evaluator,))
+    eng_agg = ("", "") if recipe is None else (str(recipe.engine), recipe.aggregate)
+    store = rule_store(tasks, info, *eng_agg, outdir, resume, None if top is None else top.constraints)
     got = execute(plan, executor, store, on_result=tick)
     per_rule = {r: got[k][0] for k, r in enumerate(singles)}
     n_evals = sum(n for _, n in got)
@@ -580,13 +560,11 @@ def run_tradespace(target: Target, budgets: Iterable[float] | None = None, rules
                    aggregate: str = "normalised", progress: Progress | None = None,
                    constraints: Constraints | None = None, executor: Executor | None = None,
                    outdir: str | Path | None = None, resume: bool = False) -> TradespaceResult:
-    """The ``sensorsel pareto`` pipeline: :func:`tradespace` with a fresh evaluator of ``engine`` for
-    a problem or a domain (``aggregate``: how a domain combines its routes; ``constraints``: limits
-    besides the budget, kept at every budget; ``executor``, ``outdir``, ``resume``: see :func:`tradespace`)."""
+    """``sensorsel pareto``: :func:`tradespace` with a fresh evaluator of ``engine`` for a problem or a domain
+    (``aggregate``: how a domain combines its routes; the other arguments: see :func:`tradespace`)."""
     sel = parse_rules(rules, "rules")  # bad input fails before the evaluator is built
     grid = None if budgets is None else tuple(check_budget(b) for b in budgets)
-    eng = check_engine(engine)
-    agg = check_aggregate(aggregate) if isinstance(target, Domain) else "normalised"
+    eng, agg = check_engine(engine), check_aggregate(aggregate) if isinstance(target, Domain) else "normalised"
     if constraints is not None:
         for b in grid or (float(target.library.costs.sum()),):
             feasible_set(target.library, b, constraints)  # refuses a bad request (at every budget) up front
