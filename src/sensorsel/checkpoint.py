@@ -30,6 +30,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, ClassVar
 
+from .results import result_kind
 from . import results
 from .certify import Certificate, CertifiedGreedyResult, certificate
 from .constraints import Constraints, feasible_set, recorded
@@ -49,6 +50,7 @@ FORMAT = 1
 __all__ = ["GreedyCheckpoint", "checkpoint_path", "resumable_greedy"]
 
 
+@result_kind("greedy-checkpoint")
 @dataclass(frozen=True)
 class GreedyCheckpoint:
     """Where an interrupted greedy run was (kind ``greedy-checkpoint``).

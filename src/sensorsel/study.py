@@ -57,6 +57,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Callable, ClassVar, NoReturn, Sequence
 
+from .results import result_kind
 from . import results
 from .certify import certificate
 from .errors import SensorselError
@@ -218,6 +219,7 @@ class StudyRow:
     seconds: float = 0.0
 
 
+@result_kind("study-cell")
 @dataclass(frozen=True)
 class StudyCellRecord:
     """A finished cell as written to ``OUTDIR/cells/cell-KEY.json`` (read back by ``resume``)."""
@@ -244,6 +246,7 @@ class StudyTarget:
     problem: TargetInfo
 
 
+@result_kind("study")
 @dataclass(frozen=True)
 class StudyResult:
     """A design study's table.

@@ -54,7 +54,6 @@ import numpy as np
 
 from .constraints import REL_SLACK, Constraints, feasible_set
 from .errors import InputError
-from .codec import to_jsonable
 from .evaluators import Evaluator, ProblemEvaluator, evaluator_for
 from .evaluators.domain import check_aggregate
 from .evaluators.registry import check_engine
@@ -62,6 +61,7 @@ from .fileio import atomic_write_text
 from .library import SensorLibrary
 from .pipeline import Executor, FileStore, InProcess, NoStore, Plan, Store, digest, execute
 from .problem import Domain, DomainInfo, ProblemInfo, Target, TargetInfo, TargetRecipe
+from .results import result_kind, to_jsonable
 from .selection import RULES, GreedyResult, Rule, Step, check_budget, check_rule, greedy
 
 #: The rules of the paper's Fig. 4 (uniform, cost-benefit) and the classic marginal rule.
@@ -136,6 +136,7 @@ class TradespaceRun:
     winning_rule: str
 
 
+@result_kind("tradespace")
 @dataclass(frozen=True)
 class TradespaceResult:
     """Every architecture of the greedy runs over a grid of budgets, and the Pareto front.
@@ -393,11 +394,11 @@ def rule_step(state: Evaluator | tuple[Target, EvaluatorRecipe], task: RuleTask)
     return runs, ev.n_evaluations - n0
 
 
+@result_kind("tradespace-rule-runs")
 @dataclass(frozen=True)
 class RuleRunsRecord:
-    """A finished rule's runs as written to ``OUTDIR/runs/rule-NAME.json`` (read back by ``--resume``):
-    its inputs' fingerprint (:func:`rule_fingerprint`), the rule, the budgets (largest first), the run at
-    each budget (all its steps), the picks each took from a larger budget's run, the suites it scored."""
+    """A finished rule's runs in ``OUTDIR/runs/rule-NAME.json`` (``--resume``): its inputs' fingerprint, the rule,
+    the budgets (largest first), each budget's run (all steps), the picks it shared, the suites scored."""
 
     fingerprint: str
     rule: str
@@ -478,7 +479,7 @@ def tradespace(evaluator: Evaluator, budgets: Iterable[float] | None = None, rul
     total = len(singles) * len(grid)
     count = [0]
 
-    def tick(i: int, got: tuple[RuleRuns, int], reused: bool) -> None:
+    def tick(i: int, got: tuple[RuleRuns, int], reused: bool) -> None:  # once per (rule, budget) run
         for _ in got[0]:
             count[0] += 1
             if progress:

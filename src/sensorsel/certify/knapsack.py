@@ -24,6 +24,7 @@ from typing import Iterator, Sequence
 
 import numpy as np
 
+from ..results import result_kind
 from ..errors import InputError
 
 #: Largest dynamic-programming table (items x capacity cells) solved by DP; above it, branch and bound.
@@ -76,6 +77,7 @@ def cost_units(costs: Sequence[float] | np.ndarray, capacity: float) -> CostUnit
     return CostUnits(ints // g, cap, g / scale, exact)
 
 
+@result_kind("knapsack")
 @dataclass(frozen=True)
 class KnapsackSolution:
     """A 0/1 knapsack solution.
