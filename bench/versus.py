@@ -1,6 +1,10 @@
-"""This tree's greedy against an earlier commit's, side by side in one run (alternating, same machine).
+"""This tree's greedy (or pareto, resilient) against an earlier commit's, side by side in one run (alternating, same machine).
 
-    python bench/versus.py --base 60d5466 --kitti-root ../shared/kitti [--seq 03 00] [--repeats 3]
+    python bench/versus.py --base 60d5466 --kitti-root ../shared/kitti [--seq 03 00] [--repeats 3] [--command greedy]
+
+``--command pareto`` times ``sensorsel pareto`` (default budgets and rules) and ``--command
+resilient`` times ``sensorsel resilient --budget 110000 --failures 1`` (whole route and 10 s
+periods) the same way; both write to a temporary folder.
 
 The earlier commit is checked out with ``git worktree`` into a temporary folder (removed afterwards)
 and run with the same Python environment on its own ``src/``. Both run the CLI,
@@ -40,13 +44,28 @@ def _run(src: Path, args: list[str], env: dict[str, str]) -> tuple[float, dict]:
     return wall, json.loads(p.stdout)
 
 
-def _args(src: Path, seq: str, root: str, env: dict[str, str]) -> list[str]:
-    help_text = subprocess.run([*CLI, "greedy", "--help"], capture_output=True, text=True,
+def _args(src: Path, seq: str, root: str, env: dict[str, str], command: str = "greedy", out: str = "") -> list[str]:
+    help_text = subprocess.run([*CLI, command, "--help"], capture_output=True, text=True,
                                env={**env, "PYTHONPATH": str(src)}, cwd=src.parent).stdout
     if "Usage:" not in help_text:
-        raise SystemExit(f"{src}: could not read `sensorsel greedy --help`")
+        raise SystemExit(f"{src}: could not read `sensorsel {command} --help`")
     extra = ["--landmarks", "synthetic"] if "real|synthetic" in help_text else []  # older CLIs generate by default
-    return ["greedy", "--seq", seq, "--kitti-root", root, "--budget", "110000", "--no-certificate", "--json", *extra]
+    common = ["--seq", seq, "--kitti-root", root, "--json", *extra]
+    if command == "pareto":
+        return ["pareto", *common, "-o", out, "--format", "svg", "-q"]
+    if command == "resilient":
+        return ["resilient", *common, "--budget", "110000", "--failures", "1", "-o", out, "--format", "svg", "-q"]
+    return ["greedy", *common, "--budget", "110000", "--no-certificate"]
+
+
+def _answer(command: str, res: dict) -> tuple[object, float]:
+    """What must be the same in both trees' results, and a score to compare."""
+    if command == "pareto":
+        return [(a["suite"], a["score"]) for a in res["architectures"]], float(res["best_score"])
+    if command == "resilient":
+        return (res["suite"], [(p["worst"]["suite"], p["worst"]["score"]) for p in res["per_period"]["periods"]]), \
+            float(res["comparison"]["resilient"]["score"])
+    return res["suite"], float(res["score"])
 
 
 def main() -> None:
@@ -55,6 +74,7 @@ def main() -> None:
     ap.add_argument("--kitti-root", default=os.environ.get("SENSORSEL_KITTI_ROOT", str(REPO.parent / "shared" / "kitti")))
     ap.add_argument("--seq", nargs="+", default=["03", "00"])
     ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--command", choices=["greedy", "pareto", "resilient"], default="greedy")
     a = ap.parse_args()
     env = dict(os.environ)
     with tempfile.TemporaryDirectory() as tmp:
@@ -62,11 +82,12 @@ def main() -> None:
         subprocess.run(["git", "-C", str(REPO), "worktree", "add", "--detach", "-q", str(base), a.base], check=True)
         try:
             trees = {"base": base / "src", "head": REPO / "src"}
-            print(f"base {a.base} against this tree; {a.repeats} alternating runs each; synthetic landmarks; "
+            print(f"sensorsel {a.command}: base {a.base} against this tree; {a.repeats} alternating runs each; synthetic landmarks; "
                   f"{os.cpu_count()} cores")
             print(f"{'seq':<4} {'tree':<5} {'select s (median)':>17} {'wall s (median)':>15}  runs (select s)")
             for seq in a.seq:
-                args = {k: _args(src, seq, a.kitti_root, env) for k, src in trees.items()}
+                args = {k: _args(src, seq, a.kitti_root, env, a.command, str(Path(tmp) / f"out-{k}"))
+                        for k, src in trees.items()}
                 sel: dict[str, list[float]] = {"base": [], "head": []}
                 wall: dict[str, list[float]] = {"base": [], "head": []}
                 out: dict[str, dict] = {}
@@ -79,8 +100,9 @@ def main() -> None:
                 for k in trees:
                     print(f"{seq:<4} {k:<5} {statistics.median(sel[k]):>17.2f} {statistics.median(wall[k]):>15.2f}  "
                           + ", ".join(f"{v:.2f}" for v in sel[k]))
-                same = out["base"]["suite"] == out["head"]["suite"]
-                rel = abs(out["base"]["score"] - out["head"]["score"]) / max(1.0, abs(out["base"]["score"]))
+                (ans_b, score_b), (ans_h, score_h) = _answer(a.command, out["base"]), _answer(a.command, out["head"])
+                same = ans_b == ans_h
+                rel = abs(score_b - score_h) / max(1.0, abs(score_b))
                 ratio = statistics.median(sel["head"]) / statistics.median(sel["base"])
                 print(f"{seq}: head/base selection time {ratio:.2f} (below 1: faster); same suite: {same}; "
                       f"relative score difference {rel:.1e}")

@@ -21,7 +21,7 @@ distributed = pytest.importorskip("distributed")
 
 from sensorsel import results  # noqa: E402
 from sensorsel.domain_design import design_domain  # noqa: E402
-from sensorsel.distributed import DaskCluster, DistributedDomainEvaluator, run_tradespace_on  # noqa: E402
+from sensorsel.distributed import DaskCluster, DistributedDomainEvaluator  # noqa: E402
 from sensorsel.problem import load_domain  # noqa: E402
 from sensorsel.tradespace import run_tradespace  # noqa: E402
 
@@ -65,16 +65,15 @@ def test_domain_greedy_on_two_workers_equals_in_process(cluster, domain):
 def test_tradespace_rules_as_tasks_equal_in_process_and_resume(cluster, domain, tmp_path):
     grid, rules = [4_000, 12_000], ["best-of"]  # its two component rules: two tasks
     local = _untimed(run_tradespace(domain, grid, rules))
-    assert _untimed(run_tradespace_on(cluster.client, domain, grid, rules, outdir=str(tmp_path))) == local
+    assert _untimed(run_tradespace(domain, grid, rules, executor=cluster.executor, outdir=str(tmp_path))) == local
     files = sorted((tmp_path / "runs").glob("rule-*.json"))
     assert len(files) == 2
     stamps = [f.stat().st_mtime_ns for f in files]
-    assert _untimed(run_tradespace_on(cluster.client, domain, grid, rules, outdir=str(tmp_path), resume=True)) == local
+    assert _untimed(run_tradespace(domain, grid, rules, executor=cluster.executor, outdir=str(tmp_path), resume=True)) == local
     assert [f.stat().st_mtime_ns for f in files] == stamps  # finished rules were read back, not run again
 
 
 def test_resilient_periods_as_tasks_equal_in_process_and_resume(cluster, tmp_path):
-    from sensorsel.distributed import resilient_report_on
     from sensorsel.problem import load_problem
     from sensorsel.resilient import resilient_report
     from sensorsel.scenario import ScenarioSpec
@@ -82,12 +81,12 @@ def test_resilient_periods_as_tasks_equal_in_process_and_resume(cluster, tmp_pat
     problem = load_problem(ScenarioSpec(fixture="suburb"))
     local = resilient_report(problem, 8_000, 1, period_s=20.0, outdir=tmp_path / "here")
     there = tmp_path / "there"
-    remote = resilient_report_on(cluster.client, problem, 8_000, 1, period_s=20.0, outdir=str(there))
+    remote = resilient_report(problem, 8_000, 1, period_s=20.0, outdir=str(there), executor=cluster.executor)
     assert _untimed(remote) == _untimed(local)
     files = sorted((there / "periods").glob("period-*.json"))
     assert len(files) == len(local.per_period.periods) > 1
     stamps = [f.stat().st_mtime_ns for f in files]
-    again = resilient_report_on(cluster.client, problem, 8_000, 1, period_s=20.0, outdir=str(there), resume=True)
+    again = resilient_report(problem, 8_000, 1, period_s=20.0, outdir=str(there), resume=True, executor=cluster.executor)
     assert _untimed(again) == _untimed(local)
     assert [f.stat().st_mtime_ns for f in files] == stamps  # finished periods were read back, not recomputed
 
@@ -118,14 +117,13 @@ def test_greedy_interrupted_in_process_resumes_on_two_workers(cluster, domain, t
 
 
 def test_study_cells_as_tasks_equal_in_process_and_resume(cluster, tmp_path):
-    from sensorsel.distributed import study_cells_on
     from sensorsel.study import load_study, run_study, study_csv
 
     path = tmp_path / "study.yaml"
     path.write_text("target: {fixture: suburb}\ngrid:\n  budgets: [4000, 9000]\n  rules: [uniform, marginal]\n")
     study = load_study(path)
     local = run_study(study)
-    remote = run_study(study, runner=study_cells_on(cluster.client), outdir=tmp_path / "out")
+    remote = run_study(study, executor=cluster.executor, outdir=tmp_path / "out")
     assert len(remote.rows) == 4 and _untimed(remote) == _untimed(local)
 
     def untimed_csv(text: str) -> list[list[str]]:
@@ -134,7 +132,7 @@ def test_study_cells_as_tasks_equal_in_process_and_resume(cluster, tmp_path):
     assert untimed_csv(study_csv(remote)) == untimed_csv(study_csv(local))
     files = sorted((tmp_path / "out" / "cells").glob("cell-*.json"))
     stamps = [f.stat().st_mtime_ns for f in files]
-    again = run_study(study, runner=study_cells_on(cluster.client), outdir=tmp_path / "out", resume=True)
+    again = run_study(study, executor=cluster.executor, outdir=tmp_path / "out", resume=True)
     assert again.n_reused == 4 and [f.stat().st_mtime_ns for f in files] == stamps
     assert _untimed(again)["rows"] == _untimed(local)["rows"]
 
@@ -163,14 +161,13 @@ def test_score_certify_optimal_robust_on_a_domain_equal_in_process(cluster, doma
 
 
 def test_simulation_runs_as_tasks_equal_in_process(cluster):
-    from sensorsel.distributed import simulation_runs_on
     from sensorsel.problem import load_problem
     from sensorsel.scenario import ScenarioSpec
     from sensorsel.simulate import simulate
 
     problem = load_problem(ScenarioSpec(fixture="tiny"))
     done = []
-    there = simulate(problem, "MRL-roof,HD2K-8", runs=3, seed=5, run_map=simulation_runs_on(cluster.client),
+    there = simulate(problem, "MRL-roof,HD2K-8", runs=3, seed=5, executor=cluster.executor,
                      progress=lambda d, t: done.append(d))
     here = simulate(problem, "MRL-roof,HD2K-8", runs=3, seed=5)
     assert sorted(done) == [1, 2, 3]

@@ -16,6 +16,7 @@ __version__ = "0.1.0"
 from typing import TYPE_CHECKING
 
 from . import simulate as _simulation  # the package (its gtsam-importing modules load when first used)
+from . import study as _study  # noqa: F401  (with the api's imports: every result kind registered, sensorsel.results)
 from .api import (CertifiedGreedyResult, DomainDesign, DomainScoreResult, ScoreResult, certify_result, design_domain,
                   resilient_report, run_greedy, run_optimal, run_robust, run_tradespace, score_domain_suite, score_suite)
 from .errors import InputError, LibraryError, ResultFileError, ScenarioError, SensorselError

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Iterable
 
+from .results import result_kind
 from .certify import (DEFAULT_MAX_NODES, Certificate, CertifiedGreedyResult, OptimumResult, certificate,
                       constraints_mismatch, optimal)
 from .checkpoint import resumable_greedy
@@ -46,6 +47,7 @@ __all__ = ["CertifiedGreedyResult", "DomainDesign", "DomainScoreResult", "Proble
            "run_optimal", "run_tradespace", "score_domain_suite", "score_suite", "simulate"]
 
 
+@result_kind("score")
 @dataclass(frozen=True)
 class ScoreResult:
     """The score of one suite.
@@ -175,6 +177,7 @@ class RouteScore:
     share_of_best: float
 
 
+@result_kind("domain-score")
 @dataclass(frozen=True)
 class DomainScoreResult:
     """The score of one suite on an operating domain.

@@ -25,13 +25,12 @@ command deletes it once the result itself is written.
 
 from __future__ import annotations
 
-import hashlib
-import json
 import time
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, ClassVar
 
+from .results import result_kind
 from . import results
 from .certify import Certificate, CertifiedGreedyResult, certificate
 from .constraints import Constraints, feasible_set, recorded
@@ -40,10 +39,10 @@ from .errors import ResultFileError
 from .evaluators import DomainEvaluator, Evaluator, evaluator_for
 from .evaluators.domain import check_aggregate
 from .evaluators.registry import check_engine
+from .pipeline import digest
 from .problem import Domain, DomainInfo, Problem, ProblemInfo, Target, TargetInfo
 from .progress import Progress
-from .selection import RULES, GreedyResult, Selector, Step, check_budget, check_rule
-from .selection.rules import Rule
+from .selection import GreedyResult, Step, check_budget, check_rule, greedy
 
 #: Bumped when what a checkpoint holds, or how a run is resumed from it, changes.
 FORMAT = 1
@@ -51,6 +50,7 @@ FORMAT = 1
 __all__ = ["GreedyCheckpoint", "checkpoint_path", "resumable_greedy"]
 
 
+@result_kind("greedy-checkpoint")
 @dataclass(frozen=True)
 class GreedyCheckpoint:
     """Where an interrupted greedy run was (kind ``greedy-checkpoint``).
@@ -91,10 +91,6 @@ def checkpoint_path(output: str | Path) -> Path:
     return p.with_name(p.name + ".checkpoint")
 
 
-def _digest(obj: object) -> str:
-    return hashlib.sha256(json.dumps(obj, sort_keys=True, allow_nan=False).encode("utf-8")).hexdigest()
-
-
 def run_fingerprint(target: Target, budget: float, rule: str, engine: str, aggregate: str, lazy: bool,
                     constraints: Constraints | None = None) -> str:
     """Digest of what a greedy run depends on: each route by content (library, route and rate,
@@ -103,7 +99,7 @@ def run_fingerprint(target: Target, budget: float, rule: str, engine: str, aggre
     ``jobs``, not where it runs)."""
     routes = ([(r.name, r.weight, r.unit, r.problem) for r in target.routes] if isinstance(target, Domain)
               else [("", 1.0, "", target)])
-    return _digest({"format": FORMAT, "what": "greedy-checkpoint", "budget_usd": budget, "rule": rule, "engine": engine,
+    return digest({"format": FORMAT, "what": "greedy-checkpoint", "budget_usd": budget, "rule": rule, "engine": engine,
                     "aggregate": aggregate, "lazy": lazy,
                     **({"constraints": results.to_jsonable(constraints)} if constraints is not None else {}),
                     "routes": [[n, w, u, results.to_jsonable(p.fingerprint)] for n, w, u, p in routes]})
@@ -166,7 +162,8 @@ def load_checkpoint(path: Path, target: Target, budget: float, rule: str, engine
 
 
 class _Store:
-    """The checkpoint of one run, rewritten (atomically) at each change."""
+    """The checkpoint of one run, rewritten (atomically) at each change: the greedy run's
+    :class:`~sensorsel.selection.greedy.Journal`."""
 
     def __init__(self, path: Path, ck: GreedyCheckpoint) -> None:
         self.path, self.ck = path, ck
@@ -175,33 +172,23 @@ class _Store:
         self.ck = replace(self.ck, **changes)
         results.save(self.ck, self.path)
 
+    @property
+    def runs(self) -> tuple[GreedyResult, ...]:
+        return self.ck.runs
 
-def _greedy(ev: Evaluator, store: _Store, budget: float, rule: str, lazy: bool, progress: Progress | None,
-            info: TargetInfo, constraints: Constraints | None = None) -> GreedyResult:
-    """:func:`sensorsel.selection.greedy`, recording each pick and each finished component run."""
-    t0 = time.perf_counter()
-    entry = RULES[rule]
-    components = entry.component_rules
-    runs = list(store.ck.runs[:len(components)])
-    for done in runs:  # the bar shows the component runs already finished
-        if progress and done.steps:
-            progress(len(done.steps), len(done.steps))
-    for name in components[len(runs):]:
-        component = RULES[name]
-        assert isinstance(component, Rule)
-        n_before, n0 = store.ck.n_evaluations, ev.n_evaluations
+    @property
+    def steps(self) -> tuple[Step, ...]:
+        return self.ck.steps
 
-        def record(steps: tuple[Step, ...]) -> None:
-            store.update(steps=steps, n_evaluations=n_before + ev.n_evaluations - n0)
+    @property
+    def n_evaluations(self) -> int:
+        return self.ck.n_evaluations
 
-        run = Selector(ev, component, lazy=lazy, progress=progress, constraints=constraints).select(
-            budget, info=info, resume=store.ck.steps, on_step=record)
-        run = replace(run, n_evaluations=n_before + run.n_evaluations)
-        runs.append(run)
-        store.update(runs=tuple(runs), steps=(), n_evaluations=0)
-    if isinstance(entry, Rule):
-        return runs[0]
-    return entry.combine(runs, info=info, seconds=round(time.perf_counter() - t0, 6))
+    def record_steps(self, steps: tuple[Step, ...], n_evaluations: int) -> None:
+        self.update(steps=steps, n_evaluations=n_evaluations)
+
+    def record_runs(self, runs: tuple[GreedyResult, ...]) -> None:
+        self.update(runs=runs, steps=(), n_evaluations=0)
 
 
 def resumable_greedy(target: Target, budget_usd: float, rule: str = "uniform", *, checkpoint: str | Path,
@@ -240,7 +227,7 @@ def resumable_greedy(target: Target, budget_usd: float, rule: str = "uniform", *
                               target=target.info, constraints=limits)
     store = _Store(path, ck)
     ev = evaluator if evaluator is not None else evaluator_for(target, engine, jobs=jobs, aggregate=aggregate)
-    res = _greedy(ev, store, budget, rule, lazy, progress, target.info, constraints)
+    res = greedy(ev, budget, rule, lazy=lazy, progress=progress, info=target.info, constraints=constraints, journal=store)
     cert = store.ck.certificate
     if certify and cert is None:
         cert = certificate(ev, res, progress=certify_progress)

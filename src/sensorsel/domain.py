@@ -399,3 +399,12 @@ def load_domain_scenarios(domain: DomainSpec) -> tuple[DomainScenario, ...]:
             weight = route.length_m / 1000.0 if domain.weight_unit == "km" else route.duration_s / 3600.0
         out.append(DomainScenario(r.name, r.spec, sc, float(weight), domain.weight_unit))
     return tuple(out)
+
+
+# The reader's parts the study file's reader shares (sensorsel.study): one home, public names.
+Checker = _Checker
+Map = _Map
+Seq = _Seq
+ROUTE_KEYS = _ROUTE_KEYS
+parse_route = _parse_route
+read_yaml = _read_yaml

@@ -19,6 +19,7 @@ from typing import ClassVar, Sequence
 
 import numpy as np
 
+from .results import result_kind
 from .constraints import Constraints, recorded
 from .certify import CertifiedGreedyResult, certificate
 from .evaluators import DomainEvaluator
@@ -54,6 +55,7 @@ class RouteShare:
     share_of_own: float
 
 
+@result_kind("domain-design")
 @dataclass(frozen=True)
 class DomainDesign:
     """A domain's suite and its per-route breakdown.

@@ -460,3 +460,55 @@ def load_domain(path: str | Path, library: str | Path | None = None, settings: G
 Target = Problem | Domain
 #: what a result records of its target
 TargetInfo = ProblemInfo | DomainInfo
+
+
+@dataclass(frozen=True)
+class RouteRecipe:
+    """What a worker needs to rebuild one route's problem: a few kilobytes, never a matrix (a
+    linearized GTSAM graph does not pickle, and need not).
+
+    ``scenario`` is sent only when the problem was built from objects (no ``spec`` to load from).
+    """
+
+    name: str
+    library: SensorLibrary
+    settings: GraphSettings
+    spec: ScenarioSpec | None
+    scenario: Scenario | None = None
+
+    @classmethod
+    def of(cls, name: str, problem: Problem) -> "RouteRecipe":
+        return cls(name, problem.library, problem.settings, problem.spec, None if problem.spec is not None else problem.scenario)
+
+    def build(self) -> Problem:
+        if self.scenario is not None:
+            sc = self.scenario
+        else:
+            assert self.spec is not None
+            sc = load_scenario(self.spec)
+        problem = build_problem(self.library, sc, self.settings, spec=self.spec)
+        check_reach(problem)
+        return problem
+
+
+@dataclass(frozen=True)
+class TargetRecipe:
+    """A problem or a domain, as a worker rebuilds it (routes as :class:`RouteRecipe`)."""
+
+    routes: tuple[RouteRecipe, ...]
+    weights: tuple[float, ...] | None  # None: one problem
+    units: tuple[str, ...] = ()
+    source: str = ""
+
+    @classmethod
+    def of(cls, target: Target) -> "TargetRecipe":
+        if isinstance(target, Domain):
+            return cls(tuple(RouteRecipe.of(r.name, r.problem) for r in target.routes),
+                       tuple(r.weight for r in target.routes), tuple(r.unit for r in target.routes), target.source)
+        return cls((RouteRecipe.of("", target),), None)
+
+    def build(self) -> Target:
+        if self.weights is None:
+            return self.routes[0].build()
+        return Domain(tuple(DomainRoute(r.name, r.build(), w, u) for r, w, u in zip(self.routes, self.weights, self.units)),
+                      self.source)

@@ -5,9 +5,9 @@ keys in front::
 
     {"kind": "greedy", "format": 1, "suite": [...], ...}
 
-:data:`KINDS` maps each kind to its record class as ``"module:Class"`` (relative to the package),
-imported only when a file of that kind is loaded: the record classes do not import this module, and
-this module imports no record class until it needs one.
+:data:`KINDS` maps each kind to its record class; each record class registers itself with the
+:func:`result_kind` decorator (``@result_kind("tradespace")``), so this module depends on none of
+them and the layers contract sees every dependency.
 
 :func:`load` reads a file as the kind the caller expects and refuses anything else: a file of
 another kind (the message names the file, the kind found and the kind expected), a format newer than
@@ -18,16 +18,16 @@ this sensorsel reads, or a file that does not parse. Files written before kinds 
 from __future__ import annotations
 
 import dataclasses
-import importlib
 from pathlib import Path
-from typing import Any, Iterable, TypeVar, overload
+from typing import Any, Callable, Iterable, TypeVar, overload
 
 from .codec import dumps as _dumps
 from .codec import from_jsonable, read_json, to_jsonable
 from .errors import ResultFileError
 from .fileio import atomic_write_text
 
-__all__ = ["FORMAT", "KINDS", "dumps", "from_jsonable", "kind_of", "load", "record_class", "save", "to_jsonable"]
+__all__ = ["FORMAT", "KINDS", "dumps", "from_jsonable", "kind_of", "load", "record_class", "result_kind", "save",
+           "to_jsonable"]
 
 T = TypeVar("T")
 
@@ -36,55 +36,45 @@ T = TypeVar("T")
 #: default.
 FORMAT = 1
 
-#: kind -> "module:Class" (module relative to the sensorsel package). Class names are unique.
-KINDS: dict[str, str] = {
-    "score": "api:ScoreResult",
-    "greedy": "certify:CertifiedGreedyResult",
-    "certificate": "certify:Certificate",
-    "optimum": "certify:OptimumResult",
-    "suite-bound": "certify:SuiteBound",
-    "knapsack": "certify:KnapsackSolution",
-    "tradespace": "tradespace:TradespaceResult",
-    "resilient": "resilient:ResilientReport",
-    "resilient-comparison": "resilient:Comparison",
-    "resilient-selection": "resilient:ResilientResult",
-    "resilient-worst-case": "resilient:WorstCase",
-    "resilient-period": "resilient:PeriodResult",
-    "resilient-periods": "resilient:PerPeriodResult",
-    "resilient-grid": "resilient:SelectionGrid",
-    "simulation": "simulate:SimulationReport",
-    "simulation-suite": "simulate:SimulationResult",
-    "domain-design": "domain_design:DomainDesign",
-    "greedy-checkpoint": "checkpoint:GreedyCheckpoint",
-    "study": "study:StudyResult",
-    "study-cell": "study:StudyCellRecord",
-    "domain-score": "api:DomainScoreResult",
-    "robust": "robust:RobustResult",
-    "robust-optimum": "robust:RobustOptimum",
-}
-
-_KIND_OF_NAME = {target.partition(":")[2]: kind for kind, target in KINDS.items()}
-assert len(_KIND_OF_NAME) == len(KINDS), "two kinds name the same class"
-# a greedy run without its certificate (selection.GreedyResult, the base of CertifiedGreedyResult) is
-# written and read as the same kind: its file is a "greedy" file with "certificate": null
-_KIND_OF_NAME["GreedyResult"] = "greedy"
+#: kind -> record class, filled by the record classes themselves (:func:`result_kind`, as
+#: ``evaluators.ENGINES`` is): this module imports none of them. Every kind is registered once the
+#: package is imported (``sensorsel/__init__`` imports every module that defines one).
+KINDS: dict[str, type] = {}
+#: record class name -> kind (a greedy run without its certificate, ``selection.GreedyResult``, is
+#: written as a "greedy" file with "certificate": null, and read as ``CertifiedGreedyResult``)
+_KIND_OF_NAME: dict[str, str] = {}
 _HEADER = ("kind", "format")
 
 
+def result_kind(kind: str, *, read: bool = True) -> Callable[[type[T]], type[T]]:
+    """Class decorator: the record class is the result kind ``kind`` (written with it, read as it).
+    ``read=False``: written as ``kind`` only (another class reads it).
+
+    Raises:
+        ValueError: the kind, or the class name, is registered already for another.
+    """
+    def register(cls: type[T]) -> type[T]:
+        if read:
+            if KINDS.get(kind, cls) is not cls:
+                raise ValueError(f"result kind {kind!r} is already registered ({KINDS[kind].__qualname__})")
+            KINDS[kind] = cls
+        if _KIND_OF_NAME.get(cls.__name__, kind) != kind:
+            raise ValueError(f"record class {cls.__name__} is already the kind {_KIND_OF_NAME[cls.__name__]!r}")
+        _KIND_OF_NAME[cls.__name__] = kind
+        return cls
+    return register
+
+
 def record_class(kind: str) -> type:
-    """The record class of ``kind`` (imports its module).
+    """The record class of ``kind``.
 
     Raises:
         KeyError: an unknown kind (names the known ones).
     """
     try:
-        target = KINDS[kind]
+        return KINDS[kind]
     except KeyError:
         raise KeyError(f"unknown result kind {kind!r}; known: {', '.join(KINDS)}") from None
-    module, _, name = target.partition(":")
-    cls = getattr(importlib.import_module(f"{__package__}.{module}"), name)
-    assert isinstance(cls, type)
-    return cls
 
 
 def kind_of(obj: Any) -> str:

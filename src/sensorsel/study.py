@@ -36,8 +36,8 @@ depends on the bound's search.
 
 **Results**: one :class:`StudyRow` per cell (settings, suite, cost, score, worst case, certificate,
 evaluations, seconds), in cell order, whatever order the cells finished in. :func:`run_study` runs
-the cells in this process, or through a ``runner`` (:func:`sensorsel.distributed.study_cells_on`:
-one Dask task per cell); the rows are the same bytes (timings aside). With ``outdir``, each
+the cells as a plan (:func:`cell_plan`) through an executor (:mod:`sensorsel.pipeline`: in this
+process, or one Dask task per cell); the rows are the same bytes (timings aside). With ``outdir``, each
 finished cell is written to ``OUTDIR/cells/cell-KEY.json`` as it finishes (atomically; KEY a digest
 of the cell's settings), with a fingerprint of everything the cell depends on (the target by
 content, library, seed, budget, rule, failures, method, engine, aggregate, laziness, certificate);
@@ -57,20 +57,22 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Callable, ClassVar, NoReturn, Sequence
 
+from .results import result_kind
 from . import results
 from .certify import certificate
-from .errors import ResultFileError, SensorselError
+from .errors import SensorselError
 from .evaluators import ENGINES, evaluator_for
 from .evaluators.domain import AGGREGATES
 from .evaluators.registry import check_engine
-from .domain import SYNTHETIC, DomainError, _Checker, _Map, _parse_route, _ROUTE_KEYS, _Seq, load_domain_file
-from .domain import _read_yaml as _read_domain_yaml
-from .domain import load_domain_scenarios
+from .domain import (ROUTE_KEYS, SYNTHETIC, Checker, DomainError, Map, Seq, load_domain_file, load_domain_scenarios,
+                     parse_route)
+from .domain import read_yaml as _read_domain_yaml
 from .fileio import atomic_write_text
 from .library import load_library
 from .problem import Fingerprint, GraphSettings, Target, TargetInfo, load_domain, load_problem
 from .progress import Progress
-from .resilient import CacheWarning, resilient_select, worst_case
+from .pipeline import Executor, FileStore, NoStore, Plan, Store, digest, execute
+from .resilient import resilient_select, worst_case
 from .robust import robust_select
 from .scenario import ScenarioSpec, load_scenario
 from .selection import RULES, check_affordable, greedy
@@ -96,7 +98,7 @@ class StudyError(DomainError):
 
 
 @dataclass(frozen=True)
-class TargetRecipe:
+class TargetFiles:
     """One target of a study as a worker rebuilds it: a route (``spec``) or a domain file
     (``domain``), with a library (None: the default; a domain: its own)."""
 
@@ -169,7 +171,7 @@ class Study:
     """
 
     source: str
-    targets: tuple[TargetRecipe, ...]
+    targets: tuple[TargetFiles, ...]
     cells: tuple[Cell, ...]
     engine: str | None = None
     aggregate: str = ""
@@ -217,6 +219,7 @@ class StudyRow:
     seconds: float = 0.0
 
 
+@result_kind("study-cell")
 @dataclass(frozen=True)
 class StudyCellRecord:
     """A finished cell as written to ``OUTDIR/cells/cell-KEY.json`` (read back by ``resume``)."""
@@ -243,6 +246,7 @@ class StudyTarget:
     problem: TargetInfo
 
 
+@result_kind("study")
 @dataclass(frozen=True)
 class StudyResult:
     """A design study's table.
@@ -272,7 +276,7 @@ class StudyResult:
 # ------------------------------------------------------------------------------------------ parsing
 
 
-class _StudyChecker(_Checker):
+class _StudyChecker(Checker):
     def fail(self, key: str, message: str, line: int | None) -> NoReturn:
         raise StudyError(self.path, key, message, line)
 
@@ -281,14 +285,14 @@ def _read_yaml(path: Path) -> Any:
     return _read_domain_yaml(path, StudyError, "study file")
 
 
-def _list(c: _StudyChecker, m: _Map, key: str, default: list[Any] | None) -> tuple[list[Any], list[int]]:
+def _list(c: _StudyChecker, m: Map, key: str, default: list[Any] | None) -> tuple[list[Any], list[int]]:
     """The list under ``grid.key`` and each item's line (``default`` when absent; required when None)."""
     if key not in m:
         if default is None:
             c.fail(f"grid.{key}", "missing: expected a non-empty list", m.line)
         return list(default), [m.line] * len(default)
     v = m[key]
-    if not isinstance(v, _Seq) or not v:
+    if not isinstance(v, Seq) or not v:
         c.fail(f"grid.{key}", f"expected a non-empty list, e.g. [a, b], got {v!r}", m.lines[key])
     return list(v), list(v.lines)
 
@@ -319,7 +323,7 @@ def parse_study(data: Any, path: str | Path = "<memory>") -> Study:
     """
     path = Path(path)
     c = _StudyChecker(path)
-    if not isinstance(data, _Map):
+    if not isinstance(data, Map):
         c.fail("", f"expected a mapping with target and grid, got {type(data).__name__}", getattr(data, "line", None))
     c.keys(data, "", _TOP_KEYS)
     for k in ("target", "grid"):
@@ -337,7 +341,7 @@ def parse_study(data: Any, path: str | Path = "<memory>") -> Study:
     spec, domain, aggregate, fixed_seed = _parse_target(c, data["target"], data.lines["target"])
 
     grid = data["grid"]
-    if not isinstance(grid, _Map):
+    if not isinstance(grid, Map):
         c.fail("grid", f"expected a mapping (budgets, rules, failures, landmark_seeds, libraries), got {grid!r}",
                data.lines["grid"])
     c.keys(grid, "grid", _GRID_KEYS)
@@ -379,11 +383,11 @@ def parse_study(data: Any, path: str | Path = "<memory>") -> Study:
         libs[i] = c.string(lib, key, ln)
     _unique(c, libs, l_lines, "libraries")
 
-    targets: list[TargetRecipe] = []
+    targets: list[TargetFiles] = []
     cells: list[Cell] = []
     for (lib, lib_path), seed in itertools.product(zip(libs, lib_paths), seeds):
         t = len(targets)
-        targets.append(TargetRecipe(replace(spec, landmark_seed=seed) if spec is not None and seed is not None else spec,
+        targets.append(TargetFiles(replace(spec, landmark_seed=seed) if spec is not None and seed is not None else spec,
                                     domain, lib_path))
         for alpha, rule, budget in itertools.product(failures, rules, budgets):
             cells.append(Cell(len(cells), lib, seed, alpha, rule, budget, t))
@@ -393,7 +397,7 @@ def parse_study(data: Any, path: str | Path = "<memory>") -> Study:
 
 def _parse_target(c: _StudyChecker, raw: Any, line: int) -> tuple[ScenarioSpec | None, str | None, str, bool]:
     """(route spec or None, domain file or None, aggregate, whether the landmarks fix a seed)."""
-    if not isinstance(raw, _Map):
+    if not isinstance(raw, Map):
         c.fail("target", f"expected a mapping (fixture, seq or route, landmarks, rate; or domain), got {raw!r}", line)
     c.keys(raw, "target", _TARGET_KEYS)
     ln = lambda k: raw.lines.get(k, raw.line)  # noqa: E731
@@ -411,15 +415,15 @@ def _parse_target(c: _StudyChecker, raw: Any, line: int) -> tuple[ScenarioSpec |
     rate = c.number(raw["rate"], "target.rate", ln("rate")) if "rate" in raw else 1.0
     clearance = c.number(raw["clearance_m"], "target.clearance_m", ln("clearance_m"), strict=False) if "clearance_m" in raw else None
     name = c.string(raw["name"], "target.name", ln("name")) if "name" in raw else None
-    route = _Map({k: v for k, v in raw.items() if k in _ROUTE_KEYS})
+    route = Map({k: v for k, v in raw.items() if k in ROUTE_KEYS})
     route.line, route.lines = raw.line, raw.lines
     route["name"] = name or "target"
-    r = _parse_route(c, route, "target", line, ScenarioSpec(keyframe_rate_hz=rate, clearance_m=clearance), None, "hours")
+    r = parse_route(c, route, "target", line, ScenarioSpec(keyframe_rate_hz=rate, clearance_m=clearance), None, "hours")
     landmarks = raw.get("landmarks")
-    return replace(r.spec, name=name), None, "", isinstance(landmarks, _Map)
+    return replace(r.spec, name=name), None, "", isinstance(landmarks, Map)
 
 
-def _check_budgets(c: _StudyChecker, cells: list[Cell], targets: list[TargetRecipe], budgets: list[float],
+def _check_budgets(c: _StudyChecker, cells: list[Cell], targets: list[TargetFiles], budgets: list[float],
                    b_lines: list[int], failures: list[int], f_lines: list[int]) -> None:
     """Every budget must buy a sensor (more than alpha of them) from every library of the grid, as
     a command's --budget must (:func:`sensorsel.selection.check_affordable`)."""
@@ -489,100 +493,75 @@ def run_cell(target: Target, cell: Cell, study: Study, *, jobs: int = 1) -> Stud
 
 
 def cell_fingerprint(study: Study, cell: Cell, target_fp: list[Any]) -> str:
-    """Digest of everything a cell's row depends on (``target_fp``: :meth:`TargetRecipe.fingerprints`)."""
+    """Digest of everything a cell's row depends on (``target_fp``: :meth:`TargetFiles.fingerprints`)."""
     what = {"format": FORMAT, "what": "study-cell", "target": target_fp, "library": cell.library,
             "landmark_seed": cell.landmark_seed, "failures": cell.failures, "rule": cell.rule, "budget_usd": cell.budget_usd,
             "method": study.method if cell.failures else "", "engine": check_engine(study.engine), "aggregate": study.aggregate,
             "lazy": study.lazy, "certificate": study.certificate and (cell.failures == 0 or study.method == "robust")}
-    return hashlib.sha256(json.dumps(what, sort_keys=True, allow_nan=False).encode()).hexdigest()
+    return digest(what)
 
 
 def cell_file(outdir: str | Path, cell: Cell) -> Path:
     return Path(outdir) / "cells" / f"cell-{cell.key}.json"
 
 
-def _load_cell(path: Path, fp: str) -> StudyCellRecord | None:
-    """The cell stored at ``path`` if its fingerprint is ``fp``; else None (with a
-    :class:`~sensorsel.resilient.CacheWarning` naming a file that exists but cannot be reused)."""
-    import warnings
+@dataclass(frozen=True)
+class CellTask:
+    """One cell of a study (a plan's task): the cell and the study's settings."""
 
-    if not path.is_file():
-        return None
-    try:
-        rec = results.load(path, StudyCellRecord)
-    except ResultFileError as exc:
-        warnings.warn(f"{path}: not reused, it cannot be read ({exc.reason}); recomputing and overwriting it",
-                      CacheWarning, stacklevel=3)
-        return None
-    if rec.fingerprint != fp:
-        warnings.warn(f"{path}: not reused, it was computed from other inputs (target, library, seed or settings); "
-                      "recomputing and overwriting it", CacheWarning, stacklevel=3)
-        return None
-    return rec
+    cell: Cell
+    study: Study
+    jobs: int = 1
 
 
-#: done(row, info): a finished cell and what its target is, on the client
-Done = Callable[[StudyRow, TargetInfo], None]
-#: runner(study, cells, done): runs ``cells`` of ``study``, calling ``done`` as each finishes
-Runner = Callable[[Study, Sequence[Cell], Done], None]
+def cell_step(target: Target, task: CellTask) -> tuple[StudyRow, TargetInfo]:
+    """One cell on its target: (its row, what its target is)."""
+    return run_cell(target, task.cell, task.study, jobs=task.jobs), target.info
 
 
-def _in_process(jobs: int) -> Runner:
-    def run(study: Study, cells: Sequence[Cell], done: Done) -> None:
-        cache: dict[int, Target] = {}
-        for cell in cells:
-            if cell.target not in cache:
-                cache.clear()  # cells are in target order: one target in memory at a time
-                cache[cell.target] = study.targets[cell.target].build()
-            target = cache[cell.target]
-            done(run_cell(target, cell, study, jobs=jobs), target.info)
-    return run
+def _build_target(recipe: TargetFiles) -> Target:
+    """A study's target (a route or a domain), built where its cells run, once for all of them."""
+    return recipe.build()
+
+
+def cell_plan(study: Study, cells: Sequence[Cell], jobs: int = 1) -> Plan[tuple[StudyRow, TargetInfo]]:
+    """``cells`` of ``study`` as a plan: one task per cell, on its target (built once per target)."""
+    return Plan("study cell", cell_step, tuple(CellTask(c, study, jobs) for c in cells), states=tuple(study.targets),
+                build=_build_target, state_of=tuple(c.target for c in cells))
 
 
 def run_study(study: Study, *, outdir: str | Path | None = None, resume: bool = False, jobs: int = 1,
-              runner: Runner | None = None, progress: Progress | None = None) -> StudyResult:
-    """Run every cell of ``study`` (in this process, or through ``runner``) and gather the rows in
-    cell order. ``outdir``: each finished cell is written to ``OUTDIR/cells/`` as it finishes;
-    ``resume``: cells whose file there matches are read back, not run (see the module documentation).
-    ``progress(done, total)`` after each cell."""
+              executor: Executor | None = None, progress: Progress | None = None) -> StudyResult:
+    """Run every cell of ``study`` (in this process, or through ``executor``: :mod:`sensorsel.pipeline`)
+    and gather the rows in cell order. ``outdir``: each finished cell is written to ``OUTDIR/cells/``
+    as it finishes; ``resume``: cells whose file there matches are read back, not run (see the module
+    documentation). ``progress(done, total)`` after each cell. ``jobs``: threads of each cell's engine."""
     t0 = time.perf_counter()
-    fps: dict[int, str] = {}
+    plan = cell_plan(study, study.cells, jobs)
+    store: Store[tuple[StudyRow, TargetInfo]] = NoStore()
     if outdir is not None:
         target_fps = [t.fingerprints() for t in study.targets]
-        fps = {c.index: cell_fingerprint(study, c, target_fps[c.target]) for c in study.cells}
-    rows: dict[int, StudyRow] = {}
+        fps = [cell_fingerprint(study, c, target_fps[c.target]) for c in study.cells]
+        store = FileStore([cell_file(outdir, c) for c in study.cells], fps, StudyCellRecord,
+                          lambda i, got: StudyCellRecord(fps[i], got[0], got[1]), lambda rec: (rec.row, rec.target),
+                          resume=resume, what="other inputs (target, library, seed or settings)")
+    n_reused = [0]
+
+    def count(i: int, got: tuple[StudyRow, TargetInfo], reused: bool) -> None:
+        n_reused[0] += reused
+
+    got = execute(plan, executor, store, progress, on_result=count)
+    rows = [row for row, _ in got]
     infos: dict[int, TargetInfo] = {}
-    if outdir is not None and resume:
-        for c in study.cells:
-            rec = _load_cell(cell_file(outdir, c), fps[c.index])
-            if rec is not None:
-                rows[c.index], infos[c.target] = rec.row, rec.target
-    n_reused, total = len(rows), len(study.cells)
-    if progress and rows:
-        progress(len(rows), total)
-
-    def done(row: StudyRow, info: TargetInfo) -> None:
-        rows[row.cell] = row
-        cell = study.cells[row.cell]
-        infos.setdefault(cell.target, info)
-        if outdir is not None:
-            results.save(StudyCellRecord(fps[row.cell], row, info), cell_file(outdir, cell))
-        if progress:
-            progress(len(rows), total)
-
-    todo = [c for c in study.cells if c.index not in rows]
-    (runner or _in_process(jobs))(study, todo, done)
-    missing = [c.index for c in study.cells if c.index not in rows]
-    if missing:
-        raise SensorselError(f"cells {missing} of {study.source} were not run")
-    first = study.cells[0]
+    for c, (_, info) in zip(study.cells, got):
+        infos.setdefault(c.target, info)
     targets = []
     for t in range(len(study.targets)):
         c = next(c for c in study.cells if c.target == t)
         targets.append(StudyTarget(c.library, c.landmark_seed, infos[t]))
-    return StudyResult(source=study.source, method=study.method, engine=rows[first.index].engine,
+    return StudyResult(source=study.source, method=study.method, engine=rows[0].engine,
                        aggregate=study.aggregate, certificate=study.certificate,
-                       rows=tuple(rows[c.index] for c in study.cells), targets=tuple(targets), n_reused=n_reused,
+                       rows=tuple(rows), targets=tuple(targets), n_reused=n_reused[0],
                        seconds=round(time.perf_counter() - t0, 6))
 
 

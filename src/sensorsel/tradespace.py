@@ -54,10 +54,14 @@ import numpy as np
 
 from .constraints import REL_SLACK, Constraints, feasible_set
 from .errors import InputError
-from .evaluators import Evaluator, evaluator_for
+from .evaluators import Evaluator, ProblemEvaluator, evaluator_for
+from .evaluators.domain import check_aggregate
+from .evaluators.registry import check_engine
 from .fileio import atomic_write_text
 from .library import SensorLibrary
-from .problem import Target, TargetInfo
+from .pipeline import Executor, FileStore, InProcess, NoStore, Plan, Store, digest, execute
+from .problem import Domain, DomainInfo, ProblemInfo, Target, TargetInfo, TargetRecipe
+from .results import result_kind, to_jsonable
 from .selection import RULES, GreedyResult, Rule, Step, check_budget, check_rule, greedy
 
 #: The rules of the paper's Fig. 4 (uniform, cost-benefit) and the classic marginal rule.
@@ -67,9 +71,9 @@ DEFAULT_N_BUDGETS = 14
 
 #: progress(done, total): called after each (rule, budget) run.
 Progress = Callable[[int, int], None]
-#: rule_runs(rules, budgets_desc, lazy, share_prefix, tick) -> (rule -> budget -> (run, shared picks), evaluations)
-RuleRunner = Callable[[list[str], list[float], bool, bool, Callable[[], None]],
-                      tuple[dict[str, dict[float, tuple[GreedyResult, int]]], int]]
+#: a single rule's runs: budget -> (the run with all its steps, picks shared from a larger budget's run)
+RuleRuns = dict[float, tuple[GreedyResult, int]]
+RULE_FORMAT = 1  # bumped when a rule's file (OUTDIR/runs/rule-NAME.json) or how it is computed changes
 
 
 @dataclass(frozen=True)
@@ -132,6 +136,7 @@ class TradespaceRun:
     winning_rule: str
 
 
+@result_kind("tradespace")
 @dataclass(frozen=True)
 class TradespaceResult:
     """Every architecture of the greedy runs over a grid of budgets, and the Pareto front.
@@ -316,8 +321,8 @@ def prefix_sharing_exact(constraints: Constraints | None) -> bool:
     return constraints is None or not constraints.limits
 
 
-def _rule_runs(evaluator: Evaluator, rule: str, budgets_desc: list[float], *, lazy: bool, share_prefix: bool,
-               tick: Callable[[], None], constraints: Constraints | None = None) -> dict[float, tuple[GreedyResult, int]]:
+def rule_runs(evaluator: Evaluator, rule: str, budgets_desc: Sequence[float], *, lazy: bool, share_prefix: bool,
+              tick: Callable[[], None] = lambda: None, constraints: Constraints | None = None) -> RuleRuns:
     """Runs of one rule at every budget (largest first): budget -> (result with all steps, shared steps)."""
     lib = evaluator.library
     done: dict[float, tuple[GreedyResult, int]] = {}
@@ -346,10 +351,98 @@ def _rule_runs(evaluator: Evaluator, rule: str, budgets_desc: list[float], *, la
     return done
 
 
+@dataclass(frozen=True)
+class RuleTask:
+    """One single rule's chain of budgets (a plan's task), largest first, sharing prefixes as in-process.
+    ``first``: whether it counts the problem's baseline log det (as one in-process evaluator: once)."""
+
+    rule: str
+    budgets_desc: tuple[float, ...]
+    lazy: bool
+    share_prefix: bool
+    first: bool
+    constraints: Constraints | None = None
+
+
+@dataclass(frozen=True)
+class EvaluatorRecipe:
+    """What a worker builds a tradespace's evaluator from: the target's recipe and the engine settings."""
+
+    target: TargetRecipe
+    engine: str | None
+    jobs: int = 1
+    aggregate: str = "normalised"
+
+    def build(self) -> tuple[Target, "EvaluatorRecipe"]:
+        """The target, built where the rules run, once for all of them (each rule's evaluator is its own)."""
+        return self.target.build(), self
+
+
+def rule_step(state: Evaluator | tuple[Target, EvaluatorRecipe], task: RuleTask) -> tuple[RuleRuns, int]:
+    """One rule's runs and the suites it scored: on the caller's evaluator (in-process, shared by the
+    rules), or on a fresh one built from the target a worker holds."""
+    if isinstance(state, Evaluator):
+        ev = state
+    else:
+        target, recipe = state
+        ev = evaluator_for(target, recipe.engine, jobs=recipe.jobs, aggregate=recipe.aggregate)
+    if isinstance(ev, ProblemEvaluator) and not task.first:  # the baseline is counted by the first rule only,
+        ev.baseline_logdet  # as by one evaluator in one run (also when the first rule's runs were read back)
+    n0 = ev.n_evaluations
+    runs = rule_runs(ev, task.rule, task.budgets_desc, lazy=task.lazy, share_prefix=task.share_prefix,
+                     constraints=task.constraints)
+    return runs, ev.n_evaluations - n0
+
+
+@result_kind("tradespace-rule-runs")
+@dataclass(frozen=True)
+class RuleRunsRecord:
+    """A finished rule's runs in ``OUTDIR/runs/rule-NAME.json`` (``--resume``): its inputs' fingerprint, the rule,
+    the budgets (largest first), each budget's run (all steps), the picks it shared, the suites scored."""
+
+    fingerprint: str
+    rule: str
+    budgets_usd: tuple[float, ...]
+    runs: tuple[GreedyResult, ...]
+    shared: tuple[int, ...]
+    n_evaluations: int
+
+
+def rule_fingerprint(info: TargetInfo | None, engine: str, aggregate: str, task: RuleTask,
+                     limits: Constraints | None = None) -> str:
+    """Digest of what a rule's runs depend on: each route by content with its weight, the engine, the
+    aggregate, every field of ``task`` and ``limits`` (as recorded: with the library's resources' digest)."""
+    routes: list[tuple[str, float, str, ProblemInfo | None]] = (
+        [(r.name, r.weight, r.unit, r.problem) for r in info.routes] if isinstance(info, DomainInfo) else [("", 1.0, "", info)])
+    return digest({"format": RULE_FORMAT, "what": "tradespace-rule", "engine": engine, "aggregate": aggregate,
+                   "routes": [[n, w, u, to_jsonable(p.fingerprint if p is not None else None)] for n, w, u, p in routes],
+                   "limits": to_jsonable(limits), **to_jsonable(task)})
+
+
+def rule_store(tasks: Sequence[RuleTask], info: TargetInfo | None, engine: str, aggregate: str,
+               outdir: str | Path | None, resume: bool, limits: Constraints | None = None) -> Store[tuple[RuleRuns, int]]:
+    """Where the rules' runs are kept: ``OUTDIR/runs/rule-NAME.json`` (none without ``outdir``)."""
+    if outdir is None:
+        return NoStore()
+    fps = [rule_fingerprint(info, engine, aggregate, t, limits) for t in tasks]
+
+    def wrap(i: int, got: tuple[RuleRuns, int]) -> RuleRunsRecord:
+        runs, n = got
+        return RuleRunsRecord(fps[i], tasks[i].rule, tuple(runs), tuple(v[0] for v in runs.values()),
+                              tuple(v[1] for v in runs.values()), n)
+
+    def unwrap(rec: RuleRunsRecord) -> tuple[RuleRuns, int]:
+        return {b: (r, k) for b, r, k in zip(rec.budgets_usd, rec.runs, rec.shared)}, rec.n_evaluations
+
+    return FileStore([Path(outdir) / "runs" / f"rule-{t.rule}.json" for t in tasks], fps, RuleRunsRecord, wrap, unwrap,
+                     resume=resume, what="other inputs (target, budgets, rule, engine, laziness, aggregate or limits)")
+
+
 def tradespace(evaluator: Evaluator, budgets: Iterable[float] | None = None, rules: Iterable[str] = DEFAULT_RULES,
                *, lazy: bool = True, share_prefix: bool = True, progress: Progress | None = None,
-               info: TargetInfo | None = None, rule_runs: RuleRunner | None = None,
-               constraints: Constraints | None = None) -> TradespaceResult:
+               info: TargetInfo | None = None, constraints: Constraints | None = None,
+               executor: Executor | None = None, recipe: EvaluatorRecipe | None = None,
+               outdir: str | Path | None = None, resume: bool = False) -> TradespaceResult:
     """Run each rule at each budget and collect the architectures and the Pareto front.
 
     Args:
@@ -361,13 +454,11 @@ def tradespace(evaluator: Evaluator, budgets: Iterable[float] | None = None, rul
         share_prefix: resume smaller budgets from larger budgets' runs (see the module docstring).
         progress: called as progress(done, total) after each (single rule, budget) run.
         info: what the problem is (recorded in the result).
-        rule_runs: runs the single rules elsewhere (e.g. as Dask tasks, :mod:`sensorsel.distributed`):
-            called as ``rule_runs(rules, budgets_desc, lazy, share_prefix, tick)``, returns (rule ->
-            the runs :func:`_rule_runs` gives, evaluations made); ``evaluator`` then only names the
-            library and the engine. It must apply the same ``constraints`` (the runs are checked).
         constraints: limits besides the budget, kept by every run at every budget (module docstring).
-    Returns:
-        The :class:`TradespaceResult`.
+        executor: where each rule's chain of budgets runs, one task per rule (:mod:`sensorsel.pipeline`;
+            default here, on ``evaluator``; elsewhere on the target rebuilt from ``recipe``): same result.
+        outdir, resume: each rule's runs go to ``OUTDIR/runs/rule-NAME.json`` as they finish; ``resume``
+            reads back those whose inputs match. Returns the :class:`TradespaceResult`.
     """
     t0 = time.perf_counter()
     lib = evaluator.library
@@ -385,22 +476,28 @@ def tradespace(evaluator: Evaluator, budgets: Iterable[float] | None = None, rul
         constraints, feas, top = None, {}, None  # the budget alone: the paper's tradespace, unchanged
     share_prefix = share_prefix and prefix_sharing_exact(constraints)
     singles = _single_rules(sel)
-    n0 = evaluator.n_evaluations
     total = len(singles) * len(grid)
     count = [0]
 
-    def tick() -> None:
-        count[0] += 1
-        if progress:
-            progress(count[0], total)
+    def tick(i: int, got: tuple[RuleRuns, int], reused: bool) -> None:  # once per (rule, budget) run
+        for _ in got[0]:
+            count[0] += 1
+            if progress:
+                progress(count[0], total)
 
-    desc = sorted(grid, reverse=True)
-    n_evals: int | None = None
-    if rule_runs is None:
-        per_rule = {r: _rule_runs(evaluator, r, desc, lazy=lazy, share_prefix=share_prefix, tick=tick,
-                                  constraints=constraints) for r in singles}
-    else:
-        per_rule, n_evals = rule_runs(singles, desc, lazy, share_prefix, tick)
+    if (outdir is not None or resume) and (outdir is None or info is None or recipe is None):
+        raise InputError("a tradespace stored in (or resumed from) a folder needs outdir, info and recipe: use run_tradespace")
+    if recipe is None and executor is not None and not isinstance(executor, InProcess):
+        raise InputError("a tradespace run elsewhere rebuilds its target from a recipe: use run_tradespace")
+    tasks = tuple(RuleTask(r, tuple(sorted(grid, reverse=True)), lazy, share_prefix, k == 0, constraints)
+                  for k, r in enumerate(singles))
+    plan: Plan[tuple[RuleRuns, int]] = Plan("tradespace rule", rule_step, tasks, states=(recipe,),
+                                            build=EvaluatorRecipe.build, local=(evaluator,))
+    eng_agg = ("", "") if recipe is None else (str(recipe.engine), recipe.aggregate)
+    store = rule_store(tasks, info, *eng_agg, outdir, resume, None if top is None else top.constraints)
+    got = execute(plan, executor, store, on_result=tick)
+    per_rule = {r: got[k][0] for k, r in enumerate(singles)}
+    n_evals = sum(n for _, n in got)
     for r in singles:  # no run, here or elsewhere, may leave the feasible set
         for b, (run, _) in per_rule[r].items():
             bad = feas[b].violations(lib.resolve_suite(run.suite)) if feas else []
@@ -433,7 +530,7 @@ def tradespace(evaluator: Evaluator, budgets: Iterable[float] | None = None, rul
                   for (ids, cost, score, made_by), f in zip(rows, on_front))
     return TradespaceResult(
         budgets_usd=grid, rules=sel, architectures=archs, runs=tuple(runs), best_score=best, engine=evaluator.name,
-        lazy=lazy, share_prefix=share_prefix, n_evaluations=evaluator.n_evaluations - n0 if n_evals is None else n_evals, problem=info,
+        lazy=lazy, share_prefix=share_prefix, n_evaluations=n_evals, problem=info,
         seconds=round(time.perf_counter() - t0, 6), constraints=None if top is None else top.constraints,
     )
 
@@ -462,18 +559,20 @@ def _architectures(lib: SensorLibrary, sel: tuple[str, ...], found: dict[frozens
 def run_tradespace(target: Target, budgets: Iterable[float] | None = None, rules: Iterable[str] = DEFAULT_RULES,
                    *, engine: str | None = None, jobs: int = 1, lazy: bool = True, share_prefix: bool = True,
                    aggregate: str = "normalised", progress: Progress | None = None,
-                   constraints: Constraints | None = None) -> TradespaceResult:
-    """The ``sensorsel pareto`` pipeline: :func:`tradespace` with a fresh evaluator of ``engine`` for
-    a problem or a domain (``aggregate``: how a domain combines its routes; ``constraints``: limits
-    besides the budget, kept at every budget)."""
+                   constraints: Constraints | None = None, executor: Executor | None = None,
+                   outdir: str | Path | None = None, resume: bool = False) -> TradespaceResult:
+    """``sensorsel pareto``: :func:`tradespace` with a fresh evaluator of ``engine`` for a problem or a domain
+    (``aggregate``: how a domain combines its routes; the other arguments: see :func:`tradespace`)."""
     sel = parse_rules(rules, "rules")  # bad input fails before the evaluator is built
     grid = None if budgets is None else tuple(check_budget(b) for b in budgets)
+    eng, agg = check_engine(engine), check_aggregate(aggregate) if isinstance(target, Domain) else "normalised"
     if constraints is not None:
         for b in grid or (float(target.library.costs.sum()),):
             feasible_set(target.library, b, constraints)  # refuses a bad request (at every budget) up front
     ev = evaluator_for(target, engine, jobs=jobs, aggregate=aggregate)
     return tradespace(ev, grid, sel, lazy=lazy, share_prefix=share_prefix, progress=progress,
-                      info=target.info, constraints=constraints)
+                      info=target.info, constraints=constraints, executor=executor,
+                      recipe=EvaluatorRecipe(TargetRecipe.of(target), eng, jobs, agg), outdir=outdir, resume=resume)
 
 
 # ------------------------------------------------------------------------------------------ output

@@ -17,10 +17,11 @@ from .certificate import (Certificate, CertifiedGreedyResult, SuiteBound, certif
                           constraints_mismatch, format_certificate, suite_bound)
 from .exact import DEFAULT_MAX_NODES, OptimumResult, optimal
 from .knapsack import (MAX_DP_CELLS, MAX_KNAPSACK_NODES, MAX_MILP_NODES, CostUnits, KnapsackSolution, cost_units,
-                      fractional_bound, knapsack, packing_bound)
+                      fractional_bound, knapsack, packing_bound, quiet_stdout)
 
 __all__ = [
     "DEFAULT_MAX_NODES", "MAX_DP_CELLS", "MAX_KNAPSACK_NODES", "MAX_MILP_NODES", "Certificate", "CertifiedGreedyResult",
     "CostUnits", "KnapsackSolution", "OptimumResult", "SuiteBound", "certificate", "certify_greedy", "constraints_mismatch",
-    "cost_units", "format_certificate", "fractional_bound", "knapsack", "optimal", "packing_bound", "suite_bound",
+    "cost_units", "format_certificate", "fractional_bound", "knapsack", "optimal", "packing_bound", "quiet_stdout",
+    "suite_bound",
 ]

@@ -43,6 +43,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
+from ..results import result_kind
 from ..constraints import Constraints, FeasibleSet, feasible_set
 from ..errors import InputError
 from ..evaluators import Evaluator, make_evaluator
@@ -55,6 +56,7 @@ from .knapsack import MAX_DP_CELLS, KnapsackSolution, knapsack, packing_bound
 Progress = Callable[[int, int], None]
 
 
+@result_kind("certificate")
 @dataclass(frozen=True)
 class Certificate:
     """How close a greedy suite is to the best possible suite of its budget.
@@ -110,6 +112,7 @@ class Certificate:
     constraints: Constraints | None = None
 
 
+@result_kind("greedy")
 @dataclass(frozen=True)
 class CertifiedGreedyResult(GreedyResult):
     """A greedy run with its certificate, when one was asked for (what ``sensorsel greedy`` writes).
@@ -132,6 +135,7 @@ class CertifiedGreedyResult(GreedyResult):
         return cls(**fields, certificate=certificate)
 
 
+@result_kind("suite-bound")
 @dataclass(frozen=True)
 class SuiteBound:
     """The submodular upper bound U(S) on the best possible score, evaluated at one suite S.

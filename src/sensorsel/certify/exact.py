@@ -33,6 +33,7 @@ from typing import Callable
 
 import numpy as np
 
+from ..results import result_kind
 from ..constraints import Constraints, FeasibleSet, feasible_set
 from ..errors import InputError
 from ..library import SensorLibrary
@@ -53,6 +54,7 @@ Progress = Callable[[int, int], None]
 _Node = tuple[float, int, tuple[int, ...], float, int, tuple[int, ...], np.ndarray]
 
 
+@result_kind("optimum")
 @dataclass(frozen=True)
 class OptimumResult:
     """The best suite within a budget, found by branch and bound (proved optimal or not).

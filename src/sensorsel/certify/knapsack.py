@@ -24,6 +24,7 @@ from typing import Iterator, Sequence
 
 import numpy as np
 
+from ..results import result_kind
 from ..errors import InputError
 
 #: Largest dynamic-programming table (items x capacity cells) solved by DP; above it, branch and bound.
@@ -76,6 +77,7 @@ def cost_units(costs: Sequence[float] | np.ndarray, capacity: float) -> CostUnit
     return CostUnits(ints // g, cap, g / scale, exact)
 
 
+@result_kind("knapsack")
 @dataclass(frozen=True)
 class KnapsackSolution:
     """A 0/1 knapsack solution.
@@ -282,7 +284,7 @@ def packing_bound(values: Sequence[float] | np.ndarray, A: np.ndarray, capacity:
     rows = ak[binding] * scale[:, None]
     cons = LinearConstraint(rows, -np.inf, np.ones(len(scale)))
     c = -v[keep]
-    with _quiet_stdout():
+    with quiet_stdout():
         res = milp(c, constraints=cons, integrality=np.ones(len(keep)), bounds=Bounds(0, 1),
                    options={"mip_rel_gap": 0.0, "node_limit": int(max_nodes), "presolve": True, "disp": False})
     chosen: tuple[int, ...] = ()
@@ -297,7 +299,7 @@ def packing_bound(values: Sequence[float] | np.ndarray, A: np.ndarray, capacity:
         if res.status == 0:
             return KnapsackSolution(value, chosen, achieved, "milp", True)
         return KnapsackSolution(value, chosen, achieved, "milp (node limit: dual bound)", False)
-    with _quiet_stdout():
+    with quiet_stdout():
         lp = milp(c, constraints=cons, integrality=np.zeros(len(keep)), bounds=Bounds(0, 1), options={"disp": False})
     if lp.status == 0 and lp.fun is not None and math.isfinite(lp.fun):
         return KnapsackSolution(max(-float(lp.fun), achieved), chosen, achieved, "lp relaxation", False)
@@ -306,8 +308,9 @@ def packing_bound(values: Sequence[float] | np.ndarray, A: np.ndarray, capacity:
 
 
 @contextlib.contextmanager
-def _quiet_stdout() -> Iterator[None]:
-    """Send file descriptor 1 to the null device for the duration.
+def quiet_stdout() -> Iterator[None]:
+    """Send file descriptor 1 to the null device for the duration (every HiGHS call of the package
+    goes through this one guard: also :mod:`sensorsel.robust.bound`'s).
 
     Why: HiGHS (scipy 1.17's copy) prints a debug line, "HighsMipSolverData::transformNewIntegerFeasibleSolution
     tmpSolver.run();", straight to the C stdout whatever ``disp`` says (ERGO-Code/HiGHS#2783), which

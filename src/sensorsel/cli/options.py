@@ -278,6 +278,14 @@ def cluster_options(fn: Callable[..., Any]) -> Callable[..., Any]:
     return fn
 
 
+def resume_option(fn: Callable[..., Any]) -> Callable[..., Any]:
+    """--resume: the store's option, declared once for every selecting command (sensorsel.pipeline:
+    each task's result is stored under -o as it finishes, with the fingerprint of its inputs)."""
+    return click.option("--resume", is_flag=True,
+                        help="Go on from what an interrupted run left under -o: stored results whose inputs match this "
+                             "run are read back, the others computed (and overwritten); the same answer, timings aside.")(fn)
+
+
 def cluster_from(kw: dict[str, Any]) -> Any:
     """The :class:`sensorsel.distributed.DaskCluster` asked for by --scheduler / --workers (not yet
     started: use it as a context manager), or None (pops the options from ``kw``).

@@ -13,7 +13,7 @@ from .. import results
 from ..errors import InputError
 from ..fileio import output_dir
 from ..problem import Domain
-from .options import cluster_from, cluster_options, constraint_options, constraints_from, usage_table
+from .options import cluster_from, cluster_options, resume_option, constraint_options, constraints_from, usage_table
 from .options import (budget_option, engine_options, json_option, output_option, plot_format_option, progress_bar,
                       print_target, quiet_option, run, table, target_from, target_options)
 from .options import plot_format as plot_format_of
@@ -37,7 +37,7 @@ from .rules import rule_option
 @output_option(folder=True, required=True, dest="outdir",
                help="Output folder: resilient.json, grid.csv, the grid plot, and periods/ (one file per period).")
 @plot_format_option
-@click.option("--resume", is_flag=True, help="Reuse the results in OUTPUT/periods/ whose inputs match this run (after an interruption).")
+@resume_option
 @json_option
 @quiet_option
 @run
@@ -73,8 +73,6 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, rule: str, method:
     check_affordable(problem.library, budget, alpha, constraints=constraints)
     if cluster is not None and isinstance(problem, Domain):
         raise click.UsageError("--scheduler/--workers run a route's periods as tasks: a domain has no periods")
-    if cluster is not None and method != "paper":
-        raise click.UsageError("--scheduler/--workers run the paper's method's periods as tasks: drop --method robust")
     report = _report(problem, budget, alpha, period_s, rule, method, aggregate, engine, jobs, out, resume, quiet, cluster,
                      constraints)
     r = report.comparison.resilient
@@ -111,16 +109,10 @@ def _report(problem: Any, budget: float, alpha: int, period_s: float, rule: str,
     bar, progress = progress_bar(quiet, f"{n_periods} periods of {period_s:g} s")
     if bar is not None:
         click.echo(f"whole route: greedy and resilient selection on {sc.n_poses} keyframes, {sc.n_landmarks} landmarks ...", err=True)
-    if cluster is not None:
-        from ..distributed import resilient_report_on
-
-        with cluster, bar or nullcontext():  # the whole route and every period as tasks
-            return resilient_report_on(cluster.client, problem, budget, alpha, period_s=period_s, rule=rule,
-                                       engine=engine, outdir=str(out), resume=resume, progress=progress,
-                                       constraints=constraints)
-    with bar or nullcontext():
+    with cluster or nullcontext(), bar or nullcontext():  # with a cluster, every period as a task there
         return resilient_report(problem, budget, alpha, period_s=period_s, rule=rule, engine=engine, jobs=jobs,
-                                outdir=out, resume=resume, progress=progress, method=method, constraints=constraints)
+                                outdir=out, resume=resume, progress=progress, method=method, constraints=constraints,
+                                executor=cluster.executor if cluster is not None else None)
 
 
 def _write(report: Any, problem: Any, out: Path, fmt: str, period_s: float, alpha: int, budget: float, method: str) -> list[Path]:

@@ -7,6 +7,7 @@ from typing import Any
 import click
 
 from .. import results
+from ..api import ROBUST_AGGREGATES  # --aggregate of this command: the combined score (as elsewhere), or the worst route
 from ..problem import Domain
 from ..library import SensorLibrary
 from .cluster import domain_evaluator_on, require_domain
@@ -14,8 +15,6 @@ from .options import cluster_from, cluster_options
 from .options import (budget_option, compact_suite, constraint_options, constraints_from, engine_options, json_option,
                       output_option, print_target, quiet_option, run, table, target_from, target_options, usage_table)
 
-#: --aggregate of this command: the domain's combined score (as elsewhere), or its worst route
-ROBUST_AGGREGATES = ("normalised", "raw", "worst")
 
 
 def _worst_aggregate(fn: Any) -> Any:

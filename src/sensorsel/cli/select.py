@@ -20,7 +20,7 @@ from ..constraints import feasible_set
 from ..library import SensorLibrary
 from ..selection import RULES, check_affordable
 from ..tradespace import DEFAULT_RULES, Architecture, parse_budgets, parse_rules, run_tradespace, write_csv
-from .options import cluster_from, cluster_options, constraint_options, constraints_from, usage_table
+from .options import cluster_from, cluster_options, resume_option, constraint_options, constraints_from, usage_table
 from .options import (budget_option, engine_options, json_option, output_option, plot_format_option, progress_bar,
                       compact_suite, print_target, quiet_option, run, table, target_from,
                       target_options)
@@ -86,9 +86,7 @@ def _print_breakdown(design: DomainDesign) -> None:
                    "and print how close the suite is to it.")
 @click.option("--plot", "plot_path", type=click.Path(dir_okay=False, path_type=str), default=None,
               help="With --domain: draw the per-route breakdown here (png, svg or pdf by its extension).")
-@click.option("--resume", is_flag=True,
-              help="With -o FILE: go on from the checkpoint FILE.checkpoint an interrupted run of the same inputs left "
-                   "(written after each pick; the same result, timings and evaluation counts aside).")
+@resume_option
 @quiet_option
 @run
 def greedy_cmd(budget: float, rule: str, lazy: bool, output: str | None, as_json: bool, certify: bool, quiet: bool,
@@ -181,8 +179,7 @@ def _arch_row(a: Architecture) -> list[str]:
 @click.option("--lazy/--no-lazy", default=True, show_default=True, help="Lazy (Minoux) evaluation: same picks, fewer evaluations.")
 @output_option(folder=True, required=True, dest="outdir", help="Folder for pareto.<format>, architectures.csv and tradespace.json.")
 @plot_format_option
-@click.option("--resume", is_flag=True, help="With --scheduler/--workers: reuse the rules' runs an interrupted run left in "
-                                             "OUTPUT/runs/ whose inputs match (each rule's runs are written there as they finish).")
+@resume_option
 @json_option
 @quiet_option
 @run
@@ -205,8 +202,6 @@ def pareto_cmd(budgets: str | None, budget: tuple[float, ...], rules: str, lazy:
     names = parse_rules(rules)
     output_dir(outdir)
     cluster = cluster_from(kw)
-    if resume and cluster is None:
-        raise click.UsageError("--resume reads the runs a --scheduler/--workers run wrote: give one of them")
     constraints = constraints_from(kw)
     problem = target_from(kw)
     if grid:
@@ -215,16 +210,10 @@ def pareto_cmd(budgets: str | None, budget: tuple[float, ...], rules: str, lazy:
     else:
         check_affordable(problem.library, float(problem.library.costs.sum()), constraints=constraints)
     bar, progress = progress_bar(quiet, "tradespace runs")
-    if cluster is not None:
-        from ..distributed import run_tradespace_on
-
-        with cluster, bar or nullcontext():  # each rule's chain of budgets is one task
-            res = run_tradespace_on(cluster.client, problem, grid, names, engine=engine, lazy=lazy, aggregate=aggregate,
-                                    progress=progress, outdir=outdir, resume=resume, constraints=constraints)
-    else:
-        with bar or nullcontext():
-            res = run_tradespace(problem, grid, names, engine=engine, jobs=jobs, lazy=lazy, aggregate=aggregate, progress=progress,
-                                 constraints=constraints)
+    with cluster or nullcontext(), bar or nullcontext():  # with a cluster, each rule's chain of budgets is one task there
+        res = run_tradespace(problem, grid, names, engine=engine, jobs=jobs, lazy=lazy, aggregate=aggregate, progress=progress,
+                             constraints=constraints, executor=cluster.executor if cluster is not None else None,
+                             outdir=outdir, resume=resume)
 
     out = Path(outdir)
     written = [results.save(res, out / "tradespace.json"), write_csv(res, out / "architectures.csv")]

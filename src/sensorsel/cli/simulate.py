@@ -148,18 +148,14 @@ def simulate_cmd(suite: str, compare: str | None, label: str | None, compare_lab
 
     sims = []
     with cluster or nullcontext():
-        run_map = None
-        if cluster is not None:
-            from ..distributed import simulation_runs_on
-
-            run_map = simulation_runs_on(cluster.client)
+        executor = cluster.executor if cluster is not None else None  # with a cluster, each run is one task there
         for positions, name, _ in designs:
             ids = set(lib.suite_ids(positions))
             mine = tuple(f for f in failures if f.sensor in ids)
             bar, progress = progress_bar(quiet, f"simulating {name}")
             with bar or nullcontext():
                 res = simulate(problem, positions, failures=mine, runs=runs, solver=solver, seed=seed, noise_scale=noise_scale,
-                               jobs=jobs, label=name, progress=progress, run_map=run_map)
+                               jobs=jobs, label=name, progress=progress, executor=executor)
             sims.append(res)
 
     report = SimulationReport(tuple(sims))

@@ -9,7 +9,7 @@ import click
 
 from .. import results
 from ..fileio import output_dir
-from .options import cluster_from, cluster_options, compact_suite, json_option, output_option, progress_bar, quiet_option, run, table
+from .options import cluster_from, cluster_options, resume_option, compact_suite, json_option, output_option, progress_bar, quiet_option, run, table
 
 
 def _num(v: float | None, fmt: str = "{:,.3f}") -> str:
@@ -20,8 +20,7 @@ def _num(v: float | None, fmt: str = "{:,.3f}") -> str:
 @click.argument("study_file", metavar="FILE.yaml", type=click.Path(dir_okay=False, path_type=str))
 @output_option(folder=True, required=True, dest="outdir",
                help="Folder for study.csv, study.json and cells/ (each cell written as it finishes).")
-@click.option("--resume", is_flag=True, help="Read back the cells an interrupted run left in OUTPUT/cells/ whose inputs "
-                                             "match, and run only the others.")
+@resume_option
 @cluster_options
 @click.option("--jobs", type=click.IntRange(min=1), default=1, show_default=True,
               help="Threads scoring candidate suites in each in-process cell (results do not depend on it; on a "
@@ -45,14 +44,9 @@ def study_cmd(study_file: str, outdir: str, resume: bool, jobs: int, as_json: bo
     cluster = cluster_from(kw)
     study = load_study(study_file)
     bar, progress = progress_bar(quiet or as_json, "study cells")
-    if cluster is not None:
-        from ..distributed import study_cells_on
-
-        with cluster, bar or nullcontext():
-            res = run_study(study, outdir=outdir, resume=resume, runner=study_cells_on(cluster.client), progress=progress)
-    else:
-        with bar or nullcontext():
-            res = run_study(study, outdir=outdir, resume=resume, jobs=jobs, progress=progress)
+    with cluster or nullcontext(), bar or nullcontext():  # with a cluster, each cell is one task there
+        res = run_study(study, outdir=outdir, resume=resume, jobs=jobs, progress=progress,
+                        executor=cluster.executor if cluster is not None else None)
     written = write_study(res, outdir)
     if as_json:
         click.echo(results.dumps(res), nl=False)

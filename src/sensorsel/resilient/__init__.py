@@ -50,6 +50,7 @@ from typing import Any
 from ..constraints import Constraints, feasible_set
 from ..errors import InputError
 from ..evaluators import evaluator_for
+from ..pipeline import Executor
 from ..problem import Problem, Target
 from ..selection import check_budget
 from .algorithm import MAX_FAILURE_SETS, check_alpha, check_rule, compare, failing_set, recorded, resilient_select, worst_case
@@ -74,7 +75,7 @@ def resilient_report(problem: Target, budget_usd: float, alpha: int, *, period_s
                      rule: str = "uniform", engine: str | None = None, jobs: int = 1, lazy: bool = True,
                      aggregate: str = "normalised", outdir: str | Path | None = None, resume: bool = False,
                      progress: Progress | None = None, method: str = "paper", selector: Selector | None = None,
-                     constraints: Constraints | None = None) -> ResilientReport:
+                     constraints: Constraints | None = None, executor: Executor | None = None) -> ResilientReport:
     """The whole-route comparison and (unless ``period_s`` is None) the per-period selection.
 
     With ``outdir``, the comparison is cached in ``outdir/periods/route.json`` and each period in
@@ -89,6 +90,9 @@ def resilient_report(problem: Target, budget_usd: float, alpha: int, *, period_s
     ``constraints``: limits besides the budget (:mod:`sensorsel.constraints`) that every suite of the
     report keeps: greedy's, Algorithm 2's (failing and active set together), the robust choice's and
     every period's; recorded in the report and in every cached file's fingerprint.
+
+    ``executor``: where the periods run (:mod:`sensorsel.pipeline`: in this process by default, or
+    on a Dask cluster); the whole route is compared here. Same result either way, timings aside.
     """
     t0 = time.perf_counter()
     budget, alpha, rule = check_budget(budget_usd), check_alpha(alpha), check_rule(rule)
@@ -111,7 +115,7 @@ def resilient_report(problem: Target, budget_usd: float, alpha: int, *, period_s
     if period_s is not None and isinstance(problem, Problem):
         per = run_periods(problem, budget, alpha, period_s=period_s, rule=rule, engine=engine, jobs=jobs,
                           lazy=lazy, outdir=outdir, resume=resume, progress=progress, method=method, selector=selector,
-                          constraints=constraints)
+                          constraints=constraints, executor=executor)
     return ResilientReport(suite=choice.suite if choice else cmp_.resilient.suite, failed=() if choice else cmp_.resilient.failed,
                            alpha=alpha, budget_usd=budget, rule=rule, engine=cmp_.engine, comparison=cmp_, per_period=per,
                            seconds=round(time.perf_counter() - t0, 6), method=method, robust=choice,

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
@@ -16,11 +17,12 @@ from ..errors import InputError
 from ..fileio import atomic_write_text
 from ..library import SensorLibrary
 from ..evaluators import make_evaluator
-from ..problem import Problem, build_problem
+from ..pipeline import Executor, FileStore, NoStore, Plan, Store, execute
+from ..problem import Fingerprint, Problem, build_problem
 from ..scenario import Scenario
 from ..selection import check_budget
 from .algorithm import check_alpha, check_rule, constraints_key, engine_name, recorded, resilient_select, worst_case
-from .cache import fingerprint, load_matching
+from .cache import fingerprint
 from .records import ACTIVE, FAILED, METHODS, UNUSED, PeriodResult, PeriodSpan, PerPeriodResult, RobustChoice, SelectionGrid, WorstCase
 
 #: progress(done, total): called after each period (computed or reused).
@@ -97,11 +99,92 @@ def period_file(outdir: str | Path, index: int) -> Path:
     return Path(outdir) / "periods" / f"period-{index:04d}.json"
 
 
+@dataclass(frozen=True)
+class PeriodRun:
+    """What every period of a run shares (a plan's state, sent once to each place periods run):
+    the whole route and the run's settings."""
+
+    problem: Problem
+    budget: float
+    alpha: int
+    rule: str
+    engine: str
+    jobs: int
+    lazy: bool
+    method: str = "paper"
+    selector: Selector | None = None
+    constraints: Constraints | None = None
+
+
+@dataclass(frozen=True)
+class PeriodTask:
+    """One period (a plan's task): its span, its scenario (its keyframes and the landmarks seen from
+    them: a few kilobytes) and the fingerprint of its inputs (its file's)."""
+
+    span: PeriodSpan
+    scenario: Scenario
+    fingerprint: str
+
+
+def period_step(run: PeriodRun, task: PeriodTask) -> PeriodResult:
+    """One period's selection: Algorithm 2 and its exact worst case, or ``run.selector``'s robust choice."""
+    problem, budget, alpha = run.problem, run.budget, run.alpha
+    sub = build_problem(problem.library, task.scenario, problem.settings, spec=problem.info.spec)
+    ev = make_evaluator(sub, run.engine, jobs=run.jobs)
+    if run.method == "robust":
+        assert run.selector is not None
+        extra: dict[str, Any] = {} if run.constraints is None else {"constraints": run.constraints}
+        choice, w = run.selector(ev, budget, alpha, sub.info, **extra)
+        return PeriodResult(fingerprint=task.fingerprint, period=task.span, result=None, worst=w, method=run.method,
+                            robust=choice)
+    r = resilient_select(ev, budget, alpha, run.rule, lazy=run.lazy, info=sub.info, constraints=run.constraints)
+    w = worst_case(ev, [sub.library.position(s) for s in r.suite], alpha)
+    return PeriodResult(fingerprint=task.fingerprint, period=task.span, result=r, worst=w)
+
+
+def period_plan(problem: Problem, budget: float, alpha: int, rule: str, engine: str, jobs: int, lazy: bool, period: float,
+                method: str = "paper", selector: Selector | None = None,
+                constraints: Constraints | None = None) -> Plan[PeriodResult]:
+    """The per-period selection as a plan: one task per period of ``period`` seconds (inputs checked by the caller)."""
+    feas = feasible_set(problem.library, budget, constraints) if constraints is not None else None
+    tasks = []
+    for k, a, b, kf in split_periods(problem.scenario.keyframes.times, period):
+        sc = period_scenario(problem, kf, a, b, f"{problem.scenario.name} {a:g}-{b:g} s")
+        span = PeriodSpan(index=k, start_s=a, end_s=b, first_keyframe=int(kf[0]), n_keyframes=len(kf),
+                          n_landmarks=sc.n_landmarks)
+        what: dict[str, Any] = {"what": "period", "period_s": period, "span": results.to_jsonable(span)}
+        if method != "paper":  # the paper's fingerprints stay as they were: their files are reused
+            what["method"] = method
+        what.update(constraints_key(feas))
+        fp = fingerprint(Fingerprint.of(problem.library, sc, problem.settings), budget, alpha, rule, engine, lazy, what)
+        tasks.append(PeriodTask(span, sc, fp))
+    state = PeriodRun(problem, budget, alpha, rule, engine, jobs, lazy, method, selector, constraints)
+    return Plan("period", period_step, tuple(tasks), states=(state,))
+
+
+def period_store(plan: Plan[PeriodResult], outdir: str | Path | None, resume: bool) -> Store[PeriodResult]:
+    """Where a period plan's results are kept: ``OUTDIR/periods/period-NNNN.json`` (none without ``outdir``)."""
+    if outdir is None:
+        return NoStore()
+    tasks: Sequence[PeriodTask] = plan.tasks
+    library, settings = plan.states[0].problem.library, plan.states[0].problem.settings
+
+    def differences(i: int, old: Any) -> list[str]:
+        info = old.result.problem if getattr(old, "result", None) is not None else None
+        if info is None or info.fingerprint is None:
+            return []
+        return list(info.fingerprint.differences(Fingerprint.of(library, tasks[i].scenario, settings)))
+
+    return FileStore([period_file(outdir, t.span.index) for t in tasks], [t.fingerprint for t in tasks], PeriodResult,
+                     lambda i, r: r, lambda r: r, resume=resume, differences=differences,
+                     what="other inputs (scenario, library, settings, budget, failures, rule, engine or period)")
+
+
 def run_periods(problem: Problem, budget_usd: float, alpha: int, *, period_s: float = DEFAULT_PERIOD_S,
                 rule: str = "uniform", engine: str | None = None, jobs: int = 1, lazy: bool = True,
                 outdir: str | Path | None = None, resume: bool = False,
                 progress: Progress | None = None, method: str = "paper", selector: Selector | None = None,
-                constraints: Constraints | None = None) -> PerPeriodResult:
+                constraints: Constraints | None = None, executor: Executor | None = None) -> PerPeriodResult:
     """Resilient selection on each period of the route.
 
     Args:
@@ -115,6 +198,8 @@ def run_periods(problem: Problem, budget_usd: float, alpha: int, *, period_s: fl
         selector: robust selection (see :data:`Selector`), needed by "robust".
         constraints: limits besides the budget every period's suite keeps (part of each period
             file's fingerprint, so a resume never mixes runs under other limits).
+        executor: where the periods run (:mod:`sensorsel.pipeline`; default this process). The
+            files are written by this process as the periods' results arrive.
     """
     t0 = time.perf_counter()
     budget, alpha, rule = check_budget(budget_usd), check_alpha(alpha), check_rule(rule)
@@ -122,56 +207,17 @@ def run_periods(problem: Problem, budget_usd: float, alpha: int, *, period_s: fl
     period = check_period(period_s)
     name = engine_name(engine)
     feas = feasible_set(problem.library, budget, constraints) if constraints is not None else None  # refuses a bad request
-    spans = split_periods(problem.scenario.keyframes.times, period)
-    out: list[PeriodResult] = []
-    for n_done, (k, a, b, kf) in enumerate(spans, start=1):
-        path = period_file(outdir, k) if outdir is not None else None
-        out.append(_one_period(problem, k, a, b, kf, budget, alpha, rule, name, jobs, lazy, period, path, resume,
-                               method, selector, constraints))
-        if progress:
-            progress(n_done, len(spans))
+    plan = period_plan(problem, budget, alpha, rule, name, jobs, lazy, period, method, selector, constraints)
+    out = execute(plan, executor, period_store(plan, outdir, resume), progress)
     if outdir is not None:
         # files of periods this run does not have (an earlier run with another period length) would mislead
-        keep = {period_file(outdir, k).name for k, *_ in spans}
+        keep = {period_file(outdir, t.span.index).name for t in plan.tasks}
         for f in sorted((Path(outdir) / "periods").glob("period-*.json")):
             if f.name not in keep:
                 f.unlink()
     return PerPeriodResult(period_s=period, alpha=alpha, budget_usd=budget, rule=rule, engine=name,
                            periods=tuple(out), grid=make_grid(problem.library, out),
                            seconds=round(time.perf_counter() - t0, 6), method=method, constraints=recorded(feas))
-
-
-def _one_period(problem: Problem, k: int, a: float, b: float, kf: np.ndarray, budget: float, alpha: int, rule: str,
-                engine: str, jobs: int, lazy: bool, period: float, path: Path | None, resume: bool,
-                method: str = "paper", selector: Selector | None = None,
-                constraints: Constraints | None = None) -> PeriodResult:
-    """Period ``k`` (keyframes ``kf``, times [a, b)): reused from ``path`` when resuming and it matches,
-    else computed (and written to ``path``)."""
-    sc = period_scenario(problem, kf, a, b, f"{problem.scenario.name} {a:g}-{b:g} s")
-    sub = build_problem(problem.library, sc, problem.settings, spec=problem.info.spec)
-    span = PeriodSpan(index=k, start_s=a, end_s=b, first_keyframe=int(kf[0]), n_keyframes=len(kf), n_landmarks=sc.n_landmarks)
-    what: dict[str, Any] = {"what": "period", "period_s": period, "span": results.to_jsonable(span)}
-    if method != "paper":  # the paper's fingerprints stay as they were: their files are reused
-        what["method"] = method
-    feas = feasible_set(problem.library, budget, constraints) if constraints is not None else None
-    what.update(constraints_key(feas))
-    fp = fingerprint(sub, budget, alpha, rule, engine, lazy, what)
-    old = load_matching(PeriodResult, path, fp, sub) if (path is not None and resume) else None
-    if old is not None:
-        return old
-    ev = make_evaluator(sub, engine, jobs=jobs)
-    if method == "robust":
-        assert selector is not None
-        extra: dict[str, Any] = {} if constraints is None else {"constraints": constraints}
-        choice, w = selector(ev, budget, alpha, sub.info, **extra)
-        res = PeriodResult(fingerprint=fp, period=span, result=None, worst=w, method=method, robust=choice)
-    else:
-        r = resilient_select(ev, budget, alpha, rule, lazy=lazy, info=sub.info, constraints=constraints)
-        w = worst_case(ev, [sub.library.position(s) for s in r.suite], alpha)
-        res = PeriodResult(fingerprint=fp, period=span, result=r, worst=w)
-    if path is not None:
-        results.save(res, path)
-    return res
 
 
 def make_grid(library: SensorLibrary, periods: Sequence[PeriodResult]) -> SelectionGrid:

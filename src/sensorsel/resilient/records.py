@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from ..results import result_kind
 from ..constraints import Constraints
 from ..errors import InputError
 from ..problem import TargetInfo
@@ -16,6 +17,7 @@ from ..selection import GreedyResult
 FAILED, ACTIVE, UNUSED = "failed", "active", ""
 
 
+@result_kind("resilient-worst-case")
 @dataclass(frozen=True)
 class WorstCase:
     """The score a suite keeps when its worst alpha sensors fail.
@@ -42,6 +44,7 @@ class WorstCase:
     n_evaluations: int
 
 
+@result_kind("resilient-selection")
 @dataclass(frozen=True)
 class ResilientResult:
     """A resilient selection: the failing set bought first, then greedy on the rest of the budget.
@@ -88,6 +91,7 @@ class ResilientResult:
     constraints: Constraints | None = None
 
 
+@result_kind("resilient-comparison")
 @dataclass(frozen=True)
 class Comparison:
     """Greedy versus resilient selection at the same budget on one scenario, and their worst cases.
@@ -188,6 +192,7 @@ class RobustChoice:
     seconds: float = 0.0
 
 
+@result_kind("resilient-period")
 @dataclass(frozen=True)
 class PeriodResult:
     """Resilient selection on one period, as written to its own file.
@@ -215,6 +220,7 @@ class PeriodResult:
         return self.worst.suite
 
 
+@result_kind("resilient-grid")
 @dataclass(frozen=True)
 class SelectionGrid:
     """The paper's Fig. 5 as data: rows = periods, columns = sensors of the library.
@@ -281,6 +287,7 @@ class SelectionGrid:
         return "\n".join(lines) + "\n"
 
 
+@result_kind("resilient-periods")
 @dataclass(frozen=True)
 class PerPeriodResult:
     """Resilient selection period by period along the route, and its grid.
@@ -307,6 +314,7 @@ class PerPeriodResult:
     constraints: Constraints | None = None
 
 
+@result_kind("resilient")
 @dataclass(frozen=True)
 class ResilientReport:
     """What ``sensorsel resilient`` writes to ``resilient.json``.

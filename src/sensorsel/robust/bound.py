@@ -67,18 +67,15 @@ largest f({e})), until every leaf is at or below the incumbent (then the incumbe
 
 from __future__ import annotations
 
-import contextlib
 import heapq
 import math
-import os
-import sys
 import time
 from dataclasses import dataclass, field, replace
-from typing import Iterator, Sequence
+from typing import Sequence
 
 import numpy as np
 
-from ..certify import MAX_DP_CELLS, cost_units, knapsack, optimal
+from ..certify import MAX_DP_CELLS, cost_units, knapsack, optimal, quiet_stdout
 from ..constraints import REL_SLACK, Constraints, FeasibleSet, feasible_set
 from ..evaluators import Evaluator, as_suite
 from ..resilient import check_alpha, worst_case
@@ -137,26 +134,6 @@ def knapsack_drop(values: Sequence[float] | np.ndarray, costs: Sequence[float] |
 MILP_NODE_LIMIT = 20_000
 
 
-@contextlib.contextmanager
-def _quiet_stdout() -> Iterator[None]:
-    """Silence the process's stdout (file descriptor 1) for a HiGHS call: the HiGHS bundled with
-    scipy 1.17 prints a debug line ("HighsMipSolverData::transformNewIntegerFeasibleSolution
-    tmpSolver.run();") from C++ on some integer programs, whatever its output options say, and it
-    would land in the middle of a command's tables."""
-    fd = 1  # HiGHS writes to the descriptor, whatever sys.stdout is
-    sys.stdout.flush()
-    saved = os.dup(fd)
-    try:
-        with open(os.devnull, "w") as null:
-            os.dup2(null.fileno(), fd)
-            try:
-                yield
-            finally:
-                os.dup2(saved, fd)
-    finally:
-        os.close(saved)
-
-
 def knapsack_drop_rows(values: Sequence[float] | np.ndarray, usage: np.ndarray, capacity: Sequence[float] | np.ndarray,
                        drop: int, *, forced: Sequence[int] = (), slack: np.ndarray | None = None,
                        node_limit: int = MILP_NODE_LIMIT) -> tuple[float, bool]:
@@ -212,7 +189,7 @@ def knapsack_drop_rows(values: Sequence[float] | np.ndarray, usage: np.ndarray, 
     lb = np.concatenate([mk, np.zeros(nu)])
     ub = np.concatenate([np.ones(k), np.full(nu, np.inf)])
     integrality = np.concatenate([np.ones(k), np.zeros(nu)])
-    with _quiet_stdout():
+    with quiet_stdout():
         res = milp(c, integrality=integrality, bounds=Bounds(lb, ub), constraints=rows,
                    options={"node_limit": int(node_limit), "mip_rel_gap": 0.0, "presolve": True})
     if res.status == 2:  # infeasible: the forced items do not fit together

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from ..results import result_kind
 from ..constraints import Constraints
 from ..problem import TargetInfo
 
@@ -112,6 +113,7 @@ class RobustBound:
     relaxation: str = ""
 
 
+@result_kind("robust")
 @dataclass(frozen=True)
 class RobustResult:
     """A robust selection: the best candidate by exact worst case, all candidates, the bound.
@@ -170,6 +172,7 @@ class RobustResult:
     constraints: Constraints | None = None
 
 
+@result_kind("robust-optimum")
 @dataclass(frozen=True)
 class RobustOptimum:
     """The best worst case within the budget, by branch and bound (proved or not).

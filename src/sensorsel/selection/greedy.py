@@ -36,7 +36,8 @@ from __future__ import annotations
 
 import math
 import time
-from typing import Callable, Sequence
+from dataclasses import replace
+from typing import Callable, Protocol, Sequence
 
 import numpy as np
 
@@ -120,10 +121,36 @@ def check_affordable(library: SensorLibrary, budget_usd: float, alpha: int = 0, 
     return budget
 
 
+class Journal(Protocol):
+    """What a resumable greedy run recorded, and where it records each pick and each finished
+    component run (:mod:`sensorsel.checkpoint` keeps it in a checkpoint file).
+
+    Attributes:
+        runs: a strategy's finished component runs, in order (a single rule: its run, once finished).
+        steps: the picks of the component run under way, as computed (taken as recorded on resume).
+        n_evaluations: suites earlier sessions scored to make those picks.
+    """
+
+    @property
+    def runs(self) -> tuple[GreedyResult, ...]: ...
+
+    @property
+    def steps(self) -> tuple[Step, ...]: ...
+
+    @property
+    def n_evaluations(self) -> int: ...
+
+    def record_steps(self, steps: tuple[Step, ...], n_evaluations: int) -> None:
+        """The run under way made ``steps``, scoring ``n_evaluations`` suites (every session's)."""
+
+    def record_runs(self, runs: tuple[GreedyResult, ...]) -> None:
+        """The component runs finished so far (the run under way is done: no steps under way)."""
+
+
 def greedy(evaluator: Evaluator, budget_usd: float, rule: str = "uniform", *, lazy: bool = True,
            exclude: frozenset[int] = frozenset(), start: tuple[int, ...] = (), progress: Progress | None = None,
            info: TargetInfo | None = None, constraints: Constraints | None = None,
-           reserved: tuple[int, ...] = ()) -> GreedyResult:
+           reserved: tuple[int, ...] = (), journal: Journal | None = None) -> GreedyResult:
     """Greedy selection under a budget with the named rule or strategy of :data:`RULES`.
 
     Args:
@@ -140,14 +167,39 @@ def greedy(evaluator: Evaluator, budget_usd: float, rule: str = "uniform", *, la
         reserved: library positions bought outside the scored suite (Algorithm 2's failing set):
             they use their share of every limit (the budget included), are never picked and are not
             scored; the result's cost is the suite's own. Required sensors among them stay reserved.
+        journal: resume from, and record to, a checkpoint (:class:`Journal`): its finished component
+            runs are taken as recorded, its picks under way as computed, and greedy goes on from there;
+            the same picks as an uninterrupted run (greedy is deterministic, lazy evaluation exact).
     """
     entry = RULES[check_rule(rule)]
-    if isinstance(entry, Rule):
-        return Selector(evaluator, entry, lazy=lazy, exclude=exclude, progress=progress,
-                        constraints=constraints).select(budget_usd, start=start, info=info, reserved=reserved)
+    if journal is None:
+        if isinstance(entry, Rule):
+            return Selector(evaluator, entry, lazy=lazy, exclude=exclude, progress=progress,
+                            constraints=constraints).select(budget_usd, start=start, info=info, reserved=reserved)
+        t0 = time.perf_counter()
+        runs = [greedy(evaluator, budget_usd, c, lazy=lazy, exclude=exclude, start=start, progress=progress, info=info,
+                       constraints=constraints, reserved=reserved) for c in entry.component_rules]
+        return entry.combine(runs, info=info, seconds=round(time.perf_counter() - t0, 6))
     t0 = time.perf_counter()
-    runs = [greedy(evaluator, budget_usd, c, lazy=lazy, exclude=exclude, start=start, progress=progress, info=info,
-                   constraints=constraints, reserved=reserved) for c in entry.component_rules]
+    components = entry.component_rules
+    runs = list(journal.runs[:len(components)])
+    for done in runs:  # the bar shows the component runs already finished
+        if progress and done.steps:
+            progress(len(done.steps), len(done.steps))
+    for name in components[len(runs):]:
+        component = RULES[name]
+        assert isinstance(component, Rule)
+        n_before, n0 = journal.n_evaluations, evaluator.n_evaluations
+
+        def record(steps: tuple[Step, ...]) -> None:
+            journal.record_steps(steps, n_before + evaluator.n_evaluations - n0)
+
+        run = Selector(evaluator, component, lazy=lazy, exclude=exclude, progress=progress, constraints=constraints).select(
+            budget_usd, start=start, info=info, reserved=reserved, resume=journal.steps, on_step=record)
+        runs.append(replace(run, n_evaluations=n_before + run.n_evaluations))
+        journal.record_runs(tuple(runs))
+    if isinstance(entry, Rule):
+        return runs[0]
     return entry.combine(runs, info=info, seconds=round(time.perf_counter() - t0, 6))
 
 

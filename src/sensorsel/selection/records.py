@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable
 
+from ..results import result_kind
 from ..constraints import Constraints
 from ..problem import TargetInfo
 
@@ -37,6 +38,7 @@ class Step:
     rule_value: float
 
 
+@result_kind("greedy", read=False)  # a run without its certificate: a "greedy" file, certificate null
 @dataclass(frozen=True)
 class GreedyResult:
     """A greedy run: the chosen suite and every intermediate architecture.

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 
+from ..results import result_kind
 from ..problem import ProblemInfo
 
 
@@ -79,6 +80,7 @@ class SimulationTiming:
     jobs: int
 
 
+@result_kind("simulation-suite")
 @dataclass(frozen=True)
 class SimulationResult:
     """N Monte-Carlo runs of one suite (with its failures): summary, prediction and every run.
@@ -154,6 +156,7 @@ class SimulationResult:
     timing: SimulationTiming | None = None
 
 
+@result_kind("simulation")
 @dataclass(frozen=True)
 class SimulationReport:
     """What ``sensorsel simulate`` writes: one :class:`SimulationResult` per suite simulated."""

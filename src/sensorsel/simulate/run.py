@@ -18,6 +18,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..evaluators import as_suite
+from ..pipeline import Executor, Plan, execute
 from ..problem import Problem
 from ..progress import Progress
 from .consistency import COVARIANCE_NOTE, Prediction, correlated_nees_bounds, nees_bounds, predict, rms, run_errors
@@ -39,7 +40,7 @@ def simulate(
     jobs: int = 1,
     label: str = "suite",
     progress: Progress | None = None,
-    run_map: Callable[[Payload, int, Progress | None], list[dict]] | None = None,
+    executor: Executor | None = None,
 ) -> SimulationResult:
     """Monte-Carlo SLAM of ``suite`` on ``problem``: ``runs`` seeded draws, each solved with GTSAM.
 
@@ -54,9 +55,9 @@ def simulate(
         jobs: worker processes for the runs (results do not depend on it).
         label: name of this design in tables and plots.
         progress: called as progress(runs done, runs) after each finished run.
-        run_map: runs the draws elsewhere: ``run_map(payload, runs, progress)`` returns every run's
-            raw output in run order (:func:`sensorsel.distributed.simulation_runs_on`: one Dask task
-            per run); run r draws from (seed, r) wherever it runs, so the result does not depend on it.
+        executor: runs the draws elsewhere (:mod:`sensorsel.pipeline`, e.g. one Dask task per run, the
+            payload sent once to each worker); default: here, with ``jobs`` processes. Run r draws from
+            (seed, r) wherever it runs, so the result does not depend on it.
     Raises:
         InputError: bad suite, failure, solver, runs, seed, noise scale or jobs (names the value).
     """
@@ -66,7 +67,10 @@ def simulate(
     failures_t = resolve_failures(failures, problem, positions)
     payload = make_payload(problem, positions, failures_t, float(noise_scale), solver, seed)
     t_runs = time.perf_counter()
-    raw = run_map(payload, runs, progress) if run_map is not None else _run_all(payload, runs, jobs, progress)
+    if executor is not None:
+        raw = execute(Plan("simulation run", solve_run, tuple(range(runs)), states=(payload,)), executor, progress=progress)
+    else:
+        raw = _run_all(payload, runs, jobs, progress)
     t_cov = time.perf_counter()
     pred = predict(payload)
     t_end = time.perf_counter()

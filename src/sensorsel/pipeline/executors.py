@@ -1,0 +1,98 @@
+"""Executors: where a plan's tasks run. :class:`InProcess` here, one after another;
+:class:`DaskExecutor` as Dask tasks on a client's workers (``sensorsel[dask]``)."""
+
+from __future__ import annotations
+
+from typing import Any, Callable, Protocol, Sequence
+
+from ..errors import SensorselError
+from .plan import Plan
+
+#: how `pip` installs what the Dask executor needs
+EXTRA_HINT = 'pip install "sensorsel[dask]"'
+
+#: done(task index, result): called on the client as each task's result arrives
+Done = Callable[[int, Any], None]
+
+
+class ClusterError(SensorselError):
+    """The Dask extra is missing, or the scheduler does not answer, or a task or a route cannot run there."""
+
+
+def import_distributed() -> Any:
+    """Dask's ``distributed`` module, or a :class:`ClusterError` saying how to install it."""
+    try:
+        import distributed
+    except ImportError as exc:
+        raise ClusterError(f"--scheduler/--workers need Dask's distributed scheduler, which is not installed "
+                           f"({exc}); install the extra: {EXTRA_HINT}") from None
+    return distributed
+
+
+class Executor(Protocol):
+    """Runs some of a plan's tasks, calling ``done(i, result)`` for each as it finishes (any order)."""
+
+    def run(self, plan: Plan[Any], todo: Sequence[int], done: Done) -> None: ...
+
+
+class InProcess:
+    """The tasks in this process, in task order. A state is built when its first task comes and
+    dropped when a task of another state comes (plans list tasks in state order): one in memory."""
+
+    def run(self, plan: Plan[Any], todo: Sequence[int], done: Done) -> None:
+        held: dict[int, Any] = {}
+        for i in todo:
+            k = plan.state_index(i)
+            if k not in held:
+                held.clear()
+                if plan.local is not None:
+                    held[k] = plan.local[k]
+                else:
+                    held[k] = plan.build(plan.states[k]) if plan.build is not None else plan.states[k]
+            done(i, plan.step(held[k], plan.tasks[i]))
+
+
+class DaskExecutor:
+    """The tasks as Dask tasks on ``client``'s workers, results gathered on the client as they complete.
+
+    Each state is sent once: scattered to every worker, or (with a recipe) built by one task whose
+    result the state's tasks depend on (Dask moves it where they run). The tasks themselves are the
+    plan's small messages. A task whose worker dies is rerun elsewhere by Dask (``retries`` for one
+    that raised); the steps are deterministic, so the bytes are those of an in-process run.
+    An interrupted run cancels what it submitted.
+    """
+
+    def __init__(self, client: Any, *, retries: int = 3) -> None:
+        self.client, self.retries = client, int(retries)
+
+    def run(self, plan: Plan[Any], todo: Sequence[int], done: Done) -> None:
+        if not todo:
+            return
+        distributed = import_distributed()
+        client = self.client
+        states: dict[int, Any] = {}
+        for k in sorted({plan.state_index(i) for i in todo}):
+            if plan.build is not None:
+                states[k] = client.submit(plan.build, plan.states[k], pure=False, retries=self.retries)
+            else:
+                # hash=False: a key of its own for each call. With the default content hash, a second
+                # call on the same state scatters to the same key while the first call's release of it
+                # may still be on its way to the scheduler, which then deletes it ("lost dependencies").
+                states[k] = client.scatter(plan.states[k], broadcast=True, hash=False)
+        futs = {client.submit(plan.step, states[plan.state_index(i)], plan.tasks[i], pure=False, retries=self.retries): i
+                for i in todo}
+        try:
+            for fut in distributed.as_completed(list(futs)):
+                done(futs[fut], result_of(fut, f"{plan.name} {futs[fut]}"))
+        finally:
+            client.cancel(list(futs) + list(states.values()))
+
+
+def result_of(fut: Any, what: str) -> Any:
+    """A Dask future's result; a failure other than the project's own errors as a :class:`ClusterError`."""
+    try:
+        return fut.result()
+    except SensorselError:
+        raise
+    except Exception as exc:
+        raise ClusterError(f"{what} failed on the cluster ({type(exc).__name__}: {exc})") from None

@@ -1,0 +1,197 @@
+"""The stores' fingerprints, field by field (issue 29): a resume after changing any one input
+(budget, failures alpha, rule, method, engine, lazy, period length, limits, library, map, route)
+recomputes or is refused, never reuses a stored result.
+
+Each store is checked where its fingerprints are made: a route's periods (:func:`period_plan`, the
+plan the run executes), a study's cells (:func:`cell_fingerprint`), a tradespace's rules (the files a
+run writes, then a resume with one input changed) and a greedy checkpoint (:func:`run_fingerprint`,
+and the refusal of :func:`load_checkpoint`). For each changed input, no fingerprint of the changed
+run may equal one of the base run's: a stored file of the base run can then never be read back.
+"""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import pytest
+import yaml
+
+from sensorsel import results
+from sensorsel.constraints import Constraints, feasible_set
+from sensorsel.problem import build_problem
+from sensorsel.resilient import CacheWarning, run_periods
+from sensorsel.resilient.periods import period_plan
+from sensorsel.robust import robust_choice
+from sensorsel.scenario import ScenarioSpec, load_scenario
+
+REPO = Path(__file__).resolve().parents[1]
+SMALL = ("MRL-roof", "LRR-12", "MRR-3", "HD2K-12", "HD2K-6", "WSC-9")
+LIMIT = Constraints.of(limits={"power_w": 40.0})
+
+
+@pytest.fixture(scope="module")
+def lib(library):
+    return library.subset([library.position(s) for s in SMALL])
+
+
+@pytest.fixture(scope="module")
+def problems(lib, library):
+    """The base route and one changed in each of library, landmark map and route."""
+    other_lib = library.subset([library.position(s) for s in SMALL[:-1]])
+    return {
+        "base": build_problem(lib, load_scenario(ScenarioSpec(fixture="tiny"))),
+        "library": build_problem(other_lib, load_scenario(ScenarioSpec(fixture="tiny"))),
+        "map": build_problem(lib, load_scenario(ScenarioSpec(fixture="tiny", landmarks="synthetic", landmark_seed=3))),
+        "route": build_problem(lib, load_scenario(ScenarioSpec(fixture="tiny", keyframe_rate_hz=0.5))),
+    }
+
+
+# ---------------------------------------------------------------------------------------- periods
+
+PERIOD_BASE = dict(budget=20_000.0, alpha=1, rule="uniform", engine="fast", jobs=1, lazy=True, period=3.0,
+                   method="paper", selector=None, constraints=None)
+PERIOD_CHANGES = {
+    "budget": dict(budget=19_000.0), "alpha": dict(alpha=2), "rule": dict(rule="cost-benefit"),
+    "method": dict(method="robust", selector=robust_choice), "engine": dict(engine="reference"), "lazy": dict(lazy=False),
+    "period": dict(period=4.0), "limits": dict(constraints=LIMIT), "library": {}, "map": {}, "route": {},
+}
+
+
+def _period_fps(problem, **kw) -> set[str]:
+    return {t.fingerprint for t in period_plan(problem, **kw).tasks}
+
+
+@pytest.mark.parametrize("field", list(PERIOD_CHANGES))
+def test_a_period_file_is_never_reused_after_changing_one_input(field, problems):
+    base = _period_fps(problems["base"], **PERIOD_BASE)
+    changed = _period_fps(problems.get(field, problems["base"]), **{**PERIOD_BASE, **PERIOD_CHANGES[field]})
+    assert len(base) > 1 and changed
+    assert not base & changed
+
+
+def test_a_resume_with_two_failures_recomputes_the_one_failure_periods(problems, tmp_path):
+    """The issue's case: with alpha left out of the period fingerprint, this resume read back the
+    1-failure periods silently."""
+    p = problems["base"]
+    one = run_periods(p, 20_000, 1, period_s=3.0, outdir=tmp_path)
+    with pytest.warns(CacheWarning) as caught:
+        two = run_periods(p, 20_000, 2, period_s=3.0, outdir=tmp_path, resume=True)
+    assert len({str(w.message).split(":")[0] for w in caught}) == len(one.periods)
+    fresh = run_periods(p, 20_000, 2, period_s=3.0)
+    assert _untimed(two.periods) == _untimed(fresh.periods)
+    assert [q.result.failed for q in two.periods] != [q.result.failed for q in one.periods]
+
+
+def _untimed(obj: object) -> object:
+    """The JSON of a result without its timings."""
+    def rec(o: object) -> object:
+        if isinstance(o, dict):
+            return {k: rec(v) for k, v in o.items() if k != "seconds"}
+        return [rec(v) for v in o] if isinstance(o, list) else o
+    return rec(results.to_jsonable(obj))
+
+
+# ------------------------------------------------------------------------------------------ study
+
+# certificate off: with it on, the method also changes whether a cell computes a certificate, which
+# would hide the method's own place in the fingerprint
+STUDY_BASE = {"target": {"fixture": "tiny"}, "grid": {"budgets": [5000], "rules": ["uniform"], "failures": [1]},
+              "certificate": False}
+STUDY_CHANGES = {
+    "budget": {"grid": {"budgets": [6000]}}, "alpha": {"grid": {"failures": [2]}}, "rule": {"grid": {"rules": ["marginal"]}},
+    "method": {"method": "robust"}, "engine": {"engine": "reference"},
+    "library": {"grid": {"libraries": [str(REPO / "configs" / "reduced_library.yaml")]}},
+    "map": {"target": {"landmarks": "synthetic"}}, "route": {"target": {"fixture": "suburb"}},
+}
+
+
+def _merge(base: dict, change: dict) -> dict:
+    out = {k: dict(v) if isinstance(v, dict) else v for k, v in base.items()}
+    for k, v in change.items():
+        out[k] = {**out[k], **v} if isinstance(v, dict) and k in out else v
+    return out
+
+
+def _cell_fps(data: dict, folder: Path) -> set[str]:
+    from sensorsel.study import cell_fingerprint, load_study
+
+    path = folder / f"study-{len(list(folder.glob('study-*.yaml')))}.yaml"
+    path.write_text(yaml.safe_dump(data), encoding="utf-8")
+    study = load_study(path)
+    return {cell_fingerprint(study, c, study.targets[c.target].fingerprints()) for c in study.cells}
+
+
+@pytest.mark.parametrize("field", list(STUDY_CHANGES))
+def test_a_study_cell_is_never_reused_after_changing_one_input(field, tmp_path):
+    base, changed = _cell_fps(STUDY_BASE, tmp_path), _cell_fps(_merge(STUDY_BASE, STUDY_CHANGES[field]), tmp_path)
+    assert base and changed and not base & changed
+
+
+def test_the_method_does_not_touch_a_cell_without_failures(tmp_path):
+    """A greedy cell (no failure) is the same run whatever the method: reused, correctly."""
+    greedy = _merge(STUDY_BASE, {"grid": {"failures": [0]}})
+    assert _cell_fps(greedy, tmp_path) == _cell_fps(_merge(greedy, {"method": "robust"}), tmp_path)
+
+
+# ------------------------------------------------------------------------------------- tradespace
+
+TRADE_BASE = dict(budgets=[3000.0, 9000.0], rules=["uniform"], engine="fast", lazy=True, constraints=None)
+TRADE_CHANGES = {
+    "budget": dict(budgets=[3000.0, 8000.0]), "rule": dict(rules=["marginal"]), "engine": dict(engine="reference"),
+    "lazy": dict(lazy=False), "limits": dict(constraints=LIMIT), "library": {}, "map": {}, "route": {},
+}
+
+
+@pytest.mark.parametrize("field", list(TRADE_CHANGES))
+def test_a_tradespace_rule_file_is_never_reused_after_changing_one_input(field, problems, tmp_path):
+    from sensorsel.tradespace import run_tradespace
+
+    def run(problem, resume: bool, budgets, rules, **kw):
+        return run_tradespace(problem, budgets, rules, outdir=tmp_path, resume=resume, **kw)
+
+    run(problems["base"], False, **TRADE_BASE)
+    stored = {f.name: f.read_bytes() for f in (tmp_path / "runs").glob("rule-*.json")}
+    assert stored
+    changed = {**TRADE_BASE, **TRADE_CHANGES[field]}
+    target = problems.get(field, problems["base"])
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        again = run(target, True, **changed)
+    theirs = {f"rule-{r}.json" for r in changed["rules"]}
+    reread = [n for n, b in stored.items() if n in theirs and (tmp_path / "runs" / n).read_bytes() == b]
+    assert not reread  # a file of one of this run's rules was recomputed and overwritten, not read back
+    assert all(issubclass(w.category, CacheWarning) for w in caught)
+    fresh = run_tradespace(target, changed["budgets"], changed["rules"], engine=changed["engine"], lazy=changed["lazy"],
+                           constraints=changed["constraints"])
+    assert [(r.suite, r.score) for r in again.runs] == [(r.suite, r.score) for r in fresh.runs]
+
+
+# ----------------------------------------------------------------------------------------- greedy
+
+GREEDY_BASE = dict(budget=20_000.0, rule="uniform", engine="fast", aggregate="", lazy=True, constraints=None)
+GREEDY_CHANGES = {
+    "budget": dict(budget=19_000.0), "rule": dict(rule="cost-benefit"), "engine": dict(engine="reference"),
+    "lazy": dict(lazy=False), "limits": dict(constraints=LIMIT), "library": {}, "map": {}, "route": {},
+}
+
+
+@pytest.mark.parametrize("field", list(GREEDY_CHANGES))
+def test_a_greedy_checkpoint_is_refused_after_changing_one_input(field, problems, tmp_path):
+    from sensorsel.checkpoint import GreedyCheckpoint, load_checkpoint, run_fingerprint
+    from sensorsel.errors import ResultFileError
+
+    def fp_and_limits(problem, budget, rule, engine, aggregate, lazy, constraints):
+        limits = feasible_set(problem.library, budget, constraints).record if constraints is not None else None
+        return run_fingerprint(problem, budget, rule, engine, aggregate, lazy, limits), limits
+
+    base = problems["base"]
+    fp, _ = fp_and_limits(base, **GREEDY_BASE)
+    path = results.save(GreedyCheckpoint(fingerprint=fp, budget_usd=GREEDY_BASE["budget"], rule="uniform", engine="fast",
+                                         aggregate="", lazy=True, target=base.info), tmp_path / "g.json.checkpoint")
+    kw = {**GREEDY_BASE, **GREEDY_CHANGES[field]}
+    target = problems.get(field, base)
+    fp2, limits2 = fp_and_limits(target, **kw)
+    assert fp2 != fp
+    with pytest.raises(ResultFileError, match="another run"):
+        load_checkpoint(path, target, kw["budget"], kw["rule"], kw["engine"], kw["aggregate"], kw["lazy"], fp2, limits2)
