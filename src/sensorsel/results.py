@@ -61,6 +61,7 @@ KINDS: dict[str, str] = {
     "domain-score": "api:DomainScoreResult",
     "robust": "robust:RobustResult",
     "robust-optimum": "robust:RobustOptimum",
+    "requirement": "requirements:RequireResult",
 }
 
 _KIND_OF_NAME = {target.partition(":")[2]: kind for kind, target in KINDS.items()}

@@ -9,7 +9,7 @@ from __future__ import annotations
 import click
 
 from .. import __version__
-from . import certify, core, resilient, robust, select, simulate, study
+from . import certify, core, require, resilient, robust, select, simulate, study
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
@@ -23,7 +23,7 @@ def cli() -> None:
     """
 
 
-for _module in (core, select, resilient, robust, simulate, certify, study):
+for _module in (core, select, require, resilient, robust, simulate, certify, study):
     for _command in _module.COMMANDS:
         cli.add_command(_command)
 

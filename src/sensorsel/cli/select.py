@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import sys
 from contextlib import nullcontext
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import click
 
 from .. import results
-from ..api import design_domain, run_greedy
+from ..api import design_domain, run_greedy, suite_accuracy
 from ..checkpoint import checkpoint_path, remove_checkpoint
 from ..domain_design import DomainDesign
 from ..problem import Domain, DomainInfo
@@ -25,6 +26,7 @@ from .options import (budget_option, engine_options, json_option, output_option,
                       compact_suite, print_target, quiet_option, run, table, target_from,
                       target_options)
 from .options import plot_format
+from .options import check_map_sigma, map_sigma_option, print_accuracy
 from .options import plot_format as plot_format_of
 from .rules import kept_label, rule_option, rules_option
 
@@ -60,6 +62,7 @@ def _print_greedy(res: CertifiedGreedyResult, lib: SensorLibrary) -> None:
         click.echo(usage_table(feas.rows_used(lib.resolve_suite(res.suite))))
     if res.certificate is not None:
         click.echo(format_certificate(res.certificate))
+    print_accuracy(res.accuracy)
 
 
 def _print_breakdown(design: DomainDesign) -> None:
@@ -89,10 +92,12 @@ def _print_breakdown(design: DomainDesign) -> None:
 @click.option("--resume", is_flag=True,
               help="With -o FILE: go on from the checkpoint FILE.checkpoint an interrupted run of the same inputs left "
                    "(written after each pick; the same result, timings and evaluation counts aside).")
+@map_sigma_option
 @quiet_option
 @run
 def greedy_cmd(budget: float, rule: str, lazy: bool, output: str | None, as_json: bool, certify: bool, quiet: bool,
-               plot_path: str | None, resume: bool, aggregate: str, engine: str | None, jobs: int, **kw: Any) -> None:
+               plot_path: str | None, resume: bool, aggregate: str, engine: str | None, jobs: int, map_sigma: float | None,
+               **kw: Any) -> None:
     """Greedy sensor selection under a budget (the paper's Algorithm 1 and its cost-aware variants).
 
     Prints the suite in pick order with each pick's marginal gain, the cost, the score
@@ -109,6 +114,7 @@ def greedy_cmd(budget: float, rule: str, lazy: bool, output: str | None, as_json
     """
     if resume and not output:
         raise click.UsageError("--resume goes on from the checkpoint of -o FILE (FILE.checkpoint): give -o")
+    map_sigma = check_map_sigma(map_sigma)
     if output:
         output_file(output)
     if plot_path:
@@ -143,6 +149,9 @@ def greedy_cmd(budget: float, rule: str, lazy: bool, output: str | None, as_json
             out = res = run_greedy(problem, budget, rule, engine=engine, jobs=jobs, lazy=lazy, progress=progress,
                                    certify=certify, certify_progress=cert_progress, checkpoint=ckpt, resume=resume,
                                    constraints=constraints)
+    # the chosen suite's accuracy in metres (local evaluators: a cluster's routes answer scores only)
+    res = replace(res, accuracy=suite_accuracy(problem, res.suite, map_sigma_m=map_sigma, engine=engine))
+    out = replace(out, greedy=res) if isinstance(out, DomainDesign) else res
     if output:
         results.save(out, output)
         if ckpt is not None:

@@ -107,6 +107,21 @@ class FastEvaluator(ProblemEvaluator):
             b = self._base_for(suite)
             return self.kernel.logdet(b.wpl, b.d, b.a, b.layout)
 
+    def _pose_covariances(self, suite: Suite, map_sigma_m: float | None) -> np.ndarray:
+        """The suite's pose marginals from its state: the pose Schur complement, factored and
+        inverted on its diagonal blocks (:func:`.kernel.pose_marginals`: about two dense Cholesky
+        factorizations of the pose matrix). With ``map_sigma_m`` each landmark's weak prior is
+        replaced by an isotropic prior of that std (the state's landmark sums hold the prior: it
+        is swapped, the measurements kept)."""
+        with self.kernel.blas.single_thread():
+            b = self._base_for(suite)
+            d = b.d
+            if map_sigma_m is not None:
+                d = d - self._states.base_ll
+                d[0] += 1.0 / map_sigma_m**2
+                d[2] += 1.0 / map_sigma_m**2
+            return self.kernel.pose_covariances(b.wpl, d, b.a, b.layout)
+
     def scores_with(self, suite: Iterable[int], candidates: Sequence[int]) -> np.ndarray:
         """f(S + {c}) for each candidate c [nats], shape (len(candidates),); the base's state is
         computed once and shared (on ``jobs`` threads from ``threads_from_keyframes`` keyframes on)."""

@@ -201,6 +201,11 @@ class Kernel:
         self._schur(P, wpl, d, a, layout)
         return P
 
+    def pose_covariances(self, wpl: np.ndarray, d: np.ndarray, a: np.ndarray, layout: Layout) -> np.ndarray:
+        """(K, 3, 3) diagonal blocks of P⁻¹ (the poses' marginal covariances; arguments as in
+        :meth:`logdet`): :func:`pose_marginals` of :meth:`pose_matrix`."""
+        return pose_marginals(self.pose_matrix(wpl, d, a, layout))
+
     def _subtract_products(self, P: np.ndarray, buf: np.ndarray, layout: Layout) -> None:
         """P[block] -= A @ B.T for every call of ``layout`` (tiles in ``buf``), lower triangle of P."""
         if not self.inplace:
@@ -243,3 +248,27 @@ class Kernel:
         if np.any(u <= 0):
             raise np.linalg.LinAlgError("pose information matrix is not positive definite")
         return float(np.sum(np.log(u)))
+
+
+def pose_marginals(P: np.ndarray) -> np.ndarray:
+    """The (K, 3, 3) diagonal blocks of the inverse of the (3K, 3K) symmetric positive definite
+    matrix whose lower triangle is in ``P`` (C order; overwritten).
+
+    Only the diagonal blocks are needed, so no inverse is formed: with P = Uᵀ U (Cholesky),
+    P⁻¹ = U⁻¹ U⁻ᵀ and block k is Σ_j U⁻¹[3k:3k+3, j] U⁻¹[3k:3k+3, j]ᵀ, the Gram matrix of three
+    rows of U⁻¹: a Cholesky (n³/3 flops) and a triangular inverse (n³/3) against dpotrf + dpotri's
+    n³. A C-order lower triangle is, to LAPACK (column-major), the upper triangle of the same
+    memory: both calls run on ``P.T`` without a copy.
+    """
+    from scipy.linalg import lapack
+
+    n = P.shape[0]
+    u, info = lapack.dpotrf(P.T, lower=0, clean=1, overwrite_a=1)
+    if info != 0:
+        raise np.linalg.LinAlgError(f"pose information matrix is not positive definite (pivot {info})")
+    uinv, info = lapack.dtrtri(u, lower=0, overwrite_c=1)
+    if info != 0:
+        raise np.linalg.LinAlgError(f"singular Cholesky factor (pivot {info})")
+    rows = np.ascontiguousarray(uinv).reshape(n // 3, 3, n)  # rows 3k..3k+2 of U⁻¹
+    cov = rows @ rows.transpose(0, 2, 1)
+    return 0.5 * (cov + cov.transpose(0, 2, 1))
