@@ -51,7 +51,7 @@ def specification_from(kw: dict[str, Any], routes: list[str]) -> list[Specificat
 @target_options
 @engine_options
 @constraint_options
-@click.option("--preset", type=click.Choice(list(PRESETS)), default=None,
+@click.option("--preset", default=None, metavar="|".join(PRESETS),
               help="A published specification: Reid et al. 2019, passenger cars, 95 %: local-streets 0.10 m lateral, "
                    "0.10 m longitudinal, 0.17 deg heading; freeway 0.20 m, 0.48 m, 0.51 deg.")
 @click.option("--lateral", type=float, default=None, metavar="METRES", help="Bound on the lateral position error [m].")
