@@ -62,6 +62,7 @@ KINDS: dict[str, str] = {
     "robust": "robust:RobustResult",
     "robust-optimum": "robust:RobustOptimum",
     "requirement": "requirements:RequireResult",
+    "front-acceptance": "requirements:FrontAcceptance",
 }
 
 _KIND_OF_NAME = {target.partition(":")[2]: kind for kind, target in KINDS.items()}

@@ -20,6 +20,33 @@ from .options import (budget_option, check_map_sigma, constraint_options, constr
                       output_option, print_target, progress_bar, quiet_option, run, target_from, target_options)
 
 
+def specification_options(fn: Any) -> Any:
+    """--preset, --lateral, --longitudinal, --heading, --sigma, --at, --spec: a specification in
+    metres (read by :func:`specification_from`)."""
+    for opt in reversed([
+        click.option("--preset", default=None, metavar="|".join(PRESETS),
+                     help="A published specification: Reid et al. 2019, passenger cars, 95 %: local-streets 0.10 m lateral, "
+                          "0.10 m longitudinal, 0.17 deg heading; freeway 0.20 m, 0.48 m, 0.51 deg."),
+        click.option("--lateral", type=float, default=None, metavar="METRES", help="Bound on the lateral position error [m]."),
+        click.option("--longitudinal", type=float, default=None, metavar="METRES",
+                     help="Bound on the longitudinal position error [m]."),
+        click.option("--heading", type=float, default=None, metavar="DEGREES", help="Bound on the heading error [deg]."),
+        click.option("--sigma", is_flag=True, help="The bounds are 1σ [default: 95 % bounds, 1.96σ]."),
+        click.option("--at", type=float, default=None, metavar="PERCENT",
+                     help="Share of each route's keyframes that must meet every bound [default: 100, every keyframe]."),
+        click.option("--spec", "spec_path", type=click.Path(dir_okay=False, path_type=str), default=None, metavar="FILE",
+                     help="A specification file: a default and per-route specifications (a domain whose routes have "
+                          "different road classes); see the requirements guide."),
+    ]):
+        fn = opt(fn)
+    return fn
+
+
+def specification_given(kw: dict[str, Any]) -> bool:
+    """Whether any specification option was given."""
+    return any(kw.get(k) not in (None, False) for k in ("preset", "lateral", "longitudinal", "heading", "sigma", "at", "spec_path"))
+
+
 def specification_from(kw: dict[str, Any], routes: list[str]) -> list[Specification]:
     """Each route's specification from --preset, --lateral/--longitudinal/--heading, --sigma, --at
     and --spec (pops them from ``kw``)."""
@@ -51,18 +78,7 @@ def specification_from(kw: dict[str, Any], routes: list[str]) -> list[Specificat
 @target_options
 @engine_options
 @constraint_options
-@click.option("--preset", default=None, metavar="|".join(PRESETS),
-              help="A published specification: Reid et al. 2019, passenger cars, 95 %: local-streets 0.10 m lateral, "
-                   "0.10 m longitudinal, 0.17 deg heading; freeway 0.20 m, 0.48 m, 0.51 deg.")
-@click.option("--lateral", type=float, default=None, metavar="METRES", help="Bound on the lateral position error [m].")
-@click.option("--longitudinal", type=float, default=None, metavar="METRES", help="Bound on the longitudinal position error [m].")
-@click.option("--heading", type=float, default=None, metavar="DEGREES", help="Bound on the heading error [deg].")
-@click.option("--sigma", is_flag=True, help="The bounds are 1σ [default: 95 % bounds, 1.96σ].")
-@click.option("--at", type=float, default=None, metavar="PERCENT",
-              help="Share of each route's keyframes that must meet every bound [default: 100, every keyframe].")
-@click.option("--spec", "spec_path", type=click.Path(dir_okay=False, path_type=str), default=None, metavar="FILE",
-              help="A specification file: a default and per-route specifications (a domain whose routes have "
-                   "different road classes); see the requirements guide.")
+@specification_options
 @click.option("--map-sigma", "map_sigma", type=float, default=None, metavar="METRES",
               help=f"Accuracy in a prior map whose landmarks are known to this std [m] [default: {DEFAULT_MAP_SIGMA_M:g} m, "
                    "an assumption: see the requirements guide].")

@@ -9,8 +9,9 @@ suite's accuracy meets it, and the cheapest suite that does, with a lower bound 
 from __future__ import annotations
 
 from .design import RequireResult, RouteRequirement, require
+from .front import FrontAcceptance, FrontPoint, front_acceptance
 from .spec import (DEFAULT_MAP_SIGMA_M, PRESETS, RouteVerdict, Specification, SpecificationError,
                    load_specification_file, preset, verdict)
 
-__all__ = ["DEFAULT_MAP_SIGMA_M", "PRESETS", "RequireResult", "RouteRequirement", "RouteVerdict", "Specification",
+__all__ = ["FrontAcceptance", "FrontPoint", "front_acceptance", "DEFAULT_MAP_SIGMA_M", "PRESETS", "RequireResult", "RouteRequirement", "RouteVerdict", "Specification",
            "SpecificationError", "load_specification_file", "preset", "require", "verdict"]

@@ -133,18 +133,27 @@ class RouteVerdict:
         return "; ".join(out)
 
 
+def _rank(at: float, k: int) -> int:
+    """How many of ``k`` keyframes must meet a bound at a share ``at`` of them (at least 1)."""
+    return max(1, math.ceil(at * k - 1e-9))
+
+
+def at_rank(values: np.ndarray, at: float) -> float:
+    """The value a share ``at`` of the keyframes is within: the ⌈at K⌉-th smallest (0 for no keyframe)."""
+    v = np.asarray(values, dtype=float)
+    return float(np.sort(v)[_rank(at, len(v)) - 1]) if len(v) else 0.0
+
+
 def verdict(accuracy: RouteAccuracy, spec: Specification) -> RouteVerdict:
     """Whether ``accuracy`` meets ``spec`` (see the module's documentation for the rank rule)."""
-    k = accuracy.n_keyframes
-    rank = max(1, math.ceil(spec.at * k - 1e-9))  # keyframes that must meet each bound
     worst = []
     violation = 0.0
     for comp, bound, _ in spec.bounds():
         err = spec.factor * accuracy.sigmas(comp)
-        at_rank = float(np.sort(err)[rank - 1]) if k else 0.0
+        at_rank_err = at_rank(err, spec.at)
         bad = tuple(int(i) for i in np.flatnonzero(err > bound))
-        worst.append((comp, at_rank, bound, bad))
-        violation = max(violation, at_rank / bound - 1.0)
+        worst.append((comp, at_rank_err, bound, bad))
+        violation = max(violation, at_rank_err / bound - 1.0)
     return RouteVerdict(accuracy.route, violation <= 0.0, max(violation, 0.0), tuple(worst))
 
 
