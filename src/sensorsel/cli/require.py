@@ -16,6 +16,8 @@ from ..problem import Domain
 from ..requirements.design import RequireResult, RouteRequirement, require
 from ..requirements.spec import (DEFAULT_MAP_SIGMA_M, PRESETS, Specification, load_specification_file, preset,
                                  specifications_for)
+from .simulate import read_suite
+from .options import plot_format, suite_text
 from .options import (budget_option, check_map_sigma, constraint_options, constraints_from, engine_options, json_option,
                       output_option, print_target, progress_bar, quiet_option, run, target_from, target_options)
 
@@ -88,13 +90,18 @@ def specification_from(kw: dict[str, Any], routes: list[str]) -> list[Specificat
 @budget_option(help="Most the suite may cost [$] [default: no budget: the cheapest suite is the question].")
 @click.option("--time-limit", "time_limit", type=click.FloatRange(min=0, min_open=True), default=None, metavar="SECONDS",
               help="Stop the exact search after this long and report the gap [default: run until proved].")
+@click.option("--plot", "plot_path", type=click.Path(dir_okay=False, path_type=str), default=None,
+              help="Draw the errors along the route with the requirement, and the route coloured by its margin "
+                   "(png, svg or pdf by the extension; a domain: its route with the least margin).")
+@click.option("--compare", default=None, callback=suite_text, metavar="SUITE",
+              help="With --plot: a suite to draw beside the answer (ids, or a result file such as greedy's -o).")
 @output_option(help="Write the result as JSON (also when no suite meets the specification).")
 @json_option
 @quiet_option
 @run
 def require_cmd(map_sigma: float | None, slam: bool, failures: int, budget: float | None, time_limit: float | None,
-                output: str | None, as_json: bool, quiet: bool, aggregate: str, engine: str | None, jobs: int,
-                **kw: Any) -> None:
+                plot_path: str | None, compare: str | None, output: str | None, as_json: bool, quiet: bool, aggregate: str,
+                engine: str | None, jobs: int, **kw: Any) -> None:
     """The cheapest suite that meets an accuracy specification, on a route or every route of a
     domain (--domain), with a lower bound on the cost of ANY suite that meets it: the answer is
     proved optimal, or the gap is stated.
@@ -111,18 +118,29 @@ def require_cmd(map_sigma: float | None, slam: bool, failures: int, budget: floa
     if slam and map_sigma is not None:
         raise click.UsageError("--slam judges accuracy without a map: drop --map-sigma")
     map_sigma = check_map_sigma(DEFAULT_MAP_SIGMA_M if map_sigma is None else map_sigma)
-    if output:
-        output_file(output)
+    if compare and not plot_path:
+        raise click.UsageError("--compare draws a second suite on --plot: give --plot FILE")
+    for path in (output, plot_path):
+        if path:
+            output_file(path)
+    if plot_path:
+        plot_format(None, plot_path)
     constraints = constraints_from(kw)
     target = target_from(kw)
     routes = [r.name for r in target.routes] if isinstance(target, Domain) else [target.scenario.name]
     specs = specification_from(kw, routes)
+    compared = None
+    if compare:
+        positions, label, _ = read_suite(compare, target.library, "--compare", None if isinstance(target, Domain) else target)
+        compared = (label, positions)
     bar, progress = progress_bar(quiet or as_json, "searching")
     with bar or nullcontext():
         res = require(target, specs, map_sigma_m=None if slam else map_sigma, failures=failures, budget_usd=budget,
                       constraints=constraints, engine=engine, jobs=jobs, time_limit_s=time_limit, progress=progress)
     if output:
         results.save(res, output)
+    if plot_path:
+        _plot(res, target, compared, plot_path, map_sigma_m=None if slam else map_sigma, engine=engine)
     if as_json:
         click.echo(results.dumps(res), nl=False)
     else:
@@ -174,6 +192,37 @@ def _print_routes(routes: tuple[RouteRequirement, ...]) -> None:
             parts.append(f"{comp} {err:.3f} {u} of {bound:g} ({mark})")
         where = "every keyframe" if spec.at >= 1.0 else f"{100 * spec.at:g}% of keyframes"
         click.echo(f"  {r.route:<10} {unit} error at {where}: " + ", ".join(parts))
+
+
+def _plot(res: RequireResult, target: Any, compared: tuple[str, tuple[int, ...]] | None, path: str, *,
+          map_sigma_m: float | None, engine: str | None) -> None:
+    """The errors along the route (the answer, and ``compared``) with the requirement, and the route
+    coloured by the answer's margin; a domain: the route with the least margin."""
+    import matplotlib.pyplot as plt
+
+    from ..api import suite_accuracy
+    from ..plotting import plot_accuracy_along_route, plot_route_margin, save_figure, use_file_backend
+
+    use_file_backend()
+    r = max(range(len(res.routes)), key=lambda i: (res.routes[i].verdict.violation,
+                                                   max(e / b for _, e, b, _ in res.routes[i].verdict.worst)))
+    route = res.routes[r]
+    problem = target.routes[r].problem if isinstance(target, Domain) else target
+    label = f"{'best any suite reaches' if res.status == 'infeasible' else 'the answer'} (${res.cost_usd:,.0f})"
+    lines = [(label, route.accuracy)]
+    if compared is not None:
+        acc = suite_accuracy(problem, compared[1], map_sigma_m=map_sigma_m, engine=engine)[0]
+        cost = problem.library.cost(compared[1])
+        lines.append((f"{compared[0]} (${cost:,.0f})", acc))
+    comps = [c for c, _, _ in route.specification.bounds()]
+    fig = plt.figure(figsize=(13.0, 3.2 * max(2, len(comps))), layout="constrained")
+    grid = fig.add_gridspec(len(comps), 2, width_ratios=(1.4, 1.0))
+    for i, comp in enumerate(comps):
+        plot_accuracy_along_route(lines, problem.scenario, route.specification, ax=fig.add_subplot(grid[i, 0]), component=comp)
+    ax = plot_route_margin(route.accuracy, problem.scenario, route.specification, ax=fig.add_subplot(grid[:, 1]))
+    ax.set_title(f"route {route.route}: margin of the answer", fontsize=10)
+    fig.suptitle(f"{route.specification.describe()} - {res.model_label}", fontsize=10)
+    save_figure(fig, path, close=True)
 
 
 def _infeasible_line(res: RequireResult) -> str:
