@@ -397,7 +397,8 @@ def tables(root: Path) -> str:
                 if not g:
                     continue
                 cert = g.get("certificate") or {}
-                rule = _rule(g) + (f" (kept {g['chosen_rule']})" if g.get("chosen_rule") and g.get("chosen_rule") != _rule(g) else "")
+                kept = g.get("winning_rule") or g.get("chosen_rule")  # chosen_rule: files written before the rename
+                rule = _rule(g) + (f" (kept {kept})" if kept and kept != _rule(g) else "")
                 rows.append(f"| {seq} | {kind} | {rule} | {_short(g['suite'])} ({len(g['suite'])}) | {_usd(g['cost_usd'])} | "
                             f"{g['score']:,.3f} | {cert.get('bound', float('nan')):,.3f} | "
                             f"≥ {_pct(cert.get('percent_of_best', float('nan')))}% |")
