@@ -21,7 +21,7 @@ class CheapestSuite:
     status: str
 
 
-def cheapest_suite(feasible: Any, meets: Callable, *, failures: int = 0, violation: Callable | None = None,
+def cheapest_suite(feasible: Any, meets: Callable[..., Any], *, failures: int = 0, violation: Callable[..., Any] | None = None,
                    time_limit: float | None = None, progress: Any = None, **kw: Any) -> CheapestSuite:
     n = feasible.A.shape[1]
     allowed = [i for i in range(n) if i not in feasible.excluded]
@@ -29,6 +29,7 @@ def cheapest_suite(feasible: Any, meets: Callable, *, failures: int = 0, violati
     price = feasible.A[0]
     if not meets(tuple(allowed)):
         return CheapestSuite((), math.nan, math.inf, False, math.nan, 0, 0, (), "infeasible")
+    assert violation is not None
     while not meets(tuple(sorted(suite))):
         v0 = violation(tuple(sorted(suite)))
         best = max((i for i in allowed if i not in suite), key=lambda i: ((v0 - violation(tuple(sorted(suite + [i])))) / max(price[i], 1), -i))
