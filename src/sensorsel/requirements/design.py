@@ -72,6 +72,10 @@ class RequireResult:
         constraints: limits besides money, or None.
         problem: what it was computed on.
         seconds: wall time [s].
+        infeasible_by: when infeasible, why: "library" (every allowed sensor together misses it),
+            "failures" (they meet it, but not after the worst failures) or "limits" (no suite within
+            the budget and limits does).
+        stop: why the search ended, in words.
     """
 
     status: str
@@ -91,11 +95,13 @@ class RequireResult:
     constraints: Constraints | None
     problem: TargetInfo | None = None
     seconds: float = 0.0
+    infeasible_by: str = ""
+    stop: str = ""
 
     @property
     def gap_usd(self) -> float:
-        """cost − lower bound [$] (0 when proved optimal; nan when infeasible)."""
-        return self.cost_usd - self.lower_bound_usd if self.status != "infeasible" else math.nan
+        """cost − lower bound [$] (0 when proved optimal; nan when no suite was found)."""
+        return self.cost_usd - self.lower_bound_usd if self.suite else math.nan
 
     @property
     def model_label(self) -> str:
@@ -170,12 +176,14 @@ def require(target: Target, specifications: Specification | Sequence[Specificati
     oracle = _Oracle(evaluators, [n for n, _ in problems], specs, map_sigma_m)
     found = cheapest_suite(feas, oracle.meets, failures=failures, violation=oracle.violation,
                            time_limit=time_limit_s, progress=progress)
-    if found.status == "infeasible":
-        best = tuple(i for i in range(len(library)) if i not in feas.excluded)
+    worst: tuple[int, ...] = ()
+    worst_routes: tuple[RouteRequirement, ...] = ()
+    if found.suite is None:
+        # no suite: the accuracy of the best any suite reaches (every allowed sensor, or what is
+        # left of them after the failures the solver names)
+        best = found.best_effort or tuple(i for i in range(len(library)) if i not in feas.excluded)
         routes = oracle.report(best)
         suite: Suite = ()
-        worst: tuple[int, ...] = ()
-        worst_routes: tuple[RouteRequirement, ...] = ()
     else:
         suite = as_suite(found.suite)
         routes = oracle.report(suite)
@@ -183,7 +191,8 @@ def require(target: Target, specifications: Specification | Sequence[Specificati
         worst_routes = oracle.report(tuple(i for i in suite if i not in worst)) if worst else ()
     return RequireResult(
         status=found.status, suite=library.suite_ids(suite), cost_usd=float(feas.A[0, list(suite)].sum()) if suite else 0.0,
-        lower_bound_usd=float(found.lower_bound), failures=failures, model="slam" if map_sigma_m is None else "map",
+        lower_bound_usd=float(found.lower_bound), infeasible_by=found.infeasible_by, stop=found.stop,
+        failures=failures, model="slam" if map_sigma_m is None else "map",
         map_sigma_m=map_sigma_m, routes=routes, worst_failure=library.suite_ids(worst), worst_failure_routes=worst_routes,
         iterations=int(found.iterations), n_checks=oracle.n_checks, engine=evaluators[0].name, budget_usd=budget_usd,
         constraints=feas.record, problem=target.info, seconds=time.perf_counter() - t0)
