@@ -18,7 +18,8 @@ from typing import TYPE_CHECKING
 from . import simulate as _simulation  # the package (its gtsam-importing modules load when first used)
 from . import study as _study  # noqa: F401  (with the api's imports: every result kind registered, sensorsel.results)
 from .api import (CertifiedGreedyResult, DomainDesign, DomainScoreResult, ScoreResult, certify_result, design_domain,
-                  resilient_report, run_greedy, run_optimal, run_robust, run_tradespace, score_domain_suite, score_suite)
+                  resilient_report, run_greedy, run_optimal, run_require, run_robust, run_tradespace, score_domain_suite,
+                  score_suite, suite_accuracy)
 from .errors import InputError, LibraryError, ResultFileError, ScenarioError, SensorselError
 from .evaluators import ENGINES, Evaluator, evaluator_for, make_evaluator
 from .library import PlacedSensor, SensorLibrary, SensorModel, load_library
@@ -37,7 +38,7 @@ else:
 __all__ = [
     # run functions (sensorsel.api)
     "score_suite", "score_domain_suite", "run_greedy", "design_domain", "run_tradespace", "resilient_report",
-    "run_robust", "certify_result", "run_optimal", "simulate",
+    "run_robust", "certify_result", "run_optimal", "simulate", "run_require", "suite_accuracy",
     # inputs
     "Domain", "GraphSettings", "LandmarkModel", "PlacedSensor", "Problem", "ProblemInfo", "Scenario", "ScenarioSpec",
     "SensorLibrary", "SensorModel", "Trajectory", "build_problem", "load_domain", "load_library", "load_problem",

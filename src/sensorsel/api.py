@@ -22,6 +22,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Iterable
 
+from .requirements import FrontAcceptance, RequireResult, front_acceptance
+from .requirements import require as run_require
 from .results import result_kind
 from .certify import (DEFAULT_MAX_NODES, Certificate, CertifiedGreedyResult, OptimumResult, certificate,
                       constraints_mismatch, optimal)
@@ -31,6 +33,7 @@ from .domain_design import DomainDesign
 from .domain_design import design_domain as _design_domain
 from .errors import InputError
 from .evaluators import DomainEvaluator, evaluator_for, make_evaluator
+from .evaluators.accuracy import RouteAccuracy, route_accuracy
 from .problem import Domain, DomainInfo, Problem, ProblemInfo, Target, load_domain, load_problem
 from .resilient import ResilientReport, recorded
 from .resilient import resilient_report as _resilient_report
@@ -42,7 +45,7 @@ from .tradespace import run_tradespace
 if TYPE_CHECKING:
     from .simulate import simulate
 
-__all__ = ["CertifiedGreedyResult", "DomainDesign", "DomainScoreResult", "ProblemInfo", "RouteScore", "ScoreResult",
+__all__ = ["RouteAccuracy", "suite_accuracy", "run_require", "RequireResult", "FrontAcceptance", "front_acceptance", "CertifiedGreedyResult", "DomainDesign", "DomainScoreResult", "ProblemInfo", "RouteScore", "ScoreResult",
            "certify_result", "design_domain", "load_domain", "load_problem", "resilient_report", "run_greedy", "run_robust", "RobustResult",
            "run_optimal", "run_tradespace", "score_domain_suite", "score_suite", "simulate"]
 
@@ -62,6 +65,7 @@ class ScoreResult:
         n_landmarks_seen: landmarks measured at least once.
         engine: evaluator used.
         problem: what it was computed on.
+        accuracy: the suite's accuracy in metres and degrees, per keyframe (None when not asked for).
     """
 
     suite: tuple[str, ...]
@@ -73,10 +77,14 @@ class ScoreResult:
     n_landmarks_seen: int
     engine: str
     problem: ProblemInfo
+    accuracy: RouteAccuracy | None = None
 
 
-def score_suite(problem: Problem, suite: str | Iterable[str | int], *, engine: str | None = None) -> ScoreResult:
-    """Score a suite given as comma-separated ids (``"LRL-roof,LRR-12"``), ids, or library positions."""
+def score_suite(problem: Problem, suite: str | Iterable[str | int], *, engine: str | None = None,
+                accuracy: bool = True, map_sigma_m: float | None = None) -> ScoreResult:
+    """Score a suite given as comma-separated ids (``"LRL-roof,LRR-12"``), ids, or library positions;
+    with ``accuracy``, also its accuracy in metres (the SLAM graph, or with ``map_sigma_m`` [m] a
+    prior map: :func:`suite_accuracy`)."""
     lib = problem.library
     positions = lib.resolve_suite(suite)
     ev = make_evaluator(problem, engine)
@@ -94,7 +102,19 @@ def score_suite(problem: Problem, suite: str | Iterable[str | int], *, engine: s
         n_landmarks_seen=len(seen),
         engine=ev.name,
         problem=problem.info,
+        accuracy=route_accuracy(ev, positions, map_sigma_m=map_sigma_m) if accuracy else None,
     )
+
+
+def suite_accuracy(target: Target, suite: str | Iterable[str | int], *, map_sigma_m: float | None = None,
+                   engine: str | None = None) -> tuple[RouteAccuracy, ...]:
+    """The accuracy of a suite in metres and degrees on every route of ``target`` (one for a
+    problem), per keyframe: :mod:`sensorsel.evaluators.accuracy`. ``map_sigma_m``: localizing in a
+    prior map whose landmarks are known to that std [m]; None: the paper's SLAM graph."""
+    problems = [(r.name, r.problem) for r in target.routes] if isinstance(target, Domain) else [(target.scenario.name, target)]
+    positions = target.library.resolve_suite(suite)
+    return tuple(route_accuracy(make_evaluator(p, engine), positions, map_sigma_m=map_sigma_m, route=name)
+                 for name, p in problems)
 
 
 def run_greedy(problem: Target, budget_usd: float, rule: str = "uniform", *, engine: str | None = None, jobs: int = 1,
@@ -190,6 +210,7 @@ class DomainScoreResult:
         routes: each route's score.
         engine: the per-route engine.
         domain: what it was computed on.
+        accuracy: the suite's accuracy in metres on each route, in route order (empty when not asked for).
     """
 
     suite: tuple[str, ...]
@@ -199,6 +220,7 @@ class DomainScoreResult:
     routes: tuple[RouteScore, ...]
     engine: str
     domain: DomainInfo
+    accuracy: tuple[RouteAccuracy, ...] = ()
 
 
 def score_domain_suite(domain: Domain, suite: str | Iterable[str | int], *, engine: str | None = None,

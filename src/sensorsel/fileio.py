@@ -1,10 +1,14 @@
-"""Atomic file output: a crash never leaves a half-written result behind."""
+"""Atomic file output: a crash never leaves a half-written result behind; and the
+one guard that keeps HiGHS's stray prints off standard output (quiet_stdout)."""
 
 from __future__ import annotations
 
+import contextlib
 import os
+import sys
 import tempfile
 from pathlib import Path
+from typing import Iterator
 
 from .errors import OutputError
 
@@ -75,3 +79,28 @@ def output_file(path: str | Path) -> Path:
     except OutputError as exc:  # name the file the user gave, and why its folder fails
         raise OutputError(path, f"its folder {exc.path}: {exc.reason}") from None
     return path
+
+
+@contextlib.contextmanager
+def quiet_stdout() -> Iterator[None]:
+    """Send file descriptor 1 to the null device for the duration (every HiGHS call of the package
+    goes through this one guard: certify's knapsack, robust's bound, require's solver).
+
+    Why: HiGHS (scipy 1.17's copy) prints a debug line, "HighsMipSolverData::transformNewIntegerFeasibleSolution
+    tmpSolver.run();", straight to the C stdout whatever ``disp`` says (ERGO-Code/HiGHS#2783), which
+    would corrupt a command's ``--json`` output. Python-level output is flushed first, so nothing
+    of ours is lost; progress bars write to stderr.
+    """
+    try:
+        sys.stdout.flush()
+        saved = os.dup(1)
+    except (OSError, ValueError, AttributeError):  # no real fd 1 (embedded): nothing to protect
+        yield
+        return
+    try:
+        with open(os.devnull, "wb") as null:
+            os.dup2(null.fileno(), 1)
+        yield
+    finally:
+        os.dup2(saved, 1)
+        os.close(saved)

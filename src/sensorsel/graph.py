@@ -131,12 +131,14 @@ class GraphBuilder:
             values.insert(L(j), q)
         self.values = values
 
-    def base_graph(self) -> gtsam.NonlinearFactorGraph:
-        """Prior on the first pose, odometry between keyframes, weak prior on every landmark."""
+    def base_graph(self, *, landmark_sigma_m: float | None = None) -> gtsam.NonlinearFactorGraph:
+        """Prior on the first pose, odometry between keyframes, weak prior on every landmark (or,
+        with ``landmark_sigma_m``, a prior of that std [m]: a map known to that accuracy)."""
         g = gtsam.NonlinearFactorGraph()
         add_pose_chain(g, self._poses[0], truth_steps(self._poses), self._first_prior, self._odometry)
+        prior = self._landmark_prior if landmark_sigma_m is None else gtsam.noiseModel.Isotropic.Sigma(2, float(landmark_sigma_m))
         for j, q in enumerate(self._points):
-            g.add(landmark_prior(j, q, self._landmark_prior))
+            g.add(landmark_prior(j, q, prior))
         return g
 
     def add_sensor(self, graph: gtsam.NonlinearFactorGraph, sensor: int) -> None:
@@ -147,9 +149,10 @@ class GraphBuilder:
         noise = [self._measurement(sb, sr) for sb, sr in zip(obs.sigma_bearing_rad.tolist(), obs.sigma_range_m.tolist())]
         add_bearing_range(graph, obs.pose, obs.landmark, obs.bearing_rad, obs.range_m, noise)
 
-    def graph(self, suite: Iterable[int]) -> gtsam.NonlinearFactorGraph:
-        """The full nonlinear factor graph of a suite (library positions)."""
-        g = self.base_graph()
+    def graph(self, suite: Iterable[int], *, landmark_sigma_m: float | None = None) -> gtsam.NonlinearFactorGraph:
+        """The full nonlinear factor graph of a suite (library positions); ``landmark_sigma_m`` as in
+        :meth:`base_graph`."""
+        g = self.base_graph(landmark_sigma_m=landmark_sigma_m)
         for i in sorted(set(suite)):
             self.add_sensor(g, i)
         return g
@@ -158,3 +161,10 @@ class GraphBuilder:
         """log det of the information matrix of ``suite`` [nats]: build, linearize, eliminate, 2 log|det R|."""
         lin = self.graph(suite).linearize(self.values)
         return 2.0 * lin.eliminateMultifrontal().logDeterminant()
+
+    def pose_covariances(self, suite: Iterable[int], *, map_sigma_m: float | None = None) -> np.ndarray:
+        """(K, 3, 3) marginal covariance of every keyframe's pose by GTSAM's ``Marginals`` (at the
+        truth; Pose2's tangent: x forward, y left [m] in the keyframe's frame, θ [rad]).
+        ``map_sigma_m``: landmarks known to that std [m] (a prior map), or None (the SLAM graph)."""
+        marginals = gtsam.Marginals(self.graph(suite, landmark_sigma_m=map_sigma_m), self.values)
+        return np.array([marginals.marginalCovariance(X(k)) for k in range(len(self._poses))])

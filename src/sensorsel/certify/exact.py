@@ -34,6 +34,7 @@ from typing import Callable
 import numpy as np
 
 from ..results import result_kind
+from ..evaluators.accuracy import RouteAccuracy
 from ..constraints import Constraints, FeasibleSet, feasible_set
 from ..errors import InputError
 from ..library import SensorLibrary
@@ -94,6 +95,8 @@ class OptimumResult:
         seconds: wall time [s] (the only field that varies between runs, unless ``max_seconds`` stopped it).
         constraints: the limits besides the budget every suite searched respects
             (:class:`~sensorsel.constraints.Constraints`); None: the budget alone.
+        accuracy: the chosen suite's accuracy in metres on each route (empty when not computed;
+            the command line computes it).
     """
 
     budget_usd: float
@@ -122,6 +125,7 @@ class OptimumResult:
     problem: TargetInfo | None = None
     seconds: float = 0.0
     constraints: Constraints | None = None
+    accuracy: tuple[RouteAccuracy, ...] = ()
 
 
 def optimal(evaluator: Evaluator, budget_usd: float, *, max_nodes: int = DEFAULT_MAX_NODES, max_seconds: float | None = None,

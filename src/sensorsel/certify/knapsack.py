@@ -15,15 +15,13 @@ relaxation when HiGHS stops at its node limit without one).
 
 from __future__ import annotations
 
-import contextlib
 import math
-import os
-import sys
 from dataclasses import dataclass
-from typing import Iterator, Sequence
+from typing import Sequence
 
 import numpy as np
 
+from ..fileio import quiet_stdout
 from ..results import result_kind
 from ..errors import InputError
 
@@ -305,28 +303,3 @@ def packing_bound(values: Sequence[float] | np.ndarray, A: np.ndarray, capacity:
         return KnapsackSolution(max(-float(lp.fun), achieved), chosen, achieved, "lp relaxation", False)
     total = float(v[keep].sum())  # nothing solved: every item, the loosest valid bound
     return KnapsackSolution(total, chosen, achieved, "every item", False)
-
-
-@contextlib.contextmanager
-def quiet_stdout() -> Iterator[None]:
-    """Send file descriptor 1 to the null device for the duration (every HiGHS call of the package
-    goes through this one guard: also :mod:`sensorsel.robust.bound`'s).
-
-    Why: HiGHS (scipy 1.17's copy) prints a debug line, "HighsMipSolverData::transformNewIntegerFeasibleSolution
-    tmpSolver.run();", straight to the C stdout whatever ``disp`` says (ERGO-Code/HiGHS#2783), which
-    would corrupt a command's ``--json`` output. Python-level output is flushed first, so nothing
-    of ours is lost; progress bars write to stderr.
-    """
-    try:
-        sys.stdout.flush()
-        saved = os.dup(1)
-    except (OSError, ValueError, AttributeError):  # no real fd 1 (embedded): nothing to protect
-        yield
-        return
-    try:
-        with open(os.devnull, "wb") as null:
-            os.dup2(null.fileno(), 1)
-        yield
-    finally:
-        os.dup2(saved, 1)
-        os.close(saved)

@@ -23,6 +23,10 @@ from ..library import SensorLibrary
 from ..problem import ProblemMismatchWarning, check_result_problem
 from ..selection import GreedyResult, check_affordable, check_budget, greedy
 from .cluster import evaluator_on, require_domain
+from dataclasses import replace
+
+from ..api import suite_accuracy
+from .options import check_map_sigma, map_sigma_option, print_accuracy
 from .options import cluster_from, cluster_options
 from .options import (not_empty, budget_option, force_option, engine_options, json_option, output_option, progress_bar, quiet_option,
                       print_target, run, target_from, target_options)
@@ -67,12 +71,13 @@ def _check_result_constraints(res: GreedyResult, lib: SensorLibrary, path: str, 
               help="Stop after expanding this many nodes (each scores one suite plus each candidate).")
 @click.option("--max-seconds", type=click.FloatRange(min=0, min_open=True), default=None,
               help="Also stop after this much wall time [s] (the result then depends on the machine's speed).")
+@map_sigma_option
 @output_option(help="Write the result as JSON here.")
 @json_option
 @quiet_option
 @run
 def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output: str | None, as_json: bool, quiet: bool,
-                aggregate: str, engine: str | None, jobs: int, **kw: Any) -> None:
+                aggregate: str, engine: str | None, jobs: int, map_sigma: float | None, **kw: Any) -> None:
     """The best suite within --budget, by branch and bound with the submodular knapsack bound.
 
     Starts from the greedy (best-of) suite and proves it optimal or improves on it. At the node
@@ -85,6 +90,7 @@ def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output
     is the best suite they allow (node bounds: an integer program over the marginal gains, by HiGHS).
     """
     budget = check_budget(budget)
+    map_sigma = check_map_sigma(map_sigma)
     if output:
         output_file(output)
     constraints = constraints_from(kw)
@@ -98,6 +104,7 @@ def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output
         ev = evaluator_on(cluster, problem, engine, jobs, aggregate)
         res = optimal(ev, budget, max_nodes=max_nodes, max_seconds=max_seconds, info=info, progress=progress,
                       constraints=constraints)
+    res = replace(res, accuracy=suite_accuracy(problem, res.suite, map_sigma_m=map_sigma, engine=engine))
     if output:
         results.save(res, output)
     if as_json:
@@ -119,6 +126,7 @@ def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output
     click.echo(f"search     {res.n_nodes:,} nodes expanded ({res.n_solved:,} settled whole), {res.n_pruned:,} pruned, {res.n_evaluations:,} suites scored "
                f"({res.engine} engine, {res.bound_method} bounds), {res.seconds:.1f} s")
     _print_usage(problem.library, res.budget_usd, res.constraints, res.suite)
+    print_accuracy(res.accuracy)
     if output:
         click.echo(f"wrote      {output}")
 

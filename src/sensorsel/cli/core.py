@@ -14,11 +14,12 @@ from .. import results
 from ..constraints import FeasibleSet, feasible_set
 from ..errors import InputError
 from ..library import SensorLibrary, load_library, resource_unit
-from ..api import score_domain_suite, score_suite
+from ..api import score_domain_suite, score_suite, suite_accuracy
 from ..problem import Domain, Problem
 from ..scenario import LandmarkModel, route_landmarks, write_landmarks_csv
 from .cluster import domain_evaluator_on, require_domain
 from .options import cluster_from, cluster_options, constraint_options, constraints_from, usage_table
+from .options import check_map_sigma, map_sigma_option, print_accuracy
 from .options import (engine_options, json_option, output_option, plot_format_option, print_target, problem_from, run,
                       scenario_options, spec_from, suite_text, table, target_from, target_options)
 from .options import force_option
@@ -87,15 +88,21 @@ def library_cmd(library_path: str | None, as_json: bool) -> None:
               "`sensorsel library`), or a result JSON (`sensorsel greedy -o FILE`, ...: its suite; computed on the same problem, see --force).")
 @constraint_options
 @force_option
+@map_sigma_option
 @json_option
 @run
-def score_cmd(suite: str, as_json: bool, aggregate: str, engine: str | None, jobs: int, force: bool, **kw: Any) -> None:
+def score_cmd(suite: str, as_json: bool, aggregate: str, engine: str | None, jobs: int, force: bool,
+              map_sigma: float | None, **kw: Any) -> None:
     """Score a sensor suite: cost and f(S) = log det L(S) - log det L(empty) in nats.
 
     With --domain FILE: the suite's score on every route, each as a share of the route's best, and
     the domain score (their weighted sum, --aggregate). With --scheduler/--workers, each route is
     built, normalised and scored on a worker. With --limit, --max-sensors, --require or --exclude
-    (or a library with mounting slots): what the suite uses of each limit, and what it breaks."""
+    (or a library with mounting slots): what the suite uses of each limit, and what it breaks.
+
+    Also the suite's accuracy in metres and degrees (lateral, longitudinal, heading: 95 % errors over
+    the keyframes), in the paper's SLAM graph or with --map-sigma localizing in a prior map."""
+    map_sigma = check_map_sigma(map_sigma)
     cluster = cluster_from(kw)
     constraints = constraints_from(kw)
     problem = target_from(kw)
@@ -108,6 +115,7 @@ def score_cmd(suite: str, as_json: bool, aggregate: str, engine: str | None, job
         with cluster or nullcontext():
             ev = domain_evaluator_on(cluster, problem, engine, aggregate) if cluster is not None else None
             dres = score_domain_suite(problem, suite, engine=engine, aggregate=aggregate, evaluator=ev)
+        dres = replace(dres, accuracy=suite_accuracy(problem, suite, map_sigma_m=map_sigma, engine=engine))
         if as_json:
             click.echo(results.dumps(dres), nl=False)
             return
@@ -118,9 +126,10 @@ def score_cmd(suite: str, as_json: bool, aggregate: str, engine: str | None, job
         click.echo(table(rows, ["route", "weight", "score_nats", "best_nats", "of_best"]))
         unit = "(weighted share of the best)" if dres.aggregate == "normalised" else "nats (weighted)"
         click.echo(f"score      {dres.score:.4f} {unit}")
+        print_accuracy(dres.accuracy)
         _print_limits(feas, problem.library.resolve_suite(dres.suite))
         return
-    res = score_suite(problem, _suite_positions(suite, problem, force), engine=engine)
+    res = score_suite(problem, _suite_positions(suite, problem, force), engine=engine, map_sigma_m=map_sigma)
     if as_json:
         click.echo(results.dumps(res), nl=False)
         return
@@ -130,6 +139,7 @@ def score_cmd(suite: str, as_json: bool, aggregate: str, engine: str | None, job
     click.echo(f"cost       ${res.cost_usd:,.0f}")
     click.echo(f"score      {res.score:.3f} nats  (log det {res.logdet:.3f}, sensorless {res.baseline_logdet:.3f})")
     click.echo(f"measures   {res.n_measurements} range-bearing measurements of {res.n_landmarks_seen} landmarks")
+    print_accuracy([res.accuracy] if res.accuracy is not None else [])
     _print_limits(feas, problem.library.resolve_suite(res.suite))
 
 

@@ -490,3 +490,25 @@ def usage_table(rows: Sequence[Any]) -> str:
         out.append(["mounting slots", f"{slots_used:,.0f} sensors", f"{slots_cap:,.0f} places",
                     f"{full} full"])
     return table(out, ["limit", "used", "of", "share"])
+
+
+def map_sigma_option(fn: F) -> F:
+    """--map-sigma METRES: accuracy lines computed localizing in a prior map (default: the SLAM graph)."""
+    return click.option("--map-sigma", "map_sigma", type=float, default=None, metavar="METRES",
+                        help="Accuracy in metres computed localizing in a prior map whose landmarks are known to this "
+                             "std [m] [default: in the paper's SLAM graph, landmarks unknown].")(fn)
+
+
+def check_map_sigma(value: float | None) -> float | None:
+    """``value`` if it is None or a positive finite number of metres, else an InputError naming --map-sigma."""
+    if value is not None and not (math.isfinite(value) and value > 0):
+        raise InputError(f"--map-sigma {value:g}: the landmarks' std must be a positive, finite number of metres")
+    return value
+
+
+def print_accuracy(accuracies: Sequence[Any]) -> None:
+    """One line per route: the suite's 95 % errors in metres and degrees and the model behind them
+    (:class:`~sensorsel.evaluators.accuracy.RouteAccuracy`)."""
+    for acc in accuracies:
+        where = f" {acc.route}:" if len(accuracies) > 1 else ""
+        click.echo(f"accuracy  {where} {acc.line()}")

@@ -13,6 +13,10 @@ from .. import results
 from ..errors import InputError
 from ..fileio import output_dir
 from ..problem import Domain
+from dataclasses import replace
+
+from ..api import suite_accuracy
+from .options import check_map_sigma, map_sigma_option, print_accuracy
 from .options import cluster_from, cluster_options, resume_option, constraint_options, constraints_from, usage_table
 from .options import (budget_option, engine_options, json_option, output_option, plot_format_option, progress_bar,
                       print_target, quiet_option, run, table, target_from, target_options)
@@ -38,11 +42,13 @@ from .rules import rule_option
                help="Output folder: resilient.json, grid.csv, the grid plot, and periods/ (one file per period).")
 @plot_format_option
 @resume_option
+@map_sigma_option
 @json_option
 @quiet_option
 @run
 def resilient_cmd(budget: float, alpha: int, period_s: float, rule: str, method: str, outdir: str, plot_format: str | None, resume: bool,
-                  as_json: bool, quiet: bool, aggregate: str, engine: str | None, jobs: int, **kw: Any) -> None:
+                  as_json: bool, quiet: bool, aggregate: str, engine: str | None, jobs: int, map_sigma: float | None,
+                  **kw: Any) -> None:
     """Resilient sensor selection (the paper's Algorithm 2, for ALPHA failures).
 
     The ALPHA sensors with the largest individual scores are bought and assumed to fail; the rest of
@@ -66,6 +72,7 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, rule: str, method:
     fmt = plot_format_of(plot_format)
     alpha = check_alpha(alpha)
     period_s = check_period(period_s)
+    map_sigma = check_map_sigma(map_sigma)
     out = output_dir(outdir)
     cluster = cluster_from(kw)
     constraints = constraints_from(kw)
@@ -81,11 +88,13 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, rule: str, method:
         raise InputError(f"--failures {alpha}: the resilient suite within --budget ${budget:,.0f} holds only {len(r.suite)} "
                          f"sensor(s) ({', '.join(r.suite) or 'none'}; {r.failure_note or 'the failing sensors take the budget'}), "
                          f"so every one could fail (worst case 0): give fewer --failures or a larger --budget")
+    report = replace(report, accuracy=suite_accuracy(problem, report.suite, map_sigma_m=map_sigma, engine=engine))
     written = _write(report, problem, out, fmt, period_s, alpha, budget, method)
     if as_json:
         click.echo(results.dumps(report), nl=False)
         return
     _print_comparison(report, budget, alpha, rule, method)
+    print_accuracy(report.accuracy)
     _print_usage(report, problem.library)
     _print_periods(report.per_period, period_s)
     for p in written:

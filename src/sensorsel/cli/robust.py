@@ -11,6 +11,10 @@ from ..api import ROBUST_AGGREGATES  # --aggregate of this command: the combined
 from ..problem import Domain
 from ..library import SensorLibrary
 from .cluster import domain_evaluator_on, require_domain
+from dataclasses import replace
+
+from ..api import suite_accuracy
+from .options import check_map_sigma, map_sigma_option, print_accuracy
 from .options import cluster_from, cluster_options
 from .options import (budget_option, compact_suite, constraint_options, constraints_from, engine_options, json_option,
                       output_option, print_target, quiet_option, run, table, target_from, target_options, usage_table)
@@ -46,12 +50,13 @@ def _csv(xs: Any) -> str:
                    "with --aggregate worst: saturate,local-search].")
 @click.option("--no-skip", is_flag=True, help="Run every method even when the bound already proves a candidate optimal.")
 @constraint_options
+@map_sigma_option
 @output_option(help="Write the result as JSON here (kind \"robust\").")
 @json_option
 @quiet_option
 @run
 def robust_cmd(budget: float, alpha: int, rules: str, methods: str | None, no_skip: bool, output: str | None, as_json: bool,
-               quiet: bool, aggregate: str, engine: str | None, jobs: int, **kw: Any) -> None:
+               quiet: bool, aggregate: str, engine: str | None, jobs: int, map_sigma: float | None, **kw: Any) -> None:
     """Robust sensor selection: maximise the worst-case score after ALPHA sensors fail.
 
     Runs plain greedy, the paper's Algorithm 2 and further methods, scores every suite by its exact
@@ -71,6 +76,7 @@ def robust_cmd(budget: float, alpha: int, rules: str, methods: str | None, no_sk
     from ..selection import check_affordable, check_budget
 
     budget, alpha = check_budget(budget), check_alpha(alpha)
+    map_sigma = check_map_sigma(map_sigma)
     rule_list = tuple(r.strip() for r in rules.split(",") if r.strip())
     from ..robust import EXTRA_METHODS, WORST_METHODS
 
@@ -98,11 +104,13 @@ def robust_cmd(budget: float, alpha: int, rules: str, methods: str | None, no_sk
             ev = domain_evaluator_on(cluster, target, engine, "normalised" if aggregate == "worst" else aggregate)
         res = run_robust(target, budget, alpha, engine=engine, jobs=jobs, aggregate=aggregate, rules=rule_list,
                          methods=method_list, skip_when_proved=not no_skip, evaluator=ev, constraints=constraints)
+    res = replace(res, accuracy=suite_accuracy(target, res.suite, map_sigma_m=map_sigma, engine=engine))
     written = results.save(res, output) if output else None
     if as_json:
         click.echo(results.dumps(res), nl=False)
         return
     print_robust(res, target.library)
+    print_accuracy(res.accuracy)
     if written is not None:
         click.echo(f"wrote {written}")
 

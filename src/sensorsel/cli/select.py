@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import sys
 from contextlib import nullcontext
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import click
 
 from .. import results
-from ..api import design_domain, run_greedy
+from ..api import design_domain, run_greedy, suite_accuracy
 from ..checkpoint import checkpoint_path, remove_checkpoint
 from ..domain_design import DomainDesign
 from ..problem import Domain, DomainInfo
@@ -25,6 +26,9 @@ from .options import (budget_option, engine_options, json_option, output_option,
                       compact_suite, print_target, quiet_option, run, table, target_from,
                       target_options)
 from .options import plot_format
+from .options import check_map_sigma, map_sigma_option, print_accuracy
+from .require import specification_from, specification_given, specification_options
+from ..requirements.front import front_acceptance
 from .options import plot_format as plot_format_of
 from .rules import kept_label, rule_option, rules_option
 
@@ -60,6 +64,7 @@ def _print_greedy(res: CertifiedGreedyResult, lib: SensorLibrary) -> None:
         click.echo(usage_table(feas.rows_used(lib.resolve_suite(res.suite))))
     if res.certificate is not None:
         click.echo(format_certificate(res.certificate))
+    print_accuracy(res.accuracy)
 
 
 def _print_breakdown(design: DomainDesign) -> None:
@@ -87,10 +92,12 @@ def _print_breakdown(design: DomainDesign) -> None:
 @click.option("--plot", "plot_path", type=click.Path(dir_okay=False, path_type=str), default=None,
               help="With --domain: draw the per-route breakdown here (png, svg or pdf by its extension).")
 @resume_option
+@map_sigma_option
 @quiet_option
 @run
 def greedy_cmd(budget: float, rule: str, lazy: bool, output: str | None, as_json: bool, certify: bool, quiet: bool,
-               plot_path: str | None, resume: bool, aggregate: str, engine: str | None, jobs: int, **kw: Any) -> None:
+               plot_path: str | None, resume: bool, aggregate: str, engine: str | None, jobs: int, map_sigma: float | None,
+               **kw: Any) -> None:
     """Greedy sensor selection under a budget (the paper's Algorithm 1 and its cost-aware variants).
 
     Prints the suite in pick order with each pick's marginal gain, the cost, the score
@@ -107,6 +114,7 @@ def greedy_cmd(budget: float, rule: str, lazy: bool, output: str | None, as_json
     """
     if resume and not output:
         raise click.UsageError("--resume goes on from the checkpoint of -o FILE (FILE.checkpoint): give -o")
+    map_sigma = check_map_sigma(map_sigma)
     if output:
         output_file(output)
     if plot_path:
@@ -141,6 +149,9 @@ def greedy_cmd(budget: float, rule: str, lazy: bool, output: str | None, as_json
             out = res = run_greedy(problem, budget, rule, engine=engine, jobs=jobs, lazy=lazy, progress=progress,
                                    certify=certify, certify_progress=cert_progress, checkpoint=ckpt, resume=resume,
                                    constraints=constraints)
+    # the chosen suite's accuracy in metres (local evaluators: a cluster's routes answer scores only)
+    res = replace(res, accuracy=suite_accuracy(problem, res.suite, map_sigma_m=map_sigma, engine=engine))
+    out = replace(out, greedy=res) if isinstance(out, DomainDesign) else res
     if output:
         results.save(out, output)
         if ckpt is not None:
@@ -161,6 +172,16 @@ def greedy_cmd(budget: float, rule: str, lazy: bool, output: str | None, as_json
                 click.echo(f"wrote      {path}")
 
 
+def _share(at: float) -> str:
+    return "every keyframe" if at >= 1.0 else f"{100 * at:g}% of the keyframes"
+
+
+def _by_suite(acceptance: Any, front: Any) -> list[Any]:
+    """The acceptance point of each front architecture, in the front's order."""
+    points = {tuple(p.suite): p for p in acceptance.points}
+    return [points[tuple(a.suite)] for a in front]
+
+
 def _arch_row(a: Architecture) -> list[str]:
     return [f"{a.cost_usd:,.0f}", f"{a.score:.3f}", f"{a.normalized:.4f}", str(a.n_sensors), "+".join(a.rules), compact_suite(a.suite)]
 
@@ -177,14 +198,19 @@ def _arch_row(a: Architecture) -> list[str]:
 @rules_option(",".join(DEFAULT_RULES))
 @constraint_options
 @click.option("--lazy/--no-lazy", default=True, show_default=True, help="Lazy (Minoux) evaluation: same picks, fewer evaluations.")
-@output_option(folder=True, required=True, dest="outdir", help="Folder for pareto.<format>, architectures.csv and tradespace.json.")
+@map_sigma_option
+@specification_options
+@output_option(folder=True, required=True, dest="outdir",
+               help="Folder for pareto.<format>, architectures.csv, tradespace.json, and the front's accuracy: "
+                    "accuracy.json and pareto-accuracy.<format>.")
 @plot_format_option
 @resume_option
 @json_option
 @quiet_option
 @run
 def pareto_cmd(budgets: str | None, budget: tuple[float, ...], rules: str, lazy: bool, outdir: str, plot_format: str | None,
-               resume: bool, as_json: bool, quiet: bool, aggregate: str, engine: str | None, jobs: int, **kw: Any) -> None:
+               resume: bool, as_json: bool, quiet: bool, aggregate: str, engine: str | None, jobs: int, map_sigma: float | None,
+               **kw: Any) -> None:
     """The cost-performance tradespace (the paper's Fig. 4): greedy runs over a grid of budgets,
     every intermediate architecture, and the Pareto front (lower cost, higher score).
 
@@ -194,7 +220,13 @@ def pareto_cmd(budgets: str | None, budget: tuple[float, ...], rules: str, lazy:
 
     --limit, --require, --exclude, --max-sensors and the library's slots hold at every budget (a
     budget sweep with the other limits fixed).
+
+    The front's accuracy in metres (lateral 95 % error per suite; in the SLAM graph, or with
+    --map-sigma in a prior map), and with a specification (--preset, --lateral, ..., --spec) which
+    front suites meet it: the acceptable region of the front, drawn as cost against lateral error.
     """
+    map_sigma = check_map_sigma(map_sigma)
+    given_spec = specification_given(kw)
     grid = parse_budgets(budgets) if budgets is not None else None
     if budget:
         grid = tuple(sorted(set(grid or ()) | set(budget)))
@@ -204,6 +236,11 @@ def pareto_cmd(budgets: str | None, budget: tuple[float, ...], rules: str, lazy:
     cluster = cluster_from(kw)
     constraints = constraints_from(kw)
     problem = target_from(kw)
+    routes = [r.name for r in problem.routes] if isinstance(problem, Domain) else [problem.scenario.name]
+    specs = specification_from(kw, routes) if given_spec else None
+    if not given_spec:
+        for k in ("preset", "spec_path", "lateral", "longitudinal", "heading", "sigma", "at"):
+            kw.pop(k, None)
     if grid:
         check_affordable(problem.library, max(grid), budget_option="--budgets" if budgets is not None else "--budget",
                          constraints=constraints)
@@ -217,12 +254,17 @@ def pareto_cmd(budgets: str | None, budget: tuple[float, ...], rules: str, lazy:
 
     out = Path(outdir)
     written = [results.save(res, out / "tradespace.json"), write_csv(res, out / "architectures.csv")]
+    acceptance = None
     if res.architectures:
-        from ..plotting import plot_tradespace, save_figure, use_file_backend
+        from ..plotting import plot_front_accuracy, plot_tradespace, save_figure, use_file_backend
 
         use_file_backend()
         ax = plot_tradespace(res)
         written.insert(0, save_figure(ax.figure, out / f"pareto.{fmt}", close=True))
+        acceptance = front_acceptance(problem, [(a.suite, a.cost_usd, a.score) for a in res.front], specs,
+                                      map_sigma_m=map_sigma, engine=engine)
+        written.append(results.save(acceptance, out / "accuracy.json"))
+        written.append(save_figure(plot_front_accuracy(acceptance).figure, out / f"pareto-accuracy.{fmt}", close=True))
 
     if as_json:
         click.echo(results.dumps(res), nl=False)
@@ -239,7 +281,19 @@ def pareto_cmd(budgets: str | None, budget: tuple[float, ...], rules: str, lazy:
         click.echo("every budget is below the cheapest sensor: nothing was bought", err=True)
         sys.exit(2)
     click.echo("\nPareto front (cheapest first):")
-    click.echo(table([_arch_row(a) for a in res.front], ["cost_usd", "score", "normalized", "n", "rules", "suite"]))
+    assert acceptance is not None
+    rows = [_arch_row(a) + [f"{p.lateral_95_m:.3f}"] + ([] if p.meets is None else ["yes" if p.meets else "no"])
+            for a, p in zip(res.front, _by_suite(acceptance, res.front))]
+    click.echo(table(rows, ["cost_usd", "score", "normalized", "n", "rules", "suite", "lateral95_m"]
+                     + ([] if specs is None else ["meets"])))
+    click.echo(f"accuracy   {acceptance.model_label}; lateral95_m: the worst route's lateral 95 % error"
+               + ("" if specs is None else f" at {_share(specs[0].at)}"))
+    if specs is not None:
+        best_ok = acceptance.cheapest_meeting
+        click.echo(f"requires   {specs[0].describe()}" if len(set(specs)) == 1 else "requires   per-route specifications (--spec)")
+        click.echo(f"acceptable {sum(bool(p.meets) for p in acceptance.points)} of {len(acceptance.points)} front suites; "
+                   + (f"the cheapest: ${best_ok.cost_usd:,.0f}, {','.join(best_ok.suite)}" if best_ok is not None
+                      else "none meets it (sensorsel require searches every suite, not only the front)"))
     click.echo("")
     for frac in (0.99, 0.95):
         a = res.cheapest_reaching(frac)

@@ -22,7 +22,7 @@ from .options import plot_format as plot_format_of
 
 #: Result kinds that name a suite: simulate --suite/--compare read these (resilient ones also say
 #: which sensors they assume to fail).
-SUITE_KINDS = ("greedy", "resilient", "resilient-selection", "optimum", "score")
+SUITE_KINDS = ("greedy", "resilient", "resilient-selection", "optimum", "score", "requirement")
 
 
 def _is_file(path: Path) -> bool:

@@ -126,3 +126,29 @@ class ProblemEvaluator(Evaluator):
     def score(self, suite: Iterable[int]) -> float:
         """f(S) = log det L(S) - log det L(empty) [nats]."""
         return self.logdet(suite) - self.baseline_logdet
+
+    def pose_covariances(self, suite: Iterable[int], *, map_sigma_m: float | None = None) -> np.ndarray:
+        """The marginal covariance of every keyframe's pose under the suite, shape (K, 3, 3): the
+        3×3 diagonal blocks of the inverse information (landmarks eliminated), in Pose2's tangent
+        space at the truth: (dx, dy [m] in the keyframe's own frame, x forward and y to the left;
+        dθ [rad]), as GTSAM's ``Marginals.marginalCovariance(X(k))`` gives it.
+
+        ``map_sigma_m``: None for the paper's SLAM graph (landmarks unknown: a weak prior only, so
+        the uncertainty grows along the route from the first pose's prior); a number [m] for
+        localization in a prior map whose landmarks are known to that std (the weak landmark prior
+        replaced by an isotropic prior of that std). Not counted in :attr:`n_evaluations`.
+        """
+        s = as_suite(suite)
+        self._check_positions(s)
+        if map_sigma_m is not None and not (np.isfinite(map_sigma_m) and map_sigma_m > 0):
+            raise InputError(f"map sigma must be a positive number of metres, got {map_sigma_m!r}")
+        return self._pose_covariances(s, None if map_sigma_m is None else float(map_sigma_m))
+
+    def _pose_covariances(self, suite: Suite, map_sigma_m: float | None) -> np.ndarray:
+        raise NotImplementedError(f"the {self.name!r} engine computes no pose covariances")
+
+    def pose_covariance_floor(self, suite: Iterable[int], *, map_sigma_m: float | None = None) -> np.ndarray | None:
+        """A cheap lower bound on :meth:`pose_covariances`, shape (K, 3, 3) (each block below the
+        true marginal covariance in the positive semidefinite order, so each σ below the true one),
+        or None when the engine has none (the default). Not counted in :attr:`n_evaluations`."""
+        return None

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import numpy as np
+
 from ..problem import Problem
 from .base import ProblemEvaluator, Suite
 
@@ -19,3 +21,7 @@ class ReferenceEvaluator(ProblemEvaluator):
 
     def _logdet(self, suite: Suite) -> float:
         return self._builder.logdet(suite)
+
+    def _pose_covariances(self, suite: Suite, map_sigma_m: float | None) -> np.ndarray:
+        """GTSAM's own ``Marginals`` of every pose (the oracle of the fast engine's)."""
+        return self._builder.pose_covariances(suite, map_sigma_m=map_sigma_m)

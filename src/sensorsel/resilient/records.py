@@ -8,6 +8,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ..results import result_kind
+from ..evaluators.accuracy import RouteAccuracy
 from ..constraints import Constraints
 from ..errors import InputError
 from ..problem import TargetInfo
@@ -331,6 +332,8 @@ class ResilientReport:
         method: "paper" (Algorithm 2) or "robust" (robust selection, whole route and each period).
         robust: with "robust", the whole route's robust choice (next to the greedy / Algorithm 2 comparison).
         constraints: the limits besides the budget every suite of the report respected; None: the budget alone.
+        accuracy: the chosen suite's accuracy in metres on each route (empty when not computed;
+            the command line computes it).
     """
 
     suite: tuple[str, ...]
@@ -345,3 +348,4 @@ class ResilientReport:
     method: str = "paper"
     robust: RobustChoice | None = None
     constraints: Constraints | None = None
+    accuracy: tuple[RouteAccuracy, ...] = ()

@@ -8,6 +8,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ..results import result_kind
+from ..evaluators.accuracy import RouteAccuracy
 from ..constraints import Constraints
 from ..problem import TargetInfo
 
@@ -145,6 +146,8 @@ class RobustResult:
         worst_member: with "worst", the route attaining the worst case.
         members: with "worst", every route's shares (the breakdown).
         constraints: the limits besides the budget every candidate kept; None: the budget alone.
+        accuracy: the chosen suite's accuracy in metres on each route (empty when not computed;
+            the command line computes it).
     """
 
     alpha: int
@@ -170,6 +173,7 @@ class RobustResult:
     worst_member: str = ""
     members: tuple[MemberWorst, ...] = ()
     constraints: Constraints | None = None
+    accuracy: tuple[RouteAccuracy, ...] = ()
 
 
 @result_kind("robust-optimum")

@@ -7,6 +7,7 @@ from typing import Callable
 
 from ..results import result_kind
 from ..constraints import Constraints
+from ..evaluators.accuracy import RouteAccuracy
 from ..problem import TargetInfo
 
 #: progress(done, total): called after each pick; total is an upper bound on the number of picks.
@@ -61,6 +62,8 @@ class GreedyResult:
         seconds: wall time of the selection [s] (timings are the only fields that vary between runs).
         constraints: the limits besides the budget the run respected (:class:`~sensorsel.constraints.Constraints`);
             None when the budget was the only one (no limit, no slot, nothing required or excluded).
+        accuracy: the suite's accuracy in metres and degrees on each route (one for a single route),
+            per keyframe; empty when not computed (the command line computes it).
     """
 
     rule: str
@@ -77,6 +80,7 @@ class GreedyResult:
     problem: TargetInfo | None = None
     seconds: float = 0.0
     constraints: Constraints | None = None
+    accuracy: tuple[RouteAccuracy, ...] = ()
 
     @property
     def rule_label(self) -> str:

@@ -232,10 +232,13 @@ def plan_front(pair_pose: np.ndarray, pair_landmark: np.ndarray, n_poses: int, n
 
 
 def front_logdet(plan: FrontPlan, wpl: np.ndarray, d: np.ndarray, a: np.ndarray, blas: Blas,
-                 buffers: tuple[np.ndarray, np.ndarray]) -> float:
+                 buffers: tuple[np.ndarray, np.ndarray], keep: list[np.ndarray] | None = None) -> float:
     """log det [nats] of the full information (poses and landmarks) by the plan's frontal
     elimination. ``wpl`` (6, Pa), ``d`` (3, M), ``a`` (6, K) as for the kernel (not written to);
-    ``buffers``: two float64 scratch arrays of at least ``plan.max_front²`` entries."""
+    ``buffers``: two float64 scratch arrays of at least ``plan.max_front²`` entries. ``keep``: if
+    given, each chunk's eliminated rows after the elimination (a copy of the (m1, m) leading rows of
+    its front: U11 in the upper triangle, U11⁻ᵀ G12 to its right) are appended to it, for
+    :func:`front_pose_covariances`."""
     du = d[:, plan.unseen]
     logdet = float(np.sum(np.log(du[0] * du[2] - du[1] * du[1])))
     w = wpl[:, plan.by_chunk]
@@ -256,5 +259,57 @@ def front_logdet(plan: FrontPlan, wpl: np.ndarray, d: np.ndarray, a: np.ndarray,
         if len(ch.d_lm):
             flat[ch.d_idx] += d[:, ch.d_lm]
         logdet += blas.eliminate_leading(g, ch.m1, ch.dims)
+        if keep is not None:
+            keep.append(g[: ch.m1].copy())
         prev = g[ch.m1:, ch.m1:]
     return logdet
+
+
+def front_pose_covariances(plan: FrontPlan, wpl: np.ndarray, d: np.ndarray, a: np.ndarray, blas: Blas,
+                           buffers: tuple[np.ndarray, np.ndarray], n_poses: int) -> np.ndarray:
+    """The (K, 3, 3) marginal covariances of the poses by selected inversion on the frontal
+    elimination: linear in the route, like the elimination itself (arguments as :func:`front_logdet`).
+
+    The forward pass is :func:`front_logdet`, keeping each chunk's eliminated rows. Going back from
+    the last chunk, with E a chunk's eliminated variables, R the ones it carries on (all eliminated
+    later, so their covariance Σ_RR over R is known by then), G11 = U11ᵀ U11 and X = G11⁻¹ G12 =
+    U11⁻¹ (U11⁻ᵀ G12):
+
+        Σ_ER = −X Σ_RR        Σ_EE = G11⁻¹ + X Σ_RR Xᵀ = U11⁻¹ U11⁻ᵀ − Σ_ER Xᵀ
+
+    (the block inverse of [[G11, G12], [G21, Σ_RR⁻¹ + G21 G11⁻¹ G12]]). The chunk's front, so
+    covered, holds the previous chunk's carried variables: their Σ_RR is read from it by the same
+    runs that carried them forward. Each pose is eliminated in its own chunk: its block is read off
+    Σ_EE. About twice the forward pass's flops (the products with Σ_RR are m1 q² each, like the
+    forward Schur update), so ~3 evaluations in all.
+    """
+    from scipy.linalg import solve_triangular
+
+    kept: list[np.ndarray] = []
+    front_logdet(plan, wpl, d, a, blas, buffers, keep=kept)
+    out = np.zeros((n_poses, 3, 3))
+    s_rr = np.zeros((0, 0))
+    for ch, top in zip(reversed(plan.chunks), reversed(kept)):
+        m, m1 = ch.m, ch.m1
+        u = np.triu(top[:, :m1])
+        x = solve_triangular(u, top[:, m1:], lower=False, check_finite=False)  # G11⁻¹ G12 (m1, q)
+        u_inv = solve_triangular(u, np.eye(m1), lower=False, check_finite=False)
+        s_er = -(x @ s_rr)
+        s_ee = u_inv @ u_inv.T - s_er @ x.T
+        pp = ch.a_idx[0] // m  # front positions of the chunk's keyframes (eliminated here, so < m1)
+        idx = pp[:, None] + np.arange(3)[None, :]
+        out[ch.poses] = s_ee[idx[:, :, None], idx[:, None, :]]
+        if not ch.segs:
+            s_rr = np.zeros((0, 0))
+            continue
+        full = np.empty((m, m))
+        full[:m1, :m1] = s_ee
+        full[:m1, m1:] = s_er
+        full[m1:, :m1] = s_er.T
+        full[m1:, m1:] = s_rr
+        q_prev = sum(length for _, _, length in ch.segs)
+        s_rr = np.empty((q_prev, q_prev))
+        for oi, ni, li in ch.segs:
+            for oj, nj, lj in ch.segs:
+                s_rr[oi: oi + li, oj: oj + lj] = full[ni: ni + li, nj: nj + lj]
+    return 0.5 * (out + out.transpose(0, 2, 1))

@@ -1,0 +1,249 @@
+"""``sensorsel require``: the cheapest suite that meets a specification in metres."""
+
+from __future__ import annotations
+
+import sys
+from contextlib import nullcontext
+from dataclasses import replace
+from typing import Any
+
+import click
+
+from .. import results
+from ..errors import InputError
+from ..fileio import output_file
+from ..problem import Domain
+from ..requirements.design import RequireResult, RouteRequirement, require
+from ..requirements.spec import (DEFAULT_MAP_SIGMA_M, PRESETS, Specification, load_specification_file, preset,
+                                 specifications_for)
+from .simulate import read_suite
+from .options import plot_format, suite_text
+from .options import (budget_option, check_map_sigma, constraint_options, constraints_from, engine_options, json_option,
+                      output_option, print_target, progress_bar, quiet_option, run, target_from, target_options)
+
+
+def specification_options(fn: Any) -> Any:
+    """--preset, --lateral, --longitudinal, --heading, --sigma, --at, --spec: a specification in
+    metres (read by :func:`specification_from`)."""
+    for opt in reversed([
+        click.option("--preset", default=None, metavar="|".join(PRESETS),
+                     help="A published specification: Reid et al. 2019, passenger cars, 95 %: local-streets 0.10 m lateral, "
+                          "0.10 m longitudinal, 0.17 deg heading; freeway 0.20 m, 0.48 m, 0.51 deg."),
+        click.option("--lateral", type=float, default=None, metavar="METRES", help="Bound on the lateral position error [m]."),
+        click.option("--longitudinal", type=float, default=None, metavar="METRES",
+                     help="Bound on the longitudinal position error [m]."),
+        click.option("--heading", type=float, default=None, metavar="DEGREES", help="Bound on the heading error [deg]."),
+        click.option("--sigma", is_flag=True, help="The bounds are 1σ [default: 95 % bounds, 1.96σ]."),
+        click.option("--at", type=float, default=None, metavar="PERCENT",
+                     help="Share of each route's keyframes that must meet every bound [default: 100, every keyframe]."),
+        click.option("--spec", "spec_path", type=click.Path(dir_okay=False, path_type=str), default=None, metavar="FILE",
+                     help="A specification file: a default and per-route specifications (a domain whose routes have "
+                          "different road classes); see the requirements guide."),
+    ]):
+        fn = opt(fn)
+    return fn
+
+
+def specification_given(kw: dict[str, Any]) -> bool:
+    """Whether any specification option was given."""
+    return any(kw.get(k) not in (None, False) for k in ("preset", "lateral", "longitudinal", "heading", "sigma", "at", "spec_path"))
+
+
+def specification_from(kw: dict[str, Any], routes: list[str]) -> list[Specification]:
+    """Each route's specification from --preset, --lateral/--longitudinal/--heading, --sigma, --at
+    and --spec (pops them from ``kw``)."""
+    name, spec_path = kw.pop("preset"), kw.pop("spec_path")
+    given = {k: kw.pop(k) for k in ("lateral", "longitudinal", "heading")}
+    sigma, at = kw.pop("sigma"), kw.pop("at")
+    if at is not None and not (0.0 < at <= 100.0):  # also refuses nan
+        raise InputError(f"--at {at:g}: the share of keyframes must be above 0 % and at most 100 %")
+    overrides: dict[str, Any] = {k: v for k, v in given.items() if v is not None}
+    if sigma:
+        overrides["sigma"] = True
+    if at is not None:
+        overrides["at"] = at / 100.0
+    if spec_path is not None:
+        if name is not None or any(v is not None for v in given.values()):
+            raise click.UsageError("--spec FILE gives the whole specification: drop --preset, --lateral, --longitudinal, --heading")
+        default, per_route = load_specification_file(spec_path)
+        specs = specifications_for(routes, default, per_route, f"--spec {spec_path}")
+        return [replace(s, **overrides) for s in specs] if overrides else specs
+    if name is not None:
+        base = preset(name)
+        if overrides:
+            base = replace(base, **overrides, name=f"{name} (changed)" if set(overrides) & set(given) else name)
+        return [base] * len(routes)
+    return [Specification(**overrides)] * len(routes)
+
+
+@click.command("require", short_help="The cheapest suite that meets an accuracy specification in metres, with a proof.")
+@target_options
+@engine_options
+@constraint_options
+@specification_options
+@click.option("--map-sigma", "map_sigma", type=float, default=None, metavar="METRES",
+              help=f"Accuracy in a prior map whose landmarks are known to this std [m] [default: {DEFAULT_MAP_SIGMA_M:g} m, "
+                   "an assumption: see the requirements guide].")
+@click.option("--slam", is_flag=True, help="Judge accuracy in the paper's SLAM graph (landmarks unknown) instead of a prior map.")
+@click.option("--failures", type=click.IntRange(min=0), default=0, show_default=True,
+              help="The suite must still meet the specification after any this many of its sensors fail.")
+@budget_option(help="Most the suite may cost [$] [default: no budget: the cheapest suite is the question].")
+@click.option("--time-limit", "time_limit", type=click.FloatRange(min=0, min_open=True), default=None, metavar="SECONDS",
+              help="Stop the exact search after this long and report the gap [default: run until proved].")
+@click.option("--plot", "plot_path", type=click.Path(dir_okay=False, path_type=str), default=None,
+              help="Draw the errors along the route with the requirement, and the route coloured by its margin "
+                   "(png, svg or pdf by the extension; a domain: its route with the least margin).")
+@click.option("--compare", default=None, callback=suite_text, metavar="SUITE",
+              help="With --plot: a suite to draw beside the answer (ids, or a result file such as greedy's -o).")
+@output_option(help="Write the result as JSON (also when no suite meets the specification).")
+@json_option
+@quiet_option
+@run
+def require_cmd(map_sigma: float | None, slam: bool, failures: int, budget: float | None, time_limit: float | None,
+                plot_path: str | None, compare: str | None, output: str | None, as_json: bool, quiet: bool, aggregate: str,
+                engine: str | None, jobs: int, **kw: Any) -> None:
+    """The cheapest suite that meets an accuracy specification, on a route or every route of a
+    domain (--domain), with a lower bound on the cost of ANY suite that meets it: the answer is
+    proved optimal, or the gap is stated.
+
+    The specification bounds the car's lateral and longitudinal position error [m] and heading error
+    [deg] (95 % bounds unless --sigma) at every keyframe (or --at PERCENT of them), from the marginal
+    covariance of each pose. Accuracy is judged localizing in a prior map whose landmarks are known to
+    --map-sigma (default 0.05 m), or with --slam in the paper's SLAM graph (landmarks unknown,
+    uncertainty growing from the first pose).
+
+    A specification no suite meets is an error (exit status 2) naming the best any suite reaches and
+    where it fails; with -o or --json that diagnosis is still written.
+    """
+    if slam and map_sigma is not None:
+        raise click.UsageError("--slam judges accuracy without a map: drop --map-sigma")
+    map_sigma = check_map_sigma(DEFAULT_MAP_SIGMA_M if map_sigma is None else map_sigma)
+    if compare and not plot_path:
+        raise click.UsageError("--compare draws a second suite on --plot: give --plot FILE")
+    for path in (output, plot_path):
+        if path:
+            output_file(path)
+    if plot_path:
+        plot_format(None, plot_path)
+    constraints = constraints_from(kw)
+    target = target_from(kw)
+    routes = [r.name for r in target.routes] if isinstance(target, Domain) else [target.scenario.name]
+    specs = specification_from(kw, routes)
+    compared = None
+    if compare:
+        positions, label, _ = read_suite(compare, target.library, "--compare", None if isinstance(target, Domain) else target)
+        compared = (label, positions)
+    bar, progress = progress_bar(quiet or as_json, "searching")
+    with bar or nullcontext():
+        res = require(target, specs, map_sigma_m=None if slam else map_sigma, failures=failures, budget_usd=budget,
+                      constraints=constraints, engine=engine, jobs=jobs, time_limit_s=time_limit, progress=progress)
+    if output:
+        results.save(res, output)
+    if plot_path:
+        _plot(res, target, compared, plot_path, map_sigma_m=None if slam else map_sigma, engine=engine)
+    if as_json:
+        click.echo(results.dumps(res), nl=False)
+    else:
+        _print(res)
+    if res.status == "infeasible":
+        click.echo(f"sensorsel: error: {_infeasible_line(res)}", err=True)
+        sys.exit(2)
+    if not res.suite and res.status == "gap":
+        click.echo(f"sensorsel: error: the search stopped ({res.stop}) before finding a suite that meets the specification "
+                   f"(none costs less than ${res.lower_bound_usd:,.0f}): give a longer --time-limit", err=True)
+        sys.exit(2)
+
+
+def _spec_line(routes: tuple[RouteRequirement, ...]) -> str:
+    specs = {r.specification.describe() for r in routes}
+    if len(specs) == 1:
+        return specs.pop()
+    return "; ".join(f"{r.route}: {r.specification.describe()}" for r in routes)
+
+
+def _print(res: RequireResult) -> None:
+    print_target(res.problem)
+    click.echo(f"requires   {_spec_line(res.routes)}")
+    click.echo(f"model      {res.model_label}")
+    if res.failures:
+        click.echo(f"failures   still met after any {res.failures} sensor(s) fail")
+    if res.status == "infeasible":
+        click.echo("suite      none: no suite within the limits meets the specification")
+        what = {"failures": "after the worst failures, every allowed sensor together reaches:"}.get(
+            res.infeasible_by, "every allowed sensor together reaches:")
+        click.echo(f"best       {what}")
+        _print_routes(res.routes)
+        return
+    if not res.suite:
+        click.echo(f"suite      none found before the search stopped ({res.stop})")
+        return
+    click.echo(f"suite      {','.join(res.suite) or '(empty: odometry alone meets it)'}  ({len(res.suite)} sensors)")
+    if res.status == "optimal":
+        click.echo(f"cost       ${res.cost_usd:,.0f}: proved the cheapest (no suite that meets the specification costs less)")
+    else:
+        click.echo(f"cost       ${res.cost_usd:,.0f}; no suite that meets it costs less than ${res.lower_bound_usd:,.0f} "
+                   f"(gap ${res.gap_usd:,.0f}: the search stopped at its time limit)")
+    _print_routes(res.routes)
+    if res.worst_failure:
+        click.echo(f"worst failure  {','.join(res.worst_failure)}: then")
+        _print_routes(res.worst_failure_routes)
+    click.echo(f"searched   {res.iterations} integer programs, {res.n_checks} accuracy computations "
+               f"({res.n_refuted} more suites refuted by a cheap bound), {res.seconds:.2f} s")
+
+
+def _print_routes(routes: tuple[RouteRequirement, ...]) -> None:
+    for r in routes:
+        spec = r.specification
+        unit = "1σ" if spec.sigma else "95%"
+        parts = []
+        for comp, err, bound, bad in r.verdict.worst:
+            mark = "ok" if err <= bound else f"FAILS at {len(bad)} keyframes"
+            u = "deg" if comp == "heading" else "m"
+            parts.append(f"{comp} {err:.3f} {u} of {bound:g} ({mark})")
+        where = "every keyframe" if spec.at >= 1.0 else f"{100 * spec.at:g}% of keyframes"
+        click.echo(f"  {r.route:<10} {unit} error at {where}: " + ", ".join(parts))
+
+
+def _plot(res: RequireResult, target: Any, compared: tuple[str, tuple[int, ...]] | None, path: str, *,
+          map_sigma_m: float | None, engine: str | None) -> None:
+    """The errors along the route (the answer, and ``compared``) with the requirement, and the route
+    coloured by the answer's margin; a domain: the route with the least margin."""
+    import matplotlib.pyplot as plt
+
+    from ..api import suite_accuracy
+    from ..plotting import plot_accuracy_along_route, plot_route_margin, save_figure, use_file_backend
+
+    use_file_backend()
+    r = max(range(len(res.routes)), key=lambda i: (res.routes[i].verdict.violation,
+                                                   max(e / b for _, e, b, _ in res.routes[i].verdict.worst)))
+    route = res.routes[r]
+    problem = target.routes[r].problem if isinstance(target, Domain) else target
+    label = f"{'best any suite reaches' if res.status == 'infeasible' else 'the answer'} (${res.cost_usd:,.0f})"
+    lines = [(label, route.accuracy)]
+    if compared is not None:
+        acc = suite_accuracy(problem, compared[1], map_sigma_m=map_sigma_m, engine=engine)[0]
+        cost = problem.library.cost(compared[1])
+        lines.append((f"{compared[0]} (${cost:,.0f})", acc))
+    comps = [c for c, _, _ in route.specification.bounds()]
+    fig = plt.figure(figsize=(13.0, 3.2 * max(2, len(comps))), layout="constrained")
+    grid = fig.add_gridspec(len(comps), 2, width_ratios=(1.4, 1.0))
+    for i, comp in enumerate(comps):
+        plot_accuracy_along_route(lines, problem.scenario, route.specification, ax=fig.add_subplot(grid[i, 0]), component=comp)
+    ax = plot_route_margin(route.accuracy, problem.scenario, route.specification, ax=fig.add_subplot(grid[:, 1]))
+    ax.set_title(f"route {route.route}: margin of the answer", fontsize=10)
+    fig.suptitle(f"{route.specification.describe()} - {res.model_label}", fontsize=10)
+    save_figure(fig, path, close=True)
+
+
+def _infeasible_line(res: RequireResult) -> str:
+    fails = [f"route {r.route}: {r.verdict.failing()}" for r in res.routes if not r.verdict.meets]
+    if res.infeasible_by == "failures":
+        return (f"no suite meets the specification after {res.failures} failure(s): every allowed sensor together, after "
+                "its worst failures, misses it (" + "; ".join(fails) + ")")
+    if not fails:
+        return ("no suite within the limits meets the specification (every allowed sensor together would: "
+                "the limits --budget/--limit/--max-sensors/slots rule it out)")
+    return "no suite meets the specification even with every allowed sensor: " + "; ".join(fails)
+
+
+COMMANDS = [require_cmd]

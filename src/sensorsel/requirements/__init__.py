@@ -1,0 +1,17 @@
+"""Requirements in metres: a localization specification (lateral, longitudinal, heading), whether a
+suite's accuracy meets it, and the cheapest suite that does, with a lower bound on any suite's cost.
+
+    spec      Specification, the presets (Reid et al. 2019), specification files, verdicts
+    solver    the cheapest suite meeting a monotone predicate: greedy upper bound, implicit hitting set
+    design    ``require``: the two put together on a route or a domain
+"""
+
+from __future__ import annotations
+
+from .design import RequireResult, RouteRequirement, require
+from .front import FrontAcceptance, FrontPoint, front_acceptance
+from .spec import (DEFAULT_MAP_SIGMA_M, PRESETS, RouteVerdict, Specification, SpecificationError,
+                   load_specification_file, preset, verdict)
+
+__all__ = ["FrontAcceptance", "FrontPoint", "front_acceptance", "DEFAULT_MAP_SIGMA_M", "PRESETS", "RequireResult", "RouteRequirement", "RouteVerdict", "Specification",
+           "SpecificationError", "load_specification_file", "preset", "require", "verdict"]
