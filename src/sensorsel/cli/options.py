@@ -109,7 +109,7 @@ PLOT_FORMATS = ("png", "svg", "pdf")
 def plot_format_option(fn: F) -> F:
     """--format png|svg|pdf (--plot-format is the same option): the plots' file format."""
     return click.option("--format", "--plot-format", "plot_format", type=click.Choice(PLOT_FORMATS), default=None,
-                        help="Plot file format [default: the extension of a file -o, else png].")(fn)
+                        help="Plot file format (default: the extension of a file -o, else png).")(fn)
 
 
 def plot_format(chosen: str | None, output_file: str | None = None) -> str:
@@ -496,7 +496,7 @@ def map_sigma_option(fn: F) -> F:
     """--map-sigma METRES: accuracy lines computed localizing in a prior map (default: the SLAM graph)."""
     return click.option("--map-sigma", "map_sigma", type=float, default=None, metavar="METRES",
                         help="Accuracy in metres computed localizing in a prior map whose landmarks are known to this "
-                             "std [m] [default: in the paper's SLAM graph, landmarks unknown].")(fn)
+                             "std [m] (default: in the paper's SLAM graph, landmarks unknown).")(fn)
 
 
 def check_map_sigma(value: float | None) -> float | None:

@@ -33,9 +33,9 @@ def specification_options(fn: Any) -> Any:
         click.option("--longitudinal", type=float, default=None, metavar="METRES",
                      help="Bound on the longitudinal position error [m]."),
         click.option("--heading", type=float, default=None, metavar="DEGREES", help="Bound on the heading error [deg]."),
-        click.option("--sigma", is_flag=True, help="The bounds are 1σ [default: 95 % bounds, 1.96σ]."),
+        click.option("--sigma", is_flag=True, help="The bounds are 1σ (default: 95 % bounds, 1.96σ)."),
         click.option("--at", type=float, default=None, metavar="PERCENT",
-                     help="Share of each route's keyframes that must meet every bound [default: 100, every keyframe]."),
+                     help="Share of each route's keyframes that must meet every bound (default: 100, every keyframe)."),
         click.option("--spec", "spec_path", type=click.Path(dir_okay=False, path_type=str), default=None, metavar="FILE",
                      help="A specification file: a default and per-route specifications (a domain whose routes have "
                           "different road classes); see the requirements guide."),
@@ -82,14 +82,14 @@ def specification_from(kw: dict[str, Any], routes: list[str]) -> list[Specificat
 @constraint_options
 @specification_options
 @click.option("--map-sigma", "map_sigma", type=float, default=None, metavar="METRES",
-              help=f"Accuracy in a prior map whose landmarks are known to this std [m] [default: {DEFAULT_MAP_SIGMA_M:g} m, "
-                   "an assumption: see the requirements guide].")
+              help=f"Accuracy in a prior map whose landmarks are known to this std [m] (default: {DEFAULT_MAP_SIGMA_M:g} m, "
+                   "an assumption: see the requirements guide).")
 @click.option("--slam", is_flag=True, help="Judge accuracy in the paper's SLAM graph (landmarks unknown) instead of a prior map.")
 @click.option("--failures", type=click.IntRange(min=0), default=0, show_default=True,
               help="The suite must still meet the specification after any this many of its sensors fail.")
-@budget_option(help="Most the suite may cost [$] [default: no budget: the cheapest suite is the question].")
+@budget_option(help="Most the suite may cost [$] (default: no budget: the cheapest suite is the question).")
 @click.option("--time-limit", "time_limit", type=click.FloatRange(min=0, min_open=True), default=None, metavar="SECONDS",
-              help="Stop the exact search after this long and report the gap [default: run until proved].")
+              help="Stop the exact search after this long and report the gap (default: run until proved).")
 @click.option("--plot", "plot_path", type=click.Path(dir_okay=False, path_type=str), default=None,
               help="Draw the errors along the route with the requirement, and the route coloured by its margin "
                    "(png, svg or pdf by the extension; a domain: its route with the least margin).")
