@@ -170,3 +170,59 @@ def test_pareto_marks_the_acceptable_front(tmp_path):
     best = acc.cheapest_meeting
     assert best is None or all(not p.meets for p in acc.points if p.cost_usd < best.cost_usd)
     assert (tmp_path / "pareto-accuracy.png").is_file() and "acceptable" in r.output
+
+
+class _Interrupt(KeyboardInterrupt):
+    pass
+
+
+def _stop_after(n: int):
+    def progress(done: int, total: int) -> None:
+        if done >= n:
+            raise _Interrupt()
+    return progress
+
+
+def test_interrupted_require_resumes_to_the_same_answer_without_recomputing(tiny_problem, tmp_path):
+    spec = Specification(lateral=0.06, heading=0.1)
+    c = _small(tiny_problem.library)
+    want = require(tiny_problem, spec, map_sigma_m=0.05, failures=1, constraints=c)
+    ck = tmp_path / "r.json.checkpoint"
+    with pytest.raises(_Interrupt):
+        require(tiny_problem, spec, map_sigma_m=0.05, failures=1, constraints=c, checkpoint=ck, progress=_stop_after(1))
+    journal = results.load(ck, "requirement-journal")
+    assert journal.answers  # what the interrupted run learnt was written
+    got = require(tiny_problem, spec, map_sigma_m=0.05, failures=1, constraints=c, checkpoint=ck, resume=True)
+    assert (got.status, got.suite, got.cost_usd, got.lower_bound_usd) == (want.status, want.suite, want.cost_usd, want.lower_bound_usd)
+    assert got.n_checks + got.n_refuted < want.n_checks + want.n_refuted  # the journal's answers were not recomputed
+
+
+@pytest.mark.parametrize("change", ["failures", "map", "spec", "budget", "limits", "route"])
+def test_resume_with_any_other_input_is_refused(tiny_problem, suburb_problem, tmp_path, change):
+    """Each input the answers depend on is in the journal's fingerprint: a resume after changing any
+    one of them is refused, naming it, never reuses the answers."""
+    from sensorsel.errors import ResultFileError
+
+    spec = Specification(lateral=0.06, heading=0.1)
+    c = _small(tiny_problem.library)
+    ck = tmp_path / "r.json.checkpoint"
+    base = dict(map_sigma_m=0.05, failures=0, constraints=c, budget_usd=None)
+    require(tiny_problem, spec, checkpoint=ck, **base)
+    other = dict(base)
+    target, spec2 = tiny_problem, spec
+    if change == "failures":
+        other["failures"] = 1
+    elif change == "map":
+        other["map_sigma_m"] = 0.1
+    elif change == "spec":
+        spec2 = Specification(lateral=0.07, heading=0.1)
+    elif change == "budget":
+        other["budget_usd"] = 50_000.0
+    elif change == "limits":
+        other["constraints"] = Constraints(exclude=c.exclude, max_sensors=3)
+    else:
+        target = suburb_problem
+    word = {"failures": "failures", "map": "model", "spec": "specification", "budget": "budget", "limits": "limits",
+            "route": "routes"}[change]
+    with pytest.raises(ResultFileError, match=word):
+        require(target, spec2, checkpoint=ck, resume=True, **other)

@@ -16,10 +16,12 @@ from ..problem import Domain
 from ..requirements.design import RequireResult, RouteRequirement, require
 from ..requirements.spec import (DEFAULT_MAP_SIGMA_M, PRESETS, Specification, load_specification_file, preset,
                                  specifications_for)
+from ..checkpoint import checkpoint_path
 from .simulate import read_suite
 from .options import plot_format, suite_text
 from .options import (budget_option, check_map_sigma, constraint_options, constraints_from, engine_options, json_option,
-                      output_option, print_target, progress_bar, quiet_option, run, target_from, target_options)
+                      output_option, print_target, progress_bar, quiet_option, resume_option, run, target_from,
+                      target_options)
 
 
 def specification_options(fn: Any) -> Any:
@@ -95,13 +97,15 @@ def specification_from(kw: dict[str, Any], routes: list[str]) -> list[Specificat
                    "(png, svg or pdf by the extension; a domain: its route with the least margin).")
 @click.option("--compare", default=None, callback=suite_text, metavar="SUITE",
               help="With --plot: a suite to draw beside the answer (ids, or a result file such as greedy's -o).")
-@output_option(help="Write the result as JSON (also when no suite meets the specification).")
+@output_option(help="Write the result as JSON (also when no suite meets the specification); the search's answers are "
+                    "journalled in FILE.checkpoint as they come (deleted once FILE is written).")
+@resume_option
 @json_option
 @quiet_option
 @run
 def require_cmd(map_sigma: float | None, slam: bool, failures: int, budget: float | None, time_limit: float | None,
-                plot_path: str | None, compare: str | None, output: str | None, as_json: bool, quiet: bool, aggregate: str,
-                engine: str | None, jobs: int, **kw: Any) -> None:
+                plot_path: str | None, compare: str | None, output: str | None, resume: bool, as_json: bool, quiet: bool,
+                aggregate: str, engine: str | None, jobs: int, **kw: Any) -> None:
     """The cheapest suite that meets an accuracy specification, on a route or every route of a
     domain (--domain), with a lower bound on the cost of ANY suite that meets it: the answer is
     proved optimal, or the gap is stated.
@@ -118,6 +122,8 @@ def require_cmd(map_sigma: float | None, slam: bool, failures: int, budget: floa
     if slam and map_sigma is not None:
         raise click.UsageError("--slam judges accuracy without a map: drop --map-sigma")
     map_sigma = check_map_sigma(DEFAULT_MAP_SIGMA_M if map_sigma is None else map_sigma)
+    if resume and not output:
+        raise click.UsageError("--resume goes on from the journal of -o FILE (FILE.checkpoint): give -o")
     if compare and not plot_path:
         raise click.UsageError("--compare draws a second suite on --plot: give --plot FILE")
     for path in (output, plot_path):
@@ -136,9 +142,11 @@ def require_cmd(map_sigma: float | None, slam: bool, failures: int, budget: floa
     bar, progress = progress_bar(quiet or as_json, "searching")
     with bar or nullcontext():
         res = require(target, specs, map_sigma_m=None if slam else map_sigma, failures=failures, budget_usd=budget,
-                      constraints=constraints, engine=engine, jobs=jobs, time_limit_s=time_limit, progress=progress)
+                      constraints=constraints, engine=engine, jobs=jobs, time_limit_s=time_limit, progress=progress,
+                      checkpoint=checkpoint_path(output) if output else None, resume=resume)
     if output:
         results.save(res, output)
+        checkpoint_path(output).unlink(missing_ok=True)  # the result is written: the run is no longer interrupted
     if plot_path:
         _plot(res, target, compared, plot_path, map_sigma_m=None if slam else map_sigma, engine=engine)
     if as_json:

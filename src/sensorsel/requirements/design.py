@@ -14,11 +14,15 @@ import itertools
 import math
 import time
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Callable, Sequence
 
-from ..results import result_kind
+from .. import results
+from ..codec import to_jsonable
 from ..constraints import Constraints, feasible_set
-from ..errors import InputError
+from ..errors import InputError, ResultFileError
+from ..pipeline import digest
+from ..results import result_kind
 from ..evaluators import as_suite, make_evaluator
 from ..evaluators.accuracy import RouteAccuracy, accuracy_from_covariances, model_label, route_accuracy
 from ..evaluators.base import ProblemEvaluator, Suite
@@ -26,7 +30,10 @@ from ..problem import Domain, Problem, Target, TargetInfo
 from .solver import cheapest_suite
 from .spec import RouteVerdict, Specification, verdict
 
-__all__ = ["RouteRequirement", "RequireResult", "require"]
+__all__ = ["RouteRequirement", "RequireResult", "RequireJournal", "require", "require_fingerprint"]
+
+#: seconds between two writes of a require run's journal (and once at the end)
+JOURNAL_EVERY_S = 2.0
 
 Progress = Callable[[int, int], None]
 
@@ -113,6 +120,52 @@ class RequireResult:
         return model_label(self.model, self.map_sigma_m)
 
 
+@result_kind("requirement-journal")
+@dataclass(frozen=True)
+class RequireJournal:
+    """What an interrupted ``require`` had learnt: each (route, suite) asked and its answer, with the
+    fingerprint of everything the answers depend on (the routes' problems, the specifications, the
+    localization model, the failures, the budget and the limits). A resumed run reads the answers
+    back and replays the same deterministic search without computing them again.
+
+    Attributes:
+        fingerprint: sha256 of the inputs (:func:`require_fingerprint`).
+        inputs: the same inputs, in words (what a refusal names).
+        answers: (route index, suite, meets, violation or None when only refuted by the floor).
+    """
+
+    fingerprint: str
+    inputs: tuple[tuple[str, str], ...]
+    answers: tuple[tuple[int, tuple[int, ...], bool, float | None], ...]
+
+
+def require_fingerprint(problems: Sequence[Problem], specs: Sequence[Specification], map_sigma_m: float | None,
+                        failures: int, budget_usd: float | None, constraints: Constraints | None) -> tuple[str, tuple[tuple[str, str], ...]]:
+    """(sha256, the inputs in words) of what a require run's answers depend on."""
+    inputs = (
+        ("routes", ", ".join(f"{p.scenario.name} {digest(to_jsonable(p.fingerprint))[:12]}" for p in problems)),
+        ("specification", "; ".join(s.describe() for s in specs)),
+        ("model", model_label("slam" if map_sigma_m is None else "map", map_sigma_m)),
+        ("failures", str(failures)),
+        ("budget", "none" if budget_usd is None else f"${budget_usd:,.2f}"),
+        ("limits", "none" if constraints is None else constraints.describe()),
+    )
+    return digest([list(x) for x in inputs] + [to_jsonable(list(specs)), map_sigma_m, budget_usd, to_jsonable(constraints)]), inputs
+
+
+def _read_journal(path: Path, fingerprint: str, inputs: tuple[tuple[str, str], ...]) -> RequireJournal | None:
+    """The journal at ``path`` (None when there is none); one of other inputs is refused, naming what differs."""
+    if not path.is_file():
+        return None
+    j = results.load(path, RequireJournal)
+    if j.fingerprint != fingerprint:
+        was = dict(j.inputs)
+        diff = [f"{k} {was.get(k, '?')} (this run: {v})" for k, v in inputs if was.get(k) != v] or ["the inputs differ"]
+        raise ResultFileError(path, "a checkpoint of another require run: " + "; ".join(diff)
+                              + ": delete it, or run without --resume to start again")
+    return j
+
+
 class _Oracle:
     """Whether a suite meets the requirement on every route, with the answers kept (each costs an
     accuracy computation per route asked); routes are asked in order and the first failing one
@@ -130,8 +183,22 @@ class _Oracle:
         self.evaluators, self.names, self.specs, self.map_sigma_m = list(evaluators), list(names), list(specs), map_sigma_m
         self._verdicts: dict[tuple[int, Suite], tuple[RouteAccuracy, RouteVerdict]] = {}
         self._refuted: set[tuple[int, Suite]] = set()
+        #: (route, suite) -> (meets, violation or None): answers read back from a journal
+        self.known: dict[tuple[int, Suite], tuple[bool, float | None]] = {}
         self.n_checks = 0  # marginals computed (route, suite)
         self.n_refuted = 0  # (route, suite) refuted by the floor alone
+        self.on_answer: Callable[[], None] | None = None  # called after each new answer (the journal's writer)
+
+    def answers(self) -> tuple[tuple[int, Suite, bool, float | None], ...]:
+        """Every answer so far, (route, suite, meets, violation or None), in a fixed order."""
+        out: dict[tuple[int, Suite], tuple[bool, float | None]] = dict(self.known)
+        out.update({k: (False, None) for k in self._refuted})
+        out.update({k: (v.meets, v.violation) for k, (_, v) in self._verdicts.items()})
+        return tuple((r, s, m, v) for (r, s), (m, v) in sorted(out.items()))
+
+    def _answered(self) -> None:
+        if self.on_answer is not None:
+            self.on_answer()
 
     def route(self, r: int, suite: Suite) -> tuple[RouteAccuracy, RouteVerdict]:
         key = (r, suite)
@@ -140,6 +207,7 @@ class _Oracle:
             acc = route_accuracy(self.evaluators[r], suite, map_sigma_m=self.map_sigma_m, route=self.names[r])
             got = self._verdicts[key] = (acc, verdict(acc, self.specs[r]))
             self.n_checks += 1
+            self._answered()
         return got
 
     def _route_meets(self, r: int, suite: Suite) -> bool:
@@ -148,11 +216,14 @@ class _Oracle:
             return self._verdicts[key][1].meets
         if key in self._refuted:
             return False
+        if key in self.known:
+            return self.known[key][0]
         floor = self.evaluators[r].pose_covariance_floor(suite, map_sigma_m=self.map_sigma_m)
         if floor is not None and not verdict(accuracy_from_covariances(floor, map_sigma_m=self.map_sigma_m),
                                              self.specs[r]).meets:
             self._refuted.add(key)
             self.n_refuted += 1
+            self._answered()
             return False
         return self.route(r, suite)[1].meets
 
@@ -160,9 +231,15 @@ class _Oracle:
         s = as_suite(suite)
         return all(self._route_meets(r, s) for r in range(len(self.evaluators)))
 
+    def _route_violation(self, r: int, suite: Suite) -> float:
+        known = self.known.get((r, suite))
+        if known is not None and known[1] is not None and (r, suite) not in self._verdicts:
+            return known[1]
+        return self.route(r, suite)[1].violation
+
     def violation(self, suite: Suite) -> float:
         s = as_suite(suite)
-        return max(self.route(r, s)[1].violation for r in range(len(self.evaluators)))
+        return max(self._route_violation(r, s) for r in range(len(self.evaluators)))
 
     def report(self, suite: Suite) -> tuple[RouteRequirement, ...]:
         s = as_suite(suite)
@@ -172,7 +249,7 @@ class _Oracle:
 def require(target: Target, specifications: Specification | Sequence[Specification], *, map_sigma_m: float | None,
             failures: int = 0, budget_usd: float | None = None, constraints: Constraints | None = None,
             engine: str | None = None, jobs: int = 1, time_limit_s: float | None = None,
-            progress: Progress | None = None) -> RequireResult:
+            progress: Progress | None = None, checkpoint: str | Path | None = None, resume: bool = False) -> RequireResult:
     """The cheapest suite meeting ``specifications`` on ``target`` (a route, or every route of a
     domain: one specification for all, or one per route in the domain's order).
 
@@ -183,6 +260,9 @@ def require(target: Target, specifications: Specification | Sequence[Specificati
         budget_usd: an upper limit on the price, or None.
         constraints: limits besides money (resources, slots, required / owned / excluded, most sensors).
         time_limit_s: stop the exact search after this long, with the gap (None: run to the proof).
+        checkpoint: a file where the answers are journalled as they come (every
+            :data:`JOURNAL_EVERY_S` and at the end: a :class:`RequireJournal`); with ``resume`` an
+            interrupted run's journal there is read back (refused when its inputs differ).
 
     Raises:
         InputError: bad failures, a specification count that does not match the routes, limits
@@ -202,8 +282,27 @@ def require(target: Target, specifications: Specification | Sequence[Specificati
     feas = feasible_set(library, math.inf if budget_usd is None else budget_usd, constraints)
     evaluators = [make_evaluator(p, engine, jobs=jobs) for _, p in problems]
     oracle = _Oracle(evaluators, [n for n, _ in problems], specs, map_sigma_m)
-    found = cheapest_suite(feas, oracle.meets, failures=failures, violation=oracle.violation,
-                           time_limit=time_limit_s, progress=progress)
+    if checkpoint is not None:
+        path = Path(checkpoint)
+        fp, inputs = require_fingerprint([p for _, p in problems], specs, map_sigma_m, failures, budget_usd, feas.record)
+        old = _read_journal(path, fp, inputs) if resume else None
+        if old is not None:
+            oracle.known = {(r, tuple(s_)): (m, v) for r, s_, m, v in old.answers}
+        last = [time.monotonic()]
+
+        def write(force: bool = False) -> None:
+            if force or time.monotonic() - last[0] >= JOURNAL_EVERY_S:
+                results.save(RequireJournal(fp, inputs, oracle.answers()), path)
+                last[0] = time.monotonic()
+
+        oracle.on_answer = write
+    try:
+        found = cheapest_suite(feas, oracle.meets, failures=failures, violation=oracle.violation,
+                               time_limit=time_limit_s, progress=progress)
+    finally:  # interrupted too (Ctrl-C): nothing learnt is lost
+        if checkpoint is not None:
+            oracle.on_answer = None
+            write(force=True)
     worst: tuple[int, ...] = ()
     worst_routes: tuple[RouteRequirement, ...] = ()
     if found.suite is None:
