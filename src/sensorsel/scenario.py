@@ -30,6 +30,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from ._resources import fixtures_dir
+from .conditions import Condition
 from .errors import InputError, ScenarioError
 from .library import is_number_text
 from .fileio import atomic_write_text
@@ -818,6 +819,9 @@ class ScenarioSpec:
     ``clearance_m``: drop landmarks closer than this to the route (None: count them, keep them).
     ``name``: the scenario's name (default: the sequence, the fixture, or the route file's name as
     :func:`route_name` gives it).
+    ``condition``: the operating condition (night, rain, fog, snow; :mod:`sensorsel.conditions`)
+    the route is driven in; None: clear. It does not change the scenario, only what each sensor
+    sees on it (:func:`sensorsel.problem.build_problem` applies it).
     """
 
     seq: str | None = None
@@ -833,6 +837,7 @@ class ScenarioSpec:
     route_format: str | None = None
     clearance_m: float | None = None
     name: str | None = None
+    condition: Condition | None = None
 
 
 def fixture_names() -> list[str]:

@@ -118,8 +118,7 @@ def score_cmd(suite: str, as_json: bool, aggregate: str, engine: str | None, job
     if as_json:
         click.echo(results.dumps(res), nl=False)
         return
-    p = res.problem
-    click.echo(f"scenario   {p.scenario}: {p.n_poses} keyframes, {p.n_landmarks} landmarks ({p.landmark_source})")
+    print_target(res.problem)
     click.echo(f"suite      {','.join(res.suite)}")
     click.echo(f"cost       ${res.cost_usd:,.0f}")
     click.echo(f"score      {res.score:.3f} nats  (log det {res.logdet:.3f}, sensorless {res.baseline_logdet:.3f})")
