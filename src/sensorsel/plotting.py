@@ -77,6 +77,8 @@ def plot_scene(
     library: SensorLibrary | None = None,
     suite: Iterable[int] = (),
     pose_index: int | None = None,
+    ranges_m: Sequence[float] | None = None,
+    condition: str | None = None,
 ) -> Axes:
     """The route and landmarks (the paper's Fig. 2); with a suite, its sensing cones at one keyframe.
 
@@ -85,6 +87,10 @@ def plot_scene(
         ax: axes to draw on; a new figure when None.
         library, suite: sensors (library positions) whose cones to draw.
         pose_index: keyframe at which to draw the cones (default: the middle one).
+        ranges_m: each library sensor's range under an operating condition [m], (n_sensors,)
+            (:func:`sensorsel.sensing.condition_effects`): the cones are drawn that far, the clear
+            cone's edge dashed behind a shrunk one. None: the models' own ranges.
+        condition: the condition's label, for the title.
     Returns:
         The axes drawn on.
     """
@@ -112,14 +118,22 @@ def plot_scene(
             colour = TYPE_COLOURS.get(s.model.type, "tab:gray")
             label = s.model.name if s.model.name not in drawn else None
             drawn.add(s.model.name)
-            ax.add_patch(Wedge((x, y), s.model.range_m, centre - half, centre + half, alpha=0.18, color=colour, label=label))
+            reach = float(ranges_m[i]) if ranges_m is not None else s.model.range_m
+            if reach < s.model.range_m:  # the clear cone's edge, to show how far it shrank
+                ax.add_patch(Wedge((x, y), s.model.range_m, centre - half, centre + half, fill=False, ls="--", lw=0.8,
+                                   color=colour, alpha=0.6))
+            ax.add_patch(Wedge((x, y), reach, centre - half, centre + half, alpha=0.18, color=colour, label=label))
         ax.plot(x, y, "s", color="tab:red", ms=7, label=f"car at keyframe {k}")
         if library.slots:  # the car's mounting slots, filled by this suite, in a corner
             plot_mounting(library, suite, ax=ax.inset_axes((0.0, 0.0, 0.38, 0.38)))
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
-    ax.set_title(f"Scenario {scenario.name}: landmarks {scenario.landmark_source}")
+    if condition:
+        ax.set_title(f"Scenario {scenario.name} in {condition} (dashed: the clear range)\nlandmarks {scenario.landmark_source}",
+                     fontsize="medium")
+    else:
+        ax.set_title(f"Scenario {scenario.name}: landmarks {scenario.landmark_source}")
     ax.legend(loc="best", fontsize=8)
     ax.grid(True, alpha=0.3)
     return ax
