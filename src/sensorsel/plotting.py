@@ -18,7 +18,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure, SubFigure
-from matplotlib.patches import Wedge
+from matplotlib.patches import Rectangle, Wedge
 
 from .errors import InputError
 from .fileio import atomic_write_bytes
@@ -557,6 +557,8 @@ def plot_domain_breakdown(design: "DomainDesign", ax: Axes | None = None, *, tit
         The axes drawn on.
     """
     routes = design.routes
+    if any(r.condition for r in design.domain.routes):
+        return _plot_condition_grid(design, ax, title=title)
     ax = ax if ax is not None else new_axes((7.0, 0.45 * len(routes) + 1.8))
     y = np.arange(len(routes))[::-1]
     domain_share = np.array([r.share_of_best for r in routes])
@@ -580,4 +582,37 @@ def plot_domain_breakdown(design: "DomainDesign", ax: Axes | None = None, *, tit
     # "\\$" is a literal dollar: a bare $ starts matplotlib's mathtext
     ax.set_title(title or f"One suite for {len(routes)} routes at \\${budget:,.0f}: \\${design.greedy.cost_usd:,.0f}, "
                           f"{len(design.greedy.suite)} sensors (weights in brackets)", fontsize="medium")
+    return ax
+
+
+def _plot_condition_grid(design: "DomainDesign", ax: Axes | None = None, *, title: str | None = None) -> Axes:
+    """A domain with operating conditions: routes (rows) x conditions (columns), each cell the
+    domain suite's share of that member's best f_r(S)/f_r(all sensors), with its share of the
+    member's own design below it; the worst member (lowest share of its own design) framed in red."""
+    info = {r.name: r for r in design.domain.routes}
+    routes = list(dict.fromkeys(info[r.name].route or r.name for r in design.routes))
+    conditions = list(dict.fromkeys(info[r.name].condition for r in design.routes))
+    grid = np.full((len(routes), len(conditions)), np.nan)
+    own = np.full_like(grid, np.nan)
+    for r in design.routes:
+        i, j = routes.index(info[r.name].route or r.name), conditions.index(info[r.name].condition)
+        grid[i, j], own[i, j] = r.share_of_best, r.share_of_own
+    ax = ax if ax is not None else new_axes((1.6 * len(conditions) + 3.0, 0.5 * len(routes) + 2.0))
+    im = ax.imshow(grid, cmap="viridis", aspect="auto", vmin=float(np.nanmin(grid)), vmax=1.0)
+    for i in range(len(routes)):
+        for j in range(len(conditions)):
+            if np.isfinite(grid[i, j]):
+                ax.text(j, i, f"{grid[i, j]:.3f}\n({own[i, j]:.1%} of own)", ha="center", va="center", fontsize=7,
+                        color="white" if grid[i, j] < 0.5 * (np.nanmin(grid) + 1.0) else "black")
+    worst = info.get(design.worst_route)
+    if worst is not None:
+        i, j = routes.index(worst.route or worst.name), conditions.index(worst.condition)
+        ax.add_patch(Rectangle((j - 0.5, i - 0.5), 1, 1, fill=False, edgecolor="tab:red", lw=2))
+    weights = {c: sum(r.weight for r in design.routes if info[r.name].condition == c) for c in conditions}
+    ax.set_xticks(range(len(conditions)), [f"{c}\n({weights[c]:.1%})" for c in conditions])
+    ax.set_yticks(range(len(routes)), routes)
+    ax.figure.colorbar(im, ax=ax, label="share of the member's best")
+    budget = design.greedy.budget_usd
+    ax.set_title(title or f"One suite for {len(routes)} routes x {len(conditions)} conditions at \\${budget:,.0f}: "
+                          f"\\${design.greedy.cost_usd:,.0f} (red: worst member)", fontsize="medium")
     return ax
