@@ -4,6 +4,7 @@ bit for bit, scores monotone in severity, conditions in a domain, bad input."""
 from __future__ import annotations
 
 import math
+import re
 import subprocess
 import sys
 from dataclasses import replace
@@ -273,3 +274,21 @@ def test_bad_physics_in_the_library_names_the_key(tmp_path):
     lib.write_text(f"extends: {REPO / 'configs' / 'sensor_library.yaml'}\nconditions:\n  night_camera_range_m: -3\n")
     r = _cli("score", "--fixture", "tiny", "--suite", "LRL-roof", "--library", lib, "--condition", "night")
     assert r.returncode == 2 and "conditions.night_camera_range_m" in r.stderr, r.stderr
+
+
+def test_condition_members_on_dask_workers_equal_in_process(tmp_path):
+    # the workers rebuild each member from its recipe (the spec carries the condition): same bytes
+    pytest.importorskip("distributed")
+    from sensorsel.distributed import DaskCluster, DistributedDomainEvaluator
+    from sensorsel.domain_design import design_domain
+
+    p = tmp_path / "d.yaml"
+    p.write_text(CITY + "\nroutes:\n  - {name: tiny, fixture: tiny, weight: 1}\n")
+    d = load_domain(p)
+    local = design_domain(d, 8_000)
+    with DaskCluster(workers=2, echo=lambda line: None) as cluster:
+        ev = DistributedDomainEvaluator(cluster.client, d)
+        remote = design_domain(d, 8_000, evaluator=ev)
+        assert np.array_equal(ev.best, DomainEvaluator(d).best)
+    untimed = lambda r: re.sub(r'"seconds": [0-9.e-]+', "", results.dumps(r))  # noqa: E731
+    assert untimed(remote) == untimed(local)
