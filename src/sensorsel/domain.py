@@ -23,6 +23,20 @@ An operating-domain file is YAML (read safely, a key repeated in one mapping ref
       - name: suburb
         fixture: suburb              # or a bundled fixture
 
+Operating conditions (optional; :mod:`sensorsel.conditions`): the shares of driving time spent
+in each, for every route, optionally overridden per route; the rest of the driving is clear::
+
+    conditions:
+      - {name: night, night: true, share: 0.25}
+      - {name: rain, rain_mm_h: 5, share: 0.08}
+      - {name: fog, fog_visibility_m: 200, share: 0.005}
+    routes:
+      - {name: city, seq: "00", conditions: {night: 0.3}}   # this route: 30 % at night
+
+The domain's members are then (route, condition) pairs, named ``route/condition`` ("city/night",
+"city/clear"), each weighing the route's weight times the condition's share; a share of 0 leaves
+the member out. Without ``conditions`` the members are the routes themselves.
+
 Relative paths are relative to the domain file's folder. A route's weight is its share of the
 driving the suite is chosen for; omitted, it is the route's own duration in hours (its length in km
 when ``weight_unit: km``). Every weight of a domain is in its ``weight_unit``: a weight given in the
@@ -41,7 +55,8 @@ from typing import Any, NoReturn
 
 import yaml
 
-from .errors import SensorselError
+from .conditions import CLEAR, CONDITION_KEYS, Condition
+from .errors import InputError, SensorselError
 from .library import _StrictLoader, is_number_text
 from .scenario import (
     KITTI_ROOT_ENV,
@@ -56,8 +71,11 @@ from .scenario import (
 )
 
 WEIGHT_UNITS = ("hours", "km")
-_TOP_KEYS = ("routes", "kitti_root", "keyframe_rate_hz", "library", "clearance_m", "weight_unit")
-_ROUTE_KEYS = ("name", "seq", "kitti_root", "route", "format", "times", "fixture", "landmarks", "weight")
+_TOP_KEYS = ("routes", "kitti_root", "keyframe_rate_hz", "library", "clearance_m", "weight_unit", "conditions")
+_ROUTE_KEYS = ("name", "seq", "kitti_root", "route", "format", "times", "fixture", "landmarks", "weight", "conditions")
+_CONDITION_KEYS = ("name", "share") + CONDITION_KEYS
+#: shares of a route's conditions may add up to 1 plus this (round-off of decimal shares)
+_SHARE_SLACK = 1e-9
 
 
 class DomainError(SensorselError):
@@ -81,12 +99,16 @@ class DomainRoute:
         weight: its share of the driving in the domain's unit; None: the route's own duration
             (hours) or length (km), known once the route is read (:func:`load_domain_scenarios`).
         line: the line of the route's entry in the file.
+        conditions: (condition, share of the route's driving) of each member of the route, clear
+            first (the rest of the driving, when above 0), then the file's conditions in file order
+            (those of share 0 left out); empty when the file has no ``conditions``.
     """
 
     name: str
     spec: ScenarioSpec
     weight: float | None
     line: int
+    conditions: tuple[tuple[Condition, float], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -99,6 +121,8 @@ class DomainSpec:
         weight_unit: "hours" or "km".
         library: the sensor library file (None: the default Table I).
         keyframe_rate_hz, clearance_m, kitti_root: the shared settings (already in each route's spec).
+        conditions: the file's named conditions with their shares (before any route's own), in
+            file order; empty without a ``conditions`` section.
     """
 
     source: str
@@ -108,6 +132,7 @@ class DomainSpec:
     keyframe_rate_hz: float = 1.0
     clearance_m: float | None = None
     kitti_root: str | None = None
+    conditions: tuple[tuple[Condition, float], ...] = ()
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -124,6 +149,7 @@ class DomainScenario:
         scenario: the loaded scenario (its notes say what was assumed, merged or dropped).
         weight: its share of the driving, in ``unit``.
         unit: "hours" or "km".
+        conditions: (condition, share) of each of its members (:attr:`DomainRoute.conditions`).
     """
 
     name: str
@@ -131,6 +157,7 @@ class DomainScenario:
     scenario: Scenario
     weight: float
     unit: str
+    conditions: tuple[tuple[Condition, float], ...] = ()
 
 
 # --------------------------------------------------------------------------------- YAML with lines
@@ -262,17 +289,99 @@ def parse_domain(data: Any, path: str | Path = "<memory>") -> DomainSpec:
     if not isinstance(routes_raw, _Seq) or not routes_raw:
         c.fail("routes", f"expected a non-empty list of routes, got {routes_raw!r}", line("routes"))
     shared = ScenarioSpec(keyframe_rate_hz=rate, clearance_m=clearance)
+    conditions = _parse_conditions(c, data["conditions"], line("conditions")) if "conditions" in data else ()
     routes: list[DomainRoute] = []
     seen: dict[str, int] = {}
     for i, raw in enumerate(routes_raw):
         key, rline = f"routes[{i}]", routes_raw.lines[i]
         r = _parse_route(c, raw, key, rline, shared, root, unit)
+        if isinstance(raw, _Map) and "conditions" in raw and not conditions:
+            c.fail(f"{key}.conditions", "a route's shares of conditions need the conditions the file lists "
+                   "(a top-level conditions: section)", raw.lines["conditions"])
+        if conditions:
+            own = raw.get("conditions") if isinstance(raw, _Map) else None
+            r = replace(r, conditions=_route_members(c, conditions, own, f"{key}.conditions",
+                                                     raw.lines.get("conditions", rline) if own is not None else line("conditions")))
         if r.name in seen:
             j = seen[r.name]
             c.fail(f"{key}.name", f"duplicate name {r.name!r} (also routes[{j}], line {routes[j].line})", raw.lines["name"])
         seen[r.name] = i
         routes.append(r)
-    return DomainSpec(str(path), tuple(routes), unit, library, rate, clearance, root)
+    return DomainSpec(str(path), tuple(routes), unit, library, rate, clearance, root, conditions)
+
+
+def _parse_conditions(c: _Checker, raw: Any, line: int | None) -> tuple[tuple[Condition, float], ...]:
+    """The top-level ``conditions`` list: named conditions and their shares of driving time."""
+    if not isinstance(raw, _Seq) or not raw:
+        c.fail("conditions", f"expected a list of conditions ({{name: night, night: true, share: 0.25}}), got {raw!r}", line)
+    out: list[tuple[Condition, float]] = []
+    names: dict[str, int] = {}
+    for i, item in enumerate(raw):
+        key, iline = f"conditions[{i}]", raw.lines[i]
+        if not isinstance(item, _Map):
+            c.fail(key, f"expected a mapping (name, share, and night, rain_mm_h, fog_visibility_m or snow_mm_h), got {item!r}", iline)
+        c.keys(item, key, _CONDITION_KEYS)
+        at = lambda k: item.lines.get(k, item.line)  # noqa: E731
+        for k in ("name", "share"):
+            if k not in item:
+                c.fail(f"{key}.{k}", "missing: every condition needs a name and its share of the driving", item.line)
+        name = c.string(item["name"], f"{key}.name", at("name"), "a name (text)")
+        if name == CLEAR or "/" in name or any(ch in name for ch in "\r\n\t,"):
+            why = ("clear is the rest of the driving, not listed" if name == CLEAR
+                   else "a name without '/', ',' or line breaks")
+            c.fail(f"{key}.name", f"{why}; got {name!r}", at("name"))
+        if name in names:
+            c.fail(f"{key}.name", f"duplicate condition name {name!r} (also conditions[{names[name]}])", at("name"))
+        names[name] = i
+        share = c.number(item["share"], f"{key}.share", at("share"), strict=False)
+        if share > 1:
+            c.fail(f"{key}.share", f"a share of the driving is at most 1, got {item['share']!r}", at("share"))
+        values: dict[str, Any] = {}
+        if "night" in item:
+            if not isinstance(item["night"], bool):
+                c.fail(f"{key}.night", f"expected true or false, got {item['night']!r}", at("night"))
+            values["night"] = item["night"]
+        for k in ("rain_mm_h", "snow_mm_h"):
+            if k in item:
+                values[k] = c.number(item[k], f"{key}.{k}", at(k), strict=False)
+        if "fog_visibility_m" in item:
+            values["fog_visibility_m"] = c.number(item["fog_visibility_m"], f"{key}.fog_visibility_m", at("fog_visibility_m"))
+        try:
+            cond = Condition(name=name, **values)
+        except InputError as exc:
+            c.fail(key, str(exc), item.line)
+        out.append((cond, share))
+    total = sum(share for _, share in out)
+    if total > 1 + _SHARE_SLACK:
+        c.fail("conditions", f"the shares add up to {total:g}, more than 1 (the whole of the driving)", line)
+    return tuple(out)
+
+
+def _route_members(c: _Checker, conditions: tuple[tuple[Condition, float], ...], own: Any, key: str,
+                   line: int | None) -> tuple[tuple[Condition, float], ...]:
+    """A route's members: clear (the rest) first, then each condition with the route's own share
+    (``own``: its ``conditions`` mapping of name -> share) or the file's; shares of 0 left out."""
+    shares = {cond.name: share for cond, share in conditions}
+    if own is not None:
+        if not isinstance(own, _Map):
+            c.fail(key, f"expected a mapping of condition name to this route's share ({{night: 0.3}}), got {own!r}", line)
+        for name, value in own.items():
+            if name not in shares:
+                c.fail(f"{key}.{name}", f"unknown condition {name!r}; the file's conditions: {', '.join(shares)}",
+                       own.lines.get(name, own.line))
+            v = c.number(value, f"{key}.{name}", own.lines.get(name, own.line), strict=False)
+            if v > 1:
+                c.fail(f"{key}.{name}", f"a share of the driving is at most 1, got {value!r}", own.lines.get(name, own.line))
+            shares[name] = v
+    total = sum(shares.values())
+    if total > 1 + _SHARE_SLACK:
+        c.fail(key, f"the shares of this route's conditions add up to {total:g}, more than 1 (the whole of the driving)", line)
+    members = []
+    rest = 1.0 - total
+    if rest > _SHARE_SLACK:
+        members.append((Condition(name=CLEAR), rest))
+    members += [(cond, shares[cond.name]) for cond, _ in conditions if shares[cond.name] > 0]
+    return tuple(members)
 
 
 def _parse_route(c: _Checker, raw: Any, key: str, rline: int, shared: ScenarioSpec, root: str | None, unit: str) -> DomainRoute:
@@ -397,7 +506,7 @@ def load_domain_scenarios(domain: DomainSpec) -> tuple[DomainScenario, ...]:
         if weight is None:
             route = sc.route or sc.keyframes
             weight = route.length_m / 1000.0 if domain.weight_unit == "km" else route.duration_s / 3600.0
-        out.append(DomainScenario(r.name, r.spec, sc, float(weight), domain.weight_unit))
+        out.append(DomainScenario(r.name, r.spec, sc, float(weight), domain.weight_unit, r.conditions))
     return tuple(out)
 
 

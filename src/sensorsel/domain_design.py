@@ -113,6 +113,44 @@ def worst_route(shares: Sequence[RouteShare]) -> str:
     return shares[int(np.argmin([s.share_of_own for s in shares]))].name
 
 
+@dataclass(frozen=True)
+class ConditionShare:
+    """How the domain suite does in one operating condition, over the routes driven in it.
+
+    Attributes:
+        name: the condition ("clear", "night", ...).
+        weight: its share of the domain's weight (the sum of its members' w̄_r).
+        share_of_best: its members' shares of their best f_r(S)/f_r(L), averaged with their weights.
+        share_of_own: its members' shares of their own designs, averaged likewise.
+        worst_member: the member of this condition with the lowest share of its own design.
+    """
+
+    name: str
+    weight: float
+    share_of_best: float
+    share_of_own: float
+    worst_member: str
+
+
+def by_condition(design: DomainDesign) -> tuple[ConditionShare, ...]:
+    """The breakdown of a domain with conditions, condition by condition (in first-seen order);
+    empty when the domain has none."""
+    members = {r.name: r for r in design.domain.routes}
+    groups: dict[str, list[RouteShare]] = {}
+    for share in design.routes:
+        info = members.get(share.name)
+        if info is not None and info.condition:
+            groups.setdefault(info.condition, []).append(share)
+    out = []
+    for name, shares in groups.items():
+        w = np.array([s.weight for s in shares])
+        total = float(w.sum())
+        avg = (lambda v: float(np.dot(w, v) / total)) if total > 0 else (lambda v: float(np.mean(v)))
+        out.append(ConditionShare(name, total, avg([s.share_of_best for s in shares]), avg([s.share_of_own for s in shares]),
+                                  worst_route(shares)))
+    return tuple(out)
+
+
 def design_domain(domain: Domain, budget_usd: float, rule: str = "uniform", *, engine: str | None = None, jobs: int = 1,
                   aggregate: str = "normalised", lazy: bool = True, certify: bool = False, progress: Progress | None = None,
                   certify_progress: Progress | None = None, breakdown_progress: Progress | None = None,

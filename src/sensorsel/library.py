@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterable, Sequence
 
@@ -16,6 +16,7 @@ import numpy as np
 import yaml
 
 from ._resources import default_library_path
+from .conditions import ConditionPhysics, parse_physics
 from .errors import InputError, LibraryError
 
 SENSOR_TYPES = ("lidar", "radar", "stereo")
@@ -160,11 +161,14 @@ class SensorLibrary:
         sensors: the placed sensors; a sensor's position in this tuple is its handle everywhere.
         source: the file it was read from.
         slots: the car's mounting capacities (:class:`Slot`), empty when the file declares none.
+        physics: the numbers of the weather and night models (the file's ``conditions:`` section,
+            :mod:`sensorsel.conditions`); the defaults when the file has none.
     """
 
     sensors: tuple[PlacedSensor, ...]
     source: str = "<memory>"
     slots: tuple[Slot, ...] = ()
+    physics: ConditionPhysics = field(default_factory=ConditionPhysics)
 
     def __repr__(self) -> str:
         return f"SensorLibrary({len(self.sensors)} sensors from {self.source!r})"
@@ -256,7 +260,7 @@ class SensorLibrary:
         slots = tuple(Slot(sl.place, sl.kind, sl.capacity, tuple(sorted(new[m] for m in sl.members if m in new)))
                       for sl in self.slots)
         return SensorLibrary(tuple(self.sensors[i] for i in positions), self.source,
-                             tuple(sl for sl in slots if sl.members))
+                             tuple(sl for sl in slots if sl.members), self.physics)
 
 
 def resource_unit(name: str) -> str:
@@ -393,7 +397,7 @@ def _parse_slots(raw: Any, path: Path, sensors: list[PlacedSensor], clocks: list
 
 
 #: Top-level keys of a library file.
-_TOP_KEYS = ("extends", "clock_positions", "models", "slots")
+_TOP_KEYS = ("extends", "clock_positions", "models", "slots", "conditions")
 #: Longest chain of ``extends`` followed (a longer one is a loop or a mistake).
 _MAX_EXTENDS = 8
 
@@ -456,7 +460,8 @@ def parse_library(data: Any, path: str | Path = "<memory>") -> SensorLibrary:
                 )
             first[v] = s
     slots = _parse_slots(data["slots"], path, sensors, clocks) if "slots" in data else ()
-    return SensorLibrary(tuple(sensors), str(path), slots)
+    physics = parse_physics(data["conditions"], path) if "conditions" in data else ConditionPhysics()
+    return SensorLibrary(tuple(sensors), str(path), slots, physics)
 
 
 class _StrictLoader(getattr(yaml, "CSafeLoader", yaml.SafeLoader)):  # type: ignore[misc]

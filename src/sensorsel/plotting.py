@@ -19,7 +19,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure, SubFigure
-from matplotlib.patches import Wedge
+from matplotlib.patches import Rectangle, Wedge
 
 from .errors import InputError
 from .fileio import atomic_write_bytes
@@ -101,8 +101,10 @@ def _short_source(source: str) -> str:
 
 
 def _draw_cones(ax: Axes, library: SensorLibrary, suite: Sequence[int], pose: np.ndarray,
-                colours: dict[str, str]) -> None:
-    """The suite's sensing cones at one pose (x [m], y [m], heading [rad]), one legend entry per model."""
+                colours: dict[str, str], ranges_m: Sequence[float] | None = None) -> None:
+    """The suite's sensing cones at one pose (x [m], y [m], heading [rad]), one legend entry per model;
+    with ``ranges_m`` (each library sensor's range under a condition) drawn that far, the clear
+    cone's edge dashed behind a shrunk one."""
     x, y, th = pose
     count: dict[str, int] = {}
     for i in suite:
@@ -117,11 +119,15 @@ def _draw_cones(ax: Axes, library: SensorLibrary, suite: Sequence[int], pose: np
         if m.code not in drawn:
             label = f"{m.name} ({m.code}, {m.range_m:.0f} m, {np.degrees(m.fov_rad):.0f}°) × {count[m.code]}"
             drawn.add(m.code)
+        reach = float(ranges_m[i]) if ranges_m is not None else m.range_m
+        if reach < m.range_m:  # the clear cone's edge, to show how far it shrank
+            ax.add_patch(Wedge((x, y), m.range_m, centre - half, centre + half, fill=False, ls=":", lw=0.8,
+                               edgecolor=colours[m.code], alpha=0.7))
         if m.fov_rad >= 2 * np.pi - 1e-9:  # all around: an outline, so that the cones inside it stay readable
-            ax.add_patch(Wedge((x, y), m.range_m, 0.0, 360.0, fill=False, edgecolor=colours[m.code], lw=1.6, ls="--",
+            ax.add_patch(Wedge((x, y), reach, 0.0, 360.0, fill=False, edgecolor=colours[m.code], lw=1.6, ls="--",
                                label=label))
         else:
-            ax.add_patch(Wedge((x, y), m.range_m, centre - half, centre + half, alpha=0.35, facecolor=colours[m.code],
+            ax.add_patch(Wedge((x, y), reach, centre - half, centre + half, alpha=0.35, facecolor=colours[m.code],
                                edgecolor=colours[m.code], lw=0.8, label=label))
 
 
@@ -132,6 +138,8 @@ def plot_scene(
     library: SensorLibrary | None = None,
     suite: Iterable[int] = (),
     pose_index: int | None = None,
+    ranges_m: Sequence[float] | None = None,
+    condition: str | None = None,
 ) -> Axes:
     """The route and landmarks (the paper's Fig. 2); with a suite, its sensing cones at one keyframe.
 
@@ -146,6 +154,10 @@ def plot_scene(
         library: the sensor library of ``suite`` (needed with a suite).
         suite: library positions of the sensors whose cones to draw.
         pose_index: keyframe at which to draw the cones (default: the middle one).
+        ranges_m: each library sensor's range under an operating condition [m], (n_sensors,)
+            (:func:`sensorsel.sensing.condition_effects`): the cones are drawn that far, the clear
+            cone's edge dashed behind a shrunk one. None: the models' own ranges.
+        condition: the condition's label, for the title.
     Returns:
         The axes of the whole route.
     """
@@ -184,13 +196,13 @@ def plot_scene(
     if suite:
         assert library is not None
         colours = model_colours(library)
-        _draw_cones(ax, library, suite, kf[k], colours)
+        _draw_cones(ax, library, suite, kf[k], colours, ranges_m)
         ax.plot(kf[k, 0], kf[k, 1], "s", color="tab:red", ms=7, label=f"car at keyframe {k}")
         if library.slots:  # the car's mounting slots, filled by this suite, in a corner
             plot_mounting(library, suite, ax=ax.inset_axes((0.0, 0.0, 0.38, 0.38)))
         if zoom is not None:
             draw_map(zoom, False)
-            _draw_cones(zoom, library, suite, kf[k], colours)
+            _draw_cones(zoom, library, suite, kf[k], colours, ranges_m)
             zoom.plot(kf[k, 0], kf[k, 1], "s", color="tab:red", ms=9)
             x, y = kf[k, 0], kf[k, 1]
             zoom.set_xlim(x - zoom_half_m, x + zoom_half_m)
@@ -210,7 +222,8 @@ def plot_scene(
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
-    ax.set_title(textwrap.fill(f"{scenario.name}: landmarks {_short_source(scenario.landmark_source)}", 60), fontsize=10)
+    where = f" in {condition} (dotted: the clear range)" if condition else ""
+    ax.set_title(textwrap.fill(f"{scenario.name}{where}: landmarks {_short_source(scenario.landmark_source)}", 60), fontsize=10)
     if zoom is not None and zoom.get_subplotspec() is not None:
         # the cones are listed beside their zoom; the route's own legend lists the map
         handles, labels = ax.get_legend_handles_labels()
@@ -695,6 +708,8 @@ def plot_domain_breakdown(design: "DomainDesign", ax: Axes | None = None, *, tit
         The axes drawn on.
     """
     routes = design.routes
+    if any(r.condition for r in design.domain.routes):
+        return _plot_condition_grid(design, ax, title=title)
     ax = ax if ax is not None else new_axes((7.0, 0.45 * len(routes) + 2.6))
     y = np.arange(len(routes))[::-1]
     domain_share = np.array([r.share_of_best for r in routes])
@@ -830,4 +845,37 @@ def plot_route_margin(accuracy: "RouteAccuracy", scenario: Scenario, specificati
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.legend(fontsize=8, loc="best")
+    return ax
+
+
+def _plot_condition_grid(design: "DomainDesign", ax: Axes | None = None, *, title: str | None = None) -> Axes:
+    """A domain with operating conditions: routes (rows) x conditions (columns), each cell the
+    domain suite's share of that member's best f_r(S)/f_r(all sensors), with its share of the
+    member's own design below it; the worst member (lowest share of its own design) framed in red."""
+    info = {r.name: r for r in design.domain.routes}
+    routes = list(dict.fromkeys(info[r.name].route or r.name for r in design.routes))
+    conditions = list(dict.fromkeys(info[r.name].condition for r in design.routes))
+    grid = np.full((len(routes), len(conditions)), np.nan)
+    own = np.full_like(grid, np.nan)
+    for r in design.routes:
+        i, j = routes.index(info[r.name].route or r.name), conditions.index(info[r.name].condition)
+        grid[i, j], own[i, j] = r.share_of_best, r.share_of_own
+    ax = ax if ax is not None else new_axes((1.6 * len(conditions) + 3.0, 0.5 * len(routes) + 2.0))
+    im = ax.imshow(grid, cmap="viridis", aspect="auto", vmin=float(np.nanmin(grid)), vmax=1.0)
+    for i in range(len(routes)):
+        for j in range(len(conditions)):
+            if np.isfinite(grid[i, j]):
+                ax.text(j, i, f"{grid[i, j]:.3f}\n({own[i, j]:.1%} of own)", ha="center", va="center", fontsize=7,
+                        color="white" if grid[i, j] < 0.5 * (np.nanmin(grid) + 1.0) else "black")
+    worst = info.get(design.worst_route)
+    if worst is not None:
+        i, j = routes.index(worst.route or worst.name), conditions.index(worst.condition)
+        ax.add_patch(Rectangle((j - 0.5, i - 0.5), 1, 1, fill=False, edgecolor="tab:red", lw=2))
+    weights = {c: sum(r.weight for r in design.routes if info[r.name].condition == c) for c in conditions}
+    ax.set_xticks(range(len(conditions)), [f"{c}\n({weights[c]:.1%})" for c in conditions])
+    ax.set_yticks(range(len(routes)), routes)
+    ax.figure.colorbar(im, ax=ax, label="share of the member's best")
+    budget = design.greedy.budget_usd
+    ax.set_title(title or f"One suite for {len(routes)} routes x {len(conditions)} conditions at \\${budget:,.0f}: "
+                          f"\\${design.greedy.cost_usd:,.0f} (red: worst member)", fontsize="medium")
     return ax

@@ -9,18 +9,19 @@ import hashlib
 import json
 import math
 import warnings
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
 from typing import Iterable
 
 import numpy as np
 
+from .conditions import CLEAR, Condition, condition_digest
 from .errors import InputError, ResultFileError, SensorselWarning
 from .domain import load_domain_file, load_domain_scenarios
 from .library import SensorLibrary, load_library
 from .scenario import Scenario, ScenarioSpec, distance_to_route, load_scenario
-from .sensing import BYTES_PER_MEASUREMENT, SensorObservations, estimate_measurements, observe
+from .sensing import BYTES_PER_MEASUREMENT, SensorObservations, apply_condition, estimate_measurements, observe
 
 # Limits and checks (docs/scenarios.md, "Limits and checks"):
 MAX_MEASUREMENT_BYTES = 2 * 2**30  # most memory the measurements of a problem may take (estimated before observing)
@@ -68,12 +69,15 @@ class Fingerprint:
         route: the keyframes' poses and timestamps (so the route and the keyframe rate).
         landmarks: the landmarks' coordinates, in order.
         settings: the graph settings (odometry, first-pose and landmark prior noise).
+        condition: the operating condition's parameters and the physics applied to them
+            (:func:`sensorsel.conditions.condition_digest`); None for clear (or no condition).
     """
 
     library: str
     route: str
     landmarks: str
     settings: str
+    condition: str | None = None
 
     #: (field, what a difference means), in the order differences are reported.
     PARTS = (
@@ -81,10 +85,12 @@ class Fingerprint:
         ("route", "another route or keyframe rate"),
         ("landmarks", "another landmark map"),
         ("settings", "other graph settings"),
+        ("condition", "another operating condition (night, rain, fog, snow) or other condition physics"),
     )
 
     @classmethod
-    def of(cls, library: SensorLibrary, scenario: Scenario, settings: GraphSettings) -> "Fingerprint":
+    def of(cls, library: SensorLibrary, scenario: Scenario, settings: GraphSettings,
+           condition: Condition | None = None) -> "Fingerprint":
         sensors = []
         for s in library.sensors:
             # resources (power, mass, data rate) do not change a score: a constrained result records
@@ -97,6 +103,7 @@ class Fingerprint:
             route=_array_digest(kf.poses, kf.times),
             landmarks=_array_digest(scenario.landmarks),
             settings=_json_digest(asdict(settings)),
+            condition=condition_digest(condition, library.physics),
         )
 
     def differences(self, other: "Fingerprint", ignore: tuple[str, ...] = ()) -> list[str]:
@@ -134,6 +141,7 @@ class ProblemInfo:
         settings: the graph's noise settings.
         fingerprint: digests of the library, route, landmarks and settings by content
             (:class:`Fingerprint`); None in files written before fingerprints existed.
+        condition: the operating condition's label (:attr:`Condition.label`); None for clear.
     """
 
     scenario: str
@@ -147,6 +155,7 @@ class ProblemInfo:
     spec: ScenarioSpec | None = None
     settings: GraphSettings = field(default_factory=GraphSettings)
     fingerprint: Fingerprint | None = None
+    condition: str | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -160,6 +169,8 @@ class Problem:
         observations: what each sensor sees, one entry per library sensor.
         spec: what the scenario was loaded from (set by :func:`load_problem`; None when the
             problem was built from objects). Results record it through :attr:`info`.
+        condition: the operating condition the observations are under (:func:`with_condition`);
+            None for clear (a neutral condition is stored as None).
     """
 
     library: SensorLibrary
@@ -167,10 +178,12 @@ class Problem:
     settings: GraphSettings = field(default_factory=GraphSettings)
     observations: tuple[SensorObservations, ...] = ()
     spec: ScenarioSpec | None = None
+    condition: Condition | None = None
 
     def __repr__(self) -> str:
         sc = self.scenario
-        return (f"Problem({sc.name!r}: {sc.n_poses} keyframes, {sc.n_landmarks} landmarks, "
+        when = f", {self.condition.label}" if self.condition is not None else ""
+        return (f"Problem({sc.name!r}{when}: {sc.n_poses} keyframes, {sc.n_landmarks} landmarks, "
                 f"{self.n_sensors} sensors, {sum(len(o) for o in self.observations)} measurements)")
 
     @property
@@ -194,12 +207,13 @@ class Problem:
             spec=self.spec,
             settings=self.settings,
             fingerprint=self.fingerprint,
+            condition=self.condition.label if self.condition is not None else None,
         )
 
     @cached_property
     def fingerprint(self) -> Fingerprint:
         """What this problem is, by content (computed once)."""
-        return Fingerprint.of(self.library, self.scenario, self.settings)
+        return Fingerprint.of(self.library, self.scenario, self.settings, self.condition)
 
     @cached_property
     def landmarks_in_reach(self) -> np.ndarray:
@@ -287,10 +301,12 @@ def _refuse(path: str | Path, msg: str, hint: str, force: bool) -> None:
 
 
 def build_problem(library: SensorLibrary, scenario: Scenario, settings: GraphSettings | None = None, *,
-                  spec: ScenarioSpec | None = None) -> Problem:
+                  spec: ScenarioSpec | None = None, condition: Condition | None = None) -> Problem:
     """Compute what every sensor of ``library`` sees along ``scenario`` and bundle it.
 
     ``spec``: what the scenario was loaded from, recorded as the problem's provenance.
+    ``condition``: the operating condition (default: ``spec.condition``, else clear); what the
+    sensors see under it is derived from what they see in clear air (:func:`with_condition`).
 
     Raises:
         InputError: the measurements would take more than :data:`MAX_MEASUREMENT_BYTES` (estimated
@@ -298,7 +314,33 @@ def build_problem(library: SensorLibrary, scenario: Scenario, settings: GraphSet
             allocated).
     """
     check_problem_size(library, scenario)
-    return Problem(library, scenario, settings or GraphSettings(), observe(library, scenario), spec)
+    if condition is None and spec is not None:
+        condition = spec.condition
+    clear_spec = replace(spec, condition=None) if spec is not None and spec.condition is not None else spec
+    clear = Problem(library, scenario, settings or GraphSettings(), observe(library, scenario), clear_spec)
+    return with_condition(clear, condition)
+
+
+def with_condition(problem: Problem, condition: Condition | None) -> Problem:
+    """``problem`` under an operating condition: each sensor's measurements derived from the
+    problem's (:func:`sensorsel.sensing.apply_condition`: no sensor observes again, nothing is
+    linearized by GTSAM), the condition recorded in the problem, its spec (so that a worker
+    rebuilding the problem from its spec applies it again) and its fingerprint.
+
+    ``problem`` must be clear (its own condition None). A neutral condition (or None) returns
+    ``problem`` itself: results bit-identical to no condition.
+
+    Raises:
+        InputError: ``problem`` is already under a condition (conditions are not stacked).
+    """
+    if condition is None or condition.neutral:
+        return problem
+    if problem.condition is not None:
+        raise InputError(f"problem {problem.scenario.name} is already under the condition {problem.condition.label}; "
+                         "apply a condition to the clear problem")
+    spec = replace(problem.spec, condition=condition) if problem.spec is not None else None
+    return Problem(problem.library, problem.scenario, problem.settings,
+                   apply_condition(problem.library, problem.observations, condition), spec, condition)
 
 
 def check_problem_size(library: SensorLibrary, scenario: Scenario, limit_bytes: int | None = None) -> int:
@@ -352,29 +394,41 @@ def load_problem(spec: ScenarioSpec | None = None, library: str | Path | None = 
 
 @dataclass(frozen=True, eq=False)
 class DomainRoute:
-    """One route of an operating domain, as a problem.
+    """One member of an operating domain (a route, or a route in one condition), as a problem.
 
     Attributes:
-        name: the route's name in the domain (unique).
-        problem: the library on this route's scenario.
+        name: the member's name in the domain (unique): the route's, or ``route/condition``.
+        problem: the library on this route's scenario (under the member's condition).
         weight: its share of the fleet's driving, in ``unit`` (> 0).
         unit: "hours" or "km" (the domain file's ``weight_unit``).
+        route: the route's name ("" : ``name``).
+        condition: the condition's name ("" : the domain has no conditions).
     """
 
     name: str
     problem: Problem
     weight: float
     unit: str = "hours"
+    route: str = ""
+    condition: str = ""
+
+    @property
+    def route_name(self) -> str:
+        """The route this member drives (its name without the condition)."""
+        return self.route or self.name
 
 
 @dataclass(frozen=True)
 class RouteInfo:
-    """What a domain result records of each route: its name, weight and problem."""
+    """What a domain result records of each member: its name, weight and problem, and its route
+    and condition ("" when the domain has no conditions)."""
 
     name: str
     weight: float
     unit: str
     problem: ProblemInfo
+    route: str = ""
+    condition: str = ""
 
 
 @dataclass(frozen=True)
@@ -430,7 +484,31 @@ class Domain:
 
     @property
     def info(self) -> DomainInfo:
-        return DomainInfo(self.source, tuple(RouteInfo(r.name, r.weight, r.unit, r.problem.info) for r in self.routes))
+        return DomainInfo(self.source, tuple(RouteInfo(r.name, r.weight, r.unit, r.problem.info, r.route, r.condition)
+                                             for r in self.routes))
+
+    @property
+    def condition_names(self) -> tuple[str, ...]:
+        """The conditions of the domain's members, in first-seen order (empty without conditions)."""
+        return tuple(dict.fromkeys(r.condition for r in self.routes if r.condition))
+
+    def in_conditions(self, names: "str | Iterable[str]") -> "Domain":
+        """The domain of the members in the named conditions only (``"clear,rain"`` or a list), their
+        weights unchanged (a share of the whole driving).
+
+        Raises:
+            InputError: a name that is none of the domain's conditions, or no name.
+        """
+        wanted = [t.strip() for t in names.split(",")] if isinstance(names, str) else [str(t).strip() for t in names]
+        wanted = [t for t in wanted if t]
+        known = self.condition_names
+        if not wanted:
+            raise InputError(f"domain {self.source}: no condition named (its conditions: {', '.join(known) or 'none'})")
+        for name in wanted:
+            if name not in known:
+                raise InputError(f"domain {self.source}: unknown condition {name!r} (its conditions: "
+                                 f"{', '.join(known) or 'none: the file has no conditions section'})")
+        return Domain(tuple(r for r in self.routes if r.condition in wanted), f"{self.source} [{','.join(wanted)}]")
 
     def resolve_suite(self, suite: "str | Iterable[str | int]") -> tuple[int, ...]:
         """Sorted library positions of a suite given as ids or positions."""
@@ -452,7 +530,13 @@ def load_domain(path: str | Path, library: str | Path | None = None, settings: G
     for d in load_domain_scenarios(spec):
         problem = build_problem(lib, d.scenario, settings, spec=d.spec)
         check_reach(problem)  # a route no sensor can measure has no share of a best to be scored on
-        routes.append(DomainRoute(d.name, problem, d.weight, d.unit))
+        if not d.conditions:
+            routes.append(DomainRoute(d.name, problem, d.weight, d.unit))
+            continue
+        # each (route, condition) member derived from the route's clear measurements, observed once
+        for condition, share in d.conditions:
+            routes.append(DomainRoute(f"{d.name}/{condition.name}", with_condition(problem, condition), d.weight * share,
+                                      d.unit, d.name, condition.name))
     return Domain(tuple(routes), spec.source)
 
 

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
+from .conditions import Condition, SensorEffect, sensor_effect
 from .library import PlacedSensor, SensorLibrary
 from .scenario import Scenario
 
@@ -162,4 +163,36 @@ def observe(library: SensorLibrary, scenario: Scenario) -> tuple[SensorObservati
                 sigma_range_m=sensor.model.range_sigma(r),
             )
         )
+    return tuple(out)
+
+
+def condition_effects(library: SensorLibrary, condition: Condition | None) -> tuple[SensorEffect, ...]:
+    """What ``condition`` does to each sensor of the library (its range [m] and noise multipliers),
+    in library order, by the library's condition physics (:mod:`sensorsel.conditions`)."""
+    return tuple(sensor_effect(s.model.type, float(s.model.range_m), condition, library.physics) for s in library)
+
+
+def apply_condition(library: SensorLibrary, observations: tuple[SensorObservations, ...],
+                    condition: Condition | None) -> tuple[SensorObservations, ...]:
+    """The measurements under ``condition``, derived from the clear ones (``observations``, what
+    :func:`observe` returns for ``library``) without observing again: each sensor keeps the
+    measurements within its range under the condition, in the same order, with its noise std
+    multiplied by the condition's factors. A sensor the condition leaves alone keeps its very
+    arrays (so a neutral condition returns ``observations`` unchanged, bit for bit).
+
+    Because a condition only shrinks ranges and inflates noise, each sensor's measurements are a
+    subset of its clear ones, each at most as informative: no suite gains information."""
+    if condition is None or condition.neutral:
+        return observations
+    out = []
+    for o, s, e in zip(observations, library, condition_effects(library, condition)):
+        if e.neutral_for(float(s.model.range_m)):
+            out.append(o)
+            continue
+        keep = o.range_m <= e.range_m
+        out.append(SensorObservations(
+            sensor=o.sensor, pose=o.pose[keep], landmark=o.landmark[keep], bearing_rad=o.bearing_rad[keep],
+            range_m=o.range_m[keep], sigma_bearing_rad=o.sigma_bearing_rad[keep] * e.bearing_factor,
+            sigma_range_m=o.sigma_range_m[keep] * e.range_factor,
+        ))
     return tuple(out)

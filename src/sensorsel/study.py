@@ -119,8 +119,13 @@ class TargetFiles:
         if self.domain is not None:
             spec = load_domain_file(self.domain)
             lib = load_library(self.library if self.library is not None else spec.library)
-            return [[d.name, d.weight, d.unit, results.to_jsonable(Fingerprint.of(lib, d.scenario, settings))]
-                    for d in load_domain_scenarios(spec)]
+            # each member: a route, or (route, condition) pairs when the file has conditions
+            members: list[Any] = []
+            for d in load_domain_scenarios(spec):
+                for c, share in d.conditions or ((None, 1.0),):
+                    members.append([f"{d.name}/{c.name}" if c is not None else d.name, d.weight * share, d.unit,
+                                    results.to_jsonable(Fingerprint.of(lib, d.scenario, settings, c))])
+            return members
         assert self.spec is not None
         lib = load_library(self.library)
         return [["", 1.0, "", results.to_jsonable(Fingerprint.of(lib, load_scenario(self.spec), settings))]]

@@ -133,8 +133,7 @@ def score_cmd(suite: str, as_json: bool, aggregate: str, engine: str | None, job
     if as_json:
         click.echo(results.dumps(res), nl=False)
         return
-    p = res.problem
-    click.echo(f"scenario   {p.scenario}: {p.n_poses} keyframes, {p.n_landmarks} landmarks ({p.landmark_source})")
+    print_target(res.problem)
     click.echo(f"suite      {','.join(res.suite)}")
     click.echo(f"cost       ${res.cost_usd:,.0f}")
     click.echo(f"score      {res.score:.3f} nats  (log det {res.logdet:.3f}, sensorless {res.baseline_logdet:.3f})")
@@ -192,7 +191,13 @@ def scene_cmd(output: str, plot_format: str | None, suite: str | None, pose_inde
     if pose_index is not None and not 0 <= pose_index < n:
         raise InputError(f"--pose {pose_index}: the scenario {problem.scenario.name} has keyframes 0..{n - 1}")
     use_file_backend()
-    ax = plot_scene(problem.scenario, library=problem.library, suite=positions, pose_index=pose_index)
+    ranges = None
+    if problem.condition is not None:
+        from ..sensing import condition_effects
+
+        ranges = [e.range_m for e in condition_effects(problem.library, problem.condition)]
+    ax = plot_scene(problem.scenario, library=problem.library, suite=positions, pose_index=pose_index, ranges_m=ranges,
+                    condition=problem.condition.label if problem.condition is not None else None)
     path = save_figure(ax.figure, output, close=True)
     click.echo(f"wrote {path}")
 

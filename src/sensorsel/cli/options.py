@@ -20,6 +20,7 @@ from typing import Any, Callable, TypeVar, Sequence
 import click
 
 from ..errors import InputError, SensorselError, SensorselWarning
+from ..conditions import parse_condition
 from ..evaluators import AGGREGATES
 from ..library import SensorLibrary
 from ..problem import DomainInfo, ProblemInfo, Target, TargetInfo, load_domain, load_problem
@@ -177,6 +178,10 @@ def scenario_options(fn: Callable[..., Any]) -> Callable[..., Any]:
                           "stderr; exact duplicates are always merged."),
         click.option("--rate", "keyframe_rate_hz", type=float, default=1.0, show_default=True, help="Keyframe rate along the route [Hz]."),
         click.option("--library", "library_path", type=click.Path(dir_okay=False, path_type=str), help="Sensor library YAML (default: the paper's Table I)."),
+        click.option("--condition", "condition_text", metavar="CONDITION",
+                     help="Operating condition: night, rain_mm_h=MM_PER_H, fog_visibility_m=METRES, snow_mm_h=MM_PER_H, "
+                          "combined with commas (night,rain_mm_h=5); ranges and noise follow the library's published "
+                          "models (docs/guide-conditions.md). Default: clear."),
     ]
     # A command's own option of the same name wins (`landmarks` has its generator's --clearance, the
     # same rule applied while generating): the shared one is then not added, and spec_from leaves
@@ -202,7 +207,10 @@ def spec_from(kw: dict[str, Any]) -> ScenarioSpec:
     if kw.get("times") and not (kw.get("poses") or kw.get("route")):
         # a --seq or a fixture reads its own times.txt: a --times here would be silently ignored
         raise click.UsageError(f"--times {kw['times']} goes with a KITTI --route FILE (or its older name --poses FILE); a --seq or fixture has its own times.txt")
+    text = kw.pop("condition_text", None)
+    condition = parse_condition(text) if text is not None else None
     return ScenarioSpec(
+        condition=condition if condition is not None and not condition.neutral else None,
         seq=kw.pop("seq"),
         kitti_root=kw.pop("kitti_root"),
         poses=kw.pop("poses"),
@@ -243,7 +251,7 @@ def target_options(fn: Callable[..., Any]) -> Callable[..., Any]:
 
 
 #: scenario options that choose a route or its landmarks: refused together with --domain
-_ROUTE_OPTIONS = ("seq", "route", "poses", "times", "landmarks", "scenario_name", "clearance_m", "up", "forward")
+_ROUTE_OPTIONS = ("seq", "route", "poses", "times", "landmarks", "scenario_name", "clearance_m", "up", "forward", "condition_text")
 
 
 def target_from(kw: dict[str, Any]) -> Target:
@@ -255,7 +263,8 @@ def target_from(kw: dict[str, Any]) -> Target:
     path = kw.pop("domain_path", None)
     if path is None:
         return problem_from(kw)
-    given = [f"--{k.replace('_m', '').replace('scenario_name', 'name').replace('_', '-')}" for k in _ROUTE_OPTIONS if kw.get(k)]
+    given = [f"--{k.replace('_m', '').replace('scenario_name', 'name').replace('_text', '').replace('_', '-')}"
+             for k in _ROUTE_OPTIONS if kw.get(k)]
     if given:
         raise click.UsageError(f"--domain {path} lists its own routes and landmarks: drop {', '.join(given)}")
     spec_from(kw)  # consumes the (unused) scenario options
@@ -398,9 +407,14 @@ def _numeric(s: str) -> bool:
 def print_target(info: TargetInfo | None) -> None:
     """The 'scenario' line (one route) or the 'domain' lines (each route) of a result."""
     if isinstance(info, ProblemInfo):
-        click.echo(f"scenario   {info.scenario}: {info.n_poses} keyframes, {info.n_landmarks} landmarks ({info.landmark_source})")
+        when = f"; condition {info.condition}" if info.condition else ""
+        click.echo(f"scenario   {info.scenario}: {info.n_poses} keyframes, {info.n_landmarks} landmarks ({info.landmark_source}){when}")
     elif isinstance(info, DomainInfo):
-        click.echo(f"domain     {info.source}: {len(info.routes)} routes")
+        conditions = list(dict.fromkeys(r.condition for r in info.routes if r.condition))
+        routes = list(dict.fromkeys(r.route or r.name for r in info.routes))
+        what = (f"{len(info.routes)} members ({len(routes)} routes x conditions {', '.join(conditions)})" if conditions
+                else f"{len(info.routes)} routes")
+        click.echo(f"domain     {info.source}: {what}")
         for r in info.routes:
             p = r.problem
             click.echo(f"  {r.name:<12} weight {r.weight:g} {r.unit}; {p.n_poses} keyframes, {p.n_landmarks} landmarks ({p.landmark_source})")

@@ -13,7 +13,7 @@ import click
 from .. import results
 from ..api import design_domain, run_greedy, suite_accuracy
 from ..checkpoint import checkpoint_path, remove_checkpoint
-from ..domain_design import DomainDesign
+from ..domain_design import DomainDesign, by_condition
 from ..problem import Domain, DomainInfo
 from ..certify import CertifiedGreedyResult, format_certificate
 from ..fileio import output_dir, output_file
@@ -74,6 +74,11 @@ def _print_breakdown(design: DomainDesign) -> None:
     click.echo(table(rows, ["route", "weight", "score_nats", "of_best", "own_nats", "of_own", "own_cost_usd", "own_suite"]))
     worst = next(r for r in design.routes if r.name == design.worst_route)
     click.echo(f"worst route {worst.name}: the domain suite reaches {worst.share_of_own:.1%} of what its own design reaches there")
+    conditions = by_condition(design)
+    if conditions:
+        click.echo("\nper condition (its members' shares, weighted):")
+        rows = [[c.name, f"{c.weight:.3f}", f"{c.share_of_best:.4f}", f"{c.share_of_own:.4f}", c.worst_member] for c in conditions]
+        click.echo(table(rows, ["condition", "weight", "of_best", "of_own", "worst_member"]))
 
 
 @click.command("greedy", short_help="Greedy suite under a budget, with its certificate of near-optimality.")

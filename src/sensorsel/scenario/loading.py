@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..conditions import Condition
 from .._resources import fixtures_dir
 from ..errors import InputError, ScenarioError
 from ..library import is_number_text
@@ -129,6 +130,9 @@ class ScenarioSpec:
     ``clearance_m``: drop landmarks closer than this to the route (None: count them, keep them).
     ``name``: the scenario's name (default: the sequence, the fixture, or the route file's name as
     :func:`route_name` gives it).
+    ``condition``: the operating condition (night, rain, fog, snow; :mod:`sensorsel.conditions`)
+    the route is driven in; None: clear. It does not change the scenario, only what each sensor
+    sees on it (:func:`sensorsel.problem.build_problem` applies it).
     ``up``, ``forward``: with a route file, the world's up axis and the body's forward axis (``+z``,
     ``-y``, ...) instead of those found from the route (:func:`~sensorsel.scenario.frames.find_frame`).
     A landmark file naming ``x,y,z`` is in the route's world frame and projected by it.
@@ -149,6 +153,7 @@ class ScenarioSpec:
     name: str | None = None
     up: str | None = None
     forward: str | None = None
+    condition: Condition | None = None
 
 
 def fixture_names() -> list[str]:

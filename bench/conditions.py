@@ -1,0 +1,74 @@
+"""Greedy on the seven KITTI routes in four conditions against the seven routes alone, one run.
+
+    python bench/conditions.py --kitti-root ../shared/kitti [--budget 110000] [--repeat 1]
+
+Loads the domain of configs/domain_kitti_conditions.yaml (seven routes x clear, night, rain, fog:
+28 members) and the same seven routes without conditions (configs/domain_kitti.yaml), then times,
+side by side in one process: building each domain (loading the routes, what each sensor sees, the
+members derived from the clear measurements), its evaluator (each member's engine and normaliser)
+and the greedy selection at the budget. Target (issue 26): the 28 members' greedy (setup +
+selection) in at most 2.5x the time of the seven routes alone, in-process on the 2-core machine.
+Runs alternate (routes, conditions, routes, ...) so that load on a shared machine hits both alike;
+the ratio is of the medians.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import statistics
+import sys
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO / "src"))
+
+from sensorsel.evaluators import DomainEvaluator  # noqa: E402
+from sensorsel.problem import load_domain  # noqa: E402
+from sensorsel.selection import greedy  # noqa: E402
+
+
+def run(path: Path, budget: float, jobs: int) -> dict[str, float | str | int]:
+    t0 = time.perf_counter()
+    domain = load_domain(path)
+    t1 = time.perf_counter()
+    ev = DomainEvaluator(domain, jobs=jobs)
+    t2 = time.perf_counter()
+    res = greedy(ev, budget)
+    t3 = time.perf_counter()
+    return {"load": t1 - t0, "setup": t2 - t1, "select": t3 - t2, "members": len(domain.routes),
+            "evals": res.n_evaluations, "suite": ",".join(res.suite), "score": res.score}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--kitti-root", default=os.environ.get("SENSORSEL_KITTI_ROOT", str(REPO.parent / "shared" / "kitti")))
+    ap.add_argument("--budget", type=float, default=110_000.0)
+    ap.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
+    ap.add_argument("--repeat", type=int, default=1)
+    args = ap.parse_args()
+    os.environ["SENSORSEL_KITTI_ROOT"] = args.kitti_root
+    plain, mixed = REPO / "configs" / "domain_kitti.yaml", REPO / "configs" / "domain_kitti_conditions.yaml"
+    runs: dict[str, list[dict]] = {"routes": [], "conditions": []}
+    for _ in range(args.repeat):
+        runs["routes"].append(run(plain, args.budget, args.jobs))
+        runs["conditions"].append(run(mixed, args.budget, args.jobs))
+    print(f"machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}; budget "
+          f"${args.budget:,.0f}, uniform greedy, fast engine jobs={args.jobs}; {args.repeat} run(s) each, alternating")
+    med = {}
+    for name, rs in runs.items():
+        m = {k: statistics.median(float(r[k]) for r in rs) for k in ("load", "setup", "select")}
+        med[name] = m
+        r = rs[0]
+        print(f"{name:<10} members {r['members']:>2}: load {m['load']:6.2f} s  evaluators {m['setup']:6.2f} s  "
+              f"greedy {m['select']:6.2f} s ({r['evals']} domain evaluations)  F = {float(r['score']):.4f}  {r['suite']}")
+    ratio = (med["conditions"]["setup"] + med["conditions"]["select"]) / (med["routes"]["setup"] + med["routes"]["select"])
+    ratio_all = sum(med["conditions"].values()) / sum(med["routes"].values())
+    print(f"ratio, 4 conditions / routes alone: evaluators + greedy {ratio:.2f}x; with loading {ratio_all:.2f}x")
+    print(f"target: <= 2.5x (evaluators + greedy): {'met' if ratio <= 2.5 else 'NOT met'}")
+
+
+if __name__ == "__main__":
+    main()
