@@ -54,7 +54,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from .failures import check_failure, parse_failures
-from .records import Failure, RunResult, SimulationReport, SimulationResult, SimulationTiming, without_timing
+from .records import AccuracyCheck, ErrorSpread, Failure, RunResult, SimulationReport, SimulationResult, SimulationTiming, without_timing
 
 if TYPE_CHECKING:
     from .consistency import COVARIANCE_NOTE, NEES_CONFIDENCE, nees_bounds
@@ -82,6 +82,6 @@ def __getattr__(name: str) -> object:
 
 __all__ = [
     "COVARIANCE_NOTE", "DEFAULT_SOLVER", "ISAM2_MAX_FINAL_UPDATES", "LM_MAX_ITERATIONS", "NEES_CONFIDENCE", "SOLVERS",
-    "Failure", "RunResult", "SimulationReport", "SimulationResult", "SimulationTiming",
+    "AccuracyCheck", "ErrorSpread", "Failure", "RunResult", "SimulationReport", "SimulationResult", "SimulationTiming",
     "check_failure", "nees_bounds", "parse_failures", "simulate", "without_timing",
 ]

@@ -9,7 +9,8 @@ import gtsam
 import numpy as np
 from gtsam.symbol_shorthand import L, X
 
-from ..graph import MeasurementNoise, add_bearing_range, add_pose_chain, bearing_range_factor, diagonal, first_pose_prior, odometry_factor
+from ..graph import (MeasurementNoise, add_bearing_range, add_pose_chain, bearing_range_factor, diagonal, first_pose_prior, landmark_prior,
+                     odometry_factor)
 from .noise import Draw, Payload, draw
 
 SOLVERS = ("lm", "isam2")
@@ -24,6 +25,7 @@ class Noise:
     def __init__(self, p: Payload) -> None:
         self.prior = diagonal(p.first_pose_sigmas)
         self.odometry = diagonal(p.odometry_sigmas)
+        self.map = None if p.map_sigma_m is None else diagonal([p.map_sigma_m, p.map_sigma_m])
         self._p = p
         self._models = MeasurementNoise()
 
@@ -33,14 +35,28 @@ class Noise:
 
 
 def build_graph(p: Payload, noise: Noise, d: Draw) -> gtsam.NonlinearFactorGraph:
-    """Prior, odometry, then the kept measurements in keyframe order, holding the values of ``d``.
+    """Prior, odometry, then the kept measurements in keyframe order, holding the values of ``d``;
+    in the map model a prior on each measured landmark at the run's map position.
 
-    No landmark prior (a car has none; at the true position it would leak the truth)."""
+    In SLAM no landmark prior (a car has none; at the true position it would leak the truth). The
+    map model's prior sits at the drawn map position (the truth off by the map's error), never at
+    the truth."""
     g = gtsam.NonlinearFactorGraph()
     add_pose_chain(g, d.prior, d.odometry, noise.prior, noise.odometry)
     order = p.order()
     add_bearing_range(g, p.pose[order], p.landmark[order], d.bearing_rad[order], d.range_m[order], [noise.measurement(i) for i in order])
+    if d.map_points is not None:
+        for j in p.measured_landmarks():
+            g.add(landmark_prior(int(j), d.map_points[j], noise.map))
     return g
+
+
+def _landmark_start(d: Draw, j: int, pose: gtsam.Pose2, i: int) -> np.ndarray:
+    """Where landmark ``j`` starts: its map position (map model: what a car localizing in a map
+    knows), else its first measurement ``i`` seen from ``pose`` (the pose's own starting value)."""
+    if d.map_points is not None:
+        return np.array(d.map_points[j], dtype=float)
+    return landmark_from(pose, float(d.bearing_rad[i]), float(d.range_m[i]))
 
 
 def landmark_from(pose: gtsam.Pose2, bearing: float, rng_m: float) -> np.ndarray:
@@ -72,7 +88,7 @@ def solve_lm(p: Payload, noise: Noise, d: Draw, dead: list[gtsam.Pose2]) -> tupl
     for i in p.order():
         j = int(p.landmark[i])
         if not initial.exists(L(j)):
-            initial.insert(L(j), landmark_from(dead[int(p.pose[i])], float(d.bearing_rad[i]), float(d.range_m[i])))
+            initial.insert(L(j), _landmark_start(d, j, dead[int(p.pose[i])], i))
     params = gtsam.LevenbergMarquardtParams()
     params.setMaxIterations(LM_MAX_ITERATIONS)
     params.setRelativeErrorTol(1e-10)
@@ -109,7 +125,9 @@ def solve_isam2(p: Payload, noise: Noise, d: Draw) -> tuple[gtsam.Values, int, g
             j = int(p.landmark[i])
             if j not in seen:
                 seen.add(j)
-                v.insert(L(j), landmark_from(start, float(d.bearing_rad[i]), float(d.range_m[i])))
+                v.insert(L(j), _landmark_start(d, j, start, i))
+                if d.map_points is not None:
+                    g.add(landmark_prior(j, d.map_points[j], noise.map))
         isam.update(g, v)
         full.push_back(g)
         updates += 1
