@@ -1,7 +1,7 @@
 """Consistency: the covariance the information matrix predicts, each run's errors and NEES, and bounds.
 
 Each pose's error ``xi_k = truth_k.localCoordinates(estimate_k)`` (GTSAM's tangent space) is compared
-with the covariance of the graph linearized at the **ground truth** (``gtsam.Marginals``): the
+with the covariance of the graph linearized at the **ground truth** (closed form, equal to ``gtsam.Marginals``): the
 information matrix whose log det is the score, independent of the draw, computed once.
 """
 
