@@ -94,6 +94,12 @@ class Noise:
         """The model of measurement ``i`` of the payload."""
         return self._models(self._p.sigma_bearing_rad[i], self._p.sigma_range_m[i])
 
+    def map_prior(self, j: int, point: np.ndarray) -> gtsam.NonlinearFactor:
+        """The map model's prior on landmark ``j`` at its map position ``point`` [m]."""
+        if self.map is None:
+            raise ValueError("a landmark prior needs the map model (a payload with map_sigma_m)")
+        return landmark_prior(j, point, self.map)
+
     def pair(self, q: Pairs, i: int) -> gtsam.noiseModel.Base:
         """The model of combined pair ``i`` of ``q``."""
         return self._models(q.sigma_bearing_rad[i], q.sigma_range_m[i])
@@ -113,7 +119,7 @@ def build_graph(p: Payload, noise: Noise, d: Draw, q: Pairs | None = None) -> gt
     add_bearing_range(g, q.pose, q.landmark, q.bearing_rad, q.range_m, [noise.pair(q, i) for i in range(len(q.pose))])
     if d.map_points is not None:
         for j in p.measured_landmarks():
-            g.add(landmark_prior(int(j), d.map_points[j], noise.map))
+            g.add(noise.map_prior(int(j), d.map_points[j]))
     return g
 
 
@@ -192,7 +198,7 @@ def solve_isam2(p: Payload, noise: Noise, d: Draw, q: Pairs) -> tuple[gtsam.Valu
                 seen.add(j)
                 v.insert(L(j), _landmark_start(d, j, start, int(q.first[c])))
                 if d.map_points is not None:
-                    g.add(landmark_prior(j, d.map_points[j], noise.map))
+                    g.add(noise.map_prior(j, d.map_points[j]))
         isam.update(g, v)
         full.push_back(g)
         updates += 1
