@@ -238,3 +238,14 @@ def test_pairs_keep_the_error_of_every_measurement(tiny_problem):
         poses = p.poses + scale * rng.standard_normal(p.poses.shape)
         values = _values(p, poses, p.landmarks + scale * rng.standard_normal(p.landmarks.shape))
         assert merged.error(values) + q.constant == pytest.approx(every.error(values), rel=1e-10)
+
+
+def test_map_model_is_byte_identical_whatever_the_workers(tiny_problem):
+    """Same seed, same bytes, on 1 or 2 worker processes (the map draw travels as (seed, run, 2))."""
+    from sensorsel.simulate import without_timing
+
+    one = simulate(tiny_problem, SUITE, runs=4, seed=9, jobs=1, map_sigma_m=0.1)
+    two = simulate(tiny_problem, SUITE, runs=4, seed=9, jobs=2, map_sigma_m=0.1)
+    assert results.dumps(SimulationReport((without_timing(one),))) == results.dumps(SimulationReport((without_timing(two),)))
+    other = simulate(tiny_problem, SUITE, runs=4, seed=10, jobs=1, map_sigma_m=0.1)
+    assert other.runs[0].lateral_error_m != one.runs[0].lateral_error_m
