@@ -234,7 +234,10 @@ def _print_report(sims: list[Any], sc: Any, runs: int, solver: str, seed: int, n
                   settings: GraphSettings) -> None:
     """The simulation table: errors, their predictions, NEES and consistency, one row per design."""
     click.echo(f"{'scenario':<9} {sc.name}: {sc.n_poses} keyframes, {sc.n_landmarks} landmarks ({sc.landmark_source})")
-    click.echo(f"runs      {runs} per suite, solver {solver}, seed {seed}" + (f", noise x{noise_scale:g}" if noise_scale != 1 else "")
+    from ..evaluators.accuracy import model_label
+
+    click.echo(f"runs      {runs} per suite, solver {solver}, seed {seed}, {model_label(sims[0].model, sims[0].map_sigma_m) if sims else ''}"
+               + (f", noise x{noise_scale:g}" if noise_scale != 1 else "")
                + ("" if start_sigmas is None else f", first-pose prior sigmas {','.join(f'{v:g}' for v in settings.first_pose_sigmas)}"))
     w = max(9, *(len(s.label) for s in sims))
     for s in sims:
