@@ -120,3 +120,17 @@ def test_map_model_is_tighter_than_slam(suburb_problem):
     slam, mapped = route_accuracy(ev, (0,)), route_accuracy(ev, (0,), map_sigma_m=0.05)
     assert np.all(mapped.sigmas("lateral") < slam.sigmas("lateral"))
     assert mapped.lateral.max < 0.1 < slam.lateral.max
+
+
+@settings(max_examples=20, deadline=None)
+@given(data=st.data())
+def test_covariance_floor_is_below_the_marginals(suburb_problem, data):
+    """The cheap floor require refutes suites with: every keyframe's (P_kk)⁻¹ is below its marginal
+    covariance in the PSD order (so every σ is below the true one), in both models."""
+    n = len(suburb_problem.library)
+    ev = _tiny_fast(suburb_problem)
+    suite = tuple(sorted(data.draw(st.sets(st.integers(0, n - 1), min_size=0, max_size=8))))
+    ms = data.draw(st.sampled_from([None, 0.05]))
+    floor, cov = ev.pose_covariance_floor(suite, map_sigma_m=ms), ev.pose_covariances(suite, map_sigma_m=ms)
+    gap = np.linalg.eigvalsh(cov - floor)
+    assert np.all(gap >= -1e-9 * np.abs(cov).max(axis=(1, 2))[:, None])

@@ -85,10 +85,11 @@ def test_plots_draw_on_the_given_axes_and_never_show(tiny_problem, monkeypatch):
 
 RESULT_COMMANDS = {"library", "score", "greedy", "pareto", "resilient", "certify", "optimal", "simulate", "robust", "study"}
 PROGRESS_COMMANDS = {"greedy", "pareto", "resilient", "certify", "optimal", "simulate", "robust", "study"}
-BUDGET_COMMANDS = {"greedy", "pareto", "resilient", "certify", "optimal", "robust"}
+BUDGET_COMMANDS = {"greedy", "pareto", "resilient", "certify", "optimal", "robust", "require"}
 PLOT_COMMANDS = {"scene", "pareto", "resilient", "simulate"}
 REQUIRED = {  # the other required options of each command, to parse its --budget alone
     "greedy": [], "pareto": ["-o", "out"], "resilient": ["-o", "out"], "certify": [], "optimal": [], "robust": [],
+    "require": ["--preset", "freeway"],
 }
 
 

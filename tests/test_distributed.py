@@ -7,6 +7,7 @@ the in-process run, timings aside.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import signal
@@ -20,6 +21,7 @@ import pytest
 distributed = pytest.importorskip("distributed")
 
 from sensorsel import results  # noqa: E402
+from sensorsel.api import suite_accuracy  # noqa: E402
 from sensorsel.domain_design import design_domain  # noqa: E402
 from sensorsel.distributed import DaskCluster, DistributedDomainEvaluator, run_tradespace_on  # noqa: E402
 from sensorsel.problem import load_domain  # noqa: E402
@@ -254,7 +256,10 @@ def test_cli_greedy_on_a_scheduler_and_two_workers_started_here(tmp_path, domain
         args = ["greedy", "--domain", str(FIXTURES), "--budget", "12000", "--json", "-q"]
         there = _cli(*args, "--scheduler", address)
         assert there.returncode == 0, there.stderr
-        assert _untimed(there.stdout) == _untimed(design_domain(domain, 12_000, certify=True))  # what --json prints in-process
+        want = design_domain(domain, 12_000, certify=True)
+        # what --json prints in-process: the design, with its suite's accuracy in metres (the SLAM graph)
+        want = dataclasses.replace(want, greedy=dataclasses.replace(want.greedy, accuracy=suite_accuracy(domain, want.greedy.suite)))
+        assert _untimed(there.stdout) == _untimed(want)
     finally:
         for p in reversed(procs):
             p.terminate()

@@ -296,7 +296,8 @@ def test_cli_pareto_writes_plot_csv_and_json(small_library, tmp_path):
     out = tmp_path / "ts"
     r = _pareto(small_library, "-o", str(out))
     assert r.exit_code == 0, r.output
-    assert sorted(p.name for p in out.iterdir()) == ["architectures.csv", "pareto.png", "tradespace.json"]
+    assert sorted(p.name for p in out.iterdir()) == ["accuracy.json", "architectures.csv", "pareto-accuracy.png", "pareto.png",
+                                                     "tradespace.json"]
     assert (out / "pareto.png").read_bytes().startswith(PNG)
     res = results.load(TradespaceResult, out / "tradespace.json")
     assert res.rules == DEFAULT_RULES and len(res.budgets_usd) == 14

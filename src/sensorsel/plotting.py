@@ -659,7 +659,7 @@ def plot_route_margin(accuracy: "RouteAccuracy", scenario: Scenario, specificati
     segs = np.stack([xy[:-1], xy[1:]], axis=1)
     hi = max(2.0, float(ratio.max()))
     norm = TwoSlopeNorm(vmin=0.0, vcenter=1.0, vmax=hi)
-    lc = LineCollection(segs, cmap="RdYlGn_r", norm=norm, linewidths=3, zorder=2)
+    lc = LineCollection(list(segs), cmap="RdYlGn_r", norm=norm, linewidths=3, zorder=2)
     lc.set_array(np.maximum(ratio[:-1], ratio[1:]))
     ax.add_collection(lc)
     bad = ratio > 1.0

@@ -148,6 +148,10 @@ def require_cmd(map_sigma: float | None, slam: bool, failures: int, budget: floa
     if res.status == "infeasible":
         click.echo(f"sensorsel: error: {_infeasible_line(res)}", err=True)
         sys.exit(2)
+    if not res.suite and res.status == "gap":
+        click.echo(f"sensorsel: error: the search stopped ({res.stop}) before finding a suite that meets the specification "
+                   f"(none costs less than ${res.lower_bound_usd:,.0f}): give a longer --time-limit", err=True)
+        sys.exit(2)
 
 
 def _spec_line(routes: tuple[RouteRequirement, ...]) -> str:
@@ -165,8 +169,13 @@ def _print(res: RequireResult) -> None:
         click.echo(f"failures   still met after any {res.failures} sensor(s) fail")
     if res.status == "infeasible":
         click.echo("suite      none: no suite within the limits meets the specification")
-        click.echo("best       every allowed sensor together reaches:")
+        what = {"failures": "after the worst failures, every allowed sensor together reaches:"}.get(
+            res.infeasible_by, "every allowed sensor together reaches:")
+        click.echo(f"best       {what}")
         _print_routes(res.routes)
+        return
+    if not res.suite:
+        click.echo(f"suite      none found before the search stopped ({res.stop})")
         return
     click.echo(f"suite      {','.join(res.suite) or '(empty: odometry alone meets it)'}  ({len(res.suite)} sensors)")
     if res.status == "optimal":
@@ -178,7 +187,8 @@ def _print(res: RequireResult) -> None:
     if res.worst_failure:
         click.echo(f"worst failure  {','.join(res.worst_failure)}: then")
         _print_routes(res.worst_failure_routes)
-    click.echo(f"searched   {res.iterations} integer programs, {res.n_checks} accuracy computations, {res.seconds:.2f} s")
+    click.echo(f"searched   {res.iterations} integer programs, {res.n_checks} accuracy computations "
+               f"({res.n_refuted} more suites refuted by a cheap bound), {res.seconds:.2f} s")
 
 
 def _print_routes(routes: tuple[RouteRequirement, ...]) -> None:
@@ -227,9 +237,12 @@ def _plot(res: RequireResult, target: Any, compared: tuple[str, tuple[int, ...]]
 
 def _infeasible_line(res: RequireResult) -> str:
     fails = [f"route {r.route}: {r.verdict.failing()}" for r in res.routes if not r.verdict.meets]
+    if res.infeasible_by == "failures":
+        return (f"no suite meets the specification after {res.failures} failure(s): every allowed sensor together, after "
+                "its worst failures, misses it (" + "; ".join(fails) + ")")
     if not fails:
         return ("no suite within the limits meets the specification (every allowed sensor together would: "
-                "the limits --budget/--limit/--max-sensors/slots or --failures rule it out)")
+                "the limits --budget/--limit/--max-sensors/slots rule it out)")
     return "no suite meets the specification even with every allowed sensor: " + "; ".join(fails)
 
 

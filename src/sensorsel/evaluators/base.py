@@ -146,3 +146,9 @@ class ProblemEvaluator(Evaluator):
 
     def _pose_covariances(self, suite: Suite, map_sigma_m: float | None) -> np.ndarray:
         raise NotImplementedError(f"the {self.name!r} engine computes no pose covariances")
+
+    def pose_covariance_floor(self, suite: Iterable[int], *, map_sigma_m: float | None = None) -> np.ndarray | None:
+        """A cheap lower bound on :meth:`pose_covariances`, shape (K, 3, 3) (each block below the
+        true marginal covariance in the positive semidefinite order, so each σ below the true one),
+        or None when the engine has none (the default). Not counted in :attr:`n_evaluations`."""
+        return None

@@ -1,0 +1,172 @@
+"""``sensorsel require`` and the accuracy options of the other commands (issue 24): end to end on the
+fixtures, the answer against brute force on a small library, bad input one line and exit 2."""
+
+from __future__ import annotations
+
+import itertools
+import json
+import math
+
+import pytest
+from click.testing import CliRunner
+
+from sensorsel import results
+from sensorsel.cli import cli
+from sensorsel.constraints import Constraints
+from sensorsel.evaluators import FastEvaluator
+from sensorsel.evaluators.accuracy import route_accuracy
+from sensorsel.requirements import Specification, require, verdict
+
+T = ["--fixture", "tiny"]
+E = ["--engine", "fast", "--jobs", "1", "-q"]
+#: ten sensors of the library, one or two of each model (the rest excluded): 1,024 suites to brute-force
+SMALL = ("LRL-roof", "MRL-roof", "LRR-12", "LRR-6", "MRR-12", "WSC-12", "HD2K-12", "HD2K-6", "LSC-12", "HD2K-3")
+
+
+def _invoke(args):
+    return CliRunner().invoke(cli, [str(a) for a in args])
+
+
+def _small(library) -> Constraints:
+    return Constraints(exclude=tuple(sorted(set(library.ids) - set(SMALL))))
+
+
+def _brute_force(problem, spec: Specification, map_sigma, failures: int = 0, max_sensors: int | None = None):
+    """The cheapest suite of SMALL meeting ``spec`` after any ``failures`` failures, by enumeration."""
+    lib = problem.library
+    ev = FastEvaluator(problem)
+    pos = [lib.position(i) for i in SMALL]
+    memo: dict[tuple[int, ...], bool] = {}
+
+    def meets(s: tuple[int, ...]) -> bool:
+        if s not in memo:
+            memo[s] = verdict(route_accuracy(ev, s, map_sigma_m=map_sigma), spec).meets
+        return memo[s]
+
+    best = None
+    for k in range(len(pos) + 1):
+        if max_sensors is not None and k > max_sensors:
+            break
+        for combo in itertools.combinations(pos, k):
+            s = tuple(sorted(combo))
+            if len(s) < failures + (0 if failures == 0 else 1):
+                continue
+            if all(meets(tuple(sorted(set(s) - set(f)))) for f in itertools.combinations(s, failures)):
+                cost = float(lib.costs[list(s)].sum())
+                if best is None or cost < best[0] - 1e-9:
+                    best = (cost, s)
+    return best
+
+
+@pytest.mark.parametrize("failures", [0, 1])
+@pytest.mark.parametrize("map_sigma, spec", [(0.05, Specification(lateral=0.06, heading=0.1)),
+                                             (None, Specification(lateral=0.6, longitudinal=0.4, at=0.9))])
+def test_require_is_the_brute_force_cheapest(tiny_problem, failures, map_sigma, spec):
+    """On ten sensors, with and without a failure, in both models: the answer costs what the
+    cheapest feasible suite found by enumeration costs, and the lower bound is never above it."""
+    want = _brute_force(tiny_problem, spec, map_sigma, failures)
+    res = require(tiny_problem, spec, map_sigma_m=map_sigma, failures=failures, constraints=_small(tiny_problem.library))
+    if want is None:
+        assert res.status == "infeasible"
+        return
+    assert res.status == "optimal", res
+    assert res.cost_usd == pytest.approx(want[0])
+    assert res.lower_bound_usd <= want[0] + 1e-6
+    assert all(r.verdict.meets for r in res.routes)
+
+
+def test_require_with_a_limit_equals_brute_force(tiny_problem):
+    spec = Specification(lateral=0.06, heading=0.1)
+    want = _brute_force(tiny_problem, spec, 0.05, 0, max_sensors=2)
+    c = Constraints(exclude=_small(tiny_problem.library).exclude, max_sensors=2)
+    res = require(tiny_problem, spec, map_sigma_m=0.05, constraints=c)
+    if want is None:
+        assert res.status == "infeasible"
+    else:
+        assert res.status == "optimal" and res.cost_usd == pytest.approx(want[0]) and len(res.suite) <= 2
+
+
+def test_require_cli_end_to_end_and_deterministic(tmp_path):
+    out1, out2 = tmp_path / "a.json", tmp_path / "b.json"
+    args = ["require", *T, *E, "--preset", "freeway", "--exclude", ",".join(sorted(set(_all_ids()) - set(SMALL)))]
+    r1 = _invoke(args + ["-o", out1])
+    assert r1.exit_code == 0, r1.output
+    assert "proved the cheapest" in r1.output and "prior map (landmarks known to 0.05 m)" in r1.output
+    r2 = _invoke(args + ["-o", out2])
+    a, b = json.loads(out1.read_text()), json.loads(out2.read_text())
+    a.pop("seconds"), b.pop("seconds")
+    assert a == b
+    rec = results.load(out1, "requirement")
+    assert rec.status == "optimal" and rec.routes[0].accuracy.n_keyframes > 0
+    assert len(rec.routes[0].accuracy.lateral_sigma_m) == rec.routes[0].accuracy.n_keyframes
+
+
+def _all_ids():
+    from sensorsel.library import load_library
+    return load_library().ids
+
+
+def test_infeasible_specification_exits_2_naming_what_fails(tmp_path):
+    out = tmp_path / "r.json"
+    r = _invoke(["require", *T, *E, "--lateral", "0.0001", "--json", "-o", out])
+    assert r.exit_code == 2
+    err = [line for line in r.stderr.splitlines() if line.startswith("sensorsel: error:")]
+    assert len(err) == 1 and "route tiny: lateral" in err[0] and "keyframes" in err[0]
+    rec = results.load(out, "requirement")  # the diagnosis is still written
+    assert rec.status == "infeasible" and not rec.suite and not rec.routes[0].verdict.meets
+    assert json.loads(r.stdout)["status"] == "infeasible"
+
+
+@pytest.mark.parametrize("args, culprit", [
+    (["--lateral", "-0.1"], "--lateral"), (["--lateral", "0"], "--lateral"), (["--heading", "nan"], "--heading"),
+    (["--longitudinal", "inf"], "--longitudinal"), (["--preset", "freeway", "--at", "0"], "--at"),
+    (["--preset", "freeway", "--at", "101"], "--at"), (["--preset", "city"], "--preset"), ([], "no requirement"),
+    (["--preset", "freeway", "--map-sigma", "-0.1"], "--map-sigma"), (["--preset", "freeway", "--map-sigma", "0"], "--map-sigma"),
+])
+def test_bad_requirements_one_line_exit_2(args, culprit):
+    r = _invoke(["require", *T, *E, *args])
+    assert r.exit_code == 2, r.output
+    assert "Traceback" not in r.output
+    lines = [line for line in r.stderr.splitlines() if line.strip()]
+    assert len(lines) == 1 and culprit in lines[0], r.stderr
+
+
+@pytest.mark.parametrize("text, culprit", [("- 1\n", "expected a mapping"), ("preset: freeway\nroad: x\n", "road: unknown key")])
+def test_bad_spec_file_one_line_exit_2(tmp_path, text, culprit):
+    f = tmp_path / "spec.yaml"
+    f.write_text(text)
+    r = _invoke(["require", *T, *E, "--spec", f])
+    assert r.exit_code == 2
+    lines = [line for line in r.stderr.splitlines() if line.strip()]
+    assert len(lines) == 1 and str(f) in lines[0] and culprit in lines[0], r.stderr
+
+
+@pytest.mark.parametrize("command", [["score", "--suite", "LRL-roof"], ["greedy", "--budget", "5000"]])
+def test_accuracy_lines_and_bad_map_sigma(command):
+    r = _invoke([*command, *T, "--engine", "fast", "--jobs", "1"] + (["-q"] if command[0] == "greedy" else []))
+    assert r.exit_code == 0 and "accuracy   SLAM (landmarks unknown)" in r.output
+    r = _invoke([*command, *T, "--map-sigma", "0.05"] + (["-q"] if command[0] == "greedy" else []))
+    assert r.exit_code == 0 and "prior map (landmarks known to 0.05 m)" in r.output
+    r = _invoke([*command, *T, "--map-sigma", "-1"])
+    assert r.exit_code == 2 and "--map-sigma" in r.stderr
+
+
+def test_score_json_carries_the_per_keyframe_arrays(tiny_problem):
+    r = _invoke(["score", *T, "--suite", "LRL-roof", "--json", "--map-sigma", "0.1"])
+    data = json.loads(r.stdout)
+    acc = data["accuracy"]
+    ev = FastEvaluator(tiny_problem)
+    want = route_accuracy(ev, (tiny_problem.library.position("LRL-roof"),), map_sigma_m=0.1)
+    assert acc["model"] == "map" and acc["map_sigma_m"] == 0.1
+    assert acc["lateral_sigma_m"] == pytest.approx(want.lateral_sigma_m, rel=1e-12)
+    assert len(acc["heading_sigma_deg"]) == tiny_problem.scenario.n_poses
+
+
+def test_pareto_marks_the_acceptable_front(tmp_path):
+    r = _invoke(["pareto", *T, *E, "--budgets", "2000,20000", "-o", tmp_path, "--preset", "freeway", "--map-sigma", "0.05"])
+    assert r.exit_code == 0, r.output
+    acc = results.load(tmp_path / "accuracy.json", "front-acceptance")
+    assert acc.specifications and all(p.meets is not None for p in acc.points)
+    best = acc.cheapest_meeting
+    assert best is None or all(not p.meets for p in acc.points if p.cost_usd < best.cost_usd)
+    assert (tmp_path / "pareto-accuracy.png").is_file() and "acceptable" in r.output
