@@ -19,16 +19,24 @@ prior at the true position would leak the truth into the estimate), and landmark
 measures (or measures only while failed) are left out and reported. The weak 100 m prior of the
 score adds 1e-4 m^-2 of information per landmark, negligible against any measurement.
 
-Random numbers: run ``r`` of seed ``s`` draws odometry from ``SeedSequence([s, r, 0])`` and the
-measurements of library sensor ``i`` from ``SeedSequence([s, r, 1, i])``. So results do not depend on
+Two localization models, as in :mod:`sensorsel.evaluators.accuracy`: the paper's SLAM (above), and
+with ``map_sigma_m`` a car localizing in a prior map whose landmarks are known to that std: each run
+draws its map (every landmark off the truth by an isotropic error of that std), starts each
+landmark there and adds a landmark prior there of that std. Each run's errors are also expressed in
+each true keyframe's own frame (x forward = longitudinal, y left = lateral), and the result carries
+the measured 95 % errors beside the predicted 1.96σ (:class:`~.records.AccuracyCheck`).
+
+Random numbers: run ``r`` of seed ``s`` draws odometry from ``SeedSequence([s, r, 0])``, the
+measurements of library sensor ``i`` from ``SeedSequence([s, r, 1, i])`` and the map (map model) from
+``SeedSequence([s, r, 2])``. So results do not depend on
 ``jobs``, and two suites (or a suite with and without a failure) see the same noise on the
 odometry and on the sensors they share (common random numbers: their difference is the design's).
 
 Consistency: each pose's error ``xi_k = truth_k.localCoordinates(estimate_k)`` (3-dof, GTSAM's tangent
 space) is compared with the covariance predicted by the information matrix of the graph linearized
-at the **ground truth** (``gtsam.Marginals``). That is the same information matrix whose log det is
-the score, it does not depend on the draw, and it is computed once. (Marginals at each run's solution
-would measure the estimator's own opinion of itself, not whether the design's prediction holds.)
+at the **ground truth** (in closed form and inverted densely, equal to ``gtsam.Marginals`` there).
+That is the same information matrix whose log det is the score, it does not depend on the draw, and
+it is computed once. (Marginals at each run's solution would measure the estimator's own opinion of itself, not whether the design's prediction holds.)
 
 - ``nees_mean``: the average of ``xi_k' P_k^-1 xi_k`` over N runs and K poses, with the two-sided 95 %
   chi-square bounds ``chi2.ppf([0.025, 0.975], 3 N K) / (N K)``. These bounds treat the N K terms as
@@ -54,7 +62,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from .failures import check_failure, parse_failures
-from .records import Failure, RunResult, SimulationReport, SimulationResult, SimulationTiming, without_timing
+from .records import AccuracyCheck, ErrorSpread, Failure, RunResult, SimulationReport, SimulationResult, SimulationTiming, without_timing
 
 if TYPE_CHECKING:
     from .consistency import COVARIANCE_NOTE, NEES_CONFIDENCE, nees_bounds
@@ -82,6 +90,6 @@ def __getattr__(name: str) -> object:
 
 __all__ = [
     "COVARIANCE_NOTE", "DEFAULT_SOLVER", "ISAM2_MAX_FINAL_UPDATES", "LM_MAX_ITERATIONS", "NEES_CONFIDENCE", "SOLVERS",
-    "Failure", "RunResult", "SimulationReport", "SimulationResult", "SimulationTiming",
+    "AccuracyCheck", "ErrorSpread", "Failure", "RunResult", "SimulationReport", "SimulationResult", "SimulationTiming",
     "check_failure", "nees_bounds", "parse_failures", "simulate", "without_timing",
 ]

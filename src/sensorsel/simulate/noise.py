@@ -3,7 +3,9 @@
 Noise is drawn in each factor's own error coordinates, so the factors' noise models are exactly right:
 first-pose prior ``truth_0.retract(sigma * z)``, odometry ``truth_{k-1}.between(truth_k).retract(sigma * z)``,
 bearing and range truth + sigma * z. Run ``r`` of seed ``s`` draws odometry from
-``SeedSequence([s, r, 0])`` and the measurements of library sensor ``i`` from ``SeedSequence([s, r, 1, i])``.
+``SeedSequence([s, r, 0])``, the measurements of library sensor ``i`` from ``SeedSequence([s, r, 1, i])``
+and, in the map model, the prior map's landmark errors from ``SeedSequence([s, r, 2])`` (a stream of
+its own: the odometry and measurement draws are those of the SLAM model).
 """
 
 from __future__ import annotations
@@ -41,6 +43,11 @@ class Payload:
     keep: np.ndarray  # (n,) bool
     solver: str
     seed: int
+    map_sigma_m: float | None = None  # the map model: landmarks known to this std [m]; None: SLAM
+
+    def measured_landmarks(self) -> np.ndarray:
+        """Sorted indices of the landmarks some kept measurement sees (the estimated ones)."""
+        return np.unique(self.landmark[self.keep]).astype(int)
 
     def order(self) -> np.ndarray:
         """Kept measurements in keyframe order (ties: sensor order), the order a car receives them."""
@@ -49,8 +56,9 @@ class Payload:
 
 
 def make_payload(problem: Problem, suite: tuple[int, ...], failures: tuple[Failure, ...], noise_scale: float, solver: str,
-                 seed: int) -> Payload:
-    """The measurements of ``suite`` (sorted library positions) with sigmas scaled by ``noise_scale``."""
+                 seed: int, map_sigma_m: float | None = None) -> Payload:
+    """The measurements of ``suite`` (sorted library positions) with sigmas scaled by ``noise_scale``
+    (the map's ``map_sigma_m`` [m] is not scaled: it is the map's accuracy, not a sensor's)."""
     s = problem.settings
     parts: dict[str, list[np.ndarray]] = {k: [] for k in ("pose", "landmark", "bearing", "range", "sb", "sr", "keep")}
     slices, at = [], 0
@@ -77,7 +85,7 @@ def make_payload(problem: Problem, suite: tuple[int, ...], failures: tuple[Failu
         sensors=suite, sensor_slices=tuple(slices),
         pose=cat("pose", int), landmark=cat("landmark", int), bearing_rad=cat("bearing", float), range_m=cat("range", float),
         sigma_bearing_rad=cat("sb", float), sigma_range_m=cat("sr", float), keep=cat("keep", bool),
-        solver=solver, seed=seed,
+        solver=solver, seed=seed, map_sigma_m=map_sigma_m,
     )
 
 
@@ -89,12 +97,14 @@ class Draw:
         prior: the first-pose prior's pose.
         odometry: (K - 1) relative poses; ``odometry[k - 1]`` goes from keyframe k - 1 to k.
         bearing_rad, range_m: (n,) every measurement of the payload, failed or not.
+        map_points: (M, 2) the prior map's landmark positions [m] (map model), None in SLAM.
     """
 
     prior: gtsam.Pose2
     odometry: list[gtsam.Pose2]
     bearing_rad: np.ndarray
     range_m: np.ndarray
+    map_points: np.ndarray | None = None
 
     def dead_reckoning(self) -> list[gtsam.Pose2]:
         """The prior's pose composed with the odometry: the poses a car knows before any landmark."""
@@ -117,10 +127,15 @@ def draw(p: Payload, run: int) -> Draw:
         w = np.random.default_rng(np.random.SeedSequence([p.seed, run, 1, sensor])).standard_normal((b - a, 2))
         bearing[a:b] += p.sigma_bearing_rad[a:b] * w[:, 0]
         rng_m[a:b] += p.sigma_range_m[a:b] * w[:, 1]
-    return Draw(prior, odometry, bearing, rng_m)
+    map_points = None
+    if p.map_sigma_m is not None:
+        # the prior map of this run: every landmark off by an isotropic error of std map_sigma_m
+        e = np.random.default_rng(np.random.SeedSequence([p.seed, run, 2])).standard_normal(p.landmarks.shape)
+        map_points = p.landmarks + p.map_sigma_m * e
+    return Draw(prior, odometry, bearing, rng_m, map_points)
 
 
 def truth(p: Payload) -> Draw:
-    """The noiseless values: what the factors would hold with perfect sensors."""
+    """The noiseless values: what the factors would hold with perfect sensors (and a perfect map)."""
     poses = [pose2(q) for q in p.poses]
-    return Draw(poses[0], truth_steps(poses), p.bearing_rad, p.range_m)
+    return Draw(poses[0], truth_steps(poses), p.bearing_rad, p.range_m, None if p.map_sigma_m is None else p.landmarks)

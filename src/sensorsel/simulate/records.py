@@ -52,6 +52,9 @@ class RunResult:
         poses: (K,) estimated (x [m], y [m], heading [rad]).
         landmarks: estimated (x [m], y [m]) of each measured landmark, in the order of
             :attr:`SimulationResult.measured_landmarks`.
+        longitudinal_error_m, lateral_error_m: (K,) signed position error at each keyframe in the
+            keyframe's own (true) frame [m]: x forward (longitudinal), y to the left (lateral), i.e.
+            R(θ_true)ᵀ (t_estimate − t_true). Empty in files written before they existed.
     """
 
     run: int
@@ -68,6 +71,64 @@ class RunResult:
     heading_error_rad: tuple[float, ...]
     poses: tuple[tuple[float, float, float], ...]
     landmarks: tuple[tuple[float, float], ...]
+    longitudinal_error_m: tuple[float, ...] = ()
+    lateral_error_m: tuple[float, ...] = ()
+
+
+@dataclass(frozen=True)
+class ErrorSpread:
+    """How one component's 95 % error is spread over a route's keyframes (one unit: m or deg).
+
+    Attributes:
+        median, p95, max: over the keyframes, the median, 95th percentile (linear interpolation)
+            and largest of the per-keyframe 95 % error.
+        worst_keyframe: the keyframe with the largest (the first such, by index).
+    """
+
+    median: float
+    p95: float
+    max: float
+    worst_keyframe: int
+
+
+@dataclass(frozen=True)
+class AccuracyCheck:
+    """Predicted against measured 95 % errors of one suite, per component, in its keyframes' own frames.
+
+    Per keyframe k: ``measured`` is the 95th percentile over the runs of |error_k| (linear
+    interpolation between runs: with few runs it is close to the largest); ``predicted`` is
+    1.96 σ_k, σ_k from the covariance the information matrix predicts (the same as
+    :func:`sensorsel.evaluators.accuracy.route_accuracy` of the suite in the same model).
+
+    Attributes:
+        model: ``"slam"`` (landmarks unknown) or ``"map"`` (a prior map whose landmarks are known to
+            ``map_sigma_m``).
+        map_sigma_m: the map's landmark std [m] with the map model; None with SLAM.
+        measured_lateral_95_m, predicted_lateral_95_m: (K,) lateral (keyframe's y, left) [m].
+        measured_longitudinal_95_m, predicted_longitudinal_95_m: (K,) longitudinal (x, forward) [m].
+        measured_heading_95_deg, predicted_heading_95_deg: (K,) heading [deg].
+        measured, predicted: per component ("lateral", "longitudinal", "heading") its
+            :class:`ErrorSpread` over the keyframes.
+        coverage: per component, the fraction of all (run, keyframe) errors inside ±1.96 σ_k
+            (0.95 when the prediction holds).
+    """
+
+    model: str
+    map_sigma_m: float | None
+    measured_lateral_95_m: tuple[float, ...]
+    predicted_lateral_95_m: tuple[float, ...]
+    measured_longitudinal_95_m: tuple[float, ...]
+    predicted_longitudinal_95_m: tuple[float, ...]
+    measured_heading_95_deg: tuple[float, ...]
+    predicted_heading_95_deg: tuple[float, ...]
+    measured: tuple[tuple[str, ErrorSpread], ...]
+    predicted: tuple[tuple[str, ErrorSpread], ...]
+    coverage: tuple[tuple[str, float], ...]
+
+    def spread(self, which: str, component: str) -> ErrorSpread:
+        """The :class:`ErrorSpread` of ``component`` ("lateral", "longitudinal", "heading"),
+        ``which`` "measured" or "predicted"."""
+        return dict(getattr(self, which))[component]
 
 
 @dataclass(frozen=True)
@@ -119,6 +180,12 @@ class SimulationResult:
         problem: what it was computed on.
         runs: every run.
         timing: wall times (None once stripped for comparisons).
+        model: the localization model simulated: ``"slam"`` (the paper's graph, no landmark prior)
+            or ``"map"`` (each run draws a prior map, landmarks off by ``map_sigma_m``, and adds a
+            landmark prior there of that std).
+        map_sigma_m: the map's landmark std [m] with the map model; None with SLAM.
+        accuracy: predicted against measured 95 % lateral, longitudinal and heading errors (None in
+            files written before it existed).
     """
 
     label: str
@@ -154,6 +221,9 @@ class SimulationResult:
     problem: ProblemInfo
     runs: tuple[RunResult, ...]
     timing: SimulationTiming | None = None
+    model: str = "slam"
+    map_sigma_m: float | None = None
+    accuracy: AccuracyCheck | None = None
 
 
 @result_kind("simulation")

@@ -12,19 +12,20 @@ import math
 import multiprocessing
 import time
 from concurrent.futures import ProcessPoolExecutor
-from typing import Callable, Iterable, Sequence
+from typing import Iterable, Sequence
 
 import numpy as np
 
 from ..errors import InputError
 from ..evaluators import as_suite
 from ..pipeline import Executor, Plan, execute
+from ..evaluators.accuracy import Z95, accuracy_from_covariances
 from ..problem import Problem
 from ..progress import Progress
 from .consistency import COVARIANCE_NOTE, Prediction, correlated_nees_bounds, nees_bounds, predict, rms, run_errors
 from .failures import resolve_failures
 from .noise import Payload, make_payload
-from .records import Failure, SimulationResult, SimulationTiming
+from .records import AccuracyCheck, ErrorSpread, Failure, RunResult, SimulationResult, SimulationTiming
 from .solve import DEFAULT_SOLVER, SOLVERS, solve_run
 
 
@@ -41,6 +42,7 @@ def simulate(
     label: str = "suite",
     progress: Progress | None = None,
     executor: Executor | None = None,
+    map_sigma_m: float | None = None,
 ) -> SimulationResult:
     """Monte-Carlo SLAM of ``suite`` on ``problem``: ``runs`` seeded draws, each solved with GTSAM.
 
@@ -58,14 +60,22 @@ def simulate(
         executor: runs the draws elsewhere (:mod:`sensorsel.pipeline`, e.g. one Dask task per run, the
             payload sent once to each worker); default: here, with ``jobs`` processes. Run r draws from
             (seed, r) wherever it runs, so the result does not depend on it.
+        map_sigma_m: None: the paper's SLAM graph (landmarks unknown, no landmark prior). A std [m]:
+            localization in a prior map: each run draws the map (every landmark off by an isotropic
+            error of this std, from (seed, r, 2)), starts each landmark there and adds a prior there
+            of this std. Not scaled by ``noise_scale``.
     Raises:
-        InputError: bad suite, failure, solver, runs, seed, noise scale or jobs (names the value).
+        InputError: bad suite, failure, solver, runs, seed, noise scale, jobs or map sigma (names the value).
     """
     t0 = time.perf_counter()
     positions = problem.library.parse_suite(suite) if isinstance(suite, str) else as_suite(suite)
     _check_args(problem, positions, solver, runs, seed, noise_scale, jobs)
+    if map_sigma_m is not None and (isinstance(map_sigma_m, bool) or not isinstance(map_sigma_m, (int, float))
+                                    or not (math.isfinite(map_sigma_m) and map_sigma_m > 0)):
+        raise InputError(f"map sigma must be a positive, finite number of metres, got {map_sigma_m!r}")
     failures_t = resolve_failures(failures, problem, positions)
-    payload = make_payload(problem, positions, failures_t, float(noise_scale), solver, seed)
+    payload = make_payload(problem, positions, failures_t, float(noise_scale), solver, seed,
+                           None if map_sigma_m is None else float(map_sigma_m))
     t_runs = time.perf_counter()
     if executor is not None:
         raw = execute(Plan("simulation run", solve_run, tuple(range(runs)), states=(payload,)), executor, progress=progress)
@@ -139,8 +149,8 @@ def _mp_context() -> multiprocessing.context.BaseContext:
 
 def _summarise(problem: Problem, p: Payload, positions: tuple[int, ...], failures: tuple[Failure, ...], raw: Sequence[dict], pred: Prediction, *,
                label: str, noise_scale: float, timing: SimulationTiming) -> SimulationResult:
-    # long only because SimulationResult has 34 fields, each computed in one line
-    measured = np.unique(p.landmark[p.keep]).astype(int)
+    # long only because SimulationResult has 37 fields, each computed in one line
+    measured = p.measured_landmarks()
     unmeasured = np.setdiff1d(np.arange(len(p.landmarks)), measured)
     rr = tuple(run_errors(p, pred, r, out, measured) for r, out in enumerate(raw))
     pos = np.array([r.position_error_m for r in rr])  # (N, K)
@@ -187,4 +197,46 @@ def _summarise(problem: Problem, p: Payload, positions: tuple[int, ...], failure
         problem=problem.info,
         runs=rr,
         timing=timing,
+        model="slam" if p.map_sigma_m is None else "map",
+        map_sigma_m=p.map_sigma_m,
+        accuracy=accuracy_check(rr, blocks, p.map_sigma_m),
     )
+
+
+def accuracy_check(runs: Sequence[RunResult], pose_blocks: np.ndarray, map_sigma_m: float | None) -> AccuracyCheck:
+    """Measured against predicted 95 % lateral, longitudinal and heading errors.
+
+    Measured, per keyframe: the 95th percentile over the runs of |error| (keyframe frame; heading
+    in degrees). Predicted: 1.96 σ from ``pose_blocks`` (K, 3, 3) (Pose2 tangent: x forward, y left,
+    θ), converted as :func:`sensorsel.evaluators.accuracy.accuracy_from_covariances` does for
+    ``route_accuracy``. Each summarised over the keyframes (median / 95th percentile / worst)."""
+    pred = accuracy_from_covariances(pose_blocks, map_sigma_m=map_sigma_m)
+    errors = {"lateral": np.array([r.lateral_error_m for r in runs]),
+              "longitudinal": np.array([r.longitudinal_error_m for r in runs]),
+              "heading": np.degrees(np.array([r.heading_error_rad for r in runs]))}
+    measured, predicted, coverage = {}, {}, {}
+    for c, e in errors.items():
+        sigma = pred.sigmas(c)
+        measured[c] = np.percentile(np.abs(e), 95.0, axis=0)
+        predicted[c] = Z95 * sigma
+        coverage[c] = float(np.mean(np.abs(e) <= Z95 * sigma[None, :]))
+    return AccuracyCheck(
+        model=pred.model, map_sigma_m=map_sigma_m,
+        measured_lateral_95_m=_t(measured["lateral"]), predicted_lateral_95_m=_t(predicted["lateral"]),
+        measured_longitudinal_95_m=_t(measured["longitudinal"]), predicted_longitudinal_95_m=_t(predicted["longitudinal"]),
+        measured_heading_95_deg=_t(measured["heading"]), predicted_heading_95_deg=_t(predicted["heading"]),
+        measured=tuple((c, _spread(v)) for c, v in measured.items()),
+        predicted=tuple((c, _spread(v)) for c, v in predicted.items()),
+        coverage=tuple(coverage.items()),
+    )
+
+
+def _t(values: np.ndarray) -> tuple[float, ...]:
+    return tuple(float(v) for v in values)
+
+
+def _spread(values: np.ndarray) -> ErrorSpread:
+    """Median / 95th percentile / largest over the keyframes, and where the largest is."""
+    if values.size == 0:
+        return ErrorSpread(math.nan, math.nan, math.nan, -1)
+    return ErrorSpread(float(np.median(values)), float(np.percentile(values, 95.0)), float(values.max()), int(np.argmax(values)))
