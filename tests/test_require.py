@@ -226,3 +226,25 @@ def test_resume_with_any_other_input_is_refused(tiny_problem, suburb_problem, tm
             "route": "routes"}[change]
     with pytest.raises(ResultFileError, match=word):
         require(target, spec2, checkpoint=ck, resume=True, **other)
+
+
+def test_require_in_some_conditions_only(tmp_path):
+    """A domain of one route in two conditions: demanding the specification in clear weather alone
+    never costs more than in clear weather and in fog, and equals the plain route's answer."""
+    dom = tmp_path / "d.yaml"
+    dom.write_text(f"keyframe_rate_hz: 1.0\nconditions:\n  - {{name: fog, fog_visibility_m: 60, share: 0.2}}\n"
+                   f"routes:\n  - {{name: tiny, fixture: tiny}}\n")
+    excl = ",".join(sorted(set(_all_ids()) - set(SMALL)))
+    base = ["require", "--engine", "fast", "--jobs", "1", "-q", "--preset", "freeway", "--exclude", excl, "--json"]
+    clear = json.loads(_invoke([*base, "--domain", dom, "--in", "clear"]).stdout)
+    both = _invoke([*base, "--domain", dom])
+    plain = json.loads(_invoke([*base, *T]).stdout)
+    assert [r["route"] for r in clear["routes"]] == ["tiny/clear"]
+    assert clear["status"] == plain["status"] == "optimal" and clear["cost_usd"] == plain["cost_usd"]
+    assert clear["suite"] == plain["suite"]
+    if both.exit_code == 0:
+        assert json.loads(both.stdout)["cost_usd"] >= clear["cost_usd"]
+    bad = _invoke([*base, "--domain", dom, "--in", "snow"])
+    assert bad.exit_code == 2 and "--in: unknown condition(s) snow" in bad.stderr and "clear, fog" in bad.stderr
+    bad = _invoke([*base, *T, "--in", "clear"])
+    assert bad.exit_code == 2 and "--in" in bad.stderr

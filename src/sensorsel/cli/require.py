@@ -87,6 +87,9 @@ def specification_from(kw: dict[str, Any], routes: list[str]) -> list[Specificat
               help=f"Accuracy in a prior map whose landmarks are known to this std [m] (default: {DEFAULT_MAP_SIGMA_M:g} m, "
                    "an assumption: see the requirements guide).")
 @click.option("--slam", is_flag=True, help="Judge accuracy in the paper's SLAM graph (landmarks unknown) instead of a prior map.")
+@click.option("--in", "in_conditions", default=None, metavar="C1,C2,...",
+              help="With a --domain that has conditions: demand the specification only in these conditions "
+                   "(e.g. clear,rain); (default: in every condition).")
 @click.option("--failures", type=click.IntRange(min=0), default=0, show_default=True,
               help="The suite must still meet the specification after any this many of its sensors fail.")
 @budget_option(help="Most the suite may cost [$] (default: no budget: the cheapest suite is the question).")
@@ -103,7 +106,7 @@ def specification_from(kw: dict[str, Any], routes: list[str]) -> list[Specificat
 @json_option
 @quiet_option
 @run
-def require_cmd(map_sigma: float | None, slam: bool, failures: int, budget: float | None, time_limit: float | None,
+def require_cmd(map_sigma: float | None, slam: bool, in_conditions: str | None, failures: int, budget: float | None, time_limit: float | None,
                 plot_path: str | None, compare: str | None, output: str | None, resume: bool, as_json: bool, quiet: bool,
                 aggregate: str, engine: str | None, jobs: int, **kw: Any) -> None:
     """The cheapest suite that meets an accuracy specification, on a route or every route of a
@@ -143,7 +146,8 @@ def require_cmd(map_sigma: float | None, slam: bool, failures: int, budget: floa
     with bar or nullcontext():
         res = require(target, specs, map_sigma_m=None if slam else map_sigma, failures=failures, budget_usd=budget,
                       constraints=constraints, engine=engine, jobs=jobs, time_limit_s=time_limit, progress=progress,
-                      checkpoint=checkpoint_path(output) if output else None, resume=resume)
+                      checkpoint=checkpoint_path(output) if output else None, resume=resume,
+                      conditions=None if in_conditions is None else [c.strip() for c in in_conditions.split(",") if c.strip()])
     if output:
         results.save(res, output)
         checkpoint_path(output).unlink(missing_ok=True)  # the result is written: the run is no longer interrupted

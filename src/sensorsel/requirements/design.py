@@ -249,7 +249,8 @@ class _Oracle:
 def require(target: Target, specifications: Specification | Sequence[Specification], *, map_sigma_m: float | None,
             failures: int = 0, budget_usd: float | None = None, constraints: Constraints | None = None,
             engine: str | None = None, jobs: int = 1, time_limit_s: float | None = None,
-            progress: Progress | None = None, checkpoint: str | Path | None = None, resume: bool = False) -> RequireResult:
+            progress: Progress | None = None, checkpoint: str | Path | None = None, resume: bool = False,
+            conditions: Sequence[str] | None = None) -> RequireResult:
     """The cheapest suite meeting ``specifications`` on ``target`` (a route, or every route of a
     domain: one specification for all, or one per route in the domain's order).
 
@@ -260,6 +261,8 @@ def require(target: Target, specifications: Specification | Sequence[Specificati
         budget_usd: an upper limit on the price, or None.
         constraints: limits besides money (resources, slots, required / owned / excluded, most sensors).
         time_limit_s: stop the exact search after this long, with the gap (None: run to the proof).
+        conditions: with a domain of (route, condition) members, demand the specification only in
+            these conditions (names as the domain file gives them, e.g. ("clear", "rain")); None: in all.
         checkpoint: a file where the answers are journalled as they come (every
             :data:`JOURNAL_EVERY_S` and at the end: a :class:`RequireJournal`); with ``resume`` an
             interrupted run's journal there is read back (refused when its inputs differ).
@@ -273,11 +276,21 @@ def require(target: Target, specifications: Specification | Sequence[Specificati
         raise InputError(f"--failures must be a whole number >= 0, got {failures!r}")
     if budget_usd is not None and not (math.isfinite(budget_usd) and budget_usd > 0):
         raise InputError(f"--budget must be a positive number of dollars, got {budget_usd!r}")
-    problems: list[tuple[str, Problem]] = ([(r.name, r.problem) for r in target.routes] if isinstance(target, Domain)
-                                          else [(target.scenario.name, target)])
+    members = list(target.routes) if isinstance(target, Domain) else []
+    problems: list[tuple[str, Problem]] = ([(r.name, r.problem) for r in members] if members
+                                          else [(target.scenario.name, target)])  # type: ignore[union-attr]
     specs = [specifications] * len(problems) if isinstance(specifications, Specification) else list(specifications)
     if len(specs) != len(problems):
         raise InputError(f"{len(specs)} specifications for {len(problems)} routes")
+    if conditions is not None:
+        known = sorted({r.condition for r in members if r.condition})
+        if not known:
+            raise InputError("--in names conditions: give a domain file with conditions: (see the conditions guide)")
+        unknown = sorted(set(conditions) - set(known))
+        if unknown:
+            raise InputError(f"--in: unknown condition(s) {', '.join(unknown)}; the domain has: {', '.join(known)}")
+        keep = [i for i, r in enumerate(members) if r.condition in set(conditions)]
+        problems, specs = [problems[i] for i in keep], [specs[i] for i in keep]
     library = target.library
     feas = feasible_set(library, math.inf if budget_usd is None else budget_usd, constraints)
     evaluators = [make_evaluator(p, engine, jobs=jobs) for _, p in problems]

@@ -238,12 +238,17 @@ class _SpecChecker(_Checker):
 
 def specifications_for(routes: list[str], default: Specification | None, per_route: Mapping[str, Specification],
                        source: str = "--spec") -> list[Specification]:
-    """Each route's specification (its own, else the default). A route named in ``per_route`` that
-    is not among ``routes``, or a route with neither, is an InputError naming it."""
-    unknown = sorted(set(per_route) - set(routes))
+    """Each route's specification (its own, else the default). A domain member in a condition,
+    ``route/condition``, takes its own entry, else its route's. A name in ``per_route`` that is
+    neither a member nor a route, or a member with no specification, is an InputError naming it."""
+    def own(r: str) -> Specification | None:
+        return per_route.get(r, per_route.get(r.split("/")[0]))
+
+    names = set(routes) | {r.split("/")[0] for r in routes}
+    unknown = sorted(set(per_route) - names)
     if unknown:
         raise InputError(f"{source}: route(s) {', '.join(unknown)} are not in the domain (routes: {', '.join(routes)})")
-    missing = [r for r in routes if r not in per_route and default is None]
+    missing = [r for r in routes if own(r) is None and default is None]
     if missing:
         raise InputError(f"{source}: no specification for route(s) {', '.join(missing)}: give a default at the top")
-    return [per_route[r] if r in per_route else default for r in routes]  # type: ignore[misc]
+    return [own(r) or default for r in routes]  # type: ignore[misc]
