@@ -1,0 +1,94 @@
+"""The exact solver of require (issue 24) on synthetic monotone predicates: the answer is the
+brute-force cheapest suite, its lower bound never above it, with failures and limits."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from sensorsel.constraints import Constraints, feasible_set
+from sensorsel.library import load_library
+from sensorsel.requirements.solver import cheapest_suite
+
+LIB = load_library()
+#: twelve sensors of the library (the rest excluded): 4,096 suites to enumerate
+SMALL = ("LRL-roof", "MRL-roof", "LRR-12", "LRR-6", "LRR-3", "MRR-12", "WSC-12", "WSC-6", "HD2K-12", "HD2K-6",
+         "LSC-12", "HD2K-3")
+POS = sorted(LIB.position(i) for i in SMALL)
+
+
+def _predicate(weights: np.ndarray, threshold: float):
+    """meets(S): a coverage of 'keyframes' by the suite's sensors, sum of min(1, Σ_s w) >= threshold:
+    monotone (adding a sensor never lowers a term); violation: the shortfall."""
+    def value(s: tuple[int, ...]) -> float:
+        if not s:
+            return 0.0
+        return float(np.minimum(1.0, weights[list(s)].sum(axis=0)).sum())
+
+    return (lambda s: value(s) >= threshold - 1e-12), (lambda s: max(0.0, threshold - value(s)) / threshold)
+
+
+def _brute(feas, meets, alpha: int):
+    best = None
+    for k in range(len(POS) + 1):
+        for combo in itertools.combinations(POS, k):
+            if not feas.fits(combo) or (alpha and len(combo) <= alpha):
+                continue
+            if all(meets(tuple(sorted(set(combo) - set(f)))) for f in itertools.combinations(combo, alpha)):
+                c = float(feas.A[0, list(combo)].sum())
+                if best is None or c < best - 1e-9:
+                    best = c
+    return best
+
+
+@settings(max_examples=25, deadline=None)
+@given(data=st.data())
+def test_solver_equals_brute_force(data):
+    rng = np.random.default_rng(data.draw(st.integers(0, 2**31)))
+    weights = np.zeros((len(LIB), 6))
+    weights[POS] = rng.uniform(0.0, 0.7, (len(POS), 6)) * (rng.uniform(size=(len(POS), 6)) < 0.6)
+    threshold = data.draw(st.floats(0.5, 5.5))
+    alpha = data.draw(st.sampled_from([0, 0, 1, 2]))
+    limit = data.draw(st.sampled_from(["none", "sensors", "require", "budget"]))
+    exclude = tuple(sorted(set(LIB.ids) - set(SMALL)))
+    c = Constraints(exclude=exclude)
+    budget = float("inf")
+    if limit == "sensors":
+        c = Constraints(exclude=exclude, max_sensors=data.draw(st.integers(2, 6)))
+    elif limit == "require":
+        c = Constraints(exclude=exclude, require=(data.draw(st.sampled_from(SMALL)),))
+    elif limit == "budget":
+        budget = data.draw(st.sampled_from([5_000.0, 20_000.0, 150_000.0]))
+    feas = feasible_set(LIB, budget, c)
+    meets, violation = _predicate(weights, threshold)
+    want = _brute(feas, meets, alpha)
+    got = cheapest_suite(feas, meets, failures=alpha, violation=violation)
+    if want is None:
+        assert got.status == "infeasible" and got.suite is None
+        return
+    assert got.status == "optimal", got
+    assert got.cost == pytest.approx(want) and got.lower_bound <= want + 1e-6
+    assert feas.fits(got.suite) and all(meets(tuple(sorted(set(got.suite) - set(f))))
+                                        for f in itertools.combinations(got.suite, alpha))
+
+
+def test_solver_is_deterministic_and_calls_meets_once_per_suite():
+    rng = np.random.default_rng(7)
+    weights = np.zeros((len(LIB), 6))
+    weights[POS] = rng.uniform(0.0, 0.6, (len(POS), 6))
+    seen: list[tuple[int, ...]] = []
+    meets0, violation = _predicate(weights, 4.0)
+
+    def meets(s):
+        seen.append(s)
+        return meets0(s)
+
+    feas = feasible_set(LIB, float("inf"), Constraints(exclude=tuple(sorted(set(LIB.ids) - set(SMALL)))))
+    a = cheapest_suite(feas, meets, failures=1, violation=violation)
+    calls = list(seen)
+    b = cheapest_suite(feas, meets, failures=1, violation=violation)
+    assert (a.suite, a.cost, a.lower_bound, a.cuts, a.iterations) == (b.suite, b.cost, b.lower_bound, b.cuts, b.iterations)
+    assert len(calls) == len(set(calls))
