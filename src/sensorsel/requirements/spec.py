@@ -129,7 +129,8 @@ class RouteVerdict:
         out = []
         for comp, err, bound, bad in self.worst:
             if err > bound:
-                out.append(f"{comp} {err:.3g} > {bound:g} at {len(bad)} keyframes (first {bad[0]})")
+                unit = "deg" if comp == "heading" else "m"
+                out.append(f"{comp} {err:.3f} {unit} > {bound:g} at {len(bad)} keyframes (first {bad[0]})")
         return "; ".join(out)
 
 
