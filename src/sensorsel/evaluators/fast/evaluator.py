@@ -115,12 +115,7 @@ class FastEvaluator(ProblemEvaluator):
         is swapped, the measurements kept)."""
         with self.kernel.blas.single_thread():
             b = self._base_for(suite)
-            d = b.d
-            if map_sigma_m is not None:
-                d = d - self._states.base_ll
-                d[0] += 1.0 / map_sigma_m**2
-                d[2] += 1.0 / map_sigma_m**2
-            return self.kernel.pose_covariances(b.wpl, d, b.a, b.layout)
+            return self.kernel.pose_covariances(b.wpl, self._landmark_sums(b, map_sigma_m), b.a, b.layout)
 
     def pose_covariance_floor(self, suite: Iterable[int], *, map_sigma_m: float | None = None) -> np.ndarray:
         """(K, 3, 3) inverses of the diagonal blocks P_kk of the pose Schur complement: a lower bound
@@ -132,12 +127,17 @@ class FastEvaluator(ProblemEvaluator):
         self._check_positions(s)
         with self.kernel.blas.single_thread():
             b = self._base_for(s)
-            d = b.d
-            if map_sigma_m is not None:
-                d = d - self._states.base_ll
-                d[0] += 1.0 / map_sigma_m**2
-                d[2] += 1.0 / map_sigma_m**2
-            return np.linalg.inv(self._pose_diagonal_blocks(b, d))
+            return np.linalg.inv(self._pose_diagonal_blocks(b, self._landmark_sums(b, map_sigma_m)))
+
+    def _landmark_sums(self, b: BaseState, map_sigma_m: float | None) -> np.ndarray:
+        """The state's (3, M) landmark information sums, with each landmark's weak prior replaced by
+        an isotropic prior of std ``map_sigma_m`` [m] when one is given (a new array then)."""
+        if map_sigma_m is None:
+            return b.d
+        d = b.d - self._states.base_ll
+        d[0] += 1.0 / map_sigma_m**2
+        d[2] += 1.0 / map_sigma_m**2
+        return d
 
     def _pose_diagonal_blocks(self, b: BaseState, d: np.ndarray) -> np.ndarray:
         """(K, 3, 3) diagonal blocks of the pose Schur complement of state ``b`` with landmark sums ``d``."""
