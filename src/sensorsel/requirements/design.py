@@ -277,8 +277,8 @@ def require(target: Target, specifications: Specification | Sequence[Specificati
     if budget_usd is not None and not (math.isfinite(budget_usd) and budget_usd > 0):
         raise InputError(f"--budget must be a positive number of dollars, got {budget_usd!r}")
     members = list(target.routes) if isinstance(target, Domain) else []
-    problems: list[tuple[str, Problem]] = ([(r.name, r.problem) for r in members] if members
-                                          else [(target.scenario.name, target)])  # type: ignore[union-attr]
+    problems: list[tuple[str, Problem]] = ([(r.name, r.problem) for r in members] if isinstance(target, Domain)
+                                          else [(target.scenario.name, target)])
     specs = [specifications] * len(problems) if isinstance(specifications, Specification) else list(specifications)
     if len(specs) != len(problems):
         raise InputError(f"{len(specs)} specifications for {len(problems)} routes")
