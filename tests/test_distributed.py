@@ -336,3 +336,20 @@ def test_pareto_with_limits_and_slots_on_two_workers_equals_in_process(tmp_path)
         assert feas.fits(s), (r.rule, r.budget_usd, feas.violations(s))
         tight += len(s) == 6 or feas.usage(s)[1] > 30  # a limit (not the budget) stopped this run
     assert tight
+
+
+def test_cli_require_with_workers_gives_the_in_process_answer():
+    """require --workers 2 on a domain: each route's accuracy checks on its worker's actor, the same
+    answer, bounds and accuracies to the byte as in-process (seconds aside)."""
+    keep = ("MRL-roof", "LRR-12", "LRR-6", "HD2K-12", "HD2K-6", "HD2K-3", "WSC-12", "LSC-12")
+    from sensorsel.library import load_library
+
+    excl = ",".join(sorted(set(load_library().ids) - set(keep)))
+    args = ["require", "--domain", str(FIXTURES), "--preset", "freeway", "--exclude", excl, "--json", "-q"]
+    here, there = _cli(*args), _cli(*args, "--workers", "2", timeout=240)
+    assert here.returncode == 0, here.stderr
+    assert there.returncode == 0 and "LocalCluster of 2 worker processes" in there.stderr, there.stderr
+    a, b = json.loads(here.stdout), json.loads(there.stdout)
+    assert a["status"] == "optimal" and a["engine"] == b["engine"] == "fast"
+    a.pop("seconds"), b.pop("seconds")
+    assert a == b

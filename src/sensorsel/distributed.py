@@ -166,6 +166,17 @@ class RouteActor:
         """The route's engine's cheap bounds on the scores (None where it has none)."""
         return self.evaluator.score_bounds(suite, candidates)
 
+    def pose_covariances(self, suite: tuple[int, ...], map_sigma_m: float | None) -> np.ndarray:
+        """The suite's (K, 3, 3) pose marginals on this route (``require``'s accuracy checks)."""
+        t0 = time.perf_counter()
+        out = self.evaluator.pose_covariances(suite, map_sigma_m=map_sigma_m)
+        self.busy_s, self.calls = self.busy_s + time.perf_counter() - t0, self.calls + 1
+        return out
+
+    def pose_covariance_floor(self, suite: tuple[int, ...], map_sigma_m: float | None) -> np.ndarray | None:
+        """The engine's cheap floor under :meth:`pose_covariances` (None where it has none)."""
+        return self.evaluator.pose_covariance_floor(suite, map_sigma_m=map_sigma_m)
+
     def busy(self) -> tuple[float, int, str]:
         """(seconds this actor spent scoring, calls it answered, its worker's address): the worker's
         share of a run's time; the rest of a step's wall time is the client, the network and Dask's
@@ -220,6 +231,17 @@ class _RemoteRoute(Evaluator):
 
     def score_bounds(self, suite: Iterable[int], candidates: Sequence[int]) -> tuple[float, np.ndarray] | None:
         return self._ask("score_bounds", suite, candidates)
+
+    def pose_covariances(self, suite: Iterable[int], *, map_sigma_m: float | None = None) -> np.ndarray:
+        """The route's pose marginals, computed by its actor (the same bytes as in-process)."""
+        s = as_suite(suite)
+        self._check_positions(s)
+        return np.asarray(self.owner._call({self.k: ("pose_covariances", (s, map_sigma_m))})[self.k])
+
+    def pose_covariance_floor(self, suite: Iterable[int], *, map_sigma_m: float | None = None) -> np.ndarray | None:
+        s = as_suite(suite)
+        self._check_positions(s)
+        return self.owner._call({self.k: ("pose_covariance_floor", (s, map_sigma_m))})[self.k]
 
 
 def _route_cost(problem: Problem) -> int:

@@ -17,8 +17,10 @@ from ..requirements.design import RequireResult, RouteRequirement, require
 from ..requirements.spec import (DEFAULT_MAP_SIGMA_M, PRESETS, Specification, load_specification_file, preset,
                                  specifications_for)
 from ..checkpoint import checkpoint_path
+from .cluster import domain_evaluator_on, require_domain
 from .simulate import read_suite
 from .options import plot_format, suite_text
+from .options import cluster_from, cluster_options
 from .options import (budget_option, check_map_sigma, constraint_options, constraints_from, engine_options, json_option,
                       output_option, print_target, progress_bar, quiet_option, resume_option, run, target_from,
                       target_options)
@@ -81,6 +83,7 @@ def specification_from(kw: dict[str, Any], routes: list[str]) -> list[Specificat
 @click.command("require", short_help="The cheapest suite that meets an accuracy specification in metres, with a proof.")
 @target_options
 @engine_options
+@cluster_options
 @constraint_options
 @specification_options
 @click.option("--map-sigma", "map_sigma", type=float, default=None, metavar="METRES",
@@ -134,8 +137,10 @@ def require_cmd(map_sigma: float | None, slam: bool, in_conditions: str | None, 
             output_file(path)
     if plot_path:
         plot_format(None, plot_path)
+    cluster = cluster_from(kw)
     constraints = constraints_from(kw)
     target = target_from(kw)
+    require_domain(cluster, target)
     routes = [r.name for r in target.routes] if isinstance(target, Domain) else [target.scenario.name]
     specs = specification_from(kw, routes)
     compared = None
@@ -143,10 +148,12 @@ def require_cmd(map_sigma: float | None, slam: bool, in_conditions: str | None, 
         positions, label, _ = read_suite(compare, target.library, "--compare", None if isinstance(target, Domain) else target)
         compared = (label, positions)
     bar, progress = progress_bar(quiet or as_json, "searching")
-    with bar or nullcontext():
+    with cluster or nullcontext(), bar or nullcontext():
+        # on a cluster each route's accuracy checks run on its worker's actor (the same bytes)
+        ev = domain_evaluator_on(cluster, target, engine, "normalised") if isinstance(target, Domain) and cluster else None
         res = require(target, specs, map_sigma_m=None if slam else map_sigma, failures=failures, budget_usd=budget,
                       constraints=constraints, engine=engine, jobs=jobs, time_limit_s=time_limit, progress=progress,
-                      checkpoint=checkpoint_path(output) if output else None, resume=resume,
+                      checkpoint=checkpoint_path(output) if output else None, resume=resume, evaluator=ev,
                       conditions=None if in_conditions is None else [c.strip() for c in in_conditions.split(",") if c.strip()])
     if output:
         results.save(res, output)

@@ -15,7 +15,9 @@ import math
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Sequence
+from typing import Callable, Iterable, Protocol, Sequence
+
+import numpy as np
 
 from .. import results
 from ..codec import to_jsonable
@@ -23,9 +25,9 @@ from ..constraints import Constraints, feasible_set
 from ..errors import InputError, ResultFileError
 from ..pipeline import digest
 from ..results import result_kind
-from ..evaluators import as_suite, make_evaluator
-from ..evaluators.accuracy import RouteAccuracy, accuracy_from_covariances, model_label, route_accuracy
-from ..evaluators.base import ProblemEvaluator, Suite
+from ..evaluators import Evaluator, as_suite, make_evaluator
+from ..evaluators.accuracy import RouteAccuracy, accuracy_from_covariances, model_label
+from ..evaluators.base import Suite
 from ..problem import Domain, Problem, Target, TargetInfo
 from .solver import cheapest_suite
 from .spec import RouteVerdict, Specification, verdict
@@ -166,6 +168,18 @@ def _read_journal(path: Path, fingerprint: str, inputs: tuple[tuple[str, str], .
     return j
 
 
+class RouteEngine(Protocol):
+    """What require asks of a route's engine: its pose marginals and their cheap floor (a
+    :class:`~sensorsel.evaluators.base.ProblemEvaluator`, or a route held by a Dask actor)."""
+
+    @property
+    def name(self) -> str: ...
+
+    def pose_covariances(self, suite: Iterable[int], *, map_sigma_m: float | None = None) -> np.ndarray: ...
+
+    def pose_covariance_floor(self, suite: Iterable[int], *, map_sigma_m: float | None = None) -> np.ndarray | None: ...
+
+
 class _Oracle:
     """Whether a suite meets the requirement on every route, with the answers kept (each costs an
     accuracy computation per route asked); routes are asked in order and the first failing one
@@ -178,7 +192,7 @@ class _Oracle:
     the map model the floor is ~50-90 % of the true σ (KITTI 00, 03) and refutes most failing suites.
     """
 
-    def __init__(self, evaluators: Sequence[ProblemEvaluator], names: Sequence[str], specs: Sequence[Specification],
+    def __init__(self, evaluators: Sequence[RouteEngine], names: Sequence[str], specs: Sequence[Specification],
                  map_sigma_m: float | None) -> None:
         self.evaluators, self.names, self.specs, self.map_sigma_m = list(evaluators), list(names), list(specs), map_sigma_m
         self._verdicts: dict[tuple[int, Suite], tuple[RouteAccuracy, RouteVerdict]] = {}
@@ -204,7 +218,8 @@ class _Oracle:
         key = (r, suite)
         got = self._verdicts.get(key)
         if got is None:
-            acc = route_accuracy(self.evaluators[r], suite, map_sigma_m=self.map_sigma_m, route=self.names[r])
+            acc = accuracy_from_covariances(self.evaluators[r].pose_covariances(suite, map_sigma_m=self.map_sigma_m),
+                                            map_sigma_m=self.map_sigma_m, route=self.names[r])
             got = self._verdicts[key] = (acc, verdict(acc, self.specs[r]))
             self.n_checks += 1
             self._answered()
@@ -250,7 +265,7 @@ def require(target: Target, specifications: Specification | Sequence[Specificati
             failures: int = 0, budget_usd: float | None = None, constraints: Constraints | None = None,
             engine: str | None = None, jobs: int = 1, time_limit_s: float | None = None,
             progress: Progress | None = None, checkpoint: str | Path | None = None, resume: bool = False,
-            conditions: Sequence[str] | None = None) -> RequireResult:
+            conditions: Sequence[str] | None = None, evaluator: Evaluator | None = None) -> RequireResult:
     """The cheapest suite meeting ``specifications`` on ``target`` (a route, or every route of a
     domain: one specification for all, or one per route in the domain's order).
 
@@ -261,6 +276,9 @@ def require(target: Target, specifications: Specification | Sequence[Specificati
         budget_usd: an upper limit on the price, or None.
         constraints: limits besides money (resources, slots, required / owned / excluded, most sensors).
         time_limit_s: stop the exact search after this long, with the gap (None: run to the proof).
+        evaluator: a domain's evaluator already built, whose ``routes`` answer the accuracy checks
+            (e.g. on a Dask cluster: :class:`sensorsel.distributed.DistributedDomainEvaluator`);
+            None: one engine per route here.
         conditions: with a domain of (route, condition) members, demand the specification only in
             these conditions (names as the domain file gives them, e.g. ("clear", "rain")); None: in all.
         checkpoint: a file where the answers are journalled as they come (every
@@ -293,7 +311,13 @@ def require(target: Target, specifications: Specification | Sequence[Specificati
         problems, specs = [problems[i] for i in keep], [specs[i] for i in keep]
     library = target.library
     feas = feasible_set(library, math.inf if budget_usd is None else budget_usd, constraints)
-    evaluators = [make_evaluator(p, engine, jobs=jobs) for _, p in problems]
+    keep_idx = keep if conditions is not None else list(range(len(problems)))
+    evaluators: list[RouteEngine]
+    if evaluator is not None:
+        remote = list(getattr(evaluator, "routes"))
+        evaluators = [remote[i] for i in keep_idx]
+    else:
+        evaluators = [make_evaluator(p, engine, jobs=jobs) for _, p in problems]
     oracle = _Oracle(evaluators, [n for n, _ in problems], specs, map_sigma_m)
     if checkpoint is not None:
         path = Path(checkpoint)
@@ -334,7 +358,7 @@ def require(target: Target, specifications: Specification | Sequence[Specificati
         lower_bound_usd=float(found.lower_bound), infeasible_by=found.infeasible_by, stop=found.stop,
         failures=failures, model="slam" if map_sigma_m is None else "map",
         map_sigma_m=map_sigma_m, routes=routes, worst_failure=library.suite_ids(worst), worst_failure_routes=worst_routes,
-        iterations=int(found.iterations), n_checks=oracle.n_checks, n_refuted=oracle.n_refuted, engine=evaluators[0].name, budget_usd=budget_usd,
+        iterations=int(found.iterations), n_checks=oracle.n_checks, n_refuted=oracle.n_refuted, engine=getattr(evaluator, "engine", None) or evaluators[0].name, budget_usd=budget_usd,
         constraints=feas.record, problem=target.info, seconds=time.perf_counter() - t0)
 
 
