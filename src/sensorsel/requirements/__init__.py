@@ -10,8 +10,10 @@ from __future__ import annotations
 
 from .design import RequireResult, RouteRequirement, require
 from .front import FrontAcceptance, FrontPoint, front_acceptance
+from .solver import CheapestSuite, cheapest_suite, meets_after_failures
 from .spec import (DEFAULT_MAP_SIGMA_M, PRESETS, RouteVerdict, Specification, SpecificationError,
                    load_specification_file, preset, verdict)
 
-__all__ = ["FrontAcceptance", "FrontPoint", "front_acceptance", "DEFAULT_MAP_SIGMA_M", "PRESETS", "RequireResult", "RouteRequirement", "RouteVerdict", "Specification",
-           "SpecificationError", "load_specification_file", "preset", "require", "verdict"]
+__all__ = ["CheapestSuite", "DEFAULT_MAP_SIGMA_M", "FrontAcceptance", "FrontPoint", "PRESETS", "RequireResult",
+           "RouteRequirement", "RouteVerdict", "Specification", "SpecificationError", "cheapest_suite", "front_acceptance",
+           "load_specification_file", "meets_after_failures", "preset", "require", "verdict"]

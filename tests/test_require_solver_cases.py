@@ -1,0 +1,67 @@
+"""The exact solver of `sensorsel require` (issue 24) against brute force on small libraries."""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+import pytest
+
+from sensorsel.constraints import Constraints, feasible_set
+from sensorsel.requirements import cheapest_suite, meets_after_failures
+
+KEEP = [0, 14, 15, 16, 25, 26, 27, 38, 39, 40, 50, 51]  # 12 sensors of the real library, every model price
+
+
+def _instance(n: int, seed: int, q: float):
+    r = np.random.default_rng(seed)
+    w = r.exponential(1.0, (n, 6)) * (r.random((n, 6)) < 0.5)
+    need = q * w.sum(axis=0) * r.uniform(0.5, 1.0, 6) + 1e-9
+
+    def got(s):
+        return w[list(s)].sum(axis=0) if s else np.zeros(6)
+
+    return (lambda s: bool(np.all(got(s) >= need))), (lambda s: float(np.max(np.maximum(0.0, 1 - got(s) / need))))
+
+
+def _brute(fs, meets, alpha):
+    allowed = [i for i in range(len(fs.library)) if i not in fs.excluded]
+    best = math.inf
+    for r in range(len(allowed) + 1):
+        for s in itertools.combinations(allowed, r):
+            cost = float(fs.A[0, list(s)].sum()) if s else 0.0
+            if cost >= best or not fs.fits(s):
+                continue
+            if all(meets(tuple(x for x in s if x not in f)) for f in itertools.combinations(s, min(alpha, len(s)))):
+                best = cost
+    return best
+
+
+CONS = [Constraints(), Constraints(max_sensors=5), Constraints.of(require=["WSC-12"], exclude=["LRR-1"])]
+
+
+@pytest.mark.parametrize("alpha", [0, 1, 2])
+@pytest.mark.parametrize("ci", range(len(CONS)))
+def test_equals_brute_force(library, alpha, ci):
+    sub = library.subset(KEEP)
+    for seed in range(4):
+        meets, viol = _instance(len(sub), seed, [0.3, 0.2, 0.12][alpha])
+        fs = feasible_set(sub, math.inf, CONS[ci])
+        best = _brute(fs, meets, alpha)
+        for v in (viol, None):
+            r = cheapest_suite(fs, meets, failures=alpha, violation=v)
+            assert r.lower_bound <= best + 1e-6
+            if math.isinf(best):
+                assert r.status == "infeasible" and r.suite is None
+            else:
+                assert r.status == "optimal" and r.cost == best and fs.fits(r.suite)
+                assert meets_after_failures(meets, [r.suite], failures=alpha) == (True,)
+
+
+def test_deterministic(library):
+    sub = library.subset(KEEP)
+    meets, viol = _instance(len(sub), 1, 0.2)
+    fs = feasible_set(sub, math.inf, Constraints())
+    a, b = (cheapest_suite(fs, meets, failures=1, violation=viol) for _ in range(2))
+    assert (a.suite, a.cost, a.cuts, a.n_checks) == (b.suite, b.cost, b.cuts, b.n_checks)
