@@ -292,3 +292,23 @@ def test_condition_members_on_dask_workers_equal_in_process(tmp_path):
         assert np.array_equal(ev.best, DomainEvaluator(d).best)
     untimed = lambda r: re.sub(r'"seconds": [0-9.e-]+', "", results.dumps(r))  # noqa: E731
     assert untimed(remote) == untimed(local)
+
+
+def test_breakdown_by_condition_and_its_grid_plot(tmp_path):
+    from sensorsel.domain_design import by_condition, design_domain
+    from sensorsel.plotting import plot_domain_breakdown
+
+    d = load_domain(_domain_file(tmp_path, CITY))
+    design = design_domain(d, 8_000)
+    got = {c.name: c for c in by_condition(design)}
+    assert list(got) == ["clear", "night", "rain", "fog"]
+    assert sum(c.weight for c in got.values()) == pytest.approx(1.0)
+    members = [(r, m) for r, m in zip(design.routes, d.routes) if m.condition == "night"]  # independently, by hand
+    w = sum(r.weight for r, _ in members)
+    assert got["night"].share_of_best == pytest.approx(sum(r.weight * r.share_of_best for r, _ in members) / w)
+    assert got["night"].worst_member in {m.name for _, m in members}
+    ax = plot_domain_breakdown(design)
+    assert [t.get_text() for t in ax.get_yticklabels()] == ["suburb", "tiny"]
+    assert len(ax.get_xticklabels()) == 4
+    import matplotlib.pyplot as plt
+    plt.close(ax.figure)

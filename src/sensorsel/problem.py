@@ -265,7 +265,8 @@ def check_result_problem(recorded: "TargetInfo | None", problem: "Target", path:
             file of an older sensorsel), or was computed on another problem; the message names the
             file and what differs.
     """
-    hint = ("give the same library, route, rate, landmark and noise options (or --domain file) as the run that wrote it, "
+    hint = ("give the same library, route, rate, landmark, noise and --condition options (or --domain file) as the run "
+            "that wrote it, "
             "or --force to use it anyway")
     if isinstance(problem, Domain) or isinstance(recorded, DomainInfo):
         if not (isinstance(problem, Domain) and isinstance(recorded, DomainInfo)):
