@@ -37,7 +37,7 @@ def _time(fn, repeat: int) -> float:
 
 
 def measure(problem, suite: tuple[int, ...], repeat: int, gtsam: bool) -> list[str]:
-    from sensorsel.evaluators import FastEvaluator, ReferenceEvaluator
+    from sensorsel.information.evaluators import FastEvaluator, ReferenceEvaluator
 
     ev = FastEvaluator(problem)
     rows = []
@@ -75,9 +75,9 @@ def main() -> None:
     args = ap.parse_args()
 
     from sensorsel import ScenarioSpec, load_problem
-    from sensorsel.library import load_library
-    from sensorsel.problem import build_problem
-    from sensorsel.scenario import Scenario, generate_landmarks
+    from sensorsel.model.library import load_library
+    from sensorsel.model.problem import build_problem
+    from sensorsel.model.scenario import Scenario, generate_landmarks
 
     lib = load_library()
     lidar = (lib.position("LRL-roof"),)

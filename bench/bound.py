@@ -1,5 +1,5 @@
 """Fewer evaluations, same answer (issue 16, item 2): the lazy greedy with and without the gain
-bounds of :mod:`sensorsel.evaluators.fast.bound`, side by side, in one run.
+bounds of :mod:`sensorsel.information.evaluators.fast.bound`, side by side, in one run.
 
     python bench/bound.py [--kitti-root DIR] [--jobs N] [--budget USD] [--repeat R] [--landmarks real|synthetic] [ROUTE ...]
 
@@ -7,8 +7,8 @@ A ROUTE is ``suburb`` (the bundled fixture) or ``SEQ@HZ`` (KITTI, real pole maps
 ``suburb 03@1 00@1``; ``--landmarks synthetic`` generates the KITTI routes' maps instead. For each route one problem and, per run, a fresh fast evaluator (so no run
 reuses another's cached state); ``off`` is the lazy greedy without any bound (``bound_from=0``:
 neither the Fischer bounds on the scores nor the covariance bounds on the gains), ``on``
-asks for both as shipped (:data:`sensorsel.selection.greedy.BOUND_FROM`; the engine declines
-where they are predicted not to pay, :data:`sensorsel.evaluators.fast.evaluator.BOUND_SPARE`),
+asks for both as shipped (:data:`sensorsel.designs.selection.greedy.BOUND_FROM`; the engine declines
+where they are predicted not to pay, :data:`sensorsel.information.evaluators.fast.evaluator.BOUND_SPARE`),
 ``always`` (with ``--always``) computes them wherever asked (``bound_spare=0``). Lazy greedy, uniform
 rule, $110,000, no certificate. The two alternate (off, on, on, off, ...) over ``--repeat`` rounds;
 printed: suites scored, base covariances computed, selection seconds (min over rounds), the
@@ -40,12 +40,12 @@ def main() -> None:
                     "than BOUND_FROM candidates would be re-scored, whatever their predicted cost (bound_spare=0)")
     args = ap.parse_args()
     sys.path.insert(0, str(REPO / "src"))
-    from sensorsel.evaluators.fast import FastEvaluator
-    from sensorsel.evaluators.fast.evaluator import BOUND_SPARE
-    from sensorsel.problem import load_problem
-    from sensorsel.scenario import ScenarioSpec
-    from sensorsel.selection.greedy import BOUND_FROM, Selector
-    from sensorsel.selection.registry import RULES
+    from sensorsel.designs.selection.greedy import BOUND_FROM, Selector
+    from sensorsel.designs.selection.registry import RULES
+    from sensorsel.information.evaluators.fast import FastEvaluator
+    from sensorsel.information.evaluators.fast.evaluator import BOUND_SPARE
+    from sensorsel.model.problem import load_problem
+    from sensorsel.model.scenario import ScenarioSpec
 
     print(f"load average before: {' '.join(f'{x:.2f}' for x in os.getloadavg())}; jobs {args.jobs}; "
           f"BOUND_FROM {BOUND_FROM}, BOUND_SPARE {BOUND_SPARE}")

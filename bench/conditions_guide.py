@@ -25,12 +25,12 @@ sys.path.insert(0, str(REPO / "src"))
 import numpy as np  # noqa: E402
 
 from sensorsel.api import run_robust  # noqa: E402
-from sensorsel.conditions import parse_condition  # noqa: E402
-from sensorsel.domain_design import by_condition, design_domain  # noqa: E402
-from sensorsel.evaluators import DomainEvaluator, make_evaluator  # noqa: E402
-from sensorsel.problem import Domain, load_domain, load_problem, with_condition  # noqa: E402
-from sensorsel.scenario import ScenarioSpec  # noqa: E402
-from sensorsel.selection import greedy  # noqa: E402
+from sensorsel.model.conditions import parse_condition  # noqa: E402
+from sensorsel.designs.domain_design import by_condition, design_domain  # noqa: E402
+from sensorsel.information.evaluators import DomainEvaluator, make_evaluator  # noqa: E402
+from sensorsel.model.problem import Domain, load_domain, load_problem, with_condition  # noqa: E402
+from sensorsel.model.scenario import ScenarioSpec  # noqa: E402
+from sensorsel.designs.selection import greedy  # noqa: E402
 
 
 def compact(suite: tuple[str, ...]) -> str:

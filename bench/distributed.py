@@ -56,11 +56,11 @@ def main() -> None:
     ap.add_argument("--rule", default="uniform")
     args = ap.parse_args()
 
-    from sensorsel import results
-    from sensorsel.distributed import DaskCluster, DistributedDomainEvaluator, RouteRecipe
-    from sensorsel.evaluators import DomainEvaluator, make_evaluator
-    from sensorsel.problem import load_domain
-    from sensorsel.selection import greedy
+    from sensorsel.designs.selection import greedy
+    from sensorsel.information.evaluators import DomainEvaluator, make_evaluator
+    from sensorsel.io import results
+    from sensorsel.model.problem import load_domain
+    from sensorsel.pipeline.cluster import DaskCluster, DistributedDomainEvaluator, RouteRecipe
 
     out: dict = {"domain": args.domain, "budget_usd": args.budget, "workers": args.workers, "rule": args.rule,
                  "cpus": os.cpu_count()}

@@ -22,11 +22,11 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "src"))
 
-from sensorsel.domain import load_domain_file, load_domain_scenarios  # noqa: E402
-from sensorsel.evaluators import DomainEvaluator, make_evaluator  # noqa: E402
-from sensorsel.library import load_library  # noqa: E402
-from sensorsel.problem import Domain, DomainRoute, build_problem  # noqa: E402
-from sensorsel.selection import greedy  # noqa: E402
+from sensorsel.model.domain import load_domain_file, load_domain_scenarios  # noqa: E402
+from sensorsel.information.evaluators import DomainEvaluator, make_evaluator  # noqa: E402
+from sensorsel.model.library import load_library  # noqa: E402
+from sensorsel.model.problem import Domain, DomainRoute, build_problem  # noqa: E402
+from sensorsel.designs.selection import greedy  # noqa: E402
 
 
 def main() -> None:

@@ -35,7 +35,7 @@ def route(km: float):
     """The 10 Hz route of ``km`` kilometres: a Trajectory."""
     import numpy as np
 
-    from sensorsel.scenario import Trajectory
+    from sensorsel.model.scenario import Trajectory
 
     n = int(round(km * 1000.0 / SPEED_MPS * RATE_HZ))
     rates = []
@@ -56,11 +56,11 @@ def worker(km: float, rate: float, budget: float, jobs: int) -> dict:
     """One rate, in this process: build, set up, select; the numbers to print."""
     import numpy as np
 
-    from sensorsel.evaluators.fast import FastEvaluator
-    from sensorsel.library import load_library
-    from sensorsel.problem import build_problem
-    from sensorsel.scenario import Scenario, generate_landmarks
-    from sensorsel.selection import greedy
+    from sensorsel.designs.selection import greedy
+    from sensorsel.information.evaluators.fast import FastEvaluator
+    from sensorsel.model.library import load_library
+    from sensorsel.model.problem import build_problem
+    from sensorsel.model.scenario import Scenario, generate_landmarks
 
     full = route(km)
     step = max(1, int(round(RATE_HZ / rate)))

@@ -11,12 +11,12 @@ import tempfile
 import time
 from pathlib import Path
 
-from sensorsel._resources import sample_osm_dir
+from sensorsel.io.resources import sample_osm_dir
 
 
 def main() -> None:
-    from sensorsel.osm.city import build_city, write_city
-    from sensorsel.osm.extract import DEFAULT_CLASSES, parse_roads, read_osm
+    from sensorsel.model.osm.city import build_city, write_city
+    from sensorsel.model.osm.extract import DEFAULT_CLASSES, parse_roads, read_osm
 
     path = sample_osm_dir() / "helsinki.osm.pbf"
     t0 = time.perf_counter()
@@ -29,7 +29,7 @@ def main() -> None:
     t2 = time.perf_counter()
     print(f"routes        {t2 - t1:6.2f} s  ({len(city.routes)} routes, {city.driven_m / 1000:.2f} km)")
     from sensorsel.api import run_greedy
-    from sensorsel.problem import load_domain
+    from sensorsel.model.problem import load_domain
 
     with tempfile.TemporaryDirectory() as tmp:
         domain = write_city(city, ex, Path(tmp) / "city", command="bench/osm.py")

@@ -27,12 +27,12 @@ REPO = Path(__file__).resolve().parents[1]
 
 def worker(what: str, seq: str, kitti_root: str, budget: float, alpha: int) -> dict:
     sys.path.insert(0, str(REPO / "src"))
-    from sensorsel.evaluators import make_evaluator
-    from sensorsel.problem import load_problem
-    from sensorsel.resilient import worst_case
-    from sensorsel.robust import robust_select
-    from sensorsel.scenario import ScenarioSpec
-    from sensorsel.selection import greedy
+    from sensorsel.designs.resilient import worst_case
+    from sensorsel.designs.robust import robust_select
+    from sensorsel.designs.selection import greedy
+    from sensorsel.information.evaluators import make_evaluator
+    from sensorsel.model.problem import load_problem
+    from sensorsel.model.scenario import ScenarioSpec
 
     t0 = time.perf_counter()
     problem = load_problem(ScenarioSpec(seq=seq, kitti_root=kitti_root))

@@ -5,7 +5,7 @@ against the dense pose Cholesky, side by side, in one run.
 
 Each run is a lazy greedy ($110,000, uniform rule, real pole maps) in a fresh child process (peak
 RSS is its own ``ru_maxrss``). ``new`` is the engine as shipped (the kernel picks the frontal or
-the dense path per evaluation by predicted flops, :data:`sensorsel.evaluators.fast.kernel.FRONT_BELOW`);
+the dense path per evaluation by predicted flops, :data:`sensorsel.information.evaluators.fast.kernel.FRONT_BELOW`);
 ``old`` is the same engine held to the dense path (``front_below=0``: the engine before issue 16).
 Old and new of one configuration run back to back, alternating which goes first, so that both see
 the same machine load. Printed: keyframes, suites scored, setup (one-off linearization) and
@@ -40,10 +40,10 @@ QUICK_RUNS = ["03@1:old,new", "03@2:old,new", "03@4:old,new", "03@8:old,new"]
 def worker(seq: str, hz: float, engine: str, kitti_root: str, budget: float, jobs: int) -> dict:
     """One lazy greedy in this process; returns its measurements."""
     sys.path.insert(0, str(REPO / "src"))
-    from sensorsel.evaluators.fast import FastEvaluator
-    from sensorsel.problem import load_problem
-    from sensorsel.scenario import ScenarioSpec
-    from sensorsel.selection import greedy
+    from sensorsel.designs.selection import greedy
+    from sensorsel.information.evaluators.fast import FastEvaluator
+    from sensorsel.model.problem import load_problem
+    from sensorsel.model.scenario import ScenarioSpec
 
     t0 = time.perf_counter()
     problem = load_problem(ScenarioSpec(seq=seq, kitti_root=kitti_root, keyframe_rate_hz=hz))

@@ -35,7 +35,7 @@ def marginals_prediction(payload) -> tuple[float, np.ndarray]:
     import gtsam
     from gtsam.symbol_shorthand import L, X
 
-    from sensorsel.graph import pose2
+    from sensorsel.information.graph import pose2
     from sensorsel.simulate.noise import truth
     from sensorsel.simulate.solve import Noise, build_graph
 
@@ -84,8 +84,8 @@ def main() -> None:
     ap.add_argument("--old-runs", type=int, default=2)
     a = ap.parse_args()
 
-    from sensorsel.problem import load_problem
-    from sensorsel.scenario import ScenarioSpec
+    from sensorsel.model.problem import load_problem
+    from sensorsel.model.scenario import ScenarioSpec
     from sensorsel.simulate import simulate
     from sensorsel.simulate.consistency import predict
     from sensorsel.simulate.noise import make_payload

@@ -34,10 +34,10 @@ REPO = Path(__file__).resolve().parents[1]
 def worker(seq: str, kitti_root: str, engine: str, budget: float, jobs: int) -> dict:
     """One greedy run in this process; returns its measurements."""
     sys.path.insert(0, str(REPO / "src"))
-    from sensorsel.evaluators import make_evaluator
-    from sensorsel.problem import load_problem
-    from sensorsel.scenario import ScenarioSpec
-    from sensorsel.selection import greedy
+    from sensorsel.designs.selection import greedy
+    from sensorsel.information.evaluators import make_evaluator
+    from sensorsel.model.problem import load_problem
+    from sensorsel.model.scenario import ScenarioSpec
 
     t0 = time.perf_counter()
     problem = load_problem(ScenarioSpec(seq=seq, kitti_root=kitti_root))

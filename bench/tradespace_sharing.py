@@ -21,10 +21,10 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "src"))
 
-from sensorsel.evaluators import make_evaluator  # noqa: E402
-from sensorsel.problem import load_problem  # noqa: E402
-from sensorsel.scenario import ScenarioSpec  # noqa: E402
-from sensorsel.tradespace import tradespace  # noqa: E402
+from sensorsel.information.evaluators import make_evaluator  # noqa: E402
+from sensorsel.model.problem import load_problem  # noqa: E402
+from sensorsel.model.scenario import ScenarioSpec  # noqa: E402
+from sensorsel.designs.tradespace import tradespace  # noqa: E402
 
 
 def main() -> None:

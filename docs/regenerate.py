@@ -199,7 +199,7 @@ def step_resilient(seq: str) -> Callable[[Ctx], None]:
         code = (
             "import sys\n"
             "from sensorsel import ScenarioSpec, load_problem, make_evaluator, results\n"
-            "from sensorsel.resilient import worst_case\n"
+            "from sensorsel.designs.resilient import worst_case\n"
             "seq, root, lm, suite, out = sys.argv[1:6]\n"
             "p = load_problem(ScenarioSpec(seq=seq, kitti_root=root, landmarks=lm))\n"
             "results.save(worst_case(make_evaluator(p), suite, 1), out)\n"
@@ -416,7 +416,7 @@ def _short(suite: list[str]) -> str:
     """LRL-roof, MRL-roof, HD2K-4, HD2K-8 -> 'LRL, MRL, HD2K-4/8' (model groups in first-seen order);
     a suite of most of the library -> 'all but LRL-roof'."""
     if not _LIBRARY_IDS:
-        from sensorsel.library import load_library  # the default library (Table I): all steps use it
+        from sensorsel.model.library import load_library  # the default library (Table I): all steps use it
         _LIBRARY_IDS.extend(load_library().ids)
     missing = [i for i in _LIBRARY_IDS if i not in suite]
     if len(missing) <= 3 and set(suite) <= set(_LIBRARY_IDS):
@@ -624,7 +624,7 @@ def _require_table(root: Path) -> list[str]:
            "| target | preset | failures | suite | cost | lower bound | | lateral [m] | longitudinal [m] | heading [deg] | accuracy checks | s |",
            "|---|---|---:|---|---:|---:|---|---:|---:|---:|---:|---:|", *rows, ""]
     rows = []
-    from sensorsel.evaluators.accuracy import Z95
+    from sensorsel.information.evaluators.accuracy import Z95
     for target in ("03", "00", "domain"):
         g = _load(d / f"greedy-accuracy-{target}.json")
         if not g:

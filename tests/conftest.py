@@ -10,9 +10,9 @@ from pathlib import Path
 
 import pytest
 
-from sensorsel.library import load_library
-from sensorsel.problem import build_problem
-from sensorsel.scenario import ScenarioSpec, load_scenario
+from sensorsel.model.library import load_library
+from sensorsel.model.problem import build_problem
+from sensorsel.model.scenario import ScenarioSpec, load_scenario
 
 REPO = Path(__file__).resolve().parents[1]
 

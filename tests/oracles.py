@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import itertools
 
-from sensorsel.evaluators import Evaluator
+from sensorsel.information.evaluators import Evaluator
 
 
 def every_suite_score(evaluator: Evaluator) -> dict[tuple[int, ...], float]:

@@ -12,9 +12,9 @@ import math
 import numpy as np
 from hypothesis import strategies as st
 
-from sensorsel.library import SensorLibrary
-from sensorsel.problem import Problem, build_problem
-from sensorsel.scenario import Scenario, Trajectory
+from sensorsel.model.library import SensorLibrary
+from sensorsel.model.problem import Problem, build_problem
+from sensorsel.model.scenario import Scenario, Trajectory
 
 ROOF_LIDARS = (0, 25)  # LRL-roof, MRL-roof in Table I's order
 N_TABLE_I = 62

@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from sensorsel.evaluators import FastEvaluator, ReferenceEvaluator
-from sensorsel.evaluators.accuracy import Z95, accuracy_from_covariances, route_accuracy
 from sensorsel.errors import InputError
-from sensorsel.problem import build_problem
-from sensorsel.scenario import Scenario, Trajectory
+from sensorsel.information.evaluators import FastEvaluator, ReferenceEvaluator
+from sensorsel.information.evaluators.accuracy import Z95, accuracy_from_covariances, route_accuracy
+from sensorsel.model.problem import build_problem
+from sensorsel.model.scenario import Scenario, Trajectory
 
 SUITES = [(), (0,), (0, 5, 20), (2, 14, 30, 47, 61)]
 

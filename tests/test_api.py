@@ -6,7 +6,7 @@ import doctest
 
 import sensorsel
 import sensorsel.api
-import sensorsel.evaluators.domain
+import sensorsel.information.evaluators.domain
 
 
 def test_every_run_function_is_importable_from_sensorsel():

@@ -8,6 +8,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 REPO = Path(__file__).resolve().parents[1]
 LINT = Path(sys.executable).with_name("lint-imports")
 
@@ -24,15 +26,37 @@ def test_layers_and_no_cycles_hold():
     assert "0 broken" in out.stdout
 
 
-def test_an_upward_import_breaks_the_build(tmp_path):
-    # a copy of the package in which the selection layer imports the CLI: the check must fail and name it
+@pytest.mark.parametrize("module, line, broken, path", [
+    # across packages: the model imports plotting
+    ("model/sensing.py", "from sensorsel import plotting",
+     "sensorsel.model is not allowed to import sensorsel.plotting", "sensorsel.model.sensing -> sensorsel.plotting"),
+    # inside a package: the greedy selection imports a search built on it
+    ("designs/selection/greedy.py", "from sensorsel.designs import robust",
+     "sensorsel.designs.selection is not allowed to import sensorsel.designs.robust",
+     "sensorsel.designs.selection.greedy -> sensorsel.designs.robust"),
+    # plotting and the api are independent floors
+    ("plotting/__init__.py", "from sensorsel import api",
+     "sensorsel.plotting is not allowed to import sensorsel.api", "sensorsel.plotting -> sensorsel.api"),
+])
+def test_an_upward_import_breaks_the_build(module, line, broken, path, tmp_path):
+    # a copy of the package with one upward import added: the check must fail and name it
     src = tmp_path / "src"
     shutil.copytree(REPO / "src" / "sensorsel", src / "sensorsel", ignore=shutil.ignore_patterns("__pycache__"))
-    target = src / "sensorsel" / "sensing.py"
-    target.write_text(target.read_text() + "\nfrom . import plotting  # an upward import\n")
+    target = src / "sensorsel" / module
+    target.write_text(target.read_text() + f"\n{line}  # an upward import\n")
     out = _lint(src)
     assert out.returncode != 0
-    assert "sensorsel.sensing is not allowed to import sensorsel.plotting" in out.stdout
+    assert broken in out.stdout and path in out.stdout
+
+
+def test_the_package_is_a_handful_of_concept_packages_and_no_module_is_long():
+    """Issue 29: at most 14 modules and packages at the top level, no source module over 600 lines."""
+    pkg = REPO / "src" / "sensorsel"
+    top = sorted(p.name for p in pkg.iterdir()
+                 if (p.suffix == ".py") or (p.is_dir() and (p / "__init__.py").is_file()))
+    assert len(top) <= 14, top
+    long = {str(p.relative_to(pkg)): n for p in pkg.rglob("*.py") if (n := len(p.read_text().splitlines())) > 600}
+    assert not long, long
 
 
 def test_selecting_does_not_import_gtsam_and_simulate_stays_the_function():

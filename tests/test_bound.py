@@ -13,13 +13,13 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 
 from scenario_strategies import problems
-from sensorsel.constraints import Constraints
-from sensorsel.evaluators import FastEvaluator, ReferenceEvaluator
-from sensorsel.evaluators.fast.evaluator import BOUND_SPARE
-from sensorsel.graph import GraphBuilder
-from sensorsel.library import load_library
-from sensorsel.selection.greedy import BOUND_FROM, Selector, greedy
-from sensorsel.selection.registry import RULES
+from sensorsel.designs.selection.greedy import BOUND_FROM, Selector, greedy
+from sensorsel.designs.selection.registry import RULES
+from sensorsel.information.evaluators import FastEvaluator, ReferenceEvaluator
+from sensorsel.information.evaluators.fast.evaluator import BOUND_SPARE
+from sensorsel.information.graph import GraphBuilder
+from sensorsel.model.constraints import Constraints
+from sensorsel.model.library import load_library
 
 LIBRARY = load_library()
 HYPOTHESIS = settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -199,7 +199,7 @@ def test_score_bounds_spare_most_of_the_first_steps_evaluations(suburb_problem):
 def test_score_bounds_are_declined_for_a_wide_base_band(tiny_problem):
     """A base coupling keyframes far apart (a loop-closure prior, say) is no narrow band: no bound
     is offered (it would cost a dense factorization); the odometry chain's band is."""
-    from sensorsel.evaluators.fast.fischer import MAX_HALF_BANDWIDTH, PoseBand
+    from sensorsel.information.evaluators.fast.fischer import MAX_HALF_BANDWIDTH, PoseBand
     K = 20
     near = np.array([MAX_HALF_BANDWIDTH]), np.array([0])
     far = np.array([MAX_HALF_BANDWIDTH + 1]), np.array([0])

@@ -23,17 +23,18 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from scenario_strategies import problems
-from sensorsel import results
 from sensorsel.api import run_greedy
-from sensorsel.certify import (Certificate, CertifiedGreedyResult, KnapsackSolution, OptimumResult, SuiteBound, certificate, certify_greedy,
-                               cost_units, format_certificate, knapsack, optimal, suite_bound)
 from sensorsel.cli import cli
+from sensorsel.designs.certify import (Certificate, CertifiedGreedyResult, KnapsackSolution, OptimumResult, SuiteBound,
+                                       certificate, certify_greedy, cost_units, format_certificate, knapsack, optimal,
+                                       suite_bound)
+from sensorsel.designs.selection import RULES, greedy
 from sensorsel.errors import InputError
-from sensorsel.library import load_library
-from sensorsel.evaluators import make_evaluator
-from sensorsel.problem import build_problem
-from sensorsel.scenario import ScenarioSpec, load_scenario
-from sensorsel.selection import RULES, greedy
+from sensorsel.information.evaluators import make_evaluator
+from sensorsel.io import results
+from sensorsel.model.library import load_library
+from sensorsel.model.problem import build_problem
+from sensorsel.model.scenario import ScenarioSpec, load_scenario
 
 REPO = Path(__file__).resolve().parents[1]
 LIBRARY = load_library()

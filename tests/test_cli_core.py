@@ -14,11 +14,11 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from sensorsel import results
-from sensorsel.cli import cli
-from sensorsel.evaluators import ReferenceEvaluator
 from sensorsel.api import ScoreResult
-from sensorsel.scenario import ScenarioSpec
+from sensorsel.cli import cli
+from sensorsel.information.evaluators import ReferenceEvaluator
+from sensorsel.io import results
+from sensorsel.model.scenario import ScenarioSpec
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
@@ -146,14 +146,14 @@ def test_score_on_kitti_03(kitti_root):
 
 
 def _tiny_route_options() -> list[str]:
-    from sensorsel._resources import fixtures_dir
+    from sensorsel.io.resources import fixtures_dir
 
     root = fixtures_dir()
     return ["--poses", str(root / "poses" / "tiny.txt"), "--times", str(root / "sequences" / "tiny" / "times.txt")]
 
 
 def test_landmarks_writes_the_generated_map_and_it_scores_the_same(tmp_path):
-    from sensorsel.scenario import LandmarkModel, generate_landmarks, load_route, read_landmarks_csv
+    from sensorsel.model.scenario import LandmarkModel, generate_landmarks, load_route, read_landmarks_csv
 
     route_opts = _tiny_route_options()
     out = tmp_path / "lm.csv"
@@ -169,7 +169,7 @@ def test_landmarks_writes_the_generated_map_and_it_scores_the_same(tmp_path):
 
 
 def test_landmarks_density_options_change_the_map(tmp_path):
-    from sensorsel.scenario import read_landmarks_csv
+    from sensorsel.model.scenario import read_landmarks_csv
 
     route_opts = _tiny_route_options()
     ok("landmarks", *route_opts, "--far-spacing", "1e6", "-o", str(tmp_path / "a.csv"))
@@ -178,7 +178,7 @@ def test_landmarks_density_options_change_the_map(tmp_path):
     assert 1.6 * len(a) <= len(b) <= 2.4 * len(a)  # half the spacing: about twice the near landmarks
     ok("landmarks", *route_opts, "--near-offset", "20,30", "--far-spacing", "1e6", "-o", str(tmp_path / "c.csv"))
     c = read_landmarks_csv(tmp_path / "c.csv")
-    from sensorsel.scenario import load_route
+    from sensorsel.model.scenario import load_route
 
     route, _, _ = load_route(ScenarioSpec(poses=route_opts[1], times=route_opts[3]))
     dist = np.min(np.hypot(c[:, None, 0] - route.poses[None, :, 0], c[:, None, 1] - route.poses[None, :, 1]), axis=1)

@@ -23,17 +23,17 @@ import pytest
 import yaml
 from click.testing import CliRunner
 
-from sensorsel import results
 from sensorsel.api import certify_result, run_optimal
-from sensorsel.certify import Certificate, OptimumResult, certificate, optimal, packing_bound
 from sensorsel.cli import cli
-from sensorsel.constraints import Constraints, feasible_set
+from sensorsel.designs.certify import Certificate, OptimumResult, certificate, optimal, packing_bound
+from sensorsel.designs.selection import RULES, greedy
 from sensorsel.errors import InputError
-from sensorsel.evaluators import make_evaluator
-from sensorsel.library import load_library
-from sensorsel.problem import build_problem
-from sensorsel.scenario import ScenarioSpec, load_scenario
-from sensorsel.selection import RULES, greedy
+from sensorsel.information.evaluators import make_evaluator
+from sensorsel.io import results
+from sensorsel.model.constraints import Constraints, feasible_set
+from sensorsel.model.library import load_library
+from sensorsel.model.problem import build_problem
+from sensorsel.model.scenario import ScenarioSpec, load_scenario
 
 REPO = Path(__file__).resolve().parents[1]
 STOCK = REPO / "configs" / "sensor_library.yaml"

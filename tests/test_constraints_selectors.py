@@ -22,19 +22,19 @@ import yaml
 from click.testing import CliRunner
 
 from oracles import every_suite_score
-from sensorsel import results
-from sensorsel._resources import default_library_path
 from sensorsel.cli import cli
-from sensorsel.constraints import Constraints, feasible_set
+from sensorsel.designs.resilient import CacheWarning, resilient_select, run_periods
+from sensorsel.designs.robust import robust_bound, robust_optimum, robust_select
+from sensorsel.designs.selection import RULES
+from sensorsel.designs.tradespace import tradespace
 from sensorsel.errors import InputError
-from sensorsel.evaluators import Evaluator, as_suite, make_evaluator
-from sensorsel.library import Slot, load_library
-from sensorsel.problem import build_problem
-from sensorsel.resilient import CacheWarning, resilient_select, run_periods
-from sensorsel.robust import robust_bound, robust_optimum, robust_select
-from sensorsel.scenario import ScenarioSpec, load_scenario
-from sensorsel.selection import RULES
-from sensorsel.tradespace import tradespace
+from sensorsel.information.evaluators import Evaluator, as_suite, make_evaluator
+from sensorsel.io import results
+from sensorsel.io.resources import default_library_path
+from sensorsel.model.constraints import Constraints, feasible_set
+from sensorsel.model.library import Slot, load_library
+from sensorsel.model.problem import build_problem
+from sensorsel.model.scenario import ScenarioSpec, load_scenario
 
 LIBRARY = load_library()
 IDS = ("LRL-roof", "MRL-roof", "LRR-12", "LRR-6", "MRR-3", "WSC-12", "HD2K-3", "HD2K-9")
@@ -284,7 +284,7 @@ COMMON = ["--fixture", "tiny", "--engine", "fast", "--jobs", "1", "-q"]
 
 
 def _check_json_suites(lib_path: str, budget: float, c: Constraints, suites) -> None:
-    from sensorsel.library import load_library as load
+    from sensorsel.model.library import load_library as load
     lib = load(lib_path)
     for s in suites:
         assert_fits(lib, budget, c, s, "CLI suite")
@@ -296,7 +296,7 @@ def test_cli_pareto_robust_resilient_keep_a_power_limit(slotted_library_yaml, tm
     r = invoke("pareto", *COMMON, "--library", slotted_library_yaml, "--budgets", "5000,20000",
                "--rules", "uniform,marginal", "--limit", "power_w=30", "-o", out)
     assert r.exit_code == 0, r.output
-    from sensorsel.tradespace import TradespaceResult
+    from sensorsel.designs.tradespace import TradespaceResult
     ts = results.load(TradespaceResult, out / "tradespace.json")
     assert ts.constraints is not None and ts.constraints.limits == (("power_w", 30.0),)
     _check_json_suites(slotted_library_yaml, 20_000.0, c, [a.suite for a in ts.architectures])
@@ -306,14 +306,14 @@ def test_cli_pareto_robust_resilient_keep_a_power_limit(slotted_library_yaml, tm
                "--methods", "none", "--limit", "power_w=30", "-o", out)
     assert r.exit_code == 0, r.output
     assert "power_w" in r.output  # the resource-use table of the answer
-    from sensorsel.robust import RobustResult
+    from sensorsel.designs.robust import RobustResult
     rr = results.load(RobustResult, out)
     _check_json_suites(slotted_library_yaml, 6_000.0, c, [cand.suite for cand in rr.candidates])
 
     r = invoke("resilient", *COMMON, "--library", slotted_library_yaml, "--budget", "6000", "--failures", "1",
                "--period", "5", "--limit", "power_w=30", "-o", tmp_path / "res")
     assert r.exit_code == 0, r.output
-    from sensorsel.resilient import ResilientReport
+    from sensorsel.designs.resilient import ResilientReport
     rep = results.load(ResilientReport, tmp_path / "res" / "resilient.json")
     assert rep.constraints is not None
     suites = [rep.suite, rep.comparison.greedy.suite] + [p.suite for p in rep.per_period.periods]

@@ -7,9 +7,9 @@ from pathlib import Path
 
 import pytest
 
-from sensorsel._resources import fixtures_dir
-from sensorsel.domain import DomainError, load_domain_file, load_domain_scenarios
-from sensorsel.scenario import KITTI_ROOT_ENV, load_scenario
+from sensorsel.io.resources import fixtures_dir
+from sensorsel.model.domain import DomainError, load_domain_file, load_domain_scenarios
+from sensorsel.model.scenario import KITTI_ROOT_ENV, load_scenario
 
 REPO = Path(__file__).resolve().parents[1]
 FIX = fixtures_dir()

@@ -8,11 +8,11 @@ import math
 import numpy as np
 import pytest
 
+from sensorsel.designs.selection import greedy
 from sensorsel.errors import InputError
-from sensorsel.evaluators import DomainEvaluator, make_evaluator
-from sensorsel.problem import Domain, DomainRoute, build_problem, load_domain
-from sensorsel.scenario import ScenarioSpec, load_scenario
-from sensorsel.selection import greedy
+from sensorsel.information.evaluators import DomainEvaluator, make_evaluator
+from sensorsel.model.problem import Domain, DomainRoute, build_problem, load_domain
+from sensorsel.model.scenario import ScenarioSpec, load_scenario
 
 MIXED = ("LRL-roof", "MRL-roof", "LRR-12", "LRR-3", "MRR-6", "WSC-9", "HD2K-4", "HD2K-10", "LSC-2", "WSC-3")
 SAME_COST = tuple(f"HD2K-{k}" for k in range(1, 13))  # twelve identical cameras: a budget is a cardinality
@@ -123,7 +123,7 @@ def test_domain_refuses_bad_routes(library, mixed_domain):
 
 def test_a_route_no_sensor_can_see_is_refused(library):
     tiny = load_scenario(ScenarioSpec(fixture="tiny"))
-    from sensorsel.scenario import Scenario
+    from sensorsel.model.scenario import Scenario
 
     far = Scenario("far", tiny.keyframes, tiny.landmarks + 1e5, "shifted")
     lib = library.subset([library.position(i) for i in MIXED])
@@ -157,8 +157,8 @@ def _cli(*args):
 
 
 def test_cli_greedy_on_a_domain_writes_the_design_breakdown_and_plot(tmp_path):
-    from sensorsel import results
-    from sensorsel.domain_design import DomainDesign
+    from sensorsel.designs.domain_design import DomainDesign
+    from sensorsel.io import results
 
     domain = str(_fixture_domain_path())
     out, plot = tmp_path / "d.json", tmp_path / "d.png"
@@ -204,8 +204,8 @@ def test_domain_bounds_combine_the_routes_and_leave_the_picks_alone(mixed_domain
     """The domain's bounds are its routes' bounds combined with F's factors (each route's bound
     computed on its own as the oracle); they bound F; the lazy greedy that uses them picks what
     the one without bounds picks, with fewer evaluations."""
-    from sensorsel.selection.greedy import Selector
-    from sensorsel.selection.registry import RULES
+    from sensorsel.designs.selection.greedy import Selector
+    from sensorsel.designs.selection.registry import RULES
 
     ev = DomainEvaluator(mixed_domain, "fast")
     n = len(mixed_domain.library)

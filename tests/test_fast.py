@@ -13,10 +13,11 @@ import numpy as np
 import pytest
 
 from sensorsel.errors import InputError
-from sensorsel.evaluators import DEFAULT_ENGINE, ENGINES, FastEvaluator, ReferenceEvaluator, make_evaluator, register
-from sensorsel.evaluators.fast.blas import Blas
-from sensorsel.graph import GraphBuilder
-from sensorsel.linearize import linearize_library
+from sensorsel.information.evaluators import (DEFAULT_ENGINE, ENGINES, FastEvaluator, ReferenceEvaluator,
+                                              make_evaluator, register)
+from sensorsel.information.evaluators.fast.blas import Blas
+from sensorsel.information.graph import GraphBuilder
+from sensorsel.information.linearize import linearize_library
 
 REL = 1e-9
 
@@ -68,7 +69,7 @@ def test_whitened_blocks_are_gtsams_own_linearization(tiny_problem):
 
 def _gtsam_pair_jacobians(problem, lin, pairs) -> np.ndarray:
     """(n, 2, 5) GTSAM's own linearization of one unit-noise BearingRangeFactor2D per pair."""
-    from sensorsel.graph import add_bearing_range
+    from sensorsel.information.graph import add_bearing_range
 
     sc = problem.scenario
     pk, pj = lin.pair_pose[pairs], lin.pair_landmark[pairs]
@@ -103,7 +104,7 @@ def test_closed_form_pair_jacobians_are_gtsams_linearization(which, tiny_problem
 
 def test_closed_form_jacobians_hold_at_every_heading_and_range():
     """Random geometry through the ±π seam of the heading and the bearing, 1 m to 2 km away."""
-    from sensorsel.linearize import bearing_range_jacobians
+    from sensorsel.information.linearize import bearing_range_jacobians
 
     rng = np.random.default_rng(7)
     n = 400
@@ -301,7 +302,7 @@ def test_the_frontal_path_agrees_with_the_reference(fixture, chunk_poses, reques
 def test_the_frontal_path_on_kitti03_and_its_choice(kitti03_problem):
     """On KITTI 03 the forced frontal path gives the reference's numbers; by default the kernel
     takes it where its predicted flops are below FRONT_BELOW of the dense Cholesky's."""
-    from sensorsel.evaluators.fast.kernel import FRONT_BELOW
+    from sensorsel.information.evaluators.fast.kernel import FRONT_BELOW
 
     fe, re = FastEvaluator(kitti03_problem, front_below=1e9), ReferenceEvaluator(kitti03_problem)
     lib = kitti03_problem.library
@@ -448,8 +449,8 @@ def test_registry_holds_classes_and_names_unknown_engines(tiny_problem):
 
 
 def test_a_sensor_that_sees_nothing_adds_exactly_nothing(tiny_problem):
-    from sensorsel.problem import build_problem
-    from sensorsel.scenario import Scenario
+    from sensorsel.model.problem import build_problem
+    from sensorsel.model.scenario import Scenario
 
     sc = tiny_problem.scenario
     far = Scenario(name="far", keyframes=sc.keyframes, landmarks=sc.landmarks + 1e5, landmark_source="moved")
@@ -465,7 +466,7 @@ def test_a_grown_layout_answers_the_sparse_test_from_its_base_without_its_own_pa
     """A candidate measuring pairs its base does not gets a layout of its own; its pose-block pattern
     holds the base's, so where the base is already too dense for the sparse path the candidate's
     answer is taken from it (no pattern built), and it is the answer its own pattern gives."""
-    from sensorsel.evaluators.fast.kernel import SPARSE_BELOW
+    from sensorsel.information.evaluators.fast.kernel import SPARSE_BELOW
 
     fe = FastEvaluator(suburb_problem)
     lib = suburb_problem.library

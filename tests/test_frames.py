@@ -19,18 +19,9 @@ from scipy.spatial.transform import Rotation
 from sensorsel.api import score_suite
 from sensorsel.cli import cli
 from sensorsel.errors import InputError, ScenarioError
-from sensorsel.problem import load_problem
-from sensorsel.scenario import (
-    ScenarioSpec,
-    find_frame,
-    headings_from_travel,
-    load_scenario,
-    read_kitti_poses,
-    read_route_file,
-    read_times,
-    route_from_positions,
-    scenario_notes,
-)
+from sensorsel.model.problem import load_problem
+from sensorsel.model.scenario import (ScenarioSpec, find_frame, headings_from_travel, load_scenario, read_kitti_poses,
+                                      read_route_file, read_times, route_from_positions, scenario_notes)
 
 # radars at four clock positions and cameras: a turned or mirrored heading changes the score
 SUITE = "LRR-12,LRR-3,LRR-10,HD2K-12,HD2K-4,HD2K-9"

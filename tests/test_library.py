@@ -12,10 +12,10 @@ import pytest
 import yaml
 from click.testing import CliRunner
 
-from sensorsel._resources import default_library_path
 from sensorsel.cli import cli
 from sensorsel.errors import InputError, LibraryError
-from sensorsel.library import load_library, parse_library
+from sensorsel.io.resources import default_library_path
+from sensorsel.model.library import load_library, parse_library
 
 REPO = Path(__file__).resolve().parents[1]
 PAPER_DIR = REPO.parent / "shared" / "paper"

@@ -11,7 +11,7 @@ from click.testing import CliRunner
 
 from sensorsel.cli import cli
 from sensorsel.errors import LibraryError
-from sensorsel.library import SLOT_ANY, load_library, resource_unit
+from sensorsel.model.library import SLOT_ANY, load_library, resource_unit
 
 REPO = Path(__file__).resolve().parents[1]
 CAR = REPO / "configs" / "car_one_radar_one_camera.yaml"

@@ -5,9 +5,9 @@ slack of ``FeasibleSet.addable`` (REL_SLACK) the third would be dropped."""
 from __future__ import annotations
 
 from sensorsel.api import run_greedy
-from sensorsel.constraints import Constraints, feasible_set
-from sensorsel.problem import build_problem
-from sensorsel.scenario import ScenarioSpec, load_scenario
+from sensorsel.model.constraints import Constraints, feasible_set
+from sensorsel.model.problem import build_problem
+from sensorsel.model.scenario import ScenarioSpec, load_scenario
 
 RADARS = ("MRR-12", "MRR-3", "MRR-6", "MRR-9")  # the stock library's mid-range radar: 0.19 kg each
 

@@ -1,4 +1,4 @@
-"""Issue 27: a city from OpenStreetMap and GPS tracks (sensorsel.osm, ``sensorsel osm``).
+"""Issue 27: a city from OpenStreetMap and GPS tracks (sensorsel.model.osm, ``sensorsel osm``).
 
 Oracles: a minimal PBF decoder written here (protobuf varints + zlib, nothing of pyosmium) for the
 element counts; the Krüger series of the transverse Mercator projection written here for UTM;
@@ -18,9 +18,9 @@ import pytest
 from click.testing import CliRunner
 
 from sensorsel.cli import cli
-from sensorsel.osm.city import build_city
-from sensorsel.osm.extract import LANDMARK_CLASSES, LocalFrame, parse_roads, read_osm
-from sensorsel.osm.gpx import GeoRef, read_gpx
+from sensorsel.model.osm.city import build_city
+from sensorsel.model.osm.extract import LANDMARK_CLASSES, LocalFrame, parse_roads, read_osm
+from sensorsel.model.osm.gpx import GeoRef, read_gpx
 
 REPO = Path(__file__).resolve().parents[1]
 SAMPLE = REPO / "data" / "osm" / "helsinki.osm.pbf"  # the shipped sample (a copy of ../shared/osm/helsinki.osm.pbf)
@@ -267,8 +267,8 @@ def _gpx(points: list[tuple[float, float, str | None]]) -> str:
 
 def test_gpx_track_and_the_same_route_as_csv_score_the_same(tmp_path):
     from sensorsel.api import score_suite
-    from sensorsel.problem import load_domain
-    from sensorsel.scenario import write_planar_csv
+    from sensorsel.model.problem import load_domain
+    from sensorsel.model.scenario import write_planar_csv
 
     # a planar route: 200 m straight then a quarter circle of radius 60 m, at 10 m/s, 10 Hz
     s = np.arange(0, 200 + 60 * math.pi / 2, 1.0)

@@ -9,7 +9,7 @@ from click.testing import CliRunner
 
 from sensorsel.cli import cli
 from sensorsel.errors import OutputError
-from sensorsel.fileio import atomic_write_text, output_dir, output_file
+from sensorsel.io.files import atomic_write_text, output_dir, output_file
 
 
 def _fails_before_work(*args: str) -> str:

@@ -1,5 +1,5 @@
 """The score is monotone and submodular: what the greedy guarantee, the lazy greedy and the
-certificate's upper bound (sensorsel.certify) rely on.
+certificate's upper bound (sensorsel.designs.certify) rely on.
 
 Checked exhaustively on the whole lattice of small sub-libraries (every suite S, every pair of
 sensors e, x outside S):
@@ -21,10 +21,10 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 
 from scenario_strategies import problems
-from sensorsel.library import load_library
-from sensorsel.evaluators import ENGINES, make_evaluator
-from sensorsel.problem import build_problem
-from sensorsel.scenario import ScenarioSpec, load_scenario
+from sensorsel.information.evaluators import ENGINES, make_evaluator
+from sensorsel.model.library import load_library
+from sensorsel.model.problem import build_problem
+from sensorsel.model.scenario import ScenarioSpec, load_scenario
 
 REL_TOL = 1e-9
 LIBRARY = load_library()

@@ -35,13 +35,14 @@ from typing import Any
 
 import pytest
 
-from sensorsel import ScenarioSpec, load_problem, results
+from sensorsel import ScenarioSpec, load_problem
 from sensorsel.api import suite_accuracy
+from sensorsel.io import results
 
 try:  # the public API module, where there is one
     from sensorsel.api import run_greedy  # type: ignore[attr-defined]
 except ImportError:
-    from sensorsel.selection import run_greedy
+    from sensorsel.designs.selection import run_greedy
 
 pytestmark = pytest.mark.kitti
 

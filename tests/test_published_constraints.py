@@ -16,9 +16,9 @@ from pathlib import Path
 
 import yaml
 
-from sensorsel import results
-from sensorsel.constraints import feasible_set
-from sensorsel.library import load_library
+from sensorsel.io import results
+from sensorsel.model.constraints import feasible_set
+from sensorsel.model.library import load_library
 
 REPO = Path(__file__).resolve().parents[1]
 RESULT = REPO / "docs" / "results" / "constrained00.json"

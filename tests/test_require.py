@@ -10,12 +10,12 @@ import math
 import pytest
 from click.testing import CliRunner
 
-from sensorsel import results
 from sensorsel.cli import cli
-from sensorsel.constraints import Constraints
-from sensorsel.evaluators import FastEvaluator
-from sensorsel.evaluators.accuracy import route_accuracy
-from sensorsel.requirements import Specification, require, verdict
+from sensorsel.designs.requirements import Specification, require, verdict
+from sensorsel.information.evaluators import FastEvaluator
+from sensorsel.information.evaluators.accuracy import route_accuracy
+from sensorsel.io import results
+from sensorsel.model.constraints import Constraints
 
 T = ["--fixture", "tiny"]
 E = ["--engine", "fast", "--jobs", "1", "-q"]
@@ -102,7 +102,7 @@ def test_require_cli_end_to_end_and_deterministic(tmp_path):
 
 
 def _all_ids():
-    from sensorsel.library import load_library
+    from sensorsel.model.library import load_library
     return load_library().ids
 
 

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from sensorsel.constraints import Constraints, feasible_set
-from sensorsel.library import load_library
-from sensorsel.requirements.solver import cheapest_suite
+from sensorsel.designs.requirements.solver import cheapest_suite
+from sensorsel.model.constraints import Constraints, feasible_set
+from sensorsel.model.library import load_library
 
 LIB = load_library()
 #: twelve sensors of the library (the rest excluded): 4,096 suites to enumerate

@@ -8,8 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from sensorsel.constraints import Constraints, feasible_set
-from sensorsel.requirements import cheapest_suite, meets_after_failures
+from sensorsel.designs.requirements import cheapest_suite, meets_after_failures
+from sensorsel.model.constraints import Constraints, feasible_set
 
 KEEP = [0, 14, 15, 16, 25, 26, 27, 38, 39, 40, 50, 51]  # 12 sensors of the real library, every model price
 

@@ -7,10 +7,10 @@ import math
 import numpy as np
 import pytest
 
+from sensorsel.designs.requirements.spec import (PRESETS, Specification, SpecificationError, load_specification_file,
+                                                 preset, specifications_for, verdict)
 from sensorsel.errors import InputError
-from sensorsel.evaluators.accuracy import Z95, accuracy_from_covariances
-from sensorsel.requirements.spec import (PRESETS, Specification, SpecificationError, load_specification_file, preset,
-                                         specifications_for, verdict)
+from sensorsel.information.evaluators.accuracy import Z95, accuracy_from_covariances
 
 
 def _accuracy(lateral, longitudinal=None, heading_deg=None):

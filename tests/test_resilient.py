@@ -17,20 +17,19 @@ import pytest
 import yaml
 from click.testing import CliRunner
 
-from sensorsel import results
-from sensorsel._resources import default_library_path
 from sensorsel.cli import cli
+from sensorsel.designs.resilient import (ACTIVE, FAILED, CacheWarning, PerPeriodResult, ResilientReport, SelectionGrid,
+                                         check_period, compare, period_file, period_scenario, resilient_report,
+                                         resilient_select, run_periods, split_periods, worst_case)
+from sensorsel.designs.selection import greedy
 from sensorsel.errors import InputError
-from sensorsel.graph import GraphBuilder
-from sensorsel.evaluators import make_evaluator
-from sensorsel.problem import build_problem
-from sensorsel.resilient import (
-    ACTIVE, FAILED, CacheWarning, PerPeriodResult, ResilientReport, SelectionGrid, check_period, compare, period_file, period_scenario,
-    resilient_report, resilient_select, run_periods, split_periods, worst_case,
-)
-from sensorsel.scenario import Scenario, ScenarioSpec, Trajectory, load_scenario
-from sensorsel.selection import greedy
-from sensorsel.sensing import observe
+from sensorsel.information.evaluators import make_evaluator
+from sensorsel.information.graph import GraphBuilder
+from sensorsel.io import results
+from sensorsel.io.resources import default_library_path
+from sensorsel.model.problem import build_problem
+from sensorsel.model.scenario import Scenario, ScenarioSpec, Trajectory, load_scenario
+from sensorsel.model.sensing import observe
 
 REL = 1e-9
 # A small library: both LiDARs, radars and cameras facing front, back and sides.

@@ -10,12 +10,12 @@ import subprocess
 import sys
 
 import sensorsel
-from sensorsel import results
+from sensorsel.io import results
 
 
 def test_importing_the_package_registers_every_kind_its_modules_define():
     # in a fresh interpreter: this test process has imported more than the package imports
-    code = "import sensorsel, sensorsel.results as r; print(' '.join(sorted(r.KINDS)))"
+    code = "import sensorsel, sensorsel.io.results as r; print(' '.join(sorted(r.KINDS)))"
     on_import = set(subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split())
     for m in pkgutil.walk_packages(sensorsel.__path__, "sensorsel."):
         importlib.import_module(m.name)
@@ -26,8 +26,8 @@ def test_importing_the_package_registers_every_kind_its_modules_define():
 
 
 def test_a_greedy_run_without_certificate_is_written_as_a_greedy_file():
-    from sensorsel.certify import CertifiedGreedyResult
-    from sensorsel.selection import GreedyResult
+    from sensorsel.designs.certify import CertifiedGreedyResult
+    from sensorsel.designs.selection import GreedyResult
 
     assert results.kind_of(GreedyResult) == "greedy" and results.record_class("greedy") is CertifiedGreedyResult
 

@@ -9,12 +9,12 @@ import re
 
 import pytest
 
-from sensorsel import codec, results
-from sensorsel.errors import ResultFileError
 from sensorsel.api import ScoreResult, score_suite
 from sensorsel.api import run_greedy
-from sensorsel.certify import CertifiedGreedyResult
-from sensorsel.selection import GreedyResult
+from sensorsel.designs.certify import CertifiedGreedyResult
+from sensorsel.designs.selection import GreedyResult
+from sensorsel.errors import ResultFileError
+from sensorsel.io import codec, results
 
 
 @pytest.fixture(scope="module")
@@ -88,23 +88,23 @@ def test_old_files_without_kind_load_when_they_parse_as_the_expected_class(score
 
 
 def test_unregistered_classes_are_not_result_kinds(tmp_path):
-    from sensorsel.problem import GraphSettings
+    from sensorsel.model.problem import GraphSettings
 
     with pytest.raises(TypeError, match="not a result kind"):
         results.save(GraphSettings(), tmp_path / "g.json")
 
 
 def test_codec_is_a_base_layer_module():
-    """codec.py imports nothing of sensorsel but errors and fileio."""
+    """codec.py imports nothing of sensorsel but errors and files."""
     tree = ast.parse(inspect.getsource(codec))
-    local = {n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom) and n.level > 0}
-    assert local <= {"errors", "fileio"}, local
+    local = {n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom) and (n.module or "").startswith("sensorsel")}
+    assert local and local <= {"sensorsel.errors", "sensorsel.io.files"}, local
 
 
 def test_resume_reads_period_files_by_kind(tiny_problem, tmp_path):
     """resilient --resume reuses a period file of kind 'resilient-period' (or one written before kinds),
     and recomputes one whose kind is another (never misreads it)."""
-    from sensorsel.resilient import period_file, resilient_report
+    from sensorsel.designs.resilient import period_file, resilient_report
 
     def report(resume):
         return resilient_report(tiny_problem, 5000.0, 1, period_s=3.0, engine="reference", outdir=tmp_path, resume=resume)
@@ -117,7 +117,7 @@ def test_resume_reads_period_files_by_kind(tiny_problem, tmp_path):
     other = json.loads(p1.read_text())
     p1.write_text(json.dumps({**other, "kind": "resilient-comparison"}))  # right fields, wrong kind
     before = p0.stat().st_mtime_ns
-    from sensorsel.resilient import CacheWarning
+    from sensorsel.designs.resilient import CacheWarning
 
     with pytest.warns(CacheWarning, match=f"{p1}.*'resilient-comparison'") as caught:
         again = report(True)

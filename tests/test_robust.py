@@ -19,16 +19,15 @@ import numpy as np
 import pytest
 
 from oracles import every_suite_score
-from sensorsel import results
-from sensorsel.library import load_library
-from sensorsel.evaluators import Evaluator, as_suite, make_evaluator
-from sensorsel.problem import build_problem
-from sensorsel.resilient import resilient_select, worst_case
-from sensorsel.robust import (
-    EvaluatorFamily, FailureFamily, MemoEvaluator, knapsack_drop, robust_bound, robust_optimum, robust_select, saturate,
-)
-from sensorsel.scenario import ScenarioSpec, load_scenario
-from sensorsel.selection import greedy
+from sensorsel.designs.resilient import resilient_select, worst_case
+from sensorsel.designs.robust import (EvaluatorFamily, FailureFamily, MemoEvaluator, knapsack_drop, robust_bound,
+                                      robust_optimum, robust_select, saturate)
+from sensorsel.designs.selection import greedy
+from sensorsel.information.evaluators import Evaluator, as_suite, make_evaluator
+from sensorsel.io import results
+from sensorsel.model.library import load_library
+from sensorsel.model.problem import build_problem
+from sensorsel.model.scenario import ScenarioSpec, load_scenario
 
 REL = 1e-9
 LIBRARY = load_library()
@@ -324,10 +323,10 @@ def test_the_memo_passes_its_engines_bounds_on_so_robust_runs_score_fewer_suites
     """The memo forwards the engine's bounds (they cost no evaluation); a greedy run through it picks
     what the bare engine picks, bit for bit, scoring no more suites than the bare engine's run
     without bounds (bound_from=0)."""
-    from sensorsel.evaluators import FastEvaluator
-    from sensorsel.robust.memo import MemoEvaluator
-    from sensorsel.selection.greedy import Selector
-    from sensorsel.selection.registry import RULES
+    from sensorsel.designs.robust.memo import MemoEvaluator
+    from sensorsel.designs.selection.greedy import Selector
+    from sensorsel.designs.selection.registry import RULES
+    from sensorsel.information.evaluators import FastEvaluator
 
     n = len(suburb_problem.library)
     inner = FastEvaluator(suburb_problem)

@@ -16,13 +16,13 @@ import pytest
 
 from oracles import every_suite_score
 from sensorsel.api import run_robust
-from sensorsel.constraints import feasible_set
-from sensorsel.evaluators import make_evaluator
-from sensorsel.library import Slot
-from sensorsel.problem import Domain, DomainRoute, build_problem
-from sensorsel.robust import knapsack_drop, robust_bound, worst_route_select
-from sensorsel.robust.bound import knapsack_drop_rows
-from sensorsel.scenario import ScenarioSpec, load_scenario
+from sensorsel.designs.robust import knapsack_drop, robust_bound, worst_route_select
+from sensorsel.designs.robust.bound import knapsack_drop_rows
+from sensorsel.information.evaluators import make_evaluator
+from sensorsel.model.constraints import feasible_set
+from sensorsel.model.library import Slot
+from sensorsel.model.problem import Domain, DomainRoute, build_problem
+from sensorsel.model.scenario import ScenarioSpec, load_scenario
 from test_constraints_selectors import LIBRARY, brute_worst, draw_constraints, feasible_suites, random_case, tol
 
 

@@ -11,26 +11,13 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from sensorsel._resources import fixtures_dir
 from sensorsel.cli import cli
 from sensorsel.errors import InputError, ScenarioError
-from sensorsel.scenario import (
-    KITTI_ROOT_ENV,
-    LandmarkModel,
-    ScenarioSpec,
-    Trajectory,
-    generate_landmarks,
-    load_scenario,
-    load_sequence,
-    load_trajectory,
-    read_kitti_poses,
-    read_landmarks_csv,
-    read_times,
-    resolve_kitti_root,
-    select_keyframes,
-    write_kitti_poses,
-    write_landmarks_csv,
-)
+from sensorsel.io.resources import fixtures_dir
+from sensorsel.model.scenario import (KITTI_ROOT_ENV, LandmarkModel, ScenarioSpec, Trajectory, generate_landmarks,
+                                      load_scenario, load_sequence, load_trajectory, read_kitti_poses,
+                                      read_landmarks_csv, read_times, resolve_kitti_root, select_keyframes,
+                                      write_kitti_poses, write_landmarks_csv)
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -419,7 +406,7 @@ def test_pose_files_read_as_pythons_float_reads_each_number(tmp_path):
     """read_kitti_poses parses all lines at once (numpy) where every line is good: the same numbers
     as Python's float() on each token, commas and blank lines included."""
     import numpy as np
-    from sensorsel.scenario import read_kitti_poses
+    from sensorsel.model.scenario import read_kitti_poses
 
     rng = np.random.default_rng(7)
     rows = []
@@ -438,7 +425,7 @@ def test_densified_route_is_each_segment_cut_into_equal_steps():
     """Oracle: each segment a -> b cut by hand into n = ceil(|b - a| / step) equal steps (a repeated
     point and a zero-length segment included)."""
     import numpy as np
-    from sensorsel.scenario import _densify
+    from sensorsel.model.scenario import _densify
 
     xy = np.array([[0.0, 0.0], [1.2, 0.0], [1.2, 0.0], [1.2, -0.7], [4.0, 3.0]])
     want = [xy[0]]

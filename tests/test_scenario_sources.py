@@ -10,27 +10,13 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from sensorsel._resources import fixtures_dir
 from sensorsel.cli import cli
 from sensorsel.errors import InputError, ScenarioError
-from sensorsel.scenario import (
-    ScenarioSpec,
-    Trajectory,
-    clean_landmarks,
-    distance_to_route,
-    load_route_file,
-    load_scenario,
-    load_sequence,
-    read_landmarks_csv,
-    read_planar_csv,
-    read_tum_trajectory,
-    route_name,
-    scenario_notes,
-    sniff_route_format,
-    write_kitti_poses,
-    write_planar_csv,
-    write_tum_trajectory,
-)
+from sensorsel.io.resources import fixtures_dir
+from sensorsel.model.scenario import (ScenarioSpec, Trajectory, clean_landmarks, distance_to_route, load_route_file,
+                                      load_scenario, load_sequence, read_landmarks_csv, read_planar_csv,
+                                      read_tum_trajectory, route_name, scenario_notes, sniff_route_format,
+                                      write_kitti_poses, write_planar_csv, write_tum_trajectory)
 
 TINY_POSES = fixtures_dir() / "poses" / "tiny.txt"
 TINY_TIMES = fixtures_dir() / "sequences" / "tiny" / "times.txt"

@@ -21,11 +21,11 @@ import math
 import numpy as np
 import pytest
 
-from sensorsel.errors import InputError
-from sensorsel.evaluators import ReferenceEvaluator, make_evaluator
 from sensorsel.api import score_suite
-from sensorsel.problem import GraphSettings, build_problem
-from sensorsel.scenario import Scenario, Trajectory
+from sensorsel.errors import InputError
+from sensorsel.information.evaluators import ReferenceEvaluator, make_evaluator
+from sensorsel.model.problem import GraphSettings, build_problem
+from sensorsel.model.scenario import Scenario, Trajectory
 
 REL_TOL = 1e-9
 

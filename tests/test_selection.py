@@ -14,17 +14,17 @@ import pytest
 import yaml
 from click.testing import CliRunner
 
-from sensorsel import results
-from sensorsel._resources import default_library_path
-from sensorsel.cli import cli
-from sensorsel.errors import InputError
-from sensorsel.library import SensorLibrary
-from sensorsel.evaluators import make_evaluator
-from sensorsel.problem import build_problem
-from sensorsel.scenario import ScenarioSpec, load_scenario
 from sensorsel.api import run_greedy
-from sensorsel.certify import CertifiedGreedyResult
-from sensorsel.selection import RULES, GreedyResult, better_run, check_rule, greedy
+from sensorsel.cli import cli
+from sensorsel.designs.certify import CertifiedGreedyResult
+from sensorsel.designs.selection import RULES, GreedyResult, better_run, check_rule, greedy
+from sensorsel.errors import InputError
+from sensorsel.information.evaluators import make_evaluator
+from sensorsel.io import results
+from sensorsel.io.resources import default_library_path
+from sensorsel.model.library import SensorLibrary
+from sensorsel.model.problem import build_problem
+from sensorsel.model.scenario import ScenarioSpec, load_scenario
 
 # Ten sensors of every kind, one of which (LRR-12) sees nothing on the tiny route.
 MIXED = ("LRL-roof", "MRL-roof", "HD2K-12", "HD2K-6", "LSC-4", "WSC-12", "WSC-6", "LRR-6", "MRR-5", "LRR-12")
@@ -285,7 +285,7 @@ def test_results_are_byte_identical_across_runs(mixed):
 def test_jobs_do_not_change_a_byte_of_the_result(suburb_problem):
     """--jobs 1 and --jobs 2: the same picks, scores and evaluation counts, with the fast engine's
     threads used whatever the route's size (the threaded path itself)."""
-    from sensorsel.evaluators import FastEvaluator
+    from sensorsel.information.evaluators import FastEvaluator
 
     for rule in ("uniform", "best-of"):
         one = greedy(FastEvaluator(suburb_problem, jobs=1), 12_000.0, rule)

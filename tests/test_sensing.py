@@ -8,8 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from sensorsel.scenario import Scenario, Trajectory
-from sensorsel.sensing import in_cone, observe, relative_geometry
+from sensorsel.model.scenario import Scenario, Trajectory
+from sensorsel.model.sensing import in_cone, observe, relative_geometry
 
 
 def scene(poses, landmarks) -> Scenario:
@@ -178,9 +178,9 @@ def test_fixture_observations_are_consistent(request, fixture_name):
 def test_landmarks_nearer_than_the_minimum_range_are_not_measured(library):
     # a pole of a real map lying on the route, 0.1 m from a keyframe, stands inside the car: measuring
     # it would add a bearing information ~1/r^2 (here 100x that of a pole at 1 m), an artifact
-    from sensorsel.evaluators import make_evaluator
-    from sensorsel.problem import build_problem
-    from sensorsel.sensing import MIN_RANGE_M
+    from sensorsel.information.evaluators import make_evaluator
+    from sensorsel.model.problem import build_problem
+    from sensorsel.model.sensing import MIN_RANGE_M
 
     lidar = library.subset([library.position("LRL-roof")])
     kf = Trajectory(np.array([[0.0, 0.0, 0.0], [10.0, 0.0, 0.0]]), np.array([0.0, 1.0]), np.arange(2))
@@ -196,7 +196,7 @@ def test_landmarks_nearer_than_the_minimum_range_are_not_measured(library):
 
 def test_off_axis_is_the_angle_between_bearing_and_axis():
     # oracle: the angle between two unit vectors, from atan2 per element (no wrapping arithmetic)
-    from sensorsel.sensing import off_axis, wrap_angle
+    from sensorsel.model.sensing import off_axis, wrap_angle
 
     rng = np.random.default_rng(3)
     bearings = wrap_angle(rng.uniform(-10.0, 10.0, 2000))

@@ -11,11 +11,11 @@ import pytest
 from click.testing import CliRunner
 from scipy.stats import chi2
 
-from sensorsel import codec, results
 from sensorsel.cli import cli
 from sensorsel.errors import InputError
-from sensorsel.problem import build_problem
-from sensorsel.scenario import Scenario
+from sensorsel.io import codec, results
+from sensorsel.model.problem import build_problem
+from sensorsel.model.scenario import Scenario
 from sensorsel.simulate import Failure, SimulationReport, nees_bounds, parse_failures, simulate, without_timing
 
 
@@ -250,9 +250,9 @@ def test_plots_draw_each_design_on_one_error_scale(tiny_problem):
 def _suite_file(problem, path, suite, failed=()):
     """A result file naming ``suite``: a score result, or with ``failed`` a resilient selection
     (computed on the problem, then given this suite and these assumed failures)."""
-    from sensorsel.evaluators import make_evaluator
     from sensorsel.api import score_suite
-    from sensorsel.resilient import resilient_select
+    from sensorsel.designs.resilient import resilient_select
+    from sensorsel.information.evaluators import make_evaluator
 
     if not failed:
         return results.save(score_suite(problem, suite, engine="reference"), path)
@@ -288,7 +288,7 @@ def test_cli_labels_and_hint_for_an_assumed_failure(tmp_path, tiny_problem):
 
 
 def test_cli_start_sigmas_set_the_first_pose_prior(tmp_path, tiny_problem):
-    from sensorsel.problem import GraphSettings
+    from sensorsel.model.problem import GraphSettings
 
     r = CliRunner().invoke(cli, ["simulate", "--fixture", "tiny", "--suite", "LRL-roof", "--start-sigmas", "1e-4,1e-4,1e-5",
                                  "--runs", "2", "--jobs", "1", "-o", str(tmp_path)])

@@ -12,12 +12,12 @@ import pytest
 from click.testing import CliRunner
 from gtsam.symbol_shorthand import L, X
 
-from sensorsel import codec, results
 from sensorsel.cli import cli
 from sensorsel.errors import InputError
-from sensorsel.evaluators import make_evaluator
-from sensorsel.evaluators.accuracy import Z95, route_accuracy
-from sensorsel.graph import pose2
+from sensorsel.information.evaluators import make_evaluator
+from sensorsel.information.evaluators.accuracy import Z95, route_accuracy
+from sensorsel.information.graph import pose2
+from sensorsel.io import codec, results
 from sensorsel.simulate import SimulationReport, SimulationResult, simulate
 from sensorsel.simulate.consistency import body_frame_errors, predict
 from sensorsel.simulate.noise import draw, make_payload, truth
@@ -201,7 +201,7 @@ def _values(p, poses, points):
 
 def _every_measurement_graph(p, d):
     """The graph with one factor per measurement (how it was built before pairs were combined)."""
-    from sensorsel.graph import add_bearing_range, add_pose_chain
+    from sensorsel.information.graph import add_bearing_range, add_pose_chain
 
     noise = Noise(p)
     g = gtsam.NonlinearFactorGraph()

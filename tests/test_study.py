@@ -14,12 +14,12 @@ from pathlib import Path
 
 import pytest
 
-from sensorsel import results
 from sensorsel.api import run_greedy, score_suite
-from sensorsel.problem import load_problem
-from sensorsel.resilient import CacheWarning
-from sensorsel.scenario import ScenarioSpec
-from sensorsel.study import StudyError, StudyResult, load_study, run_study, study_csv, write_study
+from sensorsel.designs.resilient import CacheWarning
+from sensorsel.designs.study import StudyError, StudyResult, load_study, run_study, study_csv, write_study
+from sensorsel.io import results
+from sensorsel.model.problem import load_problem
+from sensorsel.model.scenario import ScenarioSpec
 
 REPO = Path(__file__).resolve().parents[1]
 EXAMPLE = REPO / "configs" / "study_example.yaml"

@@ -16,18 +16,16 @@ import pytest
 import yaml
 from click.testing import CliRunner
 
-from sensorsel import results
-from sensorsel._resources import default_library_path
 from sensorsel.cli import cli
+from sensorsel.designs.selection import greedy
+from sensorsel.designs.tradespace import (DEFAULT_RULES, TradespaceResult, csv_text, default_budgets, pareto_mask,
+                                          parse_budgets, parse_rules, run_tradespace, tradespace, write_csv)
 from sensorsel.errors import InputError
-from sensorsel.evaluators import make_evaluator
-from sensorsel.problem import build_problem
-from sensorsel.scenario import ScenarioSpec, load_scenario
-from sensorsel.selection import greedy
-from sensorsel.tradespace import (
-    DEFAULT_RULES, TradespaceResult, csv_text, default_budgets, pareto_mask, parse_budgets, parse_rules,
-    run_tradespace, tradespace, write_csv,
-)
+from sensorsel.information.evaluators import make_evaluator
+from sensorsel.io import results
+from sensorsel.io.resources import default_library_path
+from sensorsel.model.problem import build_problem
+from sensorsel.model.scenario import ScenarioSpec, load_scenario
 
 MIXED = ("LRL-roof", "MRL-roof", "HD2K-12", "HD2K-6", "LSC-4", "WSC-12", "WSC-6", "LRR-6", "MRR-5", "LRR-12")
 PNG = b"\x89PNG\r\n\x1a\n"

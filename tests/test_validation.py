@@ -16,27 +16,15 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from sensorsel import problem as problem_mod
 from sensorsel.cli import cli
 from sensorsel.errors import InputError, ScenarioError
-from sensorsel.problem import build_problem, check_problem_size, load_problem
-from sensorsel.scenario import (
-    MAX_COORD_M,
-    MAX_LANDMARKS,
-    ROTATION_TOL,
-    LandmarkModel,
-    ScenarioSpec,
-    Trajectory,
-    generate_landmarks,
-    load_scenario,
-    read_kitti_poses,
-    read_landmarks_csv,
-    read_planar_csv,
-    read_tum_trajectory,
-    scenario_notes,
-    write_kitti_poses,
-)
-from sensorsel.sensing import estimate_measurements, observe
+from sensorsel.model import problem as problem_mod
+from sensorsel.model.problem import build_problem, check_problem_size, load_problem
+from sensorsel.model.scenario import (MAX_COORD_M, MAX_LANDMARKS, ROTATION_TOL, LandmarkModel, ScenarioSpec,
+                                      Trajectory, generate_landmarks, load_scenario, read_kitti_poses,
+                                      read_landmarks_csv, read_planar_csv, read_tum_trajectory, scenario_notes,
+                                      write_kitti_poses)
+from sensorsel.model.sensing import estimate_measurements, observe
 
 SEQS = ("00", "02", "03", "04", "06", "08", "10")
 
@@ -210,7 +198,7 @@ def test_tiny_spacing_is_refused_before_allocating_naming_the_option():
     with pytest.raises(InputError, match="--far-spacing"):
         generate_landmarks(route, LandmarkModel(far_spacing_m=1e-4))
     # just under the limit is allowed (estimated, not generated here)
-    from sensorsel.scenario import estimate_landmark_count
+    from sensorsel.model.scenario import estimate_landmark_count
     assert estimate_landmark_count(2000.0, LandmarkModel()) == 2 * 400 + 80
 
 
@@ -281,7 +269,7 @@ def test_problem_too_large_is_refused_before_observing_with_the_estimate(monkeyp
 
 
 def test_observe_in_blocks_equals_observe_at_once(monkeypatch, library):
-    from sensorsel import sensing
+    from sensorsel.model import sensing
 
     sc = load_scenario(ScenarioSpec(fixture="tiny"))
     whole = observe(library, sc)

@@ -21,8 +21,9 @@ from pathlib import Path
 
 import numpy as np
 
-from sensorsel.fileio import atomic_write_text
-from sensorsel.scenario import LandmarkModel, Trajectory, generate_landmarks, write_kitti_poses, write_landmarks_csv
+from sensorsel.io.files import atomic_write_text
+from sensorsel.model.scenario import (LandmarkModel, Trajectory, generate_landmarks, write_kitti_poses,
+                                      write_landmarks_csv)
 
 HERE = Path(__file__).resolve().parent
 RATE_HZ = 10.0

@@ -3,10 +3,13 @@
 The score of a sensor suite is the log det of the SLAM information matrix of a GTSAM factor graph
 of what the suite measures along a route (Collin & Teran Espinoza, arXiv 1907.08541).
 
-Data flows one way::
+Data flows one way, through a handful of packages (docs/architecture.md)::
 
-    library + scenario -> sensing (what each sensor sees) -> graph / evaluators (log det)
-                       -> selection (rules) -> certify, tradespace, resilient -> api -> results -> plots and CLI
+    model (library, conditions, scenario, osm, domain, sensing, problem, constraints)
+      -> information (linearize, graph, evaluators: log det, accuracy)
+      -> pipeline (plans of tasks, executors, stores, the Dask cluster)
+      -> designs (selection, certify, tradespace, resilient, robust, requirements, study) and simulate
+      -> api, plotting -> cli
 """
 
 from __future__ import annotations
@@ -15,19 +18,20 @@ __version__ = "0.1.0"
 
 from typing import TYPE_CHECKING
 
-from . import simulate as _simulation  # the package (its gtsam-importing modules load when first used)
-from . import study as _study  # noqa: F401  (with the api's imports: every result kind registered, sensorsel.results)
-from .api import (CertifiedGreedyResult, DomainDesign, DomainScoreResult, ScoreResult, certify_result, design_domain,
-                  resilient_report, run_greedy, run_optimal, run_require, run_robust, run_tradespace, score_domain_suite,
-                  score_suite, suite_accuracy)
-from .errors import InputError, LibraryError, ResultFileError, ScenarioError, SensorselError
-from .evaluators import ENGINES, Evaluator, evaluator_for, make_evaluator
-from .library import PlacedSensor, SensorLibrary, SensorModel, load_library
-from .problem import Domain, GraphSettings, Problem, ProblemInfo, build_problem, load_domain, load_problem
-from .scenario import LandmarkModel, Scenario, ScenarioSpec, Trajectory, load_scenario
+from sensorsel import simulate as _simulation  # the package (its gtsam-importing modules load when first used)
+from sensorsel.designs import study as _study  # noqa: F401  (with the api's imports: every result kind registered, sensorsel.io.results)
+from sensorsel.api import (CertifiedGreedyResult, DomainDesign, DomainScoreResult, ScoreResult, certify_result,
+                           design_domain, resilient_report, run_greedy, run_optimal, run_require, run_robust,
+                           run_tradespace, score_domain_suite, score_suite, suite_accuracy)
+from sensorsel.errors import InputError, LibraryError, ResultFileError, ScenarioError, SensorselError
+from sensorsel.information.evaluators import ENGINES, Evaluator, evaluator_for, make_evaluator
+from sensorsel.model.library import PlacedSensor, SensorLibrary, SensorModel, load_library
+from sensorsel.model.problem import (Domain, GraphSettings, Problem, ProblemInfo, build_problem, load_domain,
+                                     load_problem)
+from sensorsel.model.scenario import LandmarkModel, Scenario, ScenarioSpec, Trajectory, load_scenario
 
 if TYPE_CHECKING:
-    from .simulate import simulate
+    from sensorsel.simulate import simulate
 else:
     # ``sensorsel.simulate`` is the function (the run function of sensorsel.api), as it always was;
     # the package of that name was imported above, so that importing its modules later does not

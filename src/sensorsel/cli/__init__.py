@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import click
 
-from .. import __version__
-from . import certify, core, osm, require, resilient, robust, select, simulate, study
+from sensorsel import __version__
+from sensorsel.cli import certify, core, osm, require, resilient, robust, select, simulate, study
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})

@@ -6,8 +6,8 @@ from typing import Any
 
 import click
 
-from ..evaluators import DomainEvaluator, Evaluator, evaluator_for
-from ..problem import Domain, Target
+from sensorsel.information.evaluators import DomainEvaluator, Evaluator, evaluator_for
+from sensorsel.model.problem import Domain, Target
 
 
 def require_domain(cluster: Any, target: Target) -> None:
@@ -31,7 +31,7 @@ def evaluator_on(cluster: Any, target: Target, engine: str | None, jobs: int, ag
 
 def domain_evaluator_on(cluster: Any, domain: Domain, engine: str | None, aggregate: str) -> DomainEvaluator:
     """A domain's evaluator with each route on a worker of a started cluster
-    (:class:`sensorsel.distributed.DistributedDomainEvaluator`; one thread per route there)."""
-    from ..distributed import DistributedDomainEvaluator
+    (:class:`sensorsel.pipeline.cluster.DistributedDomainEvaluator`; one thread per route there)."""
+    from sensorsel.pipeline.cluster import DistributedDomainEvaluator
 
     return DistributedDomainEvaluator(cluster.client, domain, engine, aggregate=aggregate)

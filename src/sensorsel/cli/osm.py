@@ -9,9 +9,9 @@ import warnings
 from pathlib import Path
 import click
 
-from .._resources import sample_osm_dir, sample_osm_names
-from ..errors import InputError, SensorselWarning
-from .options import output_option, run
+from sensorsel.cli.options import output_option, run
+from sensorsel.errors import InputError, SensorselWarning
+from sensorsel.io.resources import sample_osm_dir, sample_osm_names
 
 
 def _source(file: str | None, sample: str | None) -> Path:
@@ -63,8 +63,8 @@ def osm_cmd(file: str | None, sample: str | None, bbox: str | None, roads: str |
     landmarks near it (and --merge-landmarks' survey). Prints landmarks per km of road per class and
     warns when the map looks sparse. Nothing is written when an input is bad.
     """
-    from ..osm.city import build_city, density_table, sparse_warning, write_city
-    from ..osm.extract import parse_bbox, parse_classes, parse_roads, read_osm
+    from sensorsel.model.osm.city import build_city, density_table, sparse_warning, write_city
+    from sensorsel.model.osm.extract import parse_bbox, parse_classes, parse_roads, read_osm
 
     path = _source(file, sample)
     box = parse_bbox(bbox) if bbox is not None else None
@@ -81,7 +81,7 @@ def osm_cmd(file: str | None, sample: str | None, bbox: str | None, roads: str |
         raise click.UsageError("--merge-landmarks goes with --gpx or --route (a road-network domain has only OSM landmarks)")
     command = "sensorsel " + " ".join(shlex.quote(a) for a in sys.argv[1:]) if sys.argv[1:] else "sensorsel osm"
     if gpx is not None or route_file is not None:
-        from ..osm.track import track_domain
+        from sensorsel.model.osm.track import track_domain
 
         domain, notes = track_domain(path, box, classes, kinds, gpx, route_file, georef, merge_landmarks, speed_kmh, reach_m,
                               keyframe_rate, output, command)

@@ -9,21 +9,21 @@ from typing import Any
 
 import click
 
-from .. import results
-from ..errors import InputError
-from ..fileio import output_file
-from ..problem import Domain
-from ..requirements.design import RequireResult, RouteRequirement, require
-from ..requirements.spec import (DEFAULT_MAP_SIGMA_M, PRESETS, Specification, load_specification_file, preset,
-                                 specifications_for)
-from ..checkpoint import checkpoint_path
-from .cluster import domain_evaluator_on, require_domain
-from .simulate import read_suite
-from .options import plot_format, suite_text
-from .options import cluster_from, cluster_options
-from .options import (budget_option, check_map_sigma, constraint_options, constraints_from, engine_options, json_option,
-                      output_option, print_target, progress_bar, quiet_option, resume_option, run, target_from,
-                      target_options)
+from sensorsel.cli.cluster import domain_evaluator_on, require_domain
+from sensorsel.cli.options import (budget_option, check_map_sigma, constraint_options, constraints_from,
+                                   engine_options, json_option, output_option, print_target, progress_bar,
+                                   quiet_option, resume_option, run, target_from, target_options)
+from sensorsel.cli.options import cluster_from, cluster_options
+from sensorsel.cli.options import plot_format, suite_text
+from sensorsel.cli.simulate import read_suite
+from sensorsel.designs.checkpoint import checkpoint_path
+from sensorsel.designs.requirements.design import RequireResult, RouteRequirement, require
+from sensorsel.designs.requirements.spec import (DEFAULT_MAP_SIGMA_M, PRESETS, Specification, load_specification_file,
+                                                 preset, specifications_for)
+from sensorsel.errors import InputError
+from sensorsel.io import results
+from sensorsel.io.files import output_file
+from sensorsel.model.problem import Domain
 
 
 def specification_options(fn: Any) -> Any:
@@ -229,8 +229,8 @@ def _plot(res: RequireResult, target: Any, compared: tuple[str, tuple[int, ...]]
     coloured by the answer's margin; a domain: the route with the least margin."""
     import matplotlib.pyplot as plt
 
-    from ..api import suite_accuracy
-    from ..plotting import plot_accuracy_along_route, plot_route_margin, save_figure, use_file_backend
+    from sensorsel.api import suite_accuracy
+    from sensorsel.plotting import plot_accuracy_along_route, plot_route_margin, save_figure, use_file_backend
 
     use_file_backend()
     r = max(range(len(res.routes)), key=lambda i: (res.routes[i].verdict.violation,

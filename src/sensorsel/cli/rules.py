@@ -1,4 +1,4 @@
-"""The ``--rule`` option (a greedy rule or strategy of :data:`sensorsel.selection.RULES`) and its
+"""The ``--rule`` option (a greedy rule or strategy of :data:`sensorsel.designs.selection.RULES`) and its
 hidden, deprecated alias ``--objective``; and ``--rules`` with its alias ``--selectors``."""
 
 from __future__ import annotations
@@ -9,8 +9,8 @@ from typing import Any, Callable
 import click
 from click.core import ParameterSource
 
-from ..errors import InputError
-from ..selection import RULES, check_rule, rules_help
+from sensorsel.designs.selection import RULES, check_rule, rules_help
+from sensorsel.errors import InputError
 
 
 class RuleType(click.ParamType):

@@ -10,27 +10,29 @@ from typing import Any
 
 import click
 
-from .. import results
-from ..api import design_domain, run_greedy, suite_accuracy
-from ..checkpoint import checkpoint_path, remove_checkpoint
-from ..domain_design import DomainDesign, by_condition
-from ..problem import Domain, DomainInfo
-from ..certify import CertifiedGreedyResult, format_certificate
-from ..fileio import output_dir, output_file
-from ..constraints import feasible_set
-from ..library import SensorLibrary
-from ..selection import RULES, check_affordable
-from ..tradespace import DEFAULT_RULES, Architecture, parse_budgets, parse_rules, run_tradespace, write_csv
-from .options import cluster_from, cluster_options, resume_option, constraint_options, constraints_from, usage_table
-from .options import (budget_option, engine_options, json_option, output_option, plot_format_option, progress_bar,
-                      compact_suite, print_target, quiet_option, run, table, target_from,
-                      target_options)
-from .options import plot_format
-from .options import check_map_sigma, map_sigma_option, print_accuracy
-from .require import specification_from, specification_given, specification_options
-from ..requirements.front import front_acceptance
-from .options import plot_format as plot_format_of
-from .rules import kept_label, rule_option, rules_option
+from sensorsel.api import design_domain, run_greedy, suite_accuracy
+from sensorsel.cli.options import (budget_option, engine_options, json_option, output_option, plot_format_option,
+                                   progress_bar, compact_suite, print_target, quiet_option, run, table, target_from,
+                                   target_options)
+from sensorsel.cli.options import (cluster_from, cluster_options, resume_option, constraint_options, constraints_from,
+                                   usage_table)
+from sensorsel.cli.options import check_map_sigma, map_sigma_option, print_accuracy
+from sensorsel.cli.options import plot_format
+from sensorsel.cli.options import plot_format as plot_format_of
+from sensorsel.cli.require import specification_from, specification_given, specification_options
+from sensorsel.cli.rules import kept_label, rule_option, rules_option
+from sensorsel.designs.certify import CertifiedGreedyResult, format_certificate
+from sensorsel.designs.checkpoint import checkpoint_path, remove_checkpoint
+from sensorsel.designs.domain_design import DomainDesign, by_condition
+from sensorsel.designs.requirements.front import front_acceptance
+from sensorsel.designs.selection import RULES, check_affordable
+from sensorsel.designs.tradespace import (DEFAULT_RULES, Architecture, parse_budgets, parse_rules, run_tradespace,
+                                          write_csv)
+from sensorsel.io import results
+from sensorsel.io.files import output_dir, output_file
+from sensorsel.model.constraints import feasible_set
+from sensorsel.model.library import SensorLibrary
+from sensorsel.model.problem import Domain, DomainInfo
 
 
 def _position(lib: SensorLibrary, sensor_id: str) -> tuple[str, str]:
@@ -143,7 +145,7 @@ def greedy_cmd(budget: float, rule: str, lazy: bool, output: str | None, as_json
         if isinstance(problem, Domain):
             ev = None
             if cluster is not None:
-                from ..distributed import DistributedDomainEvaluator
+                from sensorsel.pipeline.cluster import DistributedDomainEvaluator
 
                 ev = DistributedDomainEvaluator(cluster.client, problem, engine, aggregate=aggregate)
             out = design_domain(problem, budget, rule, engine=engine, jobs=jobs, aggregate=aggregate, lazy=lazy,
@@ -162,7 +164,7 @@ def greedy_cmd(budget: float, rule: str, lazy: bool, output: str | None, as_json
         if ckpt is not None:
             remove_checkpoint(ckpt)  # the result is written: the run is no longer interrupted
     if isinstance(out, DomainDesign) and plot_path:
-        from ..plotting import plot_domain_breakdown, save_figure, use_file_backend
+        from sensorsel.plotting import plot_domain_breakdown, save_figure, use_file_backend
 
         use_file_backend()
         save_figure(plot_domain_breakdown(out).figure, plot_path, close=True)
@@ -261,7 +263,7 @@ def pareto_cmd(budgets: str | None, budget: tuple[float, ...], rules: str, lazy:
     written = [results.save(res, out / "tradespace.json"), write_csv(res, out / "architectures.csv")]
     acceptance = None
     if res.architectures:
-        from ..plotting import plot_front_accuracy, plot_tradespace, save_figure, use_file_backend
+        from sensorsel.plotting import plot_front_accuracy, plot_tradespace, save_figure, use_file_backend
 
         use_file_backend()
         ax = plot_tradespace(res)

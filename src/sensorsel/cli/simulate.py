@@ -10,14 +10,15 @@ from typing import Any
 
 import click
 
-from .. import results
-from ..errors import InputError, ResultFileError
-from ..fileio import output_dir
-from ..library import SensorLibrary
-from ..problem import GraphSettings, Problem, ProblemInfo, check_result_problem, load_problem
-from .options import check_map_sigma, cluster_from, cluster_options
-from .options import force_option, json_option, output_option, suite_text, plot_format_option, progress_bar, quiet_option, run, scenario_options, spec_from, table
-from .options import plot_format as plot_format_of
+from sensorsel.cli.options import (force_option, json_option, output_option, suite_text, plot_format_option,
+                                   progress_bar, quiet_option, run, scenario_options, spec_from, table)
+from sensorsel.cli.options import check_map_sigma, cluster_from, cluster_options
+from sensorsel.cli.options import plot_format as plot_format_of
+from sensorsel.errors import InputError, ResultFileError
+from sensorsel.io import results
+from sensorsel.io.files import output_dir
+from sensorsel.model.library import SensorLibrary
+from sensorsel.model.problem import GraphSettings, Problem, ProblemInfo, check_result_problem, load_problem
 
 
 #: Result kinds that name a suite: simulate --suite/--compare read these (resilient ones also say
@@ -42,9 +43,9 @@ def is_result_file(text: str) -> bool:
 def read_suite(text: str, library: SensorLibrary, what: str, problem: Problem | None = None,
                force: bool = False, ignore: tuple[str, ...] = ()) -> tuple[tuple[int, ...], str, tuple[str, ...]]:
     """A suite from comma-separated ids, or from a result file of a kind in :data:`SUITE_KINDS`
-    (e.g. of ``sensorsel greedy -o`` or ``sensorsel resilient``), read by :func:`sensorsel.results.load`.
+    (e.g. of ``sensorsel greedy -o`` or ``sensorsel resilient``), read by :func:`sensorsel.io.results.load`.
     With ``problem``, a result file must have been computed on it
-    (:func:`~sensorsel.problem.check_result_problem`; ``force``: a warning instead).
+    (:func:`~sensorsel.model.problem.check_result_problem`; ``force``: a warning instead).
 
     Returns:
         (library positions, label, sensors the result assumes to fail (resilient kinds)).
@@ -128,9 +129,9 @@ def simulate_cmd(suite: str, compare: str | None, label: str | None, compare_lab
     writes the plots and a JSON of every run to OUTPUT. With --scheduler/--workers each Monte-Carlo
     run is one Dask task (run r draws from (seed, r) wherever it runs: the same result).
     """
-    from ..plotting import (plot_error_along_route, plot_simulation_comparison, plot_simulation_overview, save_figure,
-                            use_file_backend)
-    from ..simulate import SimulationReport, parse_failures, simulate
+    from sensorsel.plotting import (plot_error_along_route, plot_simulation_comparison, plot_simulation_overview,
+                                    save_figure, use_file_backend)
+    from sensorsel.simulate import SimulationReport, parse_failures, simulate
 
     if not (math.isfinite(noise_scale) and noise_scale > 0):
         raise click.BadParameter(f"must be a positive number, got {noise_scale!r}", param_hint="--noise-scale")
@@ -235,7 +236,7 @@ def _print_report(sims: list[Any], sc: Any, runs: int, solver: str, seed: int, n
                   settings: GraphSettings) -> None:
     """The simulation table: errors, their predictions, NEES and consistency, one row per design."""
     click.echo(f"{'scenario':<9} {sc.name}: {sc.n_poses} keyframes, {sc.n_landmarks} landmarks ({sc.landmark_source})")
-    from ..evaluators.accuracy import model_label
+    from sensorsel.information.evaluators.accuracy import model_label
 
     click.echo(f"runs      {runs} per suite, solver {solver}, seed {seed}, {model_label(sims[0].model, sims[0].map_sigma_m) if sims else ''}"
                + (f", noise x{noise_scale:g}" if noise_scale != 1 else "")
@@ -272,7 +273,7 @@ def _print_report(sims: list[Any], sc: Any, runs: int, solver: str, seed: int, n
 
 def _print_accuracy(sims: list[Any]) -> None:
     """Predicted against measured 95 % errors, per design and component (median / 95th pct / worst keyframe)."""
-    from ..evaluators.accuracy import model_label
+    from sensorsel.information.evaluators.accuracy import model_label
 
     checked = [s for s in sims if s.accuracy is not None]
     if not checked:

@@ -7,9 +7,10 @@ from typing import Any
 
 import click
 
-from .. import results
-from ..fileio import output_dir
-from .options import cluster_from, cluster_options, resume_option, compact_suite, json_option, output_option, progress_bar, quiet_option, run, table
+from sensorsel.cli.options import (cluster_from, cluster_options, resume_option, compact_suite, json_option,
+                                   output_option, progress_bar, quiet_option, run, table)
+from sensorsel.io import results
+from sensorsel.io.files import output_dir
 
 
 def _num(v: float | None, fmt: str = "{:,.3f}") -> str:
@@ -38,7 +39,7 @@ def study_cmd(study_file: str, outdir: str, resume: bool, jobs: int, as_json: bo
     OUTPUT/cells/ as it finishes, so --resume skips finished cells. With --scheduler/--workers each
     cell is one Dask task; the rows are the same (timings aside). See configs/study_example.yaml.
     """
-    from ..study import load_study, run_study, write_study
+    from sensorsel.designs.study import load_study, run_study, write_study
 
     output_dir(outdir)
     cluster = cluster_from(kw)

@@ -12,10 +12,10 @@ it arrives, so an interrupted run goes on where it stopped. See docs/architectur
 This package is at the base of the layers: it knows nothing of sensors or routes.
 """
 
-from .executors import ClusterError, DaskExecutor, Executor, InProcess, import_distributed
-from .plan import Plan
-from .run import execute
-from .store import FileStore, NoStore, Store, digest
+from sensorsel.pipeline.executors import ClusterError, DaskExecutor, Executor, InProcess, import_distributed
+from sensorsel.pipeline.plan import Plan
+from sensorsel.pipeline.run import execute
+from sensorsel.pipeline.store import FileStore, NoStore, Store, digest
 
 __all__ = ["ClusterError", "DaskExecutor", "Executor", "FileStore", "InProcess", "NoStore", "Plan", "Store", "digest",
            "execute", "import_distributed"]

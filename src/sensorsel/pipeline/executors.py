@@ -5,8 +5,8 @@ from __future__ import annotations
 
 from typing import Any, Callable, Protocol, Sequence
 
-from ..errors import SensorselError
-from .plan import Plan
+from sensorsel.errors import SensorselError
+from sensorsel.pipeline.plan import Plan
 
 #: how `pip` installs what the Dask executor needs
 EXTRA_HINT = 'pip install "sensorsel[dask]"'

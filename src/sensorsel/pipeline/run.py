@@ -4,9 +4,9 @@ from __future__ import annotations
 
 from typing import Callable
 
-from .executors import Executor, InProcess
-from .plan import Plan, R
-from .store import NoStore, Store
+from sensorsel.pipeline.executors import Executor, InProcess
+from sensorsel.pipeline.plan import Plan, R
+from sensorsel.pipeline.store import NoStore, Store
 
 
 def execute(plan: Plan[R], executor: Executor | None = None, store: Store[R] | None = None,

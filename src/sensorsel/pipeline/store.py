@@ -10,11 +10,11 @@ import warnings
 from pathlib import Path
 from typing import Any, Callable, Generic, Protocol, Sequence, TypeVar
 
-from .. import results
-from ..errors import ResultFileError, SensorselWarning
+from sensorsel.errors import ResultFileError, SensorselWarning
+from sensorsel.io import results
 
 R = TypeVar("R")
-#: a file's record, as :mod:`sensorsel.results` saves it
+#: a file's record, as :mod:`sensorsel.io.results` saves it
 F = TypeVar("F")
 
 
@@ -51,7 +51,7 @@ class FileStore(Generic[R, F]):
     Args:
         paths: each task's file.
         fingerprints: each task's fingerprint (:func:`digest` of everything its result depends on).
-        record: the file's record class (a :mod:`sensorsel.results` kind).
+        record: the file's record class (a :mod:`sensorsel.io.results` kind).
         wrap: ``wrap(i, result) -> record`` (the fingerprint inside it).
         unwrap: ``unwrap(record) -> result``.
         resume: read back matching files (else every task runs and its file is overwritten).

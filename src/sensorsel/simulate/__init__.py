@@ -2,12 +2,12 @@
 
 log det L(S) predicts how well SLAM will do with suite S. This module checks the prediction: for each
 run it draws noisy odometry and range-bearing measurements from the same noise models the score uses
-(:class:`~sensorsel.problem.GraphSettings` for odometry and the first-pose prior, the per-measurement
-sigmas of :class:`~sensorsel.sensing.SensorObservations`), builds the nonlinear factor graph, starts
+(:class:`~sensorsel.model.problem.GraphSettings` for odometry and the first-pose prior, the per-measurement
+sigmas of :class:`~sensorsel.model.sensing.SensorObservations`), builds the nonlinear factor graph, starts
 from dead reckoning (never from the truth), solves it with GTSAM and compares the estimate with the
 ground truth.
 
-Conventions (those of :class:`sensorsel.graph.GraphBuilder`): poses ``X(k)`` (``Pose2``), landmarks
+Conventions (those of :class:`sensorsel.information.graph.GraphBuilder`): poses ``X(k)`` (``Pose2``), landmarks
 ``L(j)`` (``Point2``), ``BearingRangeFactor2D`` per measurement. Noise is drawn in each factor's own
 error coordinates, so the factors' noise models are exactly right:
 
@@ -19,7 +19,7 @@ prior at the true position would leak the truth into the estimate), and landmark
 measures (or measures only while failed) are left out and reported. The weak 100 m prior of the
 score adds 1e-4 m^-2 of information per landmark, negligible against any measurement.
 
-Two localization models, as in :mod:`sensorsel.evaluators.accuracy`: the paper's SLAM (above), and
+Two localization models, as in :mod:`sensorsel.information.evaluators.accuracy`: the paper's SLAM (above), and
 with ``map_sigma_m`` a car localizing in a prior map whose landmarks are known to that std: each run
 draws its map (every landmark off the truth by an isotropic error of that std), starts each
 landmark there and adds a landmark prior there of that std. Each run's errors are also expressed in
@@ -53,7 +53,7 @@ processes (the measurement arrays once per worker, the estimates back).
 
 Modules: :mod:`.records` (the result records), :mod:`.failures` (``ID@FROM-TO`` parsing),
 :mod:`.noise` (the payload of numbers and its seeded draws), :mod:`.solve` (the graph of a draw, built
-by :mod:`sensorsel.graph`; LM and iSAM2), :mod:`.consistency` (prediction, NEES, bounds) and
+by :mod:`sensorsel.information.graph`; LM and iSAM2), :mod:`.consistency` (prediction, NEES, bounds) and
 :mod:`.run` (``simulate`` and its worker processes).
 """
 
@@ -61,13 +61,14 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from .failures import check_failure, parse_failures
-from .records import AccuracyCheck, ErrorSpread, Failure, RunResult, SimulationReport, SimulationResult, SimulationTiming, without_timing
+from sensorsel.simulate.failures import check_failure, parse_failures
+from sensorsel.simulate.records import (AccuracyCheck, ErrorSpread, Failure, RunResult, SimulationReport,
+                                        SimulationResult, SimulationTiming, without_timing)
 
 if TYPE_CHECKING:
-    from .consistency import COVARIANCE_NOTE, NEES_CONFIDENCE, nees_bounds
-    from .run import simulate
-    from .solve import DEFAULT_SOLVER, ISAM2_MAX_FINAL_UPDATES, LM_MAX_ITERATIONS, SOLVERS
+    from sensorsel.simulate.consistency import COVARIANCE_NOTE, NEES_CONFIDENCE, nees_bounds
+    from sensorsel.simulate.run import simulate
+    from sensorsel.simulate.solve import DEFAULT_SOLVER, ISAM2_MAX_FINAL_UPDATES, LM_MAX_ITERATIONS, SOLVERS
 
 #: the names whose modules import gtsam, by module: imported when first asked for (PEP 562), so
 #: that importing sensorsel (every command) does not import gtsam (~0.1-0.15 s) for a simulation

@@ -12,11 +12,11 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import cho_factor, cho_solve
 
-from ..graph import pose2
-from ..linearize import base_information, bearing_range_jacobians
-from ..sensing import wrap_angle
-from .noise import Payload
-from .records import RunResult
+from sensorsel.information.graph import pose2
+from sensorsel.information.linearize import base_information, bearing_range_jacobians
+from sensorsel.model.sensing import wrap_angle
+from sensorsel.simulate.noise import Payload
+from sensorsel.simulate.records import RunResult
 
 NEES_CONFIDENCE = 0.95
 
@@ -44,8 +44,8 @@ def predict(p: Payload) -> Prediction:
 
     The same factors and noise as each run's graph (first-pose prior, odometry, the kept
     measurements; in the map model a prior of std ``map_sigma_m`` on every measured landmark),
-    linearized in closed form (:func:`sensorsel.linearize.bearing_range_jacobians` and
-    :func:`~sensorsel.linearize.base_information`, GTSAM's own Jacobians written out, tested against
+    linearized in closed form (:func:`sensorsel.information.linearize.bearing_range_jacobians` and
+    :func:`~sensorsel.information.linearize.base_information`, GTSAM's own Jacobians written out, tested against
     it) and inverted densely: the landmarks' 2×2 blocks are eliminated first (a landmark touches
     only poses), leaving the (3K, 3K) pose information S, whose Cholesky factor gives the joint pose
     covariance S⁻¹; a landmark's covariance is D_j⁻¹ + D_j⁻¹ C_jᵀ S⁻¹ C_j D_j⁻¹. Equal to

@@ -6,9 +6,9 @@ from typing import Iterable
 
 import numpy as np
 
-from ..errors import InputError
-from ..problem import Problem
-from .records import Failure
+from sensorsel.errors import InputError
+from sensorsel.model.problem import Problem
+from sensorsel.simulate.records import Failure
 
 
 def parse_failures(text: str, problem: Problem) -> tuple[Failure, ...]:

@@ -15,9 +15,9 @@ from dataclasses import dataclass
 import gtsam
 import numpy as np
 
-from ..graph import pose2, truth_steps
-from ..problem import Problem
-from .records import Failure
+from sensorsel.information.graph import pose2, truth_steps
+from sensorsel.model.problem import Problem
+from sensorsel.simulate.records import Failure
 
 
 @dataclass(frozen=True, eq=False)

@@ -1,6 +1,6 @@
 """The records of a Monte-Carlo simulation: failures, runs, timings, a suite's result, the report.
 
-Plain frozen dataclasses of numbers and strings (they serialize with :mod:`sensorsel.results`);
+Plain frozen dataclasses of numbers and strings (they serialize with :mod:`sensorsel.io.results`);
 nothing here imports gtsam, so :mod:`sensorsel.plotting` can use them for type checking.
 """
 
@@ -8,8 +8,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 
-from ..results import result_kind
-from ..problem import ProblemInfo
+from sensorsel.io.results import result_kind
+from sensorsel.model.problem import ProblemInfo
 
 
 @dataclass(frozen=True)
@@ -98,7 +98,7 @@ class AccuracyCheck:
     Per keyframe k: ``measured`` is the 95th percentile over the runs of |error_k| (linear
     interpolation between runs: with few runs it is close to the largest); ``predicted`` is
     1.96 σ_k, σ_k from the covariance the information matrix predicts (the same as
-    :func:`sensorsel.evaluators.accuracy.route_accuracy` of the suite in the same model).
+    :func:`sensorsel.information.evaluators.accuracy.route_accuracy` of the suite in the same model).
 
     Attributes:
         model: ``"slam"`` (landmarks unknown) or ``"map"`` (a prior map whose landmarks are known to

@@ -16,17 +16,19 @@ from typing import Iterable, Sequence
 
 import numpy as np
 
-from ..errors import InputError
-from ..evaluators import as_suite
-from ..pipeline import Executor, Plan, execute
-from ..evaluators.accuracy import Z95, accuracy_from_covariances
-from ..problem import Problem
-from ..progress import Progress
-from .consistency import COVARIANCE_NOTE, Prediction, correlated_nees_bounds, nees_bounds, predict, rms, run_errors
-from .failures import resolve_failures
-from .noise import Payload, make_payload
-from .records import AccuracyCheck, ErrorSpread, Failure, RunResult, SimulationResult, SimulationTiming
-from .solve import DEFAULT_SOLVER, SOLVERS, solve_run
+from sensorsel.errors import InputError
+from sensorsel.information.evaluators import as_suite
+from sensorsel.information.evaluators.accuracy import Z95, accuracy_from_covariances
+from sensorsel.io.progress import Progress
+from sensorsel.model.problem import Problem
+from sensorsel.pipeline import Executor, Plan, execute
+from sensorsel.simulate.consistency import (COVARIANCE_NOTE, Prediction, correlated_nees_bounds, nees_bounds, predict,
+                                            rms, run_errors)
+from sensorsel.simulate.failures import resolve_failures
+from sensorsel.simulate.noise import Payload, make_payload
+from sensorsel.simulate.records import (AccuracyCheck, ErrorSpread, Failure, RunResult, SimulationResult,
+                                        SimulationTiming)
+from sensorsel.simulate.solve import DEFAULT_SOLVER, SOLVERS, solve_run
 
 
 def simulate(
@@ -208,7 +210,7 @@ def accuracy_check(runs: Sequence[RunResult], pose_blocks: np.ndarray, map_sigma
 
     Measured, per keyframe: the 95th percentile over the runs of |error| (keyframe frame; heading
     in degrees). Predicted: 1.96 σ from ``pose_blocks`` (K, 3, 3) (Pose2 tangent: x forward, y left,
-    θ), converted as :func:`sensorsel.evaluators.accuracy.accuracy_from_covariances` does for
+    θ), converted as :func:`sensorsel.information.evaluators.accuracy.accuracy_from_covariances` does for
     ``route_accuracy``. Each summarised over the keyframes (median / 95th percentile / worst)."""
     pred = accuracy_from_covariances(pose_blocks, map_sigma_m=map_sigma_m)
     errors = {"lateral": np.array([r.lateral_error_m for r in runs]),

@@ -1,4 +1,4 @@
-"""Solving one run: the factor graph of a draw (built by :mod:`sensorsel.graph`), batch
+"""Solving one run: the factor graph of a draw (built by :mod:`sensorsel.information.graph`), batch
 Levenberg-Marquardt or incremental iSAM2, both started from dead reckoning (never from the truth).
 
 One factor per measured (keyframe, landmark) pair: the suite's sensors often measure the same
@@ -21,10 +21,10 @@ import gtsam
 import numpy as np
 from gtsam.symbol_shorthand import L, X
 
-from ..sensing import wrap_angle
-from ..graph import (MeasurementNoise, add_bearing_range, add_pose_chain, bearing_range_factor, diagonal, first_pose_prior, landmark_prior,
-                     odometry_factor)
-from .noise import Draw, Payload, draw
+from sensorsel.information.graph import (MeasurementNoise, add_bearing_range, add_pose_chain, bearing_range_factor,
+                                         diagonal, first_pose_prior, landmark_prior, odometry_factor)
+from sensorsel.model.sensing import wrap_angle
+from sensorsel.simulate.noise import Draw, Payload, draw
 
 SOLVERS = ("lm", "isam2")
 DEFAULT_SOLVER = "lm"

@@ -1,0 +1,261 @@
+"""Resume an interrupted greedy run (``sensorsel greedy -o FILE --resume``, on a route or a domain).
+
+A greedy run with a checkpoint file writes it, atomically, after each pick: the picks so far (each
+:class:`~sensorsel.designs.selection.Step` as computed), a strategy's finished component runs, then the
+certificate and, for a domain, each route's breakdown as they finish. ``resume=True`` reads it back
+and goes on from there:
+
+- the recorded picks are taken as recorded (suite, cost, score: not recomputed) and greedy goes on
+  from that suite. Greedy is deterministic and lazy evaluation is exact (a candidate is skipped only
+  when its bound proves it cannot be picked), so the picks, and every number of the result but
+  two, are those of an uninterrupted run: ``seconds`` (timings) and ``n_evaluations``. The resumed
+  run's lazy bounds start afresh at the first new pick (the interrupted run's bounds were not
+  recorded), so it may score a few more suites; ``n_evaluations`` counts what both sessions spent
+  on the recorded picks and after them;
+- a finished certificate or route breakdown is read back, not recomputed.
+
+A checkpoint is refused (:class:`~sensorsel.errors.ResultFileError` naming the file and what
+differs) when it was written by another run: another route, landmark map, library or settings (by
+content, :class:`~sensorsel.model.problem.Fingerprint`), another domain, budget, rule, engine, aggregate
+or laziness. The fingerprint (a digest of all of that) is checked last, as a safety net.
+
+The checkpoint of ``-o design.json`` is ``design.json.checkpoint`` (:func:`checkpoint_path`); the
+command deletes it once the result itself is written.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any, ClassVar
+
+from sensorsel.designs.certify import Certificate, CertifiedGreedyResult, certificate
+from sensorsel.designs.domain_design import DomainDesign, RouteShare, route_share, worst_route
+from sensorsel.designs.selection import GreedyResult, Step, check_budget, check_rule, greedy
+from sensorsel.errors import ResultFileError
+from sensorsel.information.evaluators import DomainEvaluator, Evaluator, evaluator_for
+from sensorsel.information.evaluators.domain import check_aggregate
+from sensorsel.information.evaluators.registry import check_engine
+from sensorsel.io import results
+from sensorsel.io.progress import Progress
+from sensorsel.io.results import result_kind
+from sensorsel.model.constraints import Constraints, feasible_set, recorded
+from sensorsel.model.problem import Domain, DomainInfo, Problem, ProblemInfo, Target, TargetInfo
+from sensorsel.pipeline import digest
+
+#: Bumped when what a checkpoint holds, or how a run is resumed from it, changes.
+FORMAT = 1
+
+__all__ = ["GreedyCheckpoint", "checkpoint_path", "resumable_greedy"]
+
+
+@result_kind("greedy-checkpoint")
+@dataclass(frozen=True)
+class GreedyCheckpoint:
+    """Where an interrupted greedy run was (kind ``greedy-checkpoint``).
+
+    Attributes:
+        fingerprint: digest of everything the run depends on (see :func:`run_fingerprint`).
+        budget_usd, rule, engine, aggregate, lazy: the run's settings (``aggregate`` is "" for a route).
+        target: what it runs on (:class:`ProblemInfo` or :class:`DomainInfo`, with fingerprints).
+        runs: a strategy's finished component runs, in order (a single rule: its run, once finished).
+        steps: the picks of the component run under way, as computed.
+        n_evaluations: suites the run under way scored to make those picks (every session's).
+        certificate: the run's certificate, once computed.
+        routes: the domain breakdown's routes finished so far, in route order.
+        constraints: the run's limits besides the budget, with the digest of the resources and slots
+            they read (None: the budget alone).
+    """
+
+    KIND: ClassVar[str] = "greedy-checkpoint"
+
+    fingerprint: str
+    budget_usd: float
+    rule: str
+    engine: str
+    aggregate: str
+    lazy: bool
+    target: TargetInfo
+    runs: tuple[GreedyResult, ...] = ()
+    steps: tuple[Step, ...] = ()
+    n_evaluations: int = 0
+    certificate: Certificate | None = None
+    routes: tuple[RouteShare, ...] = ()
+    constraints: Constraints | None = None
+
+
+def checkpoint_path(output: str | Path) -> Path:
+    """The checkpoint file of the result file ``output``: ``OUTPUT.checkpoint`` beside it."""
+    p = Path(output)
+    return p.with_name(p.name + ".checkpoint")
+
+
+def run_fingerprint(target: Target, budget: float, rule: str, engine: str, aggregate: str, lazy: bool,
+                    constraints: Constraints | None = None) -> str:
+    """Digest of what a greedy run depends on: each route by content (library, route and rate,
+    landmarks, graph settings), a domain's route names, weights and units, budget, rule, engine,
+    aggregate, laziness and limits (with the resources and slots they read) (not file paths, not
+    ``jobs``, not where it runs)."""
+    routes = ([(r.name, r.weight, r.unit, r.problem) for r in target.routes] if isinstance(target, Domain)
+              else [("", 1.0, "", target)])
+    return digest({"format": FORMAT, "what": "greedy-checkpoint", "budget_usd": budget, "rule": rule, "engine": engine,
+                    "aggregate": aggregate, "lazy": lazy,
+                    **({"constraints": results.to_jsonable(constraints)} if constraints is not None else {}),
+                    "routes": [[n, w, u, results.to_jsonable(p.fingerprint)] for n, w, u, p in routes]})
+
+
+def _target_differences(recorded: TargetInfo, target: Target) -> list[str]:
+    """How the target a checkpoint records differs from ``target``, in words (empty: the same)."""
+    if isinstance(recorded, DomainInfo) != isinstance(target, Domain):
+        return ["it was written for " + ("a domain" if isinstance(recorded, DomainInfo) else "one route") +
+                ", this run is on " + ("a domain" if isinstance(target, Domain) else "one route")]
+    if isinstance(recorded, DomainInfo) and isinstance(target, Domain):
+        theirs = [(r.name, r.weight, r.unit) for r in recorded.routes]
+        ours = [(r.name, r.weight, r.unit) for r in target.routes]
+        if theirs != ours:
+            return [f"another domain (routes and weights {theirs} against {ours})"]
+        out = []
+        for r_theirs, r_ours in zip(recorded.routes, target.routes):
+            out += [f"route {r_ours.name}: {d}" for d in _problem_differences(r_theirs.problem, r_ours.problem)]
+        return out
+    assert isinstance(recorded, ProblemInfo) and isinstance(target, Problem)
+    return _problem_differences(recorded, target)
+
+
+def _problem_differences(recorded: ProblemInfo, problem: Problem) -> list[str]:
+    if recorded.fingerprint is None:
+        return ["it records no fingerprint of its route"]
+    return recorded.fingerprint.differences(problem.fingerprint)
+
+
+def _money(v: float) -> str:
+    return f"${v:,.0f}" if v == round(v) else f"${v:,.2f}"
+
+
+def load_checkpoint(path: Path, target: Target, budget: float, rule: str, engine: str, aggregate: str, lazy: bool,
+                    fingerprint: str, constraints: Constraints | None = None) -> GreedyCheckpoint:
+    """The checkpoint at ``path``, when it was written by this very run.
+
+    Raises:
+        ResultFileError: it cannot be read, or it was written by another run (names what differs).
+    """
+    ck = results.load(path, GreedyCheckpoint)
+    diffs = _target_differences(ck.target, target)
+    for name, theirs, ours in (("budget", _money(ck.budget_usd), _money(budget)), ("rule", ck.rule, rule),
+                               ("engine", ck.engine, engine), ("aggregate", ck.aggregate, aggregate),
+                               ("lazy", ck.lazy, lazy)):
+        if theirs != ours:
+            diffs.append(f"{name} {theirs} (this run: {ours})")
+    if ck.constraints != constraints:
+        theirs_c, ours_c = recorded(ck.constraints), recorded(constraints)
+        what = (f"limits {theirs_c.describe()} (this run: {ours_c.describe()})"
+                if theirs_c.describe() != ours_c.describe() else "the library's resources or slots")
+        diffs.append(what)
+    if not diffs and ck.fingerprint != fingerprint:
+        diffs.append("its fingerprint (written by another version of sensorsel?)")
+    if diffs:
+        raise ResultFileError(path, f"this checkpoint was written by another run: {'; '.join(diffs)}; "
+                                    "give the same options as that run, or leave out --resume to start afresh "
+                                    "(the checkpoint is then overwritten)")
+    return ck
+
+
+class _Store:
+    """The checkpoint of one run, rewritten (atomically) at each change: the greedy run's
+    :class:`~sensorsel.designs.selection.greedy.Journal`."""
+
+    def __init__(self, path: Path, ck: GreedyCheckpoint) -> None:
+        self.path, self.ck = path, ck
+
+    def update(self, **changes: Any) -> None:
+        self.ck = replace(self.ck, **changes)
+        results.save(self.ck, self.path)
+
+    @property
+    def runs(self) -> tuple[GreedyResult, ...]:
+        return self.ck.runs
+
+    @property
+    def steps(self) -> tuple[Step, ...]:
+        return self.ck.steps
+
+    @property
+    def n_evaluations(self) -> int:
+        return self.ck.n_evaluations
+
+    def record_steps(self, steps: tuple[Step, ...], n_evaluations: int) -> None:
+        self.update(steps=steps, n_evaluations=n_evaluations)
+
+    def record_runs(self, runs: tuple[GreedyResult, ...]) -> None:
+        self.update(runs=runs, steps=(), n_evaluations=0)
+
+
+def resumable_greedy(target: Target, budget_usd: float, rule: str = "uniform", *, checkpoint: str | Path,
+                     resume: bool = False, engine: str | None = None, jobs: int = 1, aggregate: str = "normalised",
+                     lazy: bool = True, certify: bool = False, progress: Progress | None = None,
+                     certify_progress: Progress | None = None, breakdown_progress: Progress | None = None,
+                     evaluator: Evaluator | None = None, breakdown: bool = True,
+                     constraints: Constraints | None = None) -> CertifiedGreedyResult | DomainDesign:
+    """The greedy run of :func:`sensorsel.api.run_greedy` (a route) or of
+    :func:`sensorsel.designs.domain_design.design_domain` (a domain, with its breakdown), writing
+    ``checkpoint`` after each pick and stage; with ``resume``, going on from the checkpoint an
+    interrupted run of the same inputs left (none there: from the start).
+
+    ``evaluator``: the target's evaluator already built (e.g. a domain's on a Dask cluster); ``engine``
+    and ``aggregate`` must be its own. ``breakdown``: with a domain, return its
+    :class:`~sensorsel.designs.domain_design.DomainDesign` (else the greedy result alone, as ``run_greedy``).
+    ``constraints``: limits besides the budget (:mod:`sensorsel.model.constraints`; None: the budget alone);
+    a checkpoint written under other limits, or on a library with other resources or slots, is refused.
+
+    Raises:
+        InputError: a bad budget, rule, engine or aggregate.
+        ResultFileError: (resume) a checkpoint that cannot be read or was written by another run.
+    """
+    t0 = time.perf_counter()
+    budget, rule = check_budget(budget_usd), check_rule(rule)
+    eng = check_engine(engine)
+    agg = check_aggregate(aggregate) if isinstance(target, Domain) else ""
+    path = Path(checkpoint)
+    # the limits as the run records them (with the digest of the resources and slots they read)
+    limits = feasible_set(target.library, budget, constraints).record if constraints is not None else None
+    fp = run_fingerprint(target, budget, rule, eng, agg, lazy, limits)
+    if resume and path.is_file():
+        ck = load_checkpoint(path, target, budget, rule, eng, agg, lazy, fp, limits)
+    else:
+        ck = GreedyCheckpoint(fingerprint=fp, budget_usd=budget, rule=rule, engine=eng, aggregate=agg, lazy=lazy,
+                              target=target.info, constraints=limits)
+    store = _Store(path, ck)
+    ev = evaluator if evaluator is not None else evaluator_for(target, engine, jobs=jobs, aggregate=aggregate)
+    res = greedy(ev, budget, rule, lazy=lazy, progress=progress, info=target.info, constraints=constraints, journal=store)
+    cert = store.ck.certificate
+    if certify and cert is None:
+        cert = certificate(ev, res, progress=certify_progress)
+        store.update(certificate=cert)
+    out = CertifiedGreedyResult.of(res, cert if certify else None)
+    if not isinstance(target, Domain) or not breakdown:
+        return out
+    assert isinstance(ev, DomainEvaluator)
+    shares = _breakdown(ev, store, res, lazy, breakdown_progress)
+    return DomainDesign(greedy=out, aggregate=ev.aggregate, routes=shares, worst_route=worst_route(shares),
+                        domain=target.info, seconds=round(time.perf_counter() - t0, 6))
+
+
+def _breakdown(ev: DomainEvaluator, store: _Store, res: GreedyResult, lazy: bool,
+               progress: Progress | None) -> tuple[RouteShare, ...]:
+    """:func:`sensorsel.designs.domain_design.route_breakdown`, recording each route as it finishes."""
+    shares = list(store.ck.routes)
+    n = len(ev.routes)
+    if len(shares) < n:
+        scores = ev.route_scores(ev.library.resolve_suite(res.suite))
+        for k in range(len(shares), n):
+            shares.append(route_share(ev, k, res, float(scores[k]), lazy=lazy))
+            store.update(routes=tuple(shares))
+            if progress:
+                progress(k + 1, n)
+    return tuple(shares)
+
+
+def remove_checkpoint(path: str | Path) -> None:
+    """Delete a finished run's checkpoint (its result is written)."""
+    Path(path).unlink(missing_ok=True)

@@ -1,0 +1,177 @@
+"""One suite for a whole operating domain, and what it costs each route.
+
+:func:`design_domain` runs greedy selection on a domain's score (:mod:`sensorsel.information.evaluators.domain`)
+and then, route by route, compares the domain suite S with two references on that route alone:
+
+    share of best   f_r(S) / f_r(L)      what S gets of everything the library could give there
+    share of own    f_r(S) / f_r(G_r)    G_r: the suite the same rule picks for route r alone, at the
+                                         same budget: the price, on r, of buying one suite for all
+
+A share of own below 1 is what route r gives up for the others; above 1 is possible (greedy is not
+optimal on r either). The route with the lowest share of own is named the worst route.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import ClassVar, Sequence
+
+import numpy as np
+
+from sensorsel.designs.certify import CertifiedGreedyResult, certificate
+from sensorsel.designs.selection import GreedyResult, check_budget, greedy
+from sensorsel.information.evaluators import DomainEvaluator
+from sensorsel.io.progress import Progress
+from sensorsel.io.results import result_kind
+from sensorsel.model.constraints import Constraints, recorded
+from sensorsel.model.problem import Domain, DomainInfo
+
+
+@dataclass(frozen=True)
+class RouteShare:
+    """How the domain suite does on one route.
+
+    Attributes:
+        name: the route.
+        weight: its normalised weight w̄_r in the domain score (the weights sum to 1).
+        score: f_r(S) of the domain suite [nats].
+        best_score: f_r(L), the whole library [nats].
+        share_of_best: score / best_score.
+        own_suite: ids of the suite the same rule picks for this route alone, same budget.
+        own_cost_usd: its cost [$].
+        own_score: f_r(G_r) [nats].
+        share_of_own: score / own_score (1 when both are 0).
+    """
+
+    name: str
+    weight: float
+    score: float
+    best_score: float
+    share_of_best: float
+    own_suite: tuple[str, ...]
+    own_cost_usd: float
+    own_score: float
+    share_of_own: float
+
+
+@result_kind("domain-design")
+@dataclass(frozen=True)
+class DomainDesign:
+    """A domain's suite and its per-route breakdown.
+
+    Attributes:
+        greedy: the greedy run on the domain score (its ``problem`` is the domain's
+            :class:`~sensorsel.model.problem.DomainInfo`; its scores are domain scores), with its
+            certificate when one was asked for.
+        aggregate: "normalised" or "raw" (see :mod:`sensorsel.information.evaluators.domain`).
+        routes: the breakdown, in the domain's route order.
+        worst_route: the route with the lowest share of its own design.
+        domain: what it was computed on.
+        seconds: wall time of the whole design, breakdown included [s].
+    """
+
+    KIND: ClassVar[str] = "domain-design"
+
+    greedy: CertifiedGreedyResult
+    aggregate: str
+    routes: tuple[RouteShare, ...]
+    worst_route: str
+    domain: DomainInfo
+    seconds: float = 0.0
+
+
+def route_share(evaluator: DomainEvaluator, k: int, result: GreedyResult, score: float, *, lazy: bool = True) -> RouteShare:
+    """Route ``k``'s share of its best and of its own design for the domain suite of ``result``, whose
+    score f_k(S) on that route is ``score`` [nats] (own design: greedy with ``result``'s rule and
+    budget and limits on the route's own evaluator)."""
+    route, ev = evaluator.domain.routes[k], evaluator.routes[k]
+    own = greedy(ev, result.budget_usd, result.rule, lazy=lazy, constraints=recorded(result.constraints))
+    f_s, f_own = float(score), float(own.score)
+    return RouteShare(
+        name=route.name, weight=float(evaluator.weights[k]), score=f_s, best_score=float(evaluator.best[k]),
+        share_of_best=f_s / float(evaluator.best[k]), own_suite=own.suite, own_cost_usd=own.cost_usd,
+        own_score=f_own, share_of_own=f_s / f_own if f_own > 0 else 1.0,
+    )
+
+
+def route_breakdown(evaluator: DomainEvaluator, result: GreedyResult, *, lazy: bool = True,
+                    progress: Progress | None = None) -> tuple[RouteShare, ...]:
+    """Each route's share of its best and of its own design for the domain suite of ``result``
+    (own designs: greedy with ``result``'s rule and budget on each route's own evaluator)."""
+    scores = evaluator.route_scores(evaluator.library.resolve_suite(result.suite))
+    out = []
+    for k in range(len(evaluator.routes)):
+        out.append(route_share(evaluator, k, result, float(scores[k]), lazy=lazy))
+        if progress:
+            progress(k + 1, len(evaluator.routes))
+    return tuple(out)
+
+
+def worst_route(shares: Sequence[RouteShare]) -> str:
+    """The route with the lowest share of its own design (the first of equals)."""
+    return shares[int(np.argmin([s.share_of_own for s in shares]))].name
+
+
+@dataclass(frozen=True)
+class ConditionShare:
+    """How the domain suite does in one operating condition, over the routes driven in it.
+
+    Attributes:
+        name: the condition ("clear", "night", ...).
+        weight: its share of the domain's weight (the sum of its members' w̄_r).
+        share_of_best: its members' shares of their best f_r(S)/f_r(L), averaged with their weights.
+        share_of_own: its members' shares of their own designs, averaged likewise.
+        worst_member: the member of this condition with the lowest share of its own design.
+    """
+
+    name: str
+    weight: float
+    share_of_best: float
+    share_of_own: float
+    worst_member: str
+
+
+def by_condition(design: DomainDesign) -> tuple[ConditionShare, ...]:
+    """The breakdown of a domain with conditions, condition by condition (in first-seen order);
+    empty when the domain has none."""
+    members = {r.name: r for r in design.domain.routes}
+    groups: dict[str, list[RouteShare]] = {}
+    for share in design.routes:
+        info = members.get(share.name)
+        if info is not None and info.condition:
+            groups.setdefault(info.condition, []).append(share)
+    out = []
+    for name, shares in groups.items():
+        w = np.array([s.weight for s in shares])
+        total = float(w.sum())
+        avg = (lambda v: float(np.dot(w, v) / total)) if total > 0 else (lambda v: float(np.mean(v)))
+        out.append(ConditionShare(name, total, avg([s.share_of_best for s in shares]), avg([s.share_of_own for s in shares]),
+                                  worst_route(shares)))
+    return tuple(out)
+
+
+def design_domain(domain: Domain, budget_usd: float, rule: str = "uniform", *, engine: str | None = None, jobs: int = 1,
+                  aggregate: str = "normalised", lazy: bool = True, certify: bool = False, progress: Progress | None = None,
+                  certify_progress: Progress | None = None, breakdown_progress: Progress | None = None,
+                  evaluator: DomainEvaluator | None = None, constraints: Constraints | None = None) -> DomainDesign:
+    """Greedy selection of one suite for every route of ``domain``, and its per-route breakdown; with
+    ``certify``, the run's certificate on the domain score (F is monotone submodular, so the bound holds).
+
+    ``evaluator``: the domain's evaluator, already built (e.g. on a Dask cluster,
+    :class:`sensorsel.pipeline.cluster.DistributedDomainEvaluator`); ``engine``, ``jobs`` and ``aggregate``
+    are then its own. ``constraints``: limits besides the budget (:mod:`sensorsel.model.constraints`),
+    respected by the domain suite and by each route's own design.
+
+    Raises:
+        InputError: a bad budget, rule, engine or aggregate, or a route no sensor can measure.
+    """
+    t0 = time.perf_counter()
+    budget = check_budget(budget_usd)
+    ev = evaluator if evaluator is not None else DomainEvaluator(domain, engine, jobs=jobs, aggregate=aggregate)
+    res = greedy(ev, budget, rule, lazy=lazy, progress=progress, info=domain.info, constraints=constraints)
+    cert = certificate(ev, res, progress=certify_progress) if certify else None
+    shares = route_breakdown(ev, res, lazy=lazy, progress=breakdown_progress)
+    return DomainDesign(greedy=CertifiedGreedyResult.of(res, cert), aggregate=ev.aggregate, routes=shares,
+                        worst_route=worst_route(shares), domain=domain.info,
+                        seconds=round(time.perf_counter() - t0, 6))

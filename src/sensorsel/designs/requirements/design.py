@@ -1,0 +1,377 @@
+"""``sensorsel require``: the cheapest suite that meets a specification in metres, with a proof.
+
+On a route or every route of a domain, a suite *meets* the requirement when each route's accuracy
+(:mod:`sensorsel.information.evaluators.accuracy`, in the chosen localization model) meets that route's
+:class:`~sensorsel.designs.requirements.spec.Specification`, also after any ``failures`` of its sensors
+fail. Meeting is monotone in the suite, so the search of :mod:`.solver` applies: a greedy upper
+bound, then an implicit hitting set whose integer programs give a lower bound on the cost of *any*
+suite that meets the requirement: the answer is proved optimal or states its gap.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable, Iterable, Protocol, Sequence
+
+import numpy as np
+
+from sensorsel.designs.requirements.solver import cheapest_suite
+from sensorsel.designs.requirements.spec import RouteVerdict, Specification, verdict
+from sensorsel.errors import InputError, ResultFileError
+from sensorsel.information.evaluators import Evaluator, as_suite, make_evaluator
+from sensorsel.information.evaluators.accuracy import RouteAccuracy, accuracy_from_covariances, model_label
+from sensorsel.information.evaluators.base import Suite
+from sensorsel.io import results
+from sensorsel.io.codec import to_jsonable
+from sensorsel.io.results import result_kind
+from sensorsel.model.constraints import Constraints, feasible_set
+from sensorsel.model.problem import Domain, Problem, Target, TargetInfo
+from sensorsel.pipeline import digest
+
+__all__ = ["RouteRequirement", "RequireResult", "RequireJournal", "require", "require_fingerprint"]
+
+#: seconds between two writes of a require run's journal (and once at the end)
+JOURNAL_EVERY_S = 2.0
+
+Progress = Callable[[int, int], None]
+
+
+@dataclass(frozen=True)
+class RouteRequirement:
+    """One route's specification and how a suite stands against it.
+
+    Attributes:
+        route: the route's name.
+        specification: what the route requires.
+        accuracy: the suite's accuracy there (per keyframe, 1σ).
+        verdict: whether it meets the specification, by how much it misses, where.
+    """
+
+    route: str
+    specification: Specification
+    accuracy: RouteAccuracy
+    verdict: RouteVerdict
+
+
+@result_kind("requirement")
+@dataclass(frozen=True)
+class RequireResult:
+    """The cheapest suite meeting a specification, and the proof of how cheap any can be.
+
+    Attributes:
+        status: "optimal" (cost = lower bound), "gap" (a suite that meets the requirement, with the
+            lower bound below its cost: the search stopped at its limits) or "infeasible" (no suite
+            within the limits meets it).
+        suite: ids of the suite (library order); empty when infeasible.
+        cost_usd: its price [$] (owned sensors count 0).
+        lower_bound_usd: no suite that meets the requirement costs less [$].
+        failures: α: the suite meets it after any α of its sensors fail.
+        model: "map" or "slam" (:data:`sensorsel.information.evaluators.accuracy.MODELS`).
+        map_sigma_m: with the map model, the std of the landmarks [m].
+        routes: each route's specification and the suite's accuracy there, all sensors working
+            (infeasible: the accuracy of every allowed sensor together, the best any suite reaches).
+        worst_failure: with failures, the α sensors whose failure leaves the suite closest to
+            missing the requirement (ids), and ``worst_failure_routes`` the accuracy after it.
+        iterations: integer programs solved.
+        n_checks: accuracy computations (each about two dense Cholesky factorizations a route).
+        n_refuted: (route, suite) pairs refuted by the engine's cheap floor under the marginals,
+            without computing them.
+        engine: the evaluator engine.
+        budget_usd: a budget the suite had to keep to, or None.
+        constraints: limits besides money, or None.
+        problem: what it was computed on.
+        seconds: wall time [s].
+        infeasible_by: when infeasible, why: "library" (every allowed sensor together misses it),
+            "failures" (they meet it, but not after the worst failures) or "limits" (no suite within
+            the budget and limits does).
+        stop: why the search ended, in words.
+    """
+
+    status: str
+    suite: tuple[str, ...]
+    cost_usd: float
+    lower_bound_usd: float
+    failures: int
+    model: str
+    map_sigma_m: float | None
+    routes: tuple[RouteRequirement, ...]
+    worst_failure: tuple[str, ...]
+    worst_failure_routes: tuple[RouteRequirement, ...]
+    iterations: int
+    n_checks: int
+    engine: str
+    budget_usd: float | None
+    constraints: Constraints | None
+    problem: TargetInfo | None = None
+    seconds: float = 0.0
+    infeasible_by: str = ""
+    stop: str = ""
+    n_refuted: int = 0
+
+    @property
+    def gap_usd(self) -> float:
+        """cost − lower bound [$] (0 when proved optimal; nan when no suite was found)."""
+        return self.cost_usd - self.lower_bound_usd if self.suite else math.nan
+
+    @property
+    def model_label(self) -> str:
+        return model_label(self.model, self.map_sigma_m)
+
+
+@result_kind("requirement-journal")
+@dataclass(frozen=True)
+class RequireJournal:
+    """What an interrupted ``require`` had learnt: each (route, suite) asked and its answer, with the
+    fingerprint of everything the answers depend on (the routes' problems, the specifications, the
+    localization model, the failures, the budget and the limits). A resumed run reads the answers
+    back and replays the same deterministic search without computing them again.
+
+    Attributes:
+        fingerprint: sha256 of the inputs (:func:`require_fingerprint`).
+        inputs: the same inputs, in words (what a refusal names).
+        answers: (route index, suite, meets, violation or None when only refuted by the floor).
+    """
+
+    fingerprint: str
+    inputs: tuple[tuple[str, str], ...]
+    answers: tuple[tuple[int, tuple[int, ...], bool, float | None], ...]
+
+
+def require_fingerprint(problems: Sequence[Problem], specs: Sequence[Specification], map_sigma_m: float | None,
+                        failures: int, budget_usd: float | None, constraints: Constraints | None) -> tuple[str, tuple[tuple[str, str], ...]]:
+    """(sha256, the inputs in words) of what a require run's answers depend on."""
+    inputs = (
+        ("routes", ", ".join(f"{p.scenario.name} {digest(to_jsonable(p.fingerprint))[:12]}" for p in problems)),
+        ("specification", "; ".join(s.describe() for s in specs)),
+        ("model", model_label("slam" if map_sigma_m is None else "map", map_sigma_m)),
+        ("failures", str(failures)),
+        ("budget", "none" if budget_usd is None else f"${budget_usd:,.2f}"),
+        ("limits", "none" if constraints is None else constraints.describe()),
+    )
+    return digest([list(x) for x in inputs] + [to_jsonable(list(specs)), map_sigma_m, budget_usd, to_jsonable(constraints)]), inputs
+
+
+def _read_journal(path: Path, fingerprint: str, inputs: tuple[tuple[str, str], ...]) -> RequireJournal | None:
+    """The journal at ``path`` (None when there is none); one of other inputs is refused, naming what differs."""
+    if not path.is_file():
+        return None
+    j = results.load(path, RequireJournal)
+    if j.fingerprint != fingerprint:
+        was = dict(j.inputs)
+        diff = [f"{k} {was.get(k, '?')} (this run: {v})" for k, v in inputs if was.get(k) != v] or ["the inputs differ"]
+        raise ResultFileError(path, "a checkpoint of another require run: " + "; ".join(diff)
+                              + ": delete it, or run without --resume to start again")
+    return j
+
+
+class RouteEngine(Protocol):
+    """What require asks of a route's engine: its pose marginals and their cheap floor (a
+    :class:`~sensorsel.information.evaluators.base.ProblemEvaluator`, or a route held by a Dask actor)."""
+
+    @property
+    def name(self) -> str: ...
+
+    def pose_covariances(self, suite: Iterable[int], *, map_sigma_m: float | None = None) -> np.ndarray: ...
+
+    def pose_covariance_floor(self, suite: Iterable[int], *, map_sigma_m: float | None = None) -> np.ndarray | None: ...
+
+
+class _Oracle:
+    """Whether a suite meets the requirement on every route, with the answers kept (each costs an
+    accuracy computation per route asked); routes are asked in order and the first failing one
+    ends the question (the caching keeps the answer the same whichever path asked first).
+
+    Before computing a route's marginals, :meth:`meets` asks the engine's cheap floor under them
+    (:meth:`~sensorsel.information.evaluators.base.ProblemEvaluator.pose_covariance_floor`): every σ of the floor
+    is below the true one, so a specification the floor already misses is missed (monotone in each
+    keyframe's errors, whatever the share of keyframes): the suite fails without its marginals. In
+    the map model the floor is ~50-90 % of the true σ (KITTI 00, 03) and refutes most failing suites.
+    """
+
+    def __init__(self, evaluators: Sequence[RouteEngine], names: Sequence[str], specs: Sequence[Specification],
+                 map_sigma_m: float | None) -> None:
+        self.evaluators, self.names, self.specs, self.map_sigma_m = list(evaluators), list(names), list(specs), map_sigma_m
+        self._verdicts: dict[tuple[int, Suite], tuple[RouteAccuracy, RouteVerdict]] = {}
+        self._refuted: set[tuple[int, Suite]] = set()
+        #: (route, suite) -> (meets, violation or None): answers read back from a journal
+        self.known: dict[tuple[int, Suite], tuple[bool, float | None]] = {}
+        self.n_checks = 0  # marginals computed (route, suite)
+        self.n_refuted = 0  # (route, suite) refuted by the floor alone
+        self.on_answer: Callable[[], None] | None = None  # called after each new answer (the journal's writer)
+
+    def answers(self) -> tuple[tuple[int, Suite, bool, float | None], ...]:
+        """Every answer so far, (route, suite, meets, violation or None), in a fixed order."""
+        out: dict[tuple[int, Suite], tuple[bool, float | None]] = dict(self.known)
+        out.update({k: (False, None) for k in self._refuted})
+        out.update({k: (v.meets, v.violation) for k, (_, v) in self._verdicts.items()})
+        return tuple((r, s, m, v) for (r, s), (m, v) in sorted(out.items()))
+
+    def _answered(self) -> None:
+        if self.on_answer is not None:
+            self.on_answer()
+
+    def route(self, r: int, suite: Suite) -> tuple[RouteAccuracy, RouteVerdict]:
+        key = (r, suite)
+        got = self._verdicts.get(key)
+        if got is None:
+            acc = accuracy_from_covariances(self.evaluators[r].pose_covariances(suite, map_sigma_m=self.map_sigma_m),
+                                            map_sigma_m=self.map_sigma_m, route=self.names[r])
+            got = self._verdicts[key] = (acc, verdict(acc, self.specs[r]))
+            self.n_checks += 1
+            self._answered()
+        return got
+
+    def _route_meets(self, r: int, suite: Suite) -> bool:
+        key = (r, suite)
+        if key in self._verdicts:
+            return self._verdicts[key][1].meets
+        if key in self._refuted:
+            return False
+        if key in self.known:
+            return self.known[key][0]
+        floor = self.evaluators[r].pose_covariance_floor(suite, map_sigma_m=self.map_sigma_m)
+        if floor is not None and not verdict(accuracy_from_covariances(floor, map_sigma_m=self.map_sigma_m),
+                                             self.specs[r]).meets:
+            self._refuted.add(key)
+            self.n_refuted += 1
+            self._answered()
+            return False
+        return self.route(r, suite)[1].meets
+
+    def meets(self, suite: Suite) -> bool:
+        s = as_suite(suite)
+        return all(self._route_meets(r, s) for r in range(len(self.evaluators)))
+
+    def _route_violation(self, r: int, suite: Suite) -> float:
+        known = self.known.get((r, suite))
+        if known is not None and known[1] is not None and (r, suite) not in self._verdicts:
+            return known[1]
+        return self.route(r, suite)[1].violation
+
+    def violation(self, suite: Suite) -> float:
+        s = as_suite(suite)
+        return max(self._route_violation(r, s) for r in range(len(self.evaluators)))
+
+    def report(self, suite: Suite) -> tuple[RouteRequirement, ...]:
+        s = as_suite(suite)
+        return tuple(RouteRequirement(self.names[r], self.specs[r], *self.route(r, s)) for r in range(len(self.evaluators)))
+
+
+def require(target: Target, specifications: Specification | Sequence[Specification], *, map_sigma_m: float | None,
+            failures: int = 0, budget_usd: float | None = None, constraints: Constraints | None = None,
+            engine: str | None = None, jobs: int = 1, time_limit_s: float | None = None,
+            progress: Progress | None = None, checkpoint: str | Path | None = None, resume: bool = False,
+            conditions: Sequence[str] | None = None, evaluator: Evaluator | None = None) -> RequireResult:
+    """The cheapest suite meeting ``specifications`` on ``target`` (a route, or every route of a
+    domain: one specification for all, or one per route in the domain's order).
+
+    Args:
+        map_sigma_m: localize in a prior map whose landmarks are known to this std [m]; None: the
+            paper's SLAM graph.
+        failures: α ≥ 0: still met after any α sensors of the suite fail.
+        budget_usd: an upper limit on the price, or None.
+        constraints: limits besides money (resources, slots, required / owned / excluded, most sensors).
+        time_limit_s: stop the exact search after this long, with the gap (None: run to the proof).
+        evaluator: a domain's evaluator already built, whose ``routes`` answer the accuracy checks
+            (e.g. on a Dask cluster: :class:`sensorsel.pipeline.cluster.DistributedDomainEvaluator`);
+            None: one engine per route here.
+        conditions: with a domain of (route, condition) members, demand the specification only in
+            these conditions (names as the domain file gives them, e.g. ("clear", "rain")); None: in all.
+        checkpoint: a file where the answers are journalled as they come (every
+            :data:`JOURNAL_EVERY_S` and at the end: a :class:`RequireJournal`); with ``resume`` an
+            interrupted run's journal there is read back (refused when its inputs differ).
+
+    Raises:
+        InputError: bad failures, a specification count that does not match the routes, limits
+            the library cannot meet.
+    """
+    t0 = time.perf_counter()
+    if isinstance(failures, bool) or not isinstance(failures, int) or failures < 0:
+        raise InputError(f"--failures must be a whole number >= 0, got {failures!r}")
+    if budget_usd is not None and not (math.isfinite(budget_usd) and budget_usd > 0):
+        raise InputError(f"--budget must be a positive number of dollars, got {budget_usd!r}")
+    members = list(target.routes) if isinstance(target, Domain) else []
+    problems: list[tuple[str, Problem]] = ([(r.name, r.problem) for r in members] if isinstance(target, Domain)
+                                          else [(target.scenario.name, target)])
+    specs = [specifications] * len(problems) if isinstance(specifications, Specification) else list(specifications)
+    if len(specs) != len(problems):
+        raise InputError(f"{len(specs)} specifications for {len(problems)} routes")
+    if conditions is not None:
+        known = sorted({r.condition for r in members if r.condition})
+        if not known:
+            raise InputError("--in names conditions: give a domain file with conditions: (see the conditions guide)")
+        unknown = sorted(set(conditions) - set(known))
+        if unknown:
+            raise InputError(f"--in: unknown condition(s) {', '.join(unknown)}; the domain has: {', '.join(known)}")
+        keep = [i for i, r in enumerate(members) if r.condition in set(conditions)]
+        problems, specs = [problems[i] for i in keep], [specs[i] for i in keep]
+    library = target.library
+    feas = feasible_set(library, math.inf if budget_usd is None else budget_usd, constraints)
+    keep_idx = keep if conditions is not None else list(range(len(problems)))
+    evaluators: list[RouteEngine]
+    if evaluator is not None:
+        remote = list(getattr(evaluator, "routes"))
+        evaluators = [remote[i] for i in keep_idx]
+    else:
+        evaluators = [make_evaluator(p, engine, jobs=jobs) for _, p in problems]
+    oracle = _Oracle(evaluators, [n for n, _ in problems], specs, map_sigma_m)
+    if checkpoint is not None:
+        path = Path(checkpoint)
+        fp, inputs = require_fingerprint([p for _, p in problems], specs, map_sigma_m, failures, budget_usd, feas.record)
+        old = _read_journal(path, fp, inputs) if resume else None
+        if old is not None:
+            oracle.known = {(r, tuple(s_)): (m, v) for r, s_, m, v in old.answers}
+        last = [time.monotonic()]
+
+        def write(force: bool = False) -> None:
+            if force or time.monotonic() - last[0] >= JOURNAL_EVERY_S:
+                results.save(RequireJournal(fp, inputs, oracle.answers()), path)
+                last[0] = time.monotonic()
+
+        oracle.on_answer = write
+    try:
+        found = cheapest_suite(feas, oracle.meets, failures=failures, violation=oracle.violation,
+                               time_limit=time_limit_s, progress=progress)
+    finally:  # interrupted too (Ctrl-C): nothing learnt is lost
+        if checkpoint is not None:
+            oracle.on_answer = None
+            write(force=True)
+    worst: tuple[int, ...] = ()
+    worst_routes: tuple[RouteRequirement, ...] = ()
+    if found.suite is None:
+        # no suite: the accuracy of the best any suite reaches (every allowed sensor, or what is
+        # left of them after the failures the solver names)
+        best = found.best_effort or tuple(i for i in range(len(library)) if i not in feas.excluded)
+        routes = oracle.report(best)
+        suite: Suite = ()
+    else:
+        suite = as_suite(found.suite)
+        routes = oracle.report(suite)
+        worst = _worst_failure(oracle, suite, failures)
+        worst_routes = oracle.report(tuple(i for i in suite if i not in worst)) if worst else ()
+    return RequireResult(
+        status=found.status, suite=library.suite_ids(suite), cost_usd=float(feas.A[0, list(suite)].sum()) if suite else 0.0,
+        lower_bound_usd=float(found.lower_bound), infeasible_by=found.infeasible_by, stop=found.stop,
+        failures=failures, model="slam" if map_sigma_m is None else "map",
+        map_sigma_m=map_sigma_m, routes=routes, worst_failure=library.suite_ids(worst), worst_failure_routes=worst_routes,
+        iterations=int(found.iterations), n_checks=oracle.n_checks, n_refuted=oracle.n_refuted, engine=getattr(evaluator, "engine", None) or evaluators[0].name, budget_usd=budget_usd,
+        constraints=feas.record, problem=target.info, seconds=time.perf_counter() - t0)
+
+
+def _worst_failure(oracle: _Oracle, suite: Suite, failures: int) -> tuple[int, ...]:
+    """The ``failures`` sensors of ``suite`` whose loss leaves the largest error relative to the
+    bounds (ties: the first in library order); () without failures."""
+    if failures <= 0 or len(suite) <= failures:
+        return ()
+    best: tuple[float, tuple[int, ...]] | None = None
+    for lost in itertools.combinations(suite, failures):
+        rest = tuple(i for i in suite if i not in lost)
+        margin = max(max(err / bound for _, err, bound, _ in oracle.route(r, rest)[1].worst)
+                     for r in range(len(oracle.evaluators)))
+        if best is None or margin > best[0]:
+            best = (margin, lost)
+    return best[1] if best else ()

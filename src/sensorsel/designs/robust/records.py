@@ -1,0 +1,217 @@
+"""Records of robust selection (frozen dataclasses; they serialize with :mod:`sensorsel.io.results`).
+
+Wall times are in fields named ``seconds`` (the only fields that differ between two identical runs).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from sensorsel.information.evaluators.accuracy import RouteAccuracy
+from sensorsel.io.results import result_kind
+from sensorsel.model.constraints import Constraints
+from sensorsel.model.problem import TargetInfo
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """One method's suite, scored by its exact worst case.
+
+    Attributes:
+        method: "greedy-uniform", "greedy-marginal", "algorithm-2", "saturate", "oblivious-eta2",
+            "local-search", ...
+        suite: ids, in library order.
+        cost_usd: its cost [$].
+        nominal_score: f(S), nothing failed [nats].
+        worst_score: exact min over failure sets F (|F| = alpha) of f(S minus F) [nats].
+        failures: ids of the failure set attaining it (first in library order among ties).
+        note: what the method did (levels tried, swaps made, ...); empty if nothing to say.
+        n_evaluations: suites newly scored by the method and its worst case (memoized: a suite
+            scored by an earlier method is free here).
+        seconds: wall time of the method [s].
+        worst_member: with ``aggregate="worst"`` over a domain, the route attaining the worst case
+            (``failures`` are then that route's failure set); else empty.
+    """
+
+    method: str
+    suite: tuple[str, ...]
+    cost_usd: float
+    nominal_score: float
+    worst_score: float
+    failures: tuple[str, ...]
+    note: str
+    n_evaluations: int
+    seconds: float = 0.0
+    worst_member: str = ""
+
+
+@dataclass(frozen=True)
+class MemberWorst:
+    """One route of a domain under the worst-route aggregate: the chosen suite's shares of the route's best.
+
+    Attributes:
+        name: the route.
+        best_score: f_r(L), the whole library's score on the route [nats] (the normaliser).
+        nominal_share: f_r(S) / f_r(L), nothing failed.
+        worst_share: min over failure sets F (|F| = alpha) of f_r(S minus F) / f_r(L).
+        failures: ids of the failure set attaining it on this route.
+    """
+
+    name: str
+    best_score: float
+    nominal_share: float
+    worst_share: float
+    failures: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class BoundLeaf:
+    """One leaf of the bound's case split: the suites S ⊆ library minus ``removed`` with Cost(S) <= budget
+    under ``alpha`` failures (``removed`` are sensors either absent or assumed failed, see :mod:`.bound`).
+
+    Attributes:
+        removed: ids taken out of the library on the way to this leaf.
+        failed: those of them assumed in the suite and failed.
+        budget_usd: the budget left for the leaf's suites [$].
+        alpha: failures left.
+        bound: upper bound on the best worst case of the leaf's suites [nats].
+        how: "exact" (the whole leaf library fits: its worst case is the leaf's optimum),
+            "knapsack at X" (X: ids of the anchor suite), "empty" (nothing affordable), "pruned".
+    """
+
+    removed: tuple[str, ...]
+    failed: tuple[str, ...]
+    budget_usd: float
+    alpha: int
+    bound: float
+    how: str
+
+
+@dataclass(frozen=True)
+class RobustBound:
+    """An upper bound on the best achievable worst case within the budget.
+
+    Attributes:
+        bound: no suite within the budget has a worst case above this [nats].
+        leaves: the case split's leaves (bound = the largest, or the incumbent if that is larger).
+        n_nodes: nodes of the case split.
+        n_sweeps: marginal-gain sweeps made.
+        proved: True when the bound equals the incumbent (to a relative 1e-9): it is optimal.
+        n_evaluations: suites newly scored for the bound.
+        seconds: wall time [s].
+        relaxation: empty, or (under constraints) how the bound kept them: integer programs over
+            every limit, or what it relaxed (the budget alone: a larger set of suites, so it stays an
+            upper bound).
+    """
+
+    bound: float
+    leaves: tuple[BoundLeaf, ...]
+    n_nodes: int
+    n_sweeps: int
+    proved: bool
+    n_evaluations: int
+    seconds: float = 0.0
+    relaxation: str = ""
+
+
+@result_kind("robust")
+@dataclass(frozen=True)
+class RobustResult:
+    """A robust selection: the best candidate by exact worst case, all candidates, the bound.
+
+    Attributes:
+        alpha: failures designed for.
+        budget_usd: the budget [$].
+        method: the method whose suite won.
+        suite: ids of the winning suite, in library order.
+        cost_usd: its cost [$].
+        nominal_score: f(suite) [nats].
+        worst_score: its exact worst case [nats].
+        failures: the failure set attaining it.
+        greedy_worst_score: the exact worst case of the plain (uniform) greedy suite [nats]; the
+            answer is never below it.
+        algorithm2_worst_score: the same for the paper's Algorithm 2; the answer is never below it.
+        bound: upper bound on the best achievable worst case [nats].
+        gap_percent: 100 * (bound - worst_score) / bound.
+        candidates: every candidate, in the order the methods ran.
+        skipped: methods not run, with why ("bound proves optimality", ...).
+        bound_detail: how the bound was obtained.
+        n_evaluations: suites scored in all (each at most once).
+        engine: the evaluator used.
+        problem: what it was computed on.
+        seconds: wall time [s].
+        aggregate: empty for one route (or a domain's combined score); "worst" for the max-min over a
+            domain's routes: scores are then shares of each route's best, f_r(S) / f_r(L), the worst case
+            is the minimum over routes and failure sets, and ``nominal_score`` the minimum over routes.
+        worst_member: with "worst", the route attaining the worst case.
+        members: with "worst", every route's shares (the breakdown).
+        constraints: the limits besides the budget every candidate kept; None: the budget alone.
+        accuracy: the chosen suite's accuracy in metres on each route (empty when not computed;
+            the command line computes it).
+    """
+
+    alpha: int
+    budget_usd: float
+    method: str
+    suite: tuple[str, ...]
+    cost_usd: float
+    nominal_score: float
+    worst_score: float
+    failures: tuple[str, ...]
+    greedy_worst_score: float
+    algorithm2_worst_score: float
+    bound: float
+    gap_percent: float
+    candidates: tuple[Candidate, ...]
+    skipped: tuple[str, ...]
+    bound_detail: RobustBound
+    n_evaluations: int
+    engine: str
+    problem: TargetInfo | None = None
+    seconds: float = 0.0
+    aggregate: str = ""
+    worst_member: str = ""
+    members: tuple[MemberWorst, ...] = ()
+    constraints: Constraints | None = None
+    accuracy: tuple[RouteAccuracy, ...] = ()
+
+
+@result_kind("robust-optimum")
+@dataclass(frozen=True)
+class RobustOptimum:
+    """The best worst case within the budget, by branch and bound (proved or not).
+
+    Attributes:
+        alpha, budget_usd: the inputs.
+        suite: ids of the best suite found, in library order.
+        cost_usd: its cost [$].
+        nominal_score: f(suite) [nats].
+        worst_score: its exact worst case [nats].
+        failures: the failure set attaining it.
+        proved_optimal: every other suite ruled out.
+        upper_bound: no suite within the budget has a worst case above this [nats].
+        gap_percent: 100 * (upper_bound - worst_score) / upper_bound.
+        n_nodes: nodes expanded.
+        n_pruned: nodes dropped by their bound.
+        n_evaluations: suites newly scored.
+        stop_reason: why the search stopped.
+        seconds: wall time [s].
+        constraints: the limits besides the budget the search kept; None: the budget alone.
+    """
+
+    alpha: int
+    budget_usd: float
+    suite: tuple[str, ...]
+    cost_usd: float
+    nominal_score: float
+    worst_score: float
+    failures: tuple[str, ...]
+    proved_optimal: bool
+    upper_bound: float
+    gap_percent: float
+    n_nodes: int
+    n_pruned: int
+    n_evaluations: int
+    stop_reason: str
+    seconds: float = 0.0
+    constraints: Constraints | None = None

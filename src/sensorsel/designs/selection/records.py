@@ -1,0 +1,88 @@
+"""What a greedy run produces: the suite after each pick (:class:`Step`) and the run (:class:`GreedyResult`)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+from sensorsel.information.evaluators.accuracy import RouteAccuracy
+from sensorsel.io.results import result_kind
+from sensorsel.model.constraints import Constraints
+from sensorsel.model.problem import TargetInfo
+
+#: progress(done, total): called after each pick; total is an upper bound on the number of picks.
+Progress = Callable[[int, int], None]
+
+
+@dataclass(frozen=True)
+class Step:
+    """One intermediate architecture of a greedy run: the suite right after a pick.
+
+    Attributes:
+        pick: id of the sensor bought at this step.
+        index: its paper index.
+        sensor_cost_usd: its cost [$].
+        suite: ids of the whole suite after the pick, in pick order.
+        cost_usd: cost of the suite [$].
+        score: f(suite) [nats].
+        gain: f(suite) - f(suite before the pick) [nats].
+        rule_value: J of the pick under the run's rule.
+    """
+
+    pick: str
+    index: int
+    sensor_cost_usd: float
+    suite: tuple[str, ...]
+    cost_usd: float
+    score: float
+    gain: float
+    rule_value: float
+
+
+@result_kind("greedy", read=False)  # a run without its certificate: a "greedy" file, certificate null
+@dataclass(frozen=True)
+class GreedyResult:
+    """A greedy run: the chosen suite and every intermediate architecture.
+
+    Attributes:
+        rule: the rule of :data:`sensorsel.designs.selection.RULES` that ran ("uniform", "cost-benefit",
+            "marginal", "best-of").
+        budget_usd: the budget [$].
+        suite: ids of the chosen sensors, in pick order.
+        cost_usd: total cost [$] (never above the budget).
+        score: f(suite) [nats].
+        steps: the suite after each pick.
+        stop_reason: why selection stopped.
+        n_evaluations: suites scored.
+        engine: the evaluator used.
+        lazy: whether lazy (Minoux) evaluation was used.
+        winning_rule: the single rule whose run this is: for a strategy (best-of), the component run
+            it kept; else ``rule`` itself.
+        problem: what it was computed on.
+        seconds: wall time of the selection [s] (timings are the only fields that vary between runs).
+        constraints: the limits besides the budget the run respected (:class:`~sensorsel.model.constraints.Constraints`);
+            None when the budget was the only one (no limit, no slot, nothing required or excluded).
+        accuracy: the suite's accuracy in metres and degrees on each route (one for a single route),
+            per keyframe; empty when not computed (the command line computes it).
+    """
+
+    rule: str
+    budget_usd: float
+    suite: tuple[str, ...]
+    cost_usd: float
+    score: float
+    steps: tuple[Step, ...]
+    stop_reason: str
+    n_evaluations: int
+    engine: str
+    lazy: bool
+    winning_rule: str
+    problem: TargetInfo | None = None
+    seconds: float = 0.0
+    constraints: Constraints | None = None
+    accuracy: tuple[RouteAccuracy, ...] = ()
+
+    @property
+    def rule_label(self) -> str:
+        """``rule``, or ``"best-of (marginal)"`` when a strategy kept one of its component runs."""
+        return self.rule if self.winning_rule == self.rule else f"{self.rule} ({self.winning_rule})"

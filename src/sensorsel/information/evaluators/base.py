@@ -1,0 +1,154 @@
+"""The objective: log det of the SLAM information matrix of a suite, and the score f(S) built on it.
+
+    log det L(S)  [nats]   the information matrix of the suite's factor graph, linearized at the truth
+    f(S) = log det L(S) - log det L(empty) >= 0   the information the suite adds over odometry alone
+
+f is monotone (adding a sensor never lowers it) and submodular (diminishing returns), which the
+greedy guarantees and the lazy evaluation rely on.
+
+Evaluators compute these numbers; they differ in speed, not in answers. ``reference`` rebuilds,
+relinearizes and eliminates the GTSAM graph for every suite (the paper's method, and the oracle of
+the tests); faster engines are registered in :data:`sensorsel.information.evaluators.ENGINES`.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from typing import ClassVar, Iterable, Sequence
+
+import numpy as np
+
+from sensorsel.errors import InputError
+from sensorsel.model.library import SensorLibrary
+from sensorsel.model.problem import Problem
+
+#: a canonical suite: sorted tuple of unique library positions
+Suite = tuple[int, ...]
+
+
+def as_suite(suite: Iterable[int]) -> Suite:
+    """Canonical form of a suite: sorted tuple of unique library positions."""
+    return tuple(sorted(set(int(i) for i in suite)))
+
+
+class Evaluator(ABC):
+    """The one small interface every selector, certificate and robust design talks to: the score
+    f(S) of a suite of one library's sensors, monotone submodular, f(empty) = 0.
+
+    Subclasses: :class:`ProblemEvaluator` (one route: f(S) = log det L(S) - log det L(empty)) and
+    :class:`~sensorsel.information.evaluators.domain.DomainEvaluator` (a weighted combination over routes).
+
+    Attributes:
+        library: the sensors; suites are sorted tuples of positions in it.
+        jobs: threads the engine may use (>= 1; engines that do not use threads ignore it).
+        n_evaluations: how many suites have been scored.
+    """
+
+    #: the engine's name (in :data:`sensorsel.information.evaluators.ENGINES` for per-problem engines)
+    name: ClassVar[str] = ""
+
+    def __init__(self, library: SensorLibrary, *, jobs: int = 1) -> None:
+        self.library = library
+        self.jobs = max(1, int(jobs))
+        self.n_evaluations = 0
+
+    @property
+    def n_sensors(self) -> int:
+        return len(self.library)
+
+    def _check_positions(self, positions: Iterable[int]) -> None:
+        """Raise :class:`InputError` for a position outside the library (0..n_sensors - 1)."""
+        n = len(self.library)
+        for i in positions:
+            if not 0 <= i < n:
+                raise InputError(f"sensor position {i} is outside the library (0..{n - 1})")
+
+    @abstractmethod
+    def score(self, suite: Iterable[int]) -> float:
+        """f(S): the information the suite adds (>= 0; units: nats, or a share for a normalised domain)."""
+
+    def scores_with(self, suite: Iterable[int], candidates: Sequence[int]) -> np.ndarray:
+        """f(S + {c}) for each candidate c, shape (len(candidates),).
+
+        Engines override this to reuse the work shared by the candidates (same base suite).
+        """
+        base = as_suite(suite)
+        return np.array([self.score(base + (c,)) for c in candidates], dtype=float)
+
+    def gain_bounds(self, suite: Iterable[int], candidates: Sequence[int]) -> np.ndarray | None:
+        """Upper bounds on the gains f(S + {c}) − f(S), shape (len(candidates),), in exact
+        arithmetic (callers allow for round-off), or None when the engine has none (the default)
+        or judges them dearer than scoring that many candidates.
+        Computing them is not counted in :attr:`n_evaluations`."""
+        return None
+
+    def score_bounds(self, suite: Iterable[int], candidates: Sequence[int]) -> tuple[float, np.ndarray] | None:
+        """Cheap upper bounds, in exact arithmetic, on f(S) and on each f(S + {c}) (shape
+        (len(candidates),)), or None when the engine has none (the default). Cheap: far below one
+        evaluation per suite (the fast engine: Fischer's inequality, :mod:`.fast.fischer`), so a
+        caller may ask for f(S)'s alone (no candidates) to judge whether they can help: a bound on
+        a gain is the bound on f(S + {c}) minus the exact f(S), so it is at least the gap between
+        the bound on f(S) and f(S). Not counted in :attr:`n_evaluations`."""
+        return None
+
+
+class ProblemEvaluator(Evaluator):
+    """Scores suites on one problem (one route) by log det. Subclasses implement :meth:`_logdet`.
+
+    Attributes:
+        problem: the library and scenario being scored.
+        n_evaluations: each log det computed counts one.
+    """
+
+    def __init__(self, problem: Problem, *, jobs: int = 1) -> None:
+        super().__init__(problem.library, jobs=jobs)
+        self.problem = problem
+        self._baseline: float | None = None
+
+    @abstractmethod
+    def _logdet(self, suite: Suite) -> float:
+        """log det L(suite) [nats] for a canonical suite."""
+
+    def logdet(self, suite: Iterable[int]) -> float:
+        """log det of the information matrix of the suite [nats]."""
+        s = as_suite(suite)
+        self._check_positions(s)
+        self.n_evaluations += 1
+        return self._logdet(s)
+
+    @property
+    def baseline_logdet(self) -> float:
+        """log det L(empty): odometry, first-pose prior and landmark priors only [nats]."""
+        if self._baseline is None:
+            self._baseline = self.logdet(())
+        return self._baseline
+
+    def score(self, suite: Iterable[int]) -> float:
+        """f(S) = log det L(S) - log det L(empty) [nats]."""
+        return self.logdet(suite) - self.baseline_logdet
+
+    def pose_covariances(self, suite: Iterable[int], *, map_sigma_m: float | None = None) -> np.ndarray:
+        """The marginal covariance of every keyframe's pose under the suite, shape (K, 3, 3): the
+        3×3 diagonal blocks of the inverse information (landmarks eliminated), in Pose2's tangent
+        space at the truth: (dx, dy [m] in the keyframe's own frame, x forward and y to the left;
+        dθ [rad]), as GTSAM's ``Marginals.marginalCovariance(X(k))`` gives it.
+
+        ``map_sigma_m``: None for the paper's SLAM graph (landmarks unknown: a weak prior only, so
+        the uncertainty grows along the route from the first pose's prior); a number [m] for
+        localization in a prior map whose landmarks are known to that std (the weak landmark prior
+        replaced by an isotropic prior of that std). Not counted in :attr:`n_evaluations`.
+        """
+        s = as_suite(suite)
+        self._check_positions(s)
+        if map_sigma_m is not None and not (np.isfinite(map_sigma_m) and map_sigma_m > 0):
+            raise InputError(f"map sigma must be a positive number of metres, got {map_sigma_m!r}")
+        return self._pose_covariances(s, None if map_sigma_m is None else float(map_sigma_m))
+
+    def _pose_covariances(self, suite: Suite, map_sigma_m: float | None) -> np.ndarray:
+        raise NotImplementedError(f"the {self.name!r} engine computes no pose covariances")
+
+    def pose_covariance_floor(self, suite: Iterable[int], *, map_sigma_m: float | None = None) -> np.ndarray | None:
+        """A cheap lower bound on :meth:`pose_covariances`, shape (K, 3, 3) (each block below the
+        true marginal covariance in the positive semidefinite order, so each σ below the true one),
+        or None when the engine has none (the default). Not counted in :attr:`n_evaluations`."""
+        return None

@@ -1,0 +1,425 @@
+"""Past one machine: a domain's routes and a tradespace's runs on a Dask cluster (``sensorsel[dask]``).
+
+    with DaskCluster(workers=2) as cluster:              # or DaskCluster(scheduler="tcp://10.0.0.5:8786")
+        ev = DistributedDomainEvaluator(cluster.client, domain)
+        design = design_domain(domain, 110_000, evaluator=ev)      # every selector works unchanged
+
+**Domain evaluation.** Each route's evaluator is built once, on a worker, by a Dask *actor*
+(:class:`RouteActor`) from the route's recipe: its scenario spec, the sensor library and the graph
+settings (a few kilobytes; a linearized GTSAM graph does not pickle, and need not). A greedy step
+sends the base suite and the candidates to every route's actor at once and gets back one array of
+f_r(S + c) per route; the client combines them in route order with
+:meth:`DomainEvaluator.combine`, so the numbers are the bytes of the in-process
+:class:`~sensorsel.information.evaluators.DomainEvaluator` whatever the number of workers. The normalisers f_r(L)
+are computed by the actors too.
+
+**Faults.** An actor lives on one worker; when that worker dies, the call fails. The evaluator then
+builds the route's actor again from its recipe on a live worker and repeats that route's call (the
+engines are deterministic: the repeated call gives the same bytes), at most ``retries`` times.
+
+**Design runs as tasks.** A tradespace's rules, a route's periods, a study's cells and a
+simulation's runs are plans (:mod:`sensorsel.pipeline`), written once; :attr:`DaskCluster.executor`
+runs their tasks on the cluster (:class:`~sensorsel.pipeline.DaskExecutor`), with the same answers
+as in-process.
+
+Dask is imported only here and by the Dask executor, and only when a cluster is asked for: a run without one never
+imports it.
+"""
+
+from __future__ import annotations
+
+import pickle
+import sys
+import time
+from typing import Any, Callable, Iterable, Sequence
+
+import numpy as np
+
+from sensorsel.errors import SensorselError
+from sensorsel.information.evaluators import Evaluator, ProblemEvaluator, as_suite, make_evaluator
+from sensorsel.information.evaluators.domain import DomainEvaluator, check_aggregate
+from sensorsel.information.evaluators.registry import check_engine
+from sensorsel.model.problem import Domain, Problem, RouteRecipe
+from sensorsel.pipeline import ClusterError, DaskExecutor, import_distributed
+
+#: seconds to wait for a scheduler to answer before giving up
+DEFAULT_CONNECT_TIMEOUT_S = 5.0
+
+__all__ = ["ClusterError", "DaskCluster", "DistributedDomainEvaluator", "RouteActor", "RouteRecipe"]
+
+
+class DaskCluster:
+    """A Dask client for a run: to an existing scheduler, or to a LocalCluster of ``workers``
+    processes that this object starts and stops (a context manager; ``close()`` is idempotent).
+
+    Args:
+        scheduler: address of a running scheduler (``tcp://10.0.0.5:8786``).
+        workers: number of local worker processes (one thread each) to start instead.
+        connect_timeout_s: how long a scheduler has to answer.
+        echo: where to say what was started (the dashboard's address); default stderr.
+
+    Raises:
+        ClusterError: the extra is missing, both or neither of scheduler / workers, or no answer.
+    """
+
+    def __init__(self, scheduler: str | None = None, workers: int | None = None, *,
+                 connect_timeout_s: float = DEFAULT_CONNECT_TIMEOUT_S, echo: Callable[[str], None] | None = None) -> None:
+        if (scheduler is None) == (workers is None):
+            raise ClusterError("give a scheduler address or a number of workers (one of them)")
+        if workers is not None and workers < 1:
+            raise ClusterError(f"--workers must be at least 1, got {workers}")
+        self.scheduler, self.workers, self.connect_timeout_s = scheduler, workers, float(connect_timeout_s)
+        self.echo = echo or (lambda line: print(line, file=sys.stderr))
+        self.client: Any = None
+        self._local: Any = None
+
+    def __enter__(self) -> "DaskCluster":
+        distributed = import_distributed()
+        if self.scheduler is not None:
+            try:
+                self.client = distributed.Client(self.scheduler, timeout=self.connect_timeout_s)  # actors find their client as the default one
+            except (OSError, TimeoutError, ValueError) as exc:
+                raise ClusterError(f"no Dask scheduler answered at {self.scheduler} within {self.connect_timeout_s:g} s "
+                                   f"({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''})") from None
+            try:
+                self.client.wait_for_workers(1, timeout=self.connect_timeout_s)
+            except (OSError, TimeoutError) as exc:
+                self.close()
+                raise ClusterError(f"the Dask scheduler at {self.scheduler} has no worker after {self.connect_timeout_s:g} s "
+                                   f"({type(exc).__name__})") from None
+            self.echo(f"sensorsel: dask scheduler {self.scheduler}: {len(self.client.nthreads())} workers")
+            return self
+        import importlib.util
+        import logging
+
+        dashboard = "127.0.0.1:0" if importlib.util.find_spec("bokeh") is not None else None  # the dashboard needs bokeh
+        self._local = distributed.LocalCluster(n_workers=self.workers, threads_per_worker=1, processes=True,
+                                               host="127.0.0.1", scheduler_port=0, dashboard_address=dashboard,
+                                               silence_logs=logging.ERROR,
+                                               worker_dashboard_address=None)
+        self.client = distributed.Client(self._local)  # actors find their client as the default one
+        try:  # every worker registered before the first placement (the cluster starts them, they report later)
+            self.client.wait_for_workers(self.workers, timeout=self.connect_timeout_s)
+        except (OSError, TimeoutError) as exc:
+            self.close()
+            raise ClusterError(f"the local Dask cluster started fewer than {self.workers} workers within "
+                               f"{self.connect_timeout_s:g} s ({type(exc).__name__})") from None
+        where = self.client.dashboard_link if dashboard else "none (install bokeh for one)"
+        self.echo(f"sensorsel: dask LocalCluster of {self.workers} worker processes at {self._local.scheduler_address}; "
+                  f"dashboard {where}")
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+    @property
+    def executor(self) -> DaskExecutor:
+        """The executor that runs a plan's tasks on this cluster (:mod:`sensorsel.pipeline`); started first."""
+        if self.client is None:
+            raise ClusterError("the Dask cluster is not started: use it in a with statement")
+        return DaskExecutor(self.client)
+
+    def close(self) -> None:
+        if self.client is not None:
+            self.client.close()
+            self.client = None
+        if self._local is not None:
+            self._local.close()
+            self._local = None
+
+
+# ------------------------------------------------------------------------------------ route recipes
+
+
+class RouteActor:
+    """One route's evaluator, built once on a worker (a Dask actor) and kept there."""
+
+    def __init__(self, recipe: RouteRecipe, engine: str, jobs: int = 1) -> None:
+        m0, t0 = _rss(), time.perf_counter()
+        self.recipe = recipe
+        self.evaluator: ProblemEvaluator = make_evaluator(recipe.build(), engine, jobs=jobs)
+        self.best = float(self.evaluator.score(tuple(range(len(recipe.library)))))  # f_r(L), the normaliser
+        self.built = (time.perf_counter() - t0, _rss() - m0)  # building the problem, its engine and f_r(L) [s], [bytes]
+        self.busy_s, self.calls = 0.0, 0  # time spent scoring in this actor's calls [s], and their number
+
+    def score(self, suite: tuple[int, ...]) -> float:
+        t0 = time.perf_counter()
+        out = float(self.evaluator.score(suite))
+        self.busy_s, self.calls = self.busy_s + time.perf_counter() - t0, self.calls + 1
+        return out
+
+    def normaliser(self) -> float:
+        """f_r(L): the whole library's score on this route [nats] (computed when the actor was built)."""
+        return self.best
+
+    def scores_with(self, suite: tuple[int, ...], candidates: list[int]) -> np.ndarray:
+        t0 = time.perf_counter()
+        out = np.asarray(self.evaluator.scores_with(suite, candidates), dtype=float)
+        self.busy_s, self.calls = self.busy_s + time.perf_counter() - t0, self.calls + 1
+        return out
+
+    def gain_bounds(self, suite: tuple[int, ...], candidates: list[int]) -> np.ndarray | None:
+        """The route's engine's bounds on the gains (None where it has none or declines)."""
+        return self.evaluator.gain_bounds(suite, candidates)
+
+    def score_bounds(self, suite: tuple[int, ...], candidates: list[int]) -> tuple[float, np.ndarray] | None:
+        """The route's engine's cheap bounds on the scores (None where it has none)."""
+        return self.evaluator.score_bounds(suite, candidates)
+
+    def pose_covariances(self, suite: tuple[int, ...], map_sigma_m: float | None) -> np.ndarray:
+        """The suite's (K, 3, 3) pose marginals on this route (``require``'s accuracy checks)."""
+        t0 = time.perf_counter()
+        out = self.evaluator.pose_covariances(suite, map_sigma_m=map_sigma_m)
+        self.busy_s, self.calls = self.busy_s + time.perf_counter() - t0, self.calls + 1
+        return out
+
+    def pose_covariance_floor(self, suite: tuple[int, ...], map_sigma_m: float | None) -> np.ndarray | None:
+        """The engine's cheap floor under :meth:`pose_covariances` (None where it has none)."""
+        return self.evaluator.pose_covariance_floor(suite, map_sigma_m=map_sigma_m)
+
+    def busy(self) -> tuple[float, int, str]:
+        """(seconds this actor spent scoring, calls it answered, its worker's address): the worker's
+        share of a run's time; the rest of a step's wall time is the client, the network and Dask's
+        actor machinery."""
+        from distributed import get_worker
+
+        return self.busy_s, self.calls, str(get_worker().address)
+
+    def cost(self) -> tuple[float, int]:
+        """(seconds to build this route on its worker, resident bytes that added there: its problem and
+        its engine after scoring the whole library; a measure, not an accounting: the allocator keeps
+        freed memory, and routes built later on the same worker reuse it)."""
+        return self.built[0], self.built[1]
+
+
+def _rss() -> int:
+    """Resident bytes of this process now (psutil, which Dask's distributed itself needs)."""
+    import psutil  # type: ignore[import-untyped]
+
+    return int(psutil.Process().memory_info().rss)
+
+
+class _RemoteRoute(Evaluator):
+    """A route's evaluator seen from the client: every call goes to its actor (for the per-route
+    breakdown, which runs greedy on each route alone)."""
+
+    name = "remote"
+
+    def __init__(self, owner: "DistributedDomainEvaluator", k: int) -> None:
+        super().__init__(owner.library, jobs=owner.jobs)
+        self.owner, self.k = owner, k
+
+    def score(self, suite: Iterable[int]) -> float:
+        s = as_suite(suite)
+        self._check_positions(s)
+        self.n_evaluations += 1
+        return float(self.owner._call({self.k: ("score", (s,))})[self.k])
+
+    def _ask(self, method: str, suite: Iterable[int], candidates: Sequence[int]) -> Any:
+        """The actor's answer to ``method(suite, candidates)``, the positions checked here first."""
+        base, cand = as_suite(suite), [int(c) for c in candidates]
+        self._check_positions(base + tuple(cand))
+        return self.owner._call({self.k: (method, (base, cand))})[self.k]
+
+    def scores_with(self, suite: Iterable[int], candidates: Sequence[int]) -> np.ndarray:
+        got = np.asarray(self._ask("scores_with", suite, candidates), dtype=float)
+        self.n_evaluations += len(got)
+        return got
+
+    def gain_bounds(self, suite: Iterable[int], candidates: Sequence[int]) -> np.ndarray | None:
+        return self._ask("gain_bounds", suite, candidates)
+
+    def score_bounds(self, suite: Iterable[int], candidates: Sequence[int]) -> tuple[float, np.ndarray] | None:
+        return self._ask("score_bounds", suite, candidates)
+
+    def pose_covariances(self, suite: Iterable[int], *, map_sigma_m: float | None = None) -> np.ndarray:
+        """The route's pose marginals, computed by its actor (the same bytes as in-process)."""
+        s = as_suite(suite)
+        self._check_positions(s)
+        return np.asarray(self.owner._call({self.k: ("pose_covariances", (s, map_sigma_m))})[self.k])
+
+    def pose_covariance_floor(self, suite: Iterable[int], *, map_sigma_m: float | None = None) -> np.ndarray | None:
+        s = as_suite(suite)
+        self._check_positions(s)
+        return self.owner._call({self.k: ("pose_covariance_floor", (s, map_sigma_m))})[self.k]
+
+
+def _route_cost(problem: Problem) -> int:
+    """A route's expected cost on a worker: its measurements of the whole library."""
+    return sum(len(o) for o in problem.observations) + 3 * problem.scenario.n_poses
+
+
+class DistributedDomainEvaluator(DomainEvaluator):
+    """:class:`DomainEvaluator`'s numbers, each route's evaluator living on a Dask worker.
+
+    Args:
+        client: a connected ``distributed.Client``.
+        domain: the routes and their weights (each route is rebuilt on its worker from its recipe).
+        engine, aggregate: as for :class:`DomainEvaluator`.
+        jobs: threads each route's engine may use on its worker.
+        retries: how many times a route whose worker died is rebuilt before giving up.
+
+    Attributes:
+        routes: one proxy evaluator per route (calls go to its actor).
+        bytes_sent, bytes_received: pickled size of every call's arguments and results [bytes].
+        n_rebuilt: routes rebuilt after losing their worker.
+        step_bytes: (sent, received) of each domain ``scores_with`` call (a greedy step).
+    """
+
+    def __init__(self, client: Any, domain: Domain, engine: str | None = None, *, jobs: int = 1,
+                 aggregate: str = "normalised", retries: int = 3) -> None:
+        Evaluator.__init__(self, domain.library, jobs=jobs)
+        self.domain = domain
+        self.engine = check_engine(engine)
+        self.aggregate = check_aggregate(aggregate)
+        self.client, self.retries = client, int(retries)
+        self.recipes = tuple(RouteRecipe.of(r.name, r.problem) for r in domain.routes)
+        self.bytes_sent = self.bytes_received = self.n_rebuilt = 0
+        self.step_bytes: list[tuple[int, int]] = []
+        self._actors: list[Any] = [None] * len(self.recipes)
+        self._place([r.problem for r in domain.routes])
+        self.routes = tuple(_RemoteRoute(self, k) for k in range(len(self.recipes)))  # type: ignore[assignment, misc]
+        got = self._call({k: ("normaliser", ()) for k in range(len(self.recipes))})
+        self.set_normalisers([float(got[k]) for k in range(len(self.recipes))])
+
+    def __repr__(self) -> str:
+        return f"DistributedDomainEvaluator({len(self.recipes)} routes, engine {self.engine!r}, {self.aggregate})"
+
+    # -- placement and faults
+
+    def _workers(self) -> list[str]:
+        # asked of the scheduler each time: scheduler_info() may answer from the client's cached
+        # identity, which can lack the per-worker entries (seen once in CI: "no workers" with two
+        # workers registered)
+        return sorted(self.client.nthreads())
+
+    def _place(self, problems: list[Problem]) -> None:
+        """Start every route's actor, the most expensive routes first, each on the least loaded worker."""
+        workers = self._workers()
+        if not workers:
+            raise ClusterError("the Dask cluster has no workers")
+        load = {w: 0 for w in workers}
+        order = sorted(range(len(problems)), key=lambda k: (-_route_cost(problems[k]), k))
+        futures = {}
+        for k in order:
+            w = min(workers, key=lambda a: (load[a], a))
+            load[w] += _route_cost(problems[k])
+            futures[k] = self._submit(k, [w])
+        for k, fut in futures.items():
+            self._actors[k] = self._wait_actor(k, fut)
+
+    def _submit(self, k: int, workers: list[str] | None) -> Any:
+        recipe = self.recipes[k]
+        self.bytes_sent += len(pickle.dumps(recipe))
+        where: dict[str, Any] = {"workers": workers, "allow_other_workers": True} if workers else {}
+        return self.client.submit(RouteActor, recipe, self.engine, self.jobs, actor=True, pure=False, **where)
+
+    def _wait_actor(self, k: int, fut: Any) -> Any:
+        try:
+            return fut.result()
+        except SensorselError:
+            raise
+        except Exception as exc:  # the worker died while building: once more anywhere
+            self.n_rebuilt += 1
+            try:
+                return self._submit(k, None).result()
+            except SensorselError:
+                raise
+            except Exception:
+                raise ClusterError(f"route {self.recipes[k].name!r} could not be built on the cluster "
+                                   f"({type(exc).__name__}: {exc})") from None
+
+    def _call(self, calls: dict[int, tuple[str, tuple[Any, ...]]]) -> dict[int, Any]:
+        """Send each route's call to its actor at once, then gather; a route whose actor was lost is
+        rebuilt on a live worker and its call repeated (same recipe, same engine: same bytes)."""
+        pending = dict(calls)
+        out: dict[int, Any] = {}
+        for attempt in range(self.retries + 1):
+            futs = {}
+            for k, (method, args) in pending.items():
+                self.bytes_sent += len(pickle.dumps(args))
+                try:
+                    futs[k] = getattr(self._actors[k], method)(*args)
+                except Exception as exc:  # the actor's worker is already known to be gone
+                    futs[k] = exc
+            failed: dict[int, Exception] = {}
+            for k, fut in futs.items():
+                if isinstance(fut, Exception):
+                    failed[k] = fut
+                    continue
+                try:
+                    res = fut.result()
+                except SensorselError:
+                    raise
+                except Exception as exc:
+                    failed[k] = exc
+                    continue
+                self.bytes_received += len(pickle.dumps(res))
+                out[k] = res
+            if not failed:
+                return out
+            if attempt == self.retries:
+                k, err = next(iter(failed.items()))
+                raise ClusterError(f"route {self.recipes[k].name!r}: its worker was lost {self.retries + 1} times "
+                                   f"({type(err).__name__}: {err})")
+            time.sleep(0.2 * (attempt + 1))  # let the scheduler notice the dead worker
+            for k in failed:
+                self.n_rebuilt += 1
+                self._actors[k] = self._wait_actor(k, self._submit(k, None))
+            pending = {k: pending[k] for k in failed}
+        raise AssertionError("unreachable")
+
+    # -- the Evaluator interface (same numbers as DomainEvaluator)
+
+    def route_scores(self, suite: Iterable[int]) -> np.ndarray:
+        s = as_suite(suite)
+        self._check_positions(s)
+        got = self._call({k: ("score", (s,)) for k in range(len(self.recipes))})
+        self._count(1)
+        return np.array([float(got[k]) for k in range(len(self.recipes))], dtype=float)
+
+    def _count(self, n: int) -> None:
+        """Count ``n`` evaluations on every route's proxy, as each route's own evaluator counts them
+        in-process (robust selection over the worst route reads the routes' counts)."""
+        for r in self.routes:
+            r.n_evaluations += n
+
+    def scores_with(self, suite: Iterable[int], candidates: Sequence[int]) -> np.ndarray:
+        base = as_suite(suite)
+        cand = [int(c) for c in candidates]
+        self._check_positions(base + tuple(cand))
+        self.n_evaluations += len(cand)
+        if not cand:
+            return np.zeros(0)
+        s0, r0 = self.bytes_sent, self.bytes_received
+        got = self._call({k: ("scores_with", (base, cand)) for k in range(len(self.recipes))})
+        self._count(len(cand))
+        self.step_bytes.append((self.bytes_sent - s0, self.bytes_received - r0))
+        per_route = np.stack([np.asarray(got[k], dtype=float) for k in range(len(self.recipes))])
+        return self.combine(per_route)
+
+    def gain_bounds(self, suite: Iterable[int], candidates: Sequence[int]) -> np.ndarray | None:
+        """The routes' bounds on the gains, combined as in-process (every actor asked at once), or
+        None unless every route's engine gives them."""
+        base, cand = as_suite(suite), [int(c) for c in candidates]
+        self._check_positions(base + tuple(cand))
+        got = self._call({k: ("gain_bounds", (base, cand)) for k in range(len(self.recipes))})
+        return self.combined_gain_bounds(got[k] for k in range(len(self.recipes)))
+
+    def score_bounds(self, suite: Iterable[int], candidates: Sequence[int]) -> tuple[float, np.ndarray] | None:
+        """The routes' cheap bounds on the scores, combined as in-process, or None unless every
+        route's engine gives them."""
+        base, cand = as_suite(suite), [int(c) for c in candidates]
+        self._check_positions(base + tuple(cand))
+        got = self._call({k: ("score_bounds", (base, cand)) for k in range(len(self.recipes))})
+        return self.combined_score_bounds(got[k] for k in range(len(self.recipes)))
+
+    def busy(self) -> dict[str, tuple[float, int, str]]:
+        """Each route's (seconds its actor spent scoring, calls it answered, the worker holding it)."""
+        got = self._call({k: ("busy", ()) for k in range(len(self.recipes))})
+        return {self.recipes[k].name: (float(got[k][0]), int(got[k][1]), str(got[k][2])) for k in range(len(self.recipes))}
+
+    def costs(self) -> dict[str, tuple[float, int]]:
+        """Each route's (build seconds, resident bytes) on its worker (see :meth:`RouteActor.cost`)."""
+        got = self._call({k: ("cost", ()) for k in range(len(self.recipes))})
+        return {self.recipes[k].name: (float(got[k][0]), int(got[k][1])) for k in range(len(self.recipes))}
