@@ -20,7 +20,8 @@ from .conditions import CLEAR, Condition, condition_digest
 from .errors import InputError, ResultFileError, SensorselWarning
 from .domain import load_domain_file, load_domain_scenarios
 from .library import SensorLibrary, load_library
-from .scenario import Scenario, ScenarioSpec, distance_to_route, load_scenario
+from .osm.track import load_geo_scenario  # load_scenario, and GPX routes and OSM landmarks (--landmarks osm:FILE)
+from .scenario import Scenario, ScenarioSpec, distance_to_route
 from .sensing import BYTES_PER_MEASUREMENT, SensorObservations, apply_condition, estimate_measurements, observe
 
 # Limits and checks (docs/scenarios.md, "Limits and checks"):
@@ -385,7 +386,7 @@ def load_problem(spec: ScenarioSpec | None = None, library: str | Path | None = 
             (:func:`check_problem_size`) or a map no sensor can see from the route (:func:`check_reach`).
     """
     spec = spec or ScenarioSpec()
-    problem = build_problem(load_library(library), load_scenario(spec), settings, spec=spec)
+    problem = build_problem(load_library(library), load_geo_scenario(spec), settings, spec=spec)
     check_reach(problem)
     return problem
 
@@ -570,7 +571,7 @@ class RouteRecipe:
             sc = self.scenario
         else:
             assert self.spec is not None
-            sc = load_scenario(self.spec)
+            sc = load_geo_scenario(self.spec)
         problem = build_problem(self.library, sc, self.settings, spec=self.spec)
         check_reach(problem)
         return problem

@@ -65,6 +65,7 @@ from .landmarks import (
 )
 from .loading import (
     DEFAULT_FIXTURE,
+    MapLandmarks,
     REAL,
     ROUTE_FORMATS,
     SYNTHETIC,
@@ -85,7 +86,7 @@ from .tum import read_tum_route, read_tum_trajectory, rotations_from_quaternions
 __all__ = [
     "DEFAULT_FIXTURE", "DEFAULT_FRAME_RATE_HZ", "KITTI_ROOT_ENV", "MAX_COORD_M", "MAX_LANDMARKS", "ON_ROAD_M",
     "PLANAR_CSV_COLUMNS", "QUATERNION_TOL", "REAL", "ROTATION_TOL", "ROUTE_FORMATS", "SYNTHETIC",
-    "LandmarkModel", "LandmarkReport", "Scenario", "ScenarioSpec", "Trajectory",
+    "LandmarkModel", "LandmarkReport", "MapLandmarks", "Scenario", "ScenarioSpec", "Trajectory",
     "check_landmark_seed", "clean_landmarks", "distance_to_route", "estimate_landmark_count", "fixture_names",
     "generate_landmarks", "kitti_from_planar", "kitti_map_path", "load_route", "load_route_file", "load_scenario",
     "load_sequence", "load_trajectory", "planar_from_kitti", "read_kitti_poses", "read_landmarks_csv",
