@@ -198,6 +198,7 @@ def test_bad_route_options_are_one_line_and_write_nothing(drive, tmp_path):
     _refused(tmp_path, ["--route", str(gpx), "--landmarks", osm, "--osm-classes", "lamppost"], "--osm-classes", "lamppost")
     _refused(tmp_path, ["--route", str(gpx), "--landmarks", osm, "--osm-reach", "-5"], "--osm-reach")
     _refused(tmp_path, ["--route", str(gpx), "--osm-reach", "50"], "--osm-reach", "osm:FILE")
+    _refused(tmp_path, ["--route", str(csv), "--osm-classes", "tree"], "--osm-classes", "osm:FILE")
     _refused(tmp_path, ["--route", str(gpx), "--landmarks", osm, "--osm-classes", "flagpole", "--osm-reach", "5"],
              "no landmark", "--osm-reach")
     empty = tmp_path / "empty.gpx"
@@ -229,3 +230,34 @@ def test_the_wheel_ships_the_helsinki_sample_and_its_attribution(tmp_path):
     mod, folder, names_, n = r.stdout.splitlines()
     assert mod.startswith(str(tmp_path / "site")) and folder == str(tmp_path / "site" / "sensorsel" / "_data" / "osm")
     assert names_ == "['helsinki']" and int(n) == len(read_osm(SAMPLE).landmarks)
+
+
+def test_landmarks_command_generates_along_a_gpx_track(drive, tmp_path):
+    csv, gpx, _ = drive
+    out = tmp_path / "lm.csv"
+    _ok(["landmarks", "--route", str(gpx), "-o", str(out)])
+    lm = np.loadtxt(out, delimiter=",", skiprows=1)
+    route = load_problem(ScenarioSpec(route=str(gpx), landmarks=str(out))).scenario.route
+    d = np.sqrt(((lm[:, None, :2] - route.poses[None, :, :2]) ** 2).sum(-1)).min(axis=1)
+    assert len(lm) > 50 and d.max() < 100.0  # along the track, in its frame
+    r = CliRunner().invoke(cli, ["landmarks", "--route", str(csv), "--georef", GEOREF, "-o", str(tmp_path / "x.csv")])
+    assert r.exit_code == 2 and "--georef" in r.stderr and not (tmp_path / "x.csv").exists()
+
+
+def test_a_worker_rebuilds_the_same_problem_and_load_scenario_refuses_a_geo_spec(drive):
+    import pickle
+
+    from sensorsel.errors import InputError
+    from sensorsel.problem import TargetRecipe
+    from sensorsel.scenario import load_scenario
+
+    csv, gpx, _ = drive
+    for spec in (ScenarioSpec(route=str(csv), georef=GEOREF, osm=(str(SAMPLE),), osm_classes="street_lamp,tree"),
+                 ScenarioSpec(route=str(gpx), osm=(str(SAMPLE),), osm_reach_m=60.0)):
+        problem = load_problem(spec)
+        rebuilt = pickle.loads(pickle.dumps(TargetRecipe.of(problem))).build()  # what a Dask worker does
+        assert rebuilt.fingerprint == problem.fingerprint
+        assert np.array_equal(rebuilt.scenario.landmarks, problem.scenario.landmarks)
+        # the scenario layer cannot read OSM: it refuses instead of silently giving the fixture's map
+        with pytest.raises(InputError, match="load_geo_scenario"):
+            load_scenario(spec)

@@ -16,7 +16,7 @@ from ..errors import InputError
 from ..library import SensorLibrary, load_library, resource_unit
 from ..api import score_domain_suite, score_suite, suite_accuracy
 from ..problem import Domain, Problem
-from ..scenario import LandmarkModel, route_landmarks, write_landmarks_csv
+from ..scenario import LandmarkModel, generate_landmarks, route_landmarks, write_landmarks_csv
 from .cluster import domain_evaluator_on, require_domain
 from .options import cluster_from, cluster_options, constraint_options, constraints_from, usage_table
 from .options import check_map_sigma, map_sigma_option, print_accuracy
@@ -243,7 +243,16 @@ def landmarks_cmd(near_spacing: float, near_offset: str, far_spacing: float, far
     model = LandmarkModel(near_spacing_m=near_spacing, near_offset_m=_range_m(near_offset, "--near-offset"),
                           far_spacing_m=far_spacing, far_offset_m=_range_m(far_offset, "--far-offset"), clearance_m=clearance)
     spec = replace(spec_from(kw), landmark_model=model)
-    landmarks = route_landmarks(spec)
+    if spec.geo:
+        raise click.UsageError("--georef, --osm-classes and --osm-reach place OSM landmarks (--landmarks osm:FILE); this command "
+                               "generates synthetic ones (leave them out)")
+    from ..osm.track import gpx_route, is_gpx
+
+    if spec.route is not None and is_gpx(spec.route):  # a GPS track: in the UTM frame of its mean position
+        rf, _ = gpx_route(spec.route)
+        landmarks = generate_landmarks(rf.route, model, spec.landmark_seed)
+    else:
+        landmarks = route_landmarks(spec)
     path = write_landmarks_csv(output, landmarks)
     click.echo(f"wrote {len(landmarks)} landmarks to {path}")
 

@@ -26,7 +26,7 @@ from ..library import SensorLibrary
 from ..problem import DomainInfo, ProblemInfo, Target, TargetInfo, load_domain, load_problem
 from ..problem import Problem
 from ..progress import Progress
-from ..scenario import KITTI_ROOT_ENV, ROUTE_FORMATS, ScenarioSpec
+from ..scenario import DEFAULT_OSM_REACH_M, KITTI_ROOT_ENV, ROUTE_FORMATS, ScenarioSpec
 
 
 def run(fn: Callable[..., Any]) -> Callable[..., Any]:
@@ -249,7 +249,7 @@ def spec_from(kw: dict[str, Any]) -> ScenarioSpec:
         georef=kw.pop("georef", None),
         osm=osm,
         osm_classes=kw.pop("osm_classes", None),
-        osm_reach_m=100.0 if reach is None else reach,
+        osm_reach_m=DEFAULT_OSM_REACH_M if reach is None else reach,
     )
 
 

@@ -26,14 +26,14 @@ from scipy.spatial import cKDTree
 
 from ..errors import InputError, SensorselWarning
 from ..fileio import atomic_write_text
-from ..scenario import Frame, RouteFile, Scenario, ScenarioSpec, Trajectory, load_scenario
+from ..scenario import DEFAULT_OSM_REACH_M, Frame, RouteFile, Scenario, ScenarioSpec, Trajectory, load_scenario
 from .city import ATTRIBUTION, _near, _write_landmarks, sparse_message
 from .extract import LANDMARK_CLASSES, LocalFrame, OsmExtract, OsmLandmarks, parse_classes, parse_roads, read_osm
 from .gpx import GeoRef, read_gpx, track_route
 
 SURVEY = "survey"  # the class of a landmark from a survey CSV merged with the OSM ones
 DUPLICATE_M = 2.0  # an OSM landmark this close [m] to a survey landmark is the same object
-DEFAULT_REACH_M = 100.0  # a route's OSM landmarks: those within this distance [m] of it
+DEFAULT_REACH_M = DEFAULT_OSM_REACH_M  # a route's OSM landmarks: those within this distance [m] of it
 GPX_SPEED_KMH = 30.0  # the speed [km/h] that times a GPX track without times on the route commands
 
 

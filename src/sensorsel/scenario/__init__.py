@@ -65,6 +65,7 @@ from .landmarks import (
 )
 from .loading import (
     DEFAULT_FIXTURE,
+    DEFAULT_OSM_REACH_M,
     MapLandmarks,
     REAL,
     ROUTE_FORMATS,
@@ -84,7 +85,7 @@ from .positions import route_from_positions
 from .tum import read_tum_route, read_tum_trajectory, rotations_from_quaternions, write_tum_trajectory, yaw_from_quaternion
 
 __all__ = [
-    "DEFAULT_FIXTURE", "DEFAULT_FRAME_RATE_HZ", "KITTI_ROOT_ENV", "MAX_COORD_M", "MAX_LANDMARKS", "ON_ROAD_M",
+    "DEFAULT_FIXTURE", "DEFAULT_FRAME_RATE_HZ", "DEFAULT_OSM_REACH_M", "KITTI_ROOT_ENV", "MAX_COORD_M", "MAX_LANDMARKS", "ON_ROAD_M",
     "PLANAR_CSV_COLUMNS", "QUATERNION_TOL", "REAL", "ROTATION_TOL", "ROUTE_FORMATS", "SYNTHETIC",
     "LandmarkModel", "LandmarkReport", "MapLandmarks", "Scenario", "ScenarioSpec", "Trajectory",
     "check_landmark_seed", "clean_landmarks", "distance_to_route", "estimate_landmark_count", "fixture_names",

@@ -25,6 +25,7 @@ DEFAULT_FIXTURE = "suburb"
 ROUTE_FORMATS = ("kitti", "tum", "csv")
 SYNTHETIC = "synthetic"  # ScenarioSpec.landmarks: always generate
 REAL = "real"  # ScenarioSpec.landmarks: the KITTI sequence's pole map, an error if there is none
+DEFAULT_OSM_REACH_M = 100.0  # ScenarioSpec.osm_reach_m: a route's OSM landmarks, those within this distance [m]
 # file stems that say nothing about the drive: such a route is named after its folder
 _GENERIC_STEMS = {"poses", "pose", "groundtruth", "ground_truth", "gt", "trajectory", "traj", "route", "odometry", "data"}
 
@@ -47,8 +48,8 @@ def sniff_route_format(path: str | Path) -> str:
     if first.lstrip("\ufeff \t").startswith("<"):
         # a GPX track reaches here only from a domain file or the API's load_scenario: the route
         # commands' --route reads GPX (sensorsel.osm.load_geo_scenario, above this layer)
-        raise ScenarioError(path, "an XML file (a GPX track?) is no route file here: give it to a command's --route, "
-                            "or write a domain from it first (sensorsel osm --gpx FILE)", lineno)
+        raise ScenarioError(path, "an XML file (a GPX track?) is read as a route by the route commands' --route only: "
+                            "for a domain file, write a domain from it first (sensorsel osm --gpx FILE)", lineno)
     parts = first.replace(",", " ").split()
     if not all(is_number_text(p) for p in parts) or _header(path) is not None:
         return "csv"  # a header, or a '#' comment naming t,x,y just before the first row
@@ -170,12 +171,12 @@ class ScenarioSpec:
     georef: str | None = None
     osm: tuple[str, ...] = ()
     osm_classes: str | None = None
-    osm_reach_m: float = 100.0
+    osm_reach_m: float = DEFAULT_OSM_REACH_M
 
     @property
     def geo(self) -> bool:
-        """Whether OpenStreetMap landmarks or a georeference are asked for (read above this layer)."""
-        return bool(self.osm) or self.georef is not None
+        """Whether OpenStreetMap landmarks, their choice or a georeference are asked for (read above this layer)."""
+        return bool(self.osm) or self.georef is not None or self.osm_classes is not None or self.osm_reach_m != DEFAULT_OSM_REACH_M
 
 
 #: landmarks from a map the scenario layer does not read (OpenStreetMap; :mod:`sensorsel.osm`):
