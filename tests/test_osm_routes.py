@@ -205,6 +205,9 @@ def test_bad_route_options_are_one_line_and_write_nothing(drive, tmp_path):
     empty.write_text('<?xml version="1.0"?>\n<gpx version="1.1"><trk><trkseg></trkseg></trk></gpx>\n')
     _refused(tmp_path, ["--route", str(empty), "--landmarks", osm], str(empty), "no points")
     _refused(tmp_path, ["--domain", str(REPO / "configs" / "domain_fixtures.yaml"), "--landmarks", osm], "--domain", "--landmarks")
+    # sensorsel osm --route shares the merge, and its refusal of a route outside the extract
+    r = CliRunner().invoke(cli, ["osm", str(SAMPLE), "--route", str(csv), "--georef", "10,10,0", "-o", str(tmp_path / "d")])
+    assert r.exit_code == 2 and "outside the extract" in r.stderr and not (tmp_path / "d").exists(), r.output
 
 
 def test_the_wheel_ships_the_helsinki_sample_and_its_attribution(tmp_path):
