@@ -22,11 +22,11 @@ import pytest
 from click.testing import CliRunner
 
 from sensorsel.cli import cli
-from sensorsel.osm.extract import LocalFrame, parse_roads, read_osm
-from sensorsel.osm.gpx import GeoRef
-from sensorsel.osm.track import DUPLICATE_M
-from sensorsel.problem import load_problem
-from sensorsel.scenario import ScenarioSpec, write_planar_csv
+from sensorsel.model.osm.extract import LocalFrame, parse_roads, read_osm
+from sensorsel.model.osm.gpx import GeoRef
+from sensorsel.model.osm.track import DUPLICATE_M
+from sensorsel.model.problem import load_problem
+from sensorsel.model.scenario import ScenarioSpec, write_planar_csv
 
 REPO = Path(__file__).resolve().parents[1]
 SAMPLE = REPO / "data" / "osm" / "helsinki.osm.pbf"
@@ -223,8 +223,8 @@ def test_the_wheel_ships_the_helsinki_sample_and_its_attribution(tmp_path):
         readme = z.read("sensorsel/_data/osm/README.md").decode()
         assert "OpenStreetMap contributors" in readme and "ODbL" in readme
         z.extractall(tmp_path / "site")
-    code = ("import sensorsel, sys; from sensorsel._resources import sample_osm_dir, sample_osm_names; "
-            "from sensorsel.osm import read_osm; d = sample_osm_dir(); "
+    code = ("import sensorsel, sys; from sensorsel.io.resources import sample_osm_dir, sample_osm_names; "
+            "from sensorsel.model.osm import read_osm; d = sample_osm_dir(); "
             "print(sensorsel.__file__); print(d); print(sample_osm_names()); "
             "print(len(read_osm(d / 'helsinki.osm.pbf').landmarks))")
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
@@ -251,8 +251,8 @@ def test_a_worker_rebuilds_the_same_problem_and_load_scenario_refuses_a_geo_spec
     import pickle
 
     from sensorsel.errors import InputError
-    from sensorsel.problem import TargetRecipe
-    from sensorsel.scenario import load_scenario
+    from sensorsel.model.problem import TargetRecipe
+    from sensorsel.model.scenario import load_scenario
 
     csv, gpx, _ = drive
     for spec in (ScenarioSpec(route=str(csv), georef=GEOREF, osm=(str(SAMPLE),), osm_classes="street_lamp,tree"),

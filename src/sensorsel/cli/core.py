@@ -10,21 +10,22 @@ from typing import Any
 
 import click
 
-from .. import results
-from ..constraints import FeasibleSet, feasible_set
-from ..errors import InputError
-from ..library import SensorLibrary, load_library, resource_unit
-from ..api import score_domain_suite, score_suite, suite_accuracy
-from ..problem import Domain, Problem
-from ..scenario import LandmarkModel, generate_landmarks, route_landmarks, write_landmarks_csv
-from .cluster import domain_evaluator_on, require_domain
-from .options import cluster_from, cluster_options, constraint_options, constraints_from, usage_table
-from .options import check_map_sigma, map_sigma_option, print_accuracy
-from .options import (engine_options, json_option, output_option, plot_format_option, print_target, problem_from, run,
-                      scenario_options, spec_from, suite_text, table, target_from, target_options)
-from .options import force_option
-from .options import plot_format as plot_format_of
-from .simulate import is_result_file, read_suite
+from sensorsel.api import score_domain_suite, score_suite, suite_accuracy
+from sensorsel.cli.cluster import domain_evaluator_on, require_domain
+from sensorsel.cli.options import (engine_options, json_option, output_option, plot_format_option, print_target,
+                                   problem_from, run, scenario_options, spec_from, suite_text, table, target_from,
+                                   target_options)
+from sensorsel.cli.options import check_map_sigma, map_sigma_option, print_accuracy
+from sensorsel.cli.options import cluster_from, cluster_options, constraint_options, constraints_from, usage_table
+from sensorsel.cli.options import force_option
+from sensorsel.cli.options import plot_format as plot_format_of
+from sensorsel.cli.simulate import is_result_file, read_suite
+from sensorsel.errors import InputError
+from sensorsel.io import results
+from sensorsel.model.constraints import FeasibleSet, feasible_set
+from sensorsel.model.library import SensorLibrary, load_library, resource_unit
+from sensorsel.model.problem import Domain, Problem
+from sensorsel.model.scenario import LandmarkModel, generate_landmarks, route_landmarks, write_landmarks_csv
 
 
 def library_json(lib: SensorLibrary) -> str:
@@ -175,7 +176,7 @@ def scene_cmd(output: str, plot_format: str | None, suite: str | None, pose_inde
 
     The format is --format, or else the extension of -o (.png, .svg, .pdf); the two must agree.
     """
-    from ..plotting import plot_domain_scene, plot_scene, save_figure, use_file_backend
+    from sensorsel.plotting import plot_domain_scene, plot_scene, save_figure, use_file_backend
 
     plot_format_of(plot_format, output)
     if domain_path is not None:
@@ -193,7 +194,7 @@ def scene_cmd(output: str, plot_format: str | None, suite: str | None, pose_inde
     use_file_backend()
     ranges = None
     if problem.condition is not None:
-        from ..sensing import condition_effects
+        from sensorsel.model.sensing import condition_effects
 
         ranges = [e.range_m for e in condition_effects(problem.library, problem.condition)]
     ax = plot_scene(problem.scenario, library=problem.library, suite=positions, pose_index=pose_index, ranges_m=ranges,
@@ -246,7 +247,7 @@ def landmarks_cmd(near_spacing: float, near_offset: str, far_spacing: float, far
     if spec.geo:
         raise click.UsageError("--georef, --osm-classes and --osm-reach place OSM landmarks (--landmarks osm:FILE); this command "
                                "generates synthetic ones (leave them out)")
-    from ..osm.track import gpx_route, is_gpx
+    from sensorsel.model.osm.track import gpx_route, is_gpx
 
     if spec.route is not None and is_gpx(spec.route):  # a GPS track: in the UTM frame of its mean position
         rf, _ = gpx_route(spec.route)

@@ -19,14 +19,14 @@ from typing import Any, Callable, TypeVar, Sequence
 
 import click
 
-from ..errors import InputError, SensorselError, SensorselWarning
-from ..conditions import parse_condition
-from ..evaluators import AGGREGATES
-from ..library import SensorLibrary
-from ..problem import DomainInfo, ProblemInfo, Target, TargetInfo, load_domain, load_problem
-from ..problem import Problem
-from ..progress import Progress
-from ..scenario import DEFAULT_OSM_REACH_M, KITTI_ROOT_ENV, ROUTE_FORMATS, ScenarioSpec
+from sensorsel.errors import InputError, SensorselError, SensorselWarning
+from sensorsel.information.evaluators import AGGREGATES
+from sensorsel.io.progress import Progress
+from sensorsel.model.conditions import parse_condition
+from sensorsel.model.library import SensorLibrary
+from sensorsel.model.problem import DomainInfo, ProblemInfo, Target, TargetInfo, load_domain, load_problem
+from sensorsel.model.problem import Problem
+from sensorsel.model.scenario import DEFAULT_OSM_REACH_M, KITTI_ROOT_ENV, ROUTE_FORMATS, ScenarioSpec
 
 
 def run(fn: Callable[..., Any]) -> Callable[..., Any]:
@@ -322,7 +322,7 @@ def resume_option(fn: Callable[..., Any]) -> Callable[..., Any]:
 
 
 def cluster_from(kw: dict[str, Any]) -> Any:
-    """The :class:`sensorsel.distributed.DaskCluster` asked for by --scheduler / --workers (not yet
+    """The :class:`sensorsel.pipeline.cluster.DaskCluster` asked for by --scheduler / --workers (not yet
     started: use it as a context manager), or None (pops the options from ``kw``).
 
     Raises:
@@ -333,14 +333,14 @@ def cluster_from(kw: dict[str, Any]) -> Any:
         raise click.UsageError(f"--scheduler {address} uses an existing cluster, --workers {n} starts one: give one of them")
     if address is None and n is None:
         return None
-    from ..distributed import DaskCluster  # imports Dask itself only when started
+    from sensorsel.pipeline.cluster import DaskCluster  # imports Dask itself only when started
 
     return DaskCluster(scheduler=address, workers=n, echo=lambda line: click.echo(line, err=True))
 
 
 def engine_options(fn: Callable[..., Any]) -> Callable[..., Any]:
     """--engine and --jobs."""
-    from ..evaluators import ENGINES
+    from sensorsel.information.evaluators import ENGINES
 
     fn = click.option("--jobs", type=click.IntRange(min=1), default=os.cpu_count() or 1, show_default="all cores",
                       help="Threads scoring candidate suites in parallel, fast engine (results do not depend on it).")(fn)
@@ -397,7 +397,7 @@ def _on_terminal() -> bool:
 
 
 def progress_bar(quiet: bool, label: str, phases: int = 1, after: _Bar | None = None) -> tuple[_Bar | None, Progress | None]:
-    """(bar, progress): the one CLI adapter of :data:`sensorsel.progress.Progress`, a progress bar on
+    """(bar, progress): the one CLI adapter of :data:`sensorsel.io.progress.Progress`, a progress bar on
     stderr, used as ``with bar or nullcontext():`` around the run that calls ``progress(done, total)``;
     (None, None) with --quiet or when stderr is not a terminal. ``after``: the bar of the previous
     stage, completed when this one starts."""
@@ -477,7 +477,7 @@ def compact_suite(suite: Sequence[str], library: SensorLibrary | None = None) ->
 
 def constraint_options(fn: Callable[..., Any]) -> Callable[..., Any]:
     """--limit RES=VAL (repeatable), --no-slots, --require IDS, --owned, --exclude IDS, --max-sensors N:
-    limits besides the budget (:mod:`sensorsel.constraints`); read them with :func:`constraints_from`."""
+    limits besides the budget (:mod:`sensorsel.model.constraints`); read them with :func:`constraints_from`."""
     for deco in reversed([
         click.option("--limit", "limits", multiple=True, metavar="RESOURCE=VALUE",
                      help="Most the suite may use of a resource the library declares (repeatable): "
@@ -499,9 +499,9 @@ def constraint_options(fn: Callable[..., Any]) -> Callable[..., Any]:
 
 
 def constraints_from(kw: dict[str, Any]) -> Any:
-    """The :class:`~sensorsel.constraints.Constraints` of :func:`constraint_options` (popped from
+    """The :class:`~sensorsel.model.constraints.Constraints` of :func:`constraint_options` (popped from
     ``kw``); None when none was given (the budget alone, the library's slots honoured)."""
-    from ..constraints import Constraints, parse_limit
+    from sensorsel.model.constraints import Constraints, parse_limit
     limits = [parse_limit(t) for t in kw.pop("limits", ()) or ()]
     no_slots = kw.pop("no_slots", False)
     require, owned = kw.pop("require", None), kw.pop("owned", False)
@@ -515,7 +515,7 @@ def constraints_from(kw: dict[str, Any]) -> Any:
 
 def usage_table(rows: Sequence[Any]) -> str:
     """The resource-use table of a constrained result: each limit, what the suite uses, what is left.
-    ``rows`` are :class:`~sensorsel.constraints.RowUse`; mounting slots are summed into one line."""
+    ``rows`` are :class:`~sensorsel.model.constraints.RowUse`; mounting slots are summed into one line."""
     out, slots_used, slots_cap, full = [], 0.0, 0.0, 0
     for r in rows:
         if r.unit == "" and r.name != "sensors":
@@ -548,7 +548,7 @@ def check_map_sigma(value: float | None) -> float | None:
 
 def print_accuracy(accuracies: Sequence[Any]) -> None:
     """One line per route: the suite's 95 % errors in metres and degrees and the model behind them
-    (:class:`~sensorsel.evaluators.accuracy.RouteAccuracy`)."""
+    (:class:`~sensorsel.information.evaluators.accuracy.RouteAccuracy`)."""
     for acc in accuracies:
         where = f" {acc.route}:" if len(accuracies) > 1 else ""
         click.echo(f"accuracy  {where} {acc.line()}")

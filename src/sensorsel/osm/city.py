@@ -20,9 +20,9 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ..errors import InputError
-from ..fileio import atomic_write_text
-from .extract import LANDMARK_CLASSES, OsmExtract, OsmLandmarks, OsmWay
+from sensorsel.errors import InputError
+from sensorsel.io.files import atomic_write_text
+from sensorsel.model.osm.extract import LANDMARK_CLASSES, OsmExtract, OsmLandmarks, OsmWay
 
 SAMPLE_HZ = 10.0  # poses a second in a route CSV (KITTI's rate); keyframes are chosen from these
 SPARSE_PER_KM = 30.0  # warn below this many landmarks per km of road (SemanticKITTI's pole maps: ~150/km)
@@ -131,7 +131,7 @@ def build_city(extract: OsmExtract, classes: tuple[str, ...], *, speed_kmh: floa
     """The routes and landmarks of an operating domain covering the extract's roads (see the module).
 
     Args:
-        extract: what :func:`~sensorsel.osm.extract.read_osm` read (its ways are the selected roads).
+        extract: what :func:`~sensorsel.model.osm.extract.read_osm` read (its ways are the selected roads).
         classes: landmark classes to keep.
         speed_kmh: driving speed [km/h] (times of the route CSVs).
         route_km: length of a route [km] (the last piece of a circuit joins the one before when
@@ -239,7 +239,7 @@ def write_city(city: City, extract: OsmExtract, folder: str | Path, *, command: 
     """Write the domain folder: ``domain.yaml``, ``routes/rNNN.csv`` + ``routes/rNNN_landmarks.csv``,
     ``landmarks.csv`` (every landmark with its class and OSM id) and ``README.md`` (attribution,
     frame, density). Every file atomically; ``domain.yaml`` last. Returns the domain file."""
-    from ..scenario import write_planar_csv
+    from sensorsel.model.scenario import write_planar_csv
 
     folder = Path(folder)
     lines = [f"# An operating domain written by: {command}",

@@ -21,9 +21,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..scenario.frames import headings_from_travel
-from ..errors import InputError, ScenarioError
-from .extract import LocalFrame
+from sensorsel.errors import InputError, ScenarioError
+from sensorsel.model.osm.extract import LocalFrame
+from sensorsel.model.scenario.frames import headings_from_travel
 
 
 @dataclass(frozen=True)

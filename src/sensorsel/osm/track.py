@@ -4,7 +4,7 @@ by a georeference, with the extract's landmarks near it, merged with a survey's.
 One function, :func:`route_landmarks`, gives a route its landmarks for both callers:
 ``sensorsel osm --gpx/--route`` (:func:`track_domain`, a one-route domain folder) and every route
 command's ``--landmarks osm:FILE`` (:func:`load_geo_scenario`, which
-:func:`sensorsel.problem.load_problem` calls for every scenario).
+:func:`sensorsel.model.problem.load_problem` calls for every scenario).
 
 Merging: the same OSM node read from two extracts (overlapping tiles) is one landmark; an OSM
 landmark within :data:`DUPLICATE_M` of a survey landmark is taken as the same object and dropped,
@@ -24,12 +24,14 @@ from typing import Sequence
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ..errors import InputError, SensorselWarning
-from ..fileio import atomic_write_text
-from ..scenario import DEFAULT_OSM_REACH_M, Frame, RouteFile, Scenario, ScenarioSpec, Trajectory, load_scenario
-from .city import ATTRIBUTION, _near, _write_landmarks, sparse_message
-from .extract import LANDMARK_CLASSES, LocalFrame, OsmExtract, OsmLandmarks, parse_classes, parse_roads, read_osm
-from .gpx import GeoRef, read_gpx, track_route
+from sensorsel.errors import InputError, SensorselWarning
+from sensorsel.io.files import atomic_write_text
+from sensorsel.model.osm.city import ATTRIBUTION, _near, _write_landmarks, sparse_message
+from sensorsel.model.osm.extract import (LANDMARK_CLASSES, LocalFrame, OsmExtract, OsmLandmarks, parse_classes,
+                                         parse_roads, read_osm)
+from sensorsel.model.osm.gpx import GeoRef, read_gpx, track_route
+from sensorsel.model.scenario import (DEFAULT_OSM_REACH_M, Frame, RouteFile, Scenario, ScenarioSpec, Trajectory,
+                                      load_scenario)
 
 SURVEY = "survey"  # the class of a landmark from a survey CSV merged with the OSM ones
 DUPLICATE_M = 2.0  # an OSM landmark this close [m] to a survey landmark is the same object
@@ -45,7 +47,7 @@ class RouteMap:
         landmarks: in the route's frame [m]: the OSM ones (their classes, ids, kerb moves), then the
             survey's (class :data:`SURVEY`, id -1).
         notes: what was read, moved, merged or dropped, and the landmarks per km of route per class.
-        warning: the sparse-map warning (fewer than :data:`~sensorsel.osm.city.SPARSE_PER_KM`
+        warning: the sparse-map warning (fewer than :data:`~sensorsel.model.osm.city.SPARSE_PER_KM`
             landmarks per km of route), or None.
     """
 
@@ -101,7 +103,7 @@ def route_landmarks(osm_paths: Sequence[str | Path], route_xy: np.ndarray, frame
 
     Args:
         osm_paths: OSM extracts (``.osm`` or ``.osm.pbf``), read with ``roads`` and ``bbox`` as
-            :func:`~sensorsel.osm.extract.read_osm` reads them, projected to ``frame``.
+            :func:`~sensorsel.model.osm.extract.read_osm` reads them, projected to ``frame``.
         route_xy: (N, 2) the route's positions [m] in its own frame.
         frame: the map frame the extracts are projected to.
         georef: where the route's frame lies in ``frame`` (None: the route is in ``frame``, a GPX track).
@@ -205,7 +207,7 @@ def _geo_checks(spec: ScenarioSpec, gpx: bool) -> None:
 
 
 def load_geo_scenario(spec: ScenarioSpec) -> Scenario:
-    """:func:`~sensorsel.scenario.load_scenario`, and besides: a ``spec.route`` that is a GPX track
+    """:func:`~sensorsel.model.scenario.load_scenario`, and besides: a ``spec.route`` that is a GPX track
     (:func:`is_gpx`; times from the file, else :data:`GPX_SPEED_KMH`), ``spec.georef`` and the OSM
     landmarks of ``spec.osm`` (:func:`route_landmarks`, merged with ``spec.landmarks``' file or
     pole map). Landmarks per km of route per class are in the scenario's notes; a sparse map is a
@@ -257,7 +259,7 @@ def track_domain(osm_path: str | Path, bbox: tuple[float, float, float, float] |
         ScenarioError: a bad GPX, route, landmark or OSM file (names it and the line);
         InputError: a bad --georef, no landmark near the route, a route outside the extract.
     """
-    from ..scenario import load_route_file, read_landmarks_csv, write_planar_csv
+    from sensorsel.model.scenario import load_route_file, read_landmarks_csv, write_planar_csv
 
     notes: list[str] = []
     ref: GeoRef | None = None

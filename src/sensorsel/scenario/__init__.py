@@ -14,75 +14,31 @@ A package with one module per job, so that a new route format plugs in beside th
 - :mod:`.landmarks`: the generator, landmark files (x,y or x,y,z), the duplicate and on-road checks;
 - :mod:`.loading`: :class:`ScenarioSpec`, format sniffing and :func:`load_scenario`.
 
-Every name the rest of sensorsel imports is re-exported here (``from sensorsel.scenario import ...``).
+Every name the rest of sensorsel imports is re-exported here (``from sensorsel.model.scenario import ...``).
 
 Planar frame: right-handed seen from above, heading counter-clockwise from X. For a KITTI sequence:
 X = KITTI's z (forward at frame 0), Y = -KITTI's x (left at frame 0). Other routes: see
 :mod:`.frames` and docs/scenarios.md.
 """
 
-from .base import (
-    LandmarkReport,
-    DEFAULT_FRAME_RATE_HZ,
-    MAX_COORD_M,
-    MAX_LANDMARKS,
-    ON_ROAD_M,
-    QUATERNION_TOL,
-    ROTATION_TOL,
-    RouteFile,
-    Scenario,
-    Trajectory,
-    route_rate_hz,
-    select_keyframes,
-)
-from .csv_route import PLANAR_CSV_COLUMNS, read_csv_route, read_planar_csv, write_planar_csv
-from .frames import Frame, find_frame, headings_from_travel
-from .kitti import (
-    KITTI_ROOT_ENV,
-    kitti_from_planar,
-    kitti_map_path,
-    load_sequence,
-    load_trajectory,
-    planar_from_kitti,
-    read_kitti_poses,
-    read_kitti_route,
-    read_sequence,
-    read_times,
-    resolve_kitti_root,
-    write_kitti_poses,
-)
-from .landmarks import (
-    LandmarkModel,
-    _densify,
-    check_landmark_seed,
-    clean_landmarks,
-    distance_to_route,
-    estimate_landmark_count,
-    generate_landmarks,
-    read_landmarks_csv,
-    read_landmarks_file,
-    write_landmarks_csv,
-)
-from .loading import (
-    DEFAULT_FIXTURE,
-    DEFAULT_OSM_REACH_M,
-    MapLandmarks,
-    REAL,
-    ROUTE_FORMATS,
-    SYNTHETIC,
-    ScenarioSpec,
-    fixture_names,
-    load_route,
-    load_route_file,
-    load_scenario,
-    read_route_file,
-    route_landmarks,
-    route_name,
-    scenario_notes,
-    sniff_route_format,
-)
-from .positions import route_from_positions
-from .tum import read_tum_route, read_tum_trajectory, rotations_from_quaternions, write_tum_trajectory, yaw_from_quaternion
+from sensorsel.model.scenario.base import (LandmarkReport, DEFAULT_FRAME_RATE_HZ, MAX_COORD_M, MAX_LANDMARKS,
+                                           ON_ROAD_M, QUATERNION_TOL, ROTATION_TOL, RouteFile, Scenario, Trajectory,
+                                           route_rate_hz, select_keyframes)
+from sensorsel.model.scenario.csv_route import PLANAR_CSV_COLUMNS, read_csv_route, read_planar_csv, write_planar_csv
+from sensorsel.model.scenario.frames import Frame, find_frame, headings_from_travel
+from sensorsel.model.scenario.kitti import (KITTI_ROOT_ENV, kitti_from_planar, kitti_map_path, load_sequence,
+                                            load_trajectory, planar_from_kitti, read_kitti_poses, read_kitti_route,
+                                            read_sequence, read_times, resolve_kitti_root, write_kitti_poses)
+from sensorsel.model.scenario.landmarks import (LandmarkModel, _densify, check_landmark_seed, clean_landmarks,
+                                                distance_to_route, estimate_landmark_count, generate_landmarks,
+                                                read_landmarks_csv, read_landmarks_file, write_landmarks_csv)
+from sensorsel.model.scenario.loading import (DEFAULT_FIXTURE, DEFAULT_OSM_REACH_M, MapLandmarks, REAL, ROUTE_FORMATS,
+                                              SYNTHETIC, ScenarioSpec, fixture_names, load_route, load_route_file,
+                                              load_scenario, read_route_file, route_landmarks, route_name,
+                                              scenario_notes, sniff_route_format)
+from sensorsel.model.scenario.positions import route_from_positions
+from sensorsel.model.scenario.tum import (read_tum_route, read_tum_trajectory, rotations_from_quaternions,
+                                          write_tum_trajectory, yaw_from_quaternion)
 
 __all__ = [
     "DEFAULT_FIXTURE", "DEFAULT_FRAME_RATE_HZ", "DEFAULT_OSM_REACH_M", "KITTI_ROOT_ENV", "MAX_COORD_M", "MAX_LANDMARKS", "ON_ROAD_M",

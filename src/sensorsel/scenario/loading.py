@@ -10,16 +10,18 @@ from typing import Callable
 
 import numpy as np
 
-from ..conditions import Condition
-from .._resources import fixtures_dir
-from ..errors import InputError, ScenarioError
-from ..library import is_number_text
-from .base import DEFAULT_FRAME_RATE_HZ, RouteFile, Scenario, Trajectory, _data_lines, route_rate_hz, select_keyframes
-from .csv_route import _header, read_csv_route
-from .frames import Frame, check_not_degrees
-from .kitti import kitti_map_path, read_kitti_route, read_sequence, resolve_kitti_root
-from .landmarks import LandmarkModel, check_landmark_seed, clean_landmarks, generate_landmarks, read_landmarks_file
-from .tum import read_tum_route
+from sensorsel.errors import InputError, ScenarioError
+from sensorsel.io.resources import fixtures_dir
+from sensorsel.model.conditions import Condition
+from sensorsel.model.library import is_number_text
+from sensorsel.model.scenario.base import (DEFAULT_FRAME_RATE_HZ, RouteFile, Scenario, Trajectory, _data_lines,
+                                           route_rate_hz, select_keyframes)
+from sensorsel.model.scenario.csv_route import _header, read_csv_route
+from sensorsel.model.scenario.frames import Frame, check_not_degrees
+from sensorsel.model.scenario.kitti import kitti_map_path, read_kitti_route, read_sequence, resolve_kitti_root
+from sensorsel.model.scenario.landmarks import (LandmarkModel, check_landmark_seed, clean_landmarks,
+                                                generate_landmarks, read_landmarks_file)
+from sensorsel.model.scenario.tum import read_tum_route
 
 DEFAULT_FIXTURE = "suburb"
 ROUTE_FORMATS = ("kitti", "tum", "csv")
@@ -47,7 +49,7 @@ def sniff_route_format(path: str | Path) -> str:
     lineno, first = lines[0]
     if first.lstrip("\ufeff \t").startswith("<"):
         # a GPX track reaches here only from a domain file or the API's load_scenario: the route
-        # commands' --route reads GPX (sensorsel.osm.load_geo_scenario, above this layer)
+        # commands' --route reads GPX (sensorsel.model.osm.load_geo_scenario, above this layer)
         raise ScenarioError(path, "an XML file (a GPX track?) is read as a route by the route commands' --route only: "
                             "for a domain file, write a domain from it first (sensorsel osm --gpx FILE)", lineno)
     parts = first.replace(",", " ").split()
@@ -132,19 +134,19 @@ class ScenarioSpec:
     ``landmarks``: None (default) uses the route's own map: a sequence's ``landmarks/NN.csv`` pole
     map when the KITTI folder has one, a fixture's bundled CSV, else generated; ``"real"`` requires
     the sequence's pole map; ``"synthetic"`` always generates (``landmark_model``, ``landmark_seed``);
-    anything else is a landmark CSV file (:func:`~sensorsel.scenario.landmarks.read_landmarks_file`).
+    anything else is a landmark CSV file (:func:`~sensorsel.model.scenario.landmarks.read_landmarks_file`).
 
     ``clearance_m``: drop landmarks closer than this to the route (None: count them, keep them).
     ``name``: the scenario's name (default: the sequence, the fixture, or the route file's name as
     :func:`route_name` gives it).
-    ``condition``: the operating condition (night, rain, fog, snow; :mod:`sensorsel.conditions`)
+    ``condition``: the operating condition (night, rain, fog, snow; :mod:`sensorsel.model.conditions`)
     the route is driven in; None: clear. It does not change the scenario, only what each sensor
-    sees on it (:func:`sensorsel.problem.build_problem` applies it).
+    sees on it (:func:`sensorsel.model.problem.build_problem` applies it).
     ``up``, ``forward``: with a route file, the world's up axis and the body's forward axis (``+z``,
-    ``-y``, ...) instead of those found from the route (:func:`~sensorsel.scenario.frames.find_frame`).
+    ``-y``, ...) instead of those found from the route (:func:`~sensorsel.model.scenario.frames.find_frame`).
     A landmark file naming ``x,y,z`` is in the route's world frame and projected by it.
 
-    OpenStreetMap (read by :func:`sensorsel.osm.load_geo_scenario`, which :func:`sensorsel.problem.load_problem`
+    OpenStreetMap (read by :func:`sensorsel.model.osm.load_geo_scenario`, which :func:`sensorsel.model.problem.load_problem`
     calls; :func:`load_scenario` refuses these fields): ``osm``, OSM extracts whose pole-like
     landmarks of ``osm_classes`` (comma-separated; None: all) within ``osm_reach_m`` [m] of the route
     join ``landmarks`` (then only the file or pole map given there, never a generated map);
@@ -179,7 +181,7 @@ class ScenarioSpec:
         return bool(self.osm) or self.georef is not None or self.osm_classes is not None or self.osm_reach_m != DEFAULT_OSM_REACH_M
 
 
-#: landmarks from a map the scenario layer does not read (OpenStreetMap; :mod:`sensorsel.osm`):
+#: landmarks from a map the scenario layer does not read (OpenStreetMap; :mod:`sensorsel.model.osm`):
 #: (the full-rate route, its frame (None: planar), the landmarks given besides the map (M, 2) [m] or
 #: None, their label) -> (every landmark (M', 2) [m] in the route's frame, the source's label, notes)
 MapLandmarks = Callable[[Trajectory, Frame | None, np.ndarray | None, str | None], tuple[np.ndarray, str, list[str]]]
@@ -273,7 +275,7 @@ def load_scenario(spec: ScenarioSpec = ScenarioSpec(), *, route_file: RouteFile 
     ``route_file``: the route already read (a format this layer does not read, a GPX track), instead of
     reading ``spec``'s. ``map_landmarks``: the landmarks of a map (OpenStreetMap), given the route and
     the landmarks ``spec.landmarks`` names (a file or ``real``; none by default: the map's alone).
-    Both are passed by :func:`sensorsel.osm.load_geo_scenario`.
+    Both are passed by :func:`sensorsel.model.osm.load_geo_scenario`.
 
     Raises:
         InputError: ``spec`` asks for OpenStreetMap landmarks or a georeference and no
@@ -281,8 +283,8 @@ def load_scenario(spec: ScenarioSpec = ScenarioSpec(), *, route_file: RouteFile 
     """
     check_landmark_seed(spec.landmark_seed)
     if spec.geo and map_landmarks is None:
-        raise InputError("OpenStreetMap landmarks (--landmarks osm:FILE) and --georef are read by sensorsel.osm.load_geo_scenario "
-                         "(and sensorsel.load_problem), not by sensorsel.scenario.load_scenario")
+        raise InputError("OpenStreetMap landmarks (--landmarks osm:FILE) and --georef are read by sensorsel.model.osm.load_geo_scenario "
+                         "(and sensorsel.load_problem), not by sensorsel.model.scenario.load_scenario")
     r = _load_route(spec, route_file)
     route, name = r.route, _name(spec, r.name)
     keyframes = route.select(select_keyframes(route.times, spec.keyframe_rate_hz))
