@@ -25,7 +25,7 @@ from sensorsel.io import results
 from sensorsel.model.constraints import FeasibleSet, feasible_set
 from sensorsel.model.library import SensorLibrary, load_library, resource_unit
 from sensorsel.model.problem import Domain, Problem
-from sensorsel.model.scenario import LandmarkModel, route_landmarks, write_landmarks_csv
+from sensorsel.model.scenario import LandmarkModel, generate_landmarks, route_landmarks, write_landmarks_csv
 
 
 def library_json(lib: SensorLibrary) -> str:
@@ -244,7 +244,16 @@ def landmarks_cmd(near_spacing: float, near_offset: str, far_spacing: float, far
     model = LandmarkModel(near_spacing_m=near_spacing, near_offset_m=_range_m(near_offset, "--near-offset"),
                           far_spacing_m=far_spacing, far_offset_m=_range_m(far_offset, "--far-offset"), clearance_m=clearance)
     spec = replace(spec_from(kw), landmark_model=model)
-    landmarks = route_landmarks(spec)
+    if spec.geo:
+        raise click.UsageError("--georef, --osm-classes and --osm-reach place OSM landmarks (--landmarks osm:FILE); this command "
+                               "generates synthetic ones (leave them out)")
+    from sensorsel.model.osm.track import gpx_route, is_gpx
+
+    if spec.route is not None and is_gpx(spec.route):  # a GPS track: in the UTM frame of its mean position
+        rf, _ = gpx_route(spec.route)
+        landmarks = generate_landmarks(rf.route, model, spec.landmark_seed)
+    else:
+        landmarks = route_landmarks(spec)
     path = write_landmarks_csv(output, landmarks)
     click.echo(f"wrote {len(landmarks)} landmarks to {path}")
 

@@ -26,7 +26,7 @@ from sensorsel.model.conditions import parse_condition
 from sensorsel.model.library import SensorLibrary
 from sensorsel.model.problem import DomainInfo, ProblemInfo, Target, TargetInfo, load_domain, load_problem
 from sensorsel.model.problem import Problem
-from sensorsel.model.scenario import KITTI_ROOT_ENV, ROUTE_FORMATS, ScenarioSpec
+from sensorsel.model.scenario import DEFAULT_OSM_REACH_M, KITTI_ROOT_ENV, ROUTE_FORMATS, ScenarioSpec
 
 
 def run(fn: Callable[..., Any]) -> Callable[..., Any]:
@@ -144,7 +144,7 @@ def output_option(*, folder: bool = False, required: bool = False, dest: str = "
 
 def scenario_options(fn: Callable[..., Any]) -> Callable[..., Any]:
     """--seq/--kitti-root/--route/--route-format/--poses/--times/--fixture/--name/--landmarks/
-    --landmark-seed/--clearance/--rate/--library."""
+    --georef/--osm-classes/--osm-reach/--landmark-seed/--clearance/--rate/--library."""
     opts = [
         click.option("--seq", metavar="NN", help="KITTI odometry sequence (e.g. 03, 00); needs --kitti-root or $" + KITTI_ROOT_ENV + ". "
                      "Its landmarks are the folder's pole map landmarks/NN.csv when there is one."),
@@ -152,8 +152,9 @@ def scenario_options(fn: Callable[..., Any]) -> Callable[..., Any]:
                      help="KITTI odometry dataset/ folder (poses/NN.txt, sequences/NN/times.txt, optional landmarks/NN.csv)."),
         click.option("--route", type=click.Path(dir_okay=False, path_type=str),
                      help="A route file: KITTI poses (12 numbers a line), a TUM trajectory (timestamp tx ty tz qx qy qz qw), "
-                          "a planar CSV (header t,x,y,heading; radians) or positions only (t,x,y or Time,X,Y,Z: heading from "
-                          "the direction of travel). The ground plane and forward axis are found from the route (--up, --forward)."),
+                          "a planar CSV (header t,x,y,heading; radians), positions only (t,x,y or Time,X,Y,Z: heading from "
+                          "the direction of travel) or a GPX track (georeferenced: --landmarks osm:FILE needs no --georef). "
+                          "The ground plane and forward axis are found from the route (--up, --forward)."),
         click.option("--route-format", type=click.Choice(list(ROUTE_FORMATS)),
                      help="Format of --route (default: csv for a .csv file, else by its first line: 12 numbers kitti, "
                           "8 numbers tum, a header csv)."),
@@ -168,10 +169,22 @@ def scenario_options(fn: Callable[..., Any]) -> Callable[..., Any]:
         click.option("--times", type=click.Path(dir_okay=False, path_type=str), help="Timestamps of a KITTI --route file (default: 10 Hz, said on stderr)."),
         click.option("--fixture", default="suburb", show_default=True, help="Bundled synthetic scenario used when no route is given."),
         click.option("--name", "scenario_name", metavar="TEXT", help="Name of the scenario (default: the sequence, fixture or route file's name)."),
-        click.option("--landmarks", metavar="real|synthetic|FILE",
+        click.option("--landmarks", metavar="real|synthetic|FILE|osm:FILE", multiple=True,
                      help="Landmarks: 'real' (the sequence's pole map), 'synthetic' (generated), or a CSV file (x,y columns, "
                           "metres, planar; or x,y,z in the route's frame, projected into its ground plane; other columns "
-                          "ignored). Default: the route's own map, else synthetic."),
+                          "ignored). Default: the route's own map, else synthetic. osm:FILE (repeatable): an OpenStreetMap "
+                          "extract's pole-like landmarks near a georeferenced route (--georef, or a GPX --route), merged with "
+                          "the one other --landmarks given (an OSM landmark within 2 m of one of its landmarks is dropped as the "
+                          "same object); landmarks per km of route per class on stderr (docs/guide-new-city.md)."),
+        click.option("--georef", metavar="LAT,LON,BEARING|utm:ZONE",
+                     help="Where the route lies, for --landmarks osm:FILE: the latitude, longitude [deg] of its (0, 0) and the "
+                          "compass bearing [deg, clockwise from north] of its +X axis (a KITTI sequence: the car's heading at "
+                          "its first frame), or utm:35N when its x, y are UTM easting and northing. A GPX route needs none."),
+        click.option("--osm-classes", metavar="CLASSES",
+                     help="With --landmarks osm:FILE: landmark classes, comma-separated, or all (default): street_lamp,"
+                          "utility_pole,power_pole,flagpole,tree,traffic_signals,stop,give_way,traffic_sign."),
+        click.option("--osm-reach", "osm_reach_m", type=float, metavar="METRES",
+                     help="With --landmarks osm:FILE: the OSM landmarks within this distance of the route (default: 100)."),
         click.option("--landmark-seed", type=int, default=0, show_default=True, help="Seed of the synthetic landmark generator."),
         click.option("--clearance", "clearance_m", type=click.FloatRange(min=0.0), metavar="METRES",
                      help="Drop landmarks closer than this to the route (standing on the road). Default: keep them, counted on "
@@ -209,6 +222,14 @@ def spec_from(kw: dict[str, Any]) -> ScenarioSpec:
         raise click.UsageError(f"--times {kw['times']} goes with a KITTI --route FILE (or its older name --poses FILE); a --seq or fixture has its own times.txt")
     text = kw.pop("condition_text", None)
     condition = parse_condition(text) if text is not None else None
+    given_landmarks = kw.pop("landmarks")
+    values = (given_landmarks,) if isinstance(given_landmarks, str) else tuple(given_landmarks or ())
+    osm = tuple(v[4:] for v in values if v.startswith("osm:"))
+    others = [v for v in values if not v.startswith("osm:")]
+    if len(others) > 1:
+        raise InputError(f"--landmarks {' and '.join(others)}: give one landmark map (and any number of osm:FILE extracts "
+                               "to merge with it)")
+    reach = kw.pop("osm_reach_m", None)
     return ScenarioSpec(
         condition=condition if condition is not None and not condition.neutral else None,
         seq=kw.pop("seq"),
@@ -216,7 +237,7 @@ def spec_from(kw: dict[str, Any]) -> ScenarioSpec:
         poses=kw.pop("poses"),
         times=kw.pop("times"),
         fixture=kw.pop("fixture"),
-        landmarks=kw.pop("landmarks"),
+        landmarks=others[0] if others else None,
         landmark_seed=kw.pop("landmark_seed"),
         keyframe_rate_hz=kw.pop("keyframe_rate_hz"),
         route=kw.pop("route"),
@@ -225,6 +246,10 @@ def spec_from(kw: dict[str, Any]) -> ScenarioSpec:
         name=kw.pop("scenario_name"),
         up=kw.pop("up", None),
         forward=kw.pop("forward", None),
+        georef=kw.pop("georef", None),
+        osm=osm,
+        osm_classes=kw.pop("osm_classes", None),
+        osm_reach_m=DEFAULT_OSM_REACH_M if reach is None else reach,
     )
 
 
@@ -251,7 +276,8 @@ def target_options(fn: Callable[..., Any]) -> Callable[..., Any]:
 
 
 #: scenario options that choose a route or its landmarks: refused together with --domain
-_ROUTE_OPTIONS = ("seq", "route", "poses", "times", "landmarks", "scenario_name", "clearance_m", "up", "forward", "condition_text")
+_ROUTE_OPTIONS = ("seq", "route", "poses", "times", "landmarks", "scenario_name", "clearance_m", "up", "forward", "condition_text",
+                  "georef", "osm_classes", "osm_reach_m")
 
 
 def target_from(kw: dict[str, Any]) -> Target:

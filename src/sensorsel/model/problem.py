@@ -20,7 +20,8 @@ from sensorsel.errors import InputError, ResultFileError, SensorselWarning
 from sensorsel.model.conditions import CLEAR, Condition, condition_digest
 from sensorsel.model.domain import load_domain_file, load_domain_scenarios
 from sensorsel.model.library import SensorLibrary, load_library
-from sensorsel.model.scenario import Scenario, ScenarioSpec, distance_to_route, load_scenario
+from sensorsel.model.osm.track import load_geo_scenario  # load_scenario, and GPX routes and OSM landmarks (--landmarks osm:FILE)
+from sensorsel.model.scenario import Scenario, ScenarioSpec, distance_to_route
 from sensorsel.model.sensing import (BYTES_PER_MEASUREMENT, SensorObservations, apply_condition, estimate_measurements,
                                      observe)
 
@@ -386,7 +387,7 @@ def load_problem(spec: ScenarioSpec | None = None, library: str | Path | None = 
             (:func:`check_problem_size`) or a map no sensor can see from the route (:func:`check_reach`).
     """
     spec = spec or ScenarioSpec()
-    problem = build_problem(load_library(library), load_scenario(spec), settings, spec=spec)
+    problem = build_problem(load_library(library), load_geo_scenario(spec), settings, spec=spec)
     check_reach(problem)
     return problem
 
@@ -571,7 +572,7 @@ class RouteRecipe:
             sc = self.scenario
         else:
             assert self.spec is not None
-            sc = load_scenario(self.spec)
+            sc = load_geo_scenario(self.spec)
         problem = build_problem(self.library, sc, self.settings, spec=self.spec)
         check_reach(problem)
         return problem

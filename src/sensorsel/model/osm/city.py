@@ -223,9 +223,14 @@ def density_table(city: City) -> list[tuple[str, int, float]]:
 
 def sparse_warning(city: City) -> str | None:
     """A warning when the map has fewer than :data:`SPARSE_PER_KM` landmarks per km of road."""
-    total = sum(city.density.values())
-    if total < SPARSE_PER_KM:
-        return (f"the map looks sparse: {total:.1f} landmarks per km of road (SemanticKITTI's pole maps have ~150/km); "
+    return sparse_message(sum(city.density.values()), "road")
+
+
+def sparse_message(per_km: float, what: str) -> str | None:
+    """The sparse-map warning for ``per_km`` landmarks per km of ``what`` (road, route), or None
+    when there are at least :data:`SPARSE_PER_KM`."""
+    if per_km < SPARSE_PER_KM:
+        return (f"the map looks sparse: {per_km:.1f} landmarks per km of {what} (SemanticKITTI's pole maps have ~150/km); "
                 "OSM's pole coverage varies by orders of magnitude between cities: a suite chosen on it favours long range")
     return None
 
@@ -282,5 +287,5 @@ def read_landmark_classes(path: str | Path) -> tuple[np.ndarray, tuple[str, ...]
     return xy, tuple(r[ic].strip() for r in rows[1:])
 
 
-__all__ = ["City", "CityRoute", "build_city", "write_city", "density_table", "sparse_warning", "read_landmark_classes",
+__all__ = ["City", "CityRoute", "build_city", "write_city", "density_table", "sparse_warning", "sparse_message", "read_landmark_classes",
            "LANDMARK_CLASSES", "SPARSE_PER_KM", "ATTRIBUTION"]

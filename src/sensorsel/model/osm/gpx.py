@@ -153,8 +153,10 @@ def read_gpx(path: str | Path) -> Track:
     return Track(np.array(lat), np.array(lon), tarr, tuple(lns), str(path))
 
 
-def track_route(track: Track, frame: LocalFrame, speed_mps: float | None = None) -> tuple[np.ndarray, np.ndarray, list[str]]:
-    """A GPX track as a planar route in ``frame``: ((N, 3) x [m], y [m], heading [rad]; (N,) times [s]; notes).
+def track_route(track: Track, frame: LocalFrame,
+                speed_mps: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[str]]:
+    """A GPX track as a planar route in ``frame``: ((N, 3) x [m], y [m], heading [rad]; (N,) times [s];
+    (N,) index of each pose among the file's points; notes).
 
     Points of the same position as the previous one are dropped. Without times in the file, the
     times are the distance travelled at ``speed_mps`` (required then).
@@ -179,7 +181,7 @@ def track_route(track: Track, frame: LocalFrame, speed_mps: float | None = None)
         t = np.r_[0.0, np.cumsum(np.hypot(*np.diff(xy, axis=0).T))] / speed_mps
         notes.append(f"GPX without times: times from the distance at {speed_mps * 3.6:g} km/h")
     h, hn = headings_from_travel(t, xy)
-    return np.column_stack([xy, h]), t, notes + hn
+    return np.column_stack([xy, h]), t, np.flatnonzero(keep), notes + hn
 
 
 @dataclass(frozen=True)

@@ -32,18 +32,18 @@ from sensorsel.model.scenario.kitti import (KITTI_ROOT_ENV, kitti_from_planar, k
 from sensorsel.model.scenario.landmarks import (LandmarkModel, _densify, check_landmark_seed, clean_landmarks,
                                                 distance_to_route, estimate_landmark_count, generate_landmarks,
                                                 read_landmarks_csv, read_landmarks_file, write_landmarks_csv)
-from sensorsel.model.scenario.loading import (DEFAULT_FIXTURE, REAL, ROUTE_FORMATS, SYNTHETIC, ScenarioSpec,
-                                              fixture_names, load_route, load_route_file, load_scenario,
-                                              read_route_file, route_landmarks, route_name, scenario_notes,
-                                              sniff_route_format)
+from sensorsel.model.scenario.loading import (DEFAULT_FIXTURE, DEFAULT_OSM_REACH_M, MapLandmarks, REAL, ROUTE_FORMATS,
+                                              SYNTHETIC, ScenarioSpec, fixture_names, load_route, load_route_file,
+                                              load_scenario, read_route_file, route_landmarks, route_name,
+                                              scenario_notes, sniff_route_format)
 from sensorsel.model.scenario.positions import route_from_positions
 from sensorsel.model.scenario.tum import (read_tum_route, read_tum_trajectory, rotations_from_quaternions,
                                           write_tum_trajectory, yaw_from_quaternion)
 
 __all__ = [
-    "DEFAULT_FIXTURE", "DEFAULT_FRAME_RATE_HZ", "KITTI_ROOT_ENV", "MAX_COORD_M", "MAX_LANDMARKS", "ON_ROAD_M",
+    "DEFAULT_FIXTURE", "DEFAULT_FRAME_RATE_HZ", "DEFAULT_OSM_REACH_M", "KITTI_ROOT_ENV", "MAX_COORD_M", "MAX_LANDMARKS", "ON_ROAD_M",
     "PLANAR_CSV_COLUMNS", "QUATERNION_TOL", "REAL", "ROTATION_TOL", "ROUTE_FORMATS", "SYNTHETIC",
-    "LandmarkModel", "LandmarkReport", "Scenario", "ScenarioSpec", "Trajectory",
+    "LandmarkModel", "LandmarkReport", "MapLandmarks", "Scenario", "ScenarioSpec", "Trajectory",
     "check_landmark_seed", "clean_landmarks", "distance_to_route", "estimate_landmark_count", "fixture_names",
     "generate_landmarks", "kitti_from_planar", "kitti_map_path", "load_route", "load_route_file", "load_scenario",
     "load_sequence", "load_trajectory", "planar_from_kitti", "read_kitti_poses", "read_landmarks_csv",

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
@@ -26,6 +27,7 @@ DEFAULT_FIXTURE = "suburb"
 ROUTE_FORMATS = ("kitti", "tum", "csv")
 SYNTHETIC = "synthetic"  # ScenarioSpec.landmarks: always generate
 REAL = "real"  # ScenarioSpec.landmarks: the KITTI sequence's pole map, an error if there is none
+DEFAULT_OSM_REACH_M = 100.0  # ScenarioSpec.osm_reach_m: a route's OSM landmarks, those within this distance [m]
 # file stems that say nothing about the drive: such a route is named after its folder
 _GENERIC_STEMS = {"poses", "pose", "groundtruth", "ground_truth", "gt", "trajectory", "traj", "route", "odometry", "data"}
 
@@ -45,6 +47,11 @@ def sniff_route_format(path: str | Path) -> str:
     if not lines:
         raise ScenarioError(path, "route file is empty")
     lineno, first = lines[0]
+    if first.lstrip("\ufeff \t").startswith("<"):
+        # a GPX track reaches here only from a domain file or the API's load_scenario: the route
+        # commands' --route reads GPX (sensorsel.model.osm.load_geo_scenario, above this layer)
+        raise ScenarioError(path, "an XML file (a GPX track?) is read as a route by the route commands' --route only: "
+                            "for a domain file, write a domain from it first (sensorsel osm --gpx FILE)", lineno)
     parts = first.replace(",", " ").split()
     if not all(is_number_text(p) for p in parts) or _header(path) is not None:
         return "csv"  # a header, or a '#' comment naming t,x,y just before the first row
@@ -138,6 +145,13 @@ class ScenarioSpec:
     ``up``, ``forward``: with a route file, the world's up axis and the body's forward axis (``+z``,
     ``-y``, ...) instead of those found from the route (:func:`~sensorsel.model.scenario.frames.find_frame`).
     A landmark file naming ``x,y,z`` is in the route's world frame and projected by it.
+
+    OpenStreetMap (read by :func:`sensorsel.model.osm.load_geo_scenario`, which :func:`sensorsel.model.problem.load_problem`
+    calls; :func:`load_scenario` refuses these fields): ``osm``, OSM extracts whose pole-like
+    landmarks of ``osm_classes`` (comma-separated; None: all) within ``osm_reach_m`` [m] of the route
+    join ``landmarks`` (then only the file or pole map given there, never a generated map);
+    ``georef``, where a route in a local frame lies (``LAT,LON,BEARING`` [deg] or ``utm:ZONE``); a
+    ``route`` that is a GPX track is georeferenced by its own latitudes and longitudes.
     """
 
     seq: str | None = None
@@ -156,6 +170,21 @@ class ScenarioSpec:
     up: str | None = None
     forward: str | None = None
     condition: Condition | None = None
+    georef: str | None = None
+    osm: tuple[str, ...] = ()
+    osm_classes: str | None = None
+    osm_reach_m: float = DEFAULT_OSM_REACH_M
+
+    @property
+    def geo(self) -> bool:
+        """Whether OpenStreetMap landmarks, their choice or a georeference are asked for (read above this layer)."""
+        return bool(self.osm) or self.georef is not None or self.osm_classes is not None or self.osm_reach_m != DEFAULT_OSM_REACH_M
+
+
+#: landmarks from a map the scenario layer does not read (OpenStreetMap; :mod:`sensorsel.model.osm`):
+#: (the full-rate route, its frame (None: planar), the landmarks given besides the map (M, 2) [m] or
+#: None, their label) -> (every landmark (M', 2) [m] in the route's frame, the source's label, notes)
+MapLandmarks = Callable[[Trajectory, Frame | None, np.ndarray | None, str | None], tuple[np.ndarray, str, list[str]]]
 
 
 def fixture_names() -> list[str]:
@@ -175,7 +204,9 @@ class _Route:
 
 
 
-def _load_route(spec: ScenarioSpec) -> _Route:
+def _load_route(spec: ScenarioSpec, given: RouteFile | None = None) -> _Route:
+    if given is not None:  # read by a caller that knows the format (a GPX track): spec.route names it
+        return _Route(given.route, route_name(spec.route or given.route.source), None, "", given.notes, frame=given.frame)
     if spec.route is not None and spec.poses is not None:
         raise InputError(f"give one route file: route {spec.route} or poses {spec.poses}, not both")
     if spec.route_format is not None and spec.route is None:
@@ -233,15 +264,28 @@ def route_landmarks(spec: ScenarioSpec = ScenarioSpec()) -> np.ndarray:
     return generate_landmarks(route, spec.landmark_model, spec.landmark_seed)
 
 
-def load_scenario(spec: ScenarioSpec = ScenarioSpec()) -> Scenario:
+def load_scenario(spec: ScenarioSpec = ScenarioSpec(), *, route_file: RouteFile | None = None,
+                  map_landmarks: MapLandmarks | None = None) -> Scenario:
     """Build a scenario: read the route, take keyframes, read or generate landmarks, merge their
     exact duplicates and count (with ``spec.clearance_m``: drop) those standing on the road.
 
     What was assumed, merged or dropped is in the scenario's ``notes`` (:func:`scenario_notes`) and
     ``landmark_report``.
+
+    ``route_file``: the route already read (a format this layer does not read, a GPX track), instead of
+    reading ``spec``'s. ``map_landmarks``: the landmarks of a map (OpenStreetMap), given the route and
+    the landmarks ``spec.landmarks`` names (a file or ``real``; none by default: the map's alone).
+    Both are passed by :func:`sensorsel.model.osm.load_geo_scenario`.
+
+    Raises:
+        InputError: ``spec`` asks for OpenStreetMap landmarks or a georeference and no
+            ``map_landmarks`` reads them (never ignored silently).
     """
     check_landmark_seed(spec.landmark_seed)
-    r = _load_route(spec)
+    if spec.geo and map_landmarks is None:
+        raise InputError("OpenStreetMap landmarks (--landmarks osm:FILE) and --georef are read by sensorsel.model.osm.load_geo_scenario "
+                         "(and sensorsel.load_problem), not by sensorsel.model.scenario.load_scenario")
+    r = _load_route(spec, route_file)
     route, name = r.route, _name(spec, r.name)
     keyframes = route.select(select_keyframes(route.times, spec.keyframe_rate_hz))
     if len(keyframes) < 2:
@@ -253,32 +297,66 @@ def load_scenario(spec: ScenarioSpec = ScenarioSpec()) -> Scenario:
         notes.append(f"keyframes: the rate {spec.keyframe_rate_hz:g} Hz is above the route's own {own_rate:.3g} Hz (median frame "
                      f"interval {1.0 / own_rate:.4g} s): used {used} as keyframes, at {(len(keyframes) - 1) / keyframes.duration_s:.3g} Hz "
                      "on average")
-    choice = spec.landmarks
-    if choice == REAL:
-        if spec.seq is None or spec.route is not None or spec.poses is not None:
-            raise InputError("landmarks 'real' means a KITTI sequence's pole map: it goes with a sequence (--seq NN)")
-        if r.own_landmarks is None:
-            raise InputError(f"landmarks 'real': {r.missing_map} (the KITTI folder has no landmarks/{spec.seq}.csv)")
-    if choice == SYNTHETIC or (choice is None and r.own_landmarks is None):
-        raw = generate_landmarks(route, spec.landmark_model, spec.landmark_seed)
-        source = f"generated (seed {spec.landmark_seed})"
-        if choice is None and r.missing_map:
-            notes.append(f"landmarks: {r.missing_map}: generated synthetic landmarks (seed {spec.landmark_seed})")
-        elif choice is None:
-            notes.append(f"landmarks: the route has no map: generated synthetic landmarks (seed {spec.landmark_seed}; "
-                         "give a landmark file for a real one)")
+    if map_landmarks is not None:
+        raw, source = _with_map(spec, r, route, map_landmarks, notes)
     else:
-        lm_path = Path(choice) if choice not in (None, REAL) else r.own_landmarks
-        assert lm_path is not None
-        raw = _landmarks_in_plane(lm_path, r, notes)
-        source = str(choice) if choice not in (None, REAL) else r.own_label
-        # longitude, latitude read as metres would stand every landmark within centimetres of each other
-        check_not_degrees(raw, lm_path, "landmarks", route_extent_m=float(np.ptp(route.poses[:, :2], axis=0).max()))
+        raw, source = _own_landmarks(spec, r, route, notes)
     landmarks, report = clean_landmarks(raw, route, spec.clearance_m, source)
     notes.extend(report.notes(always=False))  # the source itself is on every result's scenario line
     if not len(landmarks):
         raise InputError(f"no landmark left of the {report.n_read} of {source} (clearance {spec.clearance_m} m): every suite would score 0")
     return Scenario(name, keyframes, landmarks, source, route, report, tuple(notes))
+
+
+def _check_real(spec: ScenarioSpec, r: _Route) -> Path:
+    """The sequence's pole map that landmarks 'real' names."""
+    if spec.seq is None or spec.route is not None or spec.poses is not None:
+        raise InputError("landmarks 'real' means a KITTI sequence's pole map: it goes with a sequence (--seq NN)")
+    if r.own_landmarks is None:
+        raise InputError(f"landmarks 'real': {r.missing_map} (the KITTI folder has no landmarks/{spec.seq}.csv)")
+    return r.own_landmarks
+
+
+def _read_map(path: Path, r: _Route, route: Trajectory, notes: list[str]) -> np.ndarray:
+    raw = _landmarks_in_plane(path, r, notes)
+    # longitude, latitude read as metres would stand every landmark within centimetres of each other
+    check_not_degrees(raw, path, "landmarks", route_extent_m=float(np.ptp(route.poses[:, :2], axis=0).max()))
+    return raw
+
+
+def _own_landmarks(spec: ScenarioSpec, r: _Route, route: Trajectory, notes: list[str]) -> tuple[np.ndarray, str]:
+    """(M, 2) landmarks [m] and their source's label as ``spec.landmarks`` chooses them (no map service)."""
+    choice = spec.landmarks
+    if choice == REAL:
+        _check_real(spec, r)
+    if choice == SYNTHETIC or (choice is None and r.own_landmarks is None):
+        if choice is None and r.missing_map:
+            notes.append(f"landmarks: {r.missing_map}: generated synthetic landmarks (seed {spec.landmark_seed})")
+        elif choice is None:
+            notes.append(f"landmarks: the route has no map: generated synthetic landmarks (seed {spec.landmark_seed}; "
+                         "give a landmark file for a real one)")
+        return generate_landmarks(route, spec.landmark_model, spec.landmark_seed), f"generated (seed {spec.landmark_seed})"
+    lm_path = Path(choice) if choice not in (None, REAL) else r.own_landmarks
+    assert lm_path is not None
+    return _read_map(lm_path, r, route, notes), (str(choice) if choice not in (None, REAL) else r.own_label)
+
+
+def _with_map(spec: ScenarioSpec, r: _Route, route: Trajectory, map_landmarks: MapLandmarks,
+              notes: list[str]) -> tuple[np.ndarray, str]:
+    """The map service's landmarks merged with the file or pole map ``spec.landmarks`` names (if any)."""
+    choice = spec.landmarks
+    if choice == SYNTHETIC:
+        raise InputError("--landmarks synthetic with an OpenStreetMap map (osm:FILE): a generated map does not mix with a "
+                         "real one; give osm:FILE alone, or with a survey CSV")
+    base: np.ndarray | None = None
+    label: str | None = None
+    if choice is not None:
+        path = _check_real(spec, r) if choice == REAL else Path(choice)
+        base = _read_map(path, r, route, notes)
+        label = r.own_label if choice == REAL else str(choice)
+    raw, source, more = map_landmarks(route, r.frame, base, label)
+    notes.extend(more)
+    return raw, source
 
 
 def scenario_notes(scenario: Scenario) -> list[str]:
