@@ -6,7 +6,8 @@ LocalCluster of 2 worker processes for the module, reached through ``--scheduler
 executor); the interrupted run is a real ``sensorsel`` process killed with SIGKILL as soon as its
 store holds a first result (a period, a rule's runs, a study cell, a greedy checkpoint), then run
 again with ``--resume``. Answers are compared as JSON without timings (and, for greedy, without the
-evaluation counts a resume may change: tests/test_checkpoint.py).
+evaluation counts a resume may change: tests/test_checkpoint.py; for require, the accuracy
+computations it counts).
 """
 
 from __future__ import annotations
@@ -45,6 +46,11 @@ COMMANDS = {
     "resilient-robust": (["resilient", "--fixture", "tiny", "--budget", "5000", "--failures", "1", "--period", "6",
                           "--method", "robust", "--format", "svg", "-o", "OUT"], "periods/period-*.json", {"seconds"}),
     "study": (["study", "STUDY", "-o", "OUT"], "cells/cell-*.json", {"seconds", "n_reused"}),
+    # every method on a fresh memo, also in-process: evaluation counts compared too
+    "robust": (["robust", "--fixture", "suburb", "--budget", "8000", "--failures", "1", "-o", "OUT/robust.json"],
+               "robust.json.tasks/*.json", {"seconds"}),
+    "require": (["require", "--domain", DOMAIN, "--preset", "freeway", "--failures", "1", "-o", "OUT/require.json"],
+                "require.json.checkpoint", {"seconds", "n_checks", "n_refuted"}),  # a resume redoes no journalled work
 }
 
 

@@ -295,12 +295,14 @@ ROBUST_AGGREGATES = ("normalised", "raw", "worst")
 def run_robust(target: Target, budget_usd: float, alpha: int, *, engine: str | None = None, jobs: int = 1,
                aggregate: str = "normalised", evaluator: DomainEvaluator | None = None, **kwargs) -> RobustResult:
     """The ``sensorsel robust`` run: the best worst case under ``alpha`` failures within the budget
-    (:func:`sensorsel.robust.robust_select`), on a problem or a domain.
+    (:func:`sensorsel.robust.run_robust`: the methods as a plan of tasks), on a problem or a domain.
 
     ``aggregate``: with a domain, "normalised" or "raw" robustify the combined domain score; "worst"
     maximises the worst route's share of its best under the failures
     (:func:`sensorsel.robust.worst_route_select`; a domain only). ``kwargs`` go to the selector;
-    ``constraints=`` (:mod:`sensorsel.constraints`) limits every candidate suite.
+    ``constraints=`` (:mod:`sensorsel.constraints`) limits every candidate suite; ``executor=``,
+    ``outdir=`` and ``resume=`` choose where the tasks run and where their outcomes are kept
+    (not with ``evaluator`` nor with "worst": one run on one evaluator).
     ``evaluator``: a domain's evaluator already built (e.g. on a Dask cluster; "worst" needs a
     normalised one); ``engine`` and ``aggregate`` are then its own.
 
@@ -318,8 +320,10 @@ def run_robust(target: Target, budget_usd: float, alpha: int, *, engine: str | N
     if aggregate == "worst":
         if not isinstance(target, Domain):
             raise InputError("aggregate 'worst' is the worst route of an operating domain: give a domain (--domain FILE)")
+        for k in ("executor", "outdir", "resume"):
+            kwargs.pop(k, None)
         return worst_route_select(target, budget_usd, alpha, engine=engine, jobs=jobs, evaluator=evaluator, **kwargs)
-    if evaluator is not None:
+    if evaluator is not None:  # one run on it, every method sharing one memo
         check_budget(budget_usd)
         return robust_select(evaluator, budget_usd, alpha, info=target.info, **kwargs)
     return _run_robust(target, budget_usd, alpha, engine=engine, jobs=jobs, aggregate=aggregate, **kwargs)

@@ -20,11 +20,13 @@ from .exact import robust_optimum
 from .family import EvaluatorFamily, FailureFamily, Family
 from .memo import MemoEvaluator, memoized
 from .methods import local_search, oblivious_greedy, saturate
-from .records import BoundLeaf, Candidate, MemberWorst, RobustBound, RobustOptimum, RobustResult
+from .records import BoundLeaf, Candidate, MemberWorst, RobustBound, RobustOptimum, RobustResult, better
 from .select import DEFAULT_RULES, EXTRA_METHODS, robust_choice, robust_select, run_robust
+from .tasks import ALGORITHM_2, MethodOutcome, MethodTask, RobustSettings, RobustTaskRecord, run_method
 from .worst import WORST_METHODS, RouteFailureFamily, worst_route_select
 
 __all__ = [
+    "ALGORITHM_2", "MethodOutcome", "MethodTask", "RobustSettings", "RobustTaskRecord", "better", "run_method",
     "BoundLeaf", "Candidate", "DEFAULT_RULES", "EXTRA_METHODS", "EvaluatorFamily", "FailureFamily", "Family",
     "MemberWorst", "MemoEvaluator", "RouteFailureFamily", "WORST_METHODS", "worst_route_select", "RobustBound", "RobustOptimum", "RobustResult", "knapsack_drop", "local_search", "memoized",
     "oblivious_greedy", "robust_bound", "robust_choice", "robust_optimum", "robust_select", "run_robust", "saturate",

@@ -11,6 +11,7 @@ from ..results import result_kind
 from ..evaluators.accuracy import RouteAccuracy
 from ..constraints import Constraints
 from ..problem import TargetInfo
+from ..selection import REL_TOL as TIE_TOL
 
 
 @dataclass(frozen=True)
@@ -43,6 +44,20 @@ class Candidate:
     n_evaluations: int
     seconds: float = 0.0
     worst_member: str = ""
+
+
+def better(a: Candidate, b: Candidate) -> bool:
+    """True when candidate ``a`` beats ``b``: the higher worst case, then the higher nominal score
+    (each a tie within a relative 1e-9), then the cheaper, then the smaller ids in library order."""
+    tol = TIE_TOL * max(1.0, abs(a.worst_score), abs(b.worst_score))
+    if abs(a.worst_score - b.worst_score) > tol:
+        return a.worst_score > b.worst_score
+    tol = TIE_TOL * max(1.0, abs(a.nominal_score), abs(b.nominal_score))
+    if abs(a.nominal_score - b.nominal_score) > tol:
+        return a.nominal_score > b.nominal_score
+    if a.cost_usd != b.cost_usd:
+        return a.cost_usd < b.cost_usd
+    return a.suite < b.suite
 
 
 @dataclass(frozen=True)

@@ -41,9 +41,9 @@ from .bound import DEFAULT_BOUND_NODES, robust_bound
 from .family import FailureFamily, Family
 from .memo import MemoEvaluator, memoized
 from .methods import DEFAULT_SATURATE_LEVELS, saturate
-from .records import Candidate, MemberWorst, RobustBound, RobustResult
-from .select import _better as _select_better
+from .records import Candidate, MemberWorst, RobustBound, RobustResult, better
 from .select import check_rules_and_methods
+from .tasks import ALGORITHM_2
 
 #: Methods run after the bound on the worst route.
 WORST_METHODS = ("saturate", "local-search")
@@ -96,10 +96,6 @@ class RouteFailureFamily(Family):
         per = self.route_worst(suite)
         k = min(range(len(per)), key=lambda i: per[i][1])  # first route among ties
         return per[k][1], self.labels[k]
-
-
-def _better(a: Candidate, b: Candidate) -> bool:
-    return _select_better(a, b, None)
 
 
 def _local_search(fam: RouteFailureFamily, start: Sequence[int], budget: float, max_rounds: int,
@@ -193,7 +189,7 @@ def worst_route_select(domain: Domain, budget_usd: float, alpha: int, *, engine:
     def best() -> Candidate:
         b = cands[0]
         for c in cands[1:]:
-            if _better(c, b):
+            if better(c, b):
                 b = c
         return b
 
@@ -204,7 +200,7 @@ def worst_route_select(domain: Domain, budget_usd: float, alpha: int, *, engine:
     greedy_worst = cands[0].worst_score
     n0, t0 = work(), time.perf_counter()
     a2 = resilient_select(avg, budget, alpha, constraints=kept)
-    a2c = add("algorithm-2", [lib.position(i) for i in a2.suite], f"on the domain's normalised average; failing set {','.join(a2.failed)}", n0, t0)
+    a2c = add(ALGORITHM_2, [lib.position(i) for i in a2.suite], f"on the domain's normalised average; failing set {','.join(a2.failed)}", n0, t0)
 
     def bound_now() -> RobustBound:
         t0, n0 = time.perf_counter(), work()
@@ -246,7 +242,7 @@ def worst_route_select(domain: Domain, budget_usd: float, alpha: int, *, engine:
                 n0 = work()
             keep = sub[0]
             for c in sub[1:]:
-                if _better(c, keep):
+                if better(c, keep):
                     keep = c
             for c in sub:
                 if c is not keep:
