@@ -50,7 +50,7 @@ def problems(lib, library):
 # ---------------------------------------------------------------------------------------- periods
 
 PERIOD_BASE = dict(budget=20_000.0, alpha=1, rule="uniform", engine="fast", jobs=1, lazy=True, period=3.0,
-                   method="paper", selector=None, constraints=None)
+                   method="algorithm-2", selector=None, constraints=None)
 PERIOD_CHANGES = {
     "budget": dict(budget=19_000.0), "alpha": dict(alpha=2), "rule": dict(rule="cost-benefit"),
     "method": dict(method="robust", selector=robust_choice), "engine": dict(engine="reference"), "lazy": dict(lazy=False),

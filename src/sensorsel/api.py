@@ -35,7 +35,8 @@ from .errors import InputError
 from .evaluators import DomainEvaluator, evaluator_for, make_evaluator
 from .evaluators.accuracy import RouteAccuracy, route_accuracy
 from .problem import Domain, DomainInfo, Problem, ProblemInfo, Target, load_domain, load_problem
-from .resilient import ResilientReport, recorded
+from .resilient import ALGORITHM_2, METHODS, ResilientReport, recorded
+from .resilient.records import method_name
 from .resilient import resilient_report as _resilient_report
 from .robust import RobustResult, robust_choice, robust_select, worst_route_select
 from .robust import run_robust as _run_robust
@@ -286,8 +287,8 @@ def _engine_of(result: GreedyResult) -> str | None:
     return None if result.engine == DomainEvaluator.name else result.engine
 
 
-#: ``method`` of :func:`resilient_report`: the paper's Algorithm 2, or robust selection.
-RESILIENT_METHODS = ("paper", "robust")
+#: ``method`` of :func:`resilient_report`: the paper's Algorithm 2 ("algorithm-2"), or robust selection.
+RESILIENT_METHODS = METHODS
 #: ``aggregate`` of :func:`run_robust`: the domain's combined scores, or its worst route.
 ROBUST_AGGREGATES = ("normalised", "raw", "worst")
 
@@ -329,11 +330,14 @@ def run_robust(target: Target, budget_usd: float, alpha: int, *, engine: str | N
     return _run_robust(target, budget_usd, alpha, engine=engine, jobs=jobs, aggregate=aggregate, **kwargs)
 
 
-def resilient_report(problem: Target, budget_usd: float, alpha: int, *, method: str = "paper", **kwargs) -> ResilientReport:
+def resilient_report(problem: Target, budget_usd: float, alpha: int, *, method: str = ALGORITHM_2,
+                     **kwargs) -> ResilientReport:
     """The ``sensorsel resilient`` run (:func:`sensorsel.resilient.resilient_report`): the whole-route
-    comparison and the per-period selection. ``method``: "paper" (the paper's Algorithm 2, the
-    default: published results unchanged) or "robust" (:func:`sensorsel.robust.robust_select` for the
-    whole route and each period; its worst case is never below greedy's nor Algorithm 2's)."""
+    comparison and the per-period selection. ``method``: "algorithm-2" (the paper's Algorithm 2, the
+    default: published results unchanged; "paper", its name before, is read as it) or "robust"
+    (:func:`sensorsel.robust.robust_select` for the whole route and each period; its worst case is
+    never below greedy's nor Algorithm 2's)."""
+    method = method_name(method)
     if method not in RESILIENT_METHODS:
         raise InputError(f"unknown method {method!r}; available: {', '.join(RESILIENT_METHODS)}")
     return _resilient_report(problem, budget_usd, alpha, method=method,

@@ -72,15 +72,17 @@ from .library import load_library
 from .problem import Fingerprint, GraphSettings, Target, TargetInfo, load_domain, load_problem
 from .progress import Progress
 from .pipeline import Executor, FileStore, NoStore, Plan, Store, digest, execute
-from .resilient import resilient_select, worst_case
+from .resilient import ALGORITHM_2, resilient_select, worst_case
+from .resilient import METHODS as RESILIENT_METHODS
+from .resilient.records import method_name
 from .robust import robust_select
 from .scenario import ScenarioSpec, load_scenario
 from .selection import RULES, check_affordable, greedy
 
 #: Bumped when what a cell computes, or its file, changes (invalidates resume).
 FORMAT = 1
-#: how a cell with failures > 0 chooses its suite
-METHODS = ("algorithm-2", "robust")
+#: how a cell with failures > 0 chooses its suite (the methods of ``sensorsel resilient --method``)
+METHODS = RESILIENT_METHODS
 DEFAULT_LIBRARY = "default"
 
 _TOP_KEYS = ("target", "grid", "engine", "method", "certificate")
@@ -338,6 +340,7 @@ def parse_study(data: Any, path: str | Path = "<memory>") -> Study:
     if "engine" in data and engine not in ENGINES:
         c.fail("engine", f"unknown engine {engine!r}; available: {', '.join(sorted(ENGINES))}", data.lines["engine"])
     method = data.get("method", METHODS[0])
+    method = method_name(method) if isinstance(method, str) else method  # "paper": Algorithm 2's name before
     if method not in METHODS:
         c.fail("method", f"expected one of {', '.join(METHODS)}, got {method!r}", data.lines["method"])
     cert = data.get("certificate", True)
@@ -482,7 +485,7 @@ def run_cell(target: Target, cell: Cell, study: Study, *, jobs: int = 1) -> Stud
         suite, score, cost = g.suite, g.score, g.cost_usd
         if study.certificate:
             cert = certificate(ev, g).percent_of_best
-    elif study.method == "algorithm-2":
+    elif study.method == ALGORITHM_2:
         a2 = resilient_select(ev, budget, alpha, cell.rule, lazy=study.lazy)
         w = worst_case(ev, [lib.position(i) for i in a2.suite], alpha)
         suite, score, cost, worst, worst_failures, assumed = a2.suite, a2.score, a2.cost_usd, w.score, w.failures, a2.failed

@@ -29,7 +29,7 @@ from ..evaluators import Evaluator, ProblemEvaluator, as_suite, evaluator_for
 from ..pipeline import FileStore, NoStore, Store, digest
 from ..problem import DomainInfo, ProblemInfo, Target, TargetInfo
 from ..results import result_kind
-from ..resilient import resilient_select, worst_case
+from ..resilient import ALGORITHM_2, resilient_select, worst_case
 from ..selection import REL_TOL, greedy
 from .bound import DEFAULT_BOUND_NODES, robust_bound
 from .family import FailureFamily
@@ -37,10 +37,6 @@ from .memo import MemoEvaluator
 from .methods import DEFAULT_SATURATE_LEVELS, local_search, oblivious_greedy, saturate
 from .records import Candidate, RobustBound, better
 from ..tradespace import EvaluatorRecipe
-
-#: Paper's Algorithm 2's method name, in candidates, study files and ``resilient --method``.
-ALGORITHM_2 = "algorithm-2"
-
 
 @dataclass(frozen=True)
 class RobustSettings:
