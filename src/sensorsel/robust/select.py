@@ -220,7 +220,7 @@ def run_robust(problem: Target, budget_usd: float, alpha: int, *, engine: str | 
     local = None
     if executor is None or isinstance(executor, InProcess):  # the tasks run here: one evaluator for all of them
         local = ((problem, evaluator_for(problem, engine, jobs=jobs, aggregate=aggregate)),)
-    key = task_key(problem.info, name, aggregate, settings)
+    key = task_key(problem.info, name, aggregate, settings, rules, methods, skip_when_proved)
     stage = [0]
 
     def run(tasks: Sequence[MethodTask]) -> list[MethodOutcome]:

@@ -214,15 +214,17 @@ def method_step(state: tuple[Target, Evaluator | EvaluatorRecipe], job: tuple[Ro
 TASK_FORMAT = 1
 
 
-def task_key(info: TargetInfo | None, engine: str, aggregate: str, s: RobustSettings) -> dict[str, Any]:
+def task_key(info: TargetInfo | None, engine: str, aggregate: str, s: RobustSettings, rules: Sequence[str],
+             methods: Sequence[str], skip_when_proved: bool) -> dict[str, Any]:
     """What every task of a robust run depends on besides the task itself: each route by content with
-    its weight, the engine, the aggregate and the settings (budget, alpha, limits with the library's
-    resources' digest, the methods' limits)."""
+    its weight, the engine, the aggregate, the settings (budget, alpha, limits with the library's
+    resources' digest, the methods' limits) and, conservatively, the run's rules and methods (a
+    resume with other rules or methods recomputes every task: it never reuses one by mistake)."""
     routes: list[tuple[str, float, str, ProblemInfo | None]] = (
         [(r.name, r.weight, r.unit, r.problem) for r in info.routes] if isinstance(info, DomainInfo) else [("", 1.0, "", info)])
     return {"format": TASK_FORMAT, "what": "robust-task", "engine": engine, "aggregate": aggregate,
             "routes": [[n, w, u, to_jsonable(p.fingerprint if p is not None else None)] for n, w, u, p in routes],
-            "settings": to_jsonable(s)}
+            "settings": to_jsonable(s), "rules": list(rules), "methods": list(methods), "skip_when_proved": skip_when_proved}
 
 
 @result_kind("robust-task")
