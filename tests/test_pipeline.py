@@ -49,6 +49,9 @@ COMMANDS = {
     # every method on a fresh memo, also in-process: evaluation counts compared too
     "robust": (["robust", "--fixture", "suburb", "--budget", "8000", "--failures", "1", "-o", "OUT/robust.json"],
                "robust.json.tasks/*.json", {"seconds"}),
+    # the checkpoint is written after the greedy start (then every 500 nodes: tests/test_certify.py)
+    "optimal": (["optimal", "--domain", DOMAIN, "--budget", "4000", "--max-nodes", "100", "-o", "OUT/optimal.json"],
+                "optimal.json.checkpoint", {"seconds", "n_evaluations"}),
     "require": (["require", "--domain", DOMAIN, "--preset", "freeway", "--failures", "1", "-o", "OUT/require.json"],
                 "require.json.checkpoint", {"seconds", "n_checks", "n_refuted"}),  # a resume redoes no journalled work
 }
