@@ -6,6 +6,7 @@ Wall times are in fields named ``seconds`` (the only fields that differ between 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Sequence
 
 from ..results import result_kind
 from ..evaluators.accuracy import RouteAccuracy
@@ -58,6 +59,15 @@ def better(a: Candidate, b: Candidate) -> bool:
     if a.cost_usd != b.cost_usd:
         return a.cost_usd < b.cost_usd
     return a.suite < b.suite
+
+
+def best_of(candidates: Sequence[Candidate]) -> Candidate:
+    """The candidate that beats every other (:func:`better`; among equals the first)."""
+    b = candidates[0]
+    for c in candidates[1:]:
+        if better(c, b):
+            b = c
+    return b
 
 
 @dataclass(frozen=True)

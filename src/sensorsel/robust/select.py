@@ -46,7 +46,7 @@ from ..tradespace import EvaluatorRecipe
 from .bound import DEFAULT_BOUND_NODES
 from .memo import memoized
 from .methods import DEFAULT_SATURATE_LEVELS
-from .records import Candidate, RobustResult, better
+from .records import Candidate, RobustResult, best_of
 from .tasks import (ALGORITHM_2, MethodOutcome, MethodTask, RobustSettings, method_step, run_method, task_key,
                     task_store, tolerance)
 
@@ -129,11 +129,7 @@ def choose(run: Runner, lib: SensorLibrary, s: RobustSettings, rules: Sequence[s
         return outs
 
     def best() -> Candidate:
-        b = cands[0]
-        for c in cands[1:]:
-            if better(c, b):
-                b = c
-        return b
+        return best_of(cands)
 
     def anchors() -> tuple[tuple[int, ...], ...]:
         ranked = sorted(cands, key=lambda c: (-c.worst_score, -c.nominal_score, c.cost_usd, c.suite))

@@ -35,7 +35,7 @@ from .bound import DEFAULT_BOUND_NODES, robust_bound
 from .family import FailureFamily
 from .memo import MemoEvaluator
 from .methods import DEFAULT_SATURATE_LEVELS, local_search, oblivious_greedy, saturate
-from .records import Candidate, RobustBound, better
+from .records import Candidate, RobustBound, best_of, better
 from ..tradespace import EvaluatorRecipe
 
 @dataclass(frozen=True)
@@ -157,13 +157,11 @@ def _run(ev: MemoEvaluator, s: RobustSettings, task: MethodTask) -> MethodOutcom
             return MethodOutcome(skipped="saturate: no level between the best worst case and the bound")
         covered = [c for c, ok, _ in levels if ok]
         note = f"{note}; covered levels: {', '.join(f'{c:.3f}' for c in covered) or 'none'}"
-        keep: Candidate | None = None
+        sub = []
         for x in dict.fromkeys(tried):  # every level's suite is scored; the best is the method's candidate
-            c = candidate(ev, s, feas, "saturate", x, note, n0, t0)
+            sub.append(candidate(ev, s, feas, "saturate", x, note, n0, t0))
             n0 = ev.n_evaluations
-            keep = c if keep is None or better(c, keep) else keep
-        assert keep is not None
-        return MethodOutcome((keep,))
+        return MethodOutcome((best_of(sub),))
     if task.kind == "local-search":
         x, note = local_search(ev, [lib.position(i) for i in best.suite], s.budget, s.alpha, max_rounds=s.local_rounds,
                                max_evaluations=s.local_evaluations, feasible=feas)
