@@ -47,7 +47,7 @@ from .bound import DEFAULT_BOUND_NODES
 from .memo import memoized
 from .methods import DEFAULT_SATURATE_LEVELS
 from .records import Candidate, RobustResult, best_of
-from .tasks import (ALGORITHM_2, MethodOutcome, MethodTask, RobustSettings, method_step, run_method, task_key,
+from .tasks import (ALGORITHM_2, MethodOutcome, MethodTask, RobustSettings, Scored, method_step, run_method, task_key,
                     task_store, tolerance)
 
 DEFAULT_RULES = ("uniform", "marginal")
@@ -200,13 +200,15 @@ def run_robust(problem: Target, budget_usd: float, alpha: int, *, engine: str | 
     """:func:`robust_select` on a problem or a domain as a plan of tasks (:mod:`sensorsel.pipeline`):
     each stage's methods are tasks run by ``executor`` (default: this process), each on its own memo
     over the target's evaluator of ``engine`` (built once where the tasks run), so the answer is the
-    same bytes wherever they ran, timings aside. ``outdir``: each task's outcome is kept there as it
+    same bytes wherever they ran, timings aside. Each task's memo starts from the suites the earlier
+    stages scored (passed with the task), so only the methods of one stage score a suite twice.
+    ``outdir``: each task's outcome is kept there as it
     arrives (``NN-METHOD.json``, with the fingerprint of its inputs); ``resume`` reads back those whose
     inputs match. ``limits``: the methods' limits of :func:`robust_select` (saturate_levels, ...).
 
     Its numbers may differ from :func:`robust_select` on one shared memo in the last bits (a suite's
-    score can depend on the path that first scored it) and in ``n_evaluations`` (no suite is shared
-    between tasks)."""
+    score can depend on the path that first scored it) and in ``n_evaluations`` (the methods of one
+    stage share no suite)."""
     t_start = time.perf_counter()
     budget, alpha = check_budget(budget_usd), check_alpha(alpha)
     rules = check_rules_and_methods(rules, methods, EXTRA_METHODS, "robust method")
@@ -218,12 +220,18 @@ def run_robust(problem: Target, budget_usd: float, alpha: int, *, engine: str | 
         local = ((problem, evaluator_for(problem, engine, jobs=jobs, aggregate=aggregate)),)
     key = task_key(problem.info, name, aggregate, settings, rules, methods, skip_when_proved)
     stage = [0]
+    known: dict[tuple[int, ...], Scored] = {}  # what earlier stages scored (first stage, first task first)
 
     def run(tasks: Sequence[MethodTask]) -> list[MethodOutcome]:
         stage[0] += 1
-        plan: Plan[MethodOutcome] = Plan("robust method", method_step, tuple((settings, t) for t in tasks),
+        seen = tuple(known.values())
+        plan: Plan[MethodOutcome] = Plan("robust method", method_step, tuple((settings, t, seen) for t in tasks),
                                          states=(recipe,), build=EvaluatorRecipe.build, local=local)
-        return execute(plan, executor, task_store(outdir, resume, key, stage[0], tasks))
+        outs = execute(plan, executor, task_store(outdir, resume, key, stage[0], tasks))
+        for o in outs:
+            for k in o.scored:
+                known.setdefault(k.suite, k)
+        return outs
 
     return choose(run, problem.library, settings, rules, methods, skip_when_proved, info=problem.info, engine=name,
                   t_start=t_start)

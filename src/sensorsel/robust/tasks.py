@@ -84,14 +84,24 @@ class MethodTask:
 
 
 @dataclass(frozen=True)
+class Scored:
+    """A suite (library positions) and its score f [nats], as one task passes it to the later ones."""
+
+    suite: tuple[int, ...]
+    score: float
+
+
+@dataclass(frozen=True)
 class MethodOutcome:
     """What one task gives: its candidates (in the order they were found), the bound ("bound"),
-    why the method gave no candidate (empty: it gave some) and the suites it newly scored."""
+    why the method gave no candidate (empty: it gave some), how many suites it newly scored and
+    (in a plan) those suites with their scores, which the later stages' tasks start from."""
 
     candidates: tuple[Candidate, ...] = ()
     bound: RobustBound | None = None
     skipped: str = ""
     n_evaluations: int = 0
+    scored: tuple[Scored, ...] = ()
 
 
 def kept_feasible(ev: Evaluator, s: RobustSettings) -> FeasibleSet | None:
@@ -195,17 +205,24 @@ def leaf_candidates(ev: MemoEvaluator, s: RobustSettings, feas: FeasibleSet | No
     return tuple(out)
 
 
-def method_step(state: tuple[Target, Evaluator | EvaluatorRecipe], job: tuple[RobustSettings, MethodTask]) -> MethodOutcome:
-    """One task of a robust plan, on a fresh memo: over the caller's evaluator (in-process, shared by
-    the tasks: an engine's score does not depend on what it scored before) or over one built from
-    the target a worker holds. The baseline is scored before the memo starts counting, so a task's
-    evaluations do not depend on whether its evaluator was fresh."""
+def method_step(state: tuple[Target, Evaluator | EvaluatorRecipe],
+                job: tuple[RobustSettings, MethodTask, tuple[Scored, ...]]) -> MethodOutcome:
+    """One task of a robust plan, on a fresh memo that knows what the earlier stages scored (the
+    job's third part, the same wherever the task runs): over the caller's evaluator (in-process,
+    shared by the tasks: an engine's score does not depend on what it scored before) or over one
+    built from the target a worker holds. The baseline is scored before the memo starts counting,
+    so a task's evaluations do not depend on whether its evaluator was fresh. The outcome carries
+    the suites the task scored, for the later stages."""
     target, held = state
     ev = held if isinstance(held, Evaluator) else evaluator_for(target, held.engine, jobs=held.jobs, aggregate=held.aggregate)
     if isinstance(ev, ProblemEvaluator):
         ev.baseline_logdet
-    settings, task = job
-    return run_method(MemoEvaluator(ev), settings, task)
+    settings, task, known = job
+    memo = MemoEvaluator(ev)
+    memo.learn((k.suite, k.score) for k in known)
+    before = set(memo.scored())
+    out = run_method(memo, settings, task)
+    return replace(out, scored=tuple(Scored(s, v) for s, v in memo.scored().items() if s not in before))
 
 
 #: the format of a robust task's fingerprint (bump it when what a task computes changes)
