@@ -106,3 +106,19 @@ def test_same_answer_in_process_on_two_workers_and_after_a_kill_and_resume(comma
     assert proc.returncode == -signal.SIGKILL or proc.returncode == 0
     resumed = _answer(_invoke(_args(command, out, study) + ["--resume"]), ignore)
     assert resumed == here
+
+
+SELECTING = ("greedy", "pareto", "resilient", "robust", "optimal", "study", "require")
+
+
+@pytest.mark.parametrize("command", SELECTING)
+def test_every_selecting_command_takes_the_executor_and_the_store_options(command):
+    """--workers/--scheduler (the executor) and --resume (the store), declared once (cli.options)."""
+    params = {p.name for p in cli.commands[command].params}
+    assert {"dask_workers", "dask_scheduler", "resume"} <= params
+
+
+@pytest.mark.parametrize("command", ["robust", "optimal"])
+def test_resume_without_an_output_is_one_line_and_exit_2(command):
+    res = CliRunner().invoke(cli, [command, "--fixture", "tiny", "--budget", "5000", "--resume"])
+    assert res.exit_code == 2 and "give -o" in res.output and "Traceback" not in res.output
