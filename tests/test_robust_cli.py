@@ -155,6 +155,19 @@ def test_files_and_scripts_that_call_algorithm_2_paper_still_work(small_library_
     assert untimed(again.stdout) == untimed(first.stdout)
 
 
+def test_a_study_file_saying_method_paper_means_algorithm_2(tmp_path):
+    from sensorsel.study import cell_fingerprint, load_study
+
+    fps = {}
+    for name in ("paper", "algorithm-2"):
+        f = tmp_path / f"{name}.yaml"
+        f.write_text(f"target: {{fixture: tiny}}\ngrid: {{budgets: [5000], failures: [1]}}\nmethod: {name}\n")
+        study = load_study(f)
+        assert study.method == "algorithm-2"
+        fps[name] = [cell_fingerprint(study, c, study.targets[c.target].fingerprints()) for c in study.cells]
+    assert fps["paper"] == fps["algorithm-2"]  # the same cells: a resume reuses them
+
+
 @pytest.mark.parametrize("method", ["algorithm-2", "robust"])
 def test_resilient_method_grid_and_csv_show_the_worst_failures(small_library_yaml, tmp_path, method):
     out = tmp_path / method

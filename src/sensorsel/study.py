@@ -72,17 +72,13 @@ from .library import load_library
 from .problem import Fingerprint, GraphSettings, Target, TargetInfo, load_domain, load_problem
 from .progress import Progress
 from .pipeline import Executor, FileStore, NoStore, Plan, Store, digest, execute
-from .resilient import ALGORITHM_2, resilient_select, worst_case
-from .resilient import METHODS as RESILIENT_METHODS
-from .resilient.records import method_name
+from .resilient import ALGORITHM_2, METHODS, method_name, resilient_select, worst_case  # METHODS: how a cell with failures chooses
 from .robust import robust_select
 from .scenario import ScenarioSpec, load_scenario
 from .selection import RULES, check_affordable, greedy
 
 #: Bumped when what a cell computes, or its file, changes (invalidates resume).
 FORMAT = 1
-#: how a cell with failures > 0 chooses its suite (the methods of ``sensorsel resilient --method``)
-METHODS = RESILIENT_METHODS
 DEFAULT_LIBRARY = "default"
 
 _TOP_KEYS = ("target", "grid", "engine", "method", "certificate")

@@ -60,13 +60,13 @@ from .periods import (
 )
 from .records import (
     ACTIVE, ALGORITHM_2, FAILED, METHODS, UNUSED, Comparison, PerPeriodResult, PeriodResult, PeriodSpan, ResilientReport, ResilientResult,
-    RobustChoice, SelectionGrid, WorstCase,
+    RobustChoice, SelectionGrid, WorstCase, method_name,
 )
 
 __all__ = [
     "ACTIVE", "ALGORITHM_2", "DEFAULT_PERIOD_S", "FAILED", "MAX_FAILURE_SETS", "METHODS", "RobustChoice", "Selector", "UNUSED", "check_method", "CacheWarning", "Comparison", "PerPeriodResult",
     "PeriodResult", "PeriodSpan", "Progress", "ResilientReport", "ResilientResult", "SelectionGrid", "WorstCase",
-    "check_alpha", "check_rule", "check_period", "compare", "failing_set", "make_grid", "period_file",
+    "check_alpha", "check_rule", "method_name", "check_period", "compare", "failing_set", "make_grid", "period_file",
     "period_scenario", "resilient_report", "resilient_select", "run_periods", "save_grid_csv", "split_periods", "worst_case",
 ]
 
