@@ -20,12 +20,12 @@ import pytest
 
 distributed = pytest.importorskip("distributed")
 
-from sensorsel import results  # noqa: E402
+from sensorsel.io import results  # noqa: E402
 from sensorsel.api import suite_accuracy  # noqa: E402
-from sensorsel.domain_design import design_domain  # noqa: E402
-from sensorsel.distributed import DaskCluster, DistributedDomainEvaluator  # noqa: E402
-from sensorsel.problem import load_domain  # noqa: E402
-from sensorsel.tradespace import run_tradespace  # noqa: E402
+from sensorsel.designs.domain_design import design_domain  # noqa: E402
+from sensorsel.pipeline.cluster import DaskCluster, DistributedDomainEvaluator  # noqa: E402
+from sensorsel.model.problem import load_domain  # noqa: E402
+from sensorsel.designs.tradespace import run_tradespace  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 FIXTURES = REPO / "configs" / "domain_fixtures.yaml"
@@ -76,9 +76,9 @@ def test_tradespace_rules_as_tasks_equal_in_process_and_resume(cluster, domain, 
 
 
 def test_resilient_periods_as_tasks_equal_in_process_and_resume(cluster, tmp_path):
-    from sensorsel.problem import load_problem
-    from sensorsel.resilient import resilient_report
-    from sensorsel.scenario import ScenarioSpec
+    from sensorsel.designs.resilient import resilient_report
+    from sensorsel.model.problem import load_problem
+    from sensorsel.model.scenario import ScenarioSpec
 
     problem = load_problem(ScenarioSpec(fixture="suburb"))
     local = resilient_report(problem, 8_000, 1, period_s=20.0, outdir=tmp_path / "here")
@@ -119,7 +119,7 @@ def test_greedy_interrupted_in_process_resumes_on_two_workers(cluster, domain, t
 
 
 def test_study_cells_as_tasks_equal_in_process_and_resume(cluster, tmp_path):
-    from sensorsel.study import load_study, run_study, study_csv
+    from sensorsel.designs.study import load_study, run_study, study_csv
 
     path = tmp_path / "study.yaml"
     path.write_text("target: {fixture: suburb}\ngrid:\n  budgets: [4000, 9000]\n  rules: [uniform, marginal]\n")
@@ -141,9 +141,9 @@ def test_study_cells_as_tasks_equal_in_process_and_resume(cluster, tmp_path):
 
 def test_score_certify_optimal_robust_on_a_domain_equal_in_process(cluster, domain):
     from sensorsel.api import run_robust, score_domain_suite
-    from sensorsel.certify import certify_greedy, optimal
-    from sensorsel.evaluators import DomainEvaluator
-    from sensorsel.selection import greedy
+    from sensorsel.designs.certify import certify_greedy, optimal
+    from sensorsel.designs.selection import greedy
+    from sensorsel.information.evaluators import DomainEvaluator
 
     ev = DistributedDomainEvaluator(cluster.client, domain, aggregate="raw")
     here = DomainEvaluator(domain, aggregate="raw")
@@ -164,8 +164,8 @@ def test_score_certify_optimal_robust_on_a_domain_equal_in_process(cluster, doma
 
 
 def test_simulation_runs_as_tasks_equal_in_process(cluster):
-    from sensorsel.problem import load_problem
-    from sensorsel.scenario import ScenarioSpec
+    from sensorsel.model.problem import load_problem
+    from sensorsel.model.scenario import ScenarioSpec
     from sensorsel.simulate import simulate
 
     problem = load_problem(ScenarioSpec(fixture="tiny"))
@@ -306,10 +306,10 @@ def test_pareto_with_limits_and_slots_on_two_workers_equals_in_process(tmp_path)
     bytes of the in-process run (timings aside), and every architecture keeps the limits."""
     import yaml
 
-    from sensorsel._resources import default_library_path
-    from sensorsel.constraints import Constraints, feasible_set
-    from sensorsel.library import load_library
-    from sensorsel.tradespace import TradespaceResult
+    from sensorsel.designs.tradespace import TradespaceResult
+    from sensorsel.io.resources import default_library_path
+    from sensorsel.model.constraints import Constraints, feasible_set
+    from sensorsel.model.library import load_library
 
     stock = yaml.safe_load(default_library_path().read_text())
     stock["clock_positions"] = [12, 3, 6, 9]
@@ -344,7 +344,7 @@ def test_cli_require_with_workers_gives_the_in_process_answer():
     """require --workers 2 on a domain: each route's accuracy checks on its worker's actor, the same
     answer, bounds and accuracies to the byte as in-process (seconds aside)."""
     keep = ("MRL-roof", "LRR-12", "LRR-6", "HD2K-12", "HD2K-6", "HD2K-3", "WSC-12", "LSC-12")
-    from sensorsel.library import load_library
+    from sensorsel.model.library import load_library
 
     excl = ",".join(sorted(set(load_library().ids) - set(keep)))
     args = ["require", "--domain", str(FIXTURES), "--preset", "freeway", "--exclude", excl, "--json", "-q"]

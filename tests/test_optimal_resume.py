@@ -12,14 +12,14 @@ from pathlib import Path
 
 import pytest
 
-from sensorsel import results
-from sensorsel.certify import optimal
-from sensorsel.certify.resume import OptimalCheckpoint
-from sensorsel.constraints import Constraints
-from sensorsel.evaluators import evaluator_for
+from sensorsel.designs.certify import optimal
+from sensorsel.designs.certify.resume import OptimalCheckpoint
+from sensorsel.information.evaluators import evaluator_for
+from sensorsel.io import results
+from sensorsel.model.constraints import Constraints
+from sensorsel.model.problem import build_problem
+from sensorsel.model.scenario import ScenarioSpec, load_scenario
 from sensorsel.pipeline.store import CacheWarning
-from sensorsel.problem import build_problem
-from sensorsel.scenario import ScenarioSpec, load_scenario
 
 BUDGET, NODES = 6_000.0, 120
 

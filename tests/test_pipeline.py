@@ -27,7 +27,7 @@ from sensorsel.cli import cli
 
 distributed = pytest.importorskip("distributed")
 
-from sensorsel.distributed import DaskCluster  # noqa: E402
+from sensorsel.pipeline.cluster import DaskCluster  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 DOMAIN = str(REPO / "configs" / "domain_fixtures.yaml")

@@ -17,13 +17,13 @@ from pathlib import Path
 import pytest
 import yaml
 
-from sensorsel import results
-from sensorsel.constraints import Constraints, feasible_set
-from sensorsel.problem import build_problem
-from sensorsel.resilient import CacheWarning, run_periods
-from sensorsel.resilient.periods import period_plan
-from sensorsel.robust import robust_choice
-from sensorsel.scenario import ScenarioSpec, load_scenario
+from sensorsel.designs.resilient import CacheWarning, run_periods
+from sensorsel.designs.resilient.periods import period_plan
+from sensorsel.designs.robust import robust_choice
+from sensorsel.io import results
+from sensorsel.model.constraints import Constraints, feasible_set
+from sensorsel.model.problem import build_problem
+from sensorsel.model.scenario import ScenarioSpec, load_scenario
 
 REPO = Path(__file__).resolve().parents[1]
 SMALL = ("MRL-roof", "LRR-12", "MRR-3", "HD2K-12", "HD2K-6", "WSC-9")
@@ -114,7 +114,7 @@ def _merge(base: dict, change: dict) -> dict:
 
 
 def _cell_fps(data: dict, folder: Path) -> set[str]:
-    from sensorsel.study import cell_fingerprint, load_study
+    from sensorsel.designs.study import cell_fingerprint, load_study
 
     path = folder / f"study-{len(list(folder.glob('study-*.yaml')))}.yaml"
     path.write_text(yaml.safe_dump(data), encoding="utf-8")
@@ -145,7 +145,7 @@ TRADE_CHANGES = {
 
 @pytest.mark.parametrize("field", list(TRADE_CHANGES))
 def test_a_tradespace_rule_file_is_never_reused_after_changing_one_input(field, problems, tmp_path):
-    from sensorsel.tradespace import run_tradespace
+    from sensorsel.designs.tradespace import run_tradespace
 
     def run(problem, resume: bool, budgets, rules, **kw):
         return run_tradespace(problem, budgets, rules, outdir=tmp_path, resume=resume, **kw)
@@ -178,7 +178,7 @@ GREEDY_CHANGES = {
 
 @pytest.mark.parametrize("field", list(GREEDY_CHANGES))
 def test_a_greedy_checkpoint_is_refused_after_changing_one_input(field, problems, tmp_path):
-    from sensorsel.checkpoint import GreedyCheckpoint, load_checkpoint, run_fingerprint
+    from sensorsel.designs.checkpoint import GreedyCheckpoint, load_checkpoint, run_fingerprint
     from sensorsel.errors import ResultFileError
 
     def fp_and_limits(problem, budget, rule, engine, aggregate, lazy, constraints):
@@ -209,7 +209,7 @@ ROBUST_CHANGES = {
 
 
 def _robust_fps(problem, folder: Path, budget, alpha, **kw) -> set[str]:
-    from sensorsel.robust import RobustTaskRecord, run_robust
+    from sensorsel.designs.robust import RobustTaskRecord, run_robust
 
     run_robust(problem, budget, alpha, outdir=folder, skip_when_proved=False, **kw)
     return {results.load(f, RobustTaskRecord).fingerprint for f in folder.glob("*.json")}
@@ -224,7 +224,7 @@ def test_a_robust_task_file_is_never_reused_after_changing_one_input(field, prob
 
 
 def test_a_robust_resume_with_two_failures_recomputes_the_one_failure_tasks(problems, tmp_path):
-    from sensorsel.robust import run_robust
+    from sensorsel.designs.robust import run_robust
 
     p, kw = problems["base"], dict(rules=("uniform",), methods=("oblivious",), skip_when_proved=False)
     run_robust(p, 20_000, 1, outdir=tmp_path, **kw)

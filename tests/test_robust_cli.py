@@ -10,17 +10,17 @@ import pytest
 import yaml
 from click.testing import CliRunner
 
-from sensorsel import results
-from sensorsel._resources import default_library_path
 from sensorsel.api import run_robust
 from sensorsel.cli import cli
 from sensorsel.cli.robust import method_words
+from sensorsel.designs.resilient import ACTIVE, FAILED, ResilientReport, worst_case
+from sensorsel.designs.robust import RobustResult, worst_route_select
 from sensorsel.errors import InputError
-from sensorsel.evaluators import DomainEvaluator, make_evaluator
-from sensorsel.problem import Domain, DomainRoute, build_problem
-from sensorsel.resilient import ACTIVE, FAILED, ResilientReport, worst_case
-from sensorsel.robust import RobustResult, worst_route_select
-from sensorsel.scenario import ScenarioSpec, load_scenario
+from sensorsel.information.evaluators import DomainEvaluator, make_evaluator
+from sensorsel.io import results
+from sensorsel.io.resources import default_library_path
+from sensorsel.model.problem import Domain, DomainRoute, build_problem
+from sensorsel.model.scenario import ScenarioSpec, load_scenario
 
 REL = 1e-9
 
@@ -95,7 +95,7 @@ def test_cli_robust_prints_the_three_designs_and_round_trips(small_library_yaml,
 
 
 def results_library(path):
-    from sensorsel.library import load_library
+    from sensorsel.model.library import load_library
 
     return load_library(path)
 
@@ -156,7 +156,7 @@ def test_files_and_scripts_that_call_algorithm_2_paper_still_work(small_library_
 
 
 def test_a_study_file_saying_method_paper_means_algorithm_2(tmp_path):
-    from sensorsel.study import cell_fingerprint, load_study
+    from sensorsel.designs.study import cell_fingerprint, load_study
 
     fps = {}
     for name in ("paper", "algorithm-2"):
@@ -268,7 +268,7 @@ def test_worst_route_against_brute_force(three_routes, budget, alpha):
     assert res.worst_member == worst.name and worst.worst_share == pytest.approx(res.worst_score, rel=1e-12)
     # greedy on the average is a candidate
     dev = DomainEvaluator(three_routes, "fast")
-    from sensorsel.selection import greedy
+    from sensorsel.designs.selection import greedy
 
     g = greedy(dev, budget, "uniform")
     assert set(res.candidates[0].suite) == set(g.suite)

@@ -1,7 +1,7 @@
 """The public run functions: what each CLI command calls, usable as-is from scripts and notebooks.
 
-Each takes a :class:`~sensorsel.problem.Problem` (one route) or, where it makes sense, a
-:class:`~sensorsel.problem.Domain` (an operating domain of routes, one suite for all), builds the
+Each takes a :class:`~sensorsel.model.problem.Problem` (one route) or, where it makes sense, a
+:class:`~sensorsel.model.problem.Domain` (an operating domain of routes, one suite for all), builds the
 evaluator, and records what it ran on (``target.info``). This is the top of the library's layers:
 nothing below it imports it. Everything here is importable from ``sensorsel`` itself.
 
@@ -22,29 +22,29 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Iterable
 
-from .requirements import FrontAcceptance, RequireResult, front_acceptance
-from .requirements import require as run_require
-from .results import result_kind
-from .certify import (DEFAULT_MAX_NODES, Certificate, CertifiedGreedyResult, OptimumResult, certificate,
-                      constraints_mismatch, optimal)
-from .checkpoint import resumable_greedy
-from .constraints import Constraints, feasible_set
-from .domain_design import DomainDesign
-from .domain_design import design_domain as _design_domain
-from .errors import InputError
-from .evaluators import DomainEvaluator, evaluator_for, make_evaluator
-from .evaluators.accuracy import RouteAccuracy, route_accuracy
-from .problem import Domain, DomainInfo, Problem, ProblemInfo, Target, load_domain, load_problem
-from .resilient import ALGORITHM_2, METHODS, ResilientReport, recorded
-from .resilient.records import method_name
-from .resilient import resilient_report as _resilient_report
-from .robust import RobustResult, robust_choice, robust_select, worst_route_select
-from .robust import run_robust as _run_robust
-from .selection import GreedyResult, Progress, check_budget, check_rule, greedy
-from .tradespace import run_tradespace
+from sensorsel.designs.certify import (DEFAULT_MAX_NODES, Certificate, CertifiedGreedyResult, OptimumResult,
+                                       certificate, constraints_mismatch, optimal)
+from sensorsel.designs.checkpoint import resumable_greedy
+from sensorsel.designs.domain_design import DomainDesign
+from sensorsel.designs.domain_design import design_domain as _design_domain
+from sensorsel.designs.requirements import FrontAcceptance, RequireResult, front_acceptance
+from sensorsel.designs.requirements import require as run_require
+from sensorsel.designs.resilient import ALGORITHM_2, METHODS, ResilientReport, recorded
+from sensorsel.designs.resilient import resilient_report as _resilient_report
+from sensorsel.designs.resilient.records import method_name
+from sensorsel.designs.robust import RobustResult, robust_choice, robust_select, worst_route_select
+from sensorsel.designs.robust import run_robust as _run_robust
+from sensorsel.designs.selection import GreedyResult, Progress, check_budget, check_rule, greedy
+from sensorsel.designs.tradespace import run_tradespace
+from sensorsel.errors import InputError
+from sensorsel.information.evaluators import DomainEvaluator, evaluator_for, make_evaluator
+from sensorsel.information.evaluators.accuracy import RouteAccuracy, route_accuracy
+from sensorsel.io.results import result_kind
+from sensorsel.model.constraints import Constraints, feasible_set
+from sensorsel.model.problem import Domain, DomainInfo, Problem, ProblemInfo, Target, load_domain, load_problem
 
 if TYPE_CHECKING:
-    from .simulate import simulate
+    from sensorsel.simulate import simulate
 
 __all__ = ["RouteAccuracy", "suite_accuracy", "run_require", "RequireResult", "FrontAcceptance", "front_acceptance", "CertifiedGreedyResult", "DomainDesign", "DomainScoreResult", "ProblemInfo", "RouteScore", "ScoreResult",
            "certify_result", "design_domain", "load_domain", "load_problem", "resilient_report", "run_greedy", "run_robust", "RobustResult",
@@ -110,7 +110,7 @@ def score_suite(problem: Problem, suite: str | Iterable[str | int], *, engine: s
 def suite_accuracy(target: Target, suite: str | Iterable[str | int], *, map_sigma_m: float | None = None,
                    engine: str | None = None) -> tuple[RouteAccuracy, ...]:
     """The accuracy of a suite in metres and degrees on every route of ``target`` (one for a
-    problem), per keyframe: :mod:`sensorsel.evaluators.accuracy`. ``map_sigma_m``: localizing in a
+    problem), per keyframe: :mod:`sensorsel.information.evaluators.accuracy`. ``map_sigma_m``: localizing in a
     prior map whose landmarks are known to that std [m]; None: the paper's SLAM graph."""
     problems = [(r.name, r.problem) for r in target.routes] if isinstance(target, Domain) else [(target.scenario.name, target)]
     positions = target.library.resolve_suite(suite)
@@ -122,20 +122,20 @@ def run_greedy(problem: Target, budget_usd: float, rule: str = "uniform", *, eng
                lazy: bool = True, aggregate: str = "normalised", progress: Progress | None = None,
                certify: bool = False, certify_progress: Progress | None = None, checkpoint: str | Path | None = None,
                resume: bool = False, constraints: Constraints | None = None) -> CertifiedGreedyResult:
-    """The ``sensorsel greedy`` run: :func:`~sensorsel.selection.greedy` with a fresh evaluator of
+    """The ``sensorsel greedy`` run: :func:`~sensorsel.designs.selection.greedy` with a fresh evaluator of
     ``engine`` for a problem or a domain (its routes combined by ``aggregate``), recording what it ran on.
 
-    With ``certify``, the result carries its :class:`~sensorsel.certify.Certificate` (an upper bound
+    With ``certify``, the result carries its :class:`~sensorsel.designs.certify.Certificate` (an upper bound
     on the best possible score within the budget), computed with the same evaluator: at most one sweep
     of the library per greedy step, fewer where a step provably cannot lower the bound
     (``certify_progress(done, total)`` after each); else its ``certificate`` is None.
 
-    ``checkpoint``: a file written after each pick (:mod:`sensorsel.checkpoint`); with ``resume``, an
+    ``checkpoint``: a file written after each pick (:mod:`sensorsel.designs.checkpoint`); with ``resume``, an
     interrupted run's checkpoint there is read back and the run goes on from it (same result but
     timings and evaluation counts).
 
     ``constraints``: limits besides the budget (resources, mounting slots, required and excluded
-    sensors, most sensors; :mod:`sensorsel.constraints`), recorded in the result.
+    sensors, most sensors; :mod:`sensorsel.model.constraints`), recorded in the result.
 
     Raises:
         InputError: a bad budget or rule, or constraints the library cannot meet (before any
@@ -163,7 +163,7 @@ def design_domain(domain: Domain, budget_usd: float, rule: str = "uniform", *, e
                   certify_progress: Progress | None = None, breakdown_progress: Progress | None = None,
                   evaluator: DomainEvaluator | None = None, checkpoint: str | Path | None = None,
                   resume: bool = False, constraints: Constraints | None = None) -> DomainDesign:
-    """The ``sensorsel greedy --domain`` run: :func:`sensorsel.domain_design.design_domain` (one suite
+    """The ``sensorsel greedy --domain`` run: :func:`sensorsel.designs.domain_design.design_domain` (one suite
     for every route, its certificate, its per-route breakdown). ``checkpoint``/``resume``: as for
     :func:`run_greedy`; the certificate and each route's breakdown are recorded too. ``constraints``:
     limits besides the budget, for the domain suite and each route's own design."""
@@ -227,7 +227,7 @@ class DomainScoreResult:
 def score_domain_suite(domain: Domain, suite: str | Iterable[str | int], *, engine: str | None = None,
                        aggregate: str = "normalised", evaluator: DomainEvaluator | None = None) -> DomainScoreResult:
     """Score a suite on every route of ``domain`` and combine the routes (see
-    :mod:`sensorsel.evaluators.domain`). ``evaluator``: the domain's evaluator already built (e.g. on
+    :mod:`sensorsel.information.evaluators.domain`). ``evaluator``: the domain's evaluator already built (e.g. on
     a Dask cluster); ``engine`` and ``aggregate`` are then its own."""
     lib = domain.library
     positions = lib.resolve_suite(suite)
@@ -242,7 +242,7 @@ def score_domain_suite(domain: Domain, suite: str | Iterable[str | int], *, engi
 def certify_result(target: Target, result: GreedyResult, *, engine: str | None = None, jobs: int = 1,
                    aggregate: str = "normalised", progress: Progress | None = None, force: bool = False) -> Certificate:
     """The certificate of a greedy result on ``target`` (an upper bound on the best possible score
-    within its budget; see :func:`sensorsel.certify.certificate`), with a fresh evaluator of
+    within its budget; see :func:`sensorsel.designs.certify.certificate`), with a fresh evaluator of
     ``engine`` (default: the result's own).
 
     The bound respects the constraints the result records (``result.constraints``: resources,
@@ -264,9 +264,9 @@ def run_optimal(target: Target, budget_usd: float, *, engine: str | None = None,
                 rule: str = "best-of", progress: Progress | None = None,
                 constraints: Constraints | None = None) -> OptimumResult:
     """The ``sensorsel optimal`` run: the best suite within the budget by branch and bound
-    (:func:`sensorsel.certify.optimal`), on a problem or a domain.
+    (:func:`sensorsel.designs.certify.optimal`), on a problem or a domain.
 
-    ``constraints``: limits besides the budget (:mod:`sensorsel.constraints`); the optimum is the
+    ``constraints``: limits besides the budget (:mod:`sensorsel.model.constraints`); the optimum is the
     best suite they allow, and the result records them.
 
     Raises:
@@ -296,12 +296,12 @@ ROBUST_AGGREGATES = ("normalised", "raw", "worst")
 def run_robust(target: Target, budget_usd: float, alpha: int, *, engine: str | None = None, jobs: int = 1,
                aggregate: str = "normalised", evaluator: DomainEvaluator | None = None, **kwargs) -> RobustResult:
     """The ``sensorsel robust`` run: the best worst case under ``alpha`` failures within the budget
-    (:func:`sensorsel.robust.run_robust`: the methods as a plan of tasks), on a problem or a domain.
+    (:func:`sensorsel.designs.robust.run_robust`: the methods as a plan of tasks), on a problem or a domain.
 
     ``aggregate``: with a domain, "normalised" or "raw" robustify the combined domain score; "worst"
     maximises the worst route's share of its best under the failures
-    (:func:`sensorsel.robust.worst_route_select`; a domain only). ``kwargs`` go to the selector;
-    ``constraints=`` (:mod:`sensorsel.constraints`) limits every candidate suite; ``executor=``,
+    (:func:`sensorsel.designs.robust.worst_route_select`; a domain only). ``kwargs`` go to the selector;
+    ``constraints=`` (:mod:`sensorsel.model.constraints`) limits every candidate suite; ``executor=``,
     ``outdir=`` and ``resume=`` choose where the tasks run and where their outcomes are kept
     (not with ``evaluator`` nor with "worst": one run on one evaluator).
     ``evaluator``: a domain's evaluator already built (e.g. on a Dask cluster; "worst" needs a
@@ -332,10 +332,10 @@ def run_robust(target: Target, budget_usd: float, alpha: int, *, engine: str | N
 
 def resilient_report(problem: Target, budget_usd: float, alpha: int, *, method: str = ALGORITHM_2,
                      **kwargs) -> ResilientReport:
-    """The ``sensorsel resilient`` run (:func:`sensorsel.resilient.resilient_report`): the whole-route
+    """The ``sensorsel resilient`` run (:func:`sensorsel.designs.resilient.resilient_report`): the whole-route
     comparison and the per-period selection. ``method``: "algorithm-2" (the paper's Algorithm 2, the
     default: published results unchanged; "paper", its name before, is read as it) or "robust"
-    (:func:`sensorsel.robust.robust_select` for the whole route and each period; its worst case is
+    (:func:`sensorsel.designs.robust.robust_select` for the whole route and each period; its worst case is
     never below greedy's nor Algorithm 2's)."""
     method = method_name(method)
     if method not in RESILIENT_METHODS:
@@ -348,7 +348,7 @@ def __getattr__(name: str) -> object:
     """``simulate`` (:func:`sensorsel.simulate.simulate`), imported when first asked for: the
     simulation imports gtsam (~0.1-0.15 s), which scoring and selecting do not need."""
     if name == "simulate":
-        from .simulate import simulate
+        from sensorsel.simulate import simulate
 
         return simulate
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -21,18 +21,18 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure, SubFigure
 from matplotlib.patches import Rectangle, Wedge
 
-from .errors import InputError
-from .fileio import atomic_write_bytes
-from .library import SensorLibrary
-from .problem import DomainInfo, ProblemInfo
-from .scenario import Scenario
+from sensorsel.errors import InputError
+from sensorsel.io.files import atomic_write_bytes
+from sensorsel.model.library import SensorLibrary
+from sensorsel.model.problem import DomainInfo, ProblemInfo
+from sensorsel.model.scenario import Scenario
 
 if TYPE_CHECKING:  # simulate imports gtsam; plotting needs only its result types
-    from .domain_design import DomainDesign
-    from .evaluators.accuracy import RouteAccuracy
-    from .requirements.front import FrontAcceptance
-    from .requirements.spec import Specification
-    from .simulate import SimulationResult
+    from sensorsel.designs.domain_design import DomainDesign
+    from sensorsel.designs.requirements.front import FrontAcceptance
+    from sensorsel.designs.requirements.spec import Specification
+    from sensorsel.information.evaluators.accuracy import RouteAccuracy
+    from sensorsel.simulate import SimulationResult
 
 FORMATS = {".png": "png", ".svg": "svg", ".pdf": "pdf"}
 
@@ -155,7 +155,7 @@ def plot_scene(
         suite: library positions of the sensors whose cones to draw.
         pose_index: keyframe at which to draw the cones (default: the middle one).
         ranges_m: each library sensor's range under an operating condition [m], (n_sensors,)
-            (:func:`sensorsel.sensing.condition_effects`): the cones are drawn that far, the clear
+            (:func:`sensorsel.model.sensing.condition_effects`): the cones are drawn that far, the clear
             cone's edge dashed behind a shrunk one. None: the models' own ranges.
         condition: the condition's label, for the title.
     Returns:
@@ -245,8 +245,8 @@ def plot_domain_scene(domain_path: str | Path, ax: Axes | None = None) -> Axes:
     Returns:
         The axes drawn on.
     """
-    from .domain import load_domain_file, load_domain_scenarios
-    from .osm.city import ATTRIBUTION, read_landmark_classes
+    from sensorsel.model.domain import load_domain_file, load_domain_scenarios
+    from sensorsel.model.osm.city import ATTRIBUTION, read_landmark_classes
 
     ax = ax or new_axes((8.0, 8.0))
     spec = load_domain_file(domain_path)
@@ -535,7 +535,7 @@ def plot_simulation_overview(results: "Sequence[SimulationResult]", scenario: Sc
 
 
 if TYPE_CHECKING:  # resilient needs no matplotlib; plotting needs only its grid type
-    from .resilient import SelectionGrid
+    from sensorsel.designs.resilient import SelectionGrid
 
 
 def plot_selection_grid(grid: "SelectionGrid", ax: Axes | None = None, *, title: str | None = None) -> Axes:
@@ -548,7 +548,7 @@ def plot_selection_grid(grid: "SelectionGrid", ax: Axes | None = None, *, title:
     that the 62 columns of the paper's library stay readable.
 
     Args:
-        grid: a :class:`sensorsel.resilient.SelectionGrid`.
+        grid: a :class:`sensorsel.designs.resilient.SelectionGrid`.
         ax: axes to draw on; a new figure when None.
         title: the axes' title (default: "Resilient selection per period").
     Returns:
@@ -608,7 +608,7 @@ def plot_selection_grid(grid: "SelectionGrid", ax: Axes | None = None, *, title:
 
 
 if TYPE_CHECKING:  # plotting needs only the tradespace's result type
-    from .tradespace import TradespaceResult
+    from sensorsel.designs.tradespace import TradespaceResult
 
 #: Colours and markers of the selectors in the tradespace plot (the paper's Fig. 4: uniform orange,
 #: cost-benefit blue). Hollow markers of different shapes keep suites made by several rules visible.
@@ -631,7 +631,7 @@ def plot_tradespace(result: "TradespaceResult", ax: Axes | None = None, *, log_c
     ``fractions`` of the best score are starred and labelled.
 
     Args:
-        result: a :class:`sensorsel.tradespace.TradespaceResult`.
+        result: a :class:`sensorsel.designs.tradespace.TradespaceResult`.
         ax: axes to draw on; a new figure when None.
         log_cost: logarithmic cost axis (the costs span $449 to $200,000 in the paper's library).
         fractions: fractions of the best score whose cheapest architecture to mark.
@@ -702,7 +702,7 @@ def plot_domain_breakdown(design: "DomainDesign", ax: Axes | None = None, *, tit
     worst route (lowest share of its own design) is labelled in red.
 
     Args:
-        design: a :class:`sensorsel.domain_design.DomainDesign`.
+        design: a :class:`sensorsel.designs.domain_design.DomainDesign`.
         ax: axes to draw on; a new figure when None.
     Returns:
         The axes drawn on.
@@ -751,7 +751,7 @@ def plot_front_accuracy(acceptance: "FrontAcceptance", ax: Axes | None = None, *
     """The Pareto front as cost [$] against the lateral 95 % error [m] (the worst route, at the
     specification's share of keyframes), each suite marked by whether it meets the specification,
     with the lateral requirement drawn as a line: which part of the front is acceptable."""
-    from .requirements.spec import Specification
+    from sensorsel.designs.requirements.spec import Specification
 
     ax = ax if ax is not None else new_axes((7.5, 5.0))
     pts = acceptance.points
@@ -796,7 +796,7 @@ def plot_accuracy_along_route(accuracies: "Sequence[tuple[str, RouteAccuracy]]",
     """A component's 95 % error (1.96σ, or 1σ if the specification is stated in σ) along the route
     [m or deg] against distance driven [m], one line per (label, accuracy), with the
     specification's bound drawn in."""
-    from .evaluators.accuracy import Z95
+    from sensorsel.information.evaluators.accuracy import Z95
 
     ax = ax if ax is not None else new_axes((8.0, 4.0))
     dist = _route_distance_m(scenario)

@@ -25,11 +25,11 @@ Relative paths are relative to the study file's folder.
 **A cell** is one (library, landmark seed, failures, rule, budget); cells are numbered in that
 order, the budget varying fastest. A cell with 0 failures is a greedy run (and its certificate:
 at most one sweep of the library per pick). A cell with alpha > 0 failures runs, by default, the
-paper's Algorithm 2 with the cell's rule (:func:`sensorsel.resilient.resilient_select`: the alpha
+paper's Algorithm 2 with the cell's rule (:func:`sensorsel.designs.resilient.resilient_select`: the alpha
 sensors with the best single scores assumed to fail, the rest of the budget spent greedily), and
 scores the suite's exact worst case; Algorithm 2 is chosen as the default because it is a fixed,
 bounded amount of work per cell (two greedy runs and C(|S|, alpha) evaluations), so a grid's cost
-is predictable. ``method: robust`` runs :func:`sensorsel.robust.robust_select` instead (greedy with
+is predictable. ``method: robust`` runs :func:`sensorsel.designs.robust.robust_select` instead (greedy with
 the cell's rule, Algorithm 2 and further methods, the best exact worst case kept, with an upper
 bound: its row's certificate is the worst case as a percentage of that bound), at a cost that
 depends on the bound's search.
@@ -57,25 +57,25 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Callable, ClassVar, NoReturn, Sequence
 
-from .results import result_kind
-from . import results
-from .certify import certificate
-from .errors import SensorselError
-from .evaluators import ENGINES, evaluator_for
-from .evaluators.domain import AGGREGATES
-from .evaluators.registry import check_engine
-from .domain import (ROUTE_KEYS, SYNTHETIC, Checker, DomainError, Map, Seq, load_domain_file, load_domain_scenarios,
-                     parse_route)
-from .domain import read_yaml as _read_domain_yaml
-from .fileio import atomic_write_text
-from .library import load_library
-from .problem import Fingerprint, GraphSettings, Target, TargetInfo, load_domain, load_problem
-from .progress import Progress
-from .pipeline import Executor, FileStore, NoStore, Plan, Store, digest, execute
-from .resilient import ALGORITHM_2, METHODS, method_name, resilient_select, worst_case  # METHODS: how a cell with failures chooses
-from .robust import robust_select
-from .scenario import ScenarioSpec, load_scenario
-from .selection import RULES, check_affordable, greedy
+from sensorsel.designs.certify import certificate
+from sensorsel.errors import SensorselError
+from sensorsel.information.evaluators import ENGINES, evaluator_for
+from sensorsel.information.evaluators.domain import AGGREGATES
+from sensorsel.information.evaluators.registry import check_engine
+from sensorsel.io import results
+from sensorsel.io.files import atomic_write_text
+from sensorsel.io.progress import Progress
+from sensorsel.io.results import result_kind
+from sensorsel.model.domain import (ROUTE_KEYS, SYNTHETIC, Checker, DomainError, Map, Seq, load_domain_file,
+                                    load_domain_scenarios, parse_route)
+from sensorsel.model.domain import read_yaml as _read_domain_yaml
+from sensorsel.model.library import load_library
+from sensorsel.model.problem import Fingerprint, GraphSettings, Target, TargetInfo, load_domain, load_problem
+from sensorsel.pipeline import Executor, FileStore, NoStore, Plan, Store, digest, execute
+from sensorsel.designs.resilient import ALGORITHM_2, METHODS, method_name, resilient_select, worst_case  # METHODS: how a cell with failures chooses
+from sensorsel.designs.robust import robust_select
+from sensorsel.designs.selection import RULES, check_affordable, greedy
+from sensorsel.model.scenario import ScenarioSpec, load_scenario
 
 #: Bumped when what a cell computes, or its file, changes (invalidates resume).
 FORMAT = 1
@@ -430,7 +430,7 @@ def _parse_target(c: _StudyChecker, raw: Any, line: int) -> tuple[ScenarioSpec |
 def _check_budgets(c: _StudyChecker, cells: list[Cell], targets: list[TargetFiles], budgets: list[float],
                    b_lines: list[int], failures: list[int], f_lines: list[int]) -> None:
     """Every budget must buy a sensor (more than alpha of them) from every library of the grid, as
-    a command's --budget must (:func:`sensorsel.selection.check_affordable`)."""
+    a command's --budget must (:func:`sensorsel.designs.selection.check_affordable`)."""
     seen: set[tuple[str, int, float]] = set()
     for cell in cells:
         lib_path = targets[cell.target].library

@@ -5,12 +5,12 @@ costs at most B, so T is limited to the *remaining* budget B - Cost(S), and
 
     f(S ∪ T) <= f(S) + max { Σ_{e ∈ T} Δ(e | S) : T ⊆ R, Cost(T) <= B - Cost(S) }
 
-bounds the node (f monotone submodular; see :mod:`sensorsel.certify.certificate`). A node whose
+bounds the node (f monotone submodular; see :mod:`sensorsel.designs.certify.certificate`). A node whose
 bound does not exceed the best suite found is dropped. The knapsacks are exact DP over the costs at
 their resolution (:mod:`.knapsack`), or their LP relaxation when the table would be too large.
 Deterministic for a deterministic evaluator (the wall time sits in a separate ``seconds`` field).
 
-**Constraints** (:mod:`sensorsel.constraints`): the search starts from the required sensors
+**Constraints** (:mod:`sensorsel.model.constraints`): the search starts from the required sensors
 (S = R at the root) and never lets an excluded sensor or one that breaks a row of A x <= b join, so
 every node's suite is feasible. A node's completions T must fit what S leaves of *every* row, so its
 bound is f(S) + the integer program over the gains (:func:`~.knapsack.packing_bound`, HiGHS's
@@ -20,7 +20,7 @@ required or excluded, the search is exactly the single-knapsack one above.
 
 Nothing fits: :func:`optimal` answers a budget below the cheapest sensor with the empty suite,
 proved optimal, whose ``stop_reason`` says why (a library caller sweeping budgets may want it). The
-CLI refuses such a request up front with :func:`sensorsel.selection.check_affordable` (exit 2).
+CLI refuses such a request up front with :func:`sensorsel.designs.selection.check_affordable` (exit 2).
 """
 
 from __future__ import annotations
@@ -34,17 +34,18 @@ from typing import Callable
 
 import numpy as np
 
-from ..results import result_kind
-from ..evaluators.accuracy import RouteAccuracy
-from ..constraints import Constraints, FeasibleSet, feasible_set
-from ..errors import InputError
-from ..library import SensorLibrary
-from ..evaluators import Evaluator
-from ..problem import TargetInfo
-from ..selection import REL_TOL, RULES, GreedyResult, check_budget, check_rule, greedy
-from .certificate import certificate
-from .resume import CHECKPOINT_EVERY, OptimalCheckpoint, heap_of, open_nodes, read_checkpoint, save_checkpoint, search_fingerprint
-from .knapsack import MAX_DP_CELLS, CostUnits, cost_units, fractional_bound, packing_bound
+from sensorsel.designs.certify.certificate import certificate
+from sensorsel.designs.certify.knapsack import MAX_DP_CELLS, CostUnits, cost_units, fractional_bound, packing_bound
+from sensorsel.designs.certify.resume import (CHECKPOINT_EVERY, OptimalCheckpoint, heap_of, open_nodes,
+                                              read_checkpoint, save_checkpoint, search_fingerprint)
+from sensorsel.designs.selection import REL_TOL, RULES, GreedyResult, check_budget, check_rule, greedy
+from sensorsel.errors import InputError
+from sensorsel.information.evaluators import Evaluator
+from sensorsel.information.evaluators.accuracy import RouteAccuracy
+from sensorsel.io.results import result_kind
+from sensorsel.model.constraints import Constraints, FeasibleSet, feasible_set
+from sensorsel.model.library import SensorLibrary
+from sensorsel.model.problem import TargetInfo
 
 #: Default node limit of the exact suite search (nodes whose marginal gains are swept).
 DEFAULT_MAX_NODES = 2_000
@@ -96,7 +97,7 @@ class OptimumResult:
         problem: what it was computed on.
         seconds: wall time [s] (the only field that varies between runs, unless ``max_seconds`` stopped it).
         constraints: the limits besides the budget every suite searched respects
-            (:class:`~sensorsel.constraints.Constraints`); None: the budget alone.
+            (:class:`~sensorsel.model.constraints.Constraints`); None: the budget alone.
         accuracy: the chosen suite's accuracy in metres on each route (empty when not computed;
             the command line computes it).
     """
@@ -152,7 +153,7 @@ def optimal(evaluator: Evaluator, budget_usd: float, *, max_nodes: int = DEFAULT
     (all m children's knapsacks come from one DP over the items in reverse order). Nodes are expanded
     highest bound first; when the highest bound left does not beat the best suite found (by more than
     a relative 1e-9), that suite is optimal; so it is when the certificate bound of a greedy run
-    (:func:`~sensorsel.certify.certificate`) does not beat it. Otherwise, at the node or time limit,
+    (:func:`~sensorsel.designs.certify.certificate`) does not beat it. Otherwise, at the node or time limit,
     the highest bound left (or the certificate bound, if smaller) is an upper bound on the optimum.
 
     Args:
@@ -161,10 +162,10 @@ def optimal(evaluator: Evaluator, budget_usd: float, *, max_nodes: int = DEFAULT
         max_seconds: also stop after this much wall time [s] (makes the result depend on speed).
         exclude: library positions that may not be bought.
         incumbent: a greedy result to start from (must be a run on this problem).
-        rule: the greedy rule or strategy (:data:`sensorsel.selection.RULES`) run when ``incumbent`` is None.
+        rule: the greedy rule or strategy (:data:`sensorsel.designs.selection.RULES`) run when ``incumbent`` is None.
         progress: called as progress(nodes_expanded, max_nodes).
         info: what the problem is, recorded in the result.
-        constraints: limits besides the budget (:mod:`sensorsel.constraints`); None: the budget alone
+        constraints: limits besides the budget (:mod:`sensorsel.model.constraints`); None: the budget alone
             (the library's slots ignored). The greedy incumbent runs under them (a given ``incumbent``
             must have run under the same ones).
         checkpoint: a file where the greedy start, then every ``checkpoint_every`` expanded nodes the

@@ -20,13 +20,13 @@ from typing import Any
 
 import numpy as np
 
-from .. import results
-from ..codec import to_jsonable
-from ..pipeline import digest
-from ..pipeline.store import load_matching
-from ..problem import DomainInfo, ProblemInfo, TargetInfo
-from ..results import result_kind
-from ..selection import GreedyResult
+from sensorsel.designs.selection import GreedyResult
+from sensorsel.io import results
+from sensorsel.io.codec import to_jsonable
+from sensorsel.io.results import result_kind
+from sensorsel.model.problem import DomainInfo, ProblemInfo, TargetInfo
+from sensorsel.pipeline import digest
+from sensorsel.pipeline.store import load_matching
 
 #: expanded nodes between two checkpoints of the search state
 CHECKPOINT_EVERY = 500

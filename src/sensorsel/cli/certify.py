@@ -11,28 +11,28 @@ from typing import Any
 
 import click
 
-from .. import results
-from ..checkpoint import checkpoint_path
-from ..certify import (DEFAULT_MAX_NODES, Certificate, CertifiedGreedyResult, certify_greedy, constraints_mismatch,
-                       format_certificate, optimal)
-from ..constraints import Constraints, feasible_set
-from ..domain_design import DomainDesign
-from ..errors import InputError, ResultFileError
-from ..evaluators import DomainEvaluator
-from ..fileio import output_file
-from ..library import SensorLibrary
-from ..problem import ProblemMismatchWarning, check_result_problem
-from ..selection import GreedyResult, check_affordable, check_budget, greedy
-from .cluster import evaluator_on, require_domain
+from sensorsel.cli.cluster import evaluator_on, require_domain
+from sensorsel.designs.certify import (DEFAULT_MAX_NODES, Certificate, CertifiedGreedyResult, certify_greedy,
+                                       constraints_mismatch, format_certificate, optimal)
+from sensorsel.designs.checkpoint import checkpoint_path
+from sensorsel.designs.domain_design import DomainDesign
+from sensorsel.designs.selection import GreedyResult, check_affordable, check_budget, greedy
+from sensorsel.errors import InputError, ResultFileError
+from sensorsel.information.evaluators import DomainEvaluator
+from sensorsel.io import results
+from sensorsel.io.files import output_file
+from sensorsel.model.constraints import Constraints, feasible_set
+from sensorsel.model.library import SensorLibrary
+from sensorsel.model.problem import ProblemMismatchWarning, check_result_problem
 from dataclasses import replace
 
-from ..api import suite_accuracy
-from .options import check_map_sigma, map_sigma_option, print_accuracy
-from .options import cluster_from, cluster_options, resume_option
-from .options import (not_empty, budget_option, force_option, engine_options, json_option, output_option, progress_bar, quiet_option,
-                      print_target, run, target_from, target_options)
-from .options import constraint_options, constraints_from, usage_table
-from .rules import kept_label, rule_option
+from sensorsel.api import suite_accuracy
+from sensorsel.cli.options import (not_empty, budget_option, force_option, engine_options, json_option, output_option,
+                                   progress_bar, quiet_option, print_target, run, target_from, target_options)
+from sensorsel.cli.options import check_map_sigma, map_sigma_option, print_accuracy
+from sensorsel.cli.options import cluster_from, cluster_options, resume_option
+from sensorsel.cli.options import constraint_options, constraints_from, usage_table
+from sensorsel.cli.rules import kept_label, rule_option
 
 
 def _suite_text(ids: tuple[str, ...]) -> str:

@@ -9,21 +9,22 @@ from typing import Any
 
 import click
 
-from .. import results
-from ..errors import InputError
-from ..fileio import output_dir
-from ..problem import Domain
-from ..resilient import ALGORITHM_2, METHODS
-from ..resilient.records import method_name
+from sensorsel.designs.resilient import ALGORITHM_2, METHODS
+from sensorsel.designs.resilient.records import method_name
+from sensorsel.errors import InputError
+from sensorsel.io import results
+from sensorsel.io.files import output_dir
+from sensorsel.model.problem import Domain
 from dataclasses import replace
 
-from ..api import suite_accuracy
-from .options import check_map_sigma, map_sigma_option, print_accuracy
-from .options import cluster_from, cluster_options, resume_option, constraint_options, constraints_from, usage_table
-from .options import (budget_option, engine_options, json_option, output_option, plot_format_option, progress_bar,
-                      print_target, quiet_option, run, table, target_from, target_options)
-from .options import plot_format as plot_format_of
-from .rules import rule_option
+from sensorsel.api import suite_accuracy
+from sensorsel.cli.options import (budget_option, engine_options, json_option, output_option, plot_format_option,
+                                   progress_bar, print_target, quiet_option, run, table, target_from, target_options)
+from sensorsel.cli.options import (cluster_from, cluster_options, resume_option, constraint_options, constraints_from,
+                                   usage_table)
+from sensorsel.cli.options import check_map_sigma, map_sigma_option, print_accuracy
+from sensorsel.cli.options import plot_format as plot_format_of
+from sensorsel.cli.rules import rule_option
 
 
 class MethodChoice(click.Choice):
@@ -76,8 +77,8 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, rule: str, method:
     With --domain FILE the comparison is on the domain's score (one suite for all its routes); there
     are no periods then (a period is a stretch of one route).
     """
-    from ..resilient import check_alpha, check_period
-    from ..selection import check_affordable, check_budget
+    from sensorsel.designs.resilient import check_alpha, check_period
+    from sensorsel.designs.selection import check_affordable, check_budget
 
     budget = check_budget(budget)
     fmt = plot_format_of(plot_format)
@@ -118,8 +119,8 @@ def _report(problem: Any, budget: float, alpha: int, period_s: float, rule: str,
             engine: str | None, jobs: int, out: Path, resume: bool, quiet: bool, cluster: Any, constraints: Any = None) -> Any:
     """The resilient report: a domain's comparison, or a route's comparison and periods (in-process,
     or as tasks on a cluster), with one progress bar over the periods."""
-    from ..api import resilient_report
-    from ..resilient import split_periods
+    from sensorsel.api import resilient_report
+    from sensorsel.designs.resilient import split_periods
 
     if isinstance(problem, Domain):
         return resilient_report(problem, budget, alpha, period_s=None, rule=rule, engine=engine, jobs=jobs,
@@ -137,8 +138,8 @@ def _report(problem: Any, budget: float, alpha: int, period_s: float, rule: str,
 
 def _write(report: Any, problem: Any, out: Path, fmt: str, period_s: float, alpha: int, budget: float, method: str) -> list[Path]:
     """resilient.json, and for a route grid.csv and the grid plot."""
-    from ..plotting import plot_selection_grid, save_figure, use_file_backend
-    from ..resilient import save_grid_csv
+    from sensorsel.designs.resilient import save_grid_csv
+    from sensorsel.plotting import plot_selection_grid, save_figure, use_file_backend
 
     written = [results.save(report, out / "resilient.json")]
     per = report.per_period
@@ -186,7 +187,7 @@ def _print_usage(report: Any, lib: Any) -> None:
     """Under constraints: the limits, and what the whole route's chosen suite uses of each."""
     if report.constraints is None:
         return
-    from ..constraints import feasible_set
+    from sensorsel.model.constraints import feasible_set
 
     click.echo(f"\nlimits    {report.constraints.describe()} (every suite above and every period's); "
                f"the chosen suite uses:")

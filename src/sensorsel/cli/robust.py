@@ -8,19 +8,20 @@ from typing import Any
 
 import click
 
-from .. import results
-from ..api import ROBUST_AGGREGATES  # --aggregate of this command: the combined score (as elsewhere), or the worst route
-from ..problem import Domain
-from ..library import SensorLibrary
-from ..fileio import output_file
-from .cluster import domain_evaluator_on, require_domain
+from sensorsel.io import results
+from sensorsel.api import ROBUST_AGGREGATES  # --aggregate of this command: the combined score (as elsewhere), or the worst route
+from sensorsel.cli.cluster import domain_evaluator_on, require_domain
+from sensorsel.io.files import output_file
+from sensorsel.model.library import SensorLibrary
+from sensorsel.model.problem import Domain
 from dataclasses import replace
 
-from ..api import suite_accuracy
-from .options import check_map_sigma, map_sigma_option, print_accuracy
-from .options import cluster_from, cluster_options, resume_option
-from .options import (budget_option, compact_suite, constraint_options, constraints_from, engine_options, json_option,
-                      output_option, print_target, quiet_option, run, table, target_from, target_options, usage_table)
+from sensorsel.api import suite_accuracy
+from sensorsel.cli.options import (budget_option, compact_suite, constraint_options, constraints_from, engine_options,
+                                   json_option, output_option, print_target, quiet_option, run, table, target_from,
+                                   target_options, usage_table)
+from sensorsel.cli.options import check_map_sigma, map_sigma_option, print_accuracy
+from sensorsel.cli.options import cluster_from, cluster_options, resume_option
 
 
 
@@ -85,9 +86,9 @@ def robust_cmd(budget: float, alpha: int, rules: str, methods: str | None, no_sk
     --limit, --require, --exclude, --max-sensors and the library's slots hold for every candidate;
     the bound then relaxes them to the budget alone (still an upper bound).
     """
-    from ..api import run_robust
-    from ..resilient import check_alpha
-    from ..selection import check_affordable, check_budget
+    from sensorsel.api import run_robust
+    from sensorsel.designs.resilient import check_alpha
+    from sensorsel.designs.selection import check_affordable, check_budget
 
     budget, alpha = check_budget(budget), check_alpha(alpha)
     map_sigma = check_map_sigma(map_sigma)
@@ -98,7 +99,7 @@ def robust_cmd(budget: float, alpha: int, rules: str, methods: str | None, no_sk
     if output:
         output_file(output)
     rule_list = tuple(r.strip() for r in rules.split(",") if r.strip())
-    from ..robust import EXTRA_METHODS, WORST_METHODS
+    from sensorsel.designs.robust import EXTRA_METHODS, WORST_METHODS
 
     method_list: tuple[str, ...]
     if methods is None:
@@ -164,7 +165,7 @@ def method_words(method: str) -> str:
 
 
 def print_robust(res: Any, lib: SensorLibrary | None = None) -> None:
-    """The summary of a :class:`~sensorsel.robust.RobustResult`: greedy, Algorithm 2 and the robust design
+    """The summary of a :class:`~sensorsel.designs.robust.RobustResult`: greedy, Algorithm 2 and the robust design
     side by side, the winning method, every candidate, and (worst route) the per-route breakdown."""
     worst = res.aggregate == "worst"
     unit = "share of the route's best" if worst else "nats"
@@ -204,7 +205,7 @@ def print_robust(res: Any, lib: SensorLibrary | None = None) -> None:
         method, _, why = s.partition(": ")
         click.echo(f"skipped: {method_words(method)}: {why}" if why else f"skipped: {s}")
     if res.constraints is not None and lib is not None:
-        from ..constraints import feasible_set
+        from sensorsel.model.constraints import feasible_set
 
         click.echo(f"\nlimits     {res.constraints.describe()}"
                    + (f"; bound: {res.bound_detail.relaxation}" if res.bound_detail.relaxation else ""))

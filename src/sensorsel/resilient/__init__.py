@@ -7,12 +7,12 @@ Constraints" (arXiv 1804.01013), Algorithm 1, with the matroid replaced by the c
    assumed to fail. They are picked greedily by f({e}): at each of alpha steps, among the sensors not
    yet picked that are *affordable* (the failing set's total cost stays within the budget once the
    sensor is added) and *informative* (f({e}) above round-off), the one with the largest f({e}) is
-   picked; ties (relative 1e-9, as in :mod:`sensorsel.selection`) go to the cheaper sensor, then
+   picked; ties (relative 1e-9, as in :mod:`sensorsel.designs.selection`) go to the cheaper sensor, then
    the smaller id. A sensor that does not fit is skipped and the next one is tried, as Tzoumas et
    al. skip an element that would leave the matroid. Fewer than alpha sensors are picked only when
    fewer are informative and fit (the result says so).
 2. **Active set.** The rest of the budget (budget minus the failing set's cost) is spent by greedy
-   selection (:func:`sensorsel.selection.greedy`, the uniform rule by default) on the library
+   selection (:func:`sensorsel.designs.selection.greedy`, the uniform rule by default) on the library
    without the failing sensors, starting from the empty suite.
 
 The resilient suite is the union; alpha = 0 is plain greedy selection.
@@ -34,7 +34,7 @@ with a :class:`CacheWarning` naming it, then recomputed and overwritten.
 sensor gives empty suites with the greedy stop reason, and fewer than alpha affordable informative
 sensors give a failing set that says so (``failure_note``); a per-period run or a budget sweep may
 ask for that. A command's request that cannot buy more sensors than alpha is refused up front by
-:func:`sensorsel.selection.check_affordable` (exit 2, naming ``--budget`` or ``--failures``).
+:func:`sensorsel.designs.selection.check_affordable` (exit 2, naming ``--budget`` or ``--failures``).
 
 Modules: :mod:`.records` (result records), :mod:`.algorithm` (failing set, resilient selection,
 worst case, whole-route comparison), :mod:`.periods` (periods, their run, the grid) and
@@ -47,21 +47,21 @@ import time
 from pathlib import Path
 from typing import Any
 
-from ..constraints import Constraints, feasible_set
-from ..errors import InputError
-from ..evaluators import evaluator_for
-from ..pipeline import Executor
-from ..problem import Problem, Target
-from ..selection import check_budget
-from .algorithm import MAX_FAILURE_SETS, check_alpha, check_rule, compare, failing_set, recorded, resilient_select, worst_case
-from .cache import CacheWarning
-from .periods import (
-    DEFAULT_PERIOD_S, Progress, Selector, check_method, check_period, make_grid, period_file, period_scenario, run_periods, save_grid_csv, split_periods,
-)
-from .records import (
-    ACTIVE, ALGORITHM_2, FAILED, METHODS, UNUSED, Comparison, PerPeriodResult, PeriodResult, PeriodSpan, ResilientReport, ResilientResult,
-    RobustChoice, SelectionGrid, WorstCase, method_name,
-)
+from sensorsel.designs.resilient.algorithm import (MAX_FAILURE_SETS, check_alpha, check_rule, compare, failing_set,
+                                                   recorded, resilient_select, worst_case)
+from sensorsel.designs.resilient.cache import CacheWarning
+from sensorsel.designs.resilient.periods import (DEFAULT_PERIOD_S, Progress, Selector, check_method, check_period,
+                                                 make_grid, period_file, period_scenario, run_periods, save_grid_csv,
+                                                 split_periods)
+from sensorsel.designs.resilient.records import (ACTIVE, ALGORITHM_2, FAILED, METHODS, UNUSED, Comparison,
+                                                 PerPeriodResult, PeriodResult, PeriodSpan, ResilientReport,
+                                                 ResilientResult, RobustChoice, SelectionGrid, WorstCase, method_name)
+from sensorsel.designs.selection import check_budget
+from sensorsel.errors import InputError
+from sensorsel.information.evaluators import evaluator_for
+from sensorsel.model.constraints import Constraints, feasible_set
+from sensorsel.model.problem import Problem, Target
+from sensorsel.pipeline import Executor
 
 __all__ = [
     "ACTIVE", "ALGORITHM_2", "DEFAULT_PERIOD_S", "FAILED", "MAX_FAILURE_SETS", "METHODS", "RobustChoice", "Selector", "UNUSED", "check_method", "CacheWarning", "Comparison", "PerPeriodResult",
@@ -80,14 +80,14 @@ def resilient_report(problem: Target, budget_usd: float, alpha: int, *, period_s
 
     With ``outdir``, the comparison is cached in ``outdir/periods/route.json`` and each period in
     ``outdir/periods/period-NNNN.json``; ``resume`` reuses those whose inputs match (and warns about the others).
-    On a :class:`~sensorsel.problem.Domain` the comparison is on the domain's score and there are no
+    On a :class:`~sensorsel.model.problem.Domain` the comparison is on the domain's score and there are no
     periods (a period is a stretch of one route): ``period_s`` must then be None.
 
     ``method="robust"`` chooses the whole route's suite and each period's with ``selector`` (robust
     selection, see :data:`~.periods.Selector`; :func:`sensorsel.api.resilient_report` passes it) instead
     of Algorithm 2; the greedy / Algorithm 2 comparison of the whole route is kept beside it.
 
-    ``constraints``: limits besides the budget (:mod:`sensorsel.constraints`) that every suite of the
+    ``constraints``: limits besides the budget (:mod:`sensorsel.model.constraints`) that every suite of the
     report keeps: greedy's, Algorithm 2's (failing and active set together), the robust choice's and
     every period's; recorded in the report and in every cached file's fingerprint.
 

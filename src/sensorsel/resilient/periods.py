@@ -11,19 +11,22 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
-from .. import results
-from ..constraints import Constraints, feasible_set
-from ..errors import InputError
-from ..fileio import atomic_write_text
-from ..library import SensorLibrary
-from ..evaluators import make_evaluator
-from ..pipeline import Executor, FileStore, NoStore, Plan, Store, execute
-from ..problem import Fingerprint, Problem, build_problem
-from ..scenario import Scenario
-from ..selection import check_budget
-from .algorithm import check_alpha, check_rule, constraints_key, engine_name, recorded, resilient_select, worst_case
-from .cache import fingerprint
-from .records import ACTIVE, ALGORITHM_2, FAILED, METHODS, UNUSED, PeriodResult, PeriodSpan, PerPeriodResult, RobustChoice, SelectionGrid, WorstCase, method_name
+from sensorsel.designs.resilient.algorithm import (check_alpha, check_rule, constraints_key, engine_name, recorded,
+                                                   resilient_select, worst_case)
+from sensorsel.designs.resilient.cache import fingerprint
+from sensorsel.designs.resilient.records import (ACTIVE, ALGORITHM_2, FAILED, METHODS, UNUSED, PeriodResult,
+                                                 PeriodSpan, PerPeriodResult, RobustChoice, SelectionGrid, WorstCase,
+                                                 method_name)
+from sensorsel.designs.selection import check_budget
+from sensorsel.errors import InputError
+from sensorsel.information.evaluators import make_evaluator
+from sensorsel.io import results
+from sensorsel.io.files import atomic_write_text
+from sensorsel.model.constraints import Constraints, feasible_set
+from sensorsel.model.library import SensorLibrary
+from sensorsel.model.problem import Fingerprint, Problem, build_problem
+from sensorsel.model.scenario import Scenario
+from sensorsel.pipeline import Executor, FileStore, NoStore, Plan, Store, execute
 
 #: progress(done, total): called after each period (computed or reused).
 Progress = Callable[[int, int], None]
@@ -31,7 +34,7 @@ Progress = Callable[[int, int], None]
 #: selector(evaluator, budget, alpha, info[, constraints=...]) -> (choice, its worst case): how
 #: ``method="robust"`` chooses a suite (``constraints=`` is passed only when the run has some).
 #: Robust selection lives in a layer above this package, so its caller passes it in
-#: (:func:`sensorsel.robust.robust_choice`; :func:`sensorsel.api.resilient_report` does).
+#: (:func:`sensorsel.designs.robust.robust_choice`; :func:`sensorsel.api.resilient_report` does).
 Selector = Callable[..., tuple[RobustChoice, WorstCase]]
 
 
@@ -193,7 +196,7 @@ def run_periods(problem: Problem, budget_usd: float, alpha: int, *, period_s: fl
         period_s: period length [s] of the keyframe timestamps.
         outdir: folder whose ``periods/`` receives one JSON file per period as it completes.
         resume: reuse period files whose fingerprint matches this run's inputs (a file that does not
-            match is reported with a :class:`~sensorsel.resilient.cache.CacheWarning` and recomputed).
+            match is reported with a :class:`~sensorsel.designs.resilient.cache.CacheWarning` and recomputed).
         progress: progress(periods done, total) after each period.
         method: "algorithm-2" (the paper's Algorithm 2 per period) or "robust" (``selector`` per period).
         selector: robust selection (see :data:`Selector`), needed by "robust".

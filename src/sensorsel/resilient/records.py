@@ -1,18 +1,18 @@
 """The records of resilient selection: worst cases, selections, comparisons, periods, the grid, the report.
 
-Plain frozen dataclasses (they serialize with :mod:`sensorsel.results`); no computation here.
+Plain frozen dataclasses (they serialize with :mod:`sensorsel.io.results`); no computation here.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..results import result_kind
-from ..evaluators.accuracy import RouteAccuracy
-from ..constraints import Constraints
-from ..errors import InputError
-from ..problem import TargetInfo
-from ..selection import GreedyResult
+from sensorsel.designs.selection import GreedyResult
+from sensorsel.errors import InputError
+from sensorsel.information.evaluators.accuracy import RouteAccuracy
+from sensorsel.io.results import result_kind
+from sensorsel.model.constraints import Constraints
+from sensorsel.model.problem import TargetInfo
 
 #: Cell states of the selection grid.
 FAILED, ACTIVE, UNUSED = "failed", "active", ""
@@ -69,7 +69,7 @@ class ResilientResult:
         problem: what it was computed on.
         seconds: wall time [s] (varies between runs).
         constraints: the limits besides the budget the failing and the active set together respected
-            (:class:`~sensorsel.constraints.Constraints`); None: the budget alone.
+            (:class:`~sensorsel.model.constraints.Constraints`); None: the budget alone.
     """
 
     alpha: int
@@ -179,7 +179,7 @@ def _rename_method(record: object) -> None:
 
 @dataclass(frozen=True)
 class RobustChoice:
-    """The suite robust selection chose (:func:`sensorsel.robust.robust_select`), in short.
+    """The suite robust selection chose (:func:`sensorsel.designs.robust.robust_select`), in short.
 
     Attributes:
         method: the candidate method that won ("greedy-marginal", "algorithm-2", "saturate", ...).

@@ -15,15 +15,17 @@ Maximise g(S) = min over F ⊆ S, |F| <= alpha, of f(S minus F) over suites with
   of its best, under alpha failures): ``--aggregate worst``.
 """
 
-from .bound import knapsack_drop, robust_bound
-from .exact import robust_optimum
-from .family import EvaluatorFamily, FailureFamily, Family
-from .memo import MemoEvaluator, memoized
-from .methods import local_search, oblivious_greedy, saturate
-from .records import BoundLeaf, Candidate, MemberWorst, RobustBound, RobustOptimum, RobustResult, better
-from .select import DEFAULT_RULES, EXTRA_METHODS, robust_choice, robust_select, run_robust
-from .tasks import ALGORITHM_2, MethodOutcome, MethodTask, RobustSettings, RobustTaskRecord, run_method
-from .worst import WORST_METHODS, RouteFailureFamily, worst_route_select
+from sensorsel.designs.robust.bound import knapsack_drop, robust_bound
+from sensorsel.designs.robust.exact import robust_optimum
+from sensorsel.designs.robust.family import EvaluatorFamily, FailureFamily, Family
+from sensorsel.designs.robust.memo import MemoEvaluator, memoized
+from sensorsel.designs.robust.methods import local_search, oblivious_greedy, saturate
+from sensorsel.designs.robust.records import (BoundLeaf, Candidate, MemberWorst, RobustBound, RobustOptimum,
+                                              RobustResult, better)
+from sensorsel.designs.robust.select import DEFAULT_RULES, EXTRA_METHODS, robust_choice, robust_select, run_robust
+from sensorsel.designs.robust.tasks import (ALGORITHM_2, MethodOutcome, MethodTask, RobustSettings, RobustTaskRecord,
+                                            run_method)
+from sensorsel.designs.robust.worst import WORST_METHODS, RouteFailureFamily, worst_route_select
 
 __all__ = [
     "ALGORITHM_2", "MethodOutcome", "MethodTask", "RobustSettings", "RobustTaskRecord", "better", "run_method",

@@ -2,7 +2,7 @@
 
 The robust methods score many suites more than once (the greedy runs share their first sweep, the
 worst case of a suite re-scores the greedy prefix it came from, the bound re-scores survivors, local
-search revisits neighbours). :class:`MemoEvaluator` wraps any :class:`~sensorsel.evaluators.Evaluator`
+search revisits neighbours). :class:`MemoEvaluator` wraps any :class:`~sensorsel.information.evaluators.Evaluator`
 and keeps f(S) for every canonical suite it has seen. Its ``n_evaluations`` counts the suites the
 wrapped engine really scored; ``n_lookups`` counts every request.
 
@@ -16,7 +16,7 @@ from typing import Iterable, Sequence
 
 import numpy as np
 
-from ..evaluators import Evaluator, Suite, as_suite
+from sensorsel.information.evaluators import Evaluator, Suite, as_suite
 
 
 class MemoEvaluator(Evaluator):

@@ -4,9 +4,9 @@ Every method returns a suite; :mod:`.select` scores each by its exact worst case
 Notation: V the library (n sensors), B the budget, alpha the failures, g(S) = min over F ⊆ S,
 |F| = alpha of f(S minus F), OPT_r = max g(S) over Cost(S) <= B.
 
-``greedy-<rule>``  plain greedy (:func:`sensorsel.selection.greedy`) with the rule. Nominal
+``greedy-<rule>``  plain greedy (:func:`sensorsel.designs.selection.greedy`) with the rule. Nominal
                    guarantees only ((1 - 1/e)/2 for best-of); no robust guarantee.
-``algorithm-2``    the paper's Algorithm 2 (:func:`sensorsel.resilient.resilient_select`, after
+``algorithm-2``    the paper's Algorithm 2 (:func:`sensorsel.designs.resilient.resilient_select`, after
                    Tzoumas, Jadbabaie & Pappas): the alpha best singletons, then greedy on the rest.
                    Its proved bound (curvature-dependent) is for matroid constraints; under a knapsack
                    budget it is a heuristic.
@@ -30,7 +30,7 @@ Notation: V the library (n sensors), B the budget, alpha the failures, g(S) = mi
                    exact worst case and stays in budget; first improvement in a fixed order; at most
                    ``max_rounds`` moves and ``max_evaluations`` suites scored. Only ever improves g.
 
-Constraints (:mod:`sensorsel.constraints`, a ``feasible`` set): every method returns a suite of
+Constraints (:mod:`sensorsel.model.constraints`, a ``feasible`` set): every method returns a suite of
 it. Oblivious-Greedy's oblivious part and its greedy run keep every limit together (as Algorithm 2);
 SATURATE's cover starts from the required sensors and adds only sensors that fit every limit on top
 of the suite, its cost-effectiveness measured in the dollar-equivalent cost of the cost-aware rules;
@@ -45,12 +45,12 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from ..constraints import Constraints, FeasibleSet
-from ..evaluators import Evaluator, as_suite
-from ..library import SensorLibrary
-from ..resilient import failing_set
-from ..selection import REL_TOL, greedy
-from .family import Family
+from sensorsel.designs.resilient import failing_set
+from sensorsel.designs.robust.family import Family
+from sensorsel.designs.selection import REL_TOL, greedy
+from sensorsel.information.evaluators import Evaluator, as_suite
+from sensorsel.model.constraints import Constraints, FeasibleSet
+from sensorsel.model.library import SensorLibrary
 
 #: Bisection levels of SATURATE.
 DEFAULT_SATURATE_LEVELS = 5

@@ -1,4 +1,4 @@
-"""Records of robust selection (frozen dataclasses; they serialize with :mod:`sensorsel.results`).
+"""Records of robust selection (frozen dataclasses; they serialize with :mod:`sensorsel.io.results`).
 
 Wall times are in fields named ``seconds`` (the only fields that differ between two identical runs).
 """
@@ -8,11 +8,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Sequence
 
-from ..results import result_kind
-from ..evaluators.accuracy import RouteAccuracy
-from ..constraints import Constraints
-from ..problem import TargetInfo
-from ..selection import REL_TOL as TIE_TOL
+from sensorsel.designs.selection import REL_TOL as TIE_TOL
+from sensorsel.information.evaluators.accuracy import RouteAccuracy
+from sensorsel.io.results import result_kind
+from sensorsel.model.constraints import Constraints
+from sensorsel.model.problem import TargetInfo
 
 
 @dataclass(frozen=True)

@@ -3,7 +3,7 @@
 Order of work (each suite is scored at most once: the evaluator is memoized):
 
 1. plain greedy with the uniform rule (the paper's Algorithm 1: the answer's floor);
-2. the paper's Algorithm 2 (:func:`sensorsel.resilient.resilient_select`);
+2. the paper's Algorithm 2 (:func:`sensorsel.designs.resilient.resilient_select`);
 3. the upper bound (:func:`.bound.robust_bound`) anchored at the candidates' worst-case survivors.
    Its "exact" leaves with no sensor assumed failed are suites within the budget whose worst case it
    has computed: each becomes a candidate ("bound-leaf", free: memoized). When the bound equals the
@@ -16,10 +16,10 @@ Order of work (each suite is scored at most once: the evaluator is memoized):
 
 The answer is the candidate with the highest exact worst case; ties (relative 1e-9) go to the higher
 nominal score, then the lower cost, then the smaller ids in library order. Since the uniform greedy
-suite and Algorithm 2's suite are candidates scored with the same exact :func:`~sensorsel.resilient.worst_case`,
+suite and Algorithm 2's suite are candidates scored with the same exact :func:`~sensorsel.designs.resilient.worst_case`,
 **the answer's worst case is never below greedy's nor below Algorithm 2's**, and never above the bound.
 
-Constraints (``constraints=``, :mod:`sensorsel.constraints`): every method runs within them (greedy,
+Constraints (``constraints=``, :mod:`sensorsel.model.constraints`): every method runs within them (greedy,
 Algorithm 2, Oblivious-Greedy, SATURATE, local search; see :mod:`.methods`), a bound leaf becomes a
 candidate only when its suite keeps every limit, and every candidate is checked against the feasible
 set before it is scored: no answer ever breaks a limit. The bound keeps every limit in its
@@ -33,22 +33,22 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
-from ..constraints import Constraints, feasible_set
-from ..errors import InputError
-from ..evaluators import Evaluator, as_suite, evaluator_for
-from ..library import SensorLibrary
-from ..pipeline import Executor, InProcess, Plan, execute
-from ..problem import Domain, Target, TargetInfo, TargetRecipe
-from ..resilient import RobustChoice, WorstCase, check_alpha, recorded, worst_case
-from ..resilient.algorithm import engine_name
-from ..selection import check_budget, check_rule
-from ..tradespace import EvaluatorRecipe
-from .bound import DEFAULT_BOUND_NODES
-from .memo import memoized
-from .methods import DEFAULT_SATURATE_LEVELS
-from .records import Candidate, RobustResult, best_of
-from .tasks import (ALGORITHM_2, MethodOutcome, MethodTask, RobustSettings, Scored, method_step, run_method, task_key,
-                    task_store, tolerance)
+from sensorsel.designs.resilient import RobustChoice, WorstCase, check_alpha, recorded, worst_case
+from sensorsel.designs.resilient.algorithm import engine_name
+from sensorsel.designs.robust.bound import DEFAULT_BOUND_NODES
+from sensorsel.designs.robust.memo import memoized
+from sensorsel.designs.robust.methods import DEFAULT_SATURATE_LEVELS
+from sensorsel.designs.robust.records import Candidate, RobustResult, best_of
+from sensorsel.designs.robust.tasks import (ALGORITHM_2, MethodOutcome, MethodTask, RobustSettings, Scored,
+                                            method_step, run_method, task_key, task_store, tolerance)
+from sensorsel.designs.selection import check_budget, check_rule
+from sensorsel.designs.tradespace import EvaluatorRecipe
+from sensorsel.errors import InputError
+from sensorsel.information.evaluators import Evaluator, as_suite, evaluator_for
+from sensorsel.model.constraints import Constraints, feasible_set
+from sensorsel.model.library import SensorLibrary
+from sensorsel.model.problem import Domain, Target, TargetInfo, TargetRecipe
+from sensorsel.pipeline import Executor, InProcess, Plan, execute
 
 DEFAULT_RULES = ("uniform", "marginal")
 #: Methods run after the bound: all of them by default.

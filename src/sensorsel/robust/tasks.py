@@ -2,7 +2,7 @@
 
 :func:`run_method` runs one :class:`MethodTask` on a memoizing evaluator and returns its
 :class:`MethodOutcome` (the method's candidate suites, each scored by its exact worst case, or the
-bound and the free candidates of its exact leaves). :func:`sensorsel.robust.select.choose` orders
+bound and the free candidates of its exact leaves). :func:`sensorsel.designs.robust.select.choose` orders
 the tasks (greedy and Algorithm 2, the bound, the other rules and Oblivious-Greedy, SATURATE, local
 search, the bound again) and keeps the best candidate; it is written once and served either by this
 process with one shared memo (:func:`~.select.robust_select`) or by a plan of tasks run by any
@@ -23,20 +23,20 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from ..codec import to_jsonable
-from ..constraints import Constraints, FeasibleSet, feasible_set
-from ..evaluators import Evaluator, ProblemEvaluator, as_suite, evaluator_for
-from ..pipeline import FileStore, NoStore, Store, digest
-from ..problem import DomainInfo, ProblemInfo, Target, TargetInfo
-from ..results import result_kind
-from ..resilient import ALGORITHM_2, resilient_select, worst_case
-from ..selection import REL_TOL, greedy
-from .bound import DEFAULT_BOUND_NODES, robust_bound
-from .family import FailureFamily
-from .memo import MemoEvaluator
-from .methods import DEFAULT_SATURATE_LEVELS, local_search, oblivious_greedy, saturate
-from .records import Candidate, RobustBound, best_of, better
-from ..tradespace import EvaluatorRecipe
+from sensorsel.designs.resilient import ALGORITHM_2, resilient_select, worst_case
+from sensorsel.designs.robust.bound import DEFAULT_BOUND_NODES, robust_bound
+from sensorsel.designs.robust.family import FailureFamily
+from sensorsel.designs.robust.memo import MemoEvaluator
+from sensorsel.designs.robust.methods import DEFAULT_SATURATE_LEVELS, local_search, oblivious_greedy, saturate
+from sensorsel.designs.robust.records import Candidate, RobustBound, best_of, better
+from sensorsel.designs.selection import REL_TOL, greedy
+from sensorsel.designs.tradespace import EvaluatorRecipe
+from sensorsel.information.evaluators import Evaluator, ProblemEvaluator, as_suite, evaluator_for
+from sensorsel.io.codec import to_jsonable
+from sensorsel.io.results import result_kind
+from sensorsel.model.constraints import Constraints, FeasibleSet, feasible_set
+from sensorsel.model.problem import DomainInfo, ProblemInfo, Target, TargetInfo
+from sensorsel.pipeline import FileStore, NoStore, Store, digest
 
 @dataclass(frozen=True)
 class RobustSettings:
@@ -124,7 +124,7 @@ def candidate(ev: MemoEvaluator, s: RobustSettings, feas: FeasibleSet | None, me
 
 
 def tolerance(x: float) -> float:
-    """Two worst cases within this of ``x`` are a tie (relative :data:`~sensorsel.selection.REL_TOL`)."""
+    """Two worst cases within this of ``x`` are a tie (relative :data:`~sensorsel.designs.selection.REL_TOL`)."""
     return REL_TOL * max(1.0, abs(x))
 
 

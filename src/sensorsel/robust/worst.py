@@ -11,7 +11,7 @@ submodular, so this is a max-min over a finite family (:class:`RouteFailureFamil
 
 Candidates (each scored by its **exact** h, the minimum over every route's exact worst case):
 
-* greedy with each rule on the domain's normalised average (:class:`~sensorsel.evaluators.DomainEvaluator`);
+* greedy with each rule on the domain's normalised average (:class:`~sensorsel.information.evaluators.DomainEvaluator`);
 * the paper's Algorithm 2 on that average;
 * SATURATE over the route-and-failure family, between the best h found and the bound;
 * local search (add one sensor, or swap one out and one in, when h rises; first improvement).
@@ -32,18 +32,18 @@ from typing import Sequence
 
 import numpy as np
 
-from ..constraints import Constraints, FeasibleSet, feasible_set
-from ..evaluators import DomainEvaluator, Evaluator, as_suite
-from ..problem import Domain
-from ..resilient import check_alpha, recorded, resilient_select, worst_case
-from ..selection import REL_TOL, check_budget, greedy
-from .bound import DEFAULT_BOUND_NODES, robust_bound
-from .family import FailureFamily, Family
-from .memo import MemoEvaluator, memoized
-from .methods import DEFAULT_SATURATE_LEVELS, Improves, first_improvement, saturate
-from .records import Candidate, MemberWorst, RobustBound, RobustResult, best_of
-from .select import check_rules_and_methods
-from .tasks import ALGORITHM_2
+from sensorsel.designs.resilient import check_alpha, recorded, resilient_select, worst_case
+from sensorsel.designs.robust.bound import DEFAULT_BOUND_NODES, robust_bound
+from sensorsel.designs.robust.family import FailureFamily, Family
+from sensorsel.designs.robust.memo import MemoEvaluator, memoized
+from sensorsel.designs.robust.methods import DEFAULT_SATURATE_LEVELS, Improves, first_improvement, saturate
+from sensorsel.designs.robust.records import Candidate, MemberWorst, RobustBound, RobustResult, best_of
+from sensorsel.designs.robust.select import check_rules_and_methods
+from sensorsel.designs.robust.tasks import ALGORITHM_2
+from sensorsel.designs.selection import REL_TOL, check_budget, greedy
+from sensorsel.information.evaluators import DomainEvaluator, Evaluator, as_suite
+from sensorsel.model.constraints import Constraints, FeasibleSet, feasible_set
+from sensorsel.model.problem import Domain
 
 #: Methods run after the bound on the worst route.
 WORST_METHODS = ("saturate", "local-search")
@@ -127,7 +127,7 @@ def worst_route_select(domain: Domain, budget_usd: float, alpha: int, *, engine:
     failures (see the module docstring); a :class:`RobustResult` with ``aggregate="worst"``.
     ``evaluator``: the domain's normalised evaluator already built (e.g. on a Dask cluster).
 
-    ``constraints``: limits besides the budget (:mod:`sensorsel.constraints`) that every candidate
+    ``constraints``: limits besides the budget (:mod:`sensorsel.model.constraints`) that every candidate
     keeps (checked before it is scored); the bound keeps them too (each route's :func:`robust_bound`).
     The shares' normalisers b_r stay f_r(L), the whole library's score, as in the domain score."""
     t_start = time.perf_counter()
