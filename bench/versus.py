@@ -4,7 +4,8 @@
 
 ``--command pareto`` times ``sensorsel pareto`` (default budgets and rules) and ``--command
 resilient`` times ``sensorsel resilient --budget 110000 --failures 1`` (whole route and 10 s
-periods) the same way; both write to a temporary folder.
+periods) the same way; both write to a temporary folder. ``--command robust`` times ``sensorsel robust
+--budget 110000 --failures 1`` (its answer: the suite, the winning method and the worst case).
 
 The earlier commit is checked out with ``git worktree`` into a temporary folder (removed afterwards)
 and run with the same Python environment on its own ``src/``. Both run the CLI,
@@ -55,6 +56,8 @@ def _args(src: Path, seq: str, root: str, env: dict[str, str], command: str = "g
         return ["pareto", *common, "-o", out, "--format", "svg", "-q"]
     if command == "resilient":
         return ["resilient", *common, "--budget", "110000", "--failures", "1", "-o", out, "--format", "svg", "-q"]
+    if command == "robust":
+        return ["robust", *common, "--budget", "110000", "--failures", "1", "-q"]
     return ["greedy", *common, "--budget", "110000", "--no-certificate"]
 
 
@@ -62,6 +65,8 @@ def _answer(command: str, res: dict) -> tuple[object, float]:
     """What must be the same in both trees' results, and a score to compare."""
     if command == "pareto":
         return [(a["suite"], a["score"]) for a in res["architectures"]], float(res["best_score"])
+    if command == "robust":
+        return (res["suite"], res["method"]), float(res["worst_score"])
     if command == "resilient":
         return (res["suite"], [(p["worst"]["suite"], p["worst"]["score"]) for p in res["per_period"]["periods"]]), \
             float(res["comparison"]["resilient"]["score"])
@@ -74,7 +79,7 @@ def main() -> None:
     ap.add_argument("--kitti-root", default=os.environ.get("SENSORSEL_KITTI_ROOT", str(REPO.parent / "shared" / "kitti")))
     ap.add_argument("--seq", nargs="+", default=["03", "00"])
     ap.add_argument("--repeats", type=int, default=3)
-    ap.add_argument("--command", choices=["greedy", "pareto", "resilient"], default="greedy")
+    ap.add_argument("--command", choices=["greedy", "pareto", "resilient", "robust"], default="greedy")
     a = ap.parse_args()
     env = dict(os.environ)
     with tempfile.TemporaryDirectory() as tmp:

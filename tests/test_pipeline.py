@@ -6,7 +6,8 @@ LocalCluster of 2 worker processes for the module, reached through ``--scheduler
 executor); the interrupted run is a real ``sensorsel`` process killed with SIGKILL as soon as its
 store holds a first result (a period, a rule's runs, a study cell, a greedy checkpoint), then run
 again with ``--resume``. Answers are compared as JSON without timings (and, for greedy, without the
-evaluation counts a resume may change: tests/test_checkpoint.py).
+evaluation counts a resume may change: tests/test_checkpoint.py; for require, the accuracy
+computations it counts).
 """
 
 from __future__ import annotations
@@ -45,6 +46,14 @@ COMMANDS = {
     "resilient-robust": (["resilient", "--fixture", "tiny", "--budget", "5000", "--failures", "1", "--period", "6",
                           "--method", "robust", "--format", "svg", "-o", "OUT"], "periods/period-*.json", {"seconds"}),
     "study": (["study", "STUDY", "-o", "OUT"], "cells/cell-*.json", {"seconds", "n_reused"}),
+    # every method on a fresh memo, also in-process: evaluation counts compared too
+    "robust": (["robust", "--fixture", "suburb", "--budget", "8000", "--failures", "1", "-o", "OUT/robust.json"],
+               "robust.json.tasks/*.json", {"seconds"}),
+    # the checkpoint is written after the greedy start (then every 500 nodes: tests/test_certify.py)
+    "optimal": (["optimal", "--domain", DOMAIN, "--budget", "4000", "--max-nodes", "100", "-o", "OUT/optimal.json"],
+                "optimal.json.checkpoint", {"seconds", "n_evaluations"}),
+    "require": (["require", "--domain", DOMAIN, "--preset", "freeway", "--failures", "1", "-o", "OUT/require.json"],
+                "require.json.checkpoint", {"seconds", "n_checks", "n_refuted"}),  # a resume redoes no journalled work
 }
 
 
@@ -97,3 +106,19 @@ def test_same_answer_in_process_on_two_workers_and_after_a_kill_and_resume(comma
     assert proc.returncode == -signal.SIGKILL or proc.returncode == 0
     resumed = _answer(_invoke(_args(command, out, study) + ["--resume"]), ignore)
     assert resumed == here
+
+
+SELECTING = ("greedy", "pareto", "resilient", "robust", "optimal", "study", "require")
+
+
+@pytest.mark.parametrize("command", SELECTING)
+def test_every_selecting_command_takes_the_executor_and_the_store_options(command):
+    """--workers/--scheduler (the executor) and --resume (the store), declared once (cli.options)."""
+    params = {p.name for p in cli.commands[command].params}
+    assert {"dask_workers", "dask_scheduler", "resume"} <= params
+
+
+@pytest.mark.parametrize("command", ["robust", "optimal"])
+def test_resume_without_an_output_is_one_line_and_exit_2(command):
+    res = CliRunner().invoke(cli, [command, "--fixture", "tiny", "--budget", "5000", "--resume"])
+    assert res.exit_code == 2 and "give -o" in res.output and "Traceback" not in res.output

@@ -3,7 +3,7 @@
 recomputes or is refused, never reuses a stored result.
 
 Each store is checked where its fingerprints are made: a route's periods (:func:`period_plan`, the
-plan the run executes), a study's cells (:func:`cell_fingerprint`), a tradespace's rules (the files a
+plan the run executes), a robust run's tasks (the files it keeps), a study's cells (:func:`cell_fingerprint`), a tradespace's rules (the files a
 run writes, then a resume with one input changed) and a greedy checkpoint (:func:`run_fingerprint`,
 and the refusal of :func:`load_checkpoint`). For each changed input, no fingerprint of the changed
 run may equal one of the base run's: a stored file of the base run can then never be read back.
@@ -50,7 +50,7 @@ def problems(lib, library):
 # ---------------------------------------------------------------------------------------- periods
 
 PERIOD_BASE = dict(budget=20_000.0, alpha=1, rule="uniform", engine="fast", jobs=1, lazy=True, period=3.0,
-                   method="paper", selector=None, constraints=None)
+                   method="algorithm-2", selector=None, constraints=None)
 PERIOD_CHANGES = {
     "budget": dict(budget=19_000.0), "alpha": dict(alpha=2), "rule": dict(rule="cost-benefit"),
     "method": dict(method="robust", selector=robust_choice), "engine": dict(engine="reference"), "lazy": dict(lazy=False),
@@ -195,3 +195,41 @@ def test_a_greedy_checkpoint_is_refused_after_changing_one_input(field, problems
     assert fp2 != fp
     with pytest.raises(ResultFileError, match="another run"):
         load_checkpoint(path, target, kw["budget"], kw["rule"], kw["engine"], kw["aggregate"], kw["lazy"], fp2, limits2)
+
+
+# ----------------------------------------------------------------------------------------- robust
+
+ROBUST_BASE = dict(budget=20_000.0, alpha=1, rules=("uniform", "marginal"), methods=("oblivious", "local-search"),
+                   engine="fast", constraints=None)
+ROBUST_CHANGES = {
+    "budget": dict(budget=19_000.0), "alpha": dict(alpha=2), "rule": dict(rules=("uniform", "cost-benefit")),
+    "method": dict(methods=("oblivious", "saturate")), "engine": dict(engine="reference"),
+    "limits": dict(constraints=LIMIT), "library": {}, "map": {}, "route": {},
+}
+
+
+def _robust_fps(problem, folder: Path, budget, alpha, **kw) -> set[str]:
+    from sensorsel.designs.robust import RobustTaskRecord, run_robust
+
+    run_robust(problem, budget, alpha, outdir=folder, skip_when_proved=False, **kw)
+    return {results.load(f, RobustTaskRecord).fingerprint for f in folder.glob("*.json")}
+
+
+@pytest.mark.parametrize("field", list(ROBUST_CHANGES))
+def test_a_robust_task_file_is_never_reused_after_changing_one_input(field, problems, tmp_path):
+    base = _robust_fps(problems["base"], tmp_path / "base", **ROBUST_BASE)
+    changed = _robust_fps(problems.get(field, problems["base"]), tmp_path / "changed", **{**ROBUST_BASE, **ROBUST_CHANGES[field]})
+    assert len(base) >= 5 and changed
+    assert not base & changed
+
+
+def test_a_robust_resume_with_two_failures_recomputes_the_one_failure_tasks(problems, tmp_path):
+    from sensorsel.designs.robust import run_robust
+
+    p, kw = problems["base"], dict(rules=("uniform",), methods=("oblivious",), skip_when_proved=False)
+    run_robust(p, 20_000, 1, outdir=tmp_path, **kw)
+    n = len(list(tmp_path.glob("*.json")))
+    with pytest.warns(CacheWarning) as caught:
+        two = run_robust(p, 20_000, 2, outdir=tmp_path, resume=True, **kw)
+    assert len({str(w.message).split(":")[0] for w in caught}) == n
+    assert _untimed(two) == _untimed(run_robust(p, 20_000, 2, **kw))

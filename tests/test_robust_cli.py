@@ -123,7 +123,52 @@ def test_aggregate_worst_is_refused_where_it_is_not_supported(small_library_yaml
 # ------------------------------------------------------------------------ resilient --method robust
 
 
-@pytest.mark.parametrize("method", ["paper", "robust"])
+def test_files_and_scripts_that_call_algorithm_2_paper_still_work(small_library_yaml, tmp_path):
+    """Algorithm 2 has one name, "algorithm-2"; "paper", its name in resilient before, is read as it:
+    in result and period files (a resume reuses such periods, no warning) and as --method paper."""
+    import warnings
+
+    common = ["resilient", "--fixture", "tiny", "--library", small_library_yaml, "--engine", "fast", "--jobs", "1",
+              "--budget", "5000", "--failures", "1", "--period", "3", "-q", "--json"]
+    out = tmp_path / "a2"
+    first = invoke(*common, "-o", out)
+    assert first.exit_code == 0, first.output
+    files = [out / "resilient.json", *sorted((out / "periods").glob("period-*.json"))]
+    for f in files:  # as a run before the rename wrote them
+        text = f.read_text()
+        assert '"method": "algorithm-2"' in text
+        f.write_text(text.replace('"method": "algorithm-2"', '"method": "paper"'))
+    rep = results.load(out / "resilient.json", ResilientReport)
+    assert rep.method == "algorithm-2" and rep.per_period is not None and rep.per_period.method == "algorithm-2"
+    assert {p.method for p in rep.per_period.periods} == {"algorithm-2"} and rep.per_period.grid.method == "algorithm-2"
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a period file not reused would warn
+        again = invoke(*common, "--method", "paper", "-o", out, "--resume")
+    assert again.exit_code == 0, again.output
+
+    def untimed(text):
+        def rec(o):
+            if isinstance(o, dict):
+                return {k: rec(v) for k, v in o.items() if k != "seconds"}
+            return [rec(v) for v in o] if isinstance(o, list) else o
+        return rec(json.loads(text))
+    assert untimed(again.stdout) == untimed(first.stdout)
+
+
+def test_a_study_file_saying_method_paper_means_algorithm_2(tmp_path):
+    from sensorsel.designs.study import cell_fingerprint, load_study
+
+    fps = {}
+    for name in ("paper", "algorithm-2"):
+        f = tmp_path / f"{name}.yaml"
+        f.write_text(f"target: {{fixture: tiny}}\ngrid: {{budgets: [5000], failures: [1]}}\nmethod: {name}\n")
+        study = load_study(f)
+        assert study.method == "algorithm-2"
+        fps[name] = [cell_fingerprint(study, c, study.targets[c.target].fingerprints()) for c in study.cells]
+    assert fps["paper"] == fps["algorithm-2"]  # the same cells: a resume reuses them
+
+
+@pytest.mark.parametrize("method", ["algorithm-2", "robust"])
 def test_resilient_method_grid_and_csv_show_the_worst_failures(small_library_yaml, tmp_path, method):
     out = tmp_path / method
     r = invoke("resilient", "--fixture", "tiny", "--library", small_library_yaml, "--engine", "fast", "--jobs", "1",

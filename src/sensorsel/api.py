@@ -29,8 +29,9 @@ from sensorsel.designs.domain_design import DomainDesign
 from sensorsel.designs.domain_design import design_domain as _design_domain
 from sensorsel.designs.requirements import FrontAcceptance, RequireResult, front_acceptance
 from sensorsel.designs.requirements import require as run_require
-from sensorsel.designs.resilient import ResilientReport, recorded
+from sensorsel.designs.resilient import ALGORITHM_2, METHODS, ResilientReport, recorded
 from sensorsel.designs.resilient import resilient_report as _resilient_report
+from sensorsel.designs.resilient.records import method_name
 from sensorsel.designs.robust import RobustResult, robust_choice, robust_select, worst_route_select
 from sensorsel.designs.robust import run_robust as _run_robust
 from sensorsel.designs.selection import GreedyResult, Progress, check_budget, check_rule, greedy
@@ -286,8 +287,8 @@ def _engine_of(result: GreedyResult) -> str | None:
     return None if result.engine == DomainEvaluator.name else result.engine
 
 
-#: ``method`` of :func:`resilient_report`: the paper's Algorithm 2, or robust selection.
-RESILIENT_METHODS = ("paper", "robust")
+#: ``method`` of :func:`resilient_report`: the paper's Algorithm 2 ("algorithm-2"), or robust selection.
+RESILIENT_METHODS = METHODS
 #: ``aggregate`` of :func:`run_robust`: the domain's combined scores, or its worst route.
 ROBUST_AGGREGATES = ("normalised", "raw", "worst")
 
@@ -295,12 +296,14 @@ ROBUST_AGGREGATES = ("normalised", "raw", "worst")
 def run_robust(target: Target, budget_usd: float, alpha: int, *, engine: str | None = None, jobs: int = 1,
                aggregate: str = "normalised", evaluator: DomainEvaluator | None = None, **kwargs) -> RobustResult:
     """The ``sensorsel robust`` run: the best worst case under ``alpha`` failures within the budget
-    (:func:`sensorsel.designs.robust.robust_select`), on a problem or a domain.
+    (:func:`sensorsel.designs.robust.run_robust`: the methods as a plan of tasks), on a problem or a domain.
 
     ``aggregate``: with a domain, "normalised" or "raw" robustify the combined domain score; "worst"
     maximises the worst route's share of its best under the failures
     (:func:`sensorsel.designs.robust.worst_route_select`; a domain only). ``kwargs`` go to the selector;
-    ``constraints=`` (:mod:`sensorsel.model.constraints`) limits every candidate suite.
+    ``constraints=`` (:mod:`sensorsel.model.constraints`) limits every candidate suite; ``executor=``,
+    ``outdir=`` and ``resume=`` choose where the tasks run and where their outcomes are kept
+    (not with ``evaluator`` nor with "worst": one run on one evaluator).
     ``evaluator``: a domain's evaluator already built (e.g. on a Dask cluster; "worst" needs a
     normalised one); ``engine`` and ``aggregate`` are then its own.
 
@@ -318,18 +321,23 @@ def run_robust(target: Target, budget_usd: float, alpha: int, *, engine: str | N
     if aggregate == "worst":
         if not isinstance(target, Domain):
             raise InputError("aggregate 'worst' is the worst route of an operating domain: give a domain (--domain FILE)")
+        for k in ("executor", "outdir", "resume"):
+            kwargs.pop(k, None)
         return worst_route_select(target, budget_usd, alpha, engine=engine, jobs=jobs, evaluator=evaluator, **kwargs)
-    if evaluator is not None:
+    if evaluator is not None:  # one run on it, every method sharing one memo
         check_budget(budget_usd)
         return robust_select(evaluator, budget_usd, alpha, info=target.info, **kwargs)
     return _run_robust(target, budget_usd, alpha, engine=engine, jobs=jobs, aggregate=aggregate, **kwargs)
 
 
-def resilient_report(problem: Target, budget_usd: float, alpha: int, *, method: str = "paper", **kwargs) -> ResilientReport:
+def resilient_report(problem: Target, budget_usd: float, alpha: int, *, method: str = ALGORITHM_2,
+                     **kwargs) -> ResilientReport:
     """The ``sensorsel resilient`` run (:func:`sensorsel.designs.resilient.resilient_report`): the whole-route
-    comparison and the per-period selection. ``method``: "paper" (the paper's Algorithm 2, the
-    default: published results unchanged) or "robust" (:func:`sensorsel.designs.robust.robust_select` for the
-    whole route and each period; its worst case is never below greedy's nor Algorithm 2's)."""
+    comparison and the per-period selection. ``method``: "algorithm-2" (the paper's Algorithm 2, the
+    default: published results unchanged; "paper", its name before, is read as it) or "robust"
+    (:func:`sensorsel.designs.robust.robust_select` for the whole route and each period; its worst case is
+    never below greedy's nor Algorithm 2's)."""
+    method = method_name(method)
     if method not in RESILIENT_METHODS:
         raise InputError(f"unknown method {method!r}; available: {', '.join(RESILIENT_METHODS)}")
     return _resilient_report(problem, budget_usd, alpha, method=method,

@@ -14,6 +14,7 @@ import click
 from sensorsel.cli.cluster import evaluator_on, require_domain
 from sensorsel.designs.certify import (DEFAULT_MAX_NODES, Certificate, CertifiedGreedyResult, certify_greedy,
                                        constraints_mismatch, format_certificate, optimal)
+from sensorsel.designs.checkpoint import checkpoint_path
 from sensorsel.designs.domain_design import DomainDesign
 from sensorsel.designs.selection import GreedyResult, check_affordable, check_budget, greedy
 from sensorsel.errors import InputError, ResultFileError
@@ -29,7 +30,7 @@ from sensorsel.api import suite_accuracy
 from sensorsel.cli.options import (not_empty, budget_option, force_option, engine_options, json_option, output_option,
                                    progress_bar, quiet_option, print_target, run, target_from, target_options)
 from sensorsel.cli.options import check_map_sigma, map_sigma_option, print_accuracy
-from sensorsel.cli.options import cluster_from, cluster_options
+from sensorsel.cli.options import cluster_from, cluster_options, resume_option
 from sensorsel.cli.options import constraint_options, constraints_from, usage_table
 from sensorsel.cli.rules import kept_label, rule_option
 
@@ -72,11 +73,14 @@ def _check_result_constraints(res: GreedyResult, lib: SensorLibrary, path: str, 
 @click.option("--max-seconds", type=click.FloatRange(min=0, min_open=True), default=None,
               help="Also stop after this much wall time [s] (the result then depends on the machine's speed).")
 @map_sigma_option
-@output_option(help="Write the result as JSON here.")
+@output_option(help="Write the result as JSON here; the search's state is kept in FILE.checkpoint as it runs "
+                    "(the greedy start, then every 500 nodes; removed once FILE is written).")
+@resume_option
 @json_option
 @quiet_option
 @run
-def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output: str | None, as_json: bool, quiet: bool,
+def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output: str | None, resume: bool, as_json: bool,
+                quiet: bool,
                 aggregate: str, engine: str | None, jobs: int, map_sigma: float | None, **kw: Any) -> None:
     """The best suite within --budget, by branch and bound with the submodular knapsack bound.
 
@@ -88,9 +92,14 @@ def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output
 
     With --limit, --require, --exclude, --max-sensors or the library's mounting slots, the optimum
     is the best suite they allow (node bounds: an integer program over the marginal gains, by HiGHS).
+
+    With -o FILE, an interrupted search goes on with --resume from its last checkpoint (FILE.checkpoint),
+    also with a larger --max-nodes; the answer is the uninterrupted run's.
     """
     budget = check_budget(budget)
     map_sigma = check_map_sigma(map_sigma)
+    if resume and not output:
+        raise click.UsageError("--resume goes on from the search's state in FILE.checkpoint of -o FILE: give -o")
     if output:
         output_file(output)
     constraints = constraints_from(kw)
@@ -103,10 +112,11 @@ def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output
     with cluster or nullcontext(), bar or nullcontext():
         ev = evaluator_on(cluster, problem, engine, jobs, aggregate)
         res = optimal(ev, budget, max_nodes=max_nodes, max_seconds=max_seconds, info=info, progress=progress,
-                      constraints=constraints)
+                      constraints=constraints, checkpoint=checkpoint_path(output) if output else None, resume=resume)
     res = replace(res, accuracy=suite_accuracy(problem, res.suite, map_sigma_m=map_sigma, engine=engine))
     if output:
         results.save(res, output)
+        checkpoint_path(output).unlink(missing_ok=True)  # the result is written: the run is no longer interrupted
     if as_json:
         click.echo(results.dumps(res), nl=False)
         return

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import shutil
+from pathlib import Path
 from typing import Any
 
 import click
@@ -9,6 +11,7 @@ import click
 from sensorsel.io import results
 from sensorsel.api import ROBUST_AGGREGATES  # --aggregate of this command: the combined score (as elsewhere), or the worst route
 from sensorsel.cli.cluster import domain_evaluator_on, require_domain
+from sensorsel.io.files import output_file
 from sensorsel.model.library import SensorLibrary
 from sensorsel.model.problem import Domain
 from dataclasses import replace
@@ -18,7 +21,7 @@ from sensorsel.cli.options import (budget_option, compact_suite, constraint_opti
                                    json_option, output_option, print_target, quiet_option, run, table, target_from,
                                    target_options, usage_table)
 from sensorsel.cli.options import check_map_sigma, map_sigma_option, print_accuracy
-from sensorsel.cli.options import cluster_from, cluster_options
+from sensorsel.cli.options import cluster_from, cluster_options, resume_option
 
 
 
@@ -30,6 +33,11 @@ def _worst_aggregate(fn: Any) -> Any:
             p.help = ((p.help or "") + " worst = the worst route's share of its best under the failures "
                       "(max-min over the routes; robust only).")
     return fn
+
+
+def tasks_folder(output: str) -> Path:
+    """Where ``robust -o FILE`` keeps its methods' outcomes while it runs: ``FILE.tasks/``."""
+    return Path(output).with_name(Path(output).name + ".tasks")
 
 
 def _csv(xs: Any) -> str:
@@ -52,12 +60,14 @@ def _csv(xs: Any) -> str:
 @click.option("--no-skip", is_flag=True, help="Run every method even when the bound already proves a candidate optimal.")
 @constraint_options
 @map_sigma_option
-@output_option(help="Write the result as JSON here (kind \"robust\").")
+@output_option(help="Write the result as JSON here (kind \"robust\"); each method's outcome is kept in FILE.tasks/ "
+                    "as it comes (removed once FILE is written; not with --aggregate worst).")
+@resume_option
 @json_option
 @quiet_option
 @run
-def robust_cmd(budget: float, alpha: int, rules: str, methods: str | None, no_skip: bool, output: str | None, as_json: bool,
-               quiet: bool, aggregate: str, engine: str | None, jobs: int, map_sigma: float | None, **kw: Any) -> None:
+def robust_cmd(budget: float, alpha: int, rules: str, methods: str | None, no_skip: bool, output: str | None, resume: bool,
+               as_json: bool, quiet: bool, aggregate: str, engine: str | None, jobs: int, map_sigma: float | None, **kw: Any) -> None:
     """Robust sensor selection: maximise the worst-case score after ALPHA sensors fail.
 
     Runs plain greedy, the paper's Algorithm 2 and further methods, scores every suite by its exact
@@ -66,8 +76,12 @@ def robust_cmd(budget: float, alpha: int, rules: str, methods: str | None, no_sk
     it are printed; gap 0 proves the answer optimal.
 
     With --domain FILE and --aggregate worst, the design maximises the worst route's share of its best
-    (f_r(S) / f_r(all sensors)) under the failures. With --domain and --scheduler/--workers, each
-    route is scored on a worker.
+    (f_r(S) / f_r(all sensors)) under the failures.
+
+    With --scheduler/--workers, the methods of each stage run as tasks on the workers (with
+    --aggregate worst: each route is scored on a worker); the answer is the same bytes, timings
+    aside. With -o FILE each method's outcome is kept in FILE.tasks/ as it comes; after an
+    interruption, the same command with --resume reads back those whose inputs match.
 
     --limit, --require, --exclude, --max-sensors and the library's slots hold for every candidate;
     the bound then relaxes them to the budget alone (still an upper bound).
@@ -78,6 +92,12 @@ def robust_cmd(budget: float, alpha: int, rules: str, methods: str | None, no_sk
 
     budget, alpha = check_budget(budget), check_alpha(alpha)
     map_sigma = check_map_sigma(map_sigma)
+    if resume and not output:
+        raise click.UsageError("--resume goes on from the methods kept in FILE.tasks/ of -o FILE: give -o")
+    if resume and aggregate == "worst":
+        raise click.UsageError("--aggregate worst runs as one search, with nothing kept to resume from: drop --resume")
+    if output:
+        output_file(output)
     rule_list = tuple(r.strip() for r in rules.split(",") if r.strip())
     from sensorsel.designs.robust import EXTRA_METHODS, WORST_METHODS
 
@@ -91,22 +111,30 @@ def robust_cmd(budget: float, alpha: int, rules: str, methods: str | None, no_sk
     constraints = constraints_from(kw)
     cluster = cluster_from(kw)
     target = target_from(kw)
-    require_domain(cluster, target)
+    if aggregate == "worst":  # its routes are spread over the cluster (the methods' tasks need no domain)
+        require_domain(cluster, target)
     check_affordable(target.library, budget, constraints=constraints)
     if not quiet:
         click.echo(f"robust selection: ${budget:,.0f}, {alpha} failure(s) ...", err=True)
     from contextlib import nullcontext
 
+    tasks = tasks_folder(output) if output and aggregate != "worst" else None
     with cluster or nullcontext():
-        # worst: each route's share of its best, so the routes' normalisers: a normalised evaluator
-        ev = None
-        if cluster is not None:
-            assert isinstance(target, Domain)
-            ev = domain_evaluator_on(cluster, target, engine, "normalised" if aggregate == "worst" else aggregate)
-        res = run_robust(target, budget, alpha, engine=engine, jobs=jobs, aggregate=aggregate, rules=rule_list,
-                         methods=method_list, skip_when_proved=not no_skip, evaluator=ev, constraints=constraints)
+        if aggregate == "worst":  # one search over the routes' shares: on a cluster each route on a worker
+            ev = None
+            if cluster is not None:
+                assert isinstance(target, Domain)
+                ev = domain_evaluator_on(cluster, target, engine, "normalised")
+            res = run_robust(target, budget, alpha, engine=engine, jobs=jobs, aggregate=aggregate, rules=rule_list,
+                             methods=method_list, skip_when_proved=not no_skip, evaluator=ev, constraints=constraints)
+        else:  # the methods as tasks: here, or on the cluster's workers; kept under FILE.tasks/
+            res = run_robust(target, budget, alpha, engine=engine, jobs=jobs, aggregate=aggregate, rules=rule_list,
+                             methods=method_list, skip_when_proved=not no_skip, constraints=constraints,
+                             executor=cluster.executor if cluster is not None else None, outdir=tasks, resume=resume)
     res = replace(res, accuracy=suite_accuracy(target, res.suite, map_sigma_m=map_sigma, engine=engine))
     written = results.save(res, output) if output else None
+    if tasks is not None:  # the result is written: the run is no longer interrupted
+        shutil.rmtree(tasks, ignore_errors=True)
     if as_json:
         click.echo(results.dumps(res), nl=False)
         return

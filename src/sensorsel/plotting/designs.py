@@ -76,7 +76,7 @@ def plot_selection_grid(grid: "SelectionGrid", ax: Axes | None = None, *, title:
     ax.tick_params(axis="both", which="major", length=2, pad=1.5)
     ax.set_xlabel("sensor: clock position (12 = ahead, 3 = right) or roof, grouped by model", fontsize=8)
     ax.set_ylabel("period", fontsize=8)
-    default_title = "Robust selection per period" if getattr(grid, "method", "paper") == "robust" else "Resilient selection per period"
+    default_title = "Robust selection per period" if getattr(grid, "method", "") == "robust" else "Resilient selection per period"
     ax.set_title(title or default_title, fontsize=10, pad=14)
     handles: list[Any] = [Patch(color=colours["failed"], label="assumed to fail"), Patch(color=colours["active"], label="active")]
     col = {s: c for c, s in enumerate(grid.sensors)}

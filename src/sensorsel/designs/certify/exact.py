@@ -29,12 +29,15 @@ import heapq
 import math
 import time
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Callable
 
 import numpy as np
 
 from sensorsel.designs.certify.certificate import certificate
 from sensorsel.designs.certify.knapsack import MAX_DP_CELLS, CostUnits, cost_units, fractional_bound, packing_bound
+from sensorsel.designs.certify.resume import (CHECKPOINT_EVERY, OptimalCheckpoint, heap_of, open_nodes,
+                                              read_checkpoint, save_checkpoint, search_fingerprint)
 from sensorsel.designs.selection import REL_TOL, RULES, GreedyResult, check_budget, check_rule, greedy
 from sensorsel.errors import InputError
 from sensorsel.information.evaluators import Evaluator
@@ -131,7 +134,8 @@ class OptimumResult:
 def optimal(evaluator: Evaluator, budget_usd: float, *, max_nodes: int = DEFAULT_MAX_NODES, max_seconds: float | None = None,
             exclude: frozenset[int] = frozenset(), incumbent: GreedyResult | None = None, rule: str = "best-of",
             progress: Progress | None = None, info: TargetInfo | None = None, max_cells: int = MAX_DP_CELLS,
-            constraints: Constraints | None = None) -> OptimumResult:
+            constraints: Constraints | None = None, checkpoint: str | Path | None = None, resume: bool = False,
+            checkpoint_every: int = CHECKPOINT_EVERY) -> OptimumResult:
     """The best suite within ``budget_usd`` by best-first branch and bound.
 
     The first incumbent is a greedy suite (``incumbent``, or a ``rule`` run now; for a strategy such
@@ -164,6 +168,8 @@ def optimal(evaluator: Evaluator, budget_usd: float, *, max_nodes: int = DEFAULT
         constraints: limits besides the budget (:mod:`sensorsel.model.constraints`); None: the budget alone
             (the library's slots ignored). The greedy incumbent runs under them (a given ``incumbent``
             must have run under the same ones).
+        checkpoint: a file where the greedy start, then every ``checkpoint_every`` expanded nodes the
+            search's state, are kept (:mod:`.resume`); ``resume``: go on from it when its inputs match.
 
     Raises:
         InputError: a bad budget or limit; constraints the library cannot meet; an incumbent of
@@ -179,17 +185,41 @@ def optimal(evaluator: Evaluator, budget_usd: float, *, max_nodes: int = DEFAULT
     feas = feasible_set(lib, budget, constraints if constraints is not None else Constraints(slots=False))
     plain = feas.plain
     recorded = feas.record
-    incumbent, runs, rule_label = _greedy_start(ev, budget, rule, incumbent, exclude, info,
-                                                None if plain else constraints, recorded)
+    path = Path(checkpoint) if checkpoint is not None else None
+    fp = search_fingerprint(info, ev.name, budget, rule, incumbent, exclude, recorded, max_cells) if path else ""
+    ck = read_checkpoint(path, fp, resume)
+    if ck is not None:  # what was scored before this process counts too
+        n0 -= ck.n_evaluations if ck.heap is not None else ck.n_start_evaluations
+    else:
+        incumbent, runs, rule_label = _greedy_start(ev, budget, rule, incumbent, exclude, info,
+                                                    None if plain else constraints, recorded)
+        _incumbent_positions(lib, incumbent, exclude, None if plain else feas)
+        # The certificates of the greedy runs bound the optimum from the start (valid whatever the search
+        # does); the search can only tighten that.
+        cert_bound = min(certificate(ev, r, max_cells=max_cells).bound for r in runs)
+        ck = OptimalCheckpoint(fp, incumbent, rule_label, cert_bound, ev.n_evaluations - n0)
+        if path is not None:
+            save_checkpoint(path, ck)
+    incumbent, rule_label, cert_bound = ck.incumbent, ck.rule_label, ck.cert_bound
     inc_pos = _incumbent_positions(lib, incumbent, exclude, None if plain else feas)
-    # The certificates of the greedy runs bound the optimum from the start (valid whatever the search
-    # does); the search can only tighten that.
-    cert_bound = min(certificate(ev, r, max_cells=max_cells).bound for r in runs)
     best = _Best(lib, inc_pos, _score_of(ev, incumbent, inc_pos), _budget_use(lib, feas, plain, inc_pos),
                  None if plain else feas)
     search = _Search(ev, cost_units(lib.costs if plain else feas.A[0], budget), best, exclude, cert_bound, max_cells,
                      None if plain else feas)
-    stop = search.run(max_nodes, max_seconds, t0, progress)
+    if ck.heap is not None:  # go on from the stored state
+        search.heap = heap_of(ck.heap)
+        search.nodes, search.pruned, search.solved, search.counter = ck.nodes, ck.pruned, ck.solved, ck.counter
+        search.methods = set(ck.methods)
+        best.suite, best.score, best.cost = tuple(ck.best_suite), ck.best_score, ck.best_cost
+
+    def keep(search: _Search) -> None:  # the state after every checkpoint_every nodes
+        assert path is not None
+        save_checkpoint(path, OptimalCheckpoint(
+            fp, incumbent, rule_label, cert_bound, ck.n_start_evaluations, search.nodes, search.pruned, search.solved,
+            search.counter, tuple(sorted(search.methods)), best.suite, best.score, best.cost, open_nodes(search.heap),
+            ev.n_evaluations - n0))
+
+    stop = search.run(max_nodes, max_seconds, t0, progress, keep if path is not None else None, checkpoint_every)
     proved = not search.heap
     if proved:
         stop = "every other suite ruled out by its bound"
@@ -323,11 +353,15 @@ class _Search:
         assert self.feas is not None
         return self.feas.addable(used)
 
-    def run(self, max_nodes: int, max_seconds: float | None, t0: float, progress: Progress | None) -> str:
+    def run(self, max_nodes: int, max_seconds: float | None, t0: float, progress: Progress | None,
+            keep: Callable[["_Search"], None] | None = None, every: int = CHECKPOINT_EVERY) -> str:
         """Expand nodes, highest bound first, until none can beat the best found or a limit stops it
-        (returns the limit's stop reason, "" when the search finished)."""
+        (returns the limit's stop reason, "" when the search finished). ``keep(self)`` after every
+        ``every`` expanded nodes (a checkpoint)."""
         heap = self.heap
         while heap:
+            if keep is not None and self.nodes and self.nodes % every == 0:
+                keep(self)
             neg_ub = heap[0][0]
             if self.best.rules_out(min(-neg_ub, self.cert_bound)):
                 self.pruned += len(heap)

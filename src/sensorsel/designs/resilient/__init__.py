@@ -53,9 +53,9 @@ from sensorsel.designs.resilient.cache import CacheWarning
 from sensorsel.designs.resilient.periods import (DEFAULT_PERIOD_S, Progress, Selector, check_method, check_period,
                                                  make_grid, period_file, period_scenario, run_periods, save_grid_csv,
                                                  split_periods)
-from sensorsel.designs.resilient.records import (ACTIVE, FAILED, METHODS, UNUSED, Comparison, PerPeriodResult,
-                                                 PeriodResult, PeriodSpan, ResilientReport, ResilientResult,
-                                                 RobustChoice, SelectionGrid, WorstCase)
+from sensorsel.designs.resilient.records import (ACTIVE, ALGORITHM_2, FAILED, METHODS, UNUSED, Comparison,
+                                                 PerPeriodResult, PeriodResult, PeriodSpan, ResilientReport,
+                                                 ResilientResult, RobustChoice, SelectionGrid, WorstCase, method_name)
 from sensorsel.designs.selection import check_budget
 from sensorsel.errors import InputError
 from sensorsel.information.evaluators import evaluator_for
@@ -64,9 +64,9 @@ from sensorsel.model.problem import Problem, Target
 from sensorsel.pipeline import Executor
 
 __all__ = [
-    "ACTIVE", "DEFAULT_PERIOD_S", "FAILED", "MAX_FAILURE_SETS", "METHODS", "RobustChoice", "Selector", "UNUSED", "check_method", "CacheWarning", "Comparison", "PerPeriodResult",
+    "ACTIVE", "ALGORITHM_2", "DEFAULT_PERIOD_S", "FAILED", "MAX_FAILURE_SETS", "METHODS", "RobustChoice", "Selector", "UNUSED", "check_method", "CacheWarning", "Comparison", "PerPeriodResult",
     "PeriodResult", "PeriodSpan", "Progress", "ResilientReport", "ResilientResult", "SelectionGrid", "WorstCase",
-    "check_alpha", "check_rule", "check_period", "compare", "failing_set", "make_grid", "period_file",
+    "check_alpha", "check_rule", "method_name", "check_period", "compare", "failing_set", "make_grid", "period_file",
     "period_scenario", "resilient_report", "resilient_select", "run_periods", "save_grid_csv", "split_periods", "worst_case",
 ]
 
@@ -74,7 +74,7 @@ __all__ = [
 def resilient_report(problem: Target, budget_usd: float, alpha: int, *, period_s: float | None = DEFAULT_PERIOD_S,
                      rule: str = "uniform", engine: str | None = None, jobs: int = 1, lazy: bool = True,
                      aggregate: str = "normalised", outdir: str | Path | None = None, resume: bool = False,
-                     progress: Progress | None = None, method: str = "paper", selector: Selector | None = None,
+                     progress: Progress | None = None, method: str = ALGORITHM_2, selector: Selector | None = None,
                      constraints: Constraints | None = None, executor: Executor | None = None) -> ResilientReport:
     """The whole-route comparison and (unless ``period_s`` is None) the per-period selection.
 

@@ -14,8 +14,9 @@ import numpy as np
 from sensorsel.designs.resilient.algorithm import (check_alpha, check_rule, constraints_key, engine_name, recorded,
                                                    resilient_select, worst_case)
 from sensorsel.designs.resilient.cache import fingerprint
-from sensorsel.designs.resilient.records import (ACTIVE, FAILED, METHODS, UNUSED, PeriodResult, PeriodSpan,
-                                                 PerPeriodResult, RobustChoice, SelectionGrid, WorstCase)
+from sensorsel.designs.resilient.records import (ACTIVE, ALGORITHM_2, FAILED, METHODS, UNUSED, PeriodResult,
+                                                 PeriodSpan, PerPeriodResult, RobustChoice, SelectionGrid, WorstCase,
+                                                 method_name)
 from sensorsel.designs.selection import check_budget
 from sensorsel.errors import InputError
 from sensorsel.information.evaluators import make_evaluator
@@ -39,6 +40,7 @@ Selector = Callable[..., tuple[RobustChoice, WorstCase]]
 
 def check_method(method: str, selector: Selector | None) -> str:
     """``method`` if it is one of :data:`METHODS` and, for "robust", a selector is given."""
+    method = method_name(method)  # "paper", its name before: the same method
     if method not in METHODS:
         raise InputError(f"unknown method {method!r}; available: {', '.join(METHODS)}")
     if method == "robust" and selector is None:
@@ -113,7 +115,7 @@ class PeriodRun:
     engine: str
     jobs: int
     lazy: bool
-    method: str = "paper"
+    method: str = ALGORITHM_2
     selector: Selector | None = None
     constraints: Constraints | None = None
 
@@ -145,7 +147,7 @@ def period_step(run: PeriodRun, task: PeriodTask) -> PeriodResult:
 
 
 def period_plan(problem: Problem, budget: float, alpha: int, rule: str, engine: str, jobs: int, lazy: bool, period: float,
-                method: str = "paper", selector: Selector | None = None,
+                method: str = ALGORITHM_2, selector: Selector | None = None,
                 constraints: Constraints | None = None) -> Plan[PeriodResult]:
     """The per-period selection as a plan: one task per period of ``period`` seconds (inputs checked by the caller)."""
     feas = feasible_set(problem.library, budget, constraints) if constraints is not None else None
@@ -155,7 +157,7 @@ def period_plan(problem: Problem, budget: float, alpha: int, rule: str, engine: 
         span = PeriodSpan(index=k, start_s=a, end_s=b, first_keyframe=int(kf[0]), n_keyframes=len(kf),
                           n_landmarks=sc.n_landmarks)
         what: dict[str, Any] = {"what": "period", "period_s": period, "span": results.to_jsonable(span)}
-        if method != "paper":  # the paper's fingerprints stay as they were: their files are reused
+        if method != ALGORITHM_2:  # Algorithm 2's fingerprints stay as they were (no method): their files are reused
             what["method"] = method
         what.update(constraints_key(feas))
         fp = fingerprint(Fingerprint.of(problem.library, sc, problem.settings), budget, alpha, rule, engine, lazy, what)
@@ -185,7 +187,7 @@ def period_store(plan: Plan[PeriodResult], outdir: str | Path | None, resume: bo
 def run_periods(problem: Problem, budget_usd: float, alpha: int, *, period_s: float = DEFAULT_PERIOD_S,
                 rule: str = "uniform", engine: str | None = None, jobs: int = 1, lazy: bool = True,
                 outdir: str | Path | None = None, resume: bool = False,
-                progress: Progress | None = None, method: str = "paper", selector: Selector | None = None,
+                progress: Progress | None = None, method: str = ALGORITHM_2, selector: Selector | None = None,
                 constraints: Constraints | None = None, executor: Executor | None = None) -> PerPeriodResult:
     """Resilient selection on each period of the route.
 
@@ -196,7 +198,7 @@ def run_periods(problem: Problem, budget_usd: float, alpha: int, *, period_s: fl
         resume: reuse period files whose fingerprint matches this run's inputs (a file that does not
             match is reported with a :class:`~sensorsel.designs.resilient.cache.CacheWarning` and recomputed).
         progress: progress(periods done, total) after each period.
-        method: "paper" (Algorithm 2 per period) or "robust" (``selector`` per period).
+        method: "algorithm-2" (the paper's Algorithm 2 per period) or "robust" (``selector`` per period).
         selector: robust selection (see :data:`Selector`), needed by "robust".
         constraints: limits besides the budget every period's suite keeps (part of each period
             file's fingerprint, so a resume never mixes runs under other limits).
@@ -243,7 +245,7 @@ def make_grid(library: SensorLibrary, periods: Sequence[PeriodResult]) -> Select
         period_end_s=tuple(p.period.end_s for p in periods),
         cells=tuple(rows),
         worst_failures=tuple(tuple(p.worst.failures) for p in periods),
-        method=methods.pop() if len(methods) == 1 else "paper",
+        method=methods.pop() if len(methods) == 1 else ALGORITHM_2,
     )
 
 

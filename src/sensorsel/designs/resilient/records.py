@@ -156,8 +156,25 @@ class PeriodSpan:
         return range(self.first_keyframe, self.first_keyframe + self.n_keyframes)
 
 
+#: The paper's Algorithm 2, by its one name: ``resilient --method``, robust selection's candidate,
+#: a study's ``method``, every record and fingerprint.
+ALGORITHM_2 = "algorithm-2"
 #: How the suite of ``sensorsel resilient`` is chosen: the paper's Algorithm 2, or robust selection.
-METHODS = ("paper", "robust")
+METHODS = (ALGORITHM_2, "robust")
+#: Names a method had in files written before it had one name: read as the name it has now.
+OLD_METHOD_NAMES = {"paper": ALGORITHM_2}
+
+
+def method_name(method: str) -> str:
+    """``method`` by its name today (a file written before reads "paper" as "algorithm-2")."""
+    return OLD_METHOD_NAMES.get(method, method)
+
+
+def _rename_method(record: object) -> None:
+    """In a frozen record just built (e.g. read from an older file): its ``method`` by today's name."""
+    method = getattr(record, "method")
+    if method in OLD_METHOD_NAMES:
+        object.__setattr__(record, "method", method_name(method))
 
 
 @dataclass(frozen=True)
@@ -204,7 +221,7 @@ class PeriodResult:
         result: the paper's resilient selection on the period's scenario (None with ``method="robust"``).
         worst: worst case of the period's chosen suite on the period's scenario (its ``failures`` are the
             failure set worst for that suite).
-        method: "paper" (Algorithm 2) or "robust".
+        method: "algorithm-2" or "robust" ("paper" in older files: read as "algorithm-2").
         robust: with "robust", the robust selection's choice; else None.
     """
 
@@ -212,8 +229,11 @@ class PeriodResult:
     period: PeriodSpan
     result: ResilientResult | None
     worst: WorstCase
-    method: str = "paper"
+    method: str = ALGORITHM_2
     robust: RobustChoice | None = None
+
+    def __post_init__(self) -> None:
+        _rename_method(self)
 
     @property
     def suite(self) -> tuple[str, ...]:
@@ -235,7 +255,7 @@ class SelectionGrid:
         cells: rows x columns of "failed", "active" or "" ("failed": assumed to fail by the paper's
             Algorithm 2; robust selection assumes no sensor, so its suite is all "active").
         worst_failures: per row, the failure set worst for the row's suite (ids; empty rows when unknown).
-        method: "paper" or "robust": how each row's suite was chosen.
+        method: "algorithm-2" or "robust": how each row's suite was chosen ("paper" in older files).
     """
 
     sensors: tuple[str, ...]
@@ -246,9 +266,10 @@ class SelectionGrid:
     period_end_s: tuple[float, ...]
     cells: tuple[tuple[str, ...], ...]
     worst_failures: tuple[tuple[str, ...], ...] = ()
-    method: str = "paper"
+    method: str = ALGORITHM_2
 
     def __post_init__(self) -> None:
+        _rename_method(self)
         n = len(self.sensors)
         if len(self.models) != n or len(self.positions) != n:
             raise InputError(f"selection grid: {n} sensors but {len(self.models)} models and {len(self.positions)} positions")
@@ -299,7 +320,7 @@ class PerPeriodResult:
         periods: one result per non-empty period, in time order.
         grid: the failed / active grid.
         seconds: wall time of this run [s] (periods reused from files count their stored time no more).
-        method: "paper" or "robust".
+        method: "algorithm-2" or "robust" ("paper" in older files: read as "algorithm-2").
         constraints: the limits besides the budget every period's suite respected; None: the budget alone.
     """
 
@@ -311,8 +332,11 @@ class PerPeriodResult:
     periods: tuple[PeriodResult, ...]
     grid: SelectionGrid
     seconds: float = 0.0
-    method: str = "paper"
+    method: str = ALGORITHM_2
     constraints: Constraints | None = None
+
+    def __post_init__(self) -> None:
+        _rename_method(self)
 
 
 @result_kind("resilient")
@@ -329,7 +353,8 @@ class ResilientReport:
         comparison: greedy versus resilient on the whole route.
         per_period: the per-period selection and its grid (None when not run).
         seconds: wall time [s].
-        method: "paper" (Algorithm 2) or "robust" (robust selection, whole route and each period).
+        method: "algorithm-2" (the paper's Algorithm 2) or "robust" (robust selection, whole route and
+            each period); "paper" in older files, read as "algorithm-2".
         robust: with "robust", the whole route's robust choice (next to the greedy / Algorithm 2 comparison).
         constraints: the limits besides the budget every suite of the report respected; None: the budget alone.
         accuracy: the chosen suite's accuracy in metres on each route (empty when not computed;
@@ -345,7 +370,10 @@ class ResilientReport:
     comparison: Comparison
     per_period: PerPeriodResult | None = None
     seconds: float = 0.0
-    method: str = "paper"
+    method: str = ALGORITHM_2
     robust: RobustChoice | None = None
     constraints: Constraints | None = None
     accuracy: tuple[RouteAccuracy, ...] = ()
+
+    def __post_init__(self) -> None:
+        _rename_method(self)

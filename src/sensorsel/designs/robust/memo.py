@@ -40,6 +40,16 @@ class MemoEvaluator(Evaluator):
             self._f[s] = v
         return v
 
+    def scored(self) -> dict[Suite, float]:
+        """Every suite scored so far (or learnt) and its f, in the order they came."""
+        return dict(self._f)
+
+    def learn(self, known: Iterable[tuple[Iterable[int], float]]) -> None:
+        """Take f of suites scored elsewhere (e.g. by earlier tasks of a robust run): they are then
+        not scored again (a suite already known keeps its value)."""
+        for suite, value in known:
+            self._f.setdefault(as_suite(suite), float(value))
+
     def known(self, suite: Iterable[int]) -> float | None:
         """f(S) if already scored, else None (scores nothing)."""
         return self._f.get(as_suite(suite))

@@ -41,7 +41,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 
@@ -50,6 +50,7 @@ from sensorsel.designs.robust.family import Family
 from sensorsel.designs.selection import REL_TOL, greedy
 from sensorsel.information.evaluators import Evaluator, as_suite
 from sensorsel.model.constraints import Constraints, FeasibleSet
+from sensorsel.model.library import SensorLibrary
 
 #: Bisection levels of SATURATE.
 DEFAULT_SATURATE_LEVELS = 5
@@ -194,16 +195,11 @@ def local_search(evaluator: Evaluator, start: Sequence[int], budget: float, alph
     ev = evaluator
     lib = ev.library
     costs, ids, n = lib.costs, lib.ids, len(lib)
-    n0 = ev.n_evaluations
-    s = as_suite(start)
-    moves: list[str] = []
-    stop = "no improving move"
-    for _ in range(max_rounds):
+
+    def round_of(s: tuple[int, ...]) -> tuple[list[int], list[int], Improves]:
         vals = _failure_values(ev, s, alpha)
         g = min(vals.values()) if vals else 0.0
         worst = min(vals, key=lambda f: (vals[f], f)) if vals else ()
-        hint = {f: v for f, v in vals.items()}
-        cost = lib.cost(s)
         outside = [i for i in range(n) if i not in s]
         # in-sensors ordered by what they add to the worst case's survivors
         surv = tuple(i for i in s if i not in worst)
@@ -212,34 +208,62 @@ def local_search(evaluator: Evaluator, start: Sequence[int], budget: float, alph
         # out-sensors: only those whose every failure set leaves more than g
         m_a = {a: min((v for f, v in vals.items() if a in f), default=math.inf) for a in s}
         outs = sorted([a for a in s if m_a[a] > g + REL_TOL * max(1.0, abs(g))], key=lambda a: (-m_a[a], -costs[a], ids[a]))
+
+        def improves(a: int | None, b: int, s2: tuple[int, ...]) -> bool:
+            hint2 = {}
+            for f in itertools.combinations(s2, min(alpha, len(s2))):
+                if b not in f:  # S2 minus f = (S - a minus f) + b: f was this bad for S
+                    hint2[f] = vals.get(f, math.inf)
+                elif a is not None:  # S2 minus f = S minus (f - b + a): known exactly
+                    hint2[f] = vals.get(as_suite([x for x in f if x != b] + [a]), math.inf)
+            return _worst_above(ev, s2, alpha, g, hint2) is not None
+        return outs, ins, improves
+
+    return first_improvement(lib, start, budget, round_of, lambda: ev.n_evaluations, max_rounds=max_rounds,
+                             max_evaluations=max_evaluations, feasible=feasible)
+
+
+#: ``improves(a, b, S - a + b)``: whether the move (a None: add b) raises the objective
+Improves = Callable[[int | None, int, tuple[int, ...]], bool]
+
+
+def first_improvement(lib: SensorLibrary, start: Sequence[int], budget: float,
+                      round_of: Callable[[tuple[int, ...]], tuple[list[int], list[int], Improves]],
+                      work: Callable[[], int], *, max_rounds: int, max_evaluations: int,
+                      feasible: FeasibleSet | None = None) -> tuple[tuple[int, ...], str]:
+    """The one add / swap local search of robust selection (failure sets here, a domain's routes in
+    :mod:`.worst`): from ``start``, each round takes the first move that improves: add a sensor b, or
+    swap a out for b, ``round_of(S)`` giving the sensors a to try swapping out, the sensors b to try
+    in (in order) and the test of a move. Moves stay in budget (or, with ``feasible``, in its suites);
+    at most ``max_rounds`` moves, and no new move once ``work()`` (suites scored) has grown by more
+    than ``max_evaluations``. Returns (suite, a note of the moves and why it stopped)."""
+    costs, ids = lib.costs, lib.ids
+    n0 = work()
+    s = as_suite(start)
+    moves: list[str] = []
+    stop = "no improving move"
+    for _ in range(max_rounds):
+        outs, ins, improves = round_of(s)
+        cost = lib.cost(s)
         found = None
-        for a in [None] + outs:
+        for a in [None, *outs]:
             for b in ins:
-                if ev.n_evaluations - n0 > max_evaluations:
+                if work() - n0 > max_evaluations:
                     stop = f"evaluation limit ({max_evaluations:,}) reached"
                     break
-                if feasible is None:
-                    new_cost = cost + costs[b] - (costs[a] if a is not None else 0.0)
-                    if not _fits(new_cost, budget):
-                        continue
+                if feasible is None and not _fits(cost + costs[b] - (costs[a] if a is not None else 0.0), budget):
+                    continue
                 s2 = as_suite([i for i in s if i != a] + [b])
                 if feasible is not None and not feasible.fits(s2):
                     continue
-                hint2 = {}
-                for f in itertools.combinations(s2, min(alpha, len(s2))):
-                    if b not in f:  # S2 minus f = (S - a minus f) + b: f was this bad for S
-                        hint2[f] = hint.get(f, math.inf)
-                    elif a is not None:  # S2 minus f = S minus (f - b + a): known exactly
-                        hint2[f] = hint.get(as_suite([x for x in f if x != b] + [a]), math.inf)
-                g2 = _worst_above(ev, s2, alpha, g, hint2)
-                if g2 is not None:
-                    found = (a, b, s2, g2)
+                if improves(a, b, s2):
+                    found = (a, b, s2)
                     break
             if found or stop.startswith("evaluation"):
                 break
         if not found:
             break
-        a, b, s, g2 = found
+        a, b, s = found
         moves.append(f"+{ids[b]}" if a is None else f"{ids[a]}->{ids[b]}")
     else:
         stop = f"round limit ({max_rounds}) reached"

@@ -6,7 +6,9 @@ Wall times are in fields named ``seconds`` (the only fields that differ between 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Sequence
 
+from sensorsel.designs.selection import REL_TOL as TIE_TOL
 from sensorsel.information.evaluators.accuracy import RouteAccuracy
 from sensorsel.io.results import result_kind
 from sensorsel.model.constraints import Constraints
@@ -43,6 +45,29 @@ class Candidate:
     n_evaluations: int
     seconds: float = 0.0
     worst_member: str = ""
+
+
+def better(a: Candidate, b: Candidate) -> bool:
+    """True when candidate ``a`` beats ``b``: the higher worst case, then the higher nominal score
+    (each a tie within a relative 1e-9), then the cheaper, then the smaller ids in library order."""
+    tol = TIE_TOL * max(1.0, abs(a.worst_score), abs(b.worst_score))
+    if abs(a.worst_score - b.worst_score) > tol:
+        return a.worst_score > b.worst_score
+    tol = TIE_TOL * max(1.0, abs(a.nominal_score), abs(b.nominal_score))
+    if abs(a.nominal_score - b.nominal_score) > tol:
+        return a.nominal_score > b.nominal_score
+    if a.cost_usd != b.cost_usd:
+        return a.cost_usd < b.cost_usd
+    return a.suite < b.suite
+
+
+def best_of(candidates: Sequence[Candidate]) -> Candidate:
+    """The candidate that beats every other (:func:`better`; among equals the first)."""
+    b = candidates[0]
+    for c in candidates[1:]:
+        if better(c, b):
+            b = c
+    return b
 
 
 @dataclass(frozen=True)

@@ -30,38 +30,29 @@ from __future__ import annotations
 
 import time
 from dataclasses import replace
-from typing import Any, Sequence
+from pathlib import Path
+from typing import Any, Callable, Sequence
 
-import numpy as np
-
-from sensorsel.designs.resilient import RobustChoice, WorstCase, check_alpha, recorded, resilient_select, worst_case
-from sensorsel.designs.robust.bound import DEFAULT_BOUND_NODES, robust_bound
-from sensorsel.designs.robust.family import FailureFamily
+from sensorsel.designs.resilient import RobustChoice, WorstCase, check_alpha, recorded, worst_case
+from sensorsel.designs.resilient.algorithm import engine_name
+from sensorsel.designs.robust.bound import DEFAULT_BOUND_NODES
 from sensorsel.designs.robust.memo import memoized
-from sensorsel.designs.robust.methods import DEFAULT_SATURATE_LEVELS, local_search, oblivious_greedy, saturate
-from sensorsel.designs.robust.records import Candidate, RobustResult
-from sensorsel.designs.selection import REL_TOL, check_budget, check_rule, greedy
+from sensorsel.designs.robust.methods import DEFAULT_SATURATE_LEVELS
+from sensorsel.designs.robust.records import Candidate, RobustResult, best_of
+from sensorsel.designs.robust.tasks import (ALGORITHM_2, MethodOutcome, MethodTask, RobustSettings, Scored,
+                                            method_step, run_method, task_key, task_store, tolerance)
+from sensorsel.designs.selection import check_budget, check_rule
+from sensorsel.designs.tradespace import EvaluatorRecipe
 from sensorsel.errors import InputError
 from sensorsel.information.evaluators import Evaluator, as_suite, evaluator_for
 from sensorsel.model.constraints import Constraints, feasible_set
-from sensorsel.model.problem import Target, TargetInfo
+from sensorsel.model.library import SensorLibrary
+from sensorsel.model.problem import Domain, Target, TargetInfo, TargetRecipe
+from sensorsel.pipeline import Executor, InProcess, Plan, execute
 
 DEFAULT_RULES = ("uniform", "marginal")
 #: Methods run after the bound: all of them by default.
 EXTRA_METHODS = ("oblivious", "saturate", "local-search")
-
-
-def _better(a: Candidate, b: Candidate, lib) -> bool:
-    """True when ``a`` beats ``b``: worst case, then nominal, then cheaper, then ids."""
-    tol = REL_TOL * max(1.0, abs(a.worst_score), abs(b.worst_score))
-    if abs(a.worst_score - b.worst_score) > tol:
-        return a.worst_score > b.worst_score
-    tol = REL_TOL * max(1.0, abs(a.nominal_score), abs(b.nominal_score))
-    if abs(a.nominal_score - b.nominal_score) > tol:
-        return a.nominal_score > b.nominal_score
-    if a.cost_usd != b.cost_usd:
-        return a.cost_usd < b.cost_usd
-    return a.suite < b.suite
 
 
 def check_rules_and_methods(rules: Sequence[str], methods: Sequence[str], allowed: Sequence[str], what: str) -> tuple[str, ...]:
@@ -79,15 +70,17 @@ def check_rules_and_methods(rules: Sequence[str], methods: Sequence[str], allowe
     return ("uniform",) + tuple(r for r in rules if r != "uniform")
 
 
-# Long on purpose (~125 lines): the candidates run in one fixed order (greedy rules, Algorithm 2, the
-# bound's exact leaf, then the further methods unless the bound already proves one), each scored by
-# its exact worst case; splitting the stages apart would pass the memo, bound and tie-break around.
+#: ``run(tasks) -> outcomes``: runs a stage's tasks (independent of each other), outcomes in task order
+Runner = Callable[[Sequence[MethodTask]], list[MethodOutcome]]
+
+
 def robust_select(evaluator: Evaluator, budget_usd: float, alpha: int, *, rules: Sequence[str] = DEFAULT_RULES,
                   methods: Sequence[str] = EXTRA_METHODS, skip_when_proved: bool = True,
                   saturate_levels: int = DEFAULT_SATURATE_LEVELS, saturate_evaluations: int | None = 2_000,
                   local_rounds: int = 10, local_evaluations: int = 2_000, bound_nodes: int = DEFAULT_BOUND_NODES,
                   info: TargetInfo | None = None, constraints: Constraints | None = None) -> RobustResult:
-    """The best suite within ``budget_usd`` against ``alpha`` failures among the methods' suites.
+    """The best suite within ``budget_usd`` against ``alpha`` failures among the methods' suites, in
+    this process, every method sharing one memo (each suite scored once in the whole run).
 
     Args:
         evaluator: scores suites (wrapped in a memo if it is not one).
@@ -103,146 +96,145 @@ def robust_select(evaluator: Evaluator, budget_usd: float, alpha: int, *, rules:
     budget, alpha = check_budget(budget_usd), check_alpha(alpha)
     rules = check_rules_and_methods(rules, methods, EXTRA_METHODS, "robust method")
     ev = memoized(evaluator)
-    lib = ev.library
-    feas = feasible_set(lib, budget, constraints) if constraints is not None else None
-    kept = recorded(feas)  # None when the budget is the only limit: the methods then run as they always did
-    feas = feas if kept is not None else None
-    n_start = ev.n_evaluations
+    settings = RobustSettings(budget, alpha, kept_constraints(ev.library, budget, constraints), saturate_levels,
+                              saturate_evaluations, local_rounds, local_evaluations, bound_nodes)
+    return choose(lambda tasks: [run_method(ev, settings, t) for t in tasks], ev.library, settings, rules, methods,
+                  skip_when_proved, info=info, engine=ev.name, t_start=t_start)
+
+
+def kept_constraints(lib: SensorLibrary, budget: float, constraints: Constraints | None) -> Constraints | None:
+    """What a robust run keeps of ``constraints`` (None when the budget is the only limit: the methods
+    then run as they always did); refuses a request the library cannot meet (InputError)."""
+    return recorded(feasible_set(lib, budget, constraints)) if constraints is not None else None
+
+
+# Long on purpose (~80 lines): the candidates come in one fixed order (greedy and Algorithm 2, the
+# bound's exact leaves, then the further methods unless the bound already proves one), each scored
+# by its exact worst case; the best so far and the bound pass from one stage to the next.
+def choose(run: Runner, lib: SensorLibrary, s: RobustSettings, rules: Sequence[str], methods: Sequence[str],
+           skip_when_proved: bool, *, info: TargetInfo | None, engine: str, t_start: float) -> RobustResult:
+    """Robust selection's stages, each a list of independent tasks handed to ``run`` (this process
+    with one memo, or a plan on any executor and store): see the module docstring. ``rules``: checked,
+    "uniform" first."""
     cands: list[Candidate] = []
     skipped: list[str] = []
+    work = [0]
 
-    def add(method: str, suite: Sequence[int], note: str, n0: int, t0: float) -> Candidate:
-        s = as_suite(suite)
-        if feas is not None and not feas.fits(s):  # a method's bug, never the user's input
-            raise AssertionError(f"robust method {method} returned a suite that breaks the limits: {feas.violations(s)}")
-        w = worst_case(ev, s, alpha)
-        c = Candidate(method=method, suite=lib.suite_ids(s), cost_usd=lib.cost(s) if feas is None else float(feas.usage(s)[0]), nominal_score=w.nominal_score,
-                      worst_score=w.score, failures=w.failures, note=note, n_evaluations=ev.n_evaluations - n0,
-                      seconds=round(time.perf_counter() - t0, 6))
-        cands.append(c)
-        return c
+    def take(tasks: Sequence[MethodTask]) -> list[MethodOutcome]:
+        outs = run(tasks)
+        for o in outs:
+            cands.extend(o.candidates)
+            skipped.extend([o.skipped] if o.skipped else [])
+            work[0] += o.n_evaluations
+        return outs
 
     def best() -> Candidate:
-        b = cands[0]
-        for c in cands[1:]:
-            if _better(c, b, lib):
-                b = c
-        return b
+        return best_of(cands)
 
-    def anchors() -> list[tuple[int, ...]]:
+    def anchors() -> tuple[tuple[int, ...], ...]:
         ranked = sorted(cands, key=lambda c: (-c.worst_score, -c.nominal_score, c.cost_usd, c.suite))
         out: list[tuple[int, ...]] = []
         for c in ranked:
             x = as_suite(lib.position(i) for i in c.suite if i not in c.failures)
             if x not in out:
                 out.append(x)
-        return out
+        return tuple(out)
 
-    def run_rule(r: str) -> None:
-        n0, t0 = ev.n_evaluations, time.perf_counter()
-        g = greedy(ev, budget, r, constraints=kept)
-        add(f"greedy-{r}", [lib.position(i) for i in g.suite], g.stop_reason, n0, t0)
+    def reached(bound: float) -> bool:
+        return bound <= best().worst_score + tolerance(best().worst_score)
 
-    def tol_of(x: float) -> float:
-        return REL_TOL * max(1.0, abs(x))
-
-    run_rule("uniform")
-    greedy_worst = cands[0].worst_score
-    n0, t0 = ev.n_evaluations, time.perf_counter()
-    a2 = resilient_select(ev, budget, alpha, constraints=kept)
-    a2c = add("algorithm-2", [lib.position(i) for i in a2.suite], f"failing set {','.join(a2.failed)}" + (f"; {a2.failure_note}" if a2.failure_note else ""), n0, t0)
-    bnd = robust_bound(ev, budget, alpha, anchors=anchors(), incumbent=best().worst_score, max_nodes=bound_nodes,
-                       constraints=kept)
-    # an "exact" leaf with no sensor assumed failed is a feasible suite (the whole leaf library fits
-    # the budget) whose worst case the bound has just computed: a free candidate
-    for leaf in bnd.leaves:
-        if leaf.how == "exact" and not leaf.failed and leaf.bound > best().worst_score + tol_of(best().worst_score):
-            n0, t0 = ev.n_evaluations, time.perf_counter()
-            gone = set(leaf.removed)
-            if feas is None:
-                leaf_suite = [i for i in range(len(lib)) if lib.ids[i] not in gone and lib.costs[i] <= leaf.budget_usd + 1e-9]
-            else:  # the sensors that fit every limit on their own (what the bound's leaf held)
-                fit = feas.addable(np.zeros(len(feas.b)))
-                leaf_suite = [i for i in range(len(lib)) if lib.ids[i] not in gone and fit[i]]
-            if feas is not None and not feas.fits(leaf_suite):
-                continue  # the leaf breaks a limit (all of its sensors do not fit together): not a candidate
-            add("bound-leaf", leaf_suite, f"the bound's exact leaf without {','.join(leaf.removed) or 'nothing'}", n0, t0)
+    take([MethodTask("greedy", rule="uniform"), MethodTask(ALGORITHM_2)])
+    greedy_worst, a2c = cands[0].worst_score, cands[1]
+    bnd = take([MethodTask("bound", anchors=anchors(), incumbent=best())])[0].bound
+    assert bnd is not None
     proved = bnd.proved
-    if not proved and bnd.bound <= best().worst_score + tol_of(best().worst_score):
+    if not proved and reached(bnd.bound):
         proved = True
         bnd = replace(bnd, proved=True)
     n_before = len(cands)
-    # the other greedy rules: skipped too when the bound already proves a candidate optimal
-    for r in rules[1:]:
-        if proved and skip_when_proved:
-            skipped.append(f"greedy-{r}: the bound proves the best candidate optimal")
-        else:
-            run_rule(r)
-
-    for m in methods:
+    # the other greedy rules and a first Oblivious-Greedy depend on nothing but the inputs: one stage
+    # (skipped too when the bound already proves a candidate optimal)
+    first = [MethodTask("greedy", rule=r) for r in rules[1:]]
+    rest = list(methods)
+    if rest and rest[0] == "oblivious":
+        first.append(MethodTask("oblivious"))
+        rest = rest[1:]
+    if proved and skip_when_proved:
+        skipped.extend(f"{t.name if t.kind == 'greedy' else t.kind}: the bound proves the best candidate optimal" for t in first)
+    elif first:
+        take(first)
+        if first[-1].kind == "oblivious" and reached(bnd.bound):
+            proved = True
+    for m in rest:
         if proved and skip_when_proved:
             skipped.append(f"{m}: the bound proves the best candidate optimal")
             continue
-        n0, t0 = ev.n_evaluations, time.perf_counter()
-        if m == "oblivious":
-            s, note = oblivious_greedy(ev, budget, alpha, eta=2.0, constraints=kept)
-            add("oblivious-eta2", s, note, n0, t0)
-        elif m == "saturate":
-            lo = best().worst_score
-            levels, note = saturate(FailureFamily(ev, alpha), budget, lo, bnd.bound, levels=saturate_levels,
-                                    max_evaluations=saturate_evaluations, feasible=feas)
-            tried = [s for _, _, s in levels]
-            if not tried:
-                skipped.append("saturate: no level between the best worst case and the bound")
-                continue
-            covered = [c for c, ok, _ in levels if ok]
-            note = f"{note}; covered levels: {', '.join(f'{c:.3f}' for c in covered) or 'none'}"
-            # every level's suite is scored; the best is the method's candidate
-            sub = []
-            for s in dict.fromkeys(tried):
-                sub.append(add("saturate", s, note, n0, t0))
-                n0 = ev.n_evaluations
-            keep = sub[0]
-            for c in sub[1:]:
-                if _better(c, keep, lib):
-                    keep = c
-            for c in sub:
-                if c is not keep:
-                    cands.remove(c)
-        elif m == "local-search":
-            start = best()
-            s, note = local_search(ev, [lib.position(i) for i in start.suite], budget, alpha, max_rounds=local_rounds,
-                                   max_evaluations=local_evaluations, feasible=feas)
-            add("local-search", s, f"from {start.method}; {note}", n0, t0)
-        if not proved and bnd.bound <= best().worst_score + tol_of(best().worst_score):
+        task = MethodTask(m) if m == "oblivious" else MethodTask(m, incumbent=best(), hi=bnd.bound)
+        if take([task])[0].skipped:
+            continue
+        if not proved and reached(bnd.bound):
             proved = True
     win = best()
     if proved and not bnd.proved:
         bnd = replace(bnd, proved=True)
     if not proved and len(cands) > n_before:
         # new suites: their survivors are new anchors, and a better incumbent settles more leaves
-        bnd = robust_bound(ev, budget, alpha, anchors=anchors(), incumbent=win.worst_score, max_nodes=bound_nodes,
-                           constraints=kept)
+        again = take([MethodTask("bound", anchors=anchors(), incumbent=win, leaves=False)])[0].bound
+        assert again is not None
+        bnd = again
     bound = max(bnd.bound, win.worst_score)
     return RobustResult(
-        alpha=alpha, budget_usd=budget, method=win.method, suite=win.suite, cost_usd=win.cost_usd,
+        alpha=s.alpha, budget_usd=s.budget, method=win.method, suite=win.suite, cost_usd=win.cost_usd,
         nominal_score=win.nominal_score, worst_score=win.worst_score, failures=win.failures,
         greedy_worst_score=greedy_worst, algorithm2_worst_score=a2c.worst_score, bound=bound,
         gap_percent=100.0 * (bound - win.worst_score) / bound if bound > 0 else 0.0, candidates=tuple(cands),
-        skipped=tuple(skipped), bound_detail=bnd, n_evaluations=ev.n_evaluations - n_start, engine=ev.name, problem=info,
-        seconds=round(time.perf_counter() - t_start, 6), constraints=kept,
+        skipped=tuple(skipped), bound_detail=bnd, n_evaluations=work[0], engine=engine, problem=info,
+        seconds=round(time.perf_counter() - t_start, 6), constraints=s.constraints,
     )
 
 
 def run_robust(problem: Target, budget_usd: float, alpha: int, *, engine: str | None = None, jobs: int = 1,
-               aggregate: str = "normalised", **kwargs: Any) -> RobustResult:
-    """:func:`robust_select` with a fresh evaluator of ``engine`` for a problem or a domain."""
-    check_budget(budget_usd)
-    check_alpha(alpha)
-    if kwargs.get("constraints") is not None:
-        feasible_set(problem.library, budget_usd, kwargs["constraints"])  # refuse a bad request before the evaluator
-    ev = evaluator_for(problem, engine, jobs=jobs, aggregate=aggregate)
-    return robust_select(ev, budget_usd, alpha, info=problem.info, **kwargs)
+               aggregate: str = "normalised", executor: Executor | None = None, outdir: str | Path | None = None,
+               resume: bool = False, rules: Sequence[str] = DEFAULT_RULES, methods: Sequence[str] = EXTRA_METHODS,
+               skip_when_proved: bool = True, constraints: Constraints | None = None, **limits: Any) -> RobustResult:
+    """:func:`robust_select` on a problem or a domain as a plan of tasks (:mod:`sensorsel.pipeline`):
+    each stage's methods are tasks run by ``executor`` (default: this process), each on its own memo
+    over the target's evaluator of ``engine`` (built once where the tasks run), so the answer is the
+    same bytes wherever they ran, timings aside. Each task's memo starts from the suites the earlier
+    stages scored (passed with the task), so only the methods of one stage score a suite twice.
+    ``outdir``: each task's outcome is kept there as it
+    arrives (``NN-METHOD.json``, with the fingerprint of its inputs); ``resume`` reads back those whose
+    inputs match. ``limits``: the methods' limits of :func:`robust_select` (saturate_levels, ...).
+
+    Its numbers may differ from :func:`robust_select` on one shared memo in the last bits (a suite's
+    score can depend on the path that first scored it) and in ``n_evaluations`` (the methods of one
+    stage share no suite)."""
+    t_start = time.perf_counter()
+    budget, alpha = check_budget(budget_usd), check_alpha(alpha)
+    rules = check_rules_and_methods(rules, methods, EXTRA_METHODS, "robust method")
+    settings = RobustSettings(budget, alpha, kept_constraints(problem.library, budget, constraints), **limits)
+    name = "domain" if isinstance(problem, Domain) else engine_name(engine)
+    recipe = EvaluatorRecipe(TargetRecipe.of(problem), engine, jobs, aggregate)
+    local = None
+    if executor is None or isinstance(executor, InProcess):  # the tasks run here: one evaluator for all of them
+        local = ((problem, evaluator_for(problem, engine, jobs=jobs, aggregate=aggregate)),)
+    key = task_key(problem.info, name, aggregate, settings, rules, methods, skip_when_proved)
+    stage = [0]
+    known: dict[tuple[int, ...], Scored] = {}  # what earlier stages scored (first stage, first task first)
+
+    def run(tasks: Sequence[MethodTask]) -> list[MethodOutcome]:
+        stage[0] += 1
+        seen = tuple(known.values())
+        plan: Plan[MethodOutcome] = Plan("robust method", method_step, tuple((settings, t, seen) for t in tasks),
+                                         states=(recipe,), build=EvaluatorRecipe.build, local=local)
+        outs = execute(plan, executor, task_store(outdir, resume, key, stage[0], tasks))
+        for o in outs:
+            for k in o.scored:
+                known.setdefault(k.suite, k)
+        return outs
+
+    return choose(run, problem.library, settings, rules, methods, skip_when_proved, info=problem.info, engine=name,
+                  t_start=t_start)
 
 
 def robust_choice(evaluator: Evaluator, budget_usd: float, alpha: int, info: TargetInfo | None = None,

@@ -36,10 +36,10 @@ from sensorsel.designs.resilient import check_alpha, recorded, resilient_select,
 from sensorsel.designs.robust.bound import DEFAULT_BOUND_NODES, robust_bound
 from sensorsel.designs.robust.family import FailureFamily, Family
 from sensorsel.designs.robust.memo import MemoEvaluator, memoized
-from sensorsel.designs.robust.methods import DEFAULT_SATURATE_LEVELS, saturate
-from sensorsel.designs.robust.records import Candidate, MemberWorst, RobustBound, RobustResult
-from sensorsel.designs.robust.select import _better as _select_better
+from sensorsel.designs.robust.methods import DEFAULT_SATURATE_LEVELS, Improves, first_improvement, saturate
+from sensorsel.designs.robust.records import Candidate, MemberWorst, RobustBound, RobustResult, best_of
 from sensorsel.designs.robust.select import check_rules_and_methods
+from sensorsel.designs.robust.tasks import ALGORITHM_2
 from sensorsel.designs.selection import REL_TOL, check_budget, greedy
 from sensorsel.information.evaluators import DomainEvaluator, Evaluator, as_suite
 from sensorsel.model.constraints import Constraints, FeasibleSet, feasible_set
@@ -98,49 +98,21 @@ class RouteFailureFamily(Family):
         return per[k][1], self.labels[k]
 
 
-def _better(a: Candidate, b: Candidate) -> bool:
-    return _select_better(a, b, None)
-
-
 def _local_search(fam: RouteFailureFamily, start: Sequence[int], budget: float, max_rounds: int,
                   max_evaluations: int, feasible: FeasibleSet | None = None) -> tuple[tuple[int, ...], str]:
-    """Add / swap moves raising the exact h; first improvement in library order; bounded.
-    ``feasible``: only its suites are moved to (None: the budget alone)."""
-    lib = fam.library
-    costs, n = lib.costs, len(lib)
-    n0 = fam.n_evaluations
-    s = as_suite(start)
-    h = fam.worst(s)[0]
-    moves: list[str] = []
-    stop = "no improving move"
-    for _ in range(max_rounds):
-        found = None
-        cost = lib.cost(s)
-        for a in [None, *s]:
-            for b in range(n):
-                if b in s:
-                    continue
-                if fam.n_evaluations - n0 > max_evaluations:
-                    stop = f"evaluation limit ({max_evaluations:,}) reached"
-                    break
-                if feasible is None and cost + costs[b] - (costs[a] if a is not None else 0.0) > budget + 1e-9:
-                    continue
-                s2 = as_suite([i for i in s if i != a] + [b])
-                if feasible is not None and not feasible.fits(s2):
-                    continue
-                h2 = fam.worst(s2)[0]
-                if h2 > h + REL_TOL * max(1.0, abs(h)):
-                    found = (a, b, s2, h2)
-                    break
-            if found or stop.startswith("evaluation"):
-                break
-        if not found:
-            break
-        a, b, s, h = found
-        moves.append(f"+{lib.ids[b]}" if a is None else f"{lib.ids[a]}->{lib.ids[b]}")
-    else:
-        stop = f"round limit ({max_rounds}) reached"
-    return s, (f"moves: {' '.join(moves)}; " if moves else "no move; ") + stop
+    """Add / swap moves raising the exact h; first improvement in library order; bounded
+    (:func:`~.methods.first_improvement`). ``feasible``: only its suites are moved to (None: the budget alone)."""
+    n = len(fam.library)
+
+    def round_of(s: tuple[int, ...]) -> tuple[list[int], list[int], Improves]:
+        h = fam.worst(s)[0]
+
+        def improves(a: int | None, b: int, s2: tuple[int, ...]) -> bool:
+            return fam.worst(s2)[0] > h + REL_TOL * max(1.0, abs(h))
+        return list(s), [b for b in range(n) if b not in s], improves
+
+    return first_improvement(fam.library, start, budget, round_of, lambda: fam.n_evaluations, max_rounds=max_rounds,
+                             max_evaluations=max_evaluations, feasible=feasible)
 
 
 # Long on purpose (~110 lines): as robust_select, for the worst route of a domain: candidates in one
@@ -191,11 +163,7 @@ def worst_route_select(domain: Domain, budget_usd: float, alpha: int, *, engine:
         return c
 
     def best() -> Candidate:
-        b = cands[0]
-        for c in cands[1:]:
-            if _better(c, b):
-                b = c
-        return b
+        return best_of(cands)
 
     for r in rules:
         n0, t0 = work(), time.perf_counter()
@@ -204,7 +172,7 @@ def worst_route_select(domain: Domain, budget_usd: float, alpha: int, *, engine:
     greedy_worst = cands[0].worst_score
     n0, t0 = work(), time.perf_counter()
     a2 = resilient_select(avg, budget, alpha, constraints=kept)
-    a2c = add("algorithm-2", [lib.position(i) for i in a2.suite], f"on the domain's normalised average; failing set {','.join(a2.failed)}", n0, t0)
+    a2c = add(ALGORITHM_2, [lib.position(i) for i in a2.suite], f"on the domain's normalised average; failing set {','.join(a2.failed)}", n0, t0)
 
     def bound_now() -> RobustBound:
         t0, n0 = time.perf_counter(), work()
@@ -244,10 +212,7 @@ def worst_route_select(domain: Domain, budget_usd: float, alpha: int, *, engine:
             for s in dict.fromkeys(s for _, _, s in levels):
                 sub.append(add("saturate", s, note, n0, t0))
                 n0 = work()
-            keep = sub[0]
-            for c in sub[1:]:
-                if _better(c, keep):
-                    keep = c
+            keep = best_of(sub)
             for c in sub:
                 if c is not keep:
                     cands.remove(c)

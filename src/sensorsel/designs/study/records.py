@@ -7,6 +7,7 @@ import json
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
+from sensorsel.designs.resilient import METHODS  # how a cell with failures > 0 chooses its suite
 from sensorsel.io import results
 from sensorsel.io.results import result_kind
 from sensorsel.model.domain import DomainError, load_domain_file, load_domain_scenarios
@@ -17,8 +18,6 @@ from sensorsel.model.scenario import ScenarioSpec, load_scenario
 
 #: Bumped when what a cell computes, or its file, changes (invalidates resume).
 FORMAT = 1
-#: how a cell with failures > 0 chooses its suite
-METHODS = ("algorithm-2", "robust")
 DEFAULT_LIBRARY = "default"
 
 

@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any, Sequence
 
 from sensorsel.designs.certify import certificate
-from sensorsel.designs.resilient import resilient_select, worst_case
+from sensorsel.designs.resilient import ALGORITHM_2, resilient_select, worst_case
 from sensorsel.designs.robust import robust_select
 from sensorsel.designs.selection import greedy
 from sensorsel.information.evaluators import evaluator_for
@@ -46,7 +46,7 @@ def run_cell(target: Target, cell: Cell, study: Study, *, jobs: int = 1) -> Stud
         suite, score, cost = g.suite, g.score, g.cost_usd
         if study.certificate:
             cert = certificate(ev, g).percent_of_best
-    elif study.method == "algorithm-2":
+    elif study.method == ALGORITHM_2:
         a2 = resilient_select(ev, budget, alpha, cell.rule, lazy=study.lazy)
         w = worst_case(ev, [lib.position(i) for i in a2.suite], alpha)
         suite, score, cost, worst, worst_failures, assumed = a2.suite, a2.score, a2.cost_usd, w.score, w.failures, a2.failed
