@@ -105,3 +105,28 @@ def test_kitti_routes_in_four_conditions_same_picks_as_whole_domain_evaluations(
     a, b = greedy(new, 110_000), greedy(old, 110_000)
     assert a.suite == b.suite and _steps(a) == _steps(b) and a.score == b.score
     assert new.n_bounded > 0 and _member_evaluations(new) < _member_evaluations(old)
+
+
+def test_night_members_measure_lidars_and_radars_as_their_clear_member_does(city):
+    # the premise of bounding a night member by its clear member while the suite has no camera:
+    # night changes the cameras only (their arrays are new), every other sensor keeps its arrays
+    from sensorsel.evaluators.domain import clear_partners
+
+    partner, alike = clear_partners(city, len(city.library))
+    cameras = np.array([s.model.type == "stereo" for s in city.library])
+    assert cameras.any() and not cameras.all()
+    for k, r in enumerate(city.routes):
+        if r.condition == "clear":
+            assert partner[k] == -1
+            continue
+        p = city.routes[partner[k]]
+        assert p.condition == "clear" and p.route_name == r.route_name
+        if r.condition == "night":
+            assert np.array_equal(alike[k], ~cameras)
+        # every member: "alike" only where the measurements are equal in content (the oracle: the
+        # arrays; a radar whose range rain shortens past every landmark is equal but not "alike":
+        # conservative, a bound unused, never a wrong one)
+        for s, (a, b) in enumerate(zip(r.problem.observations, p.problem.observations)):
+            same = all(np.array_equal(getattr(a, f), getattr(b, f))
+                       for f in ("pose", "landmark", "range_m", "sigma_bearing_rad", "sigma_range_m"))
+            assert same or not alike[k, s], (r.name, city.library.ids[s])

@@ -63,12 +63,41 @@ class MemberBounds:
         own: f_r(S) of each route [nats], shape (R,).
         stale: upper bounds on each route's gain Δ_r(c | S) [nats], shape (R, n) (inf: none yet).
         known: exact f_r(S + {c}) of the routes scored so far at S, by candidate, shape (R,) (nan: not yet).
+
+    A member under a condition that changes no sensor of S has the information matrix of its route's
+    clear member at S (same scenario, settings and, for those sensors, the very same measurements),
+    and the condition only removes measurements of a candidate or shrinks their weights, so its gain
+    is at most the clear member's: Δ_m(c | S) ≤ Δ_clear(c | S) (night, before a camera is bought).
     """
 
     suite: Suite
     own: np.ndarray
     stale: np.ndarray
     known: dict[int, np.ndarray] = field(default_factory=dict)
+    #: (R,) bool: members whose condition leaves every sensor of S alone (their clear member bounds them)
+    as_clear: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
+
+
+def clear_partners(domain: Domain, n_sensors: int) -> tuple[np.ndarray, np.ndarray]:
+    """For each member, its route's clear member (−1: none, or itself) and which sensors it measures
+    exactly as the clear member does (the very same measurement arrays: a condition that leaves a
+    sensor alone keeps them, :func:`sensorsel.sensing.apply_condition`), shapes (R,) and (R, n)."""
+    R = len(domain.routes)
+    clear: dict[str, int] = {}
+    for k, r in enumerate(domain.routes):
+        if r.problem.condition is None:
+            clear.setdefault(r.route_name, k)
+    partner, alike = np.full(R, -1), np.zeros((R, n_sensors), dtype=bool)
+    for k, r in enumerate(domain.routes):
+        p = clear.get(r.route_name, -1)
+        if p < 0 or p == k:
+            continue
+        q = domain.routes[p].problem
+        if r.problem.scenario is not q.scenario or r.problem.settings != q.settings:
+            continue
+        partner[k] = p
+        alike[k] = [a is b for a, b in zip(r.problem.observations, q.observations)]
+    return partner, alike
 
 
 def check_aggregate(aggregate: str) -> str:
@@ -129,6 +158,7 @@ class DomainEvaluator(Evaluator):
         # what lazy greedy's member-by-member scoring knows (here, as every evaluator of a domain sets its normalisers)
         self._lazy: MemberBounds | None = None
         self._pool: ThreadPoolExecutor | None = None
+        self._clear, self._alike = clear_partners(domain, len(self.library))
         # a route's work per evaluation, relative: its keyframes K. Only orders the routes (never changes
         # a number): measured per candidate ~K^1.7 on the KITTI routes (03, 81 keyframes ~1 ms; 00, 455
         # ~20 ms), but the route-ordering by K scored fewer routes in all (seven routes x four conditions
@@ -175,6 +205,7 @@ class DomainEvaluator(Evaluator):
             if b is not None and st is not None:  # kept for the member-by-member scoring, with an allowance for round-off
                 allowed = np.asarray(b, dtype=float) * (1.0 + BOUND_SLACK) + BOUND_SLACK * max(1.0, abs(st.own[k]))
                 st.stale[k, cand] = np.minimum(st.stale[k, cand], allowed)
+                self._bound_alike(st, k, cand, np.asarray(b, dtype=float))
             if b is None:
                 if st is None:
                     return None
@@ -255,8 +286,16 @@ class DomainEvaluator(Evaluator):
             return None
         if own is None:
             own = np.zeros(R) if not base else self.route_scores(base)  # f_r(empty) = 0 exactly
-        self._lazy = MemberBounds(base, np.array(own, dtype=float), stale)
+        as_clear = (self._clear >= 0) & self._alike[:, list(base)].all(axis=1)
+        self._lazy = MemberBounds(base, np.array(own, dtype=float), stale, as_clear=as_clear)
         return self._lazy
+
+    def _bound_alike(self, st: MemberBounds, k: int, cand: list[int], gains: np.ndarray) -> None:
+        """Bounds ``gains`` [nats] on clear member k's Δ_k(c | S) (exact, or its engine's) bound
+        the members that see S as it does (:class:`MemberBounds`), with an allowance for round-off."""
+        allowed = gains * (1.0 + BOUND_SLACK) + BOUND_SLACK * max(1.0, abs(st.own[k]))
+        for j in np.flatnonzero(st.as_clear & (self._clear == k)).tolist():
+            st.stale[j, cand] = np.minimum(st.stale[j, cand], allowed)
 
     def scores_or_bounds(self, suite: Iterable[int], candidates: Sequence[int], needed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """For each candidate c, F(S + {c}) exactly, or an upper bound on it below ``needed`` (what
@@ -313,6 +352,7 @@ class DomainEvaluator(Evaluator):
                     c = cand[i]
                     st.known[c][k] = v
                     st.stale[k, c] = min(st.stale[k, c], v - st.own[k])
+                    self._bound_alike(st, k, [c], np.array([v - st.own[k]]))
                     scored[i] += 1
         return out, exact
 
