@@ -26,9 +26,9 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "src"))
 
-from sensorsel.evaluators import DomainEvaluator  # noqa: E402
-from sensorsel.problem import load_domain  # noqa: E402
-from sensorsel.selection import greedy  # noqa: E402
+from sensorsel.information.evaluators import DomainEvaluator  # noqa: E402
+from sensorsel.model.problem import load_domain  # noqa: E402
+from sensorsel.designs.selection import greedy  # noqa: E402
 
 
 def run(path: Path, budget: float, jobs: int) -> dict[str, float | str | int]:

@@ -17,12 +17,12 @@ from pathlib import Path
 
 import pytest
 
-from sensorsel import results
 from sensorsel.api import design_domain, run_greedy, suite_accuracy
-from sensorsel.checkpoint import GreedyCheckpoint, checkpoint_path
+from sensorsel.designs.checkpoint import GreedyCheckpoint, checkpoint_path
 from sensorsel.errors import ResultFileError
-from sensorsel.evaluators import DomainEvaluator
-from sensorsel.problem import load_domain
+from sensorsel.information.evaluators import DomainEvaluator
+from sensorsel.io import results
+from sensorsel.model.problem import load_domain
 
 REPO = Path(__file__).resolve().parents[1]
 FIXTURES = REPO / "configs" / "domain_fixtures.yaml"

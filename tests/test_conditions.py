@@ -13,18 +13,18 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sensorsel import results
-from sensorsel.conditions import (Condition, ConditionPhysics, fog_extinction_per_m, koschmieder_range_m,
-                                  parse_condition, power_law_db_per_km, radar_extinction_per_m, range_under_extinction,
-                                  sensor_effect)
-from sensorsel.domain import DomainError, load_domain_file
+from sensorsel.designs.selection import greedy
 from sensorsel.errors import InputError, ResultFileError
-from sensorsel.evaluators import DomainEvaluator, make_evaluator
-from sensorsel.library import load_library
-from sensorsel.problem import Domain, DomainRoute, check_result_problem, load_domain, load_problem, with_condition
-from sensorsel.scenario import ScenarioSpec
-from sensorsel.selection import greedy
-from sensorsel.sensing import condition_effects, observe
+from sensorsel.information.evaluators import DomainEvaluator, make_evaluator
+from sensorsel.io import results
+from sensorsel.model.conditions import (Condition, ConditionPhysics, fog_extinction_per_m, koschmieder_range_m,
+                                        parse_condition, power_law_db_per_km, radar_extinction_per_m,
+                                        range_under_extinction, sensor_effect)
+from sensorsel.model.domain import DomainError, load_domain_file
+from sensorsel.model.library import load_library
+from sensorsel.model.problem import Domain, DomainRoute, check_result_problem, load_domain, load_problem, with_condition
+from sensorsel.model.scenario import ScenarioSpec
+from sensorsel.model.sensing import condition_effects, observe
 
 REPO = Path(__file__).resolve().parents[1]
 BIN = Path(sys.executable).parent
@@ -279,8 +279,8 @@ def test_bad_physics_in_the_library_names_the_key(tmp_path):
 def test_condition_members_on_dask_workers_equal_in_process(tmp_path):
     # the workers rebuild each member from its recipe (the spec carries the condition): same bytes
     pytest.importorskip("distributed")
-    from sensorsel.distributed import DaskCluster, DistributedDomainEvaluator
-    from sensorsel.domain_design import design_domain
+    from sensorsel.designs.domain_design import design_domain
+    from sensorsel.pipeline.cluster import DaskCluster, DistributedDomainEvaluator
 
     p = tmp_path / "d.yaml"
     p.write_text(CITY + "\nroutes:\n  - {name: tiny, fixture: tiny, weight: 1}\n")
@@ -298,10 +298,10 @@ def test_a_problem_put_under_a_condition_in_python_keeps_it_on_dask_workers(tiny
     # no spec carries the condition here (built from objects): the recipe must, or the workers
     # rebuild and score the clear problem (a silently wrong answer: the night member scored clear)
     pytest.importorskip("distributed")
-    from sensorsel.distributed import DaskCluster, DistributedDomainEvaluator
-    from sensorsel.domain_design import design_domain
-    from sensorsel.problem import TargetRecipe
-    from sensorsel.tradespace import run_tradespace
+    from sensorsel.designs.domain_design import design_domain
+    from sensorsel.designs.tradespace import run_tradespace
+    from sensorsel.model.problem import TargetRecipe
+    from sensorsel.pipeline.cluster import DaskCluster, DistributedDomainEvaluator
 
     night = with_condition(tiny_problem, Condition(night=True, fog_visibility_m=150))
     assert night.spec is None and tiny_problem.spec is None
@@ -322,7 +322,7 @@ def test_a_problem_put_under_a_condition_in_python_keeps_it_on_dask_workers(tiny
 
 
 def test_breakdown_by_condition_and_its_grid_plot(tmp_path):
-    from sensorsel.domain_design import by_condition, design_domain
+    from sensorsel.designs.domain_design import by_condition, design_domain
     from sensorsel.plotting import plot_domain_breakdown
 
     d = load_domain(_domain_file(tmp_path, CITY))

@@ -10,9 +10,9 @@ from typing import Iterable, Sequence
 import numpy as np
 import pytest
 
-from sensorsel.evaluators import DomainEvaluator, Evaluator
-from sensorsel.problem import load_domain
-from sensorsel.selection import greedy
+from sensorsel.designs.selection import greedy
+from sensorsel.information.evaluators import DomainEvaluator, Evaluator
+from sensorsel.model.problem import load_domain
 
 CITY = ("conditions:\n  - {name: night, night: true, share: 0.25}\n  - {name: rain, rain_mm_h: 5, share: 0.08}\n"
         "  - {name: fog, fog_visibility_m: 150, share: 0.005}\n")
@@ -110,7 +110,7 @@ def test_kitti_routes_in_four_conditions_same_picks_as_whole_domain_evaluations(
 def test_night_members_measure_lidars_and_radars_as_their_clear_member_does(city):
     # the premise of bounding a night member by its clear member while the suite has no camera:
     # night changes the cameras only (their arrays are new), every other sensor keeps its arrays
-    from sensorsel.evaluators.domain import clear_partners
+    from sensorsel.information.evaluators.domain import clear_partners
 
     partner, alike = clear_partners(city, len(city.library))
     cameras = np.array([s.model.type == "stereo" for s in city.library])

@@ -23,7 +23,7 @@ beside each number; defaults here are the shipped file's):
   equation) so R e^(αR/2) = R₀: R = 2 W(α R₀/2)/α. Night and snow: unchanged (assumed for snow).
 
 A condition only shrinks ranges and inflates noise: each sensor's measurements under it are a
-subset of its clear ones with larger noise (:func:`sensorsel.sensing.apply_condition`), so a suite
+subset of its clear ones with larger noise (:func:`sensorsel.model.sensing.apply_condition`), so a suite
 never gets more information in a more severe condition.
 """
 
@@ -37,7 +37,7 @@ from typing import Any
 
 from scipy.special import lambertw
 
-from .errors import InputError, LibraryError
+from sensorsel.errors import InputError, LibraryError
 
 #: the keys of a condition, in their canonical order
 CONDITION_KEYS = ("night", "rain_mm_h", "fog_visibility_m", "snow_mm_h")

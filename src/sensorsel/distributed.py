@@ -10,7 +10,7 @@ settings (a few kilobytes; a linearized GTSAM graph does not pickle, and need no
 sends the base suite and the candidates to every route's actor at once and gets back one array of
 f_r(S + c) per route; the client combines them in route order with
 :meth:`DomainEvaluator.combine`, so the numbers are the bytes of the in-process
-:class:`~sensorsel.evaluators.DomainEvaluator` whatever the number of workers. The normalisers f_r(L)
+:class:`~sensorsel.information.evaluators.DomainEvaluator` whatever the number of workers. The normalisers f_r(L)
 are computed by the actors too.
 
 **Faults.** An actor lives on one worker; when that worker dies, the call fails. The evaluator then
@@ -35,12 +35,12 @@ from typing import Any, Callable, Iterable, Sequence
 
 import numpy as np
 
-from .errors import SensorselError
-from .evaluators import Evaluator, ProblemEvaluator, as_suite, make_evaluator
-from .evaluators.domain import DomainEvaluator, check_aggregate
-from .evaluators.registry import check_engine
-from .pipeline import ClusterError, DaskExecutor, import_distributed
-from .problem import Domain, Problem, RouteRecipe
+from sensorsel.errors import SensorselError
+from sensorsel.information.evaluators import Evaluator, ProblemEvaluator, as_suite, make_evaluator
+from sensorsel.information.evaluators.domain import DomainEvaluator, check_aggregate
+from sensorsel.information.evaluators.registry import check_engine
+from sensorsel.model.problem import Domain, Problem, RouteRecipe
+from sensorsel.pipeline import ClusterError, DaskExecutor, import_distributed
 
 #: seconds to wait for a scheduler to answer before giving up
 DEFAULT_CONNECT_TIMEOUT_S = 5.0

@@ -16,12 +16,13 @@ from typing import Iterable
 
 import numpy as np
 
-from .conditions import CLEAR, Condition, condition_digest
-from .errors import InputError, ResultFileError, SensorselWarning
-from .domain import load_domain_file, load_domain_scenarios
-from .library import SensorLibrary, load_library
-from .scenario import Scenario, ScenarioSpec, distance_to_route, load_scenario
-from .sensing import BYTES_PER_MEASUREMENT, SensorObservations, apply_condition, estimate_measurements, observe
+from sensorsel.errors import InputError, ResultFileError, SensorselWarning
+from sensorsel.model.conditions import CLEAR, Condition, condition_digest
+from sensorsel.model.domain import load_domain_file, load_domain_scenarios
+from sensorsel.model.library import SensorLibrary, load_library
+from sensorsel.model.scenario import Scenario, ScenarioSpec, distance_to_route, load_scenario
+from sensorsel.model.sensing import (BYTES_PER_MEASUREMENT, SensorObservations, apply_condition, estimate_measurements,
+                                     observe)
 
 # Limits and checks (docs/scenarios.md, "Limits and checks"):
 MAX_MEASUREMENT_BYTES = 2 * 2**30  # most memory the measurements of a problem may take (estimated before observing)
@@ -70,7 +71,7 @@ class Fingerprint:
         landmarks: the landmarks' coordinates, in order.
         settings: the graph settings (odometry, first-pose and landmark prior noise).
         condition: the operating condition's parameters and the physics applied to them
-            (:func:`sensorsel.conditions.condition_digest`); None for clear (or no condition).
+            (:func:`sensorsel.model.conditions.condition_digest`); None for clear (or no condition).
     """
 
     library: str
@@ -94,7 +95,7 @@ class Fingerprint:
         sensors = []
         for s in library.sensors:
             # resources (power, mass, data rate) do not change a score: a constrained result records
-            # the limits and resource values it used itself (sensorsel.constraints)
+            # the limits and resource values it used itself (sensorsel.model.constraints)
             model = {k: v for k, v in asdict(s.model).items() if k not in ("name", "resources")}
             sensors.append({"id": s.id, "index": s.index, "clock": s.clock, "mount_angle_rad": s.mount_angle_rad, "model": model})
         kf = scenario.keyframes
@@ -318,7 +319,7 @@ def build_problem(library: SensorLibrary, scenario: Scenario, settings: GraphSet
 
 def with_condition(problem: Problem, condition: Condition | None) -> Problem:
     """``problem`` under an operating condition: each sensor's measurements derived from the
-    problem's (:func:`sensorsel.sensing.apply_condition`: no sensor observes again, nothing is
+    problem's (:func:`sensorsel.model.sensing.apply_condition`: no sensor observes again, nothing is
     linearized by GTSAM), the condition recorded in the problem, its spec (so that a worker
     rebuilding the problem from its spec applies it again) and its fingerprint.
 
@@ -517,7 +518,7 @@ class Domain:
 
 
 def load_domain(path: str | Path, library: str | Path | None = None, settings: GraphSettings | None = None) -> Domain:
-    """Read an operating-domain file (:mod:`sensorsel.domain`), load every route and compute what each
+    """Read an operating-domain file (:mod:`sensorsel.model.domain`), load every route and compute what each
     sensor sees on it. ``library`` overrides the file's ``library`` (default: the paper's Table I)."""
     spec = load_domain_file(path)
     lib = load_library(library if library is not None else spec.library)

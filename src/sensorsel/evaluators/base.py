@@ -8,7 +8,7 @@ greedy guarantees and the lazy evaluation rely on.
 
 Evaluators compute these numbers; they differ in speed, not in answers. ``reference`` rebuilds,
 relinearizes and eliminates the GTSAM graph for every suite (the paper's method, and the oracle of
-the tests); faster engines are registered in :data:`sensorsel.evaluators.ENGINES`.
+the tests); faster engines are registered in :data:`sensorsel.information.evaluators.ENGINES`.
 """
 
 from __future__ import annotations
@@ -18,9 +18,9 @@ from typing import ClassVar, Iterable, Sequence
 
 import numpy as np
 
-from ..errors import InputError
-from ..library import SensorLibrary
-from ..problem import Problem
+from sensorsel.errors import InputError
+from sensorsel.model.library import SensorLibrary
+from sensorsel.model.problem import Problem
 
 #: a canonical suite: sorted tuple of unique library positions
 Suite = tuple[int, ...]
@@ -36,7 +36,7 @@ class Evaluator(ABC):
     f(S) of a suite of one library's sensors, monotone submodular, f(empty) = 0.
 
     Subclasses: :class:`ProblemEvaluator` (one route: f(S) = log det L(S) - log det L(empty)) and
-    :class:`~sensorsel.evaluators.domain.DomainEvaluator` (a weighted combination over routes).
+    :class:`~sensorsel.information.evaluators.domain.DomainEvaluator` (a weighted combination over routes).
 
     Attributes:
         library: the sensors; suites are sorted tuples of positions in it.
@@ -44,7 +44,7 @@ class Evaluator(ABC):
         n_evaluations: how many suites have been scored.
     """
 
-    #: the engine's name (in :data:`sensorsel.evaluators.ENGINES` for per-problem engines)
+    #: the engine's name (in :data:`sensorsel.information.evaluators.ENGINES` for per-problem engines)
     name: ClassVar[str] = ""
     #: whether :meth:`scores_or_bounds` may answer with bounds (then lazy greedy scores the first
     #: candidate of a step alone, to have a best to bound the others against)
@@ -84,7 +84,7 @@ class Evaluator(ABC):
         an upper bound on it below ``needed[i]``, the value it must reach to matter to the caller:
         (values, exact), shape (len(candidates),) each. Lazy greedy calls this; the default scores
         every candidate exactly (:meth:`scores_with`). A domain scores its routes one at a time
-        (:meth:`~sensorsel.evaluators.domain.DomainEvaluator.scores_or_bounds`)."""
+        (:meth:`~sensorsel.information.evaluators.domain.DomainEvaluator.scores_or_bounds`)."""
         vals = self.scores_with(suite, candidates)
         return vals, np.ones(len(vals), dtype=bool)
 

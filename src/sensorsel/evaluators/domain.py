@@ -1,6 +1,6 @@
 """The score of an operating domain: one suite for every route a fleet drives.
 
-A domain (:class:`~sensorsel.problem.Domain`) is routes r = 1..R with weights w_r (the share of the
+A domain (:class:`~sensorsel.model.problem.Domain`) is routes r = 1..R with weights w_r (the share of the
 fleet's driving each stands for, in kilometres or hours), all with one sensor library. Its score is
 
     normalised (default):  F(S) = sum_r  w̄_r f_r(S) / f_r(L)     a share of the best, in [0, 1]
@@ -35,10 +35,10 @@ from typing import Any, Iterable, Sequence
 
 import numpy as np
 
-from ..errors import InputError
-from ..problem import Domain
-from .base import Evaluator, ProblemEvaluator, Suite, as_suite
-from .registry import check_engine, make_evaluator
+from sensorsel.errors import InputError
+from sensorsel.information.evaluators.base import Evaluator, ProblemEvaluator, Suite, as_suite
+from sensorsel.information.evaluators.registry import check_engine, make_evaluator
+from sensorsel.model.problem import Domain
 
 #: how a domain combines its routes' scores (see the module's documentation)
 AGGREGATES = ("normalised", "raw")
@@ -50,7 +50,7 @@ BOUND_SLACK = 1e-9
 #: routes scored at once for a candidate re-scored alone (one each when two are): two routes keep
 #: both cores of a 2-core machine busy, at the risk of one route scored that the bound did not
 #: need. Fixed, not the thread count, so that the routes scored, and so every count of a result,
-#: are the same for any ``jobs`` (as :data:`sensorsel.selection.greedy.LAZY_BATCH`).
+#: are the same for any ``jobs`` (as :data:`sensorsel.designs.selection.greedy.LAZY_BATCH`).
 LONE_ROUTES = 2
 
 
@@ -81,7 +81,7 @@ class MemberBounds:
 def clear_partners(domain: Domain, n_sensors: int) -> tuple[np.ndarray, np.ndarray]:
     """For each member, its route's clear member (−1: none, or itself) and which sensors it measures
     exactly as the clear member does (the very same measurement arrays: a condition that leaves a
-    sensor alone keeps them, :func:`sensorsel.sensing.apply_condition`), shapes (R,) and (R, n)."""
+    sensor alone keeps them, :func:`sensorsel.model.sensing.apply_condition`), shapes (R,) and (R, n)."""
     R = len(domain.routes)
     clear: dict[str, int] = {}
     for k, r in enumerate(domain.routes):

@@ -12,7 +12,7 @@ A *request* that can buy nothing (a command's --budget, or a budget that buys no
 sensors assumed to fail) is refused up front by :func:`check_affordable`, an :class:`InputError`
 naming the option; every command (greedy, pareto, optimal, certify, resilient) calls it.
 
-Constraints (:mod:`sensorsel.constraints`): besides the budget, a run may respect resource limits,
+Constraints (:mod:`sensorsel.model.constraints`): besides the budget, a run may respect resource limits,
 mounting slots, a largest number of sensors, required and excluded sensors. Required sensors start
 the suite; a candidate is considered only when it fits every limit on top of the suite, so no run
 ever returns a suite outside the feasible set. The cost-aware rules use each sensor's
@@ -41,14 +41,14 @@ from typing import Callable, Protocol, Sequence
 
 import numpy as np
 
-from ..constraints import Constraints, FeasibleSet, feasible_set, recorded
-from ..errors import InputError
-from ..evaluators import Evaluator
-from ..library import SensorLibrary
-from ..problem import TargetInfo
-from .records import GreedyResult, Progress, Step
-from .registry import RULES, check_rule
-from .rules import REL_TOL, Rule
+from sensorsel.designs.selection.records import GreedyResult, Progress, Step
+from sensorsel.designs.selection.registry import RULES, check_rule
+from sensorsel.designs.selection.rules import REL_TOL, Rule
+from sensorsel.errors import InputError
+from sensorsel.information.evaluators import Evaluator
+from sensorsel.model.constraints import Constraints, FeasibleSet, feasible_set, recorded
+from sensorsel.model.library import SensorLibrary
+from sensorsel.model.problem import TargetInfo
 
 __all__ = ["BOUND_FROM", "LAZY_BATCH", "REL_TOL", "Selector", "check_affordable", "check_budget", "greedy"]
 
@@ -123,7 +123,7 @@ def check_affordable(library: SensorLibrary, budget_usd: float, alpha: int = 0, 
 
 class Journal(Protocol):
     """What a resumable greedy run recorded, and where it records each pick and each finished
-    component run (:mod:`sensorsel.checkpoint` keeps it in a checkpoint file).
+    component run (:mod:`sensorsel.designs.checkpoint` keeps it in a checkpoint file).
 
     Attributes:
         runs: a strategy's finished component runs, in order (a single rule: its run, once finished).
@@ -162,7 +162,7 @@ def greedy(evaluator: Evaluator, budget_usd: float, rule: str = "uniform", *, la
         start: library positions already in the suite (counted in its cost).
         progress: called as progress(picks_done, max_picks) after each pick (of each component run).
         info: what the problem is, recorded in the result.
-        constraints: limits besides the budget (:class:`~sensorsel.constraints.Constraints`); None: the
+        constraints: limits besides the budget (:class:`~sensorsel.model.constraints.Constraints`); None: the
             budget alone, as everywhere below the API (pass ``Constraints()`` to honour the library's slots).
         reserved: library positions bought outside the scored suite (Algorithm 2's failing set):
             they use their share of every limit (the budget included), are never picked and are not
@@ -239,7 +239,7 @@ class Selector:
         recorded (suite, cost and score, not recomputed) and selection goes on from there: the same
         picks as an uninterrupted run (lazy evaluation is exact), with its own count of evaluations
         (the lazy bounds start afresh). ``on_step(steps)`` is called after each pick with every step
-        so far (to record them, e.g. :mod:`sensorsel.checkpoint`)."""
+        so far (to record them, e.g. :mod:`sensorsel.designs.checkpoint`)."""
         t0 = time.perf_counter()
         budget = check_budget(budget_usd)
         ev = self.evaluator

@@ -10,7 +10,7 @@ f is the score, f(S) = log det L(S) - log det L(empty) [nats]; costs in $.
                   submodular maximization (Krause & Guestrin 2005; Leskovec et al. 2007).
 
 Strategies that combine several rules' runs (best-of) are in :mod:`.strategies`; both kinds share
-one registry, :data:`sensorsel.selection.RULES`.
+one registry, :data:`sensorsel.designs.selection.RULES`.
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ from typing import ClassVar, Sequence
 
 import numpy as np
 
-from .records import GreedyResult
+from sensorsel.designs.selection.records import GreedyResult
 
 #: Relative tolerance under which two objective values are tied, and a gain counts as zero.
 REL_TOL = 1e-9
@@ -30,7 +30,7 @@ class Rule(ABC):
     """One greedy rule: J for each candidate, from f(S + s), f(S), Cost(S) and cost(s).
 
     Attributes:
-        name: the rule's name in :data:`sensorsel.selection.RULES`.
+        name: the rule's name in :data:`sensorsel.designs.selection.RULES`.
         summary: one line for ``--help``.
         lazy_ok: True when J is a gain (or a gain scaled by a constant per candidate), so that a
             candidate's last J is an upper bound on its J later (lazy evaluation is exact).
