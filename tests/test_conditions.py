@@ -294,6 +294,33 @@ def test_condition_members_on_dask_workers_equal_in_process(tmp_path):
     assert untimed(remote) == untimed(local)
 
 
+def test_a_problem_put_under_a_condition_in_python_keeps_it_on_dask_workers(tiny_problem):
+    # no spec carries the condition here (built from objects): the recipe must, or the workers
+    # rebuild and score the clear problem (a silently wrong answer: the night member scored clear)
+    pytest.importorskip("distributed")
+    from sensorsel.designs.domain_design import design_domain
+    from sensorsel.designs.tradespace import run_tradespace
+    from sensorsel.model.recipes import TargetRecipe
+    from sensorsel.pipeline.cluster import DaskCluster, DistributedDomainEvaluator
+
+    night = with_condition(tiny_problem, Condition(night=True, fog_visibility_m=150))
+    assert night.spec is None and tiny_problem.spec is None
+    d = Domain((DomainRoute("tiny/clear", tiny_problem, 3.0, "km", "tiny", "clear"),
+                DomainRoute("tiny/night", night, 1.0, "km", "tiny", "night")), "python")
+    rebuilt = TargetRecipe.of(d).build()
+    assert isinstance(rebuilt, Domain) and [(r.route, r.condition) for r in rebuilt.routes] == [("tiny", "clear"), ("tiny", "night")]
+    best = DomainEvaluator(d).best
+    assert best[1] < best[0]  # the condition costs the whole library information: clear and night differ
+    untimed = lambda r: re.sub(r'"seconds": [0-9.e-]+', "", results.dumps(r))  # noqa: E731
+    with DaskCluster(workers=2, echo=lambda line: None) as cluster:
+        ev = DistributedDomainEvaluator(cluster.client, d)
+        assert np.array_equal(ev.best, best)
+        remote = design_domain(d, 8_000, evaluator=ev)
+        spread = run_tradespace(night, [4_000, 8_000], ["uniform"], executor=cluster.executor)  # TargetRecipe of a Problem
+    assert untimed(remote) == untimed(design_domain(d, 8_000))
+    assert untimed(spread) == untimed(run_tradespace(night, [4_000, 8_000], ["uniform"]))
+
+
 def test_breakdown_by_condition_and_its_grid_plot(tmp_path):
     from sensorsel.designs.domain_design import by_condition, design_domain
     from sensorsel.plotting import plot_domain_breakdown

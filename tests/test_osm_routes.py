@@ -251,7 +251,7 @@ def test_a_worker_rebuilds_the_same_problem_and_load_scenario_refuses_a_geo_spec
     import pickle
 
     from sensorsel.errors import InputError
-    from sensorsel.model.problem import TargetRecipe
+    from sensorsel.model.recipes import TargetRecipe
     from sensorsel.model.scenario import load_scenario
 
     csv, gpx, _ = drive

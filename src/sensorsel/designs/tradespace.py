@@ -61,7 +61,8 @@ from sensorsel.io.files import atomic_write_text
 from sensorsel.io.results import result_kind, to_jsonable
 from sensorsel.model.constraints import REL_SLACK, Constraints, feasible_set
 from sensorsel.model.library import SensorLibrary
-from sensorsel.model.problem import Domain, DomainInfo, ProblemInfo, Target, TargetInfo, TargetRecipe
+from sensorsel.model.problem import Domain, DomainInfo, ProblemInfo, Target, TargetInfo
+from sensorsel.model.recipes import TargetRecipe
 from sensorsel.pipeline import Executor, FileStore, InProcess, NoStore, Plan, Store, digest, execute
 
 #: The rules of the paper's Fig. 4 (uniform, cost-benefit) and the classic marginal rule.

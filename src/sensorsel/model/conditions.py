@@ -11,7 +11,8 @@ beside each number; defaults here are the shipped file's):
 
 - **Optical extinction** (LiDAR and cameras): α = α_fog + α_rain + α_snow [1/m]. Fog:
   α = ln(1/ε)/MOR with the 5 % contrast threshold ε of the MOR's definition (WMO/CIE), ≈ 3.0/MOR.
-  Rain and snow: ITU-R P.1814's specific attenuations γ = k R^a [dB/km], turned into α = γ ln(10)/10⁴.
+  Rain and snow: specific attenuations γ = k R^a [dB/km] (rain: Carbonneau's fit, as the FSO literature
+  cites ITU-R P.1814; the Recommendation's text unchecked), turned into α = γ ln(10)/10⁴.
 - **LiDAR range**: received power ∝ ρ e^(−2αR)/R², so the same target's farthest detection R solves
   R e^(αR) = R₀: R = W(α R₀)/α with Lambert's W (Hahner et al., ICCV 2021). Noise kept.
 - **Camera range**: Koschmieder's contrast law C = C₀ e^(−αd) seen down to ε: d = ln(C₀/ε)/α; at
@@ -160,9 +161,9 @@ class ConditionPhysics:
             0.05 in the MOR's definition (so α = ln(20)/MOR in fog).
         camera_contrast: C₀, a landmark's own contrast against its background for a camera
             (Koschmieder's law; 1 is a black object against the horizon sky, then d = MOR).
-        optical_rain_k, optical_rain_a: ITU-R P.1814 rain attenuation γ = k R^a [dB/km] (R in mm/h)
+        optical_rain_k, optical_rain_a: optical rain attenuation γ = k R^a [dB/km] (R in mm/h; Carbonneau, cited as ITU-R P.1814)
             for LiDAR and cameras.
-        optical_snow_k, optical_snow_a: ITU-R P.1814 (wet) snow attenuation γ = k S^a [dB/km].
+        optical_snow_k, optical_snow_a: (wet) snow attenuation γ = k S^a [dB/km] (cited as ITU-R P.1814; assumed).
         radar_rain_k, radar_rain_a: ITU-R P.838-3 at the radar's frequency, γ = k R^a [dB/km].
         radar_fog_db_km_per_g_m3: ITU-R P.840 K_l, fog attenuation per liquid water [(dB/km)/(g/m³)].
         fog_water_g_m3_at_50m, fog_water_exponent: the fog's liquid water M [g/m³] from its
@@ -253,7 +254,7 @@ def fog_water_g_m3(visibility_m: float, physics: ConditionPhysics) -> float:
 
 
 def optical_extinction_per_m(condition: Condition, physics: ConditionPhysics) -> float:
-    """α [1/m] for LiDAR and cameras: fog (ln(1/ε)/MOR) plus rain and snow (ITU-R P.1814)."""
+    """α [1/m] for LiDAR and cameras: fog (ln(1/ε)/MOR) plus rain and snow (cited as ITU-R P.1814)."""
     alpha = 0.0
     if condition.fog_visibility_m is not None:
         alpha += fog_extinction_per_m(condition.fog_visibility_m, physics.contrast_threshold)

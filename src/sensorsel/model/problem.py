@@ -17,7 +17,7 @@ from typing import Iterable
 import numpy as np
 
 from sensorsel.errors import InputError, ResultFileError, SensorselWarning
-from sensorsel.model.conditions import CLEAR, Condition, condition_digest
+from sensorsel.model.conditions import Condition, condition_digest
 from sensorsel.model.domain import load_domain_file, load_domain_scenarios
 from sensorsel.model.library import SensorLibrary, load_library
 from sensorsel.model.osm.track import load_geo_scenario  # load_scenario, and GPX routes and OSM landmarks (--landmarks osm:FILE)
@@ -100,13 +100,9 @@ class Fingerprint:
             model = {k: v for k, v in asdict(s.model).items() if k not in ("name", "resources")}
             sensors.append({"id": s.id, "index": s.index, "clock": s.clock, "mount_angle_rad": s.mount_angle_rad, "model": model})
         kf = scenario.keyframes
-        return cls(
-            library=_json_digest(sensors),
-            route=_array_digest(kf.poses, kf.times),
-            landmarks=_array_digest(scenario.landmarks),
-            settings=_json_digest(asdict(settings)),
-            condition=condition_digest(condition, library.physics),
-        )
+        return cls(library=_json_digest(sensors), route=_array_digest(kf.poses, kf.times),
+                   landmarks=_array_digest(scenario.landmarks), settings=_json_digest(asdict(settings)),
+                   condition=condition_digest(condition, library.physics))
 
     def differences(self, other: "Fingerprint", ignore: tuple[str, ...] = ()) -> list[str]:
         """What differs between two fingerprints, in words (empty when they are equal), but the parts in ``ignore``."""
@@ -240,8 +236,7 @@ class Problem:
         return notes
 
     def resolve_suite(self, suite: "str | Iterable[str | int]") -> tuple[int, ...]:
-        """Sorted library positions of a suite given as ids or positions (see
-        :meth:`SensorLibrary.resolve_suite`)."""
+        """Sorted library positions of a suite given as ids or positions (:meth:`SensorLibrary.resolve_suite`)."""
         return self.library.resolve_suite(suite)
 
 
@@ -268,8 +263,7 @@ def check_result_problem(recorded: "TargetInfo | None", problem: "Target", path:
             file and what differs.
     """
     hint = ("give the same library, route, rate, landmark, noise and --condition options (or --domain file) as the run "
-            "that wrote it, "
-            "or --force to use it anyway")
+            "that wrote it, or --force to use it anyway")
     if isinstance(problem, Domain) or isinstance(recorded, DomainInfo):
         if not (isinstance(problem, Domain) and isinstance(recorded, DomainInfo)):
             one, other = ("one route", "this domain") if isinstance(problem, Domain) else ("a domain", "this route")
@@ -288,8 +282,8 @@ def check_result_problem(recorded: "TargetInfo | None", problem: "Target", path:
     if recorded is None or recorded.fingerprint is None:
         why = ("records no problem it was computed on" if recorded is None else
                "records no fingerprint of what it was computed on (written before fingerprints)")
-        msg = (f"{what} {why}, so it cannot be checked against this library, route and landmarks")
-        _refuse(path, msg, "rerun the command that wrote it, or give --force to use it anyway", force)
+        _refuse(path, f"{what} {why}, so it cannot be checked against this library, route and landmarks",
+                "rerun the command that wrote it, or give --force to use it anyway", force)
         return
     diffs = recorded.fingerprint.differences(problem.fingerprint, ignore)
     if diffs:
@@ -547,55 +541,3 @@ def load_domain(path: str | Path, library: str | Path | None = None, settings: G
 Target = Problem | Domain
 #: what a result records of its target
 TargetInfo = ProblemInfo | DomainInfo
-
-
-@dataclass(frozen=True)
-class RouteRecipe:
-    """What a worker needs to rebuild one route's problem: a few kilobytes, never a matrix (a
-    linearized GTSAM graph does not pickle, and need not).
-
-    ``scenario`` is sent only when the problem was built from objects (no ``spec`` to load from).
-    """
-
-    name: str
-    library: SensorLibrary
-    settings: GraphSettings
-    spec: ScenarioSpec | None
-    scenario: Scenario | None = None
-
-    @classmethod
-    def of(cls, name: str, problem: Problem) -> "RouteRecipe":
-        return cls(name, problem.library, problem.settings, problem.spec, None if problem.spec is not None else problem.scenario)
-
-    def build(self) -> Problem:
-        if self.scenario is not None:
-            sc = self.scenario
-        else:
-            assert self.spec is not None
-            sc = load_geo_scenario(self.spec)
-        problem = build_problem(self.library, sc, self.settings, spec=self.spec)
-        check_reach(problem)
-        return problem
-
-
-@dataclass(frozen=True)
-class TargetRecipe:
-    """A problem or a domain, as a worker rebuilds it (routes as :class:`RouteRecipe`)."""
-
-    routes: tuple[RouteRecipe, ...]
-    weights: tuple[float, ...] | None  # None: one problem
-    units: tuple[str, ...] = ()
-    source: str = ""
-
-    @classmethod
-    def of(cls, target: Target) -> "TargetRecipe":
-        if isinstance(target, Domain):
-            return cls(tuple(RouteRecipe.of(r.name, r.problem) for r in target.routes),
-                       tuple(r.weight for r in target.routes), tuple(r.unit for r in target.routes), target.source)
-        return cls((RouteRecipe.of("", target),), None)
-
-    def build(self) -> Target:
-        if self.weights is None:
-            return self.routes[0].build()
-        return Domain(tuple(DomainRoute(r.name, r.build(), w, u) for r, w, u in zip(self.routes, self.weights, self.units)),
-                      self.source)

@@ -39,7 +39,8 @@ from sensorsel.errors import SensorselError
 from sensorsel.information.evaluators import Evaluator, ProblemEvaluator, as_suite, make_evaluator
 from sensorsel.information.evaluators.domain import DomainEvaluator, check_aggregate
 from sensorsel.information.evaluators.registry import check_engine
-from sensorsel.model.problem import Domain, Problem, RouteRecipe
+from sensorsel.model.problem import Domain, Problem
+from sensorsel.model.recipes import RouteRecipe
 from sensorsel.pipeline import ClusterError, DaskExecutor, import_distributed
 
 #: seconds to wait for a scheduler to answer before giving up
@@ -398,21 +399,18 @@ class DistributedDomainEvaluator(DomainEvaluator):
         per_route = np.stack([np.asarray(got[k], dtype=float) for k in range(len(self.recipes))])
         return self.combine(per_route)
 
-    def gain_bounds(self, suite: Iterable[int], candidates: Sequence[int]) -> np.ndarray | None:
-        """The routes' bounds on the gains, combined as in-process (every actor asked at once), or
-        None unless every route's engine gives them."""
-        base, cand = as_suite(suite), [int(c) for c in candidates]
-        self._check_positions(base + tuple(cand))
-        got = self._call({k: ("gain_bounds", (base, cand)) for k in range(len(self.recipes))})
-        return self.combined_gain_bounds(got[k] for k in range(len(self.recipes)))
+    def _ask_members(self, method: str, base: tuple[int, ...], cand: list[int], members: Iterable[int]) -> dict[int, Any]:
+        """Each member's ``method(base, cand)``, every actor asked at once (the bounds of
+        :meth:`DomainEvaluator.gain_bounds` and :meth:`DomainEvaluator.score_bounds`: the same numbers)."""
+        return self._call({k: (method, (base, cand)) for k in members})
 
-    def score_bounds(self, suite: Iterable[int], candidates: Sequence[int]) -> tuple[float, np.ndarray] | None:
-        """The routes' cheap bounds on the scores, combined as in-process, or None unless every
-        route's engine gives them."""
-        base, cand = as_suite(suite), [int(c) for c in candidates]
-        self._check_positions(base + tuple(cand))
-        got = self._call({k: ("score_bounds", (base, cand)) for k in range(len(self.recipes))})
-        return self.combined_score_bounds(got[k] for k in range(len(self.recipes)))
+    def _ask_members_grouped(self, base: tuple[int, ...], groups: dict[int, list[int]]) -> dict[int, np.ndarray]:
+        """Lazy greedy's route scores (:meth:`DomainEvaluator.scores_or_bounds`), every actor asked at
+        once, each route's proxy counting its evaluations as its evaluator does in-process."""
+        got = self._call({k: ("scores_with", (base, c)) for k, c in groups.items()})
+        for k, c in groups.items():
+            self.routes[k].n_evaluations += len(c)
+        return {k: np.asarray(got[k], dtype=float) for k in groups}
 
     def busy(self) -> dict[str, tuple[float, int, str]]:
         """Each route's (seconds its actor spent scoring, calls it answered, the worker holding it)."""

@@ -47,7 +47,8 @@ from sensorsel.errors import InputError
 from sensorsel.information.evaluators import Evaluator, as_suite, evaluator_for
 from sensorsel.model.constraints import Constraints, feasible_set
 from sensorsel.model.library import SensorLibrary
-from sensorsel.model.problem import Domain, Target, TargetInfo, TargetRecipe
+from sensorsel.model.problem import Domain, Target, TargetInfo
+from sensorsel.model.recipes import TargetRecipe
 from sensorsel.pipeline import Executor, InProcess, Plan, execute
 
 DEFAULT_RULES = ("uniform", "marginal")

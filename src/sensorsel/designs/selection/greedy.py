@@ -352,11 +352,21 @@ class Selector:
         fresh = np.zeros(len(costs), dtype=bool)
         gain_tol = REL_TOL * max(1.0, abs(f_cur))
 
-        def refresh(idx: np.ndarray) -> None:
-            vals = ev.scores_with(tuple(suite), [int(i) for i in idx])
-            f_new[idx] = vals
-            bound[idx] = vals - f_cur
-            fresh[idx] = True
+        def refresh(idx: np.ndarray, threshold: float | None = None) -> None:
+            """Score ``idx``; lazily (a ``threshold``: the best J so far, or −inf), the evaluator may
+            answer a candidate that cannot reach the threshold with a bound instead (a domain scoring
+            its routes one at a time): it stays stale, its bound lowered, the tie tolerance as slack
+            both ways."""
+            if threshold is None:
+                vals, exact = ev.scores_with(tuple(suite), [int(i) for i in idx]), np.ones(len(idx), dtype=bool)
+            else:
+                need = self.rule.needed(threshold, f_cur, cost, costs[idx]) - gain_tol
+                vals, exact = ev.scores_or_bounds(tuple(suite), [int(i) for i in idx], need)
+            done, part = idx[exact], idx[~exact]
+            f_new[done] = vals[exact]
+            bound[done] = vals[exact] - f_cur
+            fresh[done] = True
+            bound[part] = np.minimum(bound[part], vals[~exact] - f_cur + gain_tol)
 
         if not self.lazy:
             refresh(cand)
@@ -394,7 +404,10 @@ class Selector:
                         bound[need] = np.minimum(bound[need], extra * (1.0 + REL_TOL) + gain_tol)
                         continue
                 order = np.argsort(-value(f_cur + bound[need], f_cur, cost, costs[need]), kind="stable")
-                refresh(need[order[:batch]])
+                # an evaluator that answers with bounds gets the step's first candidate alone: the
+                # others are then bounded against its J instead of scored in full
+                first = not np.isfinite(threshold) and ev.bounds_candidates
+                refresh(need[order[:1 if first else batch]], threshold)
         informative_pos = np.flatnonzero(fresh & feasible & (f_new - f_cur > gain_tol))
         if len(informative_pos) == 0:
             return None, f_cur, 0.0

@@ -54,6 +54,11 @@ class Rule(ABC):
     def value(self, f_new: np.ndarray, f_old: float, suite_cost: float, cand_cost: np.ndarray) -> np.ndarray:
         """J for each candidate given f(S + s) [nats], f(S) [nats], Cost(S) [$] and cost(s) [$]."""
 
+    def needed(self, j: float, f_old: float, suite_cost: float, cand_cost: np.ndarray) -> np.ndarray:
+        """The least f(S + s) [nats] at which each candidate's J reaches ``j``, shape (len(cand_cost),)
+        (J grows with f(S + s)); −inf (no saving) unless the rule says (the lazy rules do)."""
+        return np.full(len(cand_cost), -np.inf)
+
 
 class Uniform(Rule):
     """J = f(S + s): the most informative affordable sensor (the paper's Algorithm 1)."""
@@ -64,6 +69,9 @@ class Uniform(Rule):
 
     def value(self, f_new: np.ndarray, f_old: float, suite_cost: float, cand_cost: np.ndarray) -> np.ndarray:
         return np.asarray(f_new, dtype=float)
+
+    def needed(self, j: float, f_old: float, suite_cost: float, cand_cost: np.ndarray) -> np.ndarray:
+        return np.full(len(cand_cost), float(j))
 
 
 class CostBenefit(Rule):
@@ -85,3 +93,6 @@ class Marginal(Rule):
 
     def value(self, f_new: np.ndarray, f_old: float, suite_cost: float, cand_cost: np.ndarray) -> np.ndarray:
         return (np.asarray(f_new, dtype=float) - f_old) / np.asarray(cand_cost, dtype=float)
+
+    def needed(self, j: float, f_old: float, suite_cost: float, cand_cost: np.ndarray) -> np.ndarray:
+        return f_old + float(j) * np.asarray(cand_cost, dtype=float)

@@ -46,6 +46,9 @@ class Evaluator(ABC):
 
     #: the engine's name (in :data:`sensorsel.information.evaluators.ENGINES` for per-problem engines)
     name: ClassVar[str] = ""
+    #: whether :meth:`scores_or_bounds` may answer with bounds (then lazy greedy scores the first
+    #: candidate of a step alone, to have a best to bound the others against)
+    bounds_candidates: ClassVar[bool] = False
 
     def __init__(self, library: SensorLibrary, *, jobs: int = 1) -> None:
         self.library = library
@@ -74,6 +77,16 @@ class Evaluator(ABC):
         """
         base = as_suite(suite)
         return np.array([self.score(base + (c,)) for c in candidates], dtype=float)
+
+    def scores_or_bounds(self, suite: Iterable[int], candidates: Sequence[int],
+                         needed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """For each candidate c, f(S + {c}) exactly, or (where the evaluator can tell more cheaply)
+        an upper bound on it below ``needed[i]``, the value it must reach to matter to the caller:
+        (values, exact), shape (len(candidates),) each. Lazy greedy calls this; the default scores
+        every candidate exactly (:meth:`scores_with`). A domain scores its routes one at a time
+        (:meth:`~sensorsel.information.evaluators.domain.DomainEvaluator.scores_or_bounds`)."""
+        vals = self.scores_with(suite, candidates)
+        return vals, np.ones(len(vals), dtype=bool)
 
     def gain_bounds(self, suite: Iterable[int], candidates: Sequence[int]) -> np.ndarray | None:
         """Upper bounds on the gains f(S + {c}) − f(S), shape (len(candidates),), in exact

@@ -1,0 +1,132 @@
+"""Lazy greedy on a domain, member by member (issue 26's speed): a candidate's routes are scored one
+at a time and it keeps a bound once the bound shows it cannot win. The picks and every number of
+the steps must be those of the plain greedy (each candidate scored exactly on every route, every
+step) and of the lazy greedy that scores whole domain evaluations, bit for bit."""
+
+from __future__ import annotations
+
+from typing import Iterable, Sequence
+
+import numpy as np
+import pytest
+
+from sensorsel.designs.selection import greedy
+from sensorsel.information.evaluators import DomainEvaluator, Evaluator
+from sensorsel.model.problem import load_domain
+
+CITY = ("conditions:\n  - {name: night, night: true, share: 0.25}\n  - {name: rain, rain_mm_h: 5, share: 0.08}\n"
+        "  - {name: fog, fog_visibility_m: 150, share: 0.005}\n")
+
+
+class Recording(DomainEvaluator):
+    """The domain's evaluator, counting the candidates it answered with a bound."""
+
+    n_bounded = 0
+
+    def scores_or_bounds(self, suite: Iterable[int], candidates: Sequence[int],
+                         needed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        vals, exact = super().scores_or_bounds(suite, candidates, needed)
+        self.n_bounded += int(np.sum(~exact))
+        return vals, exact
+
+
+class WholeDomain(DomainEvaluator):
+    """The domain's evaluator as before issue 26's speed work: every candidate scored on every route."""
+
+    bounds_candidates = False
+
+    def scores_or_bounds(self, suite: Iterable[int], candidates: Sequence[int],
+                         needed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return Evaluator.scores_or_bounds(self, suite, candidates, needed)
+
+
+def _steps(result):
+    return [(s.pick, s.score, s.gain, s.rule_value, s.cost_usd) for s in result.steps]
+
+
+def _member_evaluations(ev: DomainEvaluator) -> int:
+    return sum(r.n_evaluations for r in ev.routes)
+
+
+def _city(tmp_path_factory, routes: str):
+    p = tmp_path_factory.mktemp("lazy") / "city.yaml"
+    p.write_text(CITY + "routes:\n" + routes)
+    return load_domain(p)
+
+
+@pytest.fixture(scope="module")
+def tiny_city(tmp_path_factory):
+    """The tiny fixture route in four conditions: four members (the plain greedy's oracle is quick)."""
+    return _city(tmp_path_factory, "  - {name: tiny, fixture: tiny, weight: 1}\n")
+
+
+@pytest.fixture(scope="module")
+def city(tmp_path_factory):
+    """Two fixture routes in four conditions: eight members."""
+    return _city(tmp_path_factory, "  - {name: suburb, fixture: suburb, weight: 2}\n  - {name: tiny, fixture: tiny, weight: 1}\n")
+
+
+@pytest.mark.parametrize("rule, budget", [("uniform", 110_000), ("uniform", 12_000), ("marginal", 110_000)])
+def test_member_by_member_equals_plain_greedy_bit_for_bit(tiny_city, rule, budget):
+    ev = Recording(tiny_city)
+    lazy = greedy(ev, budget, rule)
+    plain = greedy(DomainEvaluator(tiny_city), budget, rule, lazy=False)
+    assert lazy.suite == plain.suite and _steps(lazy) == _steps(plain)  # ==: the same floats, not approximately
+    assert lazy.score == plain.score
+    assert ev.n_bounded > 0  # the path under test was taken: some candidates kept a bound instead of a score
+
+
+@pytest.mark.parametrize("rule", ["uniform", "marginal"])
+def test_member_by_member_equals_whole_domain_evaluations_with_fewer_route_scores(city, rule):
+    new, old = Recording(city), WholeDomain(city)
+    a, b = greedy(new, 110_000, rule), greedy(old, 110_000, rule)
+    assert a.suite == b.suite and _steps(a) == _steps(b) and a.score == b.score
+    assert new.n_bounded > 0 and _member_evaluations(new) < _member_evaluations(old)
+
+
+def test_a_second_run_on_the_same_evaluator_forgets_the_first_runs_bounds(tiny_city):
+    # a strategy (best-of) or a caller runs greedy again on one evaluator from the empty suite, where
+    # the first run's gains at larger suites bound nothing: the second run is that of a fresh evaluator
+    ev = Recording(tiny_city)
+    greedy(ev, 110_000)
+    for rule, budget in (("marginal", 20_000), ("uniform", 9_000)):
+        again = greedy(ev, budget, rule)
+        assert _steps(again) == _steps(greedy(DomainEvaluator(tiny_city), budget, rule, lazy=False))
+
+
+@pytest.mark.kitti
+def test_kitti_routes_in_four_conditions_same_picks_as_whole_domain_evaluations(kitti_root, tmp_path, monkeypatch):
+    monkeypatch.setenv("SENSORSEL_KITTI_ROOT", str(kitti_root))
+    p = tmp_path / "k.yaml"
+    p.write_text(CITY + "keyframe_rate_hz: 1.0\nweight_unit: km\nroutes:\n  - {name: kitti-03, seq: '03', landmarks: real}\n"
+                 "  - {name: kitti-04, seq: '04', landmarks: real}\n")
+    d = load_domain(p)
+    new, old = Recording(d), WholeDomain(d)
+    a, b = greedy(new, 110_000), greedy(old, 110_000)
+    assert a.suite == b.suite and _steps(a) == _steps(b) and a.score == b.score
+    assert new.n_bounded > 0 and _member_evaluations(new) < _member_evaluations(old)
+
+
+def test_night_members_measure_lidars_and_radars_as_their_clear_member_does(city):
+    # the premise of bounding a night member by its clear member while the suite has no camera:
+    # night changes the cameras only (their arrays are new), every other sensor keeps its arrays
+    from sensorsel.information.evaluators.domain import clear_partners
+
+    partner, alike = clear_partners(city, len(city.library))
+    cameras = np.array([s.model.type == "stereo" for s in city.library])
+    assert cameras.any() and not cameras.all()
+    for k, r in enumerate(city.routes):
+        if r.condition == "clear":
+            assert partner[k] == -1
+            continue
+        p = city.routes[partner[k]]
+        assert p.condition == "clear" and p.route_name == r.route_name
+        if r.condition == "night":
+            assert np.array_equal(alike[k], ~cameras)
+        # every member: "alike" only where the measurements are equal in content (the oracle: the
+        # arrays; a radar whose range rain shortens past every landmark is equal but not "alike":
+        # conservative, a bound unused, never a wrong one)
+        for s, (a, b) in enumerate(zip(r.problem.observations, p.problem.observations)):
+            same = all(np.array_equal(getattr(a, f), getattr(b, f))
+                       for f in ("pose", "landmark", "range_m", "sigma_bearing_rad", "sigma_range_m"))
+            assert same or not alike[k, s], (r.name, city.library.ids[s])
