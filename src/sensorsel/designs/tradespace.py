@@ -62,7 +62,7 @@ from sensorsel.io.results import result_kind, to_jsonable
 from sensorsel.model.constraints import REL_SLACK, Constraints, feasible_set
 from sensorsel.model.library import SensorLibrary
 from sensorsel.model.problem import Domain, DomainInfo, ProblemInfo, Target, TargetInfo
-from sensorsel.model.recipes import TargetRecipe
+from sensorsel.model.recipes import EvaluatorRecipe, TargetRecipe
 from sensorsel.pipeline import Executor, FileStore, InProcess, NoStore, Plan, Store, digest, execute
 
 #: The rules of the paper's Fig. 4 (uniform, cost-benefit) and the classic marginal rule.
@@ -363,20 +363,6 @@ class RuleTask:
     share_prefix: bool
     first: bool
     constraints: Constraints | None = None
-
-
-@dataclass(frozen=True)
-class EvaluatorRecipe:
-    """What a worker builds a tradespace's evaluator from: the target's recipe and the engine settings."""
-
-    target: TargetRecipe
-    engine: str | None
-    jobs: int = 1
-    aggregate: str = "normalised"
-
-    def build(self) -> tuple[Target, "EvaluatorRecipe"]:
-        """The target, built where the rules run, once for all of them (each rule's evaluator is its own)."""
-        return self.target.build(), self
 
 
 def rule_step(state: Evaluator | tuple[Target, EvaluatorRecipe], task: RuleTask) -> tuple[RuleRuns, int]:

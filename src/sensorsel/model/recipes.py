@@ -73,3 +73,18 @@ class TargetRecipe:
         names = self.members or (("", ""),) * len(self.routes)
         return Domain(tuple(DomainRoute(r.name, r.build(), w, u, *n) for r, w, u, n in zip(self.routes, self.weights, self.units,
                                                                                        names)), self.source)
+
+
+@dataclass(frozen=True)
+class EvaluatorRecipe:
+    """What a worker builds an evaluator from (a tradespace's rules, robust's methods): the target's recipe and
+    the engine settings; the evaluator itself is made where the tasks run."""
+
+    target: TargetRecipe
+    engine: str | None
+    jobs: int = 1
+    aggregate: str = "normalised"
+
+    def build(self) -> tuple[Target, "EvaluatorRecipe"]:
+        """The target, built where the rules run, once for all of them (each rule's evaluator is its own)."""
+        return self.target.build(), self

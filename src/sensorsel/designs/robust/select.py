@@ -42,13 +42,12 @@ from sensorsel.designs.robust.records import Candidate, RobustResult, best_of
 from sensorsel.designs.robust.tasks import (ALGORITHM_2, MethodOutcome, MethodTask, RobustSettings, Scored,
                                             method_step, run_method, task_key, task_store, tolerance)
 from sensorsel.designs.selection import check_budget, check_rule
-from sensorsel.designs.tradespace import EvaluatorRecipe
 from sensorsel.errors import InputError
 from sensorsel.information.evaluators import Evaluator, as_suite, evaluator_for
 from sensorsel.model.constraints import Constraints, feasible_set
 from sensorsel.model.library import SensorLibrary
 from sensorsel.model.problem import Domain, Target, TargetInfo
-from sensorsel.model.recipes import TargetRecipe
+from sensorsel.model.recipes import EvaluatorRecipe, TargetRecipe
 from sensorsel.pipeline import Executor, InProcess, Plan, execute
 
 DEFAULT_RULES = ("uniform", "marginal")

@@ -30,12 +30,12 @@ from sensorsel.designs.robust.memo import MemoEvaluator
 from sensorsel.designs.robust.methods import DEFAULT_SATURATE_LEVELS, local_search, oblivious_greedy, saturate
 from sensorsel.designs.robust.records import Candidate, RobustBound, best_of, better
 from sensorsel.designs.selection import REL_TOL, greedy
-from sensorsel.designs.tradespace import EvaluatorRecipe
 from sensorsel.information.evaluators import Evaluator, ProblemEvaluator, as_suite, evaluator_for
 from sensorsel.io.codec import to_jsonable
 from sensorsel.io.results import result_kind
 from sensorsel.model.constraints import Constraints, FeasibleSet, feasible_set
 from sensorsel.model.problem import DomainInfo, ProblemInfo, Target, TargetInfo
+from sensorsel.model.recipes import EvaluatorRecipe
 from sensorsel.pipeline import FileStore, NoStore, Store, digest
 
 @dataclass(frozen=True)
