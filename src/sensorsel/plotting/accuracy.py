@@ -8,13 +8,13 @@ import numpy as np
 from matplotlib.axes import Axes
 
 from sensorsel.model.scenario import Scenario
+from sensorsel.plotting.figures import new_axes, route_distance_m
 
-if TYPE_CHECKING:  # only the result types (their modules need no matplotlib)
+if TYPE_CHECKING:  # the result types only (their modules need no matplotlib; simulate's imports gtsam)
     from sensorsel.designs.requirements.front import FrontAcceptance
     from sensorsel.designs.requirements.spec import Specification
     from sensorsel.information.evaluators.accuracy import RouteAccuracy
 
-from sensorsel.plotting.figures import new_axes, route_distance_m
 
 # ------------------------------------------------------------------------------ accuracy in metres
 

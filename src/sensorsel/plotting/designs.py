@@ -10,16 +10,12 @@ from matplotlib.patches import Rectangle
 
 from sensorsel.errors import InputError
 from sensorsel.model.problem import DomainInfo, ProblemInfo
-
-if TYPE_CHECKING:  # only the result types (their modules need no matplotlib)
-    from sensorsel.designs.domain_design import DomainDesign
-
 from sensorsel.plotting.figures import new_axes
 
-
-
-if TYPE_CHECKING:  # resilient needs no matplotlib; plotting needs only its grid type
+if TYPE_CHECKING:  # the result types only (their modules need no matplotlib; simulate's imports gtsam)
+    from sensorsel.designs.domain_design import DomainDesign
     from sensorsel.designs.resilient import SelectionGrid
+    from sensorsel.designs.tradespace import TradespaceResult
 
 
 def plot_selection_grid(grid: "SelectionGrid", ax: Axes | None = None, *, title: str | None = None) -> Axes:
@@ -90,9 +86,6 @@ def plot_selection_grid(grid: "SelectionGrid", ax: Axes | None = None, *, title:
     ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.005, 1.0), fontsize=8, frameon=False)
     return ax
 
-
-if TYPE_CHECKING:  # plotting needs only the tradespace's result type
-    from sensorsel.designs.tradespace import TradespaceResult
 
 #: Colours and markers of the selectors in the tradespace plot (the paper's Fig. 4: uniform orange,
 #: cost-benefit blue). Hollow markers of different shapes keep suites made by several rules visible.
@@ -226,8 +219,6 @@ def plot_domain_breakdown(design: "DomainDesign", ax: Axes | None = None, *, tit
     ax.set_title(title or f"One suite for {len(routes)} routes at \\${budget:,.0f}: \\${design.greedy.cost_usd:,.0f}, "
                           f"{len(design.greedy.suite)} sensors (weights in brackets)", fontsize="medium")
     return ax
-
-
 
 
 def _plot_condition_grid(design: "DomainDesign", ax: Axes | None = None, *, title: str | None = None) -> Axes:

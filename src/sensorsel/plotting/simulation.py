@@ -12,11 +12,11 @@ from matplotlib.figure import Figure
 
 from sensorsel.errors import InputError
 from sensorsel.model.scenario import Scenario
+from sensorsel.plotting.figures import new_axes, route_distance_m
 
-if TYPE_CHECKING:  # simulate imports gtsam; plotting needs only its result types
+if TYPE_CHECKING:  # the result types only (their modules need no matplotlib; simulate's imports gtsam)
     from sensorsel.simulate import SimulationResult
 
-from sensorsel.plotting.figures import new_axes, route_distance_m
 
 # ------------------------------------------------------------------------ Monte-Carlo simulation
 # Results of sensorsel.simulate (imported only for type checking: that module imports gtsam).
