@@ -130,3 +130,32 @@ def test_night_members_measure_lidars_and_radars_as_their_clear_member_does(city
             same = all(np.array_equal(getattr(a, f), getattr(b, f))
                        for f in ("pose", "landmark", "range_m", "sigma_bearing_rad", "sigma_range_m"))
             assert same or not alike[k, s], (r.name, city.library.ids[s])
+
+
+@pytest.mark.parametrize("with_camera", [False, True])
+def test_a_member_measuring_suite_and_candidate_as_its_clear_member_does_gets_its_score_copied(city, with_camera):
+    # a night member with no camera in S + {c} has its clear member's information matrix: lazy greedy
+    # copies the clear member's f(S + {c}) instead of evaluating it. The oracle: every member's own
+    # engine (a fresh evaluator) scoring every candidate; the copies must be its numbers to the bit,
+    # and a camera (which night changes) or a suite holding one must still be scored by the member
+    cameras = np.array([s.model.type == "stereo" for s in city.library])
+    others = np.flatnonzero(~cameras).tolist()
+    S = (others[0], int(np.flatnonzero(cameras)[0])) if with_camera else (others[0],)
+    cand = [c for c in range(len(city.library)) if c not in S]
+    ev, ref = DomainEvaluator(city), DomainEvaluator(city)
+    before = [r.n_evaluations for r in ev.routes]
+    vals, exact = ev.scores_or_bounds(S, cand, np.full(len(cand), -np.inf))
+    oracle = np.stack([r.scores_with(S, cand) for r in ref.routes])
+    assert exact.all()
+    assert ev._lazy is not None
+    got = np.stack([ev._lazy.known[c] for c in cand], axis=1)
+    assert np.array_equal(got, oracle)  # bit for bit, copies included
+    assert np.array_equal(vals, ref.combine(oracle))
+    spent = [r.n_evaluations - b for r, b in zip(ev.routes, before)]
+    n_cam = int(cameras[cand].sum())
+    spent = [n - 1 for n in spent]  # f_m(S) itself, scored once by every member at a new suite
+    for k, r in enumerate(city.routes):
+        if r.condition == "night":
+            assert spent[k] == (len(cand) if with_camera else n_cam)  # copies cost no evaluation
+        else:
+            assert spent[k] == len(cand)  # rain and fog change the LiDARs in S: no copies
