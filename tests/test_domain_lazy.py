@@ -159,3 +159,27 @@ def test_a_member_measuring_suite_and_candidate_as_its_clear_member_does_gets_it
             assert spent[k] == (len(cand) if with_camera else n_cam)  # copies cost no evaluation
         else:
             assert spent[k] == len(cand)  # rain and fog change the LiDARs in S: no copies
+
+
+@pytest.mark.parametrize("with_camera", [False, True])
+def test_members_seeing_the_suite_as_their_clear_member_does_share_its_pose_covariance_for_bounds(city, with_camera):
+    # the night members' gain bounds, made with their clear member's pose covariance while S holds
+    # no camera, must be those of their own engine (a fresh evaluator: its own covariance) and bound
+    # every exact gain (the oracle: each member's scores); with a camera in S nothing is shared
+    cameras = np.array([s.model.type == "stereo" for s in city.library])
+    others = np.flatnonzero(~cameras).tolist()
+    S = (others[0], int(np.flatnonzero(cameras)[0])) if with_camera else (others[0],)
+    cand = [c for c in range(len(city.library)) if c not in S]
+    ev, ref = DomainEvaluator(city), DomainEvaluator(city)
+    st = ev._lazy_at(S)
+    assert st is not None and st.as_clear.any() != with_camera
+    got = ev._member_gain_bounds(S, cand, st)
+    for k, r in enumerate(city.routes):
+        own = ref.routes[k].gain_bounds(S, cand)
+        assert (got[k] is None) == (own is None)
+        if own is None:
+            continue
+        assert np.allclose(got[k], own, rtol=1e-9, atol=1e-12), r.name
+        exact = ref.routes[k].scores_with(S, cand) - ref.routes[k].score(S)
+        assert np.all(exact <= got[k] * (1 + 1e-9) + 1e-9), r.name
+    assert all(got[k] is not None for k, r in enumerate(city.routes) if r.condition == "night")  # the path under test

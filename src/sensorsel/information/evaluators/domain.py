@@ -202,7 +202,7 @@ class DomainEvaluator(Evaluator):
         # member's bounds, handed over by _bound_alike, bound theirs) scored 596 route evaluations
         # against 518 (their cameras' bounds, the clear ones, are too loose) and took longer
         asked = range(len(self.routes))
-        got = self._ask_members("gain_bounds", base, cand, asked)
+        got = self._member_gain_bounds(base, cand, st)
         for k in asked:  # first: the clear members' bounds reach their alike members before these are read
             b = got.get(k)
             if b is not None and st is not None:  # kept for the member-by-member scoring, with an allowance for round-off
@@ -260,6 +260,35 @@ class DomainEvaluator(Evaluator):
         engine computes one route's gain bounds on one thread; 28 members' took 7.0 of 18.3 s of the
         seven KITTI routes x four conditions on one thread, here they run two at a time."""
         return self._on_threads(lambda k: getattr(self.routes[k], method)(base, cand), list(members))
+
+    def _member_gain_bounds(self, base: Suite, cand: list[int], st: MemberBounds | None) -> dict[int, Any]:
+        """Each member's engine's ``gain_bounds(base, cand)``, by member, on :attr:`jobs` threads; a
+        clear member and the members that see S as it does (:attr:`MemberBounds.as_clear`) as one task
+        sharing one pose covariance Σ_pp. Why that is valid: those members' pose information at S
+        is the clear member's (the very same measurement arrays of every sensor of S, same scenario
+        and settings: :func:`clear_partners`), so its Σ_pp is theirs; each member's bounds are then
+        made from its own measurements of the candidates (a night camera's, not the clear one's).
+        The dense Cholesky and inverse behind Σ_pp are most of a bound's cost: night members, at
+        every step before a camera is bought, then pay only their per-measurement products."""
+        share = getattr(self.routes[0], "bound_covariance", None) is not None and st is not None
+        groups: dict[int, list[int]] = {}
+        for k in range(len(self.routes)):
+            p = int(self._clear[k]) if share and st is not None and st.as_clear[k] else k
+            groups.setdefault(p, []).append(k)
+
+        def one(p: int) -> dict[int, Any]:
+            members = groups[p]
+            if len(members) == 1:
+                return {p: self.routes[p].gain_bounds(base, cand)}
+            cov = getattr(self.routes[p], "bound_covariance")(base, len(cand))
+            if cov is None:  # the engine gives no bounds here (too few candidates for their cost)
+                return {k: None for k in members}
+            return {k: getattr(self.routes[k], "gain_bounds")(base, cand, covariance=cov) for k in members}
+
+        out: dict[int, Any] = {}
+        for part in self._on_threads(one, list(groups)).values():
+            out.update(part)
+        return out
 
     def _on_threads(self, one: Any, members: list[int]) -> dict[int, Any]:
         """``one(k)`` of each member, on :attr:`jobs` threads (the engines release the GIL in their

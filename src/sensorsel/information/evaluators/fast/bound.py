@@ -185,14 +185,15 @@ def pair_quadratics(states: StateBuilder, planner: Planner, base: BaseState, cov
 
 def gain_bounds(kernel: Kernel, states: StateBuilder, planner: Planner, base: BaseState,
                 candidates: Sequence[int], *, trace: bool = False,
-                map_: Callable[..., Iterable[Any]] | None = None) -> np.ndarray:
+                map_: Callable[..., Iterable[Any]] | None = None, covariance: np.ndarray | None = None) -> np.ndarray:
     """Upper bounds [nats] on each candidate's gain log det L(S + {c}) − log det L(S), shape
     (len(candidates),); 0 for a candidate already in S.
 
     ``trace`` False (default): Σ_m log det(I₂ + R_m^{-1/2} J_m Σ_(k,j) J_mᵀ R_m^{-1/2}) over the
     candidate's measurements m (submodularity of log det over its PSD terms, then the determinant
     lemma per measurement); True: tr(L_S⁻¹ Λ_c), which is larger (log(1 + x) ≤ x per eigenvalue).
-    ``map_``: as in :func:`pair_quadratics` (the same numbers either way).
+    ``map_``: as in :func:`pair_quadratics` (the same numbers either way). ``covariance``: the base's
+    Σ_pp (3K, 3K) when the caller has it (:func:`pose_covariance` of the same pose matrix), else computed.
     """
     cands = [int(c) for c in candidates]
     new = [c for c in cands if c not in base.suite]
@@ -203,7 +204,8 @@ def gain_bounds(kernel: Kernel, states: StateBuilder, planner: Planner, base: Ba
     for c in new:  # (np.unique of their concatenation took ~25 ms on KITTI 00 at 1 Hz, this ~2)
         measured[states.sensor_pairs[c]] = True
     pairs = np.flatnonzero(measured)
-    q = pair_quadratics(states, planner, base, pose_covariance(kernel, base), pairs, map_)
+    cov = pose_covariance(kernel, base) if covariance is None else covariance
+    q = pair_quadratics(states, planner, base, cov, pairs, map_)
     for i, c in enumerate(cands):
         if c in base.suite:
             continue
