@@ -183,3 +183,21 @@ def test_members_seeing_the_suite_as_their_clear_member_does_share_its_pose_cova
         exact = ref.routes[k].scores_with(S, cand) - ref.routes[k].score(S)
         assert np.all(exact <= got[k] * (1 + 1e-9) + 1e-9), r.name
     assert all(got[k] is not None for k, r in enumerate(city.routes) if r.condition == "night")  # the path under test
+
+
+def test_shared_pair_quadratics_are_used_only_where_they_hold_every_pair(city):
+    # a member's bounds from another engine's pair quadratics: looked up by (keyframe, landmark);
+    # a pair they do not hold must not be read as another's (the lookup gives up: computed afresh)
+    ev = DomainEvaluator(city)
+    clear = ev.routes[0]
+    S = (0,)
+    from sensorsel.information.evaluators.fast import bound
+
+    states, b = clear._states, clear._base_for(S)  # type: ignore[attr-defined]
+    held = bound.quadratics(clear.kernel, states, clear._planner, b, [1], bound.pose_covariance(clear.kernel, b))  # type: ignore[attr-defined]
+    own = np.asarray(states.sensor_pairs[1])
+    assert held.lookup(states, own) is not None
+    other = next(c for c in range(2, len(city.library)) if np.setdiff1d(states.sensor_pairs[c], own).size)
+    assert held.lookup(states, np.asarray(states.sensor_pairs[other])) is None
+    full = clear.gain_bounds(S, [other], force=True)
+    assert np.allclose(clear.gain_bounds(S, [other], force=True, shared=held), full, rtol=1e-12, atol=0)  # computed afresh

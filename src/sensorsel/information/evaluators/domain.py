@@ -264,13 +264,17 @@ class DomainEvaluator(Evaluator):
     def _member_gain_bounds(self, base: Suite, cand: list[int], st: MemberBounds | None) -> dict[int, Any]:
         """Each member's engine's ``gain_bounds(base, cand)``, by member, on :attr:`jobs` threads; a
         clear member and the members that see S as it does (:attr:`MemberBounds.as_clear`) as one task
-        sharing one pose covariance Σ_pp. Why that is valid: those members' pose information at S
-        is the clear member's (the very same measurement arrays of every sensor of S, same scenario
-        and settings: :func:`clear_partners`), so its Σ_pp is theirs; each member's bounds are then
-        made from its own measurements of the candidates (a night camera's, not the clear one's).
-        The dense Cholesky and inverse behind Σ_pp are most of a bound's cost: night members, at
-        every step before a camera is bought, then pay only their per-measurement products."""
-        share = getattr(self.routes[0], "bound_covariance", None) is not None and st is not None
+        sharing the clear member's pose covariance Σ_pp and the quadratics of its measured pairs
+        under it. Why that is valid: those members' information at S is the clear member's (the very
+        same measurement arrays of every sensor of S, same scenario and settings:
+        :func:`clear_partners`), so its Σ_pp is theirs, and a pair's quadratic depends only on Σ_pp,
+        the base and the pair's geometry (a condition keeps a subset of the clear pairs: looked up
+        by keyframe and landmark); each member's bounds are then made from its own measurements'
+        weights (a night camera's, not the clear one's). The dense Cholesky and inverse behind Σ_pp
+        and the pairs' products are nearly all of a bound's cost: night members pay almost nothing
+        at the steps before a camera is bought.
+        """
+        share = getattr(self.routes[0], "bound_quadratics", None) is not None and st is not None
         groups: dict[int, list[int]] = {}
         for k in range(len(self.routes)):
             p = int(self._clear[k]) if share and st is not None and st.as_clear[k] else k
@@ -280,10 +284,10 @@ class DomainEvaluator(Evaluator):
             members = groups[p]
             if len(members) == 1:
                 return {p: self.routes[p].gain_bounds(base, cand)}
-            cov = getattr(self.routes[p], "bound_covariance")(base, len(cand))
-            if cov is None:  # the engine gives no bounds here (too few candidates for their cost)
+            shared = getattr(self.routes[p], "bound_quadratics")(base, cand)
+            if shared is None:  # the engine gives no bounds here (too few candidates for their cost)
                 return {k: None for k in members}
-            return {k: getattr(self.routes[k], "gain_bounds")(base, cand, covariance=cov) for k in members}
+            return {k: getattr(self.routes[k], "gain_bounds")(base, cand, shared=shared) for k in members}
 
         out: dict[int, Any] = {}
         for part in self._on_threads(one, list(groups)).values():
