@@ -34,6 +34,7 @@ from dataclasses import dataclass, field
 from typing import Any, Iterable, Sequence
 
 import numpy as np
+from threadpoolctl import ThreadpoolController
 
 from sensorsel.errors import InputError
 from sensorsel.information.evaluators.base import Evaluator, ProblemEvaluator, Suite, as_suite
@@ -158,6 +159,7 @@ class DomainEvaluator(Evaluator):
         # what lazy greedy's member-by-member scoring knows (here, as every evaluator of a domain sets its normalisers)
         self._lazy: MemberBounds | None = None
         self._pool: ThreadPoolExecutor | None = None
+        self._blas: ThreadpoolController | None = None
         self._clear, self._alike = clear_partners(domain, len(self.library))
         # a route's work per evaluation, relative: its keyframes K. Only orders the routes (never changes
         # a number): measured per candidate ~K^1.7 on the KITTI routes (03, 81 keyframes ~1 ms; 00, 455
@@ -303,7 +305,15 @@ class DomainEvaluator(Evaluator):
         if self._pool is None:
             self._pool = ThreadPoolExecutor(max_workers=self.jobs, thread_name_prefix="sensorsel-domain")
             weakref.finalize(self, self._pool.shutdown, wait=False)
-        return dict(zip(members, self._pool.map(one, members)))
+            self._blas = ThreadpoolController()
+        # BLAS held at one thread by this (calling) thread around the pool's work: each engine also
+        # holds it while it scores, but BLAS's thread count is the process's, and an engine's hold
+        # taken and restored on a pool thread while another route's is held on the other could leave
+        # BLAS on one thread for good (measured: after a domain run numpy's products changed their
+        # last bits); nested under this hold, theirs find one thread and put one back.
+        assert self._blas is not None
+        with self._blas.limit(limits=1, user_api="blas"):
+            return dict(zip(members, self._pool.map(one, members)))
 
     def _lazy_at(self, base: Suite, *, score: bool = True) -> MemberBounds | None:
         """The member-by-member state at ``base``: the last one's stale bounds carried on when its
