@@ -24,6 +24,11 @@ bounded term per unit of work first, and is left with a (tighter) bound as soon 
 it cannot reach the best: only candidates that can still win get every route scored (a domain of
 routes x conditions: the heavy clear and night members first, rain and fog only where they could
 still matter). Same picks and scores to the bit; fewer route evaluations.
+
+Members that see the suite as their route's clear member does (night before a camera is bought:
+night changes the cameras alone) share the clear member's work: its f(S + {c}) is theirs for every
+candidate they measure alike (copied, not evaluated: :meth:`DomainEvaluator._mirrors`), and its pose
+covariance and pair quadratics make their gain bounds (:meth:`DomainEvaluator._member_gain_bounds`).
 """
 
 from __future__ import annotations
@@ -276,10 +281,14 @@ class DomainEvaluator(Evaluator):
         and the pairs' products are nearly all of a bound's cost: night members pay almost nothing
         at the steps before a camera is bought.
         """
-        share = getattr(self.routes[0], "bound_quadratics", None) is not None and st is not None
+        # engines that offer their quadratics (the fast engine in-process; a cluster's proxies do not,
+        # and its evaluator asks every actor at once through _ask_members)
+        share = all(getattr(r, "bound_quadratics", None) is not None for r in self.routes) and st is not None
+        if not share or st is None or not st.as_clear.any():
+            return self._ask_members("gain_bounds", base, cand, range(len(self.routes)))
         groups: dict[int, list[int]] = {}
         for k in range(len(self.routes)):
-            p = int(self._clear[k]) if share and st is not None and st.as_clear[k] else k
+            p = int(self._clear[k]) if st.as_clear[k] else k
             groups.setdefault(p, []).append(k)
 
         def one(p: int) -> dict[int, Any]:
