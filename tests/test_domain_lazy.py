@@ -237,3 +237,19 @@ def test_members_scored_on_two_threads_give_blas_its_thread_count_back(city):
 
     assert ev._on_threads(one, [0, 1]) == {0: 0, 1: 1}
     assert blas_threads() == before
+
+
+def test_scores_are_copied_only_between_members_whose_engines_planned_alike(city):
+    # the fast engine plans its tiles from every landmark the library measures: a member copies its
+    # clear member's scores only where that set agrees (the oracle: the sets, computed here)
+    from sensorsel.information.evaluators.domain import clear_partners, planned_alike
+
+    partner, _ = clear_partners(city, len(city.library))
+    got = planned_alike(city, partner)
+    for k, r in enumerate(city.routes):
+        if partner[k] < 0:
+            assert not got[k]
+            continue
+        seen = [np.unique(np.concatenate([o.landmark for o in city.routes[j].problem.observations])) for j in (k, partner[k])]
+        assert got[k] == np.array_equal(*seen), r.name
+    assert got.any()  # the fixtures' night members see every landmark their clear members do

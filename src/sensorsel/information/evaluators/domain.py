@@ -106,6 +106,18 @@ def clear_partners(domain: Domain, n_sensors: int) -> tuple[np.ndarray, np.ndarr
     return partner, alike
 
 
+def planned_alike(domain: Domain, partner: np.ndarray) -> np.ndarray:
+    """(R,) bool: members whose library measures the very landmarks their clear member's does
+    (``partner`` from :func:`clear_partners`; False without one). An engine may plan its work by
+    what the whole library measures (the fast engine groups the measured landmarks into tiles), so
+    two members give the same bytes for a suite they measure alike only when that agrees too."""
+    def seen(k: int) -> np.ndarray:
+        obs = domain.routes[k].problem.observations
+        return np.unique(np.concatenate([o.landmark for o in obs])) if obs else np.zeros(0, dtype=int)
+
+    return np.array([p >= 0 and np.array_equal(seen(k), seen(int(p))) for k, p in enumerate(partner.tolist())], dtype=bool)
+
+
 def check_aggregate(aggregate: str) -> str:
     """``aggregate`` if it is one of :data:`AGGREGATES` (else an InputError naming the choices)."""
     if aggregate not in AGGREGATES:
@@ -166,6 +178,7 @@ class DomainEvaluator(Evaluator):
         self._pool: ThreadPoolExecutor | None = None
         self._blas: ThreadpoolController | None = None
         self._clear, self._alike = clear_partners(domain, len(self.library))
+        self._planned_alike = planned_alike(domain, self._clear)
         # a route's work per evaluation, relative: its keyframes K. Only orders the routes (never changes
         # a number): measured per candidate ~K^1.7 on the KITTI routes (03, 81 keyframes ~1 ms; 00, 455
         # ~20 ms), but the route-ordering by K scored fewer routes in all (seven routes x four conditions
@@ -430,10 +443,12 @@ class DomainEvaluator(Evaluator):
         Why that is exact, to the bit: the member's engine and its clear member's are built from the
         same scenario, settings and, for every sensor of S + {c}, the very same measurement arrays,
         so they hold the same information matrix and compute its log det by the same deterministic
-        steps (f_m(S) = f_clear(S) likewise, so the gains agree too). Night changes the cameras
+        steps (f_m(S) = f_clear(S) likewise, so the gains agree too), provided their engines planned
+        alike (:func:`planned_alike`: the fast engine's landmark tiles come from every landmark the
+        library measures; where night loses a landmark only a camera saw, no copies). Night changes the cameras
         alone: until a camera is bought, a night member's LiDAR and radar candidates need no
         evaluation of their own (a quarter of the city's driving, on the longest routes)."""
-        mirror = st.as_clear & self._alike[:, c]
+        mirror = st.as_clear & self._alike[:, c] & self._planned_alike
         for j in np.flatnonzero(mirror & np.isnan(known)).tolist():
             v = known[self._clear[j]]
             if not np.isnan(v):
