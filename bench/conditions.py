@@ -31,6 +31,16 @@ from sensorsel.model.problem import load_domain  # noqa: E402
 from sensorsel.designs.selection import greedy  # noqa: E402
 
 
+def _by_condition(domain, ev: DomainEvaluator) -> dict[str, int]:
+    """Route evaluations of the members of each condition (a night member's scores copied from its
+    clear member cost none: they are not counted)."""
+    out: dict[str, int] = {}
+    for r, e in zip(domain.routes, ev.routes):
+        name = r.condition or "no condition"
+        out[name] = out.get(name, 0) + e.n_evaluations
+    return out
+
+
 def run(path: Path, budget: float, jobs: int) -> dict[str, float | str | int]:
     t0, c0 = time.perf_counter(), time.process_time()
     domain = load_domain(path)
@@ -41,6 +51,7 @@ def run(path: Path, budget: float, jobs: int) -> dict[str, float | str | int]:
     t3, c3 = time.perf_counter(), time.process_time()
     return {"load": t1 - t0, "setup": t2 - t1, "select": t3 - t2, "cpu": (c2 - c1) + (c3 - c2), "members": len(domain.routes),
             "evals": res.n_evaluations, "route_evals": sum(r.n_evaluations for r in ev.routes),
+            "by_condition": ", ".join(f"{c} {n}" for c, n in _by_condition(domain, ev).items()),
             "suite": ",".join(res.suite), "score": res.score, "steps": repr([(s.pick, s.score) for s in res.steps])}
 
 
@@ -66,7 +77,7 @@ def main() -> None:
         r = rs[0]
         print(f"{name:<10} members {r['members']:>2}: load {m['load']:6.2f} s  evaluators {m['setup']:6.2f} s  "
               f"greedy {m['select']:6.2f} s (CPU of both {cpu[name]:6.2f} s; {r['evals']} domain evaluations, "
-              f"{r['route_evals']} route evaluations)  F = {float(r['score']):.4f}  {r['suite']}")
+              f"{r['route_evals']} route evaluations: {r['by_condition']})  F = {float(r['score']):.4f}  {r['suite']}")
         if any(x["steps"] != r["steps"] for x in rs):
             raise SystemExit(f"{name}: runs picked differently: greedy is not deterministic")
     ratio = (med["conditions"]["setup"] + med["conditions"]["select"]) / (med["routes"]["setup"] + med["routes"]["select"])

@@ -132,6 +132,77 @@ def test_night_members_measure_lidars_and_radars_as_their_clear_member_does(city
             assert same or not alike[k, s], (r.name, city.library.ids[s])
 
 
+@pytest.mark.parametrize("with_camera", [False, True])
+def test_a_member_measuring_suite_and_candidate_as_its_clear_member_does_gets_its_score_copied(city, with_camera):
+    # a night member with no camera in S + {c} has its clear member's information matrix: lazy greedy
+    # copies the clear member's f(S + {c}) instead of evaluating it. The oracle: every member's own
+    # engine (a fresh evaluator) scoring every candidate; the copies must be its numbers to the bit,
+    # and a camera (which night changes) or a suite holding one must still be scored by the member
+    cameras = np.array([s.model.type == "stereo" for s in city.library])
+    others = np.flatnonzero(~cameras).tolist()
+    S = (others[0], int(np.flatnonzero(cameras)[0])) if with_camera else (others[0],)
+    cand = [c for c in range(len(city.library)) if c not in S]
+    ev, ref = DomainEvaluator(city), DomainEvaluator(city)
+    before = [r.n_evaluations for r in ev.routes]
+    vals, exact = ev.scores_or_bounds(S, cand, np.full(len(cand), -np.inf))
+    oracle = np.stack([r.scores_with(S, cand) for r in ref.routes])
+    assert exact.all()
+    assert ev._lazy is not None
+    got = np.stack([ev._lazy.known[c] for c in cand], axis=1)
+    assert np.array_equal(got, oracle)  # bit for bit, copies included
+    assert np.array_equal(vals, ref.combine(oracle))
+    spent = [r.n_evaluations - b for r, b in zip(ev.routes, before)]
+    n_cam = int(cameras[cand].sum())
+    spent = [n - 1 for n in spent]  # f_m(S) itself, scored once by every member at a new suite
+    for k, r in enumerate(city.routes):
+        if r.condition == "night":
+            assert spent[k] == (len(cand) if with_camera else n_cam)  # copies cost no evaluation
+        else:
+            assert spent[k] == len(cand)  # rain and fog change the LiDARs in S: no copies
+
+
+@pytest.mark.parametrize("with_camera", [False, True])
+def test_members_seeing_the_suite_as_their_clear_member_does_share_its_pose_covariance_for_bounds(city, with_camera):
+    # the night members' gain bounds, made with their clear member's pose covariance while S holds
+    # no camera, must be those of their own engine (a fresh evaluator: its own covariance) and bound
+    # every exact gain (the oracle: each member's scores); with a camera in S nothing is shared
+    cameras = np.array([s.model.type == "stereo" for s in city.library])
+    others = np.flatnonzero(~cameras).tolist()
+    S = (others[0], int(np.flatnonzero(cameras)[0])) if with_camera else (others[0],)
+    cand = [c for c in range(len(city.library)) if c not in S]
+    ev, ref = DomainEvaluator(city), DomainEvaluator(city)
+    st = ev._lazy_at(S)
+    assert st is not None and st.as_clear.any() != with_camera
+    got = ev._member_gain_bounds(S, cand, st)
+    for k, r in enumerate(city.routes):
+        own = ref.routes[k].gain_bounds(S, cand)
+        assert (got[k] is None) == (own is None)
+        if own is None:
+            continue
+        assert np.allclose(got[k], own, rtol=1e-9, atol=1e-12), r.name
+        exact = ref.routes[k].scores_with(S, cand) - ref.routes[k].score(S)
+        assert np.all(exact <= got[k] * (1 + 1e-9) + 1e-9), r.name
+    assert all(got[k] is not None for k, r in enumerate(city.routes) if r.condition == "night")  # the path under test
+
+
+def test_shared_pair_quadratics_are_used_only_where_they_hold_every_pair(city):
+    # a member's bounds from another engine's pair quadratics: looked up by (keyframe, landmark);
+    # a pair they do not hold must not be read as another's (the lookup gives up: computed afresh)
+    ev = DomainEvaluator(city)
+    clear = ev.routes[0]
+    S = (0,)
+    from sensorsel.information.evaluators.fast import bound
+
+    states, b = clear._states, clear._base_for(S)  # type: ignore[attr-defined]
+    held = bound.quadratics(clear.kernel, states, clear._planner, b, [1], bound.pose_covariance(clear.kernel, b))  # type: ignore[attr-defined]
+    own = np.asarray(states.sensor_pairs[1])
+    assert held.lookup(states, own) is not None
+    other = next(c for c in range(2, len(city.library)) if np.setdiff1d(states.sensor_pairs[c], own).size)
+    assert held.lookup(states, np.asarray(states.sensor_pairs[other])) is None
+    full = clear.gain_bounds(S, [other], force=True)
+    assert np.allclose(clear.gain_bounds(S, [other], force=True, shared=held), full, rtol=1e-12, atol=0)  # computed afresh
+
+
 def test_members_scored_on_two_threads_give_blas_its_thread_count_back(city):
     """BLAS's thread count is the process's. Two members scored at once each hold it at one thread
     (the fast engine's ``single_thread``); interleaved as A in, B in, A out, B out on the pool's
@@ -166,3 +237,19 @@ def test_members_scored_on_two_threads_give_blas_its_thread_count_back(city):
 
     assert ev._on_threads(one, [0, 1]) == {0: 0, 1: 1}
     assert blas_threads() == before
+
+
+def test_scores_are_copied_only_between_members_whose_engines_planned_alike(city):
+    # the fast engine plans its tiles from every landmark the library measures: a member copies its
+    # clear member's scores only where that set agrees (the oracle: the sets, computed here)
+    from sensorsel.information.evaluators.domain import clear_partners, planned_alike
+
+    partner, _ = clear_partners(city, len(city.library))
+    got = planned_alike(city, partner)
+    for k, r in enumerate(city.routes):
+        if partner[k] < 0:
+            assert not got[k]
+            continue
+        seen = [np.unique(np.concatenate([o.landmark for o in city.routes[j].problem.observations])) for j in (k, partner[k])]
+        assert got[k] == np.array_equal(*seen), r.name
+    assert got.any()  # the fixtures' night members see every landmark their clear members do

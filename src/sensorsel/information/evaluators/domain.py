@@ -24,6 +24,11 @@ bounded term per unit of work first, and is left with a (tighter) bound as soon 
 it cannot reach the best: only candidates that can still win get every route scored (a domain of
 routes x conditions: the heavy clear and night members first, rain and fog only where they could
 still matter). Same picks and scores to the bit; fewer route evaluations.
+
+Members that see the suite as their route's clear member does (night before a camera is bought:
+night changes the cameras alone) share the clear member's work: its f(S + {c}) is theirs for every
+candidate they measure alike (copied, not evaluated: :meth:`DomainEvaluator._mirrors`), and its pose
+covariance and pair quadratics make their gain bounds (:meth:`DomainEvaluator._member_gain_bounds`).
 """
 
 from __future__ import annotations
@@ -101,6 +106,18 @@ def clear_partners(domain: Domain, n_sensors: int) -> tuple[np.ndarray, np.ndarr
     return partner, alike
 
 
+def planned_alike(domain: Domain, partner: np.ndarray) -> np.ndarray:
+    """(R,) bool: members whose library measures the very landmarks their clear member's does
+    (``partner`` from :func:`clear_partners`; False without one). An engine may plan its work by
+    what the whole library measures (the fast engine groups the measured landmarks into tiles), so
+    two members give the same bytes for a suite they measure alike only when that agrees too."""
+    def seen(k: int) -> np.ndarray:
+        obs = domain.routes[k].problem.observations
+        return np.unique(np.concatenate([o.landmark for o in obs])) if obs else np.zeros(0, dtype=int)
+
+    return np.array([p >= 0 and np.array_equal(seen(k), seen(int(p))) for k, p in enumerate(partner.tolist())], dtype=bool)
+
+
 def check_aggregate(aggregate: str) -> str:
     """``aggregate`` if it is one of :data:`AGGREGATES` (else an InputError naming the choices)."""
     if aggregate not in AGGREGATES:
@@ -161,6 +178,7 @@ class DomainEvaluator(Evaluator):
         self._pool: ThreadPoolExecutor | None = None
         self._blas: ThreadpoolController | None = None
         self._clear, self._alike = clear_partners(domain, len(self.library))
+        self._planned_alike = planned_alike(domain, self._clear)
         # a route's work per evaluation, relative: its keyframes K. Only orders the routes (never changes
         # a number): measured per candidate ~K^1.7 on the KITTI routes (03, 81 keyframes ~1 ms; 00, 455
         # ~20 ms), but the route-ordering by K scored fewer routes in all (seven routes x four conditions
@@ -199,15 +217,21 @@ class DomainEvaluator(Evaluator):
         st = self._lazy_at(base, score=False)
         # every member asked: asking only clear and night of the city's mix (lazy greedy's last gains
         # bounding rain and fog) scored 1.5-2.2x as many routes on the seven KITTI routes, and skipping
-        # fog alone (0.5 % of driving) 6 % more, for more time than its bounds cost
-        got = self._ask_members("gain_bounds", base, cand, range(len(self.routes)))
-        per = []
-        for k in range(len(self.routes)):
+        # fog alone (0.5 % of driving) 6 % more, for more time than its bounds cost. Skipping the
+        # members that see S as their clear member does (night before a camera is bought: the clear
+        # member's bounds, handed over by _bound_alike, bound theirs) scored 596 route evaluations
+        # against 518 (their cameras' bounds, the clear ones, are too loose) and took longer
+        asked = range(len(self.routes))
+        got = self._member_gain_bounds(base, cand, st)
+        for k in asked:  # first: the clear members' bounds reach their alike members before these are read
             b = got.get(k)
             if b is not None and st is not None:  # kept for the member-by-member scoring, with an allowance for round-off
                 allowed = np.asarray(b, dtype=float) * (1.0 + BOUND_SLACK) + BOUND_SLACK * max(1.0, abs(st.own[k]))
                 st.stale[k, cand] = np.minimum(st.stale[k, cand], allowed)
                 self._bound_alike(st, k, cand, np.asarray(b, dtype=float))
+        per = []
+        for k in range(len(self.routes)):
+            b = got.get(k)
             if b is None:
                 if st is None:
                     return None
@@ -256,6 +280,43 @@ class DomainEvaluator(Evaluator):
         engine computes one route's gain bounds on one thread; 28 members' took 7.0 of 18.3 s of the
         seven KITTI routes x four conditions on one thread, here they run two at a time."""
         return self._on_threads(lambda k: getattr(self.routes[k], method)(base, cand), list(members))
+
+    def _member_gain_bounds(self, base: Suite, cand: list[int], st: MemberBounds | None) -> dict[int, Any]:
+        """Each member's engine's ``gain_bounds(base, cand)``, by member, on :attr:`jobs` threads; a
+        clear member and the members that see S as it does (:attr:`MemberBounds.as_clear`) as one task
+        sharing the clear member's pose covariance Σ_pp and the quadratics of its measured pairs
+        under it. Why that is valid: those members' information at S is the clear member's (the very
+        same measurement arrays of every sensor of S, same scenario and settings:
+        :func:`clear_partners`), so its Σ_pp is theirs, and a pair's quadratic depends only on Σ_pp,
+        the base and the pair's geometry (a condition keeps a subset of the clear pairs: looked up
+        by keyframe and landmark); each member's bounds are then made from its own measurements'
+        weights (a night camera's, not the clear one's). The dense Cholesky and inverse behind Σ_pp
+        and the pairs' products are nearly all of a bound's cost: night members pay almost nothing
+        at the steps before a camera is bought.
+        """
+        # engines that offer their quadratics (the fast engine in-process; a cluster's proxies do not,
+        # and its evaluator asks every actor at once through _ask_members)
+        share = all(getattr(r, "bound_quadratics", None) is not None for r in self.routes) and st is not None
+        if not share or st is None or not st.as_clear.any():
+            return self._ask_members("gain_bounds", base, cand, range(len(self.routes)))
+        groups: dict[int, list[int]] = {}
+        for k in range(len(self.routes)):
+            p = int(self._clear[k]) if st.as_clear[k] else k
+            groups.setdefault(p, []).append(k)
+
+        def one(p: int) -> dict[int, Any]:
+            members = groups[p]
+            if len(members) == 1:
+                return {p: self.routes[p].gain_bounds(base, cand)}
+            shared = getattr(self.routes[p], "bound_quadratics")(base, cand)
+            if shared is None:  # the engine gives no bounds here (too few candidates for their cost)
+                return {k: None for k in members}
+            return {k: getattr(self.routes[k], "gain_bounds")(base, cand, shared=shared) for k in members}
+
+        out: dict[int, Any] = {}
+        for part in self._on_threads(one, list(groups)).values():
+            out.update(part)
+        return out
 
     def _on_threads(self, one: Any, members: list[int]) -> dict[int, Any]:
         """``one(k)`` of each member, on :attr:`jobs` threads (the engines release the GIL in their
@@ -336,6 +397,7 @@ class DomainEvaluator(Evaluator):
             for i in open_:
                 c = cand[i]
                 known = st.known.setdefault(c, np.full(R, np.nan))
+                mirror = self._mirrors(st, c, known)
                 todo = np.isnan(known)
                 if not todo.any():
                     out[i], exact[i] = float(self.combine(known)), True  # the route order of scores_with: the same bytes
@@ -345,14 +407,19 @@ class DomainEvaluator(Evaluator):
                 if scored[i] and bound < need[i]:
                     out[i] = bound  # cannot reach what it needs: a bound is all it gets
                     continue
+                ask = todo & ~mirror  # a mirror's score comes with its clear member's
                 if not np.isfinite(need[i]):  # to be scored exactly: every route at once
-                    for m in np.flatnonzero(todo).tolist():
+                    for m in np.flatnonzero(ask).tolist():
                         groups.setdefault(m, []).append(i)
                     continue
-                # the routes whose unknown terms are largest per unit of work (infinite terms first, in route order)
+                # the routes whose unknown terms are largest per unit of work (infinite terms first, in
+                # route order); a mirror's term counts with its clear member's, whose score gives both
                 gap = np.where(todo, self.scale * st.stale[:, c], -np.inf)
+                for j in np.flatnonzero(mirror).tolist():
+                    gap[self._clear[j]] += gap[j]
+                gap[mirror] = -np.inf
                 prio = np.where(np.isinf(gap) & (gap > 0), np.inf, gap / self.work)
-                for m in np.argsort(-prio, kind="stable")[:min(width, int(todo.sum()))].tolist():
+                for m in np.argsort(-prio, kind="stable")[:min(width, int(ask.sum()))].tolist():
                     groups.setdefault(m, []).append(i)
             open_ = sorted({i for idx in groups.values() for i in idx})
             groups = dict(sorted(groups.items()))  # routes asked in route order
@@ -363,8 +430,31 @@ class DomainEvaluator(Evaluator):
                     st.known[c][k] = v
                     st.stale[k, c] = min(st.stale[k, c], v - st.own[k])
                     self._bound_alike(st, k, [c], np.array([v - st.own[k]]))
+                    self._mirrors(st, c, st.known[c])
                     scored[i] += 1
         return out, exact
+
+    def _mirrors(self, st: MemberBounds, c: int, known: np.ndarray) -> np.ndarray:
+        """(R,) bool: the members that measure S + {c} exactly as their clear member does (S as it
+        does, :attr:`MemberBounds.as_clear`, and c with the very same arrays), whose f_m(S + {c})
+        [nats] is then their clear member's, copied into ``known`` (and their stale bound) where
+        the clear member's is known.
+
+        Why that is exact, to the bit: the member's engine and its clear member's are built from the
+        same scenario, settings and, for every sensor of S + {c}, the very same measurement arrays,
+        so they hold the same information matrix and compute its log det by the same deterministic
+        steps (f_m(S) = f_clear(S) likewise, so the gains agree too), provided their engines planned
+        alike (:func:`planned_alike`: the fast engine's landmark tiles come from every landmark the
+        library measures; where night loses a landmark only a camera saw, no copies). Night changes the cameras
+        alone: until a camera is bought, a night member's LiDAR and radar candidates need no
+        evaluation of their own (a quarter of the city's driving, on the longest routes)."""
+        mirror = st.as_clear & self._alike[:, c] & self._planned_alike
+        for j in np.flatnonzero(mirror & np.isnan(known)).tolist():
+            v = known[self._clear[j]]
+            if not np.isnan(v):
+                known[j] = v
+                st.stale[j, c] = min(st.stale[j, c], v - st.own[j])
+        return mirror
 
     def _ask_members_grouped(self, base: Suite, groups: dict[int, list[int]]) -> dict[int, np.ndarray]:
         """f_k(S + {c}) for the candidates ``groups[k]`` of each member k (one route call each), the

@@ -33,6 +33,7 @@ base: it pays only when it spares more re-scored candidates than that (measured:
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any, Callable, Iterable, Sequence
 
 import numpy as np
@@ -183,16 +184,59 @@ def pair_quadratics(states: StateBuilder, planner: Planner, base: BaseState, cov
     return np.stack([quad(0, 0), quad(0, 1), quad(1, 1)])
 
 
+def pair_keys(states: StateBuilder, pairs: np.ndarray) -> np.ndarray:
+    """(n,) int64 keyframe × M + landmark of each pair (M landmarks): a pair's name across engines."""
+    return states.pair_pose[pairs].astype(np.int64) * states.n_landmarks + states.pair_landmark[pairs]
+
+
+@dataclass(frozen=True)
+class Quadratics:
+    """:func:`pair_quadratics` of some pairs, by pair key (:func:`pair_keys`), sorted: ``keys`` (n,),
+    ``q`` (3, n); ``covariance`` the base's Σ_pp (3K, 3K) they were made from."""
+
+    keys: np.ndarray
+    q: np.ndarray
+    covariance: np.ndarray
+
+    def lookup(self, states: StateBuilder, pairs: np.ndarray) -> np.ndarray | None:
+        """(3, len(pairs)) the quadratics of ``pairs`` (of ``states``' engine), or None unless all are held."""
+        want = pair_keys(states, pairs)
+        at = np.minimum(np.searchsorted(self.keys, want), max(len(self.keys) - 1, 0))
+        if len(self.keys) == 0 or not np.array_equal(self.keys[at], want):
+            return None
+        return self.q[:, at]
+
+
+def quadratics(kernel: Kernel, states: StateBuilder, planner: Planner, base: BaseState,
+               candidates: Sequence[int], covariance: np.ndarray) -> Quadratics:
+    """The quadratics of every pair the ``candidates`` not in S measure, under the base's ``covariance``."""
+    measured = np.zeros(len(states.pair_pose), dtype=bool)
+    for c in candidates:
+        if c not in base.suite:
+            measured[states.sensor_pairs[c]] = True
+    pairs = np.flatnonzero(measured)
+    q = pair_quadratics(states, planner, base, covariance, pairs)
+    keys = pair_keys(states, pairs)
+    order = np.argsort(keys, kind="stable")
+    return Quadratics(keys[order], q[:, order], covariance)
+
+
 def gain_bounds(kernel: Kernel, states: StateBuilder, planner: Planner, base: BaseState,
                 candidates: Sequence[int], *, trace: bool = False,
-                map_: Callable[..., Iterable[Any]] | None = None) -> np.ndarray:
+                map_: Callable[..., Iterable[Any]] | None = None, covariance: np.ndarray | None = None,
+                shared: Quadratics | None = None) -> np.ndarray:
     """Upper bounds [nats] on each candidate's gain log det L(S + {c}) − log det L(S), shape
     (len(candidates),); 0 for a candidate already in S.
 
     ``trace`` False (default): Σ_m log det(I₂ + R_m^{-1/2} J_m Σ_(k,j) J_mᵀ R_m^{-1/2}) over the
     candidate's measurements m (submodularity of log det over its PSD terms, then the determinant
     lemma per measurement); True: tr(L_S⁻¹ Λ_c), which is larger (log(1 + x) ≤ x per eigenvalue).
-    ``map_``: as in :func:`pair_quadratics` (the same numbers either way).
+    ``map_``: as in :func:`pair_quadratics` (the same numbers either way). ``covariance``: the base's
+    Σ_pp (3K, 3K) when the caller has it (:func:`pose_covariance` of the same pose matrix), else computed.
+    ``shared``: the pairs' quadratics of an engine with the same base information at S
+    (:func:`quadratics`), looked up by (keyframe, landmark) for every pair the candidates measure
+    (each pair's quadratic depends only on the base's covariance and the pair's geometry); ignored,
+    and computed here, unless it holds them all.
     """
     cands = [int(c) for c in candidates]
     new = [c for c in cands if c not in base.suite]
@@ -203,7 +247,12 @@ def gain_bounds(kernel: Kernel, states: StateBuilder, planner: Planner, base: Ba
     for c in new:  # (np.unique of their concatenation took ~25 ms on KITTI 00 at 1 Hz, this ~2)
         measured[states.sensor_pairs[c]] = True
     pairs = np.flatnonzero(measured)
-    q = pair_quadratics(states, planner, base, pose_covariance(kernel, base), pairs, map_)
+    q = shared.lookup(states, pairs) if shared is not None else None
+    if q is None:
+        if covariance is None and shared is not None:
+            covariance = shared.covariance
+        cov = pose_covariance(kernel, base) if covariance is None else covariance
+        q = pair_quadratics(states, planner, base, cov, pairs, map_)
     for i, c in enumerate(cands):
         if c in base.suite:
             continue

@@ -179,7 +179,8 @@ class FastEvaluator(ProblemEvaluator):
         return np.array(vals, dtype=float) - baseline
 
     def gain_bounds(self, suite: Iterable[int], candidates: Sequence[int], *, trace: bool = False,
-                    force: bool = False) -> np.ndarray | None:
+                    force: bool = False, covariance: np.ndarray | None = None,
+                    shared: bound.Quadratics | None = None) -> np.ndarray | None:
         """Upper bounds [nats] on each candidate's gain f(S + {c}) − f(S), shape (len(candidates),)
         (exact arithmetic; :func:`.bound.gain_bounds`: per measurement log det, or with ``trace``
         tr(L_S⁻¹ Λ_c)); not counted in :attr:`n_evaluations`.
@@ -187,7 +188,13 @@ class FastEvaluator(ProblemEvaluator):
         They cost one dense Cholesky and inverse of the base's pose matrix: None (unless ``force``)
         when there are fewer than ``bound_spare`` (:data:`BOUND_SPARE`) times as many candidates as that is predicted
         to cost in evaluations (:meth:`bound_cost`). The choice depends on the suite's pattern
-        alone, so a run's evaluations are the same on every machine."""
+        alone, so a run's evaluations are the same on every machine.
+
+        ``covariance``: the base's pose covariance Σ_pp (3K, 3K) from :meth:`bound_covariance` of an
+        engine with the same pose information matrix at S (a domain member and its clear member
+        when S holds no sensor the condition changes), instead of computing it again; ``shared``:
+        such an engine's pair quadratics (:meth:`bound_quadratics`), used where they hold every pair
+        the candidates measure here."""
         base, cands = self._request(suite, candidates)
         with self.kernel.blas.single_thread():
             b = self._base_for(base)
@@ -195,9 +202,31 @@ class FastEvaluator(ProblemEvaluator):
                 return None
             # on one thread: the landmark groups' products are small, and on 2 threads they ran
             # slower (KITTI 00 at 1 Hz, synthetic map: whole selection 3.57 against 3.16 s, min of 4)
-            out = bound.gain_bounds(self.kernel, self._states, self._planner, b, cands, trace=trace)
+            out = bound.gain_bounds(self.kernel, self._states, self._planner, b, cands, trace=trace, covariance=covariance,
+                                    shared=shared)
         self.n_bounds += 1
         return out
+
+    def bound_quadratics(self, suite: Iterable[int], candidates: Sequence[int]) -> bound.Quadratics | None:
+        """The pair quadratics of :meth:`gain_bounds` for ``candidates`` at ``suite`` (from one pose
+        covariance), for engines with the same base information at S; None when it would give no bounds."""
+        base, cands = self._request(suite, candidates)
+        cov = self.bound_covariance(base, len(cands))
+        if cov is None:
+            return None
+        with self.kernel.blas.single_thread():
+            return bound.quadratics(self.kernel, self._states, self._planner, self._base_for(base), cands, cov)
+
+    def bound_covariance(self, suite: Iterable[int], n_candidates: int) -> np.ndarray | None:
+        """The pose covariance Σ_pp (3K, 3K) [m², rad²] of ``suite`` that :meth:`gain_bounds` would
+        compute for ``n_candidates`` candidates, or None when it would give no bounds (the same choice)."""
+        base = as_suite(suite)
+        self._check_positions(base)
+        with self.kernel.blas.single_thread():
+            b = self._base_for(base)
+            if n_candidates < self._bound_spare * self._bound_cost(b):
+                return None
+            return bound.pose_covariance(self.kernel, b)
 
     def score_bounds(self, suite: Iterable[int], candidates: Sequence[int]) -> tuple[float, np.ndarray] | None:
         """Upper bounds [nats] on f(S) and on each f(S + {c}), shape (len(candidates),), from
