@@ -239,6 +239,17 @@ def test_members_scored_on_two_threads_give_blas_its_thread_count_back(city):
     assert blas_threads() == before
 
 
+def test_members_started_dearest_first_are_answered_by_member_in_the_order_asked(city):
+    """The pool starts the members by their work, largest first (a speed matter); the answers must
+    still be each member's own, in the order the members were asked, on one thread and on two."""
+    for jobs in (1, 2):
+        ev = DomainEvaluator(city, jobs=jobs)
+        members = [2, 0, 3, 1]
+        work = {0: 1.0, 1: 4.0, 2: 2.0, 3: 3.0}
+        got = ev._on_threads(lambda k: 10 * k, members, work)
+        assert list(got) == members and got == {k: 10 * k for k in members}
+
+
 def test_scores_are_copied_only_between_members_whose_engines_planned_alike(city):
     # the fast engine plans its tiles from every landmark the library measures: a member copies its
     # clear member's scores only where that set agrees (the oracle: the sets, computed here)
