@@ -390,6 +390,36 @@ def test_blocked_cholesky_is_accurate_on_ill_conditioned_matrices(condition):
     assert abs(blocked - want) <= 1e-16 * condition * n * abs(want) + 1e-13 * abs(want)
 
 
+@pytest.mark.parametrize("n", [1, 5, 70])
+def test_inverse_from_the_blocked_cholesky_is_numpys_inverse(n):
+    """dpotri through its function pointer after the blocked Cholesky: the lower triangle holds
+    numpy's inverse of the matrix, the upper triangle is not written; and scipy's own wrapper of
+    dpotri (what the gain bounds called before) gives the same bits on the same factor."""
+    from scipy.linalg import lapack
+
+    rng = np.random.default_rng(n)
+    x = rng.standard_normal((n, n + 2))
+    spd = x @ x.T + 0.5 * np.eye(n)
+    p = np.tril(spd).copy()
+    blas = Blas()
+    blas.cholesky_logdet(p, 64)
+    factor = p.copy()
+    p[np.triu_indices(n, 1)] = 7.0  # the upper triangle must come back untouched
+    blas.inverse_from_cholesky(p)
+    low = np.tril_indices(n)
+    np.testing.assert_allclose(p[low], np.linalg.inv(spd)[low], rtol=1e-9, atol=1e-12)
+    assert np.all(p[np.triu_indices(n, 1)] == 7.0)
+    theirs, info = lapack.dpotri(factor.T, lower=0, overwrite_c=0)
+    assert info == 0 and np.array_equal(np.tril(theirs.T), np.tril(p))
+
+
+def test_inverse_from_a_singular_factor_names_dpotri():
+    p = np.eye(4)
+    p[2, 2] = 0.0  # a zero on the factor's diagonal
+    with pytest.raises(np.linalg.LinAlgError, match="dpotri info 3"):
+        Blas().inverse_from_cholesky(p)
+
+
 def test_blocked_cholesky_names_the_failing_pivot_past_the_first_panel():
     spd = np.eye(100)
     spd[70, 70] = -1.0

@@ -37,7 +37,6 @@ from dataclasses import dataclass
 from typing import Any, Callable, Iterable, Sequence
 
 import numpy as np
-import scipy.linalg.lapack as lapack
 
 from sensorsel.information.evaluators.fast.kernel import Kernel
 from sensorsel.information.evaluators.fast.plan import Planner
@@ -54,16 +53,13 @@ _KEY_GAP = 4
 def pose_covariance(kernel: Kernel, base: BaseState) -> np.ndarray:
     """Σ_pp = P⁻¹ (3K, 3K), symmetric, of the base suite (P its pose Schur complement)."""
     P = kernel.pose_matrix(base.wpl, base.d, base.a, base.layout)
-    # the kernel's blocked Cholesky leaves the factor in P's row-major lower triangle: the
-    # column-major upper triangle of P.T (Fortran-ordered, no copy), which dpotri inverts
+    # the kernel's blocked Cholesky leaves the factor in P's row-major lower triangle, which
+    # dpotri inverts in place (GIL released: see Blas.inverse_from_cholesky)
     kernel.blas.cholesky_logdet(P)
-    inv, info = lapack.dpotri(P.T, lower=0, overwrite_c=1)
-    if info != 0:
-        raise np.linalg.LinAlgError(f"pose information matrix is singular (dpotri info {info})")
-    # the column-major upper triangle holds the inverse: the row-major lower triangle of P's own
-    # buffer; copy it onto the upper one, a block column at a time (a whole transposed add took
-    # ~12 ms on the 1,365² matrix of KITTI 00 at 1 Hz, this ~3 ms; the same numbers)
-    cov = inv.T if inv.flags.f_contiguous else np.ascontiguousarray(inv.T)
+    kernel.blas.inverse_from_cholesky(P)
+    # the lower triangle holds the inverse: copy it onto the upper one, a block column at a time (a
+    # whole transposed add took ~12 ms on the 1,365² matrix of KITTI 00 at 1 Hz, this ~3 ms; the same numbers)
+    cov = P
     n = len(cov)
     for i0 in range(0, n, _SYM_BLOCK):
         i1 = min(n, i0 + _SYM_BLOCK)
