@@ -22,6 +22,16 @@ An operating-domain file is YAML (read safely, a key repeated in one mapping ref
         landmarks: maps/a.csv
       - name: suburb
         fixture: suburb              # or a bundled fixture
+      - name: helsinki-morning
+        route: tracks/morning.gpx    # a GPS track (GPX): placed by its own latitudes and longitudes
+        osm: helsinki.osm.pbf        # OpenStreetMap landmarks near the route (a file or a list of them)
+        osm_classes: street_lamp,tree  #   their classes (default: all pole-like ones)
+        osm_reach_m: 100             #   within this distance of the route [m]
+      - name: survey-drive
+        route: drives/b.csv          # a route in a local frame ...
+        georef: 60.17,24.94,90       #   ... placed by LAT,LON,BEARING of its origin (or utm:ZONE)
+        osm: helsinki.osm.pbf        #   for its OSM landmarks, merged with ...
+        landmarks: maps/b.csv        #   ... a survey (an OSM landmark within 2 m of one is dropped)
 
 Operating conditions (optional; :mod:`sensorsel.model.conditions`): the shares of driving time spent
 in each, for every route, optionally overridden per route; the rest of the driving is clear::
@@ -55,15 +65,18 @@ from typing import Any, NoReturn
 
 import yaml
 
-from sensorsel.errors import InputError, SensorselError
+from sensorsel.errors import InputError, ScenarioError, SensorselError
 from sensorsel.model.conditions import CLEAR, CONDITION_KEYS, Condition
 from sensorsel.model.library import _StrictLoader, is_number_text
+from sensorsel.model.osm import GeoRef, is_gpx, load_geo_scenario, parse_classes
 from sensorsel.model.scenario import (KITTI_ROOT_ENV, REAL, ROUTE_FORMATS, SYNTHETIC, Scenario, ScenarioSpec,
                                       fixture_names, kitti_map_path, load_scenario)
 
 WEIGHT_UNITS = ("hours", "km")
 _TOP_KEYS = ("routes", "kitti_root", "keyframe_rate_hz", "library", "clearance_m", "weight_unit", "conditions")
-_ROUTE_KEYS = ("name", "seq", "kitti_root", "route", "format", "times", "fixture", "landmarks", "weight", "conditions")
+_ROUTE_KEYS = ("name", "seq", "kitti_root", "route", "format", "times", "fixture", "landmarks", "weight", "conditions",
+               "georef", "osm", "osm_classes", "osm_reach_m")
+_GEO_KEYS = ("georef", "osm", "osm_classes", "osm_reach_m")
 _CONDITION_KEYS = ("name", "share") + CONDITION_KEYS
 #: shares of a route's conditions may add up to 1 plus this (round-off of decimal shares)
 _SHARE_SLACK = 1e-9
@@ -431,6 +444,12 @@ def _parse_route(c: _Checker, raw: Any, key: str, rline: int, shared: ScenarioSp
         own_map = True
     if "landmarks" in raw:
         spec = _parse_landmarks(c, raw["landmarks"], f"{key}.landmarks", line("landmarks"), spec, source, own_map)
+    if source == "route" and spec.route is not None and is_gpx(spec.route):
+        for k in ("format", "times"):
+            if k in raw:
+                c.fail(f"{key}.{k}", f"the route {spec.route} is a GPX track: it carries its own format and times", line(k))
+    if any(k in raw for k in _GEO_KEYS):
+        spec = _parse_geo(c, raw, key, line, spec)
     weight = _parse_weight(c, raw["weight"], f"{key}.weight", line("weight"), unit) if "weight" in raw else None
     return DomainRoute(name, spec, weight, rline)
 
@@ -462,6 +481,55 @@ def _parse_landmarks(c: _Checker, value: Any, key: str, line: int, spec: Scenari
     return replace(spec, landmarks=c.file(value, key, line))
 
 
+def _parse_geo(c: _Checker, raw: "_Map", key: str, line: Any, spec: ScenarioSpec) -> ScenarioSpec:
+    """A route's OpenStreetMap landmarks and georeference (``osm``, ``osm_classes``, ``osm_reach_m``,
+    ``georef``), checked as the route commands' ``--landmarks osm:FILE``, ``--osm-classes``,
+    ``--osm-reach`` and ``--georef`` are, each error naming the key and its line."""
+    if "osm" not in raw:
+        k = next(k for k in _GEO_KEYS if k in raw)
+        what = "places the route on an OpenStreetMap map: alone it changes nothing" if k == "georef" else "chooses OSM landmarks"
+        c.fail(f"{key}.{k}", f"{what}; give osm: FILE (an .osm or .osm.pbf extract) with it", line(k))
+    value = raw["osm"]
+    files = value if isinstance(value, _Seq) else [value]
+    if not files:
+        c.fail(f"{key}.osm", "expected an OSM extract file or a list of them, got an empty list", line("osm"))
+    osm = tuple(c.file(f, f"{key}.osm" if not isinstance(value, _Seq) else f"{key}.osm[{i}]", line("osm"))
+                for i, f in enumerate(files))
+    if spec.landmarks == SYNTHETIC:
+        c.fail(f"{key}.landmarks", "OSM landmarks join a survey file or a sequence's pole map, not a generated map: "
+               "drop synthetic", line("landmarks"))
+    gpx = spec.route is not None and is_gpx(spec.route)
+    georef = None
+    if "georef" in raw:
+        text = c.string(raw["georef"], f"{key}.georef", line("georef"), "LAT,LON,BEARING or utm:ZONE")
+        if gpx:
+            c.fail(f"{key}.georef", f"the route {spec.route} is a GPX track, placed by its own latitudes and longitudes: "
+                   "drop georef", line("georef"))
+        _osm_value(c, GeoRef.parse, text, f"{key}.georef", line("georef"))
+        georef = text
+    elif not gpx:
+        c.fail(f"{key}.osm", "the route is not georeferenced: give georef: LAT,LON,BEARING (its origin in degrees and "
+               "the compass bearing of its +X axis) or georef: utm:ZONE (x, y are UTM), or a GPX track as route", line("osm"))
+    classes = None
+    if "osm_classes" in raw:
+        v = raw["osm_classes"]
+        text = ",".join(str(x) for x in v) if isinstance(v, _Seq) else c.string(v, f"{key}.osm_classes", line("osm_classes"))
+        _osm_value(c, parse_classes, text, f"{key}.osm_classes", line("osm_classes"))
+        classes = text
+    reach = spec.osm_reach_m
+    if "osm_reach_m" in raw:
+        reach = c.number(raw["osm_reach_m"], f"{key}.osm_reach_m", line("osm_reach_m"))
+    return replace(spec, osm=osm, georef=georef, osm_classes=classes, osm_reach_m=reach)
+
+
+def _osm_value(c: _Checker, parse: Any, text: str, key: str, line: int | None) -> None:
+    """``parse(text, option=key)`` (an OSM option's own check), its error as this file's."""
+    try:
+        parse(text, key)
+    except InputError as e:
+        c.fail(key, str(e).removeprefix(f"{key} "), line)
+
+
 def _parse_weight(c: _Checker, value: Any, key: str, line: int, unit: str) -> float:
     if isinstance(value, _Map):
         if len(value) != 1 or next(iter(value)) not in WEIGHT_UNITS:
@@ -491,14 +559,36 @@ def load_domain_scenarios(domain: DomainSpec) -> tuple[DomainScenario, ...]:
     route's duration in hours, or its length in km in a km domain). Errors reading a route's files
     are :class:`~sensorsel.errors.ScenarioError` naming the file and line."""
     out = []
-    for r in domain.routes:
-        sc = load_scenario(r.spec)
+    for i, r in enumerate(domain.routes):
+        sc = _load_route(domain, i, r)
         weight = r.weight
         if weight is None:
             route = sc.route or sc.keyframes
             weight = route.length_m / 1000.0 if domain.weight_unit == "km" else route.duration_s / 3600.0
         out.append(DomainScenario(r.name, r.spec, sc, float(weight), domain.weight_unit, r.conditions))
     return tuple(out)
+
+
+def _load_route(domain: DomainSpec, i: int, r: DomainRoute) -> Scenario:
+    """Route ``i``'s scenario (a GPX track and OSM landmarks too: :func:`~sensorsel.model.osm.load_geo_scenario`);
+    what only reading the route and the extract can find (a route outside the extract, a file that is
+    no OSM extract) named as this file's route, its errors in files naming those files already."""
+    if not r.spec.geo and not (r.spec.route is not None and is_gpx(r.spec.route)):
+        return load_scenario(r.spec)
+    try:
+        return load_geo_scenario(r.spec)
+    except (DomainError, ScenarioError):
+        raise
+    except InputError as e:
+        text = str(e)
+        for option, key in _OPTION_KEYS:  # the route commands' words for this file's keys
+            text = text.replace(option, key)
+        raise DomainError(domain.source, f"routes[{i}]", f"{r.name}: {text}", r.line) from None
+
+
+#: the route commands' options and the domain file's keys that say the same
+_OPTION_KEYS = (("--landmarks osm:", "osm: "), ("--georef", "georef:"), ("--osm-classes", "osm_classes:"),
+                ("--osm-reach", "osm_reach_m:"))
 
 
 # The reader's parts the study file's reader shares (sensorsel.designs.study): one home, public names.

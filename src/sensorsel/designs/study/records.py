@@ -13,7 +13,8 @@ from sensorsel.io.results import result_kind
 from sensorsel.model.domain import DomainError, load_domain_file, load_domain_scenarios
 from sensorsel.model.library import load_library
 from sensorsel.model.problem import Fingerprint, GraphSettings, Target, TargetInfo, load_domain, load_problem
-from sensorsel.model.scenario import ScenarioSpec, load_scenario
+from sensorsel.model.osm import load_geo_scenario
+from sensorsel.model.scenario import ScenarioSpec
 
 
 #: Bumped when what a cell computes, or its file, changes (invalidates resume).
@@ -61,7 +62,7 @@ class TargetFiles:
             return members
         assert self.spec is not None
         lib = load_library(self.library)
-        return [["", 1.0, "", results.to_jsonable(Fingerprint.of(lib, load_scenario(self.spec), settings))]]
+        return [["", 1.0, "", results.to_jsonable(Fingerprint.of(lib, load_geo_scenario(self.spec), settings))]]
 
 
 @dataclass(frozen=True)

@@ -48,10 +48,11 @@ def sniff_route_format(path: str | Path) -> str:
         raise ScenarioError(path, "route file is empty")
     lineno, first = lines[0]
     if first.lstrip("\ufeff \t").startswith("<"):
-        # a GPX track reaches here only from a domain file or the API's load_scenario: the route
-        # commands' --route reads GPX (sensorsel.model.osm.load_geo_scenario, above this layer)
-        raise ScenarioError(path, "an XML file (a GPX track?) is read as a route by the route commands' --route only: "
-                            "for a domain file, write a domain from it first (sensorsel osm --gpx FILE)", lineno)
+        # a GPX track reaches here only from the API's load_scenario: the route commands' --route
+        # and a domain file's route read GPX (sensorsel.model.osm.load_geo_scenario, above this layer)
+        raise ScenarioError(path, "an XML file (a GPX track?) is read as a route by sensorsel.load_problem or "
+                            "sensorsel.model.osm.load_geo_scenario (as --route and a domain file's route are), "
+                            "not by load_scenario", lineno)
     parts = first.replace(",", " ").split()
     if not all(is_number_text(p) for p in parts) or _header(path) is not None:
         return "csv"  # a header, or a '#' comment naming t,x,y just before the first row
