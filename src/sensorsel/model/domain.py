@@ -65,7 +65,7 @@ from typing import Any, NoReturn
 
 import yaml
 
-from sensorsel.errors import InputError, ScenarioError, SensorselError
+from sensorsel.errors import InputError, SensorselError
 from sensorsel.model.conditions import CLEAR, CONDITION_KEYS, Condition
 from sensorsel.model.library import _StrictLoader, is_number_text
 from sensorsel.model.osm import GeoRef, is_gpx, load_geo_scenario, parse_classes
@@ -444,12 +444,13 @@ def _parse_route(c: _Checker, raw: Any, key: str, rline: int, shared: ScenarioSp
         own_map = True
     if "landmarks" in raw:
         spec = _parse_landmarks(c, raw["landmarks"], f"{key}.landmarks", line("landmarks"), spec, source, own_map)
-    if source == "route" and spec.route is not None and is_gpx(spec.route):
+    gpx = source == "route" and spec.route is not None and is_gpx(spec.route)
+    if gpx:
         for k in ("format", "times"):
             if k in raw:
                 c.fail(f"{key}.{k}", f"the route {spec.route} is a GPX track: it carries its own format and times", line(k))
     if any(k in raw for k in _GEO_KEYS):
-        spec = _parse_geo(c, raw, key, line, spec)
+        spec = _parse_geo(c, raw, key, line, spec, gpx)
     weight = _parse_weight(c, raw["weight"], f"{key}.weight", line("weight"), unit) if "weight" in raw else None
     return DomainRoute(name, spec, weight, rline)
 
@@ -481,10 +482,11 @@ def _parse_landmarks(c: _Checker, value: Any, key: str, line: int, spec: Scenari
     return replace(spec, landmarks=c.file(value, key, line))
 
 
-def _parse_geo(c: _Checker, raw: "_Map", key: str, line: Any, spec: ScenarioSpec) -> ScenarioSpec:
+def _parse_geo(c: _Checker, raw: "_Map", key: str, line: Any, spec: ScenarioSpec, gpx: bool) -> ScenarioSpec:
     """A route's OpenStreetMap landmarks and georeference (``osm``, ``osm_classes``, ``osm_reach_m``,
     ``georef``), checked as the route commands' ``--landmarks osm:FILE``, ``--osm-classes``,
-    ``--osm-reach`` and ``--georef`` are, each error naming the key and its line."""
+    ``--osm-reach`` and ``--georef`` are, each error naming the key and its line (``gpx``: the
+    route is a GPX track)."""
     if "osm" not in raw:
         k = next(k for k in _GEO_KEYS if k in raw)
         what = "places the route on an OpenStreetMap map: alone it changes nothing" if k == "georef" else "chooses OSM landmarks"
@@ -498,7 +500,6 @@ def _parse_geo(c: _Checker, raw: "_Map", key: str, line: Any, spec: ScenarioSpec
     if spec.landmarks == SYNTHETIC:
         c.fail(f"{key}.landmarks", "OSM landmarks join a survey file or a sequence's pole map, not a generated map: "
                "drop synthetic", line("landmarks"))
-    gpx = spec.route is not None and is_gpx(spec.route)
     georef = None
     if "georef" in raw:
         text = c.string(raw["georef"], f"{key}.georef", line("georef"), "LAT,LON,BEARING or utm:ZONE")
@@ -577,9 +578,7 @@ def _load_route(domain: DomainSpec, i: int, r: DomainRoute) -> Scenario:
         return load_scenario(r.spec)
     try:
         return load_geo_scenario(r.spec)
-    except (DomainError, ScenarioError):
-        raise
-    except InputError as e:
+    except InputError as e:  # (a ScenarioError names its own file and is no InputError: it passes)
         text = str(e)
         for option, key in _OPTION_KEYS:  # the route commands' words for this file's keys
             text = text.replace(option, key)

@@ -227,9 +227,8 @@ class DomainEvaluator(Evaluator):
         # members that see S as their clear member does (night before a camera is bought: the clear
         # member's bounds, handed over by _bound_alike, bound theirs) scored 596 route evaluations
         # against 518 (their cameras' bounds, the clear ones, are too loose) and took longer
-        asked = range(len(self.routes))
         got = self._member_gain_bounds(base, cand, st)
-        for k in asked:  # first: the clear members' bounds reach their alike members before these are read
+        for k in range(len(self.routes)):  # first: the clear members' bounds reach their alike members before these are read
             b = got.get(k)
             if b is not None and st is not None:  # kept for the member-by-member scoring, with an allowance for round-off
                 allowed = np.asarray(b, dtype=float) * (1.0 + BOUND_SLACK) + BOUND_SLACK * max(1.0, abs(st.own[k]))
