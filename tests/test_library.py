@@ -18,7 +18,6 @@ from sensorsel.io.resources import default_library_path
 from sensorsel.model.library import load_library, parse_library
 
 REPO = Path(__file__).resolve().parents[1]
-PAPER_DIR = REPO.parent / "shared" / "paper"
 
 # Table I of Collin & Teran Espinoza (arXiv 1907.08541), copied by hand from the paper's table:
 # code -> (range m, FOV rad, sigma_range m, sigma_bearing rad, cost $) for LiDARs and radars,
@@ -95,11 +94,9 @@ def test_table_i_numbers_are_in_the_default_file(library):
     assert library.cost(library.parse_suite("LRL-roof,LRR-12,HD2K-3")) == 100_000 + 1_493 + 449
 
 
-def _paper_table_rows() -> dict[str, list[str]]:
-    texts = sorted(PAPER_DIR.glob("*.txt")) if PAPER_DIR.is_dir() else []
-    if not texts:
-        pytest.skip(f"paper text not found in {PAPER_DIR}")
-    tex = texts[0].read_text(encoding="utf-8")
+def _paper_table_rows(paper_dir: Path) -> dict[str, list[str]]:
+    """The rows of the paper's Table I, from its LaTeX ($SENSORSEL_PAPER_DIR, tests/conftest.py)."""
+    tex = sorted(paper_dir.glob("*.txt"))[0].read_text(encoding="utf-8")
     body = tex[tex.index(r"\label{StereoTable}") - 4000: tex.index(r"\label{StereoTable}")]
     body = body[body.index(r"\begin{tabular}"): body.index(r"\end{tabular}")]
     rows = {}
@@ -119,9 +116,9 @@ def _paper_number(cell: str) -> float:
     return float(cell)
 
 
-def test_hand_copied_table_matches_the_paper_text():
+def test_hand_copied_table_matches_the_paper_text(paper_dir):
     """The oracle above is checked against the paper's LaTeX table itself."""
-    rows = _paper_table_rows()
+    rows = _paper_table_rows(paper_dir)
     for code, name in PAPER_ROW_NAMES.items():
         values = [_paper_number(c) for c in rows[name]]
         expected = TABLE_I_RANGING.get(code) or TABLE_I_STEREO[code]

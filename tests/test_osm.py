@@ -7,7 +7,6 @@ point-to-segment distances in numpy for the routes against the ways.
 
 from __future__ import annotations
 
-import os
 
 import math
 import zlib
@@ -23,7 +22,7 @@ from sensorsel.model.osm.extract import LANDMARK_CLASSES, LocalFrame, parse_road
 from sensorsel.model.osm.gpx import GeoRef, read_gpx
 
 REPO = Path(__file__).resolve().parents[1]
-SAMPLE = REPO / "data" / "osm" / "helsinki.osm.pbf"  # the shipped sample (a copy of ../shared/osm/helsinki.osm.pbf)
+SAMPLE = REPO / "data" / "osm" / "helsinki.osm.pbf"  # the shipped sample (a copy of $SENSORSEL_OSM_DIR/helsinki.osm.pbf)
 SMALL_BBOX = (24.9380, 60.1650, 24.9460, 60.1700)  # a few hundred metres of central Helsinki
 
 
@@ -135,14 +134,9 @@ def helsinki():
     return read_osm(SAMPLE)
 
 
-def test_sample_is_the_shared_extract():
-    shared = REPO.parent / "shared" / "osm" / "helsinki.osm.pbf"
-    if not shared.is_file():
-        msg = f"{shared} not found (../shared/osm beside the repository)"
-        if os.environ.get("CI", "").lower() == "true":
-            pytest.fail(msg)
-        pytest.skip(msg)
-    assert shared.read_bytes() == SAMPLE.read_bytes()
+def test_sample_is_the_original_extract(osm_dir):
+    """The shipped sample is byte for byte the original extract ($SENSORSEL_OSM_DIR, tests/conftest.py)."""
+    assert (osm_dir / "helsinki.osm.pbf").read_bytes() == SAMPLE.read_bytes()
 
 
 def test_class_counts_match_an_independent_decoder(decoded, helsinki):
