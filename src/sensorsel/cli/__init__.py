@@ -9,7 +9,7 @@ from __future__ import annotations
 import click
 
 from sensorsel import __version__
-from sensorsel.cli import certify, core, osm, require, resilient, robust, select, simulate, study
+from sensorsel.cli import certify, core, kitti, osm, require, resilient, robust, select, simulate, study
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
@@ -24,7 +24,7 @@ def cli() -> None:
     """
 
 
-for _module in (core, select, require, resilient, robust, simulate, certify, study, osm):
+for _module in (core, select, require, resilient, robust, simulate, certify, study, osm, kitti):
     for _command in _module.COMMANDS:
         cli.add_command(_command)
 
