@@ -26,6 +26,11 @@ from sensorsel.model.scenario import ScenarioSpec, load_scenario
 
 REPO = Path(__file__).resolve().parents[1]
 
+# Off a terminal a run writes a status line every few seconds (sensorsel.cli.progress); the tests
+# compare commands' stderr and output exactly, and on a loaded machine a run may pass 5 s: no status
+# lines unless a test asks for them (tests/test_progress.py sets its own interval).
+os.environ.setdefault("SENSORSEL_PROGRESS_EVERY", "3600")
+
 # variable -> (what must be inside the folder, what the data is)
 OUTSIDE_DATA = {
     "SENSORSEL_KITTI_ROOT": ("poses/03.txt", "KITTI odometry ground truth and pole maps"),

@@ -10,7 +10,7 @@ import pytest
 from click.testing import CliRunner
 
 from sensorsel.cli import cli
-from sensorsel.cli import options as cli_options
+from sensorsel.cli import progress as cli_progress
 
 REDUCED = Path(__file__).resolve().parents[1] / "configs" / "reduced_library.yaml"
 
@@ -23,14 +23,14 @@ def invoke(*args: str):
 def terminal(monkeypatch):
     """Pretend stderr is a terminal, and record every progress(done, total) call the bars get."""
     calls: list[tuple[str, int, int]] = []
-    real_call = cli_options._Bar.__call__
+    real_call = cli_progress.Display.__call__
 
     def record(self, done: int, total: int) -> None:
         calls.append((self.label, done, total))
         real_call(self, done, total)
 
-    monkeypatch.setattr(cli_options, "_on_terminal", lambda: True)
-    monkeypatch.setattr(cli_options._Bar, "__call__", record)
+    monkeypatch.setattr(cli_progress, "on_terminal", lambda: True)
+    monkeypatch.setattr(cli_progress.Display, "__call__", record)
     return calls
 
 

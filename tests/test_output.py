@@ -89,18 +89,18 @@ def test_scene_into_a_missing_place_is_one_clear_error(tmp_path: Path):
 
 
 def test_a_second_stage_bar_closes_the_first_and_late_calls_are_ignored():
-    from sensorsel.cli.options import _Bar
+    from sensorsel.cli.progress import Display
 
-    first = _Bar("greedy")
-    second = _Bar("certificate", after=first)
+    first = Display("greedy", terminal=True)
+    second = Display("certificate", after=first, terminal=True)
     with first, second:
         first(1, 4)
         drawn = first.bar
         assert drawn.pos == 1 and drawn.length == 4
         second(1, 3)  # the certificate starts: the greedy bar is completed and closed
-        assert first.bar is False and drawn.pos == drawn.length == 4
+        assert first.closed and drawn.pos == drawn.length == 4
         first(2, 4)  # a late call of a closed bar draws nothing and does not fail
-        assert first.bar is False and drawn.pos == 4
+        assert first.closed and drawn.pos == 4
         second(3, 3)
         assert second.bar.pos == 3
-    assert second.bar is False
+    assert second.closed

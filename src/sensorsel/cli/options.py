@@ -1,7 +1,8 @@
 """Options shared by the commands, and the error handling every command runs under.
 
 Every command that takes a budget uses :func:`budget_option` (110000, 110,000, $110,000, 110_000);
-every command that draws progress has :func:`quiet_option` (-q/--quiet); every command that produces
+every command that draws progress has :func:`quiet_option` (-q/--quiet, --progress/--no-progress) and
+draws it with :func:`~sensorsel.cli.progress.progress_bar`; every command that produces
 a result has :func:`json_option` (--json: the result's JSON on stdout); every command that draws a
 plot has :func:`plot_format_option` (--format png|svg|pdf; default: a file output's extension, else
 png); every -o uses :func:`output_option`, which refuses an empty name.
@@ -21,7 +22,7 @@ import click
 
 from sensorsel.errors import InputError, SensorselError, SensorselWarning
 from sensorsel.information.evaluators import AGGREGATES
-from sensorsel.io.progress import Progress
+from sensorsel.cli.progress import progress_bar, progress_flag  # noqa: F401 (progress_bar: the commands import it from here)
 from sensorsel.model.conditions import parse_condition
 from sensorsel.model.library import SensorLibrary
 from sensorsel.model.problem import DomainInfo, ProblemInfo, Target, TargetInfo, load_domain, load_problem
@@ -94,8 +95,9 @@ def budget_option(*, required: bool = False, default: float | None = None, multi
 
 
 def quiet_option(fn: F) -> F:
-    """-q/--quiet: no progress bar."""
-    return click.option("-q", "--quiet", is_flag=True, help="No progress bar on stderr.")(fn)
+    """-q/--quiet and --progress/--no-progress (:mod:`sensorsel.cli.progress`)."""
+    fn = progress_flag(fn)
+    return click.option("-q", "--quiet", is_flag=True, help="No progress on stderr (unless --progress).")(fn)
 
 
 def json_option(fn: F) -> F:
@@ -347,64 +349,6 @@ def engine_options(fn: Callable[..., Any]) -> Callable[..., Any]:
     fn = click.option("--engine", type=click.Choice(sorted(ENGINES)), default=None,
                       help="Scoring engine (default: the fastest; 'reference' rebuilds the GTSAM graph per suite).")(fn)
     return fn
-
-
-class _Bar:
-    """progress(done, total) -> a click progress bar on stderr; ``phases`` runs fill one bar in turn.
-
-    ``after``: a bar of the previous stage of the same run, completed when this one starts (so two
-    bars never draw over each other).
-    """
-
-    def __init__(self, label: str, phases: int = 1, after: "_Bar | None" = None) -> None:
-        self.label, self.phases, self.after = label, phases, after
-        self.bar: Any = None
-        self.offset = self.last = self.last_total = 0
-
-    def __enter__(self) -> "_Bar":
-        return self
-
-    def __call__(self, done: int, total: int) -> None:
-        if self.bar is False:  # closed
-            return
-        if self.bar is None:
-            if self.after is not None:
-                self.after.__exit__(None, None, None)
-            self.bar = click.progressbar(length=max(1, total * self.phases), label=self.label, file=sys.stderr,
-                                         show_pos=True)
-            self.bar.__enter__()
-        if done < self.last:  # the next phase (best-of: the marginal run after the uniform one)
-            self.offset += self.last_total
-        self.last, self.last_total = done, total
-        self.bar.length = max(1, self.offset + total, self.phases * total)
-        self.bar.pos = min(self.bar.length, self.offset + done)
-        self.bar.render_progress()
-
-    def __exit__(self, *exc: Any) -> None:
-        """Complete and close the bar (once; later calls do nothing)."""
-        if self.bar is not None and self.bar is not False:
-            if exc[0] is None:  # the totals are upper bounds: show the run as complete
-                self.bar.pos = self.bar.length
-                self.bar.render_progress()
-            self.bar.__exit__(*exc)
-            self.bar = False  # closed: never reopened by a late progress call
-        elif self.bar is None:
-            self.bar = False
-
-
-def _on_terminal() -> bool:
-    return sys.stderr.isatty()
-
-
-def progress_bar(quiet: bool, label: str, phases: int = 1, after: _Bar | None = None) -> tuple[_Bar | None, Progress | None]:
-    """(bar, progress): the one CLI adapter of :data:`sensorsel.io.progress.Progress`, a progress bar on
-    stderr, used as ``with bar or nullcontext():`` around the run that calls ``progress(done, total)``;
-    (None, None) with --quiet or when stderr is not a terminal. ``after``: the bar of the previous
-    stage, completed when this one starts."""
-    if quiet or not _on_terminal():
-        return None, None
-    bar = _Bar(label, phases, after)
-    return bar, bar
 
 
 def table(rows: list[list[str]], header: list[str]) -> str:

@@ -147,7 +147,7 @@ def require_cmd(map_sigma: float | None, slam: bool, in_conditions: str | None, 
     if compare:
         positions, label, _ = read_suite(compare, target.library, "--compare", None if isinstance(target, Domain) else target)
         compared = (label, positions)
-    bar, progress = progress_bar(quiet or as_json, "searching")
+    bar, progress = progress_bar(quiet or as_json, "searching", counted=False)  # the count is only a cap: the text says what is left
     with cluster or nullcontext(), bar or nullcontext():
         # on a cluster each route's accuracy checks run on its worker's actor (the same bytes)
         ev = domain_evaluator_on(cluster, target, engine, "normalised") if isinstance(target, Domain) and cluster else None

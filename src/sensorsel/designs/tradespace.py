@@ -64,6 +64,7 @@ from sensorsel.model.library import SensorLibrary
 from sensorsel.model.problem import Domain, DomainInfo, ProblemInfo, Target, TargetInfo
 from sensorsel.model.recipes import EvaluatorRecipe, TargetRecipe
 from sensorsel.pipeline import Executor, FileStore, InProcess, NoStore, Plan, Store, digest, execute
+from sensorsel.io.progress import Progress
 
 #: The rules of the paper's Fig. 4 (uniform, cost-benefit) and the classic marginal rule.
 DEFAULT_RULES: tuple[str, ...] = ("uniform", "cost-benefit", "marginal")
@@ -71,7 +72,6 @@ DEFAULT_RULES: tuple[str, ...] = ("uniform", "cost-benefit", "marginal")
 DEFAULT_N_BUDGETS = 14
 
 #: progress(done, total): called after each (rule, budget) run.
-Progress = Callable[[int, int], None]
 #: a single rule's runs: budget -> (the run with all its steps, picks shared from a larger budget's run)
 RuleRuns = dict[float, tuple[GreedyResult, int]]
 RULE_FORMAT = 1  # bumped when a rule's file (OUTDIR/runs/rule-NAME.json) or how it is computed changes

@@ -39,7 +39,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
-from typing import Callable, Sequence
+from typing import Sequence
 
 import numpy as np
 
@@ -51,9 +51,9 @@ from sensorsel.io.results import result_kind
 from sensorsel.model.constraints import Constraints, FeasibleSet, feasible_set
 from sensorsel.model.library import SensorLibrary
 from sensorsel.model.problem import DomainInfo, Problem, TargetInfo
+from sensorsel.io.progress import Progress
 
 #: progress(done, total)
-Progress = Callable[[int, int], None]
 
 
 @result_kind("certificate")

@@ -46,12 +46,12 @@ from sensorsel.io.results import result_kind
 from sensorsel.model.constraints import Constraints, FeasibleSet, feasible_set
 from sensorsel.model.library import SensorLibrary
 from sensorsel.model.problem import TargetInfo
+from sensorsel.io.progress import Progress
 
 #: Default node limit of the exact suite search (nodes whose marginal gains are swept).
 DEFAULT_MAX_NODES = 2_000
 
 #: progress(done, total)
-Progress = Callable[[int, int], None]
 
 #: A node of the search on the heap: (-bound, tie counter, suite S (pick order), f(S), Cost(S) [units], R (candidates),
 #: what S uses of each row of the feasible set (m,)).

@@ -31,13 +31,13 @@ from sensorsel.io.results import result_kind
 from sensorsel.model.constraints import Constraints, feasible_set
 from sensorsel.model.problem import Domain, Problem, Target, TargetInfo
 from sensorsel.pipeline import digest
+from sensorsel.io.progress import Progress
 
 __all__ = ["RouteRequirement", "RequireResult", "RequireJournal", "require", "require_fingerprint"]
 
 #: seconds between two writes of a require run's journal (and once at the end)
 JOURNAL_EVERY_S = 2.0
 
-Progress = Callable[[int, int], None]
 
 
 @dataclass(frozen=True)

@@ -58,7 +58,7 @@ from typing import Callable, Iterable, Sequence
 import numpy as np
 
 from sensorsel.io.files import quiet_stdout
-from sensorsel.io.progress import Progress
+from sensorsel.io.progress import Progress, report
 from sensorsel.model.constraints import FeasibleSet
 
 __all__ = ["DEFAULT_MAX_ITERATIONS", "MILP_NODE_LIMIT", "STATUSES", "CheapestSuite", "Meets", "Suite", "Violation",
@@ -320,6 +320,12 @@ def _ratio(drop: float, price: float) -> float:
     return math.inf if price <= 0 else drop / price
 
 
+def _standing(lower: float, upper: float, iterations: int, checks: int) -> str:
+    """Where the search stands, in words: the interval the cheapest suite's cost [$] lies in."""
+    interval = f"cost in [${lower:,.0f}, ${upper:,.0f}]" if math.isfinite(upper) else f"cost >= ${lower:,.0f}, no suite found yet"
+    return f"{interval}; {iterations:,} integer programs, {checks:,} suites checked"
+
+
 def cheapest_suite(feasible: FeasibleSet, meets: Meets, *, failures: int = 0, violation: Violation | None = None,
                    max_iterations: int = DEFAULT_MAX_ITERATIONS, time_limit: float | None = None,
                    progress: Progress | None = None) -> CheapestSuite:
@@ -339,7 +345,9 @@ def cheapest_suite(feasible: FeasibleSet, meets: Meets, *, failures: int = 0, vi
         max_iterations: integer programs solved before stopping with a gap (>= 1).
         time_limit: wall-clock seconds before stopping with a gap (None: none; makes the answer
             depend on the machine).
-        progress: progress(iterations done, max_iterations) after each integer program.
+        progress: progress(iterations done, max_iterations) before each integer program, told where
+            the search stands (:func:`sensorsel.io.progress.report`): the cost interval [lower
+            bound, best found] closing, integer programs solved, suites checked.
 
     Returns:
         A :class:`CheapestSuite`.
@@ -386,6 +394,7 @@ def cheapest_suite(feasible: FeasibleSet, meets: Meets, *, failures: int = 0, vi
     iterations = 0
     stop = ""
     while True:
+        report(progress, iterations, max_iterations, _standing(lower, upper, iterations, oracle.n_checks))
         if incumbent is not None and upper - lower <= _tol(upper):
             return result("optimal", incumbent, upper, iterations, "proved optimal: the lower bound reached the "
                           "best suite found")
@@ -398,8 +407,6 @@ def cheapest_suite(feasible: FeasibleSet, meets: Meets, *, failures: int = 0, vi
             break
         solved = _propose(s, oracle.failing, nogoods, left)
         iterations += 1
-        if progress is not None:
-            progress(iterations, max_iterations)
         if solved is None:  # no suite within the rows satisfies every cut: none meets the requirement
             if incumbent is not None:  # cannot happen with valid cuts (the incumbent satisfies them)
                 return result("optimal", incumbent, upper, iterations, "proved optimal: no cheaper suite is left")

@@ -27,9 +27,9 @@ from sensorsel.model.library import SensorLibrary
 from sensorsel.model.problem import Fingerprint, Problem, build_problem
 from sensorsel.model.scenario import Scenario
 from sensorsel.pipeline import Executor, FileStore, NoStore, Plan, Store, execute
+from sensorsel.io.progress import Progress
 
 #: progress(done, total): called after each period (computed or reused).
-Progress = Callable[[int, int], None]
 
 #: selector(evaluator, budget, alpha, info[, constraints=...]) -> (choice, its worst case): how
 #: ``method="robust"`` chooses a suite (``constraints=`` is passed only when the run has some).

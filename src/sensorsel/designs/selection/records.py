@@ -3,15 +3,14 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable
 
 from sensorsel.information.evaluators.accuracy import RouteAccuracy
 from sensorsel.io.results import result_kind
 from sensorsel.model.constraints import Constraints
 from sensorsel.model.problem import TargetInfo
+from sensorsel.io.progress import Progress
 
 #: progress(done, total): called after each pick; total is an upper bound on the number of picks.
-Progress = Callable[[int, int], None]
 
 
 @dataclass(frozen=True)
