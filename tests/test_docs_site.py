@@ -104,3 +104,105 @@ def test_strict_build_fails_on_a_broken_site(tmp_path, breakage):
     p = _build(config, tmp_path / "site")
     assert p.returncode != 0, f"a site with a {breakage} built in strict mode:\n{p.stderr}"
     assert "guide-" in p.stderr, p.stderr
+
+
+def _cli_reference_entries(site: Path) -> dict[str, dict[str, str]]:
+    """command -> first flag -> its entry in the built CLI reference (the text, wrapped lines joined)."""
+    import html as html_lib
+    import re
+
+    raw = (site / "cli" / "index.html").read_text(encoding="utf-8")
+    out: dict[str, dict[str, str]] = {}
+    for part in raw.split('id="sensorsel-')[1:]:
+        name = part[:part.index('"')]
+        text = html_lib.unescape(re.sub(r"<[^>]+>", "", part))
+        entries: dict[str, str] = {}
+        key = None
+        for line in text.splitlines():
+            if re.match(r"^  -", line):
+                key = line.split()[0].rstrip(",")
+                entries[key] = line.strip()
+            elif key is not None and line.startswith("   "):
+                entries[key] += " " + line.strip()
+            else:
+                key = None
+        out[name] = entries
+    return out
+
+
+def test_the_cli_reference_tells_defaults_required_options_and_choices_as_they_are(site):
+    """What the built reference says of each option is true of the command: no "Sentinel.UNSET" for a
+    default, every required option marked, every choice listed, a default that depends on the machine
+    said in words (never the build machine's number), the shown defaults the command's own."""
+    import click
+
+    from sensorsel.cli import cli
+
+    html = (site / "cli" / "index.html").read_text(encoding="utf-8")
+    assert "Sentinel" not in html and "UNSET" not in html
+    entries = _cli_reference_entries(site)
+    checked = {"required": 0, "choices": 0, "defaults": 0}
+    for name, cmd in cli.commands.items():
+        for opt in cmd.params:
+            if not isinstance(opt, click.Option) or opt.hidden:
+                continue
+            entry = " ".join(entries[name][flag] for flag in opt.opts if flag in entries[name])
+            assert entry, f"sensorsel {name} {opt.opts[0]} has no entry in the CLI reference"
+            if opt.required:
+                assert "required" in entry, f"sensorsel {name} {opt.opts[0]} is required; the reference does not say so: {entry}"
+                checked["required"] += 1
+            if isinstance(opt.type, click.Choice) and opt.metavar is None:
+                missing = [c for c in opt.type.choices if str(c) not in entry]
+                assert not missing, f"sensorsel {name} {opt.opts[0]}: choices {missing} not listed: {entry}"
+                checked["choices"] += 1
+            if isinstance(opt.show_default, str):
+                assert f"default: {opt.show_default}" in entry.replace("(", "").replace(")", ""), entry
+            elif opt.show_default and not opt.is_flag and opt.default is not None and not callable(opt.default):
+                shown = opt.default if not isinstance(opt.default, (list, tuple)) else ", ".join(map(str, opt.default))
+                assert f"default: {shown}" in entry, f"sensorsel {name} {opt.opts[0]} default {opt.default!r}: {entry}"
+                checked["defaults"] += 1
+    assert "all cores" in entries["greedy"]["--jobs"]
+    assert all(n > 0 for n in checked.values()), checked
+
+
+def _command_table(path: Path) -> list[tuple[str, str]]:
+    """(question, command) of each row of the page's table headed "| the question | the command"."""
+    lines = path.read_text(encoding="utf-8").splitlines()
+    start = next(i for i, line in enumerate(lines) if line.startswith("| the question | the command"))
+    rows = []
+    for line in lines[start + 2:]:
+        if not line.startswith("|"):
+            break
+        cells = [c.strip() for c in line.strip("|").split(" | ")]
+        rows.append((cells[0], cells[1]))
+    return rows
+
+
+def test_the_home_page_and_the_readme_list_the_same_commands():
+    import re
+
+    from sensorsel.cli import cli
+
+    readme, home = _command_table(REPO / "README.md"), _command_table(REPO / "docs" / "index.md")
+    assert home == readme
+    named = set(re.findall(r"`sensorsel (\w+)", " ".join(c for _, c in readme)))
+    assert named <= set(cli.commands), named - set(cli.commands)
+    assert {"greedy", "require", "pareto", "robust", "simulate", "osm", "study", "kitti"} <= named
+
+
+def test_user_pages_name_no_internal_issue_numbers():
+    import re
+
+    pages = [REPO / "README.md", *sorted((REPO / "docs").glob("*.md"))]
+    found = [f"{p.name}:{n}: {m.group(0)}" for p in pages for n, line in enumerate(p.read_text(encoding="utf-8").splitlines(), 1)
+             for m in re.finditer(r"\b[Ii]ssues? #?\d+", line)]
+    assert not found, found
+
+
+def test_the_bundled_route_has_one_length_everywhere(suburb_problem):
+    import re
+
+    length = round(suburb_problem.scenario.route.length_m)
+    said = {p.name: int(m.group(1)) for p in (REPO / "README.md", REPO / "docs" / "getting-started.md", REPO / "docs" / "guide-data.md")
+            for m in re.finditer(r'"suburb": (\d+) m', p.read_text(encoding="utf-8"))}
+    assert len(said) == 3 and set(said.values()) == {length}, (said, length)

@@ -104,3 +104,15 @@ def test_help_texts_name_options_that_exist():
         for opt in re.findall(r"(?<![\w-])--[a-z][a-z-]*", text):
             assert opt in visible, f"the help of {where} names {opt}, which no command shows"
     assert "--route" in (cli.help or ""), "the top-level help does not say how to give a route"
+
+
+def test_the_docs_commands_work_without_an_activated_venv():
+    """Every command of the README's bash blocks runs from the venv it makes (.venv/bin/...), so it
+    works as written in a fresh shell: a bare `mkdocs` or `pytest` is not on PATH there."""
+    for block in _blocks("bash"):
+        for line in block.splitlines():
+            for cmd in re.split(r"&&|;", line.split("#")[0]):
+                words = cmd.split()
+                if words and words[0] in ("mkdocs", "pytest", "sensorsel", "pip", "python"):
+                    pytest.fail(f"README runs {words[0]!r} from PATH: {line.strip()}")
+    assert ".venv/bin/mkdocs build --strict" in README

@@ -6,7 +6,7 @@ Each fixture is laid out as KITTI odometry's dataset/ folder, plus landmark CSVs
     landmarks/NAME.csv        x,y [m] in sensorsel's planar frame (X = camera z, Y = -camera x)
 
 Fixtures:
-    suburb  ~420 m at 8 m/s: a straight, a 90-degree left turn, a gentle S-bend (53 s). The default
+    suburb  416 m at 8 m/s: a straight, a 90-degree left turn, a gentle S-bend (53 s). The default
             scenario of every command.
     tiny    ~70 m straight then a slight curve (9 s), ~40 landmarks: small enough for brute force.
 

@@ -108,7 +108,7 @@ def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output
     require_domain(cluster, problem)
     check_affordable(problem.library, budget, constraints=constraints)
     info = problem.info
-    bar, progress = progress_bar(quiet or as_json, "branch and bound (nodes)")
+    bar, progress = progress_bar(quiet or as_json, "branch and bound (nodes)", eta=False)  # the node limit is a cap, not a forecast
     with cluster or nullcontext(), bar or nullcontext():
         ev = evaluator_on(cluster, problem, engine, jobs, aggregate)
         res = optimal(ev, budget, max_nodes=max_nodes, max_seconds=max_seconds, info=info, progress=progress,

@@ -46,7 +46,7 @@ from sensorsel.io.results import result_kind
 from sensorsel.model.constraints import Constraints, FeasibleSet, feasible_set
 from sensorsel.model.library import SensorLibrary
 from sensorsel.model.problem import TargetInfo
-from sensorsel.io.progress import Progress
+from sensorsel.io.progress import Progress, report
 
 #: Default node limit of the exact suite search (nodes whose marginal gains are swept).
 DEFAULT_MAX_NODES = 2_000
@@ -322,6 +322,14 @@ class _Best:
             self.suite, self.score, self.cost = s, score, c
 
 
+def _gap_text(best: float, upper: float) -> str:
+    """The search's standing in words: best score and upper bound [nats], their gap [%]."""
+    if not math.isfinite(best):
+        return f"no suite yet, bound {upper:,.3f} nats"
+    gap = 100.0 * max(0.0, upper - best) / upper if upper > 0 else 0.0
+    return f"best {best:,.3f} nats, bound {upper:,.3f}, gap {gap:.2f}%"
+
+
 class _Search:
     """The state of the best-first search: the heap of open nodes and the counts the result reports."""
 
@@ -373,8 +381,9 @@ class _Search:
                 return f"time limit ({max_seconds:g} s) reached"
             node = heapq.heappop(heap)
             self.nodes += 1
-            if progress:
-                progress(self.nodes, max_nodes)
+            if progress:  # where the search stands: the best suite found and the bound still open above it
+                upper = max(self.best.score, min(-neg_ub, self.cert_bound))
+                report(progress, self.nodes, max_nodes, _gap_text(self.best.score, upper))
             self._expand(node)
         return ""
 
