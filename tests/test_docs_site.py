@@ -206,3 +206,11 @@ def test_the_bundled_route_has_one_length_everywhere(suburb_problem):
     said = {p.name: int(m.group(1)) for p in (REPO / "README.md", REPO / "docs" / "getting-started.md", REPO / "docs" / "guide-data.md")
             for m in re.finditer(r'"suburb": (\d+) m', p.read_text(encoding="utf-8"))}
     assert len(said) == 3 and set(said.values()) == {length}, (said, length)
+
+
+def test_user_pages_point_at_no_folder_of_the_build_machine():
+    """A user has no ../shared nor /work: the pages name the folder `sensorsel kitti` builds."""
+    pages = [REPO / "README.md", *sorted((REPO / "docs").glob("*.md"))]
+    found = [f"{p.name}:{n}" for p in pages if p.name != "development.md"
+             for n, line in enumerate(p.read_text(encoding="utf-8").splitlines(), 1) if "shared/" in line or "/work/" in line]
+    assert not found, found
