@@ -92,7 +92,9 @@ class Fingerprint:
 
     @classmethod
     def of(cls, library: SensorLibrary, scenario: Scenario, settings: GraphSettings,
-           condition: Condition | None = None) -> "Fingerprint":
+           condition: Condition | None) -> "Fingerprint":
+        """The fingerprint of a problem's parts. ``condition`` has no default: a result computed under
+        a condition must never be fingerprinted as a clear one (None: clear)."""
         sensors = []
         for s in library.sensors:
             # resources (power, mass, data rate) do not change a score: a constrained result records
@@ -211,7 +213,12 @@ class Problem:
     @cached_property
     def fingerprint(self) -> Fingerprint:
         """What this problem is, by content (computed once)."""
-        return Fingerprint.of(self.library, self.scenario, self.settings, self.condition)
+        return self.fingerprint_on(self.scenario)
+
+    def fingerprint_on(self, scenario: Scenario) -> Fingerprint:
+        """The fingerprint of this problem's library, graph settings and condition on ``scenario``
+        (a period of its route): what a result computed on that part depends on."""
+        return Fingerprint.of(self.library, scenario, self.settings, self.condition)
 
     @cached_property
     def landmarks_in_reach(self) -> np.ndarray:
