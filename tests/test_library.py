@@ -4,6 +4,7 @@ models, and validation of a user's library file (one clear error naming file and
 from __future__ import annotations
 
 import math
+import os
 import re
 from pathlib import Path
 
@@ -18,7 +19,8 @@ from sensorsel.io.resources import default_library_path
 from sensorsel.model.library import load_library, parse_library
 
 REPO = Path(__file__).resolve().parents[1]
-PAPER_DIR = REPO.parent / "shared" / "paper"
+#: the paper's text: $SENSORSEL_PAPER_DIR, else ../shared/paper beside the repository
+PAPER_DIR = Path(os.environ.get("SENSORSEL_PAPER_DIR") or REPO.parent / "shared" / "paper")
 
 # Table I of Collin & Teran Espinoza (arXiv 1907.08541), copied by hand from the paper's table:
 # code -> (range m, FOV rad, sigma_range m, sigma_bearing rad, cost $) for LiDARs and radars,
@@ -98,7 +100,10 @@ def test_table_i_numbers_are_in_the_default_file(library):
 def _paper_table_rows() -> dict[str, list[str]]:
     texts = sorted(PAPER_DIR.glob("*.txt")) if PAPER_DIR.is_dir() else []
     if not texts:
-        pytest.skip(f"paper text not found in {PAPER_DIR}")
+        msg = f"paper text not found in {PAPER_DIR} (set SENSORSEL_PAPER_DIR or put it at ../shared/paper)"
+        if os.environ.get("CI", "").lower() == "true":  # CI holds the paper: the table is checked, not skipped
+            pytest.fail(msg)
+        pytest.skip(msg)
     tex = texts[0].read_text(encoding="utf-8")
     body = tex[tex.index(r"\label{StereoTable}") - 4000: tex.index(r"\label{StereoTable}")]
     body = body[body.index(r"\begin{tabular}"): body.index(r"\end{tabular}")]
