@@ -19,7 +19,7 @@ from sensorsel.information.evaluators import DomainEvaluator, make_evaluator
 from sensorsel.io import results
 from sensorsel.model.conditions import (Condition, ConditionPhysics, fog_extinction_per_m, koschmieder_range_m,
                                         parse_condition, power_law_db_per_km, radar_extinction_per_m,
-                                        range_under_extinction, sensor_effect)
+                                        SensorEffect, range_under_extinction, sensor_effect)
 from sensorsel.model.domain import DomainError, load_domain_file
 from sensorsel.model.library import load_library
 from sensorsel.model.problem import Domain, DomainRoute, check_result_problem, load_domain, load_problem, with_condition
@@ -75,6 +75,9 @@ def test_camera_range_by_koschmieder_and_headlights():
     assert sensor_effect("stereo", 50.0, Condition(fog_visibility_m=30), P).range_m == pytest.approx(30.0)
     night = sensor_effect("stereo", 50.0, Condition(night=True), P)
     assert night.range_m == P.night_camera_range_m and night.bearing_factor == P.night_camera_noise_factor
+    assert night.range_factor == P.night_camera_noise_factor  # the disparity noise too, not only the bearing's
+    for kind, reach in (("lidar", 120.0), ("radar", 250.0)):
+        assert sensor_effect(kind, reach, Condition(night=True), P) == SensorEffect(reach, 1.0, 1.0)
     assert sensor_effect("lidar", 120.0, Condition(night=True), P).range_m == 120.0
     assert sensor_effect("radar", 250.0, Condition(night=True), P).range_m == 250.0
 
@@ -339,3 +342,24 @@ def test_breakdown_by_condition_and_its_grid_plot(tmp_path):
     assert len(ax.get_xticklabels()) == 4
     import matplotlib.pyplot as plt
     plt.close(ax.figure)
+
+
+def test_night_inflates_the_stereo_cameras_range_noise_as_their_disparity_noise(tiny_problem):
+    """At night a stereo camera's disparity noise σ_d, not only its pixel noise, grows by the night
+    factor: its range noise is factor · z² σ_d / (f b) (the paper's eq. 5, computed here from the
+    library's numbers) at every measurement it still makes, and its bearing noise factor · σ_px / f."""
+    lib, phys = tiny_problem.library, tiny_problem.library.physics
+    night = with_condition(tiny_problem, Condition(night=True))
+    k = phys.night_camera_noise_factor
+    assert k > 1
+    checked = 0
+    for s, o in zip(lib, night.observations):
+        m = s.model
+        if m.type != "stereo" or not len(o):
+            continue
+        assert np.max(o.range_m) <= phys.night_camera_range_m
+        np.testing.assert_allclose(o.sigma_range_m, k * o.range_m**2 * m.sigma_disparity_px / (m.focal_px * m.baseline_m),
+                                   rtol=1e-12)
+        np.testing.assert_allclose(o.sigma_bearing_rad, k * m.sigma_pixel_px / m.focal_px, rtol=1e-12)
+        checked += len(o)
+    assert checked > 100

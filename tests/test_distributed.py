@@ -355,3 +355,27 @@ def test_cli_require_with_workers_gives_the_in_process_answer():
     assert a["status"] == "optimal" and a["engine"] == b["engine"] == "fast"
     a.pop("seconds"), b.pop("seconds")
     assert a == b
+
+
+def test_require_in_one_condition_on_workers_checks_that_conditions_members(cluster, tmp_path):
+    """require --domain D --in fog with --workers: the members checked on the workers are the fog
+    ones (the actors hold every member, in the domain's order; the clear ones must be left out).
+    Oracle: the in-process answer in fog, which differs from the answer in clear air."""
+    from sensorsel.designs.requirements import Specification, require
+    from sensorsel.model.constraints import Constraints
+
+    dom = tmp_path / "d.yaml"
+    dom.write_text("keyframe_rate_hz: 1.0\nconditions:\n  - {name: fog, fog_visibility_m: 60, share: 0.2}\n"
+                   "routes:\n  - {name: tiny, fixture: tiny}\n")
+    d = load_domain(dom)
+    keep = ("LRL-roof", "MRL-roof", "LRR-12", "LRR-6", "MRR-12", "WSC-12", "HD2K-12", "HD2K-6", "LSC-12", "HD2K-3")
+    kw = dict(map_sigma_m=0.05, constraints=Constraints(exclude=tuple(sorted(set(d.library.ids) - set(keep)))))
+    spec = Specification(lateral=0.06, heading=0.1)  # met in clear air by a suite that misses it in fog
+    here = {c: require(d, spec, conditions=(c,), **kw) for c in ("clear", "fog")}
+    assert here["clear"].cost_usd < here["fog"].cost_usd
+    ev = DistributedDomainEvaluator(cluster.client, d, "fast", aggregate="normalised")
+    for c in ("clear", "fog"):
+        there = require(d, spec, conditions=(c,), evaluator=ev, **kw)
+        assert [r.route for r in there.routes] == [f"tiny/{c}"]
+        assert (there.suite, there.cost_usd, there.status) == (here[c].suite, here[c].cost_usd, here[c].status)
+        assert there.routes[0].accuracy == here[c].routes[0].accuracy

@@ -287,3 +287,61 @@ def test_up_and_forward_options(tmp_path):
     assert res.exit_code == 2
     with pytest.raises(InputError, match="goes with a route file"):
         load_scenario(ScenarioSpec(fixture="tiny", up="+z"))
+
+
+def test_a_positions_only_route_in_camera_axes_keeps_right_on_the_right(tmp_path):
+    """A t,x,y,z log in camera axes (x right, y down, z forward), no rotations: the car drives 60 m
+    ahead (+z) then turns right (towards +x) on a 30 m arc, and a pole stands 6 m to its right
+    (camera +x) halfway along the straight. Up and down cannot be told apart from positions on a
+    plane: taken the wrong way, the route is mirrored, the turn goes left and the pole is seen by
+    the left sensors. The oracle is the geometry by hand: a right turn is clockwise seen from above
+    (the heading falls by 90 deg), and a pole on the right has a negative car-relative bearing."""
+    straight = np.column_stack([np.zeros(31), np.full(31, 1.65), np.linspace(0.0, 60.0, 31)])
+    a = np.linspace(0.0, math.pi / 2, 31)[1:]
+    arc = np.column_stack([30.0 * (1 - np.cos(a)), np.full(30, 1.65), 60.0 + 30.0 * np.sin(a)])  # bends to +x
+    p = np.vstack([straight, arc])
+    route = tmp_path / "camera_axes.csv"
+    route.write_text("t,x,y,z\n" + "".join(f"{i},{x!r},{y!r},{z!r}\n" for i, (x, y, z) in enumerate(p.tolist())))
+    poles = tmp_path / "poles3d.csv"
+    poles.write_text("x,y,z\n6.0,0.0,30.0\n")
+    rf = read_route_file(route)
+    assert rf.frame is not None and "y down" in rf.frame.describe
+    heading = np.unwrap(rf.route.poses[:, 2])
+    assert heading[-1] - heading[0] == pytest.approx(-math.pi / 2, abs=0.05)  # clockwise: a right turn
+    sc = load_scenario(ScenarioSpec(route=str(route), landmarks=str(poles), keyframe_rate_hz=1.0))
+    k = int(np.argmin(np.linalg.norm(sc.keyframes.poses[:, :2] - sc.landmarks[0], axis=1)))
+    x, y, h = sc.keyframes.poses[k]
+    d = sc.landmarks[0] - (x, y)
+    bearing = math.atan2(d[1], d[0]) - h
+    assert math.sin(bearing) == pytest.approx(-1.0, abs=0.01)  # straight to the right
+
+
+def test_a_car_that_rolls_back_millimetres_at_a_light_does_not_reverse():
+    """Ground truth of a car stopped at a light: 40 m ahead, 10 s standing while the position jitters
+    back by 7 mm and forward again, 40 m more. No reversal (the heading is the travel's, 0); a car
+    that backs up 3 m is still one."""
+    ahead = np.arange(0.0, 40.5, 0.5)
+    jitter = 40.0 + np.array([0.0, -0.003, -0.007, -0.004, 0.0, -0.002, 0.0, 0.0, 0.0, 0.0])
+    x = np.concatenate([ahead, jitter, 40.0 + np.arange(0.5, 40.5, 0.5)])
+    xy = np.column_stack([x, np.zeros_like(x)])
+    h, notes = headings_from_travel(np.arange(len(x), dtype=float), xy)
+    assert notes == [] and np.abs(h).max() < 1e-9
+    back = np.concatenate([ahead, 40.0 - np.arange(0.5, 3.5, 0.5), 37.0 + np.arange(0.5, 40.5, 0.5)])
+    _, notes = headings_from_travel(np.arange(len(back), dtype=float), np.column_stack([back, np.zeros_like(back)]))
+    assert len(notes) == 1 and "reverses" in notes[0]
+
+
+def test_a_hand_held_recording_that_moves_70_cm_is_not_taken_for_degrees(tmp_path):
+    """A TUM file from a hand-held camera that moves 0.7 m: too little travel, said as such (it was
+    'positions that look like degrees'); a drive in degrees spanning a few hundred metres still is."""
+    n = 40
+    p = np.column_stack([1.2 + 0.7 * np.linspace(0, 1, n), 1.5 + 0.1 * np.sin(np.linspace(0, 3, n)), np.full(n, 1.1)])
+    r = np.repeat(np.eye(3)[None], n, axis=0)
+    path = _tum(tmp_path / "hand.txt", np.arange(n) * 0.1, p, r)
+    with pytest.raises(ScenarioError) as err:
+        read_route_file(path)
+    msg = str(err.value)
+    assert "never moves" in msg and "0.7 m" in msg and "degrees" not in msg
+    xy = np.column_stack([8.42 + 1e-5 * np.arange(30.0), 49.01 + 1e-5 * np.arange(30.0)])  # 300 m in degrees
+    with pytest.raises(ScenarioError, match="look like degrees"):
+        route_from_positions(np.arange(30.0), xy, "gpx:track")

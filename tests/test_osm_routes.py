@@ -264,3 +264,29 @@ def test_a_worker_rebuilds_the_same_problem_and_load_scenario_refuses_a_geo_spec
         # the scenario layer cannot read OSM: it refuses instead of silently giving the fixture's map
         with pytest.raises(InputError, match="load_geo_scenario"):
             load_scenario(spec)
+
+
+@pytest.mark.parametrize("lat, lon", [(47.1410, 9.5215), (60.1675, 24.9400)])  # Vaduz; central Helsinki
+@pytest.mark.parametrize("bearing", [0.0, 35.0, 90.0, 200.0, 300.0])
+def test_the_georef_bearing_is_the_compass_bearing_of_the_route_x_axis(lat, lon, bearing):
+    """--georef LAT,LON,BEARING: BEARING is the compass bearing (clockwise from true north) of the
+    route's +X axis, and +Y is 90 deg to its left. Oracle: pyproj's geodesic on the WGS 84
+    ellipsoid (not the code's UTM projection): the azimuth from the origin to a route point 500 m
+    along +X is BEARING, to one along +Y is BEARING - 90; a point Geod.fwd puts 500 m away at
+    BEARING comes back at (500, 0). The tolerance is the UTM grid's meridian convergence the code
+    neglects (0.4 deg in Vaduz, 1.8 deg in Helsinki, off its zone's central meridian)."""
+    from pyproj import Geod
+
+    geod, ref = Geod(ellps="WGS84"), GeoRef.parse(f"{lat},{lon},{bearing}")
+    frame = ref.frame()
+    tol = abs(lon - (6 * (frame.zone - 1) - 177)) * math.sin(math.radians(lat)) + 0.2  # convergence + 0.2 deg
+    for local, want in (((500.0, 0.0), bearing), ((0.0, 500.0), bearing - 90.0)):
+        x, y, _ = ref.to_map(np.array([[*local, 0.0]]), frame)[0]
+        lo, la = frame.unproject(np.array([[x, y]]))
+        az, _, dist = geod.inv(lon, lat, float(np.ravel(lo)[0]), float(np.ravel(la)[0]))
+        assert math.remainder(az - want, 360.0) == pytest.approx(0.0, abs=tol), (local, az)
+        assert dist == pytest.approx(500.0, rel=2e-3)  # the UTM scale factor, within 0.1 %
+    lo, la, _ = geod.fwd(lon, lat, bearing, 500.0)
+    back = ref.from_map(frame.project(np.array([lo]), np.array([la])), frame)[0]
+    assert back[0] == pytest.approx(500.0, rel=2e-3)
+    assert abs(back[1]) < 500.0 * math.radians(tol)

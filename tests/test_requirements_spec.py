@@ -47,6 +47,24 @@ def test_verdict_by_hand():
     assert not both.meets and both.worst[1][0] == "heading" and both.violation == pytest.approx(Z95 * 0.1 / 0.17 - 1)
 
 
+def test_a_share_of_keyframes_that_is_not_a_whole_number_rounds_up():
+    """--at P % of K keyframes with P·K not whole: "P % of the keyframes meet it" means at least
+    P·K of them, so ⌈P·K⌉ (rounding down or to the nearest lets fewer meet it). The oracle counts,
+    in whole numbers (count · 100 >= P · K), on every K up to 12 and every whole percent."""
+    rng = np.random.default_rng(5)
+    for k in range(1, 13):
+        sig = rng.uniform(0.01, 0.1, size=k)
+        for bound_sigma in sorted(sig):
+            meeting = int(np.sum(sig <= bound_sigma))
+            for percent in range(1, 101):
+                got = verdict(_accuracy(sig), Specification(lateral=float(bound_sigma), sigma=True, at=percent / 100)).meets
+                assert got == (meeting * 100 >= percent * k), (k, meeting, percent)
+    # the case by hand: 50 % of 7 keyframes is 3.5, so 4 must meet; 3 meeting is not enough
+    sig7 = [0.01, 0.02, 0.03, 0.09, 0.09, 0.09, 0.09]
+    assert not verdict(_accuracy(sig7), Specification(lateral=0.05, sigma=True, at=0.5)).meets
+    assert verdict(_accuracy(sig7), Specification(lateral=0.05, sigma=True, at=3 / 7)).meets
+
+
 @pytest.mark.parametrize("kwargs, match", [
     (dict(lateral=-0.1), "--lateral"), (dict(lateral=0.0), "--lateral"), (dict(longitudinal=math.nan), "--longitudinal"),
     (dict(heading=math.inf), "--heading"), (dict(lateral=0.1, at=0.0), "--at"), (dict(lateral=0.1, at=1.01), "--at"),

@@ -1,6 +1,11 @@
-"""The stores' fingerprints, field by field (issue 29): a resume after changing any one input
-(budget, failures alpha, rule, method, engine, lazy, period length, limits, library, map, route)
-recomputes or is refused, never reuses a stored result.
+"""The stores' fingerprints, field by field: a resume after changing any one input (budget,
+failures alpha, rule, method, engine, lazy, period length, limits, and each part of the target:
+library, landmark map, route, graph settings and operating condition; for ``require`` also the
+specification and the localization model) recomputes or is refused, never reuses a stored result.
+
+Every store builds its fingerprint from one declaration (:mod:`sensorsel.designs.inputs`); the
+target's parts walked here are the :class:`~sensorsel.model.problem.Fingerprint`'s own, so a part
+added there and not here fails :func:`test_every_part_of_the_target_is_walked`.
 
 Each store is checked where its fingerprints are made: a route's periods (:func:`period_plan`, the
 plan the run executes), a robust run's tasks (the files it keeps), a study's cells (:func:`cell_fingerprint`), a tradespace's rules (the files a
@@ -21,8 +26,9 @@ from sensorsel.designs.resilient import CacheWarning, run_periods
 from sensorsel.designs.resilient.periods import period_plan
 from sensorsel.designs.robust import robust_choice
 from sensorsel.io import results
+from sensorsel.model.conditions import Condition
 from sensorsel.model.constraints import Constraints, feasible_set
-from sensorsel.model.problem import build_problem
+from sensorsel.model.problem import Fingerprint, GraphSettings, build_problem, with_condition
 from sensorsel.model.scenario import ScenarioSpec, load_scenario
 
 REPO = Path(__file__).resolve().parents[1]
@@ -35,16 +41,38 @@ def lib(library):
     return library.subset([library.position(s) for s in SMALL])
 
 
+#: the target's parts each run is walked through (the names of Fingerprint.PARTS; "map": its landmarks)
+TARGET_PARTS = ("library", "map", "route", "settings", "condition")
+
+
 @pytest.fixture(scope="module")
 def problems(lib, library):
-    """The base route and one changed in each of library, landmark map and route."""
+    """The base route and one changed in each part of the target: library, landmark map, route,
+    graph settings and condition (night: it changes no landmark of a period, only the noise)."""
     other_lib = library.subset([library.position(s) for s in SMALL[:-1]])
+    tiny = load_scenario(ScenarioSpec(fixture="tiny"))
+    base = build_problem(lib, tiny)
     return {
-        "base": build_problem(lib, load_scenario(ScenarioSpec(fixture="tiny"))),
-        "library": build_problem(other_lib, load_scenario(ScenarioSpec(fixture="tiny"))),
+        "base": base,
+        "library": build_problem(other_lib, tiny),
         "map": build_problem(lib, load_scenario(ScenarioSpec(fixture="tiny", landmarks="synthetic", landmark_seed=3))),
         "route": build_problem(lib, load_scenario(ScenarioSpec(fixture="tiny", keyframe_rate_hz=0.5))),
+        "settings": build_problem(lib, tiny, GraphSettings(odometry_sigmas=(0.2, 0.2, 0.02))),
+        "condition": with_condition(base, Condition(night=True)),
     }
+
+
+def test_every_part_of_the_target_is_walked(problems):
+    """Each part of a problem's Fingerprint has a changed problem here, and differs in it alone."""
+    parts = [name for name, _ in Fingerprint.PARTS]
+    assert sorted(TARGET_PARTS) == sorted(["map" if p == "landmarks" else p for p in parts])
+    base = problems["base"].fingerprint
+    for part in TARGET_PARTS:
+        name = "landmarks" if part == "map" else part
+        changed = [p for p in parts if getattr(problems[part].fingerprint, p) != getattr(base, p)]
+        assert changed == [name], part
+    for changes in (PERIOD_CHANGES, TRADE_CHANGES, GREEDY_CHANGES, ROBUST_CHANGES, OPTIMAL_CHANGES, REQUIRE_CHANGES):
+        assert set(TARGET_PARTS) <= set(changes)
 
 
 # ---------------------------------------------------------------------------------------- periods
@@ -54,7 +82,7 @@ PERIOD_BASE = dict(budget=20_000.0, alpha=1, rule="uniform", engine="fast", jobs
 PERIOD_CHANGES = {
     "budget": dict(budget=19_000.0), "alpha": dict(alpha=2), "rule": dict(rule="cost-benefit"),
     "method": dict(method="robust", selector=robust_choice), "engine": dict(engine="reference"), "lazy": dict(lazy=False),
-    "period": dict(period=4.0), "limits": dict(constraints=LIMIT), "library": {}, "map": {}, "route": {},
+    "period": dict(period=4.0), "limits": dict(constraints=LIMIT), **{part: {} for part in TARGET_PARTS},
 }
 
 
@@ -139,7 +167,7 @@ def test_the_method_does_not_touch_a_cell_without_failures(tmp_path):
 TRADE_BASE = dict(budgets=[3000.0, 9000.0], rules=["uniform"], engine="fast", lazy=True, constraints=None)
 TRADE_CHANGES = {
     "budget": dict(budgets=[3000.0, 8000.0]), "rule": dict(rules=["marginal"]), "engine": dict(engine="reference"),
-    "lazy": dict(lazy=False), "limits": dict(constraints=LIMIT), "library": {}, "map": {}, "route": {},
+    "lazy": dict(lazy=False), "limits": dict(constraints=LIMIT), **{part: {} for part in TARGET_PARTS},
 }
 
 
@@ -172,7 +200,7 @@ def test_a_tradespace_rule_file_is_never_reused_after_changing_one_input(field, 
 GREEDY_BASE = dict(budget=20_000.0, rule="uniform", engine="fast", aggregate="", lazy=True, constraints=None)
 GREEDY_CHANGES = {
     "budget": dict(budget=19_000.0), "rule": dict(rule="cost-benefit"), "engine": dict(engine="reference"),
-    "lazy": dict(lazy=False), "limits": dict(constraints=LIMIT), "library": {}, "map": {}, "route": {},
+    "lazy": dict(lazy=False), "limits": dict(constraints=LIMIT), **{part: {} for part in TARGET_PARTS},
 }
 
 
@@ -204,7 +232,7 @@ ROBUST_BASE = dict(budget=20_000.0, alpha=1, rules=("uniform", "marginal"), meth
 ROBUST_CHANGES = {
     "budget": dict(budget=19_000.0), "alpha": dict(alpha=2), "rule": dict(rules=("uniform", "cost-benefit")),
     "method": dict(methods=("oblivious", "saturate")), "engine": dict(engine="reference"),
-    "limits": dict(constraints=LIMIT), "library": {}, "map": {}, "route": {},
+    "limits": dict(constraints=LIMIT), **{part: {} for part in TARGET_PARTS},
 }
 
 
@@ -233,3 +261,97 @@ def test_a_robust_resume_with_two_failures_recomputes_the_one_failure_tasks(prob
         two = run_robust(p, 20_000, 2, outdir=tmp_path, resume=True, **kw)
     assert len({str(w.message).split(":")[0] for w in caught}) == n
     assert _untimed(two) == _untimed(run_robust(p, 20_000, 2, **kw))
+
+
+def test_a_resume_at_night_recomputes_the_clear_periods(problems, tmp_path):
+    """The issue's case: the period fingerprint left the condition out, and night changes no
+    landmark of a period, so a resume at night read back the clear periods silently (the whole
+    route was recomputed, with a warning)."""
+    clear, night = problems["base"], problems["condition"]
+    first = run_periods(clear, 20_000, 1, period_s=3.0, outdir=tmp_path)
+    assert [q.period.n_landmarks for q in first.periods] == [t.span.n_landmarks for t in period_plan(night, **PERIOD_BASE).tasks]
+    with pytest.warns(CacheWarning) as caught:
+        again = run_periods(night, 20_000, 1, period_s=3.0, outdir=tmp_path, resume=True)
+    assert len({str(w.message).split(":")[0] for w in caught}) == len(first.periods)
+    assert any("another operating condition" in str(w.message) for w in caught)
+    fresh = run_periods(night, 20_000, 1, period_s=3.0)
+    assert _untimed(again.periods) == _untimed(fresh.periods)
+    assert _untimed(fresh.periods) != _untimed(first.periods)
+
+
+def test_a_period_of_a_problem_built_from_objects_is_selected_under_its_condition(problems):
+    """A period is selected under the route's condition even when the problem has no spec to carry
+    it (the condition was passed only through the spec): its scores are the night ones."""
+    from dataclasses import replace
+
+    night = replace(problems["condition"], spec=None)
+    assert night.condition is not None
+    spec_less = run_periods(night, 20_000, 1, period_s=3.0)
+    clear = run_periods(problems["base"], 20_000, 1, period_s=3.0)
+    assert [q.result.score for q in spec_less.periods] != [q.result.score for q in clear.periods]
+    assert all(q.result.problem.condition == "night" for q in spec_less.periods)
+
+
+# ---------------------------------------------------------------------------------------- optimal
+
+OPTIMAL_BASE = dict(budget=20_000.0, rule="uniform", engine="fast", constraints=None)
+OPTIMAL_CHANGES = {
+    "budget": dict(budget=19_000.0), "rule": dict(rule="cost-benefit"), "engine": dict(engine="reference"),
+    "limits": dict(constraints=LIMIT), **{part: {} for part in TARGET_PARTS},
+}
+
+
+@pytest.mark.parametrize("field", list(OPTIMAL_CHANGES))
+def test_an_optimal_checkpoint_is_not_reused_after_changing_one_input(field, problems, tmp_path):
+    from sensorsel.designs.certify import optimal
+    from sensorsel.information.evaluators import evaluator_for
+
+    def run(problem, resume, budget, rule, engine, constraints):
+        return optimal(evaluator_for(problem, engine), budget, rule=rule, info=problem.info, constraints=constraints,
+                       checkpoint=tmp_path / "opt.checkpoint", resume=resume)
+
+    run(problems["base"], False, **OPTIMAL_BASE)
+    assert (tmp_path / "opt.checkpoint").is_file()
+    kw = {**OPTIMAL_BASE, **OPTIMAL_CHANGES[field]}
+    target = problems.get(field, problems["base"])
+    with pytest.warns(CacheWarning, match="opt.checkpoint: not reused"):
+        again = run(target, True, **kw)
+    fresh = optimal(evaluator_for(target, kw["engine"]), kw["budget"], rule=kw["rule"], info=target.info,
+                    constraints=kw["constraints"])
+    assert (again.suite, again.score) == (fresh.suite, fresh.score)
+
+
+# ---------------------------------------------------------------------------------------- require
+
+REQUIRE_BASE = dict(spec=dict(lateral=0.5, longitudinal=0.5), map_sigma_m=0.05, failures=0, budget_usd=None,
+                    constraints=None)
+REQUIRE_CHANGES = {
+    "specification": dict(spec=dict(lateral=0.4, longitudinal=0.5)),
+    "share of keyframes": dict(spec=dict(lateral=0.5, longitudinal=0.5, at=0.9)),
+    "map model": dict(map_sigma_m=None), "map sigma": dict(map_sigma_m=0.1), "failures": dict(failures=1),
+    "budget": dict(budget_usd=50_000.0), "limits": dict(constraints=LIMIT), **{part: {} for part in TARGET_PARTS},
+}
+
+
+@pytest.mark.parametrize("field", list(REQUIRE_CHANGES))
+def test_a_require_journal_is_refused_after_changing_one_input(field, problems, tmp_path):
+    from sensorsel.designs.requirements import Specification, require
+    from sensorsel.errors import ResultFileError
+
+    def run(problem, resume, spec, **kw):
+        return require(problem, Specification(**spec), checkpoint=tmp_path / "req.checkpoint", resume=resume, **kw)
+
+    run(problems["base"], False, **REQUIRE_BASE)
+    assert (tmp_path / "req.checkpoint").is_file()
+    with pytest.raises(ResultFileError, match="another require run"):
+        run(problems.get(field, problems["base"]), True, **{**REQUIRE_BASE, **REQUIRE_CHANGES[field]})
+
+
+def test_a_require_journal_of_the_same_inputs_is_read_back(problems, tmp_path):
+    """The walk above is not vacuous: the same inputs resume from the journal."""
+    from sensorsel.designs.requirements import Specification, require
+
+    kw = dict(map_sigma_m=0.05, checkpoint=tmp_path / "req.checkpoint")
+    first = require(problems["base"], Specification(lateral=0.5, longitudinal=0.5), **kw)
+    again = require(problems["base"], Specification(lateral=0.5, longitudinal=0.5), resume=True, **kw)
+    assert (again.suite, again.cost_usd) == (first.suite, first.cost_usd)

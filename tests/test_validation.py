@@ -162,15 +162,30 @@ def test_a_map_out_of_the_routes_reach_is_an_error_naming_the_map(tmp_path):
 
 def test_landmarks_out_of_reach_are_counted_in_the_problem_and_its_notes(tmp_path):
     poses = write_kitti_poses(tmp_path / "drive.txt", _straight().poses)
-    lm = _write(tmp_path / "lm.csv", ["x,y", "10,8", "30,-9", "5000,5000", "-4000,100", "20,3000"])
+    lm = _write(tmp_path / "lm.csv", ["x,y", "10,8", "30,-9", "5000,5000", "20,4", "15,-6"])
     p = load_problem(ScenarioSpec(poses=str(poses), landmarks=str(lm)))
     seen = {int(j) for o in p.observations for j in o.landmark}
-    assert seen == {0, 1} and p.n_landmarks_out_of_reach == 3
-    np.testing.assert_array_equal(p.landmarks_in_reach, [0, 1])
+    assert seen == {0, 1, 3, 4} and p.n_landmarks_out_of_reach == 1
+    np.testing.assert_array_equal(p.landmarks_in_reach, [0, 1, 3, 4])
     notes = [n for n in p.notes if "sensor's reach" in n]
-    assert notes == [f"landmarks: 3 of 5 landmarks ({lm}) are out of every sensor's reach from every keyframe: "
+    assert notes == [f"landmarks: 1 of 5 landmarks ({lm}) are out of every sensor's reach from every keyframe: "
                      "they add nothing to any suite"]
     assert p.notes[:len(p.scenario.notes)] == list(p.scenario.notes)
+
+
+def test_a_map_mostly_out_of_reach_is_said_loudly(tmp_path):
+    """Another city's map on this route: most of its landmarks out of every sensor's reach is a
+    warning naming the file and asking whether it is the route's map (a note was easy to miss)."""
+    from sensorsel.model.problem import MapOutOfReachWarning
+
+    poses = write_kitti_poses(tmp_path / "drive.txt", _straight().poses)
+    lm = _write(tmp_path / "lm.csv", ["x,y", "10,8", "30,-9", "5000,5000", "-4000,100", "20,3000"])
+    with pytest.warns(MapOutOfReachWarning, match=r"3 of 5 landmarks \(60 %\).*is this the route's map"):
+        p = load_problem(ScenarioSpec(poses=str(poses), landmarks=str(lm)))
+    assert p.n_landmarks_out_of_reach == 3 and not [n for n in p.notes if "sensor's reach" in n]  # said once
+    r = CliRunner().invoke(cli, ["score", "--poses", str(poses), "--landmarks", str(lm), "--suite", "LRL-roof"])
+    warn = [ln for ln in r.stderr.splitlines() if "out of every sensor's reach" in ln]
+    assert len(warn) == 1 and warn[0].startswith(f"sensorsel: warning: landmarks {lm}: 3 of 5 landmarks (60 %)"), r.stderr
 
 
 def test_all_landmarks_in_reach_adds_no_note(tiny_problem):

@@ -86,13 +86,13 @@ def osm_cmd(file: str | None, sample: str | None, bbox: str | None, roads: str |
         domain, notes = track_domain(path, box, classes, kinds, gpx, route_file, georef, merge_landmarks, speed_kmh, reach_m,
                               keyframe_rate, output, command)
         for note in notes:
-            click.echo(f"note: {note}", err=True)
+            click.echo(f"sensorsel: note: {note}", err=True)
         click.echo(f"wrote {domain}")
         return
     extract = read_osm(path, bbox=box, roads=kinds)
     city = build_city(extract, classes, speed_kmh=speed_kmh, route_km=route_km, reach_m=reach_m)
     for note in (*extract.notes, *city.notes):
-        click.echo(f"note: {note}", err=True)
+        click.echo(f"sensorsel: note: {note}", err=True)
     warn = sparse_warning(city)
     if warn:
         warnings.warn(warn, SensorselWarning, stacklevel=1)

@@ -42,7 +42,7 @@ from sensorsel.io.progress import Progress
 from sensorsel.io.results import result_kind
 from sensorsel.model.constraints import Constraints, feasible_set, recorded
 from sensorsel.model.problem import Domain, DomainInfo, Problem, ProblemInfo, Target, TargetInfo
-from sensorsel.pipeline import digest
+from sensorsel.designs.inputs import result_fingerprint
 
 #: Bumped when what a checkpoint holds, or how a run is resumed from it, changes.
 FORMAT = 1
@@ -97,12 +97,9 @@ def run_fingerprint(target: Target, budget: float, rule: str, engine: str, aggre
     landmarks, graph settings), a domain's route names, weights and units, budget, rule, engine,
     aggregate, laziness and limits (with the resources and slots they read) (not file paths, not
     ``jobs``, not where it runs)."""
-    routes = ([(r.name, r.weight, r.unit, r.problem) for r in target.routes] if isinstance(target, Domain)
-              else [("", 1.0, "", target)])
-    return digest({"format": FORMAT, "what": "greedy-checkpoint", "budget_usd": budget, "rule": rule, "engine": engine,
-                    "aggregate": aggregate, "lazy": lazy,
-                    **({"constraints": results.to_jsonable(constraints)} if constraints is not None else {}),
-                    "routes": [[n, w, u, results.to_jsonable(p.fingerprint)] for n, w, u, p in routes]})
+    return result_fingerprint("greedy-checkpoint", FORMAT, target, budget_usd=budget, rule=rule, engine=engine,
+                              aggregate=aggregate, lazy=lazy,
+                              **({"constraints": constraints} if constraints is not None else {}))
 
 
 def _target_differences(recorded: TargetInfo, target: Target) -> list[str]:

@@ -52,6 +52,7 @@ from typing import Callable, Iterable, Sequence
 
 import numpy as np
 
+from sensorsel.designs.inputs import result_fingerprint
 from sensorsel.designs.selection import RULES, GreedyResult, Rule, Step, check_budget, check_rule, greedy
 from sensorsel.errors import InputError
 from sensorsel.information.evaluators import Evaluator, ProblemEvaluator, evaluator_for
@@ -61,9 +62,9 @@ from sensorsel.io.files import atomic_write_text
 from sensorsel.io.results import result_kind, to_jsonable
 from sensorsel.model.constraints import REL_SLACK, Constraints, feasible_set
 from sensorsel.model.library import SensorLibrary
-from sensorsel.model.problem import Domain, DomainInfo, ProblemInfo, Target, TargetInfo
+from sensorsel.model.problem import Domain, Target, TargetInfo
 from sensorsel.model.recipes import EvaluatorRecipe, TargetRecipe
-from sensorsel.pipeline import Executor, FileStore, InProcess, NoStore, Plan, Store, digest, execute
+from sensorsel.pipeline import Executor, FileStore, InProcess, NoStore, Plan, Store, execute
 from sensorsel.io.progress import Progress
 
 #: The rules of the paper's Fig. 4 (uniform, cost-benefit) and the classic marginal rule.
@@ -399,11 +400,8 @@ def rule_fingerprint(info: TargetInfo | None, engine: str, aggregate: str, task:
                      limits: Constraints | None = None) -> str:
     """Digest of what a rule's runs depend on: each route by content with its weight, the engine, the
     aggregate, every field of ``task`` and ``limits`` (as recorded: with the library's resources' digest)."""
-    routes: list[tuple[str, float, str, ProblemInfo | None]] = (
-        [(r.name, r.weight, r.unit, r.problem) for r in info.routes] if isinstance(info, DomainInfo) else [("", 1.0, "", info)])
-    return digest({"format": RULE_FORMAT, "what": "tradespace-rule", "engine": engine, "aggregate": aggregate,
-                   "routes": [[n, w, u, to_jsonable(p.fingerprint if p is not None else None)] for n, w, u, p in routes],
-                   "limits": to_jsonable(limits), **to_jsonable(task)})
+    return result_fingerprint("tradespace-rule", RULE_FORMAT, info, engine=engine, aggregate=aggregate, limits=limits,
+                              **to_jsonable(task))
 
 
 def rule_store(tasks: Sequence[RuleTask], info: TargetInfo | None, engine: str, aggregate: str,

@@ -196,7 +196,20 @@ class SensorLibrary:
         for i, s in enumerate(self.sensors):
             if s.id == sensor_id or str(s.index) == sensor_id:
                 return i
-        raise InputError(f"unknown sensor id {sensor_id!r} (see `sensorsel library` for the ids)")
+        raise InputError(f"unknown sensor id {sensor_id!r}{self._suggest(sensor_id)} (see `sensorsel library` for the ids)")
+
+    def _suggest(self, sensor_id: str) -> str:
+        """'; did you mean X?' for an id that differs from one of the library's only in case, or
+        is close to one in spelling; '' when none is."""
+        import difflib
+
+        same = [s.id for s in self.sensors if s.id.lower() == str(sensor_id).lower()]
+        close = same or difflib.get_close_matches(str(sensor_id).upper(), [s.id.upper() for s in self.sensors], n=3, cutoff=0.8)
+        if not close:
+            return ""
+        ids = {s.id.upper(): s.id for s in self.sensors}
+        names = [ids.get(c, c) for c in close]
+        return f"; did you mean {' or '.join(names)}? (ids are case-sensitive)" if same else f"; did you mean {' or '.join(names)}?"
 
     def parse_suite(self, text: str | Iterable[str]) -> tuple[int, ...]:
         """Positions of a comma-separated list of ids (or indices); sorted, duplicates refused."""

@@ -27,6 +27,12 @@ from sensorsel.model.sensing import (BYTES_PER_MEASUREMENT, SensorObservations, 
 
 # Limits and checks (docs/scenarios.md, "Limits and checks"):
 MAX_MEASUREMENT_BYTES = 2 * 2**30  # most memory the measurements of a problem may take (estimated before observing)
+#: above this share of a map out of every sensor's reach, the map is likely not the route's: a warning, not a note
+MOSTLY_OUT_OF_REACH = 0.5
+
+
+class MapOutOfReachWarning(SensorselWarning):
+    """Most of a landmark map is out of every sensor's reach from the route (another city, frame or origin?)."""
 
 
 @dataclass(frozen=True)
@@ -92,7 +98,9 @@ class Fingerprint:
 
     @classmethod
     def of(cls, library: SensorLibrary, scenario: Scenario, settings: GraphSettings,
-           condition: Condition | None = None) -> "Fingerprint":
+           condition: Condition | None) -> "Fingerprint":
+        """The fingerprint of a problem's parts. ``condition`` has no default: a result computed under
+        a condition must never be fingerprinted as a clear one (None: clear)."""
         sensors = []
         for s in library.sensors:
             # resources (power, mass, data rate) do not change a score: a constrained result records
@@ -211,7 +219,12 @@ class Problem:
     @cached_property
     def fingerprint(self) -> Fingerprint:
         """What this problem is, by content (computed once)."""
-        return Fingerprint.of(self.library, self.scenario, self.settings, self.condition)
+        return self.fingerprint_on(self.scenario)
+
+    def fingerprint_on(self, scenario: Scenario) -> Fingerprint:
+        """The fingerprint of this problem's library, graph settings and condition on ``scenario``
+        (a period of its route): what a result computed on that part depends on."""
+        return Fingerprint.of(self.library, scenario, self.settings, self.condition)
 
     @cached_property
     def landmarks_in_reach(self) -> np.ndarray:
@@ -230,7 +243,7 @@ class Problem:
         many landmarks are out of every sensor's reach, when some are."""
         notes = list(self.scenario.notes)
         out, m = self.n_landmarks_out_of_reach, self.scenario.n_landmarks
-        if out and self.observations:
+        if out and self.observations and out <= MOSTLY_OUT_OF_REACH * m:  # more: a warning (check_reach)
             notes.append(f"landmarks: {out} of {m} landmarks ({self.scenario.landmark_source}) are out of every sensor's reach "
                          f"from every keyframe: they add nothing to any suite")
         return notes
@@ -359,8 +372,18 @@ def check_problem_size(library: SensorLibrary, scenario: Scenario, limit_bytes: 
 
 def check_reach(problem: Problem) -> None:
     """InputError when no sensor of the library sees any landmark from any keyframe: the map is out
-    of the route's reach (another frame or origin?), and every suite would score 0."""
+    of the route's reach (another frame or origin?), and every suite would score 0. A
+    :class:`MapOutOfReachWarning` when more than :data:`MOSTLY_OUT_OF_REACH` of it is: a map that
+    mostly misses the route is likely another place's (a score on the few landmarks it shares
+    with the route says little)."""
     sc = problem.scenario
+    out, m = problem.n_landmarks_out_of_reach, sc.n_landmarks
+    if m and problem.n_sensors and len(problem.landmarks_in_reach) and out > MOSTLY_OUT_OF_REACH * m:
+        route = sc.route or sc.keyframes
+        warnings.warn(f"landmarks {sc.landmark_source}: {out} of {m} landmarks ({100 * out / m:.0f} %) are out of every "
+                      f"sensor's reach from every keyframe of the route {route.source}: is this the route's map (not another "
+                      "city's, frame or origin)? Only the other "
+                      f"{m - out} count", MapOutOfReachWarning, stacklevel=3)
     if sc.n_landmarks and problem.n_sensors and not len(problem.landmarks_in_reach):
         route = sc.route or sc.keyframes
         nearest = float(distance_to_route(sc.landmarks, route.poses[:, :2]).min())

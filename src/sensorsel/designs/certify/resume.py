@@ -22,10 +22,9 @@ import numpy as np
 
 from sensorsel.designs.selection import GreedyResult
 from sensorsel.io import results
-from sensorsel.io.codec import to_jsonable
 from sensorsel.io.results import result_kind
-from sensorsel.model.problem import DomainInfo, ProblemInfo, TargetInfo
-from sensorsel.pipeline import digest
+from sensorsel.model.problem import TargetInfo
+from sensorsel.designs.inputs import result_fingerprint
 from sensorsel.pipeline.store import load_matching
 
 #: expanded nodes between two checkpoints of the search state
@@ -85,12 +84,8 @@ class OptimalCheckpoint:
 def search_fingerprint(info: TargetInfo | None, engine: str, budget: float, rule: str, incumbent: GreedyResult | None,
                        exclude: frozenset[int], constraints: Any, max_cells: int) -> str:
     """Digest of what the search's answer depends on (not the node or time limit)."""
-    routes: list[tuple[str, float, ProblemInfo | None]] = (
-        [(r.name, r.weight, r.problem) for r in info.routes] if isinstance(info, DomainInfo) else [("", 1.0, info)])
-    return digest({"format": FORMAT, "what": "optimal", "engine": engine, "budget": budget, "rule": rule,
-                   "routes": [[n, w, to_jsonable(p.fingerprint if p is not None else None)] for n, w, p in routes],
-                   "incumbent": to_jsonable(incumbent), "exclude": sorted(exclude), "constraints": to_jsonable(constraints),
-                   "max_cells": max_cells})
+    return result_fingerprint("optimal", FORMAT, info, engine=engine, budget=budget, rule=rule, incumbent=incumbent,
+                              exclude=sorted(exclude), constraints=constraints, max_cells=max_cells)
 
 
 def read_checkpoint(path: Path | None, fingerprint: str, resume: bool) -> OptimalCheckpoint | None:

@@ -30,6 +30,7 @@ from sensorsel.io.codec import to_jsonable
 from sensorsel.io.results import result_kind
 from sensorsel.model.constraints import Constraints, feasible_set
 from sensorsel.model.problem import Domain, Problem, Target, TargetInfo
+from sensorsel.designs.inputs import result_fingerprint, route_entry
 from sensorsel.pipeline import digest
 from sensorsel.io.progress import Progress
 
@@ -141,6 +142,10 @@ class RequireJournal:
     answers: tuple[tuple[int, tuple[int, ...], bool, float | None], ...]
 
 
+#: bumped when what the journal's answers depend on, or how they are computed, changes
+JOURNAL_FORMAT = 2
+
+
 def require_fingerprint(problems: Sequence[Problem], specs: Sequence[Specification], map_sigma_m: float | None,
                         failures: int, budget_usd: float | None, constraints: Constraints | None) -> tuple[str, tuple[tuple[str, str], ...]]:
     """(sha256, the inputs in words) of what a require run's answers depend on."""
@@ -152,7 +157,11 @@ def require_fingerprint(problems: Sequence[Problem], specs: Sequence[Specificati
         ("budget", "none" if budget_usd is None else f"${budget_usd:,.2f}"),
         ("limits", "none" if constraints is None else constraints.describe()),
     )
-    return digest([list(x) for x in inputs] + [to_jsonable(list(specs)), map_sigma_m, budget_usd, to_jsonable(constraints)]), inputs
+    routes = [route_entry(p.scenario.name, 1.0, "", p.fingerprint) for p in problems]
+    fp = result_fingerprint("require-journal", JOURNAL_FORMAT, routes, specifications=list(specs),
+                            model="slam" if map_sigma_m is None else "map", map_sigma_m=map_sigma_m, failures=failures,
+                            budget_usd=budget_usd, constraints=constraints)
+    return fp, inputs
 
 
 def _read_journal(path: Path, fingerprint: str, inputs: tuple[tuple[str, str], ...]) -> RequireJournal | None:

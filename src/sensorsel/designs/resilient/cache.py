@@ -10,13 +10,14 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TypeVar
 
-from sensorsel.io import results
+from sensorsel.designs.inputs import result_fingerprint
 from sensorsel.model.problem import Fingerprint, Problem, ProblemInfo
-from sensorsel.pipeline.store import CacheWarning, digest
+from sensorsel.pipeline.store import CacheWarning
 from sensorsel.pipeline.store import load_matching as load_record
 
 #: Bumped whenever what a period file holds, or how it is computed, changes (invalidates resume).
-FORMAT = 2  # 2: the problem by content (Problem.fingerprint), not the scenario's spec and paths
+FORMAT = 3  # 2: the problem by content (Problem.fingerprint), not the scenario's spec and paths;
+#            3: built by designs.inputs (a period's with the route's condition)
 
 T = TypeVar("T")
 
@@ -25,16 +26,13 @@ __all__ = ["CacheWarning", "FORMAT", "fingerprint", "load_matching"]
 
 def fingerprint(problem: Problem | Fingerprint, budget: float, alpha: int, rule: str, engine: str, lazy: bool,
                 what: dict) -> str:
-    """Digest of everything a result depends on: the problem by content (library, route and keyframe
-    rate, landmarks, graph settings: :attr:`Problem.fingerprint`, or that fingerprint itself; not the
-    files' paths), budget, alpha, rule, engine, and ``what`` (e.g. the period bounds)."""
-    fp = problem.fingerprint if isinstance(problem, Problem) else problem
-    return digest({
-        "format": FORMAT,
-        "problem": results.to_jsonable(fp),
-        "budget_usd": budget, "alpha": alpha, "rule": rule, "engine": engine, "lazy": lazy,
-        **what,
-    })
+    """Digest of everything a result depends on (:func:`sensorsel.designs.inputs.result_fingerprint`):
+    the problem by content (library, route and keyframe rate, landmarks, graph settings, condition:
+    :attr:`Problem.fingerprint`, or that fingerprint itself, a period's from
+    :meth:`Problem.fingerprint_on`; not the files' paths), budget, alpha, rule, engine, and ``what``
+    (e.g. the period bounds)."""
+    return result_fingerprint("resilient", FORMAT, problem, budget_usd=budget, alpha=alpha, rule=rule, engine=engine,
+                              lazy=lazy, **what)
 
 
 def load_matching(cls: type[T], path: Path, fingerprint: str, problem: Problem | Fingerprint | None = None) -> T | None:

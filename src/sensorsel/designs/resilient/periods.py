@@ -24,7 +24,7 @@ from sensorsel.io import results
 from sensorsel.io.files import atomic_write_text
 from sensorsel.model.constraints import Constraints, feasible_set
 from sensorsel.model.library import SensorLibrary
-from sensorsel.model.problem import Fingerprint, Problem, build_problem
+from sensorsel.model.problem import Problem, build_problem
 from sensorsel.model.scenario import Scenario
 from sensorsel.pipeline import Executor, FileStore, NoStore, Plan, Store, execute
 from sensorsel.io.progress import Progress
@@ -133,7 +133,9 @@ class PeriodTask:
 def period_step(run: PeriodRun, task: PeriodTask) -> PeriodResult:
     """One period's selection: Algorithm 2 and its exact worst case, or ``run.selector``'s robust choice."""
     problem, budget, alpha = run.problem, run.budget, run.alpha
-    sub = build_problem(problem.library, task.scenario, problem.settings, spec=problem.info.spec)
+    # the route's condition itself, not through its spec (a problem built from objects has none)
+    sub = build_problem(problem.library, task.scenario, problem.settings, spec=problem.info.spec,
+                        condition=problem.condition)
     ev = make_evaluator(sub, run.engine, jobs=run.jobs)
     if run.method == "robust":
         assert run.selector is not None
@@ -160,7 +162,7 @@ def period_plan(problem: Problem, budget: float, alpha: int, rule: str, engine: 
         if method != ALGORITHM_2:  # Algorithm 2's fingerprints stay as they were (no method): their files are reused
             what["method"] = method
         what.update(constraints_key(feas))
-        fp = fingerprint(Fingerprint.of(problem.library, sc, problem.settings), budget, alpha, rule, engine, lazy, what)
+        fp = fingerprint(problem.fingerprint_on(sc), budget, alpha, rule, engine, lazy, what)
         tasks.append(PeriodTask(span, sc, fp))
     state = PeriodRun(problem, budget, alpha, rule, engine, jobs, lazy, method, selector, constraints)
     return Plan("period", period_step, tuple(tasks), states=(state,))
@@ -171,13 +173,13 @@ def period_store(plan: Plan[PeriodResult], outdir: str | Path | None, resume: bo
     if outdir is None:
         return NoStore()
     tasks: Sequence[PeriodTask] = plan.tasks
-    library, settings = plan.states[0].problem.library, plan.states[0].problem.settings
+    whole = plan.states[0].problem
 
     def differences(i: int, old: Any) -> list[str]:
         info = old.result.problem if getattr(old, "result", None) is not None else None
         if info is None or info.fingerprint is None:
             return []
-        return list(info.fingerprint.differences(Fingerprint.of(library, tasks[i].scenario, settings)))
+        return list(info.fingerprint.differences(whole.fingerprint_on(tasks[i].scenario)))
 
     return FileStore([period_file(outdir, t.span.index) for t in tasks], [t.fingerprint for t in tasks], PeriodResult,
                      lambda i, r: r, lambda r: r, resume=resume, differences=differences,

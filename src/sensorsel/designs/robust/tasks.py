@@ -31,12 +31,12 @@ from sensorsel.designs.robust.methods import DEFAULT_SATURATE_LEVELS, local_sear
 from sensorsel.designs.robust.records import Candidate, RobustBound, best_of, better
 from sensorsel.designs.selection import REL_TOL, greedy
 from sensorsel.information.evaluators import Evaluator, ProblemEvaluator, as_suite, evaluator_for
-from sensorsel.io.codec import to_jsonable
 from sensorsel.io.results import result_kind
 from sensorsel.model.constraints import Constraints, FeasibleSet, feasible_set
-from sensorsel.model.problem import DomainInfo, ProblemInfo, Target, TargetInfo
+from sensorsel.model.problem import Target, TargetInfo
 from sensorsel.model.recipes import EvaluatorRecipe
-from sensorsel.pipeline import FileStore, NoStore, Store, digest
+from sensorsel.designs.inputs import result_fingerprint
+from sensorsel.pipeline import FileStore, NoStore, Store
 
 @dataclass(frozen=True)
 class RobustSettings:
@@ -235,11 +235,8 @@ def task_key(info: TargetInfo | None, engine: str, aggregate: str, s: RobustSett
     its weight, the engine, the aggregate, the settings (budget, alpha, limits with the library's
     resources' digest, the methods' limits) and, conservatively, the run's rules and methods (a
     resume with other rules or methods recomputes every task: it never reuses one by mistake)."""
-    routes: list[tuple[str, float, str, ProblemInfo | None]] = (
-        [(r.name, r.weight, r.unit, r.problem) for r in info.routes] if isinstance(info, DomainInfo) else [("", 1.0, "", info)])
-    return {"format": TASK_FORMAT, "what": "robust-task", "engine": engine, "aggregate": aggregate,
-            "routes": [[n, w, u, to_jsonable(p.fingerprint if p is not None else None)] for n, w, u, p in routes],
-            "settings": to_jsonable(s), "rules": list(rules), "methods": list(methods), "skip_when_proved": skip_when_proved}
+    return {"target": info, "engine": engine, "aggregate": aggregate, "settings": s, "rules": list(rules),
+            "methods": list(methods), "skip_when_proved": skip_when_proved}
 
 
 @result_kind("robust-task")
@@ -258,7 +255,7 @@ def task_store(outdir: str | Path | None, resume: bool, key: dict[str, Any], sta
     """Where a stage's outcomes are kept: ``OUTDIR/SS-NAME.json`` (SS the stage; none without ``outdir``)."""
     if outdir is None:
         return NoStore()
-    fps = [digest({**key, "stage": stage, "task": to_jsonable(t)}) for t in tasks]
+    fps = [result_fingerprint("robust-task", TASK_FORMAT, **key, stage=stage, task=t) for t in tasks]
     return FileStore([Path(outdir) / f"{stage:02d}-{t.name}.json" for t in tasks], fps, RobustTaskRecord,
                      lambda i, o: RobustTaskRecord(fps[i], tasks[i].name, o), lambda r: r.outcome, resume=resume,
                      what="other inputs (target, budget, failures, engine, aggregate, limits, rules or methods)")

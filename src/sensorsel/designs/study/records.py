@@ -7,8 +7,8 @@ import json
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
+from sensorsel.designs.inputs import route_entry
 from sensorsel.designs.resilient import METHODS  # how a cell with failures > 0 chooses its suite
-from sensorsel.io import results
 from sensorsel.io.results import result_kind
 from sensorsel.model.domain import DomainError, load_domain_file, load_domain_scenarios
 from sensorsel.model.library import load_library
@@ -57,12 +57,12 @@ class TargetFiles:
             members: list[Any] = []
             for d in load_domain_scenarios(spec):
                 for c, share in d.conditions or ((None, 1.0),):
-                    members.append([f"{d.name}/{c.name}" if c is not None else d.name, d.weight * share, d.unit,
-                                    results.to_jsonable(Fingerprint.of(lib, d.scenario, settings, c))])
+                    members.append(route_entry(f"{d.name}/{c.name}" if c is not None else d.name, d.weight * share, d.unit,
+                                               Fingerprint.of(lib, d.scenario, settings, c)))
             return members
         assert self.spec is not None
         lib = load_library(self.library)
-        return [["", 1.0, "", results.to_jsonable(Fingerprint.of(lib, load_geo_scenario(self.spec), settings))]]
+        return [route_entry("", 1.0, "", Fingerprint.of(lib, load_geo_scenario(self.spec), settings, self.spec.condition))]
 
 
 @dataclass(frozen=True)

@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Any, Sequence
 
 from sensorsel.designs.certify import certificate
+from sensorsel.designs.inputs import result_fingerprint
 from sensorsel.designs.resilient import ALGORITHM_2, resilient_select, worst_case
 from sensorsel.designs.robust import robust_select
 from sensorsel.designs.selection import greedy
@@ -21,7 +22,7 @@ from sensorsel.io import results
 from sensorsel.io.files import atomic_write_text
 from sensorsel.io.progress import Progress
 from sensorsel.model.problem import Target, TargetInfo
-from sensorsel.pipeline import Executor, FileStore, NoStore, Plan, Store, digest, execute
+from sensorsel.pipeline import Executor, FileStore, NoStore, Plan, Store, execute
 
 from sensorsel.designs.study.records import (Cell, FORMAT, Study, StudyCellRecord, StudyResult, StudyRow, StudyTarget,
                                              TargetFiles)
@@ -63,11 +64,11 @@ def run_cell(target: Target, cell: Cell, study: Study, *, jobs: int = 1) -> Stud
 
 def cell_fingerprint(study: Study, cell: Cell, target_fp: list[Any]) -> str:
     """Digest of everything a cell's row depends on (``target_fp``: :meth:`TargetFiles.fingerprints`)."""
-    what = {"format": FORMAT, "what": "study-cell", "target": target_fp, "library": cell.library,
-            "landmark_seed": cell.landmark_seed, "failures": cell.failures, "rule": cell.rule, "budget_usd": cell.budget_usd,
-            "method": study.method if cell.failures else "", "engine": check_engine(study.engine), "aggregate": study.aggregate,
-            "lazy": study.lazy, "certificate": study.certificate and (cell.failures == 0 or study.method == "robust")}
-    return digest(what)
+    return result_fingerprint(
+        "study-cell", FORMAT, target_fp, library=cell.library, landmark_seed=cell.landmark_seed, failures=cell.failures,
+        rule=cell.rule, budget_usd=cell.budget_usd, method=study.method if cell.failures else "",
+        engine=check_engine(study.engine), aggregate=study.aggregate, lazy=study.lazy,
+        certificate=study.certificate and (cell.failures == 0 or study.method == "robust"))
 
 
 def cell_file(outdir: str | Path, cell: Cell) -> Path:

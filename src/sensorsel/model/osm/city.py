@@ -22,7 +22,7 @@ from scipy.spatial import cKDTree
 
 from sensorsel.errors import InputError
 from sensorsel.io.files import atomic_write_text
-from sensorsel.model.osm.extract import LANDMARK_CLASSES, OsmExtract, OsmLandmarks, OsmWay
+from sensorsel.model.osm.extract import LANDMARK_CLASSES, OsmExtract, OsmLandmarks, OsmWay, kerb_note
 
 SAMPLE_HZ = 10.0  # poses a second in a route CSV (KITTI's rate); keyframes are chosen from these
 SPARSE_PER_KM = 30.0  # warn below this many landmarks per km of road (SemanticKITTI's pole maps: ~150/km)
@@ -160,6 +160,8 @@ def build_city(extract: OsmExtract, classes: tuple[str, ...], *, speed_kmh: floa
     tree = cKDTree(lms.xy) if len(lms) else None
     comps = sorted((sorted(c) for c in nx.connected_components(g)), key=lambda c: c[0])
     repeats = 0
+    circuit_m = 0.0  # the circuits' length, stretches without landmarks included
+    bare: list[tuple[float, np.ndarray]] = []  # (length [m], first point) of each stretch left out
     for comp in comps:
         sub = nx.MultiGraph(g.subgraph(comp))
         length = sum(d["length"] for _, _, d in sub.edges(data=True))
@@ -176,7 +178,7 @@ def build_city(extract: OsmExtract, classes: tuple[str, ...], *, speed_kmh: floa
         kept_xy.append(poly)
         seg = np.hypot(*np.diff(poly, axis=0).T)
         cum = np.r_[0.0, np.cumsum(seg)]
-        driven_m += cum[-1]
+        circuit_m += cum[-1]
         n_parts = max(int(round(cum[-1] / (route_km * 1000.0))), 1)
         cuts = np.searchsorted(cum, np.arange(1, n_parts) * cum[-1] / n_parts)
         bounds = [0, *cuts.tolist(), len(poly) - 1]
@@ -184,23 +186,35 @@ def build_city(extract: OsmExtract, classes: tuple[str, ...], *, speed_kmh: floa
             if b <= a:
                 continue
             xy, heading = _resample(poly[a:b + 1], step)
-            name = f"r{len(routes) + 1:03d}"
             near = _near(tree, xy, reach_m)
-            if not near.size:
-                notes.append(f"route {name}: no landmark within {reach_m:g} m: left out")
+            if not near.size:  # no route: it gets no name (the next kept route takes the next one)
+                bare.append((float(cum[b] - cum[a]), poly[a]))
                 continue
+            name = f"r{len(routes) + 1:03d}"
             routes.append(CityRoute(name, np.column_stack([xy, heading]), np.arange(len(xy)) / SAMPLE_HZ,
                                     OsmLandmarks(lms.xy[near], tuple(lms.classes[i] for i in near), lms.ids[near], lms.moved[near])))
     if not routes:
         raise InputError(f"{extract.source}: the selected roads make no route of at least {min_route_m:g} m with landmarks")
+    driven_m = float(sum(r.length_m for r in routes))
+    if bare:
+        lon, lat = extract.frame.unproject(np.array([p for _, p in bare]))
+        starts = [f"{la:.5f},{lo:.5f}" for la, lo in zip(np.ravel(lat).tolist(), np.ravel(lon).tolist())]
+        where = "; ".join(starts[:3]) + (f"; and {len(starts) - 3} more" if len(starts) > 3 else "")
+        notes.append(f"{len(bare)} stretch(es) of road ({sum(m for m, _ in bare) / 1000:.2f} km driven) with no landmark within "
+                     f"{reach_m:g} m left out: no route of them (starting at lat,lon {where})")
     if n_dropped:
         notes.append(f"{n_dropped} piece(s) of road network shorter than {min_route_m:g} m ({dropped_m:.0f} m in all) left out")
     if repeats:
-        notes.append(f"{driven_m / 1000:.2f} km driven to cover {road_m / 1000:.2f} km of road once "
+        notes.append(f"{circuit_m / 1000:.2f} km of circuits to cover {road_m / 1000:.2f} km of road once "
                      f"(roads between odd junctions driven again)")
     allxy = np.concatenate(kept_xy)
     near_all = _near(tree, _resample(allxy, 5.0)[0], reach_m) if len(allxy) > 1 else np.zeros(0, int)
     density = {c: sum(1 for i in near_all if lms.classes[i] == c) / (road_m / 1000.0) for c in classes}
+    used = np.isin(lms.ids, np.concatenate([r.landmarks.ids for r in routes]))  # the routes' landmarks
+    kerb = kerb_note(OsmLandmarks(lms.xy[used], tuple(c for c, k in zip(lms.classes, used) if k), lms.ids[used],
+                                  lms.moved[used]), "the routes'")
+    if kerb is not None:
+        notes.insert(0, kerb)
     return City(tuple(routes), road_m, driven_m, dropped_m, density, lms, tuple(notes))
 
 

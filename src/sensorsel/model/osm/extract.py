@@ -234,7 +234,8 @@ def _half_width(tags: dict[str, str]) -> float:
 
 
 def _osm_format(path: Path) -> str:
-    """'osm' (XML) or 'pbf' by the file's first byte, so that the extension does not matter."""
+    """'osm' (XML), 'osm.bz2' or 'osm.gz' (compressed XML) or 'pbf' by the file's first bytes, so that
+    the extension does not matter."""
     try:
         with path.open("rb") as fh:
             head = fh.read(64)
@@ -249,7 +250,11 @@ def _osm_format(path: Path) -> str:
         return "osm"
     if head[4:15] == b"\x0a\x09OSMHeader":  # a BlobHeader whose type is OSMHeader
         return "pbf"
-    raise ScenarioError(path, "not an OSM extract: expected .osm XML (starting with '<') or .osm.pbf (an OSMHeader block)")
+    for magic, fmt in ((b"BZh", "osm.bz2"), (b"\x1f\x8b", "osm.gz")):  # compressed XML (osmium decompresses it)
+        if head.startswith(magic):
+            return fmt
+    raise ScenarioError(path, "not an OSM extract: expected .osm XML (starting with '<'), .osm.bz2 or .osm.gz (compressed "
+                        "XML) or .osm.pbf (an OSMHeader block)")
 
 
 def read_osm(path: str | Path, *, bbox: tuple[float, float, float, float] | None = None,
@@ -257,7 +262,7 @@ def read_osm(path: str | Path, *, bbox: tuple[float, float, float, float] | None
     """Read the landmarks and roads of a local OSM extract, projected to a local metric frame.
 
     Args:
-        path: ``.osm`` XML or ``.osm.pbf`` (sniffed from the content, not the name).
+        path: ``.osm`` XML (also ``.osm.bz2``, ``.osm.gz``) or ``.osm.pbf`` (sniffed from the content, not the name).
         bbox: (W, S, E, N) [deg]: read only what lies inside (ways cut where they leave it).
         roads: the ``highway`` values of the roads to keep (default: every :data:`DRIVABLE` one
             and its ``_link``); centre-line landmarks are moved off every one of these.
@@ -329,8 +334,14 @@ def read_osm(path: str | Path, *, bbox: tuple[float, float, float, float] | None
         raise ScenarioError(path, "empty OSM extract: no nodes with a location")
     extent = (min(all_lon), min(all_lat), max(all_lon), max(all_lat))
     if bbox is not None and not lon_l:
+        w, s, e, n = bbox
+        swapped = (s, w, n, e)  # the same box with latitude and longitude exchanged
+        hint = ""
+        if swapped[0] <= extent[2] and extent[0] <= swapped[2] and swapped[1] <= extent[3] and extent[1] <= swapped[3]:
+            hint = (f": with latitude and longitude exchanged, --bbox {','.join(f'{v:g}' for v in swapped)} lies in it "
+                    "(--bbox is W,S,E,N: longitude first)")
         raise InputError(f"--bbox {','.join(f'{v:g}' for v in bbox)}: outside the extract {path}, whose nodes span "
-                         f"W,S,E,N {','.join(f'{v:.5f}' for v in extent)}")
+                         f"W,S,E,N {','.join(f'{v:.5f}' for v in extent)}{hint}")
     bounds = (min(lon_l), min(lat_l), max(lon_l), max(lat_l))
     if frame is None:
         frame = LocalFrame.around((bounds[0] + bounds[2]) / 2.0, (bounds[1] + bounds[3]) / 2.0)
@@ -355,13 +366,22 @@ def read_osm(path: str | Path, *, bbox: tuple[float, float, float, float] | None
         at += len(ids_)
     lm_xy = frame.project(np.array(lm_lon), np.array(lm_lat)) if lm_lon else np.zeros((0, 2))
     moved = _move_to_kerb(lm_xy, lm_cls, lm_id, ways)
+    # the landmarks moved to the kerb are counted by what uses them (kerb_note): a route's or a
+    # city's, not every one of the extract
     notes = [f"projection: {frame.describe()}"]
-    if moved.any():
-        notes.append(f"{int(moved.sum())} landmark(s) of classes mapped on the road's centre line "
-                     f"({', '.join(sorted({c for c, m in zip(lm_cls, moved) if m}))}) moved to the right-hand kerb "
-                     f"(half the road's width + {KERB_OFFSET_M:g} m)")
     lms = OsmLandmarks(lm_xy, tuple(lm_cls), np.array(lm_id, dtype=np.int64), moved)
     return OsmExtract(str(path), frame, bounds, len(lon_l), tag_counts, lms, tuple(ways), tuple(notes))
+
+
+def kerb_note(landmarks: "OsmLandmarks", whose: str = "the route's") -> str | None:
+    """The note on those of ``landmarks`` (``whose``: a route's, a city's routes') that were moved
+    from a road's centre line to its kerb (None when none was)."""
+    moved = np.asarray(landmarks.moved, dtype=bool)
+    if not moved.any():
+        return None
+    classes = sorted({c for c, m in zip(landmarks.classes, moved) if m})
+    return (f"{int(moved.sum())} of {whose} {len(moved)} landmarks (of classes mapped on a road's centre line: "
+            f"{', '.join(classes)}) moved to the right-hand kerb (half the road's width + {KERB_OFFSET_M:g} m)")
 
 
 def _move_to_kerb(xy: np.ndarray, classes: list[str], ids: list[int], ways: list[OsmWay]) -> np.ndarray:

@@ -27,7 +27,7 @@ from scipy.spatial import cKDTree
 from sensorsel.errors import InputError, SensorselWarning
 from sensorsel.io.files import atomic_write_text
 from sensorsel.model.osm.city import ATTRIBUTION, _near, _write_landmarks, sparse_message
-from sensorsel.model.osm.extract import (LANDMARK_CLASSES, LocalFrame, OsmExtract, OsmLandmarks, parse_classes,
+from sensorsel.model.osm.extract import (LANDMARK_CLASSES, LocalFrame, OsmExtract, OsmLandmarks, kerb_note, parse_classes,
                                          parse_roads, read_osm)
 from sensorsel.model.osm.gpx import GeoRef, read_gpx, track_route
 from sensorsel.model.scenario import (DEFAULT_OSM_REACH_M, Frame, RouteFile, Scenario, ScenarioSpec, Trajectory,
@@ -98,7 +98,8 @@ def route_landmarks(osm_paths: Sequence[str | Path], route_xy: np.ndarray, frame
                     classes: tuple[str, ...], *, survey: np.ndarray | None = None, survey_label: str | None = None,
                     reach_m: float = DEFAULT_REACH_M, roads: tuple[str, ...] | None = None,
                     bbox: tuple[float, float, float, float] | None = None, route_label: str = "the route",
-                    map_option: str = "--landmarks osm:", reach_option: str = "--osm-reach") -> RouteMap:
+                    map_option: str = "--landmarks osm:", reach_option: str = "--osm-reach",
+                    frame_told: bool = False) -> RouteMap:
     """The OSM landmarks of ``classes`` within ``reach_m`` of a route, merged with a survey (see the module).
 
     Args:
@@ -110,6 +111,8 @@ def route_landmarks(osm_paths: Sequence[str | Path], route_xy: np.ndarray, frame
         survey: (M, 2) survey landmarks [m] in the route's frame, or None; ``survey_label`` names them.
         route_label, map_option, reach_option: how the errors and notes name the route, an extract
             (``--landmarks osm:FILE``; the ``osm`` command: the file) and the reach option.
+        frame_told: the route's own notes already name the map frame (a GPX track's): the
+            extract's projection note is not repeated.
 
     Raises:
         InputError: a route that lies farther than ``reach_m`` outside an extract (is the
@@ -137,7 +140,7 @@ def route_landmarks(osm_paths: Sequence[str | Path], route_xy: np.ndarray, frame
         if (off > 0).any():
             notes.append(f"{(off > 0).mean():.0%} of {route_label} lies outside the extract {path}: OSM landmarks there are "
                          "missing")
-        notes += [n for n in ex.notes if n not in notes]
+        notes += [n for n in ex.notes if n not in notes and not (frame_told and n.startswith("projection: "))]
         lms = ex.landmarks.of(classes)
         for k in range(len(lms)):
             if int(lms.ids[k]) in seen:
@@ -165,6 +168,9 @@ def route_landmarks(osm_paths: Sequence[str | Path], route_xy: np.ndarray, frame
                            np.r_[osm.moved[keep], np.zeros(len(survey), dtype=bool)])
         notes.append(f"{len(survey)} survey landmark(s) of {survey_label} merged with {len(keep)} OSM one(s); {int(same.sum())} OSM "
                      f"landmark(s) within {DUPLICATE_M:g} m of a survey landmark taken as the same object (the survey's position kept)")
+    kerb = kerb_note(out)
+    if kerb is not None:
+        notes.append(kerb)
     if not len(out):
         raise InputError(f"{map_option}{', '.join(map(str, osm_paths))}: no landmark of {', '.join(classes)} within {reach_option} "
                          f"{reach_m:g} m of {route_label} (is the georeference right?)")
@@ -235,7 +241,8 @@ def load_geo_scenario(spec: ScenarioSpec) -> Scenario:
     def from_map(route: Trajectory, _frame: Frame | None, base: np.ndarray | None,
                  label: str | None) -> tuple[np.ndarray, str, list[str]]:
         m = route_landmarks(spec.osm, route.poses[:, :2], frame, georef, classes, survey=base, survey_label=label,
-                            reach_m=spec.osm_reach_m, roads=parse_roads(None), route_label=f"the route {route.source}")
+                            reach_m=spec.osm_reach_m, roads=parse_roads(None), route_label=f"the route {route.source}",
+                            frame_told=gpx)
         if m.warning:
             warnings.warn(m.warning, SensorselWarning, stacklevel=3)
         which = f" ({','.join(classes)})" if spec.osm_classes is not None else ""
@@ -279,7 +286,7 @@ def track_domain(osm_path: str | Path, bbox: tuple[float, float, float, float] |
     survey = read_landmarks_csv(merge_landmarks) if merge_landmarks is not None else None
     m = route_landmarks([osm_path], poses[:, :2], frame, ref, classes, survey=survey, survey_label=merge_landmarks,
                         reach_m=reach_m, roads=roads, bbox=bbox, route_label=f"the route {gpx or route_file}", map_option="",
-                        reach_option="--reach")
+                        reach_option="--reach", frame_told=gpx is not None)
     notes += list(m.notes)
     if m.warning:
         warnings.warn(m.warning, SensorselWarning, stacklevel=2)

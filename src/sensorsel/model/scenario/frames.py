@@ -49,6 +49,10 @@ FORWARD_MARGIN = 0.5  # ... and it beats the format's own forward axis by this m
 HEADING_WINDOW_M = 4.0  # headings from positions: the chord over this much route, centred on the point [m]
 STOP_M = 1e-6  # a step shorter than this is a stop (the heading is kept)
 DEGREE_SPREAD_M = 5.0  # numbers inside +-180/+-90 that spread less than this look like degrees
+#: a route that moves less than MIN_TRAVEL_M looks like degrees only when it spans less than this
+#: (5.5 km of latitude; a hand-held recording of 0.7 m is metres that moved too little, not 77 km in degrees)
+DEGREE_ROUTE_SPREAD = 0.05
+REVERSAL_MIN_M = 0.5  # a reversal of the direction of travel counts when the car goes back at least this far
 
 _AXES = "xyz"
 # planar (X, Y) world axes for an up along a world axis: (index, sign) each, X x Y = up
@@ -178,9 +182,11 @@ def check_moves(xy: np.ndarray, path: str | Path) -> float:
     p = np.asarray(xy, dtype=float)
     extent = float(np.ptp(p, axis=0).max()) if len(p) else 0.0
     if extent < MIN_TRAVEL_M:
-        check_not_degrees(p, path, "positions")  # a drive in degrees spans less than a metre too: say which
+        if extent < DEGREE_ROUTE_SPREAD:  # a drive in degrees spans less than a metre too: say which
+            check_not_degrees(p, path, "positions")
         raise ScenarioError(path, f"the car never moves: its {len(p)} positions stay within {extent:.3g} m of each other "
-                            f"(at least {MIN_TRAVEL_M:g} m of travel is needed to tell the ground plane and the heading)")
+                            f"(at least {MIN_TRAVEL_M:g} m of travel is needed to tell the ground plane and the heading; "
+                            "a hand-held or indoor recording?)")
     return extent
 
 
@@ -370,6 +376,16 @@ def _signed_body_up(u_b: np.ndarray, f_b: np.ndarray) -> np.ndarray:
     return u_b if u_b[k] > 0 else -u_b
 
 
+def _spaced(xy: np.ndarray, min_m: float) -> np.ndarray:
+    """Indices of the points of ``xy`` (N, 2) each at least ``min_m`` from the previous one kept
+    (the first always kept)."""
+    keep = [0]
+    for i in range(1, len(xy)):
+        if math.hypot(*(xy[i] - xy[keep[-1]])) >= min_m:
+            keep.append(i)
+    return np.asarray(keep, dtype=int)
+
+
 def headings_from_travel(t: np.ndarray, xy: np.ndarray, *, window_m: float = HEADING_WINDOW_M) -> tuple[np.ndarray, list[str]]:
     """Headings [rad] of a positions-only route, from its direction of travel.
 
@@ -412,10 +428,12 @@ def headings_from_travel(t: np.ndarray, xy: np.ndarray, *, window_m: float = HEA
     for i in np.flatnonzero(stopped):
         heading[i] = heading[i - 1]
     notes: list[str] = []
-    # reversals: the direction of travel over one window against the next
-    step = np.arctan2(np.diff(xy, axis=0)[:, 1], np.diff(xy, axis=0)[:, 0])[seg > STOP_M]
-    tm = t[1:][seg > STOP_M]
-    sm = s[1:][seg > STOP_M]
+    # reversals: the direction of travel over one window against the next, between points at least
+    # REVERSAL_MIN_M apart (a car at a light whose ground truth rolls back 7 mm does not reverse)
+    far = _spaced(xy, REVERSAL_MIN_M)
+    dxy = np.diff(xy[far], axis=0)
+    step = np.arctan2(dxy[:, 1], dxy[:, 0])
+    tm, sm = t[far][1:], s[far][1:]
     if len(step) > 1:
         j = np.searchsorted(sm, sm + window_m)
         j = np.minimum(j, len(step) - 1)
