@@ -49,12 +49,24 @@ from typing import Callable, Iterable
 
 import numpy as np
 import scipy.linalg as la
+from threadpoolctl import threadpool_limits
 
 from sensorsel.errors import InputError
 from sensorsel.information.linearize import bearing_range_jacobians, odometry_jacobians
 from sensorsel.model.problem import Problem
 
-__all__ = ["KeyframeMeasurements", "Prediction", "FilterPass", "Use", "keyframe_measurements", "forward_pass"]
+__all__ = ["ESTIMATES", "KeyframeMeasurements", "Prediction", "FilterPass", "Use", "keyframe_measurements", "forward_pass"]
+
+#: the estimates an accuracy can be of: the filter's (at each keyframe from the measurements up to
+#: it: what the car has as it drives) or the smoother's (from every measurement of the route)
+ESTIMATES = ("filter", "smoother")
+
+
+def check_estimate(estimate: str) -> str:
+    """``estimate`` if it is one of :data:`ESTIMATES`, else an InputError naming --estimate."""
+    if estimate not in ESTIMATES:
+        raise InputError(f"--estimate {estimate!r}: must be one of {', '.join(ESTIMATES)}")
+    return estimate
 
 
 @dataclass(frozen=True, eq=False)
@@ -180,7 +192,6 @@ def forward_pass(problem: Problem, suite: Iterable[int], *, map_sigma_m: float |
     prior_sigma = float(s.landmark_prior_sigma_m if map_sigma_m is None else map_sigma_m)
     sc = problem.scenario
     poses = np.asarray(sc.keyframes.poses, float)
-    points = np.asarray(sc.landmarks, float)
     K = len(poses)
     groups = keyframe_measurements(problem, suite)
     # the last keyframe at which the suite measures each landmark: after it the landmark leaves the state
@@ -189,9 +200,22 @@ def forward_pass(problem: Problem, suite: Iterable[int], *, map_sigma_m: float |
         last[g.landmark] = g.keyframe
     odo = odometry_jacobians(poses) if K > 1 else np.zeros((0, 3, 3))
     odo_cov = np.diag(np.asarray(s.odometry_sigmas, float) ** 2)
+
+    # one BLAS thread: the pass is a sequence of mid-sized products, where threads were measured
+    # slower (a 300² Cholesky and a 1100²·300 product on 2 busy cores: 10x and 1.2x slower on two)
+    with threadpool_limits(1, user_api="blas"):
+        return _pass(problem, groups, last, odo, odo_cov, prior_sigma, use, on_prediction)
+
+
+def _pass(problem: Problem, groups: list[KeyframeMeasurements], last: np.ndarray, odo: np.ndarray, odo_cov: np.ndarray,
+          prior_sigma: float, use: Use | None, on_prediction: Callable[[Prediction, KeyframeMeasurements], None] | None
+          ) -> FilterPass:
+    s = problem.settings
+    poses = np.asarray(problem.scenario.keyframes.poses, float)
+    points = np.asarray(problem.scenario.landmarks, float)
+    K = len(poses)
     predicted, filtered = np.zeros((K, 3, 3)), np.zeros((K, 3, 3))
     n_used, n_measured = np.zeros(K, np.int64), np.zeros(K, np.int64)
-
     held = np.zeros(0, np.int64)  # sorted landmark indices in the state
     P = np.diag(np.asarray(s.first_pose_sigmas, float) ** 2)  # (3 + 2n)²
     for k in range(K):
