@@ -290,10 +290,10 @@ def _update(P: np.ndarray, held: np.ndarray, pose: np.ndarray, points: np.ndarra
         if r_old:
             HU[:r_old] += np.einsum("iab,ibr->iar", Bo, U[cols]).reshape(r_old, r)
         S = np.eye(r) + 0.5 * (HU + HU.T)
-        L = la.cholesky(S, lower=True)
-        V = la.solve_triangular(L, U.T, lower=True)  # (r, N)
-        P = P - V.T @ V
-        P = 0.5 * (P + P.T)
+        L = la.cholesky(S, lower=True, check_finite=False)
+        V = la.solve_triangular(L, U.T, lower=True, check_finite=False)  # (r, N)
+        # numpy computes Vᵀ V by dsyrk (a product with its own transpose): exactly symmetric
+        P -= V.T @ V
     if not new.any():
         return P, held
     # the new landmarks join the state, kept sorted by index
