@@ -257,13 +257,11 @@ def _update(P: np.ndarray, held: np.ndarray, pose: np.ndarray, points: np.ndarra
     wb = 1.0 / g.sigma_bearing_rad[mask] ** 2
     wr = 1.0 / g.sigma_range_m[mask] ** 2
     pairs, inv = np.unique(lm, return_inverse=True)
-    info = np.zeros((len(pairs), 2))
-    np.add.at(info, (inv, 0), wb)
-    np.add.at(info, (inv, 1), wr)
+    info = np.column_stack([np.bincount(inv, wb, len(pairs)), np.bincount(inv, wr, len(pairs))])  # (p, 2) summed 1/σ²
     jac = bearing_range_jacobians(np.broadcast_to(pose, (len(pairs), 3)), points[pairs]) * np.sqrt(info)[:, :, None]
     A, B = jac[:, :, :3], jac[:, :, 3:]  # (p, 2, 3), (p, 2, 2) whitened
-    slot = np.searchsorted(held, pairs)
-    old = (slot < len(held)) & (held[np.minimum(slot, max(len(held) - 1, 0))] == pairs) if len(held) else np.zeros(len(pairs), bool)
+    slot = np.searchsorted(held, pairs)  # where each pair's landmark is (or would be) in the state
+    old = np.isin(pairs, held)
     new = ~old
     # new landmarks: the pose factor (Schur complement) and the conditional of each landmark on the pose
     An, Bn = A[new], B[new]
