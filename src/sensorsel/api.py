@@ -82,10 +82,10 @@ class ScoreResult:
 
 
 def score_suite(problem: Problem, suite: str | Iterable[str | int], *, engine: str | None = None,
-                accuracy: bool = True, map_sigma_m: float | None = None) -> ScoreResult:
+                accuracy: bool = True, map_sigma_m: float | None = None, estimate: str = "filter") -> ScoreResult:
     """Score a suite given as comma-separated ids (``"LRL-roof,LRR-12"``), ids, or library positions;
     with ``accuracy``, also its accuracy in metres (the SLAM graph, or with ``map_sigma_m`` [m] a
-    prior map: :func:`suite_accuracy`)."""
+    prior map; the filter's estimate as the car drives, or ``estimate="smoother"``: :func:`suite_accuracy`)."""
     lib = problem.library
     positions = lib.resolve_suite(suite)
     ev = make_evaluator(problem, engine)
@@ -103,18 +103,20 @@ def score_suite(problem: Problem, suite: str | Iterable[str | int], *, engine: s
         n_landmarks_seen=len(seen),
         engine=ev.name,
         problem=problem.info,
-        accuracy=route_accuracy(ev, positions, map_sigma_m=map_sigma_m) if accuracy else None,
+        accuracy=route_accuracy(ev, positions, map_sigma_m=map_sigma_m, estimate=estimate) if accuracy else None,
     )
 
 
 def suite_accuracy(target: Target, suite: str | Iterable[str | int], *, map_sigma_m: float | None = None,
-                   engine: str | None = None) -> tuple[RouteAccuracy, ...]:
+                   engine: str | None = None, estimate: str = "filter") -> tuple[RouteAccuracy, ...]:
     """The accuracy of a suite in metres and degrees on every route of ``target`` (one for a
     problem), per keyframe: :mod:`sensorsel.information.evaluators.accuracy`. ``map_sigma_m``: localizing in a
-    prior map whose landmarks are known to that std [m]; None: the paper's SLAM graph."""
+    prior map whose landmarks are known to that std [m]; None: the paper's SLAM graph. ``estimate``:
+    "filter" (at each keyframe from the measurements up to it: as the car drives) or "smoother"
+    (from the whole route)."""
     problems = [(r.name, r.problem) for r in target.routes] if isinstance(target, Domain) else [(target.scenario.name, target)]
     positions = target.library.resolve_suite(suite)
-    return tuple(route_accuracy(make_evaluator(p, engine), positions, map_sigma_m=map_sigma_m, route=name)
+    return tuple(route_accuracy(make_evaluator(p, engine), positions, map_sigma_m=map_sigma_m, route=name, estimate=estimate)
                  for name, p in problems)
 
 

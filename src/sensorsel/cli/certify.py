@@ -81,7 +81,7 @@ def _check_result_constraints(res: GreedyResult, lib: SensorLibrary, path: str, 
 @run
 def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output: str | None, resume: bool, as_json: bool,
                 quiet: bool,
-                aggregate: str, engine: str | None, jobs: int, map_sigma: float | None, **kw: Any) -> None:
+                aggregate: str, engine: str | None, jobs: int, map_sigma: float | None, estimate: str, **kw: Any) -> None:
     """The best suite within --budget, by branch and bound with the submodular knapsack bound.
 
     Starts from the greedy (best-of) suite and proves it optimal or improves on it. At the node
@@ -113,7 +113,7 @@ def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output
         ev = evaluator_on(cluster, problem, engine, jobs, aggregate)
         res = optimal(ev, budget, max_nodes=max_nodes, max_seconds=max_seconds, info=info, progress=progress,
                       constraints=constraints, checkpoint=checkpoint_path(output) if output else None, resume=resume)
-    res = replace(res, accuracy=suite_accuracy(problem, res.suite, map_sigma_m=map_sigma, engine=engine))
+    res = replace(res, accuracy=suite_accuracy(problem, res.suite, map_sigma_m=map_sigma, engine=engine, estimate=estimate))
     if output:
         results.save(res, output)
         checkpoint_path(output).unlink(missing_ok=True)  # the result is written: the run is no longer interrupted

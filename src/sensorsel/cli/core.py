@@ -93,7 +93,7 @@ def library_cmd(library_path: str | None, as_json: bool) -> None:
 @json_option
 @run
 def score_cmd(suite: str, as_json: bool, aggregate: str, engine: str | None, jobs: int, force: bool,
-              map_sigma: float | None, **kw: Any) -> None:
+              map_sigma: float | None, estimate: str, **kw: Any) -> None:
     """Score a sensor suite: cost and f(S) = log det L(S) - log det L(empty) in nats.
 
     With --domain FILE: the suite's score on every route, each as a share of the route's best, and
@@ -116,7 +116,7 @@ def score_cmd(suite: str, as_json: bool, aggregate: str, engine: str | None, job
         with cluster or nullcontext():
             ev = domain_evaluator_on(cluster, problem, engine, aggregate) if cluster is not None else None
             dres = score_domain_suite(problem, suite, engine=engine, aggregate=aggregate, evaluator=ev)
-        dres = replace(dres, accuracy=suite_accuracy(problem, suite, map_sigma_m=map_sigma, engine=engine))
+        dres = replace(dres, accuracy=suite_accuracy(problem, suite, map_sigma_m=map_sigma, engine=engine, estimate=estimate))
         if as_json:
             click.echo(results.dumps(dres), nl=False)
             return
@@ -130,7 +130,7 @@ def score_cmd(suite: str, as_json: bool, aggregate: str, engine: str | None, job
         print_accuracy(dres.accuracy)
         _print_limits(feas, problem.library.resolve_suite(dres.suite))
         return
-    res = score_suite(problem, _suite_positions(suite, problem, force), engine=engine, map_sigma_m=map_sigma)
+    res = score_suite(problem, _suite_positions(suite, problem, force), engine=engine, map_sigma_m=map_sigma, estimate=estimate)
     if as_json:
         click.echo(results.dumps(res), nl=False)
         return

@@ -23,6 +23,7 @@ import click
 from sensorsel.errors import InputError, SensorselError, SensorselWarning
 from sensorsel.information.evaluators import AGGREGATES
 from sensorsel.cli.progress import progress_bar, progress_flag  # noqa: F401 (progress_bar: the commands import it from here)
+from sensorsel.information.filtering import ESTIMATES
 from sensorsel.model.conditions import parse_condition
 from sensorsel.model.library import SensorLibrary
 from sensorsel.model.problem import DomainInfo, ProblemInfo, Target, TargetInfo, load_domain, load_problem
@@ -477,10 +478,18 @@ def usage_table(rows: Sequence[Any]) -> str:
 
 
 def map_sigma_option(fn: F) -> F:
-    """--map-sigma METRES: accuracy lines computed localizing in a prior map (default: the SLAM graph)."""
-    return click.option("--map-sigma", "map_sigma", type=float, default=None, metavar="METRES",
-                        help="Accuracy in metres computed localizing in a prior map whose landmarks are known to this "
-                             "std [m] (default: in the paper's SLAM graph, landmarks unknown).")(fn)
+    """--map-sigma METRES: accuracy lines computed localizing in a prior map (default: the SLAM graph);
+    with it, --estimate (:func:`estimate_option`): every command that prints an accuracy has both."""
+    return estimate_option(click.option("--map-sigma", "map_sigma", type=float, default=None, metavar="METRES",
+                                        help="Accuracy in metres computed localizing in a prior map whose landmarks are known to this "
+                                             "std [m] (default: in the paper's SLAM graph, landmarks unknown).")(fn))
+
+
+def estimate_option(fn: F) -> F:
+    """--estimate filter|smoother: the estimate an accuracy is of (default: the filter, as the car drives)."""
+    return click.option("--estimate", "estimate", type=click.Choice(ESTIMATES), default="filter", show_default=True,
+                        help="Accuracy of the filter (at each keyframe from the measurements up to it: what the car "
+                             "has as it drives) or of the smoother (from every measurement of the route).")(fn)
 
 
 def check_map_sigma(value: float | None) -> float | None:

@@ -10,7 +10,7 @@ from typing import Any
 import click
 
 from sensorsel.cli.cluster import domain_evaluator_on, require_domain
-from sensorsel.cli.options import (budget_option, check_map_sigma, constraint_options, constraints_from,
+from sensorsel.cli.options import (budget_option, check_map_sigma, constraint_options, constraints_from, estimate_option,
                                    engine_options, json_option, output_option, print_target, progress_bar,
                                    quiet_option, resume_option, run, target_from, target_options)
 from sensorsel.cli.options import cluster_from, cluster_options
@@ -90,6 +90,7 @@ def specification_from(kw: dict[str, Any], routes: list[str]) -> list[Specificat
               help=f"Accuracy in a prior map whose landmarks are known to this std [m] (default: {DEFAULT_MAP_SIGMA_M:g} m, "
                    "an assumption: see the requirements guide).")
 @click.option("--slam", is_flag=True, help="Judge accuracy in the paper's SLAM graph (landmarks unknown) instead of a prior map.")
+@estimate_option
 @click.option("--in", "in_conditions", default=None, metavar="C1,C2,...",
               help="With a --domain that has conditions: demand the specification only in these conditions "
                    "(e.g. clear,rain); (default: in every condition).")
@@ -109,7 +110,7 @@ def specification_from(kw: dict[str, Any], routes: list[str]) -> list[Specificat
 @json_option
 @quiet_option
 @run
-def require_cmd(map_sigma: float | None, slam: bool, in_conditions: str | None, failures: int, budget: float | None, time_limit: float | None,
+def require_cmd(map_sigma: float | None, slam: bool, estimate: str, in_conditions: str | None, failures: int, budget: float | None, time_limit: float | None,
                 plot_path: str | None, compare: str | None, output: str | None, resume: bool, as_json: bool, quiet: bool,
                 aggregate: str, engine: str | None, jobs: int, **kw: Any) -> None:
     """The cheapest suite that meets an accuracy specification, on a route or every route of a
@@ -120,7 +121,9 @@ def require_cmd(map_sigma: float | None, slam: bool, in_conditions: str | None, 
     [deg] (95 % bounds unless --sigma) at every keyframe (or --at PERCENT of them), from the marginal
     covariance of each pose. Accuracy is judged localizing in a prior map whose landmarks are known to
     --map-sigma (default 0.05 m), or with --slam in the paper's SLAM graph (landmarks unknown,
-    uncertainty growing from the first pose).
+    uncertainty growing from the first pose). The accuracy judged is the filter's (--estimate filter,
+    the default: at each keyframe from the measurements up to it, what the car has as it drives), or
+    with --estimate smoother the smoother's (from the whole route: optimistic before its last keyframe).
 
     A specification no suite meets is an error (exit status 2) naming the best any suite reaches and
     where it fails; with -o or --json that diagnosis is still written.
@@ -154,12 +157,13 @@ def require_cmd(map_sigma: float | None, slam: bool, in_conditions: str | None, 
         res = require(target, specs, map_sigma_m=None if slam else map_sigma, failures=failures, budget_usd=budget,
                       constraints=constraints, engine=engine, jobs=jobs, time_limit_s=time_limit, progress=progress,
                       checkpoint=checkpoint_path(output) if output else None, resume=resume, evaluator=ev,
-                      conditions=None if in_conditions is None else [c.strip() for c in in_conditions.split(",") if c.strip()])
+                      conditions=None if in_conditions is None else [c.strip() for c in in_conditions.split(",") if c.strip()],
+                      estimate=estimate)
     if output:
         results.save(res, output)
         checkpoint_path(output).unlink(missing_ok=True)  # the result is written: the run is no longer interrupted
     if plot_path:
-        _plot(res, target, compared, plot_path, map_sigma_m=None if slam else map_sigma, engine=engine)
+        _plot(res, target, compared, plot_path, map_sigma_m=None if slam else map_sigma, engine=engine, estimate=estimate)
     if as_json:
         click.echo(results.dumps(res), nl=False)
     else:
@@ -224,7 +228,7 @@ def _print_routes(routes: tuple[RouteRequirement, ...]) -> None:
 
 
 def _plot(res: RequireResult, target: Any, compared: tuple[str, tuple[int, ...]] | None, path: str, *,
-          map_sigma_m: float | None, engine: str | None) -> None:
+          map_sigma_m: float | None, engine: str | None, estimate: str) -> None:
     """The errors along the route (the answer, and ``compared``) with the requirement, and the route
     coloured by the answer's margin; a domain: the route with the least margin."""
     import matplotlib.pyplot as plt
@@ -240,7 +244,7 @@ def _plot(res: RequireResult, target: Any, compared: tuple[str, tuple[int, ...]]
     label = f"{'best any suite reaches' if res.status == 'infeasible' else 'the answer'} (${res.cost_usd:,.0f})"
     lines = [(label, route.accuracy)]
     if compared is not None:
-        acc = suite_accuracy(problem, compared[1], map_sigma_m=map_sigma_m, engine=engine)[0]
+        acc = suite_accuracy(problem, compared[1], map_sigma_m=map_sigma_m, engine=engine, estimate=estimate)[0]
         cost = problem.library.cost(compared[1])
         lines.append((f"{compared[0]} (${cost:,.0f})", acc))
     comps = [c for c, _, _ in route.specification.bounds()]

@@ -59,7 +59,7 @@ class MethodChoice(click.Choice):
 @quiet_option
 @run
 def resilient_cmd(budget: float, alpha: int, period_s: float, rule: str, method: str, outdir: str, plot_format: str | None, resume: bool,
-                  as_json: bool, quiet: bool, aggregate: str, engine: str | None, jobs: int, map_sigma: float | None,
+                  as_json: bool, quiet: bool, aggregate: str, engine: str | None, jobs: int, map_sigma: float | None, estimate: str,
                   **kw: Any) -> None:
     """Resilient sensor selection (the paper's Algorithm 2, for ALPHA failures).
 
@@ -100,7 +100,7 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, rule: str, method:
         raise InputError(f"--failures {alpha}: the resilient suite within --budget ${budget:,.0f} holds only {len(r.suite)} "
                          f"sensor(s) ({', '.join(r.suite) or 'none'}; {r.failure_note or 'the failing sensors take the budget'}), "
                          f"so every one could fail (worst case 0): give fewer --failures or a larger --budget")
-    report = replace(report, accuracy=suite_accuracy(problem, report.suite, map_sigma_m=map_sigma, engine=engine))
+    report = replace(report, accuracy=suite_accuracy(problem, report.suite, map_sigma_m=map_sigma, engine=engine, estimate=estimate))
     written = _write(report, problem, out, fmt, period_s, alpha, budget, method)
     if as_json:
         click.echo(results.dumps(report), nl=False)

@@ -67,7 +67,7 @@ def _csv(xs: Any) -> str:
 @quiet_option
 @run
 def robust_cmd(budget: float, alpha: int, rules: str, methods: str | None, no_skip: bool, output: str | None, resume: bool,
-               as_json: bool, quiet: bool, aggregate: str, engine: str | None, jobs: int, map_sigma: float | None, **kw: Any) -> None:
+               as_json: bool, quiet: bool, aggregate: str, engine: str | None, jobs: int, map_sigma: float | None, estimate: str, **kw: Any) -> None:
     """Robust sensor selection: maximise the worst-case score after ALPHA sensors fail.
 
     Runs plain greedy, the paper's Algorithm 2 and further methods, scores every suite by its exact
@@ -131,7 +131,7 @@ def robust_cmd(budget: float, alpha: int, rules: str, methods: str | None, no_sk
             res = run_robust(target, budget, alpha, engine=engine, jobs=jobs, aggregate=aggregate, rules=rule_list,
                              methods=method_list, skip_when_proved=not no_skip, constraints=constraints,
                              executor=cluster.executor if cluster is not None else None, outdir=tasks, resume=resume)
-    res = replace(res, accuracy=suite_accuracy(target, res.suite, map_sigma_m=map_sigma, engine=engine))
+    res = replace(res, accuracy=suite_accuracy(target, res.suite, map_sigma_m=map_sigma, engine=engine, estimate=estimate))
     written = results.save(res, output) if output else None
     if tasks is not None:  # the result is written: the run is no longer interrupted
         shutil.rmtree(tasks, ignore_errors=True)

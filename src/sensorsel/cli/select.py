@@ -103,7 +103,7 @@ def _print_breakdown(design: DomainDesign) -> None:
 @quiet_option
 @run
 def greedy_cmd(budget: float, rule: str, lazy: bool, output: str | None, as_json: bool, certify: bool, quiet: bool,
-               plot_path: str | None, resume: bool, aggregate: str, engine: str | None, jobs: int, map_sigma: float | None,
+               plot_path: str | None, resume: bool, aggregate: str, engine: str | None, jobs: int, map_sigma: float | None, estimate: str,
                **kw: Any) -> None:
     """Greedy sensor selection under a budget (the paper's Algorithm 1 and its cost-aware variants).
 
@@ -157,7 +157,7 @@ def greedy_cmd(budget: float, rule: str, lazy: bool, output: str | None, as_json
                                    certify=certify, certify_progress=cert_progress, checkpoint=ckpt, resume=resume,
                                    constraints=constraints)
     # the chosen suite's accuracy in metres (local evaluators: a cluster's routes answer scores only)
-    res = replace(res, accuracy=suite_accuracy(problem, res.suite, map_sigma_m=map_sigma, engine=engine))
+    res = replace(res, accuracy=suite_accuracy(problem, res.suite, map_sigma_m=map_sigma, engine=engine, estimate=estimate))
     out = replace(out, greedy=res) if isinstance(out, DomainDesign) else res
     if output:
         results.save(out, output)
@@ -216,7 +216,7 @@ def _arch_row(a: Architecture) -> list[str]:
 @quiet_option
 @run
 def pareto_cmd(budgets: str | None, budget: tuple[float, ...], rules: str, lazy: bool, outdir: str, plot_format: str | None,
-               resume: bool, as_json: bool, quiet: bool, aggregate: str, engine: str | None, jobs: int, map_sigma: float | None,
+               resume: bool, as_json: bool, quiet: bool, aggregate: str, engine: str | None, jobs: int, map_sigma: float | None, estimate: str,
                **kw: Any) -> None:
     """The cost-performance tradespace (the paper's Fig. 4): greedy runs over a grid of budgets,
     every intermediate architecture, and the Pareto front (lower cost, higher score).
@@ -269,7 +269,7 @@ def pareto_cmd(budgets: str | None, budget: tuple[float, ...], rules: str, lazy:
         ax = plot_tradespace(res)
         written.insert(0, save_figure(ax.figure, out / f"pareto.{fmt}", close=True))
         acceptance = front_acceptance(problem, [(a.suite, a.cost_usd, a.score) for a in res.front], specs,
-                                      map_sigma_m=map_sigma, engine=engine)
+                                      map_sigma_m=map_sigma, engine=engine, estimate=estimate)
         written.append(results.save(acceptance, out / "accuracy.json"))
         written.append(save_figure(plot_front_accuracy(acceptance).figure, out / f"pareto-accuracy.{fmt}", close=True))
 

@@ -167,10 +167,11 @@ class RouteActor:
         """The route's engine's cheap bounds on the scores (None where it has none)."""
         return self.evaluator.score_bounds(suite, candidates)
 
-    def pose_covariances(self, suite: tuple[int, ...], map_sigma_m: float | None) -> np.ndarray:
-        """The suite's (K, 3, 3) pose marginals on this route (``require``'s accuracy checks)."""
+    def pose_covariances(self, suite: tuple[int, ...], map_sigma_m: float | None, estimate: str = "smoother") -> np.ndarray:
+        """The suite's (K, 3, 3) pose marginals on this route (``require``'s accuracy checks), of
+        the filter's or the smoother's estimate."""
         t0 = time.perf_counter()
-        out = self.evaluator.pose_covariances(suite, map_sigma_m=map_sigma_m)
+        out = self.evaluator.pose_covariances(suite, map_sigma_m=map_sigma_m, estimate=estimate)
         self.busy_s, self.calls = self.busy_s + time.perf_counter() - t0, self.calls + 1
         return out
 
@@ -233,11 +234,12 @@ class _RemoteRoute(Evaluator):
     def score_bounds(self, suite: Iterable[int], candidates: Sequence[int]) -> tuple[float, np.ndarray] | None:
         return self._ask("score_bounds", suite, candidates)
 
-    def pose_covariances(self, suite: Iterable[int], *, map_sigma_m: float | None = None) -> np.ndarray:
+    def pose_covariances(self, suite: Iterable[int], *, map_sigma_m: float | None = None,
+                         estimate: str = "smoother") -> np.ndarray:
         """The route's pose marginals, computed by its actor (the same bytes as in-process)."""
         s = as_suite(suite)
         self._check_positions(s)
-        return np.asarray(self.owner._call({self.k: ("pose_covariances", (s, map_sigma_m))})[self.k])
+        return np.asarray(self.owner._call({self.k: ("pose_covariances", (s, map_sigma_m, estimate))})[self.k])
 
     def pose_covariance_floor(self, suite: Iterable[int], *, map_sigma_m: float | None = None) -> np.ndarray | None:
         s = as_suite(suite)

@@ -23,7 +23,8 @@ from sensorsel.designs.requirements.solver import cheapest_suite
 from sensorsel.designs.requirements.spec import RouteVerdict, Specification, verdict
 from sensorsel.errors import InputError, ResultFileError
 from sensorsel.information.evaluators import Evaluator, as_suite, make_evaluator
-from sensorsel.information.evaluators.accuracy import RouteAccuracy, accuracy_from_covariances, model_label
+from sensorsel.information.evaluators.accuracy import RouteAccuracy, accuracy_from_covariances, estimate_label, model_label
+from sensorsel.information.filtering import check_estimate
 from sensorsel.information.evaluators.base import Suite
 from sensorsel.io import results
 from sensorsel.io.codec import to_jsonable
@@ -73,6 +74,9 @@ class RequireResult:
         failures: α: the suite meets it after any α of its sensors fail.
         model: "map" or "slam" (:data:`sensorsel.information.evaluators.accuracy.MODELS`).
         map_sigma_m: with the map model, the std of the landmarks [m].
+        estimate: the accuracy judged: "filter" (at each keyframe from the measurements up to it:
+            as the car drives) or "smoother" (from the whole route); files written before
+            estimates existed judged the smoother's, and load so.
         routes: each route's specification and the suite's accuracy there, all sensors working
             (infeasible: the accuracy of every allowed sensor together, the best any suite reaches).
         worst_failure: with failures, the α sensors whose failure leaves the suite closest to
@@ -112,6 +116,7 @@ class RequireResult:
     infeasible_by: str = ""
     stop: str = ""
     n_refuted: int = 0
+    estimate: str = "smoother"
 
     @property
     def gap_usd(self) -> float:
@@ -120,7 +125,7 @@ class RequireResult:
 
     @property
     def model_label(self) -> str:
-        return model_label(self.model, self.map_sigma_m)
+        return f"{model_label(self.model, self.map_sigma_m)}, {estimate_label(self.estimate)}"
 
 
 @result_kind("requirement-journal")
@@ -147,12 +152,14 @@ JOURNAL_FORMAT = 2
 
 
 def require_fingerprint(problems: Sequence[Problem], specs: Sequence[Specification], map_sigma_m: float | None,
-                        failures: int, budget_usd: float | None, constraints: Constraints | None) -> tuple[str, tuple[tuple[str, str], ...]]:
+                        failures: int, budget_usd: float | None, constraints: Constraints | None,
+                        estimate: str = "filter") -> tuple[str, tuple[tuple[str, str], ...]]:
     """(sha256, the inputs in words) of what a require run's answers depend on."""
     inputs = (
         ("routes", ", ".join(f"{p.scenario.name} {digest(to_jsonable(p.fingerprint))[:12]}" for p in problems)),
         ("specification", "; ".join(s.describe() for s in specs)),
         ("model", model_label("slam" if map_sigma_m is None else "map", map_sigma_m)),
+        ("estimate", estimate_label(estimate)),
         ("failures", str(failures)),
         ("budget", "none" if budget_usd is None else f"${budget_usd:,.2f}"),
         ("limits", "none" if constraints is None else constraints.describe()),
@@ -184,7 +191,8 @@ class RouteEngine(Protocol):
     @property
     def name(self) -> str: ...
 
-    def pose_covariances(self, suite: Iterable[int], *, map_sigma_m: float | None = None) -> np.ndarray: ...
+    def pose_covariances(self, suite: Iterable[int], *, map_sigma_m: float | None = None,
+                         estimate: str = "smoother") -> np.ndarray: ...
 
     def pose_covariance_floor(self, suite: Iterable[int], *, map_sigma_m: float | None = None) -> np.ndarray | None: ...
 
@@ -199,11 +207,14 @@ class _Oracle:
     is below the true one, so a specification the floor already misses is missed (monotone in each
     keyframe's errors, whatever the share of keyframes): the suite fails without its marginals. In
     the map model the floor is ~50-90 % of the true σ (KITTI 00, 03) and refutes most failing suites.
+    The floor is under the smoother's marginals, and so under the filter's (which use fewer
+    measurements: ⪰ the smoother's at every keyframe): it refutes for either ``estimate``.
     """
 
     def __init__(self, evaluators: Sequence[RouteEngine], names: Sequence[str], specs: Sequence[Specification],
-                 map_sigma_m: float | None) -> None:
+                 map_sigma_m: float | None, estimate: str = "filter") -> None:
         self.evaluators, self.names, self.specs, self.map_sigma_m = list(evaluators), list(names), list(specs), map_sigma_m
+        self.estimate = estimate
         self._verdicts: dict[tuple[int, Suite], tuple[RouteAccuracy, RouteVerdict]] = {}
         self._refuted: set[tuple[int, Suite]] = set()
         #: (route, suite) -> (meets, violation or None): answers read back from a journal
@@ -227,8 +238,8 @@ class _Oracle:
         key = (r, suite)
         got = self._verdicts.get(key)
         if got is None:
-            acc = accuracy_from_covariances(self.evaluators[r].pose_covariances(suite, map_sigma_m=self.map_sigma_m),
-                                            map_sigma_m=self.map_sigma_m, route=self.names[r])
+            cov = self.evaluators[r].pose_covariances(suite, map_sigma_m=self.map_sigma_m, estimate=self.estimate)
+            acc = accuracy_from_covariances(cov, map_sigma_m=self.map_sigma_m, route=self.names[r], estimate=self.estimate)
             got = self._verdicts[key] = (acc, verdict(acc, self.specs[r]))
             self.n_checks += 1
             self._answered()
@@ -243,7 +254,7 @@ class _Oracle:
         if key in self.known:
             return self.known[key][0]
         floor = self.evaluators[r].pose_covariance_floor(suite, map_sigma_m=self.map_sigma_m)
-        if floor is not None and not verdict(accuracy_from_covariances(floor, map_sigma_m=self.map_sigma_m),
+        if floor is not None and not verdict(accuracy_from_covariances(floor, map_sigma_m=self.map_sigma_m, estimate=self.estimate),
                                              self.specs[r]).meets:
             self._refuted.add(key)
             self.n_refuted += 1
@@ -274,13 +285,17 @@ def require(target: Target, specifications: Specification | Sequence[Specificati
             failures: int = 0, budget_usd: float | None = None, constraints: Constraints | None = None,
             engine: str | None = None, jobs: int = 1, time_limit_s: float | None = None,
             progress: Progress | None = None, checkpoint: str | Path | None = None, resume: bool = False,
-            conditions: Sequence[str] | None = None, evaluator: Evaluator | None = None) -> RequireResult:
+            conditions: Sequence[str] | None = None, evaluator: Evaluator | None = None,
+            estimate: str = "filter") -> RequireResult:
     """The cheapest suite meeting ``specifications`` on ``target`` (a route, or every route of a
     domain: one specification for all, or one per route in the domain's order).
 
     Args:
         map_sigma_m: localize in a prior map whose landmarks are known to this std [m]; None: the
             paper's SLAM graph.
+        estimate: the accuracy demanded is the filter's ("filter", the default: at each keyframe
+            from the measurements up to it, what the car has as it drives) or the smoother's
+            ("smoother": from the whole route, optimistic before the last keyframe).
         failures: α ≥ 0: still met after any α sensors of the suite fail.
         budget_usd: an upper limit on the price, or None.
         constraints: limits besides money (resources, slots, required / owned / excluded, most sensors).
@@ -299,6 +314,7 @@ def require(target: Target, specifications: Specification | Sequence[Specificati
             the library cannot meet.
     """
     t0 = time.perf_counter()
+    check_estimate(estimate)
     if isinstance(failures, bool) or not isinstance(failures, int) or failures < 0:
         raise InputError(f"--failures must be a whole number >= 0, got {failures!r}")
     if budget_usd is not None and not (math.isfinite(budget_usd) and budget_usd > 0):
@@ -327,10 +343,10 @@ def require(target: Target, specifications: Specification | Sequence[Specificati
         evaluators = [remote[i] for i in keep_idx]
     else:
         evaluators = [make_evaluator(p, engine, jobs=jobs) for _, p in problems]
-    oracle = _Oracle(evaluators, [n for n, _ in problems], specs, map_sigma_m)
+    oracle = _Oracle(evaluators, [n for n, _ in problems], specs, map_sigma_m, estimate)
     if checkpoint is not None:
         path = Path(checkpoint)
-        fp, inputs = require_fingerprint([p for _, p in problems], specs, map_sigma_m, failures, budget_usd, feas.record)
+        fp, inputs = require_fingerprint([p for _, p in problems], specs, map_sigma_m, failures, budget_usd, feas.record, estimate)
         old = _read_journal(path, fp, inputs) if resume else None
         if old is not None:
             oracle.known = {(r, tuple(s_)): (m, v) for r, s_, m, v in old.answers}
@@ -366,7 +382,7 @@ def require(target: Target, specifications: Specification | Sequence[Specificati
         status=found.status, suite=library.suite_ids(suite), cost_usd=float(feas.A[0, list(suite)].sum()) if suite else 0.0,
         lower_bound_usd=float(found.lower_bound), infeasible_by=found.infeasible_by, stop=found.stop,
         failures=failures, model="slam" if map_sigma_m is None else "map",
-        map_sigma_m=map_sigma_m, routes=routes, worst_failure=library.suite_ids(worst), worst_failure_routes=worst_routes,
+        map_sigma_m=map_sigma_m, estimate=estimate, routes=routes, worst_failure=library.suite_ids(worst), worst_failure_routes=worst_routes,
         iterations=int(found.iterations), n_checks=oracle.n_checks, n_refuted=oracle.n_refuted, engine=getattr(evaluator, "engine", None) or evaluators[0].name, budget_usd=budget_usd,
         constraints=feas.record, problem=target.info, seconds=time.perf_counter() - t0)
 

@@ -15,7 +15,7 @@ from typing import Sequence
 
 from sensorsel.designs.requirements.spec import Specification, at_rank, verdict
 from sensorsel.information.evaluators import as_suite, make_evaluator
-from sensorsel.information.evaluators.accuracy import Z95, RouteAccuracy, model_label, route_accuracy
+from sensorsel.information.evaluators.accuracy import Z95, RouteAccuracy, estimate_label, model_label, route_accuracy
 from sensorsel.io.results import result_kind
 from sensorsel.model.problem import Domain, Target, TargetInfo
 
@@ -56,6 +56,8 @@ class FrontAcceptance:
         specifications: (route, its specification) pairs, or () without one.
         points: the front's suites, cheapest first.
         problem: what it was computed on.
+        estimate: "filter" (as the car drives) or "smoother" (the whole route); files written
+            before estimates existed hold the smoother's, and load so.
     """
 
     model: str
@@ -63,10 +65,11 @@ class FrontAcceptance:
     specifications: tuple[tuple[str, Specification], ...]
     points: tuple[FrontPoint, ...]
     problem: TargetInfo | None = None
+    estimate: str = "smoother"
 
     @property
     def model_label(self) -> str:
-        return model_label(self.model, self.map_sigma_m)
+        return f"{model_label(self.model, self.map_sigma_m)}, {estimate_label(self.estimate)}"
 
     @property
     def cheapest_meeting(self) -> FrontPoint | None:
@@ -76,16 +79,17 @@ class FrontAcceptance:
 
 def front_acceptance(target: Target, front: Sequence[tuple[Sequence[str], float, float]],
                      specifications: Sequence[Specification] | None, *, map_sigma_m: float | None,
-                     engine: str | None = None) -> FrontAcceptance:
+                     engine: str | None = None, estimate: str = "filter") -> FrontAcceptance:
     """Each front suite ``(ids, cost, score)``'s accuracy on every route of ``target`` and whether
-    it meets ``specifications`` (one per route in the domain's order, or None: accuracy only)."""
+    it meets ``specifications`` (one per route in the domain's order, or None: accuracy only);
+    ``estimate``: the filter's (as the car drives) or the smoother's (each accuracy records it)."""
     routes = [(r.name, r.problem) for r in target.routes] if isinstance(target, Domain) else [(target.scenario.name, target)]
     evaluators = [make_evaluator(p, engine) for _, p in routes]
     lib = target.library
     points = []
     for ids, cost, score in front:
         positions = as_suite(lib.resolve_suite(list(ids)))
-        accs = tuple(route_accuracy(ev, positions, map_sigma_m=map_sigma_m, route=name)
+        accs = tuple(route_accuracy(ev, positions, map_sigma_m=map_sigma_m, route=name, estimate=estimate)
                      for ev, (name, _) in zip(evaluators, routes))
         if specifications is None:
             lat = max(Z95 * a.lateral.max for a in accs)
@@ -97,4 +101,4 @@ def front_acceptance(target: Target, front: Sequence[tuple[Sequence[str], float,
                                  max(v.violation for v in verdicts)))
     specs = tuple(zip([n for n, _ in routes], specifications)) if specifications is not None else ()
     return FrontAcceptance("slam" if map_sigma_m is None else "map", map_sigma_m, specs,
-                           tuple(sorted(points, key=lambda p: (p.cost_usd, -p.score))), target.info)
+                           tuple(sorted(points, key=lambda p: (p.cost_usd, -p.score))), target.info, estimate)

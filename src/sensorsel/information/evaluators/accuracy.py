@@ -15,6 +15,13 @@ Two localization models (:data:`MODELS`), and an accuracy always says which prod
   relative to the first pose's prior and grows along the route between loop closures.
 - ``map``: a deployed car localizing in a prior map whose landmarks are known to ``map_sigma_m``
   (each landmark's weak prior replaced by an isotropic prior of that std).
+
+Two estimates (:data:`ESTIMATES`), and an accuracy always says which it is of:
+
+- ``filter`` (the default): at each keyframe, from the measurements up to it: the accuracy the car
+  has as it drives (:func:`sensorsel.information.filtering.forward_pass`).
+- ``smoother``: from every measurement of the route, before and after the keyframe (what a
+  survey solved afterwards has); never worse than the filter's, equal at the last keyframe.
 """
 
 from __future__ import annotations
@@ -26,8 +33,9 @@ from typing import Iterable
 import numpy as np
 
 from sensorsel.information.evaluators.base import ProblemEvaluator
+from sensorsel.information.filtering import ESTIMATES, check_estimate
 
-__all__ = ["MODELS", "Z95", "RouteAccuracy", "Spread", "route_accuracy", "model_label"]
+__all__ = ["ESTIMATES", "MODELS", "Z95", "RouteAccuracy", "Spread", "route_accuracy", "model_label", "estimate_label"]
 
 #: the localization models: the paper's SLAM graph, or localization in a prior map
 MODELS = ("slam", "map")
@@ -68,6 +76,8 @@ class RouteAccuracy:
         heading_sigma_deg: (K,) 1σ heading error [deg].
         lateral, longitudinal, heading: each component's :class:`Spread` over the keyframes.
         route: the route's name (a domain's accuracy has one per route).
+        estimate: ``"filter"`` (as the car drives) or ``"smoother"`` (the whole route) (:data:`ESTIMATES`);
+            result files written before estimates existed hold the smoother's, and load so.
     """
 
     model: str
@@ -79,6 +89,7 @@ class RouteAccuracy:
     longitudinal: Spread
     heading: Spread
     route: str = ""
+    estimate: str = "smoother"
 
     @property
     def n_keyframes(self) -> int:
@@ -98,7 +109,7 @@ class RouteAccuracy:
             d = 3 if unit == "m" else 2
             parts.append(f"{label} {Z95 * s.median:.{d}f} / {Z95 * s.p95:.{d}f} / {Z95 * s.max:.{d}f} {unit} "
                          f"(keyframe {s.worst_keyframe})")
-        return (f"{model_label(self.model, self.map_sigma_m)}; 95% errors, median / 95th percentile / worst keyframe: "
+        return (f"{model_label(self.model, self.map_sigma_m)}, {estimate_label(self.estimate)}; 95% errors, median / 95th percentile / worst keyframe: "
                 + ", ".join(parts))
 
 
@@ -109,6 +120,11 @@ def model_label(model: str, map_sigma_m: float | None) -> str:
     return "SLAM (landmarks unknown)"
 
 
+def estimate_label(estimate: str) -> str:
+    """Words for an estimate: "filter (as the car drives)" or "smoother (whole route)"."""
+    return {"filter": "filter (as the car drives)", "smoother": "smoother (whole route)"}.get(estimate, estimate)
+
+
 def _spread(values: np.ndarray) -> Spread:
     if values.size == 0:
         return Spread(math.nan, math.nan, math.nan, -1)
@@ -116,9 +132,11 @@ def _spread(values: np.ndarray) -> Spread:
                   int(np.argmax(values)))
 
 
-def accuracy_from_covariances(covariances: np.ndarray, *, map_sigma_m: float | None, route: str = "") -> RouteAccuracy:
+def accuracy_from_covariances(covariances: np.ndarray, *, map_sigma_m: float | None, route: str = "",
+                              estimate: str = "smoother") -> RouteAccuracy:
     """The :class:`RouteAccuracy` of (K, 3, 3) pose marginal covariances (Pose2 tangent: x forward,
-    y left [m], θ [rad]); ``map_sigma_m`` None for the SLAM model."""
+    y left [m], θ [rad]); ``map_sigma_m`` None for the SLAM model; ``estimate`` the estimate they
+    are of (:data:`ESTIMATES`)."""
     cov = np.asarray(covariances, dtype=float)
     diag = np.sqrt(np.maximum(np.diagonal(cov, axis1=1, axis2=2), 0.0))  # (K, 3)
     lon, lat, head = diag[:, 0], diag[:, 1], np.degrees(diag[:, 2])
@@ -126,12 +144,15 @@ def accuracy_from_covariances(covariances: np.ndarray, *, map_sigma_m: float | N
         model="slam" if map_sigma_m is None else "map", map_sigma_m=map_sigma_m,
         lateral_sigma_m=tuple(lat.tolist()), longitudinal_sigma_m=tuple(lon.tolist()),
         heading_sigma_deg=tuple(head.tolist()),
-        lateral=_spread(lat), longitudinal=_spread(lon), heading=_spread(head), route=route)
+        lateral=_spread(lat), longitudinal=_spread(lon), heading=_spread(head), route=route,
+        estimate=check_estimate(estimate))
 
 
 def route_accuracy(evaluator: ProblemEvaluator, suite: Iterable[int], *, map_sigma_m: float | None = None,
-                   route: str = "") -> RouteAccuracy:
+                   route: str = "", estimate: str = "filter") -> RouteAccuracy:
     """The accuracy of ``suite`` (library positions) on the evaluator's route, in the SLAM model
-    (``map_sigma_m`` None) or localizing in a map whose landmarks are known to ``map_sigma_m`` [m]."""
-    return accuracy_from_covariances(evaluator.pose_covariances(suite, map_sigma_m=map_sigma_m),
-                                     map_sigma_m=map_sigma_m, route=route or evaluator.problem.scenario.name)
+    (``map_sigma_m`` None) or localizing in a map whose landmarks are known to ``map_sigma_m`` [m];
+    of the filter's estimate (as the car drives, the default) or the smoother's (:data:`ESTIMATES`)."""
+    return accuracy_from_covariances(evaluator.pose_covariances(suite, map_sigma_m=map_sigma_m, estimate=estimate),
+                                     map_sigma_m=map_sigma_m, route=route or evaluator.problem.scenario.name,
+                                     estimate=estimate)

@@ -19,6 +19,7 @@ from typing import ClassVar, Iterable, Sequence
 import numpy as np
 
 from sensorsel.errors import InputError
+from sensorsel.information.filtering import check_estimate, forward_pass
 from sensorsel.model.library import SensorLibrary
 from sensorsel.model.problem import Problem
 
@@ -140,11 +141,17 @@ class ProblemEvaluator(Evaluator):
         """f(S) = log det L(S) - log det L(empty) [nats]."""
         return self.logdet(suite) - self.baseline_logdet
 
-    def pose_covariances(self, suite: Iterable[int], *, map_sigma_m: float | None = None) -> np.ndarray:
-        """The marginal covariance of every keyframe's pose under the suite, shape (K, 3, 3): the
-        3×3 diagonal blocks of the inverse information (landmarks eliminated), in Pose2's tangent
-        space at the truth: (dx, dy [m] in the keyframe's own frame, x forward and y to the left;
-        dθ [rad]), as GTSAM's ``Marginals.marginalCovariance(X(k))`` gives it.
+    def pose_covariances(self, suite: Iterable[int], *, map_sigma_m: float | None = None,
+                         estimate: str = "smoother") -> np.ndarray:
+        """The marginal covariance of every keyframe's pose under the suite, shape (K, 3, 3), in
+        Pose2's tangent space at the truth: (dx, dy [m] in the keyframe's own frame, x forward and
+        y to the left; dθ [rad]), as GTSAM's ``Marginals.marginalCovariance(X(k))`` gives it.
+
+        ``estimate``: "smoother" (the 3×3 diagonal blocks of the inverse information of the whole
+        route, landmarks eliminated: every measurement, before and after the keyframe) or "filter"
+        (at each keyframe, from the measurements up to it: what the car has as it drives, by one
+        forward pass, :func:`sensorsel.information.filtering.forward_pass`). The filter's is ⪰ the
+        smoother's at every keyframe (PSD order), equal at the last.
 
         ``map_sigma_m``: None for the paper's SLAM graph (landmarks unknown: a weak prior only, so
         the uncertainty grows along the route from the first pose's prior); a number [m] for
@@ -153,9 +160,13 @@ class ProblemEvaluator(Evaluator):
         """
         s = as_suite(suite)
         self._check_positions(s)
+        check_estimate(estimate)
         if map_sigma_m is not None and not (np.isfinite(map_sigma_m) and map_sigma_m > 0):
             raise InputError(f"map sigma must be a positive number of metres, got {map_sigma_m!r}")
-        return self._pose_covariances(s, None if map_sigma_m is None else float(map_sigma_m))
+        ms = None if map_sigma_m is None else float(map_sigma_m)
+        if estimate == "filter":
+            return forward_pass(self.problem, s, map_sigma_m=ms).filtered
+        return self._pose_covariances(s, ms)
 
     def _pose_covariances(self, suite: Suite, map_sigma_m: float | None) -> np.ndarray:
         raise NotImplementedError(f"the {self.name!r} engine computes no pose covariances")
@@ -163,5 +174,7 @@ class ProblemEvaluator(Evaluator):
     def pose_covariance_floor(self, suite: Iterable[int], *, map_sigma_m: float | None = None) -> np.ndarray | None:
         """A cheap lower bound on :meth:`pose_covariances`, shape (K, 3, 3) (each block below the
         true marginal covariance in the positive semidefinite order, so each σ below the true one),
-        or None when the engine has none (the default). Not counted in :attr:`n_evaluations`."""
+        or None when the engine has none (the default). Not counted in :attr:`n_evaluations`.
+        A floor under the smoother's covariances is one under the filter's too (the filter's are
+        ⪰ the smoother's: fewer measurements), so one floor serves both estimates."""
         return None

@@ -1,0 +1,228 @@
+"""The forward pass (the filter: the accuracy the car has as it drives), against GTSAM's Marginals on
+the batch graph of the measurements up to each keyframe, against the dense inverse of the truncated
+information matrix, and against the smoother (equal at the last keyframe, never better elsewhere)."""
+
+from __future__ import annotations
+
+import json
+
+import gtsam
+import numpy as np
+import pytest
+from gtsam.symbol_shorthand import L, X
+
+from sensorsel.api import ScoreResult, score_suite
+from sensorsel.errors import InputError
+from sensorsel.information.evaluators import FastEvaluator
+from sensorsel.information.evaluators.accuracy import route_accuracy
+from sensorsel.information.filtering import ESTIMATES, FilterPass, forward_pass, keyframe_measurements
+from sensorsel.information.graph import (MeasurementNoise, add_bearing_range, add_pose_chain, diagonal, landmark_prior,
+                                         pose2, truth_steps)
+from sensorsel.information.linearize import bearing_range_jacobians, odometry_jacobians
+from sensorsel.io import results
+from sensorsel.model.conditions import parse_condition
+from sensorsel.model.problem import build_problem, with_condition
+from sensorsel.model.scenario import Scenario
+
+MODELS = (None, 0.05)  # the SLAM graph (weak 100 m landmark prior) and a map known to 5 cm
+
+
+@pytest.fixture(scope="module")
+def suburb_cut(library, suburb_problem):
+    """The bundled suburb route's first 18 keyframes (its landmarks all kept)."""
+    sc = suburb_problem.scenario
+    cut = Scenario("suburb-cut", sc.keyframes.select(np.arange(18)), sc.landmarks, sc.landmark_source)
+    return build_problem(library, cut)
+
+
+def _drop_every_third(pred, meas) -> np.ndarray:
+    """A ``use`` that leaves out every third measurement of each keyframe (a fixed, checkable mask)."""
+    return np.arange(len(meas)) % 3 != 1
+
+
+def _gtsam_marginal(problem, suite, k: int, *, map_sigma_m, with_k: bool, use=None) -> np.ndarray:
+    """GTSAM's Marginals of X(k) in the batch graph of the priors, the odometry up to k and the
+    (used) measurements of keyframes < k (and k's with ``with_k``): the filter's definition."""
+    s = problem.settings
+    poses = [pose2(q) for q in problem.scenario.keyframes.poses[:k + 1]]
+    g = gtsam.NonlinearFactorGraph()
+    add_pose_chain(g, poses[0], truth_steps(poses), diagonal(s.first_pose_sigmas), diagonal(s.odometry_sigmas))
+    values = gtsam.Values()
+    for i, p in enumerate(poses):
+        values.insert(X(i), p)
+    prior = gtsam.noiseModel.Isotropic.Sigma(2, s.landmark_prior_sigma_m if map_sigma_m is None else map_sigma_m)
+    for j, (x, y) in enumerate(problem.scenario.landmarks):
+        point = gtsam.Point2(float(x), float(y))
+        g.add(landmark_prior(j, point, prior))
+        values.insert(L(j), point)
+    noise = MeasurementNoise()
+    for m in keyframe_measurements(problem, suite)[:k + int(with_k)]:
+        keep = np.ones(len(m), bool) if use is None else use(None, m)
+        if keep.any():
+            add_bearing_range(g, np.full(int(keep.sum()), m.keyframe), m.landmark[keep], m.bearing_rad[keep], m.range_m[keep],
+                              [noise(a, b) for a, b in zip(m.sigma_bearing_rad[keep], m.sigma_range_m[keep])])
+    return gtsam.Marginals(g, values).marginalCovariance(X(k))
+
+
+def _check_against_gtsam(problem, suite, map_sigma_m, use=None, keyframes=None) -> FilterPass:
+    fp = forward_pass(problem, suite, map_sigma_m=map_sigma_m, use=use)
+    K = problem.scenario.n_poses
+    for k in keyframes if keyframes is not None else range(K):
+        for with_k, got in ((True, fp.filtered[k]), (False, fp.predicted[k])):
+            want = _gtsam_marginal(problem, suite, k, map_sigma_m=map_sigma_m, with_k=with_k, use=use)
+            np.testing.assert_allclose(got, want, rtol=1e-8, atol=1e-12 * np.abs(want).max(),
+                                       err_msg=f"keyframe {k}, {'filtered' if with_k else 'predicted'}")
+    return fp
+
+
+@pytest.mark.parametrize("map_sigma_m", MODELS)
+def test_filtered_and_predicted_equal_gtsam_on_tiny(tiny_problem, map_sigma_m):
+    suite = tuple(range(0, tiny_problem.n_sensors, 2))
+    fp = _check_against_gtsam(tiny_problem, suite, map_sigma_m)
+    assert fp.n_used.sum() == fp.n_measured.sum() == sum(len(tiny_problem.observations[i]) for i in suite)
+
+
+@pytest.mark.parametrize("map_sigma_m", MODELS)
+def test_filtered_and_predicted_equal_gtsam_on_a_cut_of_suburb_with_measurements_left_out(suburb_cut, map_sigma_m):
+    suite = tuple(range(0, suburb_cut.n_sensors, 5))
+    fp = _check_against_gtsam(suburb_cut, suite, map_sigma_m, use=_drop_every_third, keyframes=range(0, 18, 3))
+    # the mask was applied: a third (rounded) of each keyframe's measurements left out
+    np.testing.assert_array_equal(fp.n_used, [len(np.flatnonzero(np.arange(m) % 3 != 1)) for m in fp.n_measured])
+    assert fp.n_used.sum() < fp.n_measured.sum()
+
+
+def test_filter_equals_gtsam_at_night(suburb_cut):
+    night = with_condition(suburb_cut, parse_condition("night"))
+    suite = tuple(range(0, night.n_sensors, 4))
+    fp = _check_against_gtsam(night, suite, 0.05, keyframes=(0, 9, 17))
+    clear = forward_pass(suburb_cut, suite, map_sigma_m=0.05)
+    assert fp.n_measured.sum() != clear.n_measured.sum() or not np.allclose(fp.filtered, clear.filtered)
+
+
+@pytest.mark.parametrize("map_sigma_m", MODELS)
+def test_last_keyframe_is_the_smoother_and_the_filter_never_better(suburb_problem, map_sigma_m):
+    ev = FastEvaluator(suburb_problem)
+    suite = (0, 7, 20, 41)
+    smooth = ev.pose_covariances(suite, map_sigma_m=map_sigma_m, estimate="smoother")
+    filt = ev.pose_covariances(suite, map_sigma_m=map_sigma_m, estimate="filter")
+    np.testing.assert_allclose(filt[-1], smooth[-1], rtol=1e-7, atol=1e-14)
+    scale = np.abs(smooth).max()
+    # filtered ⪰ smoothed in the PSD order at every keyframe (fewer measurements)
+    gaps = np.linalg.eigvalsh(filt - smooth)
+    assert gaps.min() > -1e-9 * scale
+    # and strictly worse somewhere before the last keyframe (the filter is not the smoother)
+    assert np.trace(filt[:-1] - smooth[:-1], axis1=1, axis2=2).max() > 1e-3 * np.trace(smooth[0])
+    # the cheap floor require refutes with is under the filter's covariances too
+    floor = ev.pose_covariance_floor(suite, map_sigma_m=map_sigma_m)
+    assert np.linalg.eigvalsh(filt - floor).min() > -1e-9 * scale
+
+
+def _dense_information(problem, suite, k: int, map_sigma_m) -> np.ndarray:
+    """The information matrix, dense, of the graph the prediction at keyframe k is of: priors,
+    odometry up to k, the measurements of keyframes < k; variables poses 0..k (3 each, Pose2
+    tangent) then every landmark (2 each), written from the Jacobians at the truth."""
+    s = problem.settings
+    sc = problem.scenario
+    M = sc.n_landmarks
+    n = 3 * (k + 1) + 2 * M
+    lam = np.zeros((n, n))
+    lam[:3, :3] = np.diag(1.0 / np.asarray(s.first_pose_sigmas) ** 2)
+    odo = odometry_jacobians(sc.keyframes.poses[:k + 1])
+    w = np.diag(1.0 / np.asarray(s.odometry_sigmas) ** 2)
+    for i in range(1, k + 1):
+        J = np.zeros((3, n))
+        J[:, 3 * (i - 1):3 * i], J[:, 3 * i:3 * i + 3] = odo[i - 1], np.eye(3)
+        lam += J.T @ w @ J
+    prior = s.landmark_prior_sigma_m if map_sigma_m is None else map_sigma_m
+    lam[3 * (k + 1):, 3 * (k + 1):] += np.eye(2 * M) / prior**2
+    for m in keyframe_measurements(problem, suite)[:k]:
+        jac = bearing_range_jacobians(np.repeat(sc.keyframes.poses[m.keyframe][None], len(m), 0), sc.landmarks[m.landmark])
+        for row, j, sb, sr in zip(jac, m.landmark, m.sigma_bearing_rad, m.sigma_range_m):
+            J = np.zeros((2, n))
+            J[:, 3 * m.keyframe:3 * m.keyframe + 3] = row[:, :3]
+            J[:, 3 * (k + 1) + 2 * j:3 * (k + 1) + 2 * j + 2] = row[:, 3:]
+            lam += J.T @ np.diag([1 / sb**2, 1 / sr**2]) @ J
+    return lam
+
+
+@pytest.mark.parametrize("map_sigma_m", MODELS)
+def test_prediction_joint_covariance_is_the_dense_inverse(suburb_cut, map_sigma_m):
+    suite = tuple(range(0, suburb_cut.n_sensors, 5))
+    preds = {}
+    forward_pass(suburb_cut, suite, map_sigma_m=map_sigma_m,
+                 on_prediction=lambda p, m: preds.__setitem__(p.keyframe, (p, m)))
+    assert sorted(preds) == list(range(suburb_cut.scenario.n_poses))
+    prior = suburb_cut.settings.landmark_prior_sigma_m if map_sigma_m is None else map_sigma_m
+    for k in (3, 10, 17):
+        p, meas = preds[k]
+        assert p.prior_sigma_m == prior and np.all(np.diff(p.landmarks) > 0)
+        cov = np.linalg.inv(_dense_information(suburb_cut, suite, k, map_sigma_m))
+        lm = 3 * (k + 1) + 2 * p.landmarks[:, None] + np.arange(2)
+        idx = np.concatenate([np.arange(3 * k, 3 * k + 3), lm.ravel()])
+        want = cov[np.ix_(idx, idx)]
+        assert p.covariance.shape == (3 + 2 * len(p.landmarks),) * 2
+        np.testing.assert_allclose(p.covariance, want, rtol=1e-6, atol=1e-9 * np.abs(want[:3, :3]).max())
+        # a landmark measured at k that is not in the state: never measured before, so
+        # independent of the pose with its prior covariance (what the docstring promises)
+        outside = np.setdiff1d(meas.landmark, p.landmarks)
+        for j in outside:
+            b = 3 * (k + 1) + 2 * j
+            np.testing.assert_allclose(cov[b:b + 2, b:b + 2], prior**2 * np.eye(2), rtol=1e-9)
+            assert np.abs(cov[3 * k:3 * k + 3, b:b + 2]).max() < 1e-9 * prior**2
+        assert len(p.landmarks) > 0
+
+
+def test_use_gets_the_prediction_and_a_wrong_mask_is_refused(tiny_problem):
+    seen = []
+
+    def use(pred, meas):
+        seen.append((pred.keyframe, len(meas), pred.covariance.shape))
+        return np.ones(len(meas), bool)
+
+    fp = forward_pass(tiny_problem, (0, 1), use=use)
+    assert [s[0] for s in seen] == list(range(tiny_problem.scenario.n_poses))
+    assert [s[1] for s in seen] == fp.n_measured.tolist()
+    # leaving every measurement out is odometry alone: the same as the empty suite
+    none = forward_pass(tiny_problem, (0, 1), use=lambda p, m: np.zeros(len(m), bool))
+    np.testing.assert_allclose(none.filtered, forward_pass(tiny_problem, ()).filtered, rtol=1e-12)
+    assert none.n_used.sum() == 0
+    with pytest.raises(ValueError, match="mask of shape"):
+        forward_pass(tiny_problem, (0, 1), use=lambda p, m: np.ones(len(m) + 1, bool))
+
+
+def test_keyframe_measurements_are_the_suites_in_a_fixed_order(suburb_problem):
+    suite = (3, 11, 30)
+    groups = keyframe_measurements(suburb_problem, suite)
+    assert [g.keyframe for g in groups] == list(range(suburb_problem.scenario.n_poses))
+    assert sum(len(g) for g in groups) == sum(len(suburb_problem.observations[i]) for i in suite)
+    for g in groups:
+        order = np.lexsort((g.landmark, g.sensor))
+        np.testing.assert_array_equal(order, np.arange(len(g)))
+        assert set(g.sensor.tolist()) <= set(suite)
+    with pytest.raises(InputError, match="outside the library"):
+        keyframe_measurements(suburb_problem, (10_000,))
+
+
+def test_accuracy_says_its_estimate_and_old_files_load_as_the_smoother(suburb_problem, tmp_path):
+    ev = FastEvaluator(suburb_problem)
+    accs = {e: route_accuracy(ev, (0, 7), map_sigma_m=0.05, estimate=e) for e in ESTIMATES}
+    assert "filter (as the car drives)" in accs["filter"].line()
+    assert "smoother (whole route)" in accs["smoother"].line()
+    assert accs["filter"].heading.median >= accs["smoother"].heading.median
+    assert route_accuracy(ev, (0, 7), map_sigma_m=0.05).estimate == "filter"  # the default
+    with pytest.raises(InputError, match="--estimate"):
+        route_accuracy(ev, (0, 7), estimate="kalman")
+    # recorded in results (a score's accuracy); a file written before estimates existed loads as the smoother's
+    res = score_suite(suburb_problem, (0, 7), map_sigma_m=0.05)
+    assert res.accuracy is not None and res.accuracy.estimate == "filter"
+    path = tmp_path / "score.json"
+    results.save(res, path)
+    assert results.load(path, ScoreResult).accuracy.estimate == "filter"
+    def strip(node):
+        if isinstance(node, dict):
+            return {k: strip(v) for k, v in node.items() if k != "estimate"}
+        return [strip(v) for v in node] if isinstance(node, list) else node
+
+    path.write_text(json.dumps(strip(json.loads(path.read_text()))))
+    assert "estimate" not in path.read_text()
+    assert results.load(path, ScoreResult).accuracy.estimate == "smoother"
