@@ -107,6 +107,8 @@ class RouteIntegrity:
         integrity_risk_per_hour: n_h × the mean of ``integrity_risk``.
         n_measured, n_used: (K,) measurements the suite made and used.
         left_out: what the lever left out, per keyframe and sensor.
+        lateral_sigma_m, longitudinal_sigma_m, heading_sigma_deg: (K,) the car's 1σ after each
+            keyframe's used measurements (the filter; with the lever, what is used) [m, m, deg].
     """
 
     route: str
@@ -124,6 +126,9 @@ class RouteIntegrity:
     n_used: tuple[int, ...] = ()
     left_out: tuple[LeftOut, ...] = ()
     estimate: str = "filter"
+    lateral_sigma_m: tuple[float, ...] = ()
+    longitudinal_sigma_m: tuple[float, ...] = ()
+    heading_sigma_deg: tuple[float, ...] = ()
 
     @property
     def meets(self) -> bool:
@@ -147,6 +152,11 @@ class RouteIntegrity:
         if s.max_association_risk is not None:
             n_out = sum(x.count for x in self.left_out)
             text += f"; {n_out} of {sum(self.n_measured)} measurements left out (risk > {s.max_association_risk:g})"
+            if self.lateral_sigma_m:
+                z = 1.959963984540054
+                text += (f"; with what is used, 95% errors at the worst keyframe (filter): lateral "
+                         f"{z * max(self.lateral_sigma_m):.3f} m, longitudinal {z * max(self.longitudinal_sigma_m):.3f} m, "
+                         f"heading {z * max(self.heading_sigma_deg):.2f} deg")
         return text
 
 
@@ -230,6 +240,7 @@ def route_integrity(problem: Problem, suite: Iterable[int], spec: IntegritySpec 
     n_h = keyframes_per_hour(problem)
     risk = np.minimum(1.0, tail_risk(fp.filtered, spec) + p_wrong)
     lat, lon = protection_levels(fp.filtered, p_wrong, spec.integrity_risk / n_h)
+    sig = _sigmas(fp.filtered)
     return RouteIntegrity(
         route=route or problem.scenario.name, model=model, map_sigma_m=map_sigma_m, spec=spec, keyframes_per_hour=n_h,
         p_wrong_association=tuple(p_wrong.tolist()), p_wrong_association_estimate=tuple(hook.estimate),
@@ -237,4 +248,5 @@ def route_integrity(problem: Problem, suite: Iterable[int], spec: IntegritySpec 
         protection_level_longitudinal_m=tuple(lon.tolist()),
         integrity_risk_per_hour=float(n_h * risk.mean()) if risk.size else 0.0,
         n_measured=tuple(int(x) for x in fp.n_measured), n_used=tuple(int(x) for x in fp.n_used),
-        left_out=tuple(hook.left_out))
+        left_out=tuple(hook.left_out), lateral_sigma_m=tuple(sig[:, 1].tolist()),
+        longitudinal_sigma_m=tuple(sig[:, 0].tolist()), heading_sigma_deg=tuple(sig[:, 2].tolist()))
