@@ -160,8 +160,8 @@ def measurement_risks(pose: np.ndarray, points: np.ndarray, prediction: Predicti
     state = np.asarray(prediction.landmarks, np.int64)
     has_right = np.ones(m, bool) if model == "map" else np.isin(meas.landmark, state)
     # all (measurement, candidate) pairs but the truly measured landmark
-    mi, cj = np.meshgrid(np.arange(m), near, indexing="ij")
-    mi, cj = mi.ravel(), cj.ravel()
+    mi = np.repeat(np.arange(m), near.size)
+    cj = np.tile(near, m)
     # a candidate is another landmark within CANDIDATE_SCALE r + CANDIDATE_MARGIN_M of the car, r the
     # measurement's own range: so a measurement's risk depends on its own geometry and the covariance
     # only, never on which other measurements the suite makes
