@@ -39,7 +39,7 @@ from sensorsel.information.integrity.association import AssociationModel, keyfra
 from sensorsel.io.results import result_kind
 from sensorsel.model.problem import Problem
 
-__all__ = ["IntegritySpec", "LeftOut", "RouteIntegrity", "route_integrity", "tail_risk", "protection_levels",
+__all__ = ["IntegritySpec", "LeftOut", "RouteIntegrity", "SensorAssociation", "route_integrity", "tail_risk", "protection_levels",
            "keyframes_per_hour"]
 
 
@@ -88,6 +88,25 @@ class LeftOut:
     count: int
 
 
+@dataclass(frozen=True)
+class SensorAssociation:
+    """One sensor's association risk over a route (its used measurements only).
+
+    Attributes:
+        sensor: its id.
+        measurements: measurements it made; used: those used.
+        expected_wrong: the sum of their estimated P(wrong association): the expected number of
+            wrong associations over the route.
+        worst_bound: the largest bound of one of its measurements.
+    """
+
+    sensor: str
+    measurements: int
+    used: int
+    expected_wrong: float
+    worst_bound: float
+
+
 @result_kind("integrity")
 @dataclass(frozen=True)
 class RouteIntegrity:
@@ -109,6 +128,8 @@ class RouteIntegrity:
         left_out: what the lever left out, per keyframe and sensor.
         lateral_sigma_m, longitudinal_sigma_m, heading_sigma_deg: (K,) the car's 1σ after each
             keyframe's used measurements (the filter; with the lever, what is used) [m, m, deg].
+        p_error_tail: (K,) P(error beyond an alert limit | right association) (its bound).
+        by_sensor: each sensor's association risk over the route, in library order.
     """
 
     route: str
@@ -129,6 +150,8 @@ class RouteIntegrity:
     lateral_sigma_m: tuple[float, ...] = ()
     longitudinal_sigma_m: tuple[float, ...] = ()
     heading_sigma_deg: tuple[float, ...] = ()
+    p_error_tail: tuple[float, ...] = ()
+    by_sensor: tuple[SensorAssociation, ...] = ()
 
     @property
     def meets(self) -> bool:
@@ -136,25 +159,38 @@ class RouteIntegrity:
         return self.integrity_risk_per_hour <= self.spec.integrity_risk
 
     def line(self) -> str:
-        """One line: the risk per hour against the requirement, the worst keyframe's association risk
-        (bound and estimate) and protection levels, and what the lever left out."""
+        """One line: the risk per hour against the requirement and its two parts, the worst keyframe's
+        association risk (bound and estimate), the riskiest sensor, the protection levels, and what
+        the lever left out (with the 95 % errors of what is used)."""
         pw = np.asarray(self.p_wrong_association)
-        worst = int(np.argmax(pw)) if pw.size else -1
-        pl_lat = max(self.protection_level_lateral_m, default=math.nan)
-        pl_lon = max(self.protection_level_longitudinal_m, default=math.nan)
         s = self.spec
         verdict = "ok" if self.meets else "FAILS"
-        text = (f"{self.integrity_risk_per_hour:.2g}/h of {s.integrity_risk:.2g}/h ({verdict}; alert limits "
-                f"{s.alert_lateral_m:g} m lat, {s.alert_longitudinal_m:g} m lon, {s.alert_heading_deg:g} deg); "
-                f"P(wrong association) worst keyframe {worst}: {pw.max() if pw.size else 0.0:.2g} bound, "
-                f"{self.p_wrong_association_estimate[worst] if pw.size else 0.0:.2g} estimate; "
-                f"protection levels worst {_fmt(pl_lat)} m lat, {_fmt(pl_lon)} m lon")
+        n_h = self.keyframes_per_hour
+        assoc_h = n_h * float(np.mean(pw)) if pw.size else 0.0
+        tail_h = n_h * float(np.mean(self.p_error_tail)) if self.p_error_tail else 0.0
+        text = (f"{self.integrity_risk_per_hour:.2g}/h of {s.integrity_risk:.2g}/h ({verdict}: association "
+                f"{assoc_h:.2g}/h, error tail {tail_h:.2g}/h; alert limits {s.alert_lateral_m:g} m lat, "
+                f"{s.alert_longitudinal_m:g} m lon, {s.alert_heading_deg:g} deg; filter)")
+        if pw.size:
+            worst = int(np.argmax(pw))
+            text += (f"; P(wrong association) worst keyframe {worst}: {pw[worst]:.2g} bound, "
+                     f"{self.p_wrong_association_estimate[worst]:.2g} estimate")
+        risky = max(self.by_sensor, key=lambda x: x.expected_wrong, default=None)
+        if risky is not None and risky.expected_wrong > 0:
+            text += f"; riskiest {risky.sensor} ({risky.expected_wrong:.2g} wrong expected on the route)"
+        lat, lon = np.asarray(self.protection_level_lateral_m), np.asarray(self.protection_level_longitudinal_m)
+        finite = np.isfinite(lat)
+        if finite.any():
+            text += (f"; protection levels median {np.median(lat[finite]):.3f} m lat, "
+                     f"{np.median(lon[finite]):.3f} m lon")
+        if not finite.all():
+            text += f" (none at {int((~finite).sum())} of {lat.size} keyframes: association risk over the allocation)"
         if s.max_association_risk is not None:
             n_out = sum(x.count for x in self.left_out)
             text += f"; {n_out} of {sum(self.n_measured)} measurements left out (risk > {s.max_association_risk:g})"
             if self.lateral_sigma_m:
                 z = 1.959963984540054
-                text += (f"; with what is used, 95% errors at the worst keyframe (filter): lateral "
+                text += (f"; with what is used, 95% errors at the worst keyframe: lateral "
                          f"{z * max(self.lateral_sigma_m):.3f} m, longitudinal {z * max(self.longitudinal_sigma_m):.3f} m, "
                          f"heading {z * max(self.heading_sigma_deg):.2f} deg")
         return text
@@ -211,11 +247,21 @@ class _Collector:
     bound: list[float] = field(default_factory=list)
     estimate: list[float] = field(default_factory=list)
     left_out: list[LeftOut] = field(default_factory=list)
+    #: per library sensor: measurements made, used, Σ estimate, max bound
+    per_sensor: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))
+
+    def __post_init__(self) -> None:
+        self.per_sensor = np.zeros((len(self.sensor_ids), 4))
 
     def __call__(self, prediction: Prediction, meas: KeyframeMeasurements) -> np.ndarray:
         r = self.model.risks(prediction, meas)
         mask = np.ones(len(meas.landmark), bool) if self.threshold is None else r.bound <= self.threshold
         est, bnd = keyframe_risk(r.estimate[mask], r.bound[mask])
+        sensor = np.asarray(meas.sensor, np.int64)
+        np.add.at(self.per_sensor[:, 0], sensor, 1.0)
+        np.add.at(self.per_sensor[:, 1], sensor[mask], 1.0)
+        np.add.at(self.per_sensor[:, 2], sensor[mask], r.estimate[mask])
+        np.maximum.at(self.per_sensor[:, 3], sensor[mask], r.bound[mask])
         self.bound.append(bnd)
         self.estimate.append(est)
         if not mask.all():
@@ -238,7 +284,8 @@ def route_integrity(problem: Problem, suite: Iterable[int], spec: IntegritySpec 
     fp: FilterPass = forward_pass(problem, suite, map_sigma_m=map_sigma_m, use=hook)
     p_wrong = np.asarray(hook.bound, float)
     n_h = keyframes_per_hour(problem)
-    risk = np.minimum(1.0, tail_risk(fp.filtered, spec) + p_wrong)
+    tail = tail_risk(fp.filtered, spec)
+    risk = np.minimum(1.0, tail + p_wrong)
     lat, lon = protection_levels(fp.filtered, p_wrong, spec.integrity_risk / n_h)
     sig = _sigmas(fp.filtered)
     return RouteIntegrity(
@@ -249,4 +296,7 @@ def route_integrity(problem: Problem, suite: Iterable[int], spec: IntegritySpec 
         integrity_risk_per_hour=float(n_h * risk.mean()) if risk.size else 0.0,
         n_measured=tuple(int(x) for x in fp.n_measured), n_used=tuple(int(x) for x in fp.n_used),
         left_out=tuple(hook.left_out), lateral_sigma_m=tuple(sig[:, 1].tolist()),
-        longitudinal_sigma_m=tuple(sig[:, 0].tolist()), heading_sigma_deg=tuple(sig[:, 2].tolist()))
+        longitudinal_sigma_m=tuple(sig[:, 0].tolist()), heading_sigma_deg=tuple(sig[:, 2].tolist()),
+        p_error_tail=tuple(tail.tolist()),
+        by_sensor=tuple(SensorAssociation(hook.sensor_ids[i], int(row[0]), int(row[1]), float(row[2]), float(row[3]))
+                        for i, row in enumerate(hook.per_sensor) if row[0] > 0))
