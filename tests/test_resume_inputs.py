@@ -324,12 +324,13 @@ def test_an_optimal_checkpoint_is_not_reused_after_changing_one_input(field, pro
 # ---------------------------------------------------------------------------------------- require
 
 REQUIRE_BASE = dict(spec=dict(lateral=0.5, longitudinal=0.5), map_sigma_m=0.05, failures=0, budget_usd=None,
-                    constraints=None)
+                    constraints=None, engine="fast")
 REQUIRE_CHANGES = {
     "specification": dict(spec=dict(lateral=0.4, longitudinal=0.5)),
     "share of keyframes": dict(spec=dict(lateral=0.5, longitudinal=0.5, at=0.9)),
     "map model": dict(map_sigma_m=None), "map sigma": dict(map_sigma_m=0.1), "failures": dict(failures=1),
-    "budget": dict(budget_usd=50_000.0), "limits": dict(constraints=LIMIT), **{part: {} for part in TARGET_PARTS},
+    "budget": dict(budget_usd=50_000.0), "limits": dict(constraints=LIMIT), "engine": dict(engine="reference"),
+    **{part: {} for part in TARGET_PARTS},
 }
 
 
