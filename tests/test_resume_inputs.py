@@ -356,3 +356,17 @@ def test_a_require_journal_of_the_same_inputs_is_read_back(problems, tmp_path):
     first = require(problems["base"], Specification(lateral=0.5, longitudinal=0.5), **kw)
     again = require(problems["base"], Specification(lateral=0.5, longitudinal=0.5), resume=True, **kw)
     assert (again.suite, again.cost_usd) == (first.suite, first.cost_usd)
+
+
+def test_an_optimal_checkpoint_without_recorded_info_is_keyed_on_the_evaluators_target(problems, tmp_path):
+    """optimal(evaluator, ..., checkpoint=) without info=: the checkpoint is still keyed on the
+    evaluator's problem by content (it was keyed on nothing: any problem's search was resumed)."""
+    from sensorsel.designs.certify import optimal
+    from sensorsel.information.evaluators import evaluator_for
+
+    ck = tmp_path / "opt.checkpoint"
+    optimal(evaluator_for(problems["base"], "fast"), 20_000.0, rule="uniform", checkpoint=ck)
+    with pytest.warns(CacheWarning, match="opt.checkpoint: not reused"):
+        again = optimal(evaluator_for(problems["condition"], "fast"), 20_000.0, rule="uniform", checkpoint=ck, resume=True)
+    fresh = optimal(evaluator_for(problems["condition"], "fast"), 20_000.0, rule="uniform")
+    assert (again.suite, again.score) == (fresh.suite, fresh.score)
