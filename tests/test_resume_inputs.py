@@ -370,3 +370,20 @@ def test_an_optimal_checkpoint_without_recorded_info_is_keyed_on_the_evaluators_
         again = optimal(evaluator_for(problems["condition"], "fast"), 20_000.0, rule="uniform", checkpoint=ck, resume=True)
     fresh = optimal(evaluator_for(problems["condition"], "fast"), 20_000.0, rule="uniform")
     assert (again.suite, again.score) == (fresh.suite, fresh.score)
+
+
+@pytest.mark.parametrize("change", ["fog_visibility_m: 30", "night: true"])
+def test_a_study_cell_on_a_domain_is_never_reused_under_another_condition(tmp_path, change):
+    """A study on a domain with conditions: a member's condition changed alone (its name and share
+    kept) gives other fingerprints for every cell."""
+    def domain(cond: str) -> str:
+        path = tmp_path / f"d{len(list(tmp_path.glob('d*.yaml')))}.yaml"
+        path.write_text(f"keyframe_rate_hz: 1.0\nconditions:\n  - {{name: bad, {cond}, share: 0.2}}\n"
+                        "routes:\n  - {name: tiny, fixture: tiny}\n", encoding="utf-8")
+        return str(path)
+
+    study = {"target": {"domain": domain("fog_visibility_m: 60")}, "grid": {"budgets": [5000], "rules": ["uniform"],
+                                                                            "failures": [0]}, "certificate": False}
+    base = _cell_fps(study, tmp_path)
+    changed = _cell_fps({**study, "target": {"domain": domain(change)}}, tmp_path)
+    assert base and changed and not base & changed
