@@ -97,3 +97,38 @@ def test_pareto_plot_explains_every_mark(tiny_problem):
     assert any("of the best" in lab for lab in labels), "the dotted 99%/95% lines are not in the legend"
     assert any("cheapest" in lab for lab in labels), "the stars are not in the legend"
     assert any(lab.startswith("made by ") for lab in labels), "the markers do not say which rule made them"
+
+
+@pytest.mark.parametrize("suite_ids, condition", [
+    ("LRL-roof,MRL-roof,LRR-12,MRR-12,HD2K-12,HD2K-6,WSC-12,LSC-12,HD2K-3", None),  # every model, zoomed
+    ("LRL-roof,MRL-roof,LRR-12,MRR-12", "night"),  # long ranges: one panel, with the condition's title
+])
+def test_a_city_routes_scene_keeps_every_legend_inside_the_figure(tmp_path, suite_ids, condition):
+    """The scene of a city route (a 1 km route of the bundled Helsinki sample, its OSM landmarks):
+    each legend lies inside the saved figure (a legend cut off at the figure's edge loses entries)."""
+    import io
+
+    from click.testing import CliRunner
+
+    from sensorsel.cli import cli
+    from sensorsel.model.conditions import parse_condition
+    from sensorsel.model.library import load_library
+    from sensorsel.model.scenario import ScenarioSpec, load_scenario
+    from sensorsel.model.sensing import condition_effects
+
+    r = CliRunner().invoke(cli, ["osm", "--sample", "helsinki", "-o", str(tmp_path / "city")])
+    assert r.exit_code == 0, r.output
+    sc = load_scenario(ScenarioSpec(route=str(tmp_path / "city" / "routes" / "r002.csv"),
+                                    landmarks=str(tmp_path / "city" / "routes" / "r002_landmarks.csv")))
+    lib = load_library()
+    ranges = None if condition is None else [e.range_m for e in condition_effects(lib, parse_condition(condition))]
+    ax = plot_scene(sc, library=lib, suite=lib.resolve_suite(suite_ids), ranges_m=ranges, condition=condition)
+    fig = ax.figure
+    fig.savefig(io.BytesIO(), format="png")
+    renderer = fig.canvas.get_renderer()
+    legends = [a.get_legend() for a in fig.axes if a.get_legend() is not None]
+    assert legends
+    for leg in legends:
+        b = leg.get_window_extent(renderer)
+        assert fig.bbox.x0 <= b.x0 and b.x1 <= fig.bbox.x1 and fig.bbox.y0 <= b.y0 and b.y1 <= fig.bbox.y1, b
+    plt.close(fig)

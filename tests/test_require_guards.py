@@ -113,3 +113,33 @@ def test_every_suite_the_floor_refutes_misses_in_the_specifications_model(tiny_p
     if failures == 0:
         want = _cheapest(lib, [ev], spec)
         assert want is not None and res.status == "optimal" and res.cost_usd == pytest.approx(want[0])
+
+
+def test_an_infeasible_domain_is_one_line_a_person_can_read(tmp_path):
+    """require --domain with no feasible suite: one error line naming how many routes miss, the
+    worst three first (by how far they miss, from the JSON's own verdicts), and where the rest are;
+    not every route's every component (it was one line of about 3,500 characters)."""
+    import json
+
+    from click.testing import CliRunner
+
+    from sensorsel.cli import cli
+
+    dom = tmp_path / "d.yaml"
+    dom.write_text("keyframe_rate_hz: 1.0\nconditions:\n  - {name: fog, fog_visibility_m: 30, share: 0.2}\n"
+                   "  - {name: night, night: true, share: 0.2}\n  - {name: snow, snow_mm_h: 5, share: 0.2}\n"
+                   "routes:\n  - {name: tiny, fixture: tiny}\n  - {name: suburb, fixture: suburb}\n")
+    r = CliRunner().invoke(cli, ["require", "--domain", str(dom), "--lateral", "0.01", "--heading", "0.01", "--engine", "fast",
+                                 "-q", "--json"])
+    assert r.exit_code == 2
+    lines = r.stderr.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("sensorsel: error: no suite meets the specification")
+    assert len(lines[0]) < 700, len(lines[0])
+    routes = json.loads(r.stdout)["routes"]
+    worst = sorted(routes, key=lambda x: -x["verdict"]["violation"])
+    assert len(routes) == 8 and "8 of 8 routes miss it" in lines[0]
+    named = [x["route"] for x in worst[:3]]
+    at = [lines[0].index(f"route {n}: ") for n in named]
+    assert at == sorted(at)  # the worst first
+    assert not any(f"route {x['route']}: " in lines[0] for x in worst[3:])
+    assert "and 5 more route(s): every route in the JSON" in lines[0]

@@ -324,12 +324,13 @@ def test_an_optimal_checkpoint_is_not_reused_after_changing_one_input(field, pro
 # ---------------------------------------------------------------------------------------- require
 
 REQUIRE_BASE = dict(spec=dict(lateral=0.5, longitudinal=0.5), map_sigma_m=0.05, failures=0, budget_usd=None,
-                    constraints=None)
+                    constraints=None, engine="fast")
 REQUIRE_CHANGES = {
     "specification": dict(spec=dict(lateral=0.4, longitudinal=0.5)),
     "share of keyframes": dict(spec=dict(lateral=0.5, longitudinal=0.5, at=0.9)),
     "map model": dict(map_sigma_m=None), "map sigma": dict(map_sigma_m=0.1), "failures": dict(failures=1),
-    "budget": dict(budget_usd=50_000.0), "limits": dict(constraints=LIMIT), **{part: {} for part in TARGET_PARTS},
+    "budget": dict(budget_usd=50_000.0), "limits": dict(constraints=LIMIT), "engine": dict(engine="reference"),
+    **{part: {} for part in TARGET_PARTS},
 }
 
 
@@ -355,3 +356,34 @@ def test_a_require_journal_of_the_same_inputs_is_read_back(problems, tmp_path):
     first = require(problems["base"], Specification(lateral=0.5, longitudinal=0.5), **kw)
     again = require(problems["base"], Specification(lateral=0.5, longitudinal=0.5), resume=True, **kw)
     assert (again.suite, again.cost_usd) == (first.suite, first.cost_usd)
+
+
+def test_an_optimal_checkpoint_without_recorded_info_is_keyed_on_the_evaluators_target(problems, tmp_path):
+    """optimal(evaluator, ..., checkpoint=) without info=: the checkpoint is still keyed on the
+    evaluator's problem by content (it was keyed on nothing: any problem's search was resumed)."""
+    from sensorsel.designs.certify import optimal
+    from sensorsel.information.evaluators import evaluator_for
+
+    ck = tmp_path / "opt.checkpoint"
+    optimal(evaluator_for(problems["base"], "fast"), 20_000.0, rule="uniform", checkpoint=ck)
+    with pytest.warns(CacheWarning, match="opt.checkpoint: not reused"):
+        again = optimal(evaluator_for(problems["condition"], "fast"), 20_000.0, rule="uniform", checkpoint=ck, resume=True)
+    fresh = optimal(evaluator_for(problems["condition"], "fast"), 20_000.0, rule="uniform")
+    assert (again.suite, again.score) == (fresh.suite, fresh.score)
+
+
+@pytest.mark.parametrize("change", ["fog_visibility_m: 30", "night: true"])
+def test_a_study_cell_on_a_domain_is_never_reused_under_another_condition(tmp_path, change):
+    """A study on a domain with conditions: a member's condition changed alone (its name and share
+    kept) gives other fingerprints for every cell."""
+    def domain(cond: str) -> str:
+        path = tmp_path / f"d{len(list(tmp_path.glob('d*.yaml')))}.yaml"
+        path.write_text(f"keyframe_rate_hz: 1.0\nconditions:\n  - {{name: bad, {cond}, share: 0.2}}\n"
+                        "routes:\n  - {name: tiny, fixture: tiny}\n", encoding="utf-8")
+        return str(path)
+
+    study = {"target": {"domain": domain("fog_visibility_m: 60")}, "grid": {"budgets": [5000], "rules": ["uniform"],
+                                                                            "failures": [0]}, "certificate": False}
+    base = _cell_fps(study, tmp_path)
+    changed = _cell_fps({**study, "target": {"domain": domain(change)}}, tmp_path)
+    assert base and changed and not base & changed

@@ -258,8 +258,20 @@ def _plot(res: RequireResult, target: Any, compared: tuple[str, tuple[int, ...]]
     save_figure(fig, path, close=True)
 
 
+#: routes named in the one-line infeasible message (the worst first; the rest are in the JSON)
+WORST_ROUTES_NAMED = 3
+
+
 def _infeasible_line(res: RequireResult) -> str:
-    fails = [f"route {r.route}: {r.verdict.failing()}" for r in res.routes if not r.verdict.meets]
+    """One line a person can read: how many routes miss, the worst few (by how far they miss) with
+    their failing components, and where the rest are."""
+    missing = sorted((r for r in res.routes if not r.verdict.meets), key=lambda r: -r.verdict.violation)
+    fails = [f"route {r.route}: {r.verdict.failing().replace('; ', ', ')}" for r in missing[:WORST_ROUTES_NAMED]]
+    if len(res.routes) > 1 and missing:
+        more = len(missing) - len(fails)
+        fails = ([f"{len(missing)} of {len(res.routes)} routes miss it, the worst {r}" if i == 0 else r
+                  for i, r in enumerate(fails)] + ([f"and {more} more route(s): every route in the JSON (--json, -o)"]
+                                                   if more else []))
     if res.infeasible_by == "failures":
         return (f"no suite meets the specification after {res.failures} failure(s): every allowed sensor together, after "
                 "its worst failures, misses it (" + "; ".join(fails) + ")")

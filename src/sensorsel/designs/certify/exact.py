@@ -135,6 +135,12 @@ class OptimumResult:
     integrity: tuple[RouteIntegrity, ...] = ()
 
 
+def _target_info(ev: Evaluator) -> TargetInfo | None:
+    """What an evaluator's target is (its problem's or domain's info), or None when it does not say."""
+    target = getattr(ev, "problem", None) or getattr(ev, "domain", None)
+    return getattr(target, "info", None)
+
+
 def optimal(evaluator: Evaluator, budget_usd: float, *, max_nodes: int = DEFAULT_MAX_NODES, max_seconds: float | None = None,
             exclude: frozenset[int] = frozenset(), incumbent: GreedyResult | None = None, rule: str = "best-of",
             progress: Progress | None = None, info: TargetInfo | None = None, max_cells: int = MAX_DP_CELLS,
@@ -190,7 +196,9 @@ def optimal(evaluator: Evaluator, budget_usd: float, *, max_nodes: int = DEFAULT
     plain = feas.plain
     recorded = feas.record
     path = Path(checkpoint) if checkpoint is not None else None
-    fp = search_fingerprint(info, ev.name, budget, rule, incumbent, exclude, recorded, max_cells) if path else ""
+    # the target by content even when the caller records no info: a checkpoint is never keyed on nothing
+    known = info if info is not None else _target_info(ev)
+    fp = search_fingerprint(known, ev.name, budget, rule, incumbent, exclude, recorded, max_cells) if path else ""
     ck = read_checkpoint(path, fp, resume)
     if ck is not None:  # what was scored before this process counts too
         n0 -= ck.n_evaluations if ck.heap is not None else ck.n_start_evaluations

@@ -153,8 +153,9 @@ JOURNAL_FORMAT = 2
 
 def require_fingerprint(problems: Sequence[Problem], specs: Sequence[Specification], map_sigma_m: float | None,
                         failures: int, budget_usd: float | None, constraints: Constraints | None,
-                        estimate: str = "filter") -> tuple[str, tuple[tuple[str, str], ...]]:
-    """(sha256, the inputs in words) of what a require run's answers depend on."""
+                        estimate: str = "filter", engine: str = "") -> tuple[str, tuple[tuple[str, str], ...]]:
+    """(sha256, the inputs in words) of what a require run's answers depend on (``estimate``: filter or
+    smoother; ``engine``: the engine that computes them: another one's answers agree only to rounding)."""
     inputs = (
         ("routes", ", ".join(f"{p.scenario.name} {digest(to_jsonable(p.fingerprint))[:12]}" for p in problems)),
         ("specification", "; ".join(s.describe() for s in specs)),
@@ -163,11 +164,12 @@ def require_fingerprint(problems: Sequence[Problem], specs: Sequence[Specificati
         ("failures", str(failures)),
         ("budget", "none" if budget_usd is None else f"${budget_usd:,.2f}"),
         ("limits", "none" if constraints is None else constraints.describe()),
+        ("engine", engine or "?"),
     )
     routes = [route_entry(p.scenario.name, 1.0, "", p.fingerprint) for p in problems]
     fp = result_fingerprint("require-journal", JOURNAL_FORMAT, routes, specifications=list(specs),
                             model="slam" if map_sigma_m is None else "map", map_sigma_m=map_sigma_m, failures=failures,
-                            budget_usd=budget_usd, constraints=constraints)
+                            budget_usd=budget_usd, constraints=constraints, estimate=estimate, engine=engine)
     return fp, inputs
 
 
@@ -346,7 +348,8 @@ def require(target: Target, specifications: Specification | Sequence[Specificati
     oracle = _Oracle(evaluators, [n for n, _ in problems], specs, map_sigma_m, estimate)
     if checkpoint is not None:
         path = Path(checkpoint)
-        fp, inputs = require_fingerprint([p for _, p in problems], specs, map_sigma_m, failures, budget_usd, feas.record, estimate)
+        fp, inputs = require_fingerprint([p for _, p in problems], specs, map_sigma_m, failures, budget_usd, feas.record,
+                                         estimate, getattr(evaluator, "engine", None) or evaluators[0].name)
         old = _read_journal(path, fp, inputs) if resume else None
         if old is not None:
             oracle.known = {(r, tuple(s_)): (m, v) for r, s_, m, v in old.answers}
