@@ -1,13 +1,13 @@
 """The covariance the car has as it drives: a filter over the route, one keyframe at a time.
 
-STAND-IN of the interface fixed for the forward pass (the ``filter`` branch writes the fast one):
-slow and dense, but exact. Its state is pose k and the landmarks seen so far, in information form;
-each step adds keyframe k's used measurements, then the odometry to k + 1, and marginalizes pose k
-out by a Schur complement. In the linear-Gaussian model at the truth (the graph linearized at the
-ground truth, as every evaluator of the package) marginalizing a variable is exact, so the filtered
-covariance at k equals the marginal of X(k) in the batch graph of the priors, odometry up to k and
-the used measurements of keyframes <= k. Each keyframe inverts the dense (3 + 2n)² information
-(n landmarks seen so far): small problems only.
+A dense, exact forward pass with the interface the package's callers code against. Its state is
+pose k and the landmarks seen so far, a Kalman filter in covariance form: each step updates with
+keyframe k's used measurements, then moves the pose by the odometry to k + 1 (which marginalizes
+pose k out). In the linear-Gaussian model at the truth (the graph linearized at the ground truth, as
+every evaluator of the package) this is exact: the filtered covariance at k equals the marginal of
+X(k) in the batch graph of the priors, odometry up to k and the used measurements of keyframes
+<= k. Each keyframe costs O(n² m) for n landmarks seen so far and m measurements: dense, for routes
+of hundreds of keyframes and landmarks.
 """
 
 from __future__ import annotations
@@ -106,78 +106,71 @@ def forward_pass(problem: Problem, suite: Iterable[int], *, map_sigma_m: float |
     graph of the priors, odometry up to k and the used measurements of keyframes <= k;
     ``predicted[k]`` the same without keyframe k's measurements. ``map_sigma_m``: every landmark's
     prior std [m] (a prior map); None: the problem's weak prior (SLAM). ``use`` (default: all) is
-    called once per keyframe, before its update; ``on_prediction`` too (for callers that only observe)."""
+    called once per keyframe, before its update; ``on_prediction`` too (for callers that only observe).
+
+    A Kalman filter in covariance form over (pose k, landmarks seen so far), at the truth: a landmark
+    enters the state with its prior at its first used measurement; each keyframe's used measurements
+    update it (Σ ← Σ − Σ Jᵀ (J Σ Jᵀ + I)⁻¹ J Σ, J whitened); the odometry to k + 1 moves the pose
+    (δx_{k+1} = −H δx_k + w: Σ_pp ← H Σ_pp Hᵀ + Ω⁻¹, Σ_pl ← −H Σ_pl), which marginalizes pose k out.
+    """
     sc, s = problem.scenario, problem.settings
     poses = np.asarray(sc.keyframes.poses, float)
     points = np.asarray(sc.landmarks, float)
     n_poses = len(poses)
     prior_sigma = float(s.landmark_prior_sigma_m if map_sigma_m is None else map_sigma_m)
-    odo_info = np.diag(1.0 / np.asarray(s.odometry_sigmas, float) ** 2)
+    odo_cov = np.diag(np.asarray(s.odometry_sigmas, float) ** 2)
     odo_jac = odometry_jacobians(poses) if n_poses > 1 else np.zeros((0, 3, 3))
     groups = keyframe_measurements(problem, suite)
     state: list[int] = []  # landmark indices in the state, in the order they entered
     slot: dict[int, int] = {}
-    info = np.diag(1.0 / np.asarray(s.first_pose_sigmas, float) ** 2)
+    cov = np.diag(np.asarray(s.first_pose_sigmas, float) ** 2)
     predicted = np.zeros((n_poses, 3, 3))
     filtered = np.zeros((n_poses, 3, 3))
     n_used = np.zeros(n_poses, np.int64)
     n_measured = np.zeros(n_poses, np.int64)
     for k in range(n_poses):
         meas = groups[k]
-        cov = np.linalg.inv(info)
         predicted[k] = cov[:3, :3]
+        mask = np.ones(len(meas), bool)
         if use is not None or on_prediction is not None:
             pred = _prediction(k, cov, state, prior_sigma)
             if on_prediction is not None:
                 on_prediction(pred, meas)
-            mask = np.ones(len(meas), bool) if use is None else np.asarray(use(pred, meas), bool)
-        else:
-            mask = np.ones(len(meas), bool)
+            if use is not None:
+                mask = np.asarray(use(pred, meas), bool)
         n_measured[k] = len(meas)
         n_used[k] = int(mask.sum())
         if n_used[k]:
             lms = meas.landmark[mask]
-            for j in lms.tolist():
-                if j not in slot:
+            new = [j for j in dict.fromkeys(lms.tolist()) if j not in slot]
+            if new:
+                for j in new:
                     slot[j] = len(state)
                     state.append(j)
-                    info = _grow(info, 2)
-                    info[-2:, -2:] += np.eye(2) / prior_sigma ** 2
+                n = cov.shape[0]
+                grown = np.zeros((n + 2 * len(new), n + 2 * len(new)))
+                grown[:n, :n] = cov
+                grown[n:, n:] = np.eye(2 * len(new)) * prior_sigma ** 2
+                cov = grown
             jac = bearing_range_jacobians(np.repeat(poses[k][None], len(lms), 0), points[lms])
             jac = jac / np.column_stack([meas.sigma_bearing_rad[mask], meas.sigma_range_m[mask]])[:, :, None]
-            for a, j in zip(jac, lms.tolist()):
-                idx = np.r_[0:3, 3 + 2 * slot[j]:5 + 2 * slot[j]]
-                info[np.ix_(idx, idx)] += a.T @ a
-            filtered[k] = np.linalg.inv(info)[:3, :3]
-        else:
-            filtered[k] = predicted[k]
+            big = np.zeros((2 * len(lms), cov.shape[0]))
+            for r, (a, j) in enumerate(zip(jac, lms.tolist())):
+                big[2 * r:2 * r + 2, :3] = a[:, :3]
+                big[2 * r:2 * r + 2, 3 + 2 * slot[j]:5 + 2 * slot[j]] = a[:, 3:]
+            sj = cov @ big.T  # Σ Jᵀ
+            chol = np.linalg.cholesky(big @ sj + np.eye(len(big)))
+            w = np.linalg.solve(chol, sj.T)  # L⁻¹ J Σ
+            cov = cov - w.T @ w
+            cov = 0.5 * (cov + cov.T)
+        filtered[k] = cov[:3, :3]
         if k + 1 < n_poses:
-            info = _odometry_step(info, odo_jac[k], odo_info)
+            h = odo_jac[k]
+            cov = cov.copy()
+            cov[:3, 3:] = -h @ cov[:3, 3:]
+            cov[3:, :3] = cov[:3, 3:].T
+            cov[:3, :3] = h @ cov[:3, :3] @ h.T + odo_cov
     return FilterPass(predicted=predicted, filtered=filtered, n_used=n_used, n_measured=n_measured)
-
-
-def _grow(info: np.ndarray, by: int) -> np.ndarray:
-    n = info.shape[0]
-    out = np.zeros((n + by, n + by))
-    out[:n, :n] = info
-    return out
-
-
-def _odometry_step(info: np.ndarray, h: np.ndarray, omega: np.ndarray) -> np.ndarray:
-    """Add pose k + 1 with the odometry factor (Jacobian [H, I]) and marginalize pose k out."""
-    n = info.shape[0]
-    big = np.zeros((n + 3, n + 3))
-    big[:n, :n] = info
-    big[:3, :3] += h.T @ omega @ h
-    big[:3, n:] += h.T @ omega
-    big[n:, :3] += omega @ h
-    big[n:, n:] += omega
-    keep = np.r_[n:n + 3, 3:n]  # the new pose first, then the landmarks
-    a = big[np.ix_(keep, keep)]
-    b = big[np.ix_(keep, np.arange(3))]
-    c = big[:3, :3]
-    out = a - b @ np.linalg.solve(c, b.T)
-    return 0.5 * (out + out.T)
 
 
 def _prediction(k: int, cov: np.ndarray, state: list[int], prior_sigma: float) -> Prediction:
