@@ -173,3 +173,23 @@ def test_bad_integrity_options(args, option):
     assert res.exit_code == 2
     lines = [ln for ln in res.output.splitlines() if ln.strip()]
     assert lines == [lines[-1]] and lines[-1].startswith(f"sensorsel: error: {option} ")
+
+
+def test_selecting_commands_print_and_record_integrity(tmp_path):
+    runner = CliRunner()
+    out = tmp_path / "greedy.json"
+    res = runner.invoke(cli, ["greedy", "--fixture", "tiny", "--budget", "5000", "--map-sigma", "0.05", "-q",
+                              "--alert-lateral", "0.5", "-o", str(out)])
+    assert res.exit_code == 0, res.output
+    assert sum(ln.startswith("integrity") for ln in res.output.splitlines()) == 1
+    loaded = results.load(out)
+    assert len(loaded.integrity) == 1 and loaded.integrity[0].spec.alert_lateral_m == 0.5
+    assert loaded.integrity[0].model == "map"
+
+
+def test_same_inputs_same_bytes(tiny_problem):
+    suite = tiny_problem.library.resolve_suite(SUITE)
+    spec = IntegritySpec(max_association_risk=1e-3)
+    a = results.dumps(route_integrity(tiny_problem, suite, spec, map_sigma_m=0.05))
+    b = results.dumps(route_integrity(tiny_problem, suite, spec, map_sigma_m=0.05))
+    assert a == b
