@@ -265,6 +265,9 @@ class DistributedDomainEvaluator(DomainEvaluator):
         bytes_sent, bytes_received: pickled size of every call's arguments and results [bytes].
         n_rebuilt: routes rebuilt after losing their worker.
         step_bytes: (sent, received) of each domain ``scores_with`` call (a greedy step).
+        n_messages: actor calls sent (each one request and its answer).
+        n_rounds: times the client sent calls and waited for all of their answers.
+        wait_s: seconds the client spent waiting for answers [s].
     """
 
     def __init__(self, client: Any, domain: Domain, engine: str | None = None, *, jobs: int = 1,
@@ -275,7 +278,8 @@ class DistributedDomainEvaluator(DomainEvaluator):
         self.aggregate = check_aggregate(aggregate)
         self.client, self.retries = client, int(retries)
         self.recipes = tuple(RouteRecipe.of(r.name, r.problem) for r in domain.routes)
-        self.bytes_sent = self.bytes_received = self.n_rebuilt = 0
+        self.bytes_sent = self.bytes_received = self.n_rebuilt = self.n_messages = self.n_rounds = 0
+        self.wait_s = 0.0
         self.step_bytes: list[tuple[int, int]] = []
         self._actors: list[Any] = [None] * len(self.recipes)
         self._place([r.problem for r in domain.routes])
@@ -337,13 +341,16 @@ class DistributedDomainEvaluator(DomainEvaluator):
         out: dict[int, Any] = {}
         for attempt in range(self.retries + 1):
             futs = {}
+            self.n_rounds += 1 if pending else 0
             for k, (method, args) in pending.items():
                 self.bytes_sent += len(pickle.dumps(args))
+                self.n_messages += 1
                 try:
                     futs[k] = getattr(self._actors[k], method)(*args)
                 except Exception as exc:  # the actor's worker is already known to be gone
                     futs[k] = exc
             failed: dict[int, Exception] = {}
+            t0 = time.perf_counter()
             for k, fut in futs.items():
                 if isinstance(fut, Exception):
                     failed[k] = fut
@@ -357,6 +364,7 @@ class DistributedDomainEvaluator(DomainEvaluator):
                     continue
                 self.bytes_received += len(pickle.dumps(res))
                 out[k] = res
+            self.wait_s += time.perf_counter() - t0
             if not failed:
                 return out
             if attempt == self.retries:
