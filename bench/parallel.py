@@ -2,6 +2,11 @@
 
     python bench/parallel.py [--domain configs/domain_kitti.yaml] [--budget 110000] [--jobs 1,2] [--workers 1,2]
     python bench/parallel.py --domain configs/domain_fixtures.yaml --budget 12000     # the small fixture domain
+    python bench/parallel.py --generated 100 --budget 12000 --jobs 1 --workers 2      # 100 generated routes
+
+(The KITTI domain needs ``SENSORSEL_KITTI_ROOT``, e.g. /work/shared/kitti.) ``--generated N`` writes a
+domain of N routes (the bundled tiny route, each with its own synthetic landmark map, seeds 1..N)
+to a temporary folder and measures that: many small routes, so wide rounds.
 
 One run of each configuration, side by side in one process (the machine is shared: the ratios and
 CPU times are what to read, not the seconds alone):
@@ -102,6 +107,12 @@ def lpt(tasks: list[float], n: int) -> float:
     return max(load)
 
 
+def rss() -> int:
+    import psutil
+
+    return int(psutil.Process().memory_info().rss)
+
+
 def cpu_of_this_process() -> float:
     import psutil
 
@@ -156,7 +167,7 @@ def run_on_cluster(domain: Any, budget: float, rule: str, workers: int) -> dict[
 
     with DaskCluster(workers=workers, echo=lambda line: None) as cluster:
         client = cluster.client
-        t0 = time.perf_counter()
+        mem0, t0 = rss(), time.perf_counter()
         ev = DistributedDomainEvaluator(client, domain)
         build = time.perf_counter() - t0
         w0, s0 = client.run(cpu_now), client.run_on_scheduler(cpu_now)
@@ -169,6 +180,8 @@ def run_on_cluster(domain: Any, budget: float, rule: str, workers: int) -> dict[
         msgs, sent, recv, wait = ev.n_messages - m0, ev.bytes_sent - b0, ev.bytes_received - r0, ev.wait_s - wait0
         rounds = ev.n_rounds - rounds0
         w1, s1 = client.run(cpu_now), client.run_on_scheduler(cpu_now)
+        client_rss_growth = rss() - mem0
+        workers_rss = client.run(rss)
         busy1 = ev.busy()
     busy_by_worker: dict[str, float] = {}
     for k in busy1:
@@ -181,6 +194,7 @@ def run_on_cluster(domain: Any, budget: float, rule: str, workers: int) -> dict[
         "scheduler_cpu_s": round(s1 - s0, 3),
         "workers_scoring_s": {a: round(v, 3) for a, v in sorted(busy_by_worker.items())},
         "client_wait_s": round(wait, 3), "rounds": rounds,
+        "client_rss_growth_bytes": client_rss_growth, "workers_rss_bytes": sorted(workers_rss.values()),
         "messages": msgs, "messages_per_step": round(msgs / steps, 1),
         "bytes_sent_per_step": round(sent / steps, 1), "bytes_received_per_step": round(recv / steps, 1),
         "_result": results.dumps(res),
@@ -201,6 +215,17 @@ def model(trace: list[list[float]], serial: float, comm_per_round: float = 0.0) 
     return out
 
 
+def generated_domain(folder: Path, n: int) -> str:
+    """A domain file of ``n`` routes: the bundled tiny route, with synthetic landmarks of seeds 1..n."""
+    data = REPO / "data" / "kitti_fixtures"
+    tiny = f"route: {data / 'poses' / 'tiny.txt'}, format: kitti, times: {data / 'sequences' / 'tiny' / 'times.txt'}"
+    lines = ["keyframe_rate_hz: 1.0", "routes:"]
+    lines += [f"  - {{name: tiny-{seed:03d}, {tiny}, landmarks: {{synthetic: {{seed: {seed}}}}}}}" for seed in range(1, n + 1)]
+    path = folder / f"generated-{n}.yaml"
+    path.write_text("\n".join(lines) + "\n")
+    return str(path)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--domain", default=str(REPO / "configs" / "domain_kitti.yaml"))
@@ -208,16 +233,23 @@ def main() -> None:
     ap.add_argument("--rule", default="uniform")
     ap.add_argument("--jobs", default=f"1,{os.cpu_count() or 1}", help="thread counts in-process (comma-separated)")
     ap.add_argument("--workers", default="1,2", help="LocalCluster sizes (comma-separated; empty: none)")
+    ap.add_argument("--generated", type=int, default=0, help="measure a generated domain of N routes instead")
     args = ap.parse_args()
+    if args.generated:
+        import tempfile
+
+        args.domain = generated_domain(Path(tempfile.mkdtemp(prefix="sensorsel-bench-")), args.generated)
 
     from sensorsel.model.problem import load_domain
 
     out: dict[str, Any] = {"domain": args.domain, "budget_usd": args.budget, "rule": args.rule, "cpus": os.cpu_count(),
                            "load_avg_before": os.getloadavg()}
-    t0 = time.perf_counter()
+    m0, t0 = rss(), time.perf_counter()
     domain = load_domain(args.domain)
     out["routes"] = len(domain.routes)
     out["load_s"] = round(time.perf_counter() - t0, 3)
+    out["client_rss_of_the_loaded_domain_bytes"] = rss() - m0  # the client holds every route's problem
+    run_in_process(domain, args.budget, args.rule, 1)  # warm-up, not reported: first imports and caches
     runs = [run_in_process(domain, args.budget, args.rule, int(j)) for j in args.jobs.split(",") if j]
     for r in runs:
         print(f"in-process, {r['jobs']} thread(s): greedy {r['greedy_wall_s']:.2f} s wall, {r['greedy_cpu_s']:.2f} s CPU, "
