@@ -122,16 +122,11 @@ def cpu_of_this_process() -> float:
     return float(t.user + t.system)
 
 
-def run_in_process(domain: Any, budget: float, rule: str, jobs: int) -> dict[str, Any]:
-    from sensorsel.designs.selection import greedy
-    from sensorsel.io import results
-
-    c0, t0 = cpu_of_this_process(), time.perf_counter()
-    ev = TracedDomainEvaluator(domain, jobs=jobs)
-    build = time.perf_counter() - t0
-    ev._tracing = True
+def _stage(ev: TracedDomainEvaluator, jobs: int, run: Any) -> tuple[Any, dict[str, Any]]:
+    """Run ``run()`` with ``ev``'s rounds traced afresh: its result and what the stage cost."""
+    ev.rounds = []
     c1, t1 = cpu_of_this_process(), time.perf_counter()
-    res = greedy(ev, budget, rule, lazy=True, info=domain.info)
+    out = run()
     wall = time.perf_counter() - t1
     cpu = cpu_of_this_process() - c1
     in_rounds = sum(w for w, _ in ev.rounds)
@@ -141,10 +136,8 @@ def run_in_process(domain: Any, budget: float, rule: str, jobs: int) -> dict[str
     for _, t in ev.rounds:
         if t:
             by_width[str(len(t))] = by_width.get(str(len(t)), 0.0) + sum(t)
-    return {
-        "jobs": jobs, "build_s": round(build, 3), "build_cpu_s": round(c1 - c0, 3),
-        "greedy_wall_s": round(wall, 3), "greedy_cpu_s": round(cpu, 3),
-        "steps": len(res.steps), "n_evaluations": res.n_evaluations,
+    return out, {
+        "wall_s": round(wall, 3), "cpu_s": round(cpu, 3),
         "rounds": len(ev.rounds), "route_calls": sum(tasks),
         "rounds_by_tasks": {str(n): tasks.count(n) for n in sorted(set(tasks))},
         "route_call_cpu_s": round(task_cpu, 3),
@@ -152,8 +145,34 @@ def run_in_process(domain: Any, budget: float, rule: str, jobs: int) -> dict[str
         "rounds_wall_s": round(in_rounds, 3), "serial_wall_s": round(wall - in_rounds, 3),
         # the client's CPU outside the rounds (jobs=1: the one thread's CPU minus its tasks')
         "serial_cpu_s": round(max(0.0, cpu - task_cpu), 3) if jobs == 1 else None,
-        "_trace": [t for _, t in ev.rounds], "_result": results.dumps(res),
+        "_trace": [t for _, t in ev.rounds],
     }
+
+
+def run_in_process(domain: Any, budget: float, rule: str, jobs: int, whole: bool) -> dict[str, Any]:
+    """The lazy greedy (and with ``whole``, the command's certificate and per-route breakdown too),
+    each stage traced on its own."""
+    from sensorsel.designs.certify import certificate
+    from sensorsel.designs.domain_design import route_breakdown
+    from sensorsel.designs.selection import greedy
+    from sensorsel.io import results
+
+    c0, t0 = cpu_of_this_process(), time.perf_counter()
+    ev = TracedDomainEvaluator(domain, jobs=jobs)
+    build = time.perf_counter() - t0
+    ev._tracing = True
+    res, g = _stage(ev, jobs, lambda: greedy(ev, budget, rule, lazy=True, info=domain.info))
+    out = {"jobs": jobs, "build_s": round(build, 3), "build_cpu_s": round(cpu_of_this_process() - c0 - g["cpu_s"], 3),
+           "greedy_wall_s": g["wall_s"], "greedy_cpu_s": g["cpu_s"], "steps": len(res.steps),
+           "n_evaluations": res.n_evaluations, **{k: v for k, v in g.items() if k not in ("wall_s", "cpu_s")}}
+    record = [results.dumps(res)]
+    if whole:
+        cert, c = _stage(ev, jobs, lambda: certificate(ev, res))
+        shares, b = _stage(ev, jobs, lambda: route_breakdown(ev, res))
+        out["certificate"], out["breakdown"] = c, b
+        record += [repr(cert.bound), repr(shares)]  # the certificate's bound and every route's share (no timings)
+    out["_result"] = "\x00".join(record)
+    return out
 
 
 def run_on_cluster(domain: Any, budget: float, rule: str, workers: int) -> dict[str, Any]:
@@ -236,6 +255,8 @@ def main() -> None:
     ap.add_argument("--jobs", default=f"1,{os.cpu_count() or 1}", help="thread counts in-process (comma-separated)")
     ap.add_argument("--workers", default="1,2", help="LocalCluster sizes (comma-separated; empty: none)")
     ap.add_argument("--generated", type=int, default=0, help="measure a generated domain of N routes instead")
+    ap.add_argument("--whole", action="store_true",
+                    help="in-process, also the certificate and the per-route breakdown (what greedy --domain runs)")
     args = ap.parse_args()
     if args.generated:
         import tempfile
@@ -251,8 +272,8 @@ def main() -> None:
     out["routes"] = len(domain.routes)
     out["load_s"] = round(time.perf_counter() - t0, 3)
     out["client_rss_of_the_loaded_domain_bytes"] = rss() - m0  # the client holds every route's problem
-    run_in_process(domain, args.budget, args.rule, 1)  # warm-up, not reported: first imports and caches
-    runs = [run_in_process(domain, args.budget, args.rule, int(j)) for j in args.jobs.split(",") if j]
+    run_in_process(domain, args.budget, args.rule, 1, False)  # warm-up, not reported: first imports and caches
+    runs = [run_in_process(domain, args.budget, args.rule, int(j), args.whole) for j in args.jobs.split(",") if j]
     for r in runs:
         print(f"in-process, {r['jobs']} thread(s): greedy {r['greedy_wall_s']:.2f} s wall, {r['greedy_cpu_s']:.2f} s CPU, "
               f"{r['rounds']} rounds, serial {r['serial_wall_s']:.2f} s wall", file=sys.stderr)
@@ -262,10 +283,25 @@ def main() -> None:
         print(f"{c['workers']} worker(s): greedy {c['greedy_wall_s']:.2f} s wall, client CPU {c['client_cpu_s']:.2f} s, "
               f"workers CPU {c['workers_cpu_s']:.2f} s, {c['messages_per_step']} messages/step, "
               f"{c['bytes_sent_per_step'] + c['bytes_received_per_step']:.0f} B/step", file=sys.stderr)
-    same = all(untimed(r["_result"]) == untimed(base["_result"]) for r in runs + clusters)
+    def parts(text: str) -> list[object]:
+        first, *rest = text.split("\x00")
+        return [untimed(first), *rest]
+
+    same = all(parts(r["_result"]) == parts(base["_result"]) for r in runs) and \
+        all(untimed(c["_result"]) == parts(base["_result"])[0] for c in clusters)
     out["same_result"] = same
     trace, serial = [t for t in base["_trace"] if t], base["serial_cpu_s"]  # rounds with work (none: nothing sent)
     out["model"] = {"in_process": model(trace, serial)}
+    if args.whole:  # the whole command in-process: the three stages' rounds and serial parts together
+        stages = [base, base["certificate"], base["breakdown"]]
+        whole_trace = [t for st in stages for t in st["_trace"] if t]
+        out["model"]["in_process_whole_command"] = model(whole_trace, sum(st["serial_cpu_s"] for st in stages))
+        for name in ("certificate", "breakdown"):
+            st = base[name]
+            out["model"][f"in_process_{name}"] = model([t for t in st["_trace"] if t], st["serial_cpu_s"])
+        for r in runs:
+            for name in ("certificate", "breakdown"):
+                r[name] = {k: v for k, v in r[name].items() if not k.startswith("_")}
     # a cluster's communication per round: the client's CPU per round beyond the greedy's own serial
     # work (pickling, sending, gathering; a LocalCluster's scheduler runs in the client's process and
     # is counted there): what a round costs on quiet cores (the model's c). The wall time the client
@@ -287,6 +323,12 @@ def main() -> None:
         pred = out["model"]["cluster"].get(f"at_{c['workers']}")
         checks.append({"run": f"{c['workers']} workers", "measured_speedup": round(base["greedy_wall_s"] / c["greedy_wall_s"], 2),
                        "predicted_round_aware": pred and pred["round_aware_speedup"]})
+    if args.whole:
+        for r in runs[1:]:
+            w = [x["greedy_wall_s"] + x["certificate"]["wall_s"] + x["breakdown"]["wall_s"] for x in (base, r)]
+            pred = out["model"]["in_process_whole_command"].get(f"at_{r['jobs']}")
+            checks.append({"run": f"whole command, {r['jobs']} threads", "measured_speedup": round(w[0] / w[1], 2),
+                           "predicted_round_aware": pred and pred["round_aware_speedup"]})
     out["model_check"] = checks
     out["in_process"] = [{k: v for k, v in r.items() if not k.startswith("_")} for r in runs]
     out["cluster"] = [{k: v for k, v in c.items() if not k.startswith("_")} for c in clusters]

@@ -94,3 +94,16 @@ def test_domain_design_same_bytes_on_1_and_2_threads_and_1_and_2_workers(cluster
     runs.append(design_domain(domain, 12_000, certify=True, evaluator=DistributedDomainEvaluator(cluster.client, domain)))
     first = _untimed(runs[0])
     assert all(_untimed(r) == first for r in runs[1:])
+
+
+def test_a_checkpointed_domain_design_on_two_threads_records_the_one_thread_breakdown(tmp_path):
+    # the breakdown's routes run in waves of the evaluator's threads, each recorded in route order
+    domain = load_domain(FIXTURES)
+    one = design_domain(domain, 12_000, certify=True, jobs=1)
+    ck = tmp_path / "design.checkpoint"
+    from sensorsel.designs.checkpoint import GreedyCheckpoint, resumable_greedy
+
+    two = resumable_greedy(domain, 12_000, checkpoint=ck, certify=True, jobs=2)
+    assert _untimed(two) == _untimed(one)
+    saved = results.load(ck, GreedyCheckpoint)
+    assert saved.routes == one.routes  # every route's share, in route order

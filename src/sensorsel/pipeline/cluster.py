@@ -450,6 +450,13 @@ class DistributedDomainEvaluator(DomainEvaluator):
         per_route = np.stack([np.asarray(got[k], dtype=float) for k in range(len(self.recipes))])
         return self.combine(per_route)
 
+    def map_routes(self, one: Any, routes: Sequence[int] | None = None) -> dict[int, Any]:
+        """``one(k)`` for each route, one route at a time from the client (each call still goes to
+        the route's worker). A route's own greedy (the breakdown) talks to its actor step by step;
+        running several from client threads at once is not done: the client's calls are not made
+        for concurrent callers."""
+        return {int(k): one(int(k)) for k in (range(len(self.recipes)) if routes is None else routes)}
+
     def _ask_members(self, method: str, base: tuple[int, ...], cand: list[int], members: Iterable[int]) -> dict[int, Any]:
         """Each member's ``method(base, cand)``, every actor asked at once (the bounds of
         :meth:`DomainEvaluator.gain_bounds` and :meth:`DomainEvaluator.score_bounds`: the same numbers)."""
