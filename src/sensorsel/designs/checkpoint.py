@@ -245,11 +245,17 @@ def _breakdown(ev: DomainEvaluator, store: _Store, res: GreedyResult, lazy: bool
     n = len(ev.routes)
     if len(shares) < n:
         scores = ev.route_scores(ev.library.resolve_suite(res.suite))
-        for k in range(len(shares), n):
-            shares.append(route_share(ev, k, res, float(scores[k]), lazy=lazy))
-            store.update(routes=tuple(shares))
-            if progress:
-                progress(k + 1, n)
+        # the routes' own designs on the evaluator's threads, as many at a time as it has, each
+        # recorded in route order as its wave finishes (an interruption keeps the finished prefix)
+        wave = max(1, ev.jobs)
+        for start in range(len(shares), n, wave):
+            todo = list(range(start, min(n, start + wave)))
+            got = ev.map_routes(lambda k: route_share(ev, k, res, float(scores[k]), lazy=lazy), todo)
+            for k in todo:
+                shares.append(got[k])
+                store.update(routes=tuple(shares))
+                if progress:
+                    progress(k + 1, n)
     return tuple(shares)
 
 

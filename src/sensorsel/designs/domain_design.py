@@ -100,9 +100,11 @@ def route_breakdown(evaluator: DomainEvaluator, result: GreedyResult, *, lazy: b
     """Each route's share of its best and of its own design for the domain suite of ``result``
     (own designs: greedy with ``result``'s rule and budget on each route's own evaluator)."""
     scores = evaluator.route_scores(evaluator.library.resolve_suite(result.suite))
+    # the routes' own designs are independent: on the evaluator's threads (each from its route's engine alone)
+    got = evaluator.map_routes(lambda k: route_share(evaluator, k, result, float(scores[k]), lazy=lazy))
     out = []
     for k in range(len(evaluator.routes)):
-        out.append(route_share(evaluator, k, result, float(scores[k]), lazy=lazy))
+        out.append(got[k])
         if progress:
             progress(k + 1, len(evaluator.routes))
     return tuple(out)

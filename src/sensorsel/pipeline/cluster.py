@@ -4,18 +4,20 @@
         ev = DistributedDomainEvaluator(cluster.client, domain)
         design = design_domain(domain, 110_000, evaluator=ev)      # every selector works unchanged
 
-**Domain evaluation.** Each route's evaluator is built once, on a worker, by a Dask *actor*
-(:class:`RouteActor`) from the route's recipe: its scenario spec, the sensor library and the graph
-settings (a few kilobytes; a linearized GTSAM graph does not pickle, and need not). A greedy step
-sends the base suite and the candidates to every route's actor at once and gets back one array of
-f_r(S + c) per route; the client combines them in route order with
+**Domain evaluation.** Each route's evaluator is built once, on a worker, from the route's recipe:
+its scenario spec, the sensor library and the graph settings (a few kilobytes; a linearized GTSAM
+graph does not pickle, and need not). Each worker holds its routes in one Dask *actor*
+(:class:`WorkerRoutes`, one :class:`RouteActor` state per route). A greedy round sends each worker
+one message: the base suite and the candidates of each of its routes; it answers with one array of
+f_r(S + c) per route, all its routes' calls together (messages per round: the workers, not the
+routes; bytes: suites and numbers, never arrays of the route); the client combines them in route order with
 :meth:`DomainEvaluator.combine`, so the numbers are the bytes of the in-process
 :class:`~sensorsel.information.evaluators.DomainEvaluator` whatever the number of workers. The normalisers f_r(L)
 are computed by the actors too.
 
 **Faults.** An actor lives on one worker; when that worker dies, the call fails. The evaluator then
-builds the route's actor again from its recipe on a live worker and repeats that route's call (the
-engines are deterministic: the repeated call gives the same bytes), at most ``retries`` times.
+builds that worker's routes again from their recipes on a live worker and repeats their calls (the
+engines are deterministic: the repeated calls give the same bytes), at most ``retries`` times.
 
 **Design runs as tasks.** A tradespace's rules, a route's periods, a study's cells and a
 simulation's runs are plans (:mod:`sensorsel.pipeline`), written once; :attr:`DaskCluster.executor`
@@ -46,7 +48,7 @@ from sensorsel.pipeline import ClusterError, DaskExecutor, import_distributed
 #: seconds to wait for a scheduler to answer before giving up
 DEFAULT_CONNECT_TIMEOUT_S = 5.0
 
-__all__ = ["ClusterError", "DaskCluster", "DistributedDomainEvaluator", "RouteActor", "RouteRecipe"]
+__all__ = ["ClusterError", "DaskCluster", "DistributedDomainEvaluator", "RouteActor", "RouteRecipe", "WorkerRoutes"]
 
 
 class DaskCluster:
@@ -133,7 +135,8 @@ class DaskCluster:
 
 
 class RouteActor:
-    """One route's evaluator, built once on a worker (a Dask actor) and kept there."""
+    """One route's evaluator, built once on a worker and kept there (held by its worker's
+    :class:`WorkerRoutes` actor)."""
 
     def __init__(self, recipe: RouteRecipe, engine: str, jobs: int = 1) -> None:
         m0, t0 = _rss(), time.perf_counter()
@@ -192,6 +195,26 @@ class RouteActor:
         its engine after scoring the whole library; a measure, not an accounting: the allocator keeps
         freed memory, and routes built later on the same worker reuse it)."""
         return self.built[0], self.built[1]
+
+
+class WorkerRoutes:
+    """The routes one worker owns (a Dask actor, one per worker): each route's :class:`RouteActor`
+    state, built there from its recipe and kept. A round of a domain's calls is one message per
+    worker (:meth:`call`: every call for its routes, answered together), not one per route: the
+    client's cost per round grows with the workers, not the routes."""
+
+    def __init__(self) -> None:
+        self.routes: dict[int, RouteActor] = {}
+
+    def build(self, recipes: dict[int, RouteRecipe], engine: str, jobs: int = 1) -> dict[int, float]:
+        """Build each route (in the order given: the dearest first) and return its normaliser f_r(L)."""
+        for k, recipe in recipes.items():
+            self.routes[k] = RouteActor(recipe, engine, jobs)
+        return {k: self.routes[k].best for k in recipes}
+
+    def call(self, calls: dict[int, tuple[str, tuple[Any, ...]]]) -> dict[int, Any]:
+        """Each route's ``method(*args)``, route by route in the order given, answered together."""
+        return {k: getattr(self.routes[k], method)(*args) for k, (method, args) in calls.items()}
 
 
 def _rss() -> int:
@@ -267,6 +290,10 @@ class DistributedDomainEvaluator(DomainEvaluator):
         bytes_sent, bytes_received: pickled size of every call's arguments and results [bytes].
         n_rebuilt: routes rebuilt after losing their worker.
         step_bytes: (sent, received) of each domain ``scores_with`` call (a greedy step).
+        n_messages: messages sent to the workers' actors, each one request and its answer: one per
+            worker per round (its routes' calls together), one per worker's build.
+        n_rounds: times the client sent calls and waited for all of their answers.
+        wait_s: seconds the client spent waiting for answers [s].
     """
 
     def __init__(self, client: Any, domain: Domain, engine: str | None = None, *, jobs: int = 1,
@@ -277,7 +304,8 @@ class DistributedDomainEvaluator(DomainEvaluator):
         self.aggregate = check_aggregate(aggregate)
         self.client, self.retries = client, int(retries)
         self.recipes = tuple(RouteRecipe.of(r.name, r.problem) for r in domain.routes)
-        self.bytes_sent = self.bytes_received = self.n_rebuilt = 0
+        self.bytes_sent = self.bytes_received = self.n_rebuilt = self.n_messages = self.n_rounds = 0
+        self.wait_s = 0.0
         self.step_bytes: list[tuple[int, int]] = []
         self._actors: list[Any] = [None] * len(self.recipes)
         self._place([r.problem for r in domain.routes])
@@ -297,68 +325,92 @@ class DistributedDomainEvaluator(DomainEvaluator):
         return sorted(self.client.nthreads())
 
     def _place(self, problems: list[Problem]) -> None:
-        """Start every route's actor, the most expensive routes first, each on the least loaded worker."""
+        """Assign every route to a worker, the most expensive routes first, each to the least loaded
+        worker (longest processing time first), then start one :class:`WorkerRoutes` actor per worker
+        and build its routes there, the workers in parallel."""
         workers = self._workers()
         if not workers:
             raise ClusterError("the Dask cluster has no workers")
         load = {w: 0 for w in workers}
-        order = sorted(range(len(problems)), key=lambda k: (-_route_cost(problems[k]), k))
-        futures = {}
-        for k in order:
+        owned: dict[str, list[int]] = {w: [] for w in workers}
+        for k in sorted(range(len(problems)), key=lambda k: (-_route_cost(problems[k]), k)):
             w = min(workers, key=lambda a: (load[a], a))
             load[w] += _route_cost(problems[k])
-            futures[k] = self._submit(k, [w])
-        for k, fut in futures.items():
-            self._actors[k] = self._wait_actor(k, fut)
+            owned[w].append(k)
+        self._build({w: ks for w, ks in owned.items() if ks})
 
-    def _submit(self, k: int, workers: list[str] | None) -> Any:
-        recipe = self.recipes[k]
-        self.bytes_sent += len(pickle.dumps(recipe))
-        where: dict[str, Any] = {"workers": workers, "allow_other_workers": True} if workers else {}
-        return self.client.submit(RouteActor, recipe, self.engine, self.jobs, actor=True, pure=False, **where)
-
-    def _wait_actor(self, k: int, fut: Any) -> Any:
-        try:
-            return fut.result()
-        except SensorselError:
-            raise
-        except Exception as exc:  # the worker died while building: once more anywhere
-            self.n_rebuilt += 1
+    def _build(self, owned: dict[str | None, list[int]]) -> None:
+        """Start a :class:`WorkerRoutes` actor on each worker of ``owned`` (None: any live worker)
+        and build its routes there (in the order given), every worker at once; a worker that dies
+        while building has its routes built once more anywhere."""
+        where = {w: self._submit(ks, w) for w, ks in owned.items()}
+        for w, (actor, fut) in where.items():
             try:
-                return self._submit(k, None).result()
+                fut.result()
             except SensorselError:
                 raise
-            except Exception:
-                raise ClusterError(f"route {self.recipes[k].name!r} could not be built on the cluster "
-                                   f"({type(exc).__name__}: {exc})") from None
+            except Exception as exc:  # the worker died while building: once more anywhere
+                if w is None:
+                    names = ", ".join(repr(self.recipes[k].name) for k in owned[w])
+                    raise ClusterError(f"route(s) {names} could not be built on the cluster "
+                                       f"({type(exc).__name__}: {exc})") from None
+                self.n_rebuilt += len(owned[w])
+                self._build({None: owned[w]})
+                continue
+            for k in owned[w]:
+                self._actors[k] = actor
+
+    def _submit(self, routes: list[int], worker: str | None) -> tuple[Any, Any]:
+        """A new :class:`WorkerRoutes` actor (on ``worker``, else anywhere) and the future of its build."""
+        recipes = {k: self.recipes[k] for k in routes}
+        where: dict[str, Any] = {"workers": [worker], "allow_other_workers": True} if worker else {}
+        try:
+            actor = self.client.submit(WorkerRoutes, actor=True, pure=False, **where).result()
+        except SensorselError:
+            raise
+        except Exception:  # the chosen worker is gone: anywhere
+            actor = self.client.submit(WorkerRoutes, actor=True, pure=False).result()
+        self.bytes_sent += len(pickle.dumps(recipes))
+        self.n_messages += 1
+        return actor, actor.build(recipes, self.engine, self.jobs)
 
     def _call(self, calls: dict[int, tuple[str, tuple[Any, ...]]]) -> dict[int, Any]:
-        """Send each route's call to its actor at once, then gather; a route whose actor was lost is
-        rebuilt on a live worker and its call repeated (same recipe, same engine: same bytes)."""
+        """Send the calls, one message per worker (each worker's routes' calls together), then
+        gather; the routes of a worker that was lost are rebuilt on a live worker and their calls
+        repeated (same recipe, same engine: same bytes)."""
         pending = dict(calls)
         out: dict[int, Any] = {}
         for attempt in range(self.retries + 1):
-            futs = {}
-            for k, (method, args) in pending.items():
-                self.bytes_sent += len(pickle.dumps(args))
+            groups: dict[int, tuple[Any, dict[int, tuple[str, tuple[Any, ...]]]]] = {}
+            for k in sorted(pending):  # each worker's routes in route order
+                actor = self._actors[k]
+                groups.setdefault(id(actor), (actor, {}))[1][k] = pending[k]
+            self.n_rounds += 1 if groups else 0
+            futs: dict[int, Any] = {}
+            for g, (actor, batch) in groups.items():
+                self.bytes_sent += len(pickle.dumps(batch))
+                self.n_messages += 1
                 try:
-                    futs[k] = getattr(self._actors[k], method)(*args)
+                    futs[g] = actor.call(batch)
                 except Exception as exc:  # the actor's worker is already known to be gone
-                    futs[k] = exc
+                    futs[g] = exc
             failed: dict[int, Exception] = {}
-            for k, fut in futs.items():
-                if isinstance(fut, Exception):
+            t0 = time.perf_counter()
+            for g, fut in futs.items():
+                if not isinstance(fut, Exception):
+                    try:
+                        res = fut.result()
+                    except SensorselError:
+                        raise
+                    except Exception as exc:
+                        fut = exc
+                    else:
+                        self.bytes_received += len(pickle.dumps(res))
+                        out.update(res)
+                        continue
+                for k in groups[g][1]:
                     failed[k] = fut
-                    continue
-                try:
-                    res = fut.result()
-                except SensorselError:
-                    raise
-                except Exception as exc:
-                    failed[k] = exc
-                    continue
-                self.bytes_received += len(pickle.dumps(res))
-                out[k] = res
+            self.wait_s += time.perf_counter() - t0
             if not failed:
                 return out
             if attempt == self.retries:
@@ -366,9 +418,8 @@ class DistributedDomainEvaluator(DomainEvaluator):
                 raise ClusterError(f"route {self.recipes[k].name!r}: its worker was lost {self.retries + 1} times "
                                    f"({type(err).__name__}: {err})")
             time.sleep(0.2 * (attempt + 1))  # let the scheduler notice the dead worker
-            for k in failed:
-                self.n_rebuilt += 1
-                self._actors[k] = self._wait_actor(k, self._submit(k, None))
+            self.n_rebuilt += len(failed)
+            self._build({None: sorted(failed)})
             pending = {k: pending[k] for k in failed}
         raise AssertionError("unreachable")
 
@@ -400,6 +451,13 @@ class DistributedDomainEvaluator(DomainEvaluator):
         self.step_bytes.append((self.bytes_sent - s0, self.bytes_received - r0))
         per_route = np.stack([np.asarray(got[k], dtype=float) for k in range(len(self.recipes))])
         return self.combine(per_route)
+
+    def map_routes(self, one: Any, routes: Sequence[int] | None = None) -> dict[int, Any]:
+        """``one(k)`` for each route, one route at a time from the client (each call still goes to
+        the route's worker). A route's own greedy (the breakdown) talks to its actor step by step;
+        running several from client threads at once is not done: the client's calls are not made
+        for concurrent callers."""
+        return {int(k): one(int(k)) for k in (range(len(self.recipes)) if routes is None else routes)}
 
     def _ask_members(self, method: str, base: tuple[int, ...], cand: list[int], members: Iterable[int]) -> dict[int, Any]:
         """Each member's ``method(base, cand)``, every actor asked at once (the bounds of

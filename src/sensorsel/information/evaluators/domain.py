@@ -196,10 +196,18 @@ class DomainEvaluator(Evaluator):
         return f"DomainEvaluator({len(self.routes)} routes, engine {self.engine!r}, {self.aggregate})"
 
     def route_scores(self, suite: Iterable[int]) -> np.ndarray:
-        """f_r(S) of each route [nats], shape (R,)."""
+        """f_r(S) of each route [nats], shape (R,), the routes on :attr:`jobs` threads."""
         s = as_suite(suite)
         self._check_positions(s)
-        return np.array([ev.score(s) for ev in self.routes], dtype=float)
+        got = self.map_routes(lambda k: float(self.routes[k].score(s)))
+        return np.array([got[k] for k in range(len(self.routes))], dtype=float)
+
+    def map_routes(self, one: Any, routes: Sequence[int] | None = None) -> dict[int, Any]:
+        """``one(k)`` for each route k of ``routes`` (default: every route), by route in the order
+        given, on :attr:`jobs` threads, the dearest routes started first (BLAS held at one thread
+        meanwhile). ``one`` must use route k's engine alone (each engine is used by one thread at a
+        time): then every answer is the bytes of a run on one thread."""
+        return self._on_threads(one, list(range(len(self.routes))) if routes is None else [int(k) for k in routes])
 
     def combine(self, route_scores: np.ndarray) -> np.ndarray:
         """F from per-route scores of shape (R,) or (R, n), summed in route order."""
@@ -484,5 +492,7 @@ class DomainEvaluator(Evaluator):
         self.n_evaluations += len(cand)
         if not cand:
             return np.zeros(0)
-        per_route = np.stack([ev.scores_with(base, cand) for ev in self.routes])
-        return self.combine(per_route)
+        # the routes on the threads: a certificate's sweep or a plain greedy's step is every route
+        # times every candidate, the widest work a domain has (each route's array from its own engine)
+        got = self.map_routes(lambda k: np.asarray(self.routes[k].scores_with(base, cand), dtype=float))
+        return self.combine(np.stack([got[k] for k in range(len(self.routes))]))

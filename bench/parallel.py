@@ -1,0 +1,341 @@
+"""Where a domain greedy's time goes, per executor, and what more threads or workers can give.
+
+    python bench/parallel.py [--domain configs/domain_kitti.yaml] [--budget 110000] [--jobs 1,2] [--workers 1,2]
+    python bench/parallel.py --domain configs/domain_fixtures.yaml --budget 12000     # the small fixture domain
+    python bench/parallel.py --generated 100 --budget 12000 --jobs 1 --workers 2      # 100 generated routes
+
+(The KITTI domain needs ``SENSORSEL_KITTI_ROOT``, e.g. /work/shared/kitti.) ``--generated N`` writes a
+domain of N routes (the bundled tiny route, each with its own synthetic landmark map, seeds 1..N)
+to a temporary folder and measures that: many small routes, so wide rounds.
+
+One run of each configuration, side by side in one process (the machine is shared: the ratios and
+CPU times are what to read, not the seconds alone):
+
+- in-process on 1 and N threads (``DomainEvaluator(jobs=...)``): wall, the process's CPU (every
+  thread's), the parallel rounds (each time the evaluator hands its routes to its threads: a greedy
+  batch's scores, the routes' gain bounds) with each task's seconds, and the serial rest;
+- on LocalClusters of 1 and 2 workers (``DistributedDomainEvaluator``): wall, the client's CPU, the
+  workers' and the scheduler's CPU (``psutil`` in each process), messages and pickled bytes per greedy
+  step, the seconds the client waited for answers, and the result compared with the in-process one.
+
+**The model** (printed as ``model``), from the 1-thread run's trace alone:
+
+    T(n) = S + sum_rounds LPT_n(tasks of the round) + rounds * c(n)
+
+S the serial part (everything outside the rounds: the greedy's bookkeeping, combining routes),
+LPT_n a round's makespan when its tasks (route calls, dearest first) go to n threads or workers, c(n)
+the communication per round (0 in-process; on a cluster the client's measured CPU per round: pickling,
+sending, gathering, and a LocalCluster's scheduler, which runs in the client's process; the
+client's wall wait beyond the slower worker's scoring is reported beside it, which on a loaded
+machine is mostly waiting for a core). Amdahl's law with the serial fraction s = S / T(1) is the looser bound
+``amdahl`` (every round perfectly divisible): T(n) = T(1) (s + (1 - s) / n). The round-aware model
+is the honest one: a lazy greedy round asks one or two candidates at a time, on the routes whose
+bounds matter, so a round rarely has more than a handful of tasks, whatever the number of workers.
+Both are checked against the measured 2-thread and 1-/2-worker runs (``model_check``).
+
+Prints one JSON document (and a summary on stderr).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+REPO = Path(__file__).resolve().parents[1]
+# this file's folder holds bench/distributed.py, which would shadow Dask's own `distributed` package
+sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).resolve().parent]
+sys.path.insert(0, str(REPO / "src"))
+
+from sensorsel.information.evaluators import DomainEvaluator  # noqa: E402
+
+PREDICT_AT = (1, 2, 4, 8, 16, 64)
+
+
+def untimed(text: str) -> object:
+    def rec(o: object) -> object:
+        if isinstance(o, dict):
+            return {k: rec(v) for k, v in o.items() if k != "seconds"}
+        if isinstance(o, list):
+            return [rec(v) for v in o]
+        return o
+    return rec(json.loads(text))
+
+
+class TracedDomainEvaluator(DomainEvaluator):
+    """A :class:`DomainEvaluator` that records each parallel round: its tasks' CPU seconds (of the
+    thread that ran each: BLAS is held at one thread there) and the round's wall time. Same numbers:
+    it only times. CPU, not wall, feeds the model: other processes on the machine stretch a task's
+    wall time, not its CPU time."""
+
+    def __init__(self, *args: Any, **kw: Any) -> None:
+        self.rounds: list[tuple[float, list[float]]] = []
+        self._tracing = False
+        super().__init__(*args, **kw)
+
+    def _on_threads(self, one: Any, members: list[int], work: Any = None) -> dict[int, Any]:
+        if not self._tracing:
+            return super()._on_threads(one, members, work)
+        times: list[float] = []
+        lock = threading.Lock()
+
+        def timed(k: int) -> Any:
+            t0 = time.thread_time()
+            out = one(k)
+            with lock:
+                times.append(time.thread_time() - t0)
+            return out
+
+        t0 = time.perf_counter()
+        got = super()._on_threads(timed, members, work)
+        self.rounds.append((time.perf_counter() - t0, times))
+        return got
+
+
+def lpt(tasks: list[float], n: int) -> float:
+    """Makespan of ``tasks`` [s] on ``n`` machines, longest first to the least loaded (as
+    :meth:`DomainEvaluator._on_threads` starts the dearest routes first)."""
+    if n <= 1 or len(tasks) <= 1:
+        return sum(tasks) if n <= 1 else max(tasks, default=0.0)
+    load = [0.0] * min(n, len(tasks))
+    for t in sorted(tasks, reverse=True):
+        i = load.index(min(load))
+        load[i] += t
+    return max(load)
+
+
+def rss() -> int:
+    import psutil
+
+    return int(psutil.Process().memory_info().rss)
+
+
+def cpu_of_this_process() -> float:
+    import psutil
+
+    t = psutil.Process().cpu_times()
+    return float(t.user + t.system)
+
+
+def _stage(ev: TracedDomainEvaluator, jobs: int, run: Any) -> tuple[Any, dict[str, Any]]:
+    """Run ``run()`` with ``ev``'s rounds traced afresh: its result and what the stage cost."""
+    ev.rounds = []
+    c1, t1 = cpu_of_this_process(), time.perf_counter()
+    out = run()
+    wall = time.perf_counter() - t1
+    cpu = cpu_of_this_process() - c1
+    in_rounds = sum(w for w, _ in ev.rounds)
+    tasks = [len(t) for _, t in ev.rounds]
+    task_cpu = sum(sum(t) for _, t in ev.rounds)
+    by_width: dict[str, float] = {}
+    for _, t in ev.rounds:
+        if t:
+            by_width[str(len(t))] = by_width.get(str(len(t)), 0.0) + sum(t)
+    return out, {
+        "wall_s": round(wall, 3), "cpu_s": round(cpu, 3),
+        "rounds": len(ev.rounds), "route_calls": sum(tasks),
+        "rounds_by_tasks": {str(n): tasks.count(n) for n in sorted(set(tasks))},
+        "route_call_cpu_s": round(task_cpu, 3),
+        "route_call_cpu_s_by_round_width": {k: round(v, 3) for k, v in sorted(by_width.items(), key=lambda kv: int(kv[0]))},
+        "rounds_wall_s": round(in_rounds, 3), "serial_wall_s": round(wall - in_rounds, 3),
+        # the client's CPU outside the rounds (jobs=1: the one thread's CPU minus its tasks')
+        "serial_cpu_s": round(max(0.0, cpu - task_cpu), 3) if jobs == 1 else None,
+        "_trace": [t for _, t in ev.rounds],
+    }
+
+
+def run_in_process(domain: Any, budget: float, rule: str, jobs: int, whole: bool) -> dict[str, Any]:
+    """The lazy greedy (and with ``whole``, the command's certificate and per-route breakdown too),
+    each stage traced on its own."""
+    from sensorsel.designs.certify import certificate
+    from sensorsel.designs.domain_design import route_breakdown
+    from sensorsel.designs.selection import greedy
+    from sensorsel.io import results
+
+    c0, t0 = cpu_of_this_process(), time.perf_counter()
+    ev = TracedDomainEvaluator(domain, jobs=jobs)
+    build = time.perf_counter() - t0
+    ev._tracing = True
+    res, g = _stage(ev, jobs, lambda: greedy(ev, budget, rule, lazy=True, info=domain.info))
+    out = {"jobs": jobs, "build_s": round(build, 3), "build_cpu_s": round(cpu_of_this_process() - c0 - g["cpu_s"], 3),
+           "greedy_wall_s": g["wall_s"], "greedy_cpu_s": g["cpu_s"], "steps": len(res.steps),
+           "n_evaluations": res.n_evaluations, **{k: v for k, v in g.items() if k not in ("wall_s", "cpu_s")}}
+    record = [results.dumps(res)]
+    if whole:
+        cert, c = _stage(ev, jobs, lambda: certificate(ev, res))
+        shares, b = _stage(ev, jobs, lambda: route_breakdown(ev, res))
+        out["certificate"], out["breakdown"] = c, b
+        record += [repr(cert.bound), repr(shares)]  # the certificate's bound and every route's share (no timings)
+    out["_result"] = "\x00".join(record)
+    return out
+
+
+def run_on_cluster(domain: Any, budget: float, rule: str, workers: int) -> dict[str, Any]:
+    from sensorsel.designs.selection import greedy
+    from sensorsel.io import results
+    from sensorsel.pipeline.cluster import DaskCluster, DistributedDomainEvaluator
+
+    def cpu_now() -> float:
+        import psutil
+
+        t = psutil.Process().cpu_times()
+        return float(t.user + t.system)
+
+    with DaskCluster(workers=workers, echo=lambda line: None) as cluster:
+        client = cluster.client
+        mem0, t0 = rss(), time.perf_counter()
+        ev = DistributedDomainEvaluator(client, domain)
+        build = time.perf_counter() - t0
+        w0, s0 = client.run(cpu_now), client.run_on_scheduler(cpu_now)
+        busy0 = ev.busy()
+        m0, b0, r0, wait0, rounds0 = ev.n_messages, ev.bytes_sent, ev.bytes_received, ev.wait_s, ev.n_rounds
+        c1, t1 = cpu_of_this_process(), time.perf_counter()
+        res = greedy(ev, budget, rule, lazy=True, info=domain.info)
+        wall = time.perf_counter() - t1
+        client_cpu = cpu_of_this_process() - c1
+        msgs, sent, recv, wait = ev.n_messages - m0, ev.bytes_sent - b0, ev.bytes_received - r0, ev.wait_s - wait0
+        rounds = ev.n_rounds - rounds0
+        w1, s1 = client.run(cpu_now), client.run_on_scheduler(cpu_now)
+        client_rss_growth = rss() - mem0
+        workers_rss = client.run(rss)
+        busy1 = ev.busy()
+    busy_by_worker: dict[str, float] = {}
+    for k in busy1:
+        busy_by_worker[busy1[k][2]] = busy_by_worker.get(busy1[k][2], 0.0) + busy1[k][0] - busy0[k][0]
+    steps = max(1, len(res.steps))
+    return {
+        "workers": workers, "build_s": round(build, 3), "greedy_wall_s": round(wall, 3),
+        "client_cpu_s": round(client_cpu, 3),
+        "workers_cpu_s": round(sum(w1[a] - w0[a] for a in w1), 3),
+        "scheduler_cpu_s": round(s1 - s0, 3),
+        "workers_scoring_s": {a: round(v, 3) for a, v in sorted(busy_by_worker.items())},
+        "client_wait_s": round(wait, 3), "rounds": rounds,
+        "client_rss_growth_bytes": client_rss_growth, "workers_rss_bytes": sorted(workers_rss.values()),
+        "messages": msgs, "messages_per_step": round(msgs / steps, 1),
+        "bytes_sent_per_step": round(sent / steps, 1), "bytes_received_per_step": round(recv / steps, 1),
+        "_result": results.dumps(res),
+    }
+
+
+def model(trace: list[list[float]], serial: float, comm_per_round: float = 0.0) -> dict[str, Any]:
+    """Predicted greedy seconds and speed-ups at each n of :data:`PREDICT_AT` (see the module's doc)."""
+    t1 = serial + sum(sum(t) for t in trace)
+    s = serial / t1 if t1 > 0 else 1.0
+    out: dict[str, Any] = {"serial_s": round(serial, 3), "serial_fraction": round(s, 4),
+                           "rounds": len(trace), "comm_per_round_ms": round(1e3 * comm_per_round, 3)}
+    for n in PREDICT_AT:
+        rounds_aware = serial + sum(lpt(t, n) for t in trace) + len(trace) * comm_per_round
+        amdahl = t1 * (s + (1 - s) / n)
+        out[f"at_{n}"] = {"round_aware_s": round(rounds_aware, 3), "round_aware_speedup": round(t1 / rounds_aware, 2),
+                          "amdahl_speedup": round(t1 / amdahl, 2)}
+    return out
+
+
+def generated_domain(folder: Path, n: int) -> str:
+    """A domain file of ``n`` routes: the bundled tiny route, with synthetic landmarks of seeds 1..n."""
+    data = REPO / "data" / "kitti_fixtures"
+    tiny = f"route: {data / 'poses' / 'tiny.txt'}, format: kitti, times: {data / 'sequences' / 'tiny' / 'times.txt'}"
+    lines = ["keyframe_rate_hz: 1.0", "routes:"]
+    lines += [f"  - {{name: tiny-{seed:03d}, {tiny}, landmarks: {{synthetic: {{seed: {seed}}}}}}}" for seed in range(1, n + 1)]
+    path = folder / f"generated-{n}.yaml"
+    path.write_text("\n".join(lines) + "\n")
+    return str(path)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--domain", default=str(REPO / "configs" / "domain_kitti.yaml"))
+    ap.add_argument("--budget", type=float, default=110_000.0)
+    ap.add_argument("--rule", default="uniform")
+    ap.add_argument("--jobs", default=f"1,{os.cpu_count() or 1}", help="thread counts in-process (comma-separated)")
+    ap.add_argument("--workers", default="1,2", help="LocalCluster sizes (comma-separated; empty: none)")
+    ap.add_argument("--generated", type=int, default=0, help="measure a generated domain of N routes instead")
+    ap.add_argument("--whole", action="store_true",
+                    help="in-process, also the certificate and the per-route breakdown (what greedy --domain runs)")
+    args = ap.parse_args()
+    if args.generated:
+        import tempfile
+
+        args.domain = generated_domain(Path(tempfile.mkdtemp(prefix="sensorsel-bench-")), args.generated)
+
+    from sensorsel.model.problem import load_domain
+
+    out: dict[str, Any] = {"domain": args.domain, "budget_usd": args.budget, "rule": args.rule, "cpus": os.cpu_count(),
+                           "load_avg_before": os.getloadavg()}
+    m0, t0 = rss(), time.perf_counter()
+    domain = load_domain(args.domain)
+    out["routes"] = len(domain.routes)
+    out["load_s"] = round(time.perf_counter() - t0, 3)
+    out["client_rss_of_the_loaded_domain_bytes"] = rss() - m0  # the client holds every route's problem
+    run_in_process(domain, args.budget, args.rule, 1, False)  # warm-up, not reported: first imports and caches
+    runs = [run_in_process(domain, args.budget, args.rule, int(j), args.whole) for j in args.jobs.split(",") if j]
+    for r in runs:
+        print(f"in-process, {r['jobs']} thread(s): greedy {r['greedy_wall_s']:.2f} s wall, {r['greedy_cpu_s']:.2f} s CPU, "
+              f"{r['rounds']} rounds, serial {r['serial_wall_s']:.2f} s wall", file=sys.stderr)
+    base = runs[0]
+    clusters = [run_on_cluster(domain, args.budget, args.rule, int(w)) for w in args.workers.split(",") if w]
+    for c in clusters:
+        print(f"{c['workers']} worker(s): greedy {c['greedy_wall_s']:.2f} s wall, client CPU {c['client_cpu_s']:.2f} s, "
+              f"workers CPU {c['workers_cpu_s']:.2f} s, {c['messages_per_step']} messages/step, "
+              f"{c['bytes_sent_per_step'] + c['bytes_received_per_step']:.0f} B/step", file=sys.stderr)
+    def parts(text: str) -> list[object]:
+        first, *rest = text.split("\x00")
+        return [untimed(first), *rest]
+
+    same = all(parts(r["_result"]) == parts(base["_result"]) for r in runs) and \
+        all(untimed(c["_result"]) == parts(base["_result"])[0] for c in clusters)
+    out["same_result"] = same
+    trace, serial = [t for t in base["_trace"] if t], base["serial_cpu_s"]  # rounds with work (none: nothing sent)
+    out["model"] = {"in_process": model(trace, serial)}
+    if args.whole:  # the whole command in-process: the three stages' rounds and serial parts together
+        stages = [base, base["certificate"], base["breakdown"]]
+        whole_trace = [t for st in stages for t in st["_trace"] if t]
+        out["model"]["in_process_whole_command"] = model(whole_trace, sum(st["serial_cpu_s"] for st in stages))
+        for name in ("certificate", "breakdown"):
+            st = base[name]
+            out["model"][f"in_process_{name}"] = model([t for t in st["_trace"] if t], st["serial_cpu_s"])
+        for r in runs:
+            for name in ("certificate", "breakdown"):
+                r[name] = {k: v for k, v in r[name].items() if not k.startswith("_")}
+    # a cluster's communication per round: the client's CPU per round beyond the greedy's own serial
+    # work (pickling, sending, gathering; a LocalCluster's scheduler runs in the client's process and
+    # is counted there): what a round costs on quiet cores (the model's c). The wall time the client
+    # waited beyond the slower worker's scoring, per round, is reported beside it: on a loaded
+    # machine it is mostly waiting for a core
+    for c in clusters:
+        scoring = max(c["workers_scoring_s"].values(), default=0.0)
+        c["comm_cpu_per_round_ms"] = round(1e3 * max(0.0, c["client_cpu_s"] - serial) / max(1, c["rounds"]), 3)
+        c["comm_wall_per_round_ms"] = round(1e3 * max(0.0, c["client_wait_s"] - scoring) / max(1, c["rounds"]), 3)
+    if clusters:
+        comm = max(c["comm_cpu_per_round_ms"] for c in clusters) / 1e3
+        out["model"]["cluster"] = model(trace, serial, comm)
+    checks = []
+    for r in runs[1:]:
+        pred = out["model"]["in_process"][f"at_{r['jobs']}"] if f"at_{r['jobs']}" in out["model"]["in_process"] else None
+        checks.append({"run": f"{r['jobs']} threads", "measured_speedup": round(base["greedy_wall_s"] / r["greedy_wall_s"], 2),
+                       "predicted_round_aware": pred and pred["round_aware_speedup"], "predicted_amdahl": pred and pred["amdahl_speedup"]})
+    for c in clusters:
+        pred = out["model"]["cluster"].get(f"at_{c['workers']}")
+        checks.append({"run": f"{c['workers']} workers", "measured_speedup": round(base["greedy_wall_s"] / c["greedy_wall_s"], 2),
+                       "predicted_round_aware": pred and pred["round_aware_speedup"]})
+    if args.whole:
+        for r in runs[1:]:
+            w = [x["greedy_wall_s"] + x["certificate"]["wall_s"] + x["breakdown"]["wall_s"] for x in (base, r)]
+            pred = out["model"]["in_process_whole_command"].get(f"at_{r['jobs']}")
+            checks.append({"run": f"whole command, {r['jobs']} threads", "measured_speedup": round(w[0] / w[1], 2),
+                           "predicted_round_aware": pred and pred["round_aware_speedup"]})
+    out["model_check"] = checks
+    out["in_process"] = [{k: v for k, v in r.items() if not k.startswith("_")} for r in runs]
+    out["cluster"] = [{k: v for k, v in c.items() if not k.startswith("_")} for c in clusters]
+    out["load_avg_after"] = os.getloadavg()
+    print(f"same result everywhere: {same}", file=sys.stderr)
+    print(json.dumps(out, indent=2))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,109 @@
+"""Coarse work, few messages: a domain on threads and on a real LocalCluster (127.0.0.1, stopped here).
+
+A round of a domain's route calls is one message per worker (each worker's routes answered
+together), whatever the number of routes or candidates; what a step sends and receives is suites
+and numbers, the same bytes whatever the routes' keyframes; and the answer is the same bytes on 1
+and 2 threads in-process and on 1 and 2 workers.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+distributed = pytest.importorskip("distributed")
+
+from sensorsel.designs.domain_design import design_domain  # noqa: E402
+from sensorsel.information.evaluators import DomainEvaluator  # noqa: E402
+from sensorsel.io import results  # noqa: E402
+from sensorsel.model.problem import load_domain  # noqa: E402
+from sensorsel.pipeline.cluster import DaskCluster, DistributedDomainEvaluator  # noqa: E402
+
+REPO = Path(__file__).resolve().parents[1]
+FIXTURES = REPO / "configs" / "domain_fixtures.yaml"
+DATA = REPO / "data" / "kitti_fixtures"
+
+
+def _untimed(obj: object) -> object:
+    def rec(o: object) -> object:
+        if isinstance(o, dict):
+            return {k: rec(v) for k, v in o.items() if k != "seconds"}
+        if isinstance(o, list):
+            return [rec(v) for v in o]
+        return o
+    return rec(json.loads(results.dumps(obj)))
+
+
+def _four_routes(tmp_path: Path, rate_hz: float) -> Path:
+    """A domain of four routes (the bundled suburb and three synthetic maps along tiny)."""
+    tiny = (f"route: {DATA / 'poses' / 'tiny.txt'}, format: kitti, "
+            f"times: {DATA / 'sequences' / 'tiny' / 'times.txt'}")
+    text = [f"keyframe_rate_hz: {rate_hz}", "routes:", "  - {name: suburb, fixture: suburb}"]
+    text += [f"  - {{name: tiny-{seed}, {tiny}, landmarks: {{synthetic: {{seed: {seed}}}}}}}" for seed in (3, 4, 5)]
+    path = tmp_path / f"four-{rate_hz:g}.yaml"
+    path.write_text("\n".join(text) + "\n")
+    return path
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    with DaskCluster(workers=2, echo=lambda line: None) as c:
+        yield c
+
+
+def test_a_round_is_one_message_per_worker_whatever_the_routes_and_candidates(cluster, tmp_path):
+    domain = load_domain(_four_routes(tmp_path, 1.0))
+    ev = DistributedDomainEvaluator(cluster.client, domain)
+    here = DomainEvaluator(domain)
+    holders = {id(a) for a in ev._actors}
+    assert len(domain.routes) == 4 and len(holders) == 2  # four routes, owned by the two workers
+    base, n = (0,), len(domain.library)
+    for cand in ([1, 2, 3], list(range(1, n))):  # 3 candidates, then every other sensor
+        m0, r0 = ev.n_messages, ev.n_rounds
+        got = ev.scores_with(base, cand)
+        assert ev.n_rounds - r0 == 1
+        assert ev.n_messages - m0 == 2  # the workers: not the 4 routes, not routes x candidates
+        np.testing.assert_array_equal(got, here.scores_with(base, cand))  # the in-process bytes
+    # the lazy greedy's route-by-route rounds: a round asking three routes is still one message per worker
+    m0 = ev.n_messages
+    ev._ask_members_grouped(base, {0: [4], 1: [5], 2: [6]})
+    assert ev.n_messages - m0 == len({id(ev._actors[k]) for k in (0, 1, 2)})
+
+
+def test_bytes_of_a_step_do_not_grow_with_the_keyframes(cluster, tmp_path):
+    sizes, poses = [], []
+    for rate in (1.0, 3.0):
+        domain = load_domain(_four_routes(tmp_path, rate))
+        poses.append(sum(r.problem.scenario.n_poses for r in domain.routes))
+        ev = DistributedDomainEvaluator(cluster.client, domain)
+        ev.scores_with((0, 1), list(range(2, len(domain.library))))
+        sizes.append(ev.step_bytes[-1])
+    assert poses[1] > 2 * poses[0]  # three times the keyframes
+    assert sizes[0] == sizes[1]  # (sent, received): suites and one number per candidate and route
+    assert sizes[0][0] < 1_000 and sizes[0][1] < 4 * 60 * 8 + 1_000
+
+
+def test_domain_design_same_bytes_on_1_and_2_threads_and_1_and_2_workers(cluster):
+    domain = load_domain(FIXTURES)
+    runs = [design_domain(domain, 12_000, certify=True, jobs=jobs) for jobs in (1, 2)]
+    with DaskCluster(workers=1, echo=lambda line: None) as one:
+        runs.append(design_domain(domain, 12_000, certify=True, evaluator=DistributedDomainEvaluator(one.client, domain)))
+    runs.append(design_domain(domain, 12_000, certify=True, evaluator=DistributedDomainEvaluator(cluster.client, domain)))
+    first = _untimed(runs[0])
+    assert all(_untimed(r) == first for r in runs[1:])
+
+
+def test_a_checkpointed_domain_design_on_two_threads_records_the_one_thread_breakdown(tmp_path):
+    # the breakdown's routes run in waves of the evaluator's threads, each recorded in route order
+    domain = load_domain(FIXTURES)
+    one = design_domain(domain, 12_000, certify=True, jobs=1)
+    ck = tmp_path / "design.checkpoint"
+    from sensorsel.designs.checkpoint import GreedyCheckpoint, resumable_greedy
+
+    two = resumable_greedy(domain, 12_000, checkpoint=ck, certify=True, jobs=2)
+    assert _untimed(two) == _untimed(one)
+    saved = results.load(ck, GreedyCheckpoint)
+    assert saved.routes == one.routes  # every route's share, in route order
