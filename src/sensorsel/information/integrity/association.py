@@ -168,6 +168,22 @@ def measurement_risks(pose: np.ndarray, points: np.ndarray, prediction: Predicti
     reach = CANDIDATE_SCALE * meas.range_m[mi] + CANDIDATE_MARGIN_M
     keep = (cj != meas.landmark[mi]) & (np.hypot(*(points[cj] - pose[:2]).T) <= reach)
     mi, cj = mi[keep], cj[keep]
+    # a pair whose λ is surely past the far limit is dropped before its moments (it would be after):
+    # λ is invariant under d → T d, S → T S Tᵀ; with T = diag(r_i, 1) (bearing in metres),
+    # λ ≥ |T d|² / tr(T S_j T), and each row h of H_j has hᵀ E h ≤ (Σ_blocks ‖h_b‖ √λmax(E_bb))²
+    # (Cauchy–Schwarz, E ⪰ 0), the blocks being the position (‖h‖ ≤ 1/r_j bearing, 1 range), the
+    # heading (1, 0) and the landmark (1/r_j, 1); λmax(E_bb) ≤ its trace: the same pairs, fewer computed
+    d = _innovation_means(pose, points, meas, mi, cj)
+    cov = np.asarray(prediction.covariance, float)
+    lm_tr = np.diagonal(cov)[3:].reshape(-1, 2).sum(axis=1) if cov.shape[0] > 3 else np.zeros(0)
+    sd_lm = math.sqrt(max(float(lm_tr.max(initial=0.0)), 2.0 * float(prediction.prior_sigma_m) ** 2))
+    sd_xy, sd_th = math.sqrt(cov[0, 0] + cov[1, 1]), math.sqrt(cov[2, 2])
+    r_i = meas.range_m[mi]
+    r_j = np.maximum(np.hypot(*(points[cj] - pose[:2]).T), 1e-9)
+    s_bb = r_i ** 2 * (meas.sigma_bearing_rad[mi] ** 2 + ((sd_xy + sd_lm) / r_j + sd_th) ** 2)
+    s_rr = meas.sigma_range_m[mi] ** 2 + (sd_xy + sd_lm) ** 2
+    keep = ((r_i * d[:, 0]) ** 2 + d[:, 1] ** 2) / (s_bb + s_rr) <= (math.sqrt(gate) + FAR_SIGMAS) ** 2
+    mi, cj = mi[keep], cj[keep]
     li = meas.landmark[mi]
     pair = _pair_moments(pose, points, prediction, meas, mi, li, cj, _slots(state, li), _slots(state, cj))
     close = pair.lam <= (math.sqrt(gate) + FAR_SIGMAS) ** 2
@@ -270,15 +286,20 @@ def _pair_moments(pose: np.ndarray, points: np.ndarray, prediction: Prediction, 
     a = c - b
     c_d = a @ e @ np.transpose(a, (0, 2, 1))
     c_id = b @ e @ np.transpose(a, (0, 2, 1))
-    # d: the true measurement of i minus that of j (bearing wrapped)
+    d = _innovation_means(pose, points, meas, mi, cj)
+    lam = np.einsum("ni,ni->n", d, np.linalg.solve(s_j, d[:, :, None])[:, :, 0])
+    return _Pairs(d=d, s_i=s_i, s_j=s_j, c_d=c_d, c_id=c_id, lam=lam)
+
+
+def _innovation_means(pose: np.ndarray, points: np.ndarray, meas: KeyframeMeasurements, mi: np.ndarray,
+                      cj: np.ndarray) -> np.ndarray:
+    """(n, 2) d: the true measurement of each pair's measurement minus candidate j's (bearing wrapped)."""
     ci, si = math.cos(pose[2]), math.sin(pose[2])
     rel_j = points[cj] - pose[:2]
     bj = np.arctan2(ci * rel_j[:, 1] - si * rel_j[:, 0], ci * rel_j[:, 0] + si * rel_j[:, 1])
     rj = np.hypot(rel_j[:, 0], rel_j[:, 1])
     db = (meas.bearing_rad[mi] - bj + np.pi) % (2.0 * np.pi) - np.pi
-    d = np.column_stack([db, meas.range_m[mi] - rj])
-    lam = np.einsum("ni,ni->n", d, np.linalg.solve(s_j, d[:, :, None])[:, :, 0])
-    return _Pairs(d=d, s_i=s_i, s_j=s_j, c_d=c_d, c_id=c_id, lam=lam)
+    return np.column_stack([db, meas.range_m[mi] - rj])
 
 
 def _p_nearer(pair: _Pairs, chunk: int = 20000) -> np.ndarray:
