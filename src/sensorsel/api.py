@@ -39,6 +39,7 @@ from sensorsel.designs.tradespace import run_tradespace
 from sensorsel.errors import InputError
 from sensorsel.information.evaluators import DomainEvaluator, evaluator_for, make_evaluator
 from sensorsel.information.evaluators.accuracy import RouteAccuracy, route_accuracy
+from sensorsel.information.integrity import IntegritySpec, RouteIntegrity, route_integrity
 from sensorsel.io.results import result_kind
 from sensorsel.model.constraints import Constraints, feasible_set
 from sensorsel.model.problem import Domain, DomainInfo, Problem, ProblemInfo, Target, load_domain, load_problem
@@ -46,7 +47,7 @@ from sensorsel.model.problem import Domain, DomainInfo, Problem, ProblemInfo, Ta
 if TYPE_CHECKING:
     from sensorsel.simulate import simulate
 
-__all__ = ["RouteAccuracy", "suite_accuracy", "run_require", "RequireResult", "FrontAcceptance", "front_acceptance", "CertifiedGreedyResult", "DomainDesign", "DomainScoreResult", "ProblemInfo", "RouteScore", "ScoreResult",
+__all__ = ["RouteAccuracy", "suite_accuracy", "RouteIntegrity", "IntegritySpec", "suite_integrity", "run_require", "RequireResult", "FrontAcceptance", "front_acceptance", "CertifiedGreedyResult", "DomainDesign", "DomainScoreResult", "ProblemInfo", "RouteScore", "ScoreResult",
            "certify_result", "design_domain", "load_domain", "load_problem", "resilient_report", "run_greedy", "run_robust", "RobustResult",
            "run_optimal", "run_tradespace", "score_domain_suite", "score_suite", "simulate"]
 
@@ -67,6 +68,8 @@ class ScoreResult:
         engine: evaluator used.
         problem: what it was computed on.
         accuracy: the suite's accuracy in metres and degrees, per keyframe (None when not asked for).
+        integrity: the suite's integrity (association risk, integrity risk, protection levels), one
+            per route (empty when not asked for).
     """
 
     suite: tuple[str, ...]
@@ -79,6 +82,7 @@ class ScoreResult:
     engine: str
     problem: ProblemInfo
     accuracy: RouteAccuracy | None = None
+    integrity: tuple[RouteIntegrity, ...] = ()
 
 
 def score_suite(problem: Problem, suite: str | Iterable[str | int], *, engine: str | None = None,
@@ -116,6 +120,17 @@ def suite_accuracy(target: Target, suite: str | Iterable[str | int], *, map_sigm
     positions = target.library.resolve_suite(suite)
     return tuple(route_accuracy(make_evaluator(p, engine), positions, map_sigma_m=map_sigma_m, route=name)
                  for name, p in problems)
+
+
+def suite_integrity(target: Target, suite: str | Iterable[str | int], spec: IntegritySpec | None = None, *,
+                    map_sigma_m: float | None = None) -> tuple[RouteIntegrity, ...]:
+    """The integrity of a suite on every route of ``target`` (one for a problem), per keyframe: the
+    association risk of its measurements, the integrity risk for ``spec``'s alert limits, the
+    protection levels and the risk per hour (:mod:`sensorsel.information.integrity`), as the car
+    drives (the filter). ``map_sigma_m``: localizing in a map known to that std [m]; None: SLAM."""
+    problems = [(r.name, r.problem) for r in target.routes] if isinstance(target, Domain) else [(target.scenario.name, target)]
+    positions = target.library.resolve_suite(suite)
+    return tuple(route_integrity(p, positions, spec, map_sigma_m=map_sigma_m, route=name) for name, p in problems)
 
 
 def run_greedy(problem: Target, budget_usd: float, rule: str = "uniform", *, engine: str | None = None, jobs: int = 1,
@@ -212,6 +227,7 @@ class DomainScoreResult:
         engine: the per-route engine.
         domain: what it was computed on.
         accuracy: the suite's accuracy in metres on each route, in route order (empty when not asked for).
+        integrity: the suite's integrity on each route, in route order (empty when not asked for).
     """
 
     suite: tuple[str, ...]
@@ -222,6 +238,7 @@ class DomainScoreResult:
     engine: str
     domain: DomainInfo
     accuracy: tuple[RouteAccuracy, ...] = ()
+    integrity: tuple[RouteIntegrity, ...] = ()
 
 
 def score_domain_suite(domain: Domain, suite: str | Iterable[str | int], *, engine: str | None = None,

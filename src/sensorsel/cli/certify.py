@@ -26,10 +26,11 @@ from sensorsel.model.library import SensorLibrary
 from sensorsel.model.problem import ProblemMismatchWarning, check_result_problem
 from dataclasses import replace
 
-from sensorsel.api import suite_accuracy
+from sensorsel.api import suite_accuracy, suite_integrity
 from sensorsel.cli.options import (not_empty, budget_option, force_option, engine_options, json_option, output_option,
                                    progress_bar, quiet_option, print_target, run, target_from, target_options)
 from sensorsel.cli.options import check_map_sigma, map_sigma_option, print_accuracy
+from sensorsel.cli.options import integrity_from, integrity_options
 from sensorsel.cli.options import cluster_from, cluster_options, resume_option
 from sensorsel.cli.options import constraint_options, constraints_from, usage_table
 from sensorsel.cli.rules import kept_label, rule_option
@@ -73,6 +74,7 @@ def _check_result_constraints(res: GreedyResult, lib: SensorLibrary, path: str, 
 @click.option("--max-seconds", type=click.FloatRange(min=0, min_open=True), default=None,
               help="Also stop after this much wall time [s] (the result then depends on the machine's speed).")
 @map_sigma_option
+@integrity_options
 @output_option(help="Write the result as JSON here; the search's state is kept in FILE.checkpoint as it runs "
                     "(the greedy start, then every 500 nodes; removed once FILE is written).")
 @resume_option
@@ -98,6 +100,7 @@ def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output
     """
     budget = check_budget(budget)
     map_sigma = check_map_sigma(map_sigma)
+    integrity_spec = integrity_from(kw)
     if resume and not output:
         raise click.UsageError("--resume goes on from the search's state in FILE.checkpoint of -o FILE: give -o")
     if output:
@@ -113,7 +116,8 @@ def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output
         ev = evaluator_on(cluster, problem, engine, jobs, aggregate)
         res = optimal(ev, budget, max_nodes=max_nodes, max_seconds=max_seconds, info=info, progress=progress,
                       constraints=constraints, checkpoint=checkpoint_path(output) if output else None, resume=resume)
-    res = replace(res, accuracy=suite_accuracy(problem, res.suite, map_sigma_m=map_sigma, engine=engine))
+    res = replace(res, accuracy=suite_accuracy(problem, res.suite, map_sigma_m=map_sigma, engine=engine),
+                  integrity=suite_integrity(problem, res.suite, integrity_spec, map_sigma_m=map_sigma))
     if output:
         results.save(res, output)
         checkpoint_path(output).unlink(missing_ok=True)  # the result is written: the run is no longer interrupted
@@ -136,7 +140,7 @@ def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output
     click.echo(f"search     {res.n_nodes:,} nodes expanded ({res.n_solved:,} settled whole), {res.n_pruned:,} pruned, {res.n_evaluations:,} suites scored "
                f"({res.engine} engine, {res.bound_method} bounds), {res.seconds:.1f} s")
     _print_usage(problem.library, res.budget_usd, res.constraints, res.suite)
-    print_accuracy(res.accuracy)
+    print_accuracy(res.accuracy, res.integrity)
     if output:
         click.echo(f"wrote      {output}")
 

@@ -10,12 +10,13 @@ from typing import Any
 
 import click
 
-from sensorsel.api import score_domain_suite, score_suite, suite_accuracy
+from sensorsel.api import score_domain_suite, score_suite, suite_accuracy, suite_integrity
 from sensorsel.cli.cluster import domain_evaluator_on, require_domain
 from sensorsel.cli.options import (engine_options, json_option, output_option, plot_format_option, print_target,
                                    problem_from, run, scenario_options, spec_from, suite_text, table, target_from,
                                    target_options)
 from sensorsel.cli.options import check_map_sigma, map_sigma_option, print_accuracy
+from sensorsel.cli.options import integrity_from, integrity_options
 from sensorsel.cli.options import cluster_from, cluster_options, constraint_options, constraints_from, usage_table
 from sensorsel.cli.options import force_option
 from sensorsel.cli.options import plot_format as plot_format_of
@@ -90,6 +91,7 @@ def library_cmd(library_path: str | None, as_json: bool) -> None:
 @constraint_options
 @force_option
 @map_sigma_option
+@integrity_options
 @json_option
 @run
 def score_cmd(suite: str, as_json: bool, aggregate: str, engine: str | None, jobs: int, force: bool,
@@ -104,6 +106,7 @@ def score_cmd(suite: str, as_json: bool, aggregate: str, engine: str | None, job
     Also the suite's accuracy in metres and degrees (lateral, longitudinal, heading: 95 % errors over
     the keyframes), in the paper's SLAM graph or with --map-sigma localizing in a prior map."""
     map_sigma = check_map_sigma(map_sigma)
+    integrity_spec = integrity_from(kw)
     cluster = cluster_from(kw)
     constraints = constraints_from(kw)
     problem = target_from(kw)
@@ -116,7 +119,8 @@ def score_cmd(suite: str, as_json: bool, aggregate: str, engine: str | None, job
         with cluster or nullcontext():
             ev = domain_evaluator_on(cluster, problem, engine, aggregate) if cluster is not None else None
             dres = score_domain_suite(problem, suite, engine=engine, aggregate=aggregate, evaluator=ev)
-        dres = replace(dres, accuracy=suite_accuracy(problem, suite, map_sigma_m=map_sigma, engine=engine))
+        dres = replace(dres, accuracy=suite_accuracy(problem, suite, map_sigma_m=map_sigma, engine=engine),
+                       integrity=suite_integrity(problem, suite, integrity_spec, map_sigma_m=map_sigma))
         if as_json:
             click.echo(results.dumps(dres), nl=False)
             return
@@ -127,10 +131,11 @@ def score_cmd(suite: str, as_json: bool, aggregate: str, engine: str | None, job
         click.echo(table(rows, ["route", "weight", "score_nats", "best_nats", "of_best"]))
         unit = "(weighted share of the best)" if dres.aggregate == "normalised" else "nats (weighted)"
         click.echo(f"score      {dres.score:.4f} {unit}")
-        print_accuracy(dres.accuracy)
+        print_accuracy(dres.accuracy, dres.integrity)
         _print_limits(feas, problem.library.resolve_suite(dres.suite))
         return
     res = score_suite(problem, _suite_positions(suite, problem, force), engine=engine, map_sigma_m=map_sigma)
+    res = replace(res, integrity=suite_integrity(problem, res.suite, integrity_spec, map_sigma_m=map_sigma))
     if as_json:
         click.echo(results.dumps(res), nl=False)
         return
@@ -139,7 +144,7 @@ def score_cmd(suite: str, as_json: bool, aggregate: str, engine: str | None, job
     click.echo(f"cost       ${res.cost_usd:,.0f}")
     click.echo(f"score      {res.score:.3f} nats  (log det {res.logdet:.3f}, sensorless {res.baseline_logdet:.3f})")
     click.echo(f"measures   {res.n_measurements} range-bearing measurements of {res.n_landmarks_seen} landmarks")
-    print_accuracy([res.accuracy] if res.accuracy is not None else [])
+    print_accuracy([res.accuracy] if res.accuracy is not None else [], res.integrity)
     _print_limits(feas, problem.library.resolve_suite(res.suite))
 
 

@@ -17,12 +17,13 @@ from sensorsel.io.files import output_dir
 from sensorsel.model.problem import Domain
 from dataclasses import replace
 
-from sensorsel.api import suite_accuracy
+from sensorsel.api import suite_accuracy, suite_integrity
 from sensorsel.cli.options import (budget_option, engine_options, json_option, output_option, plot_format_option,
                                    progress_bar, print_target, quiet_option, run, table, target_from, target_options)
 from sensorsel.cli.options import (cluster_from, cluster_options, resume_option, constraint_options, constraints_from,
                                    usage_table)
 from sensorsel.cli.options import check_map_sigma, map_sigma_option, print_accuracy
+from sensorsel.cli.options import integrity_from, integrity_options
 from sensorsel.cli.options import plot_format as plot_format_of
 from sensorsel.cli.rules import rule_option
 
@@ -55,6 +56,7 @@ class MethodChoice(click.Choice):
 @plot_format_option
 @resume_option
 @map_sigma_option
+@integrity_options
 @json_option
 @quiet_option
 @run
@@ -85,6 +87,7 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, rule: str, method:
     alpha = check_alpha(alpha)
     period_s = check_period(period_s)
     map_sigma = check_map_sigma(map_sigma)
+    integrity_spec = integrity_from(kw)
     out = output_dir(outdir)
     cluster = cluster_from(kw)
     constraints = constraints_from(kw)
@@ -100,13 +103,14 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, rule: str, method:
         raise InputError(f"--failures {alpha}: the resilient suite within --budget ${budget:,.0f} holds only {len(r.suite)} "
                          f"sensor(s) ({', '.join(r.suite) or 'none'}; {r.failure_note or 'the failing sensors take the budget'}), "
                          f"so every one could fail (worst case 0): give fewer --failures or a larger --budget")
-    report = replace(report, accuracy=suite_accuracy(problem, report.suite, map_sigma_m=map_sigma, engine=engine))
+    report = replace(report, accuracy=suite_accuracy(problem, report.suite, map_sigma_m=map_sigma, engine=engine),
+                     integrity=suite_integrity(problem, report.suite, integrity_spec, map_sigma_m=map_sigma))
     written = _write(report, problem, out, fmt, period_s, alpha, budget, method)
     if as_json:
         click.echo(results.dumps(report), nl=False)
         return
     _print_comparison(report, budget, alpha, rule, method)
-    print_accuracy(report.accuracy)
+    print_accuracy(report.accuracy, report.integrity)
     _print_usage(report, problem.library)
     _print_periods(report.per_period, period_s)
     for p in written:

@@ -16,11 +16,12 @@ from sensorsel.model.library import SensorLibrary
 from sensorsel.model.problem import Domain
 from dataclasses import replace
 
-from sensorsel.api import suite_accuracy
+from sensorsel.api import suite_accuracy, suite_integrity
 from sensorsel.cli.options import (budget_option, compact_suite, constraint_options, constraints_from, engine_options,
                                    json_option, output_option, print_target, quiet_option, run, table, target_from,
                                    target_options, usage_table)
 from sensorsel.cli.options import check_map_sigma, map_sigma_option, print_accuracy
+from sensorsel.cli.options import integrity_from, integrity_options
 from sensorsel.cli.options import cluster_from, cluster_options, resume_option
 
 
@@ -60,6 +61,7 @@ def _csv(xs: Any) -> str:
 @click.option("--no-skip", is_flag=True, help="Run every method even when the bound already proves a candidate optimal.")
 @constraint_options
 @map_sigma_option
+@integrity_options
 @output_option(help="Write the result as JSON here (kind \"robust\"); each method's outcome is kept in FILE.tasks/ "
                     "as it comes (removed once FILE is written; not with --aggregate worst).")
 @resume_option
@@ -92,6 +94,7 @@ def robust_cmd(budget: float, alpha: int, rules: str, methods: str | None, no_sk
 
     budget, alpha = check_budget(budget), check_alpha(alpha)
     map_sigma = check_map_sigma(map_sigma)
+    integrity_spec = integrity_from(kw)
     if resume and not output:
         raise click.UsageError("--resume goes on from the methods kept in FILE.tasks/ of -o FILE: give -o")
     if resume and aggregate == "worst":
@@ -131,7 +134,8 @@ def robust_cmd(budget: float, alpha: int, rules: str, methods: str | None, no_sk
             res = run_robust(target, budget, alpha, engine=engine, jobs=jobs, aggregate=aggregate, rules=rule_list,
                              methods=method_list, skip_when_proved=not no_skip, constraints=constraints,
                              executor=cluster.executor if cluster is not None else None, outdir=tasks, resume=resume)
-    res = replace(res, accuracy=suite_accuracy(target, res.suite, map_sigma_m=map_sigma, engine=engine))
+    res = replace(res, accuracy=suite_accuracy(target, res.suite, map_sigma_m=map_sigma, engine=engine),
+                  integrity=suite_integrity(target, res.suite, integrity_spec, map_sigma_m=map_sigma))
     written = results.save(res, output) if output else None
     if tasks is not None:  # the result is written: the run is no longer interrupted
         shutil.rmtree(tasks, ignore_errors=True)
@@ -139,7 +143,7 @@ def robust_cmd(budget: float, alpha: int, rules: str, methods: str | None, no_sk
         click.echo(results.dumps(res), nl=False)
         return
     print_robust(res, target.library)
-    print_accuracy(res.accuracy)
+    print_accuracy(res.accuracy, res.integrity)
     if written is not None:
         click.echo(f"wrote {written}")
 

@@ -10,13 +10,14 @@ from typing import Any
 
 import click
 
-from sensorsel.api import design_domain, run_greedy, suite_accuracy
+from sensorsel.api import design_domain, run_greedy, suite_accuracy, suite_integrity
 from sensorsel.cli.options import (budget_option, engine_options, json_option, output_option, plot_format_option,
                                    progress_bar, compact_suite, print_target, quiet_option, run, table, target_from,
                                    target_options)
 from sensorsel.cli.options import (cluster_from, cluster_options, resume_option, constraint_options, constraints_from,
                                    usage_table)
 from sensorsel.cli.options import check_map_sigma, map_sigma_option, print_accuracy
+from sensorsel.cli.options import integrity_from, integrity_options
 from sensorsel.cli.options import plot_format
 from sensorsel.cli.options import plot_format as plot_format_of
 from sensorsel.cli.require import specification_from, specification_given, specification_options
@@ -66,7 +67,7 @@ def _print_greedy(res: CertifiedGreedyResult, lib: SensorLibrary) -> None:
         click.echo(usage_table(feas.rows_used(lib.resolve_suite(res.suite))))
     if res.certificate is not None:
         click.echo(format_certificate(res.certificate))
-    print_accuracy(res.accuracy)
+    print_accuracy(res.accuracy, res.integrity)
 
 
 def _print_breakdown(design: DomainDesign) -> None:
@@ -100,6 +101,7 @@ def _print_breakdown(design: DomainDesign) -> None:
               help="With --domain: draw the per-route breakdown here (png, svg or pdf by its extension).")
 @resume_option
 @map_sigma_option
+@integrity_options
 @quiet_option
 @run
 def greedy_cmd(budget: float, rule: str, lazy: bool, output: str | None, as_json: bool, certify: bool, quiet: bool,
@@ -122,6 +124,7 @@ def greedy_cmd(budget: float, rule: str, lazy: bool, output: str | None, as_json
     if resume and not output:
         raise click.UsageError("--resume goes on from the checkpoint of -o FILE (FILE.checkpoint): give -o")
     map_sigma = check_map_sigma(map_sigma)
+    integrity_spec = integrity_from(kw)
     if output:
         output_file(output)
     if plot_path:
@@ -157,7 +160,8 @@ def greedy_cmd(budget: float, rule: str, lazy: bool, output: str | None, as_json
                                    certify=certify, certify_progress=cert_progress, checkpoint=ckpt, resume=resume,
                                    constraints=constraints)
     # the chosen suite's accuracy in metres (local evaluators: a cluster's routes answer scores only)
-    res = replace(res, accuracy=suite_accuracy(problem, res.suite, map_sigma_m=map_sigma, engine=engine))
+    res = replace(res, accuracy=suite_accuracy(problem, res.suite, map_sigma_m=map_sigma, engine=engine),
+                  integrity=suite_integrity(problem, res.suite, integrity_spec, map_sigma_m=map_sigma))
     out = replace(out, greedy=res) if isinstance(out, DomainDesign) else res
     if output:
         results.save(out, output)

@@ -42,6 +42,7 @@ from sensorsel.designs.selection import REL_TOL, RULES, GreedyResult, check_budg
 from sensorsel.errors import InputError
 from sensorsel.information.evaluators import Evaluator
 from sensorsel.information.evaluators.accuracy import RouteAccuracy
+from sensorsel.information.integrity import RouteIntegrity
 from sensorsel.io.results import result_kind
 from sensorsel.model.constraints import Constraints, FeasibleSet, feasible_set
 from sensorsel.model.library import SensorLibrary
@@ -100,6 +101,8 @@ class OptimumResult:
             (:class:`~sensorsel.model.constraints.Constraints`); None: the budget alone.
         accuracy: the chosen suite's accuracy in metres on each route (empty when not computed;
             the command line computes it).
+        integrity: the chosen suite's integrity on each route (empty when not computed; the
+            command line computes it: :mod:`sensorsel.information.integrity`).
     """
 
     budget_usd: float
@@ -129,6 +132,7 @@ class OptimumResult:
     seconds: float = 0.0
     constraints: Constraints | None = None
     accuracy: tuple[RouteAccuracy, ...] = ()
+    integrity: tuple[RouteIntegrity, ...] = ()
 
 
 def optimal(evaluator: Evaluator, budget_usd: float, *, max_nodes: int = DEFAULT_MAX_NODES, max_seconds: float | None = None,

@@ -10,6 +10,7 @@ from dataclasses import dataclass
 from sensorsel.designs.selection import GreedyResult
 from sensorsel.errors import InputError
 from sensorsel.information.evaluators.accuracy import RouteAccuracy
+from sensorsel.information.integrity import RouteIntegrity
 from sensorsel.io.results import result_kind
 from sensorsel.model.constraints import Constraints
 from sensorsel.model.problem import TargetInfo
@@ -359,6 +360,8 @@ class ResilientReport:
         constraints: the limits besides the budget every suite of the report respected; None: the budget alone.
         accuracy: the chosen suite's accuracy in metres on each route (empty when not computed;
             the command line computes it).
+        integrity: the chosen suite's integrity on each route (empty when not computed; the
+            command line computes it: :mod:`sensorsel.information.integrity`).
     """
 
     suite: tuple[str, ...]
@@ -374,6 +377,7 @@ class ResilientReport:
     robust: RobustChoice | None = None
     constraints: Constraints | None = None
     accuracy: tuple[RouteAccuracy, ...] = ()
+    integrity: tuple[RouteIntegrity, ...] = ()
 
     def __post_init__(self) -> None:
         _rename_method(self)

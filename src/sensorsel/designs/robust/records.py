@@ -10,6 +10,7 @@ from typing import Sequence
 
 from sensorsel.designs.selection import REL_TOL as TIE_TOL
 from sensorsel.information.evaluators.accuracy import RouteAccuracy
+from sensorsel.information.integrity import RouteIntegrity
 from sensorsel.io.results import result_kind
 from sensorsel.model.constraints import Constraints
 from sensorsel.model.problem import TargetInfo
@@ -173,6 +174,8 @@ class RobustResult:
         constraints: the limits besides the budget every candidate kept; None: the budget alone.
         accuracy: the chosen suite's accuracy in metres on each route (empty when not computed;
             the command line computes it).
+        integrity: the chosen suite's integrity on each route (empty when not computed; the
+            command line computes it: :mod:`sensorsel.information.integrity`).
     """
 
     alpha: int
@@ -199,6 +202,7 @@ class RobustResult:
     members: tuple[MemberWorst, ...] = ()
     constraints: Constraints | None = None
     accuracy: tuple[RouteAccuracy, ...] = ()
+    integrity: tuple[RouteIntegrity, ...] = ()
 
 
 @result_kind("robust-optimum")

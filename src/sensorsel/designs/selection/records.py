@@ -6,6 +6,7 @@ from dataclasses import dataclass
 from typing import Callable
 
 from sensorsel.information.evaluators.accuracy import RouteAccuracy
+from sensorsel.information.integrity import RouteIntegrity
 from sensorsel.io.results import result_kind
 from sensorsel.model.constraints import Constraints
 from sensorsel.model.problem import TargetInfo
@@ -64,6 +65,8 @@ class GreedyResult:
             None when the budget was the only one (no limit, no slot, nothing required or excluded).
         accuracy: the suite's accuracy in metres and degrees on each route (one for a single route),
             per keyframe; empty when not computed (the command line computes it).
+        integrity: the suite's integrity on each route (empty when not computed; the command line
+            computes it: :mod:`sensorsel.information.integrity`).
     """
 
     rule: str
@@ -81,6 +84,7 @@ class GreedyResult:
     seconds: float = 0.0
     constraints: Constraints | None = None
     accuracy: tuple[RouteAccuracy, ...] = ()
+    integrity: tuple[RouteIntegrity, ...] = ()
 
     @property
     def rule_label(self) -> str:
