@@ -9,9 +9,10 @@ associator for real, keyframe by keyframe, on draws of what the car has when it 
   map model the map's landmarks with their σ; in SLAM the filter's landmarks, correlated with the
   pose); the estimate x̂ is the truth retracted by the pose error (Pose2, own frame), l̂ = l + e;
 - each measurement of the suite: the true (bearing, range) plus the sensor's noise;
-- optionally unmapped clutter objects (a Poisson field of ``clutter_per_km`` objects per km of
-  route, within ``corridor_m`` of it; the corridor is where the map's landmarks stand), detected by
-  each sensor of the suite whose cone holds them, with that sensor's noise;
+- optionally unmapped clutter objects (a Poisson number, ``clutter_per_km`` per km of the route
+  within reach, each at a point of the route offset uniformly within ±W in x and y, W the largest
+  distance of a map landmark from the route: clutter stands where landmarks stand), detected by each
+  sensor of the suite whose cone holds them, with that sensor's noise;
 - the associator as stated: per measurement, candidates the landmarks within 1.25 r + 5 m of x̂ (r
   the measured range; in SLAM only those in the filter's state), the innovation ν_j = z − h(x̂, l̂_j)
   with the nonlinear model, NIS_j = ν_jᵀ S_j⁻¹ ν_j, the gate γ = −2 ln(1 − p_G), the nearest gated
@@ -51,7 +52,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from sensorsel.information.linearize import bearing_range_jacobians
 
@@ -291,19 +291,18 @@ def _associate(case: KeyframeCase, pairs: _Pairs, meas: np.ndarray, pose_err: np
 def _clutter(case: KeyframeCase, task: Task, rng: np.random.Generator, x_hat: np.ndarray, lm_err: np.ndarray,
              s_base: np.ndarray) -> np.ndarray:
     """(B,) whether a clutter detection was matched to a landmark in each draw. Clutter: a Poisson
-    field of ``task.clutter_per_m2`` in the box of the suite's longest range around the car, kept
-    within ``task.corridor_m`` of the route; each suite sensor detects those in its cone."""
+    number of objects, ``task.clutter_per_m2`` × 2W per metre of the route within reach of the car
+    (``case.route_xy``, points 1 m apart), each at a route point drawn uniformly, offset uniformly
+    within ±W in x and y (W = ``task.corridor_m``); each suite sensor detects those in its cone."""
     b = len(x_hat)
     out = np.zeros(b, bool)
     if task.clutter_per_m2 <= 0 or not case.cones or case.route_xy is None or len(case.route_xy) == 0:
         return out
-    half = max(c.range_m for c in case.cones)
-    counts = rng.poisson(task.clutter_per_m2 * (2 * half) ** 2, size=b)
+    w = task.corridor_m
+    counts = rng.poisson(task.clutter_per_m2 * 2.0 * w * len(case.route_xy), size=b)
     total = int(counts.sum())
-    xy = case.pose[:2] + rng.uniform(-half, half, size=(total, 2))
+    xy = case.route_xy[rng.integers(0, len(case.route_xy), size=total)] + rng.uniform(-w, w, size=(total, 2))
     draw = np.repeat(np.arange(b), counts)
-    near = cKDTree(case.route_xy).query(xy)[0] <= task.corridor_m if total else np.zeros(0, bool)
-    xy, draw = xy[near], draw[near]
     if len(xy) == 0 or len(case.candidates) == 0:
         return out
     z_true = measure(case.pose, xy)  # (n, 2)

@@ -179,11 +179,11 @@ def simulate_association(problem: Problem, suite: Iterable[int], *, map_sigma_m:
     reach = CANDIDATE_SCALE * max((c.range_m for c in cones), default=0.0) + CANDIDATE_MARGIN_M + 10.0
     route, corridor = _route(problem)
     half = max((c.range_m for c in cones), default=0.0)
-    hook = _Cases(assoc, cones, reach, route if clutter_per_km > 0 else np.zeros((0, 2)), math.sqrt(2) * half + corridor + 1.0)
+    hook = _Cases(assoc, cones, reach, route if clutter_per_km > 0 else np.zeros((0, 2)), half + corridor)
     forward_pass(problem, positions, map_sigma_m=map_sigma_m, on_prediction=hook)
     spec = IntegritySpec(gate_probability=gate_probability)
     alert = (spec.alert_lateral_m, spec.alert_longitudinal_m, math.radians(spec.alert_heading_deg))
-    per_m2 = clutter_per_km / 1000.0 / (2.0 * corridor) if clutter_per_km > 0 and corridor > 0 else 0.0
+    per_m2 = clutter_per_km / 1000.0 / (2.0 * corridor) if clutter_per_km > 0 and corridor > 0 else 0.0  # per m² of corridor
     tasks = tuple(Task(keyframe=c.keyframe, draws=draws, seed=seed, gate=assoc.gate, importance_scale=float(importance_scale),
                        clutter_per_m2=per_m2, corridor_m=corridor, alert_m_rad=alert) for c in hook.cases)
     plan = Plan("association keyframe", run_case, tasks, states=tuple(hook.cases), state_of=tuple(range(len(tasks))))
