@@ -58,11 +58,27 @@ def test_the_simulator_agrees_with_an_independent_monte_carlo_of_the_associator(
     assert lo1 <= hi2 and lo2 <= hi1  # the two 99 % intervals overlap
 
 
-def test_importance_sampling_is_unbiased_against_plain_monte_carlo():
-    pose, points, pred, meas, cov = _two_landmarks(0.45)
-    case = _case(pose, points, meas, cov)
+def _crowd(n: int) -> KeyframeCase:
+    """Landmark 0 at (10, 0) measured, ``n`` competitors on a ring of 0.5 m about it (a dozen
+    variables or more per measurement: where inflating the whole covariance degenerated)."""
+    pose, _, _, meas, _ = _two_landmarks(1.0)
+    ang = 2 * np.pi * np.arange(n) / n
+    points = np.vstack([[10.0, 0.0], np.column_stack([10.0 + 0.5 * np.cos(ang), 0.5 * np.sin(ang)])])
+    cov = np.diag([0.05 ** 2, 0.05 ** 2, 0.002 ** 2] + [0.05 ** 2] * (2 * (n + 1)))
+    return KeyframeCase(keyframe=0, pose=pose, sensor=meas.sensor, landmark=meas.landmark, bearing_rad=meas.bearing_rad,
+                        range_m=meas.range_m, sigma_bearing_rad=meas.sigma_bearing_rad, sigma_range_m=meas.sigma_range_m,
+                        candidates=np.arange(n + 1), points=points, right=np.array([0]), covariance=cov)
+
+
+@pytest.mark.parametrize("crowd", [False, True])
+def test_importance_sampling_is_unbiased_against_plain_monte_carlo(crowd):
+    if crowd:
+        case = _crowd(8)
+    else:
+        pose, points, pred, meas, cov = _two_landmarks(0.45)
+        case = _case(pose, points, meas, cov)
     plain = associate_keyframe(case, Task(keyframe=0, draws=60_000, seed=5, gate=GATE))
-    weighted = associate_keyframe(case, Task(keyframe=0, draws=60_000, seed=6, gate=GATE, importance_scale=1.5))
+    weighted = associate_keyframe(case, Task(keyframe=0, draws=60_000, seed=6, gate=GATE, importance=True))
     assert plain.wrong_draws > 100 and weighted.wrong_draws == -1
     gap = abs(weighted.p_wrong - plain.p_wrong)
     assert gap <= 3.5 * math.hypot(plain.standard_error, weighted.standard_error), (plain.p_wrong, weighted.p_wrong)
@@ -79,7 +95,7 @@ def test_estimate_within_2x_and_bound_above_the_lower_limit_down_to_rare_events(
     if plain.wrong_draws >= 30:
         obs, lo = plain.p_wrong, clopper_pearson(plain.wrong_draws, plain.draws)[0]
     else:
-        w = associate_keyframe(case, Task(keyframe=0, draws=60_000, seed=2, gate=GATE, importance_scale=2.0))
+        w = associate_keyframe(case, Task(keyframe=0, draws=60_000, seed=2, gate=GATE, importance=True))
         assert w.standard_error < 0.3 * w.p_wrong, "importance sampling did not resolve it"
         obs, lo = w.p_wrong, w.p_wrong - 2.5758 * w.standard_error
         assert 1e-8 < obs < 1e-4  # a rare event, out of plain Monte Carlo's reach here
@@ -160,10 +176,9 @@ def test_cli_prints_the_check_writes_the_json_and_the_plot(tmp_path):
 
 @pytest.mark.parametrize("args, option", [
     (("--clutter-per-km", "-1"), "--clutter-per-km"),
-    (("--importance-scale", "0.5"), "--importance-scale"),
     (("--gate-probability", "1.5"), "--gate-probability"),
     (("--draws", "0"), "--draws"),
-    (("--importance-scale", "2", "--clutter-per-km", "5"), "--clutter-per-km"),
+    (("--importance-sampling", "--clutter-per-km", "5"), "--clutter-per-km"),
 ])
 def test_bad_options_are_one_line_naming_the_option(tmp_path, args, option):
     r = _cli("simulate", "--fixture", "tiny", "--suite", "MRL-roof", "--associate", *args, "-q", "-o", str(tmp_path / "o"))

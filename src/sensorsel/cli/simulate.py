@@ -115,9 +115,9 @@ def _fmt(v: float | None, digits: int = 3) -> str:
                    "with a calibration plot.")
 @click.option("--draws", type=int, default=2000, show_default=True, metavar="N",
               help="--associate: draws per keyframe (per measurement with --importance-scale).")
-@click.option("--importance-scale", "importance_scale", type=float, default=1.0, show_default=True, metavar="S",
-              help="--associate: draw the pose, map and noise errors with S x their standard deviations and weight by the "
-                   "likelihood ratio (importance sampling: reaches rare wrong associations); 1: plain Monte Carlo.")
+@click.option("--importance-sampling", "importance", is_flag=True, default=False,
+              help="--associate: importance sampling (each measurement from a mixture of draws shifted toward its wrong "
+                   "candidates' decision boundaries, weighted by the likelihood ratio): reaches rare wrong associations.")
 @click.option("--clutter-per-km", "clutter_per_km", type=float, default=0.0, show_default=True, metavar="DENSITY",
               help="--associate: unmapped clutter objects per km of route (within the map's landmark corridor), detected "
                    "by the suite's sensors and run through the associator.")
@@ -134,7 +134,7 @@ def _fmt(v: float | None, digits: int = 3) -> str:
 @run
 def simulate_cmd(suite: str, compare: str | None, label: str | None, compare_label: str | None, fail: str | None, start_sigmas: str | None,
                  map_sigma: float | None, runs: int, solver: str, seed: int, noise_scale: float, jobs: int, associate: bool,
-                 draws: int, importance_scale: float, clutter_per_km: float, gate_probability: float, outdir: str,
+                 draws: int, importance: bool, clutter_per_km: float, gate_probability: float, outdir: str,
                  plot_format: str | None, force: bool, as_json: bool, quiet: bool, **kw: Any) -> None:
     """Validate designs by running SLAM on them: N noisy Monte-Carlo runs solved with GTSAM.
 
@@ -161,9 +161,9 @@ def simulate_cmd(suite: str, compare: str | None, label: str | None, compare_lab
     map_sigma = check_map_sigma(map_sigma)
     if associate:
         from sensorsel.simulate.association_run import check_association_args
-        check_association_args(draws, seed, importance_scale, clutter_per_km, gate_probability)
+        check_association_args(draws, seed, importance, clutter_per_km, gate_probability)
     else:
-        for name, given in (("--draws", draws != 2000), ("--importance-scale", importance_scale != 1.0),
+        for name, given in (("--draws", draws != 2000), ("--importance-sampling", importance),
                             ("--clutter-per-km", clutter_per_km != 0.0), ("--gate-probability", gate_probability != 0.9999)):
             if given:
                 raise click.UsageError(f"{name} needs --associate")
@@ -184,7 +184,7 @@ def simulate_cmd(suite: str, compare: str | None, label: str | None, compare_lab
     if associate:
         if failures:
             raise click.UsageError("--fail with --associate: the association check runs the suite as given")
-        _associate(problem, designs, cluster, map_sigma, draws, seed, importance_scale, clutter_per_km, gate_probability,
+        _associate(problem, designs, cluster, map_sigma, draws, seed, importance, clutter_per_km, gate_probability,
                    out, fmt, as_json, quiet)
         return
 
@@ -225,7 +225,7 @@ COMMANDS = [simulate_cmd]
 
 
 def _associate(problem: Problem, designs: list["Design"], cluster: Any, map_sigma: float | None, draws: int, seed: int,
-               importance_scale: float, clutter_per_km: float, gate_probability: float, out: Path, fmt: str, as_json: bool,
+               importance: bool, clutter_per_km: float, gate_probability: float, out: Path, fmt: str, as_json: bool,
                quiet: bool) -> None:
     """``simulate --associate``: the association check of each design, its JSON, plot and printout."""
     from sensorsel.plotting import plot_association_calibration, save_figure, use_file_backend
@@ -240,7 +240,7 @@ def _associate(problem: Problem, designs: list["Design"], cluster: Any, map_sigm
             with bar or nullcontext():
                 checks.append(simulate_association(
                     problem, positions, map_sigma_m=map_sigma, draws=draws, seed=seed, gate_probability=gate_probability,
-                    importance_scale=importance_scale, clutter_per_km=clutter_per_km, label=name, executor=executor,
+                    importance=importance, clutter_per_km=clutter_per_km, label=name, executor=executor,
                     progress=progress))
     report = SimulationReport(associations=tuple(checks))
     paths = [results.save(report, out / "simulation.json")]

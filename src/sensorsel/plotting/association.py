@@ -50,7 +50,7 @@ def plot_association_calibration(check: "AssociationCheck", ax: Axes | None = No
     ax.set_xlabel("predicted P(wrong association) per keyframe")
     ax.set_ylabel("observed (simulate --associate)")
     model = "SLAM" if check.model == "slam" else f"map known to {check.map_sigma_m:g} m"
-    how = "plain Monte Carlo" if check.importance_scale == 1.0 else f"importance sampling x{check.importance_scale:g}"
+    how = "importance sampling" if check.importance_sampling else "plain Monte Carlo"
     ax.set_title(f"{check.label}: {model}, {how}, {check.draws} draws/keyframe", fontsize=9)
     ax.legend(loc="upper left", fontsize=8)
     return ax

@@ -34,13 +34,21 @@ model every prediction of the package uses. What it leaves out: the error carrie
 keyframes, and the other measurements of the keyframe pulling the estimate back (the shift is that
 of the measurement updated first, an upper figure).
 
-**Rare events by importance sampling** (``importance_scale`` s > 1): each measurement is simulated
-on its own, its variables (the pose error, the errors of its candidates and of its landmark, its
-noise; d of them) drawn from N(0, s² Σ) instead of N(0, Σ) and weighted by the likelihood ratio
-w = s^d exp(−½ |u|² (s² − 1)) (u the draw whitened by sΣ^½), so E_q[w 1_W] = P(W) exactly. The
-keyframe's observed probability is then Σ_i P̂(W_i), which is P(at least one) to first order when
-they are rare (and never below it). Plain Monte Carlo (s = 1) runs all of a keyframe's measurements
-on one shared draw and counts keyframes with at least one wrong association.
+**Rare events by importance sampling** (``importance``): each measurement i is simulated on its
+own, its variables y (the pose error, the errors of its candidates, its noise; Gaussian, covariance
+Σ_y = L Lᵀ) drawn from a defensive mixture of mean shifts: a share α = 0.2 from N(0, Σ_y), the rest
+from N(μ_j, Σ_y) for a wrong candidate j drawn uniformly, μ_j the most likely y that brings the
+innovation ν_j to the decision boundary in the linearized model (ν_j = d_ij + A_j y): μ_j =
+−t Σ_y A_jᵀ S_j⁻¹ d_ij, t = max(½, 1 − √(γ/λ_j)) (half way to j, or onto j's gate when j is far).
+Each draw is weighted by the likelihood ratio w = φ(w̃) / [α φ(w̃) + (1 − α)/J Σ_j φ(w̃ − m_j)] (w̃
+the whitened draw, m_j = L⁻¹ μ_j), so E[w 1_W] = P(W_i) exactly and w ≤ 1/α. Only the shifted
+directions change: the weights do not degenerate with the dimension (inflating the whole
+covariance did: with a radar's dozen candidates, a scale of 2 gave weights of variance ~10⁶). The
+keyframe's figure is then 1 − Π_i (1 − P̂(W_i)) (the measurements as independent, as the estimate
+takes them: exact to first order where they are rare, which is where importance sampling is
+for; plain Monte Carlo remains the reference where they are not), with standard error
+√(Σ_i se_i²). Plain Monte Carlo runs all of a keyframe's measurements on one shared draw and
+counts keyframes with at least one wrong association.
 
 Random numbers: keyframe k draws from ``SeedSequence([seed, 3, k])``, whatever runs it, so the
 result does not depend on the executor or the number of workers.
@@ -65,6 +73,8 @@ CANDIDATE_MARGIN_M = 5.0
 PRUNE_SIGMAS = 12.0
 #: draws per block (memory: block × pairs × a few doubles)
 BLOCK = 4096
+#: importance sampling: the share of draws from the unshifted density (bounds every weight by 1/DEFENSIVE)
+DEFENSIVE = 0.2
 
 
 @dataclass(frozen=True)
@@ -116,15 +126,15 @@ class KeyframeCase:
 
 @dataclass(frozen=True)
 class Task:
-    """One keyframe's draws: ``draws`` of them from (seed, 3, keyframe), the gate γ, the importance
-    scale s (1: plain Monte Carlo), clutter per m² within ``corridor_m`` of the route, and the alert
+    """One keyframe's draws: ``draws`` of them from (seed, 3, keyframe), the gate γ, whether by
+    importance sampling (else plain Monte Carlo), clutter per m² within ``corridor_m`` of the route, and the alert
     limits [m, m, rad] a wrong association's shift is judged against."""
 
     keyframe: int
     draws: int
     seed: int
     gate: float
-    importance_scale: float = 1.0
+    importance: bool = False
     clutter_per_m2: float = 0.0
     corridor_m: float = 0.0
     alert_m_rad: tuple[float, float, float] = (0.29, 0.29, math.radians(0.5))
@@ -139,7 +149,7 @@ class KeyframeOutcome:
         draws: the draws (per measurement when importance sampled).
         wrong_draws: plain Monte Carlo: draws with at least one wrong association of a mapped
             landmark's measurement (an integer count); importance sampling: −1.
-        p_wrong: observed P(at least one wrong association) (importance sampling: Σ_i P̂(W_i)).
+        p_wrong: observed P(at least one wrong association) (importance sampling: 1 − Π_i (1 − P̂(W_i))).
         standard_error: its standard error (plain: binomial; importance sampling: of the weights).
         p_wrong_clutter: observed P(a clutter detection is matched to a landmark) (plain only).
         clutter_draws: draws with a clutter detection matched.
@@ -348,8 +358,7 @@ def associate_keyframe(case: KeyframeCase, task: Task) -> KeyframeOutcome:
     shift_sum = np.zeros(3)
     shift_w = 0.0
     wrong_draws = clutter_draws = 0
-    s = float(task.importance_scale)
-    if s == 1.0:
+    if not task.importance:
         s_base = None
         if task.clutter_per_m2 > 0 and len(case.candidates):
             # H P Hᵀ of every candidate at the truth (clutter detections add their own R)
@@ -381,30 +390,44 @@ def associate_keyframe(case: KeyframeCase, task: Task) -> KeyframeOutcome:
         se = math.sqrt(max(p_hat * (1 - p_hat), 0.0) / n)
         return _outcome(task, n, wrong_draws, p_hat, se, clutter_draws / n, clutter_draws,
                         {p: v / n for p, v in per_sensor.items()}, shift_sum, shift_w, beyond / n)
-    # importance sampling: each measurement on its own, its variables drawn from N(0, s² Σ)
-    p_total = var_total = 0.0
+    # importance sampling: each measurement on its own, from a defensive mixture of mean shifts
+    log_q = 0.0  # Σ log(1 − P̂_i): the keyframe's figure 1 − Π (1 − P̂_i)
+    var_total = 0.0
     for i in range(m):
-        sel = pairs.mi == i
-        if not sel.any():
+        sel = np.flatnonzero(pairs.mi == i)
+        if sel.size == 0:
             continue
-        sub = _Pairs(np.zeros(int(sel.sum()), np.int64), pairs.cj[sel], pairs.s_inv[sel], pairs.gain[sel])
+        sub = _Pairs(np.zeros(sel.size, np.int64), pairs.cj[sel], pairs.s_inv[sel], pairs.gain[sel])
         slots = np.unique(sub.cj)
         idx = np.concatenate([np.arange(3), (3 + 2 * slots[:, None] + np.arange(2)).ravel()])
-        cov = case.covariance[np.ix_(idx, idx)]
-        d = len(idx) + 2
-        lchol = np.linalg.cholesky(cov + 1e-15 * max(1.0, float(np.trace(cov))) * np.eye(len(idx)))
+        n_y = len(idx) + 2  # (pose, the candidates' landmarks, the measurement's noise)
+        cov_y = np.zeros((n_y, n_y))
+        cov_y[:-2, :-2] = case.covariance[np.ix_(idx, idx)]
+        cov_y[-2:, -2:] = np.diag(sig[i] ** 2)
+        chol_y = np.linalg.cholesky(cov_y + 1e-15 * max(1.0, float(np.trace(cov_y))) * np.eye(n_y))
+        shifts = _mean_shifts(case, i, sub, slots, chol_y, task.gate)  # (J, n_y) in whitened coordinates
         one = _case_row(case, i)
+        n_mix = len(shifts)
         w_sum = w2_sum = 0.0
         for lo in range(0, task.draws, BLOCK):
             b = min(BLOCK, task.draws - lo)
-            g = rng.standard_normal((b, d))
-            u = s * (g[:, :-2] @ lchol.T)
-            noise = (s * g[:, -2:] * sig[i])[:, None, :]
+            g = rng.standard_normal((b, n_y))
+            if n_mix:
+                # a share DEFENSIVE unshifted, the rest shifted by one m_j each, j uniform
+                comp = rng.integers(0, n_mix, size=b)
+                shifted = rng.random(b) >= DEFENSIVE
+                w_white = g + np.where(shifted[:, None], shifts[comp], 0.0)
+                # the likelihood ratio φ(w) / [α φ(w) + (1 − α)/J Σ_j φ(w − m_j)]
+                expo = w_white @ shifts.T - 0.5 * np.einsum("ji,ji->j", shifts, shifts)[None, :]
+                top = np.max(expo, axis=1, initial=0.0)
+                mix = DEFENSIVE * np.exp(-top) + (1.0 - DEFENSIVE) / n_mix * np.exp(expo - top[:, None]).sum(axis=1)
+                w = np.exp(-top) / mix
+            else:
+                w_white, w = g, np.ones(b)
+            y = w_white @ chol_y.T
             lm_err = np.zeros((b, n_cand, 2))
-            lm_err[:, slots] = u[:, 3:].reshape(b, -1, 2)
-            log_w = d * math.log(s) - 0.5 * (s * s - 1.0) * np.einsum("bi,bi->b", g, g)
-            w = np.exp(log_w)
-            wrong, shift = _associate(one, sub, np.zeros(1, np.int64), u[:, :3], lm_err, noise, task.gate)
+            lm_err[:, slots] = y[:, 3:-2].reshape(b, -1, 2)
+            wrong, shift = _associate(one, sub, np.zeros(1, np.int64), y[:, :3], lm_err, y[:, None, -2:], task.gate)
             ww = w * wrong[:, 0]
             w_sum += float(ww.sum())
             w2_sum += float((ww * ww).sum())
@@ -413,12 +436,41 @@ def associate_keyframe(case: KeyframeCase, task: Task) -> KeyframeOutcome:
             shift_w += float(ww.sum())
             beyond += float((ww * (big > alert[None, [1, 0, 2]]).any(axis=1)).sum())
         n = task.draws
-        p_i = w_sum / n
-        p_total += p_i
+        p_i = min(w_sum / n, 1.0)
+        log_q += math.log1p(-min(p_i, 1.0 - 1e-16))
         var_total += max(w2_sum / n - p_i * p_i, 0.0) / n
         per_sensor[int(case.sensor[i])] += p_i
-    return _outcome(task, task.draws, -1, p_total, math.sqrt(var_total), math.nan, -1, per_sensor,
+    return _outcome(task, task.draws, -1, -math.expm1(log_q), math.sqrt(var_total), math.nan, -1, per_sensor,
                     shift_sum, shift_w, beyond / task.draws)
+
+
+def _mean_shifts(case: KeyframeCase, i: int, sub: _Pairs, slots: np.ndarray, chol_y: np.ndarray, gate: float) -> np.ndarray:
+    """(J, n_y) the mixture's mean shifts, whitened, one per wrong candidate j of measurement i: the
+    most likely y (pose, candidates, noise) that brings ν_j to the decision boundary, in the
+    linearized model ν_j = d_ij + A_j y, A_j y = v − J_j (e_pose, e_j): μ_j = −t Σ A_jᵀ S_j⁻¹ d_ij with
+    t = max(½, 1 − √(γ/λ_j)) (half way to j, or onto j's gate when it is far), whitened by L⁻¹ (so
+    L⁻¹ Σ = Lᵀ: m_j = −t Lᵀ A_jᵀ S_j⁻¹ d_ij)."""
+    wrong = sub.cj != case.right[i]
+    cj = sub.cj[wrong]
+    if cj.size == 0:
+        return np.zeros((0, len(chol_y)))
+    n_y = len(chol_y)
+    jac = bearing_range_jacobians(np.broadcast_to(case.pose, (len(cj), 3)), case.points[cj])  # (J, 2, 5)
+    a = np.zeros((len(cj), 2, n_y))
+    a[:, :, :3] = -jac[:, :, :3]
+    col = 3 + 2 * np.searchsorted(slots, cj)
+    for q in range(2):
+        a[np.arange(len(cj)), :, col + q] = -jac[:, :, 3 + q]
+    a[:, 0, -2] = 1.0
+    a[:, 1, -1] = 1.0
+    d = np.column_stack([np.full(len(cj), case.bearing_rad[i]), np.full(len(cj), case.range_m[i])]) - measure(case.pose, case.points[cj])
+    d[:, 0] = _wrap(d[:, 0])
+    s_inv = sub.s_inv[wrong]
+    sd = np.einsum("jab,jb->ja", s_inv, d)
+    lam = np.einsum("ja,ja->j", d, sd)
+    t = np.maximum(0.5, 1.0 - np.sqrt(gate / np.maximum(lam, 1e-300)))
+    # m_j = −t Lᵀ A_jᵀ S_j⁻¹ d
+    return -t[:, None] * np.einsum("ba,jcb,jc->ja", chol_y, a, sd)
 
 
 def _case_row(case: KeyframeCase, i: int) -> KeyframeCase:

@@ -40,19 +40,17 @@ RESOLVE_RELATIVE_SE = 0.3
 Z99 = 2.5758293035489004
 
 
-def check_association_args(draws: int, seed: int, importance_scale: float, clutter_per_km: float,
+def check_association_args(draws: int, seed: int, importance: bool, clutter_per_km: float,
                            gate_probability: float) -> None:
     """Raise InputError naming the option of the first bad value."""
     if isinstance(draws, bool) or not isinstance(draws, int) or draws < 1:
         raise InputError(f"--draws {draws!r}: a positive integer")
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise InputError(f"--seed {seed!r}: a non-negative integer")
-    if not (isinstance(importance_scale, (int, float)) and math.isfinite(importance_scale) and importance_scale >= 1.0):
-        raise InputError(f"--importance-scale {importance_scale!r}: a factor >= 1 on the standard deviations (1: plain Monte Carlo)")
     if not (isinstance(clutter_per_km, (int, float)) and math.isfinite(clutter_per_km) and clutter_per_km >= 0.0):
         raise InputError(f"--clutter-per-km {clutter_per_km!r}: a density of clutter objects per km, >= 0")
-    if importance_scale > 1.0 and clutter_per_km > 0.0:
-        raise InputError("--clutter-per-km with --importance-scale: clutter is simulated by plain Monte Carlo only; give one")
+    if importance and clutter_per_km > 0.0:
+        raise InputError("--clutter-per-km with --importance-sampling: clutter is simulated by plain Monte Carlo only; give one")
     if not (isinstance(gate_probability, (int, float)) and math.isfinite(gate_probability) and 0.0 < gate_probability < 1.0):
         raise InputError(f"--gate-probability {gate_probability!r}: a probability strictly between 0 and 1")
 
@@ -153,7 +151,7 @@ def route_length_m(problem: Problem) -> float:
 
 
 def simulate_association(problem: Problem, suite: Iterable[int], *, map_sigma_m: float | None = None, draws: int = 2000,
-                         seed: int = 0, gate_probability: float = 0.9999, importance_scale: float = 1.0,
+                         seed: int = 0, gate_probability: float = 0.9999, importance: bool = False,
                          clutter_per_km: float = 0.0, label: str = "suite", executor: Executor | None = None,
                          progress: Callable[[int, int], None] | None = None) -> AssociationCheck:
     """Run the stated associator on ``draws`` draws per keyframe (module :mod:`.association`) and set
@@ -165,13 +163,14 @@ def simulate_association(problem: Problem, suite: Iterable[int], *, map_sigma_m:
         draws: per keyframe (per measurement with importance sampling).
         seed: keyframe k draws from (seed, 3, k).
         gate_probability: p_G of the χ²₂ gate.
-        importance_scale: s ≥ 1: draws from N(0, s² Σ) weighted by the likelihood ratio (1: plain).
+        importance: importance sampling (a defensive mixture of mean shifts toward the decision
+            boundary, weighted by the likelihood ratio; module :mod:`.association`); else plain Monte Carlo.
         clutter_per_km: unmapped clutter objects per km of route (plain Monte Carlo only).
         executor: where the keyframes' tasks run (default: here); the result does not depend on it.
     Raises:
         InputError: a bad option (named).
     """
-    check_association_args(draws, seed, importance_scale, clutter_per_km, gate_probability)
+    check_association_args(draws, seed, importance, clutter_per_km, gate_probability)
     positions = tuple(sorted(int(i) for i in suite))
     model = "slam" if map_sigma_m is None else "map"
     assoc = AssociationModel(problem, model=model, gate_probability=gate_probability)
@@ -184,12 +183,12 @@ def simulate_association(problem: Problem, suite: Iterable[int], *, map_sigma_m:
     spec = IntegritySpec(gate_probability=gate_probability)
     alert = (spec.alert_lateral_m, spec.alert_longitudinal_m, math.radians(spec.alert_heading_deg))
     per_m2 = clutter_per_km / 1000.0 / (2.0 * corridor) if clutter_per_km > 0 and corridor > 0 else 0.0  # per m² of corridor
-    tasks = tuple(Task(keyframe=c.keyframe, draws=draws, seed=seed, gate=assoc.gate, importance_scale=float(importance_scale),
+    tasks = tuple(Task(keyframe=c.keyframe, draws=draws, seed=seed, gate=assoc.gate, importance=bool(importance),
                        clutter_per_m2=per_m2, corridor_m=corridor, alert_m_rad=alert) for c in hook.cases)
     plan = Plan("association keyframe", run_case, tasks, states=tuple(hook.cases), state_of=tuple(range(len(tasks))))
     outcomes: list[KeyframeOutcome] = execute(plan, executor, progress=progress)
     return _summarise(problem, positions, hook, outcomes, label=label, model=model, map_sigma_m=map_sigma_m,
-                      gate_probability=gate_probability, draws=draws, seed=seed, importance_scale=float(importance_scale),
+                      gate_probability=gate_probability, draws=draws, seed=seed, importance=bool(importance),
                       clutter_per_km=float(clutter_per_km), corridor_m=corridor)
 
 
@@ -238,7 +237,7 @@ def _resolved(r: AssociationKeyframe) -> bool:
 
 def _summarise(problem: Problem, positions: tuple[int, ...], hook: _Cases, outcomes: list[KeyframeOutcome], *, label: str,
                model: str, map_sigma_m: float | None, gate_probability: float, draws: int, seed: int,
-               importance_scale: float, clutter_per_km: float, corridor_m: float) -> AssociationCheck:
+               importance: bool, clutter_per_km: float, corridor_m: float) -> AssociationCheck:
     rows = tuple(AssociationKeyframe(
         keyframe=o.keyframe, n_measurements=len(c.landmark), predicted_estimate=e, predicted_bound=b, observed=o.p_wrong,
         standard_error=o.standard_error, wrong_draws=o.wrong_draws, draws=o.draws,
@@ -254,14 +253,13 @@ def _summarise(problem: Problem, positions: tuple[int, ...], hook: _Cases, outco
     within = sum(1 for r in resolved if r.observed / 2.0 <= r.predicted_estimate <= 2.0 * r.observed)
     below = sum(1 for r in rows if r.predicted_bound < _ci(r.observed, r.standard_error, r.wrong_draws, r.draws)[0])
     n_h = keyframes_per_hour(problem)
-    sampling = ("plain Monte Carlo: each draw runs all of a keyframe's measurements on one shared pose and map error"
-                if importance_scale == 1.0 else
-                f"importance sampling: each measurement on its own, its variables drawn with covariance "
-                f"{importance_scale:g}^2 x the predicted, weighted by the likelihood ratio; a keyframe's observed "
-                f"probability is the sum over its measurements")
+    sampling = ("importance sampling: each measurement on its own, from a defensive mixture of mean shifts toward "
+                "each wrong candidate's decision boundary, weighted by the likelihood ratio; a keyframe's figure is "
+                "1 - prod(1 - P(wrong) of its measurements)" if importance else
+                "plain Monte Carlo: each draw runs all of a keyframe's measurements on one shared pose and map error")
     return AssociationCheck(
         label=label, suite=lib.suite_ids(positions), model=model, map_sigma_m=map_sigma_m, gate_probability=gate_probability,
-        draws=draws, seed=seed, importance_scale=importance_scale, sampling=sampling, clutter_per_km=clutter_per_km,
+        draws=draws, seed=seed, importance_sampling=importance, sampling=sampling, clutter_per_km=clutter_per_km,
         corridor_m=corridor_m, shift=SHIFT_NOTE, keyframes=rows, sensors=sensors, bins=calibration_bins(rows),
         keyframes_per_hour=n_h, predicted_per_hour=n_h * float(np.mean(hook.estimate)) if rows else 0.0,
         bound_per_hour=n_h * float(np.mean(hook.bound)) if rows else 0.0,

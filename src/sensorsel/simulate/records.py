@@ -295,7 +295,7 @@ class AssociationCheck:
         model: ``"map"`` or ``"slam"``; map_sigma_m: the map's std [m] (None in SLAM).
         gate_probability: p_G of the associator's χ²₂ gate.
         draws, seed: draws per keyframe (per measurement when importance sampled) and the seed.
-        importance_scale: s (1: plain Monte Carlo); sampling: how, in words.
+        importance_sampling: whether importance sampled (else plain Monte Carlo); sampling: how, in words.
         clutter_per_km: unmapped clutter objects per km of route; corridor_m: within this of the route.
         shift: how the error a wrong association causes is computed, in words.
         keyframes, sensors, bins: per keyframe, per sensor, calibration bins.
@@ -313,7 +313,7 @@ class AssociationCheck:
     gate_probability: float
     draws: int
     seed: int
-    importance_scale: float
+    importance_sampling: bool
     sampling: str
     clutter_per_km: float
     corridor_m: float
