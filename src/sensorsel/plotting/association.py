@@ -12,7 +12,7 @@ from sensorsel.plotting.figures import new_axes
 if TYPE_CHECKING:
     from sensorsel.simulate.records import AssociationCheck
 
-#: the smallest probability drawn on the log axes (a bin observed at 0 is drawn here, its interval up)
+#: the highest floor of the log axes (a bin observed at 0 is drawn on the floor, its interval up)
 FLOOR = 1e-7
 
 
@@ -31,15 +31,16 @@ def plot_association_calibration(check: "AssociationCheck", ax: Axes | None = No
     if bins:
         x = np.array([b.predicted for b in bins])
         bnd = np.array([b.bound for b in bins])
-        y = np.maximum(np.array([b.observed for b in bins]), FLOOR)
-        lo = np.maximum(np.array([b.ci_low for b in bins]), FLOOR)
-        hi = np.maximum(np.array([b.ci_high for b in bins]), FLOOR)
-        ax.errorbar(x, y, yerr=[y - np.minimum(lo, y), hi - y], fmt="o", color="C0", capsize=3,
+        raw = np.array([[b.observed, b.ci_low, b.ci_high] for b in bins])
+        positive = np.concatenate([x, raw[raw > 0]])
+        # the floor: a decade below the smallest positive value drawn (zeros are drawn there)
+        lo_all = float(min(FLOOR, positive.min() / 10.0))
+        y, lo, hi = (np.maximum(raw[:, c], lo_all) for c in range(3))
+        ax.errorbar(x, y, yerr=[y - np.minimum(lo, y), np.maximum(hi - y, 0.0)], fmt="o", color="C0", capsize=3,
                     label="estimate vs observed (99% CI)")
         ax.plot(bnd, y, "v", color="C3", label="bound vs observed")
         for xi, yi, n in zip(x, y, (b.keyframes for b in bins)):
             ax.annotate(f"{n}", (xi, yi), textcoords="offset points", xytext=(5, 5), fontsize=7, color="0.3")
-        lo_all = float(min(x.min(), lo.min(), FLOOR))
     grid = np.array([lo_all, 1.0])
     ax.plot(grid, grid, "-", color="0.4", lw=1, label="observed = predicted")
     ax.fill_between(grid, grid / 2, np.minimum(grid * 2, 1.0), color="0.85", label="within a factor of 2")
