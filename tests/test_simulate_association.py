@@ -206,3 +206,26 @@ def test_the_plot_draws_on_the_axes_given(tiny_problem):
     assert plot_association_calibration(c, ax=ax) is ax
     assert ax.get_xscale() == "log" and len(ax.lines) >= 2
     plt.close(fig)
+
+
+def test_the_shift_of_a_wrong_association_is_the_filters_update_with_the_wrong_landmark():
+    """A draw that measures exactly where the competitor is predicted: the associator picks it (NIS 0),
+    and the shift is the Kalman update with it (none: ν = 0) minus the update with the right landmark,
+    worked here densely with finite-difference Jacobians (association_oracle.jacobian)."""
+    from association_oracle import jacobian, measure as oracle_measure
+
+    from sensorsel.simulate.association import _associate, _pairs
+
+    pose, points, pred, meas, cov = _two_landmarks(0.3)
+    case = _case(pose, points, meas, cov)
+    z = oracle_measure(pose, points[1])  # the competitor's predicted measurement
+    noise = (z - np.array([0.0, 10.0]))[None, None, :]
+    wrong, shift = _associate(case, _pairs(case, GATE), np.array([0]), np.zeros((1, 3)), np.zeros((1, 2, 2)), noise, GATE)
+    assert wrong[0, 0]
+    # the right landmark's update: state (pose, l_0), H by finite differences, K = P Hᵀ S⁻¹, Δx = K ν
+    h = jacobian(pose, points[0])
+    p = cov[np.ix_([0, 1, 2, 3, 4], [0, 1, 2, 3, 4])]
+    s = h @ p @ h.T + np.diag([0.01 ** 2, 0.1 ** 2])
+    nu_right = z - oracle_measure(pose, points[0])
+    expected = -(p @ h.T @ np.linalg.solve(s, nu_right))[:3]
+    np.testing.assert_allclose(shift[0, 0], expected, rtol=1e-5, atol=1e-9)
