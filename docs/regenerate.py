@@ -8,6 +8,7 @@ else ``python -m sensorsel.cli``) on KITTI 03 and 00 and writes what they produc
     docs/results/synthetic/   the same commands on generated landmarks (``--landmarks synthetic``)
     docs/img/real/, docs/img/synthetic/   the plots (scene, Pareto front, resilient grid, simulation)
     docs/img/tour/scene.png   the README's picture (the bundled route, step tour)
+    docs/results/associate/   simulate --associate on the bundled route (step associate, under a minute)
     docs/results/tables.md    every headline table, real and synthetic side by side, built from the files
     docs/results/timings.json wall time of each step of the last run that ran it
 
@@ -294,6 +295,31 @@ def step_tour(c: Ctx) -> None:
     if c.landmarks != "real":
         return
     c.run("scene", "--suite", TOUR_SUITE, "-o", str(c.img.parent / "tour" / "scene.png"))
+#: The association check on the bundled route (docs/guide-association-simulation.md): a suite that
+#: mixes a mid-range LiDAR, two cameras and a long-range radar, in a map known to 5 cm and in SLAM,
+#: by plain Monte Carlo and by importance sampling (the rare keyframes).
+ASSOCIATE_SUITE = "MRL-roof,HD2K-8,HD2K-4,LRR-11"
+ASSOCIATE_RUNS = (
+    # name, extra options
+    ("map", ["--map-sigma", "0.05", "--draws", "2000"]),
+    ("slam", ["--draws", "2000"]),
+    ("map-is", ["--map-sigma", "0.05", "--draws", "400", "--importance-sampling"]),
+    ("map-clutter", ["--map-sigma", "0.05", "--draws", "500", "--clutter-per-km", "50"]),
+)
+
+
+def step_associate(c: Ctx) -> None:
+    """simulate --associate on the bundled route (no KITTI needed; once, with the real maps): the
+    printout, the JSON and the calibration plot of each of :data:`ASSOCIATE_RUNS` (under a minute)."""
+    if c.landmarks != "real":
+        return
+    for name, extra in ASSOCIATE_RUNS:
+        d = c.out / "associate" / name
+        c.run("simulate", "--suite", ASSOCIATE_SUITE, "--associate", "--seed", "0", *extra, "-q", "-o", str(d),
+              stdout=c.out / "associate" / f"{name}.txt")
+        _move(d / "association_calibration.png", c.img / "associate" / f"calibration-{name}.png")
+
+
 #: the specifications of the requirements results (issue 24): Reid et al. 2019's presets
 PRESETS = ("local-streets", "freeway")
 
@@ -388,6 +414,7 @@ def step_integrity(c: Ctx) -> None:
 STEPS: list[Step] = [
     Step("tour", "tour", step_tour),
     Step("integrity", "integrity", step_integrity),
+    Step("associate", "associate", step_associate),
     *(Step(f"scene{s}", "scene", step_scene(s)) for s in ("03", "00")),
     *(Step(f"scores{s}", "scores", step_scores(s)) for s in ("03", "00")),
     *(Step(f"greedy{s}", "greedy", step_greedy(s)) for s in ("03", "00")),

@@ -10,11 +10,13 @@ backend). Programs that only write files, like the CLI, call :func:`use_file_bac
 - :mod:`~sensorsel.plotting.scene`: a route's scene with a suite's cones, a domain's city, the mounting;
 - :mod:`~sensorsel.plotting.designs`: the selection grid, the tradespace, a domain's breakdown;
 - :mod:`~sensorsel.plotting.accuracy`: accuracy in metres against a specification;
-- :mod:`~sensorsel.plotting.simulation`: Monte-Carlo SLAM runs.
+- :mod:`~sensorsel.plotting.simulation`: Monte-Carlo SLAM runs;
+- :mod:`~sensorsel.plotting.association`: the association risk predicted against ``simulate --associate``.
 """
 
 from __future__ import annotations
 
+from sensorsel.plotting.association import plot_association_calibration
 from sensorsel.plotting.accuracy import (plot_accuracy_along_route, plot_front_accuracy, plot_route_margin)
 from sensorsel.plotting.designs import (SELECTOR_STYLES, plot_domain_breakdown, plot_selection_grid, plot_tradespace)
 from sensorsel.plotting.figures import (EXTRA_MODEL_COLOURS, FORMATS, MODEL_COLOURS, model_colours, new_axes,
@@ -24,6 +26,7 @@ from sensorsel.plotting.simulation import (ERROR_CMAP, SOLVER_WORDS, plot_error_
                                            plot_simulation_comparison, plot_simulation_overview, typical_run)
 
 __all__ = [
+    "plot_association_calibration",
     "EXTRA_MODEL_COLOURS",
     "FORMATS",
     "MODEL_COLOURS",

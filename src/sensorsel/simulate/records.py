@@ -226,12 +226,118 @@ class SimulationResult:
     accuracy: AccuracyCheck | None = None
 
 
+@dataclass(frozen=True)
+class AssociationKeyframe:
+    """One keyframe of ``simulate --associate``: the predicted P(at least one wrong association)
+    beside what the associator did on the draws.
+
+    Attributes:
+        keyframe: k; n_measurements: the suite's measurements there.
+        predicted_estimate, predicted_bound: the integrity engine's estimate and bound.
+        observed: the observed probability (importance sampling: Σ over measurements).
+        standard_error: of ``observed``.
+        wrong_draws: draws with a wrong association (plain Monte Carlo; −1 when importance sampled).
+        draws: draws at this keyframe (per measurement when importance sampled).
+        observed_clutter: P(a clutter detection matched to a landmark) (nan without clutter or when
+            importance sampled).
+        shift_lateral_m, shift_longitudinal_m, shift_heading_deg: mean largest shift of the pose
+            estimate a wrong association causes (the filter's update with the wrong landmark; nan: none seen).
+        p_beyond_alert: P(a wrong association shifts the estimate beyond an alert limit).
+    """
+
+    keyframe: int
+    n_measurements: int
+    predicted_estimate: float
+    predicted_bound: float
+    observed: float
+    standard_error: float
+    wrong_draws: int
+    draws: int
+    observed_clutter: float
+    shift_lateral_m: float
+    shift_longitudinal_m: float
+    shift_heading_deg: float
+    p_beyond_alert: float
+
+
+@dataclass(frozen=True)
+class SensorAssociation:
+    """Wrong associations of one sensor of the suite: expected per keyframe, predicted (Σ of its
+    measurements' estimates, mean over keyframes) and observed."""
+
+    sensor: str
+    predicted_per_keyframe: float
+    observed_per_keyframe: float
+
+
+@dataclass(frozen=True)
+class CalibrationBin:
+    """Keyframes whose predicted estimate lies in [lo, hi): their mean estimate and bound, and the
+    observed rate pooled over them with its 99 % confidence interval (plain Monte Carlo:
+    Clopper–Pearson on the pooled counts; importance sampling: normal, ±2.576 standard errors)."""
+
+    lo: float
+    hi: float
+    keyframes: int
+    predicted: float
+    bound: float
+    observed: float
+    ci_low: float
+    ci_high: float
+
+
+@dataclass(frozen=True)
+class AssociationCheck:
+    """``simulate --associate`` of one suite: the stated associator run on simulated measurements.
+
+    Attributes:
+        label, suite: the design's name and sensor ids.
+        model: ``"map"`` or ``"slam"``; map_sigma_m: the map's std [m] (None in SLAM).
+        gate_probability: p_G of the associator's χ²₂ gate.
+        draws, seed: draws per keyframe (per measurement when importance sampled) and the seed.
+        importance_sampling: whether importance sampled (else plain Monte Carlo); sampling: how, in words.
+        clutter_per_km: unmapped clutter objects per km of route; corridor_m: within this of the route.
+        shift: how the error a wrong association causes is computed, in words.
+        keyframes, sensors, bins: per keyframe, per sensor, calibration bins.
+        keyframes_per_hour: n_h; predicted_per_hour, bound_per_hour, observed_per_hour: n_h × the
+            mean per keyframe (wrong associations per hour of driving, to first order).
+        resolved: keyframes Monte Carlo resolves (plain: ≥ 10 wrong draws; importance sampling: a
+            relative standard error ≤ 0.3); within_factor_2: of those, the estimate within 2× of the
+            observed; bound_below_lower: keyframes whose bound is below the observed 99 % lower limit.
+    """
+
+    label: str
+    suite: tuple[str, ...]
+    model: str
+    map_sigma_m: float | None
+    gate_probability: float
+    draws: int
+    seed: int
+    importance_sampling: bool
+    sampling: str
+    clutter_per_km: float
+    corridor_m: float
+    shift: str
+    keyframes: tuple[AssociationKeyframe, ...]
+    sensors: tuple[SensorAssociation, ...]
+    bins: tuple[CalibrationBin, ...]
+    keyframes_per_hour: float
+    predicted_per_hour: float
+    bound_per_hour: float
+    observed_per_hour: float
+    resolved: int
+    within_factor_2: int
+    bound_below_lower: int
+
+
 @result_kind("simulation")
 @dataclass(frozen=True)
 class SimulationReport:
-    """What ``sensorsel simulate`` writes: one :class:`SimulationResult` per suite simulated."""
+    """What ``sensorsel simulate`` writes: one :class:`SimulationResult` per suite simulated, and
+    with ``--associate`` one :class:`AssociationCheck` per suite instead."""
 
     simulations: tuple[SimulationResult, ...] = field(default_factory=tuple)
+    associations: tuple[AssociationCheck, ...] = field(default_factory=tuple)
 
 
 def without_timing(result: SimulationResult) -> SimulationResult:
