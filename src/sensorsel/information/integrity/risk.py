@@ -244,14 +244,18 @@ class _Collector:
     model: AssociationModel
     threshold: float | None
     sensor_ids: tuple[str, ...]
-    bound: list[float] = field(default_factory=list)
-    estimate: list[float] = field(default_factory=list)
+    n_keyframes: int = 0
+    #: per keyframe (by its index: a keyframe the pass does not ask about keeps 0)
+    bound: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    estimate: np.ndarray = field(default_factory=lambda: np.zeros(0))
     left_out: list[LeftOut] = field(default_factory=list)
     #: per library sensor: measurements made, used, Σ estimate, max bound
     per_sensor: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))
 
     def __post_init__(self) -> None:
         self.per_sensor = np.zeros((len(self.sensor_ids), 4))
+        self.bound = np.zeros(self.n_keyframes)
+        self.estimate = np.zeros(self.n_keyframes)
 
     def __call__(self, prediction: Prediction, meas: KeyframeMeasurements) -> np.ndarray:
         r = self.model.risks(prediction, meas)
@@ -262,8 +266,8 @@ class _Collector:
         np.add.at(self.per_sensor[:, 1], sensor[mask], 1.0)
         np.add.at(self.per_sensor[:, 2], sensor[mask], r.estimate[mask])
         np.maximum.at(self.per_sensor[:, 3], sensor[mask], r.bound[mask])
-        self.bound.append(bnd)
-        self.estimate.append(est)
+        self.bound[meas.keyframe] = bnd
+        self.estimate[meas.keyframe] = est
         if not mask.all():
             sensors, counts = np.unique(np.asarray(meas.sensor)[~mask], return_counts=True)
             self.left_out.extend(LeftOut(int(meas.keyframe), self.sensor_ids[int(s)], int(c))
@@ -280,9 +284,10 @@ def route_integrity(problem: Problem, suite: Iterable[int], spec: IntegritySpec 
     spec = spec or IntegritySpec()
     model = "slam" if map_sigma_m is None else "map"
     assoc = AssociationModel(problem, model=model, gate_probability=spec.gate_probability)
-    hook = _Collector(assoc, spec.max_association_risk, tuple(s.id for s in problem.library.sensors))
+    hook = _Collector(assoc, spec.max_association_risk, tuple(s.id for s in problem.library.sensors),
+                      n_keyframes=problem.scenario.n_poses)
     fp: FilterPass = forward_pass(problem, suite, map_sigma_m=map_sigma_m, use=hook)
-    p_wrong = np.asarray(hook.bound, float)
+    p_wrong = hook.bound
     n_h = keyframes_per_hour(problem)
     tail = tail_risk(fp.filtered, spec)
     risk = np.minimum(1.0, tail + p_wrong)
@@ -290,7 +295,7 @@ def route_integrity(problem: Problem, suite: Iterable[int], spec: IntegritySpec 
     sig = _sigmas(fp.filtered)
     return RouteIntegrity(
         route=route or problem.scenario.name, model=model, map_sigma_m=map_sigma_m, spec=spec, keyframes_per_hour=n_h,
-        p_wrong_association=tuple(p_wrong.tolist()), p_wrong_association_estimate=tuple(hook.estimate),
+        p_wrong_association=tuple(p_wrong.tolist()), p_wrong_association_estimate=tuple(hook.estimate.tolist()),
         integrity_risk=tuple(risk.tolist()), protection_level_lateral_m=tuple(lat.tolist()),
         protection_level_longitudinal_m=tuple(lon.tolist()),
         integrity_risk_per_hour=float(n_h * risk.mean()) if risk.size else 0.0,
