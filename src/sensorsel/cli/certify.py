@@ -30,7 +30,7 @@ from sensorsel.api import suite_accuracy, suite_integrity
 from sensorsel.cli.options import (not_empty, budget_option, force_option, engine_options, json_option, output_option,
                                    progress_bar, quiet_option, print_target, run, target_from, target_options)
 from sensorsel.cli.options import check_map_sigma, map_sigma_option, print_accuracy
-from sensorsel.cli.options import integrity_from, integrity_options
+from sensorsel.cli.integrity import integrity_from, integrity_options
 from sensorsel.cli.options import cluster_from, cluster_options, resume_option
 from sensorsel.cli.options import constraint_options, constraints_from, usage_table
 from sensorsel.cli.rules import kept_label, rule_option

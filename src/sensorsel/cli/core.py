@@ -16,7 +16,7 @@ from sensorsel.cli.options import (engine_options, json_option, output_option, p
                                    problem_from, run, scenario_options, spec_from, suite_text, table, target_from,
                                    target_options)
 from sensorsel.cli.options import check_map_sigma, map_sigma_option, print_accuracy
-from sensorsel.cli.options import integrity_from, integrity_options
+from sensorsel.cli.integrity import integrity_from, integrity_options
 from sensorsel.cli.options import cluster_from, cluster_options, constraint_options, constraints_from, usage_table
 from sensorsel.cli.options import force_option
 from sensorsel.cli.options import plot_format as plot_format_of

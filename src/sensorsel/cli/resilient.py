@@ -23,7 +23,7 @@ from sensorsel.cli.options import (budget_option, engine_options, json_option, o
 from sensorsel.cli.options import (cluster_from, cluster_options, resume_option, constraint_options, constraints_from,
                                    usage_table)
 from sensorsel.cli.options import check_map_sigma, map_sigma_option, print_accuracy
-from sensorsel.cli.options import integrity_from, integrity_options
+from sensorsel.cli.integrity import integrity_from, integrity_options
 from sensorsel.cli.options import plot_format as plot_format_of
 from sensorsel.cli.rules import rule_option
 

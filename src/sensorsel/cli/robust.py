@@ -21,7 +21,7 @@ from sensorsel.cli.options import (budget_option, compact_suite, constraint_opti
                                    json_option, output_option, print_target, quiet_option, run, table, target_from,
                                    target_options, usage_table)
 from sensorsel.cli.options import check_map_sigma, map_sigma_option, print_accuracy
-from sensorsel.cli.options import integrity_from, integrity_options
+from sensorsel.cli.integrity import integrity_from, integrity_options
 from sensorsel.cli.options import cluster_from, cluster_options, resume_option
 
 
