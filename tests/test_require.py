@@ -217,7 +217,7 @@ def test_interrupted_require_resumes_to_the_same_answer_without_recomputing(tiny
     assert got.n_checks + got.n_refuted < want.n_checks + want.n_refuted  # the journal's answers were not recomputed
 
 
-@pytest.mark.parametrize("change", ["failures", "map", "spec", "budget", "limits", "route"])
+@pytest.mark.parametrize("change", ["failures", "map", "spec", "budget", "limits", "route", "estimate"])
 def test_resume_with_any_other_input_is_refused(tiny_problem, suburb_problem, tmp_path, change):
     """Each input the answers depend on is in the journal's fingerprint: a resume after changing any
     one of them is refused, naming it, never reuses the answers."""
@@ -240,10 +240,12 @@ def test_resume_with_any_other_input_is_refused(tiny_problem, suburb_problem, tm
         other["budget_usd"] = 50_000.0
     elif change == "limits":
         other["constraints"] = Constraints(exclude=c.exclude, max_sensors=3)
+    elif change == "estimate":
+        other["estimate"] = "smoother"
     else:
         target = suburb_problem
     word = {"failures": "failures", "map": "model", "spec": "specification", "budget": "budget", "limits": "limits",
-            "route": "routes"}[change]
+            "route": "routes", "estimate": "estimate"}[change]
     with pytest.raises(ResultFileError, match=word):
         require(target, spec2, checkpoint=ck, resume=True, **other)
 
