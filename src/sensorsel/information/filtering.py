@@ -27,7 +27,7 @@ the covariance P is carried). Per keyframe:
        g(δx) with information Aᵀ (I + σ_p² B Bᵀ)⁻¹ A      (the Schur complement, Woodbury form),
        δl | δx ~ N(G δx, D⁻¹),  D = I/σ_p² + BᵀB,  G = −D⁻¹ Bᵀ A,
 
-   g joins the update as rows on the pose (a square root of its 3×3 information), and the
+   g joins the update as two rows on the pose, L⁻¹ A with L Lᵀ = I + σ_p² B Bᵀ, and the
    landmark enters afterwards: Cov(l, ·) = G P_x·, Cov(l, l') = G P_xx G'ᵀ + δ D⁻¹.
 3. A landmark the suite never measures after keyframe k leaves the state after k's update (exact:
    marginalizing a variable no later factor touches).
