@@ -31,8 +31,10 @@ def _small(library) -> Constraints:
     return Constraints(exclude=tuple(sorted(set(library.ids) - set(SMALL))))
 
 
-def _brute_force(problem, spec: Specification, map_sigma, failures: int = 0, max_sensors: int | None = None):
-    """The cheapest suite of SMALL meeting ``spec`` after any ``failures`` failures, by enumeration."""
+def _brute_force(problem, spec: Specification, map_sigma, failures: int = 0, max_sensors: int | None = None,
+                 estimate: str = "filter"):
+    """The cheapest suite of SMALL meeting ``spec`` after any ``failures`` failures, by enumeration
+    (the accuracy of ``estimate``: the filter's, as require judges by default, or the smoother's)."""
     lib = problem.library
     ev = FastEvaluator(problem)
     pos = [lib.position(i) for i in SMALL]
@@ -40,7 +42,7 @@ def _brute_force(problem, spec: Specification, map_sigma, failures: int = 0, max
 
     def meets(s: tuple[int, ...]) -> bool:
         if s not in memo:
-            memo[s] = verdict(route_accuracy(ev, s, map_sigma_m=map_sigma), spec).meets
+            memo[s] = verdict(route_accuracy(ev, s, map_sigma_m=map_sigma, estimate=estimate), spec).meets
         return memo[s]
 
     best = None
@@ -73,6 +75,24 @@ def test_require_is_the_brute_force_cheapest(tiny_problem, failures, map_sigma, 
     assert res.cost_usd == pytest.approx(want[0])
     assert res.lower_bound_usd <= want[0] + 1e-6
     assert all(r.verdict.meets for r in res.routes)
+
+
+def test_require_of_either_estimate_is_its_brute_force_cheapest(tiny_problem):
+    """require judges the filter's accuracy by default (refuting first with the smoother's, a floor
+    under it) and the smoother's on request: each answer is its own estimate's brute-force
+    cheapest, and the filter's (as the car drives) never costs less than the smoother's."""
+    spec = Specification(lateral=0.05, heading=0.08)
+    got = {}
+    for estimate in ("filter", "smoother"):
+        want = _brute_force(tiny_problem, spec, 0.05, estimate=estimate)
+        res = require(tiny_problem, spec, map_sigma_m=0.05, constraints=_small(tiny_problem.library), estimate=estimate)
+        assert want is not None and res.status == "optimal" and res.estimate == estimate
+        assert res.cost_usd == pytest.approx(want[0])
+        assert all(r.accuracy.estimate == estimate for r in res.routes)
+        got[estimate] = res
+    # never less; here more (a suite the smoother accepts misses it as the car drives)
+    assert got["filter"].cost_usd > got["smoother"].cost_usd
+    assert "filter (as the car drives)" in got["filter"].model_label
 
 
 def test_require_with_a_limit_equals_brute_force(tiny_problem):
@@ -199,7 +219,7 @@ def test_interrupted_require_resumes_to_the_same_answer_without_recomputing(tiny
     assert got.n_checks + got.n_refuted < want.n_checks + want.n_refuted  # the journal's answers were not recomputed
 
 
-@pytest.mark.parametrize("change", ["failures", "map", "spec", "budget", "limits", "route"])
+@pytest.mark.parametrize("change", ["failures", "map", "spec", "budget", "limits", "route", "estimate"])
 def test_resume_with_any_other_input_is_refused(tiny_problem, suburb_problem, tmp_path, change):
     """Each input the answers depend on is in the journal's fingerprint: a resume after changing any
     one of them is refused, naming it, never reuses the answers."""
@@ -222,10 +242,12 @@ def test_resume_with_any_other_input_is_refused(tiny_problem, suburb_problem, tm
         other["budget_usd"] = 50_000.0
     elif change == "limits":
         other["constraints"] = Constraints(exclude=c.exclude, max_sensors=3)
+    elif change == "estimate":
+        other["estimate"] = "smoother"
     else:
         target = suburb_problem
     word = {"failures": "failures", "map": "model", "spec": "specification", "budget": "budget", "limits": "limits",
-            "route": "routes"}[change]
+            "route": "routes", "estimate": "estimate"}[change]
     with pytest.raises(ResultFileError, match=word):
         require(target, spec2, checkpoint=ck, resume=True, **other)
 

@@ -61,10 +61,11 @@ def test_the_map_makes_the_lateral_error_smaller(tiny_problem, checked):
 
 
 def test_prediction_is_route_accuracy_of_the_same_suite_and_model(tiny_problem, checked):
-    """The predicted 1.96σ are the accuracy commands print (fast engine): equal in the map model;
+    """The predicted 1.96σ are the accuracy commands print with --estimate smoother (fast engine;
+    each run solves the whole route's batch, the smoother's estimate): equal in the map model;
     in SLAM to 1e-4 (the score's weak 100 m landmark prior, absent from the simulated graph)."""
     ev = make_evaluator(tiny_problem, "fast")
-    acc = route_accuracy(ev, tiny_problem.library.parse_suite(SUITE), map_sigma_m=checked.map_sigma_m)
+    acc = route_accuracy(ev, tiny_problem.library.parse_suite(SUITE), map_sigma_m=checked.map_sigma_m, estimate="smoother")
     rel = 1e-12 if checked.map_sigma_m else 1e-4
     sim = checked.accuracy
     np.testing.assert_allclose(sim.predicted_lateral_95_m, Z95 * np.array(acc.lateral_sigma_m), rtol=rel)

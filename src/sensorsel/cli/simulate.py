@@ -382,13 +382,14 @@ def _print_report(sims: list[Any], sc: Any, runs: int, solver: str, seed: int, n
 
 def _print_accuracy(sims: list[Any]) -> None:
     """Predicted against measured 95 % errors, per design and component (median / 95th pct / worst keyframe)."""
-    from sensorsel.information.evaluators.accuracy import model_label
+    from sensorsel.information.evaluators.accuracy import estimate_label, model_label
 
     checked = [s for s in sims if s.accuracy is not None]
     if not checked:
         return
     click.echo("")
-    click.echo(f"predicted vs measured 95 % errors in each keyframe's frame, {model_label(checked[0].model, checked[0].map_sigma_m)}")
+    click.echo(f"predicted vs measured 95 % errors in each keyframe's frame, {model_label(checked[0].model, checked[0].map_sigma_m)}, "
+               f"{estimate_label('smoother')}: each run solves the whole route")
     rows = []
     for s in checked:
         for comp, unit, d in (("lateral", "m", 3), ("longitudinal", "m", 3), ("heading", "deg", 3)):

@@ -27,7 +27,7 @@ the covariance P is carried). Per keyframe:
        g(δx) with information Aᵀ (I + σ_p² B Bᵀ)⁻¹ A      (the Schur complement, Woodbury form),
        δl | δx ~ N(G δx, D⁻¹),  D = I/σ_p² + BᵀB,  G = −D⁻¹ Bᵀ A,
 
-   g joins the update as rows on the pose (a square root of its 3×3 information), and the
+   g joins the update as two rows on the pose, L⁻¹ A with L Lᵀ = I + σ_p² B Bᵀ, and the
    landmark enters afterwards: Cov(l, ·) = G P_x·, Cov(l, l') = G P_xx G'ᵀ + δ D⁻¹.
 3. A landmark the suite never measures after keyframe k leaves the state after k's update (exact:
    marginalizing a variable no later factor touches).
@@ -44,12 +44,13 @@ smoothed one (PSD order); at the last keyframe they coincide.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import Callable, Iterable
 
 import numpy as np
 import scipy.linalg as la
-from threadpoolctl import threadpool_limits
+from threadpoolctl import ThreadpoolController
 
 from sensorsel.errors import InputError
 from sensorsel.information.linearize import bearing_range_jacobians, odometry_jacobians
@@ -167,11 +168,11 @@ def keyframe_measurements(problem: Problem, suite: Iterable[int]) -> list[Keyfra
             for k in range(K)]
 
 
-def _pose_rows(information: np.ndarray) -> np.ndarray:
-    """(r, 3) rows C with Cᵀ C = ``information`` (3×3, PSD up to round-off), r ≤ 3."""
-    w, v = np.linalg.eigh(0.5 * (information + information.T))
-    keep = w > 0
-    return (np.sqrt(w[keep])[:, None] * v[:, keep].T)
+@functools.cache
+def _blas_controller() -> ThreadpoolController:
+    """The process's BLAS libraries, found once: threadpoolctl reads the loaded libraries each time
+    it is asked, ~9 ms, most of a small suite's pass on the bundled route."""
+    return ThreadpoolController()
 
 
 def forward_pass(problem: Problem, suite: Iterable[int], *, map_sigma_m: float | None = None,
@@ -201,10 +202,52 @@ def forward_pass(problem: Problem, suite: Iterable[int], *, map_sigma_m: float |
     odo = odometry_jacobians(poses) if K > 1 else np.zeros((0, 3, 3))
     odo_cov = np.diag(np.asarray(s.odometry_sigmas, float) ** 2)
 
-    # one BLAS thread: the pass is a sequence of mid-sized products, where threads were measured
-    # slower (a 300² Cholesky and a 1100²·300 product on 2 busy cores: 10x and 1.2x slower on two)
-    with threadpool_limits(1, user_api="blas"):
+    # one BLAS thread: the pass is a sequence of small and mid-sized products, where threads were
+    # measured slower (a 300² Cholesky and a 1100²·300 product on 2 busy cores: 10x and 1.2x slower
+    # on two; a 4-sensor suite's pass on the bundled route 30x slower)
+    with _blas_controller().limit(limits=1, user_api="blas"):
         return _pass(problem, groups, last, odo, odo_cov, prior_sigma, use, on_prediction)
+
+
+@dataclass(frozen=True, eq=False)
+class _Pairs:
+    """The used measurements of keyframes, combined per (keyframe, landmark) pair, with what the
+    update needs of each pair (everything that does not depend on the state), as parallel arrays.
+
+    keyframe, landmark: (p,) the pair; A (p, 2, 3), B (p, 2, 2): its whitened Jacobian (the pair's
+    measurements' 1/σ² summed); rows (p, 2, 3): L⁻¹ A with L Lᵀ = I + σ_p² B Bᵀ, the factor on the pose
+    a first sighting leaves once its landmark is marginalized (rowsᵀ rows = Aᵀ (I + σ_p² B Bᵀ)⁻¹ A);
+    G (p, 2, 3) and Dinv (p, 2, 2): the landmark's conditional on the pose at a first sighting,
+    δl = G δx + w, w ~ N(0, D⁻¹), D = I/σ_p² + BᵀB.
+    """
+
+    keyframe: np.ndarray
+    landmark: np.ndarray
+    A: np.ndarray
+    B: np.ndarray
+    rows: np.ndarray
+    G: np.ndarray
+    Dinv: np.ndarray
+
+
+def _pairs(poses: np.ndarray, points: np.ndarray, keyframe: np.ndarray, landmark: np.ndarray, sigma_b: np.ndarray,
+           sigma_r: np.ndarray, prior_sigma: float) -> _Pairs:
+    """:class:`_Pairs` of measurements (keyframe, landmark, noise std (m,) each), vectorized."""
+    n_lm = max(len(points), 1)
+    uniq, inv = np.unique(keyframe * n_lm + landmark, return_inverse=True)
+    pk, pl = uniq // n_lm, uniq % n_lm
+    info = np.column_stack([np.bincount(inv, 1.0 / sigma_b**2, len(uniq)), np.bincount(inv, 1.0 / sigma_r**2, len(uniq))])
+    jac = bearing_range_jacobians(poses[pk], points[pl]) * np.sqrt(info)[:, :, None]
+    A, B = jac[:, :, :3], jac[:, :, 3:]
+    Bt = np.transpose(B, (0, 2, 1))
+    s2 = prior_sigma**2
+    chol = np.linalg.cholesky(np.eye(2) + s2 * B @ Bt)
+    Dinv = np.linalg.inv(np.eye(2) / s2 + Bt @ B)
+    return _Pairs(pk, pl, A, B, np.linalg.solve(chol, A), -Dinv @ Bt @ A, Dinv)
+
+
+def _slice(p: _Pairs, lo: int, hi: int) -> _Pairs:
+    return _Pairs(*(getattr(p, f)[lo:hi] for f in ("keyframe", "landmark", "A", "B", "rows", "G", "Dinv")))
 
 
 def _pass(problem: Problem, groups: list[KeyframeMeasurements], last: np.ndarray, odo: np.ndarray, odo_cov: np.ndarray,
@@ -215,7 +258,16 @@ def _pass(problem: Problem, groups: list[KeyframeMeasurements], last: np.ndarray
     points = np.asarray(problem.scenario.landmarks, float)
     K = len(poses)
     predicted, filtered = np.zeros((K, 3, 3)), np.zeros((K, 3, 3))
-    n_used, n_measured = np.zeros(K, np.int64), np.zeros(K, np.int64)
+    n_used = np.zeros(K, np.int64)
+    n_measured = np.array([len(g) for g in groups], np.int64)
+    every: _Pairs | None = None
+    if use is None:  # every measurement used: every keyframe's pairs at once
+        cat = [np.concatenate([getattr(g, f) for g in groups]) if K else np.zeros(0)
+               for f in ("landmark", "sigma_bearing_rad", "sigma_range_m")]
+        kf = np.repeat(np.arange(K), n_measured)
+        every = _pairs(poses, points, kf, cat[0].astype(np.int64), cat[1], cat[2], prior_sigma)
+        bounds = np.searchsorted(every.keyframe, np.arange(K + 1))
+        n_used = n_measured.copy()
     held = np.zeros(0, np.int64)  # sorted landmark indices in the state
     P = np.diag(np.asarray(s.first_pose_sigmas, float) ** 2)  # (3 + 2n)²
     for k in range(K):
@@ -226,60 +278,40 @@ def _pass(problem: Problem, groups: list[KeyframeMeasurements], last: np.ndarray
             P[:3, :3] = h @ P[:3, :3] @ h.T + odo_cov
         predicted[k] = P[:3, :3]
         g = groups[k]
-        n_measured[k] = len(g)
-        if use is not None or on_prediction is not None:
+        if on_prediction is not None or use is not None:
             pred = Prediction(k, held.copy(), P.copy(), prior_sigma)
             if on_prediction is not None:
                 on_prediction(pred, g)
-            mask = np.ones(len(g), bool) if use is None else np.asarray(use(pred, g), bool)
+        if every is not None:
+            pairs = _slice(every, bounds[k], bounds[k + 1])
+        else:
+            assert use is not None
+            mask = np.asarray(use(pred, g), bool)
             if mask.shape != (len(g),):
                 raise ValueError(f"use returned a mask of shape {mask.shape} for {len(g)} measurements at keyframe {k}")
-        else:
-            mask = np.ones(len(g), bool)
-        n_used[k] = int(mask.sum())
-        P, held = _update(P, held, poses[k], points, g, mask, prior_sigma)
+            n_used[k] = int(mask.sum())
+            pairs = _pairs(poses, points, np.full(n_used[k], k), g.landmark[mask], g.sigma_bearing_rad[mask],
+                           g.sigma_range_m[mask], prior_sigma)
+        # landmarks measured for the last time leave the state after this update
+        P, held = _update(P, held, pairs, last, k)
         filtered[k] = P[:3, :3]
-        # landmarks measured for the last time leave the state
-        keep = last[held] > k
-        if not keep.all():
-            idx = np.concatenate([np.arange(3), (3 + 2 * np.flatnonzero(keep)[:, None] + np.arange(2)).ravel()])
-            P = P[np.ix_(idx, idx)]
-            held = held[keep]
     return FilterPass(predicted, filtered, n_used, n_measured)
 
 
-def _update(P: np.ndarray, held: np.ndarray, pose: np.ndarray, points: np.ndarray, g: KeyframeMeasurements,
-            mask: np.ndarray, prior_sigma: float) -> tuple[np.ndarray, np.ndarray]:
-    """The measurement update of one keyframe (step 2 of the module's docstring): the new (P, held)."""
-    if not mask.any():
-        return P, held
-    lm = g.landmark[mask]
-    wb = 1.0 / g.sigma_bearing_rad[mask] ** 2
-    wr = 1.0 / g.sigma_range_m[mask] ** 2
-    pairs, inv = np.unique(lm, return_inverse=True)
-    info = np.column_stack([np.bincount(inv, wb, len(pairs)), np.bincount(inv, wr, len(pairs))])  # (p, 2) summed 1/σ²
-    jac = bearing_range_jacobians(np.broadcast_to(pose, (len(pairs), 3)), points[pairs]) * np.sqrt(info)[:, :, None]
-    A, B = jac[:, :, :3], jac[:, :, 3:]  # (p, 2, 3), (p, 2, 2) whitened
-    slot = np.searchsorted(held, pairs)  # where each pair's landmark is (or would be) in the state
-    old = np.isin(pairs, held)
-    new = ~old
-    # new landmarks: the pose factor (Schur complement) and the conditional of each landmark on the pose
-    An, Bn = A[new], B[new]
-    s2 = prior_sigma**2
-    M = np.linalg.inv(np.eye(2) + s2 * Bn @ np.transpose(Bn, (0, 2, 1)))  # (q, 2, 2) (I + σ² B Bᵀ)⁻¹
-    omega = np.einsum("qai,qab,qbj->ij", An, M, An)  # (3, 3) information on the pose
-    D = np.eye(2) / s2 + np.transpose(Bn, (0, 2, 1)) @ Bn
-    Dinv = np.linalg.inv(D)
-    G = -Dinv @ np.transpose(Bn, (0, 2, 1)) @ An  # (q, 2, 3)
-    # the rows of the update: old landmarks' measurements, then the new landmarks' pose factor
-    n_state = P.shape[0]
-    Ao, Bo, so = A[old], B[old], slot[old]
-    C = _pose_rows(omega) if len(An) else np.zeros((0, 3))
-    r_old = 2 * len(Ao)
-    r = r_old + len(C)
-    if r:
-        Ax = np.concatenate([Ao.reshape(-1, 3), C])  # (r, 3) pose part of every row
-        cols = (3 + 2 * so[:, None] + np.arange(2))  # (o, 2) state columns of each old landmark
+def _update(P: np.ndarray, held: np.ndarray, pairs: _Pairs, last: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """The measurement update of keyframe k (step 2 of the module's docstring), then step 3: the new (P, held)."""
+    if len(pairs.landmark):
+        slot = np.searchsorted(held, pairs.landmark)  # where each pair's landmark is (or would be) in the state
+        old = slot < len(held)
+        old[old] = held[slot[old]] == pairs.landmark[old]
+        new = ~old
+        Ao, Bo, so = pairs.A[old], pairs.B[old], slot[old]
+        r_old = 2 * len(Ao)
+        # the rows of the update: old landmarks' measurements, then the new landmarks' factors on the pose
+        Ax = np.concatenate([Ao.reshape(-1, 3), pairs.rows[new].reshape(-1, 3)])  # (r, 3) pose part of every row
+        r = len(Ax)
+        n_state = P.shape[0]
+        cols = 3 + 2 * so[:, None] + np.arange(2)  # (o, 2) state columns of each old landmark
         U = P[:, :3] @ Ax.T  # (N, r) = P Hᵀ
         if r_old:
             # landmark part: U[:, 2i + a] += Σ_b P[:, cols[i, b]] B[i, a, b]
@@ -292,17 +324,25 @@ def _update(P: np.ndarray, held: np.ndarray, pose: np.ndarray, points: np.ndarra
         V = la.solve_triangular(L, U.T, lower=True, check_finite=False)  # (r, N)
         # numpy computes Vᵀ V by dsyrk (a product with its own transpose): exactly symmetric
         P -= V.T @ V
-    if not new.any():
-        return P, held
-    # the new landmarks join the state, kept sorted by index
-    q = len(Bn)
-    Pxx, Px = P[:3, :3], P[:3, :]
-    cross = (G.reshape(2 * q, 3) @ Px)  # (2q, N) Cov(l, state)
-    ll = G.reshape(2 * q, 3) @ Pxx @ G.reshape(2 * q, 3).T
-    for i in range(q):
-        ll[2 * i:2 * i + 2, 2 * i:2 * i + 2] += Dinv[i]
-    big = np.block([[P, cross.T], [cross, ll]])
-    all_lm = np.concatenate([held, pairs[new]])
-    order = np.argsort(all_lm, kind="stable")
-    idx = np.concatenate([np.arange(3), (3 + 2 * order[:, None] + np.arange(2)).ravel()])
-    return big[np.ix_(idx, idx)], all_lm[order]
+        if new.any():
+            # the new landmarks join the state: Cov(l, ·) = G P_x·, Cov(l, l') = G P_xx G'ᵀ + δ D⁻¹
+            q = int(new.sum())
+            G = pairs.G[new].reshape(2 * q, 3)
+            cross = G @ P[:3, :]  # (2q, N)
+            ll = G @ P[:3, :3] @ G.T
+            Dinv = pairs.Dinv[new]
+            for i in range(q):
+                ll[2 * i:2 * i + 2, 2 * i:2 * i + 2] += Dinv[i]
+            n_state = P.shape[0]
+            grown = np.empty((n_state + 2 * q, n_state + 2 * q))
+            grown[:n_state, :n_state], grown[n_state:, :n_state] = P, cross
+            grown[:n_state, n_state:], grown[n_state:, n_state:] = cross.T, ll
+            P = grown
+            held = np.concatenate([held, pairs.landmark[new]])
+    keep = last[held] > k
+    if len(held) and (not keep.all() or np.any(np.diff(held) < 0)):
+        order = np.flatnonzero(keep)
+        order = order[np.argsort(held[order], kind="stable")]
+        idx = np.concatenate([np.arange(3), (3 + 2 * order[:, None] + np.arange(2)).ravel()])
+        P, held = P[np.ix_(idx, idx)], held[order]
+    return P, held
