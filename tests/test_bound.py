@@ -37,15 +37,24 @@ class DenseOracle:
             self.col[key] = off
             off += 3 if chr(gtsam.Symbol(key).chr()) == "x" else 2
 
+        self.base: tuple[tuple[int, ...], np.ndarray, float, np.ndarray] | None = None  # the last suite's H, log det, H⁻¹
+
     def hessian(self, suite) -> np.ndarray:
         return self.builder.graph(suite).linearize(self.builder.values).hessian()[0]
 
+    def _suite(self, suite) -> tuple[np.ndarray, float, np.ndarray]:
+        """(H, log det H, H⁻¹) of ``suite``, kept for the next candidate on the same suite."""
+        if self.base is None or self.base[0] != tuple(suite):
+            h0 = self.hessian(suite)
+            self.base = (tuple(suite), h0, float(np.linalg.slogdet(h0)[1]), np.linalg.inv(h0))
+        return self.base[1], self.base[2], self.base[3]
+
     def gain_and_bounds(self, suite, c) -> tuple[float, float, float]:
         """(true gain, Σ_m log det(I + J_m Σ J_mᵀ), tr(L_S⁻¹ Λ_c)) of candidate c on ``suite``."""
-        h0, h1 = self.hessian(suite), self.hessian(tuple(suite) + (c,))
-        gain = np.linalg.slogdet(h1)[1] - np.linalg.slogdet(h0)[1]
-        cov = np.linalg.inv(h0)
-        trace = float(np.trace(np.linalg.solve(h0, h1 - h0)))
+        h0, logdet0, cov = self._suite(suite)
+        h1 = self.hessian(tuple(suite) + (c,))
+        gain = np.linalg.slogdet(h1)[1] - logdet0
+        trace = float(np.einsum("ij,ji->", cov, h1 - h0))  # tr(H⁻¹ (H_c − H))
         graph = gtsam.NonlinearFactorGraph()
         self.builder.add_sensor(graph, c)
         gauss = graph.linearize(self.builder.values)

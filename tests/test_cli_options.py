@@ -10,6 +10,7 @@ import pytest
 from click.testing import CliRunner
 
 from sensorsel.cli import cli
+from sensorsel.cli import options as cli_options
 from sensorsel.cli import progress as cli_progress
 
 REDUCED = Path(__file__).resolve().parents[1] / "configs" / "reduced_library.yaml"

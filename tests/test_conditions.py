@@ -5,14 +5,15 @@ from __future__ import annotations
 
 import math
 import re
-import subprocess
-import sys
 from dataclasses import replace
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from click.testing import CliRunner
 
+from sensorsel.cli import cli
 from sensorsel.designs.selection import greedy
 from sensorsel.errors import InputError, ResultFileError
 from sensorsel.information.evaluators import DomainEvaluator, make_evaluator
@@ -27,7 +28,6 @@ from sensorsel.model.scenario import ScenarioSpec
 from sensorsel.model.sensing import condition_effects, observe
 
 REPO = Path(__file__).resolve().parents[1]
-BIN = Path(sys.executable).parent
 P = ConditionPhysics()
 
 
@@ -210,7 +210,7 @@ def test_one_route_in_one_condition_equals_the_plain_route(tmp_path):
 
 def test_worst_member_names_route_and_condition(tmp_path):
     path = _domain_file(tmp_path, "conditions:\n  - {name: fog, fog_visibility_m: 40, share: 0.2}")
-    r = _cli("robust", "--domain", path, "--budget", "6000", "--failures", "1", "--aggregate", "worst", "-q")
+    r = _cli("robust", "--domain", path, "--budget", "3000", "--failures", "1", "--aggregate", "worst", "-q")
     assert r.returncode == 0, r.stderr
     worst = [line for line in r.stdout.splitlines() if "worst" in line.lower() and "/" in line]
     assert worst and any("/fog" in line or "/clear" in line for line in worst), r.stdout
@@ -219,8 +219,11 @@ def test_worst_member_names_route_and_condition(tmp_path):
 # ------------------------------------------------------------------------------- bad input
 
 
-def _cli(*args: object) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([str(BIN / "sensorsel"), *map(str, args)], capture_output=True, text=True, cwd=REPO, timeout=120)
+def _cli(*args: object) -> SimpleNamespace:
+    """The command in this process (returncode, stdout, stderr: as a subprocess gives them)."""
+    r = CliRunner().invoke(cli, [str(a) for a in args])
+    assert r.exception is None or isinstance(r.exception, SystemExit), r.exception
+    return SimpleNamespace(returncode=r.exit_code, stdout=r.stdout, stderr=r.stderr)
 
 
 @pytest.mark.parametrize("text, names", [

@@ -21,7 +21,7 @@ from sensorsel.model.problem import build_problem
 from sensorsel.model.scenario import ScenarioSpec, load_scenario
 from sensorsel.pipeline.store import CacheWarning
 
-BUDGET, NODES = 6_000.0, 120
+BUDGET, NODES, EVERY = 6_000.0, 60, 15  # a search cut by its node limit, kept 4 times
 
 
 @pytest.fixture(scope="module")
@@ -60,22 +60,22 @@ def test_an_interrupted_search_goes_on_from_its_last_checkpoint_to_the_same_answ
     assert not whole.proved_optimal and whole.n_nodes == NODES  # the search is cut by the limit, not finished
     ck = tmp_path / "o.json.checkpoint"
     with pytest.raises(Stop):
-        optimal(evaluator_for(p, "fast"), BUDGET, max_nodes=NODES, info=p.info, checkpoint=ck, checkpoint_every=30,
-                progress=_stop_after(70))
+        optimal(evaluator_for(p, "fast"), BUDGET, max_nodes=NODES, info=p.info, checkpoint=ck, checkpoint_every=EVERY,
+                progress=_stop_after(2 * EVERY + 5))
     kept = results.load(ck, OptimalCheckpoint)
-    assert kept.nodes == 60 and kept.heap  # the last checkpoint before the interruption
+    assert kept.nodes == 2 * EVERY and kept.heap  # the last checkpoint before the interruption
     ev = evaluator_for(p, "fast")
-    again = optimal(ev, BUDGET, max_nodes=NODES, info=p.info, checkpoint=ck, checkpoint_every=30, resume=True)
+    again = optimal(ev, BUDGET, max_nodes=NODES, info=p.info, checkpoint=ck, checkpoint_every=EVERY, resume=True)
     assert _answer(again) == _answer(whole)
-    assert abs(again.n_evaluations - whole.n_evaluations) <= 1  # the first 60 nodes' suites counted, not rescored
+    assert abs(again.n_evaluations - whole.n_evaluations) <= 1  # the first nodes' suites counted, not rescored
     assert ev.n_evaluations < whole.n_evaluations - kept.n_evaluations / 2
 
 
 def test_a_resume_with_more_nodes_goes_on_where_the_limit_stopped(problems, tmp_path):
     p = problems["base"]
     ck = tmp_path / "o.checkpoint"
-    optimal(evaluator_for(p, "fast"), BUDGET, max_nodes=60, info=p.info, checkpoint=ck, checkpoint_every=30)
-    more = optimal(evaluator_for(p, "fast"), BUDGET, max_nodes=NODES, info=p.info, checkpoint=ck, checkpoint_every=30,
+    optimal(evaluator_for(p, "fast"), BUDGET, max_nodes=NODES // 2, info=p.info, checkpoint=ck, checkpoint_every=EVERY)
+    more = optimal(evaluator_for(p, "fast"), BUDGET, max_nodes=NODES, info=p.info, checkpoint=ck, checkpoint_every=EVERY,
                    resume=True)
     assert _answer(more) == _answer(optimal(evaluator_for(p, "fast"), BUDGET, max_nodes=NODES, info=p.info))
 

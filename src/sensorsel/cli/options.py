@@ -97,8 +97,7 @@ def budget_option(*, required: bool = False, default: float | None = None, multi
 
 def quiet_option(fn: F) -> F:
     """-q/--quiet and --progress/--no-progress (:mod:`sensorsel.cli.progress`)."""
-    fn = progress_flag(fn)
-    return click.option("-q", "--quiet", is_flag=True, help="No progress on stderr (unless --progress).")(fn)
+    return click.option("-q", "--quiet", is_flag=True, help="No progress on stderr (unless --progress).")(progress_flag(fn))
 
 
 def json_option(fn: F) -> F:

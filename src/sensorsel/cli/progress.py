@@ -20,7 +20,7 @@ import math
 import os
 import sys
 import time
-from typing import Any, Callable, TextIO
+from typing import Any, Callable, TextIO, TypeVar
 
 import click
 
@@ -31,9 +31,10 @@ PROGRESS_ENV = "SENSORSEL_PROGRESS"
 EVERY_ENV = "SENSORSEL_PROGRESS_EVERY"
 DEFAULT_EVERY_S = 5.0
 _META = "sensorsel.progress"  # where --progress/--no-progress leaves its value in the click context
+F = TypeVar("F", bound=Callable[..., Any])
 
 
-def progress_flag(fn: Callable[..., Any]) -> Callable[..., Any]:
+def progress_flag(fn: F) -> F:
     """--progress/--no-progress (default: shown unless -q), kept in the click context for :func:`progress_bar`."""
 
     def keep(ctx: click.Context, param: click.Parameter, value: bool | None) -> None:

@@ -132,7 +132,7 @@ def _report(problem: Any, budget: float, alpha: int, period_s: float, rule: str,
     sc = problem.scenario
     n_periods = len(split_periods(sc.keyframes.times, period_s))
     bar, progress = progress_bar(quiet, f"{n_periods} periods of {period_s:g} s")
-    if bar is not None:
+    if bar is not None and bar.terminal:  # off a terminal the status lines say it
         click.echo(f"whole route: greedy and resilient selection on {sc.n_poses} keyframes, {sc.n_landmarks} landmarks ...", err=True)
     with cluster or nullcontext(), bar or nullcontext():  # with a cluster, every period as a task there
         return resilient_report(problem, budget, alpha, period_s=period_s, rule=rule, engine=engine, jobs=jobs,
