@@ -19,7 +19,8 @@ from typing import Callable, Iterable, Protocol, Sequence
 
 import numpy as np
 
-from sensorsel.designs.requirements.solver import cheapest_suite
+from sensorsel.designs.requirements.margin import Margin, margin_of
+from sensorsel.designs.requirements.solver import DEFAULT_TIE_PROGRAMS, Status, cheapest_suite
 from sensorsel.designs.requirements.spec import RouteVerdict, Specification, covariance_verdict, verdict
 from sensorsel.errors import InputError, ResultFileError
 from sensorsel.information.evaluators import Evaluator, as_suite, make_evaluator
@@ -89,6 +90,15 @@ class RequireResult:
             "failures" (they meet it, but not after the worst failures) or "limits" (no suite within
             the budget and limits does).
         stop: why the search ended, in words.
+        seconds_checks: of ``seconds``, in the accuracy checks [s].
+        seconds_programs: of ``seconds``, in the integer programs [s].
+        ties: other suites of the same cost that also meet the requirement (ids), found on the way or
+            by the tie search after the proof.
+        ties_exhaustive: the tie search ran out of suites of that cost: ``ties`` are all there are.
+        tie_programs: integer programs of the tie search.
+        margin: the suite's smallest slack against the stated limits, where, and the binding
+            keyframes (None when no suite was found).
+        synthetic_landmarks: the routes whose landmarks were invented (generated), not read from a map.
     """
 
     status: str
@@ -111,6 +121,13 @@ class RequireResult:
     infeasible_by: str = ""
     stop: str = ""
     n_refuted: int = 0
+    seconds_checks: float = 0.0
+    seconds_programs: float = 0.0
+    ties: tuple[tuple[str, ...], ...] = ()
+    ties_exhaustive: bool = False
+    tie_programs: int = 0
+    margin: Margin | None = None
+    synthetic_landmarks: tuple[str, ...] = ()
 
     @property
     def gap_usd(self) -> float:
@@ -305,7 +322,8 @@ def require(target: Target, specifications: Specification | Sequence[Specificati
             failures: int = 0, budget_usd: float | None = None, constraints: Constraints | None = None,
             engine: str | None = None, jobs: int = 1, time_limit_s: float | None = None,
             progress: Progress | None = None, checkpoint: str | Path | None = None, resume: bool = False,
-            conditions: Sequence[str] | None = None, evaluator: Evaluator | None = None) -> RequireResult:
+            conditions: Sequence[str] | None = None, evaluator: Evaluator | None = None, status: Status | None = None,
+            max_tie_programs: int = DEFAULT_TIE_PROGRAMS) -> RequireResult:
     """The cheapest suite meeting ``specifications`` on ``target`` (a route, or every route of a
     domain: one specification for all, or one per route in the domain's order).
 
@@ -321,6 +339,10 @@ def require(target: Target, specifications: Specification | Sequence[Specificati
             None: one engine per route here.
         conditions: with a domain of (route, condition) members, demand the specification only in
             these conditions (names as the domain file gives them, e.g. ("clear", "rain")); None: in all.
+        status: status(text) after each integer program: the cost interval [lower bound, best
+            found] closing, the suites checked, the time so far.
+        max_tie_programs: integer programs spent after the proof looking for other suites of the
+            same cost (0: only those met on the way are reported).
         checkpoint: a file where the answers are journalled as they come (every
             :data:`JOURNAL_EVERY_S` and at the end: a :class:`RequireJournal`); with ``resume`` an
             interrupted run's journal there is read back (refused when its inputs differ).
@@ -375,7 +397,8 @@ def require(target: Target, specifications: Specification | Sequence[Specificati
         oracle.on_answer = write
     try:
         found = cheapest_suite(feas, oracle.meets, failures=failures, violation=oracle.violation,
-                               time_limit=time_limit_s, progress=progress)
+                               time_limit=time_limit_s, progress=progress, status=status,
+                               max_tie_programs=max_tie_programs)
     finally:  # interrupted too (Ctrl-C): nothing learnt is lost
         if checkpoint is not None:
             oracle.on_answer = None
@@ -393,13 +416,18 @@ def require(target: Target, specifications: Specification | Sequence[Specificati
         routes = oracle.report(suite)
         worst = _worst_failure(oracle, suite, failures)
         worst_routes = oracle.report(tuple(i for i in suite if i not in worst)) if worst else ()
+    margin = margin_of([(r.route, r.specification, r.accuracy) for r in routes]) if found.suite is not None else None
+    synthetic = tuple(name for name, p in problems if p.scenario.landmark_source.startswith("generated"))
     return RequireResult(
         status=found.status, suite=library.suite_ids(suite), cost_usd=float(feas.A[0, list(suite)].sum()) if suite else 0.0,
         lower_bound_usd=float(found.lower_bound), infeasible_by=found.infeasible_by, stop=found.stop,
         failures=failures, model="slam" if map_sigma_m is None else "map",
         map_sigma_m=map_sigma_m, routes=routes, worst_failure=library.suite_ids(worst), worst_failure_routes=worst_routes,
         iterations=int(found.iterations), n_checks=oracle.n_checks, n_refuted=oracle.n_refuted, engine=getattr(evaluator, "engine", None) or evaluators[0].name, budget_usd=budget_usd,
-        constraints=feas.record, problem=target.info, seconds=time.perf_counter() - t0)
+        constraints=feas.record, problem=target.info, seconds=time.perf_counter() - t0,
+        seconds_checks=found.seconds_checks, seconds_programs=found.seconds_programs,
+        ties=tuple(library.suite_ids(t) for t in found.ties), ties_exhaustive=found.ties_exhaustive,
+        tie_programs=found.tie_programs, margin=margin, synthetic_landmarks=synthetic)
 
 
 def _worst_failure(oracle: _Oracle, suite: Suite, failures: int) -> tuple[int, ...]:
