@@ -31,6 +31,7 @@ def _reference():
     spec = importlib.util.spec_from_file_location("require_reference_solver", REPO / "bench" / "require_reference_solver.py")
     ref = importlib.util.module_from_spec(spec)
     assert spec.loader is not None
+    sys.modules["require_reference_solver"] = ref  # dataclasses look their module up there
     spec.loader.exec_module(ref)
     from sensorsel.designs.requirements.solver import CheapestSuite
 
