@@ -53,7 +53,7 @@ COMMANDS = {
     "optimal": (["optimal", "--domain", DOMAIN, "--budget", "4000", "--max-nodes", "100", "-o", "OUT/optimal.json"],
                 "optimal.json.checkpoint", {"seconds", "n_evaluations"}),
     "require": (["require", "--domain", DOMAIN, "--preset", "freeway", "--failures", "1", "-o", "OUT/require.json"],
-                "require.json.checkpoint", {"seconds", "n_checks", "n_refuted"}),  # a resume redoes no journalled work
+                "require.json.checkpoint", {"seconds", "seconds_checks", "seconds_programs", "n_checks", "n_refuted"}),  # a resume redoes no journalled work
 }
 
 
