@@ -50,7 +50,10 @@ suite that meets the requirement, whatever its structure; monotonicity only make
    bound); otherwise a cut (or no-good) that the proposal violates is added. No proposal repeats,
    so the loop ends: proved optimal, "infeasible" when the integer program has no solution, or
    "gap" at ``max_iterations`` / ``time_limit`` with both bounds reported.
-4. Once a suite of cost c is known, a sensor that alone with the required ones costs more than c
+4. When the integer program proposes a second failing suite of one cost (a plateau: many suites of
+   sensors of one price), that proposal is completed greedily, for a suite near the lower bound
+   early (so the search ends when the bound reaches it, not after every suite of that cost).
+   Once a suite of cost c is known, a sensor that alone with the required ones costs more than c
    is fixed out of the integer programs and of the growth of failing sets (no suite cheaper than
    c holds it): fewer checks per cut, smaller programs; the lower bound stays valid for every
    suite cheaper than c, which is all the proof needs.
@@ -447,7 +450,7 @@ def cheapest_suite(feasible: FeasibleSet, meets: Meets, *, failures: int = 0, vi
     # 3. the hitting-set loop
     lower = 0.0 if not s.required else s.cost(s.required)
     iterations = 0
-    level = -math.inf  # the cost of the last proposal completed greedily
+    plateau: dict[float, int] = {}  # failing proposals per cost [$]
     stop = ""
     while True:
         if incumbent is not None and upper - lower <= _tol(upper):
@@ -485,9 +488,11 @@ def cheapest_suite(feasible: FeasibleSet, meets: Meets, *, failures: int = 0, vi
                 s.fix_above(upper)
             continue  # when the proposal is the integer program's optimum, the bounds now meet
         s.cut(proposal, part)
-        if violation is not None and s.monotone and s.cost(proposal) > level + _tol(level) and s.cost(proposal) < upper:
-            # the lower bound reached a new level: complete its proposal greedily, for a suite close to it
-            level = s.cost(proposal)
+        c = round(s.cost(proposal), 6)
+        plateau[c] = plateau.get(c, 0) + 1
+        if violation is not None and s.monotone and plateau[c] == 2 and c < upper - _tol(upper):
+            # a second failing suite of the same cost: the lower bound is on a plateau of suites of
+            # one price (sensors of one model); complete this one greedily, for a suite close to it
             done = s.greedy(proposal)
             if done is not None and s.fits(done) and s.cost(done) < upper - _tol(upper):
                 incumbent, upper = done, s.cost(done)
