@@ -1,54 +1,90 @@
-"""How long `sensorsel require` takes to prove its answer (issue 24: KITTI 00 with the local-streets
-preset <= 60 s, the seven-route domain <= 3 minutes, on a 2-core machine).
+"""How long `sensorsel require` takes to prove its answer, against the solver it had before (kept in
+bench/require_reference_solver.py), side by side in one process on the same problems.
 
-    python bench/require.py [--kitti-root ../shared/kitti] [--targets 03 00 domain] [--presets local-streets]
-                            [--failures 0]
+    python bench/require.py [--kitti-root ../shared/kitti] [--rows tour 03 00] [--presets local-streets freeway]
+                            [--failures 0 1] [--time-limit 300] [--solvers new reference]
 
-Each run is the whole command in a fresh process (imports, loading, the search); printed: the
-target, preset, failures, the answer, its cost and lower bound, the integer programs, the accuracy
-computations and the suites refuted by the cheap floor, and the wall time.
+Rows: "tour" is the README's tour (the bundled suburb route), "03" / "00" the KITTI sequences with
+their real pole maps; each row is run for every preset and failure count given, first with the
+solver of the package, then with the reference solver behind the same accuracy oracle (so the two
+differ only in the search). Printed per run: the status, cost and lower bound, integer programs,
+accuracy computations (and the suites the cheap floor refuted), the time in checks and in programs,
+the wall time and the process's CPU time (less sensitive to other work on the machine). Timings on a shared machine are noisy: compare the two solvers' columns of one
+run, and the counts, which do not depend on the machine.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
+import importlib.util
 import os
-import subprocess
 import sys
-import tempfile
 import time
+from dataclasses import fields
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
 
 
+def _reference():
+    """cheapest_suite of the reference solver, returning the package's CheapestSuite."""
+    spec = importlib.util.spec_from_file_location("require_reference_solver", REPO / "bench" / "require_reference_solver.py")
+    ref = importlib.util.module_from_spec(spec)
+    assert spec.loader is not None
+    sys.modules["require_reference_solver"] = ref  # dataclasses look their module up there
+    spec.loader.exec_module(ref)
+    from sensorsel.designs.requirements.solver import CheapestSuite
+
+    def cheapest_suite(feas, meets, *, failures=0, violation=None, time_limit=None, progress=None, status=None,
+                       max_tie_programs=0):
+        r = ref.cheapest_suite(feas, meets, failures=failures, violation=violation, time_limit=time_limit, progress=progress)
+        return CheapestSuite(**{f.name: getattr(r, f.name) for f in fields(r)})
+
+    return cheapest_suite
+
+
+def _problem(row: str, kitti_root: str):
+    from sensorsel.api import load_problem
+    from sensorsel.model.scenario.loading import ScenarioSpec
+
+    if row == "tour":
+        return load_problem()
+    return load_problem(ScenarioSpec(seq=row, kitti_root=kitti_root))
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--kitti-root", default=os.environ.get("SENSORSEL_KITTI_ROOT", str(REPO.parent / "shared" / "kitti")))
-    ap.add_argument("--targets", nargs="+", default=["03", "00", "domain"])
-    ap.add_argument("--presets", nargs="+", default=["local-streets"])
-    ap.add_argument("--failures", nargs="+", type=int, default=[0])
+    ap.add_argument("--kitti-root", default=os.environ.get("SENSORSEL_KITTI_ROOT", str(REPO.parent.parent / "shared" / "kitti")))
+    ap.add_argument("--rows", nargs="+", default=["tour", "03", "00"])
+    ap.add_argument("--presets", nargs="+", default=["local-streets", "freeway"])
+    ap.add_argument("--failures", nargs="+", type=int, default=[0, 1])
+    ap.add_argument("--time-limit", type=float, default=300.0)
+    ap.add_argument("--solvers", nargs="+", default=["new", "reference"], choices=["new", "reference"])
     a = ap.parse_args()
-    exe = [str(Path(sys.executable).with_name("sensorsel"))]
-    env = dict(os.environ, SENSORSEL_KITTI_ROOT=a.kitti_root)
-    for target in a.targets:
-        where = ["--domain", str(REPO / "configs" / "domain_kitti.yaml")] if target == "domain" else ["--seq", target]
-        for preset in a.presets:
+    from sensorsel.designs.requirements import design
+    from sensorsel.designs.requirements.spec import DEFAULT_MAP_SIGMA_M, preset
+
+    package = design.cheapest_suite
+    solvers = {"new": package, "reference": _reference()}
+    print(f"{'row':>5} {'preset':>13} a solver    {'status':>8} {'cost':>9} {'lower':>9} {'programs':>8} {'checks':>6} "
+          f"{'refuted':>7} {'checks s':>8} {'progs s':>8} {'wall s':>7} {'cpu s':>7}  suite", flush=True)
+    for row in a.rows:
+        problem = _problem(row, a.kitti_root)
+        for name in a.presets:
             for alpha in a.failures:
-                with tempfile.TemporaryDirectory() as tmp:
-                    out = Path(tmp) / "r.json"
-                    t0 = time.perf_counter()
-                    p = subprocess.run([*exe, "require", *where, "--preset", preset, "--failures", str(alpha), "-q", "-o", str(out)],
-                                       capture_output=True, text=True, env=env)
-                    dt = time.perf_counter() - t0
-                    if p.returncode not in (0, 2):
-                        sys.exit(p.stderr)
-                    r = json.loads(out.read_text())
-                print(f"{target:>6} {preset:>13} a={alpha}: {r['status']:>10} {','.join(r['suite']) or '-':<40} "
-                      f"${r['cost_usd']:>9,.0f} (lower bound ${float(r['lower_bound_usd']):>9,.0f}), {r['iterations']:3d} programs, "
-                      f"{r['n_checks']:5d} accuracies, {r.get('n_refuted', 0):5d} refuted; {dt:6.1f} s", flush=True)
+                for which in a.solvers:
+                    design.cheapest_suite = solvers[which]
+                    t0, c0 = time.perf_counter(), time.process_time()
+                    try:
+                        r = design.require(problem, preset(name), map_sigma_m=DEFAULT_MAP_SIGMA_M, failures=alpha,
+                                           time_limit_s=a.time_limit)
+                    finally:
+                        design.cheapest_suite = package
+                    dt, cpu = time.perf_counter() - t0, time.process_time() - c0
+                    print(f"{row:>5} {name:>13} {alpha} {which:<9} {r.status:>8} {r.cost_usd:>9,.0f} {r.lower_bound_usd:>9,.0f} "
+                          f"{r.iterations:>8} {r.n_checks:>6} {r.n_refuted:>7} {r.seconds_checks:>8.1f} "
+                          f"{r.seconds_programs:>8.1f} {dt:>7.1f} {cpu:>7.1f}  {','.join(r.suite) or '-'}", flush=True)
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -56,7 +56,7 @@ COMMANDS = {
     # radars and cameras at the even clock positions only: 4 integer programs, not 18 (the same code paths)
     "require": (["require", "--domain", DOMAIN, "--preset", "freeway", "--failures", "1", "--exclude", ODD_CLOCK,
                  "-o", "OUT/require.json"],
-                "require.json.checkpoint", {"seconds", "n_checks", "n_refuted"}),  # a resume redoes no journalled work
+                "require.json.checkpoint", {"seconds", "seconds_checks", "seconds_programs", "n_checks", "n_refuted"}),  # a resume redoes no journalled work
 }
 
 

@@ -65,3 +65,25 @@ def test_deterministic(library):
     fs = feasible_set(sub, math.inf, Constraints())
     a, b = (cheapest_suite(fs, meets, failures=1, violation=viol) for _ in range(2))
     assert (a.suite, a.cost, a.cuts, a.n_checks) == (b.suite, b.cost, b.cuts, b.n_checks)
+
+
+#: twelve sensors of one price (cameras at their clock positions): the symmetric case, many ties
+SAME_PRICE = list(range(38, 50))
+
+
+@pytest.mark.parametrize("alpha", [0, 1])
+def test_many_sensors_of_one_price_equal_brute_force(library, alpha):
+    sub = library.subset(SAME_PRICE)
+    assert len(set(sub.costs.tolist())) == 1
+    for seed in range(3):
+        meets, viol = _instance(len(sub), seed, [0.3, 0.2][alpha])
+        fs = feasible_set(sub, math.inf, Constraints())
+        best = _brute(fs, meets, alpha)
+        r = cheapest_suite(fs, meets, failures=alpha, violation=viol)
+        assert r.lower_bound <= best + 1e-6
+        if math.isinf(best):
+            assert r.status == "infeasible"
+            continue
+        assert r.status == "optimal" and r.cost == best
+        for t in (r.suite, *r.ties):  # the answer and every tie meet it, at the same cost
+            assert meets_after_failures(meets, [t], failures=alpha) == (True,) and len(t) == len(r.suite)

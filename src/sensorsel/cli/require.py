@@ -94,6 +94,9 @@ def specification_from(kw: dict[str, Any], routes: list[str]) -> list[Specificat
 @click.option("--in", "in_conditions", default=None, metavar="C1,C2,...",
               help="With a --domain that has conditions: demand the specification only in these conditions "
                    "(e.g. clear,rain); (default: in every condition).")
+@click.option("--margin", "margin_text", default=None, metavar="PERCENT",
+              help="Demand the specification with this much of each limit to spare, e.g. 10% (every error within 90 % "
+                   "of its limit); default 0.")
 @click.option("--failures", type=click.IntRange(min=0), default=0, show_default=True,
               help="The suite must still meet the specification after any this many of its sensors fail.")
 @budget_option(help="Most the suite may cost [$] (default: no budget: the cheapest suite is the question).")
@@ -110,7 +113,7 @@ def specification_from(kw: dict[str, Any], routes: list[str]) -> list[Specificat
 @json_option
 @quiet_option
 @run
-def require_cmd(map_sigma: float | None, slam: bool, estimate: str, in_conditions: str | None, failures: int, budget: float | None, time_limit: float | None,
+def require_cmd(map_sigma: float | None, slam: bool, estimate: str, in_conditions: str | None, margin_text: str | None, failures: int, budget: float | None, time_limit: float | None,
                 plot_path: str | None, compare: str | None, output: str | None, resume: bool, as_json: bool, quiet: bool,
                 aggregate: str, engine: str | None, jobs: int, **kw: Any) -> None:
     """The cheapest suite that meets an accuracy specification, on a route or every route of a
@@ -140,12 +143,20 @@ def require_cmd(map_sigma: float | None, slam: bool, estimate: str, in_condition
             output_file(path)
     if plot_path:
         plot_format(None, plot_path)
+    margin = parse_margin(margin_text)
     cluster = cluster_from(kw)
     constraints = constraints_from(kw)
+    landmarks_given = tuple(kw.get("landmarks") or ())
     target = target_from(kw)
+    if not isinstance(target, Domain) and target.scenario.landmark_source.startswith("generated") \
+            and "synthetic" not in landmarks_given:
+        raise InputError(f"route {target.scenario.name} has no landmark file: a proof on invented landmarks signs nothing; "
+                         "give --landmarks FILE, a map (--landmarks osm:FILE), or --landmarks synthetic to accept invented ones")
     require_domain(cluster, target)
     routes = [r.name for r in target.routes] if isinstance(target, Domain) else [target.scenario.name]
     specs = specification_from(kw, routes)
+    if margin:
+        specs = [replace(sp, margin=margin) for sp in specs]
     compared = None
     if compare:
         positions, label, _ = read_suite(compare, target.library, "--compare", None if isinstance(target, Domain) else target)
@@ -177,6 +188,20 @@ def require_cmd(map_sigma: float | None, slam: bool, estimate: str, in_condition
         sys.exit(2)
 
 
+def parse_margin(text: str | None) -> float:
+    """--margin "10%" (or "10") -> 0.10; an InputError naming the option for anything else."""
+    if text is None:
+        return 0.0
+    raw = text.strip().removesuffix("%").strip()
+    try:
+        value = float(raw)
+    except ValueError:
+        raise InputError(f"--margin {text}: expected a percentage of each limit to spare, e.g. 10%") from None
+    if not (0.0 <= value < 100.0):  # also refuses nan
+        raise InputError(f"--margin {text}: the share of each limit to spare must be at least 0 % and below 100 %")
+    return value / 100.0
+
+
 def _spec_line(routes: tuple[RouteRequirement, ...]) -> str:
     specs = {r.specification.describe() for r in routes}
     if len(specs) == 1:
@@ -200,18 +225,36 @@ def _print(res: RequireResult) -> None:
     if not res.suite:
         click.echo(f"suite      none found before the search stopped ({res.stop})")
         return
-    click.echo(f"suite      {','.join(res.suite) or '(empty: odometry alone meets it)'}  ({len(res.suite)} sensors)")
+    invented = (f"  on INVENTED landmarks (--landmarks synthetic: route {', '.join(res.synthetic_landmarks)})"
+                if res.synthetic_landmarks else "")
+    click.echo(f"suite      {','.join(res.suite) or '(empty: odometry alone meets it)'}  ({len(res.suite)} sensors){invented}")
     if res.status == "optimal":
         click.echo(f"cost       ${res.cost_usd:,.0f}: proved the cheapest (no suite that meets the specification costs less)")
     else:
         click.echo(f"cost       ${res.cost_usd:,.0f}; no suite that meets it costs less than ${res.lower_bound_usd:,.0f} "
                    f"(gap ${res.gap_usd:,.0f}: the search stopped at its time limit)")
     _print_routes(res.routes)
+    if res.margin is not None:
+        click.echo(f"margin     {res.margin.line()}")
+    click.echo(f"ties       {_ties_line(res)}")
     if res.worst_failure:
         click.echo(f"worst failure  {','.join(res.worst_failure)}: then")
         _print_routes(res.worst_failure_routes)
-    click.echo(f"searched   {res.iterations} integer programs, {res.n_checks} accuracy computations "
-               f"({res.n_refuted} more suites refuted by a cheap bound), {res.seconds:.2f} s")
+    click.echo(f"searched   {res.iterations} integer programs ({res.seconds_programs:.2f} s), {res.n_checks} accuracy "
+               f"computations ({res.seconds_checks:.2f} s; {res.n_refuted} more suites refuted by a cheap bound), "
+               f"{res.seconds:.2f} s in all")
+
+
+def _ties_line(res: RequireResult) -> str:
+    """The equal-cost suites that also meet it, or that none was found and how far the search looked."""
+    cost = f"${res.cost_usd:,.0f}"
+    looked = (f"the search ran out of suites of {cost}" if res.ties_exhaustive
+              else f"looked at {res.tie_programs} more integer programs' suites of {cost}, not all of them")
+    if not res.ties:
+        return ("none: no other suite of " + cost + " meets it (" + looked + ")" if res.ties_exhaustive
+                else f"none found ({looked})")
+    shown = "; ".join(",".join(t) for t in res.ties[:4]) + (f"; ... ({len(res.ties)} in all)" if len(res.ties) > 4 else "")
+    return f"{len(res.ties)} other suite(s) of {cost} also meet it: {shown} ({looked})"
 
 
 def _print_routes(routes: tuple[RouteRequirement, ...]) -> None:

@@ -19,8 +19,9 @@ from typing import Callable, Iterable, Protocol, Sequence
 
 import numpy as np
 
-from sensorsel.designs.requirements.solver import cheapest_suite
-from sensorsel.designs.requirements.spec import RouteVerdict, Specification, verdict
+from sensorsel.designs.requirements.margin import Margin, margin_of
+from sensorsel.designs.requirements.solver import DEFAULT_TIE_PROGRAMS, Status, cheapest_suite
+from sensorsel.designs.requirements.spec import RouteVerdict, Specification, covariance_verdict, verdict
 from sensorsel.errors import InputError, ResultFileError
 from sensorsel.information.evaluators import Evaluator, as_suite, make_evaluator
 from sensorsel.information.evaluators.accuracy import RouteAccuracy, accuracy_from_covariances, estimate_label, model_label
@@ -94,6 +95,15 @@ class RequireResult:
             "failures" (they meet it, but not after the worst failures) or "limits" (no suite within
             the budget and limits does).
         stop: why the search ended, in words.
+        seconds_checks: of ``seconds``, in the accuracy checks [s].
+        seconds_programs: of ``seconds``, in the integer programs [s].
+        ties: other suites of the same cost that also meet the requirement (ids), found on the way or
+            by the tie search after the proof.
+        ties_exhaustive: the tie search ran out of suites of that cost: ``ties`` are all there are.
+        tie_programs: integer programs of the tie search.
+        margin: the suite's smallest slack against the stated limits, where, and the binding
+            keyframes (None when no suite was found).
+        synthetic_landmarks: the routes whose landmarks were invented (generated), not read from a map.
     """
 
     status: str
@@ -116,6 +126,13 @@ class RequireResult:
     infeasible_by: str = ""
     stop: str = ""
     n_refuted: int = 0
+    seconds_checks: float = 0.0
+    seconds_programs: float = 0.0
+    ties: tuple[tuple[str, ...], ...] = ()
+    ties_exhaustive: bool = False
+    tie_programs: int = 0
+    margin: Margin | None = None
+    synthetic_landmarks: tuple[str, ...] = ()
     estimate: str = "smoother"
 
     @property
@@ -199,16 +216,35 @@ class RouteEngine(Protocol):
     def pose_covariance_floor(self, suite: Iterable[int], *, map_sigma_m: float | None = None) -> np.ndarray | None: ...
 
 
+#: the cheap floor under the marginals is asked only while it refutes at least this share of the
+#: suites it is asked about (after :data:`FLOOR_TRIAL` of them): on the bundled suburb route it
+#: refuted 2 % of them and cost a third of a check each; in the map model on KITTI most failing suites
+FLOOR_KEEP_SHARE = 0.2
+FLOOR_TRIAL = 40
+
+
+def route_covariances(engine: RouteEngine, suite: Suite, map_sigma_m: float | None, estimate: str) -> np.ndarray:
+    """The (K, 3, 3) pose covariances ``require`` judges a suite by on one route (the filter's or the
+    smoother's ``estimate``): the one place where it asks a route's engine for them."""
+    return engine.pose_covariances(suite, map_sigma_m=map_sigma_m, estimate=estimate)
+
+
 class _Oracle:
     """Whether a suite meets the requirement on every route, with the answers kept (each costs an
     accuracy computation per route asked); routes are asked in order and the first failing one
     ends the question (the caching keeps the answer the same whichever path asked first).
 
+    The solver's questions are answered from the covariances alone
+    (:func:`~sensorsel.designs.requirements.spec.covariance_verdict`); the full
+    :class:`RouteAccuracy` is built only for the suites a result reports.
+
     Before computing a route's marginals, :meth:`meets` asks the engine's cheap floor under them
     (:meth:`~sensorsel.information.evaluators.base.ProblemEvaluator.pose_covariance_floor`): every σ of the floor
     is below the true one, so a specification the floor already misses is missed (monotone in each
     keyframe's errors, whatever the share of keyframes): the suite fails without its marginals. In
-    the map model the floor is ~50-90 % of the true σ (KITTI 00, 03) and refutes most failing suites.
+    the map model the floor is ~50-90 % of the true σ (KITTI 00, 03) and refutes most failing
+    suites; where it refutes few (:data:`FLOOR_KEEP_SHARE`) it is no longer asked (a choice made
+    from the counts alone, so the answers and the run stay deterministic).
     The floor is under the smoother's marginals, and so under the filter's (which use fewer
     measurements: ⪰ the smoother's at every keyframe): it refutes for either ``estimate``.
 
@@ -222,72 +258,94 @@ class _Oracle:
     def __init__(self, evaluators: Sequence[RouteEngine], names: Sequence[str], specs: Sequence[Specification],
                  map_sigma_m: float | None, estimate: str = "filter") -> None:
         self.evaluators, self.names, self.specs, self.map_sigma_m = list(evaluators), list(names), list(specs), map_sigma_m
+        self._answers: dict[tuple[int, Suite], tuple[bool, float]] = {}
+        self._reports: dict[tuple[int, Suite], tuple[RouteAccuracy, RouteVerdict]] = {}
         self.estimate = estimate
-        #: (route, suite) -> the smoother's verdict, where the filter's is asked (its floor)
-        self._smoothed: dict[tuple[int, Suite], RouteVerdict] = {}
-        self._verdicts: dict[tuple[int, Suite], tuple[RouteAccuracy, RouteVerdict]] = {}
+        #: (route, suite) -> the smoother's (meets, violation), where the filter's is asked (its floor)
+        self._smoothed: dict[tuple[int, Suite], tuple[bool, float]] = {}
+        self.floor_refuted = 0  # (route, suite) refuted by the cheap floor (decides whether it is still asked)
         self._refuted: set[tuple[int, Suite]] = set()
         #: (route, suite) -> (meets, violation or None): answers read back from a journal
         self.known: dict[tuple[int, Suite], tuple[bool, float | None]] = {}
         self.n_checks = 0  # marginals computed (route, suite)
         self.n_refuted = 0  # (route, suite) refuted by the floor alone
+        self.floor_asked = 0
         self.on_answer: Callable[[], None] | None = None  # called after each new answer (the journal's writer)
 
     def answers(self) -> tuple[tuple[int, Suite, bool, float | None], ...]:
         """Every answer so far, (route, suite, meets, violation or None), in a fixed order."""
         out: dict[tuple[int, Suite], tuple[bool, float | None]] = dict(self.known)
         out.update({k: (False, None) for k in self._refuted})
-        out.update({k: (False, v.violation) for k, v in self._smoothed.items() if not v.meets})
-        out.update({k: (v.meets, v.violation) for k, (_, v) in self._verdicts.items()})
+        out.update({k: (False, v) for k, (m, v) in self._smoothed.items() if not m})
+        out.update({k: (m, v) for k, (m, v) in self._answers.items()})
         return tuple((r, s, m, v) for (r, s), (m, v) in sorted(out.items()))
 
     def _answered(self) -> None:
         if self.on_answer is not None:
             self.on_answer()
 
-    def route(self, r: int, suite: Suite) -> tuple[RouteAccuracy, RouteVerdict]:
+    def _answer(self, r: int, suite: Suite) -> tuple[bool, float]:
+        """(meets, violation) of ``suite`` on route ``r``, computed once."""
         key = (r, suite)
-        got = self._verdicts.get(key)
+        got = self._answers.get(key)
         if got is None:
-            cov = self.evaluators[r].pose_covariances(suite, map_sigma_m=self.map_sigma_m, estimate=self.estimate)
-            acc = accuracy_from_covariances(cov, map_sigma_m=self.map_sigma_m, route=self.names[r], estimate=self.estimate)
-            got = self._verdicts[key] = (acc, verdict(acc, self.specs[r]))
+            got = self._answers[key] = covariance_verdict(
+                route_covariances(self.evaluators[r], suite, self.map_sigma_m, self.estimate), self.specs[r])
             self.n_checks += 1
             self._answered()
         return got
 
+    def route(self, r: int, suite: Suite) -> tuple[RouteAccuracy, RouteVerdict]:
+        """The suite's accuracy and verdict on route ``r`` (for a report)."""
+        key = (r, suite)
+        got = self._reports.get(key)
+        if got is None:
+            acc = accuracy_from_covariances(route_covariances(self.evaluators[r], suite, self.map_sigma_m, self.estimate),
+                                            map_sigma_m=self.map_sigma_m, route=self.names[r], estimate=self.estimate)
+            got = self._reports[key] = (acc, verdict(acc, self.specs[r]))
+            if key not in self._answers:
+                self._answers[key] = (got[1].meets, got[1].violation)
+                self.n_checks += 1
+                self._answered()
+        return got
+
+    def _use_floor(self) -> bool:
+        return self.floor_asked < FLOOR_TRIAL or self.floor_refuted >= FLOOR_KEEP_SHARE * self.floor_asked
+
     def _route_meets(self, r: int, suite: Suite) -> bool:
         key = (r, suite)
-        if key in self._verdicts:
-            return self._verdicts[key][1].meets
+        if key in self._answers:
+            return self._answers[key][0]
         if key in self._refuted:
             return False
         if key in self.known:
             return self.known[key][0]
-        floor = self.evaluators[r].pose_covariance_floor(suite, map_sigma_m=self.map_sigma_m)
-        if floor is not None and not verdict(accuracy_from_covariances(floor, map_sigma_m=self.map_sigma_m, estimate=self.estimate),
-                                             self.specs[r]).meets:
-            self._refuted.add(key)
-            self.n_refuted += 1
-            self._answered()
-            return False
+        if self._use_floor():
+            floor = self.evaluators[r].pose_covariance_floor(suite, map_sigma_m=self.map_sigma_m)
+            if floor is not None:
+                self.floor_asked += 1
+                if not covariance_verdict(floor, self.specs[r])[0]:
+                    self._refuted.add(key)
+                    self.n_refuted += 1
+                    self.floor_refuted += 1
+                    self._answered()
+                    return False
         smoothed = self._smoother_verdict(r, suite)
-        if smoothed is not None and not smoothed.meets:
+        if smoothed is not None and not smoothed[0]:
             return False
-        return self.route(r, suite)[1].meets
+        return self._answer(r, suite)[0]
 
-    def _smoother_verdict(self, r: int, suite: Suite) -> RouteVerdict | None:
-        """The smoother's verdict on (route, suite) when the filter's is asked (a floor under it:
-        the class's docstring), computed once; None for the smoother's own estimate."""
+    def _smoother_verdict(self, r: int, suite: Suite) -> tuple[bool, float] | None:
+        """The smoother's (meets, violation) on (route, suite) when the filter's is asked (a floor
+        under it: the class's docstring), computed once; None for the smoother's own estimate."""
         if self.estimate != "filter":
             return None
         key = (r, suite)
         got = self._smoothed.get(key)
         if got is None:
-            cov = self.evaluators[r].pose_covariances(suite, map_sigma_m=self.map_sigma_m, estimate="smoother")
-            acc = accuracy_from_covariances(cov, map_sigma_m=self.map_sigma_m, route=self.names[r], estimate="smoother")
-            got = self._smoothed[key] = verdict(acc, self.specs[r])
-            if not got.meets:
+            got = self._smoothed[key] = covariance_verdict(
+                route_covariances(self.evaluators[r], suite, self.map_sigma_m, "smoother"), self.specs[r])
+            if not got[0]:
                 self.n_refuted += 1
                 self._answered()
         return got
@@ -298,13 +356,13 @@ class _Oracle:
 
     def _route_violation(self, r: int, suite: Suite) -> float:
         known = self.known.get((r, suite))
-        if known is not None and known[1] is not None and (r, suite) not in self._verdicts:
+        if known is not None and known[1] is not None and (r, suite) not in self._answers:
             return known[1]
-        if (r, suite) not in self._verdicts:
+        if (r, suite) not in self._answers:
             smoothed = self._smoother_verdict(r, suite)
-            if smoothed is not None and not smoothed.meets:
-                return smoothed.violation
-        return self.route(r, suite)[1].violation
+            if smoothed is not None and not smoothed[0]:
+                return smoothed[1]
+        return self._answer(r, suite)[1]
 
     def violation(self, suite: Suite) -> float:
         s = as_suite(suite)
@@ -319,8 +377,8 @@ def require(target: Target, specifications: Specification | Sequence[Specificati
             failures: int = 0, budget_usd: float | None = None, constraints: Constraints | None = None,
             engine: str | None = None, jobs: int = 1, time_limit_s: float | None = None,
             progress: Progress | None = None, checkpoint: str | Path | None = None, resume: bool = False,
-            conditions: Sequence[str] | None = None, evaluator: Evaluator | None = None,
-            estimate: str = "filter") -> RequireResult:
+            conditions: Sequence[str] | None = None, evaluator: Evaluator | None = None, status: Status | None = None,
+            max_tie_programs: int = DEFAULT_TIE_PROGRAMS, estimate: str = "filter") -> RequireResult:
     """The cheapest suite meeting ``specifications`` on ``target`` (a route, or every route of a
     domain: one specification for all, or one per route in the domain's order).
 
@@ -339,6 +397,10 @@ def require(target: Target, specifications: Specification | Sequence[Specificati
             None: one engine per route here.
         conditions: with a domain of (route, condition) members, demand the specification only in
             these conditions (names as the domain file gives them, e.g. ("clear", "rain")); None: in all.
+        status: status(text) after each integer program: the cost interval [lower bound, best
+            found] closing, the suites checked, the time so far.
+        max_tie_programs: integer programs spent after the proof looking for other suites of the
+            same cost (0: only those met on the way are reported).
         checkpoint: a file where the answers are journalled as they come (every
             :data:`JOURNAL_EVERY_S` and at the end: a :class:`RequireJournal`); with ``resume`` an
             interrupted run's journal there is read back (refused when its inputs differ).
@@ -395,7 +457,8 @@ def require(target: Target, specifications: Specification | Sequence[Specificati
         oracle.on_answer = write
     try:
         found = cheapest_suite(feas, oracle.meets, failures=failures, violation=oracle.violation,
-                               time_limit=time_limit_s, progress=progress)
+                               time_limit=time_limit_s, progress=progress, status=status,
+                               max_tie_programs=max_tie_programs)
     finally:  # interrupted too (Ctrl-C): nothing learnt is lost
         if checkpoint is not None:
             oracle.on_answer = None
@@ -413,13 +476,18 @@ def require(target: Target, specifications: Specification | Sequence[Specificati
         routes = oracle.report(suite)
         worst = _worst_failure(oracle, suite, failures)
         worst_routes = oracle.report(tuple(i for i in suite if i not in worst)) if worst else ()
+    margin = margin_of([(r.route, r.specification, r.accuracy) for r in routes]) if found.suite is not None else None
+    synthetic = tuple(name for name, p in problems if p.scenario.landmark_source.startswith("generated"))
     return RequireResult(
         status=found.status, suite=library.suite_ids(suite), cost_usd=float(feas.A[0, list(suite)].sum()) if suite else 0.0,
         lower_bound_usd=float(found.lower_bound), infeasible_by=found.infeasible_by, stop=found.stop,
         failures=failures, model="slam" if map_sigma_m is None else "map",
         map_sigma_m=map_sigma_m, estimate=estimate, routes=routes, worst_failure=library.suite_ids(worst), worst_failure_routes=worst_routes,
         iterations=int(found.iterations), n_checks=oracle.n_checks, n_refuted=oracle.n_refuted, engine=getattr(evaluator, "engine", None) or evaluators[0].name, budget_usd=budget_usd,
-        constraints=feas.record, problem=target.info, seconds=time.perf_counter() - t0)
+        constraints=feas.record, problem=target.info, seconds=time.perf_counter() - t0,
+        seconds_checks=found.seconds_checks, seconds_programs=found.seconds_programs,
+        ties=tuple(library.suite_ids(t) for t in found.ties), ties_exhaustive=found.ties_exhaustive,
+        tie_programs=found.tie_programs, margin=margin, synthetic_landmarks=synthetic)
 
 
 def _worst_failure(oracle: _Oracle, suite: Suite, failures: int) -> tuple[int, ...]:

@@ -1,46 +1,70 @@
-"""The cheapest suite that meets a monotone requirement, proved optimal by an implicit hitting set.
+"""The cheapest suite that meets a requirement, proved optimal by an implicit hitting set.
 
-The problem (issue 24): over the suites S a :class:`~sensorsel.model.constraints.FeasibleSet` allows
+The problem: over the suites S a :class:`~sensorsel.model.constraints.FeasibleSet` allows
 (packing rows ``A x <= b``, required sensors in, excluded ones out),
 
     minimise  cost(S) = Σ_{i ∈ S} price_i        (row 0 of A: the prices [$], owned sensors 0)
     such that meets(S minus F) for every F ⊆ S with |F| <= α      (α = ``failures``)
 
-where ``meets`` is *monotone*: S ⊆ T and meets(S) imply meets(T) (a sensor added only lowers every
-marginal variance). By monotonicity only the largest failure sets matter, |F| = min(α, |S|).
-
-**Cuts.** A set M that fails (not meets(M)) rules out every suite T with |T minus M| <= α: losing
-the sensors of T outside M leaves a subset of M, which fails too. So every suite that meets the
-requirement after α failures satisfies the linear *cut*
+**Monotone requirements** (accuracy: a sensor added only lowers every marginal variance, so
+S ⊆ T and meets(S) imply meets(T)). Only the largest failure sets matter, |F| = min(α, |S|). A
+set M that fails rules out every suite T with |T minus M| <= α (losing the sensors of T outside M
+leaves a subset of M, which fails too), so every suite that meets the requirement after α failures
+satisfies the linear *cut*
 
     Σ_{i ∉ M} x_i >= α + 1.
 
-The larger M, the stronger the cut: a failing set is grown to a *maximal* failing set (no sensor can
-be added to it while it still fails) before it becomes a cut.
+The larger M, the stronger the cut: a failing set is grown to a *maximal* failing set (no sensor
+can be added to it while it still fails) before it becomes a cut.
+
+**Requirements that are not monotone** (integrity: a sensor added brings measurements that can be
+associated with the wrong landmark). The requirement is a full check ``meets(S)`` with no
+structure, plus optional *relaxations*, necessary conditions of it (meets(S) implies each):
+
+- a *monotone* one, ``down`` (if S fails it, every subset of S fails it): a set M that fails it
+  gives the cut Σ_{i ∉ M} x_i >= α + 1 as above (a suite T with |T minus M| <= α loses T minus M
+  and keeps T ∩ M ⊆ M, which fails ``down`` and so fails ``meets``); M is grown to a maximal
+  failing set of ``down``;
+- an *anti-monotone* one, ``up`` (if S fails it, every superset of S fails it): a set m that
+  fails it gives the cut Σ_{i ∈ m} x_i <= |m| - 1 (a suite T ⊇ m fails ``up`` with no sensor
+  lost, so it fails ``meets``); m is shrunk to a minimal failing set of ``up``;
+- a suite that passes both but fails ``meets`` (itself, or after some |F| <= α failures, every
+  such F is checked, none skipped: losing a sensor may *help* a requirement that is not monotone)
+  gets a *no-good*: Σ_{i ∈ S} x_i - Σ_{i ∉ S} x_i <= |S| - 1, excluding exactly that suite.
+
+**The property the proof uses**: every suite that meets the requirement after α failures
+satisfies every cut and every no-good (each excludes only suites shown to fail). So the optimum of
+the integer program over the feasible set's rows and all cuts is a lower bound on the cost of any
+suite that meets the requirement, whatever its structure; monotonicity only makes the cuts strong.
 
 **The method** (an implicit hitting set):
 
-1. One check of every allowed sensor together: if even that fails, no suite meets the requirement
-   ("infeasible", by "library").
-2. Upper bound: a greedy that adds the sensor removing the most *violation* per dollar (lazily:
-   stale ratios are re-evaluated only when they come to the top) until the suite meets the
-   requirement after α failures, then prunes every sensor that is not needed (most expensive
-   first). Every failing suite it met is a cut.
+1. One check of every allowed sensor together: if even that fails (``meets``, or ``down`` when the
+   requirement is not monotone), no suite meets the requirement ("infeasible", by "library").
+2. Upper bound (monotone requirements with a ``violation``): a greedy that adds the sensor
+   removing the most violation per dollar (lazily) until the suite meets the requirement after α
+   failures, then prunes every sensor that is not needed (most expensive first).
 3. Lower bound: a min-cost integer program (scipy's ``milp``, HiGHS) over the feasible set's rows
-   and every cut so far. Every suite that meets the requirement satisfies all of them, so its
-   optimum is a **lower bound on the cost of any suite that meets the requirement**. Its optimal
-   suite is the next *proposal*: if the proposal meets the requirement after α failures it is
-   optimal (its cost equals the lower bound); otherwise some S minus F fails, it is grown to a
-   maximal failing set, and its cut (which the proposal violates) is added. No proposal repeats, so
-   the loop ends: proved optimal when the lower bound reaches the best suite found, "infeasible"
-   when the integer program has no solution (no suite within the limits meets the requirement), or
+   and every cut so far; its optimum is a lower bound, its optimal suite the next *proposal*: if
+   the proposal meets the requirement after α failures it is optimal (its cost equals the lower
+   bound); otherwise a cut (or no-good) that the proposal violates is added. No proposal repeats,
+   so the loop ends: proved optimal, "infeasible" when the integer program has no solution, or
    "gap" at ``max_iterations`` / ``time_limit`` with both bounds reported.
+4. When the integer program proposes a second failing suite of one cost (a plateau: many suites of
+   sensors of one price), that proposal is completed greedily, for a suite near the lower bound
+   early (so the search ends when the bound reaches it, not after every suite of that cost).
+   Once a suite of cost c is known, a sensor that alone with the required ones costs more than c
+   is fixed out of the integer programs and of the growth of failing sets (no suite cheaper than
+   c holds it): fewer checks per cut, smaller programs; the lower bound stays valid for every
+   suite cheaper than c, which is all the proof needs.
+5. Ties: once proved, integer programs capped at the optimal cost and excluding the suites found
+   look for other suites of that cost that meet it (at most ``max_tie_programs`` programs): the
+   answer lists them, and says whether that search was exhaustive (the program ran out of suites).
 
-**Checks are the expensive part** (each is a few log-det evaluations on a real route), so every
-answer is cached by suite and monotonicity answers what it can without a call: a subset of a
-failing set fails, a superset of a meeting set meets. Growing a failing set tries blocks of sensors
-at once (halving a block that would make it meet), cheapest sensors first so that the sensors left
-outside the cut are the expensive ones.
+**Checks are the expensive part** (each is a marginal computation per route), so every answer is
+cached by suite and what a predicate's structure tells is inferred without a call
+(:mod:`.oracle`). Growing a failing set tries blocks of sensors at once (halving a block that would
+make it meet), cheapest sensors first so that the sensors left outside the cut are the expensive ones.
 
 Determinism: every order is fixed (by price, then library position); HiGHS is deterministic; the
 same inputs give the same answer. A ``time_limit`` makes the answer depend on the machine's speed
@@ -57,31 +81,32 @@ from typing import Callable, Iterable, Sequence
 
 import numpy as np
 
-from sensorsel.io.files import quiet_stdout
+from sensorsel.designs.requirements.oracle import AntiMonotone, Exact, Monotone, mask_of, suite_of
+from sensorsel.designs.requirements.programs import MILP_NODE_LIMIT, propose as _propose, tol as _tol
 from sensorsel.io.progress import Progress, report
 from sensorsel.model.constraints import FeasibleSet
 
-__all__ = ["DEFAULT_MAX_ITERATIONS", "MILP_NODE_LIMIT", "STATUSES", "CheapestSuite", "Meets", "Suite", "Violation",
-           "cheapest_suite", "meets_after_failures"]
+__all__ = ["DEFAULT_MAX_ITERATIONS", "DEFAULT_TIE_PROGRAMS", "MILP_NODE_LIMIT", "STATUSES", "CheapestSuite", "Meets",
+           "Suite", "Violation", "cheapest_suite", "meets_after_failures"]
 
 #: a canonical suite: sorted tuple of unique library positions (the same alias as
 #: ``sensorsel.information.evaluators.Suite``; the solver needs no evaluator, only a predicate).
 Suite = tuple[int, ...]
-#: meets(suite) -> bool, monotone: S ⊆ T and meets(S) imply meets(T).
+#: meets(suite) -> bool.
 Meets = Callable[[Suite], bool]
 #: violation(suite) -> float >= 0, 0 exactly when meets(suite): how far the suite is from meeting.
 Violation = Callable[[Suite], float]
+#: status(text): the search in words after each integer program (cost interval, checks, time)
+Status = Callable[[str], None]
 
 #: the statuses of a :class:`CheapestSuite`
 STATUSES = ("optimal", "gap", "infeasible")
 #: integer programs solved (rounds of the hitting set) before stopping with a gap
 DEFAULT_MAX_ITERATIONS = 1000
-#: HiGHS's branch-and-bound node limit per integer program (deterministic, unlike a time limit)
-MILP_NODE_LIMIT = 100_000
-#: two costs closer than this [$] (plus a relative 1e-9) are equal: HiGHS's absolute gap is 1e-6
-_COST_TOL = 1e-6
-#: slack on a packing row relative to its limit, as the feasible set's (constraints.REL_SLACK)
-_ROW_SLACK = 1e-9
+#: integer programs spent looking for other suites of the optimal cost once it is proved
+DEFAULT_TIE_PROGRAMS = 4
+
+_mask, _suite = mask_of, suite_of
 
 
 @dataclass(frozen=True)
@@ -98,11 +123,11 @@ class CheapestSuite:
             ``cost`` when proved optimal, inf when proved infeasible.
         proved: the answer is proved: optimal (``cost == lower_bound``) or infeasible.
         gap: ``cost - lower_bound`` [$] (0 when proved, inf when no suite was found).
-        iterations: integer programs solved.
-        n_checks: calls of ``meets`` or ``violation`` (each on a different suite; answers that
-            monotonicity gave are not calls).
+        iterations: integer programs solved (the search; the tie search's are ``tie_programs``).
+        n_checks: calls of the predicates (each on a different suite; answers their structure
+            gave are not calls).
         cuts: the failing sets behind the cuts Σ_{i ∉ M} x_i >= failures + 1, maximal among those
-            found (each one grown from a proposal is maximal in the library), sorted.
+            found, sorted.
         status: "optimal" (proved), "gap" (stopped at a limit: ``suite`` is the best found and
             ``lower_bound`` what was proved) or "infeasible" (proved: no suite meets it).
         failures: α, the failures the suite withstands.
@@ -114,7 +139,18 @@ class CheapestSuite:
             ``lost`` fail ("failures"); () otherwise.
         lost: for "infeasible" by "failures", the failing sensors (at most α); () otherwise.
         stop: why the search ended, in words.
-        seconds: wall time [s] (the one field that differs between identical runs).
+        seconds: wall time [s] (the one field, with the two below, that differs between identical runs).
+        seconds_checks: of which in the predicates [s].
+        seconds_programs: of which in the integer programs [s].
+        cuts_in: the failing sets m behind the cuts Σ_{i ∈ m} x_i <= |m| - 1 (anti-monotone
+            relaxation), minimal among those found, sorted.
+        nogoods: suites excluded one by one (they passed the relaxations and failed the full check).
+        ties: other suites of the same cost that meet the requirement after the failures (found on
+            the way or by the tie search), sorted.
+        ties_exhaustive: the tie search ran out of suites of that cost: ``ties`` are all there are.
+        tie_programs: integer programs of the tie search.
+        fixed_out: sensors left out of the programs because with the required ones they cost more
+            than the best suite found.
     """
 
     suite: Suite | None
@@ -132,92 +168,29 @@ class CheapestSuite:
     lost: Suite = ()
     stop: str = ""
     seconds: float = 0.0
-
-
-class _Oracle:
-    """The predicate, cached by suite, with monotone inference (suites as bit masks: bit i = position i).
-
-    ``failing`` is an antichain of the maximal failing sets known, ``meeting`` one of the minimal
-    meeting sets: a suite inside a failing set fails, a suite holding a meeting set meets.
-    """
-
-    def __init__(self, meets: Meets, violation: Violation | None) -> None:
-        self._meets = meets
-        self._violation = violation
-        self.known: dict[int, bool] = {}
-        self.viol: dict[int, float] = {}
-        self.failing: list[int] = []
-        self.meeting: list[int] = []
-        self.n_checks = 0
-
-    def infer(self, mask: int) -> bool | None:
-        """What is known of ``mask`` without a call: True, False, or None (unknown)."""
-        hit = self.known.get(mask)
-        if hit is not None:
-            return hit
-        if any(mask & ~f == 0 for f in self.failing):
-            return False
-        if any(m & ~mask == 0 for m in self.meeting):
-            return True
-        return None
-
-    def meets(self, mask: int) -> bool:
-        known = self.infer(mask)
-        if known is not None:
-            return known
-        self.n_checks += 1
-        ok = bool(self._meets(_suite(mask)))
-        self._record(mask, ok)
-        return ok
-
-    def violation(self, mask: int) -> float:
-        """violation(S) (a call unless cached; 0 without a call when S is known to meet)."""
-        if mask in self.viol:
-            return self.viol[mask]
-        if self.infer(mask) is True:
-            return 0.0
-        assert self._violation is not None
-        self.n_checks += 1
-        v = float(self._violation(_suite(mask)))
-        if not math.isfinite(v) or v < 0:
-            raise ValueError(f"violation{_suite(mask)} returned {v!r}: it must be a finite number >= 0")
-        self.viol[mask] = v
-        self._record(mask, v <= 0.0)
-        return v
-
-    def _record(self, mask: int, ok: bool) -> None:
-        self.known[mask] = ok
-        if ok:
-            if not any(m & ~mask == 0 for m in self.meeting):
-                self.meeting = [m for m in self.meeting if mask & ~m != 0] + [mask]
-        elif not any(mask & ~f == 0 for f in self.failing):
-            self.failing = [f for f in self.failing if f & ~mask != 0] + [mask]
-
-
-def _mask(suite: Iterable[int]) -> int:
-    m = 0
-    for i in suite:
-        m |= 1 << int(i)
-    return m
-
-
-def _suite(mask: int) -> Suite:
-    out, i = [], 0
-    while mask:
-        if mask & 1:
-            out.append(i)
-        mask >>= 1
-        i += 1
-    return tuple(out)
+    seconds_checks: float = 0.0
+    seconds_programs: float = 0.0
+    cuts_in: tuple[Suite, ...] = ()
+    nogoods: tuple[Suite, ...] = ()
+    ties: tuple[Suite, ...] = ()
+    ties_exhaustive: bool = False
+    tie_programs: int = 0
+    fixed_out: int = 0
 
 
 class _Search:
-    """State shared by the greedy, the growth of failing sets and the hitting-set loop."""
+    """The predicates, the feasible set and the state shared by the greedy, the growth of failing
+    sets and the hitting-set loop.
 
-    def __init__(self, feasible: FeasibleSet, oracle: _Oracle, failures: int) -> None:
+    ``down`` is the monotone predicate (the requirement itself when it is monotone, else its
+    monotone relaxation or None), ``up`` the anti-monotone relaxation or None, ``full`` the full
+    check when the requirement is not monotone (None when it is: then ``down`` is the requirement)."""
+
+    def __init__(self, feasible: FeasibleSet, alpha: int, down: Monotone | None, up: AntiMonotone | None,
+                 full: Exact | None) -> None:
         self.fs = feasible
-        self.oracle = oracle
-        self.alpha = failures
+        self.alpha = alpha
+        self.down, self.up, self.full = down, up, full
         n = len(feasible.library)
         self.n = n
         self.price = np.asarray(feasible.A[0], dtype=float) if n else np.zeros(0)
@@ -228,6 +201,22 @@ class _Search:
         # the cut, which raises the lower bound most), most expensive first for failures and pruning
         self.cheap_first = sorted(self.allowed, key=lambda i: (self.price[i], i))
         self.dear_first = sorted(self.allowed, key=lambda i: (-self.price[i], i))
+        self.fixed_out = 0  # sensors no suite cheaper than the best found holds
+        self.nogoods: list[int] = []
+        self.met: dict[int, float] = {}  # suites shown to meet the requirement after the failures: cost
+
+    @property
+    def monotone(self) -> bool:
+        return self.full is None
+
+    def predicates(self) -> list[Monotone | AntiMonotone | Exact]:
+        return [p for p in (self.down, self.up, self.full) if p is not None]
+
+    def n_checks(self) -> int:
+        return sum(p.calls for p in self.predicates())
+
+    def seconds_checks(self) -> float:
+        return sum(p.seconds for p in self.predicates())
 
     def cost(self, mask: int) -> float:
         return float(sum(self.price[i] for i in _suite(mask)))
@@ -235,55 +224,109 @@ class _Search:
     def fits(self, mask: int) -> bool:
         return self.fs.fits(_suite(mask))
 
+    def fix_above(self, upper: float) -> None:
+        """Fix out every sensor that with the required ones costs more than ``upper`` [$]."""
+        base = self.cost(self.required)
+        for i in self.allowed:
+            if not self.required >> i & 1 and base + self.price[i] > upper + _tol(upper):
+                self.fixed_out |= 1 << i
+
+    def _fails(self, rest: int) -> bool:
+        """``rest`` fails the requirement (monotone: ``down``; else a relaxation or the full check)."""
+        if self.monotone:
+            assert self.down is not None
+            return not self.down.passes(rest)
+        return any(not p.passes(rest) for p in self.predicates())
+
     def failing_part(self, mask: int) -> int | None:
-        """A subset S minus F (|F| = min(α, |S|)) that fails, or None when ``mask`` meets the
-        requirement after any α failures. Known answers first, then calls (the most expensive
-        sensors fail first: losing them is likeliest to break the requirement)."""
-        if not self.oracle.meets(mask):
-            return mask
+        """A subset S minus F (|F| <= α) that fails, or None when ``mask`` meets the requirement
+        after any α failures (then recorded in ``met``). Monotone: only |F| = min(α, |S|), known
+        answers first, then calls (the most expensive sensors fail first: losing them is likeliest
+        to break the requirement). Otherwise every F, smallest first."""
+        found = self._failing_part(mask)
+        if found is None:
+            self.met[mask] = self.cost(mask)
+        return found
+
+    def _failing_part(self, mask: int) -> int | None:
         members = [i for i in self.dear_first if mask >> i & 1]
+        if not self.monotone:
+            for k in range(min(self.alpha, len(members)) + 1):
+                for f in combinations(members, k):
+                    rest = mask & ~_mask(f)
+                    if self._fails(rest):
+                        return rest
+            return None
+        assert self.down is not None
+        if not self.down.passes(mask):
+            return mask
         k = min(self.alpha, len(members))
         if k == 0:
             return None
         rests = [mask & ~_mask(f) for f in combinations(members, k)]
         for rest in rests:
-            if self.oracle.infer(rest) is False:
+            if self.down.infer(rest) is False:
                 return rest
         for rest in rests:
-            if not self.oracle.meets(rest):
+            if not self.down.passes(rest):
                 return rest
         return None
 
+    def cut(self, proposal: int, part: int) -> None:
+        """Add what rules out ``proposal``, whose part ``part`` failed: a grown cut when a
+        relaxation (or the monotone requirement) fails, else a no-good of the proposal."""
+        if self.down is not None and self.down.infer(part) is False:
+            self.grow(part)
+        elif self.up is not None and self.up.infer(part) is False:
+            self.shrink(part)
+        else:
+            self.nogoods.append(proposal)
+
     def grow(self, mask: int) -> int:
-        """A maximal failing set holding the failing set ``mask``: blocks of the remaining allowed
-        sensors (cheapest first) are added while the set still fails; a block that would make it
-        meet is halved, down to single sensors, each of which then makes it meet (monotonicity
-        keeps that true as the set grows, so the result is maximal)."""
-        rest = [i for i in self.cheap_first if not mask >> i & 1]
-        return self._grow(mask, rest)
+        """A maximal failing set of ``down`` holding its failing set ``mask`` (among the sensors not
+        fixed out), by galloping over the remaining sensors, cheapest first: a block that keeps the
+        set failing is added and the next block is twice as long; a block that makes it pass is
+        tried again from its first sensor alone, and a single sensor that makes it pass stays out
+        (monotonicity keeps it so as the set grows: the result is maximal). Mostly sensors that
+        make it pass cost one check each; long runs that keep it failing, a logarithmic number."""
+        assert self.down is not None
+        rest = [i for i in self.cheap_first if not mask >> i & 1 and not self.fixed_out >> i & 1]
+        at, size = 0, 1
+        while at < len(rest):
+            block = _mask(rest[at:at + size])
+            if not self.down.passes(mask | block):
+                mask |= block
+                at += size
+                size *= 2
+            elif size == 1:
+                at += 1
+            else:
+                size = 1
+        return mask
 
-    def _grow(self, mask: int, block: list[int]) -> int:
-        if not block:
-            return mask
-        bigger = mask | _mask(block)
-        if not self.oracle.meets(bigger):
-            return bigger
-        if len(block) == 1:
-            return mask
-        half = len(block) // 2
-        return self._grow(self._grow(mask, block[:half]), block[half:])
+    def shrink(self, mask: int) -> int:
+        """A minimal failing set of ``up`` inside its failing set ``mask``: each sensor (most
+        expensive first) is dropped while the rest still fails (anti-monotonicity keeps a sensor
+        that was needed needed as the set shrinks, so the result is minimal)."""
+        assert self.up is not None
+        for i in self.dear_first:
+            if mask >> i & 1 and not self.up.passes(mask & ~(1 << i)):
+                mask &= ~(1 << i)
+        return mask
 
-    def greedy(self) -> int | None:
-        """Violation removed per dollar, lazily, until the suite meets the requirement after α
-        failures (each step improves the failing part S minus F); then every sensor not needed is
-        pruned. None when it gets stuck (nothing fits or nothing lowers the violation)."""
-        suite = self.required
-        bound = {i: math.inf for i in self.allowed if not suite >> i & 1}
+    def greedy(self, start: int | None = None) -> int | None:
+        """Violation removed per dollar, lazily, from ``start`` (the required sensors when None)
+        until the suite meets the requirement after α failures (each step improves the failing part
+        S minus F); then every sensor not needed is pruned. None when it gets stuck (nothing fits
+        or nothing lowers the violation)."""
+        assert self.down is not None
+        suite = self.required if start is None else start
+        bound = {i: math.inf for i in self.allowed if not suite >> i & 1 and not self.fixed_out >> i & 1}
         while True:
             part = self.failing_part(suite)
             if part is None:
                 return self.prune(suite)
-            base = self.oracle.violation(part)
+            base = self.down.violation(part)
             used = self.fs.usage(_suite(suite))
             fits = self.fs.addable(used)
             cands = [i for i in bound if fits[i]]
@@ -295,7 +338,7 @@ class _Search:
                 if top in fresh:
                     choice = top
                     break
-                drop = base - self.oracle.violation(part | 1 << top)
+                drop = base - self.down.violation(part | 1 << top)
                 bound[top] = _ratio(drop, float(self.price[top]))
                 fresh.add(top)
             if choice is None or bound[choice] <= 0:
@@ -320,84 +363,100 @@ def _ratio(drop: float, price: float) -> float:
     return math.inf if price <= 0 else drop / price
 
 
-def _standing(lower: float, upper: float, iterations: int, checks: int) -> str:
-    """Where the search stands, in words: the interval the cheapest suite's cost [$] lies in."""
-    interval = f"cost in [${lower:,.0f}, ${upper:,.0f}]" if math.isfinite(upper) else f"cost >= ${lower:,.0f}, no suite found yet"
-    return f"{interval}; {iterations:,} integer programs, {checks:,} suites checked"
-
-
 def cheapest_suite(feasible: FeasibleSet, meets: Meets, *, failures: int = 0, violation: Violation | None = None,
-                   max_iterations: int = DEFAULT_MAX_ITERATIONS, time_limit: float | None = None,
-                   progress: Progress | None = None) -> CheapestSuite:
-    """The cheapest suite of ``feasible`` that meets a monotone requirement after any ``failures``
-    of its sensors fail, with a lower bound on the cost of every such suite (module docstring).
+                   monotone: bool = True, necessary_monotone: Meets | None = None,
+                   necessary_antimonotone: Meets | None = None, max_iterations: int = DEFAULT_MAX_ITERATIONS,
+                   time_limit: float | None = None, progress: Progress | None = None, status: Status | None = None,
+                   max_tie_programs: int = DEFAULT_TIE_PROGRAMS) -> CheapestSuite:
+    """The cheapest suite of ``feasible`` that meets a requirement after any ``failures`` of its
+    sensors fail, with a lower bound on the cost of every such suite (module docstring).
 
     Args:
         feasible: the suites allowed (rows ``A x <= b``, required and excluded sensors); row 0's
             prices are the cost [$] (owned sensors 0). A budget row with an infinite limit limits nothing.
-        meets: meets(suite) -> bool, monotone; called on sorted tuples of library positions (the
-            empty suite included), at most once per suite.
+        meets: meets(suite) -> bool; called on sorted tuples of library positions (the empty
+            suite included), at most once per suite.
         failures: α >= 0, the sensors that may fail (any α of the suite's, required ones included).
-        violation: violation(suite) -> float >= 0, 0 exactly when meets(suite) (e.g. the largest
-            ratio of achieved to required error, minus 1, clipped at 0): the greedy upper bound
-            needs it (without it the integer program alone finds the suites). Where the solver
-            has called it, it does not call ``meets`` on that suite.
+        violation: with a monotone ``meets``: violation(suite) -> float >= 0, 0 exactly when
+            meets(suite): the greedy upper bound needs it (without it the integer program alone
+            finds the suites). Where the solver has called it, it does not call ``meets`` on that suite.
+        monotone: ``meets`` is monotone (S ⊆ T and meets(S) imply meets(T)). False: nothing is
+            inferred from its answers; give the relaxations below to make the cuts strong.
+        necessary_monotone: with ``monotone=False``, a monotone necessary condition of ``meets``
+            (meets(S) implies it; if S fails it every subset does), or None.
+        necessary_antimonotone: with ``monotone=False``, an anti-monotone necessary condition of
+            ``meets`` (meets(S) implies it; if S fails it every superset does), or None.
         max_iterations: integer programs solved before stopping with a gap (>= 1).
         time_limit: wall-clock seconds before stopping with a gap (None: none; makes the answer
             depend on the machine).
-        progress: progress(iterations done, max_iterations) before each integer program, told where
+        progress: progress(iterations done, max_iterations) after each integer program, told where
             the search stands (:func:`sensorsel.io.progress.report`): the cost interval [lower
-            bound, best found] closing, integer programs solved, suites checked.
+            bound, best found] closing, integer programs solved, suites checked, time so far.
+        status: status(text) with the same words after each integer program (for callers that
+            show text only).
+        max_tie_programs: integer programs spent, once the answer is proved, looking for other
+            suites of the same cost (0: none; ties found on the way are still reported).
 
     Returns:
         A :class:`CheapestSuite`.
 
     Raises:
         ValueError: ``failures`` < 0 or ``max_iterations`` < 1 (a caller's bug; the CLI checks
-            its options first), or a violation that is negative or not finite.
+            its options first), relaxations given for a monotone requirement, or a violation that
+            is negative or not finite.
     """
     if isinstance(failures, bool) or not isinstance(failures, (int, np.integer)) or failures < 0:
         raise ValueError(f"failures must be a whole number >= 0, got {failures!r}")
     if max_iterations < 1:
         raise ValueError(f"max_iterations must be >= 1, got {max_iterations!r}")
+    if monotone and (necessary_monotone is not None or necessary_antimonotone is not None):
+        raise ValueError("relaxations are for a requirement that is not monotone: pass monotone=False")
     start = time.monotonic()
     alpha = int(failures)
-    oracle = _Oracle(meets, violation)
-    s = _Search(feasible, oracle, alpha)
+    n = len(feasible.library)
+    if monotone:
+        s = _Search(feasible, alpha, Monotone(n, meets, violation), None, None)
+    else:
+        s = _Search(feasible, alpha, None if necessary_monotone is None else Monotone(n, necessary_monotone),
+                    None if necessary_antimonotone is None else AntiMonotone(n, necessary_antimonotone), Exact(n, meets))
+    programs = [0.0, 0]  # seconds in integer programs, tie programs
 
-    def result(status: str, suite: int | None, lower: float, iterations: int, stop: str, *, by: str = "",
-               best_effort: int = 0, lost: int = 0) -> CheapestSuite:
+    def result(status_: str, suite: int | None, lower: float, iterations: int, stop: str, *, by: str = "",
+               best_effort: int = 0, lost: int = 0, ties: Sequence[int] = (), exhaustive: bool = False) -> CheapestSuite:
         cost = s.cost(suite) if suite is not None else math.inf
-        proved = status != "gap"
-        if status == "optimal":
+        proved = status_ != "gap"
+        if status_ == "optimal":
             lower = cost
         gap = cost - lower if suite is not None else math.inf
-        cuts = tuple(sorted(_suite(f) for f in oracle.failing))
-        return CheapestSuite(_suite(suite) if suite is not None else None, cost, lower, proved, gap, iterations,
-                             oracle.n_checks, cuts, status, alpha, by, _suite(best_effort) if status == "infeasible"
-                             else (), _suite(lost), stop, time.monotonic() - start)
+        cuts = tuple(sorted(_suite(f) for f in s.down.failing.masks)) if s.down is not None else ()
+        cuts_in = tuple(sorted(_suite(f) for f in s.up.failing.masks)) if s.up is not None else ()
+        return CheapestSuite(
+            _suite(suite) if suite is not None else None, cost, lower, proved, gap, iterations, s.n_checks(), cuts,
+            status_, alpha, by, _suite(best_effort) if status_ == "infeasible" else (), _suite(lost), stop,
+            time.monotonic() - start, s.seconds_checks(), programs[0], cuts_in, tuple(sorted(_suite(g) for g in s.nogoods)),
+            tuple(sorted(_suite(t) for t in ties)), exhaustive, int(programs[1]), bin(s.fixed_out).count("1"))
 
-    # 1. every allowed sensor together: the most any suite achieves
-    if not oracle.meets(s.universe):
+    # 1. every allowed sensor together: the most any suite achieves (monotone, or its monotone relaxation)
+    if s.down is not None and not s.down.passes(s.universe):
         return result("infeasible", None, math.inf, 0, "every allowed sensor together fails", by="library",
                       best_effort=s.universe)
 
     # 2. the greedy upper bound (its failing suites are the first cuts)
-    incumbent = s.greedy() if violation is not None else None
+    incumbent = s.greedy() if violation is not None and s.monotone else None
     if incumbent is not None and not s.fits(incumbent):  # the greedy only adds what fits: a guard
         incumbent = None
     upper = s.cost(incumbent) if incumbent is not None else math.inf
+    if incumbent is not None:
+        s.fix_above(upper)
 
     # 3. the hitting-set loop
     lower = 0.0 if not s.required else s.cost(s.required)
-    nogoods: list[int] = []
     iterations = 0
+    plateau: dict[float, int] = {}  # failing proposals per cost [$]
     stop = ""
     while True:
-        report(progress, iterations, max_iterations, _standing(lower, upper, iterations, oracle.n_checks))
         if incumbent is not None and upper - lower <= _tol(upper):
-            return result("optimal", incumbent, upper, iterations, "proved optimal: the lower bound reached the "
-                          "best suite found")
+            return _ties(s, incumbent, iterations, max_tie_programs, programs, start, time_limit, result)
         if iterations >= max_iterations:
             stop = f"iteration limit ({max_iterations} integer programs)"
             break
@@ -405,40 +464,87 @@ def cheapest_suite(feasible: FeasibleSet, meets: Meets, *, failures: int = 0, vi
         if left is not None and left <= 0:
             stop = f"time limit ({time_limit:g} s)"
             break
-        solved = _propose(s, oracle.failing, nogoods, left)
+        solved = _propose(s, left, programs)
         iterations += 1
         if solved is None:  # no suite within the rows satisfies every cut: none meets the requirement
-            if incumbent is not None:  # cannot happen with valid cuts (the incumbent satisfies them)
-                return result("optimal", incumbent, upper, iterations, "proved optimal: no cheaper suite is left")
-            return _infeasible(s, oracle, result, iterations)
+            if incumbent is not None:  # every suite cheaper than the incumbent is ruled out
+                return _ties(s, incumbent, iterations, max_tie_programs, programs, start, time_limit, result)
+            return _infeasible(s, result, iterations)
         bound, proposal, finished = solved
         lower = max(lower, bound)
+        text = _status_text(lower, upper, iterations, s.n_checks(), time.monotonic() - start)
+        if status is not None:
+            status(text)
+        report(progress, iterations, max_iterations, text)
         if proposal is None:
             stop = "the integer program stopped at its node limit without a suite"
             break
         if not s.fits(proposal):  # HiGHS's tolerances let a suite past a limit: rule out just that suite
-            nogoods.append(proposal)
+            s.nogoods.append(proposal)
             continue
         part = s.failing_part(proposal)
         if part is None:
             if s.cost(proposal) < upper - _tol(upper) or incumbent is None:
                 incumbent = s.prune(proposal, only_free=finished)
                 upper = s.cost(incumbent)
+                s.fix_above(upper)
             continue  # when the proposal is the integer program's optimum, the bounds now meet
-        s.grow(part)
+        s.cut(proposal, part)
+        c = round(s.cost(proposal), 6)
+        plateau[c] = plateau.get(c, 0) + 1
+        if violation is not None and s.monotone and plateau[c] == 2 and c < upper - _tol(upper):
+            # a second failing suite of the same cost: the lower bound is on a plateau of suites of
+            # one price (sensors of one model); complete this one greedily, for a suite close to it
+            done = s.greedy(proposal)
+            if done is not None and s.fits(done) and s.cost(done) < upper - _tol(upper):
+                incumbent, upper = done, s.cost(done)
+                s.fix_above(upper)
     if incumbent is not None and upper - lower <= _tol(upper):
-        return result("optimal", incumbent, upper, iterations, "proved optimal: the lower bound reached the best suite found")
-    return result("gap", incumbent, min(lower, upper), iterations, stop)
+        return _ties(s, incumbent, iterations, max_tie_programs, programs, start, time_limit, result)
+    return result("gap", incumbent, min(lower, upper), iterations, stop,
+                  ties=[m for m, c in s.met.items() if m != incumbent and incumbent is not None and abs(c - upper) <= _tol(upper)])
 
 
-def _tol(cost: float) -> float:
-    return _COST_TOL + 1e-9 * abs(cost) if math.isfinite(cost) else 0.0
+def _status_text(lower: float, upper: float, iterations: int, checks: int, elapsed: float) -> str:
+    best = "none yet" if math.isinf(upper) else f"${upper:,.0f}"
+    return (f"cost in [${lower:,.0f}, {best}]; {iterations} integer programs, {checks} suites checked, "
+            f"{elapsed:.1f} s")
 
 
-def _infeasible(s: _Search, oracle: _Oracle, result: Callable[..., CheapestSuite], iterations: int) -> CheapestSuite:
+def _ties(s: _Search, incumbent: int, iterations: int, max_programs: int, programs: list[float], start: float,
+          time_limit: float | None, result: Callable[..., CheapestSuite]) -> CheapestSuite:
+    """The proved answer, with the other suites of its cost that meet the requirement: those met on
+    the way, then those the integer program capped at that cost proposes (each proposal that fails
+    gets its cut as in the search, and a no-good), until it has none left (exhaustive) or
+    ``max_programs`` programs."""
+    opt = s.cost(incumbent)
+    ties = {m for m, c in s.met.items() if m != incumbent and abs(c - opt) <= _tol(opt) and s.fits(m)}
+    exhaustive = False
+    extra: list[int] = []
+    while programs[1] < max_programs:
+        left = None if time_limit is None else time_limit - (time.monotonic() - start)
+        if left is not None and left <= 0:
+            break
+        solved = _propose(s, left, programs, cap=opt, exclude=[incumbent, *sorted(ties), *extra])
+        programs[1] += 1
+        if solved is None:
+            exhaustive = True
+            break
+        proposal = solved[1]
+        if proposal is None:
+            break
+        extra.append(proposal)
+        if s.fits(proposal) and s.failing_part(proposal) is None:
+            ties.add(proposal)
+    return result("optimal", incumbent, opt, iterations, "proved optimal: the lower bound reached the best suite found",
+                  ties=sorted(ties), exhaustive=exhaustive)
+
+
+def _infeasible(s: _Search, result: Callable[..., CheapestSuite], iterations: int) -> CheapestSuite:
     """The integer program has no solution: say whether the failures alone explain it (a failing
     set that misses at most α allowed sensors) or the limits do."""
-    for f in sorted(oracle.failing, key=lambda m: (bin(s.universe & ~m).count("1"), _suite(m))):
+    failing = s.down.failing.masks if s.down is not None else []
+    for f in sorted(failing, key=lambda m: (bin(s.universe & ~m).count("1"), _suite(m))):
         lost = s.universe & ~f
         if bin(lost).count("1") <= s.alpha:
             return result("infeasible", None, math.inf, iterations,
@@ -447,48 +553,6 @@ def _infeasible(s: _Search, oracle: _Oracle, result: Callable[..., CheapestSuite
     return result("infeasible", None, math.inf, iterations,
                   "no suite within the limits meets it" + (f" after {s.alpha} failure(s)" if s.alpha else ""),
                   by="limits", best_effort=s.universe)
-
-
-def _propose(s: _Search, cuts: Sequence[int], nogoods: Sequence[int],
-             time_left: float | None) -> tuple[float, int | None, bool] | None:
-    """min cost(x) over the feasible set's rows and every cut: (lower bound [$], the optimal suite
-    or None, whether HiGHS proved it optimal), or None when no suite satisfies them all."""
-    from scipy.optimize import Bounds, LinearConstraint, milp
-
-    n, fs = s.n, s.fs
-    if n == 0:
-        return (0.0, 0, True) if not cuts else None
-    lb = np.zeros(n)
-    ub = np.zeros(n)
-    ub[s.allowed] = 1.0
-    lb[list(fs.required)] = 1.0
-    rows = []
-    finite = np.isfinite(fs.b)
-    if finite.any():
-        b = fs.b[finite]
-        room = b + _ROW_SLACK * np.maximum(1.0, np.abs(b))
-        scale = 1.0 / np.maximum(np.abs(room), 1e-12)  # rows ~1 so that dollars and counts are alike to HiGHS
-        rows.append(LinearConstraint(fs.A[finite] * scale[:, None], -np.inf, room * scale))
-    if cuts:
-        out = np.array([[0.0 if f >> i & 1 else 1.0 for i in range(n)] for f in cuts])
-        rows.append(LinearConstraint(out, s.alpha + 1, np.inf))
-    for g in nogoods:  # Σ_{i ∉ g} x_i - Σ_{i ∈ g} x_i >= 1 - |g|: any suite but g
-        sign = np.array([-1.0 if g >> i & 1 else 1.0 for i in range(n)])
-        rows.append(LinearConstraint(sign[None, :], 1 - bin(g).count("1"), np.inf))
-    options: dict[str, object] = {"node_limit": MILP_NODE_LIMIT, "mip_rel_gap": 0.0, "presolve": True, "disp": False}
-    if time_left is not None:
-        options["time_limit"] = max(time_left, 1e-3)
-    with quiet_stdout():
-        res = milp(s.price, integrality=np.ones(n), bounds=Bounds(lb, ub), constraints=rows, options=options)
-    if res.status == 2:
-        return None
-    proposal = _mask(int(i) for i in np.flatnonzero(res.x > 0.5)) if res.x is not None else None
-    dual = getattr(res, "mip_dual_bound", None)
-    if res.status == 0 and res.fun is not None:
-        bound = float(res.fun) if dual is None or not math.isfinite(dual) else min(float(res.fun), float(dual))
-        return bound, proposal, True
-    bound = float(dual) if dual is not None and math.isfinite(dual) else 0.0
-    return bound, proposal, False
 
 
 def meets_after_failures(meets: Meets, suites: Sequence[Iterable[int]], *, failures: int = 0) -> tuple[bool, ...]:
@@ -507,13 +571,13 @@ def meets_after_failures(meets: Meets, suites: Sequence[Iterable[int]], *, failu
     """
     if isinstance(failures, bool) or not isinstance(failures, (int, np.integer)) or failures < 0:
         raise ValueError(f"failures must be a whole number >= 0, got {failures!r}")
-    oracle = _Oracle(meets, None)
+    oracle = Monotone(max([int(i) + 1 for s_ in suites for i in s_], default=1), meets)
     alpha = int(failures)
     out = []
     for suite in suites:
         mask = _mask(suite)
         members = sorted(set(int(i) for i in suite))
         k = min(alpha, len(members))
-        ok = oracle.meets(mask) and all(oracle.meets(mask & ~_mask(f)) for f in combinations(members, k))
+        ok = oracle.passes(mask) and all(oracle.passes(mask & ~_mask(f)) for f in combinations(members, k))
         out.append(ok)
     return tuple(out)

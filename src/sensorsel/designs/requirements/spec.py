@@ -30,7 +30,7 @@ from sensorsel.information.evaluators.accuracy import Z95, RouteAccuracy
 from sensorsel.model.domain import DomainError, _Checker, _Map, _read_yaml
 
 __all__ = ["PRESETS", "DEFAULT_MAP_SIGMA_M", "Specification", "SpecificationError", "RouteVerdict", "preset",
-           "load_specification_file", "specifications_for", "verdict"]
+           "load_specification_file", "specifications_for", "verdict", "covariance_verdict"]
 
 #: the default accuracy of a prior map's landmarks [m] for ``require`` (assumed: survey-grade
 #: mobile-mapping LiDAR maps are stated to a few centimetres relative accuracy; see
@@ -56,6 +56,8 @@ class Specification:
         sigma: the bounds are 1σ (True) or 95 % bounds, 1.96σ (False, default).
         at: the share of the route's keyframes that must meet every bound, in (0, 1].
         name: a preset's name, or "custom".
+        margin: the share of each bound demanded to spare, in [0, 1): a suite must keep each
+            error within ``(1 - margin) ×`` the bound (``--margin 10%``: within 90 % of it).
     """
 
     lateral: float | None = None
@@ -64,6 +66,7 @@ class Specification:
     sigma: bool = False
     at: float = 1.0
     name: str = "custom"
+    margin: float = 0.0
 
     def __post_init__(self) -> None:
         for field, _ in BOUNDS:
@@ -72,6 +75,9 @@ class Specification:
                 raise InputError(f"--{field}: a requirement must be a positive finite number, got {v!r}")
         if not (isinstance(self.at, (int, float)) and math.isfinite(self.at) and 0.0 < self.at <= 1.0):
             raise InputError(f"--at: the share of keyframes must be above 0 % and at most 100 %, got {100 * self.at:g} %")
+        if not (isinstance(self.margin, (int, float)) and math.isfinite(self.margin) and 0.0 <= self.margin < 1.0):
+            raise InputError(f"--margin: the share of each bound to spare must be at least 0 % and below 100 %, "
+                             f"got {100 * self.margin:g} %")
         if all(getattr(self, f) is None for f, _ in BOUNDS):
             raise InputError("no requirement given: name --lateral, --longitudinal, --heading, --preset or --spec")
 
@@ -81,14 +87,19 @@ class Specification:
         return 1.0 if self.sigma else Z95
 
     def bounds(self) -> list[tuple[str, float, str]]:
-        """The bounded components: (component, bound, unit)."""
+        """The bounded components as demanded: (component, bound × (1 - margin), unit)."""
+        return [(f, float(getattr(self, f)) * (1.0 - self.margin), u) for f, u in BOUNDS if getattr(self, f) is not None]
+
+    def stated_bounds(self) -> list[tuple[str, float, str]]:
+        """The bounded components as stated (before the margin): (component, bound, unit)."""
         return [(f, float(getattr(self, f)), u) for f, u in BOUNDS if getattr(self, f) is not None]
 
     def describe(self) -> str:
         """e.g. "local-streets: lateral 0.1 m, longitudinal 0.1 m, heading 0.17 deg (95 %, every keyframe)"."""
-        parts = ", ".join(f"{c} {b:g} {u}" for c, b, u in self.bounds())
+        parts = ", ".join(f"{c} {b:g} {u}" for c, b, u in self.stated_bounds())
         where = "every keyframe" if self.at >= 1.0 else f"{100 * self.at:g} % of the keyframes"
-        return f"{self.name}: {parts} ({'1σ' if self.sigma else '95 %'}, {where})"
+        spare = f", {100 * self.margin:g} % to spare" if self.margin else ""
+        return f"{self.name}: {parts} ({'1σ' if self.sigma else '95 %'}, {where}{spare})"
 
 
 #: name -> the specification (95 % bounds, every keyframe): Reid et al. 2019, passenger cars
@@ -156,6 +167,19 @@ def verdict(accuracy: RouteAccuracy, spec: Specification) -> RouteVerdict:
         worst.append((comp, at_rank_err, bound, bad))
         violation = max(violation, at_rank_err / bound - 1.0)
     return RouteVerdict(accuracy.route, violation <= 0.0, max(violation, 0.0), tuple(worst))
+
+
+def covariance_verdict(covariances: np.ndarray, spec: Specification) -> tuple[bool, float]:
+    """(meets, violation) of (K, 3, 3) pose covariances against ``spec``: the same numbers as
+    :func:`verdict` of their :class:`RouteAccuracy` (the same operations on the same σ), without
+    building it: what the solver asks thousands of times."""
+    cov = np.asarray(covariances, dtype=float)
+    diag = np.sqrt(np.maximum(np.diagonal(cov, axis1=1, axis2=2), 0.0))  # (K, 3): x forward, y left, θ
+    sig = {"longitudinal": diag[:, 0], "lateral": diag[:, 1], "heading": np.degrees(diag[:, 2])}
+    violation = 0.0
+    for comp, bound, _ in spec.bounds():
+        violation = max(violation, at_rank(spec.factor * sig[comp], spec.at) / bound - 1.0)
+    return violation <= 0.0, max(violation, 0.0)
 
 
 # ---------------------------------------------------------------------------------------- files

@@ -1,0 +1,205 @@
+"""The predicates of the requirement solver, each asked at most once per suite, with what its
+structure tells without a call (suites as bit masks: bit i is library position i).
+
+    Monotone       S ⊆ T and passes(S) imply passes(T): a suite inside a failing set fails, a
+                   suite holding a passing set passes (accuracy: a sensor added only lowers σ)
+    AntiMonotone   S ⊆ T and passes(T) imply passes(S): a suite holding a failing set fails, a suite
+                   inside a passing set passes (e.g. "no measurement is risky": a sensor added can
+                   only add risky measurements)
+    Exact          nothing is inferred: each suite is asked (a requirement that is neither)
+
+Each keeps the antichains of what it knows (the maximal failing and minimal passing sets of a
+monotone predicate; the minimal failing and maximal passing ones of an anti-monotone one) as
+arrays of 64-bit words, so that asking whether a suite lies inside or holds one of thousands of
+known sets is one vectorised comparison, not a Python loop. Every call is timed (``seconds``).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import Callable, Iterable
+
+import numpy as np
+
+__all__ = ["Antichain", "AntiMonotone", "Exact", "Monotone", "mask_of", "suite_of"]
+
+Suite = tuple[int, ...]
+_WORD = (1 << 64) - 1
+
+
+def mask_of(suite: Iterable[int]) -> int:
+    """The bit mask of library positions ``suite``."""
+    m = 0
+    for i in suite:
+        m |= 1 << int(i)
+    return m
+
+
+def suite_of(mask: int) -> Suite:
+    """The sorted library positions of bit mask ``mask``."""
+    out, i = [], 0
+    while mask:
+        if mask & 1:
+            out.append(i)
+        mask >>= 1
+        i += 1
+    return tuple(out)
+
+
+class Antichain:
+    """Sets (bit masks over ``n`` positions) of which none holds another, with vectorised tests.
+
+    ``keep="max"`` keeps the maximal sets (a set added removes those inside it), ``keep="min"`` the
+    minimal ones (a set added removes those holding it)."""
+
+    def __init__(self, n: int, keep: str) -> None:
+        self.words = max(1, (n + 63) // 64)
+        self.keep = keep
+        self.masks: list[int] = []
+        self._rows = np.zeros((16, self.words), dtype=np.uint64)
+
+    def _w(self, mask: int) -> np.ndarray:
+        return np.array([(mask >> (64 * k)) & _WORD for k in range(self.words)], dtype=np.uint64)
+
+    def inside_one(self, mask: int) -> bool:
+        """``mask`` ⊆ some set of the antichain."""
+        if not self.masks:
+            return False
+        q = self._w(mask)
+        return bool(np.any(np.all((q & ~self._rows[:len(self.masks)]) == 0, axis=1)))
+
+    def holds_one(self, mask: int) -> bool:
+        """some set of the antichain ⊆ ``mask``."""
+        if not self.masks:
+            return False
+        q = self._w(mask)
+        return bool(np.any(np.all((self._rows[:len(self.masks)] & ~q) == 0, axis=1)))
+
+    def add(self, mask: int) -> None:
+        """Add ``mask`` (the caller knows it is not dominated), dropping the sets it dominates."""
+        m, q = len(self.masks), self._w(mask)
+        if m:
+            rows = self._rows[:m]
+            gone = np.all(((rows & ~q) if self.keep == "max" else (q & ~rows)) == 0, axis=1)
+            if gone.any():
+                stay = np.flatnonzero(~gone)
+                self.masks = [self.masks[i] for i in stay]
+                self._rows[:len(stay)] = rows[stay]
+        m = len(self.masks)
+        if m == len(self._rows):
+            self._rows = np.concatenate([self._rows, np.zeros_like(self._rows)])
+        self._rows[m] = q
+        self.masks.append(mask)
+
+
+class _Cached:
+    """A predicate asked at most once per suite; ``calls`` and ``seconds`` count what it cost."""
+
+    def __init__(self, n: int, passes: Callable[[Suite], bool]) -> None:
+        self._passes = passes
+        self.n = n
+        self.known: dict[int, bool] = {}
+        self.calls = 0
+        self.seconds = 0.0
+
+    def infer(self, mask: int) -> bool | None:
+        return self.known.get(mask)
+
+    def passes(self, mask: int) -> bool:
+        known = self.infer(mask)
+        if known is not None:
+            return known
+        t = time.perf_counter()
+        ok = bool(self._passes(suite_of(mask)))
+        self.seconds += time.perf_counter() - t
+        self.calls += 1
+        self.record(mask, ok)
+        return ok
+
+    def record(self, mask: int, ok: bool) -> None:
+        self.known[mask] = ok
+
+
+class Exact(_Cached):
+    """A predicate with no structure: only the suites asked are known."""
+
+
+class Monotone(_Cached):
+    """A monotone predicate (S ⊆ T, passes(S) ⇒ passes(T)), with an optional ``violation``
+    (>= 0, 0 exactly when it passes) that the greedy upper bound uses.
+
+    ``failing``: the maximal failing sets known (each one is a cut); ``meeting``: the minimal
+    passing sets known."""
+
+    def __init__(self, n: int, passes: Callable[[Suite], bool], violation: Callable[[Suite], float] | None = None) -> None:
+        super().__init__(n, passes)
+        self._violation = violation
+        self.viol: dict[int, float] = {}
+        self.failing = Antichain(n, "max")
+        self.meeting = Antichain(n, "min")
+
+    def infer(self, mask: int) -> bool | None:
+        hit = self.known.get(mask)
+        if hit is not None:
+            return hit
+        if self.failing.inside_one(mask):
+            return False
+        if self.meeting.holds_one(mask):
+            return True
+        return None
+
+    def violation(self, mask: int) -> float:
+        """violation(S) (a call unless cached; 0 without a call when S is known to pass)."""
+        if mask in self.viol:
+            return self.viol[mask]
+        if self.infer(mask) is True:
+            return 0.0
+        assert self._violation is not None
+        t = time.perf_counter()
+        v = float(self._violation(suite_of(mask)))
+        self.seconds += time.perf_counter() - t
+        self.calls += 1
+        if not math.isfinite(v) or v < 0:
+            raise ValueError(f"violation{suite_of(mask)} returned {v!r}: it must be a finite number >= 0")
+        self.viol[mask] = v
+        self.record(mask, v <= 0.0)
+        return v
+
+    def record(self, mask: int, ok: bool) -> None:
+        self.known[mask] = ok
+        if ok:
+            if not self.meeting.holds_one(mask):
+                self.meeting.add(mask)
+        elif not self.failing.inside_one(mask):
+            self.failing.add(mask)
+
+
+class AntiMonotone(_Cached):
+    """An anti-monotone predicate (S ⊆ T, passes(T) ⇒ passes(S)).
+
+    ``failing``: the minimal failing sets known (each one is a cut Σ_{i∈m} x_i <= |m| - 1);
+    ``passing``: the maximal passing sets known."""
+
+    def __init__(self, n: int, passes: Callable[[Suite], bool]) -> None:
+        super().__init__(n, passes)
+        self.failing = Antichain(n, "min")
+        self.passing = Antichain(n, "max")
+
+    def infer(self, mask: int) -> bool | None:
+        hit = self.known.get(mask)
+        if hit is not None:
+            return hit
+        if self.failing.holds_one(mask):
+            return False
+        if self.passing.inside_one(mask):
+            return True
+        return None
+
+    def record(self, mask: int, ok: bool) -> None:
+        self.known[mask] = ok
+        if ok:
+            if not self.passing.inside_one(mask):
+                self.passing.add(mask)
+        elif not self.failing.holds_one(mask):
+            self.failing.add(mask)
