@@ -183,3 +183,22 @@ def test_keyframe_risk():
     assert est == pytest.approx(1 - 0.9 * 0.8)
     assert bound == 1.0
     assert keyframe_risk(np.zeros(0), np.zeros(0)) == (0.0, 0.0)
+
+
+def test_a_far_landmark_within_a_stereo_cameras_range_noise_counts():
+    """A stereo camera's range noise (metres at 16 m) carries the measured range past the stated
+    reach 1.25 r + 5 m at the true range: a landmark 12 m behind the measured one, on its bearing,
+    is then inside the gate and nearer for many draws. The bound must still be above the Monte
+    Carlo's 99 % lower limit (with the reach at the true range alone it was 0), and the estimate
+    within 2x of it."""
+    rng_m, sr = 16.0, 3.0
+    c, s = math.cos(POSE[2] + 0.1), math.sin(POSE[2] + 0.1)
+    points = _points([(12.0 * c, 12.0 * s)], rng_m=rng_m)
+    assert np.hypot(*(points[1] - POSE[:2])) > 1.25 * rng_m + 5.0  # beyond the stated reach
+    pred, meas = _case(points, 0.002, sr, 0.1, 0.05, True)
+    est, bound = _risk(points, pred, meas)
+    k, n = monte_carlo(POSE, points, pred.landmarks, pred.covariance, 0.05, 0, (0.002, sr), np.arange(2),
+                       gate_of(0.9999), n=100_000, seed=7)
+    lo, _ = clopper_pearson(k, n)
+    assert k >= 50 and bound >= lo, (bound, k / n)
+    assert 0.5 * k / n <= est <= 2.0 * k / n, (est, k / n)
