@@ -11,7 +11,7 @@ import pytest
 
 from association_oracle import clopper_pearson, measure, monte_carlo
 from sensorsel.information.filtering import KeyframeMeasurements, Prediction
-from sensorsel.information.integrity.association import gate_of, keyframe_risk, measurement_risks
+from sensorsel.information.integrity.association import candidate_reach, gate_of, keyframe_risk, measurement_risks
 
 POSE = np.array([1.0, -2.0, 0.3])
 
@@ -202,3 +202,17 @@ def test_a_far_landmark_within_a_stereo_cameras_range_noise_counts():
     lo, _ = clopper_pearson(k, n)
     assert k >= 50 and bound >= lo, (bound, k / n)
     assert 0.5 * k / n <= est <= 2.0 * k / n, (est, k / n)
+
+
+def test_slam_reach_does_not_grow_with_the_prior_of_landmarks_out_of_the_state():
+    """In SLAM the candidates are the state's landmarks: a measurement's reach comes from its own
+    noise and the state's spreads, not from the weak prior (100 m) of the landmarks out of it (with
+    it, every landmark of a route was a candidate of every measurement: the same risks, many times
+    slower). In the map model the prior is the map's std and counts."""
+    points = _points([(1.0, 0.0)])
+    for prior in (0.05, 100.0):
+        pred, meas = _case(points, 0.002, 0.1, 0.1, 0.05, True)
+        pred = Prediction(keyframe=0, landmarks=pred.landmarks, covariance=pred.covariance, prior_sigma_m=prior)
+        slam = candidate_reach(pred, meas, gate_of(0.9999), model="slam")
+        assert slam[0] < 100.0, slam
+    assert candidate_reach(pred, meas, gate_of(0.9999), model="map")[0] > 1000.0
