@@ -11,6 +11,9 @@ Steps (``python docs/regenerate.py --only integrity-kitti``, or one of them):
     integrity-domain             the domain's published suites on the seven KITTI routes (map, lever)
     integrity-helsinki           the Helsinki sample's route r002 (OpenStreetMap, the published
                                  require answer and the single sensors)
+    integrity-proof03, -proof00  whether any suite of the library can meet 10⁻⁸/h (map model), by
+                                 the two monotone bounds; proof00 is slow (the whole library's floor
+                                 on 00) and was not run for the published pages
     integrity-calibration        simulate --associate on KITTI 03 against the prediction
 
 Each suite is evaluated through the public API (:func:`sensorsel.api.suite_integrity`, the same
