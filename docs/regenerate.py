@@ -9,6 +9,8 @@ else ``python -m sensorsel.cli``) on KITTI 03 and 00 and writes what they produc
     docs/img/real/, docs/img/synthetic/   the plots (scene, Pareto front, resilient grid, simulation)
     docs/img/tour/scene.png   the README's picture (the bundled route, step tour)
     docs/results/associate/   simulate --associate on the bundled route (step associate, under a minute)
+    docs/results/integrity/   integrity on the real maps and its calibration (group integrity-kitti,
+                              docs/regenerate_integrity.py; its tables in docs/results/integrity/tables.md)
     docs/results/tables.md    every headline table, real and synthetic side by side, built from the files
     docs/results/timings.json wall time of each step of the last run that ran it
 
@@ -447,6 +449,8 @@ def step_integrity_models(seq: str) -> Callable[[Ctx], None]:
     return go
 
 
+import regenerate_integrity as integrity_kitti  # noqa: E402  (docs/: the integrity steps on the real maps)
+
 STEPS: list[Step] = [
     Step("tour", "tour", step_tour),
     Step("integrity", "integrity", step_integrity),
@@ -470,6 +474,13 @@ STEPS: list[Step] = [
     Step("constrained00", "constrained", step_constrained("00")),
     *(Step(f"require-{t}", "require", step_require(t), slow=t == "domain") for t in ("03", "00", "domain")),
     Step("require-elsewhere", "require", step_require_elsewhere, slow=True),
+    # integrity on the real maps (docs/results-integrity.md); they read the published suites above
+    Step("integrity-03", "integrity-kitti", integrity_kitti.step_kitti("03")),
+    Step("integrity-00", "integrity-kitti", integrity_kitti.step_kitti("00"), slow=True),
+    *(Step(f"integrity-proof{s}", "integrity-kitti", integrity_kitti.step_proof(s), slow=s == "00") for s in ("03", "00")),
+    Step("integrity-domain", "integrity-kitti", integrity_kitti.step_domain(REPO), slow=True),
+    Step("integrity-helsinki", "integrity-kitti", integrity_kitti.step_helsinki),
+    Step("integrity-calibration", "integrity-kitti", integrity_kitti.step_calibration),
 ]
 
 
@@ -865,6 +876,9 @@ def main(argv: list[str] | None = None) -> int:
     if not a.only or "tables" in a.only or steps:
         _atomic(root / "tables.md", tables(root))
         print(f"wrote {root / 'tables.md'}")
+        if (root / "integrity").is_dir():
+            _atomic(root / "integrity" / "tables.md", integrity_kitti.tables(root))
+            print(f"wrote {root / 'integrity' / 'tables.md'}")
     return 0
 
 

@@ -11,7 +11,7 @@ import pytest
 
 from association_oracle import clopper_pearson, measure, monte_carlo
 from sensorsel.information.filtering import KeyframeMeasurements, Prediction
-from sensorsel.information.integrity.association import gate_of, keyframe_risk, measurement_risks
+from sensorsel.information.integrity.association import candidate_reach, gate_of, keyframe_risk, measurement_risks
 
 POSE = np.array([1.0, -2.0, 0.3])
 
@@ -183,3 +183,36 @@ def test_keyframe_risk():
     assert est == pytest.approx(1 - 0.9 * 0.8)
     assert bound == 1.0
     assert keyframe_risk(np.zeros(0), np.zeros(0)) == (0.0, 0.0)
+
+
+def test_a_far_landmark_within_a_stereo_cameras_range_noise_counts():
+    """A stereo camera's range noise (metres at 16 m) carries the measured range past the stated
+    reach 1.25 r + 5 m at the true range: a landmark 12 m behind the measured one, on its bearing,
+    is then inside the gate and nearer for many draws. The bound must still be above the Monte
+    Carlo's 99 % lower limit (with the reach at the true range alone it was 0), and the estimate
+    within 2x of it."""
+    rng_m, sr = 16.0, 3.0
+    c, s = math.cos(POSE[2] + 0.1), math.sin(POSE[2] + 0.1)
+    points = _points([(12.0 * c, 12.0 * s)], rng_m=rng_m)
+    assert np.hypot(*(points[1] - POSE[:2])) > 1.25 * rng_m + 5.0  # beyond the stated reach
+    pred, meas = _case(points, 0.002, sr, 0.1, 0.05, True)
+    est, bound = _risk(points, pred, meas)
+    k, n = monte_carlo(POSE, points, pred.landmarks, pred.covariance, 0.05, 0, (0.002, sr), np.arange(2),
+                       gate_of(0.9999), n=100_000, seed=7)
+    lo, _ = clopper_pearson(k, n)
+    assert k >= 50 and bound >= lo, (bound, k / n)
+    assert 0.5 * k / n <= est <= 2.0 * k / n, (est, k / n)
+
+
+def test_slam_reach_does_not_grow_with_the_prior_of_landmarks_out_of_the_state():
+    """In SLAM the candidates are the state's landmarks: a measurement's reach comes from its own
+    noise and the state's spreads, not from the weak prior (100 m) of the landmarks out of it (with
+    it, every landmark of a route was a candidate of every measurement: the same risks, many times
+    slower). In the map model the prior is the map's std and counts."""
+    points = _points([(1.0, 0.0)])
+    for prior in (0.05, 100.0):
+        pred, meas = _case(points, 0.002, 0.1, 0.1, 0.05, True)
+        pred = Prediction(keyframe=0, landmarks=pred.landmarks, covariance=pred.covariance, prior_sigma_m=prior)
+        slam = candidate_reach(pred, meas, gate_of(0.9999), model="slam")
+        assert slam[0] < 100.0, slam
+    assert candidate_reach(pred, meas, gate_of(0.9999), model="map")[0] > 1000.0

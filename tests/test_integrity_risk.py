@@ -114,6 +114,22 @@ def test_the_lever_leaves_risky_measurements_out(tiny_problem):
     assert {x.sensor for x in lever.left_out} <= ids
 
 
+def test_per_sensor_sums_add_up_to_the_keyframes(tiny_problem):
+    """Each sensor's Σ bound is a bound on its expected wrong associations (never below Σ estimate);
+    over the sensors it adds up to the keyframes' union bounds (min(1, Σ p) per keyframe): equal
+    where no keyframe is capped at 1 (the lever keeps every sum small), never below it otherwise."""
+    suite = tiny_problem.library.resolve_suite(SUITE)
+    for threshold in (None, 1e-3):
+        r = route_integrity(tiny_problem, suite, IntegritySpec(max_association_risk=threshold), map_sigma_m=0.05)
+        assert r.by_sensor and all(x.expected_wrong <= x.expected_wrong_bound + 1e-12 for x in r.by_sensor)
+        assert all(x.worst_bound <= x.expected_wrong_bound + 1e-15 for x in r.by_sensor)
+        total = sum(x.expected_wrong_bound for x in r.by_sensor)
+        if max(r.p_wrong_association) < 1.0:
+            assert total == pytest.approx(sum(r.p_wrong_association), rel=1e-9)
+        else:
+            assert total > sum(r.p_wrong_association)
+
+
 @pytest.mark.parametrize("threshold", [None, 2e-3])
 def test_search_bounds_are_monotone_and_valid(tiny_problem, threshold):
     """(b) the tail relaxation never rises when a sensor is added and is at most the integrity risk;

@@ -229,3 +229,22 @@ def test_the_shift_of_a_wrong_association_is_the_filters_update_with_the_wrong_l
     nu_right = z - oracle_measure(pose, points[0])
     expected = -(p @ h.T @ np.linalg.solve(s, nu_right))[:3]
     np.testing.assert_allclose(shift[0, 0], expected, rtol=1e-5, atol=1e-9)
+
+
+def test_a_far_landmark_within_a_stereo_cameras_range_noise_is_a_candidate():
+    """A stereo camera at 16 m with σ_r 3 m; a landmark 12 m behind on the same bearing, past
+    1.25 r + 15 m of the true range but reached at the measured one: the simulator's wrong
+    associations agree with the independent Monte Carlo (it dropped that landmark before)."""
+    pose = np.array([0.0, 0.0, 0.0])
+    points = np.array([[16.0, 0.0], [40.0, 0.0]])
+    assert points[1, 0] > 1.25 * 16.0 + 15.0
+    cov = np.diag([0.1 ** 2, 0.1 ** 2, 0.005 ** 2] + [0.05 ** 2] * 4)
+    meas = KeyframeMeasurements(keyframe=0, sensor=np.array([0]), landmark=np.array([0]), bearing_rad=np.array([0.0]),
+                                range_m=np.array([16.0]), sigma_bearing_rad=np.array([0.002]),
+                                sigma_range_m=np.array([6.0]))
+    out = associate_keyframe(_case(pose, points, meas, cov), Task(keyframe=0, draws=40_000, seed=3, gate=GATE))
+    k, n = monte_carlo(pose, points, np.array([0, 1]), cov, 0.05, 0, (0.002, 6.0), [0, 1], GATE, n=40_000, seed=11)
+    assert k >= 50
+    lo1, hi1 = clopper_pearson(out.wrong_draws, out.draws)
+    lo2, hi2 = clopper_pearson(k, n)
+    assert lo1 <= hi2 and lo2 <= hi1, (out.wrong_draws, k)

@@ -63,12 +63,15 @@ import numpy as np
 
 from sensorsel.information.linearize import bearing_range_jacobians
 
-__all__ = ["CANDIDATE_MARGIN_M", "CANDIDATE_SCALE", "KeyframeCase", "KeyframeOutcome", "SensorCone", "Task",
+__all__ = ["CANDIDATE_MARGIN_M", "CANDIDATE_SCALE", "RANGE_SIGMAS", "KeyframeCase", "KeyframeOutcome", "SensorCone", "Task",
            "associate_keyframe", "measure", "retract"]
 
 #: the stated candidates: landmarks within CANDIDATE_SCALE × r + CANDIDATE_MARGIN_M of the car
 CANDIDATE_SCALE = 1.25
 CANDIDATE_MARGIN_M = 5.0
+#: a measured range lies within this many σ_r of the true one but with probability < 1e-15: the
+#: associator's reach at the measured range is covered by the reach at r + RANGE_SIGMAS σ_r
+RANGE_SIGMAS = 8.0
 #: pairs with λ > (√γ + PRUNE_SIGMAS)² are not evaluated (gated with probability < 1e-30)
 PRUNE_SIGMAS = 12.0
 #: draws per block (memory: block × pairs × a few doubles)
@@ -230,7 +233,9 @@ def _pairs(case: KeyframeCase, gate: float) -> _Pairs:
         return _Pairs(z, z, np.zeros((0, 2, 2)), np.zeros((0, 3, 2)))
     mi = np.repeat(np.arange(m), c)
     cj = np.tile(np.arange(c), m)
-    reach = CANDIDATE_SCALE * case.range_m[mi] + CANDIDATE_MARGIN_M + 10.0  # + slack: the reach is judged at x̂ and r̂
+    # + slack: the reach is judged at x̂ and r̂; r̂ lies within RANGE_SIGMAS σ_r of r but with
+    # probability < 1e-15 (a stereo camera's σ_r is metres at 20 m: its reach at r̂ passes 1.25 r + 15 m)
+    reach = CANDIDATE_SCALE * (case.range_m[mi] + RANGE_SIGMAS * case.sigma_range_m[mi]) + CANDIDATE_MARGIN_M + 10.0
     far = np.hypot(*(case.points[cj] - case.pose[:2]).T) > reach
     right = case.right[mi] == cj
     keep = right | ~far

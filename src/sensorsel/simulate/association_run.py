@@ -23,7 +23,7 @@ from sensorsel.information.integrity.association import AssociationModel, keyfra
 from sensorsel.information.integrity.risk import IntegritySpec, keyframes_per_hour
 from sensorsel.model.problem import Problem
 from sensorsel.pipeline import Executor, Plan, execute
-from sensorsel.simulate.association import (CANDIDATE_MARGIN_M, CANDIDATE_SCALE, KeyframeCase, KeyframeOutcome,
+from sensorsel.simulate.association import (CANDIDATE_MARGIN_M, CANDIDATE_SCALE, RANGE_SIGMAS, KeyframeCase, KeyframeOutcome,
                                             SensorCone, Task, associate_keyframe)
 from sensorsel.simulate.records import AssociationCheck, AssociationKeyframe, CalibrationBin, SensorAssociation
 
@@ -175,7 +175,10 @@ def simulate_association(problem: Problem, suite: Iterable[int], *, map_sigma_m:
     model = "slam" if map_sigma_m is None else "map"
     assoc = AssociationModel(problem, model=model, gate_probability=gate_probability)
     cones = _cones(problem, positions)
-    reach = CANDIDATE_SCALE * max((c.range_m for c in cones), default=0.0) + CANDIDATE_MARGIN_M + 10.0
+    # the keyframe's candidates: the widest reach of a measurement of the suite (its measured range up
+    # to RANGE_SIGMAS σ_r past its sensor's range; _pairs narrows it per measurement)
+    reach = CANDIDATE_SCALE * max((c.range_m + RANGE_SIGMAS * (c.sigma_range_const_m + c.sigma_range_quad_per_m * c.range_m ** 2)
+                                   for c in cones), default=0.0) + CANDIDATE_MARGIN_M + 10.0
     route, corridor = _route(problem)
     half = max((c.range_m for c in cones), default=0.0)
     hook = _Cases(assoc, cones, reach, route if clutter_per_km > 0 else np.zeros((0, 2)), half + corridor)

@@ -133,7 +133,7 @@ class AssociationModel:
         if self._tree is None or len(meas.landmark) == 0:
             return np.zeros(0, np.int64)
         pose = self._poses[meas.keyframe]
-        reach = CANDIDATE_SCALE * float(np.max(meas.range_m)) + CANDIDATE_MARGIN_M
+        reach = float(np.max(candidate_reach(prediction, meas, self.gate, model=self.model)))
         near = np.asarray(sorted(self._tree.query_ball_point(pose[:2], reach)), np.int64)
         if self.model == "slam":
             near = near[np.isin(near, np.asarray(prediction.landmarks, np.int64))]
@@ -143,6 +143,37 @@ class AssociationModel:
         """The estimate and bound of P(wrong association) of each of ``meas`` at ``prediction``."""
         return measurement_risks(self._poses[meas.keyframe], self._points, prediction, meas,
                                  self.candidates(prediction, meas), gate=self.gate, model=self.model)
+
+
+def _spreads(prediction: Prediction, *, with_prior: bool = True) -> tuple[float, float, float]:
+    """(sd_xy, sd_th, sd_lm): the predicted pose's position [m] and heading [rad] spreads and the
+    largest landmark spread [m] (the prior's where that is larger, ``with_prior``: a candidate out of
+    the state has it): what bounds every pair's S_j."""
+    cov = np.asarray(prediction.covariance, float)
+    lm_tr = np.diagonal(cov)[3:].reshape(-1, 2).sum(axis=1) if cov.shape[0] > 3 else np.zeros(0)
+    prior = 2.0 * float(prediction.prior_sigma_m) ** 2 if with_prior else 0.0
+    sd_lm = math.sqrt(max(float(lm_tr.max(initial=0.0)), prior))
+    return math.sqrt(cov[0, 0] + cov[1, 1]), math.sqrt(cov[2, 2]), sd_lm
+
+
+def candidate_reach(prediction: Prediction, meas: KeyframeMeasurements, gate: float, *, model: str = "map") -> np.ndarray:
+    """(m,) how far from the car [m] a candidate of each measurement may lie: CANDIDATE_SCALE r +
+    CANDIDATE_MARGIN_M (the associator's stated reach at the true range r), widened to
+    r + (√γ + FAR_SIGMAS) √(s_bb + s_rr) where the measurement's range noise is large.
+
+    The associator judges its reach at the *measured* range r̂, which a stereo camera's range
+    noise (metres at 20 m) carries well past r: a landmark beyond 1.25 r + 5 m can then be inside the
+    gate and nearer. The widened reach is rigorous: a landmark at r_j ≥ r + (√γ + F) √(s_bb + s_rr)
+    (s_bb taken at r_j = r, its largest over r_j ≥ r) has λ ≥ (r_j − r)² / (s_bb + s_rr) ≥ (√γ + F)², the
+    pairs the far-pair filter drops anyway: the reach loses nothing that filter keeps. In SLAM
+    (``model="slam"``) the candidates are the state's landmarks, whose spreads the state holds: the
+    weak prior of the landmarks out of it (100 m) would make every landmark of the route a candidate."""
+    sd_xy, sd_th, sd_lm = _spreads(prediction, with_prior=model != "slam")
+    r = np.asarray(meas.range_m, float)
+    s_bb = r ** 2 * np.asarray(meas.sigma_bearing_rad, float) ** 2 + (sd_xy + sd_lm + r * sd_th) ** 2
+    s_rr = np.asarray(meas.sigma_range_m, float) ** 2 + (sd_xy + sd_lm) ** 2
+    wide = r + (math.sqrt(gate) + FAR_SIGMAS) * np.sqrt(s_bb + s_rr)
+    return np.maximum(CANDIDATE_SCALE * r + CANDIDATE_MARGIN_M, wide)
 
 
 def measurement_risks(pose: np.ndarray, points: np.ndarray, prediction: Prediction, meas: KeyframeMeasurements,
@@ -162,10 +193,12 @@ def measurement_risks(pose: np.ndarray, points: np.ndarray, prediction: Predicti
     # all (measurement, candidate) pairs but the truly measured landmark
     mi = np.repeat(np.arange(m), near.size)
     cj = np.tile(near, m)
-    # a candidate is another landmark within CANDIDATE_SCALE r + CANDIDATE_MARGIN_M of the car, r the
-    # measurement's own range: so a measurement's risk depends on its own geometry and the covariance
-    # only, never on which other measurements the suite makes
-    reach = CANDIDATE_SCALE * meas.range_m[mi] + CANDIDATE_MARGIN_M
+    # a candidate is another landmark within the measurement's reach (candidate_reach: its own range,
+    # noise and the covariance), so a measurement's risk depends on its own geometry and the
+    # covariance only, never on which other measurements the suite makes
+    reach = candidate_reach(prediction, meas, gate, model=model)[mi]
+    if model == "slam":  # candidates out of the state (a caller's choice) keep the stated reach
+        reach = np.where(np.isin(cj, state), reach, CANDIDATE_SCALE * meas.range_m[mi] + CANDIDATE_MARGIN_M)
     keep = (cj != meas.landmark[mi]) & (np.hypot(*(points[cj] - pose[:2]).T) <= reach)
     mi, cj = mi[keep], cj[keep]
     # a pair whose λ is surely past the far limit is dropped before its moments (it would be after):
@@ -174,10 +207,7 @@ def measurement_risks(pose: np.ndarray, points: np.ndarray, prediction: Predicti
     # (Cauchy–Schwarz, E ⪰ 0), the blocks being the position (‖h‖ ≤ 1/r_j bearing, 1 range), the
     # heading (1, 0) and the landmark (1/r_j, 1); λmax(E_bb) ≤ its trace: the same pairs, fewer computed
     d = _innovation_means(pose, points, meas, mi, cj)
-    cov = np.asarray(prediction.covariance, float)
-    lm_tr = np.diagonal(cov)[3:].reshape(-1, 2).sum(axis=1) if cov.shape[0] > 3 else np.zeros(0)
-    sd_lm = math.sqrt(max(float(lm_tr.max(initial=0.0)), 2.0 * float(prediction.prior_sigma_m) ** 2))
-    sd_xy, sd_th = math.sqrt(cov[0, 0] + cov[1, 1]), math.sqrt(cov[2, 2])
+    sd_xy, sd_th, sd_lm = _spreads(prediction)
     r_i = meas.range_m[mi]
     r_j = np.maximum(np.hypot(*(points[cj] - pose[:2]).T), 1e-9)
     s_bb = r_i ** 2 * (meas.sigma_bearing_rad[mi] ** 2 + ((sd_xy + sd_lm) / r_j + sd_th) ** 2)

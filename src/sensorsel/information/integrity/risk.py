@@ -98,6 +98,8 @@ class SensorAssociation:
         expected_wrong: the sum of their estimated P(wrong association): the expected number of
             wrong associations over the route.
         worst_bound: the largest bound of one of its measurements.
+        expected_wrong_bound: the sum of their bounds: a bound on the expected number of wrong
+            associations over the route (each measurement's probability is at most its bound).
     """
 
     sensor: str
@@ -105,6 +107,7 @@ class SensorAssociation:
     used: int
     expected_wrong: float
     worst_bound: float
+    expected_wrong_bound: float = 0.0
 
 
 @result_kind("integrity")
@@ -249,11 +252,11 @@ class _Collector:
     bound: np.ndarray = field(default_factory=lambda: np.zeros(0))
     estimate: np.ndarray = field(default_factory=lambda: np.zeros(0))
     left_out: list[LeftOut] = field(default_factory=list)
-    #: per library sensor: measurements made, used, Σ estimate, max bound
-    per_sensor: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))
+    #: per library sensor: measurements made, used, Σ estimate, max bound, Σ bound
+    per_sensor: np.ndarray = field(default_factory=lambda: np.zeros((0, 5)))
 
     def __post_init__(self) -> None:
-        self.per_sensor = np.zeros((len(self.sensor_ids), 4))
+        self.per_sensor = np.zeros((len(self.sensor_ids), 5))
         self.bound = np.zeros(self.n_keyframes)
         self.estimate = np.zeros(self.n_keyframes)
 
@@ -266,6 +269,7 @@ class _Collector:
         np.add.at(self.per_sensor[:, 1], sensor[mask], 1.0)
         np.add.at(self.per_sensor[:, 2], sensor[mask], r.estimate[mask])
         np.maximum.at(self.per_sensor[:, 3], sensor[mask], r.bound[mask])
+        np.add.at(self.per_sensor[:, 4], sensor[mask], r.bound[mask])
         self.bound[meas.keyframe] = bnd
         self.estimate[meas.keyframe] = est
         if not mask.all():
@@ -303,5 +307,6 @@ def route_integrity(problem: Problem, suite: Iterable[int], spec: IntegritySpec 
         left_out=tuple(hook.left_out), lateral_sigma_m=tuple(sig[:, 1].tolist()),
         longitudinal_sigma_m=tuple(sig[:, 0].tolist()), heading_sigma_deg=tuple(sig[:, 2].tolist()),
         p_error_tail=tuple(tail.tolist()),
-        by_sensor=tuple(SensorAssociation(hook.sensor_ids[i], int(row[0]), int(row[1]), float(row[2]), float(row[3]))
+        by_sensor=tuple(SensorAssociation(hook.sensor_ids[i], int(row[0]), int(row[1]), float(row[2]), float(row[3]),
+                                          float(row[4]))
                         for i, row in enumerate(hook.per_sensor) if row[0] > 0))
