@@ -20,7 +20,7 @@ from typing import Callable, Iterable, Protocol, Sequence
 import numpy as np
 
 from sensorsel.designs.requirements.margin import Margin, margin_of
-from sensorsel.designs.requirements.solver import DEFAULT_TIE_PROGRAMS, Status, cheapest_suite
+from sensorsel.designs.requirements.solver import DEFAULT_TIE_PROGRAMS, cheapest_suite
 from sensorsel.designs.requirements.spec import RouteVerdict, Specification, covariance_verdict, verdict
 from sensorsel.errors import InputError, ResultFileError
 from sensorsel.information.evaluators import Evaluator, as_suite, make_evaluator
@@ -377,7 +377,7 @@ def require(target: Target, specifications: Specification | Sequence[Specificati
             failures: int = 0, budget_usd: float | None = None, constraints: Constraints | None = None,
             engine: str | None = None, jobs: int = 1, time_limit_s: float | None = None,
             progress: Progress | None = None, checkpoint: str | Path | None = None, resume: bool = False,
-            conditions: Sequence[str] | None = None, evaluator: Evaluator | None = None, status: Status | None = None,
+            conditions: Sequence[str] | None = None, evaluator: Evaluator | None = None,
             max_tie_programs: int = DEFAULT_TIE_PROGRAMS, estimate: str = "filter") -> RequireResult:
     """The cheapest suite meeting ``specifications`` on ``target`` (a route, or every route of a
     domain: one specification for all, or one per route in the domain's order).
@@ -397,8 +397,6 @@ def require(target: Target, specifications: Specification | Sequence[Specificati
             None: one engine per route here.
         conditions: with a domain of (route, condition) members, demand the specification only in
             these conditions (names as the domain file gives them, e.g. ("clear", "rain")); None: in all.
-        status: status(text) after each integer program: the cost interval [lower bound, best
-            found] closing, the suites checked, the time so far.
         max_tie_programs: integer programs spent after the proof looking for other suites of the
             same cost (0: only those met on the way are reported).
         checkpoint: a file where the answers are journalled as they come (every
@@ -457,7 +455,7 @@ def require(target: Target, specifications: Specification | Sequence[Specificati
         oracle.on_answer = write
     try:
         found = cheapest_suite(feas, oracle.meets, failures=failures, violation=oracle.violation,
-                               time_limit=time_limit_s, progress=progress, status=status,
+                               time_limit=time_limit_s, progress=progress,
                                max_tie_programs=max_tie_programs)
     finally:  # interrupted too (Ctrl-C): nothing learnt is lost
         if checkpoint is not None:

@@ -366,7 +366,7 @@ def _ratio(drop: float, price: float) -> float:
 def cheapest_suite(feasible: FeasibleSet, meets: Meets, *, failures: int = 0, violation: Violation | None = None,
                    monotone: bool = True, necessary_monotone: Meets | None = None,
                    necessary_antimonotone: Meets | None = None, max_iterations: int = DEFAULT_MAX_ITERATIONS,
-                   time_limit: float | None = None, progress: Progress | None = None, status: Status | None = None,
+                   time_limit: float | None = None, progress: Progress | None = None,
                    max_tie_programs: int = DEFAULT_TIE_PROGRAMS) -> CheapestSuite:
     """The cheapest suite of ``feasible`` that meets a requirement after any ``failures`` of its
     sensors fail, with a lower bound on the cost of every such suite (module docstring).
@@ -389,11 +389,9 @@ def cheapest_suite(feasible: FeasibleSet, meets: Meets, *, failures: int = 0, vi
         max_iterations: integer programs solved before stopping with a gap (>= 1).
         time_limit: wall-clock seconds before stopping with a gap (None: none; makes the answer
             depend on the machine).
-        progress: progress(iterations done, max_iterations) after each integer program, told where
+        progress: progress(iterations done, max_iterations) before each integer program, told where
             the search stands (:func:`sensorsel.io.progress.report`): the cost interval [lower
-            bound, best found] closing, integer programs solved, suites checked, time so far.
-        status: status(text) with the same words after each integer program (for callers that
-            show text only).
+            bound, best found] closing, integer programs solved, suites checked.
         max_tie_programs: integer programs spent, once the answer is proved, looking for other
             suites of the same cost (0: none; ties found on the way are still reported).
 
@@ -455,6 +453,7 @@ def cheapest_suite(feasible: FeasibleSet, meets: Meets, *, failures: int = 0, vi
     plateau: dict[float, int] = {}  # failing proposals per cost [$]
     stop = ""
     while True:
+        report(progress, iterations, max_iterations, _status_text(lower, upper, iterations, s.n_checks()))
         if incumbent is not None and upper - lower <= _tol(upper):
             return _ties(s, incumbent, iterations, max_tie_programs, programs, start, time_limit, result)
         if iterations >= max_iterations:
@@ -472,10 +471,6 @@ def cheapest_suite(feasible: FeasibleSet, meets: Meets, *, failures: int = 0, vi
             return _infeasible(s, result, iterations)
         bound, proposal, finished = solved
         lower = max(lower, bound)
-        text = _status_text(lower, upper, iterations, s.n_checks(), time.monotonic() - start)
-        if status is not None:
-            status(text)
-        report(progress, iterations, max_iterations, text)
         if proposal is None:
             stop = "the integer program stopped at its node limit without a suite"
             break
@@ -505,10 +500,11 @@ def cheapest_suite(feasible: FeasibleSet, meets: Meets, *, failures: int = 0, vi
                   ties=[m for m, c in s.met.items() if m != incumbent and incumbent is not None and abs(c - upper) <= _tol(upper)])
 
 
-def _status_text(lower: float, upper: float, iterations: int, checks: int, elapsed: float) -> str:
-    best = "none yet" if math.isinf(upper) else f"${upper:,.0f}"
-    return (f"cost in [${lower:,.0f}, {best}]; {iterations} integer programs, {checks} suites checked, "
-            f"{elapsed:.1f} s")
+def _status_text(lower: float, upper: float, iterations: int, checks: int) -> str:
+    """Where the search stands, in words: the interval the cheapest suite's cost [$] lies in (the
+    progress display adds the time)."""
+    interval = f"cost in [${lower:,.0f}, ${upper:,.0f}]" if math.isfinite(upper) else f"cost >= ${lower:,.0f}, no suite found yet"
+    return f"{interval}; {iterations:,} integer programs, {checks:,} suites checked"
 
 
 def _ties(s: _Search, incumbent: int, iterations: int, max_programs: int, programs: list[float], start: float,
