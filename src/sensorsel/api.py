@@ -149,7 +149,8 @@ def run_greedy(problem: Target, budget_usd: float, rule: str = "uniform", *, eng
 
     ``checkpoint``: a file written after each pick (:mod:`sensorsel.designs.checkpoint`); with ``resume``, an
     interrupted run's checkpoint there is read back and the run goes on from it (same result but
-    timings and evaluation counts).
+    timings and evaluation counts); a checkpoint of another run is not read back (a
+    :class:`~sensorsel.pipeline.store.CacheWarning` names it and what differs; the run starts afresh).
 
     ``constraints``: limits besides the budget (resources, mounting slots, required and excluded
     sensors, most sensors; :mod:`sensorsel.model.constraints`), recorded in the result.
@@ -157,7 +158,6 @@ def run_greedy(problem: Target, budget_usd: float, rule: str = "uniform", *, eng
     Raises:
         InputError: a bad budget or rule, or constraints the library cannot meet (before any
             evaluator is built).
-        ResultFileError: (resume) a checkpoint written by another run.
     """
     check_budget(budget_usd)
     check_rule(rule)
