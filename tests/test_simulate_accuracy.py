@@ -170,7 +170,7 @@ def test_cli_map_sigma_prints_predicted_vs_measured(tmp_path):
     assert "predicted vs measured 95 % errors" in r.output and "landmarks known to 0.05 m" in r.output
     for c in COMPONENTS:
         assert c in r.output
-    (sim,) = results.load(SimulationReport, tmp_path / "simulation.json").simulations
+    (sim,) = results.load(tmp_path / "simulation.json", SimulationReport).simulations
     assert sim.model == "map" and sim.map_sigma_m == 0.05 and sim.accuracy is not None
     assert len(sim.accuracy.measured_lateral_95_m) == sim.problem.n_poses
 

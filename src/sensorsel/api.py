@@ -31,7 +31,6 @@ from sensorsel.designs.requirements import FrontAcceptance, RequireResult, front
 from sensorsel.designs.requirements import require as run_require
 from sensorsel.designs.resilient import ALGORITHM_2, METHODS, ResilientReport, recorded
 from sensorsel.designs.resilient import resilient_report as _resilient_report
-from sensorsel.designs.resilient.records import method_name
 from sensorsel.designs.robust import RobustResult, robust_choice, robust_select, worst_route_select
 from sensorsel.designs.robust import run_robust as _run_robust
 from sensorsel.designs.selection import GreedyResult, Progress, check_budget, check_rule, greedy
@@ -353,10 +352,9 @@ def resilient_report(problem: Target, budget_usd: float, alpha: int, *, method: 
                      **kwargs) -> ResilientReport:
     """The ``sensorsel resilient`` run (:func:`sensorsel.designs.resilient.resilient_report`): the whole-route
     comparison and the per-period selection. ``method``: "algorithm-2" (the paper's Algorithm 2, the
-    default: published results unchanged; "paper", its name before, is read as it) or "robust"
+    default: published results unchanged) or "robust"
     (:func:`sensorsel.designs.robust.robust_select` for the whole route and each period; its worst case is
     never below greedy's nor Algorithm 2's)."""
-    method = method_name(method)
     if method not in RESILIENT_METHODS:
         raise InputError(f"unknown method {method!r}; available: {', '.join(RESILIENT_METHODS)}")
     return _resilient_report(problem, budget_usd, alpha, method=method,

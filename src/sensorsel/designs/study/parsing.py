@@ -16,7 +16,7 @@ from sensorsel.model.domain import ROUTE_KEYS, SYNTHETIC, load_domain_file, pars
 from sensorsel.model.library import load_library
 from sensorsel.model.scenario import ScenarioSpec
 
-from sensorsel.designs.resilient import METHODS, method_name  # METHODS: how a cell with failures chooses
+from sensorsel.designs.resilient import METHODS  # METHODS: how a cell with failures chooses
 from sensorsel.designs.study.records import DEFAULT_LIBRARY, Cell, Study, StudyError, TargetFiles
 
 _TOP_KEYS = ("target", "grid", "engine", "method", "certificate")
@@ -76,7 +76,6 @@ def parse_study(data: Any, path: str | Path = "<memory>") -> Study:
     if "engine" in data and engine not in ENGINES:
         c.fail("engine", f"unknown engine {engine!r}; available: {', '.join(sorted(ENGINES))}", data.lines["engine"])
     method = data.get("method", METHODS[0])
-    method = method_name(method) if isinstance(method, str) else method  # "paper": Algorithm 2's name before
     if method not in METHODS:
         c.fail("method", f"expected one of {', '.join(METHODS)}, got {method!r}", data.lines["method"])
     cert = data.get("certificate", True)
