@@ -1,4 +1,4 @@
-"""Monte-Carlo SLAM validation (sensorsel.simulate): convergence, consistency, blind suites, determinism."""
+"""Monte-Carlo SLAM validation (sensorsel.simulation): convergence, consistency, blind suites, determinism."""
 
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ from sensorsel.errors import InputError
 from sensorsel.io import codec, results
 from sensorsel.model.problem import build_problem
 from sensorsel.model.scenario import Scenario
-from sensorsel.simulate import Failure, SimulationReport, nees_bounds, parse_failures, simulate, without_timing
+from sensorsel.simulation import Failure, SimulationReport, nees_bounds, parse_failures, simulate, without_timing
 
 
 def _same(a, b) -> bool:

@@ -44,7 +44,7 @@ from sensorsel.model.constraints import Constraints, feasible_set
 from sensorsel.model.problem import Domain, DomainInfo, Problem, ProblemInfo, Target, load_domain, load_problem
 
 if TYPE_CHECKING:
-    from sensorsel.simulate import simulate
+    from sensorsel.simulation import simulate
 
 __all__ = ["RouteAccuracy", "suite_accuracy", "RouteIntegrity", "IntegritySpec", "suite_integrity", "run_require", "RequireResult", "FrontAcceptance", "front_acceptance", "CertifiedGreedyResult", "DomainDesign", "DomainScoreResult", "ProblemInfo", "RouteScore", "ScoreResult",
            "certify_result", "design_domain", "load_domain", "load_problem", "resilient_report", "run_greedy", "run_robust", "RobustResult",
@@ -362,10 +362,10 @@ def resilient_report(problem: Target, budget_usd: float, alpha: int, *, method: 
 
 
 def __getattr__(name: str) -> object:
-    """``simulate`` (:func:`sensorsel.simulate.simulate`), imported when first asked for: the
+    """``simulate`` (:func:`sensorsel.simulation.simulate`), imported when first asked for: the
     simulation imports gtsam (~0.1-0.15 s), which scoring and selecting do not need."""
     if name == "simulate":
-        from sensorsel.simulate import simulate
+        from sensorsel.simulation import simulate
 
         return simulate
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -131,7 +131,7 @@ def simulate_cmd(suite: str, compare: str | None, label: str | None, compare_lab
     """
     from sensorsel.plotting import (plot_error_along_route, plot_simulation_comparison, plot_simulation_overview,
                                     save_figure, use_file_backend)
-    from sensorsel.simulate import SimulationReport, parse_failures, simulate
+    from sensorsel.simulation import SimulationReport, parse_failures, simulate
 
     if not (math.isfinite(noise_scale) and noise_scale > 0):
         raise click.BadParameter(f"must be a positive number, got {noise_scale!r}", param_hint="--noise-scale")
