@@ -16,22 +16,16 @@ from __future__ import annotations
 
 __version__ = "0.1.0"
 
-from typing import TYPE_CHECKING
-
-from sensorsel import simulation as _simulation  # the package (its gtsam-importing modules load when first used)
 from sensorsel.designs import study as _study  # noqa: F401  (with the api's imports: every result kind registered, sensorsel.io.results)
 from sensorsel.api import (CertifiedGreedyResult, DomainDesign, DomainScoreResult, ScoreResult, certify_result,
                            design_domain, resilient_report, run_greedy, run_optimal, run_require, run_robust,
-                           run_tradespace, score_domain_suite, score_suite, suite_accuracy)
+                           run_tradespace, score_domain_suite, score_suite, simulate, suite_accuracy)
 from sensorsel.errors import InputError, LibraryError, ResultFileError, ScenarioError, SensorselError
 from sensorsel.information.evaluators import ENGINES, Evaluator, evaluator_for, make_evaluator
 from sensorsel.model.library import PlacedSensor, SensorLibrary, SensorModel, load_library
 from sensorsel.model.problem import (Domain, GraphSettings, Problem, ProblemInfo, build_problem, load_domain,
                                      load_problem)
 from sensorsel.model.scenario import LandmarkModel, Scenario, ScenarioSpec, Trajectory, load_scenario
-
-if TYPE_CHECKING:
-    from sensorsel.simulation import simulate
 
 __all__ = [
     # run functions (sensorsel.api)
@@ -48,12 +42,3 @@ __all__ = [
     # errors
     "InputError", "LibraryError", "ResultFileError", "ScenarioError", "SensorselError",
 ]
-
-
-def __getattr__(name: str) -> object:
-    """``simulate``, imported when first asked for (it imports gtsam: see :mod:`sensorsel.api`)."""
-    if name == "simulate":
-        fn = _simulation.simulate
-        globals()["simulate"] = fn
-        return fn
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Iterable
+from typing import Any, Iterable
 
 from sensorsel.designs.certify import (DEFAULT_MAX_NODES, Certificate, CertifiedGreedyResult, OptimumResult,
                                        certificate, constraints_mismatch, optimal)
@@ -42,9 +42,7 @@ from sensorsel.information.integrity import IntegritySpec, RouteIntegrity, route
 from sensorsel.io.results import result_kind
 from sensorsel.model.constraints import Constraints, feasible_set
 from sensorsel.model.problem import Domain, DomainInfo, Problem, ProblemInfo, Target, load_domain, load_problem
-
-if TYPE_CHECKING:
-    from sensorsel.simulation import simulate
+from sensorsel.simulation.records import SimulationResult
 
 __all__ = ["RouteAccuracy", "suite_accuracy", "RouteIntegrity", "IntegritySpec", "suite_integrity", "run_require", "RequireResult", "FrontAcceptance", "front_acceptance", "CertifiedGreedyResult", "DomainDesign", "DomainScoreResult", "ProblemInfo", "RouteScore", "ScoreResult",
            "certify_result", "design_domain", "load_domain", "load_problem", "resilient_report", "run_greedy", "run_robust", "RobustResult",
@@ -361,11 +359,12 @@ def resilient_report(problem: Target, budget_usd: float, alpha: int, *, method: 
                              selector=robust_choice if method == "robust" else None, **kwargs)
 
 
-def __getattr__(name: str) -> object:
-    """``simulate`` (:func:`sensorsel.simulation.simulate`), imported when first asked for: the
-    simulation imports gtsam (~0.1-0.15 s), which scoring and selecting do not need."""
-    if name == "simulate":
-        from sensorsel.simulation import simulate
+def simulate(problem: Problem, suite: str | Iterable[int], **kwargs: Any) -> SimulationResult:
+    """The ``sensorsel simulate`` run: Monte-Carlo SLAM of ``suite`` on ``problem``
+    (:func:`sensorsel.simulation.run.simulate`, whose keyword arguments it takes: ``failures``,
+    ``runs``, ``solver``, ``seed``, ``noise_scale``, ``jobs``, ``label``, ``progress``, ``executor``,
+    ``map_sigma_m``). The simulation's run module is imported here, when first called: it imports
+    gtsam (~0.1-0.15 s), which scoring and selecting do not need."""
+    from sensorsel.simulation.run import simulate as run
 
-        return simulate
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    return run(problem, suite, **kwargs)
