@@ -71,8 +71,9 @@ from sensorsel.model.scenario import (KITTI_ROOT_ENV, REAL, ROUTE_FORMATS, SYNTH
 
 WEIGHT_UNITS = ("hours", "km")
 _TOP_KEYS = ("routes", "kitti_root", "keyframe_rate_hz", "library", "clearance_m", "weight_unit", "conditions")
-_ROUTE_KEYS = ("name", "seq", "kitti_root", "route", "format", "times", "fixture", "landmarks", "weight", "conditions",
-               "georef", "osm", "osm_classes", "osm_reach_m")
+#: the keys of a route's entry (also a study's target: sensorsel.designs.study)
+ROUTE_KEYS = ("name", "seq", "kitti_root", "route", "format", "times", "fixture", "landmarks", "weight", "conditions",
+              "georef", "osm", "osm_classes", "osm_reach_m")
 _GEO_KEYS = ("georef", "osm", "osm_classes", "osm_reach_m")
 _CONDITION_KEYS = ("name", "share") + CONDITION_KEYS
 #: shares of a route's conditions may add up to 1 plus this (round-off of decimal shares)
@@ -197,7 +198,7 @@ def parse_domain(data: Any, path: str | Path = "<memory>") -> DomainSpec:
     seen: dict[str, int] = {}
     for i, raw in enumerate(routes_raw):
         key, rline = f"routes[{i}]", routes_raw.lines[i]
-        r = _parse_route(c, raw, key, rline, shared, root, unit)
+        r = parse_route(c, raw, key, rline, shared, root, unit)
         if isinstance(raw, Map) and "conditions" in raw and not conditions:
             c.fail(f"{key}.conditions", "a route's shares of conditions need the conditions the file lists "
                    "(a top-level conditions: section)", raw.lines["conditions"])
@@ -287,10 +288,12 @@ def _route_members(c: Checker, conditions: tuple[tuple[Condition, float], ...], 
     return tuple(members)
 
 
-def _parse_route(c: Checker, raw: Any, key: str, rline: int, shared: ScenarioSpec, root: str | None, unit: str) -> DomainRoute:
+def parse_route(c: Checker, raw: Any, key: str, rline: int, shared: ScenarioSpec, root: str | None, unit: str) -> DomainRoute:
+    """One route's entry ``raw`` (under the key path ``key``, on line ``rline``), checked by ``c``: the
+    route of a domain file, or a study's target (sensorsel.designs.study reads it with this)."""
     if not isinstance(raw, Map):
         c.fail(key, f"expected a mapping (name, seq or route or fixture, landmarks, weight), got {raw!r}", rline)
-    c.keys(raw, key, _ROUTE_KEYS)
+    c.keys(raw, key, ROUTE_KEYS)
     line = lambda k: raw.lines.get(k, raw.line)  # noqa: E731
     if "name" not in raw:
         c.fail(f"{key}.name", "missing: every route needs a name", raw.line)
@@ -487,8 +490,3 @@ def _load_route(domain: DomainSpec, i: int, r: DomainRoute) -> Scenario:
 #: the route commands' options and the domain file's keys that say the same
 _OPTION_KEYS = (("--landmarks osm:", "osm: "), ("--georef", "georef:"), ("--osm-classes", "osm_classes:"),
                 ("--osm-reach", "osm_reach_m:"))
-
-
-# The route reader the study file's reader shares (sensorsel.designs.study): one home, public names.
-ROUTE_KEYS = _ROUTE_KEYS
-parse_route = _parse_route
