@@ -8,7 +8,7 @@ KITTI 00 (1 Hz keyframes, real pole map) with the $110,000 greedy suite on that 
 (``docs/results/greedy00.json``: LRL-roof, MRL-roof, LRR-12, LRR-10, LRR-6, LRR-8), ``--runs``
 Monte-Carlo runs on ``--jobs`` processes, in the SLAM graph and (``--map-sigma``) in a prior map.
 
-- new: :func:`sensorsel.simulate.simulate` as the command runs it (runs, closed-form prediction,
+- new: :func:`sensorsel.simulation.simulate` as the command runs it (runs, closed-form prediction,
   summary), wall time and its parts.
 - old, side by side in this process: (1) one run solved as before (one BearingRangeFactor2D per
   measurement) and as now (one per (keyframe, landmark) pair), alternating, ``--old-runs`` runs
@@ -36,8 +36,8 @@ def marginals_prediction(payload) -> tuple[float, np.ndarray]:
     from gtsam.symbol_shorthand import L, X
 
     from sensorsel.information.graph import pose2
-    from sensorsel.simulate.noise import truth
-    from sensorsel.simulate.solve import Noise, build_graph
+    from sensorsel.simulation.noise import truth
+    from sensorsel.simulation.solve import Noise, build_graph
 
     t = time.perf_counter()
     graph = build_graph(payload, Noise(payload), truth(payload))
@@ -58,8 +58,8 @@ def solve_once(payload, run: int, every_measurement: bool) -> tuple[float, np.nd
     measurement as before issue 24 item 6: (seconds, estimated poses, iterations)."""
     import dataclasses
 
-    from sensorsel.simulate.noise import draw
-    from sensorsel.simulate.solve import Noise, pairs, pose_array, solve_lm
+    from sensorsel.simulation.noise import draw
+    from sensorsel.simulation.solve import Noise, pairs, pose_array, solve_lm
 
     t = time.perf_counter()
     d = draw(payload, run)
@@ -86,9 +86,9 @@ def main() -> None:
 
     from sensorsel.model.problem import load_problem
     from sensorsel.model.scenario import ScenarioSpec
-    from sensorsel.simulate import simulate
-    from sensorsel.simulate.consistency import predict
-    from sensorsel.simulate.noise import make_payload
+    from sensorsel.simulation import simulate
+    from sensorsel.simulation.consistency import predict
+    from sensorsel.simulation.noise import make_payload
 
     problem = load_problem(ScenarioSpec(seq=a.seq, kitti_root=a.kitti_root))
     suite = problem.library.parse_suite(a.suite)

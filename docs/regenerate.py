@@ -82,18 +82,6 @@ def sensorsel_cmd() -> list[str]:
     return [sys.executable, "-c", "import sys; from sensorsel.cli import main; sys.exit(main())"]
 
 
-_RULE_OPTION: str | None = None
-
-
-def rule_option() -> str:
-    """``--rule`` once the CLI has it (the greedy rule was called ``--objective`` before)."""
-    global _RULE_OPTION
-    if _RULE_OPTION is None:
-        out = subprocess.run([*sensorsel_cmd(), "greedy", "--help"], capture_output=True, text=True).stdout
-        _RULE_OPTION = "--rule" if "--rule" in out else "--objective"
-    return _RULE_OPTION
-
-
 @dataclass
 class Ctx:
     kitti_root: str
@@ -148,8 +136,8 @@ def step_scores(seq: str) -> Callable[[Ctx], None]:
 
 def step_greedy(seq: str) -> Callable[[Ctx], None]:
     def run(c: Ctx) -> None:
-        c.run("greedy", *c.scen(seq), "--budget", BUDGET, rule_option(), "uniform", "-q", "-o", str(c.out / f"greedy{seq}.json"))
-        c.run("greedy", *c.scen(seq), "--budget", BUDGET, rule_option(), "best-of", "-q",
+        c.run("greedy", *c.scen(seq), "--budget", BUDGET, "--rule", "uniform", "-q", "-o", str(c.out / f"greedy{seq}.json"))
+        c.run("greedy", *c.scen(seq), "--budget", BUDGET, "--rule", "best-of", "-q",
               "-o", str(c.out / f"greedy{seq}-best-of.json"))
     return run
 
@@ -162,7 +150,7 @@ def step_domain(c: Ctx) -> None:
     env_root = os.environ.get("SENSORSEL_KITTI_ROOT")
     os.environ["SENSORSEL_KITTI_ROOT"] = c.kitti_root  # the domain file's routes are under $SENSORSEL_KITTI_ROOT
     try:
-        c.run("greedy", "--domain", str(REPO / "configs" / "domain_kitti.yaml"), "--budget", BUDGET, rule_option(), "uniform",
+        c.run("greedy", "--domain", str(REPO / "configs" / "domain_kitti.yaml"), "--budget", BUDGET, "--rule", "uniform",
               "-q", "-o", str(c.out / "domain.json"), "--plot", str(c.img / "domain.png"), stdout=c.out / "domain.txt")
     finally:
         if env_root is None:
@@ -218,7 +206,7 @@ def step_resilient(seq: str) -> Callable[[Ctx], None]:
 def step_certify(seq: str) -> Callable[[Ctx], None]:
     def run(c: Ctx) -> None:
         for rule in RULES:
-            c.run("certify", *c.scen(seq), "--budget", BUDGET, rule_option(), rule, "-q", "-o", str(c.out / f"certify{seq}-{rule}.json"))
+            c.run("certify", *c.scen(seq), "--budget", BUDGET, "--rule", rule, "-q", "-o", str(c.out / f"certify{seq}-{rule}.json"))
     return run
 
 
@@ -281,9 +269,9 @@ def step_constrained(seq: str) -> Callable[[Ctx], None]:
             return
         name = f"constrained{seq}"
         c.run("greedy", *c.scen(seq), "--budget", BUDGET, "--library", str(CAR_LIBRARY), "--limit", f"power_w={POWER_LIMIT_W}",
-              rule_option(), "best-of", "-q", "-o", str(c.out / f"{name}.json"), stdout=c.out / f"{name}.txt")
+              "--rule", "best-of", "-q", "-o", str(c.out / f"{name}.json"), stdout=c.out / f"{name}.txt")
         c.run("greedy", *c.scen(seq), "--budget", BUDGET, "--library", str(CAR_LIBRARY), "--limit", f"power_w={POWER_LIMIT_W}",
-              rule_option(), "uniform", "-q", "-o", str(c.out / f"{name}-uniform.json"), stdout=c.out / f"{name}-uniform.txt")
+              "--rule", "uniform", "-q", "-o", str(c.out / f"{name}-uniform.json"), stdout=c.out / f"{name}-uniform.txt")
     return run
 
 

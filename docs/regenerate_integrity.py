@@ -396,7 +396,7 @@ def tables(root: Path) -> str:
 
 
 def _resolved(k: dict, importance: bool) -> bool:
-    """As ``simulate --associate`` counts it (sensorsel.simulate.records): plain Monte Carlo, at least
+    """As ``simulate --associate`` counts it (sensorsel.simulation.records): plain Monte Carlo, at least
     10 wrong draws; importance sampling, a relative standard error of at most 0.3."""
     if importance:
         return k["observed"] > 0 and k["standard_error"] <= 0.3 * k["observed"]

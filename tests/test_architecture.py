@@ -61,14 +61,14 @@ def test_the_package_is_a_handful_of_concept_packages_and_no_module_is_long():
 
 def test_selecting_does_not_import_gtsam_and_simulate_stays_the_function():
     """gtsam (~0.1-0.15 s to import) is loaded only where a graph is built or a simulation runs:
-    importing the CLI and the API does not; ``sensorsel.simulate`` is still the run function, also
-    after the simulation package's modules are imported."""
+    importing the CLI and the API does not; ``sensorsel.simulate`` is the run function, also after
+    the simulation package's modules are imported."""
     code = ("import sys, sensorsel.cli, sensorsel.api\n"
             "assert 'gtsam' not in sys.modules, 'gtsam imported'\n"
-            "import sensorsel, sensorsel.simulate.records\n"
+            "import sensorsel, sensorsel.simulation.records\n"
             "f = sensorsel.simulate\n"
-            "assert callable(f) and f.__name__ == 'simulate' and f.__module__ == 'sensorsel.simulate.run'\n"
-            "import sensorsel.simulate.run\n"
+            "assert callable(f) and f.__name__ == 'simulate' and f.__module__ == 'sensorsel.api'\n"
+            "import sensorsel.simulation.run\n"
             "from sensorsel.api import simulate\n"
             "assert simulate is f and sensorsel.simulate is f and 'gtsam' in sys.modules\n")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)

@@ -380,12 +380,12 @@ def test_results_are_deterministic_and_round_trip(tmp_path):
     cert, opt = runs[0]
     for obj, cls in ((cert, Certificate), (opt, OptimumResult)):
         path = results.save(obj, tmp_path / f"{cls.__name__}.json")
-        assert results.load(cls, path) == obj
+        assert results.load(path, cls) == obj
     ev = make_evaluator(problem, "reference")
     sb = suite_bound(ev, (0, 3), 12_000.0)
-    assert results.load(SuiteBound, results.save(sb, tmp_path / "sb.json")) == sb
+    assert results.load(results.save(sb, tmp_path / "sb.json"), SuiteBound) == sb
     ks = knapsack([1.0, 2.0, 3.0], [1.0, 1.0, 2.0], 2.0)
-    assert results.load(KnapsackSolution, results.save(ks, tmp_path / "ks.json")) == ks
+    assert results.load(results.save(ks, tmp_path / "ks.json"), KnapsackSolution) == ks
 
 
 def test_input_errors():
@@ -449,7 +449,7 @@ def test_run_greedy_carries_its_certificate_and_it_round_trips(tmp_path):
     again = certificate(make_evaluator(problem, "reference"), plain)
     assert (cert.score, cert.bound, cert.step_bounds) == (again.score, again.bound, again.step_bounds)
     assert close_or_above(cert.bound, opt) and cert.score == res.score
-    loaded = results.load(CertifiedGreedyResult, results.save(res, tmp_path / "g.json"))
+    loaded = results.load(results.save(res, tmp_path / "g.json"), CertifiedGreedyResult)
     assert loaded == res
 
 
@@ -462,7 +462,7 @@ def test_cli_greedy_prints_the_certificate_line_and_saves_it(tmp_path):
             "--jobs", "1", "--quiet"]
     r = CliRunner().invoke(cli, base + ["-o", str(tmp_path / "g.json")])
     assert r.exit_code == 0, r.output
-    res = results.load(CertifiedGreedyResult, tmp_path / "g.json")
+    res = results.load(tmp_path / "g.json", CertifiedGreedyResult)
     assert res.certificate is not None
     assert format_certificate(res.certificate) in r.output.splitlines()
     problem = build_problem(load_library(lib_path), load_scenario(ScenarioSpec(fixture="tiny")))
@@ -491,7 +491,7 @@ def test_cli_optimal_prints_the_proved_optimum_and_writes_json(tmp_path):
                                  "--engine", "reference", "--jobs", "1", "-q", "-o", str(out)])
     assert r.exit_code == 0, r.output
     assert "[proved optimal]" in r.output and "greedy     best-of" in r.output and "% of the optimum" in r.output
-    res = results.load(OptimumResult, out)
+    res = results.load(out, OptimumResult)
     problem = build_problem(load_library(lib_path), load_scenario(ScenarioSpec(fixture="tiny")))
     opt, _ = brute_optimum(problem, all_scores(problem), 5000.0)
     assert res.proved_optimal and res.score == pytest.approx(opt, rel=TOL)
@@ -537,7 +537,7 @@ def test_cli_certify_runs_greedy_or_reads_its_result(tmp_path):
     base = ["--fixture", "tiny", "--library", str(lib_path), "--engine", "reference", "--jobs", "1"]
     r = CliRunner().invoke(cli, ["certify", *base, "--budget", "5000", "--rule", "marginal", "-q", "-o", str(tmp_path / "c.json")])
     assert r.exit_code == 0, r.output
-    cert = results.load(Certificate, tmp_path / "c.json")
+    cert = results.load(tmp_path / "c.json", Certificate)
     assert format_certificate(cert) in r.output
     problem = build_problem(load_library(lib_path), load_scenario(ScenarioSpec(fixture="tiny")))
     ev = make_evaluator(problem, "reference")

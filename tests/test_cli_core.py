@@ -88,7 +88,7 @@ def test_score_json_round_trips(tmp_path):
     assert data["suite"] == ["LRL-roof", "WSC-12"] and data["cost_usd"] == 102_990
     path = tmp_path / "score.json"
     path.write_text(text)
-    res = results.load(ScoreResult, path)
+    res = results.load(path, ScoreResult)
     assert isinstance(res, ScoreResult) and res.suite == ("LRL-roof", "WSC-12")
     assert res.score == data["score"] and res.problem.scenario == "tiny" and res.problem.n_sensors == 62
     assert results.dumps(res) == text  # same bytes back

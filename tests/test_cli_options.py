@@ -134,7 +134,7 @@ def test_a_budget_with_thousands_separators_runs(tmp_path):
     r = invoke("greedy", "--fixture", "tiny", "--budget", "$5,000", "--engine", "reference", "--jobs", "1", "--no-certificate", "--json")
     assert r.exit_code == 0, r.output
     assert json.loads(r.stdout)["budget_usd"] == 5000.0
-    r = invoke("pareto", "--fixture", "tiny", "--budget", "2,000", "--budget", "6,000", "--budgets", "$4_000", "--selectors", "marginal",
+    r = invoke("pareto", "--fixture", "tiny", "--budget", "2,000", "--budget", "6,000", "--budgets", "$4_000", "--rules", "marginal",
                "--engine", "reference", "--jobs", "1", "-o", str(tmp_path / "p"), "--json", "-q")
     assert r.exit_code == 0, r.output
     data = json.loads(r.stdout)

@@ -297,7 +297,7 @@ def test_cli_pareto_robust_resilient_keep_a_power_limit(slotted_library_yaml, tm
                "--rules", "uniform,marginal", "--limit", "power_w=30", "-o", out)
     assert r.exit_code == 0, r.output
     from sensorsel.designs.tradespace import TradespaceResult
-    ts = results.load(TradespaceResult, out / "tradespace.json")
+    ts = results.load(out / "tradespace.json", TradespaceResult)
     assert ts.constraints is not None and ts.constraints.limits == (("power_w", 30.0),)
     _check_json_suites(slotted_library_yaml, 20_000.0, c, [a.suite for a in ts.architectures])
 
@@ -307,14 +307,14 @@ def test_cli_pareto_robust_resilient_keep_a_power_limit(slotted_library_yaml, tm
     assert r.exit_code == 0, r.output
     assert "power_w" in r.output  # the resource-use table of the answer
     from sensorsel.designs.robust import RobustResult
-    rr = results.load(RobustResult, out)
+    rr = results.load(out, RobustResult)
     _check_json_suites(slotted_library_yaml, 6_000.0, c, [cand.suite for cand in rr.candidates])
 
     r = invoke("resilient", *COMMON, "--library", slotted_library_yaml, "--budget", "6000", "--failures", "1",
                "--period", "5", "--limit", "power_w=30", "-o", tmp_path / "res")
     assert r.exit_code == 0, r.output
     from sensorsel.designs.resilient import ResilientReport
-    rep = results.load(ResilientReport, tmp_path / "res" / "resilient.json")
+    rep = results.load(tmp_path / "res" / "resilient.json", ResilientReport)
     assert rep.constraints is not None
     suites = [rep.suite, rep.comparison.greedy.suite] + [p.suite for p in rep.per_period.periods]
     _check_json_suites(slotted_library_yaml, 6_000.0, c, suites)

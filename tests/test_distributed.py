@@ -166,7 +166,7 @@ def test_score_certify_optimal_robust_on_a_domain_equal_in_process(cluster, doma
 def test_simulation_runs_as_tasks_equal_in_process(cluster):
     from sensorsel.model.problem import load_problem
     from sensorsel.model.scenario import ScenarioSpec
-    from sensorsel.simulate import simulate
+    from sensorsel.simulation import simulate
 
     problem = load_problem(ScenarioSpec(fixture="tiny"))
     done = []

@@ -1,7 +1,7 @@
 """The stores' fingerprints, field by field: a resume after changing any one input (budget,
 failures alpha, rule, method, engine, lazy, period length, limits, and each part of the target:
 library, landmark map, route, graph settings and operating condition; for ``require`` also the
-specification and the localization model) recomputes or is refused, never reuses a stored result.
+specification and the localization model) recomputes, with a warning, never reuses a stored result.
 
 Every store builds its fingerprint from one declaration (:mod:`sensorsel.designs.inputs`); the
 target's parts walked here are the :class:`~sensorsel.model.problem.Fingerprint`'s own, so a part
@@ -10,7 +10,7 @@ added there and not here fails :func:`test_every_part_of_the_target_is_walked`.
 Each store is checked where its fingerprints are made: a route's periods (:func:`period_plan`, the
 plan the run executes), a robust run's tasks (the files it keeps), a study's cells (:func:`cell_fingerprint`), a tradespace's rules (the files a
 run writes, then a resume with one input changed) and a greedy checkpoint (:func:`run_fingerprint`,
-and the refusal of :func:`load_checkpoint`). For each changed input, no fingerprint of the changed
+and :func:`load_checkpoint`, which does not read it back). For each changed input, no fingerprint of the changed
 run may equal one of the base run's: a stored file of the base run can then never be read back.
 """
 
@@ -205,9 +205,8 @@ GREEDY_CHANGES = {
 
 
 @pytest.mark.parametrize("field", list(GREEDY_CHANGES))
-def test_a_greedy_checkpoint_is_refused_after_changing_one_input(field, problems, tmp_path):
+def test_a_greedy_checkpoint_is_not_read_back_after_changing_one_input(field, problems, tmp_path):
     from sensorsel.designs.checkpoint import GreedyCheckpoint, load_checkpoint, run_fingerprint
-    from sensorsel.errors import ResultFileError
 
     def fp_and_limits(problem, budget, rule, engine, aggregate, lazy, constraints):
         limits = feasible_set(problem.library, budget, constraints).record if constraints is not None else None
@@ -221,8 +220,9 @@ def test_a_greedy_checkpoint_is_refused_after_changing_one_input(field, problems
     target = problems.get(field, base)
     fp2, limits2 = fp_and_limits(target, **kw)
     assert fp2 != fp
-    with pytest.raises(ResultFileError, match="another run"):
-        load_checkpoint(path, target, kw["budget"], kw["rule"], kw["engine"], kw["aggregate"], kw["lazy"], fp2, limits2)
+    with pytest.warns(CacheWarning, match="g.json.checkpoint: not reused"):
+        got = load_checkpoint(path, target, kw["budget"], kw["rule"], kw["engine"], kw["aggregate"], kw["lazy"], fp2, limits2)
+    assert got is None
 
 
 # ----------------------------------------------------------------------------------------- robust
@@ -335,17 +335,21 @@ REQUIRE_CHANGES = {
 
 
 @pytest.mark.parametrize("field", list(REQUIRE_CHANGES))
-def test_a_require_journal_is_refused_after_changing_one_input(field, problems, tmp_path):
+def test_a_require_journal_is_not_read_back_after_changing_one_input(field, problems, tmp_path):
     from sensorsel.designs.requirements import Specification, require
-    from sensorsel.errors import ResultFileError
 
     def run(problem, resume, spec, **kw):
         return require(problem, Specification(**spec), checkpoint=tmp_path / "req.checkpoint", resume=resume, **kw)
 
     run(problems["base"], False, **REQUIRE_BASE)
     assert (tmp_path / "req.checkpoint").is_file()
-    with pytest.raises(ResultFileError, match="another require run"):
-        run(problems.get(field, problems["base"]), True, **{**REQUIRE_BASE, **REQUIRE_CHANGES[field]})
+    kw = {**REQUIRE_BASE, **REQUIRE_CHANGES[field]}
+    target = problems.get(field, problems["base"])
+    with pytest.warns(CacheWarning, match="req.checkpoint: not reused"):
+        again = run(target, True, **kw)
+    spec = kw.pop("spec")
+    fresh = require(target, Specification(**spec), **kw)
+    assert (again.suite, again.cost_usd) == (fresh.suite, fresh.cost_usd)
 
 
 def test_a_require_journal_of_the_same_inputs_is_read_back(problems, tmp_path):

@@ -240,7 +240,7 @@ def test_same_inputs_give_the_same_bytes_with_the_fast_engine(tmp_path):
     texts = [json.dumps(_strip(json.loads(results.dumps(r))), indent=1) for r in runs]
     assert texts[0] == texts[1]
     path = results.save(runs[0], tmp_path / "robust.json")
-    assert results.load(type(runs[0]), path) == runs[0]
+    assert results.load(path, type(runs[0])) == runs[0]
     opts = [robust_optimum(make_evaluator(p, "fast"), 9_000.0, 2) for _ in range(2)]
     assert _strip(results.to_jsonable(opts[0])) == _strip(results.to_jsonable(opts[1]))
 

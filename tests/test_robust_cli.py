@@ -123,9 +123,13 @@ def test_aggregate_worst_is_refused_where_it_is_not_supported(small_library_yaml
 # ------------------------------------------------------------------------ resilient --method robust
 
 
-def test_files_and_scripts_that_call_algorithm_2_paper_still_work(small_library_yaml, tmp_path):
-    """Algorithm 2 has one name, "algorithm-2"; "paper", its name in resilient before, is read as it:
-    in result and period files (a resume reuses such periods, no warning) and as --method paper."""
+def test_files_that_call_algorithm_2_paper_are_read_until_their_release(small_library_yaml, tmp_path):
+    """Algorithm 2 has one name, "algorithm-2"; "paper", its name in files written before, is read as
+    it (sensorsel.io.legacy, until the release it names): in result and period files (a resume
+    reuses such periods, no warning). The command line takes only "algorithm-2"."""
+    from sensorsel.io.legacy import REMOVED_IN
+
+    assert REMOVED_IN == "0.2.0"  # the promise the docs make: change both together
     import warnings
 
     common = ["resilient", "--fixture", "tiny", "--library", small_library_yaml, "--engine", "fast", "--jobs", "1",
@@ -143,7 +147,7 @@ def test_files_and_scripts_that_call_algorithm_2_paper_still_work(small_library_
     assert {p.method for p in rep.per_period.periods} == {"algorithm-2"} and rep.per_period.grid.method == "algorithm-2"
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # a period file not reused would warn
-        again = invoke(*common, "--method", "paper", "-o", out, "--resume")
+        again = invoke(*common, "--method", "algorithm-2", "-o", out, "--resume")
     assert again.exit_code == 0, again.output
 
     def untimed(text):
@@ -155,17 +159,15 @@ def test_files_and_scripts_that_call_algorithm_2_paper_still_work(small_library_
     assert untimed(again.stdout) == untimed(first.stdout)
 
 
-def test_a_study_file_saying_method_paper_means_algorithm_2(tmp_path):
-    from sensorsel.designs.study import cell_fingerprint, load_study
+def test_algorithm_2_has_one_name_in_study_files_and_on_the_command_line(tmp_path):
+    from sensorsel.designs.study import StudyError, load_study
 
-    fps = {}
-    for name in ("paper", "algorithm-2"):
-        f = tmp_path / f"{name}.yaml"
-        f.write_text(f"target: {{fixture: tiny}}\ngrid: {{budgets: [5000], failures: [1]}}\nmethod: {name}\n")
-        study = load_study(f)
-        assert study.method == "algorithm-2"
-        fps[name] = [cell_fingerprint(study, c, study.targets[c.target].fingerprints()) for c in study.cells]
-    assert fps["paper"] == fps["algorithm-2"]  # the same cells: a resume reuses them
+    f = tmp_path / "paper.yaml"
+    f.write_text("target: {fixture: tiny}\ngrid: {budgets: [5000], failures: [1]}\nmethod: paper\n")
+    with pytest.raises(StudyError, match="method: expected one of algorithm-2, robust, got 'paper'"):
+        load_study(f)
+    r = invoke("resilient", "--fixture", "tiny", "--budget", "5000", "--method", "paper", "-o", tmp_path / "o")
+    assert r.exit_code == 2 and "'paper' is not one of" in r.output
 
 
 @pytest.mark.parametrize("method", ["algorithm-2", "robust"])

@@ -298,9 +298,9 @@ def test_greedy_result_round_trips_through_json(mixed, tmp_path):
     res = run_greedy(mixed, 9000.0, "best-of", engine="reference")
     assert res.problem is not None and res.problem.scenario == "tiny" and res.steps
     path = results.save(res, tmp_path / "g.json")
-    back = results.load(CertifiedGreedyResult, path)
+    back = results.load(path, CertifiedGreedyResult)
     assert back == res
-    plain = results.load(GreedyResult, path)  # any greedy result file reads as a GreedyResult
+    plain = results.load(path, GreedyResult)  # any greedy result file reads as a GreedyResult
     assert plain.suite == res.suite and plain.winning_rule == res.winning_rule
     assert results.dumps(back) == results.dumps(res)
 
@@ -343,7 +343,7 @@ def test_cli_greedy_table_and_json_output(small_library, tmp_path):
     out = tmp_path / "res" / "greedy.json"
     r = _greedy(small_library, "--budget", "$6,000", "--rule", "marginal", "-o", str(out))
     assert r.exit_code == 0, r.output
-    res = results.load(GreedyResult, out)
+    res = results.load(out, GreedyResult)
     assert res.rule == "marginal" and res.budget_usd == 6000.0 and res.cost_usd <= 6000.0
     assert res.problem is not None and res.problem.scenario == "tiny" and res.problem.n_sensors == 7
     assert f"suite      {','.join(res.suite)}" in r.stdout
@@ -374,16 +374,12 @@ def test_cli_jobs_1_and_2_write_the_same_bytes(tmp_path):
     assert one["steps"] and one == two
 
 
-def test_cli_objective_is_a_hidden_deprecated_alias_of_rule(small_library):
+def test_cli_rule_is_the_one_name_of_the_greedy_rule(small_library):
     new = _greedy(small_library, "--budget", "6000", "--rule", "marginal", "--json", "--no-certificate")
+    assert new.exit_code == 0, new.output
+    assert json.loads(new.stdout)["rule"] == "marginal"
     old = _greedy(small_library, "--budget", "6000", "--objective", "marginal", "--json", "--no-certificate")
-    assert new.exit_code == old.exit_code == 0, old.output
-    a, b = json.loads(new.stdout), json.loads(old.stdout)
-    a.pop("seconds"), b.pop("seconds")
-    assert a == b and a["rule"] == "marginal"
-    assert "--objective is deprecated; use --rule" in old.stderr and "deprecated" not in new.stderr
-    both = _greedy(small_library, "--budget", "6000", "--rule", "uniform", "--objective", "marginal")
-    assert both.exit_code == 2 and "give only --rule" in both.output
+    assert old.exit_code == 2 and "No such option '--objective'" in old.output
     bad = _greedy(small_library, "--budget", "6000", "--rule", "greediest")
     assert bad.exit_code == 2 and "unknown rule 'greediest'" in bad.output and "Traceback" not in bad.output
     help_text = CliRunner().invoke(cli, ["greedy", "--help"]).output

@@ -1,4 +1,4 @@
-"""Monte-Carlo SLAM validation (sensorsel.simulate): convergence, consistency, blind suites, determinism."""
+"""Monte-Carlo SLAM validation (sensorsel.simulation): convergence, consistency, blind suites, determinism."""
 
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ from sensorsel.errors import InputError
 from sensorsel.io import codec, results
 from sensorsel.model.problem import build_problem
 from sensorsel.model.scenario import Scenario
-from sensorsel.simulate import Failure, SimulationReport, nees_bounds, parse_failures, simulate, without_timing
+from sensorsel.simulation import Failure, SimulationReport, nees_bounds, parse_failures, simulate, without_timing
 
 
 def _same(a, b) -> bool:
@@ -195,7 +195,7 @@ def test_same_seed_same_numbers_and_json_round_trip(tiny_problem, tmp_path):
     assert _same(a, b)
     assert a.runs[0].position_error_m != c.runs[0].position_error_m
     path = results.save(SimulationReport((a,)), tmp_path / "sim.json")
-    back = results.load(SimulationReport, path)
+    back = results.load(path, SimulationReport)
     assert results.dumps(back) == results.dumps(SimulationReport((a,)))
 
 
@@ -271,7 +271,7 @@ def test_cli_reads_result_files_and_writes_everything(tmp_path, tiny_problem):
     assert "resilient assumes LRL-roof" not in r.output  # the failure it assumes is simulated: no hint
     for name in ("simulation.json", "trajectories.png", "error_along_route.png", "simulate.png"):
         assert (out / name).stat().st_size > 0
-    rep = results.load(SimulationReport, out / "simulation.json")
+    rep = results.load(out / "simulation.json", SimulationReport)
     assert [s.label for s in rep.simulations] == ["greedy", "resilient"]
     assert all(s.failures[0].sensor == "LRL-roof" and len(s.runs) == 2 for s in rep.simulations)
 
@@ -282,7 +282,7 @@ def test_cli_labels_and_hint_for_an_assumed_failure(tmp_path, tiny_problem):
                                  "--compare", str(resilient), "--runs", "1", "--jobs", "1", "-o", str(tmp_path / "o")])
     assert r.exit_code == 0, r.output
     assert "add --fail LRL-roof" in r.output
-    rep = results.load(SimulationReport, tmp_path / "o" / "simulation.json")
+    rep = results.load(tmp_path / "o" / "simulation.json", SimulationReport)
     assert [s.label for s in rep.simulations] == ["Greedy03", "resilient"]
     assert all(s.failures == () for s in rep.simulations)
 
@@ -293,7 +293,7 @@ def test_cli_start_sigmas_set_the_first_pose_prior(tmp_path, tiny_problem):
     r = CliRunner().invoke(cli, ["simulate", "--fixture", "tiny", "--suite", "LRL-roof", "--start-sigmas", "1e-4,1e-4,1e-5",
                                  "--runs", "2", "--jobs", "1", "-o", str(tmp_path)])
     assert r.exit_code == 0, r.output
-    (sim,) = results.load(SimulationReport, tmp_path / "simulation.json").simulations
+    (sim,) = results.load(tmp_path / "simulation.json", SimulationReport).simulations
     assert sim.problem.settings.first_pose_sigmas == (1e-4, 1e-4, 1e-5)
     tight = simulate(build_problem(tiny_problem.library, tiny_problem.scenario, GraphSettings(first_pose_sigmas=(1e-4, 1e-4, 1e-5))),
                      "LRL-roof", runs=2)

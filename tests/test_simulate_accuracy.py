@@ -18,10 +18,10 @@ from sensorsel.information.evaluators import make_evaluator
 from sensorsel.information.evaluators.accuracy import Z95, route_accuracy
 from sensorsel.information.graph import pose2
 from sensorsel.io import codec, results
-from sensorsel.simulate import SimulationReport, SimulationResult, simulate
-from sensorsel.simulate.consistency import body_frame_errors, predict
-from sensorsel.simulate.noise import draw, make_payload, truth
-from sensorsel.simulate.solve import Noise, build_graph
+from sensorsel.simulation import SimulationReport, SimulationResult, simulate
+from sensorsel.simulation.consistency import body_frame_errors, predict
+from sensorsel.simulation.noise import draw, make_payload, truth
+from sensorsel.simulation.solve import Noise, build_graph
 
 SUITE = "MRL-roof,HD2K-12"
 COMPONENTS = ("lateral", "longitudinal", "heading")
@@ -77,8 +77,8 @@ def test_prediction_is_route_accuracy_of_the_same_suite_and_model(tiny_problem, 
 def test_prediction_equals_gtsam_marginals(tiny_problem, map_sigma):
     """The closed-form dense prediction against GTSAM's Marginals of the same graph at the truth
     (landmark priors at the true positions in the map model), with a partial failure."""
-    from sensorsel.simulate import Failure
-    from sensorsel.simulate.failures import resolve_failures
+    from sensorsel.simulation import Failure
+    from sensorsel.simulation.failures import resolve_failures
 
     lib = tiny_problem.library
     suite = lib.parse_suite("LRL-roof,HD2K-12")
@@ -171,7 +171,7 @@ def test_cli_map_sigma_prints_predicted_vs_measured(tmp_path):
     assert "predicted vs measured 95 % errors" in r.output and "landmarks known to 0.05 m" in r.output
     for c in COMPONENTS:
         assert c in r.output
-    (sim,) = results.load(SimulationReport, tmp_path / "simulation.json").simulations
+    (sim,) = results.load(tmp_path / "simulation.json", SimulationReport).simulations
     assert sim.model == "map" and sim.map_sigma_m == 0.05 and sim.accuracy is not None
     assert len(sim.accuracy.measured_lateral_95_m) == sim.problem.n_poses
 
@@ -218,7 +218,7 @@ def test_pairs_keep_the_error_of_every_measurement(tiny_problem):
     pair's bearings placed either side of ±π, where a mean without wrapping would point backwards."""
     import dataclasses
 
-    from sensorsel.simulate.solve import pairs
+    from sensorsel.simulation.solve import pairs
 
     suite = tiny_problem.library.parse_suite("LRL-roof,MRL-roof,HD2K-12,WSC-12")
     p = make_payload(tiny_problem, suite, (), 1.0, "lm", 3)
@@ -243,7 +243,7 @@ def test_pairs_keep_the_error_of_every_measurement(tiny_problem):
 
 def test_map_model_is_byte_identical_whatever_the_workers(tiny_problem):
     """Same seed, same bytes, on 1 or 2 worker processes (the map draw travels as (seed, run, 2))."""
-    from sensorsel.simulate import without_timing
+    from sensorsel.simulation import without_timing
 
     one = simulate(tiny_problem, SUITE, runs=4, seed=9, jobs=1, map_sigma_m=0.1)
     two = simulate(tiny_problem, SUITE, runs=4, seed=9, jobs=2, map_sigma_m=0.1)

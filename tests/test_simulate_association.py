@@ -20,9 +20,9 @@ from sensorsel.information.filtering import KeyframeMeasurements, Prediction
 from sensorsel.information.integrity import IntegritySpec, route_integrity
 from sensorsel.information.integrity.association import gate_of, keyframe_risk, measurement_risks
 from sensorsel.io import results
-from sensorsel.simulate.association import KeyframeCase, Task, associate_keyframe
-from sensorsel.simulate import SimulationReport
-from sensorsel.simulate.association_run import simulate_association
+from sensorsel.simulation.association import KeyframeCase, Task, associate_keyframe
+from sensorsel.simulation import SimulationReport
+from sensorsel.simulation.association_run import simulate_association
 
 GATE = gate_of(0.9999)
 
@@ -214,7 +214,7 @@ def test_the_shift_of_a_wrong_association_is_the_filters_update_with_the_wrong_l
     worked here densely with finite-difference Jacobians (association_oracle.jacobian)."""
     from association_oracle import jacobian, measure as oracle_measure
 
-    from sensorsel.simulate.association import _associate, _pairs
+    from sensorsel.simulation.association import _associate, _pairs
 
     pose, points, pred, meas, cov = _two_landmarks(0.3)
     case = _case(pose, points, meas, cov)

@@ -104,7 +104,6 @@ def test_architectures_are_unique_scored_and_normalized(ts, mixed):
         assert a.score == pytest.approx(oracle.score(pos), rel=1e-9)
         assert a.normalized == pytest.approx(a.score / ts.best_score, rel=1e-12)
         assert a.rules and set(a.rules) <= set(ts.rules)
-        assert a.selectors == a.rules  # the deprecated name the plots read
     assert max(a.normalized for a in ts.architectures) == 1.0
     order = [(a.cost_usd, -a.score, a.suite) for a in ts.architectures]
     assert order == sorted(order)
@@ -236,7 +235,7 @@ def test_byte_identical_across_runs_and_json_round_trip(mixed, ts, tmp_path):
     again = run_tradespace(mixed, rules=ts.rules, engine="reference")
     assert _without_timing(again) == _without_timing(ts)
     assert csv_text(again) == csv_text(ts)
-    back = results.load(TradespaceResult, results.save(ts, tmp_path / "t.json"))
+    back = results.load(results.save(ts, tmp_path / "t.json"), TradespaceResult)
     assert back == ts
     assert back.front == ts.front and back.cheapest_reaching(0.95) == ts.cheapest_reaching(0.95)
 
@@ -300,7 +299,7 @@ def test_cli_pareto_writes_plot_csv_and_json(small_library, tmp_path):
     assert sorted(p.name for p in out.iterdir()) == ["accuracy.json", "architectures.csv", "pareto-accuracy.png", "pareto.png", "runs",
                                                      "tradespace.json"]
     assert (out / "pareto.png").read_bytes().startswith(PNG)
-    res = results.load(TradespaceResult, out / "tradespace.json")
+    res = results.load(out / "tradespace.json", TradespaceResult)
     assert res.rules == DEFAULT_RULES and len(res.budgets_usd) == 14
     rows = list(csv.DictReader(io.StringIO((out / "architectures.csv").read_text())))
     assert len(rows) == len(res.architectures)
@@ -316,11 +315,10 @@ def test_cli_pareto_options(small_library, tmp_path):
     r = _pareto(small_library, "-o", str(out), "--budgets", "2000,6000", "--rules", "marginal", "--plot-format", "svg")
     assert r.exit_code == 0, r.output
     assert (out / "pareto.svg").read_bytes().startswith(b"<?xml")
-    res = results.load(TradespaceResult, out / "tradespace.json")
+    res = results.load(out / "tradespace.json", TradespaceResult)
     assert res.budgets_usd == (2000.0, 6000.0) and res.rules == ("marginal",)
     old = _pareto(small_library, "-o", str(tmp_path / "old"), "--budgets", "2000,6000", "--selectors", "marginal")
-    assert old.exit_code == 0 and "--selectors is deprecated; use --rules" in old.stderr  # the hidden old name
-    assert results.load(TradespaceResult, tmp_path / "old" / "tradespace.json").rules == ("marginal",)
+    assert old.exit_code == 2 and "No such option '--selectors'" in old.stderr  # one name: --rules
     for args, msg in ((["--budgets", "1000,abc"], "'abc' is not a number"), (["--rules", "uniform,best"], "unknown rule 'best'")):
         bad = _pareto(small_library, "-o", str(tmp_path / "bad"), *args)
         assert bad.exit_code == 2 and msg in bad.stderr and "Traceback" not in bad.output

@@ -8,7 +8,7 @@ Data flows one way, through a handful of packages (docs/architecture.md)::
     model (library, conditions, scenario, osm, domain, sensing, problem, constraints)
       -> information (linearize, graph, evaluators: log det, accuracy)
       -> pipeline (plans of tasks, executors, stores, the Dask cluster)
-      -> designs (selection, certify, tradespace, resilient, robust, requirements, study) and simulate
+      -> designs (selection, certify, tradespace, resilient, robust, requirements, study) and simulation
       -> api, plotting -> cli
 """
 
@@ -16,28 +16,16 @@ from __future__ import annotations
 
 __version__ = "0.1.0"
 
-from typing import TYPE_CHECKING
-
-from sensorsel import simulate as _simulation  # the package (its gtsam-importing modules load when first used)
 from sensorsel.designs import study as _study  # noqa: F401  (with the api's imports: every result kind registered, sensorsel.io.results)
 from sensorsel.api import (CertifiedGreedyResult, DomainDesign, DomainScoreResult, ScoreResult, certify_result,
                            design_domain, resilient_report, run_greedy, run_optimal, run_require, run_robust,
-                           run_tradespace, score_domain_suite, score_suite, suite_accuracy)
+                           run_tradespace, score_domain_suite, score_suite, simulate, suite_accuracy)
 from sensorsel.errors import InputError, LibraryError, ResultFileError, ScenarioError, SensorselError
 from sensorsel.information.evaluators import ENGINES, Evaluator, evaluator_for, make_evaluator
 from sensorsel.model.library import PlacedSensor, SensorLibrary, SensorModel, load_library
 from sensorsel.model.problem import (Domain, GraphSettings, Problem, ProblemInfo, build_problem, load_domain,
                                      load_problem)
 from sensorsel.model.scenario import LandmarkModel, Scenario, ScenarioSpec, Trajectory, load_scenario
-
-if TYPE_CHECKING:
-    from sensorsel.simulate import simulate
-else:
-    # ``sensorsel.simulate`` is the function (the run function of sensorsel.api), as it always was;
-    # the package of that name was imported above, so that importing its modules later does not
-    # rebind the name to the package. The function itself is looked up when first asked for
-    # (__getattr__ below): it imports gtsam.
-    del simulate
 
 __all__ = [
     # run functions (sensorsel.api)
@@ -54,12 +42,3 @@ __all__ = [
     # errors
     "InputError", "LibraryError", "ResultFileError", "ScenarioError", "SensorselError",
 ]
-
-
-def __getattr__(name: str) -> object:
-    """``simulate``, imported when first asked for (it imports gtsam: see :mod:`sensorsel.api`)."""
-    if name == "simulate":
-        fn = _simulation.simulate
-        globals()["simulate"] = fn
-        return fn
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Iterable
+from typing import Any, Iterable
 
 from sensorsel.designs.certify import (DEFAULT_MAX_NODES, Certificate, CertifiedGreedyResult, OptimumResult,
                                        certificate, constraints_mismatch, optimal)
@@ -31,7 +31,6 @@ from sensorsel.designs.requirements import FrontAcceptance, RequireResult, front
 from sensorsel.designs.requirements import require as run_require
 from sensorsel.designs.resilient import ALGORITHM_2, METHODS, ResilientReport, recorded
 from sensorsel.designs.resilient import resilient_report as _resilient_report
-from sensorsel.designs.resilient.records import method_name
 from sensorsel.designs.robust import RobustResult, robust_choice, robust_select, worst_route_select
 from sensorsel.designs.robust import run_robust as _run_robust
 from sensorsel.designs.selection import GreedyResult, Progress, check_budget, check_rule, greedy
@@ -43,9 +42,7 @@ from sensorsel.information.integrity import IntegritySpec, RouteIntegrity, route
 from sensorsel.io.results import result_kind
 from sensorsel.model.constraints import Constraints, feasible_set
 from sensorsel.model.problem import Domain, DomainInfo, Problem, ProblemInfo, Target, load_domain, load_problem
-
-if TYPE_CHECKING:
-    from sensorsel.simulate import simulate
+from sensorsel.simulation.records import SimulationResult
 
 __all__ = ["RouteAccuracy", "suite_accuracy", "RouteIntegrity", "IntegritySpec", "suite_integrity", "run_require", "RequireResult", "FrontAcceptance", "front_acceptance", "CertifiedGreedyResult", "DomainDesign", "DomainScoreResult", "ProblemInfo", "RouteScore", "ScoreResult",
            "certify_result", "design_domain", "load_domain", "load_problem", "resilient_report", "run_greedy", "run_robust", "RobustResult",
@@ -149,7 +146,8 @@ def run_greedy(problem: Target, budget_usd: float, rule: str = "uniform", *, eng
 
     ``checkpoint``: a file written after each pick (:mod:`sensorsel.designs.checkpoint`); with ``resume``, an
     interrupted run's checkpoint there is read back and the run goes on from it (same result but
-    timings and evaluation counts).
+    timings and evaluation counts); a checkpoint of another run is not read back (a
+    :class:`~sensorsel.pipeline.store.CacheWarning` names it and what differs; the run starts afresh).
 
     ``constraints``: limits besides the budget (resources, mounting slots, required and excluded
     sensors, most sensors; :mod:`sensorsel.model.constraints`), recorded in the result.
@@ -157,7 +155,6 @@ def run_greedy(problem: Target, budget_usd: float, rule: str = "uniform", *, eng
     Raises:
         InputError: a bad budget or rule, or constraints the library cannot meet (before any
             evaluator is built).
-        ResultFileError: (resume) a checkpoint written by another run.
     """
     check_budget(budget_usd)
     check_rule(rule)
@@ -353,21 +350,21 @@ def resilient_report(problem: Target, budget_usd: float, alpha: int, *, method: 
                      **kwargs) -> ResilientReport:
     """The ``sensorsel resilient`` run (:func:`sensorsel.designs.resilient.resilient_report`): the whole-route
     comparison and the per-period selection. ``method``: "algorithm-2" (the paper's Algorithm 2, the
-    default: published results unchanged; "paper", its name before, is read as it) or "robust"
+    default: published results unchanged) or "robust"
     (:func:`sensorsel.designs.robust.robust_select` for the whole route and each period; its worst case is
     never below greedy's nor Algorithm 2's)."""
-    method = method_name(method)
     if method not in RESILIENT_METHODS:
         raise InputError(f"unknown method {method!r}; available: {', '.join(RESILIENT_METHODS)}")
     return _resilient_report(problem, budget_usd, alpha, method=method,
                              selector=robust_choice if method == "robust" else None, **kwargs)
 
 
-def __getattr__(name: str) -> object:
-    """``simulate`` (:func:`sensorsel.simulate.simulate`), imported when first asked for: the
-    simulation imports gtsam (~0.1-0.15 s), which scoring and selecting do not need."""
-    if name == "simulate":
-        from sensorsel.simulate import simulate
+def simulate(problem: Problem, suite: str | Iterable[int], **kwargs: Any) -> SimulationResult:
+    """The ``sensorsel simulate`` run: Monte-Carlo SLAM of ``suite`` on ``problem``
+    (:func:`sensorsel.simulation.run.simulate`, whose keyword arguments it takes: ``failures``,
+    ``runs``, ``solver``, ``seed``, ``noise_scale``, ``jobs``, ``label``, ``progress``, ``executor``,
+    ``map_sigma_m``). The simulation's run module is imported here, when first called: it imports
+    gtsam (~0.1-0.15 s), which scoring and selecting do not need."""
+    from sensorsel.simulation.run import simulate as run
 
-        return simulate
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    return run(problem, suite, **kwargs)

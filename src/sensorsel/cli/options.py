@@ -320,7 +320,8 @@ def resume_option(fn: Callable[..., Any]) -> Callable[..., Any]:
     each task's result is stored under -o as it finishes, with the fingerprint of its inputs)."""
     return click.option("--resume", is_flag=True,
                         help="Go on from what an interrupted run left under -o: stored results whose inputs match this "
-                             "run are read back, the others computed (and overwritten); the same answer, timings aside.")(fn)
+                             "run are read back; one of other inputs (or damaged) is not: a warning names the file and "
+                             "what differs, and it is computed again and overwritten. The same answer, timings aside.")(fn)
 
 
 def cluster_from(kw: dict[str, Any]) -> Any:

@@ -10,7 +10,6 @@ from typing import Any
 import click
 
 from sensorsel.designs.resilient import ALGORITHM_2, METHODS
-from sensorsel.designs.resilient.records import method_name
 from sensorsel.errors import InputError
 from sensorsel.io import results
 from sensorsel.io.files import output_dir
@@ -28,14 +27,6 @@ from sensorsel.cli.options import plot_format as plot_format_of
 from sensorsel.cli.rules import rule_option
 
 
-class MethodChoice(click.Choice):
-    """--method's choices; "paper", Algorithm 2's name before it had one name everywhere, is read as
-    "algorithm-2" (scripts written before keep working)."""
-
-    def convert(self, value: Any, param: Any, ctx: Any) -> Any:
-        return super().convert(method_name(value) if isinstance(value, str) else value, param, ctx)
-
-
 @click.command("resilient", short_help="Resilient selection against failing sensors, whole route and per period (grid).")
 @target_options
 @engine_options
@@ -46,9 +37,9 @@ class MethodChoice(click.Choice):
 @click.option("--period", "period_s", type=float, default=10.0, show_default=True,
               help="Length of a period of the per-period selection [s of keyframe timestamps].")
 @rule_option("uniform", "Greedy rule spending the budget left after the failing sensors.")
-@click.option("--method", type=MethodChoice(list(METHODS)), default=ALGORITHM_2, show_default=True,
-              help="How the suite is chosen, whole route and each period: algorithm-2 = the paper's Algorithm 2 "
-                   "('paper' is read as it); robust = robust selection (best exact worst case among greedy, "
+@click.option("--method", type=click.Choice(list(METHODS)), default=ALGORITHM_2, show_default=True,
+              help="How the suite is chosen, whole route and each period: algorithm-2 = the paper's Algorithm 2; "
+                   "robust = robust selection (best exact worst case among greedy, "
                    "Algorithm 2 and more; never below either).")
 @constraint_options
 @output_option(folder=True, required=True, dest="outdir",

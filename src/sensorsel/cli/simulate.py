@@ -152,7 +152,7 @@ def simulate_cmd(suite: str, compare: str | None, label: str | None, compare_lab
     """
     from sensorsel.plotting import (plot_error_along_route, plot_simulation_comparison, plot_simulation_overview,
                                     save_figure, use_file_backend)
-    from sensorsel.simulate import SimulationReport, parse_failures, simulate
+    from sensorsel.simulation import SimulationReport, parse_failures, simulate
 
     if not (math.isfinite(noise_scale) and noise_scale > 0):
         raise click.BadParameter(f"must be a positive number, got {noise_scale!r}", param_hint="--noise-scale")
@@ -160,7 +160,7 @@ def simulate_cmd(suite: str, compare: str | None, label: str | None, compare_lab
         raise click.UsageError("--compare-label needs --compare")
     map_sigma = check_map_sigma(map_sigma)
     if associate:
-        from sensorsel.simulate.association_run import check_association_args
+        from sensorsel.simulation.association_run import check_association_args
         check_association_args(draws, seed, importance, clutter_per_km, gate_probability)
     else:
         for name, given in (("--draws", draws != 2000), ("--importance-sampling", importance),
@@ -229,8 +229,8 @@ def _associate(problem: Problem, designs: list["Design"], cluster: Any, map_sigm
                quiet: bool) -> None:
     """``simulate --associate``: the association check of each design, its JSON, plot and printout."""
     from sensorsel.plotting import plot_association_calibration, save_figure, use_file_backend
-    from sensorsel.simulate import SimulationReport
-    from sensorsel.simulate.association_run import simulate_association
+    from sensorsel.simulation import SimulationReport
+    from sensorsel.simulation.association_run import simulate_association
 
     checks = []
     with cluster or nullcontext():

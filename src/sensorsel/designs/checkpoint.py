@@ -14,10 +14,11 @@ and goes on from there:
   on the recorded picks and after them;
 - a finished certificate or route breakdown is read back, not recomputed.
 
-A checkpoint is refused (:class:`~sensorsel.errors.ResultFileError` naming the file and what
-differs) when it was written by another run: another route, landmark map, library or settings (by
-content, :class:`~sensorsel.model.problem.Fingerprint`), another domain, budget, rule, engine, aggregate
-or laziness. The fingerprint (a digest of all of that) is checked last, as a safety net.
+A checkpoint written by another run (another route, landmark map, library or settings, by content:
+:class:`~sensorsel.model.problem.Fingerprint`; another domain, budget, rule, engine, aggregate,
+laziness or limits) is not read back: as every store (:func:`sensorsel.pipeline.store.load_matching`),
+a :class:`~sensorsel.pipeline.store.CacheWarning` names the file and what differs, and the run starts
+afresh, overwriting it.
 
 The checkpoint of ``-o design.json`` is ``design.json.checkpoint`` (:func:`checkpoint_path`); the
 command deletes it once the result itself is written.
@@ -33,7 +34,6 @@ from typing import Any, ClassVar
 from sensorsel.designs.certify import Certificate, CertifiedGreedyResult, certificate
 from sensorsel.designs.domain_design import DomainDesign, RouteShare, route_share, worst_route
 from sensorsel.designs.selection import GreedyResult, Step, check_budget, check_rule, greedy
-from sensorsel.errors import ResultFileError
 from sensorsel.information.evaluators import DomainEvaluator, Evaluator, evaluator_for
 from sensorsel.information.evaluators.domain import check_aggregate
 from sensorsel.information.evaluators.registry import check_engine
@@ -41,6 +41,7 @@ from sensorsel.io import results
 from sensorsel.io.progress import Progress
 from sensorsel.io.results import result_kind
 from sensorsel.model.constraints import Constraints, feasible_set, recorded
+from sensorsel.pipeline.store import load_matching
 from sensorsel.model.problem import Domain, DomainInfo, Problem, ProblemInfo, Target, TargetInfo
 from sensorsel.designs.inputs import result_fingerprint
 
@@ -131,13 +132,18 @@ def _money(v: float) -> str:
 
 
 def load_checkpoint(path: Path, target: Target, budget: float, rule: str, engine: str, aggregate: str, lazy: bool,
-                    fingerprint: str, constraints: Constraints | None = None) -> GreedyCheckpoint:
-    """The checkpoint at ``path``, when it was written by this very run.
+                    fingerprint: str, constraints: Constraints | None = None) -> GreedyCheckpoint | None:
+    """The checkpoint at ``path`` when it was written by this very run; None when there is none, or
+    (with a :class:`~sensorsel.pipeline.store.CacheWarning` naming the file and what differs) when it
+    cannot be read or was written by another run."""
+    return load_matching(GreedyCheckpoint, path, fingerprint,
+                         lambda ck: _differences(ck, target, budget, rule, engine, aggregate, lazy, constraints),
+                         "another version of sensorsel")
 
-    Raises:
-        ResultFileError: it cannot be read, or it was written by another run (names what differs).
-    """
-    ck = results.load(path, GreedyCheckpoint)
+
+def _differences(ck: GreedyCheckpoint, target: Target, budget: float, rule: str, engine: str, aggregate: str,
+                 lazy: bool, constraints: Constraints | None) -> list[str]:
+    """How the run that wrote ``ck`` differs from this one, in words (empty: unknown)."""
     diffs = _target_differences(ck.target, target)
     for name, theirs, ours in (("budget", _money(ck.budget_usd), _money(budget)), ("rule", ck.rule, rule),
                                ("engine", ck.engine, engine), ("aggregate", ck.aggregate, aggregate),
@@ -149,13 +155,7 @@ def load_checkpoint(path: Path, target: Target, budget: float, rule: str, engine
         what = (f"limits {theirs_c.describe()} (this run: {ours_c.describe()})"
                 if theirs_c.describe() != ours_c.describe() else "the library's resources or slots")
         diffs.append(what)
-    if not diffs and ck.fingerprint != fingerprint:
-        diffs.append("its fingerprint (written by another version of sensorsel?)")
-    if diffs:
-        raise ResultFileError(path, f"this checkpoint was written by another run: {'; '.join(diffs)}; "
-                                    "give the same options as that run, or leave out --resume to start afresh "
-                                    "(the checkpoint is then overwritten)")
-    return ck
+    return diffs
 
 
 class _Store:
@@ -203,11 +203,11 @@ def resumable_greedy(target: Target, budget_usd: float, rule: str = "uniform", *
     and ``aggregate`` must be its own. ``breakdown``: with a domain, return its
     :class:`~sensorsel.designs.domain_design.DomainDesign` (else the greedy result alone, as ``run_greedy``).
     ``constraints``: limits besides the budget (:mod:`sensorsel.model.constraints`; None: the budget alone);
-    a checkpoint written under other limits, or on a library with other resources or slots, is refused.
+    a checkpoint written under other limits, or on a library with other resources or slots, is not read
+    back (as one of any other run: warned, and overwritten).
 
     Raises:
         InputError: a bad budget, rule, engine or aggregate.
-        ResultFileError: (resume) a checkpoint that cannot be read or was written by another run.
     """
     t0 = time.perf_counter()
     budget, rule = check_budget(budget_usd), check_rule(rule)
@@ -217,9 +217,8 @@ def resumable_greedy(target: Target, budget_usd: float, rule: str = "uniform", *
     # the limits as the run records them (with the digest of the resources and slots they read)
     limits = feasible_set(target.library, budget, constraints).record if constraints is not None else None
     fp = run_fingerprint(target, budget, rule, eng, agg, lazy, limits)
-    if resume and path.is_file():
-        ck = load_checkpoint(path, target, budget, rule, eng, agg, lazy, fp, limits)
-    else:
+    ck = load_checkpoint(path, target, budget, rule, eng, agg, lazy, fp, limits) if resume else None
+    if ck is None:
         ck = GreedyCheckpoint(fingerprint=fp, budget_usd=budget, rule=rule, engine=eng, aggregate=agg, lazy=lazy,
                               target=target.info, constraints=limits)
     store = _Store(path, ck)

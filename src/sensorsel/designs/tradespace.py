@@ -102,11 +102,6 @@ class Architecture:
     def n_sensors(self) -> int:
         return len(self.suite)
 
-    @property
-    def selectors(self) -> tuple[str, ...]:
-        """Deprecated name of :attr:`rules`."""
-        return self.rules
-
 
 @dataclass(frozen=True)
 class TradespaceRun:
@@ -171,11 +166,6 @@ class TradespaceResult:
     problem: TargetInfo | None = None
     seconds: float = 0.0
     constraints: Constraints | None = None
-
-    @property
-    def selectors(self) -> tuple[str, ...]:
-        """Deprecated name of :attr:`rules`."""
-        return self.rules
 
     @property
     def front(self) -> tuple[Architecture, ...]:

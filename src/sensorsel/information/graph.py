@@ -1,6 +1,6 @@
 """The GTSAM factor graph of a sensor suite, and the reference score read off R's diagonal.
 
-This module (with :mod:`sensorsel.simulate`) is where gtsam is imported, and the only place factors are built
+This module (with :mod:`sensorsel.simulation`) is where gtsam is imported, and the only place factors are built
 (:mod:`sensorsel.information.linearize` writes their Jacobians at the truth out in closed form, for the fast engine). Following GTSAM's Python
 examples: poses are ``X(k)`` (``Pose2``), landmarks ``L(j)`` (``Point2``), each measurement a
 ``BearingRangeFactor2D``; noise models that do not vary per measurement are built once.
@@ -25,7 +25,7 @@ from sensorsel.model.problem import Problem
 # ------------------------------------------------------------------ factor construction
 #
 # Every factor of the project is built by the functions below: the score's graph (GraphBuilder),
-# the library linearization and the Monte-Carlo simulation (sensorsel.simulate) all call them.
+# the library linearization and the Monte-Carlo simulation (sensorsel.simulation) all call them.
 # Keys follow GTSAM's examples: X(k) is keyframe k (Pose2), L(j) landmark j (Point2); because a
 # symbol is its character in the top byte plus its index, X(k) == X(0) + k, which the bulk
 # measurement loop uses to stay cheap on ~160k factors.

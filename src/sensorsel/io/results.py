@@ -24,6 +24,7 @@ from typing import Any, Callable, Iterable, TypeVar, overload
 from sensorsel.errors import ResultFileError
 from sensorsel.io.codec import dumps as _dumps
 from sensorsel.io.codec import from_jsonable, read_json, to_jsonable
+from sensorsel.io import legacy
 from sensorsel.io.files import atomic_write_text
 
 __all__ = ["FORMAT", "KINDS", "dumps", "from_jsonable", "kind_of", "load", "record_class", "result_kind", "save",
@@ -124,47 +125,34 @@ def _names(wanted: list[tuple[str, type | None]]) -> str:
     return kinds[0] if len(kinds) == 1 else ", ".join(kinds[:-1]) + " or " + kinds[-1]
 
 
-def _parse_legacy(cls: type[T], data: dict[str, Any]) -> T:
-    """``cls`` from a file without a kind: every key must be a field of ``cls`` (strict, since
-    classes whose fields all have defaults would otherwise accept any object)."""
-    extra = sorted(set(data) - {f.name for f in dataclasses.fields(cls)})  # type: ignore[arg-type]
-    if extra:
-        raise KeyError(f"{cls.__name__} has no field {', '.join(map(repr, extra))}")
-    return from_jsonable(cls, data)
-
-
-@overload
-def load(path: type[T], expected: str | Path) -> T: ...  # the order before kinds: load(cls, path)
 @overload
 def load(path: str | Path, expected: type[T]) -> T: ...
 @overload
 def load(path: str | Path, expected: str | Iterable[Expected] | None = None) -> Any: ...
 
 
-def load(path: Any, expected: Any = None) -> Any:
+def load(path: str | Path, expected: Any = None) -> Any:
     """Read the result file ``path`` as ``expected``: a record class, a kind, several of them, or
-    None for any kind (the file must then say its kind).
-
-    ``load(cls, path)``, the order before kinds existed, is accepted too.
+    None for any kind (the file must then say its kind). A file an older sensorsel wrote is read
+    as :mod:`sensorsel.io.legacy` says (until the release it names).
 
     Raises:
         ResultFileError: missing or not JSON; a result of another kind (names the file, the kind
             found and the kind expected); a format newer than :data:`FORMAT`; a file without kind
             that does not parse as the expected class; a record that does not parse.
     """
-    if isinstance(path, type):
-        path, expected = expected, path
     path = Path(path)
     wanted = _wanted(expected)
     data = read_json(path)
     if not isinstance(data, dict):
         raise ResultFileError(path, f"not a result file: holds a JSON {type(data).__name__}, expected an object")
+    data = legacy.upgrade(data)
     if "kind" not in data:
         errors = []
         for kind, cls in wanted:
             cls = cls or record_class(kind)
             try:
-                return _parse_legacy(cls, data)
+                return legacy.parse_kindless(cls, data)
             except (TypeError, ValueError, KeyError) as exc:
                 errors.append(f"not a {kind!r} result: {str(exc).strip(chr(34) + chr(39))}")
         raise ResultFileError(path, "has no \"kind\" key (a file from before result kinds, or not a result) and "

@@ -57,25 +57,23 @@ Every error names the file, the key path (``routes[2].weight``) and the line of 
 
 from __future__ import annotations
 
-import math
 import os
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any, NoReturn
-
-import yaml
+from typing import Any
 
 from sensorsel.errors import InputError, SensorselError
 from sensorsel.model.conditions import CLEAR, CONDITION_KEYS, Condition
-from sensorsel.model.library import _StrictLoader, is_number_text
+from sensorsel.io.inputs import Checker, Map, Seq, read_yaml
 from sensorsel.model.osm import GeoRef, is_gpx, load_geo_scenario, parse_classes
 from sensorsel.model.scenario import (KITTI_ROOT_ENV, REAL, ROUTE_FORMATS, SYNTHETIC, Scenario, ScenarioSpec,
                                       fixture_names, kitti_map_path, load_scenario)
 
 WEIGHT_UNITS = ("hours", "km")
 _TOP_KEYS = ("routes", "kitti_root", "keyframe_rate_hz", "library", "clearance_m", "weight_unit", "conditions")
-_ROUTE_KEYS = ("name", "seq", "kitti_root", "route", "format", "times", "fixture", "landmarks", "weight", "conditions",
-               "georef", "osm", "osm_classes", "osm_reach_m")
+#: the keys of a route's entry (also a study's target: sensorsel.designs.study)
+ROUTE_KEYS = ("name", "seq", "kitti_root", "route", "format", "times", "fixture", "landmarks", "weight", "conditions",
+              "georef", "osm", "osm_classes", "osm_reach_m")
 _GEO_KEYS = ("georef", "osm", "osm_classes", "osm_reach_m")
 _CONDITION_KEYS = ("name", "share") + CONDITION_KEYS
 #: shares of a route's conditions may add up to 1 plus this (round-off of decimal shares)
@@ -164,104 +162,6 @@ class DomainScenario:
     conditions: tuple[tuple[Condition, float], ...] = ()
 
 
-# --------------------------------------------------------------------------------- YAML with lines
-
-
-class _Map(dict):
-    line: int = 0
-    lines: dict[Any, int]
-
-
-class _Seq(list):
-    line: int = 0
-    lines: list[int]
-
-
-class _DomainLoader(_StrictLoader):
-    """The library's strict safe loader, keeping each mapping's and item's line."""
-
-
-def _construct_map(loader: _DomainLoader, node: yaml.MappingNode) -> _Map:
-    m = _Map(loader.construct_mapping(node, deep=True))
-    m.line = node.start_mark.line + 1
-    m.lines = {loader.construct_object(k, deep=True): k.start_mark.line + 1 for k, _ in node.value}
-    return m
-
-
-def _construct_seq(loader: _DomainLoader, node: yaml.SequenceNode) -> _Seq:
-    s = _Seq(loader.construct_sequence(node, deep=True))
-    s.line = node.start_mark.line + 1
-    s.lines = [child.start_mark.line + 1 for child in node.value]
-    return s
-
-
-_DomainLoader.add_constructor("tag:yaml.org,2002:map", _construct_map)
-_DomainLoader.add_constructor("tag:yaml.org,2002:seq", _construct_seq)
-
-
-def _read_yaml(path: Path, error: type[DomainError] = DomainError, what: str = "operating-domain file") -> Any:
-    """The YAML document of ``path`` with its lines kept (:class:`_DomainLoader`); every failure an
-    ``error`` (DomainError, or a subclass naming another kind of file, ``what``) naming the file."""
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise error(path, "", f"{what} not found") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise error(path, "", f"cannot read: {exc}") from None
-    try:
-        return yaml.load(text, Loader=_DomainLoader)  # a SafeLoader: plain data only
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        line = mark.line + 1 if mark is not None else None
-        problem = getattr(exc, "problem", None) or str(exc)
-        raise error(path, "", "malformed YAML: " + " ".join(str(problem).split()), line) from None
-
-
-# ------------------------------------------------------------------------------------- validation
-
-
-class _Checker:
-    def __init__(self, path: Path) -> None:
-        self.path = path
-        self.folder = path.resolve().parent
-
-    def fail(self, key: str, message: str, line: int | None) -> NoReturn:
-        raise DomainError(self.path, key, message, line)
-
-    def keys(self, m: _Map, key: str, allowed: tuple[str, ...]) -> None:
-        for k in m:
-            if k not in allowed:
-                self.fail(f"{key}.{k}" if key else str(k), f"unknown key; allowed: {', '.join(allowed)}", m.lines.get(k, m.line))
-
-    def number(self, value: Any, key: str, line: int | None, *, minimum: float = 0.0, strict: bool = True) -> float:
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            hint = " (a number in quotes is text: remove the quotes)" if isinstance(value, str) and is_number_text(value) else ""
-            self.fail(key, f"expected a number, got {value!r}{hint}", line)
-        v = float(value)
-        if not math.isfinite(v) or v < minimum or (strict and v <= minimum):
-            self.fail(key, f"expected a finite number {'>' if strict else '>='} {minimum:g}, got {value!r}", line)
-        return v
-
-    def string(self, value: Any, key: str, line: int | None, what: str = "a non-empty string") -> str:
-        if not isinstance(value, str) or not value.strip():
-            self.fail(key, f"expected {what}, got {value!r}", line)
-        return value.strip()
-
-    def file(self, value: Any, key: str, line: int | None, *, folder: bool = False) -> str:
-        text = self.string(value, key, line, "a path")
-        p = Path(os.path.expanduser(text))
-        p = p if p.is_absolute() else self.folder / p
-        if not (p.is_dir() if folder else p.is_file()):
-            self.fail(key, f"{'folder' if folder else 'file'} not found: {p}", line)
-        return str(p)
-
-    def kitti_root(self, value: Any, key: str, line: int | None) -> str:
-        root = self.file(value, key, line, folder=True)
-        if not (Path(root) / "poses").is_dir():
-            self.fail(key, f"{root} is not a KITTI odometry dataset folder (expected {Path(root) / 'poses'}/NN.txt)", line)
-        return root
-
-
 def parse_domain(data: Any, path: str | Path = "<memory>") -> DomainSpec:
     """Validate a parsed domain document (as :func:`load_domain_file` reads it: mappings and lists
     carry their lines) and resolve its paths against the file's folder and ``$SENSORSEL_KITTI_ROOT``.
@@ -270,8 +170,8 @@ def parse_domain(data: Any, path: str | Path = "<memory>") -> DomainSpec:
         DomainError: naming ``path``, the key path and the line of the first problem found.
     """
     path = Path(path)
-    c = _Checker(path)
-    if not isinstance(data, _Map):
+    c = Checker(path, DomainError)
+    if not isinstance(data, Map):
         c.fail("", f"expected a mapping with a list of routes (routes: ...), got {type(data).__name__}", getattr(data, "line", None))
     c.keys(data, "", _TOP_KEYS)
 
@@ -290,7 +190,7 @@ def parse_domain(data: Any, path: str | Path = "<memory>") -> DomainSpec:
     routes_raw = data.get("routes")
     if "routes" not in data:
         c.fail("routes", "missing: expected a list of routes", data.line)
-    if not isinstance(routes_raw, _Seq) or not routes_raw:
+    if not isinstance(routes_raw, Seq) or not routes_raw:
         c.fail("routes", f"expected a non-empty list of routes, got {routes_raw!r}", line("routes"))
     shared = ScenarioSpec(keyframe_rate_hz=rate, clearance_m=clearance)
     conditions = _parse_conditions(c, data["conditions"], line("conditions")) if "conditions" in data else ()
@@ -298,12 +198,12 @@ def parse_domain(data: Any, path: str | Path = "<memory>") -> DomainSpec:
     seen: dict[str, int] = {}
     for i, raw in enumerate(routes_raw):
         key, rline = f"routes[{i}]", routes_raw.lines[i]
-        r = _parse_route(c, raw, key, rline, shared, root, unit)
-        if isinstance(raw, _Map) and "conditions" in raw and not conditions:
+        r = parse_route(c, raw, key, rline, shared, root, unit)
+        if isinstance(raw, Map) and "conditions" in raw and not conditions:
             c.fail(f"{key}.conditions", "a route's shares of conditions need the conditions the file lists "
                    "(a top-level conditions: section)", raw.lines["conditions"])
         if conditions:
-            own = raw.get("conditions") if isinstance(raw, _Map) else None
+            own = raw.get("conditions") if isinstance(raw, Map) else None
             r = replace(r, conditions=_route_members(c, conditions, own, f"{key}.conditions",
                                                      raw.lines.get("conditions", rline) if own is not None else line("conditions")))
         if r.name in seen:
@@ -314,15 +214,15 @@ def parse_domain(data: Any, path: str | Path = "<memory>") -> DomainSpec:
     return DomainSpec(str(path), tuple(routes), unit, library, rate, clearance, root, conditions)
 
 
-def _parse_conditions(c: _Checker, raw: Any, line: int | None) -> tuple[tuple[Condition, float], ...]:
+def _parse_conditions(c: Checker, raw: Any, line: int | None) -> tuple[tuple[Condition, float], ...]:
     """The top-level ``conditions`` list: named conditions and their shares of driving time."""
-    if not isinstance(raw, _Seq) or not raw:
+    if not isinstance(raw, Seq) or not raw:
         c.fail("conditions", f"expected a list of conditions ({{name: night, night: true, share: 0.25}}), got {raw!r}", line)
     out: list[tuple[Condition, float]] = []
     names: dict[str, int] = {}
     for i, item in enumerate(raw):
         key, iline = f"conditions[{i}]", raw.lines[i]
-        if not isinstance(item, _Map):
+        if not isinstance(item, Map):
             c.fail(key, f"expected a mapping (name, share, and night, rain_mm_h, fog_visibility_m or snow_mm_h), got {item!r}", iline)
         c.keys(item, key, _CONDITION_KEYS)
         at = lambda k: item.lines.get(k, item.line)  # noqa: E731
@@ -361,13 +261,13 @@ def _parse_conditions(c: _Checker, raw: Any, line: int | None) -> tuple[tuple[Co
     return tuple(out)
 
 
-def _route_members(c: _Checker, conditions: tuple[tuple[Condition, float], ...], own: Any, key: str,
+def _route_members(c: Checker, conditions: tuple[tuple[Condition, float], ...], own: Any, key: str,
                    line: int | None) -> tuple[tuple[Condition, float], ...]:
     """A route's members: clear (the rest) first, then each condition with the route's own share
     (``own``: its ``conditions`` mapping of name -> share) or the file's; shares of 0 left out."""
     shares = {cond.name: share for cond, share in conditions}
     if own is not None:
-        if not isinstance(own, _Map):
+        if not isinstance(own, Map):
             c.fail(key, f"expected a mapping of condition name to this route's share ({{night: 0.3}}), got {own!r}", line)
         for name, value in own.items():
             if name not in shares:
@@ -388,10 +288,12 @@ def _route_members(c: _Checker, conditions: tuple[tuple[Condition, float], ...],
     return tuple(members)
 
 
-def _parse_route(c: _Checker, raw: Any, key: str, rline: int, shared: ScenarioSpec, root: str | None, unit: str) -> DomainRoute:
-    if not isinstance(raw, _Map):
+def parse_route(c: Checker, raw: Any, key: str, rline: int, shared: ScenarioSpec, root: str | None, unit: str) -> DomainRoute:
+    """One route's entry ``raw`` (under the key path ``key``, on line ``rline``), checked by ``c``: the
+    route of a domain file, or a study's target (sensorsel.designs.study reads it with this)."""
+    if not isinstance(raw, Map):
         c.fail(key, f"expected a mapping (name, seq or route or fixture, landmarks, weight), got {raw!r}", rline)
-    c.keys(raw, key, _ROUTE_KEYS)
+    c.keys(raw, key, ROUTE_KEYS)
     line = lambda k: raw.lines.get(k, raw.line)  # noqa: E731
     if "name" not in raw:
         c.fail(f"{key}.name", "missing: every route needs a name", raw.line)
@@ -455,7 +357,7 @@ def _parse_route(c: _Checker, raw: Any, key: str, rline: int, shared: ScenarioSp
     return DomainRoute(name, spec, weight, rline)
 
 
-def _parse_landmarks(c: _Checker, value: Any, key: str, line: int, spec: ScenarioSpec, source: str, own_map: bool) -> ScenarioSpec:
+def _parse_landmarks(c: Checker, value: Any, key: str, line: int, spec: ScenarioSpec, source: str, own_map: bool) -> ScenarioSpec:
     if value == REAL:
         if source != "seq":
             c.fail(key, f"'real' is a KITTI sequence's pole map; this route is a {source}: give a landmark file or synthetic", line)
@@ -464,13 +366,13 @@ def _parse_landmarks(c: _Checker, value: Any, key: str, line: int, spec: Scenari
         return replace(spec, landmarks=REAL)
     if value == SYNTHETIC:
         return replace(spec, landmarks=SYNTHETIC)
-    if isinstance(value, _Map):
+    if isinstance(value, Map):
         if set(value) != {SYNTHETIC}:
             c.fail(key, f"a mapping here is {{synthetic: {{seed: N}}}}, got keys {', '.join(map(str, value))}", line)
         opts = value[SYNTHETIC]
         if opts is None:
             return replace(spec, landmarks=SYNTHETIC)
-        if not isinstance(opts, _Map):
+        if not isinstance(opts, Map):
             c.fail(f"{key}.synthetic", f"expected a mapping {{seed: N}}, got {opts!r}", value.lines[SYNTHETIC])
         c.keys(opts, f"{key}.synthetic", ("seed",))
         seed = opts.get("seed", 0)
@@ -482,7 +384,7 @@ def _parse_landmarks(c: _Checker, value: Any, key: str, line: int, spec: Scenari
     return replace(spec, landmarks=c.file(value, key, line))
 
 
-def _parse_geo(c: _Checker, raw: "_Map", key: str, line: Any, spec: ScenarioSpec, gpx: bool) -> ScenarioSpec:
+def _parse_geo(c: Checker, raw: "Map", key: str, line: Any, spec: ScenarioSpec, gpx: bool) -> ScenarioSpec:
     """A route's OpenStreetMap landmarks and georeference (``osm``, ``osm_classes``, ``osm_reach_m``,
     ``georef``), checked as the route commands' ``--landmarks osm:FILE``, ``--osm-classes``,
     ``--osm-reach`` and ``--georef`` are, each error naming the key and its line (``gpx``: the
@@ -492,10 +394,10 @@ def _parse_geo(c: _Checker, raw: "_Map", key: str, line: Any, spec: ScenarioSpec
         what = "places the route on an OpenStreetMap map: alone it changes nothing" if k == "georef" else "chooses OSM landmarks"
         c.fail(f"{key}.{k}", f"{what}; give osm: FILE (an .osm or .osm.pbf extract) with it", line(k))
     value = raw["osm"]
-    files = value if isinstance(value, _Seq) else [value]
+    files = value if isinstance(value, Seq) else [value]
     if not files:
         c.fail(f"{key}.osm", "expected an OSM extract file or a list of them, got an empty list", line("osm"))
-    osm = tuple(c.file(f, f"{key}.osm" if not isinstance(value, _Seq) else f"{key}.osm[{i}]", line("osm"))
+    osm = tuple(c.file(f, f"{key}.osm" if not isinstance(value, Seq) else f"{key}.osm[{i}]", line("osm"))
                 for i, f in enumerate(files))
     if spec.landmarks == SYNTHETIC:
         c.fail(f"{key}.landmarks", "OSM landmarks join a survey file or a sequence's pole map, not a generated map: "
@@ -514,7 +416,7 @@ def _parse_geo(c: _Checker, raw: "_Map", key: str, line: Any, spec: ScenarioSpec
     classes = None
     if "osm_classes" in raw:
         v = raw["osm_classes"]
-        text = ",".join(str(x) for x in v) if isinstance(v, _Seq) else c.string(v, f"{key}.osm_classes", line("osm_classes"))
+        text = ",".join(str(x) for x in v) if isinstance(v, Seq) else c.string(v, f"{key}.osm_classes", line("osm_classes"))
         _osm_value(c, parse_classes, text, f"{key}.osm_classes", line("osm_classes"))
         classes = text
     reach = spec.osm_reach_m
@@ -523,7 +425,7 @@ def _parse_geo(c: _Checker, raw: "_Map", key: str, line: Any, spec: ScenarioSpec
     return replace(spec, osm=osm, georef=georef, osm_classes=classes, osm_reach_m=reach)
 
 
-def _osm_value(c: _Checker, parse: Any, text: str, key: str, line: int | None) -> None:
+def _osm_value(c: Checker, parse: Any, text: str, key: str, line: int | None) -> None:
     """``parse(text, option=key)`` (an OSM option's own check), its error as this file's."""
     try:
         parse(text, key)
@@ -531,8 +433,8 @@ def _osm_value(c: _Checker, parse: Any, text: str, key: str, line: int | None) -
         c.fail(key, str(e).removeprefix(f"{key} "), line)
 
 
-def _parse_weight(c: _Checker, value: Any, key: str, line: int, unit: str) -> float:
-    if isinstance(value, _Map):
+def _parse_weight(c: Checker, value: Any, key: str, line: int, unit: str) -> float:
+    if isinstance(value, Map):
         if len(value) != 1 or next(iter(value)) not in WEIGHT_UNITS:
             c.fail(key, f"expected {{km: X}}, {{hours: X}} or a number, got keys {', '.join(map(str, value)) or 'none'}", line)
         (u, v), = value.items()
@@ -552,7 +454,7 @@ def load_domain_file(path: str | Path) -> DomainSpec:
             file, the key path and the line).
     """
     path = Path(path)
-    return parse_domain(_read_yaml(path), path)
+    return parse_domain(read_yaml(path, DomainError, "operating-domain file"), path)
 
 
 def load_domain_scenarios(domain: DomainSpec) -> tuple[DomainScenario, ...]:
@@ -588,12 +490,3 @@ def _load_route(domain: DomainSpec, i: int, r: DomainRoute) -> Scenario:
 #: the route commands' options and the domain file's keys that say the same
 _OPTION_KEYS = (("--landmarks osm:", "osm: "), ("--georef", "georef:"), ("--osm-classes", "osm_classes:"),
                 ("--osm-reach", "osm_reach_m:"))
-
-
-# The reader's parts the study file's reader shares (sensorsel.designs.study): one home, public names.
-Checker = _Checker
-Map = _Map
-Seq = _Seq
-ROUTE_KEYS = _ROUTE_KEYS
-parse_route = _parse_route
-read_yaml = _read_yaml

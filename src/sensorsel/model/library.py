@@ -16,6 +16,7 @@ import numpy as np
 import yaml
 
 from sensorsel.errors import InputError, LibraryError
+from sensorsel.io.inputs import StrictLoader, is_number_text
 from sensorsel.io.resources import default_library_path
 from sensorsel.model.conditions import ConditionPhysics, parse_physics
 
@@ -303,15 +304,6 @@ def _number(value: Any, path: Path, key: str, *, positive: bool = True) -> float
     return v
 
 
-def is_number_text(text: str) -> bool:
-    """Whether ``text`` reads as a number (``float(text)`` succeeds): the one check the file readers use."""
-    try:
-        float(text)
-        return True
-    except ValueError:
-        return False
-
-
 def _string(value: Any, path: Path, key: str) -> str:
     if not isinstance(value, str) or not value.strip():
         raise LibraryError(path, key, f"expected a non-empty string, got {value!r}")
@@ -477,39 +469,6 @@ def parse_library(data: Any, path: str | Path = "<memory>") -> SensorLibrary:
     return SensorLibrary(tuple(sensors), str(path), slots, physics)
 
 
-class _StrictLoader(getattr(yaml, "CSafeLoader", yaml.SafeLoader)):  # type: ignore[misc]
-    """SafeLoader that refuses a key repeated in one mapping (PyYAML silently keeps the last one,
-    so an edited copy of the library could carry two ``range_m`` and use the one not meant).
-
-    On libyaml's parser where PyYAML has it (``CSafeLoader``: the same safe constructors and
-    resolvers; the library file took ~60 ms to parse in pure Python, a sixth of loading KITTI 00)."""
-
-    def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:
-        seen: dict[Any, int] = {}
-        for key_node, _ in node.value:
-            key = self.construct_object(key_node, deep=deep)
-            try:
-                hash(key)
-            except TypeError:
-                continue  # the base class reports unhashable keys with their line
-            if key in seen:
-                raise yaml.constructor.ConstructorError(
-                    "while constructing a mapping", node.start_mark,
-                    f"key {key!r} repeated (first on line {seen[key]})", key_node.start_mark,
-                )
-            seen[key] = key_node.start_mark.line + 1
-        return super().construct_mapping(node, deep=deep)
-
-
-# PyYAML follows YAML 1.1, where 1e-3 and 2.5e3 (no dot, or no exponent sign) are text; read them as
-# numbers as YAML 1.2 (and every user) does.
-_StrictLoader.add_implicit_resolver(
-    "tag:yaml.org,2002:float",
-    re.compile(r"^[-+]?[0-9][0-9_]*(?:\.[0-9_]*)?[eE][-+]?[0-9]+$"),
-    list("-+0123456789"),
-)
-
-
 def load_library(path: str | Path | None = None) -> SensorLibrary:
     """Read and validate a sensor library YAML file (safe loading); default: the paper's Table I.
 
@@ -556,7 +515,7 @@ def _read_document(path: Path) -> Any:
     except (OSError, UnicodeDecodeError) as exc:
         raise LibraryError(path, "", f"cannot read: {exc}") from None
     try:
-        return yaml.load(text, Loader=_StrictLoader)  # a SafeLoader: plain data only
+        return yaml.load(text, Loader=StrictLoader)  # a SafeLoader: plain data only
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         if mark is not None:

@@ -1,6 +1,21 @@
-"""Stores: where a plan's results are kept as they arrive. :class:`NoStore` keeps nothing;
-:class:`FileStore` writes one fingerprinted file per task (atomically) and, when resuming, reads back
-those whose fingerprint matches this run's inputs."""
+"""Stores: where a run's results are kept as they arrive, and the one rule by which ``--resume`` reads them back.
+
+:class:`NoStore` keeps nothing; :class:`FileStore` writes one fingerprinted file per task (atomically);
+a run that keeps its state in one file (the greedy and optimal checkpoints, the ``require`` journal)
+writes it with :func:`sensorsel.io.results.save`. Every one of them reads back through
+:func:`load_matching`, so every design run resumes the same way:
+
+- a stored result whose fingerprint matches this run's inputs is read back, not recomputed;
+- one that does not (computed from other inputs, damaged, another kind or format) is never trusted
+  and never fatal: a :class:`CacheWarning` names the file (and, where the store knows, what differs),
+  the result is recomputed and the file overwritten.
+
+Why recompute rather than refuse: a stored result of other inputs cannot give this run's answer,
+and the same command without ``--resume`` would overwrite the same files anyway; a store of many
+files (a study's cells, a tradespace's rules, a route's periods) keeps the results whose inputs did
+not change, which a refusal would throw away with the rest; and the warning, printed as the run
+starts, names what was not reused, so a mistaken option is seen at once.
+"""
 
 from __future__ import annotations
 
@@ -95,7 +110,7 @@ def load_matching(cls: type[F], path: Path, fingerprint: str, differences: Calla
     if not path.is_file():
         return None
     try:
-        old = results.load(cls, path)
+        old = results.load(path, cls)
     except ResultFileError as exc:
         reason = str(exc).removeprefix(f"{exc.path}: ")
         warnings.warn(f"{path}: not reused, it cannot be read as a {cls.__name__} ({reason}); recomputing and overwriting it",
@@ -104,7 +119,7 @@ def load_matching(cls: type[F], path: Path, fingerprint: str, differences: Calla
     if getattr(old, "fingerprint", None) != fingerprint:
         diffs = differences(old) if differences is not None else []
         if diffs:
-            warnings.warn(f"{path}: not reused, it was computed on another problem ({'; '.join(diffs)}); "
+            warnings.warn(f"{path}: not reused, it was computed from other inputs ({'; '.join(diffs)}); "
                           "recomputing and overwriting it", CacheWarning, stacklevel=3)
         else:
             warnings.warn(f"{path}: not reused, it was computed from {what}; recomputing and overwriting it",

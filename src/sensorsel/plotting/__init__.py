@@ -18,7 +18,7 @@ from __future__ import annotations
 
 from sensorsel.plotting.association import plot_association_calibration
 from sensorsel.plotting.accuracy import (plot_accuracy_along_route, plot_front_accuracy, plot_route_margin)
-from sensorsel.plotting.designs import (SELECTOR_STYLES, plot_domain_breakdown, plot_selection_grid, plot_tradespace)
+from sensorsel.plotting.designs import (RULE_STYLES, plot_domain_breakdown, plot_selection_grid, plot_tradespace)
 from sensorsel.plotting.figures import (EXTRA_MODEL_COLOURS, FORMATS, MODEL_COLOURS, model_colours, new_axes,
                                         route_distance_m, save_figure, short_source, use_file_backend)
 from sensorsel.plotting.scene import (ZOOM_BELOW, plot_domain_scene, plot_mounting, plot_scene)
@@ -47,7 +47,7 @@ __all__ = [
     "plot_simulation_comparison",
     "plot_simulation_overview",
     "typical_run",
-    "SELECTOR_STYLES",
+    "RULE_STYLES",
     "plot_domain_breakdown",
     "plot_selection_grid",
     "plot_tradespace",

@@ -10,7 +10,7 @@ from matplotlib.axes import Axes
 from sensorsel.plotting.figures import new_axes
 
 if TYPE_CHECKING:
-    from sensorsel.simulate.records import AssociationCheck
+    from sensorsel.simulation.records import AssociationCheck
 
 #: the highest floor of the log axes (a bin observed at 0 is drawn on the floor, its interval up)
 FLOOR = 1e-7

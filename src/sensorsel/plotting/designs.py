@@ -87,9 +87,9 @@ def plot_selection_grid(grid: "SelectionGrid", ax: Axes | None = None, *, title:
     return ax
 
 
-#: Colours and markers of the selectors in the tradespace plot (the paper's Fig. 4: uniform orange,
+#: Colours and markers of the rules in the tradespace plot (the paper's Fig. 4: uniform orange,
 #: cost-benefit blue). Hollow markers of different shapes keep suites made by several rules visible.
-SELECTOR_STYLES = {
+RULE_STYLES = {
     "uniform": ("tab:orange", "o", 60),
     "cost-benefit": ("tab:blue", "s", 34),
     "marginal": ("tab:green", "^", 30),
@@ -101,8 +101,8 @@ def plot_tradespace(result: "TradespaceResult", ax: Axes | None = None, *, log_c
                     fractions: Sequence[float] = (0.99, 0.95), title: str | None = None) -> Axes:
     """The cost-performance tradespace (the paper's Fig. 4).
 
-    Every architecture is a hollow marker coloured by the selector that made it (one marker per
-    selector when several made it); the Pareto front is a dashed red step line: from a front point
+    Every architecture is a hollow marker coloured by the rule that made it (one marker per
+    rule when several made it); the Pareto front is a dashed red step line: from a front point
     the line stays flat until the next front point's cost, since between two front architectures a
     larger budget buys no better recorded architecture. The cheapest architectures reaching each of
     ``fractions`` of the best score are starred and labelled.
@@ -122,9 +122,9 @@ def plot_tradespace(result: "TradespaceResult", ax: Axes | None = None, *, log_c
     archs = result.architectures
     if not archs:
         raise InputError("plot_tradespace: the tradespace has no architectures (every budget is below the cheapest sensor)")
-    for name in result.selectors:
-        pts = [(a.cost_usd, a.normalized) for a in archs if name in a.selectors]
-        colour, marker, size = SELECTOR_STYLES.get(name, ("tab:gray", "x", 30))
+    for name in result.rules:
+        pts = [(a.cost_usd, a.normalized) for a in archs if name in a.rules]
+        colour, marker, size = RULE_STYLES.get(name, ("tab:gray", "x", 30))
         if pts:
             x, y = np.array(pts).T
             ax.scatter(x, y, s=size, marker=marker, facecolors="none", edgecolors=colour, linewidths=1.1,

@@ -1,4 +1,4 @@
-"""Monte-Carlo SLAM runs (:mod:`sensorsel.simulate`): errors along the route and on the map."""
+"""Monte-Carlo SLAM runs (:mod:`sensorsel.simulation`): errors along the route and on the map."""
 
 from __future__ import annotations
 
@@ -15,11 +15,11 @@ from sensorsel.model.scenario import Scenario
 from sensorsel.plotting.figures import new_axes, route_distance_m
 
 if TYPE_CHECKING:  # the result types only (their modules need no matplotlib; simulate's imports gtsam)
-    from sensorsel.simulate import SimulationResult
+    from sensorsel.simulation import SimulationResult
 
 
 # ------------------------------------------------------------------------ Monte-Carlo simulation
-# Results of sensorsel.simulate (imported only for type checking: that module imports gtsam).
+# Results of sensorsel.simulation (imported only for type checking: that module imports gtsam).
 
 ERROR_CMAP = "turbo"  # blue (small) to dark red (large): readable on white at both ends
 

@@ -22,7 +22,7 @@ import numpy as np
 from sensorsel.designs.requirements.margin import Margin, margin_of
 from sensorsel.designs.requirements.solver import DEFAULT_TIE_PROGRAMS, cheapest_suite
 from sensorsel.designs.requirements.spec import RouteVerdict, Specification, covariance_verdict, verdict
-from sensorsel.errors import InputError, ResultFileError
+from sensorsel.errors import InputError
 from sensorsel.information.evaluators import Evaluator, as_suite, make_evaluator
 from sensorsel.information.evaluators.accuracy import RouteAccuracy, accuracy_from_covariances, estimate_label, model_label
 from sensorsel.information.filtering import check_estimate
@@ -33,7 +33,7 @@ from sensorsel.io.results import result_kind
 from sensorsel.model.constraints import Constraints, feasible_set
 from sensorsel.model.problem import Domain, Problem, Target, TargetInfo
 from sensorsel.designs.inputs import result_fingerprint, route_entry
-from sensorsel.pipeline import digest
+from sensorsel.pipeline.store import digest, load_matching
 from sensorsel.io.progress import Progress
 
 __all__ = ["RouteRequirement", "RequireResult", "RequireJournal", "require", "require_fingerprint"]
@@ -155,7 +155,7 @@ class RequireJournal:
 
     Attributes:
         fingerprint: sha256 of the inputs (:func:`require_fingerprint`).
-        inputs: the same inputs, in words (what a refusal names).
+        inputs: the same inputs, in words (what the warning names when they differ).
         answers: (route index, suite, meets, violation or None when only refuted by the floor).
     """
 
@@ -191,16 +191,14 @@ def require_fingerprint(problems: Sequence[Problem], specs: Sequence[Specificati
 
 
 def _read_journal(path: Path, fingerprint: str, inputs: tuple[tuple[str, str], ...]) -> RequireJournal | None:
-    """The journal at ``path`` (None when there is none); one of other inputs is refused, naming what differs."""
-    if not path.is_file():
-        return None
-    j = results.load(path, RequireJournal)
-    if j.fingerprint != fingerprint:
+    """The journal at ``path`` when this very run wrote it; None when there is none, or (as every store:
+    :func:`sensorsel.pipeline.store.load_matching`, warned, naming what differs) when it cannot be read
+    or holds the answers of other inputs: the run starts afresh and overwrites it."""
+    def differences(j: RequireJournal) -> list[str]:
         was = dict(j.inputs)
-        diff = [f"{k} {was.get(k, '?')} (this run: {v})" for k, v in inputs if was.get(k) != v] or ["the inputs differ"]
-        raise ResultFileError(path, "a checkpoint of another require run: " + "; ".join(diff)
-                              + ": delete it, or run without --resume to start again")
-    return j
+        return [f"{k} {was.get(k, '?')} (this run: {v})" for k, v in inputs if was.get(k) != v]
+
+    return load_matching(RequireJournal, path, fingerprint, differences, "another require run")
 
 
 class RouteEngine(Protocol):
@@ -401,7 +399,7 @@ def require(target: Target, specifications: Specification | Sequence[Specificati
             same cost (0: only those met on the way are reported).
         checkpoint: a file where the answers are journalled as they come (every
             :data:`JOURNAL_EVERY_S` and at the end: a :class:`RequireJournal`); with ``resume`` an
-            interrupted run's journal there is read back (refused when its inputs differ).
+            interrupted run's journal there is read back (when its inputs differ: warned, and the run starts afresh).
 
     Raises:
         InputError: bad failures, a specification count that does not match the routes, limits

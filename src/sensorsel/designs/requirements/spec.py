@@ -21,13 +21,14 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any, Mapping, NoReturn
+from typing import Any, Mapping
 
 import numpy as np
 
 from sensorsel.errors import InputError
 from sensorsel.information.evaluators.accuracy import Z95, RouteAccuracy
-from sensorsel.model.domain import DomainError, _Checker, _Map, _read_yaml
+from sensorsel.io.inputs import Checker, Map, read_yaml
+from sensorsel.model.domain import DomainError
 
 __all__ = ["PRESETS", "DEFAULT_MAP_SIGMA_M", "Specification", "SpecificationError", "RouteVerdict", "preset",
            "load_specification_file", "specifications_for", "verdict", "covariance_verdict"]
@@ -187,13 +188,13 @@ def covariance_verdict(covariances: np.ndarray, spec: Specification) -> tuple[bo
 _KEYS = ("preset", "lateral", "longitudinal", "heading", "sigma", "at")
 
 
-def _one(chk: _Checker, m: Any, key: str, line: int, base: Specification | None) -> Specification:
+def _one(chk: Checker, m: Any, key: str, line: int, base: Specification | None) -> Specification:
     """A specification from a mapping (``preset`` plus overrides) or a preset's name."""
     if isinstance(m, str):
         if m not in PRESETS:
             chk.fail(key, f"unknown preset {m!r}; available: {', '.join(PRESETS)}", line)
         return PRESETS[m]
-    if not isinstance(m, _Map):
+    if not isinstance(m, Map):
         chk.fail(key, f"expected a preset's name or a mapping of {', '.join(_KEYS)}, got {m!r}", line)
     chk.keys(m, key, _KEYS)
     spec = base
@@ -237,28 +238,23 @@ def load_specification_file(path: str | Path) -> tuple[Specification | None, dic
         SpecificationError: naming the file, the key and the line of the first problem.
     """
     p = Path(path)
-    data = _read_yaml(p, SpecificationError, "specification file")
-    chk = _SpecChecker(p)
-    if not isinstance(data, _Map):
+    data = read_yaml(p, SpecificationError, "specification file")
+    chk = Checker(p, SpecificationError)
+    if not isinstance(data, Map):
         chk.fail("", f"expected a mapping of {', '.join(_KEYS + ('routes',))}, got {type(data).__name__}", None)
     routes_node = data.get("routes")
-    top = _Map({k: v for k, v in data.items() if k != "routes"})
+    top = Map({k: v for k, v in data.items() if k != "routes"})
     top.line, top.lines = data.line, {k: v for k, v in data.lines.items() if k != "routes"}
     default = _one(chk, top, "", data.line, None) if top else None
     per_route: dict[str, Specification] = {}
     if routes_node is not None:
-        if not isinstance(routes_node, _Map):
+        if not isinstance(routes_node, Map):
             chk.fail("routes", "expected a mapping of route name -> specification", data.lines["routes"])
         for name, value in routes_node.items():
             per_route[str(name)] = _one(chk, value, f"routes.{name}", routes_node.lines[name], default)
     if default is None and not per_route:
         chk.fail("", "names no requirement: give a preset or lateral, longitudinal, heading", data.line)
     return default, per_route
-
-
-class _SpecChecker(_Checker):
-    def fail(self, key: str, message: str, line: int | None) -> NoReturn:
-        raise SpecificationError(self.path, key, message, line)
 
 
 def specifications_for(routes: list[str], default: Specification | None, per_route: Mapping[str, Specification],

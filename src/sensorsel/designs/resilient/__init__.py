@@ -55,7 +55,7 @@ from sensorsel.designs.resilient.periods import (DEFAULT_PERIOD_S, Progress, Sel
                                                  split_periods)
 from sensorsel.designs.resilient.records import (ACTIVE, ALGORITHM_2, FAILED, METHODS, UNUSED, Comparison,
                                                  PerPeriodResult, PeriodResult, PeriodSpan, ResilientReport,
-                                                 ResilientResult, RobustChoice, SelectionGrid, WorstCase, method_name)
+                                                 ResilientResult, RobustChoice, SelectionGrid, WorstCase)
 from sensorsel.designs.selection import check_budget
 from sensorsel.errors import InputError
 from sensorsel.information.evaluators import evaluator_for
@@ -66,7 +66,7 @@ from sensorsel.pipeline import Executor
 __all__ = [
     "ACTIVE", "ALGORITHM_2", "DEFAULT_PERIOD_S", "FAILED", "MAX_FAILURE_SETS", "METHODS", "RobustChoice", "Selector", "UNUSED", "check_method", "CacheWarning", "Comparison", "PerPeriodResult",
     "PeriodResult", "PeriodSpan", "Progress", "ResilientReport", "ResilientResult", "SelectionGrid", "WorstCase",
-    "check_alpha", "check_rule", "method_name", "check_period", "compare", "failing_set", "make_grid", "period_file",
+    "check_alpha", "check_rule", "check_period", "compare", "failing_set", "make_grid", "period_file",
     "period_scenario", "resilient_report", "resilient_select", "run_periods", "save_grid_csv", "split_periods", "worst_case",
 ]
 

@@ -15,8 +15,7 @@ from sensorsel.designs.resilient.algorithm import (check_alpha, check_rule, cons
                                                    resilient_select, worst_case)
 from sensorsel.designs.resilient.cache import fingerprint
 from sensorsel.designs.resilient.records import (ACTIVE, ALGORITHM_2, FAILED, METHODS, UNUSED, PeriodResult,
-                                                 PeriodSpan, PerPeriodResult, RobustChoice, SelectionGrid, WorstCase,
-                                                 method_name)
+                                                 PeriodSpan, PerPeriodResult, RobustChoice, SelectionGrid, WorstCase)
 from sensorsel.designs.selection import check_budget
 from sensorsel.errors import InputError
 from sensorsel.information.evaluators import make_evaluator
@@ -40,7 +39,6 @@ Selector = Callable[..., tuple[RobustChoice, WorstCase]]
 
 def check_method(method: str, selector: Selector | None) -> str:
     """``method`` if it is one of :data:`METHODS` and, for "robust", a selector is given."""
-    method = method_name(method)  # "paper", its name before: the same method
     if method not in METHODS:
         raise InputError(f"unknown method {method!r}; available: {', '.join(METHODS)}")
     if method == "robust" and selector is None:

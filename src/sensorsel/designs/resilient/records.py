@@ -162,21 +162,6 @@ class PeriodSpan:
 ALGORITHM_2 = "algorithm-2"
 #: How the suite of ``sensorsel resilient`` is chosen: the paper's Algorithm 2, or robust selection.
 METHODS = (ALGORITHM_2, "robust")
-#: Names a method had in files written before it had one name: read as the name it has now.
-OLD_METHOD_NAMES = {"paper": ALGORITHM_2}
-
-
-def method_name(method: str) -> str:
-    """``method`` by its name today (a file written before reads "paper" as "algorithm-2")."""
-    return OLD_METHOD_NAMES.get(method, method)
-
-
-def _rename_method(record: object) -> None:
-    """In a frozen record just built (e.g. read from an older file): its ``method`` by today's name."""
-    method = getattr(record, "method")
-    if method in OLD_METHOD_NAMES:
-        object.__setattr__(record, "method", method_name(method))
-
 
 @dataclass(frozen=True)
 class RobustChoice:
@@ -222,7 +207,7 @@ class PeriodResult:
         result: the paper's resilient selection on the period's scenario (None with ``method="robust"``).
         worst: worst case of the period's chosen suite on the period's scenario (its ``failures`` are the
             failure set worst for that suite).
-        method: "algorithm-2" or "robust" ("paper" in older files: read as "algorithm-2").
+        method: "algorithm-2" or "robust".
         robust: with "robust", the robust selection's choice; else None.
     """
 
@@ -232,9 +217,6 @@ class PeriodResult:
     worst: WorstCase
     method: str = ALGORITHM_2
     robust: RobustChoice | None = None
-
-    def __post_init__(self) -> None:
-        _rename_method(self)
 
     @property
     def suite(self) -> tuple[str, ...]:
@@ -256,7 +238,7 @@ class SelectionGrid:
         cells: rows x columns of "failed", "active" or "" ("failed": assumed to fail by the paper's
             Algorithm 2; robust selection assumes no sensor, so its suite is all "active").
         worst_failures: per row, the failure set worst for the row's suite (ids; empty rows when unknown).
-        method: "algorithm-2" or "robust": how each row's suite was chosen ("paper" in older files).
+        method: "algorithm-2" or "robust": how each row's suite was chosen.
     """
 
     sensors: tuple[str, ...]
@@ -270,7 +252,6 @@ class SelectionGrid:
     method: str = ALGORITHM_2
 
     def __post_init__(self) -> None:
-        _rename_method(self)
         n = len(self.sensors)
         if len(self.models) != n or len(self.positions) != n:
             raise InputError(f"selection grid: {n} sensors but {len(self.models)} models and {len(self.positions)} positions")
@@ -321,7 +302,7 @@ class PerPeriodResult:
         periods: one result per non-empty period, in time order.
         grid: the failed / active grid.
         seconds: wall time of this run [s] (periods reused from files count their stored time no more).
-        method: "algorithm-2" or "robust" ("paper" in older files: read as "algorithm-2").
+        method: "algorithm-2" or "robust".
         constraints: the limits besides the budget every period's suite respected; None: the budget alone.
     """
 
@@ -335,9 +316,6 @@ class PerPeriodResult:
     seconds: float = 0.0
     method: str = ALGORITHM_2
     constraints: Constraints | None = None
-
-    def __post_init__(self) -> None:
-        _rename_method(self)
 
 
 @result_kind("resilient")
@@ -355,7 +333,7 @@ class ResilientReport:
         per_period: the per-period selection and its grid (None when not run).
         seconds: wall time [s].
         method: "algorithm-2" (the paper's Algorithm 2) or "robust" (robust selection, whole route and
-            each period); "paper" in older files, read as "algorithm-2".
+            each period).
         robust: with "robust", the whole route's robust choice (next to the greedy / Algorithm 2 comparison).
         constraints: the limits besides the budget every suite of the report respected; None: the budget alone.
         accuracy: the chosen suite's accuracy in metres on each route (empty when not computed;
@@ -379,5 +357,3 @@ class ResilientReport:
     accuracy: tuple[RouteAccuracy, ...] = ()
     integrity: tuple[RouteIntegrity, ...] = ()
 
-    def __post_init__(self) -> None:
-        _rename_method(self)

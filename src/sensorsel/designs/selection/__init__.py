@@ -18,11 +18,8 @@ from sensorsel.designs.selection.registry import RULES, RuleOrStrategy, check_ru
 from sensorsel.designs.selection.rules import REL_TOL, CostBenefit, Marginal, Rule, Uniform
 from sensorsel.designs.selection.strategies import BestOf, Strategy, better_run
 
-#: Deprecated name of :data:`RULES` (kept for modules not yet moved to the new name).
-SELECTORS = RULES
-
 __all__ = [
-    "LAZY_BATCH", "REL_TOL", "RULES", "SELECTORS", "BestOf", "CostBenefit", "GreedyResult", "Marginal", "Progress",
+    "LAZY_BATCH", "REL_TOL", "RULES", "BestOf", "CostBenefit", "GreedyResult", "Marginal", "Progress",
     "Rule", "RuleOrStrategy", "Selector", "Step", "Strategy", "Uniform", "better_run", "check_affordable", "check_budget", "check_rule",
     "greedy", "rules_help",
 ]

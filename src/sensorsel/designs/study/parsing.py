@@ -5,18 +5,18 @@ from __future__ import annotations
 import itertools
 from dataclasses import replace
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import Any
 
 from sensorsel.designs.selection import RULES, check_affordable
 from sensorsel.errors import SensorselError
 from sensorsel.information.evaluators import ENGINES
 from sensorsel.information.evaluators.domain import AGGREGATES
-from sensorsel.model.domain import ROUTE_KEYS, SYNTHETIC, Checker, Map, Seq, load_domain_file, parse_route
-from sensorsel.model.domain import read_yaml as _read_domain_yaml
+from sensorsel.io.inputs import Checker, Map, Seq, read_yaml
+from sensorsel.model.domain import ROUTE_KEYS, SYNTHETIC, load_domain_file, parse_route
 from sensorsel.model.library import load_library
 from sensorsel.model.scenario import ScenarioSpec
 
-from sensorsel.designs.resilient import METHODS, method_name  # METHODS: how a cell with failures chooses
+from sensorsel.designs.resilient import METHODS  # METHODS: how a cell with failures chooses
 from sensorsel.designs.study.records import DEFAULT_LIBRARY, Cell, Study, StudyError, TargetFiles
 
 _TOP_KEYS = ("target", "grid", "engine", "method", "certificate")
@@ -28,16 +28,7 @@ _GRID_KEYS = ("budgets", "rules", "failures", "landmark_seeds", "libraries")
 # ------------------------------------------------------------------------------------------ parsing
 
 
-class _StudyChecker(Checker):
-    def fail(self, key: str, message: str, line: int | None) -> NoReturn:
-        raise StudyError(self.path, key, message, line)
-
-
-def _read_yaml(path: Path) -> Any:
-    return _read_domain_yaml(path, StudyError, "study file")
-
-
-def _list(c: _StudyChecker, m: Map, key: str, default: list[Any] | None) -> tuple[list[Any], list[int]]:
+def _list(c: Checker, m: Map, key: str, default: list[Any] | None) -> tuple[list[Any], list[int]]:
     """The list under ``grid.key`` and each item's line (``default`` when absent; required when None)."""
     if key not in m:
         if default is None:
@@ -49,7 +40,7 @@ def _list(c: _StudyChecker, m: Map, key: str, default: list[Any] | None) -> tupl
     return list(v), list(v.lines)
 
 
-def _budget(c: _StudyChecker, value: Any, key: str, line: int) -> float:
+def _budget(c: Checker, value: Any, key: str, line: int) -> float:
     if isinstance(value, str):
         text = value.strip().replace("$", "").replace(",", "").replace("_", "")
         try:
@@ -59,7 +50,7 @@ def _budget(c: _StudyChecker, value: Any, key: str, line: int) -> float:
     return c.number(value, key, line, strict=False)
 
 
-def _unique(c: _StudyChecker, items: list[Any], lines: list[int], key: str) -> None:
+def _unique(c: Checker, items: list[Any], lines: list[int], key: str) -> None:
     seen: dict[Any, int] = {}
     for i, (v, ln) in enumerate(zip(items, lines)):
         if v in seen:
@@ -74,7 +65,7 @@ def parse_study(data: Any, path: str | Path = "<memory>") -> Study:
         StudyError: naming ``path``, the key path and the line of the first problem found.
     """
     path = Path(path)
-    c = _StudyChecker(path)
+    c = Checker(path, StudyError)
     if not isinstance(data, Map):
         c.fail("", f"expected a mapping with target and grid, got {type(data).__name__}", getattr(data, "line", None))
     c.keys(data, "", _TOP_KEYS)
@@ -85,7 +76,6 @@ def parse_study(data: Any, path: str | Path = "<memory>") -> Study:
     if "engine" in data and engine not in ENGINES:
         c.fail("engine", f"unknown engine {engine!r}; available: {', '.join(sorted(ENGINES))}", data.lines["engine"])
     method = data.get("method", METHODS[0])
-    method = method_name(method) if isinstance(method, str) else method  # "paper": Algorithm 2's name before
     if method not in METHODS:
         c.fail("method", f"expected one of {', '.join(METHODS)}, got {method!r}", data.lines["method"])
     cert = data.get("certificate", True)
@@ -148,7 +138,7 @@ def parse_study(data: Any, path: str | Path = "<memory>") -> Study:
     return Study(str(path), tuple(targets), tuple(cells), engine, aggregate, method, cert)
 
 
-def _parse_target(c: _StudyChecker, raw: Any, line: int) -> tuple[ScenarioSpec | None, str | None, str, bool]:
+def _parse_target(c: Checker, raw: Any, line: int) -> tuple[ScenarioSpec | None, str | None, str, bool]:
     """(route spec or None, domain file or None, aggregate, whether the landmarks fix a seed)."""
     if not isinstance(raw, Map):
         c.fail("target", f"expected a mapping (fixture, seq or route, landmarks, rate; or domain), got {raw!r}", line)
@@ -176,7 +166,7 @@ def _parse_target(c: _StudyChecker, raw: Any, line: int) -> tuple[ScenarioSpec |
     return replace(r.spec, name=name), None, "", isinstance(landmarks, Map)
 
 
-def _check_budgets(c: _StudyChecker, cells: list[Cell], targets: list[TargetFiles], budgets: list[float],
+def _check_budgets(c: Checker, cells: list[Cell], targets: list[TargetFiles], budgets: list[float],
                    b_lines: list[int], failures: list[int], f_lines: list[int]) -> None:
     """Every budget must buy a sensor (more than alpha of them) from every library of the grid, as
     a command's --budget must (:func:`sensorsel.designs.selection.check_affordable`)."""
@@ -207,4 +197,4 @@ def load_study(path: str | Path) -> Study:
             file it names, a budget that buys nothing (each naming the file, the key path and the line).
     """
     path = Path(path)
-    return parse_study(_read_yaml(path), path)
+    return parse_study(read_yaml(path, StudyError, "study file"), path)

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from sensorsel.errors import InputError, ScenarioError
-from sensorsel.model.library import is_number_text
+from sensorsel.io.inputs import is_number_text
 from sensorsel.model.scenario.frames import Frame
 
 DEFAULT_FRAME_RATE_HZ = 10.0  # assumed for a KITTI pose file without timestamps (KITTI's own rate)

@@ -9,7 +9,7 @@ import numpy as np
 
 from sensorsel.errors import ScenarioError
 from sensorsel.io.files import atomic_write_text
-from sensorsel.model.library import is_number_text
+from sensorsel.io.inputs import is_number_text
 from sensorsel.model.scenario.base import (RouteFile, Trajectory, _check_coordinates, _csv_fields, _data_lines,
                                            _increasing, _parse_row, _read_lines)
 from sensorsel.model.scenario.frames import HEADING_WINDOW_M, check_moves, find_frame

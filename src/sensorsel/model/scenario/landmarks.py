@@ -12,7 +12,7 @@ from scipy.spatial import cKDTree
 
 from sensorsel.errors import InputError, ScenarioError
 from sensorsel.io.files import atomic_write_text
-from sensorsel.model.library import is_number_text
+from sensorsel.io.inputs import is_number_text
 from sensorsel.model.scenario.base import (MAX_COORD_M, MAX_LANDMARKS, ON_ROAD_M, LandmarkReport, Trajectory,
                                            _check_coordinates, _csv_fields, _data_lines, _parse_row)
 

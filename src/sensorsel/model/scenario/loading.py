@@ -13,7 +13,7 @@ import numpy as np
 from sensorsel.errors import InputError, ScenarioError
 from sensorsel.io.resources import fixtures_dir
 from sensorsel.model.conditions import Condition
-from sensorsel.model.library import is_number_text
+from sensorsel.io.inputs import is_number_text
 from sensorsel.model.scenario.base import (DEFAULT_FRAME_RATE_HZ, RouteFile, Scenario, Trajectory, _data_lines,
                                            route_rate_hz, select_keyframes)
 from sensorsel.model.scenario.csv_route import _header, read_csv_route

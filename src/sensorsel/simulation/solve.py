@@ -24,7 +24,7 @@ from gtsam.symbol_shorthand import L, X
 from sensorsel.information.graph import (MeasurementNoise, add_bearing_range, add_pose_chain, bearing_range_factor,
                                          diagonal, first_pose_prior, landmark_prior, odometry_factor)
 from sensorsel.model.sensing import wrap_angle
-from sensorsel.simulate.noise import Draw, Payload, draw
+from sensorsel.simulation.noise import Draw, Payload, draw
 
 SOLVERS = ("lm", "isam2")
 DEFAULT_SOLVER = "lm"

@@ -23,9 +23,9 @@ from sensorsel.information.integrity.association import AssociationModel, keyfra
 from sensorsel.information.integrity.risk import IntegritySpec, keyframes_per_hour
 from sensorsel.model.problem import Problem
 from sensorsel.pipeline import Executor, Plan, execute
-from sensorsel.simulate.association import (CANDIDATE_MARGIN_M, CANDIDATE_SCALE, RANGE_SIGMAS, KeyframeCase, KeyframeOutcome,
+from sensorsel.simulation.association import (CANDIDATE_MARGIN_M, CANDIDATE_SCALE, RANGE_SIGMAS, KeyframeCase, KeyframeOutcome,
                                             SensorCone, Task, associate_keyframe)
-from sensorsel.simulate.records import AssociationCheck, AssociationKeyframe, CalibrationBin, SensorAssociation
+from sensorsel.simulation.records import AssociationCheck, AssociationKeyframe, CalibrationBin, SensorAssociation
 
 __all__ = ["SHIFT_NOTE", "calibration_bins", "check_association_args", "simulate_association"]
 

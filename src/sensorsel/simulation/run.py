@@ -22,13 +22,13 @@ from sensorsel.information.evaluators.accuracy import Z95, accuracy_from_covaria
 from sensorsel.io.progress import Progress
 from sensorsel.model.problem import Problem
 from sensorsel.pipeline import Executor, Plan, execute
-from sensorsel.simulate.consistency import (COVARIANCE_NOTE, Prediction, correlated_nees_bounds, nees_bounds, predict,
+from sensorsel.simulation.consistency import (COVARIANCE_NOTE, Prediction, correlated_nees_bounds, nees_bounds, predict,
                                             rms, run_errors)
-from sensorsel.simulate.failures import resolve_failures
-from sensorsel.simulate.noise import Payload, make_payload
-from sensorsel.simulate.records import (AccuracyCheck, ErrorSpread, Failure, RunResult, SimulationResult,
+from sensorsel.simulation.failures import resolve_failures
+from sensorsel.simulation.noise import Payload, make_payload
+from sensorsel.simulation.records import (AccuracyCheck, ErrorSpread, Failure, RunResult, SimulationResult,
                                         SimulationTiming)
-from sensorsel.simulate.solve import DEFAULT_SOLVER, SOLVERS, solve_run
+from sensorsel.simulation.solve import DEFAULT_SOLVER, SOLVERS, solve_run
 
 
 def simulate(

@@ -8,7 +8,7 @@ import numpy as np
 
 from sensorsel.errors import InputError
 from sensorsel.model.problem import Problem
-from sensorsel.simulate.records import Failure
+from sensorsel.simulation.records import Failure
 
 
 def parse_failures(text: str, problem: Problem) -> tuple[Failure, ...]:

@@ -17,7 +17,7 @@ import numpy as np
 
 from sensorsel.information.graph import pose2, truth_steps
 from sensorsel.model.problem import Problem
-from sensorsel.simulate.records import Failure
+from sensorsel.simulation.records import Failure
 
 
 @dataclass(frozen=True, eq=False)

@@ -61,14 +61,14 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from sensorsel.simulate.failures import check_failure, parse_failures
-from sensorsel.simulate.records import (AccuracyCheck, ErrorSpread, Failure, RunResult, SimulationReport,
+from sensorsel.simulation.failures import check_failure, parse_failures
+from sensorsel.simulation.records import (AccuracyCheck, ErrorSpread, Failure, RunResult, SimulationReport,
                                         SimulationResult, SimulationTiming, without_timing)
 
 if TYPE_CHECKING:
-    from sensorsel.simulate.consistency import COVARIANCE_NOTE, NEES_CONFIDENCE, nees_bounds
-    from sensorsel.simulate.run import simulate
-    from sensorsel.simulate.solve import DEFAULT_SOLVER, ISAM2_MAX_FINAL_UPDATES, LM_MAX_ITERATIONS, SOLVERS
+    from sensorsel.simulation.consistency import COVARIANCE_NOTE, NEES_CONFIDENCE, nees_bounds
+    from sensorsel.simulation.run import simulate
+    from sensorsel.simulation.solve import DEFAULT_SOLVER, ISAM2_MAX_FINAL_UPDATES, LM_MAX_ITERATIONS, SOLVERS
 
 #: the names whose modules import gtsam, by module: imported when first asked for (PEP 562), so
 #: that importing sensorsel (every command) does not import gtsam (~0.1-0.15 s) for a simulation

@@ -15,8 +15,8 @@ from scipy.linalg import cho_factor, cho_solve
 from sensorsel.information.graph import pose2
 from sensorsel.information.linearize import base_information, bearing_range_jacobians
 from sensorsel.model.sensing import wrap_angle
-from sensorsel.simulate.noise import Payload
-from sensorsel.simulate.records import RunResult
+from sensorsel.simulation.noise import Payload
+from sensorsel.simulation.records import RunResult
 
 NEES_CONFIDENCE = 0.95
 
