@@ -21,7 +21,7 @@ import pytest
 distributed = pytest.importorskip("distributed")
 
 from sensorsel.io import results  # noqa: E402
-from sensorsel.api import suite_accuracy  # noqa: E402
+from sensorsel.api import suite_accuracy, suite_integrity  # noqa: E402
 from sensorsel.designs.domain_design import design_domain  # noqa: E402
 from sensorsel.pipeline.cluster import DaskCluster, DistributedDomainEvaluator  # noqa: E402
 from sensorsel.model.problem import load_domain  # noqa: E402
@@ -273,7 +273,8 @@ def test_cli_greedy_on_a_scheduler_and_two_workers_started_here(tmp_path, domain
         assert there.returncode == 0, there.stderr
         want = design_domain(domain, 12_000, certify=True)
         # what --json prints in-process: the design, with its suite's accuracy in metres (the SLAM graph)
-        want = dataclasses.replace(want, greedy=dataclasses.replace(want.greedy, accuracy=suite_accuracy(domain, want.greedy.suite)))
+        want = dataclasses.replace(want, greedy=dataclasses.replace(want.greedy, accuracy=suite_accuracy(domain, want.greedy.suite),
+                                                                    integrity=suite_integrity(domain, want.greedy.suite)))
         assert _untimed(there.stdout) == _untimed(want)
     finally:
         for p in reversed(procs):

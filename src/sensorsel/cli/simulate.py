@@ -114,7 +114,7 @@ def _fmt(v: float | None, digits: int = 3) -> str:
                    "at every keyframe and set its wrong associations beside the predicted association risk (estimate and bound), "
                    "with a calibration plot.")
 @click.option("--draws", type=int, default=2000, show_default=True, metavar="N",
-              help="--associate: draws per keyframe (per measurement with --importance-scale).")
+              help="--associate: draws per keyframe (per measurement with --importance-sampling).")
 @click.option("--importance-sampling", "importance", is_flag=True, default=False,
               help="--associate: importance sampling (each measurement from a mixture of draws shifted toward its wrong "
                    "candidates' decision boundaries, weighted by the likelihood ratio): reaches rare wrong associations.")
