@@ -130,3 +130,22 @@ def test_a_bad_interval_is_one_line_naming_the_variable(tmp_path, value):
     r = _require_here(tmp_path, every=value)
     assert r.exit_code == 2 and r.stderr.strip().splitlines() == [
         f"sensorsel: error: $SENSORSEL_PROGRESS_EVERY={value!r}: expected a number of seconds >= 0"], r.stderr
+
+
+def test_osm_into_a_pipe_says_each_stage_it_is_in(tmp_path):
+    """sensorsel osm on the bundled sample, its stderr a pipe: a status line at each stage (reading the
+    extract, the routes, writing), the routes counted as the domain it wrote holds them; -q silences it."""
+    env = {**os.environ, "SENSORSEL_PROGRESS_EVERY": "0"}
+    env.pop("SENSORSEL_PROGRESS", None)
+    p = subprocess.run([str(BIN / "sensorsel"), "osm", "--sample", "helsinki", "-o", str(tmp_path / "city")],
+                       stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, timeout=300)
+    assert p.returncode == 0, p.stderr
+    lines = [line for line in p.stderr.splitlines() if line.startswith("sensorsel: osm:")]
+    n_routes = len([f for f in (tmp_path / "city" / "routes").glob("*.csv") if not f.name.endswith("_landmarks.csv")])
+    assert lines[0].startswith("sensorsel: osm: reading helsinki.osm.pbf; ")
+    assert lines[1].startswith("sensorsel: osm: routes that drive every road of ")
+    assert lines[2].startswith(f"sensorsel: osm: writing {n_routes} routes; ")
+    assert re.match(rf"^sensorsel: osm: done in \d+ s; wrote {n_routes} routes$", lines[-1]), lines
+    q = subprocess.run([str(BIN / "sensorsel"), "osm", "--sample", "helsinki", "-q", "-o", str(tmp_path / "city2")],
+                       stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, timeout=300)
+    assert q.returncode == 0 and "sensorsel: osm:" not in q.stderr

@@ -6,10 +6,13 @@ from __future__ import annotations
 import shlex
 import sys
 import warnings
+from contextlib import nullcontext
 from pathlib import Path
 import click
 
-from sensorsel.cli.options import output_option, run
+from sensorsel.cli.options import output_option, quiet_option, run
+from sensorsel.cli.progress import progress_bar
+from sensorsel.io.progress import report
 from sensorsel.errors import InputError, SensorselWarning
 from sensorsel.io.resources import sample_osm_dir, sample_osm_names
 
@@ -49,10 +52,11 @@ def _source(file: str | None, sample: str | None) -> Path:
 @click.option("--merge-landmarks", default=None, type=click.Path(dir_okay=False, path_type=str),
               help="A survey landmark CSV (x,y in the route's frame) merged with the OSM landmarks (--gpx/--route).")
 @output_option(folder=True, required=True, help="Domain folder to write (domain.yaml, routes/, landmarks.csv, README.md).")
+@quiet_option
 @run
 def osm_cmd(file: str | None, sample: str | None, bbox: str | None, roads: str | None, osm_classes: str | None,
             speed_kmh: float, route_km: float, reach_m: float, keyframe_rate: float, gpx: str | None,
-            route_file: str | None, georef: str | None, merge_landmarks: str | None, output: str) -> None:
+            route_file: str | None, georef: str | None, merge_landmarks: str | None, output: str, quiet: bool) -> None:
     """Write an operating domain for a city from its OpenStreetMap extract (.osm or .osm.pbf, read
     locally): routes along the selected roads that drive every one of them (weighted by length),
     keyframes at --speed, and the OSM pole-like landmarks by class. Every --domain command reads it:
@@ -89,14 +93,22 @@ def osm_cmd(file: str | None, sample: str | None, bbox: str | None, roads: str |
             click.echo(f"sensorsel: note: {note}", err=True)
         click.echo(f"wrote {domain}")
         return
-    extract = read_osm(path, bbox=box, roads=kinds)
-    city = build_city(extract, classes, speed_kmh=speed_kmh, route_km=route_km, reach_m=reach_m)
+    # three stages that can each take a while on a large extract: say which one runs (a status line
+    # off a terminal as each starts, once the run has gone on for a few seconds)
+    bar, progress = progress_bar(quiet, "osm", counted=False, eta=False)
+    with bar or nullcontext():
+        report(progress, 0, 3, f"reading {path.name}")
+        extract = read_osm(path, bbox=box, roads=kinds)
+        report(progress, 1, 3, f"routes that drive every road of {len(extract.ways):,} ways")
+        city = build_city(extract, classes, speed_kmh=speed_kmh, route_km=route_km, reach_m=reach_m)
+        report(progress, 2, 3, f"writing {len(city.routes)} routes")
+        domain = write_city(city, extract, output, command=command, keyframe_rate_hz=keyframe_rate)
+        report(progress, 3, 3, f"wrote {len(city.routes)} routes")
     for note in (*extract.notes, *city.notes):
         click.echo(f"sensorsel: note: {note}", err=True)
     warn = sparse_warning(city)
     if warn:
         warnings.warn(warn, SensorselWarning, stacklevel=1)
-    domain = write_city(city, extract, output, command=command, keyframe_rate_hz=keyframe_rate)
     click.echo(f"city       {path}: {city.road_m / 1000:.2f} km of road ({', '.join(k for k in kinds if not k.endswith('_link'))}), "
                f"{len(city.routes)} routes, {city.driven_m / 1000:.2f} km driven at {speed_kmh:g} km/h")
     click.echo(f"{'class':<16} {'landmarks':>9} {'per km':>7}")
