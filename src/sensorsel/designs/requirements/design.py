@@ -15,6 +15,7 @@ as the anti-monotone one; the lower bound stays valid (every cut excludes only f
 
 from __future__ import annotations
 
+import copy
 import itertools
 import math
 import time
@@ -494,7 +495,13 @@ def require(target: Target, specifications: Specification | Sequence[Specificati
             def down(s: Suite) -> bool:  # monotone: accuracy, and the error tail with every measurement used
                 return oracle.meets(s) and checks.tail_met(s)
 
-            found = cheapest_suite(feas, lambda s: down(s) and checks.meets(s), failures=failures, monotone=False,
+            # a sensor whose association floor alone exceeds the requirement is in no suite that meets it
+            # (the floor is anti-monotone): fixed out first, so that no failing set is grown over it
+            alone = frozenset(i for i in range(len(library)) if i not in feas.excluded and i not in feas.required
+                              and not checks.floor_met((i,)))
+            searched = copy.copy(feas)
+            searched.excluded = feas.excluded | alone
+            found = cheapest_suite(searched, lambda s: down(s) and checks.meets(s), failures=failures, monotone=False,
                                    necessary_monotone=down, necessary_antimonotone=checks.floor_met,
                                    time_limit=time_limit_s, progress=progress, max_tie_programs=max_tie_programs)
     finally:  # interrupted too (Ctrl-C): nothing learnt is lost
