@@ -92,6 +92,9 @@ def test_require_integrity_equals_brute_force(tiny_problem, table, risk, failure
     assert table.meets(got, risk)
     assert res.integrity_routes[0].integrity_risk_per_hour == pytest.approx(table.risk[got])
     assert res.integrity == _spec(risk)
+    for sid in res.integrity_alone:  # fixed out before the search: in no suite that meets it
+        p = tiny_problem.library.position(sid)
+        assert not any(table.meets(s, risk) for s in table.risk if p in s)
 
 
 def test_the_cases_are_not_trivial(table):

@@ -249,6 +249,9 @@ def _print(res: RequireResult) -> None:
         click.echo("suite      none: no suite within the limits meets the specification")
         what = {"failures": "after the worst failures, every allowed sensor together reaches:"}.get(
             res.infeasible_by, "every allowed sensor together reaches:")
+        if res.integrity_alone:
+            what = (f"{len(res.integrity_alone)} allowed sensor(s) break integrity alone (their association risk alone "
+                    f"exceeds it); {what.replace('every allowed sensor', 'every other allowed sensor')}")
         click.echo(f"best       {what}")
         _print_routes(res.routes)
         _print_integrity(res)
@@ -357,8 +360,10 @@ def _infeasible_line(res: RequireResult) -> str:
                 "its worst failures, misses it (" + "; ".join(fails) + ")")
     if res.integrity is not None and res.infeasible_by != "failures":
         worst = max(res.integrity_routes, key=lambda r: r.integrity_risk_per_hour, default=None)
-        where = (f"every allowed sensor together: integrity {worst.integrity_risk_per_hour:.2g}/h on route {worst.route}"
-                 if worst is not None else "")
+        others = "every other allowed sensor" if res.integrity_alone else "every allowed sensor"
+        alone = (f"{len(res.integrity_alone)} allowed sensor(s) break it alone; " if res.integrity_alone else "")
+        where = (f"{alone}{others} together: integrity {worst.integrity_risk_per_hour:.2g}/h on route {worst.route}"
+                 if worst is not None else alone)
         return (f"no suite within the limits meets the specification with integrity {res.integrity.integrity_risk:g}/h "
                 f"(a sensor added can break integrity: the search ruled out every suite; {where}"
                 + ("; " + "; ".join(fails) if fails else "") + ")")

@@ -115,6 +115,8 @@ class RequireResult:
         integrity: the integrity also demanded on every route, or None (accuracy alone).
         integrity_routes: with ``integrity``, the suite's integrity on each route (infeasible: that of
             the best effort, as ``routes``).
+        integrity_alone: with ``integrity``, the allowed sensors (ids) that break it alone (their
+            association risk floor exceeds it: in no suite that meets it), left out of the search.
     """
 
     status: str
@@ -147,6 +149,7 @@ class RequireResult:
     estimate: str = "smoother"
     integrity: IntegritySpec | None = None
     integrity_routes: tuple[RouteIntegrity, ...] = ()
+    integrity_alone: tuple[str, ...] = ()
 
     @property
     def gap_usd(self) -> float:
@@ -463,6 +466,7 @@ def require(target: Target, specifications: Specification | Sequence[Specificati
         evaluators = [make_evaluator(p, engine, jobs=jobs) for _, p in problems]
     oracle = _Oracle(evaluators, [n for n, _ in problems], specs, map_sigma_m, estimate)
     integ: IntegrityRequirement | None = None
+    alone: frozenset[int] = frozenset()
     if integrity is not None:
         if integrity.max_association_risk is not None:
             raise InputError("--max-association-risk: require judges accuracy with every measurement; "
@@ -513,7 +517,7 @@ def require(target: Target, specifications: Specification | Sequence[Specificati
     if found.suite is None:
         # no suite: the accuracy of the best any suite reaches (every allowed sensor, or what is
         # left of them after the failures the solver names)
-        best = found.best_effort or tuple(i for i in range(len(library)) if i not in feas.excluded)
+        best = found.best_effort or tuple(i for i in range(len(library)) if i not in feas.excluded and i not in alone)
         routes = oracle.report(best)
         integrity_routes = integ.report(as_suite(best)) if integ is not None else ()
         suite: Suite = ()
@@ -535,7 +539,7 @@ def require(target: Target, specifications: Specification | Sequence[Specificati
         seconds_checks=found.seconds_checks, seconds_programs=found.seconds_programs,
         ties=tuple(library.suite_ids(t) for t in found.ties), ties_exhaustive=found.ties_exhaustive,
         tie_programs=found.tie_programs, margin=margin, synthetic_landmarks=synthetic, integrity=integrity,
-        integrity_routes=integrity_routes)
+        integrity_routes=integrity_routes, integrity_alone=library.suite_ids(tuple(sorted(alone))))
 
 
 def _worst_failure(oracle: _Oracle, suite: Suite, failures: int) -> tuple[int, ...]:
