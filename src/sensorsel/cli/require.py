@@ -10,7 +10,7 @@ from typing import Any
 import click
 
 from sensorsel.cli.cluster import domain_evaluator_on, require_domain
-from sensorsel.cli.integrity import integrity_from, integrity_options
+from sensorsel.cli.integrity import INTEGRITY_KEYS, integrity_from, integrity_options
 from sensorsel.cli.options import (budget_option, check_map_sigma, constraint_options, constraints_from, estimate_option,
                                    engine_options, json_option, output_option, print_target, progress_bar,
                                    quiet_option, resume_option, run, target_from, target_options)
@@ -216,9 +216,7 @@ def _integrity_from(kw: dict[str, Any], flag: bool) -> Any:
     from click.core import ParameterSource
 
     ctx = click.get_current_context()
-    keys = ("integrity_risk", "alert_lateral", "alert_longitudinal", "alert_heading", "gate_probability",
-            "max_association_risk")
-    given = {k for k in keys if ctx.get_parameter_source(k) not in (ParameterSource.DEFAULT, None)}
+    given = {k for k in INTEGRITY_KEYS if ctx.get_parameter_source(k) not in (ParameterSource.DEFAULT, None)}
     spec = integrity_from(kw)  # also checks every value, naming the option
     if not (flag or given):
         return None
