@@ -186,3 +186,27 @@ def test_relaxations_are_necessary_conditions(tiny_problem, table):
         assert req.bounds[0].tail_relaxation(s) <= risk * (1 + 1e-9)
         if risk <= 0.5:
             assert req.tail_met(s) and req.floor_met(s)
+
+
+def test_domain_demands_integrity_on_every_route(tmp_path):
+    """A domain (the tiny route in clear weather and in fog): the answer equals the brute-force
+    cheapest suite that meets accuracy and integrity on both members, and reports both."""
+    from sensorsel.model.problem import load_domain
+    path = tmp_path / "d.yaml"
+    path.write_text("keyframe_rate_hz: 1.0\nconditions:\n  - {name: fog, fog_visibility_m: 60, share: 0.2}\n"
+                    "routes:\n  - {name: tiny, fixture: tiny}\n")
+    domain = load_domain(path)
+    tables = [_Table(r.problem) for r in domain.routes]
+    risk = 0.9
+    best = None
+    for s in tables[0].risk:
+        if all(t.meets(s, risk) for t in tables):
+            cost = float(domain.library.costs[list(s)].sum())
+            if best is None or cost < best[0] - 1e-9:
+                best = (cost, s)
+    res = require(domain, ACCURACY, map_sigma_m=MAP_SIGMA, constraints=_exclude(domain.library), engine="fast",
+                  integrity=_spec(risk))
+    assert best is not None
+    assert res.status == "optimal" and res.cost_usd == pytest.approx(best[0])
+    assert [r.route for r in res.integrity_routes] == [r.name for r in domain.routes]
+    assert all(r.meets for r in res.integrity_routes)
