@@ -7,7 +7,7 @@ from typing import Any, Callable
 import click
 
 #: the integrity options' destinations, popped from a command's keywords by :func:`integrity_from`
-_INTEGRITY_KEYS = ("integrity_risk", "alert_lateral", "alert_longitudinal", "alert_heading", "gate_probability",
+INTEGRITY_KEYS = ("integrity_risk", "alert_lateral", "alert_longitudinal", "alert_heading", "gate_probability",
                    "max_association_risk")
 
 
@@ -39,7 +39,7 @@ def integrity_from(kw: dict[str, Any]) -> Any:
     """The :class:`~sensorsel.information.integrity.IntegritySpec` of the integrity options (popped
     from ``kw``); an InputError naming the option when a value is out of range."""
     from sensorsel.information.integrity import IntegritySpec
-    v = {k: kw.pop(k) for k in _INTEGRITY_KEYS}
+    v = {k: kw.pop(k) for k in INTEGRITY_KEYS}
     return IntegritySpec(integrity_risk=v["integrity_risk"], alert_lateral_m=v["alert_lateral"],
                          alert_longitudinal_m=v["alert_longitudinal"], alert_heading_deg=v["alert_heading"],
                          gate_probability=v["gate_probability"], max_association_risk=v["max_association_risk"])

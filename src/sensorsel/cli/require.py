@@ -10,6 +10,7 @@ from typing import Any
 import click
 
 from sensorsel.cli.cluster import domain_evaluator_on, require_domain
+from sensorsel.cli.integrity import INTEGRITY_KEYS, integrity_from, integrity_options
 from sensorsel.cli.options import (budget_option, check_map_sigma, constraint_options, constraints_from, estimate_option,
                                    engine_options, json_option, output_option, print_target, progress_bar,
                                    quiet_option, resume_option, run, target_from, target_options)
@@ -18,6 +19,7 @@ from sensorsel.cli.options import plot_format, suite_text
 from sensorsel.cli.simulate import read_suite
 from sensorsel.designs.checkpoint import checkpoint_path
 from sensorsel.designs.requirements.design import RequireResult, RouteRequirement, require
+from sensorsel.designs.requirements.integrity import integrity_preset
 from sensorsel.designs.requirements.spec import (DEFAULT_MAP_SIGMA_M, PRESETS, Specification, load_specification_file,
                                                  preset, specifications_for)
 from sensorsel.errors import InputError
@@ -91,6 +93,11 @@ def specification_from(kw: dict[str, Any], routes: list[str]) -> list[Specificat
                    "an assumption: see the requirements guide).")
 @click.option("--slam", is_flag=True, help="Judge accuracy in the paper's SLAM graph (landmarks unknown) instead of a prior map.")
 @estimate_option
+@click.option("--integrity", "integrity_flag", is_flag=True,
+              help="Also demand integrity on every route: P(error beyond an alert limit) per hour within --integrity-risk "
+                   "(the preset's alert limits, Reid et al.: local-streets 0.29 m, 0.29 m, 0.50 deg; freeway 0.57 m, "
+                   "1.40 m, 1.50 deg; 1e-8 per hour). Any integrity option given demands it too.")
+@integrity_options
 @click.option("--in", "in_conditions", default=None, metavar="C1,C2,...",
               help="With a --domain that has conditions: demand the specification only in these conditions "
                    "(e.g. clear,rain); (default: in every condition).")
@@ -115,7 +122,7 @@ def specification_from(kw: dict[str, Any], routes: list[str]) -> list[Specificat
 @run
 def require_cmd(map_sigma: float | None, slam: bool, estimate: str, in_conditions: str | None, margin_text: str | None, failures: int, budget: float | None, time_limit: float | None,
                 plot_path: str | None, compare: str | None, output: str | None, resume: bool, as_json: bool, quiet: bool,
-                aggregate: str, engine: str | None, jobs: int, **kw: Any) -> None:
+                aggregate: str, engine: str | None, jobs: int, integrity_flag: bool, **kw: Any) -> None:
     """The cheapest suite that meets an accuracy specification, on a route or every route of a
     domain (--domain), with a lower bound on the cost of ANY suite that meets it: the answer is
     proved optimal, or the gap is stated.
@@ -144,6 +151,7 @@ def require_cmd(map_sigma: float | None, slam: bool, estimate: str, in_condition
     if plot_path:
         plot_format(None, plot_path)
     margin = parse_margin(margin_text)
+    integrity = _integrity_from(kw, integrity_flag)
     cluster = cluster_from(kw)
     constraints = constraints_from(kw)
     landmarks_given = tuple(kw.get("landmarks") or ())
@@ -169,7 +177,7 @@ def require_cmd(map_sigma: float | None, slam: bool, estimate: str, in_condition
                       constraints=constraints, engine=engine, jobs=jobs, time_limit_s=time_limit, progress=progress,
                       checkpoint=checkpoint_path(output) if output else None, resume=resume, evaluator=ev,
                       conditions=None if in_conditions is None else [c.strip() for c in in_conditions.split(",") if c.strip()],
-                      estimate=estimate)
+                      estimate=estimate, integrity=integrity)
     if output:
         results.save(res, output)
         checkpoint_path(output).unlink(missing_ok=True)  # the result is written: the run is no longer interrupted
@@ -202,6 +210,22 @@ def parse_margin(text: str | None) -> float:
     return value / 100.0
 
 
+def _integrity_from(kw: dict[str, Any], flag: bool) -> Any:
+    """The integrity demanded (an IntegritySpec) or None: --integrity, or any integrity option given
+    on the command line; the limits not given are the --preset's (local streets' without one)."""
+    from click.core import ParameterSource
+
+    ctx = click.get_current_context()
+    given = {k for k in INTEGRITY_KEYS if ctx.get_parameter_source(k) not in (ParameterSource.DEFAULT, None)}
+    spec = integrity_from(kw)  # also checks every value, naming the option
+    if not (flag or given):
+        return None
+    base = integrity_preset(kw.get("preset"))
+    fields = {"integrity_risk": "integrity_risk", "alert_lateral": "alert_lateral_m",
+              "alert_longitudinal": "alert_longitudinal_m", "alert_heading": "alert_heading_deg"}
+    return replace(spec, **{f: getattr(base, f) for k, f in fields.items() if k not in given})
+
+
 def _spec_line(routes: tuple[RouteRequirement, ...]) -> str:
     specs = {r.specification.describe() for r in routes}
     if len(specs) == 1:
@@ -212,6 +236,10 @@ def _spec_line(routes: tuple[RouteRequirement, ...]) -> str:
 def _print(res: RequireResult) -> None:
     print_target(res.problem)
     click.echo(f"requires   {_spec_line(res.routes)}")
+    if res.integrity is not None:
+        i = res.integrity
+        click.echo(f"integrity  required: at most {i.integrity_risk:g} per hour beyond the alert limits {i.alert_lateral_m:g} m "
+                   f"lateral, {i.alert_longitudinal_m:g} m longitudinal, {i.alert_heading_deg:g} deg, on every route")
     click.echo(f"model      {res.model_label}")
     if res.failures:
         click.echo(f"failures   still met after any {res.failures} sensor(s) fail")
@@ -219,8 +247,12 @@ def _print(res: RequireResult) -> None:
         click.echo("suite      none: no suite within the limits meets the specification")
         what = {"failures": "after the worst failures, every allowed sensor together reaches:"}.get(
             res.infeasible_by, "every allowed sensor together reaches:")
+        if res.integrity_alone:
+            what = (f"{len(res.integrity_alone)} allowed sensor(s) break integrity alone (their association risk alone "
+                    f"exceeds it); {what.replace('every allowed sensor', 'every other allowed sensor')}")
         click.echo(f"best       {what}")
         _print_routes(res.routes)
+        _print_integrity(res)
         return
     if not res.suite:
         click.echo(f"suite      none found before the search stopped ({res.stop})")
@@ -234,6 +266,7 @@ def _print(res: RequireResult) -> None:
         click.echo(f"cost       ${res.cost_usd:,.0f}; no suite that meets it costs less than ${res.lower_bound_usd:,.0f} "
                    f"(gap ${res.gap_usd:,.0f}: the search stopped at its time limit)")
     _print_routes(res.routes)
+    _print_integrity(res)
     if res.margin is not None:
         click.echo(f"margin     {res.margin.line()}")
     click.echo(f"ties       {_ties_line(res)}")
@@ -255,6 +288,11 @@ def _ties_line(res: RequireResult) -> str:
                 else f"none found ({looked})")
     shown = "; ".join(",".join(t) for t in res.ties[:4]) + (f"; ... ({len(res.ties)} in all)" if len(res.ties) > 4 else "")
     return f"{len(res.ties)} other suite(s) of {cost} also meet it: {shown} ({looked})"
+
+
+def _print_integrity(res: RequireResult) -> None:
+    for r in res.integrity_routes:
+        click.echo(f"  {r.route:<10} integrity {r.line()}")
 
 
 def _print_routes(routes: tuple[RouteRequirement, ...]) -> None:
@@ -318,6 +356,15 @@ def _infeasible_line(res: RequireResult) -> str:
     if res.infeasible_by == "failures":
         return (f"no suite meets the specification after {res.failures} failure(s): every allowed sensor together, after "
                 "its worst failures, misses it (" + "; ".join(fails) + ")")
+    if res.integrity is not None and res.infeasible_by != "failures":
+        worst = max(res.integrity_routes, key=lambda r: r.integrity_risk_per_hour, default=None)
+        others = "every other allowed sensor" if res.integrity_alone else "every allowed sensor"
+        alone = (f"{len(res.integrity_alone)} allowed sensor(s) break it alone; " if res.integrity_alone else "")
+        where = (f"{alone}{others} together: integrity {worst.integrity_risk_per_hour:.2g}/h on route {worst.route}"
+                 if worst is not None else alone)
+        return (f"no suite within the limits meets the specification with integrity {res.integrity.integrity_risk:g}/h "
+                f"(a sensor added can break integrity: the search ruled out every suite; {where}"
+                + ("; " + "; ".join(fails) if fails else "") + ")")
     if not fails:
         return ("no suite within the limits meets the specification (every allowed sensor together would: "
                 "the limits --budget/--limit/--max-sensors/slots rule it out)")

@@ -6,10 +6,16 @@ On a route or every route of a domain, a suite *meets* the requirement when each
 fail. Meeting is monotone in the suite, so the search of :mod:`.solver` applies: a greedy upper
 bound, then an implicit hitting set whose integer programs give a lower bound on the cost of *any*
 suite that meets the requirement: the answer is proved optimal or states its gap.
+
+With ``integrity`` the requirement is accuracy AND integrity on every route
+(:mod:`.integrity`): not monotone, so the solver is called with ``monotone=False``, the accuracy
+check and the error-tail relaxation as the monotone necessary condition and the association floor
+as the anti-monotone one; the lower bound stays valid (every cut excludes only failing suites).
 """
 
 from __future__ import annotations
 
+import copy
 import itertools
 import math
 import time
@@ -19,6 +25,7 @@ from typing import Callable, Iterable, Protocol, Sequence
 
 import numpy as np
 
+from sensorsel.designs.requirements.integrity import IntegrityRequirement
 from sensorsel.designs.requirements.margin import Margin, margin_of
 from sensorsel.designs.requirements.solver import DEFAULT_TIE_PROGRAMS, cheapest_suite
 from sensorsel.designs.requirements.spec import RouteVerdict, Specification, covariance_verdict, verdict
@@ -26,6 +33,7 @@ from sensorsel.errors import InputError
 from sensorsel.information.evaluators import Evaluator, as_suite, make_evaluator
 from sensorsel.information.evaluators.accuracy import RouteAccuracy, accuracy_from_covariances, estimate_label, model_label
 from sensorsel.information.filtering import check_estimate
+from sensorsel.information.integrity import IntegritySpec, RouteIntegrity
 from sensorsel.information.evaluators.base import Suite
 from sensorsel.io import results
 from sensorsel.io.codec import to_jsonable
@@ -104,6 +112,11 @@ class RequireResult:
         margin: the suite's smallest slack against the stated limits, where, and the binding
             keyframes (None when no suite was found).
         synthetic_landmarks: the routes whose landmarks were invented (generated), not read from a map.
+        integrity: the integrity also demanded on every route, or None (accuracy alone).
+        integrity_routes: with ``integrity``, the suite's integrity on each route (infeasible: that of
+            the best effort, as ``routes``).
+        integrity_alone: with ``integrity``, the allowed sensors (ids) that break it alone (their
+            association risk floor exceeds it: in no suite that meets it), left out of the search.
     """
 
     status: str
@@ -134,6 +147,9 @@ class RequireResult:
     margin: Margin | None = None
     synthetic_landmarks: tuple[str, ...] = ()
     estimate: str = "smoother"
+    integrity: IntegritySpec | None = None
+    integrity_routes: tuple[RouteIntegrity, ...] = ()
+    integrity_alone: tuple[str, ...] = ()
 
     @property
     def gap_usd(self) -> float:
@@ -170,9 +186,12 @@ JOURNAL_FORMAT = 2
 
 def require_fingerprint(problems: Sequence[Problem], specs: Sequence[Specification], map_sigma_m: float | None,
                         failures: int, budget_usd: float | None, constraints: Constraints | None,
-                        estimate: str = "filter", engine: str = "") -> tuple[str, tuple[tuple[str, str], ...]]:
+                        estimate: str = "filter", engine: str = "",
+                        integrity: IntegritySpec | None = None) -> tuple[str, tuple[tuple[str, str], ...]]:
     """(sha256, the inputs in words) of what a require run's answers depend on (``estimate``: filter or
-    smoother; ``engine``: the engine that computes them: another one's answers agree only to rounding)."""
+    smoother; ``engine``: the engine that computes them: another one's answers agree only to rounding;
+    ``integrity``: the integrity also demanded, or None: then the fingerprint is what it was before
+    integrity could be demanded)."""
     inputs = (
         ("routes", ", ".join(f"{p.scenario.name} {digest(to_jsonable(p.fingerprint))[:12]}" for p in problems)),
         ("specification", "; ".join(s.describe() for s in specs)),
@@ -182,12 +201,19 @@ def require_fingerprint(problems: Sequence[Problem], specs: Sequence[Specificati
         ("budget", "none" if budget_usd is None else f"${budget_usd:,.2f}"),
         ("limits", "none" if constraints is None else constraints.describe()),
         ("engine", engine or "?"),
-    )
+    ) + ((("integrity", _integrity_words(integrity)),) if integrity is not None else ())
+    extra = {"integrity": integrity} if integrity is not None else {}
     routes = [route_entry(p.scenario.name, 1.0, "", p.fingerprint) for p in problems]
     fp = result_fingerprint("require-journal", JOURNAL_FORMAT, routes, specifications=list(specs),
                             model="slam" if map_sigma_m is None else "map", map_sigma_m=map_sigma_m, failures=failures,
-                            budget_usd=budget_usd, constraints=constraints, estimate=estimate, engine=engine)
+                            budget_usd=budget_usd, constraints=constraints, estimate=estimate, engine=engine,
+                            **extra)
     return fp, inputs
+
+
+def _integrity_words(spec: IntegritySpec) -> str:
+    return (f"{spec.integrity_risk:g}/h beyond {spec.alert_lateral_m:g} m lateral, {spec.alert_longitudinal_m:g} m "
+            f"longitudinal, {spec.alert_heading_deg:g} deg (gate {spec.gate_probability:g})")
 
 
 def _read_journal(path: Path, fingerprint: str, inputs: tuple[tuple[str, str], ...]) -> RequireJournal | None:
@@ -376,7 +402,8 @@ def require(target: Target, specifications: Specification | Sequence[Specificati
             engine: str | None = None, jobs: int = 1, time_limit_s: float | None = None,
             progress: Progress | None = None, checkpoint: str | Path | None = None, resume: bool = False,
             conditions: Sequence[str] | None = None, evaluator: Evaluator | None = None,
-            max_tie_programs: int = DEFAULT_TIE_PROGRAMS, estimate: str = "filter") -> RequireResult:
+            max_tie_programs: int = DEFAULT_TIE_PROGRAMS, estimate: str = "filter",
+            integrity: IntegritySpec | None = None) -> RequireResult:
     """The cheapest suite meeting ``specifications`` on ``target`` (a route, or every route of a
     domain: one specification for all, or one per route in the domain's order).
 
@@ -400,6 +427,8 @@ def require(target: Target, specifications: Specification | Sequence[Specificati
         checkpoint: a file where the answers are journalled as they come (every
             :data:`JOURNAL_EVERY_S` and at the end: a :class:`RequireJournal`); with ``resume`` an
             interrupted run's journal there is read back (when its inputs differ: warned, and the run starts afresh).
+        integrity: also demand this integrity on every route (module docstring), or None. Its lever
+            (``max_association_risk``) is refused: the accuracy judged uses every measurement.
 
     Raises:
         InputError: bad failures, a specification count that does not match the routes, limits
@@ -436,10 +465,18 @@ def require(target: Target, specifications: Specification | Sequence[Specificati
     else:
         evaluators = [make_evaluator(p, engine, jobs=jobs) for _, p in problems]
     oracle = _Oracle(evaluators, [n for n, _ in problems], specs, map_sigma_m, estimate)
+    integ: IntegrityRequirement | None = None
+    alone: frozenset[int] = frozenset()
+    if integrity is not None:
+        if integrity.max_association_risk is not None:
+            raise InputError("--max-association-risk: require judges accuracy with every measurement; "
+                             "the lever is not available with require --integrity")
+        integ = IntegrityRequirement([p for _, p in problems], [n for n, _ in problems],
+                                     [i for i in range(len(library)) if i not in feas.excluded], integrity, map_sigma_m)
     if checkpoint is not None:
         path = Path(checkpoint)
         fp, inputs = require_fingerprint([p for _, p in problems], specs, map_sigma_m, failures, budget_usd, feas.record,
-                                         estimate, getattr(evaluator, "engine", None) or evaluators[0].name)
+                                         estimate, getattr(evaluator, "engine", None) or evaluators[0].name, integrity)
         old = _read_journal(path, fp, inputs) if resume else None
         if old is not None:
             oracle.known = {(r, tuple(s_)): (m, v) for r, s_, m, v in old.answers}
@@ -452,9 +489,25 @@ def require(target: Target, specifications: Specification | Sequence[Specificati
 
         oracle.on_answer = write
     try:
-        found = cheapest_suite(feas, oracle.meets, failures=failures, violation=oracle.violation,
-                               time_limit=time_limit_s, progress=progress,
-                               max_tie_programs=max_tie_programs)
+        if integ is None:
+            found = cheapest_suite(feas, oracle.meets, failures=failures, violation=oracle.violation,
+                                   time_limit=time_limit_s, progress=progress,
+                                   max_tie_programs=max_tie_programs)
+        else:
+            checks = integ
+
+            def down(s: Suite) -> bool:  # monotone: accuracy, and the error tail with every measurement used
+                return oracle.meets(s) and checks.tail_met(s)
+
+            # a sensor whose association floor alone exceeds the requirement is in no suite that meets it
+            # (the floor is anti-monotone): fixed out first, so that no failing set is grown over it
+            alone = frozenset(i for i in range(len(library)) if i not in feas.excluded and i not in feas.required
+                              and not checks.floor_met((i,)))
+            searched = copy.copy(feas)
+            searched.excluded = feas.excluded | alone
+            found = cheapest_suite(searched, lambda s: down(s) and checks.meets(s), failures=failures, monotone=False,
+                                   necessary_monotone=down, necessary_antimonotone=checks.floor_met,
+                                   time_limit=time_limit_s, progress=progress, max_tie_programs=max_tie_programs)
     finally:  # interrupted too (Ctrl-C): nothing learnt is lost
         if checkpoint is not None:
             oracle.on_answer = None
@@ -464,12 +517,14 @@ def require(target: Target, specifications: Specification | Sequence[Specificati
     if found.suite is None:
         # no suite: the accuracy of the best any suite reaches (every allowed sensor, or what is
         # left of them after the failures the solver names)
-        best = found.best_effort or tuple(i for i in range(len(library)) if i not in feas.excluded)
+        best = found.best_effort or tuple(i for i in range(len(library)) if i not in feas.excluded and i not in alone)
         routes = oracle.report(best)
+        integrity_routes = integ.report(as_suite(best)) if integ is not None else ()
         suite: Suite = ()
     else:
         suite = as_suite(found.suite)
         routes = oracle.report(suite)
+        integrity_routes = integ.report(suite) if integ is not None else ()
         worst = _worst_failure(oracle, suite, failures)
         worst_routes = oracle.report(tuple(i for i in suite if i not in worst)) if worst else ()
     margin = margin_of([(r.route, r.specification, r.accuracy) for r in routes]) if found.suite is not None else None
@@ -483,7 +538,8 @@ def require(target: Target, specifications: Specification | Sequence[Specificati
         constraints=feas.record, problem=target.info, seconds=time.perf_counter() - t0,
         seconds_checks=found.seconds_checks, seconds_programs=found.seconds_programs,
         ties=tuple(library.suite_ids(t) for t in found.ties), ties_exhaustive=found.ties_exhaustive,
-        tie_programs=found.tie_programs, margin=margin, synthetic_landmarks=synthetic)
+        tie_programs=found.tie_programs, margin=margin, synthetic_landmarks=synthetic, integrity=integrity,
+        integrity_routes=integrity_routes, integrity_alone=library.suite_ids(tuple(sorted(alone))))
 
 
 def _worst_failure(oracle: _Oracle, suite: Suite, failures: int) -> tuple[int, ...]:
