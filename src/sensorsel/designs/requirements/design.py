@@ -292,7 +292,7 @@ class _Oracle:
         #: (route, suite) -> (meets, violation or None): answers read back from a journal
         self.known: dict[tuple[int, Suite], tuple[bool, float | None]] = {}
         self.n_checks = 0  # marginals computed (route, suite)
-        self.n_refuted = 0  # (route, suite) refuted by the floor alone
+        self.n_refuted = 0  # (route, suite) refuted without the judged marginals: by the floor, or (filter) by the smoother
         self.floor_asked = 0
         self.on_answer: Callable[[], None] | None = None  # called after each new answer (the journal's writer)
 
