@@ -248,3 +248,14 @@ def test_a_far_landmark_within_a_stereo_cameras_range_noise_is_a_candidate():
     lo1, hi1 = clopper_pearson(out.wrong_draws, out.draws)
     lo2, hi2 = clopper_pearson(k, n)
     assert lo1 <= hi2 and lo2 <= hi1, (out.wrong_draws, k)
+
+
+def test_a_keyframe_without_measurements_is_simulated_as_none_wrong(tiny_problem):
+    # LRR-7 on the tiny route measures nothing at keyframes 0, 1, 4 and 8: those draws have no shift
+    # to take the largest of (this raised on an empty reduction before)
+    suite = tiny_problem.library.parse_suite("LRR-7")
+    for importance in (False, True):
+        c = simulate_association(tiny_problem, suite, map_sigma_m=None, draws=200, seed=0, importance=importance)
+        empty = [k for k in c.keyframes if k.n_measurements == 0]
+        assert empty  # not vacuous
+        assert all(k.observed == 0.0 and k.predicted_bound == 0.0 for k in empty)

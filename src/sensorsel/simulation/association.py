@@ -384,7 +384,7 @@ def associate_keyframe(case: KeyframeCase, task: Task) -> KeyframeOutcome:
             wrong_draws += int(anyw.sum())
             for p in positions:
                 per_sensor[p] += float(wrong[:, case.sensor == p].sum())
-            big = np.abs(shift).max(axis=1)  # (B, 3) the largest shift of each component in the draw
+            big = np.abs(shift).max(axis=1, initial=0.0)  # (B, 3) the largest shift of each component in the draw (0: no measurement)
             shift_sum += big[anyw].sum(axis=0)
             shift_w += float(anyw.sum())
             beyond += float(((big > alert[None, [1, 0, 2]]) & anyw[:, None]).any(axis=1).sum())

@@ -38,6 +38,12 @@ first sighting only Σ_j F(γ; λ_j). Each term is non-increasing in λ_j, and �
 P or R grows (Loewner order): the bound never falls with more noise, more landmarks, a looser prior
 or a looser map.
 
+The bound is one of the model linearized at the truth. Where a landmark's predicted spread is a
+sizeable share of its range (SLAM's freshly initialized stereo landmarks: metres at 9 m) the car's
+nonlinear innovation can gate a candidate whose linearized λ puts it out of reach, and the bound is
+then below the associator's true probability (``tests/test_association_linearization.py``, an
+expected failure until the bound covers the Taylor remainder).
+
 **The estimate** (calibrated, not a bound): the pairwise events, combined as independent,
 P(W) ≈ 1 − Π_j (1 − p_j), p_j = min(P(NIS_j < NIS_i), F(γ; λ_j)). For P(NIS_j < NIS_i) both NIS use
 S̄ = (S_i + S_j)/2; then with D = ν_j − ν_i (the measurement noise cancels in D; the pose error nearly
