@@ -3,7 +3,9 @@
 Each takes a :class:`~sensorsel.model.problem.Problem` (one route) or, where it makes sense, a
 :class:`~sensorsel.model.problem.Domain` (an operating domain of routes, one suite for all), builds the
 evaluator, and records what it ran on (``target.info``). This is the top of the library's layers:
-nothing below it imports it. Everything here is importable from ``sensorsel`` itself.
+nothing below it imports it. The run functions are importable from ``sensorsel`` itself. It is also
+the command line's one door to the designs and the information: the records, constants and
+lower-level runs the CLI needs are re-exported here (``pyproject.toml`` forbids it any other way).
 
 >>> from sensorsel import ScenarioSpec, load_problem, run_greedy, score_suite
 >>> problem = load_problem(ScenarioSpec(fixture="tiny"))          # a bundled synthetic route
@@ -23,7 +25,7 @@ from pathlib import Path
 from typing import Any, Iterable
 
 from sensorsel.designs.certify import (DEFAULT_MAX_NODES, Certificate, CertifiedGreedyResult, OptimumResult,
-                                       certificate, constraints_mismatch, optimal)
+                                       certificate, certify_greedy, constraints_mismatch, format_certificate, optimal)
 from sensorsel.designs.checkpoint import resumable_greedy
 from sensorsel.designs.domain_design import DomainDesign
 from sensorsel.designs.domain_design import design_domain as _design_domain
@@ -44,9 +46,36 @@ from sensorsel.model.constraints import Constraints, feasible_set
 from sensorsel.model.problem import Domain, DomainInfo, Problem, ProblemInfo, Target, load_domain, load_problem
 from sensorsel.simulation.records import SimulationResult
 
+# What the command line takes from the layers below, re-exported so that it needs no other door
+# (pyproject.toml: sensorsel.cli imports neither sensorsel.designs nor sensorsel.information).
+from sensorsel.designs.checkpoint import checkpoint_path, remove_checkpoint
+from sensorsel.designs.domain_design import by_condition
+from sensorsel.designs.requirements.design import RouteRequirement
+from sensorsel.designs.requirements.integrity import integrity_preset
+from sensorsel.designs.requirements.spec import (DEFAULT_MAP_SIGMA_M, PRESETS, Specification, load_specification_file,
+                                                 preset, specifications_for)
+from sensorsel.designs.resilient import check_alpha, check_period, save_grid_csv, split_periods
+from sensorsel.designs.robust import EXTRA_METHODS, WORST_METHODS
+from sensorsel.designs.selection import RULES, check_affordable, rules_help
+from sensorsel.designs.study import load_study, run_study, write_study
+from sensorsel.designs.tradespace import DEFAULT_RULES, Architecture, parse_budgets, parse_rules, write_csv
+from sensorsel.information.evaluators import AGGREGATES, ENGINES, Evaluator
+from sensorsel.information.evaluators.accuracy import estimate_label, model_label
+from sensorsel.information.filtering import ESTIMATES
+from sensorsel.information.integrity.association import gate_of
+
 __all__ = ["RouteAccuracy", "suite_accuracy", "RouteIntegrity", "IntegritySpec", "suite_integrity", "run_require", "RequireResult", "FrontAcceptance", "front_acceptance", "CertifiedGreedyResult", "DomainDesign", "DomainScoreResult", "ProblemInfo", "RouteScore", "ScoreResult",
            "certify_result", "design_domain", "load_domain", "load_problem", "resilient_report", "run_greedy", "run_robust", "RobustResult",
            "run_optimal", "run_tradespace", "score_domain_suite", "score_suite", "simulate"]
+#: Re-exported for the command line (above): the runs, records and constants it uses.
+__all__ += ["AGGREGATES", "Architecture", "Certificate", "DEFAULT_MAP_SIGMA_M", "DEFAULT_MAX_NODES", "DEFAULT_RULES",
+            "ENGINES", "ESTIMATES", "EXTRA_METHODS", "Evaluator", "GreedyResult", "METHODS", "ALGORITHM_2", "PRESETS",
+            "RULES", "RouteRequirement", "Specification", "WORST_METHODS", "by_condition", "certify_greedy",
+            "check_affordable", "check_alpha", "check_budget", "check_period", "check_rule", "checkpoint_path",
+            "constraints_mismatch", "estimate_label", "evaluator_for", "format_certificate", "gate_of", "greedy",
+            "integrity_preset", "load_specification_file", "load_study", "model_label", "optimal", "parse_budgets",
+            "parse_rules", "preset", "remove_checkpoint", "rules_help", "run_study", "save_grid_csv",
+            "specifications_for", "split_periods", "write_csv", "write_study"]
 
 
 @result_kind("score")

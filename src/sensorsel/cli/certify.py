@@ -12,13 +12,10 @@ from typing import Any
 import click
 
 from sensorsel.cli.cluster import evaluator_on, require_domain
-from sensorsel.designs.certify import (DEFAULT_MAX_NODES, Certificate, CertifiedGreedyResult, certify_greedy,
-                                       constraints_mismatch, format_certificate, optimal)
-from sensorsel.designs.checkpoint import checkpoint_path
-from sensorsel.designs.domain_design import DomainDesign
-from sensorsel.designs.selection import GreedyResult, check_affordable, check_budget, greedy
+from sensorsel.api import (DEFAULT_MAX_NODES, Certificate, CertifiedGreedyResult, DomainDesign, DomainEvaluator,
+                           GreedyResult, certify_greedy, check_affordable, check_budget, checkpoint_path,
+                           constraints_mismatch, format_certificate, greedy, optimal)
 from sensorsel.errors import InputError, ResultFileError
-from sensorsel.information.evaluators import DomainEvaluator
 from sensorsel.io import results
 from sensorsel.io.files import output_file
 from sensorsel.model.constraints import Constraints, feasible_set

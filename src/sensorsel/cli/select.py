@@ -20,15 +20,11 @@ from sensorsel.cli.options import check_map_sigma, map_sigma_option, print_accur
 from sensorsel.cli.integrity import integrity_from, integrity_options
 from sensorsel.cli.options import plot_format
 from sensorsel.cli.options import plot_format as plot_format_of
-from sensorsel.cli.require import specification_from, specification_given, specification_options
+from sensorsel.cli.common import specification_from, specification_given, specification_options
 from sensorsel.cli.rules import kept_label, rule_option, rules_option
-from sensorsel.designs.certify import CertifiedGreedyResult, format_certificate
-from sensorsel.designs.checkpoint import checkpoint_path, remove_checkpoint
-from sensorsel.designs.domain_design import DomainDesign, by_condition
-from sensorsel.designs.requirements.front import front_acceptance
-from sensorsel.designs.selection import RULES, check_affordable
-from sensorsel.designs.tradespace import (DEFAULT_RULES, Architecture, parse_budgets, parse_rules, run_tradespace,
-                                          write_csv)
+from sensorsel.api import (DEFAULT_RULES, RULES, Architecture, CertifiedGreedyResult, DomainDesign, by_condition,
+                           check_affordable, checkpoint_path, format_certificate, front_acceptance, parse_budgets,
+                           parse_rules, remove_checkpoint, run_tradespace, write_csv)
 from sensorsel.io import results
 from sensorsel.io.files import output_dir, output_file
 from sensorsel.model.constraints import feasible_set
