@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import Any, Iterable
 
 from sensorsel.designs.certify import (DEFAULT_MAX_NODES, Certificate, CertifiedGreedyResult, OptimumResult,
-                                       certificate, certify_greedy, constraints_mismatch, format_certificate, optimal)
+                                       certificate, constraints_mismatch, format_certificate, optimal)
 from sensorsel.designs.checkpoint import resumable_greedy
 from sensorsel.designs.domain_design import DomainDesign
 from sensorsel.designs.domain_design import design_domain as _design_domain
@@ -70,10 +70,10 @@ __all__ = ["RouteAccuracy", "suite_accuracy", "RouteIntegrity", "IntegritySpec",
 #: Re-exported for the command line (above): the runs, records and constants it uses.
 __all__ += ["AGGREGATES", "Architecture", "Certificate", "DEFAULT_MAP_SIGMA_M", "DEFAULT_MAX_NODES", "DEFAULT_RULES",
             "ENGINES", "ESTIMATES", "EXTRA_METHODS", "Evaluator", "GreedyResult", "METHODS", "ALGORITHM_2", "PRESETS",
-            "RULES", "RouteRequirement", "Specification", "WORST_METHODS", "by_condition", "certify_greedy",
+            "RULES", "RouteRequirement", "Specification", "WORST_METHODS", "by_condition",
             "check_affordable", "check_alpha", "check_budget", "check_period", "check_rule", "checkpoint_path",
             "constraints_mismatch", "estimate_label", "evaluator_for", "format_certificate", "gate_of", "greedy",
-            "integrity_preset", "load_specification_file", "load_study", "model_label", "optimal", "parse_budgets",
+            "integrity_preset", "load_specification_file", "load_study", "model_label", "parse_budgets",
             "parse_rules", "preset", "remove_checkpoint", "rules_help", "run_study", "save_grid_csv",
             "specifications_for", "split_periods", "write_csv", "write_study"]
 
@@ -285,10 +285,11 @@ def score_domain_suite(domain: Domain, suite: str | Iterable[str | int], *, engi
 
 
 def certify_result(target: Target, result: GreedyResult, *, engine: str | None = None, jobs: int = 1,
-                   aggregate: str = "normalised", progress: Progress | None = None, force: bool = False) -> Certificate:
+                   aggregate: str = "normalised", progress: Progress | None = None, force: bool = False,
+                   evaluator: Evaluator | None = None) -> Certificate:
     """The certificate of a greedy result on ``target`` (an upper bound on the best possible score
     within its budget; see :func:`sensorsel.designs.certify.certificate`), with a fresh evaluator of
-    ``engine`` (default: the result's own).
+    ``engine`` (default: the result's own), or ``evaluator`` when given (e.g. built on a Dask cluster).
 
     The bound respects the constraints the result records (``result.constraints``: resources,
     mounting slots, required and excluded sensors, most sensors).
@@ -300,19 +301,23 @@ def certify_result(target: Target, result: GreedyResult, *, engine: str | None =
     mismatch = constraints_mismatch(result, target.library)
     if mismatch is not None and not (force and mismatch[1]):
         raise InputError(f"the greedy result: {mismatch[0]}")
-    ev = evaluator_for(target, engine or _engine_of(result), jobs=jobs, aggregate=aggregate)
+    ev = evaluator if evaluator is not None else evaluator_for(target, engine or _engine_of(result), jobs=jobs,
+                                                                aggregate=aggregate)
     return certificate(ev, result, progress=progress)
 
 
 def run_optimal(target: Target, budget_usd: float, *, engine: str | None = None, jobs: int = 1,
                 aggregate: str = "normalised", max_nodes: int = DEFAULT_MAX_NODES, max_seconds: float | None = None,
                 rule: str = "best-of", progress: Progress | None = None,
-                constraints: Constraints | None = None) -> OptimumResult:
+                constraints: Constraints | None = None, evaluator: Evaluator | None = None,
+                checkpoint: str | Path | None = None, resume: bool = False) -> OptimumResult:
     """The ``sensorsel optimal`` run: the best suite within the budget by branch and bound
     (:func:`sensorsel.designs.certify.optimal`), on a problem or a domain.
 
     ``constraints``: limits besides the budget (:mod:`sensorsel.model.constraints`); the optimum is the
-    best suite they allow, and the result records them.
+    best suite they allow, and the result records them. ``evaluator``: the target's evaluator already
+    built (e.g. on a Dask cluster; ``engine``, ``jobs`` and ``aggregate`` are then its own). ``checkpoint``: the search's state is saved
+    there as it goes; ``resume``: go on from it.
 
     Raises:
         InputError: a bad budget or rule, or constraints the library cannot meet (before any
@@ -322,9 +327,9 @@ def run_optimal(target: Target, budget_usd: float, *, engine: str | None = None,
     check_rule(rule)
     if constraints is not None:
         feasible_set(target.library, budget_usd, constraints)  # refuse a bad request before the evaluator
-    ev = evaluator_for(target, engine, jobs=jobs, aggregate=aggregate)
+    ev = evaluator if evaluator is not None else evaluator_for(target, engine, jobs=jobs, aggregate=aggregate)
     return optimal(ev, budget_usd, max_nodes=max_nodes, max_seconds=max_seconds, rule=rule, progress=progress,
-                   info=target.info, constraints=constraints)
+                   info=target.info, constraints=constraints, checkpoint=checkpoint, resume=resume)
 
 
 def _engine_of(result: GreedyResult) -> str | None:
