@@ -72,7 +72,7 @@ __all__ += ["AGGREGATES", "Architecture", "Certificate", "DEFAULT_MAP_SIGMA_M", 
             "ENGINES", "ESTIMATES", "EXTRA_METHODS", "Evaluator", "GreedyResult", "METHODS", "ALGORITHM_2", "PRESETS",
             "RULES", "RouteRequirement", "Specification", "WORST_METHODS", "by_condition",
             "check_affordable", "check_alpha", "check_budget", "check_period", "check_rule", "checkpoint_path",
-            "constraints_mismatch", "estimate_label", "evaluator_for", "format_certificate", "gate_of", "greedy",
+            "constraints_mismatch", "estimate_label", "evaluator_for", "format_certificate", "gate_of",
             "integrity_preset", "load_specification_file", "load_study", "model_label", "parse_budgets",
             "parse_rules", "preset", "remove_checkpoint", "rules_help", "run_study", "save_grid_csv",
             "specifications_for", "split_periods", "write_csv", "write_study"]
@@ -164,7 +164,8 @@ def suite_integrity(target: Target, suite: str | Iterable[str | int], spec: Inte
 def run_greedy(problem: Target, budget_usd: float, rule: str = "uniform", *, engine: str | None = None, jobs: int = 1,
                lazy: bool = True, aggregate: str = "normalised", progress: Progress | None = None,
                certify: bool = False, certify_progress: Progress | None = None, checkpoint: str | Path | None = None,
-               resume: bool = False, constraints: Constraints | None = None) -> CertifiedGreedyResult:
+               resume: bool = False, constraints: Constraints | None = None,
+               evaluator: Evaluator | None = None) -> CertifiedGreedyResult:
     """The ``sensorsel greedy`` run: :func:`~sensorsel.designs.selection.greedy` with a fresh evaluator of
     ``engine`` for a problem or a domain (its routes combined by ``aggregate``), recording what it ran on.
 
@@ -181,10 +182,16 @@ def run_greedy(problem: Target, budget_usd: float, rule: str = "uniform", *, eng
     ``constraints``: limits besides the budget (resources, mounting slots, required and excluded
     sensors, most sensors; :mod:`sensorsel.model.constraints`), recorded in the result.
 
+    ``evaluator``: the target's evaluator already built (e.g. on a Dask cluster; ``engine``, ``jobs`` and
+    ``aggregate`` are then its own); not with ``checkpoint`` (a resumable run builds its own).
+
     Raises:
         InputError: a bad budget or rule, or constraints the library cannot meet (before any
             evaluator is built).
+        ValueError: both ``evaluator`` and ``checkpoint`` given.
     """
+    if evaluator is not None and checkpoint is not None:
+        raise ValueError("run_greedy: a resumable run (checkpoint=) builds its own evaluator: give no evaluator=")
     check_budget(budget_usd)
     check_rule(rule)
     if constraints is not None:
@@ -195,7 +202,7 @@ def run_greedy(problem: Target, budget_usd: float, rule: str = "uniform", *, eng
                                certify_progress=certify_progress, breakdown=False, constraints=constraints)
         assert isinstance(out, CertifiedGreedyResult)
         return out
-    ev = evaluator_for(problem, engine, jobs=jobs, aggregate=aggregate)
+    ev = evaluator if evaluator is not None else evaluator_for(problem, engine, jobs=jobs, aggregate=aggregate)
     res = greedy(ev, budget_usd, rule, lazy=lazy, progress=progress, info=problem.info, constraints=constraints)
     cert = certificate(ev, res, progress=certify_progress) if certify else None
     return CertifiedGreedyResult.of(res, cert)

@@ -13,7 +13,7 @@ import click
 
 from sensorsel.api import (DEFAULT_MAX_NODES, Certificate, CertifiedGreedyResult, DomainDesign, DomainEvaluator,
                            GreedyResult, certify_result, check_affordable, check_budget, checkpoint_path,
-                           constraints_mismatch, format_certificate, greedy, run_optimal)
+                           constraints_mismatch, format_certificate, run_greedy, run_optimal)
 from sensorsel.cli.cluster import evaluator_on, require_domain
 from sensorsel.errors import InputError, ResultFileError
 from sensorsel.io import results
@@ -229,7 +229,7 @@ def _certify(problem: Any, cluster: Any, result_path: str | None, budget: float 
         assert budget is not None
         checked = check_affordable(problem.library, budget, constraints=constraints)
         ev = evaluator_on(cluster, problem, engine, jobs, aggregate)
-        res = greedy(ev, checked, rule, info=problem.info, constraints=constraints)
+        res = run_greedy(problem, checked, rule, constraints=constraints, evaluator=ev)
     bar, progress = progress_bar(quiet, "certificate (greedy steps)")
     with bar or nullcontext():
         cert: Certificate = certify_result(problem, res, progress=progress, force=force, evaluator=ev)
