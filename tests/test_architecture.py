@@ -37,6 +37,16 @@ def test_layers_and_no_cycles_hold():
     # plotting and the api are independent floors
     ("plotting/__init__.py", "from sensorsel import api",
      "sensorsel.plotting is not allowed to import sensorsel.api", "sensorsel.plotting -> sensorsel.api"),
+    # the command line goes around the api to a design
+    ("cli/select.py", "from sensorsel.designs.selection import greedy",
+     "sensorsel.cli is not allowed to import sensorsel.designs", "sensorsel.cli.select -> sensorsel.designs.selection"),
+    # ... or to an evaluator
+    ("cli/options.py", "from sensorsel.information.evaluators import ENGINES",
+     "sensorsel.cli is not allowed to import sensorsel.information",
+     "sensorsel.cli.options -> sensorsel.information.evaluators"),
+    # one command borrows a helper from another command's module
+    ("cli/core.py", "from sensorsel.cli.simulate import simulate_cmd",
+     "sensorsel.cli.core is not allowed to import sensorsel.cli.simulate", "sensorsel.cli.core -> sensorsel.cli.simulate"),
 ])
 def test_an_upward_import_breaks_the_build(module, line, broken, path, tmp_path):
     # a copy of the package with one upward import added: the check must fail and name it

@@ -3,7 +3,9 @@
 Each takes a :class:`~sensorsel.model.problem.Problem` (one route) or, where it makes sense, a
 :class:`~sensorsel.model.problem.Domain` (an operating domain of routes, one suite for all), builds the
 evaluator, and records what it ran on (``target.info``). This is the top of the library's layers:
-nothing below it imports it. Everything here is importable from ``sensorsel`` itself.
+nothing below it imports it. The run functions are importable from ``sensorsel`` itself. It is also
+the command line's one door to the designs and the information: the records, constants and
+lower-level runs the CLI needs are re-exported here (``pyproject.toml`` forbids it any other way).
 
 >>> from sensorsel import ScenarioSpec, load_problem, run_greedy, score_suite
 >>> problem = load_problem(ScenarioSpec(fixture="tiny"))          # a bundled synthetic route
@@ -23,7 +25,7 @@ from pathlib import Path
 from typing import Any, Iterable
 
 from sensorsel.designs.certify import (DEFAULT_MAX_NODES, Certificate, CertifiedGreedyResult, OptimumResult,
-                                       certificate, constraints_mismatch, optimal)
+                                       certificate, constraints_mismatch, format_certificate, optimal)
 from sensorsel.designs.checkpoint import resumable_greedy
 from sensorsel.designs.domain_design import DomainDesign
 from sensorsel.designs.domain_design import design_domain as _design_domain
@@ -44,9 +46,36 @@ from sensorsel.model.constraints import Constraints, feasible_set
 from sensorsel.model.problem import Domain, DomainInfo, Problem, ProblemInfo, Target, load_domain, load_problem
 from sensorsel.simulation.records import SimulationResult
 
+# What the command line takes from the layers below, re-exported so that it needs no other door
+# (pyproject.toml: sensorsel.cli imports neither sensorsel.designs nor sensorsel.information).
+from sensorsel.designs.checkpoint import checkpoint_path, remove_checkpoint
+from sensorsel.designs.domain_design import by_condition
+from sensorsel.designs.requirements.design import RouteRequirement
+from sensorsel.designs.requirements.integrity import integrity_preset
+from sensorsel.designs.requirements.spec import (DEFAULT_MAP_SIGMA_M, PRESETS, Specification, load_specification_file,
+                                                 preset, specifications_for)
+from sensorsel.designs.resilient import check_alpha, check_period, save_grid_csv, split_periods
+from sensorsel.designs.robust import EXTRA_METHODS, WORST_METHODS
+from sensorsel.designs.selection import RULES, check_affordable, rules_help
+from sensorsel.designs.study import load_study, run_study, write_study
+from sensorsel.designs.tradespace import DEFAULT_RULES, Architecture, parse_budgets, parse_rules, write_csv
+from sensorsel.information.evaluators import AGGREGATES, ENGINES, Evaluator
+from sensorsel.information.evaluators.accuracy import estimate_label, model_label
+from sensorsel.information.filtering import ESTIMATES
+from sensorsel.information.integrity.association import gate_of
+
 __all__ = ["RouteAccuracy", "suite_accuracy", "RouteIntegrity", "IntegritySpec", "suite_integrity", "run_require", "RequireResult", "FrontAcceptance", "front_acceptance", "CertifiedGreedyResult", "DomainDesign", "DomainScoreResult", "ProblemInfo", "RouteScore", "ScoreResult",
            "certify_result", "design_domain", "load_domain", "load_problem", "resilient_report", "run_greedy", "run_robust", "RobustResult",
            "run_optimal", "run_tradespace", "score_domain_suite", "score_suite", "simulate"]
+#: Re-exported for the command line (above): the runs, records and constants it uses.
+__all__ += ["AGGREGATES", "Architecture", "Certificate", "DEFAULT_MAP_SIGMA_M", "DEFAULT_MAX_NODES", "DEFAULT_RULES",
+            "ENGINES", "ESTIMATES", "EXTRA_METHODS", "Evaluator", "GreedyResult", "METHODS", "ALGORITHM_2", "PRESETS",
+            "RULES", "RouteRequirement", "Specification", "WORST_METHODS", "by_condition",
+            "check_affordable", "check_alpha", "check_budget", "check_period", "check_rule", "checkpoint_path",
+            "constraints_mismatch", "estimate_label", "evaluator_for", "format_certificate", "gate_of",
+            "integrity_preset", "load_specification_file", "load_study", "model_label", "parse_budgets",
+            "parse_rules", "preset", "remove_checkpoint", "rules_help", "run_study", "save_grid_csv",
+            "specifications_for", "split_periods", "write_csv", "write_study"]
 
 
 @result_kind("score")
@@ -135,7 +164,8 @@ def suite_integrity(target: Target, suite: str | Iterable[str | int], spec: Inte
 def run_greedy(problem: Target, budget_usd: float, rule: str = "uniform", *, engine: str | None = None, jobs: int = 1,
                lazy: bool = True, aggregate: str = "normalised", progress: Progress | None = None,
                certify: bool = False, certify_progress: Progress | None = None, checkpoint: str | Path | None = None,
-               resume: bool = False, constraints: Constraints | None = None) -> CertifiedGreedyResult:
+               resume: bool = False, constraints: Constraints | None = None,
+               evaluator: Evaluator | None = None) -> CertifiedGreedyResult:
     """The ``sensorsel greedy`` run: :func:`~sensorsel.designs.selection.greedy` with a fresh evaluator of
     ``engine`` for a problem or a domain (its routes combined by ``aggregate``), recording what it ran on.
 
@@ -152,10 +182,16 @@ def run_greedy(problem: Target, budget_usd: float, rule: str = "uniform", *, eng
     ``constraints``: limits besides the budget (resources, mounting slots, required and excluded
     sensors, most sensors; :mod:`sensorsel.model.constraints`), recorded in the result.
 
+    ``evaluator``: the target's evaluator already built (e.g. on a Dask cluster; ``engine``, ``jobs`` and
+    ``aggregate`` are then its own); not with ``checkpoint`` (a resumable run builds its own).
+
     Raises:
         InputError: a bad budget or rule, or constraints the library cannot meet (before any
             evaluator is built).
+        ValueError: both ``evaluator`` and ``checkpoint`` given.
     """
+    if evaluator is not None and checkpoint is not None:
+        raise ValueError("run_greedy: a resumable run (checkpoint=) builds its own evaluator: give no evaluator=")
     check_budget(budget_usd)
     check_rule(rule)
     if constraints is not None:
@@ -166,7 +202,7 @@ def run_greedy(problem: Target, budget_usd: float, rule: str = "uniform", *, eng
                                certify_progress=certify_progress, breakdown=False, constraints=constraints)
         assert isinstance(out, CertifiedGreedyResult)
         return out
-    ev = evaluator_for(problem, engine, jobs=jobs, aggregate=aggregate)
+    ev = evaluator if evaluator is not None else evaluator_for(problem, engine, jobs=jobs, aggregate=aggregate)
     res = greedy(ev, budget_usd, rule, lazy=lazy, progress=progress, info=problem.info, constraints=constraints)
     cert = certificate(ev, res, progress=certify_progress) if certify else None
     return CertifiedGreedyResult.of(res, cert)
@@ -256,10 +292,11 @@ def score_domain_suite(domain: Domain, suite: str | Iterable[str | int], *, engi
 
 
 def certify_result(target: Target, result: GreedyResult, *, engine: str | None = None, jobs: int = 1,
-                   aggregate: str = "normalised", progress: Progress | None = None, force: bool = False) -> Certificate:
+                   aggregate: str = "normalised", progress: Progress | None = None, force: bool = False,
+                   evaluator: Evaluator | None = None) -> Certificate:
     """The certificate of a greedy result on ``target`` (an upper bound on the best possible score
     within its budget; see :func:`sensorsel.designs.certify.certificate`), with a fresh evaluator of
-    ``engine`` (default: the result's own).
+    ``engine`` (default: the result's own), or ``evaluator`` when given (e.g. built on a Dask cluster).
 
     The bound respects the constraints the result records (``result.constraints``: resources,
     mounting slots, required and excluded sensors, most sensors).
@@ -271,19 +308,23 @@ def certify_result(target: Target, result: GreedyResult, *, engine: str | None =
     mismatch = constraints_mismatch(result, target.library)
     if mismatch is not None and not (force and mismatch[1]):
         raise InputError(f"the greedy result: {mismatch[0]}")
-    ev = evaluator_for(target, engine or _engine_of(result), jobs=jobs, aggregate=aggregate)
+    ev = evaluator if evaluator is not None else evaluator_for(target, engine or _engine_of(result), jobs=jobs,
+                                                                aggregate=aggregate)
     return certificate(ev, result, progress=progress)
 
 
 def run_optimal(target: Target, budget_usd: float, *, engine: str | None = None, jobs: int = 1,
                 aggregate: str = "normalised", max_nodes: int = DEFAULT_MAX_NODES, max_seconds: float | None = None,
                 rule: str = "best-of", progress: Progress | None = None,
-                constraints: Constraints | None = None) -> OptimumResult:
+                constraints: Constraints | None = None, evaluator: Evaluator | None = None,
+                checkpoint: str | Path | None = None, resume: bool = False) -> OptimumResult:
     """The ``sensorsel optimal`` run: the best suite within the budget by branch and bound
     (:func:`sensorsel.designs.certify.optimal`), on a problem or a domain.
 
     ``constraints``: limits besides the budget (:mod:`sensorsel.model.constraints`); the optimum is the
-    best suite they allow, and the result records them.
+    best suite they allow, and the result records them. ``evaluator``: the target's evaluator already
+    built (e.g. on a Dask cluster; ``engine``, ``jobs`` and ``aggregate`` are then its own). ``checkpoint``: the search's state is saved
+    there as it goes; ``resume``: go on from it.
 
     Raises:
         InputError: a bad budget or rule, or constraints the library cannot meet (before any
@@ -293,9 +334,9 @@ def run_optimal(target: Target, budget_usd: float, *, engine: str | None = None,
     check_rule(rule)
     if constraints is not None:
         feasible_set(target.library, budget_usd, constraints)  # refuse a bad request before the evaluator
-    ev = evaluator_for(target, engine, jobs=jobs, aggregate=aggregate)
+    ev = evaluator if evaluator is not None else evaluator_for(target, engine, jobs=jobs, aggregate=aggregate)
     return optimal(ev, budget_usd, max_nodes=max_nodes, max_seconds=max_seconds, rule=rule, progress=progress,
-                   info=target.info, constraints=constraints)
+                   info=target.info, constraints=constraints, checkpoint=checkpoint, resume=resume)
 
 
 def _engine_of(result: GreedyResult) -> str | None:

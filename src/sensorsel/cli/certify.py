@@ -11,14 +11,11 @@ from typing import Any
 
 import click
 
+from sensorsel.api import (DEFAULT_MAX_NODES, Certificate, CertifiedGreedyResult, DomainDesign, DomainEvaluator,
+                           GreedyResult, certify_result, check_affordable, check_budget, checkpoint_path,
+                           constraints_mismatch, format_certificate, run_greedy, run_optimal)
 from sensorsel.cli.cluster import evaluator_on, require_domain
-from sensorsel.designs.certify import (DEFAULT_MAX_NODES, Certificate, CertifiedGreedyResult, certify_greedy,
-                                       constraints_mismatch, format_certificate, optimal)
-from sensorsel.designs.checkpoint import checkpoint_path
-from sensorsel.designs.domain_design import DomainDesign
-from sensorsel.designs.selection import GreedyResult, check_affordable, check_budget, greedy
 from sensorsel.errors import InputError, ResultFileError
-from sensorsel.information.evaluators import DomainEvaluator
 from sensorsel.io import results
 from sensorsel.io.files import output_file
 from sensorsel.model.constraints import Constraints, feasible_set
@@ -110,12 +107,12 @@ def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output
     problem = target_from(kw)
     require_domain(cluster, problem)
     check_affordable(problem.library, budget, constraints=constraints)
-    info = problem.info
     bar, progress = progress_bar(quiet or as_json, "branch and bound (nodes)", eta=False)  # the node limit is a cap, not a forecast
     with cluster or nullcontext(), bar or nullcontext():
         ev = evaluator_on(cluster, problem, engine, jobs, aggregate)
-        res = optimal(ev, budget, max_nodes=max_nodes, max_seconds=max_seconds, info=info, progress=progress,
-                      constraints=constraints, checkpoint=checkpoint_path(output) if output else None, resume=resume)
+        res = run_optimal(problem, budget, max_nodes=max_nodes, max_seconds=max_seconds, progress=progress,
+                          constraints=constraints, evaluator=ev, checkpoint=checkpoint_path(output) if output else None,
+                          resume=resume)
     res = replace(res, accuracy=suite_accuracy(problem, res.suite, map_sigma_m=map_sigma, engine=engine, estimate=estimate),
                   integrity=suite_integrity(problem, res.suite, integrity_spec, map_sigma_m=map_sigma))
     if output:
@@ -232,10 +229,10 @@ def _certify(problem: Any, cluster: Any, result_path: str | None, budget: float 
         assert budget is not None
         checked = check_affordable(problem.library, budget, constraints=constraints)
         ev = evaluator_on(cluster, problem, engine, jobs, aggregate)
-        res = greedy(ev, checked, rule, info=problem.info, constraints=constraints)
+        res = run_greedy(problem, checked, rule, constraints=constraints, evaluator=ev)
     bar, progress = progress_bar(quiet, "certificate (greedy steps)")
     with bar or nullcontext():
-        cert: Certificate = certify_greedy(ev, res, progress=progress)
+        cert: Certificate = certify_result(problem, res, progress=progress, force=force, evaluator=ev)
     return res, cert
 
 

@@ -6,7 +6,7 @@ from typing import Any
 
 import click
 
-from sensorsel.information.evaluators import DomainEvaluator, Evaluator, evaluator_for
+from sensorsel.api import DomainEvaluator, Evaluator, evaluator_for
 from sensorsel.model.problem import Domain, Target
 
 

@@ -20,7 +20,7 @@ from sensorsel.cli.integrity import integrity_from, integrity_options
 from sensorsel.cli.options import cluster_from, cluster_options, constraint_options, constraints_from, usage_table
 from sensorsel.cli.options import force_option
 from sensorsel.cli.options import plot_format as plot_format_of
-from sensorsel.cli.simulate import is_result_file, read_suite
+from sensorsel.cli.common import is_result_file, read_suite
 from sensorsel.errors import InputError
 from sensorsel.io import results
 from sensorsel.model.constraints import FeasibleSet, feasible_set

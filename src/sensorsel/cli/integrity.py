@@ -38,7 +38,7 @@ def integrity_options(fn: Callable[..., Any]) -> Callable[..., Any]:
 def integrity_from(kw: dict[str, Any]) -> Any:
     """The :class:`~sensorsel.information.integrity.IntegritySpec` of the integrity options (popped
     from ``kw``); an InputError naming the option when a value is out of range."""
-    from sensorsel.information.integrity import IntegritySpec
+    from sensorsel.api import IntegritySpec
     v = {k: kw.pop(k) for k in INTEGRITY_KEYS}
     return IntegritySpec(integrity_risk=v["integrity_risk"], alert_lateral_m=v["alert_lateral"],
                          alert_longitudinal_m=v["alert_longitudinal"], alert_heading_deg=v["alert_heading"],

@@ -21,9 +21,8 @@ from typing import Any, Callable, TypeVar, Sequence
 import click
 
 from sensorsel.errors import InputError, SensorselError, SensorselWarning
-from sensorsel.information.evaluators import AGGREGATES
+from sensorsel.api import AGGREGATES, ESTIMATES
 from sensorsel.cli.progress import progress_bar, progress_flag  # noqa: F401 (progress_bar: the commands import it from here)
-from sensorsel.information.filtering import ESTIMATES
 from sensorsel.model.conditions import parse_condition
 from sensorsel.model.library import SensorLibrary
 from sensorsel.model.problem import DomainInfo, ProblemInfo, Target, TargetInfo, load_domain, load_problem
@@ -343,7 +342,7 @@ def cluster_from(kw: dict[str, Any]) -> Any:
 
 def engine_options(fn: Callable[..., Any]) -> Callable[..., Any]:
     """--engine and --jobs."""
-    from sensorsel.information.evaluators import ENGINES
+    from sensorsel.api import ENGINES
 
     fn = click.option("--jobs", type=click.IntRange(min=1), default=os.cpu_count() or 1, show_default="all cores",
                       help="Threads scoring candidate suites in parallel, fast engine (results do not depend on it).")(fn)

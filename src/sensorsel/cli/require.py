@@ -9,77 +9,20 @@ from typing import Any
 
 import click
 
+from sensorsel.api import (DEFAULT_MAP_SIGMA_M, RequireResult, RouteRequirement, checkpoint_path, integrity_preset,
+                           run_require)
 from sensorsel.cli.cluster import domain_evaluator_on, require_domain
+from sensorsel.cli.common import read_suite, specification_from, specification_options
 from sensorsel.cli.integrity import INTEGRITY_KEYS, integrity_from, integrity_options
 from sensorsel.cli.options import (budget_option, check_map_sigma, constraint_options, constraints_from, estimate_option,
                                    engine_options, json_option, output_option, print_target, progress_bar,
                                    quiet_option, resume_option, run, target_from, target_options)
 from sensorsel.cli.options import cluster_from, cluster_options
 from sensorsel.cli.options import plot_format, suite_text
-from sensorsel.cli.simulate import read_suite
-from sensorsel.designs.checkpoint import checkpoint_path
-from sensorsel.designs.requirements.design import RequireResult, RouteRequirement, require
-from sensorsel.designs.requirements.integrity import integrity_preset
-from sensorsel.designs.requirements.spec import (DEFAULT_MAP_SIGMA_M, PRESETS, Specification, load_specification_file,
-                                                 preset, specifications_for)
 from sensorsel.errors import InputError
 from sensorsel.io import results
 from sensorsel.io.files import output_file
 from sensorsel.model.problem import Domain
-
-
-def specification_options(fn: Any) -> Any:
-    """--preset, --lateral, --longitudinal, --heading, --sigma, --at, --spec: a specification in
-    metres (read by :func:`specification_from`)."""
-    for opt in reversed([
-        click.option("--preset", default=None, metavar="|".join(PRESETS),
-                     help="A published specification: Reid et al. 2019, passenger cars, 95 %: local-streets 0.10 m lateral, "
-                          "0.10 m longitudinal, 0.17 deg heading; freeway 0.20 m, 0.48 m, 0.51 deg."),
-        click.option("--lateral", type=float, default=None, metavar="METRES", help="Bound on the lateral position error [m]."),
-        click.option("--longitudinal", type=float, default=None, metavar="METRES",
-                     help="Bound on the longitudinal position error [m]."),
-        click.option("--heading", type=float, default=None, metavar="DEGREES", help="Bound on the heading error [deg]."),
-        click.option("--sigma", is_flag=True, help="The bounds are 1σ (default: 95 % bounds, 1.96σ)."),
-        click.option("--at", type=float, default=None, metavar="PERCENT",
-                     help="Share of each route's keyframes that must meet every bound (default: 100, every keyframe)."),
-        click.option("--spec", "spec_path", type=click.Path(dir_okay=False, path_type=str), default=None, metavar="FILE",
-                     help="A specification file: a default and per-route specifications (a domain whose routes have "
-                          "different road classes); see the requirements guide."),
-    ]):
-        fn = opt(fn)
-    return fn
-
-
-def specification_given(kw: dict[str, Any]) -> bool:
-    """Whether any specification option was given."""
-    return any(kw.get(k) not in (None, False) for k in ("preset", "lateral", "longitudinal", "heading", "sigma", "at", "spec_path"))
-
-
-def specification_from(kw: dict[str, Any], routes: list[str]) -> list[Specification]:
-    """Each route's specification from --preset, --lateral/--longitudinal/--heading, --sigma, --at
-    and --spec (pops them from ``kw``)."""
-    name, spec_path = kw.pop("preset"), kw.pop("spec_path")
-    given = {k: kw.pop(k) for k in ("lateral", "longitudinal", "heading")}
-    sigma, at = kw.pop("sigma"), kw.pop("at")
-    if at is not None and not (0.0 < at <= 100.0):  # also refuses nan
-        raise InputError(f"--at {at:g}: the share of keyframes must be above 0 % and at most 100 %")
-    overrides: dict[str, Any] = {k: v for k, v in given.items() if v is not None}
-    if sigma:
-        overrides["sigma"] = True
-    if at is not None:
-        overrides["at"] = at / 100.0
-    if spec_path is not None:
-        if name is not None or any(v is not None for v in given.values()):
-            raise click.UsageError("--spec FILE gives the whole specification: drop --preset, --lateral, --longitudinal, --heading")
-        default, per_route = load_specification_file(spec_path)
-        specs = specifications_for(routes, default, per_route, f"--spec {spec_path}")
-        return [replace(s, **overrides) for s in specs] if overrides else specs
-    if name is not None:
-        base = preset(name)
-        if overrides:
-            base = replace(base, **overrides, name=f"{name} (changed)" if set(overrides) & set(given) else name)
-        return [base] * len(routes)
-    return [Specification(**overrides)] * len(routes)
 
 
 @click.command("require", short_help="The cheapest suite that meets an accuracy specification in metres, with a proof.")
@@ -173,7 +116,7 @@ def require_cmd(map_sigma: float | None, slam: bool, estimate: str, in_condition
     with cluster or nullcontext(), bar or nullcontext():
         # on a cluster each route's accuracy checks run on its worker's actor (the same bytes)
         ev = domain_evaluator_on(cluster, target, engine, "normalised") if isinstance(target, Domain) and cluster else None
-        res = require(target, specs, map_sigma_m=None if slam else map_sigma, failures=failures, budget_usd=budget,
+        res = run_require(target, specs, map_sigma_m=None if slam else map_sigma, failures=failures, budget_usd=budget,
                       constraints=constraints, engine=engine, jobs=jobs, time_limit_s=time_limit, progress=progress,
                       checkpoint=checkpoint_path(output) if output else None, resume=resume, evaluator=ev,
                       conditions=None if in_conditions is None else [c.strip() for c in in_conditions.split(",") if c.strip()],

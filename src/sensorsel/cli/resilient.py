@@ -9,7 +9,7 @@ from typing import Any
 
 import click
 
-from sensorsel.designs.resilient import ALGORITHM_2, METHODS
+from sensorsel.api import ALGORITHM_2, METHODS
 from sensorsel.errors import InputError
 from sensorsel.io import results
 from sensorsel.io.files import output_dir
@@ -70,8 +70,8 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, rule: str, method:
     With --domain FILE the comparison is on the domain's score (one suite for all its routes); there
     are no periods then (a period is a stretch of one route).
     """
-    from sensorsel.designs.resilient import check_alpha, check_period
-    from sensorsel.designs.selection import check_affordable, check_budget
+    from sensorsel.api import check_alpha, check_period
+    from sensorsel.api import check_affordable, check_budget
 
     budget = check_budget(budget)
     fmt = plot_format_of(plot_format)
@@ -115,7 +115,7 @@ def _report(problem: Any, budget: float, alpha: int, period_s: float, rule: str,
     """The resilient report: a domain's comparison, or a route's comparison and periods (in-process,
     or as tasks on a cluster), with one progress bar over the periods."""
     from sensorsel.api import resilient_report
-    from sensorsel.designs.resilient import split_periods
+    from sensorsel.api import split_periods
 
     if isinstance(problem, Domain):
         return resilient_report(problem, budget, alpha, period_s=None, rule=rule, engine=engine, jobs=jobs,
@@ -133,7 +133,7 @@ def _report(problem: Any, budget: float, alpha: int, period_s: float, rule: str,
 
 def _write(report: Any, problem: Any, out: Path, fmt: str, period_s: float, alpha: int, budget: float, method: str) -> list[Path]:
     """resilient.json, and for a route grid.csv and the grid plot."""
-    from sensorsel.designs.resilient import save_grid_csv
+    from sensorsel.api import save_grid_csv
     from sensorsel.plotting import plot_selection_grid, save_figure, use_file_backend
 
     written = [results.save(report, out / "resilient.json")]

@@ -89,8 +89,8 @@ def robust_cmd(budget: float, alpha: int, rules: str, methods: str | None, no_sk
     the bound then relaxes them to the budget alone (still an upper bound).
     """
     from sensorsel.api import run_robust
-    from sensorsel.designs.resilient import check_alpha
-    from sensorsel.designs.selection import check_affordable, check_budget
+    from sensorsel.api import check_alpha
+    from sensorsel.api import check_affordable, check_budget
 
     budget, alpha = check_budget(budget), check_alpha(alpha)
     map_sigma = check_map_sigma(map_sigma)
@@ -102,7 +102,7 @@ def robust_cmd(budget: float, alpha: int, rules: str, methods: str | None, no_sk
     if output:
         output_file(output)
     rule_list = tuple(r.strip() for r in rules.split(",") if r.strip())
-    from sensorsel.designs.robust import EXTRA_METHODS, WORST_METHODS
+    from sensorsel.api import EXTRA_METHODS, WORST_METHODS
 
     method_list: tuple[str, ...]
     if methods is None:

@@ -7,7 +7,7 @@ from typing import Any, Callable
 
 import click
 
-from sensorsel.designs.selection import RULES, check_rule, rules_help
+from sensorsel.api import RULES, check_rule, rules_help
 from sensorsel.errors import InputError
 
 

@@ -20,15 +20,12 @@ from sensorsel.cli.options import check_map_sigma, map_sigma_option, print_accur
 from sensorsel.cli.integrity import integrity_from, integrity_options
 from sensorsel.cli.options import plot_format
 from sensorsel.cli.options import plot_format as plot_format_of
-from sensorsel.cli.require import specification_from, specification_given, specification_options
+from sensorsel.cli.cluster import domain_evaluator_on, require_domain
+from sensorsel.cli.common import specification_from, specification_given, specification_options
 from sensorsel.cli.rules import kept_label, rule_option, rules_option
-from sensorsel.designs.certify import CertifiedGreedyResult, format_certificate
-from sensorsel.designs.checkpoint import checkpoint_path, remove_checkpoint
-from sensorsel.designs.domain_design import DomainDesign, by_condition
-from sensorsel.designs.requirements.front import front_acceptance
-from sensorsel.designs.selection import RULES, check_affordable
-from sensorsel.designs.tradespace import (DEFAULT_RULES, Architecture, parse_budgets, parse_rules, run_tradespace,
-                                          write_csv)
+from sensorsel.api import (DEFAULT_RULES, RULES, Architecture, CertifiedGreedyResult, DomainDesign, by_condition,
+                           check_affordable, checkpoint_path, format_certificate, front_acceptance, parse_budgets,
+                           parse_rules, remove_checkpoint, run_tradespace, write_csv)
 from sensorsel.io import results
 from sensorsel.io.files import output_dir, output_file
 from sensorsel.model.constraints import feasible_set
@@ -135,8 +132,7 @@ def greedy_cmd(budget: float, rule: str, lazy: bool, output: str | None, as_json
     problem = target_from(kw)
     if plot_path and not isinstance(problem, Domain):
         raise click.UsageError("--plot draws a domain's per-route breakdown: it goes with --domain FILE")
-    if cluster is not None and not isinstance(problem, Domain):
-        raise click.UsageError("--scheduler/--workers spread a domain's routes over a cluster: they go with --domain FILE")
+    require_domain(cluster, problem)
     check_affordable(problem.library, budget, constraints=constraints)
     bar, progress = progress_bar(quiet, f"greedy {rule}", phases=len(RULES[rule].component_rules))
     cert_bar, cert_progress = progress_bar(quiet or not certify, "certificate", after=bar)
@@ -146,11 +142,7 @@ def greedy_cmd(budget: float, rule: str, lazy: bool, output: str | None, as_json
         click.echo(f"sensorsel: note: no checkpoint {ckpt}: starting from the first pick", err=True)
     with cluster or nullcontext(), bar or nullcontext(), cert_bar or nullcontext():
         if isinstance(problem, Domain):
-            ev = None
-            if cluster is not None:
-                from sensorsel.pipeline.cluster import DistributedDomainEvaluator
-
-                ev = DistributedDomainEvaluator(cluster.client, problem, engine, aggregate=aggregate)
+            ev = domain_evaluator_on(cluster, problem, engine, aggregate) if cluster is not None else None
             out = design_domain(problem, budget, rule, engine=engine, jobs=jobs, aggregate=aggregate, lazy=lazy,
                                 certify=certify, progress=progress, certify_progress=cert_progress, evaluator=ev,
                                 checkpoint=ckpt, resume=resume, constraints=constraints)

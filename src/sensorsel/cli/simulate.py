@@ -13,74 +13,13 @@ import click
 from sensorsel.cli.options import (force_option, json_option, output_option, suite_text, plot_format_option,
                                    progress_bar, quiet_option, run, scenario_options, spec_from, table)
 from sensorsel.cli.options import check_map_sigma, cluster_from, cluster_options
+from sensorsel.cli.common import read_suite
 from sensorsel.cli.options import plot_format as plot_format_of
-from sensorsel.errors import InputError, ResultFileError
+from sensorsel.errors import InputError
 from sensorsel.io import results
 from sensorsel.io.files import output_dir
 from sensorsel.model.library import SensorLibrary
-from sensorsel.model.problem import GraphSettings, Problem, ProblemInfo, check_result_problem, load_problem
-
-
-#: Result kinds that name a suite: simulate --suite/--compare read these (resilient ones also say
-#: which sensors they assume to fail).
-SUITE_KINDS = ("greedy", "resilient", "resilient-selection", "optimum", "score", "requirement")
-
-
-def _is_file(path: Path) -> bool:
-    """Whether ``path`` names an existing file; False for text no file system takes as a path (a long
-    list of ids is longer than a file name may be: ENAMETOOLONG)."""
-    try:
-        return path.is_file()
-    except OSError:
-        return False
-
-
-def is_result_file(text: str) -> bool:
-    """Whether a suite option's value names a result file (``.json``, or an existing file) rather than ids."""
-    return text.lower().endswith(".json") or _is_file(Path(text))
-
-
-def read_suite(text: str, library: SensorLibrary, what: str, problem: Problem | None = None,
-               force: bool = False, ignore: tuple[str, ...] = ()) -> tuple[tuple[int, ...], str, tuple[str, ...]]:
-    """A suite from comma-separated ids, or from a result file of a kind in :data:`SUITE_KINDS`
-    (e.g. of ``sensorsel greedy -o`` or ``sensorsel resilient``), read by :func:`sensorsel.io.results.load`.
-    With ``problem``, a result file must have been computed on it
-    (:func:`~sensorsel.model.problem.check_result_problem`; ``force``: a warning instead).
-
-    Returns:
-        (library positions, label, sensors the result assumes to fail (resilient kinds)).
-    Raises:
-        ResultFileError: a file that cannot be read or is not a result of those kinds (names the kind found).
-        InputError: an unknown id.
-    """
-    path = Path(text)
-    if is_result_file(text):
-        try:
-            rec = results.load(path, SUITE_KINDS)
-        except ResultFileError as exc:
-            raise ResultFileError(path, f"{what}: {exc.reason}") from None
-        ids: tuple[str, ...] = rec.suite
-        if problem is not None:
-            check_result_problem(_recorded_problem(rec), problem, path, force=force,
-                                 what=f"{what}: the {results.kind_of(rec)} result", ignore=ignore)
-        failed: tuple[str, ...] = getattr(rec, "failed", ())
-        try:
-            positions = library.parse_suite(list(ids))
-        except InputError as exc:
-            raise ResultFileError(path, f"{what}: its suite: {exc} (a result of another library?)") from None
-        return positions, path.stem, tuple(failed)
-    try:
-        return library.parse_suite(text), what.lstrip("-"), ()
-    except InputError as exc:
-        raise InputError(f"{what} {text!r}: {exc}") from None
-
-
-def _recorded_problem(rec: Any) -> ProblemInfo | None:
-    """The problem a suite result records (a resilient report's: its comparison's)."""
-    info = getattr(rec, "problem", None)
-    if info is None:
-        info = getattr(getattr(rec, "comparison", None), "problem", None)
-    return info if isinstance(info, ProblemInfo) else None
+from sensorsel.model.problem import GraphSettings, Problem, load_problem
 
 
 def _fmt(v: float | None, digits: int = 3) -> str:
@@ -265,8 +204,8 @@ def _p(x: float) -> str:
 
 def _print_association(c: Any) -> None:
     """One design's association check: the route's rates, the calibration bins, the sensors, the worst keyframes."""
-    from sensorsel.information.evaluators.accuracy import model_label
-    from sensorsel.information.integrity.association import gate_of
+    from sensorsel.api import model_label
+    from sensorsel.api import gate_of
 
     click.echo("")
     click.echo(f"{c.label:<9} {','.join(c.suite)}: gated nearest neighbour on the NIS, gate p_G {c.gate_probability:g} "
@@ -345,7 +284,7 @@ def _print_report(sims: list[Any], sc: Any, runs: int, solver: str, seed: int, n
                   settings: GraphSettings) -> None:
     """The simulation table: errors, their predictions, NEES and consistency, one row per design."""
     click.echo(f"{'scenario':<9} {sc.name}: {sc.n_poses} keyframes, {sc.n_landmarks} landmarks ({sc.landmark_source})")
-    from sensorsel.information.evaluators.accuracy import model_label
+    from sensorsel.api import model_label
 
     click.echo(f"runs      {runs} per suite, solver {solver}, seed {seed}, {model_label(sims[0].model, sims[0].map_sigma_m) if sims else ''}"
                + (f", noise x{noise_scale:g}" if noise_scale != 1 else "")
@@ -382,7 +321,7 @@ def _print_report(sims: list[Any], sc: Any, runs: int, solver: str, seed: int, n
 
 def _print_accuracy(sims: list[Any]) -> None:
     """Predicted against measured 95 % errors, per design and component (median / 95th pct / worst keyframe)."""
-    from sensorsel.information.evaluators.accuracy import estimate_label, model_label
+    from sensorsel.api import estimate_label, model_label
 
     checked = [s for s in sims if s.accuracy is not None]
     if not checked:

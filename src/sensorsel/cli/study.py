@@ -39,7 +39,7 @@ def study_cmd(study_file: str, outdir: str, resume: bool, jobs: int, as_json: bo
     OUTPUT/cells/ as it finishes, so --resume skips finished cells. With --scheduler/--workers each
     cell is one Dask task; the rows are the same (timings aside). See configs/study_example.yaml.
     """
-    from sensorsel.designs.study import load_study, run_study, write_study
+    from sensorsel.api import load_study, run_study, write_study
 
     output_dir(outdir)
     cluster = cluster_from(kw)
