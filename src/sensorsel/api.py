@@ -20,7 +20,7 @@ lower-level runs the CLI needs are re-exported here (``pyproject.toml`` forbids 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Iterable
 
@@ -64,7 +64,7 @@ from sensorsel.information.evaluators.accuracy import estimate_label, model_labe
 from sensorsel.information.filtering import ESTIMATES
 from sensorsel.information.integrity.association import gate_of
 
-__all__ = ["RouteAccuracy", "suite_accuracy", "RouteIntegrity", "IntegritySpec", "suite_integrity", "run_require", "RequireResult", "FrontAcceptance", "front_acceptance", "CertifiedGreedyResult", "DomainDesign", "DomainScoreResult", "ProblemInfo", "RouteScore", "ScoreResult",
+__all__ = ["RouteAccuracy", "suite_accuracy", "RouteIntegrity", "IntegritySpec", "suite_integrity", "with_suite_quality", "run_require", "RequireResult", "FrontAcceptance", "front_acceptance", "CertifiedGreedyResult", "DomainDesign", "DomainScoreResult", "ProblemInfo", "RouteScore", "ScoreResult",
            "certify_result", "design_domain", "load_domain", "load_problem", "resilient_report", "run_greedy", "run_robust", "RobustResult",
            "run_optimal", "run_tradespace", "score_domain_suite", "score_suite", "simulate"]
 #: Re-exported for the command line (above): the runs, records and constants it uses.
@@ -160,6 +160,16 @@ def suite_integrity(target: Target, suite: str | Iterable[str | int], spec: Inte
     positions = target.library.resolve_suite(suite)
     return tuple(route_integrity(p, positions, spec, map_sigma_m=map_sigma_m, route=name) for name, p in problems)
 
+
+
+def with_suite_quality(result: Any, target: Target, *, map_sigma_m: float | None = None, engine: str | None = None,
+                       estimate: str = "filter", integrity: IntegritySpec | None = None) -> Any:
+    """``result`` (a frozen record with ``suite``, ``accuracy`` and ``integrity`` fields) with its suite's
+    accuracy (:func:`suite_accuracy`) and integrity (:func:`suite_integrity`) on ``target`` filled in:
+    what every selecting command reports of the suite it chose."""
+    return replace(result, accuracy=suite_accuracy(target, result.suite, map_sigma_m=map_sigma_m, engine=engine,
+                                                  estimate=estimate),
+                   integrity=suite_integrity(target, result.suite, integrity, map_sigma_m=map_sigma_m))
 
 def run_greedy(problem: Target, budget_usd: float, rule: str = "uniform", *, engine: str | None = None, jobs: int = 1,
                lazy: bool = True, aggregate: str = "normalised", progress: Progress | None = None,

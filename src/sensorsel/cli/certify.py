@@ -21,9 +21,8 @@ from sensorsel.io.files import output_file
 from sensorsel.model.constraints import Constraints, feasible_set
 from sensorsel.model.library import SensorLibrary
 from sensorsel.model.problem import ProblemMismatchWarning, check_result_problem
-from dataclasses import replace
 
-from sensorsel.api import suite_accuracy, suite_integrity
+from sensorsel.api import with_suite_quality
 from sensorsel.cli.options import (not_empty, budget_option, force_option, engine_options, json_option, output_option,
                                    progress_bar, quiet_option, print_target, run, target_from, target_options)
 from sensorsel.cli.options import check_map_sigma, map_sigma_option, print_accuracy
@@ -113,8 +112,7 @@ def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output
         res = run_optimal(problem, budget, max_nodes=max_nodes, max_seconds=max_seconds, progress=progress,
                           constraints=constraints, evaluator=ev, checkpoint=checkpoint_path(output) if output else None,
                           resume=resume)
-    res = replace(res, accuracy=suite_accuracy(problem, res.suite, map_sigma_m=map_sigma, engine=engine, estimate=estimate),
-                  integrity=suite_integrity(problem, res.suite, integrity_spec, map_sigma_m=map_sigma))
+    res = with_suite_quality(res, problem, map_sigma_m=map_sigma, engine=engine, estimate=estimate, integrity=integrity_spec)
     if output:
         results.save(res, output)
         checkpoint_path(output).unlink(missing_ok=True)  # the result is written: the run is no longer interrupted

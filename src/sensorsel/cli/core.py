@@ -10,7 +10,7 @@ from typing import Any
 
 import click
 
-from sensorsel.api import score_domain_suite, score_suite, suite_accuracy, suite_integrity
+from sensorsel.api import score_domain_suite, score_suite, suite_integrity, with_suite_quality
 from sensorsel.cli.cluster import domain_evaluator_on, require_domain
 from sensorsel.cli.options import (engine_options, json_option, output_option, plot_format_option, print_target,
                                    problem_from, run, scenario_options, spec_from, suite_text, table, target_from,
@@ -119,8 +119,7 @@ def score_cmd(suite: str, as_json: bool, aggregate: str, engine: str | None, job
         with cluster or nullcontext():
             ev = domain_evaluator_on(cluster, problem, engine, aggregate) if cluster is not None else None
             dres = score_domain_suite(problem, suite, engine=engine, aggregate=aggregate, evaluator=ev)
-        dres = replace(dres, accuracy=suite_accuracy(problem, suite, map_sigma_m=map_sigma, engine=engine, estimate=estimate),
-                       integrity=suite_integrity(problem, suite, integrity_spec, map_sigma_m=map_sigma))
+        dres = with_suite_quality(dres, problem, map_sigma_m=map_sigma, engine=engine, estimate=estimate, integrity=integrity_spec)
         if as_json:
             click.echo(results.dumps(dres), nl=False)
             return

@@ -14,9 +14,8 @@ from sensorsel.errors import InputError
 from sensorsel.io import results
 from sensorsel.io.files import output_dir
 from sensorsel.model.problem import Domain
-from dataclasses import replace
 
-from sensorsel.api import suite_accuracy, suite_integrity
+from sensorsel.api import with_suite_quality
 from sensorsel.cli.options import (budget_option, engine_options, json_option, output_option, plot_format_option,
                                    progress_bar, print_target, quiet_option, run, table, target_from, target_options)
 from sensorsel.cli.options import (cluster_from, cluster_options, resume_option, constraint_options, constraints_from,
@@ -94,8 +93,7 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, rule: str, method:
         raise InputError(f"--failures {alpha}: the resilient suite within --budget ${budget:,.0f} holds only {len(r.suite)} "
                          f"sensor(s) ({', '.join(r.suite) or 'none'}; {r.failure_note or 'the failing sensors take the budget'}), "
                          f"so every one could fail (worst case 0): give fewer --failures or a larger --budget")
-    report = replace(report, accuracy=suite_accuracy(problem, report.suite, map_sigma_m=map_sigma, engine=engine, estimate=estimate),
-                     integrity=suite_integrity(problem, report.suite, integrity_spec, map_sigma_m=map_sigma))
+    report = with_suite_quality(report, problem, map_sigma_m=map_sigma, engine=engine, estimate=estimate, integrity=integrity_spec)
     written = _write(report, problem, out, fmt, period_s, alpha, budget, method)
     if as_json:
         click.echo(results.dumps(report), nl=False)

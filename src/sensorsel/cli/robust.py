@@ -14,9 +14,8 @@ from sensorsel.cli.cluster import domain_evaluator_on, require_domain
 from sensorsel.io.files import output_file
 from sensorsel.model.library import SensorLibrary
 from sensorsel.model.problem import Domain
-from dataclasses import replace
 
-from sensorsel.api import suite_accuracy, suite_integrity
+from sensorsel.api import with_suite_quality
 from sensorsel.cli.options import (budget_option, compact_suite, constraint_options, constraints_from, engine_options,
                                    json_option, output_option, print_target, quiet_option, run, table, target_from,
                                    target_options, usage_table)
@@ -134,8 +133,7 @@ def robust_cmd(budget: float, alpha: int, rules: str, methods: str | None, no_sk
             res = run_robust(target, budget, alpha, engine=engine, jobs=jobs, aggregate=aggregate, rules=rule_list,
                              methods=method_list, skip_when_proved=not no_skip, constraints=constraints,
                              executor=cluster.executor if cluster is not None else None, outdir=tasks, resume=resume)
-    res = replace(res, accuracy=suite_accuracy(target, res.suite, map_sigma_m=map_sigma, engine=engine, estimate=estimate),
-                  integrity=suite_integrity(target, res.suite, integrity_spec, map_sigma_m=map_sigma))
+    res = with_suite_quality(res, target, map_sigma_m=map_sigma, engine=engine, estimate=estimate, integrity=integrity_spec)
     written = results.save(res, output) if output else None
     if tasks is not None:  # the result is written: the run is no longer interrupted
         shutil.rmtree(tasks, ignore_errors=True)

@@ -10,7 +10,7 @@ from typing import Any
 
 import click
 
-from sensorsel.api import design_domain, run_greedy, suite_accuracy, suite_integrity
+from sensorsel.api import design_domain, run_greedy, with_suite_quality
 from sensorsel.cli.options import (budget_option, engine_options, json_option, output_option, plot_format_option,
                                    progress_bar, compact_suite, print_target, quiet_option, run, table, target_from,
                                    target_options)
@@ -152,8 +152,7 @@ def greedy_cmd(budget: float, rule: str, lazy: bool, output: str | None, as_json
                                    certify=certify, certify_progress=cert_progress, checkpoint=ckpt, resume=resume,
                                    constraints=constraints)
     # the chosen suite's accuracy in metres (local evaluators: a cluster's routes answer scores only)
-    res = replace(res, accuracy=suite_accuracy(problem, res.suite, map_sigma_m=map_sigma, engine=engine, estimate=estimate),
-                  integrity=suite_integrity(problem, res.suite, integrity_spec, map_sigma_m=map_sigma))
+    res = with_suite_quality(res, problem, map_sigma_m=map_sigma, engine=engine, estimate=estimate, integrity=integrity_spec)
     out = replace(out, greedy=res) if isinstance(out, DomainDesign) else res
     if output:
         results.save(out, output)
