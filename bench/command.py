@@ -100,10 +100,14 @@ def main() -> None:
             lo_b, lo_n = min(walls["before"]), min(walls["after"])
             print(f"\n{a.seq} at {a.rate} Hz, {m} map ({n['problem']['n_landmarks']} landmarks, {k} keyframes), "
                   f"greedy ${float(a.budget):,.0f}, no certificate")
-            print(f"  before ({a.before}): wall s {' '.join(f'{w:.2f}' for w in walls['before'])}  evaluations {b['n_evaluations']}")
-            print(f"  after  (this tree): wall s {' '.join(f'{w:.2f}' for w in walls['after'])}  evaluations {n['n_evaluations']}")
-            print(f"  min {lo_b:.2f} s -> {lo_n:.2f} s ({lo_b / lo_n:.2f}x); same suite and score: {'yes' if same else 'NO'}")
-            print(f"  floor: {n['n_evaluations']} evaluations x {chol:.1f} ms (one dense Cholesky of {3 * k}², one thread, "
+            print(f"  before ({a.before}): wall s {' '.join(f'{w:.2f}' for w in walls['before'])}  evaluations "
+                  f"{b['n_evaluations']}")
+            print(f"  after  (this tree): wall s {' '.join(f'{w:.2f}' for w in walls['after'])}  evaluations "
+                  f"{n['n_evaluations']}")
+            print(f"  min {lo_b:.2f} s -> {lo_n:.2f} s ({lo_b / lo_n:.2f}x); same suite and score: "
+                  f"{'yes' if same else 'NO'}")
+            print(f"  floor: {n['n_evaluations']} evaluations x {chol:.1f} ms (one dense Cholesky of {3 * k}², one "
+                  "thread, "
                   f"here) = {n['n_evaluations'] * chol / 1e3:.2f} s; selection took {n['seconds']:.2f} s of the command")
     print(f"\nload average after: {os.getloadavg()[0]:.2f}")
 

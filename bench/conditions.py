@@ -113,7 +113,8 @@ def main() -> None:
             raise SystemExit(f"{name}: runs picked differently: greedy is not deterministic")
     ratio = (med["conditions"]["setup"] + med["conditions"]["select"]) / (med["routes"]["setup"] + med["routes"]["select"])
     ratio_all = sum(med["conditions"].values()) / sum(med["routes"].values())
-    print(f"ratio, 4 conditions / routes alone: evaluators + greedy {ratio:.2f}x (CPU {cpu['conditions'] / cpu['routes']:.2f}x); "
+    print(f"ratio, 4 conditions / routes alone: evaluators + greedy {ratio:.2f}x (CPU "
+          f"{cpu['conditions'] / cpu['routes']:.2f}x); "
           f"with loading {ratio_all:.2f}x")
     print(f"target: <= 2.5x (evaluators + greedy, wall): {'met' if ratio <= 2.5 else 'NOT met'}")
 

@@ -77,7 +77,8 @@ def main() -> None:
         print(f"| {cond} | {w.sum():.1%} | {row[0]:.4f} | {row[1]:.4f} |")
     worst = min(by_condition(d_mix), key=lambda c: c.share_of_best)
     print(f"\nWorst condition of the city-mix suite: {worst.name} (share of its best {worst.share_of_best:.4f}; "
-          f"worst member {d_mix.worst_route}, {next(r for r in d_mix.routes if r.name == d_mix.worst_route).share_of_own:.1%} "
+          f"worst member {d_mix.worst_route}, "
+          f"{next(r for r in d_mix.routes if r.name == d_mix.worst_route).share_of_own:.1%} "
           "of its own design)")
 
     print("\n## 2. Which sensors gain value\n")
@@ -115,7 +116,8 @@ def main() -> None:
     for label, prob in (("00 clear", p00), ("00 fog 150 m", p00_fog)):
         r = run_robust(prob, args.budget, 1, jobs=args.jobs)
         g = greedy(make_evaluator(prob, jobs=args.jobs), args.budget)
-        print(f"| {label} | greedy | {compact(g.suite)} | ${g.cost_usd:,.0f} | {g.score:,.1f} | {r.greedy_worst_score:,.1f} | |")
+        print(f"| {label} | greedy | {compact(g.suite)} | ${g.cost_usd:,.0f} | {g.score:,.1f} | "
+              f"{r.greedy_worst_score:,.1f} | |")
         print(f"| {label} | robust ({r.method}) | {compact(r.suite)} | ${r.cost_usd:,.0f} | {r.nominal_score:,.1f} | "
               f"{r.worst_score:,.1f} | {', '.join(r.failures)} |")
         print(f"| {label} | bound | | | | <= {r.bound:,.1f} (gap {r.gap_percent:.1f}%) | |")

@@ -142,7 +142,8 @@ def main() -> None:
 
     out["ratio_wall_in_process_over_distributed"] = round((build_local + greedy_local) / (build_dist + greedy_dist), 3)
     out["ratio_greedy_in_process_over_distributed"] = round(greedy_local / greedy_dist, 3)
-    print(f"distributed: build {build_dist:.1f} s, greedy {greedy_dist:.1f} s; same result: {out['distributed']['same_result']}",
+    print(f"distributed: build {build_dist:.1f} s, greedy {greedy_dist:.1f} s; same result: "
+          f"{out['distributed']['same_result']}",
           file=sys.stderr)
     print(json.dumps(out, indent=2))
 

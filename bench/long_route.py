@@ -99,8 +99,10 @@ def main() -> None:
         r = json.loads(out.stdout)
         rows.append((rate, r))
         print(f"{a.km:g} km at {rate:g} Hz: {r['keyframes']:,} keyframes, {r['landmarks']:,} landmarks, "
-              f"{r['evaluations']} evaluations; load {r['load']:.1f} s, setup {r['setup']:.2f} s, selection {r['select']:.2f} s; "
-              f"peak RSS {r['peak_mb']:,.0f} MB ({1024 * r['peak_mb'] / r['keyframes']:.0f} kB per keyframe); paths {r['paths']}; "
+              f"{r['evaluations']} evaluations; load {r['load']:.1f} s, setup {r['setup']:.2f} s, selection "
+              f"{r['select']:.2f} s; "
+              f"peak RSS {r['peak_mb']:,.0f} MB ({1024 * r['peak_mb'] / r['keyframes']:.0f} kB per keyframe); "
+              f"paths {r['paths']}; "
               f"suite {','.join(r['suite'])}", flush=True)
     if len(rows) >= 2:
         xs = [math.log(r["keyframes"]) for _, r in rows]

@@ -276,7 +276,8 @@ def main() -> None:
     run_in_process(domain, args.budget, args.rule, 1, False)  # warm-up, not reported: first imports and caches
     runs = [run_in_process(domain, args.budget, args.rule, int(j), args.whole) for j in args.jobs.split(",") if j]
     for r in runs:
-        print(f"in-process, {r['jobs']} thread(s): greedy {r['greedy_wall_s']:.2f} s wall, {r['greedy_cpu_s']:.2f} s CPU, "
+        print(f"in-process, {r['jobs']} thread(s): greedy {r['greedy_wall_s']:.2f} s wall, {r['greedy_cpu_s']:.2f} s "
+              "CPU, "
               f"{r['rounds']} rounds, serial {r['serial_wall_s']:.2f} s wall", file=sys.stderr)
     base = runs[0]
     clusters = [run_on_cluster(domain, args.budget, args.rule, int(w)) for w in args.workers.split(",") if w]

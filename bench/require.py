@@ -81,7 +81,8 @@ def main() -> None:
                     finally:
                         design.cheapest_suite = package
                     dt, cpu = time.perf_counter() - t0, time.process_time() - c0
-                    print(f"{row:>5} {name:>13} {alpha} {which:<9} {r.status:>8} {r.cost_usd:>9,.0f} {r.lower_bound_usd:>9,.0f} "
+                    print(f"{row:>5} {name:>13} {alpha} {which:<9} {r.status:>8} {r.cost_usd:>9,.0f} "
+                          f"{r.lower_bound_usd:>9,.0f} "
                           f"{r.iterations:>8} {r.n_checks:>6} {r.n_refuted:>7} {r.seconds_checks:>8.1f} "
                           f"{r.seconds_programs:>8.1f} {dt:>7.1f} {cpu:>7.1f}  {','.join(r.suite) or '-'}", flush=True)
 

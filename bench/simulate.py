@@ -92,7 +92,8 @@ def main() -> None:
 
     problem = load_problem(ScenarioSpec(seq=a.seq, kitti_root=a.kitti_root))
     suite = problem.library.parse_suite(a.suite)
-    print(f"KITTI {a.seq}: {problem.scenario.n_poses} keyframes, {problem.scenario.n_landmarks} landmarks; suite {a.suite} "
+    print(f"KITTI {a.seq}: {problem.scenario.n_poses} keyframes, {problem.scenario.n_landmarks} landmarks; suite "
+          f"{a.suite} "
           f"(${problem.library.cost(suite):,.0f}); {a.runs} runs on {a.jobs} process(es); {os.cpu_count()} cores")
     for ms in (None, a.map_sigma):
         model = "SLAM" if ms is None else f"map {ms:g} m"
@@ -117,9 +118,11 @@ def main() -> None:
             t_n, est_n, it_n = solve_once(payload, r, False)
             t_old_runs, t_new_runs = t_old_runs + t_o, t_new_runs + t_n
             diff_runs = max(diff_runs, float(np.max(np.abs(est_o - est_n))))
-            print(f"    run {r}: one factor per measurement {t_o:.1f} s ({it_o} iterations), per pair {t_n:.1f} s ({it_n} iterations)")
+            print(f"    run {r}: one factor per measurement {t_o:.1f} s ({it_o} iterations), per pair {t_n:.1f} s "
+                  f"({it_n} iterations)")
         ratio = t_old_runs / t_new_runs
-        print(f"    per run: {ratio:.2f}x faster with one factor per pair; largest difference of the estimated poses {diff_runs:.1e}")
+        print(f"    per run: {ratio:.2f}x faster with one factor per pair; largest difference of the estimated poses "
+              f"{diff_runs:.1e}")
         if a.skip_old:
             continue
         t = time.perf_counter()
@@ -127,10 +130,12 @@ def main() -> None:
         t_new = time.perf_counter() - t
         t_old, old_cov = marginals_prediction(payload)
         diff = float(np.max(np.abs(new_cov - old_cov)) / np.max(np.abs(old_cov)))
-        print(f"    prediction: old (gtsam.Marginals) {t_old:.1f} s, new (closed form) {t_new:.2f} s: {t_old / t_new:.0f}x; "
+        print(f"    prediction: old (gtsam.Marginals) {t_old:.1f} s, new (closed form) {t_new:.2f} s: "
+              f"{t_old / t_new:.0f}x; "
               f"max relative difference of the pose covariance {diff:.1e}")
         old = tm.runs_s * ratio + t_old
-        print(f"    whole simulation: old {old:.1f} s (runs x {ratio:.2f} + Marginals), new {wall:.1f} s: {old / wall:.1f}x")
+        print(f"    whole simulation: old {old:.1f} s (runs x {ratio:.2f} + Marginals), new {wall:.1f} s: "
+              f"{old / wall:.1f}x")
 
 
 if __name__ == "__main__":

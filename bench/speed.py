@@ -92,7 +92,8 @@ def main() -> None:
 
     seqs = ["03"] if args.quick else ["03", "00"]
     engines = [e for e in ("reference", "fast") if e in args.engines.split(",")]
-    print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}; "
+    print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, Python "
+          f"{platform.python_version()}; "
           f"budget ${args.budget:,.0f}, fast engine jobs={args.jobs}", flush=True)
     results: dict[tuple[str, str], dict] = {}
     for seq in seqs:

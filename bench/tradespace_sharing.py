@@ -43,9 +43,11 @@ def main() -> None:
         t0 = time.perf_counter()
         res = tradespace(ev, share_prefix=share)
         out[share] = (res, time.perf_counter() - t0)
-        print(f"share_prefix={share!s:5}  engine {res.engine}: {res.n_evaluations:6d} suites scored in {out[share][1]:8.2f} s; "
+        print(f"share_prefix={share!s:5}  engine {res.engine}: {res.n_evaluations:6d} suites scored in "
+              f"{out[share][1]:8.2f} s; "
               f"{len(res.architectures)} architectures, {len(res.front)} on the front; "
-              f"{sum(r.shared_steps for r in res.runs)} of {sum(r.n_steps for r in res.runs)} picks taken from larger runs")
+              f"{sum(r.shared_steps for r in res.runs)} of {sum(r.n_steps for r in res.runs)} picks taken from "
+              "larger runs")
     (a, ta), (b, tb) = out[False], out[True]
     same = [x.suite for x in a.architectures] == [x.suite for x in b.architectures] and \
         [x.on_front for x in a.architectures] == [x.on_front for x in b.architectures] and \

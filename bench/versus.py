@@ -87,7 +87,8 @@ def main() -> None:
         subprocess.run(["git", "-C", str(REPO), "worktree", "add", "--detach", "-q", str(base), a.base], check=True)
         try:
             trees = {"base": base / "src", "head": REPO / "src"}
-            print(f"sensorsel {a.command}: base {a.base} against this tree; {a.repeats} alternating runs each; synthetic landmarks; "
+            print(f"sensorsel {a.command}: base {a.base} against this tree; {a.repeats} alternating runs each; "
+                  "synthetic landmarks; "
                   f"{os.cpu_count()} cores")
             print(f"{'seq':<4} {'tree':<5} {'select s (median)':>17} {'wall s (median)':>15}  runs (select s)")
             for seq in a.seq:

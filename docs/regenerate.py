@@ -550,7 +550,8 @@ def tables(root: Path) -> str:
             cost = next(s["cost_usd"] for s in cells if s)
             row = f"| {desc} | {_usd(cost)} |"
             for s in cells:
-                row += (f" {s['score']:,.3f} | {s['n_measurements']:,} | {s['n_landmarks_seen']:,} of {s['problem']['n_landmarks']:,} |"
+                row += (f" {s['score']:,.3f} | {s['n_measurements']:,} | {s['n_landmarks_seen']:,} of "
+                        f"{s['problem']['n_landmarks']:,} |"
                         if s else " | | |")
             rows.append(row)
         if rows:
@@ -593,7 +594,8 @@ def tables(root: Path) -> str:
                 vs = ""
                 if opt and opt.get("proved_optimal"):
                     vs = f"{100 * c['score'] / opt['score']:.2f}%"
-                rows.append(f"| {seq} | {kind} | {_rule(c)} | {_short(c['suite'])} ({len(c['suite'])}) | {_usd(c['cost_usd'])} | "
+                rows.append(f"| {seq} | {kind} | {_rule(c)} | {_short(c['suite'])} ({len(c['suite'])}) | "
+                            f"{_usd(c['cost_usd'])} | "
                             f"{c['score']:,.3f} | {c['bound']:,.3f} | ≥ {_pct(c['percent_of_best'])}% | {vs} |")
     if rows:
         out += ["## Certificates (`sensorsel certify --seq NN --budget 110000 --rule RULE`)", "",
@@ -604,8 +606,10 @@ def tables(root: Path) -> str:
         for seq in ("03", "00"):
             o = _load(d / f"optimal{seq}.json")
             if o:
-                rows.append(f"| {seq} | {kind} | {_short(o['suite'])} ({len(o['suite'])}) | {_usd(o['cost_usd'])} | {o['score']:,.3f} | "
-                            f"{'yes' if o.get('proved_optimal') else 'no'} | {o.get('n_nodes', '')} | {o.get('n_evaluations', '')} |")
+                rows.append(f"| {seq} | {kind} | {_short(o['suite'])} ({len(o['suite'])}) | {_usd(o['cost_usd'])} | "
+                            f"{o['score']:,.3f} | "
+                            f"{'yes' if o.get('proved_optimal') else 'no'} | {o.get('n_nodes', '')} | "
+                            f"{o.get('n_evaluations', '')} |")
     if rows:
         out += ["## Exact optimum (`sensorsel optimal --seq NN --budget 110000 --max-nodes 2000`)", "",
                 "| seq | map | optimum | cost | f [nats] | proved | nodes | evaluations |", "|---|---|---|---:|---:|---|---:|---:|",
@@ -619,7 +623,8 @@ def tables(root: Path) -> str:
                 continue
             rows.extend(_pareto_rows(kind, d / f"pareto{seq}" / "architectures.csv", t, d, seq))
         if rows:
-            out += [f"## Tradespace {seq} (`sensorsel pareto --seq {seq} -o DIR`): cheapest architecture reaching a share of a reference", "",
+            out += [f"## Tradespace {seq} (`sensorsel pareto --seq {seq} -o DIR`): cheapest architecture reaching a "
+                    "share of a reference", "",
                     "| map | reference | reference f | 99% reached at | 95% reached at | matched (100%) at |", "|---|---|---:|---|---|---|", *rows, ""]
             for kind, d in kinds:
                 t = _load(d / f"pareto{seq}" / "tradespace.json")
@@ -627,7 +632,8 @@ def tables(root: Path) -> str:
                     with open(d / f"pareto{seq}" / "architectures.csv", newline="") as f:
                         front = sum(r["on_front"] == "1" for r in csv.DictReader(f))
                     out.append(f"- {kind}: {len(t['architectures'])} distinct architectures, {front} on the Pareto front, "
-                               f"{t['n_evaluations']:,} suites scored ({len(t['runs'])} runs: {', '.join(t.get('rules', t.get('selectors', [])))} "
+                               f"{t['n_evaluations']:,} suites scored ({len(t['runs'])} runs: "
+                               f"{', '.join(t.get('rules', t.get('selectors', [])))} "
                                f"at {len(t['budgets_usd'])} budgets)")
             out.append("")
 
@@ -643,7 +649,8 @@ def tables(root: Path) -> str:
                 w = cmp_[worst_key]
                 failed = set(sel.get("failed", ()))
                 ids = ", ".join(f"**{s} (fails)**" if s in failed else s for s in sel["suite"])
-                rows.append(f"| {seq} | {kind} | {design} | {ids} | {_usd(sel['cost_usd'])} | {sel['score']:,.2f} | {w['score']:,.2f} | "
+                rows.append(f"| {seq} | {kind} | {design} | {ids} | {_usd(sel['cost_usd'])} | {sel['score']:,.2f} | "
+                            f"{w['score']:,.2f} | "
                             f"{', '.join(w['failures'])} |")
             pw = _load(d / f"resilient{seq}" / f"paper-greedy{seq}-worst-case.json")
             if pw:
@@ -651,7 +658,8 @@ def tables(root: Path) -> str:
                             f"{_paper_cost(d, seq)} | {pw['nominal_score']:,.2f} | {pw['score']:,.2f} | "
                             f"{', '.join(pw['failures'])} |")
     if rows:
-        out += ["## Resilient selection, whole route, 1 failure (`sensorsel resilient --seq NN --budget 110000 --failures 1`)", "",
+        out += ["## Resilient selection, whole route, 1 failure (`sensorsel resilient --seq NN --budget 110000 "
+                "--failures 1`)", "",
                 "| seq | map | design | suite | cost | nominal f | worst case | worst failure |", "|---|---|---|---|---:|---:|---:|---|",
                 *rows, ""]
         out += _period_table(kinds)
@@ -666,8 +674,10 @@ def tables(root: Path) -> str:
                 rows.append(_sim_row(kind, name, r))
     out += _require_table(root)
     if rows:
-        out += [f"## Simulated SLAM on 03 ({SIM_RUNS} runs, start pose known `--start-sigmas {SIM_START}`, Levenberg-Marquardt)", "",
-                "| map | run | design | LRL-roof | pos RMSE [m] (pred) | heading RMSE [deg] (pred) | landmark RMSE [m] (pred) | max pos err [m] | joint NEES [95%] |",
+        out += [f"## Simulated SLAM on 03 ({SIM_RUNS} runs, start pose known `--start-sigmas {SIM_START}`, "
+                "Levenberg-Marquardt)", "",
+                "| map | run | design | LRL-roof | pos RMSE [m] (pred) | heading RMSE [deg] (pred) | landmark "
+                "RMSE [m] (pred) | max pos err [m] | joint NEES [95%] |",
                 "|---|---|---|---|---|---|---|---:|---|", *rows, ""]
     return "\n".join(out) + "\n"
 
@@ -713,7 +723,8 @@ def _require_table(root: Path) -> list[str]:
            f"{_estimate_words(d)}; 95 % errors (1.96σ) at the worst keyframe of the worst "
            "route, with all sensors working. Presets: Reid et al. 2019 (local streets 0.10 m / 0.10 m / 0.17°, "
            "freeway 0.20 m / 0.48 m / 0.51°).", "",
-           "| target | preset | failures | suite | cost | lower bound | | lateral [m] | longitudinal [m] | heading [deg] | accuracy checks | s |",
+           "| target | preset | failures | suite | cost | lower bound | | lateral [m] | longitudinal [m] | "
+           "heading [deg] | accuracy checks | s |",
            "|---|---|---:|---|---:|---:|---|---:|---:|---:|---:|---:|", *rows, ""]
     rows = []
     from sensorsel.information.evaluators.accuracy import Z95
@@ -815,8 +826,10 @@ def _sim_row(kind: str, name: str, r: dict) -> str:
     failed = "**failed**" if r.get("failures") else "ok"
     b = r.get("nees_bounds") or [float("nan"), float("nan")]
     outside = "" if r.get("nees_joint_inside_bounds", True) else " (outside)"
-    return (f"| {kind} | {name} | {r.get('label', '?')} | {failed} | {g('position_rmse_m'):.3f} ({g('predicted_position_rmse_m'):.3f}) | "
-            f"{g('heading_rmse_deg'):.4f} ({g('predicted_heading_rmse_deg'):.4f}) | {g('landmark_rmse_m'):.3f} ({g('predicted_landmark_rmse_m'):.3f}) | "
+    return (f"| {kind} | {name} | {r.get('label', '?')} | {failed} | {g('position_rmse_m'):.3f} "
+            f"({g('predicted_position_rmse_m'):.3f}) | "
+            f"{g('heading_rmse_deg'):.4f} ({g('predicted_heading_rmse_deg'):.4f}) | {g('landmark_rmse_m'):.3f} "
+            f"({g('predicted_landmark_rmse_m'):.3f}) | "
             f"{g('max_position_error_m'):.3f} | {g('nees_joint_mean'):.2f} [{b[0]:.2f}, {b[1]:.2f}]{outside} |")
 
 

@@ -292,7 +292,8 @@ def _suite_rows(data: dict, singles: bool) -> list[str]:
             acc = r["worst_95_m_m_deg"]
             rows.append(
                 f"| {run['label']}{where} | {_short_ids(run['suite'])} | ${run['cost_usd']:,.0f} | {run['variant']} | "
-                f"{_g(r['per_hour']['local-streets'])} | {_g(r['per_hour']['freeway'])} | {_g(r['association_per_hour'])} | "
+                f"{_g(r['per_hour']['local-streets'])} | {_g(r['per_hour']['freeway'])} | "
+                f"{_g(r['association_per_hour'])} | "
                 f"{_g(r['association_estimate_per_hour'])} | {_g(r['tail_per_hour']['local-streets'])} | "
                 f"{_g(r['worst_bound'])} / {_g(r['worst_estimate'])} | "
                 f"{_pl(r['protection_level_lateral_median_m'], r['keyframes_without_protection_level'], r['keyframes'])} | "
@@ -353,7 +354,8 @@ def _lever_rows(data: dict) -> list[str]:
             for s in rf["by_sensor"]:
                 t = sl[s["sensor"]]
                 left = s["measurements"] - t["used"]
-                rows.append(f"| {label} | {s['sensor']} | {left}/{s['measurements']} ({100 * left / max(1, s['measurements']):.0f}%) | "
+                rows.append(f"| {label} | {s['sensor']} | {left}/{s['measurements']} "
+                            f"({100 * left / max(1, s['measurements']):.0f}%) | "
                             f"{_g(s['wrong_per_hour_estimate'])} | {_g(s['wrong_per_hour_bound'])} | "
                             f"{_g(t['wrong_per_hour_estimate'])} | {_g(t['wrong_per_hour_bound'])} |")
     return rows
@@ -378,7 +380,8 @@ def tables(root: Path) -> str:
             continue
         out += [f"## {title}: the published suites", ""]
         if "landmarks_per_km" in data:
-            out += [f"{data['landmarks']} landmarks along its {data['route_km']:.2f} km: {data['landmarks_per_km']:.0f} per km.", ""]
+            out += [f"{data['landmarks']} landmarks along its {data['route_km']:.2f} km: "
+                    f"{data['landmarks_per_km']:.0f} per km.", ""]
         out += [*SUITE_HEADER, *_suite_rows(data, False), ""]
         rows = _sensor_rows(data)
         if rows:

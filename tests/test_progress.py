@@ -27,8 +27,10 @@ from sensorsel.model.library import load_library
 BIN = Path(sys.executable).parent
 #: ten sensors of the library, the rest excluded: a search of a few integer programs
 SMALL = ("LRL-roof", "MRL-roof", "LRR-12", "LRR-6", "MRR-12", "WSC-12", "HD2K-12", "HD2K-6", "LSC-12", "HD2K-3")
-STATUS = re.compile(r"^sensorsel: searching: cost in \[\$([\d,]+), \$([\d,]+)\]; (\d+) integer programs, ([\d,]+) suites checked; \d+ s$")
-FINAL = re.compile(r"^sensorsel: searching: done in \d+ s; cost in \[\$([\d,]+), \$([\d,]+)\]; (\d+) integer programs, ([\d,]+) suites checked$")
+STATUS = re.compile(r"^sensorsel: searching: cost in \[\$([\d,]+), \$([\d,]+)\]; (\d+) integer programs, ([\d,]+) suites checked; "
+                    r"\d+ s$")
+FINAL = re.compile(r"^sensorsel: searching: done in \d+ s; cost in \[\$([\d,]+), \$([\d,]+)\]; (\d+) integer programs, ([\d,]+) "
+                   r"suites checked$")
 
 
 class Clock:

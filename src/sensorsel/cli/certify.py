@@ -125,14 +125,18 @@ def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output
     if res.proved_optimal:
         click.echo(f"optimum    {_suite_text(res.suite)}  (${res.cost_usd:,.0f})  f = {res.score:.3f} nats  [proved optimal]")
     else:
-        click.echo(f"best found {_suite_text(res.suite)}  (${res.cost_usd:,.0f})  f = {res.score:.3f} nats  [not proved: {res.stop_reason}]")
+        click.echo(f"best found {_suite_text(res.suite)}  (${res.cost_usd:,.0f})  f = {res.score:.3f} nats  [not proved: "
+                   f"{res.stop_reason}]")
         click.echo(f"gap        the optimum scores at most {res.upper_bound:.3f} nats: at most {res.gap:.3f} nats "
                    f"({res.gap_percent:.2f}%) above the best found")
     rule = res.greedy_rule
     rel = (f"{res.greedy_percent_of_best:.2f}% of the optimum" if res.proved_optimal
-           else f"{res.greedy_percent_of_best:.2f}% of the best found, >= {res.greedy_percent_of_bound:.2f}% of the optimum")
-    click.echo(f"greedy     {rule}: {_suite_text(res.greedy_suite)}  (${res.greedy_cost_usd:,.0f})  f = {res.greedy_score:.3f} nats = {rel}")
-    click.echo(f"search     {res.n_nodes:,} nodes expanded ({res.n_solved:,} settled whole), {res.n_pruned:,} pruned, {res.n_evaluations:,} suites scored "
+           else f"{res.greedy_percent_of_best:.2f}% of the best found, >= {res.greedy_percent_of_bound:.2f}% of the "
+                "optimum")
+    click.echo(f"greedy     {rule}: {_suite_text(res.greedy_suite)}  (${res.greedy_cost_usd:,.0f})  f = "
+               f"{res.greedy_score:.3f} nats = {rel}")
+    click.echo(f"search     {res.n_nodes:,} nodes expanded ({res.n_solved:,} settled whole), {res.n_pruned:,} pruned, "
+               f"{res.n_evaluations:,} suites scored "
                f"({res.engine} engine, {res.bound_method} bounds), {res.seconds:.1f} s")
     _print_usage(problem.library, res.budget_usd, res.constraints, res.suite)
     print_accuracy(res.accuracy, res.integrity)
@@ -197,7 +201,8 @@ def certify_cmd(result: str | None, result_path: str | None, budget: float | Non
         click.echo(results.dumps(cert), nl=False)
         return
     print_target(res.problem)
-    click.echo(f"greedy     {kept_label(res.rule, res.winning_rule)}: {_suite_text(res.suite)}  (${res.cost_usd:,.0f} of ${res.budget_usd:,.0f})")
+    click.echo(f"greedy     {kept_label(res.rule, res.winning_rule)}: {_suite_text(res.suite)}  (${res.cost_usd:,.0f} of "
+               f"${res.budget_usd:,.0f})")
     click.echo(f"score      {cert.score:.3f} nats")
     within = f"${cert.budget_usd:,.0f}" + (" and the limits below" if cert.constraints is not None else "")
     click.echo(f"bound      {cert.bound:.3f} nats: no suite within {within} scores more "

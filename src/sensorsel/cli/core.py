@@ -87,7 +87,8 @@ def library_cmd(library_path: str | None, as_json: bool) -> None:
 @engine_options
 @cluster_options
 @click.option("--suite", required=True, callback=suite_text, help="Comma-separated sensor ids or indices, e.g. LRL-roof,LRR-12 (see "
-              "`sensorsel library`), or a result JSON (`sensorsel greedy -o FILE`, ...: its suite; computed on the same problem, see --force).")
+              "`sensorsel library`), or a result JSON (`sensorsel greedy -o FILE`, ...: its suite; computed on "
+              "the same problem, see --force).")
 @constraint_options
 @force_option
 @map_sigma_option

@@ -37,7 +37,8 @@ def kitti_cmd(odometry: str, poles: str, seqs: str | None, output: str) -> None:
     if wanted is not None and not wanted:
         raise click.BadParameter("give at least one sequence (e.g. 03 or 00,03)", param_hint="--seq")
     for b in build_kitti_folder(find_sources(odometry, poles, wanted), output):
-        click.echo(f"{b.seq}  {b.frames:>5} frames  {b.poles:>4} poles (median {b.median_distance_m:.1f} m from the route)  wrote {b.landmarks}")
+        click.echo(f"{b.seq}  {b.frames:>5} frames  {b.poles:>4} poles (median {b.median_distance_m:.1f} m from the "
+                   f"route)  wrote {b.landmarks}")
 
 
 COMMANDS = [kitti_cmd]

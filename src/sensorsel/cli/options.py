@@ -220,7 +220,8 @@ def spec_from(kw: dict[str, Any]) -> ScenarioSpec:
             raise click.UsageError(f"--{option} {kw[option]} goes with --route FILE (a --seq or fixture is in KITTI's camera frame)")
     if kw.get("times") and not (kw.get("poses") or kw.get("route")):
         # a --seq or a fixture reads its own times.txt: a --times here would be silently ignored
-        raise click.UsageError(f"--times {kw['times']} goes with a KITTI --route FILE (or its older name --poses FILE); a --seq or fixture has its own times.txt")
+        raise click.UsageError(f"--times {kw['times']} goes with a KITTI --route FILE (or its older name --poses FILE); a --seq or "
+                               "fixture has its own times.txt")
     text = kw.pop("condition_text", None)
     condition = parse_condition(text) if text is not None else None
     given_landmarks = kw.pop("landmarks")
@@ -378,7 +379,8 @@ def print_target(info: TargetInfo | None) -> None:
     """The 'scenario' line (one route) or the 'domain' lines (each route) of a result."""
     if isinstance(info, ProblemInfo):
         when = f"; condition {info.condition}" if info.condition else ""
-        click.echo(f"scenario   {info.scenario}: {info.n_poses} keyframes, {info.n_landmarks} landmarks ({info.landmark_source}){when}")
+        click.echo(f"scenario   {info.scenario}: {info.n_poses} keyframes, {info.n_landmarks} landmarks "
+                   f"({info.landmark_source}){when}")
     elif isinstance(info, DomainInfo):
         conditions = list(dict.fromkeys(r.condition for r in info.routes if r.condition))
         routes = list(dict.fromkeys(r.route or r.name for r in info.routes))
@@ -387,7 +389,8 @@ def print_target(info: TargetInfo | None) -> None:
         click.echo(f"domain     {info.source}: {what}")
         for r in info.routes:
             p = r.problem
-            click.echo(f"  {r.name:<12} weight {r.weight:g} {r.unit}; {p.n_poses} keyframes, {p.n_landmarks} landmarks ({p.landmark_source})")
+            click.echo(f"  {r.name:<12} weight {r.weight:g} {r.unit}; {p.n_poses} keyframes, {p.n_landmarks} landmarks "
+                       f"({p.landmark_source})")
 
 
 def force_option(fn: F) -> F:

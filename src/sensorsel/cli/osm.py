@@ -109,7 +109,8 @@ def osm_cmd(file: str | None, sample: str | None, bbox: str | None, roads: str |
     warn = sparse_warning(city)
     if warn:
         warnings.warn(warn, SensorselWarning, stacklevel=1)
-    click.echo(f"city       {path}: {city.road_m / 1000:.2f} km of road ({', '.join(k for k in kinds if not k.endswith('_link'))}), "
+    click.echo(f"city       {path}: {city.road_m / 1000:.2f} km of road "
+               f"({', '.join(k for k in kinds if not k.endswith('_link'))}), "
                f"{len(city.routes)} routes, {city.driven_m / 1000:.2f} km driven at {speed_kmh:g} km/h")
     click.echo(f"{'class':<16} {'landmarks':>9} {'per km':>7}")
     for c, n, v in density_table(city):

@@ -181,7 +181,8 @@ def _print(res: RequireResult) -> None:
     click.echo(f"requires   {_spec_line(res.routes)}")
     if res.integrity is not None:
         i = res.integrity
-        click.echo(f"integrity  required: at most {i.integrity_risk:g} per hour beyond the alert limits {i.alert_lateral_m:g} m "
+        click.echo(f"integrity  required: at most {i.integrity_risk:g} per hour beyond the alert limits "
+                   f"{i.alert_lateral_m:g} m "
                    f"lateral, {i.alert_longitudinal_m:g} m longitudinal, {i.alert_heading_deg:g} deg, on every route")
     click.echo(f"model      {res.model_label}")
     if res.failures:

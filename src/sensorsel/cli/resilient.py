@@ -141,7 +141,8 @@ def _write(report: Any, problem: Any, out: Path, fmt: str, period_s: float, alph
     written.append(save_grid_csv(per.grid, out / "grid.csv"))
     use_file_backend()
     what = "robust" if method == "robust" else "resilient"
-    title = f"{problem.scenario.name}: {what} selection per {period_s:g} s period, {alpha} failure(s), budget ${budget:,.0f}"
+    title = (f"{problem.scenario.name}: {what} selection per {period_s:g} s period, {alpha} failure(s), budget "
+             f"${budget:,.0f}")
     ax = plot_selection_grid(per.grid, title=title)
     written.append(save_figure(ax.figure, out / f"grid.{fmt}", close=True))
     return written
@@ -155,7 +156,8 @@ def _print_comparison(report: Any, budget: float, alpha: int, rule: str, method:
     r = c.resilient
     if r.failed:
         fails = ", ".join(f"{s} (f = {v:.2f})" for s, v in zip(r.failed, r.failed_scores))
-        click.echo(f"{'Algorithm 2: ' if method == 'robust' else ''}assumed to fail: {fails}; ${r.failed_cost_usd:,.0f} of the budget")
+        click.echo(f"{'Algorithm 2: ' if method == 'robust' else ''}assumed to fail: {fails}; ${r.failed_cost_usd:,.0f} "
+                   "of the budget")
     if r.failure_note:
         click.echo(f"note: {r.failure_note}")
     click.echo("")
@@ -173,7 +175,8 @@ def _print_comparison(report: Any, budget: float, alpha: int, rule: str, method:
         click.echo(f"robust: method {rb.method}, bound {rb.bound:.2f}, gap {rb.gap_percent:.2f}%")
     if c.greedy_worst.score > 0:
         gain = 100.0 * (c.resilient_worst.score - c.greedy_worst.score) / c.greedy_worst.score
-        click.echo(f"\nworst case: resilient {gain:+.1f} % versus greedy (scores in nats: f(S) = log det L(S) - log det L(empty))")
+        click.echo(f"\nworst case: resilient {gain:+.1f} % versus greedy (scores in nats: f(S) = log det L(S) - log det "
+                   "L(empty))")
 
 
 def _print_usage(report: Any, lib: Any) -> None:

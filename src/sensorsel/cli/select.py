@@ -73,7 +73,8 @@ def _print_breakdown(design: DomainDesign) -> None:
              f"{r.share_of_own:.4f}", f"{r.own_cost_usd:,.0f}", compact_suite(r.own_suite)] for r in design.routes]
     click.echo(table(rows, ["route", "weight", "score_nats", "of_best", "own_nats", "of_own", "own_cost_usd", "own_suite"]))
     worst = next(r for r in design.routes if r.name == design.worst_route)
-    click.echo(f"worst route {worst.name}: the domain suite reaches {worst.share_of_own:.1%} of what its own design reaches there")
+    click.echo(f"worst route {worst.name}: the domain suite reaches {worst.share_of_own:.1%} of what its own design "
+               "reaches there")
     conditions = by_condition(design)
     if conditions:
         click.echo("\nper condition (its members' shares, weighted):")
@@ -275,7 +276,8 @@ def pareto_cmd(budgets: str | None, budget: tuple[float, ...], rules: str, lazy:
         return
     print_target(res.problem)
     click.echo(f"runs       {len(res.runs)} ({', '.join(res.rules)} x {len(res.budgets_usd)} budgets "
-               f"${res.budgets_usd[0]:,.0f}..${res.budgets_usd[-1]:,.0f}); engine {res.engine}{' (lazy)' if res.lazy else ''}; "
+               f"${res.budgets_usd[0]:,.0f}..${res.budgets_usd[-1]:,.0f}); engine "
+               f"{res.engine}{' (lazy)' if res.lazy else ''}; "
                f"{res.n_evaluations} suites evaluated in {res.seconds:.1f} s")
     click.echo(f"found      {len(res.architectures)} architectures, {len(res.front)} on the Pareto front; "
                f"best score {res.best_score:.3f} nats")
@@ -307,7 +309,8 @@ def pareto_cmd(budgets: str | None, budget: tuple[float, ...], rules: str, lazy:
     click.echo(f"best: ${best.cost_usd:,.0f}, {best.n_sensors} sensors: {','.join(best.suite)}")
     if res.constraints is not None:
         lib = problem.library
-        click.echo(f"limits     {res.constraints.describe()} (at every budget); the best architecture uses, at the largest budget:")
+        click.echo(f"limits     {res.constraints.describe()} (at every budget); the best architecture uses, at the "
+                   "largest budget:")
         click.echo(usage_table(feasible_set(lib, res.budgets_usd[-1], res.constraints).rows_used(lib.resolve_suite(best.suite))))
     click.echo("wrote " + ", ".join(str(w) for w in written))
 

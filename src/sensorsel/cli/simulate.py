@@ -214,12 +214,14 @@ def _print_association(c: Any) -> None:
     if c.clutter_per_km > 0:
         clut = [k.observed_clutter for k in c.keyframes]
         click.echo(f"clutter   {c.clutter_per_km:g} unmapped objects per km within {c.corridor_m:.1f} m of the route: "
-                   f"P(a clutter detection matched to a landmark) per keyframe mean {_p(float(sum(clut) / max(1, len(clut))))}, "
+                   "P(a clutter detection matched to a landmark) per keyframe mean "
+                   f"{_p(float(sum(clut) / max(1, len(clut))))}, "
                    f"worst {_p(max(clut, default=0.0))} (not in the prediction)")
     click.echo(f"per hour  wrong associations at {c.keyframes_per_hour:.0f} keyframes/h: predicted {_p(c.predicted_per_hour)} "
                f"(estimate), {_p(c.bound_per_hour)} (bound); observed {_p(c.observed_per_hour)}")
     click.echo(f"calibration  {c.resolved} keyframes resolved by the draws: estimate within 2x of the observed at "
-               f"{c.within_factor_2}; bound below the observed 99% lower limit at {c.bound_below_lower} of {len(c.keyframes)} keyframes")
+               f"{c.within_factor_2}; bound below the observed 99% lower limit at {c.bound_below_lower} of "
+               f"{len(c.keyframes)} keyframes")
     rows = [[f"[{b.lo:.0e}, {b.hi:.0e})", str(b.keyframes), _p(b.predicted), _p(b.bound), _p(b.observed),
              f"[{_p(b.ci_low)}, {_p(b.ci_high)}]"] for b in c.bins]
     click.echo(table(rows, ["predicted bin", "keyframes", "estimate", "bound", "observed", "99% CI"]))
@@ -286,7 +288,8 @@ def _print_report(sims: list[Any], sc: Any, runs: int, solver: str, seed: int, n
     click.echo(f"{'scenario':<9} {sc.name}: {sc.n_poses} keyframes, {sc.n_landmarks} landmarks ({sc.landmark_source})")
     from sensorsel.api import model_label
 
-    click.echo(f"runs      {runs} per suite, solver {solver}, seed {seed}, {model_label(sims[0].model, sims[0].map_sigma_m) if sims else ''}"
+    click.echo(f"runs      {runs} per suite, solver {solver}, seed {seed}, "
+               f"{model_label(sims[0].model, sims[0].map_sigma_m) if sims else ''}"
                + (f", noise x{noise_scale:g}" if noise_scale != 1 else "")
                + ("" if start_sigmas is None else f", first-pose prior sigmas {','.join(f'{v:g}' for v in settings.first_pose_sigmas)}"))
     w = max(9, *(len(s.label) for s in sims))
@@ -314,8 +317,10 @@ def _print_report(sims: list[Any], sc: Any, runs: int, solver: str, seed: int, n
                             "max_pos_err_m", "dead_reck_m", "nees/pose [95%]", "joint_nees [95%]", "consistent"]))
     click.echo("")
     click.echo("pred: predicted by the information matrix at the truth; dead_reck: RMSE of the dead-reckoned start.\n"
-               "nees/pose: average 3-dof pose NEES (expect 3), 95 % bounds allowing for the correlation of poses along the route;\n"
-               "joint_nees: NEES of the whole trajectory / K, exact 95 % chi-square bounds; consistent: joint_nees inside them.")
+               "nees/pose: average 3-dof pose NEES (expect 3), 95 % bounds allowing for the correlation of "
+               "poses along the route;\n"
+               "joint_nees: NEES of the whole trajectory / K, exact 95 % chi-square bounds; consistent: "
+               "joint_nees inside them.")
     _print_accuracy(sims)
 
 
@@ -327,7 +332,8 @@ def _print_accuracy(sims: list[Any]) -> None:
     if not checked:
         return
     click.echo("")
-    click.echo(f"predicted vs measured 95 % errors in each keyframe's frame, {model_label(checked[0].model, checked[0].map_sigma_m)}, "
+    click.echo("predicted vs measured 95 % errors in each keyframe's frame, "
+               f"{model_label(checked[0].model, checked[0].map_sigma_m)}, "
                f"{estimate_label('smoother')}: each run solves the whole route")
     rows = []
     for s in checked:
@@ -340,6 +346,7 @@ def _print_accuracy(sims: list[Any]) -> None:
     click.echo(table(rows, ["design", "component", "predicted 1.96σ (median / p95 / worst)",
                             "measured (median / p95 / worst)", "inside ±1.96σ"]))
     click.echo("")
-    click.echo("measured: per keyframe the 95th percentile of |error| over the runs (x forward = longitudinal, y left = lateral),\n"
+    click.echo("measured: per keyframe the 95th percentile of |error| over the runs (x forward = longitudinal, y left = "
+               "lateral),\n"
                "then over the keyframes median / 95th percentile / worst; inside ±1.96σ: share of all (run, keyframe) errors\n"
                "inside the predicted 95 % bound (expect 95 %). With few runs the per-keyframe 95th percentile is noisy.")

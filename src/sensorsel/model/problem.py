@@ -363,9 +363,11 @@ def check_problem_size(library: SensorLibrary, scenario: Scenario, limit_bytes: 
     need = n * BYTES_PER_MEASUREMENT
     if need > limit_bytes:
         raise InputError(
-            f"problem too large: {scenario.n_poses:,} keyframes of {scenario.name} and {scenario.n_landmarks:,} landmarks "
+            f"problem too large: {scenario.n_poses:,} keyframes of {scenario.name} and "
+            f"{scenario.n_landmarks:,} landmarks "
             f"({scenario.landmark_source}) give about {n:,} measurements for the {len(library)} sensors, "
-            f"{need / 2**30:.1f} GiB, beyond the limit of {limit_bytes / 2**30:g} GiB: use a lower keyframe rate (--rate) "
+            f"{need / 2**30:.1f} GiB, beyond the limit of {limit_bytes / 2**30:g} GiB: use a lower keyframe "
+            "rate (--rate) "
             "or fewer landmarks")
     return need
 
@@ -390,7 +392,8 @@ def check_reach(problem: Problem) -> None:
         longest = max(s.model.range_m for s in problem.library)
         raise InputError(
             f"landmarks {sc.landmark_source}: none of the {sc.n_landmarks} landmarks is within reach of any sensor "
-            f"from any keyframe of the route {route.source} (nearest {nearest:,.0f} m from the route, longest sensor range "
+            f"from any keyframe of the route {route.source} (nearest {nearest:,.0f} m from the route, longest "
+            "sensor range "
             f"{longest:g} m): is the map in the route's frame? Every suite would score 0")
 
 

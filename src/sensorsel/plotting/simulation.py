@@ -77,7 +77,8 @@ def plot_simulation(
     ax = ax or new_axes()
     if scenario.n_poses != result.problem.n_poses or scenario.n_landmarks != result.problem.n_landmarks:
         raise InputError(f"plot_simulation: the result is of a scenario with {result.problem.n_poses} keyframes and "
-                         f"{result.problem.n_landmarks} landmarks, not of {scenario.name!r} ({scenario.n_poses}, {scenario.n_landmarks})")
+                         f"{result.problem.n_landmarks} landmarks, not of {scenario.name!r} "
+                         f"({scenario.n_poses}, {scenario.n_landmarks})")
     k = typical_run(result) if run is None else run
     if not 0 <= k < len(result.runs):
         raise InputError(f"run {k} is not among the {len(result.runs)} runs of {result.label!r}")
@@ -115,7 +116,8 @@ def plot_simulation(
     suite = textwrap.fill(", ".join(result.suite) or "(no sensor)", 60)
     ax.set_title(
         f"{result.label}: {suite}\n{_failure_text(result)}; solver {SOLVER_WORDS.get(result.solver, result.solver)}, "
-        f"run {k} {'(median of' if k == typical_run(result) else '(of'} {len(result.runs)})\nposition RMSE {result.runs[k].position_rmse_m:.2f} m, "
+        f"run {k} {'(median of' if k == typical_run(result) else '(of'} {len(result.runs)})\nposition RMSE "
+        f"{result.runs[k].position_rmse_m:.2f} m, "
         f"max {result.runs[k].max_position_error_m:.2f} m, landmarks {lm_txt}",
         fontsize=9,
     )

@@ -380,7 +380,8 @@ def format_certificate(cert: Certificate) -> str:
     unit = "" if isinstance(cert.problem, DomainInfo) else " nats"  # a domain's score is a weighted share of the best
     limits = " and its limits" if cert.constraints is not None else ""
     return (
-        f"certificate: at least {_pct(cert.percent_of_best)}% of the best possible suite under ${cert.budget_usd:,.0f}{limits} "
+        f"certificate: at least {_pct(cert.percent_of_best)}% of the best possible suite under "
+        f"${cert.budget_usd:,.0f}{limits} "
         f"(f = {cert.score:.3f}{unit}; best possible <= {cert.bound:.3f}{unit}, bound from {where}; "
         f"{cert.n_evaluations:,} evaluations, {cert.seconds:.1f} s)"
     )

@@ -109,7 +109,8 @@ class RouteAccuracy:
             d = 3 if unit == "m" else 2
             parts.append(f"{label} {Z95 * s.median:.{d}f} / {Z95 * s.p95:.{d}f} / {Z95 * s.max:.{d}f} {unit} "
                          f"(keyframe {s.worst_keyframe})")
-        return (f"{model_label(self.model, self.map_sigma_m)}, {estimate_label(self.estimate)}; 95% errors, median / 95th percentile / worst keyframe: "
+        return (f"{model_label(self.model, self.map_sigma_m)}, {estimate_label(self.estimate)}; 95% errors, median / "
+                "95th percentile / worst keyframe: "
                 + ", ".join(parts))
 
 

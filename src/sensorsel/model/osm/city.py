@@ -259,7 +259,8 @@ def write_city(city: City, extract: OsmExtract, folder: str | Path, *, command: 
     lines = [f"# An operating domain written by: {command}",
              f"# from {extract.source}; {ATTRIBUTION}",
              f"# frame: {extract.frame.describe()}",
-             f"# {len(city.routes)} routes, {city.driven_m / 1000:.3f} km driven covering {city.road_m / 1000:.3f} km of road;",
+             f"# {len(city.routes)} routes, {city.driven_m / 1000:.3f} km driven covering "
+             f"{city.road_m / 1000:.3f} km of road;",
              "# each route weighs its length in km.",
              f"keyframe_rate_hz: {keyframe_rate_hz!r}", "weight_unit: km", "routes:"]
     for r in city.routes:

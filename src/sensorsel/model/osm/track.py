@@ -135,7 +135,8 @@ def route_landmarks(osm_paths: Sequence[str | Path], route_xy: np.ndarray, frame
         off = _outside(ex, map_xy, frame)
         if off.min() > reach_m:
             hint = "is --georef right?" if georef is not None else "is it in this city?"
-            raise InputError(f"{map_option}{path}: {route_label} lies {off.min() / 1000:,.1f} km outside the extract (its nodes span "
+            raise InputError(f"{map_option}{path}: {route_label} lies {off.min() / 1000:,.1f} km outside the extract (its nodes "
+                             "span "
                              f"W,S,E,N {','.join(f'{v:.5f}' for v in ex.bounds)}): {hint}")
         if (off > 0).any():
             notes.append(f"{(off > 0).mean():.0%} of {route_label} lies outside the extract {path}: OSM landmarks there are "
@@ -166,8 +167,10 @@ def route_landmarks(osm_paths: Sequence[str | Path], route_xy: np.ndarray, frame
         out = OsmLandmarks(np.vstack([osm.xy[keep], survey]), tuple(osm.classes[i] for i in keep) + (SURVEY,) * len(survey),
                            np.r_[osm.ids[keep], np.full(len(survey), -1, dtype=np.int64)],
                            np.r_[osm.moved[keep], np.zeros(len(survey), dtype=bool)])
-        notes.append(f"{len(survey)} survey landmark(s) of {survey_label} merged with {len(keep)} OSM one(s); {int(same.sum())} OSM "
-                     f"landmark(s) within {DUPLICATE_M:g} m of a survey landmark taken as the same object (the survey's position kept)")
+        notes.append(f"{len(survey)} survey landmark(s) of {survey_label} merged with {len(keep)} OSM one(s); "
+                     f"{int(same.sum())} OSM "
+                     f"landmark(s) within {DUPLICATE_M:g} m of a survey landmark taken as the same object (the "
+                     "survey's position kept)")
     kerb = kerb_note(out)
     if kerb is not None:
         notes.append(kerb)

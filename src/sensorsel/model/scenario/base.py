@@ -108,7 +108,8 @@ class LandmarkReport:
         if self.clearance_m is not None:
             parts.append(f"{self.n_dropped} closer than the clearance {self.clearance_m:g} m to the route dropped")
         elif self.n_on_road:
-            parts.append(f"{self.n_on_road} within {self.on_road_m:g} m of the route kept (a clearance drops them: --clearance {self.on_road_m:g})")
+            parts.append(f"{self.n_on_road} within {self.on_road_m:g} m of the route kept (a clearance drops them: "
+                         f"--clearance {self.on_road_m:g})")
         return [f"landmarks: {self.source}: {', '.join(parts)}: {self.n_kept} used"]
 
 

@@ -309,14 +309,16 @@ def find_frame(positions: np.ndarray, rotations: np.ndarray | None, path: str | 
         if best_axis != conv_fwd and score[best] >= FORWARD_MIN and score[best] - conv_score >= FORWARD_MARGIN:
             f_b = _vec(best_axis)
             back = float(np.mean(b[:, best_axis[0]] * best_axis[1] < 0))
-            how.append(f"forward: body {axis_name(best_axis)}, the axis along the direction of travel (mean cos {score[best]:.2f}; "
+            how.append(f"forward: body {axis_name(best_axis)}, the axis along the direction of travel (mean cos "
+                       f"{score[best]:.2f}; "
                        f"the format's {axis_name(conv_fwd)}: {conv_score:.2f})"
                        + (f"; drives backwards for {100 * back:.0f}% of the route" if back > 0.01 else ""))
         else:
             f_b = _vec(conv_fwd)
             weak_forward = conv_score < FORWARD_MIN
             if weak_forward:
-                how.append(f"no body axis points clearly along the direction of travel (mean cos with the format's {axis_name(conv_fwd)}: "
+                how.append("no body axis points clearly along the direction of travel (mean cos with the format's "
+                           f"{axis_name(conv_fwd)}: "
                            f"{conv_score:.2f}): forward taken as {axis_name(conv_fwd)} (--forward states it)")
 
     # -- the body's up axis and the world's
@@ -442,5 +444,6 @@ def headings_from_travel(t: np.ndarray, xy: np.ndarray, *, window_m: float = HEA
         if len(cusp):
             times = sorted({round(float(tm[k]), 1) for k in cusp})
             notes.append(f"the direction of travel reverses near t = {', '.join(f'{x:g}' for x in times[:5])} s"
-                         f"{' ...' if len(times) > 5 else ''}: taken as turning round; if the car backed up there, its heading is 180 deg off")
+                         f"{' ...' if len(times) > 5 else ''}: taken as turning round; if the car backed up "
+                         "there, its heading is 180 deg off")
     return heading, notes

@@ -89,7 +89,8 @@ def find_sources(odometry: str | Path, poles: str | Path, seqs: list[str] | None
     out = []
     for seq in seqs:
         if seq not in have_poses:
-            raise InputError(f"--seq {seq}: no {odo / 'poses' / (seq + '.txt')}; that folder has: {', '.join(sorted(have_poses)) or 'none'}")
+            raise InputError(f"--seq {seq}: no {odo / 'poses' / (seq + '.txt')}; that folder has: "
+                             f"{', '.join(sorted(have_poses)) or 'none'}")
         if seq not in have_maps:
             raise InputError(f"--seq {seq}: no pole map {pole_dir / ('kitti_label_' + seq) / POLE_MAP}; "
                              f"there are: {', '.join(sorted(have_maps)) or 'none'}")
@@ -127,12 +128,14 @@ def read_pole_map(path: str | Path) -> np.ndarray:
     try:
         with np.load(path, allow_pickle=False) as npz:
             if "poleparams" not in npz.files:
-                raise ScenarioError(path, f"no array 'poleparams' (a PRBonn pole map has one; this file has: {', '.join(npz.files) or 'none'})")
+                raise ScenarioError(path, "no array 'poleparams' (a PRBonn pole map has one; this file has: "
+                                          f"{', '.join(npz.files) or 'none'})")
             params = np.asarray(npz["poleparams"])
     except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
         raise ScenarioError(path, f"not a NumPy .npz pole map ({exc.__class__.__name__}: {exc})") from None
     if params.ndim != 2 or params.shape[1] < 2 or params.shape[0] < 1 or not np.issubdtype(params.dtype, np.number):
-        raise ScenarioError(path, f"'poleparams' must be M rows of at least 2 numbers (x, y, ...); got shape {params.shape}, dtype {params.dtype}")
+        raise ScenarioError(path, f"'poleparams' must be M rows of at least 2 numbers (x, y, ...); got shape {params.shape}, dtype "
+                                  f"{params.dtype}")
     xy = params[:, :2].astype(float)
     bad = np.flatnonzero(~np.isfinite(xy).all(axis=1))
     if len(bad):

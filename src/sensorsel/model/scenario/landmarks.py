@@ -82,7 +82,8 @@ def generate_landmarks(route: Trajectory, model: LandmarkModel = LandmarkModel()
     if n_est > MAX_LANDMARKS:
         near, far = 2 * (length // model.near_spacing_m), length // model.far_spacing_m
         name = "near_spacing_m" if near >= far else "far_spacing_m"
-        raise InputError(f"landmark model: {name} ({_OPTION[name]}) {getattr(model, name):g} m along the {length:,.0f} m route would "
+        raise InputError(f"landmark model: {name} ({_OPTION[name]}) {getattr(model, name):g} m along the {length:,.0f} m route "
+                         "would "
                          f"generate about {n_est:,} landmarks, more than the limit of {MAX_LANDMARKS:,}: use a larger spacing")
     rng = np.random.default_rng(seed)
     xy = route.poses[:, :2]

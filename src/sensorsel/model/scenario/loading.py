@@ -104,7 +104,8 @@ def read_route_file(path: str | Path, fmt: str | None = None, times: str | Path 
         return r
     if fmt == "csv":
         if forward is not None:
-            raise InputError(f"--forward {forward}: a CSV route ({path}) has no body axes (its heading is a column or the direction of travel)")
+            raise InputError(f"--forward {forward}: a CSV route ({path}) has no body axes (its heading is a column or the "
+                             "direction of travel)")
         return read_csv_route(path, up=up)
     return read_tum_route(path, up=up, forward=forward)
 
@@ -221,7 +222,8 @@ def _load_route(spec: ScenarioSpec, given: RouteFile | None = None) -> _Route:
         return _Route(rf.route, route_name(path), None, "", rf.notes, frame=rf.frame)
     for option, value in (("--up", spec.up), ("--forward", spec.forward)):
         if value is not None:
-            raise InputError(f"{option} {value} goes with a route file (--route FILE); a sequence or fixture is in KITTI's camera frame")
+            raise InputError(f"{option} {value} goes with a route file (--route FILE); a sequence or fixture is in KITTI's "
+                             "camera frame")
     if spec.seq is not None:
         root = resolve_kitti_root(spec.kitti_root)
         lm = kitti_map_path(root, spec.seq)
@@ -284,7 +286,8 @@ def load_scenario(spec: ScenarioSpec = ScenarioSpec(), *, route_file: RouteFile 
     """
     check_landmark_seed(spec.landmark_seed)
     if spec.geo and map_landmarks is None:
-        raise InputError("OpenStreetMap landmarks (--landmarks osm:FILE) and --georef are read by sensorsel.model.osm.load_geo_scenario "
+        raise InputError("OpenStreetMap landmarks (--landmarks osm:FILE) and --georef are read by "
+                         "sensorsel.model.osm.load_geo_scenario "
                          "(and sensorsel.load_problem), not by sensorsel.model.scenario.load_scenario")
     r = _load_route(spec, route_file)
     route, name = r.route, _name(spec, r.name)
@@ -295,8 +298,10 @@ def load_scenario(spec: ScenarioSpec = ScenarioSpec(), *, route_file: RouteFile 
     own_rate = route_rate_hz(route)
     if spec.keyframe_rate_hz > own_rate:
         used = f"every frame ({len(route)})" if len(keyframes) == len(route) else f"{len(keyframes)} of {len(route)} frames"
-        notes.append(f"keyframes: the rate {spec.keyframe_rate_hz:g} Hz is above the route's own {own_rate:.3g} Hz (median frame "
-                     f"interval {1.0 / own_rate:.4g} s): used {used} as keyframes, at {(len(keyframes) - 1) / keyframes.duration_s:.3g} Hz "
+        notes.append(f"keyframes: the rate {spec.keyframe_rate_hz:g} Hz is above the route's own {own_rate:.3g} Hz (median "
+                     "frame "
+                     f"interval {1.0 / own_rate:.4g} s): used {used} as keyframes, at "
+                     f"{(len(keyframes) - 1) / keyframes.duration_s:.3g} Hz "
                      "on average")
     if map_landmarks is not None:
         raw, source = _with_map(spec, r, route, map_landmarks, notes)
@@ -305,7 +310,8 @@ def load_scenario(spec: ScenarioSpec = ScenarioSpec(), *, route_file: RouteFile 
     landmarks, report = clean_landmarks(raw, route, spec.clearance_m, source)
     notes.extend(report.notes(always=False))  # the source itself is on every result's scenario line
     if not len(landmarks):
-        raise InputError(f"no landmark left of the {report.n_read} of {source} (clearance {spec.clearance_m} m): every suite would score 0")
+        raise InputError(f"no landmark left of the {report.n_read} of {source} (clearance {spec.clearance_m} m): every suite "
+                         "would score 0")
     return Scenario(name, keyframes, landmarks, source, route, report, tuple(notes))
 
 
@@ -376,5 +382,6 @@ def _landmarks_in_plane(path: Path, r: _Route, notes: list[str]) -> np.ndarray:
         return raw
     if r.frame is None:
         return raw[:, :2]
-    notes.append(f"landmarks: {path}: x,y,z taken in the route's world frame, projected into its ground plane ({r.frame.describe})")
+    notes.append(f"landmarks: {path}: x,y,z taken in the route's world frame, projected into its ground plane "
+                 f"({r.frame.describe})")
     return r.frame.project(raw)
