@@ -1,10 +1,12 @@
 """Fewer evaluations, same answer (issue 16, item 2): the lazy greedy with and without the gain
 bounds of :mod:`sensorsel.information.evaluators.fast.bound`, side by side, in one run.
 
-    python bench/bound.py [--kitti-root DIR] [--jobs N] [--budget USD] [--repeat R] [--landmarks real|synthetic] [ROUTE ...]
+    python bench/bound.py [--kitti-root DIR] [--jobs N] [--budget USD] [--repeat R]
+                          [--landmarks real|synthetic] [ROUTE ...]
 
 A ROUTE is ``suburb`` (the bundled fixture) or ``SEQ@HZ`` (KITTI, real pole maps), default
-``suburb 03@1 00@1``; ``--landmarks synthetic`` generates the KITTI routes' maps instead. For each route one problem and, per run, a fresh fast evaluator (so no run
+``suburb 03@1 00@1``; ``--landmarks synthetic`` generates the KITTI routes' maps instead. For each
+route one problem and, per run, a fresh fast evaluator (so no run
 reuses another's cached state); ``off`` is the lazy greedy without any bound (``bound_from=0``:
 neither the Fischer bounds on the scores nor the covariance bounds on the gains), ``on``
 asks for both as shipped (:data:`sensorsel.designs.selection.greedy.BOUND_FROM`; the engine declines
@@ -78,8 +80,9 @@ def main() -> None:
         if args.always:
             c = got["always"][0][1]
             t_al = min(t for t, _, _ in got["always"])
+            same_always = [(s.pick, s.score) for s in c.steps] == [(s.pick, s.score) for s in a.steps]
             notes.append(f"{route} always: evaluations {c.n_evaluations}, selection {t_al:.2f} s ({t_off / t_al:.2f}x), "
-                         f"bit-identical: {'yes' if [(s.pick, s.score) for s in c.steps] == [(s.pick, s.score) for s in a.steps] else 'NO'}")
+                         f"bit-identical: {'yes' if same_always else 'NO'}")
         notes.append(f"{route}: evaluations {a.n_evaluations} -> {b.n_evaluations} "
                      f"({b.n_evaluations / a.n_evaluations:.2f}x), selection {t_off:.2f} s -> {t_on:.2f} s "
                      f"({t_off / t_on:.2f}x faster), picks and scores bit-identical: {'yes' if same else 'NO'} "

@@ -5,7 +5,8 @@
 
 For each route (the bundled suburb route, then each KITTI sequence at 1 Hz with its real pole map)
 and each suite (the roof LiDAR alone, the smoother's $2,840 local-streets answer on the bundled
-route; with ``--all`` also all 62 sensors), in both localization models: the minimum CPU time over ``--repeat`` runs of the
+route; with ``--all`` also all 62 sensors), in both localization models: the minimum CPU time over
+``--repeat`` runs of the
 smoother's pose covariances (from a fresh base state: what a new suite costs) and of the forward
 pass, their ratio, and the filter's largest state (landmarks held at once). CPU time, not wall:
 the machine this was written on was shared; the ratio is what to read.

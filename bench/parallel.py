@@ -3,7 +3,7 @@
     python bench/parallel.py [--domain configs/domain_kitti.yaml] [--budget 110000] [--jobs 1,2] [--workers 1,2]
     python bench/parallel.py --domain configs/domain_fixtures.yaml --budget 12000     # the small fixture domain
     python bench/parallel.py --generated 100 --budget 12000 --jobs 1 --workers 2      # 100 generated routes
-    python bench/parallel.py --whole --workers ""                                    # + certificate and breakdown, in-process
+    python bench/parallel.py --whole --workers ""                        # + certificate and breakdown, in-process
 
 (The KITTI domain needs ``SENSORSEL_KITTI_ROOT``, e.g. /work/shared/kitti.) ``--generated N`` writes a
 domain of N routes (the bundled tiny route, each with its own synthetic landmark map, seeds 1..N)

@@ -9,7 +9,8 @@ their real pole maps; each row is run for every preset and failure count given, 
 solver of the package, then with the reference solver behind the same accuracy oracle (so the two
 differ only in the search). Printed per run: the status, cost and lower bound, integer programs,
 accuracy computations (and the suites the cheap floor refuted), the time in checks and in programs,
-the wall time and the process's CPU time (less sensitive to other work on the machine). Timings on a shared machine are noisy: compare the two solvers' columns of one
+the wall time and the process's CPU time (less sensitive to other work on the machine). Timings on a
+shared machine are noisy: compare the two solvers' columns of one
 run, and the counts, which do not depend on the machine.
 """
 

@@ -1,4 +1,5 @@
-"""This tree's greedy (or pareto, resilient) against an earlier commit's, side by side in one run (alternating, same machine).
+"""This tree's greedy (or pareto, resilient) against an earlier commit's, side by side in one run
+(alternating, same machine).
 
     python bench/versus.py --base 60d5466 --kitti-root ../shared/kitti [--seq 03 00] [--repeats 3] [--command greedy]
 

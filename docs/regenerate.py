@@ -758,7 +758,8 @@ def _pareto_rows(kind: str, csv_path: Path, t: dict, d: Path, seq: str) -> list[
     archs.sort(key=lambda a: (a[0], -a[1]))
     best_all = max(archs, key=lambda a: (a[1], -a[0]))
     within = max((a for a in archs if a[0] <= float(BUDGET)), key=lambda a: (a[1], -a[0]))
-    refs = [(f"best recorded ({len(best_all[2].split(';' if ';' in best_all[2] else ','))} sensors, {_usd(best_all[0])})", best_all[1]),
+    n_best = len(best_all[2].split(";" if ";" in best_all[2] else ","))
+    refs = [(f"best recorded ({n_best} sensors, {_usd(best_all[0])})", best_all[1]),
             (f"best recorded within $110,000 ({_usd(within[0])})", within[1])]
     g = _load(d / f"greedy{seq}.json")
     if g:

@@ -290,13 +290,14 @@ def _suite_rows(data: dict, singles: bool) -> list[str]:
         for r in run["routes"]:
             where = f" ({r['route']})" if len(run["routes"]) > 1 else ""
             acc = r["worst_95_m_m_deg"]
+            pl = _pl(r["protection_level_lateral_median_m"], r["keyframes_without_protection_level"], r["keyframes"])
             rows.append(
                 f"| {run['label']}{where} | {_short_ids(run['suite'])} | ${run['cost_usd']:,.0f} | {run['variant']} | "
                 f"{_g(r['per_hour']['local-streets'])} | {_g(r['per_hour']['freeway'])} | "
                 f"{_g(r['association_per_hour'])} | "
                 f"{_g(r['association_estimate_per_hour'])} | {_g(r['tail_per_hour']['local-streets'])} | "
                 f"{_g(r['worst_bound'])} / {_g(r['worst_estimate'])} | "
-                f"{_pl(r['protection_level_lateral_median_m'], r['keyframes_without_protection_level'], r['keyframes'])} | "
+                f"{pl} | "
                 f"{r['n_used']:,}/{r['n_measured']:,} | {acc[0]:.3f} / {acc[1]:.3f} / {acc[2]:.2f} | "
                 f"{', '.join(r['meets_accuracy']) or 'neither'} |")
     return rows

@@ -360,7 +360,8 @@ def test_blas_function_pointers_against_numpy():
 @pytest.mark.parametrize("n", [1, 5, 63, 64, 65, 200])
 @pytest.mark.parametrize("block", [0, 1, 7, 64])
 def test_blocked_cholesky_gives_numpys_log_det_at_every_panel_width(n, block):
-    """The panels (dpotrf, dtrtri and dtrmm on the panel, dsyrk on the trailing matrix) against numpy's slogdet, widths that
+    """The panels (dpotrf, dtrtri and dtrmm on the panel, dsyrk on the trailing matrix) against numpy's
+    slogdet, widths that
     divide n, do not, and exceed it; the factor's lower triangle is numpy's Cholesky factor."""
     rng = np.random.default_rng(n + block)
     x = rng.standard_normal((n, n + 3))

@@ -47,7 +47,8 @@ def _straight_drive(root: Path, seq: str = "07", poles=((10.0, 2.0), (30.0, -4.5
 
 def test_a_pole_lands_where_hand_worked_geometry_puts_it(tmp_path):
     """A pole 10 m ahead of and 2 m left of the LiDAR, which is 0.27 m behind the camera: 9.73 m ahead,
-    2 m left in the route's frame (x ahead, y left at frame 0); one 4.5 m right: y = -4.5. The downloads' layouts as published."""
+    2 m left in the route's frame (x ahead, y left at frame 0); one 4.5 m right: y = -4.5. The downloads'
+    layouts as published."""
     _straight_drive(tmp_path)
     r = _kitti(["--odometry", str(tmp_path / "dataset"), "--poles", str(tmp_path / "pole-localization"), "-o", str(tmp_path / "out")])
     assert r.exit_code == 0, r.output

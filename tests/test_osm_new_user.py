@@ -91,7 +91,8 @@ def test_the_kerb_note_counts_the_routes_landmarks_and_every_note_says_sensorsel
 def test_a_route_track_tells_its_projection_once(city, tmp_path):
     """osm --gpx: the track's note names the map frame; the extract's projection note is not repeated."""
     gpx = tmp_path / "t.gpx"
-    pts = "".join(f'<trkpt lat="{LAT0 + 0.0101!r}" lon="{LON0 + k * DLON_100M / 10!r}"><time>2024-05-01T12:00:{k:02d}Z</time></trkpt>'
+    pts = "".join(f'<trkpt lat="{LAT0 + 0.0101!r}" lon="{LON0 + k * DLON_100M / 10!r}">'
+                  f"<time>2024-05-01T12:00:{k:02d}Z</time></trkpt>"
                   for k in range(50))
     gpx.write_text(f'<?xml version="1.0"?><gpx version="1.1" xmlns="http://www.topografix.com/GPX/1/1"><trk><trkseg>{pts}'
                    "</trkseg></trk></gpx>")

@@ -8,7 +8,8 @@ target's parts walked here are the :class:`~sensorsel.model.problem.Fingerprint`
 added there and not here fails :func:`test_every_part_of_the_target_is_walked`.
 
 Each store is checked where its fingerprints are made: a route's periods (:func:`period_plan`, the
-plan the run executes), a robust run's tasks (the files it keeps), a study's cells (:func:`cell_fingerprint`), a tradespace's rules (the files a
+plan the run executes), a robust run's tasks (the files it keeps), a study's cells
+(:func:`cell_fingerprint`), a tradespace's rules (the files a
 run writes, then a resume with one input changed) and a greedy checkpoint (:func:`run_fingerprint`,
 and :func:`load_checkpoint`, which does not read it back). For each changed input, no fingerprint of the changed
 run may equal one of the base run's: a stored file of the base run can then never be read back.

@@ -333,7 +333,8 @@ def run_optimal(target: Target, budget_usd: float, *, engine: str | None = None,
 
     ``constraints``: limits besides the budget (:mod:`sensorsel.model.constraints`); the optimum is the
     best suite they allow, and the result records them. ``evaluator``: the target's evaluator already
-    built (e.g. on a Dask cluster; ``engine``, ``jobs`` and ``aggregate`` are then its own). ``checkpoint``: the search's state is saved
+    built (e.g. on a Dask cluster; ``engine``, ``jobs`` and ``aggregate`` are then its own).
+    ``checkpoint``: the search's state is saved
     there as it goes; ``resume``: go on from it.
 
     Raises:

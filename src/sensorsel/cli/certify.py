@@ -150,8 +150,8 @@ def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output
 @engine_options
 @cluster_options
 @click.option("--result", "result_path", type=click.Path(dir_okay=False, path_type=str), default=None, callback=not_empty,
-              help="A greedy result JSON (`sensorsel greedy -o FILE`) to certify; it must be of the same library, route, rate and "
-                   "landmarks (checked by content; see --force).")
+              help="A greedy result JSON (`sensorsel greedy -o FILE`) to certify; it must be of the same "
+                   "library, route, rate and landmarks (checked by content; see --force).")
 @budget_option(help="Without --result: run greedy at this budget in dollars (110000, 110,000, $110,000 or 110_000) and certify it.")
 @rule_option("best-of", "Without --result: the greedy rule.")
 @constraint_options

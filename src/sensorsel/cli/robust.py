@@ -193,7 +193,8 @@ def print_robust(res: Any, lib: SensorLibrary | None = None) -> None:
                f"gap {res.gap_percent:.2f}%" + (" (proved optimal)" if res.bound_detail.proved or res.gap_percent == 0 else ""))
     if res.greedy_worst_score > 0:
         click.echo(f"versus greedy {100.0 * (res.worst_score - res.greedy_worst_score) / res.greedy_worst_score:+.1f} %, "
-                   f"versus Algorithm 2 {100.0 * (res.worst_score - res.algorithm2_worst_score) / max(res.algorithm2_worst_score, 1e-300):+.1f} %")
+                   f"versus Algorithm 2 "
+                   f"{100.0 * (res.worst_score - res.algorithm2_worst_score) / max(res.algorithm2_worst_score, 1e-300):+.1f} %")
     if worst and res.members:
         click.echo(f"\nper route (worst: {res.worst_member})")
         click.echo(table([[m.name, f"{m.best_score:,.2f}", f"{m.nominal_share:.4f}", f"{m.worst_share:.4f}", _csv(m.failures)]

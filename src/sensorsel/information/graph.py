@@ -1,7 +1,8 @@
 """The GTSAM factor graph of a sensor suite, and the reference score read off R's diagonal.
 
 This module (with :mod:`sensorsel.simulation`) is where gtsam is imported, and the only place factors are built
-(:mod:`sensorsel.information.linearize` writes their Jacobians at the truth out in closed form, for the fast engine). Following GTSAM's Python
+(:mod:`sensorsel.information.linearize` writes their Jacobians at the truth out in closed form, for the
+fast engine). Following GTSAM's Python
 examples: poses are ``X(k)`` (``Pose2``), landmarks ``L(j)`` (``Point2``), each measurement a
 ``BearingRangeFactor2D``; noise models that do not vary per measurement are built once.
 

@@ -161,8 +161,8 @@ class ConditionPhysics:
             0.05 in the MOR's definition (so α = ln(20)/MOR in fog).
         camera_contrast: C₀, a landmark's own contrast against its background for a camera
             (Koschmieder's law; 1 is a black object against the horizon sky, then d = MOR).
-        optical_rain_k, optical_rain_a: optical rain attenuation γ = k R^a [dB/km] (R in mm/h; Carbonneau, cited as ITU-R P.1814)
-            for LiDAR and cameras.
+        optical_rain_k, optical_rain_a: optical rain attenuation γ = k R^a [dB/km] (R in mm/h;
+            Carbonneau, cited as ITU-R P.1814) for LiDAR and cameras.
         optical_snow_k, optical_snow_a: (wet) snow attenuation γ = k S^a [dB/km] (cited as ITU-R P.1814; assumed).
         radar_rain_k, radar_rain_a: ITU-R P.838-3 at the radar's frequency, γ = k R^a [dB/km].
         radar_fog_db_km_per_g_m3: ITU-R P.840 K_l, fog attenuation per liquid water [(dB/km)/(g/m³)].

@@ -2,7 +2,8 @@
 
 A sensor at the car's reference point, facing ``heading + mount_angle``, sees a landmark when the
 landmark is at least :data:`MIN_RANGE_M` and at most ``range_m`` away and inside the cone of
-half-angle ``fov_rad / 2`` around its facing (boundaries included). Measurements are noise-free (the truth) here; their noise std comes from the
+half-angle ``fov_rad / 2`` around its facing (boundaries included). Measurements are noise-free (the
+truth) here; their noise std comes from the
 sensor model, stereo range noise growing with the square of the distance.
 """
 

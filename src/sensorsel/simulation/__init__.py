@@ -36,7 +36,8 @@ Consistency: each pose's error ``xi_k = truth_k.localCoordinates(estimate_k)`` (
 space) is compared with the covariance predicted by the information matrix of the graph linearized
 at the **ground truth** (in closed form and inverted densely, equal to ``gtsam.Marginals`` there).
 That is the same information matrix whose log det is the score, it does not depend on the draw, and
-it is computed once. (Marginals at each run's solution would measure the estimator's own opinion of itself, not whether the design's prediction holds.)
+it is computed once. (Marginals at each run's solution would measure the estimator's own opinion of
+itself, not whether the design's prediction holds.)
 
 - ``nees_mean``: the average of ``xi_k' P_k^-1 xi_k`` over N runs and K poses, with the two-sided 95 %
   chi-square bounds ``chi2.ppf([0.025, 0.975], 3 N K) / (N K)``. These bounds treat the N K terms as

@@ -5,7 +5,8 @@
 
 Modules: :mod:`.rules` (uniform, cost-benefit, marginal: the objective J), :mod:`.strategies`
 (best-of: the better of uniform and marginal), :mod:`.registry` (:data:`RULES`, :func:`check_rule`),
-:mod:`.greedy` (the engine, lazy evaluation, :func:`check_budget`, :func:`check_affordable`: what to do when nothing fits), :mod:`.records` (:class:`Step`,
+:mod:`.greedy` (the engine, lazy evaluation, :func:`check_budget`, :func:`check_affordable`: what to do
+when nothing fits), :mod:`.records` (:class:`Step`,
 :class:`GreedyResult`). This package builds on the evaluators only; certificates and the run
 functions that make evaluators live above it (:mod:`sensorsel.designs.certify`, :mod:`sensorsel.api`).
 """

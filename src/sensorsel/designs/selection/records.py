@@ -60,7 +60,8 @@ class GreedyResult:
             it kept; else ``rule`` itself.
         problem: what it was computed on.
         seconds: wall time of the selection [s] (timings are the only fields that vary between runs).
-        constraints: the limits besides the budget the run respected (:class:`~sensorsel.model.constraints.Constraints`);
+        constraints: the limits besides the budget the run respected
+            (:class:`~sensorsel.model.constraints.Constraints`);
             None when the budget was the only one (no limit, no slot, nothing required or excluded).
         accuracy: the suite's accuracy in metres and degrees on each route (one for a single route),
             per keyframe; empty when not computed (the command line computes it).

@@ -35,7 +35,8 @@ _GENERIC_STEMS = {"poses", "pose", "groundtruth", "ground_truth", "gt", "traject
 def sniff_route_format(path: str | Path) -> str:
     """The format of a route file when none is given: ``csv`` for a ``.csv`` file; otherwise by the
     first line that is not blank or a ``#`` comment: a header (a field that is not a number, or a
-    ``#`` comment naming t, x and y just before it) means ``csv``, 12 numbers ``kitti`` (a 3x4 pose matrix), 8 numbers ``tum``.
+    ``#`` comment naming t, x and y just before it) means ``csv``, 12 numbers ``kitti`` (a 3x4 pose
+    matrix), 8 numbers ``tum``.
 
     Raises:
         ScenarioError: missing or empty file, or a first line that fits none of the formats.
@@ -148,7 +149,8 @@ class ScenarioSpec:
     ``-y``, ...) instead of those found from the route (:func:`~sensorsel.model.scenario.frames.find_frame`).
     A landmark file naming ``x,y,z`` is in the route's world frame and projected by it.
 
-    OpenStreetMap (read by :func:`sensorsel.model.osm.load_geo_scenario`, which :func:`sensorsel.model.problem.load_problem`
+    OpenStreetMap (read by :func:`sensorsel.model.osm.load_geo_scenario`, which
+    :func:`sensorsel.model.problem.load_problem`
     calls; :func:`load_scenario` refuses these fields): ``osm``, OSM extracts whose pole-like
     landmarks of ``osm_classes`` (comma-separated; None: all) within ``osm_reach_m`` [m] of the route
     join ``landmarks`` (then only the file or pole map given there, never a generated map);

@@ -79,7 +79,8 @@ def _runs(keyframes: np.ndarray, gap: int = 1) -> list[tuple[int, int]]:
 
 def pair_quadratics(states: StateBuilder, planner: Planner, base: BaseState, cov: np.ndarray,
                     pairs: np.ndarray, map_: Callable[..., Iterable[Any]] | None = None) -> np.ndarray:
-    """(3, n) h_rᵀ Σ_(k,j) h_s of the rows (r, s) = (0, 0), (0, 1), (1, 1) (bearing 0, range 1) of each pair of ``pairs`` (n,) under the
+    """(3, n) h_rᵀ Σ_(k,j) h_s of the rows (r, s) = (0, 0), (0, 1), (1, 1) (bearing 0, range 1) of each
+    pair of ``pairs`` (n,) under the
     base suite's covariance (``cov`` = :func:`pose_covariance`): the trace bound per unit weight.
     ``map_``: runs the landmark groups' products (default: the builtin ``map``; an executor's ``map``
     runs them on its threads: numpy's gathers and products release the GIL)."""

@@ -55,7 +55,8 @@ class FastEvaluator(ProblemEvaluator):
                  sparse_below: float = SPARSE_BELOW, front_below: float = FRONT_BELOW, chunk_poses: int = CHUNK_POSES,
                  inplace_blas: bool = True, bound_spare: float = BOUND_SPARE) -> None:
         """``threads_from_keyframes``: use the ``jobs`` threads only on routes with at least this many
-        keyframes. ``sparse_below``, ``front_below``, ``chunk_poses``, ``inplace_blas``: the kernel's choice of paths (see
+        keyframes. ``sparse_below``, ``front_below``, ``chunk_poses``, ``inplace_blas``: the kernel's choice
+        of paths (see
         :class:`~sensorsel.information.evaluators.fast.kernel.Kernel`); ``bound_spare``: when :meth:`gain_bounds`
         computes bounds (:data:`BOUND_SPARE`; 0: always). All change speed, not the numbers."""
         super().__init__(problem, jobs=jobs)
