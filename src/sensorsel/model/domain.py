@@ -225,7 +225,7 @@ def _parse_conditions(c: Checker, raw: Any, line: int | None) -> tuple[tuple[Con
         if not isinstance(item, Map):
             c.fail(key, f"expected a mapping (name, share, and night, rain_mm_h, fog_visibility_m or snow_mm_h), got {item!r}", iline)
         c.keys(item, key, _CONDITION_KEYS)
-        at = lambda k: item.lines.get(k, item.line)  # noqa: E731
+        at = lambda k, item=item: item.lines.get(k, item.line)  # noqa: E731
         for k in ("name", "share"):
             if k not in item:
                 c.fail(f"{key}.{k}", "missing: every condition needs a name and its share of the driving", item.line)

@@ -191,7 +191,7 @@ def greedy(evaluator: Evaluator, budget_usd: float, rule: str = "uniform", *, la
         assert isinstance(component, Rule)
         n_before, n0 = journal.n_evaluations, evaluator.n_evaluations
 
-        def record(steps: tuple[Step, ...]) -> None:
+        def record(steps: tuple[Step, ...], n_before: int = n_before, n0: int = n0) -> None:
             journal.record_steps(steps, n_before + evaluator.n_evaluations - n0)
 
         run = Selector(evaluator, component, lazy=lazy, exclude=exclude, progress=progress, constraints=constraints).select(
