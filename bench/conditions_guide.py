@@ -66,7 +66,6 @@ def main() -> None:
     print("\nWhat each condition costs each suite (its members' share of their best, weighted by km):\n")
     print("| condition | weight | clear-days suite | city-mix suite |")
     print("|---|---:|---:|---:|")
-    info = {r.name: r for r in mixed.routes}
     for cond in mixed.condition_names:
         idx = [k for k, r in enumerate(mixed.routes) if r.condition == cond]
         w = ev_mixed.weights[idx]

@@ -542,7 +542,7 @@ def tables(root: Path) -> str:
         rows = []
         for label, (_, desc) in SCORE_SUITES.items():
             cells = []
-            for kind, d in kinds:
+            for _kind, d in kinds:
                 s = _load(d / "scores" / f"{seq}-{label}.json")
                 cells.append(s)
             if not any(cells):

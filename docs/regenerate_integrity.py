@@ -536,7 +536,8 @@ def proof_rows(d: Path) -> list[str]:
         for r in (data or {}).get("rows", ()):
             within = r["within_floor"]
             shown = ", ".join(within) if len(within) <= 6 else ", ".join(within[:5]) + f" +{len(within) - 5}"
-            rows.append(f"| {r['route']} | {r['odometry']} | {'%g' % r['lever'] if r['lever'] else 'none'} | {r['alerts']} | "
+            lever = format(r["lever"], "g") if r["lever"] else "none"
+            rows.append(f"| {r['route']} | {r['odometry']} | {lever} | {r['alerts']} | "
                         f"{len(within)}/{r['sensors']} ({shown or '-'}) | {_g(r['tail_of_within_per_hour'])} | "
                         f"{'no suite meets it (proved)' if r['proved_none_meets'] else 'not excluded'} |")
     if not rows:

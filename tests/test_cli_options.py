@@ -111,7 +111,7 @@ def test_every_result_command_has_json_and_every_progress_command_has_q():
 
 
 def test_every_budget_is_a_budget_type_and_every_plot_has_one_format_option():
-    for name, cmd in cli.commands.items():
+    for name in cli.commands:
         budget = _params(name).get("budget")
         assert (budget is not None) == (name in BUDGET_COMMANDS), name
         if budget is not None:

@@ -192,7 +192,10 @@ def test_budget_alone_keeps_the_knapsack_path(problem):
         assert (a.bound, a.step_bounds, a.knapsack_method) == (b.bound, b.step_bounds, b.knapsack_method)
         o1 = optimal(ev, budget, max_nodes=50)
         o2 = optimal(ev, budget, max_nodes=50, constraints=Constraints.of(slots=False))
-        strip = lambda r: {k: v for k, v in json.loads(results.dumps(r)).items() if k not in ("seconds", "n_evaluations")}  # noqa: E731
+
+        def strip(r):
+            return {k: v for k, v in json.loads(results.dumps(r)).items() if k not in ("seconds", "n_evaluations")}
+
         assert strip(o1) == strip(o2) and o1.constraints is None and "milp" not in o1.bound_method
 
 

@@ -113,6 +113,7 @@ def test_require_cli_end_to_end_and_deterministic(tmp_path):
     assert r1.exit_code == 0, r1.output
     assert "proved the cheapest" in r1.output and "prior map (landmarks known to 0.05 m)" in r1.output
     r2 = _invoke(args + ["-o", out2])
+    assert r2.exit_code == 0, r2.output
     a, b = json.loads(out1.read_text()), json.loads(out2.read_text())
     for key in ("seconds", "seconds_checks", "seconds_programs"):  # wall times: the only fields that differ
         a.pop(key), b.pop(key)

@@ -425,7 +425,7 @@ def test_densified_route_is_each_segment_cut_into_equal_steps():
     """Oracle: each segment a -> b cut by hand into n = ceil(|b - a| / step) equal steps (a repeated
     point and a zero-length segment included)."""
     import numpy as np
-    from sensorsel.model.scenario import _densify
+    from sensorsel.model.scenario.landmarks import _densify
 
     xy = np.array([[0.0, 0.0], [1.2, 0.0], [1.2, 0.0], [1.2, -0.7], [4.0, 3.0]])
     want = [xy[0]]

@@ -365,7 +365,7 @@ def rule_step(state: Evaluator | tuple[Target, EvaluatorRecipe], task: RuleTask)
         target, recipe = state
         ev = evaluator_for(target, recipe.engine, jobs=recipe.jobs, aggregate=recipe.aggregate)
     if isinstance(ev, ProblemEvaluator) and not task.first:  # the baseline is counted by the first rule only,
-        ev.baseline_logdet  # as by one evaluator in one run (also when the first rule's runs were read back)
+        _ = ev.baseline_logdet  # as by one evaluator in one run (also when the first rule's runs were read back)
     n0 = ev.n_evaluations
     runs = rule_runs(ev, task.rule, task.budgets_desc, lazy=task.lazy, share_prefix=task.share_prefix,
                      constraints=task.constraints)

@@ -434,12 +434,12 @@ def parse_library(data: Any, path: str | Path = "<memory>") -> SensorLibrary:
         raise LibraryError(path, "models", "expected a non-empty list of sensor models")
 
     models = [_parse_model(m, path, f"models[{i}]") for i, m in enumerate(models_raw)]
-    for field in ("code", "digit"):
+    for attr in ("code", "digit"):
         seen: dict[Any, int] = {}
         for i, m in enumerate(models):
-            v = getattr(m, field)
+            v = getattr(m, attr)
             if v in seen:
-                raise LibraryError(path, f"models[{i}].{field}", f"duplicate {field} {v!r} (also models[{seen[v]}])")
+                raise LibraryError(path, f"models[{i}].{attr}", f"duplicate {attr} {v!r} (also models[{seen[v]}])")
             seen[v] = i
 
     sensors: list[PlacedSensor] = []
@@ -452,14 +452,14 @@ def parse_library(data: Any, path: str | Path = "<memory>") -> SensorLibrary:
     # Distinct codes and digits can still collide: a roof model with digit d and a clock model with
     # digit 0 at d o'clock both get index d.
     owner = {id(m): i for i, m in enumerate(models)}
-    for field, value_of in (("code", lambda s: s.id), ("digit", lambda s: s.index)):
+    for attr, value_of in (("code", lambda s: s.id), ("digit", lambda s: s.index)):
         first: dict[Any, PlacedSensor] = {}
         for s in sensors:
             v = value_of(s)
             if v in first:
                 o = first[v]
                 raise LibraryError(
-                    path, f"models[{owner[id(s.model)]}].{field}",
+                    path, f"models[{owner[id(s.model)]}].{attr}",
                     f"placed sensor {s.id} (index {s.index}) collides with {o.id} (index {o.index}) "
                     f"of models[{owner[id(o.model)]}]",
                 )

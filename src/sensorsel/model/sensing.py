@@ -144,20 +144,20 @@ def observe(library: SensorLibrary, scenario: Scenario) -> tuple[SensorObservati
             if m.fov_rad < 2.0 * np.pi:
                 off = off_axis(brg_flat[at], sensor.mount_angle_rad)  # brg_flat is wrapped
                 at = at[off <= 0.5 * m.fov_rad + 1e-12]
-            k, l = np.divmod(at, n_m)
-            parts[i].append((k + start, l, brg_flat[at], rng_flat[at]))
+            k, j = np.divmod(at, n_m)
+            parts[i].append((k + start, j, brg_flat[at], rng_flat[at]))
     out = []
     for i, sensor in enumerate(library):
         if parts[i]:
-            k, l, b, r = (np.concatenate(a) for a in zip(*parts[i]))
+            k, j, b, r = (np.concatenate(a) for a in zip(*parts[i]))
         else:
-            k = l = np.zeros(0, dtype=np.intp)
+            k = j = np.zeros(0, dtype=np.intp)
             b = r = np.zeros(0)
         out.append(
             SensorObservations(
                 sensor=i,
                 pose=k,
-                landmark=l,
+                landmark=j,
                 bearing_rad=b,
                 range_m=r,
                 sigma_bearing_rad=np.full(len(k), sensor.model.bearing_sigma()),

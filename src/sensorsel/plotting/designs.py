@@ -57,7 +57,7 @@ def plot_selection_grid(grid: "SelectionGrid", ax: Axes | None = None, *, title:
             groups[-1] = (m, groups[-1][1], c)
         else:
             groups.append((m, c, c))
-    for _, a, b in groups[1:]:
+    for _, a, _b in groups[1:]:
         ax.axvline(a - 0.5, color="k", lw=1.2)
     for m, a, b in groups:
         ax.text((a + b) / 2, -0.6, m, ha="center", va="bottom", fontsize=8, fontweight="bold",

@@ -216,7 +216,7 @@ def method_step(state: tuple[Target, Evaluator | EvaluatorRecipe],
     target, held = state
     ev = held if isinstance(held, Evaluator) else evaluator_for(target, held.engine, jobs=held.jobs, aggregate=held.aggregate)
     if isinstance(ev, ProblemEvaluator):
-        ev.baseline_logdet
+        _ = ev.baseline_logdet  # computed (and counted) before the memo starts
     settings, task, known = job
     memo = MemoEvaluator(ev)
     memo.learn((k.suite, k.score) for k in known)

@@ -172,7 +172,7 @@ def build_city(extract: OsmExtract, classes: tuple[str, ...], *, speed_kmh: floa
         road_m += length
         repeats += _eulerize(sub)
         pts = [sub.nodes[comp[0]]["xy"]]
-        for u, v, _k in nx.eulerian_circuit(sub, source=comp[0], keys=True):
+        for _u, v, _k in nx.eulerian_circuit(sub, source=comp[0], keys=True):
             pts.append(sub.nodes[v]["xy"])
         poly = np.asarray(pts, dtype=float)
         kept_xy.append(poly)

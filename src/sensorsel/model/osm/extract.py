@@ -361,7 +361,7 @@ def read_osm(path: str | Path, *, bbox: tuple[float, float, float, float] | None
         if runs else np.zeros((0, 2))
     ways: list[OsmWay] = []
     at = 0
-    for wid, hw, ids_, lons_, _, hwidth in runs:
+    for wid, hw, ids_, _lons, _, hwidth in runs:
         ways.append(OsmWay(wid, hw, tuple(ids_), flat[at:at + len(ids_)], hwidth))
         at += len(ids_)
     lm_xy = frame.project(np.array(lm_lon), np.array(lm_lat)) if lm_lon else np.zeros((0, 2))

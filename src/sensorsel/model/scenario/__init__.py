@@ -29,7 +29,7 @@ from sensorsel.model.scenario.frames import Frame, find_frame, headings_from_tra
 from sensorsel.model.scenario.kitti import (KITTI_ROOT_ENV, kitti_from_planar, kitti_map_path, load_sequence,
                                             load_trajectory, planar_from_kitti, read_kitti_poses, read_kitti_route,
                                             read_sequence, read_times, resolve_kitti_root, write_kitti_poses)
-from sensorsel.model.scenario.landmarks import (LandmarkModel, _densify, check_landmark_seed, clean_landmarks,
+from sensorsel.model.scenario.landmarks import (LandmarkModel, check_landmark_seed, clean_landmarks,
                                                 distance_to_route, estimate_landmark_count, generate_landmarks,
                                                 read_landmarks_csv, read_landmarks_file, write_landmarks_csv)
 from sensorsel.model.scenario.loading import (DEFAULT_FIXTURE, DEFAULT_OSM_REACH_M, MapLandmarks, REAL, ROUTE_FORMATS,
