@@ -1,5 +1,5 @@
 """What the accuracy of a suite (pose marginals in metres) costs, against one evaluation of its score,
-measured side by side in one process (issue 24: at most 4 evaluations, linear in the route).
+measured side by side in one process (target: at most 4 evaluations, linear in the route).
 
     python bench/accuracy.py [--kitti-root ../shared/kitti] [--seqs 00 03] [--km 10.4]
                              [--rates 0.625 1.25 2.5 5] [--repeat 3] [--gtsam]

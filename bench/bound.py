@@ -1,4 +1,4 @@
-"""Fewer evaluations, same answer (issue 16, item 2): the lazy greedy with and without the gain
+"""Fewer evaluations, same answer: the lazy greedy with and without the gain
 bounds of :mod:`sensorsel.information.evaluators.fast.bound`, side by side, in one run.
 
     python bench/bound.py [--kitti-root DIR] [--jobs N] [--budget USD] [--repeat R]

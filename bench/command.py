@@ -1,5 +1,5 @@
 """The whole ``sensorsel greedy`` command, this checkout against an earlier revision, side by side
-(issue 16's last target: KITTI 00 at 1 Hz, greedy at $110,000 without the certificate).
+(the target: KITTI 00 at 1 Hz, greedy at $110,000 without the certificate).
 
     python bench/command.py [--before REV] [--runs N] [--kitti-root DIR] [--seq 00] [--rate 1]
                             [--budget 110000] [--maps real synthetic]
@@ -71,7 +71,7 @@ def cholesky_ms(n: int) -> float:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--before", default="e2637e6^", help="the revision to compare with (default: before issue 16)")
+    ap.add_argument("--before", default="e2637e6^", help="the revision to compare with (default: the last without the frontal elimination)")
     ap.add_argument("--runs", type=int, default=3)
     ap.add_argument("--kitti-root", default=os.environ.get("SENSORSEL_KITTI_ROOT", str(REPO.parent / "shared" / "kitti")))
     ap.add_argument("--seq", default="00")

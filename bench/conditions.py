@@ -6,7 +6,7 @@ Loads the domain of configs/domain_kitti_conditions.yaml (seven routes x clear, 
 28 members) and the same seven routes without conditions (configs/domain_kitti.yaml), then times,
 side by side in one process: building each domain (loading the routes, what each sensor sees, the
 members derived from the clear measurements), its evaluator (each member's engine and normaliser)
-and the greedy selection at the budget. Target (issue 26): the 28 members' greedy (setup +
+and the greedy selection at the budget. Target: the 28 members' greedy (setup +
 selection) in at most 2.5x the time of the seven routes alone, in-process on the 2-core machine.
 Runs alternate (routes, conditions, routes, ...) so that load on a shared machine hits both alike;
 the ratio is of the medians. The CPU time of evaluators + greedy (all threads) is printed beside the

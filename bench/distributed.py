@@ -1,4 +1,4 @@
-"""A domain's greedy in-process against a local Dask cluster, and a measured model for 100 routes (issue 14).
+"""A domain's greedy in-process against a local Dask cluster, and a measured model for 100 routes.
 
     python bench/distributed.py [--domain configs/domain_kitti.yaml] [--budget 110000] [--workers 2]
 

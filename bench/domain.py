@@ -5,7 +5,7 @@
 Times, in one process and one run: loading each route (poses, pole map, what each sensor sees), building
 its evaluator (the fast engine's one-off linearization and the whole library's score, the route's
 normaliser), the domain greedy (every candidate scored on every route per step), and beside it each
-route's own greedy at the same budget. Peak RSS of the process (ru_maxrss). Target (issue 12): the
+route's own greedy at the same budget. Peak RSS of the process (ru_maxrss). Target: the
 domain greedy at $110,000 in at most 60 s wall on the 2-core machine.
 """
 

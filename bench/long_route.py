@@ -1,4 +1,4 @@
-"""A long loop-free synthetic route at several keyframe rates (issue 16: the 5,000-keyframe target
+"""A long loop-free synthetic route at several keyframe rates (the 5,000-keyframe target
 and the growth target on a route without loops, with selections long enough to time).
 
     python bench/long_route.py [--km 10.4] [--rates 0.625 1.25 2.5 5] [--budget 110000] [--jobs 2]

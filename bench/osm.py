@@ -1,4 +1,4 @@
-"""Issue 27 speed, one run side by side: reading + projecting the Helsinki extract (target <= 2 s)
+"""OpenStreetMap speed, one run side by side: reading + projecting the Helsinki extract (target <= 2 s)
 and the whole Helsinki-centre domain's greedy at $110,000 (target <= 60 s on the 2-core machine).
 
     python bench/osm.py [--greedy-only | --read-only]

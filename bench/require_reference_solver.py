@@ -1,8 +1,9 @@
-# The solver of `require` as it was before the search was made faster, kept so that bench/require.py
-# can run both side by side (same answers, fewer checks). Not imported by the package.
+# The reference solver of `require` (the same implicit hitting set without the package's search
+# speed-ups), kept so that bench/require.py can run both side by side (same answers; the package's
+# makes fewer checks). Not imported by the package.
 """The cheapest suite that meets a monotone requirement, proved optimal by an implicit hitting set.
 
-The problem (issue 24): over the suites S a :class:`~sensorsel.model.constraints.FeasibleSet` allows
+The problem: over the suites S a :class:`~sensorsel.model.constraints.FeasibleSet` allows
 (packing rows ``A x <= b``, required sensors in, excluded ones out),
 
     minimise  cost(S) = Σ_{i ∈ S} price_i        (row 0 of A: the prices [$], owned sensors 0)

@@ -1,4 +1,4 @@
-"""Speed of robust selection against plain greedy on KITTI 00, real pole map (issue 13).
+"""Speed of robust selection against plain greedy on KITTI 00, real pole map.
 
     python bench/robust.py [--kitti-root DIR] [--seq 00] [--budget 110000] [--failures 1] [--out bench/robust.md]
 

@@ -1,4 +1,4 @@
-"""How the fast engine's cost grows with the route (issue 16): the route-order (frontal) path
+"""How the fast engine's cost grows with the route: the route-order (frontal) path
 against the dense pose Cholesky, side by side, in one run.
 
     python bench/scaling.py [--kitti-root DIR] [--jobs N] [--budget USD] [--runs SPEC ...] [--quick]
@@ -6,7 +6,7 @@ against the dense pose Cholesky, side by side, in one run.
 Each run is a lazy greedy ($110,000, uniform rule, real pole maps) in a fresh child process (peak
 RSS is its own ``ru_maxrss``). ``new`` is the engine as shipped (the kernel picks the frontal or
 the dense path per evaluation by predicted flops, :data:`sensorsel.information.evaluators.fast.kernel.FRONT_BELOW`);
-``old`` is the same engine held to the dense path (``front_below=0``: the engine before issue 16).
+``old`` is the same engine held to the dense path (``front_below=0``: no frontal elimination).
 Old and new of one configuration run back to back, alternating which goes first, so that both see
 the same machine load. Printed: keyframes, suites scored, setup (one-off linearization) and
 selection seconds, peak RSS (total and per keyframe), which kernel paths ran, and for each pair the

@@ -1,5 +1,5 @@
-"""What ``sensorsel simulate`` costs on a real route, before and after issue 24 item 6, side by side in
-one process.
+"""What ``sensorsel simulate`` costs on a real route, against the slower way of solving and predicting it
+(one factor per measurement, ``gtsam.Marginals``), side by side in one process.
 
     python bench/simulate.py [--kitti-root ../shared/kitti] [--seq 00] [--runs 10] [--jobs 2]
                              [--suite IDS] [--map-sigma 0.05] [--skip-old]
@@ -31,7 +31,7 @@ GREEDY00_REAL = "LRL-roof,MRL-roof,LRR-12,LRR-10,LRR-6,LRR-8"
 
 
 def marginals_prediction(payload) -> tuple[float, np.ndarray]:
-    """The old prediction (before issue 24 item 6): GTSAM's Marginals; (seconds, joint pose covariance)."""
+    """The old prediction, GTSAM's Marginals; (seconds, joint pose covariance)."""
     import gtsam
     from gtsam.symbol_shorthand import L, X
 
@@ -55,7 +55,7 @@ def marginals_prediction(payload) -> tuple[float, np.ndarray]:
 
 def solve_once(payload, run: int, every_measurement: bool) -> tuple[float, np.ndarray, int]:
     """One run's LM solve as the package does it, or (``every_measurement``) with one factor per
-    measurement as before issue 24 item 6: (seconds, estimated poses, iterations)."""
+    measurement: (seconds, estimated poses, iterations)."""
     import dataclasses
 
     from sensorsel.simulation.noise import draw

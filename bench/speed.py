@@ -1,4 +1,4 @@
-"""Speed of the fast engine against the paper-style reference, measured side by side (issue 5).
+"""Speed of the fast engine against the paper-style reference, measured side by side.
 
     python bench/speed.py --kitti-root ../shared/kitti [--quick] [--jobs N] [--budget USD]
 

@@ -1,4 +1,4 @@
-"""What prefix sharing saves in the tradespace (issue 3), measured side by side in one run.
+"""What prefix sharing saves in the tradespace, measured side by side in one run.
 
     python bench/tradespace_sharing.py [--seq 03 --kitti-root ../shared/kitti] [--engine fast] [--jobs 1]
 

@@ -160,7 +160,7 @@ def step_domain(c: Ctx) -> None:
 
 
 def step_robust(seq: str, alpha: int) -> Callable[[Ctx], None]:
-    """Greedy, the paper's Algorithm 2 and the robust design side by side (issue 13), real maps only."""
+    """Greedy, the paper's Algorithm 2 and the robust design side by side, real maps only."""
     def run(c: Ctx) -> None:
         if c.landmarks != "real":
             return
@@ -255,14 +255,14 @@ class Step:
     slow: bool = False
 
 
-#: The car of issue 15: one radar and one camera per clock position, both LiDARs on the roof, and a
+#: The constrained car: one radar and one camera per clock position, both LiDARs on the roof, and a
 #: 100 W power limit (the ~200 W a 15 A auxiliary circuit gives at 13.8 V, half kept for the computer).
 CAR_LIBRARY = REPO / "configs" / "car_one_radar_one_camera.yaml"
 POWER_LIMIT_W = "100"
 
 
 def step_constrained(seq: str) -> Callable[[Ctx], None]:
-    """Best-of at $110,000 on the car's slots and power limit (issue 15), beside the unconstrained
+    """Best-of at $110,000 on the car's slots and power limit, beside the unconstrained
     best-of of step greedy; real maps only."""
     def run(c: Ctx) -> None:
         if c.landmarks != "real":
@@ -310,7 +310,7 @@ def step_associate(c: Ctx) -> None:
         _move(d / "association_calibration.png", c.img / "associate" / f"calibration-{name}.png")
 
 
-#: the specifications of the requirements results (issue 24): Reid et al. 2019's presets
+#: the specifications of the requirements results: Reid et al. 2019's presets
 PRESETS = ("local-streets", "freeway")
 
 
@@ -347,7 +347,7 @@ def _require(c: Ctx, where: list[str], name: str, *extra: str) -> None:
 
 def step_require(target: str) -> Callable[[Ctx], None]:
     """The cheapest suite meeting each preset (map model, default map accuracy), without and with one
-    failure, and the $110,000 greedy suite's accuracy beside it (issue 24); real maps only.
+    failure, and the $110,000 greedy suite's accuracy beside it; real maps only.
     ``target``: a sequence ("03", "00") or "domain" (configs/domain_kitti.yaml)."""
     def run(c: Ctx) -> None:
         if c.landmarks != "real":
@@ -374,7 +374,7 @@ def step_require(target: str) -> Callable[[Ctx], None]:
 
 def step_require_elsewhere(c: Ctx) -> None:
     """The local-streets specification in the seven routes' city mix of conditions (clear weather
-    alone, then clear and rain: issue 26) and in Helsinki's centre from OpenStreetMap (issue 27)."""
+    alone, then clear and rain) and in Helsinki's centre from OpenStreetMap."""
     if c.landmarks != "real":
         return
 
@@ -692,7 +692,7 @@ def _estimate_words(d: Path) -> str:
 
 
 def _require_table(root: Path) -> list[str]:
-    """The requirements results (issue 24): the cheapest suite meeting each preset, its proof, its
+    """The requirements results: the cheapest suite meeting each preset, its proof, its
     errors, and what the $110,000 greedy suite reaches against the same specification."""
     d = root / "require"
     if not d.is_dir():

@@ -1,4 +1,4 @@
-"""Accuracy in metres (issue 24): pose marginals against GTSAM's ``Marginals``, the frame of Pose2's
+"""Accuracy in metres: pose marginals against GTSAM's ``Marginals``, the frame of Pose2's
 tangent worked by hand, monotonicity in the suite, and the two kernel paths against each other."""
 
 from __future__ import annotations

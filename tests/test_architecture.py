@@ -60,7 +60,7 @@ def test_an_upward_import_breaks_the_build(module, line, broken, path, tmp_path)
 
 
 def test_the_package_is_a_handful_of_concept_packages_and_no_module_is_long():
-    """Issue 29: at most 14 modules and packages at the top level, no source module over 600 lines."""
+    """At most 14 modules and packages at the top level, no source module over 600 lines."""
     pkg = REPO / "src" / "sensorsel"
     top = sorted(p.name for p in pkg.iterdir()
                  if (p.suffix == ".py") or (p.is_dir() and (p / "__init__.py").is_file()))

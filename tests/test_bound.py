@@ -1,4 +1,4 @@
-"""Bounds on the candidates' gains, and the lazy greedy that uses them (issue 16, item 2).
+"""Bounds on the candidates' gains, and the lazy greedy that uses them.
 
 Oracles: GTSAM's own dense Hessians of the suite's graph (the reference engine's graphs) for the
 true gain, the trace tr(L_S⁻¹ Λ_c) and the per-measurement log det bound; the plain greedy
@@ -278,7 +278,7 @@ def test_bounds_are_declined_when_predicted_dearer_than_the_candidates(tiny_prob
 
 def test_engines_without_bounds_say_so(tiny_problem):
     assert ReferenceEvaluator(tiny_problem).gain_bounds((), [0, 1]) is None
-    small = tiny_problem  # the reference engine's lazy greedy runs as before
+    small = tiny_problem  # the reference engine's lazy greedy runs without bounds
     a = greedy(ReferenceEvaluator(small), 20_000.0, "uniform")
     b = greedy(FastEvaluator(small), 20_000.0, "uniform")
     assert a.suite == b.suite

@@ -1,4 +1,4 @@
-"""Resume of an interrupted greedy run (issue 14, item 5): the checkpoint written after each pick.
+"""Resume of an interrupted greedy run: the checkpoint written after each pick.
 
 An interrupted run is resumed from its checkpoint and must give the bytes of an uninterrupted run,
 timings and evaluation counts aside (the resumed run's lazy bounds start afresh), without scoring
@@ -68,7 +68,7 @@ class Recording(DomainEvaluator):
         self.bases.append(tuple(suite))
         return super().scores_with(suite, candidates)
 
-    def scores_or_bounds(self, suite, candidates, needed):  # lazy greedy's way of asking (issue 26)
+    def scores_or_bounds(self, suite, candidates, needed):  # lazy greedy's way of asking
         self.bases.append(tuple(suite))
         return super().scores_or_bounds(suite, candidates, needed)
 

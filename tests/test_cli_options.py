@@ -1,4 +1,4 @@
-"""Options every command shares (issue 11, part 6): one progress adapter, budgets, -q, --json, plot
+"""Options every command shares: one progress adapter, budgets, -q, --json, plot
 format, -o; and notebook hygiene (no backend chosen at import)."""
 
 from __future__ import annotations

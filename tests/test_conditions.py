@@ -1,4 +1,4 @@
-"""Operating conditions (issue 26): the range models against numbers worked by hand, clear = none
+"""Operating conditions: the range models against numbers worked by hand, clear = none
 bit for bit, scores monotone in severity, conditions in a domain, bad input."""
 
 from __future__ import annotations

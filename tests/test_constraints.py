@@ -1,4 +1,4 @@
-"""Constraints besides the budget (issue 15) against brute-force enumeration.
+"""Constraints besides the budget against brute-force enumeration.
 
 Oracles: every suite of a small library (10 sensors, 1,024 suites) scored one by one with a fresh
 reference evaluator, filtered by the request's limits written out by hand (resource totals, slot

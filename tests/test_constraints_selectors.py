@@ -1,4 +1,4 @@
-"""Issue 15, item 2: the tradespace, robust selection and resilient (per-period) selection keep every
+"""The tradespace, robust selection and resilient (per-period) selection keep every
 constraint (resource limits, mounting slots, most sensors, required / owned and excluded sensors).
 
 Oracle: every suite of an 8-sensor library scored once with the fast engine (a table); the feasible

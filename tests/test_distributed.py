@@ -319,7 +319,7 @@ def test_missing_extra_is_exit_2_with_the_install_hint():
 
 
 def test_pareto_with_limits_and_slots_on_two_workers_equals_in_process(tmp_path):
-    """Issue 15 on a cluster: ``pareto --workers 2`` under a power limit and mounting slots gives the
+    """Limits and slots on a cluster: ``pareto --workers 2`` under a power limit and mounting slots gives the
     bytes of the in-process run (timings aside), and every architecture keeps the limits."""
     import yaml
 

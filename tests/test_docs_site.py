@@ -1,4 +1,4 @@
-"""The documentation site builds warning-free in strict mode, with every command in its CLI reference (issue 28).
+"""The documentation site builds warning-free in strict mode, with every command in its CLI reference.
 
 The build is MkDocs (mkdocs.yml, pages under docs/) with mkdocs-click rendering the click commands and
 mkdocstrings the docstrings; the tools come with the test extra (``sensorsel[docs]``). Strictness is

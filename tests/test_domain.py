@@ -1,4 +1,4 @@
-"""Operating-domain files (issue 12): the shipped examples load, and every bad file fails naming the
+"""Operating-domain files: the shipped examples load, and every bad file fails naming the
 file, the key path and the line."""
 
 from __future__ import annotations

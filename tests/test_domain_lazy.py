@@ -1,4 +1,4 @@
-"""Lazy greedy on a domain, member by member (issue 26's speed): a candidate's routes are scored one
+"""Lazy greedy on a domain, member by member: a candidate's routes are scored one
 at a time and it keeps a bound once the bound shows it cannot win. The picks and every number of
 the steps must be those of the plain greedy (each candidate scored exactly on every route, every
 step) and of the lazy greedy that scores whole domain evaluations, bit for bit."""
@@ -31,7 +31,7 @@ class Recording(DomainEvaluator):
 
 
 class WholeDomain(DomainEvaluator):
-    """The domain's evaluator as before issue 26's speed work: every candidate scored on every route."""
+    """The domain's evaluator without per-member lazy scoring: every candidate scored on every route."""
 
     bounds_candidates = False
 

@@ -1,4 +1,4 @@
-"""The fast engine gives the reference's numbers (issue 5).
+"""The fast engine gives the reference's numbers.
 
 Oracles: the GTSAM reference (build, linearize, eliminate every suite), GTSAM's own per-factor
 linearization, and hand geometry for the range-bearing Jacobian. Agreement is asked to 1e-9
@@ -272,7 +272,7 @@ def test_every_factorization_path_agrees_with_the_reference(suburb_problem, spar
 @pytest.mark.parametrize("fixture", ["tiny", "suburb"])
 @pytest.mark.parametrize("chunk_poses", [1, 3, 32])
 def test_the_frontal_path_agrees_with_the_reference(fixture, chunk_poses, request):
-    """The frontal elimination of the whole information matrix (issue 16), forced on every suite,
+    """The frontal elimination of the whole information matrix, forced on every suite,
     at chunk sizes from one keyframe (every carry path) to many: the reference's numbers."""
     problem = request.getfixturevalue(f"{fixture}_problem")
     fe = FastEvaluator(problem, front_below=1e9, chunk_poses=chunk_poses)

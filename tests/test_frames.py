@@ -1,4 +1,4 @@
-"""Routes in any frame, never read wrong (issue 25): the same drive written as other tools write it
+"""Routes in any frame, never read wrong: the same drive written as other tools write it
 scores the same; positions-only routes get their heading from the direction of travel; degenerate
 and degree-valued files are refused naming the file.
 

@@ -1,4 +1,4 @@
-"""Library resources, mounting slots and ``extends`` (issue 15): parsed as written, validated with
+"""Library resources, mounting slots and ``extends``: parsed as written, validated with
 the file and key named, and drawn."""
 
 from __future__ import annotations

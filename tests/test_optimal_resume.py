@@ -1,4 +1,4 @@
-"""``sensorsel optimal`` resumed (issue 29): the branch and bound's state is kept every N expanded
+"""``sensorsel optimal`` resumed: the branch and bound's state is kept every N expanded
 nodes, and a search interrupted after a checkpoint goes on from it to the uninterrupted run's answer
 (counts included; the suites scored before the checkpoint are not scored again). A checkpoint of
 another run (budget, rule, engine, limits, library, map, route) is never read back.

@@ -1,4 +1,4 @@
-"""Issue 27: a city from OpenStreetMap and GPS tracks (sensorsel.model.osm, ``sensorsel osm``).
+"""A city from OpenStreetMap and GPS tracks (sensorsel.model.osm, ``sensorsel osm``).
 
 Oracles: a minimal PBF decoder written here (protobuf varints + zlib, nothing of pyosmium) for the
 element counts; the Krüger series of the transverse Mercator projection written here for UTM;

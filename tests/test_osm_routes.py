@@ -1,4 +1,4 @@
-"""Issue 27 on every route command: ``--route TRACK.gpx``, ``--georef``, ``--landmarks osm:FILE``
+"""OpenStreetMap and GPS tracks on every route command: ``--route TRACK.gpx``, ``--georef``, ``--landmarks osm:FILE``
 (merged with a survey CSV), the density report and the bad inputs; and the Helsinki sample in the wheel.
 
 Oracles: the same drive given two ways (a GPX track, and a planar CSV with its georeference) must

@@ -1,4 +1,4 @@
-"""One pipeline, run anywhere (issue 29): every selecting command gives the same answer in this
+"""One pipeline, run anywhere: every selecting command gives the same answer in this
 process, on a LocalCluster of 2 workers, and after a SIGKILL part-way and ``--resume``.
 
 One parametrised test over the commands: each runs on a small fixture. The cluster is one

@@ -1,4 +1,4 @@
-"""Pictures a person reads without help (issue 28): a colour and a legend entry per sensor model, a zoom
+"""Pictures a person reads without help: a colour and a legend entry per sensor model, a zoom
 at the car where the cones are small against the route, the domain plot's red route name explained."""
 
 from __future__ import annotations

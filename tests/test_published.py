@@ -1,4 +1,4 @@
-"""The published numbers stay tied to the code (issue 11 item 8).
+"""The published numbers stay tied to the code.
 
 Re-runs the README's headline greedy result on KITTI 03 with its real pole map ($110,000, uniform
 rule, with certificate) through the public Python API and compares it with the result file the docs

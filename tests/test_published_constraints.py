@@ -1,4 +1,4 @@
-"""The README's constrained design (issue 15) stays tied to its result file and to the car's library.
+"""The README's constrained design stays tied to its result file and to the car's library.
 
 ``docs/results/constrained00.json`` is best-of at $110,000 on real KITTI 00 with the slots of
 ``configs/car_one_radar_one_camera.yaml`` and ``--limit power_w=100`` (``python docs/regenerate.py

@@ -1,4 +1,4 @@
-"""The README stays short and true (issue 28): its two commands are CI's, its tour's output is what the
+"""The README stays short and true: its two commands are CI's, its tour's output is what the
 commands print, its pictures and links exist.
 
 The tour's commands run on the bundled route (no KITTI) in a temporary folder; each line the README

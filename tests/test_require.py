@@ -1,4 +1,4 @@
-"""``sensorsel require`` and the accuracy options of the other commands (issue 24): end to end on the
+"""``sensorsel require`` and the accuracy options of the other commands: end to end on the
 fixtures, the answer against brute force on a small library, bad input one line and exit 2."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The exact solver of require (issue 24) on synthetic monotone predicates: the answer is the
+"""The exact solver of require on synthetic monotone predicates: the answer is the
 brute-force cheapest suite, its lower bound never above it, with failures and limits."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The exact solver of `sensorsel require` (issue 24) against brute force on small libraries."""
+"""The exact solver of `sensorsel require` against brute force on small libraries."""
 
 from __future__ import annotations
 

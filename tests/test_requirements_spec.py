@@ -1,4 +1,4 @@
-"""Specifications in metres (issue 24): presets, verdicts by hand, files, bad input."""
+"""Specifications in metres: presets, verdicts by hand, files, bad input."""
 
 from __future__ import annotations
 

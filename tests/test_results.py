@@ -1,4 +1,4 @@
-"""Result files carry their kind and format; typed loading refuses anything else (issue 11)."""
+"""Result files carry their kind and format; typed loading refuses anything else."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Robust selection (issue 13): the answer against brute force, the upper bound, the exact search,
+"""Robust selection: the answer against brute force, the upper bound, the exact search,
 SATURATE's family machinery, determinism, and a case where Algorithm 2 loses to greedy.
 
 Oracle: every suite of a small library (<= 12 sensors of Table I) scored once with the fast engine

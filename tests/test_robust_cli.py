@@ -1,4 +1,4 @@
-"""Issue 13, the rest: ``sensorsel robust``, ``resilient --method robust`` (whole route and per period,
+"""The robust commands end to end: ``sensorsel robust``, ``resilient --method robust`` (whole route and per period,
 the worst failure set in the grid and its CSV), the worst route of a domain against brute force."""
 
 from __future__ import annotations

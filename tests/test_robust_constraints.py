@@ -1,4 +1,4 @@
-"""Issue 15: the robust bound's knapsack with drops as an integer program over every limit, and the
+"""The robust bound's knapsack with drops as an integer program over every limit, and the
 worst route of a domain under constraints.
 
 Oracles: brute force over every item set (the knapsack), and over every feasible suite of the

@@ -77,7 +77,7 @@ def test_kitti_headings_follow_the_direction_of_travel(kitti_root, seq):
 
 @pytest.mark.kitti
 def test_kitti_03_keyframes_at_1_hz(kitti_root):
-    # the synthetic map asked for explicitly: --seq alone now uses the real pole map (issue 12)
+    # the synthetic map asked for explicitly: --seq alone uses the real pole map
     sc = load_scenario(ScenarioSpec(seq="03", kitti_root=str(kitti_root), landmarks="synthetic"))
     assert 78 <= sc.n_poses <= 84
     dt = np.diff(sc.keyframes.times)

@@ -1,4 +1,4 @@
-"""Issue 12: real maps first (KITTI pole maps, landmark CSVs with extra columns, duplicates and
+"""Real maps first (KITTI pole maps, landmark CSVs with extra columns, duplicates and
 on-road landmarks counted or dropped), routes in TUM and planar-CSV formats, scenario names, notes."""
 
 from __future__ import annotations

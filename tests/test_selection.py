@@ -333,7 +333,7 @@ def test_cli_bad_budget_exits_2(small_library, bad, msg):
 
 
 def test_cli_budget_below_cheapest_sensor(small_library):
-    # refused up front (issue 17: one behaviour for "nothing fits" across the commands)
+    # refused up front (one behaviour for "nothing fits" across the commands)
     r = _greedy(small_library, "--budget", "300")
     assert r.exit_code == 2 and r.stdout == ""
     assert "--budget $300 is below the cheapest sensor" in r.stderr and "$449" in r.stderr

@@ -1,4 +1,4 @@
-"""Design studies (issue 14, item 2): the study file's validation, the cells' results against
+"""Design studies: the study file's validation, the cells' results against
 independent runs, and resume. The same study on 2 Dask workers is in tests/test_distributed.py."""
 
 from __future__ import annotations

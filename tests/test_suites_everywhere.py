@@ -1,4 +1,4 @@
-"""A suite is the same thing on every command (issue 25): ids, library positions or a result file,
+"""A suite is the same thing on every command: ids, library positions or a result file,
 and a result file is checked to be of the problem it is used on (its fingerprint), as
 ``simulate --suite FILE`` always did: ``certify RESULT``, ``scene --suite RESULT``, ``score --suite RESULT``."""
 

@@ -1,4 +1,4 @@
-"""Issue 17, item 2: degenerate geometry and extreme parameters are refused up front, naming the
+"""Degenerate geometry and extreme parameters are refused up front, naming the
 file and line or the option, or said in a note; never scored silently, never a traceback.
 
 Each "silent answer" of commit a8085e6 has a test here that fails on it: rotation blocks that are
