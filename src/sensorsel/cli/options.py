@@ -470,8 +470,12 @@ def usage_table(rows: Sequence[Any]) -> str:
             slots_cap += r.limit
             full += int(r.used >= r.limit)
             continue
-        fmt = (lambda v: f"${v:,.0f}") if r.unit == "$" else (
-            lambda v, unit=r.unit: (f"{v:,.0f}" if abs(v) >= 1000 else f"{v:.4g}") + f" {unit}".rstrip())
+
+        def fmt(v: float, unit: str = r.unit) -> str:
+            if unit == "$":
+                return f"${v:,.0f}"
+            return (f"{v:,.0f}" if abs(v) >= 1000 else f"{v:.4g}") + f" {unit}".rstrip()
+
         out.append([r.name, fmt(r.used), fmt(r.limit), f"{r.used / r.limit:.0%}" if r.limit > 0 else "-"])
     if slots_cap:
         out.append(["mounting slots", f"{slots_used:,.0f} sensors", f"{slots_cap:,.0f} places",

@@ -147,7 +147,10 @@ def by_condition(design: DomainDesign) -> tuple[ConditionShare, ...]:
     for name, shares in groups.items():
         w = np.array([s.weight for s in shares])
         total = float(w.sum())
-        avg = (lambda v, w=w, total=total: float(np.dot(w, v) / total)) if total > 0 else (lambda v: float(np.mean(v)))
+
+        def avg(v: Sequence[float], w: np.ndarray = w, total: float = total) -> float:
+            return float(np.dot(w, v) / total) if total > 0 else float(np.mean(v))
+
         out.append(ConditionShare(name, total, avg([s.share_of_best for s in shares]), avg([s.share_of_own for s in shares]),
                                   worst_route(shares)))
     return tuple(out)
