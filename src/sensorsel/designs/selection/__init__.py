@@ -14,10 +14,11 @@ functions that make evaluators live above it (:mod:`sensorsel.designs.certify`, 
 from __future__ import annotations
 
 from sensorsel.designs.selection.greedy import LAZY_BATCH, Selector, check_affordable, check_budget, greedy
-from sensorsel.designs.selection.records import GreedyResult, Progress, Step
+from sensorsel.designs.selection.records import GreedyResult, Step
 from sensorsel.designs.selection.registry import RULES, RuleOrStrategy, check_rule, rules_help
 from sensorsel.designs.selection.rules import REL_TOL, CostBenefit, Marginal, Rule, Uniform
 from sensorsel.designs.selection.strategies import BestOf, Strategy, better_run
+from sensorsel.io.progress import Progress
 
 __all__ = [
     "LAZY_BATCH", "REL_TOL", "RULES", "BestOf", "CostBenefit", "GreedyResult", "Marginal", "Progress",

@@ -41,11 +41,12 @@ from typing import Callable, Protocol, Sequence
 
 import numpy as np
 
-from sensorsel.designs.selection.records import GreedyResult, Progress, Step
+from sensorsel.designs.selection.records import GreedyResult, Step
 from sensorsel.designs.selection.registry import RULES, check_rule
 from sensorsel.designs.selection.rules import REL_TOL, Rule
 from sensorsel.errors import InputError
 from sensorsel.information.evaluators import Evaluator
+from sensorsel.io.progress import Progress
 from sensorsel.model.constraints import Constraints, FeasibleSet, feasible_set, recorded
 from sensorsel.model.library import SensorLibrary
 from sensorsel.model.problem import TargetInfo
