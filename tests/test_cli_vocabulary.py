@@ -1,0 +1,123 @@
+"""One vocabulary of options: every command's options read from the click group and checked against
+the table of shared names (sensorsel.cli.vocabulary): the same name means the same thing, with the
+same metavar, everywhere; -o is always a file; every command has --json and -q; help pages stay short."""
+
+from __future__ import annotations
+
+from collections import defaultdict
+from pathlib import Path
+
+import click
+import pytest
+from click.testing import CliRunner
+
+from sensorsel.cli import cli
+from sensorsel.cli.vocabulary import BY_NAME, RETIRED, VOCABULARY, TopicOption, long_name, markdown_table
+
+DOCS = Path(__file__).resolve().parents[1] / "docs"
+#: the group's own help topic takes no result options (like --help and --version)
+META = {"help"}
+
+
+def _options() -> dict[str, list[tuple[str, click.Option, click.Context]]]:
+    """Every option of every command, by long name: (command, option, its context)."""
+    found: dict[str, list[tuple[str, click.Option, click.Context]]] = defaultdict(list)
+    for name, command in sorted(cli.commands.items()):
+        ctx = click.Context(command, info_name=name)
+        for p in command.params:
+            if isinstance(p, click.Option) and p.name != "help":
+                found[long_name(p)].append((name, p, ctx))
+    return found
+
+
+OPTIONS = _options()
+
+
+def _shown_metavar(p: click.Option, ctx: click.Context) -> str:
+    return "" if p.is_flag else p.make_metavar(ctx)
+
+
+def test_every_option_two_commands_share_is_in_the_table():
+    shared = {n for n, uses in OPTIONS.items() if len({c for c, *_ in uses}) > 1}
+    assert shared - set(BY_NAME) == set()
+
+
+@pytest.mark.parametrize("term", VOCABULARY, ids=lambda t: t.name)
+def test_a_shared_name_means_one_thing_everywhere(term):
+    uses = OPTIONS.get(term.name, [])
+    assert uses, f"{term.name} is in the table but no command takes it"
+    for command, p, ctx in uses:
+        where = f"{command} {term.name}"
+        assert _shown_metavar(p, ctx) in {term.metavar, term.narrower} - {""} or (not term.metavar and p.is_flag), where
+        assert [o for o in p.opts if not o.startswith("--")] == ([term.short] if term.short else []), where
+        assert term.gist.lower() in (p.help or "").lower(), f"{where}: help {p.help!r} lacks {term.gist!r}"
+
+
+def test_no_command_takes_a_retired_name():
+    every = {o for uses in OPTIONS.values() for _, p, _ in uses for o in (*p.opts, *p.secondary_opts)}
+    assert every & set(RETIRED) == set()
+    assert set(RETIRED.values()) <= set(BY_NAME)
+
+
+def test_o_is_always_a_result_file_and_a_folder_is_output_dir():
+    for command, p, _ in OPTIONS["--output"]:
+        assert isinstance(p.type, click.Path) and p.type.file_okay and not p.type.dir_okay, command
+    for command, p, _ in OPTIONS["--output-dir"]:
+        assert isinstance(p.type, click.Path) and p.type.dir_okay and not p.type.file_okay, command
+    assert not {c for c, *_ in OPTIONS["--output"]} & {c for c, *_ in OPTIONS["--output-dir"]}
+
+
+@pytest.mark.parametrize("name", sorted(set(cli.commands) - META))
+def test_every_command_has_json_and_quiet(name):
+    opts = {o for p in cli.commands[name].params for o in p.opts}
+    assert {"--json", "-q", "--quiet"} <= opts
+
+
+@pytest.mark.parametrize("name", sorted(set(cli.commands) - META))
+def test_a_help_page_lists_the_rare_options_on_one_line_and_stays_short(name):
+    """A command's --help names its rarely used options (their help is under `sensorsel help TOPIC`),
+    lists every other option in full, and is at most 130 lines at 100 columns (it was up to 169)."""
+    text = CliRunner().invoke(cli, [name, "--help"], terminal_width=100).output
+    assert len(text.splitlines()) <= 130, len(text.splitlines())
+    for p in cli.commands[name].params:
+        if isinstance(p, click.Option) and not p.hidden:
+            assert long_name(p) in text, long_name(p)
+            if isinstance(p, TopicOption):
+                assert f"sensorsel help {p.topic}" in text
+                assert (p.help or "")[:40] not in text
+
+
+@pytest.mark.parametrize("topic", ["scenario", "integrity"])
+def test_a_help_topic_gives_every_rare_option_in_full(topic):
+    text = CliRunner().invoke(cli, ["help", topic], terminal_width=100).output
+    rare = {long_name(p) for uses in OPTIONS.values() for _, p, _ in uses if isinstance(p, TopicOption) and p.topic == topic}
+    assert rare
+    for name in rare:
+        assert name in text
+
+
+def test_the_cli_reference_shows_the_table():
+    assert markdown_table() in (DOCS / "cli.md").read_text()
+    assert CliRunner().invoke(cli, ["help", "options"]).output == markdown_table()
+
+
+def test_a_retired_name_is_refused_naming_it(tmp_path):
+    r = CliRunner().invoke(cli, ["pareto", "--fixture", "tiny", "-o", str(tmp_path / "p")])
+    assert r.exit_code == 2 and "-o" in r.output
+    r = CliRunner().invoke(cli, ["require", "--fixture", "tiny", "--preset", "freeway", "--aggregate", "raw"])
+    assert r.exit_code == 2 and "--aggregate" in r.output
+
+
+def test_json_of_a_command_that_writes_a_file_says_what_it_wrote(tmp_path):
+    import json
+
+    r = CliRunner().invoke(cli, ["landmarks", "--fixture", "tiny", "-o", str(tmp_path / "lm.csv"), "--json"])
+    assert r.exit_code == 0, r.output
+    data = json.loads(r.stdout)
+    rows = (tmp_path / "lm.csv").read_text().splitlines()
+    assert data["kind"] == "landmarks" and data["format"] == 1 and data["file"] == str(tmp_path / "lm.csv")
+    assert data["landmarks"] == len(rows) - 1  # a header, then one landmark a line
+    r = CliRunner().invoke(cli, ["scene", "--fixture", "tiny", "-o", str(tmp_path / "s.svg"), "--suite", "LRL-roof", "--json"])
+    assert r.exit_code == 0, r.output
+    data = json.loads(r.stdout)
+    assert data["kind"] == "scene" and data["suite"] == ["LRL-roof"] and (tmp_path / "s.svg").is_file()
