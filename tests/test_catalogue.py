@@ -113,7 +113,7 @@ CASES: list[tuple[str, list[str], int, list[str]]] = [
     ("score-unknown-fixture", ["score", "--fixture", "atlantis", "--suite", "LRL-roof"], 2, ["atlantis"]),
     ("score-library-missing", ["score", *T, "--library", "{d}/missing.yaml", "--suite", "LRL-roof"], 2, ["missing.yaml"]),
     ("score-jobs-zero", ["score", *T, "--jobs", "0", "--suite", "LRL-roof"], 2, ["--jobs"]),
-    ("score-two-routes", ["score", "--route", "{d}/empty.txt", "--route", "{d}/empty.txt", "--suite", "LRL-roof"], 2, ["--route"]),
+    ("score-two-routes", ["score", "--seq", "03", "--route", "{d}/empty.txt", "--suite", "LRL-roof"], 2, ["--route"]),
     # ---- scene
     ("scene-empty-suite", ["scene", *T, "--suite", "", "-o", "{d}/s.png"], 2, ["--suite"]),
     ("scene-empty-output", ["scene", *T, "-o", ""], 2, ["--output"]),

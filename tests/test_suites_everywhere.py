@@ -53,7 +53,7 @@ def test_scene_draws_a_result_files_suite(greedy_tiny, tmp_path):
 
 
 @pytest.mark.parametrize("argv", [
-    ["certify", "{path}"],
+    ["certify", "--suite", "{path}"],
     ["scene", "--suite", "{path}", "-o", "{tmp}/s.png"],
     ["score", "--suite", "{path}"],
 ])

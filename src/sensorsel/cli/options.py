@@ -320,9 +320,9 @@ def cluster_options(fn: Callable[..., Any]) -> Callable[..., Any]:
 
 def resume_option(fn: Callable[..., Any]) -> Callable[..., Any]:
     """--resume: the store's option, declared once for every selecting command (sensorsel.pipeline:
-    each task's result is stored under -o as it finishes, with the fingerprint of its inputs)."""
+    each task's result is stored under --output-dir, or beside -o FILE, as it finishes, with the fingerprint of its inputs)."""
     return click.option("--resume", is_flag=True,
-                        help="Go on from what an interrupted run left under -o: stored results whose inputs match this "
+                        help="Go on from what an interrupted run left under --output-dir or beside -o FILE: stored results whose inputs match this "
                              "run are read back; one of other inputs (or damaged) is not: a warning names the file and "
                              "what differs, and it is computed again and overwritten. The same answer, timings aside.")(fn)
 
