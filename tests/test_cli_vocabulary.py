@@ -12,7 +12,7 @@ import pytest
 from click.testing import CliRunner
 
 from sensorsel.cli import cli
-from sensorsel.cli.vocabulary import BY_NAME, RETIRED, VOCABULARY, TopicOption, long_name, markdown_table
+from sensorsel.cli.vocabulary import BY_NAME, RETIRED, VOCABULARY, TopicOption, long_name, markdown_table, problems
 
 DOCS = Path(__file__).resolve().parents[1] / "docs"
 #: the group's own help topic takes no result options (like --help and --version)
@@ -33,44 +33,46 @@ def _options() -> dict[str, list[tuple[str, click.Option, click.Context]]]:
 OPTIONS = _options()
 
 
-def _shown_metavar(p: click.Option, ctx: click.Context) -> str:
-    return "" if p.is_flag else p.make_metavar(ctx)
+def test_the_command_line_keeps_the_vocabulary():
+    assert problems(cli) == []
 
 
-def test_every_option_two_commands_share_is_in_the_table():
-    shared = {n for n, uses in OPTIONS.items() if len({c for c, *_ in uses}) > 1}
-    assert shared - set(BY_NAME) == set()
+def test_the_check_finds_every_kind_of_break():
+    """The check itself, on a group that breaks each rule once: it names each break."""
+    from sensorsel.cli.options import budget_option, json_option, output_option, quiet_option
+
+    @click.command("a")
+    @output_option(folder=True, help="The folder to write.")
+    @click.option("--max-seconds", type=float)
+    @click.option("--budget", type=float, help="In dollars.")
+    @click.option("--jobs", type=int, metavar="N", help="Threads.")
+    @click.option("--shared-thing", help="x")
+    @json_option
+    @quiet_option
+    def a(**kw):
+        pass
+
+    @click.command("b")
+    @click.option("-o", "--output", type=click.Path(file_okay=False), help="A folder.")
+    @click.option("--shared-thing", help="x")
+    @budget_option()
+    def b(**kw):
+        pass
+
+    bad = click.Group("bad", commands={"a": a, "b": b})
+    found = "\n".join(problems(bad))
+    assert "b: no --json" in found and "a: no --json" not in found
+    assert "a --max-seconds: a retired name; the concept's name is --time-limit" in found
+    assert "a --budget: takes FLOAT, the table says DOLLARS" in found
+    assert "a --jobs: its help does not say" in found
+    assert "b --output: must be a file" in found
+    assert "--shared-thing: taken by a, b but not in the table" in found
+    assert "b --budget" not in found and "a --output-dir" not in found
 
 
-@pytest.mark.parametrize("term", VOCABULARY, ids=lambda t: t.name)
-def test_a_shared_name_means_one_thing_everywhere(term):
-    uses = OPTIONS.get(term.name, [])
-    assert uses, f"{term.name} is in the table but no command takes it"
-    for command, p, ctx in uses:
-        where = f"{command} {term.name}"
-        assert _shown_metavar(p, ctx) in {term.metavar, term.narrower} - {""} or (not term.metavar and p.is_flag), where
-        assert [o for o in p.opts if not o.startswith("--")] == ([term.short] if term.short else []), where
-        assert term.gist.lower() in (p.help or "").lower(), f"{where}: help {p.help!r} lacks {term.gist!r}"
-
-
-def test_no_command_takes_a_retired_name():
-    every = {o for uses in OPTIONS.values() for _, p, _ in uses for o in (*p.opts, *p.secondary_opts)}
-    assert every & set(RETIRED) == set()
-    assert set(RETIRED.values()) <= set(BY_NAME)
-
-
-def test_o_is_always_a_result_file_and_a_folder_is_output_dir():
-    for command, p, _ in OPTIONS["--output"]:
-        assert isinstance(p.type, click.Path) and p.type.file_okay and not p.type.dir_okay, command
-    for command, p, _ in OPTIONS["--output-dir"]:
-        assert isinstance(p.type, click.Path) and p.type.dir_okay and not p.type.file_okay, command
-    assert not {c for c, *_ in OPTIONS["--output"]} & {c for c, *_ in OPTIONS["--output-dir"]}
-
-
-@pytest.mark.parametrize("name", sorted(set(cli.commands) - META))
-def test_every_command_has_json_and_quiet(name):
-    opts = {o for p in cli.commands[name].params for o in p.opts}
-    assert {"--json", "-q", "--quiet"} <= opts
+def test_every_name_in_the_table_is_taken_and_every_retired_name_has_its_successor():
+    assert {t.name for t in VOCABULARY} <= set(OPTIONS)
+    assert set(RETIRED.values()) <= set(BY_NAME) and not set(RETIRED) & set(BY_NAME)
 
 
 @pytest.mark.parametrize("name", sorted(set(cli.commands) - META))

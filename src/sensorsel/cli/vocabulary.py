@@ -187,6 +187,47 @@ class Command(click.Command):
                             formatter.write(f"{'':>{formatter.current_indent}}{line}\n")
 
 
+def problems(group: click.Group, exempt: frozenset[str] = frozenset({"help"})) -> list[str]:
+    """What in ``group``'s commands breaks the vocabulary, one line each (empty: none): an option two
+    commands share that the table lacks; a shared name with another metavar, short name or meaning
+    (its help lacks the term's gist); a retired name; an -o that is not a file or an --output-dir
+    that is not a folder; a command (but ``exempt``) without --json or -q."""
+    out: list[str] = []
+    users: dict[str, set[str]] = {}
+    for cname, command in sorted(group.commands.items()):
+        ctx = click.Context(command, info_name=cname)
+        opts = {o for p in command.params for o in p.opts}
+        if cname not in exempt and not {"--json", "-q", "--quiet"} <= opts:
+            out.append(f"{cname}: no --json or no -q/--quiet")
+        for p in command.params:
+            if not isinstance(p, click.Option) or p.name == "help":
+                continue
+            name = long_name(p)
+            users.setdefault(name, set()).add(cname)
+            for o in (*p.opts, *p.secondary_opts):
+                if o in RETIRED:
+                    out.append(f"{cname} {o}: a retired name; the concept's name is {RETIRED[o]}")
+            term = BY_NAME.get(name)
+            if term is None:
+                continue
+            shown = "" if p.is_flag else p.make_metavar(ctx)
+            if shown not in {term.metavar, term.narrower} - {""} and not (p.is_flag and not term.metavar):
+                out.append(f"{cname} {name}: takes {shown or 'a flag'}, the table says {term.metavar or 'a flag'}")
+            shorts = [o for o in p.opts if not o.startswith("--")]
+            if shorts != ([term.short] if term.short else []):
+                out.append(f"{cname} {name}: short name {shorts}, the table says {term.short or 'none'}")
+            if term.gist.lower() not in (p.help or "").lower():
+                out.append(f"{cname} {name}: its help does not say {term.gist!r} ({term.meaning})")
+            folder = {"--output": False, "--output-dir": True}.get(name)
+            if folder is not None and not (isinstance(p.type, click.Path) and p.type.dir_okay == folder
+                                           and p.type.file_okay != folder):
+                out.append(f"{cname} {name}: must be a {'folder' if folder else 'file'}")
+    for name, cnames in sorted(users.items()):
+        if len(cnames) > 1 and name not in BY_NAME:
+            out.append(f"{name}: taken by {', '.join(sorted(cnames))} but not in the table")
+    return out
+
+
 def markdown_table() -> str:
     """The vocabulary as a Markdown table (docs/cli.md shows it; a test keeps the two the same)."""
     rows = ["| option | takes | meaning | help section |", "|---|---|---|---|"]
