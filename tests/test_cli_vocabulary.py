@@ -78,9 +78,9 @@ def test_every_name_in_the_table_is_taken_and_every_retired_name_has_its_success
 @pytest.mark.parametrize("name", sorted(set(cli.commands) - META))
 def test_a_help_page_lists_the_rare_options_on_one_line_and_stays_short(name):
     """A command's --help names its rarely used options (their help is under `sensorsel help TOPIC`),
-    lists every other option in full, and is at most 130 lines at 100 columns (it was up to 169)."""
+    lists every other option in full, and is at most 135 lines at 100 columns (it was up to 169)."""
     text = CliRunner().invoke(cli, [name, "--help"], terminal_width=100).output
-    assert len(text.splitlines()) <= 130, len(text.splitlines())
+    assert len(text.splitlines()) <= 135, len(text.splitlines())
     for p in cli.commands[name].params:
         if isinstance(p, click.Option) and not p.hidden:
             assert long_name(p) in text, long_name(p)
