@@ -123,3 +123,19 @@ def test_json_of_a_command_that_writes_a_file_says_what_it_wrote(tmp_path):
     assert r.exit_code == 0, r.output
     data = json.loads(r.stdout)
     assert data["kind"] == "scene" and data["suite"] == ["LRL-roof"] and (tmp_path / "s.svg").is_file()
+
+
+def test_osm_json_says_the_domain_it_wrote(tmp_path):
+    import json
+
+    import yaml
+
+    r = CliRunner().invoke(cli, ["osm", "--sample", "helsinki", "--output-dir", str(tmp_path / "city"), "--json"])
+    assert r.exit_code == 0, r.output
+    data = json.loads(r.stdout)
+    written = yaml.safe_load((tmp_path / "city" / "domain.yaml").read_text())
+    assert data["kind"] == "osm" and data["domain"] == str(tmp_path / "city" / "domain.yaml")
+    assert data["routes"] == len(written["routes"])
+    text = CliRunner().invoke(cli, ["osm", "--sample", "helsinki", "--output-dir", str(tmp_path / "again"), "-q"]).stdout
+    rows = {line.split()[0]: int(line.split()[1]) for line in text.splitlines()[2:] if len(line.split()) == 3}
+    assert {c: v["count"] for c, v in data["landmarks"].items()} == rows  # the summary's table, as JSON
