@@ -100,7 +100,9 @@ def test_a_help_topic_gives_every_rare_option_in_full(topic):
 
 def test_the_cli_reference_shows_the_table():
     assert markdown_table() in (DOCS / "cli.md").read_text()
-    assert CliRunner().invoke(cli, ["help", "options"]).output == markdown_table()
+    text = CliRunner().invoke(cli, ["help", "options"]).output
+    for t in VOCABULARY:
+        assert f"{t.name} {t.metavar}".strip() in text and t.meaning in text
 
 
 def test_a_retired_name_is_refused_naming_it(tmp_path):

@@ -238,6 +238,18 @@ def markdown_table() -> str:
     return "\n".join(rows) + "\n"
 
 
+def plain_table() -> str:
+    """The vocabulary for a terminal: by section, each option, what it takes and what it means."""
+    lines: list[str] = []
+    width = max(len(f"{t.short}/{t.name}" if t.short else t.name) + 1 + len(t.metavar) for t in VOCABULARY)
+    for section in SECTIONS:
+        lines.append(f"{section}:")
+        for t in (t for t in VOCABULARY if t.section == section):
+            left = (f"{t.short}/{t.name}" if t.short else t.name) + (f" {t.metavar}" if t.metavar else "")
+            lines.append(f"  {left:<{width}}  {t.meaning}")
+    return "\n".join(lines) + "\n"
+
+
 @click.command("help", cls=Command, short_help="The options every command shares (options), or a topic's options.")
 @click.argument("topic", required=False, type=click.Choice(["options", *TOPICS]), default="options")
 @click.pass_context
@@ -246,7 +258,7 @@ def help_cmd(ctx: click.Context, topic: str) -> None:
     the rarely used options a command's --help names on one line: scenario (how a route and its
     landmarks are read) or integrity (the integrity model)."""
     if topic == "options":
-        click.echo(markdown_table(), nl=False)
+        click.echo(plain_table(), nl=False)
         return
     group = ctx.find_root().command
     seen: dict[str, tuple[str, str]] = {}
