@@ -53,10 +53,13 @@ def _args(src: Path, seq: str, root: str, env: dict[str, str], command: str = "g
         raise SystemExit(f"{src}: could not read `sensorsel {command} --help`")
     extra = ["--landmarks", "synthetic"] if "real|synthetic" in help_text else []  # older CLIs generate by default
     common = ["--seq", seq, "--kitti-root", root, "--json", *extra]
+    # the folder and plot format options under their names of the revision measured
+    folder = "--output-dir" if "--output-dir" in help_text else "-o"
+    fmt = "--plot-format" if "--plot-format" in help_text else "--format"
     if command == "pareto":
-        return ["pareto", *common, "-o", out, "--format", "svg", "-q"]
+        return ["pareto", *common, folder, out, fmt, "svg", "-q"]
     if command == "resilient":
-        return ["resilient", *common, "--budget", "110000", "--failures", "1", "-o", out, "--format", "svg", "-q"]
+        return ["resilient", *common, "--budget", "110000", "--failures", "1", folder, out, fmt, "svg", "-q"]
     if command == "robust":
         return ["robust", *common, "--budget", "110000", "--failures", "1", "-q"]
     return ["greedy", *common, "--budget", "110000", "--no-certificate"]

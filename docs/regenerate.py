@@ -173,7 +173,7 @@ def step_robust(seq: str, alpha: int) -> Callable[[Ctx], None]:
 def step_pareto(seq: str) -> Callable[[Ctx], None]:
     def run(c: Ctx) -> None:
         d = c.out / f"pareto{seq}"
-        c.run("pareto", *c.scen(seq), "-q", "-o", str(d))
+        c.run("pareto", *c.scen(seq), "-q", "--output-dir", str(d))
         _move(d / "pareto.png", c.img / f"pareto{seq}.png")
     return run
 
@@ -183,7 +183,7 @@ def step_resilient(seq: str) -> Callable[[Ctx], None]:
         d = c.out / f"resilient{seq}"
         if (d / "periods").exists():
             shutil.rmtree(d / "periods")  # never resume from an older run's periods
-        c.run("resilient", *c.scen(seq), "--budget", BUDGET, "--failures", "1", "-q", "-o", str(d))
+        c.run("resilient", *c.scen(seq), "--budget", BUDGET, "--failures", "1", "-q", "--output-dir", str(d))
         _move(d / "grid.png", c.img / f"resilient{seq}.png")
         shutil.rmtree(d / "periods")  # every period is in resilient.json (per_period); the files are for --resume
         # the paper's greedy suite under the same worst-case evaluation (an API call: no command prints it)
@@ -229,7 +229,7 @@ def step_simulate(seq: str) -> Callable[[Ctx], None]:
                             ("greedy-fail", ["--suite", str(greedy), "--label", "greedy", "--compare", str(res),
                                              "--compare-label", "resilient", "--fail", "LRL-roof"])):
             d = c.out / f"simulate{seq}-{name}"
-            c.run("simulate", *common, *extra, "-o", str(d))
+            c.run("simulate", *common, *extra, "--output-dir", str(d))
             _move(d / "simulate.png", c.img / f"simulate{seq}-{name}.png")  # trajectories + errors in one figure
             for png in d.glob("*.png"):
                 png.unlink()  # its two halves, also drawn separately
@@ -305,7 +305,7 @@ def step_associate(c: Ctx) -> None:
         return
     for name, extra in ASSOCIATE_RUNS:
         d = c.out / "associate" / name
-        c.run("simulate", "--suite", ASSOCIATE_SUITE, "--associate", "--seed", "0", *extra, "-q", "-o", str(d),
+        c.run("simulate", "--suite", ASSOCIATE_SUITE, "--associate", "--seed", "0", *extra, "-q", "--output-dir", str(d),
               stdout=c.out / "associate" / f"{name}.txt")
         _move(d / "association_calibration.png", c.img / "associate" / f"calibration-{name}.png")
 
@@ -383,7 +383,7 @@ def step_require_elsewhere(c: Ctx) -> None:
         _require(c, mix, "require-conditions-clear", "--in", "clear")
         _require(c, mix, "require-conditions-clear-rain", "--in", "clear,rain")
         city = c.out / "require" / "helsinki"
-        c.run("osm", "--sample", "helsinki", "-o", str(city), stdout=c.out / "require" / "helsinki-osm.txt")
+        c.run("osm", "--sample", "helsinki", "--output-dir", str(city), stdout=c.out / "require" / "helsinki-osm.txt")
         _require(c, ["--domain", str(city / "domain.yaml"), "--preset", "local-streets"], "require-helsinki")
     _with_kitti_env(c, go)
 
@@ -623,8 +623,7 @@ def tables(root: Path) -> str:
                 continue
             rows.extend(_pareto_rows(kind, d / f"pareto{seq}" / "architectures.csv", t, d, seq))
         if rows:
-            out += [f"## Tradespace {seq} (`sensorsel pareto --seq {seq} -o DIR`): cheapest architecture reaching a "
-                    "share of a reference", "",
+            out += [f"## Tradespace {seq} (`sensorsel pareto --seq {seq} --output-dir DIR`): cheapest architecture reaching a share of a reference", "",
                     "| map | reference | reference f | 99% reached at | 95% reached at | matched (100%) at |", "|---|---|---:|---|---|---|", *rows, ""]
             for kind, d in kinds:
                 t = _load(d / f"pareto{seq}" / "tradespace.json")

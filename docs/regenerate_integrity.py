@@ -226,7 +226,7 @@ def step_helsinki(c: Any) -> None:
     from sensorsel.model.problem import load_domain
     city = c.out / "require" / "helsinki"
     if not (city / "domain.yaml").is_file():
-        c.run("osm", "--sample", "helsinki", "-o", str(city))
+        c.run("osm", "--sample", "helsinki", "--output-dir", str(city))
     full = yaml.safe_load((city / "domain.yaml").read_text())
     entry = next(r for r in full["routes"] if r["name"] == HELSINKI_ROUTE)
     one = city / f"domain-{HELSINKI_ROUTE}.yaml"
@@ -248,7 +248,7 @@ def step_calibration(c: Any) -> None:
     suite = ",".join(published_suites(c.out, "03")[2][1])
     for name, extra in CALIBRATION_RUNS:
         d = c.out / "integrity" / f"calibration03-{name}"
-        c.run("simulate", *c.scen("03"), "--suite", suite, "--associate", "--seed", "0", *extra, "-q", "-o", str(d),
+        c.run("simulate", *c.scen("03"), "--suite", suite, "--associate", "--seed", "0", *extra, "-q", "--output-dir", str(d),
               stdout=c.out / "integrity" / f"calibration03-{name}.txt")
         png = d / "association_calibration.png"
         dst = c.img.parent / "integrity" / f"calibration03-{name}.png"

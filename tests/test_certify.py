@@ -546,15 +546,15 @@ def test_cli_certify_runs_greedy_or_reads_its_result(tmp_path):
     # certify a saved greedy result: the same certificate
     r = CliRunner().invoke(cli, ["greedy", *base, "--budget", "5000", "--rule", "marginal", "--quiet", "-o", str(tmp_path / "g.json")])
     assert r.exit_code == 0, r.output
-    r = CliRunner().invoke(cli, ["certify", *base, "--result", str(tmp_path / "g.json"), "--json"])
+    r = CliRunner().invoke(cli, ["certify", *base, "--suite", str(tmp_path / "g.json"), "--json"])
     assert r.exit_code == 0, r.output
     assert json.loads(r.output)["bound"] == expected.bound
 
 
 @pytest.mark.parametrize("extra, message", [
-    ([], "give --result FILE"),
-    (["--budget", "100", "--result", "x.json"], "not both"),
-    (["--result", "missing.json"], "missing.json: file not found"),
+    ([], "give --suite FILE"),
+    (["--budget", "100", "--suite", "x.json"], "not both"),
+    (["--suite", "missing.json"], "missing.json: file not found"),
     (["--budget", "-3"], "budget must be a finite, non-negative number"),
 ])
 def test_cli_certify_bad_input_is_one_line(extra, message):
@@ -566,5 +566,5 @@ def test_cli_certify_refuses_a_result_of_another_scenario(tmp_path):
     problem = small_problem("cheap8")
     res = greedy(make_evaluator(problem, "reference"), 3000.0, "uniform", info=problem.info)
     path = results.save(res, tmp_path / "g.json")
-    r = CliRunner().invoke(cli, ["certify", "--fixture", "suburb", "-q", "--result", str(path)])
+    r = CliRunner().invoke(cli, ["certify", "--fixture", "suburb", "-q", "--suite", str(path)])
     assert r.exit_code == 2 and "computed on another problem (another library" in r.output and "another route" in r.output

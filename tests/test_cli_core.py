@@ -149,7 +149,7 @@ def _tiny_route_options() -> list[str]:
     from sensorsel.io.resources import fixtures_dir
 
     root = fixtures_dir()
-    return ["--poses", str(root / "poses" / "tiny.txt"), "--times", str(root / "sequences" / "tiny" / "times.txt")]
+    return ["--route", str(root / "poses" / "tiny.txt"), "--times", str(root / "sequences" / "tiny" / "times.txt")]
 
 
 def test_landmarks_writes_the_generated_map_and_it_scores_the_same(tmp_path):

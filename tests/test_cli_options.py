@@ -36,9 +36,9 @@ def terminal(monkeypatch):
 
 
 @pytest.mark.parametrize("args, label", [
-    (["simulate", "--fixture", "tiny", "--suite", "LRL-roof", "--runs", "2", "--jobs", "1", "-o", "{tmp}/sim"], "simulating"),
+    (["simulate", "--fixture", "tiny", "--suite", "LRL-roof", "--runs", "2", "--jobs", "1", "--output-dir", "{tmp}/sim"], "simulating"),
     (["resilient", "--fixture", "tiny", "--budget", "5000", "--period", "30", "--engine", "reference", "--jobs", "1",
-      "-o", "{tmp}/res"], "periods"),
+      "--output-dir", "{tmp}/res"], "periods"),
     (["optimal", "--fixture", "tiny", "--budget", "20000", "--max-nodes", "5", "--engine", "reference", "--jobs", "1",
       "--library", str(REDUCED)], "branch and bound"),
 ])
@@ -84,12 +84,13 @@ def test_plots_draw_on_the_given_axes_and_never_show(tiny_problem, monkeypatch):
 
 # ----------------------------------------------------------------------- the same options everywhere
 
-RESULT_COMMANDS = {"library", "score", "greedy", "pareto", "resilient", "certify", "optimal", "simulate", "robust", "study"}
+RESULT_COMMANDS = {"library", "score", "greedy", "pareto", "resilient", "certify", "optimal", "simulate", "robust", "study",
+                   "require", "scene", "landmarks", "osm", "kitti"}
 PROGRESS_COMMANDS = {"greedy", "pareto", "resilient", "certify", "optimal", "simulate", "robust", "study"}
 BUDGET_COMMANDS = {"greedy", "pareto", "resilient", "certify", "optimal", "robust", "require"}
 PLOT_COMMANDS = {"scene", "pareto", "resilient", "simulate"}
 REQUIRED = {  # the other required options of each command, to parse its --budget alone
-    "greedy": [], "pareto": ["-o", "out"], "resilient": ["-o", "out"], "certify": [], "optimal": [], "robust": [],
+    "greedy": [], "pareto": ["--output-dir", "out"], "resilient": ["--output-dir", "out"], "certify": [], "optimal": [], "robust": [],
     "require": ["--preset", "freeway"],
 }
 
@@ -119,7 +120,7 @@ def test_every_budget_is_a_budget_type_and_every_plot_has_one_format_option():
         fmt = _params(name).get("plot_format")
         assert (fmt is not None) == (name in PLOT_COMMANDS), name
         if fmt is not None:
-            assert set(fmt.opts) == {"--format", "--plot-format"} and list(fmt.type.choices) == ["png", "svg", "pdf"], name
+            assert fmt.opts == ["--plot-format"] and list(fmt.type.choices) == ["png", "svg", "pdf"], name
 
 
 @pytest.mark.parametrize("name", sorted(BUDGET_COMMANDS))
@@ -135,7 +136,7 @@ def test_a_budget_with_thousands_separators_runs(tmp_path):
     assert r.exit_code == 0, r.output
     assert json.loads(r.stdout)["budget_usd"] == 5000.0
     r = invoke("pareto", "--fixture", "tiny", "--budget", "2,000", "--budget", "6,000", "--budgets", "$4_000", "--rules", "marginal",
-               "--engine", "reference", "--jobs", "1", "-o", str(tmp_path / "p"), "--json", "-q")
+               "--engine", "reference", "--jobs", "1", "--output-dir", str(tmp_path / "p"), "--json", "-q")
     assert r.exit_code == 0, r.output
     data = json.loads(r.stdout)
     assert data["kind"] == "tradespace" and data["budgets_usd"] == [2000.0, 4000.0, 6000.0]
@@ -143,16 +144,17 @@ def test_a_budget_with_thousands_separators_runs(tmp_path):
 
 @pytest.mark.parametrize("name", sorted(n for n in cli.commands if "output" in _params(n) or "outdir" in _params(n)))
 def test_an_empty_output_is_an_error_naming_the_option(name, tmp_path):
-    r = invoke(name, "-o", "")
+    folder = "outdir" in _params(name)
+    r = invoke(name, "--output-dir" if folder else "-o", "")
     assert r.exit_code == 2
-    assert "'-o' / '--output'" in r.output and "must not be empty" in r.output
+    assert ("'--output-dir'" if folder else "'-o' / '--output'") in r.output and "must not be empty" in r.output
     assert list(tmp_path.iterdir()) == []
 
 
 def test_scene_format_and_extension_must_agree(tmp_path):
-    r = invoke("scene", "--fixture", "tiny", "-o", str(tmp_path / "s.svg"), "--format", "pdf")
-    assert r.exit_code == 2 and "s.svg is a .svg file but --format is pdf" in r.stderr
-    r = invoke("scene", "--fixture", "tiny", "-o", str(tmp_path / "s.svg"), "--format", "svg")
+    r = invoke("scene", "--fixture", "tiny", "-o", str(tmp_path / "s.svg"), "--plot-format", "pdf")
+    assert r.exit_code == 2 and "s.svg is a .svg file but --plot-format is pdf" in r.stderr
+    r = invoke("scene", "--fixture", "tiny", "-o", str(tmp_path / "s.svg"), "--plot-format", "svg")
     assert r.exit_code == 0 and (tmp_path / "s.svg").read_bytes().lstrip().startswith(b"<?xml")
 
 
@@ -167,8 +169,8 @@ def test_library_json_lists_62_sensors():
 
 
 def test_simulate_json_is_the_simulation_result(tmp_path):
-    r = invoke("simulate", "--fixture", "tiny", "--suite", "LRL-roof", "--runs", "1", "--jobs", "1", "--format", "svg",
-               "-o", str(tmp_path), "--json")
+    r = invoke("simulate", "--fixture", "tiny", "--suite", "LRL-roof", "--runs", "1", "--jobs", "1", "--plot-format", "svg",
+               "--output-dir", str(tmp_path), "--json")
     assert r.exit_code == 0, r.output
     data = json.loads(r.stdout)
     assert data["kind"] == "simulation" and data["format"] == 1 and len(data["simulations"]) == 1
@@ -179,6 +181,6 @@ def test_certify_refuses_a_result_of_another_kind(tmp_path):
     score = tmp_path / "score.json"
     r = invoke("score", "--fixture", "tiny", "--suite", "LRL-roof", "--engine", "reference", "--json")
     score.write_text(r.stdout)
-    r = invoke("certify", "--fixture", "tiny", "--result", str(score), "--engine", "reference", "--jobs", "1")
+    r = invoke("certify", "--fixture", "tiny", "--suite", str(score), "--engine", "reference", "--jobs", "1")
     assert r.exit_code == 2
     assert str(score) in r.stderr and "'score' result, expected a 'greedy'" in r.stderr

@@ -284,12 +284,12 @@ def _library_lacking_power(folder: Path) -> Path:
 
 @pytest.mark.parametrize("command", ["optimal", "certify", "greedy"])
 @pytest.mark.parametrize("extra, named", [
-    (["--require", "LRL-roof", "--limit", "power_w=10"], "power_w"),        # required sensors over a limit
-    (["--require", "LRL-roof,LRR-12", "--max-sensors", "1"], "--max-sensors"),
+    (["--include", "LRL-roof", "--limit", "power_w=10"], "power_w"),        # required sensors over a limit
+    (["--include", "LRL-roof,LRR-12", "--max-sensors", "1"], "--max-sensors"),
     (["--limit", "thrust_n=3"], "thrust_n"),                                  # unknown resource
-    (["--require", "XYZ-99"], "XYZ-99"),                                      # unknown id
+    (["--include", "XYZ-99"], "XYZ-99"),                                      # unknown id
     (["--exclude", "NOPE-1"], "NOPE-1"),
-    (["--require", "LRR-12", "--exclude", "LRR-12,WSC-3"], "LRR-12"),        # required and excluded
+    (["--include", "LRR-12", "--exclude", "LRR-12,WSC-3"], "LRR-12"),        # required and excluded
     (["--limit", "power_w=abc"], "power_w"),
     ("lacking", "LRR"),                                                       # a model without the resource
 ])
@@ -307,7 +307,7 @@ def test_cli_infeasible_requests_fail_in_one_line(tmp_path, command, extra, name
 
 def test_cli_require_suites_hold_the_required_sensors():
     base = ["--fixture", "tiny", "--library", str(REDUCED), "--budget", "9000", "-q", "--engine", "reference",
-            "--require", "LRR-6,WSC-9", "--json"]
+            "--include", "LRR-6,WSC-9", "--json"]
     r = CliRunner().invoke(cli, ["optimal", "--max-nodes", "15", "--limit", "power_w=30"] + base)
     assert r.exit_code == 0, r.output
     out = json.loads(r.stdout)
@@ -333,12 +333,12 @@ def test_cli_certify_result_of_other_slots_is_refused_naming_the_file(tmp_path):
     out = tmp_path / "g.json"
     r = CliRunner().invoke(cli, ["greedy", "--library", str(car), "--budget", "9000", "--no-certificate", "-o", str(out)] + base)
     assert r.exit_code == 0, r.output
-    r = CliRunner().invoke(cli, ["certify", "--library", str(REDUCED), "--result", str(out)] + base)
+    r = CliRunner().invoke(cli, ["certify", "--library", str(REDUCED), "--suite", str(out)] + base)
     assert r.exit_code == 2 and str(out) in r.stderr and "mounting slots" in r.stderr and "Traceback" not in r.output
     assert len(r.stderr.strip().splitlines()) == 1
-    r = CliRunner().invoke(cli, ["certify", "--library", str(REDUCED), "--result", str(out), "--force"] + base)
+    r = CliRunner().invoke(cli, ["certify", "--library", str(REDUCED), "--suite", str(out), "--force"] + base)
     assert r.exit_code == 0 and "warning" in r.stderr and str(out) in r.stderr
-    r = CliRunner().invoke(cli, ["certify", "--library", str(car), "--result", str(out)] + base)
+    r = CliRunner().invoke(cli, ["certify", "--library", str(car), "--suite", str(out)] + base)
     assert r.exit_code == 0 and "and its limits" in r.stdout
-    r = CliRunner().invoke(cli, ["certify", "--library", str(car), "--result", str(out), "--limit", "power_w=5"] + base)
+    r = CliRunner().invoke(cli, ["certify", "--library", str(car), "--suite", str(out), "--limit", "power_w=5"] + base)
     assert r.exit_code == 2 and "only with --budget" in r.stderr

@@ -294,7 +294,7 @@ def test_cli_pareto_robust_resilient_keep_a_power_limit(slotted_library_yaml, tm
     c = Constraints.of(limits={"power_w": 30.0})
     out = tmp_path / "p"
     r = invoke("pareto", *COMMON, "--library", slotted_library_yaml, "--budgets", "5000,20000",
-               "--rules", "uniform,marginal", "--limit", "power_w=30", "-o", out)
+               "--rules", "uniform,marginal", "--limit", "power_w=30", "--output-dir", out)
     assert r.exit_code == 0, r.output
     from sensorsel.designs.tradespace import TradespaceResult
     ts = results.load(out / "tradespace.json", TradespaceResult)
@@ -311,7 +311,7 @@ def test_cli_pareto_robust_resilient_keep_a_power_limit(slotted_library_yaml, tm
     _check_json_suites(slotted_library_yaml, 6_000.0, c, [cand.suite for cand in rr.candidates])
 
     r = invoke("resilient", *COMMON, "--library", slotted_library_yaml, "--budget", "6000", "--failures", "1",
-               "--period", "5", "--limit", "power_w=30", "-o", tmp_path / "res")
+               "--period", "5", "--limit", "power_w=30", "--output-dir", tmp_path / "res")
     assert r.exit_code == 0, r.output
     from sensorsel.designs.resilient import ResilientReport
     rep = results.load(tmp_path / "res" / "resilient.json", ResilientReport)
@@ -321,13 +321,13 @@ def test_cli_pareto_robust_resilient_keep_a_power_limit(slotted_library_yaml, tm
 
 
 @pytest.mark.parametrize("cmd", [
-    ["pareto", "--budgets", "5000,20000"],
-    ["robust", "--budget", "6000", "--failures", "1"],
-    ["resilient", "--budget", "6000", "--failures", "1"],
+    ["pareto", "--budgets", "5000,20000", "--output-dir", "{tmp}/x"],
+    ["robust", "--budget", "6000", "--failures", "1", "-o", "{tmp}/x.json"],
+    ["resilient", "--budget", "6000", "--failures", "1", "--output-dir", "{tmp}/x"],
 ])
 def test_cli_refuses_an_infeasible_request_naming_the_constraint(slotted_library_yaml, tmp_path, cmd):
-    r = invoke(*cmd, *COMMON, "--library", slotted_library_yaml, "--require", "LRL-roof", "--owned", "--limit", "power_w=30",
-               "-o", tmp_path / "x")
+    r = invoke(*(a.replace("{tmp}", str(tmp_path)) for a in cmd), *COMMON, "--library", slotted_library_yaml, "--include",
+               "LRL-roof", "--owned", "--limit", "power_w=30")
     assert r.exit_code == 2
     lines = [ln for ln in r.output.splitlines() if ln.strip()]
-    assert len(lines) == 1 and "power_w" in lines[0] and "--require" in lines[0], r.output
+    assert len(lines) == 1 and "power_w" in lines[0] and "--include" in lines[0], r.output

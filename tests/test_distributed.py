@@ -188,9 +188,9 @@ def test_cli_score_and_simulate_with_workers_print_the_in_process_json(tmp_path)
     here, there = _here(*score), _cli(*score, "--workers", "2")
     assert there.returncode == 0 and "LocalCluster of 2 worker processes" in there.stderr, there.stderr
     assert _untimed(there.stdout) == _untimed(here.stdout)
-    sim = ["simulate", "--fixture", "tiny", "--suite", "MRL-roof,HD2K-8", "--runs", "2", "--jobs", "1", "--format", "svg",
+    sim = ["simulate", "--fixture", "tiny", "--suite", "MRL-roof,HD2K-8", "--runs", "2", "--jobs", "1", "--plot-format", "svg",
            "--json", "-q"]
-    here, there = _here(*sim, "-o", str(tmp_path / "here")), _cli(*sim, "-o", str(tmp_path / "there"), "--workers", "2")
+    here, there = _here(*sim, "--output-dir", str(tmp_path / "here")), _cli(*sim, "--output-dir", str(tmp_path / "there"), "--workers", "2")
     assert there.returncode == 0, there.stderr
 
     def untimed(text: str) -> object:
@@ -335,8 +335,8 @@ def test_pareto_with_limits_and_slots_on_two_workers_equals_in_process(tmp_path)
     car.write_text("extends: small.yaml\nslots:\n  roof: {lidar: 1}\n  clock: {radar: 1, stereo: 1}\n")
     args = ["pareto", "--fixture", "tiny", "--engine", "fast", "--library", car, "--budgets", "5000,20000,110000",
             "--rules", "uniform,marginal", "--limit", "power_w=40", "--max-sensors", "6", "-q"]
-    _here(*args, "--jobs", "1", "-o", tmp_path / "here")
-    there = _cli(*args, "--workers", "2", "-o", tmp_path / "there", timeout=240)
+    _here(*args, "--jobs", "1", "--output-dir", tmp_path / "here")
+    there = _cli(*args, "--workers", "2", "--output-dir", tmp_path / "there", timeout=240)
     assert there.returncode == 0, there.stderr
     a = (tmp_path / "here" / "tradespace.json").read_text()
     b = (tmp_path / "there" / "tradespace.json").read_text()

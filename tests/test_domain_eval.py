@@ -180,8 +180,8 @@ def test_cli_greedy_on_a_domain_writes_the_design_breakdown_and_plot(tmp_path):
 
 @pytest.mark.parametrize("command, extra", [
     ("score", ["--suite", "MRL-roof,HD2K-4"]),
-    ("pareto", ["--budgets", "3000,9000", "-o", "{tmp}/p"]),
-    ("resilient", ["--budget", "9000", "-o", "{tmp}/r"]),
+    ("pareto", ["--budgets", "3000,9000", "--output-dir", "{tmp}/p"]),
+    ("resilient", ["--budget", "9000", "--output-dir", "{tmp}/r"]),
     ("optimal", ["--budget", "1500", "--library", "configs/reduced_library.yaml"]),
     ("certify", ["--budget", "3000"]),
 ])

@@ -50,7 +50,7 @@ def test_a_pole_lands_where_hand_worked_geometry_puts_it(tmp_path):
     2 m left in the route's frame (x ahead, y left at frame 0); one 4.5 m right: y = -4.5. The downloads'
     layouts as published."""
     _straight_drive(tmp_path)
-    r = _kitti(["--odometry", str(tmp_path / "dataset"), "--poles", str(tmp_path / "pole-localization"), "-o", str(tmp_path / "out")])
+    r = _kitti(["--odometry", str(tmp_path / "dataset"), "--poles", str(tmp_path / "pole-localization"), "--output-dir", str(tmp_path / "out")])
     assert r.exit_code == 0, r.output
     assert np.array_equal(read_landmarks_csv(tmp_path / "out" / "landmarks" / "07.csv"), [[9.73, 2.0], [29.73, -4.5]])
     assert (tmp_path / "out" / "poses" / "07.txt").read_bytes() == (tmp_path / "dataset" / "poses" / "07.txt").read_bytes()
@@ -77,7 +77,7 @@ def test_a_pole_lands_where_hand_worked_geometry_puts_it(tmp_path):
 def test_a_wrong_source_is_refused_in_one_line_and_nothing_is_written(tmp_path, break_it, named, says):
     _straight_drive(tmp_path)
     break_it(tmp_path / "dataset", tmp_path / "pole-localization" / "data" / "pole-dataset" / "KITTI" / "kitti_label_07")
-    r = _kitti(["--odometry", str(tmp_path / "dataset"), "--poles", str(tmp_path / "pole-localization"), "-o", str(tmp_path / "out")])
+    r = _kitti(["--odometry", str(tmp_path / "dataset"), "--poles", str(tmp_path / "pole-localization"), "--output-dir", str(tmp_path / "out")])
     assert r.exit_code == 2
     lines = r.output.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("sensorsel: error: "), r.output
@@ -91,7 +91,7 @@ def test_missing_folders_and_sequences_are_named(tmp_path):
     for args, says in ((["--odometry", str(tmp_path), "--poles", poles], "not KITTI odometry's dataset/ folder"),
                        (["--odometry", odo, "--poles", str(tmp_path / "dataset")], "no kitti_label_NN/globalmap_gt_cluster.npz"),
                        (["--odometry", odo, "--poles", poles, "--seq", "03"], "--seq 03: no")):
-        r = _kitti([*args, "-o", str(tmp_path / "out")])
+        r = _kitti([*args, "--output-dir", str(tmp_path / "out")])
         assert r.exit_code == 2 and says in r.output and len(r.output.strip().splitlines()) == 1, r.output
 
 
@@ -101,7 +101,7 @@ def test_rebuilds_the_published_pole_maps_within_a_millimetre(kitti_root, tmp_pa
     prbonn = kitti_root / "prbonn"
     if not prbonn.is_dir():
         pytest.fail(f"{prbonn} not found: the shared KITTI folder keeps PRBonn's pole maps there", pytrace=False)
-    r = _kitti(["--odometry", str(kitti_root), "--poles", str(prbonn), "-o", str(tmp_path)])
+    r = _kitti(["--odometry", str(kitti_root), "--poles", str(prbonn), "--output-dir", str(tmp_path)])
     assert r.exit_code == 0, r.output
     for seq in SEQS:
         built, published = (read_landmarks_csv(root / "landmarks" / f"{seq}.csv") for root in (tmp_path, kitti_root))
@@ -113,6 +113,6 @@ def test_rebuilds_the_published_pole_maps_within_a_millimetre(kitti_root, tmp_pa
 def test_another_sequences_pole_map_is_refused(kitti_root, tmp_path):
     """Sequence 00's pole map filed as 03's (a mix-up a download invites) is named, not converted."""
     shutil.copytree(kitti_root / "prbonn" / "kitti_label_00", tmp_path / "kitti_label_03")
-    r = _kitti(["--odometry", str(kitti_root), "--poles", str(tmp_path), "--seq", "03", "-o", str(tmp_path / "out")])
+    r = _kitti(["--odometry", str(kitti_root), "--poles", str(tmp_path), "--seq", "03", "--output-dir", str(tmp_path / "out")])
     assert r.exit_code == 2 and "does not lie along sequence 03's route" in r.output, r.output
     assert not (tmp_path / "out").exists()

@@ -241,7 +241,7 @@ def test_routes_stay_on_the_ways_and_cover_every_way():
 def test_sample_domain_runs_greedy_end_to_end(tmp_path):
     out = tmp_path / "city"
     r = CliRunner().invoke(cli, ["osm", "--sample", "helsinki", "--bbox", ",".join(map(str, SMALL_BBOX)), "--route-km", "0.4",
-                                 "-o", str(out)])
+                                 "--output-dir", str(out)])
     assert r.exit_code == 0, r.output
     assert "per km" in r.stdout and "OpenStreetMap contributors" in (out / "domain.yaml").read_text()
     assert "ODbL" in (out / "README.md").read_text()
@@ -283,9 +283,9 @@ def test_gpx_track_and_the_same_route_as_csv_score_the_same(tmp_path):
                                               for la, lo, tt in zip(lat.tolist(), lon.tolist(), t.tolist())]))
     track = read_gpx(tmp_path / "drive.gpx")
     assert np.allclose(track.times, t, atol=1e-6)
-    r1 = CliRunner().invoke(cli, ["osm", str(SAMPLE), "--gpx", str(tmp_path / "drive.gpx"), "-o", str(tmp_path / "a")])
+    r1 = CliRunner().invoke(cli, ["osm", str(SAMPLE), "--gpx", str(tmp_path / "drive.gpx"), "--output-dir", str(tmp_path / "a")])
     r2 = CliRunner().invoke(cli, ["osm", str(SAMPLE), "--route", str(tmp_path / "drive.csv"), "--georef", "60.1675,24.9400,35",
-                                  "-o", str(tmp_path / "b")])
+                                  "--output-dir", str(tmp_path / "b")])
     assert r1.exit_code == 0 and r2.exit_code == 0, (r1.output, r2.output)
     pa = load_domain(tmp_path / "a" / "domain.yaml").routes[0].problem
     pb = load_domain(tmp_path / "b" / "domain.yaml").routes[0].problem
@@ -300,7 +300,7 @@ def test_gpx_track_and_the_same_route_as_csv_score_the_same(tmp_path):
 
 def _bad(tmp_path: Path, args: list[str], *names: str) -> None:
     out = tmp_path / "out"
-    r = CliRunner().invoke(cli, ["osm", *args, "-o", str(out)])
+    r = CliRunner().invoke(cli, ["osm", *args, "--output-dir", str(out)])
     assert r.exit_code == 2, r.output
     lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
     assert len(lines) == 1 and lines[0].startswith(("sensorsel: error:", "Error:")), r.stderr
@@ -341,6 +341,6 @@ def test_bad_gpx_inputs(tmp_path):
         (tmp_path / name).write_text(text)
         _bad(tmp_path, ["--sample", "helsinki", "--gpx", str(tmp_path / name)], name, words)
     # the line of the bad point is named
-    r = CliRunner().invoke(cli, ["osm", "--sample", "helsinki", "--gpx", str(tmp_path / "pole.gpx"), "-o", str(tmp_path / "o")])
+    r = CliRunner().invoke(cli, ["osm", "--sample", "helsinki", "--gpx", str(tmp_path / "pole.gpx"), "--output-dir", str(tmp_path / "o")])
     assert "pole.gpx:5:" in r.stderr
     _bad(tmp_path, ["--sample", "helsinki", "--route", str(tmp_path / "x.csv"), "--georef", "95,24,0"], "--georef")

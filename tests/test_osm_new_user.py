@@ -62,7 +62,7 @@ def test_a_road_without_landmarks_is_not_named_after_the_next_route(city, tmp_pa
     """The bare road comes first: it is left out without a name (it was 'route r001', the name the
     kept route then got too), and the header's kilometres are the routes' own. A dead end is driven
     there and back: the bare 600 m road is 1.2 km of driving."""
-    r = _osm(city, "-o", tmp_path / "d")
+    r = _osm(city, "--output-dir", tmp_path / "d")
     assert r.exit_code == 0, r.output
     dom = yaml.safe_load((tmp_path / "d" / "domain.yaml").read_text())
     assert [x["name"] for x in dom["routes"]] == ["r001"]
@@ -79,7 +79,7 @@ def test_a_road_without_landmarks_is_not_named_after_the_next_route(city, tmp_pa
 def test_the_kerb_note_counts_the_routes_landmarks_and_every_note_says_sensorsel(city, tmp_path):
     """Two traffic signals are moved to the kerb in the extract, one of them on a route: the note
     counts the routes' one. The projection is told once, and every line on stderr is 'sensorsel: ...'."""
-    r = _osm(city, "-o", tmp_path / "d")
+    r = _osm(city, "--output-dir", tmp_path / "d")
     assert r.exit_code == 0, r.output
     lines = r.stderr.splitlines()
     assert lines and all(ln.startswith("sensorsel: ") for ln in lines), lines
@@ -96,7 +96,7 @@ def test_a_route_track_tells_its_projection_once(city, tmp_path):
                   for k in range(50))
     gpx.write_text(f'<?xml version="1.0"?><gpx version="1.1" xmlns="http://www.topografix.com/GPX/1/1"><trk><trkseg>{pts}'
                    "</trkseg></trk></gpx>")
-    r = _osm(city, "--gpx", gpx, "-o", tmp_path / "d")
+    r = _osm(city, "--gpx", gpx, "--output-dir", tmp_path / "d")
     assert r.exit_code == 0, r.output
     lines = r.stderr.splitlines()
     assert sum("UTM zone 32N" in ln for ln in lines) == 1, lines
@@ -107,7 +107,7 @@ def test_a_route_track_tells_its_projection_once(city, tmp_path):
 def test_a_compressed_extract_is_read_as_its_xml(city, tmp_path, suffix, pack):
     packed = tmp_path / f"vaduz{suffix}"
     packed.write_bytes(pack(city.read_bytes()))
-    plain, comp = _osm(city, "-o", tmp_path / "a"), _osm(packed, "-o", tmp_path / "b")
+    plain, comp = _osm(city, "--output-dir", tmp_path / "a"), _osm(packed, "--output-dir", tmp_path / "b")
     assert plain.exit_code == 0 and comp.exit_code == 0, comp.output
     for f in ("routes/r001.csv", "routes/r001_landmarks.csv", "landmarks.csv"):
         assert (tmp_path / "a" / f).read_bytes() == (tmp_path / "b" / f).read_bytes()
@@ -116,17 +116,17 @@ def test_a_compressed_extract_is_read_as_its_xml(city, tmp_path, suffix, pack):
 def test_something_else_is_still_not_an_extract(tmp_path):
     bad = tmp_path / "x.osm.bz2"
     bad.write_bytes(b"PK\x03\x04 a zip file")
-    r = _osm(bad, "-o", tmp_path / "d")
+    r = _osm(bad, "--output-dir", tmp_path / "d")
     assert r.exit_code == 2 and "not an OSM extract" in r.stderr and ".osm.bz2" in r.stderr
 
 
 def test_a_bbox_with_latitude_and_longitude_swapped_says_so(city, tmp_path):
     lat_first = f"{LAT0 - 0.001},{LON0 - 0.001},{LAT0 + 0.03},{LON0 + 0.01}"
-    r = _osm(city, "--bbox", lat_first, "-o", tmp_path / "d")
+    r = _osm(city, "--bbox", lat_first, "--output-dir", tmp_path / "d")
     assert r.exit_code == 2 and len(r.stderr.splitlines()) == 1
     assert "outside the extract" in r.stderr and "latitude and longitude exchanged" in r.stderr
     assert f"--bbox {LON0 - 0.001:g},{LAT0 - 0.001:g},{LON0 + 0.01:g},{LAT0 + 0.03:g} lies in it" in r.stderr
-    far = _osm(city, "--bbox", "10,50,11,51", "-o", tmp_path / "e")  # simply elsewhere: no such hint
+    far = _osm(city, "--bbox", "10,50,11,51", "--output-dir", tmp_path / "e")  # simply elsewhere: no such hint
     assert far.exit_code == 2 and "outside the extract" in far.stderr and "exchanged" not in far.stderr
 
 
@@ -141,7 +141,7 @@ def test_a_suite_id_in_the_wrong_case_is_suggested():
 def test_the_city_guide_states_the_sample_citys_numbers(tmp_path):
     """docs/guide-new-city.md's numbers for the bundled Helsinki sample, from the command itself."""
     guide = (Path(__file__).resolve().parents[1] / "docs" / "guide-new-city.md").read_text(encoding="utf-8")
-    r = _osm("--sample", "helsinki", "-o", tmp_path / "h")
+    r = _osm("--sample", "helsinki", "--output-dir", tmp_path / "h")
     assert r.exit_code == 0, r.output
     header = next(ln for ln in r.stdout.splitlines() if ln.startswith("city"))
     road, routes = header.split(": ", 1)[1].split(" km of road")[0], header.split("), ")[1].split(" driven")[0]

@@ -81,7 +81,7 @@ def test_gpx_track_and_georeferenced_csv_score_the_same_through_the_cli(drive):
 
 def test_osm_landmarks_on_a_route_are_those_sensorsel_osm_writes_and_those_within_reach(drive, tmp_path):
     _, gpx, _ = drive
-    _ok(["osm", str(SAMPLE), "--gpx", str(gpx), "-o", str(tmp_path / "dom")])
+    _ok(["osm", str(SAMPLE), "--gpx", str(gpx), "--output-dir", str(tmp_path / "dom")])
     written = np.loadtxt(tmp_path / "dom" / "routes" / "drive_landmarks.csv", delimiter=",", skiprows=1, usecols=(0, 1))
     route_csv = np.loadtxt(tmp_path / "dom" / "routes" / "drive.csv", delimiter=",", skiprows=1)
     problem = load_problem(ScenarioSpec(route=str(gpx), osm=(str(SAMPLE),)))
@@ -163,7 +163,7 @@ def test_sensorsel_osm_merge_landmarks_shares_the_merge(drive, tmp_path):
 
     k = int(np.flatnonzero(cKDTree(osm).query(osm, k=2)[0][:, 1] > 6.0)[0])  # no other landmark within 6 m
     survey.write_text(f"x,y\n{float(osm[k, 0]) + 0.5!r},{float(osm[k, 1])!r}\n")
-    _ok(["osm", str(SAMPLE), "--route", str(csv), "--georef", GEOREF, "--merge-landmarks", str(survey), "-o", str(tmp_path / "d")])
+    _ok(["osm", str(SAMPLE), "--route", str(csv), "--georef", GEOREF, "--merge-landmarks", str(survey), "--output-dir", str(tmp_path / "d")])
     rows = (tmp_path / "d" / "routes" / "drive_landmarks.csv").read_text().splitlines()[1:]
     assert len(rows) == len(osm) and sum(r.split(",")[2] == "survey" for r in rows) == 1
 
@@ -206,7 +206,7 @@ def test_bad_route_options_are_one_line_and_write_nothing(drive, tmp_path):
     _refused(tmp_path, ["--route", str(empty), "--landmarks", osm], str(empty), "no points")
     _refused(tmp_path, ["--domain", str(REPO / "configs" / "domain_fixtures.yaml"), "--landmarks", osm], "--domain", "--landmarks")
     # sensorsel osm --route shares the merge, and its refusal of a route outside the extract
-    r = CliRunner().invoke(cli, ["osm", str(SAMPLE), "--route", str(csv), "--georef", "10,10,0", "-o", str(tmp_path / "d")])
+    r = CliRunner().invoke(cli, ["osm", str(SAMPLE), "--route", str(csv), "--georef", "10,10,0", "--output-dir", str(tmp_path / "d")])
     assert r.exit_code == 2 and "outside the extract" in r.stderr and not (tmp_path / "d").exists(), r.output
 
 

@@ -40,13 +40,13 @@ ODD_CLOCK = ",".join(f"{m}-{h}" for m in ("LRR", "MRR", "WSC", "HD2K", "LSC") fo
 COMMANDS = {
     "greedy": (["greedy", "--domain", DOMAIN, "--budget", "12000", "--certificate", "-o", "OUT/design.json"],
                "design.json.checkpoint", {"seconds", "n_evaluations"}),
-    "pareto": (["pareto", "--fixture", "suburb", "--budgets", "4000,12000", "--rules", "best-of", "--format", "svg",
-                "-o", "OUT"], "runs/rule-*.json", {"seconds"}),
+    "pareto": (["pareto", "--fixture", "suburb", "--budgets", "4000,12000", "--rules", "best-of", "--plot-format", "svg",
+                "--output-dir", "OUT"], "runs/rule-*.json", {"seconds"}),
     "resilient": (["resilient", "--fixture", "suburb", "--budget", "8000", "--failures", "1", "--period", "20",
-                   "--format", "svg", "-o", "OUT"], "periods/period-*.json", {"seconds"}),
+                   "--plot-format", "svg", "--output-dir", "OUT"], "periods/period-*.json", {"seconds"}),
     "resilient-robust": (["resilient", "--fixture", "tiny", "--budget", "5000", "--failures", "1", "--period", "10",
-                          "--method", "robust", "--format", "svg", "-o", "OUT"], "periods/period-*.json", {"seconds"}),
-    "study": (["study", "STUDY", "-o", "OUT"], "cells/cell-*.json", {"seconds", "n_reused"}),
+                          "--method", "robust", "--plot-format", "svg", "--output-dir", "OUT"], "periods/period-*.json", {"seconds"}),
+    "study": (["study", "STUDY", "--output-dir", "OUT"], "cells/cell-*.json", {"seconds", "n_reused"}),
     # every method on a fresh memo, also in-process: evaluation counts compared too
     "robust": (["robust", "--fixture", "tiny", "--budget", "8000", "--failures", "1", "-o", "OUT/robust.json"],
                "robust.json.tasks/*.json", {"seconds"}),

@@ -116,7 +116,7 @@ def test_a_city_routes_scene_keeps_every_legend_inside_the_figure(tmp_path, suit
     from sensorsel.model.scenario import ScenarioSpec, load_scenario
     from sensorsel.model.sensing import condition_effects
 
-    r = CliRunner().invoke(cli, ["osm", "--sample", "helsinki", "-o", str(tmp_path / "city")])
+    r = CliRunner().invoke(cli, ["osm", "--sample", "helsinki", "--output-dir", str(tmp_path / "city")])
     assert r.exit_code == 0, r.output
     sc = load_scenario(ScenarioSpec(route=str(tmp_path / "city" / "routes" / "r002.csv"),
                                     landmarks=str(tmp_path / "city" / "routes" / "r002_landmarks.csv")))

@@ -185,7 +185,7 @@ def test_score_json_carries_the_per_keyframe_arrays(tiny_problem):
 
 
 def test_pareto_marks_the_acceptable_front(tmp_path):
-    r = _invoke(["pareto", *T, *E, "--budgets", "2000,20000", "-o", tmp_path, "--preset", "freeway", "--map-sigma", "0.05"])
+    r = _invoke(["pareto", *T, *E, "--budgets", "2000,20000", "--output-dir", tmp_path, "--preset", "freeway", "--map-sigma", "0.05"])
     assert r.exit_code == 0, r.output
     acc = results.load(tmp_path / "accuracy.json", "front-acceptance")
     assert acc.specifications and all(p.meets is not None for p in acc.points)

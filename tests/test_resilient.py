@@ -370,7 +370,7 @@ def small_library_yaml(tmp_path_factory) -> str:
 def test_cli_writes_the_comparison_grid_and_periods(small_library_yaml, tmp_path):
     out = tmp_path / "out"
     args = ["resilient", "--fixture", "tiny", "--library", small_library_yaml, "--engine", "reference", "--jobs", "1",
-            "--budget", "110000", "--failures", "1", "--period", "3", "-o", str(out)]
+            "--budget", "110000", "--failures", "1", "--period", "3", "--output-dir", str(out)]
     r = invoke(*args)
     assert r.exit_code == 0, (r.output, r.exception)
     data = json.loads((out / "resilient.json").read_text())
@@ -387,7 +387,7 @@ def test_cli_writes_the_comparison_grid_and_periods(small_library_yaml, tmp_path
     assert len(csv) == 1 + len(rep.per_period.periods) == 1 + len(list((out / "periods").glob("period-*.json")))
     assert r.stderr == ""  # no progress bar when not on a terminal
     # resume: same report apart from the timings; svg output
-    r2 = invoke(*args, "--resume", "--format", "svg")
+    r2 = invoke(*args, "--resume", "--plot-format", "svg")
     assert r2.exit_code == 0, r2.output
     assert strip_timings(json.loads((out / "resilient.json").read_text())) == strip_timings(data)
     assert (out / "grid.svg").read_text().lstrip().startswith("<?xml")
@@ -403,10 +403,10 @@ def test_cli_writes_the_comparison_grid_and_periods(small_library_yaml, tmp_path
     (["--failures", "two"], "two"),
     (["--rule", "best"], "best"),
     (["--objective", "uniform"], "--objective"),
-    (["--format", "jpg"], "jpg"),
+    (["--plot-format", "jpg"], "jpg"),
 ])
 def test_cli_bad_input_exits_2(tmp_path, opts, needle):
-    r = invoke("resilient", "--fixture", "tiny", "--engine", "reference", "-o", str(tmp_path / "o"), *opts)
+    r = invoke("resilient", "--fixture", "tiny", "--engine", "reference", "--output-dir", str(tmp_path / "o"), *opts)
     assert r.exit_code == 2, r.output
     assert "Traceback" not in r.output and needle in r.output
     assert not (tmp_path / "o" / "resilient.json").exists()

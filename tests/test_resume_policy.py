@@ -31,15 +31,15 @@ STUDY = "target: {fixture: tiny}\ngrid:\n  budgets: [5000]\n  rules: [uniform]\n
 RUNS = {
     "greedy": (["greedy", "--fixture", "tiny", "--budget", "6000", "-o", "OUT/design.json"],
                "design.json.checkpoint", {"seconds", "n_evaluations"}),
-    "pareto": (["pareto", "--fixture", "tiny", "--budgets", "3000,6000", "--rules", "uniform", "--format", "svg",
-                "-o", "OUT"], "runs/rule-*.json", {"seconds"}),
+    "pareto": (["pareto", "--fixture", "tiny", "--budgets", "3000,6000", "--rules", "uniform", "--plot-format", "svg",
+                "--output-dir", "OUT"], "runs/rule-*.json", {"seconds"}),
     "resilient": (["resilient", "--fixture", "tiny", "--budget", "6000", "--failures", "1", "--period", "6",
-                   "--format", "svg", "-o", "OUT"], "periods/period-*.json", {"seconds"}),
+                   "--plot-format", "svg", "--output-dir", "OUT"], "periods/period-*.json", {"seconds"}),
     "robust": (["robust", "--fixture", "tiny", "--budget", "6000", "--failures", "1", "--rules", "uniform",
                 "--methods", "oblivious", "-o", "OUT/robust.json"], "robust.json.tasks/*.json", {"seconds"}),
     "optimal": (["optimal", "--fixture", "tiny", "--budget", "6000", "--max-nodes", "100", "-o", "OUT/optimal.json"],
                 "optimal.json.checkpoint", {"seconds", "n_evaluations"}),
-    "study": (["study", "STUDY", "-o", "OUT"], "cells/cell-*.json", {"seconds", "n_reused"}),
+    "study": (["study", "STUDY", "--output-dir", "OUT"], "cells/cell-*.json", {"seconds", "n_reused"}),
     # on Table I with four clock positions (22 sensors), a loose specification: a short search
     "require": (["require", "--fixture", "tiny", "--library", "SMALL", "--lateral", "0.5", "--longitudinal", "0.5",
                  "--budget", "50000", "-o", "OUT/require.json"], "require.json.checkpoint",
@@ -75,7 +75,7 @@ def _another_run(run: str, out: Path, study: Path, tiny_problem) -> None:
     elif run == "study":
         other = study.with_name("other.yaml")
         other.write_text(STUDY + "engine: reference\n")
-        assert _invoke(["study", str(other), "-o", str(out), "-q"]).exit_code == 0
+        assert _invoke(["study", str(other), "--output-dir", str(out), "-q"]).exit_code == 0
     elif run == "greedy":
         from sensorsel.api import run_greedy
 

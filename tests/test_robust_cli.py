@@ -135,7 +135,7 @@ def test_files_that_call_algorithm_2_paper_are_read_until_their_release(small_li
     common = ["resilient", "--fixture", "tiny", "--library", small_library_yaml, "--engine", "fast", "--jobs", "1",
               "--budget", "5000", "--failures", "1", "--period", "3", "-q", "--json"]
     out = tmp_path / "a2"
-    first = invoke(*common, "-o", out)
+    first = invoke(*common, "--output-dir", out)
     assert first.exit_code == 0, first.output
     files = [out / "resilient.json", *sorted((out / "periods").glob("period-*.json"))]
     for f in files:  # as a run before the rename wrote them
@@ -147,7 +147,7 @@ def test_files_that_call_algorithm_2_paper_are_read_until_their_release(small_li
     assert {p.method for p in rep.per_period.periods} == {"algorithm-2"} and rep.per_period.grid.method == "algorithm-2"
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # a period file not reused would warn
-        again = invoke(*common, "--method", "algorithm-2", "-o", out, "--resume")
+        again = invoke(*common, "--method", "algorithm-2", "--output-dir", out, "--resume")
     assert again.exit_code == 0, again.output
 
     def untimed(text):
@@ -166,7 +166,7 @@ def test_algorithm_2_has_one_name_in_study_files_and_on_the_command_line(tmp_pat
     f.write_text("target: {fixture: tiny}\ngrid: {budgets: [5000], failures: [1]}\nmethod: paper\n")
     with pytest.raises(StudyError, match="method: expected one of algorithm-2, robust, got 'paper'"):
         load_study(f)
-    r = invoke("resilient", "--fixture", "tiny", "--budget", "5000", "--method", "paper", "-o", tmp_path / "o")
+    r = invoke("resilient", "--fixture", "tiny", "--budget", "5000", "--method", "paper", "--output-dir", tmp_path / "o")
     assert r.exit_code == 2 and "'paper' is not one of" in r.output
 
 
@@ -174,7 +174,7 @@ def test_algorithm_2_has_one_name_in_study_files_and_on_the_command_line(tmp_pat
 def test_resilient_method_grid_and_csv_show_the_worst_failures(small_library_yaml, tmp_path, method):
     out = tmp_path / method
     r = invoke("resilient", "--fixture", "tiny", "--library", small_library_yaml, "--engine", "fast", "--jobs", "1",
-               "--budget", "5000", "--failures", "1", "--period", "3", "--method", method, "-o", out, "-q")
+               "--budget", "5000", "--failures", "1", "--period", "3", "--method", method, "--output-dir", out, "-q")
     assert r.exit_code == 0, r.output
     rep = results.load(out / "resilient.json", ResilientReport)
     assert rep.method == method and rep.per_period is not None and rep.per_period.method == method
@@ -208,7 +208,7 @@ def test_resilient_method_grid_and_csv_show_the_worst_failures(small_library_yam
 
 def test_resilient_robust_resume_does_not_reuse_paper_periods(small_library_yaml, tmp_path):
     args = ["resilient", "--fixture", "tiny", "--library", small_library_yaml, "--engine", "fast", "--jobs", "1",
-            "--budget", "5000", "--failures", "1", "--period", "5", "-o", tmp_path, "-q"]
+            "--budget", "5000", "--failures", "1", "--period", "5", "--output-dir", tmp_path, "-q"]
     assert invoke(*args).exit_code == 0
     r = invoke(*args, "--method", "robust", "--resume")
     assert r.exit_code == 0

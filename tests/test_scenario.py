@@ -239,12 +239,12 @@ def test_bad_files_from_the_cli(tmp_path):
     lines = _pose_lines()
     lines[4] = lines[4].replace(lines[4].split()[2], "nan", 1)
     poses = _write(tmp_path / "drive.txt", lines)
-    assert f"{poses}:5:" in _cli_error(["score", "--poses", str(poses), "--suite", "LRL-roof"])
+    assert f"{poses}:5:" in _cli_error(["score", "--route", str(poses), "--suite", "LRL-roof"])
     good = _write(tmp_path / "good.txt", _pose_lines())
     lm = _write(tmp_path / "lm.csv", ["x,y", "1,2", "3,4,5"])
-    assert f"{lm}:3:" in _cli_error(["score", "--poses", str(good), "--landmarks", str(lm), "--suite", "LRL-roof"])
+    assert f"{lm}:3:" in _cli_error(["score", "--route", str(good), "--landmarks", str(lm), "--suite", "LRL-roof"])
     times = _write(tmp_path / "times.txt", ["0", "1", "1"])
-    assert f"{times}:3:" in _cli_error(["score", "--poses", str(good), "--times", str(times), "--suite", "LRL-roof"])
+    assert f"{times}:3:" in _cli_error(["score", "--route", str(good), "--times", str(times), "--suite", "LRL-roof"])
     assert "'nope'" in _cli_error(["score", "--fixture", "nope", "--suite", "LRL-roof"])
     assert "keyframe rate" in _cli_error(["score", "--rate", "0", "--suite", "LRL-roof"])
 
@@ -399,7 +399,7 @@ def test_times_without_poses_is_refused(tmp_path):
     times = _write(tmp_path / "times.txt", ["0", "1"])
     result = CliRunner().invoke(cli, ["score", "--times", str(times), "--suite", "LRL-roof"])
     assert result.exit_code == 2 and "Traceback" not in result.output
-    assert "--times" in result.output and "--poses" in result.output
+    assert "--times" in result.output and "--route" in result.output
 
 
 def test_pose_files_read_as_pythons_float_reads_each_number(tmp_path):

@@ -162,7 +162,7 @@ def test_clearance_from_the_cli(tmp_path):
     route = _straight()
     poses = write_kitti_poses(tmp_path / "drive.txt", route.poses)
     lm = _write(tmp_path / "lm.csv", ["x,y", "10,0.5", "20,8", "30,-7", "40,9", "20,8"])
-    base = ["score", "--poses", str(poses), "--landmarks", str(lm), "--suite", "LRL-roof", "--json"]
+    base = ["score", "--route", str(poses), "--landmarks", str(lm), "--suite", "LRL-roof", "--json"]
     import json
 
     for extra, n in (([], 4), (["--clearance", "2"], 3)):
@@ -287,13 +287,13 @@ def test_cli_route_options(tmp_path):
         assert res.exit_code == 0, res.output
         return json.loads(res.stdout)
 
-    ref = score("--poses", str(TINY_POSES), "--times", str(TINY_TIMES), "--landmarks", "synthetic")
+    ref = score("--route", str(TINY_POSES), "--times", str(TINY_TIMES), "--landmarks", "synthetic")
     got = score("--route", str(tum), "--landmarks", "synthetic", "--name", "lap one")
     assert got["problem"]["scenario"] == "lap one" and ref["problem"]["scenario"] == "tiny"
     assert got["score"] == pytest.approx(ref["score"], rel=1e-9)
     got = score("--route", str(tum), "--route-format", "tum", "--landmarks", "synthetic")
     assert got["problem"]["scenario"] == "lap"
-    for args, fragment in ((["--route", str(tum), "--poses", str(TINY_POSES)], "one route"),
+    for args, fragment in ((["--seq", "03", "--route", str(tum)], "one route"),
                            (["--route-format", "tum"], "goes with --route"),
                            (["--route", str(tum), "--route-format", "bogus"], "bogus")):
         res = CliRunner().invoke(cli, ["score", "--suite", "LRL-roof", *args])

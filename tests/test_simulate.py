@@ -265,7 +265,7 @@ def test_cli_reads_result_files_and_writes_everything(tmp_path, tiny_problem):
     resilient = _suite_file(tiny_problem, tmp_path / "resilient.json", "LRL-roof,MRL-roof", ["LRL-roof"])
     out = tmp_path / "out"
     r = CliRunner().invoke(cli, ["simulate", "--fixture", "tiny", "--suite", str(greedy), "--compare", str(resilient),
-                                 "--fail", "LRL-roof", "--runs", "2", "--jobs", "1", "-o", str(out)])
+                                 "--fail", "LRL-roof", "--runs", "2", "--jobs", "1", "--output-dir", str(out)])
     assert r.exit_code == 0, r.output
     assert "greedy" in r.output and "resilient" in r.output and "pos_rmse_m" in r.output
     assert "resilient assumes LRL-roof" not in r.output  # the failure it assumes is simulated: no hint
@@ -279,7 +279,7 @@ def test_cli_reads_result_files_and_writes_everything(tmp_path, tiny_problem):
 def test_cli_labels_and_hint_for_an_assumed_failure(tmp_path, tiny_problem):
     resilient = _suite_file(tiny_problem, tmp_path / "resilient.json", "LRL-roof,MRL-roof", ["LRL-roof"])
     r = CliRunner().invoke(cli, ["simulate", "--fixture", "tiny", "--suite", "LRL-roof,WSC-12", "--label", "Greedy03",
-                                 "--compare", str(resilient), "--runs", "1", "--jobs", "1", "-o", str(tmp_path / "o")])
+                                 "--compare", str(resilient), "--runs", "1", "--jobs", "1", "--output-dir", str(tmp_path / "o")])
     assert r.exit_code == 0, r.output
     assert "add --fail LRL-roof" in r.output
     rep = results.load(tmp_path / "o" / "simulation.json", SimulationReport)
@@ -291,7 +291,7 @@ def test_cli_start_sigmas_set_the_first_pose_prior(tmp_path, tiny_problem):
     from sensorsel.model.problem import GraphSettings
 
     r = CliRunner().invoke(cli, ["simulate", "--fixture", "tiny", "--suite", "LRL-roof", "--start-sigmas", "1e-4,1e-4,1e-5",
-                                 "--runs", "2", "--jobs", "1", "-o", str(tmp_path)])
+                                 "--runs", "2", "--jobs", "1", "--output-dir", str(tmp_path)])
     assert r.exit_code == 0, r.output
     (sim,) = results.load(tmp_path / "simulation.json", SimulationReport).simulations
     assert sim.problem.settings.first_pose_sigmas == (1e-4, 1e-4, 1e-5)
@@ -318,7 +318,7 @@ def test_cli_bad_input_is_one_line_and_exit_2(tmp_path, args, word):
     (tmp_path / "bad.json").write_text(json.dumps({"picks": ["LRL-roof"]}))
     results.save(SimulationReport(()), tmp_path / "simulation.json")
     args = [a.replace("{tmp}", str(tmp_path)) for a in args]
-    r = CliRunner().invoke(cli, ["simulate", "--fixture", "tiny", "--runs", "1", "--jobs", "1", "-o", str(tmp_path / "o")] + args)
+    r = CliRunner().invoke(cli, ["simulate", "--fixture", "tiny", "--runs", "1", "--jobs", "1", "--output-dir", str(tmp_path / "o")] + args)
     assert r.exit_code == 2
     assert word in r.output
     assert "Traceback" not in r.output

@@ -166,7 +166,7 @@ def test_older_simulation_files_still_load(checked):
 
 def test_cli_map_sigma_prints_predicted_vs_measured(tmp_path):
     r = CliRunner().invoke(cli, ["simulate", "--fixture", "tiny", "--suite", SUITE, "--runs", "3", "--jobs", "1",
-                                 "--map-sigma", "0.05", "-o", str(tmp_path)])
+                                 "--map-sigma", "0.05", "--output-dir", str(tmp_path)])
     assert r.exit_code == 0, r.output
     assert "predicted vs measured 95 % errors" in r.output and "landmarks known to 0.05 m" in r.output
     for c in COMPONENTS:
@@ -179,7 +179,7 @@ def test_cli_map_sigma_prints_predicted_vs_measured(tmp_path):
 @pytest.mark.parametrize("value", ["-0.1", "0", "nan", "inf"])
 def test_cli_bad_map_sigma_is_one_line(tmp_path, value):
     r = CliRunner().invoke(cli, ["simulate", "--fixture", "tiny", "--suite", SUITE, "--runs", "1", "--jobs", "1",
-                                 "--map-sigma", value, "-o", str(tmp_path)])
+                                 "--map-sigma", value, "--output-dir", str(tmp_path)])
     assert r.exit_code == 2 and "--map-sigma" in r.output and "Traceback" not in r.output
 
 

@@ -162,7 +162,7 @@ def _cli(*args: str):
 def test_cli_prints_the_check_writes_the_json_and_the_plot(tmp_path):
     out = tmp_path / "o"
     r = _cli("simulate", "--fixture", "tiny", "--suite", "MRL-roof,HD2K-8", "--associate", "--draws", "200",
-             "--map-sigma", "0.05", "--format", "svg", "-q", "-o", str(out))
+             "--map-sigma", "0.05", "--plot-format", "svg", "-q", "--output-dir", str(out))
     code, stdout, stderr = r
     assert code == 0, stderr
     assert "gated nearest neighbour" in stdout and "calibration" in stdout and "plain Monte Carlo" in stdout
@@ -181,7 +181,7 @@ def test_cli_prints_the_check_writes_the_json_and_the_plot(tmp_path):
     (("--importance-sampling", "--clutter-per-km", "5"), "--clutter-per-km"),
 ])
 def test_bad_options_are_one_line_naming_the_option(tmp_path, args, option):
-    r = _cli("simulate", "--fixture", "tiny", "--suite", "MRL-roof", "--associate", *args, "-q", "-o", str(tmp_path / "o"))
+    r = _cli("simulate", "--fixture", "tiny", "--suite", "MRL-roof", "--associate", *args, "-q", "--output-dir", str(tmp_path / "o"))
     code, _, stderr = r
     assert code == 2
     lines = [x for x in stderr.strip().splitlines() if x.strip()]
@@ -189,7 +189,7 @@ def test_bad_options_are_one_line_naming_the_option(tmp_path, args, option):
 
 
 def test_association_options_need_associate(tmp_path):
-    r = _cli("simulate", "--fixture", "tiny", "--suite", "MRL-roof", "--clutter-per-km", "3", "-o", str(tmp_path / "o"))
+    r = _cli("simulate", "--fixture", "tiny", "--suite", "MRL-roof", "--clutter-per-km", "3", "--output-dir", str(tmp_path / "o"))
     assert r[0] == 2 and "--clutter-per-km needs --associate" in r[2], r
 
 

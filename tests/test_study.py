@@ -136,7 +136,7 @@ def test_bad_study_files_name_file_key_and_line(tmp_path, text, key, line, words
 
 def test_cli_study_bad_input_is_one_line_exit_2(tmp_path):
     p = write(tmp_path, SMALL.replace("  rules: [uniform]", "  rules: [uniform]\n  colour: blue"))
-    r = subprocess.run([str(Path(sys.executable).parent / "sensorsel"), "study", str(p), "-o", str(tmp_path / "o")],
+    r = subprocess.run([str(Path(sys.executable).parent / "sensorsel"), "study", str(p), "--output-dir", str(tmp_path / "o")],
                        capture_output=True, text=True, env=ENV, timeout=120)
     assert r.returncode == 2 and "Traceback" not in r.stderr
     line, = [ln for ln in r.stderr.splitlines() if ln.strip()]

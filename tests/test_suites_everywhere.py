@@ -31,12 +31,18 @@ def test_score_takes_a_result_file_as_its_ids(greedy_tiny):
     assert a["suite"] == b["suite"] and sorted(b["suite"]) == sorted(suite) and a["score"] == b["score"]
 
 
-def test_certify_takes_the_result_as_an_argument(greedy_tiny):
+def test_certify_takes_the_greedy_result_as_its_suite(greedy_tiny):
+    """certify --suite FILE bounds the run the file records: the same bound as certifying that greedy
+    run made now (--budget, the same rule); sensor ids name no run and are refused, naming --suite."""
     path, _ = greedy_tiny
-    pos = CliRunner().invoke(cli, ["certify", str(path), *TINY, "--json"])
-    opt = CliRunner().invoke(cli, ["certify", "--result", str(path), *TINY, "--json"])
-    assert pos.exit_code == 0 and opt.exit_code == 0, pos.output
-    assert json.loads(pos.stdout)["bound"] == json.loads(opt.stdout)["bound"]
+    by_file = CliRunner().invoke(cli, ["certify", "--suite", str(path), *TINY, "--json"])
+    now = CliRunner().invoke(cli, ["certify", "--budget", "10000", "--rule", "uniform", *TINY, "--json", "-q"])
+    assert by_file.exit_code == 0 and now.exit_code == 0, (by_file.output, now.output)
+    assert json.loads(by_file.stdout)["bound"] == json.loads(now.stdout)["bound"]
+    ids = CliRunner().invoke(cli, ["certify", "--suite", "LRL-roof,LRR-12", *TINY])
+    assert ids.exit_code == 2 and "--suite LRL-roof,LRR-12" in ids.stderr and "greedy result file" in ids.stderr
+    positional = CliRunner().invoke(cli, ["certify", str(path), *TINY])
+    assert positional.exit_code == 2
 
 
 def test_scene_draws_a_result_files_suite(greedy_tiny, tmp_path):
@@ -47,7 +53,7 @@ def test_scene_draws_a_result_files_suite(greedy_tiny, tmp_path):
 
 
 @pytest.mark.parametrize("argv", [
-    ["certify", "{path}"],
+    ["certify", "--suite", "{path}"],
     ["scene", "--suite", "{path}", "-o", "{tmp}/s.png"],
     ["score", "--suite", "{path}"],
 ])

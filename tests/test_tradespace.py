@@ -293,7 +293,7 @@ def _pareto(small_library, *args):
 
 def test_cli_pareto_writes_plot_csv_and_json(small_library, tmp_path):
     out = tmp_path / "ts"
-    r = _pareto(small_library, "-o", str(out))
+    r = _pareto(small_library, "--output-dir", str(out))
     assert r.exit_code == 0, r.output
     # runs/: each rule's runs as they finish, which --resume reads back (tests/test_pipeline.py)
     assert sorted(p.name for p in out.iterdir()) == ["accuracy.json", "architectures.csv", "pareto-accuracy.png", "pareto.png", "runs",
@@ -312,14 +312,14 @@ def test_cli_pareto_writes_plot_csv_and_json(small_library, tmp_path):
 
 def test_cli_pareto_options(small_library, tmp_path):
     out = tmp_path / "svg"
-    r = _pareto(small_library, "-o", str(out), "--budgets", "2000,6000", "--rules", "marginal", "--plot-format", "svg")
+    r = _pareto(small_library, "--output-dir", str(out), "--budgets", "2000,6000", "--rules", "marginal", "--plot-format", "svg")
     assert r.exit_code == 0, r.output
     assert (out / "pareto.svg").read_bytes().startswith(b"<?xml")
     res = results.load(out / "tradespace.json", TradespaceResult)
     assert res.budgets_usd == (2000.0, 6000.0) and res.rules == ("marginal",)
-    old = _pareto(small_library, "-o", str(tmp_path / "old"), "--budgets", "2000,6000", "--selectors", "marginal")
+    old = _pareto(small_library, "--output-dir", str(tmp_path / "old"), "--budgets", "2000,6000", "--selectors", "marginal")
     assert old.exit_code == 2 and "No such option '--selectors'" in old.stderr  # one name: --rules
     for args, msg in ((["--budgets", "1000,abc"], "'abc' is not a number"), (["--rules", "uniform,best"], "unknown rule 'best'")):
-        bad = _pareto(small_library, "-o", str(tmp_path / "bad"), *args)
+        bad = _pareto(small_library, "--output-dir", str(tmp_path / "bad"), *args)
         assert bad.exit_code == 2 and msg in bad.stderr and "Traceback" not in bad.output
         assert not (tmp_path / "bad").exists()

@@ -78,7 +78,7 @@ def test_pose_blocks_that_are_not_rotations_are_refused_naming_file_and_line(tmp
     with pytest.raises(ScenarioError) as err:
         read_kitti_poses(path)
     assert err.value.line == 3 and err.value.path == str(path) and fragment in str(err.value), str(err.value)
-    _cli_fails(["score", "--poses", str(path), "--suite", "LRL-roof"], f"{path}:3:", "not a rotation")
+    _cli_fails(["score", "--route", str(path), "--suite", "LRL-roof"], f"{path}:3:", "not a rotation")
 
 
 def test_rotation_within_the_tolerance_is_accepted(tmp_path):
@@ -109,7 +109,7 @@ def test_absurd_or_non_finite_landmarks_are_refused_naming_file_and_line(tmp_pat
         read_landmarks_csv(path)
     assert err.value.line == 3 and fragment in str(err.value), str(err.value)
     poses = write_kitti_poses(tmp_path / "drive.txt", _straight().poses)
-    _cli_fails(["score", "--poses", str(poses), "--landmarks", str(path), "--suite", "LRL-roof"], f"{path}:3:")
+    _cli_fails(["score", "--route", str(poses), "--landmarks", str(path), "--suite", "LRL-roof"], f"{path}:3:")
 
 
 def test_landmarks_up_to_the_limit_are_read(tmp_path):
@@ -137,7 +137,7 @@ def test_a_map_listed_twice_scores_as_the_map_once_and_says_so(tmp_path):
     rows = ["10,8", "20,-7", "35,9", "50,-6"]
     once = _write(tmp_path / "once.csv", ["x,y"] + rows)
     twice = _write(tmp_path / "twice.csv", ["x,y"] + rows + rows)
-    base = ["score", "--poses", str(poses), "--suite", "LRL-roof,LRR-12", "--json"]
+    base = ["score", "--route", str(poses), "--suite", "LRL-roof,LRR-12", "--json"]
     a = CliRunner().invoke(cli, base + ["--landmarks", str(once)])
     b = CliRunner().invoke(cli, base + ["--landmarks", str(twice)])
     assert a.exit_code == b.exit_code == 0, b.output
@@ -156,8 +156,8 @@ def test_a_map_out_of_the_routes_reach_is_an_error_naming_the_map(tmp_path):
         load_problem(ScenarioSpec(poses=str(poses), landmarks=str(far)))
     msg = str(err.value)
     assert str(far) in msg and "none of the 2 landmarks" in msg and "within reach" in msg
-    _cli_fails(["score", "--poses", str(poses), "--landmarks", str(far), "--suite", "LRL-roof"], str(far), "within reach")
-    _cli_fails(["greedy", "--poses", str(poses), "--landmarks", str(far), "--budget", "10000"], str(far), "within reach")
+    _cli_fails(["score", "--route", str(poses), "--landmarks", str(far), "--suite", "LRL-roof"], str(far), "within reach")
+    _cli_fails(["greedy", "--route", str(poses), "--landmarks", str(far), "--budget", "10000"], str(far), "within reach")
 
 
 def test_landmarks_out_of_reach_are_counted_in_the_problem_and_its_notes(tmp_path):
@@ -183,7 +183,7 @@ def test_a_map_mostly_out_of_reach_is_said_loudly(tmp_path):
     with pytest.warns(MapOutOfReachWarning, match=r"3 of 5 landmarks \(60 %\).*is this the route's map"):
         p = load_problem(ScenarioSpec(poses=str(poses), landmarks=str(lm)))
     assert p.n_landmarks_out_of_reach == 3 and not [n for n in p.notes if "sensor's reach" in n]  # said once
-    r = CliRunner().invoke(cli, ["score", "--poses", str(poses), "--landmarks", str(lm), "--suite", "LRL-roof"])
+    r = CliRunner().invoke(cli, ["score", "--route", str(poses), "--landmarks", str(lm), "--suite", "LRL-roof"])
     warn = [ln for ln in r.stderr.splitlines() if "out of every sensor's reach" in ln]
     assert len(warn) == 1 and warn[0].startswith(f"sensorsel: warning: landmarks {lm}: 3 of 5 landmarks (60 %)"), r.stderr
 

@@ -11,10 +11,13 @@ from typing import Any
 
 import click
 
+from sensorsel.cli.vocabulary import Command
+
 from sensorsel.api import (DEFAULT_MAX_NODES, Certificate, CertifiedGreedyResult, DomainDesign, DomainEvaluator,
                            GreedyResult, certify_result, check_affordable, check_budget, checkpoint_path,
                            constraints_mismatch, format_certificate, run_greedy, run_optimal)
 from sensorsel.cli.cluster import evaluator_on, require_domain
+from sensorsel.cli.common import is_result_file
 from sensorsel.errors import InputError, ResultFileError
 from sensorsel.io import results
 from sensorsel.io.files import output_file
@@ -23,7 +26,8 @@ from sensorsel.model.library import SensorLibrary
 from sensorsel.model.problem import ProblemMismatchWarning, check_result_problem
 
 from sensorsel.api import with_suite_quality
-from sensorsel.cli.options import (not_empty, budget_option, force_option, engine_options, json_option, output_option,
+from sensorsel.cli.options import not_empty as not_empty_file
+from sensorsel.cli.options import (budget_option, force_option, engine_options, json_option, output_option,
                                    progress_bar, quiet_option, print_target, run, target_from, target_options)
 from sensorsel.cli.options import check_map_sigma, map_sigma_option, print_accuracy
 from sensorsel.cli.integrity import integrity_from, integrity_options
@@ -59,7 +63,7 @@ def _check_result_constraints(res: GreedyResult, lib: SensorLibrary, path: str, 
     raise ResultFileError(path, f"{why}; {hint}")
 
 
-@click.command("optimal", short_help="Exact best suite within a budget (branch and bound), with greedy beside it.")
+@click.command("optimal", cls=Command, short_help="Exact best suite within a budget (branch and bound), with greedy beside it.")
 @target_options
 @engine_options
 @cluster_options
@@ -67,8 +71,8 @@ def _check_result_constraints(res: GreedyResult, lib: SensorLibrary, path: str, 
 @constraint_options
 @click.option("--max-nodes", type=click.IntRange(min=1), default=DEFAULT_MAX_NODES, show_default=True,
               help="Stop after expanding this many nodes (each scores one suite plus each candidate).")
-@click.option("--max-seconds", type=click.FloatRange(min=0, min_open=True), default=None,
-              help="Also stop after this much wall time [s] (the result then depends on the machine's speed).")
+@click.option("--time-limit", "time_limit", type=click.FloatRange(min=0, min_open=True), default=None, metavar="SECONDS",
+              help="Also stop the search after this long and report the gap (the result then depends on the machine's speed).")
 @map_sigma_option
 @integrity_options
 @output_option(help="Write the result as JSON here; the search's state is kept in FILE.checkpoint as it runs "
@@ -77,7 +81,7 @@ def _check_result_constraints(res: GreedyResult, lib: SensorLibrary, path: str, 
 @json_option
 @quiet_option
 @run
-def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output: str | None, resume: bool, as_json: bool,
+def optimal_cmd(budget: float, max_nodes: int, time_limit: float | None, output: str | None, resume: bool, as_json: bool,
                 quiet: bool,
                 aggregate: str, engine: str | None, jobs: int, map_sigma: float | None, estimate: str, **kw: Any) -> None:
     """The best suite within --budget, by branch and bound with the submodular knapsack bound.
@@ -88,7 +92,7 @@ def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output
     62-sensor library expect the node limit and a remaining gap. With --domain and
     --scheduler/--workers, each route is scored on a worker (every node's suites at once).
 
-    With --limit, --require, --exclude, --max-sensors or the library's mounting slots, the optimum
+    With --limit, --include, --exclude, --max-sensors or the library's mounting slots, the optimum
     is the best suite they allow (node bounds: an integer program over the marginal gains, by HiGHS).
 
     With -o FILE, an interrupted search goes on with --resume from its last checkpoint (FILE.checkpoint),
@@ -109,7 +113,7 @@ def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output
     bar, progress = progress_bar(quiet or as_json, "branch and bound (nodes)", eta=False)  # the node limit is a cap, not a forecast
     with cluster or nullcontext(), bar or nullcontext():
         ev = evaluator_on(cluster, problem, engine, jobs, aggregate)
-        res = run_optimal(problem, budget, max_nodes=max_nodes, max_seconds=max_seconds, progress=progress,
+        res = run_optimal(problem, budget, max_nodes=max_nodes, max_seconds=time_limit, progress=progress,
                           constraints=constraints, evaluator=ev, checkpoint=checkpoint_path(output) if output else None,
                           resume=resume)
     res = with_suite_quality(res, problem, map_sigma_m=map_sigma, engine=engine, estimate=estimate, integrity=integrity_spec)
@@ -144,27 +148,28 @@ def optimal_cmd(budget: float, max_nodes: int, max_seconds: float | None, output
         click.echo(f"wrote      {output}")
 
 
-@click.command("certify", short_help="How close a greedy suite is to the best possible one (an upper bound).")
-@click.argument("result", required=False, default=None, type=click.Path(dir_okay=False, path_type=str), metavar="[RESULT]")
+@click.command("certify", cls=Command, short_help="How close a greedy suite is to the best possible one (an upper bound).")
 @target_options
 @engine_options
 @cluster_options
-@click.option("--result", "result_path", type=click.Path(dir_okay=False, path_type=str), default=None, callback=not_empty,
-              help="A greedy result JSON (`sensorsel greedy -o FILE`) to certify; it must be of the same "
-                   "library, route, rate and landmarks (checked by content; see --force).")
-@budget_option(help="Without --result: run greedy at this budget in dollars (110000, 110,000, $110,000 or 110_000) and certify it.")
-@rule_option("best-of", "Without --result: the greedy rule.")
+@click.option("--suite", "result_path", type=click.Path(dir_okay=False, path_type=str), default=None, callback=not_empty_file,
+              metavar="FILE", help="The suite to certify: a greedy result file of sensor ids and the run that chose them "
+                                   "(`sensorsel greedy -o FILE`); it must be of the same library, route, rate and landmarks "
+                                   "(checked by content; see --force).")
+@budget_option(help="Without --suite: run greedy at this budget in dollars (110000, 110,000, $110,000 or 110_000) and certify it.")
+@rule_option("best-of", "Without --suite: the greedy rule.")
 @constraint_options
 @force_option
 @output_option(help="Write the certificate as JSON here.")
 @json_option
 @quiet_option
 @run
-def certify_cmd(result: str | None, result_path: str | None, budget: float | None, rule: str, force: bool, output: str | None,
+def certify_cmd(result_path: str | None, budget: float | None, rule: str, force: bool, output: str | None,
                 as_json: bool, quiet: bool, aggregate: str, engine: str | None, jobs: int, **kw: Any) -> None:
     """How close is a greedy suite to the best possible suite of its budget?
 
-    RESULT (or --result FILE): a greedy result JSON to certify, as `simulate --suite FILE` takes one.
+    --suite FILE: a greedy result to certify (its suite, and the greedy run that chose it), as
+    `simulate --suite FILE` takes one; or --budget DOLLARS: run greedy now and certify it.
 
     Evaluates the submodular upper bound f(S) + knapsack of the marginal gains (capacity: the
     budget) at every intermediate suite of the greedy run and keeps the smallest: no suite within
@@ -172,21 +177,21 @@ def certify_cmd(result: str | None, result_path: str | None, budget: float | Non
     provably cannot lower the bound are skipped). With --domain and --scheduler/--workers, each
     route is scored on a worker.
 
-    The bound respects the constraints of the run: those a --result file records (its library must
-    declare the same resources and slots; see --force), or, with --budget, --limit, --require,
+    The bound respects the constraints of the run: those a --suite file records (its library must
+    declare the same resources and slots; see --force), or, with --budget, --limit, --include,
     --exclude, --max-sensors and the library's mounting slots (then an integer program, by HiGHS).
     """
     constraints = constraints_from(kw)
-    if result is not None and result_path is not None and result != result_path:
-        raise InputError(f"give the greedy result once: {result} or --result {result_path}, not both")
-    result_path = result_path if result_path is not None else result
+    if result_path is not None and not is_result_file(result_path):
+        raise InputError(f"--suite {result_path}: certify bounds a greedy run, so it takes a greedy result file "
+                         "(sensorsel greedy -o FILE), not sensor ids; or give --budget DOLLARS to run greedy now")
     if result_path is not None and constraints != Constraints():
-        raise InputError("--result FILE is certified under the constraints it records: give --limit, --no-slots, "
-                         "--require, --owned, --exclude or --max-sensors only with --budget")
+        raise InputError("--suite FILE is certified under the constraints it records: give --limit, --no-slots, "
+                         "--include, --owned, --exclude or --max-sensors only with --budget")
     if result_path is not None and budget is not None:
-        raise InputError("give either --result FILE (a greedy result) or --budget DOLLARS (run greedy now), not both")
+        raise InputError("give either --suite FILE (a greedy result) or --budget DOLLARS (run greedy now), not both")
     if result_path is None and budget is None:
-        raise InputError("give --result FILE (a greedy result to certify) or --budget DOLLARS (run greedy now)")
+        raise InputError("give --suite FILE (a greedy result to certify) or --budget DOLLARS (run greedy now)")
     if output:
         output_file(output)
     cluster = cluster_from(kw)
@@ -215,7 +220,7 @@ def certify_cmd(result: str | None, result_path: str | None, budget: float | Non
 
 def _certify(problem: Any, cluster: Any, result_path: str | None, budget: float | None, rule: str, force: bool, quiet: bool,
              engine: str | None, jobs: int, aggregate: str, constraints: Constraints) -> tuple[Any, Certificate]:
-    """The greedy result (read from --result, under the constraints it records; or run now under
+    """The greedy result (read from --suite, under the constraints it records; or run now under
     ``constraints``) and its certificate, on ``cluster`` if given."""
     if result_path is not None:
         loaded = results.load(result_path, (CertifiedGreedyResult, DomainDesign))

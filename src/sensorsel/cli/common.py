@@ -1,5 +1,5 @@
 """Helpers the commands share that are not options: a suite read from ids or a result file, and a
-specification in metres from its options (``select --require`` and ``require``)."""
+specification in metres from its options (``greedy``, ``pareto`` and ``require``)."""
 
 from __future__ import annotations
 

@@ -10,6 +10,8 @@ from typing import Any
 
 import click
 
+from sensorsel.cli.vocabulary import Command
+
 from sensorsel.api import score_domain_suite, score_suite, suite_integrity, with_suite_quality
 from sensorsel.cli.cluster import domain_evaluator_on, require_domain
 from sensorsel.cli.options import (engine_options, json_option, output_option, plot_format_option, print_target,
@@ -18,7 +20,7 @@ from sensorsel.cli.options import (engine_options, json_option, output_option, p
 from sensorsel.cli.options import check_map_sigma, map_sigma_option, print_accuracy
 from sensorsel.cli.integrity import integrity_from, integrity_options
 from sensorsel.cli.options import cluster_from, cluster_options, constraint_options, constraints_from, usage_table
-from sensorsel.cli.options import force_option
+from sensorsel.cli.options import echo_written, force_option, quiet_option
 from sensorsel.cli.options import plot_format as plot_format_of
 from sensorsel.cli.common import is_result_file, read_suite
 from sensorsel.errors import InputError
@@ -45,11 +47,12 @@ def library_json(lib: SensorLibrary) -> str:
                       indent=2, allow_nan=False) + "\n"
 
 
-@click.command("library", short_help="List the 62 placed sensors of the library (id, index, model, cost).")
+@click.command("library", cls=Command, short_help="List the 62 placed sensors of the library (id, index, model, cost).")
 @click.option("--library", "library_path", type=click.Path(dir_okay=False, path_type=str), help="Sensor library YAML (default: the paper's Table I).")
 @json_option
+@quiet_option
 @run
-def library_cmd(library_path: str | None, as_json: bool) -> None:
+def library_cmd(library_path: str | None, as_json: bool, quiet: bool) -> None:
     """List the placed sensors of the library (id, paper index, model, position, range, FOV, cost),
     what each uses of the resources the file declares (what --limit can bound), and its mounting slots."""
     lib = load_library(library_path)
@@ -82,26 +85,26 @@ def library_cmd(library_path: str | None, as_json: bool) -> None:
         click.echo("slots      none (no mounting limits; a file can add them: see configs/car_one_radar_one_camera.yaml)")
 
 
-@click.command("score", short_help="Score a suite: cost and f(S) = log det gain over no sensor [nats].")
+@click.command("score", cls=Command, short_help="Score a suite: cost and f(S) = log det gain over no sensor [nats].")
 @target_options
 @engine_options
 @cluster_options
-@click.option("--suite", required=True, callback=suite_text, help="Comma-separated sensor ids or indices, e.g. LRL-roof,LRR-12 (see "
-              "`sensorsel library`), or a result JSON (`sensorsel greedy -o FILE`, ...: its suite; computed on "
-              "the same problem, see --force).")
+@click.option("--suite", required=True, callback=suite_text, metavar="IDS|FILE", help="Comma-separated sensor ids or indices, e.g. LRL-roof,LRR-12 (see "
+              "`sensorsel library`), or a result JSON (`sensorsel greedy -o FILE`, ...: its suite; computed on the same problem, see --force).")
 @constraint_options
 @force_option
 @map_sigma_option
 @integrity_options
 @json_option
+@quiet_option
 @run
-def score_cmd(suite: str, as_json: bool, aggregate: str, engine: str | None, jobs: int, force: bool,
+def score_cmd(suite: str, as_json: bool, quiet: bool, aggregate: str, engine: str | None, jobs: int, force: bool,
               map_sigma: float | None, estimate: str, **kw: Any) -> None:
     """Score a sensor suite: cost and f(S) = log det L(S) - log det L(empty) in nats.
 
     With --domain FILE: the suite's score on every route, each as a share of the route's best, and
     the domain score (their weighted sum, --aggregate). With --scheduler/--workers, each route is
-    built, normalised and scored on a worker. With --limit, --max-sensors, --require or --exclude
+    built, normalised and scored on a worker. With --limit, --max-sensors, --include or --exclude
     (or a library with mounting slots): what the suite uses of each limit, and what it breaks.
 
     Also the suite's accuracy in metres and degrees (lateral, longitudinal, heading: 95 % errors over
@@ -164,22 +167,24 @@ def _print_limits(feas: FeasibleSet, suite: tuple[int, ...]) -> None:
     click.echo("fits       every limit" if not broken else f"breaks     {'; '.join(broken)}")
 
 
-@click.command("scene", short_help="Draw the route, landmarks and a suite's sensing cones (PNG/SVG/PDF).")
+@click.command("scene", cls=Command, short_help="Draw the route, landmarks and a suite's sensing cones (PNG/SVG/PDF).")
 @scenario_options
 @output_option(required=True, help="Image file (.png, .svg, .pdf).")
 @plot_format_option
-@click.option("--suite", default=None, callback=suite_text, help="Draw these sensors' cones: comma-separated ids, or a result JSON "
+@click.option("--suite", default=None, callback=suite_text, metavar="IDS|FILE", help="Draw these sensors' cones: comma-separated sensor ids, or a result JSON "
               "(`sensorsel greedy -o FILE`, ...: its suite; computed on the same problem, see --force).")
 @click.option("--pose", "pose_index", type=int, default=None, help="Keyframe at which to draw the cones (default: the middle one).")
 @click.option("--domain", "domain_path", type=click.Path(dir_okay=False, path_type=str), metavar="FILE", default=None,
               help="Draw an operating domain instead: every route, and its landmarks by class (sensorsel osm's domains).")
 @force_option
+@json_option
+@quiet_option
 @run
 def scene_cmd(output: str, plot_format: str | None, suite: str | None, pose_index: int | None, domain_path: str | None,
-              force: bool, **kw: Any) -> None:
+              force: bool, as_json: bool, quiet: bool, **kw: Any) -> None:
     """Draw the route and landmarks (the paper's Fig. 2), optionally a suite's sensing cones.
 
-    The format is --format, or else the extension of -o (.png, .svg, .pdf); the two must agree.
+    The format is --plot-format, or else the extension of -o (.png, .svg, .pdf); the two must agree.
     """
     from sensorsel.plotting import plot_domain_scene, plot_scene, save_figure, use_file_backend
 
@@ -189,7 +194,7 @@ def scene_cmd(output: str, plot_format: str | None, suite: str | None, pose_inde
             raise click.UsageError("--domain draws the routes and landmarks only: drop --suite and --pose")
         use_file_backend()
         ax = plot_domain_scene(domain_path)
-        click.echo(f"wrote {save_figure(ax.figure, output, close=True)}")
+        _said_written(save_figure(ax.figure, output, close=True), as_json, "scene", domain=domain_path)
         return
     problem = problem_from(kw)
     positions = _suite_positions(suite, problem, force) if suite else ()
@@ -204,8 +209,16 @@ def scene_cmd(output: str, plot_format: str | None, suite: str | None, pose_inde
         ranges = [e.range_m for e in condition_effects(problem.library, problem.condition)]
     ax = plot_scene(problem.scenario, library=problem.library, suite=positions, pose_index=pose_index, ranges_m=ranges,
                     condition=problem.condition.label if problem.condition is not None else None)
-    path = save_figure(ax.figure, output, close=True)
-    click.echo(f"wrote {path}")
+    _said_written(save_figure(ax.figure, output, close=True), as_json, "scene", scenario=problem.scenario.name,
+                  suite=list(problem.library.ids[i] for i in positions))
+
+
+def _said_written(path: Any, as_json: bool, kind: str, **fields: Any) -> None:
+    """``wrote PATH``, or with --json what was written as JSON."""
+    if as_json:
+        echo_written(kind, file=str(path), **fields)
+    else:
+        click.echo(f"wrote {path}")
 
 
 def _range_m(text: str, option: str) -> tuple[float, float]:
@@ -220,7 +233,7 @@ def _range_m(text: str, option: str) -> tuple[float, float]:
 _DEFAULT_MODEL = LandmarkModel()
 
 
-@click.command("landmarks", short_help="Generate synthetic landmarks along a route and write them as CSV.")
+@click.command("landmarks", cls=Command, short_help="Generate synthetic landmarks along a route and write them as CSV.")
 @scenario_options
 @click.option("--near-spacing", type=float, default=_DEFAULT_MODEL.near_spacing_m, show_default=True,
               help="Route length between two near landmarks on each roadside [m].")
@@ -230,12 +243,14 @@ _DEFAULT_MODEL = LandmarkModel()
               help="Route length between two far landmarks, on a random side [m].")
 @click.option("--far-offset", default="{:g},{:g}".format(*_DEFAULT_MODEL.far_offset_m), show_default=True, metavar="LOW,HIGH",
               help="Distance of far landmarks (buildings, hills) from the route [m].")
-@click.option("--clearance", type=float, default=_DEFAULT_MODEL.clearance_m, show_default=True,
-              help="No landmark closer than this to any point of the route (the road itself) [m].")
+@click.option("--clearance", type=float, default=_DEFAULT_MODEL.clearance_m, show_default=True, metavar="METRES",
+              help="No landmark closer than this to the route (any point of it: the road itself) [m].")
 @output_option(required=True, help="CSV file to write (x,y in metres).")
+@json_option
+@quiet_option
 @run
 def landmarks_cmd(near_spacing: float, near_offset: str, far_spacing: float, far_offset: str, clearance: float, output: str,
-                  **kw: Any) -> None:
+                  as_json: bool, quiet: bool, **kw: Any) -> None:
     """Generate synthetic landmarks along the route with the given densities and distances (seeded by
     --landmark-seed) and write them as CSV (x,y in sensorsel's planar frame, metres).
 
@@ -260,7 +275,10 @@ def landmarks_cmd(near_spacing: float, near_offset: str, far_spacing: float, far
     else:
         landmarks = route_landmarks(spec)
     path = write_landmarks_csv(output, landmarks)
-    click.echo(f"wrote {len(landmarks)} landmarks to {path}")
+    if as_json:
+        echo_written("landmarks", file=str(path), landmarks=len(landmarks), seed=spec.landmark_seed)
+    else:
+        click.echo(f"wrote {len(landmarks)} landmarks to {path}")
 
 
 COMMANDS = [library_cmd, score_cmd, scene_cmd, landmarks_cmd]

@@ -6,6 +6,8 @@ from typing import Any, Callable
 
 import click
 
+from sensorsel.cli.vocabulary import TopicOption
+
 #: the integrity options' destinations, popped from a command's keywords by :func:`integrity_from`
 INTEGRITY_KEYS = ("integrity_risk", "alert_lateral", "alert_longitudinal", "alert_heading", "gate_probability",
                    "max_association_risk")
@@ -16,17 +18,17 @@ def integrity_options(fn: Callable[..., Any]) -> Callable[..., Any]:
     and the lever (defaults: Reid et al.'s local streets, 10⁻⁸ per hour; docs/guide-integrity.md).
     Read them with :func:`integrity_from`."""
     opts = [
-        click.option("--integrity-risk", "integrity_risk", type=float, default=1e-8, show_default=True, metavar="P",
+        click.option("--integrity-risk", "integrity_risk", cls=TopicOption, topic="integrity", type=float, default=1e-8, show_default=True, metavar="P",
                      help="Integrity: the allowed probability per hour of an error beyond an alert limit."),
-        click.option("--alert-lateral", "alert_lateral", type=float, default=0.29, show_default=True, metavar="METRES",
+        click.option("--alert-lateral", "alert_lateral", cls=TopicOption, topic="integrity", type=float, default=0.29, show_default=True, metavar="METRES",
                      help="Integrity: the lateral alert limit [m]."),
-        click.option("--alert-longitudinal", "alert_longitudinal", type=float, default=0.29, show_default=True,
+        click.option("--alert-longitudinal", "alert_longitudinal", cls=TopicOption, topic="integrity", type=float, default=0.29, show_default=True,
                      metavar="METRES", help="Integrity: the longitudinal alert limit [m]."),
-        click.option("--alert-heading", "alert_heading", type=float, default=0.50, show_default=True, metavar="DEG",
+        click.option("--alert-heading", "alert_heading", cls=TopicOption, topic="integrity", type=float, default=0.50, show_default=True, metavar="DEGREES",
                      help="Integrity: the heading alert limit [deg]."),
-        click.option("--gate-probability", "gate_probability", type=float, default=0.9999, show_default=True,
+        click.option("--gate-probability", "gate_probability", cls=TopicOption, topic="integrity", type=float, default=0.9999, show_default=True,
                      metavar="P", help="Integrity: the associator's chi-square gate probability (2 degrees of freedom)."),
-        click.option("--max-association-risk", "max_association_risk", type=float, default=None, metavar="P",
+        click.option("--max-association-risk", "max_association_risk", cls=TopicOption, topic="integrity", type=float, default=None, metavar="P",
                      help="Integrity: leave out (do not use) every measurement whose probability of a wrong association "
                           "exceeds P; accuracy and integrity are then computed with what is used."),
     ]

@@ -6,24 +6,28 @@ from __future__ import annotations
 
 import click
 
-from sensorsel.cli.options import output_option, run
+from sensorsel.cli.vocabulary import Command
+
+from sensorsel.cli.options import echo_written, json_option, output_option, quiet_option, run
 
 
-@click.command("kitti", short_help="Build the KITTI folder (routes and pole maps) from the downloaded sources.")
+@click.command("kitti", cls=Command, short_help="Build the KITTI folder (routes and pole maps) from the downloaded sources.")
 @click.option("--odometry", required=True, type=click.Path(file_okay=False, path_type=str),
               help="KITTI odometry's dataset/ folder: poses/NN.txt, sequences/NN/times.txt and sequences/NN/calib.txt "
                    "(data_odometry_poses and data_odometry_calib).")
 @click.option("--poles", required=True, type=click.Path(file_okay=False, path_type=str),
               help="A clone of PRBonn/pole-localization, or the folder holding its kitti_label_NN/globalmap_gt_cluster.npz.")
-@click.option("--seq", "seqs", default=None, metavar="NN[,NN...]",
-              help="Sequences to build (default: every one with both a pose file and a pole map).")
+@click.option("--seq", "seqs", multiple=True, metavar="NN",
+              help="A KITTI odometry sequence to build (repeatable; default: every one with both a pose file and a pole map).")
 @output_option(folder=True, required=True,
                help="The KITTI folder to write (poses/, sequences/NN/times.txt, landmarks/NN.csv); may be --odometry itself.")
+@json_option
+@quiet_option
 @run
-def kitti_cmd(odometry: str, poles: str, seqs: str | None, output: str) -> None:
+def kitti_cmd(odometry: str, poles: str, seqs: tuple[str, ...], outdir: str, as_json: bool, quiet: bool) -> None:
     """Build the folder --kitti-root and $SENSORSEL_KITTI_ROOT point at, from what a user downloads:
 
-        sensorsel kitti --odometry dataset/ --poles pole-localization/ -o kitti/
+        sensorsel kitti --odometry dataset/ --poles pole-localization/ --output-dir kitti/
 
     Each pole of PRBonn's map (x, y in the Velodyne frame of the first scan) is taken by the sequence's
     calibration Tr into camera-0 coordinates p, then into the route's planar frame as (p_z, -p_x),
@@ -33,12 +37,17 @@ def kitti_cmd(odometry: str, poles: str, seqs: str | None, output: str) -> None:
     """
     from sensorsel.model.scenario.kitti_sources import build_kitti_folder, find_sources
 
-    wanted = None if seqs is None else [s.strip() for s in seqs.split(",") if s.strip()]
-    if wanted is not None and not wanted:
-        raise click.BadParameter("give at least one sequence (e.g. 03 or 00,03)", param_hint="--seq")
-    for b in build_kitti_folder(find_sources(odometry, poles, wanted), output):
-        click.echo(f"{b.seq}  {b.frames:>5} frames  {b.poles:>4} poles (median {b.median_distance_m:.1f} m from the "
-                   f"route)  wrote {b.landmarks}")
+    wanted = [x.strip() for s in seqs for x in s.split(",") if x.strip()] or None
+    if seqs and wanted is None:
+        raise click.BadParameter("give a sequence (e.g. --seq 03 --seq 00)", param_hint="--seq")
+    built = build_kitti_folder(find_sources(odometry, poles, wanted), outdir)
+    if as_json:
+        echo_written("kitti", folder=outdir, sequences=[{"seq": b.seq, "frames": b.frames, "poles": b.poles,
+                                                          "median_distance_m": b.median_distance_m, "landmarks": str(b.landmarks)}
+                                                         for b in built])
+        return
+    for b in built:
+        click.echo(f"{b.seq}  {b.frames:>5} frames  {b.poles:>4} poles (median {b.median_distance_m:.1f} m from the route)  wrote {b.landmarks}")
 
 
 COMMANDS = [kitti_cmd]

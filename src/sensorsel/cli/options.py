@@ -4,8 +4,9 @@ Every command that takes a budget uses :func:`budget_option` (110000, 110,000, $
 every command that draws progress has :func:`quiet_option` (-q/--quiet, --progress/--no-progress) and
 draws it with :func:`~sensorsel.cli.progress.progress_bar`; every command that produces
 a result has :func:`json_option` (--json: the result's JSON on stdout); every command that draws a
-plot has :func:`plot_format_option` (--format png|svg|pdf; default: a file output's extension, else
-png); every -o uses :func:`output_option`, which refuses an empty name.
+plot has :func:`plot_format_option` (--plot-format png|svg|pdf; default: a file output's extension, else
+png); every -o/--output FILE and --output-dir DIRECTORY uses :func:`output_option`, which refuses an
+empty name. The names and meanings are those of :mod:`sensorsel.cli.vocabulary`.
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ import click
 
 from sensorsel.errors import InputError, SensorselError, SensorselWarning
 from sensorsel.api import AGGREGATES, ESTIMATES
+from sensorsel.cli.vocabulary import TopicOption
 from sensorsel.cli.progress import progress_bar, progress_flag  # noqa: F401 (progress_bar: the commands import it from here)
 from sensorsel.model.conditions import parse_condition
 from sensorsel.model.library import SensorLibrary
@@ -96,7 +98,8 @@ def budget_option(*, required: bool = False, default: float | None = None, multi
 
 def quiet_option(fn: F) -> F:
     """-q/--quiet and --progress/--no-progress (:mod:`sensorsel.cli.progress`)."""
-    return click.option("-q", "--quiet", is_flag=True, help="No progress on stderr (unless --progress).")(progress_flag(fn))
+    return click.option("-q", "--quiet", is_flag=True, help="No progress on stderr (unless --progress); errors and "
+                        "warnings are still said.")(progress_flag(fn))
 
 
 def json_option(fn: F) -> F:
@@ -105,20 +108,28 @@ def json_option(fn: F) -> F:
                         help="Print the result as JSON on stdout (its \"kind\" and \"format\" first) instead of the summary.")(fn)
 
 
+def echo_written(kind: str, **fields: Any) -> None:
+    """--json of a command that writes files rather than a result (scene, landmarks, osm, kitti): what
+    it wrote, as one JSON object on stdout, its "kind" and "format" first like every result's."""
+    import json
+
+    click.echo(json.dumps({"kind": kind, "format": 1, **fields}, indent=2))
+
+
 PLOT_FORMATS = ("png", "svg", "pdf")
 
 
 def plot_format_option(fn: F) -> F:
-    """--format png|svg|pdf (--plot-format is the same option): the plots' file format."""
-    return click.option("--format", "--plot-format", "plot_format", type=click.Choice(PLOT_FORMATS), default=None,
-                        help="Plot file format (default: the extension of a file -o, else png).")(fn)
+    """--plot-format png|svg|pdf: the plots' file format."""
+    return click.option("--plot-format", "plot_format", type=click.Choice(PLOT_FORMATS), default=None,
+                        help="The plots' file format (default: the extension of a file -o, else png).")(fn)
 
 
 def plot_format(chosen: str | None, output_file: str | None = None) -> str:
-    """The plot format: --format, else the extension of the output file, else png.
+    """The plot format: --plot-format, else the extension of the output file, else png.
 
     Raises:
-        InputError: an output file whose extension is not a plot format, or contradicts --format.
+        InputError: an output file whose extension is not a plot format, or contradicts --plot-format.
     """
     if output_file is None:
         return chosen or "png"
@@ -126,7 +137,7 @@ def plot_format(chosen: str | None, output_file: str | None = None) -> str:
     if ext not in PLOT_FORMATS:
         raise InputError(f"-o {output_file}: unsupported plot format {'.' + ext if ext else '(none)'!r}; use .png, .svg or .pdf")
     if chosen is not None and chosen != ext:
-        raise InputError(f"-o {output_file} is a .{ext} file but --format is {chosen}: give one or make them agree")
+        raise InputError(f"-o {output_file} is a .{ext} file but --plot-format is {chosen}: give one or make them agree")
     return ext
 
 
@@ -136,66 +147,56 @@ def not_empty(ctx: click.Context, param: click.Parameter, value: str | None) -> 
     return value
 
 
-def output_option(*, folder: bool = False, required: bool = False, dest: str = "output",
-                  help: str = "Write the result as JSON here.") -> Callable[[F], F]:
-    """-o/--output FILE (or FOLDER); an empty name is an error naming the option, not a silent no-op."""
-    return click.option("-o", "--output", dest, required=required, callback=not_empty,
-                        type=click.Path(file_okay=not folder, dir_okay=folder, path_type=str), help=help)
+def output_option(*, folder: bool = False, required: bool = False, help: str = "Write the result as JSON here.") -> Callable[[F], F]:
+    """-o/--output FILE (the argument ``output``), or with ``folder`` --output-dir DIRECTORY (the
+    argument ``outdir``: a command that writes several files); an empty name is an error naming the
+    option, not a silent no-op."""
+    if folder:
+        return click.option("--output-dir", "outdir", required=required, callback=not_empty,
+                            type=click.Path(file_okay=False, dir_okay=True, path_type=str), help=help)
+    return click.option("-o", "--output", "output", required=required, callback=not_empty,
+                        type=click.Path(dir_okay=False, path_type=str), help=help)
 
 
 def scenario_options(fn: Callable[..., Any]) -> Callable[..., Any]:
-    """--seq/--kitti-root/--route/--route-format/--poses/--times/--fixture/--name/--landmarks/
+    """--seq/--kitti-root/--route/--route-format/--up/--forward/--times/--fixture/--name/--landmarks/
     --georef/--osm-classes/--osm-reach/--landmark-seed/--clearance/--rate/--library."""
     opts = [
-        click.option("--seq", metavar="NN", help="KITTI odometry sequence (e.g. 03, 00); needs --kitti-root or $" + KITTI_ROOT_ENV + ". "
-                     "Its landmarks are the folder's pole map landmarks/NN.csv when there is one."),
-        click.option("--kitti-root", type=click.Path(file_okay=False, path_type=str), envvar=KITTI_ROOT_ENV, show_envvar=True,
+        click.option("--seq", metavar="NN", help="A KITTI odometry sequence (e.g. 03), with --kitti-root or $SENSORSEL_KITTI_ROOT; its pole map is its landmarks."),
+        click.option("--kitti-root", cls=TopicOption, topic="scenario", type=click.Path(file_okay=False, path_type=str), envvar=KITTI_ROOT_ENV, show_envvar=True,
                      help="KITTI odometry dataset/ folder (poses/NN.txt, sequences/NN/times.txt, optional landmarks/NN.csv)."),
         click.option("--route", type=click.Path(dir_okay=False, path_type=str),
-                     help="A route file: KITTI poses (12 numbers a line), a TUM trajectory (timestamp tx ty tz qx qy qz qw), "
-                          "a planar CSV (header t,x,y,heading; radians), positions only (t,x,y or Time,X,Y,Z: heading from "
-                          "the direction of travel) or a GPX track (georeferenced: --landmarks osm:FILE needs no --georef). "
-                          "The ground plane and forward axis are found from the route (--up, --forward)."),
-        click.option("--route-format", type=click.Choice(list(ROUTE_FORMATS)),
+                     help="A route file: KITTI poses, a TUM trajectory, a planar CSV (t,x,y[,heading]) or a GPX track; its ground plane and forward axis are found from it (docs/scenarios.md)."),
+        click.option("--route-format", cls=TopicOption, topic="scenario", type=click.Choice(list(ROUTE_FORMATS)),
                      help="Format of --route (default: csv for a .csv file, else by its first line: 12 numbers kitti, "
                           "8 numbers tum, a header csv)."),
-        click.option("--up", metavar="AXIS", help="With --route: the world axis that points up (+z, -y, ...), instead of the one "
+        click.option("--up", cls=TopicOption, topic="scenario", metavar="AXIS", help="With --route: the world axis that points up (+z, -y, ...), instead of the one "
                      "found from the route (the plane of its positions and the axis its rotations turn about)."),
-        click.option("--forward", metavar="AXIS", help="With a KITTI or TUM --route: the body axis that points ahead (+x, +z, ...), "
+        click.option("--forward", cls=TopicOption, topic="scenario", metavar="AXIS", help="With a KITTI or TUM --route: the body axis that points ahead (+x, +z, ...), "
                      "instead of the one found along the direction of travel."),
-        # --poses FILE is --route FILE --route-format kitti under its older name: kept working for
-        # scripts, hidden so that the help names one option per thing
-        click.option("--poses", type=click.Path(dir_okay=False, path_type=str), hidden=True,
-                     help="A route in KITTI's pose format (as --route FILE --route-format kitti)."),
-        click.option("--times", type=click.Path(dir_okay=False, path_type=str), help="Timestamps of a KITTI --route file (default: 10 Hz, said on stderr)."),
+        click.option("--times", cls=TopicOption, topic="scenario", type=click.Path(dir_okay=False, path_type=str), help="Timestamps of a KITTI --route file (default: 10 Hz, said on stderr)."),
         click.option("--fixture", default="suburb", show_default=True, help="Bundled synthetic scenario used when no route is given."),
-        click.option("--name", "scenario_name", metavar="TEXT", help="Name of the scenario (default: the sequence, fixture or route file's name)."),
+        click.option("--name", "scenario_name", cls=TopicOption, topic="scenario", metavar="TEXT", help="Name of the scenario (default: the sequence, fixture or route file's name)."),
         click.option("--landmarks", metavar="real|synthetic|FILE|osm:FILE", multiple=True,
-                     help="Landmarks: 'real' (the sequence's pole map), 'synthetic' (generated), or a CSV file (x,y columns, "
-                          "metres, planar; or x,y,z in the route's frame, projected into its ground plane; other columns "
-                          "ignored). Default: the route's own map, else synthetic. osm:FILE (repeatable): an OpenStreetMap "
-                          "extract's pole-like landmarks near a georeferenced route (--georef, or a GPX --route), merged with "
-                          "the one other --landmarks given (an OSM landmark within 2 m of one of its landmarks is dropped as the "
-                          "same object); landmarks per km of route per class on stderr (docs/guide-new-city.md)."),
-        click.option("--georef", metavar="LAT,LON,BEARING|utm:ZONE",
+                     help="The landmark map: real (the sequence's pole map), synthetic (generated), a CSV file (x,y in metres), or osm:FILE (repeatable: an OpenStreetMap extract's landmarks merged with it; docs/guide-new-city.md). Default: the route's own map, else synthetic."),
+        click.option("--georef", cls=TopicOption, topic="scenario", metavar="LAT,LON,BEARING|utm:ZONE",
                      help="Where the route lies, for --landmarks osm:FILE: the latitude, longitude [deg] of its (0, 0) and the "
                           "compass bearing [deg, clockwise from north] of its +X axis (a KITTI sequence: the car's heading at "
                           "its first frame), or utm:35N when its x, y are UTM easting and northing. A GPX route needs none."),
-        click.option("--osm-classes", metavar="CLASSES",
+        click.option("--osm-classes", cls=TopicOption, topic="scenario", metavar="CLASSES",
                      help="With --landmarks osm:FILE: landmark classes, comma-separated, or all (default): street_lamp,"
                           "utility_pole,power_pole,flagpole,tree,traffic_signals,stop,give_way,traffic_sign."),
-        click.option("--osm-reach", "osm_reach_m", type=float, metavar="METRES",
+        click.option("--osm-reach", "osm_reach_m", cls=TopicOption, topic="scenario", type=float, metavar="METRES",
                      help="With --landmarks osm:FILE: the OSM landmarks within this distance of the route (default: 100)."),
-        click.option("--landmark-seed", type=int, default=0, show_default=True, help="Seed of the synthetic landmark generator."),
-        click.option("--clearance", "clearance_m", type=click.FloatRange(min=0.0), metavar="METRES",
+        click.option("--landmark-seed", cls=TopicOption, topic="scenario", type=int, default=0, show_default=True, help="Seed of the synthetic landmark generator."),
+        click.option("--clearance", "clearance_m", cls=TopicOption, topic="scenario", type=click.FloatRange(min=0.0), metavar="METRES",
                      help="Drop landmarks closer than this to the route (standing on the road). Default: keep them, counted on "
                           "stderr; exact duplicates are always merged."),
-        click.option("--rate", "keyframe_rate_hz", type=float, default=1.0, show_default=True, help="Keyframe rate along the route [Hz]."),
+        click.option("--rate", "keyframe_rate_hz", cls=TopicOption, topic="scenario", type=float, default=1.0, show_default=True, metavar="HZ",
+                     help="Keyframe rate along the route [Hz]: keyframes a second."),
         click.option("--library", "library_path", type=click.Path(dir_okay=False, path_type=str), help="Sensor library YAML (default: the paper's Table I)."),
         click.option("--condition", "condition_text", metavar="CONDITION",
-                     help="Operating condition: night, rain_mm_h=MM_PER_H, fog_visibility_m=METRES, snow_mm_h=MM_PER_H, "
-                          "combined with commas (night,rain_mm_h=5); ranges and noise follow the library's published "
-                          "models (docs/guide-conditions.md). Default: clear."),
+                     help="Operating condition: night, rain_mm_h=MM_PER_H, fog_visibility_m=METRES, snow_mm_h=MM_PER_H, combined with commas (docs/guide-conditions.md). Default: clear."),
     ]
     # A command's own option of the same name wins (`landmarks` has its generator's --clearance, the
     # same rule applied while generating): the shared one is then not added, and spec_from leaves
@@ -210,18 +211,17 @@ def scenario_options(fn: Callable[..., Any]) -> Callable[..., Any]:
 
 def spec_from(kw: dict[str, Any]) -> ScenarioSpec:
     """Pop the scenario options out of a command's keyword arguments."""
-    given = [f"--{k}" for k in ("seq", "route", "poses") if kw.get(k)]
+    given = [f"--{k}" for k in ("seq", "route") if kw.get(k)]
     if len(given) > 1:
         raise click.UsageError(f"give one route: {' or '.join(given)}, not {len(given) == 2 and 'both' or 'several'}")
     if kw.get("route_format") and not kw.get("route"):
         raise click.UsageError(f"--route-format {kw['route_format']} goes with --route FILE")
     for option in ("up", "forward"):
-        if kw.get(option) and not (kw.get("poses") or kw.get("route")):
+        if kw.get(option) and not kw.get("route"):
             raise click.UsageError(f"--{option} {kw[option]} goes with --route FILE (a --seq or fixture is in KITTI's camera frame)")
-    if kw.get("times") and not (kw.get("poses") or kw.get("route")):
+    if kw.get("times") and not kw.get("route"):
         # a --seq or a fixture reads its own times.txt: a --times here would be silently ignored
-        raise click.UsageError(f"--times {kw['times']} goes with a KITTI --route FILE (or its older name --poses FILE); a --seq or "
-                               "fixture has its own times.txt")
+        raise click.UsageError(f"--times {kw['times']} goes with a KITTI --route FILE; a --seq or fixture has its own times.txt")
     text = kw.pop("condition_text", None)
     condition = parse_condition(text) if text is not None else None
     given_landmarks = kw.pop("landmarks")
@@ -236,7 +236,7 @@ def spec_from(kw: dict[str, Any]) -> ScenarioSpec:
         condition=condition if condition is not None and not condition.neutral else None,
         seq=kw.pop("seq"),
         kitti_root=kw.pop("kitti_root"),
-        poses=kw.pop("poses"),
+        poses=None,
         times=kw.pop("times"),
         fixture=kw.pop("fixture"),
         landmarks=others[0] if others else None,
@@ -265,20 +265,25 @@ def problem_from(kw: dict[str, Any]) -> Problem:
     return problem
 
 
-def target_options(fn: Callable[..., Any]) -> Callable[..., Any]:
+def target_options(fn: Callable[..., Any] | None = None, *, aggregate: bool = True) -> Any:
     """The scenario options, plus --domain FILE (an operating domain of routes instead of one route)
-    and --aggregate (how a domain combines its routes' scores)."""
-    fn = click.option("--aggregate", type=click.Choice(list(AGGREGATES)), default=AGGREGATES[0], show_default=True,
-                      help="With --domain: normalised = the weighted sum of each route's share of its best, "
-                           "f_r(S)/f_r(all sensors); raw = the weighted sum of f_r(S) in nats.")(fn)
+    and, unless ``aggregate`` is False (a command whose answer no domain score decides),
+    --aggregate (how a domain combines its routes' scores). ``@target_options`` or
+    ``@target_options(aggregate=False)``."""
+    if fn is None:
+        return lambda f: target_options(f, aggregate=aggregate)
+    if aggregate:
+        fn = click.option("--aggregate", type=click.Choice(list(AGGREGATES)), default=AGGREGATES[0], show_default=True,
+                          metavar="AGGREGATE",
+                          help="With --domain: normalised = the weighted sum of each route's share of its best, "
+                               "f_r(S)/f_r(all sensors); raw = the weighted sum of f_r(S) in nats.")(fn)
     fn = click.option("--domain", "domain_path", type=click.Path(dir_okay=False, path_type=str), metavar="FILE",
-                      help="An operating-domain YAML file (routes, landmarks, weights; see configs/domain_fixtures.yaml): "
-                           "choose one suite for all its routes. Replaces the route options.")(fn)
+                      help="An operating-domain YAML file (routes, landmarks, weights; docs/guide-domain.md): one suite for all its routes, instead of the route options.")(fn)
     return scenario_options(fn)
 
 
 #: scenario options that choose a route or its landmarks: refused together with --domain
-_ROUTE_OPTIONS = ("seq", "route", "poses", "times", "landmarks", "scenario_name", "clearance_m", "up", "forward", "condition_text",
+_ROUTE_OPTIONS = ("seq", "route", "times", "landmarks", "scenario_name", "clearance_m", "up", "forward", "condition_text",
                   "georef", "osm_classes", "osm_reach_m")
 
 
@@ -307,19 +312,17 @@ def cluster_options(fn: Callable[..., Any]) -> Callable[..., Any]:
     """--scheduler ADDRESS and --workers N: run on a Dask cluster (the ``sensorsel[dask]`` extra).
     Read by :func:`cluster_from`; without either, nothing imports Dask."""
     fn = click.option("--workers", "dask_workers", type=click.IntRange(min=1), default=None, metavar="N",
-                      help="Start a local Dask cluster of N worker processes for this run (stopped at its end; "
-                           "needs the extra: pip install \"sensorsel[dask]\").")(fn)
+                      help="Start a local Dask cluster of N worker processes for this run (the sensorsel[dask] extra).")(fn)
     fn = click.option("--scheduler", "dask_scheduler", metavar="ADDRESS", default=None,
-                      help="Run on an existing Dask cluster, e.g. tcp://10.0.0.5:8786 (every worker must read the same "
-                           "files at the same paths). Results do not depend on it.")(fn)
+                      help="Run on an existing Dask cluster (tcp://HOST:8786); results do not depend on it.")(fn)
     return fn
 
 
 def resume_option(fn: Callable[..., Any]) -> Callable[..., Any]:
     """--resume: the store's option, declared once for every selecting command (sensorsel.pipeline:
-    each task's result is stored under -o as it finishes, with the fingerprint of its inputs)."""
+    each task's result is stored under --output-dir, or beside -o FILE, as it finishes, with the fingerprint of its inputs)."""
     return click.option("--resume", is_flag=True,
-                        help="Go on from what an interrupted run left under -o: stored results whose inputs match this "
+                        help="Go on from what an interrupted run left under --output-dir or beside -o FILE: stored results whose inputs match this "
                              "run are read back; one of other inputs (or damaged) is not: a warning names the file and "
                              "what differs, and it is computed again and overwritten. The same answer, timings aside.")(fn)
 
@@ -345,8 +348,8 @@ def engine_options(fn: Callable[..., Any]) -> Callable[..., Any]:
     """--engine and --jobs."""
     from sensorsel.api import ENGINES
 
-    fn = click.option("--jobs", type=click.IntRange(min=1), default=os.cpu_count() or 1, show_default="all cores",
-                      help="Threads scoring candidate suites in parallel, fast engine (results do not depend on it).")(fn)
+    fn = click.option("--jobs", type=click.IntRange(min=1), default=os.cpu_count() or 1, show_default="all cores", metavar="N",
+                      help="Threads scoring candidate suites (results do not depend on it).")(fn)
     fn = click.option("--engine", type=click.Choice(sorted(ENGINES)), default=None,
                       help="Scoring engine (default: the fastest; 'reference' rebuilds the GTSAM graph per suite).")(fn)
     return fn
@@ -423,19 +426,17 @@ def compact_suite(suite: Sequence[str], library: SensorLibrary | None = None) ->
 
 
 def constraint_options(fn: Callable[..., Any]) -> Callable[..., Any]:
-    """--limit RES=VAL (repeatable), --no-slots, --require IDS, --owned, --exclude IDS, --max-sensors N:
+    """--limit RES=VAL (repeatable), --no-slots, --include IDS, --owned, --exclude IDS, --max-sensors N:
     limits besides the budget (:mod:`sensorsel.model.constraints`); read them with :func:`constraints_from`."""
     for deco in reversed([
         click.option("--limit", "limits", multiple=True, metavar="RESOURCE=VALUE",
-                     help="Most the suite may use of a resource the library declares (repeatable): "
-                          "--limit power_w=100 --limit data_rate_mbps=1000. See `sensorsel library`."),
+                     help="Most the suite may use of a resource the library declares (repeatable): power_w=100 (see `sensorsel library`)."),
         click.option("--no-slots", "no_slots", is_flag=True, default=False,
                      help="Ignore the library's mounting slots (at most N sensors of a type at a place)."),
-        click.option("--require", "require", default=None, metavar="IDS", callback=suite_text,
+        click.option("--include", "include", default=None, metavar="IDS", callback=suite_text,
                      help="Sensors every suite must hold (comma-separated ids), e.g. ones already bought."),
         click.option("--owned", is_flag=True, default=False,
-                     help="With --require: those sensors are already paid for (their price is not counted "
-                          "against the budget; their power, mass and data rate are)."),
+                     help="With --include: those sensors are already paid for (their price is not counted against the budget)."),
         click.option("--exclude", "exclude", default=None, metavar="IDS", callback=suite_text,
                      help="Sensors no suite may hold (comma-separated ids)."),
         click.option("--max-sensors", type=click.IntRange(min=1), default=None, metavar="N",
@@ -451,10 +452,10 @@ def constraints_from(kw: dict[str, Any]) -> Any:
     from sensorsel.model.constraints import Constraints, parse_limit
     limits = [parse_limit(t) for t in kw.pop("limits", ()) or ()]
     no_slots = kw.pop("no_slots", False)
-    require, owned = kw.pop("require", None), kw.pop("owned", False)
+    require, owned = kw.pop("include", None), kw.pop("owned", False)
     exclude, max_sensors = kw.pop("exclude", None), kw.pop("max_sensors", None)
     if owned and not require:
-        raise InputError("--owned says the --require sensors are paid for: give --require IDS with it")
+        raise InputError("--owned says the --include sensors are paid for: give --include IDS with it")
     split = lambda t: [x.strip() for x in t.split(",") if x.strip()] if t else []  # noqa: E731
     return Constraints.of(limits=limits, slots=not no_slots, require=split(require), owned=owned,
                           exclude=split(exclude), max_sensors=max_sensors)
@@ -487,15 +488,13 @@ def map_sigma_option(fn: F) -> F:
     """--map-sigma METRES: accuracy lines computed localizing in a prior map (default: the SLAM graph);
     with it, --estimate (:func:`estimate_option`): every command that prints an accuracy has both."""
     return estimate_option(click.option("--map-sigma", "map_sigma", type=float, default=None, metavar="METRES",
-                                        help="Accuracy in metres computed localizing in a prior map whose landmarks are known to this "
-                                             "std [m] (default: in the paper's SLAM graph, landmarks unknown).")(fn))
+                                        help="Accuracy in a prior map whose landmarks are known to this std [m] (default: in the paper's SLAM graph, landmarks unknown).")(fn))
 
 
 def estimate_option(fn: F) -> F:
     """--estimate filter|smoother: the estimate an accuracy is of (default: the filter, as the car drives)."""
     return click.option("--estimate", "estimate", type=click.Choice(ESTIMATES), default="filter", show_default=True,
-                        help="Accuracy of the filter (at each keyframe from the measurements up to it: what the car "
-                             "has as it drives) or of the smoother (from every measurement of the route).")(fn)
+                        help="Accuracy of the filter (as the car drives: at each keyframe from the measurements up to it) or of the smoother (from the whole route).")(fn)
 
 
 def check_map_sigma(value: float | None) -> float | None:

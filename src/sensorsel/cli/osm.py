@@ -10,7 +10,9 @@ from contextlib import nullcontext
 from pathlib import Path
 import click
 
-from sensorsel.cli.options import output_option, quiet_option, run
+from sensorsel.cli.vocabulary import Command
+
+from sensorsel.cli.options import echo_written, json_option, output_option, quiet_option, run
 from sensorsel.cli.progress import progress_bar
 from sensorsel.io.progress import report
 from sensorsel.errors import InputError, SensorselWarning
@@ -27,7 +29,7 @@ def _source(file: str | None, sample: str | None) -> Path:
     return Path(str(file))
 
 
-@click.command("osm", short_help="An operating domain (routes + landmarks) from an OpenStreetMap extract.")
+@click.command("osm", cls=Command, short_help="An operating domain (routes + landmarks) from an OpenStreetMap extract.")
 @click.argument("file", required=False, type=click.Path(dir_okay=False, path_type=str))
 @click.option("--sample", default=None, metavar="NAME", help="A bundled sample city instead of FILE (helsinki).")
 @click.option("--bbox", default=None, metavar="W,S,E,N", help="Only this box [degrees] of the extract.")
@@ -39,9 +41,10 @@ def _source(file: str | None, sample: str | None) -> Path:
                    "tree,traffic_signals,stop,give_way,traffic_sign.")
 @click.option("--speed", "speed_kmh", type=float, default=30.0, show_default=True, help="Driving speed [km/h].")
 @click.option("--route-km", type=float, default=1.0, show_default=True, help="Length of one route of the domain [km].")
-@click.option("--reach", "reach_m", type=float, default=100.0, show_default=True,
-              help="A route's landmarks: those within this distance of it [m].")
-@click.option("--keyframe-rate", type=float, default=1.0, show_default=True, help="Keyframes a second along every route.")
+@click.option("--osm-reach", "reach_m", type=float, default=100.0, show_default=True, metavar="METRES",
+              help="A route's landmarks: those within this distance of the route [m].")
+@click.option("--rate", "keyframe_rate", type=float, default=1.0, show_default=True, metavar="HZ",
+              help="Keyframe rate along every route [Hz]: keyframes a second.")
 @click.option("--gpx", default=None, type=click.Path(dir_okay=False, path_type=str),
               help="Instead of the road network: this GPS track is the one route (its landmarks from the extract).")
 @click.option("--route", "route_file", default=None, type=click.Path(dir_okay=False, path_type=str),
@@ -52,16 +55,18 @@ def _source(file: str | None, sample: str | None) -> Path:
 @click.option("--merge-landmarks", default=None, type=click.Path(dir_okay=False, path_type=str),
               help="A survey landmark CSV (x,y in the route's frame) merged with the OSM landmarks (--gpx/--route).")
 @output_option(folder=True, required=True, help="Domain folder to write (domain.yaml, routes/, landmarks.csv, README.md).")
+@json_option
 @quiet_option
 @run
 def osm_cmd(file: str | None, sample: str | None, bbox: str | None, roads: str | None, osm_classes: str | None,
             speed_kmh: float, route_km: float, reach_m: float, keyframe_rate: float, gpx: str | None,
-            route_file: str | None, georef: str | None, merge_landmarks: str | None, output: str, quiet: bool) -> None:
+            route_file: str | None, georef: str | None, merge_landmarks: str | None, outdir: str, as_json: bool,
+            quiet: bool) -> None:
     """Write an operating domain for a city from its OpenStreetMap extract (.osm or .osm.pbf, read
     locally): routes along the selected roads that drive every one of them (weighted by length),
     keyframes at --speed, and the OSM pole-like landmarks by class. Every --domain command reads it:
 
-        sensorsel osm --sample helsinki -o city/ && sensorsel greedy --domain city/domain.yaml --budget 110000
+        sensorsel osm --sample helsinki --output-dir city/ && sensorsel greedy --domain city/domain.yaml --budget 110000
 
     With --gpx TRACK or --route FILE --georef ..., the domain is that one route with the extract's
     landmarks near it (and --merge-landmarks' survey). Prints landmarks per km of road per class and
@@ -74,7 +79,7 @@ def osm_cmd(file: str | None, sample: str | None, bbox: str | None, roads: str |
     box = parse_bbox(bbox) if bbox is not None else None
     classes = parse_classes(osm_classes)
     kinds = parse_roads(roads)
-    for name, v in (("--speed", speed_kmh), ("--route-km", route_km), ("--reach", reach_m), ("--keyframe-rate", keyframe_rate)):
+    for name, v in (("--speed", speed_kmh), ("--route-km", route_km), ("--osm-reach", reach_m), ("--rate", keyframe_rate)):
         if not (v == v and 0 < v < float("inf")):
             raise InputError(f"{name} {v!r}: expected a positive number")
     if (route_file is None) != (georef is None):
@@ -88,29 +93,35 @@ def osm_cmd(file: str | None, sample: str | None, bbox: str | None, roads: str |
         from sensorsel.model.osm.track import track_domain
 
         domain, notes = track_domain(path, box, classes, kinds, gpx, route_file, georef, merge_landmarks, speed_kmh, reach_m,
-                              keyframe_rate, output, command)
+                              keyframe_rate, outdir, command)
         for note in notes:
             click.echo(f"sensorsel: note: {note}", err=True)
-        click.echo(f"wrote {domain}")
+        if as_json:
+            echo_written("osm", domain=str(domain), notes=list(notes))
+        else:
+            click.echo(f"wrote {domain}")
         return
     # three stages that can each take a while on a large extract: say which one runs (a status line
     # off a terminal as each starts, once the run has gone on for a few seconds)
-    bar, progress = progress_bar(quiet, "osm", counted=False, eta=False)
+    bar, progress = progress_bar(quiet or as_json, "osm", counted=False, eta=False)
     with bar or nullcontext():
         report(progress, 0, 3, f"reading {path.name}")
         extract = read_osm(path, bbox=box, roads=kinds)
         report(progress, 1, 3, f"routes that drive every road of {len(extract.ways):,} ways")
         city = build_city(extract, classes, speed_kmh=speed_kmh, route_km=route_km, reach_m=reach_m)
         report(progress, 2, 3, f"writing {len(city.routes)} routes")
-        domain = write_city(city, extract, output, command=command, keyframe_rate_hz=keyframe_rate)
+        domain = write_city(city, extract, outdir, command=command, keyframe_rate_hz=keyframe_rate)
         report(progress, 3, 3, f"wrote {len(city.routes)} routes")
     for note in (*extract.notes, *city.notes):
         click.echo(f"sensorsel: note: {note}", err=True)
     warn = sparse_warning(city)
     if warn:
         warnings.warn(warn, SensorselWarning, stacklevel=1)
-    click.echo(f"city       {path}: {city.road_m / 1000:.2f} km of road "
-               f"({', '.join(k for k in kinds if not k.endswith('_link'))}), "
+    if as_json:
+        echo_written("osm", domain=str(domain), road_km=city.road_m / 1000, driven_km=city.driven_m / 1000,
+                     routes=len(city.routes), landmarks={c: {"count": n, "per_km": v} for c, n, v in density_table(city)})
+        return
+    click.echo(f"city       {path}: {city.road_m / 1000:.2f} km of road ({', '.join(k for k in kinds if not k.endswith('_link'))}), "
                f"{len(city.routes)} routes, {city.driven_m / 1000:.2f} km driven at {speed_kmh:g} km/h")
     click.echo(f"{'class':<16} {'landmarks':>9} {'per km':>7}")
     for c, n, v in density_table(city):

@@ -9,6 +9,8 @@ from typing import Any
 
 import click
 
+from sensorsel.cli.vocabulary import Command
+
 from sensorsel.api import (DEFAULT_MAP_SIGMA_M, RequireResult, RouteRequirement, checkpoint_path, integrity_preset,
                            run_require)
 from sensorsel.cli.cluster import domain_evaluator_on, require_domain
@@ -25,8 +27,8 @@ from sensorsel.io.files import output_file
 from sensorsel.model.problem import Domain
 
 
-@click.command("require", short_help="The cheapest suite that meets an accuracy specification in metres, with a proof.")
-@target_options
+@click.command("require", cls=Command, short_help="The cheapest suite that meets an accuracy specification in metres, with a proof.")
+@target_options(aggregate=False)
 @engine_options
 @cluster_options
 @constraint_options
@@ -47,15 +49,15 @@ from sensorsel.model.problem import Domain
 @click.option("--margin", "margin_text", default=None, metavar="PERCENT",
               help="Demand the specification with this much of each limit to spare, e.g. 10% (every error within 90 % "
                    "of its limit); default 0.")
-@click.option("--failures", type=click.IntRange(min=0), default=0, show_default=True,
+@click.option("--failures", type=click.IntRange(min=0), default=0, show_default=True, metavar="N",
               help="The suite must still meet the specification after any this many of its sensors fail.")
-@budget_option(help="Most the suite may cost [$] (default: no budget: the cheapest suite is the question).")
+@budget_option(help="Most the suite may cost, in dollars (default: no budget: the cheapest suite is the question).")
 @click.option("--time-limit", "time_limit", type=click.FloatRange(min=0, min_open=True), default=None, metavar="SECONDS",
               help="Stop the exact search after this long and report the gap (default: run until proved).")
 @click.option("--plot", "plot_path", type=click.Path(dir_okay=False, path_type=str), default=None,
               help="Draw the errors along the route with the requirement, and the route coloured by its margin "
                    "(png, svg or pdf by the extension; a domain: its route with the least margin).")
-@click.option("--compare", default=None, callback=suite_text, metavar="SUITE",
+@click.option("--compare", default=None, callback=suite_text, metavar="IDS|FILE",
               help="With --plot: a suite to draw beside the answer (ids, or a result file such as greedy's -o).")
 @output_option(help="Write the result as JSON (also when no suite meets the specification); the search's answers are "
                     "journalled in FILE.checkpoint as they come (deleted once FILE is written).")
@@ -65,7 +67,7 @@ from sensorsel.model.problem import Domain
 @run
 def require_cmd(map_sigma: float | None, slam: bool, estimate: str, in_conditions: str | None, margin_text: str | None, failures: int, budget: float | None, time_limit: float | None,
                 plot_path: str | None, compare: str | None, output: str | None, resume: bool, as_json: bool, quiet: bool,
-                aggregate: str, engine: str | None, jobs: int, integrity_flag: bool, **kw: Any) -> None:
+                engine: str | None, jobs: int, integrity_flag: bool, **kw: Any) -> None:
     """The cheapest suite that meets an accuracy specification, on a route or every route of a
     domain (--domain), with a lower bound on the cost of ANY suite that meets it: the answer is
     proved optimal, or the gap is stated.

@@ -9,6 +9,8 @@ from typing import Any
 
 import click
 
+from sensorsel.cli.vocabulary import Command
+
 from sensorsel.api import ALGORITHM_2, METHODS
 from sensorsel.errors import InputError
 from sensorsel.io import results
@@ -26,12 +28,12 @@ from sensorsel.cli.options import plot_format as plot_format_of
 from sensorsel.cli.rules import rule_option
 
 
-@click.command("resilient", short_help="Resilient selection against failing sensors, whole route and per period (grid).")
+@click.command("resilient", cls=Command, short_help="Resilient selection against failing sensors, whole route and per period (grid).")
 @target_options
 @engine_options
 @cluster_options
 @budget_option(default=110_000.0, help="Budget in dollars (110000, 110,000, $110,000 or 110_000), the sensors assumed to fail included.")
-@click.option("--failures", "alpha", type=int, default=1, show_default=True,
+@click.option("--failures", "alpha", type=click.IntRange(min=0), default=1, show_default=True, metavar="N",
               help="Number of sensors assumed to fail (alpha); 0 is plain greedy selection.")
 @click.option("--period", "period_s", type=float, default=10.0, show_default=True,
               help="Length of a period of the per-period selection [s of keyframe timestamps].")
@@ -41,7 +43,7 @@ from sensorsel.cli.rules import rule_option
                    "robust = robust selection (best exact worst case among greedy, "
                    "Algorithm 2 and more; never below either).")
 @constraint_options
-@output_option(folder=True, required=True, dest="outdir",
+@output_option(folder=True, required=True,
                help="Output folder: resilient.json, grid.csv, the grid plot, and periods/ (one file per period).")
 @plot_format_option
 @resume_option

@@ -8,6 +8,8 @@ from typing import Any
 
 import click
 
+from sensorsel.cli.vocabulary import Command
+
 from sensorsel.io import results
 from sensorsel.api import ROBUST_AGGREGATES  # --aggregate of this command: the combined score (as elsewhere), or the worst route
 from sensorsel.cli.cluster import domain_evaluator_on, require_domain
@@ -44,15 +46,15 @@ def _csv(xs: Any) -> str:
     return ",".join(xs) or "-"
 
 
-@click.command("robust", short_help="Robust selection: the best worst case under failing sensors, with its bound.")
+@click.command("robust", cls=Command, short_help="Robust selection: the best worst case under failing sensors, with its bound.")
 @_worst_aggregate
 @target_options
 @engine_options
 @cluster_options
 @budget_option(default=110_000.0, help="Budget in dollars (110000, 110,000, $110,000 or 110_000).")
-@click.option("--failures", "alpha", type=int, default=1, show_default=True,
+@click.option("--failures", "alpha", type=click.IntRange(min=0), default=1, show_default=True, metavar="N",
               help="Number of sensors that may fail (alpha); the design maximises the score left after the worst ALPHA.")
-@click.option("--rules", default="uniform,marginal", show_default=True,
+@click.option("--rules", default="uniform,marginal", show_default=True, metavar="RULES",
               help="Plain greedy rules run as candidates, comma-separated (uniform always runs).")
 @click.option("--methods", default=None,
               help="Further methods, comma-separated, or 'none' [default: oblivious,saturate,local-search; "
@@ -84,7 +86,7 @@ def robust_cmd(budget: float, alpha: int, rules: str, methods: str | None, no_sk
     aside. With -o FILE each method's outcome is kept in FILE.tasks/ as it comes; after an
     interruption, the same command with --resume reads back those whose inputs match.
 
-    --limit, --require, --exclude, --max-sensors and the library's slots hold for every candidate;
+    --limit, --include, --exclude, --max-sensors and the library's slots hold for every candidate;
     the bound then relaxes them to the budget alone (still an upper bound).
     """
     from sensorsel.api import run_robust

@@ -34,7 +34,7 @@ def rule_option(default: str, help: str = "") -> Callable[[Callable[..., Any]], 
 
 def rules_option(default: str) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
     """``--rules R1,R2`` (passed as ``rules=``, unparsed)."""
-    return click.option("--rules", default=default, show_default=True,
+    return click.option("--rules", default=default, show_default=True, metavar="RULES",
                         help=f"Comma-separated rules among {', '.join(RULES)}.")
 
 

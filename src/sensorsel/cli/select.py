@@ -10,6 +10,8 @@ from typing import Any
 
 import click
 
+from sensorsel.cli.vocabulary import Command
+
 from sensorsel.api import design_domain, run_greedy, with_suite_quality
 from sensorsel.cli.options import (budget_option, engine_options, json_option, output_option, plot_format_option,
                                    progress_bar, compact_suite, print_target, quiet_option, run, table, target_from,
@@ -82,7 +84,7 @@ def _print_breakdown(design: DomainDesign) -> None:
         click.echo(table(rows, ["condition", "weight", "of_best", "of_own", "worst_member"]))
 
 
-@click.command("greedy", short_help="Greedy suite under a budget, with its certificate of near-optimality.")
+@click.command("greedy", cls=Command, short_help="Greedy suite under a budget, with its certificate of near-optimality.")
 @target_options
 @engine_options
 @cluster_options
@@ -189,7 +191,7 @@ def _arch_row(a: Architecture) -> list[str]:
     return [f"{a.cost_usd:,.0f}", f"{a.score:.3f}", f"{a.normalized:.4f}", str(a.n_sensors), "+".join(a.rules), compact_suite(a.suite)]
 
 
-@click.command("pareto", short_help="Cost-performance tradespace and its Pareto front (plot, CSV, JSON).")
+@click.command("pareto", cls=Command, short_help="Cost-performance tradespace and its Pareto front (plot, CSV, JSON).")
 @target_options
 @engine_options
 @cluster_options
@@ -203,7 +205,7 @@ def _arch_row(a: Architecture) -> list[str]:
 @click.option("--lazy/--no-lazy", default=True, show_default=True, help="Lazy (Minoux) evaluation: same picks, fewer evaluations.")
 @map_sigma_option
 @specification_options
-@output_option(folder=True, required=True, dest="outdir",
+@output_option(folder=True, required=True,
                help="Folder for pareto.<format>, architectures.csv, tradespace.json, and the front's accuracy: "
                     "accuracy.json and pareto-accuracy.<format>.")
 @plot_format_option
@@ -221,7 +223,7 @@ def pareto_cmd(budgets: str | None, budget: tuple[float, ...], rules: str, lazy:
     on-front flag) and the full result as JSON; prints the front and the cheapest architectures that
     reach 99% and 95% of the best score.
 
-    --limit, --require, --exclude, --max-sensors and the library's slots hold at every budget (a
+    --limit, --include, --exclude, --max-sensors and the library's slots hold at every budget (a
     budget sweep with the other limits fixed).
 
     The front's accuracy in metres (lateral 95 % error per suite; in the SLAM graph, or with

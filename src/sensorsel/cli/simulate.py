@@ -10,6 +10,8 @@ from typing import Any
 
 import click
 
+from sensorsel.cli.vocabulary import Command
+
 from sensorsel.cli.options import (force_option, json_option, output_option, suite_text, plot_format_option,
                                    progress_bar, quiet_option, run, scenario_options, spec_from, table)
 from sensorsel.cli.options import check_map_sigma, cluster_from, cluster_options
@@ -26,10 +28,10 @@ def _fmt(v: float | None, digits: int = 3) -> str:
     return "n/a" if v is None else f"{v:.{digits}f}"
 
 
-@click.command("simulate", short_help="Monte-Carlo SLAM with GTSAM on one or two suites, with failures.")
+@click.command("simulate", cls=Command, short_help="Monte-Carlo SLAM with GTSAM on one or two suites, with failures.")
 @scenario_options
-@click.option("--suite", required=True, callback=suite_text, help="Comma-separated sensor ids, or a result JSON of `sensorsel greedy`/`resilient` (its \"suite\").")
-@click.option("--compare", default=None, callback=suite_text, help="A second suite (same forms) simulated with the same noise and drawn beside the first.")
+@click.option("--suite", required=True, callback=suite_text, metavar="IDS|FILE", help="Comma-separated sensor ids, or a result JSON of `sensorsel greedy`/`resilient` (its \"suite\").")
+@click.option("--compare", default=None, callback=suite_text, metavar="IDS|FILE", help="A second suite (same forms) simulated with the same noise and drawn beside the first.")
 @click.option("--label", default=None, help="Name of --suite in the table and plots (default: the result file's name, or \"suite\").")
 @click.option("--compare-label", default=None, help="Name of --compare (default: the result file's name, or \"compare\").")
 @click.option("--fail", "fail", default=None, metavar="ID[@FROM-TO],...",
@@ -46,7 +48,7 @@ def _fmt(v: float | None, digits: int = 3) -> str:
               help="lm: batch Levenberg-Marquardt; isam2: incremental, keyframes in order.")
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True, help="Base seed; run r draws from (seed, r).")
 @click.option("--noise-scale", type=float, default=1.0, show_default=True, help="Factor on every noise sigma (odometry, prior, sensors).")
-@click.option("--jobs", type=click.IntRange(min=1), default=os.cpu_count() or 1, show_default="all cores",
+@click.option("--jobs", type=click.IntRange(min=1), default=os.cpu_count() or 1, show_default="all cores", metavar="N",
               help="Processes running the Monte-Carlo draws (results do not depend on it).")
 @click.option("--associate", is_flag=True, default=False,
               help="Instead of SLAM runs: run the associator (gated nearest neighbour on the NIS) on simulated measurements "
@@ -63,7 +65,7 @@ def _fmt(v: float | None, digits: int = 3) -> str:
 @click.option("--gate-probability", "gate_probability", type=float, default=0.9999, show_default=True, metavar="P",
               help="--associate: the associator's chi-square gate probability (2 degrees of freedom).")
 @cluster_options
-@output_option(folder=True, required=True, dest="outdir",
+@output_option(folder=True, required=True,
                help="Output folder: simulation.json (every run), trajectories, error_along_route and simulate plots "
                     "(--associate: simulation.json and association_calibration).")
 @plot_format_option

@@ -7,6 +7,8 @@ from typing import Any
 
 import click
 
+from sensorsel.cli.vocabulary import Command
+
 from sensorsel.cli.options import (cluster_from, cluster_options, resume_option, compact_suite, json_option,
                                    output_option, progress_bar, quiet_option, run, table)
 from sensorsel.io import results
@@ -17,13 +19,13 @@ def _num(v: float | None, fmt: str = "{:,.3f}") -> str:
     return "-" if v is None else fmt.format(v)
 
 
-@click.command("study", short_help="A design study: a grid of budgets, rules, failures, maps and libraries, one run per cell.")
+@click.command("study", cls=Command, short_help="A design study: a grid of budgets, rules, failures, maps and libraries, one run per cell.")
 @click.argument("study_file", metavar="FILE.yaml", type=click.Path(dir_okay=False, path_type=str))
-@output_option(folder=True, required=True, dest="outdir",
+@output_option(folder=True, required=True,
                help="Folder for study.csv, study.json and cells/ (each cell written as it finishes).")
 @resume_option
 @cluster_options
-@click.option("--jobs", type=click.IntRange(min=1), default=1, show_default=True,
+@click.option("--jobs", type=click.IntRange(min=1), default=1, show_default=True, metavar="N",
               help="Threads scoring candidate suites in each in-process cell (results do not depend on it; on a "
                    "cluster every task uses one).")
 @json_option

@@ -45,7 +45,7 @@ _LIMIT = re.compile(r"^\s*([a-z][a-z0-9_]*)\s*=\s*(\S+)\s*$")
 
 @dataclass(frozen=True)
 class Constraints:
-    """A request's limits besides the budget (the CLI's ``--limit``, ``--require``, ``--owned``,
+    """A request's limits besides the budget (the CLI's ``--limit``, ``--include``, ``--owned``,
     ``--exclude``, ``--max-sensors``, ``--no-slots``).
 
     Attributes:
@@ -168,11 +168,11 @@ class FeasibleSet:
         n = len(library)
         self.library = library
         self.budget_usd = float(budget_usd)
-        self.required = _positions(library, c.require, "--require")
+        self.required = _positions(library, c.require, "--include")
         excluded = _positions(library, c.exclude, "--exclude")
         both = sorted(set(self.required) & set(excluded))
         if both:
-            raise InputError(f"--require and --exclude both name {', '.join(library.ids[i] for i in both)}")
+            raise InputError(f"--include and --exclude both name {', '.join(library.ids[i] for i in both)}")
         self.excluded = frozenset(excluded)
         price = library.costs.copy()
         if c.owned:
@@ -319,7 +319,7 @@ class FeasibleSet:
             ids = ",".join(self.library.ids[i] for i in self.required)
             option = {"budget": "--budget", "sensors": "--max-sensors"}.get(self.names[k])
             what = option or (f"--limit {self.names[k]}" if k < self.n_resource_rows else f"the slot {self.names[k]}")
-            raise InputError(f"--require {ids}: the required sensors use {_amount(u[k], self.units[k])} of "
+            raise InputError(f"--include {ids}: the required sensors use {_amount(u[k], self.units[k])} of "
                              f"{self.names[k]}, above {what} ({_amount(self.b[k], self.units[k])}): no suite can hold them")
 
 

@@ -1,4 +1,4 @@
-"""A design study: one target, a grid of settings, one run per cell (``sensorsel study FILE.yaml -o DIR``).
+"""A design study: one target, a grid of settings, one run per cell (``sensorsel study FILE.yaml --output-dir DIR``).
 
 A study file is YAML (read safely, a key repeated in one mapping refused; every error names the
 file, the key path and the line, like an operating-domain file)::

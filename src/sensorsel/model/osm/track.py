@@ -289,7 +289,7 @@ def track_domain(osm_path: str | Path, bbox: tuple[float, float, float, float] |
     survey = read_landmarks_csv(merge_landmarks) if merge_landmarks is not None else None
     m = route_landmarks([osm_path], poses[:, :2], frame, ref, classes, survey=survey, survey_label=merge_landmarks,
                         reach_m=reach_m, roads=roads, bbox=bbox, route_label=f"the route {gpx or route_file}", map_option="",
-                        reach_option="--reach", frame_told=gpx is not None)
+                        reach_option="--osm-reach", frame_told=gpx is not None)
     notes += list(m.notes)
     if m.warning:
         warnings.warn(m.warning, SensorselWarning, stacklevel=2)
