@@ -175,7 +175,7 @@ CASES: list[tuple[str, list[str], int, list[str]]] = [
     ("certify-result-not-json", ["certify", *T, *E, *Q, "--suite", "{d}/text.json"], 2, ["text.json"]),
     ("certify-result-a-list", ["certify", *T, *E, *Q, "--suite", "{d}/list.json"], 2, ["list.json", "list"]),
     ("certify-result-of-another-kind", ["certify", *T, *E, *Q, "--suite", "{d}/score.json"], 2, ["score.json", "'score'", "'greedy'"]),
-    # the silent answers of issue 17
+    # inputs that could otherwise give a silently wrong answer
     ("certify-result-of-another-price", ["certify", *T, *E, *Q, "--suite", "{d}/g_price.json"], 2,
      ["g_price.json", "another library: sensor costs or models differ", "--force"]),
     ("certify-result-of-another-map", ["certify", *T, *E, *Q, "--suite", "{d}/g_lm.json"], 2, ["g_lm.json", "another landmark map"]),
@@ -226,7 +226,7 @@ CASES: list[tuple[str, list[str], int, list[str]]] = [
     ("simulate-unknown-solver", ["simulate", *T, *Q, "--suite", "LRL-roof", "--solver", "magic", "--output-dir", "{d}/s"], 2, ["--solver"]),
     ("simulate-empty-output", ["simulate", *T, *Q, "--suite", "LRL-roof", "--output-dir", ""], 2, ["--output"]),
     ("simulate-output-is-a-file", ["simulate", *T, *Q, "--suite", "LRL-roof", "--output-dir", "{d}/afile"], 2, ["afile"]),
-    # ---- limits besides money (issue 15)
+    # ---- limits besides money
     ("greedy-limit-unknown-resource", ["greedy", *T, *E, *Q, "--budget", "5000", "--limit", "heat_w=5"], 2,
      ["--limit heat_w=5", "power_w"]),
     ("greedy-limit-text", ["greedy", *T, *E, *Q, "--budget", "5000", "--limit", "power_w=lots"], 2, ["--limit", "'lots'"]),
@@ -256,7 +256,7 @@ CASES: list[tuple[str, list[str], int, list[str]]] = [
                                           "--max-sensors", "1"], 2, ["--include", "--max-sensors"]),
     ("certify-result-with-limits", ["certify", *T, *E, *Q, "--suite", "{d}/g.json", "--limit", "power_w=100"], 2,
      ["--suite", "--limit"]),
-    # ---- study (issue 14)
+    # ---- study
     ("study-missing-file", ["study", "{d}/missing.yaml", "--output-dir", "{d}/st"], 2, ["missing.yaml"]),
     ("study-unknown-key", ["study", "{d}/study_key.yaml", "--output-dir", "{d}/st"], 2, ["study_key.yaml", "colours"]),
     ("study-bad-budget", ["study", "{d}/study_budget.yaml", "--output-dir", "{d}/st"], 2, ["study_budget.yaml", "lots"]),

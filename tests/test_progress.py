@@ -140,7 +140,7 @@ def test_osm_into_a_pipe_says_each_stage_it_is_in(tmp_path):
     env = {**os.environ, "SENSORSEL_PROGRESS_EVERY": "0"}
     env.pop("SENSORSEL_PROGRESS", None)
     p = subprocess.run([str(BIN / "sensorsel"), "osm", "--sample", "helsinki", "--output-dir", str(tmp_path / "city")],
-                       stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, timeout=300)
+                       capture_output=True, text=True, env=env, timeout=300)
     assert p.returncode == 0, p.stderr
     lines = [line for line in p.stderr.splitlines() if line.startswith("sensorsel: osm:")]
     n_routes = len([f for f in (tmp_path / "city" / "routes").glob("*.csv") if not f.name.endswith("_landmarks.csv")])
@@ -149,5 +149,5 @@ def test_osm_into_a_pipe_says_each_stage_it_is_in(tmp_path):
     assert lines[2].startswith(f"sensorsel: osm: writing {n_routes} routes; ")
     assert re.match(rf"^sensorsel: osm: done in \d+ s; wrote {n_routes} routes$", lines[-1]), lines
     q = subprocess.run([str(BIN / "sensorsel"), "osm", "--sample", "helsinki", "-q", "--output-dir", str(tmp_path / "city2")],
-                       stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, timeout=300)
+                       capture_output=True, text=True, env=env, timeout=300)
     assert q.returncode == 0 and "sensorsel: osm:" not in q.stderr
