@@ -26,16 +26,15 @@ from typing import Any, Iterable
 
 from sensorsel.designs.certify import (DEFAULT_MAX_NODES, Certificate, CertifiedGreedyResult, OptimumResult,
                                        certificate, constraints_mismatch, format_certificate, optimal)
-from sensorsel.designs.checkpoint import resumable_greedy
 from sensorsel.designs.domain_design import DomainDesign
-from sensorsel.designs.domain_design import design_domain as _design_domain
+from sensorsel.designs.greedy_run import greedy_design
 from sensorsel.designs.requirements import FrontAcceptance, RequireResult, front_acceptance
 from sensorsel.designs.requirements import require as run_require
 from sensorsel.designs.resilient import ALGORITHM_2, METHODS, ResilientReport, recorded
 from sensorsel.designs.resilient import resilient_report as _resilient_report
 from sensorsel.designs.robust import RobustResult, robust_choice, robust_select, worst_route_select
 from sensorsel.designs.robust import run_robust as _run_robust
-from sensorsel.designs.selection import GreedyResult, Progress, check_budget, check_rule, greedy
+from sensorsel.designs.selection import GreedyResult, Progress, check_budget, check_rule
 from sensorsel.designs.tradespace import run_tradespace
 from sensorsel.errors import InputError
 from sensorsel.information.evaluators import DomainEvaluator, evaluator_for, make_evaluator
@@ -176,8 +175,9 @@ def run_greedy(problem: Target, budget_usd: float, rule: str = "uniform", *, eng
                certify: bool = False, certify_progress: Progress | None = None, checkpoint: str | Path | None = None,
                resume: bool = False, constraints: Constraints | None = None,
                evaluator: Evaluator | None = None) -> CertifiedGreedyResult:
-    """The ``sensorsel greedy`` run: :func:`~sensorsel.designs.selection.greedy` with a fresh evaluator of
-    ``engine`` for a problem or a domain (its routes combined by ``aggregate``), recording what it ran on.
+    """The ``sensorsel greedy`` run (:func:`sensorsel.designs.greedy_run.greedy_design`): greedy selection
+    with a fresh evaluator of ``engine`` for a problem or a domain (its routes combined by ``aggregate``),
+    recording what it ran on.
 
     With ``certify``, the result carries its :class:`~sensorsel.designs.certify.Certificate` (an upper bound
     on the best possible score within the budget), computed with the same evaluator: at most one sweep
@@ -202,20 +202,11 @@ def run_greedy(problem: Target, budget_usd: float, rule: str = "uniform", *, eng
     """
     if evaluator is not None and checkpoint is not None:
         raise ValueError("run_greedy: a resumable run (checkpoint=) builds its own evaluator: give no evaluator=")
-    check_budget(budget_usd)
-    check_rule(rule)
-    if constraints is not None:
-        feasible_set(problem.library, budget_usd, constraints)  # refuse a bad request before the evaluator
-    if checkpoint is not None:
-        out = resumable_greedy(problem, budget_usd, rule, checkpoint=checkpoint, resume=resume, engine=engine, jobs=jobs,
-                               aggregate=aggregate, lazy=lazy, certify=certify, progress=progress,
-                               certify_progress=certify_progress, breakdown=False, constraints=constraints)
-        assert isinstance(out, CertifiedGreedyResult)
-        return out
-    ev = evaluator if evaluator is not None else evaluator_for(problem, engine, jobs=jobs, aggregate=aggregate)
-    res = greedy(ev, budget_usd, rule, lazy=lazy, progress=progress, info=problem.info, constraints=constraints)
-    cert = certificate(ev, res, progress=certify_progress) if certify else None
-    return CertifiedGreedyResult.of(res, cert)
+    out = greedy_design(problem, budget_usd, rule, engine=engine, jobs=jobs, aggregate=aggregate, lazy=lazy,
+                        certify=certify, progress=progress, certify_progress=certify_progress, evaluator=evaluator,
+                        constraints=constraints, checkpoint=checkpoint, resume=resume)
+    assert isinstance(out, CertifiedGreedyResult)
+    return out
 
 
 def design_domain(domain: Domain, budget_usd: float, rule: str = "uniform", *, engine: str | None = None, jobs: int = 1,
@@ -223,18 +214,15 @@ def design_domain(domain: Domain, budget_usd: float, rule: str = "uniform", *, e
                   certify_progress: Progress | None = None, breakdown_progress: Progress | None = None,
                   evaluator: DomainEvaluator | None = None, checkpoint: str | Path | None = None,
                   resume: bool = False, constraints: Constraints | None = None) -> DomainDesign:
-    """The ``sensorsel greedy --domain`` run: :func:`sensorsel.designs.domain_design.design_domain` (one suite
-    for every route, its certificate, its per-route breakdown). ``checkpoint``/``resume``: as for
+    """The ``sensorsel greedy --domain`` run: :func:`sensorsel.designs.greedy_run.greedy_design` with its
+    breakdown (one suite for every route, its certificate, each route's share of its best and of its own
+    design: :class:`~sensorsel.designs.domain_design.DomainDesign`). ``checkpoint``/``resume``: as for
     :func:`run_greedy`; the certificate and each route's breakdown are recorded too. ``constraints``:
     limits besides the budget, for the domain suite and each route's own design."""
-    if checkpoint is None:
-        return _design_domain(domain, budget_usd, rule, engine=engine, jobs=jobs, aggregate=aggregate, lazy=lazy,
-                              certify=certify, progress=progress, certify_progress=certify_progress,
-                              breakdown_progress=breakdown_progress, evaluator=evaluator, constraints=constraints)
-    out = resumable_greedy(domain, budget_usd, rule, checkpoint=checkpoint, resume=resume, engine=engine, jobs=jobs,
-                           aggregate=aggregate, lazy=lazy, certify=certify, progress=progress,
-                           certify_progress=certify_progress, breakdown_progress=breakdown_progress, evaluator=evaluator,
-                           constraints=constraints)
+    out = greedy_design(domain, budget_usd, rule, engine=engine, jobs=jobs, aggregate=aggregate, lazy=lazy,
+                        certify=certify, breakdown=True, progress=progress, certify_progress=certify_progress,
+                        breakdown_progress=breakdown_progress, evaluator=evaluator, constraints=constraints,
+                        checkpoint=checkpoint, resume=resume)
     assert isinstance(out, DomainDesign)
     return out
 
