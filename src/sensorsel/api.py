@@ -389,7 +389,7 @@ def resilient_report(problem: Target, budget_usd: float, alpha: int, *, method: 
                      **kwargs) -> ResilientReport:
     """The ``sensorsel resilient`` run (:func:`sensorsel.designs.resilient.resilient_report`): the whole-route
     comparison and the per-period selection. ``method``: "algorithm-2" (the paper's Algorithm 2, the
-    default: published results unchanged) or "robust"
+    default: the one the published results use) or "robust"
     (:func:`sensorsel.designs.robust.robust_select` for the whole route and each period; its worst case is
     never below greedy's nor Algorithm 2's)."""
     if method not in RESILIENT_METHODS:

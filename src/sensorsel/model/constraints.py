@@ -19,7 +19,7 @@ Rows (all of ``A`` is >= 0, so removing a sensor never breaks a limit):
 *dollar-equivalent cost*, its price plus, for each resource limit, the share of that limit it uses
 valued at the whole budget (a radar drawing 6.6 W of a 100 W limit, under a $110,000 budget, costs
 $1,493 + 6.6 % x $110,000). Without resource limits it is exactly the price, so those rules pick
-as before. Slots and ``max_sensors`` are capacities, not costs: they only decide what fits.
+by the price alone. Slots and ``max_sensors`` are capacities, not costs: they only decide what fits.
 """
 
 from __future__ import annotations

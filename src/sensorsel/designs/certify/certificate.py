@@ -28,7 +28,7 @@ slots, a count):
 
 (X the excluded sensors), solved by scipy's ``milp`` (HiGHS, :func:`~.knapsack.packing_bound`),
 whose value is its proved dual bound, never below the maximum. When the budget is the only row and
-nothing is required or excluded, the single knapsack is solved by DP exactly as before.
+nothing is required or excluded, the single knapsack is solved exactly by dynamic programming.
 
 Deterministic for a deterministic evaluator: same inputs, same bytes out (the wall time sits in a
 separate ``seconds`` field). A gain below round-off counts as zero.

@@ -190,8 +190,8 @@ def require_fingerprint(problems: Sequence[Problem], specs: Sequence[Specificati
                         integrity: IntegritySpec | None = None) -> tuple[str, tuple[tuple[str, str], ...]]:
     """(sha256, the inputs in words) of what a require run's answers depend on (``estimate``: filter or
     smoother; ``engine``: the engine that computes them: another one's answers agree only to rounding;
-    ``integrity``: the integrity also demanded, or None: then the fingerprint is what it was before
-    integrity could be demanded)."""
+    ``integrity``: the integrity also demanded, or None: then it adds nothing to the
+    fingerprint)."""
     inputs = (
         ("routes", ", ".join(f"{p.scenario.name} {digest(to_jsonable(p.fingerprint))[:12]}" for p in problems)),
         ("specification", "; ".join(s.describe() for s in specs)),
