@@ -143,10 +143,9 @@ def suite_accuracy(target: Target, suite: str | Iterable[str | int], *, map_sigm
     prior map whose landmarks are known to that std [m]; None: the paper's SLAM graph. ``estimate``:
     "filter" (at each keyframe from the measurements up to it: as the car drives) or "smoother"
     (from the whole route)."""
-    problems = [(r.name, r.problem) for r in target.routes] if isinstance(target, Domain) else [(target.scenario.name, target)]
     positions = target.library.resolve_suite(suite)
-    return tuple(route_accuracy(make_evaluator(p, engine), positions, map_sigma_m=map_sigma_m, route=name, estimate=estimate)
-                 for name, p in problems)
+    return tuple(route_accuracy(make_evaluator(r.problem, engine), positions, map_sigma_m=map_sigma_m, route=r.name,
+                                estimate=estimate) for r in target.routes)
 
 
 def suite_integrity(target: Target, suite: str | Iterable[str | int], spec: IntegritySpec | None = None, *,
@@ -155,9 +154,8 @@ def suite_integrity(target: Target, suite: str | Iterable[str | int], spec: Inte
     association risk of its measurements, the integrity risk for ``spec``'s alert limits, the
     protection levels and the risk per hour (:mod:`sensorsel.information.integrity`), as the car
     drives (the filter). ``map_sigma_m``: localizing in a map known to that std [m]; None: SLAM."""
-    problems = [(r.name, r.problem) for r in target.routes] if isinstance(target, Domain) else [(target.scenario.name, target)]
     positions = target.library.resolve_suite(suite)
-    return tuple(route_integrity(p, positions, spec, map_sigma_m=map_sigma_m, route=name) for name, p in problems)
+    return tuple(route_integrity(r.problem, positions, spec, map_sigma_m=map_sigma_m, route=r.name) for r in target.routes)
 
 
 

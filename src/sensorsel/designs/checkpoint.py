@@ -175,7 +175,7 @@ class GreedyStore:
             return cls(None, GreedyCheckpoint(fingerprint="", budget_usd=budget, rule=rule, engine=engine or "",
                                               aggregate=aggregate, lazy=lazy, target=target.info, constraints=limits))
         path, eng = Path(checkpoint), check_engine(engine)
-        agg = check_aggregate(aggregate) if isinstance(target, Domain) else ""
+        agg = check_aggregate(aggregate)
         fp = run_fingerprint(target, budget, rule, eng, agg, lazy, limits)
         ck = load_checkpoint(path, target, budget, rule, eng, agg, lazy, fp, limits) if resume else None
         if ck is None:

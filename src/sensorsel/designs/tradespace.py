@@ -62,7 +62,7 @@ from sensorsel.io.files import atomic_write_text
 from sensorsel.io.results import result_kind, to_jsonable
 from sensorsel.model.constraints import REL_SLACK, Constraints, feasible_set
 from sensorsel.model.library import SensorLibrary
-from sensorsel.model.problem import Domain, Target, TargetInfo
+from sensorsel.model.problem import Target, TargetInfo
 from sensorsel.model.recipes import EvaluatorRecipe, TargetRecipe
 from sensorsel.pipeline import Executor, FileStore, InProcess, NoStore, Plan, Store, execute
 from sensorsel.io.progress import Progress
@@ -540,7 +540,7 @@ def run_tradespace(target: Target, budgets: Iterable[float] | None = None, rules
     (``aggregate``: how a domain combines its routes; the other arguments: see :func:`tradespace`)."""
     sel = parse_rules(rules, "rules")  # bad input fails before the evaluator is built
     grid = None if budgets is None else tuple(check_budget(b) for b in budgets)
-    eng, agg = check_engine(engine), check_aggregate(aggregate) if isinstance(target, Domain) else "normalised"
+    eng, agg = check_engine(engine), check_aggregate(aggregate)
     if constraints is not None:
         for b in grid or (float(target.library.costs.sum()),):
             feasible_set(target.library, b, constraints)  # refuses a bad request (at every budget) up front
