@@ -40,6 +40,7 @@ from sensorsel.errors import InputError
 from sensorsel.information.evaluators import DomainEvaluator, evaluator_for, make_evaluator
 from sensorsel.information.evaluators.accuracy import RouteAccuracy, route_accuracy
 from sensorsel.information.integrity import IntegritySpec, RouteIntegrity, route_integrity
+from sensorsel.io.records import SuiteScore
 from sensorsel.io.results import result_kind
 from sensorsel.model.constraints import Constraints, feasible_set
 from sensorsel.model.problem import Domain, DomainInfo, Problem, ProblemInfo, Target, load_domain, load_problem
@@ -79,13 +80,10 @@ __all__ += ["AGGREGATES", "Architecture", "Certificate", "DEFAULT_MAP_SIGMA_M", 
 
 @result_kind("score")
 @dataclass(frozen=True)
-class ScoreResult:
+class ScoreResult(SuiteScore):
     """The score of one suite.
 
     Attributes:
-        suite: sensor ids, in library order.
-        cost_usd: total cost [$].
-        score: f(S) = log det L(S) - log det L(empty) [nats].
         logdet: log det L(S) [nats].
         baseline_logdet: log det L(empty) [nats].
         n_measurements: range-bearing measurements the suite makes along the route.
@@ -97,9 +95,6 @@ class ScoreResult:
             per route (empty when not asked for).
     """
 
-    suite: tuple[str, ...]
-    cost_usd: float
-    score: float
     logdet: float
     baseline_logdet: float
     n_measurements: int
@@ -246,13 +241,10 @@ class RouteScore:
 
 @result_kind("domain-score")
 @dataclass(frozen=True)
-class DomainScoreResult:
+class DomainScoreResult(SuiteScore):
     """The score of one suite on an operating domain.
 
     Attributes:
-        suite: sensor ids, in library order.
-        cost_usd: total cost [$].
-        score: the domain score F(S) (a share of the best when normalised, else nats).
         aggregate: "normalised" or "raw".
         routes: each route's score.
         engine: the per-route engine.
@@ -261,9 +253,6 @@ class DomainScoreResult:
         integrity: the suite's integrity on each route, in route order (empty when not asked for).
     """
 
-    suite: tuple[str, ...]
-    cost_usd: float
-    score: float
     aggregate: str
     routes: tuple[RouteScore, ...]
     engine: str

@@ -52,6 +52,7 @@ from typing import Callable, Iterable, Sequence
 
 import numpy as np
 
+from sensorsel.io.records import RuleBudget, SuiteScore
 from sensorsel.designs.inputs import result_fingerprint
 from sensorsel.designs.selection import RULES, GreedyResult, Rule, Step, check_budget, check_rule, greedy
 from sensorsel.errors import InputError
@@ -79,21 +80,15 @@ RULE_FORMAT = 1  # bumped when a rule's file (OUTDIR/runs/rule-NAME.json) or how
 
 
 @dataclass(frozen=True)
-class Architecture:
+class Architecture(SuiteScore):
     """One suite the greedy runs produced (identical suites merged).
 
     Attributes:
-        suite: sensor ids, in library order.
-        cost_usd: total cost [$].
-        score: f(suite) [nats] (as first recorded, in rule order then budget order then pick order).
         normalized: score / the best score of the tradespace (1.0 for the best).
         rules: the rules whose runs produced this suite, in the tradespace's rule order.
         on_front: True when no recorded architecture dominates it.
     """
 
-    suite: tuple[str, ...]
-    cost_usd: float
-    score: float
     normalized: float
     rules: tuple[str, ...]
     on_front: bool
@@ -104,15 +99,10 @@ class Architecture:
 
 
 @dataclass(frozen=True)
-class TradespaceRun:
+class TradespaceRun(SuiteScore, RuleBudget):
     """Summary of one greedy run of the tradespace (its architectures are in ``architectures``).
 
     Attributes:
-        rule: the rule (a name of :data:`sensorsel.designs.selection.RULES`).
-        budget_usd: the run's budget [$].
-        suite: the final suite, ids in pick order.
-        cost_usd: its cost [$].
-        score: its score [nats].
         n_steps: picks made (intermediate architectures).
         shared_steps: leading picks taken from an earlier run at a larger budget (not recomputed).
         stop_reason: why selection stopped.
@@ -121,11 +111,6 @@ class TradespaceRun:
         winning_rule: for a strategy, the component run it kept; else the rule.
     """
 
-    rule: str
-    budget_usd: float
-    suite: tuple[str, ...]
-    cost_usd: float
-    score: float
     n_steps: int
     shared_steps: int
     stop_reason: str
