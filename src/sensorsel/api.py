@@ -195,11 +195,9 @@ def run_greedy(problem: Target, budget_usd: float, rule: str = "uniform", *, eng
     """
     if evaluator is not None and checkpoint is not None:
         raise ValueError("run_greedy: a resumable run (checkpoint=) builds its own evaluator: give no evaluator=")
-    out = greedy_design(problem, budget_usd, rule, engine=engine, jobs=jobs, aggregate=aggregate, lazy=lazy,
-                        certify=certify, progress=progress, certify_progress=certify_progress, evaluator=evaluator,
-                        constraints=constraints, checkpoint=checkpoint, resume=resume)
-    assert isinstance(out, CertifiedGreedyResult)
-    return out
+    return greedy_design(problem, budget_usd, rule, engine=engine, jobs=jobs, aggregate=aggregate, lazy=lazy,
+                         certify=certify, progress=progress, certify_progress=certify_progress, evaluator=evaluator,
+                         constraints=constraints, checkpoint=checkpoint, resume=resume)
 
 
 def design_domain(domain: Domain, budget_usd: float, rule: str = "uniform", *, engine: str | None = None, jobs: int = 1,
@@ -212,12 +210,10 @@ def design_domain(domain: Domain, budget_usd: float, rule: str = "uniform", *, e
     design: :class:`~sensorsel.designs.domain_design.DomainDesign`). ``checkpoint``/``resume``: as for
     :func:`run_greedy`; the certificate and each route's breakdown are recorded too. ``constraints``:
     limits besides the budget, for the domain suite and each route's own design."""
-    out = greedy_design(domain, budget_usd, rule, engine=engine, jobs=jobs, aggregate=aggregate, lazy=lazy,
-                        certify=certify, breakdown=True, progress=progress, certify_progress=certify_progress,
-                        breakdown_progress=breakdown_progress, evaluator=evaluator, constraints=constraints,
-                        checkpoint=checkpoint, resume=resume)
-    assert isinstance(out, DomainDesign)
-    return out
+    return greedy_design(domain, budget_usd, rule, engine=engine, jobs=jobs, aggregate=aggregate, lazy=lazy,
+                         certify=certify, breakdown=True, progress=progress, certify_progress=certify_progress,
+                         breakdown_progress=breakdown_progress, evaluator=evaluator, constraints=constraints,
+                         checkpoint=checkpoint, resume=resume)
 
 
 @dataclass(frozen=True)

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import time
 from pathlib import Path
+from typing import Literal, overload
 
 from sensorsel.designs.certify import CertifiedGreedyResult, certificate
 from sensorsel.designs.checkpoint import GreedyStore
@@ -27,6 +28,24 @@ from sensorsel.model.constraints import Constraints, feasible_set
 from sensorsel.model.problem import Target
 
 __all__ = ["greedy_design"]
+
+
+@overload
+def greedy_design(target: Target, budget_usd: float, rule: str = ..., *, engine: str | None = ..., jobs: int = ...,
+                  aggregate: str = ..., lazy: bool = ..., certify: bool = ..., breakdown: Literal[False] = ...,
+                  progress: Progress | None = ..., certify_progress: Progress | None = ...,
+                  breakdown_progress: Progress | None = ..., evaluator: Evaluator | None = ...,
+                  constraints: Constraints | None = ..., checkpoint: str | Path | None = ...,
+                  resume: bool = ...) -> CertifiedGreedyResult: ...
+
+
+@overload
+def greedy_design(target: Target, budget_usd: float, rule: str = ..., *, engine: str | None = ..., jobs: int = ...,
+                  aggregate: str = ..., lazy: bool = ..., certify: bool = ..., breakdown: Literal[True],
+                  progress: Progress | None = ..., certify_progress: Progress | None = ...,
+                  breakdown_progress: Progress | None = ..., evaluator: Evaluator | None = ...,
+                  constraints: Constraints | None = ..., checkpoint: str | Path | None = ...,
+                  resume: bool = ...) -> DomainDesign: ...
 
 
 def greedy_design(target: Target, budget_usd: float, rule: str = "uniform", *, engine: str | None = None,
