@@ -26,7 +26,7 @@ import numpy as np  # noqa: E402
 
 from sensorsel.api import run_robust  # noqa: E402
 from sensorsel.model.conditions import parse_condition  # noqa: E402
-from sensorsel.designs.domain_design import by_condition, design_domain  # noqa: E402
+from sensorsel.api import by_condition, design_domain  # noqa: E402
 from sensorsel.information.evaluators import DomainEvaluator, make_evaluator  # noqa: E402
 from sensorsel.model.problem import Domain, load_domain, load_problem, with_condition  # noqa: E402
 from sensorsel.model.scenario import ScenarioSpec  # noqa: E402

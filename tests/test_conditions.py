@@ -285,7 +285,7 @@ def test_bad_physics_in_the_library_names_the_key(tmp_path):
 def test_condition_members_on_dask_workers_equal_in_process(tmp_path):
     # the workers rebuild each member from its recipe (the spec carries the condition): same bytes
     pytest.importorskip("distributed")
-    from sensorsel.designs.domain_design import design_domain
+    from sensorsel.api import design_domain
     from sensorsel.pipeline.cluster import DaskCluster, DistributedDomainEvaluator
 
     p = tmp_path / "d.yaml"
@@ -304,7 +304,7 @@ def test_a_problem_put_under_a_condition_in_python_keeps_it_on_dask_workers(tiny
     # no spec carries the condition here (built from objects): the recipe must, or the workers
     # rebuild and score the clear problem (a silently wrong answer: the night member scored clear)
     pytest.importorskip("distributed")
-    from sensorsel.designs.domain_design import design_domain
+    from sensorsel.api import design_domain
     from sensorsel.designs.tradespace import run_tradespace
     from sensorsel.model.recipes import TargetRecipe
     from sensorsel.pipeline.cluster import DaskCluster, DistributedDomainEvaluator
@@ -328,7 +328,7 @@ def test_a_problem_put_under_a_condition_in_python_keeps_it_on_dask_workers(tiny
 
 
 def test_breakdown_by_condition_and_its_grid_plot(tmp_path):
-    from sensorsel.designs.domain_design import by_condition, design_domain
+    from sensorsel.api import by_condition, design_domain
     from sensorsel.plotting import plot_domain_breakdown
 
     d = load_domain(_domain_file(tmp_path, CITY))

@@ -16,7 +16,7 @@ import pytest
 
 distributed = pytest.importorskip("distributed")
 
-from sensorsel.designs.domain_design import design_domain  # noqa: E402
+from sensorsel.api import design_domain  # noqa: E402
 from sensorsel.information.evaluators import DomainEvaluator  # noqa: E402
 from sensorsel.io import results  # noqa: E402
 from sensorsel.model.problem import load_domain  # noqa: E402
@@ -101,9 +101,9 @@ def test_a_checkpointed_domain_design_on_two_threads_records_the_one_thread_brea
     domain = load_domain(FIXTURES)
     one = design_domain(domain, 12_000, certify=True, jobs=1)
     ck = tmp_path / "design.checkpoint"
-    from sensorsel.designs.checkpoint import GreedyCheckpoint, resumable_greedy
+    from sensorsel.designs.checkpoint import GreedyCheckpoint
 
-    two = resumable_greedy(domain, 12_000, checkpoint=ck, certify=True, jobs=2)
+    two = design_domain(domain, 12_000, checkpoint=ck, certify=True, jobs=2)
     assert _untimed(two) == _untimed(one)
     saved = results.load(ck, GreedyCheckpoint)
     assert saved.routes == one.routes  # every route's share, in route order

@@ -26,21 +26,21 @@ from typing import Any, Iterable
 
 from sensorsel.designs.certify import (DEFAULT_MAX_NODES, Certificate, CertifiedGreedyResult, OptimumResult,
                                        certificate, constraints_mismatch, format_certificate, optimal)
-from sensorsel.designs.checkpoint import resumable_greedy
 from sensorsel.designs.domain_design import DomainDesign
-from sensorsel.designs.domain_design import design_domain as _design_domain
+from sensorsel.designs.greedy_run import greedy_design
 from sensorsel.designs.requirements import FrontAcceptance, RequireResult, front_acceptance
 from sensorsel.designs.requirements import require as run_require
 from sensorsel.designs.resilient import ALGORITHM_2, METHODS, ResilientReport, recorded
 from sensorsel.designs.resilient import resilient_report as _resilient_report
 from sensorsel.designs.robust import RobustResult, robust_choice, robust_select, worst_route_select
 from sensorsel.designs.robust import run_robust as _run_robust
-from sensorsel.designs.selection import GreedyResult, Progress, check_budget, check_rule, greedy
+from sensorsel.designs.selection import GreedyResult, Progress, check_budget, check_rule
 from sensorsel.designs.tradespace import run_tradespace
 from sensorsel.errors import InputError
 from sensorsel.information.evaluators import DomainEvaluator, evaluator_for, make_evaluator
 from sensorsel.information.evaluators.accuracy import RouteAccuracy, route_accuracy
 from sensorsel.information.integrity import IntegritySpec, RouteIntegrity, route_integrity
+from sensorsel.io.records import SuiteScore
 from sensorsel.io.results import result_kind
 from sensorsel.model.constraints import Constraints, feasible_set
 from sensorsel.model.problem import Domain, DomainInfo, Problem, ProblemInfo, Target, load_domain, load_problem
@@ -80,13 +80,10 @@ __all__ += ["AGGREGATES", "Architecture", "Certificate", "DEFAULT_MAP_SIGMA_M", 
 
 @result_kind("score")
 @dataclass(frozen=True)
-class ScoreResult:
+class ScoreResult(SuiteScore):
     """The score of one suite.
 
     Attributes:
-        suite: sensor ids, in library order.
-        cost_usd: total cost [$].
-        score: f(S) = log det L(S) - log det L(empty) [nats].
         logdet: log det L(S) [nats].
         baseline_logdet: log det L(empty) [nats].
         n_measurements: range-bearing measurements the suite makes along the route.
@@ -98,9 +95,6 @@ class ScoreResult:
             per route (empty when not asked for).
     """
 
-    suite: tuple[str, ...]
-    cost_usd: float
-    score: float
     logdet: float
     baseline_logdet: float
     n_measurements: int
@@ -144,10 +138,9 @@ def suite_accuracy(target: Target, suite: str | Iterable[str | int], *, map_sigm
     prior map whose landmarks are known to that std [m]; None: the paper's SLAM graph. ``estimate``:
     "filter" (at each keyframe from the measurements up to it: as the car drives) or "smoother"
     (from the whole route)."""
-    problems = [(r.name, r.problem) for r in target.routes] if isinstance(target, Domain) else [(target.scenario.name, target)]
     positions = target.library.resolve_suite(suite)
-    return tuple(route_accuracy(make_evaluator(p, engine), positions, map_sigma_m=map_sigma_m, route=name, estimate=estimate)
-                 for name, p in problems)
+    return tuple(route_accuracy(make_evaluator(r.problem, engine), positions, map_sigma_m=map_sigma_m, route=r.name,
+                                estimate=estimate) for r in target.routes)
 
 
 def suite_integrity(target: Target, suite: str | Iterable[str | int], spec: IntegritySpec | None = None, *,
@@ -156,9 +149,8 @@ def suite_integrity(target: Target, suite: str | Iterable[str | int], spec: Inte
     association risk of its measurements, the integrity risk for ``spec``'s alert limits, the
     protection levels and the risk per hour (:mod:`sensorsel.information.integrity`), as the car
     drives (the filter). ``map_sigma_m``: localizing in a map known to that std [m]; None: SLAM."""
-    problems = [(r.name, r.problem) for r in target.routes] if isinstance(target, Domain) else [(target.scenario.name, target)]
     positions = target.library.resolve_suite(suite)
-    return tuple(route_integrity(p, positions, spec, map_sigma_m=map_sigma_m, route=name) for name, p in problems)
+    return tuple(route_integrity(r.problem, positions, spec, map_sigma_m=map_sigma_m, route=r.name) for r in target.routes)
 
 
 
@@ -176,8 +168,9 @@ def run_greedy(problem: Target, budget_usd: float, rule: str = "uniform", *, eng
                certify: bool = False, certify_progress: Progress | None = None, checkpoint: str | Path | None = None,
                resume: bool = False, constraints: Constraints | None = None,
                evaluator: Evaluator | None = None) -> CertifiedGreedyResult:
-    """The ``sensorsel greedy`` run: :func:`~sensorsel.designs.selection.greedy` with a fresh evaluator of
-    ``engine`` for a problem or a domain (its routes combined by ``aggregate``), recording what it ran on.
+    """The ``sensorsel greedy`` run (:func:`sensorsel.designs.greedy_run.greedy_design`): greedy selection
+    with a fresh evaluator of ``engine`` for a problem or a domain (its routes combined by ``aggregate``),
+    recording what it ran on.
 
     With ``certify``, the result carries its :class:`~sensorsel.designs.certify.Certificate` (an upper bound
     on the best possible score within the budget), computed with the same evaluator: at most one sweep
@@ -202,20 +195,9 @@ def run_greedy(problem: Target, budget_usd: float, rule: str = "uniform", *, eng
     """
     if evaluator is not None and checkpoint is not None:
         raise ValueError("run_greedy: a resumable run (checkpoint=) builds its own evaluator: give no evaluator=")
-    check_budget(budget_usd)
-    check_rule(rule)
-    if constraints is not None:
-        feasible_set(problem.library, budget_usd, constraints)  # refuse a bad request before the evaluator
-    if checkpoint is not None:
-        out = resumable_greedy(problem, budget_usd, rule, checkpoint=checkpoint, resume=resume, engine=engine, jobs=jobs,
-                               aggregate=aggregate, lazy=lazy, certify=certify, progress=progress,
-                               certify_progress=certify_progress, breakdown=False, constraints=constraints)
-        assert isinstance(out, CertifiedGreedyResult)
-        return out
-    ev = evaluator if evaluator is not None else evaluator_for(problem, engine, jobs=jobs, aggregate=aggregate)
-    res = greedy(ev, budget_usd, rule, lazy=lazy, progress=progress, info=problem.info, constraints=constraints)
-    cert = certificate(ev, res, progress=certify_progress) if certify else None
-    return CertifiedGreedyResult.of(res, cert)
+    return greedy_design(problem, budget_usd, rule, engine=engine, jobs=jobs, aggregate=aggregate, lazy=lazy,
+                         certify=certify, progress=progress, certify_progress=certify_progress, evaluator=evaluator,
+                         constraints=constraints, checkpoint=checkpoint, resume=resume)
 
 
 def design_domain(domain: Domain, budget_usd: float, rule: str = "uniform", *, engine: str | None = None, jobs: int = 1,
@@ -223,20 +205,15 @@ def design_domain(domain: Domain, budget_usd: float, rule: str = "uniform", *, e
                   certify_progress: Progress | None = None, breakdown_progress: Progress | None = None,
                   evaluator: DomainEvaluator | None = None, checkpoint: str | Path | None = None,
                   resume: bool = False, constraints: Constraints | None = None) -> DomainDesign:
-    """The ``sensorsel greedy --domain`` run: :func:`sensorsel.designs.domain_design.design_domain` (one suite
-    for every route, its certificate, its per-route breakdown). ``checkpoint``/``resume``: as for
+    """The ``sensorsel greedy --domain`` run: :func:`sensorsel.designs.greedy_run.greedy_design` with its
+    breakdown (one suite for every route, its certificate, each route's share of its best and of its own
+    design: :class:`~sensorsel.designs.domain_design.DomainDesign`). ``checkpoint``/``resume``: as for
     :func:`run_greedy`; the certificate and each route's breakdown are recorded too. ``constraints``:
     limits besides the budget, for the domain suite and each route's own design."""
-    if checkpoint is None:
-        return _design_domain(domain, budget_usd, rule, engine=engine, jobs=jobs, aggregate=aggregate, lazy=lazy,
-                              certify=certify, progress=progress, certify_progress=certify_progress,
-                              breakdown_progress=breakdown_progress, evaluator=evaluator, constraints=constraints)
-    out = resumable_greedy(domain, budget_usd, rule, checkpoint=checkpoint, resume=resume, engine=engine, jobs=jobs,
-                           aggregate=aggregate, lazy=lazy, certify=certify, progress=progress,
-                           certify_progress=certify_progress, breakdown_progress=breakdown_progress, evaluator=evaluator,
-                           constraints=constraints)
-    assert isinstance(out, DomainDesign)
-    return out
+    return greedy_design(domain, budget_usd, rule, engine=engine, jobs=jobs, aggregate=aggregate, lazy=lazy,
+                         certify=certify, breakdown=True, progress=progress, certify_progress=certify_progress,
+                         breakdown_progress=breakdown_progress, evaluator=evaluator, constraints=constraints,
+                         checkpoint=checkpoint, resume=resume)
 
 
 @dataclass(frozen=True)
@@ -260,13 +237,10 @@ class RouteScore:
 
 @result_kind("domain-score")
 @dataclass(frozen=True)
-class DomainScoreResult:
+class DomainScoreResult(SuiteScore):
     """The score of one suite on an operating domain.
 
     Attributes:
-        suite: sensor ids, in library order.
-        cost_usd: total cost [$].
-        score: the domain score F(S) (a share of the best when normalised, else nats).
         aggregate: "normalised" or "raw".
         routes: each route's score.
         engine: the per-route engine.
@@ -275,9 +249,6 @@ class DomainScoreResult:
         integrity: the suite's integrity on each route, in route order (empty when not asked for).
     """
 
-    suite: tuple[str, ...]
-    cost_usd: float
-    score: float
     aggregate: str
     routes: tuple[RouteScore, ...]
     engine: str
@@ -402,7 +373,7 @@ def resilient_report(problem: Target, budget_usd: float, alpha: int, *, method: 
                      **kwargs) -> ResilientReport:
     """The ``sensorsel resilient`` run (:func:`sensorsel.designs.resilient.resilient_report`): the whole-route
     comparison and the per-period selection. ``method``: "algorithm-2" (the paper's Algorithm 2, the
-    default: published results unchanged) or "robust"
+    default: the one the published results use) or "robust"
     (:func:`sensorsel.designs.robust.robust_select` for the whole route and each period; its worst case is
     never below greedy's nor Algorithm 2's)."""
     if method not in RESILIENT_METHODS:

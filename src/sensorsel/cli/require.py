@@ -106,7 +106,7 @@ def require_cmd(map_sigma: float | None, slam: bool, estimate: str, in_condition
         raise InputError(f"route {target.scenario.name} has no landmark file: a proof on invented landmarks signs nothing; "
                          "give --landmarks FILE, a map (--landmarks osm:FILE), or --landmarks synthetic to accept invented ones")
     require_domain(cluster, target)
-    routes = [r.name for r in target.routes] if isinstance(target, Domain) else [target.scenario.name]
+    routes = [r.name for r in target.routes]
     specs = specification_from(kw, routes)
     if margin:
         specs = [replace(sp, margin=margin) for sp in specs]
@@ -267,7 +267,7 @@ def _plot(res: RequireResult, target: Any, compared: tuple[str, tuple[int, ...]]
     r = max(range(len(res.routes)), key=lambda i: (res.routes[i].verdict.violation,
                                                    max(e / b for _, e, b, _ in res.routes[i].verdict.worst)))
     route = res.routes[r]
-    problem = target.routes[r].problem if isinstance(target, Domain) else target
+    problem = target.routes[r].problem
     label = f"{'best any suite reaches' if res.status == 'infeasible' else 'the answer'} (${res.cost_usd:,.0f})"
     lines = [(label, route.accuracy)]
     if compared is not None:

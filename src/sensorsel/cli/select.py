@@ -241,7 +241,7 @@ def pareto_cmd(budgets: str | None, budget: tuple[float, ...], rules: str, lazy:
     cluster = cluster_from(kw)
     constraints = constraints_from(kw)
     problem = target_from(kw)
-    routes = [r.name for r in problem.routes] if isinstance(problem, Domain) else [problem.scenario.name]
+    routes = [r.name for r in problem.routes]
     specs = specification_from(kw, routes) if given_spec else None
     if not given_spec:
         for k in ("preset", "spec_path", "lateral", "longitudinal", "heading", "sigma", "at"):

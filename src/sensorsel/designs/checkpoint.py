@@ -1,4 +1,6 @@
-"""Resume an interrupted greedy run (``sensorsel greedy -o FILE --resume``, on a route or a domain).
+"""Where a greedy run keeps what it has done, and how an interrupted one is resumed
+(``sensorsel greedy -o FILE --resume``, on a route or a domain; the run itself:
+:func:`sensorsel.designs.greedy_run.greedy_design`).
 
 A greedy run with a checkpoint file writes it, atomically, after each pick: the picks so far (each
 :class:`~sensorsel.designs.selection.Step` as computed), a strategy's finished component runs, then the
@@ -26,21 +28,18 @@ command deletes it once the result itself is written.
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, ClassVar
 
-from sensorsel.designs.certify import Certificate, CertifiedGreedyResult, certificate
-from sensorsel.designs.domain_design import DomainDesign, RouteShare, route_share, worst_route
-from sensorsel.designs.selection import GreedyResult, Step, check_budget, check_rule, greedy
-from sensorsel.information.evaluators import DomainEvaluator, Evaluator, evaluator_for
+from sensorsel.designs.certify import Certificate
+from sensorsel.designs.domain_design import RouteShare
+from sensorsel.designs.selection import GreedyResult, Step
 from sensorsel.information.evaluators.domain import check_aggregate
 from sensorsel.information.evaluators.registry import check_engine
 from sensorsel.io import results
-from sensorsel.io.progress import Progress
 from sensorsel.io.results import result_kind
-from sensorsel.model.constraints import Constraints, feasible_set, recorded
+from sensorsel.model.constraints import Constraints, recorded
 from sensorsel.pipeline.store import load_matching
 from sensorsel.model.problem import Domain, DomainInfo, Problem, ProblemInfo, Target, TargetInfo
 from sensorsel.designs.inputs import result_fingerprint
@@ -48,7 +47,7 @@ from sensorsel.designs.inputs import result_fingerprint
 #: Bumped when what a checkpoint holds, or how a run is resumed from it, changes.
 FORMAT = 1
 
-__all__ = ["GreedyCheckpoint", "checkpoint_path", "resumable_greedy"]
+__all__ = ["GreedyCheckpoint", "GreedyStore", "checkpoint_path", "remove_checkpoint"]
 
 
 @result_kind("greedy-checkpoint")
@@ -158,16 +157,36 @@ def _differences(ck: GreedyCheckpoint, target: Target, budget: float, rule: str,
     return diffs
 
 
-class _Store:
-    """The checkpoint of one run, rewritten (atomically) at each change: the greedy run's
-    :class:`~sensorsel.designs.selection.greedy.Journal`."""
+class GreedyStore:
+    """Where a greedy run keeps what it has done: the greedy run's
+    :class:`~sensorsel.designs.selection.greedy.Journal`, its certificate and its domain breakdown.
+    With a ``path``, :attr:`ck` is rewritten there (atomically) at each change; without one it is
+    kept in memory only (a run that cannot be resumed)."""
 
-    def __init__(self, path: Path, ck: GreedyCheckpoint) -> None:
+    def __init__(self, path: Path | None, ck: GreedyCheckpoint) -> None:
         self.path, self.ck = path, ck
+
+    @classmethod
+    def open(cls, checkpoint: str | Path | None, resume: bool, target: Target, budget: float, rule: str,
+             engine: str | None, aggregate: str, lazy: bool, limits: Constraints | None) -> "GreedyStore":
+        """The store of this run: in memory without ``checkpoint``; else that file, starting from what
+        it holds when ``resume`` and it was written by this very run (:func:`load_checkpoint`)."""
+        if checkpoint is None:
+            return cls(None, GreedyCheckpoint(fingerprint="", budget_usd=budget, rule=rule, engine=engine or "",
+                                              aggregate=aggregate, lazy=lazy, target=target.info, constraints=limits))
+        path, eng = Path(checkpoint), check_engine(engine)
+        agg = check_aggregate(aggregate)
+        fp = run_fingerprint(target, budget, rule, eng, agg, lazy, limits)
+        ck = load_checkpoint(path, target, budget, rule, eng, agg, lazy, fp, limits) if resume else None
+        if ck is None:
+            ck = GreedyCheckpoint(fingerprint=fp, budget_usd=budget, rule=rule, engine=eng, aggregate=agg, lazy=lazy,
+                                  target=target.info, constraints=limits)
+        return cls(path, ck)
 
     def update(self, **changes: Any) -> None:
         self.ck = replace(self.ck, **changes)
-        results.save(self.ck, self.path)
+        if self.path is not None:
+            results.save(self.ck, self.path)
 
     @property
     def runs(self) -> tuple[GreedyResult, ...]:
@@ -187,75 +206,8 @@ class _Store:
     def record_runs(self, runs: tuple[GreedyResult, ...]) -> None:
         self.update(runs=runs, steps=(), n_evaluations=0)
 
-
-def resumable_greedy(target: Target, budget_usd: float, rule: str = "uniform", *, checkpoint: str | Path,
-                     resume: bool = False, engine: str | None = None, jobs: int = 1, aggregate: str = "normalised",
-                     lazy: bool = True, certify: bool = False, progress: Progress | None = None,
-                     certify_progress: Progress | None = None, breakdown_progress: Progress | None = None,
-                     evaluator: Evaluator | None = None, breakdown: bool = True,
-                     constraints: Constraints | None = None) -> CertifiedGreedyResult | DomainDesign:
-    """The greedy run of :func:`sensorsel.api.run_greedy` (a route) or of
-    :func:`sensorsel.designs.domain_design.design_domain` (a domain, with its breakdown), writing
-    ``checkpoint`` after each pick and stage; with ``resume``, going on from the checkpoint an
-    interrupted run of the same inputs left (none there: from the start).
-
-    ``evaluator``: the target's evaluator already built (e.g. a domain's on a Dask cluster); ``engine``
-    and ``aggregate`` must be its own. ``breakdown``: with a domain, return its
-    :class:`~sensorsel.designs.domain_design.DomainDesign` (else the greedy result alone, as ``run_greedy``).
-    ``constraints``: limits besides the budget (:mod:`sensorsel.model.constraints`; None: the budget alone);
-    a checkpoint written under other limits, or on a library with other resources or slots, is not read
-    back (as one of any other run: warned, and overwritten).
-
-    Raises:
-        InputError: a bad budget, rule, engine or aggregate.
-    """
-    t0 = time.perf_counter()
-    budget, rule = check_budget(budget_usd), check_rule(rule)
-    eng = check_engine(engine)
-    agg = check_aggregate(aggregate) if isinstance(target, Domain) else ""
-    path = Path(checkpoint)
-    # the limits as the run records them (with the digest of the resources and slots they read)
-    limits = feasible_set(target.library, budget, constraints).record if constraints is not None else None
-    fp = run_fingerprint(target, budget, rule, eng, agg, lazy, limits)
-    ck = load_checkpoint(path, target, budget, rule, eng, agg, lazy, fp, limits) if resume else None
-    if ck is None:
-        ck = GreedyCheckpoint(fingerprint=fp, budget_usd=budget, rule=rule, engine=eng, aggregate=agg, lazy=lazy,
-                              target=target.info, constraints=limits)
-    store = _Store(path, ck)
-    ev = evaluator if evaluator is not None else evaluator_for(target, engine, jobs=jobs, aggregate=aggregate)
-    res = greedy(ev, budget, rule, lazy=lazy, progress=progress, info=target.info, constraints=constraints, journal=store)
-    cert = store.ck.certificate
-    if certify and cert is None:
-        cert = certificate(ev, res, progress=certify_progress)
-        store.update(certificate=cert)
-    out = CertifiedGreedyResult.of(res, cert if certify else None)
-    if not isinstance(target, Domain) or not breakdown:
-        return out
-    assert isinstance(ev, DomainEvaluator)
-    shares = _breakdown(ev, store, res, lazy, breakdown_progress)
-    return DomainDesign(greedy=out, aggregate=ev.aggregate, routes=shares, worst_route=worst_route(shares),
-                        domain=target.info, seconds=round(time.perf_counter() - t0, 6))
-
-
-def _breakdown(ev: DomainEvaluator, store: _Store, res: GreedyResult, lazy: bool,
-               progress: Progress | None) -> tuple[RouteShare, ...]:
-    """:func:`sensorsel.designs.domain_design.route_breakdown`, recording each route as it finishes."""
-    shares = list(store.ck.routes)
-    n = len(ev.routes)
-    if len(shares) < n:
-        scores = ev.route_scores(ev.library.resolve_suite(res.suite))
-        # the routes' own designs on the evaluator's threads, as many at a time as it has, each
-        # recorded in route order as its wave finishes (an interruption keeps the finished prefix)
-        wave = max(1, ev.jobs)
-        for start in range(len(shares), n, wave):
-            todo = list(range(start, min(n, start + wave)))
-            got = ev.map_routes(lambda k: route_share(ev, k, res, float(scores[k]), lazy=lazy), todo)
-            for k in todo:
-                shares.append(got[k])
-                store.update(routes=tuple(shares))
-                if progress:
-                    progress(k + 1, n)
-    return tuple(shares)
+    def record_routes(self, routes: tuple[RouteShare, ...]) -> None:
+        self.update(routes=routes)
 
 
 def remove_checkpoint(path: str | Path) -> None:

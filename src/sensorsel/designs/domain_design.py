@@ -1,7 +1,8 @@
 """One suite for a whole operating domain, and what it costs each route.
 
-:func:`design_domain` runs greedy selection on a domain's score (:mod:`sensorsel.information.evaluators.domain`)
-and then, route by route, compares the domain suite S with two references on that route alone:
+A domain's greedy run (:func:`sensorsel.designs.greedy_run.greedy_design` with ``breakdown``) picks one
+suite on the domain's score (:mod:`sensorsel.information.evaluators.domain`); :func:`route_breakdown` then,
+route by route, compares the domain suite S with two references on that route alone:
 
     share of best   f_r(S) / f_r(L)      what S gets of everything the library could give there
     share of own    f_r(S) / f_r(G_r)    G_r: the suite the same rule picks for route r alone, at the
@@ -13,19 +14,18 @@ optimal on r either). The route with the lowest share of own is named the worst 
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass
-from typing import ClassVar, Sequence
+from typing import Callable, ClassVar, Sequence
 
 import numpy as np
 
-from sensorsel.designs.certify import CertifiedGreedyResult, certificate
-from sensorsel.designs.selection import GreedyResult, check_budget, greedy
+from sensorsel.designs.certify import CertifiedGreedyResult
+from sensorsel.designs.selection import GreedyResult, greedy
 from sensorsel.information.evaluators import DomainEvaluator
 from sensorsel.io.progress import Progress
 from sensorsel.io.results import result_kind
-from sensorsel.model.constraints import Constraints, recorded
-from sensorsel.model.problem import Domain, DomainInfo
+from sensorsel.model.constraints import recorded
+from sensorsel.model.problem import DomainInfo
 
 
 @dataclass(frozen=True)
@@ -96,18 +96,32 @@ def route_share(evaluator: DomainEvaluator, k: int, result: GreedyResult, score:
 
 
 def route_breakdown(evaluator: DomainEvaluator, result: GreedyResult, *, lazy: bool = True,
-                    progress: Progress | None = None) -> tuple[RouteShare, ...]:
+                    progress: Progress | None = None, done: Sequence[RouteShare] = (),
+                    record: Callable[[tuple[RouteShare, ...]], None] | None = None) -> tuple[RouteShare, ...]:
     """Each route's share of its best and of its own design for the domain suite of ``result``
-    (own designs: greedy with ``result``'s rule and budget on each route's own evaluator)."""
+    (own designs: greedy with ``result``'s rule and budget on each route's own evaluator), in route
+    order; ``progress(k, n)`` after route k.
+
+    ``done``: the routes' shares already computed (a prefix, read back from a checkpoint), not
+    recomputed. ``record``: called with the shares so far after each route; then the routes run in
+    waves of the evaluator's :attr:`jobs` (an interruption keeps every finished wave), else all at
+    once (the routes' own designs are independent: on the evaluator's threads, each from its route's
+    engine alone)."""
+    shares, n = list(done), len(evaluator.routes)
+    if len(shares) >= n:
+        return tuple(shares[:n])
     scores = evaluator.route_scores(evaluator.library.resolve_suite(result.suite))
-    # the routes' own designs are independent: on the evaluator's threads (each from its route's engine alone)
-    got = evaluator.map_routes(lambda k: route_share(evaluator, k, result, float(scores[k]), lazy=lazy))
-    out = []
-    for k in range(len(evaluator.routes)):
-        out.append(got[k])
-        if progress:
-            progress(k + 1, len(evaluator.routes))
-    return tuple(out)
+    wave = max(1, evaluator.jobs) if record is not None else n
+    for start in range(len(shares), n, wave):
+        todo = list(range(start, min(n, start + wave)))
+        got = evaluator.map_routes(lambda k: route_share(evaluator, k, result, float(scores[k]), lazy=lazy), todo)
+        for k in todo:
+            shares.append(got[k])
+            if record is not None:
+                record(tuple(shares))
+            if progress:
+                progress(k + 1, n)
+    return tuple(shares)
 
 
 def worst_route(shares: Sequence[RouteShare]) -> str:
@@ -154,29 +168,3 @@ def by_condition(design: DomainDesign) -> tuple[ConditionShare, ...]:
         out.append(ConditionShare(name, total, avg([s.share_of_best for s in shares]), avg([s.share_of_own for s in shares]),
                                   worst_route(shares)))
     return tuple(out)
-
-
-def design_domain(domain: Domain, budget_usd: float, rule: str = "uniform", *, engine: str | None = None, jobs: int = 1,
-                  aggregate: str = "normalised", lazy: bool = True, certify: bool = False, progress: Progress | None = None,
-                  certify_progress: Progress | None = None, breakdown_progress: Progress | None = None,
-                  evaluator: DomainEvaluator | None = None, constraints: Constraints | None = None) -> DomainDesign:
-    """Greedy selection of one suite for every route of ``domain``, and its per-route breakdown; with
-    ``certify``, the run's certificate on the domain score (F is monotone submodular, so the bound holds).
-
-    ``evaluator``: the domain's evaluator, already built (e.g. on a Dask cluster,
-    :class:`sensorsel.pipeline.cluster.DistributedDomainEvaluator`); ``engine``, ``jobs`` and ``aggregate``
-    are then its own. ``constraints``: limits besides the budget (:mod:`sensorsel.model.constraints`),
-    respected by the domain suite and by each route's own design.
-
-    Raises:
-        InputError: a bad budget, rule, engine or aggregate, or a route no sensor can measure.
-    """
-    t0 = time.perf_counter()
-    budget = check_budget(budget_usd)
-    ev = evaluator if evaluator is not None else DomainEvaluator(domain, engine, jobs=jobs, aggregate=aggregate)
-    res = greedy(ev, budget, rule, lazy=lazy, progress=progress, info=domain.info, constraints=constraints)
-    cert = certificate(ev, res, progress=certify_progress) if certify else None
-    shares = route_breakdown(ev, res, lazy=lazy, progress=breakdown_progress)
-    return DomainDesign(greedy=CertifiedGreedyResult.of(res, cert), aggregate=ev.aggregate, routes=shares,
-                        worst_route=worst_route(shares), domain=domain.info,
-                        seconds=round(time.perf_counter() - t0, 6))

@@ -52,6 +52,7 @@ from typing import Callable, Iterable, Sequence
 
 import numpy as np
 
+from sensorsel.io.records import RuleBudget, SuiteScore
 from sensorsel.designs.inputs import result_fingerprint
 from sensorsel.designs.selection import RULES, GreedyResult, Rule, Step, check_budget, check_rule, greedy
 from sensorsel.errors import InputError
@@ -62,7 +63,7 @@ from sensorsel.io.files import atomic_write_text
 from sensorsel.io.results import result_kind, to_jsonable
 from sensorsel.model.constraints import REL_SLACK, Constraints, feasible_set
 from sensorsel.model.library import SensorLibrary
-from sensorsel.model.problem import Domain, Target, TargetInfo
+from sensorsel.model.problem import Target, TargetInfo
 from sensorsel.model.recipes import EvaluatorRecipe, TargetRecipe
 from sensorsel.pipeline import Executor, FileStore, InProcess, NoStore, Plan, Store, execute
 from sensorsel.io.progress import Progress
@@ -79,21 +80,15 @@ RULE_FORMAT = 1  # bumped when a rule's file (OUTDIR/runs/rule-NAME.json) or how
 
 
 @dataclass(frozen=True)
-class Architecture:
+class Architecture(SuiteScore):
     """One suite the greedy runs produced (identical suites merged).
 
     Attributes:
-        suite: sensor ids, in library order.
-        cost_usd: total cost [$].
-        score: f(suite) [nats] (as first recorded, in rule order then budget order then pick order).
         normalized: score / the best score of the tradespace (1.0 for the best).
         rules: the rules whose runs produced this suite, in the tradespace's rule order.
         on_front: True when no recorded architecture dominates it.
     """
 
-    suite: tuple[str, ...]
-    cost_usd: float
-    score: float
     normalized: float
     rules: tuple[str, ...]
     on_front: bool
@@ -104,15 +99,10 @@ class Architecture:
 
 
 @dataclass(frozen=True)
-class TradespaceRun:
+class TradespaceRun(SuiteScore, RuleBudget):
     """Summary of one greedy run of the tradespace (its architectures are in ``architectures``).
 
     Attributes:
-        rule: the rule (a name of :data:`sensorsel.designs.selection.RULES`).
-        budget_usd: the run's budget [$].
-        suite: the final suite, ids in pick order.
-        cost_usd: its cost [$].
-        score: its score [nats].
         n_steps: picks made (intermediate architectures).
         shared_steps: leading picks taken from an earlier run at a larger budget (not recomputed).
         stop_reason: why selection stopped.
@@ -121,11 +111,6 @@ class TradespaceRun:
         winning_rule: for a strategy, the component run it kept; else the rule.
     """
 
-    rule: str
-    budget_usd: float
-    suite: tuple[str, ...]
-    cost_usd: float
-    score: float
     n_steps: int
     shared_steps: int
     stop_reason: str
@@ -540,7 +525,7 @@ def run_tradespace(target: Target, budgets: Iterable[float] | None = None, rules
     (``aggregate``: how a domain combines its routes; the other arguments: see :func:`tradespace`)."""
     sel = parse_rules(rules, "rules")  # bad input fails before the evaluator is built
     grid = None if budgets is None else tuple(check_budget(b) for b in budgets)
-    eng, agg = check_engine(engine), check_aggregate(aggregate) if isinstance(target, Domain) else "normalised"
+    eng, agg = check_engine(engine), check_aggregate(aggregate)
     if constraints is not None:
         for b in grid or (float(target.library.costs.sum()),):
             feasible_set(target.library, b, constraints)  # refuses a bad request (at every budget) up front

@@ -4,7 +4,7 @@
 
 - a file without ``"kind"`` (written before result kinds): :func:`parse_kindless` reads it as the
   class the caller expects, strictly (every key a field of that class);
-- ``"method": "paper"``, the paper's Algorithm 2 by its name before it had one name everywhere
+- ``"method": "paper"``, a second name older files give the paper's Algorithm 2
   (resilient results, their periods and grids): :func:`upgrade` reads it as ``"algorithm-2"``.
 
 Both go away in sensorsel :data:`REMOVED_IN`: a file of either kind is then refused as any file

@@ -197,6 +197,12 @@ class Problem:
         return len(self.library)
 
     @property
+    def routes(self) -> "tuple[DomainRoute, ...]":
+        """This route as an operating domain's members: one, named by its scenario, weight 1 (so
+        that a run reads ``target.routes`` alike on a route and on a :class:`Domain`)."""
+        return (DomainRoute(self.scenario.name, self, 1.0),)
+
+    @property
     def info(self) -> ProblemInfo:
         """What this problem is, as results record it."""
         sc = self.scenario

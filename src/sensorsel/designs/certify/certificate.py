@@ -47,6 +47,7 @@ from sensorsel.designs.certify.knapsack import MAX_DP_CELLS, KnapsackSolution, k
 from sensorsel.designs.selection import REL_TOL, GreedyResult, check_budget
 from sensorsel.errors import InputError
 from sensorsel.information.evaluators import Evaluator, make_evaluator
+from sensorsel.io.records import RuleBudget, SuiteScore
 from sensorsel.io.results import result_kind
 from sensorsel.model.constraints import Constraints, FeasibleSet, feasible_set
 from sensorsel.model.library import SensorLibrary
@@ -58,17 +59,12 @@ from sensorsel.io.progress import Progress
 
 @result_kind("certificate")
 @dataclass(frozen=True)
-class Certificate:
+class Certificate(SuiteScore, RuleBudget):
     """How close a greedy suite is to the best possible suite of its budget.
 
     Computed by :func:`certificate` (the bound is explained in the module docstring).
 
     Attributes:
-        rule: the greedy rule that chose the suite (a name of :data:`sensorsel.designs.selection.RULES`).
-        budget_usd: the budget B [$].
-        suite: ids of the greedy suite.
-        cost_usd: its cost [$].
-        score: its score f [nats].
         bound: an upper bound on the score of every suite within the budget [nats]: the smallest
             U(S) over the empty suite and the greedy run's intermediate suites (and never below
             ``score``).
@@ -91,11 +87,6 @@ class Certificate:
             the budget alone.
     """
 
-    rule: str
-    budget_usd: float
-    suite: tuple[str, ...]
-    cost_usd: float
-    score: float
     bound: float
     ratio: float
     percent_of_best: float

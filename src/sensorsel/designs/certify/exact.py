@@ -43,6 +43,7 @@ from sensorsel.errors import InputError
 from sensorsel.information.evaluators import Evaluator
 from sensorsel.information.evaluators.accuracy import RouteAccuracy
 from sensorsel.information.integrity import RouteIntegrity
+from sensorsel.io.records import Budget, SuiteScore
 from sensorsel.io.results import result_kind
 from sensorsel.model.constraints import Constraints, FeasibleSet, feasible_set
 from sensorsel.model.library import SensorLibrary
@@ -61,14 +62,10 @@ _Node = tuple[float, int, tuple[int, ...], float, int, tuple[int, ...], np.ndarr
 
 @result_kind("optimum")
 @dataclass(frozen=True)
-class OptimumResult:
+class OptimumResult(SuiteScore, Budget):
     """The best suite within a budget, found by branch and bound (proved optimal or not).
 
     Attributes:
-        budget_usd: the budget B [$].
-        suite: ids of the best suite found, in library order.
-        cost_usd: its cost [$].
-        score: its score f [nats].
         proved_optimal: True when every other suite was ruled out (up to a relative 1e-9).
         upper_bound: no suite within the budget scores above this [nats] (= score when proved): the
             smaller of the highest bound left in the search and the greedy run's certificate bound.
@@ -105,10 +102,6 @@ class OptimumResult:
             command line computes it: :mod:`sensorsel.information.integrity`).
     """
 
-    budget_usd: float
-    suite: tuple[str, ...]
-    cost_usd: float
-    score: float
     proved_optimal: bool
     upper_bound: float
     gap: float

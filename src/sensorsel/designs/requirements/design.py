@@ -39,7 +39,7 @@ from sensorsel.io import results
 from sensorsel.io.codec import to_jsonable
 from sensorsel.io.results import result_kind
 from sensorsel.model.constraints import Constraints, feasible_set
-from sensorsel.model.problem import Domain, Problem, Target, TargetInfo
+from sensorsel.model.problem import Problem, Target, TargetInfo
 from sensorsel.designs.inputs import result_fingerprint, route_entry
 from sensorsel.pipeline.store import digest, load_matching
 from sensorsel.io.progress import Progress
@@ -190,7 +190,8 @@ def require_fingerprint(problems: Sequence[Problem], specs: Sequence[Specificati
                         integrity: IntegritySpec | None = None) -> tuple[str, tuple[tuple[str, str], ...]]:
     """(sha256, the inputs in words) of what a require run's answers depend on (``estimate``: filter or
     smoother; ``engine``: the engine that computes them: another one's answers agree only to rounding;
-    ``integrity``: the integrity also demanded, or None: then the fingerprint leaves integrity out)."""
+    ``integrity``: the integrity also demanded, or None: then it adds nothing to the
+    fingerprint)."""
     inputs = (
         ("routes", ", ".join(f"{p.scenario.name} {digest(to_jsonable(p.fingerprint))[:12]}" for p in problems)),
         ("specification", "; ".join(s.describe() for s in specs)),
@@ -439,9 +440,8 @@ def require(target: Target, specifications: Specification | Sequence[Specificati
         raise InputError(f"--failures must be a whole number >= 0, got {failures!r}")
     if budget_usd is not None and not (math.isfinite(budget_usd) and budget_usd > 0):
         raise InputError(f"--budget must be a positive number of dollars, got {budget_usd!r}")
-    members = list(target.routes) if isinstance(target, Domain) else []
-    problems: list[tuple[str, Problem]] = ([(r.name, r.problem) for r in members] if isinstance(target, Domain)
-                                          else [(target.scenario.name, target)])
+    members = list(target.routes)
+    problems: list[tuple[str, Problem]] = [(r.name, r.problem) for r in members]
     specs = [specifications] * len(problems) if isinstance(specifications, Specification) else list(specifications)
     if len(specs) != len(problems):
         raise InputError(f"{len(specs)} specifications for {len(problems)} routes")

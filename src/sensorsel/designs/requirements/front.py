@@ -17,7 +17,7 @@ from sensorsel.designs.requirements.spec import Specification, at_rank, verdict
 from sensorsel.information.evaluators import as_suite, make_evaluator
 from sensorsel.information.evaluators.accuracy import Z95, RouteAccuracy, estimate_label, model_label, route_accuracy
 from sensorsel.io.results import result_kind
-from sensorsel.model.problem import Domain, Target, TargetInfo
+from sensorsel.model.problem import Target, TargetInfo
 
 __all__ = ["FrontPoint", "FrontAcceptance", "front_acceptance"]
 
@@ -83,7 +83,7 @@ def front_acceptance(target: Target, front: Sequence[tuple[Sequence[str], float,
     """Each front suite ``(ids, cost, score)``'s accuracy on every route of ``target`` and whether
     it meets ``specifications`` (one per route in the domain's order, or None: accuracy only);
     ``estimate``: the filter's (as the car drives) or the smoother's (each accuracy records it)."""
-    routes = [(r.name, r.problem) for r in target.routes] if isinstance(target, Domain) else [(target.scenario.name, target)]
+    routes = [(r.name, r.problem) for r in target.routes]
     evaluators = [make_evaluator(p, engine) for _, p in routes]
     lib = target.library
     points = []

@@ -11,6 +11,7 @@ from sensorsel.designs.selection import GreedyResult
 from sensorsel.errors import InputError
 from sensorsel.information.evaluators.accuracy import RouteAccuracy
 from sensorsel.information.integrity import RouteIntegrity
+from sensorsel.io.records import AlphaBudget, MethodWorst
 from sensorsel.io.results import result_kind
 from sensorsel.model.constraints import Constraints
 from sensorsel.model.problem import TargetInfo
@@ -48,12 +49,10 @@ class WorstCase:
 
 @result_kind("resilient-selection")
 @dataclass(frozen=True)
-class ResilientResult:
+class ResilientResult(AlphaBudget):
     """A resilient selection: the failing set bought first, then greedy on the rest of the budget.
 
     Attributes:
-        alpha: failures designed for.
-        budget_usd: the whole budget [$] (the failing sensors count against it).
         rule: the greedy rule of the active set ("uniform", ...).
         suite: ids of the whole resilient suite: the failing set, then the active set, in pick order.
         failed: ids assumed to fail, in pick order (largest f({e}) first).
@@ -73,8 +72,6 @@ class ResilientResult:
             (:class:`~sensorsel.model.constraints.Constraints`); None: the budget alone.
     """
 
-    alpha: int
-    budget_usd: float
     rule: str
     suite: tuple[str, ...]
     failed: tuple[str, ...]
@@ -95,12 +92,10 @@ class ResilientResult:
 
 @result_kind("resilient-comparison")
 @dataclass(frozen=True)
-class Comparison:
+class Comparison(AlphaBudget):
     """Greedy versus resilient selection at the same budget on one scenario, and their worst cases.
 
     Attributes:
-        alpha: failures designed for and evaluated.
-        budget_usd: the budget of both [$].
         rule: the greedy rule of both.
         greedy: the plain greedy run.
         resilient: the resilient selection.
@@ -113,8 +108,6 @@ class Comparison:
         constraints: the limits besides the budget both selections respected; None: the budget alone.
     """
 
-    alpha: int
-    budget_usd: float
     rule: str
     greedy: GreedyResult
     resilient: ResilientResult
@@ -164,34 +157,34 @@ ALGORITHM_2 = "algorithm-2"
 METHODS = (ALGORITHM_2, "robust")
 
 @dataclass(frozen=True)
-class RobustChoice:
-    """The suite robust selection chose (:func:`sensorsel.designs.robust.robust_select`), in short.
+class RobustOutcome(MethodWorst):
+    """What robust selection chose and how it compares: :class:`~sensorsel.io.records.MethodWorst`'s
+    fields (the winning method, its suite in library order, its cost, nominal score and worst case,
+    never below greedy's nor Algorithm 2's, with the failures attaining it), then these.
 
     Attributes:
-        method: the candidate method that won ("greedy-marginal", "algorithm-2", "saturate", ...).
-        suite: ids, in library order.
-        cost_usd: its cost [$].
-        nominal_score: f(S) [nats].
-        worst_score: its exact worst case [nats]; never below greedy's nor Algorithm 2's.
-        failures: the failure set attaining it.
         greedy_worst_score: the plain (uniform) greedy suite's exact worst case [nats].
         algorithm2_worst_score: Algorithm 2's [nats].
         bound: upper bound on the best achievable worst case [nats].
         gap_percent: 100 * (bound - worst_score) / bound.
-        n_evaluations: suites scored.
-        seconds: wall time [s].
     """
 
-    method: str
-    suite: tuple[str, ...]
-    cost_usd: float
-    nominal_score: float
-    worst_score: float
-    failures: tuple[str, ...]
     greedy_worst_score: float
     algorithm2_worst_score: float
     bound: float
     gap_percent: float
+
+
+@dataclass(frozen=True)
+class RobustChoice(RobustOutcome):
+    """The suite robust selection chose (:func:`sensorsel.designs.robust.robust_select`), in short:
+    :class:`RobustOutcome`'s fields, then these.
+
+    Attributes:
+        n_evaluations: suites scored.
+        seconds: wall time [s].
+    """
+
     n_evaluations: int
     seconds: float = 0.0
 

@@ -1,4 +1,4 @@
-"""Robust sensor selection: the best worst case under alpha failures within a budget (issue 13).
+"""Robust sensor selection: the best worst case under alpha failures within a budget.
 
 Maximise g(S) = min over F ⊆ S, |F| <= alpha, of f(S minus F) over suites with Cost(S) <= B.
 

@@ -21,7 +21,7 @@ Constraints (:mod:`sensorsel.model.constraints`): the root holds the required se
 never in R, and R holds only the sensors that fit every limit on top of S_in (so every node's S_in
 is a feasible suite, and so is S_in ∪ R when it is tried). With rows besides the budget, the
 knapsack keeps them all: an integer program over what S_in leaves of every row
-(:func:`.bound.knapsack_drop_rows`); with the budget alone it is a dynamic program over the budget.
+(:func:`.bound.knapsack_drop_rows`); with the budget alone it is the single knapsack's dynamic program.
 
 The best found is proved optimal when no node is left; at the node limit, the largest bound left is
 an upper bound on the optimum.

@@ -8,26 +8,24 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Sequence
 
+from sensorsel.designs.resilient.records import RobustOutcome
 from sensorsel.designs.selection import REL_TOL as TIE_TOL
 from sensorsel.information.evaluators.accuracy import RouteAccuracy
 from sensorsel.information.integrity import RouteIntegrity
+from sensorsel.io.records import AlphaBudget, MethodWorst, WorstOutcome
 from sensorsel.io.results import result_kind
 from sensorsel.model.constraints import Constraints
 from sensorsel.model.problem import TargetInfo
 
 
 @dataclass(frozen=True)
-class Candidate:
+class Candidate(MethodWorst):
     """One method's suite, scored by its exact worst case.
 
+    Its first fields are :class:`~sensorsel.io.records.MethodWorst`'s (documented there; ``method``:
+    "greedy-uniform", "greedy-marginal", "algorithm-2", "saturate", "oblivious-eta2", "local-search", ...).
+
     Attributes:
-        method: "greedy-uniform", "greedy-marginal", "algorithm-2", "saturate", "oblivious-eta2",
-            "local-search", ...
-        suite: ids, in library order.
-        cost_usd: its cost [$].
-        nominal_score: f(S), nothing failed [nats].
-        worst_score: exact min over failure sets F (|F| = alpha) of f(S minus F) [nats].
-        failures: ids of the failure set attaining it (first in library order among ties).
         note: what the method did (levels tried, swaps made, ...); empty if nothing to say.
         n_evaluations: suites newly scored by the method and its worst case (memoized: a suite
             scored by an earlier method is free here).
@@ -36,12 +34,6 @@ class Candidate:
             (``failures`` are then that route's failure set); else empty.
     """
 
-    method: str
-    suite: tuple[str, ...]
-    cost_usd: float
-    nominal_score: float
-    worst_score: float
-    failures: tuple[str, ...]
     note: str
     n_evaluations: int
     seconds: float = 0.0
@@ -142,23 +134,14 @@ class RobustBound:
 
 @result_kind("robust")
 @dataclass(frozen=True)
-class RobustResult:
+class RobustResult(RobustOutcome, AlphaBudget):
     """A robust selection: the best candidate by exact worst case, all candidates, the bound.
 
+    Its first fields are :class:`~sensorsel.io.records.AlphaBudget`'s and
+    :class:`~sensorsel.designs.resilient.records.RobustOutcome`'s (documented there; the answer's worst
+    case is never below greedy's nor Algorithm 2's).
+
     Attributes:
-        alpha: failures designed for.
-        budget_usd: the budget [$].
-        method: the method whose suite won.
-        suite: ids of the winning suite, in library order.
-        cost_usd: its cost [$].
-        nominal_score: f(suite) [nats].
-        worst_score: its exact worst case [nats].
-        failures: the failure set attaining it.
-        greedy_worst_score: the exact worst case of the plain (uniform) greedy suite [nats]; the
-            answer is never below it.
-        algorithm2_worst_score: the same for the paper's Algorithm 2; the answer is never below it.
-        bound: upper bound on the best achievable worst case [nats].
-        gap_percent: 100 * (bound - worst_score) / bound.
         candidates: every candidate, in the order the methods ran.
         skipped: methods not run, with why ("bound proves optimality", ...).
         bound_detail: how the bound was obtained.
@@ -178,18 +161,6 @@ class RobustResult:
             command line computes it: :mod:`sensorsel.information.integrity`).
     """
 
-    alpha: int
-    budget_usd: float
-    method: str
-    suite: tuple[str, ...]
-    cost_usd: float
-    nominal_score: float
-    worst_score: float
-    failures: tuple[str, ...]
-    greedy_worst_score: float
-    algorithm2_worst_score: float
-    bound: float
-    gap_percent: float
     candidates: tuple[Candidate, ...]
     skipped: tuple[str, ...]
     bound_detail: RobustBound
@@ -207,16 +178,10 @@ class RobustResult:
 
 @result_kind("robust-optimum")
 @dataclass(frozen=True)
-class RobustOptimum:
+class RobustOptimum(WorstOutcome, AlphaBudget):
     """The best worst case within the budget, by branch and bound (proved or not).
 
     Attributes:
-        alpha, budget_usd: the inputs.
-        suite: ids of the best suite found, in library order.
-        cost_usd: its cost [$].
-        nominal_score: f(suite) [nats].
-        worst_score: its exact worst case [nats].
-        failures: the failure set attaining it.
         proved_optimal: every other suite ruled out.
         upper_bound: no suite within the budget has a worst case above this [nats].
         gap_percent: 100 * (upper_bound - worst_score) / upper_bound.
@@ -228,13 +193,6 @@ class RobustOptimum:
         constraints: the limits besides the budget the search kept; None: the budget alone.
     """
 
-    alpha: int
-    budget_usd: float
-    suite: tuple[str, ...]
-    cost_usd: float
-    nominal_score: float
-    worst_score: float
-    failures: tuple[str, ...]
     proved_optimal: bool
     upper_bound: float
     gap_percent: float

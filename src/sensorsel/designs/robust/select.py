@@ -34,7 +34,6 @@ from pathlib import Path
 from typing import Any, Callable, Sequence
 
 from sensorsel.designs.resilient import RobustChoice, WorstCase, check_alpha, recorded, worst_case
-from sensorsel.designs.resilient.algorithm import engine_name
 from sensorsel.designs.robust.bound import DEFAULT_BOUND_NODES
 from sensorsel.designs.robust.memo import memoized
 from sensorsel.designs.robust.methods import DEFAULT_SATURATE_LEVELS
@@ -43,10 +42,10 @@ from sensorsel.designs.robust.tasks import (ALGORITHM_2, MethodOutcome, MethodTa
                                             method_step, run_method, task_key, task_store, tolerance)
 from sensorsel.designs.selection import check_budget, check_rule
 from sensorsel.errors import InputError
-from sensorsel.information.evaluators import Evaluator, as_suite, evaluator_for
+from sensorsel.information.evaluators import Evaluator, as_suite, evaluator_for, evaluator_name
 from sensorsel.model.constraints import Constraints, feasible_set
 from sensorsel.model.library import SensorLibrary
-from sensorsel.model.problem import Domain, Target, TargetInfo
+from sensorsel.model.problem import Target, TargetInfo
 from sensorsel.model.recipes import EvaluatorRecipe, TargetRecipe
 from sensorsel.pipeline import Executor, InProcess, Plan, execute
 
@@ -213,7 +212,7 @@ def run_robust(problem: Target, budget_usd: float, alpha: int, *, engine: str | 
     budget, alpha = check_budget(budget_usd), check_alpha(alpha)
     rules = check_rules_and_methods(rules, methods, EXTRA_METHODS, "robust method")
     settings = RobustSettings(budget, alpha, kept_constraints(problem.library, budget, constraints), **limits)
-    name = "domain" if isinstance(problem, Domain) else engine_name(engine)
+    name = evaluator_name(problem, engine)
     recipe = EvaluatorRecipe(TargetRecipe.of(problem), engine, jobs, aggregate)
     local = None
     if executor is None or isinstance(executor, InProcess):  # the tasks run here: one evaluator for all of them

@@ -1,4 +1,4 @@
-"""The worst route of an operating domain: max-min over the routes' normalised scores (issue 13).
+"""The worst route of an operating domain: max-min over the routes' normalised scores.
 
 For a domain with routes r = 1..R (evaluators f_r, normalisers b_r = f_r(L), the whole library's
 score on route r, as in the normalised domain score) and alpha failures, maximise within the budget

@@ -28,7 +28,7 @@ the tie tolerance) are re-scored, so the picks are exactly those of the plain gr
 evaluations. Where the evaluator offers bounds on the gains (:meth:`Evaluator.gain_bounds`: the
 fast engine's per-measurement log det bounds from the base covariance) or on the scores
 (:meth:`Evaluator.score_bounds`: its Fischer bounds, poses and landmarks decoupled, which spare
-most of the first step's evaluations), a candidate's bound is also capped by them (issue 16; same
+most of the first step's evaluations), a candidate's bound is also capped by them (the same
 picks and scores, fewer evaluations: docs/speed.md).
 """
 

@@ -6,6 +6,7 @@ from dataclasses import dataclass
 
 from sensorsel.information.evaluators.accuracy import RouteAccuracy
 from sensorsel.information.integrity import RouteIntegrity
+from sensorsel.io.records import RuleBudget, SuiteScore
 from sensorsel.io.results import result_kind
 from sensorsel.model.constraints import Constraints
 from sensorsel.model.problem import TargetInfo
@@ -41,16 +42,11 @@ class Step:
 
 @result_kind("greedy", read=False)  # a run without its certificate: a "greedy" file, certificate null
 @dataclass(frozen=True)
-class GreedyResult:
-    """A greedy run: the chosen suite and every intermediate architecture.
+class GreedyResult(SuiteScore, RuleBudget):
+    """A greedy run: the rule that ran and its budget, the chosen suite (in pick order), its cost
+    (never above the budget) and score, and every intermediate architecture.
 
     Attributes:
-        rule: the rule of :data:`sensorsel.designs.selection.RULES` that ran ("uniform", "cost-benefit",
-            "marginal", "best-of").
-        budget_usd: the budget [$].
-        suite: ids of the chosen sensors, in pick order.
-        cost_usd: total cost [$] (never above the budget).
-        score: f(suite) [nats].
         steps: the suite after each pick.
         stop_reason: why selection stopped.
         n_evaluations: suites scored.
@@ -69,11 +65,6 @@ class GreedyResult:
             computes it: :mod:`sensorsel.information.integrity`).
     """
 
-    rule: str
-    budget_usd: float
-    suite: tuple[str, ...]
-    cost_usd: float
-    score: float
     steps: tuple[Step, ...]
     stop_reason: str
     n_evaluations: int

@@ -10,11 +10,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Sequence
 
-from sensorsel.designs.certify import certificate
+from sensorsel.designs.greedy_run import greedy_design
 from sensorsel.designs.inputs import result_fingerprint
 from sensorsel.designs.resilient import ALGORITHM_2, resilient_select, worst_case
 from sensorsel.designs.robust import robust_select
-from sensorsel.designs.selection import greedy
 from sensorsel.information.evaluators import evaluator_for
 from sensorsel.information.evaluators.domain import AGGREGATES
 from sensorsel.information.evaluators.registry import check_engine
@@ -43,10 +42,10 @@ def run_cell(target: Target, cell: Cell, study: Study, *, jobs: int = 1) -> Stud
     assumed: tuple[str, ...] = ()
     cert: float | None = None
     if alpha == 0:
-        g = greedy(ev, budget, cell.rule, lazy=study.lazy)
+        g = greedy_design(target, budget, cell.rule, lazy=study.lazy, certify=study.certificate, evaluator=ev)
         suite, score, cost = g.suite, g.score, g.cost_usd
-        if study.certificate:
-            cert = certificate(ev, g).percent_of_best
+        if g.certificate is not None:
+            cert = g.certificate.percent_of_best
     elif study.method == ALGORITHM_2:
         a2 = resilient_select(ev, budget, alpha, cell.rule, lazy=study.lazy)
         w = worst_case(ev, [lib.position(i) for i in a2.suite], alpha)

@@ -19,7 +19,16 @@ from sensorsel.information.evaluators.registry import DEFAULT_ENGINE, ENGINES, c
 from sensorsel.model.problem import Domain, Target
 
 __all__ = ["Evaluator", "ProblemEvaluator", "Suite", "as_suite", "ENGINES", "DEFAULT_ENGINE", "register",
-           "make_evaluator", "check_engine", "ReferenceEvaluator", "FastEvaluator", "DomainEvaluator", "AGGREGATES", "check_aggregate", "evaluator_for"]
+           "make_evaluator", "check_engine", "ReferenceEvaluator", "FastEvaluator", "DomainEvaluator", "AGGREGATES", "check_aggregate", "evaluator_for",
+           "evaluator_name"]
+
+
+def evaluator_name(target: Target, engine: str | None = None) -> str:
+    """The name of :func:`evaluator_for`'s evaluator of ``target`` with ``engine``, without building it.
+
+    Raises:
+        InputError: an unknown engine."""
+    return DomainEvaluator.name if isinstance(target, Domain) else check_engine(engine)
 
 
 def evaluator_for(target: Target, engine: str | None = None, *, jobs: int = 1, aggregate: str = "normalised") -> Evaluator:

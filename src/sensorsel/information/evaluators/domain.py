@@ -16,7 +16,7 @@ selector picks exactly what it picks on the route alone.
 Each route keeps its own engine (built once); a candidate's domain score is the weighted sum of its
 routes' scores, added in route order (one fixed order: the same bytes however many threads).
 
-Lazy greedy, member by member (:meth:`DomainEvaluator.scores_or_bounds`, issue 26): a candidate's
+Lazy greedy, member by member (:meth:`DomainEvaluator.scores_or_bounds`): a candidate's
 gain is Σ_r c_r Δ_r(c | S) (c_r the route's factor in F), and each Δ_r is submodular on its own, so
 the last exact Δ_r of an earlier step, or a route engine's bound, bounds it. A candidate that the
 lazy greedy re-scores gets its routes' exact scores one route at a time, the route with the largest

@@ -22,7 +22,7 @@ Method
    factored by LAPACK's dense Cholesky (dpotrf at ~peak speed), unless fewer than
    :data:`SPARSE_BELOW` of its blocks are non-zero (e.g. one narrow radar or camera alone, the first
    greedy step), where SuperLU with a minimum-degree order is 2-3x faster (measured per sensor on 00).
-3b. Or the whole matrix, frontally (:mod:`.front`, issue 16). At a fixed route P's non-zero blocks
+3b. Or the whole matrix, frontally (:mod:`.front`). At a fixed route P's non-zero blocks
    per row grow with the keyframe rate (a keyframe is coupled to every keyframe within sensor
    range), so the dense factorization costs K³. Instead the full information matrix (poses and
    landmarks) is eliminated chunk by chunk of keyframes in a keyframe order (route order, x or y

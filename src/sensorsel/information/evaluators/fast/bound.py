@@ -1,4 +1,4 @@
-"""Upper bounds on the candidates' gains from one base suite's covariance (issue 16, item 2).
+"""Upper bounds on the candidates' gains from one base suite's covariance.
 
 For a base suite S with information L_S and a candidate c adding Λ_c = Σ_m J_mᵀ R_m⁻¹ J_m (one term
 per measurement m of c, J_m its 2 × 5 Jacobian on one pose k and one landmark j):

@@ -1,4 +1,4 @@
-"""Cheap upper bounds on a suite's score from Fischer's inequality (issue 16: fewer evaluations).
+"""Cheap upper bounds on a suite's score from Fischer's inequality (fewer evaluations).
 
 For the information matrix of a suite, poses first and landmarks second,
 

@@ -1,5 +1,5 @@
 """The frontal path: log det of the full information matrix, poses and landmarks, by a block
-Cholesky whose cost grows with the route, not with its cube (issue 16).
+Cholesky whose cost grows with the route, not with its cube.
 
 Why. The pose Schur complement P couples every two keyframes that see a common landmark: a
 keyframe is coupled to every keyframe within sensor range, so P has ~(keyframe rate x range)
