@@ -39,7 +39,7 @@ from sensorsel.information.integrity.association import AssociationModel, keyfra
 from sensorsel.io.results import result_kind
 from sensorsel.model.problem import Problem
 
-__all__ = ["IntegritySpec", "LeftOut", "RouteIntegrity", "SensorAssociation", "route_integrity", "tail_risk", "protection_levels",
+__all__ = ["IntegritySpec", "LeftOut", "RouteIntegrity", "SensorAssociation", "integrity_and_pass", "route_integrity", "tail_risk", "protection_levels",
            "keyframes_per_hour"]
 
 
@@ -285,6 +285,13 @@ def route_integrity(problem: Problem, suite: Iterable[int], spec: IntegritySpec 
     filter: the car's covariance as it drives) whose ``use`` hook computes each keyframe's
     association risks at the prediction and applies the lever; then the tail, the protection
     levels and the risk per hour. ``map_sigma_m``: localizing in a map known to that std [m]; None: SLAM."""
+    return integrity_and_pass(problem, suite, spec, map_sigma_m=map_sigma_m, route=route)[0]
+
+
+def integrity_and_pass(problem: Problem, suite: Iterable[int], spec: IntegritySpec | None = None, *,
+                       map_sigma_m: float | None = None, route: str = "") -> tuple[RouteIntegrity, FilterPass]:
+    """:func:`route_integrity` and the forward pass it ran: without the lever its ``filtered`` are the
+    suite's filtered covariances (every measurement used), what its accuracy needs too."""
     spec = spec or IntegritySpec()
     model = "slam" if map_sigma_m is None else "map"
     assoc = AssociationModel(problem, model=model, gate_probability=spec.gate_probability)
@@ -309,4 +316,4 @@ def route_integrity(problem: Problem, suite: Iterable[int], spec: IntegritySpec 
         p_error_tail=tuple(tail.tolist()),
         by_sensor=tuple(SensorAssociation(hook.sensor_ids[i], int(row[0]), int(row[1]), float(row[2]), float(row[3]),
                                           float(row[4]))
-                        for i, row in enumerate(hook.per_sensor) if row[0] > 0))
+                        for i, row in enumerate(hook.per_sensor) if row[0] > 0)), fp
