@@ -168,7 +168,8 @@ def test_integrity_line_and_json_of_score():
                               "--max-association-risk", "0.001"])
     assert res.exit_code == 0, res.output
     line = [ln for ln in res.output.splitlines() if ln.startswith("integrity")]
-    assert len(line) == 1 and "/h of 1e-08/h" in line[0] and "left out" in line[0]
+    assert len(line) == 1 and "/h FAILS 1e-08/h (assoc. " in line[0] and "left out 21/111" in line[0]
+    assert len(line[0]) <= 130  # one readable line; the detail is in the JSON
     res = runner.invoke(cli, ["score", "--fixture", "tiny", "--suite", SUITE, "--json"])
     assert res.exit_code == 0
     data = json.loads(res.output)

@@ -162,41 +162,30 @@ class RouteIntegrity:
         return self.integrity_risk_per_hour <= self.spec.integrity_risk
 
     def line(self) -> str:
-        """One line: the risk per hour against the requirement and its two parts, the worst keyframe's
-        association risk (bound and estimate), the riskiest sensor, the protection levels, and what
-        the lever left out (with the 95 % errors of what is used)."""
+        """One short line (≲ 100 characters): the risk per hour against the requirement and its two
+        parts (association, error tail), the worst keyframe's association bound, the median protection
+        levels (lateral/longitudinal, and at how many keyframes one exists when not at all), and what
+        the lever left out. The rest (alert limits, estimates, per-sensor risks, σ) is in the record."""
         pw = np.asarray(self.p_wrong_association)
         s = self.spec
-        verdict = "ok" if self.meets else "FAILS"
         n_h = self.keyframes_per_hour
         assoc_h = n_h * float(np.mean(pw)) if pw.size else 0.0
         tail_h = n_h * float(np.mean(self.p_error_tail)) if self.p_error_tail else 0.0
-        text = (f"{self.integrity_risk_per_hour:.2g}/h of {s.integrity_risk:.2g}/h ({verdict}: association "
-                f"{assoc_h:.2g}/h, error tail {tail_h:.2g}/h; alert limits {s.alert_lateral_m:g} m lat, "
-                f"{s.alert_longitudinal_m:g} m lon, {s.alert_heading_deg:g} deg; filter)")
+        parts = [f"{self.integrity_risk_per_hour:.2g}/h {'meets' if self.meets else 'FAILS'} {s.integrity_risk:.2g}/h "
+                 f"(assoc. {assoc_h:.2g} + tail {tail_h:.2g})"]
         if pw.size:
             worst = int(np.argmax(pw))
-            text += (f"; P(wrong association) worst keyframe {worst}: {pw[worst]:.2g} bound, "
-                     f"{self.p_wrong_association_estimate[worst]:.2g} estimate")
-        risky = max(self.by_sensor, key=lambda x: x.expected_wrong, default=None)
-        if risky is not None and risky.expected_wrong > 0:
-            text += f"; riskiest {risky.sensor} ({risky.expected_wrong:.2g} wrong expected on the route)"
+            parts.append(f"P(wrong) ≤ {pw[worst]:.2g} (kf {worst})")
         lat, lon = np.asarray(self.protection_level_lateral_m), np.asarray(self.protection_level_longitudinal_m)
         finite = np.isfinite(lat)
         if finite.any():
-            text += (f"; protection levels median {np.median(lat[finite]):.3f} m lat, "
-                     f"{np.median(lon[finite]):.3f} m lon")
-        if not finite.all():
-            text += f" (none at {int((~finite).sum())} of {lat.size} keyframes: association risk over the allocation)"
+            where = "" if finite.all() else f" ({int(finite.sum())}/{lat.size} kf)"
+            parts.append(f"PL {np.median(lat[finite]):.2f}/{np.median(lon[finite]):.2f} m{where}")
+        elif lat.size:
+            parts.append("no PL")
         if s.max_association_risk is not None:
-            n_out = sum(x.count for x in self.left_out)
-            text += f"; {n_out} of {sum(self.n_measured)} measurements left out (risk > {s.max_association_risk:g})"
-            if self.lateral_sigma_m:
-                z = 1.959963984540054
-                text += (f"; with what is used, 95% errors at the worst keyframe: lateral "
-                         f"{z * max(self.lateral_sigma_m):.3f} m, longitudinal {z * max(self.longitudinal_sigma_m):.3f} m, "
-                         f"heading {z * max(self.heading_sigma_deg):.2f} deg")
-        return text
+            parts.append(f"left out {sum(x.count for x in self.left_out)}/{sum(self.n_measured)}")
+        return "; ".join(parts)
 
 
 def _fmt(x: float) -> str:
