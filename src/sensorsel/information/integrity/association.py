@@ -288,12 +288,16 @@ def measurement_risks(pose: np.ndarray, points: np.ndarray, prediction: Predicti
     lam_low = ((r_i * d[:, 0]) ** 2 + d[:, 1] ** 2) / (s_bb + s_rr)
     keep = np.sqrt(lam_low) <= math.sqrt(gate) + FAR_SIGMAS + rho_up
     mi, cj = mi[keep], cj[keep]
+    # which pairs are near enough, from candidate j's moments alone (its 5 × 5 block: cheap), then
+    # the full moments of those only
+    slot_j = _slots(state, cj)
+    s_j, lam, sigma_j, range_j = _candidate_moments(pose, points, prediction, meas, mi, cj, slot_j)
+    whiten_j = _noise_inverse(meas, mi) if robust_to_covariance else np.linalg.inv(s_j)
+    rho_j = _remainder(sigma_j, range_j, whiten_j)  # (n, K)
+    close = np.sqrt(lam) <= math.sqrt(gate) + FAR_SIGMAS + rho_j[:, _K_FAR]
+    mi, cj, slot_j, rho_j = mi[close], cj[close], slot_j[close], rho_j[close]
     li = meas.landmark[mi]
-    pair = _pair_moments(pose, points, prediction, meas, mi, li, cj, _slots(state, li), _slots(state, cj))
-    whiten_j = _noise_inverse(meas, mi) if robust_to_covariance else np.linalg.inv(pair.s_j)
-    rho_j = _remainder(pair.sigma_j, pair.range_j, whiten_j)  # (n, K)
-    close = np.sqrt(pair.lam) <= math.sqrt(gate) + FAR_SIGMAS + rho_j[:, _K_FAR]
-    mi, pair, rho_j = mi[close], pair.select(close), rho_j[close]
+    pair = _pair_moments(pose, points, prediction, meas, mi, li, cj, _slots(state, li), slot_j)
     ncand = np.bincount(mi, minlength=m).astype(np.int64)
     if len(mi) == 0:
         return MeasurementRisk(est, bnd, ncand, lin)
@@ -305,18 +309,23 @@ def measurement_risks(pose: np.ndarray, points: np.ndarray, prediction: Predicti
     bnd = np.minimum(1.0, np.bincount(mi, weights=np.minimum(1.0, g_gate.min(axis=1)), minlength=m))
     f_gate = _ncx2_cdf(np.full(len(lam), gate), lam)
     ts = gate * _T_FRACTIONS
-    if not robust_to_covariance:
-        # with the right landmark a candidate, also min_t G_i(t) + Σ_j G_j(t) (each pair at its gate's k)
-        rho_k = rho_j[np.arange(len(lam)), k_best]
-        g_t = _K_OUT[k_best][:, None] + _ncx2_cdf((np.sqrt(ts)[None, :] + rho_k[:, None]) ** 2, lam[:, None])
+    # with the right landmark a candidate, also min_t G_i(t) + Σ_j G_j(t) (each pair at its gate's k);
+    # G_i(t) ≥ e^(−γ/2) for every t ≤ γ, so only a gate sum above that can be lowered by it
+    lower = has_right & (bnd > math.exp(-gate / 2.0)) & (not robust_to_covariance)
+    sel = lower[mi]
+    if sel.any():
+        lam_s, rho_s, kb = lam[sel], rho_j[sel], k_best[sel]
+        rho_k = rho_s[np.arange(len(lam_s)), kb]
+        g_t = _K_OUT[kb][:, None] + _ncx2_cdf((np.sqrt(ts)[None, :] + rho_k[:, None]) ** 2, lam_s[:, None])
         sums = np.zeros((m, len(ts)))
-        np.add.at(sums, mi, g_t)
-        rho_i = _remainder(pair.sigma_i, pair.range_i, np.linalg.inv(pair.s_i))  # (n, K): equal within a measurement
-        short = np.maximum(np.sqrt(ts)[None, :, None] - rho_i[:, None, :], 0.0)  # (n, T, K)
+        np.add.at(sums, mi[sel], g_t)
+        ps = pair.select(sel)
+        rho_i = _remainder(ps.sigma_i, ps.range_i, np.linalg.inv(ps.s_i))  # (n', K): equal within a measurement
+        short = np.maximum(np.sqrt(ts)[None, :, None] - rho_i[:, None, :], 0.0)  # (n', T, K)
         g_i = np.ones((m, len(ts)))
-        g_i[mi] = np.min(_K_OUT[None, None, :] + np.exp(-0.5 * short ** 2), axis=2)
+        g_i[mi[sel]] = np.min(_K_OUT[None, None, :] + np.exp(-0.5 * short ** 2), axis=2)
         lnn = np.min(g_i + sums, axis=1)
-        bnd = np.where(has_right, np.minimum(bnd, lnn), bnd)
+        bnd = np.where(lower, np.minimum(bnd, lnn), bnd)
     if linear:  # the same with ρ = 0 and no outside mass
         lin = np.minimum(1.0, np.bincount(mi, weights=f_gate, minlength=m))
         f_t = _ncx2_cdf(ts[None, :], lam[:, None])
@@ -355,7 +364,7 @@ def _slots(state: np.ndarray, landmarks: np.ndarray) -> np.ndarray:
 class _Pairs:
     """Per (measurement, candidate) pair: d (n, 2), S_i, S_j, C_D (n, 2, 2), Cov(ν_i, D) (n, 2, 2), λ (n,);
     the std (σ_a, σ_b) (n, 2) [m] of w along and across the line of sight and the true range (n,) [m]
-    of the candidate j and of the measured landmark i."""
+    of the measured landmark i (the candidate's: :func:`_candidate_moments`)."""
 
     d: np.ndarray
     s_i: np.ndarray
@@ -363,14 +372,12 @@ class _Pairs:
     c_d: np.ndarray
     c_id: np.ndarray
     lam: np.ndarray
-    sigma_j: np.ndarray
-    range_j: np.ndarray
     sigma_i: np.ndarray
     range_i: np.ndarray
 
     def select(self, mask: np.ndarray) -> "_Pairs":
         return _Pairs(self.d[mask], self.s_i[mask], self.s_j[mask], self.c_d[mask], self.c_id[mask], self.lam[mask],
-                      self.sigma_j[mask], self.range_j[mask], self.sigma_i[mask], self.range_i[mask])
+                      self.sigma_i[mask], self.range_i[mask])
 
 
 def _landmark_blocks(cov: np.ndarray, a: np.ndarray, b: np.ndarray, prior_var: float) -> np.ndarray:
@@ -425,22 +432,43 @@ def _pair_moments(pose: np.ndarray, points: np.ndarray, prediction: Prediction, 
     c_id = b @ e @ np.transpose(a, (0, 2, 1))
     d = _innovation_means(pose, points, meas, mi, cj)
     lam = np.einsum("ni,ni->n", d, np.linalg.solve(s_j, d[:, :, None])[:, :, 0])
-    sigma_j, range_j = _line_of_sight_spread(pose, points[cj], e, 5)
     sigma_i, range_i = _line_of_sight_spread(pose, points[li], e, 3)
-    return _Pairs(d=d, s_i=s_i, s_j=s_j, c_d=c_d, c_id=c_id, lam=lam, sigma_j=sigma_j, range_j=range_j,
-                  sigma_i=sigma_i, range_i=range_i)
+    return _Pairs(d=d, s_i=s_i, s_j=s_j, c_d=c_d, c_id=c_id, lam=lam, sigma_i=sigma_i, range_i=range_i)
+
+
+def _candidate_moments(pose: np.ndarray, points: np.ndarray, prediction: Prediction, meas: KeyframeMeasurements,
+                       mi: np.ndarray, cj: np.ndarray, slot_j: np.ndarray
+                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """What the far-pair filter needs of each pair, from the (pose, l_j) 5 × 5 block alone: S_j
+    (n, 2, 2), λ (n,), the line-of-sight spreads (n, 2) [m] and ranges (n,) [m] of candidate j
+    (the same as :func:`_pair_moments`' for those pairs)."""
+    cov = np.asarray(prediction.covariance, float)
+    n = len(mi)
+    e = np.zeros((n, 5, 5))
+    e[:, :3, :3] = cov[:3, :3]
+    pj = _pose_landmark(cov, slot_j)
+    e[:, :3, 3:], e[:, 3:, :3] = pj, np.transpose(pj, (0, 2, 1))
+    e[:, 3:, 3:] = _landmark_blocks(cov, slot_j, slot_j, float(prediction.prior_sigma_m) ** 2)
+    jac = bearing_range_jacobians(np.broadcast_to(pose, (n, 3)), points[cj])  # (n, 2, 5)
+    s_j = jac @ e @ np.transpose(jac, (0, 2, 1))
+    s_j[:, 0, 0] += meas.sigma_bearing_rad[mi] ** 2
+    s_j[:, 1, 1] += meas.sigma_range_m[mi] ** 2
+    d = _innovation_means(pose, points, meas, mi, cj)
+    lam = np.einsum("ni,ni->n", d, np.linalg.solve(s_j, d[:, :, None])[:, :, 0])
+    sigma_j, range_j = _line_of_sight_spread(pose, points[cj], e, 3)
+    return s_j, lam, sigma_j, range_j
 
 
 def _line_of_sight_spread(pose: np.ndarray, points: np.ndarray, e: np.ndarray, col: int) -> tuple[np.ndarray, np.ndarray]:
     """(σ_a, σ_b) (n, 2) [m] of w = e_l − R(θ) e_xy along and across the line of sight to ``points``
-    (n, 2), the landmark's error at columns ``col``, ``col + 1`` of the (n, 7, 7) covariance ``e``
+    (n, 2), the landmark's error at columns ``col``, ``col + 1`` of the (n, q, q) covariance ``e``
     (the pose's position error in its own frame at columns 0, 1); and the true ranges (n,) [m]."""
     c, s = math.cos(pose[2]), math.sin(pose[2])
     rel = points - pose[:2]
     rng = np.maximum(np.hypot(rel[:, 0], rel[:, 1]), 1e-9)
     along = rel / rng[:, None]
     frame = np.stack([along, np.column_stack([-along[:, 1], along[:, 0]])], axis=1)  # (n, 2, 2): rows a, b
-    a = np.zeros((e.shape[0], 2, 7))
+    a = np.zeros((e.shape[0], 2, e.shape[1]))
     a[:, :, :2] = -frame @ np.array([[c, -s], [s, c]])
     a[:, :, col:col + 2] = frame
     var = np.einsum("nak,nkl,nal->na", a, e, a)
