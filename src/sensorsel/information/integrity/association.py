@@ -123,13 +123,13 @@ def _ncx2_cdf(x: np.ndarray, lam: np.ndarray) -> np.ndarray:
     return np.where(np.isfinite(x), chndtr(np.where(np.isfinite(x), x, 0.0), 2.0, lam), 1.0)
 
 
-def _remainder(sigma_ab: np.ndarray, rng_m: np.ndarray, s_inv: np.ndarray) -> np.ndarray:
-    """(n, K) ρ(k) of each pair at each k of the grid: the largest ‖S^(−1/2) ε‖ of the polar
+def _remainder(sigma_ab: np.ndarray, rng_m: np.ndarray, s_inv: np.ndarray, ks: np.ndarray = _K_GRID) -> np.ndarray:
+    """(n, K) ρ(k) of each pair at each k of ``ks`` (the grid): the largest ‖S^(−1/2) ε‖ of the polar
     coordinates' Taylor remainder ε over the box |a| ≤ kσ_a, |b| ≤ kσ_b (module docstring); inf where
     kσ_a reaches the range. ``sigma_ab`` (n, 2) [m], ``rng_m`` (n,) [m], ``s_inv`` (n, 2, 2) the
     whitening (S⁻¹, or R⁻¹ for the bound robust to the covariance)."""
-    a = _K_GRID[None, :] * sigma_ab[:, :1]
-    b = _K_GRID[None, :] * sigma_ab[:, 1:]
+    a = ks[None, :] * sigma_ab[:, :1]
+    b = ks[None, :] * sigma_ab[:, 1:]
     r = rng_m[:, None]
     ok = a < r
     x = np.where(ok, r - a, 1.0)
@@ -276,26 +276,33 @@ def measurement_risks(pose: np.ndarray, points: np.ndarray, prediction: Predicti
     # λ ≥ |T d|² / tr(T S_j T), and each row h of H_j has hᵀ E h ≤ (Σ_blocks ‖h_b‖ √λmax(E_bb))²
     # (Cauchy–Schwarz, E ⪰ 0), the blocks being the position (‖h‖ ≤ 1/r_j bearing, 1 range), the
     # heading (1, 0) and the landmark (1/r_j, 1); λmax(E_bb) ≤ its trace. The far limit is widened by
-    # the remainder at k = FAR_SIGMAS, taken at its largest (σ_a, σ_b ≤ sd_xy + sd_lm, whitened by R ⪯ S)
+    # the remainder at k = FAR_SIGMAS, taken at its largest (σ_a, σ_b ≤ sd_xy + sd_lj, whitened by R ⪯ S);
+    # sd_lj the candidate's own spread (the trace of its block; the prior's out of the state)
     d = _innovation_means(pose, points, meas, mi, cj)
-    sd_xy, sd_th, sd_lm = _spreads(prediction)
+    sd_xy, sd_th, _ = _spreads(prediction, with_prior=False)
+    slot_j = _slots(state, cj)
+    cov = np.asarray(prediction.covariance, float)
+    diag = np.diagonal(cov)
+    inside = np.maximum(slot_j, 0)
+    sd_lj = np.where(slot_j >= 0, np.sqrt(np.maximum(diag[3 + 2 * inside] + diag[4 + 2 * inside], 0.0))
+                     if len(diag) > 3 else 0.0, math.sqrt(2.0) * float(prediction.prior_sigma_m))
     r_i = meas.range_m[mi]
     r_j = np.maximum(np.hypot(*(points[cj] - pose[:2]).T), 1e-9)
-    s_bb = r_i ** 2 * (meas.sigma_bearing_rad[mi] ** 2 + ((sd_xy + sd_lm) / r_j + sd_th) ** 2)
-    s_rr = meas.sigma_range_m[mi] ** 2 + (sd_xy + sd_lm) ** 2
-    r_inv = _noise_inverse(meas, mi)
-    rho_up = _remainder(np.full((len(mi), 2), sd_xy + sd_lm), r_j, r_inv)[:, _K_FAR]
+    s_bb = r_i ** 2 * (meas.sigma_bearing_rad[mi] ** 2 + ((sd_xy + sd_lj) / r_j + sd_th) ** 2)
+    s_rr = meas.sigma_range_m[mi] ** 2 + (sd_xy + sd_lj) ** 2
+    far_k = _K_GRID[_K_FAR:_K_FAR + 1]
+    sd_w = (sd_xy + sd_lj)[:, None] * np.ones(2)
+    rho_up = _remainder(sd_w, r_j, _noise_inverse(meas, mi), far_k)[:, 0]
     lam_low = ((r_i * d[:, 0]) ** 2 + d[:, 1] ** 2) / (s_bb + s_rr)
     keep = np.sqrt(lam_low) <= math.sqrt(gate) + FAR_SIGMAS + rho_up
-    mi, cj = mi[keep], cj[keep]
+    mi, cj, slot_j = mi[keep], cj[keep], slot_j[keep]
     # which pairs are near enough, from candidate j's moments alone (its 5 × 5 block: cheap), then
     # the full moments of those only
-    slot_j = _slots(state, cj)
     s_j, lam, sigma_j, range_j = _candidate_moments(pose, points, prediction, meas, mi, cj, slot_j)
     whiten_j = _noise_inverse(meas, mi) if robust_to_covariance else np.linalg.inv(s_j)
-    rho_j = _remainder(sigma_j, range_j, whiten_j)  # (n, K)
-    close = np.sqrt(lam) <= math.sqrt(gate) + FAR_SIGMAS + rho_j[:, _K_FAR]
-    mi, cj, slot_j, rho_j = mi[close], cj[close], slot_j[close], rho_j[close]
+    close = np.sqrt(lam) <= math.sqrt(gate) + FAR_SIGMAS + _remainder(sigma_j, range_j, whiten_j, far_k)[:, 0]
+    mi, cj, slot_j = mi[close], cj[close], slot_j[close]
+    rho_j = _remainder(sigma_j[close], range_j[close], whiten_j[close])  # (n, K)
     li = meas.landmark[mi]
     pair = _pair_moments(pose, points, prediction, meas, mi, li, cj, _slots(state, li), slot_j)
     ncand = np.bincount(mi, minlength=m).astype(np.int64)
