@@ -298,8 +298,8 @@ def measurement_risks(pose: np.ndarray, points: np.ndarray, prediction: Predicti
     mi, cj, slot_j = mi[keep], cj[keep], slot_j[keep]
     # which pairs are near enough, from candidate j's moments alone (its 5 × 5 block: cheap), then
     # the full moments of those only
-    s_j, lam, sigma_j, range_j = _candidate_moments(pose, points, prediction, meas, mi, cj, slot_j)
-    whiten_j = _noise_inverse(meas, mi) if robust_to_covariance else np.linalg.inv(s_j)
+    s_j, lam, sigma_j, range_j, s_inv = _candidate_moments(pose, points, prediction, meas, mi, cj, slot_j)
+    whiten_j = _noise_inverse(meas, mi) if robust_to_covariance else s_inv
     close = np.sqrt(lam) <= math.sqrt(gate) + FAR_SIGMAS + _remainder(sigma_j, range_j, whiten_j, far_k)[:, 0]
     mi, cj, slot_j = mi[close], cj[close], slot_j[close]
     rho_j = _remainder(sigma_j[close], range_j[close], whiten_j[close])  # (n, K)
@@ -445,10 +445,10 @@ def _pair_moments(pose: np.ndarray, points: np.ndarray, prediction: Prediction, 
 
 def _candidate_moments(pose: np.ndarray, points: np.ndarray, prediction: Prediction, meas: KeyframeMeasurements,
                        mi: np.ndarray, cj: np.ndarray, slot_j: np.ndarray
-                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """What the far-pair filter needs of each pair, from the (pose, l_j) 5 × 5 block alone: S_j
     (n, 2, 2), λ (n,), the line-of-sight spreads (n, 2) [m] and ranges (n,) [m] of candidate j
-    (the same as :func:`_pair_moments`' for those pairs)."""
+    (the same as :func:`_pair_moments`' for those pairs), and S_j⁻¹ (n, 2, 2)."""
     cov = np.asarray(prediction.covariance, float)
     n = len(mi)
     e = np.zeros((n, 5, 5))
@@ -461,9 +461,19 @@ def _candidate_moments(pose: np.ndarray, points: np.ndarray, prediction: Predict
     s_j[:, 0, 0] += meas.sigma_bearing_rad[mi] ** 2
     s_j[:, 1, 1] += meas.sigma_range_m[mi] ** 2
     d = _innovation_means(pose, points, meas, mi, cj)
-    lam = np.einsum("ni,ni->n", d, np.linalg.solve(s_j, d[:, :, None])[:, :, 0])
+    inv = _inverse_2x2(s_j)
+    lam = np.einsum("ni,nij,nj->n", d, inv, d)
     sigma_j, range_j = _line_of_sight_spread(pose, points[cj], e, 3)
-    return s_j, lam, sigma_j, range_j
+    return s_j, lam, sigma_j, range_j, inv
+
+
+def _inverse_2x2(a: np.ndarray) -> np.ndarray:
+    """(n, 2, 2) inverses of symmetric positive definite (n, 2, 2) matrices, in closed form."""
+    det = a[:, 0, 0] * a[:, 1, 1] - a[:, 0, 1] * a[:, 1, 0]
+    out = np.empty_like(a)
+    out[:, 0, 0], out[:, 1, 1] = a[:, 1, 1] / det, a[:, 0, 0] / det
+    out[:, 0, 1], out[:, 1, 0] = -a[:, 0, 1] / det, -a[:, 1, 0] / det
+    return out
 
 
 def _line_of_sight_spread(pose: np.ndarray, points: np.ndarray, e: np.ndarray, col: int) -> tuple[np.ndarray, np.ndarray]:
@@ -473,13 +483,14 @@ def _line_of_sight_spread(pose: np.ndarray, points: np.ndarray, e: np.ndarray, c
     c, s = math.cos(pose[2]), math.sin(pose[2])
     rel = points - pose[:2]
     rng = np.maximum(np.hypot(rel[:, 0], rel[:, 1]), 1e-9)
-    along = rel / rng[:, None]
-    frame = np.stack([along, np.column_stack([-along[:, 1], along[:, 0]])], axis=1)  # (n, 2, 2): rows a, b
-    a = np.zeros((e.shape[0], 2, e.shape[1]))
-    a[:, :, :2] = -frame @ np.array([[c, -s], [s, c]])
-    a[:, :, col:col + 2] = frame
-    var = np.einsum("nak,nkl,nal->na", a, e, a)
-    return np.sqrt(np.maximum(var, 0.0)), rng
+    ux, uy = rel[:, 0] / rng, rel[:, 1] / rng
+    # Cov(w) = E_ll + M E_pp Mᵀ − E_lp Mᵀ − M E_pl, M = R(θ) (2 × 2 blocks: cheap elementwise)
+    rot = np.array([[c, -s], [s, c]])
+    e_lp = e[:, col:col + 2, :2] @ rot.T
+    cw = e[:, col:col + 2, col:col + 2] + rot @ e[:, :2, :2] @ rot.T - e_lp - np.transpose(e_lp, (0, 2, 1))
+    var_a = ux * ux * cw[:, 0, 0] + 2.0 * ux * uy * cw[:, 0, 1] + uy * uy * cw[:, 1, 1]
+    var_b = uy * uy * cw[:, 0, 0] - 2.0 * ux * uy * cw[:, 0, 1] + ux * ux * cw[:, 1, 1]
+    return np.sqrt(np.maximum(np.column_stack([var_a, var_b]), 0.0)), rng
 
 
 def _innovation_means(pose: np.ndarray, points: np.ndarray, meas: KeyframeMeasurements, mi: np.ndarray,
