@@ -298,7 +298,7 @@ def measurement_risks(pose: np.ndarray, points: np.ndarray, prediction: Predicti
     mi, cj, slot_j = mi[keep], cj[keep], slot_j[keep]
     # which pairs are near enough, from candidate j's moments alone (its 5 × 5 block: cheap), then
     # the full moments of those only
-    s_j, lam, sigma_j, range_j, s_inv = _candidate_moments(pose, points, prediction, meas, mi, cj, slot_j)
+    s_j, lam, sigma_j, range_j, s_inv = _candidate_moments(pose, points, prediction, meas, mi, cj, d[keep])
     whiten_j = _noise_inverse(meas, mi) if robust_to_covariance else s_inv
     close = np.sqrt(lam) <= math.sqrt(gate) + FAR_SIGMAS + _remainder(sigma_j, range_j, whiten_j, far_k)[:, 0]
     mi, cj, slot_j = mi[close], cj[close], slot_j[close]
@@ -444,27 +444,30 @@ def _pair_moments(pose: np.ndarray, points: np.ndarray, prediction: Prediction, 
 
 
 def _candidate_moments(pose: np.ndarray, points: np.ndarray, prediction: Prediction, meas: KeyframeMeasurements,
-                       mi: np.ndarray, cj: np.ndarray, slot_j: np.ndarray
+                       mi: np.ndarray, cj: np.ndarray, d: np.ndarray
                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """What the far-pair filter needs of each pair, from the (pose, l_j) 5 × 5 block alone: S_j
     (n, 2, 2), λ (n,), the line-of-sight spreads (n, 2) [m] and ranges (n,) [m] of candidate j
-    (the same as :func:`_pair_moments`' for those pairs), and S_j⁻¹ (n, 2, 2)."""
+    (the same as :func:`_pair_moments`' for those pairs), and S_j⁻¹ (n, 2, 2). ``d`` (n, 2) the
+    pairs' innovation means. H_j P H_jᵀ and the spreads depend on the candidate only: computed once
+    per candidate (a keyframe's measurements share them), then the measurement's noise added."""
     cov = np.asarray(prediction.covariance, float)
-    n = len(mi)
+    uniq, back = np.unique(cj, return_inverse=True)
+    slots = _slots(np.asarray(prediction.landmarks, np.int64), uniq)
+    n = len(uniq)
     e = np.zeros((n, 5, 5))
     e[:, :3, :3] = cov[:3, :3]
-    pj = _pose_landmark(cov, slot_j)
+    pj = _pose_landmark(cov, slots)
     e[:, :3, 3:], e[:, 3:, :3] = pj, np.transpose(pj, (0, 2, 1))
-    e[:, 3:, 3:] = _landmark_blocks(cov, slot_j, slot_j, float(prediction.prior_sigma_m) ** 2)
-    jac = bearing_range_jacobians(np.broadcast_to(pose, (n, 3)), points[cj])  # (n, 2, 5)
-    s_j = jac @ e @ np.transpose(jac, (0, 2, 1))
+    e[:, 3:, 3:] = _landmark_blocks(cov, slots, slots, float(prediction.prior_sigma_m) ** 2)
+    jac = bearing_range_jacobians(np.broadcast_to(pose, (n, 3)), points[uniq])  # (n, 2, 5)
+    s_j = (jac @ e @ np.transpose(jac, (0, 2, 1)))[back]
     s_j[:, 0, 0] += meas.sigma_bearing_rad[mi] ** 2
     s_j[:, 1, 1] += meas.sigma_range_m[mi] ** 2
-    d = _innovation_means(pose, points, meas, mi, cj)
     inv = _inverse_2x2(s_j)
     lam = np.einsum("ni,nij,nj->n", d, inv, d)
-    sigma_j, range_j = _line_of_sight_spread(pose, points[cj], e, 3)
-    return s_j, lam, sigma_j, range_j, inv
+    sigma, rng = _line_of_sight_spread(pose, points[uniq], e, 3)
+    return s_j, lam, sigma[back], rng[back], inv
 
 
 def _inverse_2x2(a: np.ndarray) -> np.ndarray:
