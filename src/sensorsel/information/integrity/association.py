@@ -265,11 +265,17 @@ def measurement_risks(pose: np.ndarray, points: np.ndarray, prediction: Predicti
     cj = np.tile(near, m)
     # a candidate is another landmark within the measurement's reach (candidate_reach: its own range,
     # noise and the covariance), so a measurement's risk depends on its own geometry and the
-    # covariance only, never on which other measurements the suite makes
+    # covariance only, never on which other measurements the suite makes (distances and state
+    # slots are the candidates', computed once each)
+    near_dist = np.hypot(*(points[near] - pose[:2]).T)
+    near_slot = _slots(state, near)
     reach = candidate_reach(prediction, meas, gate, model=model)[mi]
     if model == "slam":  # candidates out of the state (a caller's choice) keep the stated reach
-        reach = np.where(np.isin(cj, state), reach, CANDIDATE_SCALE * meas.range_m[mi] + CANDIDATE_MARGIN_M)
-    keep = (cj != meas.landmark[mi]) & (np.hypot(*(points[cj] - pose[:2]).T) <= reach)
+        in_state = np.tile(near_slot >= 0, m)
+        reach = np.where(in_state, reach, CANDIDATE_SCALE * meas.range_m[mi] + CANDIDATE_MARGIN_M)
+    keep = (cj != meas.landmark[mi]) & (np.tile(near_dist, m) <= reach)
+    slot_j = np.tile(near_slot, m)[keep]
+    near_at = np.tile(np.arange(near.size), m)[keep]  # each pair's candidate, as a position in ``near``
     mi, cj = mi[keep], cj[keep]
     # a pair whose λ is surely past the far limit is dropped before its moments (it would be after):
     # λ is invariant under d → T d, S → T S Tᵀ; with T = diag(r_i, 1) (bearing in metres),
@@ -278,16 +284,15 @@ def measurement_risks(pose: np.ndarray, points: np.ndarray, prediction: Predicti
     # heading (1, 0) and the landmark (1/r_j, 1); λmax(E_bb) ≤ its trace. The far limit is widened by
     # the remainder at k = FAR_SIGMAS, taken at its largest (σ_a, σ_b ≤ sd_xy + sd_lj, whitened by R ⪯ S);
     # sd_lj the candidate's own spread (the trace of its block; the prior's out of the state)
-    d = _innovation_means(pose, points, meas, mi, cj)
+    d = _innovation_means(pose, points, meas, mi, near, near_at)
     sd_xy, sd_th, _ = _spreads(prediction, with_prior=False)
-    slot_j = _slots(state, cj)
     cov = np.asarray(prediction.covariance, float)
     diag = np.diagonal(cov)
     inside = np.maximum(slot_j, 0)
     sd_lj = np.where(slot_j >= 0, np.sqrt(np.maximum(diag[3 + 2 * inside] + diag[4 + 2 * inside], 0.0))
                      if len(diag) > 3 else 0.0, math.sqrt(2.0) * float(prediction.prior_sigma_m))
     r_i = meas.range_m[mi]
-    r_j = np.maximum(np.hypot(*(points[cj] - pose[:2]).T), 1e-9)
+    r_j = np.maximum(near_dist[near_at], 1e-9)
     s_bb = r_i ** 2 * (meas.sigma_bearing_rad[mi] ** 2 + ((sd_xy + sd_lj) / r_j + sd_th) ** 2)
     s_rr = meas.sigma_range_m[mi] ** 2 + (sd_xy + sd_lj) ** 2
     far_k = _K_GRID[_K_FAR:_K_FAR + 1]
@@ -497,12 +502,15 @@ def _line_of_sight_spread(pose: np.ndarray, points: np.ndarray, e: np.ndarray, c
 
 
 def _innovation_means(pose: np.ndarray, points: np.ndarray, meas: KeyframeMeasurements, mi: np.ndarray,
-                      cj: np.ndarray) -> np.ndarray:
-    """(n, 2) d: the true measurement of each pair's measurement minus candidate j's (bearing wrapped)."""
+                      cj: np.ndarray, at: np.ndarray | None = None) -> np.ndarray:
+    """(n, 2) d: the true measurement of each pair's measurement minus candidate j's (bearing wrapped).
+    With ``at``, ``cj`` are distinct candidates and pair p's is ``cj[at[p]]`` (each predicted once)."""
     ci, si = math.cos(pose[2]), math.sin(pose[2])
     rel_j = points[cj] - pose[:2]
     bj = np.arctan2(ci * rel_j[:, 1] - si * rel_j[:, 0], ci * rel_j[:, 0] + si * rel_j[:, 1])
     rj = np.hypot(rel_j[:, 0], rel_j[:, 1])
+    if at is not None:
+        bj, rj = bj[at], rj[at]
     db = (meas.bearing_rad[mi] - bj + np.pi) % (2.0 * np.pi) - np.pi
     return np.column_stack([db, meas.range_m[mi] - rj])
 
