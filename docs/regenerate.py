@@ -406,44 +406,12 @@ def step_integrity(c: Ctx) -> None:
     c.run(*base, "--map-sigma", "0.05", "--json", stdout=out / "suburb-map.json")
 
 
-#: one sensor of each model, facing forward (or on the roof): the association risk per sensor model
-INTEGRITY_MODELS = ("LRL-roof", "MRL-roof", "LRR-12", "MRR-12", "HD2K-12", "WSC-12", "LSC-12")
-
-
-def step_integrity_models(seq: str) -> Callable[[Ctx], None]:
-    """The association risk of one sensor of each model alone on a KITTI route (map known to 5 cm,
-    real pole maps), and the README's local-streets answer: a table per route
-    (results/integrity/models-SEQ.txt, read by docs/guide-integrity.md)."""
-    def go(c: Ctx) -> None:
-        if c.landmarks != "real":
-            return
-        out = c.out / "integrity"
-        rows = []
-        for suite in (*INTEGRITY_MODELS, INTEGRITY_SUITE):
-            path = out / f"score{seq}-{suite.replace(',', '+')}.json"
-            c.run("score", *c.scen(seq), "--suite", suite, "--map-sigma", "0.05", "--json", stdout=path)
-            itg = json.loads(path.read_text())["integrity"][0]
-            path.unlink()  # the table keeps what the guide reads
-            n_h = itg["keyframes_per_hour"]
-            pw = itg["p_wrong_association"]
-            tail = itg["p_error_tail"]
-            meas = sum(x["measurements"] for x in itg["by_sensor"])
-            wrong = sum(x["expected_wrong"] for x in itg["by_sensor"])
-            rows.append(f"{suite:<28} {meas:>8} {wrong:>14.3g} {max(pw):>10.3g} {n_h * sum(pw) / len(pw):>13.3g} "
-                        f"{n_h * sum(tail) / len(tail):>13.3g} {itg['integrity_risk_per_hour']:>13.3g}")
-        head = (f"{'suite':<28} {'measured':>8} {'wrong_expected':>14} {'worst_pw':>10} {'assoc_per_h':>13} "
-                f"{'tail_per_h':>13} {'risk_per_h':>13}")
-        _atomic(out / f"models-{seq}.txt", "\n".join([head, *rows]) + "\n")
-    return go
-
-
 import regenerate_integrity as integrity_kitti  # noqa: E402  (docs/: the integrity steps on the real maps)
 
 STEPS: list[Step] = [
     Step("tour", "tour", step_tour),
     Step("integrity", "integrity", step_integrity),
     Step("associate", "associate", step_associate),
-    *(Step(f"integrity-models{s}", "integrity", step_integrity_models(s)) for s in ("03", "00")),
     *(Step(f"scene{s}", "scene", step_scene(s)) for s in ("03", "00")),
     *(Step(f"scores{s}", "scores", step_scores(s)) for s in ("03", "00")),
     *(Step(f"greedy{s}", "greedy", step_greedy(s)) for s in ("03", "00")),

@@ -38,8 +38,18 @@ def _case(points, sb, sr, pose_sigma, lm_sigma, in_state, cross=0.0):
 
 
 def _risk(points, pred, meas, gate_p=0.9999, model="map"):
-    r = measurement_risks(POSE, points, pred, meas, np.arange(len(points)), gate=gate_of(gate_p), model=model)
+    r = measurement_risks(POSE, points, pred, meas, np.arange(len(points)), gate=gate_of(gate_p), model=model,
+                          linear=True)
+    assert r.linear[0] <= r.bound[0]  # the remainder only adds
     return float(r.estimate[0]), float(r.bound[0])
+
+
+def _linear_and_robust(points, pred, meas):
+    """The bound linearized at the truth, and the bound robust to the covariance (remainder whitened by R)."""
+    kw = dict(gate=gate_of(0.9999), model="map")
+    lin = measurement_risks(POSE, points, pred, meas, np.arange(len(points)), linear=True, **kw).linear[0]
+    robust = measurement_risks(POSE, points, pred, meas, np.arange(len(points)), robust_to_covariance=True, **kw).bound[0]
+    return float(lin), float(robust)
 
 
 # hand-placed cases: (offsets of the other landmarks [m], σ bearing, σ range, pose σ, landmark σ, in state, cross)
@@ -127,17 +137,24 @@ def test_more_noise_more_landmarks_looser_prior_never_lower_the_risk(in_state):
 
 def test_risk_never_falls_as_the_covariance_grows_random():
     """Random PSD additions to the predicted joint covariance (pose, landmarks, their correlations)
-    never lower the bound (a theorem) nor the estimate (tested)."""
+    never lower the linearized bound nor the bound robust to the covariance (theorems: what the
+    search's floor rests on), the robust bound at the larger covariance is at least the bound at the
+    smaller, and neither the bound nor the estimate falls (tested)."""
     rng = np.random.default_rng(11)
     offsets, sb, sr, ps, ls = BASE
     points = _points(offsets)
     pred, meas = _case(points, sb, sr, ps, ls, True, 0.3)
     est0, bound0 = _risk(points, pred, meas)
+    lin0, robust0 = _linear_and_robust(points, pred, meas)
+    assert 0.0 < lin0 < bound0 <= robust0 <= 1.0
     n = pred.covariance.shape[0]
     for _ in range(30):
         a = rng.standard_normal((n, 2)) * rng.uniform(0.01, 0.2)
         bigger = Prediction(0, pred.landmarks, pred.covariance + a @ a.T, pred.prior_sigma_m)
         est, bound = _risk(points, bigger, meas)
+        lin, robust = _linear_and_robust(points, bigger, meas)
+        assert lin >= lin0 * (1 - 1e-9) and robust >= robust0 * (1 - 1e-9)
+        assert robust >= bound0
         assert bound >= bound0 * (1 - 1e-9)
         assert est >= est0 * (1 - 1e-6)
 

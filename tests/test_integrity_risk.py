@@ -14,6 +14,7 @@ from gtsam.symbol_shorthand import L, X
 from scipy.stats import norm
 
 from sensorsel.cli import cli
+from sensorsel.errors import InputError
 from sensorsel.information import graph as G
 from sensorsel.information.filtering import forward_pass, keyframe_measurements
 from sensorsel.information.integrity import IntegrityBounds, IntegritySpec, RouteIntegrity, route_integrity
@@ -167,7 +168,8 @@ def test_integrity_line_and_json_of_score():
                               "--max-association-risk", "0.001"])
     assert res.exit_code == 0, res.output
     line = [ln for ln in res.output.splitlines() if ln.startswith("integrity")]
-    assert len(line) == 1 and "/h of 1e-08/h" in line[0] and "left out" in line[0]
+    assert len(line) == 1 and "/h FAILS 1e-08/h (assoc. " in line[0] and "left out 21/111" in line[0]
+    assert len(line[0]) <= 130  # one readable line; the detail is in the JSON
     res = runner.invoke(cli, ["score", "--fixture", "tiny", "--suite", SUITE, "--json"])
     assert res.exit_code == 0
     data = json.loads(res.output)
@@ -209,3 +211,30 @@ def test_same_inputs_same_bytes(tiny_problem):
     a = results.dumps(route_integrity(tiny_problem, suite, spec, map_sigma_m=0.05))
     b = results.dumps(route_integrity(tiny_problem, suite, spec, map_sigma_m=0.05))
     assert a == b
+
+
+def test_suite_quality_runs_the_filter_once_and_answers_as_the_two_calls(tiny_problem):
+    """with_suite_quality takes the accuracy from the integrity's forward pass (without the lever):
+    the same records as suite_accuracy and suite_integrity called apart, in both models."""
+    from dataclasses import dataclass
+
+    from sensorsel import api
+
+    @dataclass(frozen=True)
+    class Chosen:
+        suite: tuple[str, ...]
+        accuracy: tuple = ()
+        integrity: tuple = ()
+
+    suite = tuple(SUITE.split(","))
+    for ms in (0.05, None):
+        got = api.with_suite_quality(Chosen(suite), tiny_problem, map_sigma_m=ms)
+        acc = api.suite_accuracy(tiny_problem, suite, map_sigma_m=ms)
+        itg = api.suite_integrity(tiny_problem, suite, map_sigma_m=ms)
+        assert got.accuracy == acc  # exactly equal (dataclass equality on every float tuple)
+        assert [results.dumps(a) for a in got.integrity] == [results.dumps(a) for a in itg]
+    spec = IntegritySpec(max_association_risk=1e-3)  # the lever: what is used differs, two passes
+    got = api.with_suite_quality(Chosen(suite), tiny_problem, map_sigma_m=0.05, integrity=spec)
+    assert got.accuracy == api.suite_accuracy(tiny_problem, suite, map_sigma_m=0.05)
+    with pytest.raises(InputError, match="map sigma"):
+        api.with_suite_quality(Chosen(suite), tiny_problem, map_sigma_m=-1.0)

@@ -20,6 +20,7 @@ lower-level runs the CLI needs are re-exported here (``pyproject.toml`` forbids 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Iterable
@@ -38,8 +39,10 @@ from sensorsel.designs.selection import GreedyResult, Progress, check_budget, ch
 from sensorsel.designs.tradespace import run_tradespace
 from sensorsel.errors import InputError
 from sensorsel.information.evaluators import DomainEvaluator, evaluator_for, make_evaluator
-from sensorsel.information.evaluators.accuracy import RouteAccuracy, route_accuracy
+from sensorsel.information.evaluators.accuracy import RouteAccuracy, accuracy_from_covariances, route_accuracy
+from sensorsel.information.filtering import check_estimate
 from sensorsel.information.integrity import IntegritySpec, RouteIntegrity, route_integrity
+from sensorsel.information.integrity.risk import integrity_and_pass
 from sensorsel.io.records import SuiteScore
 from sensorsel.io.results import result_kind
 from sensorsel.model.constraints import Constraints, feasible_set
@@ -159,9 +162,22 @@ def with_suite_quality(result: Any, target: Target, *, map_sigma_m: float | None
     """``result`` (a frozen record with ``suite``, ``accuracy`` and ``integrity`` fields) with its suite's
     accuracy (:func:`suite_accuracy`) and integrity (:func:`suite_integrity`) on ``target`` filled in:
     what every selecting command reports of the suite it chose."""
-    return replace(result, accuracy=suite_accuracy(target, result.suite, map_sigma_m=map_sigma_m, engine=engine,
-                                                  estimate=estimate),
-                   integrity=suite_integrity(target, result.suite, integrity, map_sigma_m=map_sigma_m))
+    if estimate != "filter" or (integrity is not None and integrity.max_association_risk is not None):
+        return replace(result, accuracy=suite_accuracy(target, result.suite, map_sigma_m=map_sigma_m, engine=engine,
+                                                      estimate=estimate),
+                       integrity=suite_integrity(target, result.suite, integrity, map_sigma_m=map_sigma_m))
+    # the filter without the lever: the integrity's forward pass uses every measurement, so its
+    # filtered covariances are the accuracy's (the filter is the same whatever the engine): one pass
+    check_estimate(estimate)
+    if map_sigma_m is not None and not (math.isfinite(map_sigma_m) and map_sigma_m > 0):
+        raise InputError(f"map sigma must be a positive number of metres, got {map_sigma_m!r}")
+    problems = [(r.name, r.problem) for r in target.routes]
+    positions = target.library.resolve_suite(result.suite)
+    passes = [integrity_and_pass(p, positions, integrity, map_sigma_m=map_sigma_m, route=name) for name, p in problems]
+    accuracy = tuple(accuracy_from_covariances(fp.filtered, map_sigma_m=map_sigma_m, route=name, estimate="filter")
+                     for (name, _), (_, fp) in zip(problems, passes))
+    return replace(result, accuracy=accuracy, integrity=tuple(ri for ri, _ in passes))
+
 
 def run_greedy(problem: Target, budget_usd: float, rule: str = "uniform", *, engine: str | None = None, jobs: int = 1,
                lazy: bool = True, aggregate: str = "normalised", progress: Progress | None = None,

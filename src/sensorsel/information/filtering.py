@@ -182,6 +182,8 @@ def forward_pass(problem: Problem, suite: Iterable[int], *, map_sigma_m: float |
     marginal of X(k) in the graph of the priors, odometry up to k and the used measurements of
     keyframes <= k; predicted[k] the same without keyframe k's measurements. ``use`` (default: all)
     is called once per keyframe, before its update; ``on_prediction`` too (for callers that only observe).
+    The prediction ``use`` gets is read-only and valid during the call only (the pass's own state,
+    updated in place afterwards: a hook that keeps it copies it); ``on_prediction``'s is a copy.
 
     ``map_sigma_m``: None for the SLAM model (each landmark's weak prior of the problem's
     ``landmark_prior_sigma_m``), or the std [m] of a prior map's landmarks. Method: the module's
@@ -278,10 +280,13 @@ def _pass(problem: Problem, groups: list[KeyframeMeasurements], last: np.ndarray
             P[:3, :3] = h @ P[:3, :3] @ h.T + odo_cov
         predicted[k] = P[:3, :3]
         g = groups[k]
-        if on_prediction is not None or use is not None:
+        if on_prediction is not None:
             pred = Prediction(k, held.copy(), P.copy(), prior_sigma)
-            if on_prediction is not None:
-                on_prediction(pred, g)
+            on_prediction(pred, g)
+        elif use is not None:  # valid during the call only (no copy: P is updated in place afterwards)
+            view = P.view()
+            view.flags.writeable = False
+            pred = Prediction(k, held, view, prior_sigma)
         if every is not None:
             pairs = _slice(every, bounds[k], bounds[k + 1])
         else:

@@ -21,28 +21,56 @@ The associator (what cars run, stated here once and used everywhere):
 
 A measurement of landmark i is **wrongly associated** (event W) when some j ≠ i has NIS_j ≤ γ and
 NIS_j < NIS_i. A correct measurement outside the gate with no other inside is not W (it is lost,
-not wrong). All probabilities are over the measurement noise and the estimate's error, Gaussian
-with the predicted covariance, in the model linearized at the truth (as every figure of the package).
+not wrong). All probabilities are over the measurement noise v ~ N(0, R) and the estimate's error
+e ~ N(0, P) (P the predicted joint covariance; x̂ = x retracted by e, l̂_j = l_j + e_j).
 
-Given the truth, ν_j ~ N(d_ij, S_j), d_ij = h(x, l_i) − h(x, l_j) (the measurement noise is the
-measurement's own, so the covariance of ν_j is exactly S_j), hence NIS_j ~ χ'²₂(λ_j), λ_j = d_ijᵀ S_j⁻¹ d_ij.
+**The model linearized at the truth.** ν_j^lin = d_ij + v − H_j e, d_ij = h(x, l_i) − h(x, l_j), so
+ν_j^lin ~ N(d_ij, S_j) and NIS_j^lin ~ χ'²₂(λ_j), λ_j = d_ijᵀ S_j⁻¹ d_ij; NIS_i^lin ~ χ²₂.
+
+**What the car's innovation adds: the Taylor remainder.** The pose's heading enters the bearing
+linearly, and the pose's position and the landmark enter only through the estimated relative
+position u_j + w_j, u_j = l_j − p (range r_j), w_j = e_j − R(θ) e_xy. So ν_j = ν_j^lin − ε_j(w_j), with
+ε_j the remainder of polar coordinates (bearing, range) at u_j. In the line-of-sight frame,
+w_j = (a, b) (a along u_j, b across): bearing = atan(b / (r_j + a)) with linear part b / r_j, range
+= √((r_j + a)² + b²) with linear part r_j + a. On the box Ω_j(k) = {|a| ≤ A = kσ_a, |b| ≤ B = kσ_b}
+(σ_a, σ_b the std of a and b under P), when A < r_j:
+
+    |ε_bearing| ≤ A B / (r_j (r_j − A)) + (B / (r_j − A))³ / 3,   0 ≤ ε_range ≤ B² / (2 (r_j − A))
+
+(|b/(r+a) − b/r| = |a b| / (r (r + a)); |atan y − y| ≤ |y|³/3; √(X² + b²) − X ≤ b²/(2X) for X > 0),
+and ρ_j(k) = max ‖S_j^(−1/2) ε‖ over that box of ε (its largest corner). P(w_j ∉ Ω_j(k)) ≤ 4Φ(−k).
+On Ω_j(k) the triangle inequality gives √NIS_j ≥ √NIS_j^lin − ρ_j(k) (and √NIS_i ≤ √NIS_i^lin + ρ_i(k)),
+hence for any k and any level x:
+
+    P(NIS_j ≤ x) ≤ 4Φ(−k) + F((√x + ρ_j(k))²; λ_j),   P(NIS_i > x) ≤ 4Φ(−k) + e^(−(√x − ρ_i(k))₊²/2)
+
+F(·; λ) the CDF of χ'²₂(λ). Every term may take its own k (each is a bound on its own probability);
+the gate terms take the smallest over a fixed grid of k, the thresholds t below reuse the gate's k
+of each pair, and the right landmark's term the smallest over the grid at each t. Where the spread
+is a small share of the range (a map: centimetres at tens of metres) ρ is small and the bound is
+that of the linearized model; where a landmark's spread is metres at 9 m (SLAM's fresh stereo
+landmarks) ρ is large at every useful k and the bound is loose but holds
+(``tests/test_association_linearization.py``). Not covered: bearing aliases 2π apart (the
+associator wraps the bearing innovation; an alias needs an error of ~π rad) and S_j evaluated at
+the estimate rather than the truth (the oracles and the simulator evaluate it at the truth, as here).
 
 **The bound** (after Duenas Arana, Joerger & Spenko's local nearest-neighbour bound, ICRA 2018): for
 any threshold t ≤ γ, if NIS_i ≤ t and every NIS_j > t then i is the nearest and inside the gate, so
-W ⊆ {NIS_i > t} ∪ ⋃_j {NIS_j ≤ t}; also W ⊆ ⋃_j {NIS_j ≤ γ}. With NIS_i ~ χ²₂ (P(NIS_i > t) = e^(−t/2)):
+W ⊆ {NIS_i > t} ∪ ⋃_j {NIS_j ≤ t}; also W ⊆ ⋃_j {NIS_j ≤ γ}. With the per-term bounds above:
 
-    P(W) ≤ min(1, Σ_j F(γ; λ_j), min_t [e^(−t/2) + Σ_j F(t; λ_j)])
+    P(W) ≤ min(1, Σ_j G_j(γ), min_t [G_i(t) + Σ_j G_j(t)])
 
-F(·; λ) the CDF of χ'²₂(λ), the minimum over a fixed grid of t in (0, γ] (any t is valid). For a
-first sighting only Σ_j F(γ; λ_j). Each term is non-increasing in λ_j, and λ_j is non-increasing when
-P or R grows (Loewner order): the bound never falls with more noise, more landmarks, a looser prior
-or a looser map.
-
-The bound is one of the model linearized at the truth. Where a landmark's predicted spread is a
-sizeable share of its range (SLAM's freshly initialized stereo landmarks: metres at 9 m) the car's
-nonlinear innovation can gate a candidate whose linearized λ puts it out of reach, and the bound is
-then below the associator's true probability (``tests/test_association_linearization.py``, an
-expected failure until the bound covers the Taylor remainder).
+G_j(x) the bound on P(NIS_j ≤ x), G_i(t) that on P(NIS_i > t); the minimum over a fixed grid of t in
+(0, γ] (any t is valid). For a first sighting only Σ_j G_j(γ). ``MeasurementRisk.linear`` is the
+same bound with ρ = 0 and no outside mass (the model linearized at the truth): at most ``bound``
+(term by term), non-increasing in every λ_j, and λ_j is non-increasing when P or R grows (Loewner
+order): the linear bound never falls with more noise, more landmarks, a looser prior or a looser
+map, which is what the search's association floor uses. ``bound`` itself need not be monotone (a
+larger S whitens the remainder more); with ``robust_to_covariance`` the bound returned is
+Σ_j min_k [4Φ(−k) + F((√γ + ρ'_j(k))²; λ_j)] with ρ' whitened by R instead of S_j (ρ' ≥ ρ, since
+S_j ⪰ R): non-decreasing in P, so at a prediction it is at least ``bound`` at any prediction with a
+smaller covariance and the same candidates (the search uses it to know a measurement no suite's
+lever leaves out).
 
 **The estimate** (calibrated, not a bound): the pairwise events, combined as independent,
 P(W) ≈ 1 − Π_j (1 − p_j), p_j = min(P(NIS_j < NIS_i), F(γ; λ_j)). For P(NIS_j < NIS_i) both NIS use
@@ -63,8 +91,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.spatial import cKDTree
-from scipy.special import ndtr
-from scipy.stats import ncx2
+from scipy.special import chndtr, ndtr
 
 from sensorsel.information.filtering import KeyframeMeasurements, Prediction
 from sensorsel.information.linearize import bearing_range_jacobians
@@ -84,6 +111,33 @@ FAR_SIGMAS = 8.0
 _GH_X, _GH_W = np.polynomial.hermite_e.hermegauss(10)
 _GH_W = _GH_W / _GH_W.sum()
 _T_FRACTIONS = np.linspace(0.05, 1.0, 20)  # the bound's thresholds t, as fractions of γ
+#: the region sizes k of the Taylor remainder (module docstring), and their outside masses 4Φ(−k)
+_K_GRID = np.array([1.5, 2.0, 2.5, 3.0, 4.0, 5.5, 7.0, 9.0, 12.0])
+_K_OUT = 4.0 * ndtr(-_K_GRID)
+_K_FAR = int(np.searchsorted(_K_GRID, FAR_SIGMAS))  # the k judging which pairs are far
+
+
+def _ncx2_cdf(x: np.ndarray, lam: np.ndarray) -> np.ndarray:
+    """F(x; λ), the CDF of the non-central χ² with 2 degrees of freedom (inf → 1)."""
+    x = np.asarray(x, float)
+    return np.where(np.isfinite(x), chndtr(np.where(np.isfinite(x), x, 0.0), 2.0, lam), 1.0)
+
+
+def _remainder(sigma_ab: np.ndarray, rng_m: np.ndarray, s_inv: np.ndarray, ks: np.ndarray = _K_GRID) -> np.ndarray:
+    """(n, K) ρ(k) of each pair at each k of ``ks`` (the grid): the largest ‖S^(−1/2) ε‖ of the polar
+    coordinates' Taylor remainder ε over the box |a| ≤ kσ_a, |b| ≤ kσ_b (module docstring); inf where
+    kσ_a reaches the range. ``sigma_ab`` (n, 2) [m], ``rng_m`` (n,) [m], ``s_inv`` (n, 2, 2) the
+    whitening (S⁻¹, or R⁻¹ for the bound robust to the covariance)."""
+    a = ks[None, :] * sigma_ab[:, :1]
+    b = ks[None, :] * sigma_ab[:, 1:]
+    r = rng_m[:, None]
+    ok = a < r
+    x = np.where(ok, r - a, 1.0)
+    rho_b = a * b / (r * x) + (b / x) ** 3 / 3.0
+    rho_r = b ** 2 / (2.0 * x)
+    q = (rho_b ** 2 * s_inv[:, 0, 0, None] + rho_r ** 2 * s_inv[:, 1, 1, None]
+         + 2.0 * rho_b * rho_r * np.abs(s_inv[:, 0, 1, None]))
+    return np.where(ok, np.sqrt(q), np.inf)
 
 
 def gate_of(gate_probability: float) -> float:
@@ -97,13 +151,17 @@ class MeasurementRisk:
 
     Attributes:
         estimate: (m,) calibrated estimate of P(wrong association).
-        bound: (m,) upper bound on P(wrong association).
+        bound: (m,) upper bound on P(wrong association) under the associator (the nonlinear
+            innovation: the Taylor remainder covered).
         n_candidates: (m,) competing landmarks considered (the truly measured one not counted).
+        linear: (m,) the bound of the model linearized at the truth (at most ``bound``; monotone in
+            the covariance and the noise).
     """
 
     estimate: np.ndarray
     bound: np.ndarray
     n_candidates: np.ndarray
+    linear: np.ndarray
 
 
 def keyframe_risk(estimate: np.ndarray, bound: np.ndarray) -> tuple[float, float]:
@@ -145,10 +203,13 @@ class AssociationModel:
             near = near[np.isin(near, np.asarray(prediction.landmarks, np.int64))]
         return near
 
-    def risks(self, prediction: Prediction, meas: KeyframeMeasurements) -> MeasurementRisk:
-        """The estimate and bound of P(wrong association) of each of ``meas`` at ``prediction``."""
+    def risks(self, prediction: Prediction, meas: KeyframeMeasurements, *, linear: bool = False,
+              robust_to_covariance: bool = False) -> MeasurementRisk:
+        """The estimate and bound of P(wrong association) of each of ``meas`` at ``prediction``
+        (``linear``, ``robust_to_covariance``: :func:`measurement_risks`)."""
         return measurement_risks(self._poses[meas.keyframe], self._points, prediction, meas,
-                                 self.candidates(prediction, meas), gate=self.gate, model=self.model)
+                                 self.candidates(prediction, meas), gate=self.gate, model=self.model,
+                                 linear=linear, robust_to_covariance=robust_to_covariance)
 
 
 def _spreads(prediction: Prediction, *, with_prior: bool = True) -> tuple[float, float, float]:
@@ -183,17 +244,20 @@ def candidate_reach(prediction: Prediction, meas: KeyframeMeasurements, gate: fl
 
 
 def measurement_risks(pose: np.ndarray, points: np.ndarray, prediction: Prediction, meas: KeyframeMeasurements,
-                      candidates: np.ndarray, *, gate: float, model: str) -> MeasurementRisk:
+                      candidates: np.ndarray, *, gate: float, model: str, linear: bool = False,
+                      robust_to_covariance: bool = False) -> MeasurementRisk:
     """The estimate and bound of P(wrong association) of each measurement of ``meas``, made from
     ``pose`` (x [m], y [m], heading [rad]: the truth) of landmarks ``points`` (M, 2) [m], against
     ``candidates`` (landmark indices; the truly measured one is skipped), the gate γ and the model
     (``"map"``: the truly measured landmark is always a candidate; ``"slam"``: only when it is in
-    the prediction's state, else the measurement is a first sighting)."""
+    the prediction's state, else the measurement is a first sighting). ``linear``: also the bound of
+    the model linearized at the truth (``MeasurementRisk.linear``; else zeros). ``robust_to_covariance``:
+    ``bound`` is the gate-sum bound with the remainder whitened by R (module docstring)."""
     m = len(meas.landmark)
-    est, bnd, ncand = np.zeros(m), np.zeros(m), np.zeros(m, np.int64)
+    est, bnd, ncand, lin = np.zeros(m), np.zeros(m), np.zeros(m, np.int64), np.zeros(m)
     near = np.asarray(candidates, np.int64)
     if m == 0 or near.size == 0:
-        return MeasurementRisk(est, bnd, ncand)
+        return MeasurementRisk(est, bnd, ncand, lin)
     state = np.asarray(prediction.landmarks, np.int64)
     has_right = np.ones(m, bool) if model == "map" else np.isin(meas.landmark, state)
     # all (measurement, candidate) pairs but the truly measured landmark
@@ -201,42 +265,85 @@ def measurement_risks(pose: np.ndarray, points: np.ndarray, prediction: Predicti
     cj = np.tile(near, m)
     # a candidate is another landmark within the measurement's reach (candidate_reach: its own range,
     # noise and the covariance), so a measurement's risk depends on its own geometry and the
-    # covariance only, never on which other measurements the suite makes
+    # covariance only, never on which other measurements the suite makes (distances and state
+    # slots are the candidates', computed once each)
+    near_dist = np.hypot(*(points[near] - pose[:2]).T)
+    near_slot = _slots(state, near)
     reach = candidate_reach(prediction, meas, gate, model=model)[mi]
     if model == "slam":  # candidates out of the state (a caller's choice) keep the stated reach
-        reach = np.where(np.isin(cj, state), reach, CANDIDATE_SCALE * meas.range_m[mi] + CANDIDATE_MARGIN_M)
-    keep = (cj != meas.landmark[mi]) & (np.hypot(*(points[cj] - pose[:2]).T) <= reach)
+        in_state = np.tile(near_slot >= 0, m)
+        reach = np.where(in_state, reach, CANDIDATE_SCALE * meas.range_m[mi] + CANDIDATE_MARGIN_M)
+    keep = (cj != meas.landmark[mi]) & (np.tile(near_dist, m) <= reach)
+    slot_j = np.tile(near_slot, m)[keep]
+    near_at = np.tile(np.arange(near.size), m)[keep]  # each pair's candidate, as a position in ``near``
     mi, cj = mi[keep], cj[keep]
     # a pair whose λ is surely past the far limit is dropped before its moments (it would be after):
     # λ is invariant under d → T d, S → T S Tᵀ; with T = diag(r_i, 1) (bearing in metres),
     # λ ≥ |T d|² / tr(T S_j T), and each row h of H_j has hᵀ E h ≤ (Σ_blocks ‖h_b‖ √λmax(E_bb))²
     # (Cauchy–Schwarz, E ⪰ 0), the blocks being the position (‖h‖ ≤ 1/r_j bearing, 1 range), the
-    # heading (1, 0) and the landmark (1/r_j, 1); λmax(E_bb) ≤ its trace: the same pairs, fewer computed
-    d = _innovation_means(pose, points, meas, mi, cj)
-    sd_xy, sd_th, sd_lm = _spreads(prediction)
+    # heading (1, 0) and the landmark (1/r_j, 1); λmax(E_bb) ≤ its trace. The far limit is widened by
+    # the remainder at k = FAR_SIGMAS, taken at its largest (σ_a, σ_b ≤ sd_xy + sd_lj, whitened by R ⪯ S);
+    # sd_lj the candidate's own spread (the trace of its block; the prior's out of the state)
+    d = _innovation_means(pose, points, meas, mi, near, near_at)
+    sd_xy, sd_th, _ = _spreads(prediction, with_prior=False)
+    cov = np.asarray(prediction.covariance, float)
+    diag = np.diagonal(cov)
+    inside = np.maximum(slot_j, 0)
+    sd_lj = np.where(slot_j >= 0, np.sqrt(np.maximum(diag[3 + 2 * inside] + diag[4 + 2 * inside], 0.0))
+                     if len(diag) > 3 else 0.0, math.sqrt(2.0) * float(prediction.prior_sigma_m))
     r_i = meas.range_m[mi]
-    r_j = np.maximum(np.hypot(*(points[cj] - pose[:2]).T), 1e-9)
-    s_bb = r_i ** 2 * (meas.sigma_bearing_rad[mi] ** 2 + ((sd_xy + sd_lm) / r_j + sd_th) ** 2)
-    s_rr = meas.sigma_range_m[mi] ** 2 + (sd_xy + sd_lm) ** 2
-    keep = ((r_i * d[:, 0]) ** 2 + d[:, 1] ** 2) / (s_bb + s_rr) <= (math.sqrt(gate) + FAR_SIGMAS) ** 2
-    mi, cj = mi[keep], cj[keep]
+    r_j = np.maximum(near_dist[near_at], 1e-9)
+    s_bb = r_i ** 2 * (meas.sigma_bearing_rad[mi] ** 2 + ((sd_xy + sd_lj) / r_j + sd_th) ** 2)
+    s_rr = meas.sigma_range_m[mi] ** 2 + (sd_xy + sd_lj) ** 2
+    far_k = _K_GRID[_K_FAR:_K_FAR + 1]
+    sd_w = (sd_xy + sd_lj)[:, None] * np.ones(2)
+    rho_up = _remainder(sd_w, r_j, _noise_inverse(meas, mi), far_k)[:, 0]
+    lam_low = ((r_i * d[:, 0]) ** 2 + d[:, 1] ** 2) / (s_bb + s_rr)
+    keep = np.sqrt(lam_low) <= math.sqrt(gate) + FAR_SIGMAS + rho_up
+    mi, cj, slot_j = mi[keep], cj[keep], slot_j[keep]
+    # which pairs are near enough, from candidate j's moments alone (its 5 × 5 block: cheap), then
+    # the full moments of those only
+    s_j, lam, sigma_j, range_j, s_inv = _candidate_moments(pose, points, prediction, meas, mi, cj, d[keep])
+    whiten_j = _noise_inverse(meas, mi) if robust_to_covariance else s_inv
+    close = np.sqrt(lam) <= math.sqrt(gate) + FAR_SIGMAS + _remainder(sigma_j, range_j, whiten_j, far_k)[:, 0]
+    mi, cj, slot_j = mi[close], cj[close], slot_j[close]
+    rho_j = _remainder(sigma_j[close], range_j[close], whiten_j[close])  # (n, K)
     li = meas.landmark[mi]
-    pair = _pair_moments(pose, points, prediction, meas, mi, li, cj, _slots(state, li), _slots(state, cj))
-    close = pair.lam <= (math.sqrt(gate) + FAR_SIGMAS) ** 2
-    mi, pair = mi[close], pair.select(close)
+    pair = _pair_moments(pose, points, prediction, meas, mi, li, cj, _slots(state, li), slot_j)
     ncand = np.bincount(mi, minlength=m).astype(np.int64)
     if len(mi) == 0:
-        return MeasurementRisk(est, bnd, ncand)
+        return MeasurementRisk(est, bnd, ncand, lin)
     lam = pair.lam
-    f_gate = ncx2.cdf(gate, 2, lam)
-    # the bound: Σ F(γ) always; with the right landmark a candidate, also min_t e^(−t/2) + Σ F(t)
-    bnd = np.minimum(1.0, np.bincount(mi, weights=f_gate, minlength=m))
+    root_g = math.sqrt(gate)
+    # the gate terms G_j(γ): the smallest over the grid of k
+    g_gate = _K_OUT[None, :] + _ncx2_cdf((root_g + rho_j) ** 2, lam[:, None])  # (n, K)
+    k_best = np.argmin(g_gate, axis=1)
+    bnd = np.minimum(1.0, np.bincount(mi, weights=np.minimum(1.0, g_gate.min(axis=1)), minlength=m))
+    f_gate = _ncx2_cdf(np.full(len(lam), gate), lam)
     ts = gate * _T_FRACTIONS
-    f_t = ncx2.cdf(ts[None, :], 2, lam[:, None])  # (pairs, T)
-    sums = np.zeros((m, len(ts)))
-    np.add.at(sums, mi, f_t)
-    lnn = np.min(np.exp(-ts / 2.0)[None, :] + sums, axis=1)
-    bnd = np.where(has_right, np.minimum(bnd, lnn), bnd)
+    # with the right landmark a candidate, also min_t G_i(t) + Σ_j G_j(t) (each pair at its gate's k);
+    # G_i(t) ≥ e^(−γ/2) for every t ≤ γ, so only a gate sum above that can be lowered by it
+    lower = has_right & (bnd > math.exp(-gate / 2.0)) & (not robust_to_covariance)
+    sel = lower[mi]
+    if sel.any():
+        lam_s, rho_s, kb = lam[sel], rho_j[sel], k_best[sel]
+        rho_k = rho_s[np.arange(len(lam_s)), kb]
+        g_t = _K_OUT[kb][:, None] + _ncx2_cdf((np.sqrt(ts)[None, :] + rho_k[:, None]) ** 2, lam_s[:, None])
+        sums = np.zeros((m, len(ts)))
+        np.add.at(sums, mi[sel], g_t)
+        ps = pair.select(sel)
+        rho_i = _remainder(ps.sigma_i, ps.range_i, np.linalg.inv(ps.s_i))  # (n', K): equal within a measurement
+        short = np.maximum(np.sqrt(ts)[None, :, None] - rho_i[:, None, :], 0.0)  # (n', T, K)
+        g_i = np.ones((m, len(ts)))
+        g_i[mi[sel]] = np.min(_K_OUT[None, None, :] + np.exp(-0.5 * short ** 2), axis=2)
+        lnn = np.min(g_i + sums, axis=1)
+        bnd = np.where(lower, np.minimum(bnd, lnn), bnd)
+    if linear:  # the same with ρ = 0 and no outside mass
+        lin = np.minimum(1.0, np.bincount(mi, weights=f_gate, minlength=m))
+        f_t = _ncx2_cdf(ts[None, :], lam[:, None])
+        sums = np.zeros((m, len(ts)))
+        np.add.at(sums, mi, f_t)
+        lin = np.where(has_right, np.minimum(lin, np.min(np.exp(-ts / 2.0)[None, :] + sums, axis=1)), lin)
     # the estimate: pairwise nearest-neighbour probability, capped by the gate's
     right = has_right[mi]
     p = f_gate.copy()
@@ -245,7 +352,15 @@ def measurement_risks(pose: np.ndarray, points: np.ndarray, prediction: Predicti
     logq = np.zeros(m)
     np.add.at(logq, mi, np.log1p(-np.clip(p, 0.0, 1.0 - 1e-16)))
     est = np.maximum(-np.expm1(logq), 0.0)
-    return MeasurementRisk(est, np.minimum(bnd, 1.0), ncand)
+    return MeasurementRisk(est, np.minimum(bnd, 1.0), ncand, np.minimum(lin, 1.0))
+
+
+def _noise_inverse(meas: KeyframeMeasurements, mi: np.ndarray) -> np.ndarray:
+    """(n, 2, 2) R⁻¹ of each pair's measurement."""
+    out = np.zeros((len(mi), 2, 2))
+    out[:, 0, 0] = 1.0 / meas.sigma_bearing_rad[mi] ** 2
+    out[:, 1, 1] = 1.0 / meas.sigma_range_m[mi] ** 2
+    return out
 
 
 def _slots(state: np.ndarray, landmarks: np.ndarray) -> np.ndarray:
@@ -259,7 +374,9 @@ def _slots(state: np.ndarray, landmarks: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True, eq=False)
 class _Pairs:
-    """Per (measurement, candidate) pair: d (n, 2), S_i, S_j, C_D (n, 2, 2), Cov(ν_i, D) (n, 2, 2), λ (n,)."""
+    """Per (measurement, candidate) pair: d (n, 2), S_i, S_j, C_D (n, 2, 2), Cov(ν_i, D) (n, 2, 2), λ (n,);
+    the std (σ_a, σ_b) (n, 2) [m] of w along and across the line of sight and the true range (n,) [m]
+    of the measured landmark i (the candidate's: :func:`_candidate_moments`)."""
 
     d: np.ndarray
     s_i: np.ndarray
@@ -267,9 +384,12 @@ class _Pairs:
     c_d: np.ndarray
     c_id: np.ndarray
     lam: np.ndarray
+    sigma_i: np.ndarray
+    range_i: np.ndarray
 
     def select(self, mask: np.ndarray) -> "_Pairs":
-        return _Pairs(self.d[mask], self.s_i[mask], self.s_j[mask], self.c_d[mask], self.c_id[mask], self.lam[mask])
+        return _Pairs(self.d[mask], self.s_i[mask], self.s_j[mask], self.c_d[mask], self.c_id[mask], self.lam[mask],
+                      self.sigma_i[mask], self.range_i[mask])
 
 
 def _landmark_blocks(cov: np.ndarray, a: np.ndarray, b: np.ndarray, prior_var: float) -> np.ndarray:
@@ -324,16 +444,73 @@ def _pair_moments(pose: np.ndarray, points: np.ndarray, prediction: Prediction, 
     c_id = b @ e @ np.transpose(a, (0, 2, 1))
     d = _innovation_means(pose, points, meas, mi, cj)
     lam = np.einsum("ni,ni->n", d, np.linalg.solve(s_j, d[:, :, None])[:, :, 0])
-    return _Pairs(d=d, s_i=s_i, s_j=s_j, c_d=c_d, c_id=c_id, lam=lam)
+    sigma_i, range_i = _line_of_sight_spread(pose, points[li], e, 3)
+    return _Pairs(d=d, s_i=s_i, s_j=s_j, c_d=c_d, c_id=c_id, lam=lam, sigma_i=sigma_i, range_i=range_i)
+
+
+def _candidate_moments(pose: np.ndarray, points: np.ndarray, prediction: Prediction, meas: KeyframeMeasurements,
+                       mi: np.ndarray, cj: np.ndarray, d: np.ndarray
+                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """What the far-pair filter needs of each pair, from the (pose, l_j) 5 × 5 block alone: S_j
+    (n, 2, 2), λ (n,), the line-of-sight spreads (n, 2) [m] and ranges (n,) [m] of candidate j
+    (the same as :func:`_pair_moments`' for those pairs), and S_j⁻¹ (n, 2, 2). ``d`` (n, 2) the
+    pairs' innovation means. H_j P H_jᵀ and the spreads depend on the candidate only: computed once
+    per candidate (a keyframe's measurements share them), then the measurement's noise added."""
+    cov = np.asarray(prediction.covariance, float)
+    uniq, back = np.unique(cj, return_inverse=True)
+    slots = _slots(np.asarray(prediction.landmarks, np.int64), uniq)
+    n = len(uniq)
+    e = np.zeros((n, 5, 5))
+    e[:, :3, :3] = cov[:3, :3]
+    pj = _pose_landmark(cov, slots)
+    e[:, :3, 3:], e[:, 3:, :3] = pj, np.transpose(pj, (0, 2, 1))
+    e[:, 3:, 3:] = _landmark_blocks(cov, slots, slots, float(prediction.prior_sigma_m) ** 2)
+    jac = bearing_range_jacobians(np.broadcast_to(pose, (n, 3)), points[uniq])  # (n, 2, 5)
+    s_j = (jac @ e @ np.transpose(jac, (0, 2, 1)))[back]
+    s_j[:, 0, 0] += meas.sigma_bearing_rad[mi] ** 2
+    s_j[:, 1, 1] += meas.sigma_range_m[mi] ** 2
+    inv = _inverse_2x2(s_j)
+    lam = np.einsum("ni,nij,nj->n", d, inv, d)
+    sigma, rng = _line_of_sight_spread(pose, points[uniq], e, 3)
+    return s_j, lam, sigma[back], rng[back], inv
+
+
+def _inverse_2x2(a: np.ndarray) -> np.ndarray:
+    """(n, 2, 2) inverses of symmetric positive definite (n, 2, 2) matrices, in closed form."""
+    det = a[:, 0, 0] * a[:, 1, 1] - a[:, 0, 1] * a[:, 1, 0]
+    out = np.empty_like(a)
+    out[:, 0, 0], out[:, 1, 1] = a[:, 1, 1] / det, a[:, 0, 0] / det
+    out[:, 0, 1], out[:, 1, 0] = -a[:, 0, 1] / det, -a[:, 1, 0] / det
+    return out
+
+
+def _line_of_sight_spread(pose: np.ndarray, points: np.ndarray, e: np.ndarray, col: int) -> tuple[np.ndarray, np.ndarray]:
+    """(σ_a, σ_b) (n, 2) [m] of w = e_l − R(θ) e_xy along and across the line of sight to ``points``
+    (n, 2), the landmark's error at columns ``col``, ``col + 1`` of the (n, q, q) covariance ``e``
+    (the pose's position error in its own frame at columns 0, 1); and the true ranges (n,) [m]."""
+    c, s = math.cos(pose[2]), math.sin(pose[2])
+    rel = points - pose[:2]
+    rng = np.maximum(np.hypot(rel[:, 0], rel[:, 1]), 1e-9)
+    ux, uy = rel[:, 0] / rng, rel[:, 1] / rng
+    # Cov(w) = E_ll + M E_pp Mᵀ − E_lp Mᵀ − M E_pl, M = R(θ) (2 × 2 blocks: cheap elementwise)
+    rot = np.array([[c, -s], [s, c]])
+    e_lp = e[:, col:col + 2, :2] @ rot.T
+    cw = e[:, col:col + 2, col:col + 2] + rot @ e[:, :2, :2] @ rot.T - e_lp - np.transpose(e_lp, (0, 2, 1))
+    var_a = ux * ux * cw[:, 0, 0] + 2.0 * ux * uy * cw[:, 0, 1] + uy * uy * cw[:, 1, 1]
+    var_b = uy * uy * cw[:, 0, 0] - 2.0 * ux * uy * cw[:, 0, 1] + ux * ux * cw[:, 1, 1]
+    return np.sqrt(np.maximum(np.column_stack([var_a, var_b]), 0.0)), rng
 
 
 def _innovation_means(pose: np.ndarray, points: np.ndarray, meas: KeyframeMeasurements, mi: np.ndarray,
-                      cj: np.ndarray) -> np.ndarray:
-    """(n, 2) d: the true measurement of each pair's measurement minus candidate j's (bearing wrapped)."""
+                      cj: np.ndarray, at: np.ndarray | None = None) -> np.ndarray:
+    """(n, 2) d: the true measurement of each pair's measurement minus candidate j's (bearing wrapped).
+    With ``at``, ``cj`` are distinct candidates and pair p's is ``cj[at[p]]`` (each predicted once)."""
     ci, si = math.cos(pose[2]), math.sin(pose[2])
     rel_j = points[cj] - pose[:2]
     bj = np.arctan2(ci * rel_j[:, 1] - si * rel_j[:, 0], ci * rel_j[:, 0] + si * rel_j[:, 1])
     rj = np.hypot(rel_j[:, 0], rel_j[:, 1])
+    if at is not None:
+        bj, rj = bj[at], rj[at]
     db = (meas.bearing_rad[mi] - bj + np.pi) % (2.0 * np.pi) - np.pi
     return np.column_stack([db, meas.range_m[mi] - rj])
 

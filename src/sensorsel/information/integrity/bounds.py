@@ -13,16 +13,20 @@ hour and ``integrity_risk_per_hour(S) = n_h · mean_k min(1, tail_k(S) + w_k(S))
   larger). So a suite whose relaxation exceeds the requirement, and every sub-suite of it, fails.
 - :meth:`IntegrityBounds.association_floor` (c): n_h · mean_k min(1, Σ_{s∈S} floor[s, k]), floor[s, k]
   the sum of sensor s's association-risk bounds at keyframe k computed at the predicted covariance
-  of the **whole allowed library** (every measurement used). **Non-decreasing in S** (a sum of
+  of the **whole allowed library** (every measurement used), each the bound of the model
+  linearized at the truth (``MeasurementRisk.linear``). **Non-decreasing in S** (a sum of
   non-negative terms over S's sensors, fixed once) and **≤ the association part of S's risk, hence
   ≤ its integrity risk**: the library's predicted joint covariance is below S's (more information),
-  each pair's λ = dᵀ S_j⁻¹ d is larger with it, and the bound is a non-increasing function of every
-  λ (module :mod:`~sensorsel.information.integrity.association`; tested on random suites). So a suite
+  each pair's λ = dᵀ S_j⁻¹ d is larger with it, the linear bound is a non-increasing function of every
+  λ, and S's own bound (which covers the Taylor remainder) is at least its linear bound, term by term
+  (module :mod:`~sensorsel.information.integrity.association`; tested on random suites). So a suite
   whose floor exceeds the requirement, and every super-suite of it, fails.
-  With the lever, a measurement counts in the floor only when its bound at the predicted covariance
-  of the **empty** suite (priors and odometry only, the largest any suite has) is within the
-  threshold: then every suite keeps it, and its risk there is at least its floor. A measurement that
-  some suite may leave out counts 0 (valid, and still non-decreasing).
+  With the lever, a measurement counts in the floor only when its bound robust to the covariance
+  (the gate sum with the remainder whitened by the noise alone: non-decreasing in the covariance) at
+  the predicted covariance of the **empty** suite (priors and odometry only, the largest any suite
+  has) is within the threshold: then it is at least the bound any suite computes, every suite keeps
+  the measurement, and its risk there is at least its floor. A measurement that some suite may leave
+  out counts 0 (valid, and still non-decreasing).
   In the SLAM model the candidates of a measurement are the landmarks the suite itself has put in
   the state, which grow with the suite: no such floor is claimed there (it is 0).
 """
@@ -69,9 +73,10 @@ class IntegrityBounds:
         threshold = self.spec.max_association_risk
 
         def observe(pred: Prediction, meas: KeyframeMeasurements) -> None:
-            bound = assoc.risks(pred, meas).bound
+            bound = assoc.risks(pred, meas, linear=True).linear
             if threshold is not None:
-                bound = np.where(assoc.risks(empty[pred.keyframe], meas).bound <= threshold, bound, 0.0)
+                upper = assoc.risks(empty[pred.keyframe], meas, robust_to_covariance=True).bound
+                bound = np.where(upper <= threshold, bound, 0.0)
             np.add.at(self.floor[:, pred.keyframe], np.asarray(meas.sensor, np.int64), bound)
 
         forward_pass(self.problem, self.allowed, map_sigma_m=self.map_sigma_m, on_prediction=observe)

@@ -39,7 +39,7 @@ from sensorsel.information.integrity.association import AssociationModel, keyfra
 from sensorsel.io.results import result_kind
 from sensorsel.model.problem import Problem
 
-__all__ = ["IntegritySpec", "LeftOut", "RouteIntegrity", "SensorAssociation", "route_integrity", "tail_risk", "protection_levels",
+__all__ = ["IntegritySpec", "LeftOut", "RouteIntegrity", "SensorAssociation", "integrity_and_pass", "route_integrity", "tail_risk", "protection_levels",
            "keyframes_per_hour"]
 
 
@@ -162,41 +162,30 @@ class RouteIntegrity:
         return self.integrity_risk_per_hour <= self.spec.integrity_risk
 
     def line(self) -> str:
-        """One line: the risk per hour against the requirement and its two parts, the worst keyframe's
-        association risk (bound and estimate), the riskiest sensor, the protection levels, and what
-        the lever left out (with the 95 % errors of what is used)."""
+        """One short line (≲ 100 characters): the risk per hour against the requirement and its two
+        parts (association, error tail), the worst keyframe's association bound, the median protection
+        levels (lateral/longitudinal, and at how many keyframes one exists when not at all), and what
+        the lever left out. The rest (alert limits, estimates, per-sensor risks, σ) is in the record."""
         pw = np.asarray(self.p_wrong_association)
         s = self.spec
-        verdict = "ok" if self.meets else "FAILS"
         n_h = self.keyframes_per_hour
         assoc_h = n_h * float(np.mean(pw)) if pw.size else 0.0
         tail_h = n_h * float(np.mean(self.p_error_tail)) if self.p_error_tail else 0.0
-        text = (f"{self.integrity_risk_per_hour:.2g}/h of {s.integrity_risk:.2g}/h ({verdict}: association "
-                f"{assoc_h:.2g}/h, error tail {tail_h:.2g}/h; alert limits {s.alert_lateral_m:g} m lat, "
-                f"{s.alert_longitudinal_m:g} m lon, {s.alert_heading_deg:g} deg; filter)")
+        parts = [f"{self.integrity_risk_per_hour:.2g}/h {'meets' if self.meets else 'FAILS'} {s.integrity_risk:.2g}/h "
+                 f"(assoc. {assoc_h:.2g} + tail {tail_h:.2g})"]
         if pw.size:
             worst = int(np.argmax(pw))
-            text += (f"; P(wrong association) worst keyframe {worst}: {pw[worst]:.2g} bound, "
-                     f"{self.p_wrong_association_estimate[worst]:.2g} estimate")
-        risky = max(self.by_sensor, key=lambda x: x.expected_wrong, default=None)
-        if risky is not None and risky.expected_wrong > 0:
-            text += f"; riskiest {risky.sensor} ({risky.expected_wrong:.2g} wrong expected on the route)"
+            parts.append(f"P(wrong) ≤ {pw[worst]:.2g} (kf {worst})")
         lat, lon = np.asarray(self.protection_level_lateral_m), np.asarray(self.protection_level_longitudinal_m)
         finite = np.isfinite(lat)
         if finite.any():
-            text += (f"; protection levels median {np.median(lat[finite]):.3f} m lat, "
-                     f"{np.median(lon[finite]):.3f} m lon")
-        if not finite.all():
-            text += f" (none at {int((~finite).sum())} of {lat.size} keyframes: association risk over the allocation)"
+            where = "" if finite.all() else f" ({int(finite.sum())}/{lat.size} kf)"
+            parts.append(f"PL {np.median(lat[finite]):.2f}/{np.median(lon[finite]):.2f} m{where}")
+        elif lat.size:
+            parts.append("no PL")
         if s.max_association_risk is not None:
-            n_out = sum(x.count for x in self.left_out)
-            text += f"; {n_out} of {sum(self.n_measured)} measurements left out (risk > {s.max_association_risk:g})"
-            if self.lateral_sigma_m:
-                z = 1.959963984540054
-                text += (f"; with what is used, 95% errors at the worst keyframe: lateral "
-                         f"{z * max(self.lateral_sigma_m):.3f} m, longitudinal {z * max(self.longitudinal_sigma_m):.3f} m, "
-                         f"heading {z * max(self.heading_sigma_deg):.2f} deg")
-        return text
+            parts.append(f"left out {sum(x.count for x in self.left_out)}/{sum(self.n_measured)}")
+        return "; ".join(parts)
 
 
 def _fmt(x: float) -> str:
@@ -285,6 +274,13 @@ def route_integrity(problem: Problem, suite: Iterable[int], spec: IntegritySpec 
     filter: the car's covariance as it drives) whose ``use`` hook computes each keyframe's
     association risks at the prediction and applies the lever; then the tail, the protection
     levels and the risk per hour. ``map_sigma_m``: localizing in a map known to that std [m]; None: SLAM."""
+    return integrity_and_pass(problem, suite, spec, map_sigma_m=map_sigma_m, route=route)[0]
+
+
+def integrity_and_pass(problem: Problem, suite: Iterable[int], spec: IntegritySpec | None = None, *,
+                       map_sigma_m: float | None = None, route: str = "") -> tuple[RouteIntegrity, FilterPass]:
+    """:func:`route_integrity` and the forward pass it ran: without the lever its ``filtered`` are the
+    suite's filtered covariances (every measurement used), what its accuracy needs too."""
     spec = spec or IntegritySpec()
     model = "slam" if map_sigma_m is None else "map"
     assoc = AssociationModel(problem, model=model, gate_probability=spec.gate_probability)
@@ -309,4 +305,4 @@ def route_integrity(problem: Problem, suite: Iterable[int], spec: IntegritySpec 
         p_error_tail=tuple(tail.tolist()),
         by_sensor=tuple(SensorAssociation(hook.sensor_ids[i], int(row[0]), int(row[1]), float(row[2]), float(row[3]),
                                           float(row[4]))
-                        for i, row in enumerate(hook.per_sensor) if row[0] > 0))
+                        for i, row in enumerate(hook.per_sensor) if row[0] > 0)), fp
