@@ -36,7 +36,7 @@ def _reference():
     from sensorsel.designs.requirements.solver import CheapestSuite
 
     def cheapest_suite(feas, meets, *, failures=0, violation=None, time_limit=None, progress=None, status=None,
-                       max_tie_programs=0):
+                       max_tie_programs=0, dominance=()):
         r = ref.cheapest_suite(feas, meets, failures=failures, violation=violation, time_limit=time_limit, progress=progress)
         return CheapestSuite(**{f.name: getattr(r, f.name) for f in fields(r)})
 

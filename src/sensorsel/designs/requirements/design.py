@@ -25,14 +25,17 @@ from typing import Callable, Iterable, Protocol, Sequence
 
 import numpy as np
 
+from sensorsel.designs.requirements.dominance import information_dominance
 from sensorsel.designs.requirements.integrity import IntegrityRequirement
 from sensorsel.designs.requirements.margin import Margin, margin_of
+from sensorsel.designs.requirements.oracle import mask_of
+from sensorsel.designs.requirements.truncated import BadKeyframes, bad_keyframes, meets_from_bad
 from sensorsel.designs.requirements.solver import DEFAULT_TIE_PROGRAMS, cheapest_suite
 from sensorsel.designs.requirements.spec import RouteVerdict, Specification, covariance_verdict, verdict
 from sensorsel.errors import InputError
 from sensorsel.information.evaluators import Evaluator, as_suite, make_evaluator
 from sensorsel.information.evaluators.accuracy import RouteAccuracy, accuracy_from_covariances, estimate_label, model_label
-from sensorsel.information.filtering import check_estimate
+from sensorsel.information.filtering import check_estimate, forward_pass
 from sensorsel.information.integrity import IntegritySpec, RouteIntegrity
 from sensorsel.information.evaluators.base import Suite
 from sensorsel.io import results
@@ -117,6 +120,15 @@ class RequireResult:
             the best effort, as ``routes``).
         integrity_alone: with ``integrity``, the allowed sensors (ids) that break it alone (their
             association risk floor exceeds it: in no suite that meets it), left out of the search.
+        dominated: pairs (w, s) of ids where s makes every measurement w makes on every route, at
+            least as precisely, costs no more and uses no more of any limit: the search held "w
+            only with s" (:mod:`sensorsel.designs.requirements.dominance`; the cheapest cost is
+            unchanged; where the two cost the same, a suite with w in place of s may be a tie the
+            tie search does not look for).
+        n_swap_inferred: answers the search inferred from such dominance (of any price) instead of
+            an accuracy computation.
+        n_short: of ``n_checks``, filter passes stopped after the last keyframe where a suite inside
+            the one asked was seen to miss the specification (:mod:`.truncated`).
     """
 
     status: str
@@ -150,6 +162,9 @@ class RequireResult:
     integrity: IntegritySpec | None = None
     integrity_routes: tuple[RouteIntegrity, ...] = ()
     integrity_alone: tuple[str, ...] = ()
+    dominated: tuple[tuple[str, str], ...] = ()
+    n_swap_inferred: int = 0
+    n_short: int = 0
 
     @property
     def gap_usd(self) -> float:
@@ -172,7 +187,8 @@ class RequireJournal:
     Attributes:
         fingerprint: sha256 of the inputs (:func:`require_fingerprint`).
         inputs: the same inputs, in words (what the warning names when they differ).
-        answers: (route index, suite, meets, violation or None when only refuted by the floor).
+        answers: (route index, suite, meets, violation or None when only refuted: by the floor, or
+            by a filter pass stopped early).
     """
 
     fingerprint: str
@@ -295,12 +311,20 @@ class _Oracle:
         self.n_refuted = 0  # (route, suite) refuted without the judged marginals: by the floor, or (filter) by the smoother
         self.floor_asked = 0
         self.on_answer: Callable[[], None] | None = None  # called after each new answer (the journal's writer)
+        #: per route, the bad keyframes of the suites seen to fail there (a superset's pass stops after them)
+        self._bad = [BadKeyframes() for _ in self.evaluators]
+        #: (route, suite) -> meets, from a pass stopped early (no violation known)
+        self._short: dict[tuple[int, Suite], bool] = {}
+        self.n_short = 0  # of n_checks, passes stopped early
+        self.keyframes_passed = 0  # keyframes the filter passed for the checks (all of them: n_checks · K)
 
     def answers(self) -> tuple[tuple[int, Suite, bool, float | None], ...]:
         """Every answer so far, (route, suite, meets, violation or None), in a fixed order."""
         out: dict[tuple[int, Suite], tuple[bool, float | None]] = dict(self.known)
         out.update({k: (False, None) for k in self._refuted})
         out.update({k: (False, v) for k, (m, v) in self._smoothed.items() if not m})
+        # a pass stopped early knows the violation only when it is 0 (the suite meets)
+        out.update({k: (m, 0.0 if m else None) for k, m in self._short.items()})
         out.update({k: (m, v) for k, (m, v) in self._answers.items()})
         return tuple((r, s, m, v) for (r, s), (m, v) in sorted(out.items()))
 
@@ -313,11 +337,43 @@ class _Oracle:
         key = (r, suite)
         got = self._answers.get(key)
         if got is None:
-            got = self._answers[key] = covariance_verdict(
-                route_covariances(self.evaluators[r], suite, self.map_sigma_m, self.estimate), self.specs[r])
+            covariances = route_covariances(self.evaluators[r], suite, self.map_sigma_m, self.estimate)
+            got = self._answers[key] = covariance_verdict(covariances, self.specs[r])
             self.n_checks += 1
+            self.keyframes_passed += len(covariances)
+            if not got[0] and self.estimate == "filter":
+                self._bad[r].add(mask_of(suite), bad_keyframes(covariances, self.specs[r]))
             self._answered()
         return got
+
+    def _short_answer(self, r: int, suite: Suite) -> bool | None:
+        """Whether ``suite`` meets route ``r``'s specification, by a filter pass that stops after the
+        last bad keyframe of a suite inside it seen to fail (:mod:`.truncated`); None where none is
+        known, or the route's engine holds no problem here (a route on a cluster's worker)."""
+        if self.estimate != "filter":
+            return None
+        problem = getattr(self.evaluators[r], "problem", None)
+        if not isinstance(problem, Problem):
+            return None
+        mask = mask_of(suite)
+        hit = self._bad[r].shortest(mask)
+        if hit is None:
+            return None
+        until, bad = hit
+        if until > problem.scenario.n_poses // 2:  # little to save: the smoother refutes cheaper first
+            return None
+        covariances = forward_pass(problem, suite, map_sigma_m=self.map_sigma_m, until=until).filtered
+        now = bad_keyframes(covariances, self.specs[r])
+        still = tuple(np.intersect1d(b, n) for b, n in zip(bad, now))  # good where the subset was good
+        meets = meets_from_bad(still, problem.scenario.n_poses, self.specs[r])
+        if not meets:
+            self._bad[r].add(mask, still)
+        self._short[(r, suite)] = meets
+        self.n_checks += 1
+        self.n_short += 1
+        self.keyframes_passed += len(covariances)
+        self._answered()
+        return meets
 
     def route(self, r: int, suite: Suite) -> tuple[RouteAccuracy, RouteVerdict]:
         """The suite's accuracy and verdict on route ``r`` (for a report)."""
@@ -344,6 +400,8 @@ class _Oracle:
             return False
         if key in self.known:
             return self.known[key][0]
+        if key in self._short:
+            return self._short[key]
         if self._use_floor():
             floor = self.evaluators[r].pose_covariance_floor(suite, map_sigma_m=self.map_sigma_m)
             if floor is not None:
@@ -354,6 +412,9 @@ class _Oracle:
                     self.floor_refuted += 1
                     self._answered()
                     return False
+        short = self._short_answer(r, suite)
+        if short is not None:
+            return short
         smoothed = self._smoother_verdict(r, suite)
         if smoothed is not None and not smoothed[0]:
             return False
@@ -490,9 +551,12 @@ def require(target: Target, specifications: Specification | Sequence[Specificati
         oracle.on_answer = write
     try:
         if integ is None:
+            # accuracy alone is monotone in each sensor's information: dominance among sensors holds
+            dominance = information_dominance([p for _, p in problems],
+                                              [i for i in range(len(library)) if i not in feas.excluded])
             found = cheapest_suite(feas, oracle.meets, failures=failures, violation=oracle.violation,
                                    time_limit=time_limit_s, progress=progress,
-                                   max_tie_programs=max_tie_programs)
+                                   max_tie_programs=max_tie_programs, dominance=dominance)
         else:
             checks = integ
 
@@ -539,7 +603,9 @@ def require(target: Target, specifications: Specification | Sequence[Specificati
         seconds_checks=found.seconds_checks, seconds_programs=found.seconds_programs,
         ties=tuple(library.suite_ids(t) for t in found.ties), ties_exhaustive=found.ties_exhaustive,
         tie_programs=found.tie_programs, margin=margin, synthetic_landmarks=synthetic, integrity=integrity,
-        integrity_routes=integrity_routes, integrity_alone=library.suite_ids(tuple(sorted(alone))))
+        integrity_routes=integrity_routes, integrity_alone=library.suite_ids(tuple(sorted(alone))),
+        dominated=tuple((library.ids[w], library.ids[s_]) for w, s_ in found.ordered),
+        n_swap_inferred=found.swap_inferred, n_short=oracle.n_short)
 
 
 def _worst_failure(oracle: _Oracle, suite: Suite, failures: int) -> tuple[int, ...]:
