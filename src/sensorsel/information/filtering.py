@@ -49,7 +49,7 @@ from dataclasses import dataclass
 from typing import Callable, Iterable
 
 import numpy as np
-import scipy.linalg as la
+from scipy.linalg.lapack import dpotrf, dtrtrs
 from threadpoolctl import ThreadpoolController
 
 from sensorsel.errors import InputError
@@ -325,8 +325,14 @@ def _update(P: np.ndarray, held: np.ndarray, pairs: _Pairs, last: np.ndarray, k:
         if r_old:
             HU[:r_old] += np.einsum("iab,ibr->iar", Bo, U[cols]).reshape(r_old, r)
         S = np.eye(r) + 0.5 * (HU + HU.T)
-        L = la.cholesky(S, lower=True, check_finite=False)
-        V = la.solve_triangular(L, U.T, lower=True, check_finite=False)  # (r, N)
+        # LAPACK itself, as scipy.linalg.cholesky and solve_triangular call it (the same numbers),
+        # without their wrappers' checks: a tenth of a small update's time
+        L, info = dpotrf(S, lower=1, clean=1)
+        if info != 0:
+            raise np.linalg.LinAlgError(f"the innovation covariance at keyframe {k} is not positive definite ({info})")
+        V, info = dtrtrs(L, U.T, lower=1)  # (r, N)
+        if info != 0:
+            raise np.linalg.LinAlgError(f"a singular innovation factor at keyframe {k} ({info})")
         # numpy computes Vᵀ V by dsyrk (a product with its own transpose): exactly symmetric
         P -= V.T @ V
         if new.any():
