@@ -8,9 +8,12 @@ Rows: "tour" is the README's tour (the bundled suburb route), "03" / "00" the KI
 their real pole maps; each row is run for every preset and failure count given, first with the
 solver of the package, then with the reference solver behind the same accuracy oracle (so the two
 differ only in the search). Printed per run: the status, cost and lower bound, integer programs,
-accuracy computations (and the suites the cheap floor refuted), the time in checks and in programs,
+accuracy computations (and the suites the cheap floor refuted), the answers inferred from dominance
+among sensors ("swaps") and the filter passes stopped early ("short"), the time in checks and in programs,
 the wall time and the process's CPU time (less sensitive to other work on the machine). Timings on a shared machine are noisy: compare the two solvers' columns of one
-run, and the counts, which do not depend on the machine.
+run, and the counts, which do not depend on the machine. To compare with an older version of the
+package (accuracy oracle included), run this file from a `git archive` of it in the same session,
+with PYTHONPATH pointing at that copy's src/.
 """
 
 from __future__ import annotations
@@ -67,7 +70,7 @@ def main() -> None:
     package = design.cheapest_suite
     solvers = {"new": package, "reference": _reference()}
     print(f"{'row':>5} {'preset':>13} a solver    {'status':>8} {'cost':>9} {'lower':>9} {'programs':>8} {'checks':>6} "
-          f"{'refuted':>7} {'checks s':>8} {'progs s':>8} {'wall s':>7} {'cpu s':>7}  suite", flush=True)
+          f"{'refuted':>7} {'swaps':>5} {'short':>5} {'checks s':>8} {'progs s':>8} {'wall s':>7} {'cpu s':>7}  suite", flush=True)
     for row in a.rows:
         problem = _problem(row, a.kitti_root)
         for name in a.presets:
@@ -82,7 +85,8 @@ def main() -> None:
                         design.cheapest_suite = package
                     dt, cpu = time.perf_counter() - t0, time.process_time() - c0
                     print(f"{row:>5} {name:>13} {alpha} {which:<9} {r.status:>8} {r.cost_usd:>9,.0f} {r.lower_bound_usd:>9,.0f} "
-                          f"{r.iterations:>8} {r.n_checks:>6} {r.n_refuted:>7} {r.seconds_checks:>8.1f} "
+                          f"{r.iterations:>8} {r.n_checks:>6} {r.n_refuted:>7} {getattr(r, 'n_swap_inferred', 0):>5} "
+                          f"{getattr(r, 'n_short', 0):>5} {r.seconds_checks:>8.1f} "
                           f"{r.seconds_programs:>8.1f} {dt:>7.1f} {cpu:>7.1f}  {','.join(r.suite) or '-'}", flush=True)
 
 
