@@ -67,8 +67,9 @@ def route_covariances(engine: RouteEngine, suite: Suite, map_sigma_m: float | No
 
 class _Oracle:
     """Whether a suite meets the requirement on every route, with the answers kept (each costs an
-    accuracy computation per route asked); routes are asked in order and the first failing one
-    ends the question (the caching keeps the answer the same whichever path asked first).
+    accuracy computation per route asked); routes are asked in :attr:`route_order` (the last to
+    fail a suite first) and the first failing one ends the question (the caching keeps the answer
+    the same whichever path asked first).
 
     The solver's questions are answered from the covariances alone
     (:func:`~sensorsel.designs.requirements.spec.covariance_verdict`); the full
@@ -109,6 +110,8 @@ class _Oracle:
         self.on_answer: Callable[[], None] | None = None  # called after each new answer (the journal's writer)
         #: per route, the bad keyframes of the suites seen to fail there (a superset's pass stops after them)
         self._bad = [BadKeyframes() for _ in self.evaluators]
+        #: the order routes are asked in by :meth:`meets` (the last to fail a suite first)
+        self.route_order = list(range(len(self.evaluators)))
         #: (route, suite) -> meets, from a pass stopped early (no violation known)
         self._short: dict[tuple[int, Suite], bool] = {}
         self.n_short = 0  # of n_checks, passes stopped early
@@ -232,8 +235,18 @@ class _Oracle:
         return got
 
     def meets(self, suite: Suite) -> bool:
+        """Whether ``suite`` meets every route's specification. The routes are asked in
+        :attr:`route_order`: the route that last failed a suite first (a suite that fails a domain
+        mostly fails where the previous one did, and the routes it meets before that cost a check
+        each). The order follows the answers alone, so a run and its resumption ask the same."""
         s = as_suite(suite)
-        return all(self._route_meets(r, s) for r in range(len(self.evaluators)))
+        for r in list(self.route_order):
+            if not self._route_meets(r, s):
+                if self.route_order[0] != r:
+                    self.route_order.remove(r)
+                    self.route_order.insert(0, r)
+                return False
+        return True
 
     def _route_violation(self, r: int, suite: Suite) -> float:
         known = self.known.get((r, suite))
