@@ -184,3 +184,26 @@ def test_require_stops_passes_early_in_the_brute_forced_case(tiny_problem):
     spec = Specification(lateral=0.06, heading=0.1)
     r = require(tiny_problem, spec, map_sigma_m=0.05, constraints=_small(tiny_problem.library))
     assert r.status == "optimal" and 0 < r.n_short < r.n_checks
+
+
+def test_a_domain_asks_the_route_that_failed_last_first(tiny_problem, suburb_problem):
+    """Move to front: after a suite fails on the second route, that route is asked first; every
+    answer is still 'meets on every route' as each route's own whole-pass verdict says."""
+    from sensorsel.designs.requirements.checks import _Oracle
+    from sensorsel.information.evaluators.fast import FastEvaluator
+
+    spec = Specification(lateral=0.2, heading=0.5)
+    evs = [FastEvaluator(tiny_problem), FastEvaluator(suburb_problem)]
+    oracle = _Oracle(evs, ["tiny", "suburb"], [spec, spec], 0.05, "filter")
+    suites = [(LIB.position("LRL-roof"),), (LIB.position("HD2K-3"),), tuple(sorted((LIB.position("WSC-3"), LIB.position("HD2K-6")))),
+              tuple(LIB.position(x) for x in ("LRR-7", "HD2K-1", "HD2K-5", "HD2K-8")),
+              tuple(sorted((LIB.position("LRR-12"), LIB.position("WSC-6"))))]
+    saw_front = False
+    for s in suites:
+        truth = [covariance_verdict(forward_pass(p, s, map_sigma_m=0.05).filtered, spec)[0]
+                 for p in (tiny_problem, suburb_problem)]
+        assert oracle.meets(s) == all(truth)
+        if not all(truth):
+            assert not truth[oracle.route_order[0]]  # the route that just failed is asked first now
+            saw_front = saw_front or oracle.route_order[0] == 1
+    assert saw_front, "no suite failed on the second route first: the case shows nothing"
