@@ -1,11 +1,13 @@
 """How long `sensorsel require` takes to prove its answer, against the solver it had before (kept in
 bench/require_reference_solver.py), side by side in one process on the same problems.
 
-    python bench/require.py [--kitti-root ../shared/kitti] [--rows tour 03 00] [--presets local-streets freeway]
+    python bench/require.py [--kitti-root ../shared/kitti] [--rows tour 03 00 drive helsinki] [--helsinki DIR/domain.yaml]
+                            [--presets local-streets freeway]
                             [--failures 0 1] [--time-limit 300] [--solvers new reference]
 
 Rows: "tour" is the README's tour (the bundled suburb route), "03" / "00" the KITTI sequences with
-their real pole maps; each row is run for every preset and failure count given, first with the
+their real pole maps, "drive" a user's own drive (KITTI 00's ground truth as a route file, with
+generated landmarks), "helsinki" the 31 routes `sensorsel osm --sample helsinki` writes; each row is run for every preset and failure count given, first with the
 solver of the package, then with the reference solver behind the same accuracy oracle (so the two
 differ only in the search). Printed per run: the status, cost and lower bound, integer programs,
 accuracy computations (and the suites the cheap floor refuted), the answers inferred from dominance
@@ -46,19 +48,31 @@ def _reference():
     return cheapest_suite
 
 
-def _problem(row: str, kitti_root: str):
+def _problem(row: str, kitti_root: str, helsinki: str | None):
     from sensorsel.api import load_problem
+    from sensorsel.model.problem import load_domain
     from sensorsel.model.scenario.loading import ScenarioSpec
 
     if row == "tour":
         return load_problem()
+    if row == "drive":  # a user's own drive: KITTI 00's ground truth as a route file, generated landmarks
+        root = Path(kitti_root)
+        times = root / "sequences" / "00" / "times.txt"
+        return load_problem(ScenarioSpec(poses=str(root / "poses" / "00.txt"), times=str(times) if times.is_file() else None,
+                                         landmarks="synthetic"))
+    if row == "helsinki":
+        if helsinki is None:
+            raise SystemExit("row helsinki: give --helsinki DOMAIN.yaml (written by sensorsel osm --sample helsinki -o DIR)")
+        return load_domain(helsinki)
     return load_problem(ScenarioSpec(seq=row, kitti_root=kitti_root))
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--kitti-root", default=os.environ.get("SENSORSEL_KITTI_ROOT", str(REPO.parent.parent / "shared" / "kitti")))
-    ap.add_argument("--rows", nargs="+", default=["tour", "03", "00"])
+    ap.add_argument("--rows", nargs="+", default=["tour", "03", "00"],
+                    help="tour, 03, 00 (real pole maps), drive (00's ground truth, generated landmarks), helsinki")
+    ap.add_argument("--helsinki", help="the domain file of `sensorsel osm --sample helsinki -o DIR` (DIR/domain.yaml)")
     ap.add_argument("--presets", nargs="+", default=["local-streets", "freeway"])
     ap.add_argument("--failures", nargs="+", type=int, default=[0, 1])
     ap.add_argument("--time-limit", type=float, default=300.0)
@@ -72,7 +86,7 @@ def main() -> None:
     print(f"{'row':>5} {'preset':>13} a solver    {'status':>8} {'cost':>9} {'lower':>9} {'programs':>8} {'checks':>6} "
           f"{'refuted':>7} {'swaps':>5} {'short':>5} {'checks s':>8} {'progs s':>8} {'wall s':>7} {'cpu s':>7}  suite", flush=True)
     for row in a.rows:
-        problem = _problem(row, a.kitti_root)
+        problem = _problem(row, a.kitti_root, a.helsinki)
         for name in a.presets:
             for alpha in a.failures:
                 for which in a.solvers:
