@@ -49,7 +49,7 @@ from dataclasses import dataclass
 from typing import Callable, Iterable
 
 import numpy as np
-import scipy.linalg as la
+from scipy.linalg.lapack import dpotrf, dtrtrs
 from threadpoolctl import ThreadpoolController
 
 from sensorsel.errors import InputError
@@ -176,8 +176,8 @@ def _blas_controller() -> ThreadpoolController:
 
 
 def forward_pass(problem: Problem, suite: Iterable[int], *, map_sigma_m: float | None = None,
-                 use: Use | None = None, on_prediction: Callable[[Prediction, KeyframeMeasurements], None] | None = None
-                 ) -> FilterPass:
+                 use: Use | None = None, on_prediction: Callable[[Prediction, KeyframeMeasurements], None] | None = None,
+                 until: int | None = None) -> FilterPass:
     """One forward pass over the route (linear in its length), exact: filtered[k] equals GTSAM's
     marginal of X(k) in the graph of the priors, odometry up to k and the used measurements of
     keyframes <= k; predicted[k] the same without keyframe k's measurements. ``use`` (default: all)
@@ -188,6 +188,10 @@ def forward_pass(problem: Problem, suite: Iterable[int], *, map_sigma_m: float |
     ``map_sigma_m``: None for the SLAM model (each landmark's weak prior of the problem's
     ``landmark_prior_sigma_m``), or the std [m] of a prior map's landmarks. Method: the module's
     docstring.
+
+    ``until``: stop after keyframe ``until`` − 1 (the arrays then hold the first ``until``
+    keyframes, the same numbers as the whole pass's: a keyframe's covariance depends only on the
+    measurements up to it, and which landmarks are held is still decided by the whole route's).
     """
     if map_sigma_m is not None and not (np.isfinite(map_sigma_m) and map_sigma_m > 0):
         raise InputError(f"map sigma must be a positive number of metres, got {map_sigma_m!r}")
@@ -208,7 +212,8 @@ def forward_pass(problem: Problem, suite: Iterable[int], *, map_sigma_m: float |
     # measured slower (a 300² Cholesky and a 1100²·300 product on 2 busy cores: 10x and 1.2x slower
     # on two; a 4-sensor suite's pass on the bundled route 30x slower)
     with _blas_controller().limit(limits=1, user_api="blas"):
-        return _pass(problem, groups, last, odo, odo_cov, prior_sigma, use, on_prediction)
+        stop = K if until is None else max(0, min(int(until), K))
+        return _pass(problem, groups[:stop], last, odo, odo_cov, prior_sigma, use, on_prediction)
 
 
 @dataclass(frozen=True, eq=False)
@@ -258,7 +263,7 @@ def _pass(problem: Problem, groups: list[KeyframeMeasurements], last: np.ndarray
     s = problem.settings
     poses = np.asarray(problem.scenario.keyframes.poses, float)
     points = np.asarray(problem.scenario.landmarks, float)
-    K = len(poses)
+    K = len(groups)  # the keyframes passed: the route's, or its first ones (forward_pass's until)
     predicted, filtered = np.zeros((K, 3, 3)), np.zeros((K, 3, 3))
     n_used = np.zeros(K, np.int64)
     n_measured = np.array([len(g) for g in groups], np.int64)
@@ -325,8 +330,14 @@ def _update(P: np.ndarray, held: np.ndarray, pairs: _Pairs, last: np.ndarray, k:
         if r_old:
             HU[:r_old] += np.einsum("iab,ibr->iar", Bo, U[cols]).reshape(r_old, r)
         S = np.eye(r) + 0.5 * (HU + HU.T)
-        L = la.cholesky(S, lower=True, check_finite=False)
-        V = la.solve_triangular(L, U.T, lower=True, check_finite=False)  # (r, N)
+        # LAPACK itself, as scipy.linalg.cholesky and solve_triangular call it (the same numbers),
+        # without their wrappers' checks: a tenth of a small update's time
+        L, info = dpotrf(S, lower=1, clean=1)
+        if info != 0:
+            raise np.linalg.LinAlgError(f"the innovation covariance at keyframe {k} is not positive definite ({info})")
+        V, info = dtrtrs(L, U.T, lower=1)  # (r, N)
+        if info != 0:
+            raise np.linalg.LinAlgError(f"a singular innovation factor at keyframe {k} ({info})")
         # numpy computes Vᵀ V by dsyrk (a product with its own transpose): exactly symmetric
         P -= V.T @ V
         if new.any():

@@ -21,17 +21,17 @@ import math
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Iterable, Protocol, Sequence
+from typing import Sequence
 
-import numpy as np
-
+from sensorsel.designs.requirements.dominance import information_dominance
 from sensorsel.designs.requirements.integrity import IntegrityRequirement
+from sensorsel.designs.requirements.checks import RouteEngine, RouteRequirement, _Oracle
 from sensorsel.designs.requirements.margin import Margin, margin_of
 from sensorsel.designs.requirements.solver import DEFAULT_TIE_PROGRAMS, cheapest_suite
-from sensorsel.designs.requirements.spec import RouteVerdict, Specification, covariance_verdict, verdict
+from sensorsel.designs.requirements.spec import Specification
 from sensorsel.errors import InputError
 from sensorsel.information.evaluators import Evaluator, as_suite, make_evaluator
-from sensorsel.information.evaluators.accuracy import RouteAccuracy, accuracy_from_covariances, estimate_label, model_label
+from sensorsel.information.evaluators.accuracy import estimate_label, model_label
 from sensorsel.information.filtering import check_estimate
 from sensorsel.information.integrity import IntegritySpec, RouteIntegrity
 from sensorsel.information.evaluators.base import Suite
@@ -49,23 +49,6 @@ __all__ = ["RouteRequirement", "RequireResult", "RequireJournal", "require", "re
 #: seconds between two writes of a require run's journal (and once at the end)
 JOURNAL_EVERY_S = 2.0
 
-
-
-@dataclass(frozen=True)
-class RouteRequirement:
-    """One route's specification and how a suite stands against it.
-
-    Attributes:
-        route: the route's name.
-        specification: what the route requires.
-        accuracy: the suite's accuracy there (per keyframe, 1σ).
-        verdict: whether it meets the specification, by how much it misses, where.
-    """
-
-    route: str
-    specification: Specification
-    accuracy: RouteAccuracy
-    verdict: RouteVerdict
 
 
 @result_kind("requirement")
@@ -117,6 +100,15 @@ class RequireResult:
             the best effort, as ``routes``).
         integrity_alone: with ``integrity``, the allowed sensors (ids) that break it alone (their
             association risk floor exceeds it: in no suite that meets it), left out of the search.
+        dominated: pairs (w, s) of ids where s makes every measurement w makes on every route, at
+            least as precisely, costs no more and uses no more of any limit: the search held "w
+            only with s" (:mod:`sensorsel.designs.requirements.dominance`; the cheapest cost is
+            unchanged; where the two cost the same, a suite with w in place of s may be a tie the
+            tie search does not look for).
+        n_swap_inferred: answers the search inferred from such dominance (of any price) instead of
+            an accuracy computation.
+        n_short: of ``n_checks``, filter passes stopped after the last keyframe where a suite inside
+            the one asked was seen to miss the specification (:mod:`.truncated`).
     """
 
     status: str
@@ -150,6 +142,9 @@ class RequireResult:
     integrity: IntegritySpec | None = None
     integrity_routes: tuple[RouteIntegrity, ...] = ()
     integrity_alone: tuple[str, ...] = ()
+    dominated: tuple[tuple[str, str], ...] = ()
+    n_swap_inferred: int = 0
+    n_short: int = 0
 
     @property
     def gap_usd(self) -> float:
@@ -172,7 +167,8 @@ class RequireJournal:
     Attributes:
         fingerprint: sha256 of the inputs (:func:`require_fingerprint`).
         inputs: the same inputs, in words (what the warning names when they differ).
-        answers: (route index, suite, meets, violation or None when only refuted by the floor).
+        answers: (route index, suite, meets, violation or None when only refuted: by the floor, or
+            by a filter pass stopped early).
     """
 
     fingerprint: str
@@ -225,176 +221,6 @@ def _read_journal(path: Path, fingerprint: str, inputs: tuple[tuple[str, str], .
         return [f"{k} {was.get(k, '?')} (this run: {v})" for k, v in inputs if was.get(k) != v]
 
     return load_matching(RequireJournal, path, fingerprint, differences, "another require run")
-
-
-class RouteEngine(Protocol):
-    """What require asks of a route's engine: its pose marginals and their cheap floor (a
-    :class:`~sensorsel.information.evaluators.base.ProblemEvaluator`, or a route held by a Dask actor)."""
-
-    @property
-    def name(self) -> str: ...
-
-    def pose_covariances(self, suite: Iterable[int], *, map_sigma_m: float | None = None,
-                         estimate: str = "smoother") -> np.ndarray: ...
-
-    def pose_covariance_floor(self, suite: Iterable[int], *, map_sigma_m: float | None = None) -> np.ndarray | None: ...
-
-
-#: the cheap floor under the marginals is asked only while it refutes at least this share of the
-#: suites it is asked about (after :data:`FLOOR_TRIAL` of them): on the bundled suburb route it
-#: refuted 2 % of them and cost a third of a check each; in the map model on KITTI most failing suites
-FLOOR_KEEP_SHARE = 0.2
-FLOOR_TRIAL = 40
-
-
-def route_covariances(engine: RouteEngine, suite: Suite, map_sigma_m: float | None, estimate: str) -> np.ndarray:
-    """The (K, 3, 3) pose covariances ``require`` judges a suite by on one route (the filter's or the
-    smoother's ``estimate``): the one place where it asks a route's engine for them."""
-    return engine.pose_covariances(suite, map_sigma_m=map_sigma_m, estimate=estimate)
-
-
-class _Oracle:
-    """Whether a suite meets the requirement on every route, with the answers kept (each costs an
-    accuracy computation per route asked); routes are asked in order and the first failing one
-    ends the question (the caching keeps the answer the same whichever path asked first).
-
-    The solver's questions are answered from the covariances alone
-    (:func:`~sensorsel.designs.requirements.spec.covariance_verdict`); the full
-    :class:`RouteAccuracy` is built only for the suites a result reports.
-
-    Before computing a route's marginals, :meth:`meets` asks the engine's cheap floor under them
-    (:meth:`~sensorsel.information.evaluators.base.ProblemEvaluator.pose_covariance_floor`): every σ of the floor
-    is below the true one, so a specification the floor already misses is missed (monotone in each
-    keyframe's errors, whatever the share of keyframes): the suite fails without its marginals. In
-    the map model the floor is ~50-90 % of the true σ (KITTI 00, 03) and refutes most failing
-    suites; where it refutes few (:data:`FLOOR_KEEP_SHARE`) it is no longer asked (a choice made
-    from the counts alone, so the answers and the run stay deterministic).
-    The floor is under the smoother's marginals, and so under the filter's (which use fewer
-    measurements: ⪰ the smoother's at every keyframe): it refutes for either ``estimate``.
-
-    With the filter's estimate, the smoother's marginals are themselves a floor under it, exact
-    and ~1/20-1/50 of its cost: a suite whose smoothed accuracy misses the specification misses
-    it as the car drives, refuted without the forward pass (counted with :attr:`n_refuted`). The
-    violation the solver's greedy ranks by is then the smoother's where that already fails
-    (> 0, as the filter's is), else the filter's: still 0 exactly when the suite meets it.
-    """
-
-    def __init__(self, evaluators: Sequence[RouteEngine], names: Sequence[str], specs: Sequence[Specification],
-                 map_sigma_m: float | None, estimate: str = "filter") -> None:
-        self.evaluators, self.names, self.specs, self.map_sigma_m = list(evaluators), list(names), list(specs), map_sigma_m
-        self._answers: dict[tuple[int, Suite], tuple[bool, float]] = {}
-        self._reports: dict[tuple[int, Suite], tuple[RouteAccuracy, RouteVerdict]] = {}
-        self.estimate = estimate
-        #: (route, suite) -> the smoother's (meets, violation), where the filter's is asked (its floor)
-        self._smoothed: dict[tuple[int, Suite], tuple[bool, float]] = {}
-        self.floor_refuted = 0  # (route, suite) refuted by the cheap floor (decides whether it is still asked)
-        self._refuted: set[tuple[int, Suite]] = set()
-        #: (route, suite) -> (meets, violation or None): answers read back from a journal
-        self.known: dict[tuple[int, Suite], tuple[bool, float | None]] = {}
-        self.n_checks = 0  # marginals computed (route, suite)
-        self.n_refuted = 0  # (route, suite) refuted without the judged marginals: by the floor, or (filter) by the smoother
-        self.floor_asked = 0
-        self.on_answer: Callable[[], None] | None = None  # called after each new answer (the journal's writer)
-
-    def answers(self) -> tuple[tuple[int, Suite, bool, float | None], ...]:
-        """Every answer so far, (route, suite, meets, violation or None), in a fixed order."""
-        out: dict[tuple[int, Suite], tuple[bool, float | None]] = dict(self.known)
-        out.update({k: (False, None) for k in self._refuted})
-        out.update({k: (False, v) for k, (m, v) in self._smoothed.items() if not m})
-        out.update({k: (m, v) for k, (m, v) in self._answers.items()})
-        return tuple((r, s, m, v) for (r, s), (m, v) in sorted(out.items()))
-
-    def _answered(self) -> None:
-        if self.on_answer is not None:
-            self.on_answer()
-
-    def _answer(self, r: int, suite: Suite) -> tuple[bool, float]:
-        """(meets, violation) of ``suite`` on route ``r``, computed once."""
-        key = (r, suite)
-        got = self._answers.get(key)
-        if got is None:
-            got = self._answers[key] = covariance_verdict(
-                route_covariances(self.evaluators[r], suite, self.map_sigma_m, self.estimate), self.specs[r])
-            self.n_checks += 1
-            self._answered()
-        return got
-
-    def route(self, r: int, suite: Suite) -> tuple[RouteAccuracy, RouteVerdict]:
-        """The suite's accuracy and verdict on route ``r`` (for a report)."""
-        key = (r, suite)
-        got = self._reports.get(key)
-        if got is None:
-            acc = accuracy_from_covariances(route_covariances(self.evaluators[r], suite, self.map_sigma_m, self.estimate),
-                                            map_sigma_m=self.map_sigma_m, route=self.names[r], estimate=self.estimate)
-            got = self._reports[key] = (acc, verdict(acc, self.specs[r]))
-            if key not in self._answers:
-                self._answers[key] = (got[1].meets, got[1].violation)
-                self.n_checks += 1
-                self._answered()
-        return got
-
-    def _use_floor(self) -> bool:
-        return self.floor_asked < FLOOR_TRIAL or self.floor_refuted >= FLOOR_KEEP_SHARE * self.floor_asked
-
-    def _route_meets(self, r: int, suite: Suite) -> bool:
-        key = (r, suite)
-        if key in self._answers:
-            return self._answers[key][0]
-        if key in self._refuted:
-            return False
-        if key in self.known:
-            return self.known[key][0]
-        if self._use_floor():
-            floor = self.evaluators[r].pose_covariance_floor(suite, map_sigma_m=self.map_sigma_m)
-            if floor is not None:
-                self.floor_asked += 1
-                if not covariance_verdict(floor, self.specs[r])[0]:
-                    self._refuted.add(key)
-                    self.n_refuted += 1
-                    self.floor_refuted += 1
-                    self._answered()
-                    return False
-        smoothed = self._smoother_verdict(r, suite)
-        if smoothed is not None and not smoothed[0]:
-            return False
-        return self._answer(r, suite)[0]
-
-    def _smoother_verdict(self, r: int, suite: Suite) -> tuple[bool, float] | None:
-        """The smoother's (meets, violation) on (route, suite) when the filter's is asked (a floor
-        under it: the class's docstring), computed once; None for the smoother's own estimate."""
-        if self.estimate != "filter":
-            return None
-        key = (r, suite)
-        got = self._smoothed.get(key)
-        if got is None:
-            got = self._smoothed[key] = covariance_verdict(
-                route_covariances(self.evaluators[r], suite, self.map_sigma_m, "smoother"), self.specs[r])
-            if not got[0]:
-                self.n_refuted += 1
-                self._answered()
-        return got
-
-    def meets(self, suite: Suite) -> bool:
-        s = as_suite(suite)
-        return all(self._route_meets(r, s) for r in range(len(self.evaluators)))
-
-    def _route_violation(self, r: int, suite: Suite) -> float:
-        known = self.known.get((r, suite))
-        if known is not None and known[1] is not None and (r, suite) not in self._answers:
-            return known[1]
-        if (r, suite) not in self._answers:
-            smoothed = self._smoother_verdict(r, suite)
-            if smoothed is not None and not smoothed[0]:
-                return smoothed[1]
-        return self._answer(r, suite)[1]
-
-    def violation(self, suite: Suite) -> float:
-        s = as_suite(suite)
-        return max(self._route_violation(r, s) for r in range(len(self.evaluators)))
-
-    def report(self, suite: Suite) -> tuple[RouteRequirement, ...]:
-        s = as_suite(suite)
-        return tuple(RouteRequirement(self.names[r], self.specs[r], *self.route(r, s)) for r in range(len(self.evaluators)))
 
 
 def require(target: Target, specifications: Specification | Sequence[Specification], *, map_sigma_m: float | None,
@@ -489,9 +315,12 @@ def require(target: Target, specifications: Specification | Sequence[Specificati
         oracle.on_answer = write
     try:
         if integ is None:
+            # accuracy alone is monotone in each sensor's information: dominance among sensors holds
+            dominance = information_dominance([p for _, p in problems],
+                                              [i for i in range(len(library)) if i not in feas.excluded])
             found = cheapest_suite(feas, oracle.meets, failures=failures, violation=oracle.violation,
                                    time_limit=time_limit_s, progress=progress,
-                                   max_tie_programs=max_tie_programs)
+                                   max_tie_programs=max_tie_programs, dominance=dominance)
         else:
             checks = integ
 
@@ -538,7 +367,9 @@ def require(target: Target, specifications: Specification | Sequence[Specificati
         seconds_checks=found.seconds_checks, seconds_programs=found.seconds_programs,
         ties=tuple(library.suite_ids(t) for t in found.ties), ties_exhaustive=found.ties_exhaustive,
         tie_programs=found.tie_programs, margin=margin, synthetic_landmarks=synthetic, integrity=integrity,
-        integrity_routes=integrity_routes, integrity_alone=library.suite_ids(tuple(sorted(alone))))
+        integrity_routes=integrity_routes, integrity_alone=library.suite_ids(tuple(sorted(alone))),
+        dominated=tuple((library.ids[w], library.ids[s_]) for w, s_ in found.ordered),
+        n_swap_inferred=found.swap_inferred, n_short=oracle.n_short)
 
 
 def _worst_failure(oracle: _Oracle, suite: Suite, failures: int) -> tuple[int, ...]:

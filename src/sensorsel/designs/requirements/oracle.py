@@ -69,6 +69,23 @@ class Antichain:
         q = self._w(mask)
         return bool(np.any(np.all((q & ~self._rows[:len(self.masks)]) == 0, axis=1)))
 
+    def _many(self, masks: list[int]) -> np.ndarray:
+        return np.array([[(m >> (64 * k)) & _WORD for k in range(self.words)] for m in masks], dtype=np.uint64)
+
+    def inside_any(self, masks: list[int]) -> bool:
+        """Some mask of ``masks`` ⊆ some set of the antichain (one vectorised comparison)."""
+        if not self.masks or not masks:
+            return False
+        q = self._many(masks)[:, None, :]
+        return bool(np.any(np.all((q & ~self._rows[None, :len(self.masks)]) == 0, axis=2)))
+
+    def holds_any(self, masks: list[int]) -> bool:
+        """Some set of the antichain ⊆ some mask of ``masks``."""
+        if not self.masks or not masks:
+            return False
+        q = self._many(masks)[:, None, :]
+        return bool(np.any(np.all((self._rows[None, :len(self.masks)] & ~q) == 0, axis=2)))
+
     def holds_one(self, mask: int) -> bool:
         """some set of the antichain ⊆ ``mask``."""
         if not self.masks:
@@ -130,14 +147,23 @@ class Monotone(_Cached):
     (>= 0, 0 exactly when it passes) that the greedy upper bound uses.
 
     ``failing``: the maximal failing sets known (each one is a cut); ``meeting``: the minimal
-    passing sets known."""
+    passing sets known.
 
-    def __init__(self, n: int, passes: Callable[[Suite], bool], violation: Callable[[Suite], float] | None = None) -> None:
+    ``swaps``: pairs (w, s) of positions where replacing w by s never makes a suite fail
+    (:mod:`sensorsel.designs.requirements.dominance`): a suite holding s but not w passes when the
+    suite with w in place of s is known to pass, one holding w but not s fails when the suite with
+    s in place of w is known to fail (one swap at a time; ``swap_inferred`` counts the answers so
+    given)."""
+
+    def __init__(self, n: int, passes: Callable[[Suite], bool], violation: Callable[[Suite], float] | None = None,
+                 swaps: Iterable[tuple[int, int]] = ()) -> None:
         super().__init__(n, passes)
         self._violation = violation
         self.viol: dict[int, float] = {}
         self.failing = Antichain(n, "max")
         self.meeting = Antichain(n, "min")
+        self.swaps = tuple((1 << int(w), 1 << int(s)) for w, s in swaps)
+        self.swap_inferred = 0
 
     def infer(self, mask: int) -> bool | None:
         hit = self.known.get(mask)
@@ -147,6 +173,17 @@ class Monotone(_Cached):
             return False
         if self.meeting.holds_one(mask):
             return True
+        if self.swaps:
+            weaker = [mask & ~s | w for w, s in self.swaps if mask & s and not mask & w]
+            if self.meeting.holds_any(weaker):
+                self.swap_inferred += 1
+                self.record(mask, True)  # known from now on, and a passing set later swaps start from
+                return True
+            stronger = [mask & ~w | s for w, s in self.swaps if mask & w and not mask & s]
+            if self.failing.inside_any(stronger):
+                self.swap_inferred += 1
+                self.record(mask, False)
+                return False
         return None
 
     def violation(self, mask: int) -> float:

@@ -62,6 +62,12 @@ def propose(s: Any, time_left: float | None, programs: list[float], *, cap: floa
     if cuts_in:
         inside = np.array([[1.0 if m >> i & 1 else 0.0 for i in range(n)] for m in cuts_in])
         rows.append(LinearConstraint(inside, -np.inf, inside.sum(axis=1) - 1.0))
+    orders = getattr(s, "orders", ())
+    if orders:  # x_w - x_s <= 0: a dominated sensor only with its dominator (dominance.dominance_order)
+        order_rows = np.zeros((len(orders), n))
+        for r, (w, v) in enumerate(orders):
+            order_rows[r, w], order_rows[r, v] = 1.0, -1.0
+        rows.append(LinearConstraint(order_rows, -np.inf, 0.0))
     for g in nogoods:  # Σ_{i ∉ g} x_i - Σ_{i ∈ g} x_i >= 1 - |g|: any suite but g
         sign = np.array([-1.0 if g >> i & 1 else 1.0 for i in range(n)])
         rows.append(LinearConstraint(sign[None, :], 1 - bin(g).count("1"), np.inf))

@@ -81,6 +81,7 @@ from typing import Callable, Iterable, Sequence
 
 import numpy as np
 
+from sensorsel.designs.requirements.dominance import dominance_order
 from sensorsel.designs.requirements.oracle import AntiMonotone, Exact, Monotone, mask_of, suite_of
 from sensorsel.designs.requirements.programs import MILP_NODE_LIMIT, propose as _propose, tol as _tol
 from sensorsel.io.progress import Progress, report
@@ -151,6 +152,9 @@ class CheapestSuite:
         tie_programs: integer programs of the tie search.
         fixed_out: sensors left out of the programs because with the required ones they cost more
             than the best suite found.
+        ordered: the dominance pairs (w, s) held as x_w <= x_s in the integer programs
+            (:func:`~sensorsel.designs.requirements.dominance.dominance_order`), sorted.
+        swap_inferred: answers inferred from a dominance swap instead of a call.
     """
 
     suite: Suite | None
@@ -176,6 +180,8 @@ class CheapestSuite:
     ties_exhaustive: bool = False
     tie_programs: int = 0
     fixed_out: int = 0
+    ordered: tuple[tuple[int, int], ...] = ()
+    swap_inferred: int = 0
 
 
 class _Search:
@@ -204,6 +210,7 @@ class _Search:
         self.fixed_out = 0  # sensors no suite cheaper than the best found holds
         self.nogoods: list[int] = []
         self.met: dict[int, float] = {}  # suites shown to meet the requirement after the failures: cost
+        self.orders: tuple[tuple[int, int], ...] = ()  # (w, s): x_w <= x_s in the integer programs (dominance)
 
     @property
     def monotone(self) -> bool:
@@ -367,7 +374,8 @@ def cheapest_suite(feasible: FeasibleSet, meets: Meets, *, failures: int = 0, vi
                    monotone: bool = True, necessary_monotone: Meets | None = None,
                    necessary_antimonotone: Meets | None = None, max_iterations: int = DEFAULT_MAX_ITERATIONS,
                    time_limit: float | None = None, progress: Progress | None = None,
-                   max_tie_programs: int = DEFAULT_TIE_PROGRAMS) -> CheapestSuite:
+                   max_tie_programs: int = DEFAULT_TIE_PROGRAMS,
+                   dominance: Sequence[tuple[int, int]] = ()) -> CheapestSuite:
     """The cheapest suite of ``feasible`` that meets a requirement after any ``failures`` of its
     sensors fail, with a lower bound on the cost of every such suite (module docstring).
 
@@ -394,6 +402,12 @@ def cheapest_suite(feasible: FeasibleSet, meets: Meets, *, failures: int = 0, vi
             bound, best found] closing, integer programs solved, suites checked.
         max_tie_programs: integer programs spent, once the answer is proved, looking for other
             suites of the same cost (0: none; ties found on the way are still reported).
+        dominance: with a monotone ``meets``, pairs (w, s) of positions where a suite with s in
+            place of w meets the requirement whenever the suite with w does
+            (:mod:`~sensorsel.designs.requirements.dominance`): answers are inferred from them, and
+            the pairs :func:`~sensorsel.designs.requirements.dominance.dominance_order` keeps become
+            rows x_w <= x_s of the integer programs (the cheapest cost unchanged; ties among them
+            are then not searched exhaustively).
 
     Returns:
         A :class:`CheapestSuite`.
@@ -409,11 +423,14 @@ def cheapest_suite(feasible: FeasibleSet, meets: Meets, *, failures: int = 0, vi
         raise ValueError(f"max_iterations must be >= 1, got {max_iterations!r}")
     if monotone and (necessary_monotone is not None or necessary_antimonotone is not None):
         raise ValueError("relaxations are for a requirement that is not monotone: pass monotone=False")
+    if dominance and not monotone:
+        raise ValueError("dominance is for a monotone requirement")
     start = time.monotonic()
     alpha = int(failures)
     n = len(feasible.library)
     if monotone:
-        s = _Search(feasible, alpha, Monotone(n, meets, violation), None, None)
+        s = _Search(feasible, alpha, Monotone(n, meets, violation, swaps=dominance), None, None)
+        s.orders = dominance_order(feasible, dominance)
     else:
         s = _Search(feasible, alpha, None if necessary_monotone is None else Monotone(n, necessary_monotone),
                     None if necessary_antimonotone is None else AntiMonotone(n, necessary_antimonotone), Exact(n, meets))
@@ -432,7 +449,11 @@ def cheapest_suite(feasible: FeasibleSet, meets: Meets, *, failures: int = 0, vi
             _suite(suite) if suite is not None else None, cost, lower, proved, gap, iterations, s.n_checks(), cuts,
             status_, alpha, by, _suite(best_effort) if status_ == "infeasible" else (), _suite(lost), stop,
             time.monotonic() - start, s.seconds_checks(), programs[0], cuts_in, tuple(sorted(_suite(g) for g in s.nogoods)),
-            tuple(sorted(_suite(t) for t in ties)), exhaustive, int(programs[1]), bin(s.fixed_out).count("1"))
+            tuple(sorted(_suite(t) for t in ties)), exhaustive and not tied_orders, int(programs[1]),
+            bin(s.fixed_out).count("1"), s.orders, s.down.swap_inferred if s.down is not None else 0)
+
+    # a tie search under rows x_w <= x_s cannot see suites with w in place of an equally priced s
+    tied_orders = any(abs(s.price[w] - s.price[v]) <= _tol(s.price[w]) for w, v in s.orders)
 
     # 1. every allowed sensor together: the most any suite achieves (monotone, or its monotone relaxation)
     if s.down is not None and not s.down.passes(s.universe):

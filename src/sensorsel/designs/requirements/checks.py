@@ -1,0 +1,267 @@
+"""The accuracy checks of ``require``: whether a suite meets each route's specification, each
+answer computed once and kept, with what answers a check cheaply (a floor under the marginals, the
+smoother's marginals under the filter's, a filter pass stopped early after a failing subset's last
+bad keyframe: :mod:`.truncated`)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable, Iterable, Protocol, Sequence
+
+import numpy as np
+
+from sensorsel.designs.requirements.oracle import mask_of
+from sensorsel.designs.requirements.spec import RouteVerdict, Specification, covariance_verdict, verdict
+from sensorsel.designs.requirements.truncated import BadKeyframes, bad_keyframes, meets_from_bad
+from sensorsel.information.evaluators import as_suite
+from sensorsel.information.evaluators.accuracy import RouteAccuracy, accuracy_from_covariances
+from sensorsel.information.evaluators.base import Suite
+from sensorsel.information.filtering import forward_pass
+from sensorsel.model.problem import Problem
+
+__all__ = ["FLOOR_KEEP_SHARE", "FLOOR_TRIAL", "RouteEngine", "RouteRequirement", "route_covariances"]
+
+
+@dataclass(frozen=True)
+class RouteRequirement:
+    """One route's specification and how a suite stands against it.
+
+    Attributes:
+        route: the route's name.
+        specification: what the route requires.
+        accuracy: the suite's accuracy there (per keyframe, 1σ).
+        verdict: whether it meets the specification, by how much it misses, where.
+    """
+
+    route: str
+    specification: Specification
+    accuracy: RouteAccuracy
+    verdict: RouteVerdict
+
+
+class RouteEngine(Protocol):
+    """What require asks of a route's engine: its pose marginals and their cheap floor (a
+    :class:`~sensorsel.information.evaluators.base.ProblemEvaluator`, or a route held by a Dask actor)."""
+
+    @property
+    def name(self) -> str: ...
+
+    def pose_covariances(self, suite: Iterable[int], *, map_sigma_m: float | None = None,
+                         estimate: str = "smoother") -> np.ndarray: ...
+
+    def pose_covariance_floor(self, suite: Iterable[int], *, map_sigma_m: float | None = None) -> np.ndarray | None: ...
+
+
+#: the cheap floor under the marginals is asked only while it refutes at least this share of the
+#: suites it is asked about (after :data:`FLOOR_TRIAL` of them): on the bundled suburb route it
+#: refuted 2 % of them and cost a third of a check each; in the map model on KITTI most failing suites
+FLOOR_KEEP_SHARE = 0.2
+FLOOR_TRIAL = 40
+
+
+def route_covariances(engine: RouteEngine, suite: Suite, map_sigma_m: float | None, estimate: str) -> np.ndarray:
+    """The (K, 3, 3) pose covariances ``require`` judges a suite by on one route (the filter's or the
+    smoother's ``estimate``): the one place where it asks a route's engine for them."""
+    return engine.pose_covariances(suite, map_sigma_m=map_sigma_m, estimate=estimate)
+
+
+class _Oracle:
+    """Whether a suite meets the requirement on every route, with the answers kept (each costs an
+    accuracy computation per route asked); routes are asked in :attr:`route_order` (the last to
+    fail a suite first) and the first failing one ends the question (the caching keeps the answer
+    the same whichever path asked first).
+
+    The solver's questions are answered from the covariances alone
+    (:func:`~sensorsel.designs.requirements.spec.covariance_verdict`); the full
+    :class:`RouteAccuracy` is built only for the suites a result reports.
+
+    Before computing a route's marginals, :meth:`meets` asks the engine's cheap floor under them
+    (:meth:`~sensorsel.information.evaluators.base.ProblemEvaluator.pose_covariance_floor`): every σ of the floor
+    is below the true one, so a specification the floor already misses is missed (monotone in each
+    keyframe's errors, whatever the share of keyframes): the suite fails without its marginals. In
+    the map model the floor is ~50-90 % of the true σ (KITTI 00, 03) and refutes most failing
+    suites; where it refutes few (:data:`FLOOR_KEEP_SHARE`) it is no longer asked (a choice made
+    from the counts alone, so the answers and the run stay deterministic).
+    The floor is under the smoother's marginals, and so under the filter's (which use fewer
+    measurements: ⪰ the smoother's at every keyframe): it refutes for either ``estimate``.
+
+    With the filter's estimate, the smoother's marginals are themselves a floor under it, exact
+    and ~1/20-1/50 of its cost: a suite whose smoothed accuracy misses the specification misses
+    it as the car drives, refuted without the forward pass (counted with :attr:`n_refuted`). The
+    violation the solver's greedy ranks by is then the smoother's where that already fails
+    (> 0, as the filter's is), else the filter's: still 0 exactly when the suite meets it.
+    """
+
+    def __init__(self, evaluators: Sequence[RouteEngine], names: Sequence[str], specs: Sequence[Specification],
+                 map_sigma_m: float | None, estimate: str = "filter") -> None:
+        self.evaluators, self.names, self.specs, self.map_sigma_m = list(evaluators), list(names), list(specs), map_sigma_m
+        self._answers: dict[tuple[int, Suite], tuple[bool, float]] = {}
+        self._reports: dict[tuple[int, Suite], tuple[RouteAccuracy, RouteVerdict]] = {}
+        self.estimate = estimate
+        #: (route, suite) -> the smoother's (meets, violation), where the filter's is asked (its floor)
+        self._smoothed: dict[tuple[int, Suite], tuple[bool, float]] = {}
+        self.floor_refuted = 0  # (route, suite) refuted by the cheap floor (decides whether it is still asked)
+        self._refuted: set[tuple[int, Suite]] = set()
+        #: (route, suite) -> (meets, violation or None): answers read back from a journal
+        self.known: dict[tuple[int, Suite], tuple[bool, float | None]] = {}
+        self.n_checks = 0  # marginals computed (route, suite)
+        self.n_refuted = 0  # (route, suite) refuted without the judged marginals: by the floor, or (filter) by the smoother
+        self.floor_asked = 0
+        self.on_answer: Callable[[], None] | None = None  # called after each new answer (the journal's writer)
+        #: per route, the bad keyframes of the suites seen to fail there (a superset's pass stops after them)
+        self._bad = [BadKeyframes() for _ in self.evaluators]
+        #: the order routes are asked in by :meth:`meets` (the last to fail a suite first)
+        self.route_order = list(range(len(self.evaluators)))
+        #: (route, suite) -> meets, from a pass stopped early (no violation known)
+        self._short: dict[tuple[int, Suite], bool] = {}
+        self.n_short = 0  # of n_checks, passes stopped early
+        self.keyframes_passed = 0  # keyframes the filter passed for the checks (all of them: n_checks · K)
+
+    def answers(self) -> tuple[tuple[int, Suite, bool, float | None], ...]:
+        """Every answer so far, (route, suite, meets, violation or None), in a fixed order."""
+        out: dict[tuple[int, Suite], tuple[bool, float | None]] = dict(self.known)
+        out.update({k: (False, None) for k in self._refuted})
+        out.update({k: (False, v) for k, (m, v) in self._smoothed.items() if not m})
+        # a pass stopped early knows the violation only when it is 0 (the suite meets)
+        out.update({k: (m, 0.0 if m else None) for k, m in self._short.items()})
+        out.update({k: (m, v) for k, (m, v) in self._answers.items()})
+        return tuple((r, s, m, v) for (r, s), (m, v) in sorted(out.items()))
+
+    def _answered(self) -> None:
+        if self.on_answer is not None:
+            self.on_answer()
+
+    def _answer(self, r: int, suite: Suite) -> tuple[bool, float]:
+        """(meets, violation) of ``suite`` on route ``r``, computed once."""
+        key = (r, suite)
+        got = self._answers.get(key)
+        if got is None:
+            covariances = route_covariances(self.evaluators[r], suite, self.map_sigma_m, self.estimate)
+            got = self._answers[key] = covariance_verdict(covariances, self.specs[r])
+            self.n_checks += 1
+            self.keyframes_passed += len(covariances)
+            if not got[0] and self.estimate == "filter":
+                self._bad[r].add(mask_of(suite), bad_keyframes(covariances, self.specs[r]))
+            self._answered()
+        return got
+
+    def _short_answer(self, r: int, suite: Suite) -> bool | None:
+        """Whether ``suite`` meets route ``r``'s specification, by a filter pass that stops after the
+        last bad keyframe of a suite inside it seen to fail (:mod:`.truncated`); None where none is
+        known, or the route's engine holds no problem here (a route on a cluster's worker)."""
+        if self.estimate != "filter":
+            return None
+        problem = getattr(self.evaluators[r], "problem", None)
+        if not isinstance(problem, Problem):
+            return None
+        mask = mask_of(suite)
+        hit = self._bad[r].shortest(mask)
+        if hit is None:
+            return None
+        until, bad = hit
+        if until > problem.scenario.n_poses // 2:  # little to save: the smoother refutes cheaper first
+            return None
+        covariances = forward_pass(problem, suite, map_sigma_m=self.map_sigma_m, until=until).filtered
+        now = bad_keyframes(covariances, self.specs[r])
+        still = tuple(np.intersect1d(b, n) for b, n in zip(bad, now))  # good where the subset was good
+        meets = meets_from_bad(still, problem.scenario.n_poses, self.specs[r])
+        if not meets:
+            self._bad[r].add(mask, still)
+        self._short[(r, suite)] = meets
+        self.n_checks += 1
+        self.n_short += 1
+        self.keyframes_passed += len(covariances)
+        self._answered()
+        return meets
+
+    def route(self, r: int, suite: Suite) -> tuple[RouteAccuracy, RouteVerdict]:
+        """The suite's accuracy and verdict on route ``r`` (for a report)."""
+        key = (r, suite)
+        got = self._reports.get(key)
+        if got is None:
+            acc = accuracy_from_covariances(route_covariances(self.evaluators[r], suite, self.map_sigma_m, self.estimate),
+                                            map_sigma_m=self.map_sigma_m, route=self.names[r], estimate=self.estimate)
+            got = self._reports[key] = (acc, verdict(acc, self.specs[r]))
+            if key not in self._answers:
+                self._answers[key] = (got[1].meets, got[1].violation)
+                self.n_checks += 1
+                self._answered()
+        return got
+
+    def _use_floor(self) -> bool:
+        return self.floor_asked < FLOOR_TRIAL or self.floor_refuted >= FLOOR_KEEP_SHARE * self.floor_asked
+
+    def _route_meets(self, r: int, suite: Suite) -> bool:
+        key = (r, suite)
+        if key in self._answers:
+            return self._answers[key][0]
+        if key in self._refuted:
+            return False
+        if key in self.known:
+            return self.known[key][0]
+        if key in self._short:
+            return self._short[key]
+        if self._use_floor():
+            floor = self.evaluators[r].pose_covariance_floor(suite, map_sigma_m=self.map_sigma_m)
+            if floor is not None:
+                self.floor_asked += 1
+                if not covariance_verdict(floor, self.specs[r])[0]:
+                    self._refuted.add(key)
+                    self.n_refuted += 1
+                    self.floor_refuted += 1
+                    self._answered()
+                    return False
+        short = self._short_answer(r, suite)
+        if short is not None:
+            return short
+        smoothed = self._smoother_verdict(r, suite)
+        if smoothed is not None and not smoothed[0]:
+            return False
+        return self._answer(r, suite)[0]
+
+    def _smoother_verdict(self, r: int, suite: Suite) -> tuple[bool, float] | None:
+        """The smoother's (meets, violation) on (route, suite) when the filter's is asked (a floor
+        under it: the class's docstring), computed once; None for the smoother's own estimate."""
+        if self.estimate != "filter":
+            return None
+        key = (r, suite)
+        got = self._smoothed.get(key)
+        if got is None:
+            got = self._smoothed[key] = covariance_verdict(
+                route_covariances(self.evaluators[r], suite, self.map_sigma_m, "smoother"), self.specs[r])
+            if not got[0]:
+                self.n_refuted += 1
+                self._answered()
+        return got
+
+    def meets(self, suite: Suite) -> bool:
+        """Whether ``suite`` meets every route's specification. The routes are asked in
+        :attr:`route_order`: the route that last failed a suite first (a suite that fails a domain
+        mostly fails where the previous one did, and the routes it meets before that cost a check
+        each). The order follows the answers alone, so a run and its resumption ask the same."""
+        s = as_suite(suite)
+        for r in list(self.route_order):
+            if not self._route_meets(r, s):
+                if self.route_order[0] != r:
+                    self.route_order.remove(r)
+                    self.route_order.insert(0, r)
+                return False
+        return True
+
+    def _route_violation(self, r: int, suite: Suite) -> float:
+        known = self.known.get((r, suite))
+        if known is not None and known[1] is not None and (r, suite) not in self._answers:
+            return known[1]
+        if (r, suite) not in self._answers:
+            smoothed = self._smoother_verdict(r, suite)
+            if smoothed is not None and not smoothed[0]:
+                return smoothed[1]
+        return self._answer(r, suite)[1]
+
+    def violation(self, suite: Suite) -> float:
+        s = as_suite(suite)
+        return max(self._route_violation(r, s) for r in range(len(self.evaluators)))
+
+    def report(self, suite: Suite) -> tuple[RouteRequirement, ...]:
+        s = as_suite(suite)
+        return tuple(RouteRequirement(self.names[r], self.specs[r], *self.route(r, s)) for r in range(len(self.evaluators)))

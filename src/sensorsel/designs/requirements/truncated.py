@@ -1,0 +1,71 @@
+"""Checking a suite against a specification with a filter pass that stops early: only the keyframes
+where a suite it holds was seen to miss it matter.
+
+Adding sensors only adds measurements, so for suites S ⊆ T the filter's covariance of T is ⪯ that
+of S at *every* keyframe (each is the marginal of a graph with more factors), and every σ of T is at
+most S's there. So a keyframe where S meets a component's limit, T meets it too: T's *bad*
+keyframes for a component (those over its limit) are among S's. Knowing S's bad keyframes (or any
+superset of them) per component, T's are found by a pass that stops after the last of them
+(:func:`sensorsel.information.filtering.forward_pass` with ``until``: the same numbers at those
+keyframes as the whole pass), and the specification's rank rule is decided exactly: a component
+is met when at least ⌈at·K⌉ keyframes are within its limit.
+
+In the growth of a failing set (the set S fails; S plus one sensor is asked, mostly met) the bad
+keyframes of S are few and often early on the route: the pass of S plus a sensor stops there
+instead of running the whole route.
+
+Every comparison is the one :func:`~sensorsel.designs.requirements.spec.covariance_verdict` makes
+(σ · factor / limit − 1 > 0 at a keyframe), so the answers are those of the whole pass.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from sensorsel.designs.requirements.spec import Specification, _rank
+
+__all__ = ["BadKeyframes", "bad_keyframes", "meets_from_bad"]
+
+#: per component of the specification (in ``spec.bounds()`` order): the sorted bad keyframes
+Bad = tuple[np.ndarray, ...]
+
+
+def bad_keyframes(covariances: np.ndarray, spec: Specification, keyframes: np.ndarray | None = None) -> Bad:
+    """Per component of ``spec``, the keyframes (sorted) where the (k, 3, 3) ``covariances`` exceed its
+    limit, as :func:`~sensorsel.designs.requirements.spec.covariance_verdict` judges a keyframe;
+    ``keyframes``: only these of them (indices into ``covariances``; default all)."""
+    cov = np.asarray(covariances, dtype=float)
+    diag = np.sqrt(np.maximum(np.diagonal(cov, axis1=1, axis2=2), 0.0))
+    sig = {"longitudinal": diag[:, 0], "lateral": diag[:, 1], "heading": np.degrees(diag[:, 2])}
+    at = np.arange(len(cov)) if keyframes is None else np.asarray(keyframes, np.int64)
+    return tuple(at[(spec.factor * sig[comp][at]) / bound - 1.0 > 0.0] for comp, bound, _ in spec.bounds())
+
+
+def meets_from_bad(bad: Bad, n_keyframes: int, spec: Specification) -> bool:
+    """Whether a suite with these bad keyframes (per component) meets ``spec`` on a route of
+    ``n_keyframes``: each component within its limit at ⌈at·K⌉ keyframes at least."""
+    need = _rank(spec.at, n_keyframes) if n_keyframes else 0
+    return all(n_keyframes - len(b) >= need for b in bad)
+
+
+class BadKeyframes:
+    """The bad keyframes (per component) of the suites that failed on one route, as bit masks of
+    library positions; :meth:`shortest` finds, for a suite, a failing subset whose bad keyframes end
+    earliest."""
+
+    def __init__(self) -> None:
+        self._known: list[tuple[int, int, Bad]] = []  # (last bad keyframe + 1, mask, bad), kept sorted
+
+    def add(self, mask: int, bad: Bad) -> None:
+        """Record that suite ``mask`` is over its limits exactly (or at most) at ``bad``."""
+        until = max((int(b[-1]) + 1 for b in bad if len(b)), default=0)
+        self._known.append((until, mask, bad))
+        self._known.sort(key=lambda e: (e[0], e[1]))
+
+    def shortest(self, mask: int) -> tuple[int, Bad] | None:
+        """(keyframes to pass, the bad keyframes) of a recorded suite inside ``mask`` whose bad
+        keyframes end earliest; None when none is recorded inside it."""
+        for until, known, bad in self._known:
+            if known & ~mask == 0:
+                return until, bad
+        return None
