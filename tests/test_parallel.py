@@ -107,3 +107,43 @@ def test_a_checkpointed_domain_design_on_two_threads_records_the_one_thread_brea
     assert _untimed(two) == _untimed(one)
     saved = results.load(ck, GreedyCheckpoint)
     assert saved.routes == one.routes  # every route's share, in route order
+
+
+def _route_counts(ev):
+    return [r.n_evaluations for r in ev.routes]
+
+
+def test_scoring_ahead_on_idle_threads_and_workers_changes_no_byte_and_no_count(cluster, tmp_path):
+    # the lazy greedy's rounds of one or two route calls leave threads (workers) idle: they score
+    # the queue's next route calls ahead; what is used is read back where one thread computes it
+    from sensorsel.designs.selection import greedy
+
+    domain = load_domain(_four_routes(tmp_path, 1.0))
+    one = DomainEvaluator(domain, jobs=1)
+    first = greedy(one, 12_000, lazy=True, info=domain.info)
+    assert one.n_ahead == 0  # one thread: nothing is idle
+    for ev in (DomainEvaluator(domain, jobs=2), DomainEvaluator(domain, jobs=3),
+               DistributedDomainEvaluator(cluster.client, domain)):
+        got = greedy(ev, 12_000, lazy=True, info=domain.info)
+        assert _untimed(got) == _untimed(first)  # picks, scores, every step's numbers and the count of evaluations
+        if isinstance(ev, DistributedDomainEvaluator):  # its proxies count the greedy's calls alone (not the normalisers)
+            assert ev.n_ahead_used and [r.n_evaluations for r in ev.routes] == [n - 2 for n in _route_counts(one)]
+        else:
+            assert _route_counts(ev) == _route_counts(one)  # each route's evaluations too (robust reads them)
+        assert ev.n_ahead > 0 and 0 < ev.n_ahead_used <= ev.n_ahead  # it did score ahead, and used some
+
+
+def test_what_is_scored_ahead_is_the_route_engines_own_score_of_that_suite(tmp_path):
+    # the oracle: a fresh engine of each route, scoring the suite alone
+    from sensorsel.designs.selection import greedy
+    from sensorsel.information.evaluators import make_evaluator
+
+    domain = load_domain(_four_routes(tmp_path, 1.0))
+    ev = DomainEvaluator(domain, jobs=2)
+    greedy(ev, 12_000, lazy=True, info=domain.info)
+    st = ev._lazy
+    assert st is not None and st.ahead  # kept, never asked at the last suite
+    fresh = {k: make_evaluator(domain.routes[k].problem, ev.engine) for k in {k for k, _ in st.ahead}}
+    for (k, c), v in sorted(st.ahead.items()):
+        assert v == fresh[k].scores_with(st.suite, [c])[0]  # the bytes the round would get asking it
+        assert v == pytest.approx(fresh[k].score(st.suite + (c,)), rel=1e-12)  # the suite scored whole

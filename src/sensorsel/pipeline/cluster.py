@@ -464,13 +464,30 @@ class DistributedDomainEvaluator(DomainEvaluator):
         :meth:`DomainEvaluator.gain_bounds` and :meth:`DomainEvaluator.score_bounds`: the same numbers)."""
         return self._call({k: (method, (base, cand)) for k in members})
 
-    def _ask_members_grouped(self, base: tuple[int, ...], groups: dict[int, list[int]]) -> dict[int, np.ndarray]:
+    def _ask_members_grouped(self, base: tuple[int, ...], groups: dict[int, list[int]],
+                             ahead: dict[int, list[int]] | None = None) -> dict[int, np.ndarray]:
         """Lazy greedy's route scores (:meth:`DomainEvaluator.scores_or_bounds`), every actor asked at
-        once, each route's proxy counting its evaluations as its evaluator does in-process."""
-        got = self._call({k: ("scores_with", (base, c)) for k, c in groups.items()})
+        once, each route's proxy counting its evaluations as its evaluator does in-process; with
+        ``ahead`` ({route: candidates}), those scored ahead in the same call, after the round's
+        own, not counted."""
+        spec = ahead or {}
+        calls = sorted(set(groups) | set(spec))
+        got = self._call({k: ("scores_with", (base, groups.get(k, []) + spec.get(k, []))) for k in calls})
         for k, c in groups.items():
             self.routes[k].n_evaluations += len(c)
-        return {k: np.asarray(got[k], dtype=float) for k in groups}
+        return {k: np.asarray(got[k], dtype=float) for k in calls}
+
+    def _places(self, load: dict[int, float]) -> tuple[list[tuple[frozenset[int] | None, float]], dict[int, int]]:
+        """Each worker (its routes, the load of the round's calls on them), in a fixed order, and
+        each called route's worker: a worker runs its routes' calls one after another, so what is
+        scored ahead on a worker goes to its own routes
+        (:mod:`sensorsel.information.evaluators.ahead`)."""
+        owned: dict[int, list[int]] = {}
+        for k, actor in enumerate(self._actors):
+            owned.setdefault(id(actor), []).append(k)
+        places = sorted(owned.values())
+        home = {k: p for p, ks in enumerate(places) for k in ks if k in load}
+        return [(frozenset(ks), sum(load.get(k, 0.0) for k in ks)) for ks in places], home
 
     def busy(self) -> dict[str, tuple[float, int, str]]:
         """Each route's (seconds its actor spent scoring, calls it answered, the worker holding it)."""
