@@ -20,7 +20,8 @@ from sensorsel.designs.domain_design import design_domain  # noqa: E402
 from sensorsel.information.evaluators import DomainEvaluator  # noqa: E402
 from sensorsel.io import results  # noqa: E402
 from sensorsel.model.problem import load_domain  # noqa: E402
-from sensorsel.pipeline.cluster import DaskCluster, DistributedDomainEvaluator  # noqa: E402
+from sensorsel.information.evaluators.distributed import DistributedDomainEvaluator  # noqa: E402
+from sensorsel.pipeline.cluster import DaskCluster  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 FIXTURES = REPO / "configs" / "domain_fixtures.yaml"

@@ -161,7 +161,7 @@ def design_domain(domain: Domain, budget_usd: float, rule: str = "uniform", *, e
     ``certify``, the run's certificate on the domain score (F is monotone submodular, so the bound holds).
 
     ``evaluator``: the domain's evaluator, already built (e.g. on a Dask cluster,
-    :class:`sensorsel.pipeline.cluster.DistributedDomainEvaluator`); ``engine``, ``jobs`` and ``aggregate``
+    :class:`sensorsel.information.evaluators.distributed.DistributedDomainEvaluator`); ``engine``, ``jobs`` and ``aggregate``
     are then its own. ``constraints``: limits besides the budget (:mod:`sensorsel.model.constraints`),
     respected by the domain suite and by each route's own design.
 
