@@ -139,15 +139,22 @@ def test_what_is_scored_ahead_is_the_route_engines_own_score_of_that_suite(tmp_p
     from sensorsel.designs.selection import greedy
     from sensorsel.information.evaluators import make_evaluator
 
+    seen: dict[tuple[tuple[int, ...], int, int], float] = {}
+
+    class Watching(DomainEvaluator):
+        def _answer(self, st, base, groups, hopeful):  # what is kept ahead after each round
+            out = super()._answer(st, base, groups, hopeful)
+            seen.update({(st.suite, k, c): v for (k, c), v in st.ahead.items()})
+            return out
+
     domain = load_domain(_four_routes(tmp_path, 1.0))
-    ev = DomainEvaluator(domain, jobs=2)
+    ev = Watching(domain, jobs=2)
     greedy(ev, 12_000, lazy=True, info=domain.info)
-    st = ev._lazy
-    assert st is not None and st.ahead  # kept, never asked at the last suite
-    fresh = {k: make_evaluator(domain.routes[k].problem, ev.engine) for k in {k for k, _ in st.ahead}}
-    for (k, c), v in sorted(st.ahead.items()):
-        assert v == fresh[k].scores_with(st.suite, [c])[0]  # the bytes the round would get asking it
-        assert v == pytest.approx(fresh[k].score(st.suite + (c,)), rel=1e-12)  # the suite scored whole
+    assert seen
+    fresh = {k: make_evaluator(domain.routes[k].problem, ev.engine) for k in {k for _, k, _ in seen}}
+    for (suite, k, c), v in sorted(seen.items()):
+        assert v == fresh[k].scores_with(suite, [c])[0]  # the bytes the round would get asking it
+        assert v == pytest.approx(fresh[k].score(suite + (c,)), rel=1e-12)  # the suite scored whole
 
 
 def test_a_batch_of_accuracy_checks_is_one_round_with_each_route_engines_bytes(cluster, tmp_path):

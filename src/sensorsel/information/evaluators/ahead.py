@@ -20,11 +20,18 @@ same numbers on 1 and N threads and on any number of workers; only the wall time
 answer scored ahead that the greedy never asks is work lost: it is counted apart
 (``n_ahead`` / ``n_ahead_used`` on the evaluator), and not in any result.
 
-How much goes ahead: a place that the round leaves empty gets one call (a gamble on the likeliest
-next call), and every place is then filled while its predicted load stays within the round's
-longest (so that, by the estimate, the round does not take longer). A route's cost per candidate is
-estimated as K^1.7 (K its keyframes; measured on the KITTI routes: 03, 81 keyframes ~1 ms; 00, 455
-~20 ms).
+How much goes ahead: only places that the round leaves empty take calls, on routes without a call
+of the round, while their predicted load stays within the round's longest (so that, by the
+estimate, the round does not take longer). A route's cost per candidate is estimated as K^1.7 (K its
+keyframes; measured on the KITTI routes: 03, 81 keyframes ~1 ms; 00, 455 ~20 ms). Also filling the
+places that have calls of their own (after a route's own call, on its thread) scored more ahead
+(274 calls against 189 on the seven KITTI routes on 2 threads, 36 and 32 of them used) and
+modelled no faster (1.46-1.51x against 1.49x), the longer rounds eating the gain.
+
+What it gives, modelled from each run's CPU trace (bench/parallel.py, seven KITTI routes at
+$110,000): 1.49x on 2 threads (1.48x without), 1.92x on 4 (1.71x without): a round's candidates
+are often bounded out after their first route, so most calls scored ahead are never asked
+(32 of 189 used on 2 threads).
 """
 
 from __future__ import annotations
@@ -85,15 +92,19 @@ def fill(places: list[tuple[frozenset[int] | None, float]], home: dict[int, int]
         pairs: the (route, candidate) calls wanted, likeliest first.
         cost: each route's estimated cost per candidate, shape (R,).
 
-    Each pair goes to the least loaded place that may run it, while that place's load stays
-    within the round's largest: by the estimate, the round takes no longer than its own calls.
+    Each pair on a route without a call of the round goes to the least loaded place that may run
+    it and that the round left empty, while that place's load stays within the round's largest:
+    by the estimate, the round takes no longer than its own calls.
     """
     loads = [load for _, load in places]
     top = max(loads, default=0.0)
     where = dict(home)
     taken: dict[int, list[int]] = {}
     for k, c in pairs:
-        allowed = [where[k]] if k in where else [p for p, (routes, _) in enumerate(places) if routes is None or k in routes]
+        if k in home:
+            continue  # a route with a call of the round: scored ahead after it, its call would take longer
+        allowed = [where[k]] if k in where else [p for p, (routes, load) in enumerate(places)
+                                                 if (routes is None or k in routes) and load == 0.0]
         fits = [p for p in allowed if loads[p] + float(cost[k]) <= top]
         if not fits:
             continue
