@@ -29,9 +29,9 @@ places that have calls of their own (after a route's own call, on its thread) sc
 modelled no faster (1.46-1.51x against 1.49x), the longer rounds eating the gain.
 
 What it gives, modelled from each run's CPU trace (bench/parallel.py, seven KITTI routes at
-$110,000): 1.49x on 2 threads (1.48x without), 1.92x on 4 (1.71x without): a round's candidates
-are often bounded out after their first route, so most calls scored ahead are never asked
-(32 of 189 used on 2 threads).
+$110,000, two runs on a loaded 2-core machine): 1.41-1.49x on 2 threads (1.45-1.48x without),
+1.80-1.92x on 4 (1.71x without): a round's candidates are often bounded out after their first
+route, so most calls scored ahead are never asked (32 of 189 used on 2 threads).
 """
 
 from __future__ import annotations

@@ -198,8 +198,9 @@ class DistributedDomainEvaluator(DomainEvaluator):
     Args:
         client: a connected ``distributed.Client``.
         domain: the routes and their weights (each route is rebuilt on its worker from its recipe).
-        engine, aggregate: as for :class:`DomainEvaluator`.
+        engine: as for :class:`DomainEvaluator`.
         jobs: threads each route's engine may use on its worker.
+        aggregate: as for :class:`DomainEvaluator`.
         retries: how many times a route whose worker died is rebuilt before giving up.
 
     Attributes:
