@@ -60,7 +60,8 @@ def main() -> None:
     from sensorsel.information.evaluators import DomainEvaluator, make_evaluator
     from sensorsel.io import results
     from sensorsel.model.problem import load_domain
-    from sensorsel.pipeline.cluster import DaskCluster, DistributedDomainEvaluator, RouteRecipe
+    from sensorsel.information.evaluators.distributed import DistributedDomainEvaluator, RouteRecipe
+    from sensorsel.pipeline.cluster import DaskCluster
 
     out: dict = {"domain": args.domain, "budget_usd": args.budget, "workers": args.workers, "rule": args.rule,
                  "cpus": os.cpu_count()}

@@ -19,9 +19,15 @@ CPU times are what to read, not the seconds alone):
   workers' and the scheduler's CPU (``psutil`` in each process), messages and pickled bytes per greedy
   step, the seconds the client waited for answers, and the result compared with the in-process one.
 
-**The model** (printed as ``model``), from the 1-thread run's trace alone:
+**The model** (printed as ``model``), from the trace of a run on n threads (``--model-at``; on a
+2-core machine the threads beyond 2 take turns, but each route call's CPU is its own):
 
-    T(n) = S + sum_rounds LPT_n(tasks of the round) + rounds * c(n)
+    T(n) = S + sum_rounds LPT_n(tasks of the round on n threads) + rounds * c(n)
+
+The n-thread run's trace, not the 1-thread run's: a lazy round's idle threads score ahead
+(:mod:`sensorsel.information.evaluators.ahead`), so a round on n threads holds more calls than on one
+and later rounds fewer (the same answers and counts). ``model.in_process_one_thread_trace`` is the
+model without it (every n from the 1-thread trace), for comparison.
 
 S the serial part (everything outside the rounds: the greedy's bookkeeping, combining routes),
 LPT_n a round's makespan when its tasks (route calls, dearest first) go to n threads or workers, c(n)
@@ -33,6 +39,11 @@ machine is mostly waiting for a core). Amdahl's law with the serial fraction s =
 is the honest one: a lazy greedy round asks one or two candidates at a time, on the routes whose
 bounds matter, so a round rarely has more than a handful of tasks, whatever the number of workers.
 Both are checked against the measured 2-thread and 1-/2-worker runs (``model_check``).
+
+``--commands greedy,pareto,robust`` adds the rows of ``pareto`` (its rules' budget chains, at
+``--pareto-budgets``) and ``robust --failures 1`` (its methods) on the same domain: in-process on each
+``--jobs`` (every evaluator they build traced: the same model) and on each LocalCluster (their plans'
+tasks on the workers: wall, the client's and the workers' CPU, the client's wait).
 
 Prints one JSON document (and a summary on stderr).
 """
@@ -78,6 +89,11 @@ class TracedDomainEvaluator(DomainEvaluator):
         self.rounds: list[tuple[float, list[float]]] = []
         self._tracing = False
         super().__init__(*args, **kw)
+        # each route call on its one thread: a route engine's own threads (it scores a large route's
+        # candidates on them) would hide their CPU from the calling thread's clock, and the model
+        # would count a merged call as cheaper than it is (the same bytes either way)
+        for r in self.routes:
+            r.jobs = 1
 
     def _on_threads(self, one: Any, members: list[int], work: Any = None) -> dict[int, Any]:
         if not self._tracing:
@@ -165,6 +181,7 @@ def run_in_process(domain: Any, budget: float, rule: str, jobs: int, whole: bool
     res, g = _stage(ev, jobs, lambda: greedy(ev, budget, rule, lazy=True, info=domain.info))
     out = {"jobs": jobs, "build_s": round(build, 3), "build_cpu_s": round(cpu_of_this_process() - c0 - g["cpu_s"], 3),
            "greedy_wall_s": g["wall_s"], "greedy_cpu_s": g["cpu_s"], "steps": len(res.steps),
+           "route_calls_scored_ahead": ev.n_ahead, "route_calls_scored_ahead_used": ev.n_ahead_used,
            "n_evaluations": res.n_evaluations, **{k: v for k, v in g.items() if k not in ("wall_s", "cpu_s")}}
     record = [results.dumps(res)]
     if whole:
@@ -179,7 +196,8 @@ def run_in_process(domain: Any, budget: float, rule: str, jobs: int, whole: bool
 def run_on_cluster(domain: Any, budget: float, rule: str, workers: int) -> dict[str, Any]:
     from sensorsel.designs.selection import greedy
     from sensorsel.io import results
-    from sensorsel.pipeline.cluster import DaskCluster, DistributedDomainEvaluator
+    from sensorsel.information.evaluators.distributed import DistributedDomainEvaluator
+    from sensorsel.pipeline.cluster import DaskCluster
 
     def cpu_now() -> float:
         import psutil
@@ -217,24 +235,120 @@ def run_on_cluster(domain: Any, budget: float, rule: str, workers: int) -> dict[
         "workers_scoring_s": {a: round(v, 3) for a, v in sorted(busy_by_worker.items())},
         "client_wait_s": round(wait, 3), "rounds": rounds,
         "client_rss_growth_bytes": client_rss_growth, "workers_rss_bytes": sorted(workers_rss.values()),
+        "route_calls_scored_ahead": ev.n_ahead, "route_calls_scored_ahead_used": ev.n_ahead_used,
         "messages": msgs, "messages_per_step": round(msgs / steps, 1),
         "bytes_sent_per_step": round(sent / steps, 1), "bytes_received_per_step": round(recv / steps, 1),
         "_result": results.dumps(res),
     }
 
 
-def model(trace: list[list[float]], serial: float, comm_per_round: float = 0.0) -> dict[str, Any]:
-    """Predicted greedy seconds and speed-ups at each n of :data:`PREDICT_AT` (see the module's doc)."""
+def model(trace: list[list[float]], serial: float, comm_per_round: float = 0.0,
+          traces: dict[int, list[list[float]]] | None = None) -> dict[str, Any]:
+    """Predicted greedy seconds and speed-ups at each n of :data:`PREDICT_AT` (see the module's doc):
+    ``trace`` the 1-thread run's rounds, ``traces`` the n-thread runs' (default: the 1-thread one)."""
     t1 = serial + sum(sum(t) for t in trace)
     s = serial / t1 if t1 > 0 else 1.0
     out: dict[str, Any] = {"serial_s": round(serial, 3), "serial_fraction": round(s, 4),
                            "rounds": len(trace), "comm_per_round_ms": round(1e3 * comm_per_round, 3)}
     for n in PREDICT_AT:
-        rounds_aware = serial + sum(lpt(t, n) for t in trace) + len(trace) * comm_per_round
+        tr = (traces or {}).get(n)
+        if traces is not None and tr is None:
+            continue
+        tr = trace if tr is None else tr
+        rounds_aware = serial + sum(lpt(t, n) for t in tr) + len(tr) * comm_per_round
         amdahl = t1 * (s + (1 - s) / n)
         out[f"at_{n}"] = {"round_aware_s": round(rounds_aware, 3), "round_aware_speedup": round(t1 / rounds_aware, 2),
                           "amdahl_speedup": round(t1 / amdahl, 2)}
     return out
+
+
+def run_command_in_process(command: str, domain: Any, args: Any, jobs: int) -> dict[str, Any]:
+    """``pareto`` or ``robust --failures 1`` in-process on ``jobs`` threads, every evaluator it builds
+    traced (the designs build theirs through ``evaluator_for``): wall, CPU and the model's trace."""
+    from sensorsel.designs import tradespace
+    from sensorsel.designs.robust import select as robust_select
+    from sensorsel.io import results
+
+    built: list[TracedDomainEvaluator] = []
+
+    def traced_for(target: Any, engine: str | None = None, *, jobs: int = 1, aggregate: str = "normalised") -> Any:
+        ev = TracedDomainEvaluator(target, engine, jobs=jobs, aggregate=aggregate)
+        ev._tracing = True
+        built.append(ev)
+        return ev
+
+    saved = tradespace.evaluator_for, robust_select.evaluator_for
+    tradespace.evaluator_for = robust_select.evaluator_for = traced_for  # type: ignore[assignment]
+    try:
+        c0, t0 = cpu_of_this_process(), time.perf_counter()
+        res = _run_command(command, domain, args, jobs=jobs)
+        wall, cpu = time.perf_counter() - t0, cpu_of_this_process() - c0
+    finally:
+        tradespace.evaluator_for, robust_select.evaluator_for = saved
+    trace = [t for ev in built for _, t in ev.rounds if t]
+    task_cpu = sum(map(sum, trace))
+    return {"jobs": jobs, "wall_s": round(wall, 3), "cpu_s": round(cpu, 3), "rounds": len(trace),
+            "route_calls": sum(map(len, trace)), "route_call_cpu_s": round(task_cpu, 3),
+            "serial_cpu_s": round(max(0.0, cpu - task_cpu), 3) if jobs == 1 else None,
+            "_trace": trace, "_result": results.dumps(res)}
+
+
+def _run_command(command: str, domain: Any, args: Any, *, jobs: int = 1, executor: Any = None) -> Any:
+    from sensorsel import api
+
+    where = {} if executor is None else {"executor": executor}
+    if command == "pareto":
+        budgets = [float(b) for b in args.pareto_budgets.split(",")]
+        return api.run_tradespace(domain, budgets, jobs=jobs, **where)
+    if command == "robust":
+        return api.run_robust(domain, args.budget, 1, jobs=jobs, **where)
+    raise ValueError(command)
+
+
+def run_command_on_cluster(command: str, domain: Any, args: Any, workers: int) -> dict[str, Any]:
+    """The command's plan (pareto's rule chains, robust's methods) as tasks on a LocalCluster."""
+    from sensorsel.io import results
+    from sensorsel.pipeline.cluster import DaskCluster
+
+    def cpu_now() -> float:
+        import psutil
+
+        t = psutil.Process().cpu_times()
+        return float(t.user + t.system)
+
+    with DaskCluster(workers=workers, echo=lambda line: None) as cluster:
+        client = cluster.client
+        w0, s0 = client.run(cpu_now), client.run_on_scheduler(cpu_now)
+        c0, t0 = cpu_of_this_process(), time.perf_counter()
+        res = _run_command(command, domain, args, executor=cluster.executor)
+        wall, client_cpu = time.perf_counter() - t0, cpu_of_this_process() - c0
+        w1, s1 = client.run(cpu_now), client.run_on_scheduler(cpu_now)
+    return {"workers": workers, "wall_s": round(wall, 3), "client_cpu_s": round(client_cpu, 3),
+            "workers_cpu_s": round(sum(w1[a] - w0[a] for a in w1), 3), "scheduler_cpu_s": round(s1 - s0, 3),
+            "_result": results.dumps(res)}
+
+
+def command_rows(command: str, domain: Any, args: Any) -> dict[str, Any]:
+    """One command's rows: in-process on each --jobs, on each LocalCluster, the model and the check."""
+    runs = [run_command_in_process(command, domain, args, int(j)) for j in args.jobs.split(",") if j]
+    clusters = [run_command_on_cluster(command, domain, args, int(w)) for w in args.workers.split(",") if w]
+    base = runs[0]
+    same = all(untimed(r["_result"]) == untimed(base["_result"]) for r in runs + clusters)
+    traces = {r["jobs"]: r["_trace"] for r in runs}
+    m = model(base["_trace"], base["serial_cpu_s"] or 0.0, traces=traces)
+    m_one = model(base["_trace"], base["serial_cpu_s"] or 0.0)
+    checks = [{"run": f"{r['jobs']} threads", "measured_speedup": round(base["wall_s"] / r["wall_s"], 2),
+               "predicted_round_aware": m.get(f"at_{r['jobs']}", {}).get("round_aware_speedup")} for r in runs[1:]]
+    checks += [{"run": f"{c['workers']} workers", "measured_speedup": round(base["wall_s"] / c["wall_s"], 2)} for c in clusters]
+    for r in runs:
+        print(f"{command}, {r['jobs']} thread(s): {r['wall_s']:.2f} s wall, {r['cpu_s']:.2f} s CPU", file=sys.stderr)
+    for c in clusters:
+        print(f"{command}, {c['workers']} worker(s): {c['wall_s']:.2f} s wall, client CPU {c['client_cpu_s']:.2f} s, "
+              f"workers CPU {c['workers_cpu_s']:.2f} s", file=sys.stderr)
+    return {"same_result": same, "model": {"in_process": m, "in_process_one_thread_trace": m_one},
+            "model_check": checks,
+            "in_process": [{k: v for k, v in r.items() if not k.startswith("_")} for r in runs],
+            "cluster": [{k: v for k, v in c.items() if not k.startswith("_")} for c in clusters]}
 
 
 def generated_domain(folder: Path, n: int) -> str:
@@ -256,6 +370,10 @@ def main() -> None:
     ap.add_argument("--jobs", default=f"1,{os.cpu_count() or 1}", help="thread counts in-process (comma-separated)")
     ap.add_argument("--workers", default="1,2", help="LocalCluster sizes (comma-separated; empty: none)")
     ap.add_argument("--generated", type=int, default=0, help="measure a generated domain of N routes instead")
+    ap.add_argument("--model-at", default=",".join(map(str, PREDICT_AT)),
+                    help="thread counts whose greedy runs' traces make the model (comma-separated)")
+    ap.add_argument("--commands", default="greedy", help="greedy, pareto, robust (comma-separated)")
+    ap.add_argument("--pareto-budgets", default="20000,50000,110000", help="pareto's budgets (comma-separated) [$]")
     ap.add_argument("--whole", action="store_true",
                     help="in-process, also the certificate and the per-route breakdown (what greedy --domain runs)")
     args = ap.parse_args()
@@ -293,7 +411,11 @@ def main() -> None:
         all(untimed(c["_result"]) == parts(base["_result"])[0] for c in clusters)
     out["same_result"] = same
     trace, serial = [t for t in base["_trace"] if t], base["serial_cpu_s"]  # rounds with work (none: nothing sent)
-    out["model"] = {"in_process": model(trace, serial)}
+    traces = {r["jobs"]: [t for t in r["_trace"] if t] for r in runs}
+    for n in [int(x) for x in args.model_at.split(",") if x]:
+        if n not in traces:  # a traced run on n threads (the machine's cores take turns; each call's CPU is its own)
+            traces[n] = [t for t in run_in_process(domain, args.budget, args.rule, n, False)["_trace"] if t]
+    out["model"] = {"in_process": model(trace, serial, traces=traces), "in_process_one_thread_trace": model(trace, serial)}
     if args.whole:  # the whole command in-process: the three stages' rounds and serial parts together
         stages = [base, base["certificate"], base["breakdown"]]
         whole_trace = [t for st in stages for t in st["_trace"] if t]
@@ -315,7 +437,7 @@ def main() -> None:
         c["comm_wall_per_round_ms"] = round(1e3 * max(0.0, c["client_wait_s"] - scoring) / max(1, c["rounds"]), 3)
     if clusters:
         comm = max(c["comm_cpu_per_round_ms"] for c in clusters) / 1e3
-        out["model"]["cluster"] = model(trace, serial, comm)
+        out["model"]["cluster"] = model(trace, serial, comm, traces=traces)
     checks = []
     for r in runs[1:]:
         pred = out["model"]["in_process"][f"at_{r['jobs']}"] if f"at_{r['jobs']}" in out["model"]["in_process"] else None
@@ -334,6 +456,8 @@ def main() -> None:
     out["model_check"] = checks
     out["in_process"] = [{k: v for k, v in r.items() if not k.startswith("_")} for r in runs]
     out["cluster"] = [{k: v for k, v in c.items() if not k.startswith("_")} for c in clusters]
+    for command in [c for c in args.commands.split(",") if c and c != "greedy"]:
+        out[command] = command_rows(command, domain, args)
     out["load_avg_after"] = os.getloadavg()
     print(f"same result everywhere: {same}", file=sys.stderr)
     print(json.dumps(out, indent=2))

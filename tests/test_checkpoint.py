@@ -68,9 +68,9 @@ class Recording(DomainEvaluator):
         self.bases.append(tuple(suite))
         return super().scores_with(suite, candidates)
 
-    def scores_or_bounds(self, suite, candidates, needed):  # lazy greedy's way of asking
+    def scores_or_bounds(self, suite, candidates, needed, **kw):  # lazy greedy's way of asking
         self.bases.append(tuple(suite))
-        return super().scores_or_bounds(suite, candidates, needed)
+        return super().scores_or_bounds(suite, candidates, needed, **kw)
 
 
 @pytest.fixture(scope="module")

@@ -286,7 +286,8 @@ def test_condition_members_on_dask_workers_equal_in_process(tmp_path):
     # the workers rebuild each member from its recipe (the spec carries the condition): same bytes
     pytest.importorskip("distributed")
     from sensorsel.api import design_domain
-    from sensorsel.pipeline.cluster import DaskCluster, DistributedDomainEvaluator
+    from sensorsel.information.evaluators.distributed import DistributedDomainEvaluator
+    from sensorsel.pipeline.cluster import DaskCluster
 
     p = tmp_path / "d.yaml"
     p.write_text(CITY + "\nroutes:\n  - {name: tiny, fixture: tiny, weight: 1}\n")
@@ -307,7 +308,8 @@ def test_a_problem_put_under_a_condition_in_python_keeps_it_on_dask_workers(tiny
     from sensorsel.api import design_domain
     from sensorsel.designs.tradespace import run_tradespace
     from sensorsel.model.recipes import TargetRecipe
-    from sensorsel.pipeline.cluster import DaskCluster, DistributedDomainEvaluator
+    from sensorsel.information.evaluators.distributed import DistributedDomainEvaluator
+    from sensorsel.pipeline.cluster import DaskCluster
 
     night = with_condition(tiny_problem, Condition(night=True, fog_visibility_m=150))
     assert night.spec is None and tiny_problem.spec is None

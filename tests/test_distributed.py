@@ -23,7 +23,8 @@ distributed = pytest.importorskip("distributed")
 from sensorsel.io import results  # noqa: E402
 from sensorsel.api import suite_accuracy, suite_integrity  # noqa: E402
 from sensorsel.api import design_domain  # noqa: E402
-from sensorsel.pipeline.cluster import DaskCluster, DistributedDomainEvaluator  # noqa: E402
+from sensorsel.information.evaluators.distributed import DistributedDomainEvaluator  # noqa: E402
+from sensorsel.pipeline.cluster import DaskCluster  # noqa: E402
 from sensorsel.model.problem import load_domain  # noqa: E402
 from sensorsel.designs.tradespace import run_tradespace  # noqa: E402
 

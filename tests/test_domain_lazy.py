@@ -24,8 +24,8 @@ class Recording(DomainEvaluator):
     n_bounded = 0
 
     def scores_or_bounds(self, suite: Iterable[int], candidates: Sequence[int],
-                         needed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        vals, exact = super().scores_or_bounds(suite, candidates, needed)
+                         needed: np.ndarray, **kw) -> tuple[np.ndarray, np.ndarray]:
+        vals, exact = super().scores_or_bounds(suite, candidates, needed, **kw)
         self.n_bounded += int(np.sum(~exact))
         return vals, exact
 
@@ -36,7 +36,7 @@ class WholeDomain(DomainEvaluator):
     bounds_candidates = False
 
     def scores_or_bounds(self, suite: Iterable[int], candidates: Sequence[int],
-                         needed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                         needed: np.ndarray, **kw) -> tuple[np.ndarray, np.ndarray]:
         return Evaluator.scores_or_bounds(self, suite, candidates, needed)
 
 

@@ -20,7 +20,8 @@ from sensorsel.api import design_domain  # noqa: E402
 from sensorsel.information.evaluators import DomainEvaluator  # noqa: E402
 from sensorsel.io import results  # noqa: E402
 from sensorsel.model.problem import load_domain  # noqa: E402
-from sensorsel.pipeline.cluster import DaskCluster, DistributedDomainEvaluator  # noqa: E402
+from sensorsel.information.evaluators.distributed import DistributedDomainEvaluator  # noqa: E402
+from sensorsel.pipeline.cluster import DaskCluster  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 FIXTURES = REPO / "configs" / "domain_fixtures.yaml"
@@ -107,3 +108,71 @@ def test_a_checkpointed_domain_design_on_two_threads_records_the_one_thread_brea
     assert _untimed(two) == _untimed(one)
     saved = results.load(ck, GreedyCheckpoint)
     assert saved.routes == one.routes  # every route's share, in route order
+
+
+def _route_counts(ev):
+    return [r.n_evaluations for r in ev.routes]
+
+
+def test_scoring_ahead_on_idle_threads_and_workers_changes_no_byte_and_no_count(cluster, tmp_path):
+    # the lazy greedy's rounds of one or two route calls leave threads (workers) idle: they score
+    # the queue's next route calls ahead; what is used is read back where one thread computes it
+    from sensorsel.designs.selection import greedy
+
+    domain = load_domain(_four_routes(tmp_path, 1.0))
+    one = DomainEvaluator(domain, jobs=1)
+    first = greedy(one, 12_000, lazy=True, info=domain.info)
+    assert one.n_ahead == 0  # one thread: nothing is idle
+    for ev in (DomainEvaluator(domain, jobs=2), DomainEvaluator(domain, jobs=3),
+               DistributedDomainEvaluator(cluster.client, domain)):
+        got = greedy(ev, 12_000, lazy=True, info=domain.info)
+        assert _untimed(got) == _untimed(first)  # picks, scores, every step's numbers and the count of evaluations
+        if isinstance(ev, DistributedDomainEvaluator):  # its proxies count the greedy's calls alone (not the normalisers)
+            assert ev.n_ahead_used and [r.n_evaluations for r in ev.routes] == [n - 2 for n in _route_counts(one)]
+        else:
+            assert _route_counts(ev) == _route_counts(one)  # each route's evaluations too (robust reads them)
+        assert ev.n_ahead > 0 and 0 < ev.n_ahead_used <= ev.n_ahead  # it did score ahead, and used some
+
+
+def test_what_is_scored_ahead_is_the_route_engines_own_score_of_that_suite(tmp_path):
+    # the oracle: a fresh engine of each route, scoring the suite alone
+    from sensorsel.designs.selection import greedy
+    from sensorsel.information.evaluators import make_evaluator
+
+    seen: dict[tuple[tuple[int, ...], int, int], float] = {}
+
+    class Watching(DomainEvaluator):
+        def _answer(self, st, base, groups, hopeful):  # what is kept ahead after each round
+            out = super()._answer(st, base, groups, hopeful)
+            seen.update({(st.suite, k, c): v for (k, c), v in st.ahead.items()})
+            return out
+
+    domain = load_domain(_four_routes(tmp_path, 1.0))
+    ev = Watching(domain, jobs=2)
+    greedy(ev, 12_000, lazy=True, info=domain.info)
+    assert seen
+    fresh = {k: make_evaluator(domain.routes[k].problem, ev.engine) for k in {k for _, k, _ in seen}}
+    for (suite, k, c), v in sorted(seen.items()):
+        assert v == fresh[k].scores_with(suite, [c])[0]  # the bytes the round would get asking it
+        assert v == pytest.approx(fresh[k].score(suite + (c,)), rel=1e-12)  # the suite scored whole
+
+
+def test_a_batch_of_accuracy_checks_is_one_round_with_each_route_engines_bytes(cluster, tmp_path):
+    # require's proposals checked across suites and routes at once: each route's suites on one thread,
+    # one message per worker; the oracle is each route's own engine asked for one suite
+    from sensorsel.information.evaluators import make_evaluator
+
+    domain = load_domain(_four_routes(tmp_path, 1.0))
+    suites = [(0, 5), (1, 2, 3), (4,)]
+    alone = {k: make_evaluator(r.problem) for k, r in enumerate(domain.routes)}
+    want = {(i, k): alone[k].pose_covariances(s, map_sigma_m=0.5, estimate="filter")
+            for i, s in enumerate(suites) for k in alone}
+    remote = DistributedDomainEvaluator(cluster.client, domain)
+    for ev in (DomainEvaluator(domain, jobs=1), DomainEvaluator(domain, jobs=2), remote):
+        m0, r0 = getattr(ev, "n_messages", 0), getattr(ev, "n_rounds", 0)
+        got = ev.pose_covariances_batch(suites, map_sigma_m=0.5, estimate="filter")
+        assert sorted(got) == sorted(want)
+        for key, cov in want.items():
+            np.testing.assert_array_equal(got[key], cov)
+        if ev is remote:
+            assert ev.n_rounds - r0 == 1 and ev.n_messages - m0 == 2  # one round, one message per worker

@@ -64,6 +64,7 @@ from sensorsel.designs.study import load_study, run_study, write_study
 from sensorsel.designs.tradespace import DEFAULT_RULES, Architecture, parse_budgets, parse_rules, write_csv
 from sensorsel.information.evaluators import AGGREGATES, ENGINES, Evaluator
 from sensorsel.information.evaluators.accuracy import estimate_label, model_label
+from sensorsel.information.evaluators.distributed import DistributedDomainEvaluator  # imports no Dask: a client is handed in
 from sensorsel.information.filtering import ESTIMATES
 from sensorsel.information.integrity.association import gate_of
 
@@ -79,6 +80,7 @@ __all__ += ["AGGREGATES", "Architecture", "Certificate", "DEFAULT_MAP_SIGMA_M", 
             "integrity_preset", "load_specification_file", "load_study", "model_label", "parse_budgets",
             "parse_rules", "preset", "remove_checkpoint", "rules_help", "run_study", "save_grid_csv",
             "specifications_for", "split_periods", "write_csv", "write_study"]
+__all__ += ["DistributedDomainEvaluator"]  # a domain's routes on a Dask cluster's workers (cli.cluster)
 
 
 @result_kind("score")

@@ -6,7 +6,7 @@ from typing import Any
 
 import click
 
-from sensorsel.api import DomainEvaluator, Evaluator, evaluator_for
+from sensorsel.api import DistributedDomainEvaluator, DomainEvaluator, Evaluator, evaluator_for
 from sensorsel.model.problem import Domain, Target
 
 
@@ -31,7 +31,5 @@ def evaluator_on(cluster: Any, target: Target, engine: str | None, jobs: int, ag
 
 def domain_evaluator_on(cluster: Any, domain: Domain, engine: str | None, aggregate: str) -> DomainEvaluator:
     """A domain's evaluator with each route on a worker of a started cluster
-    (:class:`sensorsel.pipeline.cluster.DistributedDomainEvaluator`; one thread per route there)."""
-    from sensorsel.pipeline.cluster import DistributedDomainEvaluator
-
+    (:class:`sensorsel.information.evaluators.distributed.DistributedDomainEvaluator`; one thread per route there)."""
     return DistributedDomainEvaluator(cluster.client, domain, engine, aggregate=aggregate)

@@ -244,7 +244,7 @@ def require(target: Target, specifications: Specification | Sequence[Specificati
         constraints: limits besides money (resources, slots, required / owned / excluded, most sensors).
         time_limit_s: stop the exact search after this long, with the gap (None: run to the proof).
         evaluator: a domain's evaluator already built, whose ``routes`` answer the accuracy checks
-            (e.g. on a Dask cluster: :class:`sensorsel.pipeline.cluster.DistributedDomainEvaluator`);
+            (e.g. on a Dask cluster: :class:`sensorsel.information.evaluators.distributed.DistributedDomainEvaluator`);
             None: one engine per route here.
         conditions: with a domain of (route, condition) members, demand the specification only in
             these conditions (names as the domain file gives them, e.g. ("clear", "rain")); None: in all.

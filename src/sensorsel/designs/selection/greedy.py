@@ -353,7 +353,7 @@ class Selector:
         fresh = np.zeros(len(costs), dtype=bool)
         gain_tol = REL_TOL * max(1.0, abs(f_cur))
 
-        def refresh(idx: np.ndarray, threshold: float | None = None) -> None:
+        def refresh(idx: np.ndarray, threshold: float | None = None, queue: np.ndarray | None = None) -> None:
             """Score ``idx``; lazily (a ``threshold``: the J a candidate must reach to matter, at
             least the best J so far, or −inf), the evaluator may answer a candidate that cannot
             reach it with a bound instead (a domain scoring its routes one at a time): it stays
@@ -362,7 +362,10 @@ class Selector:
                 vals, exact = ev.scores_with(tuple(suite), [int(i) for i in idx]), np.ones(len(idx), dtype=bool)
             else:
                 need = self.rule.needed(threshold, f_cur, cost, costs[idx]) - gain_tol
-                vals, exact = ev.scores_or_bounds(tuple(suite), [int(i) for i in idx], need)
+                # the queue after these: an evaluator that scores ahead fills its idle threads or
+                # workers with it (same answers and counts: it only moves work earlier)
+                ahead = {"ahead": [int(i) for i in queue]} if queue is not None and getattr(ev, "scores_ahead", False) else {}
+                vals, exact = ev.scores_or_bounds(tuple(suite), [int(i) for i in idx], need, **ahead)
             done, part = idx[exact], idx[~exact]
             f_new[done] = vals[exact]
             bound[done] = vals[exact] - f_cur
@@ -421,7 +424,7 @@ class Selector:
                     # first candidate: scored against rivals' bounds alone it wandered (754 on the routes alone)
                     rival = float(j_need[order[take]])
                     threshold = max(threshold, rival - REL_TOL * max(1.0, abs(rival)))
-                refresh(need[order[:take]], threshold)
+                refresh(need[order[:take]], threshold, need[order[take:]])
         informative_pos = np.flatnonzero(fresh & feasible & (f_new - f_cur > gain_tol))
         if len(informative_pos) == 0:
             return None, f_cur, 0.0

@@ -42,6 +42,7 @@ import numpy as np
 from threadpoolctl import ThreadpoolController
 
 from sensorsel.errors import InputError
+from sensorsel.information.evaluators import ahead as ahead_
 from sensorsel.information.evaluators.base import Evaluator, ProblemEvaluator, Suite, as_suite
 from sensorsel.information.evaluators.registry import check_engine, make_evaluator
 from sensorsel.model.problem import Domain
@@ -82,6 +83,9 @@ class MemberBounds:
     known: dict[int, np.ndarray] = field(default_factory=dict)
     #: (R,) bool: members whose condition leaves every sensor of S alone (their clear member bounds them)
     as_clear: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
+    #: f_r(S + {c}) [nats] scored ahead on an idle thread or worker, by (route, candidate), until asked
+    #: (:mod:`.ahead`: read only where the one-thread run computes it)
+    ahead: dict[tuple[int, int], float] = field(default_factory=dict)
 
 
 def clear_partners(domain: Domain, n_sensors: int) -> tuple[np.ndarray, np.ndarray]:
@@ -147,6 +151,9 @@ class DomainEvaluator(Evaluator):
 
     name = "domain"
     bounds_candidates = True
+    scores_ahead = True  # lazy greedy passes its queue to scores_or_bounds (ahead=)
+    #: route calls scored ahead, and those the lazy greedy then asked (:mod:`.ahead`; in no result)
+    n_ahead = n_ahead_used = 0
     _pool: ThreadPoolExecutor | None = None  # the members' threads, started on first use
     _blas: ThreadpoolController | None = None
 
@@ -208,6 +215,28 @@ class DomainEvaluator(Evaluator):
         meanwhile). ``one`` must use route k's engine alone (each engine is used by one thread at a
         time): then every answer is the bytes of a run on one thread."""
         return self._on_threads(one, list(range(len(self.routes))) if routes is None else [int(k) for k in routes])
+
+    def pose_covariances_batch(self, suites: Sequence[Iterable[int]], routes: Sequence[int] | None = None, *,
+                               map_sigma_m: float | None = None, estimate: str = "smoother") -> dict[tuple[int, int], np.ndarray]:
+        """Every route's pose covariances (K_r, 3, 3) under every suite, by (suite's index, route):
+        a batch of accuracy checks across suites and routes (``require``'s proposals) as one round,
+        each route's suites on one thread (one message per worker on a cluster); the bytes of each
+        route's engine asked alone (:meth:`Evaluator.pose_covariances`)."""
+        batch = [as_suite(s) for s in suites]
+        for s in batch:
+            self._check_positions(s)
+        ks = list(range(len(self.routes))) if routes is None else [int(k) for k in routes]
+
+        def one(k: int) -> list[np.ndarray]:
+            return [np.asarray(self.routes[k].pose_covariances(s, map_sigma_m=map_sigma_m, estimate=estimate)) for s in batch]
+
+        got = self._routes_pose_covariances(one, batch, ks, map_sigma_m, estimate)
+        return {(i, k): got[k][i] for i in range(len(batch)) for k in ks}
+
+    def _routes_pose_covariances(self, one: Any, batch: list[Suite], routes: list[int], map_sigma_m: float | None,
+                                 estimate: str) -> dict[int, list[np.ndarray]]:
+        """``one(k)`` of each route on the threads (a cluster's evaluator asks its actors instead)."""
+        return self._on_threads(one, routes, {k: self.work[k] * len(batch) for k in routes})
 
     def combine(self, route_scores: np.ndarray) -> np.ndarray:
         """F from per-route scores of shape (R,) or (R, n), summed in route order."""
@@ -388,12 +417,16 @@ class DomainEvaluator(Evaluator):
         for j in np.flatnonzero(st.as_clear & (self._clear == k)).tolist():
             st.stale[j, cand] = np.minimum(st.stale[j, cand], allowed)
 
-    def scores_or_bounds(self, suite: Iterable[int], candidates: Sequence[int], needed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def scores_or_bounds(self, suite: Iterable[int], candidates: Sequence[int], needed: np.ndarray, *,
+                         ahead: Sequence[int] = ()) -> tuple[np.ndarray, np.ndarray]:
         """For each candidate c, F(S + {c}) exactly, or an upper bound on it below ``needed`` (what
         it must reach to matter), scoring its routes one at a time (see the module's documentation).
 
         Args:
             needed: (len(candidates),) the F(S + {c}) each candidate must reach (−inf: score it exactly).
+            ahead: the lazy queue's next candidates after these, likeliest first: their routes are
+                scored ahead on the threads or workers a round leaves idle (:mod:`.ahead`; the same
+                answers and counts, to the bit, with or without).
 
         Returns:
             (values, exact), shape (len(candidates),) each: F(S + {c}) where ``exact``, else a bound
@@ -443,7 +476,8 @@ class DomainEvaluator(Evaluator):
                     groups.setdefault(m, []).append(i)
             open_ = sorted({i for idx in groups.values() for i in idx})
             groups = dict(sorted(groups.items()))  # routes asked in route order
-            got = self._ask_members_grouped(base, {k: [cand[i] for i in idx] for k, idx in groups.items()})
+            got = self._answer(st, base, {k: [cand[i] for i in idx] for k, idx in groups.items()},
+                               [cand[i] for i in open_] + [int(c) for c in ahead if int(c) not in cand])
             for k, idx in groups.items():
                 for i, v in zip(idx, np.asarray(got[k], dtype=float)):
                     c = cand[i]
@@ -476,12 +510,76 @@ class DomainEvaluator(Evaluator):
                 st.stale[j, c] = min(st.stale[j, c], v - st.own[j])
         return mirror
 
-    def _ask_members_grouped(self, base: Suite, groups: dict[int, list[int]]) -> dict[int, np.ndarray]:
+    def _answer(self, st: MemberBounds, base: Suite, groups: dict[int, list[int]], hopeful: list[int]) -> dict[int, np.ndarray]:
+        """f_k(S + {c}) for the candidates ``groups[k]`` of each member k: those scored ahead read
+        back (and counted as evaluations now, where a one-thread run computes them), the others asked
+        (:meth:`_ask_members_grouped`) with, on the places the round leaves idle, calls scored ahead
+        for the ``hopeful`` candidates (the round's, then the lazy queue's; :mod:`.ahead`)."""
+        out: dict[int, np.ndarray] = {}
+        asked: dict[int, list[int]] = {}
+        for k, cs in groups.items():
+            out[k] = np.array([st.ahead.pop((k, c), np.nan) for c in cs], dtype=float)
+            used = int(np.sum(~np.isnan(out[k])))
+            self.routes[k].n_evaluations += used
+            self.n_ahead_used += used
+            if used < len(cs):
+                asked[k] = [c for c, v in zip(cs, out[k].tolist()) if np.isnan(v)]
+        if not asked:
+            return out
+        spec = self._plan_ahead(st, asked, hopeful)
+        got = self._ask_members_grouped(base, asked, spec)
+        for k, cs in asked.items():
+            vals = iter(np.asarray(got[k], dtype=float)[:len(cs)].tolist())
+            out[k] = np.array([v if not np.isnan(v) else next(vals) for v in out[k].tolist()], dtype=float)
+        for k, cs in spec.items():
+            mine = np.asarray(got[k], dtype=float)[len(asked.get(k, ())):]  # after the round's own candidates
+            st.ahead.update({(k, c): float(v) for c, v in zip(cs, mine.tolist())})
+            self.n_ahead += len(cs)
+        return out
+
+    def _plan_ahead(self, st: MemberBounds, asked: dict[int, list[int]], hopeful: list[int]) -> dict[int, list[int]]:
+        """{route: candidates} scored ahead in this round (:func:`.ahead.fill`), from the places
+        (:meth:`_places`) and each hopeful candidate's next routes; nothing on one place."""
+        cost = self.work ** ahead_.COST_POWER
+        places, home = self._places({k: float(cost[k]) * len(cs) for k, cs in asked.items()})
+        if len(places) < 2 or not hopeful:
+            return {}
+        lists = []
+        for c in hopeful:
+            mirror = st.as_clear & self._alike[:, c] & self._planned_alike
+            routes = ahead_.next_routes(self.scale, self.work, st.stale[:, c], st.known.get(c), mirror, self._clear)
+            lists.append([k for k in routes if (k, c) not in st.ahead and c not in asked.get(k, ())])
+        return ahead_.fill(places, home, ahead_.breadth_first(lists, hopeful), cost)
+
+    def _places(self, load: dict[int, float]) -> tuple[list[tuple[frozenset[int] | None, float]], dict[int, int]]:
+        """Where a round's calls run: each of :attr:`jobs` threads (any route) with its predicted
+        load, and each called route's thread, when the round's calls (``load``: each route's
+        estimated cost) go dearest first to the least loaded thread."""
+        if self.jobs < 2:
+            return [], {}
+        loads, home = ahead_.lpt(load, self.jobs)
+        return [(None, x) for x in loads], home
+
+    def _ask_members_grouped(self, base: Suite, groups: dict[int, list[int]],
+                             ahead: dict[int, list[int]] | None = None) -> dict[int, np.ndarray]:
         """f_k(S + {c}) for the candidates ``groups[k]`` of each member k (one route call each), the
         routes on :attr:`jobs` threads (a lazy step asks for one or two candidates, often on
-        different routes: one thread each)."""
-        work = {k: self.work[k] * len(c) for k, c in groups.items()}
-        return self._on_threads(lambda k: np.asarray(self.routes[k].scores_with(base, groups[k]), dtype=float), list(groups), work)
+        different routes: one thread each); with ``ahead`` ({route: candidates}), those too, in the
+        same route call after ``groups[k]``, not counted as evaluations (:meth:`_answer` counts
+        them when used). An engine scores each candidate on its own against the base: the same
+        bytes alone or in a batch."""
+        spec = ahead or {}
+
+        def one(k: int) -> np.ndarray:
+            r, mine = self.routes[k], groups.get(k, [])
+            n0 = r.n_evaluations  # this route's engine is used by this thread alone meanwhile
+            out = np.asarray(r.scores_with(base, mine + spec.get(k, [])), dtype=float)
+            r.n_evaluations = n0 + len(mine)
+            return out
+
+        calls = sorted(set(groups) | set(spec))
+        work = {k: self.work[k] * (len(groups.get(k, [])) + len(spec.get(k, []))) for k in calls}
+        return self._on_threads(one, calls, work)
 
     def scores_with(self, suite: Iterable[int], candidates: Sequence[int]) -> np.ndarray:
         """F(S + {c}) for each candidate c, shape (len(candidates),): each route's engine scores the
