@@ -376,7 +376,11 @@ def main() -> None:
     ap.add_argument("--pareto-budgets", default="20000,50000,110000", help="pareto's budgets (comma-separated) [$]")
     ap.add_argument("--whole", action="store_true",
                     help="in-process, also the certificate and the per-route breakdown (what greedy --domain runs)")
+    ap.add_argument("--ahead-from", type=int, default=None,
+                    help="the fewest threads or workers a lazy round scores ahead on (default: the package's)")
     args = ap.parse_args()
+    if args.ahead_from is not None:  # this script's own evaluators only (workers build theirs from the package)
+        TracedDomainEvaluator.ahead_from = args.ahead_from
     if args.generated:
         import tempfile
 

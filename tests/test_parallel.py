@@ -123,8 +123,11 @@ def test_scoring_ahead_on_idle_threads_and_workers_changes_no_byte_and_no_count(
     one = DomainEvaluator(domain, jobs=1)
     first = greedy(one, 12_000, lazy=True, info=domain.info)
     assert one.n_ahead == 0  # one thread: nothing is idle
+    default = DomainEvaluator(domain, jobs=2)  # by default, too few places to score ahead on
+    assert _untimed(greedy(default, 12_000, lazy=True, info=domain.info)) == _untimed(first) and default.n_ahead == 0
     for ev in (DomainEvaluator(domain, jobs=2), DomainEvaluator(domain, jobs=3),
                DistributedDomainEvaluator(cluster.client, domain)):
+        ev.ahead_from = 2  # score ahead on as few places as there are here
         got = greedy(ev, 12_000, lazy=True, info=domain.info)
         assert _untimed(got) == _untimed(first)  # picks, scores, every step's numbers and the count of evaluations
         if isinstance(ev, DistributedDomainEvaluator):  # its proxies count the greedy's calls alone (not the normalisers)
@@ -149,6 +152,7 @@ def test_what_is_scored_ahead_is_the_route_engines_own_score_of_that_suite(tmp_p
 
     domain = load_domain(_four_routes(tmp_path, 1.0))
     ev = Watching(domain, jobs=2)
+    ev.ahead_from = 2
     greedy(ev, 12_000, lazy=True, info=domain.info)
     assert seen
     fresh = {k: make_evaluator(domain.routes[k].problem, ev.engine) for k in {k for _, k, _ in seen}}

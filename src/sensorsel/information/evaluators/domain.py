@@ -154,6 +154,8 @@ class DomainEvaluator(Evaluator):
     scores_ahead = True  # lazy greedy passes its queue to scores_or_bounds (ahead=)
     #: route calls scored ahead, and those the lazy greedy then asked (:mod:`.ahead`; in no result)
     n_ahead = n_ahead_used = 0
+    #: the fewest places (threads, workers) a round scores ahead on (:data:`.ahead.MIN_PLACES`)
+    ahead_from: int = ahead_.MIN_PLACES
     _pool: ThreadPoolExecutor | None = None  # the members' threads, started on first use
     _blas: ThreadpoolController | None = None
 
@@ -542,7 +544,7 @@ class DomainEvaluator(Evaluator):
         (:meth:`_places`) and each hopeful candidate's next routes; nothing on one place."""
         cost = self.work ** ahead_.COST_POWER
         places, home = self._places({k: float(cost[k]) * len(cs) for k, cs in asked.items()})
-        if len(places) < 2 or not hopeful:
+        if len(places) < max(2, self.ahead_from) or not hopeful:
             return {}
         lists = []
         for c in hopeful:
