@@ -87,3 +87,43 @@ def test_many_sensors_of_one_price_equal_brute_force(library, alpha):
         assert r.status == "optimal" and r.cost == best
         for t in (r.suite, *r.ties):  # the answer and every tie meet it, at the same cost
             assert meets_after_failures(meets, [t], failures=alpha) == (True,) and len(t) == len(r.suite)
+
+
+#: a long-range radar, a wide-angle camera and six cameras ($449): the radar alone meets the
+#: requirement, as do three cameras
+FLOOR_CASE = [13, 26, 38, 41, 44, 47, 50, 56]
+
+
+def _radar_or_three_cameras(sub):
+    radar, cams = sub.ids.index("LRR-12"), [k for k, i in enumerate(sub.ids) if i.startswith(("HD2K", "LSC"))]
+
+    def meets(s):
+        return radar in s or sum(1 for i in s if i in cams) >= 3
+
+    def viol(s):
+        return 0.0 if meets(s) else 1.0 - sum(1 for i in s if i in cams) / 3
+
+    return meets, viol
+
+
+@pytest.mark.parametrize("alpha", [1, 2])
+@pytest.mark.parametrize("cons", [Constraints(), Constraints.of(require=["WSC-12"])], ids=["free", "required"])
+def test_failures_fix_out_what_no_cheaper_suite_holds(library, alpha, cons):
+    # With failures, a suite holding the radar ($1,493) keeps a suite that meets the requirement
+    # without it (>= 3 cameras, $1,347) once the radar fails: no suite holding it costs less than
+    # $2,840, while α + 3 cameras ($1,796, $2,245) meet it. The radar alone costs less than that,
+    # so only the floor of the suites without it fixes it out of the search (no check); the answer
+    # is still brute force's (a required sensor, which no floor counts, included: then the radar
+    # stays in, its floor with the required sensor's $2,990 being under the cheapest suite).
+    sub = library.subset(FLOOR_CASE)
+    meets, viol = _radar_or_three_cameras(sub)
+    fs = feasible_set(sub, math.inf, cons)
+    best = _brute(fs, meets, alpha)
+    r = cheapest_suite(fs, meets, failures=alpha, violation=viol)
+    assert r.status == "optimal" and r.cost == best and r.lower_bound == best
+    assert meets_after_failures(meets, [r.suite], failures=alpha) == (True,)
+    base = sum(float(fs.A[0, i]) for i in fs.required)
+    by_price = sum(1 for i in range(len(sub)) if i not in fs.required and base + fs.A[0, i] > best + 1e-6)
+    radar = sub.ids.index("LRR-12")
+    assert base + fs.A[0, radar] < best
+    assert r.fixed_out >= by_price + (0 if fs.required else 1)  # the radar too, but beside the required sensor

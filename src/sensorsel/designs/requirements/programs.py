@@ -12,7 +12,7 @@ import numpy as np
 from sensorsel.designs.requirements.oracle import mask_of as _mask, suite_of as _suite
 from sensorsel.io.files import quiet_stdout
 
-__all__ = ["MILP_NODE_LIMIT", "propose", "tol"]
+__all__ = ["MILP_NODE_LIMIT", "floor_cost", "propose", "tol"]
 
 #: HiGHS's branch-and-bound node limit per integer program (deterministic, unlike a time limit)
 MILP_NODE_LIMIT = 100_000
@@ -87,3 +87,35 @@ def propose(s: Any, time_left: float | None, programs: list[float], *, cap: floa
         return bound, proposal, True
     bound = float(dual) if dual is not None and math.isfinite(dual) else 0.0
     return bound, proposal, False
+
+
+def floor_cost(s: Any, programs: list[float], without: int = 0) -> tuple[float, int | None]:
+    """A lower bound [$] on the cost of every suite that passes the monotone predicate ``s.down``
+    and holds no sensor fixed out, excluded, nor in ``without`` (a bit mask): min cost(x) such that
+    Σ_{i ∉ M} x_i >= 1 for every failing set M known, with neither the feasible set's rows nor its
+    required sensors (a suite minus its failed sensors need keep neither); with the optimal suite
+    (None when HiGHS stopped at its node limit: the bound is then its dual bound). (inf, None) when
+    no suite satisfies the cuts. Its time is added to ``programs[0]``."""
+    from scipy.optimize import Bounds, LinearConstraint, milp
+
+    n = s.n
+    cuts = s.down.failing.masks
+    if n == 0 or not cuts:
+        return 0.0, 0
+    ub = np.zeros(n)
+    ub[s.allowed] = 1.0
+    ub[list(_suite(s.fixed_out | without))] = 0.0
+    out = np.array([[0.0 if f >> i & 1 else 1.0 for i in range(n)] for f in cuts])
+    t = time.perf_counter()
+    with quiet_stdout():
+        res = milp(s.price, integrality=np.ones(n), bounds=Bounds(np.zeros(n), ub),
+                   constraints=[LinearConstraint(out, 1.0, np.inf)],
+                   options={"node_limit": MILP_NODE_LIMIT, "mip_rel_gap": 0.0, "presolve": True, "disp": False})
+    programs[0] += time.perf_counter() - t
+    if res.status == 2:
+        return math.inf, None
+    dual = getattr(res, "mip_dual_bound", None)
+    if res.status == 0 and res.fun is not None and res.x is not None:
+        bound = float(res.fun) if dual is None or not math.isfinite(dual) else min(float(res.fun), float(dual))
+        return bound, _mask(int(i) for i in np.flatnonzero(res.x > 0.5))
+    return (float(dual) if dual is not None and math.isfinite(dual) else 0.0), None

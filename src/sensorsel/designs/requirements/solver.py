@@ -57,6 +57,28 @@ suite that meets the requirement, whatever its structure; monotonicity only make
    is fixed out of the integer programs and of the growth of failing sets (no suite cheaper than
    c holds it): fewer checks per cut, smaller programs; the lower bound stays valid for every
    suite cheaper than c, which is all the proof needs.
+
+**With failures** (α >= 1) every check of a suite is α + 1 or more, so the search asks fewer:
+
+- *The floor without a sensor.* A suite S that meets the requirement after α failures and holds
+  sensor i keeps, once i and α - 1 others fail, a suite without i that passes ``down`` (neither
+  the feasible set's rows nor its required sensors bind what is left). So cost(S) >= price_i +
+  f_i, where f_i, the *floor* without i, is the optimum of the integer program min cost(x) such
+  that Σ_{j ∉ M} x_j >= 1 for every failing set M known, x_i = 0 and the sensors fixed out at 0
+  (a lower bound on any suite that passes ``down`` without them; its dual bound where HiGHS stops
+  at its node limit). A sensor with price_i + f_i above c is fixed out as above, with no check.
+  One program gives f_i for every sensor outside its optimal suite, one more each for those
+  inside; a sensor that a known passing set without it already caps costs none; they are
+  recomputed when c or the sensors fixed out change or the failing sets known grow by a quarter.
+- *Growth within the gap.* A failing set is grown only over the sensors no dearer than the gap
+  between the best suite found and the lower bound: the cut of a failing set that is not maximal
+  is still valid (the property below needs only that M fails), weaker only in sensors whose
+  price alone closes the gap, and each sensor left out of the growth is a check saved (the
+  checks of growth are of the largest suites, the dearest).
+- *Several cuts per integer program.* When a proposal fails, every part of it left after α
+  failures that is not known (neither inside a failing set known, nor holding a passing one) is
+  checked, and each that fails is grown into a cut too: fewer programs, and the parts that pass
+  become passing sets known (which answer later checks and cap the floors).
 5. Ties: once proved, integer programs capped at the optimal cost and excluding the suites found
    look for other suites of that cost that meet it (at most ``max_tie_programs`` programs): the
    answer lists them, and says whether that search was exhaustive (the program ran out of suites).
@@ -83,6 +105,7 @@ import numpy as np
 
 from sensorsel.designs.requirements.dominance import dominance_order
 from sensorsel.designs.requirements.oracle import AntiMonotone, Exact, Monotone, mask_of, suite_of
+from sensorsel.designs.requirements.failures import floors as _floors, meets_after_failures, more_cuts as _more_cuts
 from sensorsel.designs.requirements.programs import MILP_NODE_LIMIT, propose as _propose, tol as _tol
 from sensorsel.io.progress import Progress, report
 from sensorsel.model.constraints import FeasibleSet
@@ -128,7 +151,7 @@ class CheapestSuite:
         n_checks: calls of the predicates (each on a different suite; answers their structure
             gave are not calls).
         cuts: the failing sets behind the cuts Σ_{i ∉ M} x_i >= failures + 1, maximal among those
-            found, sorted.
+            found (with failures, grown over the sensors within the gap only), sorted.
         status: "optimal" (proved), "gap" (stopped at a limit: ``suite`` is the best found and
             ``lower_bound`` what was proved) or "infeasible" (proved: no suite meets it).
         failures: α, the failures the suite withstands.
@@ -150,8 +173,8 @@ class CheapestSuite:
             the way or by the tie search), sorted.
         ties_exhaustive: the tie search ran out of suites of that cost: ``ties`` are all there are.
         tie_programs: integer programs of the tie search.
-        fixed_out: sensors left out of the programs because with the required ones they cost more
-            than the best suite found.
+        fixed_out: sensors left out of the programs because with the required ones (with failures:
+            or with the floor of the suites without them) they cost more than the best suite found.
         ordered: the dominance pairs (w, s) held as x_w <= x_s in the integer programs
             (:func:`~sensorsel.designs.requirements.dominance.dominance_order`), sorted.
         swap_inferred: answers inferred from a dominance swap instead of a call.
@@ -208,6 +231,9 @@ class _Search:
         self.cheap_first = sorted(self.allowed, key=lambda i: (self.price[i], i))
         self.dear_first = sorted(self.allowed, key=lambda i: (-self.price[i], i))
         self.fixed_out = 0  # sensors no suite cheaper than the best found holds
+        self.floors_from: tuple[float, int, int] = (math.nan, 0, 0)  # what the floors were last computed from
+        self.floor_values: dict[int, float] = {}  # sensor -> floor of the suites without it [$] (failures)
+        self.lower, self.upper = 0.0, math.inf  # the bounds [$] at the last program: failing sets grow within the gap
         self.nogoods: list[int] = []
         self.met: dict[int, float] = {}  # suites shown to meet the requirement after the failures: cost
         self.orders: tuple[tuple[int, int], ...] = ()  # (w, s): x_w <= x_s in the integer programs (dominance)
@@ -231,11 +257,14 @@ class _Search:
     def fits(self, mask: int) -> bool:
         return self.fs.fits(_suite(mask))
 
-    def fix_above(self, upper: float) -> None:
-        """Fix out every sensor that with the required ones costs more than ``upper`` [$]."""
+    def fix_above(self, upper: float, programs: list[float] | None = None) -> None:
+        """Fix out every sensor that no suite of cost ``upper`` [$] or less holds: with the required
+        ones it costs more than ``upper``; with failures (α >= 1, ``programs`` given), also one
+        whose price plus the floor of the suites without it costs more (module docstring, step 4)."""
         base = self.cost(self.required)
+        floors = _floors(self, upper, programs) if self.alpha and programs is not None else {}
         for i in self.allowed:
-            if not self.required >> i & 1 and base + self.price[i] > upper + _tol(upper):
+            if not self.required >> i & 1 and max(base, floors.get(i, -math.inf)) + self.price[i] > upper + _tol(upper):
                 self.fixed_out |= 1 << i
 
     def _fails(self, rest: int) -> bool:
@@ -298,6 +327,8 @@ class _Search:
         make it pass cost one check each; long runs that keep it failing, a logarithmic number."""
         assert self.down is not None
         rest = [i for i in self.cheap_first if not mask >> i & 1 and not self.fixed_out >> i & 1]
+        if self.alpha and math.isfinite(self.upper):  # failures: only over the sensors that fit in the gap
+            rest = [i for i in rest if self.price[i] <= self.upper - self.lower + _tol(self.upper)]
         at, size = 0, 1
         while at < len(rest):
             block = _mask(rest[at:at + size])
@@ -484,6 +515,8 @@ def cheapest_suite(feasible: FeasibleSet, meets: Meets, *, failures: int = 0, vi
         if left is not None and left <= 0:
             stop = f"time limit ({time_limit:g} s)"
             break
+        if s.alpha and incumbent is not None:
+            s.fix_above(upper, programs)  # the floor rises with the cuts: fewer sensors to grow over
         solved = _propose(s, left, programs)
         iterations += 1
         if solved is None:  # no suite within the rows satisfies every cut: none meets the requirement
@@ -492,6 +525,7 @@ def cheapest_suite(feasible: FeasibleSet, meets: Meets, *, failures: int = 0, vi
             return _infeasible(s, result, iterations)
         bound, proposal, finished = solved
         lower = max(lower, bound)
+        s.lower, s.upper = lower, upper
         if proposal is None:
             stop = "the integer program stopped at its node limit without a suite"
             break
@@ -506,6 +540,8 @@ def cheapest_suite(feasible: FeasibleSet, meets: Meets, *, failures: int = 0, vi
                 s.fix_above(upper)
             continue  # when the proposal is the integer program's optimum, the bounds now meet
         s.cut(proposal, part)
+        if s.alpha and s.monotone:
+            _more_cuts(s, proposal)
         c = round(s.cost(proposal), 6)
         plateau[c] = plateau.get(c, 0) + 1
         if violation is not None and s.monotone and plateau[c] == 2 and c < upper - _tol(upper):
@@ -570,31 +606,3 @@ def _infeasible(s: _Search, result: Callable[..., CheapestSuite], iterations: in
     return result("infeasible", None, math.inf, iterations,
                   "no suite within the limits meets it" + (f" after {s.alpha} failure(s)" if s.alpha else ""),
                   by="limits", best_effort=s.universe)
-
-
-def meets_after_failures(meets: Meets, suites: Sequence[Iterable[int]], *, failures: int = 0) -> tuple[bool, ...]:
-    """Which of ``suites`` (e.g. the suites of a Pareto front) meet a monotone requirement after any
-    ``failures`` of their sensors fail, with the solver's cache and monotone inference (a suite
-    holding one that meets, meets; one inside one that fails, fails), so a front of nested suites
-    costs few calls.
-
-    Args:
-        meets: the monotone predicate.
-        suites: suites as library positions.
-        failures: α >= 0.
-
-    Returns:
-        One bool per suite, in order.
-    """
-    if isinstance(failures, bool) or not isinstance(failures, (int, np.integer)) or failures < 0:
-        raise ValueError(f"failures must be a whole number >= 0, got {failures!r}")
-    oracle = Monotone(max([int(i) + 1 for s_ in suites for i in s_], default=1), meets)
-    alpha = int(failures)
-    out = []
-    for suite in suites:
-        mask = _mask(suite)
-        members = sorted(set(int(i) for i in suite))
-        k = min(alpha, len(members))
-        ok = oracle.passes(mask) and all(oracle.passes(mask & ~_mask(f)) for f in combinations(members, k))
-        out.append(ok)
-    return tuple(out)
