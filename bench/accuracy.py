@@ -42,6 +42,7 @@ def measure(problem, suite: tuple[int, ...], repeat: int, gtsam: bool) -> list[s
     ev = FastEvaluator(problem)
     rows = []
     for ms in (None, 0.05):
+
         def evaluation() -> None:
             ev._base = None  # a fresh base state each time: what scoring a new suite costs
             ev.logdet(suite)
@@ -52,9 +53,11 @@ def measure(problem, suite: tuple[int, ...], repeat: int, gtsam: bool) -> list[s
 
         te, ta = _time(evaluation, repeat), _time(accuracy, repeat)
         path = "frontal" if ev.kernel.counts.get("front_covariance") else "dense"
-        line = (f"{problem.scenario.name:>12} {problem.scenario.n_poses:6d} kf {len(suite):3d} sensors "
-                f"{'map' if ms else 'slam':>4}: evaluation {1e3 * te:8.1f} ms, accuracy {1e3 * ta:8.1f} ms "
-                f"({ta / te:4.2f} evaluations, {path})")
+        line = (
+            f"{problem.scenario.name:>12} {problem.scenario.n_poses:6d} kf {len(suite):3d} sensors "
+            f"{'map' if ms else 'slam':>4}: evaluation {1e3 * te:8.1f} ms, accuracy {1e3 * ta:8.1f} ms "
+            f"({ta / te:4.2f} evaluations, {path})"
+        )
         if gtsam:
             ref = ReferenceEvaluator(problem)
             tg = _time(lambda: ref.pose_covariances(suite, map_sigma_m=ms), 1)
@@ -66,7 +69,10 @@ def measure(problem, suite: tuple[int, ...], repeat: int, gtsam: bool) -> list[s
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--kitti-root", default=os.environ.get("SENSORSEL_KITTI_ROOT", str(Path(__file__).resolve().parents[2] / "shared" / "kitti")))
+    ap.add_argument(
+        "--kitti-root",
+        default=os.environ.get("SENSORSEL_KITTI_ROOT", str(Path(__file__).resolve().parents[2] / "shared" / "kitti")),
+    )
     ap.add_argument("--seqs", nargs="*", default=["03", "00"])
     ap.add_argument("--km", type=float, default=10.4)
     ap.add_argument("--rates", type=float, nargs="*", default=[0.625, 1.25, 2.5, 5.0])
@@ -94,7 +100,9 @@ def main() -> None:
         ks, ts = [], []
         for rate in args.rates:
             kf = np.arange(0, len(full.poses), max(1, int(round(RATE_HZ / rate))))
-            problem = build_problem(lib, Scenario(f"long-{args.km:g}km", full.select(kf), landmarks, "generated (seed 0)", route=full))
+            problem = build_problem(
+                lib, Scenario(f"long-{args.km:g}km", full.select(kf), landmarks, "generated (seed 0)", route=full)
+            )
             rows = measure(problem, lidar, args.repeat, False)
             for line in rows:
                 print(line, flush=True)

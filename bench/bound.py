@@ -32,14 +32,24 @@ REPO = Path(__file__).resolve().parents[1]
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("routes", nargs="*", default=["suburb", "03@1", "00@1"])
-    ap.add_argument("--kitti-root", default=os.environ.get("SENSORSEL_KITTI_ROOT", str(REPO.parent.parent / "shared" / "kitti")))
+    ap.add_argument(
+        "--kitti-root", default=os.environ.get("SENSORSEL_KITTI_ROOT", str(REPO.parent.parent / "shared" / "kitti"))
+    )
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--budget", type=float, default=110_000.0)
     ap.add_argument("--repeat", type=int, default=2)
-    ap.add_argument("--landmarks", default=None, help="landmarks of the KITTI routes: real (default: the pole map) "
-                    "or synthetic (generated, seed 0; KITTI 00 at 1 Hz: 1,614 landmarks instead of 598)")
-    ap.add_argument("--always", action="store_true", help="also run 'always': bounds at every step where more "
-                    "than BOUND_FROM candidates would be re-scored, whatever their predicted cost (bound_spare=0)")
+    ap.add_argument(
+        "--landmarks",
+        default=None,
+        help="landmarks of the KITTI routes: real (default: the pole map) "
+        "or synthetic (generated, seed 0; KITTI 00 at 1 Hz: 1,614 landmarks instead of 598)",
+    )
+    ap.add_argument(
+        "--always",
+        action="store_true",
+        help="also run 'always': bounds at every step where more "
+        "than BOUND_FROM candidates would be re-scored, whatever their predicted cost (bound_spare=0)",
+    )
     args = ap.parse_args()
     sys.path.insert(0, str(REPO / "src"))
     from sensorsel.designs.selection.greedy import BOUND_FROM, Selector
@@ -49,8 +59,10 @@ def main() -> None:
     from sensorsel.model.problem import load_problem
     from sensorsel.model.scenario import ScenarioSpec
 
-    print(f"load average before: {' '.join(f'{x:.2f}' for x in os.getloadavg())}; jobs {args.jobs}; "
-          f"BOUND_FROM {BOUND_FROM}, BOUND_SPARE {BOUND_SPARE}")
+    print(
+        f"load average before: {' '.join(f'{x:.2f}' for x in os.getloadavg())}; jobs {args.jobs}; "
+        f"BOUND_FROM {BOUND_FROM}, BOUND_SPARE {BOUND_SPARE}"
+    )
     modes = ("off", "on", "always") if args.always else ("off", "on")
     header = ["route", "keyframes", "bound", "evals", "covariances", "select s (min)", "all s"]
     rows, notes = [], []
@@ -59,11 +71,13 @@ def main() -> None:
             spec = ScenarioSpec()
         else:
             seq, hz = route.split("@")
-            spec = ScenarioSpec(seq=seq, kitti_root=args.kitti_root, keyframe_rate_hz=float(hz), landmarks=args.landmarks)
+            spec = ScenarioSpec(
+                seq=seq, kitti_root=args.kitti_root, keyframe_rate_hz=float(hz), landmarks=args.landmarks
+            )
         problem = load_problem(spec)
         got: dict[str, list] = {m: [] for m in modes}
         for r in range(args.repeat):
-            for mode in (modes if r % 2 == 0 else modes[::-1]):
+            for mode in modes if r % 2 == 0 else modes[::-1]:
                 ev = FastEvaluator(problem, jobs=args.jobs, bound_spare=0.0 if mode == "always" else BOUND_SPARE)
                 sel = Selector(ev, RULES["uniform"], lazy=True, bound_from=0 if mode == "off" else BOUND_FROM)
                 t0 = time.perf_counter()
@@ -73,7 +87,9 @@ def main() -> None:
         for mode in modes:
             times = [t for t, _, _ in got[mode]]
             _, res, nb = got[mode][0]
-            rows.append([route, k, mode, res.n_evaluations, nb, f"{min(times):.2f}", " ".join(f"{t:.2f}" for t in times)])
+            rows.append(
+                [route, k, mode, res.n_evaluations, nb, f"{min(times):.2f}", " ".join(f"{t:.2f}" for t in times)]
+            )
         a, b = got["off"][0][1], got["on"][0][1]
         same = [(s.pick, s.score) for s in a.steps] == [(s.pick, s.score) for s in b.steps] and a.score == b.score
         t_off, t_on = min(t for t, _, _ in got["off"]), min(t for t, _, _ in got["on"])
@@ -81,12 +97,16 @@ def main() -> None:
             c = got["always"][0][1]
             t_al = min(t for t, _, _ in got["always"])
             same_always = [(s.pick, s.score) for s in c.steps] == [(s.pick, s.score) for s in a.steps]
-            notes.append(f"{route} always: evaluations {c.n_evaluations}, selection {t_al:.2f} s ({t_off / t_al:.2f}x), "
-                         f"bit-identical: {'yes' if same_always else 'NO'}")
-        notes.append(f"{route}: evaluations {a.n_evaluations} -> {b.n_evaluations} "
-                     f"({b.n_evaluations / a.n_evaluations:.2f}x), selection {t_off:.2f} s -> {t_on:.2f} s "
-                     f"({t_off / t_on:.2f}x faster), picks and scores bit-identical: {'yes' if same else 'NO'} "
-                     f"({len(a.steps)} picks, f = {a.score:.4f})")
+            notes.append(
+                f"{route} always: evaluations {c.n_evaluations}, selection {t_al:.2f} s ({t_off / t_al:.2f}x), "
+                f"bit-identical: {'yes' if same_always else 'NO'}"
+            )
+        notes.append(
+            f"{route}: evaluations {a.n_evaluations} -> {b.n_evaluations} "
+            f"({b.n_evaluations / a.n_evaluations:.2f}x), selection {t_off:.2f} s -> {t_on:.2f} s "
+            f"({t_off / t_on:.2f}x faster), picks and scores bit-identical: {'yes' if same else 'NO'} "
+            f"({len(a.steps)} picks, f = {a.score:.4f})"
+        )
     print(table(rows, header))
     print()
     print("\n".join(notes))

@@ -33,7 +33,9 @@ REPO = Path(__file__).resolve().parents[1]
 
 def extract(rev: str, into: Path) -> Path:
     """The tree of ``rev`` under ``into`` (``git archive``); returns its ``src`` directory."""
-    blob = subprocess.run(["git", "-C", str(REPO), "archive", "--format=tar", rev], check=True, capture_output=True).stdout
+    blob = subprocess.run(
+        ["git", "-C", str(REPO), "archive", "--format=tar", rev], check=True, capture_output=True
+    ).stdout
     with tarfile.open(fileobj=BytesIO(blob)) as tar:
         tar.extractall(into, filter="data")
     return into / "src"
@@ -43,8 +45,13 @@ def run(src: Path, args: list[str], kitti_root: str) -> tuple[float, dict]:
     """Wall seconds of one whole command run from ``src``, and its --json answer."""
     env = dict(os.environ, PYTHONPATH=str(src), SENSORSEL_KITTI_ROOT=kitti_root)
     t0 = time.perf_counter()
-    out = subprocess.run([sys.executable, "-c", "from sensorsel.cli import main; main()", *args], env=env, capture_output=True, text=True,
-                         cwd=src.parent)
+    out = subprocess.run(
+        [sys.executable, "-c", "from sensorsel.cli import main; main()", *args],
+        env=env,
+        capture_output=True,
+        text=True,
+        cwd=src.parent,
+    )
     wall = time.perf_counter() - t0
     if out.returncode != 0:
         raise SystemExit(f"{src}: exit {out.returncode}:\n{out.stderr}")
@@ -71,9 +78,15 @@ def cholesky_ms(n: int) -> float:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--before", default="e2637e6^", help="the revision to compare with (default: the last without the frontal elimination)")
+    ap.add_argument(
+        "--before",
+        default="e2637e6^",
+        help="the revision to compare with (default: the last without the frontal elimination)",
+    )
     ap.add_argument("--runs", type=int, default=3)
-    ap.add_argument("--kitti-root", default=os.environ.get("SENSORSEL_KITTI_ROOT", str(REPO.parent / "shared" / "kitti")))
+    ap.add_argument(
+        "--kitti-root", default=os.environ.get("SENSORSEL_KITTI_ROOT", str(REPO.parent / "shared" / "kitti"))
+    )
     ap.add_argument("--seq", default="00")
     ap.add_argument("--rate", default="1")
     ap.add_argument("--budget", default="110000")
@@ -84,12 +97,24 @@ def main() -> None:
         before = extract(a.before, Path(tmp))
         after = REPO / "src"
         for m in a.maps:
-            args = ["greedy", "--seq", a.seq, "--rate", a.rate, "--landmarks", m, "--budget", a.budget,
-                    "--no-certificate", "-q", "--json"]
+            args = [
+                "greedy",
+                "--seq",
+                a.seq,
+                "--rate",
+                a.rate,
+                "--landmarks",
+                m,
+                "--budget",
+                a.budget,
+                "--no-certificate",
+                "-q",
+                "--json",
+            ]
             walls: dict[str, list[float]] = {"before": [], "after": []}
             answers: dict[str, dict] = {}
             for r in range(a.runs):
-                for name in (("before", "after") if r % 2 == 0 else ("after", "before")):
+                for name in ("before", "after") if r % 2 == 0 else ("after", "before"):
                     wall, ans = run(before if name == "before" else after, args, a.kitti_root)
                     walls[name].append(wall)
                     answers[name] = ans
@@ -98,17 +123,27 @@ def main() -> None:
             k = n["problem"]["n_poses"]
             chol = cholesky_ms(3 * k)
             lo_b, lo_n = min(walls["before"]), min(walls["after"])
-            print(f"\n{a.seq} at {a.rate} Hz, {m} map ({n['problem']['n_landmarks']} landmarks, {k} keyframes), "
-                  f"greedy ${float(a.budget):,.0f}, no certificate")
-            print(f"  before ({a.before}): wall s {' '.join(f'{w:.2f}' for w in walls['before'])}  evaluations "
-                  f"{b['n_evaluations']}")
-            print(f"  after  (this tree): wall s {' '.join(f'{w:.2f}' for w in walls['after'])}  evaluations "
-                  f"{n['n_evaluations']}")
-            print(f"  min {lo_b:.2f} s -> {lo_n:.2f} s ({lo_b / lo_n:.2f}x); same suite and score: "
-                  f"{'yes' if same else 'NO'}")
-            print(f"  floor: {n['n_evaluations']} evaluations x {chol:.1f} ms (one dense Cholesky of {3 * k}², one "
-                  "thread, "
-                  f"here) = {n['n_evaluations'] * chol / 1e3:.2f} s; selection took {n['seconds']:.2f} s of the command")
+            print(
+                f"\n{a.seq} at {a.rate} Hz, {m} map ({n['problem']['n_landmarks']} landmarks, {k} keyframes), "
+                f"greedy ${float(a.budget):,.0f}, no certificate"
+            )
+            print(
+                f"  before ({a.before}): wall s {' '.join(f'{w:.2f}' for w in walls['before'])}  evaluations "
+                f"{b['n_evaluations']}"
+            )
+            print(
+                f"  after  (this tree): wall s {' '.join(f'{w:.2f}' for w in walls['after'])}  evaluations "
+                f"{n['n_evaluations']}"
+            )
+            print(
+                f"  min {lo_b:.2f} s -> {lo_n:.2f} s ({lo_b / lo_n:.2f}x); same suite and score: "
+                f"{'yes' if same else 'NO'}"
+            )
+            print(
+                f"  floor: {n['n_evaluations']} evaluations x {chol:.1f} ms (one dense Cholesky of {3 * k}², one "
+                "thread, "
+                f"here) = {n['n_evaluations'] * chol / 1e3:.2f} s; selection took {n['seconds']:.2f} s of the command"
+            )
     print(f"\nload average after: {os.getloadavg()[0]:.2f}")
 
 

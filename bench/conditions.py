@@ -28,9 +28,9 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "src"))
 
+from sensorsel.designs.selection import greedy  # noqa: E402
 from sensorsel.information.evaluators import DomainEvaluator  # noqa: E402
 from sensorsel.model.problem import load_domain  # noqa: E402
-from sensorsel.designs.selection import greedy  # noqa: E402
 
 
 def _by_condition(domain, ev: DomainEvaluator) -> dict[str, int]:
@@ -51,10 +51,19 @@ def run(path: Path, budget: float, jobs: int) -> dict[str, float | str | int]:
     t2, c2 = time.perf_counter(), time.process_time()
     res = greedy(ev, budget)
     t3, c3 = time.perf_counter(), time.process_time()
-    return {"load": t1 - t0, "setup": t2 - t1, "select": t3 - t2, "cpu": (c2 - c1) + (c3 - c2), "members": len(domain.routes),
-            "evals": res.n_evaluations, "route_evals": sum(r.n_evaluations for r in ev.routes),
-            "by_condition": ", ".join(f"{c} {n}" for c, n in _by_condition(domain, ev).items()),
-            "suite": ",".join(res.suite), "score": res.score, "steps": repr([(s.pick, s.score) for s in res.steps])}
+    return {
+        "load": t1 - t0,
+        "setup": t2 - t1,
+        "select": t3 - t2,
+        "cpu": (c2 - c1) + (c3 - c2),
+        "members": len(domain.routes),
+        "evals": res.n_evaluations,
+        "route_evals": sum(r.n_evaluations for r in ev.routes),
+        "by_condition": ", ".join(f"{c} {n}" for c, n in _by_condition(domain, ev).items()),
+        "suite": ",".join(res.suite),
+        "score": res.score,
+        "steps": repr([(s.pick, s.score) for s in res.steps]),
+    }
 
 
 def gaps(path: Path, budget: float, jobs: int, top: int = 6) -> None:
@@ -74,21 +83,37 @@ def gaps(path: Path, budget: float, jobs: int, top: int = 6) -> None:
         own = np.array([r.score(tuple(suite)) for r in ev.routes])
         F = ev.combine(per)
         best = np.argsort(-F, kind="stable")[:top]
-        terms = {c: [float(np.sum([ev.scale[k] * (per[k, i] - own[k]) for k in range(len(cond)) if cond[k] == c]))
-                     for i in best] for c in ("rain", "fog")}
+        terms = {
+            c: [
+                float(np.sum([ev.scale[k] * (per[k, i] - own[k]) for k in range(len(cond)) if cond[k] == c]))
+                for i in best
+            ]
+            for c in ("rain", "fog")
+        }
         print(f"pick {len(suite) + 1} ({st.pick}): " + ", ".join(f"{lib.ids[cand[i]]} {F[i]:.6f}" for i in best))
-        print("   rain terms " + " ".join(f"{x:.1e}" for x in terms["rain"]) + "; fog terms " + " ".join(f"{x:.1e}" for x in terms["fog"]))
+        print(
+            "   rain terms "
+            + " ".join(f"{x:.1e}" for x in terms["rain"])
+            + "; fog terms "
+            + " ".join(f"{x:.1e}" for x in terms["fog"])
+        )
         suite.append(lib.position(st.pick))
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--kitti-root", default=os.environ.get("SENSORSEL_KITTI_ROOT", str(REPO.parent / "shared" / "kitti")))
+    ap.add_argument(
+        "--kitti-root", default=os.environ.get("SENSORSEL_KITTI_ROOT", str(REPO.parent / "shared" / "kitti"))
+    )
     ap.add_argument("--budget", type=float, default=110_000.0)
     ap.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--repeat", type=int, default=1)
-    ap.add_argument("--gaps", action="store_true", help="instead of timing: every candidate's exact score at each "
-                    "pick's suite (the best six and their rain and fog terms), ~1 min")
+    ap.add_argument(
+        "--gaps",
+        action="store_true",
+        help="instead of timing: every candidate's exact score at each "
+        "pick's suite (the best six and their rain and fog terms), ~1 min",
+    )
     args = ap.parse_args()
     os.environ["SENSORSEL_KITTI_ROOT"] = args.kitti_root
     plain, mixed = REPO / "configs" / "domain_kitti.yaml", REPO / "configs" / "domain_kitti_conditions.yaml"
@@ -99,23 +124,31 @@ def main() -> None:
     for _ in range(args.repeat):
         runs["routes"].append(run(plain, args.budget, args.jobs))
         runs["conditions"].append(run(mixed, args.budget, args.jobs))
-    print(f"machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}; budget "
-          f"${args.budget:,.0f}, uniform greedy, fast engine jobs={args.jobs}; {args.repeat} run(s) each, alternating")
+    print(
+        f"machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}; budget "
+        f"${args.budget:,.0f}, uniform greedy, fast engine jobs={args.jobs}; {args.repeat} run(s) each, alternating"
+    )
     med, cpu = {}, {}
     for name, rs in runs.items():
         m = {k: statistics.median(float(r[k]) for r in rs) for k in ("load", "setup", "select")}
         med[name], cpu[name] = m, statistics.median(float(r["cpu"]) for r in rs)
         r = rs[0]
-        print(f"{name:<10} members {r['members']:>2}: load {m['load']:6.2f} s  evaluators {m['setup']:6.2f} s  "
-              f"greedy {m['select']:6.2f} s (CPU of both {cpu[name]:6.2f} s; {r['evals']} domain evaluations, "
-              f"{r['route_evals']} route evaluations: {r['by_condition']})  F = {float(r['score']):.4f}  {r['suite']}")
+        print(
+            f"{name:<10} members {r['members']:>2}: load {m['load']:6.2f} s  evaluators {m['setup']:6.2f} s  "
+            f"greedy {m['select']:6.2f} s (CPU of both {cpu[name]:6.2f} s; {r['evals']} domain evaluations, "
+            f"{r['route_evals']} route evaluations: {r['by_condition']})  F = {float(r['score']):.4f}  {r['suite']}"
+        )
         if any(x["steps"] != r["steps"] for x in rs):
             raise SystemExit(f"{name}: runs picked differently: greedy is not deterministic")
-    ratio = (med["conditions"]["setup"] + med["conditions"]["select"]) / (med["routes"]["setup"] + med["routes"]["select"])
+    ratio = (med["conditions"]["setup"] + med["conditions"]["select"]) / (
+        med["routes"]["setup"] + med["routes"]["select"]
+    )
     ratio_all = sum(med["conditions"].values()) / sum(med["routes"].values())
-    print(f"ratio, 4 conditions / routes alone: evaluators + greedy {ratio:.2f}x (CPU "
-          f"{cpu['conditions'] / cpu['routes']:.2f}x); "
-          f"with loading {ratio_all:.2f}x")
+    print(
+        f"ratio, 4 conditions / routes alone: evaluators + greedy {ratio:.2f}x (CPU "
+        f"{cpu['conditions'] / cpu['routes']:.2f}x); "
+        f"with loading {ratio_all:.2f}x"
+    )
     print(f"target: <= 2.5x (evaluators + greedy, wall): {'met' if ratio <= 2.5 else 'NOT met'}")
 
 

@@ -24,13 +24,16 @@ sys.path.insert(0, str(REPO / "src"))
 
 import numpy as np  # noqa: E402
 
-from sensorsel.api import run_robust  # noqa: E402
-from sensorsel.model.conditions import parse_condition  # noqa: E402
-from sensorsel.api import by_condition, design_domain  # noqa: E402
+from sensorsel.api import (  # noqa: E402
+    by_condition,
+    design_domain,
+    run_robust,
+)
+from sensorsel.designs.selection import greedy  # noqa: E402
 from sensorsel.information.evaluators import DomainEvaluator, make_evaluator  # noqa: E402
+from sensorsel.model.conditions import parse_condition  # noqa: E402
 from sensorsel.model.problem import Domain, load_domain, load_problem, with_condition  # noqa: E402
 from sensorsel.model.scenario import ScenarioSpec  # noqa: E402
-from sensorsel.designs.selection import greedy  # noqa: E402
 
 
 def compact(suite: tuple[str, ...]) -> str:
@@ -43,7 +46,9 @@ def compact(suite: tuple[str, ...]) -> str:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--kitti-root", default=os.environ.get("SENSORSEL_KITTI_ROOT", str(REPO.parent / "shared" / "kitti")))
+    ap.add_argument(
+        "--kitti-root", default=os.environ.get("SENSORSEL_KITTI_ROOT", str(REPO.parent / "shared" / "kitti"))
+    )
     ap.add_argument("--budget", type=float, default=110_000.0)
     ap.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
     args = ap.parse_args()
@@ -61,8 +66,10 @@ def main() -> None:
     ev_plain = DomainEvaluator(plain, jobs=args.jobs)
     for name, d in (("clear days only", d_clear), ("city's mix", d_mix)):
         s = mixed.resolve_suite(d.greedy.suite)
-        print(f"| {name} | {compact(d.greedy.suite)} | ${d.greedy.cost_usd:,.0f} | {ev_plain.score(s):.4f} | "
-              f"{ev_mixed.score(s):.4f} |")
+        print(
+            f"| {name} | {compact(d.greedy.suite)} | ${d.greedy.cost_usd:,.0f} | {ev_plain.score(s):.4f} | "
+            f"{ev_mixed.score(s):.4f} |"
+        )
     print("\nWhat each condition costs each suite (its members' share of their best, weighted by km):\n")
     print("| condition | weight | clear-days suite | city-mix suite |")
     print("|---|---:|---:|---:|")
@@ -75,10 +82,12 @@ def main() -> None:
             row.append(float(np.dot(w, f) / w.sum()))
         print(f"| {cond} | {w.sum():.1%} | {row[0]:.4f} | {row[1]:.4f} |")
     worst = min(by_condition(d_mix), key=lambda c: c.share_of_best)
-    print(f"\nWorst condition of the city-mix suite: {worst.name} (share of its best {worst.share_of_best:.4f}; "
-          f"worst member {d_mix.worst_route}, "
-          f"{next(r for r in d_mix.routes if r.name == d_mix.worst_route).share_of_own:.1%} "
-          "of its own design)")
+    print(
+        f"\nWorst condition of the city-mix suite: {worst.name} (share of its best {worst.share_of_best:.4f}; "
+        f"worst member {d_mix.worst_route}, "
+        f"{next(r for r in d_mix.routes if r.name == d_mix.worst_route).share_of_own:.1%} "
+        "of its own design)"
+    )
 
     print("\n## 2. Which sensors gain value\n")
     singles = ("LRL-roof", "MRL-roof", "LRR-12", "MRR-12", "WSC-12", "HD2K-12")
@@ -103,8 +112,10 @@ def main() -> None:
         sub = Domain(tuple(r for r in mixed.routes if r.condition == cond), f"{cond} only")
         g = greedy(DomainEvaluator(sub, jobs=args.jobs), args.budget)
         kinds = [mixed.library[mixed.library.position(s)].model.type for s in g.suite]
-        print(f"| {cond} | {compact(g.suite)} | ${g.cost_usd:,.0f} | {kinds.count('radar')} | {kinds.count('lidar')} | "
-              f"{kinds.count('stereo')} |")
+        print(
+            f"| {cond} | {compact(g.suite)} | ${g.cost_usd:,.0f} | {kinds.count('radar')} | {kinds.count('lidar')} | "
+            f"{kinds.count('stereo')} |"
+        )
 
     print("\n## 3. Dense fog on KITTI 00 with one failure\n")
     fog = parse_condition("fog_visibility_m=150")
@@ -115,10 +126,14 @@ def main() -> None:
     for label, prob in (("00 clear", p00), ("00 fog 150 m", p00_fog)):
         r = run_robust(prob, args.budget, 1, jobs=args.jobs)
         g = greedy(make_evaluator(prob, jobs=args.jobs), args.budget)
-        print(f"| {label} | greedy | {compact(g.suite)} | ${g.cost_usd:,.0f} | {g.score:,.1f} | "
-              f"{r.greedy_worst_score:,.1f} | |")
-        print(f"| {label} | robust ({r.method}) | {compact(r.suite)} | ${r.cost_usd:,.0f} | {r.nominal_score:,.1f} | "
-              f"{r.worst_score:,.1f} | {', '.join(r.failures)} |")
+        print(
+            f"| {label} | greedy | {compact(g.suite)} | ${g.cost_usd:,.0f} | {g.score:,.1f} | "
+            f"{r.greedy_worst_score:,.1f} | |"
+        )
+        print(
+            f"| {label} | robust ({r.method}) | {compact(r.suite)} | ${r.cost_usd:,.0f} | {r.nominal_score:,.1f} | "
+            f"{r.worst_score:,.1f} | {', '.join(r.failures)} |"
+        )
         print(f"| {label} | bound | | | | <= {r.bound:,.1f} (gap {r.gap_percent:.1f}%) | |")
     print(f"\n(all of the above: {time.perf_counter() - t0:.0f} s on {os.cpu_count()} cores)")
 

@@ -45,6 +45,7 @@ def untimed(text: str) -> object:
         if isinstance(o, list):
             return [rec(v) for v in o]
         return o
+
     return rec(json.loads(text))
 
 
@@ -58,13 +59,18 @@ def main() -> None:
 
     from sensorsel.designs.selection import greedy
     from sensorsel.information.evaluators import DomainEvaluator, make_evaluator
+    from sensorsel.information.evaluators.distributed import DistributedDomainEvaluator, RouteRecipe
     from sensorsel.io import results
     from sensorsel.model.problem import load_domain
-    from sensorsel.information.evaluators.distributed import DistributedDomainEvaluator, RouteRecipe
     from sensorsel.pipeline.cluster import DaskCluster
 
-    out: dict = {"domain": args.domain, "budget_usd": args.budget, "workers": args.workers, "rule": args.rule,
-                 "cpus": os.cpu_count()}
+    out: dict = {
+        "domain": args.domain,
+        "budget_usd": args.budget,
+        "workers": args.workers,
+        "rule": args.rule,
+        "cpus": os.cpu_count(),
+    }
     m0, t0 = rss(), time.perf_counter()
     domain = load_domain(args.domain)
     out["load_s"] = round(time.perf_counter() - t0, 3)
@@ -78,9 +84,14 @@ def main() -> None:
     t0 = time.perf_counter()
     res_local = greedy(ev_local, args.budget, args.rule, lazy=True, info=domain.info)
     greedy_local = time.perf_counter() - t0
-    out["in_process"] = {"build_s": round(build_local, 3), "greedy_s": round(greedy_local, 3),
-                         "wall_s": round(build_local + greedy_local, 3), "suite": list(res_local.suite),
-                         "score": res_local.score, "n_evaluations": res_local.n_evaluations}
+    out["in_process"] = {
+        "build_s": round(build_local, 3),
+        "greedy_s": round(greedy_local, 3),
+        "wall_s": round(build_local + greedy_local, 3),
+        "suite": list(res_local.suite),
+        "score": res_local.score,
+        "n_evaluations": res_local.n_evaluations,
+    }
     print(f"in-process: build {build_local:.1f} s, greedy {greedy_local:.1f} s", file=sys.stderr)
 
     # 2. on a LocalCluster
@@ -110,16 +121,27 @@ def main() -> None:
         "overhead_per_step_ms": round(1e3 * overhead / max(1, len(ev.step_bytes)), 2),
         "overhead_per_route_call_ms": round(1e3 * overhead / max(1, len(ev.step_bytes) * len(domain.routes)), 3),
         "note": "the greedy's calls only; the wall minus the slowest worker's scoring is what the client, Dask's actor "
-                "machinery, the network and the waits for the other worker cost",
+        "machinery, the network and the waits for the other worker cost",
     }
     out["distributed"] = {
-        "build_s": round(build_dist, 3), "build_client_cpu_s": round(time.process_time() - c0 - client_cpu, 3),
-        "greedy_s": round(greedy_dist, 3), "wall_s": round(build_dist + greedy_dist, 3),
-        "greedy_client_cpu_s": round(client_cpu, 3), "client_cpu_per_route_call_ms": round(1e3 * client_cpu / max(1, calls), 3),
-        "domain_steps": len(steps), "route_calls": calls,
-        "bytes_per_step_sent": {"mean": round(sum(s for s, _ in steps) / max(1, len(steps)), 1), "max": max((s for s, _ in steps), default=0)},
-        "bytes_per_step_received": {"mean": round(sum(r for _, r in steps) / max(1, len(steps)), 1), "max": max((r for _, r in steps), default=0)},
-        "bytes_total_sent": ev.bytes_sent, "bytes_total_received": ev.bytes_received,
+        "build_s": round(build_dist, 3),
+        "build_client_cpu_s": round(time.process_time() - c0 - client_cpu, 3),
+        "greedy_s": round(greedy_dist, 3),
+        "wall_s": round(build_dist + greedy_dist, 3),
+        "greedy_client_cpu_s": round(client_cpu, 3),
+        "client_cpu_per_route_call_ms": round(1e3 * client_cpu / max(1, calls), 3),
+        "domain_steps": len(steps),
+        "route_calls": calls,
+        "bytes_per_step_sent": {
+            "mean": round(sum(s for s, _ in steps) / max(1, len(steps)), 1),
+            "max": max((s for s, _ in steps), default=0),
+        },
+        "bytes_per_step_received": {
+            "mean": round(sum(r for _, r in steps) / max(1, len(steps)), 1),
+            "max": max((r for _, r in steps), default=0),
+        },
+        "bytes_total_sent": ev.bytes_sent,
+        "bytes_total_received": ev.bytes_received,
         "worker_build_s_by_route": {k: round(v[0], 3) for k, v in worker_costs.items()},
         "worker_rss_bytes_by_route": {k: v[1] for k, v in worker_costs.items()},
         "same_result": untimed(results.dumps(res_dist)) == untimed(results.dumps(res_local)),
@@ -135,17 +157,26 @@ def main() -> None:
         t2 = time.perf_counter()
         ev.scores_with((), list(range(n)))
         step = time.perf_counter() - t2
-        per.append({"route": r.name, "poses": problem.scenario.n_poses, "landmarks": problem.scenario.n_landmarks,
-                    "measurements": sum(len(o) for o in problem.observations), "build_s": round(build, 3),
-                    "first_step_s": round(step, 3)})
+        per.append(
+            {
+                "route": r.name,
+                "poses": problem.scenario.n_poses,
+                "landmarks": problem.scenario.n_landmarks,
+                "measurements": sum(len(o) for o in problem.observations),
+                "build_s": round(build, 3),
+                "first_step_s": round(step, 3),
+            }
+        )
         del ev, problem
     out["routes"] = per
 
     out["ratio_wall_in_process_over_distributed"] = round((build_local + greedy_local) / (build_dist + greedy_dist), 3)
     out["ratio_greedy_in_process_over_distributed"] = round(greedy_local / greedy_dist, 3)
-    print(f"distributed: build {build_dist:.1f} s, greedy {greedy_dist:.1f} s; same result: "
-          f"{out['distributed']['same_result']}",
-          file=sys.stderr)
+    print(
+        f"distributed: build {build_dist:.1f} s, greedy {greedy_dist:.1f} s; same result: "
+        f"{out['distributed']['same_result']}",
+        file=sys.stderr,
+    )
     print(json.dumps(out, indent=2))
 
 

@@ -22,16 +22,18 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "src"))
 
-from sensorsel.model.domain import load_domain_file, load_domain_scenarios  # noqa: E402
+from sensorsel.designs.selection import greedy  # noqa: E402
 from sensorsel.information.evaluators import DomainEvaluator, make_evaluator  # noqa: E402
+from sensorsel.model.domain import load_domain_file, load_domain_scenarios  # noqa: E402
 from sensorsel.model.library import load_library  # noqa: E402
 from sensorsel.model.problem import Domain, DomainRoute, build_problem  # noqa: E402
-from sensorsel.designs.selection import greedy  # noqa: E402
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--kitti-root", default=os.environ.get("SENSORSEL_KITTI_ROOT", str(REPO.parent / "shared" / "kitti")))
+    ap.add_argument(
+        "--kitti-root", default=os.environ.get("SENSORSEL_KITTI_ROOT", str(REPO.parent / "shared" / "kitti"))
+    )
     ap.add_argument("--domain", default=str(REPO / "configs" / "domain_kitti.yaml"))
     ap.add_argument("--budget", type=float, default=110_000.0)
     ap.add_argument("--rule", default="uniform")
@@ -65,20 +67,28 @@ def main() -> None:
         own[route.name] = (time.perf_counter() - t, g, rev.n_evaluations - n0)
     peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 
-    print(f"machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}; "
-          f"budget ${args.budget:,.0f}, rule {args.rule}, fast engine jobs={args.jobs}")
-    print(f"{'route':<10} {'weight':>7} {'keyframes':>9} {'poles':>6} {'meas':>8} {'load s':>7} {'own greedy s':>12} "
-          f"{'own evals':>9}  own suite")
+    print(
+        f"machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}; "
+        f"budget ${args.budget:,.0f}, rule {args.rule}, fast engine jobs={args.jobs}"
+    )
+    print(
+        f"{'route':<10} {'weight':>7} {'keyframes':>9} {'poles':>6} {'meas':>8} {'load s':>7} {'own greedy s':>12} "
+        f"{'own evals':>9}  own suite"
+    )
     for route, w in zip(domain.routes, ev.weights):
         p = route.problem
         s, g, _ = own[route.name]
         n_meas = sum(len(o) for o in p.observations)
-        print(f"{route.name:<10} {w:>7.3f} {p.scenario.n_poses:>9} {p.scenario.n_landmarks:>6} {n_meas:>8} "
-              f"{load_s[route.name]:>7.2f} {s:>12.2f} {g.n_evaluations:>9}  {','.join(g.suite)}")
+        print(
+            f"{route.name:<10} {w:>7.3f} {p.scenario.n_poses:>9} {p.scenario.n_landmarks:>6} {n_meas:>8} "
+            f"{load_s[route.name]:>7.2f} {s:>12.2f} {g.n_evaluations:>9}  {','.join(g.suite)}"
+        )
     print()
-    print(f"domain: load {t_load:.2f} s, evaluators + normalisers {t_setup:.2f} s, greedy {t_select:.2f} s "
-          f"({res.n_evaluations} domain evaluations = {res.n_evaluations * len(routes)} route evaluations); "
-          f"wall {t_load + t_setup + t_select:.2f} s; peak RSS {peak_mb:,.0f} MB")
+    print(
+        f"domain: load {t_load:.2f} s, evaluators + normalisers {t_setup:.2f} s, greedy {t_select:.2f} s "
+        f"({res.n_evaluations} domain evaluations = {res.n_evaluations * len(routes)} route evaluations); "
+        f"wall {t_load + t_setup + t_select:.2f} s; peak RSS {peak_mb:,.0f} MB"
+    )
     print(f"sum of the seven routes' own greedy runs: {sum(v[0] for v in own.values()):.2f} s")
     print(f"domain suite (${res.cost_usd:,.0f}, F = {res.score:.4f}): {','.join(res.suite)}")
     verdict = "met" if t_load + t_setup + t_select <= 60.0 else "NOT met"

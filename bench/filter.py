@@ -36,6 +36,7 @@ def measure(problem, name: str, suite: tuple[int, ...], repeat: int) -> None:
 
     ev = FastEvaluator(problem)
     for ms in (None, 0.05):
+
         def smoother() -> None:
             ev._base = None  # a fresh base state each time: what a new suite costs
             ev.pose_covariances(suite, map_sigma_m=ms, estimate="smoother")
@@ -44,18 +45,28 @@ def measure(problem, name: str, suite: tuple[int, ...], repeat: int) -> None:
 
         def filt() -> None:
             held[0] = 0
-            forward_pass(problem, suite, map_sigma_m=ms,
-                         on_prediction=lambda p, m: held.__setitem__(0, max(held[0], len(p.landmarks))))
+            forward_pass(
+                problem,
+                suite,
+                map_sigma_m=ms,
+                on_prediction=lambda p, m: held.__setitem__(0, max(held[0], len(p.landmarks))),
+            )
 
         ts, tf = _cpu(smoother, repeat), _cpu(filt, repeat)
-        print(f"{problem.scenario.name:>8} {problem.scenario.n_poses:4d} kf {name:>22} {'map' if ms else 'slam':>4}: "
-              f"smoother {1e3 * ts:9.1f} ms, filter {1e3 * tf:9.1f} ms ({tf / ts:6.1f}x), "
-              f"at most {held[0]} landmarks held", flush=True)
+        print(
+            f"{problem.scenario.name:>8} {problem.scenario.n_poses:4d} kf {name:>22} {'map' if ms else 'slam':>4}: "
+            f"smoother {1e3 * ts:9.1f} ms, filter {1e3 * tf:9.1f} ms ({tf / ts:6.1f}x), "
+            f"at most {held[0]} landmarks held",
+            flush=True,
+        )
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--kitti-root", default=os.environ.get("SENSORSEL_KITTI_ROOT", str(Path(__file__).resolve().parents[2] / "shared" / "kitti")))
+    ap.add_argument(
+        "--kitti-root",
+        default=os.environ.get("SENSORSEL_KITTI_ROOT", str(Path(__file__).resolve().parents[2] / "shared" / "kitti")),
+    )
     ap.add_argument("--seqs", nargs="*", default=["00"])
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--all", action="store_true", help="also all 62 sensors (minutes on KITTI 00)")
@@ -65,11 +76,15 @@ def main() -> None:
     from sensorsel.model.library import load_library
 
     lib = load_library()
-    suites = [("LRL-roof", (lib.position("LRL-roof"),)),
-              ("LRR-7,HD2K-4,HD2K-9,LSC-2", tuple(sorted(lib.position(i) for i in ("LRR-7", "HD2K-4", "HD2K-9", "LSC-2"))))]
+    suites = [
+        ("LRL-roof", (lib.position("LRL-roof"),)),
+        ("LRR-7,HD2K-4,HD2K-9,LSC-2", tuple(sorted(lib.position(i) for i in ("LRR-7", "HD2K-4", "HD2K-9", "LSC-2")))),
+    ]
     if args.all:
         suites.append(("all 62", tuple(range(len(lib)))))
-    problems = [load_problem(ScenarioSpec())] + [load_problem(ScenarioSpec(seq=s, kitti_root=args.kitti_root)) for s in args.seqs]
+    problems = [load_problem(ScenarioSpec())] + [
+        load_problem(ScenarioSpec(seq=s, kitti_root=args.kitti_root)) for s in args.seqs
+    ]
     for problem in problems:
         for name, suite in suites:
             measure(problem, name, suite, args.repeat)

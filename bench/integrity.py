@@ -20,8 +20,10 @@ from pathlib import Path
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--kitti-root", default=os.environ.get("SENSORSEL_KITTI_ROOT",
-                                                           str(Path(__file__).resolve().parents[2] / "shared" / "kitti")))
+    ap.add_argument(
+        "--kitti-root",
+        default=os.environ.get("SENSORSEL_KITTI_ROOT", str(Path(__file__).resolve().parents[2] / "shared" / "kitti")),
+    )
     ap.add_argument("--seq", default="00")
     ap.add_argument("--suite", default="LRR-7,HD2K-4,HD2K-9,LSC-2")
     ap.add_argument("--map-sigma", type=float, default=0.05)
@@ -61,8 +63,10 @@ def main() -> None:
         assert association_module.AssociationModel.risks is original
         print(f"{model}: accuracy {t_acc:6.2f} s  {acc.line()[:60]}...")
         print(f"{model}: integrity {t_itg:6.2f} s  {itg.line()}")
-        print(f"{model}: integrity / accuracy {t_itg / t_acc:.2f}x (association part alone {spent[0]:.2f} s, "
-              f"{spent[0] / t_acc:.2f}x)")
+        print(
+            f"{model}: integrity / accuracy {t_itg / t_acc:.2f}x (association part alone {spent[0]:.2f} s, "
+            f"{spent[0] / t_acc:.2f}x)"
+        )
 
 
 if __name__ == "__main__":

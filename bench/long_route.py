@@ -74,9 +74,18 @@ def worker(km: float, rate: float, budget: float, jobs: int) -> dict:
     t2 = time.perf_counter()
     res = greedy(ev, budget)
     t3 = time.perf_counter()
-    return {"keyframes": problem.scenario.n_poses, "landmarks": problem.scenario.n_landmarks, "evaluations": res.n_evaluations,
-            "load": t1 - t0, "setup": t2 - t1, "select": t3 - t2, "peak_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
-            "paths": dict(ev.kernel.counts), "suite": list(res.suite), "score": res.score}
+    return {
+        "keyframes": problem.scenario.n_poses,
+        "landmarks": problem.scenario.n_landmarks,
+        "evaluations": res.n_evaluations,
+        "load": t1 - t0,
+        "setup": t2 - t1,
+        "select": t3 - t2,
+        "peak_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+        "paths": dict(ev.kernel.counts),
+        "suite": list(res.suite),
+        "score": res.score,
+    }
 
 
 def main() -> None:
@@ -92,27 +101,47 @@ def main() -> None:
         return
     rows = []
     for rate in a.rates:
-        out = subprocess.run([sys.executable, __file__, "--km", str(a.km), "--budget", str(a.budget), "--jobs", str(a.jobs),
-                              "--worker", "0", str(rate)], capture_output=True, text=True)
+        out = subprocess.run(
+            [
+                sys.executable,
+                __file__,
+                "--km",
+                str(a.km),
+                "--budget",
+                str(a.budget),
+                "--jobs",
+                str(a.jobs),
+                "--worker",
+                "0",
+                str(rate),
+            ],
+            capture_output=True,
+            text=True,
+        )
         if out.returncode != 0:
             raise SystemExit(f"rate {rate:g} Hz failed:\n{out.stderr}")
         r = json.loads(out.stdout)
         rows.append((rate, r))
-        print(f"{a.km:g} km at {rate:g} Hz: {r['keyframes']:,} keyframes, {r['landmarks']:,} landmarks, "
-              f"{r['evaluations']} evaluations; load {r['load']:.1f} s, setup {r['setup']:.2f} s, selection "
-              f"{r['select']:.2f} s; "
-              f"peak RSS {r['peak_mb']:,.0f} MB ({1024 * r['peak_mb'] / r['keyframes']:.0f} kB per keyframe); "
-              f"paths {r['paths']}; "
-              f"suite {','.join(r['suite'])}", flush=True)
+        print(
+            f"{a.km:g} km at {rate:g} Hz: {r['keyframes']:,} keyframes, {r['landmarks']:,} landmarks, "
+            f"{r['evaluations']} evaluations; load {r['load']:.1f} s, setup {r['setup']:.2f} s, selection "
+            f"{r['select']:.2f} s; "
+            f"peak RSS {r['peak_mb']:,.0f} MB ({1024 * r['peak_mb'] / r['keyframes']:.0f} kB per keyframe); "
+            f"paths {r['paths']}; "
+            f"suite {','.join(r['suite'])}",
+            flush=True,
+        )
     if len(rows) >= 2:
         xs = [math.log(r["keyframes"]) for _, r in rows]
         ys = [math.log(r["select"]) for _, r in rows]
         mx, my = sum(xs) / len(xs), sum(ys) / len(ys)
         slope = sum((x - mx) * (y - my) for x, y in zip(xs, ys)) / sum((x - mx) ** 2 for x in xs)
         k0, k1 = rows[0][1]["keyframes"], rows[-1][1]["keyframes"]
-        print(f"selection time ~ keyframes^{slope:.2f} over {', '.join(str(r['keyframes']) for _, r in rows)} keyframes "
-              f"(x{rows[-1][1]['select'] / rows[0][1]['select']:.1f} time for x{k1 / k0:.1f} keyframes; "
-              f"4x keyframes -> x{4 ** slope:.1f} time)")
+        print(
+            f"selection time ~ keyframes^{slope:.2f} over {', '.join(str(r['keyframes']) for _, r in rows)} keyframes "
+            f"(x{rows[-1][1]['select'] / rows[0][1]['select']:.1f} time for x{k1 / k0:.1f} keyframes; "
+            f"4x keyframes -> x{4**slope:.1f} time)"
+        )
 
 
 if __name__ == "__main__":

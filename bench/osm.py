@@ -22,8 +22,10 @@ def main() -> None:
     t0 = time.perf_counter()
     ex = read_osm(path, roads=parse_roads(None))
     t1 = time.perf_counter()
-    print(f"read+project  {t1 - t0:6.2f} s  ({ex.n_nodes} nodes, {len(ex.landmarks)} landmarks, {len(ex.ways)} road "
-          "ways; target <= 2 s)")
+    print(
+        f"read+project  {t1 - t0:6.2f} s  ({ex.n_nodes} nodes, {len(ex.landmarks)} landmarks, {len(ex.ways)} road "
+        "ways; target <= 2 s)"
+    )
     if "--read-only" in sys.argv:
         return
     city = build_city(ex, DEFAULT_CLASSES)

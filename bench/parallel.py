@@ -76,6 +76,7 @@ def untimed(text: str) -> object:
         if isinstance(o, list):
             return [rec(v) for v in o]
         return o
+
     return rec(json.loads(text))
 
 
@@ -154,12 +155,17 @@ def _stage(ev: TracedDomainEvaluator, jobs: int, run: Any) -> tuple[Any, dict[st
         if t:
             by_width[str(len(t))] = by_width.get(str(len(t)), 0.0) + sum(t)
     return out, {
-        "wall_s": round(wall, 3), "cpu_s": round(cpu, 3),
-        "rounds": len(ev.rounds), "route_calls": sum(tasks),
+        "wall_s": round(wall, 3),
+        "cpu_s": round(cpu, 3),
+        "rounds": len(ev.rounds),
+        "route_calls": sum(tasks),
         "rounds_by_tasks": {str(n): tasks.count(n) for n in sorted(set(tasks))},
         "route_call_cpu_s": round(task_cpu, 3),
-        "route_call_cpu_s_by_round_width": {k: round(v, 3) for k, v in sorted(by_width.items(), key=lambda kv: int(kv[0]))},
-        "rounds_wall_s": round(in_rounds, 3), "serial_wall_s": round(wall - in_rounds, 3),
+        "route_call_cpu_s_by_round_width": {
+            k: round(v, 3) for k, v in sorted(by_width.items(), key=lambda kv: int(kv[0]))
+        },
+        "rounds_wall_s": round(in_rounds, 3),
+        "serial_wall_s": round(wall - in_rounds, 3),
         # the client's CPU outside the rounds (jobs=1: the one thread's CPU minus its tasks')
         "serial_cpu_s": round(max(0.0, cpu - task_cpu), 3) if jobs == 1 else None,
         "_trace": [t for _, t in ev.rounds],
@@ -179,10 +185,18 @@ def run_in_process(domain: Any, budget: float, rule: str, jobs: int, whole: bool
     build = time.perf_counter() - t0
     ev._tracing = True
     res, g = _stage(ev, jobs, lambda: greedy(ev, budget, rule, lazy=True, info=domain.info))
-    out = {"jobs": jobs, "build_s": round(build, 3), "build_cpu_s": round(cpu_of_this_process() - c0 - g["cpu_s"], 3),
-           "greedy_wall_s": g["wall_s"], "greedy_cpu_s": g["cpu_s"], "steps": len(res.steps),
-           "route_calls_scored_ahead": ev.n_ahead, "route_calls_scored_ahead_used": ev.n_ahead_used,
-           "n_evaluations": res.n_evaluations, **{k: v for k, v in g.items() if k not in ("wall_s", "cpu_s")}}
+    out = {
+        "jobs": jobs,
+        "build_s": round(build, 3),
+        "build_cpu_s": round(cpu_of_this_process() - c0 - g["cpu_s"], 3),
+        "greedy_wall_s": g["wall_s"],
+        "greedy_cpu_s": g["cpu_s"],
+        "steps": len(res.steps),
+        "route_calls_scored_ahead": ev.n_ahead,
+        "route_calls_scored_ahead_used": ev.n_ahead_used,
+        "n_evaluations": res.n_evaluations,
+        **{k: v for k, v in g.items() if k not in ("wall_s", "cpu_s")},
+    }
     record = [results.dumps(res)]
     if whole:
         cert, c = _stage(ev, jobs, lambda: certificate(ev, res))
@@ -195,8 +209,8 @@ def run_in_process(domain: Any, budget: float, rule: str, jobs: int, whole: bool
 
 def run_on_cluster(domain: Any, budget: float, rule: str, workers: int) -> dict[str, Any]:
     from sensorsel.designs.selection import greedy
-    from sensorsel.io import results
     from sensorsel.information.evaluators.distributed import DistributedDomainEvaluator
+    from sensorsel.io import results
     from sensorsel.pipeline.cluster import DaskCluster
 
     def cpu_now() -> float:
@@ -228,28 +242,43 @@ def run_on_cluster(domain: Any, budget: float, rule: str, workers: int) -> dict[
         busy_by_worker[busy1[k][2]] = busy_by_worker.get(busy1[k][2], 0.0) + busy1[k][0] - busy0[k][0]
     steps = max(1, len(res.steps))
     return {
-        "workers": workers, "build_s": round(build, 3), "greedy_wall_s": round(wall, 3),
+        "workers": workers,
+        "build_s": round(build, 3),
+        "greedy_wall_s": round(wall, 3),
         "client_cpu_s": round(client_cpu, 3),
         "workers_cpu_s": round(sum(w1[a] - w0[a] for a in w1), 3),
         "scheduler_cpu_s": round(s1 - s0, 3),
         "workers_scoring_s": {a: round(v, 3) for a, v in sorted(busy_by_worker.items())},
-        "client_wait_s": round(wait, 3), "rounds": rounds,
-        "client_rss_growth_bytes": client_rss_growth, "workers_rss_bytes": sorted(workers_rss.values()),
-        "route_calls_scored_ahead": ev.n_ahead, "route_calls_scored_ahead_used": ev.n_ahead_used,
-        "messages": msgs, "messages_per_step": round(msgs / steps, 1),
-        "bytes_sent_per_step": round(sent / steps, 1), "bytes_received_per_step": round(recv / steps, 1),
+        "client_wait_s": round(wait, 3),
+        "rounds": rounds,
+        "client_rss_growth_bytes": client_rss_growth,
+        "workers_rss_bytes": sorted(workers_rss.values()),
+        "route_calls_scored_ahead": ev.n_ahead,
+        "route_calls_scored_ahead_used": ev.n_ahead_used,
+        "messages": msgs,
+        "messages_per_step": round(msgs / steps, 1),
+        "bytes_sent_per_step": round(sent / steps, 1),
+        "bytes_received_per_step": round(recv / steps, 1),
         "_result": results.dumps(res),
     }
 
 
-def model(trace: list[list[float]], serial: float, comm_per_round: float = 0.0,
-          traces: dict[int, list[list[float]]] | None = None) -> dict[str, Any]:
+def model(
+    trace: list[list[float]],
+    serial: float,
+    comm_per_round: float = 0.0,
+    traces: dict[int, list[list[float]]] | None = None,
+) -> dict[str, Any]:
     """Predicted greedy seconds and speed-ups at each n of :data:`PREDICT_AT` (see the module's doc):
     ``trace`` the 1-thread run's rounds, ``traces`` the n-thread runs' (default: the 1-thread one)."""
     t1 = serial + sum(sum(t) for t in trace)
     s = serial / t1 if t1 > 0 else 1.0
-    out: dict[str, Any] = {"serial_s": round(serial, 3), "serial_fraction": round(s, 4),
-                           "rounds": len(trace), "comm_per_round_ms": round(1e3 * comm_per_round, 3)}
+    out: dict[str, Any] = {
+        "serial_s": round(serial, 3),
+        "serial_fraction": round(s, 4),
+        "rounds": len(trace),
+        "comm_per_round_ms": round(1e3 * comm_per_round, 3),
+    }
     for n in PREDICT_AT:
         tr = (traces or {}).get(n)
         if traces is not None and tr is None:
@@ -257,8 +286,11 @@ def model(trace: list[list[float]], serial: float, comm_per_round: float = 0.0,
         tr = trace if tr is None else tr
         rounds_aware = serial + sum(lpt(t, n) for t in tr) + len(tr) * comm_per_round
         amdahl = t1 * (s + (1 - s) / n)
-        out[f"at_{n}"] = {"round_aware_s": round(rounds_aware, 3), "round_aware_speedup": round(t1 / rounds_aware, 2),
-                          "amdahl_speedup": round(t1 / amdahl, 2)}
+        out[f"at_{n}"] = {
+            "round_aware_s": round(rounds_aware, 3),
+            "round_aware_speedup": round(t1 / rounds_aware, 2),
+            "amdahl_speedup": round(t1 / amdahl, 2),
+        }
     return out
 
 
@@ -287,10 +319,17 @@ def run_command_in_process(command: str, domain: Any, args: Any, jobs: int) -> d
         tradespace.evaluator_for, robust_select.evaluator_for = saved
     trace = [t for ev in built for _, t in ev.rounds if t]
     task_cpu = sum(map(sum, trace))
-    return {"jobs": jobs, "wall_s": round(wall, 3), "cpu_s": round(cpu, 3), "rounds": len(trace),
-            "route_calls": sum(map(len, trace)), "route_call_cpu_s": round(task_cpu, 3),
-            "serial_cpu_s": round(max(0.0, cpu - task_cpu), 3) if jobs == 1 else None,
-            "_trace": trace, "_result": results.dumps(res)}
+    return {
+        "jobs": jobs,
+        "wall_s": round(wall, 3),
+        "cpu_s": round(cpu, 3),
+        "rounds": len(trace),
+        "route_calls": sum(map(len, trace)),
+        "route_call_cpu_s": round(task_cpu, 3),
+        "serial_cpu_s": round(max(0.0, cpu - task_cpu), 3) if jobs == 1 else None,
+        "_trace": trace,
+        "_result": results.dumps(res),
+    }
 
 
 def _run_command(command: str, domain: Any, args: Any, *, jobs: int = 1, executor: Any = None) -> Any:
@@ -323,9 +362,14 @@ def run_command_on_cluster(command: str, domain: Any, args: Any, workers: int) -
         res = _run_command(command, domain, args, executor=cluster.executor)
         wall, client_cpu = time.perf_counter() - t0, cpu_of_this_process() - c0
         w1, s1 = client.run(cpu_now), client.run_on_scheduler(cpu_now)
-    return {"workers": workers, "wall_s": round(wall, 3), "client_cpu_s": round(client_cpu, 3),
-            "workers_cpu_s": round(sum(w1[a] - w0[a] for a in w1), 3), "scheduler_cpu_s": round(s1 - s0, 3),
-            "_result": results.dumps(res)}
+    return {
+        "workers": workers,
+        "wall_s": round(wall, 3),
+        "client_cpu_s": round(client_cpu, 3),
+        "workers_cpu_s": round(sum(w1[a] - w0[a] for a in w1), 3),
+        "scheduler_cpu_s": round(s1 - s0, 3),
+        "_result": results.dumps(res),
+    }
 
 
 def command_rows(command: str, domain: Any, args: Any) -> dict[str, Any]:
@@ -337,18 +381,32 @@ def command_rows(command: str, domain: Any, args: Any) -> dict[str, Any]:
     traces = {r["jobs"]: r["_trace"] for r in runs}
     m = model(base["_trace"], base["serial_cpu_s"] or 0.0, traces=traces)
     m_one = model(base["_trace"], base["serial_cpu_s"] or 0.0)
-    checks = [{"run": f"{r['jobs']} threads", "measured_speedup": round(base["wall_s"] / r["wall_s"], 2),
-               "predicted_round_aware": m.get(f"at_{r['jobs']}", {}).get("round_aware_speedup")} for r in runs[1:]]
-    checks += [{"run": f"{c['workers']} workers", "measured_speedup": round(base["wall_s"] / c["wall_s"], 2)} for c in clusters]
+    checks = [
+        {
+            "run": f"{r['jobs']} threads",
+            "measured_speedup": round(base["wall_s"] / r["wall_s"], 2),
+            "predicted_round_aware": m.get(f"at_{r['jobs']}", {}).get("round_aware_speedup"),
+        }
+        for r in runs[1:]
+    ]
+    checks += [
+        {"run": f"{c['workers']} workers", "measured_speedup": round(base["wall_s"] / c["wall_s"], 2)} for c in clusters
+    ]
     for r in runs:
         print(f"{command}, {r['jobs']} thread(s): {r['wall_s']:.2f} s wall, {r['cpu_s']:.2f} s CPU", file=sys.stderr)
     for c in clusters:
-        print(f"{command}, {c['workers']} worker(s): {c['wall_s']:.2f} s wall, client CPU {c['client_cpu_s']:.2f} s, "
-              f"workers CPU {c['workers_cpu_s']:.2f} s", file=sys.stderr)
-    return {"same_result": same, "model": {"in_process": m, "in_process_one_thread_trace": m_one},
-            "model_check": checks,
-            "in_process": [{k: v for k, v in r.items() if not k.startswith("_")} for r in runs],
-            "cluster": [{k: v for k, v in c.items() if not k.startswith("_")} for c in clusters]}
+        print(
+            f"{command}, {c['workers']} worker(s): {c['wall_s']:.2f} s wall, client CPU {c['client_cpu_s']:.2f} s, "
+            f"workers CPU {c['workers_cpu_s']:.2f} s",
+            file=sys.stderr,
+        )
+    return {
+        "same_result": same,
+        "model": {"in_process": m, "in_process_one_thread_trace": m_one},
+        "model_check": checks,
+        "in_process": [{k: v for k, v in r.items() if not k.startswith("_")} for r in runs],
+        "cluster": [{k: v for k, v in c.items() if not k.startswith("_")} for c in clusters],
+    }
 
 
 def generated_domain(folder: Path, n: int) -> str:
@@ -356,7 +414,9 @@ def generated_domain(folder: Path, n: int) -> str:
     data = REPO / "data" / "kitti_fixtures"
     tiny = f"route: {data / 'poses' / 'tiny.txt'}, format: kitti, times: {data / 'sequences' / 'tiny' / 'times.txt'}"
     lines = ["keyframe_rate_hz: 1.0", "routes:"]
-    lines += [f"  - {{name: tiny-{seed:03d}, {tiny}, landmarks: {{synthetic: {{seed: {seed}}}}}}}" for seed in range(1, n + 1)]
+    lines += [
+        f"  - {{name: tiny-{seed:03d}, {tiny}, landmarks: {{synthetic: {{seed: {seed}}}}}}}" for seed in range(1, n + 1)
+    ]
     path = folder / f"generated-{n}.yaml"
     path.write_text("\n".join(lines) + "\n")
     return str(path)
@@ -370,14 +430,24 @@ def main() -> None:
     ap.add_argument("--jobs", default=f"1,{os.cpu_count() or 1}", help="thread counts in-process (comma-separated)")
     ap.add_argument("--workers", default="1,2", help="LocalCluster sizes (comma-separated; empty: none)")
     ap.add_argument("--generated", type=int, default=0, help="measure a generated domain of N routes instead")
-    ap.add_argument("--model-at", default=",".join(map(str, PREDICT_AT)),
-                    help="thread counts whose greedy runs' traces make the model (comma-separated)")
+    ap.add_argument(
+        "--model-at",
+        default=",".join(map(str, PREDICT_AT)),
+        help="thread counts whose greedy runs' traces make the model (comma-separated)",
+    )
     ap.add_argument("--commands", default="greedy", help="greedy, pareto, robust (comma-separated)")
     ap.add_argument("--pareto-budgets", default="20000,50000,110000", help="pareto's budgets (comma-separated) [$]")
-    ap.add_argument("--whole", action="store_true",
-                    help="in-process, also the certificate and the per-route breakdown (what greedy --domain runs)")
-    ap.add_argument("--ahead-from", type=int, default=None,
-                    help="the fewest threads or workers a lazy round scores ahead on (default: the package's)")
+    ap.add_argument(
+        "--whole",
+        action="store_true",
+        help="in-process, also the certificate and the per-route breakdown (what greedy --domain runs)",
+    )
+    ap.add_argument(
+        "--ahead-from",
+        type=int,
+        default=None,
+        help="the fewest threads or workers a lazy round scores ahead on (default: the package's)",
+    )
     args = ap.parse_args()
     if args.ahead_from is not None:  # this script's own evaluators only (workers build theirs from the package)
         TracedDomainEvaluator.ahead_from = args.ahead_from
@@ -388,8 +458,13 @@ def main() -> None:
 
     from sensorsel.model.problem import load_domain
 
-    out: dict[str, Any] = {"domain": args.domain, "budget_usd": args.budget, "rule": args.rule, "cpus": os.cpu_count(),
-                           "load_avg_before": os.getloadavg()}
+    out: dict[str, Any] = {
+        "domain": args.domain,
+        "budget_usd": args.budget,
+        "rule": args.rule,
+        "cpus": os.cpu_count(),
+        "load_avg_before": os.getloadavg(),
+    }
     m0, t0 = rss(), time.perf_counter()
     domain = load_domain(args.domain)
     out["routes"] = len(domain.routes)
@@ -398,28 +473,39 @@ def main() -> None:
     run_in_process(domain, args.budget, args.rule, 1, False)  # warm-up, not reported: first imports and caches
     runs = [run_in_process(domain, args.budget, args.rule, int(j), args.whole) for j in args.jobs.split(",") if j]
     for r in runs:
-        print(f"in-process, {r['jobs']} thread(s): greedy {r['greedy_wall_s']:.2f} s wall, {r['greedy_cpu_s']:.2f} s "
-              "CPU, "
-              f"{r['rounds']} rounds, serial {r['serial_wall_s']:.2f} s wall", file=sys.stderr)
+        print(
+            f"in-process, {r['jobs']} thread(s): greedy {r['greedy_wall_s']:.2f} s wall, {r['greedy_cpu_s']:.2f} s "
+            "CPU, "
+            f"{r['rounds']} rounds, serial {r['serial_wall_s']:.2f} s wall",
+            file=sys.stderr,
+        )
     base = runs[0]
     clusters = [run_on_cluster(domain, args.budget, args.rule, int(w)) for w in args.workers.split(",") if w]
     for c in clusters:
-        print(f"{c['workers']} worker(s): greedy {c['greedy_wall_s']:.2f} s wall, client CPU {c['client_cpu_s']:.2f} s, "
-              f"workers CPU {c['workers_cpu_s']:.2f} s, {c['messages_per_step']} messages/step, "
-              f"{c['bytes_sent_per_step'] + c['bytes_received_per_step']:.0f} B/step", file=sys.stderr)
+        print(
+            f"{c['workers']} worker(s): greedy {c['greedy_wall_s']:.2f} s wall, client CPU {c['client_cpu_s']:.2f} s, "
+            f"workers CPU {c['workers_cpu_s']:.2f} s, {c['messages_per_step']} messages/step, "
+            f"{c['bytes_sent_per_step'] + c['bytes_received_per_step']:.0f} B/step",
+            file=sys.stderr,
+        )
+
     def parts(text: str) -> list[object]:
         first, *rest = text.split("\x00")
         return [untimed(first), *rest]
 
-    same = all(parts(r["_result"]) == parts(base["_result"]) for r in runs) and \
-        all(untimed(c["_result"]) == parts(base["_result"])[0] for c in clusters)
+    same = all(parts(r["_result"]) == parts(base["_result"]) for r in runs) and all(
+        untimed(c["_result"]) == parts(base["_result"])[0] for c in clusters
+    )
     out["same_result"] = same
     trace, serial = [t for t in base["_trace"] if t], base["serial_cpu_s"]  # rounds with work (none: nothing sent)
     traces = {r["jobs"]: [t for t in r["_trace"] if t] for r in runs}
     for n in [int(x) for x in args.model_at.split(",") if x]:
         if n not in traces:  # a traced run on n threads (the machine's cores take turns; each call's CPU is its own)
             traces[n] = [t for t in run_in_process(domain, args.budget, args.rule, n, False)["_trace"] if t]
-    out["model"] = {"in_process": model(trace, serial, traces=traces), "in_process_one_thread_trace": model(trace, serial)}
+    out["model"] = {
+        "in_process": model(trace, serial, traces=traces),
+        "in_process_one_thread_trace": model(trace, serial),
+    }
     if args.whole:  # the whole command in-process: the three stages' rounds and serial parts together
         stages = [base, base["certificate"], base["breakdown"]]
         whole_trace = [t for st in stages for t in st["_trace"] if t]
@@ -444,19 +530,37 @@ def main() -> None:
         out["model"]["cluster"] = model(trace, serial, comm, traces=traces)
     checks = []
     for r in runs[1:]:
-        pred = out["model"]["in_process"][f"at_{r['jobs']}"] if f"at_{r['jobs']}" in out["model"]["in_process"] else None
-        checks.append({"run": f"{r['jobs']} threads", "measured_speedup": round(base["greedy_wall_s"] / r["greedy_wall_s"], 2),
-                       "predicted_round_aware": pred and pred["round_aware_speedup"], "predicted_amdahl": pred and pred["amdahl_speedup"]})
+        pred = (
+            out["model"]["in_process"][f"at_{r['jobs']}"] if f"at_{r['jobs']}" in out["model"]["in_process"] else None
+        )
+        checks.append(
+            {
+                "run": f"{r['jobs']} threads",
+                "measured_speedup": round(base["greedy_wall_s"] / r["greedy_wall_s"], 2),
+                "predicted_round_aware": pred and pred["round_aware_speedup"],
+                "predicted_amdahl": pred and pred["amdahl_speedup"],
+            }
+        )
     for c in clusters:
         pred = out["model"]["cluster"].get(f"at_{c['workers']}")
-        checks.append({"run": f"{c['workers']} workers", "measured_speedup": round(base["greedy_wall_s"] / c["greedy_wall_s"], 2),
-                       "predicted_round_aware": pred and pred["round_aware_speedup"]})
+        checks.append(
+            {
+                "run": f"{c['workers']} workers",
+                "measured_speedup": round(base["greedy_wall_s"] / c["greedy_wall_s"], 2),
+                "predicted_round_aware": pred and pred["round_aware_speedup"],
+            }
+        )
     if args.whole:
         for r in runs[1:]:
             w = [x["greedy_wall_s"] + x["certificate"]["wall_s"] + x["breakdown"]["wall_s"] for x in (base, r)]
             pred = out["model"]["in_process_whole_command"].get(f"at_{r['jobs']}")
-            checks.append({"run": f"whole command, {r['jobs']} threads", "measured_speedup": round(w[0] / w[1], 2),
-                           "predicted_round_aware": pred and pred["round_aware_speedup"]})
+            checks.append(
+                {
+                    "run": f"whole command, {r['jobs']} threads",
+                    "measured_speedup": round(w[0] / w[1], 2),
+                    "predicted_round_aware": pred and pred["round_aware_speedup"],
+                }
+            )
     out["model_check"] = checks
     out["in_process"] = [{k: v for k, v in r.items() if not k.startswith("_")} for r in runs]
     out["cluster"] = [{k: v for k, v in c.items() if not k.startswith("_")} for c in clusters]

@@ -1,21 +1,22 @@
 """How long `sensorsel require` takes to prove its answer, against the solver it had before (kept in
 bench/require_reference_solver.py), side by side in one process on the same problems.
 
-    python bench/require.py [--kitti-root ../shared/kitti] [--rows tour 03 00 drive helsinki] [--helsinki DIR/domain.yaml]
-                            [--presets local-streets freeway]
+    python bench/require.py [--kitti-root ../shared/kitti] [--rows tour 03 00 drive helsinki]
+                            [--helsinki DIR/domain.yaml] [--presets local-streets freeway]
                             [--failures 0 1] [--time-limit 300] [--solvers new reference]
 
 Rows: "tour" is the README's tour (the bundled suburb route), "03" / "00" the KITTI sequences with
 their real pole maps, "drive" a user's own drive (KITTI 00's ground truth as a route file, with
-generated landmarks), "helsinki" the 31 routes `sensorsel osm --sample helsinki` writes; each row is run for every preset and failure count given, first with the
-solver of the package, then with the reference solver behind the same accuracy oracle (so the two
-differ only in the search). Printed per run: the status, cost and lower bound, integer programs,
-accuracy computations (and the suites the cheap floor refuted), the answers inferred from dominance
-among sensors ("swaps") and the filter passes stopped early ("short"), the time in checks and in programs,
-the wall time and the process's CPU time (less sensitive to other work on the machine). Timings on a shared machine are noisy: compare the two solvers' columns of one
-run, and the counts, which do not depend on the machine. To compare with an older version of the
-package (accuracy oracle included), run this file from a `git archive` of it in the same session,
-with PYTHONPATH pointing at that copy's src/.
+generated landmarks), "helsinki" the 31 routes `sensorsel osm --sample helsinki` writes; each row is
+run for every preset and failure count given, first with the solver of the package, then with the
+reference solver behind the same accuracy oracle (so the two differ only in the search). Printed per
+run: the status, cost and lower bound, integer programs, accuracy computations (and the suites the
+cheap floor refuted), the answers inferred from dominance among sensors ("swaps") and the filter
+passes stopped early ("short"), the time in checks and in programs, the wall time and the process's
+CPU time (less sensitive to other work on the machine). Timings on a shared machine are noisy:
+compare the two solvers' columns of one run, and the counts, which do not depend on the machine. To
+compare with an older version of the package (accuracy oracle included), run this file from a `git
+archive` of it in the same session, with PYTHONPATH pointing at that copy's src/.
 """
 
 from __future__ import annotations
@@ -33,16 +34,30 @@ REPO = Path(__file__).resolve().parents[1]
 
 def _reference():
     """cheapest_suite of the reference solver, returning the package's CheapestSuite."""
-    spec = importlib.util.spec_from_file_location("require_reference_solver", REPO / "bench" / "require_reference_solver.py")
+    spec = importlib.util.spec_from_file_location(
+        "require_reference_solver", REPO / "bench" / "require_reference_solver.py"
+    )
     ref = importlib.util.module_from_spec(spec)
     assert spec.loader is not None
     sys.modules["require_reference_solver"] = ref  # dataclasses look their module up there
     spec.loader.exec_module(ref)
     from sensorsel.designs.requirements.solver import CheapestSuite
 
-    def cheapest_suite(feas, meets, *, failures=0, violation=None, time_limit=None, progress=None, status=None,
-                       max_tie_programs=0, dominance=()):
-        r = ref.cheapest_suite(feas, meets, failures=failures, violation=violation, time_limit=time_limit, progress=progress)
+    def cheapest_suite(
+        feas,
+        meets,
+        *,
+        failures=0,
+        violation=None,
+        time_limit=None,
+        progress=None,
+        status=None,
+        max_tie_programs=0,
+        dominance=(),
+    ):
+        r = ref.cheapest_suite(
+            feas, meets, failures=failures, violation=violation, time_limit=time_limit, progress=progress
+        )
         return CheapestSuite(**{f.name: getattr(r, f.name) for f in fields(r)})
 
     return cheapest_suite
@@ -58,20 +73,33 @@ def _problem(row: str, kitti_root: str, helsinki: str | None):
     if row == "drive":  # a user's own drive: KITTI 00's ground truth as a route file, generated landmarks
         root = Path(kitti_root)
         times = root / "sequences" / "00" / "times.txt"
-        return load_problem(ScenarioSpec(poses=str(root / "poses" / "00.txt"), times=str(times) if times.is_file() else None,
-                                         landmarks="synthetic"))
+        return load_problem(
+            ScenarioSpec(
+                poses=str(root / "poses" / "00.txt"),
+                times=str(times) if times.is_file() else None,
+                landmarks="synthetic",
+            )
+        )
     if row == "helsinki":
         if helsinki is None:
-            raise SystemExit("row helsinki: give --helsinki DOMAIN.yaml (written by sensorsel osm --sample helsinki -o DIR)")
+            raise SystemExit(
+                "row helsinki: give --helsinki DOMAIN.yaml (written by sensorsel osm --sample helsinki -o DIR)"
+            )
         return load_domain(helsinki)
     return load_problem(ScenarioSpec(seq=row, kitti_root=kitti_root))
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--kitti-root", default=os.environ.get("SENSORSEL_KITTI_ROOT", str(REPO.parent.parent / "shared" / "kitti")))
-    ap.add_argument("--rows", nargs="+", default=["tour", "03", "00"],
-                    help="tour, 03, 00 (real pole maps), drive (00's ground truth, generated landmarks), helsinki")
+    ap.add_argument(
+        "--kitti-root", default=os.environ.get("SENSORSEL_KITTI_ROOT", str(REPO.parent.parent / "shared" / "kitti"))
+    )
+    ap.add_argument(
+        "--rows",
+        nargs="+",
+        default=["tour", "03", "00"],
+        help="tour, 03, 00 (real pole maps), drive (00's ground truth, generated landmarks), helsinki",
+    )
     ap.add_argument("--helsinki", help="the domain file of `sensorsel osm --sample helsinki -o DIR` (DIR/domain.yaml)")
     ap.add_argument("--presets", nargs="+", default=["local-streets", "freeway"])
     ap.add_argument("--failures", nargs="+", type=int, default=[0, 1])
@@ -83,8 +111,11 @@ def main() -> None:
 
     package = design.cheapest_suite
     solvers = {"new": package, "reference": _reference()}
-    print(f"{'row':>5} {'preset':>13} a solver    {'status':>8} {'cost':>9} {'lower':>9} {'programs':>8} {'checks':>6} "
-          f"{'refuted':>7} {'swaps':>5} {'short':>5} {'checks s':>8} {'progs s':>8} {'wall s':>7} {'cpu s':>7}  suite", flush=True)
+    print(
+        f"{'row':>5} {'preset':>13} a solver    {'status':>8} {'cost':>9} {'lower':>9} {'programs':>8} {'checks':>6} "
+        f"{'refuted':>7} {'swaps':>5} {'short':>5} {'checks s':>8} {'progs s':>8} {'wall s':>7} {'cpu s':>7}  suite",
+        flush=True,
+    )
     for row in a.rows:
         problem = _problem(row, a.kitti_root, a.helsinki)
         for name in a.presets:
@@ -93,15 +124,24 @@ def main() -> None:
                     design.cheapest_suite = solvers[which]
                     t0, c0 = time.perf_counter(), time.process_time()
                     try:
-                        r = design.require(problem, preset(name), map_sigma_m=DEFAULT_MAP_SIGMA_M, failures=alpha,
-                                           time_limit_s=a.time_limit)
+                        r = design.require(
+                            problem,
+                            preset(name),
+                            map_sigma_m=DEFAULT_MAP_SIGMA_M,
+                            failures=alpha,
+                            time_limit_s=a.time_limit,
+                        )
                     finally:
                         design.cheapest_suite = package
                     dt, cpu = time.perf_counter() - t0, time.process_time() - c0
-                    print(f"{row:>5} {name:>13} {alpha} {which:<9} {r.status:>8} {r.cost_usd:>9,.0f} {r.lower_bound_usd:>9,.0f} "
-                          f"{r.iterations:>8} {r.n_checks:>6} {r.n_refuted:>7} {getattr(r, 'n_swap_inferred', 0):>5} "
-                          f"{getattr(r, 'n_short', 0):>5} {r.seconds_checks:>8.1f} "
-                          f"{r.seconds_programs:>8.1f} {dt:>7.1f} {cpu:>7.1f}  {','.join(r.suite) or '-'}", flush=True)
+                    print(
+                        f"{row:>5} {name:>13} {alpha} {which:<9} {r.status:>8} {r.cost_usd:>9,.0f} "
+                        f"{r.lower_bound_usd:>9,.0f} "
+                        f"{r.iterations:>8} {r.n_checks:>6} {r.n_refuted:>7} {getattr(r, 'n_swap_inferred', 0):>5} "
+                        f"{getattr(r, 'n_short', 0):>5} {r.seconds_checks:>8.1f} "
+                        f"{r.seconds_programs:>8.1f} {dt:>7.1f} {cpu:>7.1f}  {','.join(r.suite) or '-'}",
+                        flush=True,
+                    )
 
 
 if __name__ == "__main__":

@@ -54,9 +54,9 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from itertools import combinations
-from typing import Callable, Iterable, Sequence
 
 import numpy as np
 
@@ -64,8 +64,17 @@ from sensorsel.io.files import quiet_stdout
 from sensorsel.io.progress import Progress
 from sensorsel.model.constraints import FeasibleSet
 
-__all__ = ["DEFAULT_MAX_ITERATIONS", "MILP_NODE_LIMIT", "STATUSES", "CheapestSuite", "Meets", "Suite", "Violation",
-           "cheapest_suite", "meets_after_failures"]
+__all__ = [
+    "DEFAULT_MAX_ITERATIONS",
+    "MILP_NODE_LIMIT",
+    "STATUSES",
+    "CheapestSuite",
+    "Meets",
+    "Suite",
+    "Violation",
+    "cheapest_suite",
+    "meets_after_failures",
+]
 
 #: a canonical suite: sorted tuple of unique library positions (the same alias as
 #: ``sensorsel.information.evaluators.Suite``; the solver needs no evaluator, only a predicate).
@@ -323,9 +332,16 @@ def _ratio(drop: float, price: float) -> float:
     return math.inf if price <= 0 else drop / price
 
 
-def cheapest_suite(feasible: FeasibleSet, meets: Meets, *, failures: int = 0, violation: Violation | None = None,
-                   max_iterations: int = DEFAULT_MAX_ITERATIONS, time_limit: float | None = None,
-                   progress: Progress | None = None) -> CheapestSuite:
+def cheapest_suite(
+    feasible: FeasibleSet,
+    meets: Meets,
+    *,
+    failures: int = 0,
+    violation: Violation | None = None,
+    max_iterations: int = DEFAULT_MAX_ITERATIONS,
+    time_limit: float | None = None,
+    progress: Progress | None = None,
+) -> CheapestSuite:
     """The cheapest suite of ``feasible`` that meets a monotone requirement after any ``failures``
     of its sensors fail, with a lower bound on the cost of every such suite (module docstring).
 
@@ -360,22 +376,46 @@ def cheapest_suite(feasible: FeasibleSet, meets: Meets, *, failures: int = 0, vi
     oracle = _Oracle(meets, violation)
     s = _Search(feasible, oracle, alpha)
 
-    def result(status: str, suite: int | None, lower: float, iterations: int, stop: str, *, by: str = "",
-               best_effort: int = 0, lost: int = 0) -> CheapestSuite:
+    def result(
+        status: str,
+        suite: int | None,
+        lower: float,
+        iterations: int,
+        stop: str,
+        *,
+        by: str = "",
+        best_effort: int = 0,
+        lost: int = 0,
+    ) -> CheapestSuite:
         cost = s.cost(suite) if suite is not None else math.inf
         proved = status != "gap"
         if status == "optimal":
             lower = cost
         gap = cost - lower if suite is not None else math.inf
         cuts = tuple(sorted(_suite(f) for f in oracle.failing))
-        return CheapestSuite(_suite(suite) if suite is not None else None, cost, lower, proved, gap, iterations,
-                             oracle.n_checks, cuts, status, alpha, by, _suite(best_effort) if status == "infeasible"
-                             else (), _suite(lost), stop, time.monotonic() - start)
+        return CheapestSuite(
+            _suite(suite) if suite is not None else None,
+            cost,
+            lower,
+            proved,
+            gap,
+            iterations,
+            oracle.n_checks,
+            cuts,
+            status,
+            alpha,
+            by,
+            _suite(best_effort) if status == "infeasible" else (),
+            _suite(lost),
+            stop,
+            time.monotonic() - start,
+        )
 
     # 1. every allowed sensor together: the most any suite achieves
     if not oracle.meets(s.universe):
-        return result("infeasible", None, math.inf, 0, "every allowed sensor together fails", by="library",
-                      best_effort=s.universe)
+        return result(
+            "infeasible", None, math.inf, 0, "every allowed sensor together fails", by="library", best_effort=s.universe
+        )
 
     # 2. the greedy upper bound (its failing suites are the first cuts)
     incumbent = s.greedy() if violation is not None else None
@@ -390,8 +430,9 @@ def cheapest_suite(feasible: FeasibleSet, meets: Meets, *, failures: int = 0, vi
     stop = ""
     while True:
         if incumbent is not None and upper - lower <= _tol(upper):
-            return result("optimal", incumbent, upper, iterations, "proved optimal: the lower bound reached the "
-                          "best suite found")
+            return result(
+                "optimal", incumbent, upper, iterations, "proved optimal: the lower bound reached the best suite found"
+            )
         if iterations >= max_iterations:
             stop = f"iteration limit ({max_iterations} integer programs)"
             break
@@ -423,7 +464,9 @@ def cheapest_suite(feasible: FeasibleSet, meets: Meets, *, failures: int = 0, vi
             continue  # when the proposal is the integer program's optimum, the bounds now meet
         s.grow(part)
     if incumbent is not None and upper - lower <= _tol(upper):
-        return result("optimal", incumbent, upper, iterations, "proved optimal: the lower bound reached the best suite found")
+        return result(
+            "optimal", incumbent, upper, iterations, "proved optimal: the lower bound reached the best suite found"
+        )
     return result("gap", incumbent, min(lower, upper), iterations, stop)
 
 
@@ -437,16 +480,30 @@ def _infeasible(s: _Search, oracle: _Oracle, result: Callable[..., CheapestSuite
     for f in sorted(oracle.failing, key=lambda m: (bin(s.universe & ~m).count("1"), _suite(m))):
         lost = s.universe & ~f
         if bin(lost).count("1") <= s.alpha:
-            return result("infeasible", None, math.inf, iterations,
-                          f"every allowed sensor meets it, but not after {len(_suite(lost))} of them fail",
-                          by="failures", best_effort=f, lost=lost)
-    return result("infeasible", None, math.inf, iterations,
-                  "no suite within the limits meets it" + (f" after {s.alpha} failure(s)" if s.alpha else ""),
-                  by="limits", best_effort=s.universe)
+            return result(
+                "infeasible",
+                None,
+                math.inf,
+                iterations,
+                f"every allowed sensor meets it, but not after {len(_suite(lost))} of them fail",
+                by="failures",
+                best_effort=f,
+                lost=lost,
+            )
+    return result(
+        "infeasible",
+        None,
+        math.inf,
+        iterations,
+        "no suite within the limits meets it" + (f" after {s.alpha} failure(s)" if s.alpha else ""),
+        by="limits",
+        best_effort=s.universe,
+    )
 
 
-def _propose(s: _Search, cuts: Sequence[int], nogoods: Sequence[int],
-             time_left: float | None) -> tuple[float, int | None, bool] | None:
+def _propose(
+    s: _Search, cuts: Sequence[int], nogoods: Sequence[int], time_left: float | None
+) -> tuple[float, int | None, bool] | None:
     """min cost(x) over the feasible set's rows and every cut: (lower bound [$], the optimal suite
     or None, whether HiGHS proved it optimal), or None when no suite satisfies them all."""
     from scipy.optimize import Bounds, LinearConstraint, milp

@@ -46,17 +46,35 @@ def worker(what: str, seq: str, kitti_root: str, budget: float, alpha: int) -> d
         sel = time.perf_counter() - t0
         n = ev.n_evaluations
         w = worst_case(ev, [problem.library.position(s) for s in g.suite], alpha)
-        out = {"suite": list(g.suite), "nominal": g.score, "worst": w.score, "method": "greedy-uniform", "bound": None,
-               "skipped": []}
+        out = {
+            "suite": list(g.suite),
+            "nominal": g.score,
+            "worst": w.score,
+            "method": "greedy-uniform",
+            "bound": None,
+            "skipped": [],
+        }
     else:
         r = robust_select(ev, budget, alpha)
         sel = time.perf_counter() - t0
         n = r.n_evaluations
-        out = {"suite": list(r.suite), "nominal": r.nominal_score, "worst": r.worst_score, "method": r.method,
-               "bound": r.bound, "skipped": list(r.skipped),
-               "candidates": [(c.method, c.worst_score, c.n_evaluations, c.seconds) for c in r.candidates]}
-    out.update(what=what, load_s=t_load, setup_s=t_setup, seconds=sel, evaluations=n,
-               peak_rss_mb=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0)
+        out = {
+            "suite": list(r.suite),
+            "nominal": r.nominal_score,
+            "worst": r.worst_score,
+            "method": r.method,
+            "bound": r.bound,
+            "skipped": list(r.skipped),
+            "candidates": [(c.method, c.worst_score, c.n_evaluations, c.seconds) for c in r.candidates],
+        }
+    out.update(
+        what=what,
+        load_s=t_load,
+        setup_s=t_setup,
+        seconds=sel,
+        evaluations=n,
+        peak_rss_mb=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
+    )
     return out
 
 
@@ -75,18 +93,39 @@ def main() -> None:
     rows = []
     for what in ("greedy", "robust"):
         load = os.getloadavg()[0]
-        p = subprocess.run([sys.executable, __file__, "--worker", what, "--seq", a.seq, "--kitti-root", a.kitti_root,
-                            "--budget", str(a.budget), "--failures", str(a.failures)],
-                           capture_output=True, text=True, check=True)
+        p = subprocess.run(
+            [
+                sys.executable,
+                __file__,
+                "--worker",
+                what,
+                "--seq",
+                a.seq,
+                "--kitti-root",
+                a.kitti_root,
+                "--budget",
+                str(a.budget),
+                "--failures",
+                str(a.failures),
+            ],
+            capture_output=True,
+            text=True,
+            check=True,
+        )
         r = json.loads(p.stdout.strip().splitlines()[-1])
         r["load"] = load
         rows.append(r)
-    lines = [f"KITTI {a.seq}, real pole map, ${a.budget:,.0f}, alpha = {a.failures}, fast engine, jobs = 1",
-             "", "| run | method | seconds | evaluations | peak RSS [MB] | worst case | load (1 min) |",
-             "|---|---|---:|---:|---:|---:|---:|"]
+    lines = [
+        f"KITTI {a.seq}, real pole map, ${a.budget:,.0f}, alpha = {a.failures}, fast engine, jobs = 1",
+        "",
+        "| run | method | seconds | evaluations | peak RSS [MB] | worst case | load (1 min) |",
+        "|---|---|---:|---:|---:|---:|---:|",
+    ]
     for r in rows:
-        lines.append(f"| {r['what']} | {r['method']} | {r['seconds']:.1f} | {r['evaluations']:,} | {r['peak_rss_mb']:.0f} | "
-                     f"{r['worst']:,.2f} | {r['load']:.1f} |")
+        lines.append(
+            f"| {r['what']} | {r['method']} | {r['seconds']:.1f} | {r['evaluations']:,} | {r['peak_rss_mb']:.0f} | "
+            f"{r['worst']:,.2f} | {r['load']:.1f} |"
+        )
     rob = rows[1]
     lines += ["", f"robust suite: {','.join(rob['suite'])}", f"bound: {rob['bound']}", f"skipped: {rob['skipped']}"]
     for m, w, n, s in rob.get("candidates", []):

@@ -32,8 +32,16 @@ from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
 
-DEFAULT_RUNS = ["03@1:old,new", "03@2:old,new", "03@4:old,new", "03@8:old,new", "02@1:old,new", "02@3:old,new",
-                "00@1:old,new", "02@10:new"]
+DEFAULT_RUNS = [
+    "03@1:old,new",
+    "03@2:old,new",
+    "03@4:old,new",
+    "03@8:old,new",
+    "02@1:old,new",
+    "02@3:old,new",
+    "00@1:old,new",
+    "02@10:new",
+]
 QUICK_RUNS = ["03@1:old,new", "03@2:old,new", "03@4:old,new", "03@8:old,new"]
 
 
@@ -48,24 +56,53 @@ def worker(seq: str, hz: float, engine: str, kitti_root: str, budget: float, job
     t0 = time.perf_counter()
     problem = load_problem(ScenarioSpec(seq=seq, kitti_root=kitti_root, keyframe_rate_hz=hz))
     t1 = time.perf_counter()
-    kw = {"front_below": 0.0} if engine == "old" else {"front_below": float(engine[3:])} if engine.startswith("fb=") else {}
+    kw = (
+        {"front_below": 0.0}
+        if engine == "old"
+        else {"front_below": float(engine[3:])}
+        if engine.startswith("fb=")
+        else {}
+    )
     ev = FastEvaluator(problem, jobs=jobs, **kw)
     t2 = time.perf_counter()
     c0 = time.process_time()
     res = greedy(ev, budget, "uniform", lazy=True)
     t3 = time.perf_counter()
     return {
-        "seq": seq, "hz": hz, "engine": engine, "jobs": ev.jobs, "n_poses": problem.scenario.n_poses,
-        "n_landmarks": problem.scenario.n_landmarks, "load_s": t1 - t0, "setup_s": t2 - t1, "select_s": t3 - t2,
-        "cpu_s": time.process_time() - c0, "n_evaluations": res.n_evaluations, "suite": list(res.suite),
-        "score": res.score, "step_scores": [s.score for s in res.steps], "counts": dict(ev.kernel.counts),
+        "seq": seq,
+        "hz": hz,
+        "engine": engine,
+        "jobs": ev.jobs,
+        "n_poses": problem.scenario.n_poses,
+        "n_landmarks": problem.scenario.n_landmarks,
+        "load_s": t1 - t0,
+        "setup_s": t2 - t1,
+        "select_s": t3 - t2,
+        "cpu_s": time.process_time() - c0,
+        "n_evaluations": res.n_evaluations,
+        "suite": list(res.suite),
+        "score": res.score,
+        "step_scores": [s.score for s in res.steps],
+        "counts": dict(ev.kernel.counts),
         "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
     }
 
 
 def run_child(seq: str, hz: float, engine: str, args: argparse.Namespace) -> dict:
-    cmd = [sys.executable, __file__, "--worker", seq, str(hz), engine, "--kitti-root", args.kitti_root,
-           "--budget", str(args.budget), "--jobs", str(args.jobs)]
+    cmd = [
+        sys.executable,
+        __file__,
+        "--worker",
+        seq,
+        str(hz),
+        engine,
+        "--kitti-root",
+        args.kitti_root,
+        "--budget",
+        str(args.budget),
+        "--jobs",
+        str(args.jobs),
+    ]
     out = subprocess.run(cmd, check=True, capture_output=True, text=True)
     return json.loads(out.stdout.strip().splitlines()[-1])
 
@@ -96,10 +133,14 @@ def fit_exponent(points: list[tuple[int, float]]) -> float:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--kitti-root", default=os.environ.get("SENSORSEL_KITTI_ROOT", str(REPO.parent / "shared" / "kitti")))
+    ap.add_argument(
+        "--kitti-root", default=os.environ.get("SENSORSEL_KITTI_ROOT", str(REPO.parent / "shared" / "kitti"))
+    )
     ap.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--budget", type=float, default=110_000.0)
-    ap.add_argument("--runs", nargs="+", default=None, help="SEQ@HZ:ENGINES, e.g. 02@3:old,new (default: the issue's table)")
+    ap.add_argument(
+        "--runs", nargs="+", default=None, help="SEQ@HZ:ENGINES, e.g. 02@3:old,new (default: the issue's table)"
+    )
     ap.add_argument("--quick", action="store_true", help="KITTI 03 at 1, 2, 4, 8 Hz only")
     ap.add_argument("--worker", nargs=3, metavar=("SEQ", "HZ", "ENGINE"), help=argparse.SUPPRESS)
     args = ap.parse_args()
@@ -108,8 +149,11 @@ def main() -> None:
         print(json.dumps(worker(seq, float(hz), engine, args.kitti_root, args.budget, args.jobs)))
         return
     specs = args.runs or (QUICK_RUNS if args.quick else DEFAULT_RUNS)
-    print(f"machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}; "
-          f"budget ${args.budget:,.0f}, jobs={args.jobs}; load average at start {os.getloadavg()[0]:.1f}", flush=True)
+    print(
+        f"machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}; "
+        f"budget ${args.budget:,.0f}, jobs={args.jobs}; load average at start {os.getloadavg()[0]:.1f}",
+        flush=True,
+    )
     results: list[dict] = []
     for i, spec in enumerate(specs):
         where, engines = spec.split(":")
@@ -123,12 +167,44 @@ def main() -> None:
     rows = []
     for r in results:
         paths = ",".join(f"{k}:{v}" for k, v in sorted(r["counts"].items()) if k in ("front", "potrf", "splu"))
-        rows.append([r["seq"], f"{r['hz']:g}", r["engine"], r["n_poses"], r["n_evaluations"], f"{r['setup_s']:.2f}",
-                     f"{r['select_s']:.2f}", f"{r['cpu_s']:.1f}", f"{r['setup_s'] + r['select_s']:.2f}", f"{r['peak_rss_mb']:.0f}",
-                     f"{1024 * r['peak_rss_mb'] / r['n_poses']:.0f}", paths, f"{r['score']:.4f}"])
+        rows.append(
+            [
+                r["seq"],
+                f"{r['hz']:g}",
+                r["engine"],
+                r["n_poses"],
+                r["n_evaluations"],
+                f"{r['setup_s']:.2f}",
+                f"{r['select_s']:.2f}",
+                f"{r['cpu_s']:.1f}",
+                f"{r['setup_s'] + r['select_s']:.2f}",
+                f"{r['peak_rss_mb']:.0f}",
+                f"{1024 * r['peak_rss_mb'] / r['n_poses']:.0f}",
+                paths,
+                f"{r['score']:.4f}",
+            ]
+        )
     print()
-    print(table(rows, ["seq", "Hz", "engine", "keyframes", "evals", "setup s", "select s", "cpu s", "wall s", "peak MB",
-                       "kB/kf", "paths (evaluations)", "score f [nats]"]))
+    print(
+        table(
+            rows,
+            [
+                "seq",
+                "Hz",
+                "engine",
+                "keyframes",
+                "evals",
+                "setup s",
+                "select s",
+                "cpu s",
+                "wall s",
+                "peak MB",
+                "kB/kf",
+                "paths (evaluations)",
+                "score f [nats]",
+            ],
+        )
+    )
     print("\nwall = setup + selection (loading excluded); cpu = process CPU of the selection (all threads);")
     print("kB/kf = peak RSS per keyframe (the whole process: interpreter, numpy, gtsam, the scenario).")
     by = {(r["seq"], r["hz"], r["engine"]): r for r in results}
@@ -138,17 +214,21 @@ def main() -> None:
         if engine != "new" or old is None:
             continue
         ok, rel = agree(new, old)
-        print(f"{seq} @ {hz:g} Hz: selection {old['select_s']:.2f} s -> {new['select_s']:.2f} s "
-              f"({old['select_s'] / new['select_s']:.1f}x; CPU {old['cpu_s'] / max(new['cpu_s'], 1e-9):.1f}x), "
-              f"picks and scores agree: {'yes' if ok else 'NO'} (largest relative difference {rel:.1e})")
+        print(
+            f"{seq} @ {hz:g} Hz: selection {old['select_s']:.2f} s -> {new['select_s']:.2f} s "
+            f"({old['select_s'] / new['select_s']:.1f}x; CPU {old['cpu_s'] / max(new['cpu_s'], 1e-9):.1f}x), "
+            f"picks and scores agree: {'yes' if ok else 'NO'} (largest relative difference {rel:.1e})"
+        )
     for engine in ("old", "new"):
         seqs = sorted({r["seq"] for r in results if r["engine"] == engine})
         for seq in seqs:
             pts = sorted((r["n_poses"], r["select_s"]) for r in results if r["engine"] == engine and r["seq"] == seq)
             if len(pts) >= 3:
-                print(f"{seq} {engine}: selection time ~ keyframes^{fit_exponent(pts):.2f} over "
-                      f"{', '.join(str(k) for k, _ in pts)} keyframes "
-                      f"(x{pts[-1][1] / pts[0][1]:.1f} time for x{pts[-1][0] / pts[0][0]:.1f} keyframes)")
+                print(
+                    f"{seq} {engine}: selection time ~ keyframes^{fit_exponent(pts):.2f} over "
+                    f"{', '.join(str(k) for k, _ in pts)} keyframes "
+                    f"(x{pts[-1][1] / pts[0][1]:.1f} time for x{pts[-1][0] / pts[0][0]:.1f} keyframes)"
+                )
 
 
 if __name__ == "__main__":

@@ -66,8 +66,17 @@ def solve_once(payload, run: int, every_measurement: bool) -> tuple[float, np.nd
     q = pairs(payload, d)
     if every_measurement:  # each measurement its own "pair": the old graph, factor for factor
         o = payload.order()
-        q = dataclasses.replace(q, pose=payload.pose[o], landmark=payload.landmark[o], bearing_rad=d.bearing_rad[o], range_m=d.range_m[o],
-                                sigma_bearing_rad=payload.sigma_bearing_rad[o], sigma_range_m=payload.sigma_range_m[o], first=o, constant=0.0)
+        q = dataclasses.replace(
+            q,
+            pose=payload.pose[o],
+            landmark=payload.landmark[o],
+            bearing_rad=d.bearing_rad[o],
+            range_m=d.range_m[o],
+            sigma_bearing_rad=payload.sigma_bearing_rad[o],
+            sigma_range_m=payload.sigma_range_m[o],
+            first=o,
+            constant=0.0,
+        )
     est, iterations, _ = solve_lm(payload, Noise(payload), d, d.dead_reckoning(), q)
     return time.perf_counter() - t, pose_array(est, len(payload.poses)), iterations
 
@@ -92,9 +101,11 @@ def main() -> None:
 
     problem = load_problem(ScenarioSpec(seq=a.seq, kitti_root=a.kitti_root))
     suite = problem.library.parse_suite(a.suite)
-    print(f"KITTI {a.seq}: {problem.scenario.n_poses} keyframes, {problem.scenario.n_landmarks} landmarks; suite "
-          f"{a.suite} "
-          f"(${problem.library.cost(suite):,.0f}); {a.runs} runs on {a.jobs} process(es); {os.cpu_count()} cores")
+    print(
+        f"KITTI {a.seq}: {problem.scenario.n_poses} keyframes, {problem.scenario.n_landmarks} landmarks; suite "
+        f"{a.suite} "
+        f"(${problem.library.cost(suite):,.0f}); {a.runs} runs on {a.jobs} process(es); {os.cpu_count()} cores"
+    )
     for ms in (None, a.map_sigma):
         model = "SLAM" if ms is None else f"map {ms:g} m"
         t = time.perf_counter()
@@ -103,14 +114,18 @@ def main() -> None:
         tm = res.timing
         assert tm is not None
         iters = [r.iterations for r in res.runs]
-        print(f"\n[{model}] new: {wall:.1f} s wall (runs {tm.runs_s:.1f} s, prediction {tm.covariance_s:.2f} s, "
-              f"rest {wall - tm.runs_s - tm.covariance_s:.1f} s); LM iterations per run {min(iters)}-{max(iters)}")
+        print(
+            f"\n[{model}] new: {wall:.1f} s wall (runs {tm.runs_s:.1f} s, prediction {tm.covariance_s:.2f} s, "
+            f"rest {wall - tm.runs_s - tm.covariance_s:.1f} s); LM iterations per run {min(iters)}-{max(iters)}"
+        )
         acc = res.accuracy
         assert acc is not None
         for c in ("lateral", "longitudinal", "heading"):
             m, p = acc.spread("measured", c), acc.spread("predicted", c)
-            print(f"    {c:<12} 95 % predicted {p.median:.4f} / {p.max:.4f}, measured {m.median:.4f} / {m.max:.4f} "
-                  f"(median / worst keyframe), {100 * dict(acc.coverage)[c]:.1f} % inside ±1.96σ")
+            print(
+                f"    {c:<12} 95 % predicted {p.median:.4f} / {p.max:.4f}, measured {m.median:.4f} / {m.max:.4f} "
+                f"(median / worst keyframe), {100 * dict(acc.coverage)[c]:.1f} % inside ±1.96σ"
+            )
         payload = make_payload(problem, suite, (), 1.0, "lm", 0, ms)
         t_old_runs, t_new_runs, diff_runs = 0.0, 0.0, 0.0
         for r in range(a.old_runs):
@@ -118,11 +133,15 @@ def main() -> None:
             t_n, est_n, it_n = solve_once(payload, r, False)
             t_old_runs, t_new_runs = t_old_runs + t_o, t_new_runs + t_n
             diff_runs = max(diff_runs, float(np.max(np.abs(est_o - est_n))))
-            print(f"    run {r}: one factor per measurement {t_o:.1f} s ({it_o} iterations), per pair {t_n:.1f} s "
-                  f"({it_n} iterations)")
+            print(
+                f"    run {r}: one factor per measurement {t_o:.1f} s ({it_o} iterations), per pair {t_n:.1f} s "
+                f"({it_n} iterations)"
+            )
         ratio = t_old_runs / t_new_runs
-        print(f"    per run: {ratio:.2f}x faster with one factor per pair; largest difference of the estimated poses "
-              f"{diff_runs:.1e}")
+        print(
+            f"    per run: {ratio:.2f}x faster with one factor per pair; largest difference of the estimated poses "
+            f"{diff_runs:.1e}"
+        )
         if a.skip_old:
             continue
         t = time.perf_counter()
@@ -130,12 +149,16 @@ def main() -> None:
         t_new = time.perf_counter() - t
         t_old, old_cov = marginals_prediction(payload)
         diff = float(np.max(np.abs(new_cov - old_cov)) / np.max(np.abs(old_cov)))
-        print(f"    prediction: old (gtsam.Marginals) {t_old:.1f} s, new (closed form) {t_new:.2f} s: "
-              f"{t_old / t_new:.0f}x; "
-              f"max relative difference of the pose covariance {diff:.1e}")
+        print(
+            f"    prediction: old (gtsam.Marginals) {t_old:.1f} s, new (closed form) {t_new:.2f} s: "
+            f"{t_old / t_new:.0f}x; "
+            f"max relative difference of the pose covariance {diff:.1e}"
+        )
         old = tm.runs_s * ratio + t_old
-        print(f"    whole simulation: old {old:.1f} s (runs x {ratio:.2f} + Marginals), new {wall:.1f} s: "
-              f"{old / wall:.1f}x")
+        print(
+            f"    whole simulation: old {old:.1f} s (runs x {ratio:.2f} + Marginals), new {wall:.1f} s: "
+            f"{old / wall:.1f}x"
+        )
 
 
 if __name__ == "__main__":

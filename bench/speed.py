@@ -47,18 +47,39 @@ def worker(seq: str, kitti_root: str, engine: str, budget: float, jobs: int) -> 
     res = greedy(ev, budget, "uniform", lazy=(engine == "fast"))
     t3 = time.perf_counter()
     return {
-        "seq": seq, "engine": engine, "lazy": res.lazy, "jobs": ev.jobs,
-        "n_poses": problem.scenario.n_poses, "n_landmarks": problem.scenario.n_landmarks,
+        "seq": seq,
+        "engine": engine,
+        "lazy": res.lazy,
+        "jobs": ev.jobs,
+        "n_poses": problem.scenario.n_poses,
+        "n_landmarks": problem.scenario.n_landmarks,
         "n_measurements": int(sum(len(o) for o in problem.observations)),
-        "load_s": t1 - t0, "setup_s": t2 - t1, "select_s": t3 - t2, "n_evaluations": res.n_evaluations,
-        "suite": list(res.suite), "score": res.score, "cost_usd": res.cost_usd,
+        "load_s": t1 - t0,
+        "setup_s": t2 - t1,
+        "select_s": t3 - t2,
+        "n_evaluations": res.n_evaluations,
+        "suite": list(res.suite),
+        "score": res.score,
+        "cost_usd": res.cost_usd,
         "step_scores": [s.score for s in res.steps],
         "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
     }
 
 
 def run_child(seq: str, kitti_root: str, engine: str, budget: float, jobs: int) -> dict:
-    cmd = [sys.executable, __file__, "--worker", seq, engine, "--kitti-root", kitti_root, "--budget", str(budget), "--jobs", str(jobs)]
+    cmd = [
+        sys.executable,
+        __file__,
+        "--worker",
+        seq,
+        engine,
+        "--kitti-root",
+        kitti_root,
+        "--budget",
+        str(budget),
+        "--jobs",
+        str(jobs),
+    ]
     out = subprocess.run(cmd, check=True, capture_output=True, text=True)
     return json.loads(out.stdout.strip().splitlines()[-1])
 
@@ -82,9 +103,13 @@ def agree(a: dict, b: dict) -> tuple[bool, bool, float]:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--kitti-root", default=os.environ.get("SENSORSEL_KITTI_ROOT", str(REPO.parent / "shared" / "kitti")))
+    ap.add_argument(
+        "--kitti-root", default=os.environ.get("SENSORSEL_KITTI_ROOT", str(REPO.parent / "shared" / "kitti"))
+    )
     ap.add_argument("--quick", action="store_true", help="KITTI 03 only")
-    ap.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="threads of the fast engine (default: all cores)")
+    ap.add_argument(
+        "--jobs", type=int, default=os.cpu_count() or 1, help="threads of the fast engine (default: all cores)"
+    )
     ap.add_argument("--budget", type=float, default=110_000.0)
     ap.add_argument("--engines", default="reference,fast", help="comma-separated subset of reference,fast")
     ap.add_argument("--worker", nargs=2, metavar=("SEQ", "ENGINE"), help=argparse.SUPPRESS)
@@ -95,9 +120,12 @@ def main() -> None:
 
     seqs = ["03"] if args.quick else ["03", "00"]
     engines = [e for e in ("reference", "fast") if e in args.engines.split(",")]
-    print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, Python "
-          f"{platform.python_version()}; "
-          f"budget ${args.budget:,.0f}, fast engine jobs={args.jobs}", flush=True)
+    print(
+        f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, Python "
+        f"{platform.python_version()}; "
+        f"budget ${args.budget:,.0f}, fast engine jobs={args.jobs}",
+        flush=True,
+    )
     results: dict[tuple[str, str], dict] = {}
     for seq in seqs:
         for engine in reversed(engines):  # fast first: its numbers are ready in seconds
@@ -107,13 +135,44 @@ def main() -> None:
     rows = []
     for (seq, engine), r in results.items():
         wall = r["setup_s"] + r["select_s"]
-        rows.append([seq, engine, "lazy" if r["lazy"] else "plain", str(r["jobs"]) if engine == "fast" else "1",
-                     f"{r['n_poses']}/{r['n_landmarks']}/{r['n_measurements']}", r["n_evaluations"],
-                     f"{r['load_s']:.2f}", f"{r['setup_s']:.2f}", f"{r['select_s']:.2f}", f"{wall:.2f}",
-                     f"{1e3 * r['select_s'] / max(1, r['n_evaluations']):.1f}", f"{r['peak_rss_mb']:.0f}", f"{r['score']:.4f}"])
+        rows.append(
+            [
+                seq,
+                engine,
+                "lazy" if r["lazy"] else "plain",
+                str(r["jobs"]) if engine == "fast" else "1",
+                f"{r['n_poses']}/{r['n_landmarks']}/{r['n_measurements']}",
+                r["n_evaluations"],
+                f"{r['load_s']:.2f}",
+                f"{r['setup_s']:.2f}",
+                f"{r['select_s']:.2f}",
+                f"{wall:.2f}",
+                f"{1e3 * r['select_s'] / max(1, r['n_evaluations']):.1f}",
+                f"{r['peak_rss_mb']:.0f}",
+                f"{r['score']:.4f}",
+            ]
+        )
     print()
-    print(table(rows, ["seq", "engine", "greedy", "jobs", "poses/lm/meas", "evals", "load s", "setup s", "select s",
-                       "wall s", "ms/eval", "peak MB", "score f [nats]"]))
+    print(
+        table(
+            rows,
+            [
+                "seq",
+                "engine",
+                "greedy",
+                "jobs",
+                "poses/lm/meas",
+                "evals",
+                "load s",
+                "setup s",
+                "select s",
+                "wall s",
+                "ms/eval",
+                "peak MB",
+                "score f [nats]",
+            ],
+        )
+    )
     print("\nwall = setup + selection (scenario loading excluded, same for both); ms/eval = selection / evals;")
     print("peak MB = peak RSS of the run's own process (ru_maxrss).")
     for seq in seqs:
@@ -123,11 +182,15 @@ def main() -> None:
             per_ref = ref["select_s"] / ref["n_evaluations"]
             per_fast = fa["select_s"] / fa["n_evaluations"]
             picks, scores, rel = agree(fa, ref)
-            print(f"\n{seq}: speed-up {w_ref / w_fast:.1f}x in wall time ({w_ref:.1f} s -> {w_fast:.2f} s), "
-                  f"{per_ref / per_fast:.1f}x per evaluation ({1e3 * per_ref:.1f} -> {1e3 * per_fast:.2f} ms), "
-                  f"{ref['n_evaluations'] / fa['n_evaluations']:.1f}x fewer evaluations")
-            print(f"{seq}: picks agree: {'yes' if picks else 'NO'}; scores agree (1e-9 rel): {'yes' if scores else 'NO'} "
-                  f"(largest relative difference {rel:.1e})")
+            print(
+                f"\n{seq}: speed-up {w_ref / w_fast:.1f}x in wall time ({w_ref:.1f} s -> {w_fast:.2f} s), "
+                f"{per_ref / per_fast:.1f}x per evaluation ({1e3 * per_ref:.1f} -> {1e3 * per_fast:.2f} ms), "
+                f"{ref['n_evaluations'] / fa['n_evaluations']:.1f}x fewer evaluations"
+            )
+            print(
+                f"{seq}: picks agree: {'yes' if picks else 'NO'}; scores agree (1e-9 rel): {'yes' if scores else 'NO'} "
+                f"(largest relative difference {rel:.1e})"
+            )
             print(f"{seq}: suite {', '.join(fa['suite'])}  (${fa['cost_usd']:,.0f})")
 
 

@@ -21,10 +21,10 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "src"))
 
+from sensorsel.designs.tradespace import tradespace  # noqa: E402
 from sensorsel.information.evaluators import make_evaluator  # noqa: E402
 from sensorsel.model.problem import load_problem  # noqa: E402
 from sensorsel.model.scenario import ScenarioSpec  # noqa: E402
-from sensorsel.designs.tradespace import tradespace  # noqa: E402
 
 
 def main() -> None:
@@ -43,17 +43,23 @@ def main() -> None:
         t0 = time.perf_counter()
         res = tradespace(ev, share_prefix=share)
         out[share] = (res, time.perf_counter() - t0)
-        print(f"share_prefix={share!s:5}  engine {res.engine}: {res.n_evaluations:6d} suites scored in "
-              f"{out[share][1]:8.2f} s; "
-              f"{len(res.architectures)} architectures, {len(res.front)} on the front; "
-              f"{sum(r.shared_steps for r in res.runs)} of {sum(r.n_steps for r in res.runs)} picks taken from "
-              "larger runs")
+        print(
+            f"share_prefix={share!s:5}  engine {res.engine}: {res.n_evaluations:6d} suites scored in "
+            f"{out[share][1]:8.2f} s; "
+            f"{len(res.architectures)} architectures, {len(res.front)} on the front; "
+            f"{sum(r.shared_steps for r in res.runs)} of {sum(r.n_steps for r in res.runs)} picks taken from "
+            "larger runs"
+        )
     (a, ta), (b, tb) = out[False], out[True]
-    same = [x.suite for x in a.architectures] == [x.suite for x in b.architectures] and \
-        [x.on_front for x in a.architectures] == [x.on_front for x in b.architectures] and \
-        all(abs(x.score - y.score) <= 1e-9 * abs(y.score) for x, y in zip(a.architectures, b.architectures))
-    print(f"scenario {problem.scenario.name}: sharing scores {a.n_evaluations / b.n_evaluations:.2f}x fewer suites, "
-          f"{ta / tb:.2f}x faster; same tradespace: {same}")
+    same = (
+        [x.suite for x in a.architectures] == [x.suite for x in b.architectures]
+        and [x.on_front for x in a.architectures] == [x.on_front for x in b.architectures]
+        and all(abs(x.score - y.score) <= 1e-9 * abs(y.score) for x, y in zip(a.architectures, b.architectures))
+    )
+    print(
+        f"scenario {problem.scenario.name}: sharing scores {a.n_evaluations / b.n_evaluations:.2f}x fewer suites, "
+        f"{ta / tb:.2f}x faster; same tradespace: {same}"
+    )
 
 
 if __name__ == "__main__":

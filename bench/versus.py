@@ -47,8 +47,9 @@ def _run(src: Path, args: list[str], env: dict[str, str]) -> tuple[float, dict]:
 
 
 def _args(src: Path, seq: str, root: str, env: dict[str, str], command: str = "greedy", out: str = "") -> list[str]:
-    help_text = subprocess.run([*CLI, command, "--help"], capture_output=True, text=True,
-                               env={**env, "PYTHONPATH": str(src)}, cwd=src.parent).stdout
+    help_text = subprocess.run(
+        [*CLI, command, "--help"], capture_output=True, text=True, env={**env, "PYTHONPATH": str(src)}, cwd=src.parent
+    ).stdout
     if "Usage:" not in help_text:
         raise SystemExit(f"{src}: could not read `sensorsel {command} --help`")
     extra = ["--landmarks", "synthetic"] if "real|synthetic" in help_text else []  # older CLIs generate by default
@@ -72,15 +73,19 @@ def _answer(command: str, res: dict) -> tuple[object, float]:
     if command == "robust":
         return (res["suite"], res["method"]), float(res["worst_score"])
     if command == "resilient":
-        return (res["suite"], [(p["worst"]["suite"], p["worst"]["score"]) for p in res["per_period"]["periods"]]), \
-            float(res["comparison"]["resilient"]["score"])
+        return (
+            res["suite"],
+            [(p["worst"]["suite"], p["worst"]["score"]) for p in res["per_period"]["periods"]],
+        ), float(res["comparison"]["resilient"]["score"])
     return res["suite"], float(res["score"])
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--base", required=True, help="the earlier commit (any git revision)")
-    ap.add_argument("--kitti-root", default=os.environ.get("SENSORSEL_KITTI_ROOT", str(REPO.parent / "shared" / "kitti")))
+    ap.add_argument(
+        "--kitti-root", default=os.environ.get("SENSORSEL_KITTI_ROOT", str(REPO.parent / "shared" / "kitti"))
+    )
     ap.add_argument("--seq", nargs="+", default=["03", "00"])
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--command", choices=["greedy", "pareto", "resilient", "robust"], default="greedy")
@@ -91,13 +96,17 @@ def main() -> None:
         subprocess.run(["git", "-C", str(REPO), "worktree", "add", "--detach", "-q", str(base), a.base], check=True)
         try:
             trees = {"base": base / "src", "head": REPO / "src"}
-            print(f"sensorsel {a.command}: base {a.base} against this tree; {a.repeats} alternating runs each; "
-                  "synthetic landmarks; "
-                  f"{os.cpu_count()} cores")
+            print(
+                f"sensorsel {a.command}: base {a.base} against this tree; {a.repeats} alternating runs each; "
+                "synthetic landmarks; "
+                f"{os.cpu_count()} cores"
+            )
             print(f"{'seq':<4} {'tree':<5} {'select s (median)':>17} {'wall s (median)':>15}  runs (select s)")
             for seq in a.seq:
-                args = {k: _args(src, seq, a.kitti_root, env, a.command, str(Path(tmp) / f"out-{k}"))
-                        for k, src in trees.items()}
+                args = {
+                    k: _args(src, seq, a.kitti_root, env, a.command, str(Path(tmp) / f"out-{k}"))
+                    for k, src in trees.items()
+                }
                 sel: dict[str, list[float]] = {"base": [], "head": []}
                 wall: dict[str, list[float]] = {"base": [], "head": []}
                 out: dict[str, dict] = {}
@@ -108,14 +117,18 @@ def main() -> None:
                         wall[k].append(w)
                         out[k] = res
                 for k in trees:
-                    print(f"{seq:<4} {k:<5} {statistics.median(sel[k]):>17.2f} {statistics.median(wall[k]):>15.2f}  "
-                          + ", ".join(f"{v:.2f}" for v in sel[k]))
+                    print(
+                        f"{seq:<4} {k:<5} {statistics.median(sel[k]):>17.2f} {statistics.median(wall[k]):>15.2f}  "
+                        + ", ".join(f"{v:.2f}" for v in sel[k])
+                    )
                 (ans_b, score_b), (ans_h, score_h) = _answer(a.command, out["base"]), _answer(a.command, out["head"])
                 same = ans_b == ans_h
                 rel = abs(score_b - score_h) / max(1.0, abs(score_b))
                 ratio = statistics.median(sel["head"]) / statistics.median(sel["base"])
-                print(f"{seq}: head/base selection time {ratio:.2f} (below 1: faster); same suite: {same}; "
-                      f"relative score difference {rel:.1e}")
+                print(
+                    f"{seq}: head/base selection time {ratio:.2f} (below 1: faster); same suite: {same}; "
+                    f"relative score difference {rel:.1e}"
+                )
         finally:
             subprocess.run(["git", "-C", str(REPO), "worktree", "remove", "--force", str(base)], check=False)
 

@@ -41,9 +41,9 @@ import shutil
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
 
 DOCS = Path(__file__).resolve().parent
 REPO = DOCS.parent
@@ -95,7 +95,9 @@ class Ctx:
 
     def run(self, *args: str, stdout: Path | None = None, ok: tuple[int, ...] = (0,)) -> None:
         cmd = [*sensorsel_cmd(), *args]
-        shown = " ".join(a.replace(self.kitti_root, "$KITTI").replace(str(REPO) + os.sep, "") for a in ["sensorsel", *args])
+        shown = " ".join(
+            a.replace(self.kitti_root, "$KITTI").replace(str(REPO) + os.sep, "") for a in ["sensorsel", *args]
+        )
         print(f"  $ {shown}", flush=True)
         self.log.append(shown)
         p = subprocess.run(cmd, capture_output=True, text=True)
@@ -124,6 +126,7 @@ def _move(src: Path, dst: Path) -> None:
 def step_scene(seq: str) -> Callable[[Ctx], None]:
     def run(c: Ctx) -> None:
         c.run("scene", *c.scen(seq), "-o", str(c.img / f"scene{seq}.png"))
+
     return run
 
 
@@ -131,14 +134,35 @@ def step_scores(seq: str) -> Callable[[Ctx], None]:
     def run(c: Ctx) -> None:
         for label, (ids, _) in SCORE_SUITES.items():
             c.run("score", *c.scen(seq), "--suite", ids, "--json", stdout=c.out / "scores" / f"{seq}-{label}.json")
+
     return run
 
 
 def step_greedy(seq: str) -> Callable[[Ctx], None]:
     def run(c: Ctx) -> None:
-        c.run("greedy", *c.scen(seq), "--budget", BUDGET, "--rule", "uniform", "-q", "-o", str(c.out / f"greedy{seq}.json"))
-        c.run("greedy", *c.scen(seq), "--budget", BUDGET, "--rule", "best-of", "-q",
-              "-o", str(c.out / f"greedy{seq}-best-of.json"))
+        c.run(
+            "greedy",
+            *c.scen(seq),
+            "--budget",
+            BUDGET,
+            "--rule",
+            "uniform",
+            "-q",
+            "-o",
+            str(c.out / f"greedy{seq}.json"),
+        )
+        c.run(
+            "greedy",
+            *c.scen(seq),
+            "--budget",
+            BUDGET,
+            "--rule",
+            "best-of",
+            "-q",
+            "-o",
+            str(c.out / f"greedy{seq}-best-of.json"),
+        )
+
     return run
 
 
@@ -150,8 +174,21 @@ def step_domain(c: Ctx) -> None:
     env_root = os.environ.get("SENSORSEL_KITTI_ROOT")
     os.environ["SENSORSEL_KITTI_ROOT"] = c.kitti_root  # the domain file's routes are under $SENSORSEL_KITTI_ROOT
     try:
-        c.run("greedy", "--domain", str(REPO / "configs" / "domain_kitti.yaml"), "--budget", BUDGET, "--rule", "uniform",
-              "-q", "-o", str(c.out / "domain.json"), "--plot", str(c.img / "domain.png"), stdout=c.out / "domain.txt")
+        c.run(
+            "greedy",
+            "--domain",
+            str(REPO / "configs" / "domain_kitti.yaml"),
+            "--budget",
+            BUDGET,
+            "--rule",
+            "uniform",
+            "-q",
+            "-o",
+            str(c.out / "domain.json"),
+            "--plot",
+            str(c.img / "domain.png"),
+            stdout=c.out / "domain.txt",
+        )
     finally:
         if env_root is None:
             del os.environ["SENSORSEL_KITTI_ROOT"]
@@ -161,12 +198,24 @@ def step_domain(c: Ctx) -> None:
 
 def step_robust(seq: str, alpha: int) -> Callable[[Ctx], None]:
     """Greedy, the paper's Algorithm 2 and the robust design side by side, real maps only."""
+
     def run(c: Ctx) -> None:
         if c.landmarks != "real":
             return
         name = f"robust{seq}-a{alpha}"
-        c.run("robust", *c.scen(seq), "--budget", BUDGET, "--failures", str(alpha), "-q", "-o", str(c.out / f"{name}.json"),
-              stdout=c.out / f"{name}.txt")
+        c.run(
+            "robust",
+            *c.scen(seq),
+            "--budget",
+            BUDGET,
+            "--failures",
+            str(alpha),
+            "-q",
+            "-o",
+            str(c.out / f"{name}.json"),
+            stdout=c.out / f"{name}.txt",
+        )
+
     return run
 
 
@@ -175,6 +224,7 @@ def step_pareto(seq: str) -> Callable[[Ctx], None]:
         d = c.out / f"pareto{seq}"
         c.run("pareto", *c.scen(seq), "-q", "--output-dir", str(d))
         _move(d / "pareto.png", c.img / f"pareto{seq}.png")
+
     return run
 
 
@@ -198,21 +248,55 @@ def step_resilient(seq: str) -> Callable[[Ctx], None]:
         shown = f"python -c <worst_case of the paper's Greedy{seq}, 1 failure>"
         print(f"  $ {shown}", flush=True)
         c.log.append(shown)
-        subprocess.run([sys.executable, "-c", code, seq, c.kitti_root, c.landmarks, PAPER_GREEDY[seq],
-                        str(d / f"paper-greedy{seq}-worst-case.json")], check=True)
+        subprocess.run(
+            [
+                sys.executable,
+                "-c",
+                code,
+                seq,
+                c.kitti_root,
+                c.landmarks,
+                PAPER_GREEDY[seq],
+                str(d / f"paper-greedy{seq}-worst-case.json"),
+            ],
+            check=True,
+        )
+
     return run
 
 
 def step_certify(seq: str) -> Callable[[Ctx], None]:
     def run(c: Ctx) -> None:
         for rule in RULES:
-            c.run("certify", *c.scen(seq), "--budget", BUDGET, "--rule", rule, "-q", "-o", str(c.out / f"certify{seq}-{rule}.json"))
+            c.run(
+                "certify",
+                *c.scen(seq),
+                "--budget",
+                BUDGET,
+                "--rule",
+                rule,
+                "-q",
+                "-o",
+                str(c.out / f"certify{seq}-{rule}.json"),
+            )
+
     return run
 
 
 def step_optimal(seq: str) -> Callable[[Ctx], None]:
     def run(c: Ctx) -> None:
-        c.run("optimal", *c.scen(seq), "--budget", BUDGET, "--max-nodes", "2000", "-q", "-o", str(c.out / f"optimal{seq}.json"))
+        c.run(
+            "optimal",
+            *c.scen(seq),
+            "--budget",
+            BUDGET,
+            "--max-nodes",
+            "2000",
+            "-q",
+            "-o",
+            str(c.out / f"optimal{seq}.json"),
+        )
+
     return run
 
 
@@ -224,16 +308,42 @@ def step_simulate(seq: str) -> Callable[[Ctx], None]:
             if not need.is_file():
                 raise SystemExit(f"regenerate: simulate{seq} needs {need} (run resilient{seq} and greedy{seq} first)")
         common = [*c.scen(seq), "--runs", SIM_RUNS, "--start-sigmas", SIM_START, "-q"]
-        paper = ["--suite", PAPER_GREEDY[seq], "--label", f"Greedy{seq}-paper", "--compare", str(res), "--compare-label", "resilient"]
-        for name, extra in (("fail", [*paper, "--fail", "LRL-roof"]), ("nominal", paper),
-                            ("greedy-fail", ["--suite", str(greedy), "--label", "greedy", "--compare", str(res),
-                                             "--compare-label", "resilient", "--fail", "LRL-roof"])):
+        paper = [
+            "--suite",
+            PAPER_GREEDY[seq],
+            "--label",
+            f"Greedy{seq}-paper",
+            "--compare",
+            str(res),
+            "--compare-label",
+            "resilient",
+        ]
+        for name, extra in (
+            ("fail", [*paper, "--fail", "LRL-roof"]),
+            ("nominal", paper),
+            (
+                "greedy-fail",
+                [
+                    "--suite",
+                    str(greedy),
+                    "--label",
+                    "greedy",
+                    "--compare",
+                    str(res),
+                    "--compare-label",
+                    "resilient",
+                    "--fail",
+                    "LRL-roof",
+                ],
+            ),
+        ):
             d = c.out / f"simulate{seq}-{name}"
             c.run("simulate", *common, *extra, "--output-dir", str(d))
             _move(d / "simulate.png", c.img / f"simulate{seq}-{name}.png")  # trajectories + errors in one figure
             for png in d.glob("*.png"):
                 png.unlink()  # its two halves, also drawn separately
             _slim_simulation(d / "simulation.json")
+
     return run
 
 
@@ -264,14 +374,44 @@ POWER_LIMIT_W = "100"
 def step_constrained(seq: str) -> Callable[[Ctx], None]:
     """Best-of at $110,000 on the car's slots and power limit, beside the unconstrained
     best-of of step greedy; real maps only."""
+
     def run(c: Ctx) -> None:
         if c.landmarks != "real":
             return
         name = f"constrained{seq}"
-        c.run("greedy", *c.scen(seq), "--budget", BUDGET, "--library", str(CAR_LIBRARY), "--limit", f"power_w={POWER_LIMIT_W}",
-              "--rule", "best-of", "-q", "-o", str(c.out / f"{name}.json"), stdout=c.out / f"{name}.txt")
-        c.run("greedy", *c.scen(seq), "--budget", BUDGET, "--library", str(CAR_LIBRARY), "--limit", f"power_w={POWER_LIMIT_W}",
-              "--rule", "uniform", "-q", "-o", str(c.out / f"{name}-uniform.json"), stdout=c.out / f"{name}-uniform.txt")
+        c.run(
+            "greedy",
+            *c.scen(seq),
+            "--budget",
+            BUDGET,
+            "--library",
+            str(CAR_LIBRARY),
+            "--limit",
+            f"power_w={POWER_LIMIT_W}",
+            "--rule",
+            "best-of",
+            "-q",
+            "-o",
+            str(c.out / f"{name}.json"),
+            stdout=c.out / f"{name}.txt",
+        )
+        c.run(
+            "greedy",
+            *c.scen(seq),
+            "--budget",
+            BUDGET,
+            "--library",
+            str(CAR_LIBRARY),
+            "--limit",
+            f"power_w={POWER_LIMIT_W}",
+            "--rule",
+            "uniform",
+            "-q",
+            "-o",
+            str(c.out / f"{name}-uniform.json"),
+            stdout=c.out / f"{name}-uniform.txt",
+        )
+
     return run
 
 
@@ -285,6 +425,8 @@ def step_tour(c: Ctx) -> None:
     if c.landmarks != "real":
         return
     c.run("scene", "--suite", TOUR_SUITE, "-o", str(c.img.parent / "tour" / "scene.png"))
+
+
 #: The association check on the bundled route (docs/guide-association-simulation.md): a suite that
 #: mixes a mid-range LiDAR, two cameras and a long-range radar, in a map known to 5 cm and in SLAM,
 #: by plain Monte Carlo and by importance sampling (the rare keyframes).
@@ -305,8 +447,19 @@ def step_associate(c: Ctx) -> None:
         return
     for name, extra in ASSOCIATE_RUNS:
         d = c.out / "associate" / name
-        c.run("simulate", "--suite", ASSOCIATE_SUITE, "--associate", "--seed", "0", *extra, "-q", "--output-dir", str(d),
-              stdout=c.out / "associate" / f"{name}.txt")
+        c.run(
+            "simulate",
+            "--suite",
+            ASSOCIATE_SUITE,
+            "--associate",
+            "--seed",
+            "0",
+            *extra,
+            "-q",
+            "--output-dir",
+            str(d),
+            stdout=c.out / "associate" / f"{name}.txt",
+        )
         _move(d / "association_calibration.png", c.img / "associate" / f"calibration-{name}.png")
 
 
@@ -336,8 +489,19 @@ REQUIRE_ESTIMATE = "filter"
 def _require(c: Ctx, where: list[str], name: str, *extra: str) -> None:
     """One require run into results/require/NAME.json (and its printout); exit 2, no suite meets
     it, is a result too (the diagnosis is written); an interrupted run is resumed from its journal."""
-    c.run("require", *where, *extra, "--estimate", REQUIRE_ESTIMATE, "-q", "-o", str(c.out / "require" / f"{name}.json"), "--resume",
-          stdout=c.out / "require" / f"{name}.txt", ok=(0, 2))
+    c.run(
+        "require",
+        *where,
+        *extra,
+        "--estimate",
+        REQUIRE_ESTIMATE,
+        "-q",
+        "-o",
+        str(c.out / "require" / f"{name}.json"),
+        "--resume",
+        stdout=c.out / "require" / f"{name}.txt",
+        ok=(0, 2),
+    )
 
 
 def step_require(target: str, alpha: int) -> Callable[[Ctx], None]:
@@ -345,10 +509,11 @@ def step_require(target: str, alpha: int) -> Callable[[Ctx], None]:
     failures, with no time limit: every answer ends proved; real maps only. With no
     failures, also the paper's SLAM graph (03) and the $110,000 greedy suite's accuracy beside it.
     ``target``: a sequence ("03", "00") or "domain" (configs/domain_kitti.yaml)."""
+
     def run(c: Ctx) -> None:
         if c.landmarks != "real":
             return
-        where = (["--domain", str(REPO / "configs" / "domain_kitti.yaml")] if target == "domain" else c.scen(target))
+        where = ["--domain", str(REPO / "configs" / "domain_kitti.yaml")] if target == "domain" else c.scen(target)
         greedy = c.out / ("domain.json" if target == "domain" else f"greedy{target}.json")
 
         def go() -> None:
@@ -362,9 +527,21 @@ def step_require(target: str, alpha: int) -> Callable[[Ctx], None]:
             if greedy.is_file():
                 data = json.loads(greedy.read_text())
                 suite = ",".join((data.get("greedy") or data)["suite"])
-                c.run("score", *where, "--suite", suite, "--map-sigma", "0.05", "--estimate", REQUIRE_ESTIMATE, "--json",
-                      stdout=c.out / "require" / f"greedy-accuracy-{target}.json")
+                c.run(
+                    "score",
+                    *where,
+                    "--suite",
+                    suite,
+                    "--map-sigma",
+                    "0.05",
+                    "--estimate",
+                    REQUIRE_ESTIMATE,
+                    "--json",
+                    stdout=c.out / "require" / f"greedy-accuracy-{target}.json",
+                )
+
         _with_kitti_env(c, go)
+
     return run
 
 
@@ -381,6 +558,7 @@ def step_require_elsewhere(c: Ctx) -> None:
         city = c.out / "require" / "helsinki"
         c.run("osm", "--sample", "helsinki", "--output-dir", str(city), stdout=c.out / "require" / "helsinki-osm.txt")
         _require(c, ["--domain", str(city / "domain.yaml"), "--preset", "local-streets"], "require-helsinki")
+
     _with_kitti_env(c, go)
 
 
@@ -424,13 +602,19 @@ STEPS: list[Step] = [
     Step("robust03-a2", "robust", step_robust("03", 2)),
     Step("robust00-a1", "robust", step_robust("00", 1)),
     Step("constrained00", "constrained", step_constrained("00")),
-    *(Step(f"require-{t}-a{a}", "require", step_require(t, a), slow=t == "domain" or a > 0)
-      for a in (0, 1) for t in ("03", "00", "domain")),
+    *(
+        Step(f"require-{t}-a{a}", "require", step_require(t, a), slow=t == "domain" or a > 0)
+        for a in (0, 1)
+        for t in ("03", "00", "domain")
+    ),
     Step("require-elsewhere", "require", step_require_elsewhere, slow=True),
     # integrity on the real maps (docs/results-integrity.md); they read the published suites above
     Step("integrity-03", "integrity-kitti", integrity_kitti.step_kitti("03")),
     Step("integrity-00", "integrity-kitti", integrity_kitti.step_kitti("00"), slow=True),
-    *(Step(f"integrity-proof{s}", "integrity-kitti", integrity_kitti.step_proof(s), slow=s == "00") for s in ("03", "00")),
+    *(
+        Step(f"integrity-proof{s}", "integrity-kitti", integrity_kitti.step_proof(s), slow=s == "00")
+        for s in ("03", "00")
+    ),
     Step("integrity-domain", "integrity-kitti", integrity_kitti.step_domain(REPO), slow=True),
     Step("integrity-helsinki", "integrity-kitti", integrity_kitti.step_helsinki),
     Step("integrity-calibration", "integrity-kitti", integrity_kitti.step_calibration),
@@ -464,6 +648,7 @@ def _short(suite: list[str]) -> str:
     a suite of most of the library -> 'all but LRL-roof'."""
     if not _LIBRARY_IDS:
         from sensorsel.model.library import load_library  # the default library (Table I): all steps use it
+
         _LIBRARY_IDS.extend(load_library().ids)
     missing = [i for i in _LIBRARY_IDS if i not in suite]
     if len(missing) <= 3 and set(suite) <= set(_LIBRARY_IDS):
@@ -485,12 +670,14 @@ def _kinds(root: Path) -> list[tuple[str, Path]]:
 
 def tables(root: Path) -> str:
     """Markdown of the headline tables from the result files under ``root`` (and root/synthetic)."""
-    out = ["# Published results: tables generated from the result files",
-           "",
-           "Generated by `python docs/regenerate.py` (step `tables`) from the JSON files under `docs/results/`",
-           "(real pole maps) and `docs/results/synthetic/` (generated landmarks, seed 0); do not edit by hand.",
-           "Budget $110,000, fast engine, 1 Hz keyframes; f(S) = log det L(S) - log det L(empty) in nats.",
-           ""]
+    out = [
+        "# Published results: tables generated from the result files",
+        "",
+        "Generated by `python docs/regenerate.py` (step `tables`) from the JSON files under `docs/results/`",
+        "(real pole maps) and `docs/results/synthetic/` (generated landmarks, seed 0); do not edit by hand.",
+        "Budget $110,000, fast engine, 1 Hz keyframes; f(S) = log det L(S) - log det L(empty) in nats.",
+        "",
+    ]
     kinds = _kinds(root)
 
     out += ["## Scenarios", "", "| map | seq | keyframes | landmarks | landmark source |", "|---|---|---:|---:|---|"]
@@ -499,7 +686,11 @@ def tables(root: Path) -> str:
             g = _load(d / f"greedy{seq}.json")
             if g and g.get("problem"):
                 p = g["problem"]
-                src = str(p["landmark_source"]).replace(str(Path(p["spec"]["kitti_root"] or "/")), "$KITTI") if p.get("spec") else p["landmark_source"]
+                src = (
+                    str(p["landmark_source"]).replace(str(Path(p["spec"]["kitti_root"] or "/")), "$KITTI")
+                    if p.get("spec")
+                    else p["landmark_source"]
+                )
                 out.append(f"| {kind} | {seq} | {p['n_poses']} | {p['n_landmarks']} | {src} |")
     out.append("")
 
@@ -515,14 +706,23 @@ def tables(root: Path) -> str:
             cost = next(s["cost_usd"] for s in cells if s)
             row = f"| {desc} | {_usd(cost)} |"
             for s in cells:
-                row += (f" {s['score']:,.3f} | {s['n_measurements']:,} | {s['n_landmarks_seen']:,} of "
-                        f"{s['problem']['n_landmarks']:,} |"
-                        if s else " | | |")
+                row += (
+                    f" {s['score']:,.3f} | {s['n_measurements']:,} | {s['n_landmarks_seen']:,} of "
+                    f"{s['problem']['n_landmarks']:,} |"
+                    if s
+                    else " | | |"
+                )
             rows.append(row)
         if rows:
             head = "| suite | cost |" + "".join(f" f {k} | measurements {k} | landmarks seen {k} |" for k, _ in kinds)
-            out += [f"## Scores on {seq} (`sensorsel score --seq {seq} --suite IDS`)", "", head,
-                    "|---|---:|" + "---:|---:|---:|" * len(kinds), *rows, ""]
+            out += [
+                f"## Scores on {seq} (`sensorsel score --seq {seq} --suite IDS`)",
+                "",
+                head,
+                "|---|---:|" + "---:|---:|---:|" * len(kinds),
+                *rows,
+                "",
+            ]
 
     rows = []
     for seq in ("03", "00"):
@@ -534,13 +734,20 @@ def tables(root: Path) -> str:
                 cert = g.get("certificate") or {}
                 kept = g.get("winning_rule") or g.get("chosen_rule")  # chosen_rule: files written before the rename
                 rule = _rule(g) + (f" (kept {kept})" if kept and kept != _rule(g) else "")
-                rows.append(f"| {seq} | {kind} | {rule} | {_short(g['suite'])} ({len(g['suite'])}) | {_usd(g['cost_usd'])} | "
-                            f"{g['score']:,.3f} | {cert.get('bound', float('nan')):,.3f} | "
-                            f"≥ {_pct(cert.get('percent_of_best', float('nan')))}% |")
+                rows.append(
+                    f"| {seq} | {kind} | {rule} | {_short(g['suite'])} ({len(g['suite'])}) | {_usd(g['cost_usd'])} | "
+                    f"{g['score']:,.3f} | {cert.get('bound', float('nan')):,.3f} | "
+                    f"≥ {_pct(cert.get('percent_of_best', float('nan')))}% |"
+                )
     if rows:
-        out += ["## Greedy at $110,000 (`sensorsel greedy --seq NN --budget 110000 [--rule best-of]`)", "",
-                "| seq | map | rule | suite (pick order) | cost | f [nats] | certified bound | certificate |",
-                "|---|---|---|---|---:|---:|---:|---:|", *rows, ""]
+        out += [
+            "## Greedy at $110,000 (`sensorsel greedy --seq NN --budget 110000 [--rule best-of]`)",
+            "",
+            "| seq | map | rule | suite (pick order) | cost | f [nats] | certified bound | certificate |",
+            "|---|---|---|---|---:|---:|---:|---:|",
+            *rows,
+            "",
+        ]
         for seq in ("03", "00"):
             for kind, d in kinds:
                 g = _load(d / f"greedy{seq}.json")
@@ -559,26 +766,40 @@ def tables(root: Path) -> str:
                 vs = ""
                 if opt and opt.get("proved_optimal"):
                     vs = f"{100 * c['score'] / opt['score']:.2f}%"
-                rows.append(f"| {seq} | {kind} | {_rule(c)} | {_short(c['suite'])} ({len(c['suite'])}) | "
-                            f"{_usd(c['cost_usd'])} | "
-                            f"{c['score']:,.3f} | {c['bound']:,.3f} | ≥ {_pct(c['percent_of_best'])}% | {vs} |")
+                rows.append(
+                    f"| {seq} | {kind} | {_rule(c)} | {_short(c['suite'])} ({len(c['suite'])}) | "
+                    f"{_usd(c['cost_usd'])} | "
+                    f"{c['score']:,.3f} | {c['bound']:,.3f} | ≥ {_pct(c['percent_of_best'])}% | {vs} |"
+                )
     if rows:
-        out += ["## Certificates (`sensorsel certify --seq NN --budget 110000 --rule RULE`)", "",
-                "| seq | map | rule | suite | cost | f [nats] | best possible ≤ | certificate | vs proved optimum |",
-                "|---|---|---|---|---:|---:|---:|---:|---:|", *rows, ""]
+        out += [
+            "## Certificates (`sensorsel certify --seq NN --budget 110000 --rule RULE`)",
+            "",
+            "| seq | map | rule | suite | cost | f [nats] | best possible ≤ | certificate | vs proved optimum |",
+            "|---|---|---|---|---:|---:|---:|---:|---:|",
+            *rows,
+            "",
+        ]
     rows = []
     for kind, d in kinds:
         for seq in ("03", "00"):
             o = _load(d / f"optimal{seq}.json")
             if o:
-                rows.append(f"| {seq} | {kind} | {_short(o['suite'])} ({len(o['suite'])}) | {_usd(o['cost_usd'])} | "
-                            f"{o['score']:,.3f} | "
-                            f"{'yes' if o.get('proved_optimal') else 'no'} | {o.get('n_nodes', '')} | "
-                            f"{o.get('n_evaluations', '')} |")
+                rows.append(
+                    f"| {seq} | {kind} | {_short(o['suite'])} ({len(o['suite'])}) | {_usd(o['cost_usd'])} | "
+                    f"{o['score']:,.3f} | "
+                    f"{'yes' if o.get('proved_optimal') else 'no'} | {o.get('n_nodes', '')} | "
+                    f"{o.get('n_evaluations', '')} |"
+                )
     if rows:
-        out += ["## Exact optimum (`sensorsel optimal --seq NN --budget 110000 --max-nodes 2000`)", "",
-                "| seq | map | optimum | cost | f [nats] | proved | nodes | evaluations |", "|---|---|---|---:|---:|---|---:|---:|",
-                *rows, ""]
+        out += [
+            "## Exact optimum (`sensorsel optimal --seq NN --budget 110000 --max-nodes 2000`)",
+            "",
+            "| seq | map | optimum | cost | f [nats] | proved | nodes | evaluations |",
+            "|---|---|---|---:|---:|---|---:|---:|",
+            *rows,
+            "",
+        ]
 
     for seq in ("03", "00"):
         rows = []
@@ -588,17 +809,26 @@ def tables(root: Path) -> str:
                 continue
             rows.extend(_pareto_rows(kind, d / f"pareto{seq}" / "architectures.csv", t, d, seq))
         if rows:
-            out += [f"## Tradespace {seq} (`sensorsel pareto --seq {seq} --output-dir DIR`): cheapest architecture reaching a share of a reference", "",
-                    "| map | reference | reference f | 99% reached at | 95% reached at | matched (100%) at |", "|---|---|---:|---|---|---|", *rows, ""]
+            out += [
+                f"## Tradespace {seq} (`sensorsel pareto --seq {seq} --output-dir DIR`): cheapest architecture "
+                "reaching a share of a reference",
+                "",
+                "| map | reference | reference f | 99% reached at | 95% reached at | matched (100%) at |",
+                "|---|---|---:|---|---|---|",
+                *rows,
+                "",
+            ]
             for kind, d in kinds:
                 t = _load(d / f"pareto{seq}" / "tradespace.json")
                 if t:
                     with open(d / f"pareto{seq}" / "architectures.csv", newline="") as f:
                         front = sum(r["on_front"] == "1" for r in csv.DictReader(f))
-                    out.append(f"- {kind}: {len(t['architectures'])} distinct architectures, {front} on the Pareto front, "
-                               f"{t['n_evaluations']:,} suites scored ({len(t['runs'])} runs: "
-                               f"{', '.join(t.get('rules', t.get('selectors', [])))} "
-                               f"at {len(t['budgets_usd'])} budgets)")
+                    out.append(
+                        f"- {kind}: {len(t['architectures'])} distinct architectures, {front} on the Pareto front, "
+                        f"{t['n_evaluations']:,} suites scored ({len(t['runs'])} runs: "
+                        f"{', '.join(t.get('rules', t.get('selectors', [])))} "
+                        f"at {len(t['budgets_usd'])} budgets)"
+                    )
             out.append("")
 
     rows = []
@@ -608,24 +838,36 @@ def tables(root: Path) -> str:
             if not r:
                 continue
             cmp_ = r["comparison"]
-            for design, res_key, worst_key in (("greedy", "greedy", "greedy_worst"), ("resilient", "resilient", "resilient_worst")):
+            for design, res_key, worst_key in (
+                ("greedy", "greedy", "greedy_worst"),
+                ("resilient", "resilient", "resilient_worst"),
+            ):
                 sel = cmp_[res_key]
                 w = cmp_[worst_key]
                 failed = set(sel.get("failed", ()))
                 ids = ", ".join(f"**{s} (fails)**" if s in failed else s for s in sel["suite"])
-                rows.append(f"| {seq} | {kind} | {design} | {ids} | {_usd(sel['cost_usd'])} | {sel['score']:,.2f} | "
-                            f"{w['score']:,.2f} | "
-                            f"{', '.join(w['failures'])} |")
+                rows.append(
+                    f"| {seq} | {kind} | {design} | {ids} | {_usd(sel['cost_usd'])} | {sel['score']:,.2f} | "
+                    f"{w['score']:,.2f} | "
+                    f"{', '.join(w['failures'])} |"
+                )
             pw = _load(d / f"resilient{seq}" / f"paper-greedy{seq}-worst-case.json")
             if pw:
-                rows.append(f"| {seq} | {kind} | paper's Greedy{seq} | {', '.join(pw['suite'])} | "
-                            f"{_paper_cost(d, seq)} | {pw['nominal_score']:,.2f} | {pw['score']:,.2f} | "
-                            f"{', '.join(pw['failures'])} |")
+                rows.append(
+                    f"| {seq} | {kind} | paper's Greedy{seq} | {', '.join(pw['suite'])} | "
+                    f"{_paper_cost(d, seq)} | {pw['nominal_score']:,.2f} | {pw['score']:,.2f} | "
+                    f"{', '.join(pw['failures'])} |"
+                )
     if rows:
-        out += ["## Resilient selection, whole route, 1 failure (`sensorsel resilient --seq NN --budget 110000 "
-                "--failures 1`)", "",
-                "| seq | map | design | suite | cost | nominal f | worst case | worst failure |", "|---|---|---|---|---:|---:|---:|---|",
-                *rows, ""]
+        out += [
+            "## Resilient selection, whole route, 1 failure (`sensorsel resilient --seq NN --budget 110000 "
+            "--failures 1`)",
+            "",
+            "| seq | map | design | suite | cost | nominal f | worst case | worst failure |",
+            "|---|---|---|---|---:|---:|---:|---|",
+            *rows,
+            "",
+        ]
         out += _period_table(kinds)
 
     rows = []
@@ -638,11 +880,16 @@ def tables(root: Path) -> str:
                 rows.append(_sim_row(kind, name, r))
     out += _require_table(root)
     if rows:
-        out += [f"## Simulated SLAM on 03 ({SIM_RUNS} runs, start pose known `--start-sigmas {SIM_START}`, "
-                "Levenberg-Marquardt)", "",
-                "| map | run | design | LRL-roof | pos RMSE [m] (pred) | heading RMSE [deg] (pred) | landmark "
-                "RMSE [m] (pred) | max pos err [m] | joint NEES [95%] |",
-                "|---|---|---|---|---|---|---|---:|---|", *rows, ""]
+        out += [
+            f"## Simulated SLAM on 03 ({SIM_RUNS} runs, start pose known `--start-sigmas {SIM_START}`, "
+            "Levenberg-Marquardt)",
+            "",
+            "| map | run | design | LRL-roof | pos RMSE [m] (pred) | heading RMSE [deg] (pred) | landmark "
+            "RMSE [m] (pred) | max pos err [m] | joint NEES [95%] |",
+            "|---|---|---|---|---|---|---|---:|---|",
+            *rows,
+            "",
+        ]
     return "\n".join(out) + "\n"
 
 
@@ -650,8 +897,10 @@ def _estimate_words(d: Path) -> str:
     """How the requirements results judged accuracy, from their files (written before estimates
     existed: the smoother's)."""
     found = {(_load(f) or {}).get("estimate", "smoother") for f in sorted(d.glob("require-*.json"))}
-    words = {"filter": "the filter's (at each keyframe from the measurements up to it, as the car drives)",
-             "smoother": "the smoother's (from every measurement of the route)"}
+    words = {
+        "filter": "the filter's (at each keyframe from the measurements up to it, as the car drives)",
+        "smoother": "the smoother's (from every measurement of the route)",
+    }
     return " and ".join(words.get(e, e) for e in sorted(found)) or words[REQUIRE_ESTIMATE]
 
 
@@ -663,52 +912,80 @@ def _require_table(root: Path) -> list[str]:
         return []
     runs = [(t, p, a, f"require-{t}-{p}-a{a}") for t in ("03", "00", "domain") for p in PRESETS for a in (0, 1)]
     runs += [("03, SLAM graph", p, 0, f"require-03-{p}-slam") for p in PRESETS]
-    runs += [("domain: clear weather", "local-streets", 0, "require-conditions-clear"),
-             ("domain: clear and rain", "local-streets", 0, "require-conditions-clear-rain"),
-             ("Helsinki (OSM)", "local-streets", 0, "require-helsinki")]
+    runs += [
+        ("domain: clear weather", "local-streets", 0, "require-conditions-clear"),
+        ("domain: clear and rain", "local-streets", 0, "require-conditions-clear-rain"),
+        ("Helsinki (OSM)", "local-streets", 0, "require-helsinki"),
+    ]
     rows = []
     for target, preset, alpha, name in runs:
         r = _load(d / f"{name}.json")
         if not r:
             continue
-        worst = [max((w[1] for rr in r["routes"] for w in rr["verdict"]["worst"] if w[0] == comp), default=float("nan"))
-                 for comp in ("lateral", "longitudinal", "heading")]
-        proof = {"optimal": "proved", "gap": f"gap {_usd(r['cost_usd'] - float(r['lower_bound_usd']))}" if r["suite"] else "stopped",
-                 "infeasible": "no suite meets it"}[r["status"]]
+        worst = [
+            max((w[1] for rr in r["routes"] for w in rr["verdict"]["worst"] if w[0] == comp), default=float("nan"))
+            for comp in ("lateral", "longitudinal", "heading")
+        ]
+        proof = {
+            "optimal": "proved",
+            "gap": f"gap {_usd(r['cost_usd'] - float(r['lower_bound_usd']))}" if r["suite"] else "stopped",
+            "infeasible": "no suite meets it",
+        }[r["status"]]
         suite = _short(r["suite"]) if r["suite"] else "-"
         lower = float(r["lower_bound_usd"])
         # a file not yet regenerated with the estimate the others judge says so on its row
         estimate = r.get("estimate", "smoother")
         target = target if estimate == REQUIRE_ESTIMATE else f"{target} ({estimate})"
-        rows.append(f"| {target} | {preset} | {alpha} | {suite} | {_usd(r['cost_usd']) if r['suite'] else '-'} | "
-                    f"{_usd(lower) if lower < float('inf') else '-'} | {proof} | {worst[0]:.3f} | {worst[1]:.3f} | "
-                    f"{worst[2]:.3f} | {r['n_checks']} | {r['seconds']:.1f} |")
+        rows.append(
+            f"| {target} | {preset} | {alpha} | {suite} | {_usd(r['cost_usd']) if r['suite'] else '-'} | "
+            f"{_usd(lower) if lower < float('inf') else '-'} | {proof} | {worst[0]:.3f} | {worst[1]:.3f} | "
+            f"{worst[2]:.3f} | {r['n_checks']} | {r['seconds']:.1f} |"
+        )
     if not rows:
         return []
-    out = ["## The cheapest suite meeting a specification (`sensorsel require --preset P --failures A`)", "",
-           "Prior-map model, landmarks known to 0.05 m (the default); the accuracy judged is "
-           f"{_estimate_words(d)}; 95 % errors (1.96σ) at the worst keyframe of the worst "
-           "route, with all sensors working. Presets: Reid et al. 2019 (local streets 0.10 m / 0.10 m / 0.17°, "
-           "freeway 0.20 m / 0.48 m / 0.51°).", "",
-           "| target | preset | failures | suite | cost | lower bound | | lateral [m] | longitudinal [m] | "
-           "heading [deg] | accuracy checks | s |",
-           "|---|---|---:|---|---:|---:|---|---:|---:|---:|---:|---:|", *rows, ""]
+    out = [
+        "## The cheapest suite meeting a specification (`sensorsel require --preset P --failures A`)",
+        "",
+        "Prior-map model, landmarks known to 0.05 m (the default); the accuracy judged is "
+        f"{_estimate_words(d)}; 95 % errors (1.96σ) at the worst keyframe of the worst "
+        "route, with all sensors working. Presets: Reid et al. 2019 (local streets 0.10 m / 0.10 m / 0.17°, "
+        "freeway 0.20 m / 0.48 m / 0.51°).",
+        "",
+        "| target | preset | failures | suite | cost | lower bound | | lateral [m] | longitudinal [m] | "
+        "heading [deg] | accuracy checks | s |",
+        "|---|---|---:|---|---:|---:|---|---:|---:|---:|---:|---:|",
+        *rows,
+        "",
+    ]
     rows = []
     from sensorsel.information.evaluators.accuracy import Z95
+
     for target in ("03", "00", "domain"):
         g = _load(d / f"greedy-accuracy-{target}.json")
         if not g:
             continue
         accs = g["accuracy"] if isinstance(g["accuracy"], list) else [g["accuracy"]]
-        worst = [Z95 * max(max(a[f]) for a in accs) for f in ("lateral_sigma_m", "longitudinal_sigma_m", "heading_sigma_deg")]
-        meets = [p for p, lim in (("local-streets", (0.10, 0.10, 0.17)), ("freeway", (0.20, 0.48, 0.51)))
-                 if all(w <= b for w, b in zip(worst, lim))]
-        rows.append(f"| {target} | {_short(g['suite'])} | {_usd(g['cost_usd'])} | {worst[0]:.3f} | {worst[1]:.3f} | "
-                    f"{worst[2]:.3f} | {', '.join(meets) or 'neither'} |")
+        worst = [
+            Z95 * max(max(a[f]) for a in accs) for f in ("lateral_sigma_m", "longitudinal_sigma_m", "heading_sigma_deg")
+        ]
+        meets = [
+            p
+            for p, lim in (("local-streets", (0.10, 0.10, 0.17)), ("freeway", (0.20, 0.48, 0.51)))
+            if all(w <= b for w, b in zip(worst, lim))
+        ]
+        rows.append(
+            f"| {target} | {_short(g['suite'])} | {_usd(g['cost_usd'])} | {worst[0]:.3f} | {worst[1]:.3f} | "
+            f"{worst[2]:.3f} | {', '.join(meets) or 'neither'} |"
+        )
     if rows:
-        out += ["The $110,000 greedy suite (`sensorsel greedy --budget 110000`, uniform rule) in the same model:", "",
-                "| target | suite | cost | lateral [m] | longitudinal [m] | heading [deg] | meets |",
-                "|---|---|---:|---:|---:|---:|---|", *rows, ""]
+        out += [
+            "The $110,000 greedy suite (`sensorsel greedy --budget 110000`, uniform rule) in the same model:",
+            "",
+            "| target | suite | cost | lateral [m] | longitudinal [m] | heading [deg] | meets |",
+            "|---|---|---:|---:|---:|---:|---|",
+            *rows,
+            "",
+        ]
     return out
 
 
@@ -726,8 +1003,10 @@ def _pareto_rows(kind: str, csv_path: Path, t: dict, d: Path, seq: str) -> list[
     best_all = max(archs, key=lambda a: (a[1], -a[0]))
     within = max((a for a in archs if a[0] <= float(BUDGET)), key=lambda a: (a[1], -a[0]))
     n_best = len(best_all[2].split(";" if ";" in best_all[2] else ","))
-    refs = [(f"best recorded ({n_best} sensors, {_usd(best_all[0])})", best_all[1]),
-            (f"best recorded within $110,000 ({_usd(within[0])})", within[1])]
+    refs = [
+        (f"best recorded ({n_best} sensors, {_usd(best_all[0])})", best_all[1]),
+        (f"best recorded within $110,000 ({_usd(within[0])})", within[1]),
+    ]
     g = _load(d / f"greedy{seq}.json")
     if g:
         refs.append((f"uniform Greedy{seq} ({_usd(g['cost_usd'])})", g["score"]))
@@ -739,7 +1018,10 @@ def _pareto_rows(kind: str, csv_path: Path, t: dict, d: Path, seq: str) -> list[
                 return f"{_usd(c)} ({_short(ids)}; {len(ids)} sensors)"
         return "never"
 
-    return [f"| {kind} | {name} | {ref:,.1f} | {cheapest(0.99 * ref)} | {cheapest(0.95 * ref)} | {cheapest(ref)} |" for name, ref in refs]
+    return [
+        f"| {kind} | {name} | {ref:,.1f} | {cheapest(0.99 * ref)} | {cheapest(0.95 * ref)} | {cheapest(ref)} |"
+        for name, ref in refs
+    ]
 
 
 def _period_table(kinds: list[tuple[str, Path]]) -> list[str]:
@@ -759,11 +1041,23 @@ def _period_table(kinds: list[tuple[str, Path]]) -> list[str]:
         model = dict(zip(grid["sensors"], grid["models"]))
         lrl_fail = sum(row[grid["sensors"].index("LRL-roof")] == "failed" for row in grid["cells"])
         mrl = sum(row[grid["sensors"].index("MRL-roof")] == "active" for row in grid["cells"])
-        radar = sum(c == "active" and model[s] in ("MRR", "LRR") for row in grid["cells"] for s, c in zip(grid["sensors"], row))
-        stereo = sum(c == "active" and model[s] in ("WSC", "HD2K", "LSC") for row in grid["cells"] for s, c in zip(grid["sensors"], row))
+        radar = sum(
+            c == "active" and model[s] in ("MRR", "LRR") for row in grid["cells"] for s, c in zip(grid["sensors"], row)
+        )
+        stereo = sum(
+            c == "active" and model[s] in ("WSC", "HD2K", "LSC")
+            for row in grid["cells"]
+            for s, c in zip(grid["sensors"], row)
+        )
         worst_is_designated = sum(set(p["worst"]["failures"]) == set(p["result"]["failed"]) for p in periods)
-        ratios = sorted(p["worst"]["score"] / p["worst"]["nominal_score"] for p in periods if p["worst"]["nominal_score"] > 0)
-        med = ratios[len(ratios) // 2] if len(ratios) % 2 else 0.5 * (ratios[len(ratios) // 2 - 1] + ratios[len(ratios) // 2])
+        ratios = sorted(
+            p["worst"]["score"] / p["worst"]["nominal_score"] for p in periods if p["worst"]["nominal_score"] > 0
+        )
+        med = (
+            ratios[len(ratios) // 2]
+            if len(ratios) % 2
+            else 0.5 * (ratios[len(ratios) // 2 - 1] + ratios[len(ratios) // 2])
+        )
         lms = [p["period"].get("n_landmarks") for p in periods if isinstance(p.get("period"), dict)]
         lms = [x for x in lms if x is not None]
         return {
@@ -777,7 +1071,12 @@ def _period_table(kinds: list[tuple[str, Path]]) -> list[str]:
         }
 
     st = [stats(r) for _, r in cols]
-    lines = ["### Per period (10 s), 1 failure", "", "| | " + " | ".join(c for c, _ in cols) + " |", "|---|" + "---:|" * len(cols)]
+    lines = [
+        "### Per period (10 s), 1 failure",
+        "",
+        "| | " + " | ".join(c for c, _ in cols) + " |",
+        "|---|" + "---:|" * len(cols),
+    ]
     for key in st[0]:
         lines.append(f"| {key} | " + " | ".join(s[key] for s in st) + " |")
     return [*lines, ""]
@@ -794,25 +1093,47 @@ def _sim_row(kind: str, name: str, r: dict) -> str:
     failed = "**failed**" if r.get("failures") else "ok"
     b = r.get("nees_bounds") or [float("nan"), float("nan")]
     outside = "" if r.get("nees_joint_inside_bounds", True) else " (outside)"
-    return (f"| {kind} | {name} | {r.get('label', '?')} | {failed} | {g('position_rmse_m'):.3f} "
-            f"({g('predicted_position_rmse_m'):.3f}) | "
-            f"{g('heading_rmse_deg'):.4f} ({g('predicted_heading_rmse_deg'):.4f}) | {g('landmark_rmse_m'):.3f} "
-            f"({g('predicted_landmark_rmse_m'):.3f}) | "
-            f"{g('max_position_error_m'):.3f} | {g('nees_joint_mean'):.2f} [{b[0]:.2f}, {b[1]:.2f}]{outside} |")
+    return (
+        f"| {kind} | {name} | {r.get('label', '?')} | {failed} | {g('position_rmse_m'):.3f} "
+        f"({g('predicted_position_rmse_m'):.3f}) | "
+        f"{g('heading_rmse_deg'):.4f} ({g('predicted_heading_rmse_deg'):.4f}) | {g('landmark_rmse_m'):.3f} "
+        f"({g('predicted_landmark_rmse_m'):.3f}) | "
+        f"{g('max_position_error_m'):.3f} | {g('nees_joint_mean'):.2f} [{b[0]:.2f}, {b[1]:.2f}]{outside} |"
+    )
 
 
 # --------------------------------------------------------------------------------------------- main
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter,
-                                 epilog="steps: " + ", ".join(s.name + (" (slow)" if s.slow else "") for s in STEPS) + ", tables")
-    ap.add_argument("--kitti-root", default=os.environ.get("SENSORSEL_KITTI_ROOT"),
-                    help="KITTI odometry folder with poses/, sequences/ and landmarks/ (default: $SENSORSEL_KITTI_ROOT)")
-    ap.add_argument("--only", nargs="+", metavar="NAME", help="steps (greedy03) or groups (greedy) to run; 'tables' rebuilds the tables")
-    ap.add_argument("--skip-slow", action="store_true", help="skip the slow steps (" + ", ".join(s.name for s in STEPS if s.slow) + ")")
-    ap.add_argument("--maps", nargs="+", choices=("real", "synthetic"), default=["real", "synthetic"],
-                    help="landmark maps to run on (default: both)")
+    ap = argparse.ArgumentParser(
+        description=__doc__.split("\n\n")[0],
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="steps: " + ", ".join(s.name + (" (slow)" if s.slow else "") for s in STEPS) + ", tables",
+    )
+    ap.add_argument(
+        "--kitti-root",
+        default=os.environ.get("SENSORSEL_KITTI_ROOT"),
+        help="KITTI odometry folder with poses/, sequences/ and landmarks/ (default: $SENSORSEL_KITTI_ROOT)",
+    )
+    ap.add_argument(
+        "--only",
+        nargs="+",
+        metavar="NAME",
+        help="steps (greedy03) or groups (greedy) to run; 'tables' rebuilds the tables",
+    )
+    ap.add_argument(
+        "--skip-slow",
+        action="store_true",
+        help="skip the slow steps (" + ", ".join(s.name for s in STEPS if s.slow) + ")",
+    )
+    ap.add_argument(
+        "--maps",
+        nargs="+",
+        choices=("real", "synthetic"),
+        default=["real", "synthetic"],
+        help="landmark maps to run on (default: both)",
+    )
     ap.add_argument("--results", type=Path, default=DOCS / "results", help="result folder (default: docs/results)")
     ap.add_argument("--img", type=Path, default=DOCS / "img", help="image folder (default: docs/img)")
     a = ap.parse_args(argv)
@@ -829,8 +1150,13 @@ def main(argv: list[str] | None = None) -> int:
     timings_path = root / "timings.json"
     timings = _load(timings_path) or {}
     for kind in a.maps:
-        ctx = Ctx(str(Path(a.kitti_root).resolve()) if a.kitti_root else "", kind,
-                  root if kind == "real" else root / "synthetic", a.img.resolve() / kind, [])
+        ctx = Ctx(
+            str(Path(a.kitti_root).resolve()) if a.kitti_root else "",
+            kind,
+            root if kind == "real" else root / "synthetic",
+            a.img.resolve() / kind,
+            [],
+        )
         ctx.out.mkdir(parents=True, exist_ok=True)
         ctx.img.mkdir(parents=True, exist_ok=True)
         for s in steps:

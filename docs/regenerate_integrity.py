@@ -27,8 +27,9 @@ from __future__ import annotations
 import json
 import math
 import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
@@ -112,37 +113,57 @@ def summarise(rec: Any, library: Any) -> dict[str, Any]:
     model_of = {s.id: s.model.code for s in library.sensors}
     sensors = []
     for x in rec.by_sensor:
-        sensors.append({"sensor": x.sensor, "model": model_of.get(x.sensor, x.sensor.split("-")[0]),
-                        "measurements": x.measurements, "used": x.used,
-                        "expected_wrong": x.expected_wrong, "expected_wrong_bound": x.expected_wrong_bound,
-                        "worst_bound": x.worst_bound,
-                        "wrong_per_hour_estimate": x.expected_wrong / hours if hours else 0.0,
-                        "wrong_per_hour_bound": x.expected_wrong_bound / hours if hours else 0.0})
+        sensors.append(
+            {
+                "sensor": x.sensor,
+                "model": model_of.get(x.sensor, x.sensor.split("-")[0]),
+                "measurements": x.measurements,
+                "used": x.used,
+                "expected_wrong": x.expected_wrong,
+                "expected_wrong_bound": x.expected_wrong_bound,
+                "worst_bound": x.worst_bound,
+                "wrong_per_hour_estimate": x.expected_wrong / hours if hours else 0.0,
+                "wrong_per_hour_bound": x.expected_wrong_bound / hours if hours else 0.0,
+            }
+        )
     lat = np.asarray(rec.protection_level_lateral_m, float)
     lon = np.asarray(rec.protection_level_longitudinal_m, float)
     fin = np.isfinite(lat)
     worst = int(np.argmax(pw)) if k else -1
     return {
-        "route": rec.route, "model": rec.model, "keyframes": k, "keyframes_per_hour": n_h, "hours": hours,
+        "route": rec.route,
+        "model": rec.model,
+        "keyframes": k,
+        "keyframes_per_hour": n_h,
+        "hours": hours,
         "integrity_risk_per_hour": rec.integrity_risk_per_hour,
-        "per_hour": per_hour, "tail_per_hour": tail_h,
+        "per_hour": per_hour,
+        "tail_per_hour": tail_h,
         "association_per_hour": float(n_h * np.mean(pw)) if k else 0.0,
         "association_estimate_per_hour": float(n_h * np.mean(est)) if k else 0.0,
-        "worst_keyframe": worst, "worst_bound": float(pw[worst]) if k else 0.0,
+        "worst_keyframe": worst,
+        "worst_bound": float(pw[worst]) if k else 0.0,
         "worst_estimate": float(est[worst]) if k else 0.0,
         "keyframes_bound_one": int(np.sum(pw >= 1.0)),
         "protection_level_lateral_median_m": float(np.median(lat[fin])) if fin.any() else math.inf,
         "protection_level_longitudinal_median_m": float(np.median(lon[fin])) if fin.any() else math.inf,
         "keyframes_without_protection_level": int(np.sum(~fin)),
-        "n_measured": int(sum(rec.n_measured)), "n_used": int(sum(rec.n_used)),
+        "n_measured": int(sum(rec.n_measured)),
+        "n_used": int(sum(rec.n_used)),
         "worst_95_m_m_deg": worst95,
         "meets_accuracy": [name for name, lim in ACCURACY.items() if all(w <= b for w, b in zip(worst95, lim))],
         "by_sensor": sensors,
     }
 
 
-def evaluate(target: Any, runs: list[tuple[str, list[str]]], *, singles: bool, variants: tuple = VARIANTS,
-             keep_records: bool = False) -> dict[str, Any]:
+def evaluate(
+    target: Any,
+    runs: list[tuple[str, list[str]]],
+    *,
+    singles: bool,
+    variants: tuple = VARIANTS,
+    keep_records: bool = False,
+) -> dict[str, Any]:
     """Every suite of ``runs`` (and each of :data:`SINGLES` in the map model when ``singles``) in each
     variant: the summaries, each run's seconds, and (``keep_records``) the engine's full records."""
     from sensorsel.api import suite_integrity
@@ -160,9 +181,16 @@ def evaluate(target: Any, runs: list[tuple[str, list[str]]], *, singles: bool, v
         recs = suite_integrity(target, suite, IntegritySpec(max_association_risk=lever), map_sigma_m=map_sigma)
         dt = time.perf_counter() - t0
         cost = float(sum(library.sensors[i].cost_usd for i in library.resolve_suite(suite)))
-        row: dict[str, Any] = {"label": label, "suite": suite, "cost_usd": cost, "variant": variant,
-                               "map_sigma_m": map_sigma, "max_association_risk": lever, "seconds": round(dt, 1),
-                               "routes": [summarise(r, library) for r in recs]}
+        row: dict[str, Any] = {
+            "label": label,
+            "suite": suite,
+            "cost_usd": cost,
+            "variant": variant,
+            "map_sigma_m": map_sigma,
+            "max_association_risk": lever,
+            "seconds": round(dt, 1),
+            "routes": [summarise(r, library) for r in recs],
+        }
         if keep_records and not singles_run:
             row["records"] = [json.loads(results.dumps(r)) for r in recs]
         out.append(row)
@@ -179,20 +207,24 @@ def _write(path: Path, data: dict) -> None:
 
 def step_kitti(seq: str) -> Callable[[Any], None]:
     """The published suites and the single sensors on KITTI ``seq`` (real pole map)."""
+
     def run(c: Any) -> None:
         if c.landmarks != "real":
             return
         from sensorsel import ScenarioSpec, load_problem
+
         c.log.append(f"python: suite_integrity on KITTI {seq} (docs/regenerate_integrity.py)")
         spec = ScenarioSpec(seq=seq, kitti_root=c.kitti_root, landmarks="real")
         runs = published_suites(c.out, seq)
         data = evaluate(load_problem(spec), runs, singles=True, keep_records=seq == "03")
         if seq == "03":  # the same with a gyro-aided heading: what the prediction's heading costs
             from sensorsel.model.problem import GraphSettings
+
             gyro = load_problem(spec, settings=GraphSettings(odometry_sigmas=GYRO_ODOMETRY))
             data["runs"] += evaluate(gyro, runs, singles=True, variants=(("map-gyro", MAP_SIGMA, None),))["runs"]
             data["gyro_odometry_sigmas"] = GYRO_ODOMETRY
         _write(c.out / "integrity" / f"kitti{seq}.json", data)
+
     return run
 
 
@@ -201,7 +233,9 @@ def step_domain(repo: Path) -> Callable[[Any], None]:
         if c.landmarks != "real":
             return
         import os
+
         from sensorsel.model.problem import load_domain
+
         c.log.append("python: suite_integrity on configs/domain_kitti.yaml (docs/regenerate_integrity.py)")
         old = os.environ.get("SENSORSEL_KITTI_ROOT")
         os.environ["SENSORSEL_KITTI_ROOT"] = c.kitti_root
@@ -214,6 +248,7 @@ def step_domain(repo: Path) -> Callable[[Any], None]:
                 os.environ["SENSORSEL_KITTI_ROOT"] = old
         data = evaluate(d, published_suites(c.out, "domain"), singles=False, variants=VARIANTS[:2])
         _write(c.out / "integrity" / "domain.json", data)
+
     return run
 
 
@@ -223,14 +258,18 @@ def step_helsinki(c: Any) -> None:
     if c.landmarks != "real":
         return
     import yaml
+
     from sensorsel.model.problem import load_domain
+
     city = c.out / "require" / "helsinki"
     if not (city / "domain.yaml").is_file():
         c.run("osm", "--sample", "helsinki", "--output-dir", str(city))
     full = yaml.safe_load((city / "domain.yaml").read_text())
     entry = next(r for r in full["routes"] if r["name"] == HELSINKI_ROUTE)
     one = city / f"domain-{HELSINKI_ROUTE}.yaml"
-    one.write_text(yaml.safe_dump({k: v for k, v in full.items() if k != "routes"} | {"routes": [entry]}, sort_keys=False))
+    one.write_text(
+        yaml.safe_dump({k: v for k, v in full.items() if k != "routes"} | {"routes": [entry]}, sort_keys=False)
+    )
     c.log.append(f"python: suite_integrity on {HELSINKI_ROUTE} of the Helsinki sample (docs/regenerate_integrity.py)")
     route = load_domain(one).routes[0]
     data = evaluate(route.problem, published_suites(c.out, "helsinki"), singles=True)
@@ -248,8 +287,20 @@ def step_calibration(c: Any) -> None:
     suite = ",".join(published_suites(c.out, "03")[2][1])
     for name, extra in CALIBRATION_RUNS:
         d = c.out / "integrity" / f"calibration03-{name}"
-        c.run("simulate", *c.scen("03"), "--suite", suite, "--associate", "--seed", "0", *extra, "-q", "--output-dir", str(d),
-              stdout=c.out / "integrity" / f"calibration03-{name}.txt")
+        c.run(
+            "simulate",
+            *c.scen("03"),
+            "--suite",
+            suite,
+            "--associate",
+            "--seed",
+            "0",
+            *extra,
+            "-q",
+            "--output-dir",
+            str(d),
+            stdout=c.out / "integrity" / f"calibration03-{name}.txt",
+        )
         png = d / "association_calibration.png"
         dst = c.img.parent / "integrity" / f"calibration03-{name}.png"
         dst.parent.mkdir(parents=True, exist_ok=True)
@@ -258,8 +309,12 @@ def step_calibration(c: Any) -> None:
 
 # ------------------------------------------------------------------------------------------- tables
 
-TARGETS = (("kitti03", "KITTI 03"), ("kitti00", "KITTI 00"), ("domain", "seven KITTI routes"),
-           ("helsinki", f"Helsinki {HELSINKI_ROUTE} (OSM)"))
+TARGETS = (
+    ("kitti03", "KITTI 03"),
+    ("kitti00", "KITTI 00"),
+    ("domain", "seven KITTI routes"),
+    ("helsinki", f"Helsinki {HELSINKI_ROUTE} (OSM)"),
+)
 
 
 def _g(x: float) -> str:
@@ -299,7 +354,8 @@ def _suite_rows(data: dict, singles: bool) -> list[str]:
                 f"{_g(r['worst_bound'])} / {_g(r['worst_estimate'])} | "
                 f"{pl} | "
                 f"{r['n_used']:,}/{r['n_measured']:,} | {acc[0]:.3f} / {acc[1]:.3f} / {acc[2]:.2f} | "
-                f"{', '.join(r['meets_accuracy']) or 'neither'} |")
+                f"{', '.join(r['meets_accuracy']) or 'neither'} |"
+            )
     return rows
 
 
@@ -307,10 +363,13 @@ def _short_ids(ids: list[str]) -> str:
     return ", ".join(ids) if len(ids) <= 4 else ", ".join(ids[:3]) + f" +{len(ids) - 3}"
 
 
-SUITE_HEADER = ["| suite | sensors | cost | model | risk/h local streets | risk/h freeway | association bound/h | "
-                "association estimate/h | error tail/h (local) | worst keyframe P(wrong) bound / estimate | "
-                "median lateral PL [m] (keyframes without) | measurements used | 95% worst lat / lon [m] / heading [deg] | "
-                "meets accuracy |", "|---|---|---:|---|---:|---:|---:|---:|---:|---|---|---:|---|---|"]
+SUITE_HEADER = [
+    "| suite | sensors | cost | model | risk/h local streets | risk/h freeway | association bound/h | "
+    "association estimate/h | error tail/h (local) | worst keyframe P(wrong) bound / estimate | "
+    "median lateral PL [m] (keyframes without) | measurements used | 95% worst lat / lon [m] / heading [deg] | "
+    "meets accuracy |",
+    "|---|---|---:|---|---:|---:|---:|---:|---:|---|---|---:|---|---|",
+]
 
 
 def _sensor_rows(data: dict) -> list[str]:
@@ -327,16 +386,23 @@ def _sensor_rows(data: dict) -> list[str]:
         cells = []
         for variant in ("map", "slam", "map-gyro"):
             s = v.get(variant)
-            cells += ([_g(s["wrong_per_hour_estimate"]), _g(s["wrong_per_hour_bound"]), _g(s["worst_bound"])] if s
-                      else ["-", "-", "-"])
+            cells += (
+                [_g(s["wrong_per_hour_estimate"]), _g(s["wrong_per_hour_bound"]), _g(s["worst_bound"])]
+                if s
+                else ["-", "-", "-"]
+            )
         m = v.get("map")
-        rows.append(f"| {sensor} | {m['model'] if m else '?'} | {m['measurements'] if m else '-'} | " + " | ".join(cells) + " |")
+        rows.append(
+            f"| {sensor} | {m['model'] if m else '?'} | {m['measurements'] if m else '-'} | " + " | ".join(cells) + " |"
+        )
     return rows
 
 
-SENSOR_HEADER = ["| sensor (alone) | model | measurements | map: wrong/h estimate | map: bound | map: worst P | "
-                 "SLAM: wrong/h estimate | SLAM: bound | SLAM: worst P | gyro-aided map: wrong/h estimate | bound | worst P |",
-                 "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+SENSOR_HEADER = [
+    "| sensor (alone) | model | measurements | map: wrong/h estimate | map: bound | map: worst P | "
+    "SLAM: wrong/h estimate | SLAM: bound | SLAM: worst P | gyro-aided map: wrong/h estimate | bound | worst P |",
+    "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+]
 
 
 def _lever_rows(data: dict) -> list[str]:
@@ -355,40 +421,62 @@ def _lever_rows(data: dict) -> list[str]:
             for s in rf["by_sensor"]:
                 t = sl[s["sensor"]]
                 left = s["measurements"] - t["used"]
-                rows.append(f"| {label} | {s['sensor']} | {left}/{s['measurements']} "
-                            f"({100 * left / max(1, s['measurements']):.0f}%) | "
-                            f"{_g(s['wrong_per_hour_estimate'])} | {_g(s['wrong_per_hour_bound'])} | "
-                            f"{_g(t['wrong_per_hour_estimate'])} | {_g(t['wrong_per_hour_bound'])} |")
+                rows.append(
+                    f"| {label} | {s['sensor']} | {left}/{s['measurements']} "
+                    f"({100 * left / max(1, s['measurements']):.0f}%) | "
+                    f"{_g(s['wrong_per_hour_estimate'])} | {_g(s['wrong_per_hour_bound'])} | "
+                    f"{_g(t['wrong_per_hour_estimate'])} | {_g(t['wrong_per_hour_bound'])} |"
+                )
     return rows
 
 
-LEVER_HEADER = [f"| suite | sensor | left out at {LEVER:g} | wrong/h estimate | bound | with the lever: estimate | bound |",
-                "|---|---|---:|---:|---:|---:|---:|"]
+LEVER_HEADER = [
+    f"| suite | sensor | left out at {LEVER:g} | wrong/h estimate | bound | with the lever: estimate | bound |",
+    "|---|---|---:|---:|---:|---:|---:|",
+]
 
 
 def tables(root: Path) -> str:
     """docs/results/integrity/tables.md: every integrity table on the real maps, from the files."""
     d = root / "integrity"
-    out = ["# Integrity on the real maps (generated)", "",
-           f"By `docs/regenerate.py --only integrity-kitti`. Map model: landmarks known to {MAP_SIGMA} m; "
-           f"`map-lever`: the same with `--max-association-risk {LEVER:g}`; `slam`: the paper's SLAM graph. "
-           "Risks per hour at 10⁻⁸/h (Reid et al. 2019); alert limits local streets 0.29 m / 0.29 m / 0.5°, "
-           "freeway 0.57 m / 1.40 m / 1.5°. Every figure is the filter's (the car as it drives). "
-           "PL: protection level at the per-keyframe allocation of local streets.", ""]
+    out = [
+        "# Integrity on the real maps (generated)",
+        "",
+        f"By `docs/regenerate.py --only integrity-kitti`. Map model: landmarks known to {MAP_SIGMA} m; "
+        f"`map-lever`: the same with `--max-association-risk {LEVER:g}`; `slam`: the paper's SLAM graph. "
+        "Risks per hour at 10⁻⁸/h (Reid et al. 2019); alert limits local streets 0.29 m / 0.29 m / 0.5°, "
+        "freeway 0.57 m / 1.40 m / 1.5°. Every figure is the filter's (the car as it drives). "
+        "PL: protection level at the per-keyframe allocation of local streets.",
+        "",
+    ]
     for name, title in TARGETS:
         data = _load(d / f"{name}.json")
         if not data:
             continue
         out += [f"## {title}: the published suites", ""]
         if "landmarks_per_km" in data:
-            out += [f"{data['landmarks']} landmarks along its {data['route_km']:.2f} km: "
-                    f"{data['landmarks_per_km']:.0f} per km.", ""]
+            out += [
+                f"{data['landmarks']} landmarks along its {data['route_km']:.2f} km: "
+                f"{data['landmarks_per_km']:.0f} per km.",
+                "",
+            ]
         out += [*SUITE_HEADER, *_suite_rows(data, False), ""]
         rows = _sensor_rows(data)
         if rows:
-            out += [f"### {title}: each sensor model alone (wrong associations per hour)", "", *SENSOR_HEADER, *rows, ""]
-            out += [f"### {title}: one sensor of each model alone, the whole line", "", *SUITE_HEADER,
-                    *_suite_rows(data, True), ""]
+            out += [
+                f"### {title}: each sensor model alone (wrong associations per hour)",
+                "",
+                *SENSOR_HEADER,
+                *rows,
+                "",
+            ]
+            out += [
+                f"### {title}: one sensor of each model alone, the whole line",
+                "",
+                *SUITE_HEADER,
+                *_suite_rows(data, True),
+                "",
+            ]
         rows = _lever_rows(data)
         if rows:
             out += [f"### {title}: what the lever leaves out, per sensor (map model)", "", *LEVER_HEADER, *rows, ""]
@@ -413,6 +501,7 @@ def _lower99(k: dict, importance: bool) -> float:
     if importance or k["wrong_draws"] < 0:
         return max(0.0, k["observed"] - 2.5758293035489004 * k["standard_error"])
     from scipy.stats import beta
+
     w, n = int(k["wrong_draws"]), int(k["draws"])
     return 0.0 if w == 0 else float(beta.ppf(0.005, w, n - w + 1))
 
@@ -432,30 +521,46 @@ def calibration_rows(d: Path) -> list[str]:
             res = [k for k in scope if _resolved(k, is_)]
             within = sum(k["observed"] / 2 <= k["predicted_estimate"] <= 2 * k["observed"] for k in res)
             below = sum(k["predicted_bound"] < _lower99(k, is_) for k in scope)
-            rows.append(f"| {name} | {', '.join(a['suite'])} | {a['model']} | {a['draws']:,}{' (IS)' if is_ else ''} | "
-                        f"{len(a['keyframes'])} | {a['resolved']} | {a['within_factor_2']} | {a['bound_below_lower']} | "
-                        f"{floor:g} | {len(res)} | {within} | {below} | "
-                        f"{_g(a['predicted_per_hour'])} | {_g(a['bound_per_hour'])} | {_g(a['observed_per_hour'])} |")
+            rows.append(
+                f"| {name} | {', '.join(a['suite'])} | {a['model']} | {a['draws']:,}{' (IS)' if is_ else ''} | "
+                f"{len(a['keyframes'])} | {a['resolved']} | {a['within_factor_2']} | {a['bound_below_lower']} | "
+                f"{floor:g} | {len(res)} | {within} | {below} | "
+                f"{_g(a['predicted_per_hour'])} | {_g(a['bound_per_hour'])} | {_g(a['observed_per_hour'])} |"
+            )
             for k in a["keyframes"]:
                 if _resolved(k, is_) and not (k["observed"] / 2 <= k["predicted_estimate"] <= 2 * k["observed"]):
-                    off.append(f"| {name} | {k['keyframe']} | {k['n_measurements']} | {_g(k['predicted_estimate'])} | "
-                               f"{_g(k['predicted_bound'])} | {_g(k['observed'])} ± {_g(k['standard_error'])} | "
-                               f"{k['predicted_estimate'] / k['observed']:.2f} |")
+                    off.append(
+                        f"| {name} | {k['keyframe']} | {k['n_measurements']} | {_g(k['predicted_estimate'])} | "
+                        f"{_g(k['predicted_bound'])} | {_g(k['observed'])} ± {_g(k['standard_error'])} | "
+                        f"{k['predicted_estimate'] / k['observed']:.2f} |"
+                    )
     if not rows:
         return []
-    out = ["## Calibration on KITTI 03: the prediction against `simulate --associate`", "",
-           "Resolved: plain Monte Carlo, at least 10 wrong draws at the keyframe; importance sampling (IS), a "
-           "relative standard error of at most 0.3. Per hour: wrong associations at the route's keyframe rate.", "",
-           "The first three counts are the simulator's over all keyframes; the next over the keyframes whose "
-           "observed probability is at least what Monte Carlo resolves (10⁻⁴ plainly, 10⁻⁶ with IS).", "",
-           "| run | suite | model | draws per keyframe | keyframes | resolved | estimate within 2x | "
-           "bound below the 99% lower limit | observed at least | resolved there | within 2x there | bound below there | "
-           "predicted/h estimate | bound/h | observed/h |",
-           "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|", *rows, ""]
+    out = [
+        "## Calibration on KITTI 03: the prediction against `simulate --associate`",
+        "",
+        "Resolved: plain Monte Carlo, at least 10 wrong draws at the keyframe; importance sampling (IS), a "
+        "relative standard error of at most 0.3. Per hour: wrong associations at the route's keyframe rate.",
+        "",
+        "The first three counts are the simulator's over all keyframes; the next over the keyframes whose "
+        "observed probability is at least what Monte Carlo resolves (10⁻⁴ plainly, 10⁻⁶ with IS).",
+        "",
+        "| run | suite | model | draws per keyframe | keyframes | resolved | estimate within 2x | "
+        "bound below the 99% lower limit | observed at least | resolved there | within 2x there | bound below there | "
+        "predicted/h estimate | bound/h | observed/h |",
+        "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+        *rows,
+        "",
+    ]
     if off:
-        out += ["Resolved keyframes where the estimate is off by more than 2x:", "",
-                "| run | keyframe | measurements | estimate | bound | observed ± s.e. | estimate / observed |",
-                "|---|---:|---:|---:|---:|---:|---:|", *off, ""]
+        out += [
+            "Resolved keyframes where the estimate is off by more than 2x:",
+            "",
+            "| run | keyframe | measurements | estimate | bound | observed ± s.e. | estimate / observed |",
+            "|---|---:|---:|---:|---:|---:|---:|",
+            *off,
+            "",
+        ]
     else:
         out += ["At every resolved keyframe of these runs the estimate is within 2x of the observed.", ""]
     return out
@@ -492,40 +597,60 @@ def no_suite_meets(problem: Any, specs: dict[str, Any], map_sigma_m: float) -> d
     out = {}
     for name, spec in specs.items():
         tail = float(b.keyframes_per_hour * tail_risk(filtered, spec).mean())  # = b.tail_relaxation(low) at spec
-        out[name] = {"sensors": len(ids), "within_floor": [ids[i] for i in low],
-                     "floor_min_per_hour": min(floors.values()),
-                     "floor_median_per_hour": float(np.median(list(floors.values()))),
-                     "tail_of_within_per_hour": tail, "proved_none_meets": bool(tail > spec.integrity_risk),
-                     "floors_per_hour": floors}
+        out[name] = {
+            "sensors": len(ids),
+            "within_floor": [ids[i] for i in low],
+            "floor_min_per_hour": min(floors.values()),
+            "floor_median_per_hour": float(np.median(list(floors.values()))),
+            "tail_of_within_per_hour": tail,
+            "proved_none_meets": bool(tail > spec.integrity_risk),
+            "floors_per_hour": floors,
+        }
     return out
 
 
 def step_proof(seq: str) -> Callable[[Any], None]:
     """Whether any suite can meet local-streets and freeway integrity on KITTI ``seq`` (map model,
     with and without the lever; on 03 also with the gyro-aided odometry)."""
+
     def run(c: Any) -> None:
         if c.landmarks != "real":
             return
         from sensorsel import ScenarioSpec, load_problem
         from sensorsel.information.integrity import IntegritySpec
         from sensorsel.model.problem import GraphSettings
+
         c.log.append(f"python: IntegrityBounds on KITTI {seq}, the whole library (docs/regenerate_integrity.py)")
         spec = ScenarioSpec(seq=seq, kitti_root=c.kitti_root, landmarks="real")
         problems = [("default odometry", load_problem(spec))]
         if seq == "03":
-            problems.append(("gyro-aided odometry", load_problem(spec, settings=GraphSettings(odometry_sigmas=GYRO_ODOMETRY))))
+            problems.append(
+                ("gyro-aided odometry", load_problem(spec, settings=GraphSettings(odometry_sigmas=GYRO_ODOMETRY)))
+            )
         rows = []
         for odometry, p in problems:
             for lever in (None, LEVER):
                 t0 = time.perf_counter()
-                specs = {name: IntegritySpec(alert_lateral_m=lat, alert_longitudinal_m=lon, alert_heading_deg=head,
-                                             max_association_risk=lever) for name, (lat, lon, head) in ALERTS.items()}
+                specs = {
+                    name: IntegritySpec(
+                        alert_lateral_m=lat,
+                        alert_longitudinal_m=lon,
+                        alert_heading_deg=head,
+                        max_association_risk=lever,
+                    )
+                    for name, (lat, lon, head) in ALERTS.items()
+                }
                 found = no_suite_meets(p, specs, MAP_SIGMA)
                 dt = round(time.perf_counter() - t0, 1)
                 for name, r in found.items():
-                    rows.append({"route": seq, "odometry": odometry, "lever": lever, "alerts": name, "seconds": dt, **r})
-                    print(f"    {odometry}, lever {lever}, {name}: proved none meets {r['proved_none_meets']}", flush=True)
+                    rows.append(
+                        {"route": seq, "odometry": odometry, "lever": lever, "alerts": name, "seconds": dt, **r}
+                    )
+                    print(
+                        f"    {odometry}, lever {lever}, {name}: proved none meets {r['proved_none_meets']}", flush=True
+                    )
         _write(c.out / "integrity" / f"proof{seq}.json", {"format": 1, "map_sigma_m": MAP_SIGMA, "rows": rows})
+
     return run
 
 
@@ -537,14 +662,23 @@ def proof_rows(d: Path) -> list[str]:
             within = r["within_floor"]
             shown = ", ".join(within) if len(within) <= 6 else ", ".join(within[:5]) + f" +{len(within) - 5}"
             lever = format(r["lever"], "g") if r["lever"] else "none"
-            rows.append(f"| {r['route']} | {r['odometry']} | {lever} | {r['alerts']} | "
-                        f"{len(within)}/{r['sensors']} ({shown or '-'}) | {_g(r['tail_of_within_per_hour'])} | "
-                        f"{'no suite meets it (proved)' if r['proved_none_meets'] else 'not excluded'} |")
+            rows.append(
+                f"| {r['route']} | {r['odometry']} | {lever} | {r['alerts']} | "
+                f"{len(within)}/{r['sensors']} ({shown or '-'}) | {_g(r['tail_of_within_per_hour'])} | "
+                f"{'no suite meets it (proved)' if r['proved_none_meets'] else 'not excluded'} |"
+            )
     if not rows:
         return []
-    return ["## Can any suite meet 10⁻⁸/h? (map model, the whole library)", "",
-            "A sensor whose association floor alone (its bound at the whole library's covariance, non-decreasing in "
-            "the suite) exceeds 10⁻⁸/h fails in every suite; a suite that meets the requirement lies within the "
-            "others, and has at least their error tail (non-increasing in the suite).", "",
-            "| route | odometry | lever | alert limits | sensors whose floor alone is within 10⁻⁸/h | "
-            "their error tail, all used [/h] | verdict |", "|---|---|---|---|---|---:|---|", *rows, ""]
+    return [
+        "## Can any suite meet 10⁻⁸/h? (map model, the whole library)",
+        "",
+        "A sensor whose association floor alone (its bound at the whole library's covariance, non-decreasing in "
+        "the suite) exceeds 10⁻⁸/h fails in every suite; a suite that meets the requirement lies within the "
+        "others, and has at least their error tail (non-increasing in the suite).",
+        "",
+        "| route | odometry | lever | alert limits | sensors whose floor alone is within 10⁻⁸/h | "
+        "their error tail, all used [/h] | verdict |",
+        "|---|---|---|---|---|---:|---|",
+        *rows,
+        "",
+    ]

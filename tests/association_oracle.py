@@ -23,8 +23,14 @@ def measure(pose: np.ndarray, point: np.ndarray) -> np.ndarray:
 def retract(pose: np.ndarray, delta: np.ndarray) -> np.ndarray:
     """The pose perturbed by ``delta`` (dx, dy in its own frame, dθ), to first order."""
     c, s = math.cos(pose[2]), math.sin(pose[2])
-    return np.stack([pose[0] + c * delta[..., 0] - s * delta[..., 1], pose[1] + s * delta[..., 0] + c * delta[..., 1],
-                     pose[2] + delta[..., 2]], -1)
+    return np.stack(
+        [
+            pose[0] + c * delta[..., 0] - s * delta[..., 1],
+            pose[1] + s * delta[..., 0] + c * delta[..., 1],
+            pose[2] + delta[..., 2],
+        ],
+        -1,
+    )
 
 
 def jacobian(pose: np.ndarray, point: np.ndarray, h: float = 1e-6) -> np.ndarray:
@@ -45,24 +51,27 @@ def joint_covariance(state: np.ndarray, cov: np.ndarray, prior_sigma: float, lan
     """(3 + 2L, 3 + 2L) covariance of (pose, landmarks...) from a prediction's state and prior."""
     n = 3 + 2 * len(landmarks)
     out = np.zeros((n, n))
-    idx = [list(range(3))] + [[3 + 2 * int(np.searchsorted(state, j)) + q for q in range(2)] if j in set(state.tolist())
-                              else None for j in landmarks]
+    idx = [list(range(3))] + [
+        [3 + 2 * int(np.searchsorted(state, j)) + q for q in range(2)] if j in set(state.tolist()) else None
+        for j in landmarks
+    ]
     out[:3, :3] = cov[:3, :3]
     for a, ia in enumerate(idx[1:]):
         ra = slice(3 + 2 * a, 5 + 2 * a)
         if ia is None:
-            out[ra, ra] = prior_sigma ** 2 * np.eye(2)
+            out[ra, ra] = prior_sigma**2 * np.eye(2)
             continue
         out[ra, :3] = cov[np.ix_(ia, range(3))]
         out[:3, ra] = out[ra, :3].T
         for b, ib in enumerate(idx[1:]):
             if ib is not None:
-                out[ra, 3 + 2 * b:5 + 2 * b] = cov[np.ix_(ia, ib)]
+                out[ra, 3 + 2 * b : 5 + 2 * b] = cov[np.ix_(ia, ib)]
     return out
 
 
-def monte_carlo(pose, points, state, cov, prior_sigma, true_landmark, sigmas, candidates, gate, *, n, seed,
-                right_is_candidate=True):
+def monte_carlo(
+    pose, points, state, cov, prior_sigma, true_landmark, sigmas, candidates, gate, *, n, seed, right_is_candidate=True
+):
     """Wrong associations of one measurement of ``true_landmark`` in ``n`` draws: returns (count, n).
 
     ``candidates`` (landmark indices) are what the associator matches against; the true landmark
@@ -89,7 +98,7 @@ def monte_carlo(pose, points, state, cov, prior_sigma, true_landmark, sigmas, ca
         x_hat = retract(pose, e[:, :3])
         nis = np.empty((b, len(lms)))
         for a, j in enumerate(lms):
-            nu = z - measure(x_hat, points[j] + e[:, 3 + 2 * a:5 + 2 * a])
+            nu = z - measure(x_hat, points[j] + e[:, 3 + 2 * a : 5 + 2 * a])
             nu[:, 0] = (nu[:, 0] + np.pi) % (2 * np.pi) - np.pi
             nis[:, a] = np.einsum("ni,ij,nj->n", nu, s_inv[a], nu)
         gated = np.where(nis <= gate, nis, np.inf)
@@ -103,6 +112,7 @@ def monte_carlo(pose, points, state, cov, prior_sigma, true_landmark, sigmas, ca
 def clopper_pearson(k: int, n: int, level: float = 0.99) -> tuple[float, float]:
     """The exact two-sided binomial confidence interval at ``level``."""
     from scipy.stats import beta
+
     a = (1 - level) / 2
     lo = 0.0 if k == 0 else float(beta.ppf(a, k, n - k + 1))
     hi = 1.0 if k == n else float(beta.ppf(1 - a, k + 1, n - k))

@@ -44,8 +44,14 @@ def scenarios(draw) -> Scenario:
 @st.composite
 def sub_libraries(draw, library: SensorLibrary, min_size: int = 3, max_size: int = 6) -> SensorLibrary:
     lidar = draw(st.sampled_from(ROOF_LIDARS))
-    others = draw(st.lists(st.integers(0, len(library) - 1).filter(lambda i: i != lidar),
-                           min_size=min_size - 1, max_size=max_size - 1, unique=True))
+    others = draw(
+        st.lists(
+            st.integers(0, len(library) - 1).filter(lambda i: i != lidar),
+            min_size=min_size - 1,
+            max_size=max_size - 1,
+            unique=True,
+        )
+    )
     return library.subset(sorted([lidar] + others))
 
 

@@ -7,7 +7,8 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from sensorsel.errors import InputError
 from sensorsel.information.evaluators import FastEvaluator, ReferenceEvaluator

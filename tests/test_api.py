@@ -10,8 +10,19 @@ import sensorsel.information.evaluators.domain
 
 
 def test_every_run_function_is_importable_from_sensorsel():
-    for name in ("score_suite", "run_greedy", "run_tradespace", "resilient_report", "certify_result", "run_optimal",
-                 "simulate", "design_domain", "score_domain_suite", "load_problem", "load_domain"):
+    for name in (
+        "score_suite",
+        "run_greedy",
+        "run_tradespace",
+        "resilient_report",
+        "certify_result",
+        "run_optimal",
+        "simulate",
+        "design_domain",
+        "score_domain_suite",
+        "load_problem",
+        "load_domain",
+    ):
         assert callable(getattr(sensorsel, name)), name
     assert set(sensorsel.__all__) <= set(dir(sensorsel))
 
@@ -42,5 +53,7 @@ def test_a_given_evaluator_is_the_one_each_run_uses_and_a_resumable_greedy_refus
     opt = run_optimal(problem, 1500, max_nodes=50, evaluator=make_evaluator(problem, "reference"))
     assert opt.engine == "reference" and opt.suite == run_optimal(problem, 1500, max_nodes=50, engine="reference").suite
     with pytest.raises(ValueError, match="checkpoint"):
-        run_greedy(problem, 2000, evaluator=make_evaluator(problem, "reference"), checkpoint=tmp_path / "greedy.checkpoint")
+        run_greedy(
+            problem, 2000, evaluator=make_evaluator(problem, "reference"), checkpoint=tmp_path / "greedy.checkpoint"
+        )
     assert not (tmp_path / "greedy.checkpoint").exists()

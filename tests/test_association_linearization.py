@@ -20,9 +20,8 @@ simulator), the simulator itself, Clopper–Pearson intervals.
 from __future__ import annotations
 
 import numpy as np
-import pytest
-
 from association_oracle import clopper_pearson, measure, monte_carlo
+
 from sensorsel.information.filtering import KeyframeMeasurements, Prediction
 from sensorsel.information.integrity.association import gate_of, measurement_risks
 from sensorsel.simulation.association import KeyframeCase, Task, associate_keyframe
@@ -31,14 +30,73 @@ GATE = gate_of(0.9999)
 POSE = np.array([27.08037, 0.4690774, 0.0281970857379124])
 POINTS = np.array([[33.799, -5.11], [35.448, -2.499]])
 #: the predicted joint covariance of (pose x, y, heading in its own frame; landmark 0; landmark 1)
-COV = np.array([
-    [2.9054985953086143e-02, -2.1082607640611861e-03, -7.9722306354465986e-05, 1.8645270441511565e-02, -2.0999018198607847e-03, 1.8847305704045466e-02, -2.2335305387276663e-03],
-    [-2.1082607640611857e-03, 4.7179699414618484e-02, 1.4756739873818220e-03, 5.0872079643776089e-03, 4.7016470516363894e-02, 1.2324648133541834e-03, 4.9452020904332122e-02],
-    [-7.9722306354465986e-05, 1.4756739873818220e-03, 2.1691105951475079e-04, 5.3119038568002455e-04, 2.2582405411676817e-03, 2.2591570428705105e-04, 2.4510733320103947e-03],
-    [1.8645270441511565e-02, 5.0872079643776089e-03, 5.3119038568002455e-04, 8.6809075231790516e+00, -3.0423184722408374e+00, 2.0049093206136882e-02, 1.0059256388083960e-02],
-    [-2.0999018198607847e-03, 4.7016470516363894e-02, 2.2582405411676817e-03, -3.0423184722408370e+00, 1.1398309520218814e+00, 3.2869569615368811e-03, 6.5833217944232483e-02],
-    [1.8847305704045466e-02, 1.2324648133541834e-03, 2.2591570428705105e-04, 2.0049093206136882e-02, 3.2869569615368802e-03, 1.1935562033670074e+01, -1.9480840227588205e+00],
-    [-2.2335305387276663e-03, 4.9452020904332122e-02, 2.4510733320103947e-03, 1.0059256388083960e-02, 6.5833217944232483e-02, -1.9480840227588208e+00, 3.9201805789573213e-01]])
+COV = np.array(
+    [
+        [
+            2.9054985953086143e-02,
+            -2.1082607640611861e-03,
+            -7.9722306354465986e-05,
+            1.8645270441511565e-02,
+            -2.0999018198607847e-03,
+            1.8847305704045466e-02,
+            -2.2335305387276663e-03,
+        ],
+        [
+            -2.1082607640611857e-03,
+            4.7179699414618484e-02,
+            1.4756739873818220e-03,
+            5.0872079643776089e-03,
+            4.7016470516363894e-02,
+            1.2324648133541834e-03,
+            4.9452020904332122e-02,
+        ],
+        [
+            -7.9722306354465986e-05,
+            1.4756739873818220e-03,
+            2.1691105951475079e-04,
+            5.3119038568002455e-04,
+            2.2582405411676817e-03,
+            2.2591570428705105e-04,
+            2.4510733320103947e-03,
+        ],
+        [
+            1.8645270441511565e-02,
+            5.0872079643776089e-03,
+            5.3119038568002455e-04,
+            8.6809075231790516e00,
+            -3.0423184722408374e00,
+            2.0049093206136882e-02,
+            1.0059256388083960e-02,
+        ],
+        [
+            -2.0999018198607847e-03,
+            4.7016470516363894e-02,
+            2.2582405411676817e-03,
+            -3.0423184722408370e00,
+            1.1398309520218814e00,
+            3.2869569615368811e-03,
+            6.5833217944232483e-02,
+        ],
+        [
+            1.8847305704045466e-02,
+            1.2324648133541834e-03,
+            2.2591570428705105e-04,
+            2.0049093206136882e-02,
+            3.2869569615368802e-03,
+            1.1935562033670074e01,
+            -1.9480840227588205e00,
+        ],
+        [
+            -2.2335305387276663e-03,
+            4.9452020904332122e-02,
+            2.4510733320103947e-03,
+            1.0059256388083960e-02,
+            6.5833217944232483e-02,
+            -1.9480840227588208e00,
+            3.9201805789573213e-01,
+        ],
+    ]
+)
 COV = 0.5 * (COV + COV.T)
 #: HD2K-6 at 8.7 m: bearing [rad] and range [m] std
 SIGMAS = (0.002857142857142857, 0.9079296870486997)
@@ -47,9 +105,15 @@ DRAWS = 200_000
 
 def _meas() -> KeyframeMeasurements:
     z = measure(POSE, POINTS[0])
-    return KeyframeMeasurements(keyframe=3, sensor=np.array([0]), landmark=np.array([0]), bearing_rad=np.array([z[0]]),
-                                range_m=np.array([z[1]]), sigma_bearing_rad=np.array([SIGMAS[0]]),
-                                sigma_range_m=np.array([SIGMAS[1]]))
+    return KeyframeMeasurements(
+        keyframe=3,
+        sensor=np.array([0]),
+        landmark=np.array([0]),
+        bearing_rad=np.array([z[0]]),
+        range_m=np.array([z[1]]),
+        sigma_bearing_rad=np.array([SIGMAS[0]]),
+        sigma_range_m=np.array([SIGMAS[1]]),
+    )
 
 
 def _observed() -> tuple[int, int]:
@@ -60,9 +124,20 @@ def test_the_simulator_sees_what_the_independent_monte_carlo_sees():
     """Both run the stated (nonlinear) associator: both see pole 4 taken for pole 2 about 0.4 % of the time."""
     k, n = _observed()
     meas = _meas()
-    case = KeyframeCase(keyframe=3, pose=POSE, sensor=meas.sensor, landmark=meas.landmark, bearing_rad=meas.bearing_rad,
-                        range_m=meas.range_m, sigma_bearing_rad=meas.sigma_bearing_rad, sigma_range_m=meas.sigma_range_m,
-                        candidates=np.array([0, 1]), points=POINTS, right=np.array([0]), covariance=COV)
+    case = KeyframeCase(
+        keyframe=3,
+        pose=POSE,
+        sensor=meas.sensor,
+        landmark=meas.landmark,
+        bearing_rad=meas.bearing_rad,
+        range_m=meas.range_m,
+        sigma_bearing_rad=meas.sigma_bearing_rad,
+        sigma_range_m=meas.sigma_range_m,
+        candidates=np.array([0, 1]),
+        points=POINTS,
+        right=np.array([0]),
+        covariance=COV,
+    )
     out = associate_keyframe(case, Task(keyframe=3, draws=DRAWS, seed=5, gate=GATE))
     assert k >= 200 and out.wrong_draws >= 200  # resolved by both: not vacuous
     lo1, hi1 = clopper_pearson(out.wrong_draws, out.draws)

@@ -11,8 +11,8 @@ import gtsam
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
-
 from scenario_strategies import problems
+
 from sensorsel.designs.selection.greedy import BOUND_FROM, Selector, greedy
 from sensorsel.designs.selection.registry import RULES
 from sensorsel.information.evaluators import FastEvaluator, ReferenceEvaluator
@@ -37,7 +37,9 @@ class DenseOracle:
             self.col[key] = off
             off += 3 if chr(gtsam.Symbol(key).chr()) == "x" else 2
 
-        self.base: tuple[tuple[int, ...], np.ndarray, float, np.ndarray] | None = None  # the last suite's H, log det, H⁻¹
+        self.base: tuple[tuple[int, ...], np.ndarray, float, np.ndarray] | None = (
+            None  # the last suite's H, log det, H⁻¹
+        )
 
     def hessian(self, suite) -> np.ndarray:
         return self.builder.graph(suite).linearize(self.builder.values).hessian()[0]
@@ -62,7 +64,9 @@ class DenseOracle:
         for i in range(gauss.size()):
             f = gauss.at(i)
             jac, _ = f.jacobian()  # whitened rows; columns in the factor's key order
-            cols = np.concatenate([self.col[k] + np.arange(3 if chr(gtsam.Symbol(k).chr()) == "x" else 2) for k in f.keys()])
+            cols = np.concatenate(
+                [self.col[k] + np.arange(3 if chr(gtsam.Symbol(k).chr()) == "x" else 2) for k in f.keys()]
+            )
             per += np.linalg.slogdet(np.eye(jac.shape[0]) + jac @ cov[np.ix_(cols, cols)] @ jac.T)[1]
         return float(gain), float(per), trace
 
@@ -74,8 +78,13 @@ def fischer_oracle(oracle: DenseOracle, suite) -> tuple[float, float]:
     h = oracle.hessian(suite)
     pose_cols = np.concatenate([oracle.col[k] + np.arange(3) for k in oracle.col if chr(gtsam.Symbol(k).chr()) == "x"])
     pose = float(np.linalg.slogdet(h[np.ix_(pose_cols, pose_cols)])[1])
-    landmarks = float(sum(np.linalg.slogdet(h[c:c + 2, c:c + 2])[1] for k, c in oracle.col.items()
-                          if chr(gtsam.Symbol(k).chr()) == "l"))
+    landmarks = float(
+        sum(
+            np.linalg.slogdet(h[c : c + 2, c : c + 2])[1]
+            for k, c in oracle.col.items()
+            if chr(gtsam.Symbol(k).chr()) == "l"
+        )
+    )
     empty = float(np.linalg.slogdet(oracle.hessian(()))[1])
     return pose + landmarks - empty, abs(pose) + abs(landmarks) + abs(empty)
 
@@ -87,8 +96,10 @@ def close(a: float, b: float, rel: float = 1e-9) -> bool:
 def draw_suites(n_sensors: int, count: int, *, sizes: tuple[int, int], seed: int) -> list[tuple[int, ...]]:
     """``count`` random suites (sorted positions, no repeats) of sizes drawn from [sizes[0], sizes[1])."""
     rng = np.random.default_rng(seed)
-    return [tuple(sorted(rng.choice(n_sensors, size=int(rng.integers(*sizes)), replace=False).tolist()))
-            for _ in range(count)]
+    return [
+        tuple(sorted(rng.choice(n_sensors, size=int(rng.integers(*sizes)), replace=False).tolist()))
+        for _ in range(count)
+    ]
 
 
 def check_bounds(problem, suites) -> int:
@@ -187,7 +198,9 @@ def test_score_bounds_are_the_decoupled_log_det_and_bound_the_score_on_tiny(tiny
 def test_score_bounds_bound_the_score_on_random_small_problems(problem):
     n = len(problem.library)
     rng = np.random.default_rng(n + 1)
-    check_score_bounds(problem, [(), tuple(sorted(rng.choice(n, size=int(rng.integers(1, n)), replace=False).tolist()))])
+    check_score_bounds(
+        problem, [(), tuple(sorted(rng.choice(n, size=int(rng.integers(1, n)), replace=False).tolist()))]
+    )
 
 
 def test_score_bounds_spare_most_of_the_first_steps_evaluations(suburb_problem):
@@ -195,7 +208,9 @@ def test_score_bounds_spare_most_of_the_first_steps_evaluations(suburb_problem):
     score bounds it scores the sensors whose bound reaches the best one's score, and picks alike."""
     one = Constraints(max_sensors=1)
     n = len(suburb_problem.library)
-    plain = Selector(FastEvaluator(suburb_problem), RULES["uniform"], lazy=True, bound_from=0, constraints=one).select(110_000.0)
+    plain = Selector(FastEvaluator(suburb_problem), RULES["uniform"], lazy=True, bound_from=0, constraints=one).select(
+        110_000.0
+    )
     ev = FastEvaluator(suburb_problem)
     bounded = Selector(ev, RULES["uniform"], lazy=True, constraints=one).select(110_000.0)
     assert same_run(plain, bounded) and len(bounded.steps) == 1
@@ -209,6 +224,7 @@ def test_score_bounds_are_declined_for_a_wide_base_band(tiny_problem):
     """A base coupling keyframes far apart (a loop-closure prior, say) is no narrow band: no bound
     is offered (it would cost a dense factorization); the odometry chain's band is."""
     from sensorsel.information.evaluators.fast.fischer import MAX_HALF_BANDWIDTH, PoseBand
+
     K = 20
     near = np.array([MAX_HALF_BANDWIDTH]), np.array([0])
     far = np.array([MAX_HALF_BANDWIDTH + 1]), np.array([0])
@@ -224,8 +240,14 @@ def test_score_bounds_are_declined_for_a_wide_base_band(tiny_problem):
 
 def same_run(a, b) -> bool:
     """Bit-identical picks and step scores (the evaluation counts may differ: bookkeeping)."""
-    return (a.suite == b.suite and a.score == b.score and a.cost_usd == b.cost_usd and a.stop_reason == b.stop_reason
-            and [(s.pick, s.score, s.gain, s.rule_value) for s in a.steps] == [(s.pick, s.score, s.gain, s.rule_value) for s in b.steps])
+    return (
+        a.suite == b.suite
+        and a.score == b.score
+        and a.cost_usd == b.cost_usd
+        and a.stop_reason == b.stop_reason
+        and [(s.pick, s.score, s.gain, s.rule_value) for s in a.steps]
+        == [(s.pick, s.score, s.gain, s.rule_value) for s in b.steps]
+    )
 
 
 def runs(problem, budget, rule, constraints=None, jobs=1):
@@ -234,8 +256,12 @@ def runs(problem, budget, rule, constraints=None, jobs=1):
     out = []
     for lazy, bound_from, spare in ((False, 0, 0.0), (True, 0, 0.0), (True, BOUND_FROM, BOUND_SPARE), (True, 1, 0.0)):
         ev = FastEvaluator(problem, jobs=jobs, bound_spare=spare)
-        out.append((Selector(ev, RULES[rule], lazy=lazy, bound_from=bound_from, constraints=constraints).select(budget),
-                    ev.n_bounds))
+        out.append(
+            (
+                Selector(ev, RULES[rule], lazy=lazy, bound_from=bound_from, constraints=constraints).select(budget),
+                ev.n_bounds,
+            )
+        )
     return out
 
 

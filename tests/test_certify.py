@@ -21,13 +21,24 @@ import yaml
 from click.testing import CliRunner
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-
 from scenario_strategies import problems
+
 from sensorsel.api import run_greedy
 from sensorsel.cli import cli
-from sensorsel.designs.certify import (Certificate, CertifiedGreedyResult, KnapsackSolution, OptimumResult, SuiteBound,
-                                       certificate, certify_greedy, cost_units, format_certificate, knapsack, optimal,
-                                       suite_bound)
+from sensorsel.designs.certify import (
+    Certificate,
+    CertifiedGreedyResult,
+    KnapsackSolution,
+    OptimumResult,
+    SuiteBound,
+    certificate,
+    certify_greedy,
+    cost_units,
+    format_certificate,
+    knapsack,
+    optimal,
+    suite_bound,
+)
 from sensorsel.designs.selection import RULES, greedy
 from sensorsel.errors import InputError
 from sensorsel.information.evaluators import make_evaluator
@@ -121,7 +132,11 @@ def test_cost_units_use_the_gcd_and_decimal_scales():
     assert (u.unit_usd, u.capacity, u.exact) == (1.0, 110_000, True)
     assert u.costs.tolist() == [int(c) for c in LIBRARY.costs]
     u = cost_units([1 / 3, 2 / 3], 1.0)  # not decimal: rounded down, a relaxation
-    assert not u.exact and u.capacity * u.unit_usd <= 1.0 and all(c * u.unit_usd <= x for c, x in zip(u.costs, [1 / 3, 2 / 3]))
+    assert (
+        not u.exact
+        and u.capacity * u.unit_usd <= 1.0
+        and all(c * u.unit_usd <= x for c, x in zip(u.costs, [1 / 3, 2 / 3]))
+    )
 
 
 def test_knapsack_with_non_decimal_costs_is_still_an_upper_bound():
@@ -155,7 +170,7 @@ BUDGETS = {
 CASES = [(name, b) for name in SMALL for b in BUDGETS[name]]
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def small_problem(name: str):
     lib = LIBRARY.subset([LIBRARY.position(i) for i in SMALL[name]])
     return build_problem(lib, load_scenario(ScenarioSpec(fixture="tiny")))
@@ -168,7 +183,7 @@ def all_scores(problem) -> dict[tuple[int, ...], float]:
     return {s: (ev.score(s) if s else 0.0) for r in range(n + 1) for s in itertools.combinations(range(n), r)}
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def small_scores(name: str) -> dict[tuple[int, ...], float]:
     return all_scores(small_problem(name))
 
@@ -186,7 +201,11 @@ def test_exact_search_equals_brute_force(name, budget):
     res = optimal(make_evaluator(problem, "reference"), budget)
     assert res.proved_optimal, res.stop_reason
     best_of = greedy(make_evaluator(problem, "reference"), budget, "best-of")  # the incumbent it started from
-    assert (res.greedy_suite, res.greedy_score, res.greedy_rule) == (best_of.suite, best_of.score, f"best-of ({best_of.winning_rule})")
+    assert (res.greedy_suite, res.greedy_score, res.greedy_rule) == (
+        best_of.suite,
+        best_of.score,
+        f"best-of ({best_of.winning_rule})",
+    )
     assert res.score == pytest.approx(opt, rel=TOL, abs=TOL)
     positions = problem.library.parse_suite(",".join(res.suite)) if res.suite else ()
     assert res.cost_usd == problem.library.cost(positions) <= budget
@@ -204,8 +223,11 @@ def test_exact_search_with_lp_bounds_equals_brute_force(name, budget):
     res = optimal(make_evaluator(problem, "reference"), budget, max_cells=0)
     assert res.proved_optimal and res.bound_method in ("fractional", "none")
     assert res.score == pytest.approx(opt, rel=TOL, abs=TOL)
-    cert = certificate(make_evaluator(problem, "reference"), greedy(make_evaluator(problem, "reference"), budget, "marginal"),
-                       max_cells=0)
+    cert = certificate(
+        make_evaluator(problem, "reference"),
+        greedy(make_evaluator(problem, "reference"), budget, "marginal"),
+        max_cells=0,
+    )
     assert close_or_above(cert.bound, opt) and "dp" not in cert.knapsack_method.split("+")
 
 
@@ -265,8 +287,11 @@ def test_bound_at_any_suite_is_never_below_the_optimum(name):
     ev = make_evaluator(problem, "reference")
     lib = problem.library
     rng = np.random.default_rng(7)
-    suites = [s for s in scores if len(s) <= 1] + [tuple(sorted(rng.choice(len(lib), size=k, replace=False).tolist()))
-                                                   for k in (2, 3, 5, len(lib) - 1) for _ in range(3)]
+    suites = [s for s in scores if len(s) <= 1] + [
+        tuple(sorted(rng.choice(len(lib), size=k, replace=False).tolist()))
+        for k in (2, 3, 5, len(lib) - 1)
+        for _ in range(3)
+    ]
     for budget in BUDGETS[name]:
         opt, _ = brute_optimum(problem, scores, budget)
         for s in suites:  # even suites above the budget: the bound holds for any S
@@ -458,8 +483,20 @@ def test_run_greedy_carries_its_certificate_and_it_round_trips(tmp_path):
 
 def test_cli_greedy_prints_the_certificate_line_and_saves_it(tmp_path):
     lib_path = _small_library_yaml(tmp_path)
-    base = ["greedy", "--fixture", "tiny", "--library", str(lib_path), "--budget", "5000", "--engine", "reference",
-            "--jobs", "1", "--quiet"]
+    base = [
+        "greedy",
+        "--fixture",
+        "tiny",
+        "--library",
+        str(lib_path),
+        "--budget",
+        "5000",
+        "--engine",
+        "reference",
+        "--jobs",
+        "1",
+        "--quiet",
+    ]
     r = CliRunner().invoke(cli, base + ["-o", str(tmp_path / "g.json")])
     assert r.exit_code == 0, r.output
     res = results.load(tmp_path / "g.json", CertifiedGreedyResult)
@@ -471,8 +508,6 @@ def test_cli_greedy_prints_the_certificate_line_and_saves_it(tmp_path):
     r = CliRunner().invoke(cli, base + ["--no-certificate", "--json"])
     assert r.exit_code == 0, r.output
     assert json.loads(r.output)["certificate"] is None and "certificate:" not in r.output
-
-
 
 
 def _small_library_yaml(tmp_path: Path) -> Path:
@@ -487,8 +522,25 @@ def _small_library_yaml(tmp_path: Path) -> Path:
 def test_cli_optimal_prints_the_proved_optimum_and_writes_json(tmp_path):
     lib_path = _small_library_yaml(tmp_path)
     out = tmp_path / "opt.json"
-    r = CliRunner().invoke(cli, ["optimal", "--fixture", "tiny", "--library", str(lib_path), "--budget", "5000",
-                                 "--engine", "reference", "--jobs", "1", "-q", "-o", str(out)])
+    r = CliRunner().invoke(
+        cli,
+        [
+            "optimal",
+            "--fixture",
+            "tiny",
+            "--library",
+            str(lib_path),
+            "--budget",
+            "5000",
+            "--engine",
+            "reference",
+            "--jobs",
+            "1",
+            "-q",
+            "-o",
+            str(out),
+        ],
+    )
     assert r.exit_code == 0, r.output
     assert "[proved optimal]" in r.output and "greedy     best-of" in r.output and "% of the optimum" in r.output
     res = results.load(out, OptimumResult)
@@ -500,22 +552,55 @@ def test_cli_optimal_prints_the_proved_optimum_and_writes_json(tmp_path):
 
 
 def test_cli_optimal_node_limit_reports_the_gap(tmp_path):
-    r = CliRunner().invoke(cli, ["optimal", "--fixture", "tiny", "--budget", "3000", "--max-nodes", "1",
-                                 "--engine", "reference", "--jobs", "1", "--json"])
+    r = CliRunner().invoke(
+        cli,
+        [
+            "optimal",
+            "--fixture",
+            "tiny",
+            "--budget",
+            "3000",
+            "--max-nodes",
+            "1",
+            "--engine",
+            "reference",
+            "--jobs",
+            "1",
+            "--json",
+        ],
+    )
     assert r.exit_code == 0, r.output
     data = json.loads(r.output)
     assert data["n_nodes"] == 1 and not data["proved_optimal"] and data["upper_bound"] >= data["score"]
-    r = CliRunner().invoke(cli, ["optimal", "--fixture", "tiny", "--budget", "3000", "--max-nodes", "1",
-                                 "--engine", "reference", "--jobs", "1", "-q"])
+    r = CliRunner().invoke(
+        cli,
+        [
+            "optimal",
+            "--fixture",
+            "tiny",
+            "--budget",
+            "3000",
+            "--max-nodes",
+            "1",
+            "--engine",
+            "reference",
+            "--jobs",
+            "1",
+            "-q",
+        ],
+    )
     assert "[not proved: node limit (1) reached]" in r.output and "above the best found" in r.output
 
 
-@pytest.mark.parametrize("args, message", [
-    (["--budget", "-1"], "budget must be a finite, non-negative number"),
-    (["--budget", "nan"], "budget must be a finite, non-negative number"),
-    (["--budget", "100", "--max-nodes", "0"], "0 is not in the range x>=1"),
-    (["--budget", "100", "--engine", "nope"], "Invalid value for '--engine'"),
-])
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--budget", "-1"], "budget must be a finite, non-negative number"),
+        (["--budget", "nan"], "budget must be a finite, non-negative number"),
+        (["--budget", "100", "--max-nodes", "0"], "0 is not in the range x>=1"),
+        (["--budget", "100", "--engine", "nope"], "Invalid value for '--engine'"),
+    ],
+)
 def test_cli_optimal_bad_input_is_one_line(args, message):
     r = CliRunner().invoke(cli, ["optimal", "--fixture", "tiny", "-q"] + args)
     assert r.exit_code == 2
@@ -535,7 +620,9 @@ def test_reduced_library_is_one_model_per_type_of_table_i():
 def test_cli_certify_runs_greedy_or_reads_its_result(tmp_path):
     lib_path = _small_library_yaml(tmp_path)
     base = ["--fixture", "tiny", "--library", str(lib_path), "--engine", "reference", "--jobs", "1"]
-    r = CliRunner().invoke(cli, ["certify", *base, "--budget", "5000", "--rule", "marginal", "-q", "-o", str(tmp_path / "c.json")])
+    r = CliRunner().invoke(
+        cli, ["certify", *base, "--budget", "5000", "--rule", "marginal", "-q", "-o", str(tmp_path / "c.json")]
+    )
     assert r.exit_code == 0, r.output
     cert = results.load(tmp_path / "c.json", Certificate)
     assert format_certificate(cert) in r.output
@@ -544,19 +631,24 @@ def test_cli_certify_runs_greedy_or_reads_its_result(tmp_path):
     expected = certificate(ev, greedy(ev, 5000.0, "marginal"))
     assert (cert.score, cert.bound, cert.step_bounds) == (expected.score, expected.bound, expected.step_bounds)
     # certify a saved greedy result: the same certificate
-    r = CliRunner().invoke(cli, ["greedy", *base, "--budget", "5000", "--rule", "marginal", "--quiet", "-o", str(tmp_path / "g.json")])
+    r = CliRunner().invoke(
+        cli, ["greedy", *base, "--budget", "5000", "--rule", "marginal", "--quiet", "-o", str(tmp_path / "g.json")]
+    )
     assert r.exit_code == 0, r.output
     r = CliRunner().invoke(cli, ["certify", *base, "--suite", str(tmp_path / "g.json"), "--json"])
     assert r.exit_code == 0, r.output
     assert json.loads(r.output)["bound"] == expected.bound
 
 
-@pytest.mark.parametrize("extra, message", [
-    ([], "give --suite FILE"),
-    (["--budget", "100", "--suite", "x.json"], "not both"),
-    (["--suite", "missing.json"], "missing.json: file not found"),
-    (["--budget", "-3"], "budget must be a finite, non-negative number"),
-])
+@pytest.mark.parametrize(
+    "extra, message",
+    [
+        ([], "give --suite FILE"),
+        (["--budget", "100", "--suite", "x.json"], "not both"),
+        (["--suite", "missing.json"], "missing.json: file not found"),
+        (["--budget", "-3"], "budget must be a finite, non-negative number"),
+    ],
+)
 def test_cli_certify_bad_input_is_one_line(extra, message):
     r = CliRunner().invoke(cli, ["certify", "--fixture", "tiny", "-q", "--engine", "reference"] + extra)
     assert r.exit_code == 2 and message in r.output and "Traceback" not in r.output
@@ -567,4 +659,6 @@ def test_cli_certify_refuses_a_result_of_another_scenario(tmp_path):
     res = greedy(make_evaluator(problem, "reference"), 3000.0, "uniform", info=problem.info)
     path = results.save(res, tmp_path / "g.json")
     r = CliRunner().invoke(cli, ["certify", "--fixture", "suburb", "-q", "--suite", str(path)])
-    assert r.exit_code == 2 and "computed on another problem (another library" in r.output and "another route" in r.output
+    assert (
+        r.exit_code == 2 and "computed on another problem (another library" in r.output and "another route" in r.output
+    )

@@ -20,10 +20,10 @@ import pytest
 
 from sensorsel.api import design_domain, run_greedy, suite_accuracy
 from sensorsel.designs.checkpoint import GreedyCheckpoint, checkpoint_path
-from sensorsel.pipeline.store import CacheWarning
 from sensorsel.information.evaluators import DomainEvaluator
 from sensorsel.io import results
 from sensorsel.model.problem import load_domain
+from sensorsel.pipeline.store import CacheWarning
 
 REPO = Path(__file__).resolve().parents[1]
 FIXTURES = REPO / "configs" / "domain_fixtures.yaml"
@@ -32,12 +32,14 @@ ENV = {**os.environ, "PYTHONPATH": str(REPO / "src") + os.pathsep + os.environ.g
 
 def same_but_counts(obj: object) -> object:
     """A result's JSON without its timings and evaluation counts (the two fields a resume may change)."""
+
     def rec(o: object) -> object:
         if isinstance(o, dict):
             return {k: rec(v) for k, v in o.items() if k not in ("seconds", "n_evaluations")}
         if isinstance(o, list):
             return [rec(v) for v in o]
         return o
+
     return rec(json.loads(results.dumps(obj)))
 
 
@@ -130,28 +132,35 @@ def test_resume_without_a_checkpoint_starts_afresh(tiny_problem, tmp_path):
     assert same_but_counts(got) == same_but_counts(whole)
 
 
-def test_a_checkpoint_of_another_budget_or_route_is_not_read_back_naming_what_differs(tiny_problem, suburb_problem,
-                                                                                      tmp_path):
+def test_a_checkpoint_of_another_budget_or_route_is_not_read_back_naming_what_differs(
+    tiny_problem, suburb_problem, tmp_path
+):
     ck = tmp_path / "ck"
     with pytest.raises(Interrupt):
         run_greedy(tiny_problem, 8_000, checkpoint=ck, progress=stop_after(1))
     before = ck.read_bytes()
     with pytest.warns(CacheWarning) as caught:
         got = run_greedy(tiny_problem, 9_000, checkpoint=ck, resume=True)
-    msg, = [str(w.message) for w in caught]
+    (msg,) = [str(w.message) for w in caught]
     assert str(ck) in msg and "budget $8,000 (this run: $9,000)" in msg
     assert same_but_counts(got) == same_but_counts(run_greedy(tiny_problem, 9_000))
     assert ck.read_bytes() != before and results.load(ck, GreedyCheckpoint).budget_usd == 9_000  # overwritten
     with pytest.warns(CacheWarning) as caught:
         got = run_greedy(suburb_problem, 9_000, "marginal", checkpoint=ck, resume=True)
-    msg, = [str(w.message) for w in caught]
+    (msg,) = [str(w.message) for w in caught]
     assert "another route or keyframe rate" in msg and "rule uniform (this run: marginal)" in msg
     assert same_but_counts(got) == same_but_counts(run_greedy(suburb_problem, 9_000, "marginal"))
 
 
 def _cli(*args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([str(Path(sys.executable).parent / "sensorsel"), *args], capture_output=True, text=True,
-                          env=ENV, cwd=REPO, timeout=120)
+    return subprocess.run(
+        [str(Path(sys.executable).parent / "sensorsel"), *args],
+        capture_output=True,
+        text=True,
+        env=ENV,
+        cwd=REPO,
+        timeout=120,
+    )
 
 
 def test_cli_resume_warns_of_another_domain_budget_in_one_line_and_deletes_a_finished_checkpoint(domain, tmp_path):
@@ -160,7 +169,7 @@ def test_cli_resume_warns_of_another_domain_budget_in_one_line_and_deletes_a_fin
         design_domain(domain, 12_000, checkpoint=checkpoint_path(out), progress=stop_after(1))
     other = _cli("greedy", "--domain", str(FIXTURES), "--budget", "13000", "-q", "-o", str(out), "--resume")
     assert other.returncode == 0 and "Traceback" not in other.stderr
-    line, = [ln for ln in other.stderr.splitlines() if "warning" in ln]
+    (line,) = [ln for ln in other.stderr.splitlines() if "warning" in ln]
     assert str(checkpoint_path(out)) in line and "budget $12,000 (this run: $13,000)" in line
     assert results.load(out).greedy.budget_usd == 13_000 and not checkpoint_path(out).exists()
     with pytest.raises(Interrupt):

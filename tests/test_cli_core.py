@@ -55,7 +55,7 @@ def test_library_lists_62_rows(library):
     header, rule = out[0].split(), out[1]
     assert header[:3] == ["id", "index", "model"] and "cost_usd" in header
     assert set(rule.replace(" ", "")) == {"-"}
-    rows = out[2:out.index("")]
+    rows = out[2 : out.index("")]
     assert len(rows) == 62
     assert [r.split()[0] for r in rows] == list(library.ids)
     assert [int(r.split()[1]) for r in rows] == [s.index for s in library]
@@ -96,8 +96,10 @@ def test_score_json_round_trips(tmp_path):
     assert ok("score", "--fixture", "tiny", "--suite", "LRL-roof,WSC-12", "--json") == text
 
 
-@pytest.mark.parametrize("suite,fragment", [("LRL-roof,NOPE-3", "'NOPE-3'"), ("LRR-13", "'LRR-13'"),
-                                            ("LRR-12,30", "names a sensor twice"), ("999", "'999'")])
+@pytest.mark.parametrize(
+    "suite,fragment",
+    [("LRL-roof,NOPE-3", "'NOPE-3'"), ("LRR-13", "'LRR-13'"), ("LRR-12,30", "names a sensor twice"), ("999", "'999'")],
+)
 def test_score_bad_suite(suite, fragment):
     assert fragment in fails("score", "--fixture", "tiny", "--suite", suite)
 
@@ -116,7 +118,9 @@ def test_scene_refuses_other_formats_and_bad_pose(tmp_path):
     err = fails("scene", "--fixture", "tiny", "-o", str(out))
     assert str(out) in err and ".txt" in err
     assert not out.exists() and list(tmp_path.iterdir()) == []
-    assert "999" in fails("scene", "--fixture", "tiny", "--suite", "LRL-roof", "--pose", "999", "-o", str(tmp_path / "y.png"))
+    assert "999" in fails(
+        "scene", "--fixture", "tiny", "--suite", "LRL-roof", "--pose", "999", "-o", str(tmp_path / "y.png")
+    )
     assert "'NOPE'" in fails("scene", "--fixture", "tiny", "--suite", "NOPE", "-o", str(tmp_path / "y.png"))
 
 
@@ -126,15 +130,29 @@ def test_commands_work_from_another_directory(tmp_path):
     lib = subprocess.run([*cmd, "library"], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120)
     assert lib.returncode == 0, lib.stderr
     assert "62 sensors from" in lib.stdout
-    score = subprocess.run([*cmd, "score", "--fixture", "tiny", "--suite", "LRL-roof", "--json"], cwd=tmp_path, env=env,
-                           capture_output=True, text=True, timeout=120)
+    score = subprocess.run(
+        [*cmd, "score", "--fixture", "tiny", "--suite", "LRL-roof", "--json"],
+        cwd=tmp_path,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert score.returncode == 0, score.stderr
     assert json.loads(score.stdout)["problem"]["scenario"] == "tiny"
-    scene = subprocess.run([*cmd, "scene", "-o", "s.png", "--fixture", "tiny"], cwd=tmp_path, env=env, capture_output=True,
-                           text=True, timeout=120)
+    scene = subprocess.run(
+        [*cmd, "scene", "-o", "s.png", "--fixture", "tiny"],
+        cwd=tmp_path,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert scene.returncode == 0, scene.stderr
     assert (tmp_path / "s.png").read_bytes()[:8] == PNG_SIGNATURE
-    bad = subprocess.run([*cmd, "score", "--suite", "NOPE"], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120)
+    bad = subprocess.run(
+        [*cmd, "score", "--suite", "NOPE"], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120
+    )
     assert bad.returncode == 2 and "NOPE" in bad.stderr and "Traceback" not in bad.stderr
 
 
@@ -185,12 +203,15 @@ def test_landmarks_density_options_change_the_map(tmp_path):
     assert dist.min() >= 20 - 1.0 and dist.max() <= 30 + 1.0  # 10 Hz route: ~0.8 m between its points
 
 
-@pytest.mark.parametrize("args, fragment", [
-    (["--near-offset", "4"], "--near-offset '4': expected two distances"),
-    (["--far-offset", "80,25"], "far_offset_m must be 0 <= low <= high"),
-    (["--near-spacing", "0"], "near_spacing_m must be positive"),
-    (["--clearance", "nan"], "clearance_m must be >= 0"),
-])
+@pytest.mark.parametrize(
+    "args, fragment",
+    [
+        (["--near-offset", "4"], "--near-offset '4': expected two distances"),
+        (["--far-offset", "80,25"], "far_offset_m must be 0 <= low <= high"),
+        (["--near-spacing", "0"], "near_spacing_m must be positive"),
+        (["--clearance", "nan"], "clearance_m must be >= 0"),
+    ],
+)
 def test_landmarks_bad_model_is_one_line(tmp_path, args, fragment):
     assert fragment in fails("landmarks", "--fixture", "tiny", *args, "-o", str(tmp_path / "x.csv"))
     assert not (tmp_path / "x.csv").exists()

@@ -35,13 +35,63 @@ def terminal(monkeypatch):
     return calls
 
 
-@pytest.mark.parametrize("args, label", [
-    (["simulate", "--fixture", "tiny", "--suite", "LRL-roof", "--runs", "2", "--jobs", "1", "--output-dir", "{tmp}/sim"], "simulating"),
-    (["resilient", "--fixture", "tiny", "--budget", "5000", "--period", "30", "--engine", "reference", "--jobs", "1",
-      "--output-dir", "{tmp}/res"], "periods"),
-    (["optimal", "--fixture", "tiny", "--budget", "20000", "--max-nodes", "5", "--engine", "reference", "--jobs", "1",
-      "--library", str(REDUCED)], "branch and bound"),
-])
+@pytest.mark.parametrize(
+    "args, label",
+    [
+        (
+            [
+                "simulate",
+                "--fixture",
+                "tiny",
+                "--suite",
+                "LRL-roof",
+                "--runs",
+                "2",
+                "--jobs",
+                "1",
+                "--output-dir",
+                "{tmp}/sim",
+            ],
+            "simulating",
+        ),
+        (
+            [
+                "resilient",
+                "--fixture",
+                "tiny",
+                "--budget",
+                "5000",
+                "--period",
+                "30",
+                "--engine",
+                "reference",
+                "--jobs",
+                "1",
+                "--output-dir",
+                "{tmp}/res",
+            ],
+            "periods",
+        ),
+        (
+            [
+                "optimal",
+                "--fixture",
+                "tiny",
+                "--budget",
+                "20000",
+                "--max-nodes",
+                "5",
+                "--engine",
+                "reference",
+                "--jobs",
+                "1",
+                "--library",
+                str(REDUCED),
+            ],
+            "branch and bound",
+        ),
+    ],
+)
 def test_every_bar_is_the_one_adapter_fed_done_and_total(terminal, tmp_path, args, label):
     r = invoke(*(a.replace("{tmp}", str(tmp_path)) for a in args))
     assert r.exit_code == 0, (r.output, r.exception)
@@ -62,10 +112,14 @@ def test_importing_plotting_leaves_the_backend_alone(tmp_path):
     import subprocess
     import sys
 
-    code = ("import matplotlib; before = matplotlib.get_backend(); import sensorsel.plotting; "
-            "print(before, matplotlib.get_backend())")
+    code = (
+        "import matplotlib; before = matplotlib.get_backend(); import sensorsel.plotting; "
+        "print(before, matplotlib.get_backend())"
+    )
     env = {**os.environ, "MPLBACKEND": "svg", "MPLCONFIGDIR": str(tmp_path)}
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True).stdout.split()
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True
+    ).stdout.split()
     assert out == ["svg", "svg"]
 
 
@@ -84,13 +138,33 @@ def test_plots_draw_on_the_given_axes_and_never_show(tiny_problem, monkeypatch):
 
 # ----------------------------------------------------------------------- the same options everywhere
 
-RESULT_COMMANDS = {"library", "score", "greedy", "pareto", "resilient", "certify", "optimal", "simulate", "robust", "study",
-                   "require", "scene", "landmarks", "osm", "kitti"}
+RESULT_COMMANDS = {
+    "library",
+    "score",
+    "greedy",
+    "pareto",
+    "resilient",
+    "certify",
+    "optimal",
+    "simulate",
+    "robust",
+    "study",
+    "require",
+    "scene",
+    "landmarks",
+    "osm",
+    "kitti",
+}
 PROGRESS_COMMANDS = {"greedy", "pareto", "resilient", "certify", "optimal", "simulate", "robust", "study"}
 BUDGET_COMMANDS = {"greedy", "pareto", "resilient", "certify", "optimal", "robust", "require"}
 PLOT_COMMANDS = {"scene", "pareto", "resilient", "simulate"}
 REQUIRED = {  # the other required options of each command, to parse its --budget alone
-    "greedy": [], "pareto": ["--output-dir", "out"], "resilient": ["--output-dir", "out"], "certify": [], "optimal": [], "robust": [],
+    "greedy": [],
+    "pareto": ["--output-dir", "out"],
+    "resilient": ["--output-dir", "out"],
+    "certify": [],
+    "optimal": [],
+    "robust": [],
     "require": ["--preset", "freeway"],
 }
 
@@ -132,11 +206,42 @@ def test_every_command_with_a_budget_accepts_every_spelling(name, text):
 
 
 def test_a_budget_with_thousands_separators_runs(tmp_path):
-    r = invoke("greedy", "--fixture", "tiny", "--budget", "$5,000", "--engine", "reference", "--jobs", "1", "--no-certificate", "--json")
+    r = invoke(
+        "greedy",
+        "--fixture",
+        "tiny",
+        "--budget",
+        "$5,000",
+        "--engine",
+        "reference",
+        "--jobs",
+        "1",
+        "--no-certificate",
+        "--json",
+    )
     assert r.exit_code == 0, r.output
     assert json.loads(r.stdout)["budget_usd"] == 5000.0
-    r = invoke("pareto", "--fixture", "tiny", "--budget", "2,000", "--budget", "6,000", "--budgets", "$4_000", "--rules", "marginal",
-               "--engine", "reference", "--jobs", "1", "--output-dir", str(tmp_path / "p"), "--json", "-q")
+    r = invoke(
+        "pareto",
+        "--fixture",
+        "tiny",
+        "--budget",
+        "2,000",
+        "--budget",
+        "6,000",
+        "--budgets",
+        "$4_000",
+        "--rules",
+        "marginal",
+        "--engine",
+        "reference",
+        "--jobs",
+        "1",
+        "--output-dir",
+        str(tmp_path / "p"),
+        "--json",
+        "-q",
+    )
     assert r.exit_code == 0, r.output
     data = json.loads(r.stdout)
     assert data["kind"] == "tradespace" and data["budgets_usd"] == [2000.0, 4000.0, 6000.0]
@@ -164,13 +269,29 @@ def test_library_json_lists_62_sensors():
     data = json.loads(r.stdout)
     assert data["n_sensors"] == len(data["sensors"]) == 62
     first = data["sensors"][0]
-    assert {"id", "model", "clock", "range_m", "fov_deg", "sigma_bearing_rad", "sigma_range_m", "cost_usd"} <= set(first)
+    assert {"id", "model", "clock", "range_m", "fov_deg", "sigma_bearing_rad", "sigma_range_m", "cost_usd"} <= set(
+        first
+    )
     assert len({s["id"] for s in data["sensors"]}) == 62
 
 
 def test_simulate_json_is_the_simulation_result(tmp_path):
-    r = invoke("simulate", "--fixture", "tiny", "--suite", "LRL-roof", "--runs", "1", "--jobs", "1", "--plot-format", "svg",
-               "--output-dir", str(tmp_path), "--json")
+    r = invoke(
+        "simulate",
+        "--fixture",
+        "tiny",
+        "--suite",
+        "LRL-roof",
+        "--runs",
+        "1",
+        "--jobs",
+        "1",
+        "--plot-format",
+        "svg",
+        "--output-dir",
+        str(tmp_path),
+        "--json",
+    )
     assert r.exit_code == 0, r.output
     data = json.loads(r.stdout)
     assert data["kind"] == "simulation" and data["format"] == 1 and len(data["simulations"]) == 1

@@ -92,7 +92,9 @@ def test_a_help_page_lists_the_rare_options_on_one_line_and_stays_short(name):
 @pytest.mark.parametrize("topic", ["scenario", "integrity"])
 def test_a_help_topic_gives_every_rare_option_in_full(topic):
     text = CliRunner().invoke(cli, ["help", topic], terminal_width=100).output
-    rare = {long_name(p) for uses in OPTIONS.values() for _, p, _ in uses if isinstance(p, TopicOption) and p.topic == topic}
+    rare = {
+        long_name(p) for uses in OPTIONS.values() for _, p, _ in uses if isinstance(p, TopicOption) and p.topic == topic
+    }
     assert rare
     for name in rare:
         assert name in text
@@ -121,7 +123,9 @@ def test_json_of_a_command_that_writes_a_file_says_what_it_wrote(tmp_path):
     rows = (tmp_path / "lm.csv").read_text().splitlines()
     assert data["kind"] == "landmarks" and data["format"] == 1 and data["file"] == str(tmp_path / "lm.csv")
     assert data["landmarks"] == len(rows) - 1  # a header, then one landmark a line
-    r = CliRunner().invoke(cli, ["scene", "--fixture", "tiny", "-o", str(tmp_path / "s.svg"), "--suite", "LRL-roof", "--json"])
+    r = CliRunner().invoke(
+        cli, ["scene", "--fixture", "tiny", "-o", str(tmp_path / "s.svg"), "--suite", "LRL-roof", "--json"]
+    )
     assert r.exit_code == 0, r.output
     data = json.loads(r.stdout)
     assert data["kind"] == "scene" and data["suite"] == ["LRL-roof"] and (tmp_path / "s.svg").is_file()
@@ -138,6 +142,8 @@ def test_osm_json_says_the_domain_it_wrote(tmp_path):
     written = yaml.safe_load((tmp_path / "city" / "domain.yaml").read_text())
     assert data["kind"] == "osm" and data["domain"] == str(tmp_path / "city" / "domain.yaml")
     assert data["routes"] == len(written["routes"])
-    text = CliRunner().invoke(cli, ["osm", "--sample", "helsinki", "--output-dir", str(tmp_path / "again"), "-q"]).stdout
+    text = (
+        CliRunner().invoke(cli, ["osm", "--sample", "helsinki", "--output-dir", str(tmp_path / "again"), "-q"]).stdout
+    )
     rows = {line.split()[0]: int(line.split()[1]) for line in text.splitlines()[2:] if len(line.split()) == 3}
     assert {c: v["count"] for c, v in data["landmarks"].items()} == rows  # the summary's table, as JSON

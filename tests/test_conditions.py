@@ -18,9 +18,18 @@ from sensorsel.designs.selection import greedy
 from sensorsel.errors import InputError, ResultFileError
 from sensorsel.information.evaluators import DomainEvaluator, make_evaluator
 from sensorsel.io import results
-from sensorsel.model.conditions import (Condition, ConditionPhysics, fog_extinction_per_m, koschmieder_range_m,
-                                        parse_condition, power_law_db_per_km, radar_extinction_per_m,
-                                        SensorEffect, range_under_extinction, sensor_effect)
+from sensorsel.model.conditions import (
+    Condition,
+    ConditionPhysics,
+    SensorEffect,
+    fog_extinction_per_m,
+    koschmieder_range_m,
+    parse_condition,
+    power_law_db_per_km,
+    radar_extinction_per_m,
+    range_under_extinction,
+    sensor_effect,
+)
 from sensorsel.model.domain import DomainError, load_domain_file
 from sensorsel.model.library import load_library
 from sensorsel.model.problem import Domain, DomainRoute, check_result_problem, load_domain, load_problem, with_condition
@@ -54,7 +63,7 @@ def test_radar_range_in_rain_is_itu_p838_with_two_way_loss(rain, expected):
     assert gamma == pytest.approx({10: 5.93, 50: 18.89}[rain], abs=0.01)
     r = sensor_effect("radar", 200.0, Condition(rain_mm_h=rain), P).range_m
     assert round(r) == expected
-    assert 10 ** (-2 * gamma * r / 1e4) / r ** 4 == pytest.approx(1 / 200.0 ** 4, rel=1e-9)
+    assert 10 ** (-2 * gamma * r / 1e4) / r**4 == pytest.approx(1 / 200.0**4, rel=1e-9)
 
 
 def test_radar_in_fog_is_negligible_and_lidar_is_not():
@@ -118,8 +127,10 @@ def test_derived_measurements_equal_observing_with_the_shrunk_ranges(suburb_prob
     assert sum(map(len, derived.observations)) < sum(map(len, suburb_problem.observations))
 
 
-@pytest.mark.parametrize("key, levels", [("rain_mm_h", [0, 2, 10, 50]), ("fog_visibility_m", [None, 2000, 300, 100, 40]),
-                                         ("snow_mm_h", [0, 1, 5])])
+@pytest.mark.parametrize(
+    "key, levels",
+    [("rain_mm_h", [0, 2, 10, 50]), ("fog_visibility_m", [None, 2000, 300, 100, 40]), ("snow_mm_h", [0, 1, 5])],
+)
 def test_scores_are_monotone_in_severity(suburb_problem, key, levels):
     rng = np.random.default_rng(7)
     suites = [tuple(sorted(rng.choice(suburb_problem.n_sensors, size=k, replace=False))) for k in (1, 3, 6, 12)]
@@ -165,21 +176,34 @@ def test_a_result_of_one_condition_is_refused_on_another(tmp_path):
 
 def _domain_file(tmp_path: Path, conditions: str, route_extra: str = "", name: str = "d.yaml") -> Path:
     p = tmp_path / name
-    p.write_text(f"{conditions}\nroutes:\n  - name: suburb\n    fixture: suburb\n    weight: {{hours: 2}}\n{route_extra}"
-                 "  - name: tiny\n    fixture: tiny\n    weight: {hours: 1}\n")
+    p.write_text(
+        f"{conditions}\nroutes:\n  - name: suburb\n    fixture: suburb\n    weight: {{hours: 2}}\n{route_extra}"
+        "  - name: tiny\n    fixture: tiny\n    weight: {hours: 1}\n"
+    )
     return p
 
 
-CITY = "conditions:\n  - {name: night, night: true, share: 0.25}\n  - {name: rain, rain_mm_h: 5, share: 0.08}\n" \
-       "  - {name: fog, fog_visibility_m: 150, share: 0.005}"
+CITY = (
+    "conditions:\n  - {name: night, night: true, share: 0.25}\n  - {name: rain, rain_mm_h: 5, share: 0.08}\n"
+    "  - {name: fog, fog_visibility_m: 150, share: 0.005}"
+)
 
 
 def test_members_are_route_condition_pairs_weighted_by_share(tmp_path):
     path = _domain_file(tmp_path, CITY, "    conditions: {night: 0.5, fog: 0}\n")
     d = load_domain(path)
     got = {r.name: r.weight for r in d.routes}
-    assert got == pytest.approx({"suburb/clear": 2 * (1 - 0.58), "suburb/night": 1.0, "suburb/rain": 0.16,
-                                 "tiny/clear": 0.665, "tiny/night": 0.25, "tiny/rain": 0.08, "tiny/fog": 0.005})
+    assert got == pytest.approx(
+        {
+            "suburb/clear": 2 * (1 - 0.58),
+            "suburb/night": 1.0,
+            "suburb/rain": 0.16,
+            "tiny/clear": 0.665,
+            "tiny/night": 0.25,
+            "tiny/rain": 0.08,
+            "tiny/fog": 0.005,
+        }
+    )
     assert d.condition_names == ("clear", "night", "rain", "fog")
     r = d.route("suburb/night")
     assert (r.route, r.condition, r.problem.condition.night) == ("suburb", "night", True)
@@ -196,8 +220,10 @@ def test_members_are_route_condition_pairs_weighted_by_share(tmp_path):
 
 def test_one_route_in_one_condition_equals_the_plain_route(tmp_path):
     p = tmp_path / "one.yaml"
-    p.write_text("conditions:\n  - {name: storm, rain_mm_h: 30, night: true, share: 1}\n"
-                 "routes:\n  - {name: suburb, fixture: suburb, weight: 1}\n")
+    p.write_text(
+        "conditions:\n  - {name: storm, rain_mm_h: 30, night: true, share: 1}\n"
+        "routes:\n  - {name: suburb, fixture: suburb, weight: 1}\n"
+    )
     d = load_domain(p)
     assert [m.name for m in d.routes] == ["suburb/storm"]
     plain = load_problem(ScenarioSpec(condition=parse_condition("night,rain_mm_h=30")))
@@ -226,11 +252,19 @@ def _cli(*args: object) -> SimpleNamespace:
     return SimpleNamespace(returncode=r.exit_code, stdout=r.stdout, stderr=r.stderr)
 
 
-@pytest.mark.parametrize("text, names", [
-    ("rain_mm_h=-1", "rain_mm_h"), ("fog_visibility_m=0", "fog_visibility_m"), ("hail", "'hail'"),
-    ("rain_mm_h=lots", "rain_mm_h"), ("night=1", "night"), ("rain_mm_h=2,rain_mm_h=3", "rain_mm_h"),
-    ("snow_mm_h=nan", "snow_mm_h"), ("clear,night", "clear"),
-])
+@pytest.mark.parametrize(
+    "text, names",
+    [
+        ("rain_mm_h=-1", "rain_mm_h"),
+        ("fog_visibility_m=0", "fog_visibility_m"),
+        ("hail", "'hail'"),
+        ("rain_mm_h=lots", "rain_mm_h"),
+        ("night=1", "night"),
+        ("rain_mm_h=2,rain_mm_h=3", "rain_mm_h"),
+        ("snow_mm_h=nan", "snow_mm_h"),
+        ("clear,night", "clear"),
+    ],
+)
 def test_bad_condition_option_is_one_line_exit_2(text, names):
     r = _cli("score", "--fixture", "tiny", "--suite", "LRL-roof", "--condition", text)
     assert r.returncode == 2 and r.stdout == ""
@@ -238,17 +272,23 @@ def test_bad_condition_option_is_one_line_exit_2(text, names):
     assert len(lines) == 1 and lines[0].startswith("sensorsel: error: --condition") and names in lines[0], r.stderr
 
 
-@pytest.mark.parametrize("conditions, key", [
-    ("conditions:\n  - {name: rain, rain_mm_h: -2, share: 0.1}", "conditions[0].rain_mm_h"),
-    ("conditions:\n  - {name: fog, fog_visibility_m: 0, share: 0.1}", "conditions[0].fog_visibility_m"),
-    ("conditions:\n  - {name: fog, visibility: 100, share: 0.1}", "conditions[0].visibility"),
-    ("conditions:\n  - {name: rain, rain_mm_h: heavy, share: 0.1}", "conditions[0].rain_mm_h"),
-    ("conditions:\n  - {name: night, night: true, share: 0.7}\n  - {name: rain, rain_mm_h: 4, share: 0.4}", "conditions"),
-    ("conditions:\n  - {name: night, night: true, share: 1.5}", "conditions[0].share"),
-    ("conditions:\n  - {name: clear, share: 0.5}", "conditions[0].name"),
-    ("conditions:\n  - {name: rain, rain_mm_h: 4}", "conditions[0].share"),
-    ("conditions:\n  - {name: night, night: yes please, share: 0.2}", "conditions[0].night"),
-])
+@pytest.mark.parametrize(
+    "conditions, key",
+    [
+        ("conditions:\n  - {name: rain, rain_mm_h: -2, share: 0.1}", "conditions[0].rain_mm_h"),
+        ("conditions:\n  - {name: fog, fog_visibility_m: 0, share: 0.1}", "conditions[0].fog_visibility_m"),
+        ("conditions:\n  - {name: fog, visibility: 100, share: 0.1}", "conditions[0].visibility"),
+        ("conditions:\n  - {name: rain, rain_mm_h: heavy, share: 0.1}", "conditions[0].rain_mm_h"),
+        (
+            "conditions:\n  - {name: night, night: true, share: 0.7}\n  - {name: rain, rain_mm_h: 4, share: 0.4}",
+            "conditions",
+        ),
+        ("conditions:\n  - {name: night, night: true, share: 1.5}", "conditions[0].share"),
+        ("conditions:\n  - {name: clear, share: 0.5}", "conditions[0].name"),
+        ("conditions:\n  - {name: rain, rain_mm_h: 4}", "conditions[0].share"),
+        ("conditions:\n  - {name: night, night: yes please, share: 0.2}", "conditions[0].night"),
+    ],
+)
 def test_bad_domain_conditions_name_the_key_and_line(tmp_path, conditions, key):
     path = _domain_file(tmp_path, conditions)
     with pytest.raises(DomainError) as e:
@@ -258,11 +298,14 @@ def test_bad_domain_conditions_name_the_key_and_line(tmp_path, conditions, key):
     assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1 and key in r.stderr, r.stderr
 
 
-@pytest.mark.parametrize("extra, key", [
-    ("    conditions: {snow: 0.1}\n", "routes[0].conditions.snow"),
-    ("    conditions: {night: 0.9, rain: 0.2}\n", "routes[0].conditions"),
-    ("    conditions: {night: many}\n", "routes[0].conditions.night"),
-])
+@pytest.mark.parametrize(
+    "extra, key",
+    [
+        ("    conditions: {snow: 0.1}\n", "routes[0].conditions.snow"),
+        ("    conditions: {night: 0.9, rain: 0.2}\n", "routes[0].conditions"),
+        ("    conditions: {night: many}\n", "routes[0].conditions.night"),
+    ],
+)
 def test_bad_route_shares_name_the_key(tmp_path, extra, key):
     path = _domain_file(tmp_path, CITY, extra)
     with pytest.raises(DomainError) as e:
@@ -307,16 +350,24 @@ def test_a_problem_put_under_a_condition_in_python_keeps_it_on_dask_workers(tiny
     pytest.importorskip("distributed")
     from sensorsel.api import design_domain
     from sensorsel.designs.tradespace import run_tradespace
-    from sensorsel.model.recipes import TargetRecipe
     from sensorsel.information.evaluators.distributed import DistributedDomainEvaluator
+    from sensorsel.model.recipes import TargetRecipe
     from sensorsel.pipeline.cluster import DaskCluster
 
     night = with_condition(tiny_problem, Condition(night=True, fog_visibility_m=150))
     assert night.spec is None and tiny_problem.spec is None
-    d = Domain((DomainRoute("tiny/clear", tiny_problem, 3.0, "km", "tiny", "clear"),
-                DomainRoute("tiny/night", night, 1.0, "km", "tiny", "night")), "python")
+    d = Domain(
+        (
+            DomainRoute("tiny/clear", tiny_problem, 3.0, "km", "tiny", "clear"),
+            DomainRoute("tiny/night", night, 1.0, "km", "tiny", "night"),
+        ),
+        "python",
+    )
     rebuilt = TargetRecipe.of(d).build()
-    assert isinstance(rebuilt, Domain) and [(r.route, r.condition) for r in rebuilt.routes] == [("tiny", "clear"), ("tiny", "night")]
+    assert isinstance(rebuilt, Domain) and [(r.route, r.condition) for r in rebuilt.routes] == [
+        ("tiny", "clear"),
+        ("tiny", "night"),
+    ]
     best = DomainEvaluator(d).best
     assert best[1] < best[0]  # the condition costs the whole library information: clear and night differ
     untimed = lambda r: re.sub(r'"seconds": [0-9.e-]+', "", results.dumps(r))  # noqa: E731
@@ -324,7 +375,9 @@ def test_a_problem_put_under_a_condition_in_python_keeps_it_on_dask_workers(tiny
         ev = DistributedDomainEvaluator(cluster.client, d)
         assert np.array_equal(ev.best, best)
         remote = design_domain(d, 8_000, evaluator=ev)
-        spread = run_tradespace(night, [4_000, 8_000], ["uniform"], executor=cluster.executor)  # TargetRecipe of a Problem
+        spread = run_tradespace(
+            night, [4_000, 8_000], ["uniform"], executor=cluster.executor
+        )  # TargetRecipe of a Problem
     assert untimed(remote) == untimed(design_domain(d, 8_000))
     assert untimed(spread) == untimed(run_tradespace(night, [4_000, 8_000], ["uniform"]))
 
@@ -346,6 +399,7 @@ def test_breakdown_by_condition_and_its_grid_plot(tmp_path):
     assert [t.get_text() for t in ax.get_yticklabels()] == ["suburb", "tiny"]
     assert len(ax.get_xticklabels()) == 4
     import matplotlib.pyplot as plt
+
     plt.close(ax.figure)
 
 
@@ -363,8 +417,9 @@ def test_night_inflates_the_stereo_cameras_range_noise_as_their_disparity_noise(
         if m.type != "stereo" or not len(o):
             continue
         assert np.max(o.range_m) <= phys.night_camera_range_m
-        np.testing.assert_allclose(o.sigma_range_m, k * o.range_m**2 * m.sigma_disparity_px / (m.focal_px * m.baseline_m),
-                                   rtol=1e-12)
+        np.testing.assert_allclose(
+            o.sigma_range_m, k * o.range_m**2 * m.sigma_disparity_px / (m.focal_px * m.baseline_m), rtol=1e-12
+        )
         np.testing.assert_allclose(o.sigma_bearing_rad, k * m.sigma_pixel_px / m.focal_px, rtol=1e-12)
         checked += len(o)
     assert checked > 100

@@ -52,7 +52,7 @@ def _write_slotted(folder: Path) -> Path:
     return path
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def slotted_library(folder: str):
     full = load_library(_write_slotted(Path(folder)))
     return full.subset([full.position(i) for i in IDS])
@@ -108,9 +108,14 @@ def random_requests(lib, n: int, seed: int) -> list[tuple[float, Constraints]]:
         picks = rng.permutation(len(lib))
         require = [lib.ids[int(picks[0])]] if rng.random() < 0.5 else []
         exclude = [lib.ids[int(picks[1])]] if rng.random() < 0.4 else []
-        c = Constraints.of(limits=limits, slots=bool(rng.random() < 0.7), require=require,
-                           owned=bool(require) and bool(rng.random() < 0.5), exclude=exclude,
-                           max_sensors=int(rng.integers(1, 6)) if rng.random() < 0.4 else None)
+        c = Constraints.of(
+            limits=limits,
+            slots=bool(rng.random() < 0.7),
+            require=require,
+            owned=bool(require) and bool(rng.random() < 0.5),
+            exclude=exclude,
+            max_sensors=int(rng.integers(1, 6)) if rng.random() < 0.4 else None,
+        )
         budget = float(rng.choice([3_000.0, 9_000.0, 20_000.0, 110_000.0]))
         try:
             feasible_set(lib, budget, c)
@@ -202,7 +207,11 @@ def test_budget_alone_keeps_the_knapsack_path(problem):
 def test_constrained_results_round_trip(problem, tmp_path):
     c = Constraints.of(limits={"power_w": 40.0}, max_sensors=3, require=["WSC-3"])
     res = run_optimal(problem, 20_000.0, engine="reference", constraints=c)
-    assert res.constraints is not None and res.constraints.limits == (("power_w", 40.0),) and res.constraints.library_digest
+    assert (
+        res.constraints is not None
+        and res.constraints.limits == (("power_w", 40.0),)
+        and res.constraints.library_digest
+    )
     assert "milp" in res.bound_method or res.n_nodes == 0
     back = results.load(results.save(res, tmp_path / "opt.json"), OptimumResult)
     assert back == res
@@ -215,7 +224,9 @@ def test_constrained_results_round_trip(problem, tmp_path):
 def test_certify_result_refuses_other_slots(problem):
     """The result's constraints were checked against the slotted library: a library with the same
     sensors but no slots is refused (force: certified anyway, over its own, larger, feasible set)."""
-    g = greedy(make_evaluator(problem, "reference"), 9_000.0, "uniform", constraints=Constraints.of(), info=problem.info)
+    g = greedy(
+        make_evaluator(problem, "reference"), 9_000.0, "uniform", constraints=Constraints.of(), info=problem.info
+    )
     assert g.constraints is not None
     stock = load_library()
     bare = build_problem(stock.subset([stock.position(i) for i in IDS]), load_scenario(ScenarioSpec(fixture="tiny")))
@@ -249,7 +260,9 @@ def test_packing_bound_equals_brute_force_on_random_integer_programs(capfd):
         assert sol.exact and sol.value == pytest.approx(best, rel=1e-9, abs=1e-6)
         assert sol.value >= best - 1e-9 * max(1.0, best)
         t = list(sol.chosen)
-        assert np.all(A[:, t].sum(axis=1) <= cap * (1 + 1e-9) + 1e-9) and sol.achieved == pytest.approx(sum(v[t]), abs=1e-9)
+        assert np.all(A[:, t].sum(axis=1) <= cap * (1 + 1e-9) + 1e-9) and sol.achieved == pytest.approx(
+            sum(v[t]), abs=1e-9
+        )
     assert "Highs" not in capfd.readouterr().out  # HiGHS's stray debug line never reaches stdout
 
 
@@ -283,22 +296,28 @@ def _library_lacking_power(folder: Path) -> Path:
 
 
 @pytest.mark.parametrize("command", ["optimal", "certify", "greedy"])
-@pytest.mark.parametrize("extra, named", [
-    (["--include", "LRL-roof", "--limit", "power_w=10"], "power_w"),        # required sensors over a limit
-    (["--include", "LRL-roof,LRR-12", "--max-sensors", "1"], "--max-sensors"),
-    (["--limit", "thrust_n=3"], "thrust_n"),                                  # unknown resource
-    (["--include", "XYZ-99"], "XYZ-99"),                                      # unknown id
-    (["--exclude", "NOPE-1"], "NOPE-1"),
-    (["--include", "LRR-12", "--exclude", "LRR-12,WSC-3"], "LRR-12"),        # required and excluded
-    (["--limit", "power_w=abc"], "power_w"),
-    ("lacking", "LRR"),                                                       # a model without the resource
-])
+@pytest.mark.parametrize(
+    "extra, named",
+    [
+        (["--include", "LRL-roof", "--limit", "power_w=10"], "power_w"),  # required sensors over a limit
+        (["--include", "LRL-roof,LRR-12", "--max-sensors", "1"], "--max-sensors"),
+        (["--limit", "thrust_n=3"], "thrust_n"),  # unknown resource
+        (["--include", "XYZ-99"], "XYZ-99"),  # unknown id
+        (["--exclude", "NOPE-1"], "NOPE-1"),
+        (["--include", "LRR-12", "--exclude", "LRR-12,WSC-3"], "LRR-12"),  # required and excluded
+        (["--limit", "power_w=abc"], "power_w"),
+        ("lacking", "LRR"),  # a model without the resource
+    ],
+)
 def test_cli_infeasible_requests_fail_in_one_line(tmp_path, command, extra, named):
     lib = REDUCED
     if extra == "lacking":
         lib, extra = _library_lacking_power(tmp_path), ["--limit", "power_w=100"]
-    r = CliRunner().invoke(cli, [command, "--fixture", "tiny", "--library", str(lib), "--budget", "110000", "-q",
-                                 "--engine", "reference"] + extra)
+    r = CliRunner().invoke(
+        cli,
+        [command, "--fixture", "tiny", "--library", str(lib), "--budget", "110000", "-q", "--engine", "reference"]
+        + extra,
+    )
     assert r.exit_code == 2, r.output
     assert "Traceback" not in r.output and r.stdout == ""
     lines = r.stderr.strip().splitlines()
@@ -306,8 +325,20 @@ def test_cli_infeasible_requests_fail_in_one_line(tmp_path, command, extra, name
 
 
 def test_cli_require_suites_hold_the_required_sensors():
-    base = ["--fixture", "tiny", "--library", str(REDUCED), "--budget", "9000", "-q", "--engine", "reference",
-            "--include", "LRR-6,WSC-9", "--json"]
+    base = [
+        "--fixture",
+        "tiny",
+        "--library",
+        str(REDUCED),
+        "--budget",
+        "9000",
+        "-q",
+        "--engine",
+        "reference",
+        "--include",
+        "LRR-6,WSC-9",
+        "--json",
+    ]
     r = CliRunner().invoke(cli, ["optimal", "--max-nodes", "15", "--limit", "power_w=30"] + base)
     assert r.exit_code == 0, r.output
     out = json.loads(r.stdout)
@@ -320,8 +351,25 @@ def test_cli_require_suites_hold_the_required_sensors():
 
 
 def test_cli_optimal_prints_the_usage_table():
-    r = CliRunner().invoke(cli, ["optimal", "--fixture", "tiny", "--library", str(REDUCED), "--budget", "9000", "-q",
-                                 "--max-nodes", "5", "--limit", "power_w=20", "--max-sensors", "3"])
+    r = CliRunner().invoke(
+        cli,
+        [
+            "optimal",
+            "--fixture",
+            "tiny",
+            "--library",
+            str(REDUCED),
+            "--budget",
+            "9000",
+            "-q",
+            "--max-nodes",
+            "5",
+            "--limit",
+            "power_w=20",
+            "--max-sensors",
+            "3",
+        ],
+    )
     assert r.exit_code == 0, r.output
     assert "limits     power_w <= 20 W" in r.stdout and "power_w" in r.stdout.split("limits")[1]
 
@@ -331,7 +379,9 @@ def test_cli_certify_result_of_other_slots_is_refused_naming_the_file(tmp_path):
     car.write_text(yaml.safe_dump({"extends": str(REDUCED), "slots": SLOTS}), encoding="utf-8")
     base = ["--fixture", "tiny", "-q", "--engine", "reference"]
     out = tmp_path / "g.json"
-    r = CliRunner().invoke(cli, ["greedy", "--library", str(car), "--budget", "9000", "--no-certificate", "-o", str(out)] + base)
+    r = CliRunner().invoke(
+        cli, ["greedy", "--library", str(car), "--budget", "9000", "--no-certificate", "-o", str(out)] + base
+    )
     assert r.exit_code == 0, r.output
     r = CliRunner().invoke(cli, ["certify", "--library", str(REDUCED), "--suite", str(out)] + base)
     assert r.exit_code == 2 and str(out) in r.stderr and "mounting slots" in r.stderr and "Traceback" not in r.output

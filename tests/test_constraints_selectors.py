@@ -12,16 +12,16 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import json
 import itertools
+import json
 import warnings
 
 import numpy as np
 import pytest
 import yaml
 from click.testing import CliRunner
-
 from oracles import every_suite_score
+
 from sensorsel.cli import cli
 from sensorsel.designs.resilient import CacheWarning, resilient_select, run_periods
 from sensorsel.designs.robust import robust_bound, robust_optimum, robust_select
@@ -45,13 +45,13 @@ def tol(x: float) -> float:
     return 1e-9 * max(1.0, abs(x))
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def problem():
     lib = LIBRARY.subset([LIBRARY.position(i) for i in IDS])
     return build_problem(lib, load_scenario(ScenarioSpec(fixture="tiny")))
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def table() -> dict[tuple[int, ...], float]:
     """f of every suite of the 8 sensors, each scored once."""
     return every_suite_score(make_evaluator(problem(), "fast"))
@@ -75,28 +75,44 @@ def random_case(seed: int) -> tuple[Evaluator, float, Constraints]:
     perm = rng.permutation(n)
     slots = []
     for k, size in enumerate(rng.integers(2, 4, size=2)):
-        members = tuple(sorted(int(i) for i in perm[3 * k: 3 * k + int(size)]))
+        members = tuple(sorted(int(i) for i in perm[3 * k : 3 * k + int(size)]))
         slots.append(Slot(f"{k + 1}", "any", int(rng.integers(1, 3)), members))
     lib = dataclasses.replace(base, slots=tuple(slots))
     budget = float(rng.choice([6_000.0, 12_000.0, 110_000.0]))
     return TableEvaluator(lib), budget, draw_constraints(rng, lib, perm, budget)
 
 
-def draw_constraints(rng: np.random.Generator, lib, perm: np.ndarray, budget: float, *,
-                     power_share: tuple[float, float] = (0.2, 0.7), p_mass: float = 0.4, p_pick: float = 0.5) -> Constraints:
+def draw_constraints(
+    rng: np.random.Generator,
+    lib,
+    perm: np.ndarray,
+    budget: float,
+    *,
+    power_share: tuple[float, float] = (0.2, 0.7),
+    p_mass: float = 0.4,
+    p_pick: float = 0.5,
+) -> Constraints:
     """Random constraints ``lib`` can meet: a power limit (a ``power_share`` of the library's, 70% of
     the time), a mass limit (``p_mass`` of the time), the last sensor of ``perm`` required and the one
     before excluded (``p_pick`` each), a largest number of sensors (half the time), owned (half the
     time there is a required sensor). A required sensor that breaks a drawn limit is drawn away."""
-    limits = ({"power_w": round(float(rng.uniform(*power_share)) * float(lib.resource("power_w").sum()), 1)}
-              if rng.random() < 0.7 else {})
+    limits = (
+        {"power_w": round(float(rng.uniform(*power_share)) * float(lib.resource("power_w").sum()), 1)}
+        if rng.random() < 0.7
+        else {}
+    )
     if p_mass and rng.random() < p_mass:
         limits["mass_kg"] = round(float(rng.uniform(0.3, 0.8)) * float(lib.resource("mass_kg").sum()), 2)
     require = [lib.ids[int(perm[-1])]] if rng.random() < p_pick else []
     exclude = [lib.ids[int(perm[-2])]] if rng.random() < p_pick else []
     max_sensors = int(rng.integers(2, 5)) if rng.random() < 0.5 else None
-    c = Constraints.of(limits=limits, require=require, owned=bool(require) and rng.random() < 0.5, exclude=exclude,
-                       max_sensors=max_sensors)
+    c = Constraints.of(
+        limits=limits,
+        require=require,
+        owned=bool(require) and rng.random() < 0.5,
+        exclude=exclude,
+        max_sensors=max_sensors,
+    )
     try:
         feasible_set(lib, budget, c)
     except InputError:  # the required sensor breaks a drawn limit: draw it away
@@ -157,12 +173,17 @@ def test_every_tradespace_suite_is_feasible_at_its_budget(seed):
 def test_prefix_sharing_under_capacity_rows_equals_independent_runs(seed):
     ev, budget, c = random_case(seed)
     c = dataclasses.replace(c, limits=())  # slots, most sensors, require / exclude: sharing stays on
-    budgets = [b for b in (2_000.0, 5_000.0, 9_000.0, 110_000.0)
-               if feasible_set(ev.library, b, c).usage(feasible_set(ev.library, b, c).required)[0] <= b]
+    budgets = [
+        b
+        for b in (2_000.0, 5_000.0, 9_000.0, 110_000.0)
+        if feasible_set(ev.library, b, c).usage(feasible_set(ev.library, b, c).required)[0] <= b
+    ]
     shared = tradespace(ev, budgets, ("uniform", "cost-benefit", "marginal"), constraints=c)
     alone = tradespace(ev, budgets, ("uniform", "cost-benefit", "marginal"), constraints=c, share_prefix=False)
     assert shared.share_prefix and not alone.share_prefix
-    assert [(r.rule, r.budget_usd, r.suite) for r in shared.runs] == [(r.rule, r.budget_usd, r.suite) for r in alone.runs]
+    assert [(r.rule, r.budget_usd, r.suite) for r in shared.runs] == [
+        (r.rule, r.budget_usd, r.suite) for r in alone.runs
+    ]
     assert [a.suite for a in shared.architectures] == [a.suite for a in alone.architectures]
 
 
@@ -285,6 +306,7 @@ COMMON = ["--fixture", "tiny", "--engine", "fast", "--jobs", "1", "-q"]
 
 def _check_json_suites(lib_path: str, budget: float, c: Constraints, suites) -> None:
     from sensorsel.model.library import load_library as load
+
     lib = load(lib_path)
     for s in suites:
         assert_fits(lib, budget, c, s, "CLI suite")
@@ -293,41 +315,96 @@ def _check_json_suites(lib_path: str, budget: float, c: Constraints, suites) -> 
 def test_cli_pareto_robust_resilient_keep_a_power_limit(slotted_library_yaml, tmp_path):
     c = Constraints.of(limits={"power_w": 30.0})
     out = tmp_path / "p"
-    r = invoke("pareto", *COMMON, "--library", slotted_library_yaml, "--budgets", "5000,20000",
-               "--rules", "uniform,marginal", "--limit", "power_w=30", "--output-dir", out)
+    r = invoke(
+        "pareto",
+        *COMMON,
+        "--library",
+        slotted_library_yaml,
+        "--budgets",
+        "5000,20000",
+        "--rules",
+        "uniform,marginal",
+        "--limit",
+        "power_w=30",
+        "--output-dir",
+        out,
+    )
     assert r.exit_code == 0, r.output
     from sensorsel.designs.tradespace import TradespaceResult
+
     ts = results.load(out / "tradespace.json", TradespaceResult)
     assert ts.constraints is not None and ts.constraints.limits == (("power_w", 30.0),)
     _check_json_suites(slotted_library_yaml, 20_000.0, c, [a.suite for a in ts.architectures])
 
     out = tmp_path / "r.json"
-    r = invoke("robust", *COMMON, "--library", slotted_library_yaml, "--budget", "6000", "--failures", "1",
-               "--methods", "none", "--limit", "power_w=30", "-o", out)
+    r = invoke(
+        "robust",
+        *COMMON,
+        "--library",
+        slotted_library_yaml,
+        "--budget",
+        "6000",
+        "--failures",
+        "1",
+        "--methods",
+        "none",
+        "--limit",
+        "power_w=30",
+        "-o",
+        out,
+    )
     assert r.exit_code == 0, r.output
     assert "power_w" in r.output  # the resource-use table of the answer
     from sensorsel.designs.robust import RobustResult
+
     rr = results.load(out, RobustResult)
     _check_json_suites(slotted_library_yaml, 6_000.0, c, [cand.suite for cand in rr.candidates])
 
-    r = invoke("resilient", *COMMON, "--library", slotted_library_yaml, "--budget", "6000", "--failures", "1",
-               "--period", "5", "--limit", "power_w=30", "--output-dir", tmp_path / "res")
+    r = invoke(
+        "resilient",
+        *COMMON,
+        "--library",
+        slotted_library_yaml,
+        "--budget",
+        "6000",
+        "--failures",
+        "1",
+        "--period",
+        "5",
+        "--limit",
+        "power_w=30",
+        "--output-dir",
+        tmp_path / "res",
+    )
     assert r.exit_code == 0, r.output
     from sensorsel.designs.resilient import ResilientReport
+
     rep = results.load(tmp_path / "res" / "resilient.json", ResilientReport)
     assert rep.constraints is not None
     suites = [rep.suite, rep.comparison.greedy.suite] + [p.suite for p in rep.per_period.periods]
     _check_json_suites(slotted_library_yaml, 6_000.0, c, suites)
 
 
-@pytest.mark.parametrize("cmd", [
-    ["pareto", "--budgets", "5000,20000", "--output-dir", "{tmp}/x"],
-    ["robust", "--budget", "6000", "--failures", "1", "-o", "{tmp}/x.json"],
-    ["resilient", "--budget", "6000", "--failures", "1", "--output-dir", "{tmp}/x"],
-])
+@pytest.mark.parametrize(
+    "cmd",
+    [
+        ["pareto", "--budgets", "5000,20000", "--output-dir", "{tmp}/x"],
+        ["robust", "--budget", "6000", "--failures", "1", "-o", "{tmp}/x.json"],
+        ["resilient", "--budget", "6000", "--failures", "1", "--output-dir", "{tmp}/x"],
+    ],
+)
 def test_cli_refuses_an_infeasible_request_naming_the_constraint(slotted_library_yaml, tmp_path, cmd):
-    r = invoke(*(a.replace("{tmp}", str(tmp_path)) for a in cmd), *COMMON, "--library", slotted_library_yaml, "--include",
-               "LRL-roof", "--owned", "--limit", "power_w=30")
+    r = invoke(
+        *(a.replace("{tmp}", str(tmp_path)) for a in cmd),
+        *COMMON,
+        "--library",
+        slotted_library_yaml,
+        "--include",
+        "LRL-roof",
+        "--owned",
+        "--limit",
+        "power_w=30",
+    )
     assert r.exit_code == 2
     lines = [ln for ln in r.output.splitlines() if ln.strip()]
     assert len(lines) == 1 and "power_w" in lines[0] and "--include" in lines[0], r.output

@@ -20,13 +20,16 @@ import pytest
 
 distributed = pytest.importorskip("distributed")
 
-from sensorsel.io import results  # noqa: E402
-from sensorsel.api import suite_accuracy, suite_integrity  # noqa: E402
-from sensorsel.api import design_domain  # noqa: E402
-from sensorsel.information.evaluators.distributed import DistributedDomainEvaluator  # noqa: E402
-from sensorsel.pipeline.cluster import DaskCluster  # noqa: E402
-from sensorsel.model.problem import load_domain  # noqa: E402
+from sensorsel.api import (  # noqa: E402
+    design_domain,
+    suite_accuracy,
+    suite_integrity,
+)
 from sensorsel.designs.tradespace import run_tradespace  # noqa: E402
+from sensorsel.information.evaluators.distributed import DistributedDomainEvaluator  # noqa: E402
+from sensorsel.io import results  # noqa: E402
+from sensorsel.model.problem import load_domain  # noqa: E402
+from sensorsel.pipeline.cluster import DaskCluster  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 FIXTURES = REPO / "configs" / "domain_fixtures.yaml"
@@ -36,12 +39,14 @@ ENV = {**os.environ, "PYTHONPATH": str(REPO / "src") + os.pathsep + os.environ.g
 
 def _untimed(obj: object) -> object:
     """A result's JSON without its timings."""
+
     def rec(o: object) -> object:
         if isinstance(o, dict):
             return {k: rec(v) for k, v in o.items() if k != "seconds"}
         if isinstance(o, list):
             return [rec(v) for v in o]
         return o
+
     return rec(json.loads(obj if isinstance(obj, str) else results.dumps(obj)))
 
 
@@ -64,7 +69,6 @@ def test_domain_greedy_on_two_workers_equals_in_process(cluster, domain):
     assert ev.step_bytes and max(s + r for s, r in ev.step_bytes) < 2_000  # suites and numbers, never matrices
 
 
-
 def test_tradespace_rules_as_tasks_equal_in_process_and_resume(cluster, domain, tmp_path):
     grid, rules = [4_000, 12_000], ["best-of"]  # its two component rules: two tasks
     local = _untimed(run_tradespace(domain, grid, rules))
@@ -72,7 +76,10 @@ def test_tradespace_rules_as_tasks_equal_in_process_and_resume(cluster, domain, 
     files = sorted((tmp_path / "runs").glob("rule-*.json"))
     assert len(files) == 2
     stamps = [f.stat().st_mtime_ns for f in files]
-    assert _untimed(run_tradespace(domain, grid, rules, executor=cluster.executor, outdir=str(tmp_path), resume=True)) == local
+    assert (
+        _untimed(run_tradespace(domain, grid, rules, executor=cluster.executor, outdir=str(tmp_path), resume=True))
+        == local
+    )
     assert [f.stat().st_mtime_ns for f in files] == stamps  # finished rules were read back, not run again
 
 
@@ -89,7 +96,9 @@ def test_resilient_periods_as_tasks_equal_in_process_and_resume(cluster, tmp_pat
     files = sorted((there / "periods").glob("period-*.json"))
     assert len(files) == len(local.per_period.periods) > 1
     stamps = [f.stat().st_mtime_ns for f in files]
-    again = resilient_report(problem, 8_000, 1, period_s=20.0, outdir=str(there), resume=True, executor=cluster.executor)
+    again = resilient_report(
+        problem, 8_000, 1, period_s=20.0, outdir=str(there), resume=True, executor=cluster.executor
+    )
     assert _untimed(again) == _untimed(local)
     assert [f.stat().st_mtime_ns for f in files] == stamps  # finished periods were read back, not recomputed
 
@@ -102,6 +111,7 @@ def test_greedy_interrupted_in_process_resumes_on_two_workers(cluster, domain, t
             if isinstance(o, dict):
                 return {k: rec(v) for k, v in o.items() if k != "n_evaluations"}
             return [rec(v) for v in o] if isinstance(o, list) else o
+
         return rec(_untimed(obj))
 
     whole = design_domain(domain, 12_000, certify=True)
@@ -149,19 +159,23 @@ def test_score_certify_optimal_robust_on_a_domain_equal_in_process(cluster, doma
     ev = DistributedDomainEvaluator(cluster.client, domain, aggregate="raw")
     here = DomainEvaluator(domain, aggregate="raw")
     suite = "MRL-roof,HD2K-8,HD2K-2"
-    assert _untimed(score_domain_suite(domain, suite, aggregate="raw", evaluator=ev)) == \
-        _untimed(score_domain_suite(domain, suite, aggregate="raw"))
+    assert _untimed(score_domain_suite(domain, suite, aggregate="raw", evaluator=ev)) == _untimed(
+        score_domain_suite(domain, suite, aggregate="raw")
+    )
     res = greedy(here, 6_000, "uniform", info=domain.info)
     assert _untimed(certify_greedy(ev, res)) == _untimed(certify_greedy(here, res))
-    assert _untimed(optimal(ev, 3_000, max_nodes=4, info=domain.info)) == \
-        _untimed(optimal(here, 3_000, max_nodes=4, info=domain.info))  # small: a few hundred node evaluations
+    assert _untimed(optimal(ev, 3_000, max_nodes=4, info=domain.info)) == _untimed(
+        optimal(here, 3_000, max_nodes=4, info=domain.info)
+    )  # small: a few hundred node evaluations
     kw = dict(rules=("uniform",), methods=(), bound_nodes=5)
     # an evaluator given: one run on it, all methods on one memo (the plan of tasks: tests/test_pipeline.py)
-    assert _untimed(run_robust(domain, 3_000, 1, aggregate="raw", evaluator=ev, **kw)) == \
-        _untimed(run_robust(domain, 3_000, 1, aggregate="raw", evaluator=DomainEvaluator(domain, aggregate="raw"), **kw))
+    assert _untimed(run_robust(domain, 3_000, 1, aggregate="raw", evaluator=ev, **kw)) == _untimed(
+        run_robust(domain, 3_000, 1, aggregate="raw", evaluator=DomainEvaluator(domain, aggregate="raw"), **kw)
+    )
     worst = DistributedDomainEvaluator(cluster.client, domain)  # the worst route: each route's share of its best
-    assert _untimed(run_robust(domain, 3_000, 1, aggregate="worst", evaluator=worst, **kw)) == \
-        _untimed(run_robust(domain, 3_000, 1, aggregate="worst", **kw))
+    assert _untimed(run_robust(domain, 3_000, 1, aggregate="worst", evaluator=worst, **kw)) == _untimed(
+        run_robust(domain, 3_000, 1, aggregate="worst", **kw)
+    )
 
 
 def test_simulation_runs_as_tasks_equal_in_process(cluster):
@@ -171,8 +185,9 @@ def test_simulation_runs_as_tasks_equal_in_process(cluster):
 
     problem = load_problem(ScenarioSpec(fixture="tiny"))
     done = []
-    there = simulate(problem, "MRL-roof,HD2K-8", runs=3, seed=5, executor=cluster.executor,
-                     progress=lambda d, t: done.append(d))
+    there = simulate(
+        problem, "MRL-roof,HD2K-8", runs=3, seed=5, executor=cluster.executor, progress=lambda d, t: done.append(d)
+    )
     here = simulate(problem, "MRL-roof,HD2K-8", runs=3, seed=5)
     assert sorted(done) == [1, 2, 3]
 
@@ -189,9 +204,25 @@ def test_cli_score_and_simulate_with_workers_print_the_in_process_json(tmp_path)
     here, there = _here(*score), _cli(*score, "--workers", "2")
     assert there.returncode == 0 and "LocalCluster of 2 worker processes" in there.stderr, there.stderr
     assert _untimed(there.stdout) == _untimed(here.stdout)
-    sim = ["simulate", "--fixture", "tiny", "--suite", "MRL-roof,HD2K-8", "--runs", "2", "--jobs", "1", "--plot-format", "svg",
-           "--json", "-q"]
-    here, there = _here(*sim, "--output-dir", str(tmp_path / "here")), _cli(*sim, "--output-dir", str(tmp_path / "there"), "--workers", "2")
+    sim = [
+        "simulate",
+        "--fixture",
+        "tiny",
+        "--suite",
+        "MRL-roof,HD2K-8",
+        "--runs",
+        "2",
+        "--jobs",
+        "1",
+        "--plot-format",
+        "svg",
+        "--json",
+        "-q",
+    ]
+    here, there = (
+        _here(*sim, "--output-dir", str(tmp_path / "here")),
+        _cli(*sim, "--output-dir", str(tmp_path / "there"), "--workers", "2"),
+    )
     assert there.returncode == 0, there.stderr
 
     def untimed(text: str) -> object:
@@ -210,10 +241,19 @@ def test_cluster_options_on_one_route_are_a_usage_error_naming_domain():
 
     from sensorsel.cli import cli
 
-    for args in (["certify", "--budget", "5000"], ["optimal", "--budget", "5000"],
-                 ["robust", "--budget", "5000", "--aggregate", "worst"], ["score", "--suite", "LRL-roof"]):
-        r = CliRunner().invoke(cli, [*args, "--fixture", "tiny", "-q" if args[0] != "score" else "--json", "--workers", "2"])
-        assert r.exit_code == 2 and "go with --domain FILE" in r.stderr and isinstance(r.exception, SystemExit), (args, r.stderr)
+    for args in (
+        ["certify", "--budget", "5000"],
+        ["optimal", "--budget", "5000"],
+        ["robust", "--budget", "5000", "--aggregate", "worst"],
+        ["score", "--suite", "LRL-roof"],
+    ):
+        r = CliRunner().invoke(
+            cli, [*args, "--fixture", "tiny", "-q" if args[0] != "score" else "--json", "--workers", "2"]
+        )
+        assert r.exit_code == 2 and "go with --domain FILE" in r.stderr and isinstance(r.exception, SystemExit), (
+            args,
+            r.stderr,
+        )
 
 
 def test_a_worker_killed_mid_run_loses_nothing(cluster, domain):
@@ -252,21 +292,55 @@ def _here(*args: object):
 
 
 def _cli(*args: object, timeout: float = 120) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([str(BIN / "sensorsel"), *map(str, args)], capture_output=True, text=True, env=ENV, cwd=REPO,
-                          timeout=timeout)
+    return subprocess.run(
+        [str(BIN / "sensorsel"), *map(str, args)], capture_output=True, text=True, env=ENV, cwd=REPO, timeout=timeout
+    )
 
 
 def test_cli_greedy_on_a_scheduler_and_two_workers_started_here(tmp_path, domain):
     port = _free_port()
     address = f"tcp://127.0.0.1:{port}"
-    procs = [subprocess.Popen([str(BIN / "dask"), "scheduler", "--host", "127.0.0.1", "--port", str(port), "--no-dashboard",
-                               "--idle-timeout", "300"],
-                              env=ENV, cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)]
+    procs = [
+        subprocess.Popen(
+            [
+                str(BIN / "dask"),
+                "scheduler",
+                "--host",
+                "127.0.0.1",
+                "--port",
+                str(port),
+                "--no-dashboard",
+                "--idle-timeout",
+                "300",
+            ],
+            env=ENV,
+            cwd=tmp_path,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+        )
+    ]
     try:
         for _ in range(2):
-            procs.append(subprocess.Popen([str(BIN / "dask"), "worker", address, "--host", "127.0.0.1", "--nthreads", "1",
-                                           "--no-dashboard", "--death-timeout", "60"],
-                                          env=ENV, cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+            procs.append(
+                subprocess.Popen(
+                    [
+                        str(BIN / "dask"),
+                        "worker",
+                        address,
+                        "--host",
+                        "127.0.0.1",
+                        "--nthreads",
+                        "1",
+                        "--no-dashboard",
+                        "--death-timeout",
+                        "60",
+                    ],
+                    env=ENV,
+                    cwd=tmp_path,
+                    stdout=subprocess.DEVNULL,
+                    stderr=subprocess.DEVNULL,
+                )
+            )
         with distributed.Client(address, timeout=30) as client:
             client.wait_for_workers(2, timeout=60)
         args = ["greedy", "--domain", str(FIXTURES), "--budget", "12000", "--json", "-q"]
@@ -274,8 +348,14 @@ def test_cli_greedy_on_a_scheduler_and_two_workers_started_here(tmp_path, domain
         assert there.returncode == 0, there.stderr
         want = design_domain(domain, 12_000, certify=True)
         # what --json prints in-process: the design, with its suite's accuracy in metres (the SLAM graph)
-        want = dataclasses.replace(want, greedy=dataclasses.replace(want.greedy, accuracy=suite_accuracy(domain, want.greedy.suite),
-                                                                    integrity=suite_integrity(domain, want.greedy.suite)))
+        want = dataclasses.replace(
+            want,
+            greedy=dataclasses.replace(
+                want.greedy,
+                accuracy=suite_accuracy(domain, want.greedy.suite),
+                integrity=suite_integrity(domain, want.greedy.suite),
+            ),
+        )
         assert _untimed(there.stdout) == _untimed(want)
     finally:
         for p in reversed(procs):
@@ -306,15 +386,21 @@ print(sorted(m for m in sys.modules if m.split(".")[0] in ("dask", "distributed"
 
 
 def test_a_plain_run_does_not_import_dask():
-    r = subprocess.run([sys.executable, "-c", _PLAIN_RUN, str(FIXTURES)], capture_output=True, text=True, env=ENV, timeout=120)
+    r = subprocess.run(
+        [sys.executable, "-c", _PLAIN_RUN, str(FIXTURES)], capture_output=True, text=True, env=ENV, timeout=120
+    )
     assert r.returncode == 0, r.stderr
     assert r.stdout.strip().splitlines()[-1] == "[]"
 
 
 def test_missing_extra_is_exit_2_with_the_install_hint():
-    code = "import sys; sys.modules['distributed'] = None\nfrom sensorsel.cli import cli\n" \
-           "cli(['greedy', '--domain', sys.argv[1], '--budget', '20000', '-q', '--workers', '2'], prog_name='sensorsel')"
-    r = subprocess.run([sys.executable, "-c", code, str(FIXTURES)], capture_output=True, text=True, env=ENV, timeout=120)
+    code = (
+        "import sys; sys.modules['distributed'] = None\nfrom sensorsel.cli import cli\n"
+        "cli(['greedy', '--domain', sys.argv[1], '--budget', '20000', '-q', '--workers', '2'], prog_name='sensorsel')"
+    )
+    r = subprocess.run(
+        [sys.executable, "-c", code, str(FIXTURES)], capture_output=True, text=True, env=ENV, timeout=120
+    )
     assert r.returncode == 2, r.stderr
     assert 'pip install "sensorsel[dask]"' in r.stderr and "Traceback" not in r.stderr
 
@@ -334,8 +420,24 @@ def test_pareto_with_limits_and_slots_on_two_workers_equals_in_process(tmp_path)
     (tmp_path / "small.yaml").write_text(yaml.safe_dump(stock))
     car = tmp_path / "car.yaml"  # extends the stock file with one radar and one camera per position
     car.write_text("extends: small.yaml\nslots:\n  roof: {lidar: 1}\n  clock: {radar: 1, stereo: 1}\n")
-    args = ["pareto", "--fixture", "tiny", "--engine", "fast", "--library", car, "--budgets", "5000,20000,110000",
-            "--rules", "uniform,marginal", "--limit", "power_w=40", "--max-sensors", "6", "-q"]
+    args = [
+        "pareto",
+        "--fixture",
+        "tiny",
+        "--engine",
+        "fast",
+        "--library",
+        car,
+        "--budgets",
+        "5000,20000,110000",
+        "--rules",
+        "uniform,marginal",
+        "--limit",
+        "power_w=40",
+        "--max-sensors",
+        "6",
+        "-q",
+    ]
     _here(*args, "--jobs", "1", "--output-dir", tmp_path / "here")
     there = _cli(*args, "--workers", "2", "--output-dir", tmp_path / "there", timeout=240)
     assert there.returncode == 0, there.stderr
@@ -382,8 +484,10 @@ def test_require_in_one_condition_on_workers_checks_that_conditions_members(clus
     from sensorsel.model.constraints import Constraints
 
     dom = tmp_path / "d.yaml"
-    dom.write_text("keyframe_rate_hz: 1.0\nconditions:\n  - {name: fog, fog_visibility_m: 60, share: 0.2}\n"
-                   "routes:\n  - {name: tiny, fixture: tiny}\n")
+    dom.write_text(
+        "keyframe_rate_hz: 1.0\nconditions:\n  - {name: fog, fog_visibility_m: 60, share: 0.2}\n"
+        "routes:\n  - {name: tiny, fixture: tiny}\n"
+    )
     d = load_domain(dom)
     keep = ("LRL-roof", "MRL-roof", "LRR-12", "LRR-6", "MRR-12", "WSC-12", "HD2K-12", "HD2K-6", "LSC-12", "HD2K-3")
     kw = dict(map_sigma_m=0.05, constraints=Constraints(exclude=tuple(sorted(set(d.library.ids) - set(keep)))))

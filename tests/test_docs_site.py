@@ -18,11 +18,16 @@ import yaml
 REPO = Path(__file__).resolve().parents[1]
 
 
-
 def _build(config: Path, site: Path) -> subprocess.CompletedProcess[str]:
     env = {**os.environ, "NO_MKDOCS_2_WARNING": "1"}
-    return subprocess.run([sys.executable, "-m", "mkdocs", "build", "--strict", "-f", str(config), "-d", str(site)],
-                          capture_output=True, text=True, cwd=REPO, env=env, timeout=300)
+    return subprocess.run(
+        [sys.executable, "-m", "mkdocs", "build", "--strict", "-f", str(config), "-d", str(site)],
+        capture_output=True,
+        text=True,
+        cwd=REPO,
+        env=env,
+        timeout=300,
+    )
 
 
 @pytest.fixture(scope="module")
@@ -39,7 +44,7 @@ def test_site_builds_with_every_page_of_the_nav(site):
 
     def pages(items):
         for it in items:
-            for v in (it.values() if isinstance(it, dict) else [it]):
+            for v in it.values() if isinstance(it, dict) else [it]:
                 yield from (pages(v) if isinstance(v, list) else [v])
 
     listed = list(pages(nav))
@@ -57,7 +62,9 @@ def test_every_command_is_in_the_cli_reference_with_its_help(site):
     for name, cmd in cli.commands.items():
         if cmd.hidden:
             continue
-        assert (cmd.help or "").strip() and (cmd.get_short_help_str() or "").strip(), f"sensorsel {name} has no help text"
+        assert (cmd.help or "").strip() and (cmd.get_short_help_str() or "").strip(), (
+            f"sensorsel {name} has no help text"
+        )
         assert f'id="sensorsel-{name}"' in html, f"sensorsel {name} is missing from the rendered CLI reference"
         for opt in cmd.params:
             for flag in getattr(opt, "opts", []):
@@ -71,7 +78,11 @@ def test_api_reference_is_rendered_from_the_docstrings(site):
     import sensorsel.api as api
 
     html = (site / "api" / "index.html").read_text(encoding="utf-8")
-    functions = [n for n, f in inspect.getmembers(api, inspect.isfunction) if f.__module__ == "sensorsel.api" and not n.startswith("_")]
+    functions = [
+        n
+        for n, f in inspect.getmembers(api, inspect.isfunction)
+        if f.__module__ == "sensorsel.api" and not n.startswith("_")
+    ]
     assert "run_greedy" in functions
     for name in functions:
         assert f'id="sensorsel.api.{name}"' in html, f"sensorsel.api.{name} is missing from the API reference"
@@ -86,7 +97,7 @@ def _stub_site_sources(tmp: Path) -> dict:
 
     def pages(items):
         for it in items:
-            for v in (it.values() if isinstance(it, dict) else [it]):
+            for v in it.values() if isinstance(it, dict) else [it]:
                 yield from (pages(v) if isinstance(v, list) else [v])
 
     for page in pages(cfg["nav"]):
@@ -126,7 +137,7 @@ def _cli_reference_entries(site: Path) -> dict[str, dict[str, str]]:
     raw = (site / "cli" / "index.html").read_text(encoding="utf-8")
     out: dict[str, dict[str, str]] = {}
     for part in raw.split('id="sensorsel-')[1:]:
-        name = part[:part.index('"')]
+        name = part[: part.index('"')]
         text = html_lib.unescape(re.sub(r"<[^>]+>", "", part))
         entries: dict[str, str] = {}
         key = None
@@ -161,7 +172,9 @@ def test_the_cli_reference_tells_defaults_required_options_and_choices_as_they_a
             entry = " ".join(entries[name][flag] for flag in opt.opts if flag in entries[name])
             assert entry, f"sensorsel {name} {opt.opts[0]} has no entry in the CLI reference"
             if opt.required:
-                assert "required" in entry, f"sensorsel {name} {opt.opts[0]} is required; the reference does not say so: {entry}"
+                assert "required" in entry, (
+                    f"sensorsel {name} {opt.opts[0]} is required; the reference does not say so: {entry}"
+                )
                 checked["required"] += 1
             if isinstance(opt.type, click.Choice) and opt.metavar is None:
                 missing = [c for c in opt.type.choices if str(c) not in entry]
@@ -182,7 +195,7 @@ def _command_table(path: Path) -> list[tuple[str, str]]:
     lines = path.read_text(encoding="utf-8").splitlines()
     start = next(i for i, line in enumerate(lines) if line.startswith("| the question | the command"))
     rows = []
-    for line in lines[start + 2:]:
+    for line in lines[start + 2 :]:
         if not line.startswith("|"):
             break
         cells = [c.strip() for c in line.strip("|").split(" | ")]
@@ -206,8 +219,12 @@ def test_user_pages_name_no_internal_issue_numbers():
     import re
 
     pages = [REPO / "README.md", *sorted((REPO / "docs").glob("*.md"))]
-    found = [f"{p.name}:{n}: {m.group(0)}" for p in pages for n, line in enumerate(p.read_text(encoding="utf-8").splitlines(), 1)
-             for m in re.finditer(r"\b[Ii]ssues? #?\d+", line)]
+    found = [
+        f"{p.name}:{n}: {m.group(0)}"
+        for p in pages
+        for n, line in enumerate(p.read_text(encoding="utf-8").splitlines(), 1)
+        for m in re.finditer(r"\b[Ii]ssues? #?\d+", line)
+    ]
     assert not found, found
 
 
@@ -215,14 +232,22 @@ def test_the_bundled_route_has_one_length_everywhere(suburb_problem):
     import re
 
     length = round(suburb_problem.scenario.route.length_m)
-    said = {p.name: int(m.group(1)) for p in (REPO / "README.md", REPO / "docs" / "getting-started.md", REPO / "docs" / "guide-data.md")
-            for m in re.finditer(r'"suburb": (\d+) m', p.read_text(encoding="utf-8"))}
+    said = {
+        p.name: int(m.group(1))
+        for p in (REPO / "README.md", REPO / "docs" / "getting-started.md", REPO / "docs" / "guide-data.md")
+        for m in re.finditer(r'"suburb": (\d+) m', p.read_text(encoding="utf-8"))
+    }
     assert len(said) == 3 and set(said.values()) == {length}, (said, length)
 
 
 def test_user_pages_point_at_no_folder_of_the_build_machine():
     """A user has no ../shared nor /work: the pages name the folder `sensorsel kitti` builds."""
     pages = [REPO / "README.md", *sorted((REPO / "docs").glob("*.md"))]
-    found = [f"{p.name}:{n}" for p in pages if p.name != "development.md"
-             for n, line in enumerate(p.read_text(encoding="utf-8").splitlines(), 1) if "shared/" in line or "/work/" in line]
+    found = [
+        f"{p.name}:{n}"
+        for p in pages
+        if p.name != "development.md"
+        for n, line in enumerate(p.read_text(encoding="utf-8").splitlines(), 1)
+        if "shared/" in line or "/work/" in line
+    ]
     assert not found, found

@@ -20,10 +20,15 @@ SAME_COST = tuple(f"HD2K-{k}" for k in range(1, 13))  # twelve identical cameras
 
 def _domain(library, ids, weights=(3.0, 1.0, 0.5)):
     lib = library.subset([library.position(i) for i in ids])
-    specs = [ScenarioSpec(fixture="tiny"), ScenarioSpec(fixture="tiny", landmarks="synthetic", landmark_seed=3),
-             ScenarioSpec(fixture="tiny", landmarks="synthetic", landmark_seed=7, keyframe_rate_hz=2.0)]
-    routes = tuple(DomainRoute(f"r{k}", build_problem(lib, load_scenario(s), spec=s), w)
-                   for k, (s, w) in enumerate(zip(specs, weights)))
+    specs = [
+        ScenarioSpec(fixture="tiny"),
+        ScenarioSpec(fixture="tiny", landmarks="synthetic", landmark_seed=3),
+        ScenarioSpec(fixture="tiny", landmarks="synthetic", landmark_seed=7, keyframe_rate_hz=2.0),
+    ]
+    routes = tuple(
+        DomainRoute(f"r{k}", build_problem(lib, load_scenario(s), spec=s), w)
+        for k, (s, w) in enumerate(zip(specs, weights))
+    )
     return Domain(routes[: len(weights)], "test")
 
 
@@ -127,7 +132,9 @@ def test_a_route_no_sensor_can_see_is_refused(library):
 
     far = Scenario("far", tiny.keyframes, tiny.landmarks + 1e5, "shifted")
     lib = library.subset([library.position(i) for i in MIXED])
-    dom = Domain((DomainRoute("near", build_problem(lib, tiny), 1.0), DomainRoute("far", build_problem(lib, far), 1.0)), "d.yaml")
+    dom = Domain(
+        (DomainRoute("near", build_problem(lib, tiny), 1.0), DomainRoute("far", build_problem(lib, far), 1.0)), "d.yaml"
+    )
     with pytest.raises(InputError, match="'far'.*no sensor"):
         DomainEvaluator(dom, "fast")
 
@@ -178,17 +185,22 @@ def test_cli_greedy_on_a_domain_writes_the_design_breakdown_and_plot(tmp_path):
     assert design.greedy.certificate is not None and design.greedy.certificate.bound >= design.greedy.score
 
 
-@pytest.mark.parametrize("command, extra", [
-    ("score", ["--suite", "MRL-roof,HD2K-4"]),
-    ("pareto", ["--budgets", "3000,9000", "--output-dir", "{tmp}/p"]),
-    ("resilient", ["--budget", "9000", "--output-dir", "{tmp}/r"]),
-    ("optimal", ["--budget", "1500", "--library", "configs/reduced_library.yaml"]),
-    ("certify", ["--budget", "3000"]),
-])
+@pytest.mark.parametrize(
+    "command, extra",
+    [
+        ("score", ["--suite", "MRL-roof,HD2K-4"]),
+        ("pareto", ["--budgets", "3000,9000", "--output-dir", "{tmp}/p"]),
+        ("resilient", ["--budget", "9000", "--output-dir", "{tmp}/r"]),
+        ("optimal", ["--budget", "1500", "--library", "configs/reduced_library.yaml"]),
+        ("certify", ["--budget", "3000"]),
+    ],
+)
 def test_every_selection_command_takes_a_domain(tmp_path, command, extra):
     repo = _fixture_domain_path().parents[1]
     args = [a.replace("{tmp}", str(tmp_path)).replace("configs/", f"{repo}/configs/") for a in extra]
-    r = _cli(command, "--domain", str(_fixture_domain_path()), "--json", "-q" if command != "score" else "--json", *args)
+    r = _cli(
+        command, "--domain", str(_fixture_domain_path()), "--json", "-q" if command != "score" else "--json", *args
+    )
     assert r.exit_code == 0, r.output
     assert '"routes"' in r.output and "suburb" in r.output
 

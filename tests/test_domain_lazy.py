@@ -5,7 +5,7 @@ step) and of the lazy greedy that scores whole domain evaluations, bit for bit."
 
 from __future__ import annotations
 
-from typing import Iterable, Sequence
+from collections.abc import Iterable, Sequence
 
 import numpy as np
 import pytest
@@ -14,8 +14,10 @@ from sensorsel.designs.selection import greedy
 from sensorsel.information.evaluators import DomainEvaluator, Evaluator
 from sensorsel.model.problem import load_domain
 
-CITY = ("conditions:\n  - {name: night, night: true, share: 0.25}\n  - {name: rain, rain_mm_h: 5, share: 0.08}\n"
-        "  - {name: fog, fog_visibility_m: 150, share: 0.005}\n")
+CITY = (
+    "conditions:\n  - {name: night, night: true, share: 0.25}\n  - {name: rain, rain_mm_h: 5, share: 0.08}\n"
+    "  - {name: fog, fog_visibility_m: 150, share: 0.005}\n"
+)
 
 
 class Recording(DomainEvaluator):
@@ -23,8 +25,9 @@ class Recording(DomainEvaluator):
 
     n_bounded = 0
 
-    def scores_or_bounds(self, suite: Iterable[int], candidates: Sequence[int],
-                         needed: np.ndarray, **kw) -> tuple[np.ndarray, np.ndarray]:
+    def scores_or_bounds(
+        self, suite: Iterable[int], candidates: Sequence[int], needed: np.ndarray, **kw
+    ) -> tuple[np.ndarray, np.ndarray]:
         vals, exact = super().scores_or_bounds(suite, candidates, needed, **kw)
         self.n_bounded += int(np.sum(~exact))
         return vals, exact
@@ -35,8 +38,9 @@ class WholeDomain(DomainEvaluator):
 
     bounds_candidates = False
 
-    def scores_or_bounds(self, suite: Iterable[int], candidates: Sequence[int],
-                         needed: np.ndarray, **kw) -> tuple[np.ndarray, np.ndarray]:
+    def scores_or_bounds(
+        self, suite: Iterable[int], candidates: Sequence[int], needed: np.ndarray, **kw
+    ) -> tuple[np.ndarray, np.ndarray]:
         return Evaluator.scores_or_bounds(self, suite, candidates, needed)
 
 
@@ -63,7 +67,9 @@ def tiny_city(tmp_path_factory):
 @pytest.fixture(scope="module")
 def city(tmp_path_factory):
     """Two fixture routes in four conditions: eight members."""
-    return _city(tmp_path_factory, "  - {name: suburb, fixture: suburb, weight: 2}\n  - {name: tiny, fixture: tiny, weight: 1}\n")
+    return _city(
+        tmp_path_factory, "  - {name: suburb, fixture: suburb, weight: 2}\n  - {name: tiny, fixture: tiny, weight: 1}\n"
+    )
 
 
 @pytest.mark.parametrize("rule, budget", [("uniform", 110_000), ("uniform", 12_000), ("marginal", 110_000)])
@@ -98,8 +104,10 @@ def test_a_second_run_on_the_same_evaluator_forgets_the_first_runs_bounds(tiny_c
 def test_kitti_routes_in_four_conditions_same_picks_as_whole_domain_evaluations(kitti_root, tmp_path, monkeypatch):
     monkeypatch.setenv("SENSORSEL_KITTI_ROOT", str(kitti_root))
     p = tmp_path / "k.yaml"
-    p.write_text(CITY + "keyframe_rate_hz: 1.0\nweight_unit: km\nroutes:\n  - {name: kitti-03, seq: '03', landmarks: real}\n"
-                 "  - {name: kitti-04, seq: '04', landmarks: real}\n")
+    p.write_text(
+        CITY + "keyframe_rate_hz: 1.0\nweight_unit: km\nroutes:\n  - {name: kitti-03, seq: '03', landmarks: real}\n"
+        "  - {name: kitti-04, seq: '04', landmarks: real}\n"
+    )
     d = load_domain(p)
     new, old = Recording(d), WholeDomain(d)
     a, b = greedy(new, 110_000), greedy(old, 110_000)
@@ -127,8 +135,10 @@ def test_night_members_measure_lidars_and_radars_as_their_clear_member_does(city
         # arrays; a radar whose range rain shortens past every landmark is equal but not "alike":
         # conservative, a bound unused, never a wrong one)
         for s, (a, b) in enumerate(zip(r.problem.observations, p.problem.observations)):
-            same = all(np.array_equal(getattr(a, f), getattr(b, f))
-                       for f in ("pose", "landmark", "range_m", "sigma_bearing_rad", "sigma_range_m"))
+            same = all(
+                np.array_equal(getattr(a, f), getattr(b, f))
+                for f in ("pose", "landmark", "range_m", "sigma_bearing_rad", "sigma_range_m")
+            )
             assert same or not alike[k, s], (r.name, city.library.ids[s])
 
 
@@ -200,7 +210,9 @@ def test_shared_pair_quadratics_are_used_only_where_they_hold_every_pair(city):
     other = next(c for c in range(2, len(city.library)) if np.setdiff1d(states.sensor_pairs[c], own).size)
     assert held.lookup(states, np.asarray(states.sensor_pairs[other])) is None
     full = clear.gain_bounds(S, [other], force=True)
-    assert np.allclose(clear.gain_bounds(S, [other], force=True, shared=held), full, rtol=1e-12, atol=0)  # computed afresh
+    assert np.allclose(
+        clear.gain_bounds(S, [other], force=True, shared=held), full, rtol=1e-12, atol=0
+    )  # computed afresh
 
 
 def test_members_scored_on_two_threads_give_blas_its_thread_count_back(city):
@@ -261,6 +273,9 @@ def test_scores_are_copied_only_between_members_whose_engines_planned_alike(city
         if partner[k] < 0:
             assert not got[k]
             continue
-        seen = [np.unique(np.concatenate([o.landmark for o in city.routes[j].problem.observations])) for j in (k, partner[k])]
+        seen = [
+            np.unique(np.concatenate([o.landmark for o in city.routes[j].problem.observations]))
+            for j in (k, partner[k])
+        ]
         assert got[k] == np.array_equal(*seen), r.name
     assert got.any()  # the fixtures' night members see every landmark their clear members do

@@ -39,14 +39,22 @@ def _domain(folder: Path, body: str) -> Path:
 
 def test_gpx_and_georeferenced_routes_with_osm_landmarks_are_the_route_commands_problems(drive, tmp_path):
     csv, gpx, _ = drive
-    path = _domain(tmp_path, f"weight_unit: km\nroutes:\n"
-                             f"  - {{name: track, route: {gpx}, osm: {SAMPLE}}}\n"
-                             f"  - {{name: survey, route: {csv}, georef: '{GEOREF}', osm: [{SAMPLE}], osm_classes: [street_lamp, tree],"
-                             f" osm_reach_m: 60}}\n")
+    path = _domain(
+        tmp_path,
+        f"weight_unit: km\nroutes:\n"
+        f"  - {{name: track, route: {gpx}, osm: {SAMPLE}}}\n"
+        f"  - {{name: survey, route: {csv}, georef: '{GEOREF}', osm: [{SAMPLE}], osm_classes: [street_lamp, tree],"
+        f" osm_reach_m: 60}}\n",
+    )
     dom = load_domain(path)
-    alone = [load_problem(ScenarioSpec(route=str(gpx), osm=(str(SAMPLE),))),
-             load_problem(ScenarioSpec(route=str(csv), georef=GEOREF, osm=(str(SAMPLE),), osm_classes="street_lamp,tree",
-                                       osm_reach_m=60.0))]
+    alone = [
+        load_problem(ScenarioSpec(route=str(gpx), osm=(str(SAMPLE),))),
+        load_problem(
+            ScenarioSpec(
+                route=str(csv), georef=GEOREF, osm=(str(SAMPLE),), osm_classes="street_lamp,tree", osm_reach_m=60.0
+            )
+        ),
+    ]
     assert [r.name for r in dom.routes] == ["track", "survey"]
     for member, problem in zip(dom.routes, alone):
         np.testing.assert_array_equal(member.problem.scenario.landmarks, problem.scenario.landmarks)
@@ -64,8 +72,11 @@ def test_gpx_and_georeferenced_routes_with_osm_landmarks_are_the_route_commands_
 
 def test_a_gpx_domain_in_conditions_runs_greedy_from_the_cli(drive, tmp_path):
     _, gpx, _ = drive
-    path = _domain(tmp_path, "conditions:\n  - {name: night, night: true, share: 0.3}\n"
-                             f"routes:\n  - {{name: track, route: {gpx}, osm: {SAMPLE}}}\n")
+    path = _domain(
+        tmp_path,
+        "conditions:\n  - {name: night, night: true, share: 0.3}\n"
+        f"routes:\n  - {{name: track, route: {gpx}, osm: {SAMPLE}}}\n",
+    )
     dom = load_domain(path)
     assert [r.name for r in dom.routes] == ["track/clear", "track/night"]
     out = tmp_path / "greedy.json"
@@ -74,23 +85,27 @@ def test_a_gpx_domain_in_conditions_runs_greedy_from_the_cli(drive, tmp_path):
     assert out.is_file() and "track/night" in out.read_text()
 
 
-@pytest.mark.parametrize("route, extra, key, words", [
-    ("csv", "osm: {osm}", "routes[0].osm", ("not georeferenced", "georef")),
-    ("gpx", "osm: {osm}, georef: '60,24,0'", "routes[0].georef", ("GPX", "drop georef")),
-    ("csv", "georef: '{georef}'", "routes[0].georef", ("osm",)),
-    ("gpx", "osm_reach_m: 50", "routes[0].osm_reach_m", ("osm",)),
-    ("gpx", "osm: {osm}, osm_classes: lamppost", "routes[0].osm_classes", ("lamppost", "known")),
-    ("gpx", "osm: {osm}, osm_reach_m: -5", "routes[0].osm_reach_m", ("> 0",)),
-    ("gpx", "osm: missing.pbf", "routes[0].osm", ("not found",)),
-    ("gpx", "osm: []", "routes[0].osm", ("empty",)),
-    ("gpx", "osm: {osm}, landmarks: synthetic", "routes[0].landmarks", ("synthetic",)),
-    ("gpx", "format: csv", "routes[0].format", ("GPX",)),
-    ("csv", "osm: {osm}, georef: 'north'", "routes[0].georef", ("LAT,LON,BEARING",)),
-])
+@pytest.mark.parametrize(
+    "route, extra, key, words",
+    [
+        ("csv", "osm: {osm}", "routes[0].osm", ("not georeferenced", "georef")),
+        ("gpx", "osm: {osm}, georef: '60,24,0'", "routes[0].georef", ("GPX", "drop georef")),
+        ("csv", "georef: '{georef}'", "routes[0].georef", ("osm",)),
+        ("gpx", "osm_reach_m: 50", "routes[0].osm_reach_m", ("osm",)),
+        ("gpx", "osm: {osm}, osm_classes: lamppost", "routes[0].osm_classes", ("lamppost", "known")),
+        ("gpx", "osm: {osm}, osm_reach_m: -5", "routes[0].osm_reach_m", ("> 0",)),
+        ("gpx", "osm: missing.pbf", "routes[0].osm", ("not found",)),
+        ("gpx", "osm: []", "routes[0].osm", ("empty",)),
+        ("gpx", "osm: {osm}, landmarks: synthetic", "routes[0].landmarks", ("synthetic",)),
+        ("gpx", "format: csv", "routes[0].format", ("GPX",)),
+        ("csv", "osm: {osm}, georef: 'north'", "routes[0].georef", ("LAT,LON,BEARING",)),
+    ],
+)
 def test_bad_osm_keys_name_the_key_and_its_line(drive, tmp_path, route, extra, key, words):
     csv, gpx, _ = drive
-    body = (f"routes:\n  - name: a\n    route: {gpx if route == 'gpx' else csv}\n"
-            + "".join(f"    {kv.strip()}\n" for kv in extra.format(osm=SAMPLE, georef=GEOREF).split(", ")))
+    body = f"routes:\n  - name: a\n    route: {gpx if route == 'gpx' else csv}\n" + "".join(
+        f"    {kv.strip()}\n" for kv in extra.format(osm=SAMPLE, georef=GEOREF).split(", ")
+    )
     path = _domain(tmp_path, body)
     with pytest.raises(DomainError) as e:
         load_domain_file(path)
@@ -121,9 +136,13 @@ def test_what_only_reading_the_files_finds_names_the_file_or_the_domains_route(d
     # a track a degree north of the extract: the domain's route, named with its line
     far = tmp_path / "far.gpx"
     far.write_text(re.sub(r'lat="([^"]+)"', lambda m: f'lat="{float(m.group(1)) + 1.0!r}"', gpx.read_text()))
-    path = _domain(tmp_path, f"routes:\n  - name: first\n    fixture: tiny\n  - name: far\n    route: {far}\n    osm: {SAMPLE}\n")
+    path = _domain(
+        tmp_path, f"routes:\n  - name: first\n    fixture: tiny\n  - name: far\n    route: {far}\n    osm: {SAMPLE}\n"
+    )
     with pytest.raises(DomainError) as d:
         load_domain(path)
     msg = str(d.value)
-    assert str(path) in msg and "routes[1]" in msg and "far" in msg and "outside the extract" in msg and d.value.line == 4, msg
+    assert (
+        str(path) in msg and "routes[1]" in msg and "far" in msg and "outside the extract" in msg and d.value.line == 4
+    ), msg
     assert "--landmarks" not in msg and f"osm: {SAMPLE}" in msg, msg  # this file's words, not the CLI's

@@ -13,8 +13,14 @@ import numpy as np
 import pytest
 
 from sensorsel.errors import InputError
-from sensorsel.information.evaluators import (DEFAULT_ENGINE, ENGINES, FastEvaluator, ReferenceEvaluator,
-                                              make_evaluator, register)
+from sensorsel.information.evaluators import (
+    DEFAULT_ENGINE,
+    ENGINES,
+    FastEvaluator,
+    ReferenceEvaluator,
+    make_evaluator,
+    register,
+)
 from sensorsel.information.evaluators.fast.blas import Blas
 from sensorsel.information.graph import GraphBuilder
 from sensorsel.information.linearize import linearize_library
@@ -75,8 +81,14 @@ def _gtsam_pair_jacobians(problem, lin, pairs) -> np.ndarray:
     pk, pj = lin.pair_pose[pairs], lin.pair_landmark[pairs]
     d = sc.landmarks[pj] - sc.keyframes.poses[pk, :2]
     graph = gtsam.NonlinearFactorGraph()
-    add_bearing_range(graph, pk, pj, np.arctan2(d[:, 1], d[:, 0]) - sc.keyframes.poses[pk, 2],
-                      np.hypot(d[:, 0], d[:, 1]), gtsam.noiseModel.Unit.Create(2))
+    add_bearing_range(
+        graph,
+        pk,
+        pj,
+        np.arctan2(d[:, 1], d[:, 0]) - sc.keyframes.poses[pk, 2],
+        np.hypot(d[:, 0], d[:, 1]),
+        gtsam.noiseModel.Unit.Create(2),
+    )
     gauss = graph.linearize(GraphBuilder(problem).values)
     out = np.zeros((len(pairs), 2, 5))
     for i in range(gauss.size()):
@@ -108,8 +120,13 @@ def test_closed_form_jacobians_hold_at_every_heading_and_range():
 
     rng = np.random.default_rng(7)
     n = 400
-    poses = np.column_stack([rng.uniform(-500, 500, n), rng.uniform(-500, 500, n),
-                             np.r_[rng.uniform(-np.pi, np.pi, n - 4), [np.pi, -np.pi, np.nextafter(np.pi, 0), 0.0]]])
+    poses = np.column_stack(
+        [
+            rng.uniform(-500, 500, n),
+            rng.uniform(-500, 500, n),
+            np.r_[rng.uniform(-np.pi, np.pi, n - 4), [np.pi, -np.pi, np.nextafter(np.pi, 0), 0.0]],
+        ]
+    )
     dist = np.exp(rng.uniform(0.0, np.log(2000.0), n))
     angle = np.r_[rng.uniform(-np.pi, np.pi, n - 4), [np.pi, -np.pi, np.pi / 2, 0.0]]
     points = poses[:, :2] + dist[:, None] * np.column_stack([np.cos(angle), np.sin(angle)])
@@ -118,8 +135,13 @@ def test_closed_form_jacobians_hold_at_every_heading_and_range():
         pose = gtsam.Pose2(*poses[i])
         point = gtsam.Point2(*points[i])
         local = pose.transformTo(point)
-        f = gtsam.BearingRangeFactor2D(gtsam.symbol("x", 0), gtsam.symbol("l", 0), gtsam.Rot2(np.arctan2(local[1], local[0])),
-                                       float(np.hypot(*local)), gtsam.noiseModel.Unit.Create(2))
+        f = gtsam.BearingRangeFactor2D(
+            gtsam.symbol("x", 0),
+            gtsam.symbol("l", 0),
+            gtsam.Rot2(np.arctan2(local[1], local[0])),
+            float(np.hypot(*local)),
+            gtsam.noiseModel.Unit.Create(2),
+        )
         values = gtsam.Values()
         values.insert(gtsam.symbol("x", 0), pose)
         values.insert(gtsam.symbol("l", 0), point)
@@ -169,10 +191,14 @@ def test_base_information_is_gtsams_hessian_of_the_base_graph(which, request):
     want_pp = np.zeros((3 * K, 3 * K))
     for a in range(K):
         for b in range(K):
-            want_pp[3 * a: 3 * a + 3, 3 * b: 3 * b + 3] = hess[pose_cols[a]: pose_cols[a] + 3, pose_cols[b]: pose_cols[b] + 3]
+            want_pp[3 * a : 3 * a + 3, 3 * b : 3 * b + 3] = hess[
+                pose_cols[a] : pose_cols[a] + 3, pose_cols[b] : pose_cols[b] + 3
+            ]
     np.testing.assert_allclose(lin.base_pose_information.toarray(), want_pp, rtol=1e-12, atol=1e-9)
     for j in range(M):
-        np.testing.assert_allclose(lin.base_landmark_information[j], hess[lm_cols[j]: lm_cols[j] + 2, lm_cols[j]: lm_cols[j] + 2], rtol=1e-12)
+        np.testing.assert_allclose(
+            lin.base_landmark_information[j], hess[lm_cols[j] : lm_cols[j] + 2, lm_cols[j] : lm_cols[j] + 2], rtol=1e-12
+        )
 
 
 # --------------------------------------------------------------------------- the engine
@@ -256,7 +282,12 @@ def test_every_factorization_path_agrees_with_the_reference(suburb_problem, spar
     fe = FastEvaluator(suburb_problem, sparse_below=sparse_below, front_below=0.0, inplace_blas=inplace)
     re = ReferenceEvaluator(suburb_problem)
     lib = suburb_problem.library
-    for s in [(), lib.parse_suite("LRR-12"), lib.parse_suite("LRL-roof,WSC-3,HD2K-9"), tuple(range(suburb_problem.n_sensors))]:
+    for s in [
+        (),
+        lib.parse_suite("LRR-12"),
+        lib.parse_suite("LRL-roof,WSC-3,HD2K-9"),
+        tuple(range(suburb_problem.n_sensors)),
+    ]:
         assert close(fe.logdet(s), re.logdet(s)), s
     base = lib.parse_suite("LRL-roof")
     for c, v in zip([1, 30, 50], fe.scores_with(base, [1, 30, 50])):
@@ -306,7 +337,12 @@ def test_the_frontal_path_on_kitti03_and_its_choice(kitti03_problem):
 
     fe, re = FastEvaluator(kitti03_problem, front_below=1e9), ReferenceEvaluator(kitti03_problem)
     lib = kitti03_problem.library
-    for s in [(), lib.parse_suite("HD2K-4"), lib.parse_suite("LRL-roof,HD2K-4,LRR-6"), tuple(range(kitti03_problem.n_sensors))]:
+    for s in [
+        (),
+        lib.parse_suite("HD2K-4"),
+        lib.parse_suite("LRL-roof,HD2K-4,LRR-6"),
+        tuple(range(kitti03_problem.n_sensors)),
+    ]:
         assert close(fe.logdet(s), re.logdet(s)), s
     default = FastEvaluator(kitti03_problem)
     for s in [lib.parse_suite("HD2K-4"), tuple(range(kitti03_problem.n_sensors))]:
@@ -507,7 +543,9 @@ def test_a_grown_layout_answers_the_sparse_test_from_its_base_without_its_own_pa
     assert base.layout.density >= SPARSE_BELOW
     for g in grown:
         assert not g.density_below(SPARSE_BELOW) and "pattern" not in g.__dict__
-        assert np.all(g.pattern[base.layout.pattern]) and g.density >= base.layout.density  # a superset, built on demand
+        assert (
+            np.all(g.pattern[base.layout.pattern]) and g.density >= base.layout.density
+        )  # a superset, built on demand
         for limit in (0.0, base.layout.density, g.density, 1.01):
             assert g.density_below(limit) == (g.density < limit)
 
@@ -520,8 +558,14 @@ def test_bases_measuring_the_same_pairs_share_their_layouts_and_give_the_same_bi
     fe = FastEvaluator(suburb_problem)
     cands = list(range(len(lib)))
     first = fe.scores_with((lidar,), cands)
-    adds_none = [c for c in cands if c != lidar and fe._states.candidate(fe._base_for((lidar,)), c).layout is fe._base_for((lidar,)).layout]
-    grown = [c for c in cands if fe._states.candidate(fe._base_for((lidar,)), c).layout is not fe._base_for((lidar,)).layout]
+    adds_none = [
+        c
+        for c in cands
+        if c != lidar and fe._states.candidate(fe._base_for((lidar,)), c).layout is fe._base_for((lidar,)).layout
+    ]
+    grown = [
+        c for c in cands if fe._states.candidate(fe._base_for((lidar,)), c).layout is not fe._base_for((lidar,)).layout
+    ]
     assert adds_none and grown
     b1 = fe._base_for((lidar,))
     grown_before = {c: fe._states.candidate(b1, c).layout for c in grown}

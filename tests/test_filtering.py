@@ -16,8 +16,15 @@ from sensorsel.errors import InputError
 from sensorsel.information.evaluators import FastEvaluator
 from sensorsel.information.evaluators.accuracy import route_accuracy
 from sensorsel.information.filtering import ESTIMATES, FilterPass, forward_pass, keyframe_measurements
-from sensorsel.information.graph import (MeasurementNoise, add_bearing_range, add_pose_chain, diagonal, landmark_prior,
-                                         pose2, truth_steps)
+from sensorsel.information.graph import (
+    MeasurementNoise,
+    add_bearing_range,
+    add_pose_chain,
+    diagonal,
+    landmark_prior,
+    pose2,
+    truth_steps,
+)
 from sensorsel.information.linearize import bearing_range_jacobians, odometry_jacobians
 from sensorsel.io import results
 from sensorsel.model.conditions import parse_condition
@@ -44,7 +51,7 @@ def _gtsam_marginal(problem, suite, k: int, *, map_sigma_m, with_k: bool, use=No
     """GTSAM's Marginals of X(k) in the batch graph of the priors, the odometry up to k and the
     (used) measurements of keyframes < k (and k's with ``with_k``): the filter's definition."""
     s = problem.settings
-    poses = [pose2(q) for q in problem.scenario.keyframes.poses[:k + 1]]
+    poses = [pose2(q) for q in problem.scenario.keyframes.poses[: k + 1]]
     g = gtsam.NonlinearFactorGraph()
     add_pose_chain(g, poses[0], truth_steps(poses), diagonal(s.first_pose_sigmas), diagonal(s.odometry_sigmas))
     values = gtsam.Values()
@@ -56,11 +63,17 @@ def _gtsam_marginal(problem, suite, k: int, *, map_sigma_m, with_k: bool, use=No
         g.add(landmark_prior(j, point, prior))
         values.insert(L(j), point)
     noise = MeasurementNoise()
-    for m in keyframe_measurements(problem, suite)[:k + int(with_k)]:
+    for m in keyframe_measurements(problem, suite)[: k + int(with_k)]:
         keep = np.ones(len(m), bool) if use is None else use(None, m)
         if keep.any():
-            add_bearing_range(g, np.full(int(keep.sum()), m.keyframe), m.landmark[keep], m.bearing_rad[keep], m.range_m[keep],
-                              [noise(a, b) for a, b in zip(m.sigma_bearing_rad[keep], m.sigma_range_m[keep])])
+            add_bearing_range(
+                g,
+                np.full(int(keep.sum()), m.keyframe),
+                m.landmark[keep],
+                m.bearing_rad[keep],
+                m.range_m[keep],
+                [noise(a, b) for a, b in zip(m.sigma_bearing_rad[keep], m.sigma_range_m[keep])],
+            )
     return gtsam.Marginals(g, values).marginalCovariance(X(k))
 
 
@@ -70,8 +83,13 @@ def _check_against_gtsam(problem, suite, map_sigma_m, use=None, keyframes=None) 
     for k in keyframes if keyframes is not None else range(K):
         for with_k, got in ((True, fp.filtered[k]), (False, fp.predicted[k])):
             want = _gtsam_marginal(problem, suite, k, map_sigma_m=map_sigma_m, with_k=with_k, use=use)
-            np.testing.assert_allclose(got, want, rtol=1e-8, atol=1e-12 * np.abs(want).max(),
-                                       err_msg=f"keyframe {k}, {'filtered' if with_k else 'predicted'}")
+            np.testing.assert_allclose(
+                got,
+                want,
+                rtol=1e-8,
+                atol=1e-12 * np.abs(want).max(),
+                err_msg=f"keyframe {k}, {'filtered' if with_k else 'predicted'}",
+            )
     return fp
 
 
@@ -127,20 +145,22 @@ def _dense_information(problem, suite, k: int, map_sigma_m) -> np.ndarray:
     n = 3 * (k + 1) + 2 * M
     lam = np.zeros((n, n))
     lam[:3, :3] = np.diag(1.0 / np.asarray(s.first_pose_sigmas) ** 2)
-    odo = odometry_jacobians(sc.keyframes.poses[:k + 1])
+    odo = odometry_jacobians(sc.keyframes.poses[: k + 1])
     w = np.diag(1.0 / np.asarray(s.odometry_sigmas) ** 2)
     for i in range(1, k + 1):
         J = np.zeros((3, n))
-        J[:, 3 * (i - 1):3 * i], J[:, 3 * i:3 * i + 3] = odo[i - 1], np.eye(3)
+        J[:, 3 * (i - 1) : 3 * i], J[:, 3 * i : 3 * i + 3] = odo[i - 1], np.eye(3)
         lam += J.T @ w @ J
     prior = s.landmark_prior_sigma_m if map_sigma_m is None else map_sigma_m
-    lam[3 * (k + 1):, 3 * (k + 1):] += np.eye(2 * M) / prior**2
+    lam[3 * (k + 1) :, 3 * (k + 1) :] += np.eye(2 * M) / prior**2
     for m in keyframe_measurements(problem, suite)[:k]:
-        jac = bearing_range_jacobians(np.repeat(sc.keyframes.poses[m.keyframe][None], len(m), 0), sc.landmarks[m.landmark])
+        jac = bearing_range_jacobians(
+            np.repeat(sc.keyframes.poses[m.keyframe][None], len(m), 0), sc.landmarks[m.landmark]
+        )
         for row, j, sb, sr in zip(jac, m.landmark, m.sigma_bearing_rad, m.sigma_range_m):
             J = np.zeros((2, n))
-            J[:, 3 * m.keyframe:3 * m.keyframe + 3] = row[:, :3]
-            J[:, 3 * (k + 1) + 2 * j:3 * (k + 1) + 2 * j + 2] = row[:, 3:]
+            J[:, 3 * m.keyframe : 3 * m.keyframe + 3] = row[:, :3]
+            J[:, 3 * (k + 1) + 2 * j : 3 * (k + 1) + 2 * j + 2] = row[:, 3:]
             lam += J.T @ np.diag([1 / sb**2, 1 / sr**2]) @ J
     return lam
 
@@ -149,8 +169,9 @@ def _dense_information(problem, suite, k: int, map_sigma_m) -> np.ndarray:
 def test_prediction_joint_covariance_is_the_dense_inverse(suburb_cut, map_sigma_m):
     suite = tuple(range(0, suburb_cut.n_sensors, 5))
     preds = {}
-    forward_pass(suburb_cut, suite, map_sigma_m=map_sigma_m,
-                 on_prediction=lambda p, m: preds.__setitem__(p.keyframe, (p, m)))
+    forward_pass(
+        suburb_cut, suite, map_sigma_m=map_sigma_m, on_prediction=lambda p, m: preds.__setitem__(p.keyframe, (p, m))
+    )
     assert sorted(preds) == list(range(suburb_cut.scenario.n_poses))
     prior = suburb_cut.settings.landmark_prior_sigma_m if map_sigma_m is None else map_sigma_m
     for k in (3, 10, 17):
@@ -167,8 +188,8 @@ def test_prediction_joint_covariance_is_the_dense_inverse(suburb_cut, map_sigma_
         outside = np.setdiff1d(meas.landmark, p.landmarks)
         for j in outside:
             b = 3 * (k + 1) + 2 * j
-            np.testing.assert_allclose(cov[b:b + 2, b:b + 2], prior**2 * np.eye(2), rtol=1e-9)
-            assert np.abs(cov[3 * k:3 * k + 3, b:b + 2]).max() < 1e-9 * prior**2
+            np.testing.assert_allclose(cov[b : b + 2, b : b + 2], prior**2 * np.eye(2), rtol=1e-9)
+            assert np.abs(cov[3 * k : 3 * k + 3, b : b + 2]).max() < 1e-9 * prior**2
         assert len(p.landmarks) > 0
 
 
@@ -218,6 +239,7 @@ def test_accuracy_says_its_estimate_and_old_files_load_as_the_smoother(suburb_pr
     path = tmp_path / "score.json"
     results.save(res, path)
     assert results.load(path, ScoreResult).accuracy.estimate == "filter"
+
     def strip(node):
         if isinstance(node, dict):
             return {k: strip(v) for k, v in node.items() if k != "estimate"}

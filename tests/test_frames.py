@@ -20,8 +20,17 @@ from sensorsel.api import score_suite
 from sensorsel.cli import cli
 from sensorsel.errors import InputError, ScenarioError
 from sensorsel.model.problem import load_problem
-from sensorsel.model.scenario import (ScenarioSpec, find_frame, headings_from_travel, load_scenario, read_kitti_poses,
-                                      read_route_file, read_times, route_from_positions, scenario_notes)
+from sensorsel.model.scenario import (
+    ScenarioSpec,
+    find_frame,
+    headings_from_travel,
+    load_scenario,
+    read_kitti_poses,
+    read_route_file,
+    read_times,
+    route_from_positions,
+    scenario_notes,
+)
 
 # radars at four clock positions and cameras: a turned or mirrored heading changes the score
 SUITE = "LRR-12,LRR-3,LRR-10,HD2K-12,HD2K-4,HD2K-9"
@@ -36,8 +45,12 @@ def _wrap(a):
 def _tum(path: Path, t: np.ndarray, p: np.ndarray, r: np.ndarray) -> Path:
     """A TUM file as evo writes one: ``t tx ty tz qx qy qz qw``, full precision."""
     q = Rotation.from_matrix(r).as_quat()  # (x, y, z, w)
-    path.write_text("".join(f"{a!r} {b[0]!r} {b[1]!r} {b[2]!r} {c[0]!r} {c[1]!r} {c[2]!r} {c[3]!r}\n"
-                            for a, b, c in zip(t.tolist(), p.tolist(), q.tolist())))
+    path.write_text(
+        "".join(
+            f"{a!r} {b[0]!r} {b[1]!r} {b[2]!r} {c[0]!r} {c[1]!r} {c[2]!r} {c[3]!r}\n"
+            for a, b, c in zip(t.tolist(), p.tolist(), q.tolist())
+        )
+    )
     return path
 
 
@@ -70,13 +83,19 @@ def test_the_same_drive_in_every_axis_aligned_frame_scores_the_same(drive03, kit
         # the drive in a z-up world with a z-up body (x forward, y left): TUM's own convention
         "z-up TUM": (_tum(tmp_path / "zup.txt", t, p @ C.T, C @ r @ C.T), None),
         # z-up positions with camera-axis quaternions (a common SLAM output)
-        "z-up positions, camera quaternions": (_tum(tmp_path / "zcam.txt", t, p @ C.T, C @ r), "body (camera frame): y down, z forward"),
+        "z-up positions, camera quaternions": (
+            _tum(tmp_path / "zcam.txt", t, p @ C.T, C @ r),
+            "body (camera frame): y down, z forward",
+        ),
         # a z-up trajectory written in KITTI's format (evo_traj tum x.txt --save_as_kitti)
         "z-up KITTI file": (_kitti(tmp_path / "zup_kitti.txt", p @ C.T, C @ r @ C.T), "vehicle frame: z up, x forward"),
     }
     for label, (path, said) in variants.items():
-        spec = ScenarioSpec(route=str(path), landmarks=str(lm_file), times=str(kitti_root / "sequences" / "03" / "times.txt")
-                            if path.name.endswith("kitti.txt") else None)
+        spec = ScenarioSpec(
+            route=str(path),
+            landmarks=str(lm_file),
+            times=str(kitti_root / "sequences" / "03" / "times.txt") if path.name.endswith("kitti.txt") else None,
+        )
         got = _score(spec)
         assert got == pytest.approx(ref, rel=1e-6), label
         notes = scenario_notes(load_scenario(spec))
@@ -112,14 +131,21 @@ def test_the_same_drive_under_a_rigid_3d_motion_with_its_map_moved_alike(drive03
 @pytest.mark.kitti
 def test_planar_and_positions_only_csv_of_the_drive(drive03, kitti_root, tmp_path):
     p, r, t, lm, ref = drive03
-    kitti = read_route_file(kitti_root / "poses" / "03.txt", "kitti", kitti_root / "sequences" / "03" / "times.txt").route
+    kitti = read_route_file(
+        kitti_root / "poses" / "03.txt", "kitti", kitti_root / "sequences" / "03" / "times.txt"
+    ).route
     lm_file = kitti_root / "landmarks" / "03.csv"
     planar = tmp_path / "planar.csv"
-    planar.write_text("t,x,y,heading\n" + "".join(f"{a!r},{x!r},{y!r},{h!r}\n" for a, (x, y, h) in zip(t.tolist(), kitti.poses.tolist())))
+    planar.write_text(
+        "t,x,y,heading\n"
+        + "".join(f"{a!r},{x!r},{y!r},{h!r}\n" for a, (x, y, h) in zip(t.tolist(), kitti.poses.tolist()))
+    )
     assert _score(ScenarioSpec(route=str(planar), landmarks=str(lm_file))) == pytest.approx(ref, rel=1e-6)
     # positions only: the heading from the direction of travel, against KITTI's own headings
     pos = tmp_path / "positions.csv"
-    pos.write_text("t,x,y\n" + "".join(f"{a!r},{x!r},{y!r}\n" for a, (x, y, _) in zip(t.tolist(), kitti.poses.tolist())))
+    pos.write_text(
+        "t,x,y\n" + "".join(f"{a!r},{x!r},{y!r}\n" for a, (x, y, _) in zip(t.tolist(), kitti.poses.tolist()))
+    )
     route = read_route_file(pos).route
     err = np.degrees(np.abs(_wrap(route.poses[:, 2] - kitti.poses[:, 2])))
     # measured: median 0.37 deg, 95% 3.6 deg, worst 7.0 deg in 03's tight turn (the camera is ahead of the
@@ -131,7 +157,9 @@ def test_planar_and_positions_only_csv_of_the_drive(drive03, kitti_root, tmp_pat
     # a GPS-like log Time,X,Y,Z (z up, the drive's height on z), as GTSAM's KittiGps example writes it
     gps = tmp_path / "gps.txt"
     z_up = p @ C.T
-    gps.write_text("Time,X,Y,Z\n" + "".join(f"{a!r},{x!r},{y!r},{z!r}\n" for a, (x, y, z) in zip(t.tolist(), z_up.tolist())))
+    gps.write_text(
+        "Time,X,Y,Z\n" + "".join(f"{a!r},{x!r},{y!r},{z!r}\n" for a, (x, y, z) in zip(t.tolist(), z_up.tolist()))
+    )
     r3 = read_route_file(gps)
     np.testing.assert_allclose(r3.route.poses[:, :2], kitti.poses[:, :2], atol=1e-9)
     np.testing.assert_array_equal(r3.route.poses[:, 2], route.poses[:, 2])
@@ -164,11 +192,15 @@ def test_headings_from_travel_on_a_circle_a_stop_and_a_reversal():
     assert np.abs(_wrap(h - a)).max() < 0.03 and notes == []  # ends: half the window's arc, 2 / 50 / 2 rad
     # a stop keeps the last heading: 10 repeated positions in the middle of a straight road heading 30 deg
     d = np.array([math.cos(math.radians(30)), math.sin(math.radians(30))])
-    xy = np.concatenate([np.arange(20)[:, None] * d, np.repeat(19 * d[None], 10, axis=0), (19 + np.arange(1, 20))[:, None] * d])
+    xy = np.concatenate(
+        [np.arange(20)[:, None] * d, np.repeat(19 * d[None], 10, axis=0), (19 + np.arange(1, 20))[:, None] * d]
+    )
     h, notes = headings_from_travel(np.arange(len(xy), dtype=float), xy)
     np.testing.assert_allclose(h, math.radians(30), atol=1e-12)
     # a reversal: 30 m along +x, then back: said in a note (with the time), heading along the travel each way
-    xy = np.concatenate([np.column_stack([np.arange(31.0), np.zeros(31)]), np.column_stack([np.arange(29.0, -1.0, -1.0), np.zeros(30)])])
+    xy = np.concatenate(
+        [np.column_stack([np.arange(31.0), np.zeros(31)]), np.column_stack([np.arange(29.0, -1.0, -1.0), np.zeros(30)])]
+    )
     t = np.arange(len(xy), dtype=float)
     h, notes = headings_from_travel(t, xy)
     assert len(notes) == 1 and "reverses near t = " in notes[0] and "backed up" in notes[0]
@@ -182,9 +214,11 @@ def test_route_from_positions_checks_what_a_reader_gives_it(tmp_path):
     rf = route_from_positions(t, xy, "gpx:track")
     np.testing.assert_array_equal(rf.route.poses[:, 2], 0.0)
     assert rf.frame is None and "direction of travel" in rf.notes[0] and "gpx:track" in rf.notes[0]
-    for tt, pp, fragment in ((np.array([0.0, 1, 1, 2, 3]), xy, "must increase"),
-                             (t, np.zeros((5, 2)) + 7.0, "never moves"),
-                             (t, np.column_stack([8.42 + 1e-5 * t, 49.01 + 1e-5 * t]), "degrees")):
+    for tt, pp, fragment in (
+        (np.array([0.0, 1, 1, 2, 3]), xy, "must increase"),
+        (t, np.zeros((5, 2)) + 7.0, "never moves"),
+        (t, np.column_stack([8.42 + 1e-5 * t, 49.01 + 1e-5 * t]), "degrees"),
+    ):
         with pytest.raises(ScenarioError, match=fragment) as err:
             route_from_positions(tt, pp, "gpx:track")
         assert "gpx:track" in str(err.value)
@@ -197,7 +231,9 @@ def test_gtsam_style_gps_log_with_a_commented_header_is_sniffed(tmp_path):
     rows = "".join(f"{46534.5 + i!r},{x!r},{y!r},{0.01 * i!r}\n" for i, (x, y) in enumerate(xy.tolist()))
     path.write_text("#time(s),x(m),y(m),z(m)\n" + rows)
     rf = read_route_file(path)
-    np.testing.assert_allclose(rf.route.poses[:, :2], xy, atol=1e-3)  # the plane is tilted by the climb, 1e-2 m per 30 m
+    np.testing.assert_allclose(
+        rf.route.poses[:, :2], xy, atol=1e-3
+    )  # the plane is tilted by the climb, 1e-2 m per 30 m
     np.testing.assert_allclose(_wrap(rf.route.poses[2:-2, 2] - a[2:-2]), 0.0, atol=1e-3)
     assert rf.frame is not None and rf.frame.describe == "ground plane: z up"
 

@@ -8,8 +8,8 @@ import math
 
 import numpy as np
 import pytest
-
 from association_oracle import clopper_pearson, measure, monte_carlo
+
 from sensorsel.information.filtering import KeyframeMeasurements, Prediction
 from sensorsel.information.integrity.association import candidate_reach, gate_of, keyframe_risk, measurement_risks
 
@@ -26,20 +26,22 @@ def _points(offsets: list[tuple[float, float]], rng_m: float = 20.0, bearing: fl
 def _case(points, sb, sr, pose_sigma, lm_sigma, in_state, cross=0.0):
     n = len(points)
     state = np.arange(n) if in_state else np.zeros(0, np.int64)
-    diag = [pose_sigma ** 2, pose_sigma ** 2, (pose_sigma / 20.0) ** 2] + ([lm_sigma ** 2] * (2 * n) if in_state else [])
+    diag = [pose_sigma**2, pose_sigma**2, (pose_sigma / 20.0) ** 2] + ([lm_sigma**2] * (2 * n) if in_state else [])
     cov = np.diag(diag)
     if in_state and cross:
         cov[0, 3] = cov[3, 0] = cross * pose_sigma * lm_sigma
     pred = Prediction(keyframe=0, landmarks=state, covariance=cov, prior_sigma_m=lm_sigma)
     z = measure(POSE, points[0])
-    meas = KeyframeMeasurements(0, np.array([0]), np.array([0]), np.array([z[0]]), np.array([z[1]]), np.array([sb]),
-                                np.array([sr]))
+    meas = KeyframeMeasurements(
+        0, np.array([0]), np.array([0]), np.array([z[0]]), np.array([z[1]]), np.array([sb]), np.array([sr])
+    )
     return pred, meas
 
 
 def _risk(points, pred, meas, gate_p=0.9999, model="map"):
-    r = measurement_risks(POSE, points, pred, meas, np.arange(len(points)), gate=gate_of(gate_p), model=model,
-                          linear=True)
+    r = measurement_risks(
+        POSE, points, pred, meas, np.arange(len(points)), gate=gate_of(gate_p), model=model, linear=True
+    )
     assert r.linear[0] <= r.bound[0]  # the remainder only adds
     return float(r.estimate[0]), float(r.bound[0])
 
@@ -48,7 +50,9 @@ def _linear_and_robust(points, pred, meas):
     """The bound linearized at the truth, and the bound robust to the covariance (remainder whitened by R)."""
     kw = dict(gate=gate_of(0.9999), model="map")
     lin = measurement_risks(POSE, points, pred, meas, np.arange(len(points)), linear=True, **kw).linear[0]
-    robust = measurement_risks(POSE, points, pred, meas, np.arange(len(points)), robust_to_covariance=True, **kw).bound[0]
+    robust = measurement_risks(POSE, points, pred, meas, np.arange(len(points)), robust_to_covariance=True, **kw).bound[
+        0
+    ]
     return float(lin), float(robust)
 
 
@@ -74,8 +78,19 @@ def test_against_monte_carlo(case):
     points = _points(offsets)
     pred, meas = _case(points, sb, sr, ps, ls, in_state, cross)
     est, bound = _risk(points, pred, meas)
-    k, n = monte_carlo(POSE, points, pred.landmarks, pred.covariance, ls, 0, (sb, sr), np.arange(len(points)),
-                       gate_of(0.9999), n=100_000, seed=case)
+    k, n = monte_carlo(
+        POSE,
+        points,
+        pred.landmarks,
+        pred.covariance,
+        ls,
+        0,
+        (sb, sr),
+        np.arange(len(points)),
+        gate_of(0.9999),
+        n=100_000,
+        seed=case,
+    )
     lo, hi = clopper_pearson(k, n)
     assert bound >= lo
     if k >= 50:
@@ -91,8 +106,20 @@ def test_first_sighting_against_monte_carlo():
     pred = Prediction(0, state, cov, 100.0)
     _, meas = _case(points, 0.01, 0.3, 0.2, 0.1, False)
     est, bound = _risk(points, pred, meas, model="slam")
-    k, n = monte_carlo(POSE, points, state, cov, 100.0, 0, (0.01, 0.3), np.array([1, 2]), gate_of(0.9999), n=100_000,
-                       seed=7, right_is_candidate=False)
+    k, n = monte_carlo(
+        POSE,
+        points,
+        state,
+        cov,
+        100.0,
+        0,
+        (0.01, 0.3),
+        np.array([1, 2]),
+        gate_of(0.9999),
+        n=100_000,
+        seed=7,
+        right_is_candidate=False,
+    )
     lo, _ = clopper_pearson(k, n)
     assert k >= 50 and bound >= lo and 0.5 * k / n <= est <= 2.0 * k / n
 
@@ -103,8 +130,19 @@ def test_two_landmarks_closer_than_the_noise_give_one_half():
     est, bound = _risk(points, pred, meas)
     assert est == pytest.approx(0.5, abs=0.03)
     assert bound >= 0.5
-    k, n = monte_carlo(POSE, points, pred.landmarks, pred.covariance, 0.1, 0, (0.01, 0.5), np.arange(2),
-                       gate_of(0.9999), n=40_000, seed=3)
+    k, n = monte_carlo(
+        POSE,
+        points,
+        pred.landmarks,
+        pred.covariance,
+        0.1,
+        0,
+        (0.01, 0.5),
+        np.arange(2),
+        gate_of(0.9999),
+        n=40_000,
+        seed=3,
+    )
     assert k / n == pytest.approx(0.5, abs=0.02)
 
 
@@ -128,8 +166,16 @@ def _monotone_case(scale_noise=1.0, scale_pose=1.0, scale_landmark=1.0, extra=No
 def test_more_noise_more_landmarks_looser_prior_never_lower_the_risk(in_state):
     base_est, base_bound = _monotone_case(in_state=in_state)
     assert 1e-6 < base_est < 0.5
-    for kw in ({"scale_noise": 1.5}, {"scale_noise": 3.0}, {"scale_pose": 1.5}, {"scale_pose": 4.0},
-               {"scale_landmark": 2.0}, {"scale_landmark": 5.0}, {"extra": (0.3, -1.5)}, {"extra": (3.0, 3.0)}):
+    for kw in (
+        {"scale_noise": 1.5},
+        {"scale_noise": 3.0},
+        {"scale_pose": 1.5},
+        {"scale_pose": 4.0},
+        {"scale_landmark": 2.0},
+        {"scale_landmark": 5.0},
+        {"extra": (0.3, -1.5)},
+        {"extra": (3.0, 3.0)},
+    ):
         est, bound = _monotone_case(in_state=in_state, **kw)
         assert est >= base_est * (1 - 1e-9), kw
         assert bound >= base_bound * (1 - 1e-9), kw
@@ -166,7 +212,7 @@ def test_poisson_field_closed_form():
     it; the estimate, pairwise and independent, averages 1 − exp(−2πβ√det S), the bound above both."""
     rng = np.random.default_rng(5)
     sb, sr, ls = 0.01, 0.2, 0.01
-    s_det = math.sqrt((sb ** 2 + (ls / 20.0) ** 2) * (sr ** 2 + ls ** 2))  # √det S in (rad, m) at 20 m
+    s_det = math.sqrt((sb**2 + (ls / 20.0) ** 2) * (sr**2 + ls**2))  # √det S in (rad, m) at 20 m
     x = 0.15
     beta = x / (2 * math.pi * s_det)
     half_b, half_r = 8 * sb, 8 * sr
@@ -186,8 +232,9 @@ def test_poisson_field_closed_form():
         ests.append(e)
         bounds.append(bd)
         if f < 60:
-            w, n = monte_carlo(POSE, points, state, cov, ls, 0, (sb, sr), np.arange(len(points)), gate_of(1 - 1e-12),
-                               n=4000, seed=f)
+            w, n = monte_carlo(
+                POSE, points, state, cov, ls, 0, (sb, sr), np.arange(len(points)), gate_of(1 - 1e-12), n=4000, seed=f
+            )
             wrong, draws = wrong + w, draws + n
     exact = 1 - 1 / (1 + x)
     assert wrong / draws == pytest.approx(exact, rel=0.15)
@@ -214,8 +261,19 @@ def test_a_far_landmark_within_a_stereo_cameras_range_noise_counts():
     assert np.hypot(*(points[1] - POSE[:2])) > 1.25 * rng_m + 5.0  # beyond the stated reach
     pred, meas = _case(points, 0.002, sr, 0.1, 0.05, True)
     est, bound = _risk(points, pred, meas)
-    k, n = monte_carlo(POSE, points, pred.landmarks, pred.covariance, 0.05, 0, (0.002, sr), np.arange(2),
-                       gate_of(0.9999), n=100_000, seed=7)
+    k, n = monte_carlo(
+        POSE,
+        points,
+        pred.landmarks,
+        pred.covariance,
+        0.05,
+        0,
+        (0.002, sr),
+        np.arange(2),
+        gate_of(0.9999),
+        n=100_000,
+        seed=7,
+    )
     lo, _ = clopper_pearson(k, n)
     assert k >= 50 and bound >= lo, (bound, k / n)
     assert 0.5 * k / n <= est <= 2.0 * k / n, (est, k / n)

@@ -29,16 +29,22 @@ def _gtsam_marginal(problem, suite, k, map_sigma, with_k=True):
     keyframes < k (<= k with ``with_k``): the filter's oracle."""
     b = G.GraphBuilder(problem)
     g = gtsam.NonlinearFactorGraph()
-    poses = b._poses[:k + 1]
-    G.add_pose_chain(g, poses[0], G.truth_steps(poses), G.diagonal(problem.settings.first_pose_sigmas),
-                     G.diagonal(problem.settings.odometry_sigmas))
+    poses = b._poses[: k + 1]
+    G.add_pose_chain(
+        g,
+        poses[0],
+        G.truth_steps(poses),
+        G.diagonal(problem.settings.first_pose_sigmas),
+        G.diagonal(problem.settings.odometry_sigmas),
+    )
     vals = gtsam.Values()
     for i, q in enumerate(poses):
         vals.insert(X(i), q)
     seen = set()
     for obs in (problem.observations[s] for s in suite):
-        for kk, j, br, r, sb, sr in zip(obs.pose, obs.landmark, obs.bearing_rad, obs.range_m, obs.sigma_bearing_rad,
-                                        obs.sigma_range_m):
+        for kk, j, br, r, sb, sr in zip(
+            obs.pose, obs.landmark, obs.bearing_rad, obs.range_m, obs.sigma_bearing_rad, obs.sigma_range_m
+        ):
             if kk < k or (with_k and kk == k):
                 g.add(G.bearing_range_factor(int(kk), int(j), br, r, G.diagonal([sb, sr])))
                 seen.add(int(j))
@@ -74,7 +80,7 @@ def test_keyframe_measurements_group_and_order(tiny_problem):
 def test_tail_and_protection_levels_by_hand():
     """σ = (0.1 m lon, 0.05 m lat, 0.2 deg): the tail is 2Φ(−2.9) + 2Φ(−5.8) + 2Φ(−2.5); the protection
     level at a 1e-6 allocation with 1e-7 of it taken by association is σ Φ⁻¹(1 − 0.9e-6 / 6)."""
-    cov = np.diag([0.1 ** 2, 0.05 ** 2, math.radians(0.2) ** 2])[None]
+    cov = np.diag([0.1**2, 0.05**2, math.radians(0.2) ** 2])[None]
     spec = IntegritySpec(alert_lateral_m=0.29, alert_longitudinal_m=0.29, alert_heading_deg=0.5)
     want = 2 * (norm.sf(2.9) + norm.sf(5.8) + norm.sf(2.5))
     assert tail_risk(cov, spec)[0] == pytest.approx(want, rel=1e-9)
@@ -164,8 +170,9 @@ def test_slam_floor_is_zero(tiny_problem):
 
 def test_integrity_line_and_json_of_score():
     runner = CliRunner()
-    res = runner.invoke(cli, ["score", "--fixture", "tiny", "--suite", SUITE, "--map-sigma", "0.05",
-                              "--max-association-risk", "0.001"])
+    res = runner.invoke(
+        cli, ["score", "--fixture", "tiny", "--suite", SUITE, "--map-sigma", "0.05", "--max-association-risk", "0.001"]
+    )
     assert res.exit_code == 0, res.output
     line = [ln for ln in res.output.splitlines() if ln.startswith("integrity")]
     assert len(line) == 1 and "/h FAILS 1e-08/h (assoc. " in line[0] and "left out 21/111" in line[0]
@@ -174,18 +181,31 @@ def test_integrity_line_and_json_of_score():
     assert res.exit_code == 0
     data = json.loads(res.output)
     itg = data["integrity"][0]
-    for key in ("p_wrong_association", "integrity_risk", "protection_level_lateral_m", "protection_level_longitudinal_m"):
+    for key in (
+        "p_wrong_association",
+        "integrity_risk",
+        "protection_level_lateral_m",
+        "protection_level_longitudinal_m",
+    ):
         assert len(itg[key]) == 10
     assert isinstance(itg["integrity_risk_per_hour"], float)
 
 
-@pytest.mark.parametrize("args, option", [
-    (["--integrity-risk", "0"], "--integrity-risk"), (["--integrity-risk", "1"], "--integrity-risk"),
-    (["--integrity-risk", "-1e-8"], "--integrity-risk"), (["--alert-lateral", "0"], "--alert-lateral"),
-    (["--alert-longitudinal", "-0.2"], "--alert-longitudinal"), (["--alert-heading", "0"], "--alert-heading"),
-    (["--gate-probability", "1"], "--gate-probability"), (["--gate-probability", "0"], "--gate-probability"),
-    (["--max-association-risk", "1.5"], "--max-association-risk"), (["--alert-lateral", "nan"], "--alert-lateral"),
-])
+@pytest.mark.parametrize(
+    "args, option",
+    [
+        (["--integrity-risk", "0"], "--integrity-risk"),
+        (["--integrity-risk", "1"], "--integrity-risk"),
+        (["--integrity-risk", "-1e-8"], "--integrity-risk"),
+        (["--alert-lateral", "0"], "--alert-lateral"),
+        (["--alert-longitudinal", "-0.2"], "--alert-longitudinal"),
+        (["--alert-heading", "0"], "--alert-heading"),
+        (["--gate-probability", "1"], "--gate-probability"),
+        (["--gate-probability", "0"], "--gate-probability"),
+        (["--max-association-risk", "1.5"], "--max-association-risk"),
+        (["--alert-lateral", "nan"], "--alert-lateral"),
+    ],
+)
 def test_bad_integrity_options(args, option):
     res = CliRunner().invoke(cli, ["score", "--fixture", "tiny", "--suite", SUITE] + args)
     assert res.exit_code == 2
@@ -196,8 +216,23 @@ def test_bad_integrity_options(args, option):
 def test_selecting_commands_print_and_record_integrity(tmp_path):
     runner = CliRunner()
     out = tmp_path / "greedy.json"
-    res = runner.invoke(cli, ["greedy", "--fixture", "tiny", "--budget", "5000", "--map-sigma", "0.05", "-q",
-                              "--alert-lateral", "0.5", "-o", str(out)])
+    res = runner.invoke(
+        cli,
+        [
+            "greedy",
+            "--fixture",
+            "tiny",
+            "--budget",
+            "5000",
+            "--map-sigma",
+            "0.05",
+            "-q",
+            "--alert-lateral",
+            "0.5",
+            "-o",
+            str(out),
+        ],
+    )
     assert res.exit_code == 0, res.output
     assert sum(ln.startswith("integrity") for ln in res.output.splitlines()) == 1
     loaded = results.load(out)

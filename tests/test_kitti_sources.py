@@ -42,7 +42,9 @@ def _straight_drive(root: Path, seq: str = "07", poles=((10.0, 2.0), (30.0, -4.5
     (root / "dataset" / "sequences" / seq / "calib.txt").write_text(text)
     maps = root / "pole-localization" / "data" / "pole-dataset" / "KITTI" / f"kitti_label_{seq}"
     maps.mkdir(parents=True)
-    np.savez(maps / "globalmap_gt_cluster.npz", poleparams=np.column_stack([np.asarray(poles), np.full(len(poles), 0.2)]))
+    np.savez(
+        maps / "globalmap_gt_cluster.npz", poleparams=np.column_stack([np.asarray(poles), np.full(len(poles), 0.2)])
+    )
 
 
 def test_a_pole_lands_where_hand_worked_geometry_puts_it(tmp_path):
@@ -50,10 +52,21 @@ def test_a_pole_lands_where_hand_worked_geometry_puts_it(tmp_path):
     2 m left in the route's frame (x ahead, y left at frame 0); one 4.5 m right: y = -4.5. The downloads'
     layouts as published."""
     _straight_drive(tmp_path)
-    r = _kitti(["--odometry", str(tmp_path / "dataset"), "--poles", str(tmp_path / "pole-localization"), "--output-dir", str(tmp_path / "out")])
+    r = _kitti(
+        [
+            "--odometry",
+            str(tmp_path / "dataset"),
+            "--poles",
+            str(tmp_path / "pole-localization"),
+            "--output-dir",
+            str(tmp_path / "out"),
+        ]
+    )
     assert r.exit_code == 0, r.output
     assert np.array_equal(read_landmarks_csv(tmp_path / "out" / "landmarks" / "07.csv"), [[9.73, 2.0], [29.73, -4.5]])
-    assert (tmp_path / "out" / "poses" / "07.txt").read_bytes() == (tmp_path / "dataset" / "poses" / "07.txt").read_bytes()
+    assert (tmp_path / "out" / "poses" / "07.txt").read_bytes() == (
+        tmp_path / "dataset" / "poses" / "07.txt"
+    ).read_bytes()
     assert (tmp_path / "out" / "sequences" / "07" / "times.txt").is_file()
     # the built folder is one the route commands read
     r = CliRunner().invoke(cli, ["score", "--seq", "07", "--kitti-root", str(tmp_path / "out"), "--suite", "LRL-roof"])
@@ -61,23 +74,68 @@ def test_a_pole_lands_where_hand_worked_geometry_puts_it(tmp_path):
     assert "2 landmarks" in r.output
 
 
-@pytest.mark.parametrize("break_it, named, says", [
-    (lambda d, m: (m / "globalmap_gt_cluster.npz").write_text("not a zip"), "globalmap_gt_cluster.npz", "not a NumPy .npz"),
-    (lambda d, m: np.savez(m / "globalmap_gt_cluster.npz", poles=np.zeros((3, 2))), "globalmap_gt_cluster.npz", "no array 'poleparams'"),
-    (lambda d, m: np.savez(m / "globalmap_gt_cluster.npz", poleparams=np.zeros(3)), "globalmap_gt_cluster.npz", "got shape (3,)"),
-    (lambda d, m: np.savez(m / "globalmap_gt_cluster.npz", poleparams=np.array([[1.0, np.nan]])), "globalmap_gt_cluster.npz", "finite"),
-    (lambda d, m: (d / "sequences" / "07" / "calib.txt").write_text("P0: 1 2 3\n"), "calib.txt", "no line 'Tr:'"),
-    (lambda d, m: (d / "sequences" / "07" / "calib.txt").write_text("Tr: 1 0 0 0 0 1 0 0 0 0 1\n"), "calib.txt:1", "expected 12 numbers"),
-    (lambda d, m: (d / "sequences" / "07" / "calib.txt").write_text("Tr: 2 0 0 0 0 1 0 0 0 0 1 0\n"), "calib.txt:1", "not a rotation"),
-    (lambda d, m: (d / "sequences" / "07" / "times.txt").write_text("0\n0.1\n"), "07.txt", "51 poses but 2 timestamps"),
-    # another drive's map: poles 400 m away from this route
-    (lambda d, m: np.savez(m / "globalmap_gt_cluster.npz", poleparams=np.array([[400.0, 5.0], [420.0, -3.0]])),
-     "globalmap_gt_cluster.npz", "does not lie along sequence 07's route"),
-])
+@pytest.mark.parametrize(
+    "break_it, named, says",
+    [
+        (
+            lambda d, m: (m / "globalmap_gt_cluster.npz").write_text("not a zip"),
+            "globalmap_gt_cluster.npz",
+            "not a NumPy .npz",
+        ),
+        (
+            lambda d, m: np.savez(m / "globalmap_gt_cluster.npz", poles=np.zeros((3, 2))),
+            "globalmap_gt_cluster.npz",
+            "no array 'poleparams'",
+        ),
+        (
+            lambda d, m: np.savez(m / "globalmap_gt_cluster.npz", poleparams=np.zeros(3)),
+            "globalmap_gt_cluster.npz",
+            "got shape (3,)",
+        ),
+        (
+            lambda d, m: np.savez(m / "globalmap_gt_cluster.npz", poleparams=np.array([[1.0, np.nan]])),
+            "globalmap_gt_cluster.npz",
+            "finite",
+        ),
+        (lambda d, m: (d / "sequences" / "07" / "calib.txt").write_text("P0: 1 2 3\n"), "calib.txt", "no line 'Tr:'"),
+        (
+            lambda d, m: (d / "sequences" / "07" / "calib.txt").write_text("Tr: 1 0 0 0 0 1 0 0 0 0 1\n"),
+            "calib.txt:1",
+            "expected 12 numbers",
+        ),
+        (
+            lambda d, m: (d / "sequences" / "07" / "calib.txt").write_text("Tr: 2 0 0 0 0 1 0 0 0 0 1 0\n"),
+            "calib.txt:1",
+            "not a rotation",
+        ),
+        (
+            lambda d, m: (d / "sequences" / "07" / "times.txt").write_text("0\n0.1\n"),
+            "07.txt",
+            "51 poses but 2 timestamps",
+        ),
+        # another drive's map: poles 400 m away from this route
+        (
+            lambda d, m: np.savez(m / "globalmap_gt_cluster.npz", poleparams=np.array([[400.0, 5.0], [420.0, -3.0]])),
+            "globalmap_gt_cluster.npz",
+            "does not lie along sequence 07's route",
+        ),
+    ],
+)
 def test_a_wrong_source_is_refused_in_one_line_and_nothing_is_written(tmp_path, break_it, named, says):
     _straight_drive(tmp_path)
-    break_it(tmp_path / "dataset", tmp_path / "pole-localization" / "data" / "pole-dataset" / "KITTI" / "kitti_label_07")
-    r = _kitti(["--odometry", str(tmp_path / "dataset"), "--poles", str(tmp_path / "pole-localization"), "--output-dir", str(tmp_path / "out")])
+    break_it(
+        tmp_path / "dataset", tmp_path / "pole-localization" / "data" / "pole-dataset" / "KITTI" / "kitti_label_07"
+    )
+    r = _kitti(
+        [
+            "--odometry",
+            str(tmp_path / "dataset"),
+            "--poles",
+            str(tmp_path / "pole-localization"),
+            "--output-dir",
+            str(tmp_path / "out"),
+        ]
+    )
     assert r.exit_code == 2
     lines = r.output.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("sensorsel: error: "), r.output
@@ -88,9 +146,11 @@ def test_a_wrong_source_is_refused_in_one_line_and_nothing_is_written(tmp_path, 
 def test_missing_folders_and_sequences_are_named(tmp_path):
     _straight_drive(tmp_path)
     odo, poles = str(tmp_path / "dataset"), str(tmp_path / "pole-localization")
-    for args, says in ((["--odometry", str(tmp_path), "--poles", poles], "not KITTI odometry's dataset/ folder"),
-                       (["--odometry", odo, "--poles", str(tmp_path / "dataset")], "no kitti_label_NN/globalmap_gt_cluster.npz"),
-                       (["--odometry", odo, "--poles", poles, "--seq", "03"], "--seq 03: no")):
+    for args, says in (
+        (["--odometry", str(tmp_path), "--poles", poles], "not KITTI odometry's dataset/ folder"),
+        (["--odometry", odo, "--poles", str(tmp_path / "dataset")], "no kitti_label_NN/globalmap_gt_cluster.npz"),
+        (["--odometry", odo, "--poles", poles, "--seq", "03"], "--seq 03: no"),
+    ):
         r = _kitti([*args, "--output-dir", str(tmp_path / "out")])
         assert r.exit_code == 2 and says in r.output and len(r.output.strip().splitlines()) == 1, r.output
 
@@ -113,6 +173,8 @@ def test_rebuilds_the_published_pole_maps_within_a_millimetre(kitti_root, tmp_pa
 def test_another_sequences_pole_map_is_refused(kitti_root, tmp_path):
     """Sequence 00's pole map filed as 03's (a mix-up a download invites) is named, not converted."""
     shutil.copytree(kitti_root / "prbonn" / "kitti_label_00", tmp_path / "kitti_label_03")
-    r = _kitti(["--odometry", str(kitti_root), "--poles", str(tmp_path), "--seq", "03", "--output-dir", str(tmp_path / "out")])
+    r = _kitti(
+        ["--odometry", str(kitti_root), "--poles", str(tmp_path), "--seq", "03", "--output-dir", str(tmp_path / "out")]
+    )
     assert r.exit_code == 2 and "does not lie along sequence 03's route" in r.output, r.output
     assert not (tmp_path / "out").exists()

@@ -35,8 +35,13 @@ TABLE_I_STEREO = {
 }
 # The paper's row names of the same models, to find them in its LaTeX.
 PAPER_ROW_NAMES = {
-    "LRL": "Long Range LiDAR", "MRR": "Mid-Range Radar", "LRR": "Long-range Radar", "MRL": "Mid-Range LiDAR",
-    "WSC": "Wide angle stereo camera", "HD2K": "HD2K stereo camera", "LSC": "Low resolution stereo camera",
+    "LRL": "Long Range LiDAR",
+    "MRR": "Mid-Range Radar",
+    "LRR": "Long-range Radar",
+    "MRL": "Mid-Range LiDAR",
+    "WSC": "Wide angle stereo camera",
+    "HD2K": "HD2K stereo camera",
+    "LSC": "Low resolution stereo camera",
 }
 
 
@@ -97,8 +102,8 @@ def test_table_i_numbers_are_in_the_default_file(library):
 def _paper_table_rows(paper_dir: Path) -> dict[str, list[str]]:
     """The rows of the paper's Table I, from its LaTeX ($SENSORSEL_PAPER_DIR, tests/conftest.py)."""
     tex = sorted(paper_dir.glob("*.txt"))[0].read_text(encoding="utf-8")
-    body = tex[tex.index(r"\label{StereoTable}") - 4000: tex.index(r"\label{StereoTable}")]
-    body = body[body.index(r"\begin{tabular}"): body.index(r"\end{tabular}")]
+    body = tex[tex.index(r"\label{StereoTable}") - 4000 : tex.index(r"\label{StereoTable}")]
+    body = body[body.index(r"\begin{tabular}") : body.index(r"\end{tabular}")]
     rows = {}
     for line in body.splitlines():
         cells = [c.strip() for c in line.split("&")]
@@ -172,12 +177,14 @@ def _default_doc() -> dict:
 def _set(i: int, **fields):
     def mutate(doc):
         doc["models"][i].update(fields)
+
     return mutate
 
 
 def _drop(i: int, key: str):
     def mutate(doc):
         del doc["models"][i][key]
+
     return mutate
 
 
@@ -303,7 +310,9 @@ def test_repeated_key_is_refused_with_both_lines(tmp_path):
 def test_scientific_notation_is_a_number(tmp_path):
     """1e5 and 1.1e-3 are numbers (YAML 1.2), although PyYAML's YAML 1.1 would read them as text."""
     text = default_library_path().read_text(encoding="utf-8")
-    text = text.replace("cost_usd: 100000", "cost_usd: 1e5").replace("sigma_bearing_rad: 0.00110", "sigma_bearing_rad: 1.1e-3")
+    text = text.replace("cost_usd: 100000", "cost_usd: 1e5").replace(
+        "sigma_bearing_rad: 0.00110", "sigma_bearing_rad: 1.1e-3"
+    )
     lib = load_library(_write(tmp_path, "exp.yaml", text))
     assert lib.costs[lib.position("LRL-roof")] == 100_000
     assert lib[lib.position("LRL-roof")].model.sigma_bearing_rad == 0.0011
@@ -330,8 +339,20 @@ def test_missing_library_file(tmp_path):
 def test_users_copy_with_a_new_model_is_accepted(tmp_path):
     """Adding a model by editing a copy: the expansion follows the file."""
     doc = _default_doc()
-    doc["models"].append(dict(code="SRR", name="Short-range radar", type="radar", digit=8, mount="clock", range_m=30,
-                              fov_rad=1.2, sigma_range_m=0.1, sigma_bearing_rad=0.01, cost_usd=150))
+    doc["models"].append(
+        dict(
+            code="SRR",
+            name="Short-range radar",
+            type="radar",
+            digit=8,
+            mount="clock",
+            range_m=30,
+            fov_rad=1.2,
+            sigma_range_m=0.1,
+            sigma_bearing_rad=0.01,
+            cost_usd=150,
+        )
+    )
     doc["clock_positions"] = [12, 3, 6, 9]
     lib = parse_library(doc, "copy.yaml")
     assert len(lib) == 2 + 6 * 4

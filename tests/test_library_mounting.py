@@ -48,7 +48,9 @@ def test_the_car_file_changes_only_the_slots():
             assert sl.capacity == 1
             assert all(s.clock == int(sl.place) and s.model.type == sl.kind for s in members)
             # every sensor of that type at that position, by brute force over the library
-            assert set(sl.members) == {i for i, s in enumerate(car) if s.clock == int(sl.place) and s.model.type == sl.kind}
+            assert set(sl.members) == {
+                i for i, s in enumerate(car) if s.clock == int(sl.place) and s.model.type == sl.kind
+            }
 
 
 def test_a_clock_number_replaces_the_clock_entry_kind_by_kind(tmp_path):
@@ -68,13 +70,16 @@ def test_subset_renumbers_slot_members():
     assert all(max(sl.members) < len(sub) for sl in sub.slots)
 
 
-@pytest.mark.parametrize("slots, key, fragment", [
-    ("  garage: {radar: 1}\n", "slots.garage", "unknown place"),
-    ("  clock: {sonar: 1}\n", "slots.clock.sonar", "unknown kind"),
-    ("  clock: {radar: -1}\n", "slots.clock.radar", "whole number"),
-    ("  clock: {radar: 1.5}\n", "slots.clock.radar", "whole number"),
-    ("  roof: 2\n", "slots.roof", "mapping of sensor type"),
-])
+@pytest.mark.parametrize(
+    "slots, key, fragment",
+    [
+        ("  garage: {radar: 1}\n", "slots.garage", "unknown place"),
+        ("  clock: {sonar: 1}\n", "slots.clock.sonar", "unknown kind"),
+        ("  clock: {radar: -1}\n", "slots.clock.radar", "whole number"),
+        ("  clock: {radar: 1.5}\n", "slots.clock.radar", "whole number"),
+        ("  roof: 2\n", "slots.roof", "mapping of sensor type"),
+    ],
+)
 def test_bad_slots_name_the_file_and_key(tmp_path, slots, key, fragment):
     path = _car(tmp_path, slots)
     with pytest.raises(LibraryError) as e:
@@ -120,6 +125,7 @@ def test_library_command_lists_resources_and_slots():
     assert "power_w [W]" in r.output and "radar 1, stereo 1" in r.output and "lidar 2" in r.output
     j = CliRunner().invoke(cli, ["library", "--library", str(CAR), "--json"])
     import json
+
     doc = json.loads(j.output)
     assert doc["sensors"][0]["resources"]["power_w"] == 60.0
     assert {s["place"] for s in doc["slots"]} == {"roof", *[str(c) for c in range(1, 13)]}
@@ -135,12 +141,12 @@ def test_mounting_drawing_marks_full_slots():
     suite = [car.position(x) for x in ("LRL-roof", "MRL-roof", "LRR-3", "HD2K-6")]
     ax = plot_mounting(car, suite)
     texts = {t.get_text(): t.get_color() for t in ax.texts}
-    assert texts["L2/2"] == "tab:red"            # both roof LiDAR places taken
-    assert texts["R1/1 C0/1"] == "tab:red"       # 3 o'clock: its radar slot is full
-    assert texts["R0/1 C1/1"] == "tab:red"       # 6 o'clock: its camera slot is full
+    assert texts["L2/2"] == "tab:red"  # both roof LiDAR places taken
+    assert texts["R1/1 C0/1"] == "tab:red"  # 3 o'clock: its radar slot is full
+    assert texts["R0/1 C1/1"] == "tab:red"  # 6 o'clock: its camera slot is full
     empty = [t for t in ax.texts if t.get_text() == "R0/1 C0/1"]
     assert len(empty) == 10 and all(t.get_color() == "black" for t in empty)  # the ten other clock positions
     n_dots = len([ln for ln in ax.lines])
-    assert n_dots == 13                           # the roof and 12 clock positions
+    assert n_dots == 13  # the roof and 12 clock positions
     assert np.isclose(ax.get_xlim()[1], 1.5)
     matplotlib.pyplot.close(ax.figure)

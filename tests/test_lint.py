@@ -17,13 +17,15 @@ import yaml
 
 ROOT = Path(__file__).resolve().parents[1]
 PATHS = [p for p in ("src", "tests", "bench", "docs") if (ROOT / p).is_dir()]
-needs_ruff = pytest.mark.skipif(importlib.util.find_spec("ruff") is None,
-                                reason="ruff is not installed (pip install -e '.[test]' installs it)")
+needs_ruff = pytest.mark.skipif(
+    importlib.util.find_spec("ruff") is None, reason="ruff is not installed (pip install -e '.[test]' installs it)"
+)
 
 
 def _ruff(*args: str, stdin: str | None = None) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([sys.executable, "-m", "ruff", *args], cwd=ROOT, input=stdin, capture_output=True,
-                          text=True, timeout=120)
+    return subprocess.run(
+        [sys.executable, "-m", "ruff", *args], cwd=ROOT, input=stdin, capture_output=True, text=True, timeout=120
+    )
 
 
 def _head(r: subprocess.CompletedProcess[str], lines: int = 60) -> str:

@@ -8,7 +8,6 @@ The oracle is the same search run through without a checkpoint (the search is de
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import pytest
 
@@ -30,7 +29,9 @@ def problems(library):
     return {
         "base": build_problem(library, load_scenario(ScenarioSpec(fixture="tiny"))),
         "library": build_problem(other, load_scenario(ScenarioSpec(fixture="tiny"))),
-        "map": build_problem(library, load_scenario(ScenarioSpec(fixture="tiny", landmarks="synthetic", landmark_seed=3))),
+        "map": build_problem(
+            library, load_scenario(ScenarioSpec(fixture="tiny", landmarks="synthetic", landmark_seed=3))
+        ),
         "route": build_problem(library, load_scenario(ScenarioSpec(fixture="tiny", keyframe_rate_hz=0.5))),
     }
 
@@ -40,6 +41,7 @@ def _answer(res, ignore=("seconds", "n_evaluations")) -> object:
         if isinstance(o, dict):
             return {k: rec(v) for k, v in o.items() if k not in ignore}
         return [rec(v) for v in o] if isinstance(o, list) else o
+
     return rec(json.loads(results.dumps(res)))
 
 
@@ -51,6 +53,7 @@ def _stop_after(n: int):
     def progress(done: int, total: int) -> None:
         if done > n:
             raise Stop  # as a kill would, between two nodes
+
     return progress
 
 
@@ -60,8 +63,15 @@ def test_an_interrupted_search_goes_on_from_its_last_checkpoint_to_the_same_answ
     assert not whole.proved_optimal and whole.n_nodes == NODES  # the search is cut by the limit, not finished
     ck = tmp_path / "o.json.checkpoint"
     with pytest.raises(Stop):
-        optimal(evaluator_for(p, "fast"), BUDGET, max_nodes=NODES, info=p.info, checkpoint=ck, checkpoint_every=EVERY,
-                progress=_stop_after(2 * EVERY + 5))
+        optimal(
+            evaluator_for(p, "fast"),
+            BUDGET,
+            max_nodes=NODES,
+            info=p.info,
+            checkpoint=ck,
+            checkpoint_every=EVERY,
+            progress=_stop_after(2 * EVERY + 5),
+        )
     kept = results.load(ck, OptimalCheckpoint)
     assert kept.nodes == 2 * EVERY and kept.heap  # the last checkpoint before the interruption
     ev = evaluator_for(p, "fast")
@@ -75,14 +85,26 @@ def test_a_resume_with_more_nodes_goes_on_where_the_limit_stopped(problems, tmp_
     p = problems["base"]
     ck = tmp_path / "o.checkpoint"
     optimal(evaluator_for(p, "fast"), BUDGET, max_nodes=NODES // 2, info=p.info, checkpoint=ck, checkpoint_every=EVERY)
-    more = optimal(evaluator_for(p, "fast"), BUDGET, max_nodes=NODES, info=p.info, checkpoint=ck, checkpoint_every=EVERY,
-                   resume=True)
+    more = optimal(
+        evaluator_for(p, "fast"),
+        BUDGET,
+        max_nodes=NODES,
+        info=p.info,
+        checkpoint=ck,
+        checkpoint_every=EVERY,
+        resume=True,
+    )
     assert _answer(more) == _answer(optimal(evaluator_for(p, "fast"), BUDGET, max_nodes=NODES, info=p.info))
 
 
 CHANGES = {
-    "budget": dict(budget=5_500.0), "rule": dict(rule="uniform"), "engine": dict(engine="reference"),
-    "limits": dict(constraints=Constraints.of(limits={"power_w": 40.0})), "library": {}, "map": {}, "route": {},
+    "budget": dict(budget=5_500.0),
+    "rule": dict(rule="uniform"),
+    "engine": dict(engine="reference"),
+    "limits": dict(constraints=Constraints.of(limits={"power_w": 40.0})),
+    "library": {},
+    "map": {},
+    "route": {},
 }
 
 
@@ -92,8 +114,17 @@ def test_a_checkpoint_of_another_run_is_never_read_back(field, problems, tmp_pat
     ck = tmp_path / "o.checkpoint"
 
     def run(target, budget, rule, engine, constraints, **kw):
-        return optimal(evaluator_for(target, engine), budget, max_nodes=12, rule=rule, info=target.info,
-                       constraints=constraints, checkpoint=ck, checkpoint_every=5, **kw)
+        return optimal(
+            evaluator_for(target, engine),
+            budget,
+            max_nodes=12,
+            rule=rule,
+            info=target.info,
+            constraints=constraints,
+            checkpoint=ck,
+            checkpoint_every=5,
+            **kw,
+        )
 
     run(problems["base"], **base)
     assert results.load(ck, OptimalCheckpoint).nodes == 10
@@ -101,6 +132,12 @@ def test_a_checkpoint_of_another_run_is_never_read_back(field, problems, tmp_pat
     target = problems.get(field, problems["base"])
     with pytest.warns(CacheWarning, match="not reused"):
         got = run(target, **changed, resume=True)
-    fresh = optimal(evaluator_for(target, changed["engine"]), changed["budget"], max_nodes=12, rule=changed["rule"],
-                    info=target.info, constraints=changed["constraints"])
+    fresh = optimal(
+        evaluator_for(target, changed["engine"]),
+        changed["budget"],
+        max_nodes=12,
+        rule=changed["rule"],
+        info=target.info,
+        constraints=changed["constraints"],
+    )
     assert _answer(got) == _answer(fresh)

@@ -7,7 +7,6 @@ point-to-segment distances in numpy for the routes against the ways.
 
 from __future__ import annotations
 
-
 import math
 import zlib
 from pathlib import Path
@@ -22,7 +21,9 @@ from sensorsel.model.osm.extract import LANDMARK_CLASSES, LocalFrame, parse_road
 from sensorsel.model.osm.gpx import GeoRef, read_gpx
 
 REPO = Path(__file__).resolve().parents[1]
-SAMPLE = REPO / "data" / "osm" / "helsinki.osm.pbf"  # the shipped sample (a copy of $SENSORSEL_OSM_DIR/helsinki.osm.pbf)
+SAMPLE = (
+    REPO / "data" / "osm" / "helsinki.osm.pbf"
+)  # the shipped sample (a copy of $SENSORSEL_OSM_DIR/helsinki.osm.pbf)
 SMALL_BBOX = (24.9380, 60.1650, 24.9460, 60.1700)  # a few hundred metres of central Helsinki
 
 
@@ -50,11 +51,11 @@ def _fields(b: bytes):
             v, i = _varint(b, i)
         elif wt == 2:
             n, i = _varint(b, i)
-            v, i = b[i:i + n], i + n
+            v, i = b[i : i + n], i + n
         elif wt == 5:
-            v, i = b[i:i + 4], i + 4
+            v, i = b[i : i + 4], i + 4
         elif wt == 1:
-            v, i = b[i:i + 8], i + 8
+            v, i = b[i : i + 8], i + 8
         else:
             raise ValueError(wt)
         yield f, wt, v
@@ -78,10 +79,10 @@ def decode_pbf_nodes(path: Path) -> list[tuple[int, float, float, dict[str, str]
     nodes = []
     i = 0
     while i < len(data):
-        hlen = int.from_bytes(data[i:i + 4], "big")
-        header = dict((f, v) for f, _, v in _fields(data[i + 4:i + 4 + hlen]))
+        hlen = int.from_bytes(data[i : i + 4], "big")
+        header = dict((f, v) for f, _, v in _fields(data[i + 4 : i + 4 + hlen]))
         size = header[3]
-        blob = dict((f, v) for f, _, v in _fields(data[i + 4 + hlen:i + 4 + hlen + size]))
+        blob = dict((f, v) for f, _, v in _fields(data[i + 4 + hlen : i + 4 + hlen + size]))
         i += 4 + hlen + size
         if header[1] != b"OSMData":
             continue
@@ -115,12 +116,20 @@ def decode_pbf_nodes(path: Path) -> list[tuple[int, float, float, dict[str, str]
                             tags[strings[kv[j]]] = strings[kv[j + 1]]
                             j += 2
                         j += 1 if kv else 0
-                        nodes.append((int(ids[n]), 1e-9 * (lat_off + gran * lats[n]), 1e-9 * (lon_off + gran * lons[n]), tags))
+                        nodes.append(
+                            (int(ids[n]), 1e-9 * (lat_off + gran * lats[n]), 1e-9 * (lon_off + gran * lons[n]), tags)
+                        )
                 elif f == 1:  # a plain Node
                     d = {k: val for k, _, val in _fields(v)}
                     keys, vals = _packed(d.get(2, b"")), _packed(d.get(3, b""))
-                    nodes.append((_zigzag(d[1]), 1e-9 * (lat_off + gran * _zigzag(d[8])), 1e-9 * (lon_off + gran * _zigzag(d[9])),
-                                  {strings[k]: strings[v_] for k, v_ in zip(keys, vals)}))
+                    nodes.append(
+                        (
+                            _zigzag(d[1]),
+                            1e-9 * (lat_off + gran * _zigzag(d[8])),
+                            1e-9 * (lon_off + gran * _zigzag(d[9])),
+                            {strings[k]: strings[v_] for k, v_ in zip(keys, vals)},
+                        )
+                    )
     return nodes
 
 
@@ -140,15 +149,23 @@ def test_sample_is_the_original_extract(osm_dir):
 
 
 def test_class_counts_match_an_independent_decoder(decoded, helsinki):
-    expected = {c: sum(1 for *_, t in decoded if k in t and (v is None or t[k] == v)) for c, (k, v) in LANDMARK_CLASSES.items()}
+    expected = {
+        c: sum(1 for *_, t in decoded if k in t and (v is None or t[k] == v)) for c, (k, v) in LANDMARK_CLASSES.items()
+    }
     assert helsinki.tag_counts == expected
     assert helsinki.n_nodes == len(decoded)
     # the README's counts (one more independent decoding)
-    assert (expected["street_lamp"], expected["tree"], expected["utility_pole"], expected["traffic_signals"],
-            expected["traffic_sign"]) == (586, 649, 85, 135, 1671)
+    assert (
+        expected["street_lamp"],
+        expected["tree"],
+        expected["utility_pole"],
+        expected["traffic_signals"],
+        expected["traffic_sign"],
+    ) == (586, 649, 85, 135, 1671)
     # one landmark a node, every node with a class tag
-    assert len(helsinki.landmarks) == sum(1 for *_, t in decoded if any(k in t and (v is None or t[k] == v)
-                                                                       for k, v in LANDMARK_CLASSES.values()))
+    assert len(helsinki.landmarks) == sum(
+        1 for *_, t in decoded if any(k in t and (v is None or t[k] == v) for k, v in LANDMARK_CLASSES.values())
+    )
 
 
 # ---------------------------------------------------------------------------------- UTM oracle
@@ -240,8 +257,20 @@ def test_routes_stay_on_the_ways_and_cover_every_way():
 
 def test_sample_domain_runs_greedy_end_to_end(tmp_path):
     out = tmp_path / "city"
-    r = CliRunner().invoke(cli, ["osm", "--sample", "helsinki", "--bbox", ",".join(map(str, SMALL_BBOX)), "--route-km", "0.4",
-                                 "--output-dir", str(out)])
+    r = CliRunner().invoke(
+        cli,
+        [
+            "osm",
+            "--sample",
+            "helsinki",
+            "--bbox",
+            ",".join(map(str, SMALL_BBOX)),
+            "--route-km",
+            "0.4",
+            "--output-dir",
+            str(out),
+        ],
+    )
     assert r.exit_code == 0, r.output
     assert "per km" in r.stdout and "OpenStreetMap contributors" in (out / "domain.yaml").read_text()
     assert "ODbL" in (out / "README.md").read_text()
@@ -258,10 +287,14 @@ def test_sample_domain_runs_greedy_end_to_end(tmp_path):
 
 
 def _gpx(points: list[tuple[float, float, str | None]]) -> str:
-    body = "".join(f'<trkpt lat="{la!r}" lon="{lo!r}">' + (f"<time>{t}</time>" if t else "") + "</trkpt>\n"
-                   for la, lo, t in points)
-    return ('<?xml version="1.0"?>\n<gpx version="1.1" xmlns="http://www.topografix.com/GPX/1/1">\n<trk><trkseg>\n'
-            + body + "</trkseg></trk>\n</gpx>\n")
+    body = "".join(
+        f'<trkpt lat="{la!r}" lon="{lo!r}">' + (f"<time>{t}</time>" if t else "") + "</trkpt>\n" for la, lo, t in points
+    )
+    return (
+        '<?xml version="1.0"?>\n<gpx version="1.1" xmlns="http://www.topografix.com/GPX/1/1">\n<trk><trkseg>\n'
+        + body
+        + "</trkseg></trk>\n</gpx>\n"
+    )
 
 
 def test_gpx_track_and_the_same_route_as_csv_score_the_same(tmp_path):
@@ -279,13 +312,32 @@ def test_gpx_track_and_the_same_route_as_csv_score_the_same(tmp_path):
     ref = GeoRef.parse("60.1675,24.9400,35")  # the route's +X axis bears 35 degrees (north-east)
     frame = ref.frame()
     lon, lat = frame.unproject(ref.to_map(poses, frame)[:, :2])
-    (tmp_path / "drive.gpx").write_text(_gpx([(la, lo, f"2024-05-01T12:{int(tt) // 60:02d}:{tt % 60:06.3f}Z")
-                                              for la, lo, tt in zip(lat.tolist(), lon.tolist(), t.tolist())]))
+    (tmp_path / "drive.gpx").write_text(
+        _gpx(
+            [
+                (la, lo, f"2024-05-01T12:{int(tt) // 60:02d}:{tt % 60:06.3f}Z")
+                for la, lo, tt in zip(lat.tolist(), lon.tolist(), t.tolist())
+            ]
+        )
+    )
     track = read_gpx(tmp_path / "drive.gpx")
     assert np.allclose(track.times, t, atol=1e-6)
-    r1 = CliRunner().invoke(cli, ["osm", str(SAMPLE), "--gpx", str(tmp_path / "drive.gpx"), "--output-dir", str(tmp_path / "a")])
-    r2 = CliRunner().invoke(cli, ["osm", str(SAMPLE), "--route", str(tmp_path / "drive.csv"), "--georef", "60.1675,24.9400,35",
-                                  "--output-dir", str(tmp_path / "b")])
+    r1 = CliRunner().invoke(
+        cli, ["osm", str(SAMPLE), "--gpx", str(tmp_path / "drive.gpx"), "--output-dir", str(tmp_path / "a")]
+    )
+    r2 = CliRunner().invoke(
+        cli,
+        [
+            "osm",
+            str(SAMPLE),
+            "--route",
+            str(tmp_path / "drive.csv"),
+            "--georef",
+            "60.1675,24.9400,35",
+            "--output-dir",
+            str(tmp_path / "b"),
+        ],
+    )
     assert r1.exit_code == 0 and r2.exit_code == 0, (r1.output, r2.output)
     pa = load_domain(tmp_path / "a" / "domain.yaml").routes[0].problem
     pb = load_domain(tmp_path / "b" / "domain.yaml").routes[0].problem
@@ -319,7 +371,9 @@ def test_bad_osm_inputs(tmp_path):
     _bad(tmp_path, [str(empty)], str(empty), "empty")
     _bad(tmp_path, [str(tmp_path / "missing.osm.pbf")], "missing.osm.pbf", "not found")
     trunc = tmp_path / "trunc.osm"
-    trunc.write_text('<?xml version="1.0"?>\n<osm version="0.6">\n<node id="1" lat="60.1" lon="24.9">\n<tag k="highway" v="street')
+    trunc.write_text(
+        '<?xml version="1.0"?>\n<osm version="0.6">\n<node id="1" lat="60.1" lon="24.9">\n<tag k="highway" v="street'
+    )
     _bad(tmp_path, [str(trunc)], str(trunc), "XML")
     _bad(tmp_path, ["--sample", "helsinki", "--bbox", "10,50,11,51"], "--bbox", "outside")
     _bad(tmp_path, ["--sample", "helsinki", "--bbox", "24.9,60.1,24.95"], "--bbox")
@@ -332,7 +386,10 @@ def test_bad_osm_inputs(tmp_path):
 def test_bad_gpx_inputs(tmp_path):
     cases = {
         "nopoints.gpx": ('<?xml version="1.0"?>\n<gpx version="1.1"><trk><trkseg></trkseg></trk></gpx>\n', "no points"),
-        "backwards.gpx": (_gpx([(60.167, 24.94, "2024-05-01T12:00:10Z"), (60.1671, 24.94, "2024-05-01T12:00:05Z")]), "backwards"),
+        "backwards.gpx": (
+            _gpx([(60.167, 24.94, "2024-05-01T12:00:10Z"), (60.1671, 24.94, "2024-05-01T12:00:05Z")]),
+            "backwards",
+        ),
         "pole.gpx": (_gpx([(60.167, 24.94, None), (90.5, 24.94, None)]), "latitude"),
         "trunc.gpx": (_gpx([(60.167, 24.94, None), (60.168, 24.94, None)])[:-30], "malformed"),
         "notgpx.gpx": ('<?xml version="1.0"?>\n<kml></kml>\n', "not a GPX"),
@@ -341,6 +398,8 @@ def test_bad_gpx_inputs(tmp_path):
         (tmp_path / name).write_text(text)
         _bad(tmp_path, ["--sample", "helsinki", "--gpx", str(tmp_path / name)], name, words)
     # the line of the bad point is named
-    r = CliRunner().invoke(cli, ["osm", "--sample", "helsinki", "--gpx", str(tmp_path / "pole.gpx"), "--output-dir", str(tmp_path / "o")])
+    r = CliRunner().invoke(
+        cli, ["osm", "--sample", "helsinki", "--gpx", str(tmp_path / "pole.gpx"), "--output-dir", str(tmp_path / "o")]
+    )
     assert "pole.gpx:5:" in r.stderr
     _bad(tmp_path, ["--sample", "helsinki", "--route", str(tmp_path / "x.csv"), "--georef", "95,24,0"], "--georef")

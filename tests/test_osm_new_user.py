@@ -38,13 +38,20 @@ def _city_xml() -> str:
     road(1, LAT0, 7, {})
     road(101, LAT0 + 0.010, 7, {3: "traffic_signals"})
     for k in range(5):
-        nodes.append(f'<node id="{151 + k}" lat="{LAT0 + 0.01015!r}" lon="{LON0 + (k + 1) * DLON_100M!r}">'
-                     '<tag k="highway" v="street_lamp"/></node>')
+        nodes.append(
+            f'<node id="{151 + k}" lat="{LAT0 + 0.01015!r}" lon="{LON0 + (k + 1) * DLON_100M!r}">'
+            '<tag k="highway" v="street_lamp"/></node>'
+        )
     nodes.append(f'<node id="201" lat="{LAT0 + 0.020!r}" lon="{LON0!r}"><tag k="highway" v="traffic_signals"/></node>')
     nodes.append(f'<node id="202" lat="{LAT0 + 0.020!r}" lon="{LON0 + 0.6 * DLON_100M!r}"/>')
     ways.append('<way id="201"><nd ref="201"/><nd ref="202"/><tag k="highway" v="residential"/></way>')
-    return ("<?xml version='1.0' encoding='UTF-8'?>\n<osm version=\"0.6\">\n" + "\n".join(nodes) + "\n"
-            + "\n".join(ways) + "\n</osm>\n")
+    return (
+        "<?xml version='1.0' encoding='UTF-8'?>\n<osm version=\"0.6\">\n"
+        + "\n".join(nodes)
+        + "\n"
+        + "\n".join(ways)
+        + "\n</osm>\n"
+    )
 
 
 @pytest.fixture(scope="module")
@@ -69,7 +76,9 @@ def test_a_road_without_landmarks_is_not_named_after_the_next_route(city, tmp_pa
     notes = [ln for ln in r.stderr.splitlines() if "note:" in ln]
     assert not any("route r00" in n for n in notes), notes
     bare = [n for n in notes if "no landmark within 100 m" in n]
-    assert len(bare) == 1 and "1 stretch(es) of road (1.20 km driven)" in bare[0] and "lat,lon 47.14000,9.50000" in bare[0]
+    assert (
+        len(bare) == 1 and "1 stretch(es) of road (1.20 km driven)" in bare[0] and "lat,lon 47.14000,9.50000" in bare[0]
+    )
     km = sum(x["weight"]["km"] for x in dom["routes"])
     header = next(ln for ln in r.stdout.splitlines() if ln.startswith("city"))
     assert f"1 routes, {km:.2f} km driven" in header, header
@@ -91,11 +100,15 @@ def test_the_kerb_note_counts_the_routes_landmarks_and_every_note_says_sensorsel
 def test_a_route_track_tells_its_projection_once(city, tmp_path):
     """osm --gpx: the track's note names the map frame; the extract's projection note is not repeated."""
     gpx = tmp_path / "t.gpx"
-    pts = "".join(f'<trkpt lat="{LAT0 + 0.0101!r}" lon="{LON0 + k * DLON_100M / 10!r}">'
-                  f"<time>2024-05-01T12:00:{k:02d}Z</time></trkpt>"
-                  for k in range(50))
-    gpx.write_text(f'<?xml version="1.0"?><gpx version="1.1" xmlns="http://www.topografix.com/GPX/1/1"><trk><trkseg>{pts}'
-                   "</trkseg></trk></gpx>")
+    pts = "".join(
+        f'<trkpt lat="{LAT0 + 0.0101!r}" lon="{LON0 + k * DLON_100M / 10!r}">'
+        f"<time>2024-05-01T12:00:{k:02d}Z</time></trkpt>"
+        for k in range(50)
+    )
+    gpx.write_text(
+        f'<?xml version="1.0"?><gpx version="1.1" xmlns="http://www.topografix.com/GPX/1/1"><trk><trkseg>{pts}'
+        "</trkseg></trk></gpx>"
+    )
     r = _osm(city, "--gpx", gpx, "--output-dir", tmp_path / "d")
     assert r.exit_code == 0, r.output
     lines = r.stderr.splitlines()

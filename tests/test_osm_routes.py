@@ -45,11 +45,16 @@ def _drive(folder: Path) -> tuple[Path, Path, np.ndarray]:
     ref = GeoRef.parse(GEOREF)
     frame = ref.frame()
     lon, lat = frame.unproject(ref.to_map(poses, frame)[:, :2])
-    pts = "".join(f'<trkpt lat="{la!r}" lon="{lo!r}"><time>2024-05-01T12:{int(tt) // 60:02d}:{tt % 60:06.3f}Z</time></trkpt>\n'
-                  for la, lo, tt in zip(lat.tolist(), lon.tolist(), t.tolist()))
+    pts = "".join(
+        f'<trkpt lat="{la!r}" lon="{lo!r}"><time>2024-05-01T12:{int(tt) // 60:02d}:{tt % 60:06.3f}Z</time></trkpt>\n'
+        for la, lo, tt in zip(lat.tolist(), lon.tolist(), t.tolist())
+    )
     gpx = folder / "drive.gpx"
-    gpx.write_text('<?xml version="1.0"?>\n<gpx version="1.1" xmlns="http://www.topografix.com/GPX/1/1">\n<trk><trkseg>\n'
-                   + pts + "</trkseg></trk>\n</gpx>\n")
+    gpx.write_text(
+        '<?xml version="1.0"?>\n<gpx version="1.1" xmlns="http://www.topografix.com/GPX/1/1">\n<trk><trkseg>\n'
+        + pts
+        + "</trkseg></trk>\n</gpx>\n"
+    )
     return csv, gpx, poses
 
 
@@ -67,15 +72,45 @@ def _ok(args: list[str]):
 def test_gpx_track_and_georeferenced_csv_score_the_same_through_the_cli(drive):
     csv, gpx, _ = drive
     for suite in ("LRL-roof", "HD2K-2,LRR-1,MRL-roof"):
-        a = json.loads(_ok(["score", "--route", str(gpx), "--landmarks", f"osm:{SAMPLE}", "--suite", suite, "--json"]).stdout)
-        b = json.loads(_ok(["score", "--route", str(csv), "--georef", GEOREF, "--landmarks", f"osm:{SAMPLE}", "--suite", suite,
-                            "--json"]).stdout)
+        a = json.loads(
+            _ok(["score", "--route", str(gpx), "--landmarks", f"osm:{SAMPLE}", "--suite", suite, "--json"]).stdout
+        )
+        b = json.loads(
+            _ok(
+                [
+                    "score",
+                    "--route",
+                    str(csv),
+                    "--georef",
+                    GEOREF,
+                    "--landmarks",
+                    f"osm:{SAMPLE}",
+                    "--suite",
+                    suite,
+                    "--json",
+                ]
+            ).stdout
+        )
         assert a["problem"]["n_landmarks"] == b["problem"]["n_landmarks"] > 100
         assert a["problem"]["n_poses"] == b["problem"]["n_poses"] == 30
         assert a["score"] == pytest.approx(b["score"], rel=1e-7), suite
     # the bearing is used: the same CSV turned by 90 degrees sees other landmarks and scores otherwise
-    c = json.loads(_ok(["score", "--route", str(csv), "--georef", "60.1675,24.9400,125", "--landmarks", f"osm:{SAMPLE}",
-                        "--suite", "LRL-roof", "--json"]).stdout)
+    c = json.loads(
+        _ok(
+            [
+                "score",
+                "--route",
+                str(csv),
+                "--georef",
+                "60.1675,24.9400,125",
+                "--landmarks",
+                f"osm:{SAMPLE}",
+                "--suite",
+                "LRL-roof",
+                "--json",
+            ]
+        ).stdout
+    )
     assert c["score"] != pytest.approx(a["score"], rel=1e-3)
 
 
@@ -92,7 +127,9 @@ def test_osm_landmarks_on_a_route_are_those_sensorsel_osm_writes_and_those_withi
     assert np.allclose(problem.scenario.route.poses, route_csv[:, 1:], atol=1e-9)
     # brute force: every landmark of the extract within 100 m of a route position, and no other
     frame = LocalFrame.around(*np.mean(_lonlat(gpx), axis=0))
-    every = read_osm(SAMPLE, frame=frame, roads=parse_roads(None)).landmarks.xy  # centre-line nodes moved off these roads
+    every = read_osm(
+        SAMPLE, frame=frame, roads=parse_roads(None)
+    ).landmarks.xy  # centre-line nodes moved off these roads
     d = np.sqrt(((every[:, None, :] - route_csv[None, :, 1:3]) ** 2).sum(-1)).min(axis=1)
     assert np.allclose(order(every[d <= 100.0]), order(got), atol=1e-9)
 
@@ -118,8 +155,21 @@ def test_density_per_class_and_the_sparse_warning(drive):
     assert f"all {len(near) / km:.1f}" in line
     assert "sparse" not in r.stderr  # ~630 per km
     few = ("give_way", "utility_pole")
-    sparse = _ok(["score", "--route", str(csv), "--georef", GEOREF, "--landmarks", f"osm:{SAMPLE}", "--osm-classes", ",".join(few),
-                  "--suite", "LRL-roof"])
+    sparse = _ok(
+        [
+            "score",
+            "--route",
+            str(csv),
+            "--georef",
+            GEOREF,
+            "--landmarks",
+            f"osm:{SAMPLE}",
+            "--osm-classes",
+            ",".join(few),
+            "--suite",
+            "LRL-roof",
+        ]
+    )
     assert 0 < sum(near.count(c) for c in few) / km < 30
     assert "sensorsel: warning: the map looks sparse" in sparse.stderr
 
@@ -141,9 +191,25 @@ def test_survey_merge_counts_and_duplicates(drive, tmp_path):
     far = np.array([600.0, 600.0])  # beyond the OSM reach: a survey landmark is kept all the same
     survey = tmp_path / "survey.csv"
     survey.write_text("x,y\n" + "".join(f"{x!r},{y!r}\n" for x, y in np.array([same, other, far]).tolist()))
-    r = _ok(["score", "--route", str(csv), "--georef", GEOREF, "--landmarks", f"osm:{SAMPLE}", "--landmarks", str(survey),
-             "--suite", "LRL-roof", "--json"])
-    merged = load_problem(ScenarioSpec(route=str(csv), georef=GEOREF, osm=(str(SAMPLE),), landmarks=str(survey))).scenario.landmarks
+    r = _ok(
+        [
+            "score",
+            "--route",
+            str(csv),
+            "--georef",
+            GEOREF,
+            "--landmarks",
+            f"osm:{SAMPLE}",
+            "--landmarks",
+            str(survey),
+            "--suite",
+            "LRL-roof",
+            "--json",
+        ]
+    )
+    merged = load_problem(
+        ScenarioSpec(route=str(csv), georef=GEOREF, osm=(str(SAMPLE),), landmarks=str(survey))
+    ).scenario.landmarks
     assert json.loads(r.stdout)["problem"]["n_landmarks"] == len(merged) == len(osm) - 1 + 3
     assert not np.isclose(merged, osm[k]).all(axis=1).any()  # the OSM position of the duplicate is gone
     for p in (same, other, far):
@@ -163,7 +229,20 @@ def test_sensorsel_osm_merge_landmarks_shares_the_merge(drive, tmp_path):
 
     k = int(np.flatnonzero(cKDTree(osm).query(osm, k=2)[0][:, 1] > 6.0)[0])  # no other landmark within 6 m
     survey.write_text(f"x,y\n{float(osm[k, 0]) + 0.5!r},{float(osm[k, 1])!r}\n")
-    _ok(["osm", str(SAMPLE), "--route", str(csv), "--georef", GEOREF, "--merge-landmarks", str(survey), "--output-dir", str(tmp_path / "d")])
+    _ok(
+        [
+            "osm",
+            str(SAMPLE),
+            "--route",
+            str(csv),
+            "--georef",
+            GEOREF,
+            "--merge-landmarks",
+            str(survey),
+            "--output-dir",
+            str(tmp_path / "d"),
+        ]
+    )
     rows = (tmp_path / "d" / "routes" / "drive_landmarks.csv").read_text().splitlines()[1:]
     assert len(rows) == len(osm) and sum(r.split(",")[2] == "survey" for r in rows) == 1
 
@@ -173,7 +252,9 @@ def _refused(tmp_path: Path, args: list[str], *words: str) -> None:
     r = CliRunner().invoke(cli, ["greedy", "--budget", "110000", *args, "-o", str(out)])
     assert r.exit_code == 2, r.output
     # (click's usage errors come after its two usage lines)
-    lines = [ln for ln in r.stderr.splitlines() if ln.strip() and not ln.startswith(("sensorsel: note:", "Usage:", "Try "))]
+    lines = [
+        ln for ln in r.stderr.splitlines() if ln.strip() and not ln.startswith(("sensorsel: note:", "Usage:", "Try "))
+    ]
     assert len(lines) == 1 and lines[0].startswith(("sensorsel: error:", "Error:")), r.stderr
     for w in words:
         assert w in lines[0], (w, lines[0])
@@ -185,28 +266,53 @@ def test_bad_route_options_are_one_line_and_write_nothing(drive, tmp_path):
     osm = f"osm:{SAMPLE}"
     _refused(tmp_path, ["--route", str(csv), "--landmarks", osm], "--landmarks osm:", "not georeferenced", "--georef")
     _refused(tmp_path, ["--landmarks", osm], "--landmarks osm:", "fixture suburb", "--georef")
-    _refused(tmp_path, ["--route", str(csv), "--georef", "10,10,0", "--landmarks", osm], str(SAMPLE), "outside the extract",
-             "--georef")
+    _refused(
+        tmp_path,
+        ["--route", str(csv), "--georef", "10,10,0", "--landmarks", osm],
+        str(SAMPLE),
+        "outside the extract",
+        "--georef",
+    )
     _refused(tmp_path, ["--route", str(csv), "--georef", GEOREF], "--georef", "--landmarks osm:FILE")
     _refused(tmp_path, ["--route", str(csv), "--georef", "95,24,0", "--landmarks", osm], "--georef", "latitude")
     _refused(tmp_path, ["--route", str(gpx), "--georef", GEOREF, "--landmarks", osm], "--georef", "GPX")
     _refused(tmp_path, ["--route", str(gpx), "--landmarks", osm, "--landmarks", "synthetic"], "synthetic")
-    _refused(tmp_path, ["--route", str(gpx), "--landmarks", "a.csv", "--landmarks", "b.csv"], "--landmarks", "one landmark map")
+    _refused(
+        tmp_path,
+        ["--route", str(gpx), "--landmarks", "a.csv", "--landmarks", "b.csv"],
+        "--landmarks",
+        "one landmark map",
+    )
     _refused(tmp_path, ["--route", str(gpx), "--landmarks", "osm:"], "osm:", "no file")
-    _refused(tmp_path, ["--route", str(gpx), "--landmarks", f"osm:{tmp_path / 'missing.pbf'}"], "missing.pbf", "not found")
+    _refused(
+        tmp_path, ["--route", str(gpx), "--landmarks", f"osm:{tmp_path / 'missing.pbf'}"], "missing.pbf", "not found"
+    )
     _refused(tmp_path, ["--route", str(gpx), "--landmarks", f"osm:{csv}"], str(csv), "not an OSM extract")
-    _refused(tmp_path, ["--route", str(gpx), "--landmarks", osm, "--osm-classes", "lamppost"], "--osm-classes", "lamppost")
+    _refused(
+        tmp_path, ["--route", str(gpx), "--landmarks", osm, "--osm-classes", "lamppost"], "--osm-classes", "lamppost"
+    )
     _refused(tmp_path, ["--route", str(gpx), "--landmarks", osm, "--osm-reach", "-5"], "--osm-reach")
     _refused(tmp_path, ["--route", str(gpx), "--osm-reach", "50"], "--osm-reach", "osm:FILE")
     _refused(tmp_path, ["--route", str(csv), "--osm-classes", "tree"], "--osm-classes", "osm:FILE")
-    _refused(tmp_path, ["--route", str(gpx), "--landmarks", osm, "--osm-classes", "flagpole", "--osm-reach", "5"],
-             "no landmark", "--osm-reach")
+    _refused(
+        tmp_path,
+        ["--route", str(gpx), "--landmarks", osm, "--osm-classes", "flagpole", "--osm-reach", "5"],
+        "no landmark",
+        "--osm-reach",
+    )
     empty = tmp_path / "empty.gpx"
     empty.write_text('<?xml version="1.0"?>\n<gpx version="1.1"><trk><trkseg></trkseg></trk></gpx>\n')
     _refused(tmp_path, ["--route", str(empty), "--landmarks", osm], str(empty), "no points")
-    _refused(tmp_path, ["--domain", str(REPO / "configs" / "domain_fixtures.yaml"), "--landmarks", osm], "--domain", "--landmarks")
+    _refused(
+        tmp_path,
+        ["--domain", str(REPO / "configs" / "domain_fixtures.yaml"), "--landmarks", osm],
+        "--domain",
+        "--landmarks",
+    )
     # sensorsel osm --route shares the merge, and its refusal of a route outside the extract
-    r = CliRunner().invoke(cli, ["osm", str(SAMPLE), "--route", str(csv), "--georef", "10,10,0", "--output-dir", str(tmp_path / "d")])
+    r = CliRunner().invoke(
+        cli, ["osm", str(SAMPLE), "--route", str(csv), "--georef", "10,10,0", "--output-dir", str(tmp_path / "d")]
+    )
     assert r.exit_code == 2 and "outside the extract" in r.stderr and not (tmp_path / "d").exists(), r.output
 
 
@@ -223,12 +329,20 @@ def test_the_wheel_ships_the_helsinki_sample_and_its_attribution(tmp_path):
         readme = z.read("sensorsel/_data/osm/README.md").decode()
         assert "OpenStreetMap contributors" in readme and "ODbL" in readme
         z.extractall(tmp_path / "site")
-    code = ("import sensorsel, sys; from sensorsel.io.resources import sample_osm_dir, sample_osm_names; "
-            "from sensorsel.model.osm import read_osm; d = sample_osm_dir(); "
-            "print(sensorsel.__file__); print(d); print(sample_osm_names()); "
-            "print(len(read_osm(d / 'helsinki.osm.pbf').landmarks))")
-    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
-                       env={"PYTHONPATH": str(tmp_path / "site"), "PATH": "/usr/bin:/bin"}, cwd=tmp_path)
+    code = (
+        "import sensorsel, sys; from sensorsel.io.resources import sample_osm_dir, sample_osm_names; "
+        "from sensorsel.model.osm import read_osm; d = sample_osm_dir(); "
+        "print(sensorsel.__file__); print(d); print(sample_osm_names()); "
+        "print(len(read_osm(d / 'helsinki.osm.pbf').landmarks))"
+    )
+    r = subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env={"PYTHONPATH": str(tmp_path / "site"), "PATH": "/usr/bin:/bin"},
+        cwd=tmp_path,
+    )
     assert r.returncode == 0, r.stderr
     mod, folder, names_, n = r.stdout.splitlines()
     assert mod.startswith(str(tmp_path / "site")) and folder == str(tmp_path / "site" / "sensorsel" / "_data" / "osm")
@@ -255,8 +369,10 @@ def test_a_worker_rebuilds_the_same_problem_and_load_scenario_refuses_a_geo_spec
     from sensorsel.model.scenario import load_scenario
 
     csv, gpx, _ = drive
-    for spec in (ScenarioSpec(route=str(csv), georef=GEOREF, osm=(str(SAMPLE),), osm_classes="street_lamp,tree"),
-                 ScenarioSpec(route=str(gpx), osm=(str(SAMPLE),), osm_reach_m=60.0)):
+    for spec in (
+        ScenarioSpec(route=str(csv), georef=GEOREF, osm=(str(SAMPLE),), osm_classes="street_lamp,tree"),
+        ScenarioSpec(route=str(gpx), osm=(str(SAMPLE),), osm_reach_m=60.0),
+    ):
         problem = load_problem(spec)
         rebuilt = pickle.loads(pickle.dumps(TargetRecipe.of(problem))).build()  # what a Dask worker does
         assert rebuilt.fingerprint == problem.fingerprint

@@ -74,7 +74,9 @@ def test_commands_refuse_an_unwritable_output_before_running(tmp_path: Path):
     assert bad in _fails_before_work("greedy", "--fixture", "tiny", "--budget", "5000", "-o", bad + ".json")
     assert bad in _fails_before_work("pareto", "--fixture", "tiny", "--output-dir", bad)
     assert bad in _fails_before_work("resilient", "--fixture", "tiny", "--budget", "5000", "--output-dir", bad)
-    assert bad in _fails_before_work("simulate", "--fixture", "tiny", "--suite", "LRL-roof", "--runs", "1", "--output-dir", bad)
+    assert bad in _fails_before_work(
+        "simulate", "--fixture", "tiny", "--suite", "LRL-roof", "--runs", "1", "--output-dir", bad
+    )
     assert bad in _fails_before_work("certify", "--fixture", "tiny", "--budget", "5000", "-o", bad + ".json")
     assert bad in _fails_before_work("optimal", "--fixture", "tiny", "--budget", "5000", "-o", bad + ".json")
     assert blocker.read_text() == "x"

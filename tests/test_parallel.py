@@ -18,9 +18,9 @@ distributed = pytest.importorskip("distributed")
 
 from sensorsel.api import design_domain  # noqa: E402
 from sensorsel.information.evaluators import DomainEvaluator  # noqa: E402
+from sensorsel.information.evaluators.distributed import DistributedDomainEvaluator  # noqa: E402
 from sensorsel.io import results  # noqa: E402
 from sensorsel.model.problem import load_domain  # noqa: E402
-from sensorsel.information.evaluators.distributed import DistributedDomainEvaluator  # noqa: E402
 from sensorsel.pipeline.cluster import DaskCluster  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
@@ -35,13 +35,13 @@ def _untimed(obj: object) -> object:
         if isinstance(o, list):
             return [rec(v) for v in o]
         return o
+
     return rec(json.loads(results.dumps(obj)))
 
 
 def _four_routes(tmp_path: Path, rate_hz: float) -> Path:
     """A domain of four routes (the bundled suburb and three synthetic maps along tiny)."""
-    tiny = (f"route: {DATA / 'poses' / 'tiny.txt'}, format: kitti, "
-            f"times: {DATA / 'sequences' / 'tiny' / 'times.txt'}")
+    tiny = f"route: {DATA / 'poses' / 'tiny.txt'}, format: kitti, times: {DATA / 'sequences' / 'tiny' / 'times.txt'}"
     text = [f"keyframe_rate_hz: {rate_hz}", "routes:", "  - {name: suburb, fixture: suburb}"]
     text += [f"  - {{name: tiny-{seed}, {tiny}, landmarks: {{synthetic: {{seed: {seed}}}}}}}" for seed in (3, 4, 5)]
     path = tmp_path / f"four-{rate_hz:g}.yaml"
@@ -91,8 +91,12 @@ def test_domain_design_same_bytes_on_1_and_2_threads_and_1_and_2_workers(cluster
     domain = load_domain(FIXTURES)
     runs = [design_domain(domain, 12_000, certify=True, jobs=jobs) for jobs in (1, 2)]
     with DaskCluster(workers=1, echo=lambda line: None) as one:
-        runs.append(design_domain(domain, 12_000, certify=True, evaluator=DistributedDomainEvaluator(one.client, domain)))
-    runs.append(design_domain(domain, 12_000, certify=True, evaluator=DistributedDomainEvaluator(cluster.client, domain)))
+        runs.append(
+            design_domain(domain, 12_000, certify=True, evaluator=DistributedDomainEvaluator(one.client, domain))
+        )
+    runs.append(
+        design_domain(domain, 12_000, certify=True, evaluator=DistributedDomainEvaluator(cluster.client, domain))
+    )
     first = _untimed(runs[0])
     assert all(_untimed(r) == first for r in runs[1:])
 
@@ -125,12 +129,17 @@ def test_scoring_ahead_on_idle_threads_and_workers_changes_no_byte_and_no_count(
     assert one.n_ahead == 0  # one thread: nothing is idle
     default = DomainEvaluator(domain, jobs=2)  # by default, too few places to score ahead on
     assert _untimed(greedy(default, 12_000, lazy=True, info=domain.info)) == _untimed(first) and default.n_ahead == 0
-    for ev in (DomainEvaluator(domain, jobs=2), DomainEvaluator(domain, jobs=3),
-               DistributedDomainEvaluator(cluster.client, domain)):
+    for ev in (
+        DomainEvaluator(domain, jobs=2),
+        DomainEvaluator(domain, jobs=3),
+        DistributedDomainEvaluator(cluster.client, domain),
+    ):
         ev.ahead_from = 2  # score ahead on as few places as there are here
         got = greedy(ev, 12_000, lazy=True, info=domain.info)
         assert _untimed(got) == _untimed(first)  # picks, scores, every step's numbers and the count of evaluations
-        if isinstance(ev, DistributedDomainEvaluator):  # its proxies count the greedy's calls alone (not the normalisers)
+        if isinstance(
+            ev, DistributedDomainEvaluator
+        ):  # its proxies count the greedy's calls alone (not the normalisers)
             assert ev.n_ahead_used and [r.n_evaluations for r in ev.routes] == [n - 2 for n in _route_counts(one)]
         else:
             assert _route_counts(ev) == _route_counts(one)  # each route's evaluations too (robust reads them)
@@ -169,8 +178,11 @@ def test_a_batch_of_accuracy_checks_is_one_round_with_each_route_engines_bytes(c
     domain = load_domain(_four_routes(tmp_path, 1.0))
     suites = [(0, 5), (1, 2, 3), (4,)]
     alone = {k: make_evaluator(r.problem) for k, r in enumerate(domain.routes)}
-    want = {(i, k): alone[k].pose_covariances(s, map_sigma_m=0.5, estimate="filter")
-            for i, s in enumerate(suites) for k in alone}
+    want = {
+        (i, k): alone[k].pose_covariances(s, map_sigma_m=0.5, estimate="filter")
+        for i, s in enumerate(suites)
+        for k in alone
+    }
     remote = DistributedDomainEvaluator(cluster.client, domain)
     for ev in (DomainEvaluator(domain, jobs=1), DomainEvaluator(domain, jobs=2), remote):
         m0, r0 = getattr(ev, "n_messages", 0), getattr(ev, "n_rounds", 0)

@@ -38,31 +38,108 @@ STUDY = "target: {fixture: suburb}\ngrid:\n  budgets: [4000, 9000]\n  rules: [un
 ODD_CLOCK = ",".join(f"{m}-{h}" for m in ("LRR", "MRR", "WSC", "HD2K", "LSC") for h in (1, 3, 5, 7, 9, 11))
 #: command -> (arguments with OUT for the output path, where its store's files appear, keys not compared)
 COMMANDS = {
-    "greedy": (["greedy", "--domain", DOMAIN, "--budget", "12000", "--certificate", "-o", "OUT/design.json"],
-               "design.json.checkpoint", {"seconds", "n_evaluations"}),
-    "pareto": (["pareto", "--fixture", "suburb", "--budgets", "4000,12000", "--rules", "best-of", "--plot-format", "svg",
-                "--output-dir", "OUT"], "runs/rule-*.json", {"seconds"}),
-    "resilient": (["resilient", "--fixture", "suburb", "--budget", "8000", "--failures", "1", "--period", "20",
-                   "--plot-format", "svg", "--output-dir", "OUT"], "periods/period-*.json", {"seconds"}),
-    "resilient-robust": (["resilient", "--fixture", "tiny", "--budget", "5000", "--failures", "1", "--period", "10",
-                          "--method", "robust", "--plot-format", "svg", "--output-dir", "OUT"], "periods/period-*.json", {"seconds"}),
+    "greedy": (
+        ["greedy", "--domain", DOMAIN, "--budget", "12000", "--certificate", "-o", "OUT/design.json"],
+        "design.json.checkpoint",
+        {"seconds", "n_evaluations"},
+    ),
+    "pareto": (
+        [
+            "pareto",
+            "--fixture",
+            "suburb",
+            "--budgets",
+            "4000,12000",
+            "--rules",
+            "best-of",
+            "--plot-format",
+            "svg",
+            "--output-dir",
+            "OUT",
+        ],
+        "runs/rule-*.json",
+        {"seconds"},
+    ),
+    "resilient": (
+        [
+            "resilient",
+            "--fixture",
+            "suburb",
+            "--budget",
+            "8000",
+            "--failures",
+            "1",
+            "--period",
+            "20",
+            "--plot-format",
+            "svg",
+            "--output-dir",
+            "OUT",
+        ],
+        "periods/period-*.json",
+        {"seconds"},
+    ),
+    "resilient-robust": (
+        [
+            "resilient",
+            "--fixture",
+            "tiny",
+            "--budget",
+            "5000",
+            "--failures",
+            "1",
+            "--period",
+            "10",
+            "--method",
+            "robust",
+            "--plot-format",
+            "svg",
+            "--output-dir",
+            "OUT",
+        ],
+        "periods/period-*.json",
+        {"seconds"},
+    ),
     "study": (["study", "STUDY", "--output-dir", "OUT"], "cells/cell-*.json", {"seconds", "n_reused"}),
     # every method on a fresh memo, also in-process: evaluation counts compared too
-    "robust": (["robust", "--fixture", "tiny", "--budget", "8000", "--failures", "1", "-o", "OUT/robust.json"],
-               "robust.json.tasks/*.json", {"seconds"}),
+    "robust": (
+        ["robust", "--fixture", "tiny", "--budget", "8000", "--failures", "1", "-o", "OUT/robust.json"],
+        "robust.json.tasks/*.json",
+        {"seconds"},
+    ),
     # the checkpoint is written after the greedy start (then every 500 nodes: tests/test_certify.py)
-    "optimal": (["optimal", "--domain", DOMAIN, "--budget", "4000", "--max-nodes", "30", "-o", "OUT/optimal.json"],
-                "optimal.json.checkpoint", {"seconds", "n_evaluations"}),
+    "optimal": (
+        ["optimal", "--domain", DOMAIN, "--budget", "4000", "--max-nodes", "30", "-o", "OUT/optimal.json"],
+        "optimal.json.checkpoint",
+        {"seconds", "n_evaluations"},
+    ),
     # radars and cameras at the even clock positions only: 4 integer programs, not 18 (the same code paths)
-    "require": (["require", "--domain", DOMAIN, "--preset", "freeway", "--failures", "1", "--exclude", ODD_CLOCK,
-                 "-o", "OUT/require.json"],
-                "require.json.checkpoint", {"seconds", "seconds_checks", "seconds_programs", "n_checks", "n_refuted"}),  # a resume redoes no journalled work
+    "require": (
+        [
+            "require",
+            "--domain",
+            DOMAIN,
+            "--preset",
+            "freeway",
+            "--failures",
+            "1",
+            "--exclude",
+            ODD_CLOCK,
+            "-o",
+            "OUT/require.json",
+        ],
+        "require.json.checkpoint",
+        {"seconds", "seconds_checks", "seconds_programs", "n_checks", "n_refuted"},
+    ),  # a resume redoes no journalled work
 }
 
 
 def _args(command: str, out: Path, study: Path) -> list[str]:
     args, _, _ = COMMANDS[command]
-    return [str(out) + a[3:] if a.startswith("OUT") else str(study) if a == "STUDY" else a for a in args] + ["--json", "-q"]
+    return [str(out) + a[3:] if a.startswith("OUT") else str(study) if a == "STUDY" else a for a in args] + [
+        "--json",
+        "-q",
+    ]
 
 
 def _answer(text: str, ignore: set[str]) -> object:
@@ -70,6 +147,7 @@ def _answer(text: str, ignore: set[str]) -> object:
         if isinstance(o, dict):
             return {k: rec(v) for k, v in o.items() if k not in ignore}
         return [rec(v) for v in o] if isinstance(o, list) else o
+
     return rec(json.loads(text))
 
 
@@ -96,8 +174,13 @@ def test_same_answer_in_process_on_two_workers_and_after_a_kill_and_resume(comma
     assert there == here
 
     out = tmp_path / "killed"
-    proc = subprocess.Popen([str(BIN / "sensorsel"), *_args(command, out, study)], env=ENV, start_new_session=True,
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    proc = subprocess.Popen(
+        [str(BIN / "sensorsel"), *_args(command, out, study)],
+        env=ENV,
+        start_new_session=True,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
     try:
         deadline = time.monotonic() + 120
         while not list(out.glob(stored)) and proc.poll() is None and time.monotonic() < deadline:

@@ -14,7 +14,7 @@ from matplotlib.patches import Wedge
 from sensorsel.plotting import ZOOM_BELOW, model_colours, plot_domain_breakdown, plot_scene
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+import matplotlib.pyplot as plt
 
 
 @pytest.fixture(autouse=True)
@@ -42,7 +42,9 @@ def test_each_model_has_its_own_colour_and_legend_entry(suburb_problem):
     legend = [t.get_text() for t in zoom.get_legend().get_texts()]
     # one entry per model, with how many of it the suite has; both LiDARs apart
     assert len(legend) == 4 and sum("LiDAR" in t for t in legend) == 2
-    assert any("HD2K" in t and t.endswith("× 2") for t in legend) and any("LRR" in t and t.endswith("× 2") for t in legend)
+    assert any("HD2K" in t and t.endswith("× 2") for t in legend) and any(
+        "LRR" in t and t.endswith("× 2") for t in legend
+    )
     assert len({c for c in _cone_colours(zoom).values()}) == 4
 
 
@@ -99,10 +101,13 @@ def test_pareto_plot_explains_every_mark(tiny_problem):
     assert any(lab.startswith("made by ") for lab in labels), "the markers do not say which rule made them"
 
 
-@pytest.mark.parametrize("suite_ids, condition", [
-    ("LRL-roof,MRL-roof,LRR-12,MRR-12,HD2K-12,HD2K-6,WSC-12,LSC-12,HD2K-3", None),  # every model, zoomed
-    ("LRL-roof,MRL-roof,LRR-12,MRR-12", "night"),  # long ranges: one panel, with the condition's title
-])
+@pytest.mark.parametrize(
+    "suite_ids, condition",
+    [
+        ("LRL-roof,MRL-roof,LRR-12,MRR-12,HD2K-12,HD2K-6,WSC-12,LSC-12,HD2K-3", None),  # every model, zoomed
+        ("LRL-roof,MRL-roof,LRR-12,MRR-12", "night"),  # long ranges: one panel, with the condition's title
+    ],
+)
 def test_a_city_routes_scene_keeps_every_legend_inside_the_figure(tmp_path, suite_ids, condition):
     """The scene of a city route (a 1 km route of the bundled Helsinki sample, its OSM landmarks):
     each legend lies inside the saved figure (a legend cut off at the figure's edge loses entries)."""
@@ -118,8 +123,12 @@ def test_a_city_routes_scene_keeps_every_legend_inside_the_figure(tmp_path, suit
 
     r = CliRunner().invoke(cli, ["osm", "--sample", "helsinki", "--output-dir", str(tmp_path / "city")])
     assert r.exit_code == 0, r.output
-    sc = load_scenario(ScenarioSpec(route=str(tmp_path / "city" / "routes" / "r002.csv"),
-                                    landmarks=str(tmp_path / "city" / "routes" / "r002_landmarks.csv")))
+    sc = load_scenario(
+        ScenarioSpec(
+            route=str(tmp_path / "city" / "routes" / "r002.csv"),
+            landmarks=str(tmp_path / "city" / "routes" / "r002_landmarks.csv"),
+        )
+    )
     lib = load_library()
     ranges = None if condition is None else [e.range_m for e in condition_effects(lib, parse_condition(condition))]
     ax = plot_scene(sc, library=lib, suite=lib.resolve_suite(suite_ids), ranges_m=ranges, condition=condition)

@@ -27,10 +27,14 @@ from sensorsel.model.library import load_library
 BIN = Path(sys.executable).parent
 #: ten sensors of the library, the rest excluded: a search of a few integer programs
 SMALL = ("LRL-roof", "MRL-roof", "LRR-12", "LRR-6", "MRR-12", "WSC-12", "HD2K-12", "HD2K-6", "LSC-12", "HD2K-3")
-STATUS = re.compile(r"^sensorsel: searching: cost in \[\$([\d,]+), \$([\d,]+)\]; (\d+) integer programs, ([\d,]+) suites checked; "
-                    r"\d+ s$")
-FINAL = re.compile(r"^sensorsel: searching: done in \d+ s; cost in \[\$([\d,]+), \$([\d,]+)\]; (\d+) integer programs, ([\d,]+) "
-                   r"suites checked$")
+STATUS = re.compile(
+    r"^sensorsel: searching: cost in \[\$([\d,]+), \$([\d,]+)\]; (\d+) integer programs, ([\d,]+) suites checked; "
+    r"\d+ s$"
+)
+FINAL = re.compile(
+    r"^sensorsel: searching: done in \d+ s; cost in \[\$([\d,]+), \$([\d,]+)\]; (\d+) integer programs, ([\d,]+) "
+    r"suites checked$"
+)
 
 
 class Clock:
@@ -54,9 +58,11 @@ def test_off_a_terminal_a_status_line_every_few_seconds_with_the_time_left():
             d(done, 8)
     lines = out.getvalue().splitlines()
     # lines at 6 s (3 cells) and 12 s (6 cells) only: not one a unit; then the end
-    assert lines == ["sensorsel: study cells: 3 of 8 (38%), 6 s, about 10 s left",
-                     "sensorsel: study cells: 6 of 8 (75%), 12 s, about 4 s left",
-                     "sensorsel: study cells: done in 16 s"]
+    assert lines == [
+        "sensorsel: study cells: 3 of 8 (38%), 6 s, about 10 s left",
+        "sensorsel: study cells: 6 of 8 (75%), 12 s, about 4 s left",
+        "sensorsel: study cells: done in 16 s",
+    ]
 
 
 def test_a_short_run_writes_nothing_and_a_run_without_honest_count_shows_its_text():
@@ -70,9 +76,11 @@ def test_a_short_run_writes_nothing_and_a_run_without_honest_count_shows_its_tex
         report(d, 0, 1000, "cost >= $0, no suite found yet")
         clock.t += 61.0
         report(d, 1, 1000, "cost in [$898, $2,694]")
-    assert out.getvalue().splitlines() == ["sensorsel: searching: cost >= $0, no suite found yet; 0 s",
-                                           "sensorsel: searching: cost in [$898, $2,694]; 1 min 01 s",
-                                           "sensorsel: searching: done in 1 min 01 s; cost in [$898, $2,694]"]
+    assert out.getvalue().splitlines() == [
+        "sensorsel: searching: cost >= $0, no suite found yet; 0 s",
+        "sensorsel: searching: cost in [$898, $2,694]; 1 min 01 s",
+        "sensorsel: searching: done in 1 min 01 s; cost in [$898, $2,694]",
+    ]
 
 
 def test_report_gives_a_plain_callable_the_count_alone():
@@ -86,9 +94,29 @@ def _require(tmp_path: Path, *extra: str, every: str = "0") -> subprocess.Comple
     exclude = ",".join(sorted(set(load_library().ids) - set(SMALL)))
     env = {**os.environ, "SENSORSEL_PROGRESS_EVERY": every}
     env.pop("SENSORSEL_PROGRESS", None)
-    return subprocess.run([str(BIN / "sensorsel"), "require", "--fixture", "tiny", "--engine", "fast", "--jobs", "1",
-                           "--preset", "freeway", "--exclude", exclude, "-o", str(tmp_path / "req.json"), *extra],
-                          capture_output=True, text=True, env=env, timeout=300)
+    return subprocess.run(
+        [
+            str(BIN / "sensorsel"),
+            "require",
+            "--fixture",
+            "tiny",
+            "--engine",
+            "fast",
+            "--jobs",
+            "1",
+            "--preset",
+            "freeway",
+            "--exclude",
+            exclude,
+            "-o",
+            str(tmp_path / "req.json"),
+            *extra,
+        ],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=300,
+    )
 
 
 def test_require_into_a_pipe_says_the_cost_interval_closing_and_the_count(tmp_path):
@@ -114,9 +142,26 @@ def test_require_into_a_pipe_says_the_cost_interval_closing_and_the_count(tmp_pa
 def _require_here(tmp_path: Path, *extra: str, every: str = "0"):
     """The same run in this process (click's runner: stderr is no terminal, as a pipe)."""
     exclude = ",".join(sorted(set(load_library().ids) - set(SMALL)))
-    return CliRunner().invoke(cli, ["require", "--fixture", "tiny", "--engine", "fast", "--jobs", "1", "--preset", "freeway",
-                                    "--exclude", exclude, "-o", str(tmp_path / "req.json"), *extra],
-                              env={"SENSORSEL_PROGRESS_EVERY": every, "SENSORSEL_PROGRESS": None})
+    return CliRunner().invoke(
+        cli,
+        [
+            "require",
+            "--fixture",
+            "tiny",
+            "--engine",
+            "fast",
+            "--jobs",
+            "1",
+            "--preset",
+            "freeway",
+            "--exclude",
+            exclude,
+            "-o",
+            str(tmp_path / "req.json"),
+            *extra,
+        ],
+        env={"SENSORSEL_PROGRESS_EVERY": every, "SENSORSEL_PROGRESS": None},
+    )
 
 
 def test_quiet_is_silent_off_a_terminal_unless_progress_is_asked_for(tmp_path):
@@ -131,7 +176,8 @@ def test_quiet_is_silent_off_a_terminal_unless_progress_is_asked_for(tmp_path):
 def test_a_bad_interval_is_one_line_naming_the_variable(tmp_path, value):
     r = _require_here(tmp_path, every=value)
     assert r.exit_code == 2 and r.stderr.strip().splitlines() == [
-        f"sensorsel: error: $SENSORSEL_PROGRESS_EVERY={value!r}: expected a number of seconds >= 0"], r.stderr
+        f"sensorsel: error: $SENSORSEL_PROGRESS_EVERY={value!r}: expected a number of seconds >= 0"
+    ], r.stderr
 
 
 def test_osm_into_a_pipe_says_each_stage_it_is_in(tmp_path):
@@ -139,8 +185,13 @@ def test_osm_into_a_pipe_says_each_stage_it_is_in(tmp_path):
     extract, the routes, writing), the routes counted as the domain it wrote holds them; -q silences it."""
     env = {**os.environ, "SENSORSEL_PROGRESS_EVERY": "0"}
     env.pop("SENSORSEL_PROGRESS", None)
-    p = subprocess.run([str(BIN / "sensorsel"), "osm", "--sample", "helsinki", "--output-dir", str(tmp_path / "city")],
-                       capture_output=True, text=True, env=env, timeout=300)
+    p = subprocess.run(
+        [str(BIN / "sensorsel"), "osm", "--sample", "helsinki", "--output-dir", str(tmp_path / "city")],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=300,
+    )
     assert p.returncode == 0, p.stderr
     lines = [line for line in p.stderr.splitlines() if line.startswith("sensorsel: osm:")]
     n_routes = len([f for f in (tmp_path / "city" / "routes").glob("*.csv") if not f.name.endswith("_landmarks.csv")])
@@ -148,6 +199,11 @@ def test_osm_into_a_pipe_says_each_stage_it_is_in(tmp_path):
     assert lines[1].startswith("sensorsel: osm: routes that drive every road of ")
     assert lines[2].startswith(f"sensorsel: osm: writing {n_routes} routes; ")
     assert re.match(rf"^sensorsel: osm: done in \d+ s; wrote {n_routes} routes$", lines[-1]), lines
-    q = subprocess.run([str(BIN / "sensorsel"), "osm", "--sample", "helsinki", "-q", "--output-dir", str(tmp_path / "city2")],
-                       capture_output=True, text=True, env=env, timeout=300)
+    q = subprocess.run(
+        [str(BIN / "sensorsel"), "osm", "--sample", "helsinki", "-q", "--output-dir", str(tmp_path / "city2")],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=300,
+    )
     assert q.returncode == 0 and "sensorsel: osm:" not in q.stderr

@@ -19,8 +19,8 @@ import math
 
 import pytest
 from hypothesis import HealthCheck, given, settings
-
 from scenario_strategies import problems
+
 from sensorsel.information.evaluators import ENGINES, make_evaluator
 from sensorsel.model.library import load_library
 from sensorsel.model.problem import build_problem
@@ -118,11 +118,16 @@ def test_score_is_monotone_and_submodular_on_random_scenarios(engine, problem):
 
 
 @pytest.mark.parametrize("engine", sorted(ENGINES))
-@pytest.mark.parametrize("fixture, ids", [
-    # one sensor of each model, facing different ways: LiDARs, radars ahead and to the side, cameras
-    ("tiny", ["LRL-roof", "MRL-roof", "MRR-12", "LRR-3", "WSC-12", "WSC-6", "HD2K-9", "LSC-3"]),
-    ("suburb", ["LRL-roof", "LRR-12", "WSC-3", "HD2K-9", "LSC-6"]),  # fewer: suburb's suites are larger
-])
+@pytest.mark.parametrize(
+    "fixture, ids",
+    [
+        # one sensor of each model, facing different ways: LiDARs, radars ahead and to the side, cameras
+        ("tiny", ["LRL-roof", "MRL-roof", "MRR-12", "LRR-3", "WSC-12", "WSC-6", "HD2K-9", "LSC-3"]),
+        ("suburb", ["LRL-roof", "LRR-12", "WSC-3", "HD2K-9", "LSC-6"]),  # fewer: suburb's suites are larger
+    ],
+)
 def test_score_is_monotone_and_submodular_on_the_fixtures(engine, fixture, ids):
-    problem = build_problem(LIBRARY.subset([LIBRARY.position(i) for i in ids]), load_scenario(ScenarioSpec(fixture=fixture)))
+    problem = build_problem(
+        LIBRARY.subset([LIBRARY.position(i) for i in ids]), load_scenario(ScenarioSpec(fixture=fixture))
+    )
     check_problem(problem, engine)

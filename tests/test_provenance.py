@@ -33,14 +33,17 @@ def test_a_result_suite_scores_as_ids_positions_or_text(tiny):
     assert by_ids == by_text == by_pos == pytest.approx(res.score, rel=1e-12)
 
 
-@pytest.mark.parametrize("bad, culprit", [
-    (["LRL-roof", "NOPE-3"], "NOPE-3"),
-    ("LRL-roof,,XYZ", "XYZ"),
-    ([0, 999], "999"),
-    ([-1], "-1"),
-    ([True], "True"),
-    ([1.5], "1.5"),
-])
+@pytest.mark.parametrize(
+    "bad, culprit",
+    [
+        (["LRL-roof", "NOPE-3"], "NOPE-3"),
+        ("LRL-roof,,XYZ", "XYZ"),
+        ([0, 999], "999"),
+        ([-1], "-1"),
+        ([True], "True"),
+        ([1.5], "1.5"),
+    ],
+)
 def test_unknown_or_malformed_suite_members_are_input_errors(tiny, bad, culprit):
     with pytest.raises(InputError, match=culprit.replace(".", r"\.")):
         score_suite(tiny, bad)

@@ -27,8 +27,8 @@ problem was (keyframes, landmarks, route length). Not compared:
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 import re
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -97,8 +97,11 @@ def published():
 @pytest.fixture(scope="module")
 def rerun(kitti_root, published):
     if not (kitti_root / "landmarks" / "03.csv").is_file():
-        pytest.fail(f"{kitti_root} has no landmarks/03.csv (the KITTI pole map the published results use; "
-                    "sensorsel kitti builds it)", pytrace=False)
+        pytest.fail(
+            f"{kitti_root} has no landmarks/03.csv (the KITTI pole map the published results use; "
+            "sensorsel kitti builds it)",
+            pytrace=False,
+        )
     # landmarks="real": the pole map, required (a KITTI folder without it is an error, not a silent
     # fall-back to generated landmarks that would compare unlike with like)
     problem = load_problem(ScenarioSpec(seq="03", kitti_root=str(kitti_root), landmarks="real"))
@@ -125,7 +128,9 @@ def test_published_greedy03_is_what_the_code_gives(published, rerun):
     # and everything else the file records, but timings, paths and evaluation counts
     out: list[str] = []
     _diff(new_js, pub_js, "greedy03", abs(pub.score), out)
-    assert not out, "docs/results/greedy03.json no longer matches the code (regenerate the docs):\n" + "\n".join(out[:30])
+    assert not out, "docs/results/greedy03.json no longer matches the code (regenerate the docs):\n" + "\n".join(
+        out[:30]
+    )
 
 
 def _quoted(text: str, number: str) -> bool:
@@ -143,7 +148,9 @@ def test_docs_quote_the_published_greedy03(published, doc):
     pub, _ = published
     text = doc.read_text(encoding="utf-8")
     score2, score3 = f"{pub.score:,.2f}", f"{pub.score:,.3f}"
-    assert _quoted(text, score3) or _quoted(text, score2), f"{doc.name} does not quote Greedy03's score {score3} (or {score2})"
+    assert _quoted(text, score3) or _quoted(text, score2), (
+        f"{doc.name} does not quote Greedy03's score {score3} (or {score2})"
+    )
     cost = f"${pub.cost_usd:,.0f}"
     assert cost in text, f"{doc.name} does not quote Greedy03's cost {cost}"
     pct = _certificate_pct(pub.certificate.percent_of_best)

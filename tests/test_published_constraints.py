@@ -56,6 +56,12 @@ def test_findings_page_quotes_the_published_design():
     doc = yaml.safe_load((REPO / "configs" / "sensor_library.yaml").read_text())
     power = sum({m["code"]: m for m in doc["models"]}[s.split("-")[0]]["resources"]["power_w"] for s in res.suite)
     pct = math.floor(res.certificate.percent_of_best * 10) / 10
-    for quoted in (f"{res.score:,.3f}", f"${res.cost_usd:,.0f}", f"{res.certificate.bound:,.3f}", f"≥ {pct:.1f}%",
-                   f"{power:.1f} W", f"| {len(res.suite)} |"):
+    for quoted in (
+        f"{res.score:,.3f}",
+        f"${res.cost_usd:,.0f}",
+        f"{res.certificate.bound:,.3f}",
+        f"≥ {pct:.1f}%",
+        f"{power:.1f} W",
+        f"| {len(res.suite)} |",
+    ):
         assert quoted in text, f"docs/results.md does not quote the constrained design's {quoted}"

@@ -60,5 +60,7 @@ def test_engine_gives_the_committed_record(kitti_root):
     p = load_problem(ScenarioSpec(seq="03", kitti_root=str(kitti_root), landmarks="real"))
     (now,) = suite_integrity(p, run["suite"], IntegritySpec(), map_sigma_m=run["map_sigma_m"])
     np.testing.assert_allclose(now.p_wrong_association, rec["p_wrong_association"], rtol=1e-9, atol=1e-15)
-    np.testing.assert_allclose(now.p_wrong_association_estimate, rec["p_wrong_association_estimate"], rtol=1e-9, atol=1e-15)
+    np.testing.assert_allclose(
+        now.p_wrong_association_estimate, rec["p_wrong_association_estimate"], rtol=1e-9, atol=1e-15
+    )
     assert now.integrity_risk_per_hour == pytest.approx(run["routes"][0]["integrity_risk_per_hour"], rel=1e-9)

@@ -94,12 +94,21 @@ def test_facts_the_readme_states_are_the_library_and_the_bundled_route(library, 
 
 def test_help_texts_name_options_that_exist():
     """Every --option a help text (the group's, a command's, an option's) names is a visible option of some command."""
-    visible = {o for cmd in cli.commands.values() for p in cmd.params if not getattr(p, "hidden", False)
-               for o in getattr(p, "opts", [])} | {"--help", "--version"}
+    visible = {
+        o
+        for cmd in cli.commands.values()
+        for p in cmd.params
+        if not getattr(p, "hidden", False)
+        for o in getattr(p, "opts", [])
+    } | {"--help", "--version"}
     texts = [("sensorsel", cli.help or "")]
     for name, cmd in cli.commands.items():
         texts.append((name, cmd.help or ""))
-        texts += [(f"{name} {p.opts[0]}", getattr(p, "help", None) or "") for p in cmd.params if not getattr(p, "hidden", False)]
+        texts += [
+            (f"{name} {p.opts[0]}", getattr(p, "help", None) or "")
+            for p in cmd.params
+            if not getattr(p, "hidden", False)
+        ]
     for where, text in texts:
         for opt in re.findall(r"(?<![\w-])--[a-z][a-z-]*", text):
             assert opt in visible, f"the help of {where} names {opt}, which no command shows"

@@ -15,10 +15,21 @@ from sensorsel.io import records, results
 from sensorsel.io.results import record_class as kind_class
 
 RESULTS = Path(__file__).resolve().parents[1] / "docs" / "results"
-PUBLISHED = sorted(p for p in RESULTS.rglob("*.json")
-                   if isinstance(d := json.loads(p.read_text()), dict) and d.get("kind"))
-COMPOSED = ("greedy", "certificate", "optimum", "score", "domain-score", "tradespace", "robust", "robust-optimum",
-            "resilient-selection", "resilient-comparison")
+PUBLISHED = sorted(
+    p for p in RESULTS.rglob("*.json") if isinstance(d := json.loads(p.read_text()), dict) and d.get("kind")
+)
+COMPOSED = (
+    "greedy",
+    "certificate",
+    "optimum",
+    "score",
+    "domain-score",
+    "tradespace",
+    "robust",
+    "robust-optimum",
+    "resilient-selection",
+    "resilient-comparison",
+)
 
 
 def _keys_in_order(obj, cls, where: str) -> None:
@@ -58,6 +69,6 @@ def test_every_composed_kind_holds_its_parts_fields_as_one_run_in_the_parts_orde
             if issubclass(cls, part):
                 run = [f.name for f in dataclasses.fields(part)]
                 start = names.index(run[0])
-                assert names[start:start + len(run)] == run, (kind, part.__name__)
+                assert names[start : start + len(run)] == run, (kind, part.__name__)
                 seen += 1
     assert seen >= len(COMPOSED)

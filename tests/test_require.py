@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import itertools
 import json
-import math
 
 import pytest
 from click.testing import CliRunner
@@ -31,8 +30,9 @@ def _small(library) -> Constraints:
     return Constraints(exclude=tuple(sorted(set(library.ids) - set(SMALL))))
 
 
-def _brute_force(problem, spec: Specification, map_sigma, failures: int = 0, max_sensors: int | None = None,
-                 estimate: str = "filter"):
+def _brute_force(
+    problem, spec: Specification, map_sigma, failures: int = 0, max_sensors: int | None = None, estimate: str = "filter"
+):
     """The cheapest suite of SMALL meeting ``spec`` after any ``failures`` failures, by enumeration
     (the accuracy of ``estimate``: the filter's, as require judges by default, or the smoother's)."""
     lib = problem.library
@@ -61,13 +61,17 @@ def _brute_force(problem, spec: Specification, map_sigma, failures: int = 0, max
 
 
 @pytest.mark.parametrize("failures", [0, 1])
-@pytest.mark.parametrize("map_sigma, spec", [(0.05, Specification(lateral=0.06, heading=0.1)),
-                                             (None, Specification(lateral=0.6, longitudinal=0.4, at=0.9))])
+@pytest.mark.parametrize(
+    "map_sigma, spec",
+    [(0.05, Specification(lateral=0.06, heading=0.1)), (None, Specification(lateral=0.6, longitudinal=0.4, at=0.9))],
+)
 def test_require_is_the_brute_force_cheapest(tiny_problem, failures, map_sigma, spec):
     """On ten sensors, with and without a failure, in both models: the answer costs what the
     cheapest feasible suite found by enumeration costs, and the lower bound is never above it."""
     want = _brute_force(tiny_problem, spec, map_sigma, failures)
-    res = require(tiny_problem, spec, map_sigma_m=map_sigma, failures=failures, constraints=_small(tiny_problem.library))
+    res = require(
+        tiny_problem, spec, map_sigma_m=map_sigma, failures=failures, constraints=_small(tiny_problem.library)
+    )
     if want is None:
         assert res.status == "infeasible"
         return
@@ -125,6 +129,7 @@ def test_require_cli_end_to_end_and_deterministic(tmp_path):
 
 def _all_ids():
     from sensorsel.model.library import load_library
+
     return load_library().ids
 
 
@@ -139,12 +144,21 @@ def test_infeasible_specification_exits_2_naming_what_fails(tmp_path):
     assert json.loads(r.stdout)["status"] == "infeasible"
 
 
-@pytest.mark.parametrize("args, culprit", [
-    (["--lateral", "-0.1"], "--lateral"), (["--lateral", "0"], "--lateral"), (["--heading", "nan"], "--heading"),
-    (["--longitudinal", "inf"], "--longitudinal"), (["--preset", "freeway", "--at", "0"], "--at"),
-    (["--preset", "freeway", "--at", "101"], "--at"), (["--preset", "city"], "--preset"), ([], "no requirement"),
-    (["--preset", "freeway", "--map-sigma", "-0.1"], "--map-sigma"), (["--preset", "freeway", "--map-sigma", "0"], "--map-sigma"),
-])
+@pytest.mark.parametrize(
+    "args, culprit",
+    [
+        (["--lateral", "-0.1"], "--lateral"),
+        (["--lateral", "0"], "--lateral"),
+        (["--heading", "nan"], "--heading"),
+        (["--longitudinal", "inf"], "--longitudinal"),
+        (["--preset", "freeway", "--at", "0"], "--at"),
+        (["--preset", "freeway", "--at", "101"], "--at"),
+        (["--preset", "city"], "--preset"),
+        ([], "no requirement"),
+        (["--preset", "freeway", "--map-sigma", "-0.1"], "--map-sigma"),
+        (["--preset", "freeway", "--map-sigma", "0"], "--map-sigma"),
+    ],
+)
 def test_bad_requirements_one_line_exit_2(args, culprit):
     r = _invoke(["require", *T, *E, *args])
     assert r.exit_code == 2, r.output
@@ -153,7 +167,9 @@ def test_bad_requirements_one_line_exit_2(args, culprit):
     assert len(lines) == 1 and culprit in lines[0], r.stderr
 
 
-@pytest.mark.parametrize("text, culprit", [("- 1\n", "expected a mapping"), ("preset: freeway\nroad: x\n", "road: unknown key")])
+@pytest.mark.parametrize(
+    "text, culprit", [("- 1\n", "expected a mapping"), ("preset: freeway\nroad: x\n", "road: unknown key")]
+)
 def test_bad_spec_file_one_line_exit_2(tmp_path, text, culprit):
     f = tmp_path / "spec.yaml"
     f.write_text(text)
@@ -185,7 +201,21 @@ def test_score_json_carries_the_per_keyframe_arrays(tiny_problem):
 
 
 def test_pareto_marks_the_acceptable_front(tmp_path):
-    r = _invoke(["pareto", *T, *E, "--budgets", "2000,20000", "--output-dir", tmp_path, "--preset", "freeway", "--map-sigma", "0.05"])
+    r = _invoke(
+        [
+            "pareto",
+            *T,
+            *E,
+            "--budgets",
+            "2000,20000",
+            "--output-dir",
+            tmp_path,
+            "--preset",
+            "freeway",
+            "--map-sigma",
+            "0.05",
+        ]
+    )
     assert r.exit_code == 0, r.output
     acc = results.load(tmp_path / "accuracy.json", "front-acceptance")
     assert acc.specifications and all(p.meets is not None for p in acc.points)
@@ -204,6 +234,7 @@ def _stop_after(n: int):
     def progress(done: int, total: int) -> None:
         if done >= n:
             raise _Interrupt()
+
     return progress
 
 
@@ -217,7 +248,12 @@ def test_interrupted_require_resumes_to_the_same_answer_without_recomputing(tiny
     journal = results.load(ck, "requirement-journal")
     assert journal.answers  # what the interrupted run learnt was written
     got = require(tiny_problem, spec, map_sigma_m=0.05, failures=1, constraints=c, checkpoint=ck, resume=True)
-    assert (got.status, got.suite, got.cost_usd, got.lower_bound_usd) == (want.status, want.suite, want.cost_usd, want.lower_bound_usd)
+    assert (got.status, got.suite, got.cost_usd, got.lower_bound_usd) == (
+        want.status,
+        want.suite,
+        want.cost_usd,
+        want.lower_bound_usd,
+    )
     assert got.n_checks + got.n_refuted < want.n_checks + want.n_refuted  # the journal's answers were not recomputed
 
 
@@ -248,8 +284,15 @@ def test_resume_with_any_other_input_is_warned_and_starts_afresh(tiny_problem, s
         other["estimate"] = "smoother"
     else:
         target = suburb_problem
-    word = {"failures": "failures", "map": "model", "spec": "specification", "budget": "budget", "limits": "limits",
-            "route": "routes", "estimate": "estimate"}[change]
+    word = {
+        "failures": "failures",
+        "map": "model",
+        "spec": "specification",
+        "budget": "budget",
+        "limits": "limits",
+        "route": "routes",
+        "estimate": "estimate",
+    }[change]
     with pytest.warns(CacheWarning, match=word):
         again = require(target, spec2, checkpoint=ck, resume=True, **other)
     fresh = require(target, spec2, **other)
@@ -260,8 +303,10 @@ def test_require_in_some_conditions_only(tmp_path):
     """A domain of one route in two conditions: demanding the specification in clear weather alone
     never costs more than in clear weather and in fog, and equals the plain route's answer."""
     dom = tmp_path / "d.yaml"
-    dom.write_text(f"keyframe_rate_hz: 1.0\nconditions:\n  - {{name: fog, fog_visibility_m: 60, share: 0.2}}\n"
-                   f"routes:\n  - {{name: tiny, fixture: tiny}}\n")
+    dom.write_text(
+        "keyframe_rate_hz: 1.0\nconditions:\n  - {name: fog, fog_visibility_m: 60, share: 0.2}\n"
+        "routes:\n  - {name: tiny, fixture: tiny}\n"
+    )
     excl = ",".join(sorted(set(_all_ids()) - set(SMALL)))
     base = ["require", "--engine", "fast", "--jobs", "1", "-q", "--preset", "freeway", "--exclude", excl, "--json"]
     clear = json.loads(_invoke([*base, "--domain", dom, "--in", "clear"]).stdout)

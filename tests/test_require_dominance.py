@@ -7,7 +7,8 @@ import itertools
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from sensorsel.designs.requirements.dominance import dominance_order, information_dominance
 from sensorsel.designs.requirements.solver import cheapest_suite
@@ -113,8 +114,9 @@ def test_symmetric_library_cheapest_cost_equals_brute_force(data):
         return
     assert got.status == "optimal", got
     assert got.cost == pytest.approx(want) and got.lower_bound <= want + 1e-6
-    assert feas.fits(got.suite) and all(meets(tuple(sorted(set(got.suite) - set(f))))
-                                        for f in itertools.combinations(got.suite, alpha))
+    assert feas.fits(got.suite) and all(
+        meets(tuple(sorted(set(got.suite) - set(f)))) for f in itertools.combinations(got.suite, alpha)
+    )
     assert set(got.ordered) <= set(pairs)
     if any(feas.A[0, w] == feas.A[0, s] for w, s in got.ordered):
         assert not got.ties_exhaustive  # suites with w in place of s were not searched
@@ -150,6 +152,7 @@ def test_a_dearer_dominator_is_not_ordered_and_the_answer_stays_cheapest():
 
 
 # --- passes stopped early -----------------------------------------------------------------------
+
 
 def test_a_pass_stopped_early_gives_the_whole_pass_numbers(suburb_problem):
     suite = tuple(LIB.position(x) for x in ("LRR-7", "HD2K-1", "HD2K-5", "HD2K-8"))
@@ -195,13 +198,19 @@ def test_a_domain_asks_the_route_that_failed_last_first(tiny_problem, suburb_pro
     spec = Specification(lateral=0.2, heading=0.5)
     evs = [FastEvaluator(tiny_problem), FastEvaluator(suburb_problem)]
     oracle = _Oracle(evs, ["tiny", "suburb"], [spec, spec], 0.05, "filter")
-    suites = [(LIB.position("LRL-roof"),), (LIB.position("HD2K-3"),), tuple(sorted((LIB.position("WSC-3"), LIB.position("HD2K-6")))),
-              tuple(LIB.position(x) for x in ("LRR-7", "HD2K-1", "HD2K-5", "HD2K-8")),
-              tuple(sorted((LIB.position("LRR-12"), LIB.position("WSC-6"))))]
+    suites = [
+        (LIB.position("LRL-roof"),),
+        (LIB.position("HD2K-3"),),
+        tuple(sorted((LIB.position("WSC-3"), LIB.position("HD2K-6")))),
+        tuple(LIB.position(x) for x in ("LRR-7", "HD2K-1", "HD2K-5", "HD2K-8")),
+        tuple(sorted((LIB.position("LRR-12"), LIB.position("WSC-6")))),
+    ]
     saw_front = False
     for s in suites:
-        truth = [covariance_verdict(forward_pass(p, s, map_sigma_m=0.05).filtered, spec)[0]
-                 for p in (tiny_problem, suburb_problem)]
+        truth = [
+            covariance_verdict(forward_pass(p, s, map_sigma_m=0.05).filtered, spec)[0]
+            for p in (tiny_problem, suburb_problem)
+        ]
         assert oracle.meets(s) == all(truth)
         if not all(truth):
             assert not truth[oracle.route_order[0]]  # the route that just failed is asked first now

@@ -105,8 +105,14 @@ def test_every_suite_the_floor_refutes_misses_in_the_specifications_model(tiny_p
     lib = tiny_problem.library
     ev = FastEvaluator(tiny_problem)
     spec = Specification(longitudinal=0.15, heading=0.4)
-    res = require(tiny_problem, spec, map_sigma_m=MAP_SIGMA, failures=failures, constraints=_small(lib),
-                  checkpoint=tmp_path / "journal")
+    res = require(
+        tiny_problem,
+        spec,
+        map_sigma_m=MAP_SIGMA,
+        failures=failures,
+        constraints=_small(lib),
+        checkpoint=tmp_path / "journal",
+    )
     refuted = [s for _, s, meets, v in results.load(tmp_path / "journal", RequireJournal).answers if v is None]
     assert refuted  # the floor was used
     assert all(_violation(ev, s, spec) > 0 for s in refuted)
@@ -126,11 +132,15 @@ def test_an_infeasible_domain_is_one_line_a_person_can_read(tmp_path):
     from sensorsel.cli import cli
 
     dom = tmp_path / "d.yaml"
-    dom.write_text("keyframe_rate_hz: 1.0\nconditions:\n  - {name: fog, fog_visibility_m: 30, share: 0.2}\n"
-                   "  - {name: night, night: true, share: 0.2}\n  - {name: snow, snow_mm_h: 5, share: 0.2}\n"
-                   "routes:\n  - {name: tiny, fixture: tiny}\n  - {name: suburb, fixture: suburb}\n")
-    r = CliRunner().invoke(cli, ["require", "--domain", str(dom), "--lateral", "0.01", "--heading", "0.01", "--engine", "fast",
-                                 "-q", "--json"])
+    dom.write_text(
+        "keyframe_rate_hz: 1.0\nconditions:\n  - {name: fog, fog_visibility_m: 30, share: 0.2}\n"
+        "  - {name: night, night: true, share: 0.2}\n  - {name: snow, snow_mm_h: 5, share: 0.2}\n"
+        "routes:\n  - {name: tiny, fixture: tiny}\n  - {name: suburb, fixture: suburb}\n"
+    )
+    r = CliRunner().invoke(
+        cli,
+        ["require", "--domain", str(dom), "--lateral", "0.01", "--heading", "0.01", "--engine", "fast", "-q", "--json"],
+    )
     assert r.exit_code == 2
     lines = r.stderr.splitlines()
     assert len(lines) == 1 and lines[0].startswith("sensorsel: error: no suite meets the specification")

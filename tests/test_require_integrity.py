@@ -30,8 +30,13 @@ GATE_PROBABILITY = 0.999
 
 
 def _spec(risk: float) -> IntegritySpec:
-    return IntegritySpec(integrity_risk=risk, alert_lateral_m=LIMITS[0], alert_longitudinal_m=LIMITS[1],
-                         alert_heading_deg=LIMITS[2], gate_probability=GATE_PROBABILITY)
+    return IntegritySpec(
+        integrity_risk=risk,
+        alert_lateral_m=LIMITS[0],
+        alert_longitudinal_m=LIMITS[1],
+        alert_heading_deg=LIMITS[2],
+        gate_probability=GATE_PROBABILITY,
+    )
 
 
 class _Table:
@@ -46,7 +51,9 @@ class _Table:
         self.risk: dict[tuple[int, ...], float] = {}
         for k in range(len(self.pos) + 1):
             for s in itertools.combinations(self.pos, k):
-                self.accurate[s] = verdict(route_accuracy(ev, s, map_sigma_m=MAP_SIGMA, estimate="filter"), ACCURACY).meets
+                self.accurate[s] = verdict(
+                    route_accuracy(ev, s, map_sigma_m=MAP_SIGMA, estimate="filter"), ACCURACY
+                ).meets
                 self.risk[s] = route_integrity(problem, s, _spec(0.5), map_sigma_m=MAP_SIGMA).integrity_risk_per_hour
 
     def meets(self, s: tuple[int, ...], risk: float) -> bool:
@@ -57,8 +64,11 @@ class _Table:
         for s in self.risk:
             if len(s) < (failures + 1 if failures else 0):
                 continue
-            if all(self.meets(tuple(x for x in s if x not in f), risk)
-                   for a in range(failures + 1) for f in itertools.combinations(s, a)):
+            if all(
+                self.meets(tuple(x for x in s if x not in f), risk)
+                for a in range(failures + 1)
+                for f in itertools.combinations(s, a)
+            ):
                 cost = float(self.lib.costs[list(s)].sum())
                 if best is None or cost < best[0] - 1e-9:
                     best = (cost, s)
@@ -66,8 +76,13 @@ class _Table:
 
     def breaking(self, risk: float) -> list[tuple[tuple[int, ...], int]]:
         """(suite, sensor): the suite meets the requirement, the suite with the sensor added fails integrity."""
-        return [(s, p) for s in self.risk if self.meets(s, risk) for p in self.pos
-                if p not in s and self.risk[tuple(sorted(s + (p,)))] > risk]
+        return [
+            (s, p)
+            for s in self.risk
+            if self.meets(s, risk)
+            for p in self.pos
+            if p not in s and self.risk[tuple(sorted(s + (p,)))] > risk
+        ]
 
 
 @pytest.fixture(scope="module")
@@ -82,8 +97,15 @@ def _exclude(lib) -> Constraints:
 @pytest.mark.parametrize("risk, failures", [(0.35, 0), (0.5, 0), (0.5, 1)])
 def test_require_integrity_equals_brute_force(tiny_problem, table, risk, failures):
     want = table.cheapest(risk, failures)
-    res = require(tiny_problem, ACCURACY, map_sigma_m=MAP_SIGMA, failures=failures, constraints=_exclude(tiny_problem.library),
-                  engine="fast", integrity=_spec(risk))
+    res = require(
+        tiny_problem,
+        ACCURACY,
+        map_sigma_m=MAP_SIGMA,
+        failures=failures,
+        constraints=_exclude(tiny_problem.library),
+        engine="fast",
+        integrity=_spec(risk),
+    )
     if want is None:
         assert res.status == "infeasible"
         return
@@ -112,7 +134,9 @@ def test_the_cases_are_not_trivial(table):
 
 
 def test_accuracy_alone_unchanged_without_integrity(tiny_problem):
-    res = require(tiny_problem, ACCURACY, map_sigma_m=MAP_SIGMA, constraints=_exclude(tiny_problem.library), engine="fast")
+    res = require(
+        tiny_problem, ACCURACY, map_sigma_m=MAP_SIGMA, constraints=_exclude(tiny_problem.library), engine="fast"
+    )
     assert res.integrity is None and res.integrity_routes == ()
 
 
@@ -121,10 +145,36 @@ def _run(args):
 
 
 def _cli_args(lib, risk: float) -> list[str]:
-    return ["require", "--fixture", "tiny", "--landmarks", "synthetic", "--engine", "fast", "--jobs", "1", "-q",
-            "--lateral", "1", "--longitudinal", "1", "--heading", "3", "--integrity-risk", str(risk),
-            "--alert-lateral", "1", "--alert-longitudinal", "1", "--alert-heading", "3", "--gate-probability", str(GATE_PROBABILITY),
-            "--exclude", ",".join(sorted(set(lib.ids) - set(SMALL)))]
+    return [
+        "require",
+        "--fixture",
+        "tiny",
+        "--landmarks",
+        "synthetic",
+        "--engine",
+        "fast",
+        "--jobs",
+        "1",
+        "-q",
+        "--lateral",
+        "1",
+        "--longitudinal",
+        "1",
+        "--heading",
+        "3",
+        "--integrity-risk",
+        str(risk),
+        "--alert-lateral",
+        "1",
+        "--alert-longitudinal",
+        "1",
+        "--alert-heading",
+        "3",
+        "--gate-probability",
+        str(GATE_PROBABILITY),
+        "--exclude",
+        ",".join(sorted(set(lib.ids) - set(SMALL))),
+    ]
 
 
 def test_cli_equals_brute_force_and_records_integrity(library, tmp_path):
@@ -153,11 +203,34 @@ def test_cli_infeasible_is_one_line_exit_2(library, tmp_path):
     assert len(err) == 1 and err[0].startswith("sensorsel: error: no suite") and "integrity" in err[0]
 
 
-@pytest.mark.parametrize("option, value", [("--integrity-risk", "2"), ("--integrity-risk", "0"), ("--alert-lateral", "-1"),
-                                           ("--alert-heading", "nan"), ("--max-association-risk", "0.1")])
+@pytest.mark.parametrize(
+    "option, value",
+    [
+        ("--integrity-risk", "2"),
+        ("--integrity-risk", "0"),
+        ("--alert-lateral", "-1"),
+        ("--alert-heading", "nan"),
+        ("--max-association-risk", "0.1"),
+    ],
+)
 def test_bad_integrity_option_one_line(library, option, value):
-    r = _run(["require", "--fixture", "tiny", "--landmarks", "synthetic", "--engine", "fast", "-q", "--preset",
-              "local-streets", "--integrity", option, value])
+    r = _run(
+        [
+            "require",
+            "--fixture",
+            "tiny",
+            "--landmarks",
+            "synthetic",
+            "--engine",
+            "fast",
+            "-q",
+            "--preset",
+            "local-streets",
+            "--integrity",
+            option,
+            value,
+        ]
+    )
     assert r.exit_code == 2
     err = [line for line in r.stderr.splitlines() if line]
     assert len(err) == 1 and err[0].startswith("sensorsel: error:") and option in err[0], r.stderr
@@ -166,8 +239,14 @@ def test_bad_integrity_option_one_line(library, option, value):
 
 def test_presets_alert_limits_and_fingerprint(tiny_problem):
     from sensorsel.designs.requirements.integrity import integrity_preset
+
     free = integrity_preset("freeway")
-    assert (free.alert_lateral_m, free.alert_longitudinal_m, free.alert_heading_deg, free.integrity_risk) == (0.57, 1.40, 1.50, 1e-8)
+    assert (free.alert_lateral_m, free.alert_longitudinal_m, free.alert_heading_deg, free.integrity_risk) == (
+        0.57,
+        1.40,
+        1.50,
+        1e-8,
+    )
     local = integrity_preset("local-streets")
     assert (local.alert_lateral_m, local.alert_longitudinal_m, local.alert_heading_deg) == (0.29, 0.29, 0.50)
     args = ([tiny_problem], [ACCURACY], MAP_SIGMA, 0, None, None, "filter", "fast")
@@ -180,6 +259,7 @@ def test_relaxations_are_necessary_conditions(tiny_problem, table):
     """What the proof uses, on every suite of the library: a suite meeting integrity meets both
     relaxations; the floor is under each suite's risk (and not vacuous: positive on some suite)."""
     from sensorsel.designs.requirements.integrity import IntegrityRequirement
+
     req = IntegrityRequirement([tiny_problem], ["tiny"], table.pos, _spec(0.5), MAP_SIGMA)
     floors = {s: req.bounds[0].association_floor(s) for s in table.risk}
     assert max(floors.values()) > 0.0
@@ -194,9 +274,12 @@ def test_domain_demands_integrity_on_every_route(tmp_path):
     """A domain (the tiny route in clear weather and in fog): the answer equals the brute-force
     cheapest suite that meets accuracy and integrity on both members, and reports both."""
     from sensorsel.model.problem import load_domain
+
     path = tmp_path / "d.yaml"
-    path.write_text("keyframe_rate_hz: 1.0\nconditions:\n  - {name: fog, fog_visibility_m: 60, share: 0.2}\n"
-                    "routes:\n  - {name: tiny, fixture: tiny}\n")
+    path.write_text(
+        "keyframe_rate_hz: 1.0\nconditions:\n  - {name: fog, fog_visibility_m: 60, share: 0.2}\n"
+        "routes:\n  - {name: tiny, fixture: tiny}\n"
+    )
     domain = load_domain(path)
     tables = [_Table(r.problem) for r in domain.routes]
     risk = 0.9
@@ -206,8 +289,14 @@ def test_domain_demands_integrity_on_every_route(tmp_path):
             cost = float(domain.library.costs[list(s)].sum())
             if best is None or cost < best[0] - 1e-9:
                 best = (cost, s)
-    res = require(domain, ACCURACY, map_sigma_m=MAP_SIGMA, constraints=_exclude(domain.library), engine="fast",
-                  integrity=_spec(risk))
+    res = require(
+        domain,
+        ACCURACY,
+        map_sigma_m=MAP_SIGMA,
+        constraints=_exclude(domain.library),
+        engine="fast",
+        integrity=_spec(risk),
+    )
     assert best is not None
     assert res.status == "optimal" and res.cost_usd == pytest.approx(best[0])
     assert [r.route for r in res.integrity_routes] == [r.name for r in domain.routes]

@@ -96,8 +96,22 @@ def test_route_without_landmark_file_is_refused(tmp_path):
     assert r.exit_code == 2
     err = [line for line in r.stderr.splitlines() if line.startswith("sensorsel: error:")]
     assert len(err) == 1 and "--landmarks synthetic" in err[0] and "no landmark file" in err[0], r.output
-    ok = _invoke(["require", "--route", poses, "--route-format", "kitti", "-q", "--preset", "freeway",
-                  "--landmarks", "synthetic", "--max-sensors", "3"])
+    ok = _invoke(
+        [
+            "require",
+            "--route",
+            poses,
+            "--route-format",
+            "kitti",
+            "-q",
+            "--preset",
+            "freeway",
+            "--landmarks",
+            "synthetic",
+            "--max-sensors",
+            "3",
+        ]
+    )
     assert ok.exit_code in (0, 2), ok.output
     if ok.exit_code == 0:
         suite_line = [line for line in ok.stdout.splitlines() if line.startswith("suite")][0]

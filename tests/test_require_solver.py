@@ -7,7 +7,8 @@ import itertools
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from sensorsel.designs.requirements.solver import cheapest_suite
 from sensorsel.model.constraints import Constraints, feasible_set
@@ -15,14 +16,27 @@ from sensorsel.model.library import load_library
 
 LIB = load_library()
 #: twelve sensors of the library (the rest excluded): 4,096 suites to enumerate
-SMALL = ("LRL-roof", "MRL-roof", "LRR-12", "LRR-6", "LRR-3", "MRR-12", "WSC-12", "WSC-6", "HD2K-12", "HD2K-6",
-         "LSC-12", "HD2K-3")
+SMALL = (
+    "LRL-roof",
+    "MRL-roof",
+    "LRR-12",
+    "LRR-6",
+    "LRR-3",
+    "MRR-12",
+    "WSC-12",
+    "WSC-6",
+    "HD2K-12",
+    "HD2K-6",
+    "LSC-12",
+    "HD2K-3",
+)
 POS = sorted(LIB.position(i) for i in SMALL)
 
 
 def _predicate(weights: np.ndarray, threshold: float):
     """meets(S): a coverage of 'keyframes' by the suite's sensors, sum of min(1, Σ_s w) >= threshold:
     monotone (adding a sensor never lowers a term); violation: the shortfall."""
+
     def value(s: tuple[int, ...]) -> float:
         if not s:
             return 0.0
@@ -71,8 +85,9 @@ def test_solver_equals_brute_force(data):
         return
     assert got.status == "optimal", got
     assert got.cost == pytest.approx(want) and got.lower_bound <= want + 1e-6
-    assert feas.fits(got.suite) and all(meets(tuple(sorted(set(got.suite) - set(f))))
-                                        for f in itertools.combinations(got.suite, alpha))
+    assert feas.fits(got.suite) and all(
+        meets(tuple(sorted(set(got.suite) - set(f)))) for f in itertools.combinations(got.suite, alpha)
+    )
 
 
 def test_solver_is_deterministic_and_calls_meets_once_per_suite():
@@ -90,5 +105,11 @@ def test_solver_is_deterministic_and_calls_meets_once_per_suite():
     a = cheapest_suite(feas, meets, failures=1, violation=violation)
     calls = list(seen)
     b = cheapest_suite(feas, meets, failures=1, violation=violation)
-    assert (a.suite, a.cost, a.lower_bound, a.cuts, a.iterations) == (b.suite, b.cost, b.lower_bound, b.cuts, b.iterations)
+    assert (a.suite, a.cost, a.lower_bound, a.cuts, a.iterations) == (
+        b.suite,
+        b.cost,
+        b.lower_bound,
+        b.cuts,
+        b.iterations,
+    )
     assert len(calls) == len(set(calls))

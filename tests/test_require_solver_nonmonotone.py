@@ -39,8 +39,11 @@ def _instance(n: int, seed: int):
 
 
 def _meets_after(meets, s, alpha):
-    return all(meets(tuple(x for x in s if x not in f)) for k in range(min(alpha, len(s)) + 1)
-               for f in itertools.combinations(s, k))
+    return all(
+        meets(tuple(x for x in s if x not in f))
+        for k in range(min(alpha, len(s)) + 1)
+        for f in itertools.combinations(s, k)
+    )
 
 
 def _brute(fs, meets, alpha):
@@ -59,8 +62,9 @@ CONS = [Constraints(), Constraints(max_sensors=4), Constraints.of(require=["WSC-
 
 # without the monotone relaxation each suite short of coverage is excluded alone (one integer program
 # each): those run on seven sensors, and with a failure only with a required sensor (fewer suites)
-CASES = ([(r, ci, a) for r in ("both", "down") for ci in range(len(CONS)) for a in (0, 1)]
-         + [(r, ci, a) for r in ("up", "none") for ci, a in ((0, 0), (2, 0), (2, 1))])
+CASES = [(r, ci, a) for r in ("both", "down") for ci in range(len(CONS)) for a in (0, 1)] + [
+    (r, ci, a) for r in ("up", "none") for ci, a in ((0, 0), (2, 0), (2, 1))
+]
 
 
 @pytest.mark.parametrize("relax, ci, alpha", CASES)
@@ -70,9 +74,14 @@ def test_equals_brute_force(library, alpha, ci, relax):
         meets, cover, safe = _instance(len(sub), seed)
         fs = feasible_set(sub, math.inf, CONS[ci])
         best = _brute(fs, meets, alpha)
-        r = cheapest_suite(fs, meets, failures=alpha, monotone=False,
-                           necessary_monotone=cover if relax in ("both", "down") else None,
-                           necessary_antimonotone=safe if relax in ("both", "up") else None)
+        r = cheapest_suite(
+            fs,
+            meets,
+            failures=alpha,
+            monotone=False,
+            necessary_monotone=cover if relax in ("both", "down") else None,
+            necessary_antimonotone=safe if relax in ("both", "up") else None,
+        )
         assert r.lower_bound <= best + 1e-6
         if math.isinf(best):
             assert r.status == "infeasible" and r.suite is None
@@ -96,11 +105,14 @@ def test_adding_a_sensor_breaks_it_and_the_answer_is_not_the_monotone_one(librar
         wrong = cheapest_suite(fs, meets, failures=1)  # told (wrongly) that it is monotone
         if wrong.suite is not None and _meets_after(meets, wrong.suite, 1):
             continue
-        right = cheapest_suite(fs, meets, failures=1, monotone=False, necessary_monotone=cover,
-                               necessary_antimonotone=safe)
+        right = cheapest_suite(
+            fs, meets, failures=1, monotone=False, necessary_monotone=cover, necessary_antimonotone=safe
+        )
         assert right.status == "optimal" and right.cost == best and _meets_after(meets, right.suite, 1)
         suites = [s for k in range(len(sub) + 1) for s in itertools.combinations(range(len(sub)), k)]
-        assert any(meets(s) and not meets(tuple(sorted(set(s) | {i}))) for s in suites for i in range(len(sub)) if i not in s)
+        assert any(
+            meets(s) and not meets(tuple(sorted(set(s) | {i}))) for s in suites for i in range(len(sub)) if i not in s
+        )
         return
     pytest.fail("no instance where the monotone inference goes wrong: the test proves nothing")
 

@@ -7,8 +7,15 @@ import math
 import numpy as np
 import pytest
 
-from sensorsel.designs.requirements.spec import (PRESETS, Specification, SpecificationError, load_specification_file,
-                                                 preset, specifications_for, verdict)
+from sensorsel.designs.requirements.spec import (
+    PRESETS,
+    Specification,
+    SpecificationError,
+    load_specification_file,
+    preset,
+    specifications_for,
+    verdict,
+)
 from sensorsel.errors import InputError
 from sensorsel.information.evaluators.accuracy import Z95, accuracy_from_covariances
 
@@ -18,13 +25,23 @@ def _accuracy(lateral, longitudinal=None, heading_deg=None):
     cov = np.zeros((len(lat), 3, 3))
     cov[:, 1, 1] = lat**2
     cov[:, 0, 0] = (np.asarray(longitudinal, float) if longitudinal is not None else 0.01 * np.ones_like(lat)) ** 2
-    cov[:, 2, 2] = np.radians(np.asarray(heading_deg, float) if heading_deg is not None else 0.01 * np.ones_like(lat)) ** 2
+    cov[:, 2, 2] = (
+        np.radians(np.asarray(heading_deg, float) if heading_deg is not None else 0.01 * np.ones_like(lat)) ** 2
+    )
     return accuracy_from_covariances(cov, map_sigma_m=None, route="r")
 
 
 def test_presets_are_reid_et_al():
-    assert (PRESETS["local-streets"].lateral, PRESETS["local-streets"].longitudinal, PRESETS["local-streets"].heading) == (0.10, 0.10, 0.17)
-    assert (PRESETS["freeway"].lateral, PRESETS["freeway"].longitudinal, PRESETS["freeway"].heading) == (0.20, 0.48, 0.51)
+    assert (
+        PRESETS["local-streets"].lateral,
+        PRESETS["local-streets"].longitudinal,
+        PRESETS["local-streets"].heading,
+    ) == (0.10, 0.10, 0.17)
+    assert (PRESETS["freeway"].lateral, PRESETS["freeway"].longitudinal, PRESETS["freeway"].heading) == (
+        0.20,
+        0.48,
+        0.51,
+    )
     assert not PRESETS["freeway"].sigma and PRESETS["freeway"].at == 1.0
     with pytest.raises(InputError, match="--preset.*local-streets, freeway"):
         preset("city")
@@ -57,7 +74,9 @@ def test_a_share_of_keyframes_that_is_not_a_whole_number_rounds_up():
         for bound_sigma in sorted(sig):
             meeting = int(np.sum(sig <= bound_sigma))
             for percent in range(1, 101):
-                got = verdict(_accuracy(sig), Specification(lateral=float(bound_sigma), sigma=True, at=percent / 100)).meets
+                got = verdict(
+                    _accuracy(sig), Specification(lateral=float(bound_sigma), sigma=True, at=percent / 100)
+                ).meets
                 assert got == (meeting * 100 >= percent * k), (k, meeting, percent)
     # the case by hand: 50 % of 7 keyframes is 3.5, so 4 must meet; 3 meeting is not enough
     sig7 = [0.01, 0.02, 0.03, 0.09, 0.09, 0.09, 0.09]
@@ -65,11 +84,18 @@ def test_a_share_of_keyframes_that_is_not_a_whole_number_rounds_up():
     assert verdict(_accuracy(sig7), Specification(lateral=0.05, sigma=True, at=3 / 7)).meets
 
 
-@pytest.mark.parametrize("kwargs, match", [
-    (dict(lateral=-0.1), "--lateral"), (dict(lateral=0.0), "--lateral"), (dict(longitudinal=math.nan), "--longitudinal"),
-    (dict(heading=math.inf), "--heading"), (dict(lateral=0.1, at=0.0), "--at"), (dict(lateral=0.1, at=1.01), "--at"),
-    ({}, "no requirement"),
-])
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        (dict(lateral=-0.1), "--lateral"),
+        (dict(lateral=0.0), "--lateral"),
+        (dict(longitudinal=math.nan), "--longitudinal"),
+        (dict(heading=math.inf), "--heading"),
+        (dict(lateral=0.1, at=0.0), "--at"),
+        (dict(lateral=0.1, at=1.01), "--at"),
+        ({}, "no requirement"),
+    ],
+)
 def test_bad_specifications(kwargs, match):
     with pytest.raises(InputError, match=match):
         Specification(**kwargs)
@@ -88,17 +114,20 @@ def test_specification_file(tmp_path):
         specifications_for(["03", "00"], default, {"07": default})
 
 
-@pytest.mark.parametrize("text, match", [
-    ("preset: local-streets\ncolour: red\n", r"spec.yaml:2: colour: unknown key"),
-    ("- 1\n- 2\n", "expected a mapping"),
-    ("preset: city\n", "preset: unknown preset 'city'"),
-    ("lateral: -1\n", "lateral: expected a finite number > 0"),
-    ("lateral: 0.1\nat: 150\n", "at: expected a percentage"),
-    ("lateral: '0.1'\n", "a number in quotes"),
-    ("routes:\n  '03':\n    lateral: x\n", r"spec.yaml:3: routes.03.lateral"),
-    ("preset: [unclosed\n", "malformed YAML"),
-    ("sigma: 1\nlateral: 0.1\n", "sigma: expected true or false"),
-])
+@pytest.mark.parametrize(
+    "text, match",
+    [
+        ("preset: local-streets\ncolour: red\n", r"spec.yaml:2: colour: unknown key"),
+        ("- 1\n- 2\n", "expected a mapping"),
+        ("preset: city\n", "preset: unknown preset 'city'"),
+        ("lateral: -1\n", "lateral: expected a finite number > 0"),
+        ("lateral: 0.1\nat: 150\n", "at: expected a percentage"),
+        ("lateral: '0.1'\n", "a number in quotes"),
+        ("routes:\n  '03':\n    lateral: x\n", r"spec.yaml:3: routes.03.lateral"),
+        ("preset: [unclosed\n", "malformed YAML"),
+        ("sigma: 1\nlateral: 0.1\n", "sigma: expected true or false"),
+    ],
+)
 def test_bad_specification_files(tmp_path, text, match):
     f = tmp_path / "spec.yaml"
     f.write_text(text)

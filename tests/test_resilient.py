@@ -18,9 +18,23 @@ import yaml
 from click.testing import CliRunner
 
 from sensorsel.cli import cli
-from sensorsel.designs.resilient import (ACTIVE, FAILED, CacheWarning, PerPeriodResult, ResilientReport, SelectionGrid,
-                                         check_period, compare, period_file, period_scenario, resilient_report,
-                                         resilient_select, run_periods, split_periods, worst_case)
+from sensorsel.designs.resilient import (
+    ACTIVE,
+    FAILED,
+    CacheWarning,
+    PerPeriodResult,
+    ResilientReport,
+    SelectionGrid,
+    check_period,
+    compare,
+    period_file,
+    period_scenario,
+    resilient_report,
+    resilient_select,
+    run_periods,
+    split_periods,
+    worst_case,
+)
 from sensorsel.designs.selection import greedy
 from sensorsel.errors import InputError
 from sensorsel.information.evaluators import make_evaluator
@@ -33,7 +47,20 @@ from sensorsel.model.sensing import observe
 
 REL = 1e-9
 # A small library: both LiDARs, radars and cameras facing front, back and sides.
-SMALL = ("LRL-roof", "MRL-roof", "LRR-12", "LRR-6", "MRR-3", "WSC-12", "WSC-6", "HD2K-12", "HD2K-3", "HD2K-6", "HD2K-9", "LSC-9")
+SMALL = (
+    "LRL-roof",
+    "MRL-roof",
+    "LRR-12",
+    "LRR-6",
+    "MRR-3",
+    "WSC-12",
+    "WSC-6",
+    "HD2K-12",
+    "HD2K-3",
+    "HD2K-6",
+    "HD2K-9",
+    "LSC-9",
+)
 
 
 @pytest.fixture(scope="module")
@@ -182,13 +209,16 @@ def test_resilient_worst_case_beats_greedy_when_one_sensor_dominates(library):
 # ---------------------------------------------------------------------------------- periods
 
 
-@pytest.mark.parametrize("times, period", [
-    (np.arange(10.0), 3.0),
-    (np.arange(53.0), 7.0),
-    (np.array([0.0, 10.0, 20.0, 30.0]), 10.0),  # each on a period boundary
-    (np.array([0.04, 1.1, 2.07, 2.99, 3.0, 15.2, 15.9, 31.0]), 2.5),  # jitter and gaps
-    (np.array([5.0]), 10.0),
-])
+@pytest.mark.parametrize(
+    "times, period",
+    [
+        (np.arange(10.0), 3.0),
+        (np.arange(53.0), 7.0),
+        (np.array([0.0, 10.0, 20.0, 30.0]), 10.0),  # each on a period boundary
+        (np.array([0.04, 1.1, 2.07, 2.99, 3.0, 15.2, 15.9, 31.0]), 2.5),  # jitter and gaps
+        (np.array([5.0]), 10.0),
+    ],
+)
 def test_periods_cover_every_keyframe_exactly_once(times, period):
     spans = split_periods(times, period)
     got = np.concatenate([kf for *_, kf in spans])
@@ -220,7 +250,10 @@ def test_period_scenario_keeps_exactly_the_landmarks_seen(library):
     assert 0 < sc.n_landmarks < whole.scenario.n_landmarks
     # dropping landmarks nobody sees changes no score
     small = library.subset([library.position(s) for s in ("MRL-roof", "WSC-12", "LRR-6")])
-    ev_p, ev_f = make_evaluator(build_problem(small, sc), "reference"), make_evaluator(build_problem(small, full), "reference")
+    ev_p, ev_f = (
+        make_evaluator(build_problem(small, sc), "reference"),
+        make_evaluator(build_problem(small, full), "reference"),
+    )
     for suite in ([0], [1, 2], [0, 1, 2]):
         assert close(ev_p.score(suite), ev_f.score(suite))
 
@@ -232,7 +265,9 @@ def test_grid_matches_the_period_results(tiny, small_lib, tmp_path):
     for row, p in enumerate(res.periods):
         assert g.failed(row) == set(p.result.failed) and g.active(row) == set(p.result.active)
         assert g.period_labels[row] == p.period.label
-        assert p.result.cost_usd <= 110_000 and p.worst.suite == tuple(s for s in small_lib.ids if s in set(p.result.suite))
+        assert p.result.cost_usd <= 110_000 and p.worst.suite == tuple(
+            s for s in small_lib.ids if s in set(p.result.suite)
+        )
     assert sum(p.period.n_keyframes for p in res.periods) == tiny.scenario.n_poses
     # JSON and CSV round trips
     assert results.dumps(results.load(results.save(g, tmp_path / "g.json"), SelectionGrid)) == results.dumps(g)
@@ -260,7 +295,9 @@ class Stop(Exception):
 
 
 def _report(problem, outdir, *, resume=False, budget=110_000, progress=None):
-    return resilient_report(problem, budget, 1, period_s=3.0, engine="reference", outdir=outdir, resume=resume, progress=progress)
+    return resilient_report(
+        problem, budget, 1, period_s=3.0, engine="reference", outdir=outdir, resume=resume, progress=progress
+    )
 
 
 def _text(report) -> dict:
@@ -302,7 +339,9 @@ def test_resume_after_deleting_periods_and_after_changing_inputs(tiny, tmp_path)
     with pytest.warns(CacheWarning) as caught:
         cheaper = _report(tiny, out, resume=True, budget=105_000)
     named = {str(w.message).split(":")[0] for w in caught}
-    assert named == {str(out / "periods" / "route.json")} | {str(period_file(out, k)) for k in range(len(full.per_period.periods))}
+    assert named == {str(out / "periods" / "route.json")} | {
+        str(period_file(out, k)) for k in range(len(full.per_period.periods))
+    }
     assert all("other inputs" in str(w.message) for w in caught)
     fresh = _report(tiny, tmp_path / "fresh", budget=105_000)
     assert _text(cheaper) == _text(fresh) and _text(cheaper) != _text(full)
@@ -369,8 +408,25 @@ def small_library_yaml(tmp_path_factory) -> str:
 
 def test_cli_writes_the_comparison_grid_and_periods(small_library_yaml, tmp_path):
     out = tmp_path / "out"
-    args = ["resilient", "--fixture", "tiny", "--library", small_library_yaml, "--engine", "reference", "--jobs", "1",
-            "--budget", "110000", "--failures", "1", "--period", "3", "--output-dir", str(out)]
+    args = [
+        "resilient",
+        "--fixture",
+        "tiny",
+        "--library",
+        small_library_yaml,
+        "--engine",
+        "reference",
+        "--jobs",
+        "1",
+        "--budget",
+        "110000",
+        "--failures",
+        "1",
+        "--period",
+        "3",
+        "--output-dir",
+        str(out),
+    ]
     r = invoke(*args)
     assert r.exit_code == 0, (r.output, r.exception)
     data = json.loads((out / "resilient.json").read_text())
@@ -393,18 +449,21 @@ def test_cli_writes_the_comparison_grid_and_periods(small_library_yaml, tmp_path
     assert (out / "grid.svg").read_text().lstrip().startswith("<?xml")
 
 
-@pytest.mark.parametrize("opts, needle", [
-    (["--failures", "-1"], "-1"),
-    (["--period", "0"], "period"),
-    (["--period", "-5"], "-5"),
-    (["--period", "nan"], "period"),
-    (["--budget", "-10"], "budget"),
-    (["--budget", "inf"], "budget"),
-    (["--failures", "two"], "two"),
-    (["--rule", "best"], "best"),
-    (["--objective", "uniform"], "--objective"),
-    (["--plot-format", "jpg"], "jpg"),
-])
+@pytest.mark.parametrize(
+    "opts, needle",
+    [
+        (["--failures", "-1"], "-1"),
+        (["--period", "0"], "period"),
+        (["--period", "-5"], "-5"),
+        (["--period", "nan"], "period"),
+        (["--budget", "-10"], "budget"),
+        (["--budget", "inf"], "budget"),
+        (["--failures", "two"], "two"),
+        (["--rule", "best"], "best"),
+        (["--objective", "uniform"], "--objective"),
+        (["--plot-format", "jpg"], "jpg"),
+    ],
+)
 def test_cli_bad_input_exits_2(tmp_path, opts, needle):
     r = invoke("resilient", "--fixture", "tiny", "--engine", "reference", "--output-dir", str(tmp_path / "o"), *opts)
     assert r.exit_code == 2, r.output

@@ -16,7 +16,9 @@ from sensorsel.io import results
 def test_importing_the_package_registers_every_kind_its_modules_define():
     # in a fresh interpreter: this test process has imported more than the package imports
     code = "import sensorsel, sensorsel.io.results as r; print(' '.join(sorted(r.KINDS)))"
-    on_import = set(subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split())
+    on_import = set(
+        subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
+    )
     for m in pkgutil.walk_packages(sensorsel.__path__, "sensorsel."):
         importlib.import_module(m.name)
     assert on_import == set(results.KINDS)

@@ -9,8 +9,7 @@ import re
 
 import pytest
 
-from sensorsel.api import ScoreResult, score_suite
-from sensorsel.api import run_greedy
+from sensorsel.api import ScoreResult, run_greedy, score_suite
 from sensorsel.designs.certify import CertifiedGreedyResult
 from sensorsel.designs.selection import GreedyResult
 from sensorsel.errors import ResultFileError
@@ -99,7 +98,9 @@ def test_unregistered_classes_are_not_result_kinds(tmp_path):
 def test_codec_is_a_base_layer_module():
     """codec.py imports nothing of sensorsel but errors and files."""
     tree = ast.parse(inspect.getsource(codec))
-    local = {n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom) and (n.module or "").startswith("sensorsel")}
+    local = {
+        n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom) and (n.module or "").startswith("sensorsel")
+    }
     assert local and local <= {"sensorsel.errors", "sensorsel.io.files"}, local
 
 
@@ -109,10 +110,15 @@ def test_resume_reads_period_files_by_kind(tiny_problem, tmp_path):
     from sensorsel.designs.resilient import period_file, resilient_report
 
     def report(resume):
-        return resilient_report(tiny_problem, 5000.0, 1, period_s=3.0, engine="reference", outdir=tmp_path, resume=resume)
+        return resilient_report(
+            tiny_problem, 5000.0, 1, period_s=3.0, engine="reference", outdir=tmp_path, resume=resume
+        )
 
     first = report(False)
-    p0, p1 = period_file(tmp_path, first.per_period.periods[0].period.index), period_file(tmp_path, first.per_period.periods[1].period.index)
+    p0, p1 = (
+        period_file(tmp_path, first.per_period.periods[0].period.index),
+        period_file(tmp_path, first.per_period.periods[1].period.index),
+    )
     assert json.loads(p0.read_text())["kind"] == "resilient-period"
     data = json.loads(p0.read_text())
     p0.write_text(json.dumps({k: v for k, v in data.items() if k not in ("kind", "format")}))  # an old file
@@ -124,7 +130,8 @@ def test_resume_reads_period_files_by_kind(tiny_problem, tmp_path):
     with pytest.warns(CacheWarning, match=f"{p1}.*'resilient-comparison'") as caught:
         again = report(True)
     assert len(caught) == 1  # the old file without a kind is reused silently
-    assert [(p.fingerprint, p.result.suite) for p in again.per_period.periods] == \
-        [(p.fingerprint, p.result.suite) for p in first.per_period.periods]
+    assert [(p.fingerprint, p.result.suite) for p in again.per_period.periods] == [
+        (p.fingerprint, p.result.suite) for p in first.per_period.periods
+    ]
     assert p0.stat().st_mtime_ns == before  # reused
     assert json.loads(p1.read_text())["kind"] == "resilient-period"  # recomputed and rewritten

@@ -78,12 +78,28 @@ def test_every_part_of_the_target_is_walked(problems):
 
 # ---------------------------------------------------------------------------------------- periods
 
-PERIOD_BASE = dict(budget=20_000.0, alpha=1, rule="uniform", engine="fast", jobs=1, lazy=True, period=3.0,
-                   method="algorithm-2", selector=None, constraints=None)
+PERIOD_BASE = dict(
+    budget=20_000.0,
+    alpha=1,
+    rule="uniform",
+    engine="fast",
+    jobs=1,
+    lazy=True,
+    period=3.0,
+    method="algorithm-2",
+    selector=None,
+    constraints=None,
+)
 PERIOD_CHANGES = {
-    "budget": dict(budget=19_000.0), "alpha": dict(alpha=2), "rule": dict(rule="cost-benefit"),
-    "method": dict(method="robust", selector=robust_choice), "engine": dict(engine="reference"), "lazy": dict(lazy=False),
-    "period": dict(period=4.0), "limits": dict(constraints=LIMIT), **{part: {} for part in TARGET_PARTS},
+    "budget": dict(budget=19_000.0),
+    "alpha": dict(alpha=2),
+    "rule": dict(rule="cost-benefit"),
+    "method": dict(method="robust", selector=robust_choice),
+    "engine": dict(engine="reference"),
+    "lazy": dict(lazy=False),
+    "period": dict(period=4.0),
+    "limits": dict(constraints=LIMIT),
+    **{part: {} for part in TARGET_PARTS},
 }
 
 
@@ -114,10 +130,12 @@ def test_a_resume_with_two_failures_recomputes_the_one_failure_periods(problems,
 
 def _untimed(obj: object) -> object:
     """The JSON of a result without its timings."""
+
     def rec(o: object) -> object:
         if isinstance(o, dict):
             return {k: rec(v) for k, v in o.items() if k != "seconds"}
         return [rec(v) for v in o] if isinstance(o, list) else o
+
     return rec(results.to_jsonable(obj))
 
 
@@ -125,13 +143,20 @@ def _untimed(obj: object) -> object:
 
 # certificate off: with it on, the method also changes whether a cell computes a certificate, which
 # would hide the method's own place in the fingerprint
-STUDY_BASE = {"target": {"fixture": "tiny"}, "grid": {"budgets": [5000], "rules": ["uniform"], "failures": [1]},
-              "certificate": False}
+STUDY_BASE = {
+    "target": {"fixture": "tiny"},
+    "grid": {"budgets": [5000], "rules": ["uniform"], "failures": [1]},
+    "certificate": False,
+}
 STUDY_CHANGES = {
-    "budget": {"grid": {"budgets": [6000]}}, "alpha": {"grid": {"failures": [2]}}, "rule": {"grid": {"rules": ["marginal"]}},
-    "method": {"method": "robust"}, "engine": {"engine": "reference"},
+    "budget": {"grid": {"budgets": [6000]}},
+    "alpha": {"grid": {"failures": [2]}},
+    "rule": {"grid": {"rules": ["marginal"]}},
+    "method": {"method": "robust"},
+    "engine": {"engine": "reference"},
     "library": {"grid": {"libraries": [str(REPO / "configs" / "reduced_library.yaml")]}},
-    "map": {"target": {"landmarks": "synthetic"}}, "route": {"target": {"fixture": "suburb"}},
+    "map": {"target": {"landmarks": "synthetic"}},
+    "route": {"target": {"fixture": "suburb"}},
 }
 
 
@@ -167,8 +192,12 @@ def test_the_method_does_not_touch_a_cell_without_failures(tmp_path):
 
 TRADE_BASE = dict(budgets=[3000.0, 9000.0], rules=["uniform"], engine="fast", lazy=True, constraints=None)
 TRADE_CHANGES = {
-    "budget": dict(budgets=[3000.0, 8000.0]), "rule": dict(rules=["marginal"]), "engine": dict(engine="reference"),
-    "lazy": dict(lazy=False), "limits": dict(constraints=LIMIT), **{part: {} for part in TARGET_PARTS},
+    "budget": dict(budgets=[3000.0, 8000.0]),
+    "rule": dict(rules=["marginal"]),
+    "engine": dict(engine="reference"),
+    "lazy": dict(lazy=False),
+    "limits": dict(constraints=LIMIT),
+    **{part: {} for part in TARGET_PARTS},
 }
 
 
@@ -191,8 +220,14 @@ def test_a_tradespace_rule_file_is_never_reused_after_changing_one_input(field, 
     reread = [n for n, b in stored.items() if n in theirs and (tmp_path / "runs" / n).read_bytes() == b]
     assert not reread  # a file of one of this run's rules was recomputed and overwritten, not read back
     assert all(issubclass(w.category, CacheWarning) for w in caught)
-    fresh = run_tradespace(target, changed["budgets"], changed["rules"], engine=changed["engine"], lazy=changed["lazy"],
-                           constraints=changed["constraints"])
+    fresh = run_tradespace(
+        target,
+        changed["budgets"],
+        changed["rules"],
+        engine=changed["engine"],
+        lazy=changed["lazy"],
+        constraints=changed["constraints"],
+    )
     assert [(r.suite, r.score) for r in again.runs] == [(r.suite, r.score) for r in fresh.runs]
 
 
@@ -200,8 +235,12 @@ def test_a_tradespace_rule_file_is_never_reused_after_changing_one_input(field, 
 
 GREEDY_BASE = dict(budget=20_000.0, rule="uniform", engine="fast", aggregate="", lazy=True, constraints=None)
 GREEDY_CHANGES = {
-    "budget": dict(budget=19_000.0), "rule": dict(rule="cost-benefit"), "engine": dict(engine="reference"),
-    "lazy": dict(lazy=False), "limits": dict(constraints=LIMIT), **{part: {} for part in TARGET_PARTS},
+    "budget": dict(budget=19_000.0),
+    "rule": dict(rule="cost-benefit"),
+    "engine": dict(engine="reference"),
+    "lazy": dict(lazy=False),
+    "limits": dict(constraints=LIMIT),
+    **{part: {} for part in TARGET_PARTS},
 }
 
 
@@ -215,25 +254,47 @@ def test_a_greedy_checkpoint_is_not_read_back_after_changing_one_input(field, pr
 
     base = problems["base"]
     fp, _ = fp_and_limits(base, **GREEDY_BASE)
-    path = results.save(GreedyCheckpoint(fingerprint=fp, budget_usd=GREEDY_BASE["budget"], rule="uniform", engine="fast",
-                                         aggregate="", lazy=True, target=base.info), tmp_path / "g.json.checkpoint")
+    path = results.save(
+        GreedyCheckpoint(
+            fingerprint=fp,
+            budget_usd=GREEDY_BASE["budget"],
+            rule="uniform",
+            engine="fast",
+            aggregate="",
+            lazy=True,
+            target=base.info,
+        ),
+        tmp_path / "g.json.checkpoint",
+    )
     kw = {**GREEDY_BASE, **GREEDY_CHANGES[field]}
     target = problems.get(field, base)
     fp2, limits2 = fp_and_limits(target, **kw)
     assert fp2 != fp
     with pytest.warns(CacheWarning, match="g.json.checkpoint: not reused"):
-        got = load_checkpoint(path, target, kw["budget"], kw["rule"], kw["engine"], kw["aggregate"], kw["lazy"], fp2, limits2)
+        got = load_checkpoint(
+            path, target, kw["budget"], kw["rule"], kw["engine"], kw["aggregate"], kw["lazy"], fp2, limits2
+        )
     assert got is None
 
 
 # ----------------------------------------------------------------------------------------- robust
 
-ROBUST_BASE = dict(budget=20_000.0, alpha=1, rules=("uniform", "marginal"), methods=("oblivious", "local-search"),
-                   engine="fast", constraints=None)
+ROBUST_BASE = dict(
+    budget=20_000.0,
+    alpha=1,
+    rules=("uniform", "marginal"),
+    methods=("oblivious", "local-search"),
+    engine="fast",
+    constraints=None,
+)
 ROBUST_CHANGES = {
-    "budget": dict(budget=19_000.0), "alpha": dict(alpha=2), "rule": dict(rules=("uniform", "cost-benefit")),
-    "method": dict(methods=("oblivious", "saturate")), "engine": dict(engine="reference"),
-    "limits": dict(constraints=LIMIT), **{part: {} for part in TARGET_PARTS},
+    "budget": dict(budget=19_000.0),
+    "alpha": dict(alpha=2),
+    "rule": dict(rules=("uniform", "cost-benefit")),
+    "method": dict(methods=("oblivious", "saturate")),
+    "engine": dict(engine="reference"),
+    "limits": dict(constraints=LIMIT),
+    **{part: {} for part in TARGET_PARTS},
 }
 
 
@@ -247,7 +308,9 @@ def _robust_fps(problem, folder: Path, budget, alpha, **kw) -> set[str]:
 @pytest.mark.parametrize("field", list(ROBUST_CHANGES))
 def test_a_robust_task_file_is_never_reused_after_changing_one_input(field, problems, tmp_path):
     base = _robust_fps(problems["base"], tmp_path / "base", **ROBUST_BASE)
-    changed = _robust_fps(problems.get(field, problems["base"]), tmp_path / "changed", **{**ROBUST_BASE, **ROBUST_CHANGES[field]})
+    changed = _robust_fps(
+        problems.get(field, problems["base"]), tmp_path / "changed", **{**ROBUST_BASE, **ROBUST_CHANGES[field]}
+    )
     assert len(base) >= 5 and changed
     assert not base & changed
 
@@ -270,7 +333,9 @@ def test_a_resume_at_night_recomputes_the_clear_periods(problems, tmp_path):
     route was recomputed, with a warning)."""
     clear, night = problems["base"], problems["condition"]
     first = run_periods(clear, 20_000, 1, period_s=3.0, outdir=tmp_path)
-    assert [q.period.n_landmarks for q in first.periods] == [t.span.n_landmarks for t in period_plan(night, **PERIOD_BASE).tasks]
+    assert [q.period.n_landmarks for q in first.periods] == [
+        t.span.n_landmarks for t in period_plan(night, **PERIOD_BASE).tasks
+    ]
     with pytest.warns(CacheWarning) as caught:
         again = run_periods(night, 20_000, 1, period_s=3.0, outdir=tmp_path, resume=True)
     assert len({str(w.message).split(":")[0] for w in caught}) == len(first.periods)
@@ -297,8 +362,11 @@ def test_a_period_of_a_problem_built_from_objects_is_selected_under_its_conditio
 
 OPTIMAL_BASE = dict(budget=20_000.0, rule="uniform", engine="fast", constraints=None)
 OPTIMAL_CHANGES = {
-    "budget": dict(budget=19_000.0), "rule": dict(rule="cost-benefit"), "engine": dict(engine="reference"),
-    "limits": dict(constraints=LIMIT), **{part: {} for part in TARGET_PARTS},
+    "budget": dict(budget=19_000.0),
+    "rule": dict(rule="cost-benefit"),
+    "engine": dict(engine="reference"),
+    "limits": dict(constraints=LIMIT),
+    **{part: {} for part in TARGET_PARTS},
 }
 
 
@@ -308,8 +376,15 @@ def test_an_optimal_checkpoint_is_not_reused_after_changing_one_input(field, pro
     from sensorsel.information.evaluators import evaluator_for
 
     def run(problem, resume, budget, rule, engine, constraints):
-        return optimal(evaluator_for(problem, engine), budget, rule=rule, info=problem.info, constraints=constraints,
-                       checkpoint=tmp_path / "opt.checkpoint", resume=resume)
+        return optimal(
+            evaluator_for(problem, engine),
+            budget,
+            rule=rule,
+            info=problem.info,
+            constraints=constraints,
+            checkpoint=tmp_path / "opt.checkpoint",
+            resume=resume,
+        )
 
     run(problems["base"], False, **OPTIMAL_BASE)
     assert (tmp_path / "opt.checkpoint").is_file()
@@ -317,20 +392,35 @@ def test_an_optimal_checkpoint_is_not_reused_after_changing_one_input(field, pro
     target = problems.get(field, problems["base"])
     with pytest.warns(CacheWarning, match="opt.checkpoint: not reused"):
         again = run(target, True, **kw)
-    fresh = optimal(evaluator_for(target, kw["engine"]), kw["budget"], rule=kw["rule"], info=target.info,
-                    constraints=kw["constraints"])
+    fresh = optimal(
+        evaluator_for(target, kw["engine"]),
+        kw["budget"],
+        rule=kw["rule"],
+        info=target.info,
+        constraints=kw["constraints"],
+    )
     assert (again.suite, again.score) == (fresh.suite, fresh.score)
 
 
 # ---------------------------------------------------------------------------------------- require
 
-REQUIRE_BASE = dict(spec=dict(lateral=0.5, longitudinal=0.5), map_sigma_m=0.05, failures=0, budget_usd=None,
-                    constraints=None, engine="fast")
+REQUIRE_BASE = dict(
+    spec=dict(lateral=0.5, longitudinal=0.5),
+    map_sigma_m=0.05,
+    failures=0,
+    budget_usd=None,
+    constraints=None,
+    engine="fast",
+)
 REQUIRE_CHANGES = {
     "specification": dict(spec=dict(lateral=0.4, longitudinal=0.5)),
     "share of keyframes": dict(spec=dict(lateral=0.5, longitudinal=0.5, at=0.9)),
-    "map model": dict(map_sigma_m=None), "map sigma": dict(map_sigma_m=0.1), "failures": dict(failures=1),
-    "budget": dict(budget_usd=50_000.0), "limits": dict(constraints=LIMIT), "engine": dict(engine="reference"),
+    "map model": dict(map_sigma_m=None),
+    "map sigma": dict(map_sigma_m=0.1),
+    "failures": dict(failures=1),
+    "budget": dict(budget_usd=50_000.0),
+    "limits": dict(constraints=LIMIT),
+    "engine": dict(engine="reference"),
     **{part: {} for part in TARGET_PARTS},
 }
 
@@ -372,7 +462,9 @@ def test_an_optimal_checkpoint_without_recorded_info_is_keyed_on_the_evaluators_
     ck = tmp_path / "opt.checkpoint"
     optimal(evaluator_for(problems["base"], "fast"), 20_000.0, rule="uniform", checkpoint=ck)
     with pytest.warns(CacheWarning, match="opt.checkpoint: not reused"):
-        again = optimal(evaluator_for(problems["condition"], "fast"), 20_000.0, rule="uniform", checkpoint=ck, resume=True)
+        again = optimal(
+            evaluator_for(problems["condition"], "fast"), 20_000.0, rule="uniform", checkpoint=ck, resume=True
+        )
     fresh = optimal(evaluator_for(problems["condition"], "fast"), 20_000.0, rule="uniform")
     assert (again.suite, again.score) == (fresh.suite, fresh.score)
 
@@ -381,14 +473,21 @@ def test_an_optimal_checkpoint_without_recorded_info_is_keyed_on_the_evaluators_
 def test_a_study_cell_on_a_domain_is_never_reused_under_another_condition(tmp_path, change):
     """A study on a domain with conditions: a member's condition changed alone (its name and share
     kept) gives other fingerprints for every cell."""
+
     def domain(cond: str) -> str:
         path = tmp_path / f"d{len(list(tmp_path.glob('d*.yaml')))}.yaml"
-        path.write_text(f"keyframe_rate_hz: 1.0\nconditions:\n  - {{name: bad, {cond}, share: 0.2}}\n"
-                        "routes:\n  - {name: tiny, fixture: tiny}\n", encoding="utf-8")
+        path.write_text(
+            f"keyframe_rate_hz: 1.0\nconditions:\n  - {{name: bad, {cond}, share: 0.2}}\n"
+            "routes:\n  - {name: tiny, fixture: tiny}\n",
+            encoding="utf-8",
+        )
         return str(path)
 
-    study = {"target": {"domain": domain("fog_visibility_m: 60")}, "grid": {"budgets": [5000], "rules": ["uniform"],
-                                                                            "failures": [0]}, "certificate": False}
+    study = {
+        "target": {"domain": domain("fog_visibility_m: 60")},
+        "grid": {"budgets": [5000], "rules": ["uniform"], "failures": [0]},
+        "certificate": False,
+    }
     base = _cell_fps(study, tmp_path)
     changed = _cell_fps({**study, "target": {"domain": domain(change)}}, tmp_path)
     assert base and changed and not base & changed

@@ -25,33 +25,108 @@ from sensorsel.cli import cli
 from sensorsel.io.resources import default_library_path
 
 REPO = Path(__file__).resolve().parents[1]
-STUDY = "target: {fixture: tiny}\ngrid:\n  budgets: [5000]\n  rules: [uniform]\n  failures: [0, 1]\ncertificate: false\n"
+STUDY = (
+    "target: {fixture: tiny}\ngrid:\n  budgets: [5000]\n  rules: [uniform]\n  failures: [0, 1]\ncertificate: false\n"
+)
 
 #: run -> (its arguments, OUT: the output; where its store's files are; keys not compared)
 RUNS = {
-    "greedy": (["greedy", "--fixture", "tiny", "--budget", "6000", "-o", "OUT/design.json"],
-               "design.json.checkpoint", {"seconds", "n_evaluations"}),
-    "pareto": (["pareto", "--fixture", "tiny", "--budgets", "3000,6000", "--rules", "uniform", "--plot-format", "svg",
-                "--output-dir", "OUT"], "runs/rule-*.json", {"seconds"}),
-    "resilient": (["resilient", "--fixture", "tiny", "--budget", "6000", "--failures", "1", "--period", "6",
-                   "--plot-format", "svg", "--output-dir", "OUT"], "periods/period-*.json", {"seconds"}),
-    "robust": (["robust", "--fixture", "tiny", "--budget", "6000", "--failures", "1", "--rules", "uniform",
-                "--methods", "oblivious", "-o", "OUT/robust.json"], "robust.json.tasks/*.json", {"seconds"}),
-    "optimal": (["optimal", "--fixture", "tiny", "--budget", "6000", "--max-nodes", "100", "-o", "OUT/optimal.json"],
-                "optimal.json.checkpoint", {"seconds", "n_evaluations"}),
+    "greedy": (
+        ["greedy", "--fixture", "tiny", "--budget", "6000", "-o", "OUT/design.json"],
+        "design.json.checkpoint",
+        {"seconds", "n_evaluations"},
+    ),
+    "pareto": (
+        [
+            "pareto",
+            "--fixture",
+            "tiny",
+            "--budgets",
+            "3000,6000",
+            "--rules",
+            "uniform",
+            "--plot-format",
+            "svg",
+            "--output-dir",
+            "OUT",
+        ],
+        "runs/rule-*.json",
+        {"seconds"},
+    ),
+    "resilient": (
+        [
+            "resilient",
+            "--fixture",
+            "tiny",
+            "--budget",
+            "6000",
+            "--failures",
+            "1",
+            "--period",
+            "6",
+            "--plot-format",
+            "svg",
+            "--output-dir",
+            "OUT",
+        ],
+        "periods/period-*.json",
+        {"seconds"},
+    ),
+    "robust": (
+        [
+            "robust",
+            "--fixture",
+            "tiny",
+            "--budget",
+            "6000",
+            "--failures",
+            "1",
+            "--rules",
+            "uniform",
+            "--methods",
+            "oblivious",
+            "-o",
+            "OUT/robust.json",
+        ],
+        "robust.json.tasks/*.json",
+        {"seconds"},
+    ),
+    "optimal": (
+        ["optimal", "--fixture", "tiny", "--budget", "6000", "--max-nodes", "100", "-o", "OUT/optimal.json"],
+        "optimal.json.checkpoint",
+        {"seconds", "n_evaluations"},
+    ),
     "study": (["study", "STUDY", "--output-dir", "OUT"], "cells/cell-*.json", {"seconds", "n_reused"}),
     # on Table I with four clock positions (22 sensors), a loose specification: a short search
-    "require": (["require", "--fixture", "tiny", "--library", "SMALL", "--lateral", "0.5", "--longitudinal", "0.5",
-                 "--budget", "50000", "-o", "OUT/require.json"], "require.json.checkpoint",
-                {"seconds", "seconds_checks", "seconds_programs", "n_checks", "n_refuted"}),
+    "require": (
+        [
+            "require",
+            "--fixture",
+            "tiny",
+            "--library",
+            "SMALL",
+            "--lateral",
+            "0.5",
+            "--longitudinal",
+            "0.5",
+            "--budget",
+            "50000",
+            "-o",
+            "OUT/require.json",
+        ],
+        "require.json.checkpoint",
+        {"seconds", "seconds_checks", "seconds_programs", "n_checks", "n_refuted"},
+    ),
 }
 
 
 def _args(run: str, out: Path, study: Path) -> list[str]:
     args = RUNS[run][0]
     small = str(study.with_name("small.yaml"))
-    return [str(out) + a[3:] if a.startswith("OUT") else str(study) if a == "STUDY" else small if a == "SMALL" else a
-            for a in args] + ["-q"]
+    return [
+        str(out) + a[3:] if a.startswith("OUT") else str(study) if a == "STUDY" else small if a == "SMALL" else a
+        for a in args
+    ] + ["-q"]
 
 
 def _invoke(args: list[str]):
@@ -63,6 +138,7 @@ def _answer(text: str, ignore: set[str]) -> object:
         if isinstance(o, dict):
             return {k: rec(v) for k, v in o.items() if k not in ignore}
         return [rec(v) for v in o] if isinstance(o, list) else o
+
     return rec(json.loads(text))
 
 
@@ -70,7 +146,9 @@ def _another_run(run: str, out: Path, study: Path, tiny_problem) -> None:
     """Leave under ``out`` what a run of other inputs (a $5,000 budget; another engine for the study) stores."""
     if run in ("pareto", "resilient"):
         args = _args(run, out, study)
-        args[args.index("6000") if "6000" in args else args.index("3000,6000")] = {"pareto": "3000,5000"}.get(run, "5000")
+        args[args.index("6000") if "6000" in args else args.index("3000,6000")] = {"pareto": "3000,5000"}.get(
+            run, "5000"
+        )
         assert _invoke(args).exit_code == 0
     elif run == "study":
         other = study.with_name("other.yaml")
@@ -88,16 +166,26 @@ def _another_run(run: str, out: Path, study: Path, tiny_problem) -> None:
         from sensorsel.designs.certify import optimal
         from sensorsel.information.evaluators import evaluator_for
 
-        optimal(evaluator_for(tiny_problem), 5_000, max_nodes=100, info=tiny_problem.info,
-                checkpoint=out / "optimal.json.checkpoint")
+        optimal(
+            evaluator_for(tiny_problem),
+            5_000,
+            max_nodes=100,
+            info=tiny_problem.info,
+            checkpoint=out / "optimal.json.checkpoint",
+        )
     else:
         from sensorsel.designs.requirements import DEFAULT_MAP_SIGMA_M, Specification, require
         from sensorsel.model.library import load_library
         from sensorsel.model.problem import build_problem
 
         problem = build_problem(load_library(study.with_name("small.yaml")), tiny_problem.scenario)
-        require(problem, Specification(lateral=0.5, longitudinal=0.5), map_sigma_m=DEFAULT_MAP_SIGMA_M,
-                budget_usd=40_000, checkpoint=out / "require.json.checkpoint")
+        require(
+            problem,
+            Specification(lateral=0.5, longitudinal=0.5),
+            map_sigma_m=DEFAULT_MAP_SIGMA_M,
+            budget_usd=40_000,
+            checkpoint=out / "require.json.checkpoint",
+        )
 
 
 @pytest.mark.parametrize("run", list(RUNS))
@@ -130,5 +218,5 @@ def test_every_design_run_resumes_on_another_runs_store_the_same_way(run, tiny_p
 def test_the_resume_help_says_what_every_run_does():
     """The shared --resume help: matching results read back, the others warned and computed again."""
     for run in RUNS:
-        opt, = [p for p in cli.commands[run].params if p.name == "resume"]
+        (opt,) = [p for p in cli.commands[run].params if p.name == "resume"]
         assert "a warning names the file" in (opt.help or "") and "computed again and overwritten" in (opt.help or "")

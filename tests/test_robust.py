@@ -17,11 +17,19 @@ import math
 
 import numpy as np
 import pytest
-
 from oracles import every_suite_score
+
 from sensorsel.designs.resilient import resilient_select, worst_case
-from sensorsel.designs.robust import (EvaluatorFamily, FailureFamily, MemoEvaluator, knapsack_drop, robust_bound,
-                                      robust_optimum, robust_select, saturate)
+from sensorsel.designs.robust import (
+    EvaluatorFamily,
+    FailureFamily,
+    MemoEvaluator,
+    knapsack_drop,
+    robust_bound,
+    robust_optimum,
+    robust_select,
+    saturate,
+)
 from sensorsel.designs.selection import greedy
 from sensorsel.information.evaluators import Evaluator, as_suite, make_evaluator
 from sensorsel.io import results
@@ -33,14 +41,37 @@ REL = 1e-9
 LIBRARY = load_library()
 SMALL = {
     # (fixture, sensors): 12 on the tiny fixture, 10 on suburb (its suites cost ~3 ms each)
-    "tiny12": ("tiny", ("LRL-roof", "MRL-roof", "LRR-12", "LRR-6", "MRR-3", "WSC-12", "WSC-6", "HD2K-12", "HD2K-3",
-                        "HD2K-6", "HD2K-9", "LSC-9")),
-    "tiny-cheap10": ("tiny", ("MRR-12", "MRR-3", "LRR-9", "LRR-3", "WSC-6", "WSC-9", "HD2K-3", "HD2K-9", "LSC-6", "LSC-12")),
-    "suburb10": ("suburb", ("LRL-roof", "MRL-roof", "LRR-12", "LRR-3", "LRR-6", "WSC-12", "WSC-3", "HD2K-12", "HD2K-6",
-                            "LSC-12")),
+    "tiny12": (
+        "tiny",
+        (
+            "LRL-roof",
+            "MRL-roof",
+            "LRR-12",
+            "LRR-6",
+            "MRR-3",
+            "WSC-12",
+            "WSC-6",
+            "HD2K-12",
+            "HD2K-3",
+            "HD2K-6",
+            "HD2K-9",
+            "LSC-9",
+        ),
+    ),
+    "tiny-cheap10": (
+        "tiny",
+        ("MRR-12", "MRR-3", "LRR-9", "LRR-3", "WSC-6", "WSC-9", "HD2K-3", "HD2K-9", "LSC-6", "LSC-12"),
+    ),
+    "suburb10": (
+        "suburb",
+        ("LRL-roof", "MRL-roof", "LRR-12", "LRR-3", "LRR-6", "WSC-12", "WSC-3", "HD2K-12", "HD2K-6", "LSC-12"),
+    ),
 }
-BUDGETS = {"tiny12": [3_000.0, 9_000.0, 110_000.0], "tiny-cheap10": [2_000.0, 6_000.0, 12_000.0],
-           "suburb10": [5_000.0, 104_500.0, 110_000.0]}
+BUDGETS = {
+    "tiny12": [3_000.0, 9_000.0, 110_000.0],
+    "tiny-cheap10": [2_000.0, 6_000.0, 12_000.0],
+    "suburb10": [5_000.0, 104_500.0, 110_000.0],
+}
 CASES = [(name, b, a) for name in SMALL for b in BUDGETS[name] for a in (1, 2)]
 
 
@@ -63,14 +94,14 @@ class TableEvaluator(Evaluator):
         return self.table[as_suite(suite)] - self.table[()]
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def small_problem(name: str):
     fixture, ids = SMALL[name]
     lib = LIBRARY.subset([LIBRARY.position(i) for i in ids])
     return build_problem(lib, load_scenario(ScenarioSpec(fixture=fixture)))
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def table(name: str) -> dict[tuple[int, ...], float]:
     """f of every suite, each scored once (as an extension of its prefix without its last sensor)."""
     return every_suite_score(make_evaluator(small_problem(name), "fast"))
@@ -85,7 +116,7 @@ def brute_worst(tab, s: tuple[int, ...], alpha: int) -> float:
     return min(tab[tuple(i for i in s if i not in f)] for f in itertools.combinations(s, k)) if s else 0.0
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def brute_robust(name: str, budget: float, alpha: int) -> float:
     tab, lib = table(name), small_problem(name).library
     return max(brute_worst(tab, s, alpha) for s in tab if lib.cost(s) <= budget + 1e-9)
@@ -152,8 +183,13 @@ def test_robust_answer_lies_between_greedy_and_the_optimum(name, budget, alpha):
 def test_every_method_and_the_bound_without_skipping(name, budget, alpha):
     opt = brute_robust(name, budget, alpha)
     r = robust_select(table_eval(name), budget, alpha, skip_when_proved=False)
-    assert {c.method for c in r.candidates} >= {"greedy-uniform", "greedy-marginal", "algorithm-2", "oblivious-eta2",
-                                                "local-search"}
+    assert {c.method for c in r.candidates} >= {
+        "greedy-uniform",
+        "greedy-marginal",
+        "algorithm-2",
+        "oblivious-eta2",
+        "local-search",
+    }
     assert not r.skipped or r.skipped == ("saturate: no level between the best worst case and the bound",)
     assert r.worst_score <= opt + tol(opt) <= r.bound + 2 * tol(opt)
     # the bound with no case split (one node) is valid too, and never tighter than with the split
@@ -196,7 +232,9 @@ def test_failure_family_terms_are_the_members_grouped():
         w3, v3 = fam.terms_with(s, cands, cap=c)
         for k, e in enumerate(cands):
             se = tuple(sorted(s + (e,)))
-            brute = sum(min(tab[tuple(i for i in se if i not in f)], c) for f in itertools.combinations(range(n), alpha))
+            brute = sum(
+                min(tab[tuple(i for i in se if i not in f)], c) for f in itertools.combinations(range(n), alpha)
+            )
             assert abs(float(w2 @ np.minimum(v2[:, k], c)) - brute) <= 1e-9 * brute
             assert abs(float(w3 @ np.minimum(v3[:, k], c)) - brute) <= 1e-9 * brute
         assert fam.worst(s)[0] == pytest.approx(brute_worst(tab, s, alpha), rel=1e-12, abs=1e-12)
@@ -296,8 +334,10 @@ def test_algorithm_2_can_lose_to_greedy_and_the_robust_answer_beats_both():
     assert sorted(positions(lib, a2.suite)) == [a, d, x] and a2_w == 11.0
     r = robust_select(CoverageEvaluator(lib, covers), budget, 1, skip_when_proved=False)
     assert r.worst_score >= max(g_w, a2_w) and r.algorithm2_worst_score == 11.0 and r.greedy_worst_score == 12.0
-    best = max(min(CoverageEvaluator(lib, covers).score([i for i in s if i != f]) for f in s)
-               for s in itertools.combinations(range(5), 3))
+    best = max(
+        min(CoverageEvaluator(lib, covers).score([i for i in s if i != f]) for f in s)
+        for s in itertools.combinations(range(5), 3)
+    )
     assert r.worst_score == best and r.bound >= best
     o = robust_optimum(CoverageEvaluator(lib, covers), budget, 1)
     assert o.proved_optimal and o.worst_score == best

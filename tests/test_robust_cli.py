@@ -53,7 +53,20 @@ def small_library_yaml(tmp_path_factory) -> str:
 
 # ------------------------------------------------------------------------------------ sensorsel robust
 
-ROBUST_ARGS = ["robust", "--fixture", "tiny", "--engine", "fast", "--jobs", "1", "--budget", "5,000", "--failures", "1", "-q"]
+ROBUST_ARGS = [
+    "robust",
+    "--fixture",
+    "tiny",
+    "--engine",
+    "fast",
+    "--jobs",
+    "1",
+    "--budget",
+    "5,000",
+    "--failures",
+    "1",
+    "-q",
+]
 
 
 def test_cli_robust_prints_the_three_designs_and_round_trips(small_library_yaml, tmp_path):
@@ -71,7 +84,11 @@ def test_cli_robust_prints_the_three_designs_and_round_trips(small_library_yaml,
     robust_row = lines["robust"]
     assert compact_suite(res.suite) in robust_row
     tail = robust_row.split(compact_suite(res.suite))[1].split()
-    assert tail[2] == f"{res.worst_score:,.2f}" and tail[3] == ",".join(res.failures) and tail[-1] == f"{res.gap_percent:.2f}%"
+    assert (
+        tail[2] == f"{res.worst_score:,.2f}"
+        and tail[3] == ",".join(res.failures)
+        and tail[-1] == f"{res.gap_percent:.2f}%"
+    )
     assert f"{res.greedy_worst_score:,.2f}" in lines["greedy"].split()
     # the user reads the methods' words, never their internal keys ("bound-leaf")
     assert f"chosen by {method_words(res.method)};" in r.stdout and "candidates" in r.stdout
@@ -103,8 +120,19 @@ def results_library(path):
 def test_cli_robust_is_deterministic(small_library_yaml, tmp_path):
     a, b = tmp_path / "a.json", tmp_path / "b.json"
     for out in (a, b):
-        assert invoke(*ROBUST_ARGS, "--library", small_library_yaml, "--methods", "saturate,local-search", "--no-skip",
-                      "-o", out).exit_code == 0
+        assert (
+            invoke(
+                *ROBUST_ARGS,
+                "--library",
+                small_library_yaml,
+                "--methods",
+                "saturate,local-search",
+                "--no-skip",
+                "-o",
+                out,
+            ).exit_code
+            == 0
+        )
     assert strip_timings(json.loads(a.read_text())) == strip_timings(json.loads(b.read_text()))
 
 
@@ -132,8 +160,25 @@ def test_files_that_call_algorithm_2_paper_are_read_until_their_release(small_li
     assert REMOVED_IN == "0.2.0"  # the promise the docs make: change both together
     import warnings
 
-    common = ["resilient", "--fixture", "tiny", "--library", small_library_yaml, "--engine", "fast", "--jobs", "1",
-              "--budget", "5000", "--failures", "1", "--period", "3", "-q", "--json"]
+    common = [
+        "resilient",
+        "--fixture",
+        "tiny",
+        "--library",
+        small_library_yaml,
+        "--engine",
+        "fast",
+        "--jobs",
+        "1",
+        "--budget",
+        "5000",
+        "--failures",
+        "1",
+        "--period",
+        "3",
+        "-q",
+        "--json",
+    ]
     out = tmp_path / "a2"
     first = invoke(*common, "--output-dir", out)
     assert first.exit_code == 0, first.output
@@ -155,7 +200,9 @@ def test_files_that_call_algorithm_2_paper_are_read_until_their_release(small_li
             if isinstance(o, dict):
                 return {k: rec(v) for k, v in o.items() if k != "seconds"}
             return [rec(v) for v in o] if isinstance(o, list) else o
+
         return rec(json.loads(text))
+
     assert untimed(again.stdout) == untimed(first.stdout)
 
 
@@ -166,15 +213,37 @@ def test_algorithm_2_has_one_name_in_study_files_and_on_the_command_line(tmp_pat
     f.write_text("target: {fixture: tiny}\ngrid: {budgets: [5000], failures: [1]}\nmethod: paper\n")
     with pytest.raises(StudyError, match="method: expected one of algorithm-2, robust, got 'paper'"):
         load_study(f)
-    r = invoke("resilient", "--fixture", "tiny", "--budget", "5000", "--method", "paper", "--output-dir", tmp_path / "o")
+    r = invoke(
+        "resilient", "--fixture", "tiny", "--budget", "5000", "--method", "paper", "--output-dir", tmp_path / "o"
+    )
     assert r.exit_code == 2 and "'paper' is not one of" in r.output
 
 
 @pytest.mark.parametrize("method", ["algorithm-2", "robust"])
 def test_resilient_method_grid_and_csv_show_the_worst_failures(small_library_yaml, tmp_path, method):
     out = tmp_path / method
-    r = invoke("resilient", "--fixture", "tiny", "--library", small_library_yaml, "--engine", "fast", "--jobs", "1",
-               "--budget", "5000", "--failures", "1", "--period", "3", "--method", method, "--output-dir", out, "-q")
+    r = invoke(
+        "resilient",
+        "--fixture",
+        "tiny",
+        "--library",
+        small_library_yaml,
+        "--engine",
+        "fast",
+        "--jobs",
+        "1",
+        "--budget",
+        "5000",
+        "--failures",
+        "1",
+        "--period",
+        "3",
+        "--method",
+        method,
+        "--output-dir",
+        out,
+        "-q",
+    )
     assert r.exit_code == 0, r.output
     rep = results.load(out / "resilient.json", ResilientReport)
     assert rep.method == method and rep.per_period is not None and rep.per_period.method == method
@@ -189,9 +258,15 @@ def test_resilient_method_grid_and_csv_show_the_worst_failures(small_library_yam
         assert set(p.worst.failures) <= set(p.worst.suite)
         if method == "robust":
             assert p.result is None and p.robust is not None and FAILED not in cells
-            assert {s for s, c in zip(grid.sensors, grid.cells[k]) if c == ACTIVE} == set(p.robust.suite) == set(p.worst.suite)
+            assert (
+                {s for s, c in zip(grid.sensors, grid.cells[k]) if c == ACTIVE}
+                == set(p.robust.suite)
+                == set(p.worst.suite)
+            )
             assert p.robust.worst_score == pytest.approx(p.worst.score, rel=1e-12)
-            assert p.robust.worst_score >= max(p.robust.greedy_worst_score, p.robust.algorithm2_worst_score) - tol(p.worst.score)
+            assert p.robust.worst_score >= max(p.robust.greedy_worst_score, p.robust.algorithm2_worst_score) - tol(
+                p.worst.score
+            )
         else:
             assert p.robust is None and grid.failed(k) == set(p.result.failed)
     if method == "robust":
@@ -207,8 +282,26 @@ def test_resilient_method_grid_and_csv_show_the_worst_failures(small_library_yam
 
 
 def test_resilient_robust_resume_does_not_reuse_paper_periods(small_library_yaml, tmp_path):
-    args = ["resilient", "--fixture", "tiny", "--library", small_library_yaml, "--engine", "fast", "--jobs", "1",
-            "--budget", "5000", "--failures", "1", "--period", "5", "--output-dir", tmp_path, "-q"]
+    args = [
+        "resilient",
+        "--fixture",
+        "tiny",
+        "--library",
+        small_library_yaml,
+        "--engine",
+        "fast",
+        "--jobs",
+        "1",
+        "--budget",
+        "5000",
+        "--failures",
+        "1",
+        "--period",
+        "5",
+        "--output-dir",
+        tmp_path,
+        "-q",
+    ]
     assert invoke(*args).exit_code == 0
     r = invoke(*args, "--method", "robust", "--resume")
     assert r.exit_code == 0
@@ -226,10 +319,18 @@ SMALL = ("LRL-roof", "MRL-roof", "LRR-12", "LRR-6", "WSC-9", "HD2K-4", "HD2K-10"
 @pytest.fixture(scope="module")
 def three_routes(library):
     lib = library.subset([library.position(i) for i in SMALL])
-    specs = [ScenarioSpec(fixture="tiny"), ScenarioSpec(fixture="tiny", landmarks="synthetic", landmark_seed=3),
-             ScenarioSpec(fixture="tiny", landmarks="synthetic", landmark_seed=7)]
-    return Domain(tuple(DomainRoute(f"r{k}", build_problem(lib, load_scenario(s), spec=s), w)
-                        for k, (s, w) in enumerate(zip(specs, (3.0, 1.0, 0.5)))), "test")
+    specs = [
+        ScenarioSpec(fixture="tiny"),
+        ScenarioSpec(fixture="tiny", landmarks="synthetic", landmark_seed=3),
+        ScenarioSpec(fixture="tiny", landmarks="synthetic", landmark_seed=7),
+    ]
+    return Domain(
+        tuple(
+            DomainRoute(f"r{k}", build_problem(lib, load_scenario(s), spec=s), w)
+            for k, (s, w) in enumerate(zip(specs, (3.0, 1.0, 0.5)))
+        ),
+        "test",
+    )
 
 
 def brute_worst_route(domain, budget, alpha):
@@ -245,8 +346,9 @@ def brute_worst_route(domain, budget, alpha):
                 vals = []
                 for e, b in zip(evs, best):
                     sets = itertools.combinations(s, min(alpha, len(s)))
-                    vals.append(min((e.score(tuple(i for i in s if i not in f)) if len(f) < len(s) else 0.0) / b
-                                    for f in sets))
+                    vals.append(
+                        min((e.score(tuple(i for i in s if i not in f)) if len(f) < len(s) else 0.0) / b for f in sets)
+                    )
                 table[s] = min(vals)
     return table
 
@@ -263,7 +365,9 @@ def test_worst_route_against_brute_force(three_routes, budget, alpha):
     assert res.worst_score <= opt + tol(opt) and res.bound >= opt - tol(opt)
     for c in res.candidates:
         assert c.worst_score == pytest.approx(table[tuple(sorted(lib.resolve_suite(c.suite)))], rel=1e-9, abs=1e-12)
-    assert res.worst_score >= res.greedy_worst_score - tol(opt) and res.worst_score >= res.algorithm2_worst_score - tol(opt)
+    assert res.worst_score >= res.greedy_worst_score - tol(opt) and res.worst_score >= res.algorithm2_worst_score - tol(
+        opt
+    )
     # the breakdown names the worst route, with each route's exact shares
     assert [m.name for m in res.members] == ["r0", "r1", "r2"]
     worst = min(res.members, key=lambda m: m.worst_share)
@@ -291,8 +395,24 @@ def test_cli_robust_worst_route_on_the_fixture_domain(small_library_yaml, tmp_pa
 
     domain = Path(__file__).resolve().parents[1] / "configs" / "domain_fixtures.yaml"
     out = tmp_path / "w.json"
-    r = invoke("robust", "--domain", domain, "--library", small_library_yaml, "--aggregate", "worst", "--budget", "5000",
-               "--failures", "1", "--jobs", "1", "-q", "-o", out)
+    r = invoke(
+        "robust",
+        "--domain",
+        domain,
+        "--library",
+        small_library_yaml,
+        "--aggregate",
+        "worst",
+        "--budget",
+        "5000",
+        "--failures",
+        "1",
+        "--jobs",
+        "1",
+        "-q",
+        "-o",
+        out,
+    )
     assert r.exit_code == 0, r.output
     res = results.load(out, RobustResult)
     assert res.aggregate == "worst" and res.worst_member in ("suburb", "tiny")

@@ -13,8 +13,9 @@ import itertools
 
 import numpy as np
 import pytest
-
 from oracles import every_suite_score
+from test_constraints_selectors import LIBRARY, brute_worst, draw_constraints, feasible_suites, random_case, tol
+
 from sensorsel.api import run_robust
 from sensorsel.designs.robust import knapsack_drop, robust_bound, worst_route_select
 from sensorsel.designs.robust.bound import knapsack_drop_rows
@@ -23,7 +24,6 @@ from sensorsel.model.constraints import feasible_set
 from sensorsel.model.library import Slot
 from sensorsel.model.problem import Domain, DomainRoute, build_problem
 from sensorsel.model.scenario import ScenarioSpec, load_scenario
-from test_constraints_selectors import LIBRARY, brute_worst, draw_constraints, feasible_suites, random_case, tol
 
 
 def brute_knapsack(values, usage, capacity, drop, forced) -> float:
@@ -131,7 +131,7 @@ def test_the_integer_programs_tighten_the_bound_on_some_random_case():
 WORST_IDS = ("LRL-roof", "MRL-roof", "LRR-12", "LRR-6", "WSC-9", "HD2K-4", "HD2K-10", "LSC-2")
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def two_route_problems():
     """The 8 sensors on two routes: the tiny fixture, and its track with synthetic landmarks."""
     lib = LIBRARY.subset([LIBRARY.position(i) for i in WORST_IDS])
@@ -139,7 +139,7 @@ def two_route_problems():
     return tuple(build_problem(lib, load_scenario(s), spec=s) for s in specs)
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def route_tables() -> tuple[dict[tuple[int, ...], float], ...]:
     """f_r of every suite of the 8 sensors on each route (the fast engine, each suite scored once)."""
     return tuple(every_suite_score(make_evaluator(p, "fast")) for p in two_route_problems())
@@ -151,11 +151,17 @@ def worst_route_case(seed: int):
     base = two_route_problems()[0].library
     n = len(base)
     perm = rng.permutation(n)
-    slots = tuple(Slot(f"{k + 1}", "any", int(rng.integers(1, 3)), tuple(sorted(int(i) for i in perm[3 * k: 3 * k + 3])))
-                  for k in range(2))
+    slots = tuple(
+        Slot(f"{k + 1}", "any", int(rng.integers(1, 3)), tuple(sorted(int(i) for i in perm[3 * k : 3 * k + 3])))
+        for k in range(2)
+    )
     lib = dataclasses.replace(base, slots=slots)
-    domain = Domain(tuple(DomainRoute(f"r{k}", dataclasses.replace(p, library=lib), 1.0)
-                          for k, p in enumerate(two_route_problems())), "test")
+    domain = Domain(
+        tuple(
+            DomainRoute(f"r{k}", dataclasses.replace(p, library=lib), 1.0) for k, p in enumerate(two_route_problems())
+        ),
+        "test",
+    )
     budget = float(rng.choice([6_000.0, 12_000.0, 110_000.0]))
     c = draw_constraints(rng, lib, perm, budget, power_share=(0.25, 0.7), p_mass=0.0, p_pick=0.4)
     return domain, budget, c
@@ -169,7 +175,9 @@ def brute_h(s: tuple[int, ...], alpha: int) -> float:
     for tab in tabs:
         norm = tab[tuple(range(n))]
         k = min(alpha, len(s))
-        vals.append(min(tab[tuple(i for i in s if i not in f)] for f in itertools.combinations(s, k)) / norm if s else 0.0)
+        vals.append(
+            min(tab[tuple(i for i in s if i not in f)] for f in itertools.combinations(s, k)) / norm if s else 0.0
+        )
     return min(vals)
 
 
@@ -191,7 +199,9 @@ def test_worst_route_under_constraints_against_brute_force(seed, alpha):
     s = tuple(sorted(lib.resolve_suite(res.suite)))
     assert feas.fits(s) and abs(res.worst_score - brute_h(s, alpha)) <= tol(1.0)
     assert res.worst_score <= opt + tol(1.0) and res.bound >= opt - tol(1.0), (res.worst_score, res.bound, opt)
-    assert res.worst_score >= res.greedy_worst_score - tol(1.0) and res.worst_score >= res.algorithm2_worst_score - tol(1.0)
+    assert res.worst_score >= res.greedy_worst_score - tol(1.0) and res.worst_score >= res.algorithm2_worst_score - tol(
+        1.0
+    )
     if res.bound_detail.proved:
         assert abs(res.worst_score - opt) <= tol(1.0)
 

@@ -26,7 +26,9 @@ def test_per_route_accuracy_on_a_route_is_the_one_route_domains_and_the_engines(
     got = suite_accuracy(tiny_problem, SUITE)
     assert len(got) == 1 and got == suite_accuracy(one, SUITE)
     positions = tiny_problem.library.resolve_suite(SUITE)
-    direct = route_accuracy(make_evaluator(tiny_problem), positions, route=tiny_problem.scenario.name, estimate="filter")
+    direct = route_accuracy(
+        make_evaluator(tiny_problem), positions, route=tiny_problem.scenario.name, estimate="filter"
+    )
     assert got[0].route == tiny_problem.scenario.name
     np.testing.assert_array_equal(got[0].lateral_sigma_m, direct.lateral_sigma_m)
     assert [r.route for r in suite_integrity(tiny_problem, SUITE)] == [tiny_problem.scenario.name]

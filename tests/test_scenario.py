@@ -14,10 +14,23 @@ from click.testing import CliRunner
 from sensorsel.cli import cli
 from sensorsel.errors import InputError, ScenarioError
 from sensorsel.io.resources import fixtures_dir
-from sensorsel.model.scenario import (KITTI_ROOT_ENV, LandmarkModel, ScenarioSpec, Trajectory, generate_landmarks,
-                                      load_scenario, load_sequence, load_trajectory, read_kitti_poses,
-                                      read_landmarks_csv, read_times, resolve_kitti_root, select_keyframes,
-                                      write_kitti_poses, write_landmarks_csv)
+from sensorsel.model.scenario import (
+    KITTI_ROOT_ENV,
+    LandmarkModel,
+    ScenarioSpec,
+    Trajectory,
+    generate_landmarks,
+    load_scenario,
+    load_sequence,
+    load_trajectory,
+    read_kitti_poses,
+    read_landmarks_csv,
+    read_times,
+    resolve_kitti_root,
+    select_keyframes,
+    write_kitti_poses,
+    write_landmarks_csv,
+)
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -35,7 +48,7 @@ def _heading_vs_travel_deg(poses: np.ndarray, window: int = 10, max_turn_deg: fl
     d = poses[window:, :2] - poses[:-window, :2]
     moved = np.hypot(d[:, 0], d[:, 1])
     h = np.unwrap(poses[:, 2])
-    turn = np.array([np.ptp(h[i:i + window + 1]) for i in range(len(poses) - window)])
+    turn = np.array([np.ptp(h[i : i + window + 1]) for i in range(len(poses) - window)])
     straight = (turn < math.radians(max_turn_deg)) & (moved > min_move_m)
     travel = np.arctan2(d[:, 1], d[:, 0])
     mean_heading = 0.5 * (h[window:] + h[:-window])
@@ -143,7 +156,10 @@ def test_line_with_11_numbers(tmp_path):
     _raises_at(path, 7, "found 11", load_trajectory, path, TIMES)
 
 
-@pytest.mark.parametrize("bad,fragment", [("nan", "NaN"), ("inf", "infinite"), ("1.0.0", "not a number: '1.0.0'"), ("x", "not a number: 'x'")])
+@pytest.mark.parametrize(
+    "bad,fragment",
+    [("nan", "NaN"), ("inf", "infinite"), ("1.0.0", "not a number: '1.0.0'"), ("x", "not a number: 'x'")],
+)
 def test_bad_number_in_pose_file(tmp_path, bad, fragment):
     lines = _pose_lines()
     parts = lines[12].split()
@@ -171,13 +187,16 @@ def test_missing_sequence_lists_those_present(tmp_path):
     _raises_at(tmp_path / "sequences" / "05" / "times.txt", None, "not found", load_sequence, tmp_path, "05")
 
 
-@pytest.mark.parametrize("times,line,fragment", [
-    (["0.0", "0.1", "0.1"], 3, "must increase"),
-    (["0.0", "0.2", "0.1"], 3, "must increase"),
-    (["0.0", "0.1 0.2"], 2, "expected 1 numbers"),
-    (["0.0", "nan"], 2, "NaN"),
-    (["0.0", "soon"], 2, "not a number"),
-])
+@pytest.mark.parametrize(
+    "times,line,fragment",
+    [
+        (["0.0", "0.1", "0.1"], 3, "must increase"),
+        (["0.0", "0.2", "0.1"], 3, "must increase"),
+        (["0.0", "0.1 0.2"], 2, "expected 1 numbers"),
+        (["0.0", "nan"], 2, "NaN"),
+        (["0.0", "soon"], 2, "not a number"),
+    ],
+)
 def test_bad_timestamps(tmp_path, times, line, fragment):
     path = _write(tmp_path / "times.txt", times)
     _raises_at(path, line, fragment, read_times, path)
@@ -188,14 +207,17 @@ def test_empty_timestamps(tmp_path):
     _raises_at(path, None, "empty", read_times, path)
 
 
-@pytest.mark.parametrize("rows,line,fragment", [
-    (["x,y", "1,2", "3"], 3, "found 1 fields"),
-    (["x,y", "1,2,3"], 2, "found 3 fields"),
-    (["1,nan"], 1, "NaN"),
-    (["x,y", "1;2"], 2, "found 1 fields"),
-    (["x,y", "1,2", "a,b"], 3, "not a number: 'a'"),
-    (["x,y", "1,2", "x,y"], 3, "not a number: 'x'"),  # a header only before the data
-])
+@pytest.mark.parametrize(
+    "rows,line,fragment",
+    [
+        (["x,y", "1,2", "3"], 3, "found 1 fields"),
+        (["x,y", "1,2,3"], 2, "found 3 fields"),
+        (["1,nan"], 1, "NaN"),
+        (["x,y", "1;2"], 2, "found 1 fields"),
+        (["x,y", "1,2", "a,b"], 3, "not a number: 'a'"),
+        (["x,y", "1,2", "x,y"], 3, "not a number: 'x'"),  # a header only before the data
+    ],
+)
 def test_bad_landmark_csv(tmp_path, rows, line, fragment):
     path = _write(tmp_path / "lm.csv", rows)
     _raises_at(path, line, fragment, read_landmarks_csv, path)
@@ -263,7 +285,9 @@ def test_keyframe_rate_validation():
 
 def test_kitti_pose_file_round_trip(tmp_path):
     rng = np.random.default_rng(7)
-    planar = np.column_stack([rng.uniform(-800, 800, 200), rng.uniform(-800, 800, 200), rng.uniform(-np.pi, np.pi, 200)])
+    planar = np.column_stack(
+        [rng.uniform(-800, 800, 200), rng.uniform(-800, 800, 200), rng.uniform(-np.pi, np.pi, 200)]
+    )
     path = write_kitti_poses(tmp_path / "poses.txt", planar)
     raw = read_kitti_poses(path)
     rot = raw[:, :, :3]
@@ -363,8 +387,17 @@ def test_generator_densities_as_documented():
     assert np.sum(np.abs(dense[:, 1]) >= 25) == pytest.approx(20, abs=3)
 
 
-@pytest.mark.parametrize("kw", [dict(near_spacing_m=0.0), dict(far_spacing_m=-5.0), dict(near_offset_m=(12.0, 4.0)),
-                                dict(far_offset_m=(-1.0, 5.0)), dict(clearance_m=-1.0), dict(near_spacing_m=float("nan"))])
+@pytest.mark.parametrize(
+    "kw",
+    [
+        dict(near_spacing_m=0.0),
+        dict(far_spacing_m=-5.0),
+        dict(near_offset_m=(12.0, 4.0)),
+        dict(far_offset_m=(-1.0, 5.0)),
+        dict(clearance_m=-1.0),
+        dict(near_spacing_m=float("nan")),
+    ],
+)
 def test_landmark_model_validation(kw):
     with pytest.raises(InputError, match=next(iter(kw))):
         LandmarkModel(**kw)
@@ -406,6 +439,7 @@ def test_pose_files_read_as_pythons_float_reads_each_number(tmp_path):
     """read_kitti_poses parses all lines at once (numpy) where every line is good: the same numbers
     as Python's float() on each token, commas and blank lines included."""
     import numpy as np
+
     from sensorsel.model.scenario import read_kitti_poses
 
     rng = np.random.default_rng(7)
@@ -413,7 +447,9 @@ def test_pose_files_read_as_pythons_float_reads_each_number(tmp_path):
     for k in range(50):
         c, s = np.cos(0.1 * k), np.sin(0.1 * k)
         rows.append([c, 0.0, s, rng.normal() * 1e3, 0.0, 1.0, 0.0, rng.normal(), -s, 0.0, c, rng.normal() * 1e-3])
-    text = "\n".join((", " if k % 2 else " ").join(repr(float(v)) for v in r) + ("\n" if k == 10 else "") for k, r in enumerate(rows))
+    text = "\n".join(
+        (", " if k % 2 else " ").join(repr(float(v)) for v in r) + ("\n" if k == 10 else "") for k, r in enumerate(rows)
+    )
     path = tmp_path / "poses.txt"
     path.write_text(text + "\n")
     want = np.array([[float(t) for t in line.replace(",", " ").split()] for line in text.splitlines() if line.strip()])
@@ -425,6 +461,7 @@ def test_densified_route_is_each_segment_cut_into_equal_steps():
     """Oracle: each segment a -> b cut by hand into n = ceil(|b - a| / step) equal steps (a repeated
     point and a zero-length segment included)."""
     import numpy as np
+
     from sensorsel.model.scenario.landmarks import _densify
 
     xy = np.array([[0.0, 0.0], [1.2, 0.0], [1.2, 0.0], [1.2, -0.7], [4.0, 3.0]])

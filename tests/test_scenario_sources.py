@@ -13,10 +13,24 @@ from click.testing import CliRunner
 from sensorsel.cli import cli
 from sensorsel.errors import InputError, ScenarioError
 from sensorsel.io.resources import fixtures_dir
-from sensorsel.model.scenario import (ScenarioSpec, Trajectory, clean_landmarks, distance_to_route, load_route_file,
-                                      load_scenario, load_sequence, read_landmarks_csv, read_planar_csv,
-                                      read_tum_trajectory, route_name, scenario_notes, sniff_route_format,
-                                      write_kitti_poses, write_planar_csv, write_tum_trajectory)
+from sensorsel.model.scenario import (
+    ScenarioSpec,
+    Trajectory,
+    clean_landmarks,
+    distance_to_route,
+    load_route_file,
+    load_scenario,
+    load_sequence,
+    read_landmarks_csv,
+    read_planar_csv,
+    read_tum_trajectory,
+    route_name,
+    scenario_notes,
+    sniff_route_format,
+    write_kitti_poses,
+    write_planar_csv,
+    write_tum_trajectory,
+)
 
 TINY_POSES = fixtures_dir() / "poses" / "tiny.txt"
 TINY_TIMES = fixtures_dir() / "sequences" / "tiny" / "times.txt"
@@ -94,7 +108,7 @@ def test_real_landmarks_need_a_sequence():
 
 
 def test_landmark_csv_with_extra_named_columns_in_any_order(tmp_path):
-    path = _write(tmp_path / "lm.csv", ["# poles", "id,kind,Y,z,X", '1,lamp,2.5,7,1', '2,"sign, tall",-4,3.5,3'])
+    path = _write(tmp_path / "lm.csv", ["# poles", "id,kind,Y,z,X", "1,lamp,2.5,7,1", '2,"sign, tall",-4,3.5,3'])
     np.testing.assert_array_equal(read_landmarks_csv(path), [[1.0, 2.5], [3.0, -4.0]])
 
 
@@ -107,14 +121,17 @@ def test_landmark_csv_without_header_takes_the_first_two_columns(tmp_path):
     assert err.value.line == 2
 
 
-@pytest.mark.parametrize("rows,line,fragment", [
-    (["a,b", "1,2"], 1, "no x and no y column"),
-    (["x,z", "1,2"], 1, "no y column"),
-    (["x,y,x", "1,2,3"], 1, "column x twice"),
-    (["x,y,kind", "1,2"], 2, "found 2 fields"),
-    (["x,y,kind", "1,zz,lamp"], 2, "not a number: 'zz'"),
-    (["5"], 1, "found 1 fields"),
-])
+@pytest.mark.parametrize(
+    "rows,line,fragment",
+    [
+        (["a,b", "1,2"], 1, "no x and no y column"),
+        (["x,z", "1,2"], 1, "no y column"),
+        (["x,y,x", "1,2,3"], 1, "column x twice"),
+        (["x,y,kind", "1,2"], 2, "found 2 fields"),
+        (["x,y,kind", "1,zz,lamp"], 2, "not a number: 'zz'"),
+        (["5"], 1, "found 1 fields"),
+    ],
+)
 def test_bad_landmark_headers_and_rows(tmp_path, rows, line, fragment):
     path = _write(tmp_path / "lm.csv", rows)
     with pytest.raises(ScenarioError) as err:
@@ -141,7 +158,9 @@ def test_on_road_landmarks_counted_without_clearance_dropped_with_it(tmp_path):
     route = _straight()  # the x axis from 0 to 60 m
     lm = np.array([[10.0, 0.5], [20.0, -2.9], [30.0, 3.0], [40.0, 6.0], [70.0, 0.0], [65.0, 3.5]])
     # distances to the polyline: 0.5, 2.9, 3.0, 6.0, 10 (beyond its end), hypot(5, 3.5)
-    np.testing.assert_allclose(distance_to_route(lm, route.poses[:, :2]), [0.5, 2.9, 3.0, 6.0, 10.0, math.hypot(5, 3.5)])
+    np.testing.assert_allclose(
+        distance_to_route(lm, route.poses[:, :2]), [0.5, 2.9, 3.0, 6.0, 10.0, math.hypot(5, 3.5)]
+    )
     kept, r = clean_landmarks(lm, route)
     assert len(kept) == 6 and (r.n_on_road, r.on_road_m, r.n_dropped) == (2, 3.0, 0)
     assert "2 within 3 m of the route kept" in r.notes()[0]
@@ -199,20 +218,25 @@ def test_tum_yaw_and_frame(tmp_path):
     yaw, pitch = math.radians(30), math.radians(5)
     cy, sy, cp, sp = math.cos(yaw / 2), math.sin(yaw / 2), math.cos(pitch / 2), math.sin(pitch / 2)
     q = (-sy * sp, cy * sp, sy * cp, cy * cp)  # q = q_z(yaw) * q_y(pitch), as (x, y, z, w)
-    path = _write(tmp_path / "groundtruth.txt", ["# TUM", f"1.0 3 4 1.6 {q[0]} {q[1]} {q[2]} {q[3]}",
-                                                  f"2.0 5 6 1.6 {q[0]} {q[1]} {q[2]} {q[3]}"])
+    path = _write(
+        tmp_path / "groundtruth.txt",
+        ["# TUM", f"1.0 3 4 1.6 {q[0]} {q[1]} {q[2]} {q[3]}", f"2.0 5 6 1.6 {q[0]} {q[1]} {q[2]} {q[3]}"],
+    )
     route = read_tum_trajectory(path)
     np.testing.assert_allclose(route.poses, [[3, 4, yaw], [5, 6, yaw]], atol=1e-12)
     np.testing.assert_array_equal(route.times, [1.0, 2.0])
     assert sniff_route_format(path) == "tum"
 
 
-@pytest.mark.parametrize("lines,line,fragment", [
-    (["0 1 2 3 0 0 0 1", "1 1 2 3 0 0 0"], 2, "expected 8 numbers"),
-    (["0 1 2 3 0 0 0 1", "0 1 2 3 0 0 0 1"], 2, "must increase"),
-    (["0 1 2 3 0 0 0 0"], 1, "quaternion"),
-    (["# only a comment"], None, "empty"),
-])
+@pytest.mark.parametrize(
+    "lines,line,fragment",
+    [
+        (["0 1 2 3 0 0 0 1", "1 1 2 3 0 0 0"], 2, "expected 8 numbers"),
+        (["0 1 2 3 0 0 0 1", "0 1 2 3 0 0 0 1"], 2, "must increase"),
+        (["0 1 2 3 0 0 0 0"], 1, "quaternion"),
+        (["# only a comment"], None, "empty"),
+    ],
+)
 def test_bad_tum_files(tmp_path, lines, line, fragment):
     path = _write(tmp_path / "t.txt", lines)
     with pytest.raises(ScenarioError) as err:
@@ -225,11 +249,13 @@ def test_planar_csv_columns_by_name_and_errors(tmp_path):
     route = read_planar_csv(path)
     np.testing.assert_array_equal(route.poses, [[1, 2, 0.5], [3, 4, 0.25]])
     np.testing.assert_array_equal(route.times, [0, 0.5])
-    for rows, line, fragment in ((["t,x", "0,1"], 1, "lacks column(s) y"),
-                                 (["0,1,2,0"], 1, "lacks column(s) t, x, y"),
-                                 (["t,x,y,heading", "0,1,2"], 2, "found 3"),
-                                 (["t,x,y,heading", "0,1,2,0", "0,1,2,0"], 3, "must increase"),
-                                 (["t,x,y,heading"], None, "no poses")):
+    for rows, line, fragment in (
+        (["t,x", "0,1"], 1, "lacks column(s) y"),
+        (["0,1,2,0"], 1, "lacks column(s) t, x, y"),
+        (["t,x,y,heading", "0,1,2"], 2, "found 3"),
+        (["t,x,y,heading", "0,1,2,0", "0,1,2,0"], 3, "must increase"),
+        (["t,x,y,heading"], None, "no poses"),
+    ):
         bad = _write(tmp_path / "bad.csv", rows)
         with pytest.raises(ScenarioError) as err:
             read_planar_csv(bad)
@@ -293,8 +319,10 @@ def test_cli_route_options(tmp_path):
     assert got["score"] == pytest.approx(ref["score"], rel=1e-9)
     got = score("--route", str(tum), "--route-format", "tum", "--landmarks", "synthetic")
     assert got["problem"]["scenario"] == "lap"
-    for args, fragment in ((["--seq", "03", "--route", str(tum)], "one route"),
-                           (["--route-format", "tum"], "goes with --route"),
-                           (["--route", str(tum), "--route-format", "bogus"], "bogus")):
+    for args, fragment in (
+        (["--seq", "03", "--route", str(tum)], "one route"),
+        (["--route-format", "tum"], "goes with --route"),
+        (["--route", str(tum), "--route-format", "bogus"], "bogus"),
+    ):
         res = CliRunner().invoke(cli, ["score", "--suite", "LRL-roof", *args])
         assert res.exit_code == 2 and fragment in res.output, res.output

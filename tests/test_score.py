@@ -75,7 +75,7 @@ def whitened_jacobian(problem, suite, *, body_frame: bool = True, odometry_x1=No
         sig = np.asarray(sigmas, float)
         rows = np.zeros((len(sig), n))
         for col, jac in rows_by_var.items():
-            rows[:, col:col + jac.shape[1]] = jac
+            rows[:, col : col + jac.shape[1]] = jac
         blocks.append(rows / sig[:, None])
 
     add({0: np.eye(3)}, st.first_pose_sigmas)
@@ -102,7 +102,9 @@ def dense_logdet(jac: np.ndarray) -> float:
 
 def scene(poses, landmarks, name="hand") -> Scenario:
     poses = np.asarray(poses, float)
-    return Scenario(name, Trajectory(poses, np.arange(len(poses), dtype=float), np.arange(len(poses))), np.asarray(landmarks, float))
+    return Scenario(
+        name, Trajectory(poses, np.arange(len(poses), dtype=float), np.arange(len(poses))), np.asarray(landmarks, float)
+    )
 
 
 def circle_scenario() -> Scenario:
@@ -123,8 +125,15 @@ def westward_scenario() -> Scenario:
     return scene(poses, lm, "west")
 
 
-SUITES = ["", "LRL-roof", "LRR-12", "LRR-12,LRR-3,LRR-6,LRR-9", "WSC-12,HD2K-3,LSC-9", "MRL-roof,MRR-1,WSC-6",
-          "LRL-roof,MRL-roof,WSC-12,WSC-3,WSC-6,WSC-9,HD2K-1,LSC-7"]
+SUITES = [
+    "",
+    "LRL-roof",
+    "LRR-12",
+    "LRR-12,LRR-3,LRR-6,LRR-9",
+    "WSC-12,HD2K-3,LSC-9",
+    "MRL-roof,MRR-1,WSC-6",
+    "LRL-roof,MRL-roof,WSC-12,WSC-3,WSC-6,WSC-9,HD2K-1,LSC-7",
+]
 
 
 def _check(problem, suite_text: str, **settings) -> None:
@@ -155,7 +164,9 @@ def test_gtsam_logdet_equals_dense_oracle_on_suburb(suburb_problem, suite_text):
 @pytest.mark.parametrize("make", [circle_scenario, westward_scenario])
 @pytest.mark.parametrize("suite_text", ["", "LRL-roof", "WSC-12,WSC-3,LRR-9", "HD2K-12,HD2K-6,MRR-2,LSC-4,MRL-roof"])
 def test_gtsam_logdet_equals_dense_oracle_on_hand_built_scenarios(library, make, suite_text):
-    settings = GraphSettings(odometry_sigmas=(0.3, 0.05, 0.02), first_pose_sigmas=(0.1, 0.2, 0.01), landmark_prior_sigma_m=50.0)
+    settings = GraphSettings(
+        odometry_sigmas=(0.3, 0.05, 0.02), first_pose_sigmas=(0.1, 0.2, 0.01), landmark_prior_sigma_m=50.0
+    )
     problem = build_problem(library, make(), settings)
     suite = library.parse_suite(suite_text)
     if suite_text:

@@ -218,7 +218,9 @@ def test_the_registry_holds_rules_and_strategies_checked_in_one_place():
     assert RULES["best-of"].component_rules == ("uniform", "marginal")
     assert all(RULES[r].component_rules == (r,) for r in ("uniform", "cost-benefit", "marginal"))
     for bad in ("greediest", "", None, 3):
-        with pytest.raises(InputError, match=f"unknown rule {bad!r}; available: uniform, cost-benefit, marginal, best-of"):
+        with pytest.raises(
+            InputError, match=f"unknown rule {bad!r}; available: uniform, cost-benefit, marginal, best-of"
+        ):
             check_rule(bad)
     with pytest.raises(TypeError):
         RULES["mine"] = RULES["uniform"]  # type: ignore[index]
@@ -232,7 +234,10 @@ def test_lazy_and_plain_greedy_pick_the_same_suites(library, tiny):
     prob = sub_problem(library, tiny, ids)
     for rule in ("uniform", "marginal", "best-of"):
         for b in (1000.0, 5000.0, 12000.0, 110000.0):
-            lazy_ev, plain_ev = make_evaluator(prob), make_evaluator(prob)  # the default engine: this tests the selector
+            lazy_ev, plain_ev = (
+                make_evaluator(prob),
+                make_evaluator(prob),
+            )  # the default engine: this tests the selector
             lazy = greedy(lazy_ev, b, rule, lazy=True)
             plain = greedy(plain_ev, b, rule, lazy=False)
             assert lazy.lazy and not plain.lazy
@@ -320,11 +325,14 @@ def small_library(tmp_path_factory) -> Path:
 
 
 def _greedy(small_library, *args):
-    return CliRunner().invoke(cli, ["greedy", "--fixture", "tiny", "--library", str(small_library), "--engine", "reference",
-                                    *args])
+    return CliRunner().invoke(
+        cli, ["greedy", "--fixture", "tiny", "--library", str(small_library), "--engine", "reference", *args]
+    )
 
 
-@pytest.mark.parametrize("bad,msg", [("-5", "non-negative"), ("nan", "finite"), ("abc", "not a number"), ("1e400", "finite")])
+@pytest.mark.parametrize(
+    "bad,msg", [("-5", "non-negative"), ("nan", "finite"), ("abc", "not a number"), ("1e400", "finite")]
+)
 def test_cli_bad_budget_exits_2(small_library, bad, msg):
     r = _greedy(small_library, f"--budget={bad}")
     assert r.exit_code == 2

@@ -34,13 +34,13 @@ def test_front_long_range_radar_hand_geometry(library):
     lrr = library[library.position("LRR-12")].model
     assert (lrr.fov_rad, lrr.range_m) == (0.0698, 250)
     lm = [
-        [100.0, 0.0],     # 0: 100 m ahead -> seen
-        [-100.0, 0.0],    # 1: 100 m behind
-        polar(100, 10),   # 2: 10 degrees off-axis (the cone is +-2 degrees)
-        [260.0, 0.0],     # 3: beyond 250 m
+        [100.0, 0.0],  # 0: 100 m ahead -> seen
+        [-100.0, 0.0],  # 1: 100 m behind
+        polar(100, 10),  # 2: 10 degrees off-axis (the cone is +-2 degrees)
+        [260.0, 0.0],  # 3: beyond 250 m
         polar(100, -10),  # 4: 10 degrees off-axis on the other side
         polar(249, 1.9),  # 5: inside both range and cone
-        [250.0, 0.0],     # 6: exactly at maximum range (boundary counts)
+        [250.0, 0.0],  # 6: exactly at maximum range (boundary counts)
     ]
     assert seen(library, scene([0, 0, 0], lm), "LRR-12") == [(0, 0), (0, 5), (0, 6)]
     # the same radar at 6 o'clock sees only the one behind
@@ -105,7 +105,10 @@ def test_lidar_sees_everything_within_range(library):
 
 def test_measurements_and_their_noise(library):
     car = [3.0, 4.0, 0.3]
-    lm = [polar(10.0, math.degrees(0.3) + 5.0, origin=(3.0, 4.0)), polar(40.0, math.degrees(0.3) - 20.0, origin=(3.0, 4.0))]
+    lm = [
+        polar(10.0, math.degrees(0.3) + 5.0, origin=(3.0, 4.0)),
+        polar(40.0, math.degrees(0.3) - 20.0, origin=(3.0, 4.0)),
+    ]
     sc = scene(car, lm)
     pos = [library.position(i) for i in ("WSC-12", "LRR-12", "LRL-roof")]
     obs = observe(library.subset(pos), sc)
@@ -135,7 +138,9 @@ def test_observe_matches_a_brute_force_loop(library):
             for j, (lx, ly) in enumerate(lm):
                 r = math.hypot(lx - x, ly - y)
                 facing = th + s.mount_angle_rad
-                off = math.atan2(math.sin(math.atan2(ly - y, lx - x) - facing), math.cos(math.atan2(ly - y, lx - x) - facing))
+                off = math.atan2(
+                    math.sin(math.atan2(ly - y, lx - x) - facing), math.cos(math.atan2(ly - y, lx - x) - facing)
+                )
                 if r <= s.model.range_m and (s.model.fov_rad >= 2 * math.pi or abs(off) <= s.model.fov_rad / 2):
                     expect.append((k, j))
         got = list(zip(obs[i].pose.tolist(), obs[i].landmark.tolist()))

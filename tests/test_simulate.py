@@ -95,10 +95,10 @@ def test_correlated_nees_bounds_cover_95_percent_of_gaussian_draws():
     # strongly correlated covariance: a random-walk-like chain plus a little independent noise
     walk = np.tril(np.ones((k, k)))
     p = np.kron(walk @ walk.T, np.eye(3)) + 0.1 * (a @ a.T) / (3 * k)
-    blocks = [np.linalg.inv(p[3 * i:3 * i + 3, 3 * i:3 * i + 3]) for i in range(k)]
+    blocks = [np.linalg.inv(p[3 * i : 3 * i + 3, 3 * i : 3 * i + 3]) for i in range(k)]
     A = np.zeros_like(p)
     for i, b in enumerate(blocks):
-        A[3 * i:3 * i + 3, 3 * i:3 * i + 3] = b
+        A[3 * i : 3 * i + 3, 3 * i : 3 * i + 3] = b
     xi = rng.multivariate_normal(np.zeros(3 * k), p, size=(trials, n_runs))
     avg = np.einsum("tri,ij,trj->t", xi, A, xi) / (n_runs * k)
     ap = A @ p
@@ -166,8 +166,14 @@ def test_parse_failures(tiny_problem):
     got = parse_failures("LRL-roof, WSC-12@2-5, HD2K-6@1s-4s", tiny_problem)
     expect = np.nonzero((t >= 1) & (t < 4))[0]
     assert got == (Failure("LRL-roof"), Failure("WSC-12", 2, 5), Failure("HD2K-6", int(expect[0]), int(expect[-1]) + 1))
-    for bad, word in [("NOPE-1", "NOPE-1"), ("LRL-roof@5", "LRL-roof@5"), ("LRL-roof@4-2", "4..1"), ("LRL-roof@0-99", "0..98"),
-                      ("LRL-roof@1.5-3", "integers"), ("LRL-roof@500s-600s", "no keyframe")]:
+    for bad, word in [
+        ("NOPE-1", "NOPE-1"),
+        ("LRL-roof@5", "LRL-roof@5"),
+        ("LRL-roof@4-2", "4..1"),
+        ("LRL-roof@0-99", "0..98"),
+        ("LRL-roof@1.5-3", "integers"),
+        ("LRL-roof@500s-600s", "no keyframe"),
+    ]:
         with pytest.raises(InputError, match=word):
             parse_failures(bad, tiny_problem)
 
@@ -264,8 +270,26 @@ def test_cli_reads_result_files_and_writes_everything(tmp_path, tiny_problem):
     greedy = _suite_file(tiny_problem, tmp_path / "greedy.json", "LRL-roof,HD2K-12")
     resilient = _suite_file(tiny_problem, tmp_path / "resilient.json", "LRL-roof,MRL-roof", ["LRL-roof"])
     out = tmp_path / "out"
-    r = CliRunner().invoke(cli, ["simulate", "--fixture", "tiny", "--suite", str(greedy), "--compare", str(resilient),
-                                 "--fail", "LRL-roof", "--runs", "2", "--jobs", "1", "--output-dir", str(out)])
+    r = CliRunner().invoke(
+        cli,
+        [
+            "simulate",
+            "--fixture",
+            "tiny",
+            "--suite",
+            str(greedy),
+            "--compare",
+            str(resilient),
+            "--fail",
+            "LRL-roof",
+            "--runs",
+            "2",
+            "--jobs",
+            "1",
+            "--output-dir",
+            str(out),
+        ],
+    )
     assert r.exit_code == 0, r.output
     assert "greedy" in r.output and "resilient" in r.output and "pos_rmse_m" in r.output
     assert "resilient assumes LRL-roof" not in r.output  # the failure it assumes is simulated: no hint
@@ -278,8 +302,26 @@ def test_cli_reads_result_files_and_writes_everything(tmp_path, tiny_problem):
 
 def test_cli_labels_and_hint_for_an_assumed_failure(tmp_path, tiny_problem):
     resilient = _suite_file(tiny_problem, tmp_path / "resilient.json", "LRL-roof,MRL-roof", ["LRL-roof"])
-    r = CliRunner().invoke(cli, ["simulate", "--fixture", "tiny", "--suite", "LRL-roof,WSC-12", "--label", "Greedy03",
-                                 "--compare", str(resilient), "--runs", "1", "--jobs", "1", "--output-dir", str(tmp_path / "o")])
+    r = CliRunner().invoke(
+        cli,
+        [
+            "simulate",
+            "--fixture",
+            "tiny",
+            "--suite",
+            "LRL-roof,WSC-12",
+            "--label",
+            "Greedy03",
+            "--compare",
+            str(resilient),
+            "--runs",
+            "1",
+            "--jobs",
+            "1",
+            "--output-dir",
+            str(tmp_path / "o"),
+        ],
+    )
     assert r.exit_code == 0, r.output
     assert "add --fail LRL-roof" in r.output
     rep = results.load(tmp_path / "o" / "simulation.json", SimulationReport)
@@ -290,35 +332,59 @@ def test_cli_labels_and_hint_for_an_assumed_failure(tmp_path, tiny_problem):
 def test_cli_start_sigmas_set_the_first_pose_prior(tmp_path, tiny_problem):
     from sensorsel.model.problem import GraphSettings
 
-    r = CliRunner().invoke(cli, ["simulate", "--fixture", "tiny", "--suite", "LRL-roof", "--start-sigmas", "1e-4,1e-4,1e-5",
-                                 "--runs", "2", "--jobs", "1", "--output-dir", str(tmp_path)])
+    r = CliRunner().invoke(
+        cli,
+        [
+            "simulate",
+            "--fixture",
+            "tiny",
+            "--suite",
+            "LRL-roof",
+            "--start-sigmas",
+            "1e-4,1e-4,1e-5",
+            "--runs",
+            "2",
+            "--jobs",
+            "1",
+            "--output-dir",
+            str(tmp_path),
+        ],
+    )
     assert r.exit_code == 0, r.output
     (sim,) = results.load(tmp_path / "simulation.json", SimulationReport).simulations
     assert sim.problem.settings.first_pose_sigmas == (1e-4, 1e-4, 1e-5)
-    tight = simulate(build_problem(tiny_problem.library, tiny_problem.scenario, GraphSettings(first_pose_sigmas=(1e-4, 1e-4, 1e-5))),
-                     "LRL-roof", runs=2)
+    tight = simulate(
+        build_problem(tiny_problem.library, tiny_problem.scenario, GraphSettings(first_pose_sigmas=(1e-4, 1e-4, 1e-5))),
+        "LRL-roof",
+        runs=2,
+    )
     assert codec.dumps(without_timing(sim).runs) == codec.dumps(tight.runs)
     assert sim.predicted_position_rmse_m < simulate(tiny_problem, "LRL-roof", runs=1).predicted_position_rmse_m
 
 
-@pytest.mark.parametrize("args, word", [
-    (["--suite", "LRL-roof,NOPE-3"], "NOPE-3"),
-    (["--suite", "{tmp}/missing.json"], "missing.json"),
-    (["--suite", "{tmp}/bad.json"], "no \"kind\""),
-    (["--suite", "{tmp}/simulation.json"], "is a 'simulation' result, expected a 'greedy'"),
-    (["--suite", "LRL-roof", "--fail", "WSC-12"], "WSC-12"),
-    (["--suite", "LRL-roof", "--fail", "LRL-roof@x"], "LRL-roof@x"),
-    (["--suite", "LRL-roof", "--runs", "0"], "--runs"),
-    (["--suite", "LRL-roof", "--solver", "gauss"], "gauss"),
-    (["--suite", "LRL-roof", "--compare-label", "x"], "--compare"),
-    (["--suite", "LRL-roof", "--start-sigmas", "1,2"], "--start-sigmas"),
-    (["--suite", "LRL-roof", "--start-sigmas", "1,0,1"], "'1,0,1'"),
-])
+@pytest.mark.parametrize(
+    "args, word",
+    [
+        (["--suite", "LRL-roof,NOPE-3"], "NOPE-3"),
+        (["--suite", "{tmp}/missing.json"], "missing.json"),
+        (["--suite", "{tmp}/bad.json"], 'no "kind"'),
+        (["--suite", "{tmp}/simulation.json"], "is a 'simulation' result, expected a 'greedy'"),
+        (["--suite", "LRL-roof", "--fail", "WSC-12"], "WSC-12"),
+        (["--suite", "LRL-roof", "--fail", "LRL-roof@x"], "LRL-roof@x"),
+        (["--suite", "LRL-roof", "--runs", "0"], "--runs"),
+        (["--suite", "LRL-roof", "--solver", "gauss"], "gauss"),
+        (["--suite", "LRL-roof", "--compare-label", "x"], "--compare"),
+        (["--suite", "LRL-roof", "--start-sigmas", "1,2"], "--start-sigmas"),
+        (["--suite", "LRL-roof", "--start-sigmas", "1,0,1"], "'1,0,1'"),
+    ],
+)
 def test_cli_bad_input_is_one_line_and_exit_2(tmp_path, args, word):
     (tmp_path / "bad.json").write_text(json.dumps({"picks": ["LRL-roof"]}))
     results.save(SimulationReport(()), tmp_path / "simulation.json")
     args = [a.replace("{tmp}", str(tmp_path)) for a in args]
-    r = CliRunner().invoke(cli, ["simulate", "--fixture", "tiny", "--runs", "1", "--jobs", "1", "--output-dir", str(tmp_path / "o")] + args)
+    r = CliRunner().invoke(
+        cli, ["simulate", "--fixture", "tiny", "--runs", "1", "--jobs", "1", "--output-dir", str(tmp_path / "o")] + args
+    )
     assert r.exit_code == 2
     assert word in r.output
     assert "Traceback" not in r.output

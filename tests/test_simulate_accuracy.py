@@ -65,7 +65,9 @@ def test_prediction_is_route_accuracy_of_the_same_suite_and_model(tiny_problem, 
     each run solves the whole route's batch, the smoother's estimate): equal in the map model;
     in SLAM to 1e-4 (the score's weak 100 m landmark prior, absent from the simulated graph)."""
     ev = make_evaluator(tiny_problem, "fast")
-    acc = route_accuracy(ev, tiny_problem.library.parse_suite(SUITE), map_sigma_m=checked.map_sigma_m, estimate="smoother")
+    acc = route_accuracy(
+        ev, tiny_problem.library.parse_suite(SUITE), map_sigma_m=checked.map_sigma_m, estimate="smoother"
+    )
     rel = 1e-12 if checked.map_sigma_m else 1e-4
     sim = checked.accuracy
     np.testing.assert_allclose(sim.predicted_lateral_95_m, Z95 * np.array(acc.lateral_sigma_m), rtol=rel)
@@ -165,8 +167,24 @@ def test_older_simulation_files_still_load(checked):
 
 
 def test_cli_map_sigma_prints_predicted_vs_measured(tmp_path):
-    r = CliRunner().invoke(cli, ["simulate", "--fixture", "tiny", "--suite", SUITE, "--runs", "3", "--jobs", "1",
-                                 "--map-sigma", "0.05", "--output-dir", str(tmp_path)])
+    r = CliRunner().invoke(
+        cli,
+        [
+            "simulate",
+            "--fixture",
+            "tiny",
+            "--suite",
+            SUITE,
+            "--runs",
+            "3",
+            "--jobs",
+            "1",
+            "--map-sigma",
+            "0.05",
+            "--output-dir",
+            str(tmp_path),
+        ],
+    )
     assert r.exit_code == 0, r.output
     assert "predicted vs measured 95 % errors" in r.output and "landmarks known to 0.05 m" in r.output
     for c in COMPONENTS:
@@ -178,8 +196,24 @@ def test_cli_map_sigma_prints_predicted_vs_measured(tmp_path):
 
 @pytest.mark.parametrize("value", ["-0.1", "0", "nan", "inf"])
 def test_cli_bad_map_sigma_is_one_line(tmp_path, value):
-    r = CliRunner().invoke(cli, ["simulate", "--fixture", "tiny", "--suite", SUITE, "--runs", "1", "--jobs", "1",
-                                 "--map-sigma", value, "--output-dir", str(tmp_path)])
+    r = CliRunner().invoke(
+        cli,
+        [
+            "simulate",
+            "--fixture",
+            "tiny",
+            "--suite",
+            SUITE,
+            "--runs",
+            "1",
+            "--jobs",
+            "1",
+            "--map-sigma",
+            value,
+            "--output-dir",
+            str(tmp_path),
+        ],
+    )
     assert r.exit_code == 2 and "--map-sigma" in r.output and "Traceback" not in r.output
 
 
@@ -247,6 +281,8 @@ def test_map_model_is_byte_identical_whatever_the_workers(tiny_problem):
 
     one = simulate(tiny_problem, SUITE, runs=4, seed=9, jobs=1, map_sigma_m=0.1)
     two = simulate(tiny_problem, SUITE, runs=4, seed=9, jobs=2, map_sigma_m=0.1)
-    assert results.dumps(SimulationReport((without_timing(one),))) == results.dumps(SimulationReport((without_timing(two),)))
+    assert results.dumps(SimulationReport((without_timing(one),))) == results.dumps(
+        SimulationReport((without_timing(two),))
+    )
     other = simulate(tiny_problem, SUITE, runs=4, seed=10, jobs=1, map_sigma_m=0.1)
     assert other.runs[0].lateral_error_m != one.runs[0].lateral_error_m

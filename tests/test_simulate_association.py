@@ -12,39 +12,57 @@ import math
 
 import numpy as np
 import pytest
+from association_oracle import clopper_pearson, monte_carlo
 from click.testing import CliRunner
 
-from association_oracle import clopper_pearson, monte_carlo
 from sensorsel.cli import cli
 from sensorsel.information.filtering import KeyframeMeasurements, Prediction
 from sensorsel.information.integrity import IntegritySpec, route_integrity
 from sensorsel.information.integrity.association import gate_of, keyframe_risk, measurement_risks
 from sensorsel.io import results
-from sensorsel.simulation.association import KeyframeCase, Task, associate_keyframe
 from sensorsel.simulation import SimulationReport
+from sensorsel.simulation.association import KeyframeCase, Task, associate_keyframe
 from sensorsel.simulation.association_run import simulate_association
 
 GATE = gate_of(0.9999)
 
 
-def _two_landmarks(sep_m: float, *, sigma_b: float = 0.01, sigma_r: float = 0.1, pose_sigma: float = 0.05,
-                   map_sigma: float = 0.05) -> tuple[np.ndarray, np.ndarray, Prediction, KeyframeMeasurements, np.ndarray]:
+def _two_landmarks(
+    sep_m: float, *, sigma_b: float = 0.01, sigma_r: float = 0.1, pose_sigma: float = 0.05, map_sigma: float = 0.05
+) -> tuple[np.ndarray, np.ndarray, Prediction, KeyframeMeasurements, np.ndarray]:
     """A car at the origin heading +x; landmark 0 at (10, 0) is measured, landmark 1 at (10, sep) competes
     (map model: both in the map with σ ``map_sigma``, the pose with σ ``pose_sigma`` and 0.002 rad)."""
     pose = np.array([0.0, 0.0, 0.0])
     points = np.array([[10.0, 0.0], [10.0, sep_m]])
-    cov = np.diag([pose_sigma ** 2, pose_sigma ** 2, 0.002 ** 2] + [map_sigma ** 2] * 4)
+    cov = np.diag([pose_sigma**2, pose_sigma**2, 0.002**2] + [map_sigma**2] * 4)
     pred = Prediction(keyframe=0, landmarks=np.array([0, 1]), covariance=cov, prior_sigma_m=map_sigma)
-    meas = KeyframeMeasurements(keyframe=0, sensor=np.array([0]), landmark=np.array([0]), bearing_rad=np.array([0.0]),
-                                range_m=np.array([10.0]), sigma_bearing_rad=np.array([sigma_b]),
-                                sigma_range_m=np.array([sigma_r]))
+    meas = KeyframeMeasurements(
+        keyframe=0,
+        sensor=np.array([0]),
+        landmark=np.array([0]),
+        bearing_rad=np.array([0.0]),
+        range_m=np.array([10.0]),
+        sigma_bearing_rad=np.array([sigma_b]),
+        sigma_range_m=np.array([sigma_r]),
+    )
     return pose, points, pred, meas, cov
 
 
 def _case(pose, points, meas, cov) -> KeyframeCase:
-    return KeyframeCase(keyframe=0, pose=pose, sensor=meas.sensor, landmark=meas.landmark, bearing_rad=meas.bearing_rad,
-                        range_m=meas.range_m, sigma_bearing_rad=meas.sigma_bearing_rad, sigma_range_m=meas.sigma_range_m,
-                        candidates=np.array([0, 1]), points=points, right=np.array([0]), covariance=cov)
+    return KeyframeCase(
+        keyframe=0,
+        pose=pose,
+        sensor=meas.sensor,
+        landmark=meas.landmark,
+        bearing_rad=meas.bearing_rad,
+        range_m=meas.range_m,
+        sigma_bearing_rad=meas.sigma_bearing_rad,
+        sigma_range_m=meas.sigma_range_m,
+        candidates=np.array([0, 1]),
+        points=points,
+        right=np.array([0]),
+        covariance=cov,
+    )
 
 
 def test_the_simulator_agrees_with_an_independent_monte_carlo_of_the_associator():
@@ -64,10 +82,21 @@ def _crowd(n: int) -> KeyframeCase:
     pose, _, _, meas, _ = _two_landmarks(1.0)
     ang = 2 * np.pi * np.arange(n) / n
     points = np.vstack([[10.0, 0.0], np.column_stack([10.0 + 0.5 * np.cos(ang), 0.5 * np.sin(ang)])])
-    cov = np.diag([0.05 ** 2, 0.05 ** 2, 0.002 ** 2] + [0.05 ** 2] * (2 * (n + 1)))
-    return KeyframeCase(keyframe=0, pose=pose, sensor=meas.sensor, landmark=meas.landmark, bearing_rad=meas.bearing_rad,
-                        range_m=meas.range_m, sigma_bearing_rad=meas.sigma_bearing_rad, sigma_range_m=meas.sigma_range_m,
-                        candidates=np.arange(n + 1), points=points, right=np.array([0]), covariance=cov)
+    cov = np.diag([0.05**2, 0.05**2, 0.002**2] + [0.05**2] * (2 * (n + 1)))
+    return KeyframeCase(
+        keyframe=0,
+        pose=pose,
+        sensor=meas.sensor,
+        landmark=meas.landmark,
+        bearing_rad=meas.bearing_rad,
+        range_m=meas.range_m,
+        sigma_bearing_rad=meas.sigma_bearing_rad,
+        sigma_range_m=meas.sigma_range_m,
+        candidates=np.arange(n + 1),
+        points=points,
+        right=np.array([0]),
+        covariance=cov,
+    )
 
 
 @pytest.mark.parametrize("crowd", [False, True])
@@ -140,9 +169,11 @@ def test_same_seed_same_bytes_and_two_workers_the_same(tiny_problem):
     from sensorsel.pipeline.cluster import DaskCluster
 
     suite = tiny_problem.library.parse_suite("MRL-roof,HD2K-8")
+
     def run(seed: int, executor=None) -> str:
-        c = simulate_association(tiny_problem, suite, map_sigma_m=0.05, draws=300, seed=seed, clutter_per_km=50.0,
-                                 executor=executor)
+        c = simulate_association(
+            tiny_problem, suite, map_sigma_m=0.05, draws=300, seed=seed, clutter_per_km=50.0, executor=executor
+        )
         return results.dumps(SimulationReport(associations=(c,)))
 
     a = run(7)
@@ -161,8 +192,23 @@ def _cli(*args: str):
 
 def test_cli_prints_the_check_writes_the_json_and_the_plot(tmp_path):
     out = tmp_path / "o"
-    r = _cli("simulate", "--fixture", "tiny", "--suite", "MRL-roof,HD2K-8", "--associate", "--draws", "200",
-             "--map-sigma", "0.05", "--plot-format", "svg", "-q", "--output-dir", str(out))
+    r = _cli(
+        "simulate",
+        "--fixture",
+        "tiny",
+        "--suite",
+        "MRL-roof,HD2K-8",
+        "--associate",
+        "--draws",
+        "200",
+        "--map-sigma",
+        "0.05",
+        "--plot-format",
+        "svg",
+        "-q",
+        "--output-dir",
+        str(out),
+    )
     code, stdout, stderr = r
     assert code == 0, stderr
     assert "gated nearest neighbour" in stdout and "calibration" in stdout and "plain Monte Carlo" in stdout
@@ -174,14 +220,28 @@ def test_cli_prints_the_check_writes_the_json_and_the_plot(tmp_path):
     assert rec.associations[0].draws == 200
 
 
-@pytest.mark.parametrize("args, option", [
-    (("--clutter-per-km", "-1"), "--clutter-per-km"),
-    (("--gate-probability", "1.5"), "--gate-probability"),
-    (("--draws", "0"), "--draws"),
-    (("--importance-sampling", "--clutter-per-km", "5"), "--clutter-per-km"),
-])
+@pytest.mark.parametrize(
+    "args, option",
+    [
+        (("--clutter-per-km", "-1"), "--clutter-per-km"),
+        (("--gate-probability", "1.5"), "--gate-probability"),
+        (("--draws", "0"), "--draws"),
+        (("--importance-sampling", "--clutter-per-km", "5"), "--clutter-per-km"),
+    ],
+)
 def test_bad_options_are_one_line_naming_the_option(tmp_path, args, option):
-    r = _cli("simulate", "--fixture", "tiny", "--suite", "MRL-roof", "--associate", *args, "-q", "--output-dir", str(tmp_path / "o"))
+    r = _cli(
+        "simulate",
+        "--fixture",
+        "tiny",
+        "--suite",
+        "MRL-roof",
+        "--associate",
+        *args,
+        "-q",
+        "--output-dir",
+        str(tmp_path / "o"),
+    )
     code, _, stderr = r
     assert code == 2
     lines = [x for x in stderr.strip().splitlines() if x.strip()]
@@ -189,7 +249,17 @@ def test_bad_options_are_one_line_naming_the_option(tmp_path, args, option):
 
 
 def test_association_options_need_associate(tmp_path):
-    r = _cli("simulate", "--fixture", "tiny", "--suite", "MRL-roof", "--clutter-per-km", "3", "--output-dir", str(tmp_path / "o"))
+    r = _cli(
+        "simulate",
+        "--fixture",
+        "tiny",
+        "--suite",
+        "MRL-roof",
+        "--clutter-per-km",
+        "3",
+        "--output-dir",
+        str(tmp_path / "o"),
+    )
     assert r[0] == 2 and "--clutter-per-km needs --associate" in r[2], r
 
 
@@ -201,7 +271,9 @@ def test_the_plot_draws_on_the_axes_given(tiny_problem):
 
     from sensorsel.plotting import plot_association_calibration
 
-    c = simulate_association(tiny_problem, tiny_problem.library.parse_suite("MRL-roof"), map_sigma_m=0.05, draws=200, seed=0)
+    c = simulate_association(
+        tiny_problem, tiny_problem.library.parse_suite("MRL-roof"), map_sigma_m=0.05, draws=200, seed=0
+    )
     fig, ax = plt.subplots()
     assert plot_association_calibration(c, ax=ax) is ax
     assert ax.get_xscale() == "log" and len(ax.lines) >= 2
@@ -212,7 +284,8 @@ def test_the_shift_of_a_wrong_association_is_the_filters_update_with_the_wrong_l
     """A draw that measures exactly where the competitor is predicted: the associator picks it (NIS 0),
     and the shift is the Kalman update with it (none: ν = 0) minus the update with the right landmark,
     worked here densely with finite-difference Jacobians (association_oracle.jacobian)."""
-    from association_oracle import jacobian, measure as oracle_measure
+    from association_oracle import jacobian
+    from association_oracle import measure as oracle_measure
 
     from sensorsel.simulation.association import _associate, _pairs
 
@@ -220,12 +293,14 @@ def test_the_shift_of_a_wrong_association_is_the_filters_update_with_the_wrong_l
     case = _case(pose, points, meas, cov)
     z = oracle_measure(pose, points[1])  # the competitor's predicted measurement
     noise = (z - np.array([0.0, 10.0]))[None, None, :]
-    wrong, shift = _associate(case, _pairs(case, GATE), np.array([0]), np.zeros((1, 3)), np.zeros((1, 2, 2)), noise, GATE)
+    wrong, shift = _associate(
+        case, _pairs(case, GATE), np.array([0]), np.zeros((1, 3)), np.zeros((1, 2, 2)), noise, GATE
+    )
     assert wrong[0, 0]
     # the right landmark's update: state (pose, l_0), H by finite differences, K = P Hᵀ S⁻¹, Δx = K ν
     h = jacobian(pose, points[0])
     p = cov[np.ix_([0, 1, 2, 3, 4], [0, 1, 2, 3, 4])]
-    s = h @ p @ h.T + np.diag([0.01 ** 2, 0.1 ** 2])
+    s = h @ p @ h.T + np.diag([0.01**2, 0.1**2])
     nu_right = z - oracle_measure(pose, points[0])
     expected = -(p @ h.T @ np.linalg.solve(s, nu_right))[:3]
     np.testing.assert_allclose(shift[0, 0], expected, rtol=1e-5, atol=1e-9)
@@ -238,10 +313,16 @@ def test_a_far_landmark_within_a_stereo_cameras_range_noise_is_a_candidate():
     pose = np.array([0.0, 0.0, 0.0])
     points = np.array([[16.0, 0.0], [40.0, 0.0]])
     assert points[1, 0] > 1.25 * 16.0 + 15.0
-    cov = np.diag([0.1 ** 2, 0.1 ** 2, 0.005 ** 2] + [0.05 ** 2] * 4)
-    meas = KeyframeMeasurements(keyframe=0, sensor=np.array([0]), landmark=np.array([0]), bearing_rad=np.array([0.0]),
-                                range_m=np.array([16.0]), sigma_bearing_rad=np.array([0.002]),
-                                sigma_range_m=np.array([6.0]))
+    cov = np.diag([0.1**2, 0.1**2, 0.005**2] + [0.05**2] * 4)
+    meas = KeyframeMeasurements(
+        keyframe=0,
+        sensor=np.array([0]),
+        landmark=np.array([0]),
+        bearing_rad=np.array([0.0]),
+        range_m=np.array([16.0]),
+        sigma_bearing_rad=np.array([0.002]),
+        sigma_range_m=np.array([6.0]),
+    )
     out = associate_keyframe(_case(pose, points, meas, cov), Task(keyframe=0, draws=40_000, seed=3, gate=GATE))
     k, n = monte_carlo(pose, points, np.array([0, 1]), cov, 0.05, 0, (0.002, 6.0), [0, 1], GATE, n=40_000, seed=11)
     assert k >= 50

@@ -42,6 +42,7 @@ def untimed(obj: object) -> object:
         if isinstance(o, dict):
             return {k: rec(v) for k, v in o.items() if k != "seconds"}
         return [rec(v) for v in o] if isinstance(o, list) else o
+
     return rec(results.to_jsonable(obj))
 
 
@@ -55,8 +56,9 @@ def test_the_example_file_is_a_grid_of_32_cells_budget_fastest():
     s = load_study(EXAMPLE)
     assert len(s.cells) == 32 and len(s.targets) == 4
     got = [(c.library, c.landmark_seed, c.failures, c.rule, c.budget_usd) for c in s.cells]
-    want = list(itertools.product(["default", "reduced_library.yaml"], [0, 1], [0, 1], ["uniform", "best-of"],
-                                  [5000.0, 8000.0]))
+    want = list(
+        itertools.product(["default", "reduced_library.yaml"], [0, 1], [0, 1], ["uniform", "best-of"], [5000.0, 8000.0])
+    )
     assert got == want
     assert s.targets[3].library == str((REPO / "configs" / "reduced_library.yaml").resolve())
     assert s.targets[1].spec.landmark_seed == 1 and s.targets[1].spec.landmarks == "synthetic"
@@ -68,12 +70,18 @@ def test_cells_equal_independent_runs(tmp_path):
     assert [(r.failures, r.budget_usd) for r in res.rows] == [(0, 3000.0), (0, 6000.0), (1, 3000.0), (1, 6000.0)]
     for r in res.rows[:2]:  # no failure: the greedy command's result and certificate
         g = run_greedy(problem, r.budget_usd, "uniform", certify=True)
-        assert (r.suite, r.cost_usd, r.score, r.certificate_percent) == (g.suite, g.cost_usd, g.score,
-                                                                           g.certificate.percent_of_best)
+        assert (r.suite, r.cost_usd, r.score, r.certificate_percent) == (
+            g.suite,
+            g.cost_usd,
+            g.score,
+            g.certificate.percent_of_best,
+        )
         assert r.worst_score is None
     for r in res.rows[2:]:  # one failure: the worst case by brute force, each sensor removed, scored by GTSAM
         assert r.failures == 1 and len(r.assumed_failed) == 1 and r.certificate_percent is None
-        left = {sid: score_suite(problem, [s for s in r.suite if s != sid], engine="reference").score for sid in r.suite}
+        left = {
+            sid: score_suite(problem, [s for s in r.suite if s != sid], engine="reference").score for sid in r.suite
+        }
         worst = min(left.values())
         assert r.worst_score == pytest.approx(worst, rel=1e-9)
         assert left[r.worst_failures[0]] == pytest.approx(worst, rel=1e-9)
@@ -113,19 +121,22 @@ def test_csv_and_json_written_atomically_one_row_per_cell(tmp_path):
     assert paths[1].read_text() == study_csv(res)
 
 
-@pytest.mark.parametrize("text, key, line, words", [
-    (SMALL.replace("  rules: [uniform]", "  rule: [uniform]"), "grid.rule", 6, "unknown key"),
-    (SMALL.replace('"$6,000"', '"lots"'), "grid.budgets[1]", 5, "number of dollars"),
-    (SMALL.replace('3000, "$6,000"', '-5, 3000'), "grid.budgets[0]", 5, ">= 0"),
-    (SMALL.replace('3000, "$6,000"', '300, 3000'), "grid.budgets[0]", 5, "below the cheapest sensor"),
-    (SMALL.replace("failures: [0, 1]", "failures: [0, two]"), "grid.failures[1]", 7, "integer"),
-    (SMALL.replace("rules: [uniform]", "rules: [uniform, greedy]"), "grid.rules[1]", 6, "unknown rule"),
-    (SMALL.replace("  landmarks: synthetic\n", ""), "grid.landmark_seeds", 7, "target.landmarks: synthetic"),
-    (SMALL.replace("fixture: tiny", "fixture: nowhere"), "target.fixture", 2, "unknown fixture"),
-    (SMALL.replace("fixture: tiny", "fixture: tiny\n  domain: x.yaml"), "target", 2, ""),
-    (SMALL + "engine: slow\n", "engine", 9, "unknown engine"),
-    (SMALL.replace('3000, "$6,000"', '3000, 3000'), "grid.budgets[1]", 5, "repeated"),
-])
+@pytest.mark.parametrize(
+    "text, key, line, words",
+    [
+        (SMALL.replace("  rules: [uniform]", "  rule: [uniform]"), "grid.rule", 6, "unknown key"),
+        (SMALL.replace('"$6,000"', '"lots"'), "grid.budgets[1]", 5, "number of dollars"),
+        (SMALL.replace('3000, "$6,000"', "-5, 3000"), "grid.budgets[0]", 5, ">= 0"),
+        (SMALL.replace('3000, "$6,000"', "300, 3000"), "grid.budgets[0]", 5, "below the cheapest sensor"),
+        (SMALL.replace("failures: [0, 1]", "failures: [0, two]"), "grid.failures[1]", 7, "integer"),
+        (SMALL.replace("rules: [uniform]", "rules: [uniform, greedy]"), "grid.rules[1]", 6, "unknown rule"),
+        (SMALL.replace("  landmarks: synthetic\n", ""), "grid.landmark_seeds", 7, "target.landmarks: synthetic"),
+        (SMALL.replace("fixture: tiny", "fixture: nowhere"), "target.fixture", 2, "unknown fixture"),
+        (SMALL.replace("fixture: tiny", "fixture: tiny\n  domain: x.yaml"), "target", 2, ""),
+        (SMALL + "engine: slow\n", "engine", 9, "unknown engine"),
+        (SMALL.replace('3000, "$6,000"', "3000, 3000"), "grid.budgets[1]", 5, "repeated"),
+    ],
+)
 def test_bad_study_files_name_file_key_and_line(tmp_path, text, key, line, words):
     p = write(tmp_path, text)
     with pytest.raises(StudyError) as exc:
@@ -136,10 +147,15 @@ def test_bad_study_files_name_file_key_and_line(tmp_path, text, key, line, words
 
 def test_cli_study_bad_input_is_one_line_exit_2(tmp_path):
     p = write(tmp_path, SMALL.replace("  rules: [uniform]", "  rules: [uniform]\n  colour: blue"))
-    r = subprocess.run([str(Path(sys.executable).parent / "sensorsel"), "study", str(p), "--output-dir", str(tmp_path / "o")],
-                       capture_output=True, text=True, env=ENV, timeout=120)
+    r = subprocess.run(
+        [str(Path(sys.executable).parent / "sensorsel"), "study", str(p), "--output-dir", str(tmp_path / "o")],
+        capture_output=True,
+        text=True,
+        env=ENV,
+        timeout=120,
+    )
     assert r.returncode == 2 and "Traceback" not in r.stderr
-    line, = [ln for ln in r.stderr.splitlines() if ln.strip()]
+    (line,) = [ln for ln in r.stderr.splitlines() if ln.strip()]
     assert f"{p}:7: grid.colour: unknown key" in line
 
 

@@ -52,11 +52,14 @@ def test_scene_draws_a_result_files_suite(greedy_tiny, tmp_path):
     assert (tmp_path / "s.png").stat().st_size > 0
 
 
-@pytest.mark.parametrize("argv", [
-    ["certify", "--suite", "{path}"],
-    ["scene", "--suite", "{path}", "-o", "{tmp}/s.png"],
-    ["score", "--suite", "{path}"],
-])
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["certify", "--suite", "{path}"],
+        ["scene", "--suite", "{path}", "-o", "{tmp}/s.png"],
+        ["score", "--suite", "{path}"],
+    ],
+)
 def test_a_result_of_another_problem_is_refused_everywhere(greedy_tiny, tmp_path, argv):
     path, _ = greedy_tiny
     args = [a.format(path=path, tmp=tmp_path) for a in argv]

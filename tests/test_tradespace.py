@@ -18,8 +18,18 @@ from click.testing import CliRunner
 
 from sensorsel.cli import cli
 from sensorsel.designs.selection import greedy
-from sensorsel.designs.tradespace import (DEFAULT_RULES, TradespaceResult, csv_text, default_budgets, pareto_mask,
-                                          parse_budgets, parse_rules, run_tradespace, tradespace, write_csv)
+from sensorsel.designs.tradespace import (
+    DEFAULT_RULES,
+    TradespaceResult,
+    csv_text,
+    default_budgets,
+    pareto_mask,
+    parse_budgets,
+    parse_rules,
+    run_tradespace,
+    tradespace,
+    write_csv,
+)
 from sensorsel.errors import InputError
 from sensorsel.information.evaluators import make_evaluator
 from sensorsel.io import results
@@ -158,8 +168,11 @@ def test_runs_against_the_brute_force_optimum_of_each_budget(ts, mixed):
     architecture within the budget beats it; best-of keeps (1 - 1/e)/2 of it (Leskovec et al. 2007)."""
     ev = make_evaluator(mixed, "reference")
     n = mixed.n_sensors
-    table = [(mixed.library.cost(c), ev.score(c) if c else 0.0)
-             for r in range(n + 1) for c in itertools.combinations(range(n), r)]
+    table = [
+        (mixed.library.cost(c), ev.score(c) if c else 0.0)
+        for r in range(n + 1)
+        for c in itertools.combinations(range(n), r)
+    ]
     for b in ts.budgets_usd:
         opt = max(f for c, f in table if c <= b)
         runs = [r for r in ts.runs if r.budget_usd == b]
@@ -201,7 +214,13 @@ def test_default_budgets_log_spaced_from_cheapest_to_total(library):
 
 def test_parse_budgets_and_rules():
     assert parse_budgets("110000, 449,$27_000,449") == (449.0, 27000.0, 110000.0)
-    for bad, msg in (("abc", "'abc' is not a number"), ("1,,2", "empty item"), ("-5", "'-5'"), ("nan", "'nan'"), ("", "expected")):
+    for bad, msg in (
+        ("abc", "'abc' is not a number"),
+        ("1,,2", "empty item"),
+        ("-5", "'-5'"),
+        ("nan", "'nan'"),
+        ("", "expected"),
+    ):
         with pytest.raises(InputError, match=msg):
             parse_budgets(bad)
     assert parse_rules("marginal, uniform,marginal") == ("marginal", "uniform")
@@ -217,8 +236,12 @@ def test_budgets_below_cheapest_give_an_empty_tradespace(mixed):
 
 def test_progress_counts_every_run(mixed):
     calls = []
-    res = tradespace(make_evaluator(mixed, "reference"), [449.0, 5000.0, 20000.0], ("uniform", "best-of"),
-                     progress=lambda d, t: calls.append((d, t)))
+    res = tradespace(
+        make_evaluator(mixed, "reference"),
+        [449.0, 5000.0, 20000.0],
+        ("uniform", "best-of"),
+        progress=lambda d, t: calls.append((d, t)),
+    )
     # best-of needs marginal runs too: 2 rules x 3 budgets
     assert calls == [(k, 6) for k in range(1, 7)]
     assert len(res.runs) == 6
@@ -257,8 +280,11 @@ def test_plot_draws_every_architecture_and_the_front(ts, tmp_path):
 
     ax = plot_tradespace(ts)
     # the markers' legend entries read "made by RULE (N)"
-    drawn = {c.get_label().split(" (")[0].removeprefix("made by "): len(c.get_offsets()) for c in ax.collections
-             if not c.get_label().startswith("_")}
+    drawn = {
+        c.get_label().split(" (")[0].removeprefix("made by "): len(c.get_offsets())
+        for c in ax.collections
+        if not c.get_label().startswith("_")
+    }
     for name in ts.rules:
         assert drawn[name] == sum(name in a.rules for a in ts.architectures)
     line = next(ln for ln in ax.get_lines() if ln.get_label().startswith("Pareto front"))
@@ -287,8 +313,9 @@ def small_library(tmp_path_factory) -> Path:
 
 
 def _pareto(small_library, *args):
-    return CliRunner().invoke(cli, ["pareto", "--fixture", "tiny", "--library", str(small_library), "--engine", "reference",
-                                    *args])
+    return CliRunner().invoke(
+        cli, ["pareto", "--fixture", "tiny", "--library", str(small_library), "--engine", "reference", *args]
+    )
 
 
 def test_cli_pareto_writes_plot_csv_and_json(small_library, tmp_path):
@@ -296,8 +323,14 @@ def test_cli_pareto_writes_plot_csv_and_json(small_library, tmp_path):
     r = _pareto(small_library, "--output-dir", str(out))
     assert r.exit_code == 0, r.output
     # runs/: each rule's runs as they finish, which --resume reads back (tests/test_pipeline.py)
-    assert sorted(p.name for p in out.iterdir()) == ["accuracy.json", "architectures.csv", "pareto-accuracy.png", "pareto.png", "runs",
-                                                     "tradespace.json"]
+    assert sorted(p.name for p in out.iterdir()) == [
+        "accuracy.json",
+        "architectures.csv",
+        "pareto-accuracy.png",
+        "pareto.png",
+        "runs",
+        "tradespace.json",
+    ]
     assert (out / "pareto.png").read_bytes().startswith(PNG)
     res = results.load(out / "tradespace.json", TradespaceResult)
     assert res.rules == DEFAULT_RULES and len(res.budgets_usd) == 14
@@ -312,14 +345,21 @@ def test_cli_pareto_writes_plot_csv_and_json(small_library, tmp_path):
 
 def test_cli_pareto_options(small_library, tmp_path):
     out = tmp_path / "svg"
-    r = _pareto(small_library, "--output-dir", str(out), "--budgets", "2000,6000", "--rules", "marginal", "--plot-format", "svg")
+    r = _pareto(
+        small_library, "--output-dir", str(out), "--budgets", "2000,6000", "--rules", "marginal", "--plot-format", "svg"
+    )
     assert r.exit_code == 0, r.output
     assert (out / "pareto.svg").read_bytes().startswith(b"<?xml")
     res = results.load(out / "tradespace.json", TradespaceResult)
     assert res.budgets_usd == (2000.0, 6000.0) and res.rules == ("marginal",)
-    old = _pareto(small_library, "--output-dir", str(tmp_path / "old"), "--budgets", "2000,6000", "--selectors", "marginal")
+    old = _pareto(
+        small_library, "--output-dir", str(tmp_path / "old"), "--budgets", "2000,6000", "--selectors", "marginal"
+    )
     assert old.exit_code == 2 and "No such option '--selectors'" in old.stderr  # one name: --rules
-    for args, msg in ((["--budgets", "1000,abc"], "'abc' is not a number"), (["--rules", "uniform,best"], "unknown rule 'best'")):
+    for args, msg in (
+        (["--budgets", "1000,abc"], "'abc' is not a number"),
+        (["--rules", "uniform,best"], "unknown rule 'best'"),
+    ):
         bad = _pareto(small_library, "--output-dir", str(tmp_path / "bad"), *args)
         assert bad.exit_code == 2 and msg in bad.stderr and "Traceback" not in bad.output
         assert not (tmp_path / "bad").exists()

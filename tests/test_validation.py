@@ -20,10 +20,22 @@ from sensorsel.cli import cli
 from sensorsel.errors import InputError, ScenarioError
 from sensorsel.model import problem as problem_mod
 from sensorsel.model.problem import build_problem, check_problem_size, load_problem
-from sensorsel.model.scenario import (MAX_COORD_M, MAX_LANDMARKS, ROTATION_TOL, LandmarkModel, ScenarioSpec,
-                                      Trajectory, generate_landmarks, load_scenario, read_kitti_poses,
-                                      read_landmarks_csv, read_planar_csv, read_tum_trajectory, scenario_notes,
-                                      write_kitti_poses)
+from sensorsel.model.scenario import (
+    MAX_COORD_M,
+    MAX_LANDMARKS,
+    ROTATION_TOL,
+    LandmarkModel,
+    ScenarioSpec,
+    Trajectory,
+    generate_landmarks,
+    load_scenario,
+    read_kitti_poses,
+    read_landmarks_csv,
+    read_planar_csv,
+    read_tum_trajectory,
+    scenario_notes,
+    write_kitti_poses,
+)
 from sensorsel.model.sensing import estimate_measurements, observe
 
 SEQS = ("00", "02", "03", "04", "06", "08", "10")
@@ -61,17 +73,21 @@ def test_kitti_rotation_blocks_are_orthonormal_far_within_the_tolerance(kitti_ro
     worst = 0.0
     for seq in SEQS:
         r = read_kitti_poses(kitti_root / "poses" / f"{seq}.txt")[:, :, :3]
-        worst = max(worst, float(np.abs(r @ r.transpose(0, 2, 1) - np.eye(3)).max()),
-                    float(np.abs(np.linalg.det(r) - 1).max()))
+        worst = max(
+            worst, float(np.abs(r @ r.transpose(0, 2, 1) - np.eye(3)).max()), float(np.abs(np.linalg.det(r) - 1).max())
+        )
     assert worst < 1e-6 and worst < ROTATION_TOL / 1000  # measured: 2.7e-7 (sequence 03)
 
 
-@pytest.mark.parametrize("block,fragment", [
-    (np.zeros((3, 3)), "not a rotation"),  # the file: scored by a8085e6
-    (np.diag([1.0, 1.0, -1.0]), "det R = -1"),  # a reflection
-    (np.eye(3) * 2.0, "not a rotation"),  # scaled
-    (np.eye(3) + 0.01 * np.eye(3)[::-1], "not a rotation"),  # skewed beyond the tolerance
-])
+@pytest.mark.parametrize(
+    "block,fragment",
+    [
+        (np.zeros((3, 3)), "not a rotation"),  # the file: scored by a8085e6
+        (np.diag([1.0, 1.0, -1.0]), "det R = -1"),  # a reflection
+        (np.eye(3) * 2.0, "not a rotation"),  # scaled
+        (np.eye(3) + 0.01 * np.eye(3)[::-1], "not a rotation"),  # skewed beyond the tolerance
+    ],
+)
 def test_pose_blocks_that_are_not_rotations_are_refused_naming_file_and_line(tmp_path, block, fragment):
     good = _pose_line(np.eye(3))
     path = _write(tmp_path / "poses.txt", [good, _pose_line(np.eye(3), (0, 0, 1)), _pose_line(block, (0, 0, 2)), good])
@@ -101,8 +117,15 @@ def test_tum_quaternion_must_have_unit_norm(tmp_path):
 # ------------------------------------------------------------------------------------- coordinates
 
 
-@pytest.mark.parametrize("row,fragment", [("1e300,5", "beyond the limit"), ("5,-2e8", "beyond the limit"),
-                                          ("inf,5", "NaN or infinite"), ("5,nan", "NaN or infinite")])
+@pytest.mark.parametrize(
+    "row,fragment",
+    [
+        ("1e300,5", "beyond the limit"),
+        ("5,-2e8", "beyond the limit"),
+        ("inf,5", "NaN or infinite"),
+        ("5,nan", "NaN or infinite"),
+    ],
+)
 def test_absurd_or_non_finite_landmarks_are_refused_naming_file_and_line(tmp_path, row, fragment):
     path = _write(tmp_path / "lm.csv", ["x,y", "10,8", row, "20,-8"])
     with pytest.raises(ScenarioError) as err:
@@ -156,8 +179,12 @@ def test_a_map_out_of_the_routes_reach_is_an_error_naming_the_map(tmp_path):
         load_problem(ScenarioSpec(poses=str(poses), landmarks=str(far)))
     msg = str(err.value)
     assert str(far) in msg and "none of the 2 landmarks" in msg and "within reach" in msg
-    _cli_fails(["score", "--route", str(poses), "--landmarks", str(far), "--suite", "LRL-roof"], str(far), "within reach")
-    _cli_fails(["greedy", "--route", str(poses), "--landmarks", str(far), "--budget", "10000"], str(far), "within reach")
+    _cli_fails(
+        ["score", "--route", str(poses), "--landmarks", str(far), "--suite", "LRL-roof"], str(far), "within reach"
+    )
+    _cli_fails(
+        ["greedy", "--route", str(poses), "--landmarks", str(far), "--budget", "10000"], str(far), "within reach"
+    )
 
 
 def test_landmarks_out_of_reach_are_counted_in_the_problem_and_its_notes(tmp_path):
@@ -168,9 +195,11 @@ def test_landmarks_out_of_reach_are_counted_in_the_problem_and_its_notes(tmp_pat
     assert seen == {0, 1, 3, 4} and p.n_landmarks_out_of_reach == 1
     np.testing.assert_array_equal(p.landmarks_in_reach, [0, 1, 3, 4])
     notes = [n for n in p.notes if "sensor's reach" in n]
-    assert notes == [f"landmarks: 1 of 5 landmarks ({lm}) are out of every sensor's reach from every keyframe: "
-                     "they add nothing to any suite"]
-    assert p.notes[:len(p.scenario.notes)] == list(p.scenario.notes)
+    assert notes == [
+        f"landmarks: 1 of 5 landmarks ({lm}) are out of every sensor's reach from every keyframe: "
+        "they add nothing to any suite"
+    ]
+    assert p.notes[: len(p.scenario.notes)] == list(p.scenario.notes)
 
 
 def test_a_map_mostly_out_of_reach_is_said_loudly(tmp_path):
@@ -185,7 +214,9 @@ def test_a_map_mostly_out_of_reach_is_said_loudly(tmp_path):
     assert p.n_landmarks_out_of_reach == 3 and not [n for n in p.notes if "sensor's reach" in n]  # said once
     r = CliRunner().invoke(cli, ["score", "--route", str(poses), "--landmarks", str(lm), "--suite", "LRL-roof"])
     warn = [ln for ln in r.stderr.splitlines() if "out of every sensor's reach" in ln]
-    assert len(warn) == 1 and warn[0].startswith(f"sensorsel: warning: landmarks {lm}: 3 of 5 landmarks (60 %)"), r.stderr
+    assert len(warn) == 1 and warn[0].startswith(f"sensorsel: warning: landmarks {lm}: 3 of 5 landmarks (60 %)"), (
+        r.stderr
+    )
 
 
 def test_all_landmarks_in_reach_adds_no_note(tiny_problem):
@@ -214,12 +245,16 @@ def test_tiny_spacing_is_refused_before_allocating_naming_the_option():
         generate_landmarks(route, LandmarkModel(far_spacing_m=1e-4))
     # just under the limit is allowed (estimated, not generated here)
     from sensorsel.model.scenario import estimate_landmark_count
+
     assert estimate_landmark_count(2000.0, LandmarkModel()) == 2 * 400 + 80
 
 
 def test_tiny_spacing_from_the_cli(tmp_path):
-    _cli_fails(["landmarks", "--fixture", "tiny", "--near-spacing", "1e-9", "-o", str(tmp_path / "lm.csv")],
-               "--near-spacing", "more than the limit")
+    _cli_fails(
+        ["landmarks", "--fixture", "tiny", "--near-spacing", "1e-9", "-o", str(tmp_path / "lm.csv")],
+        "--near-spacing",
+        "more than the limit",
+    )
     assert not (tmp_path / "lm.csv").exists()
 
 
@@ -234,9 +269,14 @@ def test_negative_landmark_seed_is_an_input_error_naming_the_option(tmp_path):
             generate_landmarks(_straight(), seed=seed)
     with pytest.raises(InputError, match="--landmark-seed"):
         load_scenario(ScenarioSpec(fixture="tiny", landmark_seed=-3))
-    _cli_fails(["score", "--fixture", "tiny", "--landmarks", "synthetic", "--landmark-seed", "-1", "--suite", "LRL-roof"],
-               "--landmark-seed", "-1")
-    _cli_fails(["landmarks", "--fixture", "tiny", "--landmark-seed", "-1", "-o", str(tmp_path / "lm.csv")], "--landmark-seed")
+    _cli_fails(
+        ["score", "--fixture", "tiny", "--landmarks", "synthetic", "--landmark-seed", "-1", "--suite", "LRL-roof"],
+        "--landmark-seed",
+        "-1",
+    )
+    _cli_fails(
+        ["landmarks", "--fixture", "tiny", "--landmark-seed", "-1", "-o", str(tmp_path / "lm.csv")], "--landmark-seed"
+    )
 
 
 def test_keyframe_rate_above_the_routes_own_rate_is_said(tmp_path):

@@ -22,8 +22,13 @@ from pathlib import Path
 import numpy as np
 
 from sensorsel.io.files import atomic_write_text
-from sensorsel.model.scenario import (LandmarkModel, Trajectory, generate_landmarks, write_kitti_poses,
-                                      write_landmarks_csv)
+from sensorsel.model.scenario import (
+    LandmarkModel,
+    Trajectory,
+    generate_landmarks,
+    write_kitti_poses,
+    write_landmarks_csv,
+)
 
 HERE = Path(__file__).resolve().parent
 RATE_HZ = 10.0
@@ -44,10 +49,18 @@ def drive(segments: list[tuple[float, float]], speed: float) -> np.ndarray:
 
 
 FIXTURES = {
-    "suburb": dict(segments=[(20.0, 0.0), (6.0, np.pi / 12), (10.0, 0.0), (8.0, -0.08), (8.0, 0.08)], speed=8.0, seed=3,
-                   model=LandmarkModel()),
-    "tiny": dict(segments=[(5.0, 0.0), (4.0, 0.06)], speed=8.0, seed=5,
-                 model=LandmarkModel(near_spacing_m=4.0, far_spacing_m=20.0, far_offset_m=(25.0, 60.0))),
+    "suburb": dict(
+        segments=[(20.0, 0.0), (6.0, np.pi / 12), (10.0, 0.0), (8.0, -0.08), (8.0, 0.08)],
+        speed=8.0,
+        seed=3,
+        model=LandmarkModel(),
+    ),
+    "tiny": dict(
+        segments=[(5.0, 0.0), (4.0, 0.06)],
+        speed=8.0,
+        seed=5,
+        model=LandmarkModel(near_spacing_m=4.0, far_spacing_m=20.0, far_offset_m=(25.0, 60.0)),
+    ),
 }
 
 

@@ -16,29 +16,84 @@ from __future__ import annotations
 
 __version__ = "0.1.0"
 
+from sensorsel.api import (
+    CertifiedGreedyResult,
+    DomainDesign,
+    DomainScoreResult,
+    ScoreResult,
+    certify_result,
+    design_domain,
+    resilient_report,
+    run_greedy,
+    run_optimal,
+    run_require,
+    run_robust,
+    run_tradespace,
+    score_domain_suite,
+    score_suite,
+    simulate,
+    suite_accuracy,
+)
 from sensorsel.designs import study as _study  # noqa: F401  (with the api's imports: every result kind registered, sensorsel.io.results)
-from sensorsel.api import (CertifiedGreedyResult, DomainDesign, DomainScoreResult, ScoreResult, certify_result,
-                           design_domain, resilient_report, run_greedy, run_optimal, run_require, run_robust,
-                           run_tradespace, score_domain_suite, score_suite, simulate, suite_accuracy)
 from sensorsel.errors import InputError, LibraryError, ResultFileError, ScenarioError, SensorselError
 from sensorsel.information.evaluators import ENGINES, Evaluator, evaluator_for, make_evaluator
 from sensorsel.model.library import PlacedSensor, SensorLibrary, SensorModel, load_library
-from sensorsel.model.problem import (Domain, GraphSettings, Problem, ProblemInfo, build_problem, load_domain,
-                                     load_problem)
+from sensorsel.model.problem import (
+    Domain,
+    GraphSettings,
+    Problem,
+    ProblemInfo,
+    build_problem,
+    load_domain,
+    load_problem,
+)
 from sensorsel.model.scenario import LandmarkModel, Scenario, ScenarioSpec, Trajectory, load_scenario
 
 __all__ = [
     # run functions (sensorsel.api)
-    "score_suite", "score_domain_suite", "run_greedy", "design_domain", "run_tradespace", "resilient_report",
-    "run_robust", "certify_result", "run_optimal", "simulate", "run_require", "suite_accuracy",
+    "score_suite",
+    "score_domain_suite",
+    "run_greedy",
+    "design_domain",
+    "run_tradespace",
+    "resilient_report",
+    "run_robust",
+    "certify_result",
+    "run_optimal",
+    "simulate",
+    "run_require",
+    "suite_accuracy",
     # inputs
-    "Domain", "GraphSettings", "LandmarkModel", "PlacedSensor", "Problem", "ProblemInfo", "Scenario", "ScenarioSpec",
-    "SensorLibrary", "SensorModel", "Trajectory", "build_problem", "load_domain", "load_library", "load_problem",
+    "Domain",
+    "GraphSettings",
+    "LandmarkModel",
+    "PlacedSensor",
+    "Problem",
+    "ProblemInfo",
+    "Scenario",
+    "ScenarioSpec",
+    "SensorLibrary",
+    "SensorModel",
+    "Trajectory",
+    "build_problem",
+    "load_domain",
+    "load_library",
+    "load_problem",
     "load_scenario",
     # evaluators
-    "ENGINES", "Evaluator", "evaluator_for", "make_evaluator",
+    "ENGINES",
+    "Evaluator",
+    "evaluator_for",
+    "make_evaluator",
     # results
-    "CertifiedGreedyResult", "DomainDesign", "DomainScoreResult", "ScoreResult",
+    "CertifiedGreedyResult",
+    "DomainDesign",
+    "DomainScoreResult",
+    "ScoreResult",
     # errors
-    "InputError", "LibraryError", "ResultFileError", "ScenarioError", "SensorselError",
+    "InputError",
+    "LibraryError",
+    "ResultFileError",
+    "ScenarioError",
+    "SensorselError",
 ]

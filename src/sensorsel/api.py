@@ -21,27 +21,99 @@ lower-level runs the CLI needs are re-exported here (``pyproject.toml`` forbids 
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any
 
-from sensorsel.designs.certify import (DEFAULT_MAX_NODES, Certificate, CertifiedGreedyResult, OptimumResult,
-                                       certificate, constraints_mismatch, format_certificate, optimal)
-from sensorsel.designs.domain_design import DomainDesign
+from sensorsel.designs.certify import (
+    DEFAULT_MAX_NODES,
+    Certificate,
+    CertifiedGreedyResult,
+    OptimumResult,
+    certificate,
+    constraints_mismatch,
+    format_certificate,
+    optimal,
+)
+
+# What the command line takes from the layers below, re-exported so that it needs no other door
+# (pyproject.toml: sensorsel.cli imports neither sensorsel.designs nor sensorsel.information).
+from sensorsel.designs.checkpoint import checkpoint_path, remove_checkpoint
+from sensorsel.designs.domain_design import DomainDesign, by_condition
 from sensorsel.designs.greedy_run import greedy_design
 from sensorsel.designs.requirements import FrontAcceptance, RequireResult, front_acceptance
 from sensorsel.designs.requirements import require as run_require
-from sensorsel.designs.resilient import ALGORITHM_2, METHODS, ResilientReport, recorded
+from sensorsel.designs.requirements.design import RouteRequirement
+from sensorsel.designs.requirements.integrity import integrity_preset
+from sensorsel.designs.requirements.spec import (
+    DEFAULT_MAP_SIGMA_M,
+    PRESETS,
+    Specification,
+    load_specification_file,
+    preset,
+    specifications_for,
+)
+from sensorsel.designs.resilient import (
+    ALGORITHM_2,
+    METHODS,
+    ResilientReport,
+    check_alpha,
+    check_period,
+    recorded,
+    save_grid_csv,
+    split_periods,
+)
 from sensorsel.designs.resilient import resilient_report as _resilient_report
-from sensorsel.designs.robust import RobustResult, robust_choice, robust_select, worst_route_select
+from sensorsel.designs.robust import (
+    EXTRA_METHODS,
+    WORST_METHODS,
+    RobustResult,
+    robust_choice,
+    robust_select,
+    worst_route_select,
+)
 from sensorsel.designs.robust import run_robust as _run_robust
-from sensorsel.designs.selection import GreedyResult, Progress, check_budget, check_rule
-from sensorsel.designs.tradespace import run_tradespace
+from sensorsel.designs.selection import (
+    RULES,
+    GreedyResult,
+    Progress,
+    check_affordable,
+    check_budget,
+    check_rule,
+    rules_help,
+)
+from sensorsel.designs.study import load_study, run_study, write_study
+from sensorsel.designs.tradespace import (
+    DEFAULT_RULES,
+    Architecture,
+    parse_budgets,
+    parse_rules,
+    run_tradespace,
+    write_csv,
+)
 from sensorsel.errors import InputError
-from sensorsel.information.evaluators import DomainEvaluator, evaluator_for, make_evaluator
-from sensorsel.information.evaluators.accuracy import RouteAccuracy, accuracy_from_covariances, route_accuracy
-from sensorsel.information.filtering import check_estimate
+from sensorsel.information.evaluators import (
+    AGGREGATES,
+    ENGINES,
+    DomainEvaluator,
+    Evaluator,
+    evaluator_for,
+    make_evaluator,
+)
+from sensorsel.information.evaluators.accuracy import (
+    RouteAccuracy,
+    accuracy_from_covariances,
+    estimate_label,
+    model_label,
+    route_accuracy,
+)
+from sensorsel.information.evaluators.distributed import (
+    DistributedDomainEvaluator,
+)  # imports no Dask: a client is handed in
+from sensorsel.information.filtering import ESTIMATES, check_estimate
 from sensorsel.information.integrity import IntegritySpec, RouteIntegrity, route_integrity
+from sensorsel.information.integrity.association import gate_of
 from sensorsel.information.integrity.risk import integrity_and_pass
 from sensorsel.io.records import SuiteScore
 from sensorsel.io.results import result_kind
@@ -49,37 +121,85 @@ from sensorsel.model.constraints import Constraints, feasible_set
 from sensorsel.model.problem import Domain, DomainInfo, Problem, ProblemInfo, Target, load_domain, load_problem
 from sensorsel.simulation.records import SimulationResult
 
-# What the command line takes from the layers below, re-exported so that it needs no other door
-# (pyproject.toml: sensorsel.cli imports neither sensorsel.designs nor sensorsel.information).
-from sensorsel.designs.checkpoint import checkpoint_path, remove_checkpoint
-from sensorsel.designs.domain_design import by_condition
-from sensorsel.designs.requirements.design import RouteRequirement
-from sensorsel.designs.requirements.integrity import integrity_preset
-from sensorsel.designs.requirements.spec import (DEFAULT_MAP_SIGMA_M, PRESETS, Specification, load_specification_file,
-                                                 preset, specifications_for)
-from sensorsel.designs.resilient import check_alpha, check_period, save_grid_csv, split_periods
-from sensorsel.designs.robust import EXTRA_METHODS, WORST_METHODS
-from sensorsel.designs.selection import RULES, check_affordable, rules_help
-from sensorsel.designs.study import load_study, run_study, write_study
-from sensorsel.designs.tradespace import DEFAULT_RULES, Architecture, parse_budgets, parse_rules, write_csv
-from sensorsel.information.evaluators import AGGREGATES, ENGINES, Evaluator
-from sensorsel.information.evaluators.accuracy import estimate_label, model_label
-from sensorsel.information.evaluators.distributed import DistributedDomainEvaluator  # imports no Dask: a client is handed in
-from sensorsel.information.filtering import ESTIMATES
-from sensorsel.information.integrity.association import gate_of
-
-__all__ = ["RouteAccuracy", "suite_accuracy", "RouteIntegrity", "IntegritySpec", "suite_integrity", "with_suite_quality", "run_require", "RequireResult", "FrontAcceptance", "front_acceptance", "CertifiedGreedyResult", "DomainDesign", "DomainScoreResult", "ProblemInfo", "RouteScore", "ScoreResult",
-           "certify_result", "design_domain", "load_domain", "load_problem", "resilient_report", "run_greedy", "run_robust", "RobustResult",
-           "run_optimal", "run_tradespace", "score_domain_suite", "score_suite", "simulate"]
+__all__ = [
+    "RouteAccuracy",
+    "suite_accuracy",
+    "RouteIntegrity",
+    "IntegritySpec",
+    "suite_integrity",
+    "with_suite_quality",
+    "run_require",
+    "RequireResult",
+    "FrontAcceptance",
+    "front_acceptance",
+    "CertifiedGreedyResult",
+    "DomainDesign",
+    "DomainScoreResult",
+    "ProblemInfo",
+    "RouteScore",
+    "ScoreResult",
+    "certify_result",
+    "design_domain",
+    "load_domain",
+    "load_problem",
+    "resilient_report",
+    "run_greedy",
+    "run_robust",
+    "RobustResult",
+    "run_optimal",
+    "run_tradespace",
+    "score_domain_suite",
+    "score_suite",
+    "simulate",
+]
 #: Re-exported for the command line (above): the runs, records and constants it uses.
-__all__ += ["AGGREGATES", "Architecture", "Certificate", "DEFAULT_MAP_SIGMA_M", "DEFAULT_MAX_NODES", "DEFAULT_RULES",
-            "ENGINES", "ESTIMATES", "EXTRA_METHODS", "Evaluator", "GreedyResult", "METHODS", "ALGORITHM_2", "PRESETS",
-            "RULES", "RouteRequirement", "Specification", "WORST_METHODS", "by_condition",
-            "check_affordable", "check_alpha", "check_budget", "check_period", "check_rule", "checkpoint_path",
-            "constraints_mismatch", "estimate_label", "evaluator_for", "format_certificate", "gate_of",
-            "integrity_preset", "load_specification_file", "load_study", "model_label", "parse_budgets",
-            "parse_rules", "preset", "remove_checkpoint", "rules_help", "run_study", "save_grid_csv",
-            "specifications_for", "split_periods", "write_csv", "write_study"]
+__all__ += [
+    "AGGREGATES",
+    "Architecture",
+    "Certificate",
+    "DEFAULT_MAP_SIGMA_M",
+    "DEFAULT_MAX_NODES",
+    "DEFAULT_RULES",
+    "ENGINES",
+    "ESTIMATES",
+    "EXTRA_METHODS",
+    "Evaluator",
+    "GreedyResult",
+    "METHODS",
+    "ALGORITHM_2",
+    "PRESETS",
+    "RULES",
+    "RouteRequirement",
+    "Specification",
+    "WORST_METHODS",
+    "by_condition",
+    "check_affordable",
+    "check_alpha",
+    "check_budget",
+    "check_period",
+    "check_rule",
+    "checkpoint_path",
+    "constraints_mismatch",
+    "estimate_label",
+    "evaluator_for",
+    "format_certificate",
+    "gate_of",
+    "integrity_preset",
+    "load_specification_file",
+    "load_study",
+    "model_label",
+    "parse_budgets",
+    "parse_rules",
+    "preset",
+    "remove_checkpoint",
+    "rules_help",
+    "run_study",
+    "save_grid_csv",
+    "specifications_for",
+    "split_periods",
+    "write_csv",
+    "write_study",
+]
 __all__ += ["DistributedDomainEvaluator"]  # a domain's routes on a Dask cluster's workers (cli.cluster)
 
 
@@ -110,8 +230,15 @@ class ScoreResult(SuiteScore):
     integrity: tuple[RouteIntegrity, ...] = ()
 
 
-def score_suite(problem: Problem, suite: str | Iterable[str | int], *, engine: str | None = None,
-                accuracy: bool = True, map_sigma_m: float | None = None, estimate: str = "filter") -> ScoreResult:
+def score_suite(
+    problem: Problem,
+    suite: str | Iterable[str | int],
+    *,
+    engine: str | None = None,
+    accuracy: bool = True,
+    map_sigma_m: float | None = None,
+    estimate: str = "filter",
+) -> ScoreResult:
     """Score a suite given as comma-separated ids (``"LRL-roof,LRR-12"``), ids, or library positions;
     with ``accuracy``, also its accuracy in metres (the SLAM graph, or with ``map_sigma_m`` [m] a
     prior map; the filter's estimate as the car drives, or ``estimate="smoother"``: :func:`suite_accuracy`)."""
@@ -136,38 +263,63 @@ def score_suite(problem: Problem, suite: str | Iterable[str | int], *, engine: s
     )
 
 
-def suite_accuracy(target: Target, suite: str | Iterable[str | int], *, map_sigma_m: float | None = None,
-                   engine: str | None = None, estimate: str = "filter") -> tuple[RouteAccuracy, ...]:
+def suite_accuracy(
+    target: Target,
+    suite: str | Iterable[str | int],
+    *,
+    map_sigma_m: float | None = None,
+    engine: str | None = None,
+    estimate: str = "filter",
+) -> tuple[RouteAccuracy, ...]:
     """The accuracy of a suite in metres and degrees on every route of ``target`` (one for a
     problem), per keyframe: :mod:`sensorsel.information.evaluators.accuracy`. ``map_sigma_m``: localizing in a
     prior map whose landmarks are known to that std [m]; None: the paper's SLAM graph. ``estimate``:
     "filter" (at each keyframe from the measurements up to it: as the car drives) or "smoother"
     (from the whole route)."""
     positions = target.library.resolve_suite(suite)
-    return tuple(route_accuracy(make_evaluator(r.problem, engine), positions, map_sigma_m=map_sigma_m, route=r.name,
-                                estimate=estimate) for r in target.routes)
+    return tuple(
+        route_accuracy(
+            make_evaluator(r.problem, engine), positions, map_sigma_m=map_sigma_m, route=r.name, estimate=estimate
+        )
+        for r in target.routes
+    )
 
 
-def suite_integrity(target: Target, suite: str | Iterable[str | int], spec: IntegritySpec | None = None, *,
-                    map_sigma_m: float | None = None) -> tuple[RouteIntegrity, ...]:
+def suite_integrity(
+    target: Target,
+    suite: str | Iterable[str | int],
+    spec: IntegritySpec | None = None,
+    *,
+    map_sigma_m: float | None = None,
+) -> tuple[RouteIntegrity, ...]:
     """The integrity of a suite on every route of ``target`` (one for a problem), per keyframe: the
     association risk of its measurements, the integrity risk for ``spec``'s alert limits, the
     protection levels and the risk per hour (:mod:`sensorsel.information.integrity`), as the car
     drives (the filter). ``map_sigma_m``: localizing in a map known to that std [m]; None: SLAM."""
     positions = target.library.resolve_suite(suite)
-    return tuple(route_integrity(r.problem, positions, spec, map_sigma_m=map_sigma_m, route=r.name) for r in target.routes)
+    return tuple(
+        route_integrity(r.problem, positions, spec, map_sigma_m=map_sigma_m, route=r.name) for r in target.routes
+    )
 
 
-
-def with_suite_quality(result: Any, target: Target, *, map_sigma_m: float | None = None, engine: str | None = None,
-                       estimate: str = "filter", integrity: IntegritySpec | None = None) -> Any:
+def with_suite_quality(
+    result: Any,
+    target: Target,
+    *,
+    map_sigma_m: float | None = None,
+    engine: str | None = None,
+    estimate: str = "filter",
+    integrity: IntegritySpec | None = None,
+) -> Any:
     """``result`` (a frozen record with ``suite``, ``accuracy`` and ``integrity`` fields) with its suite's
     accuracy (:func:`suite_accuracy`) and integrity (:func:`suite_integrity`) on ``target`` filled in:
     what every selecting command reports of the suite it chose."""
     if estimate != "filter" or (integrity is not None and integrity.max_association_risk is not None):
-        return replace(result, accuracy=suite_accuracy(target, result.suite, map_sigma_m=map_sigma_m, engine=engine,
-                                                      estimate=estimate),
-                       integrity=suite_integrity(target, result.suite, integrity, map_sigma_m=map_sigma_m))
+        return replace(
+            result,
+            accuracy=suite_accuracy(target, result.suite, map_sigma_m=map_sigma_m, engine=engine, estimate=estimate),
+            integrity=suite_integrity(target, result.suite, integrity, map_sigma_m=map_sigma_m),
+        )
     # the filter without the lever: the integrity's forward pass uses every measurement, so its
     # filtered covariances are the accuracy's (the filter is the same whatever the engine): one pass
     check_estimate(estimate)
@@ -176,16 +328,30 @@ def with_suite_quality(result: Any, target: Target, *, map_sigma_m: float | None
     problems = [(r.name, r.problem) for r in target.routes]
     positions = target.library.resolve_suite(result.suite)
     passes = [integrity_and_pass(p, positions, integrity, map_sigma_m=map_sigma_m, route=name) for name, p in problems]
-    accuracy = tuple(accuracy_from_covariances(fp.filtered, map_sigma_m=map_sigma_m, route=name, estimate="filter")
-                     for (name, _), (_, fp) in zip(problems, passes))
+    accuracy = tuple(
+        accuracy_from_covariances(fp.filtered, map_sigma_m=map_sigma_m, route=name, estimate="filter")
+        for (name, _), (_, fp) in zip(problems, passes)
+    )
     return replace(result, accuracy=accuracy, integrity=tuple(ri for ri, _ in passes))
 
 
-def run_greedy(problem: Target, budget_usd: float, rule: str = "uniform", *, engine: str | None = None, jobs: int = 1,
-               lazy: bool = True, aggregate: str = "normalised", progress: Progress | None = None,
-               certify: bool = False, certify_progress: Progress | None = None, checkpoint: str | Path | None = None,
-               resume: bool = False, constraints: Constraints | None = None,
-               evaluator: Evaluator | None = None) -> CertifiedGreedyResult:
+def run_greedy(
+    problem: Target,
+    budget_usd: float,
+    rule: str = "uniform",
+    *,
+    engine: str | None = None,
+    jobs: int = 1,
+    lazy: bool = True,
+    aggregate: str = "normalised",
+    progress: Progress | None = None,
+    certify: bool = False,
+    certify_progress: Progress | None = None,
+    checkpoint: str | Path | None = None,
+    resume: bool = False,
+    constraints: Constraints | None = None,
+    evaluator: Evaluator | None = None,
+) -> CertifiedGreedyResult:
     """The ``sensorsel greedy`` run (:func:`sensorsel.designs.greedy_run.greedy_design`): greedy selection
     with a fresh evaluator of ``engine`` for a problem or a domain (its routes combined by ``aggregate``),
     recording what it ran on.
@@ -213,25 +379,65 @@ def run_greedy(problem: Target, budget_usd: float, rule: str = "uniform", *, eng
     """
     if evaluator is not None and checkpoint is not None:
         raise ValueError("run_greedy: a resumable run (checkpoint=) builds its own evaluator: give no evaluator=")
-    return greedy_design(problem, budget_usd, rule, engine=engine, jobs=jobs, aggregate=aggregate, lazy=lazy,
-                         certify=certify, progress=progress, certify_progress=certify_progress, evaluator=evaluator,
-                         constraints=constraints, checkpoint=checkpoint, resume=resume)
+    return greedy_design(
+        problem,
+        budget_usd,
+        rule,
+        engine=engine,
+        jobs=jobs,
+        aggregate=aggregate,
+        lazy=lazy,
+        certify=certify,
+        progress=progress,
+        certify_progress=certify_progress,
+        evaluator=evaluator,
+        constraints=constraints,
+        checkpoint=checkpoint,
+        resume=resume,
+    )
 
 
-def design_domain(domain: Domain, budget_usd: float, rule: str = "uniform", *, engine: str | None = None, jobs: int = 1,
-                  aggregate: str = "normalised", lazy: bool = True, certify: bool = False, progress: Progress | None = None,
-                  certify_progress: Progress | None = None, breakdown_progress: Progress | None = None,
-                  evaluator: DomainEvaluator | None = None, checkpoint: str | Path | None = None,
-                  resume: bool = False, constraints: Constraints | None = None) -> DomainDesign:
+def design_domain(
+    domain: Domain,
+    budget_usd: float,
+    rule: str = "uniform",
+    *,
+    engine: str | None = None,
+    jobs: int = 1,
+    aggregate: str = "normalised",
+    lazy: bool = True,
+    certify: bool = False,
+    progress: Progress | None = None,
+    certify_progress: Progress | None = None,
+    breakdown_progress: Progress | None = None,
+    evaluator: DomainEvaluator | None = None,
+    checkpoint: str | Path | None = None,
+    resume: bool = False,
+    constraints: Constraints | None = None,
+) -> DomainDesign:
     """The ``sensorsel greedy --domain`` run: :func:`sensorsel.designs.greedy_run.greedy_design` with its
     breakdown (one suite for every route, its certificate, each route's share of its best and of its own
     design: :class:`~sensorsel.designs.domain_design.DomainDesign`). ``checkpoint``/``resume``: as for
     :func:`run_greedy`; the certificate and each route's breakdown are recorded too. ``constraints``:
     limits besides the budget, for the domain suite and each route's own design."""
-    return greedy_design(domain, budget_usd, rule, engine=engine, jobs=jobs, aggregate=aggregate, lazy=lazy,
-                         certify=certify, breakdown=True, progress=progress, certify_progress=certify_progress,
-                         breakdown_progress=breakdown_progress, evaluator=evaluator, constraints=constraints,
-                         checkpoint=checkpoint, resume=resume)
+    return greedy_design(
+        domain,
+        budget_usd,
+        rule,
+        engine=engine,
+        jobs=jobs,
+        aggregate=aggregate,
+        lazy=lazy,
+        certify=certify,
+        breakdown=True,
+        progress=progress,
+        certify_progress=certify_progress,
+        breakdown_progress=breakdown_progress,
+        evaluator=evaluator,
+        constraints=constraints,
+        checkpoint=checkpoint,
+        resume=resume,
+    )
 
 
 @dataclass(frozen=True)
@@ -275,8 +481,14 @@ class DomainScoreResult(SuiteScore):
     integrity: tuple[RouteIntegrity, ...] = ()
 
 
-def score_domain_suite(domain: Domain, suite: str | Iterable[str | int], *, engine: str | None = None,
-                       aggregate: str = "normalised", evaluator: DomainEvaluator | None = None) -> DomainScoreResult:
+def score_domain_suite(
+    domain: Domain,
+    suite: str | Iterable[str | int],
+    *,
+    engine: str | None = None,
+    aggregate: str = "normalised",
+    evaluator: DomainEvaluator | None = None,
+) -> DomainScoreResult:
     """Score a suite on every route of ``domain`` and combine the routes (see
     :mod:`sensorsel.information.evaluators.domain`). ``evaluator``: the domain's evaluator already built (e.g. on
     a Dask cluster); ``engine`` and ``aggregate`` are then its own."""
@@ -284,15 +496,32 @@ def score_domain_suite(domain: Domain, suite: str | Iterable[str | int], *, engi
     positions = lib.resolve_suite(suite)
     ev = evaluator if evaluator is not None else DomainEvaluator(domain, engine, aggregate=aggregate)
     per = ev.route_scores(positions)
-    routes = tuple(RouteScore(r.name, float(w), float(f), float(b), float(f / b))
-                   for r, w, f, b in zip(domain.routes, ev.weights, per, ev.best))
-    return DomainScoreResult(suite=lib.suite_ids(positions), cost_usd=lib.cost(positions), score=float(ev.combine(per)),
-                             aggregate=ev.aggregate, routes=routes, engine=ev.engine, domain=domain.info)
+    routes = tuple(
+        RouteScore(r.name, float(w), float(f), float(b), float(f / b))
+        for r, w, f, b in zip(domain.routes, ev.weights, per, ev.best)
+    )
+    return DomainScoreResult(
+        suite=lib.suite_ids(positions),
+        cost_usd=lib.cost(positions),
+        score=float(ev.combine(per)),
+        aggregate=ev.aggregate,
+        routes=routes,
+        engine=ev.engine,
+        domain=domain.info,
+    )
 
 
-def certify_result(target: Target, result: GreedyResult, *, engine: str | None = None, jobs: int = 1,
-                   aggregate: str = "normalised", progress: Progress | None = None, force: bool = False,
-                   evaluator: Evaluator | None = None) -> Certificate:
+def certify_result(
+    target: Target,
+    result: GreedyResult,
+    *,
+    engine: str | None = None,
+    jobs: int = 1,
+    aggregate: str = "normalised",
+    progress: Progress | None = None,
+    force: bool = False,
+    evaluator: Evaluator | None = None,
+) -> Certificate:
     """The certificate of a greedy result on ``target`` (an upper bound on the best possible score
     within its budget; see :func:`sensorsel.designs.certify.certificate`), with a fresh evaluator of
     ``engine`` (default: the result's own), or ``evaluator`` when given (e.g. built on a Dask cluster).
@@ -307,16 +536,30 @@ def certify_result(target: Target, result: GreedyResult, *, engine: str | None =
     mismatch = constraints_mismatch(result, target.library)
     if mismatch is not None and not (force and mismatch[1]):
         raise InputError(f"the greedy result: {mismatch[0]}")
-    ev = evaluator if evaluator is not None else evaluator_for(target, engine or _engine_of(result), jobs=jobs,
-                                                                aggregate=aggregate)
+    ev = (
+        evaluator
+        if evaluator is not None
+        else evaluator_for(target, engine or _engine_of(result), jobs=jobs, aggregate=aggregate)
+    )
     return certificate(ev, result, progress=progress)
 
 
-def run_optimal(target: Target, budget_usd: float, *, engine: str | None = None, jobs: int = 1,
-                aggregate: str = "normalised", max_nodes: int = DEFAULT_MAX_NODES, max_seconds: float | None = None,
-                rule: str = "best-of", progress: Progress | None = None,
-                constraints: Constraints | None = None, evaluator: Evaluator | None = None,
-                checkpoint: str | Path | None = None, resume: bool = False) -> OptimumResult:
+def run_optimal(
+    target: Target,
+    budget_usd: float,
+    *,
+    engine: str | None = None,
+    jobs: int = 1,
+    aggregate: str = "normalised",
+    max_nodes: int = DEFAULT_MAX_NODES,
+    max_seconds: float | None = None,
+    rule: str = "best-of",
+    progress: Progress | None = None,
+    constraints: Constraints | None = None,
+    evaluator: Evaluator | None = None,
+    checkpoint: str | Path | None = None,
+    resume: bool = False,
+) -> OptimumResult:
     """The ``sensorsel optimal`` run: the best suite within the budget by branch and bound
     (:func:`sensorsel.designs.certify.optimal`), on a problem or a domain.
 
@@ -335,8 +578,18 @@ def run_optimal(target: Target, budget_usd: float, *, engine: str | None = None,
     if constraints is not None:
         feasible_set(target.library, budget_usd, constraints)  # refuse a bad request before the evaluator
     ev = evaluator if evaluator is not None else evaluator_for(target, engine, jobs=jobs, aggregate=aggregate)
-    return optimal(ev, budget_usd, max_nodes=max_nodes, max_seconds=max_seconds, rule=rule, progress=progress,
-                   info=target.info, constraints=constraints, checkpoint=checkpoint, resume=resume)
+    return optimal(
+        ev,
+        budget_usd,
+        max_nodes=max_nodes,
+        max_seconds=max_seconds,
+        rule=rule,
+        progress=progress,
+        info=target.info,
+        constraints=constraints,
+        checkpoint=checkpoint,
+        resume=resume,
+    )
 
 
 def _engine_of(result: GreedyResult) -> str | None:
@@ -350,8 +603,17 @@ RESILIENT_METHODS = METHODS
 ROBUST_AGGREGATES = ("normalised", "raw", "worst")
 
 
-def run_robust(target: Target, budget_usd: float, alpha: int, *, engine: str | None = None, jobs: int = 1,
-               aggregate: str = "normalised", evaluator: DomainEvaluator | None = None, **kwargs) -> RobustResult:
+def run_robust(
+    target: Target,
+    budget_usd: float,
+    alpha: int,
+    *,
+    engine: str | None = None,
+    jobs: int = 1,
+    aggregate: str = "normalised",
+    evaluator: DomainEvaluator | None = None,
+    **kwargs,
+) -> RobustResult:
     """The ``sensorsel robust`` run: the best worst case under ``alpha`` failures within the budget
     (:func:`sensorsel.designs.robust.run_robust`: the methods as a plan of tasks), on a problem or a domain.
 
@@ -377,7 +639,9 @@ def run_robust(target: Target, budget_usd: float, alpha: int, *, engine: str | N
             kwargs.pop("constraints")  # the budget alone
     if aggregate == "worst":
         if not isinstance(target, Domain):
-            raise InputError("aggregate 'worst' is the worst route of an operating domain: give a domain (--domain FILE)")
+            raise InputError(
+                "aggregate 'worst' is the worst route of an operating domain: give a domain (--domain FILE)"
+            )
         for k in ("executor", "outdir", "resume"):
             kwargs.pop(k, None)
         return worst_route_select(target, budget_usd, alpha, engine=engine, jobs=jobs, evaluator=evaluator, **kwargs)
@@ -387,8 +651,9 @@ def run_robust(target: Target, budget_usd: float, alpha: int, *, engine: str | N
     return _run_robust(target, budget_usd, alpha, engine=engine, jobs=jobs, aggregate=aggregate, **kwargs)
 
 
-def resilient_report(problem: Target, budget_usd: float, alpha: int, *, method: str = ALGORITHM_2,
-                     **kwargs) -> ResilientReport:
+def resilient_report(
+    problem: Target, budget_usd: float, alpha: int, *, method: str = ALGORITHM_2, **kwargs
+) -> ResilientReport:
     """The ``sensorsel resilient`` run (:func:`sensorsel.designs.resilient.resilient_report`): the whole-route
     comparison and the per-period selection. ``method``: "algorithm-2" (the paper's Algorithm 2, the
     default: the one the published results use) or "robust"
@@ -396,8 +661,9 @@ def resilient_report(problem: Target, budget_usd: float, alpha: int, *, method: 
     never below greedy's nor Algorithm 2's)."""
     if method not in RESILIENT_METHODS:
         raise InputError(f"unknown method {method!r}; available: {', '.join(RESILIENT_METHODS)}")
-    return _resilient_report(problem, budget_usd, alpha, method=method,
-                             selector=robust_choice if method == "robust" else None, **kwargs)
+    return _resilient_report(
+        problem, budget_usd, alpha, method=method, selector=robust_choice if method == "robust" else None, **kwargs
+    )
 
 
 def simulate(problem: Problem, suite: str | Iterable[int], **kwargs: Any) -> SimulationResult:

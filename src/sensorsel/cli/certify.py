@@ -11,29 +11,57 @@ from typing import Any
 
 import click
 
-from sensorsel.cli.vocabulary import Command
-
-from sensorsel.api import (DEFAULT_MAX_NODES, Certificate, CertifiedGreedyResult, DomainDesign, DomainEvaluator,
-                           GreedyResult, certify_result, check_affordable, check_budget, checkpoint_path,
-                           constraints_mismatch, format_certificate, run_greedy, run_optimal)
+from sensorsel.api import (
+    DEFAULT_MAX_NODES,
+    Certificate,
+    CertifiedGreedyResult,
+    DomainDesign,
+    DomainEvaluator,
+    GreedyResult,
+    certify_result,
+    check_affordable,
+    check_budget,
+    checkpoint_path,
+    constraints_mismatch,
+    format_certificate,
+    run_greedy,
+    run_optimal,
+    with_suite_quality,
+)
 from sensorsel.cli.cluster import evaluator_on, require_domain
 from sensorsel.cli.common import is_result_file
+from sensorsel.cli.integrity import integrity_from, integrity_options
+from sensorsel.cli.options import (
+    budget_option,
+    check_map_sigma,
+    cluster_from,
+    cluster_options,
+    constraint_options,
+    constraints_from,
+    engine_options,
+    force_option,
+    json_option,
+    map_sigma_option,
+    output_option,
+    print_accuracy,
+    print_target,
+    progress_bar,
+    quiet_option,
+    resume_option,
+    run,
+    target_from,
+    target_options,
+    usage_table,
+)
+from sensorsel.cli.options import not_empty as not_empty_file
+from sensorsel.cli.rules import kept_label, rule_option
+from sensorsel.cli.vocabulary import Command
 from sensorsel.errors import InputError, ResultFileError
 from sensorsel.io import results
 from sensorsel.io.files import output_file
 from sensorsel.model.constraints import Constraints, feasible_set
 from sensorsel.model.library import SensorLibrary
 from sensorsel.model.problem import ProblemMismatchWarning, check_result_problem
-
-from sensorsel.api import with_suite_quality
-from sensorsel.cli.options import not_empty as not_empty_file
-from sensorsel.cli.options import (budget_option, force_option, engine_options, json_option, output_option,
-                                   progress_bar, quiet_option, print_target, run, target_from, target_options)
-from sensorsel.cli.options import check_map_sigma, map_sigma_option, print_accuracy
-from sensorsel.cli.integrity import integrity_from, integrity_options
-from sensorsel.cli.options import cluster_from, cluster_options, resume_option
-from sensorsel.cli.options import constraint_options, constraints_from, usage_table
-from sensorsel.cli.rules import kept_label, rule_option
 
 
 def _suite_text(ids: tuple[str, ...]) -> str:
@@ -63,27 +91,54 @@ def _check_result_constraints(res: GreedyResult, lib: SensorLibrary, path: str, 
     raise ResultFileError(path, f"{why}; {hint}")
 
 
-@click.command("optimal", cls=Command, short_help="Exact best suite within a budget (branch and bound), with greedy beside it.")
+@click.command(
+    "optimal", cls=Command, short_help="Exact best suite within a budget (branch and bound), with greedy beside it."
+)
 @target_options
 @engine_options
 @cluster_options
 @budget_option(required=True, help="Budget per car in dollars: 110000, 110,000, $110,000 or 110_000.")
 @constraint_options
-@click.option("--max-nodes", type=click.IntRange(min=1), default=DEFAULT_MAX_NODES, show_default=True,
-              help="Stop after expanding this many nodes (each scores one suite plus each candidate).")
-@click.option("--time-limit", "time_limit", type=click.FloatRange(min=0, min_open=True), default=None, metavar="SECONDS",
-              help="Also stop the search after this long and report the gap (the result then depends on the machine's speed).")
+@click.option(
+    "--max-nodes",
+    type=click.IntRange(min=1),
+    default=DEFAULT_MAX_NODES,
+    show_default=True,
+    help="Stop after expanding this many nodes (each scores one suite plus each candidate).",
+)
+@click.option(
+    "--time-limit",
+    "time_limit",
+    type=click.FloatRange(min=0, min_open=True),
+    default=None,
+    metavar="SECONDS",
+    help="Also stop the search after this long and report the gap (the result then depends on the machine's speed).",
+)
 @map_sigma_option
 @integrity_options
-@output_option(help="Write the result as JSON here; the search's state is kept in FILE.checkpoint as it runs "
-                    "(the greedy start, then every 500 nodes; removed once FILE is written).")
+@output_option(
+    help="Write the result as JSON here; the search's state is kept in FILE.checkpoint as it runs "
+    "(the greedy start, then every 500 nodes; removed once FILE is written)."
+)
 @resume_option
 @json_option
 @quiet_option
 @run
-def optimal_cmd(budget: float, max_nodes: int, time_limit: float | None, output: str | None, resume: bool, as_json: bool,
-                quiet: bool,
-                aggregate: str, engine: str | None, jobs: int, map_sigma: float | None, estimate: str, **kw: Any) -> None:
+def optimal_cmd(
+    budget: float,
+    max_nodes: int,
+    time_limit: float | None,
+    output: str | None,
+    resume: bool,
+    as_json: bool,
+    quiet: bool,
+    aggregate: str,
+    engine: str | None,
+    jobs: int,
+    map_sigma: float | None,
+    estimate: str,
+    **kw: Any,
+) -> None:
     """The best suite within --budget, by branch and bound with the submodular knapsack bound.
 
     Starts from the greedy (best-of) suite and proves it optimal or improves on it. At the node
@@ -110,13 +165,25 @@ def optimal_cmd(budget: float, max_nodes: int, time_limit: float | None, output:
     problem = target_from(kw)
     require_domain(cluster, problem)
     check_affordable(problem.library, budget, constraints=constraints)
-    bar, progress = progress_bar(quiet or as_json, "branch and bound (nodes)", eta=False)  # the node limit is a cap, not a forecast
+    bar, progress = progress_bar(
+        quiet or as_json, "branch and bound (nodes)", eta=False
+    )  # the node limit is a cap, not a forecast
     with cluster or nullcontext(), bar or nullcontext():
         ev = evaluator_on(cluster, problem, engine, jobs, aggregate)
-        res = run_optimal(problem, budget, max_nodes=max_nodes, max_seconds=time_limit, progress=progress,
-                          constraints=constraints, evaluator=ev, checkpoint=checkpoint_path(output) if output else None,
-                          resume=resume)
-    res = with_suite_quality(res, problem, map_sigma_m=map_sigma, engine=engine, estimate=estimate, integrity=integrity_spec)
+        res = run_optimal(
+            problem,
+            budget,
+            max_nodes=max_nodes,
+            max_seconds=time_limit,
+            progress=progress,
+            constraints=constraints,
+            evaluator=ev,
+            checkpoint=checkpoint_path(output) if output else None,
+            resume=resume,
+        )
+    res = with_suite_quality(
+        res, problem, map_sigma_m=map_sigma, engine=engine, estimate=estimate, integrity=integrity_spec
+    )
     if output:
         results.save(res, output)
         checkpoint_path(output).unlink(missing_ok=True)  # the result is written: the run is no longer interrupted
@@ -127,36 +194,60 @@ def optimal_cmd(budget: float, max_nodes: int, time_limit: float | None, output:
     click.echo(f"library    {problem.n_sensors} sensors from {problem.library.source}")
     click.echo(f"budget     ${res.budget_usd:,.0f}")
     if res.proved_optimal:
-        click.echo(f"optimum    {_suite_text(res.suite)}  (${res.cost_usd:,.0f})  f = {res.score:.3f} nats  [proved optimal]")
+        click.echo(
+            f"optimum    {_suite_text(res.suite)}  (${res.cost_usd:,.0f})  f = {res.score:.3f} nats  [proved optimal]"
+        )
     else:
-        click.echo(f"best found {_suite_text(res.suite)}  (${res.cost_usd:,.0f})  f = {res.score:.3f} nats  [not proved: "
-                   f"{res.stop_reason}]")
-        click.echo(f"gap        the optimum scores at most {res.upper_bound:.3f} nats: at most {res.gap:.3f} nats "
-                   f"({res.gap_percent:.2f}%) above the best found")
+        click.echo(
+            f"best found {_suite_text(res.suite)}  (${res.cost_usd:,.0f})  f = {res.score:.3f} nats  [not proved: "
+            f"{res.stop_reason}]"
+        )
+        click.echo(
+            f"gap        the optimum scores at most {res.upper_bound:.3f} nats: at most {res.gap:.3f} nats "
+            f"({res.gap_percent:.2f}%) above the best found"
+        )
     rule = res.greedy_rule
-    rel = (f"{res.greedy_percent_of_best:.2f}% of the optimum" if res.proved_optimal
-           else f"{res.greedy_percent_of_best:.2f}% of the best found, >= {res.greedy_percent_of_bound:.2f}% of the "
-                "optimum")
-    click.echo(f"greedy     {rule}: {_suite_text(res.greedy_suite)}  (${res.greedy_cost_usd:,.0f})  f = "
-               f"{res.greedy_score:.3f} nats = {rel}")
-    click.echo(f"search     {res.n_nodes:,} nodes expanded ({res.n_solved:,} settled whole), {res.n_pruned:,} pruned, "
-               f"{res.n_evaluations:,} suites scored "
-               f"({res.engine} engine, {res.bound_method} bounds), {res.seconds:.1f} s")
+    rel = (
+        f"{res.greedy_percent_of_best:.2f}% of the optimum"
+        if res.proved_optimal
+        else f"{res.greedy_percent_of_best:.2f}% of the best found, >= {res.greedy_percent_of_bound:.2f}% of the "
+        "optimum"
+    )
+    click.echo(
+        f"greedy     {rule}: {_suite_text(res.greedy_suite)}  (${res.greedy_cost_usd:,.0f})  f = "
+        f"{res.greedy_score:.3f} nats = {rel}"
+    )
+    click.echo(
+        f"search     {res.n_nodes:,} nodes expanded ({res.n_solved:,} settled whole), {res.n_pruned:,} pruned, "
+        f"{res.n_evaluations:,} suites scored "
+        f"({res.engine} engine, {res.bound_method} bounds), {res.seconds:.1f} s"
+    )
     _print_usage(problem.library, res.budget_usd, res.constraints, res.suite)
     print_accuracy(res.accuracy, res.integrity)
     if output:
         click.echo(f"wrote      {output}")
 
 
-@click.command("certify", cls=Command, short_help="How close a greedy suite is to the best possible one (an upper bound).")
+@click.command(
+    "certify", cls=Command, short_help="How close a greedy suite is to the best possible one (an upper bound)."
+)
 @target_options
 @engine_options
 @cluster_options
-@click.option("--suite", "result_path", type=click.Path(dir_okay=False, path_type=str), default=None, callback=not_empty_file,
-              metavar="FILE", help="The suite to certify: a greedy result file of sensor ids and the run that chose them "
-                                   "(`sensorsel greedy -o FILE`); it must be of the same library, route, rate and landmarks "
-                                   "(checked by content; see --force).")
-@budget_option(help="Without --suite: run greedy at this budget in dollars (110000, 110,000, $110,000 or 110_000) and certify it.")
+@click.option(
+    "--suite",
+    "result_path",
+    type=click.Path(dir_okay=False, path_type=str),
+    default=None,
+    callback=not_empty_file,
+    metavar="FILE",
+    help="The suite to certify: a greedy result file of sensor ids and the run that chose them "
+    "(`sensorsel greedy -o FILE`); it must be of the same library, route, rate and landmarks "
+    "(checked by content; see --force).",
+)
+@budget_option(
+    help="Without --suite: run greedy at this budget in dollars (110000, 110,000, $110,000 or 110_000) and certify it."
+)
 @rule_option("best-of", "Without --suite: the greedy rule.")
 @constraint_options
 @force_option
@@ -164,8 +255,19 @@ def optimal_cmd(budget: float, max_nodes: int, time_limit: float | None, output:
 @json_option
 @quiet_option
 @run
-def certify_cmd(result_path: str | None, budget: float | None, rule: str, force: bool, output: str | None,
-                as_json: bool, quiet: bool, aggregate: str, engine: str | None, jobs: int, **kw: Any) -> None:
+def certify_cmd(
+    result_path: str | None,
+    budget: float | None,
+    rule: str,
+    force: bool,
+    output: str | None,
+    as_json: bool,
+    quiet: bool,
+    aggregate: str,
+    engine: str | None,
+    jobs: int,
+    **kw: Any,
+) -> None:
     """How close is a greedy suite to the best possible suite of its budget?
 
     --suite FILE: a greedy result to certify (its suite, and the greedy run that chose it), as
@@ -183,11 +285,15 @@ def certify_cmd(result_path: str | None, budget: float | None, rule: str, force:
     """
     constraints = constraints_from(kw)
     if result_path is not None and not is_result_file(result_path):
-        raise InputError(f"--suite {result_path}: certify bounds a greedy run, so it takes a greedy result file "
-                         "(sensorsel greedy -o FILE), not sensor ids; or give --budget DOLLARS to run greedy now")
+        raise InputError(
+            f"--suite {result_path}: certify bounds a greedy run, so it takes a greedy result file "
+            "(sensorsel greedy -o FILE), not sensor ids; or give --budget DOLLARS to run greedy now"
+        )
     if result_path is not None and constraints != Constraints():
-        raise InputError("--suite FILE is certified under the constraints it records: give --limit, --no-slots, "
-                         "--include, --owned, --exclude or --max-sensors only with --budget")
+        raise InputError(
+            "--suite FILE is certified under the constraints it records: give --limit, --no-slots, "
+            "--include, --owned, --exclude or --max-sensors only with --budget"
+        )
     if result_path is not None and budget is not None:
         raise InputError("give either --suite FILE (a greedy result) or --budget DOLLARS (run greedy now), not both")
     if result_path is None and budget is None:
@@ -198,28 +304,44 @@ def certify_cmd(result_path: str | None, budget: float | None, rule: str, force:
     problem = target_from(kw)
     require_domain(cluster, problem)
     with cluster or nullcontext():
-        res, cert = _certify(problem, cluster, result_path, budget, rule, force, quiet or as_json, engine, jobs, aggregate,
-                             constraints)
+        res, cert = _certify(
+            problem, cluster, result_path, budget, rule, force, quiet or as_json, engine, jobs, aggregate, constraints
+        )
     if output:
         results.save(cert, output)
     if as_json:
         click.echo(results.dumps(cert), nl=False)
         return
     print_target(res.problem)
-    click.echo(f"greedy     {kept_label(res.rule, res.winning_rule)}: {_suite_text(res.suite)}  (${res.cost_usd:,.0f} of "
-               f"${res.budget_usd:,.0f})")
+    click.echo(
+        f"greedy     {kept_label(res.rule, res.winning_rule)}: {_suite_text(res.suite)}  (${res.cost_usd:,.0f} of "
+        f"${res.budget_usd:,.0f})"
+    )
     click.echo(f"score      {cert.score:.3f} nats")
     within = f"${cert.budget_usd:,.0f}" + (" and the limits below" if cert.constraints is not None else "")
-    click.echo(f"bound      {cert.bound:.3f} nats: no suite within {within} scores more "
-               f"(gap {cert.gap:.3f} nats; knapsack: {cert.knapsack_method})")
+    click.echo(
+        f"bound      {cert.bound:.3f} nats: no suite within {within} scores more "
+        f"(gap {cert.gap:.3f} nats; knapsack: {cert.knapsack_method})"
+    )
     _print_usage(problem.library, res.budget_usd, res.constraints, res.suite)
     click.echo(format_certificate(cert))
     if output:
         click.echo(f"wrote      {output}")
 
 
-def _certify(problem: Any, cluster: Any, result_path: str | None, budget: float | None, rule: str, force: bool, quiet: bool,
-             engine: str | None, jobs: int, aggregate: str, constraints: Constraints) -> tuple[Any, Certificate]:
+def _certify(
+    problem: Any,
+    cluster: Any,
+    result_path: str | None,
+    budget: float | None,
+    rule: str,
+    force: bool,
+    quiet: bool,
+    engine: str | None,
+    jobs: int,
+    aggregate: str,
+    constraints: Constraints,
+) -> tuple[Any, Certificate]:
     """The greedy result (read from --suite, under the constraints it records; or run now under
     ``constraints``) and its certificate, on ``cluster`` if given."""
     if result_path is not None:

@@ -17,7 +17,9 @@ def require_domain(cluster: Any, target: Target) -> None:
         click.UsageError: a cluster asked for on one route.
     """
     if cluster is not None and not isinstance(target, Domain):
-        raise click.UsageError("--scheduler/--workers spread a domain's routes over a cluster: they go with --domain FILE")
+        raise click.UsageError(
+            "--scheduler/--workers spread a domain's routes over a cluster: they go with --domain FILE"
+        )
 
 
 def evaluator_on(cluster: Any, target: Target, engine: str | None, jobs: int, aggregate: str) -> Evaluator:

@@ -15,7 +15,6 @@ from sensorsel.io import results
 from sensorsel.model.library import SensorLibrary
 from sensorsel.model.problem import Problem, ProblemInfo, check_result_problem
 
-
 #: Result kinds that name a suite: simulate --suite/--compare read these (resilient ones also say
 #: which sensors they assume to fail).
 SUITE_KINDS = ("greedy", "resilient", "resilient-selection", "optimum", "score", "requirement")
@@ -35,8 +34,14 @@ def is_result_file(text: str) -> bool:
     return text.lower().endswith(".json") or _is_file(Path(text))
 
 
-def read_suite(text: str, library: SensorLibrary, what: str, problem: Problem | None = None,
-               force: bool = False, ignore: tuple[str, ...] = ()) -> tuple[tuple[int, ...], str, tuple[str, ...]]:
+def read_suite(
+    text: str,
+    library: SensorLibrary,
+    what: str,
+    problem: Problem | None = None,
+    force: bool = False,
+    ignore: tuple[str, ...] = (),
+) -> tuple[tuple[int, ...], str, tuple[str, ...]]:
     """A suite from comma-separated ids, or from a result file of a kind in :data:`SUITE_KINDS`
     (e.g. of ``sensorsel greedy -o`` or ``sensorsel resilient``), read by :func:`sensorsel.io.results.load`.
     With ``problem``, a result file must have been computed on it
@@ -56,8 +61,14 @@ def read_suite(text: str, library: SensorLibrary, what: str, problem: Problem | 
             raise ResultFileError(path, f"{what}: {exc.reason}") from None
         ids: tuple[str, ...] = rec.suite
         if problem is not None:
-            check_result_problem(_recorded_problem(rec), problem, path, force=force,
-                                 what=f"{what}: the {results.kind_of(rec)} result", ignore=ignore)
+            check_result_problem(
+                _recorded_problem(rec),
+                problem,
+                path,
+                force=force,
+                what=f"{what}: the {results.kind_of(rec)} result",
+                ignore=ignore,
+            )
         failed: tuple[str, ...] = getattr(rec, "failed", ())
         try:
             positions = library.parse_suite(list(ids))
@@ -81,28 +92,57 @@ def _recorded_problem(rec: Any) -> ProblemInfo | None:
 def specification_options(fn: Any) -> Any:
     """--preset, --lateral, --longitudinal, --heading, --sigma, --at, --spec: a specification in
     metres (read by :func:`specification_from`)."""
-    for opt in reversed([
-        click.option("--preset", default=None, metavar="|".join(PRESETS),
-                     help="A published specification: Reid et al. 2019, passenger cars, 95 %: local-streets 0.10 m lateral, "
-                          "0.10 m longitudinal, 0.17 deg heading; freeway 0.20 m, 0.48 m, 0.51 deg."),
-        click.option("--lateral", type=float, default=None, metavar="METRES", help="Bound on the lateral position error [m]."),
-        click.option("--longitudinal", type=float, default=None, metavar="METRES",
-                     help="Bound on the longitudinal position error [m]."),
-        click.option("--heading", type=float, default=None, metavar="DEGREES", help="Bound on the heading error [deg]."),
-        click.option("--sigma", is_flag=True, help="The bounds are 1σ (default: 95 % bounds, 1.96σ)."),
-        click.option("--at", type=float, default=None, metavar="PERCENT",
-                     help="Share of each route's keyframes that must meet every bound (default: 100, every keyframe)."),
-        click.option("--spec", "spec_path", type=click.Path(dir_okay=False, path_type=str), default=None, metavar="FILE",
-                     help="A specification file: a default and per-route specifications (a domain whose routes have "
-                          "different road classes); see the requirements guide."),
-    ]):
+    for opt in reversed(
+        [
+            click.option(
+                "--preset",
+                default=None,
+                metavar="|".join(PRESETS),
+                help="A published specification: Reid et al. 2019, passenger cars, 95 %: local-streets 0.10 m lateral, "
+                "0.10 m longitudinal, 0.17 deg heading; freeway 0.20 m, 0.48 m, 0.51 deg.",
+            ),
+            click.option(
+                "--lateral", type=float, default=None, metavar="METRES", help="Bound on the lateral position error [m]."
+            ),
+            click.option(
+                "--longitudinal",
+                type=float,
+                default=None,
+                metavar="METRES",
+                help="Bound on the longitudinal position error [m].",
+            ),
+            click.option(
+                "--heading", type=float, default=None, metavar="DEGREES", help="Bound on the heading error [deg]."
+            ),
+            click.option("--sigma", is_flag=True, help="The bounds are 1σ (default: 95 % bounds, 1.96σ)."),
+            click.option(
+                "--at",
+                type=float,
+                default=None,
+                metavar="PERCENT",
+                help="Share of each route's keyframes that must meet every bound (default: 100, every keyframe).",
+            ),
+            click.option(
+                "--spec",
+                "spec_path",
+                type=click.Path(dir_okay=False, path_type=str),
+                default=None,
+                metavar="FILE",
+                help="A specification file: a default and per-route specifications (a domain whose routes have "
+                "different road classes); see the requirements guide.",
+            ),
+        ]
+    ):
         fn = opt(fn)
     return fn
 
 
 def specification_given(kw: dict[str, Any]) -> bool:
     """Whether any specification option was given."""
-    return any(kw.get(k) not in (None, False) for k in ("preset", "lateral", "longitudinal", "heading", "sigma", "at", "spec_path"))
+    return any(
+        kw.get(k) not in (None, False)
+        for k in ("preset", "lateral", "longitudinal", "heading", "sigma", "at", "spec_path")
+    )
 
 
 def specification_from(kw: dict[str, Any], routes: list[str]) -> list[Specification]:
@@ -120,7 +160,9 @@ def specification_from(kw: dict[str, Any], routes: list[str]) -> list[Specificat
         overrides["at"] = at / 100.0
     if spec_path is not None:
         if name is not None or any(v is not None for v in given.values()):
-            raise click.UsageError("--spec FILE gives the whole specification: drop --preset, --lateral, --longitudinal, --heading")
+            raise click.UsageError(
+                "--spec FILE gives the whole specification: drop --preset, --lateral, --longitudinal, --heading"
+            )
         default, per_route = load_specification_file(spec_path)
         specs = specifications_for(routes, default, per_route, f"--spec {spec_path}")
         return [replace(s, **overrides) for s in specs] if overrides else specs

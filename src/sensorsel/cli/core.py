@@ -10,19 +10,38 @@ from typing import Any
 
 import click
 
-from sensorsel.cli.vocabulary import Command
-
 from sensorsel.api import score_domain_suite, score_suite, suite_integrity, with_suite_quality
 from sensorsel.cli.cluster import domain_evaluator_on, require_domain
-from sensorsel.cli.options import (engine_options, json_option, output_option, plot_format_option, print_target,
-                                   problem_from, run, scenario_options, spec_from, suite_text, table, target_from,
-                                   target_options)
-from sensorsel.cli.options import check_map_sigma, map_sigma_option, print_accuracy
-from sensorsel.cli.integrity import integrity_from, integrity_options
-from sensorsel.cli.options import cluster_from, cluster_options, constraint_options, constraints_from, usage_table
-from sensorsel.cli.options import echo_written, force_option, quiet_option
-from sensorsel.cli.options import plot_format as plot_format_of
 from sensorsel.cli.common import is_result_file, read_suite
+from sensorsel.cli.integrity import integrity_from, integrity_options
+from sensorsel.cli.options import (
+    check_map_sigma,
+    cluster_from,
+    cluster_options,
+    constraint_options,
+    constraints_from,
+    echo_written,
+    engine_options,
+    force_option,
+    json_option,
+    map_sigma_option,
+    output_option,
+    plot_format_option,
+    print_accuracy,
+    print_target,
+    problem_from,
+    quiet_option,
+    run,
+    scenario_options,
+    spec_from,
+    suite_text,
+    table,
+    target_from,
+    target_options,
+    usage_table,
+)
+from sensorsel.cli.options import plot_format as plot_format_of
+from sensorsel.cli.vocabulary import Command
 from sensorsel.errors import InputError
 from sensorsel.io import results
 from sensorsel.model.constraints import FeasibleSet, feasible_set
@@ -33,22 +52,44 @@ from sensorsel.model.scenario import LandmarkModel, generate_landmarks, route_la
 
 def library_json(lib: SensorLibrary) -> str:
     """The library as JSON: its source and each placed sensor (id, index, model, clock, range, FOV, noise, cost)."""
-    sensors = [{
-        "id": s.id, "index": s.index, "model": s.model.code, "model_name": s.model.name, "type": s.model.type,
-        "clock": s.clock, "position": s.position_label, "mount_angle_deg": round(math.degrees(s.mount_angle_rad), 9),
-        "range_m": s.model.range_m, "fov_deg": round(math.degrees(s.model.fov_rad), 9),
-        "sigma_bearing_rad": s.model.bearing_sigma(),
-        "sigma_range_m": None if s.model.type == "stereo" else s.model.sigma_range_m,  # stereo: z^2 model
-        "cost_usd": s.cost_usd, "resources": dict(s.model.resources),
-    } for s in lib]
-    slots = [{"place": sl.place, "kind": sl.kind, "capacity": sl.capacity, "sensors": [lib.ids[i] for i in sl.members]}
-             for sl in lib.slots]
-    return json.dumps({"source": lib.source, "n_sensors": len(lib), "sensors": sensors, "slots": slots},
-                      indent=2, allow_nan=False) + "\n"
+    sensors = [
+        {
+            "id": s.id,
+            "index": s.index,
+            "model": s.model.code,
+            "model_name": s.model.name,
+            "type": s.model.type,
+            "clock": s.clock,
+            "position": s.position_label,
+            "mount_angle_deg": round(math.degrees(s.mount_angle_rad), 9),
+            "range_m": s.model.range_m,
+            "fov_deg": round(math.degrees(s.model.fov_rad), 9),
+            "sigma_bearing_rad": s.model.bearing_sigma(),
+            "sigma_range_m": None if s.model.type == "stereo" else s.model.sigma_range_m,  # stereo: z^2 model
+            "cost_usd": s.cost_usd,
+            "resources": dict(s.model.resources),
+        }
+        for s in lib
+    ]
+    slots = [
+        {"place": sl.place, "kind": sl.kind, "capacity": sl.capacity, "sensors": [lib.ids[i] for i in sl.members]}
+        for sl in lib.slots
+    ]
+    return (
+        json.dumps(
+            {"source": lib.source, "n_sensors": len(lib), "sensors": sensors, "slots": slots}, indent=2, allow_nan=False
+        )
+        + "\n"
+    )
 
 
 @click.command("library", cls=Command, short_help="List the 62 placed sensors of the library (id, index, model, cost).")
-@click.option("--library", "library_path", type=click.Path(dir_okay=False, path_type=str), help="Sensor library YAML (default: the paper's Table I).")
+@click.option(
+    "--library",
+    "library_path",
+    type=click.Path(dir_okay=False, path_type=str),
+    help="Sensor library YAML (default: the paper's Table I).",
+)
 @json_option
 @quiet_option
 @run
@@ -61,13 +102,37 @@ def library_cmd(library_path: str | None, as_json: bool, quiet: bool) -> None:
         return
     names = lib.resource_names
     rows = [
-        [s.id, str(s.index), s.model.name, s.position_label, f"{s.model.range_m:g}", f"{math.degrees(s.model.fov_rad):.1f}",
-         f"{s.model.bearing_sigma():.5f}", "z^2 model" if s.model.type == "stereo" else f"{s.model.sigma_range_m:g}", f"{s.cost_usd:,.0f}"]
+        [
+            s.id,
+            str(s.index),
+            s.model.name,
+            s.position_label,
+            f"{s.model.range_m:g}",
+            f"{math.degrees(s.model.fov_rad):.1f}",
+            f"{s.model.bearing_sigma():.5f}",
+            "z^2 model" if s.model.type == "stereo" else f"{s.model.sigma_range_m:g}",
+            f"{s.cost_usd:,.0f}",
+        ]
         + [f"{dict(s.model.resources)[n]:g}" if n in dict(s.model.resources) else "-" for n in names]
         for s in lib
     ]
-    click.echo(table(rows, ["id", "index", "model", "position", "range_m", "fov_deg", "sigma_brg_rad", "sigma_rng_m", "cost_usd",
-                            *names]))
+    click.echo(
+        table(
+            rows,
+            [
+                "id",
+                "index",
+                "model",
+                "position",
+                "range_m",
+                "fov_deg",
+                "sigma_brg_rad",
+                "sigma_rng_m",
+                "cost_usd",
+                *names,
+            ],
+        )
+    )
     click.echo(f"\n{len(lib)} sensors from {lib.source}")
     if names:
         declared = ", ".join(f"{n} [{resource_unit(n) or '-'}]" for n in names)
@@ -79,18 +144,30 @@ def library_cmd(library_path: str | None, as_json: bool, quiet: bool) -> None:
         groups: dict[str, list[str]] = {}
         for place, kinds in caps.items():
             groups.setdefault(", ".join(kinds), []).append("roof" if place == "roof" else place)
-        click.echo("slots      " + "; ".join(f"{'/'.join(ps)}: {k}" for k, ps in groups.items())
-                   + " (at most, per place; --no-slots ignores them)")
+        click.echo(
+            "slots      "
+            + "; ".join(f"{'/'.join(ps)}: {k}" for k, ps in groups.items())
+            + " (at most, per place; --no-slots ignores them)"
+        )
     else:
-        click.echo("slots      none (no mounting limits; a file can add them: see configs/car_one_radar_one_camera.yaml)")
+        click.echo(
+            "slots      none (no mounting limits; a file can add them: see configs/car_one_radar_one_camera.yaml)"
+        )
 
 
 @click.command("score", cls=Command, short_help="Score a suite: cost and f(S) = log det gain over no sensor [nats].")
 @target_options
 @engine_options
 @cluster_options
-@click.option("--suite", required=True, callback=suite_text, metavar="IDS|FILE", help="Comma-separated sensor ids or indices, e.g. LRL-roof,LRR-12 (see "
-              "`sensorsel library`), or a result JSON (`sensorsel greedy -o FILE`, ...: its suite; computed on the same problem, see --force).")
+@click.option(
+    "--suite",
+    required=True,
+    callback=suite_text,
+    metavar="IDS|FILE",
+    help="Comma-separated sensor ids or indices, e.g. LRL-roof,LRR-12 (see "
+    "`sensorsel library`), or a result JSON (`sensorsel greedy -o FILE`, ...: its suite; computed on the same "
+    "problem, see --force).",
+)
 @constraint_options
 @force_option
 @map_sigma_option
@@ -98,8 +175,18 @@ def library_cmd(library_path: str | None, as_json: bool, quiet: bool) -> None:
 @json_option
 @quiet_option
 @run
-def score_cmd(suite: str, as_json: bool, quiet: bool, aggregate: str, engine: str | None, jobs: int, force: bool,
-              map_sigma: float | None, estimate: str, **kw: Any) -> None:
+def score_cmd(
+    suite: str,
+    as_json: bool,
+    quiet: bool,
+    aggregate: str,
+    engine: str | None,
+    jobs: int,
+    force: bool,
+    map_sigma: float | None,
+    estimate: str,
+    **kw: Any,
+) -> None:
     """Score a sensor suite: cost and f(S) = log det L(S) - log det L(empty) in nats.
 
     With --domain FILE: the suite's score on every route, each as a share of the route's best, and
@@ -119,25 +206,34 @@ def score_cmd(suite: str, as_json: bool, quiet: bool, aggregate: str, engine: st
     feas = feasible_set(problem.library, float(problem.library.costs.sum()), constraints)
     if isinstance(problem, Domain):
         if is_result_file(suite):
-            raise InputError(f"--suite {suite}: a result file names a suite for one route; with --domain give the suite's ids")
+            raise InputError(
+                f"--suite {suite}: a result file names a suite for one route; with --domain give the suite's ids"
+            )
         with cluster or nullcontext():
             ev = domain_evaluator_on(cluster, problem, engine, aggregate) if cluster is not None else None
             dres = score_domain_suite(problem, suite, engine=engine, aggregate=aggregate, evaluator=ev)
-        dres = with_suite_quality(dres, problem, map_sigma_m=map_sigma, engine=engine, estimate=estimate, integrity=integrity_spec)
+        dres = with_suite_quality(
+            dres, problem, map_sigma_m=map_sigma, engine=engine, estimate=estimate, integrity=integrity_spec
+        )
         if as_json:
             click.echo(results.dumps(dres), nl=False)
             return
         print_target(dres.domain)
         click.echo(f"suite      {','.join(dres.suite)}")
         click.echo(f"cost       ${dres.cost_usd:,.0f}")
-        rows = [[r.name, f"{r.weight:.3f}", f"{r.score:.3f}", f"{r.best_score:.3f}", f"{r.share_of_best:.4f}"] for r in dres.routes]
+        rows = [
+            [r.name, f"{r.weight:.3f}", f"{r.score:.3f}", f"{r.best_score:.3f}", f"{r.share_of_best:.4f}"]
+            for r in dres.routes
+        ]
         click.echo(table(rows, ["route", "weight", "score_nats", "best_nats", "of_best"]))
         unit = "(weighted share of the best)" if dres.aggregate == "normalised" else "nats (weighted)"
         click.echo(f"score      {dres.score:.4f} {unit}")
         print_accuracy(dres.accuracy, dres.integrity)
         _print_limits(feas, problem.library.resolve_suite(dres.suite))
         return
-    res = score_suite(problem, _suite_positions(suite, problem, force), engine=engine, map_sigma_m=map_sigma, estimate=estimate)
+    res = score_suite(
+        problem, _suite_positions(suite, problem, force), engine=engine, map_sigma_m=map_sigma, estimate=estimate
+    )
     res = replace(res, integrity=suite_integrity(problem, res.suite, integrity_spec, map_sigma_m=map_sigma))
     if as_json:
         click.echo(results.dumps(res), nl=False)
@@ -171,17 +267,44 @@ def _print_limits(feas: FeasibleSet, suite: tuple[int, ...]) -> None:
 @scenario_options
 @output_option(required=True, help="Image file (.png, .svg, .pdf).")
 @plot_format_option
-@click.option("--suite", default=None, callback=suite_text, metavar="IDS|FILE", help="Draw these sensors' cones: comma-separated sensor ids, or a result JSON "
-              "(`sensorsel greedy -o FILE`, ...: its suite; computed on the same problem, see --force).")
-@click.option("--pose", "pose_index", type=int, default=None, help="Keyframe at which to draw the cones (default: the middle one).")
-@click.option("--domain", "domain_path", type=click.Path(dir_okay=False, path_type=str), metavar="FILE", default=None,
-              help="Draw an operating domain instead: every route, and its landmarks by class (sensorsel osm's domains).")
+@click.option(
+    "--suite",
+    default=None,
+    callback=suite_text,
+    metavar="IDS|FILE",
+    help="Draw these sensors' cones: comma-separated sensor ids, or a result JSON "
+    "(`sensorsel greedy -o FILE`, ...: its suite; computed on the same problem, see --force).",
+)
+@click.option(
+    "--pose",
+    "pose_index",
+    type=int,
+    default=None,
+    help="Keyframe at which to draw the cones (default: the middle one).",
+)
+@click.option(
+    "--domain",
+    "domain_path",
+    type=click.Path(dir_okay=False, path_type=str),
+    metavar="FILE",
+    default=None,
+    help="Draw an operating domain instead: every route, and its landmarks by class (sensorsel osm's domains).",
+)
 @force_option
 @json_option
 @quiet_option
 @run
-def scene_cmd(output: str, plot_format: str | None, suite: str | None, pose_index: int | None, domain_path: str | None,
-              force: bool, as_json: bool, quiet: bool, **kw: Any) -> None:
+def scene_cmd(
+    output: str,
+    plot_format: str | None,
+    suite: str | None,
+    pose_index: int | None,
+    domain_path: str | None,
+    force: bool,
+    as_json: bool,
+    quiet: bool,
+    **kw: Any,
+) -> None:
     """Draw the route and landmarks (the paper's Fig. 2), optionally a suite's sensing cones.
 
     The format is --plot-format, or else the extension of -o (.png, .svg, .pdf); the two must agree.
@@ -207,10 +330,21 @@ def scene_cmd(output: str, plot_format: str | None, suite: str | None, pose_inde
         from sensorsel.model.sensing import condition_effects
 
         ranges = [e.range_m for e in condition_effects(problem.library, problem.condition)]
-    ax = plot_scene(problem.scenario, library=problem.library, suite=positions, pose_index=pose_index, ranges_m=ranges,
-                    condition=problem.condition.label if problem.condition is not None else None)
-    _said_written(save_figure(ax.figure, output, close=True), as_json, "scene", scenario=problem.scenario.name,
-                  suite=list(problem.library.ids[i] for i in positions))
+    ax = plot_scene(
+        problem.scenario,
+        library=problem.library,
+        suite=positions,
+        pose_index=pose_index,
+        ranges_m=ranges,
+        condition=problem.condition.label if problem.condition is not None else None,
+    )
+    _said_written(
+        save_figure(ax.figure, output, close=True),
+        as_json,
+        "scene",
+        scenario=problem.scenario.name,
+        suite=list(problem.library.ids[i] for i in positions),
+    )
 
 
 def _said_written(path: Any, as_json: bool, kind: str, **fields: Any) -> None:
@@ -235,22 +369,57 @@ _DEFAULT_MODEL = LandmarkModel()
 
 @click.command("landmarks", cls=Command, short_help="Generate synthetic landmarks along a route and write them as CSV.")
 @scenario_options
-@click.option("--near-spacing", type=float, default=_DEFAULT_MODEL.near_spacing_m, show_default=True,
-              help="Route length between two near landmarks on each roadside [m].")
-@click.option("--near-offset", default="{:g},{:g}".format(*_DEFAULT_MODEL.near_offset_m), show_default=True, metavar="LOW,HIGH",
-              help="Distance of near landmarks (poles, trees, facades) from the route [m].")
-@click.option("--far-spacing", type=float, default=_DEFAULT_MODEL.far_spacing_m, show_default=True,
-              help="Route length between two far landmarks, on a random side [m].")
-@click.option("--far-offset", default="{:g},{:g}".format(*_DEFAULT_MODEL.far_offset_m), show_default=True, metavar="LOW,HIGH",
-              help="Distance of far landmarks (buildings, hills) from the route [m].")
-@click.option("--clearance", type=float, default=_DEFAULT_MODEL.clearance_m, show_default=True, metavar="METRES",
-              help="No landmark closer than this to the route (any point of it: the road itself) [m].")
+@click.option(
+    "--near-spacing",
+    type=float,
+    default=_DEFAULT_MODEL.near_spacing_m,
+    show_default=True,
+    help="Route length between two near landmarks on each roadside [m].",
+)
+@click.option(
+    "--near-offset",
+    default="{:g},{:g}".format(*_DEFAULT_MODEL.near_offset_m),
+    show_default=True,
+    metavar="LOW,HIGH",
+    help="Distance of near landmarks (poles, trees, facades) from the route [m].",
+)
+@click.option(
+    "--far-spacing",
+    type=float,
+    default=_DEFAULT_MODEL.far_spacing_m,
+    show_default=True,
+    help="Route length between two far landmarks, on a random side [m].",
+)
+@click.option(
+    "--far-offset",
+    default="{:g},{:g}".format(*_DEFAULT_MODEL.far_offset_m),
+    show_default=True,
+    metavar="LOW,HIGH",
+    help="Distance of far landmarks (buildings, hills) from the route [m].",
+)
+@click.option(
+    "--clearance",
+    type=float,
+    default=_DEFAULT_MODEL.clearance_m,
+    show_default=True,
+    metavar="METRES",
+    help="No landmark closer than this to the route (any point of it: the road itself) [m].",
+)
 @output_option(required=True, help="CSV file to write (x,y in metres).")
 @json_option
 @quiet_option
 @run
-def landmarks_cmd(near_spacing: float, near_offset: str, far_spacing: float, far_offset: str, clearance: float, output: str,
-                  as_json: bool, quiet: bool, **kw: Any) -> None:
+def landmarks_cmd(
+    near_spacing: float,
+    near_offset: str,
+    far_spacing: float,
+    far_offset: str,
+    clearance: float,
+    output: str,
+    as_json: bool,
+    quiet: bool,
+    **kw: Any,
+) -> None:
     """Generate synthetic landmarks along the route with the given densities and distances (seeded by
     --landmark-seed) and write them as CSV (x,y in sensorsel's planar frame, metres).
 
@@ -261,12 +430,19 @@ def landmarks_cmd(near_spacing: float, near_offset: str, far_spacing: float, far
     kw.pop("library_path")
     if kw.get("landmarks"):
         raise click.UsageError("--landmarks reads a landmark file; this command writes one (leave --landmarks out)")
-    model = LandmarkModel(near_spacing_m=near_spacing, near_offset_m=_range_m(near_offset, "--near-offset"),
-                          far_spacing_m=far_spacing, far_offset_m=_range_m(far_offset, "--far-offset"), clearance_m=clearance)
+    model = LandmarkModel(
+        near_spacing_m=near_spacing,
+        near_offset_m=_range_m(near_offset, "--near-offset"),
+        far_spacing_m=far_spacing,
+        far_offset_m=_range_m(far_offset, "--far-offset"),
+        clearance_m=clearance,
+    )
     spec = replace(spec_from(kw), landmark_model=model)
     if spec.geo:
-        raise click.UsageError("--georef, --osm-classes and --osm-reach place OSM landmarks (--landmarks osm:FILE); this command "
-                               "generates synthetic ones (leave them out)")
+        raise click.UsageError(
+            "--georef, --osm-classes and --osm-reach place OSM landmarks (--landmarks osm:FILE); this command "
+            "generates synthetic ones (leave them out)"
+        )
     from sensorsel.model.osm.track import gpx_route, is_gpx
 
     if spec.route is not None and is_gpx(spec.route):  # a GPS track: in the UTM frame of its mean position

@@ -6,21 +6,38 @@ from __future__ import annotations
 
 import click
 
+from sensorsel.cli.options import echo_written, json_option, output_option, quiet_option, run
 from sensorsel.cli.vocabulary import Command
 
-from sensorsel.cli.options import echo_written, json_option, output_option, quiet_option, run
 
-
-@click.command("kitti", cls=Command, short_help="Build the KITTI folder (routes and pole maps) from the downloaded sources.")
-@click.option("--odometry", required=True, type=click.Path(file_okay=False, path_type=str),
-              help="KITTI odometry's dataset/ folder: poses/NN.txt, sequences/NN/times.txt and sequences/NN/calib.txt "
-                   "(data_odometry_poses and data_odometry_calib).")
-@click.option("--poles", required=True, type=click.Path(file_okay=False, path_type=str),
-              help="A clone of PRBonn/pole-localization, or the folder holding its kitti_label_NN/globalmap_gt_cluster.npz.")
-@click.option("--seq", "seqs", multiple=True, metavar="NN",
-              help="A KITTI odometry sequence to build (repeatable; default: every one with both a pose file and a pole map).")
-@output_option(folder=True, required=True,
-               help="The KITTI folder to write (poses/, sequences/NN/times.txt, landmarks/NN.csv); may be --odometry itself.")
+@click.command(
+    "kitti", cls=Command, short_help="Build the KITTI folder (routes and pole maps) from the downloaded sources."
+)
+@click.option(
+    "--odometry",
+    required=True,
+    type=click.Path(file_okay=False, path_type=str),
+    help="KITTI odometry's dataset/ folder: poses/NN.txt, sequences/NN/times.txt and sequences/NN/calib.txt "
+    "(data_odometry_poses and data_odometry_calib).",
+)
+@click.option(
+    "--poles",
+    required=True,
+    type=click.Path(file_okay=False, path_type=str),
+    help="A clone of PRBonn/pole-localization, or the folder holding its kitti_label_NN/globalmap_gt_cluster.npz.",
+)
+@click.option(
+    "--seq",
+    "seqs",
+    multiple=True,
+    metavar="NN",
+    help="A KITTI odometry sequence to build (repeatable; default: every one with both a pose file and a pole map).",
+)
+@output_option(
+    folder=True,
+    required=True,
+    help="The KITTI folder to write (poses/, sequences/NN/times.txt, landmarks/NN.csv); may be --odometry itself.",
+)
 @json_option
 @quiet_option
 @run
@@ -42,12 +59,26 @@ def kitti_cmd(odometry: str, poles: str, seqs: tuple[str, ...], outdir: str, as_
         raise click.BadParameter("give a sequence (e.g. --seq 03 --seq 00)", param_hint="--seq")
     built = build_kitti_folder(find_sources(odometry, poles, wanted), outdir)
     if as_json:
-        echo_written("kitti", folder=outdir, sequences=[{"seq": b.seq, "frames": b.frames, "poles": b.poles,
-                                                          "median_distance_m": b.median_distance_m, "landmarks": str(b.landmarks)}
-                                                         for b in built])
+        echo_written(
+            "kitti",
+            folder=outdir,
+            sequences=[
+                {
+                    "seq": b.seq,
+                    "frames": b.frames,
+                    "poles": b.poles,
+                    "median_distance_m": b.median_distance_m,
+                    "landmarks": str(b.landmarks),
+                }
+                for b in built
+            ],
+        )
         return
     for b in built:
-        click.echo(f"{b.seq}  {b.frames:>5} frames  {b.poles:>4} poles (median {b.median_distance_m:.1f} m from the route)  wrote {b.landmarks}")
+        click.echo(
+            f"{b.seq}  {b.frames:>5} frames  {b.poles:>4} poles (median {b.median_distance_m:.1f} m from the "
+            f"route)  wrote {b.landmarks}"
+        )
 
 
 COMMANDS = [kitti_cmd]

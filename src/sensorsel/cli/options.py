@@ -16,19 +16,19 @@ import math
 import os
 import sys
 import warnings
+from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any, Callable, TypeVar, Sequence
+from typing import Any, TypeVar
 
 import click
 
-from sensorsel.errors import InputError, SensorselError, SensorselWarning
 from sensorsel.api import AGGREGATES, ESTIMATES
-from sensorsel.cli.vocabulary import TopicOption
 from sensorsel.cli.progress import progress_bar, progress_flag  # noqa: F401 (progress_bar: the commands import it from here)
+from sensorsel.cli.vocabulary import TopicOption
+from sensorsel.errors import InputError, SensorselError, SensorselWarning
 from sensorsel.model.conditions import parse_condition
 from sensorsel.model.library import SensorLibrary
-from sensorsel.model.problem import DomainInfo, ProblemInfo, Target, TargetInfo, load_domain, load_problem
-from sensorsel.model.problem import Problem
+from sensorsel.model.problem import DomainInfo, Problem, ProblemInfo, Target, TargetInfo, load_domain, load_problem
 from sensorsel.model.scenario import DEFAULT_OSM_REACH_M, KITTI_ROOT_ENV, ROUTE_FORMATS, ScenarioSpec
 
 
@@ -87,8 +87,13 @@ class BudgetType(click.ParamType):
 BUDGET = BudgetType()
 
 
-def budget_option(*, required: bool = False, default: float | None = None, multiple: bool = False,
-                  help: str = "Budget in dollars: 110000, 110,000, $110,000 or 110_000.") -> Callable[[F], F]:
+def budget_option(
+    *,
+    required: bool = False,
+    default: float | None = None,
+    multiple: bool = False,
+    help: str = "Budget in dollars: 110000, 110,000, $110,000 or 110_000.",
+) -> Callable[[F], F]:
     """--budget DOLLARS, parsed by :class:`BudgetType`."""
     # no default=None: click 8.5 takes an explicit None for a given default, and a required
     # --budget left out then reached the command as None instead of "Missing option '--budget'"
@@ -98,14 +103,22 @@ def budget_option(*, required: bool = False, default: float | None = None, multi
 
 def quiet_option(fn: F) -> F:
     """-q/--quiet and --progress/--no-progress (:mod:`sensorsel.cli.progress`)."""
-    return click.option("-q", "--quiet", is_flag=True, help="No progress on stderr (unless --progress); errors and "
-                        "warnings are still said.")(progress_flag(fn))
+    return click.option(
+        "-q",
+        "--quiet",
+        is_flag=True,
+        help="No progress on stderr (unless --progress); errors and warnings are still said.",
+    )(progress_flag(fn))
 
 
 def json_option(fn: F) -> F:
     """--json: print the result as JSON on stdout (the files a command writes are still written)."""
-    return click.option("--json", "as_json", is_flag=True,
-                        help="Print the result as JSON on stdout (its \"kind\" and \"format\" first) instead of the summary.")(fn)
+    return click.option(
+        "--json",
+        "as_json",
+        is_flag=True,
+        help='Print the result as JSON on stdout (its "kind" and "format" first) instead of the summary.',
+    )(fn)
 
 
 def echo_written(kind: str, **fields: Any) -> None:
@@ -121,8 +134,13 @@ PLOT_FORMATS = ("png", "svg", "pdf")
 
 def plot_format_option(fn: F) -> F:
     """--plot-format png|svg|pdf: the plots' file format."""
-    return click.option("--plot-format", "plot_format", type=click.Choice(PLOT_FORMATS), default=None,
-                        help="The plots' file format (default: the extension of a file -o, else png).")(fn)
+    return click.option(
+        "--plot-format",
+        "plot_format",
+        type=click.Choice(PLOT_FORMATS),
+        default=None,
+        help="The plots' file format (default: the extension of a file -o, else png).",
+    )(fn)
 
 
 def plot_format(chosen: str | None, output_file: str | None = None) -> str:
@@ -135,9 +153,13 @@ def plot_format(chosen: str | None, output_file: str | None = None) -> str:
         return chosen or "png"
     ext = Path(output_file).suffix.lower().lstrip(".")
     if ext not in PLOT_FORMATS:
-        raise InputError(f"-o {output_file}: unsupported plot format {'.' + ext if ext else '(none)'!r}; use .png, .svg or .pdf")
+        raise InputError(
+            f"-o {output_file}: unsupported plot format {'.' + ext if ext else '(none)'!r}; use .png, .svg or .pdf"
+        )
     if chosen is not None and chosen != ext:
-        raise InputError(f"-o {output_file} is a .{ext} file but --plot-format is {chosen}: give one or make them agree")
+        raise InputError(
+            f"-o {output_file} is a .{ext} file but --plot-format is {chosen}: give one or make them agree"
+        )
     return ext
 
 
@@ -147,56 +169,187 @@ def not_empty(ctx: click.Context, param: click.Parameter, value: str | None) -> 
     return value
 
 
-def output_option(*, folder: bool = False, required: bool = False, help: str = "Write the result as JSON here.") -> Callable[[F], F]:
+def output_option(
+    *, folder: bool = False, required: bool = False, help: str = "Write the result as JSON here."
+) -> Callable[[F], F]:
     """-o/--output FILE (the argument ``output``), or with ``folder`` --output-dir DIRECTORY (the
     argument ``outdir``: a command that writes several files); an empty name is an error naming the
     option, not a silent no-op."""
     if folder:
-        return click.option("--output-dir", "outdir", required=required, callback=not_empty,
-                            type=click.Path(file_okay=False, dir_okay=True, path_type=str), help=help)
-    return click.option("-o", "--output", "output", required=required, callback=not_empty,
-                        type=click.Path(dir_okay=False, path_type=str), help=help)
+        return click.option(
+            "--output-dir",
+            "outdir",
+            required=required,
+            callback=not_empty,
+            type=click.Path(file_okay=False, dir_okay=True, path_type=str),
+            help=help,
+        )
+    return click.option(
+        "-o",
+        "--output",
+        "output",
+        required=required,
+        callback=not_empty,
+        type=click.Path(dir_okay=False, path_type=str),
+        help=help,
+    )
 
 
 def scenario_options(fn: Callable[..., Any]) -> Callable[..., Any]:
     """--seq/--kitti-root/--route/--route-format/--up/--forward/--times/--fixture/--name/--landmarks/
     --georef/--osm-classes/--osm-reach/--landmark-seed/--clearance/--rate/--library."""
     opts = [
-        click.option("--seq", metavar="NN", help="A KITTI odometry sequence (e.g. 03), with --kitti-root or $SENSORSEL_KITTI_ROOT; its pole map is its landmarks."),
-        click.option("--kitti-root", cls=TopicOption, topic="scenario", type=click.Path(file_okay=False, path_type=str), envvar=KITTI_ROOT_ENV, show_envvar=True,
-                     help="KITTI odometry dataset/ folder (poses/NN.txt, sequences/NN/times.txt, optional landmarks/NN.csv)."),
-        click.option("--route", type=click.Path(dir_okay=False, path_type=str),
-                     help="A route file: KITTI poses, a TUM trajectory, a planar CSV (t,x,y[,heading]) or a GPX track; its ground plane and forward axis are found from it (docs/scenarios.md)."),
-        click.option("--route-format", cls=TopicOption, topic="scenario", type=click.Choice(list(ROUTE_FORMATS)),
-                     help="Format of --route (default: csv for a .csv file, else by its first line: 12 numbers kitti, "
-                          "8 numbers tum, a header csv)."),
-        click.option("--up", cls=TopicOption, topic="scenario", metavar="AXIS", help="With --route: the world axis that points up (+z, -y, ...), instead of the one "
-                     "found from the route (the plane of its positions and the axis its rotations turn about)."),
-        click.option("--forward", cls=TopicOption, topic="scenario", metavar="AXIS", help="With a KITTI or TUM --route: the body axis that points ahead (+x, +z, ...), "
-                     "instead of the one found along the direction of travel."),
-        click.option("--times", cls=TopicOption, topic="scenario", type=click.Path(dir_okay=False, path_type=str), help="Timestamps of a KITTI --route file (default: 10 Hz, said on stderr)."),
-        click.option("--fixture", default="suburb", show_default=True, help="Bundled synthetic scenario used when no route is given."),
-        click.option("--name", "scenario_name", cls=TopicOption, topic="scenario", metavar="TEXT", help="Name of the scenario (default: the sequence, fixture or route file's name)."),
-        click.option("--landmarks", metavar="real|synthetic|FILE|osm:FILE", multiple=True,
-                     help="The landmark map: real (the sequence's pole map), synthetic (generated), a CSV file (x,y in metres), or osm:FILE (repeatable: an OpenStreetMap extract's landmarks merged with it; docs/guide-new-city.md). Default: the route's own map, else synthetic."),
-        click.option("--georef", cls=TopicOption, topic="scenario", metavar="LAT,LON,BEARING|utm:ZONE",
-                     help="Where the route lies, for --landmarks osm:FILE: the latitude, longitude [deg] of its (0, 0) and the "
-                          "compass bearing [deg, clockwise from north] of its +X axis (a KITTI sequence: the car's heading at "
-                          "its first frame), or utm:35N when its x, y are UTM easting and northing. A GPX route needs none."),
-        click.option("--osm-classes", cls=TopicOption, topic="scenario", metavar="CLASSES",
-                     help="With --landmarks osm:FILE: landmark classes, comma-separated, or all (default): street_lamp,"
-                          "utility_pole,power_pole,flagpole,tree,traffic_signals,stop,give_way,traffic_sign."),
-        click.option("--osm-reach", "osm_reach_m", cls=TopicOption, topic="scenario", type=float, metavar="METRES",
-                     help="With --landmarks osm:FILE: the OSM landmarks within this distance of the route (default: 100)."),
-        click.option("--landmark-seed", cls=TopicOption, topic="scenario", type=int, default=0, show_default=True, help="Seed of the synthetic landmark generator."),
-        click.option("--clearance", "clearance_m", cls=TopicOption, topic="scenario", type=click.FloatRange(min=0.0), metavar="METRES",
-                     help="Drop landmarks closer than this to the route (standing on the road). Default: keep them, counted on "
-                          "stderr; exact duplicates are always merged."),
-        click.option("--rate", "keyframe_rate_hz", cls=TopicOption, topic="scenario", type=float, default=1.0, show_default=True, metavar="HZ",
-                     help="Keyframe rate along the route [Hz]: keyframes a second."),
-        click.option("--library", "library_path", type=click.Path(dir_okay=False, path_type=str), help="Sensor library YAML (default: the paper's Table I)."),
-        click.option("--condition", "condition_text", metavar="CONDITION",
-                     help="Operating condition: night, rain_mm_h=MM_PER_H, fog_visibility_m=METRES, snow_mm_h=MM_PER_H, combined with commas (docs/guide-conditions.md). Default: clear."),
+        click.option(
+            "--seq",
+            metavar="NN",
+            help=(
+                "A KITTI odometry sequence (e.g. 03), with --kitti-root or $SENSORSEL_KITTI_ROOT; its pole map is "
+                "its landmarks."
+            ),
+        ),
+        click.option(
+            "--kitti-root",
+            cls=TopicOption,
+            topic="scenario",
+            type=click.Path(file_okay=False, path_type=str),
+            envvar=KITTI_ROOT_ENV,
+            show_envvar=True,
+            help="KITTI odometry dataset/ folder (poses/NN.txt, sequences/NN/times.txt, optional landmarks/NN.csv).",
+        ),
+        click.option(
+            "--route",
+            type=click.Path(dir_okay=False, path_type=str),
+            help=(
+                "A route file: KITTI poses, a TUM trajectory, a planar CSV (t,x,y[,heading]) or a GPX track; its "
+                "ground plane and forward axis are found from it (docs/scenarios.md)."
+            ),
+        ),
+        click.option(
+            "--route-format",
+            cls=TopicOption,
+            topic="scenario",
+            type=click.Choice(list(ROUTE_FORMATS)),
+            help="Format of --route (default: csv for a .csv file, else by its first line: 12 numbers kitti, "
+            "8 numbers tum, a header csv).",
+        ),
+        click.option(
+            "--up",
+            cls=TopicOption,
+            topic="scenario",
+            metavar="AXIS",
+            help="With --route: the world axis that points up (+z, -y, ...), instead of the one "
+            "found from the route (the plane of its positions and the axis its rotations turn about).",
+        ),
+        click.option(
+            "--forward",
+            cls=TopicOption,
+            topic="scenario",
+            metavar="AXIS",
+            help="With a KITTI or TUM --route: the body axis that points ahead (+x, +z, ...), "
+            "instead of the one found along the direction of travel.",
+        ),
+        click.option(
+            "--times",
+            cls=TopicOption,
+            topic="scenario",
+            type=click.Path(dir_okay=False, path_type=str),
+            help="Timestamps of a KITTI --route file (default: 10 Hz, said on stderr).",
+        ),
+        click.option(
+            "--fixture",
+            default="suburb",
+            show_default=True,
+            help="Bundled synthetic scenario used when no route is given.",
+        ),
+        click.option(
+            "--name",
+            "scenario_name",
+            cls=TopicOption,
+            topic="scenario",
+            metavar="TEXT",
+            help="Name of the scenario (default: the sequence, fixture or route file's name).",
+        ),
+        click.option(
+            "--landmarks",
+            metavar="real|synthetic|FILE|osm:FILE",
+            multiple=True,
+            help=(
+                "The landmark map: real (the sequence's pole map), synthetic (generated), a CSV file (x,y in "
+                "metres), or osm:FILE (repeatable: an OpenStreetMap extract's landmarks merged with it; "
+                "docs/guide-new-city.md). Default: the route's own map, else synthetic."
+            ),
+        ),
+        click.option(
+            "--georef",
+            cls=TopicOption,
+            topic="scenario",
+            metavar="LAT,LON,BEARING|utm:ZONE",
+            help="Where the route lies, for --landmarks osm:FILE: the latitude, longitude [deg] of its (0, 0) and the "
+            "compass bearing [deg, clockwise from north] of its +X axis (a KITTI sequence: the car's heading at "
+            "its first frame), or utm:35N when its x, y are UTM easting and northing. A GPX route needs none.",
+        ),
+        click.option(
+            "--osm-classes",
+            cls=TopicOption,
+            topic="scenario",
+            metavar="CLASSES",
+            help="With --landmarks osm:FILE: landmark classes, comma-separated, or all (default): street_lamp,"
+            "utility_pole,power_pole,flagpole,tree,traffic_signals,stop,give_way,traffic_sign.",
+        ),
+        click.option(
+            "--osm-reach",
+            "osm_reach_m",
+            cls=TopicOption,
+            topic="scenario",
+            type=float,
+            metavar="METRES",
+            help="With --landmarks osm:FILE: the OSM landmarks within this distance of the route (default: 100).",
+        ),
+        click.option(
+            "--landmark-seed",
+            cls=TopicOption,
+            topic="scenario",
+            type=int,
+            default=0,
+            show_default=True,
+            help="Seed of the synthetic landmark generator.",
+        ),
+        click.option(
+            "--clearance",
+            "clearance_m",
+            cls=TopicOption,
+            topic="scenario",
+            type=click.FloatRange(min=0.0),
+            metavar="METRES",
+            help="Drop landmarks closer than this to the route (standing on the road). Default: keep them, counted on "
+            "stderr; exact duplicates are always merged.",
+        ),
+        click.option(
+            "--rate",
+            "keyframe_rate_hz",
+            cls=TopicOption,
+            topic="scenario",
+            type=float,
+            default=1.0,
+            show_default=True,
+            metavar="HZ",
+            help="Keyframe rate along the route [Hz]: keyframes a second.",
+        ),
+        click.option(
+            "--library",
+            "library_path",
+            type=click.Path(dir_okay=False, path_type=str),
+            help="Sensor library YAML (default: the paper's Table I).",
+        ),
+        click.option(
+            "--condition",
+            "condition_text",
+            metavar="CONDITION",
+            help=(
+                "Operating condition: night, rain_mm_h=MM_PER_H, fog_visibility_m=METRES, snow_mm_h=MM_PER_H, "
+                "combined with commas (docs/guide-conditions.md). Default: clear."
+            ),
+        ),
     ]
     # A command's own option of the same name wins (`landmarks` has its generator's --clearance, the
     # same rule applied while generating): the shared one is then not added, and spec_from leaves
@@ -218,10 +371,14 @@ def spec_from(kw: dict[str, Any]) -> ScenarioSpec:
         raise click.UsageError(f"--route-format {kw['route_format']} goes with --route FILE")
     for option in ("up", "forward"):
         if kw.get(option) and not kw.get("route"):
-            raise click.UsageError(f"--{option} {kw[option]} goes with --route FILE (a --seq or fixture is in KITTI's camera frame)")
+            raise click.UsageError(
+                f"--{option} {kw[option]} goes with --route FILE (a --seq or fixture is in KITTI's camera frame)"
+            )
     if kw.get("times") and not kw.get("route"):
         # a --seq or a fixture reads its own times.txt: a --times here would be silently ignored
-        raise click.UsageError(f"--times {kw['times']} goes with a KITTI --route FILE; a --seq or fixture has its own times.txt")
+        raise click.UsageError(
+            f"--times {kw['times']} goes with a KITTI --route FILE; a --seq or fixture has its own times.txt"
+        )
     text = kw.pop("condition_text", None)
     condition = parse_condition(text) if text is not None else None
     given_landmarks = kw.pop("landmarks")
@@ -229,8 +386,10 @@ def spec_from(kw: dict[str, Any]) -> ScenarioSpec:
     osm = tuple(v[4:] for v in values if v.startswith("osm:"))
     others = [v for v in values if not v.startswith("osm:")]
     if len(others) > 1:
-        raise InputError(f"--landmarks {' and '.join(others)}: give one landmark map (and any number of osm:FILE extracts "
-                               "to merge with it)")
+        raise InputError(
+            f"--landmarks {' and '.join(others)}: give one landmark map (and any number of osm:FILE extracts "
+            "to merge with it)"
+        )
     reach = kw.pop("osm_reach_m", None)
     return ScenarioSpec(
         condition=condition if condition is not None and not condition.neutral else None,
@@ -273,18 +432,43 @@ def target_options(fn: Callable[..., Any] | None = None, *, aggregate: bool = Tr
     if fn is None:
         return lambda f: target_options(f, aggregate=aggregate)
     if aggregate:
-        fn = click.option("--aggregate", type=click.Choice(list(AGGREGATES)), default=AGGREGATES[0], show_default=True,
-                          metavar="AGGREGATE",
-                          help="With --domain: normalised = the weighted sum of each route's share of its best, "
-                               "f_r(S)/f_r(all sensors); raw = the weighted sum of f_r(S) in nats.")(fn)
-    fn = click.option("--domain", "domain_path", type=click.Path(dir_okay=False, path_type=str), metavar="FILE",
-                      help="An operating-domain YAML file (routes, landmarks, weights; docs/guide-domain.md): one suite for all its routes, instead of the route options.")(fn)
+        fn = click.option(
+            "--aggregate",
+            type=click.Choice(list(AGGREGATES)),
+            default=AGGREGATES[0],
+            show_default=True,
+            metavar="AGGREGATE",
+            help="With --domain: normalised = the weighted sum of each route's share of its best, "
+            "f_r(S)/f_r(all sensors); raw = the weighted sum of f_r(S) in nats.",
+        )(fn)
+    fn = click.option(
+        "--domain",
+        "domain_path",
+        type=click.Path(dir_okay=False, path_type=str),
+        metavar="FILE",
+        help=(
+            "An operating-domain YAML file (routes, landmarks, weights; docs/guide-domain.md): one suite for all "
+            "its routes, instead of the route options."
+        ),
+    )(fn)
     return scenario_options(fn)
 
 
 #: scenario options that choose a route or its landmarks: refused together with --domain
-_ROUTE_OPTIONS = ("seq", "route", "times", "landmarks", "scenario_name", "clearance_m", "up", "forward", "condition_text",
-                  "georef", "osm_classes", "osm_reach_m")
+_ROUTE_OPTIONS = (
+    "seq",
+    "route",
+    "times",
+    "landmarks",
+    "scenario_name",
+    "clearance_m",
+    "up",
+    "forward",
+    "condition_text",
+    "georef",
+    "osm_classes",
+    "osm_reach_m",
+)
 
 
 def target_from(kw: dict[str, Any]) -> Target:
@@ -296,8 +480,11 @@ def target_from(kw: dict[str, Any]) -> Target:
     path = kw.pop("domain_path", None)
     if path is None:
         return problem_from(kw)
-    given = [f"--{k.replace('_m', '').replace('scenario_name', 'name').replace('_text', '').replace('_', '-')}"
-             for k in _ROUTE_OPTIONS if kw.get(k)]
+    given = [
+        f"--{k.replace('_m', '').replace('scenario_name', 'name').replace('_text', '').replace('_', '-')}"
+        for k in _ROUTE_OPTIONS
+        if kw.get(k)
+    ]
     if given:
         raise click.UsageError(f"--domain {path} lists its own routes and landmarks: drop {', '.join(given)}")
     spec_from(kw)  # consumes the (unused) scenario options
@@ -311,20 +498,35 @@ def target_from(kw: dict[str, Any]) -> Target:
 def cluster_options(fn: Callable[..., Any]) -> Callable[..., Any]:
     """--scheduler ADDRESS and --workers N: run on a Dask cluster (the ``sensorsel[dask]`` extra).
     Read by :func:`cluster_from`; without either, nothing imports Dask."""
-    fn = click.option("--workers", "dask_workers", type=click.IntRange(min=1), default=None, metavar="N",
-                      help="Start a local Dask cluster of N worker processes for this run (the sensorsel[dask] extra).")(fn)
-    fn = click.option("--scheduler", "dask_scheduler", metavar="ADDRESS", default=None,
-                      help="Run on an existing Dask cluster (tcp://HOST:8786); results do not depend on it.")(fn)
+    fn = click.option(
+        "--workers",
+        "dask_workers",
+        type=click.IntRange(min=1),
+        default=None,
+        metavar="N",
+        help="Start a local Dask cluster of N worker processes for this run (the sensorsel[dask] extra).",
+    )(fn)
+    fn = click.option(
+        "--scheduler",
+        "dask_scheduler",
+        metavar="ADDRESS",
+        default=None,
+        help="Run on an existing Dask cluster (tcp://HOST:8786); results do not depend on it.",
+    )(fn)
     return fn
 
 
 def resume_option(fn: Callable[..., Any]) -> Callable[..., Any]:
     """--resume: the store's option, declared once for every selecting command (sensorsel.pipeline:
-    each task's result is stored under --output-dir, or beside -o FILE, as it finishes, with the fingerprint of its inputs)."""
-    return click.option("--resume", is_flag=True,
-                        help="Go on from what an interrupted run left under --output-dir or beside -o FILE: stored results whose inputs match this "
-                             "run are read back; one of other inputs (or damaged) is not: a warning names the file and "
-                             "what differs, and it is computed again and overwritten. The same answer, timings aside.")(fn)
+    each task's result is stored under --output-dir, or beside -o FILE, as it finishes, with the
+    fingerprint of its inputs)."""
+    return click.option(
+        "--resume",
+        is_flag=True,
+        help="Go on from what an interrupted run left under --output-dir or beside -o FILE: stored results "
+        "whose inputs match this run are read back; one of other inputs (or damaged) is not: a warning "
+        "names the file and what differs, and it is computed again and overwritten. The same answer, timings aside.",
+    )(fn)
 
 
 def cluster_from(kw: dict[str, Any]) -> Any:
@@ -336,7 +538,9 @@ def cluster_from(kw: dict[str, Any]) -> Any:
     """
     address, n = kw.pop("dask_scheduler", None), kw.pop("dask_workers", None)
     if address is not None and n is not None:
-        raise click.UsageError(f"--scheduler {address} uses an existing cluster, --workers {n} starts one: give one of them")
+        raise click.UsageError(
+            f"--scheduler {address} uses an existing cluster, --workers {n} starts one: give one of them"
+        )
     if address is None and n is None:
         return None
     from sensorsel.pipeline.cluster import DaskCluster  # imports Dask itself only when started
@@ -348,10 +552,20 @@ def engine_options(fn: Callable[..., Any]) -> Callable[..., Any]:
     """--engine and --jobs."""
     from sensorsel.api import ENGINES
 
-    fn = click.option("--jobs", type=click.IntRange(min=1), default=os.cpu_count() or 1, show_default="all cores", metavar="N",
-                      help="Threads scoring candidate suites (results do not depend on it).")(fn)
-    fn = click.option("--engine", type=click.Choice(sorted(ENGINES)), default=None,
-                      help="Scoring engine (default: the fastest; 'reference' rebuilds the GTSAM graph per suite).")(fn)
+    fn = click.option(
+        "--jobs",
+        type=click.IntRange(min=1),
+        default=os.cpu_count() or 1,
+        show_default="all cores",
+        metavar="N",
+        help="Threads scoring candidate suites (results do not depend on it).",
+    )(fn)
+    fn = click.option(
+        "--engine",
+        type=click.Choice(sorted(ENGINES)),
+        default=None,
+        help="Scoring engine (default: the fastest; 'reference' rebuilds the GTSAM graph per suite).",
+    )(fn)
     return fn
 
 
@@ -382,32 +596,45 @@ def print_target(info: TargetInfo | None) -> None:
     """The 'scenario' line (one route) or the 'domain' lines (each route) of a result."""
     if isinstance(info, ProblemInfo):
         when = f"; condition {info.condition}" if info.condition else ""
-        click.echo(f"scenario   {info.scenario}: {info.n_poses} keyframes, {info.n_landmarks} landmarks "
-                   f"({info.landmark_source}){when}")
+        click.echo(
+            f"scenario   {info.scenario}: {info.n_poses} keyframes, {info.n_landmarks} landmarks "
+            f"({info.landmark_source}){when}"
+        )
     elif isinstance(info, DomainInfo):
         conditions = list(dict.fromkeys(r.condition for r in info.routes if r.condition))
         routes = list(dict.fromkeys(r.route or r.name for r in info.routes))
-        what = (f"{len(info.routes)} members ({len(routes)} routes x conditions {', '.join(conditions)})" if conditions
-                else f"{len(info.routes)} routes")
+        what = (
+            f"{len(info.routes)} members ({len(routes)} routes x conditions {', '.join(conditions)})"
+            if conditions
+            else f"{len(info.routes)} routes"
+        )
         click.echo(f"domain     {info.source}: {what}")
         for r in info.routes:
             p = r.problem
-            click.echo(f"  {r.name:<12} weight {r.weight:g} {r.unit}; {p.n_poses} keyframes, {p.n_landmarks} landmarks "
-                       f"({p.landmark_source})")
+            click.echo(
+                f"  {r.name:<12} weight {r.weight:g} {r.unit}; {p.n_poses} keyframes, {p.n_landmarks} landmarks "
+                f"({p.landmark_source})"
+            )
 
 
 def force_option(fn: F) -> F:
     """--force: use a result file computed on another problem (or without a fingerprint), with a warning."""
-    return click.option("--force", is_flag=True,
-                        help="Use a result file even when it was computed on another library, route, rate, landmark map or "
-                             "graph settings, or records no fingerprint (a warning on stderr instead of an error).")(fn)
+    return click.option(
+        "--force",
+        is_flag=True,
+        help="Use a result file even when it was computed on another library, route, rate, landmark map or "
+        "graph settings, or records no fingerprint (a warning on stderr instead of an error).",
+    )(fn)
 
 
 def suite_text(ctx: click.Context, param: click.Parameter, value: str | None) -> str | None:
     """Callback of a --suite/--compare option: an empty suite (``""``, ``","``) is a usage error naming it."""
     if value is not None and not [t for t in value.split(",") if t.strip()]:
-        raise click.BadParameter(f"names no sensor ({value!r}): give comma-separated sensor ids (see `sensorsel library`)",
-                                 ctx=ctx, param=param)
+        raise click.BadParameter(
+            f"names no sensor ({value!r}): give comma-separated sensor ids (see `sensorsel library`)",
+            ctx=ctx,
+            param=param,
+        )
     return value
 
 
@@ -428,20 +655,55 @@ def compact_suite(suite: Sequence[str], library: SensorLibrary | None = None) ->
 def constraint_options(fn: Callable[..., Any]) -> Callable[..., Any]:
     """--limit RES=VAL (repeatable), --no-slots, --include IDS, --owned, --exclude IDS, --max-sensors N:
     limits besides the budget (:mod:`sensorsel.model.constraints`); read them with :func:`constraints_from`."""
-    for deco in reversed([
-        click.option("--limit", "limits", multiple=True, metavar="RESOURCE=VALUE",
-                     help="Most the suite may use of a resource the library declares (repeatable): power_w=100 (see `sensorsel library`)."),
-        click.option("--no-slots", "no_slots", is_flag=True, default=False,
-                     help="Ignore the library's mounting slots (at most N sensors of a type at a place)."),
-        click.option("--include", "include", default=None, metavar="IDS", callback=suite_text,
-                     help="Sensors every suite must hold (comma-separated ids), e.g. ones already bought."),
-        click.option("--owned", is_flag=True, default=False,
-                     help="With --include: those sensors are already paid for (their price is not counted against the budget)."),
-        click.option("--exclude", "exclude", default=None, metavar="IDS", callback=suite_text,
-                     help="Sensors no suite may hold (comma-separated ids)."),
-        click.option("--max-sensors", type=click.IntRange(min=1), default=None, metavar="N",
-                     help="Most sensors in a suite."),
-    ]):
+    for deco in reversed(
+        [
+            click.option(
+                "--limit",
+                "limits",
+                multiple=True,
+                metavar="RESOURCE=VALUE",
+                help=(
+                    "Most the suite may use of a resource the library declares (repeatable): power_w=100 (see "
+                    "`sensorsel library`)."
+                ),
+            ),
+            click.option(
+                "--no-slots",
+                "no_slots",
+                is_flag=True,
+                default=False,
+                help="Ignore the library's mounting slots (at most N sensors of a type at a place).",
+            ),
+            click.option(
+                "--include",
+                "include",
+                default=None,
+                metavar="IDS",
+                callback=suite_text,
+                help="Sensors every suite must hold (comma-separated ids), e.g. ones already bought.",
+            ),
+            click.option(
+                "--owned",
+                is_flag=True,
+                default=False,
+                help=(
+                    "With --include: those sensors are already paid for (their price is not counted against the "
+                    "budget)."
+                ),
+            ),
+            click.option(
+                "--exclude",
+                "exclude",
+                default=None,
+                metavar="IDS",
+                callback=suite_text,
+                help="Sensors no suite may hold (comma-separated ids).",
+            ),
+            click.option(
+                "--max-sensors", type=click.IntRange(min=1), default=None, metavar="N", help="Most sensors in a suite."
+            ),
+        ]
+    ):
         fn = deco(fn)
     return fn
 
@@ -450,6 +712,7 @@ def constraints_from(kw: dict[str, Any]) -> Any:
     """The :class:`~sensorsel.model.constraints.Constraints` of :func:`constraint_options` (popped from
     ``kw``); None when none was given (the budget alone, the library's slots honoured)."""
     from sensorsel.model.constraints import Constraints, parse_limit
+
     limits = [parse_limit(t) for t in kw.pop("limits", ()) or ()]
     no_slots = kw.pop("no_slots", False)
     require, owned = kw.pop("include", None), kw.pop("owned", False)
@@ -457,8 +720,14 @@ def constraints_from(kw: dict[str, Any]) -> Any:
     if owned and not require:
         raise InputError("--owned says the --include sensors are paid for: give --include IDS with it")
     split = lambda t: [x.strip() for x in t.split(",") if x.strip()] if t else []  # noqa: E731
-    return Constraints.of(limits=limits, slots=not no_slots, require=split(require), owned=owned,
-                          exclude=split(exclude), max_sensors=max_sensors)
+    return Constraints.of(
+        limits=limits,
+        slots=not no_slots,
+        require=split(require),
+        owned=owned,
+        exclude=split(exclude),
+        max_sensors=max_sensors,
+    )
 
 
 def usage_table(rows: Sequence[Any]) -> str:
@@ -479,22 +748,41 @@ def usage_table(rows: Sequence[Any]) -> str:
 
         out.append([r.name, fmt(r.used), fmt(r.limit), f"{r.used / r.limit:.0%}" if r.limit > 0 else "-"])
     if slots_cap:
-        out.append(["mounting slots", f"{slots_used:,.0f} sensors", f"{slots_cap:,.0f} places",
-                    f"{full} full"])
+        out.append(["mounting slots", f"{slots_used:,.0f} sensors", f"{slots_cap:,.0f} places", f"{full} full"])
     return table(out, ["limit", "used", "of", "share"])
 
 
 def map_sigma_option(fn: F) -> F:
     """--map-sigma METRES: accuracy lines computed localizing in a prior map (default: the SLAM graph);
     with it, --estimate (:func:`estimate_option`): every command that prints an accuracy has both."""
-    return estimate_option(click.option("--map-sigma", "map_sigma", type=float, default=None, metavar="METRES",
-                                        help="Accuracy in a prior map whose landmarks are known to this std [m] (default: in the paper's SLAM graph, landmarks unknown).")(fn))
+    return estimate_option(
+        click.option(
+            "--map-sigma",
+            "map_sigma",
+            type=float,
+            default=None,
+            metavar="METRES",
+            help=(
+                "Accuracy in a prior map whose landmarks are known to this std [m] (default: in the paper's SLAM "
+                "graph, landmarks unknown)."
+            ),
+        )(fn)
+    )
 
 
 def estimate_option(fn: F) -> F:
     """--estimate filter|smoother: the estimate an accuracy is of (default: the filter, as the car drives)."""
-    return click.option("--estimate", "estimate", type=click.Choice(ESTIMATES), default="filter", show_default=True,
-                        help="Accuracy of the filter (as the car drives: at each keyframe from the measurements up to it) or of the smoother (from the whole route).")(fn)
+    return click.option(
+        "--estimate",
+        "estimate",
+        type=click.Choice(ESTIMATES),
+        default="filter",
+        show_default=True,
+        help=(
+            "Accuracy of the filter (as the car drives: at each keyframe from the measurements up to it) or of the "
+            "smoother (from the whole route)."
+        ),
+    )(fn)
 
 
 def check_map_sigma(value: float | None) -> float | None:

@@ -8,14 +8,14 @@ import sys
 import warnings
 from contextlib import nullcontext
 from pathlib import Path
-import click
 
-from sensorsel.cli.vocabulary import Command
+import click
 
 from sensorsel.cli.options import echo_written, json_option, output_option, quiet_option, run
 from sensorsel.cli.progress import progress_bar
-from sensorsel.io.progress import report
+from sensorsel.cli.vocabulary import Command
 from sensorsel.errors import InputError, SensorselWarning
+from sensorsel.io.progress import report
 from sensorsel.io.resources import sample_osm_dir, sample_osm_names
 
 
@@ -24,7 +24,9 @@ def _source(file: str | None, sample: str | None) -> Path:
         raise click.UsageError("give an OSM extract FILE or --sample NAME (one of them)")
     if sample is not None:
         if sample not in sample_osm_names():
-            raise InputError(f"--sample {sample!r}: unknown sample city; bundled: {', '.join(sample_osm_names()) or 'none'}")
+            raise InputError(
+                f"--sample {sample!r}: unknown sample city; bundled: {', '.join(sample_osm_names()) or 'none'}"
+            )
         return sample_osm_dir() / f"{sample}.osm.pbf"
     return Path(str(file))
 
@@ -33,35 +35,90 @@ def _source(file: str | None, sample: str | None) -> Path:
 @click.argument("file", required=False, type=click.Path(dir_okay=False, path_type=str))
 @click.option("--sample", default=None, metavar="NAME", help="A bundled sample city instead of FILE (helsinki).")
 @click.option("--bbox", default=None, metavar="W,S,E,N", help="Only this box [degrees] of the extract.")
-@click.option("--roads", default=None, metavar="KINDS",
-              help="OSM highway kinds to drive, comma-separated (default: primary,secondary,tertiary,unclassified,"
-                   "residential,living_street; each with its _link).")
-@click.option("--osm-classes", default=None, metavar="CLASSES",
-              help="Landmark classes, comma-separated, or all (default): street_lamp,utility_pole,power_pole,flagpole,"
-                   "tree,traffic_signals,stop,give_way,traffic_sign.")
+@click.option(
+    "--roads",
+    default=None,
+    metavar="KINDS",
+    help="OSM highway kinds to drive, comma-separated (default: primary,secondary,tertiary,unclassified,"
+    "residential,living_street; each with its _link).",
+)
+@click.option(
+    "--osm-classes",
+    default=None,
+    metavar="CLASSES",
+    help="Landmark classes, comma-separated, or all (default): street_lamp,utility_pole,power_pole,flagpole,"
+    "tree,traffic_signals,stop,give_way,traffic_sign.",
+)
 @click.option("--speed", "speed_kmh", type=float, default=30.0, show_default=True, help="Driving speed [km/h].")
 @click.option("--route-km", type=float, default=1.0, show_default=True, help="Length of one route of the domain [km].")
-@click.option("--osm-reach", "reach_m", type=float, default=100.0, show_default=True, metavar="METRES",
-              help="A route's landmarks: those within this distance of the route [m].")
-@click.option("--rate", "keyframe_rate", type=float, default=1.0, show_default=True, metavar="HZ",
-              help="Keyframe rate along every route [Hz]: keyframes a second.")
-@click.option("--gpx", default=None, type=click.Path(dir_okay=False, path_type=str),
-              help="Instead of the road network: this GPS track is the one route (its landmarks from the extract).")
-@click.option("--route", "route_file", default=None, type=click.Path(dir_okay=False, path_type=str),
-              help="Instead of the road network: this route file (KITTI, TUM or planar CSV) with --georef.")
-@click.option("--georef", default=None, metavar="LAT,LON,BEARING|utm:ZONE",
-              help="Where --route lies: its origin [deg] and the compass bearing of its +X axis, or utm:35N when its "
-                   "x, y are UTM easting and northing.")
-@click.option("--merge-landmarks", default=None, type=click.Path(dir_okay=False, path_type=str),
-              help="A survey landmark CSV (x,y in the route's frame) merged with the OSM landmarks (--gpx/--route).")
-@output_option(folder=True, required=True, help="Domain folder to write (domain.yaml, routes/, landmarks.csv, README.md).")
+@click.option(
+    "--osm-reach",
+    "reach_m",
+    type=float,
+    default=100.0,
+    show_default=True,
+    metavar="METRES",
+    help="A route's landmarks: those within this distance of the route [m].",
+)
+@click.option(
+    "--rate",
+    "keyframe_rate",
+    type=float,
+    default=1.0,
+    show_default=True,
+    metavar="HZ",
+    help="Keyframe rate along every route [Hz]: keyframes a second.",
+)
+@click.option(
+    "--gpx",
+    default=None,
+    type=click.Path(dir_okay=False, path_type=str),
+    help="Instead of the road network: this GPS track is the one route (its landmarks from the extract).",
+)
+@click.option(
+    "--route",
+    "route_file",
+    default=None,
+    type=click.Path(dir_okay=False, path_type=str),
+    help="Instead of the road network: this route file (KITTI, TUM or planar CSV) with --georef.",
+)
+@click.option(
+    "--georef",
+    default=None,
+    metavar="LAT,LON,BEARING|utm:ZONE",
+    help="Where --route lies: its origin [deg] and the compass bearing of its +X axis, or utm:35N when its "
+    "x, y are UTM easting and northing.",
+)
+@click.option(
+    "--merge-landmarks",
+    default=None,
+    type=click.Path(dir_okay=False, path_type=str),
+    help="A survey landmark CSV (x,y in the route's frame) merged with the OSM landmarks (--gpx/--route).",
+)
+@output_option(
+    folder=True, required=True, help="Domain folder to write (domain.yaml, routes/, landmarks.csv, README.md)."
+)
 @json_option
 @quiet_option
 @run
-def osm_cmd(file: str | None, sample: str | None, bbox: str | None, roads: str | None, osm_classes: str | None,
-            speed_kmh: float, route_km: float, reach_m: float, keyframe_rate: float, gpx: str | None,
-            route_file: str | None, georef: str | None, merge_landmarks: str | None, outdir: str, as_json: bool,
-            quiet: bool) -> None:
+def osm_cmd(
+    file: str | None,
+    sample: str | None,
+    bbox: str | None,
+    roads: str | None,
+    osm_classes: str | None,
+    speed_kmh: float,
+    route_km: float,
+    reach_m: float,
+    keyframe_rate: float,
+    gpx: str | None,
+    route_file: str | None,
+    georef: str | None,
+    merge_landmarks: str | None,
+    outdir: str,
+    as_json: bool,
+    quiet: bool,
+) -> None:
     """Write an operating domain for a city from its OpenStreetMap extract (.osm or .osm.pbf, read
     locally): routes along the selected roads that drive every one of them (weighted by length),
     keyframes at --speed, and the OSM pole-like landmarks by class. Every --domain command reads it:
@@ -79,7 +136,12 @@ def osm_cmd(file: str | None, sample: str | None, bbox: str | None, roads: str |
     box = parse_bbox(bbox) if bbox is not None else None
     classes = parse_classes(osm_classes)
     kinds = parse_roads(roads)
-    for name, v in (("--speed", speed_kmh), ("--route-km", route_km), ("--osm-reach", reach_m), ("--rate", keyframe_rate)):
+    for name, v in (
+        ("--speed", speed_kmh),
+        ("--route-km", route_km),
+        ("--osm-reach", reach_m),
+        ("--rate", keyframe_rate),
+    ):
         if not (v == v and 0 < v < float("inf")):
             raise InputError(f"{name} {v!r}: expected a positive number")
     if (route_file is None) != (georef is None):
@@ -87,13 +149,28 @@ def osm_cmd(file: str | None, sample: str | None, bbox: str | None, roads: str |
     if gpx is not None and route_file is not None:
         raise click.UsageError("give --gpx or --route, not both")
     if merge_landmarks is not None and gpx is None and route_file is None:
-        raise click.UsageError("--merge-landmarks goes with --gpx or --route (a road-network domain has only OSM landmarks)")
+        raise click.UsageError(
+            "--merge-landmarks goes with --gpx or --route (a road-network domain has only OSM landmarks)"
+        )
     command = "sensorsel " + " ".join(shlex.quote(a) for a in sys.argv[1:]) if sys.argv[1:] else "sensorsel osm"
     if gpx is not None or route_file is not None:
         from sensorsel.model.osm.track import track_domain
 
-        domain, notes = track_domain(path, box, classes, kinds, gpx, route_file, georef, merge_landmarks, speed_kmh, reach_m,
-                              keyframe_rate, outdir, command)
+        domain, notes = track_domain(
+            path,
+            box,
+            classes,
+            kinds,
+            gpx,
+            route_file,
+            georef,
+            merge_landmarks,
+            speed_kmh,
+            reach_m,
+            keyframe_rate,
+            outdir,
+            command,
+        )
         for note in notes:
             click.echo(f"sensorsel: note: {note}", err=True)
         if as_json:
@@ -118,11 +195,20 @@ def osm_cmd(file: str | None, sample: str | None, bbox: str | None, roads: str |
     if warn:
         warnings.warn(warn, SensorselWarning, stacklevel=1)
     if as_json:
-        echo_written("osm", domain=str(domain), road_km=city.road_m / 1000, driven_km=city.driven_m / 1000,
-                     routes=len(city.routes), landmarks={c: {"count": n, "per_km": v} for c, n, v in density_table(city)})
+        echo_written(
+            "osm",
+            domain=str(domain),
+            road_km=city.road_m / 1000,
+            driven_km=city.driven_m / 1000,
+            routes=len(city.routes),
+            landmarks={c: {"count": n, "per_km": v} for c, n, v in density_table(city)},
+        )
         return
-    click.echo(f"city       {path}: {city.road_m / 1000:.2f} km of road ({', '.join(k for k in kinds if not k.endswith('_link'))}), "
-               f"{len(city.routes)} routes, {city.driven_m / 1000:.2f} km driven at {speed_kmh:g} km/h")
+    click.echo(
+        f"city       {path}: {city.road_m / 1000:.2f} km of road "
+        f"({', '.join(k for k in kinds if not k.endswith('_link'))}), "
+        f"{len(city.routes)} routes, {city.driven_m / 1000:.2f} km driven at {speed_kmh:g} km/h"
+    )
     click.echo(f"{'class':<16} {'landmarks':>9} {'per km':>7}")
     for c, n, v in density_table(city):
         click.echo(f"{c:<16} {n:>9} {v:>7.1f}")

@@ -20,7 +20,8 @@ import math
 import os
 import sys
 import time
-from typing import Any, Callable, TextIO, TypeVar
+from collections.abc import Callable
+from typing import Any, TextIO, TypeVar
 
 import click
 
@@ -40,10 +41,17 @@ def progress_flag(fn: F) -> F:
     def keep(ctx: click.Context, param: click.Parameter, value: bool | None) -> None:
         ctx.meta[_META] = value
 
-    return click.option("--progress/--no-progress", default=None, envvar=PROGRESS_ENV, show_envvar=True, expose_value=False,
-                        callback=keep, is_eager=True,
-                        help="Show progress on stderr (a bar on a terminal; off it, a status line every few seconds) "
-                             "or not. Default: shown unless -q.")(fn)
+    return click.option(
+        "--progress/--no-progress",
+        default=None,
+        envvar=PROGRESS_ENV,
+        show_envvar=True,
+        expose_value=False,
+        callback=keep,
+        is_eager=True,
+        help="Show progress on stderr (a bar on a terminal; off it, a status line every few seconds) "
+        "or not. Default: shown unless -q.",
+    )(fn)
 
 
 def every_s() -> float:
@@ -87,9 +95,19 @@ class Display:
         every: seconds between status lines off a terminal (default :func:`every_s`).
     """
 
-    def __init__(self, label: str, phases: int = 1, after: "Display | None" = None, *, counted: bool = True, eta: bool = True,
-                 terminal: bool | None = None, every: float | None = None, stream: TextIO | None = None,
-                 clock: Callable[[], float] = time.monotonic) -> None:
+    def __init__(
+        self,
+        label: str,
+        phases: int = 1,
+        after: Display | None = None,
+        *,
+        counted: bool = True,
+        eta: bool = True,
+        terminal: bool | None = None,
+        every: float | None = None,
+        stream: TextIO | None = None,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
         self.label, self.phases, self.after, self.counted, self.eta = label, phases, after, counted, eta
         self.terminal = on_terminal() if terminal is None else terminal
         self.every = every_s() if every is None else every
@@ -104,7 +122,7 @@ class Display:
         self.text = ""
         self.width = 0  # of the line drawn in place (terminal, not counted)
 
-    def __enter__(self) -> "Display":
+    def __enter__(self) -> Display:
         self.entered = self.clock()
         return self
 
@@ -124,8 +142,13 @@ class Display:
             # a stage after another starts with its first count; the first, when the run began
             self.started = self.entered if self.entered is not None and self.after is None else self.clock()
             if self.terminal and self.counted:
-                self.bar = click.progressbar(length=max(1, total * self.phases), label=self.label, file=self._out(),
-                                             show_pos=True, item_show_func=lambda _: self.text or None)
+                self.bar = click.progressbar(
+                    length=max(1, total * self.phases),
+                    label=self.label,
+                    file=self._out(),
+                    show_pos=True,
+                    item_show_func=lambda _: self.text or None,
+                )
                 self.bar.__enter__()
         if done < self.last:  # the next phase (best-of: the marginal run after the uniform one)
             self.offset += self.last_total
@@ -146,7 +169,9 @@ class Display:
             when = _duration(elapsed)
             if self.eta and 0 < self.pos < self.length:
                 when += f", about {_duration(elapsed * (self.length - self.pos) / self.pos)} left"
-            parts.append(f"{self.pos:,} of {self.length:,} ({share:.0%}), {when}" + (f"; {self.text}" if self.text else ""))
+            parts.append(
+                f"{self.pos:,} of {self.length:,} ({share:.0%}), {when}" + (f"; {self.text}" if self.text else "")
+            )
         else:
             parts.append(f"{self.text or 'working'}; {_duration(elapsed)}")
         return " ".join(parts)
@@ -187,8 +212,9 @@ class Display:
             self._out().flush()
 
 
-def progress_bar(quiet: bool, label: str, phases: int = 1, after: Display | None = None, *, counted: bool = True,
-                 eta: bool = True) -> tuple[Display | None, Progress | None]:
+def progress_bar(
+    quiet: bool, label: str, phases: int = 1, after: Display | None = None, *, counted: bool = True, eta: bool = True
+) -> tuple[Display | None, Progress | None]:
     """(display, progress): the CLI's one adapter of :data:`sensorsel.io.progress.Progress`, used as
     ``with display or nullcontext():`` around the run that calls ``progress(done, total)``;
     (None, None) when progress is off (-q or --no-progress; --progress wins over -q). ``after``: the
@@ -202,4 +228,13 @@ def progress_bar(quiet: bool, label: str, phases: int = 1, after: Display | None
     return display, display
 
 
-__all__ = ["DEFAULT_EVERY_S", "Display", "EVERY_ENV", "PROGRESS_ENV", "every_s", "on_terminal", "progress_bar", "progress_flag"]
+__all__ = [
+    "DEFAULT_EVERY_S",
+    "Display",
+    "EVERY_ENV",
+    "PROGRESS_ENV",
+    "every_s",
+    "on_terminal",
+    "progress_bar",
+    "progress_flag",
+]

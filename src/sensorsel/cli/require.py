@@ -9,65 +9,153 @@ from typing import Any
 
 import click
 
-from sensorsel.cli.vocabulary import Command
-
-from sensorsel.api import (DEFAULT_MAP_SIGMA_M, RequireResult, RouteRequirement, checkpoint_path, integrity_preset,
-                           run_require)
+from sensorsel.api import (
+    DEFAULT_MAP_SIGMA_M,
+    RequireResult,
+    RouteRequirement,
+    checkpoint_path,
+    integrity_preset,
+    run_require,
+)
 from sensorsel.cli.cluster import domain_evaluator_on, require_domain
 from sensorsel.cli.common import read_suite, specification_from, specification_options
 from sensorsel.cli.integrity import INTEGRITY_KEYS, integrity_from, integrity_options
-from sensorsel.cli.options import (budget_option, check_map_sigma, constraint_options, constraints_from, estimate_option,
-                                   engine_options, json_option, output_option, print_target, progress_bar,
-                                   quiet_option, resume_option, run, target_from, target_options)
-from sensorsel.cli.options import cluster_from, cluster_options
-from sensorsel.cli.options import plot_format, suite_text
+from sensorsel.cli.options import (
+    budget_option,
+    check_map_sigma,
+    cluster_from,
+    cluster_options,
+    constraint_options,
+    constraints_from,
+    engine_options,
+    estimate_option,
+    json_option,
+    output_option,
+    plot_format,
+    print_target,
+    progress_bar,
+    quiet_option,
+    resume_option,
+    run,
+    suite_text,
+    target_from,
+    target_options,
+)
+from sensorsel.cli.vocabulary import Command
 from sensorsel.errors import InputError
 from sensorsel.io import results
 from sensorsel.io.files import output_file
 from sensorsel.model.problem import Domain
 
 
-@click.command("require", cls=Command, short_help="The cheapest suite that meets an accuracy specification in metres, with a proof.")
+@click.command(
+    "require",
+    cls=Command,
+    short_help="The cheapest suite that meets an accuracy specification in metres, with a proof.",
+)
 @target_options(aggregate=False)
 @engine_options
 @cluster_options
 @constraint_options
 @specification_options
-@click.option("--map-sigma", "map_sigma", type=float, default=None, metavar="METRES",
-              help=f"Accuracy in a prior map whose landmarks are known to this std [m] (default: {DEFAULT_MAP_SIGMA_M:g} m, "
-                   "an assumption: see the requirements guide).")
-@click.option("--slam", is_flag=True, help="Judge accuracy in the paper's SLAM graph (landmarks unknown) instead of a prior map.")
+@click.option(
+    "--map-sigma",
+    "map_sigma",
+    type=float,
+    default=None,
+    metavar="METRES",
+    help=f"Accuracy in a prior map whose landmarks are known to this std [m] (default: {DEFAULT_MAP_SIGMA_M:g} m, "
+    "an assumption: see the requirements guide).",
+)
+@click.option(
+    "--slam", is_flag=True, help="Judge accuracy in the paper's SLAM graph (landmarks unknown) instead of a prior map."
+)
 @estimate_option
-@click.option("--integrity", "integrity_flag", is_flag=True,
-              help="Also demand integrity on every route: P(error beyond an alert limit) per hour within --integrity-risk "
-                   "(the preset's alert limits, Reid et al.: local-streets 0.29 m, 0.29 m, 0.50 deg; freeway 0.57 m, "
-                   "1.40 m, 1.50 deg; 1e-8 per hour). Any integrity option given demands it too.")
+@click.option(
+    "--integrity",
+    "integrity_flag",
+    is_flag=True,
+    help="Also demand integrity on every route: P(error beyond an alert limit) per hour within --integrity-risk "
+    "(the preset's alert limits, Reid et al.: local-streets 0.29 m, 0.29 m, 0.50 deg; freeway 0.57 m, "
+    "1.40 m, 1.50 deg; 1e-8 per hour). Any integrity option given demands it too.",
+)
 @integrity_options
-@click.option("--in", "in_conditions", default=None, metavar="C1,C2,...",
-              help="With a --domain that has conditions: demand the specification only in these conditions "
-                   "(e.g. clear,rain); (default: in every condition).")
-@click.option("--margin", "margin_text", default=None, metavar="PERCENT",
-              help="Demand the specification with this much of each limit to spare, e.g. 10% (every error within 90 % "
-                   "of its limit); default 0.")
-@click.option("--failures", type=click.IntRange(min=0), default=0, show_default=True, metavar="N",
-              help="The suite must still meet the specification after any this many of its sensors fail.")
+@click.option(
+    "--in",
+    "in_conditions",
+    default=None,
+    metavar="C1,C2,...",
+    help="With a --domain that has conditions: demand the specification only in these conditions "
+    "(e.g. clear,rain); (default: in every condition).",
+)
+@click.option(
+    "--margin",
+    "margin_text",
+    default=None,
+    metavar="PERCENT",
+    help="Demand the specification with this much of each limit to spare, e.g. 10% (every error within 90 % "
+    "of its limit); default 0.",
+)
+@click.option(
+    "--failures",
+    type=click.IntRange(min=0),
+    default=0,
+    show_default=True,
+    metavar="N",
+    help="The suite must still meet the specification after any this many of its sensors fail.",
+)
 @budget_option(help="Most the suite may cost, in dollars (default: no budget: the cheapest suite is the question).")
-@click.option("--time-limit", "time_limit", type=click.FloatRange(min=0, min_open=True), default=None, metavar="SECONDS",
-              help="Stop the exact search after this long and report the gap (default: run until proved).")
-@click.option("--plot", "plot_path", type=click.Path(dir_okay=False, path_type=str), default=None,
-              help="Draw the errors along the route with the requirement, and the route coloured by its margin "
-                   "(png, svg or pdf by the extension; a domain: its route with the least margin).")
-@click.option("--compare", default=None, callback=suite_text, metavar="IDS|FILE",
-              help="With --plot: a suite to draw beside the answer (ids, or a result file such as greedy's -o).")
-@output_option(help="Write the result as JSON (also when no suite meets the specification); the search's answers are "
-                    "journalled in FILE.checkpoint as they come (deleted once FILE is written).")
+@click.option(
+    "--time-limit",
+    "time_limit",
+    type=click.FloatRange(min=0, min_open=True),
+    default=None,
+    metavar="SECONDS",
+    help="Stop the exact search after this long and report the gap (default: run until proved).",
+)
+@click.option(
+    "--plot",
+    "plot_path",
+    type=click.Path(dir_okay=False, path_type=str),
+    default=None,
+    help="Draw the errors along the route with the requirement, and the route coloured by its margin "
+    "(png, svg or pdf by the extension; a domain: its route with the least margin).",
+)
+@click.option(
+    "--compare",
+    default=None,
+    callback=suite_text,
+    metavar="IDS|FILE",
+    help="With --plot: a suite to draw beside the answer (ids, or a result file such as greedy's -o).",
+)
+@output_option(
+    help="Write the result as JSON (also when no suite meets the specification); the search's answers are "
+    "journalled in FILE.checkpoint as they come (deleted once FILE is written)."
+)
 @resume_option
 @json_option
 @quiet_option
 @run
-def require_cmd(map_sigma: float | None, slam: bool, estimate: str, in_conditions: str | None, margin_text: str | None, failures: int, budget: float | None, time_limit: float | None,
-                plot_path: str | None, compare: str | None, output: str | None, resume: bool, as_json: bool, quiet: bool,
-                engine: str | None, jobs: int, integrity_flag: bool, **kw: Any) -> None:
+def require_cmd(
+    map_sigma: float | None,
+    slam: bool,
+    estimate: str,
+    in_conditions: str | None,
+    margin_text: str | None,
+    failures: int,
+    budget: float | None,
+    time_limit: float | None,
+    plot_path: str | None,
+    compare: str | None,
+    output: str | None,
+    resume: bool,
+    as_json: bool,
+    quiet: bool,
+    engine: str | None,
+    jobs: int,
+    integrity_flag: bool,
+    **kw: Any,
+) -> None:
     """The cheapest suite that meets an accuracy specification, on a route or every route of a
     domain (--domain), with a lower bound on the cost of ANY suite that meets it: the answer is
     proved optimal, or the gap is stated.
@@ -101,10 +189,15 @@ def require_cmd(map_sigma: float | None, slam: bool, estimate: str, in_condition
     constraints = constraints_from(kw)
     landmarks_given = tuple(kw.get("landmarks") or ())
     target = target_from(kw)
-    if not isinstance(target, Domain) and target.scenario.landmark_source.startswith("generated") \
-            and "synthetic" not in landmarks_given:
-        raise InputError(f"route {target.scenario.name} has no landmark file: a proof on invented landmarks signs nothing; "
-                         "give --landmarks FILE, a map (--landmarks osm:FILE), or --landmarks synthetic to accept invented ones")
+    if (
+        not isinstance(target, Domain)
+        and target.scenario.landmark_source.startswith("generated")
+        and "synthetic" not in landmarks_given
+    ):
+        raise InputError(
+            f"route {target.scenario.name} has no landmark file: a proof on invented landmarks signs nothing; "
+            "give --landmarks FILE, a map (--landmarks osm:FILE), or --landmarks synthetic to accept invented ones"
+        )
     require_domain(cluster, target)
     routes = [r.name for r in target.routes]
     specs = specification_from(kw, routes)
@@ -112,22 +205,45 @@ def require_cmd(map_sigma: float | None, slam: bool, estimate: str, in_condition
         specs = [replace(sp, margin=margin) for sp in specs]
     compared = None
     if compare:
-        positions, label, _ = read_suite(compare, target.library, "--compare", None if isinstance(target, Domain) else target)
+        positions, label, _ = read_suite(
+            compare, target.library, "--compare", None if isinstance(target, Domain) else target
+        )
         compared = (label, positions)
-    bar, progress = progress_bar(quiet or as_json, "searching", counted=False)  # the count is only a cap: the text says what is left
+    bar, progress = progress_bar(
+        quiet or as_json, "searching", counted=False
+    )  # the count is only a cap: the text says what is left
     with cluster or nullcontext(), bar or nullcontext():
         # on a cluster each route's accuracy checks run on its worker's actor (the same bytes)
-        ev = domain_evaluator_on(cluster, target, engine, "normalised") if isinstance(target, Domain) and cluster else None
-        res = run_require(target, specs, map_sigma_m=None if slam else map_sigma, failures=failures, budget_usd=budget,
-                      constraints=constraints, engine=engine, jobs=jobs, time_limit_s=time_limit, progress=progress,
-                      checkpoint=checkpoint_path(output) if output else None, resume=resume, evaluator=ev,
-                      conditions=None if in_conditions is None else [c.strip() for c in in_conditions.split(",") if c.strip()],
-                      estimate=estimate, integrity=integrity)
+        ev = (
+            domain_evaluator_on(cluster, target, engine, "normalised")
+            if isinstance(target, Domain) and cluster
+            else None
+        )
+        res = run_require(
+            target,
+            specs,
+            map_sigma_m=None if slam else map_sigma,
+            failures=failures,
+            budget_usd=budget,
+            constraints=constraints,
+            engine=engine,
+            jobs=jobs,
+            time_limit_s=time_limit,
+            progress=progress,
+            checkpoint=checkpoint_path(output) if output else None,
+            resume=resume,
+            evaluator=ev,
+            conditions=None if in_conditions is None else [c.strip() for c in in_conditions.split(",") if c.strip()],
+            estimate=estimate,
+            integrity=integrity,
+        )
     if output:
         results.save(res, output)
         checkpoint_path(output).unlink(missing_ok=True)  # the result is written: the run is no longer interrupted
     if plot_path:
-        _plot(res, target, compared, plot_path, map_sigma_m=None if slam else map_sigma, engine=engine, estimate=estimate)
+        _plot(
+            res, target, compared, plot_path, map_sigma_m=None if slam else map_sigma, engine=engine, estimate=estimate
+        )
     if as_json:
         click.echo(results.dumps(res), nl=False)
     else:
@@ -136,8 +252,11 @@ def require_cmd(map_sigma: float | None, slam: bool, estimate: str, in_condition
         click.echo(f"sensorsel: error: {_infeasible_line(res)}", err=True)
         sys.exit(2)
     if not res.suite and res.status == "gap":
-        click.echo(f"sensorsel: error: the search stopped ({res.stop}) before finding a suite that meets the specification "
-                   f"(none costs less than ${res.lower_bound_usd:,.0f}): give a longer --time-limit", err=True)
+        click.echo(
+            f"sensorsel: error: the search stopped ({res.stop}) before finding a suite that meets the specification "
+            f"(none costs less than ${res.lower_bound_usd:,.0f}): give a longer --time-limit",
+            err=True,
+        )
         sys.exit(2)
 
 
@@ -166,8 +285,12 @@ def _integrity_from(kw: dict[str, Any], flag: bool) -> Any:
     if not (flag or given):
         return None
     base = integrity_preset(kw.get("preset"))
-    fields = {"integrity_risk": "integrity_risk", "alert_lateral": "alert_lateral_m",
-              "alert_longitudinal": "alert_longitudinal_m", "alert_heading": "alert_heading_deg"}
+    fields = {
+        "integrity_risk": "integrity_risk",
+        "alert_lateral": "alert_lateral_m",
+        "alert_longitudinal": "alert_longitudinal_m",
+        "alert_heading": "alert_heading_deg",
+    }
     return replace(spec, **{f: getattr(base, f) for k, f in fields.items() if k not in given})
 
 
@@ -183,19 +306,24 @@ def _print(res: RequireResult) -> None:
     click.echo(f"requires   {_spec_line(res.routes)}")
     if res.integrity is not None:
         i = res.integrity
-        click.echo(f"integrity  required: at most {i.integrity_risk:g} per hour beyond the alert limits "
-                   f"{i.alert_lateral_m:g} m "
-                   f"lateral, {i.alert_longitudinal_m:g} m longitudinal, {i.alert_heading_deg:g} deg, on every route")
+        click.echo(
+            f"integrity  required: at most {i.integrity_risk:g} per hour beyond the alert limits "
+            f"{i.alert_lateral_m:g} m "
+            f"lateral, {i.alert_longitudinal_m:g} m longitudinal, {i.alert_heading_deg:g} deg, on every route"
+        )
     click.echo(f"model      {res.model_label}")
     if res.failures:
         click.echo(f"failures   still met after any {res.failures} sensor(s) fail")
     if res.status == "infeasible":
         click.echo("suite      none: no suite within the limits meets the specification")
         what = {"failures": "after the worst failures, every allowed sensor together reaches:"}.get(
-            res.infeasible_by, "every allowed sensor together reaches:")
+            res.infeasible_by, "every allowed sensor together reaches:"
+        )
         if res.integrity_alone:
-            what = (f"{len(res.integrity_alone)} allowed sensor(s) break integrity alone (their association risk alone "
-                    f"exceeds it); {what.replace('every allowed sensor', 'every other allowed sensor')}")
+            what = (
+                f"{len(res.integrity_alone)} allowed sensor(s) break integrity alone (their association risk alone "
+                f"exceeds it); {what.replace('every allowed sensor', 'every other allowed sensor')}"
+            )
         click.echo(f"best       {what}")
         _print_routes(res.routes)
         _print_integrity(res)
@@ -203,14 +331,23 @@ def _print(res: RequireResult) -> None:
     if not res.suite:
         click.echo(f"suite      none found before the search stopped ({res.stop})")
         return
-    invented = (f"  on INVENTED landmarks (--landmarks synthetic: route {', '.join(res.synthetic_landmarks)})"
-                if res.synthetic_landmarks else "")
-    click.echo(f"suite      {','.join(res.suite) or '(empty: odometry alone meets it)'}  ({len(res.suite)} sensors){invented}")
+    invented = (
+        f"  on INVENTED landmarks (--landmarks synthetic: route {', '.join(res.synthetic_landmarks)})"
+        if res.synthetic_landmarks
+        else ""
+    )
+    click.echo(
+        f"suite      {','.join(res.suite) or '(empty: odometry alone meets it)'}  ({len(res.suite)} sensors){invented}"
+    )
     if res.status == "optimal":
-        click.echo(f"cost       ${res.cost_usd:,.0f}: proved the cheapest (no suite that meets the specification costs less)")
+        click.echo(
+            f"cost       ${res.cost_usd:,.0f}: proved the cheapest (no suite that meets the specification costs less)"
+        )
     else:
-        click.echo(f"cost       ${res.cost_usd:,.0f}; no suite that meets it costs less than ${res.lower_bound_usd:,.0f} "
-                   f"(gap ${res.gap_usd:,.0f}: the search stopped at its time limit)")
+        click.echo(
+            f"cost       ${res.cost_usd:,.0f}; no suite that meets it costs less than ${res.lower_bound_usd:,.0f} "
+            f"(gap ${res.gap_usd:,.0f}: the search stopped at its time limit)"
+        )
     _print_routes(res.routes)
     _print_integrity(res)
     if res.margin is not None:
@@ -219,20 +356,30 @@ def _print(res: RequireResult) -> None:
     if res.worst_failure:
         click.echo(f"worst failure  {','.join(res.worst_failure)}: then")
         _print_routes(res.worst_failure_routes)
-    click.echo(f"searched   {res.iterations} integer programs ({res.seconds_programs:.2f} s), {res.n_checks} accuracy "
-               f"computations ({res.seconds_checks:.2f} s; {res.n_refuted} more suites refuted by a cheap bound), "
-               f"{res.seconds:.2f} s in all")
+    click.echo(
+        f"searched   {res.iterations} integer programs ({res.seconds_programs:.2f} s), {res.n_checks} accuracy "
+        f"computations ({res.seconds_checks:.2f} s; {res.n_refuted} more suites refuted by a cheap bound), "
+        f"{res.seconds:.2f} s in all"
+    )
 
 
 def _ties_line(res: RequireResult) -> str:
     """The equal-cost suites that also meet it, or that none was found and how far the search looked."""
     cost = f"${res.cost_usd:,.0f}"
-    looked = (f"the search ran out of suites of {cost}" if res.ties_exhaustive
-              else f"looked at {res.tie_programs} more integer programs' suites of {cost}, not all of them")
+    looked = (
+        f"the search ran out of suites of {cost}"
+        if res.ties_exhaustive
+        else f"looked at {res.tie_programs} more integer programs' suites of {cost}, not all of them"
+    )
     if not res.ties:
-        return ("none: no other suite of " + cost + " meets it (" + looked + ")" if res.ties_exhaustive
-                else f"none found ({looked})")
-    shown = "; ".join(",".join(t) for t in res.ties[:4]) + (f"; ... ({len(res.ties)} in all)" if len(res.ties) > 4 else "")
+        return (
+            "none: no other suite of " + cost + " meets it (" + looked + ")"
+            if res.ties_exhaustive
+            else f"none found ({looked})"
+        )
+    shown = "; ".join(",".join(t) for t in res.ties[:4]) + (
+        f"; ... ({len(res.ties)} in all)" if len(res.ties) > 4 else ""
+    )
     return f"{len(res.ties)} other suite(s) of {cost} also meet it: {shown} ({looked})"
 
 
@@ -254,8 +401,16 @@ def _print_routes(routes: tuple[RouteRequirement, ...]) -> None:
         click.echo(f"  {r.route:<10} {unit} error at {where}: " + ", ".join(parts))
 
 
-def _plot(res: RequireResult, target: Any, compared: tuple[str, tuple[int, ...]] | None, path: str, *,
-          map_sigma_m: float | None, engine: str | None, estimate: str) -> None:
+def _plot(
+    res: RequireResult,
+    target: Any,
+    compared: tuple[str, tuple[int, ...]] | None,
+    path: str,
+    *,
+    map_sigma_m: float | None,
+    engine: str | None,
+    estimate: str,
+) -> None:
     """The errors along the route (the answer, and ``compared``) with the requirement, and the route
     coloured by the answer's margin; a domain: the route with the least margin."""
     import matplotlib.pyplot as plt
@@ -264,8 +419,10 @@ def _plot(res: RequireResult, target: Any, compared: tuple[str, tuple[int, ...]]
     from sensorsel.plotting import plot_accuracy_along_route, plot_route_margin, save_figure, use_file_backend
 
     use_file_backend()
-    r = max(range(len(res.routes)), key=lambda i: (res.routes[i].verdict.violation,
-                                                   max(e / b for _, e, b, _ in res.routes[i].verdict.worst)))
+    r = max(
+        range(len(res.routes)),
+        key=lambda i: (res.routes[i].verdict.violation, max(e / b for _, e, b, _ in res.routes[i].verdict.worst)),
+    )
     route = res.routes[r]
     problem = target.routes[r].problem
     label = f"{'best any suite reaches' if res.status == 'infeasible' else 'the answer'} (${res.cost_usd:,.0f})"
@@ -278,7 +435,9 @@ def _plot(res: RequireResult, target: Any, compared: tuple[str, tuple[int, ...]]
     fig = plt.figure(figsize=(13.0, 3.2 * max(2, len(comps))), layout="constrained")
     grid = fig.add_gridspec(len(comps), 2, width_ratios=(1.4, 1.0))
     for i, comp in enumerate(comps):
-        plot_accuracy_along_route(lines, problem.scenario, route.specification, ax=fig.add_subplot(grid[i, 0]), component=comp)
+        plot_accuracy_along_route(
+            lines, problem.scenario, route.specification, ax=fig.add_subplot(grid[i, 0]), component=comp
+        )
     ax = plot_route_margin(route.accuracy, problem.scenario, route.specification, ax=fig.add_subplot(grid[:, 1]))
     ax.set_title(f"route {route.route}: margin of the answer", fontsize=10)
     fig.suptitle(f"{route.specification.describe()} - {res.model_label}", fontsize=10)
@@ -296,24 +455,35 @@ def _infeasible_line(res: RequireResult) -> str:
     fails = [f"route {r.route}: {r.verdict.failing().replace('; ', ', ')}" for r in missing[:WORST_ROUTES_NAMED]]
     if len(res.routes) > 1 and missing:
         more = len(missing) - len(fails)
-        fails = ([f"{len(missing)} of {len(res.routes)} routes miss it, the worst {r}" if i == 0 else r
-                  for i, r in enumerate(fails)] + ([f"and {more} more route(s): every route in the JSON (--json, -o)"]
-                                                   if more else []))
+        fails = [
+            f"{len(missing)} of {len(res.routes)} routes miss it, the worst {r}" if i == 0 else r
+            for i, r in enumerate(fails)
+        ] + ([f"and {more} more route(s): every route in the JSON (--json, -o)"] if more else [])
     if res.infeasible_by == "failures":
-        return (f"no suite meets the specification after {res.failures} failure(s): every allowed sensor together, after "
-                "its worst failures, misses it (" + "; ".join(fails) + ")")
+        return (
+            f"no suite meets the specification after {res.failures} failure(s): every allowed sensor together, after "
+            "its worst failures, misses it (" + "; ".join(fails) + ")"
+        )
     if res.integrity is not None and res.infeasible_by != "failures":
         worst = max(res.integrity_routes, key=lambda r: r.integrity_risk_per_hour, default=None)
         others = "every other allowed sensor" if res.integrity_alone else "every allowed sensor"
-        alone = (f"{len(res.integrity_alone)} allowed sensor(s) break it alone; " if res.integrity_alone else "")
-        where = (f"{alone}{others} together: integrity {worst.integrity_risk_per_hour:.2g}/h on route {worst.route}"
-                 if worst is not None else alone)
-        return (f"no suite within the limits meets the specification with integrity {res.integrity.integrity_risk:g}/h "
-                f"(a sensor added can break integrity: the search ruled out every suite; {where}"
-                + ("; " + "; ".join(fails) if fails else "") + ")")
+        alone = f"{len(res.integrity_alone)} allowed sensor(s) break it alone; " if res.integrity_alone else ""
+        where = (
+            f"{alone}{others} together: integrity {worst.integrity_risk_per_hour:.2g}/h on route {worst.route}"
+            if worst is not None
+            else alone
+        )
+        return (
+            f"no suite within the limits meets the specification with integrity {res.integrity.integrity_risk:g}/h "
+            f"(a sensor added can break integrity: the search ruled out every suite; {where}"
+            + ("; " + "; ".join(fails) if fails else "")
+            + ")"
+        )
     if not fails:
-        return ("no suite within the limits meets the specification (every allowed sensor together would: "
-                "the limits --budget/--limit/--max-sensors/slots rule it out)")
+        return (
+            "no suite within the limits meets the specification (every allowed sensor together would: "
+            "the limits --budget/--limit/--max-sensors/slots rule it out)"
+        )
     return "no suite meets the specification even with every allowed sensor: " + "; ".join(fails)
 
 

@@ -9,42 +9,85 @@ from typing import Any
 
 import click
 
+from sensorsel.api import ALGORITHM_2, METHODS, with_suite_quality
+from sensorsel.cli.integrity import integrity_from, integrity_options
+from sensorsel.cli.options import (
+    budget_option,
+    check_map_sigma,
+    cluster_from,
+    cluster_options,
+    constraint_options,
+    constraints_from,
+    engine_options,
+    json_option,
+    map_sigma_option,
+    output_option,
+    plot_format_option,
+    print_accuracy,
+    print_target,
+    progress_bar,
+    quiet_option,
+    resume_option,
+    run,
+    table,
+    target_from,
+    target_options,
+    usage_table,
+)
+from sensorsel.cli.options import plot_format as plot_format_of
+from sensorsel.cli.rules import rule_option
 from sensorsel.cli.vocabulary import Command
-
-from sensorsel.api import ALGORITHM_2, METHODS
 from sensorsel.errors import InputError
 from sensorsel.io import results
 from sensorsel.io.files import output_dir
 from sensorsel.model.problem import Domain
 
-from sensorsel.api import with_suite_quality
-from sensorsel.cli.options import (budget_option, engine_options, json_option, output_option, plot_format_option,
-                                   progress_bar, print_target, quiet_option, run, table, target_from, target_options)
-from sensorsel.cli.options import (cluster_from, cluster_options, resume_option, constraint_options, constraints_from,
-                                   usage_table)
-from sensorsel.cli.options import check_map_sigma, map_sigma_option, print_accuracy
-from sensorsel.cli.integrity import integrity_from, integrity_options
-from sensorsel.cli.options import plot_format as plot_format_of
-from sensorsel.cli.rules import rule_option
 
-
-@click.command("resilient", cls=Command, short_help="Resilient selection against failing sensors, whole route and per period (grid).")
+@click.command(
+    "resilient",
+    cls=Command,
+    short_help="Resilient selection against failing sensors, whole route and per period (grid).",
+)
 @target_options
 @engine_options
 @cluster_options
-@budget_option(default=110_000.0, help="Budget in dollars (110000, 110,000, $110,000 or 110_000), the sensors assumed to fail included.")
-@click.option("--failures", "alpha", type=click.IntRange(min=0), default=1, show_default=True, metavar="N",
-              help="Number of sensors assumed to fail (alpha); 0 is plain greedy selection.")
-@click.option("--period", "period_s", type=float, default=10.0, show_default=True,
-              help="Length of a period of the per-period selection [s of keyframe timestamps].")
+@budget_option(
+    default=110_000.0,
+    help="Budget in dollars (110000, 110,000, $110,000 or 110_000), the sensors assumed to fail included.",
+)
+@click.option(
+    "--failures",
+    "alpha",
+    type=click.IntRange(min=0),
+    default=1,
+    show_default=True,
+    metavar="N",
+    help="Number of sensors assumed to fail (alpha); 0 is plain greedy selection.",
+)
+@click.option(
+    "--period",
+    "period_s",
+    type=float,
+    default=10.0,
+    show_default=True,
+    help="Length of a period of the per-period selection [s of keyframe timestamps].",
+)
 @rule_option("uniform", "Greedy rule spending the budget left after the failing sensors.")
-@click.option("--method", type=click.Choice(list(METHODS)), default=ALGORITHM_2, show_default=True,
-              help="How the suite is chosen, whole route and each period: algorithm-2 = the paper's Algorithm 2; "
-                   "robust = robust selection (best exact worst case among greedy, "
-                   "Algorithm 2 and more; never below either).")
+@click.option(
+    "--method",
+    type=click.Choice(list(METHODS)),
+    default=ALGORITHM_2,
+    show_default=True,
+    help="How the suite is chosen, whole route and each period: algorithm-2 = the paper's Algorithm 2; "
+    "robust = robust selection (best exact worst case among greedy, "
+    "Algorithm 2 and more; never below either).",
+)
 @constraint_options
-@output_option(folder=True, required=True,
-               help="Output folder: resilient.json, grid.csv, the grid plot, and periods/ (one file per period).")
+@output_option(
+    folder=True,
+    required=True,
+    help="Output folder: resilient.json, grid.csv, the grid plot, and periods/ (one file per period).",
+)
 @plot_format_option
 @resume_option
 @map_sigma_option
@@ -52,9 +95,24 @@ from sensorsel.cli.rules import rule_option
 @json_option
 @quiet_option
 @run
-def resilient_cmd(budget: float, alpha: int, period_s: float, rule: str, method: str, outdir: str, plot_format: str | None, resume: bool,
-                  as_json: bool, quiet: bool, aggregate: str, engine: str | None, jobs: int, map_sigma: float | None, estimate: str,
-                  **kw: Any) -> None:
+def resilient_cmd(
+    budget: float,
+    alpha: int,
+    period_s: float,
+    rule: str,
+    method: str,
+    outdir: str,
+    plot_format: str | None,
+    resume: bool,
+    as_json: bool,
+    quiet: bool,
+    aggregate: str,
+    engine: str | None,
+    jobs: int,
+    map_sigma: float | None,
+    estimate: str,
+    **kw: Any,
+) -> None:
     """Resilient sensor selection (the paper's Algorithm 2, for ALPHA failures).
 
     The ALPHA sensors with the largest individual scores are bought and assumed to fail; the rest of
@@ -71,8 +129,7 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, rule: str, method:
     With --domain FILE the comparison is on the domain's score (one suite for all its routes); there
     are no periods then (a period is a stretch of one route).
     """
-    from sensorsel.api import check_alpha, check_period
-    from sensorsel.api import check_affordable, check_budget
+    from sensorsel.api import check_affordable, check_alpha, check_budget, check_period
 
     budget = check_budget(budget)
     fmt = plot_format_of(plot_format)
@@ -87,15 +144,33 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, rule: str, method:
     check_affordable(problem.library, budget, alpha, constraints=constraints)
     if cluster is not None and isinstance(problem, Domain):
         raise click.UsageError("--scheduler/--workers run a route's periods as tasks: a domain has no periods")
-    report = _report(problem, budget, alpha, period_s, rule, method, aggregate, engine, jobs, out, resume, quiet, cluster,
-                     constraints)
+    report = _report(
+        problem,
+        budget,
+        alpha,
+        period_s,
+        rule,
+        method,
+        aggregate,
+        engine,
+        jobs,
+        out,
+        resume,
+        quiet,
+        cluster,
+        constraints,
+    )
     r = report.comparison.resilient
     if alpha and len(r.suite) <= alpha:
         # the failing set took what the budget buys: every sensor of the suite could fail
-        raise InputError(f"--failures {alpha}: the resilient suite within --budget ${budget:,.0f} holds only {len(r.suite)} "
-                         f"sensor(s) ({', '.join(r.suite) or 'none'}; {r.failure_note or 'the failing sensors take the budget'}), "
-                         f"so every one could fail (worst case 0): give fewer --failures or a larger --budget")
-    report = with_suite_quality(report, problem, map_sigma_m=map_sigma, engine=engine, estimate=estimate, integrity=integrity_spec)
+        raise InputError(
+            f"--failures {alpha}: the resilient suite within --budget ${budget:,.0f} holds only {len(r.suite)} "
+            f"sensor(s) ({', '.join(r.suite) or 'none'}; {r.failure_note or 'the failing sensors take the budget'}), "
+            f"so every one could fail (worst case 0): give fewer --failures or a larger --budget"
+        )
+    report = with_suite_quality(
+        report, problem, map_sigma_m=map_sigma, engine=engine, estimate=estimate, integrity=integrity_spec
+    )
     written = _write(report, problem, out, fmt, period_s, alpha, budget, method)
     if as_json:
         click.echo(results.dumps(report), nl=False)
@@ -110,28 +185,68 @@ def resilient_cmd(budget: float, alpha: int, period_s: float, rule: str, method:
         click.echo(f"wrote {len(report.per_period.periods)} period files under {out / 'periods'}")
 
 
-def _report(problem: Any, budget: float, alpha: int, period_s: float, rule: str, method: str, aggregate: str,
-            engine: str | None, jobs: int, out: Path, resume: bool, quiet: bool, cluster: Any, constraints: Any = None) -> Any:
+def _report(
+    problem: Any,
+    budget: float,
+    alpha: int,
+    period_s: float,
+    rule: str,
+    method: str,
+    aggregate: str,
+    engine: str | None,
+    jobs: int,
+    out: Path,
+    resume: bool,
+    quiet: bool,
+    cluster: Any,
+    constraints: Any = None,
+) -> Any:
     """The resilient report: a domain's comparison, or a route's comparison and periods (in-process,
     or as tasks on a cluster), with one progress bar over the periods."""
-    from sensorsel.api import resilient_report
-    from sensorsel.api import split_periods
+    from sensorsel.api import resilient_report, split_periods
 
     if isinstance(problem, Domain):
-        return resilient_report(problem, budget, alpha, period_s=None, rule=rule, engine=engine, jobs=jobs,
-                                aggregate=aggregate, method=method, constraints=constraints)
+        return resilient_report(
+            problem,
+            budget,
+            alpha,
+            period_s=None,
+            rule=rule,
+            engine=engine,
+            jobs=jobs,
+            aggregate=aggregate,
+            method=method,
+            constraints=constraints,
+        )
     sc = problem.scenario
     n_periods = len(split_periods(sc.keyframes.times, period_s))
     bar, progress = progress_bar(quiet, f"{n_periods} periods of {period_s:g} s")
     if bar is not None and bar.terminal:  # off a terminal the status lines say it
-        click.echo(f"whole route: greedy and resilient selection on {sc.n_poses} keyframes, {sc.n_landmarks} landmarks ...", err=True)
+        click.echo(
+            f"whole route: greedy and resilient selection on {sc.n_poses} keyframes, {sc.n_landmarks} landmarks ...",
+            err=True,
+        )
     with cluster or nullcontext(), bar or nullcontext():  # with a cluster, every period as a task there
-        return resilient_report(problem, budget, alpha, period_s=period_s, rule=rule, engine=engine, jobs=jobs,
-                                outdir=out, resume=resume, progress=progress, method=method, constraints=constraints,
-                                executor=cluster.executor if cluster is not None else None)
+        return resilient_report(
+            problem,
+            budget,
+            alpha,
+            period_s=period_s,
+            rule=rule,
+            engine=engine,
+            jobs=jobs,
+            outdir=out,
+            resume=resume,
+            progress=progress,
+            method=method,
+            constraints=constraints,
+            executor=cluster.executor if cluster is not None else None,
+        )
 
 
-def _write(report: Any, problem: Any, out: Path, fmt: str, period_s: float, alpha: int, budget: float, method: str) -> list[Path]:
+def _write(
+    report: Any, problem: Any, out: Path, fmt: str, period_s: float, alpha: int, budget: float, method: str
+) -> list[Path]:
     """resilient.json, and for a route grid.csv and the grid plot."""
     from sensorsel.api import save_grid_csv
     from sensorsel.plotting import plot_selection_grid, save_figure, use_file_backend
@@ -143,8 +258,10 @@ def _write(report: Any, problem: Any, out: Path, fmt: str, period_s: float, alph
     written.append(save_grid_csv(per.grid, out / "grid.csv"))
     use_file_backend()
     what = "robust" if method == "robust" else "resilient"
-    title = (f"{problem.scenario.name}: {what} selection per {period_s:g} s period, {alpha} failure(s), budget "
-             f"${budget:,.0f}")
+    title = (
+        f"{problem.scenario.name}: {what} selection per {period_s:g} s period, {alpha} failure(s), budget "
+        f"${budget:,.0f}"
+    )
     ax = plot_selection_grid(per.grid, title=title)
     written.append(save_figure(ax.figure, out / f"grid.{fmt}", close=True))
     return written
@@ -158,27 +275,49 @@ def _print_comparison(report: Any, budget: float, alpha: int, rule: str, method:
     r = c.resilient
     if r.failed:
         fails = ", ".join(f"{s} (f = {v:.2f})" for s, v in zip(r.failed, r.failed_scores))
-        click.echo(f"{'Algorithm 2: ' if method == 'robust' else ''}assumed to fail: {fails}; ${r.failed_cost_usd:,.0f} "
-                   "of the budget")
+        click.echo(
+            f"{'Algorithm 2: ' if method == 'robust' else ''}assumed to fail: {fails}; ${r.failed_cost_usd:,.0f} "
+            "of the budget"
+        )
     if r.failure_note:
         click.echo(f"note: {r.failure_note}")
     click.echo("")
     rows = []
-    for label, suite, cost, w in (("greedy", c.greedy.suite, c.greedy.cost_usd, c.greedy_worst),
-                                  ("resilient", r.suite, r.cost_usd, c.resilient_worst)):
-        rows.append([label, ",".join(suite) or "(none)", f"{cost:,.0f}", f"{w.nominal_score:.2f}", f"{w.score:.2f}",
-                     ",".join(w.failures) or "-"])
+    for label, suite, cost, w in (
+        ("greedy", c.greedy.suite, c.greedy.cost_usd, c.greedy_worst),
+        ("resilient", r.suite, r.cost_usd, c.resilient_worst),
+    ):
+        rows.append(
+            [
+                label,
+                ",".join(suite) or "(none)",
+                f"{cost:,.0f}",
+                f"{w.nominal_score:.2f}",
+                f"{w.score:.2f}",
+                ",".join(w.failures) or "-",
+            ]
+        )
     rb = report.robust
     if rb is not None:
-        rows.append(["robust", ",".join(rb.suite) or "(none)", f"{rb.cost_usd:,.0f}", f"{rb.nominal_score:.2f}",
-                     f"{rb.worst_score:.2f}", ",".join(rb.failures) or "-"])
+        rows.append(
+            [
+                "robust",
+                ",".join(rb.suite) or "(none)",
+                f"{rb.cost_usd:,.0f}",
+                f"{rb.nominal_score:.2f}",
+                f"{rb.worst_score:.2f}",
+                ",".join(rb.failures) or "-",
+            ]
+        )
     click.echo(table(rows, ["design", "suite", "cost_usd", "nominal", "worst_case", "worst_failure"]))
     if rb is not None:
         click.echo(f"robust: method {rb.method}, bound {rb.bound:.2f}, gap {rb.gap_percent:.2f}%")
     if c.greedy_worst.score > 0:
         gain = 100.0 * (c.resilient_worst.score - c.greedy_worst.score) / c.greedy_worst.score
-        click.echo(f"\nworst case: resilient {gain:+.1f} % versus greedy (scores in nats: f(S) = log det L(S) - log det "
-                   "L(empty))")
+        click.echo(
+            f"\nworst case: resilient {gain:+.1f} % versus greedy (scores in nats: f(S) = log det L(S) - log det "
+            "L(empty))"
+        )
 
 
 def _print_usage(report: Any, lib: Any) -> None:
@@ -187,9 +326,12 @@ def _print_usage(report: Any, lib: Any) -> None:
         return
     from sensorsel.model.constraints import feasible_set
 
-    click.echo(f"\nlimits    {report.constraints.describe()} (every suite above and every period's); "
-               f"the chosen suite uses:")
-    click.echo(usage_table(feasible_set(lib, report.budget_usd, report.constraints).rows_used(lib.resolve_suite(report.suite))))
+    click.echo(
+        f"\nlimits    {report.constraints.describe()} (every suite above and every period's); the chosen suite uses:"
+    )
+    click.echo(
+        usage_table(feasible_set(lib, report.budget_usd, report.constraints).rows_used(lib.resolve_suite(report.suite)))
+    )
 
 
 def _print_periods(per: Any, period_s: float) -> None:
@@ -207,5 +349,6 @@ def _print_periods(per: Any, period_s: float) -> None:
         click.echo("  most used active: " + ", ".join(f"{s} in {k}/{n}" for s, k in active.most_common(8)))
     if worst:
         click.echo("  worst failure for the suite: " + ", ".join(f"{s} in {k}/{n}" for s, k in worst.most_common(8)))
+
 
 COMMANDS = [resilient_cmd]

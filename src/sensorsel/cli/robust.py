@@ -8,23 +8,39 @@ from typing import Any
 
 import click
 
-from sensorsel.cli.vocabulary import Command
-
-from sensorsel.io import results
-from sensorsel.api import ROBUST_AGGREGATES  # --aggregate of this command: the combined score (as elsewhere), or the worst route
+from sensorsel.api import (
+    ROBUST_AGGREGATES,
+    with_suite_quality,
+)  # --aggregate of this command: the combined score (as elsewhere), or the worst route
 from sensorsel.cli.cluster import domain_evaluator_on, require_domain
+from sensorsel.cli.integrity import integrity_from, integrity_options
+from sensorsel.cli.options import (
+    budget_option,
+    check_map_sigma,
+    cluster_from,
+    cluster_options,
+    compact_suite,
+    constraint_options,
+    constraints_from,
+    engine_options,
+    json_option,
+    map_sigma_option,
+    output_option,
+    print_accuracy,
+    print_target,
+    quiet_option,
+    resume_option,
+    run,
+    table,
+    target_from,
+    target_options,
+    usage_table,
+)
+from sensorsel.cli.vocabulary import Command
+from sensorsel.io import results
 from sensorsel.io.files import output_file
 from sensorsel.model.library import SensorLibrary
 from sensorsel.model.problem import Domain
-
-from sensorsel.api import with_suite_quality
-from sensorsel.cli.options import (budget_option, compact_suite, constraint_options, constraints_from, engine_options,
-                                   json_option, output_option, print_target, quiet_option, run, table, target_from,
-                                   target_options, usage_table)
-from sensorsel.cli.options import check_map_sigma, map_sigma_option, print_accuracy
-from sensorsel.cli.integrity import integrity_from, integrity_options
-from sensorsel.cli.options import cluster_from, cluster_options, resume_option
-
 
 
 def _worst_aggregate(fn: Any) -> Any:
@@ -32,8 +48,10 @@ def _worst_aggregate(fn: Any) -> Any:
     for p in getattr(fn, "__click_params__", []):
         if p.name == "aggregate":
             p.type = click.Choice(list(ROBUST_AGGREGATES))
-            p.help = ((p.help or "") + " worst = the worst route's share of its best under the failures "
-                      "(max-min over the routes; robust only).")
+            p.help = (
+                (p.help or "") + " worst = the worst route's share of its best under the failures "
+                "(max-min over the routes; robust only)."
+            )
     return fn
 
 
@@ -46,31 +64,67 @@ def _csv(xs: Any) -> str:
     return ",".join(xs) or "-"
 
 
-@click.command("robust", cls=Command, short_help="Robust selection: the best worst case under failing sensors, with its bound.")
+@click.command(
+    "robust", cls=Command, short_help="Robust selection: the best worst case under failing sensors, with its bound."
+)
 @_worst_aggregate
 @target_options
 @engine_options
 @cluster_options
 @budget_option(default=110_000.0, help="Budget in dollars (110000, 110,000, $110,000 or 110_000).")
-@click.option("--failures", "alpha", type=click.IntRange(min=0), default=1, show_default=True, metavar="N",
-              help="Number of sensors that may fail (alpha); the design maximises the score left after the worst ALPHA.")
-@click.option("--rules", default="uniform,marginal", show_default=True, metavar="RULES",
-              help="Plain greedy rules run as candidates, comma-separated (uniform always runs).")
-@click.option("--methods", default=None,
-              help="Further methods, comma-separated, or 'none' [default: oblivious,saturate,local-search; "
-                   "with --aggregate worst: saturate,local-search].")
-@click.option("--no-skip", is_flag=True, help="Run every method even when the bound already proves a candidate optimal.")
+@click.option(
+    "--failures",
+    "alpha",
+    type=click.IntRange(min=0),
+    default=1,
+    show_default=True,
+    metavar="N",
+    help="Number of sensors that may fail (alpha); the design maximises the score left after the worst ALPHA.",
+)
+@click.option(
+    "--rules",
+    default="uniform,marginal",
+    show_default=True,
+    metavar="RULES",
+    help="Plain greedy rules run as candidates, comma-separated (uniform always runs).",
+)
+@click.option(
+    "--methods",
+    default=None,
+    help="Further methods, comma-separated, or 'none' [default: oblivious,saturate,local-search; "
+    "with --aggregate worst: saturate,local-search].",
+)
+@click.option(
+    "--no-skip", is_flag=True, help="Run every method even when the bound already proves a candidate optimal."
+)
 @constraint_options
 @map_sigma_option
 @integrity_options
-@output_option(help="Write the result as JSON here (kind \"robust\"); each method's outcome is kept in FILE.tasks/ "
-                    "as it comes (removed once FILE is written; not with --aggregate worst).")
+@output_option(
+    help='Write the result as JSON here (kind "robust"); each method\'s outcome is kept in FILE.tasks/ '
+    "as it comes (removed once FILE is written; not with --aggregate worst)."
+)
 @resume_option
 @json_option
 @quiet_option
 @run
-def robust_cmd(budget: float, alpha: int, rules: str, methods: str | None, no_skip: bool, output: str | None, resume: bool,
-               as_json: bool, quiet: bool, aggregate: str, engine: str | None, jobs: int, map_sigma: float | None, estimate: str, **kw: Any) -> None:
+def robust_cmd(
+    budget: float,
+    alpha: int,
+    rules: str,
+    methods: str | None,
+    no_skip: bool,
+    output: str | None,
+    resume: bool,
+    as_json: bool,
+    quiet: bool,
+    aggregate: str,
+    engine: str | None,
+    jobs: int,
+    map_sigma: float | None,
+    estimate: str,
+    **kw: Any,
+) -> None:
     """Robust sensor selection: maximise the worst-case score after ALPHA sensors fail.
 
     Runs plain greedy, the paper's Algorithm 2 and further methods, scores every suite by its exact
@@ -89,9 +143,7 @@ def robust_cmd(budget: float, alpha: int, rules: str, methods: str | None, no_sk
     --limit, --include, --exclude, --max-sensors and the library's slots hold for every candidate;
     the bound then relaxes them to the budget alone (still an upper bound).
     """
-    from sensorsel.api import run_robust
-    from sensorsel.api import check_alpha
-    from sensorsel.api import check_affordable, check_budget
+    from sensorsel.api import check_affordable, check_alpha, check_budget, run_robust
 
     budget, alpha = check_budget(budget), check_alpha(alpha)
     map_sigma = check_map_sigma(map_sigma)
@@ -129,13 +181,38 @@ def robust_cmd(budget: float, alpha: int, rules: str, methods: str | None, no_sk
             if cluster is not None:
                 assert isinstance(target, Domain)
                 ev = domain_evaluator_on(cluster, target, engine, "normalised")
-            res = run_robust(target, budget, alpha, engine=engine, jobs=jobs, aggregate=aggregate, rules=rule_list,
-                             methods=method_list, skip_when_proved=not no_skip, evaluator=ev, constraints=constraints)
+            res = run_robust(
+                target,
+                budget,
+                alpha,
+                engine=engine,
+                jobs=jobs,
+                aggregate=aggregate,
+                rules=rule_list,
+                methods=method_list,
+                skip_when_proved=not no_skip,
+                evaluator=ev,
+                constraints=constraints,
+            )
         else:  # the methods as tasks: here, or on the cluster's workers; kept under FILE.tasks/
-            res = run_robust(target, budget, alpha, engine=engine, jobs=jobs, aggregate=aggregate, rules=rule_list,
-                             methods=method_list, skip_when_proved=not no_skip, constraints=constraints,
-                             executor=cluster.executor if cluster is not None else None, outdir=tasks, resume=resume)
-    res = with_suite_quality(res, target, map_sigma_m=map_sigma, engine=engine, estimate=estimate, integrity=integrity_spec)
+            res = run_robust(
+                target,
+                budget,
+                alpha,
+                engine=engine,
+                jobs=jobs,
+                aggregate=aggregate,
+                rules=rule_list,
+                methods=method_list,
+                skip_when_proved=not no_skip,
+                constraints=constraints,
+                executor=cluster.executor if cluster is not None else None,
+                outdir=tasks,
+                resume=resume,
+            )
+    res = with_suite_quality(
+        res, target, map_sigma_m=map_sigma, engine=engine, estimate=estimate, integrity=integrity_spec
+    )
     written = results.save(res, output) if output else None
     if tasks is not None:  # the result is written: the run is no longer interrupted
         shutil.rmtree(tasks, ignore_errors=True)
@@ -176,45 +253,90 @@ def print_robust(res: Any, lib: SensorLibrary | None = None) -> None:
     fmt = (lambda v: f"{v:.4f}") if worst else (lambda v: f"{v:,.2f}")
     print_target(res.problem)
     what = "the worst route's share of its best" if worst else "the score"
-    click.echo(f"budget     ${res.budget_usd:,.0f}, {res.alpha} failure(s), engine {res.engine}; worst case = {what} "
-               f"after the worst {res.alpha} failure(s)")
+    click.echo(
+        f"budget     ${res.budget_usd:,.0f}, {res.alpha} failure(s), engine {res.engine}; worst case = {what} "
+        f"after the worst {res.alpha} failure(s)"
+    )
     click.echo("")
     first: dict[str, Any] = {}
     for c in res.candidates:
         first.setdefault(c.method, c)
     win = next(c for c in res.candidates if c.method == res.method and tuple(c.suite) == tuple(res.suite))
     rows = []
-    for label, c in (("greedy", first.get("greedy-uniform")), ("algorithm 2", first.get("algorithm-2")), ("robust", win)):
+    for label, c in (
+        ("greedy", first.get("greedy-uniform")),
+        ("algorithm 2", first.get("algorithm-2")),
+        ("robust", win),
+    ):
         if c is None:
             continue
         fail = _csv(c.failures) + (f" on {c.worst_member}" if c.worst_member else "")
-        rows.append([label, compact_suite(c.suite, lib), f"{c.cost_usd:,.0f}", fmt(c.nominal_score), fmt(c.worst_score), fail,
-                     fmt(res.bound), f"{100.0 * (res.bound - c.worst_score) / res.bound if res.bound > 0 else 0.0:.2f}%"])
+        rows.append(
+            [
+                label,
+                compact_suite(c.suite, lib),
+                f"{c.cost_usd:,.0f}",
+                fmt(c.nominal_score),
+                fmt(c.worst_score),
+                fail,
+                fmt(res.bound),
+                f"{100.0 * (res.bound - c.worst_score) / res.bound if res.bound > 0 else 0.0:.2f}%",
+            ]
+        )
     click.echo(table(rows, ["design", "suite", "cost_usd", "nominal", "worst_case", "worst_failures", "bound", "gap"]))
-    click.echo(f"\nchosen by {method_words(res.method)}; worst case {fmt(res.worst_score)} ({unit}), bound {fmt(res.bound)}, "
-               f"gap {res.gap_percent:.2f}%" + (" (proved optimal)" if res.bound_detail.proved or res.gap_percent == 0 else ""))
+    click.echo(
+        f"\nchosen by {method_words(res.method)}; worst case {fmt(res.worst_score)} ({unit}), bound {fmt(res.bound)}, "
+        f"gap {res.gap_percent:.2f}%" + (" (proved optimal)" if res.bound_detail.proved or res.gap_percent == 0 else "")
+    )
     if res.greedy_worst_score > 0:
-        click.echo(f"versus greedy {100.0 * (res.worst_score - res.greedy_worst_score) / res.greedy_worst_score:+.1f} %, "
-                   f"versus Algorithm 2 "
-                   f"{100.0 * (res.worst_score - res.algorithm2_worst_score) / max(res.algorithm2_worst_score, 1e-300):+.1f} %")
+        click.echo(
+            f"versus greedy {100.0 * (res.worst_score - res.greedy_worst_score) / res.greedy_worst_score:+.1f} %, "
+            f"versus Algorithm 2 "
+            f"{100.0 * (res.worst_score - res.algorithm2_worst_score) / max(res.algorithm2_worst_score, 1e-300):+.1f} %"
+        )
     if worst and res.members:
         click.echo(f"\nper route (worst: {res.worst_member})")
-        click.echo(table([[m.name, f"{m.best_score:,.2f}", f"{m.nominal_share:.4f}", f"{m.worst_share:.4f}", _csv(m.failures)]
-                          for m in res.members], ["route", "best_nats", "nominal_share", "worst_share", "worst_failures"]))
+        click.echo(
+            table(
+                [
+                    [m.name, f"{m.best_score:,.2f}", f"{m.nominal_share:.4f}", f"{m.worst_share:.4f}", _csv(m.failures)]
+                    for m in res.members
+                ],
+                ["route", "best_nats", "nominal_share", "worst_share", "worst_failures"],
+            )
+        )
     click.echo("\ncandidates")
-    click.echo(table([[method_words(c.method), compact_suite(c.suite, lib), f"{c.cost_usd:,.0f}", fmt(c.nominal_score), fmt(c.worst_score),
-                       _csv(c.failures) + (f" on {c.worst_member}" if c.worst_member else ""), str(c.n_evaluations),
-                       f"{c.seconds:.1f}"] for c in res.candidates],
-                     ["method", "suite", "cost_usd", "nominal", "worst_case", "worst_failures", "evaluations", "seconds"]))
+    click.echo(
+        table(
+            [
+                [
+                    method_words(c.method),
+                    compact_suite(c.suite, lib),
+                    f"{c.cost_usd:,.0f}",
+                    fmt(c.nominal_score),
+                    fmt(c.worst_score),
+                    _csv(c.failures) + (f" on {c.worst_member}" if c.worst_member else ""),
+                    str(c.n_evaluations),
+                    f"{c.seconds:.1f}",
+                ]
+                for c in res.candidates
+            ],
+            ["method", "suite", "cost_usd", "nominal", "worst_case", "worst_failures", "evaluations", "seconds"],
+        )
+    )
     for s in res.skipped:
         method, _, why = s.partition(": ")
         click.echo(f"skipped: {method_words(method)}: {why}" if why else f"skipped: {s}")
     if res.constraints is not None and lib is not None:
         from sensorsel.model.constraints import feasible_set
 
-        click.echo(f"\nlimits     {res.constraints.describe()}"
-                   + (f"; bound: {res.bound_detail.relaxation}" if res.bound_detail.relaxation else ""))
-        click.echo(usage_table(feasible_set(lib, res.budget_usd, res.constraints).rows_used(lib.resolve_suite(res.suite))))
+        click.echo(
+            f"\nlimits     {res.constraints.describe()}"
+            + (f"; bound: {res.bound_detail.relaxation}" if res.bound_detail.relaxation else "")
+        )
+        click.echo(
+            usage_table(feasible_set(lib, res.budget_usd, res.constraints).rows_used(lib.resolve_suite(res.suite)))
+        )
     click.echo(f"{res.n_evaluations:,} suites scored in {res.seconds:.1f} s")
 
 

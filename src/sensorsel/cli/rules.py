@@ -3,7 +3,8 @@
 
 from __future__ import annotations
 
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 import click
 
@@ -28,14 +29,20 @@ class RuleType(click.ParamType):
 
 def rule_option(default: str, help: str = "") -> Callable[[Callable[..., Any]], Callable[..., Any]]:
     """``--rule RULE`` (passed as ``rule=``)."""
-    return click.option("--rule", type=RuleType(), default=default, show_default=True,
-                        help=(help + " " if help else "") + rules_help())
+    return click.option(
+        "--rule", type=RuleType(), default=default, show_default=True, help=(help + " " if help else "") + rules_help()
+    )
 
 
 def rules_option(default: str) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
     """``--rules R1,R2`` (passed as ``rules=``, unparsed)."""
-    return click.option("--rules", default=default, show_default=True, metavar="RULES",
-                        help=f"Comma-separated rules among {', '.join(RULES)}.")
+    return click.option(
+        "--rules",
+        default=default,
+        show_default=True,
+        metavar="RULES",
+        help=f"Comma-separated rules among {', '.join(RULES)}.",
+    )
 
 
 def kept_label(rule: str, winning_rule: str) -> str:

@@ -10,24 +10,57 @@ from typing import Any
 
 import click
 
-from sensorsel.cli.vocabulary import Command
-
-from sensorsel.api import design_domain, run_greedy, with_suite_quality
-from sensorsel.cli.options import (budget_option, engine_options, json_option, output_option, plot_format_option,
-                                   progress_bar, compact_suite, print_target, quiet_option, run, table, target_from,
-                                   target_options)
-from sensorsel.cli.options import (cluster_from, cluster_options, resume_option, constraint_options, constraints_from,
-                                   usage_table)
-from sensorsel.cli.options import check_map_sigma, map_sigma_option, print_accuracy
-from sensorsel.cli.integrity import integrity_from, integrity_options
-from sensorsel.cli.options import plot_format
-from sensorsel.cli.options import plot_format as plot_format_of
+from sensorsel.api import (
+    DEFAULT_RULES,
+    RULES,
+    Architecture,
+    CertifiedGreedyResult,
+    DomainDesign,
+    by_condition,
+    check_affordable,
+    checkpoint_path,
+    design_domain,
+    format_certificate,
+    front_acceptance,
+    parse_budgets,
+    parse_rules,
+    remove_checkpoint,
+    run_greedy,
+    run_tradespace,
+    with_suite_quality,
+    write_csv,
+)
 from sensorsel.cli.cluster import domain_evaluator_on, require_domain
 from sensorsel.cli.common import specification_from, specification_given, specification_options
+from sensorsel.cli.integrity import integrity_from, integrity_options
+from sensorsel.cli.options import (
+    budget_option,
+    check_map_sigma,
+    cluster_from,
+    cluster_options,
+    compact_suite,
+    constraint_options,
+    constraints_from,
+    engine_options,
+    json_option,
+    map_sigma_option,
+    output_option,
+    plot_format,
+    plot_format_option,
+    print_accuracy,
+    print_target,
+    progress_bar,
+    quiet_option,
+    resume_option,
+    run,
+    table,
+    target_from,
+    target_options,
+    usage_table,
+)
+from sensorsel.cli.options import plot_format as plot_format_of
 from sensorsel.cli.rules import kept_label, rule_option, rules_option
-from sensorsel.api import (DEFAULT_RULES, RULES, Architecture, CertifiedGreedyResult, DomainDesign, by_condition,
-                           check_affordable, checkpoint_path, format_certificate, front_acceptance, parse_budgets,
-                           parse_rules, remove_checkpoint, run_tradespace, write_csv)
+from sensorsel.cli.vocabulary import Command
 from sensorsel.io import results
 from sensorsel.io.files import output_dir, output_file
 from sensorsel.model.constraints import feasible_set
@@ -56,7 +89,9 @@ def _print_greedy(res: CertifiedGreedyResult, lib: SensorLibrary) -> None:
     click.echo("")
     click.echo(f"suite      {','.join(res.suite) or '(empty)'}  ({len(res.suite)} sensors)")
     owned = res.constraints is not None and res.constraints.owned
-    click.echo(f"cost       ${res.cost_usd:,.0f} of ${res.budget_usd:,.0f}{' (owned sensors not counted)' if owned else ''}")
+    click.echo(
+        f"cost       ${res.cost_usd:,.0f} of ${res.budget_usd:,.0f}{' (owned sensors not counted)' if owned else ''}"
+    )
     click.echo(f"score      {res.score:.3f}{unit.replace('_', ' ')}")
     click.echo(f"evaluated  {res.n_evaluations} suites in {res.seconds:.2f} s")
     click.echo(f"stopped    {res.stop_reason}")
@@ -70,43 +105,91 @@ def _print_greedy(res: CertifiedGreedyResult, lib: SensorLibrary) -> None:
 
 
 def _print_breakdown(design: DomainDesign) -> None:
-    click.echo(f"\nper route (the domain suite against each route's own {design.greedy.rule} design at the same budget):")
-    rows = [[r.name, f"{r.weight:.3f}", f"{r.score:.3f}", f"{r.share_of_best:.4f}", f"{r.own_score:.3f}",
-             f"{r.share_of_own:.4f}", f"{r.own_cost_usd:,.0f}", compact_suite(r.own_suite)] for r in design.routes]
-    click.echo(table(rows, ["route", "weight", "score_nats", "of_best", "own_nats", "of_own", "own_cost_usd", "own_suite"]))
+    click.echo(
+        f"\nper route (the domain suite against each route's own {design.greedy.rule} design at the same budget):"
+    )
+    rows = [
+        [
+            r.name,
+            f"{r.weight:.3f}",
+            f"{r.score:.3f}",
+            f"{r.share_of_best:.4f}",
+            f"{r.own_score:.3f}",
+            f"{r.share_of_own:.4f}",
+            f"{r.own_cost_usd:,.0f}",
+            compact_suite(r.own_suite),
+        ]
+        for r in design.routes
+    ]
+    click.echo(
+        table(rows, ["route", "weight", "score_nats", "of_best", "own_nats", "of_own", "own_cost_usd", "own_suite"])
+    )
     worst = next(r for r in design.routes if r.name == design.worst_route)
-    click.echo(f"worst route {worst.name}: the domain suite reaches {worst.share_of_own:.1%} of what its own design "
-               "reaches there")
+    click.echo(
+        f"worst route {worst.name}: the domain suite reaches {worst.share_of_own:.1%} of what its own design "
+        "reaches there"
+    )
     conditions = by_condition(design)
     if conditions:
         click.echo("\nper condition (its members' shares, weighted):")
-        rows = [[c.name, f"{c.weight:.3f}", f"{c.share_of_best:.4f}", f"{c.share_of_own:.4f}", c.worst_member] for c in conditions]
+        rows = [
+            [c.name, f"{c.weight:.3f}", f"{c.share_of_best:.4f}", f"{c.share_of_own:.4f}", c.worst_member]
+            for c in conditions
+        ]
         click.echo(table(rows, ["condition", "weight", "of_best", "of_own", "worst_member"]))
 
 
-@click.command("greedy", cls=Command, short_help="Greedy suite under a budget, with its certificate of near-optimality.")
+@click.command(
+    "greedy", cls=Command, short_help="Greedy suite under a budget, with its certificate of near-optimality."
+)
 @target_options
 @engine_options
 @cluster_options
 @budget_option(required=True)
 @constraint_options
 @rule_option("uniform")
-@click.option("--lazy/--no-lazy", default=True, show_default=True, help="Lazy (Minoux) evaluation: same picks, fewer evaluations.")
+@click.option(
+    "--lazy/--no-lazy", default=True, show_default=True, help="Lazy (Minoux) evaluation: same picks, fewer evaluations."
+)
 @output_option(help="Write the full result as JSON.")
 @json_option
-@click.option("--certificate/--no-certificate", "certify", default=True, show_default=True,
-              help="Also bound the best possible score within the budget (at most one extra sweep of the library per pick) "
-                   "and print how close the suite is to it.")
-@click.option("--plot", "plot_path", type=click.Path(dir_okay=False, path_type=str), default=None,
-              help="With --domain: draw the per-route breakdown here (png, svg or pdf by its extension).")
+@click.option(
+    "--certificate/--no-certificate",
+    "certify",
+    default=True,
+    show_default=True,
+    help="Also bound the best possible score within the budget (at most one extra sweep of the library per pick) "
+    "and print how close the suite is to it.",
+)
+@click.option(
+    "--plot",
+    "plot_path",
+    type=click.Path(dir_okay=False, path_type=str),
+    default=None,
+    help="With --domain: draw the per-route breakdown here (png, svg or pdf by its extension).",
+)
 @resume_option
 @map_sigma_option
 @integrity_options
 @quiet_option
 @run
-def greedy_cmd(budget: float, rule: str, lazy: bool, output: str | None, as_json: bool, certify: bool, quiet: bool,
-               plot_path: str | None, resume: bool, aggregate: str, engine: str | None, jobs: int, map_sigma: float | None, estimate: str,
-               **kw: Any) -> None:
+def greedy_cmd(
+    budget: float,
+    rule: str,
+    lazy: bool,
+    output: str | None,
+    as_json: bool,
+    certify: bool,
+    quiet: bool,
+    plot_path: str | None,
+    resume: bool,
+    aggregate: str,
+    engine: str | None,
+    jobs: int,
+    map_sigma: float | None,
+    estimate: str,
+    **kw: Any,
+) -> None:
     """Greedy sensor selection under a budget (the paper's Algorithm 1 and its cost-aware variants).
 
     Prints the suite in pick order with each pick's marginal gain, the cost, the score
@@ -146,16 +229,42 @@ def greedy_cmd(budget: float, rule: str, lazy: bool, output: str | None, as_json
     with cluster or nullcontext(), bar or nullcontext(), cert_bar or nullcontext():
         if isinstance(problem, Domain):
             ev = domain_evaluator_on(cluster, problem, engine, aggregate) if cluster is not None else None
-            out = design_domain(problem, budget, rule, engine=engine, jobs=jobs, aggregate=aggregate, lazy=lazy,
-                                certify=certify, progress=progress, certify_progress=cert_progress, evaluator=ev,
-                                checkpoint=ckpt, resume=resume, constraints=constraints)
+            out = design_domain(
+                problem,
+                budget,
+                rule,
+                engine=engine,
+                jobs=jobs,
+                aggregate=aggregate,
+                lazy=lazy,
+                certify=certify,
+                progress=progress,
+                certify_progress=cert_progress,
+                evaluator=ev,
+                checkpoint=ckpt,
+                resume=resume,
+                constraints=constraints,
+            )
             res = out.greedy
         else:
-            out = res = run_greedy(problem, budget, rule, engine=engine, jobs=jobs, lazy=lazy, progress=progress,
-                                   certify=certify, certify_progress=cert_progress, checkpoint=ckpt, resume=resume,
-                                   constraints=constraints)
+            out = res = run_greedy(
+                problem,
+                budget,
+                rule,
+                engine=engine,
+                jobs=jobs,
+                lazy=lazy,
+                progress=progress,
+                certify=certify,
+                certify_progress=cert_progress,
+                checkpoint=ckpt,
+                resume=resume,
+                constraints=constraints,
+            )
     # the chosen suite's accuracy in metres (local evaluators: a cluster's routes answer scores only)
-    res = with_suite_quality(res, problem, map_sigma_m=map_sigma, engine=engine, estimate=estimate, integrity=integrity_spec)
+    res = with_suite_quality(
+        res, problem, map_sigma_m=map_sigma, engine=engine, estimate=estimate, integrity=integrity_spec
+    )
     out = replace(out, greedy=res) if isinstance(out, DomainDesign) else res
     if output:
         results.save(out, output)
@@ -188,34 +297,66 @@ def _by_suite(acceptance: Any, front: Any) -> list[Any]:
 
 
 def _arch_row(a: Architecture) -> list[str]:
-    return [f"{a.cost_usd:,.0f}", f"{a.score:.3f}", f"{a.normalized:.4f}", str(a.n_sensors), "+".join(a.rules), compact_suite(a.suite)]
+    return [
+        f"{a.cost_usd:,.0f}",
+        f"{a.score:.3f}",
+        f"{a.normalized:.4f}",
+        str(a.n_sensors),
+        "+".join(a.rules),
+        compact_suite(a.suite),
+    ]
 
 
 @click.command("pareto", cls=Command, short_help="Cost-performance tradespace and its Pareto front (plot, CSV, JSON).")
 @target_options
 @engine_options
 @cluster_options
-@click.option("--budgets", default=None, metavar="B1,B2,...",
-              help="Comma-separated budgets in dollars, e.g. 5000,27_000,$110000 (default: 14 log-spaced from the "
-                   "cheapest sensor to the whole library).")
-@budget_option(multiple=True, help="A budget in dollars (110000, 110,000, $110,000 or 110_000); repeat it for several; "
-                                   "adds to --budgets.")
+@click.option(
+    "--budgets",
+    default=None,
+    metavar="B1,B2,...",
+    help="Comma-separated budgets in dollars, e.g. 5000,27_000,$110000 (default: 14 log-spaced from the "
+    "cheapest sensor to the whole library).",
+)
+@budget_option(
+    multiple=True,
+    help="A budget in dollars (110000, 110,000, $110,000 or 110_000); repeat it for several; adds to --budgets.",
+)
 @rules_option(",".join(DEFAULT_RULES))
 @constraint_options
-@click.option("--lazy/--no-lazy", default=True, show_default=True, help="Lazy (Minoux) evaluation: same picks, fewer evaluations.")
+@click.option(
+    "--lazy/--no-lazy", default=True, show_default=True, help="Lazy (Minoux) evaluation: same picks, fewer evaluations."
+)
 @map_sigma_option
 @specification_options
-@output_option(folder=True, required=True,
-               help="Folder for pareto.<format>, architectures.csv, tradespace.json, and the front's accuracy: "
-                    "accuracy.json and pareto-accuracy.<format>.")
+@output_option(
+    folder=True,
+    required=True,
+    help="Folder for pareto.<format>, architectures.csv, tradespace.json, and the front's accuracy: "
+    "accuracy.json and pareto-accuracy.<format>.",
+)
 @plot_format_option
 @resume_option
 @json_option
 @quiet_option
 @run
-def pareto_cmd(budgets: str | None, budget: tuple[float, ...], rules: str, lazy: bool, outdir: str, plot_format: str | None,
-               resume: bool, as_json: bool, quiet: bool, aggregate: str, engine: str | None, jobs: int, map_sigma: float | None, estimate: str,
-               **kw: Any) -> None:
+def pareto_cmd(
+    budgets: str | None,
+    budget: tuple[float, ...],
+    rules: str,
+    lazy: bool,
+    outdir: str,
+    plot_format: str | None,
+    resume: bool,
+    as_json: bool,
+    quiet: bool,
+    aggregate: str,
+    engine: str | None,
+    jobs: int,
+    map_sigma: float | None,
+    estimate: str,
+    **kw: Any,
+) -> None:
     """The cost-performance tradespace (the paper's Fig. 4): greedy runs over a grid of budgets,
     every intermediate architecture, and the Pareto front (lower cost, higher score).
 
@@ -247,15 +388,33 @@ def pareto_cmd(budgets: str | None, budget: tuple[float, ...], rules: str, lazy:
         for k in ("preset", "spec_path", "lateral", "longitudinal", "heading", "sigma", "at"):
             kw.pop(k, None)
     if grid:
-        check_affordable(problem.library, max(grid), budget_option="--budgets" if budgets is not None else "--budget",
-                         constraints=constraints)
+        check_affordable(
+            problem.library,
+            max(grid),
+            budget_option="--budgets" if budgets is not None else "--budget",
+            constraints=constraints,
+        )
     else:
         check_affordable(problem.library, float(problem.library.costs.sum()), constraints=constraints)
     bar, progress = progress_bar(quiet, "tradespace runs")
-    with cluster or nullcontext(), bar or nullcontext():  # with a cluster, each rule's chain of budgets is one task there
-        res = run_tradespace(problem, grid, names, engine=engine, jobs=jobs, lazy=lazy, aggregate=aggregate, progress=progress,
-                             constraints=constraints, executor=cluster.executor if cluster is not None else None,
-                             outdir=outdir, resume=resume)
+    with (
+        cluster or nullcontext(),
+        bar or nullcontext(),
+    ):  # with a cluster, each rule's chain of budgets is one task there
+        res = run_tradespace(
+            problem,
+            grid,
+            names,
+            engine=engine,
+            jobs=jobs,
+            lazy=lazy,
+            aggregate=aggregate,
+            progress=progress,
+            constraints=constraints,
+            executor=cluster.executor if cluster is not None else None,
+            outdir=outdir,
+            resume=resume,
+        )
 
     out = Path(outdir)
     written = [results.save(res, out / "tradespace.json"), write_csv(res, out / "architectures.csv")]
@@ -266,8 +425,14 @@ def pareto_cmd(budgets: str | None, budget: tuple[float, ...], rules: str, lazy:
         use_file_backend()
         ax = plot_tradespace(res)
         written.insert(0, save_figure(ax.figure, out / f"pareto.{fmt}", close=True))
-        acceptance = front_acceptance(problem, [(a.suite, a.cost_usd, a.score) for a in res.front], specs,
-                                      map_sigma_m=map_sigma, engine=engine, estimate=estimate)
+        acceptance = front_acceptance(
+            problem,
+            [(a.suite, a.cost_usd, a.score) for a in res.front],
+            specs,
+            map_sigma_m=map_sigma,
+            engine=engine,
+            estimate=estimate,
+        )
         written.append(results.save(acceptance, out / "accuracy.json"))
         written.append(save_figure(plot_front_accuracy(acceptance).figure, out / f"pareto-accuracy.{fmt}", close=True))
 
@@ -277,43 +442,73 @@ def pareto_cmd(budgets: str | None, budget: tuple[float, ...], rules: str, lazy:
             sys.exit(2)
         return
     print_target(res.problem)
-    click.echo(f"runs       {len(res.runs)} ({', '.join(res.rules)} x {len(res.budgets_usd)} budgets "
-               f"${res.budgets_usd[0]:,.0f}..${res.budgets_usd[-1]:,.0f}); engine "
-               f"{res.engine}{' (lazy)' if res.lazy else ''}; "
-               f"{res.n_evaluations} suites evaluated in {res.seconds:.1f} s")
-    click.echo(f"found      {len(res.architectures)} architectures, {len(res.front)} on the Pareto front; "
-               f"best score {res.best_score:.3f} nats")
+    click.echo(
+        f"runs       {len(res.runs)} ({', '.join(res.rules)} x {len(res.budgets_usd)} budgets "
+        f"${res.budgets_usd[0]:,.0f}..${res.budgets_usd[-1]:,.0f}); engine "
+        f"{res.engine}{' (lazy)' if res.lazy else ''}; "
+        f"{res.n_evaluations} suites evaluated in {res.seconds:.1f} s"
+    )
+    click.echo(
+        f"found      {len(res.architectures)} architectures, {len(res.front)} on the Pareto front; "
+        f"best score {res.best_score:.3f} nats"
+    )
     if not res.architectures:
         click.echo("every budget is below the cheapest sensor: nothing was bought", err=True)
         sys.exit(2)
     click.echo("\nPareto front (cheapest first):")
     assert acceptance is not None
-    rows = [_arch_row(a) + [f"{p.lateral_95_m:.3f}"] + ([] if p.meets is None else ["yes" if p.meets else "no"])
-            for a, p in zip(res.front, _by_suite(acceptance, res.front))]
-    click.echo(table(rows, ["cost_usd", "score", "normalized", "n", "rules", "suite", "lateral95_m"]
-                     + ([] if specs is None else ["meets"])))
-    click.echo(f"accuracy   {acceptance.model_label}; lateral95_m: the worst route's lateral 95 % error"
-               + ("" if specs is None else f" at {_share(specs[0].at)}"))
+    rows = [
+        _arch_row(a) + [f"{p.lateral_95_m:.3f}"] + ([] if p.meets is None else ["yes" if p.meets else "no"])
+        for a, p in zip(res.front, _by_suite(acceptance, res.front))
+    ]
+    click.echo(
+        table(
+            rows,
+            ["cost_usd", "score", "normalized", "n", "rules", "suite", "lateral95_m"]
+            + ([] if specs is None else ["meets"]),
+        )
+    )
+    click.echo(
+        f"accuracy   {acceptance.model_label}; lateral95_m: the worst route's lateral 95 % error"
+        + ("" if specs is None else f" at {_share(specs[0].at)}")
+    )
     if specs is not None:
         best_ok = acceptance.cheapest_meeting
-        click.echo(f"requires   {specs[0].describe()}" if len(set(specs)) == 1 else "requires   per-route specifications (--spec)")
-        click.echo(f"acceptable {sum(bool(p.meets) for p in acceptance.points)} of {len(acceptance.points)} front suites; "
-                   + (f"the cheapest: ${best_ok.cost_usd:,.0f}, {','.join(best_ok.suite)}" if best_ok is not None
-                      else "none meets it (sensorsel require searches every suite, not only the front)"))
+        click.echo(
+            f"requires   {specs[0].describe()}"
+            if len(set(specs)) == 1
+            else "requires   per-route specifications (--spec)"
+        )
+        click.echo(
+            f"acceptable {sum(bool(p.meets) for p in acceptance.points)} of {len(acceptance.points)} front suites; "
+            + (
+                f"the cheapest: ${best_ok.cost_usd:,.0f}, {','.join(best_ok.suite)}"
+                if best_ok is not None
+                else "none meets it (sensorsel require searches every suite, not only the front)"
+            )
+        )
     click.echo("")
     for frac in (0.99, 0.95):
         a = res.cheapest_reaching(frac)
         assert a is not None
-        click.echo(f"cheapest reaching {frac:.0%} of the best: ${a.cost_usd:,.0f}, normalized {a.normalized:.4f}, "
-                   f"{a.n_sensors} sensors: {','.join(a.suite)}")
+        click.echo(
+            f"cheapest reaching {frac:.0%} of the best: ${a.cost_usd:,.0f}, normalized {a.normalized:.4f}, "
+            f"{a.n_sensors} sensors: {','.join(a.suite)}"
+        )
     best = res.best
     assert best is not None
     click.echo(f"best: ${best.cost_usd:,.0f}, {best.n_sensors} sensors: {','.join(best.suite)}")
     if res.constraints is not None:
         lib = problem.library
-        click.echo(f"limits     {res.constraints.describe()} (at every budget); the best architecture uses, at the "
-                   "largest budget:")
-        click.echo(usage_table(feasible_set(lib, res.budgets_usd[-1], res.constraints).rows_used(lib.resolve_suite(best.suite))))
+        click.echo(
+            f"limits     {res.constraints.describe()} (at every budget); the best architecture uses, at the "
+            "largest budget:"
+        )
+        click.echo(
+            usage_table(
+                feasible_set(lib, res.budgets_usd[-1], res.constraints).rows_used(lib.resolve_suite(best.suite))
+            )
+        )
     click.echo("wrote " + ", ".join(str(w) for w in written))
 
 

@@ -7,10 +7,19 @@ from typing import Any
 
 import click
 
+from sensorsel.cli.options import (
+    cluster_from,
+    cluster_options,
+    compact_suite,
+    json_option,
+    output_option,
+    progress_bar,
+    quiet_option,
+    resume_option,
+    run,
+    table,
+)
 from sensorsel.cli.vocabulary import Command
-
-from sensorsel.cli.options import (cluster_from, cluster_options, resume_option, compact_suite, json_option,
-                                   output_option, progress_bar, quiet_option, run, table)
 from sensorsel.io import results
 from sensorsel.io.files import output_dir
 
@@ -19,15 +28,26 @@ def _num(v: float | None, fmt: str = "{:,.3f}") -> str:
     return "-" if v is None else fmt.format(v)
 
 
-@click.command("study", cls=Command, short_help="A design study: a grid of budgets, rules, failures, maps and libraries, one run per cell.")
+@click.command(
+    "study",
+    cls=Command,
+    short_help="A design study: a grid of budgets, rules, failures, maps and libraries, one run per cell.",
+)
 @click.argument("study_file", metavar="FILE.yaml", type=click.Path(dir_okay=False, path_type=str))
-@output_option(folder=True, required=True,
-               help="Folder for study.csv, study.json and cells/ (each cell written as it finishes).")
+@output_option(
+    folder=True, required=True, help="Folder for study.csv, study.json and cells/ (each cell written as it finishes)."
+)
 @resume_option
 @cluster_options
-@click.option("--jobs", type=click.IntRange(min=1), default=1, show_default=True, metavar="N",
-              help="Threads scoring candidate suites in each in-process cell (results do not depend on it; on a "
-                   "cluster every task uses one).")
+@click.option(
+    "--jobs",
+    type=click.IntRange(min=1),
+    default=1,
+    show_default=True,
+    metavar="N",
+    help="Threads scoring candidate suites in each in-process cell (results do not depend on it; on a "
+    "cluster every task uses one).",
+)
 @json_option
 @quiet_option
 @run
@@ -48,21 +68,60 @@ def study_cmd(study_file: str, outdir: str, resume: bool, jobs: int, as_json: bo
     study = load_study(study_file)
     bar, progress = progress_bar(quiet or as_json, "study cells")
     with cluster or nullcontext(), bar or nullcontext():  # with a cluster, each cell is one task there
-        res = run_study(study, outdir=outdir, resume=resume, jobs=jobs, progress=progress,
-                        executor=cluster.executor if cluster is not None else None)
+        res = run_study(
+            study,
+            outdir=outdir,
+            resume=resume,
+            jobs=jobs,
+            progress=progress,
+            executor=cluster.executor if cluster is not None else None,
+        )
     written = write_study(res, outdir)
     if as_json:
         click.echo(results.dumps(res), nl=False)
         return
-    click.echo(f"study      {res.source}: {len(res.rows)} cells on {len(res.targets)} target(s), engine {res.engine}"
-               + (f", failures by {res.method}" if any(r.failures for r in res.rows) else ""))
+    click.echo(
+        f"study      {res.source}: {len(res.rows)} cells on {len(res.targets)} target(s), engine {res.engine}"
+        + (f", failures by {res.method}" if any(r.failures for r in res.rows) else "")
+    )
     if res.n_reused:
         click.echo(f"resumed    {res.n_reused} cells read back from {outdir}/cells")
-    rows = [[str(r.cell), r.library, "-" if r.landmark_seed is None else str(r.landmark_seed), str(r.failures), r.rule,
-             f"{r.budget_usd:,.0f}", compact_suite(r.suite), f"{r.cost_usd:,.0f}", _num(r.score), _num(r.worst_score),
-             _num(r.certificate_percent, "{:.1f}%"), f"{r.seconds:.2f}"] for r in res.rows]
-    click.echo(table(rows, ["cell", "library", "seed", "failures", "rule", "budget_usd", "suite", "cost_usd", "score",
-                            "worst", "certified", "seconds"]))
+    rows = [
+        [
+            str(r.cell),
+            r.library,
+            "-" if r.landmark_seed is None else str(r.landmark_seed),
+            str(r.failures),
+            r.rule,
+            f"{r.budget_usd:,.0f}",
+            compact_suite(r.suite),
+            f"{r.cost_usd:,.0f}",
+            _num(r.score),
+            _num(r.worst_score),
+            _num(r.certificate_percent, "{:.1f}%"),
+            f"{r.seconds:.2f}",
+        ]
+        for r in res.rows
+    ]
+    click.echo(
+        table(
+            rows,
+            [
+                "cell",
+                "library",
+                "seed",
+                "failures",
+                "rule",
+                "budget_usd",
+                "suite",
+                "cost_usd",
+                "score",
+                "worst",
+                "certified",
+                "seconds",
+            ],
+        )
+    )
     click.echo("wrote " + ", ".join(str(w) for w in written))
 
 

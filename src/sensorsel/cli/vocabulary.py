@@ -35,15 +35,21 @@ class Term:
     narrower: str = ""  # the metavar of a command that takes only some of the forms (certify --suite FILE)
 
 
-SCENARIO, SUITE, SPEC, ACCURACY, RUNNING, OUTPUT = ("Scenario", "Suite and constraints", "Specification",
-                                                   "Accuracy and integrity", "Running", "Output")
+SCENARIO, SUITE, SPEC, ACCURACY, RUNNING, OUTPUT = (
+    "Scenario",
+    "Suite and constraints",
+    "Specification",
+    "Accuracy and integrity",
+    "Running",
+    "Output",
+)
 #: the help sections, in the order a command's help lists them (its own options come first)
 SECTIONS = (SCENARIO, SUITE, SPEC, ACCURACY, RUNNING, OUTPUT)
 
 #: the rarely used options' help topics (``sensorsel help TOPIC``), and what each holds
 TOPICS = {
     "scenario": "the options that say how to read a route and its landmarks: a route file's format and axes, "
-                "its timestamps, KITTI's folder, the synthetic landmarks, the OpenStreetMap merge",
+    "its timestamps, KITTI's folder, the synthetic landmarks, the OpenStreetMap merge",
     "integrity": "the integrity model: the risk per hour, the alert limits, the associator's gate, the lever",
 }
 
@@ -62,10 +68,21 @@ VOCABULARY: tuple[Term, ...] = (
     _T("--landmarks", "real|synthetic|FILE|osm:FILE", "landmarks", "the landmark map", SCENARIO),
     _T("--georef", "LAT,LON,BEARING|utm:ZONE", "compass bearing", "where a route's frame lies on Earth", SCENARIO),
     _T("--osm-classes", "CLASSES", "landmark classes", "which OpenStreetMap landmark classes", SCENARIO),
-    _T("--osm-reach", "METRES", "within this distance of the route", "OpenStreetMap landmarks within this distance of a route",
-       SCENARIO),
+    _T(
+        "--osm-reach",
+        "METRES",
+        "within this distance of the route",
+        "OpenStreetMap landmarks within this distance of a route",
+        SCENARIO,
+    ),
     _T("--landmark-seed", "INTEGER", "seed", "seed of the synthetic landmarks", SCENARIO),
-    _T("--clearance", "METRES", "closer than this to the route", "drop landmarks closer than this to the route", SCENARIO),
+    _T(
+        "--clearance",
+        "METRES",
+        "closer than this to the route",
+        "drop landmarks closer than this to the route",
+        SCENARIO,
+    ),
     _T("--rate", "HZ", "keyframe", "keyframes a second along a route", SCENARIO),
     _T("--library", "FILE", "sensor library", "the sensor library YAML (default: the paper's Table I)", SCENARIO),
     _T("--condition", "CONDITION", "condition", "night, rain, fog or snow", SCENARIO),
@@ -73,8 +90,14 @@ VOCABULARY: tuple[Term, ...] = (
     _T("--aggregate", "AGGREGATE", "domain", "how a domain combines its routes' scores", SCENARIO),
     # -- the suite, and what it may be
     _T("--budget", "DOLLARS", "dollars", "a budget in dollars (110000, 110,000, $110,000)", SUITE),
-    _T("--suite", "IDS|FILE", "sensor ids", "a suite: comma-separated sensor ids, or a result file that names one "
-       "(certify: a greedy result file)", SUITE, narrower="FILE"),
+    _T(
+        "--suite",
+        "IDS|FILE",
+        "sensor ids",
+        "a suite: comma-separated sensor ids, or a result file that names one (certify: a greedy result file)",
+        SUITE,
+        narrower="FILE",
+    ),
     _T("--compare", "IDS|FILE", "suite", "a second suite drawn beside the first (same forms as --suite)", SUITE),
     _T("--rule", "[uniform|cost-benefit|marginal|best-of]", "rule", "the greedy rule", SUITE),
     _T("--rules", "RULES", "rules", "several greedy rules, comma-separated", SUITE),
@@ -96,15 +119,32 @@ VOCABULARY: tuple[Term, ...] = (
     _T("--at", "PERCENT", "keyframes", "share of keyframes that must meet the bounds", SPEC),
     _T("--spec", "FILE", "specification file", "a specification file (per-route specifications)", SPEC),
     # -- how accuracy and integrity are computed
-    _T("--map-sigma", "METRES", "prior map", "localize in a prior map whose landmarks are known to this std [m]", ACCURACY),
-    _T("--estimate", "[filter|smoother]", "filter", "accuracy of the filter (as the car drives) or the smoother", ACCURACY),
+    _T(
+        "--map-sigma",
+        "METRES",
+        "prior map",
+        "localize in a prior map whose landmarks are known to this std [m]",
+        ACCURACY,
+    ),
+    _T(
+        "--estimate",
+        "[filter|smoother]",
+        "filter",
+        "accuracy of the filter (as the car drives) or the smoother",
+        ACCURACY,
+    ),
     _T("--integrity-risk", "P", "per hour", "allowed probability per hour of an error beyond an alert limit", ACCURACY),
     _T("--alert-lateral", "METRES", "alert limit", "lateral alert limit [m]", ACCURACY),
     _T("--alert-longitudinal", "METRES", "alert limit", "longitudinal alert limit [m]", ACCURACY),
     _T("--alert-heading", "DEGREES", "alert limit", "heading alert limit [deg]", ACCURACY),
     _T("--gate-probability", "P", "gate", "the associator's chi-square gate probability", ACCURACY),
-    _T("--max-association-risk", "P", "wrong association", "leave out measurements likelier than P to be misassociated",
-       ACCURACY),
+    _T(
+        "--max-association-risk",
+        "P",
+        "wrong association",
+        "leave out measurements likelier than P to be misassociated",
+        ACCURACY,
+    ),
     # -- how it runs
     _T("--engine", "[fast|reference]", "engine", "the scoring engine", RUNNING),
     _T("--jobs", "N", "results do not depend on it", "threads or processes on this machine", RUNNING),
@@ -113,8 +153,14 @@ VOCABULARY: tuple[Term, ...] = (
     _T("--time-limit", "SECONDS", "stop", "stop a search after this long with the best found so far", RUNNING),
     _T("--resume", "", "interrupted run", "go on from what an interrupted run left", RUNNING),
     # -- what it writes
-    _T("--output", "FILE", "", "the file the result is written to (JSON; an image for scene, CSV for landmarks)",
-       OUTPUT, short="-o"),
+    _T(
+        "--output",
+        "FILE",
+        "",
+        "the file the result is written to (JSON; an image for scene, CSV for landmarks)",
+        OUTPUT,
+        short="-o",
+    ),
     _T("--output-dir", "DIRECTORY", "folder", "the folder a command that writes several files writes them to", OUTPUT),
     _T("--plot", "FILE", "draw", "draw the result's plot into this file (png, svg or pdf by its extension)", OUTPUT),
     _T("--plot-format", "[png|svg|pdf]", "plot", "the format of the plots written to --output-dir or -o", OUTPUT),
@@ -126,8 +172,15 @@ VOCABULARY: tuple[Term, ...] = (
 BY_NAME = {t.name: t for t in VOCABULARY}
 
 #: names no command takes any more: the one above is the concept's name
-RETIRED = {"--max-seconds": "--time-limit", "--reach": "--osm-reach", "--keyframe-rate": "--rate", "--result": "--suite",
-           "--format": "--plot-format", "--require": "--include", "--outdir": "--output-dir"}
+RETIRED = {
+    "--max-seconds": "--time-limit",
+    "--reach": "--osm-reach",
+    "--keyframe-rate": "--rate",
+    "--result": "--suite",
+    "--format": "--plot-format",
+    "--require": "--include",
+    "--outdir": "--output-dir",
+}
 
 
 class TopicOption(click.Option):
@@ -219,8 +272,9 @@ def problems(group: click.Group, exempt: frozenset[str] = frozenset({"help"})) -
             if term.gist.lower() not in (p.help or "").lower():
                 out.append(f"{cname} {name}: its help does not say {term.gist!r} ({term.meaning})")
             folder = {"--output": False, "--output-dir": True}.get(name)
-            if folder is not None and not (isinstance(p.type, click.Path) and p.type.dir_okay == folder
-                                           and p.type.file_okay != folder):
+            if folder is not None and not (
+                isinstance(p.type, click.Path) and p.type.dir_okay == folder and p.type.file_okay != folder
+            ):
                 out.append(f"{cname} {name}: must be a {'folder' if folder else 'file'}")
     for name, cnames in sorted(users.items()):
         if len(cnames) > 1 and name not in BY_NAME:
@@ -271,7 +325,9 @@ def help_cmd(ctx: click.Context, topic: str) -> None:
                 if record is not None:
                     seen[long_name(param)] = record
     formatter = ctx.make_formatter()
-    formatter.write_text(f"The {topic} options ({TOPICS[topic]}); every command that takes them takes them the same way.")
+    formatter.write_text(
+        f"The {topic} options ({TOPICS[topic]}); every command that takes them takes them the same way."
+    )
     with formatter.section(f"{topic.capitalize()} options"):
         formatter.write_dl(list(seen.values()))
     click.echo(formatter.getvalue(), nl=False)

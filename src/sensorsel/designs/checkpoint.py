@@ -34,15 +34,15 @@ from typing import Any, ClassVar
 
 from sensorsel.designs.certify import Certificate
 from sensorsel.designs.domain_design import RouteShare
+from sensorsel.designs.inputs import result_fingerprint
 from sensorsel.designs.selection import GreedyResult, Step
 from sensorsel.information.evaluators.domain import check_aggregate
 from sensorsel.information.evaluators.registry import check_engine
 from sensorsel.io import results
 from sensorsel.io.results import result_kind
 from sensorsel.model.constraints import Constraints, recorded
-from sensorsel.pipeline.store import load_matching
 from sensorsel.model.problem import Domain, DomainInfo, Problem, ProblemInfo, Target, TargetInfo
-from sensorsel.designs.inputs import result_fingerprint
+from sensorsel.pipeline.store import load_matching
 
 #: Bumped when what a checkpoint holds, or how a run is resumed from it, changes.
 FORMAT = 1
@@ -91,22 +91,41 @@ def checkpoint_path(output: str | Path) -> Path:
     return p.with_name(p.name + ".checkpoint")
 
 
-def run_fingerprint(target: Target, budget: float, rule: str, engine: str, aggregate: str, lazy: bool,
-                    constraints: Constraints | None = None) -> str:
+def run_fingerprint(
+    target: Target,
+    budget: float,
+    rule: str,
+    engine: str,
+    aggregate: str,
+    lazy: bool,
+    constraints: Constraints | None = None,
+) -> str:
     """Digest of what a greedy run depends on: each route by content (library, route and rate,
     landmarks, graph settings), a domain's route names, weights and units, budget, rule, engine,
     aggregate, laziness and limits (with the resources and slots they read) (not file paths, not
     ``jobs``, not where it runs)."""
-    return result_fingerprint("greedy-checkpoint", FORMAT, target, budget_usd=budget, rule=rule, engine=engine,
-                              aggregate=aggregate, lazy=lazy,
-                              **({"constraints": constraints} if constraints is not None else {}))
+    return result_fingerprint(
+        "greedy-checkpoint",
+        FORMAT,
+        target,
+        budget_usd=budget,
+        rule=rule,
+        engine=engine,
+        aggregate=aggregate,
+        lazy=lazy,
+        **({"constraints": constraints} if constraints is not None else {}),
+    )
 
 
 def _target_differences(recorded: TargetInfo, target: Target) -> list[str]:
     """How the target a checkpoint records differs from ``target``, in words (empty: the same)."""
     if isinstance(recorded, DomainInfo) != isinstance(target, Domain):
-        return ["it was written for " + ("a domain" if isinstance(recorded, DomainInfo) else "one route") +
-                ", this run is on " + ("a domain" if isinstance(target, Domain) else "one route")]
+        return [
+            "it was written for "
+            + ("a domain" if isinstance(recorded, DomainInfo) else "one route")
+            + ", this run is on "
+            + ("a domain" if isinstance(target, Domain) else "one route")
+        ]
     if isinstance(recorded, DomainInfo) and isinstance(target, Domain):
         theirs = [(r.name, r.weight, r.unit) for r in recorded.routes]
         ours = [(r.name, r.weight, r.unit) for r in target.routes]
@@ -130,29 +149,57 @@ def _money(v: float) -> str:
     return f"${v:,.0f}" if v == round(v) else f"${v:,.2f}"
 
 
-def load_checkpoint(path: Path, target: Target, budget: float, rule: str, engine: str, aggregate: str, lazy: bool,
-                    fingerprint: str, constraints: Constraints | None = None) -> GreedyCheckpoint | None:
+def load_checkpoint(
+    path: Path,
+    target: Target,
+    budget: float,
+    rule: str,
+    engine: str,
+    aggregate: str,
+    lazy: bool,
+    fingerprint: str,
+    constraints: Constraints | None = None,
+) -> GreedyCheckpoint | None:
     """The checkpoint at ``path`` when it was written by this very run; None when there is none, or
     (with a :class:`~sensorsel.pipeline.store.CacheWarning` naming the file and what differs) when it
     cannot be read or was written by another run."""
-    return load_matching(GreedyCheckpoint, path, fingerprint,
-                         lambda ck: _differences(ck, target, budget, rule, engine, aggregate, lazy, constraints),
-                         "another version of sensorsel")
+    return load_matching(
+        GreedyCheckpoint,
+        path,
+        fingerprint,
+        lambda ck: _differences(ck, target, budget, rule, engine, aggregate, lazy, constraints),
+        "another version of sensorsel",
+    )
 
 
-def _differences(ck: GreedyCheckpoint, target: Target, budget: float, rule: str, engine: str, aggregate: str,
-                 lazy: bool, constraints: Constraints | None) -> list[str]:
+def _differences(
+    ck: GreedyCheckpoint,
+    target: Target,
+    budget: float,
+    rule: str,
+    engine: str,
+    aggregate: str,
+    lazy: bool,
+    constraints: Constraints | None,
+) -> list[str]:
     """How the run that wrote ``ck`` differs from this one, in words (empty: unknown)."""
     diffs = _target_differences(ck.target, target)
-    for name, theirs, ours in (("budget", _money(ck.budget_usd), _money(budget)), ("rule", ck.rule, rule),
-                               ("engine", ck.engine, engine), ("aggregate", ck.aggregate, aggregate),
-                               ("lazy", ck.lazy, lazy)):
+    for name, theirs, ours in (
+        ("budget", _money(ck.budget_usd), _money(budget)),
+        ("rule", ck.rule, rule),
+        ("engine", ck.engine, engine),
+        ("aggregate", ck.aggregate, aggregate),
+        ("lazy", ck.lazy, lazy),
+    ):
         if theirs != ours:
             diffs.append(f"{name} {theirs} (this run: {ours})")
     if ck.constraints != constraints:
         theirs_c, ours_c = recorded(ck.constraints), recorded(constraints)
-        what = (f"limits {theirs_c.describe()} (this run: {ours_c.describe()})"
-                if theirs_c.describe() != ours_c.describe() else "the library's resources or slots")
+        what = (
+            f"limits {theirs_c.describe()} (this run: {ours_c.describe()})"
+            if theirs_c.describe() != ours_c.describe()
+            else "the library's resources or slots"
+        )
         diffs.append(what)
     return diffs
 
@@ -167,20 +214,49 @@ class GreedyStore:
         self.path, self.ck = path, ck
 
     @classmethod
-    def open(cls, checkpoint: str | Path | None, resume: bool, target: Target, budget: float, rule: str,
-             engine: str | None, aggregate: str, lazy: bool, limits: Constraints | None) -> "GreedyStore":
+    def open(
+        cls,
+        checkpoint: str | Path | None,
+        resume: bool,
+        target: Target,
+        budget: float,
+        rule: str,
+        engine: str | None,
+        aggregate: str,
+        lazy: bool,
+        limits: Constraints | None,
+    ) -> GreedyStore:
         """The store of this run: in memory without ``checkpoint``; else that file, starting from what
         it holds when ``resume`` and it was written by this very run (:func:`load_checkpoint`)."""
         if checkpoint is None:
-            return cls(None, GreedyCheckpoint(fingerprint="", budget_usd=budget, rule=rule, engine=engine or "",
-                                              aggregate=aggregate, lazy=lazy, target=target.info, constraints=limits))
+            return cls(
+                None,
+                GreedyCheckpoint(
+                    fingerprint="",
+                    budget_usd=budget,
+                    rule=rule,
+                    engine=engine or "",
+                    aggregate=aggregate,
+                    lazy=lazy,
+                    target=target.info,
+                    constraints=limits,
+                ),
+            )
         path, eng = Path(checkpoint), check_engine(engine)
         agg = check_aggregate(aggregate)
         fp = run_fingerprint(target, budget, rule, eng, agg, lazy, limits)
         ck = load_checkpoint(path, target, budget, rule, eng, agg, lazy, fp, limits) if resume else None
         if ck is None:
-            ck = GreedyCheckpoint(fingerprint=fp, budget_usd=budget, rule=rule, engine=eng, aggregate=agg, lazy=lazy,
-                                  target=target.info, constraints=limits)
+            ck = GreedyCheckpoint(
+                fingerprint=fp,
+                budget_usd=budget,
+                rule=rule,
+                engine=eng,
+                aggregate=agg,
+                lazy=lazy,
+                target=target.info,
+                constraints=limits,
+            )
         return cls(path, ck)
 
     def update(self, **changes: Any) -> None:

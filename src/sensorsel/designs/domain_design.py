@@ -14,8 +14,9 @@ optimal on r either). The route with the lowest share of own is named the worst 
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Callable, ClassVar, Sequence
+from typing import ClassVar
 
 import numpy as np
 
@@ -81,7 +82,9 @@ class DomainDesign:
     seconds: float = 0.0
 
 
-def route_share(evaluator: DomainEvaluator, k: int, result: GreedyResult, score: float, *, lazy: bool = True) -> RouteShare:
+def route_share(
+    evaluator: DomainEvaluator, k: int, result: GreedyResult, score: float, *, lazy: bool = True
+) -> RouteShare:
     """Route ``k``'s share of its best and of its own design for the domain suite of ``result``, whose
     score f_k(S) on that route is ``score`` [nats] (own design: greedy with ``result``'s rule and
     budget and limits on the route's own evaluator)."""
@@ -89,15 +92,27 @@ def route_share(evaluator: DomainEvaluator, k: int, result: GreedyResult, score:
     own = greedy(ev, result.budget_usd, result.rule, lazy=lazy, constraints=recorded(result.constraints))
     f_s, f_own = float(score), float(own.score)
     return RouteShare(
-        name=route.name, weight=float(evaluator.weights[k]), score=f_s, best_score=float(evaluator.best[k]),
-        share_of_best=f_s / float(evaluator.best[k]), own_suite=own.suite, own_cost_usd=own.cost_usd,
-        own_score=f_own, share_of_own=f_s / f_own if f_own > 0 else 1.0,
+        name=route.name,
+        weight=float(evaluator.weights[k]),
+        score=f_s,
+        best_score=float(evaluator.best[k]),
+        share_of_best=f_s / float(evaluator.best[k]),
+        own_suite=own.suite,
+        own_cost_usd=own.cost_usd,
+        own_score=f_own,
+        share_of_own=f_s / f_own if f_own > 0 else 1.0,
     )
 
 
-def route_breakdown(evaluator: DomainEvaluator, result: GreedyResult, *, lazy: bool = True,
-                    progress: Progress | None = None, done: Sequence[RouteShare] = (),
-                    record: Callable[[tuple[RouteShare, ...]], None] | None = None) -> tuple[RouteShare, ...]:
+def route_breakdown(
+    evaluator: DomainEvaluator,
+    result: GreedyResult,
+    *,
+    lazy: bool = True,
+    progress: Progress | None = None,
+    done: Sequence[RouteShare] = (),
+    record: Callable[[tuple[RouteShare, ...]], None] | None = None,
+) -> tuple[RouteShare, ...]:
     """Each route's share of its best and of its own design for the domain suite of ``result``
     (own designs: greedy with ``result``'s rule and budget on each route's own evaluator), in route
     order; ``progress(k, n)`` after route k.
@@ -165,6 +180,13 @@ def by_condition(design: DomainDesign) -> tuple[ConditionShare, ...]:
         def avg(v: Sequence[float], w: np.ndarray = w, total: float = total) -> float:
             return float(np.dot(w, v) / total) if total > 0 else float(np.mean(v))
 
-        out.append(ConditionShare(name, total, avg([s.share_of_best for s in shares]), avg([s.share_of_own for s in shares]),
-                                  worst_route(shares)))
+        out.append(
+            ConditionShare(
+                name,
+                total,
+                avg([s.share_of_best for s in shares]),
+                avg([s.share_of_own for s in shares]),
+                worst_route(shares),
+            )
+        )
     return tuple(out)

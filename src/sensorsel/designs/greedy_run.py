@@ -31,29 +31,68 @@ __all__ = ["greedy_design"]
 
 
 @overload
-def greedy_design(target: Target, budget_usd: float, rule: str = ..., *, engine: str | None = ..., jobs: int = ...,
-                  aggregate: str = ..., lazy: bool = ..., certify: bool = ..., breakdown: Literal[False] = ...,
-                  progress: Progress | None = ..., certify_progress: Progress | None = ...,
-                  breakdown_progress: Progress | None = ..., evaluator: Evaluator | None = ...,
-                  constraints: Constraints | None = ..., checkpoint: str | Path | None = ...,
-                  resume: bool = ...) -> CertifiedGreedyResult: ...
+def greedy_design(
+    target: Target,
+    budget_usd: float,
+    rule: str = ...,
+    *,
+    engine: str | None = ...,
+    jobs: int = ...,
+    aggregate: str = ...,
+    lazy: bool = ...,
+    certify: bool = ...,
+    breakdown: Literal[False] = ...,
+    progress: Progress | None = ...,
+    certify_progress: Progress | None = ...,
+    breakdown_progress: Progress | None = ...,
+    evaluator: Evaluator | None = ...,
+    constraints: Constraints | None = ...,
+    checkpoint: str | Path | None = ...,
+    resume: bool = ...,
+) -> CertifiedGreedyResult: ...
 
 
 @overload
-def greedy_design(target: Target, budget_usd: float, rule: str = ..., *, engine: str | None = ..., jobs: int = ...,
-                  aggregate: str = ..., lazy: bool = ..., certify: bool = ..., breakdown: Literal[True],
-                  progress: Progress | None = ..., certify_progress: Progress | None = ...,
-                  breakdown_progress: Progress | None = ..., evaluator: Evaluator | None = ...,
-                  constraints: Constraints | None = ..., checkpoint: str | Path | None = ...,
-                  resume: bool = ...) -> DomainDesign: ...
+def greedy_design(
+    target: Target,
+    budget_usd: float,
+    rule: str = ...,
+    *,
+    engine: str | None = ...,
+    jobs: int = ...,
+    aggregate: str = ...,
+    lazy: bool = ...,
+    certify: bool = ...,
+    breakdown: Literal[True],
+    progress: Progress | None = ...,
+    certify_progress: Progress | None = ...,
+    breakdown_progress: Progress | None = ...,
+    evaluator: Evaluator | None = ...,
+    constraints: Constraints | None = ...,
+    checkpoint: str | Path | None = ...,
+    resume: bool = ...,
+) -> DomainDesign: ...
 
 
-def greedy_design(target: Target, budget_usd: float, rule: str = "uniform", *, engine: str | None = None,
-                  jobs: int = 1, aggregate: str = "normalised", lazy: bool = True, certify: bool = False,
-                  breakdown: bool = False, progress: Progress | None = None, certify_progress: Progress | None = None,
-                  breakdown_progress: Progress | None = None, evaluator: Evaluator | None = None,
-                  constraints: Constraints | None = None, checkpoint: str | Path | None = None,
-                  resume: bool = False) -> CertifiedGreedyResult | DomainDesign:
+def greedy_design(
+    target: Target,
+    budget_usd: float,
+    rule: str = "uniform",
+    *,
+    engine: str | None = None,
+    jobs: int = 1,
+    aggregate: str = "normalised",
+    lazy: bool = True,
+    certify: bool = False,
+    breakdown: bool = False,
+    progress: Progress | None = None,
+    certify_progress: Progress | None = None,
+    breakdown_progress: Progress | None = None,
+    evaluator: Evaluator | None = None,
+    constraints: Constraints | None = None,
+    checkpoint: str | Path | None = None,
+    resume: bool = False,
+) -> CertifiedGreedyResult | DomainDesign:
     """Greedy selection within ``budget_usd`` [$] by ``rule`` on ``target`` (a route, or a domain's
     combined score by ``aggregate``); with ``certify``, its certificate from the same evaluator; with
     ``breakdown`` (a domain), its :class:`~sensorsel.designs.domain_design.DomainDesign` (each route's
@@ -77,8 +116,9 @@ def greedy_design(target: Target, budget_usd: float, rule: str = "uniform", *, e
     limits = feasible_set(target.library, budget, constraints).record if constraints is not None else None
     store = GreedyStore.open(checkpoint, resume, target, budget, rule, engine, aggregate, lazy, limits)
     ev = evaluator if evaluator is not None else evaluator_for(target, engine, jobs=jobs, aggregate=aggregate)
-    res = greedy(ev, budget, rule, lazy=lazy, progress=progress, info=target.info, constraints=constraints,
-                 journal=store)
+    res = greedy(
+        ev, budget, rule, lazy=lazy, progress=progress, info=target.info, constraints=constraints, journal=store
+    )
     cert = store.ck.certificate
     if certify and cert is None:
         cert = certificate(ev, res, progress=certify_progress)
@@ -87,7 +127,19 @@ def greedy_design(target: Target, budget_usd: float, rule: str = "uniform", *, e
     if not breakdown:
         return out
     assert isinstance(ev, DomainEvaluator), "a breakdown is a domain's (give a Domain)"
-    shares = route_breakdown(ev, res, lazy=lazy, progress=breakdown_progress, done=store.ck.routes,
-                             record=store.record_routes if store.path is not None else None)
-    return DomainDesign(greedy=out, aggregate=ev.aggregate, routes=shares, worst_route=worst_route(shares),
-                        domain=ev.domain.info, seconds=round(time.perf_counter() - t0, 6))
+    shares = route_breakdown(
+        ev,
+        res,
+        lazy=lazy,
+        progress=breakdown_progress,
+        done=store.ck.routes,
+        record=store.record_routes if store.path is not None else None,
+    )
+    return DomainDesign(
+        greedy=out,
+        aggregate=ev.aggregate,
+        routes=shares,
+        worst_route=worst_route(shares),
+        domain=ev.domain.info,
+        seconds=round(time.perf_counter() - t0, 6),
+    )

@@ -51,10 +51,17 @@ def route_inputs(target: Target | TargetInfo | Fingerprint | list[list[Any]] | N
     return [route_entry("", 1.0, "", target)]
 
 
-def result_fingerprint(store: str, format: int, target: Target | TargetInfo | Fingerprint | list[list[Any]] | None,
-                       **inputs: Any) -> str:
+def result_fingerprint(
+    store: str, format: int, target: Target | TargetInfo | Fingerprint | list[list[Any]] | None, **inputs: Any
+) -> str:
     """sha256 of everything a stored result depends on: its ``store`` (which run's files) and ``format``, each
     route of ``target`` by content (:func:`route_inputs`) and the run's own ``inputs`` (JSON-able
     after :func:`~sensorsel.io.results.to_jsonable`; not file paths, not where or how fast it runs)."""
-    return digest({"format": format, "store": store, "routes": route_inputs(target),
-                   **{k: to_jsonable(v) for k, v in inputs.items()}})
+    return digest(
+        {
+            "format": format,
+            "store": store,
+            "routes": route_inputs(target),
+            **{k: to_jsonable(v) for k, v in inputs.items()},
+        }
+    )

@@ -46,13 +46,12 @@ import csv
 import io
 import math
 import time
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Iterable, Sequence
 
 import numpy as np
 
-from sensorsel.io.records import RuleBudget, SuiteScore
 from sensorsel.designs.inputs import result_fingerprint
 from sensorsel.designs.selection import RULES, GreedyResult, Rule, Step, check_budget, check_rule, greedy
 from sensorsel.errors import InputError
@@ -60,13 +59,14 @@ from sensorsel.information.evaluators import Evaluator, ProblemEvaluator, evalua
 from sensorsel.information.evaluators.domain import check_aggregate
 from sensorsel.information.evaluators.registry import check_engine
 from sensorsel.io.files import atomic_write_text
+from sensorsel.io.progress import Progress
+from sensorsel.io.records import RuleBudget, SuiteScore
 from sensorsel.io.results import result_kind, to_jsonable
 from sensorsel.model.constraints import REL_SLACK, Constraints, feasible_set
 from sensorsel.model.library import SensorLibrary
 from sensorsel.model.problem import Target, TargetInfo
 from sensorsel.model.recipes import EvaluatorRecipe, TargetRecipe
 from sensorsel.pipeline import Executor, FileStore, InProcess, NoStore, Plan, Store, execute
-from sensorsel.io.progress import Progress
 
 #: The rules of the paper's Fig. 4 (uniform, cost-benefit) and the classic marginal rule.
 DEFAULT_RULES: tuple[str, ...] = ("uniform", "cost-benefit", "marginal")
@@ -298,8 +298,16 @@ def prefix_sharing_exact(constraints: Constraints | None) -> bool:
     return constraints is None or not constraints.limits
 
 
-def rule_runs(evaluator: Evaluator, rule: str, budgets_desc: Sequence[float], *, lazy: bool, share_prefix: bool,
-              tick: Callable[[], None] = lambda: None, constraints: Constraints | None = None) -> RuleRuns:
+def rule_runs(
+    evaluator: Evaluator,
+    rule: str,
+    budgets_desc: Sequence[float],
+    *,
+    lazy: bool,
+    share_prefix: bool,
+    tick: Callable[[], None] = lambda: None,
+    constraints: Constraints | None = None,
+) -> RuleRuns:
     """Runs of one rule at every budget (largest first): budget -> (result with all steps, shared steps)."""
     lib = evaluator.library
     done: dict[float, tuple[GreedyResult, int]] = {}
@@ -318,10 +326,18 @@ def rule_runs(evaluator: Evaluator, rule: str, budgets_desc: Sequence[float], *,
         cont = greedy(evaluator, b, rule, lazy=lazy, start=start, constraints=constraints)
         steps = tuple(prefix) + cont.steps
         full = GreedyResult(
-            rule=rule, budget_usd=cont.budget_usd, suite=steps[-1].suite if steps else (),
-            cost_usd=steps[-1].cost_usd if steps else 0.0, score=steps[-1].score if steps else 0.0, steps=steps,
-            stop_reason=cont.stop_reason, n_evaluations=cont.n_evaluations, engine=cont.engine, lazy=cont.lazy,
-            winning_rule=rule, constraints=cont.constraints,
+            rule=rule,
+            budget_usd=cont.budget_usd,
+            suite=steps[-1].suite if steps else (),
+            cost_usd=steps[-1].cost_usd if steps else 0.0,
+            score=steps[-1].score if steps else 0.0,
+            steps=steps,
+            stop_reason=cont.stop_reason,
+            n_evaluations=cont.n_evaluations,
+            engine=cont.engine,
+            lazy=cont.lazy,
+            winning_rule=rule,
+            constraints=cont.constraints,
         )
         done[b] = (full, k)
         tick()
@@ -352,8 +368,9 @@ def rule_step(state: Evaluator | tuple[Target, EvaluatorRecipe], task: RuleTask)
     if isinstance(ev, ProblemEvaluator) and not task.first:  # the baseline is counted by the first rule only,
         _ = ev.baseline_logdet  # as by one evaluator in one run (also when the first rule's runs were read back)
     n0 = ev.n_evaluations
-    runs = rule_runs(ev, task.rule, task.budgets_desc, lazy=task.lazy, share_prefix=task.share_prefix,
-                     constraints=task.constraints)
+    runs = rule_runs(
+        ev, task.rule, task.budgets_desc, lazy=task.lazy, share_prefix=task.share_prefix, constraints=task.constraints
+    )
     return runs, ev.n_evaluations - n0
 
 
@@ -371,16 +388,25 @@ class RuleRunsRecord:
     n_evaluations: int
 
 
-def rule_fingerprint(info: TargetInfo | None, engine: str, aggregate: str, task: RuleTask,
-                     limits: Constraints | None = None) -> str:
+def rule_fingerprint(
+    info: TargetInfo | None, engine: str, aggregate: str, task: RuleTask, limits: Constraints | None = None
+) -> str:
     """Digest of what a rule's runs depend on: each route by content with its weight, the engine, the
     aggregate, every field of ``task`` and ``limits`` (as recorded: with the library's resources' digest)."""
-    return result_fingerprint("tradespace-rule", RULE_FORMAT, info, engine=engine, aggregate=aggregate, limits=limits,
-                              **to_jsonable(task))
+    return result_fingerprint(
+        "tradespace-rule", RULE_FORMAT, info, engine=engine, aggregate=aggregate, limits=limits, **to_jsonable(task)
+    )
 
 
-def rule_store(tasks: Sequence[RuleTask], info: TargetInfo | None, engine: str, aggregate: str,
-               outdir: str | Path | None, resume: bool, limits: Constraints | None = None) -> Store[tuple[RuleRuns, int]]:
+def rule_store(
+    tasks: Sequence[RuleTask],
+    info: TargetInfo | None,
+    engine: str,
+    aggregate: str,
+    outdir: str | Path | None,
+    resume: bool,
+    limits: Constraints | None = None,
+) -> Store[tuple[RuleRuns, int]]:
     """Where the rules' runs are kept: ``OUTDIR/runs/rule-NAME.json`` (none without ``outdir``)."""
     if outdir is None:
         return NoStore()
@@ -388,21 +414,44 @@ def rule_store(tasks: Sequence[RuleTask], info: TargetInfo | None, engine: str, 
 
     def wrap(i: int, got: tuple[RuleRuns, int]) -> RuleRunsRecord:
         runs, n = got
-        return RuleRunsRecord(fps[i], tasks[i].rule, tuple(runs), tuple(v[0] for v in runs.values()),
-                              tuple(v[1] for v in runs.values()), n)
+        return RuleRunsRecord(
+            fps[i],
+            tasks[i].rule,
+            tuple(runs),
+            tuple(v[0] for v in runs.values()),
+            tuple(v[1] for v in runs.values()),
+            n,
+        )
 
     def unwrap(rec: RuleRunsRecord) -> tuple[RuleRuns, int]:
         return {b: (r, k) for b, r, k in zip(rec.budgets_usd, rec.runs, rec.shared)}, rec.n_evaluations
 
-    return FileStore([Path(outdir) / "runs" / f"rule-{t.rule}.json" for t in tasks], fps, RuleRunsRecord, wrap, unwrap,
-                     resume=resume, what="other inputs (target, budgets, rule, engine, laziness, aggregate or limits)")
+    return FileStore(
+        [Path(outdir) / "runs" / f"rule-{t.rule}.json" for t in tasks],
+        fps,
+        RuleRunsRecord,
+        wrap,
+        unwrap,
+        resume=resume,
+        what="other inputs (target, budgets, rule, engine, laziness, aggregate or limits)",
+    )
 
 
-def tradespace(evaluator: Evaluator, budgets: Iterable[float] | None = None, rules: Iterable[str] = DEFAULT_RULES,
-               *, lazy: bool = True, share_prefix: bool = True, progress: Progress | None = None,
-               info: TargetInfo | None = None, constraints: Constraints | None = None,
-               executor: Executor | None = None, recipe: EvaluatorRecipe | None = None,
-               outdir: str | Path | None = None, resume: bool = False) -> TradespaceResult:
+def tradespace(
+    evaluator: Evaluator,
+    budgets: Iterable[float] | None = None,
+    rules: Iterable[str] = DEFAULT_RULES,
+    *,
+    lazy: bool = True,
+    share_prefix: bool = True,
+    progress: Progress | None = None,
+    info: TargetInfo | None = None,
+    constraints: Constraints | None = None,
+    executor: Executor | None = None,
+    recipe: EvaluatorRecipe | None = None,
+    outdir: str | Path | None = None,
+    resume: bool = False,
+) -> TradespaceResult:
     """Run each rule at each budget and collect the architectures and the Pareto front.
 
     Args:
@@ -446,13 +495,18 @@ def tradespace(evaluator: Evaluator, budgets: Iterable[float] | None = None, rul
                 progress(count[0], total)
 
     if (outdir is not None or resume) and (outdir is None or info is None or recipe is None):
-        raise InputError("a tradespace stored in (or resumed from) a folder needs outdir, info and recipe: use run_tradespace")
+        raise InputError(
+            "a tradespace stored in (or resumed from) a folder needs outdir, info and recipe: use run_tradespace"
+        )
     if recipe is None and executor is not None and not isinstance(executor, InProcess):
         raise InputError("a tradespace run elsewhere rebuilds its target from a recipe: use run_tradespace")
-    tasks = tuple(RuleTask(r, tuple(sorted(grid, reverse=True)), lazy, share_prefix, k == 0, constraints)
-                  for k, r in enumerate(singles))
-    plan: Plan[tuple[RuleRuns, int]] = Plan("tradespace rule", rule_step, tasks, states=(recipe,),
-                                            build=EvaluatorRecipe.build, local=(evaluator,))
+    tasks = tuple(
+        RuleTask(r, tuple(sorted(grid, reverse=True)), lazy, share_prefix, k == 0, constraints)
+        for k, r in enumerate(singles)
+    )
+    plan: Plan[tuple[RuleRuns, int]] = Plan(
+        "tradespace rule", rule_step, tasks, states=(recipe,), build=EvaluatorRecipe.build, local=(evaluator,)
+    )
     eng_agg = ("", "") if recipe is None else (str(recipe.engine), recipe.aggregate)
     store = rule_store(tasks, info, *eng_agg, outdir, resume, None if top is None else top.constraints)
     got = execute(plan, executor, store, on_result=tick)
@@ -462,8 +516,10 @@ def tradespace(evaluator: Evaluator, budgets: Iterable[float] | None = None, rul
         for b, (run, _) in per_rule[r].items():
             bad = feas[b].violations(lib.resolve_suite(run.suite)) if feas else []
             if bad or (feas and run.constraints is None):
-                raise InputError(f"the tradespace run {r} at ${b:,.0f} was not made under the limits "
-                                 f"({constraints.describe() if constraints else ''}): {'; '.join(bad) or 'it records none'}")
+                raise InputError(
+                    f"the tradespace run {r} at ${b:,.0f} was not made under the limits "
+                    f"({constraints.describe() if constraints else ''}): {'; '.join(bad) or 'it records none'}"
+                )
 
     runs: list[TradespaceRun] = []
     found: dict[frozenset[int], tuple[float, set[str]]] = {}  # suite -> (score as first recorded, rules)
@@ -475,8 +531,20 @@ def tradespace(evaluator: Evaluator, budgets: Iterable[float] | None = None, rul
                 evals = res.n_evaluations
             else:  # a strategy: the run it keeps among its components' runs, which scored the suites
                 res, shared, evals = entry.keep([per_rule[c][b][0] for c in entry.component_rules]), 0, 0
-            runs.append(TradespaceRun(name, b, res.suite, res.cost_usd, res.score, len(res.steps), shared,
-                                      res.stop_reason, evals, res.winning_rule))
+            runs.append(
+                TradespaceRun(
+                    name,
+                    b,
+                    res.suite,
+                    res.cost_usd,
+                    res.score,
+                    len(res.steps),
+                    shared,
+                    res.stop_reason,
+                    evals,
+                    res.winning_rule,
+                )
+            )
             for st in res.steps:
                 key = frozenset(lib.position(i) for i in st.suite)
                 if key not in found:
@@ -486,12 +554,23 @@ def tradespace(evaluator: Evaluator, budgets: Iterable[float] | None = None, rul
     rows = _architectures(lib, sel, found, None if top is None else top.A[0])
     best = max((score for _, _, score, _ in rows), default=0.0)
     on_front = pareto_mask([cost for _, cost, _, _ in rows], [score for _, _, score, _ in rows])
-    archs = tuple(Architecture(ids, cost, score, score / best if best > 0 else 0.0, made_by, bool(f))
-                  for (ids, cost, score, made_by), f in zip(rows, on_front))
+    archs = tuple(
+        Architecture(ids, cost, score, score / best if best > 0 else 0.0, made_by, bool(f))
+        for (ids, cost, score, made_by), f in zip(rows, on_front)
+    )
     return TradespaceResult(
-        budgets_usd=grid, rules=sel, architectures=archs, runs=tuple(runs), best_score=best, engine=evaluator.name,
-        lazy=lazy, share_prefix=share_prefix, n_evaluations=n_evals, problem=info,
-        seconds=round(time.perf_counter() - t0, 6), constraints=None if top is None else top.constraints,
+        budgets_usd=grid,
+        rules=sel,
+        architectures=archs,
+        runs=tuple(runs),
+        best_score=best,
+        engine=evaluator.name,
+        lazy=lazy,
+        share_prefix=share_prefix,
+        n_evaluations=n_evals,
+        problem=info,
+        seconds=round(time.perf_counter() - t0, 6),
+        constraints=None if top is None else top.constraints,
     )
 
 
@@ -503,8 +582,12 @@ def _single_rules(names: tuple[str, ...]) -> list[str]:
     return singles
 
 
-def _architectures(lib: SensorLibrary, sel: tuple[str, ...], found: dict[frozenset[int], tuple[float, set[str]]],
-                   price: np.ndarray | None = None) -> list[tuple[tuple[str, ...], float, float, tuple[str, ...]]]:
+def _architectures(
+    lib: SensorLibrary,
+    sel: tuple[str, ...],
+    found: dict[frozenset[int], tuple[float, set[str]]],
+    price: np.ndarray | None = None,
+) -> list[tuple[tuple[str, ...], float, float, tuple[str, ...]]]:
     """(ids in library order, cost, score, rules) per unique suite, sorted by cost, -score, ids.
     ``price``: (n,) what each sensor spends of the budget (owned sensors 0); default the library's costs."""
     rows = []
@@ -516,11 +599,22 @@ def _architectures(lib: SensorLibrary, sel: tuple[str, ...], found: dict[frozens
     return rows
 
 
-def run_tradespace(target: Target, budgets: Iterable[float] | None = None, rules: Iterable[str] = DEFAULT_RULES,
-                   *, engine: str | None = None, jobs: int = 1, lazy: bool = True, share_prefix: bool = True,
-                   aggregate: str = "normalised", progress: Progress | None = None,
-                   constraints: Constraints | None = None, executor: Executor | None = None,
-                   outdir: str | Path | None = None, resume: bool = False) -> TradespaceResult:
+def run_tradespace(
+    target: Target,
+    budgets: Iterable[float] | None = None,
+    rules: Iterable[str] = DEFAULT_RULES,
+    *,
+    engine: str | None = None,
+    jobs: int = 1,
+    lazy: bool = True,
+    share_prefix: bool = True,
+    aggregate: str = "normalised",
+    progress: Progress | None = None,
+    constraints: Constraints | None = None,
+    executor: Executor | None = None,
+    outdir: str | Path | None = None,
+    resume: bool = False,
+) -> TradespaceResult:
     """``sensorsel pareto``: :func:`tradespace` with a fresh evaluator of ``engine`` for a problem or a domain
     (``aggregate``: how a domain combines its routes; the other arguments: see :func:`tradespace`)."""
     sel = parse_rules(rules, "rules")  # bad input fails before the evaluator is built
@@ -530,9 +624,20 @@ def run_tradespace(target: Target, budgets: Iterable[float] | None = None, rules
         for b in grid or (float(target.library.costs.sum()),):
             feasible_set(target.library, b, constraints)  # refuses a bad request (at every budget) up front
     ev = evaluator_for(target, engine, jobs=jobs, aggregate=aggregate)
-    return tradespace(ev, grid, sel, lazy=lazy, share_prefix=share_prefix, progress=progress,
-                      info=target.info, constraints=constraints, executor=executor,
-                      recipe=EvaluatorRecipe(TargetRecipe.of(target), eng, jobs, agg), outdir=outdir, resume=resume)
+    return tradespace(
+        ev,
+        grid,
+        sel,
+        lazy=lazy,
+        share_prefix=share_prefix,
+        progress=progress,
+        info=target.info,
+        constraints=constraints,
+        executor=executor,
+        recipe=EvaluatorRecipe(TargetRecipe.of(target), eng, jobs, agg),
+        outdir=outdir,
+        resume=resume,
+    )
 
 
 # ------------------------------------------------------------------------------------------ output
@@ -550,8 +655,17 @@ def csv_text(result: TradespaceResult) -> str:
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(CSV_COLUMNS)
     for a in result.architectures:
-        w.writerow([f"{a.cost_usd:.2f}", repr(a.score), repr(a.normalized), int(a.on_front), a.n_sensors,
-                    "+".join(a.rules), ",".join(a.suite)])
+        w.writerow(
+            [
+                f"{a.cost_usd:.2f}",
+                repr(a.score),
+                repr(a.normalized),
+                int(a.on_front),
+                a.n_sensors,
+                "+".join(a.rules),
+                ",".join(a.suite),
+            ]
+        )
     return buf.getvalue()
 
 

@@ -45,8 +45,8 @@ smoothed one (PSD order); at the last keyframe they coincide.
 from __future__ import annotations
 
 import functools
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
-from typing import Callable, Iterable
 
 import numpy as np
 from scipy.linalg.lapack import dpotrf, dtrtrs
@@ -56,7 +56,15 @@ from sensorsel.errors import InputError
 from sensorsel.information.linearize import bearing_range_jacobians, odometry_jacobians
 from sensorsel.model.problem import Problem
 
-__all__ = ["ESTIMATES", "KeyframeMeasurements", "Prediction", "FilterPass", "Use", "keyframe_measurements", "forward_pass"]
+__all__ = [
+    "ESTIMATES",
+    "KeyframeMeasurements",
+    "Prediction",
+    "FilterPass",
+    "Use",
+    "keyframe_measurements",
+    "forward_pass",
+]
 
 #: the estimates an accuracy can be of: the filter's (at each keyframe from the measurements up to
 #: it: what the car has as it drives) or the smoother's (from every measurement of the route)
@@ -143,16 +151,19 @@ def _suite_arrays(problem: Problem, suite: Iterable[int]) -> dict[str, np.ndarra
         if not 0 <= i < n:
             raise InputError(f"sensor position {i} is outside the library (0..{n - 1})")
     obs = [problem.observations[i] for i in positions]
-    cols: dict[str, list[np.ndarray]] = {f: [] for f in ("pose", "sensor", "landmark", "bearing_rad", "range_m",
-                                                         "sigma_bearing_rad", "sigma_range_m")}
+    cols: dict[str, list[np.ndarray]] = {
+        f: [] for f in ("pose", "sensor", "landmark", "bearing_rad", "range_m", "sigma_bearing_rad", "sigma_range_m")
+    }
     for i, o in zip(positions, obs):
         cols["pose"].append(np.asarray(o.pose, np.int64))
         cols["sensor"].append(np.full(len(o), i, np.int64))
         cols["landmark"].append(np.asarray(o.landmark, np.int64))
         for f in ("bearing_rad", "range_m", "sigma_bearing_rad", "sigma_range_m"):
             cols[f].append(np.asarray(getattr(o, f), float))
-    out = {f: (np.concatenate(v) if v else np.zeros(0, np.int64 if f in ("pose", "sensor", "landmark") else float))
-           for f, v in cols.items()}
+    out = {
+        f: (np.concatenate(v) if v else np.zeros(0, np.int64 if f in ("pose", "sensor", "landmark") else float))
+        for f, v in cols.items()
+    }
     order = np.lexsort((out["landmark"], out["sensor"], out["pose"]))
     return {f: v[order] for f, v in out.items()}
 
@@ -163,9 +174,16 @@ def keyframe_measurements(problem: Problem, suite: Iterable[int]) -> list[Keyfra
     a = _suite_arrays(problem, suite)
     K = problem.scenario.n_poses
     bounds = np.searchsorted(a["pose"], np.arange(K + 1))
-    return [KeyframeMeasurements(k, *(a[f][bounds[k]:bounds[k + 1]] for f in
-                                      ("sensor", "landmark", "bearing_rad", "range_m", "sigma_bearing_rad", "sigma_range_m")))
-            for k in range(K)]
+    return [
+        KeyframeMeasurements(
+            k,
+            *(
+                a[f][bounds[k] : bounds[k + 1]]
+                for f in ("sensor", "landmark", "bearing_rad", "range_m", "sigma_bearing_rad", "sigma_range_m")
+            ),
+        )
+        for k in range(K)
+    ]
 
 
 @functools.cache
@@ -175,9 +193,15 @@ def _blas_controller() -> ThreadpoolController:
     return ThreadpoolController()
 
 
-def forward_pass(problem: Problem, suite: Iterable[int], *, map_sigma_m: float | None = None,
-                 use: Use | None = None, on_prediction: Callable[[Prediction, KeyframeMeasurements], None] | None = None,
-                 until: int | None = None) -> FilterPass:
+def forward_pass(
+    problem: Problem,
+    suite: Iterable[int],
+    *,
+    map_sigma_m: float | None = None,
+    use: Use | None = None,
+    on_prediction: Callable[[Prediction, KeyframeMeasurements], None] | None = None,
+    until: int | None = None,
+) -> FilterPass:
     """One forward pass over the route (linear in its length), exact: filtered[k] equals GTSAM's
     marginal of X(k) in the graph of the priors, odometry up to k and the used measurements of
     keyframes <= k; predicted[k] the same without keyframe k's measurements. ``use`` (default: all)
@@ -237,13 +261,22 @@ class _Pairs:
     Dinv: np.ndarray
 
 
-def _pairs(poses: np.ndarray, points: np.ndarray, keyframe: np.ndarray, landmark: np.ndarray, sigma_b: np.ndarray,
-           sigma_r: np.ndarray, prior_sigma: float) -> _Pairs:
+def _pairs(
+    poses: np.ndarray,
+    points: np.ndarray,
+    keyframe: np.ndarray,
+    landmark: np.ndarray,
+    sigma_b: np.ndarray,
+    sigma_r: np.ndarray,
+    prior_sigma: float,
+) -> _Pairs:
     """:class:`_Pairs` of measurements (keyframe, landmark, noise std (m,) each), vectorized."""
     n_lm = max(len(points), 1)
     uniq, inv = np.unique(keyframe * n_lm + landmark, return_inverse=True)
     pk, pl = uniq // n_lm, uniq % n_lm
-    info = np.column_stack([np.bincount(inv, 1.0 / sigma_b**2, len(uniq)), np.bincount(inv, 1.0 / sigma_r**2, len(uniq))])
+    info = np.column_stack(
+        [np.bincount(inv, 1.0 / sigma_b**2, len(uniq)), np.bincount(inv, 1.0 / sigma_r**2, len(uniq))]
+    )
     jac = bearing_range_jacobians(poses[pk], points[pl]) * np.sqrt(info)[:, :, None]
     A, B = jac[:, :, :3], jac[:, :, 3:]
     Bt = np.transpose(B, (0, 2, 1))
@@ -257,9 +290,16 @@ def _slice(p: _Pairs, lo: int, hi: int) -> _Pairs:
     return _Pairs(*(getattr(p, f)[lo:hi] for f in ("keyframe", "landmark", "A", "B", "rows", "G", "Dinv")))
 
 
-def _pass(problem: Problem, groups: list[KeyframeMeasurements], last: np.ndarray, odo: np.ndarray, odo_cov: np.ndarray,
-          prior_sigma: float, use: Use | None, on_prediction: Callable[[Prediction, KeyframeMeasurements], None] | None
-          ) -> FilterPass:
+def _pass(
+    problem: Problem,
+    groups: list[KeyframeMeasurements],
+    last: np.ndarray,
+    odo: np.ndarray,
+    odo_cov: np.ndarray,
+    prior_sigma: float,
+    use: Use | None,
+    on_prediction: Callable[[Prediction, KeyframeMeasurements], None] | None,
+) -> FilterPass:
     s = problem.settings
     poses = np.asarray(problem.scenario.keyframes.poses, float)
     points = np.asarray(problem.scenario.landmarks, float)
@@ -269,8 +309,10 @@ def _pass(problem: Problem, groups: list[KeyframeMeasurements], last: np.ndarray
     n_measured = np.array([len(g) for g in groups], np.int64)
     every: _Pairs | None = None
     if use is None:  # every measurement used: every keyframe's pairs at once
-        cat = [np.concatenate([getattr(g, f) for g in groups]) if K else np.zeros(0)
-               for f in ("landmark", "sigma_bearing_rad", "sigma_range_m")]
+        cat = [
+            np.concatenate([getattr(g, f) for g in groups]) if K else np.zeros(0)
+            for f in ("landmark", "sigma_bearing_rad", "sigma_range_m")
+        ]
         kf = np.repeat(np.arange(K), n_measured)
         every = _pairs(poses, points, kf, cat[0].astype(np.int64), cat[1], cat[2], prior_sigma)
         bounds = np.searchsorted(every.keyframe, np.arange(K + 1))
@@ -300,8 +342,15 @@ def _pass(problem: Problem, groups: list[KeyframeMeasurements], last: np.ndarray
             if mask.shape != (len(g),):
                 raise ValueError(f"use returned a mask of shape {mask.shape} for {len(g)} measurements at keyframe {k}")
             n_used[k] = int(mask.sum())
-            pairs = _pairs(poses, points, np.full(n_used[k], k), g.landmark[mask], g.sigma_bearing_rad[mask],
-                           g.sigma_range_m[mask], prior_sigma)
+            pairs = _pairs(
+                poses,
+                points,
+                np.full(n_used[k], k),
+                g.landmark[mask],
+                g.sigma_bearing_rad[mask],
+                g.sigma_range_m[mask],
+                prior_sigma,
+            )
         # landmarks measured for the last time leave the state after this update
         P, held = _update(P, held, pairs, last, k)
         filtered[k] = P[:3, :3]
@@ -348,7 +397,7 @@ def _update(P: np.ndarray, held: np.ndarray, pairs: _Pairs, last: np.ndarray, k:
             ll = G @ P[:3, :3] @ G.T
             Dinv = pairs.Dinv[new]
             for i in range(q):
-                ll[2 * i:2 * i + 2, 2 * i:2 * i + 2] += Dinv[i]
+                ll[2 * i : 2 * i + 2, 2 * i : 2 * i + 2] += Dinv[i]
             n_state = P.shape[0]
             grown = np.empty((n_state + 2 * q, n_state + 2 * q))
             grown[:n_state, :n_state], grown[n_state:, :n_state] = P, cross

@@ -14,14 +14,13 @@ Cholesky: the fast path of the gtsam wheel, see shared notes) gives the Bayes tr
 
 from __future__ import annotations
 
-from typing import Iterable, Sequence
+from collections.abc import Iterable, Sequence
 
 import gtsam
 import numpy as np
 from gtsam.symbol_shorthand import L, X
 
 from sensorsel.model.problem import Problem
-
 
 # ------------------------------------------------------------------ factor construction
 #
@@ -72,21 +71,36 @@ def landmark_prior(j: int, point: np.ndarray, noise: gtsam.noiseModel.Base) -> g
     return gtsam.PriorFactorPoint2(L(j), point, noise)
 
 
-def bearing_range_factor(k: int, j: int, bearing_rad: float, range_m: float, noise: gtsam.noiseModel.Base) -> gtsam.NonlinearFactor:
+def bearing_range_factor(
+    k: int, j: int, bearing_rad: float, range_m: float, noise: gtsam.noiseModel.Base
+) -> gtsam.NonlinearFactor:
     """Landmark j measured from keyframe k at ``bearing_rad`` (in the keyframe's frame), ``range_m``."""
-    return gtsam.BearingRangeFactor2D(X(int(k)), L(int(j)), gtsam.Rot2.fromAngle(float(bearing_rad)), float(range_m), noise)
+    return gtsam.BearingRangeFactor2D(
+        X(int(k)), L(int(j)), gtsam.Rot2.fromAngle(float(bearing_rad)), float(range_m), noise
+    )
 
 
-def add_pose_chain(graph: gtsam.NonlinearFactorGraph, first: gtsam.Pose2, steps: Sequence[gtsam.Pose2],
-                   prior_noise: gtsam.noiseModel.Base, odometry_noise: gtsam.noiseModel.Base) -> None:
+def add_pose_chain(
+    graph: gtsam.NonlinearFactorGraph,
+    first: gtsam.Pose2,
+    steps: Sequence[gtsam.Pose2],
+    prior_noise: gtsam.noiseModel.Base,
+    odometry_noise: gtsam.noiseModel.Base,
+) -> None:
     """Append the first-pose prior at ``first`` and odometry ``steps[k - 1]`` from keyframe k - 1 to k."""
     graph.add(first_pose_prior(first, prior_noise))
     for k, step in enumerate(steps, start=1):
         graph.add(odometry_factor(k, step, odometry_noise))
 
 
-def add_bearing_range(graph: gtsam.NonlinearFactorGraph, pose: np.ndarray, landmark: np.ndarray, bearing_rad: np.ndarray,
-                      range_m: np.ndarray, noise: gtsam.noiseModel.Base | Sequence[gtsam.noiseModel.Base]) -> None:
+def add_bearing_range(
+    graph: gtsam.NonlinearFactorGraph,
+    pose: np.ndarray,
+    landmark: np.ndarray,
+    bearing_rad: np.ndarray,
+    range_m: np.ndarray,
+    noise: gtsam.noiseModel.Base | Sequence[gtsam.noiseModel.Base],
+) -> None:
     """Append one ``BearingRangeFactor2D`` per measurement, in the given order (what
     :func:`bearing_range_factor` builds; keys computed as integers, the loop only constructs).
 
@@ -101,7 +115,9 @@ def add_bearing_range(graph: gtsam.NonlinearFactorGraph, pose: np.ndarray, landm
     factor, rot, add = gtsam.BearingRangeFactor2D, gtsam.Rot2.fromAngle, graph.add
     keys_x = (np.asarray(pose, np.int64) + x_key).tolist()
     keys_l = (np.asarray(landmark, np.int64) + l_key).tolist()
-    for k, j, b, r, m in zip(keys_x, keys_l, np.asarray(bearing_rad, float).tolist(), np.asarray(range_m, float).tolist(), models):
+    for k, j, b, r, m in zip(
+        keys_x, keys_l, np.asarray(bearing_rad, float).tolist(), np.asarray(range_m, float).tolist(), models
+    ):
         add(factor(k, j, rot(b), r, m))
 
 
@@ -137,7 +153,11 @@ class GraphBuilder:
         with ``landmark_sigma_m``, a prior of that std [m]: a map known to that accuracy)."""
         g = gtsam.NonlinearFactorGraph()
         add_pose_chain(g, self._poses[0], truth_steps(self._poses), self._first_prior, self._odometry)
-        prior = self._landmark_prior if landmark_sigma_m is None else gtsam.noiseModel.Isotropic.Sigma(2, float(landmark_sigma_m))
+        prior = (
+            self._landmark_prior
+            if landmark_sigma_m is None
+            else gtsam.noiseModel.Isotropic.Sigma(2, float(landmark_sigma_m))
+        )
         for j, q in enumerate(self._points):
             g.add(landmark_prior(j, q, prior))
         return g
@@ -147,7 +167,9 @@ class GraphBuilder:
         obs = self.problem.observations[sensor]
         if len(obs) == 0:
             return
-        noise = [self._measurement(sb, sr) for sb, sr in zip(obs.sigma_bearing_rad.tolist(), obs.sigma_range_m.tolist())]
+        noise = [
+            self._measurement(sb, sr) for sb, sr in zip(obs.sigma_bearing_rad.tolist(), obs.sigma_range_m.tolist())
+        ]
         add_bearing_range(graph, obs.pose, obs.landmark, obs.bearing_rad, obs.range_m, noise)
 
     def graph(self, suite: Iterable[int], *, landmark_sigma_m: float | None = None) -> gtsam.NonlinearFactorGraph:

@@ -80,17 +80,27 @@ def linearize_library(problem: Problem) -> LibraryLinearization:
     all_keys = np.concatenate(keys) if keys else np.zeros(0, np.int64)
     uniq, inverse = np.unique(all_keys, return_inverse=True)
     bounds = np.cumsum([0] + [len(k) for k in keys])
-    sensor_pairs = tuple(inverse[bounds[i]:bounds[i + 1]].astype(np.int64) for i in range(len(keys)))
+    sensor_pairs = tuple(inverse[bounds[i] : bounds[i + 1]].astype(np.int64) for i in range(len(keys)))
     pair_pose = (uniq // max(n_landmarks, 1)).astype(np.int64)
     pair_landmark = (uniq % max(n_landmarks, 1)).astype(np.int64)
     s = problem.settings
-    base_pose, base_lm = base_information(sc.keyframes.poses, n_landmarks, np.asarray(s.first_pose_sigmas, float),
-                                          np.asarray(s.odometry_sigmas, float), float(s.landmark_prior_sigma_m))
+    base_pose, base_lm = base_information(
+        sc.keyframes.poses,
+        n_landmarks,
+        np.asarray(s.first_pose_sigmas, float),
+        np.asarray(s.odometry_sigmas, float),
+        float(s.landmark_prior_sigma_m),
+    )
     jac = bearing_range_jacobians(sc.keyframes.poses[pair_pose], sc.landmarks[pair_landmark])
     sigmas = tuple(np.column_stack([o.sigma_bearing_rad, o.sigma_range_m]).astype(float) for o in obs)
     return LibraryLinearization(
-        pair_pose=pair_pose, pair_landmark=pair_landmark, pair_jacobian=jac, sensor_pairs=sensor_pairs,
-        sensor_sigmas=sigmas, base_pose_information=base_pose, base_landmark_information=base_lm,
+        pair_pose=pair_pose,
+        pair_landmark=pair_landmark,
+        pair_jacobian=jac,
+        sensor_pairs=sensor_pairs,
+        sensor_sigmas=sigmas,
+        base_pose_information=base_pose,
+        base_landmark_information=base_lm,
     )
 
 
@@ -115,8 +125,13 @@ def odometry_jacobians(poses: np.ndarray) -> np.ndarray:
     return h
 
 
-def base_information(poses: np.ndarray, n_landmarks: int, first_pose_sigmas: np.ndarray, odometry_sigmas: np.ndarray,
-                     landmark_prior_sigma_m: float) -> tuple[sp.csr_matrix, np.ndarray]:
+def base_information(
+    poses: np.ndarray,
+    n_landmarks: int,
+    first_pose_sigmas: np.ndarray,
+    odometry_sigmas: np.ndarray,
+    landmark_prior_sigma_m: float,
+) -> tuple[sp.csr_matrix, np.ndarray]:
     """The base graph's information at the truth: (pose part (3K, 3K) sparse, both triangles;
     landmark part (M, 2, 2)); the base couples no pose with a landmark.
 
@@ -142,7 +157,9 @@ def base_information(poses: np.ndarray, n_landmarks: int, first_pose_sigmas: np.
         vals.append(blocks.ravel())
 
     if n_poses:
-        add(np.zeros(1, np.int64), np.zeros(1, np.int64), np.diag(1.0 / np.asarray(first_pose_sigmas, float) ** 2)[None])
+        add(
+            np.zeros(1, np.int64), np.zeros(1, np.int64), np.diag(1.0 / np.asarray(first_pose_sigmas, float) ** 2)[None]
+        )
     if n_poses > 1:
         h = odometry_jacobians(poses)
         k = np.arange(1, n_poses)

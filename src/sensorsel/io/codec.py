@@ -15,8 +15,9 @@ import json
 import math
 import types
 import typing
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, Mapping, TypeVar, cast
+from typing import Any, TypeVar, cast
 
 from sensorsel.errors import ResultFileError
 from sensorsel.io.files import atomic_write_text

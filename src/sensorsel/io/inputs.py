@@ -17,8 +17,9 @@ from __future__ import annotations
 import math
 import os
 import re
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Callable, NoReturn
+from typing import Any, NoReturn
 
 import yaml
 
@@ -54,8 +55,10 @@ class StrictLoader(getattr(yaml, "CSafeLoader", yaml.SafeLoader)):  # type: igno
                 continue  # the base class reports unhashable keys with their line
             if key in seen:
                 raise yaml.constructor.ConstructorError(
-                    "while constructing a mapping", node.start_mark,
-                    f"key {key!r} repeated (first on line {seen[key]})", key_node.start_mark,
+                    "while constructing a mapping",
+                    node.start_mark,
+                    f"key {key!r} repeated (first on line {seen[key]})",
+                    key_node.start_mark,
                 )
             seen[key] = key_node.start_mark.line + 1
         return super().construct_mapping(node, deep=deep)
@@ -145,12 +148,20 @@ class Checker:
         """Every key of ``m`` (under the key path ``key``) is one of ``allowed``."""
         for k in m:
             if k not in allowed:
-                self.fail(f"{key}.{k}" if key else str(k), f"unknown key; allowed: {', '.join(allowed)}", m.lines.get(k, m.line))
+                self.fail(
+                    f"{key}.{k}" if key else str(k),
+                    f"unknown key; allowed: {', '.join(allowed)}",
+                    m.lines.get(k, m.line),
+                )
 
     def number(self, value: Any, key: str, line: int | None, *, minimum: float = 0.0, strict: bool = True) -> float:
         """``value`` as a finite float above ``minimum`` (at least ``minimum`` when not ``strict``)."""
         if isinstance(value, bool) or not isinstance(value, (int, float)):
-            hint = " (a number in quotes is text: remove the quotes)" if isinstance(value, str) and is_number_text(value) else ""
+            hint = (
+                " (a number in quotes is text: remove the quotes)"
+                if isinstance(value, str) and is_number_text(value)
+                else ""
+            )
             self.fail(key, f"expected a number, got {value!r}{hint}", line)
         v = float(value)
         if not math.isfinite(v) or v < minimum or (strict and v <= minimum):
@@ -176,5 +187,7 @@ class Checker:
         """``value`` as a KITTI odometry dataset folder (one with ``poses/``)."""
         root = self.file(value, key, line, folder=True)
         if not (Path(root) / "poses").is_dir():
-            self.fail(key, f"{root} is not a KITTI odometry dataset folder (expected {Path(root) / 'poses'}/NN.txt)", line)
+            self.fail(
+                key, f"{root} is not a KITTI odometry dataset folder (expected {Path(root) / 'poses'}/NN.txt)", line
+            )
         return root

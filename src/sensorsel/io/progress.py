@@ -14,7 +14,7 @@ before the count; a plain callable gets the count alone. The CLI draws both on s
 
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 Progress = Callable[[int, int], None]
 """progress(done, total) -> None; optionally with a method ``say(text: str) -> None``."""

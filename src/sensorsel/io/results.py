@@ -18,17 +18,28 @@ this sensorsel reads, or a file that does not parse. Files written before kinds 
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable, Iterable
 from pathlib import Path
-from typing import Any, Callable, Iterable, TypeVar, overload
+from typing import Any, TypeVar, overload
 
 from sensorsel.errors import ResultFileError
+from sensorsel.io import legacy
 from sensorsel.io.codec import dumps as _dumps
 from sensorsel.io.codec import from_jsonable, read_json, to_jsonable
-from sensorsel.io import legacy
 from sensorsel.io.files import atomic_write_text
 
-__all__ = ["FORMAT", "KINDS", "dumps", "from_jsonable", "kind_of", "load", "record_class", "result_kind", "save",
-           "to_jsonable"]
+__all__ = [
+    "FORMAT",
+    "KINDS",
+    "dumps",
+    "from_jsonable",
+    "kind_of",
+    "load",
+    "record_class",
+    "result_kind",
+    "save",
+    "to_jsonable",
+]
 
 T = TypeVar("T")
 
@@ -54,6 +65,7 @@ def result_kind(kind: str, *, read: bool = True) -> Callable[[type[T]], type[T]]
     Raises:
         ValueError: the kind, or the class name, is registered already for another.
     """
+
     def register(cls: type[T]) -> type[T]:
         if read:
             if KINDS.get(kind, cls) is not cls:
@@ -63,6 +75,7 @@ def result_kind(kind: str, *, read: bool = True) -> Callable[[type[T]], type[T]]
             raise ValueError(f"record class {cls.__name__} is already the kind {_KIND_OF_NAME[cls.__name__]!r}")
         _KIND_OF_NAME[cls.__name__] = kind
         return cls
+
     return register
 
 
@@ -155,20 +168,31 @@ def load(path: str | Path, expected: Any = None) -> Any:
                 return legacy.parse_kindless(cls, data)
             except (TypeError, ValueError, KeyError) as exc:
                 errors.append(f"not a {kind!r} result: {str(exc).strip(chr(34) + chr(39))}")
-        raise ResultFileError(path, "has no \"kind\" key (a file from before result kinds, or not a result) and "
-                                    + "; ".join(errors))
+        raise ResultFileError(
+            path, 'has no "kind" key (a file from before result kinds, or not a result) and ' + "; ".join(errors)
+        )
     kind = data["kind"]
     found = dict(wanted)
     if not isinstance(kind, str) or kind not in found:
-        what = f"{kind!r} result" if isinstance(kind, str) and kind in KINDS else (
-            f"result of kind {kind!r}, a kind this sensorsel does not know" if isinstance(kind, str) else f"file with \"kind\": {kind!r}")
+        what = (
+            f"{kind!r} result"
+            if isinstance(kind, str) and kind in KINDS
+            else (
+                f"result of kind {kind!r}, a kind this sensorsel does not know"
+                if isinstance(kind, str)
+                else f'file with "kind": {kind!r}'
+            )
+        )
         raise ResultFileError(path, f"is a {what}, expected a {_names(wanted)} result")
     fmt = data.get("format")
     if isinstance(fmt, bool) or not isinstance(fmt, int) or fmt < 1:
-        raise ResultFileError(path, f"\"format\" must be a positive integer, got {fmt!r}")
+        raise ResultFileError(path, f'"format" must be a positive integer, got {fmt!r}')
     if fmt > FORMAT:
-        raise ResultFileError(path, f"a {kind!r} result in format {fmt}, written by a newer sensorsel; this one reads "
-                                    f"formats up to {FORMAT}: upgrade sensorsel to read it")
+        raise ResultFileError(
+            path,
+            f"a {kind!r} result in format {fmt}, written by a newer sensorsel; this one reads "
+            f"formats up to {FORMAT}: upgrade sensorsel to read it",
+        )
     cls = found[kind] or record_class(kind)
     body = {k: v for k, v in data.items() if k not in _HEADER}
     try:

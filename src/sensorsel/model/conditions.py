@@ -188,11 +188,17 @@ class ConditionPhysics:
 
     def __post_init__(self) -> None:
         if not 0 < self.contrast_threshold < 1:
-            raise InputError(f"conditions.contrast_threshold: expected a number in (0, 1), got {self.contrast_threshold!r}")
+            raise InputError(
+                f"conditions.contrast_threshold: expected a number in (0, 1), got {self.contrast_threshold!r}"
+            )
         if not self.camera_contrast > self.contrast_threshold:
-            raise InputError(f"conditions.camera_contrast: must exceed contrast_threshold, got {self.camera_contrast!r}")
+            raise InputError(
+                f"conditions.camera_contrast: must exceed contrast_threshold, got {self.camera_contrast!r}"
+            )
         if not self.night_camera_noise_factor >= 1:
-            raise InputError(f"conditions.night_camera_noise_factor: expected >= 1, got {self.night_camera_noise_factor!r}")
+            raise InputError(
+                f"conditions.night_camera_noise_factor: expected >= 1, got {self.night_camera_noise_factor!r}"
+            )
 
 
 def parse_physics(raw: Any, path: Any, key: str = "conditions") -> ConditionPhysics:
@@ -203,7 +209,9 @@ def parse_physics(raw: Any, path: Any, key: str = "conditions") -> ConditionPhys
             positive number (or not in range).
     """
     if not isinstance(raw, dict):
-        raise LibraryError(path, key, f"expected a mapping of model numbers (contrast_threshold: 0.05, ...), got {raw!r}")
+        raise LibraryError(
+            path, key, f"expected a mapping of model numbers (contrast_threshold: 0.05, ...), got {raw!r}"
+        )
     allowed = [f.name for f in fields(ConditionPhysics)]
     values: dict[str, float] = {}
     for k, v in raw.items():
@@ -226,7 +234,7 @@ def fog_extinction_per_m(visibility_m: float, contrast_threshold: float = 0.05) 
 
 def power_law_db_per_km(rate: float, k: float, a: float) -> float:
     """Specific attenuation γ = k R^a [dB/km] of a precipitation rate R [mm/h] (0 for no precipitation)."""
-    return k * rate ** a if rate > 0 else 0.0
+    return k * rate**a if rate > 0 else 0.0
 
 
 def range_under_extinction(range_m: float, alpha_per_m: float, exponent: int) -> float:
@@ -258,8 +266,12 @@ def optical_extinction_per_m(condition: Condition, physics: ConditionPhysics) ->
     alpha = 0.0
     if condition.fog_visibility_m is not None:
         alpha += fog_extinction_per_m(condition.fog_visibility_m, physics.contrast_threshold)
-    alpha += DB_PER_KM_TO_PER_M * power_law_db_per_km(condition.rain_mm_h, physics.optical_rain_k, physics.optical_rain_a)
-    alpha += DB_PER_KM_TO_PER_M * power_law_db_per_km(condition.snow_mm_h, physics.optical_snow_k, physics.optical_snow_a)
+    alpha += DB_PER_KM_TO_PER_M * power_law_db_per_km(
+        condition.rain_mm_h, physics.optical_rain_k, physics.optical_rain_a
+    )
+    alpha += DB_PER_KM_TO_PER_M * power_law_db_per_km(
+        condition.snow_mm_h, physics.optical_snow_k, physics.optical_snow_a
+    )
     return alpha
 
 
@@ -289,17 +301,27 @@ class SensorEffect:
         return self.range_m == range_m and self.bearing_factor == 1.0 and self.range_factor == 1.0
 
 
-def sensor_effect(sensor_type: str, range_m: float, condition: Condition | None, physics: ConditionPhysics) -> SensorEffect:
+def sensor_effect(
+    sensor_type: str, range_m: float, condition: Condition | None, physics: ConditionPhysics
+) -> SensorEffect:
     """The range and noise multipliers of a sensor of ``sensor_type`` ("lidar", "radar", "stereo")
     and clear-air range ``range_m`` [m] under ``condition`` (None or neutral: exactly the model's own)."""
     if condition is None or condition.neutral:
         return SensorEffect(range_m)
     if sensor_type == "lidar":
-        return SensorEffect(min(range_m, range_under_extinction(range_m, optical_extinction_per_m(condition, physics), 2)))
+        return SensorEffect(
+            min(range_m, range_under_extinction(range_m, optical_extinction_per_m(condition, physics), 2))
+        )
     if sensor_type == "radar":
-        return SensorEffect(min(range_m, range_under_extinction(range_m, radar_extinction_per_m(condition, physics), 4)))
-    reach = min(range_m, koschmieder_range_m(optical_extinction_per_m(condition, physics), physics.camera_contrast,
-                                             physics.contrast_threshold))
+        return SensorEffect(
+            min(range_m, range_under_extinction(range_m, radar_extinction_per_m(condition, physics), 4))
+        )
+    reach = min(
+        range_m,
+        koschmieder_range_m(
+            optical_extinction_per_m(condition, physics), physics.camera_contrast, physics.contrast_threshold
+        ),
+    )
     factor = 1.0
     if condition.night:
         reach = min(reach, physics.night_camera_range_m)
@@ -312,5 +334,7 @@ def condition_digest(condition: Condition | None, physics: ConditionPhysics) -> 
     condition or a neutral one (so that it fingerprints like none)."""
     if condition is None or condition.neutral:
         return None
-    text = json.dumps({"condition": condition.parameters(), "physics": asdict(physics)}, sort_keys=True, allow_nan=False)
+    text = json.dumps(
+        {"condition": condition.parameters(), "physics": asdict(physics)}, sort_keys=True, allow_nan=False
+    )
     return hashlib.sha256(text.encode("utf-8")).hexdigest()

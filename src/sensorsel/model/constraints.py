@@ -28,8 +28,8 @@ import hashlib
 import json
 import math
 import re
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
-from typing import Iterable, Sequence
 
 import numpy as np
 
@@ -70,9 +70,16 @@ class Constraints:
     library_digest: str = ""
 
     @classmethod
-    def of(cls, *, limits: Iterable[tuple[str, float]] | dict[str, float] = (), slots: bool = True,
-           require: Iterable[str] = (), owned: bool = False, exclude: Iterable[str] = (),
-           max_sensors: int | None = None) -> "Constraints":
+    def of(
+        cls,
+        *,
+        limits: Iterable[tuple[str, float]] | dict[str, float] = (),
+        slots: bool = True,
+        require: Iterable[str] = (),
+        owned: bool = False,
+        exclude: Iterable[str] = (),
+        max_sensors: int | None = None,
+    ) -> Constraints:
         """Constraints in canonical form (sorted, each resource once); values are checked by
         :func:`feasible_set` against a library."""
         pairs = list(limits.items()) if isinstance(limits, dict) else list(limits)
@@ -80,8 +87,14 @@ class Constraints:
         for n in names:
             if names.count(n) > 1:
                 raise InputError(f"--limit {n}: given twice; give each resource once")
-        return cls(tuple(sorted((str(n), float(v)) for n, v in pairs)), bool(slots), tuple(sorted(set(require))),
-                   bool(owned), tuple(sorted(set(exclude))), max_sensors)
+        return cls(
+            tuple(sorted((str(n), float(v)) for n, v in pairs)),
+            bool(slots),
+            tuple(sorted(set(require))),
+            bool(owned),
+            tuple(sorted(set(exclude))),
+            max_sensors,
+        )
 
     @property
     def is_default(self) -> bool:
@@ -182,12 +195,16 @@ class FeasibleSet:
         for name, limit in c.limits:
             if name not in declared:
                 known = ", ".join(declared) if declared else "none (add `resources:` to the models)"
-                raise InputError(f"--limit {name}={_fmt(limit)}: the library {library.source} declares no resource "
-                                 f"{name!r}; it declares: {known}")
+                raise InputError(
+                    f"--limit {name}={_fmt(limit)}: the library {library.source} declares no resource "
+                    f"{name!r}; it declares: {known}"
+                )
             lacking = sorted({s.model.code for s in library.sensors if name not in dict(s.model.resources)})
             if lacking:
-                raise InputError(f"--limit {name}={_fmt(limit)}: in the library {library.source}, model(s) "
-                                 f"{', '.join(lacking)} declare no {name} (add it under their `resources:`; 0 is allowed)")
+                raise InputError(
+                    f"--limit {name}={_fmt(limit)}: in the library {library.source}, model(s) "
+                    f"{', '.join(lacking)} declare no {name} (add it under their `resources:`; 0 is allowed)"
+                )
             names.append(name)
             units.append(resource_unit(name))
             rows.append(library.resource(name))
@@ -213,8 +230,9 @@ class FeasibleSet:
         self.b = np.asarray(limits, dtype=float)
         self._slack = REL_SLACK * np.maximum(1.0, np.abs(self.b))
         self.n_resource_rows = 1 + len(c.limits)  # budget + resources: the rows that are costs
-        self.constraints = Constraints(c.limits, c.slots, c.require, c.owned, c.exclude, c.max_sensors,
-                                       _library_digest(library))
+        self.constraints = Constraints(
+            c.limits, c.slots, c.require, c.owned, c.exclude, c.max_sensors, _library_digest(library)
+        )
         self.cost = self._dollar_equivalent(price)
         self._check_required()
 
@@ -246,8 +264,9 @@ class FeasibleSet:
     def fits(self, suite: Iterable[int]) -> bool:
         """Whether ``suite`` is allowed: every row within its limit, required sensors in, excluded out."""
         s = set(suite)
-        return (set(self.required) <= s and not (s & self.excluded)
-                and bool(np.all(self.usage(s) <= self.b + self._slack)))
+        return (
+            set(self.required) <= s and not (s & self.excluded) and bool(np.all(self.usage(s) <= self.b + self._slack))
+        )
 
     def addable(self, used: np.ndarray) -> np.ndarray:
         """(n,) bool: the sensors that fit on top of a suite using ``used`` of each row (excluded
@@ -264,7 +283,9 @@ class FeasibleSet:
     def rows_used(self, suite: Iterable[int]) -> tuple[RowUse, ...]:
         """Each row's total for ``suite`` against its limit."""
         u = self.usage(suite)
-        return tuple(RowUse(n, float(x), float(lim), unit) for n, x, lim, unit in zip(self.names, u, self.b, self.units))
+        return tuple(
+            RowUse(n, float(x), float(lim), unit) for n, x, lim, unit in zip(self.names, u, self.b, self.units)
+        )
 
     def violations(self, suite: Iterable[int]) -> list[str]:
         """What ``suite`` breaks, in words (empty when it fits)."""
@@ -273,7 +294,9 @@ class FeasibleSet:
         out += [f"holds excluded {self.library.ids[i]}" for i in sorted(s & self.excluded)]
         u = self.usage(s)
         for k in np.flatnonzero(u > self.b + self._slack):
-            out.append(f"{self.names[k]} {_amount(u[k], self.units[k])} above its limit {_amount(self.b[k], self.units[k])}")
+            out.append(
+                f"{self.names[k]} {_amount(u[k], self.units[k])} above its limit {_amount(self.b[k], self.units[k])}"
+            )
         return out
 
     def why_nothing_fits(self, used: np.ndarray, candidates: np.ndarray) -> str:
@@ -291,7 +314,9 @@ class FeasibleSet:
             if self._is_slot(k):
                 n_slots += count
             else:
-                parts.append(f"{count} by {self.names[k]} ({_amount(max(self.b[k] - used[k], 0.0), self.units[k])} left)")
+                parts.append(
+                    f"{count} by {self.names[k]} ({_amount(max(self.b[k] - used[k], 0.0), self.units[k])} left)"
+                )
         if n_slots:
             parts.append(f"{n_slots} by a full mounting slot")
         excluded = int(np.sum(candidates[list(self.excluded)])) if self.excluded else 0
@@ -319,8 +344,10 @@ class FeasibleSet:
             ids = ",".join(self.library.ids[i] for i in self.required)
             option = {"budget": "--budget", "sensors": "--max-sensors"}.get(self.names[k])
             what = option or (f"--limit {self.names[k]}" if k < self.n_resource_rows else f"the slot {self.names[k]}")
-            raise InputError(f"--include {ids}: the required sensors use {_amount(u[k], self.units[k])} of "
-                             f"{self.names[k]}, above {what} ({_amount(self.b[k], self.units[k])}): no suite can hold them")
+            raise InputError(
+                f"--include {ids}: the required sensors use {_amount(u[k], self.units[k])} of "
+                f"{self.names[k]}, above {what} ({_amount(self.b[k], self.units[k])}): no suite can hold them"
+            )
 
 
 def feasible_set(library: SensorLibrary, budget_usd: float, constraints: Constraints | None = None) -> FeasibleSet:
@@ -340,8 +367,10 @@ def _positions(library: SensorLibrary, ids: Sequence[str], option: str) -> tuple
 
 def _library_digest(library: SensorLibrary) -> str:
     """sha256 of what constraints read from a library: each sensor's resources, and the slots."""
-    doc = {"resources": [list(s.model.resources) for s in library.sensors],
-           "slots": [[sl.place, sl.kind, sl.capacity, list(sl.members)] for sl in library.slots]}
+    doc = {
+        "resources": [list(s.model.resources) for s in library.sensors],
+        "slots": [[sl.place, sl.kind, sl.capacity, list(sl.members)] for sl in library.slots],
+    }
     return hashlib.sha256(json.dumps(doc, sort_keys=True).encode()).hexdigest()
 
 

@@ -63,17 +63,40 @@ from pathlib import Path
 from typing import Any
 
 from sensorsel.errors import InputError, SensorselError
-from sensorsel.model.conditions import CLEAR, CONDITION_KEYS, Condition
 from sensorsel.io.inputs import Checker, Map, Seq, read_yaml
+from sensorsel.model.conditions import CLEAR, CONDITION_KEYS, Condition
 from sensorsel.model.osm import GeoRef, is_gpx, load_geo_scenario, parse_classes
-from sensorsel.model.scenario import (KITTI_ROOT_ENV, REAL, ROUTE_FORMATS, SYNTHETIC, Scenario, ScenarioSpec,
-                                      fixture_names, kitti_map_path, load_scenario)
+from sensorsel.model.scenario import (
+    KITTI_ROOT_ENV,
+    REAL,
+    ROUTE_FORMATS,
+    SYNTHETIC,
+    Scenario,
+    ScenarioSpec,
+    fixture_names,
+    kitti_map_path,
+    load_scenario,
+)
 
 WEIGHT_UNITS = ("hours", "km")
 _TOP_KEYS = ("routes", "kitti_root", "keyframe_rate_hz", "library", "clearance_m", "weight_unit", "conditions")
 #: the keys of a route's entry (also a study's target: sensorsel.designs.study)
-ROUTE_KEYS = ("name", "seq", "kitti_root", "route", "format", "times", "fixture", "landmarks", "weight", "conditions",
-              "georef", "osm", "osm_classes", "osm_reach_m")
+ROUTE_KEYS = (
+    "name",
+    "seq",
+    "kitti_root",
+    "route",
+    "format",
+    "times",
+    "fixture",
+    "landmarks",
+    "weight",
+    "conditions",
+    "georef",
+    "osm",
+    "osm_classes",
+    "osm_reach_m",
+)
 _GEO_KEYS = ("georef", "osm", "osm_classes", "osm_reach_m")
 _CONDITION_KEYS = ("name", "share") + CONDITION_KEYS
 #: shares of a route's conditions may add up to 1 plus this (round-off of decimal shares)
@@ -172,7 +195,11 @@ def parse_domain(data: Any, path: str | Path = "<memory>") -> DomainSpec:
     path = Path(path)
     c = Checker(path, DomainError)
     if not isinstance(data, Map):
-        c.fail("", f"expected a mapping with a list of routes (routes: ...), got {type(data).__name__}", getattr(data, "line", None))
+        c.fail(
+            "",
+            f"expected a mapping with a list of routes (routes: ...), got {type(data).__name__}",
+            getattr(data, "line", None),
+        )
     c.keys(data, "", _TOP_KEYS)
 
     def line(key: str) -> int | None:
@@ -181,8 +208,16 @@ def parse_domain(data: Any, path: str | Path = "<memory>") -> DomainSpec:
     root = None
     if "kitti_root" in data:
         root = c.kitti_root(data["kitti_root"], "kitti_root", line("kitti_root"))
-    rate = c.number(data["keyframe_rate_hz"], "keyframe_rate_hz", line("keyframe_rate_hz")) if "keyframe_rate_hz" in data else 1.0
-    clearance = c.number(data["clearance_m"], "clearance_m", line("clearance_m"), strict=False) if "clearance_m" in data else None
+    rate = (
+        c.number(data["keyframe_rate_hz"], "keyframe_rate_hz", line("keyframe_rate_hz"))
+        if "keyframe_rate_hz" in data
+        else 1.0
+    )
+    clearance = (
+        c.number(data["clearance_m"], "clearance_m", line("clearance_m"), strict=False)
+        if "clearance_m" in data
+        else None
+    )
     library = c.file(data["library"], "library", line("library")) if "library" in data else None
     unit = data.get("weight_unit", "hours")
     if unit not in WEIGHT_UNITS:
@@ -200,15 +235,28 @@ def parse_domain(data: Any, path: str | Path = "<memory>") -> DomainSpec:
         key, rline = f"routes[{i}]", routes_raw.lines[i]
         r = parse_route(c, raw, key, rline, shared, root, unit)
         if isinstance(raw, Map) and "conditions" in raw and not conditions:
-            c.fail(f"{key}.conditions", "a route's shares of conditions need the conditions the file lists "
-                   "(a top-level conditions: section)", raw.lines["conditions"])
+            c.fail(
+                f"{key}.conditions",
+                "a route's shares of conditions need the conditions the file lists (a top-level conditions: section)",
+                raw.lines["conditions"],
+            )
         if conditions:
             own = raw.get("conditions") if isinstance(raw, Map) else None
-            r = replace(r, conditions=_route_members(c, conditions, own, f"{key}.conditions",
-                                                     raw.lines.get("conditions", rline) if own is not None else line("conditions")))
+            r = replace(
+                r,
+                conditions=_route_members(
+                    c,
+                    conditions,
+                    own,
+                    f"{key}.conditions",
+                    raw.lines.get("conditions", rline) if own is not None else line("conditions"),
+                ),
+            )
         if r.name in seen:
             j = seen[r.name]
-            c.fail(f"{key}.name", f"duplicate name {r.name!r} (also routes[{j}], line {routes[j].line})", raw.lines["name"])
+            c.fail(
+                f"{key}.name", f"duplicate name {r.name!r} (also routes[{j}], line {routes[j].line})", raw.lines["name"]
+            )
         seen[r.name] = i
         routes.append(r)
     return DomainSpec(str(path), tuple(routes), unit, library, rate, clearance, root, conditions)
@@ -217,13 +265,21 @@ def parse_domain(data: Any, path: str | Path = "<memory>") -> DomainSpec:
 def _parse_conditions(c: Checker, raw: Any, line: int | None) -> tuple[tuple[Condition, float], ...]:
     """The top-level ``conditions`` list: named conditions and their shares of driving time."""
     if not isinstance(raw, Seq) or not raw:
-        c.fail("conditions", f"expected a list of conditions ({{name: night, night: true, share: 0.25}}), got {raw!r}", line)
+        c.fail(
+            "conditions",
+            f"expected a list of conditions ({{name: night, night: true, share: 0.25}}), got {raw!r}",
+            line,
+        )
     out: list[tuple[Condition, float]] = []
     names: dict[str, int] = {}
     for i, item in enumerate(raw):
         key, iline = f"conditions[{i}]", raw.lines[i]
         if not isinstance(item, Map):
-            c.fail(key, f"expected a mapping (name, share, and night, rain_mm_h, fog_visibility_m or snow_mm_h), got {item!r}", iline)
+            c.fail(
+                key,
+                f"expected a mapping (name, share, and night, rain_mm_h, fog_visibility_m or snow_mm_h), got {item!r}",
+                iline,
+            )
         c.keys(item, key, _CONDITION_KEYS)
         at = lambda k, item=item: item.lines.get(k, item.line)  # noqa: E731
         for k in ("name", "share"):
@@ -231,8 +287,11 @@ def _parse_conditions(c: Checker, raw: Any, line: int | None) -> tuple[tuple[Con
                 c.fail(f"{key}.{k}", "missing: every condition needs a name and its share of the driving", item.line)
         name = c.string(item["name"], f"{key}.name", at("name"), "a name (text)")
         if name == CLEAR or "/" in name or any(ch in name for ch in "\r\n\t,"):
-            why = ("clear is the rest of the driving, not listed" if name == CLEAR
-                   else "a name without '/', ',' or line breaks")
+            why = (
+                "clear is the rest of the driving, not listed"
+                if name == CLEAR
+                else "a name without '/', ',' or line breaks"
+            )
             c.fail(f"{key}.name", f"{why}; got {name!r}", at("name"))
         if name in names:
             c.fail(f"{key}.name", f"duplicate condition name {name!r} (also conditions[{names[name]}])", at("name"))
@@ -249,7 +308,9 @@ def _parse_conditions(c: Checker, raw: Any, line: int | None) -> tuple[tuple[Con
             if k in item:
                 values[k] = c.number(item[k], f"{key}.{k}", at(k), strict=False)
         if "fog_visibility_m" in item:
-            values["fog_visibility_m"] = c.number(item["fog_visibility_m"], f"{key}.fog_visibility_m", at("fog_visibility_m"))
+            values["fog_visibility_m"] = c.number(
+                item["fog_visibility_m"], f"{key}.fog_visibility_m", at("fog_visibility_m")
+            )
         try:
             cond = Condition(name=name, **values)
         except InputError as exc:
@@ -261,25 +322,39 @@ def _parse_conditions(c: Checker, raw: Any, line: int | None) -> tuple[tuple[Con
     return tuple(out)
 
 
-def _route_members(c: Checker, conditions: tuple[tuple[Condition, float], ...], own: Any, key: str,
-                   line: int | None) -> tuple[tuple[Condition, float], ...]:
+def _route_members(
+    c: Checker, conditions: tuple[tuple[Condition, float], ...], own: Any, key: str, line: int | None
+) -> tuple[tuple[Condition, float], ...]:
     """A route's members: clear (the rest) first, then each condition with the route's own share
     (``own``: its ``conditions`` mapping of name -> share) or the file's; shares of 0 left out."""
     shares = {cond.name: share for cond, share in conditions}
     if own is not None:
         if not isinstance(own, Map):
-            c.fail(key, f"expected a mapping of condition name to this route's share ({{night: 0.3}}), got {own!r}", line)
+            c.fail(
+                key, f"expected a mapping of condition name to this route's share ({{night: 0.3}}), got {own!r}", line
+            )
         for name, value in own.items():
             if name not in shares:
-                c.fail(f"{key}.{name}", f"unknown condition {name!r}; the file's conditions: {', '.join(shares)}",
-                       own.lines.get(name, own.line))
+                c.fail(
+                    f"{key}.{name}",
+                    f"unknown condition {name!r}; the file's conditions: {', '.join(shares)}",
+                    own.lines.get(name, own.line),
+                )
             v = c.number(value, f"{key}.{name}", own.lines.get(name, own.line), strict=False)
             if v > 1:
-                c.fail(f"{key}.{name}", f"a share of the driving is at most 1, got {value!r}", own.lines.get(name, own.line))
+                c.fail(
+                    f"{key}.{name}",
+                    f"a share of the driving is at most 1, got {value!r}",
+                    own.lines.get(name, own.line),
+                )
             shares[name] = v
     total = sum(shares.values())
     if total > 1 + _SHARE_SLACK:
-        c.fail(key, f"the shares of this route's conditions add up to {total:g}, more than 1 (the whole of the driving)", line)
+        c.fail(
+            key,
+            f"the shares of this route's conditions add up to {total:g}, more than 1 (the whole of the driving)",
+            line,
+        )
     members = []
     rest = 1.0 - total
     if rest > _SHARE_SLACK:
@@ -288,7 +363,9 @@ def _route_members(c: Checker, conditions: tuple[tuple[Condition, float], ...], 
     return tuple(members)
 
 
-def parse_route(c: Checker, raw: Any, key: str, rline: int, shared: ScenarioSpec, root: str | None, unit: str) -> DomainRoute:
+def parse_route(
+    c: Checker, raw: Any, key: str, rline: int, shared: ScenarioSpec, root: str | None, unit: str
+) -> DomainRoute:
     """One route's entry ``raw`` (under the key path ``key``, on line ``rline``), checked by ``c``: the
     route of a domain file, or a study's target (sensorsel.designs.study reads it with this)."""
     if not isinstance(raw, Map):
@@ -304,8 +381,11 @@ def parse_route(c: Checker, raw: Any, key: str, rline: int, shared: ScenarioSpec
     name = name.strip()
     sources = [k for k in ("seq", "route", "fixture") if k in raw]
     if len(sources) != 1:
-        c.fail(key, f"expected exactly one of seq, route, fixture; got {', '.join(sources) or 'none'}",
-               max(line(k) for k in sources) if len(sources) > 1 else raw.line)
+        c.fail(
+            key,
+            f"expected exactly one of seq, route, fixture; got {', '.join(sources) or 'none'}",
+            max(line(k) for k in sources) if len(sources) > 1 else raw.line,
+        )
     source = sources[0]
     for k, only in (("kitti_root", "seq"), ("format", "route"), ("times", "route")):
         if k in raw and source != only:
@@ -315,13 +395,23 @@ def parse_route(c: Checker, raw: Any, key: str, rline: int, shared: ScenarioSpec
     if source == "seq":
         seq = raw["seq"]
         if not isinstance(seq, str) or not seq.strip():
-            hint = f' (in quotes: "{seq:02d}"; YAML reads 03 as the number 3)' if isinstance(seq, int) and not isinstance(seq, bool) else ""
+            hint = (
+                f' (in quotes: "{seq:02d}"; YAML reads 03 as the number 3)'
+                if isinstance(seq, int) and not isinstance(seq, bool)
+                else ""
+            )
             c.fail(f"{key}.seq", f"expected a sequence name as text, got {seq!r}{hint}", line("seq"))
-        seq_root = c.kitti_root(raw["kitti_root"], f"{key}.kitti_root", line("kitti_root")) if "kitti_root" in raw else root
+        seq_root = (
+            c.kitti_root(raw["kitti_root"], f"{key}.kitti_root", line("kitti_root")) if "kitti_root" in raw else root
+        )
         if seq_root is None:
             env = os.environ.get(KITTI_ROOT_ENV)
             if not env:
-                c.fail(f"{key}.seq", f"no KITTI folder: give kitti_root (in the file or this route) or set ${KITTI_ROOT_ENV}", line("seq"))
+                c.fail(
+                    f"{key}.seq",
+                    f"no KITTI folder: give kitti_root (in the file or this route) or set ${KITTI_ROOT_ENV}",
+                    line("seq"),
+                )
             seq_root = str(Path(env).resolve())
             if not (Path(seq_root) / "poses").is_dir():
                 c.fail(f"{key}.seq", f"${KITTI_ROOT_ENV}={env} is not a KITTI odometry dataset folder", line("seq"))
@@ -336,12 +426,18 @@ def parse_route(c: Checker, raw: Any, key: str, rline: int, shared: ScenarioSpec
             c.fail(f"{key}.format", f"expected one of {', '.join(ROUTE_FORMATS)}, got {fmt!r}", line("format"))
         times = c.file(raw["times"], f"{key}.times", line("times")) if "times" in raw else None
         if times is not None and fmt not in (None, "kitti"):
-            c.fail(f"{key}.times", f"timestamps go with a KITTI pose file; a {fmt} route carries its own", line("times"))
+            c.fail(
+                f"{key}.times", f"timestamps go with a KITTI pose file; a {fmt} route carries its own", line("times")
+            )
         spec = replace(spec, route=c.file(raw["route"], f"{key}.route", line("route")), route_format=fmt, times=times)
     else:
         fx = raw["fixture"]
         if fx not in fixture_names():
-            c.fail(f"{key}.fixture", f"unknown fixture {fx!r}; bundled fixtures: {', '.join(fixture_names())}", line("fixture"))
+            c.fail(
+                f"{key}.fixture",
+                f"unknown fixture {fx!r}; bundled fixtures: {', '.join(fixture_names())}",
+                line("fixture"),
+            )
         spec = replace(spec, fixture=fx)
         own_map = True
     if "landmarks" in raw:
@@ -350,17 +446,25 @@ def parse_route(c: Checker, raw: Any, key: str, rline: int, shared: ScenarioSpec
     if gpx:
         for k in ("format", "times"):
             if k in raw:
-                c.fail(f"{key}.{k}", f"the route {spec.route} is a GPX track: it carries its own format and times", line(k))
+                c.fail(
+                    f"{key}.{k}", f"the route {spec.route} is a GPX track: it carries its own format and times", line(k)
+                )
     if any(k in raw for k in _GEO_KEYS):
         spec = _parse_geo(c, raw, key, line, spec, gpx)
     weight = _parse_weight(c, raw["weight"], f"{key}.weight", line("weight"), unit) if "weight" in raw else None
     return DomainRoute(name, spec, weight, rline)
 
 
-def _parse_landmarks(c: Checker, value: Any, key: str, line: int, spec: ScenarioSpec, source: str, own_map: bool) -> ScenarioSpec:
+def _parse_landmarks(
+    c: Checker, value: Any, key: str, line: int, spec: ScenarioSpec, source: str, own_map: bool
+) -> ScenarioSpec:
     if value == REAL:
         if source != "seq":
-            c.fail(key, f"'real' is a KITTI sequence's pole map; this route is a {source}: give a landmark file or synthetic", line)
+            c.fail(
+                key,
+                f"'real' is a KITTI sequence's pole map; this route is a {source}: give a landmark file or synthetic",
+                line,
+            )
         if not own_map:
             c.fail(key, f"'real': no pole map {kitti_map_path(spec.kitti_root or '', spec.seq or '')}", line)
         return replace(spec, landmarks=REAL)
@@ -377,46 +481,68 @@ def _parse_landmarks(c: Checker, value: Any, key: str, line: int, spec: Scenario
         c.keys(opts, f"{key}.synthetic", ("seed",))
         seed = opts.get("seed", 0)
         if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-            c.fail(f"{key}.synthetic.seed", f"expected an integer >= 0, got {seed!r}", opts.lines.get("seed", opts.line))
+            c.fail(
+                f"{key}.synthetic.seed", f"expected an integer >= 0, got {seed!r}", opts.lines.get("seed", opts.line)
+            )
         return replace(spec, landmarks=SYNTHETIC, landmark_seed=seed)
     if not isinstance(value, str):
         c.fail(key, f"expected real, synthetic, {{synthetic: {{seed: N}}}} or a landmark CSV file, got {value!r}", line)
     return replace(spec, landmarks=c.file(value, key, line))
 
 
-def _parse_geo(c: Checker, raw: "Map", key: str, line: Any, spec: ScenarioSpec, gpx: bool) -> ScenarioSpec:
+def _parse_geo(c: Checker, raw: Map, key: str, line: Any, spec: ScenarioSpec, gpx: bool) -> ScenarioSpec:
     """A route's OpenStreetMap landmarks and georeference (``osm``, ``osm_classes``, ``osm_reach_m``,
     ``georef``), checked as the route commands' ``--landmarks osm:FILE``, ``--osm-classes``,
     ``--osm-reach`` and ``--georef`` are, each error naming the key and its line (``gpx``: the
     route is a GPX track)."""
     if "osm" not in raw:
         k = next(k for k in _GEO_KEYS if k in raw)
-        what = "places the route on an OpenStreetMap map: alone it changes nothing" if k == "georef" else "chooses OSM landmarks"
+        what = (
+            "places the route on an OpenStreetMap map: alone it changes nothing"
+            if k == "georef"
+            else "chooses OSM landmarks"
+        )
         c.fail(f"{key}.{k}", f"{what}; give osm: FILE (an .osm or .osm.pbf extract) with it", line(k))
     value = raw["osm"]
     files = value if isinstance(value, Seq) else [value]
     if not files:
         c.fail(f"{key}.osm", "expected an OSM extract file or a list of them, got an empty list", line("osm"))
-    osm = tuple(c.file(f, f"{key}.osm" if not isinstance(value, Seq) else f"{key}.osm[{i}]", line("osm"))
-                for i, f in enumerate(files))
+    osm = tuple(
+        c.file(f, f"{key}.osm" if not isinstance(value, Seq) else f"{key}.osm[{i}]", line("osm"))
+        for i, f in enumerate(files)
+    )
     if spec.landmarks == SYNTHETIC:
-        c.fail(f"{key}.landmarks", "OSM landmarks join a survey file or a sequence's pole map, not a generated map: "
-               "drop synthetic", line("landmarks"))
+        c.fail(
+            f"{key}.landmarks",
+            "OSM landmarks join a survey file or a sequence's pole map, not a generated map: drop synthetic",
+            line("landmarks"),
+        )
     georef = None
     if "georef" in raw:
         text = c.string(raw["georef"], f"{key}.georef", line("georef"), "LAT,LON,BEARING or utm:ZONE")
         if gpx:
-            c.fail(f"{key}.georef", f"the route {spec.route} is a GPX track, placed by its own latitudes and longitudes: "
-                   "drop georef", line("georef"))
+            c.fail(
+                f"{key}.georef",
+                f"the route {spec.route} is a GPX track, placed by its own latitudes and longitudes: drop georef",
+                line("georef"),
+            )
         _osm_value(c, GeoRef.parse, text, f"{key}.georef", line("georef"))
         georef = text
     elif not gpx:
-        c.fail(f"{key}.osm", "the route is not georeferenced: give georef: LAT,LON,BEARING (its origin in degrees and "
-               "the compass bearing of its +X axis) or georef: utm:ZONE (x, y are UTM), or a GPX track as route", line("osm"))
+        c.fail(
+            f"{key}.osm",
+            "the route is not georeferenced: give georef: LAT,LON,BEARING (its origin in degrees and "
+            "the compass bearing of its +X axis) or georef: utm:ZONE (x, y are UTM), or a GPX track as route",
+            line("osm"),
+        )
     classes = None
     if "osm_classes" in raw:
         v = raw["osm_classes"]
-        text = ",".join(str(x) for x in v) if isinstance(v, Seq) else c.string(v, f"{key}.osm_classes", line("osm_classes"))
+        text = (
+            ",".join(str(x) for x in v)
+            if isinstance(v, Seq)
+            else c.string(v, f"{key}.osm_classes", line("osm_classes"))
+        )
         _osm_value(c, parse_classes, text, f"{key}.osm_classes", line("osm_classes"))
         classes = text
     reach = spec.osm_reach_m
@@ -436,11 +562,19 @@ def _osm_value(c: Checker, parse: Any, text: str, key: str, line: int | None) ->
 def _parse_weight(c: Checker, value: Any, key: str, line: int, unit: str) -> float:
     if isinstance(value, Map):
         if len(value) != 1 or next(iter(value)) not in WEIGHT_UNITS:
-            c.fail(key, f"expected {{km: X}}, {{hours: X}} or a number, got keys {', '.join(map(str, value)) or 'none'}", line)
-        (u, v), = value.items()
+            c.fail(
+                key,
+                f"expected {{km: X}}, {{hours: X}} or a number, got keys {', '.join(map(str, value)) or 'none'}",
+                line,
+            )
+        ((u, v),) = value.items()
         if u != unit:
-            c.fail(f"{key}.{u}", f"a weight in {u} in a domain whose weights are in {unit} (weight_unit: {unit}): "
-                   "give every weight in one unit", value.lines[u])
+            c.fail(
+                f"{key}.{u}",
+                f"a weight in {u} in a domain whose weights are in {unit} (weight_unit: {unit}): "
+                "give every weight in one unit",
+                value.lines[u],
+            )
         return c.number(v, f"{key}.{u}", value.lines[u])
     return c.number(value, key, line)
 
@@ -488,5 +622,9 @@ def _load_route(domain: DomainSpec, i: int, r: DomainRoute) -> Scenario:
 
 
 #: the route commands' options and the domain file's keys that say the same
-_OPTION_KEYS = (("--landmarks osm:", "osm: "), ("--georef", "georef:"), ("--osm-classes", "osm_classes:"),
-                ("--osm-reach", "osm_reach_m:"))
+_OPTION_KEYS = (
+    ("--landmarks osm:", "osm: "),
+    ("--georef", "georef:"),
+    ("--osm-classes", "osm_classes:"),
+    ("--osm-reach", "osm_reach_m:"),
+)

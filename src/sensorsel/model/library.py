@@ -8,9 +8,10 @@ from __future__ import annotations
 
 import math
 import re
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Iterable, Sequence
+from typing import Any
 
 import numpy as np
 import yaml
@@ -197,7 +198,9 @@ class SensorLibrary:
         for i, s in enumerate(self.sensors):
             if s.id == sensor_id or str(s.index) == sensor_id:
                 return i
-        raise InputError(f"unknown sensor id {sensor_id!r}{self._suggest(sensor_id)} (see `sensorsel library` for the ids)")
+        raise InputError(
+            f"unknown sensor id {sensor_id!r}{self._suggest(sensor_id)} (see `sensorsel library` for the ids)"
+        )
 
     def _suggest(self, sensor_id: str) -> str:
         """'; did you mean X?' for an id that differs from one of the library's only in case, or
@@ -205,12 +208,18 @@ class SensorLibrary:
         import difflib
 
         same = [s.id for s in self.sensors if s.id.lower() == str(sensor_id).lower()]
-        close = same or difflib.get_close_matches(str(sensor_id).upper(), [s.id.upper() for s in self.sensors], n=3, cutoff=0.8)
+        close = same or difflib.get_close_matches(
+            str(sensor_id).upper(), [s.id.upper() for s in self.sensors], n=3, cutoff=0.8
+        )
         if not close:
             return ""
         ids = {s.id.upper(): s.id for s in self.sensors}
         names = [ids.get(c, c) for c in close]
-        return f"; did you mean {' or '.join(names)}? (ids are case-sensitive)" if same else f"; did you mean {' or '.join(names)}?"
+        return (
+            f"; did you mean {' or '.join(names)}? (ids are case-sensitive)"
+            if same
+            else f"; did you mean {' or '.join(names)}?"
+        )
 
     def parse_suite(self, text: str | Iterable[str]) -> tuple[int, ...]:
         """Positions of a comma-separated list of ids (or indices); sorted, duplicates refused."""
@@ -221,7 +230,7 @@ class SensorLibrary:
             raise InputError(f"suite {','.join(items)!r} names a sensor twice")
         return tuple(sorted(positions))
 
-    def resolve_suite(self, suite: "str | Iterable[str | int]") -> tuple[int, ...]:
+    def resolve_suite(self, suite: str | Iterable[str | int]) -> tuple[int, ...]:
         """The canonical form of a suite, however it is given: sorted unique library positions.
 
         Accepts comma-separated ids (``"LRL-roof,LRR-12"``), an iterable of ids (a result's
@@ -268,13 +277,19 @@ class SensorLibrary:
         """What each sensor uses of resource ``name``, shape (n_sensors,), in the resource's unit."""
         return np.array([s.model.resource(name) for s in self.sensors], dtype=float)
 
-    def subset(self, positions: Sequence[int]) -> "SensorLibrary":
+    def subset(self, positions: Sequence[int]) -> SensorLibrary:
         """A smaller library of the sensors at these positions, in this order (slots kept, renumbered)."""
         new = {int(p): k for k, p in enumerate(positions)}
-        slots = tuple(Slot(sl.place, sl.kind, sl.capacity, tuple(sorted(new[m] for m in sl.members if m in new)))
-                      for sl in self.slots)
-        return SensorLibrary(tuple(self.sensors[i] for i in positions), self.source,
-                             tuple(sl for sl in slots if sl.members), self.physics)
+        slots = tuple(
+            Slot(sl.place, sl.kind, sl.capacity, tuple(sorted(new[m] for m in sl.members if m in new)))
+            for sl in self.slots
+        )
+        return SensorLibrary(
+            tuple(self.sensors[i] for i in positions),
+            self.source,
+            tuple(sl for sl in slots if sl.members),
+            self.physics,
+        )
 
 
 def resource_unit(name: str) -> str:
@@ -317,12 +332,17 @@ def _parse_model(raw: Any, path: Path, key: str) -> SensorModel:
         raise LibraryError(path, f"{key}.type", f"missing required field; expected one of {', '.join(SENSOR_TYPES)}")
     stype = raw["type"]
     if not isinstance(stype, str) or stype not in SENSOR_TYPES:
-        raise LibraryError(path, f"{key}.type", f"unknown sensor type {stype!r}; expected one of {', '.join(SENSOR_TYPES)}")
+        raise LibraryError(
+            path, f"{key}.type", f"unknown sensor type {stype!r}; expected one of {', '.join(SENSOR_TYPES)}"
+        )
     allowed = _COMMON_KEYS | _TYPE_KEYS[stype]
     for k in raw:
         if k not in allowed | _OPTIONAL_KEYS:
-            raise LibraryError(path, f"{key}.{k}", f"unknown key for a {stype} model; allowed: "
-                                                   f"{', '.join(sorted(allowed | _OPTIONAL_KEYS))}")
+            raise LibraryError(
+                path,
+                f"{key}.{k}",
+                f"unknown key for a {stype} model; allowed: {', '.join(sorted(allowed | _OPTIONAL_KEYS))}",
+            )
     for k in sorted(allowed):
         if k not in raw:
             raise LibraryError(path, f"{key}.{k}", "missing required field")
@@ -338,7 +358,10 @@ def _parse_model(raw: Any, path: Path, key: str) -> SensorModel:
     fov = _number(raw["fov_rad"], path, f"{key}.fov_rad", positive=False)
     if not 0.0 < fov <= _TWO_PI + 1e-9:
         raise LibraryError(path, f"{key}.fov_rad", f"must be in (0, 2*pi], got {raw['fov_rad']!r}")
-    fields = {k: _number(raw[k], path, f"{key}.{k}") for k in sorted(allowed - {"code", "name", "type", "digit", "mount", "fov_rad"})}
+    fields = {
+        k: _number(raw[k], path, f"{key}.{k}")
+        for k in sorted(allowed - {"code", "name", "type", "digit", "mount", "fov_rad"})
+    }
     return SensorModel(
         code=code,
         name=_string(raw["name"], path, f"{key}.name"),
@@ -358,8 +381,11 @@ def _parse_resources(raw: Any, path: Path, key: str) -> tuple[tuple[str, float],
     out = []
     for name, value in raw.items():
         if not isinstance(name, str) or not _RESOURCE_NAME.match(name):
-            raise LibraryError(path, f"{key}.{name}", "a resource name is lower-case letters, digits and '_' "
-                                                      "(power_w, mass_kg, data_rate_mbps)")
+            raise LibraryError(
+                path,
+                f"{key}.{name}",
+                "a resource name is lower-case letters, digits and '_' (power_w, mass_kg, data_rate_mbps)",
+            )
         v = _number(value, path, f"{key}.{name}", positive=False)
         if v < 0:
             raise LibraryError(path, f"{key}.{name}", f"must be 0 or more, got {value!r}")
@@ -371,7 +397,9 @@ def _parse_slots(raw: Any, path: Path, sensors: list[PlacedSensor], clocks: list
     """The ``slots`` section: place -> {kind: capacity}; "clock" applies to each clock position, a
     clock number ("6") to that position alone (its kinds replacing those of "clock")."""
     if not isinstance(raw, dict):
-        raise LibraryError(path, "slots", f"expected a mapping of place (roof, clock, 1..12) to capacities, got {raw!r}")
+        raise LibraryError(
+            path, "slots", f"expected a mapping of place (roof, clock, 1..12) to capacities, got {raw!r}"
+        )
     per_place: dict[str, dict[str, int]] = {}
     for place, caps in raw.items():
         p = str(place)
@@ -380,11 +408,15 @@ def _parse_slots(raw: Any, path: Path, sensors: list[PlacedSensor], clocks: list
         if p.isdigit() and int(p) not in clocks:
             raise LibraryError(path, f"slots.{p}", f"clock position {p} is not in clock_positions {clocks}")
         if not isinstance(caps, dict) or not caps:
-            raise LibraryError(path, f"slots.{p}", f"expected a mapping of sensor type to capacity (radar: 1), got {caps!r}")
+            raise LibraryError(
+                path, f"slots.{p}", f"expected a mapping of sensor type to capacity (radar: 1), got {caps!r}"
+            )
         kinds = {}
         for kind, cap in caps.items():
             if kind not in SENSOR_TYPES + (SLOT_ANY,):
-                raise LibraryError(path, f"slots.{p}.{kind}", f"unknown kind; expected {', '.join(SENSOR_TYPES + (SLOT_ANY,))}")
+                raise LibraryError(
+                    path, f"slots.{p}.{kind}", f"unknown kind; expected {', '.join(SENSOR_TYPES + (SLOT_ANY,))}"
+                )
             if isinstance(cap, bool) or not isinstance(cap, int) or cap < 0:
                 raise LibraryError(path, f"slots.{p}.{kind}", f"expected a whole number of sensors >= 0, got {cap!r}")
             kinds[kind] = cap
@@ -392,10 +424,15 @@ def _parse_slots(raw: Any, path: Path, sensors: list[PlacedSensor], clocks: list
     slots = []
     places = ["roof"] + [str(c) for c in clocks]
     for p in places:
-        kinds = dict(per_place.get("roof", {})) if p == "roof" else {**per_place.get("clock", {}), **per_place.get(p, {})}
+        kinds = (
+            dict(per_place.get("roof", {})) if p == "roof" else {**per_place.get("clock", {}), **per_place.get(p, {})}
+        )
         for kind, cap in kinds.items():
-            members = tuple(i for i, s in enumerate(sensors)
-                            if (s.clock is None if p == "roof" else s.clock == int(p)) and kind in (SLOT_ANY, s.model.type))
+            members = tuple(
+                i
+                for i, s in enumerate(sensors)
+                if (s.clock is None if p == "roof" else s.clock == int(p)) and kind in (SLOT_ANY, s.model.type)
+            )
             if members:
                 slots.append(Slot(p, kind, cap, members))
     return tuple(slots)
@@ -415,7 +452,9 @@ def parse_library(data: Any, path: str | Path = "<memory>") -> SensorLibrary:
     """
     path = Path(path)
     if not isinstance(data, dict):
-        raise LibraryError(path, "", f"expected a mapping with keys 'clock_positions' and 'models', got {type(data).__name__}")
+        raise LibraryError(
+            path, "", f"expected a mapping with keys 'clock_positions' and 'models', got {type(data).__name__}"
+        )
     if "extends" in data:
         raise LibraryError(path, "extends", "only a library file can extend another (load it with load_library)")
     for k in data:
@@ -423,7 +462,9 @@ def parse_library(data: Any, path: str | Path = "<memory>") -> SensorLibrary:
             raise LibraryError(path, str(k), f"unknown top-level key; allowed: {', '.join(_TOP_KEYS)}")
     clocks = data.get("clock_positions", list(range(1, 13)))
     if not isinstance(clocks, list) or not clocks:
-        raise LibraryError(path, "clock_positions", f"expected a non-empty list of clock positions 1..12, got {clocks!r}")
+        raise LibraryError(
+            path, "clock_positions", f"expected a non-empty list of clock positions 1..12, got {clocks!r}"
+        )
     for j, c in enumerate(clocks):
         if isinstance(c, bool) or not isinstance(c, int) or not 1 <= c <= 12:
             raise LibraryError(path, f"clock_positions[{j}]", f"expected an integer 1..12, got {c!r}")
@@ -459,7 +500,8 @@ def parse_library(data: Any, path: str | Path = "<memory>") -> SensorLibrary:
             if v in first:
                 o = first[v]
                 raise LibraryError(
-                    path, f"models[{owner[id(s.model)]}].{attr}",
+                    path,
+                    f"models[{owner[id(s.model)]}].{attr}",
                     f"placed sensor {s.id} (index {s.index}) collides with {o.id} (index {o.index}) "
                     f"of models[{owner[id(o.model)]}]",
                 )

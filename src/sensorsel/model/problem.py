@@ -9,10 +9,10 @@ import hashlib
 import json
 import math
 import warnings
+from collections.abc import Iterable
 from dataclasses import asdict, dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
-from typing import Iterable
 
 import numpy as np
 
@@ -20,10 +20,17 @@ from sensorsel.errors import InputError, ResultFileError, SensorselWarning
 from sensorsel.model.conditions import Condition, condition_digest
 from sensorsel.model.domain import load_domain_file, load_domain_scenarios
 from sensorsel.model.library import SensorLibrary, load_library
-from sensorsel.model.osm.track import load_geo_scenario  # load_scenario, and GPX routes and OSM landmarks (--landmarks osm:FILE)
+from sensorsel.model.osm.track import (
+    load_geo_scenario,
+)  # load_scenario, and GPX routes and OSM landmarks (--landmarks osm:FILE)
 from sensorsel.model.scenario import Scenario, ScenarioSpec, distance_to_route
-from sensorsel.model.sensing import (BYTES_PER_MEASUREMENT, SensorObservations, apply_condition, estimate_measurements,
-                                     observe)
+from sensorsel.model.sensing import (
+    BYTES_PER_MEASUREMENT,
+    SensorObservations,
+    apply_condition,
+    estimate_measurements,
+    observe,
+)
 
 # Limits and checks (docs/scenarios.md, "Limits and checks"):
 MAX_MEASUREMENT_BYTES = 2 * 2**30  # most memory the measurements of a problem may take (estimated before observing)
@@ -97,8 +104,9 @@ class Fingerprint:
     )
 
     @classmethod
-    def of(cls, library: SensorLibrary, scenario: Scenario, settings: GraphSettings,
-           condition: Condition | None) -> "Fingerprint":
+    def of(
+        cls, library: SensorLibrary, scenario: Scenario, settings: GraphSettings, condition: Condition | None
+    ) -> Fingerprint:
         """The fingerprint of a problem's parts. ``condition`` has no default: a result computed under
         a condition must never be fingerprinted as a clear one (None: clear)."""
         sensors = []
@@ -106,13 +114,19 @@ class Fingerprint:
             # resources (power, mass, data rate) do not change a score: a constrained result records
             # the limits and resource values it used itself (sensorsel.model.constraints)
             model = {k: v for k, v in asdict(s.model).items() if k not in ("name", "resources")}
-            sensors.append({"id": s.id, "index": s.index, "clock": s.clock, "mount_angle_rad": s.mount_angle_rad, "model": model})
+            sensors.append(
+                {"id": s.id, "index": s.index, "clock": s.clock, "mount_angle_rad": s.mount_angle_rad, "model": model}
+            )
         kf = scenario.keyframes
-        return cls(library=_json_digest(sensors), route=_array_digest(kf.poses, kf.times),
-                   landmarks=_array_digest(scenario.landmarks), settings=_json_digest(asdict(settings)),
-                   condition=condition_digest(condition, library.physics))
+        return cls(
+            library=_json_digest(sensors),
+            route=_array_digest(kf.poses, kf.times),
+            landmarks=_array_digest(scenario.landmarks),
+            settings=_json_digest(asdict(settings)),
+            condition=condition_digest(condition, library.physics),
+        )
 
-    def differences(self, other: "Fingerprint", ignore: tuple[str, ...] = ()) -> list[str]:
+    def differences(self, other: Fingerprint, ignore: tuple[str, ...] = ()) -> list[str]:
         """What differs between two fingerprints, in words (empty when they are equal), but the parts in ``ignore``."""
         return [what for name, what in self.PARTS if name not in ignore and getattr(self, name) != getattr(other, name)]
 
@@ -189,15 +203,17 @@ class Problem:
     def __repr__(self) -> str:
         sc = self.scenario
         when = f", {self.condition.label}" if self.condition is not None else ""
-        return (f"Problem({sc.name!r}{when}: {sc.n_poses} keyframes, {sc.n_landmarks} landmarks, "
-                f"{self.n_sensors} sensors, {sum(len(o) for o in self.observations)} measurements)")
+        return (
+            f"Problem({sc.name!r}{when}: {sc.n_poses} keyframes, {sc.n_landmarks} landmarks, "
+            f"{self.n_sensors} sensors, {sum(len(o) for o in self.observations)} measurements)"
+        )
 
     @property
     def n_sensors(self) -> int:
         return len(self.library)
 
     @property
-    def routes(self) -> "tuple[DomainRoute, ...]":
+    def routes(self) -> tuple[DomainRoute, ...]:
         """This route as an operating domain's members: one, named by its scenario, weight 1 (so
         that a run reads ``target.routes`` alike on a route and on a :class:`Domain`)."""
         return (DomainRoute(self.scenario.name, self, 1.0),)
@@ -250,11 +266,13 @@ class Problem:
         notes = list(self.scenario.notes)
         out, m = self.n_landmarks_out_of_reach, self.scenario.n_landmarks
         if out and self.observations and out <= MOSTLY_OUT_OF_REACH * m:  # more: a warning (check_reach)
-            notes.append(f"landmarks: {out} of {m} landmarks ({self.scenario.landmark_source}) are out of every sensor's reach "
-                         f"from every keyframe: they add nothing to any suite")
+            notes.append(
+                f"landmarks: {out} of {m} landmarks ({self.scenario.landmark_source}) are out of every sensor's reach "
+                f"from every keyframe: they add nothing to any suite"
+            )
         return notes
 
-    def resolve_suite(self, suite: "str | Iterable[str | int]") -> tuple[int, ...]:
+    def resolve_suite(self, suite: str | Iterable[str | int]) -> tuple[int, ...]:
         """Sorted library positions of a suite given as ids or positions (:meth:`SensorLibrary.resolve_suite`)."""
         return self.library.resolve_suite(suite)
 
@@ -263,8 +281,15 @@ class ProblemMismatchWarning(SensorselWarning):
     """A result of another problem (or without a fingerprint) used anyway, because of ``force``."""
 
 
-def check_result_problem(recorded: "TargetInfo | None", problem: "Target", path: str | Path, *, force: bool = False,
-                         what: str = "the result", ignore: tuple[str, ...] = ()) -> None:
+def check_result_problem(
+    recorded: TargetInfo | None,
+    problem: Target,
+    path: str | Path,
+    *,
+    force: bool = False,
+    what: str = "the result",
+    ignore: tuple[str, ...] = (),
+) -> None:
     """Check that a result read from ``path`` was computed on ``problem``: the same library (sensor
     models and costs), route and keyframe rate, landmarks and graph settings, by content (see
     :class:`Fingerprint`; the paths and names the files had do not matter). For a domain: the same
@@ -281,8 +306,10 @@ def check_result_problem(recorded: "TargetInfo | None", problem: "Target", path:
             file of an older sensorsel), or was computed on another problem; the message names the
             file and what differs.
     """
-    hint = ("give the same library, route, rate, landmark, noise and --condition options (or --domain file) as the run "
-            "that wrote it, or --force to use it anyway")
+    hint = (
+        "give the same library, route, rate, landmark, noise and --condition options (or --domain file) as the run "
+        "that wrote it, or --force to use it anyway"
+    )
     if isinstance(problem, Domain) or isinstance(recorded, DomainInfo):
         if not (isinstance(problem, Domain) and isinstance(recorded, DomainInfo)):
             one, other = ("one route", "this domain") if isinstance(problem, Domain) else ("a domain", "this route")
@@ -292,17 +319,27 @@ def check_result_problem(recorded: "TargetInfo | None", problem: "Target", path:
         theirs = [(r.name, r.weight, r.unit) for r in recorded.routes]
         ours = [(r.name, r.weight, r.unit) for r in here.routes]
         if theirs != ours:
-            _refuse(path, f"{what} was computed on another domain (routes and weights {theirs} against {ours})", hint, force)
+            _refuse(
+                path, f"{what} was computed on another domain (routes and weights {theirs} against {ours})", hint, force
+            )
             return
         for r_theirs, r_ours in zip(recorded.routes, problem.routes):
-            check_result_problem(r_theirs.problem, r_ours.problem, path, force=force, what=f"{what} (route {r_ours.name})",
-                                 ignore=ignore)
+            check_result_problem(
+                r_theirs.problem, r_ours.problem, path, force=force, what=f"{what} (route {r_ours.name})", ignore=ignore
+            )
         return
     if recorded is None or recorded.fingerprint is None:
-        why = ("records no problem it was computed on" if recorded is None else
-               "records no fingerprint of what it was computed on (written before fingerprints)")
-        _refuse(path, f"{what} {why}, so it cannot be checked against this library, route and landmarks",
-                "rerun the command that wrote it, or give --force to use it anyway", force)
+        why = (
+            "records no problem it was computed on"
+            if recorded is None
+            else "records no fingerprint of what it was computed on (written before fingerprints)"
+        )
+        _refuse(
+            path,
+            f"{what} {why}, so it cannot be checked against this library, route and landmarks",
+            "rerun the command that wrote it, or give --force to use it anyway",
+            force,
+        )
         return
     diffs = recorded.fingerprint.differences(problem.fingerprint, ignore)
     if diffs:
@@ -316,8 +353,14 @@ def _refuse(path: str | Path, msg: str, hint: str, force: bool) -> None:
         raise ResultFileError(path, f"{msg}; {hint}")
 
 
-def build_problem(library: SensorLibrary, scenario: Scenario, settings: GraphSettings | None = None, *,
-                  spec: ScenarioSpec | None = None, condition: Condition | None = None) -> Problem:
+def build_problem(
+    library: SensorLibrary,
+    scenario: Scenario,
+    settings: GraphSettings | None = None,
+    *,
+    spec: ScenarioSpec | None = None,
+    condition: Condition | None = None,
+) -> Problem:
     """Compute what every sensor of ``library`` sees along ``scenario`` and bundle it.
 
     ``spec``: what the scenario was loaded from, recorded as the problem's provenance.
@@ -352,11 +395,19 @@ def with_condition(problem: Problem, condition: Condition | None) -> Problem:
     if condition is None or condition.neutral:
         return problem
     if problem.condition is not None:
-        raise InputError(f"problem {problem.scenario.name} is already under the condition {problem.condition.label}; "
-                         "apply a condition to the clear problem")
+        raise InputError(
+            f"problem {problem.scenario.name} is already under the condition {problem.condition.label}; "
+            "apply a condition to the clear problem"
+        )
     spec = replace(problem.spec, condition=condition) if problem.spec is not None else None
-    return Problem(problem.library, problem.scenario, problem.settings,
-                   apply_condition(problem.library, problem.observations, condition), spec, condition)
+    return Problem(
+        problem.library,
+        problem.scenario,
+        problem.settings,
+        apply_condition(problem.library, problem.observations, condition),
+        spec,
+        condition,
+    )
 
 
 def check_problem_size(library: SensorLibrary, scenario: Scenario, limit_bytes: int | None = None) -> int:
@@ -374,7 +425,8 @@ def check_problem_size(library: SensorLibrary, scenario: Scenario, limit_bytes: 
             f"({scenario.landmark_source}) give about {n:,} measurements for the {len(library)} sensors, "
             f"{need / 2**30:.1f} GiB, beyond the limit of {limit_bytes / 2**30:g} GiB: use a lower keyframe "
             "rate (--rate) "
-            "or fewer landmarks")
+            "or fewer landmarks"
+        )
     return need
 
 
@@ -388,10 +440,14 @@ def check_reach(problem: Problem) -> None:
     out, m = problem.n_landmarks_out_of_reach, sc.n_landmarks
     if m and problem.n_sensors and len(problem.landmarks_in_reach) and out > MOSTLY_OUT_OF_REACH * m:
         route = sc.route or sc.keyframes
-        warnings.warn(f"landmarks {sc.landmark_source}: {out} of {m} landmarks ({100 * out / m:.0f} %) are out of every "
-                      f"sensor's reach from every keyframe of the route {route.source}: is this the route's map (not another "
-                      "city's, frame or origin)? Only the other "
-                      f"{m - out} count", MapOutOfReachWarning, stacklevel=3)
+        warnings.warn(
+            f"landmarks {sc.landmark_source}: {out} of {m} landmarks ({100 * out / m:.0f} %) are out of every "
+            f"sensor's reach from every keyframe of the route {route.source}: is this the route's map (not another "
+            "city's, frame or origin)? Only the other "
+            f"{m - out} count",
+            MapOutOfReachWarning,
+            stacklevel=3,
+        )
     if sc.n_landmarks and problem.n_sensors and not len(problem.landmarks_in_reach):
         route = sc.route or sc.keyframes
         nearest = float(distance_to_route(sc.landmarks, route.poses[:, :2]).min())
@@ -400,11 +456,13 @@ def check_reach(problem: Problem) -> None:
             f"landmarks {sc.landmark_source}: none of the {sc.n_landmarks} landmarks is within reach of any sensor "
             f"from any keyframe of the route {route.source} (nearest {nearest:,.0f} m from the route, longest "
             "sensor range "
-            f"{longest:g} m): is the map in the route's frame? Every suite would score 0")
+            f"{longest:g} m): is the map in the route's frame? Every suite would score 0"
+        )
 
 
-def load_problem(spec: ScenarioSpec | None = None, library: str | Path | None = None,
-                 settings: GraphSettings | None = None) -> Problem:
+def load_problem(
+    spec: ScenarioSpec | None = None, library: str | Path | None = None, settings: GraphSettings | None = None
+) -> Problem:
     """Read the library (default: Table I) and the scenario (default: the bundled fixture), and
     compute what each sensor sees. The problem remembers ``spec``: results computed on it record it.
 
@@ -497,8 +555,10 @@ class Domain:
         first = self.routes[0].problem.library
         for r in self.routes[1:]:
             if r.problem.library.sensors != first.sensors:
-                raise InputError(f"domain {self.source}: route {r.name!r} uses another sensor library than route "
-                                 f"{self.routes[0].name!r}; one suite needs one library")
+                raise InputError(
+                    f"domain {self.source}: route {r.name!r} uses another sensor library than route "
+                    f"{self.routes[0].name!r}; one suite needs one library"
+                )
 
     def __repr__(self) -> str:
         return f"Domain({len(self.routes)} routes from {self.source!r}: {', '.join(r.name for r in self.routes)})"
@@ -513,15 +573,17 @@ class Domain:
 
     @property
     def info(self) -> DomainInfo:
-        return DomainInfo(self.source, tuple(RouteInfo(r.name, r.weight, r.unit, r.problem.info, r.route, r.condition)
-                                             for r in self.routes))
+        return DomainInfo(
+            self.source,
+            tuple(RouteInfo(r.name, r.weight, r.unit, r.problem.info, r.route, r.condition) for r in self.routes),
+        )
 
     @property
     def condition_names(self) -> tuple[str, ...]:
         """The conditions of the domain's members, in first-seen order (empty without conditions)."""
         return tuple(dict.fromkeys(r.condition for r in self.routes if r.condition))
 
-    def in_conditions(self, names: "str | Iterable[str]") -> "Domain":
+    def in_conditions(self, names: str | Iterable[str]) -> Domain:
         """The domain of the members in the named conditions only (``"clear,rain"`` or a list), their
         weights unchanged (a share of the whole driving).
 
@@ -535,11 +597,13 @@ class Domain:
             raise InputError(f"domain {self.source}: no condition named (its conditions: {', '.join(known) or 'none'})")
         for name in wanted:
             if name not in known:
-                raise InputError(f"domain {self.source}: unknown condition {name!r} (its conditions: "
-                                 f"{', '.join(known) or 'none: the file has no conditions section'})")
+                raise InputError(
+                    f"domain {self.source}: unknown condition {name!r} (its conditions: "
+                    f"{', '.join(known) or 'none: the file has no conditions section'})"
+                )
         return Domain(tuple(r for r in self.routes if r.condition in wanted), f"{self.source} [{','.join(wanted)}]")
 
-    def resolve_suite(self, suite: "str | Iterable[str | int]") -> tuple[int, ...]:
+    def resolve_suite(self, suite: str | Iterable[str | int]) -> tuple[int, ...]:
         """Sorted library positions of a suite given as ids or positions."""
         return self.library.resolve_suite(suite)
 
@@ -547,7 +611,9 @@ class Domain:
         for r in self.routes:
             if r.name == name:
                 return r
-        raise InputError(f"domain {self.source}: no route named {name!r} (routes: {', '.join(r.name for r in self.routes)})")
+        raise InputError(
+            f"domain {self.source}: no route named {name!r} (routes: {', '.join(r.name for r in self.routes)})"
+        )
 
 
 def load_domain(path: str | Path, library: str | Path | None = None, settings: GraphSettings | None = None) -> Domain:
@@ -564,8 +630,16 @@ def load_domain(path: str | Path, library: str | Path | None = None, settings: G
             continue
         # each (route, condition) member derived from the route's clear measurements, observed once
         for condition, share in d.conditions:
-            routes.append(DomainRoute(f"{d.name}/{condition.name}", with_condition(problem, condition), d.weight * share,
-                                      d.unit, d.name, condition.name))
+            routes.append(
+                DomainRoute(
+                    f"{d.name}/{condition.name}",
+                    with_condition(problem, condition),
+                    d.weight * share,
+                    d.unit,
+                    d.name,
+                    condition.name,
+                )
+            )
     return Domain(tuple(routes), spec.source)
 
 

@@ -12,8 +12,7 @@ from dataclasses import dataclass
 from sensorsel.model.conditions import Condition
 from sensorsel.model.library import SensorLibrary
 from sensorsel.model.osm.track import load_geo_scenario
-from sensorsel.model.problem import (Domain, DomainRoute, GraphSettings, Problem, Target, build_problem,
-                                     check_reach)
+from sensorsel.model.problem import Domain, DomainRoute, GraphSettings, Problem, Target, build_problem, check_reach
 from sensorsel.model.scenario import Scenario, ScenarioSpec
 
 
@@ -34,7 +33,7 @@ class RouteRecipe:
     condition: Condition | None = None
 
     @classmethod
-    def of(cls, name: str, problem: Problem) -> "RouteRecipe":
+    def of(cls, name: str, problem: Problem) -> RouteRecipe:
         own = None if problem.spec is not None else problem.scenario
         return cls(name, problem.library, problem.settings, problem.spec, own, problem.condition)
 
@@ -60,19 +59,28 @@ class TargetRecipe:
     members: tuple[tuple[str, str], ...] = ()  # each member's (route, condition) names, as DomainRoute has them
 
     @classmethod
-    def of(cls, target: Target) -> "TargetRecipe":
+    def of(cls, target: Target) -> TargetRecipe:
         if isinstance(target, Domain):
-            return cls(tuple(RouteRecipe.of(r.name, r.problem) for r in target.routes),
-                       tuple(r.weight for r in target.routes), tuple(r.unit for r in target.routes), target.source,
-                       tuple((r.route, r.condition) for r in target.routes))
+            return cls(
+                tuple(RouteRecipe.of(r.name, r.problem) for r in target.routes),
+                tuple(r.weight for r in target.routes),
+                tuple(r.unit for r in target.routes),
+                target.source,
+                tuple((r.route, r.condition) for r in target.routes),
+            )
         return cls((RouteRecipe.of("", target),), None)
 
     def build(self) -> Target:
         if self.weights is None:
             return self.routes[0].build()
         names = self.members or (("", ""),) * len(self.routes)
-        return Domain(tuple(DomainRoute(r.name, r.build(), w, u, *n) for r, w, u, n in zip(self.routes, self.weights, self.units,
-                                                                                       names)), self.source)
+        return Domain(
+            tuple(
+                DomainRoute(r.name, r.build(), w, u, *n)
+                for r, w, u, n in zip(self.routes, self.weights, self.units, names)
+            ),
+            self.source,
+        )
 
 
 @dataclass(frozen=True)
@@ -85,6 +93,6 @@ class EvaluatorRecipe:
     jobs: int = 1
     aggregate: str = "normalised"
 
-    def build(self) -> tuple[Target, "EvaluatorRecipe"]:
+    def build(self) -> tuple[Target, EvaluatorRecipe]:
         """The target, built where the rules run, once for all of them (each rule's evaluator is its own)."""
         return self.target.build(), self

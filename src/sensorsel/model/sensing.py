@@ -173,8 +173,9 @@ def condition_effects(library: SensorLibrary, condition: Condition | None) -> tu
     return tuple(sensor_effect(s.model.type, float(s.model.range_m), condition, library.physics) for s in library)
 
 
-def apply_condition(library: SensorLibrary, observations: tuple[SensorObservations, ...],
-                    condition: Condition | None) -> tuple[SensorObservations, ...]:
+def apply_condition(
+    library: SensorLibrary, observations: tuple[SensorObservations, ...], condition: Condition | None
+) -> tuple[SensorObservations, ...]:
     """The measurements under ``condition``, derived from the clear ones (``observations``, what
     :func:`observe` returns for ``library``) without observing again: each sensor keeps the
     measurements within its range under the condition, in the same order, with its noise std
@@ -191,9 +192,15 @@ def apply_condition(library: SensorLibrary, observations: tuple[SensorObservatio
             out.append(o)
             continue
         keep = o.range_m <= e.range_m
-        out.append(SensorObservations(
-            sensor=o.sensor, pose=o.pose[keep], landmark=o.landmark[keep], bearing_rad=o.bearing_rad[keep],
-            range_m=o.range_m[keep], sigma_bearing_rad=o.sigma_bearing_rad[keep] * e.bearing_factor,
-            sigma_range_m=o.sigma_range_m[keep] * e.range_factor,
-        ))
+        out.append(
+            SensorObservations(
+                sensor=o.sensor,
+                pose=o.pose[keep],
+                landmark=o.landmark[keep],
+                bearing_rad=o.bearing_rad[keep],
+                range_m=o.range_m[keep],
+                sigma_bearing_rad=o.sigma_bearing_rad[keep] * e.bearing_factor,
+                sigma_range_m=o.sigma_range_m[keep] * e.range_factor,
+            )
+        )
     return tuple(out)

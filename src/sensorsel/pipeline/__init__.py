@@ -17,5 +17,16 @@ from sensorsel.pipeline.plan import Plan
 from sensorsel.pipeline.run import execute
 from sensorsel.pipeline.store import FileStore, NoStore, Store, digest
 
-__all__ = ["ClusterError", "DaskExecutor", "Executor", "FileStore", "InProcess", "NoStore", "Plan", "Store", "digest",
-           "execute", "import_distributed"]
+__all__ = [
+    "ClusterError",
+    "DaskExecutor",
+    "Executor",
+    "FileStore",
+    "InProcess",
+    "NoStore",
+    "Plan",
+    "Store",
+    "digest",
+    "execute",
+    "import_distributed",
+]

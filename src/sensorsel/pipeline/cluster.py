@@ -15,7 +15,8 @@ without one never imports it.
 from __future__ import annotations
 
 import sys
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 from sensorsel.pipeline import ClusterError, DaskExecutor, import_distributed
 
@@ -39,8 +40,14 @@ class DaskCluster:
         ClusterError: the extra is missing, both or neither of scheduler / workers, or no answer.
     """
 
-    def __init__(self, scheduler: str | None = None, workers: int | None = None, *,
-                 connect_timeout_s: float = DEFAULT_CONNECT_TIMEOUT_S, echo: Callable[[str], None] | None = None) -> None:
+    def __init__(
+        self,
+        scheduler: str | None = None,
+        workers: int | None = None,
+        *,
+        connect_timeout_s: float = DEFAULT_CONNECT_TIMEOUT_S,
+        echo: Callable[[str], None] | None = None,
+    ) -> None:
         if (scheduler is None) == (workers is None):
             raise ClusterError("give a scheduler address or a number of workers (one of them)")
         if workers is not None and workers < 1:
@@ -50,40 +57,58 @@ class DaskCluster:
         self.client: Any = None
         self._local: Any = None
 
-    def __enter__(self) -> "DaskCluster":
+    def __enter__(self) -> DaskCluster:
         distributed = import_distributed()
         if self.scheduler is not None:
             try:
-                self.client = distributed.Client(self.scheduler, timeout=self.connect_timeout_s)  # actors find their client as the default one
+                self.client = distributed.Client(
+                    self.scheduler, timeout=self.connect_timeout_s
+                )  # actors find their client as the default one
             except (OSError, TimeoutError, ValueError) as exc:
-                raise ClusterError(f"no Dask scheduler answered at {self.scheduler} within {self.connect_timeout_s:g} s "
-                                   f"({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''})") from None
+                raise ClusterError(
+                    f"no Dask scheduler answered at {self.scheduler} within {self.connect_timeout_s:g} s "
+                    f"({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''})"
+                ) from None
             try:
                 self.client.wait_for_workers(1, timeout=self.connect_timeout_s)
             except (OSError, TimeoutError) as exc:
                 self.close()
-                raise ClusterError(f"the Dask scheduler at {self.scheduler} has no worker after {self.connect_timeout_s:g} s "
-                                   f"({type(exc).__name__})") from None
+                raise ClusterError(
+                    f"the Dask scheduler at {self.scheduler} has no worker after {self.connect_timeout_s:g} s "
+                    f"({type(exc).__name__})"
+                ) from None
             self.echo(f"sensorsel: dask scheduler {self.scheduler}: {len(self.client.nthreads())} workers")
             return self
         import importlib.util
         import logging
 
-        dashboard = "127.0.0.1:0" if importlib.util.find_spec("bokeh") is not None else None  # the dashboard needs bokeh
-        self._local = distributed.LocalCluster(n_workers=self.workers, threads_per_worker=1, processes=True,
-                                               host="127.0.0.1", scheduler_port=0, dashboard_address=dashboard,
-                                               silence_logs=logging.ERROR,
-                                               worker_dashboard_address=None)
+        dashboard = (
+            "127.0.0.1:0" if importlib.util.find_spec("bokeh") is not None else None
+        )  # the dashboard needs bokeh
+        self._local = distributed.LocalCluster(
+            n_workers=self.workers,
+            threads_per_worker=1,
+            processes=True,
+            host="127.0.0.1",
+            scheduler_port=0,
+            dashboard_address=dashboard,
+            silence_logs=logging.ERROR,
+            worker_dashboard_address=None,
+        )
         self.client = distributed.Client(self._local)  # actors find their client as the default one
         try:  # every worker registered before the first placement (the cluster starts them, they report later)
             self.client.wait_for_workers(self.workers, timeout=self.connect_timeout_s)
         except (OSError, TimeoutError) as exc:
             self.close()
-            raise ClusterError(f"the local Dask cluster started fewer than {self.workers} workers within "
-                               f"{self.connect_timeout_s:g} s ({type(exc).__name__})") from None
+            raise ClusterError(
+                f"the local Dask cluster started fewer than {self.workers} workers within "
+                f"{self.connect_timeout_s:g} s ({type(exc).__name__})"
+            ) from None
         where = self.client.dashboard_link if dashboard else "none (install bokeh for one)"
-        self.echo(f"sensorsel: dask LocalCluster of {self.workers} worker processes at {self._local.scheduler_address}; "
-                  f"dashboard {where}")
+        self.echo(
+            f"sensorsel: dask LocalCluster of {self.workers} worker processes at {self._local.scheduler_address}; "
+            f"dashboard {where}"
+        )
         return self
 
     def __exit__(self, *exc: Any) -> None:

@@ -3,7 +3,8 @@
 
 from __future__ import annotations
 
-from typing import Any, Callable, Protocol, Sequence
+from collections.abc import Callable, Sequence
+from typing import Any, Protocol
 
 from sensorsel.errors import SensorselError
 from sensorsel.pipeline.plan import Plan
@@ -24,8 +25,10 @@ def import_distributed() -> Any:
     try:
         import distributed
     except ImportError as exc:
-        raise ClusterError(f"--scheduler/--workers need Dask's distributed scheduler, which is not installed "
-                           f"({exc}); install the extra: {EXTRA_HINT}") from None
+        raise ClusterError(
+            f"--scheduler/--workers need Dask's distributed scheduler, which is not installed "
+            f"({exc}); install the extra: {EXTRA_HINT}"
+        ) from None
     return distributed
 
 
@@ -79,8 +82,10 @@ class DaskExecutor:
                 # call on the same state scatters to the same key while the first call's release of it
                 # may still be on its way to the scheduler, which then deletes it ("lost dependencies").
                 states[k] = client.scatter(plan.states[k], broadcast=True, hash=False)
-        futs = {client.submit(plan.step, states[plan.state_index(i)], plan.tasks[i], pure=False, retries=self.retries): i
-                for i in todo}
+        futs = {
+            client.submit(plan.step, states[plan.state_index(i)], plan.tasks[i], pure=False, retries=self.retries): i
+            for i in todo
+        }
         try:
             for fut in distributed.as_completed(list(futs)):
                 done(futs[fut], result_of(fut, f"{plan.name} {futs[fut]}"))

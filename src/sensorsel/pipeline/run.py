@@ -2,16 +2,20 @@
 
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 from sensorsel.pipeline.executors import Executor, InProcess
 from sensorsel.pipeline.plan import Plan, R
 from sensorsel.pipeline.store import NoStore, Store
 
 
-def execute(plan: Plan[R], executor: Executor | None = None, store: Store[R] | None = None,
-            progress: Callable[[int, int], None] | None = None,
-            on_result: Callable[[int, R, bool], None] | None = None) -> list[R]:
+def execute(
+    plan: Plan[R],
+    executor: Executor | None = None,
+    store: Store[R] | None = None,
+    progress: Callable[[int, int], None] | None = None,
+    on_result: Callable[[int, R, bool], None] | None = None,
+) -> list[R]:
     """Every task's result, in task order: read back from ``store`` where it holds a matching one,
     else run by ``executor`` (default: in this process) and put in ``store`` as it arrives.
 

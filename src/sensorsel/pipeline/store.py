@@ -22,8 +22,9 @@ from __future__ import annotations
 import hashlib
 import json
 import warnings
+from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any, Callable, Generic, Protocol, Sequence, TypeVar
+from typing import Any, Generic, Protocol, TypeVar
 
 from sensorsel.errors import ResultFileError, SensorselWarning
 from sensorsel.io import results
@@ -78,9 +79,18 @@ class FileStore(Generic[R, F]):
     inputs) is never trusted: a :class:`CacheWarning` names it, the task runs and its file is overwritten.
     """
 
-    def __init__(self, paths: Sequence[Path], fingerprints: Sequence[str], record: type[F],
-                 wrap: Callable[[int, R], F], unwrap: Callable[[F], R], *, resume: bool,
-                 differences: Callable[[int, Any], list[str]] | None = None, what: str = "other inputs") -> None:
+    def __init__(
+        self,
+        paths: Sequence[Path],
+        fingerprints: Sequence[str],
+        record: type[F],
+        wrap: Callable[[int, R], F],
+        unwrap: Callable[[F], R],
+        *,
+        resume: bool,
+        differences: Callable[[int, Any], list[str]] | None = None,
+        what: str = "other inputs",
+    ) -> None:
         if len(paths) != len(fingerprints):
             raise ValueError("one fingerprint per file")
         self.paths, self.fingerprints = [Path(p) for p in paths], list(fingerprints)
@@ -91,16 +101,26 @@ class FileStore(Generic[R, F]):
         if not self.resume:
             return None
         diff = self.differences
-        rec = load_matching(self.record, self.paths[i], self.fingerprints[i],
-                            None if diff is None else (lambda old: diff(i, old)), self.what)
+        rec = load_matching(
+            self.record,
+            self.paths[i],
+            self.fingerprints[i],
+            None if diff is None else (lambda old: diff(i, old)),
+            self.what,
+        )
         return None if rec is None else self.unwrap(rec)
 
     def put(self, i: int, result: R) -> None:
         results.save(self.wrap(i, result), self.paths[i])
 
 
-def load_matching(cls: type[F], path: Path, fingerprint: str, differences: Callable[[Any], list[str]] | None = None,
-                  what: str = "other inputs") -> F | None:
+def load_matching(
+    cls: type[F],
+    path: Path,
+    fingerprint: str,
+    differences: Callable[[Any], list[str]] | None = None,
+    what: str = "other inputs",
+) -> F | None:
     """The record stored at ``path`` if it is a ``cls`` with this fingerprint, else None.
 
     None without a word when there is no file; with a :class:`CacheWarning` naming the file when one
@@ -113,16 +133,26 @@ def load_matching(cls: type[F], path: Path, fingerprint: str, differences: Calla
         old = results.load(path, cls)
     except ResultFileError as exc:
         reason = str(exc).removeprefix(f"{exc.path}: ")
-        warnings.warn(f"{path}: not reused, it cannot be read as a {cls.__name__} ({reason}); recomputing and overwriting it",
-                      CacheWarning, stacklevel=3)
+        warnings.warn(
+            f"{path}: not reused, it cannot be read as a {cls.__name__} ({reason}); recomputing and overwriting it",
+            CacheWarning,
+            stacklevel=3,
+        )
         return None
     if getattr(old, "fingerprint", None) != fingerprint:
         diffs = differences(old) if differences is not None else []
         if diffs:
-            warnings.warn(f"{path}: not reused, it was computed from other inputs ({'; '.join(diffs)}); "
-                          "recomputing and overwriting it", CacheWarning, stacklevel=3)
+            warnings.warn(
+                f"{path}: not reused, it was computed from other inputs ({'; '.join(diffs)}); "
+                "recomputing and overwriting it",
+                CacheWarning,
+                stacklevel=3,
+            )
         else:
-            warnings.warn(f"{path}: not reused, it was computed from {what}; recomputing and overwriting it",
-                          CacheWarning, stacklevel=3)
+            warnings.warn(
+                f"{path}: not reused, it was computed from {what}; recomputing and overwriting it",
+                CacheWarning,
+                stacklevel=3,
+            )
         return None
     return old

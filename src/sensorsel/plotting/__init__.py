@@ -16,14 +16,30 @@ backend). Programs that only write files, like the CLI, call :func:`use_file_bac
 
 from __future__ import annotations
 
+from sensorsel.plotting.accuracy import plot_accuracy_along_route, plot_front_accuracy, plot_route_margin
 from sensorsel.plotting.association import plot_association_calibration
-from sensorsel.plotting.accuracy import (plot_accuracy_along_route, plot_front_accuracy, plot_route_margin)
-from sensorsel.plotting.designs import (RULE_STYLES, plot_domain_breakdown, plot_selection_grid, plot_tradespace)
-from sensorsel.plotting.figures import (EXTRA_MODEL_COLOURS, FORMATS, MODEL_COLOURS, model_colours, new_axes,
-                                        route_distance_m, save_figure, short_source, use_file_backend)
-from sensorsel.plotting.scene import (ZOOM_BELOW, plot_domain_scene, plot_mounting, plot_scene)
-from sensorsel.plotting.simulation import (ERROR_CMAP, SOLVER_WORDS, plot_error_along_route, plot_simulation,
-                                           plot_simulation_comparison, plot_simulation_overview, typical_run)
+from sensorsel.plotting.designs import RULE_STYLES, plot_domain_breakdown, plot_selection_grid, plot_tradespace
+from sensorsel.plotting.figures import (
+    EXTRA_MODEL_COLOURS,
+    FORMATS,
+    MODEL_COLOURS,
+    model_colours,
+    new_axes,
+    route_distance_m,
+    save_figure,
+    short_source,
+    use_file_backend,
+)
+from sensorsel.plotting.scene import ZOOM_BELOW, plot_domain_scene, plot_mounting, plot_scene
+from sensorsel.plotting.simulation import (
+    ERROR_CMAP,
+    SOLVER_WORDS,
+    plot_error_along_route,
+    plot_simulation,
+    plot_simulation_comparison,
+    plot_simulation_overview,
+    typical_run,
+)
 
 __all__ = [
     "plot_association_calibration",

@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Sequence
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 from matplotlib.axes import Axes
@@ -19,11 +20,10 @@ if TYPE_CHECKING:  # the result types only (their modules need no matplotlib; si
 # ------------------------------------------------------------------------------ accuracy in metres
 
 
-def plot_front_accuracy(acceptance: "FrontAcceptance", ax: Axes | None = None, *, log_cost: bool = True) -> Axes:
+def plot_front_accuracy(acceptance: FrontAcceptance, ax: Axes | None = None, *, log_cost: bool = True) -> Axes:
     """The Pareto front as cost [$] against the lateral 95 % error [m] (the worst route, at the
     specification's share of keyframes), each suite marked by whether it meets the specification,
     with the lateral requirement drawn as a line: which part of the front is acceptable."""
-    from sensorsel.designs.requirements.spec import Specification
 
     ax = ax if ax is not None else new_axes((7.5, 5.0))
     pts = acceptance.points
@@ -35,15 +35,23 @@ def plot_front_accuracy(acceptance: "FrontAcceptance", ax: Axes | None = None, *
         ax.scatter(cost[ok], lat[ok], color="tab:green", s=40, zorder=3, label="meets the specification")
         ax.scatter(cost[~ok], lat[~ok], color="tab:red", marker="x", s=40, zorder=3, label="does not meet it")
         specs: list[Specification] = [s for _, s in acceptance.specifications]
-        bounds = sorted({(s.lateral if not s.sigma else s.lateral * 1.959963984540054) for s in specs if s.lateral is not None})
+        bounds = sorted(
+            {(s.lateral if not s.sigma else s.lateral * 1.959963984540054) for s in specs if s.lateral is not None}
+        )
         for b in bounds:
             ax.axhline(b, color="tab:blue", ls="--", lw=1.2, zorder=2)
         if bounds:
             ax.plot([], [], color="tab:blue", ls="--", label=f"lateral requirement ({specs[0].name})")
         best = acceptance.cheapest_meeting
         if best is not None:
-            ax.annotate(f"cheapest meeting it: ${best.cost_usd:,.0f}", (best.cost_usd, best.lateral_95_m),
-                        xytext=(10, 15), textcoords="offset points", fontsize=8, arrowprops=dict(arrowstyle="->", lw=0.8))
+            ax.annotate(
+                f"cheapest meeting it: ${best.cost_usd:,.0f}",
+                (best.cost_usd, best.lateral_95_m),
+                xytext=(10, 15),
+                textcoords="offset points",
+                fontsize=8,
+                arrowprops=dict(arrowstyle="->", lw=0.8),
+            )
     else:
         ax.scatter(cost, lat, color="tab:blue", s=30, zorder=3, label="front suite")
     if log_cost:
@@ -62,9 +70,13 @@ def plot_front_accuracy(acceptance: "FrontAcceptance", ax: Axes | None = None, *
     return ax
 
 
-def plot_accuracy_along_route(accuracies: "Sequence[tuple[str, RouteAccuracy]]", scenario: Scenario,
-                              specification: "Specification | None" = None, ax: Axes | None = None,
-                              component: str = "lateral") -> Axes:
+def plot_accuracy_along_route(
+    accuracies: Sequence[tuple[str, RouteAccuracy]],
+    scenario: Scenario,
+    specification: Specification | None = None,
+    ax: Axes | None = None,
+    component: str = "lateral",
+) -> Axes:
     """A component's 95 % error (1.96σ, or 1σ if the specification is stated in σ) along the route
     [m or deg] against distance driven [m], one line per (label, accuracy), with the
     specification's bound drawn in."""
@@ -77,8 +89,13 @@ def plot_accuracy_along_route(accuracies: "Sequence[tuple[str, RouteAccuracy]]",
         ax.plot(dist, factor * acc.sigmas(component), color=colour, lw=1.5, label=label)
     unit = "deg" if component == "heading" else "m"
     if specification is not None and getattr(specification, component) is not None:
-        ax.axhline(getattr(specification, component), color="tab:red", ls="--", lw=1.2,
-                   label=f"requirement ({specification.name}): {getattr(specification, component):g} {unit}")
+        ax.axhline(
+            getattr(specification, component),
+            color="tab:red",
+            ls="--",
+            lw=1.2,
+            label=f"requirement ({specification.name}): {getattr(specification, component):g} {unit}",
+        )
     ax.set_xlabel("distance along the route [m]")
     ax.set_ylabel(f"{component} error, {'1σ' if factor == 1.0 else '95 %'} [{unit}]")
     ax.grid(True, alpha=0.3)
@@ -86,8 +103,9 @@ def plot_accuracy_along_route(accuracies: "Sequence[tuple[str, RouteAccuracy]]",
     return ax
 
 
-def plot_route_margin(accuracy: "RouteAccuracy", scenario: Scenario, specification: "Specification",
-                      ax: Axes | None = None) -> Axes:
+def plot_route_margin(
+    accuracy: RouteAccuracy, scenario: Scenario, specification: Specification, ax: Axes | None = None
+) -> Axes:
     """The route coloured by its margin at each keyframe: the largest, over the specification's
     components, of error / bound (below 1: met; above 1: missed), with the landmarks in grey."""
     from matplotlib.collections import LineCollection
@@ -108,8 +126,15 @@ def plot_route_margin(accuracy: "RouteAccuracy", scenario: Scenario, specificati
     ax.add_collection(lc)
     bad = ratio > 1.0
     if np.any(bad):
-        ax.scatter(xy[bad, 0], xy[bad, 1], s=18, facecolors="none", edgecolors="black", zorder=3,
-                   label=f"keyframes missing it ({int(bad.sum())})")
+        ax.scatter(
+            xy[bad, 0],
+            xy[bad, 1],
+            s=18,
+            facecolors="none",
+            edgecolors="black",
+            zorder=3,
+            label=f"keyframes missing it ({int(bad.sum())})",
+        )
     cb = ax.figure.colorbar(lc, ax=ax, shrink=0.8)
     cb.set_label("error / requirement (worst component; > 1 misses)")
     ax.set_aspect("equal", adjustable="datalim")

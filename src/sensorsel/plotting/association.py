@@ -16,7 +16,7 @@ if TYPE_CHECKING:
 FLOOR = 1e-7
 
 
-def plot_association_calibration(check: "AssociationCheck", ax: Axes | None = None) -> Axes:
+def plot_association_calibration(check: AssociationCheck, ax: Axes | None = None) -> Axes:
     """Predicted against observed P(at least one wrong association per keyframe), by bins of the
     predicted estimate (decades): each bin's mean estimate (x) against the rate observed over its
     keyframes (y) with its 99 % confidence interval, the mean bound (x) at the same observed rate,
@@ -36,8 +36,15 @@ def plot_association_calibration(check: "AssociationCheck", ax: Axes | None = No
         # the floor: a decade below the smallest positive value drawn (zeros are drawn there)
         lo_all = float(min(FLOOR, positive.min() / 10.0))
         y, lo, hi = (np.maximum(raw[:, c], lo_all) for c in range(3))
-        ax.errorbar(x, y, yerr=[y - np.minimum(lo, y), np.maximum(hi - y, 0.0)], fmt="o", color="C0", capsize=3,
-                    label="estimate vs observed (99% CI)")
+        ax.errorbar(
+            x,
+            y,
+            yerr=[y - np.minimum(lo, y), np.maximum(hi - y, 0.0)],
+            fmt="o",
+            color="C0",
+            capsize=3,
+            label="estimate vs observed (99% CI)",
+        )
         ax.plot(bnd, y, "v", color="C3", label="bound vs observed")
         for xi, yi, n in zip(x, y, (b.keyframes for b in bins)):
             ax.annotate(f"{n}", (xi, yi), textcoords="offset points", xytext=(5, 5), fontsize=7, color="0.3")

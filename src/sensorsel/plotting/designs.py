@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any, Sequence
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from matplotlib.axes import Axes
@@ -18,7 +19,7 @@ if TYPE_CHECKING:  # the result types only (their modules need no matplotlib; si
     from sensorsel.designs.tradespace import TradespaceResult
 
 
-def plot_selection_grid(grid: "SelectionGrid", ax: Axes | None = None, *, title: str | None = None) -> Axes:
+def plot_selection_grid(grid: SelectionGrid, ax: Axes | None = None, *, title: str | None = None) -> Axes:
     """The per-period selection grid (the paper's Fig. 5): rows = periods, columns = sensors.
 
     Columns are grouped by sensor model (group label: the model code; column label: the clock
@@ -60,8 +61,17 @@ def plot_selection_grid(grid: "SelectionGrid", ax: Axes | None = None, *, title:
     for _, a, _b in groups[1:]:
         ax.axvline(a - 0.5, color="k", lw=1.2)
     for m, a, b in groups:
-        ax.text((a + b) / 2, -0.6, m, ha="center", va="bottom", fontsize=8, fontweight="bold",
-                transform=ax.transData, clip_on=False)
+        ax.text(
+            (a + b) / 2,
+            -0.6,
+            m,
+            ha="center",
+            va="bottom",
+            fontsize=8,
+            fontweight="bold",
+            transform=ax.transData,
+            clip_on=False,
+        )
     ax.set_xticks(np.arange(n_cols))
     ax.set_xticklabels(grid.positions, fontsize=6.5)
     for lab, pos in zip(ax.get_xticklabels(), grid.positions):
@@ -72,9 +82,14 @@ def plot_selection_grid(grid: "SelectionGrid", ax: Axes | None = None, *, title:
     ax.tick_params(axis="both", which="major", length=2, pad=1.5)
     ax.set_xlabel("sensor: clock position (12 = ahead, 3 = right) or roof, grouped by model", fontsize=8)
     ax.set_ylabel("period", fontsize=8)
-    default_title = "Robust selection per period" if getattr(grid, "method", "") == "robust" else "Resilient selection per period"
+    default_title = (
+        "Robust selection per period" if getattr(grid, "method", "") == "robust" else "Resilient selection per period"
+    )
     ax.set_title(title or default_title, fontsize=10, pad=14)
-    handles: list[Any] = [Patch(color=colours["failed"], label="assumed to fail"), Patch(color=colours["active"], label="active")]
+    handles: list[Any] = [
+        Patch(color=colours["failed"], label="assumed to fail"),
+        Patch(color=colours["active"], label="active"),
+    ]
     col = {s: c for c, s in enumerate(grid.sensors)}
     xs = [col[s] for r in range(n_rows) for s in grid.worst(r)]
     ys = [r for r in range(n_rows) for _ in grid.worst(r)]
@@ -97,8 +112,14 @@ RULE_STYLES = {
 }
 
 
-def plot_tradespace(result: "TradespaceResult", ax: Axes | None = None, *, log_cost: bool = True,
-                    fractions: Sequence[float] = (0.99, 0.95), title: str | None = None) -> Axes:
+def plot_tradespace(
+    result: TradespaceResult,
+    ax: Axes | None = None,
+    *,
+    log_cost: bool = True,
+    fractions: Sequence[float] = (0.99, 0.95),
+    title: str | None = None,
+) -> Axes:
     """The cost-performance tradespace (the paper's Fig. 4).
 
     Every architecture is a hollow marker coloured by the rule that made it (one marker per
@@ -121,14 +142,25 @@ def plot_tradespace(result: "TradespaceResult", ax: Axes | None = None, *, log_c
     ax = ax or new_axes((8.0, 5.5))
     archs = result.architectures
     if not archs:
-        raise InputError("plot_tradespace: the tradespace has no architectures (every budget is below the cheapest sensor)")
+        raise InputError(
+            "plot_tradespace: the tradespace has no architectures (every budget is below the cheapest sensor)"
+        )
     for name in result.rules:
         pts = [(a.cost_usd, a.normalized) for a in archs if name in a.rules]
         colour, marker, size = RULE_STYLES.get(name, ("tab:gray", "x", 30))
         if pts:
             x, y = np.array(pts).T
-            ax.scatter(x, y, s=size, marker=marker, facecolors="none", edgecolors=colour, linewidths=1.1,
-                       label=f"made by {name} ({len(pts)})", zorder=3)
+            ax.scatter(
+                x,
+                y,
+                s=size,
+                marker=marker,
+                facecolors="none",
+                edgecolors=colour,
+                linewidths=1.1,
+                label=f"made by {name} ({len(pts)})",
+                zorder=3,
+            )
     front = result.front
     fx = np.array([a.cost_usd for a in front])
     fy = np.array([a.normalized for a in front])
@@ -143,34 +175,65 @@ def plot_tradespace(result: "TradespaceResult", ax: Axes | None = None, *, log_c
         if a is None:
             continue
         first = k == 0
-        ax.axhline(frac, color="0.6", lw=0.8, ls=":", zorder=1,
-                   label=" and ".join(f"{f:.0%}" for f in fractions) + " of the best" if first else None)
-        ax.scatter([a.cost_usd], [a.normalized], s=160, marker="*", color="gold", edgecolors="k", linewidths=0.7, zorder=5,
-                   label="cheapest suite reaching it" if first else None)
+        ax.axhline(
+            frac,
+            color="0.6",
+            lw=0.8,
+            ls=":",
+            zorder=1,
+            label=" and ".join(f"{f:.0%}" for f in fractions) + " of the best" if first else None,
+        )
+        ax.scatter(
+            [a.cost_usd],
+            [a.normalized],
+            s=160,
+            marker="*",
+            color="gold",
+            edgecolors="k",
+            linewidths=0.7,
+            zorder=5,
+            label="cheapest suite reaching it" if first else None,
+        )
         # the label goes below the point, towards the middle of the plot, so it stays inside the axes
         x = np.log(a.cost_usd) if log_cost else a.cost_usd
         right = x > (lo_x + hi_x) / 2
-        ax.annotate(f"{frac:.0%} of best: ${a.cost_usd:,.0f}\n({a.n_sensors} sensors)", (a.cost_usd, a.normalized),
-                    xytext=(-14 if right else 14, -30 - 30 * k), textcoords="offset points", fontsize=8.5,
-                    ha="right" if right else "left", va="top", arrowprops=dict(arrowstyle="-", color="0.4", lw=0.7),
-                    bbox=dict(boxstyle="round,pad=0.25", fc="white", ec="0.7", alpha=0.9), zorder=6)
+        ax.annotate(
+            f"{frac:.0%} of best: ${a.cost_usd:,.0f}\n({a.n_sensors} sensors)",
+            (a.cost_usd, a.normalized),
+            xytext=(-14 if right else 14, -30 - 30 * k),
+            textcoords="offset points",
+            fontsize=8.5,
+            ha="right" if right else "left",
+            va="top",
+            arrowprops=dict(arrowstyle="-", color="0.4", lw=0.7),
+            bbox=dict(boxstyle="round,pad=0.25", fc="white", ec="0.7", alpha=0.9),
+            zorder=6,
+        )
     ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"${v / 1000:,.0f}k" if v >= 1000 else f"${v:,.0f}"))
     lo = min(a.normalized for a in archs)
     ax.set_ylim(max(0.0, lo - 0.05), 1.03)
     ax.set_xlabel("suite cost [$]" + (" (log scale)" if log_cost else ""))
     ax.set_ylabel("normalized performance  f(S) / max f")
     p = result.problem
-    where = (f"scenario {p.scenario}: " if isinstance(p, ProblemInfo) else
-             f"domain of {len(p.routes)} routes: " if isinstance(p, DomainInfo) else "")
-    ax.set_title(title or f"{where}{len(archs)} architectures from {len(result.runs)} greedy runs "
-                          f"({len(result.budgets_usd)} budgets)", fontsize=10)
+    where = (
+        f"scenario {p.scenario}: "
+        if isinstance(p, ProblemInfo)
+        else f"domain of {len(p.routes)} routes: "
+        if isinstance(p, DomainInfo)
+        else ""
+    )
+    ax.set_title(
+        title
+        or f"{where}{len(archs)} architectures from {len(result.runs)} greedy runs ({len(result.budgets_usd)} budgets)",
+        fontsize=10,
+    )
     ax.grid(True, which="major", alpha=0.3)
     ax.grid(True, which="minor", alpha=0.1)
     ax.legend(loc="lower right", fontsize=8.5)
     return ax
 
 
-def plot_domain_breakdown(design: "DomainDesign", ax: Axes | None = None, *, title: str | None = None) -> Axes:
+def plot_domain_breakdown(design: DomainDesign, ax: Axes | None = None, *, title: str | None = None) -> Axes:
     """The price of one suite for a whole domain, route by route.
 
     For each route (one row), the share of the route's best f_r(S)/f_r(all sensors) reached by the
@@ -193,8 +256,16 @@ def plot_domain_breakdown(design: "DomainDesign", ax: Axes | None = None, *, tit
     own_share = np.array([r.own_score / r.best_score if r.best_score > 0 else 0.0 for r in routes])
     for yi, a, b in zip(y, domain_share, own_share):
         ax.plot([a, b], [yi, yi], color="0.7", lw=2, zorder=1)
-    ax.scatter(own_share, y, s=60, facecolors="white", edgecolors="tab:blue", lw=1.5, zorder=2,
-               label="each route's own design (same budget and rule)")
+    ax.scatter(
+        own_share,
+        y,
+        s=60,
+        facecolors="white",
+        edgecolors="tab:blue",
+        lw=1.5,
+        zorder=2,
+        label="each route's own design (same budget and rule)",
+    )
     ax.scatter(domain_share, y, s=60, color="tab:blue", zorder=3, label="the domain suite")
     labels = [f"{r.name} ({r.weight:.1%})" for r in routes]
     ax.set_yticks(y, labels)
@@ -216,12 +287,16 @@ def plot_domain_breakdown(design: "DomainDesign", ax: Axes | None = None, *, tit
         leg.get_texts()[-1].set_color("tab:red")
     budget = design.greedy.budget_usd
     # "\\$" is a literal dollar: a bare $ starts matplotlib's mathtext
-    ax.set_title(title or f"One suite for {len(routes)} routes at \\${budget:,.0f}: \\${design.greedy.cost_usd:,.0f}, "
-                          f"{len(design.greedy.suite)} sensors (weights in brackets)", fontsize="medium")
+    ax.set_title(
+        title
+        or f"One suite for {len(routes)} routes at \\${budget:,.0f}: \\${design.greedy.cost_usd:,.0f}, "
+        f"{len(design.greedy.suite)} sensors (weights in brackets)",
+        fontsize="medium",
+    )
     return ax
 
 
-def _plot_condition_grid(design: "DomainDesign", ax: Axes | None = None, *, title: str | None = None) -> Axes:
+def _plot_condition_grid(design: DomainDesign, ax: Axes | None = None, *, title: str | None = None) -> Axes:
     """A domain with operating conditions: routes (rows) x conditions (columns), each cell the
     domain suite's share of that member's best f_r(S)/f_r(all sensors), with its share of the
     member's own design below it; the worst member (lowest share of its own design) framed in red."""
@@ -238,8 +313,15 @@ def _plot_condition_grid(design: "DomainDesign", ax: Axes | None = None, *, titl
     for i in range(len(routes)):
         for j in range(len(conditions)):
             if np.isfinite(grid[i, j]):
-                ax.text(j, i, f"{grid[i, j]:.3f}\n({own[i, j]:.1%} of own)", ha="center", va="center", fontsize=7,
-                        color="white" if grid[i, j] < 0.5 * (np.nanmin(grid) + 1.0) else "black")
+                ax.text(
+                    j,
+                    i,
+                    f"{grid[i, j]:.3f}\n({own[i, j]:.1%} of own)",
+                    ha="center",
+                    va="center",
+                    fontsize=7,
+                    color="white" if grid[i, j] < 0.5 * (np.nanmin(grid) + 1.0) else "black",
+                )
     worst = info.get(design.worst_route)
     if worst is not None:
         i, j = routes.index(worst.route or worst.name), conditions.index(worst.condition)
@@ -249,6 +331,10 @@ def _plot_condition_grid(design: "DomainDesign", ax: Axes | None = None, *, titl
     ax.set_yticks(range(len(routes)), routes)
     ax.figure.colorbar(im, ax=ax, label="share of the member's best")
     budget = design.greedy.budget_usd
-    ax.set_title(title or f"One suite for {len(routes)} routes x {len(conditions)} conditions at \\${budget:,.0f}: "
-                          f"\\${design.greedy.cost_usd:,.0f} (red: worst member)", fontsize="medium")
+    ax.set_title(
+        title
+        or f"One suite for {len(routes)} routes x {len(conditions)} conditions at \\${budget:,.0f}: "
+        f"\\${design.greedy.cost_usd:,.0f} (red: worst member)",
+        fontsize="medium",
+    )
     return ax

@@ -58,8 +58,15 @@ def save_figure(fig: Figure | SubFigure, path: str | Path, *, dpi: int = 150, cl
 #: One colour per sensor model of the stock library (Table I's codes), none of them the route's blue,
 #: the start's green, the car's red or the landmarks' black; a model of your own library takes the
 #: next unused colour of :data:`EXTRA_MODEL_COLOURS` in library order.
-MODEL_COLOURS = {"LRL": "tab:purple", "MRL": "tab:pink", "LRR": "tab:orange", "MRR": "tab:brown",
-                 "WSC": "tab:cyan", "HD2K": "tab:olive", "LSC": "tab:gray"}
+MODEL_COLOURS = {
+    "LRL": "tab:purple",
+    "MRL": "tab:pink",
+    "LRR": "tab:orange",
+    "MRR": "tab:brown",
+    "WSC": "tab:cyan",
+    "HD2K": "tab:olive",
+    "LSC": "tab:gray",
+}
 EXTRA_MODEL_COLOURS = ("gold", "teal", "navy", "lime", "maroon", "magenta", "salmon", "indigo")
 
 
@@ -78,7 +85,6 @@ def short_source(source: str) -> str:
     """The landmark source with its folders dropped ("KITTI pole map .../landmarks/03.csv" -> "... 03.csv"):
     a title names the map, the result file keeps the whole path."""
     return " ".join(Path(w).name if ("/" in w or "\\" in w) else w for w in source.split())
-
 
 
 def route_distance_m(scenario: Scenario) -> np.ndarray:

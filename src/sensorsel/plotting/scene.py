@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 import textwrap
+from collections.abc import Iterable, Sequence
 from pathlib import Path
-from typing import Iterable, Sequence
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -14,15 +14,20 @@ from matplotlib.patches import Wedge
 from sensorsel.errors import InputError
 from sensorsel.model.library import SensorLibrary
 from sensorsel.model.scenario import Scenario
-
 from sensorsel.plotting.figures import model_colours, new_axes, short_source
 
 #: A cone shorter than this share of the route's extent is drawn again in a zoom at the car.
 ZOOM_BELOW = 0.1
 
 
-def _draw_cones(ax: Axes, library: SensorLibrary, suite: Sequence[int], pose: np.ndarray,
-                colours: dict[str, str], ranges_m: Sequence[float] | None = None) -> None:
+def _draw_cones(
+    ax: Axes,
+    library: SensorLibrary,
+    suite: Sequence[int],
+    pose: np.ndarray,
+    colours: dict[str, str],
+    ranges_m: Sequence[float] | None = None,
+) -> None:
     """The suite's sensing cones at one pose (x [m], y [m], heading [rad]), one legend entry per model;
     with ``ranges_m`` (each library sensor's range under a condition) drawn that far, the clear
     cone's edge dashed behind a shrunk one."""
@@ -42,14 +47,37 @@ def _draw_cones(ax: Axes, library: SensorLibrary, suite: Sequence[int], pose: np
             drawn.add(m.code)
         reach = float(ranges_m[i]) if ranges_m is not None else m.range_m
         if reach < m.range_m:  # the clear cone's edge, to show how far it shrank
-            ax.add_patch(Wedge((x, y), m.range_m, centre - half, centre + half, fill=False, ls=":", lw=0.8,
-                               edgecolor=colours[m.code], alpha=0.7))
+            ax.add_patch(
+                Wedge(
+                    (x, y),
+                    m.range_m,
+                    centre - half,
+                    centre + half,
+                    fill=False,
+                    ls=":",
+                    lw=0.8,
+                    edgecolor=colours[m.code],
+                    alpha=0.7,
+                )
+            )
         if m.fov_rad >= 2 * np.pi - 1e-9:  # all around: an outline, so that the cones inside it stay readable
-            ax.add_patch(Wedge((x, y), reach, 0.0, 360.0, fill=False, edgecolor=colours[m.code], lw=1.6, ls="--",
-                               label=label))
+            ax.add_patch(
+                Wedge((x, y), reach, 0.0, 360.0, fill=False, edgecolor=colours[m.code], lw=1.6, ls="--", label=label)
+            )
         else:
-            ax.add_patch(Wedge((x, y), reach, centre - half, centre + half, alpha=0.35, facecolor=colours[m.code],
-                               edgecolor=colours[m.code], lw=0.8, label=label))
+            ax.add_patch(
+                Wedge(
+                    (x, y),
+                    reach,
+                    centre - half,
+                    centre + half,
+                    alpha=0.35,
+                    facecolor=colours[m.code],
+                    edgecolor=colours[m.code],
+                    lw=0.8,
+                    label=label,
+                )
+            )
 
 
 def plot_scene(
@@ -107,11 +135,19 @@ def plot_scene(
         zoom = ax.inset_axes((0.6, 0.6, 0.39, 0.39))
 
     def draw_map(a: Axes, legend: bool) -> None:
-        a.plot(route.poses[:, 0], route.poses[:, 1], "-", color="tab:blue", lw=1.5,
-               label=f"route ({route.length_m:,.0f} m)" if legend else None)
+        a.plot(
+            route.poses[:, 0],
+            route.poses[:, 1],
+            "-",
+            color="tab:blue",
+            lw=1.5,
+            label=f"route ({route.length_m:,.0f} m)" if legend else None,
+        )
         a.plot(kf[:, 0], kf[:, 1], ".", color="tab:blue", ms=3, label=f"keyframes ({len(kf)})" if legend else None)
         a.plot(kf[0, 0], kf[0, 1], "o", color="tab:green", ms=7, label="start" if legend else None)
-        a.scatter(lm[:, 0], lm[:, 1], s=6, c="k", marker="^", label=f"landmarks ({len(lm)})" if legend else None, zorder=3)
+        a.scatter(
+            lm[:, 0], lm[:, 1], s=6, c="k", marker="^", label=f"landmarks ({len(lm)})" if legend else None, zorder=3
+        )
 
     draw_map(ax, True)
     if suite:
@@ -131,20 +167,31 @@ def plot_scene(
             zoom.set_aspect("equal")
             zoom.grid(True, alpha=0.3)
             zoom.set_title(f"zoom at the car, keyframe {k} ({2 * zoom_half_m:.0f} m across)", fontsize=9)
-            ax.indicate_inset((x - zoom_half_m, y - zoom_half_m, 2 * zoom_half_m, 2 * zoom_half_m), inset_ax=zoom,
-                              edgecolor="tab:red", alpha=0.8)
+            ax.indicate_inset(
+                (x - zoom_half_m, y - zoom_half_m, 2 * zoom_half_m, 2 * zoom_half_m),
+                inset_ax=zoom,
+                edgecolor="tab:red",
+                alpha=0.8,
+            )
             if zoom.get_subplotspec() is not None:  # beside the route: a full-size panel with its own labels
                 zoom.set_xlabel("x [m]")
                 zoom.set_ylabel("y [m]")
-                zoom.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1), fontsize=8, title="sensing cones (dashed: all around)",
-                            title_fontsize=8)
+                zoom.legend(
+                    loc="upper center",
+                    bbox_to_anchor=(0.5, -0.1),
+                    fontsize=8,
+                    title="sensing cones (dashed: all around)",
+                    title_fontsize=8,
+                )
             else:
                 zoom.tick_params(labelsize=6)
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     where = f" in {condition} (dotted: the clear range)" if condition else ""
-    ax.set_title(textwrap.fill(f"{scenario.name}{where}: landmarks {short_source(scenario.landmark_source)}", 60), fontsize=10)
+    ax.set_title(
+        textwrap.fill(f"{scenario.name}{where}: landmarks {short_source(scenario.landmark_source)}", 60), fontsize=10
+    )
     if zoom is not None and zoom.get_subplotspec() is not None:
         # the cones are listed beside their zoom; the route's own legend lists the map
         handles, labels = ax.get_legend_handles_labels()
@@ -184,16 +231,27 @@ def plot_domain_scene(domain_path: str | Path, ax: Axes | None = None) -> Axes:
         osm = osm or got is not None
         for (x, y), c in zip(np.asarray(xy).tolist(), classes):
             by_class.setdefault(c, {})[(round(x, 3), round(y, 3))] = None
-    markers = {"tree": ("o", "tab:green"), "street_lamp": ("^", "goldenrod"), "traffic_sign": ("s", "tab:red"),
-               "traffic_signals": ("D", "tab:purple"), "utility_pole": ("v", "tab:brown"), "power_pole": ("v", "tab:gray"),
-               "flagpole": ("P", "tab:cyan"), "stop": ("X", "darkred"), "give_way": ("x", "tab:pink"), "survey": ("*", "k")}
+    markers = {
+        "tree": ("o", "tab:green"),
+        "street_lamp": ("^", "goldenrod"),
+        "traffic_sign": ("s", "tab:red"),
+        "traffic_signals": ("D", "tab:purple"),
+        "utility_pole": ("v", "tab:brown"),
+        "power_pole": ("v", "tab:gray"),
+        "flagpole": ("P", "tab:cyan"),
+        "stop": ("X", "darkred"),
+        "give_way": ("x", "tab:pink"),
+        "survey": ("*", "k"),
+    }
     for c in sorted(by_class, key=lambda c: -len(by_class[c])):
         pts = np.array(list(by_class[c]), dtype=float).reshape(-1, 2)
         m, col = markers.get(c, ("^", "k"))
         ax.scatter(pts[:, 0], pts[:, 1], s=6, marker=m, color=col, label=f"{c} ({len(pts)})", zorder=3)
     km = sum(d.weight for d in loaded) if spec.weight_unit == "km" else None
-    ax.set_title(f"{Path(domain_path).parent.name or domain_path}: {len(loaded)} routes"
-                 + (f", {km:.1f} km" if km is not None else ""))
+    ax.set_title(
+        f"{Path(domain_path).parent.name or domain_path}: {len(loaded)} routes"
+        + (f", {km:.1f} km" if km is not None else "")
+    )
     if osm:
         ax.annotate(ATTRIBUTION, (0.0, -0.08), xycoords="axes fraction", fontsize=6)
     ax.set_xlabel("x [m]")
@@ -226,8 +284,11 @@ def plot_mounting(library: SensorLibrary, suite: Iterable[int] = (), ax: Axes | 
             places[str(s.clock)] = (0.62 * np.cos(a), 1.05 * np.sin(a))
     short = {"lidar": "L", "radar": "R", "stereo": "C", "any": "*"}
     for place, (px, py) in places.items():
-        at = [i for i in chosen if (library[i].clock is None) == (place == "roof")
-              and (place == "roof" or str(library[i].clock) == place)]
+        at = [
+            i
+            for i in chosen
+            if (library[i].clock is None) == (place == "roof") and (place == "roof" or str(library[i].clock) == place)
+        ]
         parts, full = [], False
         for sl in library.slots:
             if sl.place == place:
@@ -240,7 +301,9 @@ def plot_mounting(library: SensorLibrary, suite: Iterable[int] = (), ax: Axes | 
         ax.plot(px, py, "o", ms=4, color=colour)
         if parts:  # outward of the place (below the roof's dot)
             tx, ty = (0.0, -0.12) if place == "roof" else (1.45 * px, 1.22 * py)
-            ax.text(tx, ty, " ".join(parts), ha="center", va="center", fontsize=5.5, color="tab:red" if full else "black")
+            ax.text(
+                tx, ty, " ".join(parts), ha="center", va="center", fontsize=5.5, color="tab:red" if full else "black"
+            )
     ax.set_xlim(-1.5, 1.5)
     ax.set_ylim(-1.5, 1.5)
     ax.set_aspect("equal")

@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Sequence
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import matplotlib
 import matplotlib.pyplot as plt
@@ -24,13 +25,15 @@ if TYPE_CHECKING:  # the result types only (their modules need no matplotlib; si
 ERROR_CMAP = "turbo"  # blue (small) to dark red (large): readable on white at both ends
 
 
-def typical_run(result: "SimulationResult") -> int:
+def typical_run(result: SimulationResult) -> int:
     """Index of the run whose position RMSE is the median of the runs (the lower one for even N)."""
     rmse = np.array([r.position_rmse_m for r in result.runs])
     return int(np.argsort(rmse, kind="stable")[(len(rmse) - 1) // 2])
 
 
-def _run_errors(result: "SimulationResult", scenario: Scenario, run: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def _run_errors(
+    result: SimulationResult, scenario: Scenario, run: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Estimated poses (K,3), their position errors (K,), estimated landmarks (m,2), their errors (m,)."""
     r = result.runs[run]
     poses = np.asarray(r.poses, dtype=float).reshape(-1, 3)
@@ -44,19 +47,19 @@ def _run_errors(result: "SimulationResult", scenario: Scenario, run: int) -> tup
 SOLVER_WORDS = {"lm": "Levenberg-Marquardt", "isam2": "iSAM2"}
 
 
-def _failure_text(result: "SimulationResult") -> str:
+def _failure_text(result: SimulationResult) -> str:
     if not result.failures:
         return "no failure"
     return "failed: " + ", ".join(f.describe(result.problem.n_poses) for f in result.failures)
 
 
 def plot_simulation(
-    result: "SimulationResult",
+    result: SimulationResult,
     scenario: Scenario,
     ax: Axes | None = None,
     *,
     run: int | None = None,
-    norm: "matplotlib.colors.Normalize | None" = None,
+    norm: matplotlib.colors.Normalize | None = None,
     colorbar: bool = True,
 ) -> Axes:
     """One run's estimated trajectory and landmarks over the ground truth, coloured by error (Fig. 6).
@@ -76,9 +79,11 @@ def plot_simulation(
 
     ax = ax or new_axes()
     if scenario.n_poses != result.problem.n_poses or scenario.n_landmarks != result.problem.n_landmarks:
-        raise InputError(f"plot_simulation: the result is of a scenario with {result.problem.n_poses} keyframes and "
-                         f"{result.problem.n_landmarks} landmarks, not of {scenario.name!r} "
-                         f"({scenario.n_poses}, {scenario.n_landmarks})")
+        raise InputError(
+            f"plot_simulation: the result is of a scenario with {result.problem.n_poses} keyframes and "
+            f"{result.problem.n_landmarks} landmarks, not of {scenario.name!r} "
+            f"({scenario.n_poses}, {scenario.n_landmarks})"
+        )
     k = typical_run(result) if run is None else run
     if not 0 <= k < len(result.runs):
         raise InputError(f"run {k} is not among the {len(result.runs)} runs of {result.label!r}")
@@ -88,25 +93,64 @@ def plot_simulation(
     truth = scenario.keyframes.poses
     ax.plot(truth[:, 0], truth[:, 1], "-", color="0.55", lw=3.0, alpha=0.5, label="true route", zorder=1)
     lm_true = scenario.landmarks
-    ax.scatter(lm_true[:, 0], lm_true[:, 1], s=14, facecolors="none", edgecolors="0.55", lw=0.6, marker="o",
-               label=f"true landmarks ({len(lm_true)})", zorder=1)
+    ax.scatter(
+        lm_true[:, 0],
+        lm_true[:, 1],
+        s=14,
+        facecolors="none",
+        edgecolors="0.55",
+        lw=0.6,
+        marker="o",
+        label=f"true landmarks ({len(lm_true)})",
+        zorder=1,
+    )
     if result.unmeasured_landmarks:
         un = lm_true[np.asarray(result.unmeasured_landmarks, dtype=int)]
         ax.scatter(un[:, 0], un[:, 1], s=14, c="0.3", marker="x", lw=0.8, label=f"never measured ({len(un)})", zorder=2)
     ax.plot(poses[:, 0], poses[:, 1], "-", color="k", lw=0.6, zorder=3)
-    sc = ax.scatter(poses[:, 0], poses[:, 1], c=pos_err, cmap=ERROR_CMAP, norm=norm, s=16, marker="o", edgecolors="k",
-                    linewidths=0.3, label="estimated keyframes", zorder=4)
+    sc = ax.scatter(
+        poses[:, 0],
+        poses[:, 1],
+        c=pos_err,
+        cmap=ERROR_CMAP,
+        norm=norm,
+        s=16,
+        marker="o",
+        edgecolors="k",
+        linewidths=0.3,
+        label="estimated keyframes",
+        zorder=4,
+    )
     if len(lms):
-        ax.scatter(lms[:, 0], lms[:, 1], c=lm_err, cmap=ERROR_CMAP, norm=norm, s=18, marker="^", edgecolors="k",
-                   linewidths=0.3, label="estimated landmarks", zorder=4)
+        ax.scatter(
+            lms[:, 0],
+            lms[:, 1],
+            c=lm_err,
+            cmap=ERROR_CMAP,
+            norm=norm,
+            s=18,
+            marker="^",
+            edgecolors="k",
+            linewidths=0.3,
+            label="estimated landmarks",
+            zorder=4,
+        )
     n = len(truth)
     for f in result.failures:
         stop = n if f.stop is None else f.stop
         if f.start == 0 and stop == n:
             continue  # a whole-route failure is in the title; ringing every keyframe would hide the errors
-        seg = truth[f.start:stop]
-        ax.plot(seg[:, 0], seg[:, 1], "-", color="tab:red", lw=6, alpha=0.25, zorder=0,
-                label=f"{f.sensor} failed (keyframes {f.start}-{stop - 1})")
+        seg = truth[f.start : stop]
+        ax.plot(
+            seg[:, 0],
+            seg[:, 1],
+            "-",
+            color="tab:red",
+            lw=6,
+            alpha=0.25,
+            zorder=0,
+            label=f"{f.sensor} failed (keyframes {f.start}-{stop - 1})",
+        )
     ax.plot(truth[0, 0], truth[0, 1], "s", color="tab:green", ms=7, zorder=5, label="start")
     if colorbar:
         ax.figure.colorbar(sc, ax=ax, label="position error [m]", shrink=0.8)
@@ -130,11 +174,11 @@ def plot_simulation(
 
 
 def plot_simulation_comparison(
-    results: "Sequence[SimulationResult]",
+    results: Sequence[SimulationResult],
     scenario: Scenario,
-    axes: "Sequence[Axes] | None" = None,
+    axes: Sequence[Axes] | None = None,
     *,
-    runs: "Sequence[int | None] | None" = None,
+    runs: Sequence[int | None] | None = None,
 ) -> list[Axes]:
     """Designs side by side (e.g. greedy and resilient, each with a failure), one colour scale for all.
 
@@ -171,7 +215,7 @@ def plot_simulation_comparison(
     return list(axes)
 
 
-def plot_error_along_route(results: "Sequence[SimulationResult]", scenario: Scenario, ax: Axes | None = None) -> Axes:
+def plot_error_along_route(results: Sequence[SimulationResult], scenario: Scenario, ax: Axes | None = None) -> Axes:
     """Position error along the route: every run (thin), RMS over runs (bold), predicted 1-sigma (dashed).
 
     The prediction is sqrt(trace) of each keyframe's position covariance from the information matrix;
@@ -186,13 +230,28 @@ def plot_error_along_route(results: "Sequence[SimulationResult]", scenario: Scen
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     for i, res in enumerate(results):
         if res.problem.n_poses != n:
-            raise InputError(f"plot_error_along_route: {res.label!r} has {res.problem.n_poses} keyframes, the scenario {n}")
+            raise InputError(
+                f"plot_error_along_route: {res.label!r} has {res.problem.n_poses} keyframes, the scenario {n}"
+            )
         c = colours[i % len(colours)]
         for j, r in enumerate(res.runs):
-            ax.plot(s, r.position_error_m, "-", color=c, lw=0.5, alpha=0.2,
-                    label=f"{res.label}: each run (thin)" if j == 0 else None)
-        ax.plot(s, res.position_rmse_along_route_m, "-", color=c, lw=2.0,
-                label=f"{res.label} ({_failure_text(res)}): RMS of {res.n_runs} runs")
+            ax.plot(
+                s,
+                r.position_error_m,
+                "-",
+                color=c,
+                lw=0.5,
+                alpha=0.2,
+                label=f"{res.label}: each run (thin)" if j == 0 else None,
+            )
+        ax.plot(
+            s,
+            res.position_rmse_along_route_m,
+            "-",
+            color=c,
+            lw=2.0,
+            label=f"{res.label} ({_failure_text(res)}): RMS of {res.n_runs} runs",
+        )
         ax.plot(s, res.predicted_position_sigma_m, "--", color=c, lw=1.3, label=f"{res.label}: predicted 1-sigma")
         for f in res.failures:
             stop = n if f.stop is None else f.stop
@@ -209,7 +268,7 @@ def plot_error_along_route(results: "Sequence[SimulationResult]", scenario: Scen
     return ax
 
 
-def plot_simulation_overview(results: "Sequence[SimulationResult]", scenario: Scenario) -> Figure:
+def plot_simulation_overview(results: Sequence[SimulationResult], scenario: Scenario) -> Figure:
     """The designs side by side (top) above the error along the route (bottom), in one figure."""
     fig = plt.figure(figsize=(max(6.5, 5.5 * len(results) + 1.0), 12.0), layout="constrained")
     top, bottom = fig.subfigures(2, 1, height_ratios=[2.3, 1.0])  # type: ignore[misc]  # an array of 2 subfigures

@@ -63,8 +63,16 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from sensorsel.simulation.failures import check_failure, parse_failures
-from sensorsel.simulation.records import (AccuracyCheck, ErrorSpread, Failure, RunResult, SimulationReport,
-                                        SimulationResult, SimulationTiming, without_timing)
+from sensorsel.simulation.records import (
+    AccuracyCheck,
+    ErrorSpread,
+    Failure,
+    RunResult,
+    SimulationReport,
+    SimulationResult,
+    SimulationTiming,
+    without_timing,
+)
 
 if TYPE_CHECKING:
     from sensorsel.simulation.consistency import COVARIANCE_NOTE, NEES_CONFIDENCE, nees_bounds
@@ -74,9 +82,16 @@ if TYPE_CHECKING:
 #: the names whose modules import gtsam, by module: imported when first asked for (PEP 562), so
 #: that importing sensorsel (every command) does not import gtsam (~0.1-0.15 s) for a simulation
 #: it may never run
-_LAZY = {"COVARIANCE_NOTE": "consistency", "NEES_CONFIDENCE": "consistency", "nees_bounds": "consistency",
-         "simulate": "run", "DEFAULT_SOLVER": "solve", "ISAM2_MAX_FINAL_UPDATES": "solve",
-         "LM_MAX_ITERATIONS": "solve", "SOLVERS": "solve"}
+_LAZY = {
+    "COVARIANCE_NOTE": "consistency",
+    "NEES_CONFIDENCE": "consistency",
+    "nees_bounds": "consistency",
+    "simulate": "run",
+    "DEFAULT_SOLVER": "solve",
+    "ISAM2_MAX_FINAL_UPDATES": "solve",
+    "LM_MAX_ITERATIONS": "solve",
+    "SOLVERS": "solve",
+}
 
 
 def __getattr__(name: str) -> object:
@@ -90,8 +105,24 @@ def __getattr__(name: str) -> object:
     globals()[name] = value
     return value
 
+
 __all__ = [
-    "COVARIANCE_NOTE", "DEFAULT_SOLVER", "ISAM2_MAX_FINAL_UPDATES", "LM_MAX_ITERATIONS", "NEES_CONFIDENCE", "SOLVERS",
-    "AccuracyCheck", "ErrorSpread", "Failure", "RunResult", "SimulationReport", "SimulationResult", "SimulationTiming",
-    "check_failure", "nees_bounds", "parse_failures", "simulate", "without_timing",
+    "COVARIANCE_NOTE",
+    "DEFAULT_SOLVER",
+    "ISAM2_MAX_FINAL_UPDATES",
+    "LM_MAX_ITERATIONS",
+    "NEES_CONFIDENCE",
+    "SOLVERS",
+    "AccuracyCheck",
+    "ErrorSpread",
+    "Failure",
+    "RunResult",
+    "SimulationReport",
+    "SimulationResult",
+    "SimulationTiming",
+    "check_failure",
+    "nees_bounds",
+    "parse_failures",
+    "simulate",
+    "without_timing",
 ]

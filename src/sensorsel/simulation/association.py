@@ -63,8 +63,18 @@ import numpy as np
 
 from sensorsel.information.linearize import bearing_range_jacobians
 
-__all__ = ["CANDIDATE_MARGIN_M", "CANDIDATE_SCALE", "RANGE_SIGMAS", "KeyframeCase", "KeyframeOutcome", "SensorCone", "Task",
-           "associate_keyframe", "measure", "retract"]
+__all__ = [
+    "CANDIDATE_MARGIN_M",
+    "CANDIDATE_SCALE",
+    "RANGE_SIGMAS",
+    "KeyframeCase",
+    "KeyframeOutcome",
+    "SensorCone",
+    "Task",
+    "associate_keyframe",
+    "measure",
+    "retract",
+]
 
 #: the stated candidates: landmarks within CANDIDATE_SCALE × r + CANDIDATE_MARGIN_M of the car
 CANDIDATE_SCALE = 1.25
@@ -186,8 +196,14 @@ def measure(pose: np.ndarray, point: np.ndarray) -> np.ndarray:
 def retract(pose: np.ndarray, delta: np.ndarray) -> np.ndarray:
     """(B, 3) the pose (3,) moved by ``delta`` (B, 3) (dx, dy in its own frame [m], dθ [rad]), to first order."""
     c, s = math.cos(pose[2]), math.sin(pose[2])
-    return np.stack([pose[0] + c * delta[:, 0] - s * delta[:, 1], pose[1] + s * delta[:, 0] + c * delta[:, 1],
-                     pose[2] + delta[:, 2]], -1)
+    return np.stack(
+        [
+            pose[0] + c * delta[:, 0] - s * delta[:, 1],
+            pose[1] + s * delta[:, 0] + c * delta[:, 1],
+            pose[2] + delta[:, 2],
+        ],
+        -1,
+    )
 
 
 def _wrap(a: np.ndarray) -> np.ndarray:
@@ -205,8 +221,9 @@ class _Pairs:
     gain: np.ndarray
 
 
-def _pair_blocks(case: KeyframeCase, slots: np.ndarray, sig_b: np.ndarray, sig_r: np.ndarray, *,
-                 with_gain: bool = True) -> tuple[np.ndarray, np.ndarray]:
+def _pair_blocks(
+    case: KeyframeCase, slots: np.ndarray, sig_b: np.ndarray, sig_r: np.ndarray, *, with_gain: bool = True
+) -> tuple[np.ndarray, np.ndarray]:
     """S (n, 2, 2) and the pose rows of the gain K (n, 3, 2) for candidate ``slots`` (n,) measured
     with noise std ``sig_b``, ``sig_r`` (n,), at the truth."""
     cov = case.covariance
@@ -216,8 +233,8 @@ def _pair_blocks(case: KeyframeCase, slots: np.ndarray, sig_b: np.ndarray, sig_r
     p = cov[idx[:, :, None], idx[:, None, :]]  # (n, 5, 5)
     hp = jac @ p  # (n, 2, 5)
     s = hp @ np.transpose(jac, (0, 2, 1))
-    s[:, 0, 0] += sig_b ** 2
-    s[:, 1, 1] += sig_r ** 2
+    s[:, 0, 0] += sig_b**2
+    s[:, 1, 1] += sig_r**2
     if not with_gain:
         return s, np.zeros((n, 3, 2))
     gain = np.transpose(hp[:, :, :3], (0, 2, 1)) @ np.linalg.inv(s)  # (n, 3, 2): P_pose,· Hᵀ S⁻¹
@@ -250,8 +267,15 @@ def _pairs(case: KeyframeCase, gate: float) -> _Pairs:
     return _Pairs(mi[keep], cj[keep], s_inv[keep], gain[keep])
 
 
-def _associate(case: KeyframeCase, pairs: _Pairs, meas: np.ndarray, pose_err: np.ndarray, lm_err: np.ndarray,
-               noise: np.ndarray, gate: float) -> tuple[np.ndarray, np.ndarray]:
+def _associate(
+    case: KeyframeCase,
+    pairs: _Pairs,
+    meas: np.ndarray,
+    pose_err: np.ndarray,
+    lm_err: np.ndarray,
+    noise: np.ndarray,
+    gate: float,
+) -> tuple[np.ndarray, np.ndarray]:
     """Run gated nearest neighbour on B draws for the measurements ``meas`` (m',) of ``pairs`` (all
     pairs of those measurements, grouped by measurement).
 
@@ -303,8 +327,9 @@ def _associate(case: KeyframeCase, pairs: _Pairs, meas: np.ndarray, pose_err: np
     return wrong, shift
 
 
-def _clutter(case: KeyframeCase, task: Task, rng: np.random.Generator, x_hat: np.ndarray, lm_err: np.ndarray,
-             s_base: np.ndarray) -> np.ndarray:
+def _clutter(
+    case: KeyframeCase, task: Task, rng: np.random.Generator, x_hat: np.ndarray, lm_err: np.ndarray, s_base: np.ndarray
+) -> np.ndarray:
     """(B,) whether a clutter detection was matched to a landmark in each draw. Clutter: a Poisson
     number of objects, ``task.clutter_per_m2`` × 2W per metre of the route within reach of the car
     (``case.route_xy``, points 1 m apart), each at a route point drawn uniformly, offset uniformly
@@ -333,8 +358,8 @@ def _clutter(case: KeyframeCase, task: Task, rng: np.random.Generator, x_hat: np
         nu = z[:, None, :] - measure(x_hat[dr][:, None, :], l_hat)
         nu[..., 0] = _wrap(nu[..., 0])
         s = np.broadcast_to(s_base, (len(zt),) + s_base.shape).copy()
-        s[..., 0, 0] += cone.sigma_bearing_rad ** 2
-        s[..., 1, 1] += (sr ** 2)[:, None]
+        s[..., 0, 0] += cone.sigma_bearing_rad**2
+        s[..., 1, 1] += (sr**2)[:, None]
         nis = np.einsum("nci,nci->nc", nu, np.linalg.solve(s, nu[..., None])[..., 0])
         dist = np.hypot(l_hat[..., 0] - x_hat[dr][:, None, 0], l_hat[..., 1] - x_hat[dr][:, None, 1])
         hit = ((nis <= task.gate) & (dist <= CANDIDATE_SCALE * z[:, 1:2] + CANDIDATE_MARGIN_M)).any(axis=1)
@@ -384,7 +409,9 @@ def associate_keyframe(case: KeyframeCase, task: Task) -> KeyframeOutcome:
             wrong_draws += int(anyw.sum())
             for p in positions:
                 per_sensor[p] += float(wrong[:, case.sensor == p].sum())
-            big = np.abs(shift).max(axis=1, initial=0.0)  # (B, 3) the largest shift of each component in the draw (0: no measurement)
+            big = np.abs(shift).max(
+                axis=1, initial=0.0
+            )  # (B, 3) the largest shift of each component in the draw (0: no measurement)
             shift_sum += big[anyw].sum(axis=0)
             shift_w += float(anyw.sum())
             beyond += float(((big > alert[None, [1, 0, 2]]) & anyw[:, None]).any(axis=1).sum())
@@ -393,8 +420,19 @@ def associate_keyframe(case: KeyframeCase, task: Task) -> KeyframeOutcome:
         n = task.draws
         p_hat = wrong_draws / n
         se = math.sqrt(max(p_hat * (1 - p_hat), 0.0) / n)
-        return _outcome(task, n, wrong_draws, p_hat, se, clutter_draws / n, clutter_draws,
-                        {p: v / n for p, v in per_sensor.items()}, shift_sum, shift_w, beyond / n)
+        return _outcome(
+            task,
+            n,
+            wrong_draws,
+            p_hat,
+            se,
+            clutter_draws / n,
+            clutter_draws,
+            {p: v / n for p, v in per_sensor.items()},
+            shift_sum,
+            shift_w,
+            beyond / n,
+        )
     # importance sampling: each measurement on its own, from a defensive mixture of mean shifts
     log_q = 0.0  # Σ log(1 − P̂_i): the keyframe's figure 1 − Π (1 − P̂_i)
     var_total = 0.0
@@ -445,11 +483,24 @@ def associate_keyframe(case: KeyframeCase, task: Task) -> KeyframeOutcome:
         log_q += math.log1p(-min(p_i, 1.0 - 1e-16))
         var_total += max(w2_sum / n - p_i * p_i, 0.0) / n
         per_sensor[int(case.sensor[i])] += p_i
-    return _outcome(task, task.draws, -1, -math.expm1(log_q), math.sqrt(var_total), math.nan, -1, per_sensor,
-                    shift_sum, shift_w, beyond / task.draws)
+    return _outcome(
+        task,
+        task.draws,
+        -1,
+        -math.expm1(log_q),
+        math.sqrt(var_total),
+        math.nan,
+        -1,
+        per_sensor,
+        shift_sum,
+        shift_w,
+        beyond / task.draws,
+    )
 
 
-def _mean_shifts(case: KeyframeCase, i: int, sub: _Pairs, slots: np.ndarray, chol_y: np.ndarray, gate: float) -> np.ndarray:
+def _mean_shifts(
+    case: KeyframeCase, i: int, sub: _Pairs, slots: np.ndarray, chol_y: np.ndarray, gate: float
+) -> np.ndarray:
     """(J, n_y) the mixture's mean shifts, whitened, one per wrong candidate j of measurement i: the
     most likely y (pose, candidates, noise) that brings ν_j to the decision boundary, in the
     linearized model ν_j = d_ij + A_j y, A_j y = v − J_j (e_pose, e_j): μ_j = −t Σ A_jᵀ S_j⁻¹ d_ij with
@@ -468,7 +519,9 @@ def _mean_shifts(case: KeyframeCase, i: int, sub: _Pairs, slots: np.ndarray, cho
         a[np.arange(len(cj)), :, col + q] = -jac[:, :, 3 + q]
     a[:, 0, -2] = 1.0
     a[:, 1, -1] = 1.0
-    d = np.column_stack([np.full(len(cj), case.bearing_rad[i]), np.full(len(cj), case.range_m[i])]) - measure(case.pose, case.points[cj])
+    d = np.column_stack([np.full(len(cj), case.bearing_rad[i]), np.full(len(cj), case.range_m[i])]) - measure(
+        case.pose, case.points[cj]
+    )
     d[:, 0] = _wrap(d[:, 0])
     s_inv = sub.s_inv[wrong]
     sd = np.einsum("jab,jb->ja", s_inv, d)
@@ -481,17 +534,47 @@ def _mean_shifts(case: KeyframeCase, i: int, sub: _Pairs, slots: np.ndarray, cho
 def _case_row(case: KeyframeCase, i: int) -> KeyframeCase:
     """The case restricted to measurement ``i`` (its pairs then refer to measurement 0)."""
     sl = slice(i, i + 1)
-    return KeyframeCase(case.keyframe, case.pose, case.sensor[sl], case.landmark[sl], case.bearing_rad[sl],
-                        case.range_m[sl], case.sigma_bearing_rad[sl], case.sigma_range_m[sl], case.candidates,
-                        case.points, case.right[sl], case.covariance)
+    return KeyframeCase(
+        case.keyframe,
+        case.pose,
+        case.sensor[sl],
+        case.landmark[sl],
+        case.bearing_rad[sl],
+        case.range_m[sl],
+        case.sigma_bearing_rad[sl],
+        case.sigma_range_m[sl],
+        case.candidates,
+        case.points,
+        case.right[sl],
+        case.covariance,
+    )
 
 
-def _outcome(task: Task, n: int, wrong_draws: int, p: float, se: float, p_clutter: float, clutter_draws: int,
-             per_sensor: dict[int, float], shift_sum: np.ndarray, shift_w: float, p_beyond: float) -> KeyframeOutcome:
+def _outcome(
+    task: Task,
+    n: int,
+    wrong_draws: int,
+    p: float,
+    se: float,
+    p_clutter: float,
+    clutter_draws: int,
+    per_sensor: dict[int, float],
+    shift_sum: np.ndarray,
+    shift_w: float,
+    p_beyond: float,
+) -> KeyframeOutcome:
     mean = shift_sum / shift_w if shift_w > 0 else np.full(3, math.nan)
     return KeyframeOutcome(
-        keyframe=task.keyframe, draws=n, wrong_draws=wrong_draws, p_wrong=float(p), standard_error=float(se),
-        p_wrong_clutter=float(p_clutter), clutter_draws=clutter_draws,
+        keyframe=task.keyframe,
+        draws=n,
+        wrong_draws=wrong_draws,
+        p_wrong=float(p),
+        standard_error=float(se),
+        p_wrong_clutter=float(p_clutter),
+        clutter_draws=clutter_draws,
         wrong_per_sensor=tuple((int(k), float(v)) for k, v in sorted(per_sensor.items())),
-        shift_lateral_m=float(mean[1]), shift_longitudinal_m=float(mean[0]), shift_heading_deg=float(math.degrees(mean[2])),
-        p_beyond_alert=float(p_beyond))
+        shift_lateral_m=float(mean[1]),
+        shift_longitudinal_m=float(mean[0]),
+        shift_heading_deg=float(math.degrees(mean[2])),
+        p_beyond_alert=float(p_beyond),
+    )

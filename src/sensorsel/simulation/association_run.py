@@ -10,8 +10,8 @@ at each keyframe's :class:`~sensorsel.information.filtering.Prediction`, every m
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
-from typing import Callable, Iterable
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -23,16 +23,26 @@ from sensorsel.information.integrity.association import AssociationModel, keyfra
 from sensorsel.information.integrity.risk import IntegritySpec, keyframes_per_hour
 from sensorsel.model.problem import Problem
 from sensorsel.pipeline import Executor, Plan, execute
-from sensorsel.simulation.association import (CANDIDATE_MARGIN_M, CANDIDATE_SCALE, RANGE_SIGMAS, KeyframeCase, KeyframeOutcome,
-                                            SensorCone, Task, associate_keyframe)
+from sensorsel.simulation.association import (
+    CANDIDATE_MARGIN_M,
+    CANDIDATE_SCALE,
+    RANGE_SIGMAS,
+    KeyframeCase,
+    KeyframeOutcome,
+    SensorCone,
+    Task,
+    associate_keyframe,
+)
 from sensorsel.simulation.records import AssociationCheck, AssociationKeyframe, CalibrationBin, SensorAssociation
 
 __all__ = ["SHIFT_NOTE", "calibration_bins", "check_association_args", "simulate_association"]
 
-SHIFT_NOTE = ("the filter's one-measurement update with the wrong landmark from the prediction: "
-              "shift K_j nu_j - K_i nu_i of the pose estimate at that keyframe (not carried to later keyframes)")
+SHIFT_NOTE = (
+    "the filter's one-measurement update with the wrong landmark from the prediction: "
+    "shift K_j nu_j - K_i nu_i of the pose estimate at that keyframe (not carried to later keyframes)"
+)
 #: the calibration bins' edges of the predicted estimate: 0 and the decades 1e-12 .. 1
-BIN_EDGES = (0.0,) + tuple(10.0 ** e for e in range(-12, 1))
+BIN_EDGES = (0.0,) + tuple(10.0**e for e in range(-12, 1))
 #: plain Monte Carlo resolves a keyframe with at least this many wrong draws
 RESOLVE_COUNT = 10
 #: importance sampling resolves a keyframe at a relative standard error at most this
@@ -40,8 +50,9 @@ RESOLVE_RELATIVE_SE = 0.3
 Z99 = 2.5758293035489004
 
 
-def check_association_args(draws: int, seed: int, importance: bool, clutter_per_km: float,
-                           gate_probability: float) -> None:
+def check_association_args(
+    draws: int, seed: int, importance: bool, clutter_per_km: float, gate_probability: float
+) -> None:
     """Raise InputError naming the option of the first bad value."""
     if isinstance(draws, bool) or not isinstance(draws, int) or draws < 1:
         raise InputError(f"--draws {draws!r}: a positive integer")
@@ -50,8 +61,12 @@ def check_association_args(draws: int, seed: int, importance: bool, clutter_per_
     if not (isinstance(clutter_per_km, (int, float)) and math.isfinite(clutter_per_km) and clutter_per_km >= 0.0):
         raise InputError(f"--clutter-per-km {clutter_per_km!r}: a density of clutter objects per km, >= 0")
     if importance and clutter_per_km > 0.0:
-        raise InputError("--clutter-per-km with --importance-sampling: clutter is simulated by plain Monte Carlo only; give one")
-    if not (isinstance(gate_probability, (int, float)) and math.isfinite(gate_probability) and 0.0 < gate_probability < 1.0):
+        raise InputError(
+            "--clutter-per-km with --importance-sampling: clutter is simulated by plain Monte Carlo only; give one"
+        )
+    if not (
+        isinstance(gate_probability, (int, float)) and math.isfinite(gate_probability) and 0.0 < gate_probability < 1.0
+    ):
         raise InputError(f"--gate-probability {gate_probability!r}: a probability strictly between 0 and 1")
 
 
@@ -76,11 +91,20 @@ class _Cases:
         self.bound.append(bnd)
         sensors = np.asarray(meas.sensor, np.int64)
         self.per_sensor.append({c.position: float(r.estimate[sensors == c.position].sum()) for c in self.cones})
-        self.cases.append(_case(self.model, prediction, meas, self.cones, self.reach_m, self.route_xy, self.route_reach_m))
+        self.cases.append(
+            _case(self.model, prediction, meas, self.cones, self.reach_m, self.route_xy, self.route_reach_m)
+        )
 
 
-def _case(model: AssociationModel, prediction: Prediction, meas: KeyframeMeasurements, cones: tuple[SensorCone, ...],
-          reach_m: float, route_xy: np.ndarray, route_reach_m: float) -> KeyframeCase:
+def _case(
+    model: AssociationModel,
+    prediction: Prediction,
+    meas: KeyframeMeasurements,
+    cones: tuple[SensorCone, ...],
+    reach_m: float,
+    route_xy: np.ndarray,
+    route_reach_m: float,
+) -> KeyframeCase:
     """One keyframe's numbers: candidates within ``reach_m`` of the car (SLAM: the state's), their
     joint covariance with the pose (a landmark outside the state: the prior σ², independent)."""
     pose = np.asarray(model.problem.scenario.keyframes.poses[meas.keyframe], float)
@@ -92,12 +116,16 @@ def _case(model: AssociationModel, prediction: Prediction, meas: KeyframeMeasure
     cand = np.asarray(near, np.int64)
     # the prediction's covariance restricted to the pose and the candidates
     slot = np.searchsorted(state, cand) if state.size else np.zeros(len(cand), np.int64)
-    inside = (slot < len(state)) & (state[np.minimum(slot, max(len(state) - 1, 0))] == cand) if state.size else np.zeros(len(cand), bool)
+    inside = (
+        (slot < len(state)) & (state[np.minimum(slot, max(len(state) - 1, 0))] == cand)
+        if state.size
+        else np.zeros(len(cand), bool)
+    )
     dim = 3 + 2 * len(cand)
     src = np.full(dim, -1)
     src[:3] = np.arange(3)
     for a in np.flatnonzero(inside):
-        src[3 + 2 * a:5 + 2 * a] = 3 + 2 * slot[a] + np.arange(2)
+        src[3 + 2 * a : 5 + 2 * a] = 3 + 2 * slot[a] + np.arange(2)
     cov = np.zeros((dim, dim))
     ok = src >= 0
     full = np.asarray(prediction.covariance, float)
@@ -106,14 +134,28 @@ def _case(model: AssociationModel, prediction: Prediction, meas: KeyframeMeasure
     cov[out, out] = float(prediction.prior_sigma_m) ** 2
     lm = np.asarray(meas.landmark, np.int64)
     pos = np.searchsorted(cand, lm)
-    right = np.where((pos < len(cand)) & (cand[np.minimum(pos, max(len(cand) - 1, 0))] == lm), pos, -1) if len(cand) \
+    right = (
+        np.where((pos < len(cand)) & (cand[np.minimum(pos, max(len(cand) - 1, 0))] == lm), pos, -1)
+        if len(cand)
         else np.full(len(lm), -1)
+    )
     route = route_xy[np.hypot(*(route_xy - pose[:2]).T) <= route_reach_m] if len(route_xy) else route_xy
     return KeyframeCase(
-        keyframe=int(meas.keyframe), pose=pose, sensor=np.asarray(meas.sensor, np.int64), landmark=lm,
-        bearing_rad=np.asarray(meas.bearing_rad, float), range_m=np.asarray(meas.range_m, float),
-        sigma_bearing_rad=np.asarray(meas.sigma_bearing_rad, float), sigma_range_m=np.asarray(meas.sigma_range_m, float),
-        candidates=cand, points=points[cand], right=right.astype(np.int64), covariance=cov, cones=cones, route_xy=route)
+        keyframe=int(meas.keyframe),
+        pose=pose,
+        sensor=np.asarray(meas.sensor, np.int64),
+        landmark=lm,
+        bearing_rad=np.asarray(meas.bearing_rad, float),
+        range_m=np.asarray(meas.range_m, float),
+        sigma_bearing_rad=np.asarray(meas.sigma_bearing_rad, float),
+        sigma_range_m=np.asarray(meas.sigma_range_m, float),
+        candidates=cand,
+        points=points[cand],
+        right=right.astype(np.int64),
+        covariance=cov,
+        cones=cones,
+        route_xy=route,
+    )
 
 
 def _cones(problem: Problem, suite: tuple[int, ...]) -> tuple[SensorCone, ...]:
@@ -125,8 +167,17 @@ def _cones(problem: Problem, suite: tuple[int, ...]) -> tuple[SensorCone, ...]:
         m = s.model
         stereo = m.type == "stereo"
         quad = float(m.sigma_disparity_px / (m.focal_px * m.baseline_m)) if stereo else 0.0  # type: ignore[operator]
-        out.append(SensorCone(int(i), float(s.mount_angle_rad), float(m.fov_rad), float(m.range_m), float(m.bearing_sigma()),
-                              0.0 if stereo else float(m.sigma_range_m or 0.0), quad))
+        out.append(
+            SensorCone(
+                int(i),
+                float(s.mount_angle_rad),
+                float(m.fov_rad),
+                float(m.range_m),
+                float(m.bearing_sigma()),
+                0.0 if stereo else float(m.sigma_range_m or 0.0),
+                quad,
+            )
+        )
     return tuple(out)
 
 
@@ -150,10 +201,20 @@ def route_length_m(problem: Problem) -> float:
     return float(np.sum(np.hypot(*np.diff(xy, axis=0).T))) if len(xy) > 1 else 0.0
 
 
-def simulate_association(problem: Problem, suite: Iterable[int], *, map_sigma_m: float | None = None, draws: int = 2000,
-                         seed: int = 0, gate_probability: float = 0.9999, importance: bool = False,
-                         clutter_per_km: float = 0.0, label: str = "suite", executor: Executor | None = None,
-                         progress: Callable[[int, int], None] | None = None) -> AssociationCheck:
+def simulate_association(
+    problem: Problem,
+    suite: Iterable[int],
+    *,
+    map_sigma_m: float | None = None,
+    draws: int = 2000,
+    seed: int = 0,
+    gate_probability: float = 0.9999,
+    importance: bool = False,
+    clutter_per_km: float = 0.0,
+    label: str = "suite",
+    executor: Executor | None = None,
+    progress: Callable[[int, int], None] | None = None,
+) -> AssociationCheck:
     """Run the stated associator on ``draws`` draws per keyframe (module :mod:`.association`) and set
     the observed rates beside the integrity engine's predictions.
 
@@ -177,22 +238,57 @@ def simulate_association(problem: Problem, suite: Iterable[int], *, map_sigma_m:
     cones = _cones(problem, positions)
     # the keyframe's candidates: the widest reach of a measurement of the suite (its measured range up
     # to RANGE_SIGMAS σ_r past its sensor's range; _pairs narrows it per measurement)
-    reach = CANDIDATE_SCALE * max((c.range_m + RANGE_SIGMAS * (c.sigma_range_const_m + c.sigma_range_quad_per_m * c.range_m ** 2)
-                                   for c in cones), default=0.0) + CANDIDATE_MARGIN_M + 10.0
+    reach = (
+        CANDIDATE_SCALE
+        * max(
+            (
+                c.range_m + RANGE_SIGMAS * (c.sigma_range_const_m + c.sigma_range_quad_per_m * c.range_m**2)
+                for c in cones
+            ),
+            default=0.0,
+        )
+        + CANDIDATE_MARGIN_M
+        + 10.0
+    )
     route, corridor = _route(problem)
     half = max((c.range_m for c in cones), default=0.0)
     hook = _Cases(assoc, cones, reach, route if clutter_per_km > 0 else np.zeros((0, 2)), half + corridor)
     forward_pass(problem, positions, map_sigma_m=map_sigma_m, on_prediction=hook)
     spec = IntegritySpec(gate_probability=gate_probability)
     alert = (spec.alert_lateral_m, spec.alert_longitudinal_m, math.radians(spec.alert_heading_deg))
-    per_m2 = clutter_per_km / 1000.0 / (2.0 * corridor) if clutter_per_km > 0 and corridor > 0 else 0.0  # per m² of corridor
-    tasks = tuple(Task(keyframe=c.keyframe, draws=draws, seed=seed, gate=assoc.gate, importance=bool(importance),
-                       clutter_per_m2=per_m2, corridor_m=corridor, alert_m_rad=alert) for c in hook.cases)
+    per_m2 = (
+        clutter_per_km / 1000.0 / (2.0 * corridor) if clutter_per_km > 0 and corridor > 0 else 0.0
+    )  # per m² of corridor
+    tasks = tuple(
+        Task(
+            keyframe=c.keyframe,
+            draws=draws,
+            seed=seed,
+            gate=assoc.gate,
+            importance=bool(importance),
+            clutter_per_m2=per_m2,
+            corridor_m=corridor,
+            alert_m_rad=alert,
+        )
+        for c in hook.cases
+    )
     plan = Plan("association keyframe", run_case, tasks, states=tuple(hook.cases), state_of=tuple(range(len(tasks))))
     outcomes: list[KeyframeOutcome] = execute(plan, executor, progress=progress)
-    return _summarise(problem, positions, hook, outcomes, label=label, model=model, map_sigma_m=map_sigma_m,
-                      gate_probability=gate_probability, draws=draws, seed=seed, importance=bool(importance),
-                      clutter_per_km=float(clutter_per_km), corridor_m=corridor)
+    return _summarise(
+        problem,
+        positions,
+        hook,
+        outcomes,
+        label=label,
+        model=model,
+        map_sigma_m=map_sigma_m,
+        gate_probability=gate_probability,
+        draws=draws,
+        seed=seed,
+        importance=bool(importance),
+        clutter_per_km=float(clutter_per_km),
+        corridor_m=corridor,
+    )
 
 
 def run_case(case: KeyframeCase, task: Task) -> KeyframeOutcome:
@@ -225,10 +321,20 @@ def calibration_bins(rows: tuple[AssociationKeyframe, ...]) -> tuple[Calibration
             ci = _ci(obs, 0.0, k, n)
         else:
             obs = float(np.mean([r.observed for r in pick]))
-            se = math.sqrt(sum(r.standard_error ** 2 for r in pick)) / len(pick)
+            se = math.sqrt(sum(r.standard_error**2 for r in pick)) / len(pick)
             ci = _ci(obs, se, -1, n)
-        out.append(CalibrationBin(lo=lo, hi=hi, keyframes=len(pick), predicted=float(np.mean([r.predicted_estimate for r in pick])),
-                                  bound=float(np.mean([r.predicted_bound for r in pick])), observed=obs, ci_low=ci[0], ci_high=ci[1]))
+        out.append(
+            CalibrationBin(
+                lo=lo,
+                hi=hi,
+                keyframes=len(pick),
+                predicted=float(np.mean([r.predicted_estimate for r in pick])),
+                bound=float(np.mean([r.predicted_bound for r in pick])),
+                observed=obs,
+                ci_low=ci[0],
+                ci_high=ci[1],
+            )
+        )
     return tuple(out)
 
 
@@ -238,33 +344,82 @@ def _resolved(r: AssociationKeyframe) -> bool:
     return r.observed > 0 and r.standard_error <= RESOLVE_RELATIVE_SE * r.observed
 
 
-def _summarise(problem: Problem, positions: tuple[int, ...], hook: _Cases, outcomes: list[KeyframeOutcome], *, label: str,
-               model: str, map_sigma_m: float | None, gate_probability: float, draws: int, seed: int,
-               importance: bool, clutter_per_km: float, corridor_m: float) -> AssociationCheck:
-    rows = tuple(AssociationKeyframe(
-        keyframe=o.keyframe, n_measurements=len(c.landmark), predicted_estimate=e, predicted_bound=b, observed=o.p_wrong,
-        standard_error=o.standard_error, wrong_draws=o.wrong_draws, draws=o.draws,
-        observed_clutter=o.p_wrong_clutter if clutter_per_km > 0 else math.nan,
-        shift_lateral_m=o.shift_lateral_m, shift_longitudinal_m=o.shift_longitudinal_m, shift_heading_deg=o.shift_heading_deg,
-        p_beyond_alert=o.p_beyond_alert) for o, c, e, b in zip(outcomes, hook.cases, hook.estimate, hook.bound))
+def _summarise(
+    problem: Problem,
+    positions: tuple[int, ...],
+    hook: _Cases,
+    outcomes: list[KeyframeOutcome],
+    *,
+    label: str,
+    model: str,
+    map_sigma_m: float | None,
+    gate_probability: float,
+    draws: int,
+    seed: int,
+    importance: bool,
+    clutter_per_km: float,
+    corridor_m: float,
+) -> AssociationCheck:
+    rows = tuple(
+        AssociationKeyframe(
+            keyframe=o.keyframe,
+            n_measurements=len(c.landmark),
+            predicted_estimate=e,
+            predicted_bound=b,
+            observed=o.p_wrong,
+            standard_error=o.standard_error,
+            wrong_draws=o.wrong_draws,
+            draws=o.draws,
+            observed_clutter=o.p_wrong_clutter if clutter_per_km > 0 else math.nan,
+            shift_lateral_m=o.shift_lateral_m,
+            shift_longitudinal_m=o.shift_longitudinal_m,
+            shift_heading_deg=o.shift_heading_deg,
+            p_beyond_alert=o.p_beyond_alert,
+        )
+        for o, c, e, b in zip(outcomes, hook.cases, hook.estimate, hook.bound)
+    )
     k = max(1, len(rows))
     lib = problem.library
-    sensors = tuple(SensorAssociation(
-        sensor=lib[p].id, predicted_per_keyframe=sum(d[p] for d in hook.per_sensor) / k,
-        observed_per_keyframe=sum(dict(o.wrong_per_sensor).get(p, 0.0) for o in outcomes) / k) for p in positions)
+    sensors = tuple(
+        SensorAssociation(
+            sensor=lib[p].id,
+            predicted_per_keyframe=sum(d[p] for d in hook.per_sensor) / k,
+            observed_per_keyframe=sum(dict(o.wrong_per_sensor).get(p, 0.0) for o in outcomes) / k,
+        )
+        for p in positions
+    )
     resolved = [r for r in rows if _resolved(r)]
     within = sum(1 for r in resolved if r.observed / 2.0 <= r.predicted_estimate <= 2.0 * r.observed)
     below = sum(1 for r in rows if r.predicted_bound < _ci(r.observed, r.standard_error, r.wrong_draws, r.draws)[0])
     n_h = keyframes_per_hour(problem)
-    sampling = ("importance sampling: each measurement on its own, from a defensive mixture of mean shifts toward "
-                "each wrong candidate's decision boundary, weighted by the likelihood ratio; a keyframe's figure is "
-                "1 - prod(1 - P(wrong) of its measurements)" if importance else
-                "plain Monte Carlo: each draw runs all of a keyframe's measurements on one shared pose and map error")
+    sampling = (
+        "importance sampling: each measurement on its own, from a defensive mixture of mean shifts toward "
+        "each wrong candidate's decision boundary, weighted by the likelihood ratio; a keyframe's figure is "
+        "1 - prod(1 - P(wrong) of its measurements)"
+        if importance
+        else "plain Monte Carlo: each draw runs all of a keyframe's measurements on one shared pose and map error"
+    )
     return AssociationCheck(
-        label=label, suite=lib.suite_ids(positions), model=model, map_sigma_m=map_sigma_m, gate_probability=gate_probability,
-        draws=draws, seed=seed, importance_sampling=importance, sampling=sampling, clutter_per_km=clutter_per_km,
-        corridor_m=corridor_m, shift=SHIFT_NOTE, keyframes=rows, sensors=sensors, bins=calibration_bins(rows),
-        keyframes_per_hour=n_h, predicted_per_hour=n_h * float(np.mean(hook.estimate)) if rows else 0.0,
+        label=label,
+        suite=lib.suite_ids(positions),
+        model=model,
+        map_sigma_m=map_sigma_m,
+        gate_probability=gate_probability,
+        draws=draws,
+        seed=seed,
+        importance_sampling=importance,
+        sampling=sampling,
+        clutter_per_km=clutter_per_km,
+        corridor_m=corridor_m,
+        shift=SHIFT_NOTE,
+        keyframes=rows,
+        sensors=sensors,
+        bins=calibration_bins(rows),
+        keyframes_per_hour=n_h,
+        predicted_per_hour=n_h * float(np.mean(hook.estimate)) if rows else 0.0,
         bound_per_hour=n_h * float(np.mean(hook.bound)) if rows else 0.0,
         observed_per_hour=n_h * float(np.mean([r.observed for r in rows])) if rows else 0.0,
-        resolved=len(resolved), within_factor_2=within, bound_below_lower=below)
+        resolved=len(resolved),
+        within_factor_2=within,
+        bound_below_lower=below,
+    )

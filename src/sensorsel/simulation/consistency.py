@@ -36,7 +36,7 @@ class Prediction:
 
     def pose_blocks(self) -> np.ndarray:
         """(K, 3, 3) the per-pose diagonal blocks of the covariance."""
-        return np.array([self.pose_cov[3 * k:3 * k + 3, 3 * k:3 * k + 3] for k in range(len(self.pose_block_inv))])
+        return np.array([self.pose_cov[3 * k : 3 * k + 3, 3 * k : 3 * k + 3] for k in range(len(self.pose_block_inv))])
 
 
 def predict(p: Payload) -> Prediction:
@@ -88,7 +88,7 @@ def predict(p: Payload) -> Prediction:
     chol = cho_factor(schur, lower=True)
     cov = cho_solve(chol, np.eye(3 * n_poses))
     cov = 0.5 * (cov + cov.T)
-    blocks = np.array([np.linalg.inv(cov[3 * k:3 * k + 3, 3 * k:3 * k + 3]) for k in range(n_poses)])
+    blocks = np.array([np.linalg.inv(cov[3 * k : 3 * k + 3, 3 * k : 3 * k + 3]) for k in range(n_poses)])
     lcov = np.full((n_lm, 2, 2), np.nan)
     if len(measured):
         sw = (cov @ w).reshape(3 * n_poses, len(measured), 2)
@@ -145,7 +145,9 @@ def body_frame_errors(true: np.ndarray, est: np.ndarray) -> tuple[np.ndarray, np
     return c * dx + s * dy, c * dy - s * dx
 
 
-def nees_bounds(n_runs: int, n_poses: int, dof: int = 3, confidence: float = NEES_CONFIDENCE, *, trace_sq: float | None = None) -> tuple[float, float]:
+def nees_bounds(
+    n_runs: int, n_poses: int, dof: int = 3, confidence: float = NEES_CONFIDENCE, *, trace_sq: float | None = None
+) -> tuple[float, float]:
     """Two-sided bounds of an average NEES over ``n_runs`` runs of ``n_poses`` terms of ``dof`` each.
 
     Without ``trace_sq`` the terms are taken as independent: ``N K avg ~ chi2(dof N K)``. With it,
@@ -169,6 +171,6 @@ def correlated_nees_bounds(pred: Prediction, n_runs: int) -> tuple[float, float]
     n_poses = len(pred.pose_block_inv)
     inv_blocks = np.zeros_like(pred.pose_cov)
     for k in range(n_poses):
-        inv_blocks[3 * k:3 * k + 3, 3 * k:3 * k + 3] = pred.pose_block_inv[k]
+        inv_blocks[3 * k : 3 * k + 3, 3 * k : 3 * k + 3] = pred.pose_block_inv[k]
     ap = inv_blocks @ pred.pose_cov
     return nees_bounds(n_runs, n_poses, trace_sq=float(np.sum(ap * ap.T)))

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Iterable
+from collections.abc import Iterable
 
 import numpy as np
 
@@ -43,7 +43,9 @@ def _parse_period(item: str, sensor: str, period: str, problem: Problem) -> Fail
             raise ValueError
         a, b = (float(v.strip().rstrip("s")) for v in (lo, hi))
     except ValueError:
-        raise InputError(f"failure {item!r}: expected ID, ID@FROM-TO (keyframe indices, TO excluded) or ID@FROMs-TOs (seconds)") from None
+        raise InputError(
+            f"failure {item!r}: expected ID, ID@FROM-TO (keyframe indices, TO excluded) or ID@FROMs-TOs (seconds)"
+        ) from None
     if seconds:
         t = kf.times - kf.times[0]
         idx = np.nonzero((t >= a) & (t < b))[0]
@@ -64,7 +66,9 @@ def check_failure(f: Failure, problem: Problem) -> Failure:
     k = problem.scenario.n_poses
     stop = k if f.stop is None else f.stop
     if not (0 <= f.start < stop <= k):
-        raise InputError(f"failure {f.describe()!r}: keyframes {f.start}..{stop - 1} are not inside the route (0..{k - 1})")
+        raise InputError(
+            f"failure {f.describe()!r}: keyframes {f.start}..{stop - 1} are not inside the route (0..{k - 1})"
+        )
     return Failure(f.sensor, f.start, stop)
 
 
@@ -79,6 +83,8 @@ def resolve_failures(failures: Iterable[Failure], problem: Problem, suite: tuple
     resolved = []
     for f in failures:
         if f.sensor not in ids:
-            raise InputError(f"failed sensor {f.sensor!r} is not in the suite {','.join(lib.suite_ids(suite)) or '(empty)'}")
+            raise InputError(
+                f"failed sensor {f.sensor!r} is not in the suite {','.join(lib.suite_ids(suite)) or '(empty)'}"
+            )
         resolved.append(check_failure(f, problem))
     return tuple(resolved)

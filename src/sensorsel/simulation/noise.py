@@ -55,8 +55,15 @@ class Payload:
         return idx[np.argsort(self.pose[idx], kind="stable")]
 
 
-def make_payload(problem: Problem, suite: tuple[int, ...], failures: tuple[Failure, ...], noise_scale: float, solver: str,
-                 seed: int, map_sigma_m: float | None = None) -> Payload:
+def make_payload(
+    problem: Problem,
+    suite: tuple[int, ...],
+    failures: tuple[Failure, ...],
+    noise_scale: float,
+    solver: str,
+    seed: int,
+    map_sigma_m: float | None = None,
+) -> Payload:
     """The measurements of ``suite`` (sorted library positions) with sigmas scaled by ``noise_scale``
     (the map's ``map_sigma_m`` [m] is not scaled: it is the map's accuracy, not a sensor's)."""
     s = problem.settings
@@ -69,7 +76,18 @@ def make_payload(problem: Problem, suite: tuple[int, ...], failures: tuple[Failu
         for f in failures:
             if lib[i].id == f.sensor:
                 keep &= ~((o.pose >= f.start) & (o.pose < f.stop))
-        for key, arr in zip(parts, (o.pose, o.landmark, o.bearing_rad, o.range_m, o.sigma_bearing_rad * noise_scale, o.sigma_range_m * noise_scale, keep)):
+        for key, arr in zip(
+            parts,
+            (
+                o.pose,
+                o.landmark,
+                o.bearing_rad,
+                o.range_m,
+                o.sigma_bearing_rad * noise_scale,
+                o.sigma_range_m * noise_scale,
+                keep,
+            ),
+        ):
             parts[key].append(np.asarray(arr))
         slices.append((at, at + len(o)))
         at += len(o)
@@ -82,10 +100,18 @@ def make_payload(problem: Problem, suite: tuple[int, ...], failures: tuple[Failu
         landmarks=np.array(problem.scenario.landmarks, dtype=float),
         first_pose_sigmas=np.asarray(s.first_pose_sigmas, float) * noise_scale,
         odometry_sigmas=np.asarray(s.odometry_sigmas, float) * noise_scale,
-        sensors=suite, sensor_slices=tuple(slices),
-        pose=cat("pose", int), landmark=cat("landmark", int), bearing_rad=cat("bearing", float), range_m=cat("range", float),
-        sigma_bearing_rad=cat("sb", float), sigma_range_m=cat("sr", float), keep=cat("keep", bool),
-        solver=solver, seed=seed, map_sigma_m=map_sigma_m,
+        sensors=suite,
+        sensor_slices=tuple(slices),
+        pose=cat("pose", int),
+        landmark=cat("landmark", int),
+        bearing_rad=cat("bearing", float),
+        range_m=cat("range", float),
+        sigma_bearing_rad=cat("sb", float),
+        sigma_range_m=cat("sr", float),
+        keep=cat("keep", bool),
+        solver=solver,
+        seed=seed,
+        map_sigma_m=map_sigma_m,
     )
 
 

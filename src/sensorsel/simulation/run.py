@@ -11,8 +11,8 @@ from __future__ import annotations
 import math
 import multiprocessing
 import time
+from collections.abc import Iterable, Sequence
 from concurrent.futures import ProcessPoolExecutor
-from typing import Iterable, Sequence
 
 import numpy as np
 
@@ -22,12 +22,25 @@ from sensorsel.information.evaluators.accuracy import Z95, accuracy_from_covaria
 from sensorsel.io.progress import Progress
 from sensorsel.model.problem import Problem
 from sensorsel.pipeline import Executor, Plan, execute
-from sensorsel.simulation.consistency import (COVARIANCE_NOTE, Prediction, correlated_nees_bounds, nees_bounds, predict,
-                                            rms, run_errors)
+from sensorsel.simulation.consistency import (
+    COVARIANCE_NOTE,
+    Prediction,
+    correlated_nees_bounds,
+    nees_bounds,
+    predict,
+    rms,
+    run_errors,
+)
 from sensorsel.simulation.failures import resolve_failures
 from sensorsel.simulation.noise import Payload, make_payload
-from sensorsel.simulation.records import (AccuracyCheck, ErrorSpread, Failure, RunResult, SimulationResult,
-                                        SimulationTiming)
+from sensorsel.simulation.records import (
+    AccuracyCheck,
+    ErrorSpread,
+    Failure,
+    RunResult,
+    SimulationResult,
+    SimulationTiming,
+)
 from sensorsel.simulation.solve import DEFAULT_SOLVER, SOLVERS, solve_run
 
 
@@ -72,25 +85,43 @@ def simulate(
     t0 = time.perf_counter()
     positions = problem.library.parse_suite(suite) if isinstance(suite, str) else as_suite(suite)
     _check_args(problem, positions, solver, runs, seed, noise_scale, jobs)
-    if map_sigma_m is not None and (isinstance(map_sigma_m, bool) or not isinstance(map_sigma_m, (int, float))
-                                    or not (math.isfinite(map_sigma_m) and map_sigma_m > 0)):
+    if map_sigma_m is not None and (
+        isinstance(map_sigma_m, bool)
+        or not isinstance(map_sigma_m, (int, float))
+        or not (math.isfinite(map_sigma_m) and map_sigma_m > 0)
+    ):
         raise InputError(f"map sigma must be a positive, finite number of metres, got {map_sigma_m!r}")
     failures_t = resolve_failures(failures, problem, positions)
-    payload = make_payload(problem, positions, failures_t, float(noise_scale), solver, seed,
-                           None if map_sigma_m is None else float(map_sigma_m))
+    payload = make_payload(
+        problem,
+        positions,
+        failures_t,
+        float(noise_scale),
+        solver,
+        seed,
+        None if map_sigma_m is None else float(map_sigma_m),
+    )
     t_runs = time.perf_counter()
     if executor is not None:
-        raw = execute(Plan("simulation run", solve_run, tuple(range(runs)), states=(payload,)), executor, progress=progress)
+        raw = execute(
+            Plan("simulation run", solve_run, tuple(range(runs)), states=(payload,)), executor, progress=progress
+        )
     else:
         raw = _run_all(payload, runs, jobs, progress)
     t_cov = time.perf_counter()
     pred = predict(payload)
     t_end = time.perf_counter()
-    timing = SimulationTiming(total_s=round(t_end - t0, 3), runs_s=round(t_cov - t_runs, 3), covariance_s=round(t_end - t_cov, 3), jobs=jobs)
-    return _summarise(problem, payload, positions, failures_t, raw, pred, label=label, noise_scale=float(noise_scale), timing=timing)
+    timing = SimulationTiming(
+        total_s=round(t_end - t0, 3), runs_s=round(t_cov - t_runs, 3), covariance_s=round(t_end - t_cov, 3), jobs=jobs
+    )
+    return _summarise(
+        problem, payload, positions, failures_t, raw, pred, label=label, noise_scale=float(noise_scale), timing=timing
+    )
 
 
-def _check_args(problem: Problem, positions: tuple[int, ...], solver: str, runs: int, seed: int, noise_scale: float, jobs: int) -> None:
+def _check_args(
+    problem: Problem, positions: tuple[int, ...], solver: str, runs: int, seed: int, noise_scale: float, jobs: int
+) -> None:
     """Raise InputError naming the first bad argument of :func:`simulate`."""
     for i in positions:
         if not 0 <= i < problem.n_sensors:
@@ -119,7 +150,9 @@ def _run_all(payload: Payload, runs: int, jobs: int, progress: Progress | None) 
             if progress:
                 progress(len(raw), runs)
         return raw
-    with ProcessPoolExecutor(max_workers=min(jobs, runs), mp_context=_mp_context(), initializer=_init_worker, initargs=(payload,)) as ex:
+    with ProcessPoolExecutor(
+        max_workers=min(jobs, runs), mp_context=_mp_context(), initializer=_init_worker, initargs=(payload,)
+    ) as ex:
         for out in ex.map(_worker_run, range(runs)):
             raw.append(out)
             if progress:
@@ -149,15 +182,29 @@ def _mp_context() -> multiprocessing.context.BaseContext:
 # ---------------------------------------------------------------------------------- summary
 
 
-def _summarise(problem: Problem, p: Payload, positions: tuple[int, ...], failures: tuple[Failure, ...], raw: Sequence[dict], pred: Prediction, *,
-               label: str, noise_scale: float, timing: SimulationTiming) -> SimulationResult:
+def _summarise(
+    problem: Problem,
+    p: Payload,
+    positions: tuple[int, ...],
+    failures: tuple[Failure, ...],
+    raw: Sequence[dict],
+    pred: Prediction,
+    *,
+    label: str,
+    noise_scale: float,
+    timing: SimulationTiming,
+) -> SimulationResult:
     # long only because SimulationResult has 37 fields, each computed in one line
     measured = p.measured_landmarks()
     unmeasured = np.setdiff1d(np.arange(len(p.landmarks)), measured)
     rr = tuple(run_errors(p, pred, r, out, measured) for r, out in enumerate(raw))
     pos = np.array([r.position_error_m for r in rr])  # (N, K)
     hdg = np.array([r.heading_error_rad for r in rr])
-    lm = np.concatenate([np.hypot(*(np.asarray(r.landmarks).reshape(-1, 2) - p.landmarks[measured]).T) for r in rr]) if len(measured) else np.zeros(0)
+    lm = (
+        np.concatenate([np.hypot(*(np.asarray(r.landmarks).reshape(-1, 2) - p.landmarks[measured]).T) for r in rr])
+        if len(measured)
+        else np.zeros(0)
+    )
     blocks = pred.pose_blocks()
     pos_var = blocks[:, 0, 0] + blocks[:, 1, 1]
     lbounds = nees_bounds(len(rr), len(p.poses))
@@ -213,9 +260,11 @@ def accuracy_check(runs: Sequence[RunResult], pose_blocks: np.ndarray, map_sigma
     θ), converted as :func:`sensorsel.information.evaluators.accuracy.accuracy_from_covariances` does for
     ``route_accuracy``. Each summarised over the keyframes (median / 95th percentile / worst)."""
     pred = accuracy_from_covariances(pose_blocks, map_sigma_m=map_sigma_m)
-    errors = {"lateral": np.array([r.lateral_error_m for r in runs]),
-              "longitudinal": np.array([r.longitudinal_error_m for r in runs]),
-              "heading": np.degrees(np.array([r.heading_error_rad for r in runs]))}
+    errors = {
+        "lateral": np.array([r.lateral_error_m for r in runs]),
+        "longitudinal": np.array([r.longitudinal_error_m for r in runs]),
+        "heading": np.degrees(np.array([r.heading_error_rad for r in runs])),
+    }
     measured, predicted, coverage = {}, {}, {}
     for c, e in errors.items():
         sigma = pred.sigmas(c)
@@ -223,10 +272,14 @@ def accuracy_check(runs: Sequence[RunResult], pose_blocks: np.ndarray, map_sigma
         predicted[c] = Z95 * sigma
         coverage[c] = float(np.mean(np.abs(e) <= Z95 * sigma[None, :]))
     return AccuracyCheck(
-        model=pred.model, map_sigma_m=map_sigma_m,
-        measured_lateral_95_m=_t(measured["lateral"]), predicted_lateral_95_m=_t(predicted["lateral"]),
-        measured_longitudinal_95_m=_t(measured["longitudinal"]), predicted_longitudinal_95_m=_t(predicted["longitudinal"]),
-        measured_heading_95_deg=_t(measured["heading"]), predicted_heading_95_deg=_t(predicted["heading"]),
+        model=pred.model,
+        map_sigma_m=map_sigma_m,
+        measured_lateral_95_m=_t(measured["lateral"]),
+        predicted_lateral_95_m=_t(predicted["lateral"]),
+        measured_longitudinal_95_m=_t(measured["longitudinal"]),
+        predicted_longitudinal_95_m=_t(predicted["longitudinal"]),
+        measured_heading_95_deg=_t(measured["heading"]),
+        predicted_heading_95_deg=_t(predicted["heading"]),
         measured=tuple((c, _spread(v)) for c, v in measured.items()),
         predicted=tuple((c, _spread(v)) for c, v in predicted.items()),
         coverage=tuple(coverage.items()),
@@ -241,4 +294,6 @@ def _spread(values: np.ndarray) -> ErrorSpread:
     """Median / 95th percentile / largest over the keyframes, and where the largest is."""
     if values.size == 0:
         return ErrorSpread(math.nan, math.nan, math.nan, -1)
-    return ErrorSpread(float(np.median(values)), float(np.percentile(values, 95.0)), float(values.max()), int(np.argmax(values)))
+    return ErrorSpread(
+        float(np.median(values)), float(np.percentile(values, 95.0)), float(values.max()), int(np.argmax(values))
+    )

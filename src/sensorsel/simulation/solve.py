@@ -21,8 +21,16 @@ import gtsam
 import numpy as np
 from gtsam.symbol_shorthand import L, X
 
-from sensorsel.information.graph import (MeasurementNoise, add_bearing_range, add_pose_chain, bearing_range_factor,
-                                         diagonal, first_pose_prior, landmark_prior, odometry_factor)
+from sensorsel.information.graph import (
+    MeasurementNoise,
+    add_bearing_range,
+    add_pose_chain,
+    bearing_range_factor,
+    diagonal,
+    first_pose_prior,
+    landmark_prior,
+    odometry_factor,
+)
 from sensorsel.model.sensing import wrap_angle
 from sensorsel.simulation.noise import Draw, Payload, draw
 
@@ -76,8 +84,16 @@ def pairs(p: Payload, d: Draw) -> Pairs:
 
     b, sb, cb = combine(d.bearing_rad[idx], p.sigma_bearing_rad[idx], True)
     r, sr, cr = combine(d.range_m[idx], p.sigma_range_m[idx], False)
-    return Pairs(pose=p.pose[idx][first], landmark=p.landmark[idx][first], bearing_rad=wrap_angle(b), range_m=r,
-                 sigma_bearing_rad=sb, sigma_range_m=sr, first=idx[first], constant=cb + cr)
+    return Pairs(
+        pose=p.pose[idx][first],
+        landmark=p.landmark[idx][first],
+        bearing_rad=wrap_angle(b),
+        range_m=r,
+        sigma_bearing_rad=sb,
+        sigma_range_m=sr,
+        first=idx[first],
+        constant=cb + cr,
+    )
 
 
 class Noise:
@@ -150,7 +166,9 @@ def _flat(values: gtsam.Values) -> np.ndarray:
     return np.concatenate([gtsam.utilities.extractPose2(values).ravel(), gtsam.utilities.extractPoint2(values).ravel()])
 
 
-def solve_lm(p: Payload, noise: Noise, d: Draw, dead: list[gtsam.Pose2], q: Pairs) -> tuple[gtsam.Values, int, gtsam.NonlinearFactorGraph]:
+def solve_lm(
+    p: Payload, noise: Noise, d: Draw, dead: list[gtsam.Pose2], q: Pairs
+) -> tuple[gtsam.Values, int, gtsam.NonlinearFactorGraph]:
     """Batch Levenberg-Marquardt from dead reckoning; each landmark starts at its first measurement
     (map model: its map position) seen from the dead-reckoned pose. Returns (estimate, iterations, graph)."""
     graph = build_graph(p, noise, d, q)

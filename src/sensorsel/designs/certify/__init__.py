@@ -13,17 +13,50 @@ the scores (relative ~1e-12); a gain below round-off counts as zero.
 
 from __future__ import annotations
 
-from sensorsel.designs.certify.certificate import (Certificate, CertifiedGreedyResult, SuiteBound, certificate,
-                                                   certify_greedy, constraints_mismatch, format_certificate,
-                                                   suite_bound)
+from sensorsel.designs.certify.certificate import (
+    Certificate,
+    CertifiedGreedyResult,
+    SuiteBound,
+    certificate,
+    certify_greedy,
+    constraints_mismatch,
+    format_certificate,
+    suite_bound,
+)
 from sensorsel.designs.certify.exact import DEFAULT_MAX_NODES, OptimumResult, optimal
-from sensorsel.designs.certify.knapsack import (MAX_DP_CELLS, MAX_KNAPSACK_NODES, MAX_MILP_NODES, CostUnits,
-                                                KnapsackSolution, cost_units, fractional_bound, knapsack,
-                                                packing_bound, quiet_stdout)
+from sensorsel.designs.certify.knapsack import (
+    MAX_DP_CELLS,
+    MAX_KNAPSACK_NODES,
+    MAX_MILP_NODES,
+    CostUnits,
+    KnapsackSolution,
+    cost_units,
+    fractional_bound,
+    knapsack,
+    packing_bound,
+    quiet_stdout,
+)
 
 __all__ = [
-    "DEFAULT_MAX_NODES", "MAX_DP_CELLS", "MAX_KNAPSACK_NODES", "MAX_MILP_NODES", "Certificate", "CertifiedGreedyResult",
-    "CostUnits", "KnapsackSolution", "OptimumResult", "SuiteBound", "certificate", "certify_greedy", "constraints_mismatch",
-    "cost_units", "format_certificate", "fractional_bound", "knapsack", "optimal", "packing_bound", "quiet_stdout",
+    "DEFAULT_MAX_NODES",
+    "MAX_DP_CELLS",
+    "MAX_KNAPSACK_NODES",
+    "MAX_MILP_NODES",
+    "Certificate",
+    "CertifiedGreedyResult",
+    "CostUnits",
+    "KnapsackSolution",
+    "OptimumResult",
+    "SuiteBound",
+    "certificate",
+    "certify_greedy",
+    "constraints_mismatch",
+    "cost_units",
+    "format_certificate",
+    "fractional_bound",
+    "knapsack",
+    "optimal",
+    "packing_bound",
+    "quiet_stdout",
     "suite_bound",
 ]

@@ -38,8 +38,8 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 
@@ -47,12 +47,12 @@ from sensorsel.designs.certify.knapsack import MAX_DP_CELLS, KnapsackSolution, k
 from sensorsel.designs.selection import REL_TOL, GreedyResult, check_budget
 from sensorsel.errors import InputError
 from sensorsel.information.evaluators import Evaluator, make_evaluator
+from sensorsel.io.progress import Progress
 from sensorsel.io.records import RuleBudget, SuiteScore
 from sensorsel.io.results import result_kind
 from sensorsel.model.constraints import Constraints, FeasibleSet, feasible_set
 from sensorsel.model.library import SensorLibrary
 from sensorsel.model.problem import DomainInfo, Problem, TargetInfo
-from sensorsel.io.progress import Progress
 
 #: progress(done, total)
 
@@ -120,7 +120,7 @@ class CertifiedGreedyResult(GreedyResult):
     certificate: Certificate | None = None
 
     @classmethod
-    def of(cls, result: GreedyResult, certificate: Certificate | None) -> "CertifiedGreedyResult":
+    def of(cls, result: GreedyResult, certificate: Certificate | None) -> CertifiedGreedyResult:
         """``result`` with ``certificate`` attached."""
         fields = {f: getattr(result, f) for f in GreedyResult.__dataclass_fields__}
         return cls(**fields, certificate=certificate)
@@ -148,9 +148,17 @@ class SuiteBound:
     knapsack_exact: bool
 
 
-def suite_bound(evaluator: Evaluator, suite: Sequence[int], budget_usd: float, *, score: float | None = None,
-                exclude: frozenset[int] = frozenset(), max_cells: int = MAX_DP_CELLS,
-                gains_out: np.ndarray | None = None, feas: FeasibleSet | None = None) -> SuiteBound:
+def suite_bound(
+    evaluator: Evaluator,
+    suite: Sequence[int],
+    budget_usd: float,
+    *,
+    score: float | None = None,
+    exclude: frozenset[int] = frozenset(),
+    max_cells: int = MAX_DP_CELLS,
+    gains_out: np.ndarray | None = None,
+    feas: FeasibleSet | None = None,
+) -> SuiteBound:
     """U(S) >= f(OPT) for the best suite OPT within ``budget_usd`` (see the module docstring).
 
     Costs one sweep: ``scores_with(S, every sensor outside S that fits the budget)``. Negative gains (round-off of a
@@ -181,14 +189,23 @@ def suite_bound(evaluator: Evaluator, suite: Sequence[int], budget_usd: float, *
         gains_out[cand] = gains
     ks = knapsack(gains, costs[cand], budget, max_cells=max_cells)
     return SuiteBound(
-        suite=lib.suite_ids(s), score=f_s, bound=f_s + ks.value,
+        suite=lib.suite_ids(s),
+        score=f_s,
+        bound=f_s + ks.value,
         knapsack_suite=lib.suite_ids(sorted(cand[i] for i in ks.chosen)),
-        knapsack_method=ks.method, knapsack_exact=ks.exact,
+        knapsack_method=ks.method,
+        knapsack_exact=ks.exact,
     )
 
 
-def _constrained_bound(evaluator: Evaluator, s: tuple[int, ...], f_s: float, feas: FeasibleSet,
-                       exclude: frozenset[int], gains_out: np.ndarray | None) -> SuiteBound:
+def _constrained_bound(
+    evaluator: Evaluator,
+    s: tuple[int, ...],
+    f_s: float,
+    feas: FeasibleSet,
+    exclude: frozenset[int],
+    gains_out: np.ndarray | None,
+) -> SuiteBound:
     """U(S) under the constraints of ``feas`` (the module docstring): the required sensors not in S
     are in every completion; the others pack into what the required sensors leave of each row."""
     lib = evaluator.library
@@ -200,22 +217,29 @@ def _constrained_bound(evaluator: Evaluator, s: tuple[int, ...], f_s: float, fea
         gains_out[swept] = gains
     ks = _packing(feas, np.array([g[i] for i in cand]), cand, room)
     return SuiteBound(
-        suite=lib.suite_ids(s), score=f_s, bound=f_s + float(sum(g[i] for i in forced)) + ks.value,
+        suite=lib.suite_ids(s),
+        score=f_s,
+        bound=f_s + float(sum(g[i] for i in forced)) + ks.value,
         knapsack_suite=lib.suite_ids(sorted(forced + [cand[i] for i in ks.chosen])),
-        knapsack_method=ks.method, knapsack_exact=ks.exact,
+        knapsack_method=ks.method,
+        knapsack_exact=ks.exact,
     )
 
 
-def _packing_items(feas: FeasibleSet, s: tuple[int, ...], exclude: frozenset[int]
-                   ) -> tuple[np.ndarray, list[int], list[int]]:
+def _packing_items(
+    feas: FeasibleSet, s: tuple[int, ...], exclude: frozenset[int]
+) -> tuple[np.ndarray, list[int], list[int]]:
     """(what the required sensors leave of each row (m,), the sensors that may join S besides them
     and fit that room on their own, the required sensors not in S)."""
     inside = set(s)
     required = set(feas.required)
     room = feas.b - feas.usage(feas.required)
     fits_alone = np.all(feas.A <= (room + 1e-9 * np.maximum(1.0, np.abs(feas.b)))[:, None], axis=0)
-    cand = [i for i in range(len(feas.library)) if i not in inside and i not in required and i not in feas.excluded
-            and i not in exclude and fits_alone[i]]
+    cand = [
+        i
+        for i in range(len(feas.library))
+        if i not in inside and i not in required and i not in feas.excluded and i not in exclude and fits_alone[i]
+    ]
     forced = [i for i in feas.required if i not in inside]
     return room, cand, forced
 
@@ -227,8 +251,14 @@ def _packing(feas: FeasibleSet, values: np.ndarray, cand: list[int], room: np.nd
     return packing_bound(values, feas.A[:, cand], room)
 
 
-def certificate(evaluator: Evaluator, greedy_result: GreedyResult, *, progress: Progress | None = None,
-                max_cells: int = MAX_DP_CELLS, prune: bool = True) -> Certificate:
+def certificate(
+    evaluator: Evaluator,
+    greedy_result: GreedyResult,
+    *,
+    progress: Progress | None = None,
+    max_cells: int = MAX_DP_CELLS,
+    prune: bool = True,
+) -> Certificate:
     """Certify a greedy run: an upper bound on the best possible score within its budget.
 
     The bound is the smallest U(S) (:func:`suite_bound`) over the empty suite and every
@@ -267,19 +297,27 @@ def certificate(evaluator: Evaluator, greedy_result: GreedyResult, *, progress: 
         step_scores = [0.0] + [evaluator.score(s) for s in step_suites[1:]]
     # step j bought one sensor on top of step j - 1 (not so from the empty suite to a run's first
     # step when it started from given sensors): its gain there is a lower bound on its gain earlier
-    later_picks = [(step_suites[j][-1], step_scores[j] - step_scores[j - 1]) if step_suites[j][:-1] == step_suites[j - 1]
-                   else None for j in range(1, n_steps)]
+    later_picks = [
+        (step_suites[j][-1], step_scores[j] - step_scores[j - 1]) if step_suites[j][:-1] == step_suites[j - 1] else None
+        for j in range(1, n_steps)
+    ]
     gain_low = np.zeros(len(lib))  # lower bounds on each sensor's gain at the step being looked at
     bounds: list[SuiteBound | None] = [None] * n_steps
     best = math.inf
     for done, k in enumerate(range(n_steps - 1, -1, -1), start=1):
         s = step_suites[k]
-        skip = prune and math.isfinite(best) and _cannot_improve(
-            lib.costs, s, step_scores[k], gain_low, later_picks[k:], budget, best, max_cells, constrained)
+        skip = (
+            prune
+            and math.isfinite(best)
+            and _cannot_improve(
+                lib.costs, s, step_scores[k], gain_low, later_picks[k:], budget, best, max_cells, constrained
+            )
+        )
         if not skip:
             gains = np.zeros(len(lib))
-            b = suite_bound(evaluator, s, budget, score=step_scores[k], max_cells=max_cells, gains_out=gains,
-                            feas=constrained)
+            b = suite_bound(
+                evaluator, s, budget, score=step_scores[k], max_cells=max_cells, gains_out=gains, feas=constrained
+            )
             np.maximum(gain_low, gains, out=gain_low)
             bounds[k] = b
             best = min(best, b.bound)
@@ -290,9 +328,17 @@ def certificate(evaluator: Evaluator, greedy_result: GreedyResult, *, progress: 
     return _certificate_record(res, bounds, score, evaluator, n0, t0, None if constrained is None else res.constraints)
 
 
-def _cannot_improve(costs: np.ndarray, suite: tuple[int, ...], score: float, gain_low: np.ndarray,
-                    later_picks: Sequence[tuple[int, float] | None], budget: float, best: float, max_cells: int,
-                    feas: FeasibleSet | None = None) -> bool:
+def _cannot_improve(
+    costs: np.ndarray,
+    suite: tuple[int, ...],
+    score: float,
+    gain_low: np.ndarray,
+    later_picks: Sequence[tuple[int, float] | None],
+    budget: float,
+    best: float,
+    max_cells: int,
+    feas: FeasibleSet | None = None,
+) -> bool:
     """True when U(suite) provably cannot go below ``best`` (to a relative 1e-9): f(S) plus the
     knapsack of lower bounds on the gains at S (what was swept at larger suites, and the gains
     the later picks were bought with) already reaches it. With constraints (``feas``), the integer
@@ -312,8 +358,15 @@ def _cannot_improve(costs: np.ndarray, suite: tuple[int, ...], score: float, gai
     return bool(lower >= best - REL_TOL * max(1.0, abs(best)))
 
 
-def _certificate_record(res: GreedyResult, bounds: list[SuiteBound | None], score: float, evaluator: Evaluator,
-                        n0: int, t0: float, constraints: Constraints | None = None) -> Certificate:
+def _certificate_record(
+    res: GreedyResult,
+    bounds: list[SuiteBound | None],
+    score: float,
+    evaluator: Evaluator,
+    n0: int,
+    t0: float,
+    constraints: Constraints | None = None,
+) -> Certificate:
     """The :class:`Certificate` from the swept steps' bounds (None: skipped) and the suite's score."""
     swept = [k for k, b in enumerate(bounds) if b is not None]
     swept_bounds = {k: b for k, b in enumerate(bounds) if b is not None}
@@ -323,17 +376,31 @@ def _certificate_record(res: GreedyResult, bounds: list[SuiteBound | None], scor
     ratio = 1.0 if bound <= 0 else min(1.0, max(0.0, score / bound))
     methods = sorted({b.knapsack_method for b in swept_bounds.values()})
     return Certificate(
-        rule=res.rule, budget_usd=res.budget_usd, suite=res.suite, cost_usd=res.cost_usd, score=score,
-        bound=bound, ratio=ratio, percent_of_best=100.0 * ratio, gap=bound - score, bound_step=k_best,
-        bound_suite=swept_bounds[k_best].suite, step_bounds=tuple(None if b is None else b.bound for b in bounds),
-        knapsack_method="+".join(methods), knapsack_exact=all(b.knapsack_exact for b in swept_bounds.values()),
-        n_evaluations=evaluator.n_evaluations - n0, engine=evaluator.name, problem=res.problem,
-        seconds=round(time.perf_counter() - t0, 6), constraints=constraints,
+        rule=res.rule,
+        budget_usd=res.budget_usd,
+        suite=res.suite,
+        cost_usd=res.cost_usd,
+        score=score,
+        bound=bound,
+        ratio=ratio,
+        percent_of_best=100.0 * ratio,
+        gap=bound - score,
+        bound_step=k_best,
+        bound_suite=swept_bounds[k_best].suite,
+        step_bounds=tuple(None if b is None else b.bound for b in bounds),
+        knapsack_method="+".join(methods),
+        knapsack_exact=all(b.knapsack_exact for b in swept_bounds.values()),
+        n_evaluations=evaluator.n_evaluations - n0,
+        engine=evaluator.name,
+        problem=res.problem,
+        seconds=round(time.perf_counter() - t0, 6),
+        constraints=constraints,
     )
 
 
-def certify_greedy(source: Evaluator | Problem, result: GreedyResult, *, jobs: int = 1,
-                   progress: Progress | None = None) -> Certificate:
+def certify_greedy(
+    source: Evaluator | Problem, result: GreedyResult, *, jobs: int = 1, progress: Progress | None = None
+) -> Certificate:
     """The certificate of a greedy result (what ``sensorsel greedy`` prints); see :func:`certificate`.
 
     Args:
@@ -360,8 +427,10 @@ def constraints_mismatch(result: GreedyResult, library: SensorLibrary) -> tuple[
     except InputError as exc:
         return f"its constraints ({c.describe()}) do not apply to the library {library.source}: {exc}", False
     if c.library_digest and here != c.library_digest:
-        return (f"its constraints ({c.describe()}) were checked against other resources or mounting slots than the "
-                f"library {library.source} declares (digest {c.library_digest[:12]}, here {here[:12]})"), True
+        return (
+            f"its constraints ({c.describe()}) were checked against other resources or mounting slots than the "
+            f"library {library.source} declares (digest {c.library_digest[:12]}, here {here[:12]})"
+        ), True
     return None
 
 

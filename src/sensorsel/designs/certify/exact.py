@@ -28,27 +28,34 @@ from __future__ import annotations
 import heapq
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 
 from sensorsel.designs.certify.certificate import certificate
 from sensorsel.designs.certify.knapsack import MAX_DP_CELLS, CostUnits, cost_units, fractional_bound, packing_bound
-from sensorsel.designs.certify.resume import (CHECKPOINT_EVERY, OptimalCheckpoint, heap_of, open_nodes,
-                                              read_checkpoint, save_checkpoint, search_fingerprint)
+from sensorsel.designs.certify.resume import (
+    CHECKPOINT_EVERY,
+    OptimalCheckpoint,
+    heap_of,
+    open_nodes,
+    read_checkpoint,
+    save_checkpoint,
+    search_fingerprint,
+)
 from sensorsel.designs.selection import REL_TOL, RULES, GreedyResult, check_budget, check_rule, greedy
 from sensorsel.errors import InputError
 from sensorsel.information.evaluators import Evaluator
 from sensorsel.information.evaluators.accuracy import RouteAccuracy
 from sensorsel.information.integrity import RouteIntegrity
+from sensorsel.io.progress import Progress, report
 from sensorsel.io.records import Budget, SuiteScore
 from sensorsel.io.results import result_kind
 from sensorsel.model.constraints import Constraints, FeasibleSet, feasible_set
 from sensorsel.model.library import SensorLibrary
 from sensorsel.model.problem import TargetInfo
-from sensorsel.io.progress import Progress, report
 
 #: Default node limit of the exact suite search (nodes whose marginal gains are swept).
 DEFAULT_MAX_NODES = 2_000
@@ -134,11 +141,23 @@ def _target_info(ev: Evaluator) -> TargetInfo | None:
     return getattr(target, "info", None)
 
 
-def optimal(evaluator: Evaluator, budget_usd: float, *, max_nodes: int = DEFAULT_MAX_NODES, max_seconds: float | None = None,
-            exclude: frozenset[int] = frozenset(), incumbent: GreedyResult | None = None, rule: str = "best-of",
-            progress: Progress | None = None, info: TargetInfo | None = None, max_cells: int = MAX_DP_CELLS,
-            constraints: Constraints | None = None, checkpoint: str | Path | None = None, resume: bool = False,
-            checkpoint_every: int = CHECKPOINT_EVERY) -> OptimumResult:
+def optimal(
+    evaluator: Evaluator,
+    budget_usd: float,
+    *,
+    max_nodes: int = DEFAULT_MAX_NODES,
+    max_seconds: float | None = None,
+    exclude: frozenset[int] = frozenset(),
+    incumbent: GreedyResult | None = None,
+    rule: str = "best-of",
+    progress: Progress | None = None,
+    info: TargetInfo | None = None,
+    max_cells: int = MAX_DP_CELLS,
+    constraints: Constraints | None = None,
+    checkpoint: str | Path | None = None,
+    resume: bool = False,
+    checkpoint_every: int = CHECKPOINT_EVERY,
+) -> OptimumResult:
     """The best suite within ``budget_usd`` by best-first branch and bound.
 
     The first incumbent is a greedy suite (``incumbent``, or a ``rule`` run now; for a strategy such
@@ -196,8 +215,9 @@ def optimal(evaluator: Evaluator, budget_usd: float, *, max_nodes: int = DEFAULT
     if ck is not None:  # what was scored before this process counts too
         n0 -= ck.n_evaluations if ck.heap is not None else ck.n_start_evaluations
     else:
-        incumbent, runs, rule_label = _greedy_start(ev, budget, rule, incumbent, exclude, info,
-                                                    None if plain else constraints, recorded)
+        incumbent, runs, rule_label = _greedy_start(
+            ev, budget, rule, incumbent, exclude, info, None if plain else constraints, recorded
+        )
         _incumbent_positions(lib, incumbent, exclude, None if plain else feas)
         # The certificates of the greedy runs bound the optimum from the start (valid whatever the search
         # does); the search can only tighten that.
@@ -207,10 +227,18 @@ def optimal(evaluator: Evaluator, budget_usd: float, *, max_nodes: int = DEFAULT
             save_checkpoint(path, ck)
     incumbent, rule_label, cert_bound = ck.incumbent, ck.rule_label, ck.cert_bound
     inc_pos = _incumbent_positions(lib, incumbent, exclude, None if plain else feas)
-    best = _Best(lib, inc_pos, _score_of(ev, incumbent, inc_pos), _budget_use(lib, feas, plain, inc_pos),
-                 None if plain else feas)
-    search = _Search(ev, cost_units(lib.costs if plain else feas.A[0], budget), best, exclude, cert_bound, max_cells,
-                     None if plain else feas)
+    best = _Best(
+        lib, inc_pos, _score_of(ev, incumbent, inc_pos), _budget_use(lib, feas, plain, inc_pos), None if plain else feas
+    )
+    search = _Search(
+        ev,
+        cost_units(lib.costs if plain else feas.A[0], budget),
+        best,
+        exclude,
+        cert_bound,
+        max_cells,
+        None if plain else feas,
+    )
     if ck.heap is not None:  # go on from the stored state
         search.heap = heap_of(ck.heap)
         search.nodes, search.pruned, search.solved, search.counter = ck.nodes, ck.pruned, ck.solved, ck.counter
@@ -219,10 +247,26 @@ def optimal(evaluator: Evaluator, budget_usd: float, *, max_nodes: int = DEFAULT
 
     def keep(search: _Search) -> None:  # the state after every checkpoint_every nodes
         assert path is not None
-        save_checkpoint(path, OptimalCheckpoint(
-            fp, incumbent, rule_label, cert_bound, ck.n_start_evaluations, search.nodes, search.pruned, search.solved,
-            search.counter, tuple(sorted(search.methods)), best.suite, best.score, best.cost, open_nodes(search.heap),
-            ev.n_evaluations - n0))
+        save_checkpoint(
+            path,
+            OptimalCheckpoint(
+                fp,
+                incumbent,
+                rule_label,
+                cert_bound,
+                ck.n_start_evaluations,
+                search.nodes,
+                search.pruned,
+                search.solved,
+                search.counter,
+                tuple(sorted(search.methods)),
+                best.suite,
+                best.score,
+                best.cost,
+                open_nodes(search.heap),
+                ev.n_evaluations - n0,
+            ),
+        )
 
     stop = search.run(max_nodes, max_seconds, t0, progress, keep if path is not None else None, checkpoint_every)
     proved = not search.heap
@@ -236,15 +280,32 @@ def optimal(evaluator: Evaluator, budget_usd: float, *, max_nodes: int = DEFAULT
     gap = max(0.0, upper - best.score)
     g_score = _score_of(ev, incumbent, inc_pos)
     return OptimumResult(
-        budget_usd=budget, suite=lib.suite_ids(best.suite), cost_usd=best.cost, score=best.score,
-        proved_optimal=proved, upper_bound=upper, gap=gap, gap_percent=100.0 * gap / upper if upper > 0 else 0.0,
-        stop_reason=stop, n_nodes=search.nodes, n_pruned=search.pruned, n_solved=search.solved,
-        n_evaluations=ev.n_evaluations - n0, max_nodes=max_nodes,
-        bound_method="+".join(sorted(search.methods)) or "none", greedy_rule=rule_label, greedy_suite=incumbent.suite,
-        greedy_cost_usd=incumbent.cost_usd, greedy_score=g_score,
+        budget_usd=budget,
+        suite=lib.suite_ids(best.suite),
+        cost_usd=best.cost,
+        score=best.score,
+        proved_optimal=proved,
+        upper_bound=upper,
+        gap=gap,
+        gap_percent=100.0 * gap / upper if upper > 0 else 0.0,
+        stop_reason=stop,
+        n_nodes=search.nodes,
+        n_pruned=search.pruned,
+        n_solved=search.solved,
+        n_evaluations=ev.n_evaluations - n0,
+        max_nodes=max_nodes,
+        bound_method="+".join(sorted(search.methods)) or "none",
+        greedy_rule=rule_label,
+        greedy_suite=incumbent.suite,
+        greedy_cost_usd=incumbent.cost_usd,
+        greedy_score=g_score,
         greedy_percent_of_best=100.0 * g_score / best.score if best.score > 0 else 100.0,
-        greedy_percent_of_bound=100.0 * g_score / upper if upper > 0 else 100.0, greedy_certificate_bound=cert_bound,
-        engine=ev.name, problem=info, seconds=round(time.perf_counter() - t0, 6), constraints=recorded,
+        greedy_percent_of_bound=100.0 * g_score / upper if upper > 0 else 100.0,
+        greedy_certificate_bound=cert_bound,
+        engine=ev.name,
+        problem=info,
+        seconds=round(time.perf_counter() - t0, 6),
+        constraints=recorded,
     )
 
 
@@ -255,9 +316,16 @@ def _check_limits(max_nodes: object, max_seconds: object) -> None:
         raise InputError(f"max_seconds must be a positive number of seconds, got {max_seconds!r}")
 
 
-def _greedy_start(ev: Evaluator, budget: float, rule: str, incumbent: GreedyResult | None, exclude: frozenset[int],
-                  info: TargetInfo | None, constraints: Constraints | None = None, recorded: Constraints | None = None
-                  ) -> tuple[GreedyResult, list[GreedyResult], str]:
+def _greedy_start(
+    ev: Evaluator,
+    budget: float,
+    rule: str,
+    incumbent: GreedyResult | None,
+    exclude: frozenset[int],
+    info: TargetInfo | None,
+    constraints: Constraints | None = None,
+    recorded: Constraints | None = None,
+) -> tuple[GreedyResult, list[GreedyResult], str]:
     """(the first incumbent, the greedy runs whose certificates bound the optimum, its label).
 
     Without ``incumbent``: every component run of ``rule`` is kept (not only the one the rule keeps),
@@ -267,7 +335,9 @@ def _greedy_start(ev: Evaluator, budget: float, rule: str, incumbent: GreedyResu
     """
     if incumbent is None:
         entry = RULES[check_rule(rule)]
-        runs = [greedy(ev, budget, r, exclude=exclude, info=info, constraints=constraints) for r in entry.component_rules]
+        runs = [
+            greedy(ev, budget, r, exclude=exclude, info=info, constraints=constraints) for r in entry.component_rules
+        ]
         kept = entry.keep(runs)
         return kept, runs, rule if kept.winning_rule == rule else f"{rule} ({kept.winning_rule})"
     if abs(incumbent.budget_usd - budget) > 1e-9 * max(1.0, budget):
@@ -279,8 +349,9 @@ def _greedy_start(ev: Evaluator, budget: float, rule: str, incumbent: GreedyResu
     return incumbent, [incumbent], incumbent.rule_label
 
 
-def _incumbent_positions(lib: SensorLibrary, incumbent: GreedyResult, exclude: frozenset[int],
-                         feas: FeasibleSet | None = None) -> tuple[int, ...]:
+def _incumbent_positions(
+    lib: SensorLibrary, incumbent: GreedyResult, exclude: frozenset[int], feas: FeasibleSet | None = None
+) -> tuple[int, ...]:
     """The incumbent's suite as sorted library positions; refuses foreign or excluded sensors, and
     (with ``feas``) a suite outside the feasible set."""
     try:
@@ -311,8 +382,9 @@ def _tol(x: float) -> float:
 class _Best:
     """The best suite found so far (sorted positions), its score and cost (what it uses of the budget)."""
 
-    def __init__(self, lib: SensorLibrary, suite: tuple[int, ...], score: float, cost: float,
-                 feas: FeasibleSet | None = None) -> None:
+    def __init__(
+        self, lib: SensorLibrary, suite: tuple[int, ...], score: float, cost: float, feas: FeasibleSet | None = None
+    ) -> None:
         self.lib, self.suite, self.score, self.cost, self.feas = lib, suite, score, cost, feas
 
     def rules_out(self, bound: float) -> bool:
@@ -323,7 +395,9 @@ class _Best:
         """Keep ``suite`` if it scores higher (ties to round-off: the cheaper, then the smaller positions)."""
         s = tuple(sorted(suite))
         c = self.lib.cost(s) if self.feas is None else float(self.feas.usage(s)[0])
-        if score > self.score + _tol(self.score) or (abs(score - self.score) <= _tol(self.score) and (c, s) < (self.cost, self.suite)):
+        if score > self.score + _tol(self.score) or (
+            abs(score - self.score) <= _tol(self.score) and (c, s) < (self.cost, self.suite)
+        ):
             self.suite, self.score, self.cost = s, score, c
 
 
@@ -338,8 +412,16 @@ def _gap_text(best: float, upper: float) -> str:
 class _Search:
     """The state of the best-first search: the heap of open nodes and the counts the result reports."""
 
-    def __init__(self, ev: Evaluator, units: CostUnits, best: _Best, exclude: frozenset[int], cert_bound: float,
-                 max_cells: int, feas: FeasibleSet | None = None) -> None:
+    def __init__(
+        self,
+        ev: Evaluator,
+        units: CostUnits,
+        best: _Best,
+        exclude: frozenset[int],
+        cert_bound: float,
+        max_cells: int,
+        feas: FeasibleSet | None = None,
+    ) -> None:
         self.ev, self.units, self.best, self.cert_bound, self.max_cells = ev, units, best, cert_bound, max_cells
         self.feas = feas
         self.costs = ev.library.costs if feas is None else feas.A[0]
@@ -358,7 +440,9 @@ class _Search:
             fits = self._fits(used)
             out = set(exclude) | set(root_s) | set(feas.excluded)
         c_root = int(units.costs[list(root_s)].sum()) if root_s else 0
-        root_r = tuple(i for i in range(len(self.costs)) if i not in out and fits[i] and units.costs[i] <= units.capacity - c_root)
+        root_r = tuple(
+            i for i in range(len(self.costs)) if i not in out and fits[i] and units.costs[i] <= units.capacity - c_root
+        )
         self.heap: list[_Node] = [(-math.inf, 0, root_s, f_root, c_root, root_r, used)]
 
     def _fits(self, used: np.ndarray) -> np.ndarray:
@@ -366,8 +450,15 @@ class _Search:
         assert self.feas is not None
         return self.feas.addable(used)
 
-    def run(self, max_nodes: int, max_seconds: float | None, t0: float, progress: Progress | None,
-            keep: Callable[["_Search"], None] | None = None, every: int = CHECKPOINT_EVERY) -> str:
+    def run(
+        self,
+        max_nodes: int,
+        max_seconds: float | None,
+        t0: float,
+        progress: Progress | None,
+        keep: Callable[[_Search], None] | None = None,
+        every: int = CHECKPOINT_EVERY,
+    ) -> str:
         """Expand nodes, highest bound first, until none can beat the best found or a limit stops it
         (returns the limit's stop reason, "" when the search finished). ``keep(self)`` after every
         ``every`` expanded nodes (a checkpoint)."""
@@ -416,14 +507,25 @@ class _Search:
         if keep:
             self._branch(s, f_s, c_s, int(room), -neg_ub, [r[k] for k in keep], gains[keep], vals[keep], used)
 
-    def _branch(self, s: tuple[int, ...], f_s: float, c_s: int, room: int, parent_ub: float, items: list[int],
-                g: np.ndarray, f_with: np.ndarray, used: np.ndarray) -> None:
+    def _branch(
+        self,
+        s: tuple[int, ...],
+        f_s: float,
+        c_s: int,
+        room: int,
+        parent_ub: float,
+        items: list[int],
+        g: np.ndarray,
+        f_with: np.ndarray,
+        used: np.ndarray,
+    ) -> None:
         """Bound the node from its gains ``g`` at S (items in branching order) and push its children
         (S + e_k, items after k) whose bound can beat the best found."""
         g = np.asarray(g, dtype=float)
         w = np.array([self.units.costs[i] for i in items], dtype=np.int64)
-        node_ub, child_ub, method = _node_bounds(g, w, room, f_s, self.max_cells, [self.costs[i] for i in items],
-                                                 self.units.unit_usd)
+        node_ub, child_ub, method = _node_bounds(
+            g, w, room, f_s, self.max_cells, [self.costs[i] for i in items], self.units.unit_usd
+        )
         self.methods.add(method)
         node_ub = min(node_ub, parent_ub)
         feas = self.feas
@@ -437,18 +539,20 @@ class _Search:
             return
         for k in range(len(items)):
             ub = min(child_ub[k], node_ub)
-            rest = tuple(items[k + 1:])
+            rest = tuple(items[k + 1 :])
             if not rest or self.best.rules_out(ub):
                 self.pruned += 1 if rest else 0
                 continue
             self.counter += 1
             child_used = used if feas is None else used + feas.A[:, items[k]]
-            heapq.heappush(self.heap, (-ub, self.counter, s + (items[k],), float(f_with[k]), c_s + int(w[k]), rest,
-                                       child_used))
+            heapq.heappush(
+                self.heap, (-ub, self.counter, s + (items[k],), float(f_with[k]), c_s + int(w[k]), rest, child_used)
+            )
 
 
-def _node_bounds(gains: np.ndarray, w: np.ndarray, room: int, f_s: float, max_cells: int,
-                 costs_usd: list[float], unit_usd: float) -> tuple[float, np.ndarray, str]:
+def _node_bounds(
+    gains: np.ndarray, w: np.ndarray, room: int, f_s: float, max_cells: int, costs_usd: list[float], unit_usd: float
+) -> tuple[float, np.ndarray, str]:
     """Bounds of a node and of its children from the gains at S (items in branching order).
 
     Returns (node bound f(S) + KS(all items, room), child bounds f(S) + g_k + KS(items after k,
@@ -472,5 +576,5 @@ def _node_bounds(gains: np.ndarray, w: np.ndarray, room: int, f_s: float, max_ce
     c = np.asarray(costs_usd, dtype=float)
     room_usd = room * unit_usd
     for k in range(m):
-        child[k] = f_s + gains[k] + fractional_bound(gains[k + 1:], c[k + 1:], room_usd - c[k])
+        child[k] = f_s + gains[k] + fractional_bound(gains[k + 1 :], c[k + 1 :], room_usd - c[k])
     return f_s + fractional_bound(gains, c, room_usd), child, "fractional"

@@ -16,8 +16,8 @@ relaxation when HiGHS stops at its node limit without one).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 
@@ -31,6 +31,7 @@ MAX_DP_CELLS = 50_000_000
 MAX_KNAPSACK_NODES = 200_000
 #: Decimal scales tried to make costs integral ($1, 10 cents, 1 cent, ... 1 micro-dollar).
 _COST_SCALES = tuple(10**k for k in range(7))
+
 
 @dataclass(frozen=True)
 class CostUnits:
@@ -97,8 +98,14 @@ class KnapsackSolution:
     exact: bool
 
 
-def knapsack(values: Sequence[float] | np.ndarray, costs: Sequence[float] | np.ndarray, capacity: float, *,
-             max_cells: int = MAX_DP_CELLS, max_nodes: int = MAX_KNAPSACK_NODES) -> KnapsackSolution:
+def knapsack(
+    values: Sequence[float] | np.ndarray,
+    costs: Sequence[float] | np.ndarray,
+    capacity: float,
+    *,
+    max_cells: int = MAX_DP_CELLS,
+    max_nodes: int = MAX_KNAPSACK_NODES,
+) -> KnapsackSolution:
     """max Σ_{i ∈ T} values[i] subject to Σ_{i ∈ T} costs[i] <= capacity, over sets T of items.
 
     Items with a value <= 0 or a cost above the capacity are never taken. Exact dynamic programming
@@ -186,7 +193,9 @@ def fractional_bound(values: np.ndarray, costs: np.ndarray, capacity: float) -> 
     return total
 
 
-def _knapsack_bnb(values: np.ndarray, costs: np.ndarray, capacity: float, max_nodes: int) -> tuple[float, list[int], float, bool]:
+def _knapsack_bnb(
+    values: np.ndarray, costs: np.ndarray, capacity: float, max_nodes: int
+) -> tuple[float, list[int], float, bool]:
     """Exact 0/1 knapsack by depth-first branch and bound with fractional bounds (Horowitz-Sahni).
 
     Returns (best value, its items, an upper bound on the maximum, finished). When the node limit
@@ -241,8 +250,13 @@ MAX_MILP_NODES = 20_000
 _PACKING_SLACK = 1e-9
 
 
-def packing_bound(values: Sequence[float] | np.ndarray, A: np.ndarray, capacity: Sequence[float] | np.ndarray, *,
-                  max_nodes: int = MAX_MILP_NODES) -> KnapsackSolution:
+def packing_bound(
+    values: Sequence[float] | np.ndarray,
+    A: np.ndarray,
+    capacity: Sequence[float] | np.ndarray,
+    *,
+    max_nodes: int = MAX_MILP_NODES,
+) -> KnapsackSolution:
     """max Σ_{i ∈ T} values[i] subject to Σ_{i ∈ T} A[:, i] <= capacity (every row), over sets T of items:
     a 0/1 multi-dimensional knapsack (several resources, mounting slots, a count), solved by
     :func:`scipy.optimize.milp` (HiGHS).
@@ -283,8 +297,13 @@ def packing_bound(values: Sequence[float] | np.ndarray, A: np.ndarray, capacity:
     cons = LinearConstraint(rows, -np.inf, np.ones(len(scale)))
     c = -v[keep]
     with quiet_stdout():
-        res = milp(c, constraints=cons, integrality=np.ones(len(keep)), bounds=Bounds(0, 1),
-                   options={"mip_rel_gap": 0.0, "node_limit": int(max_nodes), "presolve": True, "disp": False})
+        res = milp(
+            c,
+            constraints=cons,
+            integrality=np.ones(len(keep)),
+            bounds=Bounds(0, 1),
+            options={"mip_rel_gap": 0.0, "node_limit": int(max_nodes), "presolve": True, "disp": False},
+        )
     chosen: tuple[int, ...] = ()
     if res.x is not None:
         pick = np.flatnonzero(res.x > 0.5)

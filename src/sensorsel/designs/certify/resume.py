@@ -20,11 +20,11 @@ from typing import Any
 
 import numpy as np
 
+from sensorsel.designs.inputs import result_fingerprint
 from sensorsel.designs.selection import GreedyResult
 from sensorsel.io import results
 from sensorsel.io.results import result_kind
 from sensorsel.model.problem import TargetInfo
-from sensorsel.designs.inputs import result_fingerprint
 from sensorsel.pipeline.store import load_matching
 
 #: expanded nodes between two checkpoints of the search state
@@ -81,19 +81,41 @@ class OptimalCheckpoint:
     n_evaluations: int = 0
 
 
-def search_fingerprint(info: TargetInfo | None, engine: str, budget: float, rule: str, incumbent: GreedyResult | None,
-                       exclude: frozenset[int], constraints: Any, max_cells: int) -> str:
+def search_fingerprint(
+    info: TargetInfo | None,
+    engine: str,
+    budget: float,
+    rule: str,
+    incumbent: GreedyResult | None,
+    exclude: frozenset[int],
+    constraints: Any,
+    max_cells: int,
+) -> str:
     """Digest of what the search's answer depends on (not the node or time limit)."""
-    return result_fingerprint("optimal", FORMAT, info, engine=engine, budget=budget, rule=rule, incumbent=incumbent,
-                              exclude=sorted(exclude), constraints=constraints, max_cells=max_cells)
+    return result_fingerprint(
+        "optimal",
+        FORMAT,
+        info,
+        engine=engine,
+        budget=budget,
+        rule=rule,
+        incumbent=incumbent,
+        exclude=sorted(exclude),
+        constraints=constraints,
+        max_cells=max_cells,
+    )
 
 
 def read_checkpoint(path: Path | None, fingerprint: str, resume: bool) -> OptimalCheckpoint | None:
     """The checkpoint at ``path`` to go on from (None: none, not resuming, or another run's: warned)."""
     if path is None or not resume:
         return None
-    return load_matching(OptimalCheckpoint, Path(path), fingerprint,
-                         what="other inputs (target, engine, budget, rule, excluded sensors or limits)")
+    return load_matching(
+        OptimalCheckpoint,
+        Path(path),
+        fingerprint,
+        what="other inputs (target, engine, budget, rule, excluded sensors or limits)",
+    )
 
 
 def save_checkpoint(path: Path, ck: OptimalCheckpoint) -> None:
@@ -103,11 +125,23 @@ def save_checkpoint(path: Path, ck: OptimalCheckpoint) -> None:
 
 def open_nodes(heap: list[Any]) -> tuple[OpenNode, ...]:
     """The search's heap as records (same order: still a heap when read back)."""
-    return tuple(OpenNode(float(h[0]), int(h[1]), tuple(h[2]), float(h[3]), int(h[4]), tuple(h[5]),
-                          tuple(float(x) for x in np.asarray(h[6]).ravel())) for h in heap)
+    return tuple(
+        OpenNode(
+            float(h[0]),
+            int(h[1]),
+            tuple(h[2]),
+            float(h[3]),
+            int(h[4]),
+            tuple(h[5]),
+            tuple(float(x) for x in np.asarray(h[6]).ravel()),
+        )
+        for h in heap
+    )
 
 
 def heap_of(nodes: tuple[OpenNode, ...]) -> list[Any]:
     """The records back as the search's heap entries."""
-    return [(n.neg_bound, n.counter, tuple(n.suite), n.score, n.cost_units, tuple(n.rest), np.array(n.used, dtype=float))
-            for n in nodes]
+    return [
+        (n.neg_bound, n.counter, tuple(n.suite), n.score, n.cost_units, tuple(n.rest), np.array(n.used, dtype=float))
+        for n in nodes
+    ]

@@ -11,9 +11,33 @@ from __future__ import annotations
 from sensorsel.designs.requirements.design import RequireResult, RouteRequirement, require
 from sensorsel.designs.requirements.front import FrontAcceptance, FrontPoint, front_acceptance
 from sensorsel.designs.requirements.solver import CheapestSuite, cheapest_suite, meets_after_failures
-from sensorsel.designs.requirements.spec import (DEFAULT_MAP_SIGMA_M, PRESETS, RouteVerdict, Specification,
-                                                 SpecificationError, load_specification_file, preset, verdict)
+from sensorsel.designs.requirements.spec import (
+    DEFAULT_MAP_SIGMA_M,
+    PRESETS,
+    RouteVerdict,
+    Specification,
+    SpecificationError,
+    load_specification_file,
+    preset,
+    verdict,
+)
 
-__all__ = ["CheapestSuite", "DEFAULT_MAP_SIGMA_M", "FrontAcceptance", "FrontPoint", "PRESETS", "RequireResult",
-           "RouteRequirement", "RouteVerdict", "Specification", "SpecificationError", "cheapest_suite", "front_acceptance",
-           "load_specification_file", "meets_after_failures", "preset", "require", "verdict"]
+__all__ = [
+    "CheapestSuite",
+    "DEFAULT_MAP_SIGMA_M",
+    "FrontAcceptance",
+    "FrontPoint",
+    "PRESETS",
+    "RequireResult",
+    "RouteRequirement",
+    "RouteVerdict",
+    "Specification",
+    "SpecificationError",
+    "cheapest_suite",
+    "front_acceptance",
+    "load_specification_file",
+    "meets_after_failures",
+    "preset",
+    "require",
+    "verdict",
+]

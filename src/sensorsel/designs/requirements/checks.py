@@ -5,8 +5,9 @@ bad keyframe: :mod:`.truncated`)."""
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
-from typing import Callable, Iterable, Protocol, Sequence
+from typing import Protocol
 
 import numpy as np
 
@@ -46,8 +47,9 @@ class RouteEngine(Protocol):
     @property
     def name(self) -> str: ...
 
-    def pose_covariances(self, suite: Iterable[int], *, map_sigma_m: float | None = None,
-                         estimate: str = "smoother") -> np.ndarray: ...
+    def pose_covariances(
+        self, suite: Iterable[int], *, map_sigma_m: float | None = None, estimate: str = "smoother"
+    ) -> np.ndarray: ...
 
     def pose_covariance_floor(self, suite: Iterable[int], *, map_sigma_m: float | None = None) -> np.ndarray | None: ...
 
@@ -92,9 +94,20 @@ class _Oracle:
     (> 0, as the filter's is), else the filter's: still 0 exactly when the suite meets it.
     """
 
-    def __init__(self, evaluators: Sequence[RouteEngine], names: Sequence[str], specs: Sequence[Specification],
-                 map_sigma_m: float | None, estimate: str = "filter") -> None:
-        self.evaluators, self.names, self.specs, self.map_sigma_m = list(evaluators), list(names), list(specs), map_sigma_m
+    def __init__(
+        self,
+        evaluators: Sequence[RouteEngine],
+        names: Sequence[str],
+        specs: Sequence[Specification],
+        map_sigma_m: float | None,
+        estimate: str = "filter",
+    ) -> None:
+        self.evaluators, self.names, self.specs, self.map_sigma_m = (
+            list(evaluators),
+            list(names),
+            list(specs),
+            map_sigma_m,
+        )
         self._answers: dict[tuple[int, Suite], tuple[bool, float]] = {}
         self._reports: dict[tuple[int, Suite], tuple[RouteAccuracy, RouteVerdict]] = {}
         self.estimate = estimate
@@ -105,7 +118,9 @@ class _Oracle:
         #: (route, suite) -> (meets, violation or None): answers read back from a journal
         self.known: dict[tuple[int, Suite], tuple[bool, float | None]] = {}
         self.n_checks = 0  # marginals computed (route, suite)
-        self.n_refuted = 0  # (route, suite) refuted without the judged marginals: by the floor, or (filter) by the smoother
+        self.n_refuted = (
+            0  # (route, suite) refuted without the judged marginals: by the floor, or (filter) by the smoother
+        )
         self.floor_asked = 0
         self.on_answer: Callable[[], None] | None = None  # called after each new answer (the journal's writer)
         #: per route, the bad keyframes of the suites seen to fail there (a superset's pass stops after them)
@@ -179,8 +194,12 @@ class _Oracle:
         key = (r, suite)
         got = self._reports.get(key)
         if got is None:
-            acc = accuracy_from_covariances(route_covariances(self.evaluators[r], suite, self.map_sigma_m, self.estimate),
-                                            map_sigma_m=self.map_sigma_m, route=self.names[r], estimate=self.estimate)
+            acc = accuracy_from_covariances(
+                route_covariances(self.evaluators[r], suite, self.map_sigma_m, self.estimate),
+                map_sigma_m=self.map_sigma_m,
+                route=self.names[r],
+                estimate=self.estimate,
+            )
             got = self._reports[key] = (acc, verdict(acc, self.specs[r]))
             if key not in self._answers:
                 self._answers[key] = (got[1].meets, got[1].violation)
@@ -228,7 +247,8 @@ class _Oracle:
         got = self._smoothed.get(key)
         if got is None:
             got = self._smoothed[key] = covariance_verdict(
-                route_covariances(self.evaluators[r], suite, self.map_sigma_m, "smoother"), self.specs[r])
+                route_covariances(self.evaluators[r], suite, self.map_sigma_m, "smoother"), self.specs[r]
+            )
             if not got[0]:
                 self.n_refuted += 1
                 self._answered()
@@ -264,4 +284,6 @@ class _Oracle:
 
     def report(self, suite: Suite) -> tuple[RouteRequirement, ...]:
         s = as_suite(suite)
-        return tuple(RouteRequirement(self.names[r], self.specs[r], *self.route(r, s)) for r in range(len(self.evaluators)))
+        return tuple(
+            RouteRequirement(self.names[r], self.specs[r], *self.route(r, s)) for r in range(len(self.evaluators))
+        )

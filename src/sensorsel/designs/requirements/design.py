@@ -19,36 +19,35 @@ import copy
 import itertools
 import math
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Sequence
 
+from sensorsel.designs.inputs import result_fingerprint, route_entry
+from sensorsel.designs.requirements.checks import RouteEngine, RouteRequirement, _Oracle
 from sensorsel.designs.requirements.dominance import information_dominance
 from sensorsel.designs.requirements.integrity import IntegrityRequirement
-from sensorsel.designs.requirements.checks import RouteEngine, RouteRequirement, _Oracle
 from sensorsel.designs.requirements.margin import Margin, margin_of
 from sensorsel.designs.requirements.solver import DEFAULT_TIE_PROGRAMS, cheapest_suite
 from sensorsel.designs.requirements.spec import Specification
 from sensorsel.errors import InputError
 from sensorsel.information.evaluators import Evaluator, as_suite, make_evaluator
 from sensorsel.information.evaluators.accuracy import estimate_label, model_label
+from sensorsel.information.evaluators.base import Suite
 from sensorsel.information.filtering import check_estimate
 from sensorsel.information.integrity import IntegritySpec, RouteIntegrity
-from sensorsel.information.evaluators.base import Suite
 from sensorsel.io import results
 from sensorsel.io.codec import to_jsonable
+from sensorsel.io.progress import Progress
 from sensorsel.io.results import result_kind
 from sensorsel.model.constraints import Constraints, feasible_set
 from sensorsel.model.problem import Problem, Target, TargetInfo
-from sensorsel.designs.inputs import result_fingerprint, route_entry
 from sensorsel.pipeline.store import digest, load_matching
-from sensorsel.io.progress import Progress
 
 __all__ = ["RouteRequirement", "RequireResult", "RequireJournal", "require", "require_fingerprint"]
 
 #: seconds between two writes of a require run's journal (and once at the end)
 JOURNAL_EVERY_S = 2.0
-
 
 
 @result_kind("requirement")
@@ -180,10 +179,17 @@ class RequireJournal:
 JOURNAL_FORMAT = 2
 
 
-def require_fingerprint(problems: Sequence[Problem], specs: Sequence[Specification], map_sigma_m: float | None,
-                        failures: int, budget_usd: float | None, constraints: Constraints | None,
-                        estimate: str = "filter", engine: str = "",
-                        integrity: IntegritySpec | None = None) -> tuple[str, tuple[tuple[str, str], ...]]:
+def require_fingerprint(
+    problems: Sequence[Problem],
+    specs: Sequence[Specification],
+    map_sigma_m: float | None,
+    failures: int,
+    budget_usd: float | None,
+    constraints: Constraints | None,
+    estimate: str = "filter",
+    engine: str = "",
+    integrity: IntegritySpec | None = None,
+) -> tuple[str, tuple[tuple[str, str], ...]]:
     """(sha256, the inputs in words) of what a require run's answers depend on (``estimate``: filter or
     smoother; ``engine``: the engine that computes them: another one's answers agree only to rounding;
     ``integrity``: the integrity also demanded, or None: then it adds nothing to the
@@ -200,22 +206,35 @@ def require_fingerprint(problems: Sequence[Problem], specs: Sequence[Specificati
     ) + ((("integrity", _integrity_words(integrity)),) if integrity is not None else ())
     extra = {"integrity": integrity} if integrity is not None else {}
     routes = [route_entry(p.scenario.name, 1.0, "", p.fingerprint) for p in problems]
-    fp = result_fingerprint("require-journal", JOURNAL_FORMAT, routes, specifications=list(specs),
-                            model="slam" if map_sigma_m is None else "map", map_sigma_m=map_sigma_m, failures=failures,
-                            budget_usd=budget_usd, constraints=constraints, estimate=estimate, engine=engine,
-                            **extra)
+    fp = result_fingerprint(
+        "require-journal",
+        JOURNAL_FORMAT,
+        routes,
+        specifications=list(specs),
+        model="slam" if map_sigma_m is None else "map",
+        map_sigma_m=map_sigma_m,
+        failures=failures,
+        budget_usd=budget_usd,
+        constraints=constraints,
+        estimate=estimate,
+        engine=engine,
+        **extra,
+    )
     return fp, inputs
 
 
 def _integrity_words(spec: IntegritySpec) -> str:
-    return (f"{spec.integrity_risk:g}/h beyond {spec.alert_lateral_m:g} m lateral, {spec.alert_longitudinal_m:g} m "
-            f"longitudinal, {spec.alert_heading_deg:g} deg (gate {spec.gate_probability:g})")
+    return (
+        f"{spec.integrity_risk:g}/h beyond {spec.alert_lateral_m:g} m lateral, {spec.alert_longitudinal_m:g} m "
+        f"longitudinal, {spec.alert_heading_deg:g} deg (gate {spec.gate_probability:g})"
+    )
 
 
 def _read_journal(path: Path, fingerprint: str, inputs: tuple[tuple[str, str], ...]) -> RequireJournal | None:
     """The journal at ``path`` when this very run wrote it; None when there is none, or (as every store:
     :func:`sensorsel.pipeline.store.load_matching`, warned, naming what differs) when it cannot be read
     or holds the answers of other inputs: the run starts afresh and overwrites it."""
+
     def differences(j: RequireJournal) -> list[str]:
         was = dict(j.inputs)
         return [f"{k} {was.get(k, '?')} (this run: {v})" for k, v in inputs if was.get(k) != v]
@@ -223,13 +242,26 @@ def _read_journal(path: Path, fingerprint: str, inputs: tuple[tuple[str, str], .
     return load_matching(RequireJournal, path, fingerprint, differences, "another require run")
 
 
-def require(target: Target, specifications: Specification | Sequence[Specification], *, map_sigma_m: float | None,
-            failures: int = 0, budget_usd: float | None = None, constraints: Constraints | None = None,
-            engine: str | None = None, jobs: int = 1, time_limit_s: float | None = None,
-            progress: Progress | None = None, checkpoint: str | Path | None = None, resume: bool = False,
-            conditions: Sequence[str] | None = None, evaluator: Evaluator | None = None,
-            max_tie_programs: int = DEFAULT_TIE_PROGRAMS, estimate: str = "filter",
-            integrity: IntegritySpec | None = None) -> RequireResult:
+def require(
+    target: Target,
+    specifications: Specification | Sequence[Specification],
+    *,
+    map_sigma_m: float | None,
+    failures: int = 0,
+    budget_usd: float | None = None,
+    constraints: Constraints | None = None,
+    engine: str | None = None,
+    jobs: int = 1,
+    time_limit_s: float | None = None,
+    progress: Progress | None = None,
+    checkpoint: str | Path | None = None,
+    resume: bool = False,
+    conditions: Sequence[str] | None = None,
+    evaluator: Evaluator | None = None,
+    max_tie_programs: int = DEFAULT_TIE_PROGRAMS,
+    estimate: str = "filter",
+    integrity: IntegritySpec | None = None,
+) -> RequireResult:
     """The cheapest suite meeting ``specifications`` on ``target`` (a route, or every route of a
     domain: one specification for all, or one per route in the domain's order).
 
@@ -294,14 +326,30 @@ def require(target: Target, specifications: Specification | Sequence[Specificati
     alone: frozenset[int] = frozenset()
     if integrity is not None:
         if integrity.max_association_risk is not None:
-            raise InputError("--max-association-risk: require judges accuracy with every measurement; "
-                             "the lever is not available with require --integrity")
-        integ = IntegrityRequirement([p for _, p in problems], [n for n, _ in problems],
-                                     [i for i in range(len(library)) if i not in feas.excluded], integrity, map_sigma_m)
+            raise InputError(
+                "--max-association-risk: require judges accuracy with every measurement; "
+                "the lever is not available with require --integrity"
+            )
+        integ = IntegrityRequirement(
+            [p for _, p in problems],
+            [n for n, _ in problems],
+            [i for i in range(len(library)) if i not in feas.excluded],
+            integrity,
+            map_sigma_m,
+        )
     if checkpoint is not None:
         path = Path(checkpoint)
-        fp, inputs = require_fingerprint([p for _, p in problems], specs, map_sigma_m, failures, budget_usd, feas.record,
-                                         estimate, getattr(evaluator, "engine", None) or evaluators[0].name, integrity)
+        fp, inputs = require_fingerprint(
+            [p for _, p in problems],
+            specs,
+            map_sigma_m,
+            failures,
+            budget_usd,
+            feas.record,
+            estimate,
+            getattr(evaluator, "engine", None) or evaluators[0].name,
+            integrity,
+        )
         old = _read_journal(path, fp, inputs) if resume else None
         if old is not None:
             oracle.known = {(r, tuple(s_)): (m, v) for r, s_, m, v in old.answers}
@@ -316,11 +364,19 @@ def require(target: Target, specifications: Specification | Sequence[Specificati
     try:
         if integ is None:
             # accuracy alone is monotone in each sensor's information: dominance among sensors holds
-            dominance = information_dominance([p for _, p in problems],
-                                              [i for i in range(len(library)) if i not in feas.excluded])
-            found = cheapest_suite(feas, oracle.meets, failures=failures, violation=oracle.violation,
-                                   time_limit=time_limit_s, progress=progress,
-                                   max_tie_programs=max_tie_programs, dominance=dominance)
+            dominance = information_dominance(
+                [p for _, p in problems], [i for i in range(len(library)) if i not in feas.excluded]
+            )
+            found = cheapest_suite(
+                feas,
+                oracle.meets,
+                failures=failures,
+                violation=oracle.violation,
+                time_limit=time_limit_s,
+                progress=progress,
+                max_tie_programs=max_tie_programs,
+                dominance=dominance,
+            )
         else:
             checks = integ
 
@@ -329,13 +385,24 @@ def require(target: Target, specifications: Specification | Sequence[Specificati
 
             # a sensor whose association floor alone exceeds the requirement is in no suite that meets it
             # (the floor is anti-monotone): fixed out first, so that no failing set is grown over it
-            alone = frozenset(i for i in range(len(library)) if i not in feas.excluded and i not in feas.required
-                              and not checks.floor_met((i,)))
+            alone = frozenset(
+                i
+                for i in range(len(library))
+                if i not in feas.excluded and i not in feas.required and not checks.floor_met((i,))
+            )
             searched = copy.copy(feas)
             searched.excluded = feas.excluded | alone
-            found = cheapest_suite(searched, lambda s: down(s) and checks.meets(s), failures=failures, monotone=False,
-                                   necessary_monotone=down, necessary_antimonotone=checks.floor_met,
-                                   time_limit=time_limit_s, progress=progress, max_tie_programs=max_tie_programs)
+            found = cheapest_suite(
+                searched,
+                lambda s: down(s) and checks.meets(s),
+                failures=failures,
+                monotone=False,
+                necessary_monotone=down,
+                necessary_antimonotone=checks.floor_met,
+                time_limit=time_limit_s,
+                progress=progress,
+                max_tie_programs=max_tie_programs,
+            )
     finally:  # interrupted too (Ctrl-C): nothing learnt is lost
         if checkpoint is not None:
             oracle.on_answer = None
@@ -358,18 +425,41 @@ def require(target: Target, specifications: Specification | Sequence[Specificati
     margin = margin_of([(r.route, r.specification, r.accuracy) for r in routes]) if found.suite is not None else None
     synthetic = tuple(name for name, p in problems if p.scenario.landmark_source.startswith("generated"))
     return RequireResult(
-        status=found.status, suite=library.suite_ids(suite), cost_usd=float(feas.A[0, list(suite)].sum()) if suite else 0.0,
-        lower_bound_usd=float(found.lower_bound), infeasible_by=found.infeasible_by, stop=found.stop,
-        failures=failures, model="slam" if map_sigma_m is None else "map",
-        map_sigma_m=map_sigma_m, estimate=estimate, routes=routes, worst_failure=library.suite_ids(worst), worst_failure_routes=worst_routes,
-        iterations=int(found.iterations), n_checks=oracle.n_checks, n_refuted=oracle.n_refuted, engine=getattr(evaluator, "engine", None) or evaluators[0].name, budget_usd=budget_usd,
-        constraints=feas.record, problem=target.info, seconds=time.perf_counter() - t0,
-        seconds_checks=found.seconds_checks, seconds_programs=found.seconds_programs,
-        ties=tuple(library.suite_ids(t) for t in found.ties), ties_exhaustive=found.ties_exhaustive,
-        tie_programs=found.tie_programs, margin=margin, synthetic_landmarks=synthetic, integrity=integrity,
-        integrity_routes=integrity_routes, integrity_alone=library.suite_ids(tuple(sorted(alone))),
+        status=found.status,
+        suite=library.suite_ids(suite),
+        cost_usd=float(feas.A[0, list(suite)].sum()) if suite else 0.0,
+        lower_bound_usd=float(found.lower_bound),
+        infeasible_by=found.infeasible_by,
+        stop=found.stop,
+        failures=failures,
+        model="slam" if map_sigma_m is None else "map",
+        map_sigma_m=map_sigma_m,
+        estimate=estimate,
+        routes=routes,
+        worst_failure=library.suite_ids(worst),
+        worst_failure_routes=worst_routes,
+        iterations=int(found.iterations),
+        n_checks=oracle.n_checks,
+        n_refuted=oracle.n_refuted,
+        engine=getattr(evaluator, "engine", None) or evaluators[0].name,
+        budget_usd=budget_usd,
+        constraints=feas.record,
+        problem=target.info,
+        seconds=time.perf_counter() - t0,
+        seconds_checks=found.seconds_checks,
+        seconds_programs=found.seconds_programs,
+        ties=tuple(library.suite_ids(t) for t in found.ties),
+        ties_exhaustive=found.ties_exhaustive,
+        tie_programs=found.tie_programs,
+        margin=margin,
+        synthetic_landmarks=synthetic,
+        integrity=integrity,
+        integrity_routes=integrity_routes,
+        integrity_alone=library.suite_ids(tuple(sorted(alone))),
         dominated=tuple((library.ids[w], library.ids[s_]) for w, s_ in found.ordered),
-        n_swap_inferred=found.swap_inferred, n_short=oracle.n_short)
+        n_swap_inferred=found.swap_inferred,
+        n_short=oracle.n_short,
+    )
 
 
 def _worst_failure(oracle: _Oracle, suite: Suite, failures: int) -> tuple[int, ...]:
@@ -380,8 +470,10 @@ def _worst_failure(oracle: _Oracle, suite: Suite, failures: int) -> tuple[int, .
     best: tuple[float, tuple[int, ...]] | None = None
     for lost in itertools.combinations(suite, failures):
         rest = tuple(i for i in suite if i not in lost)
-        margin = max(max(err / bound for _, err, bound, _ in oracle.route(r, rest)[1].worst)
-                     for r in range(len(oracle.evaluators)))
+        margin = max(
+            max(err / bound for _, err, bound, _ in oracle.route(r, rest)[1].worst)
+            for r in range(len(oracle.evaluators))
+        )
         if best is None or margin > best[0]:
             best = (margin, lost)
     return best[1] if best else ()

@@ -42,7 +42,7 @@ any ordered pair has equal prices.
 
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -65,8 +65,12 @@ def _pair_information(problem: Problem, i: int) -> tuple[np.ndarray, np.ndarray]
     if not len(keys):
         return np.zeros(0, np.int64), np.zeros((0, 2))
     uniq, inv = np.unique(keys, return_inverse=True)
-    info = np.column_stack([np.bincount(inv, 1.0 / np.asarray(o.sigma_bearing_rad, float) ** 2, len(uniq)),
-                            np.bincount(inv, 1.0 / np.asarray(o.sigma_range_m, float) ** 2, len(uniq))])
+    info = np.column_stack(
+        [
+            np.bincount(inv, 1.0 / np.asarray(o.sigma_bearing_rad, float) ** 2, len(uniq)),
+            np.bincount(inv, 1.0 / np.asarray(o.sigma_range_m, float) ** 2, len(uniq)),
+        ]
+    )
     return uniq, info
 
 
@@ -86,8 +90,9 @@ def _dominated(weak: tuple[np.ndarray, np.ndarray], strong: tuple[np.ndarray, np
     return bool(np.all(is_[at] >= iw * (1.0 - _REL)))
 
 
-def information_dominance(problems: Sequence[Problem], candidates: Sequence[int] | None = None
-                          ) -> tuple[tuple[int, int], ...]:
+def information_dominance(
+    problems: Sequence[Problem], candidates: Sequence[int] | None = None
+) -> tuple[tuple[int, int], ...]:
     """The pairs (w, s) of library positions, w ≠ s, with w ⪯ s on every route of ``problems``
     (module docstring), sorted; ``candidates``: only among these positions (default: all).
 

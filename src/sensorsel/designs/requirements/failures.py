@@ -5,13 +5,16 @@ integer program, and which suites meet a monotone requirement after failures."""
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Iterable, Sequence
 from itertools import combinations
-from typing import Any, Callable, Iterable, Sequence
+from typing import Any
 
 import numpy as np
 
-from sensorsel.designs.requirements.oracle import Monotone, mask_of as _mask
-from sensorsel.designs.requirements.programs import floor_cost, tol as _tol
+from sensorsel.designs.requirements.oracle import Monotone
+from sensorsel.designs.requirements.oracle import mask_of as _mask
+from sensorsel.designs.requirements.programs import floor_cost
+from sensorsel.designs.requirements.programs import tol as _tol
 
 __all__ = ["floors", "meets_after_failures", "more_cuts"]
 
@@ -38,8 +41,13 @@ def floors(s: Any, upper: float, programs: list[float]) -> dict[int, float]:
     # a passing set known without i caps its floor: a sensor whose price plus that cap is within
     # ``upper`` cannot be fixed out, and costs no program
     passing = [(s.cost(m), m) for m in s.down.meeting.masks if not m & s.fixed_out]
-    left = [i for i in s.allowed if not (s.required | s.fixed_out) >> i & 1 and s.price[i] > 0
-            and s.price[i] + min((c for c, m in passing if not m >> i & 1), default=math.inf) > upper + _tol(upper)]
+    left = [
+        i
+        for i in s.allowed
+        if not (s.required | s.fixed_out) >> i & 1
+        and s.price[i] > 0
+        and s.price[i] + min((c for c, m in passing if not m >> i & 1), default=math.inf) > upper + _tol(upper)
+    ]
     if not left:
         s.floor_values = {}
         return s.floor_values

@@ -10,8 +10,8 @@ front need not be monotone in cost: each point is judged on its own.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 from sensorsel.designs.requirements.spec import Specification, at_rank, verdict
 from sensorsel.information.evaluators import as_suite, make_evaluator
@@ -77,9 +77,15 @@ class FrontAcceptance:
         return next((p for p in self.points if p.meets), None)
 
 
-def front_acceptance(target: Target, front: Sequence[tuple[Sequence[str], float, float]],
-                     specifications: Sequence[Specification] | None, *, map_sigma_m: float | None,
-                     engine: str | None = None, estimate: str = "filter") -> FrontAcceptance:
+def front_acceptance(
+    target: Target,
+    front: Sequence[tuple[Sequence[str], float, float]],
+    specifications: Sequence[Specification] | None,
+    *,
+    map_sigma_m: float | None,
+    engine: str | None = None,
+    estimate: str = "filter",
+) -> FrontAcceptance:
     """Each front suite ``(ids, cost, score)``'s accuracy on every route of ``target`` and whether
     it meets ``specifications`` (one per route in the domain's order, or None: accuracy only);
     ``estimate``: the filter's (as the car drives) or the smoother's (each accuracy records it)."""
@@ -89,16 +95,33 @@ def front_acceptance(target: Target, front: Sequence[tuple[Sequence[str], float,
     points = []
     for ids, cost, score in front:
         positions = as_suite(lib.resolve_suite(list(ids)))
-        accs = tuple(route_accuracy(ev, positions, map_sigma_m=map_sigma_m, route=name, estimate=estimate)
-                     for ev, (name, _) in zip(evaluators, routes))
+        accs = tuple(
+            route_accuracy(ev, positions, map_sigma_m=map_sigma_m, route=name, estimate=estimate)
+            for ev, (name, _) in zip(evaluators, routes)
+        )
         if specifications is None:
             lat = max(Z95 * a.lateral.max for a in accs)
             points.append(FrontPoint(tuple(ids), float(cost), float(score), lat, accs, None, None))
             continue
         verdicts = [verdict(a, s) for a, s in zip(accs, specifications)]
         lat = max(Z95 * at_rank(a.sigmas("lateral"), s.at) for a, s in zip(accs, specifications))
-        points.append(FrontPoint(tuple(ids), float(cost), float(score), lat, accs, all(v.meets for v in verdicts),
-                                 max(v.violation for v in verdicts)))
+        points.append(
+            FrontPoint(
+                tuple(ids),
+                float(cost),
+                float(score),
+                lat,
+                accs,
+                all(v.meets for v in verdicts),
+                max(v.violation for v in verdicts),
+            )
+        )
     specs = tuple(zip([n for n, _ in routes], specifications)) if specifications is not None else ()
-    return FrontAcceptance("slam" if map_sigma_m is None else "map", map_sigma_m, specs,
-                           tuple(sorted(points, key=lambda p: (p.cost_usd, -p.score))), target.info, estimate)
+    return FrontAcceptance(
+        "slam" if map_sigma_m is None else "map",
+        map_sigma_m,
+        specs,
+        tuple(sorted(points, key=lambda p: (p.cost_usd, -p.score))),
+        target.info,
+        estimate,
+    )

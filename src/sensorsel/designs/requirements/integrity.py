@@ -20,8 +20,8 @@ looser stays necessary; the slack covers the floating-point order of their sums)
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Sequence
 from dataclasses import replace
-from typing import Iterable, Sequence
 
 from sensorsel.information.integrity import IntegrityBounds, IntegritySpec, RouteIntegrity
 from sensorsel.model.problem import Problem
@@ -34,10 +34,12 @@ RELAXATION_SLACK = 1e-9
 #: preset name -> its integrity specification: Reid et al. 2019, passenger cars, alert limits and
 #: 10⁻⁸ per hour (the presets of :data:`~sensorsel.designs.requirements.spec.PRESETS`)
 INTEGRITY_PRESETS: dict[str, IntegritySpec] = {
-    "local-streets": IntegritySpec(integrity_risk=1e-8, alert_lateral_m=0.29, alert_longitudinal_m=0.29,
-                                   alert_heading_deg=0.50),
-    "freeway": IntegritySpec(integrity_risk=1e-8, alert_lateral_m=0.57, alert_longitudinal_m=1.40,
-                             alert_heading_deg=1.50),
+    "local-streets": IntegritySpec(
+        integrity_risk=1e-8, alert_lateral_m=0.29, alert_longitudinal_m=0.29, alert_heading_deg=0.50
+    ),
+    "freeway": IntegritySpec(
+        integrity_risk=1e-8, alert_lateral_m=0.57, alert_longitudinal_m=1.40, alert_heading_deg=1.50
+    ),
 }
 
 
@@ -58,8 +60,14 @@ class IntegrityRequirement:
         map_sigma_m: the map's std [m]; None: SLAM (no association floor: it is 0).
     """
 
-    def __init__(self, problems: Sequence[Problem], names: Sequence[str], allowed: Iterable[int], spec: IntegritySpec,
-                 map_sigma_m: float | None) -> None:
+    def __init__(
+        self,
+        problems: Sequence[Problem],
+        names: Sequence[str],
+        allowed: Iterable[int],
+        spec: IntegritySpec,
+        map_sigma_m: float | None,
+    ) -> None:
         allowed = tuple(allowed)
         self.spec, self.names = spec, list(names)
         self.bounds = [IntegrityBounds(p, allowed, spec, map_sigma_m=map_sigma_m) for p in problems]

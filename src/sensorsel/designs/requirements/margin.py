@@ -14,8 +14,8 @@ fail first if the suite lost accuracy.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 
@@ -60,9 +60,11 @@ class Margin:
         binding keyframes 52 (1)"."""
         d = 3
         kf = ", ".join(str(k) for k in self.binding_keyframes[:8]) + (" ..." if len(self.binding_keyframes) > 8 else "")
-        return (f"{self.slack:.{d}f} {self.unit} ({100 * self.slack_share:.1f} % of the {self.limit:g} {self.unit} limit): "
-                f"route {self.route}, {self.component} at keyframe {self.keyframe}; binding keyframes {kf} "
-                f"({len(self.binding_keyframes)})")
+        return (
+            f"{self.slack:.{d}f} {self.unit} ({100 * self.slack_share:.1f} % of the {self.limit:g} {self.unit} limit): "
+            f"route {self.route}, {self.component} at keyframe {self.keyframe}; binding keyframes {kf} "
+            f"({len(self.binding_keyframes)})"
+        )
 
 
 def margin_of(routes: Sequence[tuple[str, Specification, RouteAccuracy]]) -> Margin | None:

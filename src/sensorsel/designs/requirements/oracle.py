@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 import time
-from typing import Callable, Iterable
+from collections.abc import Callable, Iterable
 
 import numpy as np
 
@@ -67,7 +67,7 @@ class Antichain:
         if not self.masks:
             return False
         q = self._w(mask)
-        return bool(np.any(np.all((q & ~self._rows[:len(self.masks)]) == 0, axis=1)))
+        return bool(np.any(np.all((q & ~self._rows[: len(self.masks)]) == 0, axis=1)))
 
     def _many(self, masks: list[int]) -> np.ndarray:
         return np.array([[(m >> (64 * k)) & _WORD for k in range(self.words)] for m in masks], dtype=np.uint64)
@@ -77,21 +77,21 @@ class Antichain:
         if not self.masks or not masks:
             return False
         q = self._many(masks)[:, None, :]
-        return bool(np.any(np.all((q & ~self._rows[None, :len(self.masks)]) == 0, axis=2)))
+        return bool(np.any(np.all((q & ~self._rows[None, : len(self.masks)]) == 0, axis=2)))
 
     def holds_any(self, masks: list[int]) -> bool:
         """Some set of the antichain ⊆ some mask of ``masks``."""
         if not self.masks or not masks:
             return False
         q = self._many(masks)[:, None, :]
-        return bool(np.any(np.all((self._rows[None, :len(self.masks)] & ~q) == 0, axis=2)))
+        return bool(np.any(np.all((self._rows[None, : len(self.masks)] & ~q) == 0, axis=2)))
 
     def holds_one(self, mask: int) -> bool:
         """some set of the antichain ⊆ ``mask``."""
         if not self.masks:
             return False
         q = self._w(mask)
-        return bool(np.any(np.all((self._rows[:len(self.masks)] & ~q) == 0, axis=1)))
+        return bool(np.any(np.all((self._rows[: len(self.masks)] & ~q) == 0, axis=1)))
 
     def add(self, mask: int) -> None:
         """Add ``mask`` (the caller knows it is not dominated), dropping the sets it dominates."""
@@ -102,7 +102,7 @@ class Antichain:
             if gone.any():
                 stay = np.flatnonzero(~gone)
                 self.masks = [self.masks[i] for i in stay]
-                self._rows[:len(stay)] = rows[stay]
+                self._rows[: len(stay)] = rows[stay]
         m = len(self.masks)
         if m == len(self._rows):
             self._rows = np.concatenate([self._rows, np.zeros_like(self._rows)])
@@ -155,8 +155,13 @@ class Monotone(_Cached):
     s in place of w is known to fail (one swap at a time; ``swap_inferred`` counts the answers so
     given)."""
 
-    def __init__(self, n: int, passes: Callable[[Suite], bool], violation: Callable[[Suite], float] | None = None,
-                 swaps: Iterable[tuple[int, int]] = ()) -> None:
+    def __init__(
+        self,
+        n: int,
+        passes: Callable[[Suite], bool],
+        violation: Callable[[Suite], float] | None = None,
+        swaps: Iterable[tuple[int, int]] = (),
+    ) -> None:
         super().__init__(n, passes)
         self._violation = violation
         self.viol: dict[int, float] = {}

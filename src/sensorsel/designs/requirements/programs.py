@@ -5,11 +5,13 @@ from __future__ import annotations
 
 import math
 import time
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
-from sensorsel.designs.requirements.oracle import mask_of as _mask, suite_of as _suite
+from sensorsel.designs.requirements.oracle import mask_of as _mask
+from sensorsel.designs.requirements.oracle import suite_of as _suite
 from sensorsel.io.files import quiet_stdout
 
 __all__ = ["MILP_NODE_LIMIT", "floor_cost", "propose", "tol"]
@@ -27,8 +29,9 @@ def tol(cost: float) -> float:
     return _COST_TOL + 1e-9 * abs(cost) if math.isfinite(cost) else 0.0
 
 
-def propose(s: Any, time_left: float | None, programs: list[float], *, cap: float | None = None,
-             exclude: Sequence[int] = ()) -> tuple[float, int | None, bool] | None:
+def propose(
+    s: Any, time_left: float | None, programs: list[float], *, cap: float | None = None, exclude: Sequence[int] = ()
+) -> tuple[float, int | None, bool] | None:
     """min cost(x) over the feasible set's rows, every cut and no-good, the sensors fixed out at 0
     (and with ``cap`` the cost at most ``cap``, the suites ``exclude`` excluded): (lower bound [$],
     the optimal suite or None, whether HiGHS proved it optimal), or None when no suite satisfies
@@ -108,9 +111,13 @@ def floor_cost(s: Any, programs: list[float], without: int = 0) -> tuple[float, 
     out = np.array([[0.0 if f >> i & 1 else 1.0 for i in range(n)] for f in cuts])
     t = time.perf_counter()
     with quiet_stdout():
-        res = milp(s.price, integrality=np.ones(n), bounds=Bounds(np.zeros(n), ub),
-                   constraints=[LinearConstraint(out, 1.0, np.inf)],
-                   options={"node_limit": MILP_NODE_LIMIT, "mip_rel_gap": 0.0, "presolve": True, "disp": False})
+        res = milp(
+            s.price,
+            integrality=np.ones(n),
+            bounds=Bounds(np.zeros(n), ub),
+            constraints=[LinearConstraint(out, 1.0, np.inf)],
+            options={"node_limit": MILP_NODE_LIMIT, "mip_rel_gap": 0.0, "presolve": True, "disp": False},
+        )
     programs[0] += time.perf_counter() - t
     if res.status == 2:
         return math.inf, None

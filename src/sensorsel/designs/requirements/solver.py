@@ -97,21 +97,35 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from itertools import combinations
-from typing import Callable, Iterable, Sequence
 
 import numpy as np
 
 from sensorsel.designs.requirements.dominance import dominance_order
+from sensorsel.designs.requirements.failures import floors as _floors
+from sensorsel.designs.requirements.failures import meets_after_failures
+from sensorsel.designs.requirements.failures import more_cuts as _more_cuts
 from sensorsel.designs.requirements.oracle import AntiMonotone, Exact, Monotone, mask_of, suite_of
-from sensorsel.designs.requirements.failures import floors as _floors, meets_after_failures, more_cuts as _more_cuts
-from sensorsel.designs.requirements.programs import MILP_NODE_LIMIT, propose as _propose, tol as _tol
+from sensorsel.designs.requirements.programs import MILP_NODE_LIMIT
+from sensorsel.designs.requirements.programs import propose as _propose
+from sensorsel.designs.requirements.programs import tol as _tol
 from sensorsel.io.progress import Progress, report
 from sensorsel.model.constraints import FeasibleSet
 
-__all__ = ["DEFAULT_MAX_ITERATIONS", "DEFAULT_TIE_PROGRAMS", "MILP_NODE_LIMIT", "STATUSES", "CheapestSuite", "Meets",
-           "Suite", "Violation", "cheapest_suite", "meets_after_failures"]
+__all__ = [
+    "DEFAULT_MAX_ITERATIONS",
+    "DEFAULT_TIE_PROGRAMS",
+    "MILP_NODE_LIMIT",
+    "STATUSES",
+    "CheapestSuite",
+    "Meets",
+    "Suite",
+    "Violation",
+    "cheapest_suite",
+    "meets_after_failures",
+]
 
 #: a canonical suite: sorted tuple of unique library positions (the same alias as
 #: ``sensorsel.information.evaluators.Suite``; the solver needs no evaluator, only a predicate).
@@ -215,8 +229,9 @@ class _Search:
     monotone relaxation or None), ``up`` the anti-monotone relaxation or None, ``full`` the full
     check when the requirement is not monotone (None when it is: then ``down`` is the requirement)."""
 
-    def __init__(self, feasible: FeasibleSet, alpha: int, down: Monotone | None, up: AntiMonotone | None,
-                 full: Exact | None) -> None:
+    def __init__(
+        self, feasible: FeasibleSet, alpha: int, down: Monotone | None, up: AntiMonotone | None, full: Exact | None
+    ) -> None:
         self.fs = feasible
         self.alpha = alpha
         self.down, self.up, self.full = down, up, full
@@ -331,7 +346,7 @@ class _Search:
             rest = [i for i in rest if self.price[i] <= self.upper - self.lower + _tol(self.upper)]
         at, size = 0, 1
         while at < len(rest):
-            block = _mask(rest[at:at + size])
+            block = _mask(rest[at : at + size])
             if not self.down.passes(mask | block):
                 mask |= block
                 at += size
@@ -401,12 +416,21 @@ def _ratio(drop: float, price: float) -> float:
     return math.inf if price <= 0 else drop / price
 
 
-def cheapest_suite(feasible: FeasibleSet, meets: Meets, *, failures: int = 0, violation: Violation | None = None,
-                   monotone: bool = True, necessary_monotone: Meets | None = None,
-                   necessary_antimonotone: Meets | None = None, max_iterations: int = DEFAULT_MAX_ITERATIONS,
-                   time_limit: float | None = None, progress: Progress | None = None,
-                   max_tie_programs: int = DEFAULT_TIE_PROGRAMS,
-                   dominance: Sequence[tuple[int, int]] = ()) -> CheapestSuite:
+def cheapest_suite(
+    feasible: FeasibleSet,
+    meets: Meets,
+    *,
+    failures: int = 0,
+    violation: Violation | None = None,
+    monotone: bool = True,
+    necessary_monotone: Meets | None = None,
+    necessary_antimonotone: Meets | None = None,
+    max_iterations: int = DEFAULT_MAX_ITERATIONS,
+    time_limit: float | None = None,
+    progress: Progress | None = None,
+    max_tie_programs: int = DEFAULT_TIE_PROGRAMS,
+    dominance: Sequence[tuple[int, int]] = (),
+) -> CheapestSuite:
     """The cheapest suite of ``feasible`` that meets a requirement after any ``failures`` of its
     sensors fail, with a lower bound on the cost of every such suite (module docstring).
 
@@ -463,12 +487,28 @@ def cheapest_suite(feasible: FeasibleSet, meets: Meets, *, failures: int = 0, vi
         s = _Search(feasible, alpha, Monotone(n, meets, violation, swaps=dominance), None, None)
         s.orders = dominance_order(feasible, dominance)
     else:
-        s = _Search(feasible, alpha, None if necessary_monotone is None else Monotone(n, necessary_monotone),
-                    None if necessary_antimonotone is None else AntiMonotone(n, necessary_antimonotone), Exact(n, meets))
+        s = _Search(
+            feasible,
+            alpha,
+            None if necessary_monotone is None else Monotone(n, necessary_monotone),
+            None if necessary_antimonotone is None else AntiMonotone(n, necessary_antimonotone),
+            Exact(n, meets),
+        )
     programs = [0.0, 0]  # seconds in integer programs, tie programs
 
-    def result(status_: str, suite: int | None, lower: float, iterations: int, stop: str, *, by: str = "",
-               best_effort: int = 0, lost: int = 0, ties: Sequence[int] = (), exhaustive: bool = False) -> CheapestSuite:
+    def result(
+        status_: str,
+        suite: int | None,
+        lower: float,
+        iterations: int,
+        stop: str,
+        *,
+        by: str = "",
+        best_effort: int = 0,
+        lost: int = 0,
+        ties: Sequence[int] = (),
+        exhaustive: bool = False,
+    ) -> CheapestSuite:
         cost = s.cost(suite) if suite is not None else math.inf
         proved = status_ != "gap"
         if status_ == "optimal":
@@ -477,19 +517,41 @@ def cheapest_suite(feasible: FeasibleSet, meets: Meets, *, failures: int = 0, vi
         cuts = tuple(sorted(_suite(f) for f in s.down.failing.masks)) if s.down is not None else ()
         cuts_in = tuple(sorted(_suite(f) for f in s.up.failing.masks)) if s.up is not None else ()
         return CheapestSuite(
-            _suite(suite) if suite is not None else None, cost, lower, proved, gap, iterations, s.n_checks(), cuts,
-            status_, alpha, by, _suite(best_effort) if status_ == "infeasible" else (), _suite(lost), stop,
-            time.monotonic() - start, s.seconds_checks(), programs[0], cuts_in, tuple(sorted(_suite(g) for g in s.nogoods)),
-            tuple(sorted(_suite(t) for t in ties)), exhaustive and not tied_orders, int(programs[1]),
-            bin(s.fixed_out).count("1"), s.orders, s.down.swap_inferred if s.down is not None else 0)
+            _suite(suite) if suite is not None else None,
+            cost,
+            lower,
+            proved,
+            gap,
+            iterations,
+            s.n_checks(),
+            cuts,
+            status_,
+            alpha,
+            by,
+            _suite(best_effort) if status_ == "infeasible" else (),
+            _suite(lost),
+            stop,
+            time.monotonic() - start,
+            s.seconds_checks(),
+            programs[0],
+            cuts_in,
+            tuple(sorted(_suite(g) for g in s.nogoods)),
+            tuple(sorted(_suite(t) for t in ties)),
+            exhaustive and not tied_orders,
+            int(programs[1]),
+            bin(s.fixed_out).count("1"),
+            s.orders,
+            s.down.swap_inferred if s.down is not None else 0,
+        )
 
     # a tie search under rows x_w <= x_s cannot see suites with w in place of an equally priced s
     tied_orders = any(abs(s.price[w] - s.price[v]) <= _tol(s.price[w]) for w, v in s.orders)
 
     # 1. every allowed sensor together: the most any suite achieves (monotone, or its monotone relaxation)
     if s.down is not None and not s.down.passes(s.universe):
-        return result("infeasible", None, math.inf, 0, "every allowed sensor together fails", by="library",
-                      best_effort=s.universe)
+        return result(
+            "infeasible", None, math.inf, 0, "every allowed sensor together fails", by="library", best_effort=s.universe
+        )
 
     # 2. the greedy upper bound (its failing suites are the first cuts)
     incumbent = s.greedy() if violation is not None and s.monotone else None
@@ -553,19 +615,39 @@ def cheapest_suite(feasible: FeasibleSet, meets: Meets, *, failures: int = 0, vi
                 s.fix_above(upper)
     if incumbent is not None and upper - lower <= _tol(upper):
         return _ties(s, incumbent, iterations, max_tie_programs, programs, start, time_limit, result)
-    return result("gap", incumbent, min(lower, upper), iterations, stop,
-                  ties=[m for m, c in s.met.items() if m != incumbent and incumbent is not None and abs(c - upper) <= _tol(upper)])
+    return result(
+        "gap",
+        incumbent,
+        min(lower, upper),
+        iterations,
+        stop,
+        ties=[
+            m for m, c in s.met.items() if m != incumbent and incumbent is not None and abs(c - upper) <= _tol(upper)
+        ],
+    )
 
 
 def _status_text(lower: float, upper: float, iterations: int, checks: int) -> str:
     """Where the search stands, in words: the interval the cheapest suite's cost [$] lies in (the
     progress display adds the time)."""
-    interval = f"cost in [${lower:,.0f}, ${upper:,.0f}]" if math.isfinite(upper) else f"cost >= ${lower:,.0f}, no suite found yet"
+    interval = (
+        f"cost in [${lower:,.0f}, ${upper:,.0f}]"
+        if math.isfinite(upper)
+        else f"cost >= ${lower:,.0f}, no suite found yet"
+    )
     return f"{interval}; {iterations:,} integer programs, {checks:,} suites checked"
 
 
-def _ties(s: _Search, incumbent: int, iterations: int, max_programs: int, programs: list[float], start: float,
-          time_limit: float | None, result: Callable[..., CheapestSuite]) -> CheapestSuite:
+def _ties(
+    s: _Search,
+    incumbent: int,
+    iterations: int,
+    max_programs: int,
+    programs: list[float],
+    start: float,
+    time_limit: float | None,
+    result: Callable[..., CheapestSuite],
+) -> CheapestSuite:
     """The proved answer, with the other suites of its cost that meet the requirement: those met on
     the way, then those the integer program capped at that cost proposes (each proposal that fails
     gets its cut as in the search, and a no-good), until it has none left (exhaustive) or
@@ -589,8 +671,15 @@ def _ties(s: _Search, incumbent: int, iterations: int, max_programs: int, progra
         extra.append(proposal)
         if s.fits(proposal) and s.failing_part(proposal) is None:
             ties.add(proposal)
-    return result("optimal", incumbent, opt, iterations, "proved optimal: the lower bound reached the best suite found",
-                  ties=sorted(ties), exhaustive=exhaustive)
+    return result(
+        "optimal",
+        incumbent,
+        opt,
+        iterations,
+        "proved optimal: the lower bound reached the best suite found",
+        ties=sorted(ties),
+        exhaustive=exhaustive,
+    )
 
 
 def _infeasible(s: _Search, result: Callable[..., CheapestSuite], iterations: int) -> CheapestSuite:
@@ -600,9 +689,22 @@ def _infeasible(s: _Search, result: Callable[..., CheapestSuite], iterations: in
     for f in sorted(failing, key=lambda m: (bin(s.universe & ~m).count("1"), _suite(m))):
         lost = s.universe & ~f
         if bin(lost).count("1") <= s.alpha:
-            return result("infeasible", None, math.inf, iterations,
-                          f"every allowed sensor meets it, but not after {len(_suite(lost))} of them fail",
-                          by="failures", best_effort=f, lost=lost)
-    return result("infeasible", None, math.inf, iterations,
-                  "no suite within the limits meets it" + (f" after {s.alpha} failure(s)" if s.alpha else ""),
-                  by="limits", best_effort=s.universe)
+            return result(
+                "infeasible",
+                None,
+                math.inf,
+                iterations,
+                f"every allowed sensor meets it, but not after {len(_suite(lost))} of them fail",
+                by="failures",
+                best_effort=f,
+                lost=lost,
+            )
+    return result(
+        "infeasible",
+        None,
+        math.inf,
+        iterations,
+        "no suite within the limits meets it" + (f" after {s.alpha} failure(s)" if s.alpha else ""),
+        by="limits",
+        best_effort=s.universe,
+    )

@@ -19,9 +19,10 @@ least ⌈p K⌉ keyframes meet each bound), not an interpolated percentile, so m
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
@@ -30,8 +31,18 @@ from sensorsel.information.evaluators.accuracy import Z95, RouteAccuracy
 from sensorsel.io.inputs import Checker, Map, read_yaml
 from sensorsel.model.domain import DomainError
 
-__all__ = ["PRESETS", "DEFAULT_MAP_SIGMA_M", "Specification", "SpecificationError", "RouteVerdict", "preset",
-           "load_specification_file", "specifications_for", "verdict", "covariance_verdict"]
+__all__ = [
+    "PRESETS",
+    "DEFAULT_MAP_SIGMA_M",
+    "Specification",
+    "SpecificationError",
+    "RouteVerdict",
+    "preset",
+    "load_specification_file",
+    "specifications_for",
+    "verdict",
+    "covariance_verdict",
+]
 
 #: the default accuracy of a prior map's landmarks [m] for ``require`` (assumed: survey-grade
 #: mobile-mapping LiDAR maps are stated to a few centimetres relative accuracy; see
@@ -72,13 +83,19 @@ class Specification:
     def __post_init__(self) -> None:
         for field, _ in BOUNDS:
             v = getattr(self, field)
-            if v is not None and not (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v > 0):
+            if v is not None and not (
+                isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v > 0
+            ):
                 raise InputError(f"--{field}: a requirement must be a positive finite number, got {v!r}")
         if not (isinstance(self.at, (int, float)) and math.isfinite(self.at) and 0.0 < self.at <= 1.0):
-            raise InputError(f"--at: the share of keyframes must be above 0 % and at most 100 %, got {100 * self.at:g} %")
+            raise InputError(
+                f"--at: the share of keyframes must be above 0 % and at most 100 %, got {100 * self.at:g} %"
+            )
         if not (isinstance(self.margin, (int, float)) and math.isfinite(self.margin) and 0.0 <= self.margin < 1.0):
-            raise InputError(f"--margin: the share of each bound to spare must be at least 0 % and below 100 %, "
-                             f"got {100 * self.margin:g} %")
+            raise InputError(
+                f"--margin: the share of each bound to spare must be at least 0 % and below 100 %, "
+                f"got {100 * self.margin:g} %"
+            )
         if all(getattr(self, f) is None for f, _ in BOUNDS):
             raise InputError("no requirement given: name --lateral, --longitudinal, --heading, --preset or --spec")
 
@@ -89,7 +106,9 @@ class Specification:
 
     def bounds(self) -> list[tuple[str, float, str]]:
         """The bounded components as demanded: (component, bound × (1 - margin), unit)."""
-        return [(f, float(getattr(self, f)) * (1.0 - self.margin), u) for f, u in BOUNDS if getattr(self, f) is not None]
+        return [
+            (f, float(getattr(self, f)) * (1.0 - self.margin), u) for f, u in BOUNDS if getattr(self, f) is not None
+        ]
 
     def stated_bounds(self) -> list[tuple[str, float, str]]:
         """The bounded components as stated (before the margin): (component, bound, unit)."""
@@ -206,18 +225,29 @@ def _one(chk: Checker, m: Any, key: str, line: int, base: Specification | None) 
             changes[field] = chk.number(m[field], f"{key}.{field}" if key else field, m.lines[field])
     if "sigma" in m:
         if not isinstance(m["sigma"], bool):
-            chk.fail(f"{key}.sigma" if key else "sigma", f"expected true or false, got {m['sigma']!r}", m.lines["sigma"])
+            chk.fail(
+                f"{key}.sigma" if key else "sigma", f"expected true or false, got {m['sigma']!r}", m.lines["sigma"]
+            )
         changes["sigma"] = m["sigma"]
     if "at" in m:
         at = chk.number(m["at"], f"{key}.at" if key else "at", m.lines["at"])
         if at > 100:
-            chk.fail(f"{key}.at" if key else "at", f"expected a percentage of keyframes in (0, 100], got {m['at']!r}", m.lines["at"])
+            chk.fail(
+                f"{key}.at" if key else "at",
+                f"expected a percentage of keyframes in (0, 100], got {m['at']!r}",
+                m.lines["at"],
+            )
         changes["at"] = at / 100.0
     if spec is None:
         if not any(f in changes for f, _ in BOUNDS):
             chk.fail(key, "names no requirement: give a preset or lateral, longitudinal, heading", line)
-        spec = Specification(lateral=changes.get("lateral"), longitudinal=changes.get("longitudinal"),
-                             heading=changes.get("heading"), sigma=changes.get("sigma", False), at=changes.get("at", 1.0))
+        spec = Specification(
+            lateral=changes.get("lateral"),
+            longitudinal=changes.get("longitudinal"),
+            heading=changes.get("heading"),
+            sigma=changes.get("sigma", False),
+            at=changes.get("at", 1.0),
+        )
         return spec
     return replace(spec, **changes, name=spec.name if not changes else f"{spec.name}*")
 
@@ -257,11 +287,13 @@ def load_specification_file(path: str | Path) -> tuple[Specification | None, dic
     return default, per_route
 
 
-def specifications_for(routes: list[str], default: Specification | None, per_route: Mapping[str, Specification],
-                       source: str = "--spec") -> list[Specification]:
+def specifications_for(
+    routes: list[str], default: Specification | None, per_route: Mapping[str, Specification], source: str = "--spec"
+) -> list[Specification]:
     """Each route's specification (its own, else the default). A domain member in a condition,
     ``route/condition``, takes its own entry, else its route's. A name in ``per_route`` that is
     neither a member nor a route, or a member with no specification, is an InputError naming it."""
+
     def own(r: str) -> Specification | None:
         return per_route.get(r, per_route.get(r.split("/")[0]))
 

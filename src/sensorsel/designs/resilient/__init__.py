@@ -47,15 +47,46 @@ import time
 from pathlib import Path
 from typing import Any
 
-from sensorsel.designs.resilient.algorithm import (MAX_FAILURE_SETS, check_alpha, check_rule, compare, failing_set,
-                                                   recorded, resilient_select, worst_case)
+from sensorsel.designs.resilient.algorithm import (
+    MAX_FAILURE_SETS,
+    check_alpha,
+    check_rule,
+    compare,
+    failing_set,
+    recorded,
+    resilient_select,
+    worst_case,
+)
 from sensorsel.designs.resilient.cache import CacheWarning
-from sensorsel.designs.resilient.periods import (DEFAULT_PERIOD_S, Progress, Selector, check_method, check_period,
-                                                 make_grid, period_file, period_scenario, run_periods, save_grid_csv,
-                                                 split_periods)
-from sensorsel.designs.resilient.records import (ACTIVE, ALGORITHM_2, FAILED, METHODS, UNUSED, Comparison,
-                                                 PerPeriodResult, PeriodResult, PeriodSpan, ResilientReport,
-                                                 ResilientResult, RobustChoice, SelectionGrid, WorstCase)
+from sensorsel.designs.resilient.periods import (
+    DEFAULT_PERIOD_S,
+    Progress,
+    Selector,
+    check_method,
+    check_period,
+    make_grid,
+    period_file,
+    period_scenario,
+    run_periods,
+    save_grid_csv,
+    split_periods,
+)
+from sensorsel.designs.resilient.records import (
+    ACTIVE,
+    ALGORITHM_2,
+    FAILED,
+    METHODS,
+    UNUSED,
+    Comparison,
+    PeriodResult,
+    PeriodSpan,
+    PerPeriodResult,
+    ResilientReport,
+    ResilientResult,
+    RobustChoice,
+    SelectionGrid,
+    WorstCase,
+)
 from sensorsel.designs.selection import check_budget
 from sensorsel.errors import InputError
 from sensorsel.information.evaluators import evaluator_for
@@ -64,18 +95,62 @@ from sensorsel.model.problem import Problem, Target
 from sensorsel.pipeline import Executor
 
 __all__ = [
-    "ACTIVE", "ALGORITHM_2", "DEFAULT_PERIOD_S", "FAILED", "MAX_FAILURE_SETS", "METHODS", "RobustChoice", "Selector", "UNUSED", "check_method", "CacheWarning", "Comparison", "PerPeriodResult",
-    "PeriodResult", "PeriodSpan", "Progress", "ResilientReport", "ResilientResult", "SelectionGrid", "WorstCase",
-    "check_alpha", "check_rule", "check_period", "compare", "failing_set", "make_grid", "period_file",
-    "period_scenario", "resilient_report", "resilient_select", "run_periods", "save_grid_csv", "split_periods", "worst_case",
+    "ACTIVE",
+    "ALGORITHM_2",
+    "DEFAULT_PERIOD_S",
+    "FAILED",
+    "MAX_FAILURE_SETS",
+    "METHODS",
+    "RobustChoice",
+    "Selector",
+    "UNUSED",
+    "check_method",
+    "CacheWarning",
+    "Comparison",
+    "PerPeriodResult",
+    "PeriodResult",
+    "PeriodSpan",
+    "Progress",
+    "ResilientReport",
+    "ResilientResult",
+    "SelectionGrid",
+    "WorstCase",
+    "check_alpha",
+    "check_rule",
+    "check_period",
+    "compare",
+    "failing_set",
+    "make_grid",
+    "period_file",
+    "period_scenario",
+    "resilient_report",
+    "resilient_select",
+    "run_periods",
+    "save_grid_csv",
+    "split_periods",
+    "worst_case",
 ]
 
 
-def resilient_report(problem: Target, budget_usd: float, alpha: int, *, period_s: float | None = DEFAULT_PERIOD_S,
-                     rule: str = "uniform", engine: str | None = None, jobs: int = 1, lazy: bool = True,
-                     aggregate: str = "normalised", outdir: str | Path | None = None, resume: bool = False,
-                     progress: Progress | None = None, method: str = ALGORITHM_2, selector: Selector | None = None,
-                     constraints: Constraints | None = None, executor: Executor | None = None) -> ResilientReport:
+def resilient_report(
+    problem: Target,
+    budget_usd: float,
+    alpha: int,
+    *,
+    period_s: float | None = DEFAULT_PERIOD_S,
+    rule: str = "uniform",
+    engine: str | None = None,
+    jobs: int = 1,
+    lazy: bool = True,
+    aggregate: str = "normalised",
+    outdir: str | Path | None = None,
+    resume: bool = False,
+    progress: Progress | None = None,
+    method: str = ALGORITHM_2,
+    selector: Selector | None = None,
+    constraints: Constraints | None = None,
+    executor: Executor | None = None,
+) -> ResilientReport:
     """The whole-route comparison and (unless ``period_s`` is None) the per-period selection.
 
     With ``outdir``, the comparison is cached in ``outdir/periods/route.json`` and each period in
@@ -102,21 +177,59 @@ def resilient_report(problem: Target, budget_usd: float, alpha: int, *, period_s
     if period_s is not None and not isinstance(problem, Problem):
         raise InputError("a per-period selection runs on one route, not on a domain: give no period (period_s=None)")
     cache = Path(outdir) / "periods" / "route.json" if outdir is not None else None
-    feas = feasible_set(problem.library, budget, constraints) if constraints is not None else None  # refuses a bad request
-    cmp_ = compare(problem, budget, alpha, rule, engine=engine, jobs=jobs, lazy=lazy, aggregate=aggregate, cache=cache,
-                   resume=resume, constraints=constraints)
+    feas = (
+        feasible_set(problem.library, budget, constraints) if constraints is not None else None
+    )  # refuses a bad request
+    cmp_ = compare(
+        problem,
+        budget,
+        alpha,
+        rule,
+        engine=engine,
+        jobs=jobs,
+        lazy=lazy,
+        aggregate=aggregate,
+        cache=cache,
+        resume=resume,
+        constraints=constraints,
+    )
     choice = None
     if method == "robust":
         assert selector is not None
         extra: dict[str, Any] = {} if constraints is None else {"constraints": constraints}
-        choice, _ = selector(evaluator_for(problem, engine, jobs=jobs, aggregate=aggregate), budget, alpha, problem.info,
-                             **extra)
+        choice, _ = selector(
+            evaluator_for(problem, engine, jobs=jobs, aggregate=aggregate), budget, alpha, problem.info, **extra
+        )
     per = None
     if period_s is not None and isinstance(problem, Problem):
-        per = run_periods(problem, budget, alpha, period_s=period_s, rule=rule, engine=engine, jobs=jobs,
-                          lazy=lazy, outdir=outdir, resume=resume, progress=progress, method=method, selector=selector,
-                          constraints=constraints, executor=executor)
-    return ResilientReport(suite=choice.suite if choice else cmp_.resilient.suite, failed=() if choice else cmp_.resilient.failed,
-                           alpha=alpha, budget_usd=budget, rule=rule, engine=cmp_.engine, comparison=cmp_, per_period=per,
-                           seconds=round(time.perf_counter() - t0, 6), method=method, robust=choice,
-                           constraints=recorded(feas))
+        per = run_periods(
+            problem,
+            budget,
+            alpha,
+            period_s=period_s,
+            rule=rule,
+            engine=engine,
+            jobs=jobs,
+            lazy=lazy,
+            outdir=outdir,
+            resume=resume,
+            progress=progress,
+            method=method,
+            selector=selector,
+            constraints=constraints,
+            executor=executor,
+        )
+    return ResilientReport(
+        suite=choice.suite if choice else cmp_.resilient.suite,
+        failed=() if choice else cmp_.resilient.failed,
+        alpha=alpha,
+        budget_usd=budget,
+        rule=rule,
+        engine=cmp_.engine,
+        comparison=cmp_,
+        per_period=per,
+        seconds=round(time.perf_counter() - t0, 6),
+        method=method,
+        robust=choice,
+        constraints=recorded(feas),
+    )

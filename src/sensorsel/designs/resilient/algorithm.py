@@ -6,8 +6,9 @@ from __future__ import annotations
 import itertools
 import math
 import time
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -31,8 +32,6 @@ def check_alpha(alpha: int) -> int:
     return int(alpha)
 
 
-
-
 def engine_name(engine: str | None) -> str:
     """The engine to use: ``engine`` or the default, if registered."""
     name = engine or DEFAULT_ENGINE
@@ -41,8 +40,9 @@ def engine_name(engine: str | None) -> str:
     return name
 
 
-def failing_set(evaluator: Evaluator, budget_usd: float, alpha: int,
-                constraints: Constraints | None = None) -> tuple[list[int], list[float], str]:
+def failing_set(
+    evaluator: Evaluator, budget_usd: float, alpha: int, constraints: Constraints | None = None
+) -> tuple[list[int], list[float], str]:
     """The alpha sensors assumed to fail: largest f({e}) first, skipping those that do not fit.
 
     With ``constraints``, "fits" means on top of the required sensors and the failing sensors picked
@@ -76,8 +76,10 @@ def failing_set(evaluator: Evaluator, budget_usd: float, alpha: int,
         spent += float(costs[pick])
     note = ""
     if len(picked) < alpha:
-        note = (f"only {len(picked)} informative sensor(s) fit the budget ${budget:,.0f} as failing sensors; "
-                f"{alpha} requested")
+        note = (
+            f"only {len(picked)} informative sensor(s) fit the budget ${budget:,.0f} as failing sensors; "
+            f"{alpha} requested"
+        )
     return picked, [float(singles[i]) for i in picked], note
 
 
@@ -113,13 +115,23 @@ def _failing_set_within(evaluator: Evaluator, feas: FeasibleSet, alpha: int) -> 
             used = used + feas.A[:, pick]
     note = ""
     if len(picked) < alpha:
-        note = (f"only {len(picked)} informative sensor(s) fit the limits ({feas.constraints.describe()}; "
-                f"${feas.budget_usd:,.0f}) as failing sensors; {alpha} requested")
+        note = (
+            f"only {len(picked)} informative sensor(s) fit the limits ({feas.constraints.describe()}; "
+            f"${feas.budget_usd:,.0f}) as failing sensors; {alpha} requested"
+        )
     return picked, [float(singles[i]) for i in picked], note
 
 
-def resilient_select(evaluator: Evaluator, budget_usd: float, alpha: int, rule: str = "uniform", *, lazy: bool = True,
-                     info: TargetInfo | None = None, constraints: Constraints | None = None) -> ResilientResult:
+def resilient_select(
+    evaluator: Evaluator,
+    budget_usd: float,
+    alpha: int,
+    rule: str = "uniform",
+    *,
+    lazy: bool = True,
+    info: TargetInfo | None = None,
+    constraints: Constraints | None = None,
+) -> ResilientResult:
     """Resilient selection for ``alpha`` failures under ``budget_usd`` (see the module docstring).
 
     Args:
@@ -148,18 +160,39 @@ def resilient_select(evaluator: Evaluator, budget_usd: float, alpha: int, rule: 
         run = greedy(evaluator, rest, rule, lazy=lazy, exclude=frozenset(failed), start=(), info=info)
     else:
         failed_cost = float(feas.usage(failed)[0])
-        run = greedy(evaluator, budget, rule, lazy=lazy, exclude=frozenset(failed), info=info, constraints=constraints,
-                     reserved=tuple(failed))
+        run = greedy(
+            evaluator,
+            budget,
+            rule,
+            lazy=lazy,
+            exclude=frozenset(failed),
+            info=info,
+            constraints=constraints,
+            reserved=tuple(failed),
+        )
     active = [lib.position(s) for s in run.suite]
     suite = failed + active
     score = evaluator.score(suite) if failed else run.score
     cost = lib.cost(suite) if feas is None or feas.plain else float(feas.usage(suite)[0])
     return ResilientResult(
-        alpha=alpha, budget_usd=budget, rule=rule, suite=lib.suite_ids(suite), failed=lib.suite_ids(failed),
-        failed_scores=tuple(failed_scores), failure_note=note, active=run.suite, failed_cost_usd=failed_cost,
-        cost_usd=cost, score=float(score), active_score=run.score, greedy=run,
-        n_evaluations=evaluator.n_evaluations - n0, engine=evaluator.name, problem=info,
-        seconds=round(time.perf_counter() - t0, 6), constraints=recorded(feas),
+        alpha=alpha,
+        budget_usd=budget,
+        rule=rule,
+        suite=lib.suite_ids(suite),
+        failed=lib.suite_ids(failed),
+        failed_scores=tuple(failed_scores),
+        failure_note=note,
+        active=run.suite,
+        failed_cost_usd=failed_cost,
+        cost_usd=cost,
+        score=float(score),
+        active_score=run.score,
+        greedy=run,
+        n_evaluations=evaluator.n_evaluations - n0,
+        engine=evaluator.name,
+        problem=info,
+        seconds=round(time.perf_counter() - t0, 6),
+        constraints=recorded(feas),
     )
 
 
@@ -175,7 +208,9 @@ def constraints_key(feas: FeasibleSet | None) -> dict[str, Any]:
     return {} if feas is None or feas.plain else {"constraints": results.to_jsonable(feas.constraints)}
 
 
-def worst_case(evaluator: Evaluator, suite: Sequence[int] | str, alpha: int, *, max_failure_sets: int = MAX_FAILURE_SETS) -> WorstCase:
+def worst_case(
+    evaluator: Evaluator, suite: Sequence[int] | str, alpha: int, *, max_failure_sets: int = MAX_FAILURE_SETS
+) -> WorstCase:
     """Exact worst case of a suite under ``alpha`` failures, by enumeration of the failure sets.
 
     Args:
@@ -192,8 +227,10 @@ def worst_case(evaluator: Evaluator, suite: Sequence[int] | str, alpha: int, *, 
     k = min(alpha, len(s))
     n_sets = math.comb(len(s), k)
     if n_sets > max_failure_sets:
-        raise InputError(f"worst case of a {len(s)}-sensor suite with {alpha} failures needs {n_sets:,} evaluations "
-                         f"(limit {max_failure_sets:,}); use fewer failures")
+        raise InputError(
+            f"worst case of a {len(s)}-sensor suite with {alpha} failures needs {n_sets:,} evaluations "
+            f"(limit {max_failure_sets:,}); use fewer failures"
+        )
     n0 = evaluator.n_evaluations
     nominal = evaluator.score(s)
     # combinations() of a sorted tuple come in lexicographic order of library positions
@@ -203,15 +240,31 @@ def worst_case(evaluator: Evaluator, suite: Sequence[int] | str, alpha: int, *, 
     tied = np.flatnonzero(vals <= lo + REL_TOL * max(1.0, abs(lo)))
     worst = sets[int(tied[0])]
     return WorstCase(
-        suite=lib.suite_ids(s), alpha=alpha, nominal_score=float(nominal), score=float(vals[tied[0]]),
-        failures=lib.suite_ids(worst), survivors=lib.suite_ids(i for i in s if i not in worst),
-        n_failure_sets=n_sets, n_evaluations=evaluator.n_evaluations - n0,
+        suite=lib.suite_ids(s),
+        alpha=alpha,
+        nominal_score=float(nominal),
+        score=float(vals[tied[0]]),
+        failures=lib.suite_ids(worst),
+        survivors=lib.suite_ids(i for i in s if i not in worst),
+        n_failure_sets=n_sets,
+        n_evaluations=evaluator.n_evaluations - n0,
     )
 
 
-def compare(target: Target, budget_usd: float, alpha: int, rule: str = "uniform", *, engine: str | None = None,
-            jobs: int = 1, lazy: bool = True, aggregate: str = "normalised", cache: str | Path | None = None,
-            resume: bool = False, constraints: Constraints | None = None) -> Comparison:
+def compare(
+    target: Target,
+    budget_usd: float,
+    alpha: int,
+    rule: str = "uniform",
+    *,
+    engine: str | None = None,
+    jobs: int = 1,
+    lazy: bool = True,
+    aggregate: str = "normalised",
+    cache: str | Path | None = None,
+    resume: bool = False,
+    constraints: Constraints | None = None,
+) -> Comparison:
     """Greedy and resilient selection at the same budget, with the worst case of each suite, on one
     route or on a domain (the domain's score, combined by ``aggregate``).
 
@@ -239,9 +292,20 @@ def compare(target: Target, budget_usd: float, alpha: int, rule: str = "uniform"
     lib = target.library
     gw = worst_case(ev, [lib.position(s) for s in g.suite], alpha)
     rw = worst_case(ev, [lib.position(s) for s in r.suite], alpha)
-    out = Comparison(alpha=alpha, budget_usd=budget, rule=rule, greedy=g, resilient=r, greedy_worst=gw,
-                     resilient_worst=rw, engine=ev.name, fingerprint=fp, problem=info,
-                     seconds=round(time.perf_counter() - t0, 6), constraints=recorded(feas))
+    out = Comparison(
+        alpha=alpha,
+        budget_usd=budget,
+        rule=rule,
+        greedy=g,
+        resilient=r,
+        greedy_worst=gw,
+        resilient_worst=rw,
+        engine=ev.name,
+        fingerprint=fp,
+        problem=info,
+        seconds=round(time.perf_counter() - t0, 6),
+        constraints=recorded(feas),
+    )
     if cache is not None and isinstance(target, Problem):
         results.save(out, cache)
     return out

@@ -24,15 +24,17 @@ T = TypeVar("T")
 __all__ = ["CacheWarning", "FORMAT", "fingerprint", "load_matching"]
 
 
-def fingerprint(problem: Problem | Fingerprint, budget: float, alpha: int, rule: str, engine: str, lazy: bool,
-                what: dict) -> str:
+def fingerprint(
+    problem: Problem | Fingerprint, budget: float, alpha: int, rule: str, engine: str, lazy: bool, what: dict
+) -> str:
     """Digest of everything a result depends on (:func:`sensorsel.designs.inputs.result_fingerprint`):
     the problem by content (library, route and keyframe rate, landmarks, graph settings, condition:
     :attr:`Problem.fingerprint`, or that fingerprint itself, a period's from
     :meth:`Problem.fingerprint_on`; not the files' paths), budget, alpha, rule, engine, and ``what``
     (e.g. the period bounds)."""
-    return result_fingerprint("resilient", FORMAT, problem, budget_usd=budget, alpha=alpha, rule=rule, engine=engine,
-                              lazy=lazy, **what)
+    return result_fingerprint(
+        "resilient", FORMAT, problem, budget_usd=budget, alpha=alpha, rule=rule, engine=engine, lazy=lazy, **what
+    )
 
 
 def load_matching(cls: type[T], path: Path, fingerprint: str, problem: Problem | Fingerprint | None = None) -> T | None:
@@ -51,11 +53,16 @@ def load_matching(cls: type[T], path: Path, fingerprint: str, problem: Problem |
             return []
         return rec.fingerprint.differences(ours)
 
-    return load_record(cls, path, fingerprint, differences,
-                       "other inputs (scenario, library, settings, budget, failures, rule, engine or period)")
+    return load_record(
+        cls,
+        path,
+        fingerprint,
+        differences,
+        "other inputs (scenario, library, settings, budget, failures, rule, engine or period)",
+    )
 
 
-def _recorded_problem(old: object) -> "ProblemInfo | None":
+def _recorded_problem(old: object) -> ProblemInfo | None:
     """The problem a stored result records (a Comparison's, or a period's resilient result's)."""
     info = getattr(old, "problem", None)
     if info is None:

@@ -5,28 +5,47 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Sequence
+from typing import Any
 
 import numpy as np
 
-from sensorsel.designs.resilient.algorithm import (check_alpha, check_rule, constraints_key, engine_name, recorded,
-                                                   resilient_select, worst_case)
+from sensorsel.designs.resilient.algorithm import (
+    check_alpha,
+    check_rule,
+    constraints_key,
+    engine_name,
+    recorded,
+    resilient_select,
+    worst_case,
+)
 from sensorsel.designs.resilient.cache import fingerprint
-from sensorsel.designs.resilient.records import (ACTIVE, ALGORITHM_2, FAILED, METHODS, UNUSED, PeriodResult,
-                                                 PeriodSpan, PerPeriodResult, RobustChoice, SelectionGrid, WorstCase)
+from sensorsel.designs.resilient.records import (
+    ACTIVE,
+    ALGORITHM_2,
+    FAILED,
+    METHODS,
+    UNUSED,
+    PeriodResult,
+    PeriodSpan,
+    PerPeriodResult,
+    RobustChoice,
+    SelectionGrid,
+    WorstCase,
+)
 from sensorsel.designs.selection import check_budget
 from sensorsel.errors import InputError
 from sensorsel.information.evaluators import make_evaluator
 from sensorsel.io import results
 from sensorsel.io.files import atomic_write_text
+from sensorsel.io.progress import Progress
 from sensorsel.model.constraints import Constraints, feasible_set
 from sensorsel.model.library import SensorLibrary
 from sensorsel.model.problem import Problem, build_problem
 from sensorsel.model.scenario import Scenario
 from sensorsel.pipeline import Executor, FileStore, NoStore, Plan, Store, execute
-from sensorsel.io.progress import Progress
 
 #: progress(done, total): called after each period (computed or reused).
 
@@ -42,8 +61,11 @@ def check_method(method: str, selector: Selector | None) -> str:
     if method not in METHODS:
         raise InputError(f"unknown method {method!r}; available: {', '.join(METHODS)}")
     if method == "robust" and selector is None:
-        raise InputError("method 'robust' needs robust selection: call sensorsel.api.resilient_report (or pass selector=)")
+        raise InputError(
+            "method 'robust' needs robust selection: call sensorsel.api.resilient_report (or pass selector=)"
+        )
     return method
+
 
 #: Default length of a period [s] (the paper says "several seconds").
 DEFAULT_PERIOD_S = 10.0
@@ -51,7 +73,12 @@ DEFAULT_PERIOD_S = 10.0
 
 def check_period(period_s: float) -> float:
     """A period length [s]; refuses zero, negative, NaN and infinite values."""
-    if isinstance(period_s, bool) or not isinstance(period_s, (int, float)) or not math.isfinite(period_s) or period_s <= 0:
+    if (
+        isinstance(period_s, bool)
+        or not isinstance(period_s, (int, float))
+        or not math.isfinite(period_s)
+        or period_s <= 0
+    ):
         raise InputError(f"period must be a positive number of seconds, got {period_s!r}")
     return float(period_s)
 
@@ -132,30 +159,43 @@ def period_step(run: PeriodRun, task: PeriodTask) -> PeriodResult:
     """One period's selection: Algorithm 2 and its exact worst case, or ``run.selector``'s robust choice."""
     problem, budget, alpha = run.problem, run.budget, run.alpha
     # the route's condition itself, not through its spec (a problem built from objects has none)
-    sub = build_problem(problem.library, task.scenario, problem.settings, spec=problem.info.spec,
-                        condition=problem.condition)
+    sub = build_problem(
+        problem.library, task.scenario, problem.settings, spec=problem.info.spec, condition=problem.condition
+    )
     ev = make_evaluator(sub, run.engine, jobs=run.jobs)
     if run.method == "robust":
         assert run.selector is not None
         extra: dict[str, Any] = {} if run.constraints is None else {"constraints": run.constraints}
         choice, w = run.selector(ev, budget, alpha, sub.info, **extra)
-        return PeriodResult(fingerprint=task.fingerprint, period=task.span, result=None, worst=w, method=run.method,
-                            robust=choice)
+        return PeriodResult(
+            fingerprint=task.fingerprint, period=task.span, result=None, worst=w, method=run.method, robust=choice
+        )
     r = resilient_select(ev, budget, alpha, run.rule, lazy=run.lazy, info=sub.info, constraints=run.constraints)
     w = worst_case(ev, [sub.library.position(s) for s in r.suite], alpha)
     return PeriodResult(fingerprint=task.fingerprint, period=task.span, result=r, worst=w)
 
 
-def period_plan(problem: Problem, budget: float, alpha: int, rule: str, engine: str, jobs: int, lazy: bool, period: float,
-                method: str = ALGORITHM_2, selector: Selector | None = None,
-                constraints: Constraints | None = None) -> Plan[PeriodResult]:
+def period_plan(
+    problem: Problem,
+    budget: float,
+    alpha: int,
+    rule: str,
+    engine: str,
+    jobs: int,
+    lazy: bool,
+    period: float,
+    method: str = ALGORITHM_2,
+    selector: Selector | None = None,
+    constraints: Constraints | None = None,
+) -> Plan[PeriodResult]:
     """The per-period selection as a plan: one task per period of ``period`` seconds (inputs checked by the caller)."""
     feas = feasible_set(problem.library, budget, constraints) if constraints is not None else None
     tasks = []
     for k, a, b, kf in split_periods(problem.scenario.keyframes.times, period):
         sc = period_scenario(problem, kf, a, b, f"{problem.scenario.name} {a:g}-{b:g} s")
-        span = PeriodSpan(index=k, start_s=a, end_s=b, first_keyframe=int(kf[0]), n_keyframes=len(kf),
-                          n_landmarks=sc.n_landmarks)
+        span = PeriodSpan(
+            index=k, start_s=a, end_s=b, first_keyframe=int(kf[0]), n_keyframes=len(kf), n_landmarks=sc.n_landmarks
+        )
         what: dict[str, Any] = {"what": "period", "period_s": period, "span": results.to_jsonable(span)}
         if method != ALGORITHM_2:  # Algorithm 2's fingerprints stay as they were (no method): their files are reused
             what["method"] = method
@@ -179,16 +219,36 @@ def period_store(plan: Plan[PeriodResult], outdir: str | Path | None, resume: bo
             return []
         return list(info.fingerprint.differences(whole.fingerprint_on(tasks[i].scenario)))
 
-    return FileStore([period_file(outdir, t.span.index) for t in tasks], [t.fingerprint for t in tasks], PeriodResult,
-                     lambda i, r: r, lambda r: r, resume=resume, differences=differences,
-                     what="other inputs (scenario, library, settings, budget, failures, rule, engine or period)")
+    return FileStore(
+        [period_file(outdir, t.span.index) for t in tasks],
+        [t.fingerprint for t in tasks],
+        PeriodResult,
+        lambda i, r: r,
+        lambda r: r,
+        resume=resume,
+        differences=differences,
+        what="other inputs (scenario, library, settings, budget, failures, rule, engine or period)",
+    )
 
 
-def run_periods(problem: Problem, budget_usd: float, alpha: int, *, period_s: float = DEFAULT_PERIOD_S,
-                rule: str = "uniform", engine: str | None = None, jobs: int = 1, lazy: bool = True,
-                outdir: str | Path | None = None, resume: bool = False,
-                progress: Progress | None = None, method: str = ALGORITHM_2, selector: Selector | None = None,
-                constraints: Constraints | None = None, executor: Executor | None = None) -> PerPeriodResult:
+def run_periods(
+    problem: Problem,
+    budget_usd: float,
+    alpha: int,
+    *,
+    period_s: float = DEFAULT_PERIOD_S,
+    rule: str = "uniform",
+    engine: str | None = None,
+    jobs: int = 1,
+    lazy: bool = True,
+    outdir: str | Path | None = None,
+    resume: bool = False,
+    progress: Progress | None = None,
+    method: str = ALGORITHM_2,
+    selector: Selector | None = None,
+    constraints: Constraints | None = None,
+    executor: Executor | None = None,
+) -> PerPeriodResult:
     """Resilient selection on each period of the route.
 
     Args:
@@ -210,7 +270,9 @@ def run_periods(problem: Problem, budget_usd: float, alpha: int, *, period_s: fl
     method = check_method(method, selector)
     period = check_period(period_s)
     name = engine_name(engine)
-    feas = feasible_set(problem.library, budget, constraints) if constraints is not None else None  # refuses a bad request
+    feas = (
+        feasible_set(problem.library, budget, constraints) if constraints is not None else None
+    )  # refuses a bad request
     plan = period_plan(problem, budget, alpha, rule, name, jobs, lazy, period, method, selector, constraints)
     out = execute(plan, executor, period_store(plan, outdir, resume), progress)
     if outdir is not None:
@@ -219,9 +281,18 @@ def run_periods(problem: Problem, budget_usd: float, alpha: int, *, period_s: fl
         for f in sorted((Path(outdir) / "periods").glob("period-*.json")):
             if f.name not in keep:
                 f.unlink()
-    return PerPeriodResult(period_s=period, alpha=alpha, budget_usd=budget, rule=rule, engine=name,
-                           periods=tuple(out), grid=make_grid(problem.library, out),
-                           seconds=round(time.perf_counter() - t0, 6), method=method, constraints=recorded(feas))
+    return PerPeriodResult(
+        period_s=period,
+        alpha=alpha,
+        budget_usd=budget,
+        rule=rule,
+        engine=name,
+        periods=tuple(out),
+        grid=make_grid(problem.library, out),
+        seconds=round(time.perf_counter() - t0, 6),
+        method=method,
+        constraints=recorded(feas),
+    )
 
 
 def make_grid(library: SensorLibrary, periods: Sequence[PeriodResult]) -> SelectionGrid:

@@ -156,6 +156,7 @@ ALGORITHM_2 = "algorithm-2"
 #: How the suite of ``sensorsel resilient`` is chosen: the paper's Algorithm 2, or robust selection.
 METHODS = (ALGORITHM_2, "robust")
 
+
 @dataclass(frozen=True)
 class RobustOutcome(MethodWorst):
     """What robust selection chose and how it compares: :class:`~sensorsel.io.records.MethodWorst`'s
@@ -247,7 +248,9 @@ class SelectionGrid:
     def __post_init__(self) -> None:
         n = len(self.sensors)
         if len(self.models) != n or len(self.positions) != n:
-            raise InputError(f"selection grid: {n} sensors but {len(self.models)} models and {len(self.positions)} positions")
+            raise InputError(
+                f"selection grid: {n} sensors but {len(self.models)} models and {len(self.positions)} positions"
+            )
         r = len(self.cells)
         if not (len(self.period_labels) == len(self.period_start_s) == len(self.period_end_s) == r):
             raise InputError(f"selection grid: {r} rows but {len(self.period_labels)} labels")
@@ -279,7 +282,9 @@ class SelectionGrid:
         """CSV text: one row per period (label, start, end, one cell per sensor, then ``worst_failures``:
         the failure set worst for the period's suite, ids joined by "+")."""
         lines = [",".join(["period", "start_s", "end_s", *self.sensors, "worst_failures"])]
-        for k, (lab, a, b, row) in enumerate(zip(self.period_labels, self.period_start_s, self.period_end_s, self.cells)):
+        for k, (lab, a, b, row) in enumerate(
+            zip(self.period_labels, self.period_start_s, self.period_end_s, self.cells)
+        ):
             lines.append(",".join([lab, repr(a), repr(b), *row, "+".join(self.worst(k))]))
         return "\n".join(lines) + "\n"
 
@@ -349,4 +354,3 @@ class ResilientReport:
     constraints: Constraints | None = None
     accuracy: tuple[RouteAccuracy, ...] = ()
     integrity: tuple[RouteIntegrity, ...] = ()
-

@@ -20,16 +20,57 @@ from sensorsel.designs.robust.exact import robust_optimum
 from sensorsel.designs.robust.family import EvaluatorFamily, FailureFamily, Family
 from sensorsel.designs.robust.memo import MemoEvaluator, memoized
 from sensorsel.designs.robust.methods import local_search, oblivious_greedy, saturate
-from sensorsel.designs.robust.records import (BoundLeaf, Candidate, MemberWorst, RobustBound, RobustOptimum,
-                                              RobustResult, better)
+from sensorsel.designs.robust.records import (
+    BoundLeaf,
+    Candidate,
+    MemberWorst,
+    RobustBound,
+    RobustOptimum,
+    RobustResult,
+    better,
+)
 from sensorsel.designs.robust.select import DEFAULT_RULES, EXTRA_METHODS, robust_choice, robust_select, run_robust
-from sensorsel.designs.robust.tasks import (ALGORITHM_2, MethodOutcome, MethodTask, RobustSettings, RobustTaskRecord,
-                                            run_method)
+from sensorsel.designs.robust.tasks import (
+    ALGORITHM_2,
+    MethodOutcome,
+    MethodTask,
+    RobustSettings,
+    RobustTaskRecord,
+    run_method,
+)
 from sensorsel.designs.robust.worst import WORST_METHODS, RouteFailureFamily, worst_route_select
 
 __all__ = [
-    "ALGORITHM_2", "MethodOutcome", "MethodTask", "RobustSettings", "RobustTaskRecord", "better", "run_method",
-    "BoundLeaf", "Candidate", "DEFAULT_RULES", "EXTRA_METHODS", "EvaluatorFamily", "FailureFamily", "Family",
-    "MemberWorst", "MemoEvaluator", "RouteFailureFamily", "WORST_METHODS", "worst_route_select", "RobustBound", "RobustOptimum", "RobustResult", "knapsack_drop", "local_search", "memoized",
-    "oblivious_greedy", "robust_bound", "robust_choice", "robust_optimum", "robust_select", "run_robust", "saturate",
+    "ALGORITHM_2",
+    "MethodOutcome",
+    "MethodTask",
+    "RobustSettings",
+    "RobustTaskRecord",
+    "better",
+    "run_method",
+    "BoundLeaf",
+    "Candidate",
+    "DEFAULT_RULES",
+    "EXTRA_METHODS",
+    "EvaluatorFamily",
+    "FailureFamily",
+    "Family",
+    "MemberWorst",
+    "MemoEvaluator",
+    "RouteFailureFamily",
+    "WORST_METHODS",
+    "worst_route_select",
+    "RobustBound",
+    "RobustOptimum",
+    "RobustResult",
+    "knapsack_drop",
+    "local_search",
+    "memoized",
+    "oblivious_greedy",
+    "robust_bound",
+    "robust_choice",
+    "robust_optimum",
+    "robust_select",
+    "run_robust",
+    "saturate",
 ]

@@ -70,8 +70,8 @@ from __future__ import annotations
 import heapq
 import math
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
-from typing import Sequence
 
 import numpy as np
 
@@ -92,8 +92,14 @@ LEAF_SEARCH_NODES = 30
 MAX_ANCHORS = 2
 
 
-def knapsack_drop(values: Sequence[float] | np.ndarray, costs: Sequence[float] | np.ndarray, capacity: float, drop: int, *,
-                  max_cells: int = MAX_DP_CELLS) -> float:
+def knapsack_drop(
+    values: Sequence[float] | np.ndarray,
+    costs: Sequence[float] | np.ndarray,
+    capacity: float,
+    drop: int,
+    *,
+    max_cells: int = MAX_DP_CELLS,
+) -> float:
     """max over T with Σ costs <= capacity of Σ_T values - (sum of the ``drop`` largest values in T).
 
     Exact DP when costs are decimal and the table has at most ``max_cells`` cells per drop level;
@@ -134,9 +140,16 @@ def knapsack_drop(values: Sequence[float] | np.ndarray, costs: Sequence[float] |
 MILP_NODE_LIMIT = 20_000
 
 
-def knapsack_drop_rows(values: Sequence[float] | np.ndarray, usage: np.ndarray, capacity: Sequence[float] | np.ndarray,
-                       drop: int, *, forced: Sequence[int] = (), slack: np.ndarray | None = None,
-                       node_limit: int = MILP_NODE_LIMIT) -> tuple[float, bool]:
+def knapsack_drop_rows(
+    values: Sequence[float] | np.ndarray,
+    usage: np.ndarray,
+    capacity: Sequence[float] | np.ndarray,
+    drop: int,
+    *,
+    forced: Sequence[int] = (),
+    slack: np.ndarray | None = None,
+    node_limit: int = MILP_NODE_LIMIT,
+) -> tuple[float, bool]:
     """max over T with usage[:, T].sum(axis=1) <= capacity (every row) and T ⊇ ``forced`` of
     Σ_T values - (sum of the ``drop`` largest values in T), by an integer program (HiGHS).
 
@@ -165,7 +178,9 @@ def knapsack_drop_rows(values: Sequence[float] | np.ndarray, usage: np.ndarray, 
     v = np.maximum(np.asarray(values, dtype=float).reshape(-1), 0.0)
     cap = np.asarray(capacity, dtype=float).reshape(-1)
     use = np.asarray(usage, dtype=float).reshape(len(cap), len(v))
-    cap = cap + (REL_SLACK * np.maximum(1.0, np.abs(cap)) if slack is None else np.asarray(slack, dtype=float).reshape(-1))
+    cap = cap + (
+        REL_SLACK * np.maximum(1.0, np.abs(cap)) if slack is None else np.asarray(slack, dtype=float).reshape(-1)
+    )
     must = np.zeros(len(v), dtype=bool)
     must[list(forced)] = True
     # forced items worth nothing only use capacity; items worth nothing or too large are never chosen
@@ -190,8 +205,13 @@ def knapsack_drop_rows(values: Sequence[float] | np.ndarray, usage: np.ndarray, 
     ub = np.concatenate([np.ones(k), np.full(nu, np.inf)])
     integrality = np.concatenate([np.ones(k), np.zeros(nu)])
     with quiet_stdout():
-        res = milp(c, integrality=integrality, bounds=Bounds(lb, ub), constraints=rows,
-                   options={"node_limit": int(node_limit), "mip_rel_gap": 0.0, "presolve": True})
+        res = milp(
+            c,
+            integrality=integrality,
+            bounds=Bounds(lb, ub),
+            constraints=rows,
+            options={"node_limit": int(node_limit), "mip_rel_gap": 0.0, "presolve": True},
+        )
     if res.status == 2:  # infeasible: the forced items do not fit together
         return -math.inf, True
     dual = getattr(res, "mip_dual_bound", None)
@@ -228,11 +248,21 @@ def _adversary(ev: Evaluator, suite: tuple[int, ...], alpha: int) -> float:
 # Long on purpose (~150 lines): one proof, read top to bottom: the knapsack with the alpha best items
 # dropped at each anchor, the case split on a dominant sensor, and the exact leaves; its docstring
 # states the bound and each step cites it.
-def robust_bound(evaluator: Evaluator, budget_usd: float, alpha: int, *, anchors: Sequence[Sequence[int]] = (),
-                 incumbent: float = 0.0, max_nodes: int = DEFAULT_BOUND_NODES, max_anchors: int = MAX_ANCHORS,
-                 max_exact_sets: int = MAX_EXACT_SETS, leaf_greedy: bool = True,
-                 leaf_search_nodes: int = LEAF_SEARCH_NODES, constraints: Constraints | None = None,
-                 relax_to_budget: bool | None = None) -> RobustBound:
+def robust_bound(
+    evaluator: Evaluator,
+    budget_usd: float,
+    alpha: int,
+    *,
+    anchors: Sequence[Sequence[int]] = (),
+    incumbent: float = 0.0,
+    max_nodes: int = DEFAULT_BOUND_NODES,
+    max_anchors: int = MAX_ANCHORS,
+    max_exact_sets: int = MAX_EXACT_SETS,
+    leaf_greedy: bool = True,
+    leaf_search_nodes: int = LEAF_SEARCH_NODES,
+    constraints: Constraints | None = None,
+    relax_to_budget: bool | None = None,
+) -> RobustBound:
     """Upper bound on max { g_alpha(S) : Cost(S) <= budget } (see the module docstring for the proof).
 
     Args:
@@ -260,19 +290,34 @@ def robust_bound(evaluator: Evaluator, budget_usd: float, alpha: int, *, anchors
     lib = ev.library
     feas = feasible_set(lib, budget_usd, constraints) if constraints is not None else None
     if relax_to_budget is None and feas is not None and (not feas.only_budget or feas.required):
-        kw = dict(anchors=anchors, incumbent=incumbent, max_nodes=max_nodes, max_anchors=max_anchors,
-                  max_exact_sets=max_exact_sets, leaf_greedy=leaf_greedy, leaf_search_nodes=leaf_search_nodes,
-                  constraints=constraints)
+        kw = dict(
+            anchors=anchors,
+            incumbent=incumbent,
+            max_nodes=max_nodes,
+            max_anchors=max_anchors,
+            max_exact_sets=max_exact_sets,
+            leaf_greedy=leaf_greedy,
+            leaf_search_nodes=leaf_search_nodes,
+            constraints=constraints,
+        )
         n_start = ev.n_evaluations
         tight = robust_bound(ev, budget_usd, alpha, relax_to_budget=False, **kw)  # type: ignore[arg-type]
         loose = robust_bound(ev, budget_usd, alpha, relax_to_budget=True, **kw)  # type: ignore[arg-type]
         keep = tight if tight.bound <= loose.bound else loose
         other = loose if keep is tight else tight
-        note = (f"; the budget relaxation's tree ended at {other.bound:,.6g}" if keep is tight
-                else f"; the integer programs' tree ended at {other.bound:,.6g}")
-        return replace(keep, n_nodes=tight.n_nodes + loose.n_nodes, n_sweeps=tight.n_sweeps + loose.n_sweeps,
-                       n_evaluations=ev.n_evaluations - n_start,
-                       seconds=round(time.perf_counter() - t0, 6), relaxation=keep.relaxation + note)
+        note = (
+            f"; the budget relaxation's tree ended at {other.bound:,.6g}"
+            if keep is tight
+            else f"; the integer programs' tree ended at {other.bound:,.6g}"
+        )
+        return replace(
+            keep,
+            n_nodes=tight.n_nodes + loose.n_nodes,
+            n_sweeps=tight.n_sweeps + loose.n_sweeps,
+            n_evaluations=ev.n_evaluations - n_start,
+            seconds=round(time.perf_counter() - t0, 6),
+            relaxation=keep.relaxation + note,
+        )
     relaxation = ""
     root_removed: tuple[int, ...] = ()
     rows: FeasibleSet | None = None  # every limit kept (fact (5)); None: the budget knapsack
@@ -281,13 +326,18 @@ def robust_bound(evaluator: Evaluator, budget_usd: float, alpha: int, *, anchors
         extra = lib.cost(feas.required) if feas.constraints.owned else 0.0
         root_removed = tuple(sorted(feas.excluded))
         if relax_to_budget or (feas.only_budget and not feas.required):
-            relaxation = (f"budget alone (${budget_usd + extra:,.0f}" + (" = the budget + the owned sensors' price" if extra else "")
-                          + f"); dropped: {feas.constraints.describe()}")
+            relaxation = (
+                f"budget alone (${budget_usd + extra:,.0f}"
+                + (" = the budget + the owned sensors' price" if extra else "")
+                + f"); dropped: {feas.constraints.describe()}"
+            )
             budget_usd = budget_usd + extra
         else:
             rows, owned = feas, bool(feas.constraints.owned)
-            relaxation = (f"none at the knapsacks (integer programs over {_rows_described(feas)}); the nominal leaves' "
-                          f"branch and bound sees the budget alone" + (" + the owned sensors' price" if extra else ""))
+            relaxation = (
+                f"none at the knapsacks (integer programs over {_rows_described(feas)}); the nominal leaves' "
+                f"branch and bound sees the budget alone" + (" + the owned sensors' price" if extra else "")
+            )
     else:
         feas = None
     n0 = ev.n_evaluations
@@ -338,8 +388,11 @@ def robust_bound(evaluator: Evaluator, budget_usd: float, alpha: int, *, anchors
         if not aff or node.budget < 0:
             node.own, node.how, node.final = 0.0, "empty", True
             return
-        fits_all = (lib.cost(aff) <= node.budget * (1 + 1e-12) + 1e-9 if rows is None
-                    else bool(np.all(A[:, list(aff)].sum(axis=1) <= cap_of(node) + slack)))
+        fits_all = (
+            lib.cost(aff) <= node.budget * (1 + 1e-12) + 1e-9
+            if rows is None
+            else bool(np.all(A[:, list(aff)].sum(axis=1) <= cap_of(node) + slack))
+        )
         if fits_all:
             k = min(node.alpha, len(aff))
             if math.comb(len(aff), k) <= max_exact_sets:
@@ -358,9 +411,15 @@ def robust_bound(evaluator: Evaluator, budget_usd: float, alpha: int, *, anchors
             # the budget relaxation's own exact leaf, when it has one (fact (3) on the larger set of suites):
             # so a node is never looser than the relaxation's
             loose = tuple(i for i in range(n) if i not in gone and costs[i] <= budget_p * (1 + 1e-12) + 1e-9)
-            if (loose and lib.cost(loose) <= budget_p * (1 + 1e-12) + 1e-9
-                    and math.comb(len(loose), min(node.alpha, len(loose))) <= max_exact_sets):
-                best, how = worst_case(ev, loose, node.alpha, max_failure_sets=max_exact_sets).score, "exact (budget alone)"
+            if (
+                loose
+                and lib.cost(loose) <= budget_p * (1 + 1e-12) + 1e-9
+                and math.comb(len(loose), min(node.alpha, len(loose))) <= max_exact_sets
+            ):
+                best, how = (
+                    worst_case(ev, loose, node.alpha, max_failure_sets=max_exact_sets).score,
+                    "exact (budget alone)",
+                )
         tried = 0
         seen: set[tuple[int, ...]] = set()
         # anchors inside the node's library; those the node can afford first (a suite of the node)
@@ -393,12 +452,21 @@ def robust_bound(evaluator: Evaluator, budget_usd: float, alpha: int, *, anchors
             opt = optimal(ev, budget_p, max_nodes=leaf_search_nodes, exclude=frozenset(node.removed))
             if opt.upper_bound < best:
                 best = opt.upper_bound
-                how = "nominal optimum (proved)" if opt.proved_optimal else f"nominal branch and bound ({opt.n_nodes} nodes)"
+                how = (
+                    "nominal optimum (proved)"
+                    if opt.proved_optimal
+                    else f"nominal branch and bound ({opt.n_nodes} nodes)"
+                )
         node.own, node.how = max(best, 0.0) if rows is not None else best, how
 
     counter = 0
-    root = _Node(root_removed, (), float(budget_usd) if rows is None else float(rows.b[0]), int(alpha),
-                 cap=None if rows is None else rows.b.copy())
+    root = _Node(
+        root_removed,
+        (),
+        float(budget_usd) if rows is None else float(rows.b[0]),
+        int(alpha),
+        cap=None if rows is None else rows.b.copy(),
+    )
     evaluate(root)
     heap: list[tuple[float, int, _Node]] = [(-root.own, 0, root)]
     n_nodes = 1
@@ -412,8 +480,11 @@ def robust_bound(evaluator: Evaluator, budget_usd: float, alpha: int, *, anchors
             node.final = True
             continue
         gone = set(node.removed)
-        aff_split = (list(affordable(node)) if rows is not None
-                     else [i for i in range(n) if i not in gone and costs[i] <= node.budget + 1e-9])
+        aff_split = (
+            list(affordable(node))
+            if rows is not None
+            else [i for i in range(n) if i not in gone and costs[i] <= node.budget + 1e-9]
+        )
         e = min(aff_split, key=lambda i: (-singles[i], -costs[i], ids[i]))
         kids = [_Node(node.removed + (e,), node.failed, node.budget, node.alpha, cap=node.cap)]
         if rows is not None and node.cap is not None:
@@ -433,25 +504,40 @@ def robust_bound(evaluator: Evaluator, budget_usd: float, alpha: int, *, anchors
 
     def value(node: _Node) -> float:
         if not node.children:
-            leaves.append(BoundLeaf(removed=lib.suite_ids(node.removed), failed=lib.suite_ids(node.failed),
-                                    budget_usd=node.budget, alpha=node.alpha, bound=node.own, how=node.how))
+            leaves.append(
+                BoundLeaf(
+                    removed=lib.suite_ids(node.removed),
+                    failed=lib.suite_ids(node.failed),
+                    budget_usd=node.budget,
+                    alpha=node.alpha,
+                    bound=node.own,
+                    how=node.how,
+                )
+            )
             return node.own
         return min(node.own, max(value(k) for k in node.children))
 
     top = value(root)
     bound = max(top, incumbent)
-    return RobustBound(bound=float(bound), leaves=tuple(leaves), n_nodes=n_nodes, n_sweeps=sweeps,
-                       proved=bool(top <= incumbent + tol), n_evaluations=ev.n_evaluations - n0,
-                       seconds=round(time.perf_counter() - t0, 6), relaxation=relaxation)
+    return RobustBound(
+        bound=float(bound),
+        leaves=tuple(leaves),
+        n_nodes=n_nodes,
+        n_sweeps=sweeps,
+        proved=bool(top <= incumbent + tol),
+        n_evaluations=ev.n_evaluations - n0,
+        seconds=round(time.perf_counter() - t0, 6),
+        relaxation=relaxation,
+    )
 
 
 def _rows_described(feas: FeasibleSet) -> str:
-    """"budget, power_w, 3 slots, sensors": the rows an integer program keeps."""
+    """ "budget, power_w, 3 slots, sensors": the rows an integer program keeps."""
     slot = [k >= feas.n_resource_rows and nm != "sensors" for k, nm in enumerate(feas.names)]
     n_slots = sum(slot)
     named = [nm for nm, is_slot in zip(feas.names, slot) if not is_slot]
-    parts = named[:feas.n_resource_rows] + ([f"{n_slots} slot{'s' if n_slots != 1 else ''}"] if n_slots else [])
-    parts += named[feas.n_resource_rows:]
+    parts = named[: feas.n_resource_rows] + ([f"{n_slots} slot{'s' if n_slots != 1 else ''}"] if n_slots else [])
+    parts += named[feas.n_resource_rows :]
     if feas.required:
         parts.append("the required sensors")
     return ", ".join(parts)

@@ -33,7 +33,7 @@ import heapq
 import itertools
 import math
 import time
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -50,8 +50,15 @@ DEFAULT_EXACT_NODES = 20_000
 
 # Long on purpose (~70 lines): one best-first branch and bound loop (expand, bound, prune, incumbent)
 # whose state is local to the loop.
-def robust_optimum(evaluator: Evaluator, budget_usd: float, alpha: int, *, incumbent: Sequence[int] = (),
-                   max_nodes: int = DEFAULT_EXACT_NODES, constraints: Constraints | None = None) -> RobustOptimum:
+def robust_optimum(
+    evaluator: Evaluator,
+    budget_usd: float,
+    alpha: int,
+    *,
+    incumbent: Sequence[int] = (),
+    max_nodes: int = DEFAULT_EXACT_NODES,
+    constraints: Constraints | None = None,
+) -> RobustOptimum:
     """Best worst case within the budget (see the module docstring).
 
     Args:
@@ -70,8 +77,9 @@ def robust_optimum(evaluator: Evaluator, budget_usd: float, alpha: int, *, incum
     n0 = ev.n_evaluations
     singles = ev.scores_with((), list(range(n)))
     root = as_suite(feas.required)
-    order = sorted((i for i in range(n) if i not in feas.excluded and i not in root),
-                   key=lambda i: (-singles[i], costs[i], ids[i]))
+    order = sorted(
+        (i for i in range(n) if i not in feas.excluded and i not in root), key=lambda i: (-singles[i], costs[i], ids[i])
+    )
     n_order = len(order)
     rows = not feas.only_budget  # limits besides the budget: the knapsacks keep them all
     slack = REL_SLACK * np.maximum(1.0, np.abs(feas.b))
@@ -86,10 +94,14 @@ def robust_optimum(evaluator: Evaluator, budget_usd: float, alpha: int, *, incum
         nonlocal best_s, best_g
         s = as_suite(s)
         tol = REL_TOL * max(1.0, abs(best_g))
-        if g > best_g + tol or (abs(g - best_g) <= tol and (lib.cost(s), lib.suite_ids(s)) < (lib.cost(best_s), lib.suite_ids(best_s))):
+        if g > best_g + tol or (
+            abs(g - best_g) <= tol and (lib.cost(s), lib.suite_ids(s)) < (lib.cost(best_s), lib.suite_ids(best_s))
+        ):
             best_s, best_g = s, g
 
-    heap: list[tuple[float, int, tuple[int, ...], int, float]] = [(-math.inf, 0, root, 0, budget - float(feas.usage(root)[0]))]
+    heap: list[tuple[float, int, tuple[int, ...], int, float]] = [
+        (-math.inf, 0, root, 0, budget - float(feas.usage(root)[0]))
+    ]
     counter = nodes = pruned = 0
     stop = ""
     while heap:
@@ -111,7 +123,10 @@ def robust_optimum(evaluator: Evaluator, budget_usd: float, alpha: int, *, incum
             continue
         ub = -neg
         for j in range(min(alpha, len(s)) + 1):
-            fails = {f: ev.score(tuple(i for i in s if i not in f)) if j < len(s) else 0.0 for f in itertools.combinations(s, j)}
+            fails = {
+                f: ev.score(tuple(i for i in s if i not in f)) if j < len(s) else 0.0
+                for f in itertools.combinations(s, j)
+            }
             fj = min(fails, key=lambda f: (fails[f], f))
             base = tuple(i for i in s if i not in fj)
             f_base = fails[fj]
@@ -119,8 +134,11 @@ def robust_optimum(evaluator: Evaluator, budget_usd: float, alpha: int, *, incum
                 offer(s, f_base)
             gains = np.maximum(ev.scores_with(base, rest) - f_base, 0.0)
             if rows:  # every limit: the integer program over what s leaves of each row
-                ub = min(ub, f_base + knapsack_drop_rows(gains, feas.A[:, rest], feas.b - feas.usage(s), alpha - j,
-                                                         slack=slack)[0])
+                ub = min(
+                    ub,
+                    f_base
+                    + knapsack_drop_rows(gains, feas.A[:, rest], feas.b - feas.usage(s), alpha - j, slack=slack)[0],
+                )
             else:
                 ub = min(ub, f_base + knapsack_drop(gains, costs[rest], left, alpha - j))
         if ub <= best_g + REL_TOL * max(1.0, abs(best_g)):
@@ -138,10 +156,20 @@ def robust_optimum(evaluator: Evaluator, budget_usd: float, alpha: int, *, incum
         stop = "every other suite ruled out by its bound"
     w = worst_case(ev, best_s, alpha) if best_s else None
     return RobustOptimum(
-        alpha=alpha, budget_usd=budget, suite=lib.suite_ids(best_s), cost_usd=lib.cost(best_s),
-        nominal_score=w.nominal_score if w else 0.0, worst_score=best_g, failures=w.failures if w else (),
-        proved_optimal=proved, upper_bound=float(upper), gap_percent=100.0 * (upper - best_g) / upper if upper > 0 else 0.0,
-        n_nodes=nodes, n_pruned=pruned, n_evaluations=ev.n_evaluations - n0, stop_reason=stop,
+        alpha=alpha,
+        budget_usd=budget,
+        suite=lib.suite_ids(best_s),
+        cost_usd=lib.cost(best_s),
+        nominal_score=w.nominal_score if w else 0.0,
+        worst_score=best_g,
+        failures=w.failures if w else (),
+        proved_optimal=proved,
+        upper_bound=float(upper),
+        gap_percent=100.0 * (upper - best_g) / upper if upper > 0 else 0.0,
+        n_nodes=nodes,
+        n_pruned=pruned,
+        n_evaluations=ev.n_evaluations - n0,
+        stop_reason=stop,
         seconds=round(time.perf_counter() - t0, 6),
         constraints=feas.record,
     )

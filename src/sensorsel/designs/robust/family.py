@@ -22,7 +22,7 @@ from __future__ import annotations
 import itertools
 import math
 from abc import ABC, abstractmethod
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -57,8 +57,9 @@ class Family(ABC):
         """(weights (T,), values (T,)) of the members at S."""
 
     @abstractmethod
-    def terms_with(self, suite: Sequence[int], candidates: Sequence[int], *,
-                   cap: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    def terms_with(
+        self, suite: Sequence[int], candidates: Sequence[int], *, cap: float | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         """(weights (T,), values (T, len(candidates))) of the members at S + e for each candidate e.
 
         With ``cap``, a member already >= cap at S may be reported as ``cap`` for every candidate
@@ -99,8 +100,9 @@ class FailureFamily(Family):
         v = np.array([ev.score(tuple(i for i in s if i not in g)) for g in groups], dtype=float)
         return w, v
 
-    def terms_with(self, suite: Sequence[int], candidates: Sequence[int], *,
-                   cap: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    def terms_with(
+        self, suite: Sequence[int], candidates: Sequence[int], *, cap: float | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         s = as_suite(suite)
         cands = [int(c) for c in candidates]
         ev, a, rest = self.evaluator, self.alpha, self.n - len(s) - 1
@@ -137,7 +139,9 @@ class EvaluatorFamily(Family):
 
     kind = "members"
 
-    def __init__(self, evaluators: Sequence[Evaluator], labels: Sequence[str], norms: Sequence[float] | None = None) -> None:
+    def __init__(
+        self, evaluators: Sequence[Evaluator], labels: Sequence[str], norms: Sequence[float] | None = None
+    ) -> None:
         if not evaluators or len(evaluators) != len(labels):
             raise ValueError("one label per evaluator, at least one evaluator")
         ids = evaluators[0].library.ids
@@ -157,8 +161,9 @@ class EvaluatorFamily(Family):
         s = as_suite(suite)
         return np.ones(self.n_members), np.array([e.score(s) / n for e, n in zip(self.members, self.norms)])
 
-    def terms_with(self, suite: Sequence[int], candidates: Sequence[int], *,
-                   cap: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    def terms_with(
+        self, suite: Sequence[int], candidates: Sequence[int], *, cap: float | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         s = as_suite(suite)
         rows = []
         for e, n in zip(self.members, self.norms):

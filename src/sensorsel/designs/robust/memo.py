@@ -12,7 +12,7 @@ engine may differ in the last bits); the order of requests is deterministic, so 
 
 from __future__ import annotations
 
-from typing import Iterable, Sequence
+from collections.abc import Iterable, Sequence
 
 import numpy as np
 
@@ -72,7 +72,6 @@ class MemoEvaluator(Evaluator):
                 for c, v in zip(todo, vals):
                     self._f[as_suite(base + (c,))] = float(v)
         return np.array([self._f[k] for k in keys], dtype=float)
-
 
     def gain_bounds(self, suite: Iterable[int], candidates: Sequence[int]) -> np.ndarray | None:
         """The wrapped engine's bounds on the gains (bounds are not memoized: they cost no evaluation)."""

@@ -41,7 +41,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from typing import Callable, Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -62,8 +62,15 @@ def _fits(cost: float, budget: float) -> bool:
     return cost <= budget + 1e-9
 
 
-def oblivious_greedy(evaluator: Evaluator, budget: float, alpha: int, *, eta: float = 2.0,
-                     rule: str = "uniform", constraints: Constraints | None = None) -> tuple[tuple[int, ...], str]:
+def oblivious_greedy(
+    evaluator: Evaluator,
+    budget: float,
+    alpha: int,
+    *,
+    eta: float = 2.0,
+    rule: str = "uniform",
+    constraints: Constraints | None = None,
+) -> tuple[tuple[int, ...], str]:
     """Oblivious-Greedy (knapsack variant, see the module docstring): (suite, note). With
     ``constraints``, the oblivious part and the greedy run keep every limit together."""
     k = int(math.ceil(eta * alpha))
@@ -74,15 +81,24 @@ def oblivious_greedy(evaluator: Evaluator, budget: float, alpha: int, *, eta: fl
         run = greedy(evaluator, rest, rule, exclude=frozenset(picked))
         what = f"greedy {rule} on ${rest:,.0f}"
     else:  # the oblivious sensors use their share of every limit; greedy keeps what is left
-        run = greedy(evaluator, budget, rule, exclude=frozenset(picked), constraints=constraints, reserved=tuple(picked))
+        run = greedy(
+            evaluator, budget, rule, exclude=frozenset(picked), constraints=constraints, reserved=tuple(picked)
+        )
         what = f"greedy {rule} on what the limits leave"
     suite = tuple(picked) + tuple(lib.position(s) for s in run.suite)
     return suite, f"{len(picked)} bought obliviously ({','.join(lib.suite_ids(picked))}); " + (note or what)
 
 
-def saturate(family: Family, budget: float, lo: float, hi: float, *, levels: int = DEFAULT_SATURATE_LEVELS,
-             max_evaluations: int | None = None, feasible: FeasibleSet | None = None
-             ) -> tuple[list[tuple[float, bool, tuple[int, ...]]], str]:
+def saturate(
+    family: Family,
+    budget: float,
+    lo: float,
+    hi: float,
+    *,
+    levels: int = DEFAULT_SATURATE_LEVELS,
+    max_evaluations: int | None = None,
+    feasible: FeasibleSet | None = None,
+) -> tuple[list[tuple[float, bool, tuple[int, ...]]], str]:
     """SATURATE's bisection between ``lo`` (a level known reachable) and ``hi`` (an upper bound).
 
     Returns every level's suite as (level c, fully covered, suite) and a note. A level whose greedy
@@ -96,8 +112,9 @@ def saturate(family: Family, budget: float, lo: float, hi: float, *, levels: int
         if hi - lo <= REL_TOL * max(1.0, abs(hi)):
             break
         c = 0.5 * (lo + hi)
-        covered, suite, done = _cover(family, budget, c, None if max_evaluations is None else n0 + max_evaluations,
-                                      feasible)
+        covered, suite, done = _cover(
+            family, budget, c, None if max_evaluations is None else n0 + max_evaluations, feasible
+        )
         out.append((c, covered, suite))
         if not done:
             note = f"evaluation limit ({max_evaluations:,}) reached at level {c:.3f}"
@@ -109,8 +126,9 @@ def saturate(family: Family, budget: float, lo: float, hi: float, *, levels: int
     return out, note or f"{len(out)} levels, last bracket [{lo:.3f}, {hi:.3f}]"
 
 
-def _cover(family: Family, budget: float, c: float, stop_at: int | None,
-           feasible: FeasibleSet | None = None) -> tuple[bool, tuple[int, ...], bool]:
+def _cover(
+    family: Family, budget: float, c: float, stop_at: int | None, feasible: FeasibleSet | None = None
+) -> tuple[bool, tuple[int, ...], bool]:
     """Cost-effective lazy greedy on F_c until full coverage: (covered, suite, finished within the limit).
     With ``feasible``: from its required sensors, adding only sensors that fit every limit."""
     lib = family.library
@@ -153,7 +171,9 @@ def _cover(family: Family, budget: float, c: float, stop_at: int | None,
         if not good:
             return False, as_suite(suite), True
         r = max(fresh[i] / costs[i] for i in good)
-        pick = min((i for i in good if fresh[i] / costs[i] >= r - REL_TOL * max(1.0, abs(r))), key=lambda i: (costs[i], ids[i]))
+        pick = min(
+            (i for i in good if fresh[i] / costs[i] >= r - REL_TOL * max(1.0, abs(r))), key=lambda i: (costs[i], ids[i])
+        )
         suite.append(pick)
         spent += float(costs[pick])
         if feasible is not None:
@@ -163,7 +183,9 @@ def _cover(family: Family, budget: float, c: float, stop_at: int | None,
 
 def _failure_values(ev: Evaluator, s: tuple[int, ...], alpha: int) -> dict[tuple[int, ...], float]:
     k = min(alpha, len(s))
-    return {f: (ev.score(tuple(i for i in s if i not in f)) if k < len(s) else 0.0) for f in itertools.combinations(s, k)}
+    return {
+        f: (ev.score(tuple(i for i in s if i not in f)) if k < len(s) else 0.0) for f in itertools.combinations(s, k)
+    }
 
 
 def _worst_above(ev: Evaluator, s: tuple[int, ...], alpha: int, level: float, order_hint: dict) -> float | None:
@@ -182,8 +204,16 @@ def _worst_above(ev: Evaluator, s: tuple[int, ...], alpha: int, level: float, or
     return lo
 
 
-def local_search(evaluator: Evaluator, start: Sequence[int], budget: float, alpha: int, *, max_rounds: int = 10,
-                 max_evaluations: int = 2_000, feasible: FeasibleSet | None = None) -> tuple[tuple[int, ...], str]:
+def local_search(
+    evaluator: Evaluator,
+    start: Sequence[int],
+    budget: float,
+    alpha: int,
+    *,
+    max_rounds: int = 10,
+    max_evaluations: int = 2_000,
+    feasible: FeasibleSet | None = None,
+) -> tuple[tuple[int, ...], str]:
     """Add / swap local search on the exact worst case (see the module docstring): (suite, note).
 
     A swap S - a + b keeps every failure set that holds b as a failure set of S that holds a
@@ -207,7 +237,9 @@ def local_search(evaluator: Evaluator, start: Sequence[int], budget: float, alph
         ins = sorted(outside, key=lambda b: (-help_[b], costs[b], ids[b]))
         # out-sensors: only those whose every failure set leaves more than g
         m_a = {a: min((v for f, v in vals.items() if a in f), default=math.inf) for a in s}
-        outs = sorted([a for a in s if m_a[a] > g + REL_TOL * max(1.0, abs(g))], key=lambda a: (-m_a[a], -costs[a], ids[a]))
+        outs = sorted(
+            [a for a in s if m_a[a] > g + REL_TOL * max(1.0, abs(g))], key=lambda a: (-m_a[a], -costs[a], ids[a])
+        )
 
         def improves(a: int | None, b: int, s2: tuple[int, ...]) -> bool:
             hint2 = {}
@@ -217,20 +249,36 @@ def local_search(evaluator: Evaluator, start: Sequence[int], budget: float, alph
                 elif a is not None:  # S2 minus f = S minus (f - b + a): known exactly
                     hint2[f] = vals.get(as_suite([x for x in f if x != b] + [a]), math.inf)
             return _worst_above(ev, s2, alpha, g, hint2) is not None
+
         return outs, ins, improves
 
-    return first_improvement(lib, start, budget, round_of, lambda: ev.n_evaluations, max_rounds=max_rounds,
-                             max_evaluations=max_evaluations, feasible=feasible)
+    return first_improvement(
+        lib,
+        start,
+        budget,
+        round_of,
+        lambda: ev.n_evaluations,
+        max_rounds=max_rounds,
+        max_evaluations=max_evaluations,
+        feasible=feasible,
+    )
 
 
 #: ``improves(a, b, S - a + b)``: whether the move (a None: add b) raises the objective
 Improves = Callable[[int | None, int, tuple[int, ...]], bool]
 
 
-def first_improvement(lib: SensorLibrary, start: Sequence[int], budget: float,
-                      round_of: Callable[[tuple[int, ...]], tuple[list[int], list[int], Improves]],
-                      work: Callable[[], int], *, max_rounds: int, max_evaluations: int,
-                      feasible: FeasibleSet | None = None) -> tuple[tuple[int, ...], str]:
+def first_improvement(
+    lib: SensorLibrary,
+    start: Sequence[int],
+    budget: float,
+    round_of: Callable[[tuple[int, ...]], tuple[list[int], list[int], Improves]],
+    work: Callable[[], int],
+    *,
+    max_rounds: int,
+    max_evaluations: int,
+    feasible: FeasibleSet | None = None,
+) -> tuple[tuple[int, ...], str]:
     """The one add / swap local search of robust selection (failure sets here, a domain's routes in
     :mod:`.worst`): from ``start``, each round takes the first move that improves: add a sensor b, or
     swap a out for b, ``round_of(S)`` giving the sensors a to try swapping out, the sensors b to try

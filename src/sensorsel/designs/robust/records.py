@@ -5,8 +5,8 @@ Wall times are in fields named ``seconds`` (the only fields that differ between 
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 from sensorsel.designs.resilient.records import RobustOutcome
 from sensorsel.designs.selection import REL_TOL as TIE_TOL

@@ -29,17 +29,28 @@ knapsacks (integer programs, :mod:`.bound`, fact (5)).
 from __future__ import annotations
 
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import replace
 from pathlib import Path
-from typing import Any, Callable, Sequence
+from typing import Any
 
 from sensorsel.designs.resilient import RobustChoice, WorstCase, check_alpha, recorded, worst_case
 from sensorsel.designs.robust.bound import DEFAULT_BOUND_NODES
 from sensorsel.designs.robust.memo import memoized
 from sensorsel.designs.robust.methods import DEFAULT_SATURATE_LEVELS
 from sensorsel.designs.robust.records import Candidate, RobustResult, best_of
-from sensorsel.designs.robust.tasks import (ALGORITHM_2, MethodOutcome, MethodTask, RobustSettings, Scored,
-                                            method_step, run_method, task_key, task_store, tolerance)
+from sensorsel.designs.robust.tasks import (
+    ALGORITHM_2,
+    MethodOutcome,
+    MethodTask,
+    RobustSettings,
+    Scored,
+    method_step,
+    run_method,
+    task_key,
+    task_store,
+    tolerance,
+)
 from sensorsel.designs.selection import check_budget, check_rule
 from sensorsel.errors import InputError
 from sensorsel.information.evaluators import Evaluator, as_suite, evaluator_for, evaluator_name
@@ -54,7 +65,9 @@ DEFAULT_RULES = ("uniform", "marginal")
 EXTRA_METHODS = ("oblivious", "saturate", "local-search")
 
 
-def check_rules_and_methods(rules: Sequence[str], methods: Sequence[str], allowed: Sequence[str], what: str) -> tuple[str, ...]:
+def check_rules_and_methods(
+    rules: Sequence[str], methods: Sequence[str], allowed: Sequence[str], what: str
+) -> tuple[str, ...]:
     """The greedy rules to run as candidates, "uniform" first (it is the answer's floor), after
     checking every rule against the registry and every method against ``allowed``.
 
@@ -73,11 +86,22 @@ def check_rules_and_methods(rules: Sequence[str], methods: Sequence[str], allowe
 Runner = Callable[[Sequence[MethodTask]], list[MethodOutcome]]
 
 
-def robust_select(evaluator: Evaluator, budget_usd: float, alpha: int, *, rules: Sequence[str] = DEFAULT_RULES,
-                  methods: Sequence[str] = EXTRA_METHODS, skip_when_proved: bool = True,
-                  saturate_levels: int = DEFAULT_SATURATE_LEVELS, saturate_evaluations: int | None = 2_000,
-                  local_rounds: int = 10, local_evaluations: int = 2_000, bound_nodes: int = DEFAULT_BOUND_NODES,
-                  info: TargetInfo | None = None, constraints: Constraints | None = None) -> RobustResult:
+def robust_select(
+    evaluator: Evaluator,
+    budget_usd: float,
+    alpha: int,
+    *,
+    rules: Sequence[str] = DEFAULT_RULES,
+    methods: Sequence[str] = EXTRA_METHODS,
+    skip_when_proved: bool = True,
+    saturate_levels: int = DEFAULT_SATURATE_LEVELS,
+    saturate_evaluations: int | None = 2_000,
+    local_rounds: int = 10,
+    local_evaluations: int = 2_000,
+    bound_nodes: int = DEFAULT_BOUND_NODES,
+    info: TargetInfo | None = None,
+    constraints: Constraints | None = None,
+) -> RobustResult:
     """The best suite within ``budget_usd`` against ``alpha`` failures among the methods' suites, in
     this process, every method sharing one memo (each suite scored once in the whole run).
 
@@ -95,10 +119,27 @@ def robust_select(evaluator: Evaluator, budget_usd: float, alpha: int, *, rules:
     budget, alpha = check_budget(budget_usd), check_alpha(alpha)
     rules = check_rules_and_methods(rules, methods, EXTRA_METHODS, "robust method")
     ev = memoized(evaluator)
-    settings = RobustSettings(budget, alpha, kept_constraints(ev.library, budget, constraints), saturate_levels,
-                              saturate_evaluations, local_rounds, local_evaluations, bound_nodes)
-    return choose(lambda tasks: [run_method(ev, settings, t) for t in tasks], ev.library, settings, rules, methods,
-                  skip_when_proved, info=info, engine=ev.name, t_start=t_start)
+    settings = RobustSettings(
+        budget,
+        alpha,
+        kept_constraints(ev.library, budget, constraints),
+        saturate_levels,
+        saturate_evaluations,
+        local_rounds,
+        local_evaluations,
+        bound_nodes,
+    )
+    return choose(
+        lambda tasks: [run_method(ev, settings, t) for t in tasks],
+        ev.library,
+        settings,
+        rules,
+        methods,
+        skip_when_proved,
+        info=info,
+        engine=ev.name,
+        t_start=t_start,
+    )
 
 
 def kept_constraints(lib: SensorLibrary, budget: float, constraints: Constraints | None) -> Constraints | None:
@@ -110,8 +151,18 @@ def kept_constraints(lib: SensorLibrary, budget: float, constraints: Constraints
 # Long on purpose (~80 lines): the candidates come in one fixed order (greedy and Algorithm 2, the
 # bound's exact leaves, then the further methods unless the bound already proves one), each scored
 # by its exact worst case; the best so far and the bound pass from one stage to the next.
-def choose(run: Runner, lib: SensorLibrary, s: RobustSettings, rules: Sequence[str], methods: Sequence[str],
-           skip_when_proved: bool, *, info: TargetInfo | None, engine: str, t_start: float) -> RobustResult:
+def choose(
+    run: Runner,
+    lib: SensorLibrary,
+    s: RobustSettings,
+    rules: Sequence[str],
+    methods: Sequence[str],
+    skip_when_proved: bool,
+    *,
+    info: TargetInfo | None,
+    engine: str,
+    t_start: float,
+) -> RobustResult:
     """Robust selection's stages, each a list of independent tasks handed to ``run`` (this process
     with one memo, or a plan on any executor and store): see the module docstring. ``rules``: checked,
     "uniform" first."""
@@ -159,7 +210,9 @@ def choose(run: Runner, lib: SensorLibrary, s: RobustSettings, rules: Sequence[s
         first.append(MethodTask("oblivious"))
         rest = rest[1:]
     if proved and skip_when_proved:
-        skipped.extend(f"{t.name if t.kind == 'greedy' else t.kind}: the bound proves the best candidate optimal" for t in first)
+        skipped.extend(
+            f"{t.name if t.kind == 'greedy' else t.kind}: the bound proves the best candidate optimal" for t in first
+        )
     elif first:
         take(first)
         if first[-1].kind == "oblivious" and reached(bnd.bound):
@@ -183,19 +236,46 @@ def choose(run: Runner, lib: SensorLibrary, s: RobustSettings, rules: Sequence[s
         bnd = again
     bound = max(bnd.bound, win.worst_score)
     return RobustResult(
-        alpha=s.alpha, budget_usd=s.budget, method=win.method, suite=win.suite, cost_usd=win.cost_usd,
-        nominal_score=win.nominal_score, worst_score=win.worst_score, failures=win.failures,
-        greedy_worst_score=greedy_worst, algorithm2_worst_score=a2c.worst_score, bound=bound,
-        gap_percent=100.0 * (bound - win.worst_score) / bound if bound > 0 else 0.0, candidates=tuple(cands),
-        skipped=tuple(skipped), bound_detail=bnd, n_evaluations=work[0], engine=engine, problem=info,
-        seconds=round(time.perf_counter() - t_start, 6), constraints=s.constraints,
+        alpha=s.alpha,
+        budget_usd=s.budget,
+        method=win.method,
+        suite=win.suite,
+        cost_usd=win.cost_usd,
+        nominal_score=win.nominal_score,
+        worst_score=win.worst_score,
+        failures=win.failures,
+        greedy_worst_score=greedy_worst,
+        algorithm2_worst_score=a2c.worst_score,
+        bound=bound,
+        gap_percent=100.0 * (bound - win.worst_score) / bound if bound > 0 else 0.0,
+        candidates=tuple(cands),
+        skipped=tuple(skipped),
+        bound_detail=bnd,
+        n_evaluations=work[0],
+        engine=engine,
+        problem=info,
+        seconds=round(time.perf_counter() - t_start, 6),
+        constraints=s.constraints,
     )
 
 
-def run_robust(problem: Target, budget_usd: float, alpha: int, *, engine: str | None = None, jobs: int = 1,
-               aggregate: str = "normalised", executor: Executor | None = None, outdir: str | Path | None = None,
-               resume: bool = False, rules: Sequence[str] = DEFAULT_RULES, methods: Sequence[str] = EXTRA_METHODS,
-               skip_when_proved: bool = True, constraints: Constraints | None = None, **limits: Any) -> RobustResult:
+def run_robust(
+    problem: Target,
+    budget_usd: float,
+    alpha: int,
+    *,
+    engine: str | None = None,
+    jobs: int = 1,
+    aggregate: str = "normalised",
+    executor: Executor | None = None,
+    outdir: str | Path | None = None,
+    resume: bool = False,
+    rules: Sequence[str] = DEFAULT_RULES,
+    methods: Sequence[str] = EXTRA_METHODS,
+    skip_when_proved: bool = True,
+    constraints: Constraints | None = None,
+    **limits: Any,
+) -> RobustResult:
     """:func:`robust_select` on a problem or a domain as a plan of tasks (:mod:`sensorsel.pipeline`):
     each stage's methods are tasks run by ``executor`` (default: this process), each on its own memo
     over the target's evaluator of ``engine`` (built once where the tasks run), so the answer is the
@@ -224,26 +304,52 @@ def run_robust(problem: Target, budget_usd: float, alpha: int, *, engine: str | 
     def run(tasks: Sequence[MethodTask]) -> list[MethodOutcome]:
         stage[0] += 1
         seen = tuple(known.values())
-        plan: Plan[MethodOutcome] = Plan("robust method", method_step, tuple((settings, t, seen) for t in tasks),
-                                         states=(recipe,), build=EvaluatorRecipe.build, local=local)
+        plan: Plan[MethodOutcome] = Plan(
+            "robust method",
+            method_step,
+            tuple((settings, t, seen) for t in tasks),
+            states=(recipe,),
+            build=EvaluatorRecipe.build,
+            local=local,
+        )
         outs = execute(plan, executor, task_store(outdir, resume, key, stage[0], tasks))
         for o in outs:
             for k in o.scored:
                 known.setdefault(k.suite, k)
         return outs
 
-    return choose(run, problem.library, settings, rules, methods, skip_when_proved, info=problem.info, engine=name,
-                  t_start=t_start)
+    return choose(
+        run,
+        problem.library,
+        settings,
+        rules,
+        methods,
+        skip_when_proved,
+        info=problem.info,
+        engine=name,
+        t_start=t_start,
+    )
 
 
-def robust_choice(evaluator: Evaluator, budget_usd: float, alpha: int, info: TargetInfo | None = None,
-                  **kwargs: Any) -> tuple[RobustChoice, WorstCase]:
+def robust_choice(
+    evaluator: Evaluator, budget_usd: float, alpha: int, info: TargetInfo | None = None, **kwargs: Any
+) -> tuple[RobustChoice, WorstCase]:
     """:func:`robust_select` in the shape ``sensorsel resilient --method robust`` records (whole route and
     each period): the choice in short and its exact worst case (scored with the same memo: no re-scoring)."""
     ev = memoized(evaluator)
     r = robust_select(ev, budget_usd, alpha, info=info, **kwargs)
     w = worst_case(ev, [ev.library.position(i) for i in r.suite], r.alpha)
-    return RobustChoice(method=r.method, suite=r.suite, cost_usd=r.cost_usd, nominal_score=r.nominal_score,
-                        worst_score=r.worst_score, failures=r.failures, greedy_worst_score=r.greedy_worst_score,
-                        algorithm2_worst_score=r.algorithm2_worst_score, bound=r.bound, gap_percent=r.gap_percent,
-                        n_evaluations=r.n_evaluations, seconds=r.seconds), w
+    return RobustChoice(
+        method=r.method,
+        suite=r.suite,
+        cost_usd=r.cost_usd,
+        nominal_score=r.nominal_score,
+        worst_score=r.worst_score,
+        failures=r.failures,
+        greedy_worst_score=r.greedy_worst_score,
+        algorithm2_worst_score=r.algorithm2_worst_score,
+        bound=r.bound,
+        gap_percent=r.gap_percent,
+        n_evaluations=r.n_evaluations,
+        seconds=r.seconds,
+    ), w

@@ -17,12 +17,14 @@ the digest of both and the target, so a resumed run reuses a stored task only fo
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
+from sensorsel.designs.inputs import result_fingerprint
 from sensorsel.designs.resilient import ALGORITHM_2, resilient_select, worst_case
 from sensorsel.designs.robust.bound import DEFAULT_BOUND_NODES, robust_bound
 from sensorsel.designs.robust.family import FailureFamily
@@ -35,8 +37,8 @@ from sensorsel.io.results import result_kind
 from sensorsel.model.constraints import Constraints, FeasibleSet, feasible_set
 from sensorsel.model.problem import Target, TargetInfo
 from sensorsel.model.recipes import EvaluatorRecipe
-from sensorsel.designs.inputs import result_fingerprint
 from sensorsel.pipeline import FileStore, NoStore, Store
+
 
 @dataclass(frozen=True)
 class RobustSettings:
@@ -109,8 +111,16 @@ def kept_feasible(ev: Evaluator, s: RobustSettings) -> FeasibleSet | None:
     return None if s.constraints is None else feasible_set(ev.library, s.budget, s.constraints)
 
 
-def candidate(ev: MemoEvaluator, s: RobustSettings, feas: FeasibleSet | None, method: str, suite: Sequence[int],
-              note: str, n0: int, t0: float) -> Candidate:
+def candidate(
+    ev: MemoEvaluator,
+    s: RobustSettings,
+    feas: FeasibleSet | None,
+    method: str,
+    suite: Sequence[int],
+    note: str,
+    n0: int,
+    t0: float,
+) -> Candidate:
     """A method's suite as a candidate: its exact worst case, cost, the evaluations since ``n0`` and
     the seconds since ``t0``. A suite that breaks the limits is a method's bug (AssertionError)."""
     lib = ev.library
@@ -118,9 +128,17 @@ def candidate(ev: MemoEvaluator, s: RobustSettings, feas: FeasibleSet | None, me
     if feas is not None and not feas.fits(x):  # a method's bug, never the user's input
         raise AssertionError(f"robust method {method} returned a suite that breaks the limits: {feas.violations(x)}")
     w = worst_case(ev, x, s.alpha)
-    return Candidate(method=method, suite=lib.suite_ids(x), cost_usd=lib.cost(x) if feas is None else float(feas.usage(x)[0]),
-                     nominal_score=w.nominal_score, worst_score=w.score, failures=w.failures, note=note,
-                     n_evaluations=ev.n_evaluations - n0, seconds=round(time.perf_counter() - t0, 6))
+    return Candidate(
+        method=method,
+        suite=lib.suite_ids(x),
+        cost_usd=lib.cost(x) if feas is None else float(feas.usage(x)[0]),
+        nominal_score=w.nominal_score,
+        worst_score=w.score,
+        failures=w.failures,
+        note=note,
+        n_evaluations=ev.n_evaluations - n0,
+        seconds=round(time.perf_counter() - t0, 6),
+    )
 
 
 def tolerance(x: float) -> float:
@@ -148,20 +166,37 @@ def _run(ev: MemoEvaluator, s: RobustSettings, task: MethodTask) -> MethodOutcom
         return one(f"greedy-{task.rule}", [lib.position(i) for i in g.suite], g.stop_reason)
     if task.kind == ALGORITHM_2:
         a2 = resilient_select(ev, s.budget, s.alpha, constraints=s.constraints)
-        return one(ALGORITHM_2, [lib.position(i) for i in a2.suite],
-                   f"failing set {','.join(a2.failed)}" + (f"; {a2.failure_note}" if a2.failure_note else ""))
+        return one(
+            ALGORITHM_2,
+            [lib.position(i) for i in a2.suite],
+            f"failing set {','.join(a2.failed)}" + (f"; {a2.failure_note}" if a2.failure_note else ""),
+        )
     if task.kind == "oblivious":
         x, note = oblivious_greedy(ev, s.budget, s.alpha, eta=2.0, constraints=s.constraints)
         return one("oblivious-eta2", x, note)
     assert task.incumbent is not None, f"robust task {task.kind} needs the best candidate so far"
     best = task.incumbent
     if task.kind == "bound":
-        bnd = robust_bound(ev, s.budget, s.alpha, anchors=list(task.anchors), incumbent=best.worst_score,
-                           max_nodes=s.bound_nodes, constraints=s.constraints)
+        bnd = robust_bound(
+            ev,
+            s.budget,
+            s.alpha,
+            anchors=list(task.anchors),
+            incumbent=best.worst_score,
+            max_nodes=s.bound_nodes,
+            constraints=s.constraints,
+        )
         return MethodOutcome(leaf_candidates(ev, s, feas, bnd, best) if task.leaves else (), bnd)
     if task.kind == "saturate":
-        levels, note = saturate(FailureFamily(ev, s.alpha), s.budget, best.worst_score, task.hi, levels=s.saturate_levels,
-                                max_evaluations=s.saturate_evaluations, feasible=feas)
+        levels, note = saturate(
+            FailureFamily(ev, s.alpha),
+            s.budget,
+            best.worst_score,
+            task.hi,
+            levels=s.saturate_levels,
+            max_evaluations=s.saturate_evaluations,
+            feasible=feas,
+        )
         tried = [x for _, _, x in levels]
         if not tried:
             return MethodOutcome(skipped="saturate: no level between the best worst case and the bound")
@@ -173,14 +208,22 @@ def _run(ev: MemoEvaluator, s: RobustSettings, task: MethodTask) -> MethodOutcom
             n0 = ev.n_evaluations
         return MethodOutcome((best_of(sub),))
     if task.kind == "local-search":
-        x, note = local_search(ev, [lib.position(i) for i in best.suite], s.budget, s.alpha, max_rounds=s.local_rounds,
-                               max_evaluations=s.local_evaluations, feasible=feas)
+        x, note = local_search(
+            ev,
+            [lib.position(i) for i in best.suite],
+            s.budget,
+            s.alpha,
+            max_rounds=s.local_rounds,
+            max_evaluations=s.local_evaluations,
+            feasible=feas,
+        )
         return one("local-search", x, f"from {best.method}; {note}")
     raise ValueError(f"unknown robust task {task.kind!r}")
 
 
-def leaf_candidates(ev: MemoEvaluator, s: RobustSettings, feas: FeasibleSet | None, bnd: RobustBound,
-                    best: Candidate) -> tuple[Candidate, ...]:
+def leaf_candidates(
+    ev: MemoEvaluator, s: RobustSettings, feas: FeasibleSet | None, bnd: RobustBound, best: Candidate
+) -> tuple[Candidate, ...]:
     """The bound's "exact" leaves with no sensor assumed failed, as candidates: each is a suite within
     the limits (the whole leaf library fits) whose worst case the bound has just computed (free:
     memoized). Only leaves above the best candidate so far are kept (which each new one may raise)."""
@@ -191,22 +234,33 @@ def leaf_candidates(ev: MemoEvaluator, s: RobustSettings, feas: FeasibleSet | No
             n0, t0 = ev.n_evaluations, time.perf_counter()
             gone = set(leaf.removed)
             if feas is None:
-                suite = [i for i in range(len(lib)) if lib.ids[i] not in gone and lib.costs[i] <= leaf.budget_usd + 1e-9]
+                suite = [
+                    i for i in range(len(lib)) if lib.ids[i] not in gone and lib.costs[i] <= leaf.budget_usd + 1e-9
+                ]
             else:  # the sensors that fit every limit on their own (what the bound's leaf held)
                 fit = feas.addable(np.zeros(len(feas.b)))
                 suite = [i for i in range(len(lib)) if lib.ids[i] not in gone and fit[i]]
             if feas is not None and not feas.fits(suite):
                 continue  # the leaf breaks a limit (all of its sensors do not fit together): not a candidate
-            c = candidate(ev, s, feas, "bound-leaf", suite, f"the bound's exact leaf without {','.join(leaf.removed) or 'nothing'}",
-                          n0, t0)
+            c = candidate(
+                ev,
+                s,
+                feas,
+                "bound-leaf",
+                suite,
+                f"the bound's exact leaf without {','.join(leaf.removed) or 'nothing'}",
+                n0,
+                t0,
+            )
             out.append(c)
             if better(c, best):
                 best = c
     return tuple(out)
 
 
-def method_step(state: tuple[Target, Evaluator | EvaluatorRecipe],
-                job: tuple[RobustSettings, MethodTask, tuple[Scored, ...]]) -> MethodOutcome:
+def method_step(
+    state: tuple[Target, Evaluator | EvaluatorRecipe], job: tuple[RobustSettings, MethodTask, tuple[Scored, ...]]
+) -> MethodOutcome:
     """One task of a robust plan, on a fresh memo that knows what the earlier stages scored (the
     job's third part, the same wherever the task runs): over the caller's evaluator (in-process,
     shared by the tasks: an engine's score does not depend on what it scored before) or over one
@@ -214,7 +268,11 @@ def method_step(state: tuple[Target, Evaluator | EvaluatorRecipe],
     so a task's evaluations do not depend on whether its evaluator was fresh. The outcome carries
     the suites the task scored, for the later stages."""
     target, held = state
-    ev = held if isinstance(held, Evaluator) else evaluator_for(target, held.engine, jobs=held.jobs, aggregate=held.aggregate)
+    ev = (
+        held
+        if isinstance(held, Evaluator)
+        else evaluator_for(target, held.engine, jobs=held.jobs, aggregate=held.aggregate)
+    )
     if isinstance(ev, ProblemEvaluator):
         _ = ev.baseline_logdet  # computed (and counted) before the memo starts
     settings, task, known = job
@@ -229,14 +287,28 @@ def method_step(state: tuple[Target, Evaluator | EvaluatorRecipe],
 TASK_FORMAT = 1
 
 
-def task_key(info: TargetInfo | None, engine: str, aggregate: str, s: RobustSettings, rules: Sequence[str],
-             methods: Sequence[str], skip_when_proved: bool) -> dict[str, Any]:
+def task_key(
+    info: TargetInfo | None,
+    engine: str,
+    aggregate: str,
+    s: RobustSettings,
+    rules: Sequence[str],
+    methods: Sequence[str],
+    skip_when_proved: bool,
+) -> dict[str, Any]:
     """What every task of a robust run depends on besides the task itself: each route by content with
     its weight, the engine, the aggregate, the settings (budget, alpha, limits with the library's
     resources' digest, the methods' limits) and, conservatively, the run's rules and methods (a
     resume with other rules or methods recomputes every task: it never reuses one by mistake)."""
-    return {"target": info, "engine": engine, "aggregate": aggregate, "settings": s, "rules": list(rules),
-            "methods": list(methods), "skip_when_proved": skip_when_proved}
+    return {
+        "target": info,
+        "engine": engine,
+        "aggregate": aggregate,
+        "settings": s,
+        "rules": list(rules),
+        "methods": list(methods),
+        "skip_when_proved": skip_when_proved,
+    }
 
 
 @result_kind("robust-task")
@@ -250,12 +322,19 @@ class RobustTaskRecord:
     outcome: MethodOutcome
 
 
-def task_store(outdir: str | Path | None, resume: bool, key: dict[str, Any], stage: int,
-               tasks: Sequence[MethodTask]) -> Store[MethodOutcome]:
+def task_store(
+    outdir: str | Path | None, resume: bool, key: dict[str, Any], stage: int, tasks: Sequence[MethodTask]
+) -> Store[MethodOutcome]:
     """Where a stage's outcomes are kept: ``OUTDIR/SS-NAME.json`` (SS the stage; none without ``outdir``)."""
     if outdir is None:
         return NoStore()
     fps = [result_fingerprint("robust-task", TASK_FORMAT, **key, stage=stage, task=t) for t in tasks]
-    return FileStore([Path(outdir) / f"{stage:02d}-{t.name}.json" for t in tasks], fps, RobustTaskRecord,
-                     lambda i, o: RobustTaskRecord(fps[i], tasks[i].name, o), lambda r: r.outcome, resume=resume,
-                     what="other inputs (target, budget, failures, engine, aggregate, limits, rules or methods)")
+    return FileStore(
+        [Path(outdir) / f"{stage:02d}-{t.name}.json" for t in tasks],
+        fps,
+        RobustTaskRecord,
+        lambda i, o: RobustTaskRecord(fps[i], tasks[i].name, o),
+        lambda r: r.outcome,
+        resume=resume,
+        what="other inputs (target, budget, failures, engine, aggregate, limits, rules or methods)",
+    )

@@ -28,7 +28,7 @@ against them, and each route's bound keeps them (:mod:`.bound`, fact (5)).
 from __future__ import annotations
 
 import time
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -54,7 +54,9 @@ class RouteFailureFamily(Family):
 
     kind = "routes-failures"
 
-    def __init__(self, evaluators: Sequence[Evaluator], labels: Sequence[str], norms: Sequence[float] | np.ndarray, alpha: int) -> None:
+    def __init__(
+        self, evaluators: Sequence[Evaluator], labels: Sequence[str], norms: Sequence[float] | np.ndarray, alpha: int
+    ) -> None:
         self.parts = [FailureFamily(e, alpha) for e in evaluators]
         self.labels = list(labels)
         self.norms = np.asarray(norms, dtype=float)
@@ -74,8 +76,9 @@ class RouteFailureFamily(Family):
             vs.append(v / b)
         return np.concatenate(ws), np.concatenate(vs)
 
-    def terms_with(self, suite: Sequence[int], candidates: Sequence[int], *,
-                   cap: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    def terms_with(
+        self, suite: Sequence[int], candidates: Sequence[int], *, cap: float | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         ws, vs = [], []
         for p, b in zip(self.parts, self.norms):
             w, v = p.terms_with(suite, candidates, cap=None if cap is None else cap * b)
@@ -98,8 +101,14 @@ class RouteFailureFamily(Family):
         return per[k][1], self.labels[k]
 
 
-def _local_search(fam: RouteFailureFamily, start: Sequence[int], budget: float, max_rounds: int,
-                  max_evaluations: int, feasible: FeasibleSet | None = None) -> tuple[tuple[int, ...], str]:
+def _local_search(
+    fam: RouteFailureFamily,
+    start: Sequence[int],
+    budget: float,
+    max_rounds: int,
+    max_evaluations: int,
+    feasible: FeasibleSet | None = None,
+) -> tuple[tuple[int, ...], str]:
     """Add / swap moves raising the exact h; first improvement in library order; bounded
     (:func:`~.methods.first_improvement`). ``feasible``: only its suites are moved to (None: the budget alone)."""
     n = len(fam.library)
@@ -109,20 +118,41 @@ def _local_search(fam: RouteFailureFamily, start: Sequence[int], budget: float, 
 
         def improves(a: int | None, b: int, s2: tuple[int, ...]) -> bool:
             return fam.worst(s2)[0] > h + REL_TOL * max(1.0, abs(h))
+
         return list(s), [b for b in range(n) if b not in s], improves
 
-    return first_improvement(fam.library, start, budget, round_of, lambda: fam.n_evaluations, max_rounds=max_rounds,
-                             max_evaluations=max_evaluations, feasible=feasible)
+    return first_improvement(
+        fam.library,
+        start,
+        budget,
+        round_of,
+        lambda: fam.n_evaluations,
+        max_rounds=max_rounds,
+        max_evaluations=max_evaluations,
+        feasible=feasible,
+    )
 
 
 # Long on purpose (~110 lines): as robust_select, for the worst route of a domain: candidates in one
 # fixed order, each scored by its exact worst route.
-def worst_route_select(domain: Domain, budget_usd: float, alpha: int, *, engine: str | None = None, jobs: int = 1,
-                       rules: Sequence[str] = ("uniform", "marginal"), methods: Sequence[str] = WORST_METHODS,
-                       skip_when_proved: bool = True, saturate_levels: int = DEFAULT_SATURATE_LEVELS,
-                       saturate_evaluations: int | None = 2_000, local_rounds: int = 10, local_evaluations: int = 2_000,
-                       bound_nodes: int = DEFAULT_BOUND_NODES, evaluator: DomainEvaluator | None = None,
-                       constraints: Constraints | None = None) -> RobustResult:
+def worst_route_select(
+    domain: Domain,
+    budget_usd: float,
+    alpha: int,
+    *,
+    engine: str | None = None,
+    jobs: int = 1,
+    rules: Sequence[str] = ("uniform", "marginal"),
+    methods: Sequence[str] = WORST_METHODS,
+    skip_when_proved: bool = True,
+    saturate_levels: int = DEFAULT_SATURATE_LEVELS,
+    saturate_evaluations: int | None = 2_000,
+    local_rounds: int = 10,
+    local_evaluations: int = 2_000,
+    bound_nodes: int = DEFAULT_BOUND_NODES,
+    evaluator: DomainEvaluator | None = None,
+    constraints: Constraints | None = None,
+) -> RobustResult:
     """The suite within ``budget_usd`` maximising the worst route's share of its best under ``alpha``
     failures (see the module docstring); a :class:`RobustResult` with ``aggregate="worst"``.
     ``evaluator``: the domain's normalised evaluator already built (e.g. on a Dask cluster).
@@ -152,13 +182,24 @@ def worst_route_select(domain: Domain, budget_usd: float, alpha: int, *, engine:
     def add(method: str, suite: Sequence[int], note: str, n0: int, t0: float) -> Candidate:
         s = as_suite(suite)
         if feas is not None and not feas.fits(s):  # a method's bug, never the user's input
-            raise AssertionError(f"worst-route method {method} returned a suite that breaks the limits: {feas.violations(s)}")
+            raise AssertionError(
+                f"worst-route method {method} returned a suite that breaks the limits: {feas.violations(s)}"
+            )
         per = fam.route_worst(s)
         k = min(range(len(per)), key=lambda i: per[i][1])
         cost = lib.cost(s) if feas is None else float(feas.usage(s)[0])
-        c = Candidate(method=method, suite=lib.suite_ids(s), cost_usd=cost, nominal_score=min(p[0] for p in per),
-                      worst_score=per[k][1], failures=per[k][2], note=note, n_evaluations=work() - n0,
-                      seconds=round(time.perf_counter() - t0, 6), worst_member=names[k])
+        c = Candidate(
+            method=method,
+            suite=lib.suite_ids(s),
+            cost_usd=cost,
+            nominal_score=min(p[0] for p in per),
+            worst_score=per[k][1],
+            failures=per[k][2],
+            note=note,
+            n_evaluations=work() - n0,
+            seconds=round(time.perf_counter() - t0, 6),
+            worst_member=names[k],
+        )
         cands.append(c)
         return c
 
@@ -168,11 +209,23 @@ def worst_route_select(domain: Domain, budget_usd: float, alpha: int, *, engine:
     for r in rules:
         n0, t0 = work(), time.perf_counter()
         g = greedy(avg, budget, r, constraints=kept)
-        add(f"greedy-{r}", [lib.position(i) for i in g.suite], f"on the domain's normalised average; {g.stop_reason}", n0, t0)
+        add(
+            f"greedy-{r}",
+            [lib.position(i) for i in g.suite],
+            f"on the domain's normalised average; {g.stop_reason}",
+            n0,
+            t0,
+        )
     greedy_worst = cands[0].worst_score
     n0, t0 = work(), time.perf_counter()
     a2 = resilient_select(avg, budget, alpha, constraints=kept)
-    a2c = add(ALGORITHM_2, [lib.position(i) for i in a2.suite], f"on the domain's normalised average; failing set {','.join(a2.failed)}", n0, t0)
+    a2c = add(
+        ALGORITHM_2,
+        [lib.position(i) for i in a2.suite],
+        f"on the domain's normalised average; failing set {','.join(a2.failed)}",
+        n0,
+        t0,
+    )
 
     def bound_now() -> RobustBound:
         t0, n0 = time.perf_counter(), work()
@@ -182,16 +235,29 @@ def worst_route_select(domain: Domain, budget_usd: float, alpha: int, *, engine:
         for ev, b in zip(routes, fam.norms):
             w = worst_case(ev, x, alpha)
             surv = as_suite(lib.position(i) for i in w.survivors)
-            rb = robust_bound(ev, budget, alpha, anchors=[surv], incumbent=inc.worst_score * b, max_nodes=bound_nodes,
-                              constraints=kept)
+            rb = robust_bound(
+                ev,
+                budget,
+                alpha,
+                anchors=[surv],
+                incumbent=inc.worst_score * b,
+                max_nodes=bound_nodes,
+                constraints=kept,
+            )
             per_route.append(rb.bound / b)
             nodes += rb.n_nodes
             sweeps += rb.n_sweeps
         value = max(min(per_route), inc.worst_score)
         tol = REL_TOL * max(1.0, abs(inc.worst_score))
-        return RobustBound(bound=float(value), leaves=(), n_nodes=nodes, n_sweeps=sweeps,
-                           proved=bool(value <= inc.worst_score + tol), n_evaluations=work() - n0,
-                           seconds=round(time.perf_counter() - t0, 6))
+        return RobustBound(
+            bound=float(value),
+            leaves=(),
+            n_nodes=nodes,
+            n_sweeps=sweeps,
+            proved=bool(value <= inc.worst_score + tol),
+            n_evaluations=work() - n0,
+            seconds=round(time.perf_counter() - t0, 6),
+        )
 
     bnd = bound_now()
     n_before = len(cands)
@@ -201,8 +267,15 @@ def worst_route_select(domain: Domain, budget_usd: float, alpha: int, *, engine:
             continue
         n0, t0 = work(), time.perf_counter()
         if m == "saturate":
-            levels, note = saturate(fam, budget, best().worst_score, bnd.bound, levels=saturate_levels,
-                                    max_evaluations=saturate_evaluations, feasible=feas)
+            levels, note = saturate(
+                fam,
+                budget,
+                best().worst_score,
+                bnd.bound,
+                levels=saturate_levels,
+                max_evaluations=saturate_evaluations,
+                feasible=feas,
+            )
             if not levels:
                 skipped.append("saturate: no level between the best worst case and the bound")
                 continue
@@ -218,22 +291,41 @@ def worst_route_select(domain: Domain, budget_usd: float, alpha: int, *, engine:
                     cands.remove(c)
         elif m == "local-search":
             start = best()
-            s, note = _local_search(fam, [lib.position(i) for i in start.suite], budget, local_rounds, local_evaluations,
-                                    feasible=feas)
+            s, note = _local_search(
+                fam, [lib.position(i) for i in start.suite], budget, local_rounds, local_evaluations, feasible=feas
+            )
             add("local-search", s, f"from {start.method}; {note}", n0, t0)
     win = best()
     if len(cands) > n_before and not bnd.proved:
         bnd = bound_now()
     bound = max(bnd.bound, win.worst_score)
     x = as_suite(lib.position(i) for i in win.suite)
-    members = tuple(MemberWorst(name=nm, best_score=float(b), nominal_share=float(nom), worst_share=float(w), failures=f)
-                    for nm, b, (nom, w, f) in zip(names, fam.norms, fam.route_worst(x)))
+    members = tuple(
+        MemberWorst(name=nm, best_score=float(b), nominal_share=float(nom), worst_share=float(w), failures=f)
+        for nm, b, (nom, w, f) in zip(names, fam.norms, fam.route_worst(x))
+    )
     return RobustResult(
-        alpha=alpha, budget_usd=budget, method=win.method, suite=win.suite, cost_usd=win.cost_usd,
-        nominal_score=win.nominal_score, worst_score=win.worst_score, failures=win.failures,
-        greedy_worst_score=greedy_worst, algorithm2_worst_score=a2c.worst_score, bound=bound,
-        gap_percent=100.0 * (bound - win.worst_score) / bound if bound > 0 else 0.0, candidates=tuple(cands),
-        skipped=tuple(skipped), bound_detail=bnd, n_evaluations=work() - n_start, engine=dev.engine, problem=domain.info,
-        seconds=round(time.perf_counter() - t_start, 6), aggregate="worst", worst_member=win.worst_member, members=members,
+        alpha=alpha,
+        budget_usd=budget,
+        method=win.method,
+        suite=win.suite,
+        cost_usd=win.cost_usd,
+        nominal_score=win.nominal_score,
+        worst_score=win.worst_score,
+        failures=win.failures,
+        greedy_worst_score=greedy_worst,
+        algorithm2_worst_score=a2c.worst_score,
+        bound=bound,
+        gap_percent=100.0 * (bound - win.worst_score) / bound if bound > 0 else 0.0,
+        candidates=tuple(cands),
+        skipped=tuple(skipped),
+        bound_detail=bnd,
+        n_evaluations=work() - n_start,
+        engine=dev.engine,
+        problem=domain.info,
+        seconds=round(time.perf_counter() - t_start, 6),
+        aggregate="worst",
+        worst_member=win.worst_member,
+        members=members,
         constraints=kept,
     )

@@ -21,7 +21,24 @@ from sensorsel.designs.selection.strategies import BestOf, Strategy, better_run
 from sensorsel.io.progress import Progress
 
 __all__ = [
-    "LAZY_BATCH", "REL_TOL", "RULES", "BestOf", "CostBenefit", "GreedyResult", "Marginal", "Progress",
-    "Rule", "RuleOrStrategy", "Selector", "Step", "Strategy", "Uniform", "better_run", "check_affordable", "check_budget", "check_rule",
-    "greedy", "rules_help",
+    "LAZY_BATCH",
+    "REL_TOL",
+    "RULES",
+    "BestOf",
+    "CostBenefit",
+    "GreedyResult",
+    "Marginal",
+    "Progress",
+    "Rule",
+    "RuleOrStrategy",
+    "Selector",
+    "Step",
+    "Strategy",
+    "Uniform",
+    "better_run",
+    "check_affordable",
+    "check_budget",
+    "check_rule",
+    "greedy",
+    "rules_help",
 ]

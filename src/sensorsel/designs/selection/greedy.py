@@ -36,8 +36,9 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import replace
-from typing import Callable, Protocol, Sequence
+from typing import Protocol
 
 import numpy as np
 
@@ -78,8 +79,15 @@ def check_budget(budget_usd: object) -> float:
     return b
 
 
-def check_affordable(library: SensorLibrary, budget_usd: float, alpha: int = 0, *, budget_option: str = "--budget",
-                     alpha_option: str = "--failures", constraints: Constraints | None = None) -> float:
+def check_affordable(
+    library: SensorLibrary,
+    budget_usd: float,
+    alpha: int = 0,
+    *,
+    budget_option: str = "--budget",
+    alpha_option: str = "--failures",
+    constraints: Constraints | None = None,
+) -> float:
     """The budget, when it buys at least one sensor more than the ``alpha`` assumed to fail (and,
     with ``constraints``, when they allow some suite: the required sensors, or one sensor).
 
@@ -101,8 +109,10 @@ def check_affordable(library: SensorLibrary, budget_usd: float, alpha: int = 0, 
         if not feas.addable(none).any() and not feas.only_budget:
             everything = np.ones(len(library), dtype=bool)
             everything[list(feas.excluded)] = False
-            raise InputError(f"nothing can be bought: every sensor breaks a limit on its own "
-                             f"({feas.why_nothing_fits(none, everything)}); raise {budget_option} or a --limit")
+            raise InputError(
+                f"nothing can be bought: every sensor breaks a limit on its own "
+                f"({feas.why_nothing_fits(none, everything)}); raise {budget_option} or a --limit"
+            )
     costs = np.asarray(library.costs, dtype=float)
     order = np.argsort(costs, kind="stable")
     cheapest = int(order[0])
@@ -110,15 +120,21 @@ def check_affordable(library: SensorLibrary, budget_usd: float, alpha: int = 0, 
     k = int(np.sum(total <= budget + 1e-9))  # most sensors the budget buys
     if k == 0:
         c = costs[cheapest]
-        raise InputError(f"{budget_option} ${budget:,.0f} is below the cheapest sensor ({library.ids[cheapest]}, ${c:,.0f}): "
-                         f"nothing can be bought; give {budget_option} {c:.0f} or more")
+        raise InputError(
+            f"{budget_option} ${budget:,.0f} is below the cheapest sensor ({library.ids[cheapest]}, ${c:,.0f}): "
+            f"nothing can be bought; give {budget_option} {c:.0f} or more"
+        )
     if alpha > 0 and k <= alpha:
         if alpha >= len(library):
-            raise InputError(f"{alpha_option} {alpha}: the library has {len(library)} sensors, so all of them could fail "
-                             f"(every worst case 0); give {alpha_option} {len(library) - 1} or less")
-        raise InputError(f"{alpha_option} {alpha}: {budget_option} ${budget:,.0f} buys at most {k} sensor(s), so every sensor "
-                         f"bought could fail (every worst case 0); give {alpha_option} {k - 1} or less, or {budget_option} "
-                         f"{total[alpha]:.0f} or more (the {alpha + 1} cheapest sensors)")
+            raise InputError(
+                f"{alpha_option} {alpha}: the library has {len(library)} sensors, so all of them could fail "
+                f"(every worst case 0); give {alpha_option} {len(library) - 1} or less"
+            )
+        raise InputError(
+            f"{alpha_option} {alpha}: {budget_option} ${budget:,.0f} buys at most {k} sensor(s), so every sensor "
+            f"bought could fail (every worst case 0); give {alpha_option} {k - 1} or less, or {budget_option} "
+            f"{total[alpha]:.0f} or more (the {alpha + 1} cheapest sensors)"
+        )
     return budget
 
 
@@ -148,10 +164,20 @@ class Journal(Protocol):
         """The component runs finished so far (the run under way is done: no steps under way)."""
 
 
-def greedy(evaluator: Evaluator, budget_usd: float, rule: str = "uniform", *, lazy: bool = True,
-           exclude: frozenset[int] = frozenset(), start: tuple[int, ...] = (), progress: Progress | None = None,
-           info: TargetInfo | None = None, constraints: Constraints | None = None,
-           reserved: tuple[int, ...] = (), journal: Journal | None = None) -> GreedyResult:
+def greedy(
+    evaluator: Evaluator,
+    budget_usd: float,
+    rule: str = "uniform",
+    *,
+    lazy: bool = True,
+    exclude: frozenset[int] = frozenset(),
+    start: tuple[int, ...] = (),
+    progress: Progress | None = None,
+    info: TargetInfo | None = None,
+    constraints: Constraints | None = None,
+    reserved: tuple[int, ...] = (),
+    journal: Journal | None = None,
+) -> GreedyResult:
     """Greedy selection under a budget with the named rule or strategy of :data:`RULES`.
 
     Args:
@@ -175,19 +201,33 @@ def greedy(evaluator: Evaluator, budget_usd: float, rule: str = "uniform", *, la
     entry = RULES[check_rule(rule)]
     if journal is None:
         if isinstance(entry, Rule):
-            return Selector(evaluator, entry, lazy=lazy, exclude=exclude, progress=progress,
-                            constraints=constraints).select(budget_usd, start=start, info=info, reserved=reserved)
+            return Selector(
+                evaluator, entry, lazy=lazy, exclude=exclude, progress=progress, constraints=constraints
+            ).select(budget_usd, start=start, info=info, reserved=reserved)
         t0 = time.perf_counter()
-        runs = [greedy(evaluator, budget_usd, c, lazy=lazy, exclude=exclude, start=start, progress=progress, info=info,
-                       constraints=constraints, reserved=reserved) for c in entry.component_rules]
+        runs = [
+            greedy(
+                evaluator,
+                budget_usd,
+                c,
+                lazy=lazy,
+                exclude=exclude,
+                start=start,
+                progress=progress,
+                info=info,
+                constraints=constraints,
+                reserved=reserved,
+            )
+            for c in entry.component_rules
+        ]
         return entry.combine(runs, info=info, seconds=round(time.perf_counter() - t0, 6))
     t0 = time.perf_counter()
     components = entry.component_rules
-    runs = list(journal.runs[:len(components)])
+    runs = list(journal.runs[: len(components)])
     for done in runs:  # the bar shows the component runs already finished
         if progress and done.steps:
             progress(len(done.steps), len(done.steps))
-    for name in components[len(runs):]:
+    for name in components[len(runs) :]:
         component = RULES[name]
         assert isinstance(component, Rule)
         n_before, n0 = journal.n_evaluations, evaluator.n_evaluations
@@ -195,8 +235,9 @@ def greedy(evaluator: Evaluator, budget_usd: float, rule: str = "uniform", *, la
         def record(steps: tuple[Step, ...], n_before: int = n_before, n0: int = n0) -> None:
             journal.record_steps(steps, n_before + evaluator.n_evaluations - n0)
 
-        run = Selector(evaluator, component, lazy=lazy, exclude=exclude, progress=progress, constraints=constraints).select(
-            budget_usd, start=start, info=info, reserved=reserved, resume=journal.steps, on_step=record)
+        run = Selector(
+            evaluator, component, lazy=lazy, exclude=exclude, progress=progress, constraints=constraints
+        ).select(budget_usd, start=start, info=info, reserved=reserved, resume=journal.steps, on_step=record)
         runs.append(replace(run, n_evaluations=n_before + run.n_evaluations))
         journal.record_runs(tuple(runs))
     if isinstance(entry, Rule):
@@ -219,9 +260,17 @@ class Selector:
             either way; fewer evaluations when it helps.
     """
 
-    def __init__(self, evaluator: Evaluator, rule: Rule, *, lazy: bool = True, exclude: frozenset[int] = frozenset(),
-                 progress: Progress | None = None, constraints: Constraints | None = None,
-                 bound_from: int = BOUND_FROM) -> None:
+    def __init__(
+        self,
+        evaluator: Evaluator,
+        rule: Rule,
+        *,
+        lazy: bool = True,
+        exclude: frozenset[int] = frozenset(),
+        progress: Progress | None = None,
+        constraints: Constraints | None = None,
+        bound_from: int = BOUND_FROM,
+    ) -> None:
         self.evaluator = evaluator
         self.rule = rule
         self.lazy = lazy and rule.lazy_ok
@@ -230,9 +279,16 @@ class Selector:
         self.constraints = constraints
         self.bound_from = int(bound_from)
 
-    def select(self, budget_usd: float, *, start: tuple[int, ...] = (), info: TargetInfo | None = None,
-               reserved: tuple[int, ...] = (), resume: Sequence[Step] = (),
-               on_step: Callable[[tuple[Step, ...]], None] | None = None) -> GreedyResult:
+    def select(
+        self,
+        budget_usd: float,
+        *,
+        start: tuple[int, ...] = (),
+        info: TargetInfo | None = None,
+        reserved: tuple[int, ...] = (),
+        resume: Sequence[Step] = (),
+        on_step: Callable[[tuple[Step, ...]], None] | None = None,
+    ) -> GreedyResult:
         """Run greedy selection; ``start`` sensors (and the required ones) are already in the suite;
         ``reserved`` sensors use their share of every limit outside it (see :func:`greedy`).
 
@@ -256,7 +312,9 @@ class Selector:
         if (suite or reserved) and not feas.fits(list(suite) + list(reserved)):
             if feas.only_budget:
                 raise InputError(f"the starting sensors cost ${used[0]:,.0f}, above the budget ${budget:,.0f}")
-            raise InputError(f"the starting sensors {', '.join(ids[i] for i in suite)} break: {'; '.join(feas.violations(suite))}")
+            raise InputError(
+                f"the starting sensors {', '.join(ids[i] for i in suite)} break: {'; '.join(feas.violations(suite))}"
+            )
         cost = float(costs[suite].sum()) if suite else 0.0
         f_cur = ev.score(suite) if suite else 0.0
         available = np.ones(len(lib), dtype=bool)
@@ -290,26 +348,53 @@ class Selector:
             f_cur = f_new
             cost += float(costs[pick])
             used = used + feas.A[:, pick]
-            steps.append(Step(ids[pick], lib[pick].index, float(prices[pick]), tuple(ids[i] for i in suite),
-                              float(used[0] - outside[0]) if reserved else float(used[0]),
-                              f_cur, gain, j_val))
+            steps.append(
+                Step(
+                    ids[pick],
+                    lib[pick].index,
+                    float(prices[pick]),
+                    tuple(ids[i] for i in suite),
+                    float(used[0] - outside[0]) if reserved else float(used[0]),
+                    f_cur,
+                    gain,
+                    j_val,
+                )
+            )
             if on_step:  # recorded before it is reported: an interruption in the report loses no pick
                 on_step(tuple(steps))
             if self.progress:
                 self.progress(len(steps), max(max_picks, len(steps)))
         name = self.rule.name
         return GreedyResult(
-            rule=name, budget_usd=budget, suite=tuple(ids[i] for i in suite),
-            cost_usd=float(used[0] - outside[0]) if reserved else float(used[0]), score=f_cur,
-            steps=tuple(steps), stop_reason=stop, n_evaluations=ev.n_evaluations - n0, engine=ev.name, lazy=self.lazy,
-            winning_rule=name, problem=info, seconds=round(time.perf_counter() - t0, 6),
+            rule=name,
+            budget_usd=budget,
+            suite=tuple(ids[i] for i in suite),
+            cost_usd=float(used[0] - outside[0]) if reserved else float(used[0]),
+            score=f_cur,
+            steps=tuple(steps),
+            stop_reason=stop,
+            n_evaluations=ev.n_evaluations - n0,
+            engine=ev.name,
+            lazy=self.lazy,
+            winning_rule=name,
+            problem=info,
+            seconds=round(time.perf_counter() - t0, 6),
             # required or excluded sensors are no row of A: record them too (an owned sensor's price is
             # not counted, so a certificate that forgot them could bound the wrong problem)
             constraints=feas.record,
         )
 
-    def _relax(self, suite: list[int], need: np.ndarray, f_cur: float, cost: float, costs: np.ndarray,
-               threshold: float, bound: np.ndarray, gain_tol: float) -> bool:
+    def _relax(
+        self,
+        suite: list[int],
+        need: np.ndarray,
+        f_cur: float,
+        cost: float,
+        costs: np.ndarray,
+        threshold: float,
+        bound: np.ndarray,
+        gain_tol: float,
+    ) -> bool:
         """Cap the ``need`` candidates' gain bounds with the evaluator's cheap score bounds
         (:meth:`Evaluator.score_bounds`); False when it has none or they cannot help: each bound on
         a gain is at least the gap between the bound on f(S) and f(S), so when a gain of that gap
@@ -341,10 +426,20 @@ class Selector:
         if not bought:
             i_min = int(np.flatnonzero(available & (costs == cheapest))[0])
             return f"budget ${budget:,.0f} is below the cheapest sensor ({ids[i_min]}, ${cheapest:,.0f})"
-        return f"no remaining sensor fits the remaining budget (${budget - used[0]:,.0f}; cheapest left ${cheapest:,.0f})"
+        return (
+            f"no remaining sensor fits the remaining budget (${budget - used[0]:,.0f}; cheapest left ${cheapest:,.0f})"
+        )
 
-    def _best(self, suite: list[int], f_cur: float, cost: float, feasible: np.ndarray, bound: np.ndarray,
-              costs: np.ndarray, ids: tuple[str, ...]) -> tuple[int | None, float, float]:
+    def _best(
+        self,
+        suite: list[int],
+        f_cur: float,
+        cost: float,
+        feasible: np.ndarray,
+        bound: np.ndarray,
+        costs: np.ndarray,
+        ids: tuple[str, ...],
+    ) -> tuple[int | None, float, float]:
         """The pick among feasible candidates: (position, f(S + pick), J), or (None, ...) if none adds information."""
         ev = self.evaluator
         value = self.rule.value
@@ -364,7 +459,11 @@ class Selector:
                 need = self.rule.needed(threshold, f_cur, cost, costs[idx]) - gain_tol
                 # the queue after these: an evaluator that scores ahead fills its idle threads or
                 # workers with it (same answers and counts: it only moves work earlier)
-                ahead = {"ahead": [int(i) for i in queue]} if queue is not None and getattr(ev, "scores_ahead", False) else {}
+                ahead = (
+                    {"ahead": [int(i) for i in queue]}
+                    if queue is not None and getattr(ev, "scores_ahead", False)
+                    else {}
+                )
                 vals, exact = ev.scores_or_bounds(tuple(suite), [int(i) for i in idx], need, **ahead)
             done, part = idx[exact], idx[~exact]
             f_new[done] = vals[exact]

@@ -10,7 +10,6 @@ from sensorsel.io.records import RuleBudget, SuiteScore
 from sensorsel.io.results import result_kind
 from sensorsel.model.constraints import Constraints
 from sensorsel.model.problem import TargetInfo
-from sensorsel.io.progress import Progress
 
 #: progress(done, total): called after each pick; total is an upper bound on the number of picks.
 

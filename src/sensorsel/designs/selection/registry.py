@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from types import MappingProxyType
-from typing import Mapping
 
 from sensorsel.designs.selection.rules import CostBenefit, Marginal, Rule, Uniform
 from sensorsel.designs.selection.strategies import BestOf, Strategy

@@ -16,7 +16,8 @@ one registry, :data:`sensorsel.designs.selection.RULES`.
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from typing import ClassVar, Sequence
+from collections.abc import Sequence
+from typing import ClassVar
 
 import numpy as np
 

@@ -11,7 +11,8 @@ runs those and asks the strategy which run to :meth:`Strategy.keep`.
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from typing import ClassVar, Sequence
+from collections.abc import Sequence
+from typing import ClassVar
 
 from sensorsel.designs.selection.records import GreedyResult
 from sensorsel.designs.selection.rules import REL_TOL
@@ -40,9 +41,19 @@ class Strategy(ABC):
         """The strategy's result: the kept run, named after the strategy, counting every run's evaluations."""
         best = self.keep(runs)
         return GreedyResult(
-            rule=self.name, budget_usd=best.budget_usd, suite=best.suite, cost_usd=best.cost_usd, score=best.score,
-            steps=best.steps, stop_reason=best.stop_reason, n_evaluations=sum(r.n_evaluations for r in runs),
-            engine=best.engine, lazy=best.lazy, winning_rule=best.winning_rule, problem=info, seconds=seconds,
+            rule=self.name,
+            budget_usd=best.budget_usd,
+            suite=best.suite,
+            cost_usd=best.cost_usd,
+            score=best.score,
+            steps=best.steps,
+            stop_reason=best.stop_reason,
+            n_evaluations=sum(r.n_evaluations for r in runs),
+            engine=best.engine,
+            lazy=best.lazy,
+            winning_rule=best.winning_rule,
+            problem=info,
+            seconds=seconds,
             constraints=best.constraints,
         )
 

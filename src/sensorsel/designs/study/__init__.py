@@ -47,13 +47,54 @@ content, library, seed, budget, rule, failures, method, engine, aggregate, lazin
 from __future__ import annotations
 
 from sensorsel.designs.study.parsing import load_study, parse_study
-from sensorsel.designs.study.records import (DEFAULT_LIBRARY, FORMAT, METHODS, Cell, Study, StudyCellRecord,
-                                             StudyError, StudyResult, StudyRow, StudyTarget, TargetFiles)
-from sensorsel.designs.study.run import (CSV_COLUMNS, CellTask, cell_file, cell_fingerprint, cell_plan, cell_step,
-                                         run_cell, run_study, study_csv, write_study)
+from sensorsel.designs.study.records import (
+    DEFAULT_LIBRARY,
+    FORMAT,
+    METHODS,
+    Cell,
+    Study,
+    StudyCellRecord,
+    StudyError,
+    StudyResult,
+    StudyRow,
+    StudyTarget,
+    TargetFiles,
+)
+from sensorsel.designs.study.run import (
+    CSV_COLUMNS,
+    CellTask,
+    cell_file,
+    cell_fingerprint,
+    cell_plan,
+    cell_step,
+    run_cell,
+    run_study,
+    study_csv,
+    write_study,
+)
 
 __all__ = [
-    "Cell", "DEFAULT_LIBRARY", "FORMAT", "METHODS", "Study", "StudyCellRecord", "StudyError", "StudyResult",
-    "StudyRow", "StudyTarget", "TargetFiles", "load_study", "parse_study", "CSV_COLUMNS", "CellTask", "cell_file",
-    "cell_fingerprint", "cell_plan", "cell_step", "run_cell", "run_study", "study_csv", "write_study",
+    "Cell",
+    "DEFAULT_LIBRARY",
+    "FORMAT",
+    "METHODS",
+    "Study",
+    "StudyCellRecord",
+    "StudyError",
+    "StudyResult",
+    "StudyRow",
+    "StudyTarget",
+    "TargetFiles",
+    "load_study",
+    "parse_study",
+    "CSV_COLUMNS",
+    "CellTask",
+    "cell_file",
+    "cell_fingerprint",
+    "cell_plan",
+    "cell_step",
+    "run_cell",
+    "run_study",
+    "study_csv",
+    "write_study",
 ]

@@ -7,7 +7,9 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+from sensorsel.designs.resilient import METHODS  # METHODS: how a cell with failures chooses
 from sensorsel.designs.selection import RULES, check_affordable
+from sensorsel.designs.study.records import DEFAULT_LIBRARY, Cell, Study, StudyError, TargetFiles
 from sensorsel.errors import SensorselError
 from sensorsel.information.evaluators import ENGINES
 from sensorsel.information.evaluators.domain import AGGREGATES
@@ -16,12 +18,21 @@ from sensorsel.model.domain import ROUTE_KEYS, SYNTHETIC, load_domain_file, pars
 from sensorsel.model.library import load_library
 from sensorsel.model.scenario import ScenarioSpec
 
-from sensorsel.designs.resilient import METHODS  # METHODS: how a cell with failures chooses
-from sensorsel.designs.study.records import DEFAULT_LIBRARY, Cell, Study, StudyError, TargetFiles
-
 _TOP_KEYS = ("target", "grid", "engine", "method", "certificate")
-_TARGET_KEYS = ("fixture", "seq", "kitti_root", "route", "format", "times", "landmarks", "rate", "clearance_m", "name",
-                "domain", "aggregate")
+_TARGET_KEYS = (
+    "fixture",
+    "seq",
+    "kitti_root",
+    "route",
+    "format",
+    "times",
+    "landmarks",
+    "rate",
+    "clearance_m",
+    "name",
+    "domain",
+    "aggregate",
+)
 _GRID_KEYS = ("budgets", "rules", "failures", "landmark_seeds", "libraries")
 
 
@@ -46,7 +57,7 @@ def _budget(c: Checker, value: Any, key: str, line: int) -> float:
         try:
             value = float(text)
         except ValueError:
-            c.fail(key, f"expected a number of dollars (5000, \"$110,000\"), got {value!r}", line)
+            c.fail(key, f'expected a number of dollars (5000, "$110,000"), got {value!r}', line)
     return c.number(value, key, line, strict=False)
 
 
@@ -85,8 +96,11 @@ def parse_study(data: Any, path: str | Path = "<memory>") -> Study:
 
     grid = data["grid"]
     if not isinstance(grid, Map):
-        c.fail("grid", f"expected a mapping (budgets, rules, failures, landmark_seeds, libraries), got {grid!r}",
-               data.lines["grid"])
+        c.fail(
+            "grid",
+            f"expected a mapping (budgets, rules, failures, landmark_seeds, libraries), got {grid!r}",
+            data.lines["grid"],
+        )
     c.keys(grid, "grid", _GRID_KEYS)
     raw_budgets, b_lines = _list(c, grid, "budgets", None)
     budgets = [_budget(c, v, f"grid.budgets[{i}]", ln) for i, (v, ln) in enumerate(zip(raw_budgets, b_lines))]
@@ -106,12 +120,20 @@ def parse_study(data: Any, path: str | Path = "<memory>") -> Study:
     if "landmark_seeds" in grid:
         line = grid.lines["landmark_seeds"]
         if domain is not None:
-            c.fail("grid.landmark_seeds", "a domain's routes name their own landmarks (its file): seeds go with one route", line)
+            c.fail(
+                "grid.landmark_seeds",
+                "a domain's routes name their own landmarks (its file): seeds go with one route",
+                line,
+            )
         if spec is None or spec.landmarks != SYNTHETIC:
             c.fail("grid.landmark_seeds", "seeds choose synthetic maps: give target.landmarks: synthetic", line)
         if fixed_seed:
-            c.fail("grid.landmark_seeds", "target.landmarks fixes its seed ({synthetic: {seed: N}}): give the seeds "
-                   "in one place (target.landmarks: synthetic)", line)
+            c.fail(
+                "grid.landmark_seeds",
+                "target.landmarks fixes its seed ({synthetic: {seed: N}}): give the seeds "
+                "in one place (target.landmarks: synthetic)",
+                line,
+            )
         raw_seeds, s_lines = _list(c, grid, "landmark_seeds", None)
         for i, (s, ln) in enumerate(zip(raw_seeds, s_lines)):
             if isinstance(s, bool) or not isinstance(s, int) or s < 0:
@@ -130,8 +152,11 @@ def parse_study(data: Any, path: str | Path = "<memory>") -> Study:
     cells: list[Cell] = []
     for (lib, lib_path), seed in itertools.product(zip(libs, lib_paths), seeds):
         t = len(targets)
-        targets.append(TargetFiles(replace(spec, landmark_seed=seed) if spec is not None and seed is not None else spec,
-                                    domain, lib_path))
+        targets.append(
+            TargetFiles(
+                replace(spec, landmark_seed=seed) if spec is not None and seed is not None else spec, domain, lib_path
+            )
+        )
         for alpha, rule, budget in itertools.product(failures, rules, budgets):
             cells.append(Cell(len(cells), lib, seed, alpha, rule, budget, t))
     _check_budgets(c, cells, targets, budgets, b_lines, failures, f_lines)
@@ -147,8 +172,11 @@ def _parse_target(c: Checker, raw: Any, line: int) -> tuple[ScenarioSpec | None,
     if "domain" in raw:
         other = [k for k in raw if k not in ("domain", "aggregate")]
         if other:
-            c.fail(f"target.{other[0]}", "a domain file lists its own routes, landmarks and rate: give domain alone "
-                   "(with aggregate)", ln(other[0]))
+            c.fail(
+                f"target.{other[0]}",
+                "a domain file lists its own routes, landmarks and rate: give domain alone (with aggregate)",
+                ln(other[0]),
+            )
         agg = raw.get("aggregate", AGGREGATES[0])
         if agg not in AGGREGATES:
             c.fail("target.aggregate", f"expected one of {', '.join(AGGREGATES)}, got {agg!r}", ln("aggregate"))
@@ -156,7 +184,11 @@ def _parse_target(c: Checker, raw: Any, line: int) -> tuple[ScenarioSpec | None,
     if "aggregate" in raw:
         c.fail("target.aggregate", "combines a domain's routes: it goes with target.domain", ln("aggregate"))
     rate = c.number(raw["rate"], "target.rate", ln("rate")) if "rate" in raw else 1.0
-    clearance = c.number(raw["clearance_m"], "target.clearance_m", ln("clearance_m"), strict=False) if "clearance_m" in raw else None
+    clearance = (
+        c.number(raw["clearance_m"], "target.clearance_m", ln("clearance_m"), strict=False)
+        if "clearance_m" in raw
+        else None
+    )
     name = c.string(raw["name"], "target.name", ln("name")) if "name" in raw else None
     route = Map({k: v for k, v in raw.items() if k in ROUTE_KEYS})
     route.line, route.lines = raw.line, raw.lines
@@ -166,8 +198,15 @@ def _parse_target(c: Checker, raw: Any, line: int) -> tuple[ScenarioSpec | None,
     return replace(r.spec, name=name), None, "", isinstance(landmarks, Map)
 
 
-def _check_budgets(c: Checker, cells: list[Cell], targets: list[TargetFiles], budgets: list[float],
-                   b_lines: list[int], failures: list[int], f_lines: list[int]) -> None:
+def _check_budgets(
+    c: Checker,
+    cells: list[Cell],
+    targets: list[TargetFiles],
+    budgets: list[float],
+    b_lines: list[int],
+    failures: list[int],
+    f_lines: list[int],
+) -> None:
     """Every budget must buy a sensor (more than alpha of them) from every library of the grid, as
     a command's --budget must (:func:`sensorsel.designs.selection.check_affordable`)."""
     seen: set[tuple[str, int, float]] = set()

@@ -12,15 +12,13 @@ from sensorsel.designs.resilient import METHODS  # how a cell with failures > 0 
 from sensorsel.io.results import result_kind
 from sensorsel.model.domain import DomainError, load_domain_file, load_domain_scenarios
 from sensorsel.model.library import load_library
-from sensorsel.model.problem import Fingerprint, GraphSettings, Target, TargetInfo, load_domain, load_problem
 from sensorsel.model.osm import load_geo_scenario
+from sensorsel.model.problem import Fingerprint, GraphSettings, Target, TargetInfo, load_domain, load_problem
 from sensorsel.model.scenario import ScenarioSpec
-
 
 #: Bumped when what a cell computes, or its file, changes (invalidates resume).
 FORMAT = 1
 DEFAULT_LIBRARY = "default"
-
 
 
 class StudyError(DomainError):
@@ -57,12 +55,20 @@ class TargetFiles:
             members: list[Any] = []
             for d in load_domain_scenarios(spec):
                 for c, share in d.conditions or ((None, 1.0),):
-                    members.append(route_entry(f"{d.name}/{c.name}" if c is not None else d.name, d.weight * share, d.unit,
-                                               Fingerprint.of(lib, d.scenario, settings, c)))
+                    members.append(
+                        route_entry(
+                            f"{d.name}/{c.name}" if c is not None else d.name,
+                            d.weight * share,
+                            d.unit,
+                            Fingerprint.of(lib, d.scenario, settings, c),
+                        )
+                    )
             return members
         assert self.spec is not None
         lib = load_library(self.library)
-        return [route_entry("", 1.0, "", Fingerprint.of(lib, load_geo_scenario(self.spec), settings, self.spec.condition))]
+        return [
+            route_entry("", 1.0, "", Fingerprint.of(lib, load_geo_scenario(self.spec), settings, self.spec.condition))
+        ]
 
 
 @dataclass(frozen=True)

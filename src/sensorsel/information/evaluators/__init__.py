@@ -18,9 +18,24 @@ from sensorsel.information.evaluators.reference import ReferenceEvaluator
 from sensorsel.information.evaluators.registry import DEFAULT_ENGINE, ENGINES, check_engine, make_evaluator, register
 from sensorsel.model.problem import Domain, Target
 
-__all__ = ["Evaluator", "ProblemEvaluator", "Suite", "as_suite", "ENGINES", "DEFAULT_ENGINE", "register",
-           "make_evaluator", "check_engine", "ReferenceEvaluator", "FastEvaluator", "DomainEvaluator", "AGGREGATES", "check_aggregate", "evaluator_for",
-           "evaluator_name"]
+__all__ = [
+    "Evaluator",
+    "ProblemEvaluator",
+    "Suite",
+    "as_suite",
+    "ENGINES",
+    "DEFAULT_ENGINE",
+    "register",
+    "make_evaluator",
+    "check_engine",
+    "ReferenceEvaluator",
+    "FastEvaluator",
+    "DomainEvaluator",
+    "AGGREGATES",
+    "check_aggregate",
+    "evaluator_for",
+    "evaluator_name",
+]
 
 
 def evaluator_name(target: Target, engine: str | None = None) -> str:
@@ -31,7 +46,9 @@ def evaluator_name(target: Target, engine: str | None = None) -> str:
     return DomainEvaluator.name if isinstance(target, Domain) else check_engine(engine)
 
 
-def evaluator_for(target: Target, engine: str | None = None, *, jobs: int = 1, aggregate: str = "normalised") -> Evaluator:
+def evaluator_for(
+    target: Target, engine: str | None = None, *, jobs: int = 1, aggregate: str = "normalised"
+) -> Evaluator:
     """The evaluator of a problem (an engine of :data:`ENGINES`) or of a domain (a
     :class:`DomainEvaluator` over that engine's per-route evaluators, combined by ``aggregate``)."""
     if isinstance(target, Domain):

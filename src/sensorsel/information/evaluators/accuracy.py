@@ -27,8 +27,8 @@ Two estimates (:data:`ESTIMATES`), and an accuracy always says which it is of:
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
-from typing import Iterable
 
 import numpy as np
 
@@ -44,8 +44,11 @@ MODELS = ("slam", "map")
 Z95 = 1.959963984540054
 
 #: the per-keyframe components: (field, unit, label)
-COMPONENTS = (("lateral_sigma_m", "m", "lateral"), ("longitudinal_sigma_m", "m", "longitudinal"),
-              ("heading_sigma_deg", "deg", "heading"))
+COMPONENTS = (
+    ("lateral_sigma_m", "m", "lateral"),
+    ("longitudinal_sigma_m", "m", "longitudinal"),
+    ("heading_sigma_deg", "deg", "heading"),
+)
 
 
 @dataclass(frozen=True)
@@ -107,11 +110,14 @@ class RouteAccuracy:
         for _, unit, label in COMPONENTS:
             s: Spread = getattr(self, label)
             d = 3 if unit == "m" else 2
-            parts.append(f"{label} {Z95 * s.median:.{d}f} / {Z95 * s.p95:.{d}f} / {Z95 * s.max:.{d}f} {unit} "
-                         f"(keyframe {s.worst_keyframe})")
-        return (f"{model_label(self.model, self.map_sigma_m)}, {estimate_label(self.estimate)}; 95% errors, median / "
-                "95th percentile / worst keyframe: "
-                + ", ".join(parts))
+            parts.append(
+                f"{label} {Z95 * s.median:.{d}f} / {Z95 * s.p95:.{d}f} / {Z95 * s.max:.{d}f} {unit} "
+                f"(keyframe {s.worst_keyframe})"
+            )
+        return (
+            f"{model_label(self.model, self.map_sigma_m)}, {estimate_label(self.estimate)}; 95% errors, median / "
+            "95th percentile / worst keyframe: " + ", ".join(parts)
+        )
 
 
 def model_label(model: str, map_sigma_m: float | None) -> str:
@@ -129,12 +135,14 @@ def estimate_label(estimate: str) -> str:
 def _spread(values: np.ndarray) -> Spread:
     if values.size == 0:
         return Spread(math.nan, math.nan, math.nan, -1)
-    return Spread(float(np.median(values)), float(np.percentile(values, 95.0)), float(values.max()),
-                  int(np.argmax(values)))
+    return Spread(
+        float(np.median(values)), float(np.percentile(values, 95.0)), float(values.max()), int(np.argmax(values))
+    )
 
 
-def accuracy_from_covariances(covariances: np.ndarray, *, map_sigma_m: float | None, route: str = "",
-                              estimate: str = "smoother") -> RouteAccuracy:
+def accuracy_from_covariances(
+    covariances: np.ndarray, *, map_sigma_m: float | None, route: str = "", estimate: str = "smoother"
+) -> RouteAccuracy:
     """The :class:`RouteAccuracy` of (K, 3, 3) pose marginal covariances (Pose2 tangent: x forward,
     y left [m], θ [rad]); ``map_sigma_m`` None for the SLAM model; ``estimate`` the estimate they
     are of (:data:`ESTIMATES`)."""
@@ -142,18 +150,33 @@ def accuracy_from_covariances(covariances: np.ndarray, *, map_sigma_m: float | N
     diag = np.sqrt(np.maximum(np.diagonal(cov, axis1=1, axis2=2), 0.0))  # (K, 3)
     lon, lat, head = diag[:, 0], diag[:, 1], np.degrees(diag[:, 2])
     return RouteAccuracy(
-        model="slam" if map_sigma_m is None else "map", map_sigma_m=map_sigma_m,
-        lateral_sigma_m=tuple(lat.tolist()), longitudinal_sigma_m=tuple(lon.tolist()),
+        model="slam" if map_sigma_m is None else "map",
+        map_sigma_m=map_sigma_m,
+        lateral_sigma_m=tuple(lat.tolist()),
+        longitudinal_sigma_m=tuple(lon.tolist()),
         heading_sigma_deg=tuple(head.tolist()),
-        lateral=_spread(lat), longitudinal=_spread(lon), heading=_spread(head), route=route,
-        estimate=check_estimate(estimate))
+        lateral=_spread(lat),
+        longitudinal=_spread(lon),
+        heading=_spread(head),
+        route=route,
+        estimate=check_estimate(estimate),
+    )
 
 
-def route_accuracy(evaluator: ProblemEvaluator, suite: Iterable[int], *, map_sigma_m: float | None = None,
-                   route: str = "", estimate: str = "filter") -> RouteAccuracy:
+def route_accuracy(
+    evaluator: ProblemEvaluator,
+    suite: Iterable[int],
+    *,
+    map_sigma_m: float | None = None,
+    route: str = "",
+    estimate: str = "filter",
+) -> RouteAccuracy:
     """The accuracy of ``suite`` (library positions) on the evaluator's route, in the SLAM model
     (``map_sigma_m`` None) or localizing in a map whose landmarks are known to ``map_sigma_m`` [m];
     of the filter's estimate (as the car drives, the default) or the smoother's (:data:`ESTIMATES`)."""
-    return accuracy_from_covariances(evaluator.pose_covariances(suite, map_sigma_m=map_sigma_m, estimate=estimate),
-                                     map_sigma_m=map_sigma_m, route=route or evaluator.problem.scenario.name,
-                                     estimate=estimate)
+    return accuracy_from_covariances(
+        evaluator.pose_covariances(suite, map_sigma_m=map_sigma_m, estimate=estimate),
+        map_sigma_m=map_sigma_m,
+        route=route or evaluator.problem.scenario.name,
+        estimate=estimate,
+    )

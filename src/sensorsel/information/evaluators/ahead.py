@@ -36,7 +36,7 @@ route, so most calls scored ahead are never asked (32 of 189 used on 2 threads).
 
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -49,8 +49,14 @@ COST_POWER = 1.7
 MIN_PLACES = 4
 
 
-def next_routes(scale: np.ndarray, work: np.ndarray, stale: np.ndarray, known: np.ndarray | None,
-                mirror: np.ndarray, clear: np.ndarray) -> list[int]:
+def next_routes(
+    scale: np.ndarray,
+    work: np.ndarray,
+    stale: np.ndarray,
+    known: np.ndarray | None,
+    mirror: np.ndarray,
+    clear: np.ndarray,
+) -> list[int]:
     """The routes a candidate would be scored on next, likeliest first, as
     :meth:`DomainEvaluator.scores_or_bounds` orders them: its unknown terms largest per unit of
     work (infinite ones first, in route order), a mirror's term counted with its clear member's.
@@ -85,8 +91,12 @@ def breadth_first(lists: Sequence[list[int]], candidates: Sequence[int]) -> list
     return out
 
 
-def fill(places: list[tuple[frozenset[int] | None, float]], home: dict[int, int],
-         pairs: Sequence[tuple[int, int]], cost: np.ndarray) -> dict[int, list[int]]:
+def fill(
+    places: list[tuple[frozenset[int] | None, float]],
+    home: dict[int, int],
+    pairs: Sequence[tuple[int, int]],
+    cost: np.ndarray,
+) -> dict[int, list[int]]:
     """Route calls scored ahead: {route: candidates}.
 
     Args:
@@ -108,8 +118,11 @@ def fill(places: list[tuple[frozenset[int] | None, float]], home: dict[int, int]
     for k, c in pairs:
         if k in home:
             continue  # a route with a call of the round: scored ahead after it, its call would take longer
-        allowed = [where[k]] if k in where else [p for p, (routes, load) in enumerate(places)
-                                                 if (routes is None or k in routes) and load == 0.0]
+        allowed = (
+            [where[k]]
+            if k in where
+            else [p for p, (routes, load) in enumerate(places) if (routes is None or k in routes) and load == 0.0]
+        )
         fits = [p for p in allowed if loads[p] + float(cost[k]) <= top]
         if not fits:
             continue

@@ -14,7 +14,8 @@ the tests); faster engines are registered in :data:`sensorsel.information.evalua
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from typing import ClassVar, Iterable, Sequence
+from collections.abc import Iterable, Sequence
+from typing import ClassVar
 
 import numpy as np
 
@@ -79,8 +80,9 @@ class Evaluator(ABC):
         base = as_suite(suite)
         return np.array([self.score(base + (c,)) for c in candidates], dtype=float)
 
-    def scores_or_bounds(self, suite: Iterable[int], candidates: Sequence[int],
-                         needed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def scores_or_bounds(
+        self, suite: Iterable[int], candidates: Sequence[int], needed: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
         """For each candidate c, f(S + {c}) exactly, or (where the evaluator can tell more cheaply)
         an upper bound on it below ``needed[i]``, the value it must reach to matter to the caller:
         (values, exact), shape (len(candidates),) each. Lazy greedy calls this; the default scores
@@ -141,8 +143,9 @@ class ProblemEvaluator(Evaluator):
         """f(S) = log det L(S) - log det L(empty) [nats]."""
         return self.logdet(suite) - self.baseline_logdet
 
-    def pose_covariances(self, suite: Iterable[int], *, map_sigma_m: float | None = None,
-                         estimate: str = "smoother") -> np.ndarray:
+    def pose_covariances(
+        self, suite: Iterable[int], *, map_sigma_m: float | None = None, estimate: str = "smoother"
+    ) -> np.ndarray:
         """The marginal covariance of every keyframe's pose under the suite, shape (K, 3, 3), in
         Pose2's tangent space at the truth: (dx, dy [m] in the keyframe's own frame, x forward and
         y to the left; dθ [rad]), as GTSAM's ``Marginals.marginalCovariance(X(k))`` gives it.

@@ -28,7 +28,8 @@ from __future__ import annotations
 
 import pickle
 import time
-from typing import Any, Iterable, Sequence
+from collections.abc import Iterable, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -82,7 +83,9 @@ class RouteActor:
         """The route's engine's cheap bounds on the scores (None where it has none)."""
         return self.evaluator.score_bounds(suite, candidates)
 
-    def pose_covariances(self, suite: tuple[int, ...], map_sigma_m: float | None, estimate: str = "smoother") -> np.ndarray:
+    def pose_covariances(
+        self, suite: tuple[int, ...], map_sigma_m: float | None, estimate: str = "smoother"
+    ) -> np.ndarray:
         """The suite's (K, 3, 3) pose marginals on this route (``require``'s accuracy checks), of
         the filter's or the smoother's estimate."""
         t0 = time.perf_counter()
@@ -90,8 +93,9 @@ class RouteActor:
         self.busy_s, self.calls = self.busy_s + time.perf_counter() - t0, self.calls + 1
         return out
 
-    def pose_covariances_many(self, suites: list[tuple[int, ...]], map_sigma_m: float | None,
-                              estimate: str = "smoother") -> list[np.ndarray]:
+    def pose_covariances_many(
+        self, suites: list[tuple[int, ...]], map_sigma_m: float | None, estimate: str = "smoother"
+    ) -> list[np.ndarray]:
         """:meth:`pose_covariances` of each suite, in order (a batch of checks in one message)."""
         return [self.pose_covariances(s, map_sigma_m, estimate) for s in suites]
 
@@ -147,7 +151,7 @@ class _RemoteRoute(Evaluator):
 
     name = "remote"
 
-    def __init__(self, owner: "DistributedDomainEvaluator", k: int) -> None:
+    def __init__(self, owner: DistributedDomainEvaluator, k: int) -> None:
         super().__init__(owner.library, jobs=owner.jobs)
         self.owner, self.k = owner, k
 
@@ -174,8 +178,9 @@ class _RemoteRoute(Evaluator):
     def score_bounds(self, suite: Iterable[int], candidates: Sequence[int]) -> tuple[float, np.ndarray] | None:
         return self._ask("score_bounds", suite, candidates)
 
-    def pose_covariances(self, suite: Iterable[int], *, map_sigma_m: float | None = None,
-                         estimate: str = "smoother") -> np.ndarray:
+    def pose_covariances(
+        self, suite: Iterable[int], *, map_sigma_m: float | None = None, estimate: str = "smoother"
+    ) -> np.ndarray:
         """The route's pose marginals, computed by its actor (the same bytes as in-process)."""
         s = as_suite(suite)
         self._check_positions(s)
@@ -214,8 +219,16 @@ class DistributedDomainEvaluator(DomainEvaluator):
         wait_s: seconds the client spent waiting for answers [s].
     """
 
-    def __init__(self, client: Any, domain: Domain, engine: str | None = None, *, jobs: int = 1,
-                 aggregate: str = "normalised", retries: int = 3) -> None:
+    def __init__(
+        self,
+        client: Any,
+        domain: Domain,
+        engine: str | None = None,
+        *,
+        jobs: int = 1,
+        aggregate: str = "normalised",
+        retries: int = 3,
+    ) -> None:
         Evaluator.__init__(self, domain.library, jobs=jobs)
         self.domain = domain
         self.engine = check_engine(engine)
@@ -270,8 +283,9 @@ class DistributedDomainEvaluator(DomainEvaluator):
             except Exception as exc:  # the worker died while building: once more anywhere
                 if w is None:
                     names = ", ".join(repr(self.recipes[k].name) for k in owned[w])
-                    raise ClusterError(f"route(s) {names} could not be built on the cluster "
-                                       f"({type(exc).__name__}: {exc})") from None
+                    raise ClusterError(
+                        f"route(s) {names} could not be built on the cluster ({type(exc).__name__}: {exc})"
+                    ) from None
                 self.n_rebuilt += len(owned[w])
                 self._build({None: owned[w]})
                 continue
@@ -333,8 +347,10 @@ class DistributedDomainEvaluator(DomainEvaluator):
                 return out
             if attempt == self.retries:
                 k, err = next(iter(failed.items()))
-                raise ClusterError(f"route {self.recipes[k].name!r}: its worker was lost {self.retries + 1} times "
-                                   f"({type(err).__name__}: {err})")
+                raise ClusterError(
+                    f"route {self.recipes[k].name!r}: its worker was lost {self.retries + 1} times "
+                    f"({type(err).__name__}: {err})"
+                )
             time.sleep(0.2 * (attempt + 1))  # let the scheduler notice the dead worker
             self.n_rebuilt += len(failed)
             self._build({None: sorted(failed)})
@@ -377,13 +393,16 @@ class DistributedDomainEvaluator(DomainEvaluator):
         for concurrent callers."""
         return {int(k): one(int(k)) for k in (range(len(self.recipes)) if routes is None else routes)}
 
-    def _ask_members(self, method: str, base: tuple[int, ...], cand: list[int], members: Iterable[int]) -> dict[int, Any]:
+    def _ask_members(
+        self, method: str, base: tuple[int, ...], cand: list[int], members: Iterable[int]
+    ) -> dict[int, Any]:
         """Each member's ``method(base, cand)``, every actor asked at once (the bounds of
         :meth:`DomainEvaluator.gain_bounds` and :meth:`DomainEvaluator.score_bounds`: the same numbers)."""
         return self._call({k: (method, (base, cand)) for k in members})
 
-    def _ask_members_grouped(self, base: tuple[int, ...], groups: dict[int, list[int]],
-                             ahead: dict[int, list[int]] | None = None) -> dict[int, np.ndarray]:
+    def _ask_members_grouped(
+        self, base: tuple[int, ...], groups: dict[int, list[int]], ahead: dict[int, list[int]] | None = None
+    ) -> dict[int, np.ndarray]:
         """Lazy greedy's route scores (:meth:`DomainEvaluator.scores_or_bounds`), every actor asked at
         once, each route's proxy counting its evaluations as its evaluator does in-process; with
         ``ahead`` ({route: candidates}), those scored ahead in the same call, after the round's
@@ -407,8 +426,9 @@ class DistributedDomainEvaluator(DomainEvaluator):
         home = {k: p for p, ks in enumerate(places) for k in ks if k in load}
         return [(frozenset(ks), sum(load.get(k, 0.0) for k in ks)) for ks in places], home
 
-    def _routes_pose_covariances(self, one: Any, batch: list[tuple[int, ...]], routes: list[int], map_sigma_m: float | None,
-                                 estimate: str) -> dict[int, list[np.ndarray]]:
+    def _routes_pose_covariances(
+        self, one: Any, batch: list[tuple[int, ...]], routes: list[int], map_sigma_m: float | None, estimate: str
+    ) -> dict[int, list[np.ndarray]]:
         """Every route's suites in one round: one message per worker, its routes' batches together."""
         got = self._call({k: ("pose_covariances_many", (batch, map_sigma_m, estimate)) for k in routes})
         return {k: [np.asarray(c) for c in got[k]] for k in routes}
@@ -416,7 +436,9 @@ class DistributedDomainEvaluator(DomainEvaluator):
     def busy(self) -> dict[str, tuple[float, int, str]]:
         """Each route's (seconds its actor spent scoring, calls it answered, the worker holding it)."""
         got = self._call({k: ("busy", ()) for k in range(len(self.recipes))})
-        return {self.recipes[k].name: (float(got[k][0]), int(got[k][1]), str(got[k][2])) for k in range(len(self.recipes))}
+        return {
+            self.recipes[k].name: (float(got[k][0]), int(got[k][1]), str(got[k][2])) for k in range(len(self.recipes))
+        }
 
     def costs(self) -> dict[str, tuple[float, int]]:
         """Each route's (build seconds, resident bytes) on its worker (see :meth:`RouteActor.cost`)."""

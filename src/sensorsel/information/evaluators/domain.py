@@ -34,9 +34,10 @@ covariance and pair quadratics make their gain bounds (:meth:`DomainEvaluator._m
 from __future__ import annotations
 
 import weakref
+from collections.abc import Iterable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
-from typing import Any, Iterable, Sequence
+from typing import Any
 
 import numpy as np
 from threadpoolctl import ThreadpoolController
@@ -115,11 +116,14 @@ def planned_alike(domain: Domain, partner: np.ndarray) -> np.ndarray:
     (``partner`` from :func:`clear_partners`; False without one). An engine may plan its work by
     what the whole library measures (the fast engine groups the measured landmarks into tiles), so
     two members give the same bytes for a suite they measure alike only when that agrees too."""
+
     def seen(k: int) -> np.ndarray:
         obs = domain.routes[k].problem.observations
         return np.unique(np.concatenate([o.landmark for o in obs])) if obs else np.zeros(0, dtype=int)
 
-    return np.array([p >= 0 and np.array_equal(seen(k), seen(int(p))) for k, p in enumerate(partner.tolist())], dtype=bool)
+    return np.array(
+        [p >= 0 and np.array_equal(seen(k), seen(int(p))) for k, p in enumerate(partner.tolist())], dtype=bool
+    )
 
 
 def check_aggregate(aggregate: str) -> str:
@@ -159,7 +163,9 @@ class DomainEvaluator(Evaluator):
     _pool: ThreadPoolExecutor | None = None  # the members' threads, started on first use
     _blas: ThreadpoolController | None = None
 
-    def __init__(self, domain: Domain, engine: str | None = None, *, jobs: int = 1, aggregate: str = "normalised") -> None:
+    def __init__(
+        self, domain: Domain, engine: str | None = None, *, jobs: int = 1, aggregate: str = "normalised"
+    ) -> None:
         super().__init__(domain.library, jobs=jobs)
         self.domain = domain
         self.engine = check_engine(engine)
@@ -169,7 +175,10 @@ class DomainEvaluator(Evaluator):
         work = [float(r.problem.scenario.n_poses) for r in domain.routes]
         members = list(range(len(domain.routes)))
         self.routes: tuple[ProblemEvaluator, ...] = tuple(
-            self._on_threads(lambda k: make_evaluator(domain.routes[k].problem, self.engine, jobs=jobs), members, work).values())
+            self._on_threads(
+                lambda k: make_evaluator(domain.routes[k].problem, self.engine, jobs=jobs), members, work
+            ).values()
+        )
         everything = tuple(range(len(self.library)))
         best = self._on_threads(lambda k: self.routes[k].score(everything), members, work)
         self.set_normalisers([best[k] for k in members])
@@ -187,8 +196,10 @@ class DomainEvaluator(Evaluator):
         self.best = np.array(best, dtype=float)
         for r, f_all in zip(domain.routes, self.best):
             if not f_all > 0:
-                raise InputError(f"domain {domain.source}: route {r.name!r}: no sensor of the library measures any "
-                                 f"landmark ({r.problem.scenario.landmark_source}); its share of the best is undefined")
+                raise InputError(
+                    f"domain {domain.source}: route {r.name!r}: no sensor of the library measures any "
+                    f"landmark ({r.problem.scenario.landmark_source}); its share of the best is undefined"
+                )
         self.scale = self.weights / self.best if self.aggregate == "normalised" else self.weights.copy()
         # what lazy greedy's member-by-member scoring knows (here, as every evaluator of a domain sets its normalisers)
         self._lazy: MemberBounds | None = None
@@ -218,8 +229,14 @@ class DomainEvaluator(Evaluator):
         time): then every answer is the bytes of a run on one thread."""
         return self._on_threads(one, list(range(len(self.routes))) if routes is None else [int(k) for k in routes])
 
-    def pose_covariances_batch(self, suites: Sequence[Iterable[int]], routes: Sequence[int] | None = None, *,
-                               map_sigma_m: float | None = None, estimate: str = "smoother") -> dict[tuple[int, int], np.ndarray]:
+    def pose_covariances_batch(
+        self,
+        suites: Sequence[Iterable[int]],
+        routes: Sequence[int] | None = None,
+        *,
+        map_sigma_m: float | None = None,
+        estimate: str = "smoother",
+    ) -> dict[tuple[int, int], np.ndarray]:
         """Every route's pose covariances (K_r, 3, 3) under every suite, by (suite's index, route):
         a batch of accuracy checks across suites and routes (``require``'s proposals) as one round,
         each route's suites on one thread (one message per worker on a cluster); the bytes of each
@@ -230,13 +247,17 @@ class DomainEvaluator(Evaluator):
         ks = list(range(len(self.routes))) if routes is None else [int(k) for k in routes]
 
         def one(k: int) -> list[np.ndarray]:
-            return [np.asarray(self.routes[k].pose_covariances(s, map_sigma_m=map_sigma_m, estimate=estimate)) for s in batch]
+            return [
+                np.asarray(self.routes[k].pose_covariances(s, map_sigma_m=map_sigma_m, estimate=estimate))
+                for s in batch
+            ]
 
         got = self._routes_pose_covariances(one, batch, ks, map_sigma_m, estimate)
         return {(i, k): got[k][i] for i in range(len(batch)) for k in ks}
 
-    def _routes_pose_covariances(self, one: Any, batch: list[Suite], routes: list[int], map_sigma_m: float | None,
-                                 estimate: str) -> dict[int, list[np.ndarray]]:
+    def _routes_pose_covariances(
+        self, one: Any, batch: list[Suite], routes: list[int], map_sigma_m: float | None, estimate: str
+    ) -> dict[int, list[np.ndarray]]:
         """``one(k)`` of each route on the threads (a cluster's evaluator asks its actors instead)."""
         return self._on_threads(one, routes, {k: self.work[k] * len(batch) for k in routes})
 
@@ -267,9 +288,13 @@ class DomainEvaluator(Evaluator):
         # member's bounds, handed over by _bound_alike, bound theirs) scored 596 route evaluations
         # against 518 (their cameras' bounds, the clear ones, are too loose) and took longer
         got = self._member_gain_bounds(base, cand, st)
-        for k in range(len(self.routes)):  # first: the clear members' bounds reach their alike members before these are read
+        for k in range(
+            len(self.routes)
+        ):  # first: the clear members' bounds reach their alike members before these are read
             b = got.get(k)
-            if b is not None and st is not None:  # kept for the member-by-member scoring, with an allowance for round-off
+            if (
+                b is not None and st is not None
+            ):  # kept for the member-by-member scoring, with an allowance for round-off
                 allowed = np.asarray(b, dtype=float) * (1.0 + BOUND_SLACK) + BOUND_SLACK * max(1.0, abs(st.own[k]))
                 st.stale[k, cand] = np.minimum(st.stale[k, cand], allowed)
                 self._bound_alike(st, k, cand, np.asarray(b, dtype=float))
@@ -292,7 +317,9 @@ class DomainEvaluator(Evaluator):
         st = self._lazy_at(base, score=False)
         if st is not None:
             for k in range(len(self.routes)):
-                if got[k] is not None and cand:  # f_r(S + {c}) <= bound: Δ_r <= bound − f_r(S) (round-off allowed by the engine)
+                if (
+                    got[k] is not None and cand
+                ):  # f_r(S + {c}) <= bound: Δ_r <= bound − f_r(S) (round-off allowed by the engine)
                     st.stale[k, cand] = np.minimum(st.stale[k, cand], np.asarray(got[k][1], dtype=float) - st.own[k])
         return self.combined_score_bounds(got[k] for k in range(len(self.routes)))
 
@@ -306,7 +333,9 @@ class DomainEvaluator(Evaluator):
             got.append(np.asarray(bounds, dtype=float))
         return self.combine(np.stack(got)) if got else None
 
-    def combined_score_bounds(self, per_route: Iterable[tuple[float, np.ndarray] | None]) -> tuple[float, np.ndarray] | None:
+    def combined_score_bounds(
+        self, per_route: Iterable[tuple[float, np.ndarray] | None]
+    ) -> tuple[float, np.ndarray] | None:
         """The routes' (bound on f(S), bounds on each f(S + {c})) combined, as :meth:`combined_gain_bounds`."""
         own, got = [], []
         for bounds in per_route:
@@ -419,8 +448,9 @@ class DomainEvaluator(Evaluator):
         for j in np.flatnonzero(st.as_clear & (self._clear == k)).tolist():
             st.stale[j, cand] = np.minimum(st.stale[j, cand], allowed)
 
-    def scores_or_bounds(self, suite: Iterable[int], candidates: Sequence[int], needed: np.ndarray, *,
-                         ahead: Sequence[int] = ()) -> tuple[np.ndarray, np.ndarray]:
+    def scores_or_bounds(
+        self, suite: Iterable[int], candidates: Sequence[int], needed: np.ndarray, *, ahead: Sequence[int] = ()
+    ) -> tuple[np.ndarray, np.ndarray]:
         """For each candidate c, F(S + {c}) exactly, or an upper bound on it below ``needed`` (what
         it must reach to matter), scoring its routes one at a time (see the module's documentation).
 
@@ -455,7 +485,10 @@ class DomainEvaluator(Evaluator):
                 mirror = self._mirrors(st, c, known)
                 todo = np.isnan(known)
                 if not todo.any():
-                    out[i], exact[i] = float(self.combine(known)), True  # the route order of scores_with: the same bytes
+                    out[i], exact[i] = (
+                        float(self.combine(known)),
+                        True,
+                    )  # the route order of scores_with: the same bytes
                     continue
                 terms = np.where(todo, st.own + st.stale[:, c], known)
                 bound = float(self.combine(terms))
@@ -474,12 +507,16 @@ class DomainEvaluator(Evaluator):
                     gap[self._clear[j]] += gap[j]
                 gap[mirror] = -np.inf
                 prio = np.where(np.isinf(gap) & (gap > 0), np.inf, gap / self.work)
-                for m in np.argsort(-prio, kind="stable")[:min(width, int(ask.sum()))].tolist():
+                for m in np.argsort(-prio, kind="stable")[: min(width, int(ask.sum()))].tolist():
                     groups.setdefault(m, []).append(i)
             open_ = sorted({i for idx in groups.values() for i in idx})
             groups = dict(sorted(groups.items()))  # routes asked in route order
-            got = self._answer(st, base, {k: [cand[i] for i in idx] for k, idx in groups.items()},
-                               [cand[i] for i in open_] + [int(c) for c in ahead if int(c) not in cand])
+            got = self._answer(
+                st,
+                base,
+                {k: [cand[i] for i in idx] for k, idx in groups.items()},
+                [cand[i] for i in open_] + [int(c) for c in ahead if int(c) not in cand],
+            )
             for k, idx in groups.items():
                 for i, v in zip(idx, np.asarray(got[k], dtype=float)):
                     c = cand[i]
@@ -512,7 +549,9 @@ class DomainEvaluator(Evaluator):
                 st.stale[j, c] = min(st.stale[j, c], v - st.own[j])
         return mirror
 
-    def _answer(self, st: MemberBounds, base: Suite, groups: dict[int, list[int]], hopeful: list[int]) -> dict[int, np.ndarray]:
+    def _answer(
+        self, st: MemberBounds, base: Suite, groups: dict[int, list[int]], hopeful: list[int]
+    ) -> dict[int, np.ndarray]:
         """f_k(S + {c}) for the candidates ``groups[k]`` of each member k: those scored ahead read
         back (and counted as evaluations now, where a one-thread run computes them), the others asked
         (:meth:`_ask_members_grouped`) with, on the places the round leaves idle, calls scored ahead
@@ -531,10 +570,10 @@ class DomainEvaluator(Evaluator):
         spec = self._plan_ahead(st, asked, hopeful)
         got = self._ask_members_grouped(base, asked, spec)
         for k, cs in asked.items():
-            vals = iter(np.asarray(got[k], dtype=float)[:len(cs)].tolist())
+            vals = iter(np.asarray(got[k], dtype=float)[: len(cs)].tolist())
             out[k] = np.array([v if not np.isnan(v) else next(vals) for v in out[k].tolist()], dtype=float)
         for k, cs in spec.items():
-            mine = np.asarray(got[k], dtype=float)[len(asked.get(k, ())):]  # after the round's own candidates
+            mine = np.asarray(got[k], dtype=float)[len(asked.get(k, ())) :]  # after the round's own candidates
             st.ahead.update({(k, c): float(v) for c, v in zip(cs, mine.tolist())})
             self.n_ahead += len(cs)
         return out
@@ -542,7 +581,7 @@ class DomainEvaluator(Evaluator):
     def _plan_ahead(self, st: MemberBounds, asked: dict[int, list[int]], hopeful: list[int]) -> dict[int, list[int]]:
         """{route: candidates} scored ahead in this round (:func:`.ahead.fill`), from the places
         (:meth:`_places`) and each hopeful candidate's next routes; nothing on one place."""
-        cost = self.work ** ahead_.COST_POWER
+        cost = self.work**ahead_.COST_POWER
         places, home = self._places({k: float(cost[k]) * len(cs) for k, cs in asked.items()})
         if len(places) < max(2, self.ahead_from) or not hopeful:
             return {}
@@ -562,8 +601,9 @@ class DomainEvaluator(Evaluator):
         loads, home = ahead_.lpt(load, self.jobs)
         return [(None, x) for x in loads], home
 
-    def _ask_members_grouped(self, base: Suite, groups: dict[int, list[int]],
-                             ahead: dict[int, list[int]] | None = None) -> dict[int, np.ndarray]:
+    def _ask_members_grouped(
+        self, base: Suite, groups: dict[int, list[int]], ahead: dict[int, list[int]] | None = None
+    ) -> dict[int, np.ndarray]:
         """f_k(S + {c}) for the candidates ``groups[k]`` of each member k (one route call each), the
         routes on :attr:`jobs` threads (a lazy step asks for one or two candidates, often on
         different routes: one thread each); with ``ahead`` ({route: candidates}), those too, in the

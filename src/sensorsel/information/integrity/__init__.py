@@ -12,5 +12,14 @@ from sensorsel.information.integrity.association import AssociationModel, Measur
 from sensorsel.information.integrity.bounds import IntegrityBounds
 from sensorsel.information.integrity.risk import IntegritySpec, LeftOut, RouteIntegrity, route_integrity
 
-__all__ = ["AssociationModel", "IntegrityBounds", "IntegritySpec", "LeftOut", "MeasurementRisk", "RouteIntegrity",
-           "gate_of", "measurement_risks", "route_integrity"]
+__all__ = [
+    "AssociationModel",
+    "IntegrityBounds",
+    "IntegritySpec",
+    "LeftOut",
+    "MeasurementRisk",
+    "RouteIntegrity",
+    "gate_of",
+    "measurement_risks",
+    "route_integrity",
+]

@@ -134,9 +134,12 @@ def _remainder(sigma_ab: np.ndarray, rng_m: np.ndarray, s_inv: np.ndarray, ks: n
     ok = a < r
     x = np.where(ok, r - a, 1.0)
     rho_b = a * b / (r * x) + (b / x) ** 3 / 3.0
-    rho_r = b ** 2 / (2.0 * x)
-    q = (rho_b ** 2 * s_inv[:, 0, 0, None] + rho_r ** 2 * s_inv[:, 1, 1, None]
-         + 2.0 * rho_b * rho_r * np.abs(s_inv[:, 0, 1, None]))
+    rho_r = b**2 / (2.0 * x)
+    q = (
+        rho_b**2 * s_inv[:, 0, 0, None]
+        + rho_r**2 * s_inv[:, 1, 1, None]
+        + 2.0 * rho_b * rho_r * np.abs(s_inv[:, 0, 1, None])
+    )
     return np.where(ok, np.sqrt(q), np.inf)
 
 
@@ -203,13 +206,27 @@ class AssociationModel:
             near = near[np.isin(near, np.asarray(prediction.landmarks, np.int64))]
         return near
 
-    def risks(self, prediction: Prediction, meas: KeyframeMeasurements, *, linear: bool = False,
-              robust_to_covariance: bool = False) -> MeasurementRisk:
+    def risks(
+        self,
+        prediction: Prediction,
+        meas: KeyframeMeasurements,
+        *,
+        linear: bool = False,
+        robust_to_covariance: bool = False,
+    ) -> MeasurementRisk:
         """The estimate and bound of P(wrong association) of each of ``meas`` at ``prediction``
         (``linear``, ``robust_to_covariance``: :func:`measurement_risks`)."""
-        return measurement_risks(self._poses[meas.keyframe], self._points, prediction, meas,
-                                 self.candidates(prediction, meas), gate=self.gate, model=self.model,
-                                 linear=linear, robust_to_covariance=robust_to_covariance)
+        return measurement_risks(
+            self._poses[meas.keyframe],
+            self._points,
+            prediction,
+            meas,
+            self.candidates(prediction, meas),
+            gate=self.gate,
+            model=self.model,
+            linear=linear,
+            robust_to_covariance=robust_to_covariance,
+        )
 
 
 def _spreads(prediction: Prediction, *, with_prior: bool = True) -> tuple[float, float, float]:
@@ -223,7 +240,9 @@ def _spreads(prediction: Prediction, *, with_prior: bool = True) -> tuple[float,
     return math.sqrt(cov[0, 0] + cov[1, 1]), math.sqrt(cov[2, 2]), sd_lm
 
 
-def candidate_reach(prediction: Prediction, meas: KeyframeMeasurements, gate: float, *, model: str = "map") -> np.ndarray:
+def candidate_reach(
+    prediction: Prediction, meas: KeyframeMeasurements, gate: float, *, model: str = "map"
+) -> np.ndarray:
     """(m,) how far from the car [m] a candidate of each measurement may lie: CANDIDATE_SCALE r +
     CANDIDATE_MARGIN_M (the associator's stated reach at the true range r), widened to
     r + (√γ + FAR_SIGMAS) √(s_bb + s_rr) where the measurement's range noise is large.
@@ -237,15 +256,24 @@ def candidate_reach(prediction: Prediction, meas: KeyframeMeasurements, gate: fl
     weak prior of the landmarks out of it (100 m) would make every landmark of the route a candidate."""
     sd_xy, sd_th, sd_lm = _spreads(prediction, with_prior=model != "slam")
     r = np.asarray(meas.range_m, float)
-    s_bb = r ** 2 * np.asarray(meas.sigma_bearing_rad, float) ** 2 + (sd_xy + sd_lm + r * sd_th) ** 2
+    s_bb = r**2 * np.asarray(meas.sigma_bearing_rad, float) ** 2 + (sd_xy + sd_lm + r * sd_th) ** 2
     s_rr = np.asarray(meas.sigma_range_m, float) ** 2 + (sd_xy + sd_lm) ** 2
     wide = r + (math.sqrt(gate) + FAR_SIGMAS) * np.sqrt(s_bb + s_rr)
     return np.maximum(CANDIDATE_SCALE * r + CANDIDATE_MARGIN_M, wide)
 
 
-def measurement_risks(pose: np.ndarray, points: np.ndarray, prediction: Prediction, meas: KeyframeMeasurements,
-                      candidates: np.ndarray, *, gate: float, model: str, linear: bool = False,
-                      robust_to_covariance: bool = False) -> MeasurementRisk:
+def measurement_risks(
+    pose: np.ndarray,
+    points: np.ndarray,
+    prediction: Prediction,
+    meas: KeyframeMeasurements,
+    candidates: np.ndarray,
+    *,
+    gate: float,
+    model: str,
+    linear: bool = False,
+    robust_to_covariance: bool = False,
+) -> MeasurementRisk:
     """The estimate and bound of P(wrong association) of each measurement of ``meas``, made from
     ``pose`` (x [m], y [m], heading [rad]: the truth) of landmarks ``points`` (M, 2) [m], against
     ``candidates`` (landmark indices; the truly measured one is skipped), the gate γ and the model
@@ -289,13 +317,16 @@ def measurement_risks(pose: np.ndarray, points: np.ndarray, prediction: Predicti
     cov = np.asarray(prediction.covariance, float)
     diag = np.diagonal(cov)
     inside = np.maximum(slot_j, 0)
-    sd_lj = np.where(slot_j >= 0, np.sqrt(np.maximum(diag[3 + 2 * inside] + diag[4 + 2 * inside], 0.0))
-                     if len(diag) > 3 else 0.0, math.sqrt(2.0) * float(prediction.prior_sigma_m))
+    sd_lj = np.where(
+        slot_j >= 0,
+        np.sqrt(np.maximum(diag[3 + 2 * inside] + diag[4 + 2 * inside], 0.0)) if len(diag) > 3 else 0.0,
+        math.sqrt(2.0) * float(prediction.prior_sigma_m),
+    )
     r_i = meas.range_m[mi]
     r_j = np.maximum(near_dist[near_at], 1e-9)
-    s_bb = r_i ** 2 * (meas.sigma_bearing_rad[mi] ** 2 + ((sd_xy + sd_lj) / r_j + sd_th) ** 2)
+    s_bb = r_i**2 * (meas.sigma_bearing_rad[mi] ** 2 + ((sd_xy + sd_lj) / r_j + sd_th) ** 2)
     s_rr = meas.sigma_range_m[mi] ** 2 + (sd_xy + sd_lj) ** 2
-    far_k = _K_GRID[_K_FAR:_K_FAR + 1]
+    far_k = _K_GRID[_K_FAR : _K_FAR + 1]
     sd_w = (sd_xy + sd_lj)[:, None] * np.ones(2)
     rho_up = _remainder(sd_w, r_j, _noise_inverse(meas, mi), far_k)[:, 0]
     lam_low = ((r_i * d[:, 0]) ** 2 + d[:, 1] ** 2) / (s_bb + s_rr)
@@ -335,7 +366,7 @@ def measurement_risks(pose: np.ndarray, points: np.ndarray, prediction: Predicti
         rho_i = _remainder(ps.sigma_i, ps.range_i, np.linalg.inv(ps.s_i))  # (n', K): equal within a measurement
         short = np.maximum(np.sqrt(ts)[None, :, None] - rho_i[:, None, :], 0.0)  # (n', T, K)
         g_i = np.ones((m, len(ts)))
-        g_i[mi[sel]] = np.min(_K_OUT[None, None, :] + np.exp(-0.5 * short ** 2), axis=2)
+        g_i[mi[sel]] = np.min(_K_OUT[None, None, :] + np.exp(-0.5 * short**2), axis=2)
         lnn = np.min(g_i + sums, axis=1)
         bnd = np.where(lower, np.minimum(bnd, lnn), bnd)
     if linear:  # the same with ρ = 0 and no outside mass
@@ -387,9 +418,17 @@ class _Pairs:
     sigma_i: np.ndarray
     range_i: np.ndarray
 
-    def select(self, mask: np.ndarray) -> "_Pairs":
-        return _Pairs(self.d[mask], self.s_i[mask], self.s_j[mask], self.c_d[mask], self.c_id[mask], self.lam[mask],
-                      self.sigma_i[mask], self.range_i[mask])
+    def select(self, mask: np.ndarray) -> _Pairs:
+        return _Pairs(
+            self.d[mask],
+            self.s_i[mask],
+            self.s_j[mask],
+            self.c_d[mask],
+            self.c_id[mask],
+            self.lam[mask],
+            self.sigma_i[mask],
+            self.range_i[mask],
+        )
 
 
 def _landmark_blocks(cov: np.ndarray, a: np.ndarray, b: np.ndarray, prior_var: float) -> np.ndarray:
@@ -413,8 +452,17 @@ def _pose_landmark(cov: np.ndarray, a: np.ndarray) -> np.ndarray:
     return out
 
 
-def _pair_moments(pose: np.ndarray, points: np.ndarray, prediction: Prediction, meas: KeyframeMeasurements,
-                  mi: np.ndarray, li: np.ndarray, cj: np.ndarray, slot_i: np.ndarray, slot_j: np.ndarray) -> _Pairs:
+def _pair_moments(
+    pose: np.ndarray,
+    points: np.ndarray,
+    prediction: Prediction,
+    meas: KeyframeMeasurements,
+    mi: np.ndarray,
+    li: np.ndarray,
+    cj: np.ndarray,
+    slot_i: np.ndarray,
+    slot_j: np.ndarray,
+) -> _Pairs:
     cov = np.asarray(prediction.covariance, float)
     prior_var = float(prediction.prior_sigma_m) ** 2
     n = len(mi)
@@ -448,9 +496,15 @@ def _pair_moments(pose: np.ndarray, points: np.ndarray, prediction: Prediction, 
     return _Pairs(d=d, s_i=s_i, s_j=s_j, c_d=c_d, c_id=c_id, lam=lam, sigma_i=sigma_i, range_i=range_i)
 
 
-def _candidate_moments(pose: np.ndarray, points: np.ndarray, prediction: Prediction, meas: KeyframeMeasurements,
-                       mi: np.ndarray, cj: np.ndarray, d: np.ndarray
-                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def _candidate_moments(
+    pose: np.ndarray,
+    points: np.ndarray,
+    prediction: Prediction,
+    meas: KeyframeMeasurements,
+    mi: np.ndarray,
+    cj: np.ndarray,
+    d: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """What the far-pair filter needs of each pair, from the (pose, l_j) 5 × 5 block alone: S_j
     (n, 2, 2), λ (n,), the line-of-sight spreads (n, 2) [m] and ranges (n,) [m] of candidate j
     (the same as :func:`_pair_moments`' for those pairs), and S_j⁻¹ (n, 2, 2). ``d`` (n, 2) the
@@ -484,7 +538,9 @@ def _inverse_2x2(a: np.ndarray) -> np.ndarray:
     return out
 
 
-def _line_of_sight_spread(pose: np.ndarray, points: np.ndarray, e: np.ndarray, col: int) -> tuple[np.ndarray, np.ndarray]:
+def _line_of_sight_spread(
+    pose: np.ndarray, points: np.ndarray, e: np.ndarray, col: int
+) -> tuple[np.ndarray, np.ndarray]:
     """(σ_a, σ_b) (n, 2) [m] of w = e_l − R(θ) e_xy along and across the line of sight to ``points``
     (n, 2), the landmark's error at columns ``col``, ``col + 1`` of the (n, q, q) covariance ``e``
     (the pose's position error in its own frame at columns 0, 1); and the true ranges (n,) [m]."""
@@ -494,15 +550,21 @@ def _line_of_sight_spread(pose: np.ndarray, points: np.ndarray, e: np.ndarray, c
     ux, uy = rel[:, 0] / rng, rel[:, 1] / rng
     # Cov(w) = E_ll + M E_pp Mᵀ − E_lp Mᵀ − M E_pl, M = R(θ) (2 × 2 blocks: cheap elementwise)
     rot = np.array([[c, -s], [s, c]])
-    e_lp = e[:, col:col + 2, :2] @ rot.T
-    cw = e[:, col:col + 2, col:col + 2] + rot @ e[:, :2, :2] @ rot.T - e_lp - np.transpose(e_lp, (0, 2, 1))
+    e_lp = e[:, col : col + 2, :2] @ rot.T
+    cw = e[:, col : col + 2, col : col + 2] + rot @ e[:, :2, :2] @ rot.T - e_lp - np.transpose(e_lp, (0, 2, 1))
     var_a = ux * ux * cw[:, 0, 0] + 2.0 * ux * uy * cw[:, 0, 1] + uy * uy * cw[:, 1, 1]
     var_b = uy * uy * cw[:, 0, 0] - 2.0 * ux * uy * cw[:, 0, 1] + ux * ux * cw[:, 1, 1]
     return np.sqrt(np.maximum(np.column_stack([var_a, var_b]), 0.0)), rng
 
 
-def _innovation_means(pose: np.ndarray, points: np.ndarray, meas: KeyframeMeasurements, mi: np.ndarray,
-                      cj: np.ndarray, at: np.ndarray | None = None) -> np.ndarray:
+def _innovation_means(
+    pose: np.ndarray,
+    points: np.ndarray,
+    meas: KeyframeMeasurements,
+    mi: np.ndarray,
+    cj: np.ndarray,
+    at: np.ndarray | None = None,
+) -> np.ndarray:
     """(n, 2) d: the true measurement of each pair's measurement minus candidate j's (bearing wrapped).
     With ``at``, ``cj`` are distinct candidates and pair p's is ``cj[at[p]]`` (each predicted once)."""
     ci, si = math.cos(pose[2]), math.sin(pose[2])
@@ -536,5 +598,5 @@ def _p_nearer(pair: _Pairs, chunk: int = 20000) -> np.ndarray:
         mean = np.einsum("nqa,nab,nqb->nq", sd, k_gain, dd - p.d[:, None, :])
         var = np.einsum("nqa,nab,nqb->nq", sd, v, sd)
         z = (-0.5 * quad - mean) / np.sqrt(np.maximum(var, 1e-300))
-        out[lo:lo + chunk] = np.clip(ndtr(z) @ w, 0.0, 1.0)
+        out[lo : lo + chunk] = np.clip(ndtr(z) @ w, 0.0, 1.0)
     return out

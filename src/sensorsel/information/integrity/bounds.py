@@ -33,14 +33,19 @@ hour and ``integrity_risk_per_hour(S) = n_h · mean_k min(1, tail_k(S) + w_k(S))
 
 from __future__ import annotations
 
-from typing import Iterable
+from collections.abc import Iterable
 
 import numpy as np
 
 from sensorsel.information.filtering import KeyframeMeasurements, Prediction, forward_pass
 from sensorsel.information.integrity.association import AssociationModel
-from sensorsel.information.integrity.risk import (IntegritySpec, RouteIntegrity, keyframes_per_hour, route_integrity,
-                                                  tail_risk)
+from sensorsel.information.integrity.risk import (
+    IntegritySpec,
+    RouteIntegrity,
+    keyframes_per_hour,
+    route_integrity,
+    tail_risk,
+)
 from sensorsel.model.problem import Problem
 
 __all__ = ["IntegrityBounds"]
@@ -56,8 +61,9 @@ class IntegrityBounds:
         map_sigma_m: the map's std [m]; None for SLAM (then the floor is 0).
     """
 
-    def __init__(self, problem: Problem, allowed: Iterable[int], spec: IntegritySpec, *,
-                 map_sigma_m: float | None = None) -> None:
+    def __init__(
+        self, problem: Problem, allowed: Iterable[int], spec: IntegritySpec, *, map_sigma_m: float | None = None
+    ) -> None:
         self.problem, self.spec, self.map_sigma_m = problem, spec, map_sigma_m
         self.allowed = tuple(sorted(set(int(s) for s in allowed)))
         self.keyframes_per_hour = keyframes_per_hour(problem)

@@ -27,8 +27,8 @@ measurements were left out is recorded per keyframe and sensor.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass, field
-from typing import Iterable
 
 import numpy as np
 from scipy.special import ndtr, ndtri
@@ -39,8 +39,17 @@ from sensorsel.information.integrity.association import AssociationModel, keyfra
 from sensorsel.io.results import result_kind
 from sensorsel.model.problem import Problem
 
-__all__ = ["IntegritySpec", "LeftOut", "RouteIntegrity", "SensorAssociation", "integrity_and_pass", "route_integrity", "tail_risk", "protection_levels",
-           "keyframes_per_hour"]
+__all__ = [
+    "IntegritySpec",
+    "LeftOut",
+    "RouteIntegrity",
+    "SensorAssociation",
+    "integrity_and_pass",
+    "route_integrity",
+    "tail_risk",
+    "protection_levels",
+    "keyframes_per_hour",
+]
 
 
 @dataclass(frozen=True)
@@ -66,10 +75,14 @@ class IntegritySpec:
     def __post_init__(self) -> None:
         def bad(x: float) -> bool:
             return not (isinstance(x, (int, float)) and math.isfinite(x))
+
         if bad(self.integrity_risk) or not 0.0 < self.integrity_risk < 1.0:
             raise InputError(f"--integrity-risk {self.integrity_risk}: a probability per hour strictly between 0 and 1")
-        for opt, v in (("--alert-lateral", self.alert_lateral_m), ("--alert-longitudinal", self.alert_longitudinal_m),
-                       ("--alert-heading", self.alert_heading_deg)):
+        for opt, v in (
+            ("--alert-lateral", self.alert_lateral_m),
+            ("--alert-longitudinal", self.alert_longitudinal_m),
+            ("--alert-heading", self.alert_heading_deg),
+        ):
             if bad(v) or v <= 0.0:
                 raise InputError(f"{opt} {v}: an alert limit must be a positive, finite number")
         if bad(self.gate_probability) or not 0.0 < self.gate_probability < 1.0:
@@ -171,8 +184,10 @@ class RouteIntegrity:
         n_h = self.keyframes_per_hour
         assoc_h = n_h * float(np.mean(pw)) if pw.size else 0.0
         tail_h = n_h * float(np.mean(self.p_error_tail)) if self.p_error_tail else 0.0
-        parts = [f"{self.integrity_risk_per_hour:.2g}/h {'meets' if self.meets else 'FAILS'} {s.integrity_risk:.2g}/h "
-                 f"(assoc. {assoc_h:.2g} + tail {tail_h:.2g})"]
+        parts = [
+            f"{self.integrity_risk_per_hour:.2g}/h {'meets' if self.meets else 'FAILS'} {s.integrity_risk:.2g}/h "
+            f"(assoc. {assoc_h:.2g} + tail {tail_h:.2g})"
+        ]
         if pw.size:
             worst = int(np.argmax(pw))
             parts.append(f"P(wrong) ≤ {pw[worst]:.2g} (kf {worst})")
@@ -263,13 +278,21 @@ class _Collector:
         self.estimate[meas.keyframe] = est
         if not mask.all():
             sensors, counts = np.unique(np.asarray(meas.sensor)[~mask], return_counts=True)
-            self.left_out.extend(LeftOut(int(meas.keyframe), self.sensor_ids[int(s)], int(c))
-                                 for s, c in zip(sensors.tolist(), counts.tolist()))
+            self.left_out.extend(
+                LeftOut(int(meas.keyframe), self.sensor_ids[int(s)], int(c))
+                for s, c in zip(sensors.tolist(), counts.tolist())
+            )
         return mask
 
 
-def route_integrity(problem: Problem, suite: Iterable[int], spec: IntegritySpec | None = None, *,
-                    map_sigma_m: float | None = None, route: str = "") -> RouteIntegrity:
+def route_integrity(
+    problem: Problem,
+    suite: Iterable[int],
+    spec: IntegritySpec | None = None,
+    *,
+    map_sigma_m: float | None = None,
+    route: str = "",
+) -> RouteIntegrity:
     """The integrity of ``suite`` (library positions) on the problem's route: one forward pass (the
     filter: the car's covariance as it drives) whose ``use`` hook computes each keyframe's
     association risks at the prediction and applies the lever; then the tail, the protection
@@ -277,15 +300,25 @@ def route_integrity(problem: Problem, suite: Iterable[int], spec: IntegritySpec 
     return integrity_and_pass(problem, suite, spec, map_sigma_m=map_sigma_m, route=route)[0]
 
 
-def integrity_and_pass(problem: Problem, suite: Iterable[int], spec: IntegritySpec | None = None, *,
-                       map_sigma_m: float | None = None, route: str = "") -> tuple[RouteIntegrity, FilterPass]:
+def integrity_and_pass(
+    problem: Problem,
+    suite: Iterable[int],
+    spec: IntegritySpec | None = None,
+    *,
+    map_sigma_m: float | None = None,
+    route: str = "",
+) -> tuple[RouteIntegrity, FilterPass]:
     """:func:`route_integrity` and the forward pass it ran: without the lever its ``filtered`` are the
     suite's filtered covariances (every measurement used), what its accuracy needs too."""
     spec = spec or IntegritySpec()
     model = "slam" if map_sigma_m is None else "map"
     assoc = AssociationModel(problem, model=model, gate_probability=spec.gate_probability)
-    hook = _Collector(assoc, spec.max_association_risk, tuple(s.id for s in problem.library.sensors),
-                      n_keyframes=problem.scenario.n_poses)
+    hook = _Collector(
+        assoc,
+        spec.max_association_risk,
+        tuple(s.id for s in problem.library.sensors),
+        n_keyframes=problem.scenario.n_poses,
+    )
     fp: FilterPass = forward_pass(problem, suite, map_sigma_m=map_sigma_m, use=hook)
     p_wrong = hook.bound
     n_h = keyframes_per_hour(problem)
@@ -294,15 +327,27 @@ def integrity_and_pass(problem: Problem, suite: Iterable[int], spec: IntegritySp
     lat, lon = protection_levels(fp.filtered, p_wrong, spec.integrity_risk / n_h)
     sig = _sigmas(fp.filtered)
     return RouteIntegrity(
-        route=route or problem.scenario.name, model=model, map_sigma_m=map_sigma_m, spec=spec, keyframes_per_hour=n_h,
-        p_wrong_association=tuple(p_wrong.tolist()), p_wrong_association_estimate=tuple(hook.estimate.tolist()),
-        integrity_risk=tuple(risk.tolist()), protection_level_lateral_m=tuple(lat.tolist()),
+        route=route or problem.scenario.name,
+        model=model,
+        map_sigma_m=map_sigma_m,
+        spec=spec,
+        keyframes_per_hour=n_h,
+        p_wrong_association=tuple(p_wrong.tolist()),
+        p_wrong_association_estimate=tuple(hook.estimate.tolist()),
+        integrity_risk=tuple(risk.tolist()),
+        protection_level_lateral_m=tuple(lat.tolist()),
         protection_level_longitudinal_m=tuple(lon.tolist()),
         integrity_risk_per_hour=float(n_h * risk.mean()) if risk.size else 0.0,
-        n_measured=tuple(int(x) for x in fp.n_measured), n_used=tuple(int(x) for x in fp.n_used),
-        left_out=tuple(hook.left_out), lateral_sigma_m=tuple(sig[:, 1].tolist()),
-        longitudinal_sigma_m=tuple(sig[:, 0].tolist()), heading_sigma_deg=tuple(sig[:, 2].tolist()),
+        n_measured=tuple(int(x) for x in fp.n_measured),
+        n_used=tuple(int(x) for x in fp.n_used),
+        left_out=tuple(hook.left_out),
+        lateral_sigma_m=tuple(sig[:, 1].tolist()),
+        longitudinal_sigma_m=tuple(sig[:, 0].tolist()),
+        heading_sigma_deg=tuple(sig[:, 2].tolist()),
         p_error_tail=tuple(tail.tolist()),
-        by_sensor=tuple(SensorAssociation(hook.sensor_ids[i], int(row[0]), int(row[1]), float(row[2]), float(row[3]),
-                                          float(row[4]))
-                        for i, row in enumerate(hook.per_sensor) if row[0] > 0)), fp
+        by_sensor=tuple(
+            SensorAssociation(hook.sensor_ids[i], int(row[0]), int(row[1]), float(row[2]), float(row[3]), float(row[4]))
+            for i, row in enumerate(hook.per_sensor)
+            if row[0] > 0
+        ),
+    ), fp

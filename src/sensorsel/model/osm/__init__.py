@@ -14,14 +14,44 @@
 
 from __future__ import annotations
 
-from sensorsel.model.osm.extract import (DEFAULT_CLASSES, LANDMARK_CLASSES, LocalFrame, OsmExtract, OsmLandmarks,
-                                         parse_bbox, parse_classes, read_osm)
+from sensorsel.model.osm.extract import (
+    DEFAULT_CLASSES,
+    LANDMARK_CLASSES,
+    LocalFrame,
+    OsmExtract,
+    OsmLandmarks,
+    parse_bbox,
+    parse_classes,
+    read_osm,
+)
 from sensorsel.model.osm.gpx import GeoRef, Track, read_gpx
-from sensorsel.model.osm.track import (DUPLICATE_M, SURVEY, RouteMap, gpx_route, is_gpx, load_geo_scenario,
-                                       route_landmarks)
+from sensorsel.model.osm.track import (
+    DUPLICATE_M,
+    SURVEY,
+    RouteMap,
+    gpx_route,
+    is_gpx,
+    load_geo_scenario,
+    route_landmarks,
+)
 
 __all__ = [
-    "DEFAULT_CLASSES", "LANDMARK_CLASSES", "LocalFrame", "OsmExtract", "OsmLandmarks", "parse_bbox",
-    "parse_classes", "read_osm", "GeoRef", "Track", "read_gpx",
-    "DUPLICATE_M", "SURVEY", "RouteMap", "gpx_route", "is_gpx", "load_geo_scenario", "route_landmarks",
+    "DEFAULT_CLASSES",
+    "LANDMARK_CLASSES",
+    "LocalFrame",
+    "OsmExtract",
+    "OsmLandmarks",
+    "parse_bbox",
+    "parse_classes",
+    "read_osm",
+    "GeoRef",
+    "Track",
+    "read_gpx",
+    "DUPLICATE_M",
+    "SURVEY",
+    "RouteMap",
+    "gpx_route",
+    "is_gpx",
+    "load_geo_scenario",
+    "route_landmarks",
 ]

@@ -75,7 +75,7 @@ def _graph(ways: tuple[OsmWay, ...]):  # type: ignore[no-untyped-def]
             a, b = w.nodes[k], w.nodes[k + 1]
             if a == b:
                 continue
-            seg = w.xy[k:k + 2]
+            seg = w.xy[k : k + 2]
             g.add_node(a, xy=seg[0])
             g.add_node(b, xy=seg[1])
             g.add_edge(a, b, length=float(np.hypot(*(seg[1] - seg[0]))), way=w.id, repeat=False)
@@ -126,8 +126,15 @@ def _resample(xy: np.ndarray, step: float) -> tuple[np.ndarray, np.ndarray]:
     return pts, np.arctan2(seg[i, 1], seg[i, 0])
 
 
-def build_city(extract: OsmExtract, classes: tuple[str, ...], *, speed_kmh: float = 30.0, route_km: float = 1.0,
-               min_route_m: float = 100.0, reach_m: float = 100.0) -> City:
+def build_city(
+    extract: OsmExtract,
+    classes: tuple[str, ...],
+    *,
+    speed_kmh: float = 30.0,
+    route_km: float = 1.0,
+    min_route_m: float = 100.0,
+    reach_m: float = 100.0,
+) -> City:
     """The routes and landmarks of an operating domain covering the extract's roads (see the module).
 
     Args:
@@ -185,34 +192,50 @@ def build_city(extract: OsmExtract, classes: tuple[str, ...], *, speed_kmh: floa
         for a, b in zip(bounds[:-1], bounds[1:]):
             if b <= a:
                 continue
-            xy, heading = _resample(poly[a:b + 1], step)
+            xy, heading = _resample(poly[a : b + 1], step)
             near = _near(tree, xy, reach_m)
             if not near.size:  # no route: it gets no name (the next kept route takes the next one)
                 bare.append((float(cum[b] - cum[a]), poly[a]))
                 continue
             name = f"r{len(routes) + 1:03d}"
-            routes.append(CityRoute(name, np.column_stack([xy, heading]), np.arange(len(xy)) / SAMPLE_HZ,
-                                    OsmLandmarks(lms.xy[near], tuple(lms.classes[i] for i in near), lms.ids[near], lms.moved[near])))
+            routes.append(
+                CityRoute(
+                    name,
+                    np.column_stack([xy, heading]),
+                    np.arange(len(xy)) / SAMPLE_HZ,
+                    OsmLandmarks(lms.xy[near], tuple(lms.classes[i] for i in near), lms.ids[near], lms.moved[near]),
+                )
+            )
     if not routes:
-        raise InputError(f"{extract.source}: the selected roads make no route of at least {min_route_m:g} m with landmarks")
+        raise InputError(
+            f"{extract.source}: the selected roads make no route of at least {min_route_m:g} m with landmarks"
+        )
     driven_m = float(sum(r.length_m for r in routes))
     if bare:
         lon, lat = extract.frame.unproject(np.array([p for _, p in bare]))
         starts = [f"{la:.5f},{lo:.5f}" for la, lo in zip(np.ravel(lat).tolist(), np.ravel(lon).tolist())]
         where = "; ".join(starts[:3]) + (f"; and {len(starts) - 3} more" if len(starts) > 3 else "")
-        notes.append(f"{len(bare)} stretch(es) of road ({sum(m for m, _ in bare) / 1000:.2f} km driven) with no landmark within "
-                     f"{reach_m:g} m left out: no route of them (starting at lat,lon {where})")
+        notes.append(
+            f"{len(bare)} stretch(es) of road ({sum(m for m, _ in bare) / 1000:.2f} km driven) with no landmark within "
+            f"{reach_m:g} m left out: no route of them (starting at lat,lon {where})"
+        )
     if n_dropped:
-        notes.append(f"{n_dropped} piece(s) of road network shorter than {min_route_m:g} m ({dropped_m:.0f} m in all) left out")
+        notes.append(
+            f"{n_dropped} piece(s) of road network shorter than {min_route_m:g} m ({dropped_m:.0f} m in all) left out"
+        )
     if repeats:
-        notes.append(f"{circuit_m / 1000:.2f} km of circuits to cover {road_m / 1000:.2f} km of road once "
-                     f"(roads between odd junctions driven again)")
+        notes.append(
+            f"{circuit_m / 1000:.2f} km of circuits to cover {road_m / 1000:.2f} km of road once "
+            f"(roads between odd junctions driven again)"
+        )
     allxy = np.concatenate(kept_xy)
     near_all = _near(tree, _resample(allxy, 5.0)[0], reach_m) if len(allxy) > 1 else np.zeros(0, int)
     density = {c: sum(1 for i in near_all if lms.classes[i] == c) / (road_m / 1000.0) for c in classes}
     used = np.isin(lms.ids, np.concatenate([r.landmarks.ids for r in routes]))  # the routes' landmarks
-    kerb = kerb_note(OsmLandmarks(lms.xy[used], tuple(c for c, k in zip(lms.classes, used) if k), lms.ids[used],
-                                  lms.moved[used]), "the routes'")
+    kerb = kerb_note(
+        OsmLandmarks(lms.xy[used], tuple(c for c, k in zip(lms.classes, used) if k), lms.ids[used], lms.moved[used]),
+        "the routes'",
+    )
     if kerb is not None:
         notes.insert(0, kerb)
     return City(tuple(routes), road_m, driven_m, dropped_m, density, lms, tuple(notes))
@@ -244,43 +267,61 @@ def sparse_message(per_km: float, what: str) -> str | None:
     """The sparse-map warning for ``per_km`` landmarks per km of ``what`` (road, route), or None
     when there are at least :data:`SPARSE_PER_KM`."""
     if per_km < SPARSE_PER_KM:
-        return (f"the map looks sparse: {per_km:.1f} landmarks per km of {what} (SemanticKITTI's pole maps have ~150/km); "
-                "OSM's pole coverage varies by orders of magnitude between cities: a suite chosen on it favours long range")
+        return (
+            f"the map looks sparse: {per_km:.1f} landmarks per km of {what} (SemanticKITTI's pole maps have ~150/km); "
+            "OSM's pole coverage varies by orders of magnitude between cities: a suite chosen on it favours long range"
+        )
     return None
 
 
-def write_city(city: City, extract: OsmExtract, folder: str | Path, *, command: str, keyframe_rate_hz: float = 1.0) -> Path:
+def write_city(
+    city: City, extract: OsmExtract, folder: str | Path, *, command: str, keyframe_rate_hz: float = 1.0
+) -> Path:
     """Write the domain folder: ``domain.yaml``, ``routes/rNNN.csv`` + ``routes/rNNN_landmarks.csv``,
     ``landmarks.csv`` (every landmark with its class and OSM id) and ``README.md`` (attribution,
     frame, density). Every file atomically; ``domain.yaml`` last. Returns the domain file."""
     from sensorsel.model.scenario import write_planar_csv
 
     folder = Path(folder)
-    lines = [f"# An operating domain written by: {command}",
-             f"# from {extract.source}; {ATTRIBUTION}",
-             f"# frame: {extract.frame.describe()}",
-             f"# {len(city.routes)} routes, {city.driven_m / 1000:.3f} km driven covering "
-             f"{city.road_m / 1000:.3f} km of road;",
-             "# each route weighs its length in km.",
-             f"keyframe_rate_hz: {keyframe_rate_hz!r}", "weight_unit: km", "routes:"]
+    lines = [
+        f"# An operating domain written by: {command}",
+        f"# from {extract.source}; {ATTRIBUTION}",
+        f"# frame: {extract.frame.describe()}",
+        f"# {len(city.routes)} routes, {city.driven_m / 1000:.3f} km driven covering "
+        f"{city.road_m / 1000:.3f} km of road;",
+        "# each route weighs its length in km.",
+        f"keyframe_rate_hz: {keyframe_rate_hz!r}",
+        "weight_unit: km",
+        "routes:",
+    ]
     for r in city.routes:
         write_planar_csv(folder / "routes" / f"{r.name}.csv", r.poses, r.times)
         _write_landmarks(folder / "routes" / f"{r.name}_landmarks.csv", r.landmarks)
-        lines += [f"  - name: {r.name}", f"    route: routes/{r.name}.csv", "    format: csv",
-                  f"    landmarks: routes/{r.name}_landmarks.csv", f"    weight: {{km: {r.length_m / 1000.0:.6f}}}"]
+        lines += [
+            f"  - name: {r.name}",
+            f"    route: routes/{r.name}.csv",
+            "    format: csv",
+            f"    landmarks: routes/{r.name}_landmarks.csv",
+            f"    weight: {{km: {r.length_m / 1000.0:.6f}}}",
+        ]
     _write_landmarks(folder / "landmarks.csv", city.landmarks)
     table = "\n".join(f"| {c} | {n} | {v:.1f} |" for c, n, v in density_table(city))
-    readme = (f"# Operating domain from OpenStreetMap\n\n{ATTRIBUTION}. Source: `{extract.source}`.\n\n"
-              f"Written by `{command}`.\n\nFrame: {extract.frame.describe()}; x east, y north [m].\n\n"
-              f"{len(city.routes)} routes, {city.driven_m / 1000:.3f} km driven, {city.road_m / 1000:.3f} km of road.\n\n"
-              f"| class | landmarks near the roads | per km of road |\n|---|---:|---:|\n{table}\n\n"
-              + "".join(f"- {n}\n" for n in (*extract.notes, *city.notes)))
+    readme = (
+        f"# Operating domain from OpenStreetMap\n\n{ATTRIBUTION}. Source: `{extract.source}`.\n\n"
+        f"Written by `{command}`.\n\nFrame: {extract.frame.describe()}; x east, y north [m].\n\n"
+        f"{len(city.routes)} routes, {city.driven_m / 1000:.3f} km driven, {city.road_m / 1000:.3f} km of road.\n\n"
+        f"| class | landmarks near the roads | per km of road |\n|---|---:|---:|\n{table}\n\n"
+        + "".join(f"- {n}\n" for n in (*extract.notes, *city.notes))
+    )
     atomic_write_text(folder / "README.md", readme)
     return atomic_write_text(folder / "domain.yaml", "\n".join(lines) + "\n")
 
 
 def _write_landmarks(path: Path, lms: OsmLandmarks) -> Path:
-    body = "".join(f"{x:.3f},{y:.3f},{c},{i},{int(m)}\n" for (x, y), c, i, m in zip(lms.xy.tolist(), lms.classes, lms.ids.tolist(), lms.moved.tolist()))
+    body = "".join(
+        f"{x:.3f},{y:.3f},{c},{i},{int(m)}\n"
+        for (x, y), c, i, m in zip(lms.xy.tolist(), lms.classes, lms.ids.tolist(), lms.moved.tolist())
+    )
     return atomic_write_text(path, "x,y,class,osm_id,moved\n" + body)
 
 
@@ -302,5 +343,16 @@ def read_landmark_classes(path: str | Path) -> tuple[np.ndarray, tuple[str, ...]
     return xy, tuple(r[ic].strip() for r in rows[1:])
 
 
-__all__ = ["City", "CityRoute", "build_city", "write_city", "density_table", "sparse_warning", "sparse_message", "read_landmark_classes",
-           "LANDMARK_CLASSES", "SPARSE_PER_KM", "ATTRIBUTION"]
+__all__ = [
+    "City",
+    "CityRoute",
+    "build_city",
+    "write_city",
+    "density_table",
+    "sparse_warning",
+    "sparse_message",
+    "read_landmark_classes",
+    "LANDMARK_CLASSES",
+    "SPARSE_PER_KM",
+    "ATTRIBUTION",
+]

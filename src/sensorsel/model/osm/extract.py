@@ -47,8 +47,18 @@ KERB_OFFSET_M = 0.5  # beyond the carriageway's edge: a pole stands on the pavem
 LANE_WIDTH_M = 3.25  # metres a lane when a road has a lanes tag but no width
 DEFAULT_HALF_WIDTH_M = 3.5  # half a two-lane road's width when it has neither width nor lanes
 #: the highway values a car drives on (``--roads`` chooses among these; *_link follow their road)
-DRIVABLE = ("motorway", "trunk", "primary", "secondary", "tertiary", "unclassified", "residential",
-            "living_street", "service", "road")
+DRIVABLE = (
+    "motorway",
+    "trunk",
+    "primary",
+    "secondary",
+    "tertiary",
+    "unclassified",
+    "residential",
+    "living_street",
+    "service",
+    "road",
+)
 DEFAULT_ROADS = ("primary", "secondary", "tertiary", "unclassified", "residential", "living_street")
 
 
@@ -72,7 +82,7 @@ class LocalFrame:
         return (32700 if self.south else 32600) + self.zone
 
     @staticmethod
-    def around(lon: float, lat: float) -> "LocalFrame":
+    def around(lon: float, lat: float) -> LocalFrame:
         """The frame of the UTM zone of (lon, lat) [deg], origin at it rounded down to the kilometre."""
         zone = min(60, int(math.floor((lon + 180.0) / 6.0)) + 1)
         frame = LocalFrame(zone, lat < 0, 0.0, 0.0)
@@ -102,8 +112,10 @@ class LocalFrame:
         return np.asarray(lon, dtype=float), np.asarray(lat, dtype=float)
 
     def describe(self) -> str:
-        return (f"UTM zone {self.zone}{'S' if self.south else 'N'} (EPSG:{self.epsg}) minus origin "
-                f"E {self.origin_e:.0f} m, N {self.origin_n:.0f} m")
+        return (
+            f"UTM zone {self.zone}{'S' if self.south else 'N'} (EPSG:{self.epsg}) minus origin "
+            f"E {self.origin_e:.0f} m, N {self.origin_n:.0f} m"
+        )
 
 
 @dataclass(frozen=True)
@@ -136,9 +148,11 @@ class OsmLandmarks:
     def __len__(self) -> int:
         return len(self.classes)
 
-    def of(self, classes: tuple[str, ...]) -> "OsmLandmarks":
+    def of(self, classes: tuple[str, ...]) -> OsmLandmarks:
         keep = np.array([c in classes for c in self.classes], dtype=bool)
-        return OsmLandmarks(self.xy[keep], tuple(c for c, k in zip(self.classes, keep) if k), self.ids[keep], self.moved[keep])
+        return OsmLandmarks(
+            self.xy[keep], tuple(c for c, k in zip(self.classes, keep) if k), self.ids[keep], self.moved[keep]
+        )
 
     def counts(self) -> dict[str, int]:
         return {c: self.classes.count(c) for c in LANDMARK_CLASSES if c in self.classes}
@@ -178,7 +192,9 @@ def parse_bbox(text: str, option: str = "--bbox") -> tuple[float, float, float, 
     try:
         w, s, e, n = (float(v) for v in text.split(","))
     except ValueError:
-        raise InputError(f"{option} {text!r}: expected four numbers W,S,E,N in degrees, e.g. 24.93,60.16,24.96,60.18") from None
+        raise InputError(
+            f"{option} {text!r}: expected four numbers W,S,E,N in degrees, e.g. 24.93,60.16,24.96,60.18"
+        ) from None
     if not all(math.isfinite(v) for v in (w, s, e, n)) or not (-180 <= w < e <= 180 and -90 <= s < n <= 90):
         raise InputError(f"{option} {text!r}: expected west < east within ±180 and south < north within ±90 degrees")
     return w, s, e, n
@@ -195,8 +211,10 @@ def parse_classes(text: str | None, option: str = "--osm-classes") -> tuple[str,
     names = [c.strip() for c in text.split(",") if c.strip()]
     unknown = [c for c in names if c not in LANDMARK_CLASSES]
     if unknown or not names:
-        raise InputError(f"{option} {text!r}: unknown class {', '.join(unknown) or '(none given)'}; "
-                         f"known: {', '.join(LANDMARK_CLASSES)} or all")
+        raise InputError(
+            f"{option} {text!r}: unknown class {', '.join(unknown) or '(none given)'}; "
+            f"known: {', '.join(LANDMARK_CLASSES)} or all"
+        )
     return tuple(c for c in LANDMARK_CLASSES if c in names)
 
 
@@ -209,8 +227,10 @@ def parse_roads(text: str | None, option: str = "--roads") -> tuple[str, ...]:
     names = DEFAULT_ROADS if text is None else tuple(r.strip() for r in text.split(",") if r.strip())
     unknown = [r for r in names if r.removesuffix("_link") not in DRIVABLE]
     if unknown or not names:
-        raise InputError(f"{option} {text!r}: not a road a car drives on: {', '.join(unknown) or '(none given)'}; "
-                         f"known: {', '.join(DRIVABLE)}")
+        raise InputError(
+            f"{option} {text!r}: not a road a car drives on: {', '.join(unknown) or '(none given)'}; "
+            f"known: {', '.join(DRIVABLE)}"
+        )
     return tuple(sorted({r for n in names for r in (n.removesuffix("_link"), n.removesuffix("_link") + "_link")}))
 
 
@@ -253,12 +273,20 @@ def _osm_format(path: Path) -> str:
     for magic, fmt in ((b"BZh", "osm.bz2"), (b"\x1f\x8b", "osm.gz")):  # compressed XML (osmium decompresses it)
         if head.startswith(magic):
             return fmt
-    raise ScenarioError(path, "not an OSM extract: expected .osm XML (starting with '<'), .osm.bz2 or .osm.gz (compressed "
-                        "XML) or .osm.pbf (an OSMHeader block)")
+    raise ScenarioError(
+        path,
+        "not an OSM extract: expected .osm XML (starting with '<'), .osm.bz2 or .osm.gz (compressed "
+        "XML) or .osm.pbf (an OSMHeader block)",
+    )
 
 
-def read_osm(path: str | Path, *, bbox: tuple[float, float, float, float] | None = None,
-             roads: tuple[str, ...] | None = None, frame: LocalFrame | None = None) -> OsmExtract:
+def read_osm(
+    path: str | Path,
+    *,
+    bbox: tuple[float, float, float, float] | None = None,
+    roads: tuple[str, ...] | None = None,
+    frame: LocalFrame | None = None,
+) -> OsmExtract:
     """Read the landmarks and roads of a local OSM extract, projected to a local metric frame.
 
     Args:
@@ -338,10 +366,14 @@ def read_osm(path: str | Path, *, bbox: tuple[float, float, float, float] | None
         swapped = (s, w, n, e)  # the same box with latitude and longitude exchanged
         hint = ""
         if swapped[0] <= extent[2] and extent[0] <= swapped[2] and swapped[1] <= extent[3] and extent[1] <= swapped[3]:
-            hint = (f": with latitude and longitude exchanged, --bbox {','.join(f'{v:g}' for v in swapped)} lies in it "
-                    "(--bbox is W,S,E,N: longitude first)")
-        raise InputError(f"--bbox {','.join(f'{v:g}' for v in bbox)}: outside the extract {path}, whose nodes span "
-                         f"W,S,E,N {','.join(f'{v:.5f}' for v in extent)}{hint}")
+            hint = (
+                f": with latitude and longitude exchanged, --bbox {','.join(f'{v:g}' for v in swapped)} lies in it "
+                "(--bbox is W,S,E,N: longitude first)"
+            )
+        raise InputError(
+            f"--bbox {','.join(f'{v:g}' for v in bbox)}: outside the extract {path}, whose nodes span "
+            f"W,S,E,N {','.join(f'{v:.5f}' for v in extent)}{hint}"
+        )
     bounds = (min(lon_l), min(lat_l), max(lon_l), max(lat_l))
     if frame is None:
         frame = LocalFrame.around((bounds[0] + bounds[2]) / 2.0, (bounds[1] + bounds[3]) / 2.0)
@@ -357,12 +389,15 @@ def read_osm(path: str | Path, *, bbox: tuple[float, float, float, float] | None
                 runs.append((wid, hw, [ids[j] for j in run], [lons[j] for j in run], [lats[j] for j in run], hwidth))
             run = []
     # one projection call for every road vertex (a pyproj transformer is costly to make)
-    flat = frame.project(np.array([v for r in runs for v in r[3]]), np.array([v for r in runs for v in r[4]])) \
-        if runs else np.zeros((0, 2))
+    flat = (
+        frame.project(np.array([v for r in runs for v in r[3]]), np.array([v for r in runs for v in r[4]]))
+        if runs
+        else np.zeros((0, 2))
+    )
     ways: list[OsmWay] = []
     at = 0
     for wid, hw, ids_, _lons, _, hwidth in runs:
-        ways.append(OsmWay(wid, hw, tuple(ids_), flat[at:at + len(ids_)], hwidth))
+        ways.append(OsmWay(wid, hw, tuple(ids_), flat[at : at + len(ids_)], hwidth))
         at += len(ids_)
     lm_xy = frame.project(np.array(lm_lon), np.array(lm_lat)) if lm_lon else np.zeros((0, 2))
     moved = _move_to_kerb(lm_xy, lm_cls, lm_id, ways)
@@ -373,15 +408,17 @@ def read_osm(path: str | Path, *, bbox: tuple[float, float, float, float] | None
     return OsmExtract(str(path), frame, bounds, len(lon_l), tag_counts, lms, tuple(ways), tuple(notes))
 
 
-def kerb_note(landmarks: "OsmLandmarks", whose: str = "the route's") -> str | None:
+def kerb_note(landmarks: OsmLandmarks, whose: str = "the route's") -> str | None:
     """The note on those of ``landmarks`` (``whose``: a route's, a city's routes') that were moved
     from a road's centre line to its kerb (None when none was)."""
     moved = np.asarray(landmarks.moved, dtype=bool)
     if not moved.any():
         return None
     classes = sorted({c for c, m in zip(landmarks.classes, moved) if m})
-    return (f"{int(moved.sum())} of {whose} {len(moved)} landmarks (of classes mapped on a road's centre line: "
-            f"{', '.join(classes)}) moved to the right-hand kerb (half the road's width + {KERB_OFFSET_M:g} m)")
+    return (
+        f"{int(moved.sum())} of {whose} {len(moved)} landmarks (of classes mapped on a road's centre line: "
+        f"{', '.join(classes)}) moved to the right-hand kerb (half the road's width + {KERB_OFFSET_M:g} m)"
+    )
 
 
 def _move_to_kerb(xy: np.ndarray, classes: list[str], ids: list[int], ways: list[OsmWay]) -> np.ndarray:

@@ -14,10 +14,10 @@ axis, or ``utm:ZONE[N|S]`` when the route's x, y already are UTM easting and nor
 from __future__ import annotations
 
 import math
-from xml.parsers import expat
 from dataclasses import dataclass
 from datetime import datetime
 from pathlib import Path
+from xml.parsers import expat
 
 import numpy as np
 
@@ -52,7 +52,9 @@ def _time(text: str, path: Path, line: int) -> float:
     try:
         t = datetime.fromisoformat(text.strip().replace("Z", "+00:00"))
     except ValueError:
-        raise ScenarioError(path, f"bad GPX time {text.strip()!r}: expected ISO 8601, e.g. 2024-05-01T12:00:00Z", line) from None
+        raise ScenarioError(
+            path, f"bad GPX time {text.strip()!r}: expected ISO 8601, e.g. 2024-05-01T12:00:00Z", line
+        ) from None
     if t.tzinfo is None:  # GPX times are UTC
         t = t.replace(tzinfo=datetime.fromisoformat("2000-01-01T00:00:00+00:00").tzinfo)
     return t.timestamp()
@@ -130,7 +132,9 @@ def read_gpx(path: str | Path) -> Track:
         except KeyError as exc:
             raise ScenarioError(path, f"<{kind}> lacks the attribute {exc.args[0]}", ln) from None
         except ValueError:
-            raise ScenarioError(path, f"<{kind}> lat/lon not numbers: {attrib.get('lat')!r}, {attrib.get('lon')!r}", ln) from None
+            raise ScenarioError(
+                path, f"<{kind}> lat/lon not numbers: {attrib.get('lat')!r}, {attrib.get('lon')!r}", ln
+            ) from None
         if not (math.isfinite(la) and -90.0 <= la <= 90.0):
             raise ScenarioError(path, f"latitude {la!r} beyond ±90 degrees", ln)
         if not (math.isfinite(lo) and -180.0 <= lo <= 180.0):
@@ -148,13 +152,18 @@ def read_gpx(path: str | Path) -> Track:
         bad = np.flatnonzero(np.diff(tt) <= 0)
         if bad.size:
             i = int(bad[0]) + 1
-            raise ScenarioError(path, f"times going backwards or repeated: point {i} at {times[i]!r} s is not after point {i - 1}", lns[i])
+            raise ScenarioError(
+                path,
+                f"times going backwards or repeated: point {i} at {times[i]!r} s is not after point {i - 1}",
+                lns[i],
+            )
         tarr = tt - tt[0]
     return Track(np.array(lat), np.array(lon), tarr, tuple(lns), str(path))
 
 
-def track_route(track: Track, frame: LocalFrame,
-                speed_mps: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[str]]:
+def track_route(
+    track: Track, frame: LocalFrame, speed_mps: float | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[str]]:
     """A GPX track as a planar route in ``frame``: ((N, 3) x [m], y [m], heading [rad]; (N,) times [s];
     (N,) index of each pose among the file's points; notes).
 
@@ -200,7 +209,7 @@ class GeoRef:
     south: bool = False
 
     @staticmethod
-    def parse(text: str, option: str = "--georef") -> "GeoRef":
+    def parse(text: str, option: str = "--georef") -> GeoRef:
         """'LAT,LON,BEARING' [deg] or 'utm:35N' -> GeoRef.
 
         Raises:
@@ -217,8 +226,10 @@ class GeoRef:
         try:
             la, lo, b = (float(v) for v in s.split(","))
         except ValueError:
-            raise InputError(f"{option} {text!r}: expected LAT,LON,BEARING in degrees (BEARING of the route's +X axis, "
-                             "clockwise from north) or utm:ZONE, e.g. 60.17,24.94,90 or utm:35N") from None
+            raise InputError(
+                f"{option} {text!r}: expected LAT,LON,BEARING in degrees (BEARING of the route's +X axis, "
+                "clockwise from north) or utm:ZONE, e.g. 60.17,24.94,90 or utm:35N"
+            ) from None
         if not (math.isfinite(la) and -90 <= la <= 90 and math.isfinite(lo) and -180 <= lo <= 180 and math.isfinite(b)):
             raise InputError(f"{option} {text!r}: latitude within ±90, longitude within ±180, a finite bearing")
         return GeoRef(la, lo, b)
@@ -234,7 +245,9 @@ class GeoRef:
         """(origin (2,) in ``frame`` [m], rotation [rad] from route axes to frame axes)."""
         if self.utm_zone is not None:
             if (frame.zone, frame.south) != (self.utm_zone, self.south):
-                raise InputError(f"--georef utm:{self.utm_zone}{'S' if self.south else 'N'}: the map is in {frame.describe()}")
+                raise InputError(
+                    f"--georef utm:{self.utm_zone}{'S' if self.south else 'N'}: the map is in {frame.describe()}"
+                )
             return np.array([-frame.origin_e, -frame.origin_n]), 0.0
         assert self.lat is not None and self.lon is not None
         o = frame.project(np.array([self.lon]), np.array([self.lat]))[0]

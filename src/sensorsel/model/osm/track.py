@@ -17,9 +17,9 @@ from __future__ import annotations
 
 import math
 import warnings
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Sequence
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -27,11 +27,26 @@ from scipy.spatial import cKDTree
 from sensorsel.errors import InputError, SensorselWarning
 from sensorsel.io.files import atomic_write_text
 from sensorsel.model.osm.city import ATTRIBUTION, _near, _write_landmarks, sparse_message
-from sensorsel.model.osm.extract import (LANDMARK_CLASSES, LocalFrame, OsmExtract, OsmLandmarks, kerb_note, parse_classes,
-                                         parse_roads, read_osm)
+from sensorsel.model.osm.extract import (
+    LANDMARK_CLASSES,
+    LocalFrame,
+    OsmExtract,
+    OsmLandmarks,
+    kerb_note,
+    parse_classes,
+    parse_roads,
+    read_osm,
+)
 from sensorsel.model.osm.gpx import GeoRef, read_gpx, track_route
-from sensorsel.model.scenario import (DEFAULT_OSM_REACH_M, Frame, RouteFile, Scenario, ScenarioSpec, Trajectory,
-                                      load_scenario)
+from sensorsel.model.scenario import (
+    DEFAULT_OSM_REACH_M,
+    Frame,
+    RouteFile,
+    Scenario,
+    ScenarioSpec,
+    Trajectory,
+    load_scenario,
+)
 
 SURVEY = "survey"  # the class of a landmark from a survey CSV merged with the OSM ones
 DUPLICATE_M = 2.0  # an OSM landmark this close [m] to a survey landmark is the same object
@@ -94,12 +109,23 @@ def _outside(extract: OsmExtract, map_xy: np.ndarray, frame: LocalFrame) -> np.n
     return np.hypot(d[:, 0], d[:, 1])
 
 
-def route_landmarks(osm_paths: Sequence[str | Path], route_xy: np.ndarray, frame: LocalFrame, georef: GeoRef | None,
-                    classes: tuple[str, ...], *, survey: np.ndarray | None = None, survey_label: str | None = None,
-                    reach_m: float = DEFAULT_REACH_M, roads: tuple[str, ...] | None = None,
-                    bbox: tuple[float, float, float, float] | None = None, route_label: str = "the route",
-                    map_option: str = "--landmarks osm:", reach_option: str = "--osm-reach",
-                    frame_told: bool = False) -> RouteMap:
+def route_landmarks(
+    osm_paths: Sequence[str | Path],
+    route_xy: np.ndarray,
+    frame: LocalFrame,
+    georef: GeoRef | None,
+    classes: tuple[str, ...],
+    *,
+    survey: np.ndarray | None = None,
+    survey_label: str | None = None,
+    reach_m: float = DEFAULT_REACH_M,
+    roads: tuple[str, ...] | None = None,
+    bbox: tuple[float, float, float, float] | None = None,
+    route_label: str = "the route",
+    map_option: str = "--landmarks osm:",
+    reach_option: str = "--osm-reach",
+    frame_told: bool = False,
+) -> RouteMap:
     """The OSM landmarks of ``classes`` within ``reach_m`` of a route, merged with a survey (see the module).
 
     Args:
@@ -135,12 +161,16 @@ def route_landmarks(osm_paths: Sequence[str | Path], route_xy: np.ndarray, frame
         off = _outside(ex, map_xy, frame)
         if off.min() > reach_m:
             hint = "is --georef right?" if georef is not None else "is it in this city?"
-            raise InputError(f"{map_option}{path}: {route_label} lies {off.min() / 1000:,.1f} km outside the extract (its nodes "
-                             "span "
-                             f"W,S,E,N {','.join(f'{v:.5f}' for v in ex.bounds)}): {hint}")
+            raise InputError(
+                f"{map_option}{path}: {route_label} lies {off.min() / 1000:,.1f} km outside the extract (its nodes "
+                "span "
+                f"W,S,E,N {','.join(f'{v:.5f}' for v in ex.bounds)}): {hint}"
+            )
         if (off > 0).any():
-            notes.append(f"{(off > 0).mean():.0%} of {route_label} lies outside the extract {path}: OSM landmarks there are "
-                         "missing")
+            notes.append(
+                f"{(off > 0).mean():.0%} of {route_label} lies outside the extract {path}: OSM landmarks there are "
+                "missing"
+            )
         notes += [n for n in ex.notes if n not in notes and not (frame_told and n.startswith("projection: "))]
         lms = ex.landmarks.of(classes)
         for k in range(len(lms)):
@@ -157,26 +187,34 @@ def route_landmarks(osm_paths: Sequence[str | Path], route_xy: np.ndarray, frame
     all_xy = np.array(xy, dtype=float).reshape(-1, 2)
     lm_xy = georef.from_map(all_xy, frame) if georef is not None else all_xy
     near = _near(cKDTree(lm_xy) if len(lm_xy) else None, route_xy, reach_m)
-    osm = OsmLandmarks(lm_xy[near], tuple(cls[i] for i in near), np.array(ids, dtype=np.int64)[near],
-                       np.array(moved, dtype=bool)[near])
+    osm = OsmLandmarks(
+        lm_xy[near], tuple(cls[i] for i in near), np.array(ids, dtype=np.int64)[near], np.array(moved, dtype=bool)[near]
+    )
     out = osm
     if survey is not None and len(survey):
         survey = np.asarray(survey, dtype=float).reshape(-1, 2)
         same = (cKDTree(survey).query(osm.xy)[0] <= DUPLICATE_M) if len(osm) else np.zeros(0, dtype=bool)
         keep = np.flatnonzero(~same)
-        out = OsmLandmarks(np.vstack([osm.xy[keep], survey]), tuple(osm.classes[i] for i in keep) + (SURVEY,) * len(survey),
-                           np.r_[osm.ids[keep], np.full(len(survey), -1, dtype=np.int64)],
-                           np.r_[osm.moved[keep], np.zeros(len(survey), dtype=bool)])
-        notes.append(f"{len(survey)} survey landmark(s) of {survey_label} merged with {len(keep)} OSM one(s); "
-                     f"{int(same.sum())} OSM "
-                     f"landmark(s) within {DUPLICATE_M:g} m of a survey landmark taken as the same object (the "
-                     "survey's position kept)")
+        out = OsmLandmarks(
+            np.vstack([osm.xy[keep], survey]),
+            tuple(osm.classes[i] for i in keep) + (SURVEY,) * len(survey),
+            np.r_[osm.ids[keep], np.full(len(survey), -1, dtype=np.int64)],
+            np.r_[osm.moved[keep], np.zeros(len(survey), dtype=bool)],
+        )
+        notes.append(
+            f"{len(survey)} survey landmark(s) of {survey_label} merged with {len(keep)} OSM one(s); "
+            f"{int(same.sum())} OSM "
+            f"landmark(s) within {DUPLICATE_M:g} m of a survey landmark taken as the same object (the "
+            "survey's position kept)"
+        )
     kerb = kerb_note(out)
     if kerb is not None:
         notes.append(kerb)
     if not len(out):
-        raise InputError(f"{map_option}{', '.join(map(str, osm_paths))}: no landmark of {', '.join(classes)} within {reach_option} "
-                         f"{reach_m:g} m of {route_label} (is the georeference right?)")
+        raise InputError(
+            f"{map_option}{', '.join(map(str, osm_paths))}: no landmark of {', '.join(classes)} within {reach_option} "
+            f"{reach_m:g} m of {route_label} (is the georeference right?)"
+        )
     km = float(np.sum(np.hypot(*np.diff(route_xy, axis=0).T))) / 1000.0
     warning = None
     if km > 0:
@@ -184,8 +222,11 @@ def route_landmarks(osm_paths: Sequence[str | Path], route_xy: np.ndarray, frame
         in_reach = [out.classes[i] for i in counted]
         per = {c: in_reach.count(c) / km for c in (*LANDMARK_CLASSES, SURVEY) if c in in_reach}
         total = len(in_reach) / km
-        notes.append(f"landmarks per km of route ({km:.2f} km; within {reach_m:g} m): "
-                     + ", ".join(f"{c} {v:.1f}" for c, v in per.items()) + f"; all {total:.1f}")
+        notes.append(
+            f"landmarks per km of route ({km:.2f} km; within {reach_m:g} m): "
+            + ", ".join(f"{c} {v:.1f}" for c, v in per.items())
+            + f"; all {total:.1f}"
+        )
         warning = sparse_message(total, "route")
     return RouteMap(out, tuple(notes), warning)
 
@@ -195,19 +236,31 @@ def _geo_checks(spec: ScenarioSpec, gpx: bool) -> None:
     route = spec.route or spec.poses or (f"sequence {spec.seq}" if spec.seq else f"fixture {spec.fixture}")
     if gpx:
         if spec.georef is not None:
-            raise InputError(f"--georef {spec.georef}: the route {spec.route} is a GPX track, placed by its own latitudes and "
-                             "longitudes: drop --georef")
-        for option, value in (("--route-format", spec.route_format), ("--times", spec.times), ("--up", spec.up),
-                              ("--forward", spec.forward)):
+            raise InputError(
+                f"--georef {spec.georef}: the route {spec.route} is a GPX track, placed by its own latitudes and "
+                "longitudes: drop --georef"
+            )
+        for option, value in (
+            ("--route-format", spec.route_format),
+            ("--times", spec.times),
+            ("--up", spec.up),
+            ("--forward", spec.forward),
+        ):
             if value is not None:
-                raise InputError(f"{option} {value}: the route {spec.route} is a GPX track (its own format, times and axes)")
+                raise InputError(
+                    f"{option} {value}: the route {spec.route} is a GPX track (its own format, times and axes)"
+                )
     elif spec.osm and spec.georef is None:
-        raise InputError(f"--landmarks osm:{spec.osm[0]}: the route {route} is not georeferenced: give --georef LAT,LON,BEARING "
-                         "(its origin in degrees and the compass bearing of its +X axis) or --georef utm:ZONE (x, y are UTM), "
-                         "or a GPX track as --route")
+        raise InputError(
+            f"--landmarks osm:{spec.osm[0]}: the route {route} is not georeferenced: give --georef LAT,LON,BEARING "
+            "(its origin in degrees and the compass bearing of its +X axis) or --georef utm:ZONE (x, y are UTM), "
+            "or a GPX track as --route"
+        )
     if spec.georef is not None and not spec.osm:
-        raise InputError(f"--georef {spec.georef} places the route on an OpenStreetMap map: give --landmarks osm:FILE with it "
-                         "(alone it changes nothing)")
+        raise InputError(
+            f"--georef {spec.georef} places the route on an OpenStreetMap map: give --landmarks osm:FILE with it "
+            "(alone it changes nothing)"
+        )
     if (spec.osm_classes is not None or spec.osm_reach_m != DEFAULT_REACH_M) and not spec.osm:
         raise InputError("--osm-classes and --osm-reach choose the landmarks of --landmarks osm:FILE: give one")
     for p in spec.osm:
@@ -241,11 +294,22 @@ def load_geo_scenario(spec: ScenarioSpec) -> Scenario:
     if not spec.osm:
         return load_scenario(spec, route_file=rf)
 
-    def from_map(route: Trajectory, _frame: Frame | None, base: np.ndarray | None,
-                 label: str | None) -> tuple[np.ndarray, str, list[str]]:
-        m = route_landmarks(spec.osm, route.poses[:, :2], frame, georef, classes, survey=base, survey_label=label,
-                            reach_m=spec.osm_reach_m, roads=parse_roads(None), route_label=f"the route {route.source}",
-                            frame_told=gpx)
+    def from_map(
+        route: Trajectory, _frame: Frame | None, base: np.ndarray | None, label: str | None
+    ) -> tuple[np.ndarray, str, list[str]]:
+        m = route_landmarks(
+            spec.osm,
+            route.poses[:, :2],
+            frame,
+            georef,
+            classes,
+            survey=base,
+            survey_label=label,
+            reach_m=spec.osm_reach_m,
+            roads=parse_roads(None),
+            route_label=f"the route {route.source}",
+            frame_told=gpx,
+        )
         if m.warning:
             warnings.warn(m.warning, SensorselWarning, stacklevel=3)
         which = f" ({','.join(classes)})" if spec.osm_classes is not None else ""
@@ -255,10 +319,21 @@ def load_geo_scenario(spec: ScenarioSpec) -> Scenario:
     return load_scenario(spec, route_file=rf, map_landmarks=from_map)
 
 
-def track_domain(osm_path: str | Path, bbox: tuple[float, float, float, float] | None, classes: tuple[str, ...],
-                 roads: tuple[str, ...], gpx: str | None, route_file: str | None, georef: str | None,
-                 merge_landmarks: str | None, speed_kmh: float, reach_m: float, keyframe_rate_hz: float,
-                 folder: str | Path, command: str) -> tuple[Path, list[str]]:
+def track_domain(
+    osm_path: str | Path,
+    bbox: tuple[float, float, float, float] | None,
+    classes: tuple[str, ...],
+    roads: tuple[str, ...],
+    gpx: str | None,
+    route_file: str | None,
+    georef: str | None,
+    merge_landmarks: str | None,
+    speed_kmh: float,
+    reach_m: float,
+    keyframe_rate_hz: float,
+    folder: str | Path,
+    command: str,
+) -> tuple[Path, list[str]]:
     """Write a domain folder whose one route is the GPX track ``gpx`` (in the map's UTM frame) or
     ``route_file`` (in its own frame, placed by ``georef``: the OSM landmarks are moved into it),
     with the landmarks :func:`route_landmarks` gives it (the survey CSV ``merge_landmarks``: x, y [m]
@@ -287,18 +362,33 @@ def track_domain(osm_path: str | Path, bbox: tuple[float, float, float, float] |
         poses, times = np.asarray(traj.poses), np.asarray(traj.times)
         name = Path(route_file).stem
     survey = read_landmarks_csv(merge_landmarks) if merge_landmarks is not None else None
-    m = route_landmarks([osm_path], poses[:, :2], frame, ref, classes, survey=survey, survey_label=merge_landmarks,
-                        reach_m=reach_m, roads=roads, bbox=bbox, route_label=f"the route {gpx or route_file}", map_option="",
-                        reach_option="--osm-reach", frame_told=gpx is not None)
+    m = route_landmarks(
+        [osm_path],
+        poses[:, :2],
+        frame,
+        ref,
+        classes,
+        survey=survey,
+        survey_label=merge_landmarks,
+        reach_m=reach_m,
+        roads=roads,
+        bbox=bbox,
+        route_label=f"the route {gpx or route_file}",
+        map_option="",
+        reach_option="--osm-reach",
+        frame_told=gpx is not None,
+    )
     notes += list(m.notes)
     if m.warning:
         warnings.warn(m.warning, SensorselWarning, stacklevel=2)
     folder = Path(folder)
     write_planar_csv(folder / "routes" / f"{name}.csv", poses, times)
     _write_landmarks(folder / "routes" / f"{name}_landmarks.csv", m.landmarks)
-    text = (f"# An operating domain written by: {command}\n# landmarks from {osm_path}; {ATTRIBUTION}\n"
-            f"# map frame: {frame.describe()}\n"
-            f"keyframe_rate_hz: {keyframe_rate_hz!r}\nweight_unit: km\nroutes:\n"
-            f"  - name: {name}\n    route: routes/{name}.csv\n    format: csv\n"
-            f"    landmarks: routes/{name}_landmarks.csv\n")
+    text = (
+        f"# An operating domain written by: {command}\n# landmarks from {osm_path}; {ATTRIBUTION}\n"
+        f"# map frame: {frame.describe()}\n"
+        f"keyframe_rate_hz: {keyframe_rate_hz!r}\nweight_unit: km\nroutes:\n"
+        f"  - name: {name}\n    route: routes/{name}.csv\n    format: csv\n"
+        f"    landmarks: routes/{name}_landmarks.csv\n"
+    )
     return atomic_write_text(folder / "domain.yaml", text), notes

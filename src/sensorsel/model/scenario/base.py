@@ -62,7 +62,7 @@ class Trajectory:
     def duration_s(self) -> float:
         return float(self.times[-1] - self.times[0]) if len(self.times) else 0.0
 
-    def select(self, indices: np.ndarray) -> "Trajectory":
+    def select(self, indices: np.ndarray) -> Trajectory:
         """The sub-trajectory at these pose indices."""
         idx = np.asarray(indices, dtype=int)
         return Trajectory(self.poses[idx], self.times[idx], self.frames[idx], self.source)
@@ -108,8 +108,10 @@ class LandmarkReport:
         if self.clearance_m is not None:
             parts.append(f"{self.n_dropped} closer than the clearance {self.clearance_m:g} m to the route dropped")
         elif self.n_on_road:
-            parts.append(f"{self.n_on_road} within {self.on_road_m:g} m of the route kept (a clearance drops them: "
-                         f"--clearance {self.on_road_m:g})")
+            parts.append(
+                f"{self.n_on_road} within {self.on_road_m:g} m of the route kept (a clearance drops them: "
+                f"--clearance {self.on_road_m:g})"
+            )
         return [f"landmarks: {self.source}: {', '.join(parts)}: {self.n_kept} used"]
 
 
@@ -150,7 +152,6 @@ class Scenario:
         return len(self.landmarks)
 
 
-
 # --------------------------------------------------------------------------------------------- I/O
 
 
@@ -178,15 +179,17 @@ def _parse_row(line: str, path: Path, lineno: int, n: int, what: str) -> list[fl
     return values
 
 
-
 def _check_coordinates(xy: np.ndarray, path: Path, linenos: list[int], what: str) -> None:
     """No coordinate beyond :data:`MAX_COORD_M` (a value that is no place on a map)."""
     far = np.flatnonzero(np.abs(np.asarray(xy, dtype=float)).max(axis=1) > MAX_COORD_M)
     if len(far):
         i = int(far[0])
-        raise ScenarioError(path, f"{what} {np.asarray(xy)[i].tolist()!r} is beyond the limit of {MAX_COORD_M:g} m from the origin "
-                            f"(in metres? no map is that large); {len(far)} such line(s) in the file", linenos[i])
-
+        raise ScenarioError(
+            path,
+            f"{what} {np.asarray(xy)[i].tolist()!r} is beyond the limit of {MAX_COORD_M:g} m from the origin "
+            f"(in metres? no map is that large); {len(far)} such line(s) in the file",
+            linenos[i],
+        )
 
 
 def select_keyframes(times: np.ndarray, rate_hz: float) -> np.ndarray:
@@ -209,7 +212,6 @@ def route_rate_hz(route: Trajectory) -> float:
     return 1.0 / float(np.median(np.diff(route.times)))
 
 
-
 def _data_lines(path: Path, what: str) -> list[tuple[int, str]]:
     """(line number, stripped text) of the non-blank lines not starting with ``#``."""
     out = []
@@ -224,7 +226,6 @@ def _increasing(times: list[float], path: Path, lines: list[int]) -> None:
     for i in range(1, len(times)):
         if times[i] <= times[i - 1]:
             raise ScenarioError(path, f"timestamps must increase: {times[i]} after {times[i - 1]}", lines[i])
-
 
 
 def _csv_fields(line: str) -> list[str]:

@@ -10,8 +10,16 @@ import numpy as np
 from sensorsel.errors import ScenarioError
 from sensorsel.io.files import atomic_write_text
 from sensorsel.io.inputs import is_number_text
-from sensorsel.model.scenario.base import (RouteFile, Trajectory, _check_coordinates, _csv_fields, _data_lines,
-                                           _increasing, _parse_row, _read_lines)
+from sensorsel.model.scenario.base import (
+    RouteFile,
+    Trajectory,
+    _check_coordinates,
+    _csv_fields,
+    _data_lines,
+    _increasing,
+    _parse_row,
+    _read_lines,
+)
 from sensorsel.model.scenario.frames import HEADING_WINDOW_M, check_moves, find_frame
 from sensorsel.model.scenario.positions import route_from_positions
 
@@ -74,14 +82,24 @@ def read_csv_route(path: str | Path, *, up: str | None = None, window_m: float =
     found = _header(path)
     if found is None:
         if not _data_lines(path, "route CSV"):
-            raise ScenarioError(path, "route CSV is empty: expected a header t,x,y,heading (or t,x,y) and one pose a row")
-        raise ScenarioError(path, "route CSV has no header: lacks column(s) t, x, y: expected a header naming t,x,y "
-                            "(with heading in radians, or z, or neither)", _data_lines(path, "route CSV")[0][0])
+            raise ScenarioError(
+                path, "route CSV is empty: expected a header t,x,y,heading (or t,x,y) and one pose a row"
+            )
+        raise ScenarioError(
+            path,
+            "route CSV has no header: lacks column(s) t, x, y: expected a header naming t,x,y "
+            "(with heading in radians, or z, or neither)",
+            _data_lines(path, "route CSV")[0][0],
+        )
     hline, header, lines = found
     missing = [c for c in ("t", "x", "y") if c not in header]
     if missing:
-        raise ScenarioError(path, f"route CSV header {','.join(header)!r} lacks column(s) {', '.join(missing)}: "
-                            "expected a header naming t,x,y (with heading in radians, or z, or neither)", hline)
+        raise ScenarioError(
+            path,
+            f"route CSV header {','.join(header)!r} lacks column(s) {', '.join(missing)}: "
+            "expected a header naming t,x,y (with heading in radians, or z, or neither)",
+            hline,
+        )
     wanted = [c for c in ("t", "x", "y", "heading", "z") if c in header]
     dup = sorted({c for c in header if header.count(c) > 1 and c in wanted})
     if dup:
@@ -93,7 +111,9 @@ def read_csv_route(path: str | Path, *, up: str | None = None, window_m: float =
     for lineno, s in lines:
         fields = _csv_fields(s)
         if len(fields) != len(header):
-            raise ScenarioError(path, f"expected {len(header)} comma-separated fields as in the header, found {len(fields)}", lineno)
+            raise ScenarioError(
+                path, f"expected {len(header)} comma-separated fields as in the header, found {len(fields)}", lineno
+            )
         rows.append(_parse_row(" ".join(fields[c] for c in cols), path, lineno, len(cols), ",".join(wanted)))
         linenos.append(lineno)
     if not rows:
@@ -106,14 +126,16 @@ def read_csv_route(path: str | Path, *, up: str | None = None, window_m: float =
         return RouteFile(Trajectory(a[:, 1:4], a[:, 0], np.arange(len(a)), str(path)), None, ())
     if "z" in wanted:
         frame, notes = find_frame(a[:, 1:4], None, path, convention="z-up", up=up)
-        return route_from_positions(a[:, 0], frame.project(a[:, 1:4]), path, frame=frame, notes=tuple(notes), window_m=window_m)
+        return route_from_positions(
+            a[:, 0], frame.project(a[:, 1:4]), path, frame=frame, notes=tuple(notes), window_m=window_m
+        )
     return route_from_positions(a[:, 0], a[:, 1:3], path, window_m=window_m)
 
 
 def write_planar_csv(path: str | Path, planar: np.ndarray, times: np.ndarray) -> Path:
     """Write planar poses as a route CSV ``t,x,y,heading`` (full float precision; atomically)."""
-    body = "".join(f"{t!r},{x!r},{y!r},{h!r}\n"
-                   for t, (x, y, h) in zip(np.asarray(times, dtype=float).tolist(), np.asarray(planar, dtype=float).tolist()))
+    body = "".join(
+        f"{t!r},{x!r},{y!r},{h!r}\n"
+        for t, (x, y, h) in zip(np.asarray(times, dtype=float).tolist(), np.asarray(planar, dtype=float).tolist())
+    )
     return atomic_write_text(path, "t,x,y,heading\n" + body)
-
-

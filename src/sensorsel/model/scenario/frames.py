@@ -57,9 +57,12 @@ REVERSAL_MIN_M = 0.5  # a reversal of the direction of travel counts when the ca
 _AXES = "xyz"
 # planar (X, Y) world axes for an up along a world axis: (index, sign) each, X x Y = up
 _PLANE_OF_UP: dict[tuple[int, int], tuple[tuple[int, int], tuple[int, int]]] = {
-    (2, 1): ((0, 1), (1, 1)), (2, -1): ((0, 1), (1, -1)),
-    (1, -1): ((2, 1), (0, -1)), (1, 1): ((2, 1), (0, 1)),
-    (0, 1): ((1, 1), (2, 1)), (0, -1): ((1, 1), (2, -1)),
+    (2, 1): ((0, 1), (1, 1)),
+    (2, -1): ((0, 1), (1, -1)),
+    (1, -1): ((2, 1), (0, -1)),
+    (1, 1): ((2, 1), (0, 1)),
+    (0, 1): ((1, 1), (2, 1)),
+    (0, -1): ((1, 1), (2, -1)),
 }
 
 
@@ -150,8 +153,11 @@ class Frame:
         assert self.forward is not None
         xy = self.project(positions)
         fb = _snap(self.forward, 1e-9)
-        d = rotations[:, :, fb[0]] if fb is not None and fb[1] > 0 else (
-            -rotations[:, :, fb[0]] if fb is not None else rotations @ self.forward)
+        d = (
+            rotations[:, :, fb[0]]
+            if fb is not None and fb[1] > 0
+            else (-rotations[:, :, fb[0]] if fb is not None else rotations @ self.forward)
+        )
         hxy = self.project(d)
         return np.column_stack([xy, np.arctan2(hxy[:, 1], hxy[:, 0])])
 
@@ -184,9 +190,12 @@ def check_moves(xy: np.ndarray, path: str | Path) -> float:
     if extent < MIN_TRAVEL_M:
         if extent < DEGREE_ROUTE_SPREAD:  # a drive in degrees spans less than a metre too: say which
             check_not_degrees(p, path, "positions")
-        raise ScenarioError(path, f"the car never moves: its {len(p)} positions stay within {extent:.3g} m of each other "
-                            f"(at least {MIN_TRAVEL_M:g} m of travel is needed to tell the ground plane and the heading; "
-                            "a hand-held or indoor recording?)")
+        raise ScenarioError(
+            path,
+            f"the car never moves: its {len(p)} positions stay within {extent:.3g} m of each other "
+            f"(at least {MIN_TRAVEL_M:g} m of travel is needed to tell the ground plane and the heading; "
+            "a hand-held or indoor recording?)",
+        )
     return extent
 
 
@@ -206,13 +215,23 @@ def check_not_degrees(xy: np.ndarray, path: str | Path, what: str, route_extent_
     if route_extent_m is not None and route_extent_m < 20 * DEGREE_SPREAD_M:
         return
     beside = f" while the route spans {route_extent_m:,.0f} m" if route_extent_m is not None else ""
-    raise ScenarioError(path, f"the {what} look like degrees, not metres: every value inside +-180/+-90 (first {p[0, 0]:g}, {p[0, 1]:g}) "
-                        f"and all within {spread:.3g} m of each other{beside}; sensorsel reads metres: convert them, or give "
-                        "latitude/longitude as a GPX track or an OpenStreetMap extract (docs/scenarios.md)")
+    raise ScenarioError(
+        path,
+        f"the {what} look like degrees, not metres: every value inside +-180/+-90 (first {p[0, 0]:g}, {p[0, 1]:g}) "
+        f"and all within {spread:.3g} m of each other{beside}; sensorsel reads metres: convert them, or give "
+        "latitude/longitude as a GPX track or an OpenStreetMap extract (docs/scenarios.md)",
+    )
 
 
-def find_frame(positions: np.ndarray, rotations: np.ndarray | None, path: str | Path, *, convention: str,
-               up: str | None = None, forward: str | None = None) -> tuple[Frame, list[str]]:
+def find_frame(
+    positions: np.ndarray,
+    rotations: np.ndarray | None,
+    path: str | Path,
+    *,
+    convention: str,
+    up: str | None = None,
+    forward: str | None = None,
+) -> tuple[Frame, list[str]]:
     """The ground plane and forward axis of a route (see the module's docstring).
 
     Args:
@@ -259,9 +278,12 @@ def find_frame(positions: np.ndarray, rotations: np.ndarray | None, path: str | 
     elif n_rot is not None and n_pos is not None:
         ang = _angle_deg(n_rot, n_pos)
         if ang > AGREE_DEG:
-            raise ScenarioError(path, f"cannot tell the ground plane: the positions span a plane {ang:.0f} deg from the axis the "
-                                "rotations turn about (a hilly or tilted route, or positions and rotations in different frames?): "
-                                "state the up axis (--up +z, --up -y, ...)")
+            raise ScenarioError(
+                path,
+                f"cannot tell the ground plane: the positions span a plane {ang:.0f} deg from the axis the "
+                "rotations turn about (a hilly or tilted route, or positions and rotations in different frames?): "
+                "state the up axis (--up +z, --up -y, ...)",
+            )
         n_est = n_rot
         how.append(f"ground plane from the rotations' common axis, {ang:.1f} deg from the positions' plane")
     elif n_rot is not None:
@@ -275,8 +297,11 @@ def find_frame(positions: np.ndarray, rotations: np.ndarray | None, path: str | 
 
     if R is None:
         if n_est is None:
-            raise ScenarioError(path, f"cannot tell the ground plane: the positions lie along a straight line ({s[2]:.0f} m long, "
-                                f"{s[1]:.2g} m across) and the file has no rotations: state the up axis (--up +z, --up -y, ...)")
+            raise ScenarioError(
+                path,
+                f"cannot tell the ground plane: the positions lie along a straight line ({s[2]:.0f} m long, "
+                f"{s[1]:.2g} m across) and the file has no rotations: state the up axis (--up +z, --up -y, ...)",
+            )
         ax = _snap(n_est)
         if given_up is not None:
             n = n_est
@@ -309,17 +334,21 @@ def find_frame(positions: np.ndarray, rotations: np.ndarray | None, path: str | 
         if best_axis != conv_fwd and score[best] >= FORWARD_MIN and score[best] - conv_score >= FORWARD_MARGIN:
             f_b = _vec(best_axis)
             back = float(np.mean(b[:, best_axis[0]] * best_axis[1] < 0))
-            how.append(f"forward: body {axis_name(best_axis)}, the axis along the direction of travel (mean cos "
-                       f"{score[best]:.2f}; "
-                       f"the format's {axis_name(conv_fwd)}: {conv_score:.2f})"
-                       + (f"; drives backwards for {100 * back:.0f}% of the route" if back > 0.01 else ""))
+            how.append(
+                f"forward: body {axis_name(best_axis)}, the axis along the direction of travel (mean cos "
+                f"{score[best]:.2f}; "
+                f"the format's {axis_name(conv_fwd)}: {conv_score:.2f})"
+                + (f"; drives backwards for {100 * back:.0f}% of the route" if back > 0.01 else "")
+            )
         else:
             f_b = _vec(conv_fwd)
             weak_forward = conv_score < FORWARD_MIN
             if weak_forward:
-                how.append("no body axis points clearly along the direction of travel (mean cos with the format's "
-                           f"{axis_name(conv_fwd)}: "
-                           f"{conv_score:.2f}): forward taken as {axis_name(conv_fwd)} (--forward states it)")
+                how.append(
+                    "no body axis points clearly along the direction of travel (mean cos with the format's "
+                    f"{axis_name(conv_fwd)}: "
+                    f"{conv_score:.2f}): forward taken as {axis_name(conv_fwd)} (--forward states it)"
+                )
 
     # -- the body's up axis and the world's
     if n_est is None:
@@ -327,20 +356,29 @@ def find_frame(positions: np.ndarray, rotations: np.ndarray | None, path: str | 
         u_b = _vec(conv_up) if given_fwd is None or abs(_vec(conv_up) @ f_b) < 0.5 else _vec(_other_up(f_b))
         n_w = R[0] @ u_b
         if abs(float(n_w @ line_dir)) > math.sin(math.radians(AGREE_DEG)):
-            raise ScenarioError(path, f"cannot tell the ground plane: the route is a straight line ({s[2]:.0f} m) that does not turn, "
-                                f"and the format's convention ({'camera frame: y down' if convention == 'camera' else 'z up'}) "
-                                "does not fit it: state the up axis (--up +z, --up -y, ...)")
+            raise ScenarioError(
+                path,
+                f"cannot tell the ground plane: the route is a straight line ({s[2]:.0f} m) that does not turn, "
+                f"and the format's convention ({'camera frame: y down' if convention == 'camera' else 'z up'}) "
+                "does not fit it: state the up axis (--up +z, --up -y, ...)",
+            )
         how.append("the route neither turns nor leaves a line: up from the format's convention, which fits it")
     else:
         raw = np.einsum("nji,j->ni", R, n_est).mean(axis=0)  # the body axis along n_est, on average
         if np.linalg.norm(raw) < 0.5:
-            raise ScenarioError(path, "cannot tell the body's up axis: the rotations do not keep one body axis along the ground "
-                                "plane's normal: state the axes (--up, --forward)")
+            raise ScenarioError(
+                path,
+                "cannot tell the body's up axis: the rotations do not keep one body axis along the ground "
+                "plane's normal: state the axes (--up, --forward)",
+            )
         u_raw = _unit(raw)
         if abs(float(u_raw @ f_b)) > math.sin(math.radians(90 - AGREE_DEG)):
-            raise ScenarioError(path, f"the forward axis found ({np.round(f_b, 3).tolist()}) is not level: it is "
-                                f"{90 - math.degrees(math.acos(min(1.0, abs(float(u_raw @ f_b))))):.0f} deg from the ground plane: "
-                                "state the axes (--up, --forward)")
+            raise ScenarioError(
+                path,
+                f"the forward axis found ({np.round(f_b, 3).tolist()}) is not level: it is "
+                f"{90 - math.degrees(math.acos(min(1.0, abs(float(u_raw @ f_b))))):.0f} deg from the ground plane: "
+                "state the axes (--up, --forward)",
+            )
         uax = _snap(u_raw)
         u_b = _vec(uax) if uax is not None else u_raw
         if given_up is not None:
@@ -388,7 +426,9 @@ def _spaced(xy: np.ndarray, min_m: float) -> np.ndarray:
     return np.asarray(keep, dtype=int)
 
 
-def headings_from_travel(t: np.ndarray, xy: np.ndarray, *, window_m: float = HEADING_WINDOW_M) -> tuple[np.ndarray, list[str]]:
+def headings_from_travel(
+    t: np.ndarray, xy: np.ndarray, *, window_m: float = HEADING_WINDOW_M
+) -> tuple[np.ndarray, list[str]]:
     """Headings [rad] of a positions-only route, from its direction of travel.
 
     The heading at point i is that of the chord between the route's points ``window_m / 2`` of
@@ -443,7 +483,9 @@ def headings_from_travel(t: np.ndarray, xy: np.ndarray, *, window_m: float = HEA
         cusp = np.flatnonzero((turn > math.radians(150)) & (sm[j] - sm <= 1.5 * window_m))
         if len(cusp):
             times = sorted({round(float(tm[k]), 1) for k in cusp})
-            notes.append(f"the direction of travel reverses near t = {', '.join(f'{x:g}' for x in times[:5])} s"
-                         f"{' ...' if len(times) > 5 else ''}: taken as turning round; if the car backed up "
-                         "there, its heading is 180 deg off")
+            notes.append(
+                f"the direction of travel reverses near t = {', '.join(f'{x:g}' for x in times[:5])} s"
+                f"{' ...' if len(times) > 5 else ''}: taken as turning round; if the car backed up "
+                "there, its heading is 180 deg off"
+            )
     return heading, notes

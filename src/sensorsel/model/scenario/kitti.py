@@ -11,8 +11,15 @@ import numpy as np
 
 from sensorsel.errors import InputError, ScenarioError
 from sensorsel.io.files import atomic_write_text
-from sensorsel.model.scenario.base import (DEFAULT_FRAME_RATE_HZ, ROTATION_TOL, RouteFile, Trajectory,
-                                           _check_coordinates, _parse_row, _read_lines)
+from sensorsel.model.scenario.base import (
+    DEFAULT_FRAME_RATE_HZ,
+    ROTATION_TOL,
+    RouteFile,
+    Trajectory,
+    _check_coordinates,
+    _parse_row,
+    _read_lines,
+)
 from sensorsel.model.scenario.frames import find_frame
 
 KITTI_ROOT_ENV = "SENSORSEL_KITTI_ROOT"
@@ -35,8 +42,9 @@ def read_kitti_poses(path: str | Path) -> np.ndarray:
     # KITTI 00's 4,541 lines); otherwise line by line, for the message naming the first bad line
     poses = None
     try:
-        flat = np.loadtxt(io.StringIO("\n".join(lines[i - 1] for i in linenos).replace(",", " ")), dtype=float,
-                          comments=None, ndmin=2)
+        flat = np.loadtxt(
+            io.StringIO("\n".join(lines[i - 1] for i in linenos).replace(",", " ")), dtype=float, comments=None, ndmin=2
+        )
     except ValueError:
         flat = None
     if flat is not None and flat.shape == (len(linenos), 12) and np.isfinite(flat).all():
@@ -49,7 +57,6 @@ def read_kitti_poses(path: str | Path) -> np.ndarray:
     return poses
 
 
-
 def _check_rotations(r: np.ndarray, path: Path, linenos: list[int]) -> None:
     """Every (3, 3) block is a rotation: |R R^T - I| and |det R - 1| within :data:`ROTATION_TOL`."""
     orth = np.abs(r @ r.transpose(0, 2, 1) - np.eye(3)).max(axis=(1, 2))
@@ -57,9 +64,12 @@ def _check_rotations(r: np.ndarray, path: Path, linenos: list[int]) -> None:
     bad = np.flatnonzero(~((orth <= ROTATION_TOL) & (np.abs(det - 1.0) <= ROTATION_TOL)))
     if len(bad):
         i = int(bad[0])
-        raise ScenarioError(path, f"the 3x3 block R of the pose is not a rotation (max |R R^T - I| = {orth[i]:.3g}, det R = {det[i]:.6g}; "
-                            f"allowed {ROTATION_TOL:g}); {len(bad)} such line(s) in the file", linenos[i])
-
+        raise ScenarioError(
+            path,
+            f"the 3x3 block R of the pose is not a rotation (max |R R^T - I| = {orth[i]:.3g}, det R = {det[i]:.6g}; "
+            f"allowed {ROTATION_TOL:g}); {len(bad)} such line(s) in the file",
+            linenos[i],
+        )
 
 
 def read_times(path: str | Path) -> np.ndarray:
@@ -112,9 +122,14 @@ def write_kitti_poses(path: str | Path, planar: np.ndarray) -> Path:
     return atomic_write_text(path, "".join(" ".join(f"{v:.9e}" for v in row) + "\n" for row in m))
 
 
-
-def read_kitti_route(poses_path: str | Path, times_path: str | Path | None = None, *,
-                     frame_rate_hz: float = DEFAULT_FRAME_RATE_HZ, up: str | None = None, forward: str | None = None) -> RouteFile:
+def read_kitti_route(
+    poses_path: str | Path,
+    times_path: str | Path | None = None,
+    *,
+    frame_rate_hz: float = DEFAULT_FRAME_RATE_HZ,
+    up: str | None = None,
+    forward: str | None = None,
+) -> RouteFile:
     """Read a route in KITTI's pose format, with its ``times.txt`` or a fixed frame rate, its ground
     plane and forward axis found (:func:`~sensorsel.model.scenario.frames.find_frame`; KITTI's own camera
     frame, y down and z forward, gives exactly :func:`planar_from_kitti`).
@@ -129,7 +144,11 @@ def read_kitti_route(poses_path: str | Path, times_path: str | Path | None = Non
         times = read_times(times_path)
         if len(times) != len(poses):
             what = "truncated" if len(poses) < len(times) else "longer than its timestamps"
-            raise ScenarioError(poses_path, f"pose file is {what}: {len(poses)} poses but {len(times)} timestamps in {times_path}", len(poses))
+            raise ScenarioError(
+                poses_path,
+                f"pose file is {what}: {len(poses)} poses but {len(times)} timestamps in {times_path}",
+                len(poses),
+            )
     else:
         times = np.arange(len(poses)) / frame_rate_hz
     frame, notes = find_frame(poses[:, :, 3], poses[:, :, :3], poses_path, convention="camera", up=up, forward=forward)
@@ -137,7 +156,9 @@ def read_kitti_route(poses_path: str | Path, times_path: str | Path | None = Non
     return RouteFile(Trajectory(planar, times, np.arange(len(poses)), str(poses_path)), frame, tuple(notes))
 
 
-def load_trajectory(poses_path: str | Path, times_path: str | Path | None = None, *, frame_rate_hz: float = DEFAULT_FRAME_RATE_HZ) -> Trajectory:
+def load_trajectory(
+    poses_path: str | Path, times_path: str | Path | None = None, *, frame_rate_hz: float = DEFAULT_FRAME_RATE_HZ
+) -> Trajectory:
     """The planar route of a KITTI pose file (:func:`read_kitti_route`)."""
     return read_kitti_route(poses_path, times_path, frame_rate_hz=frame_rate_hz).route
 
@@ -179,5 +200,3 @@ def load_sequence(root: str | Path, seq: str) -> Trajectory:
 def kitti_map_path(root: str | Path, seq: str) -> Path:
     """Where a KITTI folder keeps the pole map of sequence ``seq``: ``landmarks/NN.csv``."""
     return Path(root) / "landmarks" / f"{seq}.csv"
-
-

@@ -66,8 +66,10 @@ def pole_map_folder(poles: str | Path) -> Path:
     for sub in POLE_FOLDERS:
         if any((root / sub).glob(f"kitti_label_*/{POLE_MAP}")):
             return root / sub
-    raise InputError(f"--poles {poles}: no kitti_label_NN/{POLE_MAP} there nor under data/pole-dataset/KITTI "
-                     "(a clone of PRBonn/pole-localization, or its data/pole-dataset/KITTI folder)")
+    raise InputError(
+        f"--poles {poles}: no kitti_label_NN/{POLE_MAP} there nor under data/pole-dataset/KITTI "
+        "(a clone of PRBonn/pole-localization, or its data/pole-dataset/KITTI folder)"
+    )
 
 
 def find_sources(odometry: str | Path, poles: str | Path, seqs: list[str] | None = None) -> list[KittiSources]:
@@ -78,24 +80,39 @@ def find_sources(odometry: str | Path, poles: str | Path, seqs: list[str] | None
     """
     odo, pole_dir = Path(odometry), pole_map_folder(poles)
     if not (odo / "poses").is_dir():
-        raise InputError(f"--odometry {odometry}: not KITTI odometry's dataset/ folder (expected {odo / 'poses'}/NN.txt)")
+        raise InputError(
+            f"--odometry {odometry}: not KITTI odometry's dataset/ folder (expected {odo / 'poses'}/NN.txt)"
+        )
     have_maps = {p.parent.name.removeprefix("kitti_label_") for p in pole_dir.glob(f"kitti_label_*/{POLE_MAP}")}
     have_poses = {p.stem for p in (odo / "poses").glob("*.txt")}
     if seqs is None:
         seqs = sorted(have_maps & have_poses)
         if not seqs:
-            raise InputError(f"no sequence has both a pose file in {odo / 'poses'} ({', '.join(sorted(have_poses)) or 'none'}) "
-                             f"and a pole map in {pole_dir} ({', '.join(sorted(have_maps)) or 'none'})")
+            raise InputError(
+                f"no sequence has both a pose file in {odo / 'poses'} ({', '.join(sorted(have_poses)) or 'none'}) "
+                f"and a pole map in {pole_dir} ({', '.join(sorted(have_maps)) or 'none'})"
+            )
     out = []
     for seq in seqs:
         if seq not in have_poses:
-            raise InputError(f"--seq {seq}: no {odo / 'poses' / (seq + '.txt')}; that folder has: "
-                             f"{', '.join(sorted(have_poses)) or 'none'}")
+            raise InputError(
+                f"--seq {seq}: no {odo / 'poses' / (seq + '.txt')}; that folder has: "
+                f"{', '.join(sorted(have_poses)) or 'none'}"
+            )
         if seq not in have_maps:
-            raise InputError(f"--seq {seq}: no pole map {pole_dir / ('kitti_label_' + seq) / POLE_MAP}; "
-                             f"there are: {', '.join(sorted(have_maps)) or 'none'}")
-        out.append(KittiSources(seq, odo / "poses" / f"{seq}.txt", odo / "sequences" / seq / "times.txt",
-                                odo / "sequences" / seq / "calib.txt", pole_dir / f"kitti_label_{seq}" / POLE_MAP))
+            raise InputError(
+                f"--seq {seq}: no pole map {pole_dir / ('kitti_label_' + seq) / POLE_MAP}; "
+                f"there are: {', '.join(sorted(have_maps)) or 'none'}"
+            )
+        out.append(
+            KittiSources(
+                seq,
+                odo / "poses" / f"{seq}.txt",
+                odo / "sequences" / seq / "times.txt",
+                odo / "sequences" / seq / "calib.txt",
+                pole_dir / f"kitti_label_{seq}" / POLE_MAP,
+            )
+        )
     return out
 
 
@@ -108,13 +125,19 @@ def read_velodyne_to_camera(path: str | Path) -> np.ndarray:
     path = Path(path)
     for lineno, line in enumerate(_read_lines(path, "calibration"), start=1):
         if line.startswith("Tr:"):
-            tr = np.asarray(_parse_row(line[3:], path, lineno, 12, "the Velodyne-to-camera transform Tr"), dtype=float).reshape(3, 4)
+            tr = np.asarray(
+                _parse_row(line[3:], path, lineno, 12, "the Velodyne-to-camera transform Tr"), dtype=float
+            ).reshape(3, 4)
             r = tr[:, :3]
             err = max(float(np.abs(r @ r.T - np.eye(3)).max()), abs(float(np.linalg.det(r)) - 1.0))
             if err > ROTATION_TOL:
-                raise ScenarioError(path, f"Tr's 3x3 block is not a rotation (error {err:.3g}, allowed {ROTATION_TOL:g})", lineno)
+                raise ScenarioError(
+                    path, f"Tr's 3x3 block is not a rotation (error {err:.3g}, allowed {ROTATION_TOL:g})", lineno
+                )
             return tr
-    raise ScenarioError(path, "no line 'Tr:' (KITTI odometry's calib.txt holds the Velodyne-to-camera-0 transform there)")
+    raise ScenarioError(
+        path, "no line 'Tr:' (KITTI odometry's calib.txt holds the Velodyne-to-camera-0 transform there)"
+    )
 
 
 def read_pole_map(path: str | Path) -> np.ndarray:
@@ -128,18 +151,26 @@ def read_pole_map(path: str | Path) -> np.ndarray:
     try:
         with np.load(path, allow_pickle=False) as npz:
             if "poleparams" not in npz.files:
-                raise ScenarioError(path, "no array 'poleparams' (a PRBonn pole map has one; this file has: "
-                                          f"{', '.join(npz.files) or 'none'})")
+                raise ScenarioError(
+                    path,
+                    "no array 'poleparams' (a PRBonn pole map has one; this file has: "
+                    f"{', '.join(npz.files) or 'none'})",
+                )
             params = np.asarray(npz["poleparams"])
     except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
         raise ScenarioError(path, f"not a NumPy .npz pole map ({exc.__class__.__name__}: {exc})") from None
     if params.ndim != 2 or params.shape[1] < 2 or params.shape[0] < 1 or not np.issubdtype(params.dtype, np.number):
-        raise ScenarioError(path, f"'poleparams' must be M rows of at least 2 numbers (x, y, ...); got shape {params.shape}, dtype "
-                                  f"{params.dtype}")
+        raise ScenarioError(
+            path,
+            f"'poleparams' must be M rows of at least 2 numbers (x, y, ...); got shape {params.shape}, dtype "
+            f"{params.dtype}",
+        )
     xy = params[:, :2].astype(float)
     bad = np.flatnonzero(~np.isfinite(xy).all(axis=1))
     if len(bad):
-        raise ScenarioError(path, f"pole {int(bad[0])} (row of 'poleparams') has a coordinate that is not a finite number")
+        raise ScenarioError(
+            path, f"pole {int(bad[0])} (row of 'poleparams') has a coordinate that is not a finite number"
+        )
     return xy
 
 
@@ -168,9 +199,12 @@ def pole_landmarks(src: KittiSources) -> tuple[np.ndarray, np.ndarray]:
     dist = distance_to_route(lm, route)
     share = float(np.mean(dist <= ALONG_ROUTE_M))
     if share < ALONG_ROUTE_SHARE:
-        raise ScenarioError(src.poles, f"does not lie along sequence {src.seq}'s route: {share:.0%} of its {len(lm)} poles within "
-                            f"{ALONG_ROUTE_M:g} m of it (a sequence's own map: at least {ALONG_ROUTE_SHARE:.0%}; median distance "
-                            f"{float(np.median(dist)):.0f} m); another sequence's pole map, or {src.calib} of another sequence?")
+        raise ScenarioError(
+            src.poles,
+            f"does not lie along sequence {src.seq}'s route: {share:.0%} of its {len(lm)} poles within "
+            f"{ALONG_ROUTE_M:g} m of it (a sequence's own map: at least {ALONG_ROUTE_SHARE:.0%}; median distance "
+            f"{float(np.median(dist)):.0f} m); another sequence's pole map, or {src.calib} of another sequence?",
+        )
     return lm, dist
 
 
@@ -186,7 +220,10 @@ def build_kitti_folder(sources: list[KittiSources], out: str | Path) -> list[Bui
     checked = [(src, *pole_landmarks(src)) for src in sources]
     built = []
     for src, lm, dist in checked:
-        for source, target in ((src.poses, out / "poses" / f"{src.seq}.txt"), (src.times, out / "sequences" / src.seq / "times.txt")):
+        for source, target in (
+            (src.poses, out / "poses" / f"{src.seq}.txt"),
+            (src.times, out / "sequences" / src.seq / "times.txt"),
+        ):
             if not (target.exists() and target.resolve() == source.resolve()):
                 target.parent.mkdir(parents=True, exist_ok=True)
                 atomic_write_bytes(target, source.read_bytes())
@@ -197,5 +234,17 @@ def build_kitti_folder(sources: list[KittiSources], out: str | Path) -> list[Bui
     return built
 
 
-__all__ = ["ALONG_ROUTE_M", "ALONG_ROUTE_SHARE", "BuiltSequence", "KittiSources", "POLE_MAP", "build_kitti_folder", "find_sources",
-           "pole_landmarks", "pole_map_folder", "poles_in_route_frame", "read_pole_map", "read_velodyne_to_camera"]
+__all__ = [
+    "ALONG_ROUTE_M",
+    "ALONG_ROUTE_SHARE",
+    "BuiltSequence",
+    "KittiSources",
+    "POLE_MAP",
+    "build_kitti_folder",
+    "find_sources",
+    "pole_landmarks",
+    "pole_map_folder",
+    "poles_in_route_frame",
+    "read_pole_map",
+    "read_velodyne_to_camera",
+]

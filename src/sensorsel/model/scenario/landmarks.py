@@ -13,8 +13,17 @@ from scipy.spatial import cKDTree
 from sensorsel.errors import InputError, ScenarioError
 from sensorsel.io.files import atomic_write_text
 from sensorsel.io.inputs import is_number_text
-from sensorsel.model.scenario.base import (MAX_COORD_M, MAX_LANDMARKS, ON_ROAD_M, LandmarkReport, Trajectory,
-                                           _check_coordinates, _csv_fields, _data_lines, _parse_row)
+from sensorsel.model.scenario.base import (
+    MAX_COORD_M,
+    MAX_LANDMARKS,
+    ON_ROAD_M,
+    LandmarkReport,
+    Trajectory,
+    _check_coordinates,
+    _csv_fields,
+    _data_lines,
+    _parse_row,
+)
 
 
 @dataclass(frozen=True)
@@ -44,14 +53,21 @@ class LandmarkModel:
             if not (0 <= lo <= hi and math.isfinite(hi)):
                 raise InputError(f"landmark model: {name} must be 0 <= low <= high, got {(lo, hi)!r}")
             if hi > MAX_COORD_M:
-                raise InputError(f"landmark model: {name} ({_OPTION[name]}) {hi:g} m is beyond the limit of {MAX_COORD_M:g} m")
+                raise InputError(
+                    f"landmark model: {name} ({_OPTION[name]}) {hi:g} m is beyond the limit of {MAX_COORD_M:g} m"
+                )
         if not (math.isfinite(self.clearance_m) and self.clearance_m >= 0):
             raise InputError(f"landmark model: clearance_m must be >= 0, got {self.clearance_m!r}")
 
 
 # the CLI option of each LandmarkModel field (`sensorsel landmarks`), named in its errors
-_OPTION = {"near_spacing_m": "--near-spacing", "far_spacing_m": "--far-spacing", "near_offset_m": "--near-offset",
-           "far_offset_m": "--far-offset", "clearance_m": "--clearance"}
+_OPTION = {
+    "near_spacing_m": "--near-spacing",
+    "far_spacing_m": "--far-spacing",
+    "near_offset_m": "--near-offset",
+    "far_offset_m": "--far-offset",
+    "clearance_m": "--clearance",
+}
 
 
 def check_landmark_seed(seed: object) -> int:
@@ -82,9 +98,11 @@ def generate_landmarks(route: Trajectory, model: LandmarkModel = LandmarkModel()
     if n_est > MAX_LANDMARKS:
         near, far = 2 * (length // model.near_spacing_m), length // model.far_spacing_m
         name = "near_spacing_m" if near >= far else "far_spacing_m"
-        raise InputError(f"landmark model: {name} ({_OPTION[name]}) {getattr(model, name):g} m along the {length:,.0f} m route "
-                         "would "
-                         f"generate about {n_est:,} landmarks, more than the limit of {MAX_LANDMARKS:,}: use a larger spacing")
+        raise InputError(
+            f"landmark model: {name} ({_OPTION[name]}) {getattr(model, name):g} m along the {length:,.0f} m route "
+            "would "
+            f"generate about {n_est:,} landmarks, more than the limit of {MAX_LANDMARKS:,}: use a larger spacing"
+        )
     rng = np.random.default_rng(seed)
     xy = route.poses[:, :2]
     if len(xy) < 2:
@@ -168,8 +186,12 @@ def read_landmarks_file(path: str | Path) -> np.ndarray:
             header = [f.lower() for f in fields]
             missing = [c for c in ("x", "y") if c not in header]
             if missing:
-                raise ScenarioError(path, f"header {first!r} names no {' and no '.join(missing)} column: expected a header "
-                                    "naming x and y (metres; other columns are ignored) or rows of numbers", hline)
+                raise ScenarioError(
+                    path,
+                    f"header {first!r} names no {' and no '.join(missing)} column: expected a header "
+                    "naming x and y (metres; other columns are ignored) or rows of numbers",
+                    hline,
+                )
             for c in ("x", "y", "z"):
                 if header.count(c) > 1:
                     raise ScenarioError(path, f"header {first!r} names column {c} twice", hline)
@@ -184,8 +206,12 @@ def read_landmarks_file(path: str | Path) -> np.ndarray:
             if n_fields < 2:
                 raise ScenarioError(path, f"expected comma-separated x,y (metres), found {n_fields} fields", lineno)
         if len(fields) != n_fields:
-            raise ScenarioError(path, f"expected {n_fields} comma-separated fields as in the {'header' if start else 'first row'}, "
-                                f"found {len(fields)} fields", lineno)
+            raise ScenarioError(
+                path,
+                f"expected {n_fields} comma-separated fields as in the {'header' if start else 'first row'}, "
+                f"found {len(fields)} fields",
+                lineno,
+            )
         rows.append(_parse_row(" ".join(fields[c] for c in cols), path, lineno, len(cols), what))
         linenos.append(lineno)
     if rows:
@@ -228,8 +254,9 @@ def distance_to_route(points: np.ndarray, xy: np.ndarray, chunk: int = 256) -> n
     return np.sqrt(np.minimum.reduceat(d2, start))
 
 
-def clean_landmarks(landmarks: np.ndarray, route: Trajectory, clearance_m: float | None = None,
-                    source: str = "<memory>") -> tuple[np.ndarray, LandmarkReport]:
+def clean_landmarks(
+    landmarks: np.ndarray, route: Trajectory, clearance_m: float | None = None, source: str = "<memory>"
+) -> tuple[np.ndarray, LandmarkReport]:
     """Merge exact duplicates (first occurrence kept, order kept), count the landmarks standing on
     the road (closer than ``clearance_m``, or :data:`ON_ROAD_M` when None, to the polyline of the
     full-rate ``route``) and drop them when ``clearance_m`` is given.
@@ -237,7 +264,9 @@ def clean_landmarks(landmarks: np.ndarray, route: Trajectory, clearance_m: float
     Returns:
         (landmarks kept, the report of what was done).
     """
-    if clearance_m is not None and not (isinstance(clearance_m, (int, float)) and math.isfinite(clearance_m) and clearance_m >= 0):
+    if clearance_m is not None and not (
+        isinstance(clearance_m, (int, float)) and math.isfinite(clearance_m) and clearance_m >= 0
+    ):
         raise InputError(f"clearance must be a number of metres >= 0, got {clearance_m!r}")
     lm = np.asarray(landmarks, dtype=float).reshape(-1, 2)
     n_read = len(lm)
@@ -251,8 +280,16 @@ def clean_landmarks(landmarks: np.ndarray, route: Trajectory, clearance_m: float
     dropped = int(near.sum()) if clearance_m is not None else 0
     if clearance_m is not None:
         lm, dist = lm[~near], dist[~near]
-    report = LandmarkReport(source, n_read, n_duplicates, on_road_m, int(near.sum()), None if clearance_m is None else float(clearance_m), dropped,
-                            float(dist.min()) if len(dist) else math.inf)
+    report = LandmarkReport(
+        source,
+        n_read,
+        n_duplicates,
+        on_road_m,
+        int(near.sum()),
+        None if clearance_m is None else float(clearance_m),
+        dropped,
+        float(dist.min()) if len(dist) else math.inf,
+    )
     return lm, report
 
 
@@ -260,5 +297,3 @@ def write_landmarks_csv(path: str | Path, landmarks: np.ndarray) -> Path:
     """Write landmarks as ``x,y`` CSV with a header (atomically)."""
     body = "".join(f"{x:.6f},{y:.6f}\n" for x, y in np.asarray(landmarks, dtype=float).reshape(-1, 2))
     return atomic_write_text(path, "x,y\n" + body)
-
-

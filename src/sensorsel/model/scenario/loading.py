@@ -4,23 +4,35 @@ keyframes, its landmarks, and the notes saying what was assumed, merged or dropp
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 
 from sensorsel.errors import InputError, ScenarioError
+from sensorsel.io.inputs import is_number_text
 from sensorsel.io.resources import fixtures_dir
 from sensorsel.model.conditions import Condition
-from sensorsel.io.inputs import is_number_text
-from sensorsel.model.scenario.base import (DEFAULT_FRAME_RATE_HZ, RouteFile, Scenario, Trajectory, _data_lines,
-                                           route_rate_hz, select_keyframes)
+from sensorsel.model.scenario.base import (
+    DEFAULT_FRAME_RATE_HZ,
+    RouteFile,
+    Scenario,
+    Trajectory,
+    _data_lines,
+    route_rate_hz,
+    select_keyframes,
+)
 from sensorsel.model.scenario.csv_route import _header, read_csv_route
 from sensorsel.model.scenario.frames import Frame, check_not_degrees
 from sensorsel.model.scenario.kitti import kitti_map_path, read_kitti_route, read_sequence, resolve_kitti_root
-from sensorsel.model.scenario.landmarks import (LandmarkModel, check_landmark_seed, clean_landmarks,
-                                                generate_landmarks, read_landmarks_file)
+from sensorsel.model.scenario.landmarks import (
+    LandmarkModel,
+    check_landmark_seed,
+    clean_landmarks,
+    generate_landmarks,
+    read_landmarks_file,
+)
 from sensorsel.model.scenario.tum import read_tum_route
 
 DEFAULT_FIXTURE = "suburb"
@@ -29,7 +41,18 @@ SYNTHETIC = "synthetic"  # ScenarioSpec.landmarks: always generate
 REAL = "real"  # ScenarioSpec.landmarks: the KITTI sequence's pole map, an error if there is none
 DEFAULT_OSM_REACH_M = 100.0  # ScenarioSpec.osm_reach_m: a route's OSM landmarks, those within this distance [m]
 # file stems that say nothing about the drive: such a route is named after its folder
-_GENERIC_STEMS = {"poses", "pose", "groundtruth", "ground_truth", "gt", "trajectory", "traj", "route", "odometry", "data"}
+_GENERIC_STEMS = {
+    "poses",
+    "pose",
+    "groundtruth",
+    "ground_truth",
+    "gt",
+    "trajectory",
+    "traj",
+    "route",
+    "odometry",
+    "data",
+}
 
 
 def sniff_route_format(path: str | Path) -> str:
@@ -51,22 +74,35 @@ def sniff_route_format(path: str | Path) -> str:
     if first.lstrip("\ufeff \t").startswith("<"):
         # a GPX track reaches here only from the API's load_scenario: the route commands' --route
         # and a domain file's route read GPX (sensorsel.model.osm.load_geo_scenario, above this layer)
-        raise ScenarioError(path, "an XML file (a GPX track?) is read as a route by sensorsel.load_problem or "
-                            "sensorsel.model.osm.load_geo_scenario (as --route and a domain file's route are), "
-                            "not by load_scenario", lineno)
+        raise ScenarioError(
+            path,
+            "an XML file (a GPX track?) is read as a route by sensorsel.load_problem or "
+            "sensorsel.model.osm.load_geo_scenario (as --route and a domain file's route are), "
+            "not by load_scenario",
+            lineno,
+        )
     parts = first.replace(",", " ").split()
     if not all(is_number_text(p) for p in parts) or _header(path) is not None:
         return "csv"  # a header, or a '#' comment naming t,x,y just before the first row
     by_count = {12: "kitti", 8: "tum"}
     if len(parts) not in by_count:
-        raise ScenarioError(path, f"cannot tell the route format: {len(parts)} numbers on the first line "
-                            "(KITTI poses have 12, TUM trajectories 8, a planar CSV has a header t,x,y,heading); "
-                            "give the format (--route-format kitti|tum|csv)", lineno)
+        raise ScenarioError(
+            path,
+            f"cannot tell the route format: {len(parts)} numbers on the first line "
+            "(KITTI poses have 12, TUM trajectories 8, a planar CSV has a header t,x,y,heading); "
+            "give the format (--route-format kitti|tum|csv)",
+            lineno,
+        )
     return by_count[len(parts)]
 
 
-def load_route_file(path: str | Path, fmt: str | None = None, times: str | Path | None = None,
-                    *, frame_rate_hz: float = DEFAULT_FRAME_RATE_HZ) -> tuple[Trajectory, tuple[str, ...]]:
+def load_route_file(
+    path: str | Path,
+    fmt: str | None = None,
+    times: str | Path | None = None,
+    *,
+    frame_rate_hz: float = DEFAULT_FRAME_RATE_HZ,
+) -> tuple[Trajectory, tuple[str, ...]]:
     """Read a route in ``fmt`` (``kitti``, ``tum``, ``csv``; None: :func:`sniff_route_format`).
 
     Returns:
@@ -76,8 +112,15 @@ def load_route_file(path: str | Path, fmt: str | None = None, times: str | Path 
     return r.route, r.notes
 
 
-def read_route_file(path: str | Path, fmt: str | None = None, times: str | Path | None = None, *,
-                    frame_rate_hz: float = DEFAULT_FRAME_RATE_HZ, up: str | None = None, forward: str | None = None) -> RouteFile:
+def read_route_file(
+    path: str | Path,
+    fmt: str | None = None,
+    times: str | Path | None = None,
+    *,
+    frame_rate_hz: float = DEFAULT_FRAME_RATE_HZ,
+    up: str | None = None,
+    forward: str | None = None,
+) -> RouteFile:
     """Read a route in ``fmt`` (``kitti``, ``tum``, ``csv``; None: :func:`sniff_route_format`), its
     ground plane and forward axis found (a 3-D file) and its heading from the direction of travel (a
     positions-only file).
@@ -100,13 +143,22 @@ def read_route_file(path: str | Path, fmt: str | None = None, times: str | Path 
     if fmt == "kitti":
         r = read_kitti_route(path, times, frame_rate_hz=frame_rate_hz, up=up, forward=forward)
         if times is None:
-            r = RouteFile(r.route, r.frame, (f"route {path} has no timestamps: assumed {frame_rate_hz:g} Hz (give its times file "
-                                             "to use real ones)",) + r.notes)
+            r = RouteFile(
+                r.route,
+                r.frame,
+                (
+                    f"route {path} has no timestamps: assumed {frame_rate_hz:g} Hz (give its times file "
+                    "to use real ones)",
+                )
+                + r.notes,
+            )
         return r
     if fmt == "csv":
         if forward is not None:
-            raise InputError(f"--forward {forward}: a CSV route ({path}) has no body axes (its heading is a column or the "
-                             "direction of travel)")
+            raise InputError(
+                f"--forward {forward}: a CSV route ({path}) has no body axes (its heading is a column or the "
+                "direction of travel)"
+            )
         return read_csv_route(path, up=up)
     return read_tum_route(path, up=up, forward=forward)
 
@@ -118,7 +170,6 @@ def route_name(path: str | Path) -> str:
     if path.stem.lower() in _GENERIC_STEMS and path.resolve().parent.name:
         return path.resolve().parent.name
     return path.stem
-
 
 
 # ------------------------------------------------------------------------------------- pipeline
@@ -182,7 +233,12 @@ class ScenarioSpec:
     @property
     def geo(self) -> bool:
         """Whether OpenStreetMap landmarks, their choice or a georeference are asked for (read above this layer)."""
-        return bool(self.osm) or self.georef is not None or self.osm_classes is not None or self.osm_reach_m != DEFAULT_OSM_REACH_M
+        return (
+            bool(self.osm)
+            or self.georef is not None
+            or self.osm_classes is not None
+            or self.osm_reach_m != DEFAULT_OSM_REACH_M
+        )
 
 
 #: landmarks from a map the scenario layer does not read (OpenStreetMap; :mod:`sensorsel.model.osm`):
@@ -207,16 +263,19 @@ class _Route:
     frame: Frame | None = None  # the frame a 3-D route was found in (projects x,y,z landmark files)
 
 
-
 def _load_route(spec: ScenarioSpec, given: RouteFile | None = None) -> _Route:
     if given is not None:  # read by a caller that knows the format (a GPX track): spec.route names it
-        return _Route(given.route, route_name(spec.route or given.route.source), None, "", given.notes, frame=given.frame)
+        return _Route(
+            given.route, route_name(spec.route or given.route.source), None, "", given.notes, frame=given.frame
+        )
     if spec.route is not None and spec.poses is not None:
         raise InputError(f"give one route file: route {spec.route} or poses {spec.poses}, not both")
     if spec.route_format is not None and spec.route is None:
         raise InputError(f"a route format ({spec.route_format}) goes with a route file")
     if spec.times is not None and spec.route is None and spec.poses is None:
-        raise InputError(f"timestamps {spec.times} go with a KITTI pose file (a sequence or fixture has its own times.txt)")
+        raise InputError(
+            f"timestamps {spec.times} go with a KITTI pose file (a sequence or fixture has its own times.txt)"
+        )
     if spec.route is not None or spec.poses is not None:
         path: str = spec.route if spec.route is not None else spec.poses  # type: ignore[assignment]  # one is set
         fmt = spec.route_format if spec.route is not None else "kitti"
@@ -224,8 +283,10 @@ def _load_route(spec: ScenarioSpec, given: RouteFile | None = None) -> _Route:
         return _Route(rf.route, route_name(path), None, "", rf.notes, frame=rf.frame)
     for option, value in (("--up", spec.up), ("--forward", spec.forward)):
         if value is not None:
-            raise InputError(f"{option} {value} goes with a route file (--route FILE); a sequence or fixture is in KITTI's "
-                             "camera frame")
+            raise InputError(
+                f"{option} {value} goes with a route file (--route FILE); a sequence or fixture is in KITTI's "
+                "camera frame"
+            )
     if spec.seq is not None:
         root = resolve_kitti_root(spec.kitti_root)
         lm = kitti_map_path(root, spec.seq)
@@ -269,8 +330,12 @@ def route_landmarks(spec: ScenarioSpec = ScenarioSpec()) -> np.ndarray:
     return generate_landmarks(route, spec.landmark_model, spec.landmark_seed)
 
 
-def load_scenario(spec: ScenarioSpec = ScenarioSpec(), *, route_file: RouteFile | None = None,
-                  map_landmarks: MapLandmarks | None = None) -> Scenario:
+def load_scenario(
+    spec: ScenarioSpec = ScenarioSpec(),
+    *,
+    route_file: RouteFile | None = None,
+    map_landmarks: MapLandmarks | None = None,
+) -> Scenario:
     """Build a scenario: read the route, take keyframes, read or generate landmarks, merge their
     exact duplicates and count (with ``spec.clearance_m``: drop) those standing on the road.
 
@@ -288,23 +353,33 @@ def load_scenario(spec: ScenarioSpec = ScenarioSpec(), *, route_file: RouteFile 
     """
     check_landmark_seed(spec.landmark_seed)
     if spec.geo and map_landmarks is None:
-        raise InputError("OpenStreetMap landmarks (--landmarks osm:FILE) and --georef are read by "
-                         "sensorsel.model.osm.load_geo_scenario "
-                         "(and sensorsel.load_problem), not by sensorsel.model.scenario.load_scenario")
+        raise InputError(
+            "OpenStreetMap landmarks (--landmarks osm:FILE) and --georef are read by "
+            "sensorsel.model.osm.load_geo_scenario "
+            "(and sensorsel.load_problem), not by sensorsel.model.scenario.load_scenario"
+        )
     r = _load_route(spec, route_file)
     route, name = r.route, _name(spec, r.name)
     keyframes = route.select(select_keyframes(route.times, spec.keyframe_rate_hz))
     if len(keyframes) < 2:
-        raise InputError(f"route {route.source} gives {len(keyframes)} keyframe(s) at {spec.keyframe_rate_hz} Hz; need at least 2")
+        raise InputError(
+            f"route {route.source} gives {len(keyframes)} keyframe(s) at {spec.keyframe_rate_hz} Hz; need at least 2"
+        )
     notes = list(r.notes)
     own_rate = route_rate_hz(route)
     if spec.keyframe_rate_hz > own_rate:
-        used = f"every frame ({len(route)})" if len(keyframes) == len(route) else f"{len(keyframes)} of {len(route)} frames"
-        notes.append(f"keyframes: the rate {spec.keyframe_rate_hz:g} Hz is above the route's own {own_rate:.3g} Hz (median "
-                     "frame "
-                     f"interval {1.0 / own_rate:.4g} s): used {used} as keyframes, at "
-                     f"{(len(keyframes) - 1) / keyframes.duration_s:.3g} Hz "
-                     "on average")
+        used = (
+            f"every frame ({len(route)})"
+            if len(keyframes) == len(route)
+            else f"{len(keyframes)} of {len(route)} frames"
+        )
+        notes.append(
+            f"keyframes: the rate {spec.keyframe_rate_hz:g} Hz is above the route's own {own_rate:.3g} Hz (median "
+            "frame "
+            f"interval {1.0 / own_rate:.4g} s): used {used} as keyframes, at "
+            f"{(len(keyframes) - 1) / keyframes.duration_s:.3g} Hz "
+            "on average"
+        )
     if map_landmarks is not None:
         raw, source = _with_map(spec, r, route, map_landmarks, notes)
     else:
@@ -312,8 +387,10 @@ def load_scenario(spec: ScenarioSpec = ScenarioSpec(), *, route_file: RouteFile 
     landmarks, report = clean_landmarks(raw, route, spec.clearance_m, source)
     notes.extend(report.notes(always=False))  # the source itself is on every result's scenario line
     if not len(landmarks):
-        raise InputError(f"no landmark left of the {report.n_read} of {source} (clearance {spec.clearance_m} m): every suite "
-                         "would score 0")
+        raise InputError(
+            f"no landmark left of the {report.n_read} of {source} (clearance {spec.clearance_m} m): every suite "
+            "would score 0"
+        )
     return Scenario(name, keyframes, landmarks, source, route, report, tuple(notes))
 
 
@@ -342,21 +419,28 @@ def _own_landmarks(spec: ScenarioSpec, r: _Route, route: Trajectory, notes: list
         if choice is None and r.missing_map:
             notes.append(f"landmarks: {r.missing_map}: generated synthetic landmarks (seed {spec.landmark_seed})")
         elif choice is None:
-            notes.append(f"landmarks: the route has no map: generated synthetic landmarks (seed {spec.landmark_seed}; "
-                         "give a landmark file for a real one)")
-        return generate_landmarks(route, spec.landmark_model, spec.landmark_seed), f"generated (seed {spec.landmark_seed})"
+            notes.append(
+                f"landmarks: the route has no map: generated synthetic landmarks (seed {spec.landmark_seed}; "
+                "give a landmark file for a real one)"
+            )
+        return generate_landmarks(
+            route, spec.landmark_model, spec.landmark_seed
+        ), f"generated (seed {spec.landmark_seed})"
     lm_path = Path(choice) if choice not in (None, REAL) else r.own_landmarks
     assert lm_path is not None
     return _read_map(lm_path, r, route, notes), (str(choice) if choice not in (None, REAL) else r.own_label)
 
 
-def _with_map(spec: ScenarioSpec, r: _Route, route: Trajectory, map_landmarks: MapLandmarks,
-              notes: list[str]) -> tuple[np.ndarray, str]:
+def _with_map(
+    spec: ScenarioSpec, r: _Route, route: Trajectory, map_landmarks: MapLandmarks, notes: list[str]
+) -> tuple[np.ndarray, str]:
     """The map service's landmarks merged with the file or pole map ``spec.landmarks`` names (if any)."""
     choice = spec.landmarks
     if choice == SYNTHETIC:
-        raise InputError("--landmarks synthetic with an OpenStreetMap map (osm:FILE): a generated map does not mix with a "
-                         "real one; give osm:FILE alone, or with a survey CSV")
+        raise InputError(
+            "--landmarks synthetic with an OpenStreetMap map (osm:FILE): a generated map does not mix with a "
+            "real one; give osm:FILE alone, or with a survey CSV"
+        )
     base: np.ndarray | None = None
     label: str | None = None
     if choice is not None:
@@ -384,6 +468,8 @@ def _landmarks_in_plane(path: Path, r: _Route, notes: list[str]) -> np.ndarray:
         return raw
     if r.frame is None:
         return raw[:, :2]
-    notes.append(f"landmarks: {path}: x,y,z taken in the route's world frame, projected into its ground plane "
-                 f"({r.frame.describe})")
+    notes.append(
+        f"landmarks: {path}: x,y,z taken in the route's world frame, projected into its ground plane "
+        f"({r.frame.describe})"
+    )
     return r.frame.project(raw)

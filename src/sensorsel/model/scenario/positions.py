@@ -15,8 +15,15 @@ from sensorsel.model.scenario.base import MAX_COORD_M, RouteFile, Trajectory
 from sensorsel.model.scenario.frames import HEADING_WINDOW_M, Frame, check_moves, headings_from_travel
 
 
-def route_from_positions(t: np.ndarray, xy: np.ndarray, source: str | Path, *, frame: Frame | None = None,
-                         notes: tuple[str, ...] = (), window_m: float = HEADING_WINDOW_M) -> RouteFile:
+def route_from_positions(
+    t: np.ndarray,
+    xy: np.ndarray,
+    source: str | Path,
+    *,
+    frame: Frame | None = None,
+    notes: tuple[str, ...] = (),
+    window_m: float = HEADING_WINDOW_M,
+) -> RouteFile:
     """A planar route from positions only.
 
     Args:
@@ -46,11 +53,16 @@ def route_from_positions(t: np.ndarray, xy: np.ndarray, source: str | Path, *, f
         i = int(bad[0]) + 1
         raise ScenarioError(source, f"timestamps must increase: {t[i]!r} after {t[i - 1]!r} (point {i + 1})")
     if np.abs(xy).max() > MAX_COORD_M:
-        raise ScenarioError(source, f"a position is beyond the limit of {MAX_COORD_M:g} m from the origin (in metres? no map is that large)")
+        raise ScenarioError(
+            source,
+            f"a position is beyond the limit of {MAX_COORD_M:g} m from the origin (in metres? no map is that large)",
+        )
     check_moves(xy, source)
     heading, turn_notes = headings_from_travel(t, xy, window_m=window_m)
-    said = [f"route {source}: no heading in the file: heading from the direction of travel (smoothed over {window_m:g} m; "
-            "a stop keeps the last heading)"]
+    said = [
+        f"route {source}: no heading in the file: heading from the direction of travel (smoothed over {window_m:g} m; "
+        "a stop keeps the last heading)"
+    ]
     said += [f"route {source}: {n}" for n in turn_notes]
     route = Trajectory(np.column_stack([xy, heading]), t, np.arange(len(t)), str(source))
     return RouteFile(route, frame, tuple(notes) + tuple(said))

@@ -9,8 +9,15 @@ import numpy as np
 
 from sensorsel.errors import ScenarioError
 from sensorsel.io.files import atomic_write_text
-from sensorsel.model.scenario.base import (QUATERNION_TOL, RouteFile, Trajectory, _check_coordinates, _data_lines,
-                                           _increasing, _parse_row)
+from sensorsel.model.scenario.base import (
+    QUATERNION_TOL,
+    RouteFile,
+    Trajectory,
+    _check_coordinates,
+    _data_lines,
+    _increasing,
+    _parse_row,
+)
 from sensorsel.model.scenario.frames import find_frame
 
 
@@ -63,8 +70,12 @@ def read_tum_route(path: str | Path, *, up: str | None = None, forward: str | No
         if norm < 1e-9:
             raise ScenarioError(path, "quaternion qx qy qz qw is zero", lineno)
         if abs(norm - 1.0) > QUATERNION_TOL:
-            raise ScenarioError(path, f"quaternion qx qy qz qw has norm {norm:.6g}, not 1 (allowed {QUATERNION_TOL:g}): not a rotation "
-                                "(columns in another order or another unit?)", lineno)
+            raise ScenarioError(
+                path,
+                f"quaternion qx qy qz qw has norm {norm:.6g}, not 1 (allowed {QUATERNION_TOL:g}): not a rotation "
+                "(columns in another order or another unit?)",
+                lineno,
+            )
         rows.append(row)
         lines.append(lineno)
     if not rows:
@@ -82,8 +93,8 @@ def read_tum_route(path: str | Path, *, up: str | None = None, forward: str | No
 def write_tum_trajectory(path: str | Path, planar: np.ndarray, times: np.ndarray) -> Path:
     """Write planar poses as a TUM trajectory (z = 0, quaternion of the heading about z; atomically)."""
     planar = np.asarray(planar, dtype=float)
-    body = "".join(f"{t!r} {x!r} {y!r} 0 0 0 {math.sin(a / 2)!r} {math.cos(a / 2)!r}\n"
-                   for t, (x, y, a) in zip(np.asarray(times, dtype=float).tolist(), planar.tolist()))
+    body = "".join(
+        f"{t!r} {x!r} {y!r} 0 0 0 {math.sin(a / 2)!r} {math.cos(a / 2)!r}\n"
+        for t, (x, y, a) in zip(np.asarray(times, dtype=float).tolist(), planar.tolist())
+    )
     return atomic_write_text(path, "# timestamp tx ty tz qx qy qz qw\n" + body)
-
-

@@ -71,4 +71,13 @@ from sensorsel.information.evaluators.fast.front import CHUNK_POSES
 from sensorsel.information.evaluators.fast.kernel import FRONT_BELOW, SPARSE_BELOW, Kernel
 from sensorsel.information.evaluators.fast.plan import GROUP_SIZE, RUN_GAP
 
-__all__ = ["FastEvaluator", "Kernel", "THREADS_FROM_KEYFRAMES", "SPARSE_BELOW", "FRONT_BELOW", "CHUNK_POSES", "GROUP_SIZE", "RUN_GAP"]
+__all__ = [
+    "FastEvaluator",
+    "Kernel",
+    "THREADS_FROM_KEYFRAMES",
+    "SPARSE_BELOW",
+    "FRONT_BELOW",
+    "CHUNK_POSES",
+    "GROUP_SIZE",
+    "RUN_GAP",
+]

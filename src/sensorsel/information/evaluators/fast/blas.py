@@ -17,8 +17,9 @@ blocks is ``Cᵀ -= B Aᵀ`` on column-major ones.
 from __future__ import annotations
 
 import ctypes
+from collections.abc import Iterator
 from contextlib import contextmanager
-from typing import Any, Iterator
+from typing import Any
 
 import numpy as np
 from scipy.linalg import cython_blas, cython_lapack
@@ -32,9 +33,15 @@ _INT = ctypes.c_int  # scipy's Cython BLAS/LAPACK take ``int *`` (LP64)
 CHOLESKY_BLOCK = 64
 
 #: Fortran signatures: name -> (module, number of pointer arguments)
-_SIGNATURES = {"dsyrk": (cython_blas, 10), "dgemm": (cython_blas, 13), "dpotrf": (cython_lapack, 5),
-               "dtrsm": (cython_blas, 11), "dtrmm": (cython_blas, 11), "dtrtri": (cython_lapack, 6),
-               "dpotri": (cython_lapack, 5)}
+_SIGNATURES = {
+    "dsyrk": (cython_blas, 10),
+    "dgemm": (cython_blas, 13),
+    "dpotrf": (cython_lapack, 5),
+    "dtrsm": (cython_blas, 11),
+    "dtrmm": (cython_blas, 11),
+    "dtrtri": (cython_lapack, 6),
+    "dpotri": (cython_lapack, 5),
+}
 
 
 def _function_pointer(module: Any, name: str, n_args: int) -> Any:
@@ -42,7 +49,9 @@ def _function_pointer(module: Any, name: str, n_args: int) -> Any:
     capsule = module.__pyx_capi__[name]
     # own prototypes of the C API functions (setting argtypes on ctypes.pythonapi's would change them for everyone)
     get_name = ctypes.PYFUNCTYPE(ctypes.c_char_p, ctypes.py_object)(("PyCapsule_GetName", ctypes.pythonapi))
-    get_pointer = ctypes.PYFUNCTYPE(ctypes.c_void_p, ctypes.py_object, ctypes.c_char_p)(("PyCapsule_GetPointer", ctypes.pythonapi))
+    get_pointer = ctypes.PYFUNCTYPE(ctypes.c_void_p, ctypes.py_object, ctypes.c_char_p)(
+        ("PyCapsule_GetPointer", ctypes.pythonapi)
+    )
     signature = get_name(capsule)  # the capsule's name is the C signature, e.g. b"void (char *, int *, ...)"
     if not signature.startswith(b"void (") or signature.count(b"*") != n_args:
         raise ImportError(f"scipy's {name} has an unexpected signature: {signature!r}")
@@ -66,7 +75,9 @@ class Blas:
         self._trmm = _function_pointer(cython_blas, "dtrmm", _SIGNATURES["dtrmm"][1])
         self._trtri = _function_pointer(cython_lapack, "dtrtri", _SIGNATURES["dtrtri"][1])
         self._potri = _function_pointer(cython_lapack, "dpotri", _SIGNATURES["dpotri"][1])
-        self._chars = {c: ctypes.c_char(c) for c in (b"U", b"N", b"T", b"L", b"R")}  # kept alive: BLAS reads them by address
+        self._chars = {
+            c: ctypes.c_char(c) for c in (b"U", b"N", b"T", b"L", b"R")
+        }  # kept alive: BLAS reads them by address
         self._char = {c: ctypes.addressof(v) for c, v in self._chars.items()}
         self._pu, self._pn, self._pt, self._pl = self._char[b"U"], self._char[b"N"], self._char[b"T"], self._char[b"L"]
         self._minus_one, self._one = ctypes.c_double(-1.0), ctypes.c_double(1.0)
@@ -135,11 +146,13 @@ class Blas:
             p11 = base + 8 * (k * n + k)
             self._potrf(self._pu, pm1, p11, pld, pinfo)
             if info.value != 0:
-                raise np.linalg.LinAlgError(f"pose information matrix is not positive definite (dpotrf info {info.value + k})")
+                raise np.linalg.LinAlgError(
+                    f"pose information matrix is not positive definite (dpotrf info {info.value + k})"
+                )
             if q.value:
                 # the block, row-major into the C-ordered (step, step) buffer: column-major, U11
                 # with leading dimension step; dtrtri reads and writes its upper triangle only
-                inv[:m1.value, :m1.value] = p[k:k + m1.value, k:k + m1.value]
+                inv[: m1.value, : m1.value] = p[k : k + m1.value, k : k + m1.value]
                 self._trtri(self._pu, self._pn, pm1, pinv, pld_inv, pinfo)
                 if info.value != 0:
                     raise np.linalg.LinAlgError(f"pose information matrix is singular (dtrtri info {info.value + k})")
@@ -189,5 +202,7 @@ class Blas:
         if q:
             p21 = pg + 8 * m1
             self._trsm(self._char[b"R"], self._pl, self._pt, self._pn, pd + 4, pd, self.p_one, pg, pd + 8, p21, pd + 8)
-            self._syrk(self._pl, self._pn, pd + 4, pd, self.p_minus_one, p21, pd + 8, self.p_one, p21 + 8 * m1 * m, pd + 8)
-        return 2.0 * float(np.sum(np.log(g.ravel()[: m1 * (m + 1): m + 1])))
+            self._syrk(
+                self._pl, self._pn, pd + 4, pd, self.p_minus_one, p21, pd + 8, self.p_one, p21 + 8 * m1 * m, pd + 8
+            )
+        return 2.0 * float(np.sum(np.log(g.ravel()[: m1 * (m + 1) : m + 1])))

@@ -33,8 +33,9 @@ base: it pays only when it spares more re-scored candidates than that (measured:
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
-from typing import Any, Callable, Iterable, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -77,8 +78,14 @@ def _runs(keyframes: np.ndarray, gap: int = 1) -> list[tuple[int, int]]:
     return list(zip(starts.tolist(), np.r_[starts[1:], len(keyframes)].tolist()))
 
 
-def pair_quadratics(states: StateBuilder, planner: Planner, base: BaseState, cov: np.ndarray,
-                    pairs: np.ndarray, map_: Callable[..., Iterable[Any]] | None = None) -> np.ndarray:
+def pair_quadratics(
+    states: StateBuilder,
+    planner: Planner,
+    base: BaseState,
+    cov: np.ndarray,
+    pairs: np.ndarray,
+    map_: Callable[..., Iterable[Any]] | None = None,
+) -> np.ndarray:
     """(3, n) h_rᵀ Σ_(k,j) h_s of the rows (r, s) = (0, 0), (0, 1), (1, 1) (bearing 0, range 1) of each
     pair of ``pairs`` (n,) under the
     base suite's covariance (``cov`` = :func:`pose_covariance`): the trace bound per unit weight.
@@ -136,8 +143,8 @@ def pair_quadratics(states: StateBuilder, planner: Planner, base: BaseState, cov
             s0, s1 = int(rows_k[a0]), int(rows_k[a1 - 1]) + 1
             span = np.zeros((3 * (s1 - s0), Wg.shape[1]))
             for k0, ln, off in zip(span_start.tolist(), span_len.tolist(), span_off.tolist()):
-                span += cov[3 * s0: 3 * s1, 3 * k0: 3 * (k0 + ln)] @ Wg[3 * off: 3 * (off + ln)]
-            Z[3 * a0: 3 * a1] = span[(3 * (rows_k[a0:a1] - s0)[:, None] + three).ravel()]
+                span += cov[3 * s0 : 3 * s1, 3 * k0 : 3 * (k0 + ln)] @ Wg[3 * off : 3 * (off + ln)]
+            Z[3 * a0 : 3 * a1] = span[(3 * (rows_k[a0:a1] - s0)[:, None] + three).ravel()]
         # G of the requested pairs whose landmark the base measures
         jl = np.searchsorted(lms, pj[np_])
         has = (jl < len(lms)) & (lms[np.minimum(jl, len(lms) - 1)] == pj[np_])
@@ -153,7 +160,11 @@ def pair_quadratics(states: StateBuilder, planner: Planner, base: BaseState, cov
         S[lms] = (wk.T @ zk).reshape(len(lms), 2, len(lms), 2)[own, :, own, :]
 
     # a group with no landmark measured by the base has Σ_kj = 0, Σ_jj = D_j⁻¹: nothing to add
-    todo = [(b0, b1, n0, n1) for b0, b1, n0, n1 in zip(lo_b.tolist(), hi_b.tolist(), lo_n.tolist(), hi_n.tolist()) if b0 < b1]
+    todo = [
+        (b0, b1, n0, n1)
+        for b0, b1, n0, n1 in zip(lo_b.tolist(), hi_b.tolist(), lo_n.tolist(), hi_n.tolist())
+        if b0 < b1
+    ]
     # groups write disjoint rows of G and S, each in its own order: the same numbers on any threads
     for _ in (map_ or map)(lambda t: group(*t), todo):
         pass
@@ -171,8 +182,14 @@ def pair_quadratics(states: StateBuilder, planner: Planner, base: BaseState, cov
     sh = []
     for r in range(2):
         hp, hl = h[r, :3], h[r, 3:]
-        v = [skk[a][0] * hp[0] + skk[a][1] * hp[1] + skk[a][2] * hp[2] + skj[a][0] * hl[0] + skj[a][1] * hl[1] for a in range(3)]
-        u = [skj[0][c] * hp[0] + skj[1][c] * hp[1] + skj[2][c] * hp[2] + sjj[c][0] * hl[0] + sjj[c][1] * hl[1] for c in range(2)]
+        v = [
+            skk[a][0] * hp[0] + skk[a][1] * hp[1] + skk[a][2] * hp[2] + skj[a][0] * hl[0] + skj[a][1] * hl[1]
+            for a in range(3)
+        ]
+        u = [
+            skj[0][c] * hp[0] + skj[1][c] * hp[1] + skj[2][c] * hp[2] + sjj[c][0] * hl[0] + sjj[c][1] * hl[1]
+            for c in range(2)
+        ]
         sh.append(v + u)
 
     def quad(r: int, s_: int) -> np.ndarray:
@@ -204,8 +221,14 @@ class Quadratics:
         return self.q[:, at]
 
 
-def quadratics(kernel: Kernel, states: StateBuilder, planner: Planner, base: BaseState,
-               candidates: Sequence[int], covariance: np.ndarray) -> Quadratics:
+def quadratics(
+    kernel: Kernel,
+    states: StateBuilder,
+    planner: Planner,
+    base: BaseState,
+    candidates: Sequence[int],
+    covariance: np.ndarray,
+) -> Quadratics:
     """The quadratics of every pair the ``candidates`` not in S measure, under the base's ``covariance``."""
     measured = np.zeros(len(states.pair_pose), dtype=bool)
     for c in candidates:
@@ -218,10 +241,18 @@ def quadratics(kernel: Kernel, states: StateBuilder, planner: Planner, base: Bas
     return Quadratics(keys[order], q[:, order], covariance)
 
 
-def gain_bounds(kernel: Kernel, states: StateBuilder, planner: Planner, base: BaseState,
-                candidates: Sequence[int], *, trace: bool = False,
-                map_: Callable[..., Iterable[Any]] | None = None, covariance: np.ndarray | None = None,
-                shared: Quadratics | None = None) -> np.ndarray:
+def gain_bounds(
+    kernel: Kernel,
+    states: StateBuilder,
+    planner: Planner,
+    base: BaseState,
+    candidates: Sequence[int],
+    *,
+    trace: bool = False,
+    map_: Callable[..., Iterable[Any]] | None = None,
+    covariance: np.ndarray | None = None,
+    shared: Quadratics | None = None,
+) -> np.ndarray:
     """Upper bounds [nats] on each candidate's gain log det L(S + {c}) − log det L(S), shape
     (len(candidates),); 0 for a candidate already in S.
 

@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 import weakref
+from collections.abc import Iterable, Sequence
 from concurrent.futures import ThreadPoolExecutor
-from typing import Iterable, Sequence
 
 import numpy as np
 
@@ -51,9 +51,18 @@ class FastEvaluator(ProblemEvaluator):
 
     name = "fast"
 
-    def __init__(self, problem: Problem, *, jobs: int = 1, threads_from_keyframes: int = THREADS_FROM_KEYFRAMES,
-                 sparse_below: float = SPARSE_BELOW, front_below: float = FRONT_BELOW, chunk_poses: int = CHUNK_POSES,
-                 inplace_blas: bool = True, bound_spare: float = BOUND_SPARE) -> None:
+    def __init__(
+        self,
+        problem: Problem,
+        *,
+        jobs: int = 1,
+        threads_from_keyframes: int = THREADS_FROM_KEYFRAMES,
+        sparse_below: float = SPARSE_BELOW,
+        front_below: float = FRONT_BELOW,
+        chunk_poses: int = CHUNK_POSES,
+        inplace_blas: bool = True,
+        bound_spare: float = BOUND_SPARE,
+    ) -> None:
         """``threads_from_keyframes``: use the ``jobs`` threads only on routes with at least this many
         keyframes. ``sparse_below``, ``front_below``, ``chunk_poses``, ``inplace_blas``: the kernel's choice
         of paths (see
@@ -68,9 +77,16 @@ class FastEvaluator(ProblemEvaluator):
         planner = Planner(problem, lin.pair_pose, lin.pair_landmark, (coo.row // 3, coo.col // 3))
         self._states = StateBuilder(lin, planner)
         self._planner = planner
-        self.kernel = Kernel(K, lin.base_pose_information, Blas(), sparse_below=sparse_below,
-                             front_below=front_below, chunk_poses=chunk_poses,
-                             pose_orders=keyframe_orders(problem.scenario.keyframes.poses[:, :2]), inplace=inplace_blas)
+        self.kernel = Kernel(
+            K,
+            lin.base_pose_information,
+            Blas(),
+            sparse_below=sparse_below,
+            front_below=front_below,
+            chunk_poses=chunk_poses,
+            pose_orders=keyframe_orders(problem.scenario.keyframes.poses[:, :2]),
+            inplace=inplace_blas,
+        )
         self._pose_band = PoseBand(K, self.kernel._base_rc, self.kernel.base_values)
         self._threads_from = int(threads_from_keyframes)
         self._bound_spare = float(bound_spare)
@@ -179,9 +195,16 @@ class FastEvaluator(ProblemEvaluator):
         self.n_evaluations += len(cands)
         return np.array(vals, dtype=float) - baseline
 
-    def gain_bounds(self, suite: Iterable[int], candidates: Sequence[int], *, trace: bool = False,
-                    force: bool = False, covariance: np.ndarray | None = None,
-                    shared: bound.Quadratics | None = None) -> np.ndarray | None:
+    def gain_bounds(
+        self,
+        suite: Iterable[int],
+        candidates: Sequence[int],
+        *,
+        trace: bool = False,
+        force: bool = False,
+        covariance: np.ndarray | None = None,
+        shared: bound.Quadratics | None = None,
+    ) -> np.ndarray | None:
         """Upper bounds [nats] on each candidate's gain f(S + {c}) − f(S), shape (len(candidates),)
         (exact arithmetic; :func:`.bound.gain_bounds`: per measurement log det, or with ``trace``
         tr(L_S⁻¹ Λ_c)); not counted in :attr:`n_evaluations`.
@@ -203,8 +226,9 @@ class FastEvaluator(ProblemEvaluator):
                 return None
             # on one thread: the landmark groups' products are small, and on 2 threads they ran
             # slower (KITTI 00 at 1 Hz, synthetic map: whole selection 3.57 against 3.16 s, min of 4)
-            out = bound.gain_bounds(self.kernel, self._states, self._planner, b, cands, trace=trace, covariance=covariance,
-                                    shared=shared)
+            out = bound.gain_bounds(
+                self.kernel, self._states, self._planner, b, cands, trace=trace, covariance=covariance, shared=shared
+            )
         self.n_bounds += 1
         return out
 
@@ -256,7 +280,9 @@ class FastEvaluator(ProblemEvaluator):
                     continue
                 # only the landmarks and keyframes c measures change
                 x = self._states.sensor_sums(c)
-                lm_c = landmarks + float(np.sum(landmark_logdets(b.d[:, x.landmarks] + x.d) - per_landmark[x.landmarks]))
+                lm_c = landmarks + float(
+                    np.sum(landmark_logdets(b.d[:, x.landmarks] + x.d) - per_landmark[x.landmarks])
+                )
                 pose_c = self._pose_band.logdet(b.a, (x.poses, x.a))
                 out[i] = pose_c + lm_c - baseline + ROUND_OFF * (abs(pose_c) + abs(lm_c) + abs(baseline))
         return own, out

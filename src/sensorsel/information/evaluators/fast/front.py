@@ -71,7 +71,9 @@ class Chunk:
     a_idx: np.ndarray  # (6, len(poses)) flat indices of the pose-diagonal sums of the chunk's keyframes
     w_lo: int  # the chunk's pairs: [w_lo, w_hi) of the pairs sorted by chunk
     w_hi: int
-    w_idx: np.ndarray  # (6, w_hi - w_lo) flat indices of their W entries (entry c * 3 + a: landmark row c, pose column a)
+    w_idx: (
+        np.ndarray
+    )  # (6, w_hi - w_lo) flat indices of their W entries (entry c * 3 + a: landmark row c, pose column a)
     d_lm: np.ndarray  # landmarks entering the front at this chunk
     d_idx: np.ndarray  # (3, len(d_lm)) flat indices of their d00, d01, d11
 
@@ -100,17 +102,29 @@ def keyframe_orders(xy: np.ndarray, radius_m: float = 100.0) -> dict[str, np.nda
     from scipy.spatial import cKDTree
 
     K = len(xy)
-    orders = {"route": np.arange(K), "sweep-x": np.argsort(xy[:, 0], kind="stable"),
-              "sweep-y": np.argsort(xy[:, 1], kind="stable")}
+    orders = {
+        "route": np.arange(K),
+        "sweep-x": np.argsort(xy[:, 0], kind="stable"),
+        "sweep-y": np.argsort(xy[:, 1], kind="stable"),
+    }
     if K > 1:
         pr = cKDTree(xy).query_pairs(radius_m, output_type="ndarray")
         adj = coo_matrix((np.ones(len(pr)), (pr[:, 0], pr[:, 1])), shape=(K, K)).tocsr()
-        orders["rcm"] = np.asarray(reverse_cuthill_mckee((adj + adj.T + eye(K, format="csr")).tocsr(), symmetric_mode=True))
+        orders["rcm"] = np.asarray(
+            reverse_cuthill_mckee((adj + adj.T + eye(K, format="csr")).tocsr(), symmetric_mode=True)
+        )
     return orders
 
 
-def _intervals(pair_pose: np.ndarray, pair_landmark: np.ndarray, n_poses: int, n_landmarks: int,
-               base_rc: tuple[np.ndarray, np.ndarray], chunk_poses: int, pose_order: np.ndarray | None) -> dict:
+def _intervals(
+    pair_pose: np.ndarray,
+    pair_landmark: np.ndarray,
+    n_poses: int,
+    n_landmarks: int,
+    base_rc: tuple[np.ndarray, np.ndarray],
+    chunk_poses: int,
+    pose_order: np.ndarray | None,
+) -> dict:
     """The chunks of every keyframe, pair and base entry, and every variable's alive interval."""
     K, M, c = n_poses, n_landmarks, max(1, int(chunk_poses))
     order = np.arange(K) if pose_order is None else np.asarray(pose_order)
@@ -129,8 +143,19 @@ def _intervals(pair_pose: np.ndarray, pair_landmark: np.ndarray, n_poses: int, n
         np.minimum.at(enter, v, t)
         np.maximum.at(close, v, t)
     size = np.where(np.arange(K + M) < K, 3, 2)
-    return dict(K=K, M=M, c=c, order=order, chunk_of=chunk_of, n_chunks=n_chunks, pc=pc, b_chunk=b_chunk,
-                enter=enter, close=close, size=size)
+    return dict(
+        K=K,
+        M=M,
+        c=c,
+        order=order,
+        chunk_of=chunk_of,
+        n_chunks=n_chunks,
+        pc=pc,
+        b_chunk=b_chunk,
+        enter=enter,
+        close=close,
+        size=size,
+    )
 
 
 def _flops(m: np.ndarray, m1: np.ndarray) -> float:
@@ -140,9 +165,15 @@ def _flops(m: np.ndarray, m1: np.ndarray) -> float:
     return float(np.sum(m1**3 / 3.0 + m1 * m1 * q + m1 * q * q + 2.0 * m * m + 1e6))
 
 
-def front_flops(pair_pose: np.ndarray, pair_landmark: np.ndarray, n_poses: int, n_landmarks: int,
-                base_rc: tuple[np.ndarray, np.ndarray], chunk_poses: int = CHUNK_POSES,
-                pose_order: np.ndarray | None = None) -> float:
+def front_flops(
+    pair_pose: np.ndarray,
+    pair_landmark: np.ndarray,
+    n_poses: int,
+    n_landmarks: int,
+    base_rc: tuple[np.ndarray, np.ndarray],
+    chunk_poses: int = CHUNK_POSES,
+    pose_order: np.ndarray | None = None,
+) -> float:
     """The predicted flops of :func:`plan_front`'s plan, from the alive intervals alone (vectorized:
     ~1 ms where building the plan takes ~10-50; the kernel ranks orders and paths with it)."""
     iv = _intervals(pair_pose, pair_landmark, n_poses, n_landmarks, base_rc, chunk_poses, pose_order)
@@ -156,9 +187,17 @@ def front_flops(pair_pose: np.ndarray, pair_landmark: np.ndarray, n_poses: int, 
 
 # Long on purpose (~60 lines): one pass over the chunks that fixes, in order, which variables each
 # chunk eliminates and carries; the kernel replays it for every candidate.
-def plan_front(pair_pose: np.ndarray, pair_landmark: np.ndarray, n_poses: int, n_landmarks: int,
-               base_rc: tuple[np.ndarray, np.ndarray], base_values: np.ndarray, chunk_poses: int = CHUNK_POSES,
-               pose_order: np.ndarray | None = None, order_name: str = "route") -> FrontPlan:
+def plan_front(
+    pair_pose: np.ndarray,
+    pair_landmark: np.ndarray,
+    n_poses: int,
+    n_landmarks: int,
+    base_rc: tuple[np.ndarray, np.ndarray],
+    base_values: np.ndarray,
+    chunk_poses: int = CHUNK_POSES,
+    pose_order: np.ndarray | None = None,
+    order_name: str = "route",
+) -> FrontPlan:
     """The frontal plan of the active pairs (keyframe ``pair_pose``, landmark ``pair_landmark``, in the
     layout's order) with keyframes taken ``chunk_poses`` at a time in ``pose_order`` (default: route order).
 
@@ -205,7 +244,7 @@ def plan_front(pair_pose: np.ndarray, pair_landmark: np.ndarray, n_poses: int, n
             brk = np.flatnonzero(new[1:] != new[:-1] + sz[:-1]) + 1
             st, en = np.r_[0, brk], np.r_[brk, len(new)]
             segs = [(int(old[a]), int(new[a]), int(old[b - 1] + sz[b - 1] - old[a])) for a, b in zip(st, en)]
-        poses = order[t * c: (t + 1) * c]
+        poses = order[t * c : (t + 1) * c]
         b_lo, b_hi = np.searchsorted(b_chunk, [t, t + 1])
         u = pos_of[br[b_lo:b_hi] // 3] + br[b_lo:b_hi] % 3
         v = pos_of[bcol[b_lo:b_hi] // 3] + bcol[b_lo:b_hi] % 3
@@ -215,14 +254,34 @@ def plan_front(pair_pose: np.ndarray, pair_landmark: np.ndarray, n_poses: int, n
         w_lo, w_hi = np.searchsorted(pc_sorted, [t, t + 1])
         pr = by_chunk[w_lo:w_hi]
         lpos, ppos = pos_of[K + pair_landmark[pr]], pos_of[pair_pose[pr]]
-        w_idx = np.stack([np.minimum(ppos + aa, lpos + cc) * m + np.maximum(ppos + aa, lpos + cc)
-                          for cc in range(2) for aa in range(3)])
+        w_idx = np.stack(
+            [
+                np.minimum(ppos + aa, lpos + cc) * m + np.maximum(ppos + aa, lpos + cc)
+                for cc in range(2)
+                for aa in range(3)
+            ]
+        )
         d_lm = alive[(k_enter[lo:][sel] == t) & (alive >= K)] - K
         dp = pos_of[K + d_lm]
         d_idx = np.stack([dp * m + dp, dp * m + dp + 1, (dp + 1) * m + dp + 1])
         dims = np.array([m1, m - m1, m], dtype=np.intc)
-        chunks.append(Chunk(poses, m, m1, dims, segs, base_idx, bv[b_lo:b_hi].copy(), a_idx, int(w_lo), int(w_hi),
-                            w_idx, d_lm, d_idx))
+        chunks.append(
+            Chunk(
+                poses,
+                m,
+                m1,
+                dims,
+                segs,
+                base_idx,
+                bv[b_lo:b_hi].copy(),
+                a_idx,
+                int(w_lo),
+                int(w_hi),
+                w_idx,
+                d_lm,
+                d_idx,
+            )
+        )
         ms.append(m)
         m1s.append(m1)
         prev_rest = alive[n_close:]
@@ -231,8 +290,15 @@ def plan_front(pair_pose: np.ndarray, pair_landmark: np.ndarray, n_poses: int, n
     return FrontPlan(chunks, by_chunk, unseen, _flops(np.array(ms, float), np.array(m1s, float)), max(ms), order_name)
 
 
-def front_logdet(plan: FrontPlan, wpl: np.ndarray, d: np.ndarray, a: np.ndarray, blas: Blas,
-                 buffers: tuple[np.ndarray, np.ndarray], keep: list[np.ndarray] | None = None) -> float:
+def front_logdet(
+    plan: FrontPlan,
+    wpl: np.ndarray,
+    d: np.ndarray,
+    a: np.ndarray,
+    blas: Blas,
+    buffers: tuple[np.ndarray, np.ndarray],
+    keep: list[np.ndarray] | None = None,
+) -> float:
     """log det [nats] of the full information (poses and landmarks) by the plan's frontal
     elimination. ``wpl`` (6, Pa), ``d`` (3, M), ``a`` (6, K) as for the kernel (not written to);
     ``buffers``: two float64 scratch arrays of at least ``plan.max_front²`` entries. ``keep``: if
@@ -252,21 +318,28 @@ def front_logdet(plan: FrontPlan, wpl: np.ndarray, d: np.ndarray, a: np.ndarray,
             # the previous front's remaining block (upper triangle), run by run
             for j, (oi, ni, li) in enumerate(ch.segs):
                 for oj, nj, lj in ch.segs[: j + 1]:
-                    g[nj: nj + lj, ni: ni + li] = prev[oj: oj + lj, oi: oi + li]
+                    g[nj : nj + lj, ni : ni + li] = prev[oj : oj + lj, oi : oi + li]
         flat[ch.base_idx] += ch.base_val
         flat[ch.a_idx] += a[:, ch.poses]
-        flat[ch.w_idx] += w[:, ch.w_lo: ch.w_hi]
+        flat[ch.w_idx] += w[:, ch.w_lo : ch.w_hi]
         if len(ch.d_lm):
             flat[ch.d_idx] += d[:, ch.d_lm]
         logdet += blas.eliminate_leading(g, ch.m1, ch.dims)
         if keep is not None:
             keep.append(g[: ch.m1].copy())
-        prev = g[ch.m1:, ch.m1:]
+        prev = g[ch.m1 :, ch.m1 :]
     return logdet
 
 
-def front_pose_covariances(plan: FrontPlan, wpl: np.ndarray, d: np.ndarray, a: np.ndarray, blas: Blas,
-                           buffers: tuple[np.ndarray, np.ndarray], n_poses: int) -> np.ndarray:
+def front_pose_covariances(
+    plan: FrontPlan,
+    wpl: np.ndarray,
+    d: np.ndarray,
+    a: np.ndarray,
+    blas: Blas,
+    buffers: tuple[np.ndarray, np.ndarray],
+    n_poses: int,
+) -> np.ndarray:
     """The (K, 3, 3) marginal covariances of the poses by selected inversion on the frontal
     elimination: linear in the route, like the elimination itself (arguments as :func:`front_logdet`).
 
@@ -311,5 +384,5 @@ def front_pose_covariances(plan: FrontPlan, wpl: np.ndarray, d: np.ndarray, a: n
         s_rr = np.empty((q_prev, q_prev))
         for oi, ni, li in ch.segs:
             for oj, nj, lj in ch.segs:
-                s_rr[oi: oi + li, oj: oj + lj] = full[ni: ni + li, nj: nj + lj]
+                s_rr[oi : oi + li, oj : oj + lj] = full[ni : ni + li, nj : nj + lj]
     return 0.5 * (out + out.transpose(0, 2, 1))

@@ -17,8 +17,14 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from sensorsel.information.evaluators.fast.blas import Blas
-from sensorsel.information.evaluators.fast.front import (CHUNK_POSES, FrontPlan, front_flops, front_logdet,
-                                                         front_pose_covariances, plan_front)
+from sensorsel.information.evaluators.fast.front import (
+    CHUNK_POSES,
+    FrontPlan,
+    front_flops,
+    front_logdet,
+    front_pose_covariances,
+    plan_front,
+)
 from sensorsel.information.evaluators.fast.plan import Layout
 
 #: below this fraction of non-zero pose blocks the pose matrix is factored as a sparse matrix
@@ -73,9 +79,18 @@ class Kernel:
             (frontal elimination, :mod:`.front`).
     """
 
-    def __init__(self, n_poses: int, base_pose_information: sp.spmatrix, blas: Blas, *,
-                 sparse_below: float = SPARSE_BELOW, front_below: float = FRONT_BELOW, chunk_poses: int = CHUNK_POSES,
-                 pose_orders: dict[str, np.ndarray] | None = None, inplace: bool = True) -> None:
+    def __init__(
+        self,
+        n_poses: int,
+        base_pose_information: sp.spmatrix,
+        blas: Blas,
+        *,
+        sparse_below: float = SPARSE_BELOW,
+        front_below: float = FRONT_BELOW,
+        chunk_poses: int = CHUNK_POSES,
+        pose_orders: dict[str, np.ndarray] | None = None,
+        inplace: bool = True,
+    ) -> None:
         self.n = n = 3 * n_poses
         self.pose_orders = pose_orders or {"route": np.arange(n_poses)}
         self.n_poses = n_poses
@@ -105,8 +120,24 @@ class Kernel:
         with self._lock:
             got = self._choices.get(layout)
         if got is None:
-            got = min(((front_flops(layout.pose, layout.landmark, self.n_poses, n_landmarks, self._base_rc, self.chunk_poses,
-                                    order), name) for name, order in self.pose_orders.items()), key=lambda x: (x[0], x[1]))[::-1]
+            got = min(
+                (
+                    (
+                        front_flops(
+                            layout.pose,
+                            layout.landmark,
+                            self.n_poses,
+                            n_landmarks,
+                            self._base_rc,
+                            self.chunk_poses,
+                            order,
+                        ),
+                        name,
+                    )
+                    for name, order in self.pose_orders.items()
+                ),
+                key=lambda x: (x[0], x[1]),
+            )[::-1]
             with self._lock:
                 self._choices[layout] = got
         return got
@@ -117,8 +148,17 @@ class Kernel:
             plan = self._fronts.get(layout)
         if plan is None:
             name, _ = self.front_choice(layout, n_landmarks)
-            plan = plan_front(layout.pose, layout.landmark, self.n_poses, n_landmarks, self._base_rc, self.base_values,
-                              self.chunk_poses, self.pose_orders[name], name)
+            plan = plan_front(
+                layout.pose,
+                layout.landmark,
+                self.n_poses,
+                n_landmarks,
+                self._base_rc,
+                self.base_values,
+                self.chunk_poses,
+                self.pose_orders[name],
+                name,
+            )
             with self._lock:
                 self._fronts[layout] = plan
         return plan
@@ -156,8 +196,14 @@ class Kernel:
             scratch = self._scratch()
             size = plan.max_front**2
             self._count(front=1)
-            return front_logdet(plan, wpl, d, a, self.blas,
-                                (scratch.array("front0", size, zeroed=False), scratch.array("front1", size, zeroed=False)))
+            return front_logdet(
+                plan,
+                wpl,
+                d,
+                a,
+                self.blas,
+                (scratch.array("front0", size, zeroed=False), scratch.array("front1", size, zeroed=False)),
+            )
         scratch = self._scratch()
         n = self.n
         P = scratch.array("pose", n * n).reshape(n, n)
@@ -212,9 +258,15 @@ class Kernel:
             scratch = self._scratch()
             size = plan.max_front**2
             self._count(front_covariance=1)
-            return front_pose_covariances(plan, wpl, d, a, self.blas, (scratch.array("front0", size, zeroed=False),
-                                                                     scratch.array("front1", size, zeroed=False)),
-                                          self.n_poses)
+            return front_pose_covariances(
+                plan,
+                wpl,
+                d,
+                a,
+                self.blas,
+                (scratch.array("front0", size, zeroed=False), scratch.array("front1", size, zeroed=False)),
+                self.n_poses,
+            )
         self._count(dense_covariance=1)
         return pose_marginals(self.pose_matrix(wpl, d, a, layout), self.blas)
 
@@ -222,9 +274,9 @@ class Kernel:
         """P[block] -= A @ B.T for every call of ``layout`` (tiles in ``buf``), lower triangle of P."""
         if not self.inplace:
             for a_off, b_off, row, col, m, nn, k, _ in layout.calls:
-                t = buf[a_off: a_off + m * k].reshape(m, k)
-                u = buf[b_off: b_off + nn * k].reshape(nn, k)
-                P[row: row + m, col: col + nn] -= t @ u.T
+                t = buf[a_off : a_off + m * k].reshape(m, k)
+                u = buf[b_off : b_off + nn * k].reshape(nn, k)
+                P[row : row + m, col : col + nn] -= t @ u.T
             self._count(numpy=len(layout.calls))
             return
         n = self.n

@@ -60,7 +60,9 @@ class Layout:
     group_pose: tuple[np.ndarray, np.ndarray]  # (group, keyframe) of every distinct pair: the pattern's source
     base_blocks: tuple[np.ndarray, np.ndarray]  # (row, column) pose blocks non-zero in the base graph
     n_poses: int
-    grown_from: Layout | None = None  # a layout of a subset of these pairs (a candidate's base): its pattern is a subset
+    grown_from: Layout | None = (
+        None  # a layout of a subset of these pairs (a candidate's base): its pattern is a subset
+    )
 
     def density_below(self, limit: float) -> bool:
         """Whether :attr:`density` < ``limit``, without building the pattern when a layout this one
@@ -107,8 +109,13 @@ class Planner:
         base_blocks: (row, column) of the pose blocks non-zero in the base graph (any triangle).
     """
 
-    def __init__(self, problem: Problem, pair_pose: np.ndarray, pair_landmark: np.ndarray,
-                 base_blocks: tuple[np.ndarray, np.ndarray]) -> None:
+    def __init__(
+        self,
+        problem: Problem,
+        pair_pose: np.ndarray,
+        pair_landmark: np.ndarray,
+        base_blocks: tuple[np.ndarray, np.ndarray],
+    ) -> None:
         self.n_poses = K = problem.scenario.n_poses
         self.n_landmarks = M = problem.scenario.n_landmarks
         self.pair_pose, self.pair_landmark = pair_pose, pair_landmark
@@ -146,7 +153,9 @@ class Planner:
         # rows: runs of consecutive keyframes that see each group, 3 rows each; runs of a group
         # less than RUN_GAP keyframes apart are joined (zero rows in between: fewer, larger calls).
         # From the sorted distinct (group, keyframe) pairs: linear in the pairs, not groups x keyframes.
-        seen = np.zeros(self.n_groups * K, dtype=bool)  # sorted distinct keys by a mask: np.unique hashed and sorted (~3 ms on 00)
+        seen = np.zeros(
+            self.n_groups * K, dtype=bool
+        )  # sorted distinct keys by a mask: np.unique hashed and sorted (~3 ms on 00)
         seen[g * K + ps] = True
         key = np.flatnonzero(seen)
         gk, pk = key // K, key % K
@@ -177,7 +186,17 @@ class Planner:
         b_off = off[rg[ia]] + 3 * row0[ib] * k
         row, col = 3 * rs[ia], 3 * rs[ib]
         m_rows, n_rows = 3 * length[ia], 3 * length[ib]
-        calls = list(zip(a_off.tolist(), b_off.tolist(), row.tolist(), col.tolist(), m_rows.tolist(), n_rows.tolist(),
-                         k.tolist(), (ia == ib).tolist()))
+        calls = list(
+            zip(
+                a_off.tolist(),
+                b_off.tolist(),
+                row.tolist(),
+                col.tolist(),
+                m_rows.tolist(),
+                n_rows.tolist(),
+                k.tolist(),
+                (ia == ib).tolist(),
+            )
+        )
         dims = np.ascontiguousarray(np.column_stack([m_rows, n_rows, k]), dtype=np.intc).reshape(-1, 3)
         return Layout(act, lm, ps, flat, int(off[-1]), calls, dims, (gk, pk), self.base_blocks, K, grown_from)

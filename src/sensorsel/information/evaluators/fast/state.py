@@ -22,7 +22,9 @@ class BaseState:
     """
 
     suite: Suite
-    w: np.ndarray  # (2, P) information of each measurement row (bearing [1/rad²], range [1/m²]) of each pair (0: not measured)
+    w: (
+        np.ndarray
+    )  # (2, P) information of each measurement row (bearing [1/rad²], range [1/m²]) of each pair (0: not measured)
     d: np.ndarray  # (3, M) landmark information d00, d01, d11
     a: np.ndarray  # (6, K) measurement information on the pose diagonal blocks (unique entries)
     layout: Layout
@@ -46,8 +48,9 @@ GROWN_LAYOUT_BYTES = 128_000_000
 
 def layout_bytes(layout: Layout) -> int:
     """The bytes of a layout's index arrays (what keeping it costs)."""
-    return int(sum(x.nbytes for x in (layout.act, layout.landmark, layout.pose, layout.flat, layout.dims,
-                                      *layout.group_pose)))
+    return int(
+        sum(x.nbytes for x in (layout.act, layout.landmark, layout.pose, layout.flat, layout.dims, *layout.group_pose))
+    )
 
 
 @dataclass(eq=False)
