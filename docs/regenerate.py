@@ -189,7 +189,8 @@ def step_resilient(seq: str) -> Callable[[Ctx], None]:
         # the paper's greedy suite under the same worst-case evaluation (an API call: no command prints it)
         code = (
             "import sys\n"
-            "from sensorsel import ScenarioSpec, load_problem, make_evaluator, results\n"
+            "from sensorsel import ScenarioSpec, load_problem, make_evaluator\n"
+            "from sensorsel.io import results\n"
             "from sensorsel.designs.resilient import worst_case\n"
             "seq, root, lm, suite, out = sys.argv[1:6]\n"
             "p = load_problem(ScenarioSpec(seq=seq, kitti_root=root, landmarks=lm))\n"
