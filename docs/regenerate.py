@@ -173,8 +173,12 @@ def step_robust(seq: str, alpha: int) -> Callable[[Ctx], None]:
 def step_pareto(seq: str) -> Callable[[Ctx], None]:
     def run(c: Ctx) -> None:
         d = c.out / f"pareto{seq}"
+        if (d / "runs").exists():
+            shutil.rmtree(d / "runs")  # never resume from an older run's rule chains
         c.run("pareto", *c.scen(seq), "-q", "--output-dir", str(d))
         _move(d / "pareto.png", c.img / f"pareto{seq}.png")
+        _move(d / "pareto-accuracy.png", c.img / f"pareto{seq}-accuracy.png")
+        shutil.rmtree(d / "runs")  # every run is in tradespace.json; the files are for --resume
     return run
 
 
