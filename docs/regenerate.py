@@ -222,8 +222,12 @@ def step_robust(seq: str, alpha: int) -> Callable[[Ctx], None]:
 def step_pareto(seq: str) -> Callable[[Ctx], None]:
     def run(c: Ctx) -> None:
         d = c.out / f"pareto{seq}"
+        if (d / "runs").exists():
+            shutil.rmtree(d / "runs")  # never resume from an older run's rule chains
         c.run("pareto", *c.scen(seq), "-q", "--output-dir", str(d))
         _move(d / "pareto.png", c.img / f"pareto{seq}.png")
+        _move(d / "pareto-accuracy.png", c.img / f"pareto{seq}-accuracy.png")
+        shutil.rmtree(d / "runs")  # every run is in tradespace.json; the files are for --resume
 
     return run
 
@@ -239,7 +243,8 @@ def step_resilient(seq: str) -> Callable[[Ctx], None]:
         # the paper's greedy suite under the same worst-case evaluation (an API call: no command prints it)
         code = (
             "import sys\n"
-            "from sensorsel import ScenarioSpec, load_problem, make_evaluator, results\n"
+            "from sensorsel import ScenarioSpec, load_problem, make_evaluator\n"
+            "from sensorsel.io import results\n"
             "from sensorsel.designs.resilient import worst_case\n"
             "seq, root, lm, suite, out = sys.argv[1:6]\n"
             "p = load_problem(ScenarioSpec(seq=seq, kitti_root=root, landmarks=lm))\n"
