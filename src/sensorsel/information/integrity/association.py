@@ -350,7 +350,9 @@ def measurement_risks(
     mi, cj, slot_j = mi[keep], cj[keep], slot_j[keep]
     # which pairs are near enough, from candidate j's moments alone (its 5 × 5 block: cheap), then
     # the full moments of those only
-    s_j, lam, sigma_j, range_j, s_inv, jac_j, e_j = _candidate_moments(pose, points, prediction, meas, mi, cj, d[keep])
+    s_j, lam, sigma_j, range_j, s_inv, jac_j, e_j = _candidate_moments(
+        pose, points, prediction, meas, mi, near, near_slot, near_at[keep], d[keep]
+    )
     whiten_j = _noise_inverse(meas, mi) if robust_to_covariance else s_inv
     close = np.sqrt(lam) <= math.sqrt(gate) + FAR_SIGMAS + _remainder(sigma_j, range_j, whiten_j, far_k)[:, 0]
     mi, cj, slot_j = mi[close], cj[close], slot_j[close]
@@ -523,19 +525,25 @@ def _candidate_moments(
     prediction: Prediction,
     meas: KeyframeMeasurements,
     mi: np.ndarray,
-    cj: np.ndarray,
+    near: np.ndarray,
+    near_slot: np.ndarray,
+    near_at: np.ndarray,
     d: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """What the far-pair filter needs of each pair, from the (pose, l_j) 5 × 5 block alone: S_j
     (n, 2, 2), λ (n,), the line-of-sight spreads (n, 2) [m] and ranges (n,) [m] of candidate j
     (the same as :func:`_pair_moments`' for those pairs), S_j⁻¹ (n, 2, 2), and what
     :func:`_pair_moments` reuses: candidate j's Jacobian H_j (n, 2, 5) and (pose, l_j) block (n, 5, 5).
+    Pair p's candidate is ``near[near_at[p]]`` (``near`` sorted, ``near_slot`` their state slots);
     ``d`` (n, 2) the pairs' innovation means. H_j P H_jᵀ and the spreads depend on the candidate only:
     computed once per candidate (a keyframe's measurements share them), then the measurement's noise
     added."""
     cov = np.asarray(prediction.covariance, float)
-    uniq, back = np.unique(cj, return_inverse=True)
-    slots = _slots(np.asarray(prediction.landmarks, np.int64), uniq)
+    # the distinct candidates, sorted (``near`` is): np.unique of the pairs' without sorting them
+    present = np.zeros(len(near), bool)
+    present[near_at] = True
+    back = (np.cumsum(present) - 1)[near_at]
+    uniq, slots = near[present], near_slot[present]
     n = len(uniq)
     e = np.zeros((n, 5, 5))
     e[:, :3, :3] = cov[:3, :3]
