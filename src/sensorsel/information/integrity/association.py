@@ -348,6 +348,8 @@ def measurement_risks(
     lam_low = ((r_i * d[:, 0]) ** 2 + d[:, 1] ** 2) / (s_bb + s_rr)
     keep = np.sqrt(lam_low) <= math.sqrt(gate) + FAR_SIGMAS + rho_up
     mi, cj, slot_j = mi[keep], cj[keep], slot_j[keep]
+    if len(mi) == 0:  # no pair left: no risk (and none of the moments below to compute)
+        return MeasurementRisk(est, bnd, ncand, lin)
     # which pairs are near enough, from candidate j's moments alone (its 5 × 5 block: cheap), then
     # the full moments of those only
     s_j, lam, sigma_j, range_j, s_inv, jac_j, e_j = _candidate_moments(
@@ -356,14 +358,14 @@ def measurement_risks(
     whiten_j = _noise_inverse(meas, mi) if robust_to_covariance else s_inv
     close = np.sqrt(lam) <= math.sqrt(gate) + FAR_SIGMAS + _remainder(sigma_j, range_j, whiten_j, far_k)[:, 0]
     mi, cj, slot_j = mi[close], cj[close], slot_j[close]
+    if len(mi) == 0:
+        return MeasurementRisk(est, bnd, ncand, lin)
     rho_j = _remainder(sigma_j[close], range_j[close], whiten_j[close])  # (n, K)
     li = meas.landmark[mi]
     pair = _pair_moments(
         pose, points, prediction, meas, mi, li, cj, _slots(state, li), slot_j, jac_j[close], e_j[close]
     )
     ncand = np.bincount(mi, minlength=m).astype(np.int64)
-    if len(mi) == 0:
-        return MeasurementRisk(est, bnd, ncand, lin)
     lam = pair.lam
     root_g = math.sqrt(gate)
     # the gate terms G_j(γ): the smallest over the grid of k
