@@ -307,15 +307,18 @@ def _pass(
     predicted, filtered = np.zeros((K, 3, 3)), np.zeros((K, 3, 3))
     n_used = np.zeros(K, np.int64)
     n_measured = np.array([len(g) for g in groups], np.int64)
-    every: _Pairs | None = None
-    if use is None:  # every measurement used: every keyframe's pairs at once
-        cat = [
-            np.concatenate([getattr(g, f) for g in groups]) if K else np.zeros(0)
-            for f in ("landmark", "sigma_bearing_rad", "sigma_range_m")
-        ]
-        kf = np.repeat(np.arange(K), n_measured)
-        every = _pairs(poses, points, kf, cat[0].astype(np.int64), cat[1], cat[2], prior_sigma)
-        bounds = np.searchsorted(every.keyframe, np.arange(K + 1))
+    # every keyframe's pairs at once, with every measurement used: what the pass updates with where
+    # ``use`` keeps all of a keyframe's measurements (always without ``use``), so a hook costs the
+    # pass only its call and, where it leaves measurements out, that keyframe's pairs (the same
+    # batched algebra per pair: the same numbers)
+    cat = [
+        np.concatenate([getattr(g, f) for g in groups]) if K else np.zeros(0)
+        for f in ("landmark", "sigma_bearing_rad", "sigma_range_m")
+    ]
+    kf = np.repeat(np.arange(K), n_measured)
+    every = _pairs(poses, points, kf, cat[0].astype(np.int64), cat[1], cat[2], prior_sigma)
+    bounds = np.searchsorted(every.keyframe, np.arange(K + 1))
+    if use is None:
         n_used = n_measured.copy()
     held = np.zeros(0, np.int64)  # sorted landmark indices in the state
     P = np.diag(np.asarray(s.first_pose_sigmas, float) ** 2)  # (3 + 2n)²
@@ -334,14 +337,13 @@ def _pass(
             view = P.view()
             view.flags.writeable = False
             pred = Prediction(k, held, view, prior_sigma)
-        if every is not None:
-            pairs = _slice(every, bounds[k], bounds[k + 1])
-        else:
-            assert use is not None
+        pairs = _slice(every, bounds[k], bounds[k + 1])
+        if use is not None:
             mask = np.asarray(use(pred, g), bool)
             if mask.shape != (len(g),):
                 raise ValueError(f"use returned a mask of shape {mask.shape} for {len(g)} measurements at keyframe {k}")
             n_used[k] = int(mask.sum())
+        if use is not None and n_used[k] < len(g):
             pairs = _pairs(
                 poses,
                 points,

@@ -110,6 +110,9 @@ FAR_SIGMAS = 8.0
 
 _GH_X, _GH_W = np.polynomial.hermite_e.hermegauss(10)
 _GH_W = _GH_W / _GH_W.sum()
+#: the 10 × 10 rule's nodes (Q, 2) and weights (Q,), built once
+_GH_XI = np.stack(np.meshgrid(_GH_X, _GH_X, indexing="ij"), -1).reshape(-1, 2)
+_GH_W2 = np.outer(_GH_W, _GH_W).ravel()
 _T_FRACTIONS = np.linspace(0.05, 1.0, 20)  # the bound's thresholds t, as fractions of γ
 #: the region sizes k of the Taylor remainder (module docstring), and their outside masses 4Φ(−k)
 _K_GRID = np.array([1.5, 2.0, 2.5, 3.0, 4.0, 5.5, 7.0, 9.0, 12.0])
@@ -120,7 +123,10 @@ _K_FAR = int(np.searchsorted(_K_GRID, FAR_SIGMAS))  # the k judging which pairs 
 def _ncx2_cdf(x: np.ndarray, lam: np.ndarray) -> np.ndarray:
     """F(x; λ), the CDF of the non-central χ² with 2 degrees of freedom (inf → 1)."""
     x = np.asarray(x, float)
-    return np.where(np.isfinite(x), chndtr(np.where(np.isfinite(x), x, 0.0), 2.0, lam), 1.0)
+    finite = np.isfinite(x)
+    if finite.all():  # the common case: no region reached the range (the same numbers, fewer passes)
+        return chndtr(x, 2.0, lam)
+    return np.where(finite, chndtr(np.where(finite, x, 0.0), 2.0, lam), 1.0)
 
 
 def _remainder(sigma_ab: np.ndarray, rng_m: np.ndarray, s_inv: np.ndarray, ks: np.ndarray = _K_GRID) -> np.ndarray:
@@ -199,11 +205,17 @@ class AssociationModel:
         """Sorted landmark indices the associator considers at this keyframe (module docstring)."""
         if self._tree is None or len(meas.landmark) == 0:
             return np.zeros(0, np.int64)
+        return self._candidates(prediction, meas, candidate_reach(prediction, meas, self.gate, model=self.model))
+
+    def _candidates(self, prediction: Prediction, meas: KeyframeMeasurements, reach_m: np.ndarray) -> np.ndarray:
+        """:meth:`candidates` with each measurement's reach (m,) [m] (:func:`candidate_reach`) given."""
+        if self._tree is None or len(meas.landmark) == 0:
+            return np.zeros(0, np.int64)
         pose = self._poses[meas.keyframe]
-        reach = float(np.max(candidate_reach(prediction, meas, self.gate, model=self.model)))
-        near = np.asarray(sorted(self._tree.query_ball_point(pose[:2], reach)), np.int64)
+        reach = float(np.max(reach_m))
+        near = np.sort(np.asarray(self._tree.query_ball_point(pose[:2], reach, return_sorted=False), np.int64))
         if self.model == "slam":
-            near = near[np.isin(near, np.asarray(prediction.landmarks, np.int64))]
+            near = near[_slots(np.asarray(prediction.landmarks, np.int64), near) >= 0]
         return near
 
     def risks(
@@ -216,16 +228,18 @@ class AssociationModel:
     ) -> MeasurementRisk:
         """The estimate and bound of P(wrong association) of each of ``meas`` at ``prediction``
         (``linear``, ``robust_to_covariance``: :func:`measurement_risks`)."""
+        reach = candidate_reach(prediction, meas, self.gate, model=self.model)  # once: candidates and pairs
         return measurement_risks(
             self._poses[meas.keyframe],
             self._points,
             prediction,
             meas,
-            self.candidates(prediction, meas),
+            self._candidates(prediction, meas, reach),
             gate=self.gate,
             model=self.model,
             linear=linear,
             robust_to_covariance=robust_to_covariance,
+            reach_m=reach,
         )
 
 
@@ -273,6 +287,7 @@ def measurement_risks(
     model: str,
     linear: bool = False,
     robust_to_covariance: bool = False,
+    reach_m: np.ndarray | None = None,
 ) -> MeasurementRisk:
     """The estimate and bound of P(wrong association) of each measurement of ``meas``, made from
     ``pose`` (x [m], y [m], heading [rad]: the truth) of landmarks ``points`` (M, 2) [m], against
@@ -280,14 +295,15 @@ def measurement_risks(
     (``"map"``: the truly measured landmark is always a candidate; ``"slam"``: only when it is in
     the prediction's state, else the measurement is a first sighting). ``linear``: also the bound of
     the model linearized at the truth (``MeasurementRisk.linear``; else zeros). ``robust_to_covariance``:
-    ``bound`` is the gate-sum bound with the remainder whitened by R (module docstring)."""
+    ``bound`` is the gate-sum bound with the remainder whitened by R (module docstring). ``reach_m``:
+    :func:`candidate_reach` of ``meas`` at ``prediction`` where the caller has it (computed else)."""
     m = len(meas.landmark)
     est, bnd, ncand, lin = np.zeros(m), np.zeros(m), np.zeros(m, np.int64), np.zeros(m)
     near = np.asarray(candidates, np.int64)
     if m == 0 or near.size == 0:
         return MeasurementRisk(est, bnd, ncand, lin)
     state = np.asarray(prediction.landmarks, np.int64)
-    has_right = np.ones(m, bool) if model == "map" else np.isin(meas.landmark, state)
+    has_right = np.ones(m, bool) if model == "map" else _slots(state, meas.landmark) >= 0
     # all (measurement, candidate) pairs but the truly measured landmark
     mi = np.repeat(np.arange(m), near.size)
     cj = np.tile(near, m)
@@ -297,7 +313,7 @@ def measurement_risks(
     # slots are the candidates', computed once each)
     near_dist = np.hypot(*(points[near] - pose[:2]).T)
     near_slot = _slots(state, near)
-    reach = candidate_reach(prediction, meas, gate, model=model)[mi]
+    reach = (candidate_reach(prediction, meas, gate, model=model) if reach_m is None else reach_m)[mi]
     if model == "slam":  # candidates out of the state (a caller's choice) keep the stated reach
         in_state = np.tile(near_slot >= 0, m)
         reach = np.where(in_state, reach, CANDIDATE_SCALE * meas.range_m[mi] + CANDIDATE_MARGIN_M)
@@ -332,18 +348,24 @@ def measurement_risks(
     lam_low = ((r_i * d[:, 0]) ** 2 + d[:, 1] ** 2) / (s_bb + s_rr)
     keep = np.sqrt(lam_low) <= math.sqrt(gate) + FAR_SIGMAS + rho_up
     mi, cj, slot_j = mi[keep], cj[keep], slot_j[keep]
+    if len(mi) == 0:  # no pair left: no risk (and none of the moments below to compute)
+        return MeasurementRisk(est, bnd, ncand, lin)
     # which pairs are near enough, from candidate j's moments alone (its 5 × 5 block: cheap), then
     # the full moments of those only
-    s_j, lam, sigma_j, range_j, s_inv = _candidate_moments(pose, points, prediction, meas, mi, cj, d[keep])
+    s_j, lam, sigma_j, range_j, s_inv, jac_j, e_j = _candidate_moments(
+        pose, points, prediction, meas, mi, near, near_slot, near_at[keep], d[keep]
+    )
     whiten_j = _noise_inverse(meas, mi) if robust_to_covariance else s_inv
     close = np.sqrt(lam) <= math.sqrt(gate) + FAR_SIGMAS + _remainder(sigma_j, range_j, whiten_j, far_k)[:, 0]
     mi, cj, slot_j = mi[close], cj[close], slot_j[close]
-    rho_j = _remainder(sigma_j[close], range_j[close], whiten_j[close])  # (n, K)
-    li = meas.landmark[mi]
-    pair = _pair_moments(pose, points, prediction, meas, mi, li, cj, _slots(state, li), slot_j)
-    ncand = np.bincount(mi, minlength=m).astype(np.int64)
     if len(mi) == 0:
         return MeasurementRisk(est, bnd, ncand, lin)
+    rho_j = _remainder(sigma_j[close], range_j[close], whiten_j[close])  # (n, K)
+    li = meas.landmark[mi]
+    pair = _pair_moments(
+        pose, points, prediction, meas, mi, li, cj, _slots(state, li), slot_j, jac_j[close], e_j[close]
+    )
+    ncand = np.bincount(mi, minlength=m).astype(np.int64)
     lam = pair.lam
     root_g = math.sqrt(gate)
     # the gate terms G_j(γ): the smallest over the grid of k
@@ -362,7 +384,7 @@ def measurement_risks(
         g_t = _K_OUT[kb][:, None] + _ncx2_cdf((np.sqrt(ts)[None, :] + rho_k[:, None]) ** 2, lam_s[:, None])
         sums = np.zeros((m, len(ts)))
         np.add.at(sums, mi[sel], g_t)
-        ps = pair.select(sel)
+        ps = pair if sel.all() else pair.select(sel)
         rho_i = _remainder(ps.sigma_i, ps.range_i, np.linalg.inv(ps.s_i))  # (n', K): equal within a measurement
         short = np.maximum(np.sqrt(ts)[None, :, None] - rho_i[:, None, :], 0.0)  # (n', T, K)
         g_i = np.ones((m, len(ts)))
@@ -379,9 +401,9 @@ def measurement_risks(
     right = has_right[mi]
     p = f_gate.copy()
     if right.any():
-        p[right] = np.minimum(_p_nearer(pair.select(right)), f_gate[right])
-    logq = np.zeros(m)
-    np.add.at(logq, mi, np.log1p(-np.clip(p, 0.0, 1.0 - 1e-16)))
+        p[right] = np.minimum(_p_nearer(pair if right.all() else pair.select(right)), f_gate[right])
+    # bincount sums each measurement's terms in order from 0, as np.add.at into zeros did
+    logq = np.bincount(mi, weights=np.log1p(-np.clip(p, 0.0, 1.0 - 1e-16)), minlength=m)
     est = np.maximum(-np.expm1(logq), 0.0)
     return MeasurementRisk(est, np.minimum(bnd, 1.0), ncand, np.minimum(lin, 1.0))
 
@@ -462,23 +484,26 @@ def _pair_moments(
     cj: np.ndarray,
     slot_i: np.ndarray,
     slot_j: np.ndarray,
+    jac_j: np.ndarray,
+    e_j: np.ndarray,
 ) -> _Pairs:
+    """The moments of each (measurement, candidate) pair; ``jac_j`` (n, 2, 5) and ``e_j`` (n, 5, 5)
+    candidate j's Jacobian and (pose, l_j) covariance block (:func:`_candidate_moments`)."""
     cov = np.asarray(prediction.covariance, float)
     prior_var = float(prediction.prior_sigma_m) ** 2
     n = len(mi)
     # the 7 × 7 covariance of (δpose, δl_i, δl_j)
     e = np.zeros((n, 7, 7))
     e[:, :3, :3] = cov[:3, :3]
-    pi, pj = _pose_landmark(cov, slot_i), _pose_landmark(cov, slot_j)
-    e[:, :3, 3:5], e[:, :3, 5:7] = pi, pj
-    e[:, 3:5, :3], e[:, 5:7, :3] = np.transpose(pi, (0, 2, 1)), np.transpose(pj, (0, 2, 1))
+    pi = _pose_landmark(cov, slot_i)
+    e[:, :3, 3:5], e[:, :3, 5:7] = pi, e_j[:, :3, 3:]
+    e[:, 3:5, :3], e[:, 5:7, :3] = np.transpose(pi, (0, 2, 1)), e_j[:, 3:, :3]
     e[:, 3:5, 3:5] = _landmark_blocks(cov, slot_i, slot_i, prior_var)
-    e[:, 5:7, 5:7] = _landmark_blocks(cov, slot_j, slot_j, prior_var)
+    e[:, 5:7, 5:7] = e_j[:, 3:, 3:]
     ij = _landmark_blocks(cov, slot_i, slot_j, prior_var)
     e[:, 3:5, 5:7], e[:, 5:7, 3:5] = ij, np.transpose(ij, (0, 2, 1))
     poses = np.broadcast_to(pose, (n, 3))
     jac_i = bearing_range_jacobians(poses, points[li])  # (n, 2, 5)
-    jac_j = bearing_range_jacobians(poses, points[cj])
     b = np.zeros((n, 2, 7))
     b[:, :, :5] = jac_i
     c = np.zeros((n, 2, 7))
@@ -502,17 +527,25 @@ def _candidate_moments(
     prediction: Prediction,
     meas: KeyframeMeasurements,
     mi: np.ndarray,
-    cj: np.ndarray,
+    near: np.ndarray,
+    near_slot: np.ndarray,
+    near_at: np.ndarray,
     d: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """What the far-pair filter needs of each pair, from the (pose, l_j) 5 × 5 block alone: S_j
     (n, 2, 2), λ (n,), the line-of-sight spreads (n, 2) [m] and ranges (n,) [m] of candidate j
-    (the same as :func:`_pair_moments`' for those pairs), and S_j⁻¹ (n, 2, 2). ``d`` (n, 2) the
-    pairs' innovation means. H_j P H_jᵀ and the spreads depend on the candidate only: computed once
-    per candidate (a keyframe's measurements share them), then the measurement's noise added."""
+    (the same as :func:`_pair_moments`' for those pairs), S_j⁻¹ (n, 2, 2), and what
+    :func:`_pair_moments` reuses: candidate j's Jacobian H_j (n, 2, 5) and (pose, l_j) block (n, 5, 5).
+    Pair p's candidate is ``near[near_at[p]]`` (``near`` sorted, ``near_slot`` their state slots);
+    ``d`` (n, 2) the pairs' innovation means. H_j P H_jᵀ and the spreads depend on the candidate only:
+    computed once per candidate (a keyframe's measurements share them), then the measurement's noise
+    added."""
     cov = np.asarray(prediction.covariance, float)
-    uniq, back = np.unique(cj, return_inverse=True)
-    slots = _slots(np.asarray(prediction.landmarks, np.int64), uniq)
+    # the distinct candidates, sorted (``near`` is): np.unique of the pairs' without sorting them
+    present = np.zeros(len(near), bool)
+    present[near_at] = True
+    back = (np.cumsum(present) - 1)[near_at]
+    uniq, slots = near[present], near_slot[present]
     n = len(uniq)
     e = np.zeros((n, 5, 5))
     e[:, :3, :3] = cov[:3, :3]
@@ -526,7 +559,7 @@ def _candidate_moments(
     inv = _inverse_2x2(s_j)
     lam = np.einsum("ni,nij,nj->n", d, inv, d)
     sigma, rng = _line_of_sight_spread(pose, points[uniq], e, 3)
-    return s_j, lam, sigma[back], rng[back], inv
+    return s_j, lam, sigma[back], rng[back], inv, jac[back], e[back]
 
 
 def _inverse_2x2(a: np.ndarray) -> np.ndarray:
@@ -581,7 +614,7 @@ def _p_nearer(pair: _Pairs, chunk: int = 20000) -> np.ndarray:
     """P(NIS_j < NIS_i) of each pair (both NIS with S̄), by Gauss–Hermite over D (module docstring)."""
     out = np.zeros(len(pair.d))
     for lo in range(0, len(out), chunk):
-        p = pair.select(np.arange(lo, min(lo + chunk, len(out))))
+        p = pair if len(out) <= chunk else pair.select(np.arange(lo, min(lo + chunk, len(out))))
         s_bar = 0.5 * (p.s_i + p.s_j)
         s_inv = np.linalg.inv(s_bar)
         scale = np.trace(s_bar, axis1=1, axis2=2)[:, None, None]
@@ -590,8 +623,7 @@ def _p_nearer(pair: _Pairs, chunk: int = 20000) -> np.ndarray:
         v = p.s_i - k_gain @ np.transpose(p.c_id, (0, 2, 1))
         v = 0.5 * (v + np.transpose(v, (0, 2, 1))) + 1e-12 * scale * np.eye(2)
         chol = np.linalg.cholesky(c_d)
-        xi = np.stack(np.meshgrid(_GH_X, _GH_X, indexing="ij"), -1).reshape(-1, 2)  # (Q, 2)
-        w = np.outer(_GH_W, _GH_W).ravel()
+        xi, w = _GH_XI, _GH_W2
         dd = p.d[:, None, :] + np.einsum("nab,qb->nqa", chol, xi)  # (n, Q, 2) samples of D
         sd = np.einsum("nab,nqb->nqa", s_inv, dd)  # S̄⁻¹ D
         quad = np.einsum("nqa,nqa->nq", dd, sd)

@@ -267,13 +267,17 @@ class _Collector:
     def __call__(self, prediction: Prediction, meas: KeyframeMeasurements) -> np.ndarray:
         r = self.model.risks(prediction, meas)
         mask = np.ones(len(meas.landmark), bool) if self.threshold is None else r.bound <= self.threshold
-        est, bnd = keyframe_risk(r.estimate[mask], r.bound[mask])
         sensor = np.asarray(meas.sensor, np.int64)
+        every = self.threshold is None or bool(mask.all())  # then no copies of what is used
+        used, estimate, bound = (
+            (sensor, r.estimate, r.bound) if every else (sensor[mask], r.estimate[mask], r.bound[mask])
+        )
+        est, bnd = keyframe_risk(estimate, bound)
         np.add.at(self.per_sensor[:, 0], sensor, 1.0)
-        np.add.at(self.per_sensor[:, 1], sensor[mask], 1.0)
-        np.add.at(self.per_sensor[:, 2], sensor[mask], r.estimate[mask])
-        np.maximum.at(self.per_sensor[:, 3], sensor[mask], r.bound[mask])
-        np.add.at(self.per_sensor[:, 4], sensor[mask], r.bound[mask])
+        np.add.at(self.per_sensor[:, 1], used, 1.0)
+        np.add.at(self.per_sensor[:, 2], used, estimate)
+        np.maximum.at(self.per_sensor[:, 3], used, bound)
+        np.add.at(self.per_sensor[:, 4], used, bound)
         self.bound[meas.keyframe] = bnd
         self.estimate[meas.keyframe] = est
         if not mask.all():
