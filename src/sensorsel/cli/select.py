@@ -65,7 +65,7 @@ from sensorsel.io import results
 from sensorsel.io.files import output_dir, output_file
 from sensorsel.model.constraints import feasible_set
 from sensorsel.model.library import SensorLibrary
-from sensorsel.model.problem import Domain, DomainInfo
+from sensorsel.model.problem import Domain, ProblemInfo
 
 
 def _position(lib: SensorLibrary, sensor_id: str) -> tuple[str, str]:
@@ -75,7 +75,8 @@ def _position(lib: SensorLibrary, sensor_id: str) -> tuple[str, str]:
 
 def _print_greedy(res: CertifiedGreedyResult, lib: SensorLibrary) -> None:
     print_target(res.problem)
-    unit = "" if isinstance(res.problem, DomainInfo) else "_nats"
+    unit = (res.problem or ProblemInfo).score_unit  # a recorded domain's score has no unit
+    unit = f"_{unit}" if unit else ""
     rule = kept_label(res.rule, res.winning_rule)
     click.echo(f"budget     ${res.budget_usd:,.0f}   rule {rule}   engine {res.engine}{' (lazy)' if res.lazy else ''}")
     click.echo("")
