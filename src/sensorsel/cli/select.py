@@ -30,7 +30,7 @@ from sensorsel.api import (
     with_suite_quality,
     write_csv,
 )
-from sensorsel.cli.cluster import domain_evaluator_on, require_domain
+from sensorsel.cli.cluster import cluster_evaluator, require_domain
 from sensorsel.cli.common import specification_from, specification_given, specification_options
 from sensorsel.cli.integrity import integrity_from, integrity_options
 from sensorsel.cli.options import (
@@ -229,7 +229,7 @@ def greedy_cmd(
         click.echo(f"sensorsel: note: no checkpoint {ckpt}: starting from the first pick", err=True)
     with cluster or nullcontext(), bar or nullcontext(), cert_bar or nullcontext():
         if isinstance(problem, Domain):
-            ev = domain_evaluator_on(cluster, problem, engine, aggregate) if cluster is not None else None
+            ev = cluster_evaluator(cluster, problem, engine, aggregate)
             out = design_domain(
                 problem,
                 budget,
