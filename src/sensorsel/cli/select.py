@@ -223,14 +223,14 @@ def greedy_cmd(
     check_affordable(problem.library, budget, constraints=constraints)
     bar, progress = progress_bar(quiet, f"greedy {rule}", phases=len(RULES[rule].component_rules))
     cert_bar, cert_progress = progress_bar(quiet or not certify, "certificate", after=bar)
-    out: CertifiedGreedyResult | DomainDesign
+    design: DomainDesign | None = None  # a domain's: its greedy result and each route's share
     ckpt = checkpoint_path(output) if output else None
     if resume and ckpt is not None and not ckpt.is_file():
         click.echo(f"sensorsel: note: no checkpoint {ckpt}: starting from the first pick", err=True)
     with cluster or nullcontext(), bar or nullcontext(), cert_bar or nullcontext():
         if isinstance(problem, Domain):
             ev = cluster_evaluator(cluster, problem, engine, aggregate)
-            out = design_domain(
+            design = design_domain(
                 problem,
                 budget,
                 rule,
@@ -246,9 +246,9 @@ def greedy_cmd(
                 resume=resume,
                 constraints=constraints,
             )
-            res = out.greedy
+            res = design.greedy
         else:
-            out = res = run_greedy(
+            res = run_greedy(
                 problem,
                 budget,
                 rule,
@@ -266,22 +266,24 @@ def greedy_cmd(
     res = with_suite_quality(
         res, problem, map_sigma_m=map_sigma, engine=engine, estimate=estimate, integrity=integrity_spec
     )
-    out = replace(out, greedy=res) if isinstance(out, DomainDesign) else res
+    if design is not None:
+        design = replace(design, greedy=res)
+    out: CertifiedGreedyResult | DomainDesign = design if design is not None else res
     if output:
         results.save(out, output)
         if ckpt is not None:
             remove_checkpoint(ckpt)  # the result is written: the run is no longer interrupted
-    if isinstance(out, DomainDesign) and plot_path:
+    if design is not None and plot_path:
         from sensorsel.plotting import plot_domain_breakdown, save_figure, use_file_backend
 
         use_file_backend()
-        save_figure(plot_domain_breakdown(out).figure, plot_path, close=True)
+        save_figure(plot_domain_breakdown(design).figure, plot_path, close=True)
     if as_json:
         click.echo(results.dumps(out), nl=False)
     else:
         _print_greedy(res, problem.library)
-        if isinstance(out, DomainDesign):
-            _print_breakdown(out)
+        if design is not None:
+            _print_breakdown(design)
         for path in (output, plot_path):
             if path:
                 click.echo(f"wrote      {path}")
