@@ -11,7 +11,7 @@ from typing import Any
 import click
 
 from sensorsel.api import score_domain_suite, score_suite, suite_integrity, with_suite_quality
-from sensorsel.cli.cluster import domain_evaluator_on, require_domain
+from sensorsel.cli.cluster import cluster_evaluator, require_domain
 from sensorsel.cli.common import is_result_file, read_suite
 from sensorsel.cli.integrity import integrity_from, integrity_options
 from sensorsel.cli.options import (
@@ -210,7 +210,7 @@ def score_cmd(
                 f"--suite {suite}: a result file names a suite for one route; with --domain give the suite's ids"
             )
         with cluster or nullcontext():
-            ev = domain_evaluator_on(cluster, problem, engine, aggregate) if cluster is not None else None
+            ev = cluster_evaluator(cluster, problem, engine, aggregate)
             dres = score_domain_suite(problem, suite, engine=engine, aggregate=aggregate, evaluator=ev)
         dres = with_suite_quality(
             dres, problem, map_sigma_m=map_sigma, engine=engine, estimate=estimate, integrity=integrity_spec

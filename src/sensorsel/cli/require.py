@@ -17,7 +17,7 @@ from sensorsel.api import (
     integrity_preset,
     run_require,
 )
-from sensorsel.cli.cluster import domain_evaluator_on, require_domain
+from sensorsel.cli.cluster import cluster_evaluator, require_domain
 from sensorsel.cli.common import read_suite, specification_from, specification_options
 from sensorsel.cli.integrity import INTEGRITY_KEYS, integrity_from, integrity_options
 from sensorsel.cli.options import (
@@ -214,11 +214,7 @@ def require_cmd(
     )  # the count is only a cap: the text says what is left
     with cluster or nullcontext(), bar or nullcontext():
         # on a cluster each route's accuracy checks run on its worker's actor (the same bytes)
-        ev = (
-            domain_evaluator_on(cluster, target, engine, "normalised")
-            if isinstance(target, Domain) and cluster
-            else None
-        )
+        ev = cluster_evaluator(cluster, target, engine, "normalised")
         res = run_require(
             target,
             specs,

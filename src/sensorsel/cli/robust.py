@@ -12,7 +12,7 @@ from sensorsel.api import (
     ROBUST_AGGREGATES,
     with_suite_quality,
 )  # --aggregate of this command: the combined score (as elsewhere), or the worst route
-from sensorsel.cli.cluster import domain_evaluator_on, require_domain
+from sensorsel.cli.cluster import cluster_evaluator, require_domain
 from sensorsel.cli.integrity import integrity_from, integrity_options
 from sensorsel.cli.options import (
     budget_option,
@@ -40,7 +40,6 @@ from sensorsel.cli.vocabulary import Command
 from sensorsel.io import results
 from sensorsel.io.files import output_file
 from sensorsel.model.library import SensorLibrary
-from sensorsel.model.problem import Domain
 
 
 def _worst_aggregate(fn: Any) -> Any:
@@ -177,10 +176,7 @@ def robust_cmd(
     tasks = tasks_folder(output) if output and aggregate != "worst" else None
     with cluster or nullcontext():
         if aggregate == "worst":  # one search over the routes' shares: on a cluster each route on a worker
-            ev = None
-            if cluster is not None:
-                assert isinstance(target, Domain)
-                ev = domain_evaluator_on(cluster, target, engine, "normalised")
+            ev = cluster_evaluator(cluster, target, engine, "normalised")
             res = run_robust(
                 target,
                 budget,

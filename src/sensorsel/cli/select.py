@@ -30,7 +30,7 @@ from sensorsel.api import (
     with_suite_quality,
     write_csv,
 )
-from sensorsel.cli.cluster import domain_evaluator_on, require_domain
+from sensorsel.cli.cluster import cluster_evaluator, require_domain
 from sensorsel.cli.common import specification_from, specification_given, specification_options
 from sensorsel.cli.integrity import integrity_from, integrity_options
 from sensorsel.cli.options import (
@@ -65,7 +65,7 @@ from sensorsel.io import results
 from sensorsel.io.files import output_dir, output_file
 from sensorsel.model.constraints import feasible_set
 from sensorsel.model.library import SensorLibrary
-from sensorsel.model.problem import Domain, DomainInfo
+from sensorsel.model.problem import Domain, ProblemInfo
 
 
 def _position(lib: SensorLibrary, sensor_id: str) -> tuple[str, str]:
@@ -75,7 +75,8 @@ def _position(lib: SensorLibrary, sensor_id: str) -> tuple[str, str]:
 
 def _print_greedy(res: CertifiedGreedyResult, lib: SensorLibrary) -> None:
     print_target(res.problem)
-    unit = "" if isinstance(res.problem, DomainInfo) else "_nats"
+    unit = (res.problem or ProblemInfo).score_unit  # a recorded domain's score has no unit
+    unit = f"_{unit}" if unit else ""
     rule = kept_label(res.rule, res.winning_rule)
     click.echo(f"budget     ${res.budget_usd:,.0f}   rule {rule}   engine {res.engine}{' (lazy)' if res.lazy else ''}")
     click.echo("")
@@ -222,14 +223,14 @@ def greedy_cmd(
     check_affordable(problem.library, budget, constraints=constraints)
     bar, progress = progress_bar(quiet, f"greedy {rule}", phases=len(RULES[rule].component_rules))
     cert_bar, cert_progress = progress_bar(quiet or not certify, "certificate", after=bar)
-    out: CertifiedGreedyResult | DomainDesign
+    design: DomainDesign | None = None  # a domain's: its greedy result and each route's share
     ckpt = checkpoint_path(output) if output else None
     if resume and ckpt is not None and not ckpt.is_file():
         click.echo(f"sensorsel: note: no checkpoint {ckpt}: starting from the first pick", err=True)
     with cluster or nullcontext(), bar or nullcontext(), cert_bar or nullcontext():
         if isinstance(problem, Domain):
-            ev = domain_evaluator_on(cluster, problem, engine, aggregate) if cluster is not None else None
-            out = design_domain(
+            ev = cluster_evaluator(cluster, problem, engine, aggregate)
+            design = design_domain(
                 problem,
                 budget,
                 rule,
@@ -245,9 +246,9 @@ def greedy_cmd(
                 resume=resume,
                 constraints=constraints,
             )
-            res = out.greedy
+            res = design.greedy
         else:
-            out = res = run_greedy(
+            res = run_greedy(
                 problem,
                 budget,
                 rule,
@@ -265,22 +266,24 @@ def greedy_cmd(
     res = with_suite_quality(
         res, problem, map_sigma_m=map_sigma, engine=engine, estimate=estimate, integrity=integrity_spec
     )
-    out = replace(out, greedy=res) if isinstance(out, DomainDesign) else res
+    if design is not None:
+        design = replace(design, greedy=res)
+    out: CertifiedGreedyResult | DomainDesign = design if design is not None else res
     if output:
         results.save(out, output)
         if ckpt is not None:
             remove_checkpoint(ckpt)  # the result is written: the run is no longer interrupted
-    if isinstance(out, DomainDesign) and plot_path:
+    if design is not None and plot_path:
         from sensorsel.plotting import plot_domain_breakdown, save_figure, use_file_backend
 
         use_file_backend()
-        save_figure(plot_domain_breakdown(out).figure, plot_path, close=True)
+        save_figure(plot_domain_breakdown(design).figure, plot_path, close=True)
     if as_json:
         click.echo(results.dumps(out), nl=False)
     else:
         _print_greedy(res, problem.library)
-        if isinstance(out, DomainDesign):
-            _print_breakdown(out)
+        if design is not None:
+            _print_breakdown(design)
         for path in (output, plot_path):
             if path:
                 click.echo(f"wrote      {path}")

@@ -41,7 +41,7 @@ from sensorsel.information.evaluators.registry import check_engine
 from sensorsel.io import results
 from sensorsel.io.results import result_kind
 from sensorsel.model.constraints import Constraints, recorded
-from sensorsel.model.problem import Domain, DomainInfo, Problem, ProblemInfo, Target, TargetInfo
+from sensorsel.model.problem import Target, TargetInfo, target_differences
 from sensorsel.pipeline.store import load_matching
 
 #: Bumped when what a checkpoint holds, or how a run is resumed from it, changes.
@@ -117,34 +117,6 @@ def run_fingerprint(
     )
 
 
-def _target_differences(recorded: TargetInfo, target: Target) -> list[str]:
-    """How the target a checkpoint records differs from ``target``, in words (empty: the same)."""
-    if isinstance(recorded, DomainInfo) != isinstance(target, Domain):
-        return [
-            "it was written for "
-            + ("a domain" if isinstance(recorded, DomainInfo) else "one route")
-            + ", this run is on "
-            + ("a domain" if isinstance(target, Domain) else "one route")
-        ]
-    if isinstance(recorded, DomainInfo) and isinstance(target, Domain):
-        theirs = [(r.name, r.weight, r.unit) for r in recorded.routes]
-        ours = [(r.name, r.weight, r.unit) for r in target.routes]
-        if theirs != ours:
-            return [f"another domain (routes and weights {theirs} against {ours})"]
-        out = []
-        for r_theirs, r_ours in zip(recorded.routes, target.routes):
-            out += [f"route {r_ours.name}: {d}" for d in _problem_differences(r_theirs.problem, r_ours.problem)]
-        return out
-    assert isinstance(recorded, ProblemInfo) and isinstance(target, Problem)
-    return _problem_differences(recorded, target)
-
-
-def _problem_differences(recorded: ProblemInfo, problem: Problem) -> list[str]:
-    if recorded.fingerprint is None:
-        return ["it records no fingerprint of its route"]
-    return recorded.fingerprint.differences(problem.fingerprint)
-
-
 def _money(v: float) -> str:
     return f"${v:,.0f}" if v == round(v) else f"${v:,.2f}"
 
@@ -183,7 +155,7 @@ def _differences(
     constraints: Constraints | None,
 ) -> list[str]:
     """How the run that wrote ``ck`` differs from this one, in words (empty: unknown)."""
-    diffs = _target_differences(ck.target, target)
+    diffs = target_differences(ck.target, target)
     for name, theirs, ours in (
         ("budget", _money(ck.budget_usd), _money(budget)),
         ("rule", ck.rule, rule),

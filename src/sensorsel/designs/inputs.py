@@ -21,7 +21,7 @@ from __future__ import annotations
 from typing import Any
 
 from sensorsel.io.results import to_jsonable
-from sensorsel.model.problem import Domain, DomainInfo, Fingerprint, Problem, ProblemInfo, Target, TargetInfo
+from sensorsel.model.problem import DomainRoute, Fingerprint, RouteInfo, Target, TargetInfo
 from sensorsel.pipeline.store import digest
 
 #: the parts of a route a result depends on, besides its problem's content (the Fingerprint's parts)
@@ -44,11 +44,11 @@ def route_inputs(target: Target | TargetInfo | Fingerprint | list[list[Any]] | N
     """
     if isinstance(target, list):
         return target
-    if isinstance(target, (Domain, DomainInfo)):
-        return [route_entry(r.name, r.weight, r.unit, r.problem.fingerprint) for r in target.routes]
-    if isinstance(target, (Problem, ProblemInfo)):
-        return [route_entry("", 1.0, "", target.fingerprint)]
-    return [route_entry("", 1.0, "", target)]
+    if target is None or isinstance(target, Fingerprint):
+        return [route_entry("", 1.0, "", target)]
+    # each route by its key (one route: named by nothing, so the same data under another name is the same)
+    routes: tuple[DomainRoute | RouteInfo, ...] = target.routes
+    return [route_entry(*key, r.problem.fingerprint) for key, r in zip(target.route_keys, routes)]
 
 
 def result_fingerprint(

@@ -55,7 +55,7 @@ import numpy as np
 from sensorsel.designs.inputs import result_fingerprint
 from sensorsel.designs.selection import RULES, GreedyResult, Rule, Step, check_budget, check_rule, greedy
 from sensorsel.errors import InputError
-from sensorsel.information.evaluators import Evaluator, ProblemEvaluator, evaluator_for
+from sensorsel.information.evaluators import Evaluator, evaluator_for
 from sensorsel.information.evaluators.domain import check_aggregate
 from sensorsel.information.evaluators.registry import check_engine
 from sensorsel.io.files import atomic_write_text
@@ -365,8 +365,8 @@ def rule_step(state: Evaluator | tuple[Target, EvaluatorRecipe], task: RuleTask)
     else:
         target, recipe = state
         ev = evaluator_for(target, recipe.engine, jobs=recipe.jobs, aggregate=recipe.aggregate)
-    if isinstance(ev, ProblemEvaluator) and not task.first:  # the baseline is counted by the first rule only,
-        _ = ev.baseline_logdet  # as by one evaluator in one run (also when the first rule's runs were read back)
+    if not task.first:  # a route's baseline is counted by the first rule only, as by one evaluator in one
+        ev.prime()  # run (also when the first rule's runs were read back)
     n0 = ev.n_evaluations
     runs = rule_runs(
         ev, task.rule, task.budgets_desc, lazy=task.lazy, share_prefix=task.share_prefix, constraints=task.constraints

@@ -13,6 +13,7 @@ from collections.abc import Iterable
 from dataclasses import asdict, dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
+from typing import ClassVar
 
 import numpy as np
 
@@ -177,6 +178,35 @@ class ProblemInfo:
     fingerprint: Fingerprint | None = None
     condition: str | None = None
 
+    #: what a result says it was computed on (:data:`TARGET_KINDS`); not a field: never written.
+    kind: ClassVar[str] = "route"
+    #: the unit of a score on this target: the log det of the information matrix [nats].
+    score_unit: ClassVar[str] = "nats"
+
+    @property
+    def routes(self) -> tuple[RouteInfo, ...]:
+        """This route as a domain's members record them: one, named by its scenario, weight 1 (as
+        :attr:`Problem.routes`)."""
+        return (RouteInfo(self.scenario, 1.0, "hours", self),)
+
+    @property
+    def route_keys(self) -> tuple[tuple[str, float, str], ...]:
+        """What identifies each route of a result besides its problem: see :attr:`Problem.route_keys`."""
+        return ONE_ROUTE_KEYS
+
+    @property
+    def headline(self) -> str:
+        """What this result was computed on, in a few words (a figure's title)."""
+        return f"scenario {self.scenario}"
+
+
+#: A one-route target's :attr:`Problem.route_keys`: a route's name is not part of what it is (the same
+#: data under another name is the same problem), so a one-route result names no route.
+ONE_ROUTE_KEYS: tuple[tuple[str, float, str], ...] = (("", 1.0, ""),)
+
+#: Each target kind (``kind``) as a message names it.
+TARGET_KINDS = {"route": "one route", "domain": "a domain"}
+
 
 @dataclass(frozen=True, eq=False)
 class Problem:
@@ -208,6 +238,9 @@ class Problem:
             f"{self.n_sensors} sensors, {sum(len(o) for o in self.observations)} measurements)"
         )
 
+    #: what a result says it was computed on (:data:`TARGET_KINDS`).
+    kind: ClassVar[str] = "route"
+
     @property
     def n_sensors(self) -> int:
         return len(self.library)
@@ -217,6 +250,13 @@ class Problem:
         """This route as an operating domain's members: one, named by its scenario, weight 1 (so
         that a run reads ``target.routes`` alike on a route and on a :class:`Domain`)."""
         return (DomainRoute(self.scenario.name, self, 1.0),)
+
+    @property
+    def route_keys(self) -> tuple[tuple[str, float, str], ...]:
+        """Each route's ``(name, weight, unit)`` as a stored result's inputs name it, in :attr:`routes`
+        order: :data:`ONE_ROUTE_KEYS` here (a route's name is not part of what it is), a domain's
+        members by their names, weights and units (:attr:`Domain.route_keys`)."""
+        return ONE_ROUTE_KEYS
 
     @property
     def info(self) -> ProblemInfo:
@@ -310,25 +350,11 @@ def check_result_problem(
         "give the same library, route, rate, landmark, noise and --condition options (or --domain file) as the run "
         "that wrote it, or --force to use it anyway"
     )
-    if isinstance(problem, Domain) or isinstance(recorded, DomainInfo):
-        if not (isinstance(problem, Domain) and isinstance(recorded, DomainInfo)):
-            one, other = ("one route", "this domain") if isinstance(problem, Domain) else ("a domain", "this route")
-            _refuse(path, f"{what} was computed on {one}, not on {other}", hint, force)
-            return
-        here = problem.info
-        theirs = [(r.name, r.weight, r.unit) for r in recorded.routes]
-        ours = [(r.name, r.weight, r.unit) for r in here.routes]
-        if theirs != ours:
-            _refuse(
-                path, f"{what} was computed on another domain (routes and weights {theirs} against {ours})", hint, force
-            )
-            return
-        for r_theirs, r_ours in zip(recorded.routes, problem.routes):
-            check_result_problem(
-                r_theirs.problem, r_ours.problem, path, force=force, what=f"{what} (route {r_ours.name})", ignore=ignore
-            )
-        return
-    if recorded is None or recorded.fingerprint is None:
+    if recorded is not None and recorded.kind == problem.kind and recorded.route_keys == problem.route_keys:
+        unchecked = [r.name for r in recorded.routes if r.problem.fingerprint is None]
+    else:
+        unchecked = []
+    if recorded is None or unchecked:
         why = (
             "records no problem it was computed on"
             if recorded is None
@@ -341,9 +367,37 @@ def check_result_problem(
             force,
         )
         return
-    diffs = recorded.fingerprint.differences(problem.fingerprint, ignore)
+    diffs = target_differences(recorded, problem, ignore)
     if diffs:
-        _refuse(path, f"{what} was computed on another problem ({'; '.join(diffs)})", hint, force)
+        _refuse(path, f"{what} was computed on another {_NOUNS[problem.kind]} ({'; '.join(diffs)})", hint, force)
+
+
+#: Each target kind as "another ..." names it.
+_NOUNS = {"route": "problem", "domain": "domain"}
+
+
+def target_differences(recorded: TargetInfo, target: Target, ignore: tuple[str, ...] = ()) -> list[str]:
+    """How the target a result or checkpoint records differs from ``target``, in words (empty: the
+    same): another kind (one route against a domain), other routes, weights or units (a domain's
+    :attr:`~Domain.route_keys`; a route's name is not part of what it is), then each route's
+    :class:`Fingerprint` differences (but the parts in ``ignore``), prefixed by the member's name
+    in a domain. A route recorded without a fingerprint (a file written before fingerprints) is a
+    difference: it is never taken for this one."""
+    if recorded.kind != target.kind:
+        return [f"it was computed on {TARGET_KINDS[recorded.kind]}, this run is on {TARGET_KINDS[target.kind]}"]
+    theirs, ours = list(recorded.route_keys), list(target.route_keys)
+    if theirs != ours:
+        return [f"routes and weights {theirs} against {ours}"]
+    out: list[str] = []
+    for (name, _, _), r_theirs, r_ours in zip(ours, recorded.routes, target.routes):
+        fp = r_theirs.problem.fingerprint
+        diffs = (
+            ["it records no fingerprint of its route"]
+            if fp is None
+            else fp.differences(r_ours.problem.fingerprint, ignore)
+        )
+        out += [f"route {name}: {d}" if name else d for d in diffs]
+    return out
 
 
 def _refuse(path: str | Path, msg: str, hint: str, force: bool) -> None:
@@ -525,6 +579,20 @@ class DomainInfo:
     source: str
     routes: tuple[RouteInfo, ...]
 
+    kind: ClassVar[str] = "domain"
+    #: a domain's score is a weighted share of each route's best: a number without a unit.
+    score_unit: ClassVar[str] = ""
+
+    @property
+    def route_keys(self) -> tuple[tuple[str, float, str], ...]:
+        """Each member's ``(name, weight, unit)`` (:attr:`Domain.route_keys`)."""
+        return tuple((r.name, r.weight, r.unit) for r in self.routes)
+
+    @property
+    def headline(self) -> str:
+        """What this result was computed on, in a few words (a figure's title)."""
+        return f"domain of {len(self.routes)} routes"
+
 
 @dataclass(frozen=True, eq=False)
 class Domain:
@@ -541,6 +609,8 @@ class Domain:
 
     routes: tuple[DomainRoute, ...]
     source: str = "<memory>"
+
+    kind: ClassVar[str] = "domain"
 
     def __post_init__(self) -> None:
         if not self.routes:
@@ -577,6 +647,11 @@ class Domain:
             self.source,
             tuple(RouteInfo(r.name, r.weight, r.unit, r.problem.info, r.route, r.condition) for r in self.routes),
         )
+
+    @property
+    def route_keys(self) -> tuple[tuple[str, float, str], ...]:
+        """Each member's ``(name, weight, unit)``: a domain's result is one of these named, weighted routes."""
+        return tuple((r.name, r.weight, r.unit) for r in self.routes)
 
     @property
     def condition_names(self) -> tuple[str, ...]:

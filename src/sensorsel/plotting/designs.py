@@ -10,7 +10,6 @@ from matplotlib.axes import Axes
 from matplotlib.patches import Rectangle
 
 from sensorsel.errors import InputError
-from sensorsel.model.problem import DomainInfo, ProblemInfo
 from sensorsel.plotting.figures import new_axes
 
 if TYPE_CHECKING:  # the result types only (their modules need no matplotlib; simulate's imports gtsam)
@@ -215,13 +214,7 @@ def plot_tradespace(
     ax.set_xlabel("suite cost [$]" + (" (log scale)" if log_cost else ""))
     ax.set_ylabel("normalized performance  f(S) / max f")
     p = result.problem
-    where = (
-        f"scenario {p.scenario}: "
-        if isinstance(p, ProblemInfo)
-        else f"domain of {len(p.routes)} routes: "
-        if isinstance(p, DomainInfo)
-        else ""
-    )
+    where = f"{p.headline}: " if p is not None else ""
     ax.set_title(
         title
         or f"{where}{len(archs)} architectures from {len(result.runs)} greedy runs ({len(result.budgets_usd)} budgets)",

@@ -52,7 +52,7 @@ from sensorsel.io.records import RuleBudget, SuiteScore
 from sensorsel.io.results import result_kind
 from sensorsel.model.constraints import Constraints, FeasibleSet, feasible_set
 from sensorsel.model.library import SensorLibrary
-from sensorsel.model.problem import DomainInfo, Problem, TargetInfo
+from sensorsel.model.problem import Problem, ProblemInfo, TargetInfo
 
 #: progress(done, total)
 
@@ -437,7 +437,8 @@ def constraints_mismatch(result: GreedyResult, library: SensorLibrary) -> tuple[
 def format_certificate(cert: Certificate) -> str:
     """One line: 'certificate: at least 97.3% of the best possible suite under $110,000 (...)'."""
     where = "the empty suite" if cert.bound_step == 0 else f"step {cert.bound_step} of {len(cert.step_bounds) - 1}"
-    unit = "" if isinstance(cert.problem, DomainInfo) else " nats"  # a domain's score is a weighted share of the best
+    unit = (cert.problem or ProblemInfo).score_unit  # a domain's score is a weighted share of the best
+    unit = f" {unit}" if unit else ""
     limits = " and its limits" if cert.constraints is not None else ""
     return (
         f"certificate: at least {_pct(cert.percent_of_best)}% of the best possible suite under "

@@ -32,7 +32,7 @@ from sensorsel.designs.robust.memo import MemoEvaluator
 from sensorsel.designs.robust.methods import DEFAULT_SATURATE_LEVELS, local_search, oblivious_greedy, saturate
 from sensorsel.designs.robust.records import Candidate, RobustBound, best_of, better
 from sensorsel.designs.selection import REL_TOL, greedy
-from sensorsel.information.evaluators import Evaluator, ProblemEvaluator, as_suite, evaluator_for
+from sensorsel.information.evaluators import Evaluator, as_suite, evaluator_for
 from sensorsel.io.results import result_kind
 from sensorsel.model.constraints import Constraints, FeasibleSet, feasible_set
 from sensorsel.model.problem import Target, TargetInfo
@@ -273,8 +273,7 @@ def method_step(
         if isinstance(held, Evaluator)
         else evaluator_for(target, held.engine, jobs=held.jobs, aggregate=held.aggregate)
     )
-    if isinstance(ev, ProblemEvaluator):
-        _ = ev.baseline_logdet  # computed (and counted) before the memo starts
+    ev.prime()  # a route's baseline computed (and counted) before the memo starts
     settings, task, known = job
     memo = MemoEvaluator(ev)
     memo.learn((k.suite, k.score) for k in known)

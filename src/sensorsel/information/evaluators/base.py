@@ -61,6 +61,13 @@ class Evaluator(ABC):
     def n_sensors(self) -> int:
         return len(self.library)
 
+    def prime(self) -> None:
+        """Compute, and count in :attr:`n_evaluations`, what every score of this evaluator shares,
+        before the first score: a route's sensorless log det (:meth:`ProblemEvaluator.prime`); nothing
+        by default (a domain's routes are primed as they are scored). A run that counts evaluations
+        calls it first, so its count does not depend on whether its evaluator was fresh."""
+        return None
+
     def _check_positions(self, positions: Iterable[int]) -> None:
         """Raise :class:`InputError` for a position outside the library (0..n_sensors - 1)."""
         n = len(self.library)
@@ -138,6 +145,10 @@ class ProblemEvaluator(Evaluator):
         if self._baseline is None:
             self._baseline = self.logdet(())
         return self._baseline
+
+    def prime(self) -> None:
+        """Compute (and count) :attr:`baseline_logdet` now, if not yet done."""
+        _ = self.baseline_logdet
 
     def score(self, suite: Iterable[int]) -> float:
         """f(S) = log det L(S) - log det L(empty) [nats]."""
