@@ -291,3 +291,13 @@ def test_slam_reach_does_not_grow_with_the_prior_of_landmarks_out_of_the_state()
         slam = candidate_reach(pred, meas, gate_of(0.9999), model="slam")
         assert slam[0] < 100.0, slam
     assert candidate_reach(pred, meas, gate_of(0.9999), model="map")[0] > 1000.0
+
+
+def test_a_measurement_certain_to_be_misassociated_makes_its_keyframe_certain_without_a_warning():
+    # 1 - (1 - 0.5)(1 - 1) = 1 by hand; log1p(-1) is -inf, which numpy warns about unless told
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert keyframe_risk(np.array([0.5, 1.0]), np.array([0.5, 1.0])) == (1.0, 1.0)
+        assert keyframe_risk(np.array([0.5, 0.5]), np.array([0.5, 0.5])) == (0.75, 1.0)

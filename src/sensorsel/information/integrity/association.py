@@ -176,7 +176,8 @@ class MeasurementRisk:
 def keyframe_risk(estimate: np.ndarray, bound: np.ndarray) -> tuple[float, float]:
     """P(at least one wrong association) at a keyframe from its measurements' risks: the estimate
     1 − Π (1 − p) (independent measurements), the bound min(1, Σ p) (union bound, no assumption)."""
-    est = max(0.0, float(-np.expm1(np.sum(np.log1p(-np.clip(estimate, 0.0, 1.0)))))) if len(estimate) else 0.0
+    with np.errstate(divide="ignore"):  # an estimate of exactly 1: log1p(-1) = -inf, and the product is 1
+        est = max(0.0, float(-np.expm1(np.sum(np.log1p(-np.clip(estimate, 0.0, 1.0)))))) if len(estimate) else 0.0
     return est, float(min(1.0, np.sum(bound))) if len(bound) else 0.0
 
 
