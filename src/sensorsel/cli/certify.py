@@ -35,10 +35,9 @@ from sensorsel.cli.options import (
     budget_option,
     check_map_sigma,
     cluster_from,
-    cluster_options,
     constraint_options,
     constraints_from,
-    engine_options,
+    design_options,
     force_option,
     json_option,
     map_sigma_option,
@@ -50,7 +49,6 @@ from sensorsel.cli.options import (
     resume_option,
     run,
     target_from,
-    target_options,
     usage_table,
 )
 from sensorsel.cli.options import not_empty as not_empty_file
@@ -94,9 +92,7 @@ def _check_result_constraints(res: GreedyResult, lib: SensorLibrary, path: str, 
 @click.command(
     "optimal", cls=Command, short_help="Exact best suite within a budget (branch and bound), with greedy beside it."
 )
-@target_options
-@engine_options
-@cluster_options
+@design_options
 @budget_option(required=True, help="Budget per car in dollars: 110000, 110,000, $110,000 or 110_000.")
 @constraint_options
 @click.option(
@@ -231,9 +227,7 @@ def optimal_cmd(
 @click.command(
     "certify", cls=Command, short_help="How close a greedy suite is to the best possible one (an upper bound)."
 )
-@target_options
-@engine_options
-@cluster_options
+@design_options
 @click.option(
     "--suite",
     "result_path",

@@ -17,11 +17,10 @@ from sensorsel.cli.integrity import integrity_from, integrity_options
 from sensorsel.cli.options import (
     check_map_sigma,
     cluster_from,
-    cluster_options,
     constraint_options,
     constraints_from,
+    design_options,
     echo_written,
-    engine_options,
     force_option,
     json_option,
     map_sigma_option,
@@ -37,7 +36,6 @@ from sensorsel.cli.options import (
     suite_text,
     table,
     target_from,
-    target_options,
     usage_table,
 )
 from sensorsel.cli.options import plot_format as plot_format_of
@@ -156,9 +154,7 @@ def library_cmd(library_path: str | None, as_json: bool, quiet: bool) -> None:
 
 
 @click.command("score", cls=Command, short_help="Score a suite: cost and f(S) = log det gain over no sensor [nats].")
-@target_options
-@engine_options
-@cluster_options
+@design_options
 @click.option(
     "--suite",
     required=True,

@@ -569,6 +569,23 @@ def engine_options(fn: Callable[..., Any]) -> Callable[..., Any]:
     return fn
 
 
+def design_options(fn: Callable[..., Any] | None = None, *, aggregate: bool = True) -> Any:
+    """What every design command takes first, in this order: the target (:func:`target_options`,
+    with --aggregate unless ``aggregate`` is False), the engine (:func:`engine_options`) and the
+    cluster (:func:`cluster_options`). ``@design_options`` or ``@design_options(aggregate=False)``."""
+    if fn is None:
+        return lambda f: design_options(f, aggregate=aggregate)
+    return target_options(engine_options(cluster_options(fn)), aggregate=aggregate)
+
+
+def failures_option(help: str) -> Callable[[F], F]:
+    """--failures N (destination ``alpha``): how many sensors fail, 1 unless given; ``help`` says what
+    the command does with them."""
+    return click.option(
+        "--failures", "alpha", type=click.IntRange(min=0), default=1, show_default=True, metavar="N", help=help
+    )
+
+
 def table(rows: list[list[str]], header: list[str]) -> str:
     """Plain fixed-width table; numbers right-aligned."""
     cols = list(zip(*([header] + rows))) if rows else [(h,) for h in header]

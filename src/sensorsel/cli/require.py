@@ -24,10 +24,9 @@ from sensorsel.cli.options import (
     budget_option,
     check_map_sigma,
     cluster_from,
-    cluster_options,
     constraint_options,
     constraints_from,
-    engine_options,
+    design_options,
     estimate_option,
     json_option,
     output_option,
@@ -39,7 +38,6 @@ from sensorsel.cli.options import (
     run,
     suite_text,
     target_from,
-    target_options,
 )
 from sensorsel.cli.vocabulary import Command
 from sensorsel.errors import InputError
@@ -53,9 +51,7 @@ from sensorsel.model.problem import Domain
     cls=Command,
     short_help="The cheapest suite that meets an accuracy specification in metres, with a proof.",
 )
-@target_options(aggregate=False)
-@engine_options
-@cluster_options
+@design_options(aggregate=False)
 @constraint_options
 @specification_options
 @click.option(

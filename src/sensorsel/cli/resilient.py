@@ -15,10 +15,10 @@ from sensorsel.cli.options import (
     budget_option,
     check_map_sigma,
     cluster_from,
-    cluster_options,
     constraint_options,
     constraints_from,
-    engine_options,
+    design_options,
+    failures_option,
     json_option,
     map_sigma_option,
     output_option,
@@ -31,7 +31,6 @@ from sensorsel.cli.options import (
     run,
     table,
     target_from,
-    target_options,
     usage_table,
 )
 from sensorsel.cli.options import plot_format as plot_format_of
@@ -48,22 +47,12 @@ from sensorsel.model.problem import Domain
     cls=Command,
     short_help="Resilient selection against failing sensors, whole route and per period (grid).",
 )
-@target_options
-@engine_options
-@cluster_options
+@design_options
 @budget_option(
     default=110_000.0,
     help="Budget in dollars (110000, 110,000, $110,000 or 110_000), the sensors assumed to fail included.",
 )
-@click.option(
-    "--failures",
-    "alpha",
-    type=click.IntRange(min=0),
-    default=1,
-    show_default=True,
-    metavar="N",
-    help="Number of sensors assumed to fail (alpha); 0 is plain greedy selection.",
-)
+@failures_option("Number of sensors assumed to fail (alpha); 0 is plain greedy selection.")
 @click.option(
     "--period",
     "period_s",

@@ -18,11 +18,11 @@ from sensorsel.cli.options import (
     budget_option,
     check_map_sigma,
     cluster_from,
-    cluster_options,
     compact_suite,
     constraint_options,
     constraints_from,
-    engine_options,
+    design_options,
+    failures_option,
     json_option,
     map_sigma_option,
     output_option,
@@ -33,7 +33,6 @@ from sensorsel.cli.options import (
     run,
     table,
     target_from,
-    target_options,
     usage_table,
 )
 from sensorsel.cli.vocabulary import Command
@@ -68,19 +67,9 @@ def _csv(xs: Any) -> str:
     "robust", cls=Command, short_help="Robust selection: the best worst case under failing sensors, with its bound."
 )
 @_worst_aggregate
-@target_options
-@engine_options
-@cluster_options
+@design_options
 @budget_option(default=110_000.0, help="Budget in dollars (110000, 110,000, $110,000 or 110_000).")
-@click.option(
-    "--failures",
-    "alpha",
-    type=click.IntRange(min=0),
-    default=1,
-    show_default=True,
-    metavar="N",
-    help="Number of sensors that may fail (alpha); the design maximises the score left after the worst ALPHA.",
-)
+@failures_option("Number of sensors that may fail (alpha); the design maximises the score left after the worst ALPHA.")
 @click.option(
     "--rules",
     default="uniform,marginal",

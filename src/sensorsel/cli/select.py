@@ -37,11 +37,10 @@ from sensorsel.cli.options import (
     budget_option,
     check_map_sigma,
     cluster_from,
-    cluster_options,
     compact_suite,
     constraint_options,
     constraints_from,
-    engine_options,
+    design_options,
     json_option,
     map_sigma_option,
     output_option,
@@ -55,7 +54,6 @@ from sensorsel.cli.options import (
     run,
     table,
     target_from,
-    target_options,
     usage_table,
 )
 from sensorsel.cli.options import plot_format as plot_format_of
@@ -142,9 +140,7 @@ def _print_breakdown(design: DomainDesign) -> None:
 @click.command(
     "greedy", cls=Command, short_help="Greedy suite under a budget, with its certificate of near-optimality."
 )
-@target_options
-@engine_options
-@cluster_options
+@design_options
 @budget_option(required=True)
 @constraint_options
 @rule_option("uniform")
@@ -308,9 +304,7 @@ def _arch_row(a: Architecture) -> list[str]:
 
 
 @click.command("pareto", cls=Command, short_help="Cost-performance tradespace and its Pareto front (plot, CSV, JSON).")
-@target_options
-@engine_options
-@cluster_options
+@design_options
 @click.option(
     "--budgets",
     default=None,
