@@ -234,23 +234,15 @@ def choose(
         again = take([MethodTask("bound", anchors=anchors(), incumbent=win, leaves=False)])[0].bound
         assert again is not None
         bnd = again
-    bound = max(bnd.bound, win.worst_score)
-    return RobustResult(
+    return RobustResult.of(
+        win,
+        bnd,
+        cands,
+        skipped,
         alpha=s.alpha,
         budget_usd=s.budget,
-        method=win.method,
-        suite=win.suite,
-        cost_usd=win.cost_usd,
-        nominal_score=win.nominal_score,
-        worst_score=win.worst_score,
-        failures=win.failures,
         greedy_worst_score=greedy_worst,
         algorithm2_worst_score=a2c.worst_score,
-        bound=bound,
-        gap_percent=100.0 * (bound - win.worst_score) / bound if bound > 0 else 0.0,
-        candidates=tuple(cands),
-        skipped=tuple(skipped),
-        bound_detail=bnd,
         n_evaluations=work[0],
         engine=engine,
         problem=info,
