@@ -33,7 +33,6 @@ from sensorsel.cli.common import is_result_file
 from sensorsel.cli.integrity import integrity_from, integrity_options
 from sensorsel.cli.options import (
     budget_option,
-    check_map_sigma,
     cluster_from,
     constraint_options,
     constraints_from,
@@ -48,6 +47,7 @@ from sensorsel.cli.options import (
     quiet_option,
     resume_option,
     run,
+    scoring_from,
     target_from,
     usage_table,
 )
@@ -128,11 +128,6 @@ def optimal_cmd(
     resume: bool,
     as_json: bool,
     quiet: bool,
-    aggregate: str,
-    engine: str | None,
-    jobs: int,
-    map_sigma: float | None,
-    estimate: str,
     **kw: Any,
 ) -> None:
     """The best suite within --budget, by branch and bound with the submodular knapsack bound.
@@ -150,7 +145,7 @@ def optimal_cmd(
     also with a larger --max-nodes; the answer is the uninterrupted run's.
     """
     budget = check_budget(budget)
-    map_sigma = check_map_sigma(map_sigma)
+    aggregate, engine, jobs, map_sigma, estimate = scoring_from(kw)
     integrity_spec = integrity_from(kw)
     if resume and not output:
         raise click.UsageError("--resume goes on from the search's state in FILE.checkpoint of -o FILE: give -o")

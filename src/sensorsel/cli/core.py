@@ -15,7 +15,6 @@ from sensorsel.cli.cluster import domain_evaluator_on, require_domain
 from sensorsel.cli.common import is_result_file, read_suite
 from sensorsel.cli.integrity import integrity_from, integrity_options
 from sensorsel.cli.options import (
-    check_map_sigma,
     cluster_from,
     constraint_options,
     constraints_from,
@@ -32,6 +31,7 @@ from sensorsel.cli.options import (
     quiet_option,
     run,
     scenario_options,
+    scoring_from,
     spec_from,
     suite_text,
     table,
@@ -175,12 +175,7 @@ def score_cmd(
     suite: str,
     as_json: bool,
     quiet: bool,
-    aggregate: str,
-    engine: str | None,
-    jobs: int,
     force: bool,
-    map_sigma: float | None,
-    estimate: str,
     **kw: Any,
 ) -> None:
     """Score a sensor suite: cost and f(S) = log det L(S) - log det L(empty) in nats.
@@ -192,7 +187,7 @@ def score_cmd(
 
     Also the suite's accuracy in metres and degrees (lateral, longitudinal, heading: 95 % errors over
     the keyframes), in the paper's SLAM graph or with --map-sigma localizing in a prior map."""
-    map_sigma = check_map_sigma(map_sigma)
+    aggregate, engine, jobs, map_sigma, estimate = scoring_from(kw)
     integrity_spec = integrity_from(kw)
     cluster = cluster_from(kw)
     constraints = constraints_from(kw)

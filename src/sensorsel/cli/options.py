@@ -802,6 +802,14 @@ def estimate_option(fn: F) -> F:
     )(fn)
 
 
+def scoring_from(kw: dict[str, Any]) -> tuple[str, str | None, int, float | None, str]:
+    """Pops from ``kw`` what every command that scores a suite on a target shares, in this order:
+    --aggregate, --engine, --jobs (:func:`design_options`), --map-sigma [m] (checked by
+    :func:`check_map_sigma`) and --estimate (:func:`map_sigma_option`)."""
+    aggregate, engine, jobs = kw.pop("aggregate"), kw.pop("engine"), kw.pop("jobs")
+    return aggregate, engine, jobs, check_map_sigma(kw.pop("map_sigma")), kw.pop("estimate")
+
+
 def check_map_sigma(value: float | None) -> float | None:
     """``value`` if it is None or a positive finite number of metres, else an InputError naming --map-sigma."""
     if value is not None and not (math.isfinite(value) and value > 0):

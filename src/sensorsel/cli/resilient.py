@@ -13,7 +13,6 @@ from sensorsel.api import ALGORITHM_2, METHODS, with_suite_quality
 from sensorsel.cli.integrity import integrity_from, integrity_options
 from sensorsel.cli.options import (
     budget_option,
-    check_map_sigma,
     cluster_from,
     constraint_options,
     constraints_from,
@@ -29,6 +28,7 @@ from sensorsel.cli.options import (
     quiet_option,
     resume_option,
     run,
+    scoring_from,
     table,
     target_from,
     usage_table,
@@ -95,11 +95,6 @@ def resilient_cmd(
     resume: bool,
     as_json: bool,
     quiet: bool,
-    aggregate: str,
-    engine: str | None,
-    jobs: int,
-    map_sigma: float | None,
-    estimate: str,
     **kw: Any,
 ) -> None:
     """Resilient sensor selection (the paper's Algorithm 2, for ALPHA failures).
@@ -124,7 +119,7 @@ def resilient_cmd(
     fmt = plot_format_of(plot_format)
     alpha = check_alpha(alpha)
     period_s = check_period(period_s)
-    map_sigma = check_map_sigma(map_sigma)
+    aggregate, engine, jobs, map_sigma, estimate = scoring_from(kw)
     integrity_spec = integrity_from(kw)
     out = output_dir(outdir)
     cluster = cluster_from(kw)

@@ -16,7 +16,6 @@ from sensorsel.cli.cluster import domain_evaluator_on, require_domain
 from sensorsel.cli.integrity import integrity_from, integrity_options
 from sensorsel.cli.options import (
     budget_option,
-    check_map_sigma,
     cluster_from,
     compact_suite,
     constraint_options,
@@ -31,6 +30,7 @@ from sensorsel.cli.options import (
     quiet_option,
     resume_option,
     run,
+    scoring_from,
     table,
     target_from,
     usage_table,
@@ -107,11 +107,6 @@ def robust_cmd(
     resume: bool,
     as_json: bool,
     quiet: bool,
-    aggregate: str,
-    engine: str | None,
-    jobs: int,
-    map_sigma: float | None,
-    estimate: str,
     **kw: Any,
 ) -> None:
     """Robust sensor selection: maximise the worst-case score after ALPHA sensors fail.
@@ -135,7 +130,7 @@ def robust_cmd(
     from sensorsel.api import check_affordable, check_alpha, check_budget, run_robust
 
     budget, alpha = check_budget(budget), check_alpha(alpha)
-    map_sigma = check_map_sigma(map_sigma)
+    aggregate, engine, jobs, map_sigma, estimate = scoring_from(kw)
     integrity_spec = integrity_from(kw)
     if resume and not output:
         raise click.UsageError("--resume goes on from the methods kept in FILE.tasks/ of -o FILE: give -o")

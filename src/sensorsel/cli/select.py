@@ -35,7 +35,6 @@ from sensorsel.cli.common import specification_from, specification_given, specif
 from sensorsel.cli.integrity import integrity_from, integrity_options
 from sensorsel.cli.options import (
     budget_option,
-    check_map_sigma,
     cluster_from,
     compact_suite,
     constraint_options,
@@ -52,6 +51,7 @@ from sensorsel.cli.options import (
     quiet_option,
     resume_option,
     run,
+    scoring_from,
     table,
     target_from,
     usage_table,
@@ -179,11 +179,6 @@ def greedy_cmd(
     quiet: bool,
     plot_path: str | None,
     resume: bool,
-    aggregate: str,
-    engine: str | None,
-    jobs: int,
-    map_sigma: float | None,
-    estimate: str,
     **kw: Any,
 ) -> None:
     """Greedy sensor selection under a budget (the paper's Algorithm 1 and its cost-aware variants).
@@ -202,7 +197,7 @@ def greedy_cmd(
     """
     if resume and not output:
         raise click.UsageError("--resume goes on from the checkpoint of -o FILE (FILE.checkpoint): give -o")
-    map_sigma = check_map_sigma(map_sigma)
+    aggregate, engine, jobs, map_sigma, estimate = scoring_from(kw)
     integrity_spec = integrity_from(kw)
     if output:
         output_file(output)
@@ -344,11 +339,6 @@ def pareto_cmd(
     resume: bool,
     as_json: bool,
     quiet: bool,
-    aggregate: str,
-    engine: str | None,
-    jobs: int,
-    map_sigma: float | None,
-    estimate: str,
     **kw: Any,
 ) -> None:
     """The cost-performance tradespace (the paper's Fig. 4): greedy runs over a grid of budgets,
@@ -365,7 +355,7 @@ def pareto_cmd(
     --map-sigma in a prior map), and with a specification (--preset, --lateral, ..., --spec) which
     front suites meet it: the acceptable region of the front, drawn as cost against lateral error.
     """
-    map_sigma = check_map_sigma(map_sigma)
+    aggregate, engine, jobs, map_sigma, estimate = scoring_from(kw)
     given_spec = specification_given(kw)
     grid = parse_budgets(budgets) if budgets is not None else None
     if budget:
