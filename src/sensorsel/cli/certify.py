@@ -49,6 +49,7 @@ from sensorsel.cli.options import (
     run,
     scoring_from,
     target_from,
+    time_limit_option,
     usage_table,
 )
 from sensorsel.cli.options import not_empty as not_empty_file
@@ -102,13 +103,8 @@ def _check_result_constraints(res: GreedyResult, lib: SensorLibrary, path: str, 
     show_default=True,
     help="Stop after expanding this many nodes (each scores one suite plus each candidate).",
 )
-@click.option(
-    "--time-limit",
-    "time_limit",
-    type=click.FloatRange(min=0, min_open=True),
-    default=None,
-    metavar="SECONDS",
-    help="Also stop the search after this long and report the gap (the result then depends on the machine's speed).",
+@time_limit_option(
+    "Also stop the search after this long and report the gap (the result then depends on the machine's speed)."
 )
 @map_sigma_option
 @integrity_options

@@ -802,6 +802,19 @@ def estimate_option(fn: F) -> F:
     )(fn)
 
 
+def time_limit_option(help: str) -> Callable[[F], F]:
+    """--time-limit SECONDS (destination ``time_limit``; None: no limit): stop a search after this long
+    with the best found so far; ``help`` says what the command then reports."""
+    return click.option(
+        "--time-limit",
+        "time_limit",
+        type=click.FloatRange(min=0, min_open=True),
+        default=None,
+        metavar="SECONDS",
+        help=help,
+    )
+
+
 def scoring_from(kw: dict[str, Any]) -> tuple[str, str | None, int, float | None, str]:
     """Pops from ``kw`` what every command that scores a suite on a target shares, in this order:
     --aggregate, --engine, --jobs (:func:`design_options`), --map-sigma [m] (checked by

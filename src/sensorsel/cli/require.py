@@ -38,6 +38,7 @@ from sensorsel.cli.options import (
     run,
     suite_text,
     target_from,
+    time_limit_option,
 )
 from sensorsel.cli.vocabulary import Command
 from sensorsel.errors import InputError
@@ -101,14 +102,7 @@ from sensorsel.model.problem import Domain
     help="The suite must still meet the specification after any this many of its sensors fail.",
 )
 @budget_option(help="Most the suite may cost, in dollars (default: no budget: the cheapest suite is the question).")
-@click.option(
-    "--time-limit",
-    "time_limit",
-    type=click.FloatRange(min=0, min_open=True),
-    default=None,
-    metavar="SECONDS",
-    help="Stop the exact search after this long and report the gap (default: run until proved).",
-)
+@time_limit_option("Stop the exact search after this long and report the gap (default: run until proved).")
 @click.option(
     "--plot",
     "plot_path",
