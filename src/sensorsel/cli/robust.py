@@ -165,35 +165,22 @@ def robust_cmd(
             if cluster is not None:
                 assert isinstance(target, Domain)
                 ev = domain_evaluator_on(cluster, target, engine, "normalised")
-            res = run_robust(
-                target,
-                budget,
-                alpha,
-                engine=engine,
-                jobs=jobs,
-                aggregate=aggregate,
-                rules=rule_list,
-                methods=method_list,
-                skip_when_proved=not no_skip,
-                evaluator=ev,
-                constraints=constraints,
-            )
+            how: dict[str, Any] = {"evaluator": ev}
         else:  # the methods as tasks: here, or on the cluster's workers; kept under FILE.tasks/
-            res = run_robust(
-                target,
-                budget,
-                alpha,
-                engine=engine,
-                jobs=jobs,
-                aggregate=aggregate,
-                rules=rule_list,
-                methods=method_list,
-                skip_when_proved=not no_skip,
-                constraints=constraints,
-                executor=cluster.executor if cluster is not None else None,
-                outdir=tasks,
-                resume=resume,
-            )
+            how = {"executor": cluster.executor if cluster is not None else None, "outdir": tasks, "resume": resume}
+        res = run_robust(
+            target,
+            budget,
+            alpha,
+            engine=engine,
+            jobs=jobs,
+            aggregate=aggregate,
+            rules=rule_list,
+            methods=method_list,
+            skip_when_proved=not no_skip,
+            constraints=constraints,
+            **how,
+        )
     res = with_suite_quality(
         res, target, map_sigma_m=map_sigma, engine=engine, estimate=estimate, integrity=integrity_spec
     )
