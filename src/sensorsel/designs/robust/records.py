@@ -13,7 +13,7 @@ from sensorsel.designs.resilient.records import RobustOutcome
 from sensorsel.designs.selection import REL_TOL as TIE_TOL
 from sensorsel.information.evaluators.accuracy import RouteAccuracy
 from sensorsel.information.integrity import RouteIntegrity
-from sensorsel.io.records import AlphaBudget, MethodWorst, WorstOutcome
+from sensorsel.io.records import AlphaBudget, MethodWorst, WorstOutcome, part_of
 from sensorsel.io.results import result_kind
 from sensorsel.model.constraints import Constraints
 from sensorsel.model.problem import TargetInfo
@@ -190,12 +190,7 @@ class RobustResult(RobustOutcome, AlphaBudget):
         (which it proves), and the gap to it in percent; ``rest``: the other fields by name."""
         bound = max(bound_detail.bound, win.worst_score)
         return cls(
-            method=win.method,
-            suite=win.suite,
-            cost_usd=win.cost_usd,
-            nominal_score=win.nominal_score,
-            worst_score=win.worst_score,
-            failures=win.failures,
+            **part_of(win, MethodWorst),
             bound=bound,
             gap_percent=100.0 * (bound - win.worst_score) / bound if bound > 0 else 0.0,
             candidates=tuple(candidates),

@@ -35,6 +35,7 @@ from pathlib import Path
 from typing import Any
 
 from sensorsel.designs.resilient import RobustChoice, WorstCase, check_alpha, recorded, worst_case
+from sensorsel.designs.resilient.records import RobustOutcome
 from sensorsel.designs.robust.bound import DEFAULT_BOUND_NODES
 from sensorsel.designs.robust.memo import memoized
 from sensorsel.designs.robust.methods import DEFAULT_SATURATE_LEVELS
@@ -54,6 +55,7 @@ from sensorsel.designs.robust.tasks import (
 from sensorsel.designs.selection import check_budget, check_rule
 from sensorsel.errors import InputError
 from sensorsel.information.evaluators import Evaluator, as_suite, evaluator_for, evaluator_name
+from sensorsel.io.records import part_of
 from sensorsel.model.constraints import Constraints, feasible_set
 from sensorsel.model.library import SensorLibrary
 from sensorsel.model.problem import Target, TargetInfo
@@ -331,17 +333,4 @@ def robust_choice(
     ev = memoized(evaluator)
     r = robust_select(ev, budget_usd, alpha, info=info, **kwargs)
     w = worst_case(ev, [ev.library.position(i) for i in r.suite], r.alpha)
-    return RobustChoice(
-        method=r.method,
-        suite=r.suite,
-        cost_usd=r.cost_usd,
-        nominal_score=r.nominal_score,
-        worst_score=r.worst_score,
-        failures=r.failures,
-        greedy_worst_score=r.greedy_worst_score,
-        algorithm2_worst_score=r.algorithm2_worst_score,
-        bound=r.bound,
-        gap_percent=r.gap_percent,
-        n_evaluations=r.n_evaluations,
-        seconds=r.seconds,
-    ), w
+    return RobustChoice(**part_of(r, RobustOutcome), n_evaluations=r.n_evaluations, seconds=r.seconds), w
