@@ -769,20 +769,19 @@ def usage_table(rows: Sequence[Any]) -> str:
     return table(out, ["limit", "used", "of", "share"])
 
 
+def prior_map_option(help: str) -> Callable[[F], F]:
+    """--map-sigma METRES alone (destination ``map_sigma``, None unless given): the std [m] of a prior
+    map's landmarks; ``help`` says what the command does with it."""
+    return click.option("--map-sigma", "map_sigma", type=float, default=None, metavar="METRES", help=help)
+
+
 def map_sigma_option(fn: F) -> F:
     """--map-sigma METRES: accuracy lines computed localizing in a prior map (default: the SLAM graph);
     with it, --estimate (:func:`estimate_option`): every command that prints an accuracy has both."""
     return estimate_option(
-        click.option(
-            "--map-sigma",
-            "map_sigma",
-            type=float,
-            default=None,
-            metavar="METRES",
-            help=(
-                "Accuracy in a prior map whose landmarks are known to this std [m] (default: in the paper's SLAM "
-                "graph, landmarks unknown)."
-            ),
+        prior_map_option(
+            "Accuracy in a prior map whose landmarks are known to this std [m] (default: in the paper's SLAM "
+            "graph, landmarks unknown)."
         )(fn)
     )
 

@@ -32,6 +32,7 @@ from sensorsel.cli.options import (
     output_option,
     plot_format,
     print_target,
+    prior_map_option,
     progress_bar,
     quiet_option,
     resume_option,
@@ -55,14 +56,9 @@ from sensorsel.model.problem import Domain
 @design_options(aggregate=False)
 @constraint_options
 @specification_options
-@click.option(
-    "--map-sigma",
-    "map_sigma",
-    type=float,
-    default=None,
-    metavar="METRES",
-    help=f"Accuracy in a prior map whose landmarks are known to this std [m] (default: {DEFAULT_MAP_SIGMA_M:g} m, "
-    "an assumption: see the requirements guide).",
+@prior_map_option(
+    f"Accuracy in a prior map whose landmarks are known to this std [m] (default: {DEFAULT_MAP_SIGMA_M:g} m, "
+    "an assumption: see the requirements guide)."
 )
 @click.option(
     "--slam", is_flag=True, help="Judge accuracy in the paper's SLAM graph (landmarks unknown) instead of a prior map."
