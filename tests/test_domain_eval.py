@@ -66,6 +66,19 @@ def test_scores_with_matches_one_suite_at_a_time(mixed_domain):
     np.testing.assert_allclose(batch, one, rtol=1e-12)
 
 
+def test_scores_with_counts_each_candidate_once_and_checks_every_position(mixed_domain):
+    # the oracle: one evaluation a candidate, as len(candidates) single scores would count
+    dom = DomainEvaluator(mixed_domain, "fast")
+    before = dom.n_evaluations
+    dom.scores_with((0, 4), [1, 2, 3])
+    assert dom.n_evaluations == before + 3
+    assert len(dom.scores_with((0,), [])) == 0 and dom.n_evaluations == before + 3
+    with pytest.raises(InputError, match="outside the library"):
+        dom.scores_with((0,), [mixed_domain.n_sensors])
+    with pytest.raises(InputError, match="outside the library"):
+        dom.scores_with((mixed_domain.n_sensors,), [1])
+
+
 def test_one_route_domain_gives_exactly_the_single_route_answer(library):
     dom = _domain(library, MIXED, weights=(2.5,))
     prob = dom.routes[0].problem

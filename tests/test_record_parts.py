@@ -72,3 +72,32 @@ def test_every_composed_kind_holds_its_parts_fields_as_one_run_in_the_parts_orde
                 assert names[start : start + len(run)] == run, (kind, part.__name__)
                 seen += 1
     assert seen >= len(COMPOSED)
+
+
+def test_part_of_copies_a_parts_fields_from_a_record_that_holds_it():
+    """A robust candidate's MethodWorst part, read by name, builds the part back field for field, and a
+    record made of more fields gives only the part's (the oracle: the fields written out by hand)."""
+    from sensorsel.designs.robust.records import Candidate
+
+    c = Candidate(
+        method="saturate",
+        suite=("a", "b"),
+        cost_usd=3.0,
+        nominal_score=5.0,
+        worst_score=2.0,
+        failures=("b",),
+        note="n",
+        n_evaluations=7,
+    )
+    got = records.part_of(c, records.MethodWorst)
+    # the order io/records.py documents: the last part's fields first (method), then WorstOutcome's
+    assert list(got) == ["method", "suite", "cost_usd", "nominal_score", "worst_score", "failures"]
+    assert got == {
+        "suite": ("a", "b"),
+        "cost_usd": 3.0,
+        "nominal_score": 5.0,
+        "worst_score": 2.0,
+        "failures": ("b",),
+        "method": "saturate",
+    }
+    assert records.part_of(c, records.SuiteCost) == {"suite": ("a", "b"), "cost_usd": 3.0}

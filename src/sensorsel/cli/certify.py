@@ -33,12 +33,10 @@ from sensorsel.cli.common import is_result_file
 from sensorsel.cli.integrity import integrity_from, integrity_options
 from sensorsel.cli.options import (
     budget_option,
-    check_map_sigma,
     cluster_from,
-    cluster_options,
     constraint_options,
     constraints_from,
-    engine_options,
+    design_options,
     force_option,
     json_option,
     map_sigma_option,
@@ -49,8 +47,9 @@ from sensorsel.cli.options import (
     quiet_option,
     resume_option,
     run,
+    scoring_from,
     target_from,
-    target_options,
+    time_limit_option,
     usage_table,
 )
 from sensorsel.cli.options import not_empty as not_empty_file
@@ -94,9 +93,7 @@ def _check_result_constraints(res: GreedyResult, lib: SensorLibrary, path: str, 
 @click.command(
     "optimal", cls=Command, short_help="Exact best suite within a budget (branch and bound), with greedy beside it."
 )
-@target_options
-@engine_options
-@cluster_options
+@design_options
 @budget_option(required=True, help="Budget per car in dollars: 110000, 110,000, $110,000 or 110_000.")
 @constraint_options
 @click.option(
@@ -106,13 +103,8 @@ def _check_result_constraints(res: GreedyResult, lib: SensorLibrary, path: str, 
     show_default=True,
     help="Stop after expanding this many nodes (each scores one suite plus each candidate).",
 )
-@click.option(
-    "--time-limit",
-    "time_limit",
-    type=click.FloatRange(min=0, min_open=True),
-    default=None,
-    metavar="SECONDS",
-    help="Also stop the search after this long and report the gap (the result then depends on the machine's speed).",
+@time_limit_option(
+    "Also stop the search after this long and report the gap (the result then depends on the machine's speed)."
 )
 @map_sigma_option
 @integrity_options
@@ -132,11 +124,6 @@ def optimal_cmd(
     resume: bool,
     as_json: bool,
     quiet: bool,
-    aggregate: str,
-    engine: str | None,
-    jobs: int,
-    map_sigma: float | None,
-    estimate: str,
     **kw: Any,
 ) -> None:
     """The best suite within --budget, by branch and bound with the submodular knapsack bound.
@@ -154,7 +141,7 @@ def optimal_cmd(
     also with a larger --max-nodes; the answer is the uninterrupted run's.
     """
     budget = check_budget(budget)
-    map_sigma = check_map_sigma(map_sigma)
+    aggregate, engine, jobs, map_sigma, estimate = scoring_from(kw)
     integrity_spec = integrity_from(kw)
     if resume and not output:
         raise click.UsageError("--resume goes on from the search's state in FILE.checkpoint of -o FILE: give -o")
@@ -231,9 +218,7 @@ def optimal_cmd(
 @click.command(
     "certify", cls=Command, short_help="How close a greedy suite is to the best possible one (an upper bound)."
 )
-@target_options
-@engine_options
-@cluster_options
+@design_options
 @click.option(
     "--suite",
     "result_path",

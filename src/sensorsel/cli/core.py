@@ -15,13 +15,11 @@ from sensorsel.cli.cluster import cluster_evaluator, require_domain
 from sensorsel.cli.common import is_result_file, read_suite
 from sensorsel.cli.integrity import integrity_from, integrity_options
 from sensorsel.cli.options import (
-    check_map_sigma,
     cluster_from,
-    cluster_options,
     constraint_options,
     constraints_from,
+    design_options,
     echo_written,
-    engine_options,
     force_option,
     json_option,
     map_sigma_option,
@@ -33,11 +31,11 @@ from sensorsel.cli.options import (
     quiet_option,
     run,
     scenario_options,
+    scoring_from,
     spec_from,
     suite_text,
     table,
     target_from,
-    target_options,
     usage_table,
 )
 from sensorsel.cli.options import plot_format as plot_format_of
@@ -156,9 +154,7 @@ def library_cmd(library_path: str | None, as_json: bool, quiet: bool) -> None:
 
 
 @click.command("score", cls=Command, short_help="Score a suite: cost and f(S) = log det gain over no sensor [nats].")
-@target_options
-@engine_options
-@cluster_options
+@design_options
 @click.option(
     "--suite",
     required=True,
@@ -179,12 +175,7 @@ def score_cmd(
     suite: str,
     as_json: bool,
     quiet: bool,
-    aggregate: str,
-    engine: str | None,
-    jobs: int,
     force: bool,
-    map_sigma: float | None,
-    estimate: str,
     **kw: Any,
 ) -> None:
     """Score a sensor suite: cost and f(S) = log det L(S) - log det L(empty) in nats.
@@ -196,7 +187,7 @@ def score_cmd(
 
     Also the suite's accuracy in metres and degrees (lateral, longitudinal, heading: 95 % errors over
     the keyframes), in the paper's SLAM graph or with --map-sigma localizing in a prior map."""
-    map_sigma = check_map_sigma(map_sigma)
+    aggregate, engine, jobs, map_sigma, estimate = scoring_from(kw)
     integrity_spec = integrity_from(kw)
     cluster = cluster_from(kw)
     constraints = constraints_from(kw)

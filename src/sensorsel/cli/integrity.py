@@ -20,75 +20,40 @@ INTEGRITY_KEYS = (
 )
 
 
+def _integrity_option(name: str, default: float | None, metavar: str, help: str) -> Any:
+    """One integrity option: a float, listed under ``sensorsel help integrity``, destination its name's."""
+    return click.option(
+        name,
+        name[2:].replace("-", "_"),
+        cls=TopicOption,
+        topic="integrity",
+        type=float,
+        default=default,
+        show_default=default is not None,
+        metavar=metavar,
+        help="Integrity: " + help,
+    )
+
+
 def integrity_options(fn: Callable[..., Any]) -> Callable[..., Any]:
     """The integrity options, one group: the risk per hour, the alert limits, the associator's gate
     and the lever (defaults: Reid et al.'s local streets, 10⁻⁸ per hour; docs/guide-integrity.md).
     Read them with :func:`integrity_from`."""
     opts = [
-        click.option(
-            "--integrity-risk",
-            "integrity_risk",
-            cls=TopicOption,
-            topic="integrity",
-            type=float,
-            default=1e-8,
-            show_default=True,
-            metavar="P",
-            help="Integrity: the allowed probability per hour of an error beyond an alert limit.",
+        _integrity_option(
+            "--integrity-risk", 1e-8, "P", "the allowed probability per hour of an error beyond an alert limit."
         ),
-        click.option(
-            "--alert-lateral",
-            "alert_lateral",
-            cls=TopicOption,
-            topic="integrity",
-            type=float,
-            default=0.29,
-            show_default=True,
-            metavar="METRES",
-            help="Integrity: the lateral alert limit [m].",
+        _integrity_option("--alert-lateral", 0.29, "METRES", "the lateral alert limit [m]."),
+        _integrity_option("--alert-longitudinal", 0.29, "METRES", "the longitudinal alert limit [m]."),
+        _integrity_option("--alert-heading", 0.50, "DEGREES", "the heading alert limit [deg]."),
+        _integrity_option(
+            "--gate-probability", 0.9999, "P", "the associator's chi-square gate probability (2 degrees of freedom)."
         ),
-        click.option(
-            "--alert-longitudinal",
-            "alert_longitudinal",
-            cls=TopicOption,
-            topic="integrity",
-            type=float,
-            default=0.29,
-            show_default=True,
-            metavar="METRES",
-            help="Integrity: the longitudinal alert limit [m].",
-        ),
-        click.option(
-            "--alert-heading",
-            "alert_heading",
-            cls=TopicOption,
-            topic="integrity",
-            type=float,
-            default=0.50,
-            show_default=True,
-            metavar="DEGREES",
-            help="Integrity: the heading alert limit [deg].",
-        ),
-        click.option(
-            "--gate-probability",
-            "gate_probability",
-            cls=TopicOption,
-            topic="integrity",
-            type=float,
-            default=0.9999,
-            show_default=True,
-            metavar="P",
-            help="Integrity: the associator's chi-square gate probability (2 degrees of freedom).",
-        ),
-        click.option(
+        _integrity_option(
             "--max-association-risk",
-            "max_association_risk",
-            cls=TopicOption,
-            topic="integrity",
-            type=float,
-            default=None,
-            metavar="P",
-            help="Integrity: leave out (do not use) every measurement whose probability of a wrong association "
+            None,
+            "P",
+            "leave out (do not use) every measurement whose probability of a wrong association "
             "exceeds P; accuracy and integrity are then computed with what is used.",
         ),
     ]

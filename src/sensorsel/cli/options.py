@@ -569,6 +569,23 @@ def engine_options(fn: Callable[..., Any]) -> Callable[..., Any]:
     return fn
 
 
+def design_options(fn: Callable[..., Any] | None = None, *, aggregate: bool = True) -> Any:
+    """What every design command takes first, in this order: the target (:func:`target_options`,
+    with --aggregate unless ``aggregate`` is False), the engine (:func:`engine_options`) and the
+    cluster (:func:`cluster_options`). ``@design_options`` or ``@design_options(aggregate=False)``."""
+    if fn is None:
+        return lambda f: design_options(f, aggregate=aggregate)
+    return target_options(engine_options(cluster_options(fn)), aggregate=aggregate)
+
+
+def failures_option(help: str) -> Callable[[F], F]:
+    """--failures N (destination ``alpha``): how many sensors fail, 1 unless given; ``help`` says what
+    the command does with them."""
+    return click.option(
+        "--failures", "alpha", type=click.IntRange(min=0), default=1, show_default=True, metavar="N", help=help
+    )
+
+
 def table(rows: list[list[str]], header: list[str]) -> str:
     """Plain fixed-width table; numbers right-aligned."""
     cols = list(zip(*([header] + rows))) if rows else [(h,) for h in header]
@@ -752,20 +769,19 @@ def usage_table(rows: Sequence[Any]) -> str:
     return table(out, ["limit", "used", "of", "share"])
 
 
+def prior_map_option(help: str) -> Callable[[F], F]:
+    """--map-sigma METRES alone (destination ``map_sigma``, None unless given): the std [m] of a prior
+    map's landmarks; ``help`` says what the command does with it."""
+    return click.option("--map-sigma", "map_sigma", type=float, default=None, metavar="METRES", help=help)
+
+
 def map_sigma_option(fn: F) -> F:
     """--map-sigma METRES: accuracy lines computed localizing in a prior map (default: the SLAM graph);
     with it, --estimate (:func:`estimate_option`): every command that prints an accuracy has both."""
     return estimate_option(
-        click.option(
-            "--map-sigma",
-            "map_sigma",
-            type=float,
-            default=None,
-            metavar="METRES",
-            help=(
-                "Accuracy in a prior map whose landmarks are known to this std [m] (default: in the paper's SLAM "
-                "graph, landmarks unknown)."
-            ),
+        prior_map_option(
+            "Accuracy in a prior map whose landmarks are known to this std [m] (default: in the paper's SLAM "
+            "graph, landmarks unknown)."
         )(fn)
     )
 
@@ -783,6 +799,27 @@ def estimate_option(fn: F) -> F:
             "smoother (from the whole route)."
         ),
     )(fn)
+
+
+def time_limit_option(help: str) -> Callable[[F], F]:
+    """--time-limit SECONDS (destination ``time_limit``; None: no limit): stop a search after this long
+    with the best found so far; ``help`` says what the command then reports."""
+    return click.option(
+        "--time-limit",
+        "time_limit",
+        type=click.FloatRange(min=0, min_open=True),
+        default=None,
+        metavar="SECONDS",
+        help=help,
+    )
+
+
+def scoring_from(kw: dict[str, Any]) -> tuple[str, str | None, int, float | None, str]:
+    """Pops from ``kw`` what every command that scores a suite on a target shares, in this order:
+    --aggregate, --engine, --jobs (:func:`design_options`), --map-sigma [m] (checked by
+    :func:`check_map_sigma`) and --estimate (:func:`map_sigma_option`)."""
+    aggregate, engine, jobs = kw.pop("aggregate"), kw.pop("engine"), kw.pop("jobs")
+    return aggregate, engine, jobs, check_map_sigma(kw.pop("map_sigma")), kw.pop("estimate")
 
 
 def check_map_sigma(value: float | None) -> float | None:

@@ -24,22 +24,22 @@ from sensorsel.cli.options import (
     budget_option,
     check_map_sigma,
     cluster_from,
-    cluster_options,
     constraint_options,
     constraints_from,
-    engine_options,
+    design_options,
     estimate_option,
     json_option,
     output_option,
     plot_format,
     print_target,
+    prior_map_option,
     progress_bar,
     quiet_option,
     resume_option,
     run,
     suite_text,
     target_from,
-    target_options,
+    time_limit_option,
 )
 from sensorsel.cli.vocabulary import Command
 from sensorsel.errors import InputError
@@ -53,19 +53,12 @@ from sensorsel.model.problem import Domain
     cls=Command,
     short_help="The cheapest suite that meets an accuracy specification in metres, with a proof.",
 )
-@target_options(aggregate=False)
-@engine_options
-@cluster_options
+@design_options(aggregate=False)
 @constraint_options
 @specification_options
-@click.option(
-    "--map-sigma",
-    "map_sigma",
-    type=float,
-    default=None,
-    metavar="METRES",
-    help=f"Accuracy in a prior map whose landmarks are known to this std [m] (default: {DEFAULT_MAP_SIGMA_M:g} m, "
-    "an assumption: see the requirements guide).",
+@prior_map_option(
+    f"Accuracy in a prior map whose landmarks are known to this std [m] (default: {DEFAULT_MAP_SIGMA_M:g} m, "
+    "an assumption: see the requirements guide)."
 )
 @click.option(
     "--slam", is_flag=True, help="Judge accuracy in the paper's SLAM graph (landmarks unknown) instead of a prior map."
@@ -105,14 +98,7 @@ from sensorsel.model.problem import Domain
     help="The suite must still meet the specification after any this many of its sensors fail.",
 )
 @budget_option(help="Most the suite may cost, in dollars (default: no budget: the cheapest suite is the question).")
-@click.option(
-    "--time-limit",
-    "time_limit",
-    type=click.FloatRange(min=0, min_open=True),
-    default=None,
-    metavar="SECONDS",
-    help="Stop the exact search after this long and report the gap (default: run until proved).",
-)
+@time_limit_option("Stop the exact search after this long and report the gap (default: run until proved).")
 @click.option(
     "--plot",
     "plot_path",

@@ -13,12 +13,11 @@ from sensorsel.api import ALGORITHM_2, METHODS, with_suite_quality
 from sensorsel.cli.integrity import integrity_from, integrity_options
 from sensorsel.cli.options import (
     budget_option,
-    check_map_sigma,
     cluster_from,
-    cluster_options,
     constraint_options,
     constraints_from,
-    engine_options,
+    design_options,
+    failures_option,
     json_option,
     map_sigma_option,
     output_option,
@@ -29,9 +28,9 @@ from sensorsel.cli.options import (
     quiet_option,
     resume_option,
     run,
+    scoring_from,
     table,
     target_from,
-    target_options,
     usage_table,
 )
 from sensorsel.cli.options import plot_format as plot_format_of
@@ -48,22 +47,12 @@ from sensorsel.model.problem import Domain
     cls=Command,
     short_help="Resilient selection against failing sensors, whole route and per period (grid).",
 )
-@target_options
-@engine_options
-@cluster_options
+@design_options
 @budget_option(
     default=110_000.0,
     help="Budget in dollars (110000, 110,000, $110,000 or 110_000), the sensors assumed to fail included.",
 )
-@click.option(
-    "--failures",
-    "alpha",
-    type=click.IntRange(min=0),
-    default=1,
-    show_default=True,
-    metavar="N",
-    help="Number of sensors assumed to fail (alpha); 0 is plain greedy selection.",
-)
+@failures_option("Number of sensors assumed to fail (alpha); 0 is plain greedy selection.")
 @click.option(
     "--period",
     "period_s",
@@ -106,11 +95,6 @@ def resilient_cmd(
     resume: bool,
     as_json: bool,
     quiet: bool,
-    aggregate: str,
-    engine: str | None,
-    jobs: int,
-    map_sigma: float | None,
-    estimate: str,
     **kw: Any,
 ) -> None:
     """Resilient sensor selection (the paper's Algorithm 2, for ALPHA failures).
@@ -135,7 +119,7 @@ def resilient_cmd(
     fmt = plot_format_of(plot_format)
     alpha = check_alpha(alpha)
     period_s = check_period(period_s)
-    map_sigma = check_map_sigma(map_sigma)
+    aggregate, engine, jobs, map_sigma, estimate = scoring_from(kw)
     integrity_spec = integrity_from(kw)
     out = output_dir(outdir)
     cluster = cluster_from(kw)

@@ -16,13 +16,12 @@ from sensorsel.cli.cluster import cluster_evaluator, require_domain
 from sensorsel.cli.integrity import integrity_from, integrity_options
 from sensorsel.cli.options import (
     budget_option,
-    check_map_sigma,
     cluster_from,
-    cluster_options,
     compact_suite,
     constraint_options,
     constraints_from,
-    engine_options,
+    design_options,
+    failures_option,
     json_option,
     map_sigma_option,
     output_option,
@@ -31,9 +30,9 @@ from sensorsel.cli.options import (
     quiet_option,
     resume_option,
     run,
+    scoring_from,
     table,
     target_from,
-    target_options,
     usage_table,
 )
 from sensorsel.cli.vocabulary import Command
@@ -67,19 +66,9 @@ def _csv(xs: Any) -> str:
     "robust", cls=Command, short_help="Robust selection: the best worst case under failing sensors, with its bound."
 )
 @_worst_aggregate
-@target_options
-@engine_options
-@cluster_options
+@design_options
 @budget_option(default=110_000.0, help="Budget in dollars (110000, 110,000, $110,000 or 110_000).")
-@click.option(
-    "--failures",
-    "alpha",
-    type=click.IntRange(min=0),
-    default=1,
-    show_default=True,
-    metavar="N",
-    help="Number of sensors that may fail (alpha); the design maximises the score left after the worst ALPHA.",
-)
+@failures_option("Number of sensors that may fail (alpha); the design maximises the score left after the worst ALPHA.")
 @click.option(
     "--rules",
     default="uniform,marginal",
@@ -117,11 +106,6 @@ def robust_cmd(
     resume: bool,
     as_json: bool,
     quiet: bool,
-    aggregate: str,
-    engine: str | None,
-    jobs: int,
-    map_sigma: float | None,
-    estimate: str,
     **kw: Any,
 ) -> None:
     """Robust sensor selection: maximise the worst-case score after ALPHA sensors fail.
@@ -145,7 +129,7 @@ def robust_cmd(
     from sensorsel.api import check_affordable, check_alpha, check_budget, run_robust
 
     budget, alpha = check_budget(budget), check_alpha(alpha)
-    map_sigma = check_map_sigma(map_sigma)
+    aggregate, engine, jobs, map_sigma, estimate = scoring_from(kw)
     integrity_spec = integrity_from(kw)
     if resume and not output:
         raise click.UsageError("--resume goes on from the methods kept in FILE.tasks/ of -o FILE: give -o")
@@ -176,36 +160,22 @@ def robust_cmd(
     tasks = tasks_folder(output) if output and aggregate != "worst" else None
     with cluster or nullcontext():
         if aggregate == "worst":  # one search over the routes' shares: on a cluster each route on a worker
-            ev = cluster_evaluator(cluster, target, engine, "normalised")
-            res = run_robust(
-                target,
-                budget,
-                alpha,
-                engine=engine,
-                jobs=jobs,
-                aggregate=aggregate,
-                rules=rule_list,
-                methods=method_list,
-                skip_when_proved=not no_skip,
-                evaluator=ev,
-                constraints=constraints,
-            )
+            how: dict[str, Any] = {"evaluator": cluster_evaluator(cluster, target, engine, "normalised")}
         else:  # the methods as tasks: here, or on the cluster's workers; kept under FILE.tasks/
-            res = run_robust(
-                target,
-                budget,
-                alpha,
-                engine=engine,
-                jobs=jobs,
-                aggregate=aggregate,
-                rules=rule_list,
-                methods=method_list,
-                skip_when_proved=not no_skip,
-                constraints=constraints,
-                executor=cluster.executor if cluster is not None else None,
-                outdir=tasks,
-                resume=resume,
-            )
+            how = {"executor": cluster.executor if cluster is not None else None, "outdir": tasks, "resume": resume}
+        res = run_robust(
+            target,
+            budget,
+            alpha,
+            engine=engine,
+            jobs=jobs,
+            aggregate=aggregate,
+            rules=rule_list,
+            methods=method_list,
+            skip_when_proved=not no_skip,
+            constraints=constraints,
+            **how,
+        )
     res = with_suite_quality(
         res, target, map_sigma_m=map_sigma, engine=engine, estimate=estimate, integrity=integrity_spec
     )

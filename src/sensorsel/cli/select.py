@@ -35,13 +35,11 @@ from sensorsel.cli.common import specification_from, specification_given, specif
 from sensorsel.cli.integrity import integrity_from, integrity_options
 from sensorsel.cli.options import (
     budget_option,
-    check_map_sigma,
     cluster_from,
-    cluster_options,
     compact_suite,
     constraint_options,
     constraints_from,
-    engine_options,
+    design_options,
     json_option,
     map_sigma_option,
     output_option,
@@ -53,9 +51,9 @@ from sensorsel.cli.options import (
     quiet_option,
     resume_option,
     run,
+    scoring_from,
     table,
     target_from,
-    target_options,
     usage_table,
 )
 from sensorsel.cli.options import plot_format as plot_format_of
@@ -143,9 +141,7 @@ def _print_breakdown(design: DomainDesign) -> None:
 @click.command(
     "greedy", cls=Command, short_help="Greedy suite under a budget, with its certificate of near-optimality."
 )
-@target_options
-@engine_options
-@cluster_options
+@design_options
 @budget_option(required=True)
 @constraint_options
 @rule_option("uniform")
@@ -184,11 +180,6 @@ def greedy_cmd(
     quiet: bool,
     plot_path: str | None,
     resume: bool,
-    aggregate: str,
-    engine: str | None,
-    jobs: int,
-    map_sigma: float | None,
-    estimate: str,
     **kw: Any,
 ) -> None:
     """Greedy sensor selection under a budget (the paper's Algorithm 1 and its cost-aware variants).
@@ -207,7 +198,7 @@ def greedy_cmd(
     """
     if resume and not output:
         raise click.UsageError("--resume goes on from the checkpoint of -o FILE (FILE.checkpoint): give -o")
-    map_sigma = check_map_sigma(map_sigma)
+    aggregate, engine, jobs, map_sigma, estimate = scoring_from(kw)
     integrity_spec = integrity_from(kw)
     if output:
         output_file(output)
@@ -311,9 +302,7 @@ def _arch_row(a: Architecture) -> list[str]:
 
 
 @click.command("pareto", cls=Command, short_help="Cost-performance tradespace and its Pareto front (plot, CSV, JSON).")
-@target_options
-@engine_options
-@cluster_options
+@design_options
 @click.option(
     "--budgets",
     default=None,
@@ -353,11 +342,6 @@ def pareto_cmd(
     resume: bool,
     as_json: bool,
     quiet: bool,
-    aggregate: str,
-    engine: str | None,
-    jobs: int,
-    map_sigma: float | None,
-    estimate: str,
     **kw: Any,
 ) -> None:
     """The cost-performance tradespace (the paper's Fig. 4): greedy runs over a grid of budgets,
@@ -374,7 +358,7 @@ def pareto_cmd(
     --map-sigma in a prior map), and with a specification (--preset, --lateral, ..., --spec) which
     front suites meet it: the acceptable region of the front, drawn as cost against lateral error.
     """
-    map_sigma = check_map_sigma(map_sigma)
+    aggregate, engine, jobs, map_sigma, estimate = scoring_from(kw)
     given_spec = specification_given(kw)
     grid = parse_budgets(budgets) if budgets is not None else None
     if budget:

@@ -19,6 +19,7 @@ from sensorsel.cli.options import (
     json_option,
     output_option,
     plot_format_option,
+    prior_map_option,
     progress_bar,
     quiet_option,
     run,
@@ -79,14 +80,9 @@ def _fmt(v: float | None, digits: int = 3) -> str:
     help="Std of the prior on the first pose [m, m, rad] (default: the score's, 0.01,0.01,0.001). Its heading "
     "uncertainty turns the whole map about the start; make it small to see the design's own errors.",
 )
-@click.option(
-    "--map-sigma",
-    "map_sigma",
-    type=float,
-    default=None,
-    metavar="METRES",
-    help="Simulate localization in a prior map whose landmarks are known to this std [m]: each run draws the map "
-    "(every landmark off by that std) and adds a landmark prior there [default: the paper's SLAM, no landmark prior].",
+@prior_map_option(
+    "Simulate localization in a prior map whose landmarks are known to this std [m]: each run draws the map "
+    "(every landmark off by that std) and adds a landmark prior there [default: the paper's SLAM, no landmark prior]."
 )
 @click.option("--runs", type=click.IntRange(min=1), default=20, show_default=True, help="Monte-Carlo runs.")
 @click.option(

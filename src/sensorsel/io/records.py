@@ -11,9 +11,20 @@ fields mean.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
+from typing import Any
 
-__all__ = ["AlphaBudget", "Budget", "Method", "MethodWorst", "RuleBudget", "SuiteCost", "SuiteScore", "WorstOutcome"]
+__all__ = [
+    "AlphaBudget",
+    "Budget",
+    "Method",
+    "MethodWorst",
+    "RuleBudget",
+    "SuiteCost",
+    "SuiteScore",
+    "WorstOutcome",
+    "part_of",
+]
 
 
 @dataclass(frozen=True)
@@ -108,3 +119,9 @@ class AlphaBudget:
 class MethodWorst(WorstOutcome, Method):
     """The suite a method chose, its cost, its score with nothing failed and its worst case: ``method``,
     then :class:`WorstOutcome`'s fields."""
+
+
+def part_of(record: Any, part: type[Any]) -> dict[str, Any]:
+    """``record``'s values of the fields of ``part`` (a part above, or a record made of parts), by
+    name: what another record holding the same part is built with, ``Other(**part_of(r, MethodWorst), ...)``."""
+    return {f.name: getattr(record, f.name) for f in fields(part)}

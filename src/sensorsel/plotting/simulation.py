@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import matplotlib
 import matplotlib.pyplot as plt
@@ -108,33 +108,11 @@ def plot_simulation(
         un = lm_true[np.asarray(result.unmeasured_landmarks, dtype=int)]
         ax.scatter(un[:, 0], un[:, 1], s=14, c="0.3", marker="x", lw=0.8, label=f"never measured ({len(un)})", zorder=2)
     ax.plot(poses[:, 0], poses[:, 1], "-", color="k", lw=0.6, zorder=3)
-    sc = ax.scatter(
-        poses[:, 0],
-        poses[:, 1],
-        c=pos_err,
-        cmap=ERROR_CMAP,
-        norm=norm,
-        s=16,
-        marker="o",
-        edgecolors="k",
-        linewidths=0.3,
-        label="estimated keyframes",
-        zorder=4,
-    )
+    # estimates coloured by their error, on one colour scale
+    by_error: dict[str, Any] = {"cmap": ERROR_CMAP, "norm": norm, "edgecolors": "k", "linewidths": 0.3, "zorder": 4}
+    sc = ax.scatter(poses[:, 0], poses[:, 1], c=pos_err, s=16, marker="o", label="estimated keyframes", **by_error)
     if len(lms):
-        ax.scatter(
-            lms[:, 0],
-            lms[:, 1],
-            c=lm_err,
-            cmap=ERROR_CMAP,
-            norm=norm,
-            s=18,
-            marker="^",
-            edgecolors="k",
-            linewidths=0.3,
-            label="estimated landmarks",
-            zorder=4,
-        )
+        ax.scatter(lms[:, 0], lms[:, 1], c=lm_err, s=18, marker="^", label="estimated landmarks", **by_error)
     n = len(truth)
     for f in result.failures:
         stop = n if f.stop is None else f.stop

@@ -7,12 +7,13 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 from sensorsel.designs.resilient.records import RobustOutcome
 from sensorsel.designs.selection import REL_TOL as TIE_TOL
 from sensorsel.information.evaluators.accuracy import RouteAccuracy
 from sensorsel.information.integrity import RouteIntegrity
-from sensorsel.io.records import AlphaBudget, MethodWorst, WorstOutcome
+from sensorsel.io.records import AlphaBudget, MethodWorst, WorstOutcome, part_of
 from sensorsel.io.results import result_kind
 from sensorsel.model.constraints import Constraints
 from sensorsel.model.problem import TargetInfo
@@ -174,6 +175,29 @@ class RobustResult(RobustOutcome, AlphaBudget):
     constraints: Constraints | None = None
     accuracy: tuple[RouteAccuracy, ...] = ()
     integrity: tuple[RouteIntegrity, ...] = ()
+
+    @classmethod
+    def of(
+        cls,
+        win: Candidate,
+        bound_detail: RobustBound,
+        candidates: Sequence[Candidate],
+        skipped: Sequence[str],
+        **rest: Any,
+    ) -> RobustResult:
+        """The result whose answer is the candidate ``win`` (its method, suite, cost, scores and
+        failures), with the bound the larger of ``bound_detail.bound`` and the answer's worst case
+        (which it proves), and the gap to it in percent; ``rest``: the other fields by name."""
+        bound = max(bound_detail.bound, win.worst_score)
+        return cls(
+            **part_of(win, MethodWorst),
+            bound=bound,
+            gap_percent=100.0 * (bound - win.worst_score) / bound if bound > 0 else 0.0,
+            candidates=tuple(candidates),
+            skipped=tuple(skipped),
+            bound_detail=bound_detail,
+            **rest,
+        )
 
 
 @result_kind("robust-optimum")

@@ -35,6 +35,7 @@ from pathlib import Path
 from typing import Any
 
 from sensorsel.designs.resilient import RobustChoice, WorstCase, check_alpha, recorded, worst_case
+from sensorsel.designs.resilient.records import RobustOutcome
 from sensorsel.designs.robust.bound import DEFAULT_BOUND_NODES
 from sensorsel.designs.robust.memo import memoized
 from sensorsel.designs.robust.methods import DEFAULT_SATURATE_LEVELS
@@ -54,6 +55,7 @@ from sensorsel.designs.robust.tasks import (
 from sensorsel.designs.selection import check_budget, check_rule
 from sensorsel.errors import InputError
 from sensorsel.information.evaluators import Evaluator, as_suite, evaluator_for, evaluator_name
+from sensorsel.io.records import part_of
 from sensorsel.model.constraints import Constraints, feasible_set
 from sensorsel.model.library import SensorLibrary
 from sensorsel.model.problem import Target, TargetInfo
@@ -234,23 +236,15 @@ def choose(
         again = take([MethodTask("bound", anchors=anchors(), incumbent=win, leaves=False)])[0].bound
         assert again is not None
         bnd = again
-    bound = max(bnd.bound, win.worst_score)
-    return RobustResult(
+    return RobustResult.of(
+        win,
+        bnd,
+        cands,
+        skipped,
         alpha=s.alpha,
         budget_usd=s.budget,
-        method=win.method,
-        suite=win.suite,
-        cost_usd=win.cost_usd,
-        nominal_score=win.nominal_score,
-        worst_score=win.worst_score,
-        failures=win.failures,
         greedy_worst_score=greedy_worst,
         algorithm2_worst_score=a2c.worst_score,
-        bound=bound,
-        gap_percent=100.0 * (bound - win.worst_score) / bound if bound > 0 else 0.0,
-        candidates=tuple(cands),
-        skipped=tuple(skipped),
-        bound_detail=bnd,
         n_evaluations=work[0],
         engine=engine,
         problem=info,
@@ -339,17 +333,4 @@ def robust_choice(
     ev = memoized(evaluator)
     r = robust_select(ev, budget_usd, alpha, info=info, **kwargs)
     w = worst_case(ev, [ev.library.position(i) for i in r.suite], r.alpha)
-    return RobustChoice(
-        method=r.method,
-        suite=r.suite,
-        cost_usd=r.cost_usd,
-        nominal_score=r.nominal_score,
-        worst_score=r.worst_score,
-        failures=r.failures,
-        greedy_worst_score=r.greedy_worst_score,
-        algorithm2_worst_score=r.algorithm2_worst_score,
-        bound=r.bound,
-        gap_percent=r.gap_percent,
-        n_evaluations=r.n_evaluations,
-        seconds=r.seconds,
-    ), w
+    return RobustChoice(**part_of(r, RobustOutcome), n_evaluations=r.n_evaluations, seconds=r.seconds), w

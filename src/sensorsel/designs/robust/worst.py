@@ -298,28 +298,20 @@ def worst_route_select(
     win = best()
     if len(cands) > n_before and not bnd.proved:
         bnd = bound_now()
-    bound = max(bnd.bound, win.worst_score)
     x = as_suite(lib.position(i) for i in win.suite)
     members = tuple(
         MemberWorst(name=nm, best_score=float(b), nominal_share=float(nom), worst_share=float(w), failures=f)
         for nm, b, (nom, w, f) in zip(names, fam.norms, fam.route_worst(x))
     )
-    return RobustResult(
+    return RobustResult.of(
+        win,
+        bnd,
+        cands,
+        skipped,
         alpha=alpha,
         budget_usd=budget,
-        method=win.method,
-        suite=win.suite,
-        cost_usd=win.cost_usd,
-        nominal_score=win.nominal_score,
-        worst_score=win.worst_score,
-        failures=win.failures,
         greedy_worst_score=greedy_worst,
         algorithm2_worst_score=a2c.worst_score,
-        bound=bound,
-        gap_percent=100.0 * (bound - win.worst_score) / bound if bound > 0 else 0.0,
-        candidates=tuple(cands),
-        skipped=tuple(skipped),
-        bound_detail=bnd,
         n_evaluations=work() - n_start,
         engine=dev.engine,
         problem=domain.info,

@@ -75,6 +75,15 @@ class Evaluator(ABC):
             if not 0 <= i < n:
                 raise InputError(f"sensor position {i} is outside the library (0..{n - 1})")
 
+    def _counted(self, suite: Iterable[int], candidates: Sequence[int]) -> tuple[Suite, list[int]]:
+        """``suite`` as a :data:`Suite` and ``candidates`` as ints, every position checked
+        (:meth:`_check_positions`) and each candidate counted in ``n_evaluations``: what a
+        ``scores_with`` that scores them all does first."""
+        base, cand = as_suite(suite), [int(c) for c in candidates]
+        self._check_positions(base + tuple(cand))
+        self.n_evaluations += len(cand)
+        return base, cand
+
     @abstractmethod
     def score(self, suite: Iterable[int]) -> float:
         """f(S): the information the suite adds (>= 0; units: nats, or a share for a normalised domain)."""

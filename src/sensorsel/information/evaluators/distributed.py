@@ -373,10 +373,7 @@ class DistributedDomainEvaluator(DomainEvaluator):
             r.n_evaluations += n
 
     def scores_with(self, suite: Iterable[int], candidates: Sequence[int]) -> np.ndarray:
-        base = as_suite(suite)
-        cand = [int(c) for c in candidates]
-        self._check_positions(base + tuple(cand))
-        self.n_evaluations += len(cand)
+        base, cand = self._counted(suite, candidates)
         if not cand:
             return np.zeros(0)
         s0, r0 = self.bytes_sent, self.bytes_received

@@ -626,10 +626,7 @@ class DomainEvaluator(Evaluator):
     def scores_with(self, suite: Iterable[int], candidates: Sequence[int]) -> np.ndarray:
         """F(S + {c}) for each candidate c, shape (len(candidates),): each route's engine scores the
         candidates against the shared base suite, then the routes are combined."""
-        base = as_suite(suite)
-        cand = [int(c) for c in candidates]
-        self._check_positions(base + tuple(cand))
-        self.n_evaluations += len(cand)
+        base, cand = self._counted(suite, candidates)
         if not cand:
             return np.zeros(0)
         # the routes on the threads: a certificate's sweep or a plain greedy's step is every route

@@ -193,17 +193,8 @@ class Kernel:
         """
         if self.uses_front(layout, d.shape[1]):
             plan = self.front_plan(layout, d.shape[1])
-            scratch = self._scratch()
-            size = plan.max_front**2
             self._count(front=1)
-            return front_logdet(
-                plan,
-                wpl,
-                d,
-                a,
-                self.blas,
-                (scratch.array("front0", size, zeroed=False), scratch.array("front1", size, zeroed=False)),
-            )
+            return front_logdet(plan, wpl, d, a, self.blas, self._front_buffers(plan))
         scratch = self._scratch()
         n = self.n
         P = scratch.array("pose", n * n).reshape(n, n)
@@ -213,6 +204,12 @@ class Kernel:
             return logdet + self._sparse_logdet(P, layout.pattern)
         self._count(potrf=1)
         return logdet + self.blas.cholesky_logdet(P)
+
+    def _front_buffers(self, plan: FrontPlan) -> tuple[np.ndarray, np.ndarray]:
+        """The two scratch buffers of the frontal elimination, ``plan.max_front``² floats each (not zeroed)."""
+        scratch = self._scratch()
+        size = plan.max_front**2
+        return scratch.array("front0", size, zeroed=False), scratch.array("front1", size, zeroed=False)
 
     def _schur(self, P: np.ndarray, wpl: np.ndarray, d: np.ndarray, a: np.ndarray, layout: Layout) -> float:
         """Fill the lower triangle of the zeroed (3K, 3K) ``P`` with the pose Schur complement
@@ -255,18 +252,8 @@ class Kernel:
         :func:`pose_marginals` of the dense :meth:`pose_matrix`."""
         if self.uses_front(layout, d.shape[1]):
             plan = self.front_plan(layout, d.shape[1])
-            scratch = self._scratch()
-            size = plan.max_front**2
             self._count(front_covariance=1)
-            return front_pose_covariances(
-                plan,
-                wpl,
-                d,
-                a,
-                self.blas,
-                (scratch.array("front0", size, zeroed=False), scratch.array("front1", size, zeroed=False)),
-                self.n_poses,
-            )
+            return front_pose_covariances(plan, wpl, d, a, self.blas, self._front_buffers(plan), self.n_poses)
         self._count(dense_covariance=1)
         return pose_marginals(self.pose_matrix(wpl, d, a, layout), self.blas)
 
