@@ -379,10 +379,8 @@ def require(
             )
         else:
             checks = integ
-
-            def down(s: Suite) -> bool:  # monotone: accuracy, and the error tail with every measurement used
-                return oracle.meets(s) and checks.tail_met(s)
-
+            # monotone: accuracy, and the error tail with every measurement used; then integrity itself
+            down, whole = checks.with_accuracy(oracle.meets)
             # a sensor whose association floor alone exceeds the requirement is in no suite that meets it
             # (the floor is anti-monotone): fixed out first, so that no failing set is grown over it
             alone = frozenset(
@@ -394,7 +392,7 @@ def require(
             searched.excluded = feas.excluded | alone
             found = cheapest_suite(
                 searched,
-                lambda s: down(s) and checks.meets(s),
+                whole,
                 failures=failures,
                 monotone=False,
                 necessary_monotone=down,

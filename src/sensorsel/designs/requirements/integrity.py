@@ -20,7 +20,7 @@ looser stays necessary; the slack covers the floating-point order of their sums)
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import replace
 
 from sensorsel.information.integrity import IntegrityBounds, IntegritySpec, RouteIntegrity
@@ -104,6 +104,21 @@ class IntegrityRequirement:
     def floor_met(self, suite: tuple[int, ...]) -> bool:
         """The anti-monotone relaxation: the association floor, on every route (cheap: a sum)."""
         return all(b.association_floor(suite) <= self._limit() for b in self.bounds)
+
+    def with_accuracy(
+        self, accuracy_met: Callable[[tuple[int, ...]], bool]
+    ) -> tuple[Callable[[tuple[int, ...]], bool], Callable[[tuple[int, ...]], bool]]:
+        """(the monotone relaxation, the whole check) of accuracy and integrity together, for the
+        solver: ``accuracy_met`` (monotone) and :meth:`tail_met` make the relaxation; the whole check
+        adds :meth:`meets`, asked only of a suite that passes the relaxation."""
+
+        def down(suite: tuple[int, ...]) -> bool:
+            return accuracy_met(suite) and self.tail_met(suite)
+
+        def whole(suite: tuple[int, ...]) -> bool:
+            return down(suite) and self.meets(suite)
+
+        return down, whole
 
     def report(self, suite: tuple[int, ...]) -> tuple[RouteIntegrity, ...]:
         """The suite's integrity on every route."""
