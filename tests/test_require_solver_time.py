@@ -97,3 +97,33 @@ def test_every_limit_gives_valid_bounds_and_a_suite_that_meets(alpha):
             assert meets_after_failures(lambda s: value(s) >= 6.0, [got.suite], failures=alpha) == (True,)
         seen.add(got.status)
     assert seen == {"gap", "optimal"}
+
+
+def test_a_requirement_that_is_not_monotone_stops_at_the_limit_too():
+    """The full check and both relaxations read the clock as well (no greedy here: the growth of
+    failing sets, the shrinking of the anti-monotone ones and the no-goods)."""
+    feas, _, _, calls, value = _case(5)
+
+    def down(s: tuple[int, ...]) -> bool:
+        calls.append(s)
+        return value(s) >= 6.0
+
+    def up(s: tuple[int, ...]) -> bool:  # at most five sensors: anti-monotone
+        calls.append(s)
+        return len(s) <= 5
+
+    def full(s: tuple[int, ...]) -> bool:
+        calls.append(s)
+        return value(s) >= 6.0 and len(s) <= 5 and len(s) != 4  # no structure: four sensors never do
+
+    kw = dict(monotone=False, necessary_monotone=down, necessary_antimonotone=up)
+    whole = cheapest_suite(feas, full, clock=_Ticks(), **kw)
+    assert whole.status == "optimal" and whole.n_checks > 10
+    for limit in range(1, whole.n_checks + 2 * whole.iterations + 8, 2):
+        calls.clear()
+        got = cheapest_suite(feas, full, time_limit=limit, clock=_Ticks(), **kw)
+        assert got.n_checks == len(calls) <= limit
+        assert got.lower_bound <= whole.cost + 1e-6
+        assert got.status == "optimal" or "time limit" in got.stop
+        if got.suite is not None:
+            assert full(got.suite) and got.cost >= whole.cost - 1e-6
