@@ -257,6 +257,8 @@ class _Search:
         self.nogoods: list[int] = []
         self.met: dict[int, float] = {}  # suites shown to meet the requirement after the failures: cost
         self.orders: tuple[tuple[int, int], ...] = ()  # (w, s): x_w <= x_s in the integer programs (dominance)
+        #: called before each floor's integer program (raises once the time limit is spent)
+        self.before_program: Callable[[], None] = _nothing
 
     @property
     def monotone(self) -> bool:
@@ -415,6 +417,10 @@ class _Search:
         return mask
 
 
+def _nothing() -> None:
+    pass
+
+
 def _ratio(drop: float, price: float) -> float:
     if drop <= 0:
         return 0.0
@@ -514,6 +520,7 @@ def cheapest_suite(
 
         for p in s.predicates():
             p.before_call = before_call
+        s.before_program = before_call
 
     def result(
         status_: str,
