@@ -131,6 +131,10 @@ class _Oracle:
         self._short: dict[tuple[int, Suite], bool] = {}
         self.n_short = 0  # of n_checks, passes stopped early
         self.keyframes_passed = 0  # keyframes the filter passed for the checks (all of them: n_checks · K)
+        #: per route, the minimal suites (bit masks) seen to meet its specification: a suite holding
+        #: one meets it too, with no computation (:meth:`_met_below`)
+        self._met: list[list[int]] = [[] for _ in self.evaluators]
+        self.n_met_below = 0  # (route, suite) questions answered by a subset that meets the route
 
     def answers(self) -> tuple[tuple[int, Suite, bool, float | None], ...]:
         """Every answer so far, (route, suite, meets, violation or None), in a fixed order."""
@@ -207,10 +211,46 @@ class _Oracle:
                 self._answered()
         return got
 
+    def _met_below(self, r: int, mask: int) -> bool:
+        """Whether a suite inside ``mask`` is known to meet route ``r``'s specification: then
+        ``mask`` meets it too, and its violation there is 0, with no computation.
+
+        Why this is the same answer as computing it: a sensor added to a suite only adds
+        measurements (factors) to the route's problem, so its information matrix grows in the
+        positive semidefinite order and every keyframe's marginal covariance shrinks, for the
+        smoother and for the filter alike (each keyframe's filtered estimate is the smoother's of
+        the measurements up to it). Each σ the specification bounds (the square root of a diagonal
+        entry, times a positive factor) is then no larger, and so is its order statistic at the
+        share ``at`` (each keyframe's σ no larger: every rank no larger). A suite that meets every
+        bound therefore leaves every superset meeting it: violation 0, exactly what
+        :func:`~sensorsel.designs.requirements.spec.covariance_verdict` would return. The solver's
+        own inferences rest on the same monotonicity, over the whole domain; this one is per route,
+        so a suite that fails the domain still answers, for its supersets, every route it met."""
+        if any(not m & ~mask for m in self._met[r]):
+            self.n_met_below += 1
+            return True
+        return False
+
+    def _note_met(self, r: int, mask: int) -> None:
+        """Keep ``mask`` among route ``r``'s minimal meeting suites (dropping those holding it)."""
+        kept = self._met[r]
+        if any(not m & ~mask for m in kept):
+            return
+        self._met[r] = [m for m in kept if m & ~mask] + [mask]
+
     def _use_floor(self) -> bool:
         return self.floor_asked < FLOOR_TRIAL or self.floor_refuted >= FLOOR_KEEP_SHARE * self.floor_asked
 
     def _route_meets(self, r: int, suite: Suite) -> bool:
+        mask = mask_of(suite)
+        if self._met_below(r, mask):
+            return True
+        ok = self._route_meets_asked(r, suite)
+        if ok:
+            self._note_met(r, mask)
+        return ok
+
+    def _route_meets_asked(self, r: int, suite: Suite) -> bool:
         key = (r, suite)
         if key in self._answers:
             return self._answers[key][0]
@@ -269,6 +309,15 @@ class _Oracle:
         return True
 
     def _route_violation(self, r: int, suite: Suite) -> float:
+        mask = mask_of(suite)
+        if self._met_below(r, mask):
+            return 0.0
+        v = self._route_violation_asked(r, suite)
+        if v <= 0.0:
+            self._note_met(r, mask)
+        return v
+
+    def _route_violation_asked(self, r: int, suite: Suite) -> float:
         known = self.known.get((r, suite))
         if known is not None and known[1] is not None and (r, suite) not in self._answers:
             return known[1]

@@ -51,10 +51,12 @@ def floors(s: Any, upper: float, programs: list[float]) -> dict[int, float]:
     if not left:
         s.floor_values = {}
         return s.floor_values
+    s.before_program()  # one program per sensor inside: the time limit is read before each
     floor, best = floor_cost(s, programs)
     out = {i: floor for i in left}
     for i in left:
         if best is None or best >> i & 1:
+            s.before_program()
             out[i] = max(floor, floor_cost(s, programs, without=1 << i)[0])
     s.floor_values = {i: f - _tol(f) for i, f in out.items()}
     return s.floor_values

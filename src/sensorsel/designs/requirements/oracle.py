@@ -119,6 +119,9 @@ class _Cached:
         self.known: dict[int, bool] = {}
         self.calls = 0
         self.seconds = 0.0
+        #: called before each call of the predicate (the solver's clock: it raises once the time
+        #: limit is spent, so that no search step runs past it); None: nothing
+        self.before_call: Callable[[], None] | None = None
 
     def infer(self, mask: int) -> bool | None:
         return self.known.get(mask)
@@ -127,6 +130,8 @@ class _Cached:
         known = self.infer(mask)
         if known is not None:
             return known
+        if self.before_call is not None:
+            self.before_call()
         t = time.perf_counter()
         ok = bool(self._passes(suite_of(mask)))
         self.seconds += time.perf_counter() - t
@@ -198,6 +203,8 @@ class Monotone(_Cached):
         if self.infer(mask) is True:
             return 0.0
         assert self._violation is not None
+        if self.before_call is not None:
+            self.before_call()
         t = time.perf_counter()
         v = float(self._violation(suite_of(mask)))
         self.seconds += time.perf_counter() - t

@@ -147,6 +147,11 @@ DEFAULT_TIE_PROGRAMS = 4
 _mask, _suite = mask_of, suite_of
 
 
+class _OutOfTime(Exception):
+    """The time limit is spent: raised before a check, so that no step of the search (the greedy,
+    the growth of a failing set, the parts checked after failures) runs past it."""
+
+
 @dataclass(frozen=True)
 class CheapestSuite:
     """The cheapest suite that meets a requirement after ``failures`` sensor failures.
@@ -252,6 +257,8 @@ class _Search:
         self.nogoods: list[int] = []
         self.met: dict[int, float] = {}  # suites shown to meet the requirement after the failures: cost
         self.orders: tuple[tuple[int, int], ...] = ()  # (w, s): x_w <= x_s in the integer programs (dominance)
+        #: called before each floor's integer program (raises once the time limit is spent)
+        self.before_program: Callable[[], None] = _nothing
 
     @property
     def monotone(self) -> bool:
@@ -410,6 +417,10 @@ class _Search:
         return mask
 
 
+def _nothing() -> None:
+    pass
+
+
 def _ratio(drop: float, price: float) -> float:
     if drop <= 0:
         return 0.0
@@ -430,6 +441,7 @@ def cheapest_suite(
     progress: Progress | None = None,
     max_tie_programs: int = DEFAULT_TIE_PROGRAMS,
     dominance: Sequence[tuple[int, int]] = (),
+    clock: Callable[[], float] = time.monotonic,
 ) -> CheapestSuite:
     """The cheapest suite of ``feasible`` that meets a requirement after any ``failures`` of its
     sensors fail, with a lower bound on the cost of every such suite (module docstring).
@@ -451,7 +463,9 @@ def cheapest_suite(
             ``meets`` (meets(S) implies it; if S fails it every superset does), or None.
         max_iterations: integer programs solved before stopping with a gap (>= 1).
         time_limit: wall-clock seconds before stopping with a gap (None: none; makes the answer
-            depend on the machine).
+            depend on the machine). The clock is read before every check and every integer program
+            (the greedy and the growth of failing sets included): the search stops, with the best
+            suite shown to meet and the lower bound proved so far, within one check of the limit.
         progress: progress(iterations done, max_iterations) before each integer program, told where
             the search stands (:func:`sensorsel.io.progress.report`): the cost interval [lower
             bound, best found] closing, integer programs solved, suites checked.
@@ -463,6 +477,8 @@ def cheapest_suite(
             the pairs :func:`~sensorsel.designs.requirements.dominance.dominance_order` keeps become
             rows x_w <= x_s of the integer programs (the cheapest cost unchanged; ties among them
             are then not searched exhaustively).
+        clock: the clock ``time_limit`` is measured on [s] (``time.monotonic``; a test passes one
+            that advances per reading, so that the limit falls after a known number of checks).
 
     Returns:
         A :class:`CheapestSuite`.
@@ -480,7 +496,7 @@ def cheapest_suite(
         raise ValueError("relaxations are for a requirement that is not monotone: pass monotone=False")
     if dominance and not monotone:
         raise ValueError("dominance is for a monotone requirement")
-    start = time.monotonic()
+    start = clock()
     alpha = int(failures)
     n = len(feasible.library)
     if monotone:
@@ -495,6 +511,16 @@ def cheapest_suite(
             Exact(n, meets),
         )
     programs = [0.0, 0]  # seconds in integer programs, tie programs
+    if time_limit is not None:
+        limit = time_limit
+
+        def before_call() -> None:
+            if clock() - start >= limit:
+                raise _OutOfTime
+
+        for p in s.predicates():
+            p.before_call = before_call
+        s.before_program = before_call
 
     def result(
         status_: str,
@@ -531,7 +557,7 @@ def cheapest_suite(
             _suite(best_effort) if status_ == "infeasible" else (),
             _suite(lost),
             stop,
-            time.monotonic() - start,
+            clock() - start,
             s.seconds_checks(),
             programs[0],
             cuts_in,
@@ -547,74 +573,89 @@ def cheapest_suite(
     # a tie search under rows x_w <= x_s cannot see suites with w in place of an equally priced s
     tied_orders = any(abs(s.price[w] - s.price[v]) <= _tol(s.price[w]) for w, v in s.orders)
 
-    # 1. every allowed sensor together: the most any suite achieves (monotone, or its monotone relaxation)
-    if s.down is not None and not s.down.passes(s.universe):
-        return result(
-            "infeasible", None, math.inf, 0, "every allowed sensor together fails", by="library", best_effort=s.universe
-        )
-
-    # 2. the greedy upper bound (its failing suites are the first cuts)
-    incumbent = s.greedy() if violation is not None and s.monotone else None
-    if incumbent is not None and not s.fits(incumbent):  # the greedy only adds what fits: a guard
-        incumbent = None
-    upper = s.cost(incumbent) if incumbent is not None else math.inf
-    if incumbent is not None:
-        s.fix_above(upper)
-
-    # 3. the hitting-set loop
+    incumbent: int | None = None
+    upper = math.inf
     lower = 0.0 if not s.required else s.cost(s.required)
     iterations = 0
     plateau: dict[float, int] = {}  # failing proposals per cost [$]
     stop = ""
-    while True:
-        report(progress, iterations, max_iterations, _status_text(lower, upper, iterations, s.n_checks()))
-        if incumbent is not None and upper - lower <= _tol(upper):
-            return _ties(s, incumbent, iterations, max_tie_programs, programs, start, time_limit, result)
-        if iterations >= max_iterations:
-            stop = f"iteration limit ({max_iterations} integer programs)"
-            break
-        left = None if time_limit is None else time_limit - (time.monotonic() - start)
-        if left is not None and left <= 0:
-            stop = f"time limit ({time_limit:g} s)"
-            break
-        if s.alpha and incumbent is not None:
-            s.fix_above(upper, programs)  # the floor rises with the cuts: fewer sensors to grow over
-        solved = _propose(s, left, programs)
-        iterations += 1
-        if solved is None:  # no suite within the rows satisfies every cut: none meets the requirement
-            if incumbent is not None:  # every suite cheaper than the incumbent is ruled out
-                return _ties(s, incumbent, iterations, max_tie_programs, programs, start, time_limit, result)
-            return _infeasible(s, result, iterations)
-        bound, proposal, finished = solved
-        lower = max(lower, bound)
-        s.lower, s.upper = lower, upper
-        if proposal is None:
-            stop = "the integer program stopped at its node limit without a suite"
-            break
-        if not s.fits(proposal):  # HiGHS's tolerances let a suite past a limit: rule out just that suite
-            s.nogoods.append(proposal)
-            continue
-        part = s.failing_part(proposal)
-        if part is None:
-            if s.cost(proposal) < upper - _tol(upper) or incumbent is None:
-                incumbent = s.prune(proposal, only_free=finished)
-                upper = s.cost(incumbent)
-                s.fix_above(upper)
-            continue  # when the proposal is the integer program's optimum, the bounds now meet
-        s.cut(proposal, part)
-        if s.alpha and s.monotone:
-            _more_cuts(s, proposal)
-        c = round(s.cost(proposal), 6)
-        plateau[c] = plateau.get(c, 0) + 1
-        if violation is not None and s.monotone and plateau[c] == 2 and c < upper - _tol(upper):
-            # a second failing suite of the same cost: the lower bound is on a plateau of suites of
-            # one price (sensors of one model); complete this one greedily, for a suite close to it
-            done = s.greedy(proposal)
-            if done is not None and s.fits(done) and s.cost(done) < upper - _tol(upper):
-                incumbent, upper = done, s.cost(done)
-                s.fix_above(upper)
+    try:
+        # 1. every allowed sensor together: the most any suite achieves (monotone, or its monotone relaxation)
+        if s.down is not None and not s.down.passes(s.universe):
+            return result(
+                "infeasible",
+                None,
+                math.inf,
+                0,
+                "every allowed sensor together fails",
+                by="library",
+                best_effort=s.universe,
+            )
+
+        # 2. the greedy upper bound (its failing suites are the first cuts)
+        if violation is not None and s.monotone:
+            incumbent = s.greedy()
+        if incumbent is not None and not s.fits(incumbent):  # the greedy only adds what fits: a guard
+            incumbent = None
+        upper = s.cost(incumbent) if incumbent is not None else math.inf
+        if incumbent is not None:
+            s.fix_above(upper)
+
+        # 3. the hitting-set loop
+        while True:
+            report(progress, iterations, max_iterations, _status_text(lower, upper, iterations, s.n_checks()))
+            if incumbent is not None and upper - lower <= _tol(upper):
+                return _ties(s, incumbent, iterations, max_tie_programs, programs, start, time_limit, result, clock)
+            if iterations >= max_iterations:
+                stop = f"iteration limit ({max_iterations} integer programs)"
+                break
+            left = None if time_limit is None else time_limit - (clock() - start)
+            if left is not None and left <= 0:
+                stop = f"time limit ({time_limit:g} s)"
+                break
+            if s.alpha and incumbent is not None:
+                s.fix_above(upper, programs)  # the floor rises with the cuts: fewer sensors to grow over
+            solved = _propose(s, left, programs)
+            iterations += 1
+            if solved is None:  # no suite within the rows satisfies every cut: none meets the requirement
+                if incumbent is not None:  # every suite cheaper than the incumbent is ruled out
+                    return _ties(s, incumbent, iterations, max_tie_programs, programs, start, time_limit, result, clock)
+                return _infeasible(s, result, iterations)
+            bound, proposal, finished = solved
+            lower = max(lower, bound)
+            s.lower, s.upper = lower, upper
+            if proposal is None:
+                stop = "the integer program stopped at its node limit without a suite"
+                break
+            if not s.fits(proposal):  # HiGHS's tolerances let a suite past a limit: rule out just that suite
+                s.nogoods.append(proposal)
+                continue
+            part = s.failing_part(proposal)
+            if part is None:
+                if s.cost(proposal) < upper - _tol(upper) or incumbent is None:
+                    incumbent = s.prune(proposal, only_free=finished)
+                    upper = s.cost(incumbent)
+                    s.fix_above(upper)
+                continue  # when the proposal is the integer program's optimum, the bounds now meet
+            s.cut(proposal, part)
+            if s.alpha and s.monotone:
+                _more_cuts(s, proposal)
+            c = round(s.cost(proposal), 6)
+            plateau[c] = plateau.get(c, 0) + 1
+            if violation is not None and s.monotone and plateau[c] == 2 and c < upper - _tol(upper):
+                # a second failing suite of the same cost: the lower bound is on a plateau of suites of
+                # one price (sensors of one model); complete this one greedily, for a suite close to it
+                done = s.greedy(proposal)
+                if done is not None and s.fits(done) and s.cost(done) < upper - _tol(upper):
+                    incumbent, upper = done, s.cost(done)
+                    s.fix_above(upper)
+    except _OutOfTime:  # a check was due past the limit: the best suite shown to meet so far
+        stop = f"time limit ({time_limit:g} s)"
+        shown = sorted((c, _suite(m), m) for m, c in s.met.items() if s.fits(m))
+        if shown and (incumbent is None or shown[0][0] < upper - _tol(upper)):
+            upper, _, incumbent = shown[0]
     if incumbent is not None and upper - lower <= _tol(upper):
-        return _ties(s, incumbent, iterations, max_tie_programs, programs, start, time_limit, result)
+        return _ties(s, incumbent, iterations, max_tie_programs, programs, start, time_limit, result, clock)
     return result(
         "gap",
         incumbent,
@@ -647,6 +688,7 @@ def _ties(
     start: float,
     time_limit: float | None,
     result: Callable[..., CheapestSuite],
+    clock: Callable[[], float],
 ) -> CheapestSuite:
     """The proved answer, with the other suites of its cost that meet the requirement: those met on
     the way, then those the integer program capped at that cost proposes (each proposal that fails
@@ -657,7 +699,7 @@ def _ties(
     exhaustive = False
     extra: list[int] = []
     while programs[1] < max_programs:
-        left = None if time_limit is None else time_limit - (time.monotonic() - start)
+        left = None if time_limit is None else time_limit - (clock() - start)
         if left is not None and left <= 0:
             break
         solved = _propose(s, left, programs, cap=opt, exclude=[incumbent, *sorted(ties), *extra])
@@ -669,8 +711,11 @@ def _ties(
         if proposal is None:
             break
         extra.append(proposal)
-        if s.fits(proposal) and s.failing_part(proposal) is None:
-            ties.add(proposal)
+        try:
+            if s.fits(proposal) and s.failing_part(proposal) is None:
+                ties.add(proposal)
+        except _OutOfTime:  # proved already: the tie search just ends, not exhaustive
+            break
     return result(
         "optimal",
         incumbent,
