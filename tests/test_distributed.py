@@ -500,3 +500,15 @@ def test_require_in_one_condition_on_workers_checks_that_conditions_members(clus
         assert [r.route for r in there.routes] == [f"tiny/{c}"]
         assert (there.suite, there.cost_usd, there.status) == (here[c].suite, here[c].cost_usd, here[c].status)
         assert there.routes[0].accuracy == here[c].routes[0].accuracy
+
+
+def test_two_local_clusters_at_once_take_no_fixed_port():
+    # without bokeh the scheduler's HTTP server still starts, on 8787 unless told otherwise: the
+    # second cluster (a test beside another, two users on one machine) then warns it is taken
+    import warnings
+
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        with DaskCluster(workers=1, echo=lambda line: None), DaskCluster(workers=1, echo=lambda line: None):
+            pass
+    assert not [w for w in seen if "already in use" in str(w.message)], [str(w.message) for w in seen]

@@ -82,16 +82,16 @@ class DaskCluster:
         import importlib.util
         import logging
 
-        dashboard = (
-            "127.0.0.1:0" if importlib.util.find_spec("bokeh") is not None else None
-        )  # the dashboard needs bokeh
+        # the dashboard needs bokeh; without it the scheduler's HTTP server still starts, on the
+        # default port 8787 unless told otherwise (taken by another cluster: a warning): a free port
+        dashboard = importlib.util.find_spec("bokeh") is not None
         self._local = distributed.LocalCluster(
             n_workers=self.workers,
             threads_per_worker=1,
             processes=True,
             host="127.0.0.1",
             scheduler_port=0,
-            dashboard_address=dashboard,
+            dashboard_address="127.0.0.1:0",
             silence_logs=logging.ERROR,
             worker_dashboard_address=None,
         )
