@@ -20,7 +20,6 @@ lower-level runs the CLI needs are re-exported here (``pyproject.toml`` forbids 
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterable
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -111,7 +110,7 @@ from sensorsel.information.evaluators.accuracy import (
 from sensorsel.information.evaluators.distributed import (
     DistributedDomainEvaluator,
 )  # imports no Dask: a client is handed in
-from sensorsel.information.filtering import ESTIMATES, check_estimate
+from sensorsel.information.filtering import ESTIMATES, check_estimate, check_map_sigma
 from sensorsel.information.integrity import IntegritySpec, RouteIntegrity, route_integrity
 from sensorsel.information.integrity.association import gate_of
 from sensorsel.information.integrity.risk import integrity_and_pass
@@ -323,8 +322,7 @@ def with_suite_quality(
     # the filter without the lever: the integrity's forward pass uses every measurement, so its
     # filtered covariances are the accuracy's (the filter is the same whatever the engine): one pass
     check_estimate(estimate)
-    if map_sigma_m is not None and not (math.isfinite(map_sigma_m) and map_sigma_m > 0):
-        raise InputError(f"map sigma must be a positive number of metres, got {map_sigma_m!r}")
+    check_map_sigma(map_sigma_m)
     problems = [(r.name, r.problem) for r in target.routes]
     positions = target.library.resolve_suite(result.suite)
     passes = [integrity_and_pass(p, positions, integrity, map_sigma_m=map_sigma_m, route=name) for name, p in problems]

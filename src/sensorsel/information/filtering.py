@@ -78,6 +78,14 @@ def check_estimate(estimate: str) -> str:
     return estimate
 
 
+def check_map_sigma(map_sigma_m: float | None) -> float | None:
+    """``map_sigma_m`` [m] if None (SLAM) or a positive finite number (the map model), else an
+    InputError naming the value."""
+    if map_sigma_m is not None and not (np.isfinite(map_sigma_m) and map_sigma_m > 0):
+        raise InputError(f"map sigma must be a positive number of metres, got {map_sigma_m!r}")
+    return map_sigma_m
+
+
 @dataclass(frozen=True, eq=False)
 class KeyframeMeasurements:
     """The suite's measurements made at one keyframe, as parallel (m,) arrays, in a fixed order
@@ -217,8 +225,7 @@ def forward_pass(
     keyframes, the same numbers as the whole pass's: a keyframe's covariance depends only on the
     measurements up to it, and which landmarks are held is still decided by the whole route's).
     """
-    if map_sigma_m is not None and not (np.isfinite(map_sigma_m) and map_sigma_m > 0):
-        raise InputError(f"map sigma must be a positive number of metres, got {map_sigma_m!r}")
+    check_map_sigma(map_sigma_m)
     s = problem.settings
     prior_sigma = float(s.landmark_prior_sigma_m if map_sigma_m is None else map_sigma_m)
     sc = problem.scenario

@@ -20,7 +20,7 @@ from typing import ClassVar
 import numpy as np
 
 from sensorsel.errors import InputError
-from sensorsel.information.filtering import check_estimate, forward_pass
+from sensorsel.information.filtering import check_estimate, check_map_sigma, forward_pass
 from sensorsel.model.library import SensorLibrary
 from sensorsel.model.problem import Problem
 
@@ -184,8 +184,7 @@ class ProblemEvaluator(Evaluator):
         s = as_suite(suite)
         self._check_positions(s)
         check_estimate(estimate)
-        if map_sigma_m is not None and not (np.isfinite(map_sigma_m) and map_sigma_m > 0):
-            raise InputError(f"map sigma must be a positive number of metres, got {map_sigma_m!r}")
+        check_map_sigma(map_sigma_m)
         ms = None if map_sigma_m is None else float(map_sigma_m)
         if estimate == "filter":
             return forward_pass(self.problem, s, map_sigma_m=ms).filtered
