@@ -54,6 +54,13 @@ landmarks) ρ is large at every useful k and the bound is loose but holds
 associator wraps the bearing innovation; an alias needs an error of ~π rad) and S_j evaluated at
 the estimate rather than the truth (the oracles and the simulator evaluate it at the truth, as here).
 
+**The range's bound: no box.** The box needs kσ_a < r_j; for a landmark within a few σ of the car only
+small k is left and G_j would stay at 4Φ(−k) however far apart the two landmarks are. The range is
+1-Lipschitz in the positions (|r̂_j − r_j| ≤ ‖w_j‖) and NIS_j ≥ ν_r² / S_rr, so NIS_j ≤ x only if
+|v_r| + ‖w_j‖ ≥ |r_i − r_j| − √(x S_rr): a second bound of P(NIS_j ≤ x) from Gaussian tails alone
+(:class:`_RangeSeparation`); each G_j takes the smaller. It is non-decreasing in P and R and at least
+F(x; λ_j) (the linearized range innovation obeys the same inequality), so the properties below hold.
+
 **The bound** (after Duenas Arana, Joerger & Spenko's local nearest-neighbour bound, ICRA 2018): for
 any threshold t ≤ γ, if NIS_i ≤ t and every NIS_j > t then i is the nearest and inside the gate, so
 W ⊆ {NIS_i > t} ∪ ⋃_j {NIS_j ≤ t}; also W ⊆ ⋃_j {NIS_j ≤ γ}. With the per-term bounds above:
@@ -362,6 +369,11 @@ def measurement_risks(
     if len(mi) == 0:
         return MeasurementRisk(est, bnd, ncand, lin)
     rho_j = _remainder(sigma_j[close], range_j[close], whiten_j[close])  # (n, K)
+    # the range's own bound (no box: the range is 1-Lipschitz in the positions), for pairs the box
+    # cannot cover (a landmark nearer the car than a few σ of the estimate)
+    by_range = _RangeSeparation(
+        np.abs(d[keep][close, 1]), s_j[close, 1, 1], meas.sigma_range_m[mi], np.hypot(*sigma_j[close].T)
+    )
     li = meas.landmark[mi]
     pair = _pair_moments(
         pose, points, prediction, meas, mi, li, cj, _slots(state, li), slot_j, jac_j[close], e_j[close]
@@ -372,7 +384,8 @@ def measurement_risks(
     # the gate terms G_j(γ): the smallest over the grid of k
     g_gate = _K_OUT[None, :] + _ncx2_cdf((root_g + rho_j) ** 2, lam[:, None])  # (n, K)
     k_best = np.argmin(g_gate, axis=1)
-    bnd = np.minimum(1.0, np.bincount(mi, weights=np.minimum(1.0, g_gate.min(axis=1)), minlength=m))
+    g_min = np.minimum(g_gate.min(axis=1), by_range.bound(np.array([gate]))[:, 0])
+    bnd = np.minimum(1.0, np.bincount(mi, weights=np.minimum(1.0, g_min), minlength=m))
     f_gate = _ncx2_cdf(np.full(len(lam), gate), lam)
     ts = gate * _T_FRACTIONS
     # with the right landmark a candidate, also min_t G_i(t) + Σ_j G_j(t) (each pair at its gate's k);
@@ -383,6 +396,7 @@ def measurement_risks(
         lam_s, rho_s, kb = lam[sel], rho_j[sel], k_best[sel]
         rho_k = rho_s[np.arange(len(lam_s)), kb]
         g_t = _K_OUT[kb][:, None] + _ncx2_cdf((np.sqrt(ts)[None, :] + rho_k[:, None]) ** 2, lam_s[:, None])
+        g_t = np.minimum(g_t, by_range.select(sel).bound(ts))
         sums = np.zeros((m, len(ts)))
         np.add.at(sums, mi[sel], g_t)
         ps = pair if sel.all() else pair.select(sel)
@@ -407,6 +421,38 @@ def measurement_risks(
     logq = np.bincount(mi, weights=np.log1p(-np.clip(p, 0.0, 1.0 - 1e-16)), minlength=m)
     est = np.maximum(-np.expm1(logq), 0.0)
     return MeasurementRisk(est, np.minimum(bnd, 1.0), ncand, np.minimum(lin, 1.0))
+
+
+@dataclass(frozen=True)
+class _RangeSeparation:
+    """A bound of P(NIS_j ≤ x) for each pair from the range alone, with no box (module docstring,
+    "the range's bound"): NIS_j ≥ ν_r² / S_rr (the smallest νᵀS⁻¹ν with a given range component), and
+    ν_r = z_r − r̂_j with |r̂_j − r_j| ≤ ‖w_j‖ (the range is 1-Lipschitz in the positions), so
+    NIS_j ≤ x only if |v_r| + ‖w_j‖ ≥ D(x) = |r_i − r_j| − √(x S_rr); hence for D > 0, split as
+    D = s + t in proportion to σ_r and σ_w,
+
+        P(NIS_j ≤ x) ≤ 2Φ(−s/σ_r) + exp(−t² / (2 σ_w²)),
+
+    σ_w² = σ_a² + σ_b² ≥ the largest eigenvalue of Cov(w_j) (P(‖w‖ ≥ t) ≤ exp(−t²/(2 λ_max)) for a
+    2-D Gaussian); 1 where D ≤ 0. Per pair (n,): ``sep_m`` |r_i − r_j| [m], ``s_rr`` S_j's range
+    variance [m²], ``sigma_r`` the range noise [m], ``sigma_w`` [m]."""
+
+    sep_m: np.ndarray
+    s_rr: np.ndarray
+    sigma_r: np.ndarray
+    sigma_w: np.ndarray
+
+    def select(self, mask: np.ndarray) -> _RangeSeparation:
+        """The pairs of ``mask``."""
+        return _RangeSeparation(self.sep_m[mask], self.s_rr[mask], self.sigma_r[mask], self.sigma_w[mask])
+
+    def bound(self, xs: np.ndarray) -> np.ndarray:
+        """(n, T) the bound at each level of ``xs`` (T,)."""
+        room = self.sep_m[:, None] - np.sqrt(xs[None, :] * self.s_rr[:, None])  # D(x)
+        scale = (self.sigma_r + self.sigma_w)[:, None]
+        z = np.maximum(room, 0.0) / np.where(scale > 0, scale, 1.0)  # s/σ_r = t/σ_w = D/(σ_r + σ_w)
+        out = 2.0 * ndtr(-z) + np.exp(-0.5 * z**2)
+        return np.where(room > 0, np.minimum(out, 1.0), 1.0)
 
 
 def _noise_inverse(meas: KeyframeMeasurements, mi: np.ndarray) -> np.ndarray:
