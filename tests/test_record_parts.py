@@ -6,12 +6,15 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import typing
 from pathlib import Path
 
 import pytest
 
+from sensorsel.designs.parts import Provenance, SuiteQuality
 from sensorsel.errors import ResultFileError
-from sensorsel.io import records, results
+from sensorsel.io import codec, records, results
+from sensorsel.io.codec import json_fields, last
 from sensorsel.io.results import record_class as kind_class
 
 RESULTS = Path(__file__).resolve().parents[1] / "docs" / "results"
@@ -32,10 +35,28 @@ COMPOSED = (
 )
 
 
+@dataclasses.dataclass(frozen=True)
+class _Head:
+    a: int
+    b: str
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class _Tail:
+    t: float = last(0.5)
+    u: tuple[int, ...] = last(())
+
+
+@dataclasses.dataclass(frozen=True)
+class _Record(_Tail, _Head):
+    c: bool
+
+
 def _keys_in_order(obj, cls, where: str) -> None:
-    """A record's keys that are its class's fields are in field order (a file written before a field
+    """A record's keys that are its class's fields are in the order its JSON has them (its fields in
+    order, those of the parts it ends with last: ``codec.json_fields``; a file written before a field
     was added lacks it; one of an older version may name a field otherwise)."""
-    names = [f.name for f in dataclasses.fields(cls)]
+    names = [f.name for f in json_fields(cls)]
     keys = [k for k in obj if k in names]
     assert len(keys) >= len(names) // 2 and [n for n in names if n in keys] == keys, f"{where}: {keys} against {names}"
 
@@ -101,3 +122,32 @@ def test_part_of_copies_a_parts_fields_from_a_record_that_holds_it():
         "method": "saturate",
     }
     assert records.part_of(c, records.SuiteCost) == {"suite": ("a", "b"), "cost_usd": 3.0}
+
+
+def test_fields_made_with_last_are_written_after_the_others_and_read_back():
+    """A part of :func:`codec.last` fields is a base (its fields first in the class) and still the end
+    of the JSON; the record reads back equal (the oracle: the key order written out by hand)."""
+    r = _Record(a=1, b="x", c=True, t=2.0, u=(3,))
+    assert [f.name for f in dataclasses.fields(r)] == ["a", "b", "t", "u", "c"]
+    text = codec.dumps(r)
+    assert list(json.loads(text)) == ["a", "b", "c", "t", "u"]
+    assert codec.from_jsonable(_Record, json.loads(text)) == r
+    assert codec.from_jsonable(_Record, {"a": 1, "b": "x", "c": False}) == _Record(1, "x", False)
+    with pytest.raises(TypeError):  # keyword-only: a part's field is never taken by position
+        _Record(1, "x", True, 2.0)  # type: ignore[misc]
+
+
+@pytest.mark.parametrize("kind", sorted(results.KINDS))
+def test_a_kind_holding_the_run_or_the_suite_quality_fields_composes_their_part(kind):
+    """``problem, seconds, constraints`` and ``accuracy, integrity`` (of the parts' types) come from one
+    place each (:mod:`sensorsel.designs.parts`), not written out again in a record."""
+    cls = kind_class(kind)
+    hints = typing.get_type_hints(cls)
+    names = [(f.name, hints[f.name]) for f in json_fields(cls)]
+    for part in (Provenance, SuiteQuality):
+        part_hints = typing.get_type_hints(part)
+        run = [(f.name, part_hints[f.name]) for f in dataclasses.fields(part)]
+        at = [i for i in range(len(names)) if names[i : i + len(run)] == run]
+        if at:
+            assert issubclass(cls, part), f"{kind}: {cls.__name__} writes {run} out, not composing {part.__name__}"
+            assert all(f.metadata == codec.LAST for f in dataclasses.fields(cls) if (f.name, hints[f.name]) in run)

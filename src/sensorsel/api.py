@@ -41,6 +41,7 @@ from sensorsel.designs.certify import (
 from sensorsel.designs.checkpoint import checkpoint_path, remove_checkpoint
 from sensorsel.designs.domain_design import DomainDesign, by_condition
 from sensorsel.designs.greedy_run import greedy_design
+from sensorsel.designs.parts import SuiteQuality
 from sensorsel.designs.requirements import FrontAcceptance, RequireResult, front_acceptance
 from sensorsel.designs.requirements import require as run_require
 from sensorsel.designs.requirements.design import RouteRequirement
@@ -459,24 +460,21 @@ class RouteScore:
 
 @result_kind("domain-score")
 @dataclass(frozen=True)
-class DomainScoreResult(SuiteScore):
-    """The score of one suite on an operating domain.
+class DomainScoreResult(SuiteQuality, SuiteScore):
+    """The score of one suite on an operating domain, its accuracy and integrity on each route last, in
+    route order (:class:`~sensorsel.designs.parts.SuiteQuality`; empty when not asked for).
 
     Attributes:
         aggregate: "normalised" or "raw".
         routes: each route's score.
         engine: the per-route engine.
         domain: what it was computed on.
-        accuracy: the suite's accuracy in metres on each route, in route order (empty when not asked for).
-        integrity: the suite's integrity on each route, in route order (empty when not asked for).
     """
 
     aggregate: str
     routes: tuple[RouteScore, ...]
     engine: str
     domain: DomainInfo
-    accuracy: tuple[RouteAccuracy, ...] = ()
-    integrity: tuple[RouteIntegrity, ...] = ()
 
 
 def score_domain_suite(

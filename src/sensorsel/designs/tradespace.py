@@ -53,6 +53,7 @@ from pathlib import Path
 import numpy as np
 
 from sensorsel.designs.inputs import result_fingerprint
+from sensorsel.designs.parts import Provenance
 from sensorsel.designs.selection import RULES, GreedyResult, Rule, Step, check_budget, check_rule, greedy
 from sensorsel.errors import InputError
 from sensorsel.information.evaluators import Evaluator, evaluator_for
@@ -120,7 +121,7 @@ class TradespaceRun(SuiteScore, RuleBudget):
 
 @result_kind("tradespace")
 @dataclass(frozen=True)
-class TradespaceResult:
+class TradespaceResult(Provenance):
     """Every architecture of the greedy runs over a grid of budgets, and the Pareto front.
 
     Attributes:
@@ -133,10 +134,8 @@ class TradespaceResult:
         lazy: whether lazy (Minoux) evaluation was used where the rule allows it.
         share_prefix: whether smaller budgets resumed from larger budgets' runs.
         n_evaluations: suites scored in total.
-        problem: what it was computed on.
-        seconds: wall time [s] (the only field that varies between runs).
-        constraints: the limits besides the budget every run kept (the same at every budget); None:
-            the budget alone.
+        constraints: the limits every run kept, the same at every budget (as ``problem`` and
+            ``seconds``, documented in :class:`~sensorsel.designs.parts.Provenance`).
     """
 
     budgets_usd: tuple[float, ...]
@@ -148,9 +147,6 @@ class TradespaceResult:
     lazy: bool
     share_prefix: bool
     n_evaluations: int
-    problem: TargetInfo | None = None
-    seconds: float = 0.0
-    constraints: Constraints | None = None
 
     @property
     def front(self) -> tuple[Architecture, ...]:

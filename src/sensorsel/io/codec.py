@@ -5,6 +5,11 @@ strings, tuples, ``None`` and dataclasses to plain JSON values and back, by the 
 hints. :func:`dumps` is deterministic (fixed key order, ``repr`` floats), so the same result gives
 the same bytes. :func:`read_json` reads a file as JSON, every failure a :class:`ResultFileError`.
 
+A JSON object has its dataclass's fields in order, except the fields made with :func:`last`: they
+come after the others (in their own order). A part every record ends with (the target a run was
+computed on, its wall time, ...) is then a base class, whose fields a dataclass puts first, and still
+the end of each record's JSON.
+
 Result *files* (with their ``kind`` and ``format`` keys) are :mod:`sensorsel.io.results`.
 """
 
@@ -24,11 +29,30 @@ from sensorsel.io.files import atomic_write_text
 
 T = TypeVar("T")
 
+#: the metadata of a field made with :func:`last`
+LAST: Mapping[str, Any] = types.MappingProxyType({"json": "last"})
+
+
+def last(default: T) -> T:
+    """A keyword-only field with ``default``, written after its record's other fields (:func:`json_fields`).
+
+    Keyword-only, so that a part of such fields may be a base of records whose own fields have no
+    default; typed as its default, as a dataclass's ``field()`` is to mypy."""
+    return dataclasses.field(default=default, kw_only=True, metadata=LAST)
+
+
+def json_fields(obj: Any) -> tuple[dataclasses.Field[Any], ...]:
+    """The fields of a dataclass (or an instance) in the order its JSON object has them: in order, those
+    made with :func:`last` after the others."""
+    every = dataclasses.fields(obj)
+    written_last = [f.metadata.get("json") == "last" for f in every]
+    return tuple(f for f, w in zip(every, written_last) if not w) + tuple(f for f, w in zip(every, written_last) if w)
+
 
 def to_jsonable(obj: Any) -> Any:
     """Plain JSON value of a dataclass / tuple / list / dict / scalar (NaN and inf become strings)."""
     if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
-        return {f.name: to_jsonable(getattr(obj, f.name)) for f in dataclasses.fields(obj)}
+        return {f.name: to_jsonable(getattr(obj, f.name)) for f in json_fields(obj)}
     if isinstance(obj, (tuple, list)):
         return [to_jsonable(v) for v in obj]
     if isinstance(obj, dict):

@@ -6,7 +6,9 @@ are the first part's, then the next part's, then its own (``class Candidate(Wors
 holds ``method``, then ``suite, cost_usd, nominal_score, worst_score, failures``, then its own). Its
 JSON is its fields in that order, so a record composed of parts writes the bytes it would with the
 fields written out. Each part documents its fields once; a record's docstring adds only what its own
-fields mean.
+fields mean. The parts records end with (what a run was computed on, its wall time and limits; the
+suite's accuracy and integrity) hold types of the model and the information: they are
+:mod:`sensorsel.designs.parts`, written last by :func:`sensorsel.io.codec.last`.
 """
 
 from __future__ import annotations

@@ -44,22 +44,24 @@ from dataclasses import dataclass
 import numpy as np
 
 from sensorsel.designs.certify.knapsack import MAX_DP_CELLS, KnapsackSolution, knapsack, packing_bound
+from sensorsel.designs.parts import Provenance
 from sensorsel.designs.selection import REL_TOL, GreedyResult, check_budget
 from sensorsel.errors import InputError
 from sensorsel.information.evaluators import Evaluator, make_evaluator
+from sensorsel.io.codec import last
 from sensorsel.io.progress import Progress
 from sensorsel.io.records import RuleBudget, SuiteScore
 from sensorsel.io.results import result_kind
 from sensorsel.model.constraints import Constraints, FeasibleSet, feasible_set
 from sensorsel.model.library import SensorLibrary
-from sensorsel.model.problem import Problem, ProblemInfo, TargetInfo
+from sensorsel.model.problem import Problem, ProblemInfo
 
 #: progress(done, total)
 
 
 @result_kind("certificate")
 @dataclass(frozen=True)
-class Certificate(SuiteScore, RuleBudget):
+class Certificate(Provenance, SuiteScore, RuleBudget):
     """How close a greedy suite is to the best possible suite of its budget.
 
     Computed by :func:`certificate` (the bound is explained in the module docstring).
@@ -81,10 +83,8 @@ class Certificate(SuiteScore, RuleBudget):
         knapsack_exact: whether every knapsack was solved exactly (the bound is valid either way).
         n_evaluations: suites scored for the certificate.
         engine: the evaluator used.
-        problem: what it was computed on.
-        seconds: wall time [s] (the only field that varies between runs).
-        constraints: the limits besides the budget the bound respects (the greedy run's); None:
-            the budget alone.
+        constraints: (with ``problem`` and ``seconds``, :class:`~sensorsel.designs.parts.Provenance`'s)
+            the greedy run's, which the bound respects.
     """
 
     bound: float
@@ -98,9 +98,6 @@ class Certificate(SuiteScore, RuleBudget):
     knapsack_exact: bool
     n_evaluations: int
     engine: str
-    problem: TargetInfo | None = None
-    seconds: float = 0.0
-    constraints: Constraints | None = None
 
 
 @result_kind("greedy")
@@ -117,7 +114,7 @@ class CertifiedGreedyResult(GreedyResult):
             on the optimum); None when it was not asked for.
     """
 
-    certificate: Certificate | None = None
+    certificate: Certificate | None = last(None)
 
     @classmethod
     def of(cls, result: GreedyResult, certificate: Certificate | None) -> CertifiedGreedyResult:

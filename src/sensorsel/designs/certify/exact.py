@@ -45,11 +45,10 @@ from sensorsel.designs.certify.resume import (
     save_checkpoint,
     search_fingerprint,
 )
+from sensorsel.designs.parts import Provenance, SuiteQuality
 from sensorsel.designs.selection import REL_TOL, RULES, GreedyResult, check_budget, check_rule, greedy
 from sensorsel.errors import InputError
 from sensorsel.information.evaluators import Evaluator
-from sensorsel.information.evaluators.accuracy import RouteAccuracy
-from sensorsel.information.integrity import RouteIntegrity
 from sensorsel.io.progress import Progress, report
 from sensorsel.io.records import Budget, SuiteScore
 from sensorsel.io.results import result_kind
@@ -69,7 +68,7 @@ _Node = tuple[float, int, tuple[int, ...], float, int, tuple[int, ...], np.ndarr
 
 @result_kind("optimum")
 @dataclass(frozen=True)
-class OptimumResult(SuiteScore, Budget):
+class OptimumResult(SuiteQuality, Provenance, SuiteScore, Budget):
     """The best suite within a budget, found by branch and bound (proved optimal or not).
 
     Attributes:
@@ -99,14 +98,10 @@ class OptimumResult(SuiteScore, Budget):
         greedy_certificate_bound: the greedy runs' certificate bound (:func:`certificate`; for
             best-of the smaller of the uniform and marginal runs' bounds) [nats].
         engine: the evaluator used.
-        problem: what it was computed on.
-        seconds: wall time [s] (the only field that varies between runs, unless ``max_seconds`` stopped it).
-        constraints: the limits besides the budget every suite searched respects
-            (:class:`~sensorsel.model.constraints.Constraints`); None: the budget alone.
-        accuracy: the chosen suite's accuracy in metres on each route (empty when not computed;
-            the command line computes it).
-        integrity: the chosen suite's integrity on each route (empty when not computed; the
-            command line computes it: :mod:`sensorsel.information.integrity`).
+        seconds, constraints: (:class:`~sensorsel.designs.parts.Provenance`'s) the wall time, the
+            only field that varies between runs unless ``max_seconds`` stopped it; the limits every
+            suite searched respects. Last come the suite's accuracy and integrity
+            (:class:`~sensorsel.designs.parts.SuiteQuality`).
     """
 
     proved_optimal: bool
@@ -128,11 +123,6 @@ class OptimumResult(SuiteScore, Budget):
     greedy_percent_of_bound: float
     greedy_certificate_bound: float
     engine: str
-    problem: TargetInfo | None = None
-    seconds: float = 0.0
-    constraints: Constraints | None = None
-    accuracy: tuple[RouteAccuracy, ...] = ()
-    integrity: tuple[RouteIntegrity, ...] = ()
 
 
 def _target_info(ev: Evaluator) -> TargetInfo | None:

@@ -7,14 +7,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from sensorsel.designs.parts import Provenance, SuiteQuality
 from sensorsel.designs.selection import GreedyResult
 from sensorsel.errors import InputError
-from sensorsel.information.evaluators.accuracy import RouteAccuracy
-from sensorsel.information.integrity import RouteIntegrity
 from sensorsel.io.records import AlphaBudget, MethodWorst
 from sensorsel.io.results import result_kind
 from sensorsel.model.constraints import Constraints
-from sensorsel.model.problem import TargetInfo
 
 #: Cell states of the selection grid.
 FAILED, ACTIVE, UNUSED = "failed", "active", ""
@@ -49,7 +47,7 @@ class WorstCase:
 
 @result_kind("resilient-selection")
 @dataclass(frozen=True)
-class ResilientResult(AlphaBudget):
+class ResilientResult(Provenance, AlphaBudget):
     """A resilient selection: the failing set bought first, then greedy on the rest of the budget.
 
     Attributes:
@@ -66,10 +64,8 @@ class ResilientResult(AlphaBudget):
         greedy: the greedy run that chose the active set (budget = budget - failed cost).
         n_evaluations: suites scored (singletons, greedy, the final suite).
         engine: the evaluator used.
-        problem: what it was computed on.
-        seconds: wall time [s] (varies between runs).
-        constraints: the limits besides the budget the failing and the active set together respected
-            (:class:`~sensorsel.model.constraints.Constraints`); None: the budget alone.
+        constraints: (:class:`~sensorsel.designs.parts.Provenance`'s) the limits the failing and the
+            active set together respected.
     """
 
     rule: str
@@ -85,14 +81,11 @@ class ResilientResult(AlphaBudget):
     greedy: GreedyResult
     n_evaluations: int
     engine: str
-    problem: TargetInfo | None = None
-    seconds: float = 0.0
-    constraints: Constraints | None = None
 
 
 @result_kind("resilient-comparison")
 @dataclass(frozen=True)
-class Comparison(AlphaBudget):
+class Comparison(Provenance, AlphaBudget):
     """Greedy versus resilient selection at the same budget on one scenario, and their worst cases.
 
     Attributes:
@@ -103,9 +96,8 @@ class Comparison(AlphaBudget):
         resilient_worst: worst case of the resilient suite.
         engine: the evaluator used.
         fingerprint: digest of the inputs (for resuming).
-        problem: what it was computed on.
-        seconds: wall time [s].
-        constraints: the limits besides the budget both selections respected; None: the budget alone.
+        problem, seconds, constraints: :class:`~sensorsel.designs.parts.Provenance`'s; the
+            constraints both selections respected.
     """
 
     rule: str
@@ -115,9 +107,6 @@ class Comparison(AlphaBudget):
     resilient_worst: WorstCase
     engine: str
     fingerprint: str
-    problem: TargetInfo | None = None
-    seconds: float = 0.0
-    constraints: Constraints | None = None
 
 
 @dataclass(frozen=True)
@@ -318,8 +307,9 @@ class PerPeriodResult:
 
 @result_kind("resilient")
 @dataclass(frozen=True)
-class ResilientReport:
-    """What ``sensorsel resilient`` writes to ``resilient.json``.
+class ResilientReport(SuiteQuality):
+    """What ``sensorsel resilient`` writes to ``resilient.json``, the chosen suite's accuracy and
+    integrity last (:class:`~sensorsel.designs.parts.SuiteQuality`).
 
     Attributes:
         suite: ids of the whole-route chosen suite: Algorithm 2's (the failing sensors included), or with
@@ -334,10 +324,6 @@ class ResilientReport:
             each period).
         robust: with "robust", the whole route's robust choice (next to the greedy / Algorithm 2 comparison).
         constraints: the limits besides the budget every suite of the report respected; None: the budget alone.
-        accuracy: the chosen suite's accuracy in metres on each route (empty when not computed;
-            the command line computes it).
-        integrity: the chosen suite's integrity on each route (empty when not computed; the
-            command line computes it: :mod:`sensorsel.information.integrity`).
     """
 
     suite: tuple[str, ...]
@@ -352,5 +338,3 @@ class ResilientReport:
     method: str = ALGORITHM_2
     robust: RobustChoice | None = None
     constraints: Constraints | None = None
-    accuracy: tuple[RouteAccuracy, ...] = ()
-    integrity: tuple[RouteIntegrity, ...] = ()

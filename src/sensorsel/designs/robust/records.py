@@ -9,10 +9,9 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from sensorsel.designs.parts import SuiteQuality
 from sensorsel.designs.resilient.records import RobustOutcome
 from sensorsel.designs.selection import REL_TOL as TIE_TOL
-from sensorsel.information.evaluators.accuracy import RouteAccuracy
-from sensorsel.information.integrity import RouteIntegrity
 from sensorsel.io.records import AlphaBudget, MethodWorst, WorstOutcome, part_of
 from sensorsel.io.results import result_kind
 from sensorsel.model.constraints import Constraints
@@ -135,12 +134,13 @@ class RobustBound:
 
 @result_kind("robust")
 @dataclass(frozen=True)
-class RobustResult(RobustOutcome, AlphaBudget):
+class RobustResult(SuiteQuality, RobustOutcome, AlphaBudget):
     """A robust selection: the best candidate by exact worst case, all candidates, the bound.
 
     Its first fields are :class:`~sensorsel.io.records.AlphaBudget`'s and
     :class:`~sensorsel.designs.resilient.records.RobustOutcome`'s (documented there; the answer's worst
-    case is never below greedy's nor Algorithm 2's).
+    case is never below greedy's nor Algorithm 2's); its last, :class:`~sensorsel.designs.parts.SuiteQuality`'s
+    (the chosen suite's).
 
     Attributes:
         candidates: every candidate, in the order the methods ran.
@@ -156,10 +156,6 @@ class RobustResult(RobustOutcome, AlphaBudget):
         worst_member: with "worst", the route attaining the worst case.
         members: with "worst", every route's shares (the breakdown).
         constraints: the limits besides the budget every candidate kept; None: the budget alone.
-        accuracy: the chosen suite's accuracy in metres on each route (empty when not computed;
-            the command line computes it).
-        integrity: the chosen suite's integrity on each route (empty when not computed; the
-            command line computes it: :mod:`sensorsel.information.integrity`).
     """
 
     candidates: tuple[Candidate, ...]
@@ -173,8 +169,6 @@ class RobustResult(RobustOutcome, AlphaBudget):
     worst_member: str = ""
     members: tuple[MemberWorst, ...] = ()
     constraints: Constraints | None = None
-    accuracy: tuple[RouteAccuracy, ...] = ()
-    integrity: tuple[RouteIntegrity, ...] = ()
 
     @classmethod
     def of(

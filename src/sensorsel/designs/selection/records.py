@@ -4,12 +4,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from sensorsel.information.evaluators.accuracy import RouteAccuracy
-from sensorsel.information.integrity import RouteIntegrity
+from sensorsel.designs.parts import Provenance, SuiteQuality
 from sensorsel.io.records import RuleBudget, SuiteScore
 from sensorsel.io.results import result_kind
-from sensorsel.model.constraints import Constraints
-from sensorsel.model.problem import TargetInfo
 
 #: progress(done, total): called after each pick; total is an upper bound on the number of picks.
 
@@ -41,9 +38,11 @@ class Step:
 
 @result_kind("greedy", read=False)  # a run without its certificate: a "greedy" file, certificate null
 @dataclass(frozen=True)
-class GreedyResult(SuiteScore, RuleBudget):
+class GreedyResult(SuiteQuality, Provenance, SuiteScore, RuleBudget):
     """A greedy run: the rule that ran and its budget, the chosen suite (in pick order), its cost
-    (never above the budget) and score, and every intermediate architecture.
+    (never above the budget) and score, and every intermediate architecture, what it was computed on,
+    in how long, within which limits (:class:`~sensorsel.designs.parts.Provenance`), and the suite's
+    accuracy and integrity (:class:`~sensorsel.designs.parts.SuiteQuality`).
 
     Attributes:
         steps: the suite after each pick.
@@ -53,15 +52,6 @@ class GreedyResult(SuiteScore, RuleBudget):
         lazy: whether lazy (Minoux) evaluation was used.
         winning_rule: the single rule whose run this is: for a strategy (best-of), the component run
             it kept; else ``rule`` itself.
-        problem: what it was computed on.
-        seconds: wall time of the selection [s] (timings are the only fields that vary between runs).
-        constraints: the limits besides the budget the run respected
-            (:class:`~sensorsel.model.constraints.Constraints`);
-            None when the budget was the only one (no limit, no slot, nothing required or excluded).
-        accuracy: the suite's accuracy in metres and degrees on each route (one for a single route),
-            per keyframe; empty when not computed (the command line computes it).
-        integrity: the suite's integrity on each route (empty when not computed; the command line
-            computes it: :mod:`sensorsel.information.integrity`).
     """
 
     steps: tuple[Step, ...]
@@ -70,11 +60,6 @@ class GreedyResult(SuiteScore, RuleBudget):
     engine: str
     lazy: bool
     winning_rule: str
-    problem: TargetInfo | None = None
-    seconds: float = 0.0
-    constraints: Constraints | None = None
-    accuracy: tuple[RouteAccuracy, ...] = ()
-    integrity: tuple[RouteIntegrity, ...] = ()
 
     @property
     def rule_label(self) -> str:
