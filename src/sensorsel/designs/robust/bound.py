@@ -245,9 +245,6 @@ def _adversary(ev: Evaluator, suite: tuple[int, ...], alpha: int) -> float:
     return ev.score(s) if s else 0.0
 
 
-# Long on purpose (~150 lines): one proof, read top to bottom: the knapsack with the alpha best items
-# dropped at each anchor, the case split on a dominant sensor, and the exact leaves; its docstring
-# states the bound and each step cites it.
 def robust_bound(
     evaluator: Evaluator,
     budget_usd: float,
@@ -284,25 +281,14 @@ def robust_bound(
             and keeps the smaller bound (both are valid; with a node limit either tree may end lower);
             False: the integer programs' alone; True: the relaxation's alone.
     """
-    t0 = time.perf_counter()
     budget_usd, alpha = check_budget(budget_usd), check_alpha(alpha)
-    ev = evaluator
-    lib = ev.library
-    feas = feasible_set(lib, budget_usd, constraints) if constraints is not None else None
+    feas = feasible_set(evaluator.library, budget_usd, constraints) if constraints is not None else None
+    limits = _TreeLimits(max_nodes, max_anchors, max_exact_sets, leaf_greedy, leaf_search_nodes)
+    start = [as_suite(a) for a in anchors]
     if relax_to_budget is None and feas is not None and (not feas.only_budget or feas.required):
-        kw = dict(
-            anchors=anchors,
-            incumbent=incumbent,
-            max_nodes=max_nodes,
-            max_anchors=max_anchors,
-            max_exact_sets=max_exact_sets,
-            leaf_greedy=leaf_greedy,
-            leaf_search_nodes=leaf_search_nodes,
-            constraints=constraints,
-        )
-        n_start = ev.n_evaluations
-        tight = robust_bound(ev, budget_usd, alpha, relax_to_budget=False, **kw)  # type: ignore[arg-type]
-        loose = robust_bound(ev, budget_usd, alpha, relax_to_budget=True, **kw)  # type: ignore[arg-type]
+        t0, n_start = time.perf_counter(), evaluator.n_evaluations
+        tight = _case_split(evaluator, budget_usd, alpha, feas, False, start, incumbent, limits)
+        loose = _case_split(evaluator, budget_usd, alpha, feas, True, start, incumbent, limits)
         keep = tight if tight.bound <= loose.bound else loose
         other = loose if keep is tight else tight
         note = (
@@ -314,10 +300,41 @@ def robust_bound(
             keep,
             n_nodes=tight.n_nodes + loose.n_nodes,
             n_sweeps=tight.n_sweeps + loose.n_sweeps,
-            n_evaluations=ev.n_evaluations - n_start,
+            n_evaluations=evaluator.n_evaluations - n_start,
             seconds=round(time.perf_counter() - t0, 6),
             relaxation=keep.relaxation + note,
         )
+    return _case_split(evaluator, budget_usd, alpha, feas, relax_to_budget, start, incumbent, limits)
+
+
+@dataclass(frozen=True)
+class _TreeLimits:
+    """How far one case split of :func:`robust_bound` goes (its arguments of the same names)."""
+
+    max_nodes: int
+    max_anchors: int
+    max_exact_sets: int
+    leaf_greedy: bool
+    leaf_search_nodes: int
+
+
+# Long on purpose (~200 lines): one proof, read top to bottom: the knapsack with the alpha best items
+# dropped at each anchor, the case split on a dominant sensor, and the exact leaves; robust_bound's
+# docstring states the bound and each step cites it.
+def _case_split(
+    ev: Evaluator,
+    budget_usd: float,
+    alpha: int,
+    feas: FeasibleSet | None,
+    relax_to_budget: bool | None,
+    anchor_list: list[tuple[int, ...]],
+    incumbent: float,
+    limits: _TreeLimits,
+) -> RobustBound:
+    """One tree of :func:`robust_bound` (checked arguments): under limits besides the budget, the
+    integer programs' (fact (5)) or, with ``relax_to_budget``, the budget relaxation's (fact (4))."""
+    t0 = time.perf_counter()
+    lib = ev.library
     relaxation = ""
     root_removed: tuple[int, ...] = ()
     rows: FeasibleSet | None = None  # every limit kept (fact (5)); None: the budget knapsack
@@ -345,7 +362,6 @@ def robust_bound(
     A = rows.A if rows is not None else np.zeros((0, n))
     slack = REL_SLACK * np.maximum(1.0, np.abs(rows.b)) if rows is not None else np.zeros(0)
     singles = ev.scores_with((), list(range(n)))
-    anchor_list = [as_suite(a) for a in anchors]
     sweeps = 0
     tol = REL_TOL * max(1.0, abs(incumbent))
 
@@ -395,8 +411,11 @@ def robust_bound(
         )
         if fits_all:
             k = min(node.alpha, len(aff))
-            if math.comb(len(aff), k) <= max_exact_sets:
-                node.own, node.how = worst_case(ev, aff, node.alpha, max_failure_sets=max_exact_sets).score, "exact"
+            if math.comb(len(aff), k) <= limits.max_exact_sets:
+                node.own, node.how = (
+                    worst_case(ev, aff, node.alpha, max_failure_sets=limits.max_exact_sets).score,
+                    "exact",
+                )
                 if not node.failed and node.own > incumbent and (feas is None or feas.fits(aff)):
                     # nothing assumed failed: the leaf's library is a suite within the whole budget, and its
                     # worst case is achieved: a better incumbent settles the other leaves sooner
@@ -414,17 +433,17 @@ def robust_bound(
             if (
                 loose
                 and lib.cost(loose) <= budget_p * (1 + 1e-12) + 1e-9
-                and math.comb(len(loose), min(node.alpha, len(loose))) <= max_exact_sets
+                and math.comb(len(loose), min(node.alpha, len(loose))) <= limits.max_exact_sets
             ):
                 best, how = (
-                    worst_case(ev, loose, node.alpha, max_failure_sets=max_exact_sets).score,
+                    worst_case(ev, loose, node.alpha, max_failure_sets=limits.max_exact_sets).score,
                     "exact (budget alone)",
                 )
         tried = 0
         seen: set[tuple[int, ...]] = set()
         # anchors inside the node's library; those the node can afford first (a suite of the node)
         node_anchors = [tuple(i for i in x if i not in gone) for x in anchor_list]
-        if node.alpha == 0 and leaf_greedy:
+        if node.alpha == 0 and limits.leaf_greedy:
             # a nominal leaf: the greedy suite of its library and budget (for the failed-sensor branch of
             # the paper's failing sensor this is Algorithm 2's own greedy run: already scored)
             run = greedy(ev, budget_p, "uniform", exclude=frozenset(node.removed))
@@ -432,7 +451,7 @@ def robust_bound(
         node_anchors.sort(key=lambda x: lib.cost(x) > budget_p + 1e-9)  # stable: keeps the given order
         for x in [()] + node_anchors:
             xs = x
-            if tried >= max_anchors or best <= incumbent + tol:
+            if tried >= limits.max_anchors or best <= incumbent + tol:
                 break
             if tried and (xs == () or xs in seen):
                 continue
@@ -446,10 +465,10 @@ def robust_bound(
             b = f_x + knapsack_at(node, xs, items, gains)
             if b < best:
                 best, how = b, "knapsack at " + (",".join(lib.suite_ids(xs)) or "the empty suite")
-        if node.alpha == 0 and leaf_search_nodes > 0 and best > incumbent + tol:
+        if node.alpha == 0 and limits.leaf_search_nodes > 0 and best > incumbent + tol:
             # a nominal leaf: certify's branch and bound (its upper bound is valid even when stopped early;
             # under constraints it sees the budget alone, a relaxation)
-            opt = optimal(ev, budget_p, max_nodes=leaf_search_nodes, exclude=frozenset(node.removed))
+            opt = optimal(ev, budget_p, max_nodes=limits.leaf_search_nodes, exclude=frozenset(node.removed))
             if opt.upper_bound < best:
                 best = opt.upper_bound
                 how = (
@@ -472,7 +491,7 @@ def robust_bound(
     n_nodes = 1
     while heap:
         neg, _, node = heap[0]
-        if -neg <= incumbent + tol or n_nodes + 2 > max_nodes:
+        if -neg <= incumbent + tol or n_nodes + 2 > limits.max_nodes:
             break
         heapq.heappop(heap)
         if node.final or node.alpha == 0:
