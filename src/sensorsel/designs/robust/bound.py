@@ -253,10 +253,6 @@ def robust_bound(
     anchors: Sequence[Sequence[int]] = (),
     incumbent: float = 0.0,
     max_nodes: int = DEFAULT_BOUND_NODES,
-    max_anchors: int = MAX_ANCHORS,
-    max_exact_sets: int = MAX_EXACT_SETS,
-    leaf_greedy: bool = True,
-    leaf_search_nodes: int = LEAF_SEARCH_NODES,
     constraints: Constraints | None = None,
     relax_to_budget: bool | None = None,
 ) -> RobustBound:
@@ -269,11 +265,11 @@ def robust_bound(
         incumbent: a worst case already achieved [nats]: leaves at or below it are not refined. An
             "exact" leaf with no sensor assumed failed is a suite within the budget: its worst case
             raises the incumbent (and ``proved`` then refers to it).
-        max_nodes: nodes of the case split (1: no split).
-        leaf_search_nodes: on a leaf without failures left whose knapsack bound is above the incumbent,
-            run :func:`sensorsel.designs.certify.optimal` (excluding the removed sensors) with this node limit
-            and keep its upper bound if smaller (0: never).
-        leaf_greedy: anchor each leaf without failures left at a uniform greedy run on its library and budget.
+        max_nodes: nodes of the case split (1: no split). Each node tries :data:`MAX_ANCHORS` anchors
+            and solves its leaf exactly up to :data:`MAX_EXACT_SETS` failure sets; a leaf without failures
+            left is anchored at a uniform greedy run on its library and budget and, when its knapsack bound
+            is above the incumbent, bounded by :func:`sensorsel.designs.certify.optimal` (excluding the
+            removed sensors) with :data:`LEAF_SEARCH_NODES` nodes, keeping that upper bound if smaller.
         constraints: limits besides the budget, kept by the knapsacks' integer programs (fact (5));
             with only excluded sensors, they are removed and the budget knapsack is exact as it is.
         relax_to_budget: under limits besides the budget (or required sensors): None (default) builds
@@ -283,12 +279,11 @@ def robust_bound(
     """
     budget_usd, alpha = check_budget(budget_usd), check_alpha(alpha)
     feas = feasible_set(evaluator.library, budget_usd, constraints) if constraints is not None else None
-    limits = _TreeLimits(max_nodes, max_anchors, max_exact_sets, leaf_greedy, leaf_search_nodes)
     start = [as_suite(a) for a in anchors]
     if relax_to_budget is None and feas is not None and (not feas.only_budget or feas.required):
         t0, n_start = time.perf_counter(), evaluator.n_evaluations
-        tight = _case_split(evaluator, budget_usd, alpha, feas, False, start, incumbent, limits)
-        loose = _case_split(evaluator, budget_usd, alpha, feas, True, start, incumbent, limits)
+        tight = _case_split(evaluator, budget_usd, alpha, feas, False, start, incumbent, max_nodes)
+        loose = _case_split(evaluator, budget_usd, alpha, feas, True, start, incumbent, max_nodes)
         keep = tight if tight.bound <= loose.bound else loose
         other = loose if keep is tight else tight
         note = (
@@ -304,18 +299,7 @@ def robust_bound(
             seconds=round(time.perf_counter() - t0, 6),
             relaxation=keep.relaxation + note,
         )
-    return _case_split(evaluator, budget_usd, alpha, feas, relax_to_budget, start, incumbent, limits)
-
-
-@dataclass(frozen=True)
-class _TreeLimits:
-    """How far one case split of :func:`robust_bound` goes (its arguments of the same names)."""
-
-    max_nodes: int
-    max_anchors: int
-    max_exact_sets: int
-    leaf_greedy: bool
-    leaf_search_nodes: int
+    return _case_split(evaluator, budget_usd, alpha, feas, relax_to_budget, start, incumbent, max_nodes)
 
 
 # Long on purpose (~200 lines): one proof, read top to bottom: the knapsack with the alpha best items
@@ -329,7 +313,7 @@ def _case_split(
     relax_to_budget: bool | None,
     anchor_list: list[tuple[int, ...]],
     incumbent: float,
-    limits: _TreeLimits,
+    max_nodes: int,
 ) -> RobustBound:
     """One tree of :func:`robust_bound` (checked arguments): under limits besides the budget, the
     integer programs' (fact (5)) or, with ``relax_to_budget``, the budget relaxation's (fact (4))."""
@@ -411,9 +395,9 @@ def _case_split(
         )
         if fits_all:
             k = min(node.alpha, len(aff))
-            if math.comb(len(aff), k) <= limits.max_exact_sets:
+            if math.comb(len(aff), k) <= MAX_EXACT_SETS:
                 node.own, node.how = (
-                    worst_case(ev, aff, node.alpha, max_failure_sets=limits.max_exact_sets).score,
+                    worst_case(ev, aff, node.alpha, max_failure_sets=MAX_EXACT_SETS).score,
                     "exact",
                 )
                 if not node.failed and node.own > incumbent and (feas is None or feas.fits(aff)):
@@ -433,17 +417,17 @@ def _case_split(
             if (
                 loose
                 and lib.cost(loose) <= budget_p * (1 + 1e-12) + 1e-9
-                and math.comb(len(loose), min(node.alpha, len(loose))) <= limits.max_exact_sets
+                and math.comb(len(loose), min(node.alpha, len(loose))) <= MAX_EXACT_SETS
             ):
                 best, how = (
-                    worst_case(ev, loose, node.alpha, max_failure_sets=limits.max_exact_sets).score,
+                    worst_case(ev, loose, node.alpha, max_failure_sets=MAX_EXACT_SETS).score,
                     "exact (budget alone)",
                 )
         tried = 0
         seen: set[tuple[int, ...]] = set()
         # anchors inside the node's library; those the node can afford first (a suite of the node)
         node_anchors = [tuple(i for i in x if i not in gone) for x in anchor_list]
-        if node.alpha == 0 and limits.leaf_greedy:
+        if node.alpha == 0:
             # a nominal leaf: the greedy suite of its library and budget (for the failed-sensor branch of
             # the paper's failing sensor this is Algorithm 2's own greedy run: already scored)
             run = greedy(ev, budget_p, "uniform", exclude=frozenset(node.removed))
@@ -451,7 +435,7 @@ def _case_split(
         node_anchors.sort(key=lambda x: lib.cost(x) > budget_p + 1e-9)  # stable: keeps the given order
         for x in [()] + node_anchors:
             xs = x
-            if tried >= limits.max_anchors or best <= incumbent + tol:
+            if tried >= MAX_ANCHORS or best <= incumbent + tol:
                 break
             if tried and (xs == () or xs in seen):
                 continue
@@ -465,10 +449,10 @@ def _case_split(
             b = f_x + knapsack_at(node, xs, items, gains)
             if b < best:
                 best, how = b, "knapsack at " + (",".join(lib.suite_ids(xs)) or "the empty suite")
-        if node.alpha == 0 and limits.leaf_search_nodes > 0 and best > incumbent + tol:
+        if node.alpha == 0 and best > incumbent + tol:
             # a nominal leaf: certify's branch and bound (its upper bound is valid even when stopped early;
             # under constraints it sees the budget alone, a relaxation)
-            opt = optimal(ev, budget_p, max_nodes=limits.leaf_search_nodes, exclude=frozenset(node.removed))
+            opt = optimal(ev, budget_p, max_nodes=LEAF_SEARCH_NODES, exclude=frozenset(node.removed))
             if opt.upper_bound < best:
                 best = opt.upper_bound
                 how = (
@@ -491,7 +475,7 @@ def _case_split(
     n_nodes = 1
     while heap:
         neg, _, node = heap[0]
-        if -neg <= incumbent + tol or n_nodes + 2 > limits.max_nodes:
+        if -neg <= incumbent + tol or n_nodes + 2 > max_nodes:
             break
         heapq.heappop(heap)
         if node.final or node.alpha == 0:
