@@ -36,20 +36,20 @@ def wrap_angle(a: np.ndarray) -> np.ndarray:
 
 
 @dataclass(frozen=True, eq=False)
-class SensorObservations:
-    """All measurements of one placed sensor along the route, as parallel arrays of length n.
+class Measurements:
+    """Range-bearing measurements of landmarks from keyframes, as parallel arrays of length n: what a
+    sensor's observations and the Monte-Carlo solver's combined pairs
+    (:class:`sensorsel.simulation.solve.Pairs`) are made of.
 
     Attributes:
-        sensor: position of the sensor in the library.
         pose: (n,) keyframe index of each measurement.
         landmark: (n,) landmark index.
-        bearing_rad: (n,) true bearing relative to the car's heading [rad].
-        range_m: (n,) true range [m].
+        bearing_rad: (n,) bearing relative to the car's heading [rad].
+        range_m: (n,) range [m].
         sigma_bearing_rad: (n,) bearing noise std [rad].
         sigma_range_m: (n,) range noise std [m].
     """
 
-    sensor: int
     pose: np.ndarray
     landmark: np.ndarray
     bearing_rad: np.ndarray
@@ -59,6 +59,18 @@ class SensorObservations:
 
     def __len__(self) -> int:
         return len(self.pose)
+
+
+@dataclass(frozen=True, eq=False)
+class SensorObservations(Measurements):
+    """All measurements of one placed sensor along the route (:class:`Measurements`: the true bearings
+    and ranges, their noise std).
+
+    Attributes:
+        sensor: position of the sensor in the library.
+    """
+
+    sensor: int
 
     @property
     def landmarks_seen(self) -> np.ndarray:

@@ -69,14 +69,9 @@ class DaskCluster:
                     f"no Dask scheduler answered at {self.scheduler} within {self.connect_timeout_s:g} s "
                     f"({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''})"
                 ) from None
-            try:
-                self.client.wait_for_workers(1, timeout=self.connect_timeout_s)
-            except (OSError, TimeoutError) as exc:
-                self.close()
-                raise ClusterError(
-                    f"the Dask scheduler at {self.scheduler} has no worker after {self.connect_timeout_s:g} s "
-                    f"({type(exc).__name__})"
-                ) from None
+            self._wait_for_workers(
+                1, f"the Dask scheduler at {self.scheduler} has no worker after {self.connect_timeout_s:g} s"
+            )
             self.echo(f"sensorsel: dask scheduler {self.scheduler}: {len(self.client.nthreads())} workers")
             return self
         import importlib.util
@@ -96,20 +91,27 @@ class DaskCluster:
             worker_dashboard_address=None,
         )
         self.client = distributed.Client(self._local)  # actors find their client as the default one
-        try:  # every worker registered before the first placement (the cluster starts them, they report later)
-            self.client.wait_for_workers(self.workers, timeout=self.connect_timeout_s)
-        except (OSError, TimeoutError) as exc:
-            self.close()
-            raise ClusterError(
-                f"the local Dask cluster started fewer than {self.workers} workers within "
-                f"{self.connect_timeout_s:g} s ({type(exc).__name__})"
-            ) from None
+        # every worker registered before the first placement (the cluster starts them, they report later)
+        assert self.workers is not None  # the constructor took a scheduler or workers
+        self._wait_for_workers(
+            self.workers,
+            f"the local Dask cluster started fewer than {self.workers} workers within {self.connect_timeout_s:g} s",
+        )
         where = self.client.dashboard_link if dashboard else "none (install bokeh for one)"
         self.echo(
             f"sensorsel: dask LocalCluster of {self.workers} worker processes at {self._local.scheduler_address}; "
             f"dashboard {where}"
         )
         return self
+
+    def _wait_for_workers(self, n: int, failure: str) -> None:
+        """Wait up to ``connect_timeout_s`` for ``n`` workers; else close the client (and the local
+        cluster) and raise ClusterError: ``failure`` and the kind of error Dask gave."""
+        try:
+            self.client.wait_for_workers(n, timeout=self.connect_timeout_s)
+        except (OSError, TimeoutError) as exc:
+            self.close()
+            raise ClusterError(f"{failure} ({type(exc).__name__})") from None
 
     def __exit__(self, *exc: Any) -> None:
         self.close()

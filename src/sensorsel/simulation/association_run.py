@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -40,6 +41,15 @@ __all__ = ["SHIFT_NOTE", "calibration_bins", "check_association_args", "simulate
 SHIFT_NOTE = (
     "the filter's one-measurement update with the wrong landmark from the prediction: "
     "shift K_j nu_j - K_i nu_i of the pose estimate at that keyframe (not carried to later keyframes)"
+)
+#: how each kind of draw samples, in words (AssociationCheck.sampling)
+IMPORTANCE_SAMPLING = (
+    "importance sampling: each measurement on its own, from a defensive mixture of mean shifts toward "
+    "each wrong candidate's decision boundary, weighted by the likelihood ratio; a keyframe's figure is "
+    "1 - prod(1 - P(wrong) of its measurements)"
+)
+PLAIN_MONTE_CARLO = (
+    "plain Monte Carlo: each draw runs all of a keyframe's measurements on one shared pose and map error"
 )
 #: the calibration bins' edges of the predicted estimate: 0 and the decades 1e-12 .. 1
 BIN_EDGES = (0.0,) + tuple(10.0**e for e in range(-12, 1))
@@ -274,20 +284,20 @@ def simulate_association(
     )
     plan = Plan("association keyframe", run_case, tasks, states=tuple(hook.cases), state_of=tuple(range(len(tasks))))
     outcomes: list[KeyframeOutcome] = execute(plan, executor, progress=progress)
-    return _summarise(
-        problem,
-        positions,
-        hook,
-        outcomes,
+    return AssociationCheck(
         label=label,
+        suite=problem.library.suite_ids(positions),
         model=model,
         map_sigma_m=map_sigma_m,
         gate_probability=gate_probability,
         draws=draws,
         seed=seed,
-        importance=bool(importance),
+        importance_sampling=bool(importance),
+        sampling=IMPORTANCE_SAMPLING if importance else PLAIN_MONTE_CARLO,
         clutter_per_km=float(clutter_per_km),
         corridor_m=corridor,
+        shift=SHIFT_NOTE,
+        **_measured(problem, positions, hook, outcomes, clutter=clutter_per_km > 0),
     )
 
 
@@ -344,22 +354,12 @@ def _resolved(r: AssociationKeyframe) -> bool:
     return r.observed > 0 and r.standard_error <= RESOLVE_RELATIVE_SE * r.observed
 
 
-def _summarise(
-    problem: Problem,
-    positions: tuple[int, ...],
-    hook: _Cases,
-    outcomes: list[KeyframeOutcome],
-    *,
-    label: str,
-    model: str,
-    map_sigma_m: float | None,
-    gate_probability: float,
-    draws: int,
-    seed: int,
-    importance: bool,
-    clutter_per_km: float,
-    corridor_m: float,
-) -> AssociationCheck:
+def _measured(
+    problem: Problem, positions: tuple[int, ...], hook: _Cases, outcomes: list[KeyframeOutcome], *, clutter: bool
+) -> dict[str, Any]:
+    """What the draws measured beside what the integrity engine predicted: the fields of an
+    :class:`AssociationCheck` after its settings (per keyframe, per sensor, the calibration bins, the
+    rates per hour and the counts), by name. ``clutter``: whether the draws had clutter."""
     rows = tuple(
         AssociationKeyframe(
             keyframe=o.keyframe,
@@ -370,7 +370,7 @@ def _summarise(
             standard_error=o.standard_error,
             wrong_draws=o.wrong_draws,
             draws=o.draws,
-            observed_clutter=o.p_wrong_clutter if clutter_per_km > 0 else math.nan,
+            observed_clutter=o.p_wrong_clutter if clutter else math.nan,
             shift_lateral_m=o.shift_lateral_m,
             shift_longitudinal_m=o.shift_longitudinal_m,
             shift_heading_deg=o.shift_heading_deg,
@@ -392,26 +392,7 @@ def _summarise(
     within = sum(1 for r in resolved if r.observed / 2.0 <= r.predicted_estimate <= 2.0 * r.observed)
     below = sum(1 for r in rows if r.predicted_bound < _ci(r.observed, r.standard_error, r.wrong_draws, r.draws)[0])
     n_h = keyframes_per_hour(problem)
-    sampling = (
-        "importance sampling: each measurement on its own, from a defensive mixture of mean shifts toward "
-        "each wrong candidate's decision boundary, weighted by the likelihood ratio; a keyframe's figure is "
-        "1 - prod(1 - P(wrong) of its measurements)"
-        if importance
-        else "plain Monte Carlo: each draw runs all of a keyframe's measurements on one shared pose and map error"
-    )
-    return AssociationCheck(
-        label=label,
-        suite=lib.suite_ids(positions),
-        model=model,
-        map_sigma_m=map_sigma_m,
-        gate_probability=gate_probability,
-        draws=draws,
-        seed=seed,
-        importance_sampling=importance,
-        sampling=sampling,
-        clutter_per_km=clutter_per_km,
-        corridor_m=corridor_m,
-        shift=SHIFT_NOTE,
+    return dict(
         keyframes=rows,
         sensors=sensors,
         bins=calibration_bins(rows),

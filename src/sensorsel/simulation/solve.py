@@ -31,7 +31,7 @@ from sensorsel.information.graph import (
     landmark_prior,
     odometry_factor,
 )
-from sensorsel.model.sensing import wrap_angle
+from sensorsel.model.sensing import Measurements, wrap_angle
 from sensorsel.simulation.noise import Draw, Payload, draw
 
 SOLVERS = ("lm", "isam2")
@@ -41,24 +41,18 @@ ISAM2_MAX_FINAL_UPDATES = 20
 
 
 @dataclass(frozen=True, eq=False)
-class Pairs:
-    """A draw's kept measurements combined into one per (keyframe, landmark) pair (see the module).
+class Pairs(Measurements):
+    """A draw's kept measurements combined into one per (keyframe, landmark) pair (see the module):
+    m :class:`~sensorsel.model.sensing.Measurements`, sorted by keyframe then landmark, each pair's
+    bearing and range the information-weighted mean of its measurements, its std their combined one
+    (1/σ̄² = Σ 1/σ_i²).
 
     Attributes:
-        pose, landmark: (m,) each pair's keyframe and landmark, sorted by keyframe then landmark.
-        bearing_rad, range_m: (m,) the information-weighted mean of the pair's measurements.
-        sigma_bearing_rad, sigma_range_m: (m,) their combined std (1/σ̄² = Σ 1/σ_i²).
         first: (m,) payload index of each pair's first measurement (in :meth:`Payload.order`).
         constant: Σ_i (z_i − z̄)² / (2 σ_i²) over every pair and component: the error the
             combination leaves out (0.5 × whitened squared residuals, as ``graph.error``).
     """
 
-    pose: np.ndarray
-    landmark: np.ndarray
-    bearing_rad: np.ndarray
-    range_m: np.ndarray
-    sigma_bearing_rad: np.ndarray
-    sigma_range_m: np.ndarray
     first: np.ndarray
     constant: float
 

@@ -245,9 +245,6 @@ def _adversary(ev: Evaluator, suite: tuple[int, ...], alpha: int) -> float:
     return ev.score(s) if s else 0.0
 
 
-# Long on purpose (~150 lines): one proof, read top to bottom: the knapsack with the alpha best items
-# dropped at each anchor, the case split on a dominant sensor, and the exact leaves; its docstring
-# states the bound and each step cites it.
 def robust_bound(
     evaluator: Evaluator,
     budget_usd: float,
@@ -256,10 +253,6 @@ def robust_bound(
     anchors: Sequence[Sequence[int]] = (),
     incumbent: float = 0.0,
     max_nodes: int = DEFAULT_BOUND_NODES,
-    max_anchors: int = MAX_ANCHORS,
-    max_exact_sets: int = MAX_EXACT_SETS,
-    leaf_greedy: bool = True,
-    leaf_search_nodes: int = LEAF_SEARCH_NODES,
     constraints: Constraints | None = None,
     relax_to_budget: bool | None = None,
 ) -> RobustBound:
@@ -272,11 +265,11 @@ def robust_bound(
         incumbent: a worst case already achieved [nats]: leaves at or below it are not refined. An
             "exact" leaf with no sensor assumed failed is a suite within the budget: its worst case
             raises the incumbent (and ``proved`` then refers to it).
-        max_nodes: nodes of the case split (1: no split).
-        leaf_search_nodes: on a leaf without failures left whose knapsack bound is above the incumbent,
-            run :func:`sensorsel.designs.certify.optimal` (excluding the removed sensors) with this node limit
-            and keep its upper bound if smaller (0: never).
-        leaf_greedy: anchor each leaf without failures left at a uniform greedy run on its library and budget.
+        max_nodes: nodes of the case split (1: no split). Each node tries :data:`MAX_ANCHORS` anchors
+            and solves its leaf exactly up to :data:`MAX_EXACT_SETS` failure sets; a leaf without failures
+            left is anchored at a uniform greedy run on its library and budget and, when its knapsack bound
+            is above the incumbent, bounded by :func:`sensorsel.designs.certify.optimal` (excluding the
+            removed sensors) with :data:`LEAF_SEARCH_NODES` nodes, keeping that upper bound if smaller.
         constraints: limits besides the budget, kept by the knapsacks' integer programs (fact (5));
             with only excluded sensors, they are removed and the budget knapsack is exact as it is.
         relax_to_budget: under limits besides the budget (or required sensors): None (default) builds
@@ -284,25 +277,13 @@ def robust_bound(
             and keeps the smaller bound (both are valid; with a node limit either tree may end lower);
             False: the integer programs' alone; True: the relaxation's alone.
     """
-    t0 = time.perf_counter()
     budget_usd, alpha = check_budget(budget_usd), check_alpha(alpha)
-    ev = evaluator
-    lib = ev.library
-    feas = feasible_set(lib, budget_usd, constraints) if constraints is not None else None
+    feas = feasible_set(evaluator.library, budget_usd, constraints) if constraints is not None else None
+    start = [as_suite(a) for a in anchors]
     if relax_to_budget is None and feas is not None and (not feas.only_budget or feas.required):
-        kw = dict(
-            anchors=anchors,
-            incumbent=incumbent,
-            max_nodes=max_nodes,
-            max_anchors=max_anchors,
-            max_exact_sets=max_exact_sets,
-            leaf_greedy=leaf_greedy,
-            leaf_search_nodes=leaf_search_nodes,
-            constraints=constraints,
-        )
-        n_start = ev.n_evaluations
-        tight = robust_bound(ev, budget_usd, alpha, relax_to_budget=False, **kw)  # type: ignore[arg-type]
-        loose = robust_bound(ev, budget_usd, alpha, relax_to_budget=True, **kw)  # type: ignore[arg-type]
+        t0, n_start = time.perf_counter(), evaluator.n_evaluations
+        tight = _case_split(evaluator, budget_usd, alpha, feas, False, start, incumbent, max_nodes)
+        loose = _case_split(evaluator, budget_usd, alpha, feas, True, start, incumbent, max_nodes)
         keep = tight if tight.bound <= loose.bound else loose
         other = loose if keep is tight else tight
         note = (
@@ -314,10 +295,30 @@ def robust_bound(
             keep,
             n_nodes=tight.n_nodes + loose.n_nodes,
             n_sweeps=tight.n_sweeps + loose.n_sweeps,
-            n_evaluations=ev.n_evaluations - n_start,
+            n_evaluations=evaluator.n_evaluations - n_start,
             seconds=round(time.perf_counter() - t0, 6),
             relaxation=keep.relaxation + note,
         )
+    return _case_split(evaluator, budget_usd, alpha, feas, relax_to_budget, start, incumbent, max_nodes)
+
+
+# Long on purpose (~200 lines): one proof, read top to bottom: the knapsack with the alpha best items
+# dropped at each anchor, the case split on a dominant sensor, and the exact leaves; robust_bound's
+# docstring states the bound and each step cites it.
+def _case_split(
+    ev: Evaluator,
+    budget_usd: float,
+    alpha: int,
+    feas: FeasibleSet | None,
+    relax_to_budget: bool | None,
+    anchor_list: list[tuple[int, ...]],
+    incumbent: float,
+    max_nodes: int,
+) -> RobustBound:
+    """One tree of :func:`robust_bound` (checked arguments): under limits besides the budget, the
+    integer programs' (fact (5)) or, with ``relax_to_budget``, the budget relaxation's (fact (4))."""
+    t0 = time.perf_counter()
+    lib = ev.library
     relaxation = ""
     root_removed: tuple[int, ...] = ()
     rows: FeasibleSet | None = None  # every limit kept (fact (5)); None: the budget knapsack
@@ -345,7 +346,6 @@ def robust_bound(
     A = rows.A if rows is not None else np.zeros((0, n))
     slack = REL_SLACK * np.maximum(1.0, np.abs(rows.b)) if rows is not None else np.zeros(0)
     singles = ev.scores_with((), list(range(n)))
-    anchor_list = [as_suite(a) for a in anchors]
     sweeps = 0
     tol = REL_TOL * max(1.0, abs(incumbent))
 
@@ -395,8 +395,11 @@ def robust_bound(
         )
         if fits_all:
             k = min(node.alpha, len(aff))
-            if math.comb(len(aff), k) <= max_exact_sets:
-                node.own, node.how = worst_case(ev, aff, node.alpha, max_failure_sets=max_exact_sets).score, "exact"
+            if math.comb(len(aff), k) <= MAX_EXACT_SETS:
+                node.own, node.how = (
+                    worst_case(ev, aff, node.alpha, max_failure_sets=MAX_EXACT_SETS).score,
+                    "exact",
+                )
                 if not node.failed and node.own > incumbent and (feas is None or feas.fits(aff)):
                     # nothing assumed failed: the leaf's library is a suite within the whole budget, and its
                     # worst case is achieved: a better incumbent settles the other leaves sooner
@@ -414,17 +417,17 @@ def robust_bound(
             if (
                 loose
                 and lib.cost(loose) <= budget_p * (1 + 1e-12) + 1e-9
-                and math.comb(len(loose), min(node.alpha, len(loose))) <= max_exact_sets
+                and math.comb(len(loose), min(node.alpha, len(loose))) <= MAX_EXACT_SETS
             ):
                 best, how = (
-                    worst_case(ev, loose, node.alpha, max_failure_sets=max_exact_sets).score,
+                    worst_case(ev, loose, node.alpha, max_failure_sets=MAX_EXACT_SETS).score,
                     "exact (budget alone)",
                 )
         tried = 0
         seen: set[tuple[int, ...]] = set()
         # anchors inside the node's library; those the node can afford first (a suite of the node)
         node_anchors = [tuple(i for i in x if i not in gone) for x in anchor_list]
-        if node.alpha == 0 and leaf_greedy:
+        if node.alpha == 0:
             # a nominal leaf: the greedy suite of its library and budget (for the failed-sensor branch of
             # the paper's failing sensor this is Algorithm 2's own greedy run: already scored)
             run = greedy(ev, budget_p, "uniform", exclude=frozenset(node.removed))
@@ -432,7 +435,7 @@ def robust_bound(
         node_anchors.sort(key=lambda x: lib.cost(x) > budget_p + 1e-9)  # stable: keeps the given order
         for x in [()] + node_anchors:
             xs = x
-            if tried >= max_anchors or best <= incumbent + tol:
+            if tried >= MAX_ANCHORS or best <= incumbent + tol:
                 break
             if tried and (xs == () or xs in seen):
                 continue
@@ -446,10 +449,10 @@ def robust_bound(
             b = f_x + knapsack_at(node, xs, items, gains)
             if b < best:
                 best, how = b, "knapsack at " + (",".join(lib.suite_ids(xs)) or "the empty suite")
-        if node.alpha == 0 and leaf_search_nodes > 0 and best > incumbent + tol:
+        if node.alpha == 0 and best > incumbent + tol:
             # a nominal leaf: certify's branch and bound (its upper bound is valid even when stopped early;
             # under constraints it sees the budget alone, a relaxation)
-            opt = optimal(ev, budget_p, max_nodes=leaf_search_nodes, exclude=frozenset(node.removed))
+            opt = optimal(ev, budget_p, max_nodes=LEAF_SEARCH_NODES, exclude=frozenset(node.removed))
             if opt.upper_bound < best:
                 best = opt.upper_bound
                 how = (

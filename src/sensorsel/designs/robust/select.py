@@ -32,16 +32,15 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import Any, Unpack
 
 from sensorsel.designs.resilient import RobustChoice, WorstCase, check_alpha, recorded, worst_case
 from sensorsel.designs.resilient.records import RobustOutcome
-from sensorsel.designs.robust.bound import DEFAULT_BOUND_NODES
 from sensorsel.designs.robust.memo import memoized
-from sensorsel.designs.robust.methods import DEFAULT_SATURATE_LEVELS
 from sensorsel.designs.robust.records import Candidate, RobustResult, best_of
 from sensorsel.designs.robust.tasks import (
     ALGORITHM_2,
+    MethodLimits,
     MethodOutcome,
     MethodTask,
     RobustSettings,
@@ -96,13 +95,9 @@ def robust_select(
     rules: Sequence[str] = DEFAULT_RULES,
     methods: Sequence[str] = EXTRA_METHODS,
     skip_when_proved: bool = True,
-    saturate_levels: int = DEFAULT_SATURATE_LEVELS,
-    saturate_evaluations: int | None = 2_000,
-    local_rounds: int = 10,
-    local_evaluations: int = 2_000,
-    bound_nodes: int = DEFAULT_BOUND_NODES,
     info: TargetInfo | None = None,
     constraints: Constraints | None = None,
+    **limits: Unpack[MethodLimits],
 ) -> RobustResult:
     """The best suite within ``budget_usd`` against ``alpha`` failures among the methods' suites, in
     this process, every method sharing one memo (each suite scored once in the whole run).
@@ -112,25 +107,17 @@ def robust_select(
         rules: plain greedy rules run as candidates ("uniform" is always run: the answer's floor).
         methods: the further methods: "oblivious", "saturate", "local-search".
         skip_when_proved: skip the further methods when the bound proves a candidate optimal.
-        saturate_levels, saturate_evaluations: SATURATE's bisection levels and evaluation limit.
-        local_rounds, local_evaluations: local search's move and evaluation limits.
-        bound_nodes: nodes of the bound's case split.
         constraints: limits besides the budget that every candidate keeps (module docstring).
+        limits: the methods' limits (:class:`~.tasks.MethodLimits`): saturate_levels and
+            saturate_evaluations (SATURATE's bisection levels and evaluation limit), local_rounds and
+            local_evaluations (local search's move and evaluation limits), bound_nodes (nodes of the
+            bound's case split); defaults: :class:`~.tasks.RobustSettings`'s.
     """
     t_start = time.perf_counter()
     budget, alpha = check_budget(budget_usd), check_alpha(alpha)
     rules = check_rules_and_methods(rules, methods, EXTRA_METHODS, "robust method")
     ev = memoized(evaluator)
-    settings = RobustSettings(
-        budget,
-        alpha,
-        kept_constraints(ev.library, budget, constraints),
-        saturate_levels,
-        saturate_evaluations,
-        local_rounds,
-        local_evaluations,
-        bound_nodes,
-    )
+    settings = RobustSettings(budget, alpha, kept_constraints(ev.library, budget, constraints), **limits)
     return choose(
         lambda tasks: [run_method(ev, settings, t) for t in tasks],
         ev.library,
@@ -268,7 +255,7 @@ def run_robust(
     methods: Sequence[str] = EXTRA_METHODS,
     skip_when_proved: bool = True,
     constraints: Constraints | None = None,
-    **limits: Any,
+    **limits: Unpack[MethodLimits],
 ) -> RobustResult:
     """:func:`robust_select` on a problem or a domain as a plan of tasks (:mod:`sensorsel.pipeline`):
     each stage's methods are tasks run by ``executor`` (default: this process), each on its own memo

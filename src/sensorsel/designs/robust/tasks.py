@@ -20,7 +20,7 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, TypedDict
 
 import numpy as np
 
@@ -53,6 +53,18 @@ class RobustSettings:
     local_rounds: int = 10
     local_evaluations: int = 2_000
     bound_nodes: int = DEFAULT_BOUND_NODES
+
+
+class MethodLimits(TypedDict, total=False):
+    """The methods' limits a robust run takes by keyword (:class:`RobustSettings` holds their
+    defaults): SATURATE's bisection levels and evaluation limit, local search's move and evaluation
+    limits, the nodes of the bound's case split."""
+
+    saturate_levels: int
+    saturate_evaluations: int | None
+    local_rounds: int
+    local_evaluations: int
+    bound_nodes: int
 
 
 @dataclass(frozen=True)

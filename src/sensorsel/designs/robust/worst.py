@@ -29,17 +29,18 @@ from __future__ import annotations
 
 import time
 from collections.abc import Sequence
+from typing import Unpack
 
 import numpy as np
 
 from sensorsel.designs.resilient import check_alpha, recorded, resilient_select, worst_case
-from sensorsel.designs.robust.bound import DEFAULT_BOUND_NODES, robust_bound
+from sensorsel.designs.robust.bound import robust_bound
 from sensorsel.designs.robust.family import FailureFamily, Family
 from sensorsel.designs.robust.memo import MemoEvaluator, memoized
-from sensorsel.designs.robust.methods import DEFAULT_SATURATE_LEVELS, Improves, first_improvement, saturate
+from sensorsel.designs.robust.methods import Improves, first_improvement, saturate
 from sensorsel.designs.robust.records import Candidate, MemberWorst, RobustBound, RobustResult, best_of
 from sensorsel.designs.robust.select import check_rules_and_methods
-from sensorsel.designs.robust.tasks import ALGORITHM_2
+from sensorsel.designs.robust.tasks import ALGORITHM_2, MethodLimits, RobustSettings
 from sensorsel.designs.selection import REL_TOL, check_budget, greedy
 from sensorsel.information.evaluators import DomainEvaluator, Evaluator, as_suite
 from sensorsel.model.constraints import Constraints, FeasibleSet, feasible_set
@@ -145,13 +146,9 @@ def worst_route_select(
     rules: Sequence[str] = ("uniform", "marginal"),
     methods: Sequence[str] = WORST_METHODS,
     skip_when_proved: bool = True,
-    saturate_levels: int = DEFAULT_SATURATE_LEVELS,
-    saturate_evaluations: int | None = 2_000,
-    local_rounds: int = 10,
-    local_evaluations: int = 2_000,
-    bound_nodes: int = DEFAULT_BOUND_NODES,
     evaluator: DomainEvaluator | None = None,
     constraints: Constraints | None = None,
+    **limits: Unpack[MethodLimits],
 ) -> RobustResult:
     """The suite within ``budget_usd`` maximising the worst route's share of its best under ``alpha``
     failures (see the module docstring); a :class:`RobustResult` with ``aggregate="worst"``.
@@ -159,7 +156,8 @@ def worst_route_select(
 
     ``constraints``: limits besides the budget (:mod:`sensorsel.model.constraints`) that every candidate
     keeps (checked before it is scored); the bound keeps them too (each route's :func:`robust_bound`).
-    The shares' normalisers b_r stay f_r(L), the whole library's score, as in the domain score."""
+    The shares' normalisers b_r stay f_r(L), the whole library's score, as in the domain score.
+    ``limits``: the methods' limits, as :func:`~.select.robust_select`'s."""
     t_start = time.perf_counter()
     budget, alpha = check_budget(budget_usd), check_alpha(alpha)
     rules = check_rules_and_methods(rules, methods, WORST_METHODS, "method for the worst route")
@@ -173,6 +171,7 @@ def worst_route_select(
     feas = feasible_set(lib, budget, constraints) if constraints is not None else None
     kept = recorded(feas)  # None when the budget is the only limit: every method runs as it always did
     feas = feas if kept is not None else None
+    lim = RobustSettings(budget, alpha, kept, **limits)  # the methods' limits, their defaults filled in
     cands: list[Candidate] = []
     skipped: list[str] = []
 
@@ -241,7 +240,7 @@ def worst_route_select(
                 alpha,
                 anchors=[surv],
                 incumbent=inc.worst_score * b,
-                max_nodes=bound_nodes,
+                max_nodes=lim.bound_nodes,
                 constraints=kept,
             )
             per_route.append(rb.bound / b)
@@ -272,8 +271,8 @@ def worst_route_select(
                 budget,
                 best().worst_score,
                 bnd.bound,
-                levels=saturate_levels,
-                max_evaluations=saturate_evaluations,
+                levels=lim.saturate_levels,
+                max_evaluations=lim.saturate_evaluations,
                 feasible=feas,
             )
             if not levels:
@@ -292,7 +291,12 @@ def worst_route_select(
         elif m == "local-search":
             start = best()
             s, note = _local_search(
-                fam, [lib.position(i) for i in start.suite], budget, local_rounds, local_evaluations, feasible=feas
+                fam,
+                [lib.position(i) for i in start.suite],
+                budget,
+                lim.local_rounds,
+                lim.local_evaluations,
+                feasible=feas,
             )
             add("local-search", s, f"from {start.method}; {note}", n0, t0)
     win = best()

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import csv
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -179,17 +180,39 @@ def _parse_row(line: str, path: Path, lineno: int, n: int, what: str) -> list[fl
     return values
 
 
+def _refuse_rows(bad: np.ndarray, path: Path, linenos: list[int], why: Callable[[int], str]) -> None:
+    """Refuse a file some of whose rows are wrong: ``bad``, the indices of those rows (into
+    ``linenos``, their line numbers); a ScenarioError naming the first one's line, ``why(i)`` of it
+    and how many such lines the file has. Nothing when ``bad`` is empty."""
+    if len(bad):
+        i = int(bad[0])
+        raise ScenarioError(path, f"{why(i)}; {len(bad)} such line(s) in the file", linenos[i])
+
+
 def _check_coordinates(xy: np.ndarray, path: Path, linenos: list[int], what: str) -> None:
     """No coordinate beyond :data:`MAX_COORD_M` (a value that is no place on a map)."""
     far = np.flatnonzero(np.abs(np.asarray(xy, dtype=float)).max(axis=1) > MAX_COORD_M)
-    if len(far):
-        i = int(far[0])
-        raise ScenarioError(
-            path,
+    _refuse_rows(
+        far,
+        path,
+        linenos,
+        lambda i: (
             f"{what} {np.asarray(xy)[i].tolist()!r} is beyond the limit of {MAX_COORD_M:g} m from the origin "
-            f"(in metres? no map is that large); {len(far)} such line(s) in the file",
-            linenos[i],
-        )
+            "(in metres? no map is that large)"
+        ),
+    )
+
+
+def _checked_rows(rows: list[list[float]], linenos: list[int], path: Path, empty: str, n_position: int) -> np.ndarray:
+    """The rows a route file's reader parsed (time first, then ``n_position`` position columns [m], on
+    the lines ``linenos``) as an array (N, columns): refuses a file without rows (``empty``: the
+    message), times that do not increase and positions beyond :data:`MAX_COORD_M`, each naming its line."""
+    if not rows:
+        raise ScenarioError(path, empty)
+    a = np.asarray(rows)
+    _increasing(a[:, 0].tolist(), path, linenos)
+    _check_coordinates(a[:, 1 : 1 + n_position], path, linenos, "position")
+    return a
 
 
 def select_keyframes(times: np.ndarray, rate_hz: float) -> np.ndarray:

@@ -13,10 +13,9 @@ from sensorsel.io.inputs import is_number_text
 from sensorsel.model.scenario.base import (
     RouteFile,
     Trajectory,
-    _check_coordinates,
+    _checked_rows,
     _csv_fields,
     _data_lines,
-    _increasing,
     _parse_row,
     _read_lines,
 )
@@ -116,11 +115,7 @@ def read_csv_route(path: str | Path, *, up: str | None = None, window_m: float =
             )
         rows.append(_parse_row(" ".join(fields[c] for c in cols), path, lineno, len(cols), ",".join(wanted)))
         linenos.append(lineno)
-    if not rows:
-        raise ScenarioError(path, "route CSV has a header but no poses")
-    a = np.asarray(rows)
-    _increasing(a[:, 0].tolist(), path, linenos)
-    _check_coordinates(a[:, 1:3], path, linenos, "position")
+    a = _checked_rows(rows, linenos, path, "route CSV has a header but no poses", 2)  # x and y (a heading or z follows)
     if "heading" in wanted:
         check_moves(a[:, 1:3], path)
         return RouteFile(Trajectory(a[:, 1:4], a[:, 0], np.arange(len(a)), str(path)), None, ())

@@ -19,6 +19,7 @@ from sensorsel.model.scenario.base import (
     _check_coordinates,
     _parse_row,
     _read_lines,
+    _refuse_rows,
 )
 from sensorsel.model.scenario.frames import find_frame
 
@@ -62,14 +63,15 @@ def _check_rotations(r: np.ndarray, path: Path, linenos: list[int]) -> None:
     orth = np.abs(r @ r.transpose(0, 2, 1) - np.eye(3)).max(axis=(1, 2))
     det = np.linalg.det(r)
     bad = np.flatnonzero(~((orth <= ROTATION_TOL) & (np.abs(det - 1.0) <= ROTATION_TOL)))
-    if len(bad):
-        i = int(bad[0])
-        raise ScenarioError(
-            path,
-            f"the 3x3 block R of the pose is not a rotation (max |R R^T - I| = {orth[i]:.3g}, det R = {det[i]:.6g}; "
-            f"allowed {ROTATION_TOL:g}); {len(bad)} such line(s) in the file",
-            linenos[i],
-        )
+    _refuse_rows(
+        bad,
+        path,
+        linenos,
+        lambda i: (
+            f"the 3x3 block R of the pose is not a rotation (max |R R^T - I| = {orth[i]:.3g}, "
+            f"det R = {det[i]:.6g}; allowed {ROTATION_TOL:g})"
+        ),
+    )
 
 
 def read_times(path: str | Path) -> np.ndarray:

@@ -13,9 +13,8 @@ from sensorsel.model.scenario.base import (
     QUATERNION_TOL,
     RouteFile,
     Trajectory,
-    _check_coordinates,
+    _checked_rows,
     _data_lines,
-    _increasing,
     _parse_row,
 )
 from sensorsel.model.scenario.frames import find_frame
@@ -78,11 +77,9 @@ def read_tum_route(path: str | Path, *, up: str | None = None, forward: str | No
             )
         rows.append(row)
         lines.append(lineno)
-    if not rows:
-        raise ScenarioError(path, "TUM trajectory is empty: expected lines of 'timestamp tx ty tz qx qy qz qw'")
-    a = np.asarray(rows)
-    _increasing(a[:, 0].tolist(), path, lines)
-    _check_coordinates(a[:, 1:4], path, lines, "position")
+    a = _checked_rows(
+        rows, lines, path, "TUM trajectory is empty: expected lines of 'timestamp tx ty tz qx qy qz qw'", 3
+    )
     q = a[:, 4:8] / np.linalg.norm(a[:, 4:8], axis=1)[:, None]
     rot = rotations_from_quaternions(q)
     frame, notes = find_frame(a[:, 1:4], rot, path, convention="z-up", up=up, forward=forward)

@@ -37,6 +37,7 @@ all landmarks).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -331,19 +332,12 @@ def front_logdet(
     return logdet
 
 
-def front_pose_covariances(
-    plan: FrontPlan,
-    wpl: np.ndarray,
-    d: np.ndarray,
-    a: np.ndarray,
-    blas: Blas,
-    buffers: tuple[np.ndarray, np.ndarray],
-    n_poses: int,
-) -> np.ndarray:
-    """The (K, 3, 3) marginal covariances of the poses by selected inversion on the frontal
-    elimination: linear in the route, like the elimination itself (arguments as :func:`front_logdet`).
+def front_pose_covariances(plan: FrontPlan, kept: Sequence[np.ndarray], n_poses: int) -> np.ndarray:
+    """The (K = ``n_poses``, 3, 3) marginal covariances of the poses by selected inversion on the
+    frontal elimination: linear in the route, like the elimination itself.
 
-    The forward pass is :func:`front_logdet`, keeping each chunk's eliminated rows. Going back from
+    The forward pass is :func:`front_logdet` of ``plan`` run with ``keep=kept``: each chunk's
+    eliminated rows, in chunk order, are what this backward pass reads. Going back from
     the last chunk, with E a chunk's eliminated variables, R the ones it carries on (all eliminated
     later, so their covariance Σ_RR over R is known by then), G11 = U11ᵀ U11 and X = G11⁻¹ G12 =
     U11⁻¹ (U11⁻ᵀ G12):
@@ -358,8 +352,6 @@ def front_pose_covariances(
     """
     from scipy.linalg import solve_triangular
 
-    kept: list[np.ndarray] = []
-    front_logdet(plan, wpl, d, a, blas, buffers, keep=kept)
     out = np.zeros((n_poses, 3, 3))
     s_rr = np.zeros((0, 0))
     for ch, top in zip(reversed(plan.chunks), reversed(kept)):

@@ -253,7 +253,9 @@ class Kernel:
         if self.uses_front(layout, d.shape[1]):
             plan = self.front_plan(layout, d.shape[1])
             self._count(front_covariance=1)
-            return front_pose_covariances(plan, wpl, d, a, self.blas, self._front_buffers(plan), self.n_poses)
+            kept: list[np.ndarray] = []  # the forward pass's eliminated rows, read back by the backward pass
+            front_logdet(plan, wpl, d, a, self.blas, self._front_buffers(plan), keep=kept)
+            return front_pose_covariances(plan, kept, self.n_poses)
         self._count(dense_covariance=1)
         return pose_marginals(self.pose_matrix(wpl, d, a, layout), self.blas)
 
