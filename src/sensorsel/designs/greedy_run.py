@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import Literal, overload
 
 from sensorsel.designs.certify import CertifiedGreedyResult, certificate
-from sensorsel.designs.checkpoint import GreedyStore
+from sensorsel.designs.checkpoint import GreedyInputs, GreedyStore
 from sensorsel.designs.domain_design import DomainDesign, route_breakdown, worst_route
 from sensorsel.designs.selection import check_budget, check_rule, greedy
 from sensorsel.information.evaluators import DomainEvaluator, Evaluator, evaluator_for
@@ -114,7 +114,9 @@ def greedy_design(
     budget, rule = check_budget(budget_usd), check_rule(rule)
     # the limits as the run records them (with the digest of the resources and slots they read)
     limits = feasible_set(target.library, budget, constraints).record if constraints is not None else None
-    store = GreedyStore.open(checkpoint, resume, target, budget, rule, engine, aggregate, lazy, limits)
+    store = GreedyStore.open(
+        checkpoint, resume, target, GreedyInputs(budget, rule, engine or "", aggregate, lazy, limits)
+    )
     ev = evaluator if evaluator is not None else evaluator_for(target, engine, jobs=jobs, aggregate=aggregate)
     res = greedy(
         ev, budget, rule, lazy=lazy, progress=progress, info=target.info, constraints=constraints, journal=store
