@@ -23,7 +23,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, Unpack
 
 from sensorsel.designs.certify import (
     DEFAULT_MAX_NODES,
@@ -40,7 +40,7 @@ from sensorsel.designs.certify import (
 # (pyproject.toml: sensorsel.cli imports neither sensorsel.designs nor sensorsel.information).
 from sensorsel.designs.checkpoint import checkpoint_path, remove_checkpoint
 from sensorsel.designs.domain_design import DomainDesign, by_condition
-from sensorsel.designs.greedy_run import greedy_design
+from sensorsel.designs.greedy_run import GreedyKeywords, GreedyRun, domain_design, greedy_design
 from sensorsel.designs.requirements import FrontAcceptance, RequireResult, front_acceptance
 from sensorsel.designs.requirements import require as run_require
 from sensorsel.designs.requirements.design import RouteRequirement
@@ -338,21 +338,16 @@ def run_greedy(
     budget_usd: float,
     rule: str = "uniform",
     *,
-    engine: str | None = None,
-    jobs: int = 1,
-    lazy: bool = True,
-    aggregate: str = "normalised",
-    progress: Progress | None = None,
-    certify: bool = False,
-    certify_progress: Progress | None = None,
-    checkpoint: str | Path | None = None,
-    resume: bool = False,
-    constraints: Constraints | None = None,
     evaluator: Evaluator | None = None,
+    **greedy: Unpack[GreedyKeywords],
 ) -> CertifiedGreedyResult:
     """The ``sensorsel greedy`` run (:func:`sensorsel.designs.greedy_run.greedy_design`): greedy selection
-    with a fresh evaluator of ``engine`` for a problem or a domain (its routes combined by ``aggregate``),
-    recording what it ran on.
+    with a fresh evaluator for a problem or a domain (its routes combined by ``aggregate``), recording
+    what it ran on. The keywords: ``engine``, ``jobs``, ``aggregate``, ``lazy``, ``constraints`` (limits
+    besides the budget: resources, mounting slots, required and excluded sensors, most sensors;
+    :mod:`sensorsel.model.constraints`, recorded in the result) and ``progress`` (after each pick), as
+    :class:`~sensorsel.designs.options.RunOptions` says; ``certify``, ``certify_progress``,
+    ``checkpoint`` and ``resume``, as :class:`~sensorsel.designs.greedy_run.GreedyRun` says.
 
     With ``certify``, the result carries its :class:`~sensorsel.designs.certify.Certificate` (an upper bound
     on the best possible score within the budget), computed with the same evaluator: at most one sweep
@@ -364,9 +359,6 @@ def run_greedy(
     timings and evaluation counts); a checkpoint of another run is not read back (a
     :class:`~sensorsel.pipeline.store.CacheWarning` names it and what differs; the run starts afresh).
 
-    ``constraints``: limits besides the budget (resources, mounting slots, required and excluded
-    sensors, most sensors; :mod:`sensorsel.model.constraints`), recorded in the result.
-
     ``evaluator``: the target's evaluator already built (e.g. on a Dask cluster; ``engine``, ``jobs`` and
     ``aggregate`` are then its own); not with ``checkpoint`` (a resumable run builds its own).
 
@@ -375,24 +367,9 @@ def run_greedy(
             evaluator is built).
         ValueError: both ``evaluator`` and ``checkpoint`` given.
     """
-    if evaluator is not None and checkpoint is not None:
+    if evaluator is not None and greedy.get("checkpoint") is not None:
         raise ValueError("run_greedy: a resumable run (checkpoint=) builds its own evaluator: give no evaluator=")
-    return greedy_design(
-        problem,
-        budget_usd,
-        rule,
-        engine=engine,
-        jobs=jobs,
-        aggregate=aggregate,
-        lazy=lazy,
-        certify=certify,
-        progress=progress,
-        certify_progress=certify_progress,
-        evaluator=evaluator,
-        constraints=constraints,
-        checkpoint=checkpoint,
-        resume=resume,
-    )
+    return greedy_design(problem, GreedyRun.of(budget_usd, rule, **greedy), evaluator)
 
 
 def design_domain(
@@ -400,42 +377,18 @@ def design_domain(
     budget_usd: float,
     rule: str = "uniform",
     *,
-    engine: str | None = None,
-    jobs: int = 1,
-    aggregate: str = "normalised",
-    lazy: bool = True,
-    certify: bool = False,
-    progress: Progress | None = None,
-    certify_progress: Progress | None = None,
     breakdown_progress: Progress | None = None,
     evaluator: DomainEvaluator | None = None,
-    checkpoint: str | Path | None = None,
-    resume: bool = False,
-    constraints: Constraints | None = None,
+    **greedy: Unpack[GreedyKeywords],
 ) -> DomainDesign:
-    """The ``sensorsel greedy --domain`` run: :func:`sensorsel.designs.greedy_run.greedy_design` with its
-    breakdown (one suite for every route, its certificate, each route's share of its best and of its own
-    design: :class:`~sensorsel.designs.domain_design.DomainDesign`). ``checkpoint``/``resume``: as for
-    :func:`run_greedy`; the certificate and each route's breakdown are recorded too. ``constraints``:
-    limits besides the budget, for the domain suite and each route's own design."""
-    return greedy_design(
-        domain,
-        budget_usd,
-        rule,
-        engine=engine,
-        jobs=jobs,
-        aggregate=aggregate,
-        lazy=lazy,
-        certify=certify,
-        breakdown=True,
-        progress=progress,
-        certify_progress=certify_progress,
-        breakdown_progress=breakdown_progress,
-        evaluator=evaluator,
-        constraints=constraints,
-        checkpoint=checkpoint,
-        resume=resume,
-    )
+    """The ``sensorsel greedy --domain`` run: :func:`sensorsel.designs.greedy_run.domain_design`, greedy
+    with its breakdown (one suite for every route, its certificate, each route's share of its best and
+    of its own design, ``breakdown_progress(done, total)`` after each route:
+    :class:`~sensorsel.designs.domain_design.DomainDesign`). The keywords, ``checkpoint`` and ``resume``
+    too: as for :func:`run_greedy`; the certificate and each route's breakdown are recorded in the
+    checkpoint as well. ``constraints``: limits besides the budget, for the domain suite and each
+    route's own design."""
+    return domain_design(domain, GreedyRun.of(budget_usd, rule, **greedy), evaluator, breakdown_progress)
 
 
 @dataclass(frozen=True)
@@ -636,7 +589,7 @@ def run_robust(
         if recorded(feas) is None:
             kwargs.pop("constraints")  # the budget alone
     if aggregate == "worst":
-        if not isinstance(target, Domain):
+        if target.kind != Domain.kind:  # the kind tells the type apart (a Literal): no isinstance
             raise InputError(
                 "aggregate 'worst' is the worst route of an operating domain: give a domain (--domain FILE)"
             )
