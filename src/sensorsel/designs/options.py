@@ -18,7 +18,7 @@ from sensorsel.io.progress import Progress
 from sensorsel.model.constraints import Constraints
 from sensorsel.model.problem import Domain, Target
 
-__all__ = ["RunKeywords", "RunOptions"]
+__all__ = ["RunKeywords", "RunOptions", "ScoringKeywords"]
 
 
 @dataclass(frozen=True)
@@ -63,13 +63,19 @@ class RunOptions:
         return cls(**ours), {k: v for k, v in keywords.items() if k not in names}
 
 
-class RunKeywords(TypedDict, total=False):
-    """:class:`RunOptions` as the keywords of a public run function (``**options:
-    Unpack[RunKeywords]``); each means what the attribute of that name does, with its default."""
+class ScoringKeywords(TypedDict, total=False):
+    """The evaluator's part of :class:`RunOptions` as keywords (a run that scores but does not
+    select, e.g. a certificate): ``engine``, ``jobs``, ``aggregate``."""
 
     engine: str | None
     jobs: int
     aggregate: str
+
+
+class RunKeywords(ScoringKeywords, total=False):
+    """:class:`RunOptions` as the keywords of a public run function (``**options:
+    Unpack[RunKeywords]``); each means what the attribute of that name does, with its default."""
+
     lazy: bool
     constraints: Constraints | None
     progress: Progress | None

@@ -75,13 +75,7 @@ def failing_set(
         picked.append(pick)
         left[pick] = False
         spent += float(costs[pick])
-    note = ""
-    if len(picked) < alpha:
-        note = (
-            f"only {len(picked)} informative sensor(s) fit the budget ${budget:,.0f} as failing sensors; "
-            f"{alpha} requested"
-        )
-    return picked, [float(singles[i]) for i in picked], note
+    return _failing(picked, singles, alpha, f"the budget ${budget:,.0f}")
 
 
 def _most_informative(ok: np.ndarray, singles: np.ndarray, costs: np.ndarray, ids: Sequence[str]) -> int | None:
@@ -114,12 +108,15 @@ def _failing_set_within(evaluator: Evaluator, feas: FeasibleSet, alpha: int) -> 
         left[pick] = False
         if not required[pick]:
             used = used + feas.A[:, pick]
+    return _failing(picked, singles, alpha, f"the limits ({feas.constraints.describe()}; ${feas.budget_usd:,.0f})")
+
+
+def _failing(picked: list[int], singles: np.ndarray, alpha: int, within: str) -> tuple[list[int], list[float], str]:
+    """:func:`failing_set`'s answer: the picks, their f({e}) [nats] and, when fewer than ``alpha``, why
+    (what they had to fit ``within``, in words)."""
     note = ""
     if len(picked) < alpha:
-        note = (
-            f"only {len(picked)} informative sensor(s) fit the limits ({feas.constraints.describe()}; "
-            f"${feas.budget_usd:,.0f}) as failing sensors; {alpha} requested"
-        )
+        note = f"only {len(picked)} informative sensor(s) fit {within} as failing sensors; {alpha} requested"
     return picked, [float(singles[i]) for i in picked], note
 
 
