@@ -480,3 +480,21 @@ def test_default_engine_gives_the_reference_selection(tiny):
     for a, b in zip(fast.periods, ref.periods):
         assert a.result.suite == b.result.suite and a.worst.failures == b.worst.failures
         assert close(a.result.score, b.result.score) and close(a.worst.score, b.worst.score)
+
+
+def test_a_short_failing_set_says_what_it_had_to_fit(tiny_problem) -> None:  # type: ignore[no-untyped-def]
+    """At the cheapest sensor's price one sensor fits as a failing sensor, whatever alpha asks: the note
+    names the budget; under limits (here at most one sensor) it names the limits and the budget."""
+    from sensorsel.designs.resilient import failing_set
+    from sensorsel.information.evaluators import make_evaluator
+    from sensorsel.model.constraints import Constraints
+
+    ev = make_evaluator(tiny_problem, "reference")
+    cheapest = float(tiny_problem.library.costs.min())
+    picked, scores, note = failing_set(ev, cheapest, 2)
+    assert len(picked) == len(scores) == 1
+    assert note == f"only 1 informative sensor(s) fit the budget ${cheapest:,.0f} as failing sensors; 2 requested"
+    whole = float(tiny_problem.library.costs.sum())
+    picked, _, note = failing_set(ev, whole, 2, Constraints(max_sensors=1, slots=False))
+    assert len(picked) == 1 and note.startswith("only 1 informative sensor(s) fit the limits (")
+    assert note.endswith(f"; ${whole:,.0f}) as failing sensors; 2 requested")
