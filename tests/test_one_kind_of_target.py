@@ -18,7 +18,7 @@ import pytest
 
 from sensorsel.designs.checkpoint import run_fingerprint
 from sensorsel.designs.inputs import route_entry, route_inputs
-from sensorsel.errors import ResultFileError
+from sensorsel.errors import InputError, ResultFileError
 from sensorsel.model.problem import (
     ONE_ROUTE_KEYS,
     Domain,
@@ -53,31 +53,11 @@ ALLOWED: dict[tuple[str, str], tuple[int, str]] = {
         "a recipe rebuilds the type it was given (a worker gets a Problem back for a Problem); its pickled "
         "form is what workers receive",
     ),
-    ("api.py", "run_robust"): (
-        1,
-        "'worst' is the worst of a domain's routes; on one route it is refused (a user error), not silently "
-        "the plain score",
-    ),
-    ("designs/greedy_run.py", "greedy_design"): (
-        1,
-        "a breakdown sets each route against its own design: only a domain evaluator holds per-route engines "
-        "(an assert narrowing the type; only a domain asks for one)",
-    ),
     ("designs/requirements/checks.py", "_short_answer"): (
         1,
         "whether a route's engine holds its problem in this process (a cluster's actor does not): not a "
         "route-or-domain branch",
     ),
-    ("designs/resilient/__init__.py", "resilient_report"): (
-        2,
-        "periods split one route's time line; a domain has no single time line (refused, then narrowed)",
-    ),
-    ("designs/resilient/algorithm.py", "compare"): (
-        2,
-        "a domain's comparison records no fingerprint and is not cached: caching it would change its bytes",
-    ),
-    ("designs/resilient/cache.py", "load_matching"): (1, "a stored period is one route's, or a bare fingerprint"),
-    ("designs/resilient/cache.py", "_recorded_problem"): (1, "the same: a period's record is one route's"),
     # the command line: output and options that exist for one kind only
     ("cli/certify.py", "_certify"): (1, "a domain design file holds its greedy result inside (a result kind)"),
     ("cli/cluster.py", "require_domain"): (
@@ -203,3 +183,34 @@ def test_units_and_headlines(suburb_problem) -> None:  # type: ignore[no-untyped
     assert (d.score_unit, d.kind, _domain(p).kind) == ("", "domain", "domain")
     assert p.info.headline == f"scenario {p.scenario.name}" and d.headline == "domain of 2 routes"
     assert [r.name for r in p.info.routes] == [r.name for r in p.routes] == [p.scenario.name]
+
+
+def test_time_line_is_a_route_s_own_and_no_domain_s(suburb_problem, tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """A run that splits time into periods or keeps one route's comparison reads ``time_line``: the
+    problem itself on a route; None on a domain, a domain of one route too (its member has the time
+    line, the domain's score is another number)."""
+    from sensorsel.designs.options import RunOptions
+    from sensorsel.designs.resilient import compare, resilient_report
+    from sensorsel.io import results
+
+    p = suburb_problem
+    assert p.time_line is p
+    assert _domain(p).time_line is None and _domain(p, names=("a",), weights=(1.0,)).time_line is None
+    # a route's comparison is stored with its fingerprint; a domain's is neither stored nor fingerprinted
+    fast = RunOptions(engine="fast")
+    route = compare(p, 20_000, 1, options=fast, cache=tmp_path / "route.json")
+    assert route.fingerprint and results.load(tmp_path / "route.json") == route
+    dom = compare(_domain(p), 20_000, 1, options=fast, cache=tmp_path / "domain.json")
+    assert dom.fingerprint == "" and not (tmp_path / "domain.json").exists()
+    # the same greedy suite: a domain of copies of one route scores a suite as that route does
+    assert dom.greedy.suite == route.greedy.suite
+    with pytest.raises(InputError, match="one route, not on a domain"):
+        resilient_report(_domain(p), 20_000, 1, period_s=5.0, engine="fast")
+
+
+def test_worst_route_is_refused_on_one_route(suburb_problem) -> None:  # type: ignore[no-untyped-def]
+    """'worst' is told apart by the target's kind (a Literal type), not by isinstance: refused on a route."""
+    from sensorsel.api import run_robust
+
+    with pytest.raises(InputError, match="worst route of an operating domain"):
+        run_robust(suburb_problem, 20_000, 1, aggregate="worst")

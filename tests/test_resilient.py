@@ -18,6 +18,7 @@ import yaml
 from click.testing import CliRunner
 
 from sensorsel.cli import cli
+from sensorsel.designs.options import RunOptions
 from sensorsel.designs.resilient import (
     ACTIVE,
     FAILED,
@@ -198,7 +199,7 @@ def test_resilient_worst_case_beats_greedy_when_one_sensor_dominates(library):
     f_lrl, f_all = ev.score([0]), ev.score(range(4))
     assert f_lrl > 0.75 * f_all  # the construction: the long-range LiDAR carries most of the information
     # $104,000 buys the long-range LiDAR plus either the mid-range LiDAR or a radar (not both)
-    c = compare(p, 104_000, 1, engine="reference")
+    c = compare(p, 104_000, 1, options=RunOptions(engine="reference"))
     assert c.greedy.suite[0] == "LRL-roof" and "MRL-roof" not in c.greedy.suite  # given LRL, the radar adds more
     assert c.resilient.failed == ("LRL-roof",) and "MRL-roof" in c.resilient.active
     assert c.greedy_worst.failures == ("LRL-roof",) == c.resilient_worst.failures
@@ -360,10 +361,10 @@ def test_resume_after_deleting_periods_and_after_changing_inputs(tiny, tmp_path)
 
 def test_damaged_route_cache_is_reported(tiny, tmp_path):
     cache = tmp_path / "route.json"
-    first = compare(tiny, 110_000, 1, engine="reference", cache=cache)
+    first = compare(tiny, 110_000, 1, options=RunOptions(engine="reference"), cache=cache)
     cache.write_text(json.dumps({"alpha": 1}))  # JSON, but not a Comparison
     with pytest.warns(CacheWarning, match="route.json: not reused, it cannot be read as a Comparison"):
-        again = compare(tiny, 110_000, 1, engine="reference", cache=cache, resume=True)
+        again = compare(tiny, 110_000, 1, options=RunOptions(engine="reference"), cache=cache, resume=True)
     assert _text(again) == _text(first)
     assert results.load(cache, type(first)).fingerprint == first.fingerprint  # overwritten with a good file
 
@@ -479,3 +480,21 @@ def test_default_engine_gives_the_reference_selection(tiny):
     for a, b in zip(fast.periods, ref.periods):
         assert a.result.suite == b.result.suite and a.worst.failures == b.worst.failures
         assert close(a.result.score, b.result.score) and close(a.worst.score, b.worst.score)
+
+
+def test_a_short_failing_set_says_what_it_had_to_fit(tiny_problem) -> None:  # type: ignore[no-untyped-def]
+    """At the cheapest sensor's price one sensor fits as a failing sensor, whatever alpha asks: the note
+    names the budget; under limits (here at most one sensor) it names the limits and the budget."""
+    from sensorsel.designs.resilient import failing_set
+    from sensorsel.information.evaluators import make_evaluator
+    from sensorsel.model.constraints import Constraints
+
+    ev = make_evaluator(tiny_problem, "reference")
+    cheapest = float(tiny_problem.library.costs.min())
+    picked, scores, note = failing_set(ev, cheapest, 2)
+    assert len(picked) == len(scores) == 1
+    assert note == f"only 1 informative sensor(s) fit the budget ${cheapest:,.0f} as failing sensors; 2 requested"
+    whole = float(tiny_problem.library.costs.sum())
+    picked, _, note = failing_set(ev, whole, 2, Constraints(max_sensors=1, slots=False))
+    assert len(picked) == 1 and note.startswith("only 1 informative sensor(s) fit the limits (")
+    assert note.endswith(f"; ${whole:,.0f}) as failing sensors; 2 requested")

@@ -246,7 +246,7 @@ GREEDY_CHANGES = {
 
 @pytest.mark.parametrize("field", list(GREEDY_CHANGES))
 def test_a_greedy_checkpoint_is_not_read_back_after_changing_one_input(field, problems, tmp_path):
-    from sensorsel.designs.checkpoint import GreedyCheckpoint, load_checkpoint, run_fingerprint
+    from sensorsel.designs.checkpoint import GreedyCheckpoint, GreedyInputs, load_checkpoint, run_fingerprint
 
     def fp_and_limits(problem, budget, rule, engine, aggregate, lazy, constraints):
         limits = feasible_set(problem.library, budget, constraints).record if constraints is not None else None
@@ -271,9 +271,8 @@ def test_a_greedy_checkpoint_is_not_read_back_after_changing_one_input(field, pr
     fp2, limits2 = fp_and_limits(target, **kw)
     assert fp2 != fp
     with pytest.warns(CacheWarning, match="g.json.checkpoint: not reused"):
-        got = load_checkpoint(
-            path, target, kw["budget"], kw["rule"], kw["engine"], kw["aggregate"], kw["lazy"], fp2, limits2
-        )
+        inputs = GreedyInputs(kw["budget"], kw["rule"], kw["engine"], kw["aggregate"], kw["lazy"], limits2)
+        got = load_checkpoint(path, target, inputs, fp2)
     assert got is None
 
 

@@ -23,7 +23,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, Unpack
 
 from sensorsel.designs.certify import (
     DEFAULT_MAX_NODES,
@@ -40,7 +40,8 @@ from sensorsel.designs.certify import (
 # (pyproject.toml: sensorsel.cli imports neither sensorsel.designs nor sensorsel.information).
 from sensorsel.designs.checkpoint import checkpoint_path, remove_checkpoint
 from sensorsel.designs.domain_design import DomainDesign, by_condition
-from sensorsel.designs.greedy_run import greedy_design
+from sensorsel.designs.greedy_run import GreedyKeywords, GreedyRun, domain_design, greedy_design
+from sensorsel.designs.options import RunKeywords, RunOptions, ScoringKeywords
 from sensorsel.designs.parts import SuiteQuality
 from sensorsel.designs.requirements import FrontAcceptance, RequireResult, front_acceptance
 from sensorsel.designs.requirements import require as run_require
@@ -117,7 +118,7 @@ from sensorsel.information.integrity.association import gate_of
 from sensorsel.information.integrity.risk import integrity_and_pass
 from sensorsel.io.records import SuiteScore
 from sensorsel.io.results import result_kind
-from sensorsel.model.constraints import Constraints, feasible_set
+from sensorsel.model.constraints import feasible_set
 from sensorsel.model.problem import Domain, DomainInfo, Problem, ProblemInfo, Target, load_domain, load_problem
 from sensorsel.simulation.records import SimulationResult
 
@@ -339,21 +340,16 @@ def run_greedy(
     budget_usd: float,
     rule: str = "uniform",
     *,
-    engine: str | None = None,
-    jobs: int = 1,
-    lazy: bool = True,
-    aggregate: str = "normalised",
-    progress: Progress | None = None,
-    certify: bool = False,
-    certify_progress: Progress | None = None,
-    checkpoint: str | Path | None = None,
-    resume: bool = False,
-    constraints: Constraints | None = None,
     evaluator: Evaluator | None = None,
+    **greedy: Unpack[GreedyKeywords],
 ) -> CertifiedGreedyResult:
     """The ``sensorsel greedy`` run (:func:`sensorsel.designs.greedy_run.greedy_design`): greedy selection
-    with a fresh evaluator of ``engine`` for a problem or a domain (its routes combined by ``aggregate``),
-    recording what it ran on.
+    with a fresh evaluator for a problem or a domain (its routes combined by ``aggregate``), recording
+    what it ran on. The keywords: ``engine``, ``jobs``, ``aggregate``, ``lazy``, ``constraints`` (limits
+    besides the budget: resources, mounting slots, required and excluded sensors, most sensors;
+    :mod:`sensorsel.model.constraints`, recorded in the result) and ``progress`` (after each pick), as
+    :class:`~sensorsel.designs.options.RunOptions` says; ``certify``, ``certify_progress``,
+    ``checkpoint`` and ``resume``, as :class:`~sensorsel.designs.greedy_run.GreedyRun` says.
 
     With ``certify``, the result carries its :class:`~sensorsel.designs.certify.Certificate` (an upper bound
     on the best possible score within the budget), computed with the same evaluator: at most one sweep
@@ -365,9 +361,6 @@ def run_greedy(
     timings and evaluation counts); a checkpoint of another run is not read back (a
     :class:`~sensorsel.pipeline.store.CacheWarning` names it and what differs; the run starts afresh).
 
-    ``constraints``: limits besides the budget (resources, mounting slots, required and excluded
-    sensors, most sensors; :mod:`sensorsel.model.constraints`), recorded in the result.
-
     ``evaluator``: the target's evaluator already built (e.g. on a Dask cluster; ``engine``, ``jobs`` and
     ``aggregate`` are then its own); not with ``checkpoint`` (a resumable run builds its own).
 
@@ -376,24 +369,9 @@ def run_greedy(
             evaluator is built).
         ValueError: both ``evaluator`` and ``checkpoint`` given.
     """
-    if evaluator is not None and checkpoint is not None:
+    if evaluator is not None and greedy.get("checkpoint") is not None:
         raise ValueError("run_greedy: a resumable run (checkpoint=) builds its own evaluator: give no evaluator=")
-    return greedy_design(
-        problem,
-        budget_usd,
-        rule,
-        engine=engine,
-        jobs=jobs,
-        aggregate=aggregate,
-        lazy=lazy,
-        certify=certify,
-        progress=progress,
-        certify_progress=certify_progress,
-        evaluator=evaluator,
-        constraints=constraints,
-        checkpoint=checkpoint,
-        resume=resume,
-    )
+    return greedy_design(problem, GreedyRun.of(budget_usd, rule, **greedy), evaluator)
 
 
 def design_domain(
@@ -401,42 +379,18 @@ def design_domain(
     budget_usd: float,
     rule: str = "uniform",
     *,
-    engine: str | None = None,
-    jobs: int = 1,
-    aggregate: str = "normalised",
-    lazy: bool = True,
-    certify: bool = False,
-    progress: Progress | None = None,
-    certify_progress: Progress | None = None,
     breakdown_progress: Progress | None = None,
     evaluator: DomainEvaluator | None = None,
-    checkpoint: str | Path | None = None,
-    resume: bool = False,
-    constraints: Constraints | None = None,
+    **greedy: Unpack[GreedyKeywords],
 ) -> DomainDesign:
-    """The ``sensorsel greedy --domain`` run: :func:`sensorsel.designs.greedy_run.greedy_design` with its
-    breakdown (one suite for every route, its certificate, each route's share of its best and of its own
-    design: :class:`~sensorsel.designs.domain_design.DomainDesign`). ``checkpoint``/``resume``: as for
-    :func:`run_greedy`; the certificate and each route's breakdown are recorded too. ``constraints``:
-    limits besides the budget, for the domain suite and each route's own design."""
-    return greedy_design(
-        domain,
-        budget_usd,
-        rule,
-        engine=engine,
-        jobs=jobs,
-        aggregate=aggregate,
-        lazy=lazy,
-        certify=certify,
-        breakdown=True,
-        progress=progress,
-        certify_progress=certify_progress,
-        breakdown_progress=breakdown_progress,
-        evaluator=evaluator,
-        constraints=constraints,
-        checkpoint=checkpoint,
-        resume=resume,
-    )
+    """The ``sensorsel greedy --domain`` run: :func:`sensorsel.designs.greedy_run.domain_design`, greedy
+    with its breakdown (one suite for every route, its certificate, each route's share of its best and
+    of its own design, ``breakdown_progress(done, total)`` after each route:
+    :class:`~sensorsel.designs.domain_design.DomainDesign`). The keywords, ``checkpoint`` and ``resume``
+    too: as for :func:`run_greedy`; the certificate and each route's breakdown are recorded in the
+    checkpoint as well. ``constraints``: limits besides the budget, for the domain suite and each
+    route's own design."""
+    return domain_design(domain, GreedyRun.of(budget_usd, rule, **greedy), evaluator, breakdown_progress)
 
 
 @dataclass(frozen=True)
@@ -511,16 +465,16 @@ def certify_result(
     target: Target,
     result: GreedyResult,
     *,
-    engine: str | None = None,
-    jobs: int = 1,
-    aggregate: str = "normalised",
     progress: Progress | None = None,
     force: bool = False,
     evaluator: Evaluator | None = None,
+    **scoring: Unpack[ScoringKeywords],
 ) -> Certificate:
     """The certificate of a greedy result on ``target`` (an upper bound on the best possible score
     within its budget; see :func:`sensorsel.designs.certify.certificate`), with a fresh evaluator of
-    ``engine`` (default: the result's own), or ``evaluator`` when given (e.g. built on a Dask cluster).
+    ``engine`` (default: the result's own), ``jobs`` and ``aggregate``
+    (:class:`~sensorsel.designs.options.RunOptions`), or ``evaluator`` when given (e.g. built on a Dask
+    cluster). ``progress(done, total)`` after each sweep.
 
     The bound respects the constraints the result records (``result.constraints``: resources,
     mounting slots, required and excluded sensors, most sensors).
@@ -532,29 +486,25 @@ def certify_result(
     mismatch = constraints_mismatch(result, target.library)
     if mismatch is not None and not (force and mismatch[1]):
         raise InputError(f"the greedy result: {mismatch[0]}")
-    ev = (
-        evaluator
-        if evaluator is not None
-        else evaluator_for(target, engine or _engine_of(result), jobs=jobs, aggregate=aggregate)
-    )
-    return certificate(ev, result, progress=progress)
+    options = RunOptions(**scoring)
+    if evaluator is None:
+        evaluator = replace(options, engine=options.engine or _engine_of(result)).evaluator(target)
+    return certificate(evaluator, result, progress=progress)
+
+
+class OptimalKeywords(RunKeywords, total=False):
+    """The keywords of :func:`run_optimal`: the run options (``lazy`` is not used: the search scores
+    every node it opens) and the search's own (:func:`sensorsel.designs.certify.optimal`)."""
+
+    max_nodes: int
+    max_seconds: float | None
+    rule: str
+    checkpoint: str | Path | None
+    resume: bool
 
 
 def run_optimal(
-    target: Target,
-    budget_usd: float,
-    *,
-    engine: str | None = None,
-    jobs: int = 1,
-    aggregate: str = "normalised",
-    max_nodes: int = DEFAULT_MAX_NODES,
-    max_seconds: float | None = None,
-    rule: str = "best-of",
-    progress: Progress | None = None,
-    constraints: Constraints | None = None,
-    evaluator: Evaluator | None = None,
-    checkpoint: str | Path | None = None,
-    resume: bool = False,
+    target: Target, budget_usd: float, *, evaluator: Evaluator | None = None, **search: Unpack[OptimalKeywords]
 ) -> OptimumResult:
     """The ``sensorsel optimal`` run: the best suite within the budget by branch and bound
     (:func:`sensorsel.designs.certify.optimal`), on a problem or a domain.
@@ -562,30 +512,21 @@ def run_optimal(
     ``constraints``: limits besides the budget (:mod:`sensorsel.model.constraints`); the optimum is the
     best suite they allow, and the result records them. ``evaluator``: the target's evaluator already
     built (e.g. on a Dask cluster; ``engine``, ``jobs`` and ``aggregate`` are then its own).
-    ``checkpoint``: the search's state is saved
-    there as it goes; ``resume``: go on from it.
+    ``max_nodes`` (default :data:`DEFAULT_MAX_NODES`), ``max_seconds``: the search's limits; ``rule``:
+    the greedy rule of its starting incumbent (default "best-of"). ``checkpoint``: the search's state
+    is saved there as it goes; ``resume``: go on from it.
 
     Raises:
         InputError: a bad budget or rule, or constraints the library cannot meet (before any
             evaluator is built).
     """
+    options, own = RunOptions.split(search)
     check_budget(budget_usd)
-    check_rule(rule)
-    if constraints is not None:
-        feasible_set(target.library, budget_usd, constraints)  # refuse a bad request before the evaluator
-    ev = evaluator if evaluator is not None else evaluator_for(target, engine, jobs=jobs, aggregate=aggregate)
-    return optimal(
-        ev,
-        budget_usd,
-        max_nodes=max_nodes,
-        max_seconds=max_seconds,
-        rule=rule,
-        progress=progress,
-        info=target.info,
-        constraints=constraints,
-        checkpoint=checkpoint,
-        resume=resume,
-    )
+    check_rule(own.get("rule", "best-of"))
+    if options.constraints is not None:
+        feasible_set(target.library, budget_usd, options.constraints)  # refuse a bad request before the evaluator
+    ev = evaluator if evaluator is not None else options.evaluator(target)
+    return optimal(ev, budget_usd, progress=options.progress, info=target.info, constraints=options.constraints, **own)
 
 
 def _engine_of(result: GreedyResult) -> str | None:
@@ -604,11 +545,9 @@ def run_robust(
     budget_usd: float,
     alpha: int,
     *,
-    engine: str | None = None,
-    jobs: int = 1,
     aggregate: str = "normalised",
     evaluator: DomainEvaluator | None = None,
-    **kwargs,
+    **kwargs: Any,
 ) -> RobustResult:
     """The ``sensorsel robust`` run: the best worst case under ``alpha`` failures within the budget
     (:func:`sensorsel.designs.robust.run_robust`: the methods as a plan of tasks), on a problem or a domain.
@@ -619,8 +558,8 @@ def run_robust(
     ``constraints=`` (:mod:`sensorsel.model.constraints`) limits every candidate suite; ``executor=``,
     ``outdir=`` and ``resume=`` choose where the tasks run and where their outcomes are kept
     (not with ``evaluator`` nor with "worst": one run on one evaluator).
-    ``evaluator``: a domain's evaluator already built (e.g. on a Dask cluster; "worst" needs a
-    normalised one); ``engine`` and ``aggregate`` are then its own.
+    ``engine=`` and ``jobs=`` build the evaluator; ``evaluator``: a domain's evaluator already built (e.g.
+    on a Dask cluster; "worst" needs a normalised one); the engine, jobs and ``aggregate`` are then its own.
 
     Raises:
         InputError: bad budget, alpha or aggregate; "worst" on a single route; constraints the library
@@ -634,17 +573,19 @@ def run_robust(
         if recorded(feas) is None:
             kwargs.pop("constraints")  # the budget alone
     if aggregate == "worst":
-        if not isinstance(target, Domain):
+        if target.kind != Domain.kind:  # the kind tells the type apart (a Literal): no isinstance
             raise InputError(
                 "aggregate 'worst' is the worst route of an operating domain: give a domain (--domain FILE)"
             )
         for k in ("executor", "outdir", "resume"):
             kwargs.pop(k, None)
-        return worst_route_select(target, budget_usd, alpha, engine=engine, jobs=jobs, evaluator=evaluator, **kwargs)
+        return worst_route_select(target, budget_usd, alpha, evaluator=evaluator, **kwargs)
     if evaluator is not None:  # one run on it, every method sharing one memo
         check_budget(budget_usd)
+        for k in ("engine", "jobs"):  # the evaluator's own
+            kwargs.pop(k, None)
         return robust_select(evaluator, budget_usd, alpha, info=target.info, **kwargs)
-    return _run_robust(target, budget_usd, alpha, engine=engine, jobs=jobs, aggregate=aggregate, **kwargs)
+    return _run_robust(target, budget_usd, alpha, aggregate=aggregate, **kwargs)
 
 
 def resilient_report(

@@ -28,7 +28,7 @@ command deletes it once the result itself is written.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -47,7 +47,7 @@ from sensorsel.pipeline.store import load_matching
 #: Bumped when what a checkpoint holds, or how a run is resumed from it, changes.
 FORMAT = 1
 
-__all__ = ["GreedyCheckpoint", "GreedyStore", "checkpoint_path", "remove_checkpoint"]
+__all__ = ["GreedyCheckpoint", "GreedyInputs", "GreedyStore", "checkpoint_path", "remove_checkpoint"]
 
 
 @result_kind("greedy-checkpoint")
@@ -121,59 +121,74 @@ def _money(v: float) -> str:
     return f"${v:,.0f}" if v == round(v) else f"${v:,.2f}"
 
 
-def load_checkpoint(
-    path: Path,
-    target: Target,
-    budget: float,
-    rule: str,
-    engine: str,
-    aggregate: str,
-    lazy: bool,
-    fingerprint: str,
-    constraints: Constraints | None = None,
-) -> GreedyCheckpoint | None:
-    """The checkpoint at ``path`` when it was written by this very run; None when there is none, or
-    (with a :class:`~sensorsel.pipeline.store.CacheWarning` naming the file and what differs) when it
-    cannot be read or was written by another run."""
+@dataclass(frozen=True)
+class GreedyInputs:
+    """A greedy run's own inputs besides its target, named as :class:`GreedyCheckpoint` records them.
+
+    Attributes:
+        budget_usd: the budget [$].
+        rule, engine, aggregate, lazy: the run's settings (``aggregate`` as checked, for a route too).
+        constraints: its limits besides the budget, with the digest of the resources and slots they
+            read (None: the budget alone).
+    """
+
+    budget_usd: float
+    rule: str
+    engine: str
+    aggregate: str
+    lazy: bool
+    constraints: Constraints | None = None
+
+    def fingerprint(self, target: Target) -> str:
+        """:func:`run_fingerprint` of these inputs on ``target``."""
+        return run_fingerprint(
+            target, self.budget_usd, self.rule, self.engine, self.aggregate, self.lazy, self.constraints
+        )
+
+    def start(self, target: Target, fingerprint: str) -> GreedyCheckpoint:
+        """The checkpoint of a run of these inputs on ``target`` before its first pick."""
+        return GreedyCheckpoint(fingerprint=fingerprint, target=target.info, **self._fields())
+
+    def differences(self, ck: GreedyCheckpoint, target: Target) -> list[str]:
+        """How the run that wrote ``ck`` differs from a run of these inputs on ``target``, in words
+        (empty: unknown)."""
+        diffs = target_differences(ck.target, target)
+        for name, ours in self._fields().items():
+            theirs = getattr(ck, name)
+            if name == "constraints" or theirs == ours:
+                continue
+            shown = (_money(theirs), _money(ours)) if name == "budget_usd" else (theirs, ours)
+            diffs.append(f"{_SAID.get(name, name)} {shown[0]} (this run: {shown[1]})")
+        if ck.constraints != self.constraints:
+            theirs_c, ours_c = recorded(ck.constraints), recorded(self.constraints)
+            what = (
+                f"limits {theirs_c.describe()} (this run: {ours_c.describe()})"
+                if theirs_c.describe() != ours_c.describe()
+                else "the library's resources or slots"
+            )
+            diffs.append(what)
+        return diffs
+
+    def _fields(self) -> dict[str, Any]:
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+
+#: how a difference names an input where its field's name is not the word
+_SAID = {"budget_usd": "budget"}
+
+
+def load_checkpoint(path: Path, target: Target, inputs: GreedyInputs, fingerprint: str) -> GreedyCheckpoint | None:
+    """The checkpoint at ``path`` when it was written by this very run (``inputs`` on ``target``, whose
+    digest is ``fingerprint``); None when there is none, or (with a
+    :class:`~sensorsel.pipeline.store.CacheWarning` naming the file and what differs) when it cannot be
+    read or was written by another run."""
     return load_matching(
         GreedyCheckpoint,
         path,
         fingerprint,
-        lambda ck: _differences(ck, target, budget, rule, engine, aggregate, lazy, constraints),
+        lambda ck: inputs.differences(ck, target),
         "another version of sensorsel",
     )
-
-
-def _differences(
-    ck: GreedyCheckpoint,
-    target: Target,
-    budget: float,
-    rule: str,
-    engine: str,
-    aggregate: str,
-    lazy: bool,
-    constraints: Constraints | None,
-) -> list[str]:
-    """How the run that wrote ``ck`` differs from this one, in words (empty: unknown)."""
-    diffs = target_differences(ck.target, target)
-    for name, theirs, ours in (
-        ("budget", _money(ck.budget_usd), _money(budget)),
-        ("rule", ck.rule, rule),
-        ("engine", ck.engine, engine),
-        ("aggregate", ck.aggregate, aggregate),
-        ("lazy", ck.lazy, lazy),
-    ):
-        if theirs != ours:
-            diffs.append(f"{name} {theirs} (this run: {ours})")
-    if ck.constraints != constraints:
-        theirs_c, ours_c = recorded(ck.constraints), recorded(constraints)
-        what = (
-            f"limits {theirs_c.describe()} (this run: {ours_c.describe()})"
-            if theirs_c.describe() != ours_c.describe()
-            else "the library's resources or slots"
-        )
-        diffs.append(what)
-    return diffs
 
 
 class GreedyStore:
@@ -186,50 +201,19 @@ class GreedyStore:
         self.path, self.ck = path, ck
 
     @classmethod
-    def open(
-        cls,
-        checkpoint: str | Path | None,
-        resume: bool,
-        target: Target,
-        budget: float,
-        rule: str,
-        engine: str | None,
-        aggregate: str,
-        lazy: bool,
-        limits: Constraints | None,
-    ) -> GreedyStore:
-        """The store of this run: in memory without ``checkpoint``; else that file, starting from what
-        it holds when ``resume`` and it was written by this very run (:func:`load_checkpoint`)."""
+    def open(cls, checkpoint: str | Path | None, resume: bool, target: Target, inputs: GreedyInputs) -> GreedyStore:
+        """The store of a run of ``inputs`` on ``target``: in memory without ``checkpoint`` (``inputs`` as
+        given); else that file, with the engine and aggregate checked, starting from what it holds when
+        ``resume`` and it was written by this very run (:func:`load_checkpoint`)."""
         if checkpoint is None:
-            return cls(
-                None,
-                GreedyCheckpoint(
-                    fingerprint="",
-                    budget_usd=budget,
-                    rule=rule,
-                    engine=engine or "",
-                    aggregate=aggregate,
-                    lazy=lazy,
-                    target=target.info,
-                    constraints=limits,
-                ),
-            )
-        path, eng = Path(checkpoint), check_engine(engine)
-        agg = check_aggregate(aggregate)
-        fp = run_fingerprint(target, budget, rule, eng, agg, lazy, limits)
-        ck = load_checkpoint(path, target, budget, rule, eng, agg, lazy, fp, limits) if resume else None
-        if ck is None:
-            ck = GreedyCheckpoint(
-                fingerprint=fp,
-                budget_usd=budget,
-                rule=rule,
-                engine=eng,
-                aggregate=agg,
-                lazy=lazy,
-                target=target.info,
-                constraints=limits,
-            )
-        return cls(path, ck)
+            return cls(None, inputs.start(target, ""))
+        path = Path(checkpoint)
+        inputs = replace(
+            inputs, engine=check_engine(inputs.engine or None), aggregate=check_aggregate(inputs.aggregate)
+        )
+        fp = inputs.fingerprint(target)
+        ck = load_checkpoint(path, target, inputs, fp) if resume else None
+        return cls(path, ck if ck is not None else inputs.start(target, fp))
 
     def update(self, **changes: Any) -> None:
         self.ck = replace(self.ck, **changes)

@@ -49,10 +49,12 @@ import time
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Unpack
 
 import numpy as np
 
 from sensorsel.designs.inputs import result_fingerprint
+from sensorsel.designs.options import RunKeywords, RunOptions
 from sensorsel.designs.parts import Provenance
 from sensorsel.designs.selection import RULES, GreedyResult, Rule, Step, check_budget, check_rule, greedy
 from sensorsel.errors import InputError
@@ -600,37 +602,35 @@ def run_tradespace(
     budgets: Iterable[float] | None = None,
     rules: Iterable[str] = DEFAULT_RULES,
     *,
-    engine: str | None = None,
-    jobs: int = 1,
-    lazy: bool = True,
     share_prefix: bool = True,
-    aggregate: str = "normalised",
-    progress: Progress | None = None,
-    constraints: Constraints | None = None,
     executor: Executor | None = None,
     outdir: str | Path | None = None,
     resume: bool = False,
+    **options: Unpack[RunKeywords],
 ) -> TradespaceResult:
-    """``sensorsel pareto``: :func:`tradespace` with a fresh evaluator of ``engine`` for a problem or a domain
-    (``aggregate``: how a domain combines its routes; the other arguments: see :func:`tradespace`)."""
+    """``sensorsel pareto``: :func:`tradespace` with a fresh evaluator for a problem or a domain; the
+    keywords: the run options (:class:`~sensorsel.designs.options.RunOptions`: ``engine``, ``jobs``,
+    ``aggregate``, how a domain combines its routes, ``lazy``, ``constraints``, ``progress``) and the
+    other arguments of :func:`tradespace`."""
+    o = RunOptions(**options)
     sel = parse_rules(rules, "rules")  # bad input fails before the evaluator is built
     grid = None if budgets is None else tuple(check_budget(b) for b in budgets)
-    eng, agg = check_engine(engine), check_aggregate(aggregate)
-    if constraints is not None:
+    eng, agg = check_engine(o.engine), check_aggregate(o.aggregate)
+    if o.constraints is not None:
         for b in grid or (float(target.library.costs.sum()),):
-            feasible_set(target.library, b, constraints)  # refuses a bad request (at every budget) up front
-    ev = evaluator_for(target, engine, jobs=jobs, aggregate=aggregate)
+            feasible_set(target.library, b, o.constraints)  # refuses a bad request (at every budget) up front
+    ev = o.evaluator(target)
     return tradespace(
         ev,
         grid,
         sel,
-        lazy=lazy,
+        lazy=o.lazy,
         share_prefix=share_prefix,
-        progress=progress,
+        progress=o.progress,
         info=target.info,
-        constraints=constraints,
+        constraints=o.constraints,
         executor=executor,
-        recipe=EvaluatorRecipe(TargetRecipe.of(target), eng, jobs, agg),
+        recipe=EvaluatorRecipe(TargetRecipe.of(target), eng, o.jobs, agg),
         outdir=outdir,
         resume=resume,
     )

@@ -13,7 +13,7 @@ from collections.abc import Iterable
 from dataclasses import asdict, dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
-from typing import ClassVar
+from typing import ClassVar, Literal
 
 import numpy as np
 
@@ -179,7 +179,7 @@ class ProblemInfo:
     condition: str | None = None
 
     #: what a result says it was computed on (:data:`TARGET_KINDS`); not a field: never written.
-    kind: ClassVar[str] = "route"
+    kind: ClassVar[Literal["route"]] = "route"
     #: the unit of a score on this target: the log det of the information matrix [nats].
     score_unit: ClassVar[str] = "nats"
 
@@ -239,7 +239,7 @@ class Problem:
         )
 
     #: what a result says it was computed on (:data:`TARGET_KINDS`).
-    kind: ClassVar[str] = "route"
+    kind: ClassVar[Literal["route"]] = "route"
 
     @property
     def n_sensors(self) -> int:
@@ -257,6 +257,13 @@ class Problem:
         order: :data:`ONE_ROUTE_KEYS` here (a route's name is not part of what it is), a domain's
         members by their names, weights and units (:attr:`Domain.route_keys`)."""
         return ONE_ROUTE_KEYS
+
+    @property
+    def time_line(self) -> Problem | None:
+        """The route whose keyframes are this target's one time line: this problem (a run that splits
+        time into periods, or keeps one route's stored result, reads it here). A :class:`Domain` has
+        none (each member has its own): None there."""
+        return self
 
     @property
     def info(self) -> ProblemInfo:
@@ -579,7 +586,7 @@ class DomainInfo:
     source: str
     routes: tuple[RouteInfo, ...]
 
-    kind: ClassVar[str] = "domain"
+    kind: ClassVar[Literal["domain"]] = "domain"
     #: a domain's score is a weighted share of each route's best: a number without a unit.
     score_unit: ClassVar[str] = ""
 
@@ -610,7 +617,7 @@ class Domain:
     routes: tuple[DomainRoute, ...]
     source: str = "<memory>"
 
-    kind: ClassVar[str] = "domain"
+    kind: ClassVar[Literal["domain"]] = "domain"
 
     def __post_init__(self) -> None:
         if not self.routes:
@@ -652,6 +659,11 @@ class Domain:
     def route_keys(self) -> tuple[tuple[str, float, str], ...]:
         """Each member's ``(name, weight, unit)``: a domain's result is one of these named, weighted routes."""
         return tuple((r.name, r.weight, r.unit) for r in self.routes)
+
+    @property
+    def time_line(self) -> Problem | None:
+        """None: a domain has no one time line (:attr:`Problem.time_line`), even of one member."""
+        return None
 
     @property
     def condition_names(self) -> tuple[str, ...]:

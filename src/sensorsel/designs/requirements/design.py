@@ -16,6 +16,7 @@ as the anti-monotone one; the lower bound stays valid (every cut excludes only f
 from __future__ import annotations
 
 import copy
+import functools
 import itertools
 import math
 import time
@@ -361,22 +362,17 @@ def require(
                 last[0] = time.monotonic()
 
         oracle.on_answer = write
+    # the search's settings, whichever predicates it is given
+    search = functools.partial(
+        cheapest_suite, failures=failures, time_limit=time_limit_s, progress=progress, max_tie_programs=max_tie_programs
+    )
     try:
         if integ is None:
             # accuracy alone is monotone in each sensor's information: dominance among sensors holds
             dominance = information_dominance(
                 [p for _, p in problems], [i for i in range(len(library)) if i not in feas.excluded]
             )
-            found = cheapest_suite(
-                feas,
-                oracle.meets,
-                failures=failures,
-                violation=oracle.violation,
-                time_limit=time_limit_s,
-                progress=progress,
-                max_tie_programs=max_tie_programs,
-                dominance=dominance,
-            )
+            found = search(feas, oracle.meets, violation=oracle.violation, dominance=dominance)
         else:
             checks = integ
             # monotone: accuracy, and the error tail with every measurement used; then integrity itself
@@ -390,16 +386,8 @@ def require(
             )
             searched = copy.copy(feas)
             searched.excluded = feas.excluded | alone
-            found = cheapest_suite(
-                searched,
-                whole,
-                failures=failures,
-                monotone=False,
-                necessary_monotone=down,
-                necessary_antimonotone=checks.floor_met,
-                time_limit=time_limit_s,
-                progress=progress,
-                max_tie_programs=max_tie_programs,
+            found = search(
+                searched, whole, monotone=False, necessary_monotone=down, necessary_antimonotone=checks.floor_met
             )
     finally:  # interrupted too (Ctrl-C): nothing learnt is lost
         if checkpoint is not None:

@@ -45,7 +45,7 @@ from __future__ import annotations
 
 import time
 from pathlib import Path
-from typing import Any
+from typing import Any, Unpack
 
 from sensorsel.designs.resilient.algorithm import (
     MAX_FAILURE_SETS,
@@ -60,13 +60,15 @@ from sensorsel.designs.resilient.algorithm import (
 from sensorsel.designs.resilient.cache import CacheWarning
 from sensorsel.designs.resilient.periods import (
     DEFAULT_PERIOD_S,
-    Progress,
+    ResilientKeywords,
+    ResilientRun,
     Selector,
     check_method,
     check_period,
     make_grid,
     period_file,
     period_scenario,
+    periods_of,
     run_periods,
     save_grid_csv,
     split_periods,
@@ -89,10 +91,9 @@ from sensorsel.designs.resilient.records import (
 )
 from sensorsel.designs.selection import check_budget
 from sensorsel.errors import InputError
-from sensorsel.information.evaluators import evaluator_for
-from sensorsel.model.constraints import Constraints, feasible_set
-from sensorsel.model.problem import Problem, Target
-from sensorsel.pipeline import Executor
+from sensorsel.io.progress import Progress
+from sensorsel.model.constraints import feasible_set
+from sensorsel.model.problem import Target
 
 __all__ = [
     "ACTIVE",
@@ -112,7 +113,9 @@ __all__ = [
     "PeriodSpan",
     "Progress",
     "ResilientReport",
+    "ResilientKeywords",
     "ResilientResult",
+    "ResilientRun",
     "SelectionGrid",
     "WorstCase",
     "check_alpha",
@@ -138,25 +141,16 @@ def resilient_report(
     alpha: int,
     *,
     period_s: float | None = DEFAULT_PERIOD_S,
-    rule: str = "uniform",
-    engine: str | None = None,
-    jobs: int = 1,
-    lazy: bool = True,
-    aggregate: str = "normalised",
-    outdir: str | Path | None = None,
-    resume: bool = False,
-    progress: Progress | None = None,
-    method: str = ALGORITHM_2,
-    selector: Selector | None = None,
-    constraints: Constraints | None = None,
-    executor: Executor | None = None,
+    **run: Unpack[ResilientKeywords],
 ) -> ResilientReport:
-    """The whole-route comparison and (unless ``period_s`` is None) the per-period selection.
+    """The whole-route comparison and (unless ``period_s`` is None) the per-period selection; the
+    keywords: :class:`~.periods.ResilientRun` (rule, run options, outdir, resume, method, selector,
+    executor).
 
     With ``outdir``, the comparison is cached in ``outdir/periods/route.json`` and each period in
     ``outdir/periods/period-NNNN.json``; ``resume`` reuses those whose inputs match (and warns about the others).
     On a :class:`~sensorsel.model.problem.Domain` the comparison is on the domain's score and there are no
-    periods (a period is a stretch of one route): ``period_s`` must then be None.
+    periods (a period is a stretch of one route's time line): ``period_s`` must then be None.
 
     ``method="robust"`` chooses the whole route's suite and each period's with ``selector`` (robust
     selection, see :data:`~.periods.Selector`; :func:`sensorsel.api.resilient_report` passes it) instead
@@ -170,55 +164,24 @@ def resilient_report(
     on a Dask cluster); the whole route is compared here. Same result either way, timings aside.
     """
     t0 = time.perf_counter()
-    budget, alpha, rule = check_budget(budget_usd), check_alpha(alpha), check_rule(rule)
-    method = check_method(method, selector)
+    r = ResilientRun.of(**run)
+    budget, alpha, rule = check_budget(budget_usd), check_alpha(alpha), check_rule(r.rule)
+    method = check_method(r.method, r.selector)
     if period_s is not None:
         check_period(period_s)
-    if period_s is not None and not isinstance(problem, Problem):
+    route = problem.time_line
+    if period_s is not None and route is None:
         raise InputError("a per-period selection runs on one route, not on a domain: give no period (period_s=None)")
-    cache = Path(outdir) / "periods" / "route.json" if outdir is not None else None
-    feas = (
-        feasible_set(problem.library, budget, constraints) if constraints is not None else None
-    )  # refuses a bad request
-    cmp_ = compare(
-        problem,
-        budget,
-        alpha,
-        rule,
-        engine=engine,
-        jobs=jobs,
-        lazy=lazy,
-        aggregate=aggregate,
-        cache=cache,
-        resume=resume,
-        constraints=constraints,
-    )
+    o = r.options
+    cache = Path(r.outdir) / "periods" / "route.json" if r.outdir is not None else None
+    feas = feasible_set(problem.library, budget, o.constraints) if o.constraints is not None else None  # refuses
+    cmp_ = compare(problem, budget, alpha, rule, o, cache=cache, resume=r.resume)
     choice = None
     if method == "robust":
-        assert selector is not None
-        extra: dict[str, Any] = {} if constraints is None else {"constraints": constraints}
-        choice, _ = selector(
-            evaluator_for(problem, engine, jobs=jobs, aggregate=aggregate), budget, alpha, problem.info, **extra
-        )
-    per = None
-    if period_s is not None and isinstance(problem, Problem):
-        per = run_periods(
-            problem,
-            budget,
-            alpha,
-            period_s=period_s,
-            rule=rule,
-            engine=engine,
-            jobs=jobs,
-            lazy=lazy,
-            outdir=outdir,
-            resume=resume,
-            progress=progress,
-            method=method,
-            selector=selector,
-            constraints=constraints,
-            executor=executor,
-        )
+        assert r.selector is not None
+        extra: dict[str, Any] = {} if o.constraints is None else {"constraints": o.constraints}
+        choice, _ = r.selector(o.evaluator(problem), budget, alpha, problem.info, **extra)
+    per = periods_of(route, budget, alpha, period_s, r) if period_s is not None and route is not None else None
     return ResilientReport(
         suite=choice.suite if choice else cmp_.resilient.suite,
         failed=() if choice else cmp_.resilient.failed,

@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from sensorsel.designs.options import RunOptions
 from sensorsel.designs.resilient.cache import fingerprint, load_matching
 from sensorsel.designs.resilient.records import Comparison, ResilientResult, WorstCase
 from sensorsel.designs.selection import REL_TOL, check_budget, check_rule, greedy
@@ -19,7 +20,7 @@ from sensorsel.errors import InputError
 from sensorsel.information.evaluators import DEFAULT_ENGINE, ENGINES, Evaluator, as_suite, evaluator_for
 from sensorsel.io import results
 from sensorsel.model.constraints import Constraints, FeasibleSet, feasible_set
-from sensorsel.model.problem import Problem, Target, TargetInfo
+from sensorsel.model.problem import Target, TargetInfo
 
 #: Enumeration limit of the worst-case evaluation (failure sets scored).
 MAX_FAILURE_SETS = 200_000
@@ -74,13 +75,7 @@ def failing_set(
         picked.append(pick)
         left[pick] = False
         spent += float(costs[pick])
-    note = ""
-    if len(picked) < alpha:
-        note = (
-            f"only {len(picked)} informative sensor(s) fit the budget ${budget:,.0f} as failing sensors; "
-            f"{alpha} requested"
-        )
-    return picked, [float(singles[i]) for i in picked], note
+    return _failing(picked, singles, alpha, f"the budget ${budget:,.0f}")
 
 
 def _most_informative(ok: np.ndarray, singles: np.ndarray, costs: np.ndarray, ids: Sequence[str]) -> int | None:
@@ -113,12 +108,15 @@ def _failing_set_within(evaluator: Evaluator, feas: FeasibleSet, alpha: int) -> 
         left[pick] = False
         if not required[pick]:
             used = used + feas.A[:, pick]
+    return _failing(picked, singles, alpha, f"the limits ({feas.constraints.describe()}; ${feas.budget_usd:,.0f})")
+
+
+def _failing(picked: list[int], singles: np.ndarray, alpha: int, within: str) -> tuple[list[int], list[float], str]:
+    """:func:`failing_set`'s answer: the picks, their f({e}) [nats] and, when fewer than ``alpha``, why
+    (what they had to fit ``within``, in words)."""
     note = ""
     if len(picked) < alpha:
-        note = (
-            f"only {len(picked)} informative sensor(s) fit the limits ({feas.constraints.describe()}; "
-            f"${feas.budget_usd:,.0f}) as failing sensors; {alpha} requested"
-        )
+        note = f"only {len(picked)} informative sensor(s) fit {within} as failing sensors; {alpha} requested"
     return picked, [float(singles[i]) for i in picked], note
 
 
@@ -256,39 +254,37 @@ def compare(
     budget_usd: float,
     alpha: int,
     rule: str = "uniform",
+    options: RunOptions | None = None,
     *,
-    engine: str | None = None,
-    jobs: int = 1,
-    lazy: bool = True,
-    aggregate: str = "normalised",
     cache: str | Path | None = None,
     resume: bool = False,
-    constraints: Constraints | None = None,
 ) -> Comparison:
     """Greedy and resilient selection at the same budget, with the worst case of each suite, on one
-    route or on a domain (the domain's score, combined by ``aggregate``).
+    route or on a domain (the domain's score, combined by the options' aggregate).
 
     Args:
+        options: engine, jobs, aggregate, laziness and the limits besides the budget, respected by both
+            selections (recorded, and part of the cache's fingerprint); its ``progress`` is not called
+            (one comparison). None: the defaults.
         cache: a file to save the result in (atomically); with ``resume``, reused when its inputs match
-            (one route only: a domain's comparison is not cached).
-        constraints: limits besides the budget, respected by both selections (recorded, and part of
-            the cache's fingerprint).
+            (one route only: a domain's comparison is not cached, and records no fingerprint).
     """
     t0 = time.perf_counter()
     budget, alpha, rule = check_budget(budget_usd), check_alpha(alpha), check_rule(rule)
-    name = engine_name(engine)
+    o = options if options is not None else RunOptions()
+    name, constraints = engine_name(o.engine), o.constraints
     feas = feasible_set(target.library, budget, constraints) if constraints is not None else None
-    fp = ""
-    if isinstance(target, Problem):
-        fp = fingerprint(target, budget, alpha, rule, name, lazy, {"what": "whole route", **constraints_key(feas)})
+    fp, route = "", target.time_line
+    if route is not None:
+        fp = fingerprint(route, budget, alpha, rule, name, o.lazy, {"what": "whole route", **constraints_key(feas)})
         if cache is not None and resume:
-            old = load_matching(Comparison, Path(cache), fp, target)
+            old = load_matching(Comparison, Path(cache), fp, route.fingerprint)
             if old is not None:
                 return old
-    ev = evaluator_for(target, name, jobs=jobs, aggregate=aggregate)
+    ev = evaluator_for(target, name, jobs=o.jobs, aggregate=o.aggregate)
     info = target.info
-    g = greedy(ev, budget, rule, lazy=lazy, info=info, constraints=constraints)
-    r = resilient_select(ev, budget, alpha, rule, lazy=lazy, info=info, constraints=constraints)
+    g = greedy(ev, budget, rule, lazy=o.lazy, info=info, constraints=constraints)
+    r = resilient_select(ev, budget, alpha, rule, lazy=o.lazy, info=info, constraints=constraints)
     lib = target.library
     gw = worst_case(ev, [lib.position(s) for s in g.suite], alpha)
     rw = worst_case(ev, [lib.position(s) for s in r.suite], alpha)
@@ -306,6 +302,6 @@ def compare(
         seconds=round(time.perf_counter() - t0, 6),
         constraints=recorded(feas),
     )
-    if cache is not None and isinstance(target, Problem):
+    if cache is not None and route is not None:
         results.save(out, cache)
     return out

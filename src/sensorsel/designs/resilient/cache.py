@@ -37,15 +37,14 @@ def fingerprint(
     )
 
 
-def load_matching(cls: type[T], path: Path, fingerprint: str, problem: Problem | Fingerprint | None = None) -> T | None:
+def load_matching(cls: type[T], path: Path, fingerprint: str, ours: Fingerprint | None = None) -> T | None:
     """The result stored at ``path`` if it is a ``cls`` with this fingerprint, else None.
 
     None without a word when there is no file; with a :class:`CacheWarning` naming the file when
-    there is one that cannot be reused (unreadable, or computed from other inputs: with ``problem``,
-    the warning says what differs when the stored result was computed on another problem). A stored
-    result is never reused for another problem: resume has no ``force``.
+    there is one that cannot be reused (unreadable, or computed from other inputs: with ``ours``, this
+    run's problem's fingerprint, the warning says what differs when the stored result was computed on
+    another problem). A stored result is never reused for another problem: resume has no ``force``.
     """
-    ours = problem.fingerprint if isinstance(problem, Problem) else problem
 
     def differences(old: object) -> list[str]:
         rec = _recorded_problem(old)
@@ -63,8 +62,9 @@ def load_matching(cls: type[T], path: Path, fingerprint: str, problem: Problem |
 
 
 def _recorded_problem(old: object) -> ProblemInfo | None:
-    """The problem a stored result records (a Comparison's, or a period's resilient result's)."""
+    """The route a stored result records (a Comparison's, or a period's resilient result's); None
+    when it records none, or a domain (whose comparison is never stored)."""
     info = getattr(old, "problem", None)
     if info is None:
         info = getattr(getattr(old, "result", None), "problem", None)
-    return info if isinstance(info, ProblemInfo) else None
+    return info if getattr(info, "kind", None) == ProblemInfo.kind else None

@@ -6,12 +6,13 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Unpack
 
 import numpy as np
 
+from sensorsel.designs.options import RunKeywords, RunOptions
 from sensorsel.designs.resilient.algorithm import (
     check_alpha,
     check_rule,
@@ -40,7 +41,6 @@ from sensorsel.errors import InputError
 from sensorsel.information.evaluators import make_evaluator
 from sensorsel.io import results
 from sensorsel.io.files import atomic_write_text
-from sensorsel.io.progress import Progress
 from sensorsel.model.constraints import Constraints, feasible_set
 from sensorsel.model.library import SensorLibrary
 from sensorsel.model.problem import Problem, build_problem
@@ -231,54 +231,82 @@ def period_store(plan: Plan[PeriodResult], outdir: str | Path | None, resume: bo
     )
 
 
+@dataclass(frozen=True)
+class ResilientRun:
+    """A resilient run's inputs besides its target, budget and failures (:func:`run_periods`,
+    :func:`sensorsel.designs.resilient.resilient_report`).
+
+    Attributes:
+        rule: the greedy rule of greedy selection and of the active set.
+        options: engine, jobs, aggregate (a domain's comparison), laziness, limits besides the budget
+            that every suite keeps (part of every stored file's fingerprint, so a resume never mixes
+            runs under other limits) and ``progress(periods done, total)`` after each period
+            (:class:`~sensorsel.designs.options.RunOptions`).
+        outdir: folder whose ``periods/`` receives the whole route's comparison and one JSON file per
+            period as it completes.
+        resume: reuse stored files whose fingerprint matches this run's inputs (a file that does not
+            match is reported with a :class:`~sensorsel.designs.resilient.cache.CacheWarning` and recomputed).
+        method: "algorithm-2" (the paper's Algorithm 2) or "robust" (``selector``).
+        selector: robust selection (see :data:`Selector`), needed by "robust".
+        executor: where the periods run (:mod:`sensorsel.pipeline`; default this process). The
+            files are written by this process as the periods' results arrive.
+    """
+
+    rule: str = "uniform"
+    options: RunOptions = field(default_factory=RunOptions)
+    outdir: str | Path | None = None
+    resume: bool = False
+    method: str = ALGORITHM_2
+    selector: Selector | None = None
+    executor: Executor | None = None
+
+    @classmethod
+    def of(cls, **keywords: Any) -> ResilientRun:
+        """The run of :class:`ResilientKeywords` (the run options and this run's own keywords)."""
+        options, own = RunOptions.split(keywords)
+        return cls(options=options, **own)
+
+
+class ResilientKeywords(RunKeywords, total=False):
+    """:class:`ResilientRun` as the keywords of a run function: the run options and its own."""
+
+    rule: str
+    outdir: str | Path | None
+    resume: bool
+    method: str
+    selector: Selector | None
+    executor: Executor | None
+
+
 def run_periods(
     problem: Problem,
     budget_usd: float,
     alpha: int,
     *,
     period_s: float = DEFAULT_PERIOD_S,
-    rule: str = "uniform",
-    engine: str | None = None,
-    jobs: int = 1,
-    lazy: bool = True,
-    outdir: str | Path | None = None,
-    resume: bool = False,
-    progress: Progress | None = None,
-    method: str = ALGORITHM_2,
-    selector: Selector | None = None,
-    constraints: Constraints | None = None,
-    executor: Executor | None = None,
+    **run: Unpack[ResilientKeywords],
 ) -> PerPeriodResult:
-    """Resilient selection on each period of the route.
+    """Resilient selection on each period of ``problem``, the whole route (its observations tell which
+    landmarks each period sees), of ``period_s`` [s] of the keyframe timestamps; the keywords:
+    :class:`ResilientRun`."""
+    return periods_of(problem, budget_usd, alpha, period_s, ResilientRun.of(**run))
 
-    Args:
-        problem: the whole route (its observations tell which landmarks each period sees).
-        period_s: period length [s] of the keyframe timestamps.
-        outdir: folder whose ``periods/`` receives one JSON file per period as it completes.
-        resume: reuse period files whose fingerprint matches this run's inputs (a file that does not
-            match is reported with a :class:`~sensorsel.designs.resilient.cache.CacheWarning` and recomputed).
-        progress: progress(periods done, total) after each period.
-        method: "algorithm-2" (the paper's Algorithm 2 per period) or "robust" (``selector`` per period).
-        selector: robust selection (see :data:`Selector`), needed by "robust".
-        constraints: limits besides the budget every period's suite keeps (part of each period
-            file's fingerprint, so a resume never mixes runs under other limits).
-        executor: where the periods run (:mod:`sensorsel.pipeline`; default this process). The
-            files are written by this process as the periods' results arrive.
-    """
+
+def periods_of(problem: Problem, budget_usd: float, alpha: int, period_s: float, run: ResilientRun) -> PerPeriodResult:
+    """:func:`run_periods` of one :class:`ResilientRun`."""
     t0 = time.perf_counter()
-    budget, alpha, rule = check_budget(budget_usd), check_alpha(alpha), check_rule(rule)
-    method = check_method(method, selector)
+    budget, alpha, rule = check_budget(budget_usd), check_alpha(alpha), check_rule(run.rule)
+    method = check_method(run.method, run.selector)
     period = check_period(period_s)
-    name = engine_name(engine)
-    feas = (
-        feasible_set(problem.library, budget, constraints) if constraints is not None else None
-    )  # refuses a bad request
-    plan = period_plan(problem, budget, alpha, rule, name, jobs, lazy, period, method, selector, constraints)
-    out = execute(plan, executor, period_store(plan, outdir, resume), progress)
-    if outdir is not None:
+    o = run.options
+    name = engine_name(o.engine)
+    feas = feasible_set(problem.library, budget, o.constraints) if o.constraints is not None else None  # refuses
+    plan = period_plan(problem, budget, alpha, rule, name, o.jobs, o.lazy, period, method, run.selector, o.constraints)
+    out = execute(plan, run.executor, period_store(plan, run.outdir, run.resume), o.progress)
+    if run.outdir is not None:
         # files of periods this run does not have (an earlier run with another period length) would mislead
-        keep = {period_file(outdir, t.span.index).name for t in plan.tasks}
-        for f in sorted((Path(outdir) / "periods").glob("period-*.json")):
+        keep = {period_file(run.outdir, t.span.index).name for t in plan.tasks}
+        for f in sorted((Path(run.outdir) / "periods").glob("period-*.json")):
             if f.name not in keep:
                 f.unlink()
     return PerPeriodResult(

@@ -11,8 +11,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from sensorsel.designs.greedy_run import greedy_design
+from sensorsel.designs.greedy_run import GreedyRun, greedy_design
 from sensorsel.designs.inputs import result_fingerprint
+from sensorsel.designs.options import RunOptions
 from sensorsel.designs.resilient import ALGORITHM_2, resilient_select, worst_case
 from sensorsel.designs.robust import robust_select
 from sensorsel.designs.study.records import (
@@ -50,7 +51,7 @@ def run_cell(target: Target, cell: Cell, study: Study, *, jobs: int = 1) -> Stud
     assumed: tuple[str, ...] = ()
     cert: float | None = None
     if alpha == 0:
-        g = greedy_design(target, budget, cell.rule, lazy=study.lazy, certify=study.certificate, evaluator=ev)
+        g = greedy_design(target, GreedyRun(budget, cell.rule, RunOptions(lazy=study.lazy), study.certificate), ev)
         suite, score, cost = g.suite, g.score, g.cost_usd
         if g.certificate is not None:
             cert = g.certificate.percent_of_best
