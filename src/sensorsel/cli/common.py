@@ -13,7 +13,7 @@ from sensorsel.api import PRESETS, Specification, load_specification_file, prese
 from sensorsel.errors import InputError, ResultFileError
 from sensorsel.io import results
 from sensorsel.model.library import SensorLibrary
-from sensorsel.model.problem import Problem, ProblemInfo, check_result_problem
+from sensorsel.model.problem import Problem, TargetInfo, check_result_problem
 
 #: Result kinds that name a suite: simulate --suite/--compare read these (resilient ones also say
 #: which sensors they assume to fail).
@@ -81,12 +81,13 @@ def read_suite(
         raise InputError(f"{what} {text!r}: {exc}") from None
 
 
-def _recorded_problem(rec: Any) -> ProblemInfo | None:
-    """The problem a suite result records (a resilient report's: its comparison's)."""
-    info = getattr(rec, "problem", None)
+def _recorded_problem(rec: Any) -> TargetInfo | None:
+    """The target a suite result records (a resilient report's: its comparison's): a route's or a
+    domain's, which :func:`~sensorsel.model.problem.check_result_problem` tells apart from this run's."""
+    info: TargetInfo | None = getattr(rec, "problem", None)
     if info is None:
         info = getattr(getattr(rec, "comparison", None), "problem", None)
-    return info if isinstance(info, ProblemInfo) else None
+    return info
 
 
 def specification_options(fn: Any) -> Any:

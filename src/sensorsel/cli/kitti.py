@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import click
 
-from sensorsel.cli.options import echo_written, json_option, output_option, quiet_option, run
+from sensorsel.cli.options import echo_written, output_option, result_options
 from sensorsel.cli.vocabulary import Command
 
 
@@ -38,9 +38,7 @@ from sensorsel.cli.vocabulary import Command
     required=True,
     help="The KITTI folder to write (poses/, sequences/NN/times.txt, landmarks/NN.csv); may be --odometry itself.",
 )
-@json_option
-@quiet_option
-@run
+@result_options
 def kitti_cmd(odometry: str, poles: str, seqs: tuple[str, ...], outdir: str, as_json: bool, quiet: bool) -> None:
     """Build the folder --kitti-root and $SENSORSEL_KITTI_ROOT point at, from what a user downloads:
 

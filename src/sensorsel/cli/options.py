@@ -16,19 +16,24 @@ import math
 import os
 import sys
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import ExitStack, contextmanager
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any, TypeVar, cast
 
 import click
 
-from sensorsel.api import AGGREGATES, ESTIMATES
+from sensorsel.api import AGGREGATES, ESTIMATES, checkpoint_path, with_suite_quality
+from sensorsel.cli.integrity import integrity_from, integrity_options
 from sensorsel.cli.progress import progress_bar, progress_flag  # noqa: F401 (progress_bar: the commands import it from here)
 from sensorsel.cli.vocabulary import TopicOption
 from sensorsel.errors import InputError, SensorselError, SensorselWarning
+from sensorsel.io import results
+from sensorsel.io.files import output_file
 from sensorsel.model.conditions import parse_condition
 from sensorsel.model.library import SensorLibrary
-from sensorsel.model.problem import DomainInfo, Problem, ProblemInfo, Target, TargetInfo, load_domain, load_problem
+from sensorsel.model.problem import DomainInfo, Problem, Target, TargetInfo, load_domain, load_problem
 from sensorsel.model.scenario import DEFAULT_OSM_REACH_M, KITTI_ROOT_ENV, ROUTE_FORMATS, ScenarioSpec
 
 
@@ -109,6 +114,12 @@ def quiet_option(fn: F) -> F:
         is_flag=True,
         help="No progress on stderr (unless --progress); errors and warnings are still said.",
     )(progress_flag(fn))
+
+
+def result_options(fn: F) -> F:
+    """What every command ends with: --json (:func:`json_option`), -q/--quiet and --progress
+    (:func:`quiet_option`), and its errors said in one line (:func:`run`)."""
+    return json_option(quiet_option(cast(F, run(fn))))
 
 
 def json_option(fn: F) -> F:
@@ -296,14 +307,10 @@ def scenario_options(fn: Callable[..., Any]) -> Callable[..., Any]:
             help="With --landmarks osm:FILE: landmark classes, comma-separated, or all (default): street_lamp,"
             "utility_pole,power_pole,flagpole,tree,traffic_signals,stop,give_way,traffic_sign.",
         ),
-        click.option(
-            "--osm-reach",
-            "osm_reach_m",
+        osm_reach_option(
+            "With --landmarks osm:FILE: the OSM landmarks within this distance of the route (default: 100).",
             cls=TopicOption,
             topic="scenario",
-            type=float,
-            metavar="METRES",
-            help="With --landmarks osm:FILE: the OSM landmarks within this distance of the route (default: 100).",
         ),
         click.option(
             "--landmark-seed",
@@ -324,23 +331,8 @@ def scenario_options(fn: Callable[..., Any]) -> Callable[..., Any]:
             help="Drop landmarks closer than this to the route (standing on the road). Default: keep them, counted on "
             "stderr; exact duplicates are always merged.",
         ),
-        click.option(
-            "--rate",
-            "keyframe_rate_hz",
-            cls=TopicOption,
-            topic="scenario",
-            type=float,
-            default=1.0,
-            show_default=True,
-            metavar="HZ",
-            help="Keyframe rate along the route [Hz]: keyframes a second.",
-        ),
-        click.option(
-            "--library",
-            "library_path",
-            type=click.Path(dir_okay=False, path_type=str),
-            help="Sensor library YAML (default: the paper's Table I).",
-        ),
+        rate_option("the route", cls=TopicOption, topic="scenario"),
+        library_option(),
         click.option(
             "--condition",
             "condition_text",
@@ -360,6 +352,54 @@ def scenario_options(fn: Callable[..., Any]) -> Callable[..., Any]:
         if not own.intersection(probe.__click_params__[0].opts):
             fn = opt(fn)
     return fn
+
+
+def library_option() -> Callable[[F], F]:
+    """--library FILE (destination ``library_path``): the sensor library YAML."""
+    return click.option(
+        "--library",
+        "library_path",
+        type=click.Path(dir_okay=False, path_type=str),
+        help="Sensor library YAML (default: the paper's Table I).",
+    )
+
+
+def rate_option(along: str, **extra: Any) -> Callable[[F], F]:
+    """--rate HZ (destination ``keyframe_rate_hz``, default 1): keyframes a second along ``along`` (a
+    route, or every route of a domain ``sensorsel osm`` writes)."""
+    return click.option(
+        "--rate",
+        "keyframe_rate_hz",
+        type=float,
+        default=1.0,
+        show_default=True,
+        metavar="HZ",
+        help=f"Keyframe rate along {along} [Hz]: keyframes a second.",
+        **extra,
+    )
+
+
+def osm_reach_option(help: str, **extra: Any) -> Callable[[F], F]:
+    """--osm-reach METRES (destination ``osm_reach_m``): the OpenStreetMap landmarks within this distance
+    of a route; ``extra``: e.g. the default of a command that writes one."""
+    return click.option("--osm-reach", "osm_reach_m", type=float, metavar="METRES", help=help, **extra)
+
+
+def suite_option(name: str = "--suite", *, required: bool = False, help: str) -> Callable[[F], F]:
+    """--suite IDS|FILE (or ``name``, e.g. --compare): a suite by sensor ids or a result file naming one
+    (read by :func:`sensorsel.cli.common.read_suite`); an empty one is a usage error naming it."""
+    return click.option(name, required=required, callback=suite_text, metavar="IDS|FILE", help=help)
+
+
+def jobs_option(help: str, default: int | None = None) -> Callable[[F], F]:
+    """--jobs N: threads or processes on this machine (``help`` says which; results do not depend on
+    them); ``default`` None: all cores."""
+    shown: dict[str, Any] = (
+        {"default": os.cpu_count() or 1, "show_default": "all cores"}
+        if default is None
+        else {"default": default, "show_default": True}
+    )
+    return click.option("--jobs", type=click.IntRange(min=1), metavar="N", help=help, **shown)
 
 
 def spec_from(kw: dict[str, Any]) -> ScenarioSpec:
@@ -552,14 +592,7 @@ def engine_options(fn: Callable[..., Any]) -> Callable[..., Any]:
     """--engine and --jobs."""
     from sensorsel.api import ENGINES
 
-    fn = click.option(
-        "--jobs",
-        type=click.IntRange(min=1),
-        default=os.cpu_count() or 1,
-        show_default="all cores",
-        metavar="N",
-        help="Threads scoring candidate suites (results do not depend on it).",
-    )(fn)
+    fn = jobs_option("Threads scoring candidate suites (results do not depend on it).")(fn)
     fn = click.option(
         "--engine",
         type=click.Choice(sorted(ENGINES)),
@@ -578,11 +611,11 @@ def design_options(fn: Callable[..., Any] | None = None, *, aggregate: bool = Tr
     return target_options(engine_options(cluster_options(fn)), aggregate=aggregate)
 
 
-def failures_option(help: str) -> Callable[[F], F]:
-    """--failures N (destination ``alpha``): how many sensors fail, 1 unless given; ``help`` says what
-    the command does with them."""
+def failures_option(help: str, *, default: int = 1, dest: str = "alpha") -> Callable[[F], F]:
+    """--failures N (destination ``dest``): how many sensors fail, ``default`` unless given; ``help`` says
+    what the command does with them."""
     return click.option(
-        "--failures", "alpha", type=click.IntRange(min=0), default=1, show_default=True, metavar="N", help=help
+        "--failures", dest, type=click.IntRange(min=0), default=default, show_default=True, metavar="N", help=help
     )
 
 
@@ -610,28 +643,31 @@ def _numeric(s: str) -> bool:
 
 
 def print_target(info: TargetInfo | None) -> None:
-    """The 'scenario' line (one route) or the 'domain' lines (each route) of a result."""
-    if isinstance(info, ProblemInfo):
-        when = f"; condition {info.condition}" if info.condition else ""
+    """The 'scenario' line (one route) or the 'domain' lines (each route) of a result; nothing when it
+    records none."""
+    if info is None:
+        return
+    if info.kind == "route":  # a route is named by its scenario, its problem is itself
+        p = info.routes[0].problem
+        when = f"; condition {p.condition}" if p.condition else ""
         click.echo(
-            f"scenario   {info.scenario}: {info.n_poses} keyframes, {info.n_landmarks} landmarks "
-            f"({info.landmark_source}){when}"
+            f"scenario   {p.scenario}: {p.n_poses} keyframes, {p.n_landmarks} landmarks ({p.landmark_source}){when}"
         )
-    elif isinstance(info, DomainInfo):
-        conditions = list(dict.fromkeys(r.condition for r in info.routes if r.condition))
-        routes = list(dict.fromkeys(r.route or r.name for r in info.routes))
-        what = (
-            f"{len(info.routes)} members ({len(routes)} routes x conditions {', '.join(conditions)})"
-            if conditions
-            else f"{len(info.routes)} routes"
+        return
+    conditions = list(dict.fromkeys(r.condition for r in info.routes if r.condition))
+    routes = list(dict.fromkeys(r.route or r.name for r in info.routes))
+    what = (
+        f"{len(info.routes)} members ({len(routes)} routes x conditions {', '.join(conditions)})"
+        if conditions
+        else f"{len(info.routes)} routes"
+    )
+    click.echo(f"domain     {cast(DomainInfo, info).source}: {what}")  # the kind says it is a domain's
+    for r in info.routes:
+        p = r.problem
+        click.echo(
+            f"  {r.name:<12} weight {r.weight:g} {r.unit}; {p.n_poses} keyframes, {p.n_landmarks} landmarks "
+            f"({p.landmark_source})"
         )
-        click.echo(f"domain     {info.source}: {what}")
-        for r in info.routes:
-            p = r.problem
-            click.echo(
-                f"  {r.name:<12} weight {r.weight:g} {r.unit}; {p.n_poses} keyframes, {p.n_landmarks} landmarks "
-                f"({p.landmark_source})"
-            )
 
 
 def force_option(fn: F) -> F:
@@ -747,6 +783,24 @@ def constraints_from(kw: dict[str, Any]) -> Any:
     )
 
 
+def print_limits(
+    lib: SensorLibrary,
+    budget_usd: float,
+    constraints: Any,
+    suite: Sequence[str],
+    head: str = "limits     ",
+    tail: str = "",
+) -> None:
+    """Under constraints (nothing when None): their description between ``head`` and ``tail``, then what
+    ``suite`` uses of each limit (:func:`usage_table`) within ``budget_usd`` [$]."""
+    if constraints is None:
+        return
+    from sensorsel.model.constraints import feasible_set
+
+    click.echo(f"{head}{constraints.describe()}{tail}")
+    click.echo(usage_table(feasible_set(lib, budget_usd, constraints).rows_used(lib.resolve_suite(suite))))
+
+
 def usage_table(rows: Sequence[Any]) -> str:
     """The resource-use table of a constrained result: each limit, what the suite uses, what is left.
     ``rows`` are :class:`~sensorsel.model.constraints.RowUse`; mounting slots are summed into one line."""
@@ -786,6 +840,13 @@ def map_sigma_option(fn: F) -> F:
     )
 
 
+def quality_options(fn: F) -> F:
+    """How the chosen suite's quality is reported, one group for every command that reports it: its
+    accuracy (:func:`map_sigma_option`: --map-sigma and --estimate) and its integrity (the integrity
+    options); :func:`design_from` reads them."""
+    return map_sigma_option(cast(F, integrity_options(fn)))
+
+
 def estimate_option(fn: F) -> F:
     """--estimate filter|smoother: the estimate an accuracy is of (default: the filter, as the car drives)."""
     return click.option(
@@ -814,12 +875,110 @@ def time_limit_option(help: str) -> Callable[[F], F]:
     )
 
 
-def scoring_from(kw: dict[str, Any]) -> tuple[str, str | None, int, float | None, str]:
-    """Pops from ``kw`` what every command that scores a suite on a target shares, in this order:
-    --aggregate, --engine, --jobs (:func:`design_options`), --map-sigma [m] (checked by
-    :func:`check_map_sigma`) and --estimate (:func:`map_sigma_option`)."""
-    aggregate, engine, jobs = kw.pop("aggregate"), kw.pop("engine"), kw.pop("jobs")
-    return aggregate, engine, jobs, check_map_sigma(kw.pop("map_sigma")), kw.pop("estimate")
+@dataclass(frozen=True)
+class DesignInputs:
+    """What the options of a design command say (:func:`design_from`): the target, where the run goes
+    (a Dask cluster, not yet started, or None: here), its limits besides the budget, how suites are
+    scored, and how the chosen suite's accuracy [m, deg] and integrity are reported (None: a command
+    without --map-sigma or the integrity options)."""
+
+    target: Target
+    cluster: Any
+    constraints: Any
+    aggregate: str
+    engine: str | None
+    jobs: int
+    map_sigma: float | None = None
+    estimate: str = "filter"
+    integrity: Any = None
+
+    @property
+    def executor(self) -> Any:
+        """Where the run's tasks go: the cluster's executor, or None (in this process)."""
+        return self.cluster.executor if self.cluster is not None else None
+
+    def with_quality(self, result: Any) -> Any:
+        """``result`` with its chosen suite's accuracy and integrity (:func:`sensorsel.api.with_suite_quality`),
+        on the target, as --map-sigma, --estimate and the integrity options ask."""
+        return with_suite_quality(
+            result,
+            self.target,
+            map_sigma_m=self.map_sigma,
+            engine=self.engine,
+            estimate=self.estimate,
+            integrity=self.integrity,
+        )
+
+
+def design_from(kw: dict[str, Any]) -> DesignInputs:
+    """Pops from ``kw`` what the design commands share, in this order: --aggregate (a command without it:
+    the default), --engine, --jobs (:func:`design_options`); --map-sigma [m] (checked by
+    :func:`check_map_sigma`) and --estimate, and the integrity options, where the command has them; the
+    cluster (:func:`cluster_from`), the constraints (:func:`constraints_from`); last the target
+    (:func:`target_from`), the one slow step, after every cheap check."""
+    aggregate, engine, jobs = kw.pop("aggregate", AGGREGATES[0]), kw.pop("engine"), kw.pop("jobs")
+    quality: dict[str, Any] = {}
+    if "map_sigma" in kw:
+        quality.update(map_sigma=check_map_sigma(kw.pop("map_sigma")), estimate=kw.pop("estimate"))
+    if "integrity_risk" in kw:
+        quality.update(integrity=integrity_from(kw))
+    cluster, constraints = cluster_from(kw), constraints_from(kw)
+    return DesignInputs(target_from(kw), cluster, constraints, aggregate, engine, jobs, **quality)
+
+
+@contextmanager
+def running(*contexts: Any) -> Iterator[None]:
+    """The cluster started and the progress bars drawn for the ``with`` block (each None: nothing)."""
+    with ExitStack() as stack:
+        for context in contexts:
+            if context is not None:
+                stack.enter_context(context)
+        yield
+
+
+@dataclass(frozen=True)
+class ResultFile:
+    """-o FILE of a run whose state is kept in FILE.checkpoint while it runs (--resume goes on from it):
+    the result is written to FILE, then the checkpoint removed."""
+
+    output: str | None
+    resume: bool
+
+    @property
+    def checkpoint(self) -> Path | None:
+        """FILE.checkpoint, or None without -o."""
+        return checkpoint_path(self.output) if self.output else None
+
+    def save(self, result: Any) -> Path | None:
+        """Write ``result`` to -o FILE (nothing without -o) and remove the checkpoint."""
+        if self.output is None or self.checkpoint is None:
+            return None
+        path = results.save(result, self.output)
+        self.checkpoint.unlink(missing_ok=True)  # the result is written: the run is no longer interrupted
+        return path
+
+
+def result_file(output: str | None, resume: bool, kept: str) -> ResultFile:
+    """-o FILE and --resume of a run that keeps its state as it runs (``kept``: where, in words); the
+    output's folder is checked before anything runs.
+
+    Raises:
+        click.UsageError: --resume without -o.
+    """
+    if resume and not output:
+        raise click.UsageError(f"--resume goes on from {kept}: give -o")
+    if output:
+        output_file(output)
+    return ResultFile(output, resume)
+
+
+def echo_result(result: Any, as_json: bool, summary: Callable[[], None]) -> None:
+    """What a command says of its result on stdout: with --json the result's JSON (its "kind" and
+    "format" first), else ``summary()``, the lines a person reads."""
+    if as_json:
+        click.echo(results.dumps(result), nl=False)
+    else:
+        summary()
 
 
 def check_map_sigma(value: float | None) -> float | None:

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-import os
 from contextlib import nullcontext
 from pathlib import Path
 from typing import Any
@@ -16,16 +15,15 @@ from sensorsel.cli.options import (
     cluster_from,
     cluster_options,
     force_option,
-    json_option,
+    jobs_option,
     output_option,
     plot_format_option,
     prior_map_option,
     progress_bar,
-    quiet_option,
-    run,
+    result_options,
     scenario_options,
     spec_from,
-    suite_text,
+    suite_option,
     table,
 )
 from sensorsel.cli.options import plot_format as plot_format_of
@@ -43,18 +41,12 @@ def _fmt(v: float | None, digits: int = 3) -> str:
 
 @click.command("simulate", cls=Command, short_help="Monte-Carlo SLAM with GTSAM on one or two suites, with failures.")
 @scenario_options
-@click.option(
-    "--suite",
+@suite_option(
     required=True,
-    callback=suite_text,
-    metavar="IDS|FILE",
     help='Comma-separated sensor ids, or a result JSON of `sensorsel greedy`/`resilient` (its "suite").',
 )
-@click.option(
+@suite_option(
     "--compare",
-    default=None,
-    callback=suite_text,
-    metavar="IDS|FILE",
     help="A second suite (same forms) simulated with the same noise and drawn beside the first.",
 )
 @click.option(
@@ -102,14 +94,7 @@ def _fmt(v: float | None, digits: int = 3) -> str:
     show_default=True,
     help="Factor on every noise sigma (odometry, prior, sensors).",
 )
-@click.option(
-    "--jobs",
-    type=click.IntRange(min=1),
-    default=os.cpu_count() or 1,
-    show_default="all cores",
-    metavar="N",
-    help="Processes running the Monte-Carlo draws (results do not depend on it).",
-)
+@jobs_option("Processes running the Monte-Carlo draws (results do not depend on it).")
 @click.option(
     "--associate",
     is_flag=True,
@@ -162,9 +147,7 @@ def _fmt(v: float | None, digits: int = 3) -> str:
 )
 @plot_format_option
 @force_option
-@json_option
-@quiet_option
-@run
+@result_options
 def simulate_cmd(
     suite: str,
     compare: str | None,
