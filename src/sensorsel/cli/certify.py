@@ -26,19 +26,15 @@ from sensorsel.api import (
     run_optimal,
 )
 from sensorsel.cli.cluster import evaluator_on, require_domain
-from sensorsel.cli.common import is_result_file
+from sensorsel.cli.common import echo_result, is_result_file, print_accuracy, print_limits, print_target
 from sensorsel.cli.options import (
     DesignInputs,
     budget_option,
-    constraint_options,
     design_from,
     design_options,
-    echo_result,
     force_option,
     output_option,
-    print_accuracy,
-    print_limits,
-    print_target,
+    path_option,
     progress_bar,
     quality_options,
     result_file,
@@ -82,7 +78,6 @@ def _check_result_constraints(res: GreedyResult, lib: SensorLibrary, path: str, 
 )
 @design_options
 @budget_option(required=True, help="Budget per car in dollars: 110000, 110,000, $110,000 or 110_000.")
-@constraint_options
 @click.option(
     "--max-nodes",
     type=click.IntRange(min=1),
@@ -133,7 +128,7 @@ def optimal_cmd(
     bar, progress = progress_bar(
         quiet or as_json, "branch and bound (nodes)", eta=False
     )  # the node limit is a cap, not a forecast
-    with running(inputs.cluster, bar):
+    with inputs.running(bar):
         ev = evaluator_on(inputs.cluster, problem, inputs.engine, inputs.jobs, inputs.aggregate)
         res = run_optimal(
             problem,
@@ -195,11 +190,9 @@ def _print_optimal(res: Any, lib: SensorLibrary, output: str | None) -> None:
     "certify", cls=Command, short_help="How close a greedy suite is to the best possible one (an upper bound)."
 )
 @design_options
-@click.option(
+@path_option(
     "--suite",
     "result_path",
-    type=click.Path(dir_okay=False, path_type=str),
-    default=None,
     callback=not_empty_file,
     metavar="FILE",
     help="The suite to certify: a greedy result file of sensor ids and the run that chose them "
@@ -210,7 +203,6 @@ def _print_optimal(res: Any, lib: SensorLibrary, output: str | None) -> None:
     help="Without --suite: run greedy at this budget in dollars (110000, 110,000, $110,000 or 110_000) and certify it."
 )
 @rule_option("best-of", "Without --suite: the greedy rule.")
-@constraint_options
 @force_option
 @output_option(help="Write the certificate as JSON here.")
 @result_options
@@ -257,7 +249,7 @@ def certify_cmd(
             "--include, --owned, --exclude or --max-sensors only with --budget"
         )
     require_domain(inputs.cluster, inputs.target)
-    with running(inputs.cluster):
+    with inputs.running():
         res, cert = _certify(inputs, result_path, budget, rule, force, quiet or as_json)
     if output:
         results.save(cert, output)

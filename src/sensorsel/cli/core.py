@@ -11,28 +11,30 @@ import click
 
 from sensorsel.api import score_domain_suite, score_suite, suite_integrity
 from sensorsel.cli.cluster import cluster_evaluator, require_domain
-from sensorsel.cli.common import is_result_file, read_suite
-from sensorsel.cli.options import (
-    constraint_options,
-    design_from,
-    design_options,
+from sensorsel.cli.common import (
     echo_result,
     echo_written,
+    is_result_file,
+    print_accuracy,
+    print_target,
+    read_suite,
+    table,
+    usage_table,
+)
+from sensorsel.cli.options import (
+    design_from,
+    design_options,
     force_option,
     library_option,
     output_option,
+    path_option,
     plot_format_option,
-    print_accuracy,
-    print_target,
     problem_from,
     quality_options,
     result_options,
-    running,
     scenario_options,
     spec_from,
     suite_option,
-    table,
-    usage_table,
 )
 from sensorsel.cli.options import plot_format as plot_format_of
 from sensorsel.cli.vocabulary import Command
@@ -149,7 +151,6 @@ def library_cmd(library_path: str | None, as_json: bool, quiet: bool) -> None:
     "`sensorsel library`), or a result JSON (`sensorsel greedy -o FILE`, ...: its suite; computed on the same "
     "problem, see --force).",
 )
-@constraint_options
 @force_option
 @quality_options
 @result_options
@@ -179,7 +180,7 @@ def score_cmd(
             raise InputError(
                 f"--suite {suite}: a result file names a suite for one route; with --domain give the suite's ids"
             )
-        with running(inputs.cluster):
+        with inputs.running():
             ev = cluster_evaluator(inputs.cluster, target, engine, inputs.aggregate)
             dres = score_domain_suite(
                 cast(Domain, target), suite, engine=engine, aggregate=inputs.aggregate, evaluator=ev
@@ -260,12 +261,10 @@ def _print_limits(feas: FeasibleSet, suite: tuple[int, ...]) -> None:
     default=None,
     help="Keyframe at which to draw the cones (default: the middle one).",
 )
-@click.option(
+@path_option(
     "--domain",
     "domain_path",
-    type=click.Path(dir_okay=False, path_type=str),
     metavar="FILE",
-    default=None,
     help="Draw an operating domain instead: every route, and its landmarks by class (sensorsel osm's domains).",
 )
 @force_option

@@ -6,24 +6,25 @@ from __future__ import annotations
 
 import click
 
-from sensorsel.cli.options import echo_written, output_option, result_options
+from sensorsel.cli.common import echo_written
+from sensorsel.cli.options import output_option, path_option, result_options
 from sensorsel.cli.vocabulary import Command
 
 
 @click.command(
     "kitti", cls=Command, short_help="Build the KITTI folder (routes and pole maps) from the downloaded sources."
 )
-@click.option(
+@path_option(
     "--odometry",
+    folder=True,
     required=True,
-    type=click.Path(file_okay=False, path_type=str),
     help="KITTI odometry's dataset/ folder: poses/NN.txt, sequences/NN/times.txt and sequences/NN/calib.txt "
     "(data_odometry_poses and data_odometry_calib).",
 )
-@click.option(
+@path_option(
     "--poles",
+    folder=True,
     required=True,
-    type=click.Path(file_okay=False, path_type=str),
     help="A clone of PRBonn/pole-localization, or the folder holding its kitti_label_NN/globalmap_gt_cluster.npz.",
 )
 @click.option(

@@ -16,8 +16,8 @@ import math
 import os
 import sys
 import warnings
-from collections.abc import Callable, Iterator, Sequence
-from contextlib import ExitStack, contextmanager
+from collections.abc import Callable, Iterator
+from contextlib import AbstractContextManager, ExitStack, contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TypeVar, cast
@@ -30,10 +30,9 @@ from sensorsel.cli.progress import progress_bar, progress_flag  # noqa: F401 (pr
 from sensorsel.cli.vocabulary import TopicOption
 from sensorsel.errors import InputError, SensorselError, SensorselWarning
 from sensorsel.io import results
-from sensorsel.io.files import output_file
+from sensorsel.io.files import output_dir, output_file
 from sensorsel.model.conditions import parse_condition
-from sensorsel.model.library import SensorLibrary
-from sensorsel.model.problem import DomainInfo, Problem, Target, TargetInfo, load_domain, load_problem
+from sensorsel.model.problem import Problem, Target, load_domain, load_problem
 from sensorsel.model.scenario import DEFAULT_OSM_REACH_M, KITTI_ROOT_ENV, ROUTE_FORMATS, ScenarioSpec
 
 
@@ -132,14 +131,6 @@ def json_option(fn: F) -> F:
     )(fn)
 
 
-def echo_written(kind: str, **fields: Any) -> None:
-    """--json of a command that writes files rather than a result (scene, landmarks, osm, kitti): what
-    it wrote, as one JSON object on stdout, its "kind" and "format" first like every result's."""
-    import json
-
-    click.echo(json.dumps({"kind": kind, "format": 1, **fields}, indent=2))
-
-
 PLOT_FORMATS = ("png", "svg", "pdf")
 
 
@@ -152,6 +143,19 @@ def plot_format_option(fn: F) -> F:
         default=None,
         help="The plots' file format (default: the extension of a file -o, else png).",
     )(fn)
+
+
+def plots_folder_option(help: str) -> Callable[[F], F]:
+    """--output-dir DIRECTORY (required; ``help`` says what is written there) and --plot-format: a command
+    that writes its result and its plots into a folder; read by :func:`plots_folder_from`."""
+    return lambda fn: output_option(folder=True, required=True, help=help)(plot_format_option(fn))
+
+
+def plots_folder_from(kw: dict[str, Any]) -> tuple[Path, str]:
+    """The folder of :func:`plots_folder_option`, made now (:func:`sensorsel.io.files.output_dir`), and the
+    plots' format (:func:`plot_format`), popped from ``kw``."""
+    fmt = plot_format(kw.pop("plot_format"))
+    return output_dir(kw.pop("outdir")), fmt
 
 
 def plot_format(chosen: str | None, output_file: str | None = None) -> str:
@@ -218,18 +222,17 @@ def scenario_options(fn: Callable[..., Any]) -> Callable[..., Any]:
                 "its landmarks."
             ),
         ),
-        click.option(
+        path_option(
             "--kitti-root",
+            folder=True,
             cls=TopicOption,
             topic="scenario",
-            type=click.Path(file_okay=False, path_type=str),
             envvar=KITTI_ROOT_ENV,
             show_envvar=True,
             help="KITTI odometry dataset/ folder (poses/NN.txt, sequences/NN/times.txt, optional landmarks/NN.csv).",
         ),
-        click.option(
+        path_option(
             "--route",
-            type=click.Path(dir_okay=False, path_type=str),
             help=(
                 "A route file: KITTI poses, a TUM trajectory, a planar CSV (t,x,y[,heading]) or a GPX track; its "
                 "ground plane and forward axis are found from it (docs/scenarios.md)."
@@ -259,11 +262,10 @@ def scenario_options(fn: Callable[..., Any]) -> Callable[..., Any]:
             help="With a KITTI or TUM --route: the body axis that points ahead (+x, +z, ...), "
             "instead of the one found along the direction of travel.",
         ),
-        click.option(
+        path_option(
             "--times",
             cls=TopicOption,
             topic="scenario",
-            type=click.Path(dir_okay=False, path_type=str),
             help="Timestamps of a KITTI --route file (default: 10 Hz, said on stderr).",
         ),
         click.option(
@@ -354,14 +356,17 @@ def scenario_options(fn: Callable[..., Any]) -> Callable[..., Any]:
     return fn
 
 
+def path_option(*names: str, folder: bool = False, **extra: Any) -> Callable[[F], F]:
+    """An option naming a file (``folder``: a folder) the command reads, or draws into: ``names`` and
+    ``extra`` (help, required, ...) as click's, the path given to the command as a string. Outputs:
+    :func:`output_option`."""
+    path = click.Path(file_okay=False, path_type=str) if folder else click.Path(dir_okay=False, path_type=str)
+    return click.option(*names, type=path, **extra)
+
+
 def library_option() -> Callable[[F], F]:
     """--library FILE (destination ``library_path``): the sensor library YAML."""
-    return click.option(
-        "--library",
-        "library_path",
-        type=click.Path(dir_okay=False, path_type=str),
-        help="Sensor library YAML (default: the paper's Table I).",
-    )
+    return path_option("--library", "library_path", help="Sensor library YAML (default: the paper's Table I).")
 
 
 def rate_option(along: str, **extra: Any) -> Callable[[F], F]:
@@ -604,11 +609,12 @@ def engine_options(fn: Callable[..., Any]) -> Callable[..., Any]:
 
 def design_options(fn: Callable[..., Any] | None = None, *, aggregate: bool = True) -> Any:
     """What every design command takes first, in this order: the target (:func:`target_options`,
-    with --aggregate unless ``aggregate`` is False), the engine (:func:`engine_options`) and the
-    cluster (:func:`cluster_options`). ``@design_options`` or ``@design_options(aggregate=False)``."""
+    with --aggregate unless ``aggregate`` is False), the engine (:func:`engine_options`), the
+    cluster (:func:`cluster_options`) and the limits besides the budget (:func:`constraint_options`):
+    what :func:`design_from` reads. ``@design_options`` or ``@design_options(aggregate=False)``."""
     if fn is None:
         return lambda f: design_options(f, aggregate=aggregate)
-    return target_options(engine_options(cluster_options(fn)), aggregate=aggregate)
+    return target_options(engine_options(cluster_options(constraint_options(fn))), aggregate=aggregate)
 
 
 def failures_option(help: str, *, default: int = 1, dest: str = "alpha") -> Callable[[F], F]:
@@ -617,57 +623,6 @@ def failures_option(help: str, *, default: int = 1, dest: str = "alpha") -> Call
     return click.option(
         "--failures", dest, type=click.IntRange(min=0), default=default, show_default=True, metavar="N", help=help
     )
-
-
-def table(rows: list[list[str]], header: list[str]) -> str:
-    """Plain fixed-width table; numbers right-aligned."""
-    cols = list(zip(*([header] + rows))) if rows else [(h,) for h in header]
-    widths = [max(len(str(c)) for c in col) for col in cols]
-
-    def fmt(row: list[str]) -> str:
-        out = []
-        for v, w in zip(row, widths):
-            s = str(v)
-            out.append(s.rjust(w) if _numeric(s) else s.ljust(w))
-        return "  ".join(out).rstrip()
-
-    return "\n".join([fmt(header), "  ".join("-" * w for w in widths)] + [fmt(r) for r in rows])
-
-
-def _numeric(s: str) -> bool:
-    try:
-        float(s.replace(",", "").replace("$", "").replace("%", ""))
-        return True
-    except ValueError:
-        return False
-
-
-def print_target(info: TargetInfo | None) -> None:
-    """The 'scenario' line (one route) or the 'domain' lines (each route) of a result; nothing when it
-    records none."""
-    if info is None:
-        return
-    if info.kind == "route":  # a route is named by its scenario, its problem is itself
-        p = info.routes[0].problem
-        when = f"; condition {p.condition}" if p.condition else ""
-        click.echo(
-            f"scenario   {p.scenario}: {p.n_poses} keyframes, {p.n_landmarks} landmarks ({p.landmark_source}){when}"
-        )
-        return
-    conditions = list(dict.fromkeys(r.condition for r in info.routes if r.condition))
-    routes = list(dict.fromkeys(r.route or r.name for r in info.routes))
-    what = (
-        f"{len(info.routes)} members ({len(routes)} routes x conditions {', '.join(conditions)})"
-        if conditions
-        else f"{len(info.routes)} routes"
-    )
-    click.echo(f"domain     {cast(DomainInfo, info).source}: {what}")  # the kind says it is a domain's
-    for r in info.routes:
-        p = r.problem
-        click.echo(
-            f"  {r.name:<12} weight {r.weight:g} {r.unit}; {p.n_poses} keyframes, {p.n_landmarks} landmarks "
-            f"({p.landmark_source})"
-        )
 
 
 def force_option(fn: F) -> F:
@@ -689,20 +644,6 @@ def suite_text(ctx: click.Context, param: click.Parameter, value: str | None) ->
             param=param,
         )
     return value
-
-
-def compact_suite(suite: Sequence[str], library: SensorLibrary | None = None) -> str:
-    """A suite for a table: ids grouped by model, ``LRL-roof HD2K-{2,4,12} LRR-6``; with ``library``,
-    a suite of all but at most three of its sensors is ``all but LRL-roof`` (the full ids are in the JSON)."""
-    if library is not None and len(suite) > 3:
-        missing = [i for i in library.ids if i not in set(suite)]
-        if len(missing) <= 3 and len(suite) + len(missing) == len(library):
-            return "all but " + ", ".join(missing) if missing else f"all {len(library)} sensors"
-    groups: dict[str, list[str]] = {}
-    for sid in suite:
-        code, _, where = sid.rpartition("-")
-        groups.setdefault(code, []).append(where)
-    return " ".join(f"{c}-{w[0]}" if len(w) == 1 else f"{c}-{{{','.join(w)}}}" for c, w in groups.items())
 
 
 def constraint_options(fn: Callable[..., Any]) -> Callable[..., Any]:
@@ -783,46 +724,6 @@ def constraints_from(kw: dict[str, Any]) -> Any:
     )
 
 
-def print_limits(
-    lib: SensorLibrary,
-    budget_usd: float,
-    constraints: Any,
-    suite: Sequence[str],
-    head: str = "limits     ",
-    tail: str = "",
-) -> None:
-    """Under constraints (nothing when None): their description between ``head`` and ``tail``, then what
-    ``suite`` uses of each limit (:func:`usage_table`) within ``budget_usd`` [$]."""
-    if constraints is None:
-        return
-    from sensorsel.model.constraints import feasible_set
-
-    click.echo(f"{head}{constraints.describe()}{tail}")
-    click.echo(usage_table(feasible_set(lib, budget_usd, constraints).rows_used(lib.resolve_suite(suite))))
-
-
-def usage_table(rows: Sequence[Any]) -> str:
-    """The resource-use table of a constrained result: each limit, what the suite uses, what is left.
-    ``rows`` are :class:`~sensorsel.model.constraints.RowUse`; mounting slots are summed into one line."""
-    out, slots_used, slots_cap, full = [], 0.0, 0.0, 0
-    for r in rows:
-        if r.unit == "" and r.name != "sensors":
-            slots_used += r.used
-            slots_cap += r.limit
-            full += int(r.used >= r.limit)
-            continue
-
-        def fmt(v: float, unit: str = r.unit) -> str:
-            if unit == "$":
-                return f"${v:,.0f}"
-            return (f"{v:,.0f}" if abs(v) >= 1000 else f"{v:.4g}") + f" {unit}".rstrip()
-
-        out.append([r.name, fmt(r.used), fmt(r.limit), f"{r.used / r.limit:.0%}" if r.limit > 0 else "-"])
-    if slots_cap:
-        out.append(["mounting slots", f"{slots_used:,.0f} sensors", f"{slots_cap:,.0f} places", f"{full} full"])
-    return table(out, ["limit", "used", "of", "share"])
-
-
 def prior_map_option(help: str) -> Callable[[F], F]:
     """--map-sigma METRES alone (destination ``map_sigma``, None unless given): the std [m] of a prior
     map's landmarks; ``help`` says what the command does with it."""
@@ -891,6 +792,10 @@ class DesignInputs:
     map_sigma: float | None = None
     estimate: str = "filter"
     integrity: Any = None
+
+    def running(self, *bars: Any) -> AbstractContextManager[None]:
+        """The cluster started (when one was asked for) and ``bars`` drawn, for a ``with`` block."""
+        return running(self.cluster, *bars)
 
     @property
     def executor(self) -> Any:
@@ -972,29 +877,8 @@ def result_file(output: str | None, resume: bool, kept: str) -> ResultFile:
     return ResultFile(output, resume)
 
 
-def echo_result(result: Any, as_json: bool, summary: Callable[[], None]) -> None:
-    """What a command says of its result on stdout: with --json the result's JSON (its "kind" and
-    "format" first), else ``summary()``, the lines a person reads."""
-    if as_json:
-        click.echo(results.dumps(result), nl=False)
-    else:
-        summary()
-
-
 def check_map_sigma(value: float | None) -> float | None:
     """``value`` if it is None or a positive finite number of metres, else an InputError naming --map-sigma."""
     if value is not None and not (math.isfinite(value) and value > 0):
         raise InputError(f"--map-sigma {value:g}: the landmarks' std must be a positive, finite number of metres")
     return value
-
-
-def print_accuracy(accuracies: Sequence[Any], integrity: Sequence[Any] = ()) -> None:
-    """One line per route: the suite's 95 % errors in metres and degrees and the model behind them
-    (:class:`~sensorsel.information.evaluators.accuracy.RouteAccuracy`); then one integrity line per
-    route (:class:`~sensorsel.information.integrity.RouteIntegrity`), when computed."""
-    for acc in accuracies:
-        where = f" {acc.route}:" if len(accuracies) > 1 else ""
-        click.echo(f"accuracy  {where} {acc.line()}")
-    for itg in integrity:
-        where = f" {itg.route}:" if len(integrity) > 1 else ""
-        click.echo(f"integrity {where} {itg.line()}")

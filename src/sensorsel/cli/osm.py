@@ -11,13 +11,8 @@ from pathlib import Path
 
 import click
 
-from sensorsel.cli.options import (
-    echo_written,
-    osm_reach_option,
-    output_option,
-    rate_option,
-    result_options,
-)
+from sensorsel.cli.common import echo_written
+from sensorsel.cli.options import osm_reach_option, output_option, path_option, rate_option, result_options
 from sensorsel.cli.progress import progress_bar
 from sensorsel.cli.vocabulary import Command
 from sensorsel.errors import InputError, SensorselWarning
@@ -62,17 +57,13 @@ def _source(file: str | None, sample: str | None) -> Path:
     "A route's landmarks: those within this distance of the route [m].", default=DEFAULT_OSM_REACH_M, show_default=True
 )
 @rate_option("every route")
-@click.option(
+@path_option(
     "--gpx",
-    default=None,
-    type=click.Path(dir_okay=False, path_type=str),
     help="Instead of the road network: this GPS track is the one route (its landmarks from the extract).",
 )
-@click.option(
+@path_option(
     "--route",
     "route_file",
-    default=None,
-    type=click.Path(dir_okay=False, path_type=str),
     help="Instead of the road network: this route file (KITTI, TUM or planar CSV) with --georef.",
 )
 @click.option(
@@ -82,10 +73,8 @@ def _source(file: str | None, sample: str | None) -> Path:
     help="Where --route lies: its origin [deg] and the compass bearing of its +X axis, or utm:35N when its "
     "x, y are UTM easting and northing.",
 )
-@click.option(
+@path_option(
     "--merge-landmarks",
-    default=None,
-    type=click.Path(dir_okay=False, path_type=str),
     help="A survey landmark CSV (x,y in the route's frame) merged with the OSM landmarks (--gpx/--route).",
 )
 @output_option(

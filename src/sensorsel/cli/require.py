@@ -16,26 +16,23 @@ from sensorsel.api import (
     run_require,
 )
 from sensorsel.cli.cluster import cluster_evaluator, require_domain
-from sensorsel.cli.common import read_suite, specification_from, specification_options
+from sensorsel.cli.common import echo_result, print_target, read_suite, specification_from, specification_options
 from sensorsel.cli.integrity import INTEGRITY_KEYS, integrity_from, integrity_options
 from sensorsel.cli.options import (
     budget_option,
     check_map_sigma,
-    constraint_options,
     design_from,
     design_options,
-    echo_result,
     estimate_option,
     failures_option,
     output_option,
+    path_option,
     plot_format,
-    print_target,
     prior_map_option,
     progress_bar,
     result_file,
     result_options,
     resume_option,
-    running,
     suite_option,
     time_limit_option,
 )
@@ -50,7 +47,6 @@ from sensorsel.io.files import output_file
     short_help="The cheapest suite that meets an accuracy specification in metres, with a proof.",
 )
 @design_options(aggregate=False)
-@constraint_options
 @specification_options
 @prior_map_option(
     f"Accuracy in a prior map whose landmarks are known to this std [m] (default: {DEFAULT_MAP_SIGMA_M:g} m, "
@@ -90,11 +86,9 @@ from sensorsel.io.files import output_file
 )
 @budget_option(help="Most the suite may cost, in dollars (default: no budget: the cheapest suite is the question).")
 @time_limit_option("Stop the exact search after this long and report the gap (default: run until proved).")
-@click.option(
+@path_option(
     "--plot",
     "plot_path",
-    type=click.Path(dir_okay=False, path_type=str),
-    default=None,
     help="Draw the errors along the route with the requirement, and the route coloured by its margin "
     "(png, svg or pdf by the extension; a domain: its route with the least margin).",
 )
@@ -178,7 +172,7 @@ def require_cmd(
     bar, progress = progress_bar(
         quiet or as_json, "searching", counted=False
     )  # the count is only a cap: the text says what is left
-    with running(cluster, bar):
+    with inputs.running(bar):
         # on a cluster each route's accuracy checks run on its worker's actor (the same bytes)
         ev = cluster_evaluator(cluster, target, inputs.engine, "normalised")
         res = run_require(

@@ -9,32 +9,24 @@ from typing import Any
 import click
 
 from sensorsel.api import ALGORITHM_2, METHODS
+from sensorsel.cli.common import echo_result, print_accuracy, print_limits, print_target, table
 from sensorsel.cli.options import (
     DesignInputs,
     budget_option,
-    constraint_options,
     design_from,
     design_options,
-    echo_result,
     failures_option,
-    output_option,
-    plot_format_option,
-    print_accuracy,
-    print_limits,
-    print_target,
+    plots_folder_from,
+    plots_folder_option,
     progress_bar,
     quality_options,
     result_options,
     resume_option,
-    running,
-    table,
 )
-from sensorsel.cli.options import plot_format as plot_format_of
 from sensorsel.cli.rules import rule_option
 from sensorsel.cli.vocabulary import Command
 from sensorsel.errors import InputError
 from sensorsel.io import results
-from sensorsel.io.files import output_dir
 
 
 @click.command(
@@ -66,13 +58,9 @@ from sensorsel.io.files import output_dir
     "robust = robust selection (best exact worst case among greedy, "
     "Algorithm 2 and more; never below either).",
 )
-@constraint_options
-@output_option(
-    folder=True,
-    required=True,
-    help="Output folder: resilient.json, grid.csv, the grid plot, and periods/ (one file per period).",
+@plots_folder_option(
+    "Output folder: resilient.json, grid.csv, the grid plot, and periods/ (one file per period).",
 )
-@plot_format_option
 @resume_option
 @quality_options
 @result_options
@@ -82,8 +70,6 @@ def resilient_cmd(
     period_s: float,
     rule: str,
     method: str,
-    outdir: str,
-    plot_format: str | None,
     resume: bool,
     as_json: bool,
     quiet: bool,
@@ -108,10 +94,9 @@ def resilient_cmd(
     from sensorsel.api import check_affordable, check_alpha, check_budget, check_period
 
     budget = check_budget(budget)
-    fmt = plot_format_of(plot_format)
     alpha = check_alpha(alpha)
     period_s = check_period(period_s)
-    out = output_dir(outdir)
+    out, fmt = plots_folder_from(kw)
     inputs = design_from(kw)
     problem = inputs.target
     check_affordable(problem.library, budget, alpha, constraints=inputs.constraints)
@@ -183,7 +168,7 @@ def _report(
             f"whole route: greedy and resilient selection on {sc.n_poses} keyframes, {sc.n_landmarks} landmarks ...",
             err=True,
         )
-    with running(inputs.cluster, bar):  # with a cluster, every period as a task there
+    with inputs.running(bar):  # with a cluster, every period as a task there
         return resilient_report(
             target,
             budget,

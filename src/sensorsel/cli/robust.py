@@ -12,24 +12,17 @@ from sensorsel.api import (
     ROBUST_AGGREGATES,
 )  # --aggregate of this command: the combined score (as elsewhere), or the worst route
 from sensorsel.cli.cluster import cluster_evaluator, require_domain
+from sensorsel.cli.common import compact_suite, echo_result, print_accuracy, print_limits, print_target, table
 from sensorsel.cli.options import (
     budget_option,
-    compact_suite,
-    constraint_options,
     design_from,
     design_options,
-    echo_result,
     failures_option,
     output_option,
-    print_accuracy,
-    print_limits,
-    print_target,
     quality_options,
     result_file,
     result_options,
     resume_option,
-    running,
-    table,
 )
 from sensorsel.cli.vocabulary import Command
 from sensorsel.io import results
@@ -80,7 +73,6 @@ def _csv(xs: Any) -> str:
 @click.option(
     "--no-skip", is_flag=True, help="Run every method even when the bound already proves a candidate optimal."
 )
-@constraint_options
 @quality_options
 @output_option(
     help='Write the result as JSON here (kind "robust"); each method\'s outcome is kept in FILE.tasks/ '
@@ -144,7 +136,7 @@ def robust_cmd(
         click.echo(f"robust selection: ${budget:,.0f}, {alpha} failure(s) ...", err=True)
 
     tasks = tasks_folder(output) if output and aggregate != "worst" else None
-    with running(cluster):
+    with inputs.running():
         if aggregate == "worst":  # one search over the routes' shares: on a cluster each route on a worker
             how: dict[str, Any] = {"evaluator": cluster_evaluator(cluster, target, inputs.engine, "normalised")}
         else:  # the methods as tasks: here, or on the cluster's workers; kept under FILE.tasks/

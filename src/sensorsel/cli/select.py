@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import sys
 from dataclasses import replace
-from pathlib import Path
 from typing import Any, cast
 
 import click
@@ -27,34 +26,37 @@ from sensorsel.api import (
     write_csv,
 )
 from sensorsel.cli.cluster import cluster_evaluator, require_domain
-from sensorsel.cli.common import specification_from, specification_given, specification_options
-from sensorsel.cli.options import (
-    budget_option,
+from sensorsel.cli.common import (
     compact_suite,
-    constraint_options,
-    design_from,
-    design_options,
     echo_result,
-    map_sigma_option,
-    output_option,
-    plot_format,
-    plot_format_option,
     print_accuracy,
     print_limits,
     print_target,
+    specification_from,
+    specification_given,
+    specification_options,
+    table,
+)
+from sensorsel.cli.options import (
+    budget_option,
+    design_from,
+    design_options,
+    map_sigma_option,
+    output_option,
+    path_option,
+    plot_format,
+    plots_folder_from,
+    plots_folder_option,
     progress_bar,
     quality_options,
     result_file,
     result_options,
     resume_option,
-    running,
-    table,
 )
-from sensorsel.cli.options import plot_format as plot_format_of
 from sensorsel.cli.rules import kept_label, rule_option, rules_option
 from sensorsel.cli.vocabulary import Command
 from sensorsel.io import results
-from sensorsel.io.files import output_dir, output_file
+from sensorsel.io.files import output_file
 from sensorsel.model.library import SensorLibrary
 from sensorsel.model.problem import Domain, ProblemInfo
 
@@ -133,7 +135,6 @@ def _print_breakdown(design: DomainDesign) -> None:
 )
 @design_options
 @budget_option(required=True)
-@constraint_options
 @rule_option("uniform")
 @click.option(
     "--lazy/--no-lazy", default=True, show_default=True, help="Lazy (Minoux) evaluation: same picks, fewer evaluations."
@@ -147,11 +148,9 @@ def _print_breakdown(design: DomainDesign) -> None:
     help="Also bound the best possible score within the budget (at most one extra sweep of the library per pick) "
     "and print how close the suite is to it.",
 )
-@click.option(
+@path_option(
     "--plot",
     "plot_path",
-    type=click.Path(dir_okay=False, path_type=str),
-    default=None,
     help="With --domain: draw the per-route breakdown here (png, svg or pdf by its extension).",
 )
 @resume_option
@@ -209,7 +208,7 @@ def greedy_cmd(
         "constraints": inputs.constraints,
     }
     design: DomainDesign | None = None  # a domain's: its greedy result and each route's share
-    with running(inputs.cluster, bar, cert_bar):
+    with inputs.running(bar, cert_bar):
         if target.kind == "domain":  # another result kind: the greedy result and each route's breakdown
             ev = cluster_evaluator(inputs.cluster, target, inputs.engine, inputs.aggregate)
             design = design_domain(cast(Domain, target), budget, rule, aggregate=inputs.aggregate, evaluator=ev, **how)
@@ -274,19 +273,15 @@ def _arch_row(a: Architecture) -> list[str]:
     help="A budget in dollars (110000, 110,000, $110,000 or 110_000); repeat it for several; adds to --budgets.",
 )
 @rules_option(",".join(DEFAULT_RULES))
-@constraint_options
 @click.option(
     "--lazy/--no-lazy", default=True, show_default=True, help="Lazy (Minoux) evaluation: same picks, fewer evaluations."
 )
 @map_sigma_option
 @specification_options
-@output_option(
-    folder=True,
-    required=True,
-    help="Folder for pareto.<format>, architectures.csv, tradespace.json, and the front's accuracy: "
+@plots_folder_option(
+    "Folder for pareto.<format>, architectures.csv, tradespace.json, and the front's accuracy: "
     "accuracy.json and pareto-accuracy.<format>.",
 )
-@plot_format_option
 @resume_option
 @result_options
 def pareto_cmd(
@@ -294,8 +289,6 @@ def pareto_cmd(
     budget: tuple[float, ...],
     rules: str,
     lazy: bool,
-    outdir: str,
-    plot_format: str | None,
     resume: bool,
     as_json: bool,
     quiet: bool,
@@ -319,9 +312,8 @@ def pareto_cmd(
     grid = parse_budgets(budgets) if budgets is not None else None
     if budget:
         grid = tuple(sorted(set(grid or ()) | set(budget)))
-    fmt = plot_format_of(plot_format)
     names = parse_rules(rules)
-    output_dir(outdir)
+    out, fmt = plots_folder_from(kw)
     inputs = design_from(kw)
     problem, constraints = inputs.target, inputs.constraints
     routes = [r.name for r in problem.routes]
@@ -339,7 +331,7 @@ def pareto_cmd(
     else:
         check_affordable(problem.library, float(problem.library.costs.sum()), constraints=constraints)
     bar, progress = progress_bar(quiet, "tradespace runs")
-    with running(inputs.cluster, bar):  # with a cluster, each rule's chain of budgets is one task there
+    with inputs.running(bar):  # with a cluster, each rule's chain of budgets is one task there
         res = run_tradespace(
             problem,
             grid,
@@ -351,11 +343,10 @@ def pareto_cmd(
             progress=progress,
             constraints=constraints,
             executor=inputs.executor,
-            outdir=outdir,
+            outdir=out,
             resume=resume,
         )
 
-    out = Path(outdir)
     written = [results.save(res, out / "tradespace.json"), write_csv(res, out / "architectures.csv")]
     acceptance = None
     if res.architectures:

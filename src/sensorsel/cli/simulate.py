@@ -9,28 +9,25 @@ from typing import Any
 
 import click
 
-from sensorsel.cli.common import read_suite
+from sensorsel.cli.common import read_suite, table
 from sensorsel.cli.options import (
     check_map_sigma,
     cluster_from,
     cluster_options,
     force_option,
     jobs_option,
-    output_option,
-    plot_format_option,
+    plots_folder_from,
+    plots_folder_option,
     prior_map_option,
     progress_bar,
     result_options,
     scenario_options,
     spec_from,
     suite_option,
-    table,
 )
-from sensorsel.cli.options import plot_format as plot_format_of
 from sensorsel.cli.vocabulary import Command
 from sensorsel.errors import InputError
 from sensorsel.io import results
-from sensorsel.io.files import output_dir
 from sensorsel.model.library import SensorLibrary
 from sensorsel.model.problem import GraphSettings, Problem, load_problem
 
@@ -139,13 +136,10 @@ def _fmt(v: float | None, digits: int = 3) -> str:
     help="--associate: the associator's chi-square gate probability (2 degrees of freedom).",
 )
 @cluster_options
-@output_option(
-    folder=True,
-    required=True,
-    help="Output folder: simulation.json (every run), trajectories, error_along_route and simulate plots "
+@plots_folder_option(
+    "Output folder: simulation.json (every run), trajectories, error_along_route and simulate plots "
     "(--associate: simulation.json and association_calibration).",
 )
-@plot_format_option
 @force_option
 @result_options
 def simulate_cmd(
@@ -166,8 +160,6 @@ def simulate_cmd(
     importance: bool,
     clutter_per_km: float,
     gate_probability: float,
-    outdir: str,
-    plot_format: str | None,
     force: bool,
     as_json: bool,
     quiet: bool,
@@ -214,8 +206,7 @@ def simulate_cmd(
         ):
             if given:
                 raise click.UsageError(f"{name} needs --associate")
-    fmt = plot_format_of(plot_format)
-    out = output_dir(outdir)
+    out, fmt = plots_folder_from(kw)
     cluster = cluster_from(kw)
     settings = _settings(start_sigmas)
     spec = spec_from(kw)

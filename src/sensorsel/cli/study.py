@@ -7,16 +7,15 @@ from typing import Any
 
 import click
 
+from sensorsel.cli.common import compact_suite, table
 from sensorsel.cli.options import (
     cluster_from,
     cluster_options,
-    compact_suite,
     jobs_option,
     output_option,
     progress_bar,
     result_options,
     resume_option,
-    table,
 )
 from sensorsel.cli.vocabulary import Command
 from sensorsel.io import results
