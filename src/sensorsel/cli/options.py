@@ -105,6 +105,16 @@ def budget_option(
     return click.option("--budget", type=BUDGET, required=required, multiple=multiple, help=help, **extra)
 
 
+def lazy_option(fn: F) -> F:
+    """--lazy/--no-lazy: lazy (Minoux) greedy evaluation, on unless --no-lazy."""
+    return click.option(
+        "--lazy/--no-lazy",
+        default=True,
+        show_default=True,
+        help="Lazy (Minoux) evaluation: same picks, fewer evaluations.",
+    )(fn)
+
+
 def quiet_option(fn: F) -> F:
     """-q/--quiet and --progress/--no-progress (:mod:`sensorsel.cli.progress`)."""
     return click.option(

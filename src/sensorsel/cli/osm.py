@@ -6,13 +6,12 @@ from __future__ import annotations
 import shlex
 import sys
 import warnings
-from contextlib import nullcontext
 from pathlib import Path
 
 import click
 
 from sensorsel.cli.common import echo_written
-from sensorsel.cli.options import osm_reach_option, output_option, path_option, rate_option, result_options
+from sensorsel.cli.options import osm_reach_option, output_option, path_option, rate_option, result_options, running
 from sensorsel.cli.progress import progress_bar
 from sensorsel.cli.vocabulary import Command
 from sensorsel.errors import InputError, SensorselWarning
@@ -161,7 +160,7 @@ def osm_cmd(
     # three stages that can each take a while on a large extract: say which one runs (a status line
     # off a terminal as each starts, once the run has gone on for a few seconds)
     bar, progress = progress_bar(quiet or as_json, "osm", counted=False, eta=False)
-    with bar or nullcontext():
+    with running(bar):
         report(progress, 0, 3, f"reading {path.name}")
         extract = read_osm(path, bbox=box, roads=kinds)
         report(progress, 1, 3, f"routes that drive every road of {len(extract.ways):,} ways")

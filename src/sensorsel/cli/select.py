@@ -41,6 +41,7 @@ from sensorsel.cli.options import (
     budget_option,
     design_from,
     design_options,
+    lazy_option,
     map_sigma_option,
     output_option,
     path_option,
@@ -136,9 +137,7 @@ def _print_breakdown(design: DomainDesign) -> None:
 @design_options
 @budget_option(required=True)
 @rule_option("uniform")
-@click.option(
-    "--lazy/--no-lazy", default=True, show_default=True, help="Lazy (Minoux) evaluation: same picks, fewer evaluations."
-)
+@lazy_option
 @output_option(help="Write the full result as JSON.")
 @click.option(
     "--certificate/--no-certificate",
@@ -273,9 +272,7 @@ def _arch_row(a: Architecture) -> list[str]:
     help="A budget in dollars (110000, 110,000, $110,000 or 110_000); repeat it for several; adds to --budgets.",
 )
 @rules_option(",".join(DEFAULT_RULES))
-@click.option(
-    "--lazy/--no-lazy", default=True, show_default=True, help="Lazy (Minoux) evaluation: same picks, fewer evaluations."
-)
+@lazy_option
 @map_sigma_option
 @specification_options
 @plots_folder_option(

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-from contextlib import nullcontext
 from pathlib import Path
 from typing import Any
 
@@ -21,6 +20,7 @@ from sensorsel.cli.options import (
     prior_map_option,
     progress_bar,
     result_options,
+    running,
     scenario_options,
     spec_from,
     suite_option,
@@ -240,13 +240,13 @@ def simulate_cmd(
         return
 
     sims = []
-    with cluster or nullcontext():
+    with running(cluster):
         executor = cluster.executor if cluster is not None else None  # with a cluster, each run is one task there
         for positions, name, _ in designs:
             ids = set(lib.suite_ids(positions))
             mine = tuple(f for f in failures if f.sensor in ids)
             bar, progress = progress_bar(quiet, f"simulating {name}")
-            with bar or nullcontext():
+            with running(bar):
                 res = simulate(
                     problem,
                     positions,
@@ -308,11 +308,11 @@ def _associate(
     from sensorsel.simulation.association_run import simulate_association
 
     checks = []
-    with cluster or nullcontext():
+    with running(cluster):
         executor = cluster.executor if cluster is not None else None
         for positions, name, _ in designs:
             bar, progress = progress_bar(quiet, f"associating {name}")
-            with bar or nullcontext():
+            with running(bar):
                 checks.append(
                     simulate_association(
                         problem,

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from contextlib import nullcontext
 from typing import Any
 
 import click
@@ -16,6 +15,7 @@ from sensorsel.cli.options import (
     progress_bar,
     result_options,
     resume_option,
+    running,
 )
 from sensorsel.cli.vocabulary import Command
 from sensorsel.io import results
@@ -59,7 +59,7 @@ def study_cmd(study_file: str, outdir: str, resume: bool, jobs: int, as_json: bo
     cluster = cluster_from(kw)
     study = load_study(study_file)
     bar, progress = progress_bar(quiet or as_json, "study cells")
-    with cluster or nullcontext(), bar or nullcontext():  # with a cluster, each cell is one task there
+    with running(cluster, bar):  # with a cluster, each cell is one task there
         res = run_study(
             study,
             outdir=outdir,
