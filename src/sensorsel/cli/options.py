@@ -1,9 +1,10 @@
 """Options shared by the commands, and the error handling every command runs under.
 
 Every command that takes a budget uses :func:`budget_option` (110000, 110,000, $110,000, 110_000);
-every command that draws progress has :func:`quiet_option` (-q/--quiet, --progress/--no-progress) and
-draws it with :func:`~sensorsel.cli.progress.progress_bar`; every command that produces
-a result has :func:`json_option` (--json: the result's JSON on stdout); every command that draws a
+every command ends with :func:`result_options`: --json (the result's JSON on stdout), -q/--quiet and
+--progress/--no-progress (progress drawn with :func:`~sensorsel.cli.progress.progress_bar`), and the
+error handling of :func:`run`; every design command starts with :func:`design_options`, read by
+:func:`design_from` (its target, cluster, limits, scoring and reporting); every command that draws a
 plot has :func:`plot_format_option` (--plot-format png|svg|pdf; default: a file output's extension, else
 png); every -o/--output FILE and --output-dir DIRECTORY uses :func:`output_option`, which refuses an
 empty name. The names and meanings are those of :mod:`sensorsel.cli.vocabulary`.
