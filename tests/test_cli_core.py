@@ -220,3 +220,25 @@ def test_landmarks_bad_model_is_one_line(tmp_path, args, fragment):
 def test_landmarks_refuses_an_input_map(tmp_path):
     result = invoke("landmarks", "--fixture", "tiny", "--landmarks", "a.csv", "-o", str(tmp_path / "x.csv"))
     assert result.exit_code == 2 and "this command writes one" in result.output
+
+
+def test_a_domain_result_is_refused_as_a_suite_for_one_route(tmp_path):
+    """A result computed on a domain names its suite for that domain: given to a command on one
+    route, it is refused saying so (it was once read as a result that records no problem at all);
+    with --force it is used, with the same words as a warning."""
+    data = Path(__file__).resolve().parents[1] / "data" / "kitti_fixtures"
+    route = f"route: {data / 'poses' / 'tiny.txt'}\n    format: kitti\n    times: {data / 'sequences/tiny/times.txt'}"
+    (tmp_path / "d.yaml").write_text(
+        "routes:\n"
+        + "".join(
+            f"  - name: {n}\n    {route}\n    landmarks: {{synthetic: {{seed: {s}}}}}\n"
+            for n, s in (("a", 3), ("b", 4))
+        )
+    )
+    lib = str(Path(__file__).resolve().parents[1] / "configs" / "reduced_library.yaml")
+    out = str(tmp_path / "o.json")  # an optimum: a result kind that names a suite, here on a domain
+    ok("optimal", "--domain", str(tmp_path / "d.yaml"), "--library", lib, "--budget", "5000", "-q", "-o", out)
+    err = fails("score", "--fixture", "tiny", "--library", lib, "--suite", out)
+    assert "it was computed on a domain, this run is on one route" in err and out in err
+    forced = invoke("score", "--fixture", "tiny", "--library", lib, "--suite", out, "--force")
+    assert forced.exit_code == 0 and "computed on a domain, this run is on one route" in forced.stderr

@@ -147,3 +147,21 @@ def test_osm_json_says_the_domain_it_wrote(tmp_path):
     )
     rows = {line.split()[0]: int(line.split()[1]) for line in text.splitlines()[2:] if len(line.split()) == 3}
     assert {c: v["count"] for c, v in data["landmarks"].items()} == rows  # the summary's table, as JSON
+
+
+def test_the_table_is_read_row_by_row():
+    """The table's text: a short name, a narrower metavar, a flag, an empty gist and a meaning that goes
+    on over two lines, each read into its term; a misspelt section heading is refused, not a new section."""
+    from sensorsel.cli.vocabulary import OUTPUT, SUITE, Term, _terms
+
+    text = (
+        "Output:\n-o/--output FILE |  | the file\n    written\n--json | json | print it\n"
+        "Suite and constraints:\n--suite IDS|FILE (FILE) | sensor ids | a suite\n"
+    )
+    assert _terms(text) == (
+        Term("--output", "FILE", "", "the file written", OUTPUT, short="-o"),
+        Term("--json", "", "json", "print it", OUTPUT),
+        Term("--suite", "IDS|FILE", "sensor ids", "a suite", SUITE, narrower="FILE"),
+    )
+    with pytest.raises(ValueError, match="'Outptu' is not a help section"):
+        _terms("Outptu:\n--json | json | print it\n")

@@ -58,28 +58,6 @@ ALLOWED: dict[tuple[str, str], tuple[int, str]] = {
         "whether a route's engine holds its problem in this process (a cluster's actor does not): not a "
         "route-or-domain branch",
     ),
-    # the command line: output and options that exist for one kind only
-    ("cli/certify.py", "_certify"): (1, "a domain design file holds its greedy result inside (a result kind)"),
-    ("cli/cluster.py", "require_domain"): (
-        1,
-        "--scheduler/--workers spread a domain's routes (a distributed domain evaluator normalises, a route's "
-        "score is in nats); refused on one route, and every command's cluster evaluator goes through it",
-    ),
-    ("cli/common.py", "_recorded_problem"): (1, "a result file names a suite on one route only"),
-    ("cli/core.py", "score_cmd"): (1, "a domain's score is a per-route breakdown, a route's a log det"),
-    ("cli/options.py", "print_target"): (2, "the 'scenario' line against a domain's per-route lines"),
-    ("cli/require.py", "require_cmd"): (
-        2,
-        "invented landmarks are refused on one route only (a domain file names its landmarks); a --compare "
-        "result file is checked against one route's problem",
-    ),
-    ("cli/resilient.py", "resilient_cmd"): (1, "a cluster runs a route's periods; a domain has none"),
-    ("cli/resilient.py", "_report"): (1, "as resilient_report: periods on one route"),
-    ("cli/select.py", "greedy_cmd"): (
-        2,
-        "a domain's design is another result kind (its greedy result and each route's share, drawn by --plot): "
-        "--plot is refused on one route, and the design is run where the target is a domain",
-    ),
 }
 
 

@@ -78,7 +78,7 @@ def test_cli_robust_prints_the_three_designs_and_round_trips(small_library_yaml,
     summary = r.stdout.split("\ncandidates")[0]  # the three designs' table (the candidates' table follows)
     lines = {ln.split()[0]: ln for ln in summary.splitlines() if ln.startswith(("greedy ", "algorithm 2", "robust "))}
     assert set(lines) == {"greedy", "algorithm", "robust"}
-    from sensorsel.cli.options import compact_suite
+    from sensorsel.cli.common import compact_suite
 
     # robust row: suite (ids grouped by model), cost, nominal, worst case, its failure set, the bound, the gap
     robust_row = lines["robust"]

@@ -6,7 +6,6 @@ possible one (an upper bound on the optimum; ``sensorsel greedy`` prints the sam
 from __future__ import annotations
 
 import warnings
-from contextlib import nullcontext
 from typing import Any
 
 import click
@@ -21,36 +20,28 @@ from sensorsel.api import (
     certify_result,
     check_affordable,
     check_budget,
-    checkpoint_path,
     constraints_mismatch,
     format_certificate,
     run_greedy,
     run_optimal,
-    with_suite_quality,
 )
 from sensorsel.cli.cluster import evaluator_on, require_domain
-from sensorsel.cli.common import is_result_file
-from sensorsel.cli.integrity import integrity_from, integrity_options
+from sensorsel.cli.common import echo_result, is_result_file, print_accuracy, print_limits, print_target
 from sensorsel.cli.options import (
+    DesignInputs,
     budget_option,
-    cluster_from,
-    constraint_options,
-    constraints_from,
+    design_from,
     design_options,
     force_option,
-    json_option,
-    map_sigma_option,
     output_option,
-    print_accuracy,
-    print_target,
+    path_option,
     progress_bar,
-    quiet_option,
+    quality_options,
+    result_file,
+    result_options,
     resume_option,
-    run,
-    scoring_from,
-    target_from,
+    running,
     time_limit_option,
-    usage_table,
 )
 from sensorsel.cli.options import not_empty as not_empty_file
 from sensorsel.cli.rules import kept_label, rule_option
@@ -58,21 +49,13 @@ from sensorsel.cli.vocabulary import Command
 from sensorsel.errors import InputError, ResultFileError
 from sensorsel.io import results
 from sensorsel.io.files import output_file
-from sensorsel.model.constraints import Constraints, feasible_set
+from sensorsel.model.constraints import Constraints
 from sensorsel.model.library import SensorLibrary
 from sensorsel.model.problem import ProblemMismatchWarning, check_result_problem
 
 
 def _suite_text(ids: tuple[str, ...]) -> str:
     return ",".join(ids) if ids else "(no sensor)"
-
-
-def _print_usage(lib: SensorLibrary, budget: float, constraints: Constraints | None, suite: tuple[str, ...]) -> None:
-    """The limits line and the resource-use table of a constrained result (nothing when None)."""
-    if constraints is None:
-        return
-    click.echo(f"limits     {constraints.describe()}")
-    click.echo(usage_table(feasible_set(lib, budget, constraints).rows_used(lib.resolve_suite(suite))))
 
 
 def _check_result_constraints(res: GreedyResult, lib: SensorLibrary, path: str, force: bool) -> None:
@@ -95,7 +78,6 @@ def _check_result_constraints(res: GreedyResult, lib: SensorLibrary, path: str, 
 )
 @design_options
 @budget_option(required=True, help="Budget per car in dollars: 110000, 110,000, $110,000 or 110_000.")
-@constraint_options
 @click.option(
     "--max-nodes",
     type=click.IntRange(min=1),
@@ -106,16 +88,13 @@ def _check_result_constraints(res: GreedyResult, lib: SensorLibrary, path: str, 
 @time_limit_option(
     "Also stop the search after this long and report the gap (the result then depends on the machine's speed)."
 )
-@map_sigma_option
-@integrity_options
+@quality_options
 @output_option(
     help="Write the result as JSON here; the search's state is kept in FILE.checkpoint as it runs "
     "(the greedy start, then every 500 nodes; removed once FILE is written)."
 )
 @resume_option
-@json_option
-@quiet_option
-@run
+@result_options
 def optimal_cmd(
     budget: float,
     max_nodes: int,
@@ -141,44 +120,36 @@ def optimal_cmd(
     also with a larger --max-nodes; the answer is the uninterrupted run's.
     """
     budget = check_budget(budget)
-    aggregate, engine, jobs, map_sigma, estimate = scoring_from(kw)
-    integrity_spec = integrity_from(kw)
-    if resume and not output:
-        raise click.UsageError("--resume goes on from the search's state in FILE.checkpoint of -o FILE: give -o")
-    if output:
-        output_file(output)
-    constraints = constraints_from(kw)
-    cluster = cluster_from(kw)
-    problem = target_from(kw)
-    require_domain(cluster, problem)
-    check_affordable(problem.library, budget, constraints=constraints)
+    store = result_file(output, resume, "the search's state in FILE.checkpoint of -o FILE")
+    inputs = design_from(kw)
+    problem = inputs.target
+    require_domain(inputs.cluster, problem)
+    check_affordable(problem.library, budget, constraints=inputs.constraints)
     bar, progress = progress_bar(
         quiet or as_json, "branch and bound (nodes)", eta=False
     )  # the node limit is a cap, not a forecast
-    with cluster or nullcontext(), bar or nullcontext():
-        ev = evaluator_on(cluster, problem, engine, jobs, aggregate)
+    with inputs.running(bar):
+        ev = evaluator_on(inputs.cluster, problem, inputs.engine, inputs.jobs, inputs.aggregate)
         res = run_optimal(
             problem,
             budget,
             max_nodes=max_nodes,
             max_seconds=time_limit,
             progress=progress,
-            constraints=constraints,
+            constraints=inputs.constraints,
             evaluator=ev,
-            checkpoint=checkpoint_path(output) if output else None,
+            checkpoint=store.checkpoint,
             resume=resume,
         )
-    res = with_suite_quality(
-        res, problem, map_sigma_m=map_sigma, engine=engine, estimate=estimate, integrity=integrity_spec
-    )
-    if output:
-        results.save(res, output)
-        checkpoint_path(output).unlink(missing_ok=True)  # the result is written: the run is no longer interrupted
-    if as_json:
-        click.echo(results.dumps(res), nl=False)
-        return
+    res = inputs.with_quality(res)
+    store.save(res)
+    echo_result(res, as_json, lambda: _print_optimal(res, problem.library, output))
+
+
+def _print_optimal(res: Any, lib: SensorLibrary, output: str | None) -> None:
+    """The optimum (or the best found and the gap), greedy beside it, the search, the limits, the accuracy."""
     print_target(res.problem)
-    click.echo(f"library    {problem.n_sensors} sensors from {problem.library.source}")
+    click.echo(f"library    {len(lib)} sensors from {lib.source}")
     click.echo(f"budget     ${res.budget_usd:,.0f}")
     if res.proved_optimal:
         click.echo(
@@ -209,7 +180,7 @@ def optimal_cmd(
         f"{res.n_evaluations:,} suites scored "
         f"({res.engine} engine, {res.bound_method} bounds), {res.seconds:.1f} s"
     )
-    _print_usage(problem.library, res.budget_usd, res.constraints, res.suite)
+    print_limits(lib, res.budget_usd, res.constraints, res.suite)
     print_accuracy(res.accuracy, res.integrity)
     if output:
         click.echo(f"wrote      {output}")
@@ -219,11 +190,9 @@ def optimal_cmd(
     "certify", cls=Command, short_help="How close a greedy suite is to the best possible one (an upper bound)."
 )
 @design_options
-@click.option(
+@path_option(
     "--suite",
     "result_path",
-    type=click.Path(dir_okay=False, path_type=str),
-    default=None,
     callback=not_empty_file,
     metavar="FILE",
     help="The suite to certify: a greedy result file of sensor ids and the run that chose them "
@@ -234,12 +203,9 @@ def optimal_cmd(
     help="Without --suite: run greedy at this budget in dollars (110000, 110,000, $110,000 or 110_000) and certify it."
 )
 @rule_option("best-of", "Without --suite: the greedy rule.")
-@constraint_options
 @force_option
 @output_option(help="Write the certificate as JSON here.")
-@json_option
-@quiet_option
-@run
+@result_options
 def certify_cmd(
     result_path: str | None,
     budget: float | None,
@@ -248,9 +214,6 @@ def certify_cmd(
     output: str | None,
     as_json: bool,
     quiet: bool,
-    aggregate: str,
-    engine: str | None,
-    jobs: int,
     **kw: Any,
 ) -> None:
     """How close is a greedy suite to the best possible suite of its budget?
@@ -268,16 +231,10 @@ def certify_cmd(
     declare the same resources and slots; see --force), or, with --budget, --limit, --include,
     --exclude, --max-sensors and the library's mounting slots (then an integer program, by HiGHS).
     """
-    constraints = constraints_from(kw)
     if result_path is not None and not is_result_file(result_path):
         raise InputError(
             f"--suite {result_path}: certify bounds a greedy run, so it takes a greedy result file "
             "(sensorsel greedy -o FILE), not sensor ids; or give --budget DOLLARS to run greedy now"
-        )
-    if result_path is not None and constraints != Constraints():
-        raise InputError(
-            "--suite FILE is certified under the constraints it records: give --limit, --no-slots, "
-            "--include, --owned, --exclude or --max-sensors only with --budget"
         )
     if result_path is not None and budget is not None:
         raise InputError("give either --suite FILE (a greedy result) or --budget DOLLARS (run greedy now), not both")
@@ -285,18 +242,22 @@ def certify_cmd(
         raise InputError("give --suite FILE (a greedy result to certify) or --budget DOLLARS (run greedy now)")
     if output:
         output_file(output)
-    cluster = cluster_from(kw)
-    problem = target_from(kw)
-    require_domain(cluster, problem)
-    with cluster or nullcontext():
-        res, cert = _certify(
-            problem, cluster, result_path, budget, rule, force, quiet or as_json, engine, jobs, aggregate, constraints
+    inputs = design_from(kw)
+    if result_path is not None and inputs.constraints != Constraints():
+        raise InputError(
+            "--suite FILE is certified under the constraints it records: give --limit, --no-slots, "
+            "--include, --owned, --exclude or --max-sensors only with --budget"
         )
+    require_domain(inputs.cluster, inputs.target)
+    with inputs.running():
+        res, cert = _certify(inputs, result_path, budget, rule, force, quiet or as_json)
     if output:
         results.save(cert, output)
-    if as_json:
-        click.echo(results.dumps(cert), nl=False)
-        return
+    echo_result(cert, as_json, lambda: _print_certificate(res, cert, inputs.target.library, output))
+
+
+def _print_certificate(res: Any, cert: Certificate, lib: SensorLibrary, output: str | None) -> None:
+    """The greedy suite, its score and the bound on any suite's within the budget, the limits."""
     print_target(res.problem)
     click.echo(
         f"greedy     {kept_label(res.rule, res.winning_rule)}: {_suite_text(res.suite)}  (${res.cost_usd:,.0f} of "
@@ -308,30 +269,22 @@ def certify_cmd(
         f"bound      {cert.bound:.3f} nats: no suite within {within} scores more "
         f"(gap {cert.gap:.3f} nats; knapsack: {cert.knapsack_method})"
     )
-    _print_usage(problem.library, res.budget_usd, res.constraints, res.suite)
+    print_limits(lib, res.budget_usd, res.constraints, res.suite)
     click.echo(format_certificate(cert))
     if output:
         click.echo(f"wrote      {output}")
 
 
 def _certify(
-    problem: Any,
-    cluster: Any,
-    result_path: str | None,
-    budget: float | None,
-    rule: str,
-    force: bool,
-    quiet: bool,
-    engine: str | None,
-    jobs: int,
-    aggregate: str,
-    constraints: Constraints,
+    inputs: DesignInputs, result_path: str | None, budget: float | None, rule: str, force: bool, quiet: bool
 ) -> tuple[Any, Certificate]:
-    """The greedy result (read from --suite, under the constraints it records; or run now under
-    ``constraints``) and its certificate, on ``cluster`` if given."""
+    """The greedy result (read from --suite, under the constraints it records; or run now under the
+    constraints of the options) and its certificate, on the cluster if one was asked for."""
+    problem, engine = inputs.target, inputs.engine
     if result_path is not None:
         loaded = results.load(result_path, (CertifiedGreedyResult, DomainDesign))
-        res = loaded.greedy if isinstance(loaded, DomainDesign) else loaded
+        # a domain design holds its greedy result inside (its own result kind)
+        res = loaded.greedy if results.kind_of(loaded) == results.kind_of(DomainDesign) else loaded
         check_result_problem(res.problem, problem, result_path, force=force, what="the greedy result")
         try:
             problem.library.parse_suite(list(res.suite))
@@ -339,14 +292,14 @@ def _certify(
             raise ResultFileError(result_path, f"its suite: {exc} (a result of another library?)") from None
         _check_result_constraints(res, problem.library, result_path, force)
         run_engine = None if res.engine == DomainEvaluator.name else res.engine
-        ev = evaluator_on(cluster, problem, engine or run_engine, jobs, aggregate)
+        ev = evaluator_on(inputs.cluster, problem, engine or run_engine, inputs.jobs, inputs.aggregate)
     else:
         assert budget is not None
-        checked = check_affordable(problem.library, budget, constraints=constraints)
-        ev = evaluator_on(cluster, problem, engine, jobs, aggregate)
-        res = run_greedy(problem, checked, rule, constraints=constraints, evaluator=ev)
+        checked = check_affordable(problem.library, budget, constraints=inputs.constraints)
+        ev = evaluator_on(inputs.cluster, problem, engine, inputs.jobs, inputs.aggregate)
+        res = run_greedy(problem, checked, rule, constraints=inputs.constraints, evaluator=ev)
     bar, progress = progress_bar(quiet, "certificate (greedy steps)")
-    with bar or nullcontext():
+    with running(bar):
         cert: Certificate = certify_result(problem, res, progress=progress, force=force, evaluator=ev)
     return res, cert
 

@@ -16,7 +16,7 @@ def require_domain(cluster: Any, target: Target) -> None:
     Raises:
         click.UsageError: a cluster asked for on one route.
     """
-    if cluster is not None and not isinstance(target, Domain):
+    if cluster is not None and target.kind != "domain":
         raise click.UsageError(
             "--scheduler/--workers spread a domain's routes over a cluster: they go with --domain FILE"
         )

@@ -1,19 +1,23 @@
-"""Helpers the commands share that are not options: a suite read from ids or a result file, and a
-specification in metres from its options (``greedy``, ``pareto`` and ``require``)."""
+"""Helpers the commands share that are not options: a suite read from ids or a result file, a
+specification in metres from its options (``greedy``, ``pareto`` and ``require``), and what the commands
+write: a result as JSON or its summary (:func:`echo_result`), what a command wrote (:func:`echo_written`),
+the target, accuracy and limits lines and the tables."""
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import click
 
 from sensorsel.api import PRESETS, Specification, load_specification_file, preset, specifications_for
+from sensorsel.cli.options import path_option
 from sensorsel.errors import InputError, ResultFileError
 from sensorsel.io import results
 from sensorsel.model.library import SensorLibrary
-from sensorsel.model.problem import Problem, ProblemInfo, check_result_problem
+from sensorsel.model.problem import DomainInfo, Problem, TargetInfo, check_result_problem
 
 #: Result kinds that name a suite: simulate --suite/--compare read these (resilient ones also say
 #: which sensors they assume to fail).
@@ -81,12 +85,13 @@ def read_suite(
         raise InputError(f"{what} {text!r}: {exc}") from None
 
 
-def _recorded_problem(rec: Any) -> ProblemInfo | None:
-    """The problem a suite result records (a resilient report's: its comparison's)."""
-    info = getattr(rec, "problem", None)
+def _recorded_problem(rec: Any) -> TargetInfo | None:
+    """The target a suite result records (a resilient report's: its comparison's): a route's or a
+    domain's, which :func:`~sensorsel.model.problem.check_result_problem` tells apart from this run's."""
+    info: TargetInfo | None = getattr(rec, "problem", None)
     if info is None:
         info = getattr(getattr(rec, "comparison", None), "problem", None)
-    return info if isinstance(info, ProblemInfo) else None
+    return info
 
 
 def specification_options(fn: Any) -> Any:
@@ -122,11 +127,9 @@ def specification_options(fn: Any) -> Any:
                 metavar="PERCENT",
                 help="Share of each route's keyframes that must meet every bound (default: 100, every keyframe).",
             ),
-            click.option(
+            path_option(
                 "--spec",
                 "spec_path",
-                type=click.Path(dir_okay=False, path_type=str),
-                default=None,
                 metavar="FILE",
                 help="A specification file: a default and per-route specifications (a domain whose routes have "
                 "different road classes); see the requirements guide.",
@@ -172,3 +175,140 @@ def specification_from(kw: dict[str, Any], routes: list[str]) -> list[Specificat
             base = replace(base, **overrides, name=f"{name} (changed)" if set(overrides) & set(given) else name)
         return [base] * len(routes)
     return [Specification(**overrides)] * len(routes)
+
+
+# ------------------------------------------------------------------- what the commands write
+
+
+def echo_written(kind: str, **fields: Any) -> None:
+    """--json of a command that writes files rather than a result (scene, landmarks, osm, kitti): what
+    it wrote, as one JSON object on stdout, its "kind" and "format" first like every result's."""
+    import json
+
+    click.echo(json.dumps({"kind": kind, "format": 1, **fields}, indent=2))
+
+
+def table(rows: list[list[str]], header: list[str]) -> str:
+    """Plain fixed-width table; numbers right-aligned."""
+    cols = list(zip(*([header] + rows))) if rows else [(h,) for h in header]
+    widths = [max(len(str(c)) for c in col) for col in cols]
+
+    def fmt(row: list[str]) -> str:
+        out = []
+        for v, w in zip(row, widths):
+            s = str(v)
+            out.append(s.rjust(w) if _numeric(s) else s.ljust(w))
+        return "  ".join(out).rstrip()
+
+    return "\n".join([fmt(header), "  ".join("-" * w for w in widths)] + [fmt(r) for r in rows])
+
+
+def _numeric(s: str) -> bool:
+    try:
+        float(s.replace(",", "").replace("$", "").replace("%", ""))
+        return True
+    except ValueError:
+        return False
+
+
+def print_target(info: TargetInfo | None) -> None:
+    """The 'scenario' line (one route) or the 'domain' lines (each route) of a result; nothing when it
+    records none."""
+    if info is None:
+        return
+    if info.kind == "route":  # a route is named by its scenario, its problem is itself
+        p = info.routes[0].problem
+        when = f"; condition {p.condition}" if p.condition else ""
+        click.echo(
+            f"scenario   {p.scenario}: {p.n_poses} keyframes, {p.n_landmarks} landmarks ({p.landmark_source}){when}"
+        )
+        return
+    conditions = list(dict.fromkeys(r.condition for r in info.routes if r.condition))
+    routes = list(dict.fromkeys(r.route or r.name for r in info.routes))
+    what = (
+        f"{len(info.routes)} members ({len(routes)} routes x conditions {', '.join(conditions)})"
+        if conditions
+        else f"{len(info.routes)} routes"
+    )
+    click.echo(f"domain     {cast(DomainInfo, info).source}: {what}")  # the kind says it is a domain's
+    for r in info.routes:
+        p = r.problem
+        click.echo(
+            f"  {r.name:<12} weight {r.weight:g} {r.unit}; {p.n_poses} keyframes, {p.n_landmarks} landmarks "
+            f"({p.landmark_source})"
+        )
+
+
+def compact_suite(suite: Sequence[str], library: SensorLibrary | None = None) -> str:
+    """A suite for a table: ids grouped by model, ``LRL-roof HD2K-{2,4,12} LRR-6``; with ``library``,
+    a suite of all but at most three of its sensors is ``all but LRL-roof`` (the full ids are in the JSON)."""
+    if library is not None and len(suite) > 3:
+        missing = [i for i in library.ids if i not in set(suite)]
+        if len(missing) <= 3 and len(suite) + len(missing) == len(library):
+            return "all but " + ", ".join(missing) if missing else f"all {len(library)} sensors"
+    groups: dict[str, list[str]] = {}
+    for sid in suite:
+        code, _, where = sid.rpartition("-")
+        groups.setdefault(code, []).append(where)
+    return " ".join(f"{c}-{w[0]}" if len(w) == 1 else f"{c}-{{{','.join(w)}}}" for c, w in groups.items())
+
+
+def print_limits(
+    lib: SensorLibrary,
+    budget_usd: float,
+    constraints: Any,
+    suite: Sequence[str],
+    head: str = "limits     ",
+    tail: str = "",
+) -> None:
+    """Under constraints (nothing when None): their description between ``head`` and ``tail``, then what
+    ``suite`` uses of each limit (:func:`usage_table`) within ``budget_usd`` [$]."""
+    if constraints is None:
+        return
+    from sensorsel.model.constraints import feasible_set
+
+    click.echo(f"{head}{constraints.describe()}{tail}")
+    click.echo(usage_table(feasible_set(lib, budget_usd, constraints).rows_used(lib.resolve_suite(suite))))
+
+
+def usage_table(rows: Sequence[Any]) -> str:
+    """The resource-use table of a constrained result: each limit, what the suite uses, what is left.
+    ``rows`` are :class:`~sensorsel.model.constraints.RowUse`; mounting slots are summed into one line."""
+    out, slots_used, slots_cap, full = [], 0.0, 0.0, 0
+    for r in rows:
+        if r.unit == "" and r.name != "sensors":
+            slots_used += r.used
+            slots_cap += r.limit
+            full += int(r.used >= r.limit)
+            continue
+
+        def fmt(v: float, unit: str = r.unit) -> str:
+            if unit == "$":
+                return f"${v:,.0f}"
+            return (f"{v:,.0f}" if abs(v) >= 1000 else f"{v:.4g}") + f" {unit}".rstrip()
+
+        out.append([r.name, fmt(r.used), fmt(r.limit), f"{r.used / r.limit:.0%}" if r.limit > 0 else "-"])
+    if slots_cap:
+        out.append(["mounting slots", f"{slots_used:,.0f} sensors", f"{slots_cap:,.0f} places", f"{full} full"])
+    return table(out, ["limit", "used", "of", "share"])
+
+
+def echo_result(result: Any, as_json: bool, summary: Callable[[], None]) -> None:
+    """What a command says of its result on stdout: with --json the result's JSON (its "kind" and
+    "format" first), else ``summary()``, the lines a person reads."""
+    if as_json:
+        click.echo(results.dumps(result), nl=False)
+    else:
+        summary()
+
+
+def print_accuracy(accuracies: Sequence[Any], integrity: Sequence[Any] = ()) -> None:
+    """One line per route: the suite's 95 % errors in metres and degrees and the model behind them
+    (:class:`~sensorsel.information.evaluators.accuracy.RouteAccuracy`); then one integrity line per
+    route (:class:`~sensorsel.information.integrity.RouteIntegrity`), when computed."""
+    for acc in accuracies:
+        where = f" {acc.route}:" if len(accuracies) > 1 else ""
+        click.echo(f"accuracy  {where} {acc.line()}")
+    for itg in integrity:
+        where = f" {itg.route}:" if len(integrity) > 1 else ""
+        click.echo(f"integrity {where} {itg.line()}")

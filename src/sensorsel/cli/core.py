@@ -4,44 +4,41 @@ from __future__ import annotations
 
 import json
 import math
-from contextlib import nullcontext
 from dataclasses import replace
-from typing import Any
+from typing import Any, cast
 
 import click
 
-from sensorsel.api import score_domain_suite, score_suite, suite_integrity, with_suite_quality
+from sensorsel.api import score_domain_suite, score_suite, suite_integrity
 from sensorsel.cli.cluster import cluster_evaluator, require_domain
-from sensorsel.cli.common import is_result_file, read_suite
-from sensorsel.cli.integrity import integrity_from, integrity_options
-from sensorsel.cli.options import (
-    cluster_from,
-    constraint_options,
-    constraints_from,
-    design_options,
+from sensorsel.cli.common import (
+    echo_result,
     echo_written,
-    force_option,
-    json_option,
-    map_sigma_option,
-    output_option,
-    plot_format_option,
+    is_result_file,
     print_accuracy,
     print_target,
-    problem_from,
-    quiet_option,
-    run,
-    scenario_options,
-    scoring_from,
-    spec_from,
-    suite_text,
+    read_suite,
     table,
-    target_from,
     usage_table,
+)
+from sensorsel.cli.options import (
+    design_from,
+    design_options,
+    force_option,
+    library_option,
+    output_option,
+    path_option,
+    plot_format_option,
+    problem_from,
+    quality_options,
+    result_options,
+    scenario_options,
+    spec_from,
+    suite_option,
 )
 from sensorsel.cli.options import plot_format as plot_format_of
 from sensorsel.cli.vocabulary import Command
 from sensorsel.errors import InputError
-from sensorsel.io import results
 from sensorsel.model.constraints import FeasibleSet, feasible_set
 from sensorsel.model.library import SensorLibrary, load_library, resource_unit
 from sensorsel.model.problem import Domain, Problem
@@ -82,15 +79,8 @@ def library_json(lib: SensorLibrary) -> str:
 
 
 @click.command("library", cls=Command, short_help="List the 62 placed sensors of the library (id, index, model, cost).")
-@click.option(
-    "--library",
-    "library_path",
-    type=click.Path(dir_okay=False, path_type=str),
-    help="Sensor library YAML (default: the paper's Table I).",
-)
-@json_option
-@quiet_option
-@run
+@library_option()
+@result_options
 def library_cmd(library_path: str | None, as_json: bool, quiet: bool) -> None:
     """List the placed sensors of the library (id, paper index, model, position, range, FOV, cost),
     what each uses of the resources the file declares (what --limit can bound), and its mounting slots."""
@@ -155,22 +145,15 @@ def library_cmd(library_path: str | None, as_json: bool, quiet: bool) -> None:
 
 @click.command("score", cls=Command, short_help="Score a suite: cost and f(S) = log det gain over no sensor [nats].")
 @design_options
-@click.option(
-    "--suite",
+@suite_option(
     required=True,
-    callback=suite_text,
-    metavar="IDS|FILE",
     help="Comma-separated sensor ids or indices, e.g. LRL-roof,LRR-12 (see "
     "`sensorsel library`), or a result JSON (`sensorsel greedy -o FILE`, ...: its suite; computed on the same "
     "problem, see --force).",
 )
-@constraint_options
 @force_option
-@map_sigma_option
-@integrity_options
-@json_option
-@quiet_option
-@run
+@quality_options
+@result_options
 def score_cmd(
     suite: str,
     as_json: bool,
@@ -187,55 +170,64 @@ def score_cmd(
 
     Also the suite's accuracy in metres and degrees (lateral, longitudinal, heading: 95 % errors over
     the keyframes), in the paper's SLAM graph or with --map-sigma localizing in a prior map."""
-    aggregate, engine, jobs, map_sigma, estimate = scoring_from(kw)
-    integrity_spec = integrity_from(kw)
-    cluster = cluster_from(kw)
-    constraints = constraints_from(kw)
-    problem = target_from(kw)
-    require_domain(cluster, problem)
+    inputs = design_from(kw)
+    target, engine = inputs.target, inputs.engine
+    require_domain(inputs.cluster, target)
     # score has no budget: the whole library is affordable, the other limits apply
-    feas = feasible_set(problem.library, float(problem.library.costs.sum()), constraints)
-    if isinstance(problem, Domain):
+    feas = feasible_set(target.library, float(target.library.costs.sum()), inputs.constraints)
+    if target.kind == "domain":  # another result kind: the score of each route and the domain's
         if is_result_file(suite):
             raise InputError(
                 f"--suite {suite}: a result file names a suite for one route; with --domain give the suite's ids"
             )
-        with cluster or nullcontext():
-            ev = cluster_evaluator(cluster, problem, engine, aggregate)
-            dres = score_domain_suite(problem, suite, engine=engine, aggregate=aggregate, evaluator=ev)
-        dres = with_suite_quality(
-            dres, problem, map_sigma_m=map_sigma, engine=engine, estimate=estimate, integrity=integrity_spec
-        )
-        if as_json:
-            click.echo(results.dumps(dres), nl=False)
-            return
-        print_target(dres.domain)
-        click.echo(f"suite      {','.join(dres.suite)}")
-        click.echo(f"cost       ${dres.cost_usd:,.0f}")
-        rows = [
-            [r.name, f"{r.weight:.3f}", f"{r.score:.3f}", f"{r.best_score:.3f}", f"{r.share_of_best:.4f}"]
-            for r in dres.routes
-        ]
-        click.echo(table(rows, ["route", "weight", "score_nats", "best_nats", "of_best"]))
-        unit = "(weighted share of the best)" if dres.aggregate == "normalised" else "nats (weighted)"
-        click.echo(f"score      {dres.score:.4f} {unit}")
-        print_accuracy(dres.accuracy, dres.integrity)
-        _print_limits(feas, problem.library.resolve_suite(dres.suite))
+        with inputs.running():
+            ev = cluster_evaluator(inputs.cluster, target, engine, inputs.aggregate)
+            dres = score_domain_suite(
+                cast(Domain, target), suite, engine=engine, aggregate=inputs.aggregate, evaluator=ev
+            )
+        dres = inputs.with_quality(dres)
+        echo_result(dres, as_json, lambda: _print_domain_score(dres, feas))
         return
+    problem = target.routes[0].problem
     res = score_suite(
-        problem, _suite_positions(suite, problem, force), engine=engine, map_sigma_m=map_sigma, estimate=estimate
+        problem,
+        _suite_positions(suite, problem, force),
+        engine=engine,
+        map_sigma_m=inputs.map_sigma,
+        estimate=inputs.estimate,
     )
-    res = replace(res, integrity=suite_integrity(problem, res.suite, integrity_spec, map_sigma_m=map_sigma))
-    if as_json:
-        click.echo(results.dumps(res), nl=False)
-        return
-    print_target(res.problem)
-    click.echo(f"suite      {','.join(res.suite)}")
-    click.echo(f"cost       ${res.cost_usd:,.0f}")
+    res = replace(res, integrity=suite_integrity(problem, res.suite, inputs.integrity, map_sigma_m=inputs.map_sigma))
+    echo_result(res, as_json, lambda: _print_score(res, feas))
+
+
+def _print_suite(target: Any, suite: tuple[str, ...], cost_usd: float) -> None:
+    """The target a suite is scored on, the suite and its cost."""
+    print_target(target)
+    click.echo(f"suite      {','.join(suite)}")
+    click.echo(f"cost       ${cost_usd:,.0f}")
+
+
+def _print_score(res: Any, feas: FeasibleSet) -> None:
+    """A suite's score on one route: its log det gain, what it measures, its accuracy, the limits."""
+    _print_suite(res.problem, res.suite, res.cost_usd)
     click.echo(f"score      {res.score:.3f} nats  (log det {res.logdet:.3f}, sensorless {res.baseline_logdet:.3f})")
     click.echo(f"measures   {res.n_measurements} range-bearing measurements of {res.n_landmarks_seen} landmarks")
     print_accuracy([res.accuracy] if res.accuracy is not None else [], res.integrity)
-    _print_limits(feas, problem.library.resolve_suite(res.suite))
+    _print_limits(feas, feas.library.resolve_suite(res.suite))
+
+
+def _print_domain_score(dres: Any, feas: FeasibleSet) -> None:
+    """A suite's score on a domain: each route's share of its best, the domain score, the accuracy, the limits."""
+    _print_suite(dres.domain, dres.suite, dres.cost_usd)
+    rows = [
+        [r.name, f"{r.weight:.3f}", f"{r.score:.3f}", f"{r.best_score:.3f}", f"{r.share_of_best:.4f}"]
+        for r in dres.routes
+    ]
+    click.echo(table(rows, ["route", "weight", "score_nats", "best_nats", "of_best"]))
+    unit = "(weighted share of the best)" if dres.aggregate == "normalised" else "nats (weighted)"
+    click.echo(f"score      {dres.score:.4f} {unit}")
+    print_accuracy(dres.accuracy, dres.integrity)
+    _print_limits(feas, feas.library.resolve_suite(dres.suite))
 
 
 def _suite_positions(text: str, problem: Problem, force: bool) -> tuple[int, ...]:
@@ -258,11 +250,7 @@ def _print_limits(feas: FeasibleSet, suite: tuple[int, ...]) -> None:
 @scenario_options
 @output_option(required=True, help="Image file (.png, .svg, .pdf).")
 @plot_format_option
-@click.option(
-    "--suite",
-    default=None,
-    callback=suite_text,
-    metavar="IDS|FILE",
+@suite_option(
     help="Draw these sensors' cones: comma-separated sensor ids, or a result JSON "
     "(`sensorsel greedy -o FILE`, ...: its suite; computed on the same problem, see --force).",
 )
@@ -273,18 +261,14 @@ def _print_limits(feas: FeasibleSet, suite: tuple[int, ...]) -> None:
     default=None,
     help="Keyframe at which to draw the cones (default: the middle one).",
 )
-@click.option(
+@path_option(
     "--domain",
     "domain_path",
-    type=click.Path(dir_okay=False, path_type=str),
     metavar="FILE",
-    default=None,
     help="Draw an operating domain instead: every route, and its landmarks by class (sensorsel osm's domains).",
 )
 @force_option
-@json_option
-@quiet_option
-@run
+@result_options
 def scene_cmd(
     output: str,
     plot_format: str | None,
@@ -357,60 +341,46 @@ def _range_m(text: str, option: str) -> tuple[float, float]:
 
 _DEFAULT_MODEL = LandmarkModel()
 
+#: The options of ``sensorsel landmarks``, one per field of the landmark model (the field is the
+#: option's destination, its default the model's): a spacing or a clearance in metres, an offset a
+#: range LOW,HIGH in metres.
+_MODEL_OPTIONS = (
+    ("--near-spacing", "near_spacing_m", "Route length between two near landmarks on each roadside [m]."),
+    ("--near-offset", "near_offset_m", "Distance of near landmarks (poles, trees, facades) from the route [m]."),
+    ("--far-spacing", "far_spacing_m", "Route length between two far landmarks, on a random side [m]."),
+    ("--far-offset", "far_offset_m", "Distance of far landmarks (buildings, hills) from the route [m]."),
+    ("--clearance", "clearance_m", "No landmark closer than this to the route (any point of it: the road itself) [m]."),
+)
+
+
+def _landmark_model_options(fn: Any) -> Any:
+    """The options of :data:`_MODEL_OPTIONS`, in its order (read by :func:`_landmark_model_from`)."""
+    for name, field, help in reversed(_MODEL_OPTIONS):
+        default = getattr(_DEFAULT_MODEL, field)
+        if isinstance(default, tuple):  # a range of distances
+            kind: dict[str, Any] = {"default": "{:g},{:g}".format(*default), "metavar": "LOW,HIGH"}
+        else:
+            kind = {"type": float, "default": default, "metavar": "METRES"}
+        fn = click.option(name, field, show_default=True, help=help, **kind)(fn)
+    return fn
+
+
+def _landmark_model_from(kw: dict[str, Any]) -> LandmarkModel:
+    """The landmark model of :func:`_landmark_model_options` (popped from ``kw``: pop them before the
+    scenario options, whose --clearance this command's own replaces)."""
+    fields: dict[str, Any] = {}
+    for name, field, _ in _MODEL_OPTIONS:
+        value = kw.pop(field)
+        fields[field] = _range_m(value, name) if isinstance(getattr(_DEFAULT_MODEL, field), tuple) else value
+    return LandmarkModel(**fields)
+
 
 @click.command("landmarks", cls=Command, short_help="Generate synthetic landmarks along a route and write them as CSV.")
 @scenario_options
-@click.option(
-    "--near-spacing",
-    type=float,
-    default=_DEFAULT_MODEL.near_spacing_m,
-    show_default=True,
-    help="Route length between two near landmarks on each roadside [m].",
-)
-@click.option(
-    "--near-offset",
-    default="{:g},{:g}".format(*_DEFAULT_MODEL.near_offset_m),
-    show_default=True,
-    metavar="LOW,HIGH",
-    help="Distance of near landmarks (poles, trees, facades) from the route [m].",
-)
-@click.option(
-    "--far-spacing",
-    type=float,
-    default=_DEFAULT_MODEL.far_spacing_m,
-    show_default=True,
-    help="Route length between two far landmarks, on a random side [m].",
-)
-@click.option(
-    "--far-offset",
-    default="{:g},{:g}".format(*_DEFAULT_MODEL.far_offset_m),
-    show_default=True,
-    metavar="LOW,HIGH",
-    help="Distance of far landmarks (buildings, hills) from the route [m].",
-)
-@click.option(
-    "--clearance",
-    type=float,
-    default=_DEFAULT_MODEL.clearance_m,
-    show_default=True,
-    metavar="METRES",
-    help="No landmark closer than this to the route (any point of it: the road itself) [m].",
-)
+@_landmark_model_options
 @output_option(required=True, help="CSV file to write (x,y in metres).")
-@json_option
-@quiet_option
-@run
-def landmarks_cmd(
-    near_spacing: float,
-    near_offset: str,
-    far_spacing: float,
-    far_offset: str,
-    clearance: float,
-    output: str,
-    as_json: bool,
-    quiet: bool,
-    **kw: Any,
-) -> None:
+@result_options
+def landmarks_cmd(output: str, as_json: bool, quiet: bool, **kw: Any) -> None:
     """Generate synthetic landmarks along the route with the given densities and distances (seeded by
     --landmark-seed) and write them as CSV (x,y in sensorsel's planar frame, metres).
 
@@ -421,13 +391,7 @@ def landmarks_cmd(
     kw.pop("library_path")
     if kw.get("landmarks"):
         raise click.UsageError("--landmarks reads a landmark file; this command writes one (leave --landmarks out)")
-    model = LandmarkModel(
-        near_spacing_m=near_spacing,
-        near_offset_m=_range_m(near_offset, "--near-offset"),
-        far_spacing_m=far_spacing,
-        far_offset_m=_range_m(far_offset, "--far-offset"),
-        clearance_m=clearance,
-    )
+    model = _landmark_model_from(kw)
     spec = replace(spec_from(kw), landmark_model=model)
     if spec.geo:
         raise click.UsageError(

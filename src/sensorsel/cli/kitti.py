@@ -6,24 +6,25 @@ from __future__ import annotations
 
 import click
 
-from sensorsel.cli.options import echo_written, json_option, output_option, quiet_option, run
+from sensorsel.cli.common import echo_written
+from sensorsel.cli.options import output_option, path_option, result_options
 from sensorsel.cli.vocabulary import Command
 
 
 @click.command(
     "kitti", cls=Command, short_help="Build the KITTI folder (routes and pole maps) from the downloaded sources."
 )
-@click.option(
+@path_option(
     "--odometry",
+    folder=True,
     required=True,
-    type=click.Path(file_okay=False, path_type=str),
     help="KITTI odometry's dataset/ folder: poses/NN.txt, sequences/NN/times.txt and sequences/NN/calib.txt "
     "(data_odometry_poses and data_odometry_calib).",
 )
-@click.option(
+@path_option(
     "--poles",
+    folder=True,
     required=True,
-    type=click.Path(file_okay=False, path_type=str),
     help="A clone of PRBonn/pole-localization, or the folder holding its kitti_label_NN/globalmap_gt_cluster.npz.",
 )
 @click.option(
@@ -38,9 +39,7 @@ from sensorsel.cli.vocabulary import Command
     required=True,
     help="The KITTI folder to write (poses/, sequences/NN/times.txt, landmarks/NN.csv); may be --odometry itself.",
 )
-@json_option
-@quiet_option
-@run
+@result_options
 def kitti_cmd(odometry: str, poles: str, seqs: tuple[str, ...], outdir: str, as_json: bool, quiet: bool) -> None:
     """Build the folder --kitti-root and $SENSORSEL_KITTI_ROOT point at, from what a user downloads:
 

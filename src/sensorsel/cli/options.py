@@ -1,9 +1,10 @@
 """Options shared by the commands, and the error handling every command runs under.
 
 Every command that takes a budget uses :func:`budget_option` (110000, 110,000, $110,000, 110_000);
-every command that draws progress has :func:`quiet_option` (-q/--quiet, --progress/--no-progress) and
-draws it with :func:`~sensorsel.cli.progress.progress_bar`; every command that produces
-a result has :func:`json_option` (--json: the result's JSON on stdout); every command that draws a
+every command ends with :func:`result_options`: --json (the result's JSON on stdout), -q/--quiet and
+--progress/--no-progress (progress drawn with :func:`~sensorsel.cli.progress.progress_bar`), and the
+error handling of :func:`run`; every design command starts with :func:`design_options`, read by
+:func:`design_from` (its target, cluster, limits, scoring and reporting); every command that draws a
 plot has :func:`plot_format_option` (--plot-format png|svg|pdf; default: a file output's extension, else
 png); every -o/--output FILE and --output-dir DIRECTORY uses :func:`output_option`, which refuses an
 empty name. The names and meanings are those of :mod:`sensorsel.cli.vocabulary`.
@@ -16,19 +17,23 @@ import math
 import os
 import sys
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator
+from contextlib import AbstractContextManager, ExitStack, contextmanager
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any, TypeVar, cast
 
 import click
 
-from sensorsel.api import AGGREGATES, ESTIMATES
+from sensorsel.api import AGGREGATES, ESTIMATES, checkpoint_path, with_suite_quality
+from sensorsel.cli.integrity import integrity_from, integrity_options
 from sensorsel.cli.progress import progress_bar, progress_flag  # noqa: F401 (progress_bar: the commands import it from here)
 from sensorsel.cli.vocabulary import TopicOption
 from sensorsel.errors import InputError, SensorselError, SensorselWarning
+from sensorsel.io import results
+from sensorsel.io.files import output_dir, output_file
 from sensorsel.model.conditions import parse_condition
-from sensorsel.model.library import SensorLibrary
-from sensorsel.model.problem import DomainInfo, Problem, ProblemInfo, Target, TargetInfo, load_domain, load_problem
+from sensorsel.model.problem import Problem, Target, load_domain, load_problem
 from sensorsel.model.scenario import DEFAULT_OSM_REACH_M, KITTI_ROOT_ENV, ROUTE_FORMATS, ScenarioSpec
 
 
@@ -101,6 +106,16 @@ def budget_option(
     return click.option("--budget", type=BUDGET, required=required, multiple=multiple, help=help, **extra)
 
 
+def lazy_option(fn: F) -> F:
+    """--lazy/--no-lazy: lazy (Minoux) greedy evaluation, on unless --no-lazy."""
+    return click.option(
+        "--lazy/--no-lazy",
+        default=True,
+        show_default=True,
+        help="Lazy (Minoux) evaluation: same picks, fewer evaluations.",
+    )(fn)
+
+
 def quiet_option(fn: F) -> F:
     """-q/--quiet and --progress/--no-progress (:mod:`sensorsel.cli.progress`)."""
     return click.option(
@@ -111,6 +126,12 @@ def quiet_option(fn: F) -> F:
     )(progress_flag(fn))
 
 
+def result_options(fn: F) -> F:
+    """What every command ends with: --json (:func:`json_option`), -q/--quiet and --progress
+    (:func:`quiet_option`), and its errors said in one line (:func:`run`)."""
+    return json_option(quiet_option(cast(F, run(fn))))
+
+
 def json_option(fn: F) -> F:
     """--json: print the result as JSON on stdout (the files a command writes are still written)."""
     return click.option(
@@ -119,14 +140,6 @@ def json_option(fn: F) -> F:
         is_flag=True,
         help='Print the result as JSON on stdout (its "kind" and "format" first) instead of the summary.',
     )(fn)
-
-
-def echo_written(kind: str, **fields: Any) -> None:
-    """--json of a command that writes files rather than a result (scene, landmarks, osm, kitti): what
-    it wrote, as one JSON object on stdout, its "kind" and "format" first like every result's."""
-    import json
-
-    click.echo(json.dumps({"kind": kind, "format": 1, **fields}, indent=2))
 
 
 PLOT_FORMATS = ("png", "svg", "pdf")
@@ -141,6 +154,19 @@ def plot_format_option(fn: F) -> F:
         default=None,
         help="The plots' file format (default: the extension of a file -o, else png).",
     )(fn)
+
+
+def plots_folder_option(help: str) -> Callable[[F], F]:
+    """--output-dir DIRECTORY (required; ``help`` says what is written there) and --plot-format: a command
+    that writes its result and its plots into a folder; read by :func:`plots_folder_from`."""
+    return lambda fn: output_option(folder=True, required=True, help=help)(plot_format_option(fn))
+
+
+def plots_folder_from(kw: dict[str, Any]) -> tuple[Path, str]:
+    """The folder of :func:`plots_folder_option`, made now (:func:`sensorsel.io.files.output_dir`), and the
+    plots' format (:func:`plot_format`), popped from ``kw``."""
+    fmt = plot_format(kw.pop("plot_format"))
+    return output_dir(kw.pop("outdir")), fmt
 
 
 def plot_format(chosen: str | None, output_file: str | None = None) -> str:
@@ -207,18 +233,17 @@ def scenario_options(fn: Callable[..., Any]) -> Callable[..., Any]:
                 "its landmarks."
             ),
         ),
-        click.option(
+        path_option(
             "--kitti-root",
+            folder=True,
             cls=TopicOption,
             topic="scenario",
-            type=click.Path(file_okay=False, path_type=str),
             envvar=KITTI_ROOT_ENV,
             show_envvar=True,
             help="KITTI odometry dataset/ folder (poses/NN.txt, sequences/NN/times.txt, optional landmarks/NN.csv).",
         ),
-        click.option(
+        path_option(
             "--route",
-            type=click.Path(dir_okay=False, path_type=str),
             help=(
                 "A route file: KITTI poses, a TUM trajectory, a planar CSV (t,x,y[,heading]) or a GPX track; its "
                 "ground plane and forward axis are found from it (docs/scenarios.md)."
@@ -248,11 +273,10 @@ def scenario_options(fn: Callable[..., Any]) -> Callable[..., Any]:
             help="With a KITTI or TUM --route: the body axis that points ahead (+x, +z, ...), "
             "instead of the one found along the direction of travel.",
         ),
-        click.option(
+        path_option(
             "--times",
             cls=TopicOption,
             topic="scenario",
-            type=click.Path(dir_okay=False, path_type=str),
             help="Timestamps of a KITTI --route file (default: 10 Hz, said on stderr).",
         ),
         click.option(
@@ -296,14 +320,10 @@ def scenario_options(fn: Callable[..., Any]) -> Callable[..., Any]:
             help="With --landmarks osm:FILE: landmark classes, comma-separated, or all (default): street_lamp,"
             "utility_pole,power_pole,flagpole,tree,traffic_signals,stop,give_way,traffic_sign.",
         ),
-        click.option(
-            "--osm-reach",
-            "osm_reach_m",
+        osm_reach_option(
+            "With --landmarks osm:FILE: the OSM landmarks within this distance of the route (default: 100).",
             cls=TopicOption,
             topic="scenario",
-            type=float,
-            metavar="METRES",
-            help="With --landmarks osm:FILE: the OSM landmarks within this distance of the route (default: 100).",
         ),
         click.option(
             "--landmark-seed",
@@ -324,23 +344,8 @@ def scenario_options(fn: Callable[..., Any]) -> Callable[..., Any]:
             help="Drop landmarks closer than this to the route (standing on the road). Default: keep them, counted on "
             "stderr; exact duplicates are always merged.",
         ),
-        click.option(
-            "--rate",
-            "keyframe_rate_hz",
-            cls=TopicOption,
-            topic="scenario",
-            type=float,
-            default=1.0,
-            show_default=True,
-            metavar="HZ",
-            help="Keyframe rate along the route [Hz]: keyframes a second.",
-        ),
-        click.option(
-            "--library",
-            "library_path",
-            type=click.Path(dir_okay=False, path_type=str),
-            help="Sensor library YAML (default: the paper's Table I).",
-        ),
+        rate_option("the route", cls=TopicOption, topic="scenario"),
+        library_option(),
         click.option(
             "--condition",
             "condition_text",
@@ -360,6 +365,57 @@ def scenario_options(fn: Callable[..., Any]) -> Callable[..., Any]:
         if not own.intersection(probe.__click_params__[0].opts):
             fn = opt(fn)
     return fn
+
+
+def path_option(*names: str, folder: bool = False, **extra: Any) -> Callable[[F], F]:
+    """An option naming a file (``folder``: a folder) the command reads, or draws into: ``names`` and
+    ``extra`` (help, required, ...) as click's, the path given to the command as a string. Outputs:
+    :func:`output_option`."""
+    path = click.Path(file_okay=False, path_type=str) if folder else click.Path(dir_okay=False, path_type=str)
+    return click.option(*names, type=path, **extra)
+
+
+def library_option() -> Callable[[F], F]:
+    """--library FILE (destination ``library_path``): the sensor library YAML."""
+    return path_option("--library", "library_path", help="Sensor library YAML (default: the paper's Table I).")
+
+
+def rate_option(along: str, **extra: Any) -> Callable[[F], F]:
+    """--rate HZ (destination ``keyframe_rate_hz``, default 1): keyframes a second along ``along`` (a
+    route, or every route of a domain ``sensorsel osm`` writes)."""
+    return click.option(
+        "--rate",
+        "keyframe_rate_hz",
+        type=float,
+        default=1.0,
+        show_default=True,
+        metavar="HZ",
+        help=f"Keyframe rate along {along} [Hz]: keyframes a second.",
+        **extra,
+    )
+
+
+def osm_reach_option(help: str, **extra: Any) -> Callable[[F], F]:
+    """--osm-reach METRES (destination ``osm_reach_m``): the OpenStreetMap landmarks within this distance
+    of a route; ``extra``: e.g. the default of a command that writes one."""
+    return click.option("--osm-reach", "osm_reach_m", type=float, metavar="METRES", help=help, **extra)
+
+
+def suite_option(name: str = "--suite", *, required: bool = False, help: str) -> Callable[[F], F]:
+    """--suite IDS|FILE (or ``name``, e.g. --compare): a suite by sensor ids or a result file naming one
+    (read by :func:`sensorsel.cli.common.read_suite`); an empty one is a usage error naming it."""
+    return click.option(name, required=required, callback=suite_text, metavar="IDS|FILE", help=help)
+
+
+def jobs_option(help: str, default: int | None = None) -> Callable[[F], F]:
+    """--jobs N: threads or processes on this machine (``help`` says which; results do not depend on
+    them); ``default`` None: all cores."""
+    shown: dict[str, Any] = (
+        {"default": os.cpu_count() or 1, "show_default": "all cores"}
+        if default is None
+        else {"default": default, "show_default": True}
+    )
+    return click.option("--jobs", type=click.IntRange(min=1), metavar="N", help=help, **shown)
 
 
 def spec_from(kw: dict[str, Any]) -> ScenarioSpec:
@@ -552,14 +608,7 @@ def engine_options(fn: Callable[..., Any]) -> Callable[..., Any]:
     """--engine and --jobs."""
     from sensorsel.api import ENGINES
 
-    fn = click.option(
-        "--jobs",
-        type=click.IntRange(min=1),
-        default=os.cpu_count() or 1,
-        show_default="all cores",
-        metavar="N",
-        help="Threads scoring candidate suites (results do not depend on it).",
-    )(fn)
+    fn = jobs_option("Threads scoring candidate suites (results do not depend on it).")(fn)
     fn = click.option(
         "--engine",
         type=click.Choice(sorted(ENGINES)),
@@ -571,67 +620,20 @@ def engine_options(fn: Callable[..., Any]) -> Callable[..., Any]:
 
 def design_options(fn: Callable[..., Any] | None = None, *, aggregate: bool = True) -> Any:
     """What every design command takes first, in this order: the target (:func:`target_options`,
-    with --aggregate unless ``aggregate`` is False), the engine (:func:`engine_options`) and the
-    cluster (:func:`cluster_options`). ``@design_options`` or ``@design_options(aggregate=False)``."""
+    with --aggregate unless ``aggregate`` is False), the engine (:func:`engine_options`), the
+    cluster (:func:`cluster_options`) and the limits besides the budget (:func:`constraint_options`):
+    what :func:`design_from` reads. ``@design_options`` or ``@design_options(aggregate=False)``."""
     if fn is None:
         return lambda f: design_options(f, aggregate=aggregate)
-    return target_options(engine_options(cluster_options(fn)), aggregate=aggregate)
+    return target_options(engine_options(cluster_options(constraint_options(fn))), aggregate=aggregate)
 
 
-def failures_option(help: str) -> Callable[[F], F]:
-    """--failures N (destination ``alpha``): how many sensors fail, 1 unless given; ``help`` says what
-    the command does with them."""
+def failures_option(help: str, *, default: int = 1, dest: str = "alpha") -> Callable[[F], F]:
+    """--failures N (destination ``dest``): how many sensors fail, ``default`` unless given; ``help`` says
+    what the command does with them."""
     return click.option(
-        "--failures", "alpha", type=click.IntRange(min=0), default=1, show_default=True, metavar="N", help=help
+        "--failures", dest, type=click.IntRange(min=0), default=default, show_default=True, metavar="N", help=help
     )
-
-
-def table(rows: list[list[str]], header: list[str]) -> str:
-    """Plain fixed-width table; numbers right-aligned."""
-    cols = list(zip(*([header] + rows))) if rows else [(h,) for h in header]
-    widths = [max(len(str(c)) for c in col) for col in cols]
-
-    def fmt(row: list[str]) -> str:
-        out = []
-        for v, w in zip(row, widths):
-            s = str(v)
-            out.append(s.rjust(w) if _numeric(s) else s.ljust(w))
-        return "  ".join(out).rstrip()
-
-    return "\n".join([fmt(header), "  ".join("-" * w for w in widths)] + [fmt(r) for r in rows])
-
-
-def _numeric(s: str) -> bool:
-    try:
-        float(s.replace(",", "").replace("$", "").replace("%", ""))
-        return True
-    except ValueError:
-        return False
-
-
-def print_target(info: TargetInfo | None) -> None:
-    """The 'scenario' line (one route) or the 'domain' lines (each route) of a result."""
-    if isinstance(info, ProblemInfo):
-        when = f"; condition {info.condition}" if info.condition else ""
-        click.echo(
-            f"scenario   {info.scenario}: {info.n_poses} keyframes, {info.n_landmarks} landmarks "
-            f"({info.landmark_source}){when}"
-        )
-    elif isinstance(info, DomainInfo):
-        conditions = list(dict.fromkeys(r.condition for r in info.routes if r.condition))
-        routes = list(dict.fromkeys(r.route or r.name for r in info.routes))
-        what = (
-            f"{len(info.routes)} members ({len(routes)} routes x conditions {', '.join(conditions)})"
-            if conditions
-            else f"{len(info.routes)} routes"
-        )
-        click.echo(f"domain     {info.source}: {what}")
-        for r in info.routes:
-            p = r.problem
-            click.echo(
-                f"  {r.name:<12} weight {r.weight:g} {r.unit}; {p.n_poses} keyframes, {p.n_landmarks} landmarks "
-                f"({p.landmark_source})"
-            )
 
 
 def force_option(fn: F) -> F:
@@ -653,20 +655,6 @@ def suite_text(ctx: click.Context, param: click.Parameter, value: str | None) ->
             param=param,
         )
     return value
-
-
-def compact_suite(suite: Sequence[str], library: SensorLibrary | None = None) -> str:
-    """A suite for a table: ids grouped by model, ``LRL-roof HD2K-{2,4,12} LRR-6``; with ``library``,
-    a suite of all but at most three of its sensors is ``all but LRL-roof`` (the full ids are in the JSON)."""
-    if library is not None and len(suite) > 3:
-        missing = [i for i in library.ids if i not in set(suite)]
-        if len(missing) <= 3 and len(suite) + len(missing) == len(library):
-            return "all but " + ", ".join(missing) if missing else f"all {len(library)} sensors"
-    groups: dict[str, list[str]] = {}
-    for sid in suite:
-        code, _, where = sid.rpartition("-")
-        groups.setdefault(code, []).append(where)
-    return " ".join(f"{c}-{w[0]}" if len(w) == 1 else f"{c}-{{{','.join(w)}}}" for c, w in groups.items())
 
 
 def constraint_options(fn: Callable[..., Any]) -> Callable[..., Any]:
@@ -747,28 +735,6 @@ def constraints_from(kw: dict[str, Any]) -> Any:
     )
 
 
-def usage_table(rows: Sequence[Any]) -> str:
-    """The resource-use table of a constrained result: each limit, what the suite uses, what is left.
-    ``rows`` are :class:`~sensorsel.model.constraints.RowUse`; mounting slots are summed into one line."""
-    out, slots_used, slots_cap, full = [], 0.0, 0.0, 0
-    for r in rows:
-        if r.unit == "" and r.name != "sensors":
-            slots_used += r.used
-            slots_cap += r.limit
-            full += int(r.used >= r.limit)
-            continue
-
-        def fmt(v: float, unit: str = r.unit) -> str:
-            if unit == "$":
-                return f"${v:,.0f}"
-            return (f"{v:,.0f}" if abs(v) >= 1000 else f"{v:.4g}") + f" {unit}".rstrip()
-
-        out.append([r.name, fmt(r.used), fmt(r.limit), f"{r.used / r.limit:.0%}" if r.limit > 0 else "-"])
-    if slots_cap:
-        out.append(["mounting slots", f"{slots_used:,.0f} sensors", f"{slots_cap:,.0f} places", f"{full} full"])
-    return table(out, ["limit", "used", "of", "share"])
-
-
 def prior_map_option(help: str) -> Callable[[F], F]:
     """--map-sigma METRES alone (destination ``map_sigma``, None unless given): the std [m] of a prior
     map's landmarks; ``help`` says what the command does with it."""
@@ -784,6 +750,13 @@ def map_sigma_option(fn: F) -> F:
             "graph, landmarks unknown)."
         )(fn)
     )
+
+
+def quality_options(fn: F) -> F:
+    """How the chosen suite's quality is reported, one group for every command that reports it: its
+    accuracy (:func:`map_sigma_option`: --map-sigma and --estimate) and its integrity (the integrity
+    options); :func:`design_from` reads them."""
+    return map_sigma_option(cast(F, integrity_options(fn)))
 
 
 def estimate_option(fn: F) -> F:
@@ -814,12 +787,105 @@ def time_limit_option(help: str) -> Callable[[F], F]:
     )
 
 
-def scoring_from(kw: dict[str, Any]) -> tuple[str, str | None, int, float | None, str]:
-    """Pops from ``kw`` what every command that scores a suite on a target shares, in this order:
-    --aggregate, --engine, --jobs (:func:`design_options`), --map-sigma [m] (checked by
-    :func:`check_map_sigma`) and --estimate (:func:`map_sigma_option`)."""
-    aggregate, engine, jobs = kw.pop("aggregate"), kw.pop("engine"), kw.pop("jobs")
-    return aggregate, engine, jobs, check_map_sigma(kw.pop("map_sigma")), kw.pop("estimate")
+@dataclass(frozen=True)
+class DesignInputs:
+    """What the options of a design command say (:func:`design_from`): the target, where the run goes
+    (a Dask cluster, not yet started, or None: here), its limits besides the budget, how suites are
+    scored, and how the chosen suite's accuracy [m, deg] and integrity are reported (None: a command
+    without --map-sigma or the integrity options)."""
+
+    target: Target
+    cluster: Any
+    constraints: Any
+    aggregate: str
+    engine: str | None
+    jobs: int
+    map_sigma: float | None = None
+    estimate: str = "filter"
+    integrity: Any = None
+
+    def running(self, *bars: Any) -> AbstractContextManager[None]:
+        """The cluster started (when one was asked for) and ``bars`` drawn, for a ``with`` block."""
+        return running(self.cluster, *bars)
+
+    @property
+    def executor(self) -> Any:
+        """Where the run's tasks go: the cluster's executor, or None (in this process)."""
+        return self.cluster.executor if self.cluster is not None else None
+
+    def with_quality(self, result: Any) -> Any:
+        """``result`` with its chosen suite's accuracy and integrity (:func:`sensorsel.api.with_suite_quality`),
+        on the target, as --map-sigma, --estimate and the integrity options ask."""
+        return with_suite_quality(
+            result,
+            self.target,
+            map_sigma_m=self.map_sigma,
+            engine=self.engine,
+            estimate=self.estimate,
+            integrity=self.integrity,
+        )
+
+
+def design_from(kw: dict[str, Any]) -> DesignInputs:
+    """Pops from ``kw`` what the design commands share, in this order: --aggregate (a command without it:
+    the default), --engine, --jobs (:func:`design_options`); --map-sigma [m] (checked by
+    :func:`check_map_sigma`) and --estimate, and the integrity options, where the command has them; the
+    cluster (:func:`cluster_from`), the constraints (:func:`constraints_from`); last the target
+    (:func:`target_from`), the one slow step, after every cheap check."""
+    aggregate, engine, jobs = kw.pop("aggregate", AGGREGATES[0]), kw.pop("engine"), kw.pop("jobs")
+    quality: dict[str, Any] = {}
+    if "map_sigma" in kw:
+        quality.update(map_sigma=check_map_sigma(kw.pop("map_sigma")), estimate=kw.pop("estimate"))
+    if "integrity_risk" in kw:
+        quality.update(integrity=integrity_from(kw))
+    cluster, constraints = cluster_from(kw), constraints_from(kw)
+    return DesignInputs(target_from(kw), cluster, constraints, aggregate, engine, jobs, **quality)
+
+
+@contextmanager
+def running(*contexts: Any) -> Iterator[None]:
+    """The cluster started and the progress bars drawn for the ``with`` block (each None: nothing)."""
+    with ExitStack() as stack:
+        for context in contexts:
+            if context is not None:
+                stack.enter_context(context)
+        yield
+
+
+@dataclass(frozen=True)
+class ResultFile:
+    """-o FILE of a run whose state is kept in FILE.checkpoint while it runs (--resume goes on from it):
+    the result is written to FILE, then the checkpoint removed."""
+
+    output: str | None
+    resume: bool
+
+    @property
+    def checkpoint(self) -> Path | None:
+        """FILE.checkpoint, or None without -o."""
+        return checkpoint_path(self.output) if self.output else None
+
+    def save(self, result: Any) -> Path | None:
+        """Write ``result`` to -o FILE (nothing without -o) and remove the checkpoint."""
+        if self.output is None or self.checkpoint is None:
+            return None
+        path = results.save(result, self.output)
+        self.checkpoint.unlink(missing_ok=True)  # the result is written: the run is no longer interrupted
+        return path
+
+
+def result_file(output: str | None, resume: bool, kept: str) -> ResultFile:
+    """-o FILE and --resume of a run that keeps its state as it runs (``kept``: where, in words); the
+    output's folder is checked before anything runs.
+
+    Raises:
+        click.UsageError: --resume without -o.
+    """
+    if resume and not output:
+        raise click.UsageError(f"--resume goes on from {kept}: give -o")
+    if output:
+        output_file(output)
+    return ResultFile(output, resume)
 
 
 def check_map_sigma(value: float | None) -> float | None:
@@ -827,15 +893,3 @@ def check_map_sigma(value: float | None) -> float | None:
     if value is not None and not (math.isfinite(value) and value > 0):
         raise InputError(f"--map-sigma {value:g}: the landmarks' std must be a positive, finite number of metres")
     return value
-
-
-def print_accuracy(accuracies: Sequence[Any], integrity: Sequence[Any] = ()) -> None:
-    """One line per route: the suite's 95 % errors in metres and degrees and the model behind them
-    (:class:`~sensorsel.information.evaluators.accuracy.RouteAccuracy`); then one integrity line per
-    route (:class:`~sensorsel.information.integrity.RouteIntegrity`), when computed."""
-    for acc in accuracies:
-        where = f" {acc.route}:" if len(accuracies) > 1 else ""
-        click.echo(f"accuracy  {where} {acc.line()}")
-    for itg in integrity:
-        where = f" {itg.route}:" if len(integrity) > 1 else ""
-        click.echo(f"integrity {where} {itg.line()}")

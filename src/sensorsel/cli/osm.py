@@ -6,17 +6,18 @@ from __future__ import annotations
 import shlex
 import sys
 import warnings
-from contextlib import nullcontext
 from pathlib import Path
 
 import click
 
-from sensorsel.cli.options import echo_written, json_option, output_option, quiet_option, run
+from sensorsel.cli.common import echo_written
+from sensorsel.cli.options import osm_reach_option, output_option, path_option, rate_option, result_options, running
 from sensorsel.cli.progress import progress_bar
 from sensorsel.cli.vocabulary import Command
 from sensorsel.errors import InputError, SensorselWarning
 from sensorsel.io.progress import report
 from sensorsel.io.resources import sample_osm_dir, sample_osm_names
+from sensorsel.model.scenario import DEFAULT_OSM_REACH_M
 
 
 def _source(file: str | None, sample: str | None) -> Path:
@@ -51,35 +52,17 @@ def _source(file: str | None, sample: str | None) -> Path:
 )
 @click.option("--speed", "speed_kmh", type=float, default=30.0, show_default=True, help="Driving speed [km/h].")
 @click.option("--route-km", type=float, default=1.0, show_default=True, help="Length of one route of the domain [km].")
-@click.option(
-    "--osm-reach",
-    "reach_m",
-    type=float,
-    default=100.0,
-    show_default=True,
-    metavar="METRES",
-    help="A route's landmarks: those within this distance of the route [m].",
+@osm_reach_option(
+    "A route's landmarks: those within this distance of the route [m].", default=DEFAULT_OSM_REACH_M, show_default=True
 )
-@click.option(
-    "--rate",
-    "keyframe_rate",
-    type=float,
-    default=1.0,
-    show_default=True,
-    metavar="HZ",
-    help="Keyframe rate along every route [Hz]: keyframes a second.",
-)
-@click.option(
+@rate_option("every route")
+@path_option(
     "--gpx",
-    default=None,
-    type=click.Path(dir_okay=False, path_type=str),
     help="Instead of the road network: this GPS track is the one route (its landmarks from the extract).",
 )
-@click.option(
+@path_option(
     "--route",
     "route_file",
-    default=None,
-    type=click.Path(dir_okay=False, path_type=str),
     help="Instead of the road network: this route file (KITTI, TUM or planar CSV) with --georef.",
 )
 @click.option(
@@ -89,18 +72,14 @@ def _source(file: str | None, sample: str | None) -> Path:
     help="Where --route lies: its origin [deg] and the compass bearing of its +X axis, or utm:35N when its "
     "x, y are UTM easting and northing.",
 )
-@click.option(
+@path_option(
     "--merge-landmarks",
-    default=None,
-    type=click.Path(dir_okay=False, path_type=str),
     help="A survey landmark CSV (x,y in the route's frame) merged with the OSM landmarks (--gpx/--route).",
 )
 @output_option(
     folder=True, required=True, help="Domain folder to write (domain.yaml, routes/, landmarks.csv, README.md)."
 )
-@json_option
-@quiet_option
-@run
+@result_options
 def osm_cmd(
     file: str | None,
     sample: str | None,
@@ -109,8 +88,8 @@ def osm_cmd(
     osm_classes: str | None,
     speed_kmh: float,
     route_km: float,
-    reach_m: float,
-    keyframe_rate: float,
+    osm_reach_m: float,
+    keyframe_rate_hz: float,
     gpx: str | None,
     route_file: str | None,
     georef: str | None,
@@ -139,8 +118,8 @@ def osm_cmd(
     for name, v in (
         ("--speed", speed_kmh),
         ("--route-km", route_km),
-        ("--osm-reach", reach_m),
-        ("--rate", keyframe_rate),
+        ("--osm-reach", osm_reach_m),
+        ("--rate", keyframe_rate_hz),
     ):
         if not (v == v and 0 < v < float("inf")):
             raise InputError(f"{name} {v!r}: expected a positive number")
@@ -166,8 +145,8 @@ def osm_cmd(
             georef,
             merge_landmarks,
             speed_kmh,
-            reach_m,
-            keyframe_rate,
+            osm_reach_m,
+            keyframe_rate_hz,
             outdir,
             command,
         )
@@ -181,13 +160,13 @@ def osm_cmd(
     # three stages that can each take a while on a large extract: say which one runs (a status line
     # off a terminal as each starts, once the run has gone on for a few seconds)
     bar, progress = progress_bar(quiet or as_json, "osm", counted=False, eta=False)
-    with bar or nullcontext():
+    with running(bar):
         report(progress, 0, 3, f"reading {path.name}")
         extract = read_osm(path, bbox=box, roads=kinds)
         report(progress, 1, 3, f"routes that drive every road of {len(extract.ways):,} ways")
-        city = build_city(extract, classes, speed_kmh=speed_kmh, route_km=route_km, reach_m=reach_m)
+        city = build_city(extract, classes, speed_kmh=speed_kmh, route_km=route_km, reach_m=osm_reach_m)
         report(progress, 2, 3, f"writing {len(city.routes)} routes")
-        domain = write_city(city, extract, outdir, command=command, keyframe_rate_hz=keyframe_rate)
+        domain = write_city(city, extract, outdir, command=command, keyframe_rate_hz=keyframe_rate_hz)
         report(progress, 3, 3, f"wrote {len(city.routes)} routes")
     for note in (*extract.notes, *city.notes):
         click.echo(f"sensorsel: note: {note}", err=True)

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import sys
-from contextlib import nullcontext
 from dataclasses import replace
 from typing import Any
 
@@ -13,39 +12,33 @@ from sensorsel.api import (
     DEFAULT_MAP_SIGMA_M,
     RequireResult,
     RouteRequirement,
-    checkpoint_path,
     integrity_preset,
     run_require,
 )
 from sensorsel.cli.cluster import cluster_evaluator, require_domain
-from sensorsel.cli.common import read_suite, specification_from, specification_options
+from sensorsel.cli.common import echo_result, print_target, read_suite, specification_from, specification_options
 from sensorsel.cli.integrity import INTEGRITY_KEYS, integrity_from, integrity_options
 from sensorsel.cli.options import (
     budget_option,
     check_map_sigma,
-    cluster_from,
-    constraint_options,
-    constraints_from,
+    design_from,
     design_options,
     estimate_option,
-    json_option,
+    failures_option,
     output_option,
+    path_option,
     plot_format,
-    print_target,
     prior_map_option,
     progress_bar,
-    quiet_option,
+    result_file,
+    result_options,
     resume_option,
-    run,
-    suite_text,
-    target_from,
+    suite_option,
     time_limit_option,
 )
 from sensorsel.cli.vocabulary import Command
 from sensorsel.errors import InputError
-from sensorsel.io import results
 from sensorsel.io.files import output_file
-from sensorsel.model.problem import Domain
 
 
 @click.command(
@@ -54,7 +47,6 @@ from sensorsel.model.problem import Domain
     short_help="The cheapest suite that meets an accuracy specification in metres, with a proof.",
 )
 @design_options(aggregate=False)
-@constraint_options
 @specification_options
 @prior_map_option(
     f"Accuracy in a prior map whose landmarks are known to this std [m] (default: {DEFAULT_MAP_SIGMA_M:g} m, "
@@ -89,29 +81,19 @@ from sensorsel.model.problem import Domain
     help="Demand the specification with this much of each limit to spare, e.g. 10% (every error within 90 % "
     "of its limit); default 0.",
 )
-@click.option(
-    "--failures",
-    type=click.IntRange(min=0),
-    default=0,
-    show_default=True,
-    metavar="N",
-    help="The suite must still meet the specification after any this many of its sensors fail.",
+@failures_option(
+    "The suite must still meet the specification after any this many of its sensors fail.", default=0, dest="failures"
 )
 @budget_option(help="Most the suite may cost, in dollars (default: no budget: the cheapest suite is the question).")
 @time_limit_option("Stop the exact search after this long and report the gap (default: run until proved).")
-@click.option(
+@path_option(
     "--plot",
     "plot_path",
-    type=click.Path(dir_okay=False, path_type=str),
-    default=None,
     help="Draw the errors along the route with the requirement, and the route coloured by its margin "
     "(png, svg or pdf by the extension; a domain: its route with the least margin).",
 )
-@click.option(
+@suite_option(
     "--compare",
-    default=None,
-    callback=suite_text,
-    metavar="IDS|FILE",
     help="With --plot: a suite to draw beside the answer (ids, or a result file such as greedy's -o).",
 )
 @output_option(
@@ -119,9 +101,7 @@ from sensorsel.model.problem import Domain
     "journalled in FILE.checkpoint as they come (deleted once FILE is written)."
 )
 @resume_option
-@json_option
-@quiet_option
-@run
+@result_options
 def require_cmd(
     map_sigma: float | None,
     slam: bool,
@@ -137,8 +117,6 @@ def require_cmd(
     resume: bool,
     as_json: bool,
     quiet: bool,
-    engine: str | None,
-    jobs: int,
     integrity_flag: bool,
     **kw: Any,
 ) -> None:
@@ -160,28 +138,26 @@ def require_cmd(
     if slam and map_sigma is not None:
         raise click.UsageError("--slam judges accuracy without a map: drop --map-sigma")
     map_sigma = check_map_sigma(DEFAULT_MAP_SIGMA_M if map_sigma is None else map_sigma)
-    if resume and not output:
-        raise click.UsageError("--resume goes on from the journal of -o FILE (FILE.checkpoint): give -o")
+    store = result_file(output, resume, "the journal of -o FILE (FILE.checkpoint)")
     if compare and not plot_path:
         raise click.UsageError("--compare draws a second suite on --plot: give --plot FILE")
-    for path in (output, plot_path):
-        if path:
-            output_file(path)
     if plot_path:
+        output_file(plot_path)
         plot_format(None, plot_path)
     margin = parse_margin(margin_text)
     integrity = _integrity_from(kw, integrity_flag)
-    cluster = cluster_from(kw)
-    constraints = constraints_from(kw)
     landmarks_given = tuple(kw.get("landmarks") or ())
-    target = target_from(kw)
+    inputs = design_from(kw)
+    target, cluster = inputs.target, inputs.cluster
+    # a route's own problem (a domain file names its landmarks: none invented, no route to compare on)
+    route = target.routes[0].problem if target.kind == "route" else None
     if (
-        not isinstance(target, Domain)
-        and target.scenario.landmark_source.startswith("generated")
+        route is not None
+        and route.scenario.landmark_source.startswith("generated")
         and "synthetic" not in landmarks_given
     ):
         raise InputError(
-            f"route {target.scenario.name} has no landmark file: a proof on invented landmarks signs nothing; "
+            f"route {route.scenario.name} has no landmark file: a proof on invented landmarks signs nothing; "
             "give --landmarks FILE, a map (--landmarks osm:FILE), or --landmarks synthetic to accept invented ones"
         )
     require_domain(cluster, target)
@@ -191,45 +167,44 @@ def require_cmd(
         specs = [replace(sp, margin=margin) for sp in specs]
     compared = None
     if compare:
-        positions, label, _ = read_suite(
-            compare, target.library, "--compare", None if isinstance(target, Domain) else target
-        )
+        positions, label, _ = read_suite(compare, target.library, "--compare", route)
         compared = (label, positions)
     bar, progress = progress_bar(
         quiet or as_json, "searching", counted=False
     )  # the count is only a cap: the text says what is left
-    with cluster or nullcontext(), bar or nullcontext():
+    with inputs.running(bar):
         # on a cluster each route's accuracy checks run on its worker's actor (the same bytes)
-        ev = cluster_evaluator(cluster, target, engine, "normalised")
+        ev = cluster_evaluator(cluster, target, inputs.engine, "normalised")
         res = run_require(
             target,
             specs,
             map_sigma_m=None if slam else map_sigma,
             failures=failures,
             budget_usd=budget,
-            constraints=constraints,
-            engine=engine,
-            jobs=jobs,
+            constraints=inputs.constraints,
+            engine=inputs.engine,
+            jobs=inputs.jobs,
             time_limit_s=time_limit,
             progress=progress,
-            checkpoint=checkpoint_path(output) if output else None,
+            checkpoint=store.checkpoint,
             resume=resume,
             evaluator=ev,
             conditions=None if in_conditions is None else [c.strip() for c in in_conditions.split(",") if c.strip()],
             estimate=estimate,
             integrity=integrity,
         )
-    if output:
-        results.save(res, output)
-        checkpoint_path(output).unlink(missing_ok=True)  # the result is written: the run is no longer interrupted
+    store.save(res)
     if plot_path:
         _plot(
-            res, target, compared, plot_path, map_sigma_m=None if slam else map_sigma, engine=engine, estimate=estimate
+            res,
+            target,
+            compared,
+            plot_path,
+            map_sigma_m=None if slam else map_sigma,
+            engine=inputs.engine,
+            estimate=estimate,
         )
-    if as_json:
-        click.echo(results.dumps(res), nl=False)
-    else:
-        _print(res)
+    echo_result(res, as_json, lambda: _print(res))
     if res.status == "infeasible":
         click.echo(f"sensorsel: error: {_infeasible_line(res)}", err=True)
         sys.exit(2)

@@ -3,43 +3,30 @@
 from __future__ import annotations
 
 from collections import Counter
-from contextlib import nullcontext
 from pathlib import Path
 from typing import Any
 
 import click
 
-from sensorsel.api import ALGORITHM_2, METHODS, with_suite_quality
-from sensorsel.cli.integrity import integrity_from, integrity_options
+from sensorsel.api import ALGORITHM_2, METHODS
+from sensorsel.cli.common import echo_result, print_accuracy, print_limits, print_target, table
 from sensorsel.cli.options import (
+    DesignInputs,
     budget_option,
-    cluster_from,
-    constraint_options,
-    constraints_from,
+    design_from,
     design_options,
     failures_option,
-    json_option,
-    map_sigma_option,
-    output_option,
-    plot_format_option,
-    print_accuracy,
-    print_target,
+    plots_folder_from,
+    plots_folder_option,
     progress_bar,
-    quiet_option,
+    quality_options,
+    result_options,
     resume_option,
-    run,
-    scoring_from,
-    table,
-    target_from,
-    usage_table,
 )
-from sensorsel.cli.options import plot_format as plot_format_of
 from sensorsel.cli.rules import rule_option
 from sensorsel.cli.vocabulary import Command
 from sensorsel.errors import InputError
 from sensorsel.io import results
-from sensorsel.io.files import output_dir
-from sensorsel.model.problem import Domain
 
 
 @click.command(
@@ -71,27 +58,18 @@ from sensorsel.model.problem import Domain
     "robust = robust selection (best exact worst case among greedy, "
     "Algorithm 2 and more; never below either).",
 )
-@constraint_options
-@output_option(
-    folder=True,
-    required=True,
-    help="Output folder: resilient.json, grid.csv, the grid plot, and periods/ (one file per period).",
+@plots_folder_option(
+    "Output folder: resilient.json, grid.csv, the grid plot, and periods/ (one file per period).",
 )
-@plot_format_option
 @resume_option
-@map_sigma_option
-@integrity_options
-@json_option
-@quiet_option
-@run
+@quality_options
+@result_options
 def resilient_cmd(
     budget: float,
     alpha: int,
     period_s: float,
     rule: str,
     method: str,
-    outdir: str,
-    plot_format: str | None,
     resume: bool,
     as_json: bool,
     quiet: bool,
@@ -116,34 +94,15 @@ def resilient_cmd(
     from sensorsel.api import check_affordable, check_alpha, check_budget, check_period
 
     budget = check_budget(budget)
-    fmt = plot_format_of(plot_format)
     alpha = check_alpha(alpha)
     period_s = check_period(period_s)
-    aggregate, engine, jobs, map_sigma, estimate = scoring_from(kw)
-    integrity_spec = integrity_from(kw)
-    out = output_dir(outdir)
-    cluster = cluster_from(kw)
-    constraints = constraints_from(kw)
-    problem = target_from(kw)
-    check_affordable(problem.library, budget, alpha, constraints=constraints)
-    if cluster is not None and isinstance(problem, Domain):
+    out, fmt = plots_folder_from(kw)
+    inputs = design_from(kw)
+    problem = inputs.target
+    check_affordable(problem.library, budget, alpha, constraints=inputs.constraints)
+    if inputs.cluster is not None and problem.kind != "route":
         raise click.UsageError("--scheduler/--workers run a route's periods as tasks: a domain has no periods")
-    report = _report(
-        problem,
-        budget,
-        alpha,
-        period_s,
-        rule,
-        method,
-        aggregate,
-        engine,
-        jobs,
-        out,
-        resume,
-        quiet,
-        cluster,
-        constraints,
-    )
+    report = _report(inputs, budget, alpha, period_s, rule, method, out, resume, quiet)
     r = report.comparison.resilient
     if alpha and len(r.suite) <= alpha:
         # the failing set took what the budget buys: every sensor of the suite could fail
@@ -152,57 +111,56 @@ def resilient_cmd(
             f"sensor(s) ({', '.join(r.suite) or 'none'}; {r.failure_note or 'the failing sensors take the budget'}), "
             f"so every one could fail (worst case 0): give fewer --failures or a larger --budget"
         )
-    report = with_suite_quality(
-        report, problem, map_sigma_m=map_sigma, engine=engine, estimate=estimate, integrity=integrity_spec
-    )
+    report = inputs.with_quality(report)
     written = _write(report, problem, out, fmt, period_s, alpha, budget, method)
-    if as_json:
-        click.echo(results.dumps(report), nl=False)
-        return
-    _print_comparison(report, budget, alpha, rule, method)
-    print_accuracy(report.accuracy, report.integrity)
-    _print_usage(report, problem.library)
-    _print_periods(report.per_period, period_s)
-    for p in written:
-        click.echo(f"wrote {p}")
-    if report.per_period is not None:
-        click.echo(f"wrote {len(report.per_period.periods)} period files under {out / 'periods'}")
+
+    def summary() -> None:
+        _print_comparison(report, budget, alpha, rule, method)
+        print_accuracy(report.accuracy, report.integrity)
+        print_limits(
+            problem.library,
+            report.budget_usd,
+            report.constraints,
+            report.suite,
+            "\nlimits    ",
+            " (every suite above and every period's); the chosen suite uses:",
+        )
+        _print_periods(report.per_period, period_s)
+        for p in written:
+            click.echo(f"wrote {p}")
+        if report.per_period is not None:
+            click.echo(f"wrote {len(report.per_period.periods)} period files under {out / 'periods'}")
+
+    echo_result(report, as_json, summary)
 
 
 def _report(
-    problem: Any,
+    inputs: DesignInputs,
     budget: float,
     alpha: int,
     period_s: float,
     rule: str,
     method: str,
-    aggregate: str,
-    engine: str | None,
-    jobs: int,
     out: Path,
     resume: bool,
     quiet: bool,
-    cluster: Any,
-    constraints: Any = None,
 ) -> Any:
-    """The resilient report: a domain's comparison, or a route's comparison and periods (in-process,
-    or as tasks on a cluster), with one progress bar over the periods."""
+    """The resilient report: on a route, its comparison and periods (in-process, or as tasks on a
+    cluster) with one progress bar over the periods; a domain has no single time line, so no periods:
+    its comparison alone."""
     from sensorsel.api import resilient_report, split_periods
 
-    if isinstance(problem, Domain):
-        return resilient_report(
-            problem,
-            budget,
-            alpha,
-            period_s=None,
-            rule=rule,
-            engine=engine,
-            jobs=jobs,
-            aggregate=aggregate,
-            method=method,
-            constraints=constraints,
-        )
-    sc = problem.scenario
+    target = inputs.target
+    how: dict[str, Any] = {
+        "rule": rule,
+        "engine": inputs.engine,
+        "jobs": inputs.jobs,
+        "method": method,
+        "constraints": inputs.constraints,
+    }
+    if target.kind != "route":
+        return resilient_report(target, budget, alpha, period_s=None, aggregate=inputs.aggregate, **how)
+    sc = target.routes[0].problem.scenario
     n_periods = len(split_periods(sc.keyframes.times, period_s))
     bar, progress = progress_bar(quiet, f"{n_periods} periods of {period_s:g} s")
     if bar is not None and bar.terminal:  # off a terminal the status lines say it
@@ -210,21 +168,17 @@ def _report(
             f"whole route: greedy and resilient selection on {sc.n_poses} keyframes, {sc.n_landmarks} landmarks ...",
             err=True,
         )
-    with cluster or nullcontext(), bar or nullcontext():  # with a cluster, every period as a task there
+    with inputs.running(bar):  # with a cluster, every period as a task there
         return resilient_report(
-            problem,
+            target,
             budget,
             alpha,
             period_s=period_s,
-            rule=rule,
-            engine=engine,
-            jobs=jobs,
             outdir=out,
             resume=resume,
             progress=progress,
-            method=method,
-            constraints=constraints,
-            executor=cluster.executor if cluster is not None else None,
+            executor=inputs.executor,
+            **how,
         )
 
 
@@ -302,20 +256,6 @@ def _print_comparison(report: Any, budget: float, alpha: int, rule: str, method:
             f"\nworst case: resilient {gain:+.1f} % versus greedy (scores in nats: f(S) = log det L(S) - log det "
             "L(empty))"
         )
-
-
-def _print_usage(report: Any, lib: Any) -> None:
-    """Under constraints: the limits, and what the whole route's chosen suite uses of each."""
-    if report.constraints is None:
-        return
-    from sensorsel.model.constraints import feasible_set
-
-    click.echo(
-        f"\nlimits    {report.constraints.describe()} (every suite above and every period's); the chosen suite uses:"
-    )
-    click.echo(
-        usage_table(feasible_set(lib, report.budget_usd, report.constraints).rows_used(lib.resolve_suite(report.suite)))
-    )
 
 
 def _print_periods(per: Any, period_s: float) -> None:

@@ -10,34 +10,22 @@ import click
 
 from sensorsel.api import (
     ROBUST_AGGREGATES,
-    with_suite_quality,
 )  # --aggregate of this command: the combined score (as elsewhere), or the worst route
 from sensorsel.cli.cluster import cluster_evaluator, require_domain
-from sensorsel.cli.integrity import integrity_from, integrity_options
+from sensorsel.cli.common import compact_suite, echo_result, print_accuracy, print_limits, print_target, table
 from sensorsel.cli.options import (
     budget_option,
-    cluster_from,
-    compact_suite,
-    constraint_options,
-    constraints_from,
+    design_from,
     design_options,
     failures_option,
-    json_option,
-    map_sigma_option,
     output_option,
-    print_accuracy,
-    print_target,
-    quiet_option,
+    quality_options,
+    result_file,
+    result_options,
     resume_option,
-    run,
-    scoring_from,
-    table,
-    target_from,
-    usage_table,
 )
 from sensorsel.cli.vocabulary import Command
 from sensorsel.io import results
-from sensorsel.io.files import output_file
 from sensorsel.model.library import SensorLibrary
 
 
@@ -85,17 +73,13 @@ def _csv(xs: Any) -> str:
 @click.option(
     "--no-skip", is_flag=True, help="Run every method even when the bound already proves a candidate optimal."
 )
-@constraint_options
-@map_sigma_option
-@integrity_options
+@quality_options
 @output_option(
     help='Write the result as JSON here (kind "robust"); each method\'s outcome is kept in FILE.tasks/ '
     "as it comes (removed once FILE is written; not with --aggregate worst)."
 )
 @resume_option
-@json_option
-@quiet_option
-@run
+@result_options
 def robust_cmd(
     budget: float,
     alpha: int,
@@ -129,14 +113,10 @@ def robust_cmd(
     from sensorsel.api import check_affordable, check_alpha, check_budget, run_robust
 
     budget, alpha = check_budget(budget), check_alpha(alpha)
-    aggregate, engine, jobs, map_sigma, estimate = scoring_from(kw)
-    integrity_spec = integrity_from(kw)
-    if resume and not output:
-        raise click.UsageError("--resume goes on from the methods kept in FILE.tasks/ of -o FILE: give -o")
+    aggregate = kw["aggregate"]
+    result_file(output, resume, "the methods kept in FILE.tasks/ of -o FILE")
     if resume and aggregate == "worst":
         raise click.UsageError("--aggregate worst runs as one search, with nothing kept to resume from: drop --resume")
-    if output:
-        output_file(output)
     rule_list = tuple(r.strip() for r in rules.split(",") if r.strip())
     from sensorsel.api import EXTRA_METHODS, WORST_METHODS
 
@@ -147,48 +127,45 @@ def robust_cmd(
         method_list = ()
     else:
         method_list = tuple(m.strip() for m in methods.split(",") if m.strip())
-    constraints = constraints_from(kw)
-    cluster = cluster_from(kw)
-    target = target_from(kw)
+    inputs = design_from(kw)
+    target, cluster = inputs.target, inputs.cluster
     if aggregate == "worst":  # its routes are spread over the cluster (the methods' tasks need no domain)
         require_domain(cluster, target)
-    check_affordable(target.library, budget, constraints=constraints)
+    check_affordable(target.library, budget, constraints=inputs.constraints)
     if not quiet:
         click.echo(f"robust selection: ${budget:,.0f}, {alpha} failure(s) ...", err=True)
-    from contextlib import nullcontext
 
     tasks = tasks_folder(output) if output and aggregate != "worst" else None
-    with cluster or nullcontext():
+    with inputs.running():
         if aggregate == "worst":  # one search over the routes' shares: on a cluster each route on a worker
-            how: dict[str, Any] = {"evaluator": cluster_evaluator(cluster, target, engine, "normalised")}
+            how: dict[str, Any] = {"evaluator": cluster_evaluator(cluster, target, inputs.engine, "normalised")}
         else:  # the methods as tasks: here, or on the cluster's workers; kept under FILE.tasks/
-            how = {"executor": cluster.executor if cluster is not None else None, "outdir": tasks, "resume": resume}
+            how = {"executor": inputs.executor, "outdir": tasks, "resume": resume}
         res = run_robust(
             target,
             budget,
             alpha,
-            engine=engine,
-            jobs=jobs,
+            engine=inputs.engine,
+            jobs=inputs.jobs,
             aggregate=aggregate,
             rules=rule_list,
             methods=method_list,
             skip_when_proved=not no_skip,
-            constraints=constraints,
+            constraints=inputs.constraints,
             **how,
         )
-    res = with_suite_quality(
-        res, target, map_sigma_m=map_sigma, engine=engine, estimate=estimate, integrity=integrity_spec
-    )
+    res = inputs.with_quality(res)
     written = results.save(res, output) if output else None
     if tasks is not None:  # the result is written: the run is no longer interrupted
         shutil.rmtree(tasks, ignore_errors=True)
-    if as_json:
-        click.echo(results.dumps(res), nl=False)
-        return
-    print_robust(res, target.library)
-    print_accuracy(res.accuracy, res.integrity)
-    if written is not None:
-        click.echo(f"wrote {written}")
+
+    def summary() -> None:
+        print_robust(res, target.library)
+        print_accuracy(res.accuracy, res.integrity)
+        if written is not None:
+            click.echo(f"wrote {written}")
+
+    echo_result(res, as_json, summary)
 
 
 #: The words a user reads for each candidate method of a robust result (the result file keeps the
@@ -293,16 +270,9 @@ def print_robust(res: Any, lib: SensorLibrary | None = None) -> None:
     for s in res.skipped:
         method, _, why = s.partition(": ")
         click.echo(f"skipped: {method_words(method)}: {why}" if why else f"skipped: {s}")
-    if res.constraints is not None and lib is not None:
-        from sensorsel.model.constraints import feasible_set
-
-        click.echo(
-            f"\nlimits     {res.constraints.describe()}"
-            + (f"; bound: {res.bound_detail.relaxation}" if res.bound_detail.relaxation else "")
-        )
-        click.echo(
-            usage_table(feasible_set(lib, res.budget_usd, res.constraints).rows_used(lib.resolve_suite(res.suite)))
-        )
+    if lib is not None:
+        relaxation = f"; bound: {res.bound_detail.relaxation}" if res.bound_detail.relaxation else ""
+        print_limits(lib, res.budget_usd, res.constraints, res.suite, "\nlimits     ", relaxation)
     click.echo(f"{res.n_evaluations:,} suites scored in {res.seconds:.1f} s")
 
 

@@ -3,10 +3,8 @@
 from __future__ import annotations
 
 import sys
-from contextlib import nullcontext
 from dataclasses import replace
-from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import click
 
@@ -18,50 +16,48 @@ from sensorsel.api import (
     DomainDesign,
     by_condition,
     check_affordable,
-    checkpoint_path,
     design_domain,
     format_certificate,
     front_acceptance,
     parse_budgets,
     parse_rules,
-    remove_checkpoint,
     run_greedy,
     run_tradespace,
-    with_suite_quality,
     write_csv,
 )
 from sensorsel.cli.cluster import cluster_evaluator, require_domain
-from sensorsel.cli.common import specification_from, specification_given, specification_options
-from sensorsel.cli.integrity import integrity_from, integrity_options
+from sensorsel.cli.common import (
+    compact_suite,
+    echo_result,
+    print_accuracy,
+    print_limits,
+    print_target,
+    specification_from,
+    specification_given,
+    specification_options,
+    table,
+)
 from sensorsel.cli.options import (
     budget_option,
-    cluster_from,
-    compact_suite,
-    constraint_options,
-    constraints_from,
+    design_from,
     design_options,
-    json_option,
+    lazy_option,
     map_sigma_option,
     output_option,
+    path_option,
     plot_format,
-    plot_format_option,
-    print_accuracy,
-    print_target,
+    plots_folder_from,
+    plots_folder_option,
     progress_bar,
-    quiet_option,
+    quality_options,
+    result_file,
+    result_options,
     resume_option,
-    run,
-    scoring_from,
-    table,
-    target_from,
-    usage_table,
 )
-from sensorsel.cli.options import plot_format as plot_format_of
 from sensorsel.cli.rules import kept_label, rule_option, rules_option
 from sensorsel.cli.vocabulary import Command
 from sensorsel.io import results
-from sensorsel.io.files import output_dir, output_file
-from sensorsel.model.constraints import feasible_set
+from sensorsel.io.files import output_file
 from sensorsel.model.library import SensorLibrary
 from sensorsel.model.problem import Domain, ProblemInfo
 
@@ -94,10 +90,7 @@ def _print_greedy(res: CertifiedGreedyResult, lib: SensorLibrary) -> None:
     click.echo(f"score      {res.score:.3f}{unit.replace('_', ' ')}")
     click.echo(f"evaluated  {res.n_evaluations} suites in {res.seconds:.2f} s")
     click.echo(f"stopped    {res.stop_reason}")
-    if res.constraints is not None:
-        click.echo(f"limits     {res.constraints.describe()}")
-        feas = feasible_set(lib, res.budget_usd, res.constraints)
-        click.echo(usage_table(feas.rows_used(lib.resolve_suite(res.suite))))
+    print_limits(lib, res.budget_usd, res.constraints, res.suite)
     if res.certificate is not None:
         click.echo(format_certificate(res.certificate))
     print_accuracy(res.accuracy, res.integrity)
@@ -143,13 +136,9 @@ def _print_breakdown(design: DomainDesign) -> None:
 )
 @design_options
 @budget_option(required=True)
-@constraint_options
 @rule_option("uniform")
-@click.option(
-    "--lazy/--no-lazy", default=True, show_default=True, help="Lazy (Minoux) evaluation: same picks, fewer evaluations."
-)
+@lazy_option
 @output_option(help="Write the full result as JSON.")
-@json_option
 @click.option(
     "--certificate/--no-certificate",
     "certify",
@@ -158,18 +147,14 @@ def _print_breakdown(design: DomainDesign) -> None:
     help="Also bound the best possible score within the budget (at most one extra sweep of the library per pick) "
     "and print how close the suite is to it.",
 )
-@click.option(
+@path_option(
     "--plot",
     "plot_path",
-    type=click.Path(dir_okay=False, path_type=str),
-    default=None,
     help="With --domain: draw the per-route breakdown here (png, svg or pdf by its extension).",
 )
 @resume_option
-@map_sigma_option
-@integrity_options
-@quiet_option
-@run
+@quality_options
+@result_options
 def greedy_cmd(
     budget: float,
     rule: str,
@@ -196,88 +181,60 @@ def greedy_cmd(
     With -o FILE, a checkpoint FILE.checkpoint is written after each pick (and after the certificate
     and each route of the breakdown) and deleted once FILE is written; --resume goes on from it.
     """
-    if resume and not output:
-        raise click.UsageError("--resume goes on from the checkpoint of -o FILE (FILE.checkpoint): give -o")
-    aggregate, engine, jobs, map_sigma, estimate = scoring_from(kw)
-    integrity_spec = integrity_from(kw)
-    if output:
-        output_file(output)
+    store = result_file(output, resume, "the checkpoint of -o FILE (FILE.checkpoint)")
     if plot_path:
         output_file(plot_path)
         plot_format(None, plot_path)
-    cluster = cluster_from(kw)
-    constraints = constraints_from(kw)
-    problem = target_from(kw)
-    if plot_path and not isinstance(problem, Domain):
+    inputs = design_from(kw)
+    target = inputs.target
+    if plot_path and target.kind != "domain":
         raise click.UsageError("--plot draws a domain's per-route breakdown: it goes with --domain FILE")
-    require_domain(cluster, problem)
-    check_affordable(problem.library, budget, constraints=constraints)
+    require_domain(inputs.cluster, target)
+    check_affordable(target.library, budget, constraints=inputs.constraints)
     bar, progress = progress_bar(quiet, f"greedy {rule}", phases=len(RULES[rule].component_rules))
     cert_bar, cert_progress = progress_bar(quiet or not certify, "certificate", after=bar)
+    if resume and store.checkpoint is not None and not store.checkpoint.is_file():
+        click.echo(f"sensorsel: note: no checkpoint {store.checkpoint}: starting from the first pick", err=True)
+    how: dict[str, Any] = {
+        "engine": inputs.engine,
+        "jobs": inputs.jobs,
+        "lazy": lazy,
+        "certify": certify,
+        "progress": progress,
+        "certify_progress": cert_progress,
+        "checkpoint": store.checkpoint,
+        "resume": resume,
+        "constraints": inputs.constraints,
+    }
     design: DomainDesign | None = None  # a domain's: its greedy result and each route's share
-    ckpt = checkpoint_path(output) if output else None
-    if resume and ckpt is not None and not ckpt.is_file():
-        click.echo(f"sensorsel: note: no checkpoint {ckpt}: starting from the first pick", err=True)
-    with cluster or nullcontext(), bar or nullcontext(), cert_bar or nullcontext():
-        if isinstance(problem, Domain):
-            ev = cluster_evaluator(cluster, problem, engine, aggregate)
-            design = design_domain(
-                problem,
-                budget,
-                rule,
-                engine=engine,
-                jobs=jobs,
-                aggregate=aggregate,
-                lazy=lazy,
-                certify=certify,
-                progress=progress,
-                certify_progress=cert_progress,
-                evaluator=ev,
-                checkpoint=ckpt,
-                resume=resume,
-                constraints=constraints,
-            )
+    with inputs.running(bar, cert_bar):
+        if target.kind == "domain":  # another result kind: the greedy result and each route's breakdown
+            ev = cluster_evaluator(inputs.cluster, target, inputs.engine, inputs.aggregate)
+            design = design_domain(cast(Domain, target), budget, rule, aggregate=inputs.aggregate, evaluator=ev, **how)
             res = design.greedy
         else:
-            res = run_greedy(
-                problem,
-                budget,
-                rule,
-                engine=engine,
-                jobs=jobs,
-                lazy=lazy,
-                progress=progress,
-                certify=certify,
-                certify_progress=cert_progress,
-                checkpoint=ckpt,
-                resume=resume,
-                constraints=constraints,
-            )
+            res = run_greedy(target, budget, rule, **how)
     # the chosen suite's accuracy in metres (local evaluators: a cluster's routes answer scores only)
-    res = with_suite_quality(
-        res, problem, map_sigma_m=map_sigma, engine=engine, estimate=estimate, integrity=integrity_spec
-    )
+    res = inputs.with_quality(res)
     if design is not None:
         design = replace(design, greedy=res)
     out: CertifiedGreedyResult | DomainDesign = design if design is not None else res
-    if output:
-        results.save(out, output)
-        if ckpt is not None:
-            remove_checkpoint(ckpt)  # the result is written: the run is no longer interrupted
+    store.save(out)
     if design is not None and plot_path:
         from sensorsel.plotting import plot_domain_breakdown, save_figure, use_file_backend
 
         use_file_backend()
         save_figure(plot_domain_breakdown(design).figure, plot_path, close=True)
-    if as_json:
-        click.echo(results.dumps(out), nl=False)
-    else:
-        _print_greedy(res, problem.library)
+
+    def summary() -> None:
+        _print_greedy(res, target.library)
         if design is not None:
             _print_breakdown(design)
         for path in (output, plot_path):
             if path:
                 click.echo(f"wrote      {path}")
+
+    echo_result(out, as_json, summary)
 
 
 def _share(at: float) -> str:
@@ -315,30 +272,20 @@ def _arch_row(a: Architecture) -> list[str]:
     help="A budget in dollars (110000, 110,000, $110,000 or 110_000); repeat it for several; adds to --budgets.",
 )
 @rules_option(",".join(DEFAULT_RULES))
-@constraint_options
-@click.option(
-    "--lazy/--no-lazy", default=True, show_default=True, help="Lazy (Minoux) evaluation: same picks, fewer evaluations."
-)
+@lazy_option
 @map_sigma_option
 @specification_options
-@output_option(
-    folder=True,
-    required=True,
-    help="Folder for pareto.<format>, architectures.csv, tradespace.json, and the front's accuracy: "
+@plots_folder_option(
+    "Folder for pareto.<format>, architectures.csv, tradespace.json, and the front's accuracy: "
     "accuracy.json and pareto-accuracy.<format>.",
 )
-@plot_format_option
 @resume_option
-@json_option
-@quiet_option
-@run
+@result_options
 def pareto_cmd(
     budgets: str | None,
     budget: tuple[float, ...],
     rules: str,
     lazy: bool,
-    outdir: str,
-    plot_format: str | None,
     resume: bool,
     as_json: bool,
     quiet: bool,
@@ -358,17 +305,14 @@ def pareto_cmd(
     --map-sigma in a prior map), and with a specification (--preset, --lateral, ..., --spec) which
     front suites meet it: the acceptable region of the front, drawn as cost against lateral error.
     """
-    aggregate, engine, jobs, map_sigma, estimate = scoring_from(kw)
     given_spec = specification_given(kw)
     grid = parse_budgets(budgets) if budgets is not None else None
     if budget:
         grid = tuple(sorted(set(grid or ()) | set(budget)))
-    fmt = plot_format_of(plot_format)
     names = parse_rules(rules)
-    output_dir(outdir)
-    cluster = cluster_from(kw)
-    constraints = constraints_from(kw)
-    problem = target_from(kw)
+    out, fmt = plots_folder_from(kw)
+    inputs = design_from(kw)
+    problem, constraints = inputs.target, inputs.constraints
     routes = [r.name for r in problem.routes]
     specs = specification_from(kw, routes) if given_spec else None
     if not given_spec:
@@ -384,26 +328,22 @@ def pareto_cmd(
     else:
         check_affordable(problem.library, float(problem.library.costs.sum()), constraints=constraints)
     bar, progress = progress_bar(quiet, "tradespace runs")
-    with (
-        cluster or nullcontext(),
-        bar or nullcontext(),
-    ):  # with a cluster, each rule's chain of budgets is one task there
+    with inputs.running(bar):  # with a cluster, each rule's chain of budgets is one task there
         res = run_tradespace(
             problem,
             grid,
             names,
-            engine=engine,
-            jobs=jobs,
+            engine=inputs.engine,
+            jobs=inputs.jobs,
             lazy=lazy,
-            aggregate=aggregate,
+            aggregate=inputs.aggregate,
             progress=progress,
             constraints=constraints,
-            executor=cluster.executor if cluster is not None else None,
-            outdir=outdir,
+            executor=inputs.executor,
+            outdir=out,
             resume=resume,
         )
 
-    out = Path(outdir)
     written = [results.save(res, out / "tradespace.json"), write_csv(res, out / "architectures.csv")]
     acceptance = None
     if res.architectures:
@@ -416,18 +356,21 @@ def pareto_cmd(
             problem,
             [(a.suite, a.cost_usd, a.score) for a in res.front],
             specs,
-            map_sigma_m=map_sigma,
-            engine=engine,
-            estimate=estimate,
+            map_sigma_m=inputs.map_sigma,
+            engine=inputs.engine,
+            estimate=inputs.estimate,
         )
         written.append(results.save(acceptance, out / "accuracy.json"))
         written.append(save_figure(plot_front_accuracy(acceptance).figure, out / f"pareto-accuracy.{fmt}", close=True))
 
-    if as_json:
-        click.echo(results.dumps(res), nl=False)
-        if not res.architectures:
-            sys.exit(2)
-        return
+    echo_result(res, as_json, lambda: _print_pareto(res, acceptance, specs, problem.library, written))
+    if not res.architectures:
+        sys.exit(2)
+
+
+def _print_pareto(res: Any, acceptance: Any, specs: list[Any] | None, lib: SensorLibrary, written: list[Any]) -> None:
+    """The tradespace's summary: its runs, the front with each suite's accuracy (and whether it meets
+    ``specs``), the cheapest suites reaching 99 % and 95 % of the best, the limits, what was written."""
     print_target(res.problem)
     click.echo(
         f"runs       {len(res.runs)} ({', '.join(res.rules)} x {len(res.budgets_usd)} budgets "
@@ -441,7 +384,7 @@ def pareto_cmd(
     )
     if not res.architectures:
         click.echo("every budget is below the cheapest sensor: nothing was bought", err=True)
-        sys.exit(2)
+        return
     click.echo("\nPareto front (cheapest first):")
     assert acceptance is not None
     rows = [
@@ -485,17 +428,13 @@ def pareto_cmd(
     best = res.best
     assert best is not None
     click.echo(f"best: ${best.cost_usd:,.0f}, {best.n_sensors} sensors: {','.join(best.suite)}")
-    if res.constraints is not None:
-        lib = problem.library
-        click.echo(
-            f"limits     {res.constraints.describe()} (at every budget); the best architecture uses, at the "
-            "largest budget:"
-        )
-        click.echo(
-            usage_table(
-                feasible_set(lib, res.budgets_usd[-1], res.constraints).rows_used(lib.resolve_suite(best.suite))
-            )
-        )
+    print_limits(
+        lib,
+        res.budgets_usd[-1],
+        res.constraints,
+        best.suite,
+        tail=" (at every budget); the best architecture uses, at the largest budget:",
+    )
     click.echo("wrote " + ", ".join(str(w) for w in written))
 
 

@@ -3,36 +3,31 @@
 from __future__ import annotations
 
 import math
-import os
-from contextlib import nullcontext
 from pathlib import Path
 from typing import Any
 
 import click
 
-from sensorsel.cli.common import read_suite
+from sensorsel.cli.common import read_suite, table
 from sensorsel.cli.options import (
     check_map_sigma,
     cluster_from,
     cluster_options,
     force_option,
-    json_option,
-    output_option,
-    plot_format_option,
+    jobs_option,
+    plots_folder_from,
+    plots_folder_option,
     prior_map_option,
     progress_bar,
-    quiet_option,
-    run,
+    result_options,
+    running,
     scenario_options,
     spec_from,
-    suite_text,
-    table,
+    suite_option,
 )
-from sensorsel.cli.options import plot_format as plot_format_of
 from sensorsel.cli.vocabulary import Command
 from sensorsel.errors import InputError
 from sensorsel.io import results
-from sensorsel.io.files import output_dir
 from sensorsel.model.library import SensorLibrary
 from sensorsel.model.problem import GraphSettings, Problem, load_problem
 
@@ -43,18 +38,12 @@ def _fmt(v: float | None, digits: int = 3) -> str:
 
 @click.command("simulate", cls=Command, short_help="Monte-Carlo SLAM with GTSAM on one or two suites, with failures.")
 @scenario_options
-@click.option(
-    "--suite",
+@suite_option(
     required=True,
-    callback=suite_text,
-    metavar="IDS|FILE",
     help='Comma-separated sensor ids, or a result JSON of `sensorsel greedy`/`resilient` (its "suite").',
 )
-@click.option(
+@suite_option(
     "--compare",
-    default=None,
-    callback=suite_text,
-    metavar="IDS|FILE",
     help="A second suite (same forms) simulated with the same noise and drawn beside the first.",
 )
 @click.option(
@@ -102,14 +91,7 @@ def _fmt(v: float | None, digits: int = 3) -> str:
     show_default=True,
     help="Factor on every noise sigma (odometry, prior, sensors).",
 )
-@click.option(
-    "--jobs",
-    type=click.IntRange(min=1),
-    default=os.cpu_count() or 1,
-    show_default="all cores",
-    metavar="N",
-    help="Processes running the Monte-Carlo draws (results do not depend on it).",
-)
+@jobs_option("Processes running the Monte-Carlo draws (results do not depend on it).")
 @click.option(
     "--associate",
     is_flag=True,
@@ -154,17 +136,12 @@ def _fmt(v: float | None, digits: int = 3) -> str:
     help="--associate: the associator's chi-square gate probability (2 degrees of freedom).",
 )
 @cluster_options
-@output_option(
-    folder=True,
-    required=True,
-    help="Output folder: simulation.json (every run), trajectories, error_along_route and simulate plots "
+@plots_folder_option(
+    "Output folder: simulation.json (every run), trajectories, error_along_route and simulate plots "
     "(--associate: simulation.json and association_calibration).",
 )
-@plot_format_option
 @force_option
-@json_option
-@quiet_option
-@run
+@result_options
 def simulate_cmd(
     suite: str,
     compare: str | None,
@@ -183,8 +160,6 @@ def simulate_cmd(
     importance: bool,
     clutter_per_km: float,
     gate_probability: float,
-    outdir: str,
-    plot_format: str | None,
     force: bool,
     as_json: bool,
     quiet: bool,
@@ -231,8 +206,7 @@ def simulate_cmd(
         ):
             if given:
                 raise click.UsageError(f"{name} needs --associate")
-    fmt = plot_format_of(plot_format)
-    out = output_dir(outdir)
+    out, fmt = plots_folder_from(kw)
     cluster = cluster_from(kw)
     settings = _settings(start_sigmas)
     spec = spec_from(kw)
@@ -266,13 +240,13 @@ def simulate_cmd(
         return
 
     sims = []
-    with cluster or nullcontext():
+    with running(cluster):
         executor = cluster.executor if cluster is not None else None  # with a cluster, each run is one task there
         for positions, name, _ in designs:
             ids = set(lib.suite_ids(positions))
             mine = tuple(f for f in failures if f.sensor in ids)
             bar, progress = progress_bar(quiet, f"simulating {name}")
-            with bar or nullcontext():
+            with running(bar):
                 res = simulate(
                     problem,
                     positions,
@@ -334,11 +308,11 @@ def _associate(
     from sensorsel.simulation.association_run import simulate_association
 
     checks = []
-    with cluster or nullcontext():
+    with running(cluster):
         executor = cluster.executor if cluster is not None else None
         for positions, name, _ in designs:
             bar, progress = progress_bar(quiet, f"associating {name}")
-            with bar or nullcontext():
+            with running(bar):
                 checks.append(
                     simulate_association(
                         problem,

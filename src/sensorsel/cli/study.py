@@ -2,22 +2,20 @@
 
 from __future__ import annotations
 
-from contextlib import nullcontext
 from typing import Any
 
 import click
 
+from sensorsel.cli.common import compact_suite, table
 from sensorsel.cli.options import (
     cluster_from,
     cluster_options,
-    compact_suite,
-    json_option,
+    jobs_option,
     output_option,
     progress_bar,
-    quiet_option,
+    result_options,
     resume_option,
-    run,
-    table,
+    running,
 )
 from sensorsel.cli.vocabulary import Command
 from sensorsel.io import results
@@ -39,18 +37,12 @@ def _num(v: float | None, fmt: str = "{:,.3f}") -> str:
 )
 @resume_option
 @cluster_options
-@click.option(
-    "--jobs",
-    type=click.IntRange(min=1),
-    default=1,
-    show_default=True,
-    metavar="N",
-    help="Threads scoring candidate suites in each in-process cell (results do not depend on it; on a "
+@jobs_option(
+    "Threads scoring candidate suites in each in-process cell (results do not depend on it; on a "
     "cluster every task uses one).",
+    default=1,
 )
-@json_option
-@quiet_option
-@run
+@result_options
 def study_cmd(study_file: str, outdir: str, resume: bool, jobs: int, as_json: bool, quiet: bool, **kw: Any) -> None:
     """Run a design study: every combination of the grid in FILE.yaml (budgets x rules x failures x
     landmark seeds x libraries) on its target (a route or an operating domain), one run per cell.
@@ -67,7 +59,7 @@ def study_cmd(study_file: str, outdir: str, resume: bool, jobs: int, as_json: bo
     cluster = cluster_from(kw)
     study = load_study(study_file)
     bar, progress = progress_bar(quiet or as_json, "study cells")
-    with cluster or nullcontext(), bar or nullcontext():  # with a cluster, each cell is one task there
+    with running(cluster, bar):  # with a cluster, each cell is one task there
         res = run_study(
             study,
             outdir=outdir,

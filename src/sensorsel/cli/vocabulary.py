@@ -53,121 +53,106 @@ TOPICS = {
     "integrity": "the integrity model: the risk per hour, the alert limits, the associator's gate, the lever",
 }
 
-_T = Term
-VOCABULARY: tuple[Term, ...] = (
-    # -- scenario: which route, which landmarks, which library
-    _T("--seq", "NN", "kitti", "a KITTI odometry sequence", SCENARIO),
-    _T("--kitti-root", "DIRECTORY", "kitti", "KITTI's dataset/ folder ($SENSORSEL_KITTI_ROOT)", SCENARIO),
-    _T("--route", "FILE", "route", "a route file (KITTI poses, TUM, CSV, GPX)", SCENARIO),
-    _T("--route-format", "[kitti|tum|csv]", "format", "the format of --route", SCENARIO),
-    _T("--up", "AXIS", "up", "the world axis that points up in --route", SCENARIO),
-    _T("--forward", "AXIS", "ahead", "the body axis that points ahead in --route", SCENARIO),
-    _T("--times", "FILE", "timestamps", "timestamps of a KITTI --route", SCENARIO),
-    _T("--fixture", "TEXT", "bundled", "a bundled synthetic route (default suburb)", SCENARIO),
-    _T("--name", "TEXT", "name", "the scenario's name", SCENARIO),
-    _T("--landmarks", "real|synthetic|FILE|osm:FILE", "landmarks", "the landmark map", SCENARIO),
-    _T("--georef", "LAT,LON,BEARING|utm:ZONE", "compass bearing", "where a route's frame lies on Earth", SCENARIO),
-    _T("--osm-classes", "CLASSES", "landmark classes", "which OpenStreetMap landmark classes", SCENARIO),
-    _T(
-        "--osm-reach",
-        "METRES",
-        "within this distance of the route",
-        "OpenStreetMap landmarks within this distance of a route",
-        SCENARIO,
-    ),
-    _T("--landmark-seed", "INTEGER", "seed", "seed of the synthetic landmarks", SCENARIO),
-    _T(
-        "--clearance",
-        "METRES",
-        "closer than this to the route",
-        "drop landmarks closer than this to the route",
-        SCENARIO,
-    ),
-    _T("--rate", "HZ", "keyframe", "keyframes a second along a route", SCENARIO),
-    _T("--library", "FILE", "sensor library", "the sensor library YAML (default: the paper's Table I)", SCENARIO),
-    _T("--condition", "CONDITION", "condition", "night, rain, fog or snow", SCENARIO),
-    _T("--domain", "FILE", "domain", "an operating domain: many routes, one suite", SCENARIO),
-    _T("--aggregate", "AGGREGATE", "domain", "how a domain combines its routes' scores", SCENARIO),
-    # -- the suite, and what it may be
-    _T("--budget", "DOLLARS", "dollars", "a budget in dollars (110000, 110,000, $110,000)", SUITE),
-    _T(
-        "--suite",
-        "IDS|FILE",
-        "sensor ids",
-        "a suite: comma-separated sensor ids, or a result file that names one (certify: a greedy result file)",
-        SUITE,
-        narrower="FILE",
-    ),
-    _T("--compare", "IDS|FILE", "suite", "a second suite drawn beside the first (same forms as --suite)", SUITE),
-    _T("--rule", "[uniform|cost-benefit|marginal|best-of]", "rule", "the greedy rule", SUITE),
-    _T("--rules", "RULES", "rules", "several greedy rules, comma-separated", SUITE),
-    _T("--lazy", "", "lazy", "lazy (Minoux) greedy evaluation: same picks, fewer evaluations", SUITE),
-    _T("--failures", "N", "fail", "how many sensors may fail", SUITE),
-    _T("--limit", "RESOURCE=VALUE", "resource", "most a suite may use of a resource (power_w=100)", SUITE),
-    _T("--no-slots", "", "mounting slots", "ignore the library's mounting slots", SUITE),
-    _T("--include", "IDS", "every suite must hold", "sensors every suite must hold", SUITE),
-    _T("--owned", "", "paid for", "the --include sensors are already paid for", SUITE),
-    _T("--exclude", "IDS", "no suite may hold", "sensors no suite may hold", SUITE),
-    _T("--max-sensors", "N", "most sensors", "most sensors in a suite", SUITE),
-    _T("--force", "", "result file", "use a result file computed on another problem (a warning, not an error)", SUITE),
-    # -- a specification in metres
-    _T("--preset", "local-streets|freeway", "published", "a published accuracy specification", SPEC),
-    _T("--lateral", "METRES", "lateral", "bound on the lateral error [m]", SPEC),
-    _T("--longitudinal", "METRES", "longitudinal", "bound on the longitudinal error [m]", SPEC),
-    _T("--heading", "DEGREES", "heading", "bound on the heading error [deg]", SPEC),
-    _T("--sigma", "", "1σ", "the bounds are 1σ, not 95 %", SPEC),
-    _T("--at", "PERCENT", "keyframes", "share of keyframes that must meet the bounds", SPEC),
-    _T("--spec", "FILE", "specification file", "a specification file (per-route specifications)", SPEC),
-    # -- how accuracy and integrity are computed
-    _T(
-        "--map-sigma",
-        "METRES",
-        "prior map",
-        "localize in a prior map whose landmarks are known to this std [m]",
-        ACCURACY,
-    ),
-    _T(
-        "--estimate",
-        "[filter|smoother]",
-        "filter",
-        "accuracy of the filter (as the car drives) or the smoother",
-        ACCURACY,
-    ),
-    _T("--integrity-risk", "P", "per hour", "allowed probability per hour of an error beyond an alert limit", ACCURACY),
-    _T("--alert-lateral", "METRES", "alert limit", "lateral alert limit [m]", ACCURACY),
-    _T("--alert-longitudinal", "METRES", "alert limit", "longitudinal alert limit [m]", ACCURACY),
-    _T("--alert-heading", "DEGREES", "alert limit", "heading alert limit [deg]", ACCURACY),
-    _T("--gate-probability", "P", "gate", "the associator's chi-square gate probability", ACCURACY),
-    _T(
-        "--max-association-risk",
-        "P",
-        "wrong association",
-        "leave out measurements likelier than P to be misassociated",
-        ACCURACY,
-    ),
-    # -- how it runs
-    _T("--engine", "[fast|reference]", "engine", "the scoring engine", RUNNING),
-    _T("--jobs", "N", "results do not depend on it", "threads or processes on this machine", RUNNING),
-    _T("--workers", "N", "dask", "start a local Dask cluster of N workers", RUNNING),
-    _T("--scheduler", "ADDRESS", "dask", "run on an existing Dask cluster", RUNNING),
-    _T("--time-limit", "SECONDS", "stop", "stop a search after this long with the best found so far", RUNNING),
-    _T("--resume", "", "interrupted run", "go on from what an interrupted run left", RUNNING),
-    # -- what it writes
-    _T(
-        "--output",
-        "FILE",
-        "",
-        "the file the result is written to (JSON; an image for scene, CSV for landmarks)",
-        OUTPUT,
-        short="-o",
-    ),
-    _T("--output-dir", "DIRECTORY", "folder", "the folder a command that writes several files writes them to", OUTPUT),
-    _T("--plot", "FILE", "draw", "draw the result's plot into this file (png, svg or pdf by its extension)", OUTPUT),
-    _T("--plot-format", "[png|svg|pdf]", "plot", "the format of the plots written to --output-dir or -o", OUTPUT),
-    _T("--json", "", "json", "print the result as JSON on stdout", OUTPUT),
-    _T("--quiet", "", "no progress", "no progress on stderr", OUTPUT, short="-q"),
-    _T("--progress", "", "progress", "progress on stderr even with -q ($SENSORSEL_PROGRESS)", OUTPUT),
-)
+#: The table, one option a line under its section's heading (a line ending in ``:``): ``NAME METAVAR |
+#: GIST | MEANING``: ``-o/--output`` names the short name too; ``IDS|FILE (FILE)`` gives after the metavar
+#: the narrower one of a command that takes only some of the forms (certify --suite FILE); no metavar: a
+#: flag; an empty gist: none. A line that starts with spaces goes on with the meaning of the line above.
+_TABLE = """
+Scenario:
+--seq NN | kitti | a KITTI odometry sequence
+--kitti-root DIRECTORY | kitti | KITTI's dataset/ folder ($SENSORSEL_KITTI_ROOT)
+--route FILE | route | a route file (KITTI poses, TUM, CSV, GPX)
+--route-format [kitti|tum|csv] | format | the format of --route
+--up AXIS | up | the world axis that points up in --route
+--forward AXIS | ahead | the body axis that points ahead in --route
+--times FILE | timestamps | timestamps of a KITTI --route
+--fixture TEXT | bundled | a bundled synthetic route (default suburb)
+--name TEXT | name | the scenario's name
+--landmarks real|synthetic|FILE|osm:FILE | landmarks | the landmark map
+--georef LAT,LON,BEARING|utm:ZONE | compass bearing | where a route's frame lies on Earth
+--osm-classes CLASSES | landmark classes | which OpenStreetMap landmark classes
+--osm-reach METRES | within this distance of the route | OpenStreetMap landmarks within this distance of a route
+--landmark-seed INTEGER | seed | seed of the synthetic landmarks
+--clearance METRES | closer than this to the route | drop landmarks closer than this to the route
+--rate HZ | keyframe | keyframes a second along a route
+--library FILE | sensor library | the sensor library YAML (default: the paper's Table I)
+--condition CONDITION | condition | night, rain, fog or snow
+--domain FILE | domain | an operating domain: many routes, one suite
+--aggregate AGGREGATE | domain | how a domain combines its routes' scores
+Suite and constraints:
+--budget DOLLARS | dollars | a budget in dollars (110000, 110,000, $110,000)
+--suite IDS|FILE (FILE) | sensor ids | a suite: comma-separated sensor ids, or a result file that names one
+    (certify: a greedy result file)
+--compare IDS|FILE | suite | a second suite drawn beside the first (same forms as --suite)
+--rule [uniform|cost-benefit|marginal|best-of] | rule | the greedy rule
+--rules RULES | rules | several greedy rules, comma-separated
+--lazy | lazy | lazy (Minoux) greedy evaluation: same picks, fewer evaluations
+--failures N | fail | how many sensors may fail
+--limit RESOURCE=VALUE | resource | most a suite may use of a resource (power_w=100)
+--no-slots | mounting slots | ignore the library's mounting slots
+--include IDS | every suite must hold | sensors every suite must hold
+--owned | paid for | the --include sensors are already paid for
+--exclude IDS | no suite may hold | sensors no suite may hold
+--max-sensors N | most sensors | most sensors in a suite
+--force | result file | use a result file computed on another problem (a warning, not an error)
+Specification:
+--preset local-streets|freeway | published | a published accuracy specification
+--lateral METRES | lateral | bound on the lateral error [m]
+--longitudinal METRES | longitudinal | bound on the longitudinal error [m]
+--heading DEGREES | heading | bound on the heading error [deg]
+--sigma | 1σ | the bounds are 1σ, not 95 %
+--at PERCENT | keyframes | share of keyframes that must meet the bounds
+--spec FILE | specification file | a specification file (per-route specifications)
+Accuracy and integrity:
+--map-sigma METRES | prior map | localize in a prior map whose landmarks are known to this std [m]
+--estimate [filter|smoother] | filter | accuracy of the filter (as the car drives) or the smoother
+--integrity-risk P | per hour | allowed probability per hour of an error beyond an alert limit
+--alert-lateral METRES | alert limit | lateral alert limit [m]
+--alert-longitudinal METRES | alert limit | longitudinal alert limit [m]
+--alert-heading DEGREES | alert limit | heading alert limit [deg]
+--gate-probability P | gate | the associator's chi-square gate probability
+--max-association-risk P | wrong association | leave out measurements likelier than P to be misassociated
+Running:
+--engine [fast|reference] | engine | the scoring engine
+--jobs N | results do not depend on it | threads or processes on this machine
+--workers N | dask | start a local Dask cluster of N workers
+--scheduler ADDRESS | dask | run on an existing Dask cluster
+--time-limit SECONDS | stop | stop a search after this long with the best found so far
+--resume | interrupted run | go on from what an interrupted run left
+Output:
+-o/--output FILE |  | the file the result is written to (JSON; an image for scene, CSV for landmarks)
+--output-dir DIRECTORY | folder | the folder a command that writes several files writes them to
+--plot FILE | draw | draw the result's plot into this file (png, svg or pdf by its extension)
+--plot-format [png|svg|pdf] | plot | the format of the plots written to --output-dir or -o
+--json | json | print the result as JSON on stdout
+-q/--quiet | no progress | no progress on stderr
+--progress | progress | progress on stderr even with -q ($SENSORSEL_PROGRESS)
+"""
+
+
+def _terms(text: str) -> tuple[Term, ...]:
+    """The :class:`Term` of each row of :data:`_TABLE`, in its order."""
+    rows: list[tuple[str, list[str]]] = []
+    section = ""
+    for line in text.strip("\n").splitlines():
+        if line.startswith(" "):
+            rows[-1][1][-1] += " " + line.strip()
+        elif line.endswith(":") and " | " not in line:
+            section = line[:-1]
+            if section not in SECTIONS:
+                raise ValueError(f"vocabulary: {section!r} is not a help section ({', '.join(SECTIONS)})")
+        else:
+            rows.append((section, [f.strip() for f in line.split(" | ")]))
+    terms = []
+    for section, (left, gist, meaning) in rows:
+        names, _, metavar = left.partition(" ")
+        short, _, name = names.rpartition("/")
+        metavar, _, narrower = metavar.partition(" (")
+        terms.append(Term(name, metavar, gist, meaning, section, short=short, narrower=narrower.rstrip(")")))
+    return tuple(terms)
+
+
+VOCABULARY: tuple[Term, ...] = _terms(_TABLE)
 
 BY_NAME = {t.name: t for t in VOCABULARY}
 
