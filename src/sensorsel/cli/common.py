@@ -8,7 +8,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from dataclasses import replace
 from pathlib import Path
-from typing import Any, cast
+from typing import Any
 
 import click
 
@@ -17,7 +17,7 @@ from sensorsel.cli.options import path_option
 from sensorsel.errors import InputError, ResultFileError
 from sensorsel.io import results
 from sensorsel.model.library import SensorLibrary
-from sensorsel.model.problem import DomainInfo, Problem, TargetInfo, check_result_problem
+from sensorsel.model.problem import Problem, TargetInfo, check_result_problem
 
 #: Result kinds that name a suite: simulate --suite/--compare read these (resilient ones also say
 #: which sensors they assume to fail).
@@ -230,7 +230,7 @@ def print_target(info: TargetInfo | None) -> None:
         if conditions
         else f"{len(info.routes)} routes"
     )
-    click.echo(f"domain     {cast(DomainInfo, info).source}: {what}")  # the kind says it is a domain's
+    click.echo(f"domain     {info.source}: {what}")  # the kind says it is a domain's
     for r in info.routes:
         p = r.problem
         click.echo(

@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import replace
-from typing import Any, cast
+from typing import Any
 
 import click
 
@@ -41,7 +41,7 @@ from sensorsel.cli.vocabulary import Command
 from sensorsel.errors import InputError
 from sensorsel.model.constraints import FeasibleSet, feasible_set
 from sensorsel.model.library import SensorLibrary, load_library, resource_unit
-from sensorsel.model.problem import Domain, Problem
+from sensorsel.model.problem import Problem
 from sensorsel.model.scenario import LandmarkModel, generate_landmarks, route_landmarks, write_landmarks_csv
 
 
@@ -182,9 +182,7 @@ def score_cmd(
             )
         with inputs.running():
             ev = cluster_evaluator(inputs.cluster, target, engine, inputs.aggregate)
-            dres = score_domain_suite(
-                cast(Domain, target), suite, engine=engine, aggregate=inputs.aggregate, evaluator=ev
-            )
+            dres = score_domain_suite(target, suite, engine=engine, aggregate=inputs.aggregate, evaluator=ev)
         dres = inputs.with_quality(dres)
         echo_result(dres, as_json, lambda: _print_domain_score(dres, feas))
         return

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import sys
 from dataclasses import replace
-from typing import Any, cast
+from typing import Any
 
 import click
 
@@ -59,7 +59,7 @@ from sensorsel.cli.vocabulary import Command
 from sensorsel.io import results
 from sensorsel.io.files import output_file
 from sensorsel.model.library import SensorLibrary
-from sensorsel.model.problem import Domain, ProblemInfo
+from sensorsel.model.problem import ProblemInfo
 
 
 def _position(lib: SensorLibrary, sensor_id: str) -> tuple[str, str]:
@@ -210,7 +210,7 @@ def greedy_cmd(
     with inputs.running(bar, cert_bar):
         if target.kind == "domain":  # another result kind: the greedy result and each route's breakdown
             ev = cluster_evaluator(inputs.cluster, target, inputs.engine, inputs.aggregate)
-            design = design_domain(cast(Domain, target), budget, rule, aggregate=inputs.aggregate, evaluator=ev, **how)
+            design = design_domain(target, budget, rule, aggregate=inputs.aggregate, evaluator=ev, **how)
             res = design.greedy
         else:
             res = run_greedy(target, budget, rule, **how)
