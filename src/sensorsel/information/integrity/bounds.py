@@ -39,6 +39,7 @@ import numpy as np
 
 from sensorsel.information.filtering import KeyframeMeasurements, Prediction, forward_pass
 from sensorsel.information.integrity.association import AssociationModel
+from sensorsel.information.integrity.moments import Snapshot
 from sensorsel.information.integrity.risk import (
     IntegritySpec,
     RouteIntegrity,
@@ -73,19 +74,38 @@ class IntegrityBounds:
             self._compute_floor()
 
     def _compute_floor(self) -> None:
+        """Every keyframe's linear bounds at the allowed library's prediction, computed at once after
+        one forward pass that keeps what they need (:meth:`AssociationModel.snapshot`)."""
         assoc = AssociationModel(self.problem, model="map", gate_probability=self.spec.gate_probability)
-        empty: list[Prediction] = []
-        forward_pass(self.problem, (), map_sigma_m=self.map_sigma_m, on_prediction=lambda p, m: empty.append(p))
+        snaps: list[Snapshot] = []
+        metas: list[KeyframeMeasurements] = []
+
+        def keep(pred: Prediction, meas: KeyframeMeasurements) -> np.ndarray:
+            if len(meas.landmark):
+                snaps.append(assoc.snapshot(pred, meas))
+                metas.append(meas)
+            return np.ones(len(meas.landmark), bool)
+
+        forward_pass(self.problem, self.allowed, map_sigma_m=self.map_sigma_m, use=keep)
+        if not metas:
+            return
+        bound = assoc.risks_of(snaps, metas, linear=True).linear
         threshold = self.spec.max_association_risk
+        if threshold is not None:
+            empty: list[Snapshot] = []  # the empty suite's predictions: priors and odometry only
+            by_keyframe = {m.keyframe: m for m in metas}
 
-        def observe(pred: Prediction, meas: KeyframeMeasurements) -> None:
-            bound = assoc.risks(pred, meas, linear=True).linear
-            if threshold is not None:
-                upper = assoc.risks(empty[pred.keyframe], meas, robust_to_covariance=True).bound
-                bound = np.where(upper <= threshold, bound, 0.0)
-            np.add.at(self.floor[:, pred.keyframe], np.asarray(meas.sensor, np.int64), bound)
+            def prior(pred: Prediction, meas: KeyframeMeasurements) -> None:
+                if pred.keyframe in by_keyframe:
+                    empty.append(assoc.snapshot(pred, by_keyframe[pred.keyframe]))
 
-        forward_pass(self.problem, self.allowed, map_sigma_m=self.map_sigma_m, on_prediction=observe)
+            forward_pass(self.problem, (), map_sigma_m=self.map_sigma_m, on_prediction=prior)
+            upper = assoc.risks_of(empty, metas, robust_to_covariance=True).bound
+            bound = np.where(upper <= threshold, bound, 0.0)
+        sensor = np.concatenate([np.asarray(m.sensor, np.int64) for m in metas])
+        keyframe = np.repeat([m.keyframe for m in metas], [len(m.landmark) for m in metas])
+        # the same additions in the same order as keyframe by keyframe
+        np.add.at(self.floor, (sensor, keyframe), bound)
 
     def check(self, suite: Iterable[int]) -> RouteIntegrity:
         """(a) The integrity of ``suite`` (its ``meets`` against the specification)."""

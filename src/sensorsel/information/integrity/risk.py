@@ -35,7 +35,8 @@ from scipy.special import ndtr, ndtri
 
 from sensorsel.errors import InputError
 from sensorsel.information.filtering import FilterPass, KeyframeMeasurements, Prediction, forward_pass
-from sensorsel.information.integrity.association import AssociationModel, keyframe_risk
+from sensorsel.information.integrity.association import AssociationModel, MeasurementRisk, keyframe_risk
+from sensorsel.information.integrity.moments import Snapshot
 from sensorsel.io.results import result_kind
 from sensorsel.model.problem import Problem
 
@@ -246,47 +247,71 @@ def protection_levels(covariances: np.ndarray, p_wrong: np.ndarray, allocation: 
 
 @dataclass
 class _Collector:
-    """The ``use`` hook of one forward pass: computes each keyframe's risks, applies the lever."""
+    """The ``use`` hook of one forward pass. Without the lever it only takes each keyframe's
+    snapshot (the predictions do not depend on the risks) and :meth:`finish` computes every
+    keyframe's risks at once; with it, each keyframe's risks are computed at the keyframe (its mask
+    changes what the pass predicts next). Either way the same numbers."""
 
     model: AssociationModel
     threshold: float | None
     sensor_ids: tuple[str, ...]
     n_keyframes: int = 0
-    #: per keyframe (by its index: a keyframe the pass does not ask about keeps 0)
-    bound: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    estimate: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    left_out: list[LeftOut] = field(default_factory=list)
-    #: per library sensor: measurements made, used, Σ estimate, max bound, Σ bound
-    per_sensor: np.ndarray = field(default_factory=lambda: np.zeros((0, 5)))
-
-    def __post_init__(self) -> None:
-        self.per_sensor = np.zeros((len(self.sensor_ids), 5))
-        self.bound = np.zeros(self.n_keyframes)
-        self.estimate = np.zeros(self.n_keyframes)
+    #: per keyframe with measurements: its snapshot (without the lever), measurements, risks and mask
+    snapshots: list[Snapshot] = field(default_factory=list)
+    meas: list[KeyframeMeasurements] = field(default_factory=list)
+    risks: list[MeasurementRisk] = field(default_factory=list)
+    masks: list[np.ndarray] = field(default_factory=list)
 
     def __call__(self, prediction: Prediction, meas: KeyframeMeasurements) -> np.ndarray:
-        r = self.model.risks(prediction, meas)
-        mask = np.ones(len(meas.landmark), bool) if self.threshold is None else r.bound <= self.threshold
-        sensor = np.asarray(meas.sensor, np.int64)
-        every = self.threshold is None or bool(mask.all())  # then no copies of what is used
-        used, estimate, bound = (
-            (sensor, r.estimate, r.bound) if every else (sensor[mask], r.estimate[mask], r.bound[mask])
-        )
-        est, bnd = keyframe_risk(estimate, bound)
-        np.add.at(self.per_sensor[:, 0], sensor, 1.0)
-        np.add.at(self.per_sensor[:, 1], used, 1.0)
-        np.add.at(self.per_sensor[:, 2], used, estimate)
-        np.maximum.at(self.per_sensor[:, 3], used, bound)
-        np.add.at(self.per_sensor[:, 4], used, bound)
-        self.bound[meas.keyframe] = bnd
-        self.estimate[meas.keyframe] = est
-        if not mask.all():
-            sensors, counts = np.unique(np.asarray(meas.sensor)[~mask], return_counts=True)
-            self.left_out.extend(
-                LeftOut(int(meas.keyframe), self.sensor_ids[int(s)], int(c))
-                for s, c in zip(sensors.tolist(), counts.tolist())
-            )
-        return mask
+        if len(meas.landmark) == 0:
+            return np.ones(0, bool)
+        snap = self.model.snapshot(prediction, meas)
+        self.meas.append(meas)
+        if self.threshold is None:
+            self.snapshots.append(snap)
+            return np.ones(len(meas.landmark), bool)
+        r = self.model.risks_of([snap], [meas])
+        self.risks.append(r)
+        self.masks.append(r.bound <= self.threshold)
+        return self.masks[-1]
+
+    def finish(self) -> tuple[np.ndarray, np.ndarray, list[LeftOut], np.ndarray]:
+        """(bound (K,), estimate (K,), what the lever left out, per library sensor (S, 5): measurements
+        made, used, Σ estimate, max bound, Σ bound), per keyframe from its used measurements."""
+        bound, estimate = np.zeros(self.n_keyframes), np.zeros(self.n_keyframes)
+        per_sensor = np.zeros((len(self.sensor_ids), 5))
+        left_out: list[LeftOut] = []
+        if not self.meas:
+            return bound, estimate, left_out, per_sensor
+        if self.threshold is None:
+            r = self.model.risks_of(self.snapshots, self.meas)
+            est_all, bnd_all = r.estimate, r.bound
+            mask = np.ones(len(est_all), bool)
+        else:
+            est_all = np.concatenate([x.estimate for x in self.risks])
+            bnd_all = np.concatenate([x.bound for x in self.risks])
+            mask = np.concatenate(self.masks)
+        sensor = np.concatenate([np.asarray(g.sensor, np.int64) for g in self.meas])
+        used, est_used, bnd_used = sensor[mask], est_all[mask], bnd_all[mask]
+        # the same additions in the same order as keyframe by keyframe
+        np.add.at(per_sensor[:, 0], sensor, 1.0)
+        np.add.at(per_sensor[:, 1], used, 1.0)
+        np.add.at(per_sensor[:, 2], used, est_used)
+        np.maximum.at(per_sensor[:, 3], used, bnd_used)
+        np.add.at(per_sensor[:, 4], used, bnd_used)
+        lo = 0
+        for g in self.meas:  # each keyframe's own sums (np.sum's order, as before)
+            hi = lo + len(g.landmark)
+            keep = mask[lo:hi]
+            estimate[g.keyframe], bound[g.keyframe] = keyframe_risk(est_all[lo:hi][keep], bnd_all[lo:hi][keep])
+            if not keep.all():
+                sensors, counts = np.unique(sensor[lo:hi][~keep], return_counts=True)
+                left_out.extend(
+                    LeftOut(int(g.keyframe), self.sensor_ids[int(s)], int(c))
+                    for s, c in zip(sensors.tolist(), counts.tolist())
+                )
+            lo = hi
+        return bound, estimate, left_out, per_sensor
 
 
 def route_integrity(
@@ -324,7 +349,7 @@ def integrity_and_pass(
         n_keyframes=problem.scenario.n_poses,
     )
     fp: FilterPass = forward_pass(problem, suite, map_sigma_m=map_sigma_m, use=hook)
-    p_wrong = hook.bound
+    p_wrong, p_estimate, left_out, per_sensor = hook.finish()
     n_h = keyframes_per_hour(problem)
     tail = tail_risk(fp.filtered, spec)
     risk = np.minimum(1.0, tail + p_wrong)
@@ -337,21 +362,21 @@ def integrity_and_pass(
         spec=spec,
         keyframes_per_hour=n_h,
         p_wrong_association=tuple(p_wrong.tolist()),
-        p_wrong_association_estimate=tuple(hook.estimate.tolist()),
+        p_wrong_association_estimate=tuple(p_estimate.tolist()),
         integrity_risk=tuple(risk.tolist()),
         protection_level_lateral_m=tuple(lat.tolist()),
         protection_level_longitudinal_m=tuple(lon.tolist()),
         integrity_risk_per_hour=float(n_h * risk.mean()) if risk.size else 0.0,
         n_measured=tuple(int(x) for x in fp.n_measured),
         n_used=tuple(int(x) for x in fp.n_used),
-        left_out=tuple(hook.left_out),
+        left_out=tuple(left_out),
         lateral_sigma_m=tuple(sig[:, 1].tolist()),
         longitudinal_sigma_m=tuple(sig[:, 0].tolist()),
         heading_sigma_deg=tuple(sig[:, 2].tolist()),
         p_error_tail=tuple(tail.tolist()),
         by_sensor=tuple(
             SensorAssociation(hook.sensor_ids[i], int(row[0]), int(row[1]), float(row[2]), float(row[3]), float(row[4]))
-            for i, row in enumerate(hook.per_sensor)
+            for i, row in enumerate(per_sensor)
             if row[0] > 0
         ),
     ), fp
