@@ -14,7 +14,13 @@ import numpy as np
 import pytest
 
 from sensorsel.information.filtering import forward_pass
-from sensorsel.information.integrity import AssociationModel, IntegrityBounds, IntegritySpec, route_integrity
+from sensorsel.information.integrity import (
+    AssociationModel,
+    IntegrityBounds,
+    IntegritySpec,
+    association,
+    route_integrity,
+)
 
 #: a stereo camera among long-range sensors: many candidates, wide SLAM spreads, first sightings
 SUITES = ("LRR-7,HD2K-4,HD2K-9,LSC-2", "LRR-1,MRR-3,HD2K-1,LSC-12")
@@ -76,7 +82,12 @@ def _reference_integrity(problem, suite, map_sigma, threshold):
 
 @pytest.mark.parametrize("map_sigma", [0.05, None])
 @pytest.mark.parametrize("threshold", [None, 1e-3])
-def test_route_integrity_equals_the_per_keyframe_hook(suburb_problem, map_sigma, threshold):
+@pytest.mark.parametrize("small", [False, True], ids=["one-batch", "small-batches"])
+def test_route_integrity_equals_the_per_keyframe_hook(suburb_problem, map_sigma, threshold, small, monkeypatch):
+    """``small``: keyframes computed in groups of a few hundred pairs, a few snapshots at a time."""
+    if small:
+        monkeypatch.setattr(association, "PAIRS_PER_BATCH", 300)
+        monkeypatch.setattr(association, "PENDING_BYTES", 20_000)
     problem = suburb_problem
     suite = problem.library.resolve_suite(SUITES[0])
     bound, estimate, n_used = _reference_integrity(problem, suite, map_sigma, threshold)

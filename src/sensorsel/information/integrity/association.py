@@ -108,7 +108,15 @@ from sensorsel.information.integrity.moments import (
 )
 from sensorsel.model.problem import Problem
 
-__all__ = ["ASSOCIATION_MODELS", "AssociationModel", "MeasurementRisk", "gate_of", "keyframe_risk", "measurement_risks"]
+__all__ = [
+    "ASSOCIATION_MODELS",
+    "AssociationModel",
+    "MeasurementRisk",
+    "Pending",
+    "gate_of",
+    "keyframe_risk",
+    "measurement_risks",
+]
 
 #: the models: a prior map (every landmark a candidate) or SLAM (the landmarks in the filter's state)
 ASSOCIATION_MODELS = ("map", "slam")
@@ -118,6 +126,10 @@ CANDIDATE_SCALE = 1.25
 CANDIDATE_MARGIN_M = 5.0
 #: pairs whose λ exceeds (√γ + FAR_SIGMAS)² are dropped (their F(γ; λ) < 1e-14)
 FAR_SIGMAS = 8.0
+#: at most this many (measurement, candidate) pairs are computed together (memory: ~1 kB each at most)
+PAIRS_PER_BATCH = 400_000
+#: snapshots a :class:`Pending` keeps before computing their risks [bytes]
+PENDING_BYTES = 64 * 2**20
 
 _T_FRACTIONS = np.linspace(0.05, 1.0, 20)  # the bound's thresholds t, as fractions of γ
 #: the region sizes k of the Taylor remainder (module docstring), and their outside masses 4Φ(−k)
@@ -177,6 +189,9 @@ class MeasurementRisk:
     bound: np.ndarray
     n_candidates: np.ndarray
     linear: np.ndarray
+
+
+_RISK_FIELDS = ("estimate", "bound", "n_candidates", "linear")
 
 
 def keyframe_risk(estimate: np.ndarray, bound: np.ndarray) -> tuple[float, float]:
@@ -250,11 +265,29 @@ class AssociationModel:
         robust_to_covariance: bool = False,
     ) -> MeasurementRisk:
         """The estimate and bound of P(wrong association) of every measurement of ``meas`` (any number
-        of keyframes, each with its snapshot), computed at once: arrays joined in the order of ``meas``,
-        each measurement's numbers those of its keyframe alone (:meth:`risks`)."""
+        of keyframes, each with its snapshot), computed together: arrays joined in the order of
+        ``meas``, each measurement's numbers those of its keyframe alone (:meth:`risks`). Keyframes
+        go through in consecutive groups of at most :data:`PAIRS_PER_BATCH` (measurement, candidate)
+        pairs (a whole library's measurements at once would hold gigabytes)."""
         b = self._batch(snapshots, meas)
         reach = _reach(b, self.gate, self.model)  # once: candidates and pairs
         near, near_at = self._candidates(b, reach)
+        pairs = np.diff(b.meas_off) * np.bincount(near_at, minlength=len(meas))
+        if len(meas) > 1 and int(pairs.sum()) > PAIRS_PER_BATCH:
+            parts, lo, total = [], 0, 0
+            for k, n in enumerate(pairs.tolist()):
+                if k > lo and total + n > PAIRS_PER_BATCH:
+                    parts.append(
+                        self.risks_of(
+                            snapshots[lo:k], meas[lo:k], linear=linear, robust_to_covariance=robust_to_covariance
+                        )
+                    )
+                    lo, total = k, 0
+                total += n
+            parts.append(
+                self.risks_of(snapshots[lo:], meas[lo:], linear=linear, robust_to_covariance=robust_to_covariance)
+            )
+            return MeasurementRisk(*(np.concatenate([getattr(r, f) for r in parts]) for f in _RISK_FIELDS))
         return _risks(
             b,
             self._points,
@@ -267,19 +300,53 @@ class AssociationModel:
             reach_m=reach,
         )
 
-    def risks(
-        self,
-        prediction: Prediction,
-        meas: KeyframeMeasurements,
-        *,
-        linear: bool = False,
-        robust_to_covariance: bool = False,
-    ) -> MeasurementRisk:
-        """The estimate and bound of P(wrong association) of each of ``meas`` at ``prediction``
-        (``linear``, ``robust_to_covariance``: :func:`measurement_risks`)."""
-        return self.risks_of(
-            [Snapshot.of(prediction, meas)], [meas], linear=linear, robust_to_covariance=robust_to_covariance
-        )
+    def risks(self, prediction: Prediction, meas: KeyframeMeasurements, **options: bool) -> MeasurementRisk:
+        """The estimate and bound of P(wrong association) of each of ``meas`` at ``prediction``: one
+        keyframe's :meth:`risks_of` (``options``: its ``linear``, ``robust_to_covariance``)."""
+        return self.risks_of([Snapshot.of(prediction, meas)], [meas], **options)
+
+
+class Pending:
+    """The risks of a forward pass's keyframes whose predictions do not depend on them (every
+    measurement used): each keyframe's snapshot is kept by :meth:`add` (a ``use`` hook's call), and
+    their risks are computed together whenever the snapshots kept reach :data:`PENDING_BYTES` and at
+    :meth:`result` (the same numbers, memory bounded).
+
+    Args:
+        model: the association model.
+        options: :meth:`AssociationModel.risks_of`'s (``linear``, ``robust_to_covariance``).
+    """
+
+    def __init__(self, model: AssociationModel, **options: bool) -> None:
+        self.model, self.options = model, options
+        self.meas: list[KeyframeMeasurements] = []
+        self._snapshots: list[Snapshot] = []
+        self._bytes = 0
+        self._done: list[MeasurementRisk] = []
+        self._from = 0  # the first keyframe of ``meas`` whose risks are not computed
+
+    def add(self, prediction: Prediction, meas: KeyframeMeasurements, snapshot: Snapshot | None = None) -> None:
+        """Keep keyframe ``meas.keyframe``'s snapshot (``snapshot`` where the caller took it)."""
+        if len(meas.landmark) == 0:
+            return
+        snap = snapshot or self.model.snapshot(prediction, meas)
+        self.meas.append(meas)
+        self._snapshots.append(snap)
+        self._bytes += snap.rows.nbytes + snap.blocks.nbytes
+        if self._bytes > PENDING_BYTES:
+            self._flush()
+
+    def _flush(self) -> None:
+        if self._snapshots:
+            self._done.append(self.model.risks_of(self._snapshots, self.meas[self._from :], **self.options))
+        self._from, self._snapshots, self._bytes = len(self.meas), [], 0
+
+    def result(self) -> MeasurementRisk:
+        """Every kept keyframe's risks, joined in the order of :attr:`meas`."""
+        self._flush()
+        if not self._done:
+            return MeasurementRisk(np.zeros(0), np.zeros(0), np.zeros(0, np.int64), np.zeros(0))
+        return MeasurementRisk(*(np.concatenate([getattr(r, f) for r in self._done]) for f in _RISK_FIELDS))
 
 
 def _reach(b: Batch, gate: float, model: str) -> np.ndarray:

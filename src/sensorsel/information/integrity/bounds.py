@@ -38,8 +38,7 @@ from collections.abc import Iterable
 import numpy as np
 
 from sensorsel.information.filtering import KeyframeMeasurements, Prediction, forward_pass
-from sensorsel.information.integrity.association import AssociationModel
-from sensorsel.information.integrity.moments import Snapshot
+from sensorsel.information.integrity.association import AssociationModel, Pending
 from sensorsel.information.integrity.risk import (
     IntegritySpec,
     RouteIntegrity,
@@ -77,30 +76,28 @@ class IntegrityBounds:
         """Every keyframe's linear bounds at the allowed library's prediction, computed at once after
         one forward pass that keeps what they need (:meth:`AssociationModel.snapshot`)."""
         assoc = AssociationModel(self.problem, model="map", gate_probability=self.spec.gate_probability)
-        snaps: list[Snapshot] = []
-        metas: list[KeyframeMeasurements] = []
+        pending = Pending(assoc, linear=True)
 
         def keep(pred: Prediction, meas: KeyframeMeasurements) -> np.ndarray:
-            if len(meas.landmark):
-                snaps.append(assoc.snapshot(pred, meas))
-                metas.append(meas)
+            pending.add(pred, meas)
             return np.ones(len(meas.landmark), bool)
 
         forward_pass(self.problem, self.allowed, map_sigma_m=self.map_sigma_m, use=keep)
+        metas = pending.meas
         if not metas:
             return
-        bound = assoc.risks_of(snaps, metas, linear=True).linear
+        bound = pending.result().linear
         threshold = self.spec.max_association_risk
         if threshold is not None:
-            empty: list[Snapshot] = []  # the empty suite's predictions: priors and odometry only
+            prior = Pending(assoc, robust_to_covariance=True)  # the empty suite's: priors and odometry only
             by_keyframe = {m.keyframe: m for m in metas}
-
-            def prior(pred: Prediction, meas: KeyframeMeasurements) -> None:
-                if pred.keyframe in by_keyframe:
-                    empty.append(assoc.snapshot(pred, by_keyframe[pred.keyframe]))
-
-            forward_pass(self.problem, (), map_sigma_m=self.map_sigma_m, on_prediction=prior)
-            upper = assoc.risks_of(empty, metas, robust_to_covariance=True).bound
+            forward_pass(
+                self.problem,
+                (),
+                map_sigma_m=self.map_sigma_m,
+                on_prediction=lambda p, m: prior.add(p, by_keyframe[p.keyframe]) if p.keyframe in by_keyframe else None,
+            )
+            upper = prior.result().bound
             bound = np.where(upper <= threshold, bound, 0.0)
         sensor = np.concatenate([np.asarray(m.sensor, np.int64) for m in metas])
         keyframe = np.repeat([m.keyframe for m in metas], [len(m.landmark) for m in metas])

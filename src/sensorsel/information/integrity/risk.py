@@ -29,14 +29,14 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from scipy.special import ndtr, ndtri
 
 from sensorsel.errors import InputError
 from sensorsel.information.filtering import FilterPass, KeyframeMeasurements, Prediction, forward_pass
-from sensorsel.information.integrity.association import AssociationModel, MeasurementRisk, keyframe_risk
-from sensorsel.information.integrity.moments import Snapshot
+from sensorsel.information.integrity.association import AssociationModel, MeasurementRisk, Pending, keyframe_risk
 from sensorsel.io.results import result_kind
 from sensorsel.model.problem import Problem
 
@@ -256,21 +256,25 @@ class _Collector:
     threshold: float | None
     sensor_ids: tuple[str, ...]
     n_keyframes: int = 0
-    #: per keyframe with measurements: its snapshot (without the lever), measurements, risks and mask
-    snapshots: list[Snapshot] = field(default_factory=list)
+    #: without the lever: the keyframes kept, their risks computed in batches
+    pending: Pending | None = None
+    #: with it: per keyframe with measurements, its measurements, risks and mask
     meas: list[KeyframeMeasurements] = field(default_factory=list)
     risks: list[MeasurementRisk] = field(default_factory=list)
     masks: list[np.ndarray] = field(default_factory=list)
 
+    def __post_init__(self) -> None:
+        if self.threshold is None:
+            self.pending = Pending(self.model)
+
     def __call__(self, prediction: Prediction, meas: KeyframeMeasurements) -> np.ndarray:
+        if self.pending is not None:
+            self.pending.add(prediction, meas)
+            return np.ones(len(meas.landmark), bool)
         if len(meas.landmark) == 0:
             return np.ones(0, bool)
-        snap = self.model.snapshot(prediction, meas)
+        r = self.model.risks_of([self.model.snapshot(prediction, meas)], [meas])
         self.meas.append(meas)
-        if self.threshold is None:
-            self.snapshots.append(snap)
-            return np.ones(len(meas.landmark), bool)
-        r = self.model.risks_of([snap], [meas])
         self.risks.append(r)
         self.masks.append(r.bound <= self.threshold)
         return self.masks[-1]
@@ -281,16 +285,16 @@ class _Collector:
         bound, estimate = np.zeros(self.n_keyframes), np.zeros(self.n_keyframes)
         per_sensor = np.zeros((len(self.sensor_ids), 5))
         left_out: list[LeftOut] = []
-        if not self.meas:
-            return bound, estimate, left_out, per_sensor
-        if self.threshold is None:
-            r = self.model.risks_of(self.snapshots, self.meas)
-            est_all, bnd_all = r.estimate, r.bound
+        if self.pending is not None:
+            r = self.pending.result()
+            self.meas, est_all, bnd_all = self.pending.meas, r.estimate, r.bound
             mask = np.ones(len(est_all), bool)
         else:
-            est_all = np.concatenate([x.estimate for x in self.risks])
-            bnd_all = np.concatenate([x.bound for x in self.risks])
-            mask = np.concatenate(self.masks)
+            est_all = np.concatenate([x.estimate for x in self.risks]) if self.risks else np.zeros(0)
+            bnd_all = np.concatenate([x.bound for x in self.risks]) if self.risks else np.zeros(0)
+            mask = np.concatenate(self.masks) if self.masks else np.zeros(0, bool)
+        if not self.meas:
+            return bound, estimate, left_out, per_sensor
         sensor = np.concatenate([np.asarray(g.sensor, np.int64) for g in self.meas])
         used, est_used, bnd_used = sensor[mask], est_all[mask], bnd_all[mask]
         # the same additions in the same order as keyframe by keyframe
@@ -321,24 +325,14 @@ def route_integrity(
     *,
     map_sigma_m: float | None = None,
     route: str = "",
+    passes: list[FilterPass] | None = None,
 ) -> RouteIntegrity:
     """The integrity of ``suite`` (library positions) on the problem's route: one forward pass (the
-    filter: the car's covariance as it drives) whose ``use`` hook computes each keyframe's
-    association risks at the prediction and applies the lever; then the tail, the protection
-    levels and the risk per hour. ``map_sigma_m``: localizing in a map known to that std [m]; None: SLAM."""
-    return integrity_and_pass(problem, suite, spec, map_sigma_m=map_sigma_m, route=route)[0]
-
-
-def integrity_and_pass(
-    problem: Problem,
-    suite: Iterable[int],
-    spec: IntegritySpec | None = None,
-    *,
-    map_sigma_m: float | None = None,
-    route: str = "",
-) -> tuple[RouteIntegrity, FilterPass]:
-    """:func:`route_integrity` and the forward pass it ran: without the lever its ``filtered`` are the
-    suite's filtered covariances (every measurement used), what its accuracy needs too."""
+    filter: the car's covariance as it drives) whose ``use`` hook keeps what each keyframe's
+    association risks need (and, with the lever, computes them at the keyframe to leave risky
+    measurements out); then every keyframe's risks, the tail, the protection levels and the risk per
+    hour. ``map_sigma_m``: localizing in a map known to that std [m]; None: SLAM. ``passes``: a list
+    the forward pass is appended to (:func:`integrity_and_pass`)."""
     spec = spec or IntegritySpec()
     model = "slam" if map_sigma_m is None else "map"
     assoc = AssociationModel(problem, model=model, gate_probability=spec.gate_probability)
@@ -349,6 +343,8 @@ def integrity_and_pass(
         n_keyframes=problem.scenario.n_poses,
     )
     fp: FilterPass = forward_pass(problem, suite, map_sigma_m=map_sigma_m, use=hook)
+    if passes is not None:
+        passes.append(fp)
     p_wrong, p_estimate, left_out, per_sensor = hook.finish()
     n_h = keyframes_per_hour(problem)
     tail = tail_risk(fp.filtered, spec)
@@ -379,4 +375,14 @@ def integrity_and_pass(
             for i, row in enumerate(per_sensor)
             if row[0] > 0
         ),
-    ), fp
+    )
+
+
+def integrity_and_pass(
+    problem: Problem, suite: Iterable[int], spec: IntegritySpec | None = None, **where: Any
+) -> tuple[RouteIntegrity, FilterPass]:
+    """:func:`route_integrity` (``where``: its keywords) and the forward pass it ran: without the
+    lever its ``filtered`` are the suite's filtered covariances (every measurement used), what its
+    accuracy needs too."""
+    passes: list[FilterPass] = []
+    return route_integrity(problem, suite, spec, passes=passes, **where), passes[0]
