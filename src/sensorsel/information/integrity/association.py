@@ -272,33 +272,42 @@ class AssociationModel:
         b = self._batch(snapshots, meas)
         reach = _reach(b, self.gate, self.model)  # once: candidates and pairs
         near, near_at = self._candidates(b, reach)
-        pairs = np.diff(b.meas_off) * np.bincount(near_at, minlength=len(meas))
-        if len(meas) > 1 and int(pairs.sum()) > PAIRS_PER_BATCH:
-            parts, lo, total = [], 0, 0
-            for k, n in enumerate(pairs.tolist()):
-                if k > lo and total + n > PAIRS_PER_BATCH:
-                    parts.append(
-                        self.risks_of(
-                            snapshots[lo:k], meas[lo:k], linear=linear, robust_to_covariance=robust_to_covariance
-                        )
-                    )
-                    lo, total = k, 0
-                total += n
-            parts.append(
-                self.risks_of(snapshots[lo:], meas[lo:], linear=linear, robust_to_covariance=robust_to_covariance)
+
+        def run(part: Batch, near: np.ndarray, near_at: np.ndarray, reach: np.ndarray) -> MeasurementRisk:
+            return _risks(
+                part,
+                self._points,
+                near,
+                near_at,
+                gate=self.gate,
+                model=self.model,
+                linear=linear,
+                robust_to_covariance=robust_to_covariance,
+                reach_m=reach,
             )
-            return MeasurementRisk(*(np.concatenate([getattr(r, f) for r in parts]) for f in _RISK_FIELDS))
-        return _risks(
-            b,
-            self._points,
-            near,
-            near_at,
-            gate=self.gate,
-            model=self.model,
-            linear=linear,
-            robust_to_covariance=robust_to_covariance,
-            reach_m=reach,
-        )
+
+        pairs = np.diff(b.meas_off) * np.bincount(near_at, minlength=len(meas))
+        if int(pairs.sum()) <= PAIRS_PER_BATCH:
+            return run(b, near, near_at, reach)
+        # consecutive groups of keyframes (each at least one), the batch's parts
+        groups, lo, total = [], 0, 0
+        for k, n in enumerate(pairs.tolist()):
+            if k > lo and total + n > PAIRS_PER_BATCH:
+                groups.append((lo, k))
+                lo, total = k, 0
+            total += n
+        groups.append((lo, len(meas)))
+        near_off = np.searchsorted(near_at, np.arange(len(meas) + 1))
+        parts = [
+            run(
+                b.part(lo, hi),
+                near[near_off[lo] : near_off[hi]],
+                near_at[near_off[lo] : near_off[hi]] - lo,
+                reach[b.meas_off[lo] : b.meas_off[hi]],
+            )
+            for lo, hi in groups
+        ]
+        return MeasurementRisk(*(np.concatenate([getattr(r, f) for r in parts]) for f in _RISK_FIELDS))
 
     def risks(self, prediction: Prediction, meas: KeyframeMeasurements, **options: bool) -> MeasurementRisk:
         """The estimate and bound of P(wrong association) of each of ``meas`` at ``prediction``: one

@@ -161,6 +161,28 @@ class Batch:
             row=np.concatenate([s.row for s in snapshots]),
         )
 
+    def part(self, lo: int, hi: int) -> Batch:
+        """The batch of keyframes ``lo``..``hi`` − 1 of this one (views: nothing copied)."""
+        h0, h1, m0, m1 = self.held_off[lo], self.held_off[hi], self.meas_off[lo], self.meas_off[hi]
+        r0 = self.rows_off[lo]
+        return Batch(
+            poses=self.poses[lo:hi],
+            pose_cov=self.pose_cov[lo:hi],
+            lm_trace_max=self.lm_trace_max[lo:hi],
+            prior_sigma_m=self.prior_sigma_m,
+            held=self.held[h0:h1],
+            held_off=self.held_off[lo : hi + 1] - h0,
+            blocks=self.blocks[h0:h1],
+            rows=self.rows[r0:],
+            rows_off=self.rows_off[lo:hi] - r0,
+            width=self.width[lo:hi],
+            meas={f: v[m0:m1] for f, v in self.meas.items()},
+            at=self.at[m0:m1] - lo,
+            meas_off=self.meas_off[lo : hi + 1] - m0,
+            slot=self.slot[m0:m1],
+            row=self.row[m0:m1],
+        )
+
     def slots(self, at: np.ndarray, landmarks: np.ndarray) -> np.ndarray:
         """(n,) the slot of each landmark in the state of keyframe ``at`` (n,) of the batch, or −1."""
         if self.held.size == 0:
