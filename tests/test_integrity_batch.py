@@ -52,7 +52,7 @@ def test_batched_risks_equal_each_keyframe_alone(suburb_problem, suite_ids, map_
     suite = problem.library.resolve_suite(suite_ids)
     preds, metas, risks = _per_keyframe(problem, suite, map_sigma, **kw)
     model = AssociationModel(problem, model="slam" if map_sigma is None else "map")
-    got = model.risks_of([model.snapshot(p, m) for p, m in zip(preds, metas)], metas, **kw)
+    got = model.risks_of([model.snapshot(p, m) for p, m in zip(preds, metas)], **kw)
     for field in ("bound", "linear", "n_candidates", "estimate"):
         want = np.concatenate([getattr(r, field) for r in risks])
         np.testing.assert_array_equal(getattr(got, field), want, err_msg=field)

@@ -225,11 +225,11 @@ class AssociationModel:
 
     def candidates(self, prediction: Prediction, meas: KeyframeMeasurements) -> np.ndarray:
         """Sorted landmark indices the associator considers at this keyframe (module docstring)."""
-        b = self._batch([Snapshot.of(prediction, meas)], [meas])
+        b = self._batch([Snapshot.of(prediction, meas)])
         return self._candidates(b, _reach(b, self.gate, self.model))[0]
 
-    def _batch(self, snapshots: Sequence[Snapshot], meas: Sequence[KeyframeMeasurements]) -> Batch:
-        return Batch.of(self._poses[[s.keyframe for s in snapshots]], snapshots, meas)
+    def _batch(self, snapshots: Sequence[Snapshot]) -> Batch:
+        return Batch.of(self._poses[[s.keyframe for s in snapshots]], snapshots)
 
     def _candidates(self, b: Batch, reach_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(near, near_at): every keyframe's candidates (sorted landmark indices) joined, and the
@@ -257,19 +257,14 @@ class AssociationModel:
         return Snapshot.of(prediction, meas)
 
     def risks_of(
-        self,
-        snapshots: Sequence[Snapshot],
-        meas: Sequence[KeyframeMeasurements],
-        *,
-        linear: bool = False,
-        robust_to_covariance: bool = False,
+        self, snapshots: Sequence[Snapshot], *, linear: bool = False, robust_to_covariance: bool = False
     ) -> MeasurementRisk:
-        """The estimate and bound of P(wrong association) of every measurement of ``meas`` (any number
-        of keyframes, each with its snapshot), computed together: arrays joined in the order of
-        ``meas``, each measurement's numbers those of its keyframe alone (:meth:`risks`). Keyframes
+        """The estimate and bound of P(wrong association) of every measurement of the ``snapshots``'
+        keyframes (any number), computed together: arrays joined in the order of the snapshots, each
+        measurement's numbers those of its keyframe alone (:meth:`risks`). Keyframes
         go through in consecutive groups of at most :data:`PAIRS_PER_BATCH` (measurement, candidate)
         pairs (a whole library's measurements at once would hold gigabytes)."""
-        b = self._batch(snapshots, meas)
+        b = self._batch(snapshots)
         reach = _reach(b, self.gate, self.model)  # once: candidates and pairs
         near, near_at = self._candidates(b, reach)
 
@@ -286,7 +281,7 @@ class AssociationModel:
                 reach_m=reach,
             )
 
-        pairs = np.diff(b.meas_off) * np.bincount(near_at, minlength=len(meas))
+        pairs = np.diff(b.meas_off) * np.bincount(near_at, minlength=len(snapshots))
         if int(pairs.sum()) <= PAIRS_PER_BATCH:
             return run(b, near, near_at, reach)
         # consecutive groups of keyframes (each at least one), the batch's parts
@@ -296,8 +291,8 @@ class AssociationModel:
                 groups.append((lo, k))
                 lo, total = k, 0
             total += n
-        groups.append((lo, len(meas)))
-        near_off = np.searchsorted(near_at, np.arange(len(meas) + 1))
+        groups.append((lo, len(snapshots)))
+        near_off = np.searchsorted(near_at, np.arange(len(snapshots) + 1))
         parts = [
             run(
                 b.part(lo, hi),
@@ -312,7 +307,7 @@ class AssociationModel:
     def risks(self, prediction: Prediction, meas: KeyframeMeasurements, **options: bool) -> MeasurementRisk:
         """The estimate and bound of P(wrong association) of each of ``meas`` at ``prediction``: one
         keyframe's :meth:`risks_of` (``options``: its ``linear``, ``robust_to_covariance``)."""
-        return self.risks_of([Snapshot.of(prediction, meas)], [meas], **options)
+        return self.risks_of([Snapshot.of(prediction, meas)], **options)
 
 
 class Pending:
@@ -332,13 +327,12 @@ class Pending:
         self._snapshots: list[Snapshot] = []
         self._bytes = 0
         self._done: list[MeasurementRisk] = []
-        self._from = 0  # the first keyframe of ``meas`` whose risks are not computed
 
-    def add(self, prediction: Prediction, meas: KeyframeMeasurements, snapshot: Snapshot | None = None) -> None:
-        """Keep keyframe ``meas.keyframe``'s snapshot (``snapshot`` where the caller took it)."""
+    def add(self, prediction: Prediction, meas: KeyframeMeasurements) -> None:
+        """Keep keyframe ``meas.keyframe``'s snapshot (none where it measures nothing)."""
         if len(meas.landmark) == 0:
             return
-        snap = snapshot or self.model.snapshot(prediction, meas)
+        snap = self.model.snapshot(prediction, meas)
         self.meas.append(meas)
         self._snapshots.append(snap)
         self._bytes += snap.rows.nbytes + snap.blocks.nbytes
@@ -347,8 +341,8 @@ class Pending:
 
     def _flush(self) -> None:
         if self._snapshots:
-            self._done.append(self.model.risks_of(self._snapshots, self.meas[self._from :], **self.options))
-        self._from, self._snapshots, self._bytes = len(self.meas), [], 0
+            self._done.append(self.model.risks_of(self._snapshots, **self.options))
+        self._snapshots, self._bytes = [], 0
 
     def result(self) -> MeasurementRisk:
         """Every kept keyframe's risks, joined in the order of :attr:`meas`."""
@@ -383,7 +377,7 @@ def candidate_reach(
     (``model="slam"``) the candidates are the state's landmarks, whose spreads the state holds: the
     weak prior of the landmarks out of it (100 m) would make every landmark of the route a candidate."""
     snap = Snapshot.of(prediction, meas)
-    return _reach(Batch.of(np.zeros((1, 3)), [snap], [meas]), gate, model)
+    return _reach(Batch.of(np.zeros((1, 3)), [snap]), gate, model)
 
 
 def measurement_risks(
@@ -407,7 +401,7 @@ def measurement_risks(
     the model linearized at the truth (``MeasurementRisk.linear``; else zeros). ``robust_to_covariance``:
     ``bound`` is the gate-sum bound with the remainder whitened by R (module docstring). ``reach_m``:
     :func:`candidate_reach` of ``meas`` at ``prediction`` where the caller has it (computed else)."""
-    b = Batch.of(np.asarray(pose, float)[None, :], [Snapshot.of(prediction, meas)], [meas])
+    b = Batch.of(np.asarray(pose, float)[None, :], [Snapshot.of(prediction, meas)])
     near = np.asarray(candidates, np.int64)
     return _risks(
         b,

@@ -49,6 +49,7 @@ class Snapshot:
 
     Attributes:
         keyframe: k.
+        meas: keyframe k's measurements (those whose risks the snapshot is for).
         held: (n,) sorted landmark indices in the state.
         pose_cov: (3, 3) the pose's covariance.
         rows: (3 + 2q, 3 + 2n) the covariance's rows of the pose, then of each of the q state
@@ -61,6 +62,7 @@ class Snapshot:
     """
 
     keyframe: int
+    meas: KeyframeMeasurements
     held: np.ndarray
     pose_cov: np.ndarray
     rows: np.ndarray
@@ -87,6 +89,7 @@ class Snapshot:
         trace = float((blocks[:, 0, 0] + blocks[:, 1, 1]).max(initial=0.0))
         return cls(
             int(prediction.keyframe),
+            meas,
             held,
             cov[:3, :3].copy(),
             cov[idx],
@@ -132,10 +135,11 @@ class Batch:
     row: np.ndarray
 
     @classmethod
-    def of(cls, poses: np.ndarray, snapshots: Sequence[Snapshot], meas: Sequence[KeyframeMeasurements]) -> Batch:
-        """The batch of ``snapshots``, their keyframes' ``meas`` and true ``poses`` (B, 3), aligned."""
-        if len(snapshots) != len(meas) or not snapshots:
-            raise ValueError(f"a batch needs one snapshot per keyframe, got {len(snapshots)} and {len(meas)}")
+    def of(cls, poses: np.ndarray, snapshots: Sequence[Snapshot]) -> Batch:
+        """The batch of ``snapshots`` (at least one) and their keyframes' true ``poses`` (B, 3)."""
+        if not snapshots:
+            raise ValueError("a batch needs at least one keyframe's snapshot")
+        meas = [s.meas for s in snapshots]
         priors = {s.prior_sigma_m for s in snapshots}
         if len(priors) != 1:
             raise ValueError(f"a batch's snapshots share one landmark prior, got {sorted(priors)}")

@@ -273,7 +273,7 @@ class _Collector:
             return np.ones(len(meas.landmark), bool)
         if len(meas.landmark) == 0:
             return np.ones(0, bool)
-        r = self.model.risks_of([self.model.snapshot(prediction, meas)], [meas])
+        r = self.model.risks_of([self.model.snapshot(prediction, meas)])
         self.meas.append(meas)
         self.risks.append(r)
         self.masks.append(r.bound <= self.threshold)
