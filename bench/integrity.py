@@ -2,7 +2,7 @@
 its accuracy, measured side by side in one process.
 
     python bench/integrity.py [--kitti-root ../shared/kitti] [--seq 00] [--suite IDS] [--map-sigma 0.05]
-                              [--repeat 1] [--reference-src DIR] [--rounds 1]
+                              [--repeat 1] [--reference-src DIR] [--rounds 1] [--require]
 
 On a KITTI route (1 Hz keyframes, real pole map), in the map model and in SLAM: the suite's
 accuracy (the filter: one forward pass), then its integrity (``route_integrity``: one forward pass
@@ -16,6 +16,10 @@ loaded machine one run's ratio moves by ±20 %).
 exported by ``git archive main src configs data | tar -x -C DIR``, then ``DIR/src``), in a child
 process, alternating with this tree's for ``--rounds`` rounds: the rows ``reference`` and ``this
 tree`` of each round, under the same load. Each ratio is of one process's own two timings.
+
+``--require``: instead, the wall time of ``sensorsel require --seq NN --integrity`` with each of the
+presets ``local-streets`` and ``freeway`` (the target: it ends, proved, within 2 minutes), and its
+answer's line; with ``--reference-src``, the reference tree's run before this tree's, each round.
 """
 
 from __future__ import annotations
@@ -41,7 +45,11 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=1, help="time each N times, keep the least (default 1)")
     ap.add_argument("--reference-src", default=None, help="another tree's src folder, measured alternately")
     ap.add_argument("--rounds", type=int, default=1, help="with --reference-src: rounds of both (default 1)")
+    ap.add_argument("--require", action="store_true", help="time require --integrity with each preset instead")
     args = ap.parse_args()
+    if args.require:
+        require(args)
+        return
     if args.reference_src is None:
         measure(args)
         return
@@ -58,6 +66,30 @@ def main() -> None:
             for line in out.splitlines():
                 if "integrity / accuracy" in line:
                     print(f"round {r + 1} {label:9s} {line}", flush=True)
+
+
+def require(args: argparse.Namespace) -> None:
+    """The wall time of ``require --integrity`` per preset, per tree (module docstring)."""
+    trees = [("this tree", str(Path(__file__).resolve().parents[1] / "src"))]
+    if args.reference_src is not None:
+        trees.insert(0, ("reference", str(Path(args.reference_src).resolve())))
+    cli = [sys.executable, "-c", "from sensorsel.cli import main; main()", "require"]
+    cli += ["--kitti-root", args.kitti_root, "--seq", args.seq, "--integrity"]
+    for r in range(max(1, args.rounds)):
+        for preset in ("local-streets", "freeway"):
+            for label, src in trees:
+                t = time.perf_counter()
+                run = subprocess.run(
+                    [*cli, "--preset", preset], env=dict(os.environ, PYTHONPATH=src), capture_output=True, text=True
+                )
+                seconds = time.perf_counter() - t
+                suite = next((x for x in run.stdout.splitlines() if x.startswith("suite")), "")
+                error = run.stderr.strip().splitlines()[-1:] if run.returncode else []
+                answer = (suite or " ".join(error))[:110]
+                print(
+                    f"round {r + 1} {label:9s} require --integrity {args.seq} {preset}: {seconds:6.1f} s  {answer}",
+                    flush=True,
+                )
 
 
 def measure(args: argparse.Namespace) -> None:
