@@ -38,7 +38,7 @@ from collections.abc import Iterable
 import numpy as np
 
 from sensorsel.information.filtering import KeyframeMeasurements, Prediction, forward_pass
-from sensorsel.information.integrity.association import AssociationModel
+from sensorsel.information.integrity.association import AssociationModel, Pending
 from sensorsel.information.integrity.risk import (
     IntegritySpec,
     RouteIntegrity,
@@ -73,19 +73,36 @@ class IntegrityBounds:
             self._compute_floor()
 
     def _compute_floor(self) -> None:
+        """Every keyframe's linear bounds at the allowed library's prediction, computed at once after
+        one forward pass that keeps what they need (:meth:`AssociationModel.snapshot`)."""
         assoc = AssociationModel(self.problem, model="map", gate_probability=self.spec.gate_probability)
-        empty: list[Prediction] = []
-        forward_pass(self.problem, (), map_sigma_m=self.map_sigma_m, on_prediction=lambda p, m: empty.append(p))
+        pending = Pending(assoc, linear=True)
+
+        def keep(pred: Prediction, meas: KeyframeMeasurements) -> np.ndarray:
+            pending.add(pred, meas)
+            return np.ones(len(meas.landmark), bool)
+
+        forward_pass(self.problem, self.allowed, map_sigma_m=self.map_sigma_m, use=keep)
+        metas = pending.meas
+        if not metas:
+            return
+        bound = pending.result().linear
         threshold = self.spec.max_association_risk
-
-        def observe(pred: Prediction, meas: KeyframeMeasurements) -> None:
-            bound = assoc.risks(pred, meas, linear=True).linear
-            if threshold is not None:
-                upper = assoc.risks(empty[pred.keyframe], meas, robust_to_covariance=True).bound
-                bound = np.where(upper <= threshold, bound, 0.0)
-            np.add.at(self.floor[:, pred.keyframe], np.asarray(meas.sensor, np.int64), bound)
-
-        forward_pass(self.problem, self.allowed, map_sigma_m=self.map_sigma_m, on_prediction=observe)
+        if threshold is not None:
+            prior = Pending(assoc, robust_to_covariance=True)  # the empty suite's: priors and odometry only
+            by_keyframe = {m.keyframe: m for m in metas}
+            forward_pass(
+                self.problem,
+                (),
+                map_sigma_m=self.map_sigma_m,
+                on_prediction=lambda p, m: prior.add(p, by_keyframe[p.keyframe]) if p.keyframe in by_keyframe else None,
+            )
+            upper = prior.result().bound
+            bound = np.where(upper <= threshold, bound, 0.0)
+        sensor = np.concatenate([np.asarray(m.sensor, np.int64) for m in metas])
+        keyframe = np.repeat([m.keyframe for m in metas], [len(m.landmark) for m in metas])
+        # the same additions in the same order as keyframe by keyframe
+        np.add.at(self.floor, (sensor, keyframe), bound)
 
     def check(self, suite: Iterable[int]) -> RouteIntegrity:
         """(a) The integrity of ``suite`` (its ``meets`` against the specification)."""

@@ -29,13 +29,14 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from scipy.special import ndtr, ndtri
 
 from sensorsel.errors import InputError
 from sensorsel.information.filtering import FilterPass, KeyframeMeasurements, Prediction, forward_pass
-from sensorsel.information.integrity.association import AssociationModel, keyframe_risk
+from sensorsel.information.integrity.association import AssociationModel, MeasurementRisk, Pending, keyframe_risk
 from sensorsel.io.results import result_kind
 from sensorsel.model.problem import Problem
 
@@ -246,47 +247,75 @@ def protection_levels(covariances: np.ndarray, p_wrong: np.ndarray, allocation: 
 
 @dataclass
 class _Collector:
-    """The ``use`` hook of one forward pass: computes each keyframe's risks, applies the lever."""
+    """The ``use`` hook of one forward pass. Without the lever it only takes each keyframe's
+    snapshot (the predictions do not depend on the risks) and :meth:`finish` computes every
+    keyframe's risks at once; with it, each keyframe's risks are computed at the keyframe (its mask
+    changes what the pass predicts next). Either way the same numbers."""
 
     model: AssociationModel
     threshold: float | None
     sensor_ids: tuple[str, ...]
     n_keyframes: int = 0
-    #: per keyframe (by its index: a keyframe the pass does not ask about keeps 0)
-    bound: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    estimate: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    left_out: list[LeftOut] = field(default_factory=list)
-    #: per library sensor: measurements made, used, Σ estimate, max bound, Σ bound
-    per_sensor: np.ndarray = field(default_factory=lambda: np.zeros((0, 5)))
+    #: without the lever: the keyframes kept, their risks computed in batches
+    pending: Pending | None = None
+    #: with it: per keyframe with measurements, its measurements, risks and mask
+    meas: list[KeyframeMeasurements] = field(default_factory=list)
+    risks: list[MeasurementRisk] = field(default_factory=list)
+    masks: list[np.ndarray] = field(default_factory=list)
 
     def __post_init__(self) -> None:
-        self.per_sensor = np.zeros((len(self.sensor_ids), 5))
-        self.bound = np.zeros(self.n_keyframes)
-        self.estimate = np.zeros(self.n_keyframes)
+        if self.threshold is None:
+            self.pending = Pending(self.model)
 
     def __call__(self, prediction: Prediction, meas: KeyframeMeasurements) -> np.ndarray:
-        r = self.model.risks(prediction, meas)
-        mask = np.ones(len(meas.landmark), bool) if self.threshold is None else r.bound <= self.threshold
-        sensor = np.asarray(meas.sensor, np.int64)
-        every = self.threshold is None or bool(mask.all())  # then no copies of what is used
-        used, estimate, bound = (
-            (sensor, r.estimate, r.bound) if every else (sensor[mask], r.estimate[mask], r.bound[mask])
-        )
-        est, bnd = keyframe_risk(estimate, bound)
-        np.add.at(self.per_sensor[:, 0], sensor, 1.0)
-        np.add.at(self.per_sensor[:, 1], used, 1.0)
-        np.add.at(self.per_sensor[:, 2], used, estimate)
-        np.maximum.at(self.per_sensor[:, 3], used, bound)
-        np.add.at(self.per_sensor[:, 4], used, bound)
-        self.bound[meas.keyframe] = bnd
-        self.estimate[meas.keyframe] = est
-        if not mask.all():
-            sensors, counts = np.unique(np.asarray(meas.sensor)[~mask], return_counts=True)
-            self.left_out.extend(
-                LeftOut(int(meas.keyframe), self.sensor_ids[int(s)], int(c))
-                for s, c in zip(sensors.tolist(), counts.tolist())
-            )
-        return mask
+        if self.pending is not None:
+            self.pending.add(prediction, meas)
+            return np.ones(len(meas.landmark), bool)
+        if len(meas.landmark) == 0:
+            return np.ones(0, bool)
+        r = self.model.risks_of([self.model.snapshot(prediction, meas)])
+        self.meas.append(meas)
+        self.risks.append(r)
+        self.masks.append(r.bound <= self.threshold)
+        return self.masks[-1]
+
+    def finish(self) -> tuple[np.ndarray, np.ndarray, list[LeftOut], np.ndarray]:
+        """(bound (K,), estimate (K,), what the lever left out, per library sensor (S, 5): measurements
+        made, used, Σ estimate, max bound, Σ bound), per keyframe from its used measurements."""
+        bound, estimate = np.zeros(self.n_keyframes), np.zeros(self.n_keyframes)
+        per_sensor = np.zeros((len(self.sensor_ids), 5))
+        left_out: list[LeftOut] = []
+        if self.pending is not None:
+            r = self.pending.result()
+            self.meas, est_all, bnd_all = self.pending.meas, r.estimate, r.bound
+            mask = np.ones(len(est_all), bool)
+        else:
+            est_all = np.concatenate([x.estimate for x in self.risks]) if self.risks else np.zeros(0)
+            bnd_all = np.concatenate([x.bound for x in self.risks]) if self.risks else np.zeros(0)
+            mask = np.concatenate(self.masks) if self.masks else np.zeros(0, bool)
+        if not self.meas:
+            return bound, estimate, left_out, per_sensor
+        sensor = np.concatenate([np.asarray(g.sensor, np.int64) for g in self.meas])
+        used, est_used, bnd_used = sensor[mask], est_all[mask], bnd_all[mask]
+        # the same additions in the same order as keyframe by keyframe
+        np.add.at(per_sensor[:, 0], sensor, 1.0)
+        np.add.at(per_sensor[:, 1], used, 1.0)
+        np.add.at(per_sensor[:, 2], used, est_used)
+        np.maximum.at(per_sensor[:, 3], used, bnd_used)
+        np.add.at(per_sensor[:, 4], used, bnd_used)
+        lo = 0
+        for g in self.meas:  # each keyframe's own sums (np.sum's order, as before)
+            hi = lo + len(g.landmark)
+            keep = mask[lo:hi]
+            estimate[g.keyframe], bound[g.keyframe] = keyframe_risk(est_all[lo:hi][keep], bnd_all[lo:hi][keep])
+            if not keep.all():
+                sensors, counts = np.unique(sensor[lo:hi][~keep], return_counts=True)
+                left_out.extend(
+                    LeftOut(int(g.keyframe), self.sensor_ids[int(s)], int(c))
+                    for s, c in zip(sensors.tolist(), counts.tolist())
+                )
+            lo = hi
+        return bound, estimate, left_out, per_sensor
 
 
 def route_integrity(
@@ -296,24 +325,14 @@ def route_integrity(
     *,
     map_sigma_m: float | None = None,
     route: str = "",
+    passes: list[FilterPass] | None = None,
 ) -> RouteIntegrity:
     """The integrity of ``suite`` (library positions) on the problem's route: one forward pass (the
-    filter: the car's covariance as it drives) whose ``use`` hook computes each keyframe's
-    association risks at the prediction and applies the lever; then the tail, the protection
-    levels and the risk per hour. ``map_sigma_m``: localizing in a map known to that std [m]; None: SLAM."""
-    return integrity_and_pass(problem, suite, spec, map_sigma_m=map_sigma_m, route=route)[0]
-
-
-def integrity_and_pass(
-    problem: Problem,
-    suite: Iterable[int],
-    spec: IntegritySpec | None = None,
-    *,
-    map_sigma_m: float | None = None,
-    route: str = "",
-) -> tuple[RouteIntegrity, FilterPass]:
-    """:func:`route_integrity` and the forward pass it ran: without the lever its ``filtered`` are the
-    suite's filtered covariances (every measurement used), what its accuracy needs too."""
+    filter: the car's covariance as it drives) whose ``use`` hook keeps what each keyframe's
+    association risks need (and, with the lever, computes them at the keyframe to leave risky
+    measurements out); then every keyframe's risks, the tail, the protection levels and the risk per
+    hour. ``map_sigma_m``: localizing in a map known to that std [m]; None: SLAM. ``passes``: a list
+    the forward pass is appended to (:func:`integrity_and_pass`)."""
     spec = spec or IntegritySpec()
     model = "slam" if map_sigma_m is None else "map"
     assoc = AssociationModel(problem, model=model, gate_probability=spec.gate_probability)
@@ -324,7 +343,9 @@ def integrity_and_pass(
         n_keyframes=problem.scenario.n_poses,
     )
     fp: FilterPass = forward_pass(problem, suite, map_sigma_m=map_sigma_m, use=hook)
-    p_wrong = hook.bound
+    if passes is not None:
+        passes.append(fp)
+    p_wrong, p_estimate, left_out, per_sensor = hook.finish()
     n_h = keyframes_per_hour(problem)
     tail = tail_risk(fp.filtered, spec)
     risk = np.minimum(1.0, tail + p_wrong)
@@ -337,21 +358,31 @@ def integrity_and_pass(
         spec=spec,
         keyframes_per_hour=n_h,
         p_wrong_association=tuple(p_wrong.tolist()),
-        p_wrong_association_estimate=tuple(hook.estimate.tolist()),
+        p_wrong_association_estimate=tuple(p_estimate.tolist()),
         integrity_risk=tuple(risk.tolist()),
         protection_level_lateral_m=tuple(lat.tolist()),
         protection_level_longitudinal_m=tuple(lon.tolist()),
         integrity_risk_per_hour=float(n_h * risk.mean()) if risk.size else 0.0,
         n_measured=tuple(int(x) for x in fp.n_measured),
         n_used=tuple(int(x) for x in fp.n_used),
-        left_out=tuple(hook.left_out),
+        left_out=tuple(left_out),
         lateral_sigma_m=tuple(sig[:, 1].tolist()),
         longitudinal_sigma_m=tuple(sig[:, 0].tolist()),
         heading_sigma_deg=tuple(sig[:, 2].tolist()),
         p_error_tail=tuple(tail.tolist()),
         by_sensor=tuple(
             SensorAssociation(hook.sensor_ids[i], int(row[0]), int(row[1]), float(row[2]), float(row[3]), float(row[4]))
-            for i, row in enumerate(hook.per_sensor)
+            for i, row in enumerate(per_sensor)
             if row[0] > 0
         ),
-    ), fp
+    )
+
+
+def integrity_and_pass(
+    problem: Problem, suite: Iterable[int], spec: IntegritySpec | None = None, **where: Any
+) -> tuple[RouteIntegrity, FilterPass]:
+    """:func:`route_integrity` (``where``: its keywords) and the forward pass it ran: without the
+    lever its ``filtered`` are the suite's filtered covariances (every measurement used), what its
+    accuracy needs too."""
+    passes: list[FilterPass] = []
+    return route_integrity(problem, suite, spec, passes=passes, **where), passes[0]
