@@ -11,6 +11,7 @@ from typing import Protocol
 
 import numpy as np
 
+from sensorsel.designs.requirements.accept import Bases
 from sensorsel.designs.requirements.oracle import mask_of
 from sensorsel.designs.requirements.spec import RouteVerdict, Specification, covariance_verdict, verdict
 from sensorsel.designs.requirements.truncated import BadKeyframes, bad_keyframes, meets_from_bad
@@ -135,6 +136,10 @@ class _Oracle:
         #: one meets it too, with no computation (:meth:`_met_below`)
         self._met: list[list[int]] = [[] for _ in self.evaluators]
         self.n_met_below = 0  # (route, suite) questions answered by a subset that meets the route
+        #: per route, the suites seen to fail it (bit mask, sensors), oldest first: bases of the bounds that accept
+        self._failed: list[list[tuple[int, int]]] = [[] for _ in self.evaluators]
+        #: per route, the failing suites whose filter states the upper bounds restart from (:mod:`.accept`)
+        self._bases = [Bases() for _ in self.evaluators]
 
     def answers(self) -> tuple[tuple[int, Suite, bool, float | None], ...]:
         """Every answer so far, (route, suite, meets, violation or None), in a fixed order."""
@@ -248,6 +253,8 @@ class _Oracle:
         ok = self._route_meets_asked(r, suite)
         if ok:
             self._note_met(r, mask)
+        else:
+            self._failed[r].append((mask, len(suite)))
         return ok
 
     def _route_meets_asked(self, r: int, suite: Suite) -> bool:
@@ -270,13 +277,33 @@ class _Oracle:
                     self.floor_refuted += 1
                     self._answered()
                     return False
-        short = self._short_answer(r, suite)
-        if short is not None:
-            return short
         smoothed = self._smoother_verdict(r, suite)
         if smoothed is not None and not smoothed[0]:
             return False
+        if self._accepted(r, suite):
+            return True
+        short = self._short_answer(r, suite)
+        if short is not None:
+            return short
         return self._answer(r, suite)[0]
+
+    def _accepted(self, r: int, suite: Suite) -> bool:
+        """Whether an upper bound from a failing suite inside ``suite`` proves that it meets route
+        ``r``'s specification (:mod:`.accept`; with the filter's estimate, on a route whose problem
+        is here); then recorded as met (violation 0: the same answer its pass gives)."""
+        problem = getattr(self.evaluators[r], "problem", None)
+        if self.estimate != "filter" or not isinstance(problem, Problem):
+            return False
+        mask = mask_of(suite)
+        failed = max(((n, i, m) for i, (m, n) in enumerate(self._failed[r]) if not m & ~mask), default=None)
+        bases = self._bases[r]
+        passes = bases.n_passes
+        ok = bases.accepts(problem, suite, mask, None if failed is None else failed[2], self.specs[r], self.map_sigma_m)
+        self.n_checks += bases.n_passes - passes  # a base's pass is an accuracy computation
+        if ok:
+            self._answers[(r, suite)] = (True, 0.0)
+            self._answered()
+        return ok
 
     def _smoother_verdict(self, r: int, suite: Suite) -> tuple[bool, float] | None:
         """The smoother's (meets, violation) on (route, suite) when the filter's is asked (a floor
