@@ -93,7 +93,17 @@ class _Oracle:
     it as the car drives, refuted without the forward pass (counted with :attr:`n_refuted`). The
     violation the solver's greedy ranks by is then the smoother's where that already fails
     (> 0, as the filter's is), else the filter's: still 0 exactly when the suite meets it.
+
+    With the filter's estimate, a suite the smoother does not refute is then offered to an upper
+    bound (:mod:`.accept`): from a failing suite inside it (the largest seen, one or two sensors
+    fewer: the growth of a failing set), restarted a few keyframes before each run of that suite's
+    bad keyframes. Every σ of the bound is above the suite's own, so a bound that meets the
+    specification proves the suite meets it (violation 0, the answer its pass gives); else its own
+    pass decides.
     """
+
+    #: whether upper bounds may accept suites (the benchmark turns it off to compare, in one process)
+    accept = True
 
     def __init__(
         self,
@@ -140,6 +150,11 @@ class _Oracle:
         self._failed: list[list[tuple[int, int]]] = [[] for _ in self.evaluators]
         #: per route, the failing suites whose filter states the upper bounds restart from (:mod:`.accept`)
         self._bases = [Bases() for _ in self.evaluators]
+
+    @property
+    def n_accepted(self) -> int:
+        """(route, suite) answers proved met by an upper bound (:mod:`.accept`), without their pass."""
+        return sum(b.n_accepted for b in self._bases)
 
     def answers(self) -> tuple[tuple[int, Suite, bool, float | None], ...]:
         """Every answer so far, (route, suite, meets, violation or None), in a fixed order."""
@@ -292,7 +307,7 @@ class _Oracle:
         ``r``'s specification (:mod:`.accept`; with the filter's estimate, on a route whose problem
         is here); then recorded as met (violation 0: the same answer its pass gives)."""
         problem = getattr(self.evaluators[r], "problem", None)
-        if self.estimate != "filter" or not isinstance(problem, Problem):
+        if not self.accept or self.estimate != "filter" or not isinstance(problem, Problem):
             return False
         mask = mask_of(suite)
         failed = max(((n, i, m) for i, (m, n) in enumerate(self._failed[r]) if not m & ~mask), default=None)
