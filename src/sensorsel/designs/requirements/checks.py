@@ -292,6 +292,8 @@ class _Oracle:
                     self.floor_refuted += 1
                     self._answered()
                     return False
+        if self._accepted(r, suite, quick=True):  # a kept base's first bound costs less than the smoother
+            return True
         smoothed = self._smoother_verdict(r, suite)
         if smoothed is not None and not smoothed[0]:
             return False
@@ -302,18 +304,25 @@ class _Oracle:
             return short
         return self._answer(r, suite)[0]
 
-    def _accepted(self, r: int, suite: Suite) -> bool:
+    def _accepted(self, r: int, suite: Suite, quick: bool = False) -> bool:
         """Whether an upper bound from a failing suite inside ``suite`` proves that it meets route
         ``r``'s specification (:mod:`.accept`; with the filter's estimate, on a route whose problem
-        is here); then recorded as met (violation 0: the same answer its pass gives)."""
+        is here); then recorded as met (violation 0: the same answer its pass gives). ``quick``:
+        only the first bound of a base already kept."""
         problem = getattr(self.evaluators[r], "problem", None)
         if not self.accept or self.estimate != "filter" or not isinstance(problem, Problem):
             return False
         mask = mask_of(suite)
-        failed = max(((n, i, m) for i, (m, n) in enumerate(self._failed[r]) if not m & ~mask), default=None)
+        failed = (
+            None
+            if quick
+            else max(((n, i, m) for i, (m, n) in enumerate(self._failed[r]) if not m & ~mask), default=None)
+        )
         bases = self._bases[r]
         passes = bases.n_passes
-        ok = bases.accepts(problem, suite, mask, None if failed is None else failed[2], self.specs[r], self.map_sigma_m)
+        ok = bases.accepts(
+            problem, suite, mask, None if failed is None else failed[2], self.specs[r], self.map_sigma_m, quick
+        )
         self.n_checks += bases.n_passes - passes  # a base's pass is an accuracy computation
         if ok:
             self._answers[(r, suite)] = (True, 0.0)
