@@ -48,9 +48,9 @@ __all__ = ["WINDOWS", "Base", "Bases", "base_of", "upper_bound"]
 #: in 4, 12 nine in 10.
 WINDOWS = (4, 16)
 #: bytes of predicted states a base keeps (beyond this, only every 2nd, 4th, ... keyframe's)
-STATE_BYTES = 64 << 20
+STATE_BYTES = 32 << 20
 #: bases kept per route (the most recent)
-KEEP = 8
+KEEP = 4
 
 
 @dataclass

@@ -366,6 +366,8 @@ class _Oracle:
         v = self._route_violation_asked(r, suite)
         if v <= 0.0:
             self._note_met(r, mask)
+        else:
+            self._failed[r].append((mask, len(suite)))
         return v
 
     def _route_violation_asked(self, r: int, suite: Suite) -> float:
@@ -376,6 +378,8 @@ class _Oracle:
             smoothed = self._smoother_verdict(r, suite)
             if smoothed is not None and not smoothed[0]:
                 return smoothed[1]
+            if self._accepted(r, suite):  # it meets: its violation is 0, exactly as its pass gives
+                return 0.0
         return self._answer(r, suite)[1]
 
     def violation(self, suite: Suite) -> float:
