@@ -93,17 +93,21 @@ def base_of(problem: Problem, suite: Suite, mask: int, spec: Specification, map_
     states: dict[int, Prediction] = {}
     stride = [1, 0]  # keep every stride-th keyframe; bytes kept
 
-    def keep(pred: Prediction, _: KeyframeMeasurements) -> None:
-        if pred.keyframe % stride[0]:
-            return
-        states[pred.keyframe] = pred
-        stride[1] += pred.covariance.nbytes
-        while stride[1] > STATE_BYTES and stride[0] < len(problem.scenario.keyframes.poses):
-            stride[0] *= 2
-            for k in [k for k in states if k % stride[0]]:
-                stride[1] -= states.pop(k).covariance.nbytes
+    def keep(pred: Prediction, g: KeyframeMeasurements) -> np.ndarray:
+        # a ``use`` hook that uses every measurement: it sees the pass's state without a copy, and
+        # copies only the states kept (a state of KITTI 00's is ~9 MB)
+        if pred.keyframe % stride[0] == 0:
+            states[pred.keyframe] = Prediction(
+                pred.keyframe, pred.landmarks.copy(), pred.covariance.copy(), pred.prior_sigma_m
+            )
+            stride[1] += pred.covariance.nbytes
+            while stride[1] > STATE_BYTES and stride[0] < len(problem.scenario.keyframes.poses):
+                stride[0] *= 2
+                for k in [k for k in states if k % stride[0]]:
+                    stride[1] -= states.pop(k).covariance.nbytes
+        return np.ones(len(g), bool)
 
-    filtered = forward_pass(problem, suite, map_sigma_m=map_sigma_m, on_prediction=keep).filtered
+    filtered = forward_pass(problem, suite, map_sigma_m=map_sigma_m, use=keep).filtered
     last = np.full(max(problem.scenario.n_landmarks, 1), -1, np.int64)
     for i in suite:
         o = problem.observations[i]
