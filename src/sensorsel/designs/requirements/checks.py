@@ -60,6 +60,9 @@ class RouteEngine(Protocol):
 #: refuted 2 % of them and cost a third of a check each; in the map model on KITTI most failing suites
 FLOOR_KEEP_SHARE = 0.2
 FLOOR_TRIAL = 40
+#: the most recent failing suites of a route looked through for a bound's base (the growth of a
+#: failing set asks about the set it grows, seen last; a long search holds thousands)
+RECENT_FAILED = 256
 
 
 def route_covariances(engine: RouteEngine, suite: Suite, map_sigma_m: float | None, estimate: str) -> np.ndarray:
@@ -146,7 +149,7 @@ class _Oracle:
         #: one meets it too, with no computation (:meth:`_met_below`)
         self._met: list[list[int]] = [[] for _ in self.evaluators]
         self.n_met_below = 0  # (route, suite) questions answered by a subset that meets the route
-        #: per route, the suites seen to fail it (bit mask, sensors), oldest first: bases of the bounds that accept
+        #: per route, the recent suites seen to fail it (bit mask, sensors), oldest first: bases of the bounds
         self._failed: list[list[tuple[int, int]]] = [[] for _ in self.evaluators]
         #: per route, the failing suites whose filter states the upper bounds restart from (:mod:`.accept`)
         self._bases = [Bases() for _ in self.evaluators]
@@ -258,6 +261,13 @@ class _Oracle:
             return
         self._met[r] = [m for m in kept if m & ~mask] + [mask]
 
+    def _note_failed(self, r: int, mask: int, size: int) -> None:
+        """Keep ``mask`` (``size`` sensors) among route ``r``'s recent failing suites (bases of bounds)."""
+        kept = self._failed[r]
+        kept.append((mask, size))
+        if len(kept) > 2 * RECENT_FAILED:
+            del kept[:-RECENT_FAILED]
+
     def _use_floor(self) -> bool:
         return self.floor_asked < FLOOR_TRIAL or self.floor_refuted >= FLOOR_KEEP_SHARE * self.floor_asked
 
@@ -269,7 +279,7 @@ class _Oracle:
         if ok:
             self._note_met(r, mask)
         else:
-            self._failed[r].append((mask, len(suite)))
+            self._note_failed(r, mask, len(suite))
         return ok
 
     def _route_meets_asked(self, r: int, suite: Suite) -> bool:
@@ -316,7 +326,10 @@ class _Oracle:
         failed = (
             None
             if quick
-            else max(((n, i, m) for i, (m, n) in enumerate(self._failed[r]) if not m & ~mask), default=None)
+            else max(
+                ((n, i, m) for i, (m, n) in enumerate(self._failed[r][-RECENT_FAILED:]) if not m & ~mask),
+                default=None,
+            )
         )
         bases = self._bases[r]
         passes = bases.n_passes
@@ -367,7 +380,7 @@ class _Oracle:
         if v <= 0.0:
             self._note_met(r, mask)
         else:
-            self._failed[r].append((mask, len(suite)))
+            self._note_failed(r, mask, len(suite))
         return v
 
     def _route_violation_asked(self, r: int, suite: Suite) -> float:
