@@ -1,22 +1,26 @@
 """How long `sensorsel require` takes to prove its answer, against the solver it had before (kept in
-bench/require_reference_solver.py), side by side in one process on the same problems.
+bench/require_reference_solver.py) and against its checks without the upper bounds that accept
+suites (:mod:`sensorsel.designs.requirements.accept`), side by side in one process on the same problems.
 
     python bench/require.py [--kitti-root ../shared/kitti] [--rows tour 03 00 drive helsinki]
                             [--helsinki DIR/domain.yaml] [--presets local-streets freeway]
-                            [--failures 0 1] [--time-limit 300] [--solvers new reference]
+                            [--failures 0 1] [--time-limit 300] [--solvers new noaccept reference]
 
 Rows: "tour" is the README's tour (the bundled suburb route), "03" / "00" the KITTI sequences with
 their real pole maps, "drive" a user's own drive (KITTI 00's ground truth as a route file, with
 generated landmarks), "helsinki" the 31 routes `sensorsel osm --sample helsinki` writes; each row is
 run for every preset and failure count given, first with the solver of the package, then with the
-reference solver behind the same accuracy oracle (so the two differ only in the search). Printed per
-run: the status, cost and lower bound, integer programs, accuracy computations (and the suites the
-cheap floor refuted), the answers inferred from dominance among sensors ("swaps") and the filter
-passes stopped early ("short"), the time in checks and in programs, the wall time and the process's
-CPU time (less sensitive to other work on the machine). Timings on a shared machine are noisy:
-compare the two solvers' columns of one run, and the counts, which do not depend on the machine. To
-compare with an older version of the package (accuracy oracle included), run this file from a `git
-archive` of it in the same session, with PYTHONPATH pointing at that copy's src/.
+reference solver behind the same accuracy oracle (so the two differ only in the search); "noaccept"
+is the package's solver with the oracle's upper bounds off (every suite the smoother does not refute
+gets its own pass, as before they existed). Printed per run: the status, cost and lower bound,
+integer programs, accuracy computations (and the suites the cheap floor refuted), the answers
+inferred from dominance among sensors ("swaps"), the filter passes stopped early ("short") and the
+suites accepted by an upper bound without their pass ("accepted"), the time in checks and in
+programs, the wall time and the process's CPU time (less sensitive to other work on the machine).
+Timings on a shared machine are noisy: compare the two solvers' columns of one run, and the counts,
+which do not depend on the machine. To compare with an older version of the package (accuracy oracle
+included), run this file from a `git archive` of it in the same session, with PYTHONPATH pointing at
+that copy's src/.
 """
 
 from __future__ import annotations
@@ -104,16 +108,20 @@ def main() -> None:
     ap.add_argument("--presets", nargs="+", default=["local-streets", "freeway"])
     ap.add_argument("--failures", nargs="+", type=int, default=[0, 1])
     ap.add_argument("--time-limit", type=float, default=300.0)
-    ap.add_argument("--solvers", nargs="+", default=["new", "reference"], choices=["new", "reference"])
+    ap.add_argument(
+        "--solvers", nargs="+", default=["new", "noaccept", "reference"], choices=["new", "noaccept", "reference"]
+    )
     a = ap.parse_args()
     from sensorsel.designs.requirements import design
+    from sensorsel.designs.requirements.checks import _Oracle
     from sensorsel.designs.requirements.spec import DEFAULT_MAP_SIGMA_M, preset
 
     package = design.cheapest_suite
-    solvers = {"new": package, "reference": _reference()}
+    solvers = {"new": package, "noaccept": package, "reference": _reference()}
     print(
         f"{'row':>5} {'preset':>13} a solver    {'status':>8} {'cost':>9} {'lower':>9} {'programs':>8} {'checks':>6} "
-        f"{'refuted':>7} {'swaps':>5} {'short':>5} {'checks s':>8} {'progs s':>8} {'wall s':>7} {'cpu s':>7}  suite",
+        f"{'refuted':>7} {'swaps':>5} {'short':>5} {'accepted':>8} {'checks s':>8} {'progs s':>8} {'wall s':>7} "
+        f"{'cpu s':>7}  suite",
         flush=True,
     )
     for row in a.rows:
@@ -122,6 +130,7 @@ def main() -> None:
             for alpha in a.failures:
                 for which in a.solvers:
                     design.cheapest_suite = solvers[which]
+                    _Oracle.accept = which != "noaccept"
                     t0, c0 = time.perf_counter(), time.process_time()
                     try:
                         r = design.require(
@@ -133,12 +142,13 @@ def main() -> None:
                         )
                     finally:
                         design.cheapest_suite = package
+                        _Oracle.accept = True
                     dt, cpu = time.perf_counter() - t0, time.process_time() - c0
                     print(
                         f"{row:>5} {name:>13} {alpha} {which:<9} {r.status:>8} {r.cost_usd:>9,.0f} "
                         f"{r.lower_bound_usd:>9,.0f} "
                         f"{r.iterations:>8} {r.n_checks:>6} {r.n_refuted:>7} {getattr(r, 'n_swap_inferred', 0):>5} "
-                        f"{getattr(r, 'n_short', 0):>5} {r.seconds_checks:>8.1f} "
+                        f"{getattr(r, 'n_short', 0):>5} {getattr(r, 'n_accepted', 0):>8} {r.seconds_checks:>8.1f} "
                         f"{r.seconds_programs:>8.1f} {dt:>7.1f} {cpu:>7.1f}  {','.join(r.suite) or '-'}",
                         flush=True,
                     )

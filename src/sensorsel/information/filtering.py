@@ -209,6 +209,7 @@ def forward_pass(
     use: Use | None = None,
     on_prediction: Callable[[Prediction, KeyframeMeasurements], None] | None = None,
     until: int | None = None,
+    start: Prediction | None = None,
 ) -> FilterPass:
     """One forward pass over the route (linear in its length), exact: filtered[k] equals GTSAM's
     marginal of X(k) in the graph of the priors, odometry up to k and the used measurements of
@@ -224,6 +225,14 @@ def forward_pass(
     ``until``: stop after keyframe ``until`` − 1 (the arrays then hold the first ``until``
     keyframes, the same numbers as the whole pass's: a keyframe's covariance depends only on the
     measurements up to it, and which landmarks are held is still decided by the whole route's).
+
+    ``start``: begin at keyframe ``start.keyframe`` from that predicted state (its pose covariance and
+    landmarks held, e.g. another suite's, kept by an ``on_prediction`` hook) instead of the priors at
+    keyframe 0; the arrays then hold keyframes ``start.keyframe`` .. ``until`` − 1 only. A landmark
+    outside ``start.landmarks`` enters as never seen (its prior alone): the pass is exact for the graph
+    of ``start``'s past and this suite's (used) measurements from ``start.keyframe`` on, which is what a
+    caller bounding another suite's covariance from above relies on (``use`` drops the measurements of
+    landmarks that past saw but no longer holds).
     """
     check_map_sigma(map_sigma_m)
     s = problem.settings
@@ -244,7 +253,7 @@ def forward_pass(
     # on two; a 4-sensor suite's pass on the bundled route 30x slower)
     with _blas_controller().limit(limits=1, user_api="blas"):
         stop = K if until is None else max(0, min(int(until), K))
-        return _pass(problem, groups[:stop], last, odo, odo_cov, prior_sigma, use, on_prediction)
+        return _pass(problem, groups[:stop], last, odo, odo_cov, prior_sigma, use, on_prediction, start)
 
 
 @dataclass(frozen=True, eq=False)
@@ -306,8 +315,11 @@ def _pass(
     prior_sigma: float,
     use: Use | None,
     on_prediction: Callable[[Prediction, KeyframeMeasurements], None] | None,
+    start: Prediction | None = None,
 ) -> FilterPass:
     s = problem.settings
+    first = 0 if start is None else int(start.keyframe)
+    groups = groups[first:]
     poses = np.asarray(problem.scenario.keyframes.poses, float)
     points = np.asarray(problem.scenario.landmarks, float)
     K = len(groups)  # the keyframes passed: the route's, or its first ones (forward_pass's until)
@@ -322,21 +334,24 @@ def _pass(
         np.concatenate([getattr(g, f) for g in groups]) if K else np.zeros(0)
         for f in ("landmark", "sigma_bearing_rad", "sigma_range_m")
     ]
-    kf = np.repeat(np.arange(K), n_measured)
+    kf = np.repeat(np.arange(first, first + K), n_measured)
     every = _pairs(poses, points, kf, cat[0].astype(np.int64), cat[1], cat[2], prior_sigma)
-    bounds = np.searchsorted(every.keyframe, np.arange(K + 1))
+    bounds = np.searchsorted(every.keyframe, np.arange(first, first + K + 1))
     if use is None:
         n_used = n_measured.copy()
     held = np.zeros(0, np.int64)  # sorted landmark indices in the state
     P = np.diag(np.asarray(s.first_pose_sigmas, float) ** 2)  # (3 + 2n)²
-    for k in range(K):
-        if k > 0:  # odometry: pose k − 1 replaced by pose k
+    if start is not None:  # another pass's predicted state at keyframe ``first``
+        held, P = np.asarray(start.landmarks, np.int64).copy(), np.array(start.covariance, float)
+    for i in range(K):  # i: the row of the arrays; k: the keyframe
+        k = first + i
+        if i > 0:  # odometry: pose k − 1 replaced by pose k
             h = odo[k - 1]
             P[:3, 3:] = -h @ P[:3, 3:]
             P[3:, :3] = P[:3, 3:].T
             P[:3, :3] = h @ P[:3, :3] @ h.T + odo_cov
-        predicted[k] = P[:3, :3]
-        g = groups[k]
+        predicted[i] = P[:3, :3]
+        g = groups[i]
         if on_prediction is not None:
             pred = Prediction(k, held.copy(), P.copy(), prior_sigma)
             on_prediction(pred, g)
@@ -344,17 +359,17 @@ def _pass(
             view = P.view()
             view.flags.writeable = False
             pred = Prediction(k, held, view, prior_sigma)
-        pairs = _slice(every, bounds[k], bounds[k + 1])
+        pairs = _slice(every, bounds[i], bounds[i + 1])
         if use is not None:
             mask = np.asarray(use(pred, g), bool)
             if mask.shape != (len(g),):
                 raise ValueError(f"use returned a mask of shape {mask.shape} for {len(g)} measurements at keyframe {k}")
-            n_used[k] = int(mask.sum())
-        if use is not None and n_used[k] < len(g):
+            n_used[i] = int(mask.sum())
+        if use is not None and n_used[i] < len(g):
             pairs = _pairs(
                 poses,
                 points,
-                np.full(n_used[k], k),
+                np.full(n_used[i], k),
                 g.landmark[mask],
                 g.sigma_bearing_rad[mask],
                 g.sigma_range_m[mask],
@@ -362,7 +377,7 @@ def _pass(
             )
         # landmarks measured for the last time leave the state after this update
         P, held = _update(P, held, pairs, last, k)
-        filtered[k] = P[:3, :3]
+        filtered[i] = P[:3, :3]
     return FilterPass(predicted, filtered, n_used, n_measured)
 
 

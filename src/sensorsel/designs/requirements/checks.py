@@ -11,6 +11,7 @@ from typing import Protocol
 
 import numpy as np
 
+from sensorsel.designs.requirements.accept import Bases
 from sensorsel.designs.requirements.oracle import mask_of
 from sensorsel.designs.requirements.spec import RouteVerdict, Specification, covariance_verdict, verdict
 from sensorsel.designs.requirements.truncated import BadKeyframes, bad_keyframes, meets_from_bad
@@ -59,6 +60,9 @@ class RouteEngine(Protocol):
 #: refuted 2 % of them and cost a third of a check each; in the map model on KITTI most failing suites
 FLOOR_KEEP_SHARE = 0.2
 FLOOR_TRIAL = 40
+#: the most recent failing suites of a route looked through for a bound's base (the growth of a
+#: failing set asks about the set it grows, seen last; a long search holds thousands)
+RECENT_FAILED = 256
 
 
 def route_covariances(engine: RouteEngine, suite: Suite, map_sigma_m: float | None, estimate: str) -> np.ndarray:
@@ -92,7 +96,19 @@ class _Oracle:
     it as the car drives, refuted without the forward pass (counted with :attr:`n_refuted`). The
     violation the solver's greedy ranks by is then the smoother's where that already fails
     (> 0, as the filter's is), else the filter's: still 0 exactly when the suite meets it.
+
+    With the filter's estimate, a suite the smoother does not refute is then offered to an upper
+    bound (:mod:`.accept`): from a failing suite inside it (the largest seen, one or two sensors
+    fewer: the growth of a failing set), restarted a few keyframes before each run of that suite's
+    bad keyframes. Every σ of the bound is above the suite's own, so a bound that meets the
+    specification proves the suite meets it (violation 0, the answer its pass gives); else its own
+    pass decides. A base already kept is tried first, before the smoother (its shortest bound costs
+    about as much); a new base's pass only where no filter pass stopped early (:mod:`.truncated`)
+    answers: that is exact and passes half the route at most.
     """
+
+    #: whether upper bounds may accept suites (the benchmark turns it off to compare, in one process)
+    accept = True
 
     def __init__(
         self,
@@ -135,6 +151,15 @@ class _Oracle:
         #: one meets it too, with no computation (:meth:`_met_below`)
         self._met: list[list[int]] = [[] for _ in self.evaluators]
         self.n_met_below = 0  # (route, suite) questions answered by a subset that meets the route
+        #: per route, the recent suites seen to fail it (bit mask, sensors), oldest first: bases of the bounds
+        self._failed: list[list[tuple[int, int]]] = [[] for _ in self.evaluators]
+        #: per route, the failing suites whose filter states the upper bounds restart from (:mod:`.accept`)
+        self._bases = [Bases() for _ in self.evaluators]
+
+    @property
+    def n_accepted(self) -> int:
+        """(route, suite) answers proved met by an upper bound (:mod:`.accept`), without their pass."""
+        return sum(b.n_accepted for b in self._bases)
 
     def answers(self) -> tuple[tuple[int, Suite, bool, float | None], ...]:
         """Every answer so far, (route, suite, meets, violation or None), in a fixed order."""
@@ -238,6 +263,13 @@ class _Oracle:
             return
         self._met[r] = [m for m in kept if m & ~mask] + [mask]
 
+    def _note_failed(self, r: int, mask: int, size: int) -> None:
+        """Keep ``mask`` (``size`` sensors) among route ``r``'s recent failing suites (bases of bounds)."""
+        kept = self._failed[r]
+        kept.append((mask, size))
+        if len(kept) > 2 * RECENT_FAILED:
+            del kept[:-RECENT_FAILED]
+
     def _use_floor(self) -> bool:
         return self.floor_asked < FLOOR_TRIAL or self.floor_refuted >= FLOOR_KEEP_SHARE * self.floor_asked
 
@@ -248,6 +280,8 @@ class _Oracle:
         ok = self._route_meets_asked(r, suite)
         if ok:
             self._note_met(r, mask)
+        else:
+            self._note_failed(r, mask, len(suite))
         return ok
 
     def _route_meets_asked(self, r: int, suite: Suite) -> bool:
@@ -270,13 +304,45 @@ class _Oracle:
                     self.floor_refuted += 1
                     self._answered()
                     return False
-        short = self._short_answer(r, suite)
-        if short is not None:
-            return short
+        if self._accepted(r, suite, quick=True):  # a kept base's first bound costs less than the smoother
+            return True
         smoothed = self._smoother_verdict(r, suite)
         if smoothed is not None and not smoothed[0]:
             return False
+        short = self._short_answer(r, suite)  # exact, and at most half a pass: before a new base's pass
+        if short is not None:
+            return short
+        if self._accepted(r, suite):
+            return True
         return self._answer(r, suite)[0]
+
+    def _accepted(self, r: int, suite: Suite, quick: bool = False) -> bool:
+        """Whether an upper bound from a failing suite inside ``suite`` proves that it meets route
+        ``r``'s specification (:mod:`.accept`; with the filter's estimate, on a route whose problem
+        is here); then recorded as met (violation 0: the same answer its pass gives). ``quick``:
+        only the first bound of a base already kept."""
+        problem = getattr(self.evaluators[r], "problem", None)
+        if not self.accept or self.estimate != "filter" or not isinstance(problem, Problem):
+            return False
+        mask = mask_of(suite)
+        failed = (
+            None
+            if quick
+            else max(
+                ((n, i, m) for i, (m, n) in enumerate(self._failed[r][-RECENT_FAILED:]) if not m & ~mask),
+                default=None,
+            )
+        )
+        bases = self._bases[r]
+        passes = bases.n_passes
+        ok = bases.accepts(
+            problem, suite, mask, None if failed is None else failed[2], self.specs[r], self.map_sigma_m, quick
+        )
+        self.n_checks += bases.n_passes - passes  # a base's pass is an accuracy computation
+        if ok:
+            self._answers[(r, suite)] = (True, 0.0)
+            self._answered()
+        return ok
 
     def _smoother_verdict(self, r: int, suite: Suite) -> tuple[bool, float] | None:
         """The smoother's (meets, violation) on (route, suite) when the filter's is asked (a floor
@@ -315,6 +381,8 @@ class _Oracle:
         v = self._route_violation_asked(r, suite)
         if v <= 0.0:
             self._note_met(r, mask)
+        else:
+            self._note_failed(r, mask, len(suite))
         return v
 
     def _route_violation_asked(self, r: int, suite: Suite) -> float:
@@ -325,6 +393,8 @@ class _Oracle:
             smoothed = self._smoother_verdict(r, suite)
             if smoothed is not None and not smoothed[0]:
                 return smoothed[1]
+            if self._accepted(r, suite):  # it meets: its violation is 0, exactly as its pass gives
+                return 0.0
         return self._answer(r, suite)[1]
 
     def violation(self, suite: Suite) -> float:

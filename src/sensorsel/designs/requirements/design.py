@@ -109,6 +109,9 @@ class RequireResult:
             an accuracy computation.
         n_short: of ``n_checks``, filter passes stopped after the last keyframe where a suite inside
             the one asked was seen to miss the specification (:mod:`.truncated`).
+        n_accepted: (route, suite) answers proved met by an upper bound restarted from a failing
+            suite inside it (:mod:`.accept`), without the suite's own pass (not in ``n_checks``;
+            the failing suites' passes the bounds restart from are).
     """
 
     status: str
@@ -145,6 +148,7 @@ class RequireResult:
     dominated: tuple[tuple[str, str], ...] = ()
     n_swap_inferred: int = 0
     n_short: int = 0
+    n_accepted: int = 0
 
     @property
     def gap_usd(self) -> float:
@@ -445,6 +449,7 @@ def require(
         dominated=tuple((library.ids[w], library.ids[s_]) for w, s_ in found.ordered),
         n_swap_inferred=found.swap_inferred,
         n_short=oracle.n_short,
+        n_accepted=oracle.n_accepted,
     )
 
 

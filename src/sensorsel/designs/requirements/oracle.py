@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Iterable
+from typing import TypeVar
 
 import numpy as np
 
@@ -26,6 +27,7 @@ __all__ = ["Antichain", "AntiMonotone", "Exact", "Monotone", "mask_of", "suite_o
 
 Suite = tuple[int, ...]
 _WORD = (1 << 64) - 1
+T = TypeVar("T")
 
 
 def mask_of(suite: Iterable[int]) -> int:
@@ -93,6 +95,11 @@ class Antichain:
         q = self._w(mask)
         return bool(np.any(np.all((self._rows[: len(self.masks)] & ~q) == 0, axis=1)))
 
+    def covers(self, mask: int) -> bool:
+        """``mask`` is settled by the antichain: inside one of its sets (``keep="max"``) or holding
+        one (``keep="min"``)."""
+        return self.inside_one(mask) if self.keep == "max" else self.holds_one(mask)
+
     def add(self, mask: int) -> None:
         """Add ``mask`` (the caller knows it is not dominated), dropping the sets it dominates."""
         m, q = len(self.masks), self._w(mask)
@@ -130,24 +137,54 @@ class _Cached:
         known = self.infer(mask)
         if known is not None:
             return known
-        if self.before_call is not None:
-            self.before_call()
-        t = time.perf_counter()
-        ok = bool(self._passes(suite_of(mask)))
-        self.seconds += time.perf_counter() - t
-        self.calls += 1
+        ok = bool(self._call(self._passes, mask))
         self.record(mask, ok)
         return ok
 
+    def _call(self, predicate: Callable[[Suite], T], mask: int) -> T:
+        """``predicate`` of the suite ``mask``, counted and timed (the clock read before it)."""
+        if self.before_call is not None:
+            self.before_call()
+        t = time.perf_counter()
+        out = predicate(suite_of(mask))
+        self.seconds += time.perf_counter() - t
+        self.calls += 1
+        return out
+
     def record(self, mask: int, ok: bool) -> None:
         self.known[mask] = ok
+
+
+class _Antichains(_Cached):
+    """A predicate whose answers settle others: ``failing`` and ``passing`` keep what it knows as
+    antichains (:meth:`Antichain.covers` says whether a suite is settled by one)."""
+
+    def __init__(self, n: int, passes: Callable[[Suite], bool], failing: Antichain, passing: Antichain) -> None:
+        super().__init__(n, passes)
+        self.failing, self.passing = failing, passing
+
+    def infer(self, mask: int) -> bool | None:
+        hit = super().infer(mask)
+        if hit is not None:
+            return hit
+        if self.failing.covers(mask):
+            return False
+        if self.passing.covers(mask):
+            return True
+        return None
+
+    def record(self, mask: int, ok: bool) -> None:
+        self.known[mask] = ok
+        kept = self.passing if ok else self.failing
+        if not kept.covers(mask):
+            kept.add(mask)
 
 
 class Exact(_Cached):
     """A predicate with no structure: only the suites asked are known."""
 
 
-class Monotone(_Cached):
+class Monotone(_Antichains):
     """A monotone predicate (S ⊆ T, passes(S) ⇒ passes(T)), with an optional ``violation``
     (>= 0, 0 exactly when it passes) that the greedy upper bound uses.
 
@@ -167,22 +204,17 @@ class Monotone(_Cached):
         violation: Callable[[Suite], float] | None = None,
         swaps: Iterable[tuple[int, int]] = (),
     ) -> None:
-        super().__init__(n, passes)
+        super().__init__(n, passes, Antichain(n, "max"), Antichain(n, "min"))
+        self.meeting = self.passing
         self._violation = violation
         self.viol: dict[int, float] = {}
-        self.failing = Antichain(n, "max")
-        self.meeting = Antichain(n, "min")
         self.swaps = tuple((1 << int(w), 1 << int(s)) for w, s in swaps)
         self.swap_inferred = 0
 
     def infer(self, mask: int) -> bool | None:
-        hit = self.known.get(mask)
+        hit = super().infer(mask)
         if hit is not None:
             return hit
-        if self.failing.inside_one(mask):
-            return False
-        if self.meeting.holds_one(mask):
-            return True
         if self.swaps:
             weaker = [mask & ~s | w for w, s in self.swaps if mask & s and not mask & w]
             if self.meeting.holds_any(weaker):
@@ -203,52 +235,19 @@ class Monotone(_Cached):
         if self.infer(mask) is True:
             return 0.0
         assert self._violation is not None
-        if self.before_call is not None:
-            self.before_call()
-        t = time.perf_counter()
-        v = float(self._violation(suite_of(mask)))
-        self.seconds += time.perf_counter() - t
-        self.calls += 1
+        v = float(self._call(self._violation, mask))
         if not math.isfinite(v) or v < 0:
             raise ValueError(f"violation{suite_of(mask)} returned {v!r}: it must be a finite number >= 0")
         self.viol[mask] = v
         self.record(mask, v <= 0.0)
         return v
 
-    def record(self, mask: int, ok: bool) -> None:
-        self.known[mask] = ok
-        if ok:
-            if not self.meeting.holds_one(mask):
-                self.meeting.add(mask)
-        elif not self.failing.inside_one(mask):
-            self.failing.add(mask)
 
-
-class AntiMonotone(_Cached):
+class AntiMonotone(_Antichains):
     """An anti-monotone predicate (S ⊆ T, passes(T) ⇒ passes(S)).
 
     ``failing``: the minimal failing sets known (each one is a cut Σ_{i∈m} x_i <= |m| - 1);
     ``passing``: the maximal passing sets known."""
 
     def __init__(self, n: int, passes: Callable[[Suite], bool]) -> None:
-        super().__init__(n, passes)
-        self.failing = Antichain(n, "min")
-        self.passing = Antichain(n, "max")
-
-    def infer(self, mask: int) -> bool | None:
-        hit = self.known.get(mask)
-        if hit is not None:
-            return hit
-        if self.failing.holds_one(mask):
-            return False
-        if self.passing.inside_one(mask):
-            return True
-        return None
-
-    def record(self, mask: int, ok: bool) -> None:
-        self.known[mask] = ok
-        if ok:
-            if not self.passing.inside_one(mask):
-                self.passing.add(mask)
-        elif not self.failing.holds_one(mask):
-            self.failing.add(mask)
+        super().__init__(n, passes, Antichain(n, "min"), Antichain(n, "max"))
