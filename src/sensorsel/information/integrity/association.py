@@ -89,6 +89,9 @@ does for near landmarks), NIS_j < NIS_i ⇔ Dᵀ S̄⁻¹ ν_i < −½ Dᵀ S̄�
 
 averaged over D ~ N(d, C_D) by a fixed 10 × 10 Gauss–Hermite rule. Two landmarks at one point give
 ½, two far apart Φ(−½ ‖d‖_S̄) (the classic two-hypothesis error). First sightings: p_j = F(γ; λ_j).
+Where a pair's remainder is not small against its separation (ρ(2) of either landmark above a share
+of √λ_j: SLAM's fresh landmarks), p_j is instead a quadrature of the nonlinear model
+(:mod:`~sensorsel.information.integrity.nonlinear`).
 """
 
 from __future__ import annotations
@@ -101,6 +104,7 @@ from scipy.spatial import cKDTree
 from scipy.special import chndtr, ndtr
 
 from sensorsel.information.filtering import KeyframeMeasurements, Prediction
+from sensorsel.information.integrity.nonlinear import bent_pairs, nonlinear_estimate
 from sensorsel.information.linearize import bearing_range_jacobians
 from sensorsel.model.problem import Problem
 
@@ -417,6 +421,10 @@ def measurement_risks(
     p = f_gate.copy()
     if right.any():
         p[right] = np.minimum(_p_nearer(pair if right.all() else pair.select(right)), f_gate[right])
+    # where the Taylor remainder is not small against the separation: the nonlinear model (nonlinear.py)
+    rho2_i = np.where(right, _remainder(pair.sigma_i, pair.range_i, _inverse_2x2(pair.s_i), _K_GRID[1:2])[:, 0], 0.0)
+    bent = bent_pairs(rho2_i, _remainder(sigma_j[close], range_j[close], s_inv[close], _K_GRID[1:2])[:, 0], lam)
+    p = nonlinear_estimate(p, bent, pose, points, prediction, meas, (mi, li, cj), right, gate)
     # bincount sums each measurement's terms in order from 0, as np.add.at into zeros did
     logq = np.bincount(mi, weights=np.log1p(-np.clip(p, 0.0, 1.0 - 1e-16)), minlength=m)
     est = np.maximum(-np.expm1(logq), 0.0)
