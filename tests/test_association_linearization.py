@@ -239,3 +239,45 @@ def test_the_nonlinear_estimate_is_the_same_whatever_the_threads():
             r = measurement_risks(POSE, POINTS, pred, _meas(), np.array([0, 1]), gate=GATE, model="slam")
         runs.append(r.estimate.tobytes())
     assert runs[0] == runs[1]
+
+
+def test_the_nonlinear_estimate_keeps_the_associators_reach():
+    """The associator's candidates lie within 1.25 r̂ + 5 m of the estimated pose, r̂ the *measured*
+    range: a stereo camera's range noise (3.5 m at 19 m) can put the right landmark out of reach, and
+    a nearer fresh neighbour then wins though its NIS is the larger. The estimate follows the
+    simulator (which runs that associator); the oracle, which omits the reach, sees a quarter of it."""
+    pose = np.array([0.0, 0.0, 0.0])
+    points = np.array([[19.0, 0.0], [11.0, 2.3]])
+    cov = np.diag([0.02, 0.02, 1e-4, 4.0, 1.0, 0.3, 0.3])
+    sigmas = (0.003, 3.5)
+    z = measure(pose, points[0])
+    meas = KeyframeMeasurements(
+        keyframe=0,
+        sensor=np.array([0]),
+        landmark=np.array([0]),
+        bearing_rad=np.array([z[0]]),
+        range_m=np.array([z[1]]),
+        sigma_bearing_rad=np.array([sigmas[0]]),
+        sigma_range_m=np.array([sigmas[1]]),
+    )
+    pred = Prediction(keyframe=0, landmarks=np.array([0, 1]), covariance=cov, prior_sigma_m=100.0)
+    r = measurement_risks(pose, points, pred, meas, np.array([0, 1]), gate=GATE, model="slam")
+    case = KeyframeCase(
+        keyframe=0,
+        pose=pose,
+        sensor=meas.sensor,
+        landmark=meas.landmark,
+        bearing_rad=meas.bearing_rad,
+        range_m=meas.range_m,
+        sigma_bearing_rad=meas.sigma_bearing_rad,
+        sigma_range_m=meas.sigma_range_m,
+        candidates=np.array([0, 1]),
+        points=points,
+        right=np.array([0]),
+        covariance=cov,
+    )
+    out = associate_keyframe(case, Task(keyframe=0, draws=DRAWS, seed=5, gate=GATE))
+    observed = out.wrong_draws / out.draws
+    k, n = monte_carlo(pose, points, np.array([0, 1]), cov, 100.0, 0, sigmas, [0, 1], GATE, n=DRAWS, seed=7)
+    assert out.wrong_draws >= 200 and k / n < observed / 2  # resolved, and the reach matters here
+    assert 0.5 <= r.estimate[0] / observed <= 2.0, (r.estimate[0], observed)

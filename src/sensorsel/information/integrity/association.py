@@ -424,7 +424,9 @@ def measurement_risks(
     # where the Taylor remainder is not small against the separation: the nonlinear model (nonlinear.py)
     rho2_i = np.where(right, _remainder(pair.sigma_i, pair.range_i, _inverse_2x2(pair.s_i), _K_GRID[1:2])[:, 0], 0.0)
     bent = bent_pairs(rho2_i, _remainder(sigma_j[close], range_j[close], s_inv[close], _K_GRID[1:2])[:, 0], lam)
-    p = nonlinear_estimate(p, bent, pose, points, prediction, meas, (mi, li, cj), right, gate)
+    p = nonlinear_estimate(
+        p, bent, pose, points, prediction, meas, (mi, li, cj), right, gate, (CANDIDATE_SCALE, CANDIDATE_MARGIN_M)
+    )
     # bincount sums each measurement's terms in order from 0, as np.add.at into zeros did
     logq = np.bincount(mi, weights=np.log1p(-np.clip(p, 0.0, 1.0 - 1e-16)), minlength=m)
     est = np.maximum(-np.expm1(logq), 0.0)

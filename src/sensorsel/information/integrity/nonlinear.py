@@ -15,7 +15,9 @@ a first sighting: P(NIS_j ≤ γ)) by a deterministic quadrature over the joint 
 error in its own frame (3), the measured landmark's error (2), the candidate's error (2), the
 measurement noise (2)): a scrambled Sobol set of 2^:data:`SOBOL_LOG2` points with a fixed seed, mapped
 through Φ⁻¹. The innovations are the associator's: ν = z − h(x̂, l̂), x̂ the truth retracted by the pose
-error to first order (as the simulator's), the bearing wrapped, S at the truth (S = R + H E Hᵀ). The
+error to first order (as the simulator's), the bearing wrapped, S at the truth (S = R + H E Hᵀ); a
+landmark is a candidate only within CANDIDATE_SCALE r̂ + CANDIDATE_MARGIN_M of x̂, r̂ the measured range
+(the associator's reach, the right landmark's too: a stereo camera's range noise can put it out). The
 points are the same for every pair and every call and the sums are in a fixed order (no BLAS):
 byte-identical results for any threads. The resolution is 2^−SOBOL_LOG2 (3e-5); where the quadrature
 sees no wrong point, p_j is the linearized value capped at that resolution.
@@ -101,6 +103,7 @@ def nonlinear_pair_probabilities(
     cov: np.ndarray,
     right: np.ndarray,
     gate: float,
+    reach: tuple[float, float],
 ) -> np.ndarray:
     """(n,) p_j of each pair under the nonlinear model (module docstring), or NaN where no point of
     the quadrature errs (below its resolution).
@@ -120,6 +123,8 @@ def nonlinear_pair_probabilities(
             [m, m, rad, m, ...].
         right: (n,) bool: the measured landmark is a candidate (else a first sighting).
         gate: γ.
+        reach: (scale, margin [m]): the associator's candidates lie within scale × the measured range +
+            margin of the estimated pose (``association.CANDIDATE_SCALE``, ``CANDIDATE_MARGIN_M``).
     """
     xi = _normal_points()
     n = len(point_i)
@@ -147,10 +152,13 @@ def nonlinear_pair_probabilities(
             block = xi[:, done : 2**m]
             d = _combine(a, block[:7])  # (5, N): dθ, w_i, w_j
             zs = z[p][:, None] + block[7:9] * noise_sd[p][:, None]
-            nis_j = _nis(zs, (point_j[p] - pose[:2])[:, None] + d[3:5], pose[2] + d[0], s_inv_j)
-            wrong = nis_j <= gate
+            # a landmark is a candidate inside the gate and within the reach of the measured range
+            reach_m = reach[0] * zs[1] + reach[1]
+            nis_j, dist_j = _nis(zs, (point_j[p] - pose[:2])[:, None] + d[3:5], pose[2] + d[0], s_inv_j)
+            wrong = (nis_j <= gate) & (dist_j <= reach_m)
             if right[p]:
-                wrong &= nis_j < _nis(zs, (point_i[p] - pose[:2])[:, None] + d[1:3], pose[2] + d[0], s_inv_i)
+                nis_i, dist_i = _nis(zs, (point_i[p] - pose[:2])[:, None] + d[1:3], pose[2] + d[0], s_inv_i)
+                wrong &= (nis_j < nis_i) | (nis_i > gate) | (dist_i > reach_m)
             hits, done = hits + int(np.count_nonzero(wrong)), 2**m
             if hits >= _ENOUGH or (hits == 0 and m >= _STAGES[1]):
                 break
@@ -172,13 +180,14 @@ def _combine(a: np.ndarray, xi: np.ndarray) -> np.ndarray:
     return out
 
 
-def _nis(zs: np.ndarray, rel: np.ndarray, heading: np.ndarray, s_inv: np.ndarray) -> np.ndarray:
+def _nis(zs: np.ndarray, rel: np.ndarray, heading: np.ndarray, s_inv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(N,) νᵀ S⁻¹ ν of the measurements ``zs`` (2, N) against a landmark at the estimated relative
     position ``rel`` (2, N) [m] (world frame) from a pose of estimated ``heading`` (N,) [rad]:
-    ν = z − (atan2(rel) − heading, |rel|), the bearing wrapped; ``s_inv`` (2, 2)."""
+    ν = z − (atan2(rel) − heading, |rel|), the bearing wrapped; ``s_inv`` (2, 2); and |rel| (N,) [m]."""
+    dist = np.hypot(rel[0], rel[1])
     nu_b = (zs[0] - np.arctan2(rel[1], rel[0]) + heading + np.pi) % (2.0 * np.pi) - np.pi
-    nu_r = zs[1] - np.hypot(rel[0], rel[1])
-    return s_inv[0, 0] * nu_b**2 + 2.0 * s_inv[0, 1] * nu_b * nu_r + s_inv[1, 1] * nu_r**2
+    nu_r = zs[1] - dist
+    return s_inv[0, 0] * nu_b**2 + 2.0 * s_inv[0, 1] * nu_b * nu_r + s_inv[1, 1] * nu_r**2, dist
 
 
 def nonlinear_estimate(
@@ -191,6 +200,7 @@ def nonlinear_estimate(
     pairs: tuple[np.ndarray, np.ndarray, np.ndarray],
     right: np.ndarray,
     gate: float,
+    reach: tuple[float, float],
 ) -> np.ndarray:
     """(n,) the pairs' estimates ``p`` (n,) with the bent ones (``bent`` (n,) bool) replaced by the
     quadrature's where it resolves them (module docstring). ``pairs``: (measurement, measured
@@ -206,7 +216,7 @@ def nonlinear_estimate(
     joint = np.stack([joint_covariance(cov, prior_var, _slot(state, a), _slot(state, b)) for a, b in zip(li, cj)])
     z = np.column_stack([meas.bearing_rad[mi], meas.range_m[mi]])
     sd = np.column_stack([meas.sigma_bearing_rad[mi], meas.sigma_range_m[mi]])
-    q = nonlinear_pair_probabilities(pose, points[li], points[cj], z, sd, joint, right[at], gate)
+    q = nonlinear_pair_probabilities(pose, points[li], points[cj], z, sd, joint, right[at], gate, reach)
     out = p.copy()
     # no point errs: the probability is below the quadrature's resolution, whatever the linearization says
     out[at] = np.where(np.isnan(q), np.minimum(p[at], 2.0**-SOBOL_LOG2), q)
