@@ -6,7 +6,9 @@ risks were computed alone, during the forward pass (the formulas are that module
 shares the filter's types and the range-bearing Jacobians with sensorsel, nothing of the batch:
 no snapshot, no joined arrays, every pair's moments read from the keyframe's whole covariance.
 The range term of each candidate (``_RangeSeparation``, a formula on a pair's own numbers, tested
-on its own in ``test_association_range_bound.py``) is the engine's.
+on its own in ``test_association_range_bound.py``) and the nonlinear quadrature of bent pairs
+(``nonlinear.py``, tested against Monte Carlo in ``test_association_linearization.py``) are the
+engine's; the joint covariance the quadrature reads is the oracle's assembly.
 """
 
 from __future__ import annotations
@@ -15,11 +17,13 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from association_oracle import joint_covariance as oracle_joint
 from scipy.spatial import cKDTree
 from scipy.special import chndtr, ndtr
 
 from sensorsel.information.filtering import KeyframeMeasurements, Prediction
 from sensorsel.information.integrity.association import _RangeSeparation  # the range term, as the engine's
+from sensorsel.information.integrity.nonlinear import bent_pairs, nonlinear_estimate  # as the engine's
 from sensorsel.information.linearize import bearing_range_jacobians
 from sensorsel.model.problem import Problem
 
@@ -334,6 +338,29 @@ def measurement_risks(
     p = f_gate.copy()
     if right.any():
         p[right] = np.minimum(_p_nearer(pair if right.all() else pair.select(right)), f_gate[right])
+    # where the linearization fails: the engine's nonlinear quadrature, on the joint covariance the
+    # independent oracle assembles from the prediction (not the batch's)
+    rho2_i = np.where(right, _remainder(pair.sigma_i, pair.range_i, _inverse_2x2(pair.s_i), _K_GRID[1:2])[:, 0], 0.0)
+    bent = bent_pairs(rho2_i, _remainder(sigma_j[close], range_j[close], s_inv[close], _K_GRID[1:2])[:, 0], lam)
+    if bent.any():
+        at = np.flatnonzero(bent)
+        cov = np.asarray(prediction.covariance, float)
+        joint = np.stack(
+            [oracle_joint(state, cov, float(prediction.prior_sigma_m), [int(li[a]), int(cj[a])]) for a in at]
+        )
+        p = nonlinear_estimate(
+            p,
+            bent,
+            np.broadcast_to(np.asarray(pose, float), (len(at), 3)),
+            points[li[at]],
+            points[cj[at]],
+            np.column_stack([meas.bearing_rad[mi[at]], meas.range_m[mi[at]]]),
+            np.column_stack([meas.sigma_bearing_rad[mi[at]], meas.sigma_range_m[mi[at]]]),
+            joint,
+            right[at],
+            gate,
+            (CANDIDATE_SCALE, CANDIDATE_MARGIN_M),
+        )
     # bincount sums each measurement's terms in order from 0, as np.add.at into zeros did
     logq = np.bincount(mi, weights=np.log1p(-np.clip(p, 0.0, 1.0 - 1e-16)), minlength=m)
     est = np.maximum(-np.expm1(logq), 0.0)

@@ -89,6 +89,9 @@ does for near landmarks), NIS_j < NIS_i ⇔ Dᵀ S̄⁻¹ ν_i < −½ Dᵀ S̄�
 
 averaged over D ~ N(d, C_D) by a fixed 10 × 10 Gauss–Hermite rule. Two landmarks at one point give
 ½, two far apart Φ(−½ ‖d‖_S̄) (the classic two-hypothesis error). First sightings: p_j = F(γ; λ_j).
+Where a pair's remainder is not small against its separation (ρ(2) of either landmark above a share
+of √λ_j: SLAM's fresh landmarks), p_j is instead a quadrature of the nonlinear model
+(:mod:`~sensorsel.information.integrity.nonlinear`).
 """
 
 from __future__ import annotations
@@ -109,10 +112,12 @@ from sensorsel.information.integrity.moments import (
     Snapshot,
     candidate_moments,
     innovation_means,
+    inverse_2x2,
     noise_inverse,
     p_nearer,
     pair_moments,
 )
+from sensorsel.information.integrity.nonlinear import bent_pairs, nonlinear_estimate
 from sensorsel.model.problem import Problem
 
 __all__ = [
@@ -505,12 +510,17 @@ def _risks(
         np.abs(d[keep][close, 1]), s_j[close, 1, 1], b.meas["sigma_range_m"][mi], np.hypot(*sigma_j[close].T)
     )
     pair = pair_moments(b, points, mi, cj, slot_j, jac_u[back[close]], e_u[back[close]])
+    # which pairs the linearization fails (the estimate then integrates the nonlinear model)
+    right = has_right[mi]
+    rho2_i = np.where(right, _remainder(pair.sigma_i, pair.range_i, inverse_2x2(pair.s_i), _K_GRID[1:2])[:, 0], 0.0)
+    bent = bent_pairs(rho2_i, _remainder(sigma_j[close], range_j[close], s_inv[close], _K_GRID[1:2])[:, 0], pair.lam)
     return _bounds(
         pair,
         mi,
         b.at[mi],
         rho_j,
         by_range,
+        _Bent(bent, b, points, cj),
         has_right,
         gate=gate,
         linear=linear,
@@ -524,6 +534,7 @@ def _bounds(
     at: np.ndarray,
     rho_j: np.ndarray,
     by_range: _RangeSeparation,
+    bent: _Bent,
     has_right: np.ndarray,
     *,
     gate: float,
@@ -575,6 +586,7 @@ def _bounds(
     p = f_gate.copy()
     if right.any():
         p[right] = np.minimum(p_nearer(pair if right.all() else pair.select(right), at[right]), f_gate[right])
+    p = bent.estimate(p, pair, mi, right, gate)
     # bincount sums each measurement's terms in order from 0, as np.add.at into zeros did
     logq = np.bincount(mi, weights=np.log1p(-np.clip(p, 0.0, 1.0 - 1e-16)), minlength=m)
     est = np.maximum(-np.expm1(logq), 0.0)
@@ -611,3 +623,36 @@ class _RangeSeparation:
         z = np.maximum(room, 0.0) / np.where(scale > 0, scale, 1.0)  # s/σ_r = t/σ_w = D/(σ_r + σ_w)
         out = 2.0 * ndtr(-z) + np.exp(-0.5 * z**2)
         return np.where(room > 0, np.minimum(out, 1.0), 1.0)
+
+
+@dataclass(frozen=True, eq=False)
+class _Bent:
+    """The pairs (``mask`` (n,) bool) whose estimate is the nonlinear model's, and what it reads of
+    the batch: the truth of each pair's keyframe, the landmarks, the candidates ``cj`` (n,)."""
+
+    mask: np.ndarray
+    batch: Batch
+    points: np.ndarray
+    cj: np.ndarray
+
+    def estimate(self, p: np.ndarray, pair: Pairs, mi: np.ndarray, right: np.ndarray, gate: float) -> np.ndarray:
+        """(n,) ``p`` with the bent pairs' replaced by the nonlinear model's (:mod:`.nonlinear`)."""
+        if not self.mask.any():
+            return p
+        b, sel = self.batch, self.mask
+        mb = mi[sel]
+        z = np.column_stack([b.meas["bearing_rad"][mb], b.meas["range_m"][mb]])
+        sd = np.column_stack([b.meas["sigma_bearing_rad"][mb], b.meas["sigma_range_m"][mb]])
+        return nonlinear_estimate(
+            p,
+            sel,
+            b.poses[b.at[mb]],
+            self.points[b.meas["landmark"][mb]],
+            self.points[self.cj[sel]],
+            z,
+            sd,
+            pair.joint[sel],
+            right[sel],
+            gate,
+            (CANDIDATE_SCALE, CANDIDATE_MARGIN_M),
+        )

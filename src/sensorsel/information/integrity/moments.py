@@ -266,9 +266,14 @@ class Pairs:
     lam: np.ndarray
     sigma_i: np.ndarray
     range_i: np.ndarray
+    #: (n, 7, 7) the covariance of (pose error, l_i's error, l_j's error), two landmarks out of the
+    #: state independent (what the nonlinear estimate integrates over: nonlinear.py)
+    joint: np.ndarray
 
     def select(self, mask: np.ndarray) -> Pairs:
-        return Pairs(*(getattr(self, f)[mask] for f in ("d", "s_i", "s_j", "c_d", "c_id", "lam", "sigma_i", "range_i")))
+        return Pairs(
+            *(getattr(self, f)[mask] for f in ("d", "s_i", "s_j", "c_d", "c_id", "lam", "sigma_i", "range_i", "joint"))
+        )
 
 
 def pair_moments(
@@ -311,7 +316,13 @@ def pair_moments(
     d = innovation_means(b, points, mi, cj, at)
     lam = np.einsum("ni,ni->n", d, np.linalg.solve(s_j, d[:, :, None])[:, :, 0])
     sigma_i, range_i = line_of_sight_spread(poses, points[li], e, 3)
-    return Pairs(d=d, s_i=s_i, s_j=s_j, c_d=c_d, c_id=c_id, lam=lam, sigma_i=sigma_i, range_i=range_i)
+    # the joint the nonlinear estimate reads: two distinct landmarks out of the state are independent
+    # (the linear moments above keep cross_block's σ_p² I for them, as published)
+    out = (slot_i < 0) & (slot_j < 0)
+    if out.any():
+        e[out, 3:5, 5:7] = 0.0
+        e[out, 5:7, 3:5] = 0.0
+    return Pairs(d=d, s_i=s_i, s_j=s_j, c_d=c_d, c_id=c_id, lam=lam, sigma_i=sigma_i, range_i=range_i, joint=e)
 
 
 def candidate_moments(
@@ -347,13 +358,13 @@ def candidate_moments(
     s_j = (jac @ e @ np.transpose(jac, (0, 2, 1)))[back]
     s_j[:, 0, 0] += b.meas["sigma_bearing_rad"][mi] ** 2
     s_j[:, 1, 1] += b.meas["sigma_range_m"][mi] ** 2
-    inv = _inverse_2x2(s_j)
+    inv = inverse_2x2(s_j)
     lam = np.einsum("ni,nij,nj->n", d, inv, d)
     sigma, rng = line_of_sight_spread(b.poses[at], points[uniq], e, 3)
     return s_j, lam, sigma[back], rng[back], inv, jac, e, back
 
 
-def _inverse_2x2(a: np.ndarray) -> np.ndarray:
+def inverse_2x2(a: np.ndarray) -> np.ndarray:
     """(n, 2, 2) inverses of symmetric positive definite (n, 2, 2) matrices, in closed form."""
     det = a[:, 0, 0] * a[:, 1, 1] - a[:, 0, 1] * a[:, 1, 0]
     out = np.empty_like(a)
