@@ -53,11 +53,6 @@ ALLOWED: dict[tuple[str, str], tuple[int, str]] = {
         "a recipe rebuilds the type it was given (a worker gets a Problem back for a Problem); its pickled "
         "form is what workers receive",
     ),
-    ("designs/requirements/checks.py", "_short_answer"): (
-        1,
-        "whether a route's engine holds its problem in this process (a cluster's actor does not): not a "
-        "route-or-domain branch",
-    ),
 }
 
 

@@ -59,7 +59,7 @@ def test_the_growth_of_a_failing_set_is_answered_as_the_exact_pass_answers(subur
     lib = suburb_problem.library
     spec = preset("local-streets")
     grown = tuple(sorted(lib.position(i) for i in GROWN))
-    oracle = _Oracle([FastEvaluator(suburb_problem)], ["suburb"], [spec], 0.05, "filter")
+    oracle = _Oracle([FastEvaluator(suburb_problem)], ["suburb"], [spec], 0.05, "filter", problems=[suburb_problem])
 
     def exact(suite: tuple[int, ...]) -> bool:
         return covariance_verdict(forward_pass(suburb_problem, suite, map_sigma_m=0.05).filtered, spec)[0]

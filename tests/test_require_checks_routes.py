@@ -19,11 +19,15 @@ CHAIN = ("HD2K-3", "WSC-6", "LRR-12", "HD2K-9", "WSC-12", "MRR-12", "HD2K-6", "L
 def test_routes_met_by_a_subset_answer_as_if_computed(tiny_problem, suburb_problem, estimate):
     spec = Specification(lateral=0.05, heading=0.2)  # met on one route before the other
     problems = (tiny_problem, suburb_problem)
-    shared = _Oracle([FastEvaluator(p) for p in problems], ["tiny", "suburb"], [spec, spec], 0.05, estimate)
+    shared = _Oracle(
+        [FastEvaluator(p) for p in problems], ["tiny", "suburb"], [spec, spec], 0.05, estimate, problems=problems
+    )
 
     def afresh(suite: tuple[int, ...]) -> tuple[bool, float]:
         # a new oracle knows nothing: it computes every route (the answer before the skip)
-        o = _Oracle([FastEvaluator(p) for p in problems], ["tiny", "suburb"], [spec, spec], 0.05, estimate)
+        o = _Oracle(
+            [FastEvaluator(p) for p in problems], ["tiny", "suburb"], [spec, spec], 0.05, estimate, problems=problems
+        )
         return o.meets(suite), o.violation(suite)
 
     positions = [LIB.position(i) for i in CHAIN]

@@ -197,7 +197,7 @@ def test_a_domain_asks_the_route_that_failed_last_first(tiny_problem, suburb_pro
 
     spec = Specification(lateral=0.2, heading=0.5)
     evs = [FastEvaluator(tiny_problem), FastEvaluator(suburb_problem)]
-    oracle = _Oracle(evs, ["tiny", "suburb"], [spec, spec], 0.05, "filter")
+    oracle = _Oracle(evs, ["tiny", "suburb"], [spec, spec], 0.05, "filter", problems=[tiny_problem, suburb_problem])
     suites = [
         (LIB.position("LRL-roof"),),
         (LIB.position("HD2K-3"),),

@@ -117,6 +117,8 @@ class _Oracle:
         specs: Sequence[Specification],
         map_sigma_m: float | None,
         estimate: str = "filter",
+        *,
+        problems: Sequence[Problem],
     ) -> None:
         self.evaluators, self.names, self.specs, self.map_sigma_m = (
             list(evaluators),
@@ -124,6 +126,10 @@ class _Oracle:
             list(specs),
             map_sigma_m,
         )
+        #: each route's problem, in this process whatever engine answers its checks (a cluster's
+        #: worker or here): the passes stopped early and the upper bounds run here, so a run asks and
+        #: counts the same checks on any executor
+        self.problems = list(problems)
         self._answers: dict[tuple[int, Suite], tuple[bool, float]] = {}
         self._reports: dict[tuple[int, Suite], tuple[RouteAccuracy, RouteVerdict]] = {}
         self.estimate = estimate
@@ -161,6 +167,11 @@ class _Oracle:
         """(route, suite) answers proved met by an upper bound (:mod:`.accept`), without their pass."""
         return sum(b.n_accepted for b in self._bases)
 
+    @property
+    def n_base_passes(self) -> int:
+        """Of ``n_checks``, the failing suites' passes the upper bounds restart from (no suite is asked by them)."""
+        return sum(b.n_passes for b in self._bases)
+
     def answers(self) -> tuple[tuple[int, Suite, bool, float | None], ...]:
         """Every answer so far, (route, suite, meets, violation or None), in a fixed order."""
         out: dict[tuple[int, Suite], tuple[bool, float | None]] = dict(self.known)
@@ -192,12 +203,10 @@ class _Oracle:
     def _short_answer(self, r: int, suite: Suite) -> bool | None:
         """Whether ``suite`` meets route ``r``'s specification, by a filter pass that stops after the
         last bad keyframe of a suite inside it seen to fail (:mod:`.truncated`); None where none is
-        known, or the route's engine holds no problem here (a route on a cluster's worker)."""
+        known."""
         if self.estimate != "filter":
             return None
-        problem = getattr(self.evaluators[r], "problem", None)
-        if not isinstance(problem, Problem):
-            return None
+        problem = self.problems[r]
         mask = mask_of(suite)
         hit = self._bad[r].shortest(mask)
         if hit is None:
@@ -321,8 +330,8 @@ class _Oracle:
         ``r``'s specification (:mod:`.accept`; with the filter's estimate, on a route whose problem
         is here); then recorded as met (violation 0: the same answer its pass gives). ``quick``:
         only the first bound of a base already kept."""
-        problem = getattr(self.evaluators[r], "problem", None)
-        if not self.accept or self.estimate != "filter" or not isinstance(problem, Problem):
+        problem = self.problems[r]
+        if not self.accept or self.estimate != "filter":
             return False
         mask = mask_of(suite)
         failed = (

@@ -112,6 +112,9 @@ class RequireResult:
         n_accepted: (route, suite) answers proved met by an upper bound restarted from a failing
             suite inside it (:mod:`.accept`), without the suite's own pass (not in ``n_checks``;
             the failing suites' passes the bounds restart from are).
+        n_base_passes: of ``n_checks``, those passes of failing suites the bounds restart from
+            (computations that answer no suite asked: the suites the search asked are
+            ``n_checks − n_base_passes + n_refuted + n_accepted``).
     """
 
     status: str
@@ -149,6 +152,7 @@ class RequireResult:
     n_swap_inferred: int = 0
     n_short: int = 0
     n_accepted: int = 0
+    n_base_passes: int = 0
 
     @property
     def gap_usd(self) -> float:
@@ -326,7 +330,9 @@ def require(
         evaluators = [remote[i] for i in keep_idx]
     else:
         evaluators = [make_evaluator(p, engine, jobs=jobs) for _, p in problems]
-    oracle = _Oracle(evaluators, [n for n, _ in problems], specs, map_sigma_m, estimate)
+    oracle = _Oracle(
+        evaluators, [n for n, _ in problems], specs, map_sigma_m, estimate, problems=[p for _, p in problems]
+    )
     integ: IntegrityRequirement | None = None
     alone: frozenset[int] = frozenset()
     if integrity is not None:
@@ -450,6 +456,7 @@ def require(
         n_swap_inferred=found.swap_inferred,
         n_short=oracle.n_short,
         n_accepted=oracle.n_accepted,
+        n_base_passes=oracle.n_base_passes,
     )
 
 
