@@ -269,13 +269,20 @@ class AssociationModel:
         return Snapshot.of(prediction, meas)
 
     def risks_of(
-        self, snapshots: Sequence[Snapshot], *, linear: bool = False, robust_to_covariance: bool = False
+        self,
+        snapshots: Sequence[Snapshot],
+        *,
+        linear: bool = False,
+        robust_to_covariance: bool = False,
+        nonlinear: bool = True,
     ) -> MeasurementRisk:
         """The estimate and bound of P(wrong association) of every measurement of the ``snapshots``'
         keyframes (any number), computed together: arrays joined in the order of the snapshots, each
         measurement's numbers those of its keyframe alone (:meth:`risks`). Keyframes
         go through in consecutive groups of at most :data:`PAIRS_PER_BATCH` (measurement, candidate)
-        pairs (a whole library's measurements at once would hold gigabytes)."""
+        pairs (a whole library's measurements at once would hold gigabytes). ``nonlinear``: the
+        estimate follows the nonlinear model where the linearization fails (:mod:`.nonlinear`); False
+        keeps the linearized estimate (for callers that read the bounds only: it is the costly part)."""
         b = self._batch(snapshots)
         reach = _reach(b, self.gate, self.model)  # once: candidates and pairs
         near, near_at = self._candidates(b, reach)
@@ -290,6 +297,7 @@ class AssociationModel:
                 model=self.model,
                 linear=linear,
                 robust_to_covariance=robust_to_covariance,
+                nonlinear=nonlinear,
                 reach_m=reach,
             )
 
@@ -330,7 +338,7 @@ class Pending:
 
     Args:
         model: the association model.
-        options: :meth:`AssociationModel.risks_of`'s (``linear``, ``robust_to_covariance``).
+        options: :meth:`AssociationModel.risks_of`'s (``linear``, ``robust_to_covariance``, ``nonlinear``).
     """
 
     def __init__(self, model: AssociationModel, **options: bool) -> None:
@@ -438,6 +446,7 @@ def _risks(
     model: str,
     linear: bool,
     robust_to_covariance: bool,
+    nonlinear: bool = True,
     reach_m: np.ndarray,
 ) -> MeasurementRisk:
     """:func:`measurement_risks` of every measurement of the batch, against the candidates ``near``
@@ -520,7 +529,7 @@ def _risks(
         b.at[mi],
         rho_j,
         by_range,
-        _Bent(bent, b, points, cj),
+        _Bent(bent & nonlinear, b, points, cj),
         has_right,
         gate=gate,
         linear=linear,
