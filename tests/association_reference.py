@@ -156,10 +156,10 @@ class AssociationModel:
         *,
         linear: bool = False,
         robust_to_covariance: bool = False,
-        nonlinear: bool = True,
+        estimate: bool = True,
     ) -> MeasurementRisk:
         """The estimate and bound of P(wrong association) of each of ``meas`` at ``prediction``
-        (``linear``, ``robust_to_covariance``, ``nonlinear``: :func:`measurement_risks`)."""
+        (``linear``, ``robust_to_covariance``, ``estimate``: :func:`measurement_risks`)."""
         reach = candidate_reach(prediction, meas, self.gate, model=self.model)  # once: candidates and pairs
         return measurement_risks(
             self._poses[meas.keyframe],
@@ -171,7 +171,7 @@ class AssociationModel:
             model=self.model,
             linear=linear,
             robust_to_covariance=robust_to_covariance,
-            nonlinear=nonlinear,
+            estimate=estimate,
             reach_m=reach,
         )
 
@@ -220,7 +220,7 @@ def measurement_risks(
     model: str,
     linear: bool = False,
     robust_to_covariance: bool = False,
-    nonlinear: bool = True,
+    estimate: bool = True,
     reach_m: np.ndarray | None = None,
 ) -> MeasurementRisk:
     """The estimate and bound of P(wrong association) of each measurement of ``meas``, made from
@@ -336,6 +336,8 @@ def measurement_risks(
         sums = np.zeros((m, len(ts)))
         np.add.at(sums, mi, f_t)
         lin = np.where(has_right, np.minimum(lin, np.min(np.exp(-ts / 2.0)[None, :] + sums, axis=1)), lin)
+    if not estimate:  # the caller reads the bounds only
+        return MeasurementRisk(np.zeros(m), np.minimum(bnd, 1.0), ncand, np.minimum(lin, 1.0))
     # the estimate: pairwise nearest-neighbour probability, capped by the gate's
     right = has_right[mi]
     p = f_gate.copy()
@@ -345,7 +347,7 @@ def measurement_risks(
     # independent oracle assembles from the prediction (not the batch's)
     rho2_i = np.where(right, _remainder(pair.sigma_i, pair.range_i, _inverse_2x2(pair.s_i), _K_GRID[1:2])[:, 0], 0.0)
     bent = bent_pairs(rho2_i, _remainder(sigma_j[close], range_j[close], s_inv[close], _K_GRID[1:2])[:, 0], lam)
-    if nonlinear and bent.any():
+    if bent.any():
         at = np.flatnonzero(bent)
         cov = np.asarray(prediction.covariance, float)
         joint = np.stack(

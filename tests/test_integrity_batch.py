@@ -109,12 +109,12 @@ def test_association_floor_equals_the_per_keyframe_one(suburb_problem, threshold
     old = ref.AssociationModel(problem, model="map", gate_probability=spec.gate_probability)
     priors = []
     forward_pass(problem, (), map_sigma_m=0.05, on_prediction=lambda p, m: priors.append(p))
-    # the floor reads bounds only: neither side integrates the nonlinear estimate
-    preds, metas, risks = _per_keyframe(problem, allowed, 0.05, linear=True, nonlinear=False)
+    # the floor reads bounds only: neither side computes the estimate
+    preds, metas, risks = _per_keyframe(problem, allowed, 0.05, linear=True, estimate=False)
     for p, m, r in zip(preds, metas, risks):
         b = r.linear
         if threshold is not None:
-            upper = old.risks(priors[p.keyframe], m, robust_to_covariance=True, nonlinear=False).bound
+            upper = old.risks(priors[p.keyframe], m, robust_to_covariance=True, estimate=False).bound
             b = np.where(upper <= threshold, b, 0.0)
         np.add.at(floor[:, p.keyframe], m.sensor, b)
     got = IntegrityBounds(problem, allowed, spec, map_sigma_m=0.05).floor

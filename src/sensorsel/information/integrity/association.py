@@ -274,15 +274,15 @@ class AssociationModel:
         *,
         linear: bool = False,
         robust_to_covariance: bool = False,
-        nonlinear: bool = True,
+        estimate: bool = True,
     ) -> MeasurementRisk:
         """The estimate and bound of P(wrong association) of every measurement of the ``snapshots``'
         keyframes (any number), computed together: arrays joined in the order of the snapshots, each
         measurement's numbers those of its keyframe alone (:meth:`risks`). Keyframes
         go through in consecutive groups of at most :data:`PAIRS_PER_BATCH` (measurement, candidate)
-        pairs (a whole library's measurements at once would hold gigabytes). ``nonlinear``: the
-        estimate follows the nonlinear model where the linearization fails (:mod:`.nonlinear`); False
-        keeps the linearized estimate (for callers that read the bounds only: it is the costly part)."""
+        pairs (a whole library's measurements at once would hold gigabytes). ``estimate``: False
+        for callers that read the bounds only: no estimate is computed (zeros; its pairwise terms and
+        the nonlinear quadrature are most of the cost)."""
         b = self._batch(snapshots)
         reach = _reach(b, self.gate, self.model)  # once: candidates and pairs
         near, near_at = self._candidates(b, reach)
@@ -297,7 +297,7 @@ class AssociationModel:
                 model=self.model,
                 linear=linear,
                 robust_to_covariance=robust_to_covariance,
-                nonlinear=nonlinear,
+                estimate=estimate,
                 reach_m=reach,
             )
 
@@ -338,7 +338,7 @@ class Pending:
 
     Args:
         model: the association model.
-        options: :meth:`AssociationModel.risks_of`'s (``linear``, ``robust_to_covariance``, ``nonlinear``).
+        options: :meth:`AssociationModel.risks_of`'s (``linear``, ``robust_to_covariance``, ``estimate``).
     """
 
     def __init__(self, model: AssociationModel, **options: bool) -> None:
@@ -446,7 +446,7 @@ def _risks(
     model: str,
     linear: bool,
     robust_to_covariance: bool,
-    nonlinear: bool = True,
+    estimate: bool = True,
     reach_m: np.ndarray,
 ) -> MeasurementRisk:
     """:func:`measurement_risks` of every measurement of the batch, against the candidates ``near``
@@ -529,11 +529,12 @@ def _risks(
         b.at[mi],
         rho_j,
         by_range,
-        _Bent(bent & nonlinear, b, points, cj),
+        _Bent(bent, b, points, cj),
         has_right,
         gate=gate,
         linear=linear,
         robust_to_covariance=robust_to_covariance,
+        estimate=estimate,
     )
 
 
@@ -549,6 +550,7 @@ def _bounds(
     gate: float,
     linear: bool,
     robust_to_covariance: bool,
+    estimate: bool = True,
 ) -> MeasurementRisk:
     """The bound, its linearized form and the estimate of each of the m measurements
     (``has_right`` (m,)) from its pairs' moments (``mi``, ``at`` (n,) the pairs' measurements and
@@ -591,6 +593,8 @@ def _bounds(
         np.add.at(sums, mi, f_t)
         lin = np.where(has_right, np.minimum(lin, np.min(np.exp(-ts / 2.0)[None, :] + sums, axis=1)), lin)
     # the estimate: pairwise nearest-neighbour probability, capped by the gate's
+    if not estimate:  # the caller reads the bounds only
+        return MeasurementRisk(np.zeros(m), np.minimum(bnd, 1.0), ncand, np.minimum(lin, 1.0))
     right = has_right[mi]
     p = f_gate.copy()
     if right.any():

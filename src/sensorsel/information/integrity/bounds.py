@@ -76,7 +76,7 @@ class IntegrityBounds:
         """Every keyframe's linear bounds at the allowed library's prediction, computed at once after
         one forward pass that keeps what they need (:meth:`AssociationModel.snapshot`)."""
         assoc = AssociationModel(self.problem, model="map", gate_probability=self.spec.gate_probability)
-        pending = Pending(assoc, linear=True, nonlinear=False)  # the floor reads bounds only
+        pending = Pending(assoc, linear=True, estimate=False)  # the floor reads bounds only
 
         def keep(pred: Prediction, meas: KeyframeMeasurements) -> np.ndarray:
             pending.add(pred, meas)
@@ -90,7 +90,7 @@ class IntegrityBounds:
         threshold = self.spec.max_association_risk
         if threshold is not None:
             prior = Pending(
-                assoc, robust_to_covariance=True, nonlinear=False
+                assoc, robust_to_covariance=True, estimate=False
             )  # the empty suite's: priors and odometry only
             by_keyframe = {m.keyframe: m for m in metas}
             forward_pass(
