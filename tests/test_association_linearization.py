@@ -117,6 +117,26 @@ def _meas() -> KeyframeMeasurements:
     )
 
 
+def _simulated(pose: np.ndarray, points: np.ndarray, meas: KeyframeMeasurements, cov: np.ndarray):
+    """The simulator's associator on ``meas`` (landmark 0 measured, landmarks 0 and 1 candidates and
+    in the state with ``cov``): DRAWS draws, seed 5."""
+    case = KeyframeCase(
+        keyframe=meas.keyframe,
+        pose=pose,
+        sensor=meas.sensor,
+        landmark=meas.landmark,
+        bearing_rad=meas.bearing_rad,
+        range_m=meas.range_m,
+        sigma_bearing_rad=meas.sigma_bearing_rad,
+        sigma_range_m=meas.sigma_range_m,
+        candidates=np.array([0, 1]),
+        points=points,
+        right=np.array([0]),
+        covariance=cov,
+    )
+    return associate_keyframe(case, Task(keyframe=meas.keyframe, draws=DRAWS, seed=5, gate=GATE))
+
+
 def _observed() -> tuple[int, int]:
     return monte_carlo(POSE, POINTS, np.array([0, 1]), COV, 100.0, 0, SIGMAS, [0, 1], GATE, n=DRAWS, seed=7)
 
@@ -125,21 +145,7 @@ def test_the_simulator_sees_what_the_independent_monte_carlo_sees():
     """Both run the stated (nonlinear) associator: both see pole 4 taken for pole 2 about 0.4 % of the time."""
     k, n = _observed()
     meas = _meas()
-    case = KeyframeCase(
-        keyframe=3,
-        pose=POSE,
-        sensor=meas.sensor,
-        landmark=meas.landmark,
-        bearing_rad=meas.bearing_rad,
-        range_m=meas.range_m,
-        sigma_bearing_rad=meas.sigma_bearing_rad,
-        sigma_range_m=meas.sigma_range_m,
-        candidates=np.array([0, 1]),
-        points=POINTS,
-        right=np.array([0]),
-        covariance=COV,
-    )
-    out = associate_keyframe(case, Task(keyframe=3, draws=DRAWS, seed=5, gate=GATE))
+    out = _simulated(POSE, POINTS, meas, COV)
     assert k >= 200 and out.wrong_draws >= 200  # resolved by both: not vacuous
     lo1, hi1 = clopper_pearson(out.wrong_draws, out.draws)
     lo2, hi2 = clopper_pearson(k, n)
@@ -251,21 +257,7 @@ def test_the_nonlinear_estimate_keeps_the_associators_reach():
     )
     pred = Prediction(keyframe=0, landmarks=np.array([0, 1]), covariance=cov, prior_sigma_m=100.0)
     r = measurement_risks(pose, points, pred, meas, np.array([0, 1]), gate=GATE, model="slam")
-    case = KeyframeCase(
-        keyframe=0,
-        pose=pose,
-        sensor=meas.sensor,
-        landmark=meas.landmark,
-        bearing_rad=meas.bearing_rad,
-        range_m=meas.range_m,
-        sigma_bearing_rad=meas.sigma_bearing_rad,
-        sigma_range_m=meas.sigma_range_m,
-        candidates=np.array([0, 1]),
-        points=points,
-        right=np.array([0]),
-        covariance=cov,
-    )
-    out = associate_keyframe(case, Task(keyframe=0, draws=DRAWS, seed=5, gate=GATE))
+    out = _simulated(pose, points, meas, cov)
     observed = out.wrong_draws / out.draws
     k, n = monte_carlo(pose, points, np.array([0, 1]), cov, 100.0, 0, sigmas, [0, 1], GATE, n=DRAWS, seed=7)
     assert out.wrong_draws >= 200 and k / n < observed / 2  # resolved, and the reach matters here

@@ -63,14 +63,20 @@ def test_a_pole_beside_the_car_no_longer_floors_a_far_measurement():
     assert r.bound[0] < 1e-9, r.bound[0]
 
 
+def _joint() -> np.ndarray:
+    """(5, 5) the covariance of (pose error, the map landmark's error): independent."""
+    joint = np.zeros((5, 5))
+    joint[:3, :3] = POSE_COV
+    joint[3:, 3:] = MAP_SIGMA**2 * np.eye(2)
+    return joint
+
+
 def _nis_below(points: np.ndarray, x: float, n: int, seed: int) -> int:
     """Draws (of ``n``) in which the nonlinear NIS of candidate 1 against a measurement of landmark 0
     is ≤ ``x``: pose error from POSE_COV, landmark 1 from the map's σ, the LiDAR's noise."""
     rng = np.random.default_rng(seed)
     h = jacobian(POSE, points[1])
-    joint = np.zeros((5, 5))
-    joint[:3, :3] = POSE_COV
-    joint[3:, 3:] = MAP_SIGMA**2 * np.eye(2)
+    joint = _joint()
     s_inv = np.linalg.inv(np.diag(np.square(LIDAR)) + h @ joint @ h.T)
     e = rng.standard_normal((n, 5)) @ np.linalg.cholesky(joint).T
     z = measure(POSE, points[0]) + rng.standard_normal((n, 2)) * np.asarray(LIDAR)
@@ -89,9 +95,7 @@ def test_the_range_term_is_not_below_the_nonlinear_monte_carlo(far):
     k = _nis_below(points, GATE, n, seed=3)
     lo, _ = clopper_pearson(k, n)
     h = jacobian(POSE, points[1])
-    joint = np.zeros((5, 5))
-    joint[:3, :3] = POSE_COV
-    joint[3:, 3:] = MAP_SIGMA**2 * np.eye(2)
+    joint = _joint()
     s_rr = LIDAR[1] ** 2 + (h @ joint @ h.T)[1, 1]
     # w = e_l − R(θ) e_xy with θ = 0: its covariance is the map's plus the pose position's
     sigma_w = math.sqrt(2 * MAP_SIGMA**2 + 2 * 0.1**2)
