@@ -7,8 +7,9 @@ shares the filter's types and the range-bearing Jacobians with sensorsel, nothin
 no snapshot, no joined arrays, every pair's moments read from the keyframe's whole covariance.
 The range term of each candidate (``_RangeSeparation``, a formula on a pair's own numbers, tested
 on its own in ``test_association_range_bound.py``) and the nonlinear quadrature of bent pairs
-(``nonlinear.py``, tested against Monte Carlo in ``test_association_linearization.py``) are the
-engine's; the joint covariance the quadrature reads is the oracle's assembly.
+(``nonlinear.py``, tested against Monte Carlo in ``test_association_linearization.py``) and its
+stratification where the reach may leave the right landmark out (``test_association_reach_estimate.py``)
+are the engine's; the joint covariance the quadrature reads is the oracle's assembly.
 """
 
 from __future__ import annotations
@@ -22,8 +23,13 @@ from scipy.spatial import cKDTree
 from scipy.special import chndtr, ndtr
 
 from sensorsel.information.filtering import KeyframeMeasurements, Prediction
-from sensorsel.information.integrity.association import _RangeSeparation  # the range term, as the engine's
-from sensorsel.information.integrity.nonlinear import bent_pairs, nonlinear_estimate  # as the engine's
+from sensorsel.information.integrity.association import (  # the range term and the reach's tail, as the engine's
+    REACH_SHARE,
+    _RangeSeparation,
+    out_of_reach,
+    reach_tail,
+)
+from sensorsel.information.integrity.nonlinear import bent_pairs, nonlinear_estimate, reach_tail_estimate
 from sensorsel.information.linearize import bearing_range_jacobians
 from sensorsel.model.problem import Problem
 
@@ -366,6 +372,28 @@ def measurement_risks(
             gate,
             (CANDIDATE_SCALE, CANDIDATE_MARGIN_M),
         )
+    # where the right landmark may fall out of the associator's reach: the engine's stratification
+    # on the range noise, on the oracle's joint covariance
+    far_out = right & ~bent & (out_of_reach(pair.range_i, pair.sigma_i[:, 0], meas.sigma_range_m[mi]) > REACH_SHARE)
+    if far_out.any():
+        at = np.flatnonzero(far_out)
+        cov = np.asarray(prediction.covariance, float)
+        joint = np.stack(
+            [oracle_joint(state, cov, float(prediction.prior_sigma_m), [int(li[a]), int(cj[a])]) for a in at]
+        )
+        p = reach_tail_estimate(
+            p,
+            far_out,
+            reach_tail(pair.range_i[at], pair.sigma_i[at, 0], meas.sigma_range_m[mi[at]]),
+            np.broadcast_to(np.asarray(pose, float), (len(at), 3)),
+            points[li[at]],
+            points[cj[at]],
+            np.column_stack([meas.bearing_rad[mi[at]], meas.range_m[mi[at]]]),
+            np.column_stack([meas.sigma_bearing_rad[mi[at]], meas.sigma_range_m[mi[at]]]),
+            joint,
+            gate,
+            (CANDIDATE_SCALE, CANDIDATE_MARGIN_M),
+        )
     # bincount sums each measurement's terms in order from 0, as np.add.at into zeros did
     logq = np.bincount(mi, weights=np.log1p(-np.clip(p, 0.0, 1.0 - 1e-16)), minlength=m)
     est = np.maximum(-np.expm1(logq), 0.0)
@@ -418,7 +446,9 @@ class _Pairs:
 
 
 def _landmark_blocks(cov: np.ndarray, a: np.ndarray, b: np.ndarray, prior_var: float) -> np.ndarray:
-    """(n, 2, 2) covariance between landmarks at state slots a and b (−1: not in the state)."""
+    """(n, 2, 2) covariance of a landmark at state slot a with itself (b = a), or between two
+    distinct landmarks at slots a and b (−1: not in the state; two distinct landmarks out of the
+    state are independent: each carries its own prior error)."""
     out = np.zeros((len(a), 2, 2))
     both = (a >= 0) & (b >= 0)
     ia = 3 + 2 * a[both][:, None] + np.arange(2)
@@ -464,7 +494,7 @@ def _pair_moments(
     e[:, 3:5, :3], e[:, 5:7, :3] = np.transpose(pi, (0, 2, 1)), e_j[:, 3:, :3]
     e[:, 3:5, 3:5] = _landmark_blocks(cov, slot_i, slot_i, prior_var)
     e[:, 5:7, 5:7] = e_j[:, 3:, 3:]
-    ij = _landmark_blocks(cov, slot_i, slot_j, prior_var)
+    ij = _landmark_blocks(cov, slot_i, slot_j, 0.0)  # i ≠ j: no prior term between them
     e[:, 3:5, 5:7], e[:, 5:7, 3:5] = ij, np.transpose(ij, (0, 2, 1))
     poses = np.broadcast_to(pose, (n, 3))
     jac_i = bearing_range_jacobians(poses, points[li])  # (n, 2, 5)

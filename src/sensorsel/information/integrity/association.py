@@ -117,7 +117,7 @@ from sensorsel.information.integrity.moments import (
     p_nearer,
     pair_moments,
 )
-from sensorsel.information.integrity.nonlinear import bent_pairs, nonlinear_estimate
+from sensorsel.information.integrity.nonlinear import bent_pairs, nonlinear_estimate, reach_tail_estimate
 from sensorsel.model.problem import Problem
 
 __all__ = [
@@ -138,6 +138,11 @@ CANDIDATE_SCALE = 1.25
 CANDIDATE_MARGIN_M = 5.0
 #: pairs whose λ exceeds (√γ + FAR_SIGMAS)² are dropped (their F(γ; λ) < 1e-14)
 FAR_SIGMAS = 8.0
+#: a pair's estimate is the quadrature's (which keeps the reach) where the measured landmark is out of
+#: the associator's reach with at least this probability (:func:`out_of_reach`)
+REACH_SHARE = 1e-6
+#: the tail of the range noise that holds the reach's misses: the line of sight's error up to this many σ
+REACH_SIGMAS = 4.0
 #: at most this many (measurement, candidate) pairs are computed together (memory: ~1 kB each at most)
 PAIRS_PER_BATCH = 400_000
 #: snapshots a :class:`Pending` keeps before computing their risks [bytes]
@@ -523,19 +528,44 @@ def _risks(
     right = has_right[mi]
     rho2_i = np.where(right, _remainder(pair.sigma_i, pair.range_i, inverse_2x2(pair.s_i), _K_GRID[1:2])[:, 0], 0.0)
     bent = bent_pairs(rho2_i, _remainder(sigma_j[close], range_j[close], s_inv[close], _K_GRID[1:2])[:, 0], pair.lam)
+    # the right landmark out of the associator's reach (a stereo camera's range noise shortens the
+    # measured range): the linearized estimate has no reach, the quadrature has
+    # where the right landmark may fall out of the associator's reach (a stereo camera's range noise
+    # shortens the measured range), the linearized estimate, which has no reach, is stratified on the
+    # range noise (nonlinear.reach_tail_estimate); the bent pairs' quadrature keeps the reach already
+    sigma_r = b.meas["sigma_range_m"][mi]
+    far_out = right & ~bent & (out_of_reach(pair.range_i, pair.sigma_i[:, 0], sigma_r) > REACH_SHARE)
+    tail = reach_tail(pair.range_i[far_out], pair.sigma_i[far_out, 0], sigma_r[far_out])
     return _bounds(
         pair,
         mi,
         b.at[mi],
         rho_j,
         by_range,
-        _Bent(bent, b, points, cj),
+        _Bent(bent, b, points, cj, far_out, tail),
         has_right,
         gate=gate,
         linear=linear,
         robust_to_covariance=robust_to_covariance,
         estimate=estimate,
     )
+
+
+def out_of_reach(range_m: np.ndarray, sigma_along_m: np.ndarray, sigma_range_m: np.ndarray) -> np.ndarray:
+    """(n,) the probability, to first order, that the associator's reach leaves the measured landmark
+    out: its estimated distance r + w_a (w_a its error along the line of sight, std
+    ``sigma_along_m``) exceeds CANDIDATE_SCALE (r + v_r) + CANDIDATE_MARGIN_M, v_r the range noise
+    (std ``sigma_range_m``), r the true range ``range_m`` [m]. An estimate, not a bound."""
+    room = (CANDIDATE_SCALE - 1.0) * range_m + CANDIDATE_MARGIN_M
+    return ndtr(-room / np.hypot(sigma_along_m, CANDIDATE_SCALE * sigma_range_m))
+
+
+def reach_tail(range_m: np.ndarray, sigma_along_m: np.ndarray, sigma_range_m: np.ndarray) -> np.ndarray:
+    """(n,) the probability of the range noise's lower tail below which the reach may leave the
+    measured landmark out (:func:`out_of_reach`), its error along the line of sight taken up to
+    REACH_SIGMAS σ: v_r < (REACH_SIGMAS σ_a − (CANDIDATE_SCALE − 1) r − CANDIDATE_MARGIN_M) / CANDIDATE_SCALE."""
+    room = (CANDIDATE_SCALE - 1.0) * range_m + CANDIDATE_MARGIN_M
+    return ndtr((REACH_SIGMAS * sigma_along_m - room) / (CANDIDATE_SCALE * np.maximum(sigma_range_m, 1e-300)))
 
 
 def _bounds(
@@ -641,31 +671,34 @@ class _RangeSeparation:
 @dataclass(frozen=True, eq=False)
 class _Bent:
     """The pairs (``mask`` (n,) bool) whose estimate is the nonlinear model's, and what it reads of
-    the batch: the truth of each pair's keyframe, the landmarks, the candidates ``cj`` (n,)."""
+    the batch: the truth of each pair's keyframe, the landmarks, the candidates ``cj`` (n,), and
+    the pairs ``reach_pairs`` (n,) bool whose right landmark may fall out of reach and the
+    probability ``tail`` (r,) of their range noise's tail that holds it (:func:`reach_tail`)."""
 
     mask: np.ndarray
     batch: Batch
     points: np.ndarray
     cj: np.ndarray
+    reach_pairs: np.ndarray
+    tail: np.ndarray
 
     def estimate(self, p: np.ndarray, pair: Pairs, mi: np.ndarray, right: np.ndarray, gate: float) -> np.ndarray:
-        """(n,) ``p`` with the bent pairs' replaced by the nonlinear model's (:mod:`.nonlinear`)."""
-        if not self.mask.any():
-            return p
-        b, sel = self.batch, self.mask
-        mb = mi[sel]
+        """(n,) ``p`` with the bent pairs' replaced by the nonlinear model's and the reach pairs'
+        stratified on their range noise (:mod:`.nonlinear`)."""
+        reach = (CANDIDATE_SCALE, CANDIDATE_MARGIN_M)
+        if self.mask.any():
+            sel = self.mask
+            p = nonlinear_estimate(p, sel, *self._geometry(pair, mi, sel), right[sel], gate, reach)
+        if self.reach_pairs.any():
+            p = reach_tail_estimate(
+                p, self.reach_pairs, self.tail, *self._geometry(pair, mi, self.reach_pairs), gate, reach
+            )
+        return p
+
+    def _geometry(self, pair: Pairs, mi: np.ndarray, sel: np.ndarray) -> tuple[np.ndarray, ...]:
+        """What the quadrature reads of the pairs of ``sel``: the truth, both landmarks, the
+        noise-free measurement, its noise std and the joint covariance."""
+        b, mb = self.batch, mi[sel]
         z = np.column_stack([b.meas["bearing_rad"][mb], b.meas["range_m"][mb]])
         sd = np.column_stack([b.meas["sigma_bearing_rad"][mb], b.meas["sigma_range_m"][mb]])
-        return nonlinear_estimate(
-            p,
-            sel,
-            b.poses[b.at[mb]],
-            self.points[b.meas["landmark"][mb]],
-            self.points[self.cj[sel]],
-            z,
-            sd,
-            pair.joint[sel],
-            right[sel],
-            gate,
-            (CANDIDATE_SCALE, CANDIDATE_MARGIN_M),
-        )
+        return b.poses[b.at[mb]], self.points[b.meas["landmark"][mb]], self.points[self.cj[sel]], z, sd, pair.joint[sel]

@@ -222,8 +222,9 @@ class Batch:
 
     def cross_block(self, at: np.ndarray, row_i: np.ndarray, slot_i: np.ndarray, slot_j: np.ndarray) -> np.ndarray:
         """(n, 2, 2) the covariance between measured landmark i (its ``row_i``, ``slot_i``) and
-        candidate j (``slot_j``) at keyframe ``at``: the state's where both are in it, σ_p² I where
-        neither is (as the per-keyframe computation has always taken it), else 0."""
+        candidate j (``slot_j``, another landmark) at keyframe ``at``: the state's where both are in
+        it, else 0 (a landmark out of the state carries its own prior error, independent of every
+        other landmark's: the map's errors are drawn landmark by landmark)."""
         out = np.zeros((len(slot_i), 2, 2))
         both = (slot_i >= 0) & (slot_j >= 0)
         a = at[both]
@@ -233,7 +234,6 @@ class Batch:
             + _TWO[None, None, :]
         )
         out[both] = self.rows[idx]
-        out[(slot_i < 0) & (slot_i == slot_j)] = self.prior_sigma_m**2 * np.eye(2)
         return out
 
     def spreads(self, *, with_prior: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -266,8 +266,8 @@ class Pairs:
     lam: np.ndarray
     sigma_i: np.ndarray
     range_i: np.ndarray
-    #: (n, 7, 7) the covariance of (pose error, l_i's error, l_j's error), two landmarks out of the
-    #: state independent (what the nonlinear estimate integrates over: nonlinear.py)
+    #: (n, 7, 7) the covariance of (pose error, l_i's error, l_j's error) (what the nonlinear
+    #: estimate integrates over: nonlinear.py)
     joint: np.ndarray
 
     def select(self, mask: np.ndarray) -> Pairs:
@@ -316,12 +316,6 @@ def pair_moments(
     d = innovation_means(b, points, mi, cj, at)
     lam = np.einsum("ni,ni->n", d, np.linalg.solve(s_j, d[:, :, None])[:, :, 0])
     sigma_i, range_i = line_of_sight_spread(poses, points[li], e, 3)
-    # the joint the nonlinear estimate reads: two distinct landmarks out of the state are independent
-    # (the linear moments above keep cross_block's σ_p² I for them, as published)
-    out = (slot_i < 0) & (slot_j < 0)
-    if out.any():
-        e[out, 3:5, 5:7] = 0.0
-        e[out, 5:7, 3:5] = 0.0
     return Pairs(d=d, s_i=s_i, s_j=s_j, c_d=c_d, c_id=c_id, lam=lam, sigma_i=sigma_i, range_i=range_i, joint=e)
 
 

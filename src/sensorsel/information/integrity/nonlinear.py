@@ -29,7 +29,7 @@ import functools
 import math
 
 import numpy as np
-from scipy.special import ndtri
+from scipy.special import ndtr, ndtri
 
 from sensorsel.information.linearize import bearing_range_jacobians
 
@@ -39,6 +39,7 @@ __all__ = [
     "bent_pairs",
     "nonlinear_estimate",
     "nonlinear_pair_probabilities",
+    "reach_tail_estimate",
 ]
 
 #: a pair is bent when ρ(k = 2) of either landmark exceeds this share of √λ_j
@@ -86,9 +87,12 @@ def nonlinear_pair_probabilities(
     right: np.ndarray,
     gate: float,
     reach: tuple[float, float],
+    tail: np.ndarray | None = None,
 ) -> np.ndarray:
     """(n,) p_j of each pair under the nonlinear model (module docstring), or NaN where no point of
-    the quadrature errs (below its resolution).
+    the quadrature errs (below its resolution). With ``tail`` (n,), the probability of each pair
+    given that its range noise lies in its lower tail of that probability (where the reach leaves
+    the measured landmark out): the range noise's points are drawn from that tail alone.
 
     The quadrature runs in stages, on the first 2^m points of the Sobol set for m in
     :data:`_STAGES` (each prefix is itself a balanced set): a pair stops at the first stage where it
@@ -103,6 +107,7 @@ def nonlinear_pair_probabilities(
         noise_sd: (n, 2) its noise std (bearing [rad], range [m]).
         cov: (n, 7, 7) the joint covariance of (pose error in its own frame, l_i's error, l_j's error)
             [m, m, rad, m, ...].
+        tail: (n,) in (0, 1]: condition on the range noise below its ``tail`` quantile (default: none).
         right: (n,) bool: the measured landmark is a candidate (else a first sighting).
         gate: γ.
         reach: (scale, margin [m]): the associator's candidates lie within scale × the measured range +
@@ -135,6 +140,8 @@ def nonlinear_pair_probabilities(
             block = xi[:, done : 2**m]
             d = _combine(a, block[:7])  # (5, N): dθ, w_i, w_j
             zs = z[p][:, None] + block[7:9] * noise_sd[p][:, None]
+            if tail is not None:  # the range noise from its lower tail: Φ⁻¹(tail · Φ(ξ))
+                zs[1] = z[p][1] + ndtri(tail[p] * ndtr(block[8])) * noise_sd[p][1]
             # a landmark is a candidate inside the gate and within the reach of the measured range
             reach_m = reach[0] * zs[1] + reach[1]
             nis_j, dist_j = _nis(zs, (point_j[p] - pose[:2])[:, None] + d[3:5], pose[2] + d[0], s_inv_j)
@@ -143,7 +150,8 @@ def nonlinear_pair_probabilities(
                 nis_i, dist_i = _nis(zs, (point_i[p] - pose[:2])[:, None] + d[1:3], pose[2] + d[0], s_inv_i)
                 wrong &= (nis_j < nis_i) | (nis_i > gate) | (dist_i > reach_m)
             hits, done = hits + int(np.count_nonzero(wrong)), 2**m
-            if hits >= _ENOUGH or (hits == 0 and m >= _STAGES[1]):
+            # a tail's first stage with no wrong point ends it (t · q < t 2^−11: below the stratum's weight)
+            if hits >= _ENOUGH or (hits == 0 and (m >= _STAGES[1] or tail is not None)):
                 break
         if hits:
             out[p] = hits / done
@@ -197,4 +205,36 @@ def nonlinear_estimate(
     out = p.copy()
     # no point errs: the probability is below the quadrature's resolution, whatever the linearization says
     out[at] = np.where(np.isnan(q), np.minimum(p[at], 2.0**-SOBOL_LOG2), q)
+    return out
+
+
+def reach_tail_estimate(
+    p: np.ndarray,
+    reach_pairs: np.ndarray,
+    tail: np.ndarray,
+    poses: np.ndarray,
+    point_i: np.ndarray,
+    point_j: np.ndarray,
+    z: np.ndarray,
+    noise_sd: np.ndarray,
+    joint: np.ndarray,
+    gate: float,
+    reach: tuple[float, float],
+) -> np.ndarray:
+    """(n,) the pairs' estimates ``p`` (n,) with those of ``reach_pairs`` (n,) bool stratified on the
+    range noise: where the measured landmark may fall out of the associator's reach (a stereo
+    camera's range noise of metres shortens the measured range; the linearized estimate has no
+    reach), p_j = (1 − t) p_j + t q_j, t = ``tail`` (b,) the probability of the range noise's lower
+    tail that holds every such draw, and q_j the quadrature's probability given that tail (its
+    points' range noise drawn from it alone, so a tail of 10⁻³ is resolved by 2^11 points: the
+    plain quadrature would need millions). The upper stratum keeps the linearized p_j (the
+    reach leaves no right landmark out there). The rest as :func:`nonlinear_estimate`, for the
+    b pairs of ``reach_pairs`` (the measured landmark a candidate)."""
+    if not reach_pairs.any():
+        return p
+    at = np.flatnonzero(reach_pairs)
+    right = np.ones(len(at), bool)
+    q = nonlinear_pair_probabilities(poses, point_i, point_j, z, noise_sd, joint, right, gate, reach, tail)
+    out = p.copy()
+    out[at] = (1.0 - tail) * p[at] + tail * np.nan_to_num(q, nan=0.0)
     return out
