@@ -91,7 +91,10 @@ averaged over D ~ N(d, C_D) by a fixed 10 × 10 Gauss–Hermite rule. Two landma
 ½, two far apart Φ(−½ ‖d‖_S̄) (the classic two-hypothesis error). First sightings: p_j = F(γ; λ_j).
 Where a pair's remainder is not small against its separation (ρ(2) of either landmark above a share
 of √λ_j: SLAM's fresh landmarks), p_j is instead a quadrature of the nonlinear model
-(:mod:`~sensorsel.information.integrity.nonlinear`).
+(:mod:`~sensorsel.information.integrity.nonlinear`). Where the associator's reach may leave the
+right landmark out (:func:`out_of_reach` above :data:`REACH_SHARE`: a stereo camera's range noise
+shortens the measured range), the linearized p_j, which has no reach, is stratified on the range
+noise: (1 − t) p_j + t q_j, q_j that quadrature given the noise's lower tail t (:func:`reach_tail`).
 """
 
 from __future__ import annotations
