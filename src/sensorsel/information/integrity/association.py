@@ -671,6 +671,11 @@ class _RangeSeparation:
         return np.where(room > 0, np.minimum(out, 1.0), 1.0)
 
 
+#: what the quadrature reads of some pairs: the truth (b, 3), the measured landmark and the candidate
+#: (b, 2), the noise-free measurement and its noise std (b, 2), the joint covariance (b, 7, 7)
+_Geometry = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+
+
 @dataclass(frozen=True, eq=False)
 class _Bent:
     """The pairs (``mask`` (n,) bool) whose estimate is the nonlinear model's, and what it reads of
@@ -698,7 +703,7 @@ class _Bent:
             )
         return p
 
-    def _geometry(self, pair: Pairs, mi: np.ndarray, sel: np.ndarray) -> tuple[np.ndarray, ...]:
+    def _geometry(self, pair: Pairs, mi: np.ndarray, sel: np.ndarray) -> _Geometry:
         """What the quadrature reads of the pairs of ``sel``: the truth, both landmarks, the
         noise-free measurement, its noise std and the joint covariance."""
         b, mb = self.batch, mi[sel]
