@@ -37,8 +37,10 @@ POINTS = np.array([[40.0, 0.0], [5.0, 0.0]])
 DRAWS = 100_000
 
 
-def _meas(sigmas: tuple[float, float] = STEREO) -> KeyframeMeasurements:
-    z = measure(POSE, POINTS[0])
+def _meas(sigmas: tuple[float, float] = STEREO, point: np.ndarray | None = None) -> KeyframeMeasurements:
+    """One measurement of landmark 0 at ``point`` (default POINTS[0]; truth: the noise-free bearing
+    and range)."""
+    z = measure(POSE, POINTS[0] if point is None else point)
     return KeyframeMeasurements(
         keyframe=1,
         sensor=np.array([0]),
@@ -167,3 +169,20 @@ def test_the_reach_term_leaves_a_lidar_measurement_unchanged(monkeypatch):
         patched.setattr(association, "_out_of_reach", _no_reach_term)
         assert bound() == with_term
     assert 0.0 < with_term < 1.0
+
+
+@pytest.mark.parametrize(("far", "near", "sigma_r"), [(40.0, 5.0, 6.0), (20.0, 8.0, 3.5)])
+def test_the_bound_holds_in_slam_with_metres_of_spread(far, near, sigma_r):
+    """SLAM: the measured pole in the state with 2 m of spread a side (a fresh stereo landmark), the
+    near one with 0.55 m: its estimate, not only the measured range, can carry it out of reach. The
+    bound is not below the oracle's 99 % lower limit (resolved)."""
+    points = np.array([[far, 0.0], [near, 0.0]])
+    cov = np.diag([0.05**2, 0.05**2, 0.001**2, 4.0, 4.0, 0.3, 0.3])
+    sigmas = (0.002, sigma_r)
+    meas = _meas(sigmas, points[0])
+    pred = Prediction(keyframe=1, landmarks=np.array([0, 1]), covariance=cov, prior_sigma_m=100.0)
+    bound = float(measurement_risks(POSE, points, pred, meas, np.array([0, 1]), gate=GATE, model="slam").bound[0])
+    k, n = monte_carlo(POSE, points, np.array([0, 1]), cov, 100.0, 0, sigmas, [0, 1], GATE, n=DRAWS, seed=3)
+    lo, _ = clopper_pearson(k, n)
+    assert k >= 1000, k
+    assert lo <= bound < 1.0, (k / n, bound)
