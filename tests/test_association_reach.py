@@ -152,6 +152,19 @@ def test_a_pole_out_of_reach_is_counted_by_the_bound(monkeypatch):
     assert without < min(lo, lo_sim), (without, k / n, k_sim / n_sim)
 
 
+def test_the_linearized_estimate_does_not_see_the_reach():
+    """A known limit, stated (the guide's "the reach"): where no pair is bent the estimate is the
+    linearized one, which takes the right landmark within reach; on the case above it is a small
+    share of what the associator does (the bound covers it). If the estimate learns the reach, this
+    fails: then say so in the guide."""
+    pred = Prediction(keyframe=1, landmarks=np.zeros(0, np.int64), covariance=POSE_COV, prior_sigma_m=MAP_SIGMA)
+    r = measurement_risks(POSE, POINTS, pred, _meas(), np.array([0, 1]), gate=GATE, model="map")
+    k, n = monte_carlo(
+        POSE, POINTS, np.zeros(0, np.int64), POSE_COV, MAP_SIGMA, 0, STEREO, [0, 1], GATE, n=DRAWS, seed=3
+    )
+    assert k >= 1000 and r.estimate[0] < 0.2 * k / n, (r.estimate[0], k / n)
+
+
 def test_the_reach_term_leaves_a_lidar_measurement_unchanged(monkeypatch):
     """Centimetres of range noise: the right pole is never out of reach (the term underflows to 0),
     and the bound is the same number with and without it."""

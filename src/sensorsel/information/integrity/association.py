@@ -112,7 +112,9 @@ averaged over D ~ N(d, C_D) by a fixed 10 × 10 Gauss–Hermite rule. Two landma
 ½, two far apart Φ(−½ ‖d‖_S̄) (the classic two-hypothesis error). First sightings: p_j = F(γ; λ_j).
 Where a pair's remainder is not small against its separation (ρ(2) of either landmark above a share
 of √λ_j: SLAM's fresh landmarks), p_j is instead a quadrature of the nonlinear model
-(:mod:`~sensorsel.information.integrity.nonlinear`).
+(:mod:`~sensorsel.information.integrity.nonlinear`), which runs the associator's reach. Elsewhere
+the estimate takes the right landmark within reach: where a stereo camera's range noise puts it
+out (O_i above) the estimate can be low, the bound is not.
 """
 
 from __future__ import annotations
