@@ -3,7 +3,9 @@
 It shares no code with sensorsel.information.integrity: it draws the estimate's error from the
 predicted joint covariance, perturbs the pose (in its own frame) and the landmarks, draws the
 measurement noise, predicts every candidate's (bearing, range) with the nonlinear model, takes
-S_j from a finite-difference Jacobian, and runs the gated nearest neighbour.
+S_j from a finite-difference Jacobian, and runs the gated nearest neighbour with the associator's
+reach: a landmark is a candidate only within REACH_SCALE r̂ + REACH_MARGIN_M of the estimated pose,
+r̂ the measured range (so a stereo camera's range noise can leave the right landmark out).
 """
 
 from __future__ import annotations
@@ -11,6 +13,11 @@ from __future__ import annotations
 import math
 
 import numpy as np
+
+#: the associator's reach, as stated in the guide (written here, not imported: the oracle shares no
+#: code with the engine; a test checks they agree)
+REACH_SCALE = 1.25
+REACH_MARGIN_M = 5.0
 
 
 def measure(pose: np.ndarray, point: np.ndarray) -> np.ndarray:
@@ -70,12 +77,27 @@ def joint_covariance(state: np.ndarray, cov: np.ndarray, prior_sigma: float, lan
 
 
 def monte_carlo(
-    pose, points, state, cov, prior_sigma, true_landmark, sigmas, candidates, gate, *, n, seed, right_is_candidate=True
+    pose,
+    points,
+    state,
+    cov,
+    prior_sigma,
+    true_landmark,
+    sigmas,
+    candidates,
+    gate,
+    *,
+    n,
+    seed,
+    right_is_candidate=True,
+    reach=(REACH_SCALE, REACH_MARGIN_M),
 ):
     """Wrong associations of one measurement of ``true_landmark`` in ``n`` draws: returns (count, n).
 
     ``candidates`` (landmark indices) are what the associator matches against; the true landmark
-    is one of them when ``right_is_candidate`` (map model, or a landmark already in the state)."""
+    is one of them when ``right_is_candidate`` (map model, or a landmark already in the state).
+    ``reach`` (scale, margin [m]): a landmark is a candidate only where its estimated position lies
+    within scale × the measured range + margin of the estimated pose; None: every one is."""
     rng = np.random.default_rng(seed)
     cands = [int(j) for j in candidates if j != true_landmark]
     lms = ([true_landmark] if right_is_candidate else []) + cands
@@ -101,6 +123,10 @@ def monte_carlo(
             nu = z - measure(x_hat, points[j] + e[:, 3 + 2 * a : 5 + 2 * a])
             nu[:, 0] = (nu[:, 0] + np.pi) % (2 * np.pi) - np.pi
             nis[:, a] = np.einsum("ni,ij,nj->n", nu, s_inv[a], nu)
+            if reach is not None:  # out of reach: never taken
+                l_hat = points[j] + e[:, 3 + 2 * a : 5 + 2 * a]
+                far = np.hypot(*(l_hat - x_hat[:, :2]).T) > reach[0] * z[:, 1] + reach[1]
+                nis[far, a] = np.inf
         gated = np.where(nis <= gate, nis, np.inf)
         best = np.argmin(gated, axis=1)
         any_in = np.isfinite(gated.min(axis=1))

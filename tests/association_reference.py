@@ -6,10 +6,12 @@ risks were computed alone, during the forward pass (the formulas are that module
 shares the filter's types and the range-bearing Jacobians with sensorsel, nothing of the batch:
 no snapshot, no joined arrays, every pair's moments read from the keyframe's whole covariance.
 The range term of each candidate (``_RangeSeparation``, a formula on a pair's own numbers, tested
-on its own in ``test_association_range_bound.py``) and the nonlinear quadrature of bent pairs
-(``nonlinear.py``, tested against Monte Carlo in ``test_association_linearization.py``) and its
-stratification where the reach may leave the right landmark out (``test_association_reach_estimate.py``)
-are the engine's; the joint covariance the quadrature reads is the oracle's assembly.
+on its own in ``test_association_range_bound.py``), the measured landmark's reach term
+(``_out_of_reach``, a formula on a measurement's own numbers, tested in ``test_association_reach.py``)
+the nonlinear quadrature of bent pairs (``nonlinear.py``, tested against Monte Carlo in
+``test_association_linearization.py``) and its stratification where the reach may leave the right
+landmark out (``test_association_reach_estimate.py``) are the engine's; the joint covariance the
+quadrature reads is the oracle's assembly.
 """
 
 from __future__ import annotations
@@ -23,10 +25,11 @@ from scipy.spatial import cKDTree
 from scipy.special import chndtr, ndtr
 
 from sensorsel.information.filtering import KeyframeMeasurements, Prediction
-from sensorsel.information.integrity.association import (  # the range term and the reach's tail, as the engine's
+from sensorsel.information.integrity.association import (  # the range and reach terms, as the engine's
     REACH_SHARE,
+    _out_of_reach,
     _RangeSeparation,
-    out_of_reach,
+    out_of_reach_estimate,
     reach_tail,
 )
 from sensorsel.information.integrity.nonlinear import bent_pairs, nonlinear_estimate, reach_tail_estimate
@@ -308,6 +311,7 @@ def measurement_risks(
     pair = _pair_moments(
         pose, points, prediction, meas, mi, li, cj, _slots(state, li), slot_j, jac_j[close], e_j[close]
     )
+    p_out_bound = _out_of_reach(meas.range_m[mi], pair.range_i, np.hypot(*pair.sigma_i.T), meas.sigma_range_m[mi])
     ncand = np.bincount(mi, minlength=m).astype(np.int64)
     lam = pair.lam
     root_g = math.sqrt(gate)
@@ -333,7 +337,7 @@ def measurement_risks(
         rho_i = _remainder(ps.sigma_i, ps.range_i, np.linalg.inv(ps.s_i))  # (n', K): equal within a measurement
         short = np.maximum(np.sqrt(ts)[None, :, None] - rho_i[:, None, :], 0.0)  # (n', T, K)
         g_i = np.ones((m, len(ts)))
-        g_i[mi[sel]] = np.min(_K_OUT[None, None, :] + np.exp(-0.5 * short**2), axis=2)
+        g_i[mi[sel]] = np.min(_K_OUT[None, None, :] + np.exp(-0.5 * short**2), axis=2) + p_out_bound[sel, None]
         lnn = np.min(g_i + sums, axis=1)
         bnd = np.where(lower, np.minimum(bnd, lnn), bnd)
     if linear:  # the same with ρ = 0 and no outside mass
@@ -374,7 +378,9 @@ def measurement_risks(
         )
     # where the right landmark may fall out of the associator's reach: the engine's stratification
     # on the range noise, on the oracle's joint covariance
-    far_out = right & ~bent & (out_of_reach(pair.range_i, pair.sigma_i[:, 0], meas.sigma_range_m[mi]) > REACH_SHARE)
+    far_out = (
+        right & ~bent & (out_of_reach_estimate(pair.range_i, pair.sigma_i[:, 0], meas.sigma_range_m[mi]) > REACH_SHARE)
+    )
     if far_out.any():
         at = np.flatnonzero(far_out)
         cov = np.asarray(prediction.covariance, float)

@@ -240,7 +240,8 @@ def test_the_nonlinear_estimate_keeps_the_associators_reach():
     """The associator's candidates lie within 1.25 r̂ + 5 m of the estimated pose, r̂ the *measured*
     range: a stereo camera's range noise (3.5 m at 19 m) can put the right landmark out of reach, and
     a nearer fresh neighbour then wins though its NIS is the larger. The estimate follows the
-    simulator (which runs that associator); the oracle, which omits the reach, sees a quarter of it."""
+    simulator and the independent oracle (both run that associator, and agree); the oracle without
+    the reach sees a quarter of it."""
     pose = np.array([0.0, 0.0, 0.0])
     points = np.array([[19.0, 0.0], [11.0, 2.3]])
     cov = np.diag([0.02, 0.02, 1e-4, 4.0, 1.0, 0.3, 0.3])
@@ -260,5 +261,11 @@ def test_the_nonlinear_estimate_keeps_the_associators_reach():
     out = _simulated(pose, points, meas, cov)
     observed = out.wrong_draws / out.draws
     k, n = monte_carlo(pose, points, np.array([0, 1]), cov, 100.0, 0, sigmas, [0, 1], GATE, n=DRAWS, seed=7)
-    assert out.wrong_draws >= 200 and k / n < observed / 2  # resolved, and the reach matters here
+    lo, hi = clopper_pearson(k, n)
+    lo_sim, hi_sim = clopper_pearson(out.wrong_draws, out.draws)
+    assert lo <= hi_sim and lo_sim <= hi, (k, out.wrong_draws)  # the two associators agree
+    k_far, _ = monte_carlo(
+        pose, points, np.array([0, 1]), cov, 100.0, 0, sigmas, [0, 1], GATE, n=DRAWS, seed=7, reach=None
+    )
+    assert out.wrong_draws >= 200 and k_far / n < observed / 2  # resolved, and the reach matters here
     assert 0.5 <= r.estimate[0] / observed <= 2.0, (r.estimate[0], observed)

@@ -95,7 +95,7 @@ def test_out_of_reach_worked_by_hand(range_sigma):
     """P(out of reach) to first order: r + w_a > 1.25 (r + v_r) + 5 ⇔ w_a − 1.25 v_r > 0.25 r + 5."""
     from scipy.special import ndtr
 
-    got = association.out_of_reach(np.array([20.0]), np.array([0.07]), np.array([range_sigma]))[0]
+    got = association.out_of_reach_estimate(np.array([20.0]), np.array([0.07]), np.array([range_sigma]))[0]
     want = ndtr(-(0.25 * 20.0 + 5.0) / np.hypot(0.07, 1.25 * range_sigma))
     assert got == pytest.approx(want, rel=1e-12)
     assert (got > 0.01) == (range_sigma > 1.0)  # a LiDAR never; a stereo camera at 20 m, percent

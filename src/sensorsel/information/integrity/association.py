@@ -61,18 +61,39 @@ small k is left and G_j would stay at 4Φ(−k) however far apart the two landma
 (:class:`_RangeSeparation`); each G_j takes the smaller. It is non-decreasing in P and R and at least
 F(x; λ_j) (the linearized range innovation obeys the same inequality), so the properties below hold.
 
+**The reach: the right landmark can be out of it.** The associator's candidates lie within
+s r̂ + c of the estimated pose (s = CANDIDATE_SCALE, c = CANDIDATE_MARGIN_M), r̂ = r_i + v_r the
+*measured* range: a stereo camera's range noise (metres) can make r̂ so short that landmark i itself
+is out of reach, and a nearer j inside the gate is then taken though NIS_i is the smaller. The
+estimated distance of i is |u_i + w_i| ≤ r_i + ‖w_i‖, so i is out of reach only if
+‖w_i‖ − s v_r > D = s r_i + c − r_i (= 0.25 r_i + 5 m). ‖w_i‖ is stochastically below σ_w R (R
+Rayleigh, σ_w² = σ_a² + σ_b² ≥ λmax(Cov(w_i)): P(‖w‖ ≥ t) ≤ e^(−t²/(2σ_w²))), independent of v_r, so
+with τ = s σ_r and q² = σ_w² + τ²
+
+    P(i out of reach) ≤ O_i = Φ(−D/τ) + (σ_w/q) e^(−D²/(2q²)) Φ(D σ_w/(q τ))
+
+(the Gaussian integral of the Rayleigh tail, exact for σ_w R: :func:`_out_of_reach`). Nearly exact
+where the range noise dominates (a map's centimetres of spread); looser where the spread is metres
+(an error toward the car counts as one away from it). 0 in double precision for the library's LiDARs
+and radars on a map (σ_r ≤ 0.084 m, σ_w decimetres, D ≥ 5 m).
+
 **The bound** (after Duenas Arana, Joerger & Spenko's local nearest-neighbour bound, ICRA 2018): for
-any threshold t ≤ γ, if NIS_i ≤ t and every NIS_j > t then i is the nearest and inside the gate, so
-W ⊆ {NIS_i > t} ∪ ⋃_j {NIS_j ≤ t}; also W ⊆ ⋃_j {NIS_j ≤ γ}. With the per-term bounds above:
+any threshold t ≤ γ, if i is within reach, NIS_i ≤ t and every NIS_j > t then i is the nearest and
+inside the gate, so W ⊆ {i out of reach} ∪ {NIS_i > t} ∪ ⋃_j {NIS_j ≤ t}; also W ⊆ ⋃_j {NIS_j ≤ γ}
+(a wrong candidate is taken only inside the gate, whether i is in reach or not). With the per-term
+bounds above:
 
     P(W) ≤ min(1, Σ_j G_j(γ), min_t [G_i(t) + Σ_j G_j(t)])
 
-G_j(x) the bound on P(NIS_j ≤ x), G_i(t) that on P(NIS_i > t); the minimum over a fixed grid of t in
-(0, γ] (any t is valid). For a first sighting only Σ_j G_j(γ). ``MeasurementRisk.linear`` is the
-same bound with ρ = 0 and no outside mass (the model linearized at the truth): at most ``bound``
-(term by term), non-increasing in every λ_j, and λ_j is non-increasing when P or R grows (Loewner
-order): the linear bound never falls with more noise, more landmarks, a looser prior or a looser
-map, which is what the search's association floor uses. ``bound`` itself need not be monotone (a
+G_j(x) the bound on P(NIS_j ≤ x), G_i(t) = O_i + the bound on P(NIS_i > t); the minimum over a fixed
+grid of t in (0, γ] (any t is valid). For a first sighting only Σ_j G_j(γ). ``MeasurementRisk.linear``
+is the same bound with ρ = 0, no outside mass and no O_i (the NIS model linearized at the truth, every
+landmark within reach): at most ``bound`` (term by term: ``bound`` only adds non-negative terms),
+non-increasing in every λ_j, and λ_j is non-increasing when P or R grows (Loewner order): the linear
+bound never falls with more noise, more landmarks, a looser prior or a looser map, which is what the
+search's association floor uses. O_i is left out of it on purpose: it is non-decreasing in P (σ_w)
+but not in R (a larger σ_r can lower P(σ_w R + τZ > D) where σ_w R already exceeds D), and the floor
+needs only ``linear`` ≤ ``bound``, which holds without it. ``bound`` itself need not be monotone (a
 larger S whitens the remainder more); with ``robust_to_covariance`` the bound returned is
 Σ_j min_k [4Φ(−k) + F((√γ + ρ'_j(k))²; λ_j)] with ρ' whitened by R instead of S_j (ρ' ≥ ρ, since
 S_j ⪰ R): non-decreasing in P, so at a prediction it is at least ``bound`` at any prediction with a
@@ -92,7 +113,7 @@ averaged over D ~ N(d, C_D) by a fixed 10 × 10 Gauss–Hermite rule. Two landma
 Where a pair's remainder is not small against its separation (ρ(2) of either landmark above a share
 of √λ_j: SLAM's fresh landmarks), p_j is instead a quadrature of the nonlinear model
 (:mod:`~sensorsel.information.integrity.nonlinear`). Where the associator's reach may leave the
-right landmark out (:func:`out_of_reach` above :data:`REACH_SHARE`: a stereo camera's range noise
+right landmark out (:func:`out_of_reach_estimate` above :data:`REACH_SHARE`: a stereo camera's range noise
 shortens the measured range), the linearized p_j, which has no reach, is stratified on the range
 noise: (1 − t) p_j + t q_j, q_j that quadrature given the noise's lower tail t (:func:`reach_tail`).
 """
@@ -142,7 +163,7 @@ CANDIDATE_MARGIN_M = 5.0
 #: pairs whose λ exceeds (√γ + FAR_SIGMAS)² are dropped (their F(γ; λ) < 1e-14)
 FAR_SIGMAS = 8.0
 #: a pair's estimate is the quadrature's (which keeps the reach) where the measured landmark is out of
-#: the associator's reach with at least this probability (:func:`out_of_reach`)
+#: the associator's reach with at least this probability (:func:`out_of_reach_estimate`)
 REACH_SHARE = 1e-6
 #: the tail of the range noise that holds the reach's misses: the line of sight's error up to this many σ
 REACH_SIGMAS = 4.0
@@ -527,17 +548,20 @@ def _risks(
         np.abs(d[keep][close, 1]), s_j[close, 1, 1], b.meas["sigma_range_m"][mi], np.hypot(*sigma_j[close].T)
     )
     pair = pair_moments(b, points, mi, cj, slot_j, jac_u[back[close]], e_u[back[close]])
+    # the measured landmark's own term: the associator's reach, judged at the measured range, can
+    # leave it out (equal within a measurement: its range, noise and w_i's spread)
+    p_out_bound = _out_of_reach(
+        b.meas["range_m"][mi], pair.range_i, np.hypot(*pair.sigma_i.T), b.meas["sigma_range_m"][mi]
+    )
     # which pairs the linearization fails (the estimate then integrates the nonlinear model)
     right = has_right[mi]
     rho2_i = np.where(right, _remainder(pair.sigma_i, pair.range_i, inverse_2x2(pair.s_i), _K_GRID[1:2])[:, 0], 0.0)
     bent = bent_pairs(rho2_i, _remainder(sigma_j[close], range_j[close], s_inv[close], _K_GRID[1:2])[:, 0], pair.lam)
-    # the right landmark out of the associator's reach (a stereo camera's range noise shortens the
-    # measured range): the linearized estimate has no reach, the quadrature has
     # where the right landmark may fall out of the associator's reach (a stereo camera's range noise
     # shortens the measured range), the linearized estimate, which has no reach, is stratified on the
     # range noise (nonlinear.reach_tail_estimate); the bent pairs' quadrature keeps the reach already
     sigma_r = b.meas["sigma_range_m"][mi]
-    far_out = right & ~bent & (out_of_reach(pair.range_i, pair.sigma_i[:, 0], sigma_r) > REACH_SHARE)
+    far_out = right & ~bent & (out_of_reach_estimate(pair.range_i, pair.sigma_i[:, 0], sigma_r) > REACH_SHARE)
     tail = reach_tail(pair.range_i[far_out], pair.sigma_i[far_out, 0], sigma_r[far_out])
     return _bounds(
         pair,
@@ -545,6 +569,7 @@ def _risks(
         b.at[mi],
         rho_j,
         by_range,
+        p_out_bound,
         _Bent(bent, b, points, cj, far_out, tail),
         has_right,
         gate=gate,
@@ -554,7 +579,7 @@ def _risks(
     )
 
 
-def out_of_reach(range_m: np.ndarray, sigma_along_m: np.ndarray, sigma_range_m: np.ndarray) -> np.ndarray:
+def out_of_reach_estimate(range_m: np.ndarray, sigma_along_m: np.ndarray, sigma_range_m: np.ndarray) -> np.ndarray:
     """(n,) the probability, to first order, that the associator's reach leaves the measured landmark
     out: its estimated distance r + w_a (w_a its error along the line of sight, std
     ``sigma_along_m``) exceeds CANDIDATE_SCALE (r + v_r) + CANDIDATE_MARGIN_M, v_r the range noise
@@ -565,7 +590,7 @@ def out_of_reach(range_m: np.ndarray, sigma_along_m: np.ndarray, sigma_range_m: 
 
 def reach_tail(range_m: np.ndarray, sigma_along_m: np.ndarray, sigma_range_m: np.ndarray) -> np.ndarray:
     """(n,) the probability of the range noise's lower tail below which the reach may leave the
-    measured landmark out (:func:`out_of_reach`), its error along the line of sight taken up to
+    measured landmark out (:func:`out_of_reach_estimate`), its error along the line of sight taken up to
     REACH_SIGMAS σ: v_r < (REACH_SIGMAS σ_a − (CANDIDATE_SCALE − 1) r − CANDIDATE_MARGIN_M) / CANDIDATE_SCALE."""
     room = (CANDIDATE_SCALE - 1.0) * range_m + CANDIDATE_MARGIN_M
     return ndtr((REACH_SIGMAS * sigma_along_m - room) / (CANDIDATE_SCALE * np.maximum(sigma_range_m, 1e-300)))
@@ -577,6 +602,7 @@ def _bounds(
     at: np.ndarray,
     rho_j: np.ndarray,
     by_range: _RangeSeparation,
+    p_out: np.ndarray,
     bent: _Bent,
     has_right: np.ndarray,
     *,
@@ -588,7 +614,9 @@ def _bounds(
     """The bound, its linearized form and the estimate of each of the m measurements
     (``has_right`` (m,)) from its pairs' moments (``mi``, ``at`` (n,) the pairs' measurements and
     keyframes, ``rho_j``
-    (n, K) their remainders over the grid of k, ``by_range`` their range terms): the module docstring's formulas."""
+    (n, K) their remainders over the grid of k, ``by_range`` their range terms, ``p_out`` (n,)
+    the bound of P(the measured landmark is out of the associator's reach), equal within a
+    measurement): the module docstring's formulas."""
     m = len(has_right)
     lin = np.zeros(m)
     ncand = np.bincount(mi, minlength=m).astype(np.int64)
@@ -616,7 +644,8 @@ def _bounds(
         rho_i = _remainder(ps.sigma_i, ps.range_i, np.linalg.inv(ps.s_i))  # (n', K): equal within a measurement
         short = np.maximum(np.sqrt(ts)[None, :, None] - rho_i[:, None, :], 0.0)  # (n', T, K)
         g_i = np.ones((m, len(ts)))
-        g_i[mi[sel]] = np.min(_K_OUT[None, None, :] + np.exp(-0.5 * short**2), axis=2)
+        # G_i(t): NIS_i > t, or the measured landmark out of reach (then a candidate in the gate is taken)
+        g_i[mi[sel]] = np.min(_K_OUT[None, None, :] + np.exp(-0.5 * short**2), axis=2) + p_out[sel, None]
         lnn = np.min(g_i + sums, axis=1)
         bnd = np.where(lower, np.minimum(bnd, lnn), bnd)
     if linear:  # the same with ρ = 0 and no outside mass
@@ -674,6 +703,31 @@ class _RangeSeparation:
 #: what the quadrature reads of some pairs: the truth (b, 3), the measured landmark and the candidate
 #: (b, 2), the noise-free measurement and its noise std (b, 2), the joint covariance (b, 7, 7)
 _Geometry = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+
+
+def _out_of_reach(range_m: np.ndarray, distance_m: np.ndarray, sigma_w: np.ndarray, sigma_r: np.ndarray) -> np.ndarray:
+    """(n,) a bound of P(the measured landmark i is out of the associator's reach) for each of n
+    measurements (module docstring, "the reach"): ``range_m`` the true range r [m] the measurement
+    is drawn about (r̂ = r + v_r, v_r ~ N(0, σ_r²)), ``distance_m`` the true distance |u_i| of the
+    landmark from the car [m], ``sigma_w`` σ_w ≥ √λmax(Cov(w_i)) [m], ``sigma_r`` σ_r [m].
+
+    The estimated distance is |u_i + w_i| ≤ |u_i| + ‖w_i‖, so i is out of reach (beyond
+    s r̂ + c) only if ‖w_i‖ − s v_r > D = s r + c − |u_i|. ‖w_i‖ is below σ_w R in distribution
+    (R Rayleigh: P(‖w‖ ≥ t) ≤ e^(−t²/(2λmax))), independent of v_r; with τ = s σ_r, q² = σ_w² + τ²,
+
+        P(σ_w R + τ Z > D) = Φ(−D/τ) + (σ_w/q) e^(−D²/(2q²)) Φ(D σ_w/(q τ))   (D > 0; 1 else),
+
+    exact for σ_w R (the Gaussian integral of the Rayleigh tail)."""
+    d = CANDIDATE_SCALE * np.asarray(range_m, float) + CANDIDATE_MARGIN_M - np.asarray(distance_m, float)
+    sw = np.asarray(sigma_w, float)
+    tau = CANDIDATE_SCALE * np.asarray(sigma_r, float)
+    q = np.hypot(sw, tau)
+    pos = (d > 0) & (q > 0)
+    room = np.where(pos, d, 1.0)
+    tau_s, q_s = np.where(pos, tau, 1.0), np.where(pos, q, 1.0)
+    with np.errstate(divide="ignore"):  # τ = 0 (no range noise): Φ(−∞) = 0, Φ(+∞) = 1
+        out = ndtr(-room / tau_s) + sw / q_s * np.exp(-0.5 * (room / q_s) ** 2) * ndtr(room * sw / (q_s * tau_s))
+    return np.where(pos, np.minimum(out, 1.0), np.where(d > 0, 0.0, 1.0))
 
 
 @dataclass(frozen=True, eq=False)
