@@ -27,6 +27,7 @@ from scipy.special import chndtr, ndtr
 from sensorsel.information.filtering import KeyframeMeasurements, Prediction
 from sensorsel.information.integrity.association import (  # the range and reach terms, as the engine's
     REACH_SHARE,
+    REACH_SIGMAS,
     _out_of_reach,
     _RangeSeparation,
     out_of_reach_estimate,
@@ -381,6 +382,7 @@ def measurement_risks(
     far_out = (
         right & ~bent & (out_of_reach_estimate(pair.range_i, pair.sigma_i[:, 0], meas.sigma_range_m[mi]) > REACH_SHARE)
     )
+    far_out &= pair.d[:, 1] > -REACH_SIGMAS * (pair.sigma_i[:, 0] + sigma_j[close, 0])  # nearer candidates only
     if far_out.any():
         at = np.flatnonzero(far_out)
         cov = np.asarray(prediction.covariance, float)

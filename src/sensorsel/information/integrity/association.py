@@ -562,6 +562,9 @@ def _risks(
     # range noise (nonlinear.reach_tail_estimate); the bent pairs' quadrature keeps the reach already
     sigma_r = b.meas["sigma_range_m"][mi]
     far_out = right & ~bent & (out_of_reach_estimate(pair.range_i, pair.sigma_i[:, 0], sigma_r) > REACH_SHARE)
+    # only a candidate nearer the car than the right landmark can be in reach when that one is not
+    # (beyond REACH_SIGMAS of both estimates' errors along the line of sight: d's range part is r_i − r_j)
+    far_out &= pair.d[:, 1] > -REACH_SIGMAS * (pair.sigma_i[:, 0] + sigma_j[close, 0])
     tail = reach_tail(pair.range_i[far_out], pair.sigma_i[far_out, 0], sigma_r[far_out])
     return _bounds(
         pair,

@@ -49,6 +49,8 @@ SOBOL_LOG2 = 15
 _SOBOL_SEED = 20261126
 #: the quadrature's stages (log2 of the points used) and the wrong points that end it (relative error ~12 %)
 _STAGES = (11, 13, SOBOL_LOG2)
+#: a range-noise tail's stages: its probability given the tail is a share, not a rare event
+_TAIL_STAGES = (9, 11, 13)
 _ENOUGH = 64
 
 
@@ -136,7 +138,7 @@ def nonlinear_pair_probabilities(
         s_inv_j = np.linalg.inv(r + jac_j[p] @ cov[p][np.ix_(sel_j, sel_j)] @ jac_j[p].T)
         s_inv_i = np.linalg.inv(r + jac_i[p] @ cov[p][:5, :5] @ jac_i[p].T)
         hits, done = 0, 0
-        for m in _STAGES:
+        for m in _STAGES if tail is None else _TAIL_STAGES:
             block = xi[:, done : 2**m]
             d = _combine(a, block[:7])  # (5, N): dθ, w_i, w_j
             zs = z[p][:, None] + block[7:9] * noise_sd[p][:, None]
@@ -150,7 +152,7 @@ def nonlinear_pair_probabilities(
                 nis_i, dist_i = _nis(zs, (point_i[p] - pose[:2])[:, None] + d[1:3], pose[2] + d[0], s_inv_i)
                 wrong &= (nis_j < nis_i) | (nis_i > gate) | (dist_i > reach_m)
             hits, done = hits + int(np.count_nonzero(wrong)), 2**m
-            # a tail's first stage with no wrong point ends it (t · q < t 2^−11: below the stratum's weight)
+            # a tail's first stage with no wrong point ends it (t · q < t 2^−9: a small share of the stratum)
             if hits >= _ENOUGH or (hits == 0 and (m >= _STAGES[1] or tail is not None)):
                 break
         if hits:
@@ -226,10 +228,11 @@ def reach_tail_estimate(
     camera's range noise of metres shortens the measured range; the linearized estimate has no
     reach), p_j = (1 − t) p_j + t q_j, t = ``tail`` (b,) the probability of the range noise's lower
     tail that holds every such draw, and q_j the quadrature's probability given that tail (its
-    points' range noise drawn from it alone, so a tail of 10⁻³ is resolved by 2^11 points: the
-    plain quadrature would need millions). The upper stratum keeps the linearized p_j (the
-    reach leaves no right landmark out there). The rest as :func:`nonlinear_estimate`, for the
-    b pairs of ``reach_pairs`` (the measured landmark a candidate)."""
+    points' range noise drawn from it alone, in the stages :data:`_TAIL_STAGES`, so a tail of
+    10⁻³ is resolved by a few hundred points: the plain quadrature would need millions). The
+    upper stratum keeps the linearized p_j (the reach leaves no right landmark out there). The
+    rest as :func:`nonlinear_estimate`, for the b pairs of ``reach_pairs`` (the measured landmark
+    a candidate)."""
     if not reach_pairs.any():
         return p
     at = np.flatnonzero(reach_pairs)
