@@ -160,8 +160,9 @@ ASSOCIATION_MODELS = ("map", "slam")
 #: how far a candidate may lie from the car: CANDIDATE_SCALE × the largest range measured + CANDIDATE_MARGIN_M
 CANDIDATE_SCALE = 1.25
 CANDIDATE_MARGIN_M = 5.0
-#: pairs whose λ exceeds (√γ + FAR_SIGMAS)² are dropped (their F(γ; λ) < 1e-14)
-FAR_SIGMAS = 8.0
+#: pairs whose λ exceeds (√γ + FAR_SIGMAS)² are dropped, and landmarks beyond the widened reach never
+#: considered: each adds at most FAR_TERM to the bound (module docstring, "the far limit")
+FAR_SIGMAS = 10.0
 #: a pair's estimate is the quadrature's (which keeps the reach) where the measured landmark is out of
 #: the associator's reach with at least this probability (:func:`out_of_reach_estimate`)
 REACH_SHARE = 1e-6
@@ -177,6 +178,17 @@ _T_FRACTIONS = np.linspace(0.05, 1.0, 20)  # the bound's thresholds t, as fracti
 _K_GRID = np.array([1.5, 2.0, 2.5, 3.0, 4.0, 5.5, 7.0, 9.0, 12.0])
 _K_OUT = 4.0 * ndtr(-_K_GRID)
 _K_FAR = int(np.searchsorted(_K_GRID, FAR_SIGMAS))  # the k judging which pairs are far
+#: the most a landmark left out of a measurement's kept candidates adds to its bound: a pair dropped
+#: by the far filters 4Φ(−k_far) + Φ(−FAR_SIGMAS), a landmark beyond the widened reach Φ(−FAR_SIGMAS)
+#: (module docstring, "the far limit"); 7.6e-24 at FAR_SIGMAS = 10 (k_far = 12)
+FAR_TERM = float(4.0 * ndtr(-_K_GRID[_K_FAR]) + ndtr(-FAR_SIGMAS))
+
+
+def far_residual(n_kept: np.ndarray, n_landmarks: int) -> np.ndarray:
+    """(m,) the bound's residual of each measurement for the landmarks it does not keep as candidates:
+    FAR_TERM for each landmark of the ``n_landmarks`` [count] but the measured one and the ``n_kept``
+    (m,) candidates kept (module docstring, "the far limit")."""
+    return FAR_TERM * np.maximum(n_landmarks - 1 - np.asarray(n_kept, np.int64), 0).astype(float)
 
 
 def _ncx2_cdf(x: np.ndarray, lam: np.ndarray) -> np.ndarray:
@@ -481,7 +493,9 @@ def _risks(
     """:func:`measurement_risks` of every measurement of the batch, against the candidates ``near``
     of the batch's keyframes ``near_at`` (sorted), each measurement's reach ``reach_m`` (M,) [m]."""
     m = len(b.at)
-    est, bnd, ncand, lin = np.zeros(m), np.zeros(m), np.zeros(m, np.int64), np.zeros(m)
+    est, ncand, lin = np.zeros(m), np.zeros(m, np.int64), np.zeros(m)
+    # with no candidate kept, the bound is every other landmark's far residual (module docstring)
+    bnd = np.minimum(1.0, far_residual(ncand, len(points)))
     if m == 0 or near.size == 0:
         return MeasurementRisk(est, bnd, ncand, lin)
     has_right = np.ones(m, bool) if model == "map" else b.slot >= 0
@@ -572,6 +586,7 @@ def _risks(
         p_out_bound,
         _Bent(bent, b, points, cj, far_out, tail),
         has_right,
+        n_landmarks=len(points),
         gate=gate,
         linear=linear,
         robust_to_covariance=robust_to_covariance,
@@ -606,6 +621,7 @@ def _bounds(
     bent: _Bent,
     has_right: np.ndarray,
     *,
+    n_landmarks: int,
     gate: float,
     linear: bool,
     robust_to_covariance: bool,
@@ -616,7 +632,8 @@ def _bounds(
     keyframes, ``rho_j``
     (n, K) their remainders over the grid of k, ``by_range`` their range terms, ``p_out`` (n,)
     the bound of P(the measured landmark is out of the associator's reach), equal within a
-    measurement): the module docstring's formulas."""
+    measurement), ``n_landmarks`` the landmarks of the map (each one not kept adds FAR_TERM): the
+    module docstring's formulas."""
     m = len(has_right)
     lin = np.zeros(m)
     ncand = np.bincount(mi, minlength=m).astype(np.int64)
@@ -625,7 +642,9 @@ def _bounds(
     # the gate terms G_j(γ): the smallest over the grid of k
     g_gate = _K_OUT[None, :] + _ncx2_cdf((root_g + rho_j) ** 2, lam[:, None])  # (n, K)
     k_best = np.argmin(g_gate, axis=1)
-    g_min = np.minimum(g_gate.min(axis=1), by_range.bound(np.array([gate]))[:, 0])
+    # each kept pair's term floored at FAR_TERM, what it would add if dropped: a pair moving from
+    # dropped to kept as the covariance grows never lowers the bound (robust_to_covariance's property)
+    g_min = np.maximum(np.minimum(g_gate.min(axis=1), by_range.bound(np.array([gate]))[:, 0]), FAR_TERM)
     bnd = np.minimum(1.0, np.bincount(mi, weights=np.minimum(1.0, g_min), minlength=m))
     f_gate = _ncx2_cdf(np.full(len(lam), gate), lam)
     ts = gate * _T_FRACTIONS
@@ -648,6 +667,9 @@ def _bounds(
         g_i[mi[sel]] = np.min(_K_OUT[None, None, :] + np.exp(-0.5 * short**2), axis=2) + p_out[sel, None]
         lnn = np.min(g_i + sums, axis=1)
         bnd = np.where(lower, np.minimum(bnd, lnn), bnd)
+    # the landmarks not kept (dropped by the far filters, or beyond the widened reach): both forms of
+    # the bound are unions over every landmark, so their residual adds to either
+    bnd = np.minimum(1.0, bnd + far_residual(ncand, n_landmarks))
     if linear:  # the same with ρ = 0 and no outside mass
         lin = np.minimum(1.0, np.bincount(mi, weights=f_gate, minlength=m))
         f_t = _ncx2_cdf(ts[None, :], lam[:, None])
