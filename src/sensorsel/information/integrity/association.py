@@ -7,7 +7,9 @@ The associator (what cars run, stated here once and used everywhere):
   used measurements of earlier keyframes) within ``1.25 r + 5 m`` of the car, r the measured range
   (a landmark farther out predicts a range more than 0.25 r + 5 m off: outside any gate but for
   metres of range noise; landmarks in the cone and near it, on every side, are all candidates);
-  pairs whose λ exceeds (√γ + 8)² are dropped (their terms are below 1e-14);
+  the risk's computation drops the pairs whose λ exceeds (√γ + 10)² and never considers landmarks
+  beyond a widened reach (:func:`candidate_reach`): each such landmark adds FAR_TERM to the bound
+  ("the far limit" below);
 - each candidate j has the innovation ν_j = z − h(x̂_k, l̂_j) and the normalised innovation squared
   NIS_j = ν_jᵀ S_j⁻¹ ν_j, S_j = R + H_j P_j H_jᵀ (R the measurement's noise, H_j the Jacobian of the
   range-bearing model at the prediction, P_j the predicted joint covariance of pose k and landmark j:
@@ -86,18 +88,44 @@ bounds above:
     P(W) ≤ min(1, Σ_j G_j(γ), min_t [G_i(t) + Σ_j G_j(t)])
 
 G_j(x) the bound on P(NIS_j ≤ x), G_i(t) = O_i + the bound on P(NIS_i > t); the minimum over a fixed
-grid of t in (0, γ] (any t is valid). For a first sighting only Σ_j G_j(γ). ``MeasurementRisk.linear``
+grid of t in (0, γ] (any t is valid). For a first sighting only Σ_j G_j(γ). The sums run over the
+candidates kept; every other landmark of the map adds FAR_TERM to either form (next).
+
+**The far limit.** Both forms are unions over every landmark j ≠ i that the associator could take.
+The engine computes terms for the candidates it keeps; each landmark it does not keep has
+P(NIS_j ≤ γ) ≤ FAR_TERM = 4Φ(−k_far) + Φ(−F) (F = FAR_SIGMAS = 10, k_far = 12 the grid's first
+k ≥ F: 7.6e-24), and the bound adds FAR_TERM × (N − 1 − kept), N the map's landmarks (in SLAM the
+route's: the state is among them, and a landmark out of it is never taken):
+
+- a pair dropped by a far filter has √λ_j > √γ + F + ρ_j(k_far) (each filter compares a lower bound
+  of λ_j with an upper bound of ρ_j(k_far)). With x ~ N(μ, I₂) the whitened linearized innovation,
+  ‖μ‖ = √λ, P(‖x‖ ≤ a) ≤ P(μ̂ᵀx ≤ a) = Φ(a − √λ); so G_j(γ) ≤ 4Φ(−k_far) + F((√γ + ρ_j(k_far))²; λ_j)
+  ≤ 4Φ(−k_far) + Φ(−F);
+- a landmark beyond the widened reach (r_j ≥ r + (√γ + F) √(s_bb + s_rr), so r_j > r): the range is
+  convex in the relative position, r̂_j = |u_j + w_j| ≥ r_j + a_j (a_j = û_jᵀ w_j, its linear part),
+  so the range innovation ν_r = r + v_r − r̂_j ≤ v_r − a_j − (r_j − r), and NIS_j ≤ γ needs
+  ν_r ≥ −√(γ S_rr,j) (NIS_j ≥ ν_r²/S_rr,j). v_r − a_j is Gaussian with variance S_rr,j ≤ s_rr (the
+  reach's, with the largest landmark spread), so P(NIS_j ≤ γ) ≤ Φ(√γ − (r_j − r)/√S_rr,j) ≤ Φ(−F):
+  no linearization and no box, for any number of such landmarks each counted once.
+
+Kept pairs' gate terms are floored at FAR_TERM, what they would add if dropped: as the covariance
+grows a landmark moves from beyond the reach to dropped to kept, and its share never falls. At
+7.6e-24 per landmark the residual is ~10⁻²⁰ per keyframe on KITTI's pole maps, against the
+~3·10⁻¹² per keyframe that 10⁻⁸/h at 3,481 keyframes/h allows. ``MeasurementRisk.linear``
 is the same bound with ρ = 0, no outside mass and no O_i (the NIS model linearized at the truth, every
 landmark within reach): at most ``bound`` (term by term: ``bound`` only adds non-negative terms),
 non-increasing in every λ_j, and λ_j is non-increasing when P or R grows (Loewner order): the linear
 bound never falls with more noise, more landmarks, a looser prior or a looser map, which is what the
-search's association floor uses. O_i is left out of it on purpose: it is non-decreasing in P (σ_w)
+search's association floor uses. It leaves the far limit's residual out: the floor must only stay
+at most ``bound`` and monotone, and a constant per landmark of the map says nothing of the suite.
+O_i is left out of it on purpose: it is non-decreasing in P (σ_w)
 but not in R (a larger σ_r can lower P(σ_w R + τZ > D) where σ_w R already exceeds D), and the floor
 needs only ``linear`` ≤ ``bound``, which holds without it. ``bound`` itself need not be monotone (a
 larger S whitens the remainder more); with ``robust_to_covariance`` the bound returned is
-Σ_j min_k [4Φ(−k) + F((√γ + ρ'_j(k))²; λ_j)] with ρ' whitened by R instead of S_j (ρ' ≥ ρ, since
-S_j ⪰ R): non-decreasing in P, so at a prediction it is at least ``bound`` at any prediction with a
-smaller covariance and the same candidates (the search uses it to know a measurement no suite's
+Σ_j max(FAR_TERM, min_k [4Φ(−k) + F((√γ + ρ'_j(k))²; λ_j)]) + the far limit's residual, with ρ'
+whitened by R instead of S_j (ρ' ≥ ρ, since S_j ⪰ R): non-decreasing in P (a landmark that enters
+the kept candidates as P grows never lowers its share), so at a prediction it is at least ``bound``
+at any prediction with a smaller covariance (the search uses it to know a measurement no suite's
 lever leaves out).
 
 **The estimate** (calibrated, not a bound): the pairwise events, combined as independent,
@@ -434,7 +462,9 @@ def candidate_reach(
     noise (metres at 20 m) carries well past r: a landmark beyond 1.25 r + 5 m can then be inside the
     gate and nearer. The widened reach is rigorous: a landmark at r_j ≥ r + (√γ + F) √(s_bb + s_rr)
     (s_bb taken at r_j = r, its largest over r_j ≥ r) has λ ≥ (r_j − r)² / (s_bb + s_rr) ≥ (√γ + F)², the
-    pairs the far-pair filter drops anyway: the reach loses nothing that filter keeps. In SLAM
+    pairs the far-pair filter drops anyway: the reach loses nothing that filter keeps, and each
+    landmark beyond it is taken with probability at most Φ(−F) ≤ FAR_TERM, which the bound adds
+    (module docstring, "the far limit"). In SLAM
     (``model="slam"``) the candidates are the state's landmarks, whose spreads the state holds: the
     weak prior of the landmarks out of it (100 m) would make every landmark of the route a candidate."""
     snap = Snapshot.of(prediction, meas)
