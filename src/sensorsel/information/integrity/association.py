@@ -110,8 +110,9 @@ route's: the state is among them, and a landmark out of it is never taken):
 
 Kept pairs' gate terms are floored at FAR_TERM, what they would add if dropped: as the covariance
 grows a landmark moves from beyond the reach to dropped to kept, and its share never falls. At
-7.6e-24 per landmark the residual is ~10⁻²⁰ per keyframe on KITTI's pole maps, against the
-~3·10⁻¹² per keyframe that 10⁻⁸/h at 3,481 keyframes/h allows. ``MeasurementRisk.linear``
+7.6e-24 per landmark a measurement's residual is below 4.6e-21 on KITTI 00's map (598 poles): a
+keyframe of a hundred measurements stays far below the ~3·10⁻¹² per keyframe that 10⁻⁸/h at 3,481
+keyframes/h allows. ``MeasurementRisk.linear``
 is the same bound with ρ = 0, no outside mass and no O_i (the NIS model linearized at the truth, every
 landmark within reach): at most ``bound`` (term by term: ``bound`` only adds non-negative terms),
 non-increasing in every λ_j, and λ_j is non-increasing when P or R grows (Loewner order): the linear
