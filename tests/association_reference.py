@@ -57,7 +57,6 @@ _T_FRACTIONS = np.linspace(0.05, 1.0, 20)  # the bound's thresholds t, as fracti
 #: the region sizes k of the Taylor remainder (module docstring), and their outside masses 4Φ(−k)
 _K_GRID = np.array([1.5, 2.0, 2.5, 3.0, 4.0, 5.5, 7.0, 9.0, 12.0])
 _K_OUT = 4.0 * ndtr(-_K_GRID)
-_K_FAR = int(np.searchsorted(_K_GRID, FAR_SIGMAS))  # the k judging which pairs are far
 
 
 def _ncx2_cdf(x: np.ndarray, lam: np.ndarray) -> np.ndarray:
@@ -288,7 +287,7 @@ def measurement_risks(
     r_j = np.maximum(near_dist[near_at], 1e-9)
     s_bb = r_i**2 * (meas.sigma_bearing_rad[mi] ** 2 + ((sd_xy + sd_lj) / r_j + sd_th) ** 2)
     s_rr = meas.sigma_range_m[mi] ** 2 + (sd_xy + sd_lj) ** 2
-    far_k = _K_GRID[_K_FAR : _K_FAR + 1]
+    far_k = np.array([FAR_SIGMAS])  # the box's k of the far filters
     sd_w = (sd_xy + sd_lj)[:, None] * np.ones(2)
     rho_up = _remainder(sd_w, r_j, _noise_inverse(meas, mi), far_k)[:, 0]
     lam_low = ((r_i * d[:, 0]) ** 2 + d[:, 1] ** 2) / (s_bb + s_rr)

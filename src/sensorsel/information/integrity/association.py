@@ -93,9 +93,9 @@ candidates kept; every other landmark of the map adds FAR_TERM to either form (n
 
 **The far limit.** Both forms are unions over every landmark j ≠ i that the associator could take.
 The engine computes terms for the candidates it keeps; each landmark it does not keep has
-P(NIS_j ≤ γ) ≤ FAR_TERM = 4Φ(−k_far) + Φ(−F) (F = FAR_SIGMAS = 10, k_far = 12 the grid's first
-k ≥ F: 7.6e-24), and the bound adds FAR_TERM × (N − 1 − kept), N the map's landmarks (in SLAM the
-route's: the state is among them, and a landmark out of it is never taken):
+P(NIS_j ≤ γ) ≤ FAR_TERM = 4Φ(−k_far) + Φ(−F) (F = FAR_SIGMAS = 10, k_far = F: 3.8e-23; the box's
+k need not be on the grid), and the bound adds FAR_TERM × (N − 1 − kept), N the map's landmarks (in
+SLAM the route's: the state is among them, and a landmark out of it is never taken):
 
 - a pair dropped by a far filter has √λ_j > √γ + F + ρ_j(k_far) (each filter compares a lower bound
   of λ_j with an upper bound of ρ_j(k_far)). With x ~ N(μ, I₂) the whitened linearized innovation,
@@ -110,7 +110,7 @@ route's: the state is among them, and a landmark out of it is never taken):
 
 Kept pairs' gate terms are floored at FAR_TERM, what they would add if dropped: as the covariance
 grows a landmark moves from beyond the reach to dropped to kept, and its share never falls. At
-7.6e-24 per landmark a measurement's residual is below 4.6e-21 on KITTI 00's map (598 poles): a
+3.8e-23 per landmark a measurement's residual is below 2.3e-20 on KITTI 00's map (598 poles): a
 keyframe of a hundred measurements stays far below the ~3·10⁻¹² per keyframe that 10⁻⁸/h at 3,481
 keyframes/h allows. ``MeasurementRisk.linear``
 is the same bound with ρ = 0, no outside mass and no O_i (the NIS model linearized at the truth, every
@@ -206,11 +206,12 @@ _T_FRACTIONS = np.linspace(0.05, 1.0, 20)  # the bound's thresholds t, as fracti
 #: the region sizes k of the Taylor remainder (module docstring), and their outside masses 4Φ(−k)
 _K_GRID = np.array([1.5, 2.0, 2.5, 3.0, 4.0, 5.5, 7.0, 9.0, 12.0])
 _K_OUT = 4.0 * ndtr(-_K_GRID)
-_K_FAR = int(np.searchsorted(_K_GRID, FAR_SIGMAS))  # the k judging which pairs are far
+#: the box's k of the far filters, k_far = FAR_SIGMAS (any k bounds one probability: module docstring)
+_FAR_K = np.array([FAR_SIGMAS])
 #: the most a landmark left out of a measurement's kept candidates adds to its bound: a pair dropped
 #: by the far filters 4Φ(−k_far) + Φ(−FAR_SIGMAS), a landmark beyond the widened reach Φ(−FAR_SIGMAS)
-#: (module docstring, "the far limit"); 7.6e-24 at FAR_SIGMAS = 10 (k_far = 12)
-FAR_TERM = float(4.0 * ndtr(-_K_GRID[_K_FAR]) + ndtr(-FAR_SIGMAS))
+#: (module docstring, "the far limit"); 5Φ(−10) = 3.8e-23
+FAR_TERM = float(4.0 * ndtr(-_FAR_K[0]) + ndtr(-FAR_SIGMAS))
 
 
 def far_residual(n_kept: np.ndarray, n_landmarks: int) -> np.ndarray:
@@ -568,7 +569,7 @@ def _risks(
     r_j = np.maximum(near_dist[pick], 1e-9)
     s_bb = r_i**2 * (b.meas["sigma_bearing_rad"][mi] ** 2 + ((sd_xy + sd_lj) / r_j + sd_th) ** 2)
     s_rr = b.meas["sigma_range_m"][mi] ** 2 + (sd_xy + sd_lj) ** 2
-    far_k = _K_GRID[_K_FAR : _K_FAR + 1]
+    far_k = _FAR_K
     sd_w = (sd_xy + sd_lj)[:, None] * np.ones(2)
     rho_up = _remainder(sd_w, r_j, noise_inverse(b, mi), far_k)[:, 0]
     lam_low = ((r_i * d[:, 0]) ** 2 + d[:, 1] ** 2) / (s_bb + s_rr)
