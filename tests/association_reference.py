@@ -25,11 +25,14 @@ from scipy.spatial import cKDTree
 from scipy.special import chndtr, ndtr
 
 from sensorsel.information.filtering import KeyframeMeasurements, Prediction
-from sensorsel.information.integrity.association import (  # the range and reach terms, as the engine's
+from sensorsel.information.integrity.association import (  # the range, reach and far terms, as the engine's
+    FAR_SIGMAS,
+    FAR_TERM,
     REACH_SHARE,
     REACH_SIGMAS,
     _out_of_reach,
     _RangeSeparation,
+    far_residual,
     out_of_reach_estimate,
     reach_tail,
 )
@@ -45,8 +48,6 @@ ASSOCIATION_MODELS = ("map", "slam")
 #: how far a candidate may lie from the car: CANDIDATE_SCALE × the largest range measured + CANDIDATE_MARGIN_M
 CANDIDATE_SCALE = 1.25
 CANDIDATE_MARGIN_M = 5.0
-#: pairs whose λ exceeds (√γ + FAR_SIGMAS)² are dropped (their F(γ; λ) < 1e-14)
-FAR_SIGMAS = 8.0
 
 _GH_X, _GH_W = np.polynomial.hermite_e.hermegauss(10)
 _GH_W = _GH_W / _GH_W.sum()
@@ -57,7 +58,6 @@ _T_FRACTIONS = np.linspace(0.05, 1.0, 20)  # the bound's thresholds t, as fracti
 #: the region sizes k of the Taylor remainder (module docstring), and their outside masses 4Φ(−k)
 _K_GRID = np.array([1.5, 2.0, 2.5, 3.0, 4.0, 5.5, 7.0, 9.0, 12.0])
 _K_OUT = 4.0 * ndtr(-_K_GRID)
-_K_FAR = int(np.searchsorted(_K_GRID, FAR_SIGMAS))  # the k judging which pairs are far
 
 
 def _ncx2_cdf(x: np.ndarray, lam: np.ndarray) -> np.ndarray:
@@ -242,7 +242,9 @@ def measurement_risks(
     ``bound`` is the gate-sum bound with the remainder whitened by R (module docstring). ``reach_m``:
     :func:`candidate_reach` of ``meas`` at ``prediction`` where the caller has it (computed else)."""
     m = len(meas.landmark)
-    est, bnd, ncand, lin = np.zeros(m), np.zeros(m), np.zeros(m, np.int64), np.zeros(m)
+    est, ncand, lin = np.zeros(m), np.zeros(m, np.int64), np.zeros(m)
+    # with no candidate kept, the bound is every other landmark's far residual (module docstring)
+    bnd = np.minimum(1.0, far_residual(ncand, len(points)))
     near = np.asarray(candidates, np.int64)
     if m == 0 or near.size == 0:
         return MeasurementRisk(est, bnd, ncand, lin)
@@ -286,7 +288,7 @@ def measurement_risks(
     r_j = np.maximum(near_dist[near_at], 1e-9)
     s_bb = r_i**2 * (meas.sigma_bearing_rad[mi] ** 2 + ((sd_xy + sd_lj) / r_j + sd_th) ** 2)
     s_rr = meas.sigma_range_m[mi] ** 2 + (sd_xy + sd_lj) ** 2
-    far_k = _K_GRID[_K_FAR : _K_FAR + 1]
+    far_k = np.array([FAR_SIGMAS])  # the box's k of the far filters
     sd_w = (sd_xy + sd_lj)[:, None] * np.ones(2)
     rho_up = _remainder(sd_w, r_j, _noise_inverse(meas, mi), far_k)[:, 0]
     lam_low = ((r_i * d[:, 0]) ** 2 + d[:, 1] ** 2) / (s_bb + s_rr)
@@ -319,7 +321,7 @@ def measurement_risks(
     # the gate terms G_j(γ): the smallest over the grid of k
     g_gate = _K_OUT[None, :] + _ncx2_cdf((root_g + rho_j) ** 2, lam[:, None])  # (n, K)
     k_best = np.argmin(g_gate, axis=1)
-    g_min = np.minimum(g_gate.min(axis=1), by_range.bound(np.array([gate]))[:, 0])
+    g_min = np.maximum(np.minimum(g_gate.min(axis=1), by_range.bound(np.array([gate]))[:, 0]), FAR_TERM)
     bnd = np.minimum(1.0, np.bincount(mi, weights=np.minimum(1.0, g_min), minlength=m))
     f_gate = _ncx2_cdf(np.full(len(lam), gate), lam)
     ts = gate * _T_FRACTIONS
@@ -341,6 +343,7 @@ def measurement_risks(
         g_i[mi[sel]] = np.min(_K_OUT[None, None, :] + np.exp(-0.5 * short**2), axis=2) + p_out_bound[sel, None]
         lnn = np.min(g_i + sums, axis=1)
         bnd = np.where(lower, np.minimum(bnd, lnn), bnd)
+    bnd = np.minimum(1.0, bnd + far_residual(ncand, len(points)))
     if linear:  # the same with ρ = 0 and no outside mass
         lin = np.minimum(1.0, np.bincount(mi, weights=f_gate, minlength=m))
         f_t = _ncx2_cdf(ts[None, :], lam[:, None])

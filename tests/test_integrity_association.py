@@ -146,10 +146,14 @@ def test_two_landmarks_closer_than_the_noise_give_one_half():
     assert k / n == pytest.approx(0.5, abs=0.02)
 
 
-def test_far_landmarks_give_nothing():
+def test_far_landmarks_give_only_the_far_residual():
+    """A landmark 60 m past the measured one (σ_r 0.1 m: λ ~ 10⁵): no estimate, and a bound that is
+    positive (the landmark is not considered, and a bound of 0 would claim it can never be taken) but
+    far below anything an hour's budget notices."""
     points = _points([(60.0, 0.0)])
     pred, meas = _case(points, 0.002, 0.1, 0.1, 0.05, False)
-    assert _risk(points, pred, meas) == (0.0, 0.0)
+    est, bound = _risk(points, pred, meas)
+    assert est == 0.0 and 0.0 < bound < 1e-22
 
 
 BASE = ([(0.8, 0.0), (0.0, 1.2), (-0.5, -0.9)], 0.004, 0.2, 0.15, 0.1)

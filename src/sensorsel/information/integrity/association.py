@@ -7,7 +7,9 @@ The associator (what cars run, stated here once and used everywhere):
   used measurements of earlier keyframes) within ``1.25 r + 5 m`` of the car, r the measured range
   (a landmark farther out predicts a range more than 0.25 r + 5 m off: outside any gate but for
   metres of range noise; landmarks in the cone and near it, on every side, are all candidates);
-  pairs whose λ exceeds (√γ + 8)² are dropped (their terms are below 1e-14);
+  the risk's computation drops the pairs whose λ exceeds (√γ + 10)² and never considers landmarks
+  beyond a widened reach (:func:`candidate_reach`): each such landmark adds FAR_TERM to the bound
+  ("the far limit" below);
 - each candidate j has the innovation ν_j = z − h(x̂_k, l̂_j) and the normalised innovation squared
   NIS_j = ν_jᵀ S_j⁻¹ ν_j, S_j = R + H_j P_j H_jᵀ (R the measurement's noise, H_j the Jacobian of the
   range-bearing model at the prediction, P_j the predicted joint covariance of pose k and landmark j:
@@ -86,18 +88,45 @@ bounds above:
     P(W) ≤ min(1, Σ_j G_j(γ), min_t [G_i(t) + Σ_j G_j(t)])
 
 G_j(x) the bound on P(NIS_j ≤ x), G_i(t) = O_i + the bound on P(NIS_i > t); the minimum over a fixed
-grid of t in (0, γ] (any t is valid). For a first sighting only Σ_j G_j(γ). ``MeasurementRisk.linear``
+grid of t in (0, γ] (any t is valid). For a first sighting only Σ_j G_j(γ). The sums run over the
+candidates kept; every other landmark of the map adds FAR_TERM to either form (next).
+
+**The far limit.** Both forms are unions over every landmark j ≠ i that the associator could take.
+The engine computes terms for the candidates it keeps; each landmark it does not keep has
+P(NIS_j ≤ γ) ≤ FAR_TERM = 4Φ(−k_far) + Φ(−F) (F = FAR_SIGMAS = 10, k_far = F: 3.8e-23; the box's
+k need not be on the grid), and the bound adds FAR_TERM × (N − 1 − kept), N the map's landmarks (in
+SLAM the route's: the state is among them, and a landmark out of it is never taken):
+
+- a pair dropped by a far filter has √λ_j > √γ + F + ρ_j(k_far) (each filter compares a lower bound
+  of λ_j with an upper bound of ρ_j(k_far)). With x ~ N(μ, I₂) the whitened linearized innovation,
+  ‖μ‖ = √λ, P(‖x‖ ≤ a) ≤ P(μ̂ᵀx ≤ a) = Φ(a − √λ); so G_j(γ) ≤ 4Φ(−k_far) + F((√γ + ρ_j(k_far))²; λ_j)
+  ≤ 4Φ(−k_far) + Φ(−F);
+- a landmark beyond the widened reach (r_j ≥ r + (√γ + F) √(s_bb + s_rr), so r_j > r): the range is
+  convex in the relative position, r̂_j = |u_j + w_j| ≥ r_j + a_j (a_j = û_jᵀ w_j, its linear part),
+  so the range innovation ν_r = r + v_r − r̂_j ≤ v_r − a_j − (r_j − r), and NIS_j ≤ γ needs
+  ν_r ≥ −√(γ S_rr,j) (NIS_j ≥ ν_r²/S_rr,j). v_r − a_j is Gaussian with variance S_rr,j ≤ s_rr (the
+  reach's, with the largest landmark spread), so P(NIS_j ≤ γ) ≤ Φ(√γ − (r_j − r)/√S_rr,j) ≤ Φ(−F):
+  no linearization and no box, for any number of such landmarks each counted once.
+
+Kept pairs' gate terms are floored at FAR_TERM, what they would add if dropped: as the covariance
+grows a landmark moves from beyond the reach to dropped to kept, and its share never falls. At
+3.8e-23 per landmark a measurement's residual is below 2.3e-20 on KITTI 00's map (598 poles): a
+keyframe of a hundred measurements stays far below the ~3·10⁻¹² per keyframe that 10⁻⁸/h at 3,481
+keyframes/h allows. ``MeasurementRisk.linear``
 is the same bound with ρ = 0, no outside mass and no O_i (the NIS model linearized at the truth, every
 landmark within reach): at most ``bound`` (term by term: ``bound`` only adds non-negative terms),
 non-increasing in every λ_j, and λ_j is non-increasing when P or R grows (Loewner order): the linear
 bound never falls with more noise, more landmarks, a looser prior or a looser map, which is what the
-search's association floor uses. O_i is left out of it on purpose: it is non-decreasing in P (σ_w)
+search's association floor uses. It leaves the far limit's residual out: the floor must only stay
+at most ``bound`` and monotone, and a constant per landmark of the map says nothing of the suite.
+O_i is left out of it on purpose: it is non-decreasing in P (σ_w)
 but not in R (a larger σ_r can lower P(σ_w R + τZ > D) where σ_w R already exceeds D), and the floor
 needs only ``linear`` ≤ ``bound``, which holds without it. ``bound`` itself need not be monotone (a
 larger S whitens the remainder more); with ``robust_to_covariance`` the bound returned is
-Σ_j min_k [4Φ(−k) + F((√γ + ρ'_j(k))²; λ_j)] with ρ' whitened by R instead of S_j (ρ' ≥ ρ, since
-S_j ⪰ R): non-decreasing in P, so at a prediction it is at least ``bound`` at any prediction with a
-smaller covariance and the same candidates (the search uses it to know a measurement no suite's
+Σ_j max(FAR_TERM, min_k [4Φ(−k) + F((√γ + ρ'_j(k))²; λ_j)]) + the far limit's residual, with ρ'
+whitened by R instead of S_j (ρ' ≥ ρ, since S_j ⪰ R): non-decreasing in P (a landmark that enters
+the kept candidates as P grows never lowers its share), so at a prediction it is at least ``bound``
+at any prediction with a smaller covariance (the search uses it to know a measurement no suite's
 lever leaves out).
 
 **The estimate** (calibrated, not a bound): the pairwise events, combined as independent,
@@ -160,8 +189,9 @@ ASSOCIATION_MODELS = ("map", "slam")
 #: how far a candidate may lie from the car: CANDIDATE_SCALE × the largest range measured + CANDIDATE_MARGIN_M
 CANDIDATE_SCALE = 1.25
 CANDIDATE_MARGIN_M = 5.0
-#: pairs whose λ exceeds (√γ + FAR_SIGMAS)² are dropped (their F(γ; λ) < 1e-14)
-FAR_SIGMAS = 8.0
+#: pairs whose λ exceeds (√γ + FAR_SIGMAS)² are dropped, and landmarks beyond the widened reach never
+#: considered: each adds at most FAR_TERM to the bound (module docstring, "the far limit")
+FAR_SIGMAS = 10.0
 #: a pair's estimate is the quadrature's (which keeps the reach) where the measured landmark is out of
 #: the associator's reach with at least this probability (:func:`out_of_reach_estimate`)
 REACH_SHARE = 1e-6
@@ -176,7 +206,19 @@ _T_FRACTIONS = np.linspace(0.05, 1.0, 20)  # the bound's thresholds t, as fracti
 #: the region sizes k of the Taylor remainder (module docstring), and their outside masses 4Φ(−k)
 _K_GRID = np.array([1.5, 2.0, 2.5, 3.0, 4.0, 5.5, 7.0, 9.0, 12.0])
 _K_OUT = 4.0 * ndtr(-_K_GRID)
-_K_FAR = int(np.searchsorted(_K_GRID, FAR_SIGMAS))  # the k judging which pairs are far
+#: the box's k of the far filters, k_far = FAR_SIGMAS (any k bounds one probability: module docstring)
+_FAR_K = np.array([FAR_SIGMAS])
+#: the most a landmark left out of a measurement's kept candidates adds to its bound: a pair dropped
+#: by the far filters 4Φ(−k_far) + Φ(−FAR_SIGMAS), a landmark beyond the widened reach Φ(−FAR_SIGMAS)
+#: (module docstring, "the far limit"); 5Φ(−10) = 3.8e-23
+FAR_TERM = float(4.0 * ndtr(-_FAR_K[0]) + ndtr(-FAR_SIGMAS))
+
+
+def far_residual(n_kept: np.ndarray, n_landmarks: int) -> np.ndarray:
+    """(m,) the bound's residual of each measurement for the landmarks it does not keep as candidates:
+    FAR_TERM for each landmark of the ``n_landmarks`` [count] but the measured one and the ``n_kept``
+    (m,) candidates kept (module docstring, "the far limit")."""
+    return FAR_TERM * np.maximum(n_landmarks - 1 - np.asarray(n_kept, np.int64), 0).astype(float)
 
 
 def _ncx2_cdf(x: np.ndarray, lam: np.ndarray) -> np.ndarray:
@@ -422,7 +464,9 @@ def candidate_reach(
     noise (metres at 20 m) carries well past r: a landmark beyond 1.25 r + 5 m can then be inside the
     gate and nearer. The widened reach is rigorous: a landmark at r_j ≥ r + (√γ + F) √(s_bb + s_rr)
     (s_bb taken at r_j = r, its largest over r_j ≥ r) has λ ≥ (r_j − r)² / (s_bb + s_rr) ≥ (√γ + F)², the
-    pairs the far-pair filter drops anyway: the reach loses nothing that filter keeps. In SLAM
+    pairs the far-pair filter drops anyway: the reach loses nothing that filter keeps, and each
+    landmark beyond it is taken with probability at most Φ(−F) ≤ FAR_TERM, which the bound adds
+    (module docstring, "the far limit"). In SLAM
     (``model="slam"``) the candidates are the state's landmarks, whose spreads the state holds: the
     weak prior of the landmarks out of it (100 m) would make every landmark of the route a candidate."""
     snap = Snapshot.of(prediction, meas)
@@ -481,7 +525,9 @@ def _risks(
     """:func:`measurement_risks` of every measurement of the batch, against the candidates ``near``
     of the batch's keyframes ``near_at`` (sorted), each measurement's reach ``reach_m`` (M,) [m]."""
     m = len(b.at)
-    est, bnd, ncand, lin = np.zeros(m), np.zeros(m), np.zeros(m, np.int64), np.zeros(m)
+    est, ncand, lin = np.zeros(m), np.zeros(m, np.int64), np.zeros(m)
+    # with no candidate kept, the bound is every other landmark's far residual (module docstring)
+    bnd = np.minimum(1.0, far_residual(ncand, len(points)))
     if m == 0 or near.size == 0:
         return MeasurementRisk(est, bnd, ncand, lin)
     has_right = np.ones(m, bool) if model == "map" else b.slot >= 0
@@ -523,7 +569,7 @@ def _risks(
     r_j = np.maximum(near_dist[pick], 1e-9)
     s_bb = r_i**2 * (b.meas["sigma_bearing_rad"][mi] ** 2 + ((sd_xy + sd_lj) / r_j + sd_th) ** 2)
     s_rr = b.meas["sigma_range_m"][mi] ** 2 + (sd_xy + sd_lj) ** 2
-    far_k = _K_GRID[_K_FAR : _K_FAR + 1]
+    far_k = _FAR_K
     sd_w = (sd_xy + sd_lj)[:, None] * np.ones(2)
     rho_up = _remainder(sd_w, r_j, noise_inverse(b, mi), far_k)[:, 0]
     lam_low = ((r_i * d[:, 0]) ** 2 + d[:, 1] ** 2) / (s_bb + s_rr)
@@ -575,6 +621,7 @@ def _risks(
         p_out_bound,
         _Bent(bent, b, points, cj, far_out, tail),
         has_right,
+        n_landmarks=len(points),
         gate=gate,
         linear=linear,
         robust_to_covariance=robust_to_covariance,
@@ -609,6 +656,7 @@ def _bounds(
     bent: _Bent,
     has_right: np.ndarray,
     *,
+    n_landmarks: int,
     gate: float,
     linear: bool,
     robust_to_covariance: bool,
@@ -619,7 +667,8 @@ def _bounds(
     keyframes, ``rho_j``
     (n, K) their remainders over the grid of k, ``by_range`` their range terms, ``p_out`` (n,)
     the bound of P(the measured landmark is out of the associator's reach), equal within a
-    measurement): the module docstring's formulas."""
+    measurement), ``n_landmarks`` the landmarks of the map (each one not kept adds FAR_TERM): the
+    module docstring's formulas."""
     m = len(has_right)
     lin = np.zeros(m)
     ncand = np.bincount(mi, minlength=m).astype(np.int64)
@@ -628,7 +677,9 @@ def _bounds(
     # the gate terms G_j(γ): the smallest over the grid of k
     g_gate = _K_OUT[None, :] + _ncx2_cdf((root_g + rho_j) ** 2, lam[:, None])  # (n, K)
     k_best = np.argmin(g_gate, axis=1)
-    g_min = np.minimum(g_gate.min(axis=1), by_range.bound(np.array([gate]))[:, 0])
+    # each kept pair's term floored at FAR_TERM, what it would add if dropped: a pair moving from
+    # dropped to kept as the covariance grows never lowers the bound (robust_to_covariance's property)
+    g_min = np.maximum(np.minimum(g_gate.min(axis=1), by_range.bound(np.array([gate]))[:, 0]), FAR_TERM)
     bnd = np.minimum(1.0, np.bincount(mi, weights=np.minimum(1.0, g_min), minlength=m))
     f_gate = _ncx2_cdf(np.full(len(lam), gate), lam)
     ts = gate * _T_FRACTIONS
@@ -651,6 +702,9 @@ def _bounds(
         g_i[mi[sel]] = np.min(_K_OUT[None, None, :] + np.exp(-0.5 * short**2), axis=2) + p_out[sel, None]
         lnn = np.min(g_i + sums, axis=1)
         bnd = np.where(lower, np.minimum(bnd, lnn), bnd)
+    # the landmarks not kept (dropped by the far filters, or beyond the widened reach): both forms of
+    # the bound are unions over every landmark, so their residual adds to either
+    bnd = np.minimum(1.0, bnd + far_residual(ncand, n_landmarks))
     if linear:  # the same with ρ = 0 and no outside mass
         lin = np.minimum(1.0, np.bincount(mi, weights=f_gate, minlength=m))
         f_t = _ncx2_cdf(ts[None, :], lam[:, None])
