@@ -356,6 +356,8 @@ def measurement_risks(
         p = nonlinear_estimate(
             p,
             bent,
+            np.zeros(len(p), np.int64),  # one keyframe
+            g_min,
             np.broadcast_to(np.asarray(pose, float), (len(at), 3)),
             points[li[at]],
             points[cj[at]],

@@ -599,7 +599,7 @@ def _bounds(
     p = f_gate.copy()
     if right.any():
         p[right] = np.minimum(p_nearer(pair if right.all() else pair.select(right), at[right]), f_gate[right])
-    p = bent.estimate(p, pair, mi, right, gate)
+    p = bent.estimate(p, pair, mi, at, g_min, right, gate)
     # bincount sums each measurement's terms in order from 0, as np.add.at into zeros did
     logq = np.bincount(mi, weights=np.log1p(-np.clip(p, 0.0, 1.0 - 1e-16)), minlength=m)
     est = np.maximum(-np.expm1(logq), 0.0)
@@ -648,8 +648,18 @@ class _Bent:
     points: np.ndarray
     cj: np.ndarray
 
-    def estimate(self, p: np.ndarray, pair: Pairs, mi: np.ndarray, right: np.ndarray, gate: float) -> np.ndarray:
-        """(n,) ``p`` with the bent pairs' replaced by the nonlinear model's (:mod:`.nonlinear`)."""
+    def estimate(
+        self,
+        p: np.ndarray,
+        pair: Pairs,
+        mi: np.ndarray,
+        at: np.ndarray,
+        g_gate: np.ndarray,
+        right: np.ndarray,
+        gate: float,
+    ) -> np.ndarray:
+        """(n,) ``p`` with the bent pairs' replaced by the nonlinear model's (:mod:`.nonlinear`), the
+        pairs' measurements ``mi``, keyframes ``at`` and bound's gate terms ``g_gate`` (n,) G_j(γ)."""
         if not self.mask.any():
             return p
         b, sel = self.batch, self.mask
@@ -659,6 +669,8 @@ class _Bent:
         return nonlinear_estimate(
             p,
             sel,
+            at,
+            g_gate,
             b.poses[b.at[mb]],
             self.points[b.meas["landmark"][mb]],
             self.points[self.cj[sel]],

@@ -21,12 +21,24 @@ landmark is a candidate only within CANDIDATE_SCALE r̂ + CANDIDATE_MARGIN_M of 
 points are the same for every pair and every call and the sums are in a fixed order (no BLAS):
 byte-identical results for any threads. The resolution is 2^−SOBOL_LOG2 (3e-5); where the quadrature
 sees no wrong point, p_j is the linearized value capped at that resolution.
+
+What it costs, and what shortens it (:func:`nonlinear_estimate`; each keeps the bound untouched and
+the result byte-identical for any threads): the points are evaluated stage by stage over the pairs;
+the bearing (an arctangent) only where the range innovation alone leaves the candidate inside the
+gate (NIS_j ≥ ν_r² / S_rr), the right landmark's innovation only where the candidate is inside, the
+state's factor without its zeros: the same wrong points as on every point. A pair needs no point
+where its term of the bound, G_j(γ) ≥ P(NIS_j ≤ γ) ≥ p_j, is below the resolution; and a pair's
+quadrature ends at the first stage where its estimate is resolved to :data:`KEYFRAME_SHARE` of its
+keyframe's estimate (shared among the keyframe's bent pairs): it has no more to say about the
+keyframe's estimate. ``tests/test_association_quadrature.py`` checks each against the whole
+quadrature and a direct count on every point.
 """
 
 from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Callable
 
 import numpy as np
 from scipy.special import ndtri
@@ -35,6 +47,7 @@ from sensorsel.information.linearize import bearing_range_jacobians
 
 __all__ = [
     "BENT_SHARE",
+    "KEYFRAME_SHARE",
     "SOBOL_LOG2",
     "bent_pairs",
     "nonlinear_estimate",
@@ -49,6 +62,11 @@ _SOBOL_SEED = 20261126
 #: the quadrature's stages (log2 of the points used) and the wrong points that end it (relative error ~12 %)
 _STAGES = (11, 13, SOBOL_LOG2)
 _ENOUGH = 64
+#: a bent pair's quadrature ends once its uncertainty is at most this share of its keyframe's estimate,
+#: divided among the keyframe's bent pairs (:func:`nonlinear_estimate`)
+KEYFRAME_SHARE = 0.1
+#: NIS_j ≥ ν_r² / S_rr: points with ν_r² > γ S_rr × this (a margin for rounding) are outside the gate
+_RANGE_MARGIN = 1.001
 
 
 @functools.lru_cache(maxsize=1)
@@ -88,7 +106,8 @@ def nonlinear_pair_probabilities(
     reach: tuple[float, float],
 ) -> np.ndarray:
     """(n,) p_j of each pair under the nonlinear model (module docstring), or NaN where no point of
-    the quadrature errs (below its resolution).
+    the quadrature errs (below its resolution): the whole staged quadrature of every pair, no pair
+    resolved early (what :func:`nonlinear_estimate` shortens).
 
     The quadrature runs in stages, on the first 2^m points of the Sobol set for m in
     :data:`_STAGES` (each prefix is itself a balanced set): a pair stops at the first stage where it
@@ -108,14 +127,61 @@ def nonlinear_pair_probabilities(
         reach: (scale, margin [m]): the associator's candidates lie within scale × the measured range +
             margin of the estimated pose (``association.CANDIDATE_SCALE``, ``CANDIDATE_MARGIN_M``).
     """
-    xi = _normal_points()
+    hits, done = _staged(poses, point_i, point_j, z, noise_sd, cov, right, gate, reach, None)
+    return np.where(hits > 0, hits / np.maximum(done, 1), np.nan)
+
+
+def _staged(
+    poses: np.ndarray,
+    point_i: np.ndarray,
+    point_j: np.ndarray,
+    z: np.ndarray,
+    noise_sd: np.ndarray,
+    cov: np.ndarray,
+    right: np.ndarray,
+    gate: float,
+    reach: tuple[float, float],
+    resolved: Callable[[np.ndarray, np.ndarray], np.ndarray] | None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """(hits, points) (n,) int: each pair's wrong points and the points of the quadrature it used
+    (:func:`nonlinear_pair_probabilities`' stages, the arguments its own), stage by stage over the
+    pairs. ``resolved(hits, points)`` → (n,) bool, where given, also ends the pairs it marks, before
+    the first stage (points 0) and after each: the pair's estimate is resolved enough."""
     n = len(point_i)
-    out = np.full(n, np.nan)
+    hits, done = np.zeros(n, np.int64), np.zeros(n, np.int64)
+    active = np.ones(n, bool) if resolved is None else ~resolved(hits, done)
     poses = np.asarray(poses, float)
     jac_i = bearing_range_jacobians(poses, point_i)
     jac_j = bearing_range_jacobians(poses, point_j)
-    for p in range(n):
-        pose = poses[p]
+    pairs: dict[int, _Pair] = {}
+    for m in _STAGES:
+        for p in np.flatnonzero(active).tolist():
+            if p not in pairs:  # set up at its first stage: a pair resolved before any needs none
+                pairs[p] = _Pair(poses[p], point_i[p], point_j[p], z[p], noise_sd[p], cov[p], jac_i[p], jac_j[p])
+            hits[p] += pairs[p].wrong(int(done[p]), 2**m, bool(right[p]), gate, reach)
+            done[p] = 2**m
+        active &= (hits < _ENOUGH) & ((hits > 0) | (m < _STAGES[1]))
+        if resolved is not None and active.any():
+            active &= ~resolved(hits, done)
+    return hits, done
+
+
+class _Pair:
+    """One pair's quadrature: the map of the state's errors to (dθ, w_i, w_j) and the innovations'
+    S⁻¹ (the arguments one row of :func:`nonlinear_pair_probabilities`', and the pair's Jacobians
+    (2, 5) of (bearing, range) in (pose, landmark) at the truth)."""
+
+    def __init__(
+        self,
+        pose: np.ndarray,
+        point_i: np.ndarray,
+        point_j: np.ndarray,
+        z: np.ndarray,
+        noise_sd: np.ndarray,
+        cov: np.ndarray,
+        jac_i: np.ndarray,
+        jac_j: np.ndarray,
+    ) -> None:
         c, s = math.cos(pose[2]), math.sin(pose[2])
         # the error of the estimated relative position of a landmark, w = e_l − R(θ) e_xy (world
         # frame), and the heading's error: a linear map of the 7 state errors
@@ -124,58 +190,75 @@ def nonlinear_pair_probabilities(
         for row, col in ((1, 3), (3, 5)):
             to_w[row : row + 2, col : col + 2] = np.eye(2)
             to_w[row : row + 2, :2] = -np.array([[c, -s], [s, c]])
-        # (dθ, w_i, w_j) = A ξ[:7], A the state's factor mapped; the noise v = σ ⊙ ξ[7:]
-        a = to_w @ _cholesky(cov[p])
-        r = np.diag(noise_sd[p] ** 2)
+        # (dθ, w_i, w_j) = A ξ[:7], A the state's factor mapped; the noise v = σ ⊙ ξ[7:]. The factor is
+        # lower triangular: dθ (its row 2) reads ξ[:3] only, w_i (rows 3-4 and 0-1) ξ[:5] only
+        self.a = to_w @ _cholesky(cov)
+        r = np.diag(noise_sd**2)
         sel_j = [0, 1, 2, 5, 6]
-        s_inv_j = np.linalg.inv(r + jac_j[p] @ cov[p][np.ix_(sel_j, sel_j)] @ jac_j[p].T)
-        s_inv_i = np.linalg.inv(r + jac_i[p] @ cov[p][:5, :5] @ jac_i[p].T)
-        hits, done = 0, 0
-        for m in _STAGES:
-            block = xi[:, done : 2**m]
-            d = _combine(a, block[:7])  # (5, N): dθ, w_i, w_j
-            zs = z[p][:, None] + block[7:9] * noise_sd[p][:, None]
-            # a landmark is a candidate inside the gate and within the reach of the measured range
-            reach_m = reach[0] * zs[1] + reach[1]
-            nis_j, dist_j = _nis(zs, (point_j[p] - pose[:2])[:, None] + d[3:5], pose[2] + d[0], s_inv_j)
-            wrong = (nis_j <= gate) & (dist_j <= reach_m)
-            if right[p]:
-                nis_i, dist_i = _nis(zs, (point_i[p] - pose[:2])[:, None] + d[1:3], pose[2] + d[0], s_inv_i)
-                wrong &= (nis_j < nis_i) | (nis_i > gate) | (dist_i > reach_m)
-            hits, done = hits + int(np.count_nonzero(wrong)), 2**m
-            if hits >= _ENOUGH or (hits == 0 and m >= _STAGES[1]):
-                break
-        if hits:
-            out[p] = hits / done
-    return out
+        s_j = r + jac_j @ cov[np.ix_(sel_j, sel_j)] @ jac_j.T
+        self.s_inv_j = np.linalg.inv(s_j)
+        self.s_inv_i = np.linalg.inv(r + jac_i @ cov[:5, :5] @ jac_i.T)
+        # NIS_j ≥ ν_r² / S_rr (the least νᵀ S⁻¹ ν with that range component): a point whose range
+        # innovation alone puts the candidate out of the gate (a relative margin for rounding) needs no
+        # bearing; every other number is computed point by point as it would be on every point
+        self.range_gate_m2 = float(s_j[1, 1]) * _RANGE_MARGIN
+        self.pose, self.z, self.noise_sd = pose, z, noise_sd
+        self.rel_i, self.rel_j = point_i - pose[:2], point_j - pose[:2]
+
+    def wrong(self, lo: int, hi: int, right: bool, gate: float, reach: tuple[float, float]) -> int:
+        """The wrong points among the Sobol set's points ``lo`` to ``hi`` (the arguments
+        :func:`nonlinear_pair_probabilities`' for this pair)."""
+        xi, a = _normal_points(), self.a
+        rel_j = self.rel_j[:, None] + _combine(a[3:5], xi[:7, lo:hi])
+        dist_j = np.hypot(rel_j[0], rel_j[1])
+        z_r = self.z[1] + xi[8, lo:hi] * self.noise_sd[1]
+        # a landmark is a candidate inside the gate and within the reach of the measured range
+        reach_m = reach[0] * z_r + reach[1]
+        nu_r = z_r - dist_j
+        at = lo + np.flatnonzero((dist_j <= reach_m) & (nu_r * nu_r <= gate * self.range_gate_m2))
+        heading = self.pose[2] + _combine(a[0:1, :3], xi[:3, at])[0]
+        z_b = self.z[0] + xi[7, at] * self.noise_sd[0]
+        nis_j = _nis(z_b, rel_j[:, at - lo], heading, nu_r[at - lo], self.s_inv_j)
+        inside = nis_j <= gate
+        if not right:  # a first sighting: any candidate inside the gate takes it
+            return int(np.count_nonzero(inside))
+        at, heading = at[inside], heading[inside]
+        rel_i = self.rel_i[:, None] + _combine(a[1:3, :5], xi[:5, at])
+        dist_i = np.hypot(rel_i[0], rel_i[1])
+        nis_i = _nis(z_b[inside], rel_i, heading, z_r[at - lo] - dist_i, self.s_inv_i)
+        return int(np.count_nonzero((nis_j[inside] < nis_i) | (nis_i > gate) | (dist_i > reach_m[at - lo])))
 
 
 def _combine(a: np.ndarray, xi: np.ndarray) -> np.ndarray:
     """(r, N) A ξ for ``a`` (r, q) and points ``xi`` (q, N): scalar times row, summed in a fixed order
-    (no BLAS: the same sums whatever the threads)."""
-    out = np.empty((a.shape[0], xi.shape[1]))
+    (no BLAS: the same sums whatever the threads). Exact zeros of ``a`` (the state's factor is lower
+    triangular) are skipped: adding a zero leaves a sum as it was."""
+    out = np.zeros((a.shape[0], xi.shape[1]))
     tmp = np.empty(xi.shape[1])
     for r in range(a.shape[0]):
-        np.multiply(xi[0], a[r, 0], out=out[r])
-        for k in range(1, a.shape[1]):
+        cols = np.flatnonzero(a[r])
+        if len(cols):
+            np.multiply(xi[cols[0]], a[r, cols[0]], out=out[r])
+        for k in cols[1:]:
             np.multiply(xi[k], a[r, k], out=tmp)
             out[r] += tmp
     return out
 
 
-def _nis(zs: np.ndarray, rel: np.ndarray, heading: np.ndarray, s_inv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(N,) νᵀ S⁻¹ ν of the measurements ``zs`` (2, N) against a landmark at the estimated relative
-    position ``rel`` (2, N) [m] (world frame) from a pose of estimated ``heading`` (N,) [rad]:
-    ν = z − (atan2(rel) − heading, |rel|), the bearing wrapped; ``s_inv`` (2, 2); and |rel| (N,) [m]."""
-    dist = np.hypot(rel[0], rel[1])
-    nu_b = (zs[0] - np.arctan2(rel[1], rel[0]) + heading + np.pi) % (2.0 * np.pi) - np.pi
-    nu_r = zs[1] - dist
-    return s_inv[0, 0] * nu_b**2 + 2.0 * s_inv[0, 1] * nu_b * nu_r + s_inv[1, 1] * nu_r**2, dist
+def _nis(z_b: np.ndarray, rel: np.ndarray, heading: np.ndarray, nu_r: np.ndarray, s_inv: np.ndarray) -> np.ndarray:
+    """(N,) νᵀ S⁻¹ ν of the measured bearings ``z_b`` (N,) [rad] against a landmark at the estimated
+    relative position ``rel`` (2, N) [m] (world frame) from a pose of estimated ``heading`` (N,) [rad],
+    ν = (z_b − (atan2(rel) − heading), ``nu_r``), the bearing wrapped, ``nu_r`` (N,) the range
+    innovation [m] (the measured range less |rel|); ``s_inv`` (2, 2)."""
+    nu_b = (z_b - np.arctan2(rel[1], rel[0]) + heading + np.pi) % (2.0 * np.pi) - np.pi
+    return s_inv[0, 0] * nu_b**2 + 2.0 * s_inv[0, 1] * nu_b * nu_r + s_inv[1, 1] * nu_r**2
 
 
 def nonlinear_estimate(
     p: np.ndarray,
     bent: np.ndarray,
+    keyframe: np.ndarray,
+    bound: np.ndarray,
     poses: np.ndarray,
     point_i: np.ndarray,
     point_j: np.ndarray,
@@ -187,14 +270,54 @@ def nonlinear_estimate(
     reach: tuple[float, float],
 ) -> np.ndarray:
     """(n,) the pairs' estimates ``p`` (n,) with the bent ones (``bent`` (n,) bool) replaced by the
-    quadrature's where it resolves them (module docstring). The rest describe the bent pairs only
-    (b of them), as :func:`nonlinear_pair_probabilities` takes them: ``poses`` (b, 3), ``point_i``,
-    ``point_j`` (b, 2) [m], ``z``, ``noise_sd`` (b, 2), ``joint`` (b, 7, 7), ``right`` (b,)."""
+    quadrature's (module docstring), each pair's keyframe ``keyframe`` (n,) (any labels) and ``bound``
+    (n,) its term G_j(γ) of the bound (P(NIS_j ≤ γ) ≤ G_j, so p_j ≤ G_j whatever the quadrature sees).
+    The rest describe the bent pairs only (b of them), as :func:`nonlinear_pair_probabilities` takes
+    them: ``poses`` (b, 3), ``point_i``, ``point_j`` (b, 2) [m], ``z``, ``noise_sd`` (b, 2), ``joint``
+    (b, 7, 7), ``right`` (b,).
+
+    A bent pair's quadrature ends early where its estimate is resolved (:func:`_resolution`): its
+    uncertainty δ_j is at most the quadrature's resolution 2^−SOBOL_LOG2, or at most
+    :data:`KEYFRAME_SHARE` × T_k / n_k (T_k its keyframe's estimate, n_k the keyframe's bent pairs).
+    δ_j is, before any point, G_j (0 ≤ p_j ≤ G_j, proved); after h wrong points of N, √max(h, 1)/N
+    (a standard error of h/N, the measure of the stages' own stop at 64 wrong points, 12 %; 1/N where none
+    errs). Since ∂T_k/∂p_j ≤ 1, the pairs ended early move T_k by at most Σ δ_j ≤ KEYFRAME_SHARE × T_k
+    (at a standard error each). Each pair's estimate: min(h/N, G_j) where the quadrature saw a wrong
+    point; else min(linearized, G_j, 2^−SOBOL_LOG2) (a pair resolved before
+    any point: min(linearized, G_j))."""
     if not bent.any():
         return p
     at = np.flatnonzero(bent)
-    q = nonlinear_pair_probabilities(poses, point_i, point_j, z, noise_sd, joint, right, gate, reach)
+    g = np.asarray(bound, float)[at]
+    done = _resolution(p, bent, keyframe, g)
+    hits, points = _staged(poses, point_i, point_j, z, noise_sd, joint, right, gate, reach, done)
     out = p.copy()
     # no point errs: the probability is below the quadrature's resolution, whatever the linearization says
-    out[at] = np.where(np.isnan(q), np.minimum(p[at], 2.0**-SOBOL_LOG2), q)
+    quiet = np.minimum(np.minimum(p[at], g), np.where(points > 0, 2.0**-SOBOL_LOG2, np.inf))
+    out[at] = np.where(hits > 0, np.minimum(hits / np.maximum(points, 1), g), quiet)
     return out
+
+
+def _resolution(
+    p: np.ndarray, bent: np.ndarray, keyframe: np.ndarray, g: np.ndarray
+) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
+    """:func:`_staged`'s ``resolved`` for the bent pairs of :func:`nonlinear_estimate` (its arguments;
+    ``g`` (b,) the bent pairs' G_j): T_k from the keyframe's other pairs' estimates and its bent pairs'
+    wrong points (a bent pair without one counts 0: T_k is not overstated). Each keyframe's pairs
+    alone decide its numbers, in a fixed order: the same for a keyframe alone or in a batch."""
+    kf = np.unique(keyframe, return_inverse=True)[1].ravel()
+    n_kf = int(kf.max()) + 1
+    log_other = np.bincount(kf, weights=np.log1p(-np.clip(np.where(bent, 0.0, p), 0.0, 1.0 - 1e-16)), minlength=n_kf)
+    kb = kf[bent]
+    share = KEYFRAME_SHARE / np.bincount(kb, minlength=n_kf)[kb]
+
+    def resolved(hits: np.ndarray, points: np.ndarray) -> np.ndarray:
+        per = np.maximum(points, 1)
+        value = np.where(hits > 0, np.minimum(hits / per, g), 0.0)
+        t_k = -np.expm1(
+            log_other + np.bincount(kb, weights=np.log1p(-np.clip(value, 0.0, 1.0 - 1e-16)), minlength=n_kf)
+        )
+        spread = np.where(points > 0, np.sqrt(np.maximum(hits, 1)) / per, g)
+        return spread <= np.maximum(2.0**-SOBOL_LOG2, share * t_k[kb])
+
+    return resolved
