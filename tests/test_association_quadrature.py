@@ -154,3 +154,12 @@ def test_the_shortened_estimate_is_the_same_whatever_the_threads(tiny_problem):
             r = route_integrity(tiny_problem, suite, IntegritySpec(), map_sigma_m=None)
         runs.append(np.asarray(r.p_wrong_association_estimate, float).tobytes())
     assert runs[0] == runs[1]
+
+
+def test_the_quadrature_points_are_scipys_scrambled_sobol_points():
+    """The quadrature's own Sobol generator (no scipy.stats import) gives scipy's points bit for bit."""
+    from scipy.stats import qmc
+
+    for d, log2n, seed in ((9, nonlinear.SOBOL_LOG2, nonlinear._SOBOL_SEED), (4, 6, 7), (1, 3, 0)):
+        want = qmc.Sobol(d, scramble=True, seed=seed).random_base2(log2n)
+        assert nonlinear._scrambled_sobol(d, log2n, seed).tobytes() == want.tobytes(), (d, log2n, seed)
