@@ -71,10 +71,10 @@ def _direct(poses, point_i, point_j, z, noise_sd, cov, right, gate, reach, n_poi
 
 def _staged_rule(wrong: np.ndarray) -> np.ndarray:
     """The quadrature's stages applied to a direct count (``wrong`` (n, 2^SOBOL_LOG2)): the estimate
-    at the first stage with 64 wrong points, or none after the first two; NaN where none errs."""
+    at the first stage with 64 wrong points, or none from 2^13 points on; NaN where none errs."""
     out = np.full(len(wrong), np.nan)
     for p, row in enumerate(wrong):
-        for m in (11, 13, 15):
+        for m in nonlinear._STAGES:
             hits = int(np.count_nonzero(row[: 2**m]))
             if hits >= 64 or (hits == 0 and m >= 13):
                 break

@@ -59,9 +59,11 @@ BENT_SHARE = 0.1
 #: the quadrature's size: 2^SOBOL_LOG2 points
 SOBOL_LOG2 = 15
 _SOBOL_SEED = 20261126
-#: the quadrature's stages (log2 of the points used) and the wrong points that end it (relative error ~12 %)
-_STAGES = (11, 13, SOBOL_LOG2)
+#: the quadrature's stages (log2 of the points used), the wrong points that end it (relative error ~12 %),
+#: and the stage from which a pair with none ends (below 2^−13)
+_STAGES = (9, 11, 13, SOBOL_LOG2)
 _ENOUGH = 64
+_QUIET_LOG2 = 13
 #: a bent pair's quadrature ends once its uncertainty is at most this share of its keyframe's estimate,
 #: divided among the keyframe's bent pairs (:func:`nonlinear_estimate`)
 KEYFRAME_SHARE = 0.1
@@ -166,7 +168,7 @@ def nonlinear_pair_probabilities(
     The quadrature runs in stages, on the first 2^m points of the Sobol set for m in
     :data:`_STAGES` (each prefix is itself a balanced set): a pair stops at the first stage where it
     has :data:`_ENOUGH` wrong points (a relative error of ~1/√_ENOUGH) or none (below that stage's
-    resolution, 2^−m, after the first two), else goes on to the next; all of SOBOL_LOG2 at most.
+    resolution, 2^−m, from 2^_QUIET_LOG2 points on), else goes on to the next; all of SOBOL_LOG2 at most.
 
     Args:
         poses: (n, 3) the truth at each pair's keyframe, x [m], y [m], heading [rad].
@@ -214,7 +216,7 @@ def _staged(
                 pairs[p] = _Pair(poses[p], point_i[p], point_j[p], z[p], noise_sd[p], cov[p], jac_i[p], jac_j[p])
             hits[p] += pairs[p].wrong(int(done[p]), 2**m, bool(right[p]), gate, reach)
             done[p] = 2**m
-        active &= (hits < _ENOUGH) & ((hits > 0) | (m < _STAGES[1]))
+        active &= (hits < _ENOUGH) & ((hits > 0) | (m < _QUIET_LOG2))
         if resolved is not None and active.any():
             active &= ~resolved(hits, done)
     return hits, done
