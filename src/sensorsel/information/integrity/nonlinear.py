@@ -37,7 +37,6 @@ quadrature and a direct count on every point.
 from __future__ import annotations
 
 import functools
-import math
 from collections.abc import Callable
 
 import numpy as np
@@ -124,17 +123,18 @@ def _scrambled_sobol(d: int, log2n: int, seed: int) -> np.ndarray:
     rows = lower @ (one << np.arange(bits - 1, -1, -1, dtype=np.uint64))  # (d, bits): row p, its first entry on top
     scrambled = np.zeros_like(v)
     for p in range(bits):  # bit bits−1−p of the scrambled v: the parity of row p and v (GF(2))
-        x, parity = rows[:, p, None] & v, np.zeros_like(v)
+        x: np.ndarray = np.bitwise_and(rows[:, p, None], v)
+        parity = np.zeros_like(v)
         while x.any():
             parity ^= x & one
-            x >>= one
+            x = np.right_shift(x, one)
         scrambled |= parity << np.uint64(bits - 1 - p)
     i = np.arange(2**log2n, dtype=np.uint64)
     gray = i ^ (i >> one)
-    q = np.repeat(shift[:, None], len(i), axis=1)
+    quasi = np.repeat(shift[:, None], len(i), axis=1)
     for k in range(log2n):
-        q ^= np.where((gray >> np.uint64(k)) & one, scrambled[:, k, None], np.uint64(0))
-    return (q * (1.0 / 2**bits)).T
+        quasi ^= np.where((gray >> np.uint64(k)) & one, scrambled[:, k, None], np.uint64(0))
+    return (quasi * (1.0 / 2**bits)).T
 
 
 def bent_pairs(rho_i: np.ndarray, rho_j: np.ndarray, lam: np.ndarray) -> np.ndarray:
@@ -144,10 +144,11 @@ def bent_pairs(rho_i: np.ndarray, rho_j: np.ndarray, lam: np.ndarray) -> np.ndar
 
 
 def _cholesky(cov: np.ndarray) -> np.ndarray:
-    """A lower factor of the positive semi-definite ``cov`` (a relative jitter where it is singular:
-    a landmark tied to the pose)."""
-    scale = max(float(np.max(np.diagonal(cov))), 1e-300)
-    return np.linalg.cholesky(0.5 * (cov + cov.T) + 1e-12 * scale * np.eye(len(cov)))
+    """(..., q, q) a lower factor of each positive semi-definite matrix of ``cov`` (..., q, q) (a
+    relative jitter where it is singular: a landmark tied to the pose)."""
+    scale = np.maximum(np.max(np.diagonal(cov, axis1=-2, axis2=-1), axis=-1), 1e-300)[..., None, None]
+    q = cov.shape[-1]
+    return np.linalg.cholesky(0.5 * (cov + np.swapaxes(cov, -1, -2)) + 1e-12 * scale * np.eye(q))
 
 
 def nonlinear_pair_probabilities(
@@ -206,15 +207,10 @@ def _staged(
     n = len(point_i)
     hits, done = np.zeros(n, np.int64), np.zeros(n, np.int64)
     active = np.ones(n, bool) if resolved is None else ~resolved(hits, done)
-    poses = np.asarray(poses, float)
-    jac_i = bearing_range_jacobians(poses, point_i)
-    jac_j = bearing_range_jacobians(poses, point_j)
-    pairs: dict[int, _Pair] = {}
+    pairs = _Pairs(np.asarray(poses, float), point_i, point_j, z, noise_sd, cov)
     for m in _STAGES:
         for p in np.flatnonzero(active).tolist():
-            if p not in pairs:  # set up at its first stage: a pair resolved before any needs none
-                pairs[p] = _Pair(poses[p], point_i[p], point_j[p], z[p], noise_sd[p], cov[p], jac_i[p], jac_j[p])
-            hits[p] += pairs[p].wrong(int(done[p]), 2**m, bool(right[p]), gate, reach)
+            hits[p] += pairs.wrong(p, int(done[p]), 2**m, bool(right[p]), gate, reach)
             done[p] = 2**m
         active &= (hits < _ENOUGH) & ((hits > 0) | (m < _QUIET_LOG2))
         if resolved is not None and active.any():
@@ -222,66 +218,69 @@ def _staged(
     return hits, done
 
 
-class _Pair:
-    """One pair's quadrature: the map of the state's errors to (dθ, w_i, w_j) and the innovations'
-    S⁻¹ (the arguments one row of :func:`nonlinear_pair_probabilities`', and the pair's Jacobians
-    (2, 5) of (bearing, range) in (pose, landmark) at the truth)."""
+class _Pairs:
+    """The pairs' quadrature: each pair's map of the state's errors to (dθ, w_i, w_j) and its
+    innovations' S⁻¹ (the arguments :func:`nonlinear_pair_probabilities`'), for every pair at once
+    (LAPACK and matrix products per matrix: each pair's numbers as it alone would have them)."""
 
     def __init__(
         self,
-        pose: np.ndarray,
+        poses: np.ndarray,
         point_i: np.ndarray,
         point_j: np.ndarray,
         z: np.ndarray,
         noise_sd: np.ndarray,
         cov: np.ndarray,
-        jac_i: np.ndarray,
-        jac_j: np.ndarray,
     ) -> None:
-        c, s = math.cos(pose[2]), math.sin(pose[2])
+        n = len(poses)
+        c, s = np.cos(poses[:, 2]), np.sin(poses[:, 2])
         # the error of the estimated relative position of a landmark, w = e_l − R(θ) e_xy (world
         # frame), and the heading's error: a linear map of the 7 state errors
-        to_w = np.zeros((5, 7))
-        to_w[0, 2] = 1.0
+        to_w = np.zeros((n, 5, 7))
+        to_w[:, 0, 2] = 1.0
+        rot = np.stack([np.stack([c, -s], axis=-1), np.stack([s, c], axis=-1)], axis=-2)  # (n, 2, 2)
         for row, col in ((1, 3), (3, 5)):
-            to_w[row : row + 2, col : col + 2] = np.eye(2)
-            to_w[row : row + 2, :2] = -np.array([[c, -s], [s, c]])
+            to_w[:, row, col] = to_w[:, row + 1, col + 1] = 1.0
+            to_w[:, row : row + 2, :2] = -rot
         # (dθ, w_i, w_j) = A ξ[:7], A the state's factor mapped; the noise v = σ ⊙ ξ[7:]. The factor is
         # lower triangular: dθ (its row 2) reads ξ[:3] only, w_i (rows 3-4 and 0-1) ξ[:5] only
         self.a = to_w @ _cholesky(cov)
-        r = np.diag(noise_sd**2)
+        r = np.zeros((n, 2, 2))
+        r[:, 0, 0], r[:, 1, 1] = noise_sd[:, 0] ** 2, noise_sd[:, 1] ** 2
+        jac_i = bearing_range_jacobians(poses, point_i)
+        jac_j = bearing_range_jacobians(poses, point_j)
         sel_j = [0, 1, 2, 5, 6]
-        s_j = r + jac_j @ cov[np.ix_(sel_j, sel_j)] @ jac_j.T
+        s_j = r + jac_j @ cov[:, sel_j][:, :, sel_j] @ np.swapaxes(jac_j, 1, 2)
         self.s_inv_j = np.linalg.inv(s_j)
-        self.s_inv_i = np.linalg.inv(r + jac_i @ cov[:5, :5] @ jac_i.T)
+        self.s_inv_i = np.linalg.inv(r + jac_i @ cov[:, :5, :5] @ np.swapaxes(jac_i, 1, 2))
         # NIS_j ≥ ν_r² / S_rr (the least νᵀ S⁻¹ ν with that range component): a point whose range
         # innovation alone puts the candidate out of the gate (a relative margin for rounding) needs no
         # bearing; every other number is computed point by point as it would be on every point
-        self.range_gate_m2 = float(s_j[1, 1]) * _RANGE_MARGIN
-        self.pose, self.z, self.noise_sd = pose, z, noise_sd
-        self.rel_i, self.rel_j = point_i - pose[:2], point_j - pose[:2]
+        self.range_gate_m2 = s_j[:, 1, 1] * _RANGE_MARGIN
+        self.poses, self.z, self.noise_sd = poses, z, noise_sd
+        self.rel_i, self.rel_j = point_i - poses[:, :2], point_j - poses[:, :2]
 
-    def wrong(self, lo: int, hi: int, right: bool, gate: float, reach: tuple[float, float]) -> int:
-        """The wrong points among the Sobol set's points ``lo`` to ``hi`` (the arguments
-        :func:`nonlinear_pair_probabilities`' for this pair)."""
-        xi, a = _normal_points(), self.a
-        rel_j = self.rel_j[:, None] + _combine(a[3:5], xi[:7, lo:hi])
+    def wrong(self, p: int, lo: int, hi: int, right: bool, gate: float, reach: tuple[float, float]) -> int:
+        """The wrong points of pair ``p`` among the Sobol set's points ``lo`` to ``hi`` (the
+        arguments :func:`nonlinear_pair_probabilities`' for this pair)."""
+        xi, a, z, sd = _normal_points(), self.a[p], self.z[p], self.noise_sd[p]
+        rel_j = self.rel_j[p][:, None] + _combine(a[3:5], xi[:7, lo:hi])
         dist_j = np.hypot(rel_j[0], rel_j[1])
-        z_r = self.z[1] + xi[8, lo:hi] * self.noise_sd[1]
+        z_r = z[1] + xi[8, lo:hi] * sd[1]
         # a landmark is a candidate inside the gate and within the reach of the measured range
         reach_m = reach[0] * z_r + reach[1]
         nu_r = z_r - dist_j
-        at = lo + np.flatnonzero((dist_j <= reach_m) & (nu_r * nu_r <= gate * self.range_gate_m2))
-        heading = self.pose[2] + _combine(a[0:1, :3], xi[:3, at])[0]
-        z_b = self.z[0] + xi[7, at] * self.noise_sd[0]
-        nis_j = _nis(z_b, rel_j[:, at - lo], heading, nu_r[at - lo], self.s_inv_j)
+        at = lo + np.flatnonzero((dist_j <= reach_m) & (nu_r * nu_r <= gate * self.range_gate_m2[p]))
+        heading = self.poses[p, 2] + _combine(a[0:1, :3], xi[:3, at])[0]
+        z_b = z[0] + xi[7, at] * sd[0]
+        nis_j = _nis(z_b, rel_j[:, at - lo], heading, nu_r[at - lo], self.s_inv_j[p])
         inside = nis_j <= gate
         if not right:  # a first sighting: any candidate inside the gate takes it
             return int(np.count_nonzero(inside))
         at, heading = at[inside], heading[inside]
-        rel_i = self.rel_i[:, None] + _combine(a[1:3, :5], xi[:5, at])
+        rel_i = self.rel_i[p][:, None] + _combine(a[1:3, :5], xi[:5, at])
         dist_i = np.hypot(rel_i[0], rel_i[1])
-        nis_i = _nis(z_b[inside], rel_i, heading, z_r[at - lo] - dist_i, self.s_inv_i)
+        nis_i = _nis(z_b[inside], rel_i, heading, z_r[at - lo] - dist_i, self.s_inv_i[p])
         return int(np.count_nonzero((nis_j[inside] < nis_i) | (nis_i > gate) | (dist_i > reach_m[at - lo])))
 
 
