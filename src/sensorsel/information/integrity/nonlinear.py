@@ -290,12 +290,12 @@ def _combine(a: np.ndarray, xi: np.ndarray) -> np.ndarray:
     triangular) are skipped: adding a zero leaves a sum as it was."""
     out = np.zeros((a.shape[0], xi.shape[1]))
     tmp = np.empty(xi.shape[1])
-    for r in range(a.shape[0]):
-        cols = np.flatnonzero(a[r])
-        if len(cols):
-            np.multiply(xi[cols[0]], a[r, cols[0]], out=out[r])
+    for r, row in enumerate(a.tolist()):
+        cols = [k for k, x in enumerate(row) if x != 0.0]
+        if cols:
+            np.multiply(xi[cols[0]], row[cols[0]], out=out[r])
         for k in cols[1:]:
-            np.multiply(xi[k], a[r, k], out=tmp)
+            np.multiply(xi[k], row[k], out=tmp)
             out[r] += tmp
     return out
 
