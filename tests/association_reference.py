@@ -23,7 +23,7 @@ from scipy.special import chndtr, ndtr
 
 from sensorsel.information.filtering import KeyframeMeasurements, Prediction
 from sensorsel.information.integrity.association import _RangeSeparation  # the range term, as the engine's
-from sensorsel.information.integrity.nonlinear import bent_pairs, nonlinear_estimate  # as the engine's
+from sensorsel.information.integrity.nonlinear import BentPairs, bent_pairs, nonlinear_estimate  # as the engine's
 from sensorsel.information.linearize import bearing_range_jacobians
 from sensorsel.model.problem import Problem
 
@@ -353,11 +353,7 @@ def measurement_risks(
         joint = np.stack(
             [oracle_joint(state, cov, float(prediction.prior_sigma_m), [int(li[a]), int(cj[a])]) for a in at]
         )
-        p = nonlinear_estimate(
-            p,
-            bent,
-            np.zeros(len(p), np.int64),  # one keyframe
-            g_min,
+        pairs = BentPairs(
             np.broadcast_to(np.asarray(pose, float), (len(at), 3)),
             points[li[at]],
             points[cj[at]],
@@ -365,9 +361,9 @@ def measurement_risks(
             np.column_stack([meas.sigma_bearing_rad[mi[at]], meas.sigma_range_m[mi[at]]]),
             joint,
             right[at],
-            gate,
-            (CANDIDATE_SCALE, CANDIDATE_MARGIN_M),
         )
+        one_keyframe = np.zeros(len(p), np.int64)
+        p = nonlinear_estimate(p, bent, one_keyframe, g_min, pairs, gate, (CANDIDATE_SCALE, CANDIDATE_MARGIN_M))
     # bincount sums each measurement's terms in order from 0, as np.add.at into zeros did
     logq = np.bincount(mi, weights=np.log1p(-np.clip(p, 0.0, 1.0 - 1e-16)), minlength=m)
     est = np.maximum(-np.expm1(logq), 0.0)

@@ -37,9 +37,11 @@ def _bent_calls(problem, monkeypatch) -> list[tuple]:
     return calls
 
 
-def _direct(poses, point_i, point_j, z, noise_sd, cov, right, gate, reach, n_points):
+def _direct(pairs, gate, reach, n_points):
     """(n, n_points) bool: the associator errs at each of the first ``n_points`` points of the Sobol
-    set, each pair computed on every point by the module docstring's model, plainly."""
+    set, each of the ``pairs`` computed on every point by the module docstring's model, plainly."""
+    poses, point_i, point_j, z = pairs.poses, pairs.point_i, pairs.point_j, pairs.z
+    noise_sd, cov, right = pairs.noise_sd, pairs.joint, pairs.right
     xi = nonlinear._normal_points()[:, :n_points]
     out = np.zeros((len(poses), n_points), bool)
     for p, pose in enumerate(np.asarray(poses, float)):
@@ -87,11 +89,11 @@ def test_the_quadrature_counts_what_a_direct_count_on_every_point_counts(tiny_pr
     right landmark's innovation where the candidate is out, and the factor's zeros: the same wrong
     points as the associator's decision computed on every point."""
     calls = _bent_calls(tiny_problem, monkeypatch)
-    args = calls[0][0][4:]  # poses, point_i, point_j, z, noise_sd, joint, right, gate, reach
-    got = nonlinear.nonlinear_pair_probabilities(*args)
-    want = _staged_rule(_direct(*args, n_points=2**nonlinear.SOBOL_LOG2))
+    pairs, gate, reach = calls[0][0][4:]
+    got = nonlinear.nonlinear_pair_probabilities(pairs, gate, reach)
+    want = _staged_rule(_direct(pairs, gate, reach, n_points=2**nonlinear.SOBOL_LOG2))
     assert len(got) > 100 and np.isfinite(got).sum() > 20 and (~np.isfinite(got)).sum() > 20  # not vacuous
-    assert args[6].any() and not args[6].all()  # right landmarks and first sightings both
+    assert pairs.right.any() and not pairs.right.all()  # right landmarks and first sightings both
     np.testing.assert_array_equal(got, want)
 
 
@@ -118,7 +120,7 @@ def test_a_pair_skipped_for_its_bound_has_no_wrong_point_in_the_whole_quadrature
         p, bent, _, bound = args[:4]
         g = bound[bent]
         skip = points == 0
-        full = nonlinear.nonlinear_pair_probabilities(*(a[skip] for a in args[4:11]), *args[11:])
+        full = nonlinear.nonlinear_pair_probabilities(args[4].select(skip), *args[5:])
         assert np.isnan(full).all(), full[np.isfinite(full)]
         assert (g[skip] <= 2.0**-nonlinear.SOBOL_LOG2).all()
         np.testing.assert_array_equal(out[bent][skip], np.minimum(p[bent][skip], g[skip]))

@@ -117,7 +117,7 @@ from sensorsel.information.integrity.moments import (
     p_nearer,
     pair_moments,
 )
-from sensorsel.information.integrity.nonlinear import bent_pairs, nonlinear_estimate
+from sensorsel.information.integrity.nonlinear import BentPairs, bent_pairs, nonlinear_estimate
 from sensorsel.model.problem import Problem
 
 __all__ = [
@@ -666,11 +666,7 @@ class _Bent:
         mb = mi[sel]
         z = np.column_stack([b.meas["bearing_rad"][mb], b.meas["range_m"][mb]])
         sd = np.column_stack([b.meas["sigma_bearing_rad"][mb], b.meas["sigma_range_m"][mb]])
-        return nonlinear_estimate(
-            p,
-            sel,
-            at,
-            g_gate,
+        pairs = BentPairs(
             b.poses[b.at[mb]],
             self.points[b.meas["landmark"][mb]],
             self.points[self.cj[sel]],
@@ -678,6 +674,5 @@ class _Bent:
             sd,
             pair.joint[sel],
             right[sel],
-            gate,
-            (CANDIDATE_SCALE, CANDIDATE_MARGIN_M),
         )
+        return nonlinear_estimate(p, sel, at, g_gate, pairs, gate, (CANDIDATE_SCALE, CANDIDATE_MARGIN_M))

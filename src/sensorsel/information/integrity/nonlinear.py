@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Callable
+from dataclasses import dataclass, fields
 
 import numpy as np
 from scipy.special import ndtri
@@ -46,6 +47,7 @@ from sensorsel.information.linearize import bearing_range_jacobians
 
 __all__ = [
     "BENT_SHARE",
+    "BentPairs",
     "KEYFRAME_SHARE",
     "SOBOL_LOG2",
     "bent_pairs",
@@ -151,20 +153,38 @@ def _cholesky(cov: np.ndarray) -> np.ndarray:
     return np.linalg.cholesky(0.5 * (cov + np.swapaxes(cov, -1, -2)) + 1e-12 * scale * np.eye(q))
 
 
-def nonlinear_pair_probabilities(
-    poses: np.ndarray,
-    point_i: np.ndarray,
-    point_j: np.ndarray,
-    z: np.ndarray,
-    noise_sd: np.ndarray,
-    cov: np.ndarray,
-    right: np.ndarray,
-    gate: float,
-    reach: tuple[float, float],
-) -> np.ndarray:
-    """(n,) p_j of each pair under the nonlinear model (module docstring), or NaN where no point of
-    the quadrature errs (below its resolution): the whole staged quadrature of every pair, no pair
-    resolved early (what :func:`nonlinear_estimate` shortens).
+@dataclass(frozen=True, eq=False)
+class BentPairs:
+    """The pairs the quadrature integrates (b of them).
+
+    Attributes:
+        poses: (b, 3) the truth at each pair's keyframe, x [m], y [m], heading [rad].
+        point_i: (b, 2) [m] the measured landmark of each pair.
+        point_j: (b, 2) [m] the candidate.
+        z: (b, 2) the noise-free measurement (bearing [rad], range [m]).
+        noise_sd: (b, 2) its noise std (bearing [rad], range [m]).
+        joint: (b, 7, 7) the joint covariance of (pose error in its own frame, l_i's error, l_j's
+            error) [m, m, rad, m, ...].
+        right: (b,) bool: the measured landmark is a candidate (else a first sighting).
+    """
+
+    poses: np.ndarray
+    point_i: np.ndarray
+    point_j: np.ndarray
+    z: np.ndarray
+    noise_sd: np.ndarray
+    joint: np.ndarray
+    right: np.ndarray
+
+    def select(self, mask: np.ndarray) -> BentPairs:
+        """The pairs of ``mask`` (b,) bool."""
+        return BentPairs(*(getattr(self, f.name)[mask] for f in fields(self)))
+
+
+def nonlinear_pair_probabilities(pairs: BentPairs, gate: float, reach: tuple[float, float]) -> np.ndarray:
+    """(b,) p_j of each of the ``pairs`` under the nonlinear model (module docstring), or NaN where no
+    point of the quadrature errs (below its resolution): the whole staged quadrature of every pair, no
+    pair resolved early (what :func:`nonlinear_estimate` shortens).
 
     The quadrature runs in stages, on the first 2^m points of the Sobol set for m in
     :data:`_STAGES` (each prefix is itself a balanced set): a pair stops at the first stage where it
@@ -172,45 +192,32 @@ def nonlinear_pair_probabilities(
     resolution, 2^−m, from 2^_QUIET_LOG2 points on), else goes on to the next; all of SOBOL_LOG2 at most.
 
     Args:
-        poses: (n, 3) the truth at each pair's keyframe, x [m], y [m], heading [rad].
-        point_i: (n, 2) [m] the measured landmark of each pair.
-        point_j: (n, 2) [m] the candidate.
-        z: (n, 2) the noise-free measurement (bearing [rad], range [m]).
-        noise_sd: (n, 2) its noise std (bearing [rad], range [m]).
-        cov: (n, 7, 7) the joint covariance of (pose error in its own frame, l_i's error, l_j's error)
-            [m, m, rad, m, ...].
-        right: (n,) bool: the measured landmark is a candidate (else a first sighting).
+        pairs: the pairs.
         gate: γ.
         reach: (scale, margin [m]): the associator's candidates lie within scale × the measured range +
             margin of the estimated pose (``association.CANDIDATE_SCALE``, ``CANDIDATE_MARGIN_M``).
     """
-    hits, done = _staged(poses, point_i, point_j, z, noise_sd, cov, right, gate, reach, None)
+    hits, done = _staged(pairs, gate, reach, None)
     return np.where(hits > 0, hits / np.maximum(done, 1), np.nan)
 
 
 def _staged(
-    poses: np.ndarray,
-    point_i: np.ndarray,
-    point_j: np.ndarray,
-    z: np.ndarray,
-    noise_sd: np.ndarray,
-    cov: np.ndarray,
-    right: np.ndarray,
+    pairs: BentPairs,
     gate: float,
     reach: tuple[float, float],
     resolved: Callable[[np.ndarray, np.ndarray], np.ndarray] | None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """(hits, points) (n,) int: each pair's wrong points and the points of the quadrature it used
+    """(hits, points) (b,) int: each pair's wrong points and the points of the quadrature it used
     (:func:`nonlinear_pair_probabilities`' stages, the arguments its own), stage by stage over the
     pairs. ``resolved(hits, points)`` → (n,) bool, where given, also ends the pairs it marks, before
     the first stage (points 0) and after each: the pair's estimate is resolved enough."""
-    n = len(point_i)
+    n = len(pairs.right)
     hits, done = np.zeros(n, np.int64), np.zeros(n, np.int64)
     active = np.ones(n, bool) if resolved is None else ~resolved(hits, done)
-    pairs = _Pairs(np.asarray(poses, float), point_i, point_j, z, noise_sd, cov)
+    quadrature = _Quadrature(pairs)
     for m in _STAGES:
         for p in np.flatnonzero(active).tolist():
-            hits[p] += pairs.wrong(p, int(done[p]), 2**m, bool(right[p]), gate, reach)
+            hits[p] += quadrature.wrong(p, int(done[p]), 2**m, bool(pairs.right[p]), gate, reach)
             done[p] = 2**m
         active &= (hits < _ENOUGH) & ((hits > 0) | (m < _QUIET_LOG2))
         if resolved is not None and active.any():
@@ -218,20 +225,13 @@ def _staged(
     return hits, done
 
 
-class _Pairs:
+class _Quadrature:
     """The pairs' quadrature: each pair's map of the state's errors to (dθ, w_i, w_j) and its
-    innovations' S⁻¹ (the arguments :func:`nonlinear_pair_probabilities`'), for every pair at once
-    (LAPACK and matrix products per matrix: each pair's numbers as it alone would have them)."""
+    innovations' S⁻¹, for every pair at once (LAPACK and matrix products per matrix: each pair's
+    numbers as it alone would have them)."""
 
-    def __init__(
-        self,
-        poses: np.ndarray,
-        point_i: np.ndarray,
-        point_j: np.ndarray,
-        z: np.ndarray,
-        noise_sd: np.ndarray,
-        cov: np.ndarray,
-    ) -> None:
+    def __init__(self, pairs: BentPairs) -> None:
+        poses, cov, noise_sd = np.asarray(pairs.poses, float), pairs.joint, pairs.noise_sd
         n = len(poses)
         c, s = np.cos(poses[:, 2]), np.sin(poses[:, 2])
         # the error of the estimated relative position of a landmark, w = e_l − R(θ) e_xy (world
@@ -247,8 +247,8 @@ class _Pairs:
         self.a = to_w @ _cholesky(cov)
         r = np.zeros((n, 2, 2))
         r[:, 0, 0], r[:, 1, 1] = noise_sd[:, 0] ** 2, noise_sd[:, 1] ** 2
-        jac_i = bearing_range_jacobians(poses, point_i)
-        jac_j = bearing_range_jacobians(poses, point_j)
+        jac_i = bearing_range_jacobians(poses, pairs.point_i)
+        jac_j = bearing_range_jacobians(poses, pairs.point_j)
         sel_j = [0, 1, 2, 5, 6]
         s_j = r + jac_j @ cov[:, sel_j][:, :, sel_j] @ np.swapaxes(jac_j, 1, 2)
         self.s_inv_j = np.linalg.inv(s_j)
@@ -257,8 +257,8 @@ class _Pairs:
         # innovation alone puts the candidate out of the gate (a relative margin for rounding) needs no
         # bearing; every other number is computed point by point as it would be on every point
         self.range_gate_m2 = s_j[:, 1, 1] * _RANGE_MARGIN
-        self.poses, self.z, self.noise_sd = poses, z, noise_sd
-        self.rel_i, self.rel_j = point_i - poses[:, :2], point_j - poses[:, :2]
+        self.poses, self.z, self.noise_sd = poses, pairs.z, noise_sd
+        self.rel_i, self.rel_j = pairs.point_i - poses[:, :2], pairs.point_j - poses[:, :2]
 
     def wrong(self, p: int, lo: int, hi: int, right: bool, gate: float, reach: tuple[float, float]) -> int:
         """The wrong points of pair ``p`` among the Sobol set's points ``lo`` to ``hi`` (the
@@ -314,22 +314,15 @@ def nonlinear_estimate(
     bent: np.ndarray,
     keyframe: np.ndarray,
     bound: np.ndarray,
-    poses: np.ndarray,
-    point_i: np.ndarray,
-    point_j: np.ndarray,
-    z: np.ndarray,
-    noise_sd: np.ndarray,
-    joint: np.ndarray,
-    right: np.ndarray,
+    pairs: BentPairs,
     gate: float,
     reach: tuple[float, float],
 ) -> np.ndarray:
     """(n,) the pairs' estimates ``p`` (n,) with the bent ones (``bent`` (n,) bool) replaced by the
     quadrature's (module docstring), each pair's keyframe ``keyframe`` (n,) (any labels) and ``bound``
     (n,) its term G_j(γ) of the bound (P(NIS_j ≤ γ) ≤ G_j, so p_j ≤ G_j whatever the quadrature sees).
-    The rest describe the bent pairs only (b of them), as :func:`nonlinear_pair_probabilities` takes
-    them: ``poses`` (b, 3), ``point_i``, ``point_j`` (b, 2) [m], ``z``, ``noise_sd`` (b, 2), ``joint``
-    (b, 7, 7), ``right`` (b,).
+    ``pairs`` are the bent ones (b of them), as :func:`nonlinear_pair_probabilities` takes them, with
+    its ``gate`` and ``reach``.
 
     A bent pair's quadrature ends early where its estimate is resolved (:func:`_resolution`): its
     uncertainty δ_j is at most the quadrature's resolution 2^−SOBOL_LOG2, or at most
@@ -345,7 +338,7 @@ def nonlinear_estimate(
     at = np.flatnonzero(bent)
     g = np.asarray(bound, float)[at]
     done = _resolution(p, bent, keyframe, g)
-    hits, points = _staged(poses, point_i, point_j, z, noise_sd, joint, right, gate, reach, done)
+    hits, points = _staged(pairs, gate, reach, done)
     out = p.copy()
     # no point errs: the probability is below the quadrature's resolution, whatever the linearization says
     quiet = np.minimum(np.minimum(p[at], g), np.where(points > 0, 2.0**-SOBOL_LOG2, np.inf))
