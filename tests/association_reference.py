@@ -36,7 +36,7 @@ from sensorsel.information.integrity.association import (  # the range, reach an
     out_of_reach_estimate,
     reach_tail,
 )
-from sensorsel.information.integrity.nonlinear import bent_pairs, nonlinear_estimate, reach_tail_estimate
+from sensorsel.information.integrity.nonlinear import BentPairs, bent_pairs, nonlinear_estimate, reach_tail_estimate
 from sensorsel.information.linearize import bearing_range_jacobians
 from sensorsel.model.problem import Problem
 
@@ -367,9 +367,7 @@ def measurement_risks(
         joint = np.stack(
             [oracle_joint(state, cov, float(prediction.prior_sigma_m), [int(li[a]), int(cj[a])]) for a in at]
         )
-        p = nonlinear_estimate(
-            p,
-            bent,
+        pairs = BentPairs(
             np.broadcast_to(np.asarray(pose, float), (len(at), 3)),
             points[li[at]],
             points[cj[at]],
@@ -377,9 +375,9 @@ def measurement_risks(
             np.column_stack([meas.sigma_bearing_rad[mi[at]], meas.sigma_range_m[mi[at]]]),
             joint,
             right[at],
-            gate,
-            (CANDIDATE_SCALE, CANDIDATE_MARGIN_M),
         )
+        one_keyframe = np.zeros(len(p), np.int64)
+        p = nonlinear_estimate(p, bent, one_keyframe, g_min, pairs, gate, (CANDIDATE_SCALE, CANDIDATE_MARGIN_M))
     # where the right landmark may fall out of the associator's reach: the engine's stratification
     # on the range noise, on the oracle's joint covariance
     far_out = (
@@ -392,19 +390,17 @@ def measurement_risks(
         joint = np.stack(
             [oracle_joint(state, cov, float(prediction.prior_sigma_m), [int(li[a]), int(cj[a])]) for a in at]
         )
-        p = reach_tail_estimate(
-            p,
-            far_out,
-            reach_tail(pair.range_i[at], pair.sigma_i[at, 0], meas.sigma_range_m[mi[at]]),
+        pairs = BentPairs(
             np.broadcast_to(np.asarray(pose, float), (len(at), 3)),
             points[li[at]],
             points[cj[at]],
             np.column_stack([meas.bearing_rad[mi[at]], meas.range_m[mi[at]]]),
             np.column_stack([meas.sigma_bearing_rad[mi[at]], meas.sigma_range_m[mi[at]]]),
             joint,
-            gate,
-            (CANDIDATE_SCALE, CANDIDATE_MARGIN_M),
+            right[at],
         )
+        tail = reach_tail(pair.range_i[at], pair.sigma_i[at, 0], meas.sigma_range_m[mi[at]])
+        p = reach_tail_estimate(p, far_out, tail, pairs, gate, (CANDIDATE_SCALE, CANDIDATE_MARGIN_M))
     # bincount sums each measurement's terms in order from 0, as np.add.at into zeros did
     logq = np.bincount(mi, weights=np.log1p(-np.clip(p, 0.0, 1.0 - 1e-16)), minlength=m)
     est = np.maximum(-np.expm1(logq), 0.0)

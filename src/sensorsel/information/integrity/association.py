@@ -170,7 +170,7 @@ from sensorsel.information.integrity.moments import (
     p_nearer,
     pair_moments,
 )
-from sensorsel.information.integrity.nonlinear import bent_pairs, nonlinear_estimate, reach_tail_estimate
+from sensorsel.information.integrity.nonlinear import BentPairs, bent_pairs, nonlinear_estimate, reach_tail_estimate
 from sensorsel.model.problem import Problem
 
 __all__ = [
@@ -718,7 +718,7 @@ def _bounds(
     p = f_gate.copy()
     if right.any():
         p[right] = np.minimum(p_nearer(pair if right.all() else pair.select(right), at[right]), f_gate[right])
-    p = bent.estimate(p, pair, mi, right, gate)
+    p = bent.estimate(p, pair, mi, at, g_min, right, gate)
     # bincount sums each measurement's terms in order from 0, as np.add.at into zeros did
     logq = np.bincount(mi, weights=np.log1p(-np.clip(p, 0.0, 1.0 - 1e-16)), minlength=m)
     est = np.maximum(-np.expm1(logq), 0.0)
@@ -755,11 +755,6 @@ class _RangeSeparation:
         z = np.maximum(room, 0.0) / np.where(scale > 0, scale, 1.0)  # s/σ_r = t/σ_w = D/(σ_r + σ_w)
         out = 2.0 * ndtr(-z) + np.exp(-0.5 * z**2)
         return np.where(room > 0, np.minimum(out, 1.0), 1.0)
-
-
-#: what the quadrature reads of some pairs: the truth (b, 3), the measured landmark and the candidate
-#: (b, 2), the noise-free measurement and its noise std (b, 2), the joint covariance (b, 7, 7)
-_Geometry = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 
 
 def _out_of_reach(range_m: np.ndarray, distance_m: np.ndarray, sigma_w: np.ndarray, sigma_r: np.ndarray) -> np.ndarray:
@@ -801,23 +796,41 @@ class _Bent:
     reach_pairs: np.ndarray
     tail: np.ndarray
 
-    def estimate(self, p: np.ndarray, pair: Pairs, mi: np.ndarray, right: np.ndarray, gate: float) -> np.ndarray:
+    def estimate(
+        self,
+        p: np.ndarray,
+        pair: Pairs,
+        mi: np.ndarray,
+        at: np.ndarray,
+        g_gate: np.ndarray,
+        right: np.ndarray,
+        gate: float,
+    ) -> np.ndarray:
         """(n,) ``p`` with the bent pairs' replaced by the nonlinear model's and the reach pairs'
-        stratified on their range noise (:mod:`.nonlinear`)."""
+        stratified on their range noise (:mod:`.nonlinear`), the pairs' measurements ``mi``,
+        keyframes ``at`` and bound's gate terms ``g_gate`` (n,) G_j(γ)."""
         reach = (CANDIDATE_SCALE, CANDIDATE_MARGIN_M)
         if self.mask.any():
             sel = self.mask
-            p = nonlinear_estimate(p, sel, *self._geometry(pair, mi, sel), right[sel], gate, reach)
+            p = nonlinear_estimate(p, sel, at, g_gate, self._pairs(pair, mi, right, sel), gate, reach)
         if self.reach_pairs.any():
-            p = reach_tail_estimate(
-                p, self.reach_pairs, self.tail, *self._geometry(pair, mi, self.reach_pairs), gate, reach
-            )
+            sel = self.reach_pairs
+            p = reach_tail_estimate(p, sel, self.tail, self._pairs(pair, mi, right, sel), gate, reach)
         return p
 
-    def _geometry(self, pair: Pairs, mi: np.ndarray, sel: np.ndarray) -> _Geometry:
+    def _pairs(self, pair: Pairs, mi: np.ndarray, right: np.ndarray, sel: np.ndarray) -> BentPairs:
         """What the quadrature reads of the pairs of ``sel``: the truth, both landmarks, the
-        noise-free measurement, its noise std and the joint covariance."""
+        noise-free measurement, its noise std, the joint covariance and whether the measured
+        landmark is a candidate."""
         b, mb = self.batch, mi[sel]
         z = np.column_stack([b.meas["bearing_rad"][mb], b.meas["range_m"][mb]])
         sd = np.column_stack([b.meas["sigma_bearing_rad"][mb], b.meas["sigma_range_m"][mb]])
-        return b.poses[b.at[mb]], self.points[b.meas["landmark"][mb]], self.points[self.cj[sel]], z, sd, pair.joint[sel]
+        return BentPairs(
+            b.poses[b.at[mb]],
+            self.points[b.meas["landmark"][mb]],
+            self.points[self.cj[sel]],
+            z,
+            sd,
+            pair.joint[sel],
+            right[sel],
+        )

@@ -21,12 +21,24 @@ landmark is a candidate only within CANDIDATE_SCALE r̂ + CANDIDATE_MARGIN_M of 
 points are the same for every pair and every call and the sums are in a fixed order (no BLAS):
 byte-identical results for any threads. The resolution is 2^−SOBOL_LOG2 (3e-5); where the quadrature
 sees no wrong point, p_j is the linearized value capped at that resolution.
+
+What it costs, and what shortens it (:func:`nonlinear_estimate`; each keeps the bound untouched and
+the result byte-identical for any threads): the points are evaluated stage by stage over the pairs;
+the bearing (an arctangent) only where the range innovation alone leaves the candidate inside the
+gate (NIS_j ≥ ν_r² / S_rr), the right landmark's innovation only where the candidate is inside, the
+state's factor without its zeros: the same wrong points as on every point. A pair needs no point
+where its term of the bound, G_j(γ) ≥ P(NIS_j ≤ γ) ≥ p_j, is below the resolution; and a pair's
+quadrature ends at the first stage where its estimate is resolved to :data:`KEYFRAME_SHARE` of its
+keyframe's estimate (shared among the keyframe's bent pairs): it has no more to say about the
+keyframe's estimate. ``tests/test_association_quadrature.py`` checks each against the whole
+quadrature and a direct count on every point.
 """
 
 from __future__ import annotations
 
 import functools
-import math
+from collections.abc import Callable
+from dataclasses import dataclass, fields
 
 import numpy as np
 from scipy.special import ndtr, ndtri
@@ -35,6 +47,8 @@ from sensorsel.information.linearize import bearing_range_jacobians
 
 __all__ = [
     "BENT_SHARE",
+    "BentPairs",
+    "KEYFRAME_SHARE",
     "SOBOL_LOG2",
     "bent_pairs",
     "nonlinear_estimate",
@@ -47,23 +61,86 @@ BENT_SHARE = 0.1
 #: the quadrature's size: 2^SOBOL_LOG2 points
 SOBOL_LOG2 = 15
 _SOBOL_SEED = 20261126
-#: the quadrature's stages (log2 of the points used) and the wrong points that end it (relative error ~12 %)
-_STAGES = (11, 13, SOBOL_LOG2)
-#: a range-noise tail's stages: its probability given the tail is a share, not a rare event
-_TAIL_STAGES = (9, 11, 13)
+#: the quadrature's stages (log2 of the points used), the wrong points that end it (relative error ~12 %),
+#: and the stage from which a pair with none ends (below 2^−13)
+_STAGES = (9, 11, 13, SOBOL_LOG2)
 _ENOUGH = 64
+_QUIET_LOG2 = 13
+#: a range-noise tail's stages (:func:`reach_tail_estimate`): its probability given the tail is a
+#: share, not a rare event; a stage with no wrong point ends it
+_TAIL_STAGES = (9, 11, 13)
+#: a bent pair's quadrature ends once its uncertainty is at most this share of its keyframe's estimate,
+#: divided among the keyframe's bent pairs (:func:`nonlinear_estimate`)
+KEYFRAME_SHARE = 0.1
+#: NIS_j ≥ ν_r² / S_rr: points with ν_r² > γ S_rr × this (a margin for rounding) are outside the gate
+_RANGE_MARGIN = 1.001
+
+
+#: Joe & Kuo's direction numbers (new-joe-kuo-6.21201, criterion D(6)) of dimensions 2 to 9: the degree
+#: s of each primitive polynomial, its inner coefficients a (bits, the first the most significant) and
+#: the initial m_1 .. m_s (dimension 1: every m_j = 1)
+_JOE_KUO = (
+    (1, 0, (1,)),
+    (2, 1, (1, 3)),
+    (3, 1, (1, 3, 1)),
+    (3, 2, (1, 1, 1)),
+    (4, 1, (1, 1, 3, 3)),
+    (4, 4, (1, 3, 5, 13)),
+    (5, 2, (1, 1, 5, 5, 17)),
+    (5, 4, (1, 1, 5, 5, 5)),
+)
+_SOBOL_BITS = 30
 
 
 @functools.lru_cache(maxsize=1)
 def _normal_points() -> np.ndarray:
     """(9, 2^SOBOL_LOG2) the scrambled Sobol points mapped to standard normals, one row per
     dimension (contiguous rows: the quadrature combines them row by row; read-only)."""
-    from scipy.stats import qmc  # scipy.stats is slow to import: only where a pair is bent
-
-    u = qmc.Sobol(9, scramble=True, seed=_SOBOL_SEED).random_base2(SOBOL_LOG2)
+    u = _scrambled_sobol(9, SOBOL_LOG2, _SOBOL_SEED)
     out = np.ascontiguousarray(ndtri(np.clip(u, 1e-12, 1.0 - 1e-12)).T)
     out.flags.writeable = False
     return out
+
+
+def _scrambled_sobol(d: int, log2n: int, seed: int) -> np.ndarray:
+    """(2^log2n, d) in [0, 1): the first 2^log2n points of the Sobol sequence in d ≤ 9 dimensions
+    (Bratley & Fox's recurrence on Joe & Kuo's direction numbers, :data:`_SOBOL_BITS` bits), scrambled
+    by Matoušek's linear matrix scramble and a digital shift drawn from ``numpy.random.default_rng(seed)``,
+    in Gray-code order: bit for bit the points of ``scipy.stats.qmc.Sobol(d, scramble=True,
+    seed=seed).random_base2(log2n)`` (``tests/test_association_quadrature.py``), without importing
+    scipy.stats (a quarter of a second, more than a route's quadrature)."""
+    bits, one = _SOBOL_BITS, np.uint64(1)
+    m = np.ones((d, bits), np.uint64)
+    for k, (deg, a, init) in enumerate(_JOE_KUO[: d - 1], start=1):
+        m[k, :deg] = init
+        for j in range(deg, bits):  # m_j = 2^s m_(j−s) ⊕ m_(j−s) ⊕ (⊕_q 2^q a_q m_(j−q))
+            new = m[k, j - deg] ^ (m[k, j - deg] << np.uint64(deg))
+            for q in range(1, deg):
+                if (a >> (deg - 1 - q)) & 1:
+                    new ^= m[k, j - q] << np.uint64(q)
+            m[k, j] = new
+    v = m << (np.uint64(bits - 1) - np.arange(bits, dtype=np.uint64))  # v_j = m_j / 2^j, in bits bits
+    rng = np.random.default_rng(seed)
+    shift = rng.integers(0, 2, size=(d, bits), dtype=np.uint32).astype(np.uint64) @ (
+        one << np.arange(bits, dtype=np.uint64)
+    )
+    lower = np.tril(rng.integers(0, 2, size=(d, bits, bits), dtype=np.uint32)).astype(np.uint64)
+    lower[:, np.arange(bits), np.arange(bits)] = 1
+    rows = lower @ (one << np.arange(bits - 1, -1, -1, dtype=np.uint64))  # (d, bits): row p, its first entry on top
+    scrambled = np.zeros_like(v)
+    for p in range(bits):  # bit bits−1−p of the scrambled v: the parity of row p and v (GF(2))
+        x: np.ndarray = np.bitwise_and(rows[:, p, None], v)
+        parity = np.zeros_like(v)
+        while x.any():
+            parity ^= x & one
+            x = np.right_shift(x, one)
+        scrambled |= parity << np.uint64(bits - 1 - p)
+    i = np.arange(2**log2n, dtype=np.uint64)
+    gray = i ^ (i >> one)
+    quasi = np.repeat(shift[:, None], len(i), axis=1)
+    for k in range(log2n):
+        quasi ^= np.where((gray >> np.uint64(k)) & one, scrambled[:, k, None], np.uint64(0))
+    return (quasi * (1.0 / 2**bits)).T
 
 
 def bent_pairs(rho_i: np.ndarray, rho_j: np.ndarray, lam: np.ndarray) -> np.ndarray:
@@ -73,155 +150,240 @@ def bent_pairs(rho_i: np.ndarray, rho_j: np.ndarray, lam: np.ndarray) -> np.ndar
 
 
 def _cholesky(cov: np.ndarray) -> np.ndarray:
-    """A lower factor of the positive semi-definite ``cov`` (a relative jitter where it is singular:
-    a landmark tied to the pose)."""
-    scale = max(float(np.max(np.diagonal(cov))), 1e-300)
-    return np.linalg.cholesky(0.5 * (cov + cov.T) + 1e-12 * scale * np.eye(len(cov)))
+    """(..., q, q) a lower factor of each positive semi-definite matrix of ``cov`` (..., q, q) (a
+    relative jitter where it is singular: a landmark tied to the pose)."""
+    scale = np.maximum(np.max(np.diagonal(cov, axis1=-2, axis2=-1), axis=-1), 1e-300)[..., None, None]
+    q = cov.shape[-1]
+    return np.linalg.cholesky(0.5 * (cov + np.swapaxes(cov, -1, -2)) + 1e-12 * scale * np.eye(q))
 
 
-def nonlinear_pair_probabilities(
-    poses: np.ndarray,
-    point_i: np.ndarray,
-    point_j: np.ndarray,
-    z: np.ndarray,
-    noise_sd: np.ndarray,
-    cov: np.ndarray,
-    right: np.ndarray,
-    gate: float,
-    reach: tuple[float, float],
-    tail: np.ndarray | None = None,
-) -> np.ndarray:
-    """(n,) p_j of each pair under the nonlinear model (module docstring), or NaN where no point of
-    the quadrature errs (below its resolution). With ``tail`` (n,), the probability of each pair
-    given that its range noise lies in its lower tail of that probability (where the reach leaves
-    the measured landmark out): the range noise's points are drawn from that tail alone.
+@dataclass(frozen=True, eq=False)
+class BentPairs:
+    """The pairs the quadrature integrates (b of them).
+
+    Attributes:
+        poses: (b, 3) the truth at each pair's keyframe, x [m], y [m], heading [rad].
+        point_i: (b, 2) [m] the measured landmark of each pair.
+        point_j: (b, 2) [m] the candidate.
+        z: (b, 2) the noise-free measurement (bearing [rad], range [m]).
+        noise_sd: (b, 2) its noise std (bearing [rad], range [m]).
+        joint: (b, 7, 7) the joint covariance of (pose error in its own frame, l_i's error, l_j's
+            error) [m, m, rad, m, ...].
+        right: (b,) bool: the measured landmark is a candidate (else a first sighting).
+    """
+
+    poses: np.ndarray
+    point_i: np.ndarray
+    point_j: np.ndarray
+    z: np.ndarray
+    noise_sd: np.ndarray
+    joint: np.ndarray
+    right: np.ndarray
+
+    def select(self, mask: np.ndarray) -> BentPairs:
+        """The pairs of ``mask`` (b,) bool."""
+        return BentPairs(*(getattr(self, f.name)[mask] for f in fields(self)))
+
+
+def nonlinear_pair_probabilities(pairs: BentPairs, gate: float, reach: tuple[float, float]) -> np.ndarray:
+    """(b,) p_j of each of the ``pairs`` under the nonlinear model (module docstring), or NaN where no
+    point of the quadrature errs (below its resolution): the whole staged quadrature of every pair, no
+    pair resolved early (what :func:`nonlinear_estimate` shortens).
 
     The quadrature runs in stages, on the first 2^m points of the Sobol set for m in
     :data:`_STAGES` (each prefix is itself a balanced set): a pair stops at the first stage where it
     has :data:`_ENOUGH` wrong points (a relative error of ~1/√_ENOUGH) or none (below that stage's
-    resolution, 2^−m, after the first two), else goes on to the next; all of SOBOL_LOG2 at most.
+    resolution, 2^−m, from 2^_QUIET_LOG2 points on), else goes on to the next; all of SOBOL_LOG2 at most.
 
     Args:
-        poses: (n, 3) the truth at each pair's keyframe, x [m], y [m], heading [rad].
-        point_i: (n, 2) [m] the measured landmark of each pair.
-        point_j: (n, 2) [m] the candidate.
-        z: (n, 2) the noise-free measurement (bearing [rad], range [m]).
-        noise_sd: (n, 2) its noise std (bearing [rad], range [m]).
-        cov: (n, 7, 7) the joint covariance of (pose error in its own frame, l_i's error, l_j's error)
-            [m, m, rad, m, ...].
-        tail: (n,) in (0, 1]: condition on the range noise below its ``tail`` quantile (default: none).
-        right: (n,) bool: the measured landmark is a candidate (else a first sighting).
+        pairs: the pairs.
         gate: γ.
         reach: (scale, margin [m]): the associator's candidates lie within scale × the measured range +
             margin of the estimated pose (``association.CANDIDATE_SCALE``, ``CANDIDATE_MARGIN_M``).
     """
-    xi = _normal_points()
-    n = len(point_i)
-    out = np.full(n, np.nan)
-    poses = np.asarray(poses, float)
-    jac_i = bearing_range_jacobians(poses, point_i)
-    jac_j = bearing_range_jacobians(poses, point_j)
-    for p in range(n):
-        pose = poses[p]
-        c, s = math.cos(pose[2]), math.sin(pose[2])
+    hits, done = _staged(pairs, gate, reach, None)
+    return np.where(hits > 0, hits / np.maximum(done, 1), np.nan)
+
+
+def _staged(
+    pairs: BentPairs,
+    gate: float,
+    reach: tuple[float, float],
+    resolved: Callable[[np.ndarray, np.ndarray], np.ndarray] | None,
+    tail: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """(hits, points) (b,) int: each pair's wrong points and the points of the quadrature it used
+    (:func:`nonlinear_pair_probabilities`' stages, the arguments its own), stage by stage over the
+    pairs. ``resolved(hits, points)`` → (n,) bool, where given, also ends the pairs it marks, before
+    the first stage (points 0) and after each: the pair's estimate is resolved enough. ``tail`` (b,):
+    each pair given its range noise below that quantile (:func:`reach_tail_estimate`), in the stages
+    :data:`_TAIL_STAGES`."""
+    n = len(pairs.right)
+    hits, done = np.zeros(n, np.int64), np.zeros(n, np.int64)
+    active = np.ones(n, bool) if resolved is None else ~resolved(hits, done)
+    quadrature = _Quadrature(pairs, tail)
+    stages, quiet = (_STAGES, _QUIET_LOG2) if tail is None else (_TAIL_STAGES, _TAIL_STAGES[0])
+    for m in stages:
+        for p in np.flatnonzero(active).tolist():
+            hits[p] += quadrature.wrong(p, int(done[p]), 2**m, bool(pairs.right[p]), gate, reach)
+            done[p] = 2**m
+        active &= (hits < _ENOUGH) & ((hits > 0) | (m < quiet))
+        if resolved is not None and active.any():
+            active &= ~resolved(hits, done)
+    return hits, done
+
+
+class _Quadrature:
+    """The pairs' quadrature: each pair's map of the state's errors to (dθ, w_i, w_j) and its
+    innovations' S⁻¹, for every pair at once (LAPACK and matrix products per matrix: each pair's
+    numbers as it alone would have them). ``tail`` (b,): the range noise drawn from each pair's lower
+    tail of that probability, Φ⁻¹(tail · Φ(ξ)) (:func:`reach_tail_estimate`)."""
+
+    def __init__(self, pairs: BentPairs, tail: np.ndarray | None = None) -> None:
+        self.tail = tail
+        poses, cov, noise_sd = np.asarray(pairs.poses, float), pairs.joint, pairs.noise_sd
+        n = len(poses)
+        c, s = np.cos(poses[:, 2]), np.sin(poses[:, 2])
         # the error of the estimated relative position of a landmark, w = e_l − R(θ) e_xy (world
         # frame), and the heading's error: a linear map of the 7 state errors
-        to_w = np.zeros((5, 7))
-        to_w[0, 2] = 1.0
+        to_w = np.zeros((n, 5, 7))
+        to_w[:, 0, 2] = 1.0
+        rot = np.stack([np.stack([c, -s], axis=-1), np.stack([s, c], axis=-1)], axis=-2)  # (n, 2, 2)
         for row, col in ((1, 3), (3, 5)):
-            to_w[row : row + 2, col : col + 2] = np.eye(2)
-            to_w[row : row + 2, :2] = -np.array([[c, -s], [s, c]])
-        # (dθ, w_i, w_j) = A ξ[:7], A the state's factor mapped; the noise v = σ ⊙ ξ[7:]
-        a = to_w @ _cholesky(cov[p])
-        r = np.diag(noise_sd[p] ** 2)
+            to_w[:, row, col] = to_w[:, row + 1, col + 1] = 1.0
+            to_w[:, row : row + 2, :2] = -rot
+        # (dθ, w_i, w_j) = A ξ[:7], A the state's factor mapped; the noise v = σ ⊙ ξ[7:]. The factor is
+        # lower triangular: dθ (its row 2) reads ξ[:3] only, w_i (rows 3-4 and 0-1) ξ[:5] only
+        self.a = to_w @ _cholesky(cov)
+        r = np.zeros((n, 2, 2))
+        r[:, 0, 0], r[:, 1, 1] = noise_sd[:, 0] ** 2, noise_sd[:, 1] ** 2
+        jac_i = bearing_range_jacobians(poses, pairs.point_i)
+        jac_j = bearing_range_jacobians(poses, pairs.point_j)
         sel_j = [0, 1, 2, 5, 6]
-        s_inv_j = np.linalg.inv(r + jac_j[p] @ cov[p][np.ix_(sel_j, sel_j)] @ jac_j[p].T)
-        s_inv_i = np.linalg.inv(r + jac_i[p] @ cov[p][:5, :5] @ jac_i[p].T)
-        hits, done = 0, 0
-        for m in _STAGES if tail is None else _TAIL_STAGES:
-            block = xi[:, done : 2**m]
-            d = _combine(a, block[:7])  # (5, N): dθ, w_i, w_j
-            zs = z[p][:, None] + block[7:9] * noise_sd[p][:, None]
-            if tail is not None:  # the range noise from its lower tail: Φ⁻¹(tail · Φ(ξ))
-                zs[1] = z[p][1] + ndtri(tail[p] * ndtr(block[8])) * noise_sd[p][1]
-            # a landmark is a candidate inside the gate and within the reach of the measured range
-            reach_m = reach[0] * zs[1] + reach[1]
-            nis_j, dist_j = _nis(zs, (point_j[p] - pose[:2])[:, None] + d[3:5], pose[2] + d[0], s_inv_j)
-            wrong = (nis_j <= gate) & (dist_j <= reach_m)
-            if right[p]:
-                nis_i, dist_i = _nis(zs, (point_i[p] - pose[:2])[:, None] + d[1:3], pose[2] + d[0], s_inv_i)
-                wrong &= (nis_j < nis_i) | (nis_i > gate) | (dist_i > reach_m)
-            hits, done = hits + int(np.count_nonzero(wrong)), 2**m
-            # a tail's first stage with no wrong point ends it (t · q < t 2^−9: a small share of the stratum)
-            if hits >= _ENOUGH or (hits == 0 and (m >= _STAGES[1] or tail is not None)):
-                break
-        if hits:
-            out[p] = hits / done
-    return out
+        s_j = r + jac_j @ cov[:, sel_j][:, :, sel_j] @ np.swapaxes(jac_j, 1, 2)
+        self.s_inv_j = np.linalg.inv(s_j)
+        self.s_inv_i = np.linalg.inv(r + jac_i @ cov[:, :5, :5] @ np.swapaxes(jac_i, 1, 2))
+        # NIS_j ≥ ν_r² / S_rr (the least νᵀ S⁻¹ ν with that range component): a point whose range
+        # innovation alone puts the candidate out of the gate (a relative margin for rounding) needs no
+        # bearing; every other number is computed point by point as it would be on every point
+        self.range_gate_m2 = s_j[:, 1, 1] * _RANGE_MARGIN
+        self.poses, self.z, self.noise_sd = poses, pairs.z, noise_sd
+        self.rel_i, self.rel_j = pairs.point_i - poses[:, :2], pairs.point_j - poses[:, :2]
+
+    def wrong(self, p: int, lo: int, hi: int, right: bool, gate: float, reach: tuple[float, float]) -> int:
+        """The wrong points of pair ``p`` among the Sobol set's points ``lo`` to ``hi`` (the
+        arguments :func:`nonlinear_pair_probabilities`' for this pair)."""
+        xi, a, z, sd = _normal_points(), self.a[p], self.z[p], self.noise_sd[p]
+        rel_j = self.rel_j[p][:, None] + _combine(a[3:5], xi[:7, lo:hi])
+        dist_j = np.hypot(rel_j[0], rel_j[1])
+        noise_r = xi[8, lo:hi] if self.tail is None else ndtri(self.tail[p] * ndtr(xi[8, lo:hi]))
+        z_r = z[1] + noise_r * sd[1]
+        # a landmark is a candidate inside the gate and within the reach of the measured range
+        reach_m = reach[0] * z_r + reach[1]
+        nu_r = z_r - dist_j
+        at = lo + np.flatnonzero((dist_j <= reach_m) & (nu_r * nu_r <= gate * self.range_gate_m2[p]))
+        heading = self.poses[p, 2] + _combine(a[0:1, :3], xi[:3, at])[0]
+        z_b = z[0] + xi[7, at] * sd[0]
+        nis_j = _nis(z_b, rel_j[:, at - lo], heading, nu_r[at - lo], self.s_inv_j[p])
+        inside = nis_j <= gate
+        if not right:  # a first sighting: any candidate inside the gate takes it
+            return int(np.count_nonzero(inside))
+        at, heading = at[inside], heading[inside]
+        rel_i = self.rel_i[p][:, None] + _combine(a[1:3, :5], xi[:5, at])
+        dist_i = np.hypot(rel_i[0], rel_i[1])
+        nis_i = _nis(z_b[inside], rel_i, heading, z_r[at - lo] - dist_i, self.s_inv_i[p])
+        return int(np.count_nonzero((nis_j[inside] < nis_i) | (nis_i > gate) | (dist_i > reach_m[at - lo])))
 
 
 def _combine(a: np.ndarray, xi: np.ndarray) -> np.ndarray:
     """(r, N) A ξ for ``a`` (r, q) and points ``xi`` (q, N): scalar times row, summed in a fixed order
-    (no BLAS: the same sums whatever the threads)."""
-    out = np.empty((a.shape[0], xi.shape[1]))
+    (no BLAS: the same sums whatever the threads). Exact zeros of ``a`` (the state's factor is lower
+    triangular) are skipped: adding a zero leaves a sum as it was."""
+    out = np.zeros((a.shape[0], xi.shape[1]))
     tmp = np.empty(xi.shape[1])
-    for r in range(a.shape[0]):
-        np.multiply(xi[0], a[r, 0], out=out[r])
-        for k in range(1, a.shape[1]):
-            np.multiply(xi[k], a[r, k], out=tmp)
+    for r, row in enumerate(a.tolist()):
+        cols = [k for k, x in enumerate(row) if x != 0.0]
+        if cols:
+            np.multiply(xi[cols[0]], row[cols[0]], out=out[r])
+        for k in cols[1:]:
+            np.multiply(xi[k], row[k], out=tmp)
             out[r] += tmp
     return out
 
 
-def _nis(zs: np.ndarray, rel: np.ndarray, heading: np.ndarray, s_inv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(N,) νᵀ S⁻¹ ν of the measurements ``zs`` (2, N) against a landmark at the estimated relative
-    position ``rel`` (2, N) [m] (world frame) from a pose of estimated ``heading`` (N,) [rad]:
-    ν = z − (atan2(rel) − heading, |rel|), the bearing wrapped; ``s_inv`` (2, 2); and |rel| (N,) [m]."""
-    dist = np.hypot(rel[0], rel[1])
-    nu_b = (zs[0] - np.arctan2(rel[1], rel[0]) + heading + np.pi) % (2.0 * np.pi) - np.pi
-    nu_r = zs[1] - dist
-    return s_inv[0, 0] * nu_b**2 + 2.0 * s_inv[0, 1] * nu_b * nu_r + s_inv[1, 1] * nu_r**2, dist
+def _nis(z_b: np.ndarray, rel: np.ndarray, heading: np.ndarray, nu_r: np.ndarray, s_inv: np.ndarray) -> np.ndarray:
+    """(N,) νᵀ S⁻¹ ν of the measured bearings ``z_b`` (N,) [rad] against a landmark at the estimated
+    relative position ``rel`` (2, N) [m] (world frame) from a pose of estimated ``heading`` (N,) [rad],
+    ν = (z_b − (atan2(rel) − heading), ``nu_r``), the bearing wrapped, ``nu_r`` (N,) the range
+    innovation [m] (the measured range less |rel|); ``s_inv`` (2, 2)."""
+    nu_b = (z_b - np.arctan2(rel[1], rel[0]) + heading + np.pi) % (2.0 * np.pi) - np.pi
+    return s_inv[0, 0] * nu_b**2 + 2.0 * s_inv[0, 1] * nu_b * nu_r + s_inv[1, 1] * nu_r**2
 
 
 def nonlinear_estimate(
     p: np.ndarray,
     bent: np.ndarray,
-    poses: np.ndarray,
-    point_i: np.ndarray,
-    point_j: np.ndarray,
-    z: np.ndarray,
-    noise_sd: np.ndarray,
-    joint: np.ndarray,
-    right: np.ndarray,
+    keyframe: np.ndarray,
+    bound: np.ndarray,
+    pairs: BentPairs,
     gate: float,
     reach: tuple[float, float],
 ) -> np.ndarray:
     """(n,) the pairs' estimates ``p`` (n,) with the bent ones (``bent`` (n,) bool) replaced by the
-    quadrature's where it resolves them (module docstring). The rest describe the bent pairs only
-    (b of them), as :func:`nonlinear_pair_probabilities` takes them: ``poses`` (b, 3), ``point_i``,
-    ``point_j`` (b, 2) [m], ``z``, ``noise_sd`` (b, 2), ``joint`` (b, 7, 7), ``right`` (b,)."""
+    quadrature's (module docstring), each pair's keyframe ``keyframe`` (n,) (any labels) and ``bound``
+    (n,) its term G_j(γ) of the bound (P(NIS_j ≤ γ) ≤ G_j, so p_j ≤ G_j whatever the quadrature sees).
+    ``pairs`` are the bent ones (b of them), as :func:`nonlinear_pair_probabilities` takes them, with
+    its ``gate`` and ``reach``.
+
+    A bent pair's quadrature ends early where its estimate is resolved (:func:`_resolution`): its
+    uncertainty δ_j is at most the quadrature's resolution 2^−SOBOL_LOG2, or at most
+    :data:`KEYFRAME_SHARE` × T_k / n_k (T_k its keyframe's estimate, n_k the keyframe's bent pairs).
+    δ_j is, before any point, G_j (0 ≤ p_j ≤ G_j, proved); after h wrong points of N, √max(h, 1)/N
+    (a standard error of h/N, the measure of the stages' own stop at 64 wrong points, 12 %; 1/N where none
+    errs). Since ∂T_k/∂p_j ≤ 1, the pairs ended early move T_k by at most Σ δ_j ≤ KEYFRAME_SHARE × T_k
+    (at a standard error each). Each pair's estimate: min(h/N, G_j) where the quadrature saw a wrong
+    point; else min(linearized, G_j, 2^−SOBOL_LOG2) (a pair resolved before
+    any point: min(linearized, G_j))."""
     if not bent.any():
         return p
     at = np.flatnonzero(bent)
-    q = nonlinear_pair_probabilities(poses, point_i, point_j, z, noise_sd, joint, right, gate, reach)
+    g = np.asarray(bound, float)[at]
+    done = _resolution(p, bent, keyframe, g)
+    hits, points = _staged(pairs, gate, reach, done)
     out = p.copy()
     # no point errs: the probability is below the quadrature's resolution, whatever the linearization says
-    out[at] = np.where(np.isnan(q), np.minimum(p[at], 2.0**-SOBOL_LOG2), q)
+    quiet = np.minimum(np.minimum(p[at], g), np.where(points > 0, 2.0**-SOBOL_LOG2, np.inf))
+    out[at] = np.where(hits > 0, np.minimum(hits / np.maximum(points, 1), g), quiet)
     return out
 
 
+def _resolution(
+    p: np.ndarray, bent: np.ndarray, keyframe: np.ndarray, g: np.ndarray
+) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
+    """:func:`_staged`'s ``resolved`` for the bent pairs of :func:`nonlinear_estimate` (its arguments;
+    ``g`` (b,) the bent pairs' G_j): T_k from the keyframe's other pairs' estimates and its bent pairs'
+    wrong points (a bent pair without one counts 0: T_k is not overstated). Each keyframe's pairs
+    alone decide its numbers, in a fixed order: the same for a keyframe alone or in a batch."""
+    kf = np.unique(keyframe, return_inverse=True)[1].ravel()
+    n_kf = int(kf.max()) + 1
+    log_other = np.bincount(kf, weights=np.log1p(-np.clip(np.where(bent, 0.0, p), 0.0, 1.0 - 1e-16)), minlength=n_kf)
+    kb = kf[bent]
+    share = KEYFRAME_SHARE / np.bincount(kb, minlength=n_kf)[kb]
+
+    def resolved(hits: np.ndarray, points: np.ndarray) -> np.ndarray:
+        per = np.maximum(points, 1)
+        value = np.where(hits > 0, np.minimum(hits / per, g), 0.0)
+        t_k = -np.expm1(
+            log_other + np.bincount(kb, weights=np.log1p(-np.clip(value, 0.0, 1.0 - 1e-16)), minlength=n_kf)
+        )
+        spread = np.where(points > 0, np.sqrt(np.maximum(hits, 1)) / per, g)
+        return spread <= np.maximum(2.0**-SOBOL_LOG2, share * t_k[kb])
+
+    return resolved
+
+
 def reach_tail_estimate(
-    p: np.ndarray,
-    reach_pairs: np.ndarray,
-    tail: np.ndarray,
-    poses: np.ndarray,
-    point_i: np.ndarray,
-    point_j: np.ndarray,
-    z: np.ndarray,
-    noise_sd: np.ndarray,
-    joint: np.ndarray,
-    gate: float,
-    reach: tuple[float, float],
+    p: np.ndarray, reach_pairs: np.ndarray, tail: np.ndarray, pairs: BentPairs, gate: float, reach: tuple[float, float]
 ) -> np.ndarray:
     """(n,) the pairs' estimates ``p`` (n,) with those of ``reach_pairs`` (n,) bool stratified on the
     range noise: where the measured landmark may fall out of the associator's reach (a stereo
@@ -230,14 +392,13 @@ def reach_tail_estimate(
     tail that holds every such draw, and q_j the quadrature's probability given that tail (its
     points' range noise drawn from it alone, in the stages :data:`_TAIL_STAGES`, so a tail of
     10⁻³ is resolved by a few hundred points: the plain quadrature would need millions). The
-    upper stratum keeps the linearized p_j (the reach leaves no right landmark out there). The
-    rest as :func:`nonlinear_estimate`, for the b pairs of ``reach_pairs`` (the measured landmark
-    a candidate)."""
+    upper stratum keeps the linearized p_j (the reach leaves no right landmark out there).
+    ``pairs``: the b pairs of ``reach_pairs`` (the measured landmark a candidate), with ``gate`` and
+    ``reach`` as :func:`nonlinear_pair_probabilities` takes them."""
     if not reach_pairs.any():
         return p
     at = np.flatnonzero(reach_pairs)
-    right = np.ones(len(at), bool)
-    q = nonlinear_pair_probabilities(poses, point_i, point_j, z, noise_sd, joint, right, gate, reach, tail)
+    hits, points = _staged(pairs, gate, reach, None, tail)
     out = p.copy()
-    out[at] = (1.0 - tail) * p[at] + tail * np.nan_to_num(q, nan=0.0)
+    out[at] = (1.0 - tail) * p[at] + tail * (hits / np.maximum(points, 1))
     return out
