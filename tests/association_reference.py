@@ -362,20 +362,7 @@ def measurement_risks(
     rho2_i = np.where(right, _remainder(pair.sigma_i, pair.range_i, _inverse_2x2(pair.s_i), _K_GRID[1:2])[:, 0], 0.0)
     bent = bent_pairs(rho2_i, _remainder(sigma_j[close], range_j[close], s_inv[close], _K_GRID[1:2])[:, 0], lam)
     if bent.any():
-        at = np.flatnonzero(bent)
-        cov = np.asarray(prediction.covariance, float)
-        joint = np.stack(
-            [oracle_joint(state, cov, float(prediction.prior_sigma_m), [int(li[a]), int(cj[a])]) for a in at]
-        )
-        pairs = BentPairs(
-            np.broadcast_to(np.asarray(pose, float), (len(at), 3)),
-            points[li[at]],
-            points[cj[at]],
-            np.column_stack([meas.bearing_rad[mi[at]], meas.range_m[mi[at]]]),
-            np.column_stack([meas.sigma_bearing_rad[mi[at]], meas.sigma_range_m[mi[at]]]),
-            joint,
-            right[at],
-        )
+        pairs = _quadrature_pairs(np.flatnonzero(bent), pose, points, prediction, state, meas, mi, li, cj, right)
         one_keyframe = np.zeros(len(p), np.int64)
         p = nonlinear_estimate(p, bent, one_keyframe, g_min, pairs, gate, (CANDIDATE_SCALE, CANDIDATE_MARGIN_M))
     # where the right landmark may fall out of the associator's reach: the engine's stratification
@@ -386,25 +373,40 @@ def measurement_risks(
     far_out &= pair.d[:, 1] > -REACH_SIGMAS * (pair.sigma_i[:, 0] + sigma_j[close, 0])  # nearer candidates only
     if far_out.any():
         at = np.flatnonzero(far_out)
-        cov = np.asarray(prediction.covariance, float)
-        joint = np.stack(
-            [oracle_joint(state, cov, float(prediction.prior_sigma_m), [int(li[a]), int(cj[a])]) for a in at]
-        )
-        pairs = BentPairs(
-            np.broadcast_to(np.asarray(pose, float), (len(at), 3)),
-            points[li[at]],
-            points[cj[at]],
-            np.column_stack([meas.bearing_rad[mi[at]], meas.range_m[mi[at]]]),
-            np.column_stack([meas.sigma_bearing_rad[mi[at]], meas.sigma_range_m[mi[at]]]),
-            joint,
-            right[at],
-        )
+        pairs = _quadrature_pairs(at, pose, points, prediction, state, meas, mi, li, cj, right)
         tail = reach_tail(pair.range_i[at], pair.sigma_i[at, 0], meas.sigma_range_m[mi[at]])
         p = reach_tail_estimate(p, far_out, tail, pairs, gate, (CANDIDATE_SCALE, CANDIDATE_MARGIN_M))
     # bincount sums each measurement's terms in order from 0, as np.add.at into zeros did
     logq = np.bincount(mi, weights=np.log1p(-np.clip(p, 0.0, 1.0 - 1e-16)), minlength=m)
     est = np.maximum(-np.expm1(logq), 0.0)
     return MeasurementRisk(est, np.minimum(bnd, 1.0), ncand, np.minimum(lin, 1.0))
+
+
+def _quadrature_pairs(
+    at: np.ndarray,
+    pose: np.ndarray,
+    points: np.ndarray,
+    prediction: Prediction,
+    state: np.ndarray,
+    meas: KeyframeMeasurements,
+    mi: np.ndarray,
+    li: np.ndarray,
+    cj: np.ndarray,
+    right: np.ndarray,
+) -> BentPairs:
+    """The pairs ``at`` as the engine's quadrature takes them, on the joint covariance the independent
+    oracle assembles from the prediction (not the batch's)."""
+    cov = np.asarray(prediction.covariance, float)
+    joint = np.stack([oracle_joint(state, cov, float(prediction.prior_sigma_m), [int(li[a]), int(cj[a])]) for a in at])
+    return BentPairs(
+        np.broadcast_to(np.asarray(pose, float), (len(at), 3)),
+        points[li[at]],
+        points[cj[at]],
+        np.column_stack([meas.bearing_rad[mi[at]], meas.range_m[mi[at]]]),
+        np.column_stack([meas.sigma_bearing_rad[mi[at]], meas.sigma_range_m[mi[at]]]),
+        joint,
+        right[at],
+    )
 
 
 def _noise_inverse(meas: KeyframeMeasurements, mi: np.ndarray) -> np.ndarray:

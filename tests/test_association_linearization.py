@@ -20,12 +20,12 @@ simulator), the simulator itself, Clopper–Pearson intervals.
 from __future__ import annotations
 
 import numpy as np
-from association_oracle import clopper_pearson, measure, monte_carlo
+from association_cases import one_measurement, simulated
+from association_oracle import clopper_pearson, monte_carlo
 
 from sensorsel.information.filtering import KeyframeMeasurements, Prediction
 from sensorsel.information.integrity import nonlinear
 from sensorsel.information.integrity.association import gate_of, measurement_risks
-from sensorsel.simulation.association import KeyframeCase, Task, associate_keyframe
 
 GATE = gate_of(0.9999)
 POSE = np.array([27.08037, 0.4690774, 0.0281970857379124])
@@ -105,36 +105,13 @@ DRAWS = 200_000
 
 
 def _meas() -> KeyframeMeasurements:
-    z = measure(POSE, POINTS[0])
-    return KeyframeMeasurements(
-        keyframe=3,
-        sensor=np.array([0]),
-        landmark=np.array([0]),
-        bearing_rad=np.array([z[0]]),
-        range_m=np.array([z[1]]),
-        sigma_bearing_rad=np.array([SIGMAS[0]]),
-        sigma_range_m=np.array([SIGMAS[1]]),
-    )
+    return one_measurement(POSE, POINTS[0], SIGMAS, keyframe=3)
 
 
 def _simulated(pose: np.ndarray, points: np.ndarray, meas: KeyframeMeasurements, cov: np.ndarray):
     """The simulator's associator on ``meas`` (landmark 0 measured, landmarks 0 and 1 candidates and
     in the state with ``cov``): DRAWS draws, seed 5."""
-    case = KeyframeCase(
-        keyframe=meas.keyframe,
-        pose=pose,
-        sensor=meas.sensor,
-        landmark=meas.landmark,
-        bearing_rad=meas.bearing_rad,
-        range_m=meas.range_m,
-        sigma_bearing_rad=meas.sigma_bearing_rad,
-        sigma_range_m=meas.sigma_range_m,
-        candidates=np.array([0, 1]),
-        points=points,
-        right=np.array([0]),
-        covariance=cov,
-    )
-    return associate_keyframe(case, Task(keyframe=meas.keyframe, draws=DRAWS, seed=5, gate=GATE))
+    return simulated(pose, points, meas, cov, draws=DRAWS, gate=GATE)
 
 
 def _observed() -> tuple[int, int]:
@@ -202,16 +179,7 @@ def test_the_estimate_is_unchanged_where_the_linearization_holds(monkeypatch):
     points = np.array([[20.0, 2.0], [20.3, 3.47], [35.0, -4.0]])
     cov = np.diag([0.04, 0.02, 1e-4])
     sigmas = (0.02, 0.3)
-    z = measure(pose, points[0])
-    meas = KeyframeMeasurements(
-        keyframe=0,
-        sensor=np.array([0]),
-        landmark=np.array([0]),
-        bearing_rad=np.array([z[0]]),
-        range_m=np.array([z[1]]),
-        sigma_bearing_rad=np.array([sigmas[0]]),
-        sigma_range_m=np.array([sigmas[1]]),
-    )
+    meas = one_measurement(pose, points[0], sigmas, keyframe=0)
     pred = Prediction(keyframe=0, landmarks=np.zeros(0, np.int64), covariance=cov, prior_sigma_m=0.05)
     cands = np.array([0, 1, 2])
     got = measurement_risks(pose, points, pred, meas, cands, gate=GATE, model="map").estimate[0]
@@ -246,16 +214,7 @@ def test_the_nonlinear_estimate_keeps_the_associators_reach():
     points = np.array([[19.0, 0.0], [11.0, 2.3]])
     cov = np.diag([0.02, 0.02, 1e-4, 4.0, 1.0, 0.3, 0.3])
     sigmas = (0.003, 3.5)
-    z = measure(pose, points[0])
-    meas = KeyframeMeasurements(
-        keyframe=0,
-        sensor=np.array([0]),
-        landmark=np.array([0]),
-        bearing_rad=np.array([z[0]]),
-        range_m=np.array([z[1]]),
-        sigma_bearing_rad=np.array([sigmas[0]]),
-        sigma_range_m=np.array([sigmas[1]]),
-    )
+    meas = one_measurement(pose, points[0], sigmas, keyframe=0)
     pred = Prediction(keyframe=0, landmarks=np.array([0, 1]), covariance=cov, prior_sigma_m=100.0)
     r = measurement_risks(pose, points, pred, meas, np.array([0, 1]), gate=GATE, model="slam")
     out = _simulated(pose, points, meas, cov)

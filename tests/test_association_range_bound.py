@@ -19,6 +19,7 @@ import math
 
 import numpy as np
 import pytest
+from association_cases import one_measurement
 from association_oracle import clopper_pearson, jacobian, measure, retract
 from scipy.special import ndtr
 
@@ -34,16 +35,7 @@ LIDAR = (0.0035, 0.03)  # bearing [rad], range [m] std
 
 
 def _meas(point: np.ndarray) -> KeyframeMeasurements:
-    z = measure(POSE, point)
-    return KeyframeMeasurements(
-        keyframe=1,
-        sensor=np.array([0]),
-        landmark=np.array([0]),
-        bearing_rad=np.array([z[0]]),
-        range_m=np.array([z[1]]),
-        sigma_bearing_rad=np.array([LIDAR[0]]),
-        sigma_range_m=np.array([LIDAR[1]]),
-    )
+    return one_measurement(POSE, point, LIDAR)
 
 
 def _map_prediction() -> Prediction:

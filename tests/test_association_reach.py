@@ -17,14 +17,14 @@ import math
 
 import numpy as np
 import pytest
-from association_oracle import REACH_MARGIN_M, REACH_SCALE, clopper_pearson, measure, monte_carlo
+from association_cases import one_measurement, simulated
+from association_oracle import REACH_MARGIN_M, REACH_SCALE, clopper_pearson, monte_carlo
 from scipy.special import ndtr
 
 from sensorsel.information.filtering import KeyframeMeasurements, Prediction
 from sensorsel.information.integrity import association
 from sensorsel.information.integrity.association import _out_of_reach, gate_of, measurement_risks
-from sensorsel.simulation import association as simulated
-from sensorsel.simulation.association import KeyframeCase, Task, associate_keyframe
+from sensorsel.simulation import association as simulator
 
 GATE = gate_of(0.9999)
 POSE = np.array([0.0, 0.0, 0.0])
@@ -40,16 +40,7 @@ DRAWS = 100_000
 def _meas(sigmas: tuple[float, float] = STEREO, point: np.ndarray | None = None) -> KeyframeMeasurements:
     """One measurement of landmark 0 at ``point`` (default POINTS[0]; truth: the noise-free bearing
     and range)."""
-    z = measure(POSE, POINTS[0] if point is None else point)
-    return KeyframeMeasurements(
-        keyframe=1,
-        sensor=np.array([0]),
-        landmark=np.array([0]),
-        bearing_rad=np.array([z[0]]),
-        range_m=np.array([z[1]]),
-        sigma_bearing_rad=np.array([sigmas[0]]),
-        sigma_range_m=np.array([sigmas[1]]),
-    )
+    return one_measurement(POSE, POINTS[0] if point is None else point, sigmas)
 
 
 def _bound(sigmas: tuple[float, float] = STEREO) -> float:
@@ -65,7 +56,7 @@ def _no_reach_term(*args: np.ndarray) -> np.ndarray:
 def test_the_oracle_states_the_associators_reach():
     """The oracle writes the reach on its own; it is the engine's and the simulator's."""
     assert (REACH_SCALE, REACH_MARGIN_M) == (association.CANDIDATE_SCALE, association.CANDIDATE_MARGIN_M)
-    assert (REACH_SCALE, REACH_MARGIN_M) == (simulated.CANDIDATE_SCALE, simulated.CANDIDATE_MARGIN_M)
+    assert (REACH_SCALE, REACH_MARGIN_M) == (simulator.CANDIDATE_SCALE, simulator.CANDIDATE_MARGIN_M)
 
 
 @pytest.mark.parametrize(
@@ -107,22 +98,7 @@ def _simulator_wrong() -> tuple[int, int]:
     cov = np.zeros((7, 7))
     cov[:3, :3] = POSE_COV
     cov[3:, 3:] = MAP_SIGMA**2 * np.eye(4)
-    m = _meas()
-    case = KeyframeCase(
-        keyframe=1,
-        pose=POSE,
-        sensor=m.sensor,
-        landmark=m.landmark,
-        bearing_rad=m.bearing_rad,
-        range_m=m.range_m,
-        sigma_bearing_rad=m.sigma_bearing_rad,
-        sigma_range_m=m.sigma_range_m,
-        candidates=np.array([0, 1]),
-        points=POINTS,
-        right=np.array([0]),
-        covariance=cov,
-    )
-    out = associate_keyframe(case, Task(keyframe=1, draws=DRAWS, seed=5, gate=GATE))
+    out = simulated(POSE, POINTS, _meas(), cov, draws=DRAWS, gate=GATE)
     return out.wrong_draws, out.draws
 
 

@@ -16,10 +16,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from association_cases import one_measurement
 from association_oracle import clopper_pearson, jacobian, measure, retract
 
 import sensorsel.information.integrity.association as association
-from sensorsel.information.filtering import KeyframeMeasurements, Prediction
+from sensorsel.information.filtering import Prediction
 from sensorsel.information.integrity.association import gate_of, measurement_risks
 
 GATE = gate_of(0.9999)
@@ -33,16 +34,7 @@ POINTS = np.array([[20.0, 0.0], [11.0 * np.cos(8.0 * STEREO[0]), 11.0 * np.sin(8
 
 
 def _risks():
-    z = measure(POSE, POINTS[0])
-    meas = KeyframeMeasurements(
-        keyframe=1,
-        sensor=np.array([0]),
-        landmark=np.array([0]),
-        bearing_rad=np.array([z[0]]),
-        range_m=np.array([z[1]]),
-        sigma_bearing_rad=np.array([STEREO[0]]),
-        sigma_range_m=np.array([STEREO[1]]),
-    )
+    meas = one_measurement(POSE, POINTS[0], STEREO)
     pred = Prediction(keyframe=1, landmarks=np.zeros(0, np.int64), covariance=POSE_COV, prior_sigma_m=MAP_SIGMA)
     return measurement_risks(POSE, POINTS, pred, meas, np.array([0, 1]), gate=GATE, model="map")
 

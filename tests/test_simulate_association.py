@@ -12,6 +12,7 @@ import math
 
 import numpy as np
 import pytest
+from association_cases import every_candidate, one_measurement
 from association_oracle import clopper_pearson, monte_carlo
 from click.testing import CliRunner
 
@@ -36,33 +37,12 @@ def _two_landmarks(
     points = np.array([[10.0, 0.0], [10.0, sep_m]])
     cov = np.diag([pose_sigma**2, pose_sigma**2, 0.002**2] + [map_sigma**2] * 4)
     pred = Prediction(keyframe=0, landmarks=np.array([0, 1]), covariance=cov, prior_sigma_m=map_sigma)
-    meas = KeyframeMeasurements(
-        keyframe=0,
-        sensor=np.array([0]),
-        landmark=np.array([0]),
-        bearing_rad=np.array([0.0]),
-        range_m=np.array([10.0]),
-        sigma_bearing_rad=np.array([sigma_b]),
-        sigma_range_m=np.array([sigma_r]),
-    )
+    meas = one_measurement(pose, points[0], (sigma_b, sigma_r), keyframe=0)
     return pose, points, pred, meas, cov
 
 
 def _case(pose, points, meas, cov) -> KeyframeCase:
-    return KeyframeCase(
-        keyframe=0,
-        pose=pose,
-        sensor=meas.sensor,
-        landmark=meas.landmark,
-        bearing_rad=meas.bearing_rad,
-        range_m=meas.range_m,
-        sigma_bearing_rad=meas.sigma_bearing_rad,
-        sigma_range_m=meas.sigma_range_m,
-        candidates=np.array([0, 1]),
-        points=points,
-        right=np.array([0]),
-        covariance=cov,
-    )
+    return every_candidate(pose, points, meas, cov)
 
 
 def test_the_simulator_agrees_with_an_independent_monte_carlo_of_the_associator():
@@ -83,20 +63,7 @@ def _crowd(n: int) -> KeyframeCase:
     ang = 2 * np.pi * np.arange(n) / n
     points = np.vstack([[10.0, 0.0], np.column_stack([10.0 + 0.5 * np.cos(ang), 0.5 * np.sin(ang)])])
     cov = np.diag([0.05**2, 0.05**2, 0.002**2] + [0.05**2] * (2 * (n + 1)))
-    return KeyframeCase(
-        keyframe=0,
-        pose=pose,
-        sensor=meas.sensor,
-        landmark=meas.landmark,
-        bearing_rad=meas.bearing_rad,
-        range_m=meas.range_m,
-        sigma_bearing_rad=meas.sigma_bearing_rad,
-        sigma_range_m=meas.sigma_range_m,
-        candidates=np.arange(n + 1),
-        points=points,
-        right=np.array([0]),
-        covariance=cov,
-    )
+    return every_candidate(pose, points, meas, cov)
 
 
 @pytest.mark.parametrize("crowd", [False, True])
