@@ -36,6 +36,7 @@ from sensorsel.information.integrity.association import (  # the range, reach an
     out_of_reach_estimate,
     reach_tail,
 )
+from sensorsel.information.integrity.nearer import p_nearer_form  # the formula, as the engine's
 from sensorsel.information.integrity.nonlinear import BentPairs, bent_pairs, nonlinear_estimate, reach_tail_estimate
 from sensorsel.information.linearize import bearing_range_jacobians
 from sensorsel.model.problem import Problem
@@ -49,11 +50,6 @@ ASSOCIATION_MODELS = ("map", "slam")
 CANDIDATE_SCALE = 1.25
 CANDIDATE_MARGIN_M = 5.0
 
-_GH_X, _GH_W = np.polynomial.hermite_e.hermegauss(10)
-_GH_W = _GH_W / _GH_W.sum()
-#: the 10 × 10 rule's nodes (Q, 2) and weights (Q,), built once
-_GH_XI = np.stack(np.meshgrid(_GH_X, _GH_X, indexing="ij"), -1).reshape(-1, 2)
-_GH_W2 = np.outer(_GH_W, _GH_W).ravel()
 _T_FRACTIONS = np.linspace(0.05, 1.0, 20)  # the bound's thresholds t, as fractions of γ
 #: the region sizes k of the Taylor remainder (module docstring), and their outside masses 4Φ(−k)
 _K_GRID = np.array([1.5, 2.0, 2.5, 3.0, 4.0, 5.5, 7.0, 9.0, 12.0])
@@ -356,7 +352,8 @@ def measurement_risks(
     right = has_right[mi]
     p = f_gate.copy()
     if right.any():
-        p[right] = np.minimum(_p_nearer(pair if right.all() else pair.select(right)), f_gate[right])
+        pr = pair if right.all() else pair.select(right)
+        p[right] = np.minimum(p_nearer_form(pr.s_i, pr.s_j, pr.c_id, pr.c_d, pr.d), f_gate[right])
     # where the linearization fails: the engine's nonlinear quadrature, on the joint covariance the
     # independent oracle assembles from the prediction (not the batch's)
     rho2_i = np.where(right, _remainder(pair.sigma_i, pair.range_i, _inverse_2x2(pair.s_i), _K_GRID[1:2])[:, 0], 0.0)
@@ -611,27 +608,3 @@ def _innovation_means(
         bj, rj = bj[at], rj[at]
     db = (meas.bearing_rad[mi] - bj + np.pi) % (2.0 * np.pi) - np.pi
     return np.column_stack([db, meas.range_m[mi] - rj])
-
-
-def _p_nearer(pair: _Pairs, chunk: int = 20000) -> np.ndarray:
-    """P(NIS_j < NIS_i) of each pair (both NIS with S̄), by Gauss–Hermite over D (module docstring)."""
-    out = np.zeros(len(pair.d))
-    for lo in range(0, len(out), chunk):
-        p = pair if len(out) <= chunk else pair.select(np.arange(lo, min(lo + chunk, len(out))))
-        s_bar = 0.5 * (p.s_i + p.s_j)
-        s_inv = np.linalg.inv(s_bar)
-        scale = np.trace(s_bar, axis1=1, axis2=2)[:, None, None]
-        c_d = p.c_d + 1e-12 * scale * np.eye(2)
-        k_gain = p.c_id @ np.linalg.inv(c_d)  # (n, 2, 2)
-        v = p.s_i - k_gain @ np.transpose(p.c_id, (0, 2, 1))
-        v = 0.5 * (v + np.transpose(v, (0, 2, 1))) + 1e-12 * scale * np.eye(2)
-        chol = np.linalg.cholesky(c_d)
-        xi, w = _GH_XI, _GH_W2
-        dd = p.d[:, None, :] + np.einsum("nab,qb->nqa", chol, xi)  # (n, Q, 2) samples of D
-        sd = np.einsum("nab,nqb->nqa", s_inv, dd)  # S̄⁻¹ D
-        quad = np.einsum("nqa,nqa->nq", dd, sd)
-        mean = np.einsum("nqa,nab,nqb->nq", sd, k_gain, dd - p.d[:, None, :])
-        var = np.einsum("nqa,nab,nqb->nq", sd, v, sd)
-        z = (-0.5 * quad - mean) / np.sqrt(np.maximum(var, 1e-300))
-        out[lo : lo + chunk] = np.clip(ndtr(z) @ w, 0.0, 1.0)
-    return out

@@ -130,15 +130,13 @@ at any prediction with a smaller covariance (the search uses it to know a measur
 lever leaves out).
 
 **The estimate** (calibrated, not a bound): the pairwise events, combined as independent,
-P(W) ≈ 1 − Π_j (1 − p_j), p_j = min(P(NIS_j < NIS_i), F(γ; λ_j)). For P(NIS_j < NIS_i) both NIS use
-S̄ = (S_i + S_j)/2; then with D = ν_j − ν_i (the measurement noise cancels in D; the pose error nearly
-does for near landmarks), NIS_j < NIS_i ⇔ Dᵀ S̄⁻¹ ν_i < −½ Dᵀ S̄⁻¹ D, and ν_i | D is Gaussian
-(mean K (D − d), covariance V, from the joint covariance of (ν_i, D)), so
-
-    P(NIS_j < NIS_i | D) = Φ((−½ Dᵀ S̄⁻¹ D − Dᵀ S̄⁻¹ K (D − d)) / √(Dᵀ S̄⁻¹ V S̄⁻¹ D)),
-
-averaged over D ~ N(d, C_D) by a fixed 10 × 10 Gauss–Hermite rule. Two landmarks at one point give
-½, two far apart Φ(−½ ‖d‖_S̄) (the classic two-hypothesis error). First sightings: p_j = F(γ; λ_j).
+P(W) ≈ 1 − Π_j (1 − p_j), p_j = min(P(NIS_j < NIS_i), F(γ; λ_j)). With D = ν_j − ν_i (the
+measurement noise cancels in D), x = (ν_i, D) is Gaussian, N((0, d), [[S_i, C_iD], [C_iDᵀ, C_D]]), and
+NIS_j − NIS_i = xᵀ A x is a quadratic form, A = [[S_j⁻¹ − S_i⁻¹, S_j⁻¹], [S_j⁻¹, S_j⁻¹]]: P(NIS_j < NIS_i)
+is its CDF at 0, by the saddlepoint approximation (:mod:`~sensorsel.information.integrity.nearer`;
+each NIS with its own S: a common S̄ = (S_i + S_j)/2, as an earlier estimate took, is off by 2-3x
+where a stereo camera's S_i and S_j differ). Two landmarks at one point give
+½, two far apart Φ(−½ ‖d‖_S) (the classic two-hypothesis error). First sightings: p_j = F(γ; λ_j).
 Where a pair's remainder is not small against its separation (ρ(2) of either landmark above a share
 of √λ_j: SLAM's fresh landmarks), p_j is instead a quadrature of the nonlinear model
 (:mod:`~sensorsel.information.integrity.nonlinear`). Where the associator's reach may leave the
@@ -167,9 +165,9 @@ from sensorsel.information.integrity.moments import (
     innovation_means,
     inverse_2x2,
     noise_inverse,
-    p_nearer,
     pair_moments,
 )
+from sensorsel.information.integrity.nearer import p_nearer_form
 from sensorsel.information.integrity.nonlinear import BentPairs, bent_pairs, nonlinear_estimate, reach_tail_estimate
 from sensorsel.model.problem import Problem
 
@@ -717,7 +715,8 @@ def _bounds(
     right = has_right[mi]
     p = f_gate.copy()
     if right.any():
-        p[right] = np.minimum(p_nearer(pair if right.all() else pair.select(right), at[right]), f_gate[right])
+        pr = pair if right.all() else pair.select(right)
+        p[right] = np.minimum(p_nearer_form(pr.s_i, pr.s_j, pr.c_id, pr.c_d, pr.d), f_gate[right])
     p = bent.estimate(p, pair, mi, at, g_min, right, gate)
     # bincount sums each measurement's terms in order from 0, as np.add.at into zeros did
     logq = np.bincount(mi, weights=np.log1p(-np.clip(p, 0.0, 1.0 - 1e-16)), minlength=m)

@@ -19,18 +19,12 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.special import ndtr
 
 from sensorsel.information.filtering import KeyframeMeasurements, Prediction
 from sensorsel.information.linearize import bearing_range_jacobians
 
 __all__ = ["Batch", "Snapshot", "slots"]
 
-_GH_X, _GH_W = np.polynomial.hermite_e.hermegauss(10)
-_GH_W = _GH_W / _GH_W.sum()
-#: the 10 × 10 rule's nodes (Q, 2) and weights (Q,), built once
-_GH_XI = np.stack(np.meshgrid(_GH_X, _GH_X, indexing="ij"), -1).reshape(-1, 2)
-_GH_W2 = np.outer(_GH_W, _GH_W).ravel()
 _TWO = np.arange(2)
 
 
@@ -404,53 +398,3 @@ def innovation_means(
         bj, rj = bj[pick], rj[pick]
     db = (b.meas["bearing_rad"][mi] - bj + np.pi) % (2.0 * np.pi) - np.pi
     return np.column_stack([db, b.meas["range_m"][mi] - rj])
-
-
-def p_nearer(pair: Pairs, at: np.ndarray, chunk: int = 20000) -> np.ndarray:
-    """P(NIS_j < NIS_i) of each pair (both NIS with S̄), by Gauss–Hermite over D (the association
-    module's docstring); ``at`` (n,) each pair's keyframe (sorted). The rule's weighted sum is taken
-    keyframe by keyframe, in pieces of at most ``chunk`` pairs: BLAS's matrix-vector product sums a
-    row in an order that depends on how many rows it is given, and a keyframe's numbers are those it
-    has alone."""
-    out = np.zeros(len(pair.d))
-    edges = np.flatnonzero(np.diff(at)) + 1
-    cuts = [int(c) for lo, hi in zip([0, *edges], [*edges, len(at)]) for c in range(lo, hi, chunk)]
-    cuts.append(len(at))
-    piece = 0
-    while piece < len(cuts) - 1:  # whole keyframes' pieces together, up to ``chunk`` pairs (memory)
-        last = piece + 1
-        while last < len(cuts) - 1 and cuts[last + 1] - cuts[piece] <= chunk:
-            last += 1
-        lo, hi = cuts[piece], cuts[last]
-        p = pair if hi - lo == len(out) else pair.select(np.arange(lo, hi))
-        prob = ndtr(_nearer_z(p))
-        for a, b in zip(cuts[piece:last], cuts[piece + 1 : last + 1]):
-            out[a:b] = np.clip(prob[a - lo : b - lo] @ _GH_W2, 0.0, 1.0)
-        piece = last
-    return out
-
-
-def _nearer_z(p: Pairs) -> np.ndarray:
-    """(n, Q) the standardised threshold of P(NIS_j < NIS_i | D) at each node of the rule."""
-    s_bar = 0.5 * (p.s_i + p.s_j)
-    s_inv = np.linalg.inv(s_bar)
-    scale = np.trace(s_bar, axis1=1, axis2=2)[:, None, None]
-    c_d = p.c_d + 1e-12 * scale * np.eye(2)
-    k_gain = p.c_id @ np.linalg.inv(c_d)  # (n, 2, 2)
-    v = p.s_i - k_gain @ np.transpose(p.c_id, (0, 2, 1))
-    v = 0.5 * (v + np.transpose(v, (0, 2, 1))) + 1e-12 * scale * np.eye(2)
-    chol = np.linalg.cholesky(c_d)
-    # the 2 × 2 algebra written out over the (n, Q) nodes, each sum in einsum's order (its loops
-    # cost more than the sums)
-    x0, x1 = _GH_XI[None, :, 0], _GH_XI[None, :, 1]
-    dd0 = p.d[:, 0, None] + (chol[:, 0, 0, None] * x0 + chol[:, 0, 1, None] * x1)  # samples of D
-    dd1 = p.d[:, 1, None] + (chol[:, 1, 0, None] * x0 + chol[:, 1, 1, None] * x1)
-    e0, e1 = dd0 - p.d[:, 0, None], dd1 - p.d[:, 1, None]
-    sd0 = s_inv[:, 0, 0, None] * dd0 + s_inv[:, 0, 1, None] * dd1  # S̄⁻¹ D
-    sd1 = s_inv[:, 1, 0, None] * dd0 + s_inv[:, 1, 1, None] * dd1
-    quad = dd0 * sd0 + dd1 * sd1
-    k00, k01, k10, k11 = (k_gain[:, a, b, None] for a, b in ((0, 0), (0, 1), (1, 0), (1, 1)))
-    mean = sd0 * k00 * e0 + sd0 * k01 * e1 + sd1 * k10 * e0 + sd1 * k11 * e1
-    v00, v01, v10, v11 = (v[:, a, b, None] for a, b in ((0, 0), (0, 1), (1, 0), (1, 1)))
-    var = sd0 * v00 * sd0 + sd0 * v01 * sd1 + sd1 * v10 * sd0 + sd1 * v11 * sd1
-    return (-0.5 * quad - mean) / np.sqrt(np.maximum(var, 1e-300))
