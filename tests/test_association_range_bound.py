@@ -140,3 +140,32 @@ def test_the_lever_keeps_kitti00s_keyframe_beside_a_pole(kitti_root):
     assert made > 200 and kept > made // 2, (kept, made)
     sigma = np.sqrt(np.asarray(fp.filtered)[:, 0, 0])
     assert sigma[41] < 3 * max(sigma[40], sigma[42]) < 0.05, sigma[40:43]
+
+
+def test_two_landmarks_of_the_map_are_independent(monkeypatch):
+    """The pair's moments take two distinct landmarks out of the state (a map) as independent, as
+    the simulator draws them: Cov(D) of a measurement of pole 0 against pole 1 is the dense
+    (H_j − H_i) E (H_j − H_i)ᵀ with the two landmarks' blocks σ² I each and nothing between them.
+    The estimate once held σ² I between them, and was 35 times high on the bundled route's first
+    keyframe (the guide to the simulation)."""
+    from sensorsel.information.integrity import association
+
+    points = np.array([[20.0, 3.0], [21.0, 3.5]])
+    seen = {}
+    real = association._bounds
+
+    def spy(pair, *args, **kwargs):
+        seen["pair"] = pair
+        return real(pair, *args, **kwargs)
+
+    monkeypatch.setattr(association, "_bounds", spy)
+    measurement_risks(POSE, points, _map_prediction(), _meas(points[0]), np.array([0, 1]), gate=GATE, model="map")
+    e = np.zeros((7, 7))
+    e[:3, :3] = POSE_COV
+    e[3:5, 3:5] = e[5:7, 5:7] = MAP_SIGMA**2 * np.eye(2)
+    h_i, h_j = jacobian(POSE, points[0]), jacobian(POSE, points[1])
+    a = np.zeros((2, 7))
+    a[:, :3], a[:, 5:7] = h_j[:, :3], h_j[:, 3:]
+    a[:, :3] -= h_i[:, :3]
+    a[:, 3:5] -= h_i[:, 3:]
+    np.testing.assert_allclose(seen["pair"].c_d[0], a @ e @ a.T, rtol=1e-6, atol=1e-12)
