@@ -28,9 +28,9 @@ POSE = np.array([0.0, 0.0, 0.0])
 POSE_COV = np.diag([0.05**2, 0.05**2, 0.002**2])
 MAP_SIGMA = 0.05
 STEREO = (0.00286, 4.65)  # bearing [rad], range [m] std: a stereo camera at 20 m
-#: the right pole 20 m ahead; another 11 m ahead, 8 of the camera's bearing σ aside: inside the gate
+#: the right pole 20 m ahead; another 11 m ahead, 10 of the camera's bearing σ aside: inside the gate
 #: when the measured range is short, seldom nearer in NIS than the right pole while that one is in reach
-POINTS = np.array([[20.0, 0.0], [11.0 * np.cos(8.0 * STEREO[0]), 11.0 * np.sin(8.0 * STEREO[0])]])
+POINTS = np.array([[20.0, 0.0], [11.0 * np.cos(10.0 * STEREO[0]), 11.0 * np.sin(10.0 * STEREO[0])]])
 
 
 def _risks():
