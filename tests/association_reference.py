@@ -28,12 +28,10 @@ from sensorsel.information.filtering import KeyframeMeasurements, Prediction
 from sensorsel.information.integrity.association import (  # the range, reach and far terms, as the engine's
     FAR_SIGMAS,
     FAR_TERM,
-    REACH_SHARE,
-    REACH_SIGMAS,
     _out_of_reach,
     _RangeSeparation,
     far_residual,
-    out_of_reach_estimate,
+    reach_pairs,
     reach_tail,
 )
 from sensorsel.information.integrity.nearer import p_nearer_form  # the formula, as the engine's
@@ -364,10 +362,7 @@ def measurement_risks(
         p = nonlinear_estimate(p, bent, one_keyframe, g_min, pairs, gate, (CANDIDATE_SCALE, CANDIDATE_MARGIN_M))
     # where the right landmark may fall out of the associator's reach: the engine's stratification
     # on the range noise, on the oracle's joint covariance
-    far_out = (
-        right & ~bent & (out_of_reach_estimate(pair.range_i, pair.sigma_i[:, 0], meas.sigma_range_m[mi]) > REACH_SHARE)
-    )
-    far_out &= pair.d[:, 1] > -REACH_SIGMAS * (pair.sigma_i[:, 0] + sigma_j[close, 0])  # nearer candidates only
+    far_out = reach_pairs(pair, right & ~bent, meas.sigma_range_m[mi], sigma_j[close, 0])
     if far_out.any():
         at = np.flatnonzero(far_out)
         pairs = _quadrature_pairs(at, pose, points, prediction, state, meas, mi, li, cj, right)

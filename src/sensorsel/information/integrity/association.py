@@ -605,10 +605,7 @@ def _risks(
     # shortens the measured range), the linearized estimate, which has no reach, is stratified on the
     # range noise (nonlinear.reach_tail_estimate); the bent pairs' quadrature keeps the reach already
     sigma_r = b.meas["sigma_range_m"][mi]
-    far_out = right & ~bent & (out_of_reach_estimate(pair.range_i, pair.sigma_i[:, 0], sigma_r) > REACH_SHARE)
-    # only a candidate nearer the car than the right landmark can be in reach when that one is not
-    # (beyond REACH_SIGMAS of both estimates' errors along the line of sight: d's range part is r_i − r_j)
-    far_out &= pair.d[:, 1] > -REACH_SIGMAS * (pair.sigma_i[:, 0] + sigma_j[close, 0])
+    far_out = reach_pairs(pair, right & ~bent, sigma_r, sigma_j[close, 0])
     tail = reach_tail(pair.range_i[far_out], pair.sigma_i[far_out, 0], sigma_r[far_out])
     return _bounds(
         pair,
@@ -625,6 +622,19 @@ def _risks(
         robust_to_covariance=robust_to_covariance,
         estimate=estimate,
     )
+
+
+def reach_pairs(
+    pair: Pairs, eligible: np.ndarray, sigma_range_m: np.ndarray, sigma_along_j_m: np.ndarray
+) -> np.ndarray:
+    """(n,) bool: the pairs whose estimate is stratified on the range noise, among ``eligible`` (n,)
+    (the right landmark a candidate, the pair not bent): the measured landmark out of reach with
+    probability above :data:`REACH_SHARE` (:func:`out_of_reach_estimate`; ``sigma_range_m`` (n,) the
+    range noise), and the candidate nearer the car than it, beyond REACH_SIGMAS of both estimates'
+    errors along the line of sight (``sigma_along_j_m`` (n,) the candidate's): a farther candidate
+    is out of reach whenever the right one is (d's range part is r_i − r_j)."""
+    out = eligible & (out_of_reach_estimate(pair.range_i, pair.sigma_i[:, 0], sigma_range_m) > REACH_SHARE)
+    return out & (pair.d[:, 1] > -REACH_SIGMAS * (pair.sigma_i[:, 0] + sigma_along_j_m))
 
 
 def out_of_reach_estimate(range_m: np.ndarray, sigma_along_m: np.ndarray, sigma_range_m: np.ndarray) -> np.ndarray:
