@@ -74,6 +74,8 @@ _TAIL_STAGES = (9, 11, 13)
 KEYFRAME_SHARE = 0.1
 #: NIS_j ≥ ν_r² / S_rr: points with ν_r² > γ S_rr × this (a margin for rounding) are outside the gate
 _RANGE_MARGIN = 1.001
+#: the quadrature's pairs × points evaluated at once (memory: a few tens of such arrays)
+_BLOCK = 2**16
 
 
 #: Joe & Kuo's direction numbers (new-joe-kuo-6.21201, criterion D(6)) of dimensions 2 to 9: the degree
@@ -223,10 +225,11 @@ def _staged(
     active = np.ones(n, bool) if resolved is None else ~resolved(hits, done)
     quadrature = _Quadrature(pairs, tail)
     stages, quiet = (_STAGES, _QUIET_LOG2) if tail is None else (_TAIL_STAGES, _TAIL_STAGES[0])
+    lo = 0  # every active pair has used the points before the stage's own
     for m in stages:
-        for p in np.flatnonzero(active).tolist():
-            hits[p] += quadrature.wrong(p, int(done[p]), 2**m, bool(pairs.right[p]), gate, reach)
-            done[p] = 2**m
+        at = np.flatnonzero(active)
+        hits[at] += quadrature.wrong(at, lo, 2**m, gate, reach)
+        done[at], lo = 2**m, 2**m
         active &= (hits < _ENOUGH) & ((hits > 0) | (m < quiet))
         if resolved is not None and active.any():
             active &= ~resolved(hits, done)
@@ -269,55 +272,80 @@ class _Quadrature:
         self.range_gate_m2 = s_j[:, 1, 1] * _RANGE_MARGIN
         self.poses, self.z, self.noise_sd = poses, pairs.z, noise_sd
         self.rel_i, self.rel_j = pairs.point_i - poses[:, :2], pairs.point_j - poses[:, :2]
+        self.right = np.asarray(pairs.right, bool)
 
-    def wrong(self, p: int, lo: int, hi: int, right: bool, gate: float, reach: tuple[float, float]) -> int:
-        """The wrong points of pair ``p`` among the Sobol set's points ``lo`` to ``hi`` (the
-        arguments :func:`nonlinear_pair_probabilities`' for this pair)."""
-        xi, a, z, sd = _normal_points(), self.a[p], self.z[p], self.noise_sd[p]
-        rel_j = self.rel_j[p][:, None] + _combine(a[3:5], xi[:7, lo:hi])
-        dist_j = np.hypot(rel_j[0], rel_j[1])
-        noise_r = xi[8, lo:hi] if self.tail is None else ndtri(self.tail[p] * ndtr(xi[8, lo:hi]))
-        z_r = z[1] + noise_r * sd[1]
+    def wrong(self, at: np.ndarray, lo: int, hi: int, gate: float, reach: tuple[float, float]) -> np.ndarray:
+        """(len(at),) the wrong points of each pair of ``at`` (indices) among the Sobol set's points
+        ``lo`` to ``hi`` (the arguments :func:`nonlinear_pair_probabilities`' for these pairs): the
+        pairs in blocks of at most :data:`_BLOCK` pair-points, each number element by element as the
+        pair alone would have it (no sum across pairs or points but the counts)."""
+        out = np.zeros(len(at), np.int64)
+        step = max(1, _BLOCK // max(hi - lo, 1))
+        for s in range(0, len(at), step):
+            out[s : s + step] = self._wrong_block(at[s : s + step], lo, hi, gate, reach)
+        return out
+
+    def _wrong_block(self, at: np.ndarray, lo: int, hi: int, gate: float, reach: tuple[float, float]) -> np.ndarray:
+        """:meth:`wrong` of one block of pairs: (P, N) arrays over its pairs and points, then the
+        points that pass the range gate as flat arrays (pair ``k``, point ``n``)."""
+        xi, a, z, sd = _normal_points()[:, lo:hi], self.a[at], self.z[at], self.noise_sd[at]
+        rel_x, rel_y = _combine(a[:, 3:5], xi[:7], grid=True)
+        rel_x += self.rel_j[at, 0, None]
+        rel_y += self.rel_j[at, 1, None]
+        dist_j = np.hypot(rel_x, rel_y)
+        noise_r = xi[8] if self.tail is None else ndtri(self.tail[at, None] * ndtr(xi[8]))
+        z_r = z[:, 1, None] + noise_r * sd[:, 1, None]
         # a landmark is a candidate inside the gate and within the reach of the measured range
         reach_m = reach[0] * z_r + reach[1]
         nu_r = z_r - dist_j
-        at = lo + np.flatnonzero((dist_j <= reach_m) & (nu_r * nu_r <= gate * self.range_gate_m2[p]))
-        heading = self.poses[p, 2] + _combine(a[0:1, :3], xi[:3, at])[0]
-        z_b = z[0] + xi[7, at] * sd[0]
-        nis_j = _nis(z_b, rel_j[:, at - lo], heading, nu_r[at - lo], self.s_inv_j[p])
-        inside = nis_j <= gate
-        if not right:  # a first sighting: any candidate inside the gate takes it
-            return int(np.count_nonzero(inside))
-        at, heading = at[inside], heading[inside]
-        rel_i = self.rel_i[p][:, None] + _combine(a[1:3, :5], xi[:5, at])
-        dist_i = np.hypot(rel_i[0], rel_i[1])
-        nis_i = _nis(z_b[inside], rel_i, heading, z_r[at - lo] - dist_i, self.s_inv_i[p])
-        return int(np.count_nonzero((nis_j[inside] < nis_i) | (nis_i > gate) | (dist_i > reach_m[at - lo])))
+        # the bearing where the range alone leaves the candidate in the gate (most points, so on the grid)
+        near = (dist_j <= reach_m) & (nu_r * nu_r <= gate * self.range_gate_m2[at, None])
+        heading = self.poses[at, 2, None] + _combine(a[:, 0:1, :3], xi[:3], grid=True)[0]
+        z_b = z[:, 0, None] + xi[7] * sd[:, 0, None]
+        nis_j = _nis(z_b, rel_x, rel_y, heading, nu_r, self.s_inv_j[at, :, :, None])
+        k, n = np.nonzero(near & (nis_j <= gate))
+        # a first sighting: any candidate inside the gate takes it
+        first = ~self.right[at[k]]
+        mine = np.flatnonzero(~first)
+        k_i, n_i = k[mine], n[mine]
+        di_x, di_y = _combine(a[k_i, 1:3, :5], xi[:5, n_i])
+        di_x += self.rel_i[at[k_i], 0]
+        di_y += self.rel_i[at[k_i], 1]
+        dist_i = np.hypot(di_x, di_y)
+        nis_i = _nis(z_b[k_i, n_i], di_x, di_y, heading[k_i, n_i], z_r[k_i, n_i] - dist_i, self.s_inv_i[at[k_i]])
+        wrong = (nis_j[k_i, n_i] < nis_i) | (nis_i > gate) | (dist_i > reach_m[k_i, n_i])
+        return np.bincount(k[first], minlength=len(at)) + np.bincount(k_i[wrong], minlength=len(at))
 
 
-def _combine(a: np.ndarray, xi: np.ndarray) -> np.ndarray:
-    """(r, N) A ξ for ``a`` (r, q) and points ``xi`` (q, N): scalar times row, summed in a fixed order
-    (no BLAS: the same sums whatever the threads). Exact zeros of ``a`` (the state's factor is lower
-    triangular) are skipped: adding a zero leaves a sum as it was."""
-    out = np.zeros((a.shape[0], xi.shape[1]))
-    tmp = np.empty(xi.shape[1])
-    for r, row in enumerate(a.tolist()):
-        cols = [k for k, x in enumerate(row) if x != 0.0]
-        if cols:
-            np.multiply(xi[cols[0]], row[cols[0]], out=out[r])
-        for k in cols[1:]:
-            np.multiply(xi[k], row[k], out=tmp)
-            out[r] += tmp
+def _combine(a: np.ndarray, xi: np.ndarray, grid: bool = False) -> np.ndarray:
+    """(r, M) A ξ for ``a`` (M, r, q) and points ``xi`` (q, M), one matrix per point; ``grid``: every
+    matrix of ``a`` (P, r, q) on every point of ``xi`` (q, N), (r, P, N). Product by product, summed in
+    a fixed order (no BLAS: the same sums whatever the threads). A column of ``a`` that is zero
+    throughout (the state's factor is lower triangular) is skipped: adding a zero leaves a sum as it
+    was."""
+    a = np.moveaxis(a, (-2, -1), (0, 1))  # (r, q, M or P)
+    shape = (a.shape[0], a.shape[2], xi.shape[1]) if grid else (a.shape[0], *xi.shape[1:])
+    out = np.zeros(shape)
+    for r in range(a.shape[0]):
+        cols = [q for q in range(a.shape[1]) if a[r, q].any()]
+        for q in cols:
+            term = a[r, q][:, None] * xi[q] if grid else a[r, q] * xi[q]
+            if q == cols[0]:
+                out[r] = term
+            else:
+                out[r] += term
     return out
 
 
-def _nis(z_b: np.ndarray, rel: np.ndarray, heading: np.ndarray, nu_r: np.ndarray, s_inv: np.ndarray) -> np.ndarray:
+def _nis(
+    z_b: np.ndarray, rel_x: np.ndarray, rel_y: np.ndarray, heading: np.ndarray, nu_r: np.ndarray, s_inv: np.ndarray
+) -> np.ndarray:
     """(N,) νᵀ S⁻¹ ν of the measured bearings ``z_b`` (N,) [rad] against a landmark at the estimated
-    relative position ``rel`` (2, N) [m] (world frame) from a pose of estimated ``heading`` (N,) [rad],
-    ν = (z_b − (atan2(rel) − heading), ``nu_r``), the bearing wrapped, ``nu_r`` (N,) the range
-    innovation [m] (the measured range less |rel|); ``s_inv`` (2, 2)."""
-    nu_b = (z_b - np.arctan2(rel[1], rel[0]) + heading + np.pi) % (2.0 * np.pi) - np.pi
-    return s_inv[0, 0] * nu_b**2 + 2.0 * s_inv[0, 1] * nu_b * nu_r + s_inv[1, 1] * nu_r**2
+    relative position (``rel_x``, ``rel_y``) (N,) [m] (world frame) from a pose of estimated
+    ``heading`` (N,) [rad], ν = (z_b − (atan2(rel) − heading), ``nu_r``), the bearing wrapped, ``nu_r``
+    (N,) the range innovation [m] (the measured range less |rel|); ``s_inv`` (N, 2, 2), each point's."""
+    nu_b = (z_b - np.arctan2(rel_y, rel_x) + heading + np.pi) % (2.0 * np.pi) - np.pi
+    return s_inv[:, 0, 0] * nu_b**2 + 2.0 * s_inv[:, 0, 1] * nu_b * nu_r + s_inv[:, 1, 1] * nu_r**2
 
 
 def nonlinear_estimate(
