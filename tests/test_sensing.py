@@ -201,7 +201,8 @@ def test_landmarks_nearer_than_the_minimum_range_are_not_measured(library):
 
 def test_off_axis_is_the_angle_between_bearing_and_axis():
     # oracle: the angle between two unit vectors, from atan2 per element (no wrapping arithmetic)
-    from sensorsel.model.sensing import off_axis, wrap_angle
+    from sensorsel.model.angles import wrap_angle
+    from sensorsel.model.sensing import off_axis
 
     rng = np.random.default_rng(3)
     bearings = wrap_angle(rng.uniform(-10.0, 10.0, 2000))

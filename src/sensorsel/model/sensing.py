@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
+from sensorsel.model.angles import wrap_angle
 from sensorsel.model.conditions import Condition, SensorEffect, sensor_effect
 from sensorsel.model.library import PlacedSensor, SensorLibrary
 from sensorsel.model.scenario import Scenario
@@ -28,11 +29,6 @@ MIN_RANGE_M = 1.0
 
 BYTES_PER_MEASUREMENT = 48  # the six 8-byte arrays of SensorObservations
 _CHUNK_PAIRS = 1 << 21  # (keyframe, landmark) pairs whose geometry observe() holds at once
-
-
-def wrap_angle(a: np.ndarray) -> np.ndarray:
-    """Wrap angles [rad] to [-pi, pi)."""
-    return (np.asarray(a) + np.pi) % (2.0 * np.pi) - np.pi
 
 
 @dataclass(frozen=True, eq=False)

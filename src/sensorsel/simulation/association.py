@@ -62,6 +62,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sensorsel.information.linearize import bearing_range_jacobians
+from sensorsel.model.angles import wrap_angle
 
 __all__ = [
     "CANDIDATE_MARGIN_M",
@@ -206,10 +207,6 @@ def retract(pose: np.ndarray, delta: np.ndarray) -> np.ndarray:
     )
 
 
-def _wrap(a: np.ndarray) -> np.ndarray:
-    return (a + np.pi) % (2.0 * np.pi) - np.pi
-
-
 @dataclass(frozen=True, eq=False)
 class _Pairs:
     """The evaluated (measurement, candidate) pairs of a keyframe, in measurement order: the
@@ -260,7 +257,7 @@ def _pairs(case: KeyframeCase, gate: float) -> _Pairs:
     s, gain = _pair_blocks(case, cj, case.sigma_bearing_rad[mi], case.sigma_range_m[mi])
     z_true = np.column_stack([case.bearing_rad[mi], case.range_m[mi]])
     d = z_true - measure(case.pose, case.points[cj])
-    d[:, 0] = _wrap(d[:, 0])
+    d[:, 0] = wrap_angle(d[:, 0])
     s_inv = np.linalg.inv(s)
     lam = np.einsum("ni,nij,nj->n", d, s_inv, d)
     keep = (case.right[mi] == cj) | (lam <= (math.sqrt(gate) + PRUNE_SIGMAS) ** 2)
@@ -290,7 +287,7 @@ def _associate(
     local = np.searchsorted(meas, pairs.mi)  # pair -> column of meas
     l_hat = case.points[pairs.cj][None] + lm_err[:, pairs.cj]  # (B, P, 2)
     nu = z[:, local] - measure(x_hat[:, None, :], l_hat)
-    nu[..., 0] = _wrap(nu[..., 0])
+    nu[..., 0] = wrap_angle(nu[..., 0])
     nis = np.einsum("bpi,pij,bpj->bp", nu, pairs.s_inv, nu)
     dist = np.hypot(l_hat[..., 0] - x_hat[:, None, 0], l_hat[..., 1] - x_hat[:, None, 1])
     ok = (nis <= gate) & (dist <= CANDIDATE_SCALE * z[:, local, 1] + CANDIDATE_MARGIN_M)
@@ -347,7 +344,7 @@ def _clutter(
         return out
     z_true = measure(case.pose, xy)  # (n, 2)
     for cone in case.cones:
-        off = np.abs(_wrap(z_true[:, 0] - cone.mount_rad))
+        off = np.abs(wrap_angle(z_true[:, 0] - cone.mount_rad))
         seen = (z_true[:, 1] <= cone.range_m) & (z_true[:, 1] >= 1.0) & (off <= 0.5 * cone.fov_rad + 1e-12)
         if not seen.any():
             continue
@@ -356,7 +353,7 @@ def _clutter(
         z = zt + rng.standard_normal(zt.shape) * np.column_stack([np.full(len(zt), cone.sigma_bearing_rad), sr])
         l_hat = case.points[None] + lm_err[dr]  # (n, C, 2)
         nu = z[:, None, :] - measure(x_hat[dr][:, None, :], l_hat)
-        nu[..., 0] = _wrap(nu[..., 0])
+        nu[..., 0] = wrap_angle(nu[..., 0])
         s = np.broadcast_to(s_base, (len(zt),) + s_base.shape).copy()
         s[..., 0, 0] += cone.sigma_bearing_rad**2
         s[..., 1, 1] += (sr**2)[:, None]
@@ -522,7 +519,7 @@ def _mean_shifts(
     d = np.column_stack([np.full(len(cj), case.bearing_rad[i]), np.full(len(cj), case.range_m[i])]) - measure(
         case.pose, case.points[cj]
     )
-    d[:, 0] = _wrap(d[:, 0])
+    d[:, 0] = wrap_angle(d[:, 0])
     s_inv = sub.s_inv[wrong]
     sd = np.einsum("jab,jb->ja", s_inv, d)
     lam = np.einsum("ja,ja->j", d, sd)

@@ -14,7 +14,7 @@ from scipy.linalg import cho_factor, cho_solve
 
 from sensorsel.information.graph import pose2
 from sensorsel.information.linearize import base_information, bearing_range_jacobians
-from sensorsel.model.sensing import wrap_angle
+from sensorsel.model.angles import wrap_angle
 from sensorsel.simulation.noise import Payload
 from sensorsel.simulation.records import RunResult
 

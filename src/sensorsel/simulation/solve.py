@@ -31,7 +31,8 @@ from sensorsel.information.graph import (
     landmark_prior,
     odometry_factor,
 )
-from sensorsel.model.sensing import Measurements, wrap_angle
+from sensorsel.model.angles import wrap_angle
+from sensorsel.model.sensing import Measurements
 from sensorsel.simulation.noise import Draw, Payload, draw
 
 SOLVERS = ("lm", "isam2")

@@ -36,6 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from sensorsel.errors import InputError, ScenarioError
+from sensorsel.model.angles import wrap_angle
 
 MIN_TRAVEL_M = 1.0  # a route whose positions stay within this of each other never moves: refused
 SNAP_DEG = 15.0  # an axis found this close to a coordinate axis is taken as that axis (KITTI's own drift: <= 8.2 deg)
@@ -479,7 +480,7 @@ def headings_from_travel(
     if len(step) > 1:
         j = np.searchsorted(sm, sm + window_m)
         j = np.minimum(j, len(step) - 1)
-        turn = np.abs((step[j] - step + np.pi) % (2 * np.pi) - np.pi)
+        turn = np.abs(wrap_angle(step[j] - step))
         cusp = np.flatnonzero((turn > math.radians(150)) & (sm[j] - sm <= 1.5 * window_m))
         if len(cusp):
             times = sorted({round(float(tm[k]), 1) for k in cusp})

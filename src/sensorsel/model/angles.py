@@ -1,0 +1,25 @@
+"""Angles: one wrapping rule for every bearing and heading difference of the project."""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["wrap_angle"]
+
+_TWO_PI = 2.0 * np.pi
+
+
+def wrap_angle(a: np.ndarray) -> np.ndarray:
+    """Wrap angles [rad] to [-pi, pi): (a + π) mod 2π − π, bit for bit as numpy's ``%`` gives it.
+
+    Why not ``%`` itself: it computes fmod (15 ns an element, ten times an arctangent's in
+    numpy), and the association quadrature wraps millions of bearings per route. Where x = a + π lies
+    in (−2π, 4π) (every difference of two bearings plus a heading), ``%`` returns x + 2π for x < 0
+    (fmod(x) = x exactly, then that addition), x − 2π for x ≥ 2π (fmod's exact result, and the
+    subtraction is exact there by Sterbenz's lemma) and x else; an array with other x (or NaN, inf)
+    takes ``%``."""
+    x = np.asarray(a, float) + np.pi
+    if not (np.min(x, initial=0.0) > -_TWO_PI and np.max(x, initial=0.0) < 2.0 * _TWO_PI):
+        return x % _TWO_PI - np.pi
+    x += (x < 0.0) * _TWO_PI - (x >= _TWO_PI) * _TWO_PI  # x + 2π, x − 2π, or x + 0 (the same x)
+    return x - np.pi
