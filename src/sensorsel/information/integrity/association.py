@@ -97,8 +97,8 @@ P(NIS_j ≤ γ) ≤ FAR_TERM = 4Φ(−k_far) + Φ(−F) (F = FAR_SIGMAS = 10, k_
 k need not be on the grid), and the bound adds FAR_TERM × (N − 1 − kept), N the map's landmarks (in
 SLAM the route's: the state is among them, and a landmark out of it is never taken):
 
-- a pair dropped by a far filter has √λ_j > √γ + F + ρ_j(k_far) (each filter compares a lower bound
-  of λ_j with an upper bound of ρ_j(k_far)). With x ~ N(μ, I₂) the whitened linearized innovation,
+- a pair dropped by the far filter has √λ_j > √γ + F + ρ_j(k_far) (λ_j from candidate j's own
+  block, as every kept pair's). With x ~ N(μ, I₂) the whitened linearized innovation,
   ‖μ‖ = √λ, P(‖x‖ ≤ a) ≤ P(μ̂ᵀx ≤ a) = Φ(a − √λ); so G_j(γ) ≤ 4Φ(−k_far) + F((√γ + ρ_j(k_far))²; λ_j)
   ≤ 4Φ(−k_far) + Φ(−F);
 - a landmark beyond the widened reach (r_j ≥ r + (√γ + F) √(s_bb + s_rr), so r_j > r): the range is
@@ -159,6 +159,7 @@ from scipy.special import chndtr, ndtr
 from sensorsel.information.filtering import KeyframeMeasurements, Prediction
 from sensorsel.information.integrity.moments import (
     Batch,
+    Candidates,
     Pairs,
     Snapshot,
     candidate_moments,
@@ -204,10 +205,10 @@ _T_FRACTIONS = np.linspace(0.05, 1.0, 20)  # the bound's thresholds t, as fracti
 #: the region sizes k of the Taylor remainder (module docstring), and their outside masses 4Φ(−k)
 _K_GRID = np.array([1.5, 2.0, 2.5, 3.0, 4.0, 5.5, 7.0, 9.0, 12.0])
 _K_OUT = 4.0 * ndtr(-_K_GRID)
-#: the box's k of the far filters, k_far = FAR_SIGMAS (any k bounds one probability: module docstring)
+#: the box's k of the far filter, k_far = FAR_SIGMAS (any k bounds one probability: module docstring)
 _FAR_K = np.array([FAR_SIGMAS])
 #: the most a landmark left out of a measurement's kept candidates adds to its bound: a pair dropped
-#: by the far filters 4Φ(−k_far) + Φ(−FAR_SIGMAS), a landmark beyond the widened reach Φ(−FAR_SIGMAS)
+#: by the far filter 4Φ(−k_far) + Φ(−FAR_SIGMAS), a landmark beyond the widened reach Φ(−FAR_SIGMAS)
 #: (module docstring, "the far limit"); 5Φ(−10) = 3.8e-23
 FAR_TERM = float(4.0 * ndtr(-_FAR_K[0]) + ndtr(-FAR_SIGMAS))
 
@@ -549,37 +550,15 @@ def _risks(
     keep = (cj != b.meas["landmark"][mi]) & (near_dist[pick] <= reach)
     slot_j = near_slot[pick][keep]
     pick, mi, cj = pick[keep], mi[keep], cj[keep]
-    # a pair whose λ is surely past the far limit is dropped before its moments (it would be after):
-    # λ is invariant under d → T d, S → T S Tᵀ; with T = diag(r_i, 1) (bearing in metres),
-    # λ ≥ |T d|² / tr(T S_j T), and each row h of H_j has hᵀ E h ≤ (Σ_blocks ‖h_b‖ √λmax(E_bb))²
-    # (Cauchy–Schwarz, E ⪰ 0), the blocks being the position (‖h‖ ≤ 1/r_j bearing, 1 range), the
-    # heading (1, 0) and the landmark (1/r_j, 1); λmax(E_bb) ≤ its trace. The far limit is widened by
-    # the remainder at k = FAR_SIGMAS, taken at its largest (σ_a, σ_b ≤ sd_xy + sd_lj, whitened by R ⪯ S);
-    # sd_lj the candidate's own spread (the trace of its block; the prior's out of the state)
+    # which pairs are near enough, from candidate j's moments alone: H_j P H_jᵀ and its spreads once
+    # per (keyframe, candidate), then each pair's S_j and λ (cheap: 2 × 2); the full moments of those only
     d = innovation_means(b, points, mi, near, near_at, pick)
-    at = b.at[mi]
-    sd_xy, sd_th = (x[at] for x in b.spreads(with_prior=False)[:2])
-    inside = slot_j >= 0
-    block = b.blocks[b.held_off[at[inside]] + slot_j[inside]]
-    sd_lj = np.full(len(mi), math.sqrt(2.0) * b.prior_sigma_m)
-    sd_lj[inside] = np.sqrt(np.maximum(block[:, 0, 0] + block[:, 1, 1], 0.0))
-    r_i = b.meas["range_m"][mi]
-    r_j = np.maximum(near_dist[pick], 1e-9)
-    s_bb = r_i**2 * (b.meas["sigma_bearing_rad"][mi] ** 2 + ((sd_xy + sd_lj) / r_j + sd_th) ** 2)
-    s_rr = b.meas["sigma_range_m"][mi] ** 2 + (sd_xy + sd_lj) ** 2
+    present = np.zeros(len(near), bool)
+    present[pick] = True
+    cand = Candidates.of(b, points, near[present], near_at[present], near_slot[present])
+    back = (np.cumsum(present) - 1)[pick]
+    s_j, lam, sigma_j, range_j, s_inv = candidate_moments(b, mi, cand, back, d)
     far_k = _FAR_K
-    sd_w = (sd_xy + sd_lj)[:, None] * np.ones(2)
-    rho_up = _remainder(sd_w, r_j, noise_inverse(b, mi), far_k)[:, 0]
-    lam_low = ((r_i * d[:, 0]) ** 2 + d[:, 1] ** 2) / (s_bb + s_rr)
-    keep = np.sqrt(lam_low) <= math.sqrt(gate) + FAR_SIGMAS + rho_up
-    mi, cj, slot_j, pick = mi[keep], cj[keep], slot_j[keep], pick[keep]
-    if len(mi) == 0:  # no pair left: no risk (and none of the moments below to compute)
-        return MeasurementRisk(est, bnd, ncand, lin)
-    # which pairs are near enough, from candidate j's moments alone (its 5 × 5 block: cheap), then
-    # the full moments of those only
-    s_j, lam, sigma_j, range_j, s_inv, jac_u, e_u, back = candidate_moments(
-        b, points, mi, near, near_at, near_slot, pick, d[keep]
-    )
     whiten_j = noise_inverse(b, mi) if robust_to_covariance else s_inv
     close = np.sqrt(lam) <= math.sqrt(gate) + FAR_SIGMAS + _remainder(sigma_j, range_j, whiten_j, far_k)[:, 0]
     mi, cj, slot_j = mi[close], cj[close], slot_j[close]
@@ -589,9 +568,9 @@ def _risks(
     # the range's own bound (no box: the range is 1-Lipschitz in the positions), for pairs the box
     # cannot cover (a landmark nearer the car than a few σ of the estimate)
     by_range = _RangeSeparation(
-        np.abs(d[keep][close, 1]), s_j[close, 1, 1], b.meas["sigma_range_m"][mi], np.hypot(*sigma_j[close].T)
+        np.abs(d[close, 1]), s_j[close, 1, 1], b.meas["sigma_range_m"][mi], np.hypot(*sigma_j[close].T)
     )
-    pair = pair_moments(b, points, mi, cj, slot_j, jac_u[back[close]], e_u[back[close]])
+    pair = pair_moments(b, points, mi, cj, slot_j, cand.jac[back[close]], cand.e[back[close]])
     # the measured landmark's own term: the associator's reach, judged at the measured range, can
     # leave it out (equal within a measurement: its range, noise and w_i's spread)
     p_out_bound = _out_of_reach(
@@ -710,7 +689,7 @@ def _bounds(
         g_i[mi[sel]] = np.min(_K_OUT[None, None, :] + np.exp(-0.5 * short**2), axis=2) + p_out[sel, None]
         lnn = np.min(g_i + sums, axis=1)
         bnd = np.where(lower, np.minimum(bnd, lnn), bnd)
-    # the landmarks not kept (dropped by the far filters, or beyond the widened reach): both forms of
+    # the landmarks not kept (dropped by the far filter, or beyond the widened reach): both forms of
     # the bound are unions over every landmark, so their residual adds to either
     bnd = np.minimum(1.0, bnd + far_residual(ncand, n_landmarks))
     if linear:  # the same with ρ = 0 and no outside mass

@@ -22,8 +22,9 @@ import numpy as np
 
 from sensorsel.information.filtering import KeyframeMeasurements, Prediction
 from sensorsel.information.linearize import bearing_range_jacobians
+from sensorsel.model.angles import wrap_angle
 
-__all__ = ["Batch", "Snapshot", "slots"]
+__all__ = ["Batch", "Candidates", "Snapshot", "slots"]
 
 _TWO = np.arange(2)
 
@@ -313,43 +314,56 @@ def pair_moments(
     return Pairs(d=d, s_i=s_i, s_j=s_j, c_d=c_d, c_id=c_id, lam=lam, sigma_i=sigma_i, range_i=range_i, joint=e)
 
 
+@dataclass(frozen=True, eq=False)
+class Candidates:
+    """Candidate j's part of the moments, once per (keyframe, candidate) of a batch (u of them): what
+    depends on the candidate alone, whatever measurement it is paired with.
+
+    Attributes:
+        jac: (u, 2, 5) the Jacobian H_j of its bearing and range in the (pose, l_j) errors.
+        e: (u, 5, 5) the covariance of the (pose, l_j) errors.
+        hph: (u, 2, 2) H_j E H_jᵀ (S_j without the measurement's noise).
+        sigma: (u, 2) [m] the spread of its estimated relative position w_j along and across the line
+            of sight (:func:`line_of_sight_spread`).
+        range_m: (u,) [m] its true range.
+    """
+
+    jac: np.ndarray
+    e: np.ndarray
+    hph: np.ndarray
+    sigma: np.ndarray
+    range_m: np.ndarray
+
+    @classmethod
+    def of(cls, b: Batch, points: np.ndarray, uniq: np.ndarray, at: np.ndarray, slot: np.ndarray) -> Candidates:
+        """The candidates ``uniq`` (u,) (landmark indices) of keyframes ``at`` (u,) of the batch, in
+        its state at ``slot`` (u,) (−1: out of it)."""
+        n = len(uniq)
+        e = np.zeros((n, 5, 5))
+        e[:, :3, :3] = b.pose_cov[at]
+        pj = b.pose_landmark(at, slot)
+        e[:, :3, 3:], e[:, 3:, :3] = pj, np.transpose(pj, (0, 2, 1))
+        e[:, 3:, 3:] = b.landmark_block(at, slot)
+        jac = bearing_range_jacobians(b.poses[at], points[uniq])  # (u, 2, 5)
+        sigma, rng = line_of_sight_spread(b.poses[at], points[uniq], e, 3)
+        return cls(jac, e, jac @ e @ np.transpose(jac, (0, 2, 1)), sigma, rng)
+
+
 def candidate_moments(
-    b: Batch,
-    points: np.ndarray,
-    mi: np.ndarray,
-    near: np.ndarray,
-    near_at: np.ndarray,
-    near_slot: np.ndarray,
-    pick: np.ndarray,
-    d: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """What the far-pair filter needs of each pair, from the (pose, l_j) 5 × 5 block alone: S_j
-    (n, 2, 2), λ (n,), the line-of-sight spreads (n, 2) [m] and ranges (n,) [m] of candidate j
-    (the same as :func:`pair_moments`' for those pairs), S_j⁻¹ (n, 2, 2), and what
-    :func:`pair_moments` reuses: the Jacobian H_j (u, 2, 5) and (pose, l_j) block (u, 5, 5) of each
-    distinct (keyframe, candidate), and which is each pair's (n,) (taken for the pairs kept only).
-    The candidates of every keyframe are ``near`` (joined, sorted within a keyframe), of keyframe
-    ``near_at``, in its state at ``near_slot``; pair p's is ``near[pick[p]]``; ``d`` (n, 2) the pairs'
-    innovation means. H_j P H_jᵀ and the spreads depend on the candidate only: computed once per
-    (keyframe, candidate), then the measurement's noise added."""
-    present = np.zeros(len(near), bool)
-    present[pick] = True
-    back = (np.cumsum(present) - 1)[pick]
-    uniq, slot, at = near[present], near_slot[present], near_at[present]
-    n = len(uniq)
-    e = np.zeros((n, 5, 5))
-    e[:, :3, :3] = b.pose_cov[at]
-    pj = b.pose_landmark(at, slot)
-    e[:, :3, 3:], e[:, 3:, :3] = pj, np.transpose(pj, (0, 2, 1))
-    e[:, 3:, 3:] = b.landmark_block(at, slot)
-    jac = bearing_range_jacobians(b.poses[at], points[uniq])  # (n, 2, 5)
-    s_j = (jac @ e @ np.transpose(jac, (0, 2, 1)))[back]
+    b: Batch, mi: np.ndarray, cand: Candidates, back: np.ndarray, d: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """What the far-pair filter needs of each pair (n of them), from the (pose, l_j) 5 × 5 block
+    alone: S_j (n, 2, 2), λ (n,), the line-of-sight spreads (n, 2) [m] and ranges (n,) [m] of
+    candidate j (the same as :func:`pair_moments`' for those pairs) and S_j⁻¹ (n, 2, 2). Pair p is
+    measurement ``mi[p]`` with candidate ``back[p]`` of ``cand``; ``d`` (n, 2) the pairs'
+    innovation means. H_j P H_jᵀ and the spreads are the candidate's (:class:`Candidates`), the
+    measurement's noise added here."""
+    s_j = cand.hph[back]
     s_j[:, 0, 0] += b.meas["sigma_bearing_rad"][mi] ** 2
     s_j[:, 1, 1] += b.meas["sigma_range_m"][mi] ** 2
     inv = inverse_2x2(s_j)
     lam = np.einsum("ni,nij,nj->n", d, inv, d)
-    sigma, rng = line_of_sight_spread(b.poses[at], points[uniq], e, 3)
-    return s_j, lam, sigma[back], rng[back], inv, jac, e, back
+    return s_j, lam, cand.sigma[back], cand.range_m[back], inv
 
 
 def inverse_2x2(a: np.ndarray) -> np.ndarray:
@@ -396,5 +410,5 @@ def innovation_means(
     rj = np.hypot(rel_j[:, 0], rel_j[:, 1])
     if pick is not None:
         bj, rj = bj[pick], rj[pick]
-    db = (b.meas["bearing_rad"][mi] - bj + np.pi) % (2.0 * np.pi) - np.pi
+    db = wrap_angle(b.meas["bearing_rad"][mi] - bj)
     return np.column_stack([db, b.meas["range_m"][mi] - rj])

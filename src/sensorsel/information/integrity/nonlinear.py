@@ -44,6 +44,7 @@ import numpy as np
 from scipy.special import ndtr, ndtri
 
 from sensorsel.information.linearize import bearing_range_jacobians
+from sensorsel.model.angles import wrap_angle
 
 __all__ = [
     "BENT_SHARE",
@@ -325,14 +326,12 @@ def _combine(a: np.ndarray, xi: np.ndarray, grid: bool = False) -> np.ndarray:
     was."""
     a = np.moveaxis(a, (-2, -1), (0, 1))  # (r, q, M or P)
     shape = (a.shape[0], a.shape[2], xi.shape[1]) if grid else (a.shape[0], *xi.shape[1:])
-    out = np.zeros(shape)
+    out, term = np.zeros(shape), np.empty(shape[1:])
     for r in range(a.shape[0]):
         cols = [q for q in range(a.shape[1]) if a[r, q].any()]
         for q in cols:
-            term = a[r, q][:, None] * xi[q] if grid else a[r, q] * xi[q]
-            if q == cols[0]:
-                out[r] = term
-            else:
+            np.multiply(a[r, q][:, None] if grid else a[r, q], xi[q], out=out[r] if q == cols[0] else term)
+            if q != cols[0]:
                 out[r] += term
     return out
 
@@ -344,7 +343,7 @@ def _nis(
     relative position (``rel_x``, ``rel_y``) (N,) [m] (world frame) from a pose of estimated
     ``heading`` (N,) [rad], ν = (z_b − (atan2(rel) − heading), ``nu_r``), the bearing wrapped, ``nu_r``
     (N,) the range innovation [m] (the measured range less |rel|); ``s_inv`` (N, 2, 2), each point's."""
-    nu_b = (z_b - np.arctan2(rel_y, rel_x) + heading + np.pi) % (2.0 * np.pi) - np.pi
+    nu_b = wrap_angle(z_b - np.arctan2(rel_y, rel_x) + heading)
     return s_inv[:, 0, 0] * nu_b**2 + 2.0 * s_inv[:, 0, 1] * nu_b * nu_r + s_inv[:, 1, 1] * nu_r**2
 
 
