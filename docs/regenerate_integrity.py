@@ -49,7 +49,7 @@ Z95 = 1.959963984540054
 #: the calibration runs on KITTI 03: the cheapest suite meeting freeway accuracy there
 CALIBRATION_RUNS = (
     ("map", ["--map-sigma", "0.05", "--draws", "2000"]),
-    ("map-is", ["--map-sigma", "0.05", "--draws", "400", "--importance-sampling"]),
+    ("map-is", ["--map-sigma", "0.05", "--draws", "4000", "--importance-sampling"]),
     ("slam", ["--draws", "2000"]),
 )
 HELSINKI_ROUTE = "r002"

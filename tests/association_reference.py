@@ -31,11 +31,10 @@ from sensorsel.information.integrity.association import (  # the range, reach an
     _out_of_reach,
     _RangeSeparation,
     far_residual,
-    reach_pairs,
-    reach_tail,
+    reach_strata,
 )
 from sensorsel.information.integrity.nearer import p_nearer_form  # the formula, as the engine's
-from sensorsel.information.integrity.nonlinear import BentPairs, bent_pairs, nonlinear_estimate, reach_tail_estimate
+from sensorsel.information.integrity.nonlinear import BentPairs, bent_pairs, nonlinear_estimate
 from sensorsel.information.linearize import bearing_range_jacobians
 from sensorsel.model.problem import Problem
 
@@ -360,14 +359,16 @@ def measurement_risks(
         pairs = _quadrature_pairs(np.flatnonzero(bent), pose, points, prediction, state, meas, mi, li, cj, right)
         one_keyframe = np.zeros(len(p), np.int64)
         p = nonlinear_estimate(p, bent, one_keyframe, g_min, pairs, gate, (CANDIDATE_SCALE, CANDIDATE_MARGIN_M))
-    # where the right landmark may fall out of the associator's reach: the engine's stratification
-    # on the range noise, on the oracle's joint covariance
-    far_out = reach_pairs(pair, right & ~bent, meas.sigma_range_m[mi], sigma_j[close, 0])
-    if far_out.any():
-        at = np.flatnonzero(far_out)
-        pairs = _quadrature_pairs(at, pose, points, prediction, state, meas, mi, li, cj, right)
-        tail = reach_tail(pair.range_i[at], pair.sigma_i[at, 0], meas.sigma_range_m[mi[at]])
-        p = reach_tail_estimate(p, far_out, tail, pairs, gate, (CANDIDATE_SCALE, CANDIDATE_MARGIN_M))
+    # where the associator's reach changes a pair (the right landmark out of it, or a farther
+    # candidate within it only at a long measured range): the engine's stratification on the range
+    # noise, on the oracle's joint covariance
+    st = reach_strata(pair, ~bent, right, meas.range_m[mi], meas.sigma_range_m[mi], range_j[close], sigma_j[close, 0])
+    p = st.estimate(
+        p,
+        np.zeros(len(p), np.int64),
+        lambda sel: _quadrature_pairs(np.flatnonzero(sel), pose, points, prediction, state, meas, mi, li, cj, right),
+        gate,
+    )
     # bincount sums each measurement's terms in order from 0, as np.add.at into zeros did
     logq = np.bincount(mi, weights=np.log1p(-np.clip(p, 0.0, 1.0 - 1e-16)), minlength=m)
     est = np.maximum(-np.expm1(logq), 0.0)

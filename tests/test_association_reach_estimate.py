@@ -33,26 +33,26 @@ STEREO = (0.00286, 4.65)  # bearing [rad], range [m] std: a stereo camera at 20 
 POINTS = np.array([[20.0, 0.0], [11.0 * np.cos(10.0 * STEREO[0]), 11.0 * np.sin(10.0 * STEREO[0])]])
 
 
-def _risks():
-    meas = one_measurement(POSE, POINTS[0], STEREO)
+def _risks(points=POINTS, stereo=STEREO):
+    meas = one_measurement(POSE, points[0], stereo)
     pred = Prediction(keyframe=1, landmarks=np.zeros(0, np.int64), covariance=POSE_COV, prior_sigma_m=MAP_SIGMA)
-    return measurement_risks(POSE, POINTS, pred, meas, np.array([0, 1]), gate=GATE, model="map")
+    return measurement_risks(POSE, points, pred, meas, np.array([0, 1]), gate=GATE, model="map")
 
 
-def _monte_carlo(n: int, seed: int) -> int:
+def _monte_carlo(n: int, seed: int, points: np.ndarray = POINTS, stereo: tuple[float, float] = STEREO) -> int:
     """Draws (of ``n``) in which the associator takes landmark 1 for a measurement of landmark 0."""
     rng = np.random.default_rng(seed)
     e_pose = rng.standard_normal((n, 3)) @ np.linalg.cholesky(POSE_COV).T
     x_hat = retract(POSE, e_pose)
-    z = measure(POSE, POINTS[0]) + rng.standard_normal((n, 2)) * np.asarray(STEREO)
+    z = measure(POSE, points[0]) + rng.standard_normal((n, 2)) * np.asarray(stereo)
     reach = 1.25 * z[:, 1] + 5.0  # the associator's, at the measured range
     nis, inside = [], []
     for j in range(2):
         joint = np.zeros((5, 5))
         joint[:3, :3], joint[3:, 3:] = POSE_COV, MAP_SIGMA**2 * np.eye(2)
-        h = jacobian(POSE, POINTS[j])
-        s_inv = np.linalg.inv(np.diag(np.square(STEREO)) + h @ joint @ h.T)  # S at the truth
-        l_hat = POINTS[j] + MAP_SIGMA * rng.standard_normal((n, 2))
+        h = jacobian(POSE, points[j])
+        s_inv = np.linalg.inv(np.diag(np.square(stereo)) + h @ joint @ h.T)  # S at the truth
+        l_hat = points[j] + MAP_SIGMA * rng.standard_normal((n, 2))
         nu = z - measure(x_hat, l_hat)
         nu[:, 0] = (nu[:, 0] + np.pi) % (2 * np.pi) - np.pi
         nis.append(np.einsum("ni,ij,nj->n", nu, s_inv, nu))
@@ -91,3 +91,32 @@ def test_out_of_reach_worked_by_hand(range_sigma):
     want = ndtr(-(0.25 * 20.0 + 5.0) / np.hypot(0.07, 1.25 * range_sigma))
     assert got == pytest.approx(want, rel=1e-12)
     assert (got > 0.01) == (range_sigma > 1.0)  # a LiDAR never; a stereo camera at 20 m, percent
+
+
+#: a poor stereo camera (σ_r 8 m at 18 m) and a pole 37 m beyond the measured one, one bearing σ aside:
+#: nearer in NIS whenever the range noise passes the midpoint (+18.5 m), but within the associator's
+#: reach only past +22 m (1.25 r̂ + 5 ≥ 55 m). KITTI 03's keyframe 68 has such a pair (an LSC-12 pole at
+#: 18 m, another 33 m beyond): the linearized estimate 6.0e-6, the associator 5.1e-7
+FAR_STEREO = (0.00286, 8.0)
+FAR_POINTS = np.array([[18.0, 0.0], [55.0 * np.cos(FAR_STEREO[0]), 55.0 * np.sin(FAR_STEREO[0])]])
+
+
+def test_the_estimate_counts_a_farther_candidate_only_within_reach():
+    """The estimate is within 2x of the associator's Monte Carlo where the candidate is farther than
+    the reach at the true range; the bound is not below its 99 % lower limit."""
+    n = 400_000
+    k = _monte_carlo(n, 11, FAR_POINTS, FAR_STEREO)
+    lo, _ = clopper_pearson(k, n)
+    r = _risks(FAR_POINTS, FAR_STEREO)
+    assert k >= 500, k  # resolved
+    assert 0.5 <= r.estimate[0] / (k / n) <= 2.0, (r.estimate[0], k / n)
+    assert r.bound[0] >= lo, (r.bound[0], lo)
+
+
+def test_without_the_upper_stratum_the_estimate_overstates_it(monkeypatch):
+    """The guard: with no farther candidate stratified (its upper tail taken as never binding), the
+    linearized estimate is more than twice what the associator does."""
+    monkeypatch.setattr(association, "reach_upper_tail", lambda r, s, rj, sj: np.ones(len(r)))
+    n = 400_000
+    k = _monte_carlo(n, 11, FAR_POINTS, FAR_STEREO)
+    assert _risks(FAR_POINTS, FAR_STEREO).estimate[0] > 2.0 * k / n

@@ -142,14 +142,17 @@ of √λ_j: SLAM's fresh landmarks), p_j is instead a quadrature of the nonlinea
 (:mod:`~sensorsel.information.integrity.nonlinear`). Where the associator's reach may leave the
 right landmark out (:func:`out_of_reach_estimate` above :data:`REACH_SHARE`: a stereo camera's range noise
 shortens the measured range), the linearized p_j, which has no reach, is stratified on the range
-noise: (1 − t) p_j + t q_j, q_j that quadrature given the noise's lower tail t (:func:`reach_tail`).
+noise: (1 − t) p_j + t q_j, q_j that quadrature given the noise's lower tail t (:func:`reach_tail`);
+and where a farther candidate is within reach only at a long measured range, p_j = u q_j, u the
+noise's upper tail (:func:`reach_upper_tail`), below which the associator never takes it
+(:func:`reach_strata`).
 """
 
 from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -196,6 +199,9 @@ FAR_SIGMAS = 10.0
 REACH_SHARE = 1e-6
 #: the tail of the range noise that holds the reach's misses: the line of sight's error up to this many σ
 REACH_SIGMAS = 4.0
+#: a farther candidate's pair whose linearized estimate is at most this takes min(p_j, its tail), no
+#: quadrature (a keyframe's share of 10⁻⁸ per hour is ~3e-12: far below what any figure shows)
+REACH_FLOOR = 1e-15
 #: at most this many (measurement, candidate) pairs are computed together (memory: ~1 kB each at most)
 PAIRS_PER_BATCH = 400_000
 #: snapshots a :class:`Pending` keeps before computing their risks [bytes]
@@ -583,9 +589,15 @@ def _risks(
     # where the right landmark may fall out of the associator's reach (a stereo camera's range noise
     # shortens the measured range), the linearized estimate, which has no reach, is stratified on the
     # range noise (nonlinear.reach_tail_estimate); the bent pairs' quadrature keeps the reach already
-    sigma_r = b.meas["sigma_range_m"][mi]
-    far_out = reach_pairs(pair, right & ~bent, sigma_r, sigma_j[close, 0])
-    tail = reach_tail(pair.range_i[far_out], pair.sigma_i[far_out, 0], sigma_r[far_out])
+    strata = reach_strata(
+        pair,
+        ~bent,
+        right,
+        b.meas["range_m"][mi],
+        b.meas["sigma_range_m"][mi],
+        range_j[close],
+        sigma_j[close, 0],
+    )
     return _bounds(
         pair,
         mi,
@@ -593,7 +605,7 @@ def _risks(
         rho_j,
         by_range,
         p_out_bound,
-        _Bent(bent, b, points, cj, far_out, tail),
+        _Bent(bent, b, points, cj, strata),
         has_right,
         n_landmarks=len(points),
         gate=gate,
@@ -603,17 +615,79 @@ def _risks(
     )
 
 
-def reach_pairs(
-    pair: Pairs, eligible: np.ndarray, sigma_range_m: np.ndarray, sigma_along_j_m: np.ndarray
+@dataclass(frozen=True, eq=False)
+class ReachStrata:
+    """The pairs whose linearized estimate is stratified on the range noise, because the associator's
+    reach, judged at the measured range, can change them (:func:`reach_strata`). Per pair (n,):
+
+    Attributes:
+        mask: bool, the pairs stratified.
+        upper: bool, of those, the farther candidates: within reach only in the range noise's upper
+            tail; else the right landmark may fall out of reach in its lower tail.
+        tail: the probability of that tail (0 where not stratified).
+    """
+
+    mask: np.ndarray
+    upper: np.ndarray
+    tail: np.ndarray
+
+    def estimate(
+        self, p: np.ndarray, keyframe: np.ndarray, pairs_of: Callable[[np.ndarray], BentPairs], gate: float
+    ) -> np.ndarray:
+        """(n,) the pairs' estimates ``p`` (n,) stratified (:func:`.nonlinear.reach_tail_estimate`), the
+        pairs' keyframes ``keyframe`` (n,); ``pairs_of(mask)``: the quadrature's pairs of a mask. A
+        farther candidate whose linearized estimate is at most :data:`REACH_FLOOR` (or its tail below
+        1e-250, where the tail's points would underflow) takes min(p_j, t) instead (p_j = t q_j ≤ t):
+        no quadrature for what no figure shows."""
+        small = self.upper & ((p <= REACH_FLOOR) | (self.tail < 1e-250))
+        p = np.where(small, np.minimum(p, self.tail), p)
+        sel = self.mask & ~small
+        if not sel.any():
+            return p
+        reach = (CANDIDATE_SCALE, CANDIDATE_MARGIN_M)
+        return reach_tail_estimate(p, sel, keyframe, self.tail[sel], self.upper[sel], pairs_of(sel), gate, reach)
+
+
+def reach_strata(
+    pair: Pairs,
+    eligible: np.ndarray,
+    right: np.ndarray,
+    range_m: np.ndarray,
+    sigma_range_m: np.ndarray,
+    range_j_m: np.ndarray,
+    sigma_along_j_m: np.ndarray,
+) -> ReachStrata:
+    """The pairs among ``eligible`` (n,) (not bent: the quadrature keeps the reach already) whose
+    estimate the reach changes, the measurement's true range ``range_m`` (n,) [m] and noise
+    ``sigma_range_m`` (n,) [m], the candidate's true distance ``range_j_m`` (n,) [m] and its error
+    along the line of sight ``sigma_along_j_m`` (n,) [m]:
+
+    - a nearer candidate, the right landmark a candidate (``right`` (n,)): the measured landmark out
+      of reach with probability above :data:`REACH_SHARE` (:func:`out_of_reach_estimate`), and the
+      candidate nearer the car than it beyond REACH_SIGMAS of both estimates' errors along the line
+      of sight (a farther candidate is out of reach whenever the right one is; d's range part is
+      r_i − r_j); its stratum is the lower tail of :func:`reach_tail`;
+    - a farther candidate, out of reach at the true range even REACH_SIGMAS σ nearer: within it only
+      where the measured range is long, the upper tail of :func:`reach_upper_tail` (below it the
+      associator never takes it; the linearized estimate, which has no reach, counts it there: on
+      KITTI 03 a pole 33 m beyond a stereo camera's measured one, 12x the observed rate)."""
+    near = eligible & right & (out_of_reach_estimate(pair.range_i, pair.sigma_i[:, 0], sigma_range_m) > REACH_SHARE)
+    near &= pair.d[:, 1] > -REACH_SIGMAS * (pair.sigma_i[:, 0] + sigma_along_j_m)
+    upper_tail = reach_upper_tail(range_m, sigma_range_m, range_j_m, sigma_along_j_m)
+    far = eligible & ~near & (upper_tail < 0.5)
+    tail = np.where(far, upper_tail, np.where(near, reach_tail(pair.range_i, pair.sigma_i[:, 0], sigma_range_m), 0.0))
+    return ReachStrata(near | far, far, tail)
+
+
+def reach_upper_tail(
+    range_m: np.ndarray, sigma_range_m: np.ndarray, range_j_m: np.ndarray, sigma_along_j_m: np.ndarray
 ) -> np.ndarray:
-    """(n,) bool: the pairs whose estimate is stratified on the range noise, among ``eligible`` (n,)
-    (the right landmark a candidate, the pair not bent): the measured landmark out of reach with
-    probability above :data:`REACH_SHARE` (:func:`out_of_reach_estimate`; ``sigma_range_m`` (n,) the
-    range noise), and the candidate nearer the car than it, beyond REACH_SIGMAS of both estimates'
-    errors along the line of sight (``sigma_along_j_m`` (n,) the candidate's): a farther candidate
-    is out of reach whenever the right one is (d's range part is r_i − r_j)."""
-    out = eligible & (out_of_reach_estimate(pair.range_i, pair.sigma_i[:, 0], sigma_range_m) > REACH_SHARE)
-    return out & (pair.d[:, 1] > -REACH_SIGMAS * (pair.sigma_i[:, 0] + sigma_along_j_m))
+    """(n,) the probability of the range noise's upper tail above which a candidate at ``range_j_m``
+    [m] from the car (its error along the line of sight up to REACH_SIGMAS × ``sigma_along_j_m``) can be
+    within the associator's reach of a measurement of true range ``range_m`` [m], noise
+    ``sigma_range_m`` [m]: CANDIDATE_SCALE (r + v_r) + CANDIDATE_MARGIN_M ≥ r_j − REACH_SIGMAS σ_a,j."""
+    v_min = (range_j_m - REACH_SIGMAS * sigma_along_j_m - CANDIDATE_MARGIN_M) / CANDIDATE_SCALE - range_m
+    return ndtr(-v_min / np.maximum(sigma_range_m, 1e-300))
 
 
 def out_of_reach_estimate(range_m: np.ndarray, sigma_along_m: np.ndarray, sigma_range_m: np.ndarray) -> np.ndarray:
@@ -774,15 +848,13 @@ def _out_of_reach(range_m: np.ndarray, distance_m: np.ndarray, sigma_w: np.ndarr
 class _Bent:
     """The pairs (``mask`` (n,) bool) whose estimate is the nonlinear model's, and what it reads of
     the batch: the truth of each pair's keyframe, the landmarks, the candidates ``cj`` (n,), and
-    the pairs ``reach_pairs`` (n,) bool whose right landmark may fall out of reach and the
-    probability ``tail`` (r,) of their range noise's tail that holds it (:func:`reach_tail`)."""
+    the pairs stratified on the range noise (:func:`reach_strata`)."""
 
     mask: np.ndarray
     batch: Batch
     points: np.ndarray
     cj: np.ndarray
-    reach_pairs: np.ndarray
-    tail: np.ndarray
+    strata: ReachStrata
 
     def estimate(
         self,
@@ -801,10 +873,7 @@ class _Bent:
         if self.mask.any():
             sel = self.mask
             p = nonlinear_estimate(p, sel, at, g_gate, self._pairs(pair, mi, right, sel), gate, reach)
-        if self.reach_pairs.any():
-            sel = self.reach_pairs
-            p = reach_tail_estimate(p, sel, self.tail, self._pairs(pair, mi, right, sel), gate, reach)
-        return p
+        return self.strata.estimate(p, at, lambda sel: self._pairs(pair, mi, right, sel), gate)
 
     def _pairs(self, pair: Pairs, mi: np.ndarray, right: np.ndarray, sel: np.ndarray) -> BentPairs:
         """What the quadrature reads of the pairs of ``sel``: the truth, both landmarks, the

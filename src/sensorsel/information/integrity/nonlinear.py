@@ -219,7 +219,8 @@ def _staged(
     (:func:`nonlinear_pair_probabilities`' stages, the arguments its own), stage by stage over the
     pairs. ``resolved(hits, points)`` → (n,) bool, where given, also ends the pairs it marks, before
     the first stage (points 0) and after each: the pair's estimate is resolved enough. ``tail`` (b,):
-    each pair given its range noise below that quantile (:func:`reach_tail_estimate`), in the stages
+    each pair given its range noise in that tail (:func:`reach_tail_estimate`; negative: the upper
+    tail of probability −tail), in the stages
     :data:`_TAIL_STAGES`."""
     n = len(pairs.right)
     hits, done = np.zeros(n, np.int64), np.zeros(n, np.int64)
@@ -241,7 +242,8 @@ class _Quadrature:
     """The pairs' quadrature: each pair's map of the state's errors to (dθ, w_i, w_j) and its
     innovations' S⁻¹, for every pair at once (LAPACK and matrix products per matrix: each pair's
     numbers as it alone would have them). ``tail`` (b,): the range noise drawn from each pair's lower
-    tail of that probability, Φ⁻¹(tail · Φ(ξ)) (:func:`reach_tail_estimate`)."""
+    tail of that probability, Φ⁻¹(tail · Φ(ξ)), or where negative its upper tail of probability −tail,
+    −Φ⁻¹(−tail · Φ(ξ)) (:func:`reach_tail_estimate`)."""
 
     def __init__(self, pairs: BentPairs, tail: np.ndarray | None = None) -> None:
         self.tail = tail
@@ -294,7 +296,12 @@ class _Quadrature:
         rel_x += self.rel_j[at, 0, None]
         rel_y += self.rel_j[at, 1, None]
         dist_j = np.hypot(rel_x, rel_y)
-        noise_r = xi[8] if self.tail is None else ndtri(self.tail[at, None] * ndtr(xi[8]))
+        if self.tail is None:
+            noise_r = xi[8]
+        else:  # the stratum: the lower tail of probability t, or the upper one where t is negative
+            t = self.tail[at, None]
+            noise_r = ndtri(np.abs(t) * ndtr(xi[8]))
+            noise_r = np.where(t < 0.0, -noise_r, noise_r)
         z_r = z[:, 1, None] + noise_r * sd[:, 1, None]
         # a landmark is a candidate inside the gate and within the reach of the measured range
         reach_m = reach[0] * z_r + reach[1]
@@ -385,47 +392,76 @@ def nonlinear_estimate(
 
 
 def _resolution(
-    p: np.ndarray, bent: np.ndarray, keyframe: np.ndarray, g: np.ndarray
+    p: np.ndarray,
+    sel: np.ndarray,
+    keyframe: np.ndarray,
+    cap: np.ndarray,
+    base: np.ndarray | float = 0.0,
+    scale: np.ndarray | float = 1.0,
 ) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
-    """:func:`_staged`'s ``resolved`` for the bent pairs of :func:`nonlinear_estimate` (its arguments;
-    ``g`` (b,) the bent pairs' G_j): T_k from the keyframe's other pairs' estimates and its bent pairs'
-    wrong points (a bent pair without one counts 0: T_k is not overstated). Each keyframe's pairs
-    alone decide its numbers, in a fixed order: the same for a keyframe alone or in a batch."""
+    """:func:`_staged`'s ``resolved`` for the pairs of ``sel`` (n,) bool among the pairs' estimates
+    ``p`` (n,) of keyframes ``keyframe`` (n,), each selected pair's estimate ``base`` + ``scale`` ×
+    min(h/N, ``cap``) (b,) from its quadrature's h wrong points of N (:func:`nonlinear_estimate`:
+    base 0, scale 1, cap G_j; :func:`reach_tail_estimate`: a stratum's share). T_k from the
+    keyframe's other pairs' estimates and its selected pairs' values so far (a pair without a wrong
+    point counts its base only: T_k is not overstated). A pair is resolved when its uncertainty,
+    scale × (cap before any point, √max(h, 1)/N after), is at most the quadrature's resolution
+    (scale × 2^−SOBOL_LOG2) or KEYFRAME_SHARE × T_k / n_k (n_k the keyframe's selected pairs). Each
+    keyframe's pairs alone decide its numbers, in a fixed order: the same for a keyframe alone or in
+    a batch."""
     kf = np.unique(keyframe, return_inverse=True)[1].ravel()
     n_kf = int(kf.max()) + 1
-    log_other = np.bincount(kf, weights=np.log1p(-np.clip(np.where(bent, 0.0, p), 0.0, 1.0 - 1e-16)), minlength=n_kf)
-    kb = kf[bent]
+    log_other = np.bincount(kf, weights=np.log1p(-np.clip(np.where(sel, 0.0, p), 0.0, 1.0 - 1e-16)), minlength=n_kf)
+    kb = kf[sel]
     share = KEYFRAME_SHARE / np.bincount(kb, minlength=n_kf)[kb]
 
     def resolved(hits: np.ndarray, points: np.ndarray) -> np.ndarray:
         per = np.maximum(points, 1)
-        value = np.where(hits > 0, np.minimum(hits / per, g), 0.0)
+        value = base + scale * np.where(hits > 0, np.minimum(hits / per, cap), 0.0)
         t_k = -np.expm1(
             log_other + np.bincount(kb, weights=np.log1p(-np.clip(value, 0.0, 1.0 - 1e-16)), minlength=n_kf)
         )
-        spread = np.where(points > 0, np.sqrt(np.maximum(hits, 1)) / per, g)
-        return spread <= np.maximum(2.0**-SOBOL_LOG2, share * t_k[kb])
+        spread = scale * np.where(points > 0, np.sqrt(np.maximum(hits, 1)) / per, cap)
+        return spread <= np.maximum(scale * 2.0**-SOBOL_LOG2, share * t_k[kb])
 
     return resolved
 
 
 def reach_tail_estimate(
-    p: np.ndarray, reach_pairs: np.ndarray, tail: np.ndarray, pairs: BentPairs, gate: float, reach: tuple[float, float]
+    p: np.ndarray,
+    reach_pairs: np.ndarray,
+    keyframe: np.ndarray,
+    tail: np.ndarray,
+    upper: np.ndarray,
+    pairs: BentPairs,
+    gate: float,
+    reach: tuple[float, float],
 ) -> np.ndarray:
     """(n,) the pairs' estimates ``p`` (n,) with those of ``reach_pairs`` (n,) bool stratified on the
-    range noise: where the measured landmark may fall out of the associator's reach (a stereo
-    camera's range noise of metres shortens the measured range; the linearized estimate has no
-    reach), p_j = (1 − t) p_j + t q_j, t = ``tail`` (b,) the probability of the range noise's lower
-    tail that holds every such draw, and q_j the quadrature's probability given that tail (its
-    points' range noise drawn from it alone, in the stages :data:`_TAIL_STAGES`, so a tail of
-    10⁻³ is resolved by a few hundred points: the plain quadrature would need millions). The
-    upper stratum keeps the linearized p_j (the reach leaves no right landmark out there).
-    ``pairs``: the b pairs of ``reach_pairs`` (the measured landmark a candidate), with ``gate`` and
-    ``reach`` as :func:`nonlinear_pair_probabilities` takes them."""
+    range noise, where the associator's reach, judged at the measured range, changes them (the
+    linearized estimate has no reach): q_j the quadrature's probability with the range noise drawn
+    from the stratum alone, a tail of probability t = ``tail`` (b,) (its points' noise Φ⁻¹(t Φ(ξ)),
+    in the stages :data:`_TAIL_STAGES`, so a tail of 10⁻⁶ is resolved by a few hundred points: the
+    plain quadrature would need millions), and
+
+    - p_j = (1 − t) p_j + t q_j where the right landmark may fall out of reach in the lower tail (a
+      stereo camera's range noise of metres shortens the measured range; the upper stratum keeps
+      the linearized p_j: the reach leaves no right landmark out there);
+    - p_j = t q_j for a farther candidate within reach only in the upper tail (``upper`` (b,), the
+      noise −Φ⁻¹(t Φ(ξ))): below it the associator never takes it.
+
+    A pair's quadrature ends early where its stratum is resolved against its keyframe's estimate
+    (:func:`_resolution`, the pairs' keyframes ``keyframe`` (n,), as :func:`nonlinear_estimate`'s);
+    one resolved before any point keeps its linearized p_j (a farther candidate: min(p_j, t)).
+    ``pairs``: the b pairs of ``reach_pairs``, with ``gate`` and ``reach`` as
+    :func:`nonlinear_pair_probabilities` takes them."""
     if not reach_pairs.any():
         return p
     at = np.flatnonzero(reach_pairs)
-    hits, points = _staged(pairs, gate, reach, None, tail)
+    lin = np.where(upper, np.minimum(p[at], tail), p[at])
+    base = np.where(upper, 0.0, (1.0 - tail) * p[at])
+    done = _resolution(p, reach_pairs, keyframe, np.ones(len(at)), base, tail)
+    hits, points = _staged(pairs, gate, reach, done, np.where(upper, -tail, tail))
     out = p.copy()
-    out[at] = (1.0 - tail) * p[at] + tail * (hits / np.maximum(points, 1))
+    out[at] = np.where(points > 0, base + tail * (hits / np.maximum(points, 1)), lin)
     return out
