@@ -226,7 +226,13 @@ def _staged(
     hits, done = np.zeros(n, np.int64), np.zeros(n, np.int64)
     active = np.ones(n, bool) if resolved is None else ~resolved(hits, done)
     quadrature = _Quadrature(pairs, tail)
-    stages, quiet = (_STAGES, _QUIET_LOG2) if tail is None else (_TAIL_STAGES, _TAIL_STAGES[0])
+    # a pair with no wrong point ends from stage 2^quiet on: a lower tail's at its first stage (its
+    # share of a probability the linearized part carries), an upper tail's only at its last (the
+    # candidate's whole estimate: none seen means below that stage's resolution, not 0)
+    if tail is None:
+        stages, quiet = _STAGES, np.full(n, _QUIET_LOG2)
+    else:
+        stages, quiet = _TAIL_STAGES, np.where(tail < 0.0, _TAIL_STAGES[-1], _TAIL_STAGES[0])
     lo = 0  # every active pair has used the points before the stage's own
     for m in stages:
         at = np.flatnonzero(active)
@@ -452,7 +458,9 @@ def reach_tail_estimate(
 
     A pair's quadrature ends early where its stratum is resolved against its keyframe's estimate
     (:func:`_resolution`, the pairs' keyframes ``keyframe`` (n,), as :func:`nonlinear_estimate`'s);
-    one resolved before any point keeps its linearized p_j (a farther candidate: min(p_j, t)).
+    one resolved before any point keeps its linearized p_j (a farther candidate: min(p_j, t)); a farther
+    candidate's tail goes on to its last stage while no point errs, and one with none there takes
+    min(p_j, t/N).
     ``pairs``: the b pairs of ``reach_pairs``, with ``gate`` and ``reach`` as
     :func:`nonlinear_pair_probabilities` takes them."""
     if not reach_pairs.any():
@@ -463,5 +471,8 @@ def reach_tail_estimate(
     done = _resolution(p, reach_pairs, keyframe, np.ones(len(at)), base, tail)
     hits, points = _staged(pairs, gate, reach, done, np.where(upper, -tail, tail))
     out = p.copy()
-    out[at] = np.where(points > 0, base + tail * (hits / np.maximum(points, 1)), lin)
+    value = np.where(points > 0, base + tail * (hits / np.maximum(points, 1)), lin)
+    # a farther candidate no point of its tail took: below the tail's resolution t / N
+    quiet = upper & (points > 0) & (hits == 0)
+    out[at] = np.where(quiet, np.minimum(p[at], tail / np.maximum(points, 1)), value)
     return out
