@@ -229,10 +229,11 @@ def _staged(
     # a pair with no wrong point ends from stage 2^quiet on: a lower tail's at its first stage (its
     # share of a probability the linearized part carries), an upper tail's only at its last (the
     # candidate's whole estimate: none seen means below that stage's resolution, not 0)
+    stages: tuple[int, ...] = _STAGES if tail is None else _TAIL_STAGES
     if tail is None:
-        stages, quiet = _STAGES, np.full(n, _QUIET_LOG2)
+        quiet = np.full(n, _QUIET_LOG2)
     else:
-        stages, quiet = _TAIL_STAGES, np.where(tail < 0.0, _TAIL_STAGES[-1], _TAIL_STAGES[0])
+        quiet = np.where(tail < 0.0, _TAIL_STAGES[-1], _TAIL_STAGES[0])
     lo = 0  # every active pair has used the points before the stage's own
     for m in stages:
         at = np.flatnonzero(active)
