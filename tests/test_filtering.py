@@ -248,3 +248,21 @@ def test_accuracy_says_its_estimate_and_old_files_load_as_the_smoother(suburb_pr
     path.write_text(json.dumps(strip(json.loads(path.read_text()))))
     assert "estimate" not in path.read_text()
     assert results.load(path, ScoreResult).accuracy.estimate == "smoother"
+
+
+@pytest.mark.parametrize(("n_drop", "n_new"), [(0, 0), (1, 0), (5, 3), (40, 10), (200, 0), (0, 50)])
+def test_the_state_kept_is_the_fancy_index_bit_for_bit(n_drop, n_new):
+    """_submatrix (runs of rows copied as slices) against numpy's P[np.ix_(idx, idx)] (the oracle):
+    landmarks left out, new ones (appended to the state) sorted in among the held, and many runs
+    (its fallback past 64)."""
+    from sensorsel.information.filtering import _submatrix
+
+    rng = np.random.default_rng(n_drop + 7 * n_new)
+    ids = rng.choice(1000, 250, replace=False)
+    held = np.concatenate([np.sort(ids[: 250 - n_new]), ids[250 - n_new :]])  # the new ones last, unsorted
+    n = 3 + 2 * len(held)
+    P = rng.standard_normal((n, n))
+    keep = np.sort(rng.choice(len(held), len(held) - n_drop, replace=False))
+    order = keep[np.argsort(held[keep], kind="stable")]
+    idx = np.concatenate([np.arange(3), (3 + 2 * order[:, None] + np.arange(2)).ravel()])
+    assert _submatrix(P, idx).tobytes() == P[np.ix_(idx, idx)].tobytes()

@@ -433,5 +433,22 @@ def _update(P: np.ndarray, held: np.ndarray, pairs: _Pairs, last: np.ndarray, k:
         order = np.flatnonzero(keep)
         order = order[np.argsort(held[order], kind="stable")]
         idx = np.concatenate([np.arange(3), (3 + 2 * order[:, None] + np.arange(2)).ravel()])
-        P, held = P[np.ix_(idx, idx)], held[order]
+        P, held = _submatrix(P, idx), held[order]
     return P, held
+
+
+def _submatrix(P: np.ndarray, idx: np.ndarray) -> np.ndarray:
+    """P[np.ix_(idx, idx)], copied block by block: ``idx`` (the state's rows kept, in order) is a few
+    runs of consecutive rows (landmarks leave the state, the new ones are sorted in), so each pair of
+    runs is one rectangular slice, copied at memory speed, where numpy's fancy indexing reads element
+    by element (KITTI 00: 1.2 ms a keyframe at 784 rows, a fifth of the pass). The same numbers."""
+    cut = np.flatnonzero(np.diff(idx) != 1) + 1
+    first = [0, *cut.tolist()]
+    runs = [(int(idx[a]), b - a, a) for a, b in zip(first, [*cut.tolist(), len(idx)])]
+    if len(runs) > 64:  # many runs: the slices' own cost passes the fancy index's
+        return P[np.ix_(idx, idx)]
+    out = np.empty((len(idx), len(idx)))
+    for src_r, n_r, at_r in runs:
+        for src_c, n_c, at_c in runs:
+            out[at_r : at_r + n_r, at_c : at_c + n_c] = P[src_r : src_r + n_r, src_c : src_c + n_c]
+    return out
