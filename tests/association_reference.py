@@ -31,6 +31,7 @@ from sensorsel.information.integrity.association import (  # the range, reach an
     _out_of_reach,
     _RangeSeparation,
     far_residual,
+    gate_terms,
     reach_strata,
 )
 from sensorsel.information.integrity.nearer import p_nearer_form  # the formula, as the engine's
@@ -314,7 +315,8 @@ def measurement_risks(
     # the gate terms G_j(γ): the smallest over the grid of k
     g_gate = _K_OUT[None, :] + _ncx2_cdf((root_g + rho_j) ** 2, lam[:, None])  # (n, K)
     k_best = np.argmin(g_gate, axis=1)
-    g_min = np.maximum(np.minimum(g_gate.min(axis=1), by_range.bound(np.array([gate]))[:, 0]), FAR_TERM)
+    at_gate = np.minimum(g_gate.min(axis=1), by_range.bound(np.array([gate]))[:, 0])
+    g_min = np.maximum(at_gate, FAR_TERM)
     bnd = np.minimum(1.0, np.bincount(mi, weights=np.minimum(1.0, g_min), minlength=m))
     f_gate = _ncx2_cdf(np.full(len(lam), gate), lam)
     ts = gate * _T_FRACTIONS
@@ -323,10 +325,7 @@ def measurement_risks(
     lower = has_right & (bnd > math.exp(-gate / 2.0)) & (not robust_to_covariance)
     sel = lower[mi]
     if sel.any():
-        lam_s, rho_s, kb = lam[sel], rho_j[sel], k_best[sel]
-        rho_k = rho_s[np.arange(len(lam_s)), kb]
-        g_t = _K_OUT[kb][:, None] + _ncx2_cdf((np.sqrt(ts)[None, :] + rho_k[:, None]) ** 2, lam_s[:, None])
-        g_t = np.minimum(g_t, by_range.select(sel).bound(ts))
+        g_t = gate_terms(ts, sel, at_gate, lam, rho_j, k_best, by_range)  # the engine's rule
         sums = np.zeros((m, len(ts)))
         np.add.at(sums, mi[sel], g_t)
         ps = pair if sel.all() else pair.select(sel)

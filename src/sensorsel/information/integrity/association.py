@@ -88,7 +88,8 @@ bounds above:
     P(W) ≤ min(1, Σ_j G_j(γ), min_t [G_i(t) + Σ_j G_j(t)])
 
 G_j(x) the bound on P(NIS_j ≤ x), G_i(t) = O_i + the bound on P(NIS_i > t); the minimum over a fixed
-grid of t in (0, γ] (any t is valid). For a first sighting only Σ_j G_j(γ). The sums run over the
+grid of t in (0, γ] (any t is valid; a pair's G_j(t) ≤ G_j(γ), which a pair below TINY_TERM takes at
+every t: still a bound). For a first sighting only Σ_j G_j(γ). The sums run over the
 candidates kept; every other landmark of the map adds FAR_TERM to either form (next).
 
 **The far limit.** Both forms are unions over every landmark j ≠ i that the associator could take.
@@ -204,6 +205,9 @@ REACH_SIGMAS = 4.0
 REACH_FLOOR = 1e-15
 #: at most this many (measurement, candidate) pairs are computed together (memory: ~1 kB each at most)
 PAIRS_PER_BATCH = 400_000
+#: a pair whose gate term is below this takes it at every level t of the bound's minimum over t
+#: (a bound: the term is non-decreasing in t; module docstring)
+TINY_TERM = 1e-12
 #: snapshots a :class:`Pending` keeps before computing their risks [bytes]
 PENDING_BYTES = 64 * 2**20
 
@@ -740,7 +744,8 @@ def _bounds(
     k_best = np.argmin(g_gate, axis=1)
     # each kept pair's term floored at FAR_TERM, what it would add if dropped: a pair moving from
     # dropped to kept as the covariance grows never lowers the bound (robust_to_covariance's property)
-    g_min = np.maximum(np.minimum(g_gate.min(axis=1), by_range.bound(np.array([gate]))[:, 0]), FAR_TERM)
+    at_gate = np.minimum(g_gate.min(axis=1), by_range.bound(np.array([gate]))[:, 0])
+    g_min = np.maximum(at_gate, FAR_TERM)
     bnd = np.minimum(1.0, np.bincount(mi, weights=np.minimum(1.0, g_min), minlength=m))
     f_gate = _ncx2_cdf(np.full(len(lam), gate), lam)
     ts = gate * _T_FRACTIONS
@@ -749,10 +754,7 @@ def _bounds(
     lower = has_right & (bnd > math.exp(-gate / 2.0)) & (not robust_to_covariance)
     sel = lower[mi]
     if sel.any():
-        lam_s, rho_s, kb = lam[sel], rho_j[sel], k_best[sel]
-        rho_k = rho_s[np.arange(len(lam_s)), kb]
-        g_t = _K_OUT[kb][:, None] + _ncx2_cdf((np.sqrt(ts)[None, :] + rho_k[:, None]) ** 2, lam_s[:, None])
-        g_t = np.minimum(g_t, by_range.select(sel).bound(ts))
+        g_t = gate_terms(ts, sel, at_gate, lam, rho_j, k_best, by_range)
         sums = np.zeros((m, len(ts)))
         np.add.at(sums, mi[sel], g_t)
         ps = pair if sel.all() else pair.select(sel)
@@ -785,6 +787,31 @@ def _bounds(
     logq = np.bincount(mi, weights=np.log1p(-np.clip(p, 0.0, 1.0 - 1e-16)), minlength=m)
     est = np.maximum(-np.expm1(logq), 0.0)
     return MeasurementRisk(est, np.minimum(bnd, 1.0), ncand, np.minimum(lin, 1.0))
+
+
+def gate_terms(
+    ts: np.ndarray,
+    sel: np.ndarray,
+    at_gate: np.ndarray,
+    lam: np.ndarray,
+    rho_j: np.ndarray,
+    k_best: np.ndarray,
+    by_range: _RangeSeparation,
+) -> np.ndarray:
+    """(s, T) G_j(t) of the pairs of ``sel`` (n,) bool at each level ``ts`` (T,) of the bound's
+    minimum over t, each pair at its gate's k (``k_best`` (n,); ``lam`` (n,) λ_j, ``rho_j`` (n, K)
+    the remainders over the grid of k, ``by_range`` the range terms), and ``at_gate`` (n,) its term at
+    γ. G_j(t) is non-decreasing in t, so G_j(γ) bounds it at every t: a pair whose G_j(γ) is below
+    TINY_TERM takes it at every t (a bound still, looser by less than TINY_TERM a pair against a sum
+    above e^(−γ/2)), without its χ'² evaluations."""
+    live = sel & (at_gate >= TINY_TERM)
+    out = np.repeat(at_gate[sel][:, None], len(ts), axis=1)
+    if live.any():
+        kb = k_best[live]
+        rho_k = rho_j[live][np.arange(len(kb)), kb]
+        g = _K_OUT[kb][:, None] + _ncx2_cdf((np.sqrt(ts)[None, :] + rho_k[:, None]) ** 2, lam[live][:, None])
+        out[live[sel]] = np.minimum(g, by_range.select(live).bound(ts))
+    return out
 
 
 @dataclass(frozen=True)
