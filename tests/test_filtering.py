@@ -224,6 +224,28 @@ def test_keyframe_measurements_are_the_suites_in_a_fixed_order(suburb_problem):
         keyframe_measurements(suburb_problem, (10_000,))
 
 
+def test_measurements_out_of_a_sensors_order_are_sorted_all_the_same(suburb_problem):
+    """A sensor's measurements given out of (keyframe, landmark) order (not as observe makes them):
+    the three-key sort, the same groups and the same pass as in order (the oracle: the problem as
+    observe made it). Without the check of the order, the fast sort keeps the shuffled order."""
+    import dataclasses
+
+    suite = (3, 11, 30)
+    rng = np.random.default_rng(5)
+    observations = list(suburb_problem.observations)
+    o = observations[11]
+    perm = rng.permutation(len(o))
+    observations[11] = dataclasses.replace(
+        o, **{f.name: getattr(o, f.name)[perm] for f in dataclasses.fields(o) if f.name != "sensor"}
+    )
+    shuffled = dataclasses.replace(suburb_problem, observations=tuple(observations))
+    for a, b in zip(keyframe_measurements(shuffled, suite), keyframe_measurements(suburb_problem, suite)):
+        for f in ("sensor", "landmark", "bearing_rad", "range_m", "sigma_bearing_rad", "sigma_range_m"):
+            np.testing.assert_array_equal(getattr(a, f), getattr(b, f))
+    fast = forward_pass(suburb_problem, suite, map_sigma_m=0.05).filtered
+    assert forward_pass(shuffled, suite, map_sigma_m=0.05).filtered.tobytes() == fast.tobytes()
+
+
 def test_accuracy_says_its_estimate_and_old_files_load_as_the_smoother(suburb_problem, tmp_path):
     ev = FastEvaluator(suburb_problem)
     accs = {e: route_accuracy(ev, (0, 7), map_sigma_m=0.05, estimate=e) for e in ESTIMATES}
@@ -250,16 +272,19 @@ def test_accuracy_says_its_estimate_and_old_files_load_as_the_smoother(suburb_pr
     assert results.load(path, ScoreResult).accuracy.estimate == "smoother"
 
 
-@pytest.mark.parametrize(("n_drop", "n_new"), [(0, 0), (1, 0), (5, 3), (40, 10), (200, 0), (0, 50)])
-def test_the_state_kept_is_the_fancy_index_bit_for_bit(n_drop, n_new):
-    """_submatrix (runs of rows copied as slices) against numpy's P[np.ix_(idx, idx)] (the oracle):
-    landmarks left out, new ones (appended to the state) sorted in among the held, and many runs
-    (its fallback past 64)."""
+@pytest.mark.parametrize(
+    ("n_held", "n_drop", "n_new"),
+    [(250, 0, 0), (250, 1, 0), (250, 5, 3), (250, 40, 10), (250, 200, 0), (250, 0, 50), (20, 2, 3), (90, 0, 4)],
+)
+def test_the_state_kept_is_the_fancy_index_bit_for_bit(n_held, n_drop, n_new):
+    """_submatrix (runs of rows copied as slices; a small state's taken) against numpy's
+    P[np.ix_(idx, idx)] (the oracle): landmarks left out, new ones (appended to the state) sorted in
+    among the held, many runs (its fallback past 64), and states of at most _TAKE_ROWS rows (taken)."""
     from sensorsel.information.filtering import _submatrix
 
-    rng = np.random.default_rng(n_drop + 7 * n_new)
-    ids = rng.choice(1000, 250, replace=False)
-    held = np.concatenate([np.sort(ids[: 250 - n_new]), ids[250 - n_new :]])  # the new ones last, unsorted
+    rng = np.random.default_rng(n_drop + 7 * n_new + n_held)
+    ids = rng.choice(1000, n_held, replace=False)
+    held = np.concatenate([np.sort(ids[: n_held - n_new]), ids[n_held - n_new :]])  # the new ones last, unsorted
     n = 3 + 2 * len(held)
     P = rng.standard_normal((n, n))
     keep = np.sort(rng.choice(len(held), len(held) - n_drop, replace=False))

@@ -172,26 +172,61 @@ def _suite_arrays(problem: Problem, suite: Iterable[int]) -> dict[str, np.ndarra
         f: (np.concatenate(v) if v else np.zeros(0, np.int64 if f in ("pose", "sensor", "landmark") else float))
         for f, v in cols.items()
     }
-    order = np.lexsort((out["landmark"], out["sensor"], out["pose"]))
+    order = _measurement_order(out["pose"], out["sensor"], out["landmark"])
     return {f: v[order] for f, v in out.items()}
+
+
+def _measurement_order(pose: np.ndarray, sensor: np.ndarray, landmark: np.ndarray) -> np.ndarray:
+    """(m,) the order of measurements by (keyframe, sensor, landmark), given them (m,) concatenated
+    sensor by sensor in ascending order. Each sensor's are sorted by (keyframe, landmark) as
+    :func:`~sensorsel.model.sensing.observe` makes them, so a stable sort on the keyframe alone
+    gives that order, at a third of a three-key sort's cost (the README tour sorts at every pass); a
+    sensor's out of that order (checked: one pass over the keys) takes the three-key sort."""
+    key = pose * (int(landmark.max(initial=0)) + 1) + landmark
+    within = sensor[1:] == sensor[:-1]
+    if np.all(np.diff(key)[within] > 0):
+        return np.argsort(pose, kind="stable")
+    return np.lexsort((landmark, sensor, pose))
+
+
+@dataclass(frozen=True, eq=False)
+class _SuiteMeasurements:
+    """A suite's measurements as sorted parallel arrays (:func:`_suite_arrays`) and where each
+    keyframe's begin: ``bounds`` (K + 1,), keyframe k's rows ``bounds[k]:bounds[k + 1]``. A pass over
+    a few keyframes (a bound's window) slices what it needs, not K groups."""
+
+    arrays: dict[str, np.ndarray]
+    bounds: np.ndarray
+
+    @classmethod
+    def of(cls, problem: Problem, suite: Iterable[int]) -> _SuiteMeasurements:
+        a = _suite_arrays(problem, suite)
+        return cls(a, np.searchsorted(a["pose"], np.arange(problem.scenario.n_poses + 1)))
+
+    def group(self, k: int) -> KeyframeMeasurements:
+        """Keyframe ``k``'s measurements."""
+        lo, hi = int(self.bounds[k]), int(self.bounds[k + 1])
+        a = self.arrays
+        return KeyframeMeasurements(
+            k,
+            *(
+                a[f][lo:hi]
+                for f in ("sensor", "landmark", "bearing_rad", "range_m", "sigma_bearing_rad", "sigma_range_m")
+            ),
+        )
+
+    def last_keyframes(self, n_landmarks: int) -> np.ndarray:
+        """(max(n_landmarks, 1),) the last keyframe at which the suite measures each landmark (−1: never)."""
+        last = np.full(max(n_landmarks, 1), -1, np.int64)
+        np.maximum.at(last, self.arrays["landmark"], self.arrays["pose"])
+        return last
 
 
 def keyframe_measurements(problem: Problem, suite: Iterable[int]) -> list[KeyframeMeasurements]:
     """The suite's measurements grouped by keyframe (K entries, possibly empty), from
     problem.observations (which already carry the problem's condition)."""
-    a = _suite_arrays(problem, suite)
-    K = problem.scenario.n_poses
-    bounds = np.searchsorted(a["pose"], np.arange(K + 1))
-    return [
-        KeyframeMeasurements(
-            k,
-            *(
-                a[f][bounds[k] : bounds[k + 1]]
-                for f in ("sensor", "landmark", "bearing_rad", "range_m", "sigma_bearing_rad", "sigma_range_m")
-            ),
-        )
-        for k in range(K)
-    ]
+    m = _SuiteMeasurements.of(problem, suite)
+    return [m.group(k) for k in range(problem.scenario.n_poses)]
 
 
 @functools.cache
@@ -240,11 +275,9 @@ def forward_pass(
     sc = problem.scenario
     poses = np.asarray(sc.keyframes.poses, float)
     K = len(poses)
-    groups = keyframe_measurements(problem, suite)
+    measurements = _SuiteMeasurements.of(problem, suite)
     # the last keyframe at which the suite measures each landmark: after it the landmark leaves the state
-    last = np.full(max(sc.n_landmarks, 1), -1, np.int64)
-    for g in groups:
-        last[g.landmark] = g.keyframe
+    last = measurements.last_keyframes(sc.n_landmarks)
     odo = odometry_jacobians(poses) if K > 1 else np.zeros((0, 3, 3))
     odo_cov = np.diag(np.asarray(s.odometry_sigmas, float) ** 2)
 
@@ -253,7 +286,7 @@ def forward_pass(
     # on two; a 4-sensor suite's pass on the bundled route 30x slower)
     with _blas_controller().limit(limits=1, user_api="blas"):
         stop = K if until is None else max(0, min(int(until), K))
-        return _pass(problem, groups[:stop], last, odo, odo_cov, prior_sigma, use, on_prediction, start)
+        return _pass(problem, measurements, stop, last, odo, odo_cov, prior_sigma, use, on_prediction, start)
 
 
 @dataclass(frozen=True, eq=False)
@@ -308,7 +341,8 @@ def _slice(p: _Pairs, lo: int, hi: int) -> _Pairs:
 
 def _pass(
     problem: Problem,
-    groups: list[KeyframeMeasurements],
+    measurements: _SuiteMeasurements,
+    stop: int,
     last: np.ndarray,
     odo: np.ndarray,
     odo_cov: np.ndarray,
@@ -319,23 +353,27 @@ def _pass(
 ) -> FilterPass:
     s = problem.settings
     first = 0 if start is None else int(start.keyframe)
-    groups = groups[first:]
     poses = np.asarray(problem.scenario.keyframes.poses, float)
     points = np.asarray(problem.scenario.landmarks, float)
-    K = len(groups)  # the keyframes passed: the route's, or its first ones (forward_pass's until)
+    K = max(stop - first, 0)  # the keyframes passed: the route's, or its first ones (forward_pass's until)
     predicted, filtered = np.zeros((K, 3, 3)), np.zeros((K, 3, 3))
     n_used = np.zeros(K, np.int64)
-    n_measured = np.array([len(g) for g in groups], np.int64)
+    n_measured = np.diff(measurements.bounds[first : first + K + 1]).astype(np.int64)
     # every keyframe's pairs at once, with every measurement used: what the pass updates with where
     # ``use`` keeps all of a keyframe's measurements (always without ``use``), so a hook costs the
     # pass only its call and, where it leaves measurements out, that keyframe's pairs (the same
     # batched algebra per pair: the same numbers)
-    cat = [
-        np.concatenate([getattr(g, f) for g in groups]) if K else np.zeros(0)
-        for f in ("landmark", "sigma_bearing_rad", "sigma_range_m")
-    ]
-    kf = np.repeat(np.arange(first, first + K), n_measured)
-    every = _pairs(poses, points, kf, cat[0].astype(np.int64), cat[1], cat[2], prior_sigma)
+    rows = slice(int(measurements.bounds[first]), int(measurements.bounds[first + K])) if K else slice(0, 0)
+    a = measurements.arrays
+    every = _pairs(
+        poses,
+        points,
+        a["pose"][rows],
+        a["landmark"][rows],
+        a["sigma_bearing_rad"][rows],
+        a["sigma_range_m"][rows],
+        prior_sigma,
+    )
     bounds = np.searchsorted(every.keyframe, np.arange(first, first + K + 1))
     if use is None:
         n_used = n_measured.copy()
@@ -351,30 +389,33 @@ def _pass(
             P[3:, :3] = P[:3, 3:].T
             P[:3, :3] = h @ P[:3, :3] @ h.T + odo_cov
         predicted[i] = P[:3, :3]
-        g = groups[i]
-        if on_prediction is not None:
-            pred = Prediction(k, held.copy(), P.copy(), prior_sigma)
-            on_prediction(pred, g)
-        elif use is not None:  # valid during the call only (no copy: P is updated in place afterwards)
-            view = P.view()
-            view.flags.writeable = False
-            pred = Prediction(k, held, view, prior_sigma)
         pairs = _slice(every, bounds[i], bounds[i + 1])
-        if use is not None:
-            mask = np.asarray(use(pred, g), bool)
-            if mask.shape != (len(g),):
-                raise ValueError(f"use returned a mask of shape {mask.shape} for {len(g)} measurements at keyframe {k}")
-            n_used[i] = int(mask.sum())
-        if use is not None and n_used[i] < len(g):
-            pairs = _pairs(
-                poses,
-                points,
-                np.full(n_used[i], k),
-                g.landmark[mask],
-                g.sigma_bearing_rad[mask],
-                g.sigma_range_m[mask],
-                prior_sigma,
-            )
+        if on_prediction is not None or use is not None:
+            g = measurements.group(k)  # built for a hook only
+            if on_prediction is not None:
+                pred = Prediction(k, held.copy(), P.copy(), prior_sigma)
+                on_prediction(pred, g)
+            elif use is not None:  # valid during the call only (no copy: P is updated in place afterwards)
+                view = P.view()
+                view.flags.writeable = False
+                pred = Prediction(k, held, view, prior_sigma)
+            if use is not None:
+                mask = np.asarray(use(pred, g), bool)
+                if mask.shape != (len(g),):
+                    raise ValueError(
+                        f"use returned a mask of shape {mask.shape} for {len(g)} measurements at keyframe {k}"
+                    )
+                n_used[i] = int(mask.sum())
+                if n_used[i] < len(g):
+                    pairs = _pairs(
+                        poses,
+                        points,
+                        np.full(n_used[i], k),
+                        g.landmark[mask],
+                        g.sigma_bearing_rad[mask],
+                        g.sigma_range_m[mask],
+                        prior_sigma,
+                    )
         # landmarks measured for the last time leave the state after this update
         P, held = _update(P, held, pairs, last, k)
         filtered[i] = P[:3, :3]
@@ -437,11 +478,21 @@ def _update(P: np.ndarray, held: np.ndarray, pairs: _Pairs, last: np.ndarray, k:
     return P, held
 
 
+#: the most rows :func:`_submatrix` takes by ``np.take`` (measured: faster up to ~250 rows, then 10x
+#: slower than the slices at 300, the rows no longer in cache)
+_TAKE_ROWS = 192
+
+
 def _submatrix(P: np.ndarray, idx: np.ndarray) -> np.ndarray:
     """P[np.ix_(idx, idx)], copied block by block: ``idx`` (the state's rows kept, in order) is a few
     runs of consecutive rows (landmarks leave the state, the new ones are sorted in), so each pair of
     runs is one rectangular slice, copied at memory speed, where numpy's fancy indexing reads element
-    by element (KITTI 00: 1.2 ms a keyframe at 784 rows, a fifth of the pass). The same numbers."""
+    by element (KITTI 00: 1.2 ms a keyframe at 784 rows, a fifth of the pass). A small state (up to
+    :data:`_TAKE_ROWS` rows: the bundled route's) is taken rows then columns, in a few microseconds
+    where the slices' Python loop costs tens (the README tour's updates re-sort the state at nearly
+    every keyframe). The same numbers."""
+    if len(idx) <= _TAKE_ROWS:
+        return P.take(idx, axis=0).take(idx, axis=1)
     cut = np.flatnonzero(np.diff(idx) != 1) + 1
     first = [0, *cut.tolist()]
     runs = [(int(idx[a]), b - a, a) for a, b in zip(first, [*cut.tolist(), len(idx)])]
