@@ -429,10 +429,15 @@ def _update(P: np.ndarray, held: np.ndarray, pairs: _Pairs, last: np.ndarray, k:
         old = slot < len(held)
         old[old] = held[slot[old]] == pairs.landmark[old]
         new = ~old
-        Ao, Bo, so = pairs.A[old], pairs.B[old], slot[old]
-        r_old = 2 * len(Ao)
+        any_new = bool(new.any())
         # the rows of the update: old landmarks' measurements, then the new landmarks' factors on the pose
-        Ax = np.concatenate([Ao.reshape(-1, 3), pairs.rows[new].reshape(-1, 3)])  # (r, 3) pose part of every row
+        if any_new:
+            Ao, Bo, so = pairs.A[old], pairs.B[old], slot[old]
+            Ax = np.concatenate([Ao.reshape(-1, 3), pairs.rows[new].reshape(-1, 3)])  # (r, 3) pose part of every row
+        else:  # every landmark held (most keyframes): the same rows without the masks' copies
+            Ao, Bo, so = pairs.A, pairs.B, slot
+            Ax = Ao.reshape(-1, 3)
+        r_old = 2 * len(Ao)
         r = len(Ax)
         n_state = P.shape[0]
         cols = 3 + 2 * so[:, None] + np.arange(2)  # (o, 2) state columns of each old landmark
@@ -454,15 +459,15 @@ def _update(P: np.ndarray, held: np.ndarray, pairs: _Pairs, last: np.ndarray, k:
             raise np.linalg.LinAlgError(f"a singular innovation factor at keyframe {k} ({info})")
         # numpy computes Vᵀ V by dsyrk (a product with its own transpose): exactly symmetric
         P -= V.T @ V
-        if new.any():
+        if any_new:
             # the new landmarks join the state: Cov(l, ·) = G P_x·, Cov(l, l') = G P_xx G'ᵀ + δ D⁻¹
             q = int(new.sum())
             G = pairs.G[new].reshape(2 * q, 3)
             cross = G @ P[:3, :]  # (2q, N)
             ll = G @ P[:3, :3] @ G.T
-            Dinv = pairs.Dinv[new]
-            for i in range(q):
-                ll[2 * i : 2 * i + 2, 2 * i : 2 * i + 2] += Dinv[i]
+            diagonal = ll.reshape(q, 2, q, 2)  # a view: [i, :, i, :] is new landmark i's own 2 x 2 block
+            at = np.arange(q)
+            diagonal[at, :, at, :] += pairs.Dinv[new]
             n_state = P.shape[0]
             grown = np.empty((n_state + 2 * q, n_state + 2 * q))
             grown[:n_state, :n_state], grown[n_state:, :n_state] = P, cross
