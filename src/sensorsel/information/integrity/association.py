@@ -564,33 +564,55 @@ def _risks(
     far_k = _FAR_K
     # first, with no candidate's moments, the pairs surely past the far limit: λ = dᵀ S_j⁻¹ d ≥
     # max(d_b² / S_bb, d_r² / S_rr) (Cauchy–Schwarz), and the predicted bearing's error is
-    # u⊥·w_j / r_j − dθ, the range's u·w_j, w_j's spread in any direction at most the pose's plus the
-    # landmark's (sd_xy + sd_lj: the traces of their blocks), so S_bb ≤ σ_b² + ((sd_xy + sd_lj)/r_j +
-    # σ_θ)² and S_rr ≤ σ_r² + (sd_xy + sd_lj)²; the far limit widened by the remainder at k_far with
-    # σ_a, σ_b ≤ sd_xy + sd_lj, whitened by R ⪰ S. It drops only pairs the test of λ below drops (the
-    # same numbers), and most of them on a prior map (KITTI 00's stereo suite: 166k pairs to 17k); in
-    # SLAM, where the pose's and a landmark's errors are metres but correlated, few
-    sd_xy, sd_th = (x[b.at[mi]] for x in b.spreads(with_prior=False)[:2])
-    sd_lj = np.full(len(mi), math.sqrt(2.0) * b.prior_sigma_m)
-    inside = slot_j >= 0
-    block = b.blocks[b.held_off[b.at[mi][inside]] + slot_j[inside]]
-    sd_lj[inside] = np.sqrt(np.maximum(block[:, 0, 0] + block[:, 1, 1], 0.0))
-    sd_w = sd_xy + sd_lj
-    r_j = np.maximum(near_dist[pick], 1e-9)
-    s_bb = b.meas["sigma_bearing_rad"][mi] ** 2 + (sd_w / r_j + sd_th) ** 2
-    s_rr = b.meas["sigma_range_m"][mi] ** 2 + sd_w**2
-    rho_up = _remainder(sd_w[:, None] * np.ones(2), r_j, noise_inverse(b, mi), far_k)[:, 0]
-    rough = np.sqrt(np.maximum(d[:, 0] ** 2 / s_bb, d[:, 1] ** 2 / s_rr)) <= math.sqrt(gate) + FAR_SIGMAS + rho_up
-    pick, mi, cj, slot_j, d = pick[rough], mi[rough], cj[rough], slot_j[rough], d[rough]
-    # then from candidate j's moments alone: H_j P H_jᵀ and its spreads once per (keyframe,
-    # candidate), each pair's S_j and λ (cheap: 2 × 2); the full moments of those only
+    # u⊥·w_j / r_j − dθ, the range's u·w_j, w_j's spread in any direction at most sd_w = √tr Cov(w_j)
+    # (Batch.relative_spread, once per (keyframe, candidate): at most the pose's spread plus the
+    # landmark's, and far less where their errors are correlated), so S_bb ≤ σ_b² + (sd_w/r_j + σ_θ)² and
+    # S_rr ≤ σ_r² + sd_w²; the far limit widened by the remainder at k_far with σ_a, σ_b ≤ sd_w,
+    # whitened by R ⪰ S, and by a relative 1e-9 over the rounding of either side. It drops only pairs
+    # the test of λ below drops, most of them on a prior map (KITTI 00's stereo suite: 166k pairs to
+    # 17k); in SLAM, where the pose's and a landmark's errors are metres but correlated, √tr Cov(w_j)
+    # is what drops pairs (432k to 173k)
     present = np.zeros(len(near), bool)
+    present[pick] = True
+    sd_rel = np.zeros(len(near))
+    sd_rel[present] = b.relative_spread(near_at[present], near_slot[present])
+    sd_th = np.sqrt(b.pose_cov[b.at[mi], 2, 2])
+    sd_w = sd_rel[pick]
+    r_j = np.maximum(near_dist[pick], 1e-9)
+    var_b, var_r = b.meas["sigma_bearing_rad"][mi] ** 2, b.meas["sigma_range_m"][mi] ** 2
+    s_bb = var_b + (sd_w / r_j + sd_th) ** 2
+    s_rr = var_r + sd_w**2
+    # the remainder at k_far, σ_a = σ_b = sd_w, whitened by R (diagonal): :func:`_remainder`'s formula
+    box = FAR_SIGMAS * sd_w
+    ok = box < r_j
+    x = np.where(ok, r_j - box, 1.0)
+    with np.errstate(over="ignore"):  # a box just short of the range: inf, the pair kept
+        rho_b, rho_r = box * box / (r_j * x) + (box / x) ** 3 / 3.0, box**2 / (2.0 * x)
+        rho_up = np.where(ok, np.sqrt(rho_b**2 / var_b + rho_r**2 / var_r), np.inf)
+    rough = np.sqrt(np.maximum(d[:, 0] ** 2 / s_bb, d[:, 1] ** 2 / s_rr)) <= (math.sqrt(gate) + FAR_SIGMAS + rho_up) * (
+        1.0 + 1e-9
+    )
+    pick, mi, cj, slot_j, d, sd_w = pick[rough], mi[rough], cj[rough], slot_j[rough], d[rough], sd_w[rough]
+    # then from candidate j's moments alone: H_j P H_jᵀ once per (keyframe, candidate), each pair's
+    # S_j and λ (cheap: 2 × 2); the test of λ first with the remainder at σ_a, σ_b ≤ sd_w (the same
+    # λ and whitening, and the remainder's arithmetic non-decreasing in σ: it drops only pairs the
+    # test at the candidate's own spreads drops), then at the spreads, computed for the candidates
+    # left only; the full moments of those only
+    present[:] = False
     present[pick] = True
     cand = Candidates.of(b, points, near[present], near_at[present], near_slot[present])
     back = (np.cumsum(present) - 1)[pick]
-    s_j, lam, sigma_j, range_j, s_inv = candidate_moments(b, mi, cand, back, d)
+    s_j, lam, s_inv = candidate_moments(b, mi, cand, back, d)
     whiten_j = noise_inverse(b, mi) if robust_to_covariance else s_inv
-    close = np.sqrt(lam) <= math.sqrt(gate) + FAR_SIGMAS + _remainder(sigma_j, range_j, whiten_j, far_k)[:, 0]
+    root_lam = np.sqrt(lam)
+    near_enough = (
+        root_lam
+        <= math.sqrt(gate) + FAR_SIGMAS + _remainder(sd_w[:, None] * np.ones(2), r_j[rough], whiten_j, far_k)[:, 0]
+    )
+    mi, cj, slot_j, back, d = mi[near_enough], cj[near_enough], slot_j[near_enough], back[near_enough], d[near_enough]
+    s_j, s_inv, whiten_j, root_lam = s_j[near_enough], s_inv[near_enough], whiten_j[near_enough], root_lam[near_enough]
+    sigma_j, range_j = cand.spread(back)
+    close = root_lam <= math.sqrt(gate) + FAR_SIGMAS + _remainder(sigma_j, range_j, whiten_j, far_k)[:, 0]
     mi, cj, slot_j = mi[close], cj[close], slot_j[close]
     if len(mi) == 0:
         return MeasurementRisk(est, bnd, ncand, lin)

@@ -231,6 +231,24 @@ class Batch:
         out[both] = self.rows[idx]
         return out
 
+    def relative_spread(self, at: np.ndarray, slot: np.ndarray) -> np.ndarray:
+        """(n,) [m] an upper bound of the std, in any direction, of the error w = e_l − R(θ) e_xy of the
+        estimated position of the landmark at ``slot`` (−1: out of the state, its prior's) of keyframe
+        ``at`` (n,) relative to the pose: √tr Cov(w) (≥ √λmax, hence ≥ σ_a, σ_b of
+        :func:`line_of_sight_spread`), tr Cov(w) = tr E_ll + tr E_pp − 2 tr(R(θ) E_pl), E_pl the
+        covariance of the pose's position error (its own frame) and the landmark's. The pose's and the
+        landmark's errors are correlated in SLAM (metres each, decimetres relative), which √tr E_pp +
+        √tr E_ll ignores. Elementwise; it adds 1e-12 (tr E_ll + tr E_pp), a margin over the rounding of
+        this trace and of line_of_sight_spread's variances (each below ~10 ulp of that sum: |tr(R E_pl)|
+        ≤ √(tr E_ll tr E_pp)), so that the bound holds of the computed σ_a, σ_b too."""
+        pl = self.pose_landmark(at, slot)
+        ll = self.landmark_block(at, slot)
+        c, s = np.cos(self.poses[at, 2]), np.sin(self.poses[at, 2])
+        t_ll = ll[:, 0, 0] + ll[:, 1, 1]
+        t_pp = self.pose_cov[at, 0, 0] + self.pose_cov[at, 1, 1]
+        t_rpl = c * pl[:, 0, 0] - s * pl[:, 1, 0] + s * pl[:, 0, 1] + c * pl[:, 1, 1]
+        return np.sqrt(np.maximum(t_ll + t_pp - 2.0 * t_rpl, 0.0) + 1e-12 * (t_ll + t_pp))
+
     def spreads(self, *, with_prior: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(B,) each of (sd_xy, sd_th, sd_lm): the predicted pose's position [m] and heading [rad]
         spreads and the largest landmark spread [m] (the prior's where larger, ``with_prior``)."""
@@ -323,16 +341,14 @@ class Candidates:
         jac: (u, 2, 5) the Jacobian H_j of its bearing and range in the (pose, l_j) errors.
         e: (u, 5, 5) the covariance of the (pose, l_j) errors.
         hph: (u, 2, 2) H_j E H_jᵀ (S_j without the measurement's noise).
-        sigma: (u, 2) [m] the spread of its estimated relative position w_j along and across the line
-            of sight (:func:`line_of_sight_spread`).
-        range_m: (u,) [m] its true range.
+        poses: (u, 3) the true pose of its keyframe; points: (u, 2) [m] its true position.
     """
 
     jac: np.ndarray
     e: np.ndarray
     hph: np.ndarray
-    sigma: np.ndarray
-    range_m: np.ndarray
+    poses: np.ndarray
+    points: np.ndarray
 
     @classmethod
     def of(cls, b: Batch, points: np.ndarray, uniq: np.ndarray, at: np.ndarray, slot: np.ndarray) -> Candidates:
@@ -344,26 +360,31 @@ class Candidates:
         pj = b.pose_landmark(at, slot)
         e[:, :3, 3:], e[:, 3:, :3] = pj, np.transpose(pj, (0, 2, 1))
         e[:, 3:, 3:] = b.landmark_block(at, slot)
-        jac = bearing_range_jacobians(b.poses[at], points[uniq])  # (u, 2, 5)
-        sigma, rng = line_of_sight_spread(b.poses[at], points[uniq], e, 3)
-        return cls(jac, e, jac @ e @ np.transpose(jac, (0, 2, 1)), sigma, rng)
+        poses, pts = b.poses[at], points[uniq]
+        jac = bearing_range_jacobians(poses, pts)  # (u, 2, 5)
+        return cls(jac, e, jac @ e @ np.transpose(jac, (0, 2, 1)), poses, pts)
+
+    def spread(self, sel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The spreads (σ_a, σ_b) (s, 2) [m] of the estimated relative position w_j along and across
+        the line of sight (:func:`line_of_sight_spread`) and the true ranges (s,) [m] of the
+        candidates ``sel`` (s,) (positions, repeats allowed: each row is computed on its own)."""
+        return line_of_sight_spread(self.poses[sel], self.points[sel], self.e[sel], 3)
 
 
 def candidate_moments(
     b: Batch, mi: np.ndarray, cand: Candidates, back: np.ndarray, d: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """What the far-pair filter needs of each pair (n of them), from the (pose, l_j) 5 × 5 block
-    alone: S_j (n, 2, 2), λ (n,), the line-of-sight spreads (n, 2) [m] and ranges (n,) [m] of
-    candidate j (the same as :func:`pair_moments`' for those pairs) and S_j⁻¹ (n, 2, 2). Pair p is
-    measurement ``mi[p]`` with candidate ``back[p]`` of ``cand``; ``d`` (n, 2) the pairs'
-    innovation means. H_j P H_jᵀ and the spreads are the candidate's (:class:`Candidates`), the
+    alone: S_j (n, 2, 2), λ (n,) and S_j⁻¹ (n, 2, 2) (the same as :func:`pair_moments`' for those
+    pairs). Pair p is measurement ``mi[p]`` with candidate ``back[p]`` of ``cand``; ``d`` (n, 2) the
+    pairs' innovation means. H_j P H_jᵀ is the candidate's (:class:`Candidates`), the
     measurement's noise added here."""
     s_j = cand.hph[back]
     s_j[:, 0, 0] += b.meas["sigma_bearing_rad"][mi] ** 2
     s_j[:, 1, 1] += b.meas["sigma_range_m"][mi] ** 2
     inv = inverse_2x2(s_j)
     lam = np.einsum("ni,nij,nj->n", d, inv, d)
-    return s_j, lam, cand.sigma[back], cand.range_m[back], inv
+    return s_j, lam, inv
 
 
 def inverse_2x2(a: np.ndarray) -> np.ndarray:
