@@ -320,48 +320,65 @@ class _Quadrature:
         near = (dist_j <= reach_m) & (nu_r * nu_r <= gate * self.range_gate_m2[at, None])
         heading = self.poses[at, 2, None] + _combine(a[:, 0:1, :3], xi[:3], grid=True)[0]
         z_b = z[:, 0, None] + xi[7] * sd[:, 0, None]
-        nis_j = _nis(z_b, rel_x, rel_y, heading, nu_r, self.s_inv_j[at, :, :, None])
-        k, n = np.nonzero(near & (nis_j <= gate))
+        s_j = [self.s_inv_j[at, r, c, None] for r, c in ((0, 0), (0, 1), (1, 1))]
+        nis_j = _nis(z_b, rel_x, rel_y, heading, nu_r, *s_j)
+        # the points inside the gate, as flat positions in the (P, N) grid (k pair, n point)
+        flat = np.flatnonzero(near & (nis_j <= gate))
+        k, n = np.divmod(flat, xi.shape[1])
         # a first sighting: any candidate inside the gate takes it
         first = ~self.right[at[k]]
         mine = np.flatnonzero(~first)
-        k_i, n_i = k[mine], n[mine]
-        di_x, di_y = _combine(a[k_i, 1:3, :5], xi[:5, n_i])
+        k_i, n_i, f_i = k[mine], n[mine], flat[mine]
+        di_x, di_y = _combine(a[:, 1:3, :5], xi[:5, n_i], at=k_i)
         di_x += self.rel_i[at[k_i], 0]
         di_y += self.rel_i[at[k_i], 1]
         dist_i = np.sqrt(di_x * di_x + di_y * di_y)
-        nis_i = _nis(z_b[k_i, n_i], di_x, di_y, heading[k_i, n_i], z_r[k_i, n_i] - dist_i, self.s_inv_i[at[k_i]])
-        wrong = (nis_j[k_i, n_i] < nis_i) | (nis_i > gate) | (dist_i > reach_m[k_i, n_i])
+        s_i = [self.s_inv_i[at, r, c].take(k_i) for r, c in ((0, 0), (0, 1), (1, 1))]
+        nis_i = _nis(z_b.take(f_i), di_x, di_y, heading.take(f_i), z_r.take(f_i) - dist_i, *s_i)
+        wrong = (nis_j.take(f_i) < nis_i) | (nis_i > gate) | (dist_i > reach_m.take(f_i))
         return np.bincount(k[first], minlength=len(at)) + np.bincount(k_i[wrong], minlength=len(at))
 
 
-def _combine(a: np.ndarray, xi: np.ndarray, grid: bool = False) -> np.ndarray:
+def _combine(a: np.ndarray, xi: np.ndarray, grid: bool = False, at: np.ndarray | None = None) -> np.ndarray:
     """(r, M) A ξ for ``a`` (M, r, q) and points ``xi`` (q, M), one matrix per point; ``grid``: every
-    matrix of ``a`` (P, r, q) on every point of ``xi`` (q, N), (r, P, N). Product by product, summed in
-    a fixed order (no BLAS: the same sums whatever the threads). A column of ``a`` that is zero
-    throughout (the state's factor is lower triangular) is skipped: adding a zero leaves a sum as it
-    was."""
+    matrix of ``a`` (P, r, q) on every point of ``xi`` (q, N), (r, P, N); ``at`` (M,): point m takes
+    matrix ``at[m]`` of ``a`` (P, r, q). Product by product, summed in a fixed order (no BLAS: the
+    same sums whatever the threads). A column of ``a`` that is zero throughout (the matrices used:
+    the state's factor is lower triangular) is skipped: adding a zero leaves a sum as it was."""
     a = np.moveaxis(a, (-2, -1), (0, 1))  # (r, q, M or P)
+    if at is not None:
+        a = np.ascontiguousarray(a)  # rows of P coefficients, each gathered at the points' matrices
+        used = np.zeros(a.shape[2], bool)
+        used[at] = True
     shape = (a.shape[0], a.shape[2], xi.shape[1]) if grid else (a.shape[0], *xi.shape[1:])
     out, term = np.zeros(shape), np.empty(shape[1:])
     for r in range(a.shape[0]):
-        cols = [q for q in range(a.shape[1]) if a[r, q].any()]
+        cols = [q for q in range(a.shape[1]) if (a[r, q] if at is None else a[r, q, used]).any()]
         for q in cols:
-            np.multiply(a[r, q][:, None] if grid else a[r, q], xi[q], out=out[r] if q == cols[0] else term)
+            coef = a[r, q][:, None] if grid else a[r, q] if at is None else a[r, q].take(at)
+            np.multiply(coef, xi[q], out=out[r] if q == cols[0] else term)
             if q != cols[0]:
                 out[r] += term
     return out
 
 
 def _nis(
-    z_b: np.ndarray, rel_x: np.ndarray, rel_y: np.ndarray, heading: np.ndarray, nu_r: np.ndarray, s_inv: np.ndarray
+    z_b: np.ndarray,
+    rel_x: np.ndarray,
+    rel_y: np.ndarray,
+    heading: np.ndarray,
+    nu_r: np.ndarray,
+    s_bb: np.ndarray,
+    s_br: np.ndarray,
+    s_rr: np.ndarray,
 ) -> np.ndarray:
     """(N,) νᵀ S⁻¹ ν of the measured bearings ``z_b`` (N,) [rad] against a landmark at the estimated
     relative position (``rel_x``, ``rel_y``) (N,) [m] (world frame) from a pose of estimated
     ``heading`` (N,) [rad], ν = (z_b − (atan2(rel) − heading), ``nu_r``), the bearing wrapped, ``nu_r``
-    (N,) the range innovation [m] (the measured range less |rel|); ``s_inv`` (N, 2, 2), each point's."""
+    (N,) the range innovation [m] (the measured range less |rel|); ``s_bb``, ``s_br``, ``s_rr`` the
+    entries (0, 0), (0, 1), (1, 1) of each point's S⁻¹ (broadcast against the points)."""
     nu_b = wrap_angle(z_b - np.arctan2(rel_y, rel_x) + heading)
-    return s_inv[:, 0, 0] * nu_b**2 + 2.0 * s_inv[:, 0, 1] * nu_b * nu_r + s_inv[:, 1, 1] * nu_r**2
+    return s_bb * nu_b**2 + 2.0 * s_br * nu_b * nu_r + s_rr * nu_r**2
 
 
 def nonlinear_estimate(
