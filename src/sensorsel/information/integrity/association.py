@@ -572,8 +572,7 @@ def _risks(
     # the test of λ below drops, most of them on a prior map (KITTI 00's stereo suite: 166k pairs to
     # 17k); in SLAM, where the pose's and a landmark's errors are metres but correlated, √tr Cov(w_j)
     # is what drops pairs (432k to 173k)
-    present = np.zeros(len(near), bool)
-    present[pick] = True
+    present = np.bincount(pick, minlength=len(near)) > 0
     sd_rel = np.zeros(len(near))
     sd_rel[present] = b.relative_spread(near_at[present], near_slot[present])
     sd_th = np.sqrt(b.pose_cov[b.at[mi], 2, 2])
@@ -584,11 +583,10 @@ def _risks(
     s_rr = var_r + sd_w**2
     # the remainder at k_far, σ_a = σ_b = sd_w, whitened by R (diagonal): :func:`_remainder`'s formula
     box = FAR_SIGMAS * sd_w
-    ok = box < r_j
-    x = np.where(ok, r_j - box, 1.0)
+    x = np.where(box < r_j, r_j - box, 1.0)
     with np.errstate(over="ignore"):  # a box just short of the range: inf, the pair kept
         rho_b, rho_r = box * box / (r_j * x) + (box / x) ** 3 / 3.0, box**2 / (2.0 * x)
-        rho_up = np.where(ok, np.sqrt(rho_b**2 / var_b + rho_r**2 / var_r), np.inf)
+        rho_up = np.where(box < r_j, np.sqrt(rho_b**2 / var_b + rho_r**2 / var_r), np.inf)
     rough = np.sqrt(np.maximum(d[:, 0] ** 2 / s_bb, d[:, 1] ** 2 / s_rr)) <= (math.sqrt(gate) + FAR_SIGMAS + rho_up) * (
         1.0 + 1e-9
     )
@@ -598,8 +596,7 @@ def _risks(
     # λ and whitening, and the remainder's arithmetic non-decreasing in σ: it drops only pairs the
     # test at the candidate's own spreads drops), then at the spreads, computed for the candidates
     # left only; the full moments of those only
-    present[:] = False
-    present[pick] = True
+    present = np.bincount(pick, minlength=len(near)) > 0
     cand = Candidates.of(b, points, near[present], near_at[present], near_slot[present])
     back = (np.cumsum(present) - 1)[pick]
     s_j, lam, s_inv = candidate_moments(b, mi, cand, back, d)
@@ -782,7 +779,7 @@ def _bounds(
     lam = pair.lam
     root_g = math.sqrt(gate)
     # the gate terms G_j(γ): the smallest over the grid of k
-    g_gate = _K_OUT[None, :] + _ncx2_cdf((root_g + rho_j) ** 2, lam[:, None])  # (n, K)
+    g_gate = _gate_grid(root_g, rho_j, lam)  # (n, K)
     k_best = np.argmin(g_gate, axis=1)
     # each kept pair's term floored at FAR_TERM, what it would add if dropped: a pair moving from
     # dropped to kept as the covariance grows never lowers the bound (robust_to_covariance's property)
@@ -796,15 +793,13 @@ def _bounds(
     lower = has_right & (bnd > math.exp(-gate / 2.0)) & (not robust_to_covariance)
     sel = lower[mi]
     if sel.any():
-        g_t = gate_terms(ts, sel, at_gate, lam, rho_j, k_best, by_range)
-        sums = np.zeros((m, len(ts)))
-        np.add.at(sums, mi[sel], g_t)
         ps = pair if sel.all() else pair.select(sel)
         rho_i = _remainder(ps.sigma_i, ps.range_i, np.linalg.inv(ps.s_i))  # (n', K): equal within a measurement
         short = np.maximum(np.sqrt(ts)[None, :, None] - rho_i[:, None, :], 0.0)  # (n', T, K)
         g_i = np.ones((m, len(ts)))
         # G_i(t): NIS_i > t, or the measured landmark out of reach (then a candidate in the gate is taken)
         g_i[mi[sel]] = np.min(_K_OUT[None, None, :] + np.exp(-0.5 * short**2), axis=2) + p_out[sel, None]
+        sums = _gate_sums(ts, sel, mi[sel], g_i, bnd, at_gate, lam, rho_j, k_best, by_range)
         lnn = np.min(g_i + sums, axis=1)
         bnd = np.where(lower, np.minimum(bnd, lnn), bnd)
     # the landmarks not kept (dropped by the far filter, or beyond the widened reach): both forms of
@@ -854,6 +849,59 @@ def gate_terms(
         g = _K_OUT[kb][:, None] + _ncx2_cdf((np.sqrt(ts)[None, :] + rho_k[:, None]) ** 2, lam[live][:, None])
         out[live[sel]] = np.minimum(g, by_range.select(live).bound(ts))
     return out
+
+
+def _gate_grid(root_g: float, rho_j: np.ndarray, lam: np.ndarray) -> np.ndarray:
+    """(n, K) 4Φ(−k) + F((√γ + ρ_j(k))²; λ_j) of each pair at each k of the grid (``root_g`` √γ,
+    ``rho_j`` (n, K), ``lam`` (n,)), where it can be the pair's smallest, else inf: the grid from
+    its largest k down, a k skipped once 4Φ(−k) alone exceeds the pair's smallest so far (F ≥ 0, and
+    4Φ(−k) grows as k falls: every smaller k is skipped too). The smallest and its first k are those
+    of the whole grid (the same numbers where computed; a skipped one is above the smallest)."""
+    out, best = np.full(rho_j.shape, np.inf), np.full(len(lam), np.inf)
+    for k in range(len(_K_GRID) - 1, -1, -1):
+        idx = np.flatnonzero(_K_OUT[k] <= best)
+        if len(idx) == 0:
+            break
+        out[idx, k] = _K_OUT[k] + _ncx2_cdf((root_g + rho_j[idx, k]) ** 2, lam[idx])
+        best = np.minimum(best, out[:, k])
+    return out
+
+
+def _gate_sums(
+    ts: np.ndarray,
+    sel: np.ndarray,
+    mi_sel: np.ndarray,
+    g_i: np.ndarray,
+    level: np.ndarray,
+    at_gate: np.ndarray,
+    lam: np.ndarray,
+    rho_j: np.ndarray,
+    k_best: np.ndarray,
+    by_range: _RangeSeparation,
+) -> np.ndarray:
+    """(m, T) Σ_j G_j(t) over each measurement's pairs of ``sel`` (n,) (their measurements ``mi_sel``)
+    at each level of ``ts`` (T,), :func:`gate_terms`' terms, exact wherever G_i(t) + the sum can fall
+    below the measurement's gate sum ``level`` (m,) (``g_i`` (m, T) its G_i(t)), else a lower bound:
+    each term at least min(4Φ(−k), its range term) (F ≥ 0; summed in the same order, so no larger).
+    The bound takes min(level, min_t [G_i(t) + Σ_j G_j(t)]): a level where the lower bound already
+    reaches ``level`` cannot lower it, and needs no χ'² evaluation (the same bound, bit for bit)."""
+    live = sel & (at_gate >= TINY_TERM)
+    terms = np.repeat(at_gate[sel][:, None], len(ts), axis=1)
+    kb, on = k_best[live], live[sel]
+    near = by_range.select(live).bound(ts)
+    low = np.minimum(_K_OUT[kb][:, None], near)
+    terms[on] = low
+    sums = np.zeros(g_i.shape)
+    np.add.at(sums, mi_sel, terms)
+    r, c = np.nonzero((g_i + sums < level[:, None])[mi_sel[on]])
+    if len(r) == 0:
+        return sums
+    x = (np.sqrt(ts)[c] + rho_j[live][r, kb[r]]) ** 2
+    low[r, c] = np.minimum(_K_OUT[kb[r]] + _ncx2_cdf(x, lam[live][r]), near[r, c])
+    terms[on] = low
+    sums = np.zeros(g_i.shape)
+    np.add.at(sums, mi_sel, terms)
+    return sums
 
 
 @dataclass(frozen=True)
