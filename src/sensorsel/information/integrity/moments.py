@@ -241,12 +241,18 @@ class Batch:
         √tr E_ll ignores. Elementwise; it adds 1e-12 (tr E_ll + tr E_pp), a margin over the rounding of
         this trace and of line_of_sight_spread's variances (each below ~10 ulp of that sum: |tr(R E_pl)|
         ≤ √(tr E_ll tr E_pp)), so that the bound holds of the computed σ_a, σ_b too."""
-        pl = self.pose_landmark(at, slot)
-        ll = self.landmark_block(at, slot)
-        c, s = np.cos(self.poses[at, 2]), np.sin(self.poses[at, 2])
-        t_ll = ll[:, 0, 0] + ll[:, 1, 1]
+        inside = slot >= 0
+        t_ll = np.full(len(slot), 2.0 * self.prior_sigma_m**2)  # out of the state: σ_p² I, no correlation
+        t_rpl = np.zeros(len(slot))
+        a, k = at[inside], self.held_off[at[inside]] + slot[inside]
+        t_ll[inside] = self.blocks[k, 0, 0] + self.blocks[k, 1, 1]
+        # the pose's rows x, y at the landmark's columns x, y (pose_landmark's entries, gathered flat)
+        first = self.rows_off[a] + 3 + 2 * slot[inside]
+        xx, xy = self.rows[first], self.rows[first + 1]
+        yx, yy = self.rows[first + self.width[a]], self.rows[first + self.width[a] + 1]
+        c, s = np.cos(self.poses[a, 2]), np.sin(self.poses[a, 2])
+        t_rpl[inside] = c * xx - s * yx + s * xy + c * yy
         t_pp = self.pose_cov[at, 0, 0] + self.pose_cov[at, 1, 1]
-        t_rpl = c * pl[:, 0, 0] - s * pl[:, 1, 0] + s * pl[:, 0, 1] + c * pl[:, 1, 1]
         return np.sqrt(np.maximum(t_ll + t_pp - 2.0 * t_rpl, 0.0) + 1e-12 * (t_ll + t_pp))
 
     def spreads(self, *, with_prior: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
