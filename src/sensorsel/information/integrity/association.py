@@ -335,9 +335,9 @@ class AssociationModel:
         found = self._tree.query_ball_point(b.poses[some, :2], radius, return_sorted=False)
         counts = np.array([len(x) for x in found], np.int64)
         near = np.fromiter(itertools.chain.from_iterable(found), np.int64, count=int(counts.sum()))
-        at = np.repeat(some, counts)
-        order = np.lexsort((near, at))
-        near, at = near[order], at[order]
+        # sorted by keyframe, then landmark: one sort of an integer key (each pair once)
+        key = np.sort(np.repeat(some, counts) * len(self._points) + near)
+        near, at = key % len(self._points), key // len(self._points)
         if self.model == "slam":
             keep = b.slots(at, near) >= 0
             near, at = near[keep], at[keep]

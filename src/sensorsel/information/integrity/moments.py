@@ -74,12 +74,18 @@ class Snapshot:
         held = np.array(prediction.landmarks, np.int64)
         slot = slots(held, np.asarray(meas.landmark, np.int64))
         inside = slot >= 0
-        measured = np.unique(slot[inside])
+        # the state landmarks measured, in slot order, and each measurement's rank among them
+        mark = np.zeros(len(held), bool)
+        mark[slot[inside]] = True
+        measured = np.flatnonzero(mark)
         row = np.full(len(slot), -1, np.int64)
-        row[inside] = 3 + 2 * np.searchsorted(measured, slot[inside])
+        row[inside] = 3 + 2 * (np.cumsum(mark) - 1)[slot[inside]]
         idx = np.concatenate([np.arange(3), (3 + 2 * measured[:, None] + _TWO).ravel()])
-        first = 3 + 2 * np.arange(len(held))
-        blocks = cov[first[:, None, None] + _TWO[None, :, None], first[:, None, None] + _TWO[None, None, :]]
+        # the landmarks' 2 × 2 diagonal blocks: the diagonal of cov[3:, 3:] seen as (n, 2, n, 2), copied
+        n = len(held)
+        blocks = np.ascontiguousarray(
+            np.moveaxis(np.diagonal(cov[3:, 3:].reshape(n, 2, n, 2), axis1=0, axis2=2), -1, 0)
+        )
         # the largest landmark trace, as the sum of the diagonal's pairs (the same sum as before)
         trace = float((blocks[:, 0, 0] + blocks[:, 1, 1]).max(initial=0.0))
         return cls(
