@@ -28,10 +28,10 @@ from sensorsel.information.filtering import KeyframeMeasurements, Prediction
 from sensorsel.information.integrity.association import (  # the range, reach and far terms, as the engine's
     FAR_SIGMAS,
     FAR_TERM,
+    TINY_TERM,
     _out_of_reach,
     _RangeSeparation,
     far_residual,
-    gate_terms,
     reach_strata,
 )
 from sensorsel.information.integrity.nearer import p_nearer_form  # the formula, as the engine's
@@ -325,7 +325,7 @@ def measurement_risks(
     lower = has_right & (bnd > math.exp(-gate / 2.0)) & (not robust_to_covariance)
     sel = lower[mi]
     if sel.any():
-        g_t = gate_terms(ts, sel, at_gate, lam, rho_j, k_best, by_range)  # the engine's rule
+        g_t = _gate_terms(ts, sel, at_gate, lam, rho_j, k_best, by_range)  # every term, as the engine's rule
         sums = np.zeros((m, len(ts)))
         np.add.at(sums, mi[sel], g_t)
         ps = pair if sel.all() else pair.select(sel)
@@ -603,3 +603,29 @@ def _innovation_means(
         bj, rj = bj[at], rj[at]
     db = (meas.bearing_rad[mi] - bj + np.pi) % (2.0 * np.pi) - np.pi
     return np.column_stack([db, meas.range_m[mi] - rj])
+
+
+def _gate_terms(
+    ts: np.ndarray,
+    sel: np.ndarray,
+    at_gate: np.ndarray,
+    lam: np.ndarray,
+    rho_j: np.ndarray,
+    k_best: np.ndarray,
+    by_range: _RangeSeparation,
+) -> np.ndarray:
+    """(s, T) G_j(t) of the pairs of ``sel`` (n,) bool, every one evaluated (the engine's
+    ``_gate_sums`` evaluates only the levels that can lower the bound: this is its oracle), at each
+    level ``ts`` (T,) of the bound's minimum over t, each pair at its gate's k (``k_best`` (n,);
+    ``lam`` (n,) λ_j, ``rho_j`` (n, K) the remainders over the grid of k, ``by_range`` the range
+    terms), and ``at_gate`` (n,) its term at γ. G_j(t) is non-decreasing in t, so G_j(γ) bounds it at
+    every t: a pair whose G_j(γ) is below TINY_TERM takes it at every t (a bound still, looser by less
+    than TINY_TERM a pair against a sum above e^(−γ/2)), without its χ'² evaluations."""
+    live = sel & (at_gate >= TINY_TERM)
+    out = np.repeat(at_gate[sel][:, None], len(ts), axis=1)
+    if live.any():
+        kb = k_best[live]
+        rho_k = rho_j[live][np.arange(len(kb)), kb]
+        g = _K_OUT[kb][:, None] + _ncx2_cdf((np.sqrt(ts)[None, :] + rho_k[:, None]) ** 2, lam[live][:, None])
+        out[live[sel]] = np.minimum(g, by_range.select(live).bound(ts))
+    return out

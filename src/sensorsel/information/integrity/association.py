@@ -826,31 +826,6 @@ def _bounds(
     return MeasurementRisk(est, np.minimum(bnd, 1.0), ncand, np.minimum(lin, 1.0))
 
 
-def gate_terms(
-    ts: np.ndarray,
-    sel: np.ndarray,
-    at_gate: np.ndarray,
-    lam: np.ndarray,
-    rho_j: np.ndarray,
-    k_best: np.ndarray,
-    by_range: _RangeSeparation,
-) -> np.ndarray:
-    """(s, T) G_j(t) of the pairs of ``sel`` (n,) bool at each level ``ts`` (T,) of the bound's
-    minimum over t, each pair at its gate's k (``k_best`` (n,); ``lam`` (n,) λ_j, ``rho_j`` (n, K)
-    the remainders over the grid of k, ``by_range`` the range terms), and ``at_gate`` (n,) its term at
-    γ. G_j(t) is non-decreasing in t, so G_j(γ) bounds it at every t: a pair whose G_j(γ) is below
-    TINY_TERM takes it at every t (a bound still, looser by less than TINY_TERM a pair against a sum
-    above e^(−γ/2)), without its χ'² evaluations."""
-    live = sel & (at_gate >= TINY_TERM)
-    out = np.repeat(at_gate[sel][:, None], len(ts), axis=1)
-    if live.any():
-        kb = k_best[live]
-        rho_k = rho_j[live][np.arange(len(kb)), kb]
-        g = _K_OUT[kb][:, None] + _ncx2_cdf((np.sqrt(ts)[None, :] + rho_k[:, None]) ** 2, lam[live][:, None])
-        out[live[sel]] = np.minimum(g, by_range.select(live).bound(ts))
-    return out
-
-
 def _gate_grid(root_g: float, rho_j: np.ndarray, lam: np.ndarray) -> np.ndarray:
     """(n, K) 4Φ(−k) + F((√γ + ρ_j(k))²; λ_j) of each pair at each k of the grid (``root_g`` √γ,
     ``rho_j`` (n, K), ``lam`` (n,)), where it can be the pair's smallest, else inf: the grid from
@@ -880,7 +855,8 @@ def _gate_sums(
     by_range: _RangeSeparation,
 ) -> np.ndarray:
     """(m, T) Σ_j G_j(t) over each measurement's pairs of ``sel`` (n,) (their measurements ``mi_sel``)
-    at each level of ``ts`` (T,), :func:`gate_terms`' terms, exact wherever G_i(t) + the sum can fall
+    at each level of ``ts`` (T,), each pair at its gate's k (``k_best``; G_j(t) ≤ G_j(γ) = ``at_gate``,
+    which a pair below TINY_TERM takes at every t), exact wherever G_i(t) + the sum can fall
     below the measurement's gate sum ``level`` (m,) (``g_i`` (m, T) its G_i(t)), else a lower bound:
     each term at least min(4Φ(−k), its range term) (F ≥ 0; summed in the same order, so no larger).
     The bound takes min(level, min_t [G_i(t) + Σ_j G_j(t)]): a level where the lower bound already
