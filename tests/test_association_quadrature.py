@@ -165,3 +165,25 @@ def test_the_quadrature_points_are_scipys_scrambled_sobol_points():
     for d, log2n, seed in ((9, nonlinear.SOBOL_LOG2, nonlinear._SOBOL_SEED), (4, 6, 7), (1, 3, 0)):
         want = qmc.Sobol(d, scramble=True, seed=seed).random_base2(log2n)
         assert nonlinear._scrambled_sobol(d, log2n, seed).tobytes() == want.tobytes(), (d, log2n, seed)
+
+
+@pytest.mark.parametrize(
+    ("n_pairs", "n_points", "rows", "cols"), [(1, 24576, 2, 7), (3, 8192, 2, 7), (809, 512, 1, 3), (2048, 32, 2, 7)]
+)
+def test_the_grid_product_sums_in_the_order_written_out(n_pairs, n_points, rows, cols):
+    """The quadrature's A ξ on the grid (np.einsum) against the sums written out, product by product in
+    the order of the columns (the oracle), to the bit: the quadrature's numbers depend on no library's
+    choice of order or fused multiply-adds. Coefficients over six decades and zero columns (the
+    state's factor is lower triangular), as the quadrature's own."""
+    rng = np.random.default_rng(n_pairs + n_points)
+    a = rng.standard_normal((n_pairs, rows, cols)) * 10.0 ** rng.integers(-3, 3, (n_pairs, rows, cols))
+    a[:, :, -1] *= rng.random((n_pairs, rows)) < 0.5
+    xi = rng.standard_normal((cols, n_points))
+    written = np.zeros((rows, n_pairs, n_points))
+    for r in range(rows):
+        for q in range(cols):
+            written[r] += a[:, r, q, None] * xi[q]
+    got = nonlinear._combine(a, xi, grid=True)
+    assert got.shape == written.shape
+    assert np.array_equal(got, written)
+    assert (got == 0).sum() == (written == 0).sum()
