@@ -581,12 +581,7 @@ def _risks(
     var_b, var_r = b.meas["sigma_bearing_rad"][mi] ** 2, b.meas["sigma_range_m"][mi] ** 2
     s_bb = var_b + (sd_w / r_j + sd_th) ** 2
     s_rr = var_r + sd_w**2
-    # the remainder at k_far, σ_a = σ_b = sd_w, whitened by R (diagonal): :func:`_remainder`'s formula
-    box = FAR_SIGMAS * sd_w
-    x = np.where(box < r_j, r_j - box, 1.0)
-    with np.errstate(over="ignore"):  # a box just short of the range: inf, the pair kept
-        rho_b, rho_r = box * box / (r_j * x) + (box / x) ** 3 / 3.0, box**2 / (2.0 * x)
-        rho_up = np.where(box < r_j, np.sqrt(rho_b**2 / var_b + rho_r**2 / var_r), np.inf)
+    rho_up = _remainder(sd_w[:, None] * np.ones(2), r_j, noise_inverse(b, mi), far_k)[:, 0]
     rough = np.sqrt(np.maximum(d[:, 0] ** 2 / s_bb, d[:, 1] ** 2 / s_rr)) <= (math.sqrt(gate) + FAR_SIGMAS + rho_up) * (
         1.0 + 1e-9
     )
