@@ -74,3 +74,40 @@ def test_relative_spread_of_a_landmark_out_of_the_state_adds_its_prior():
     got = b.relative_spread(np.zeros(1, np.int64), np.array([-1]))
     cov = np.asarray(pred.covariance)
     assert got[0] == pytest.approx(np.sqrt(cov[0, 0] + cov[1, 1] + 2 * 100.0**2), rel=1e-9)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_snapshot_copies_the_rows_blocks_and_slots_a_dense_reading_gives(seed):
+    """Each field of :meth:`Snapshot.of` against the prediction read directly: the state landmarks'
+    2 × 2 diagonal blocks (an unsymmetric matrix: the upper and lower neighbours of the diagonal are
+    told apart), the rows of the pose and of each measured state landmark in slot order (a landmark
+    measured twice once, one out of the state left out), each measurement's slot and row."""
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(0, 9))
+    held = np.sort(rng.choice(40, size=n, replace=False)).astype(np.int64)
+    cov = rng.normal(size=(3 + 2 * n, 3 + 2 * n))
+    outside = np.setdiff1d(np.arange(40), held)[:2]
+    landmark = np.concatenate([rng.choice(held, size=min(n, 4)), outside, held[:1]]).astype(np.int64)
+    m = len(landmark)
+    meas = KeyframeMeasurements(
+        7, np.zeros(m, np.int64), landmark, np.zeros(m), np.ones(m), np.full(m, 0.01), np.full(m, 0.5)
+    )
+    pred = Prediction(keyframe=7, landmarks=held, covariance=cov, prior_sigma_m=3.0)
+    snap = Snapshot.of(pred, meas)
+    position = {int(h): s for s, h in enumerate(held)}
+    slot = np.array([position.get(int(x), -1) for x in landmark], np.int64)
+    measured = sorted({int(s) for s in slot if s >= 0})
+    rank = {s: r for r, s in enumerate(measured)}
+    assert snap.slot.tolist() == slot.tolist()
+    assert snap.row.tolist() == [3 + 2 * rank[int(s)] if s >= 0 else -1 for s in slot]
+    rows = [0, 1, 2] + [3 + 2 * s + a for s in measured for a in (0, 1)]
+    assert np.array_equal(snap.rows, cov[rows, :])
+    assert np.array_equal(snap.pose_cov, cov[:3, :3]) and snap.pose_cov is not cov
+    blocks = np.array([cov[3 + 2 * k : 5 + 2 * k, 3 + 2 * k : 5 + 2 * k] for k in range(n)]).reshape(n, 2, 2)
+    assert np.array_equal(snap.blocks, blocks)
+    assert snap.lm_trace_max == max(
+        (cov[3 + 2 * k, 3 + 2 * k] + cov[4 + 2 * k, 4 + 2 * k] for k in range(n)), default=0.0
+    )
+    assert snap.held.tolist() == held.tolist() and snap.held is not held
+    cov[:] = 0.0  # copies: the snapshot outlives the prediction's state
+    assert np.array_equal(snap.blocks, blocks)

@@ -27,6 +27,7 @@ from sensorsel.model.angles import wrap_angle
 __all__ = ["Batch", "Candidates", "Snapshot", "slots"]
 
 _TWO = np.arange(2)
+_THREE = np.arange(3)
 
 
 def slots(state: np.ndarray, landmarks: np.ndarray) -> np.ndarray:
@@ -72,28 +73,31 @@ class Snapshot:
         """The snapshot of ``prediction`` for ``meas`` (copies: valid after the prediction changes)."""
         cov = np.asarray(prediction.covariance, float)
         held = np.array(prediction.landmarks, np.int64)
+        n = len(held)
         slot = slots(held, np.asarray(meas.landmark, np.int64))
         inside = slot >= 0
-        # the state landmarks measured, in slot order, and each measurement's rank among them
-        mark = np.zeros(len(held), bool)
-        mark[slot[inside]] = True
-        measured = np.flatnonzero(mark)
+        # the state landmarks measured, in slot order, and each measurement's rank among them (the
+        # measured slots' sorted unique values: integers, however found)
+        measured = np.unique(slot[inside])
         row = np.full(len(slot), -1, np.int64)
-        row[inside] = 3 + 2 * (np.cumsum(mark) - 1)[slot[inside]]
-        idx = np.concatenate([np.arange(3), (3 + 2 * measured[:, None] + _TWO).ravel()])
-        # the landmarks' 2 × 2 diagonal blocks: the diagonal of cov[3:, 3:] seen as (n, 2, n, 2), copied
-        n = len(held)
-        blocks = np.ascontiguousarray(
-            np.moveaxis(np.diagonal(cov[3:, 3:].reshape(n, 2, n, 2), axis1=0, axis2=2), -1, 0)
-        )
+        row[inside] = 3 + 2 * np.searchsorted(measured, slot[inside])
+        idx = np.empty(3 + 2 * len(measured), np.int64)
+        idx[:3] = _THREE
+        idx[3::2] = 3 + 2 * measured
+        idx[4::2] = 4 + 2 * measured
+        # the landmarks' 2 × 2 diagonal blocks, copied from the diagonal and the two next to it
+        blocks = np.empty((n, 2, 2))
+        diag = cov.diagonal()
+        blocks[:, 0, 0], blocks[:, 1, 1] = diag[3::2], diag[4::2]
+        blocks[:, 0, 1], blocks[:, 1, 0] = cov.diagonal(1)[3::2], cov.diagonal(-1)[3::2]
         # the largest landmark trace, as the sum of the diagonal's pairs (the same sum as before)
-        trace = float((blocks[:, 0, 0] + blocks[:, 1, 1]).max(initial=0.0))
+        trace = float((diag[3::2] + diag[4::2]).max(initial=0.0))
         return cls(
             int(prediction.keyframe),
             meas,
             held,
             cov[:3, :3].copy(),
-            cov[idx],
+            cov.take(idx, axis=0),
             slot,
             row,
             blocks,
