@@ -18,8 +18,12 @@ __all__ = ["MILP_NODE_LIMIT", "floor_cost", "propose", "tol"]
 
 #: HiGHS's branch-and-bound node limit per integer program (deterministic, unlike a time limit)
 MILP_NODE_LIMIT = 100_000
-#: two costs closer than this [$] (plus a relative 1e-9) are equal: HiGHS's absolute gap is 1e-6
-_COST_TOL = 1e-6
+#: two costs closer than this [$] (plus a relative 1e-9) are equal: a tenth of a cent, above the
+#: slack of HiGHS's dual bound (its rows hold to feasibility tolerances, so an optimum's dual bound can
+#: sit below the optimal cost: 1.7e-5 under a $3,279 suite in a case of tests/test_require_solver.py,
+#: where a tolerance of 1e-6 left the lower bound short of the cost and the loop proposing the same
+#: suite to its iteration limit) and below any difference of two costs of whole cents
+_COST_TOL = 1e-3
 #: slack on a packing row relative to its limit, as the feasible set's (constraints.REL_SLACK)
 _ROW_SLACK = 1e-9
 
