@@ -178,15 +178,24 @@ def test_bad_keyframes_decide_as_covariance_verdict(at):
 
 def test_require_stops_passes_early_in_the_brute_forced_case(tiny_problem):
     """The case tests/test_require.py checks against enumeration with whole passes (ten sensors,
-    prior map, lateral 0.06 m and heading 0.1 deg) does take passes stopped early: that brute-force
-    test is the oracle of the early stop too."""
+    prior map, lateral 0.06 m and heading 0.1 deg) refutes suites by a failing subset's early bad
+    keyframes, and, with that off, takes passes stopped early: that brute-force test is the oracle
+    of both."""
     from test_require import _small
 
+    from sensorsel.designs.requirements.checks import _Oracle
     from sensorsel.designs.requirements.design import require
 
     spec = Specification(lateral=0.06, heading=0.1)
     r = require(tiny_problem, spec, map_sigma_m=0.05, constraints=_small(tiny_problem.library))
-    assert r.status == "optimal" and 0 < r.n_short < r.n_checks
+    # with the refutation by a failing subset's early bad keyframes off, the passes stopped early
+    # answer what it answered (the same suite, fewer suites refuted without a pass)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(_Oracle, "refute_before_seen", False)
+        off = require(tiny_problem, spec, map_sigma_m=0.05, constraints=_small(tiny_problem.library))
+    assert off.status == "optimal" and 0 < off.n_short < off.n_checks
+    assert (r.status, r.suite, r.cost_usd) == (off.status, off.suite, off.cost_usd)
+    assert r.n_refuted > off.n_refuted
 
 
 def test_a_domain_asks_the_route_that_failed_last_first(tiny_problem, suburb_problem):
@@ -216,3 +225,42 @@ def test_a_domain_asks_the_route_that_failed_last_first(tiny_problem, suburb_pro
             assert not truth[oracle.route_order[0]]  # the route that just failed is asked first now
             saw_front = saw_front or oracle.route_order[0] == 1
     assert saw_front, "no suite failed on the second route first: the case shows nothing"
+
+
+def test_a_failing_subsets_bad_keyframes_before_the_added_sensor_measures_refute_the_suite(suburb_problem):
+    """A suite S of the README tour's growth meets local streets but at keyframe 1 (heading, as the
+    car drives; its smoother meets it everywhere); MRR-6 measures nothing before keyframe 16.
+    S + MRR-6's own whole pass equals S's, bit for bit, before 16 (the property the refutation
+    rests on), and fails: the oracle refutes it from S's answer without a pass (with the refutation
+    off, it computes one)."""
+    from sensorsel.designs.requirements.checks import _Oracle
+    from sensorsel.information.evaluators.fast import FastEvaluator
+
+    p = suburb_problem
+    spec = Specification(lateral=0.1, longitudinal=0.1, heading=0.17)
+    ids = ("LRR-5", "HD2K-12", "HD2K-1", "HD2K-2", "HD2K-3", "HD2K-4", "HD2K-5", "HD2K-6", "LSC-11")
+    s = tuple(sorted(LIB.position(x) for x in ids))
+    added = LIB.position("MRR-6")
+    t = tuple(sorted((*s, added)))
+    first = int(np.min(p.observations[added].pose))
+    assert first == 16
+    alone, both = forward_pass(p, s, map_sigma_m=0.05).filtered, forward_pass(p, t, map_sigma_m=0.05).filtered
+    assert np.array_equal(alone[:first], both[:first]) and not np.array_equal(alone[first], both[first])
+    assert not covariance_verdict(both, spec)[0]
+    assert [b.tolist() for b in bad_keyframes(alone, spec)] == [[], [], [1]]
+
+    def oracle() -> _Oracle:
+        o = _Oracle([FastEvaluator(p)], ["suburb"], [spec], 0.05, "filter", problems=[p])
+        assert not o.meets(s)  # by its pass: its bad keyframes kept
+        return o
+
+    on = oracle()
+    checks = on.n_checks
+    assert checks > 0 and not on.meets(t)
+    assert (on.n_checks, on.n_before_seen) == (checks, 1)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(_Oracle, "refute_before_seen", False)
+        off = oracle()
+        checks = off.n_checks
+        assert not off.meets(t)
+        assert off.n_checks > checks and off.n_before_seen == 0

@@ -109,6 +109,9 @@ class _Oracle:
 
     #: whether upper bounds may accept suites (the benchmark turns it off to compare, in one process)
     accept = True
+    #: whether a failing subset's bad keyframes before the added sensors' first measurement refute a
+    #: suite (:meth:`_refuted_before_seen`; a test turns it off to reach the passes stopped early)
+    refute_before_seen = True
 
     def __init__(
         self,
@@ -140,9 +143,9 @@ class _Oracle:
         #: (route, suite) -> (meets, violation or None): answers read back from a journal
         self.known: dict[tuple[int, Suite], tuple[bool, float | None]] = {}
         self.n_checks = 0  # marginals computed (route, suite)
-        self.n_refuted = (
-            0  # (route, suite) refuted without the judged marginals: by the floor, or (filter) by the smoother
-        )
+        #: (route, suite) refuted without the judged marginals: by the floor, or (filter) by the smoother
+        #: or a failing subset's bad keyframes
+        self.n_refuted = 0
         self.floor_asked = 0
         self.on_answer: Callable[[], None] | None = None  # called after each new answer (the journal's writer)
         #: per route, the bad keyframes of the suites seen to fail there (a superset's pass stops after them)
@@ -152,6 +155,7 @@ class _Oracle:
         #: (route, suite) -> meets, from a pass stopped early (no violation known)
         self._short: dict[tuple[int, Suite], bool] = {}
         self.n_short = 0  # of n_checks, passes stopped early
+        self.n_before_seen = 0  # of n_refuted, by a failing subset's bad keyframes (_refuted_before_seen)
         self.keyframes_passed = 0  # keyframes the filter passed for the checks (all of them: n_checks · K)
         #: per route, the minimal suites (bit masks) seen to meet its specification: a suite holding
         #: one meets it too, with no computation (:meth:`_met_below`)
@@ -161,6 +165,8 @@ class _Oracle:
         self._failed: list[list[tuple[int, int]]] = [[] for _ in self.evaluators]
         #: per route, the failing suites whose filter states the upper bounds restart from (:mod:`.accept`)
         self._bases = [Bases() for _ in self.evaluators]
+        #: per route, the first keyframe each library sensor measures anything at (K: never)
+        self._first_seen: dict[int, np.ndarray] = {}
 
     @property
     def n_accepted(self) -> int:
@@ -303,6 +309,12 @@ class _Oracle:
             return self.known[key][0]
         if key in self._short:
             return self._short[key]
+        if self._refuted_before_seen(r, suite):
+            self._refuted.add(key)
+            self.n_refuted += 1
+            self.n_before_seen += 1
+            self._answered()
+            return False
         if self._use_floor():
             floor = self.evaluators[r].pose_covariance_floor(suite, map_sigma_m=self.map_sigma_m)
             if floor is not None:
@@ -324,6 +336,30 @@ class _Oracle:
         if self._accepted(r, suite):
             return True
         return self._answer(r, suite)[0]
+
+    def _refuted_before_seen(self, r: int, suite: Suite) -> bool:
+        """Whether a failing suite S inside ``suite`` (T) is over its limits, before the first keyframe
+        at which a sensor of T not in S measures anything, at enough keyframes that T fails too (the
+        filter's estimate only; no computation).
+
+        Why this is T's own answer: the filter's estimate at keyframe k holds the measurements of
+        keyframes up to k only. Before that first keyframe f, T's measurements are S's, in the same
+        order (a suite's measurements are sorted by keyframe, stably), so T's pass computes S's
+        numbers there, bit for bit, and T is bad at each keyframe < f where S was judged bad. Those
+        keyframes alone already break the rank rule (:func:`.truncated.meets_from_bad`): T fails."""
+        if self.estimate != "filter" or not self.refute_before_seen:
+            return False
+        problem = self.problems[r]
+        first = self._first_seen.get(r)
+        if first is None:
+            first = self._first_seen[r] = _first_keyframes(problem)
+        n = problem.scenario.n_poses
+        mask = mask_of(suite)
+        for known, bad in self._bad[r].inside(mask):
+            f = min((int(first[i]) for i in suite if not known >> i & 1), default=n)
+            if not meets_from_bad(tuple(b[b < f] for b in bad), n, self.specs[r]):
+                return True
+        return False
 
     def _accepted(self, r: int, suite: Suite, quick: bool = False) -> bool:
         """Whether an upper bound from a failing suite inside ``suite`` proves that it meets route
@@ -415,3 +451,10 @@ class _Oracle:
         return tuple(
             RouteRequirement(self.names[r], self.specs[r], *self.route(r, s)) for r in range(len(self.evaluators))
         )
+
+
+def _first_keyframes(problem: Problem) -> np.ndarray:
+    """(n_sensors,) the first keyframe at which each sensor of ``problem``'s library measures a
+    landmark (the route's keyframe count where it measures none)."""
+    n = problem.scenario.n_poses
+    return np.array([int(np.min(o.pose)) if len(o) else n for o in problem.observations], np.int64)

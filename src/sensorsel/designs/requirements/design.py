@@ -75,8 +75,9 @@ class RequireResult:
             missing the requirement (ids), and ``worst_failure_routes`` the accuracy after it.
         iterations: integer programs solved.
         n_checks: accuracy computations (each about two dense Cholesky factorizations a route).
-        n_refuted: (route, suite) pairs refuted by the engine's cheap floor under the marginals,
-            without computing them.
+        n_refuted: (route, suite) pairs refuted without computing their marginals: by the engine's
+            cheap floor under them, or (filter) by the smoother's or by a failing suite inside it
+            that was over its limits before the added sensors measure anything.
         engine: the evaluator engine.
         budget_usd: a budget the suite had to keep to, or None.
         constraints: limits besides money, or None.

@@ -62,6 +62,10 @@ class BadKeyframes:
         self._known.append((until, mask, bad))
         self._known.sort(key=lambda e: (e[0], e[1]))
 
+    def inside(self, mask: int) -> list[tuple[int, Bad]]:
+        """(mask, bad keyframes) of every recorded suite inside ``mask``, bad keyframes ending earliest first."""
+        return [(known, bad) for _, known, bad in self._known if known & ~mask == 0]
+
     def shortest(self, mask: int) -> tuple[int, Bad] | None:
         """(keyframes to pass, the bad keyframes) of a recorded suite inside ``mask`` whose bad
         keyframes end earliest; None when none is recorded inside it."""
