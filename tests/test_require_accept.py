@@ -107,3 +107,37 @@ def test_without_the_drop_the_bound_is_no_bound(suburb_problem):
     dropped = _sigmas(upper_bound(suburb_problem, b, T, 0.05, ((3, K - 1),)))[3:]
     assert np.any(fresh < exact * (1 - 1e-6))
     assert np.all(dropped >= exact * (1 - 1e-12))
+
+
+def test_a_failing_suites_own_pass_is_the_base_of_its_growths_bounds(suburb_problem):
+    """A failing suite's whole pass (its states kept) is offered as the base of the bounds its growth
+    asks for: each suite of the growth gets the bound a base computed anew gives it, with no second
+    pass of the failing suite. A base offered for another suite is not taken."""
+    from sensorsel.designs.requirements.accept import Bases
+
+    lib = suburb_problem.library
+    spec = preset("local-streets")
+    grown = tuple(sorted(lib.position(i) for i in ("LRR-7", "HD2K-1", "HD2K-8", "HD2K-12")))
+    failed = mask_of(grown)
+    oracle = _Oracle([FastEvaluator(suburb_problem)], ["suburb"], [spec], 0.05, "filter", problems=[suburb_problem])
+    assert not oracle._answer(0, grown)[0] and oracle.n_checks == 1
+    offered = oracle._bases[0]._offered
+    assert offered is not None and offered.mask == failed
+    assert np.array_equal(offered.filtered, forward_pass(suburb_problem, grown, map_sigma_m=0.05).filtered)
+    fresh = base_of(suburb_problem, grown, failed, spec, 0.05)
+    assert offered.windows == fresh.windows and offered.states.keys() == fresh.states.keys()
+    kept, anew = [], []
+    for j in (j for j in range(len(lib.ids)) if j not in grown):
+        suite = tuple(sorted((*grown, j)))
+        for got, bases in ((kept, oracle._bases[0]), (anew, Bases())):
+            if bases is oracle._bases[0]:
+                bases._bases, bases._offered = [], offered  # each suite from the offered base alone
+            got.append(bases.accepts(suburb_problem, suite, mask_of(suite), failed, spec, 0.05))
+            assert bases.n_passes == (0 if got is kept else 1)
+    assert kept == anew and True in kept and False in kept
+    # offered for another suite: a base of the failing set's own is computed
+    other = Bases()
+    other.offer(base_of(suburb_problem, grown[:-1], mask_of(grown[:-1]), spec, 0.05))
+    suite = tuple(sorted((*grown, lib.position("LSC-2"))))
+    other.accepts(suburb_problem, suite, mask_of(suite), failed, spec, 0.05)
+    assert other.n_passes == 1 and other._bases[-1].mask == failed

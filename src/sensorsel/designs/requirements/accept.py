@@ -144,6 +144,13 @@ class Bases:
         self.n_accepted = 0  # suites accepted by a bound
         self.keyframes_passed = 0
         self._quick: tuple[int, Base | None] | None = None  # (suite, base) of the last quick bound
+        self._offered: Base | None = None  # the last failing suite's pass, computed elsewhere (offer)
+
+    def offer(self, base: Base) -> None:
+        """Keep ``base`` (a failing suite's pass with its states, computed by the caller) to stand for
+        that suite's own base pass if the next base asked for is that suite's (the last one offered
+        only: it is dropped at the next base asked for, whichever suite's)."""
+        self._offered = base
 
     def accepts(
         self,
@@ -171,10 +178,13 @@ class Bases:
         size = bin(mask).count("1")
         if failed is None or size - bin(failed).count("1") > 2 or (base is not None and not failed & ~base.mask):
             return False
-        members = tuple(i for i in suite if failed >> i & 1)
-        base = base_of(problem, members, failed, spec, map_sigma_m)
-        self.n_passes += 1
-        self.keyframes_passed += len(base.filtered)
+        offered, self._offered = self._offered, None  # taken now or never (a growth asks for it at once)
+        if offered is not None and offered.mask == failed:
+            base = offered  # its pass already computed (and counted) by the caller
+        else:
+            base = base_of(problem, tuple(i for i in suite if failed >> i & 1), failed, spec, map_sigma_m)
+            self.n_passes += 1
+            self.keyframes_passed += len(base.filtered)
         self._bases = [*self._bases[-(KEEP - 1) :], base]
         return self._bound_meets(problem, base, suite, spec, map_sigma_m, 0, None)
 

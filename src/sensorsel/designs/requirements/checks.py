@@ -11,7 +11,7 @@ from typing import Protocol
 
 import numpy as np
 
-from sensorsel.designs.requirements.accept import Bases
+from sensorsel.designs.requirements.accept import Bases, base_of
 from sensorsel.designs.requirements.oracle import mask_of
 from sensorsel.designs.requirements.spec import RouteVerdict, Specification, covariance_verdict, verdict
 from sensorsel.designs.requirements.truncated import BadKeyframes, bad_keyframes, meets_from_bad
@@ -112,6 +112,9 @@ class _Oracle:
     #: whether a failing subset's bad keyframes before the added sensors' first measurement refute a
     #: suite (:meth:`_refuted_before_seen`; a test turns it off to reach the passes stopped early)
     refute_before_seen = True
+    #: whether a filter pass of :meth:`_answer` keeps its predicted states, for the bounds to start from
+    #: (a test turns it off to compare)
+    keep_states = True
 
     def __init__(
         self,
@@ -193,16 +196,27 @@ class _Oracle:
             self.on_answer()
 
     def _answer(self, r: int, suite: Suite) -> tuple[bool, float]:
-        """(meets, violation) of ``suite`` on route ``r``, computed once."""
+        """(meets, violation) of ``suite`` on route ``r``, computed once. With the filter's estimate
+        and the upper bounds on, the pass runs here with its predicted states kept (:func:`.accept.base_of`:
+        the same numbers as the engine's pass), and a suite that fails is offered to the route's
+        bounds as their next base: the failing set a growth asks about is mostly the suite whose
+        pass was computed last, and a base's pass would compute it again."""
         key = (r, suite)
         got = self._answers.get(key)
         if got is None:
-            covariances = route_covariances(self.evaluators[r], suite, self.map_sigma_m, self.estimate)
+            base = None
+            if self.estimate == "filter" and self.accept and self.keep_states:
+                base = base_of(self.problems[r], suite, mask_of(suite), self.specs[r], self.map_sigma_m)
+                covariances = base.filtered
+            else:
+                covariances = route_covariances(self.evaluators[r], suite, self.map_sigma_m, self.estimate)
             got = self._answers[key] = covariance_verdict(covariances, self.specs[r])
             self.n_checks += 1
             self.keyframes_passed += len(covariances)
             if not got[0] and self.estimate == "filter":
                 self._bad[r].add(mask_of(suite), bad_keyframes(covariances, self.specs[r]))
+                if base is not None:
+                    self._bases[r].offer(base)
             self._answered()
         return got
 
