@@ -244,18 +244,28 @@ def _remainder(sigma_ab: np.ndarray, rng_m: np.ndarray, s_inv: np.ndarray, ks: n
     coordinates' Taylor remainder ε over the box |a| ≤ kσ_a, |b| ≤ kσ_b (module docstring); inf where
     kσ_a reaches the range. ``sigma_ab`` (n, 2) [m], ``rng_m`` (n,) [m], ``s_inv`` (n, 2, 2) the
     whitening (S⁻¹, or R⁻¹ for the bound robust to the covariance)."""
+    return _whitened(_taylor_box(sigma_ab, rng_m, ks), s_inv[:, 0, 0], s_inv[:, 1, 1], s_inv[:, 0, 1])
+
+
+def _taylor_box(sigma_ab: np.ndarray, rng_m: np.ndarray, ks: np.ndarray) -> tuple[np.ndarray, ...]:
+    """(ε_b [rad], ε_r [m], ok) (n, K): :func:`_remainder`'s bearing and range remainders before
+    whitening, and where kσ_a is short of the range. They depend on the spreads and the range alone,
+    so a candidate's serve every measurement that has it (the far filter computes them once each)."""
     a = ks[None, :] * sigma_ab[:, :1]
     b = ks[None, :] * sigma_ab[:, 1:]
     r = rng_m[:, None]
     ok = a < r
     x = np.where(ok, r - a, 1.0)
-    rho_b = a * b / (r * x) + (b / x) ** 3 / 3.0
-    rho_r = b**2 / (2.0 * x)
-    q = (
-        rho_b**2 * s_inv[:, 0, 0, None]
-        + rho_r**2 * s_inv[:, 1, 1, None]
-        + 2.0 * rho_b * rho_r * np.abs(s_inv[:, 0, 1, None])
-    )
+    return a * b / (r * x) + (b / x) ** 3 / 3.0, b**2 / (2.0 * x), ok
+
+
+def _whitened(box: tuple[np.ndarray, ...], s_bb: np.ndarray, s_rr: np.ndarray, s_br: np.ndarray | None) -> np.ndarray:
+    """(n, K) ρ(k) from :func:`_taylor_box`'s ``box`` and the whitening's entries (0, 0), (1, 1) and
+    (0, 1) (n,) (``s_br`` None: a diagonal whitening, whose cross term adds +0 to each sum)."""
+    rho_b, rho_r, ok = box
+    q = rho_b**2 * s_bb[:, None] + rho_r**2 * s_rr[:, None]
+    if s_br is not None:
+        q += 2.0 * rho_b * rho_r * np.abs(s_br)[:, None]
     return np.where(ok, np.sqrt(q), np.inf)
 
 
@@ -577,11 +587,15 @@ def _risks(
     sd_rel[present] = b.relative_spread(near_at[present], near_slot[present])
     sd_th = np.sqrt(b.pose_cov[b.at[mi], 2, 2])
     sd_w = sd_rel[pick]
-    r_j = np.maximum(near_dist[pick], 1e-9)
+    r_c = np.maximum(near_dist, 1e-9)
+    r_j = r_c[pick]
     var_b, var_r = b.meas["sigma_bearing_rad"][mi] ** 2, b.meas["sigma_range_m"][mi] ** 2
     s_bb = var_b + (sd_w / r_j + sd_th) ** 2
     s_rr = var_r + sd_w**2
-    rho_up = _remainder(sd_w[:, None] * np.ones(2), r_j, noise_inverse(b, mi), far_k)[:, 0]
+    # the remainder at σ_a = σ_b = sd_w, whitened by R (diagonal): its box once per candidate
+    box = _taylor_box(sd_rel[:, None] * np.ones(2), r_c, far_k)
+    inv_r = (1.0 / b.meas["sigma_bearing_rad"] ** 2, 1.0 / b.meas["sigma_range_m"] ** 2)
+    rho_up = _whitened(tuple(t[pick] for t in box), inv_r[0][mi], inv_r[1][mi], None)[:, 0]
     rough = np.sqrt(np.maximum(d[:, 0] ** 2 / s_bb, d[:, 1] ** 2 / s_rr)) <= (math.sqrt(gate) + FAR_SIGMAS + rho_up) * (
         1.0 + 1e-9
     )
@@ -599,7 +613,9 @@ def _risks(
     root_lam = np.sqrt(lam)
     near_enough = (
         root_lam
-        <= math.sqrt(gate) + FAR_SIGMAS + _remainder(sd_w[:, None] * np.ones(2), r_j[rough], whiten_j, far_k)[:, 0]
+        <= math.sqrt(gate)
+        + FAR_SIGMAS
+        + _whitened(tuple(t[pick] for t in box), whiten_j[:, 0, 0], whiten_j[:, 1, 1], whiten_j[:, 0, 1])[:, 0]
     )
     mi, cj, slot_j, back, d = mi[near_enough], cj[near_enough], slot_j[near_enough], back[near_enough], d[near_enough]
     s_j, s_inv, whiten_j, root_lam = s_j[near_enough], s_inv[near_enough], whiten_j[near_enough], root_lam[near_enough]
