@@ -941,10 +941,12 @@ def _require_table(root: Path) -> list[str]:
         # a file not yet regenerated with the estimate the others judge says so on its row
         estimate = r.get("estimate", "smoother")
         target = target if estimate == REQUIRE_ESTIMATE else f"{target} ({estimate})"
+        # a run resumed from its journal computed only what the journal did not hold
+        resumed = f" (+{r['n_resumed']:,} read back)" if r.get("n_resumed") else ""
         rows.append(
             f"| {target} | {preset} | {alpha} | {suite} | {_usd(r['cost_usd']) if r['suite'] else '-'} | "
             f"{_usd(lower) if lower < float('inf') else '-'} | {proof} | {worst[0]:.3f} | {worst[1]:.3f} | "
-            f"{worst[2]:.3f} | {r['n_checks']} | {r['seconds']:.1f} |"
+            f"{worst[2]:.3f} | {r['n_checks']}{resumed} | {r['seconds']:.1f}{resumed and ' (this run)'} |"
         )
     if not rows:
         return []
@@ -954,7 +956,8 @@ def _require_table(root: Path) -> list[str]:
         "Prior-map model, landmarks known to 0.05 m (the default); the accuracy judged is "
         f"{_estimate_words(d)}; 95 % errors (1.96σ) at the worst keyframe of the worst "
         "route, with all sensors working. Presets: Reid et al. 2019 (local streets 0.10 m / 0.10 m / 0.17°, "
-        "freeway 0.20 m / 0.48 m / 0.51°).",
+        "freeway 0.20 m / 0.48 m / 0.51°). A run resumed from an interrupted one's journal counts its "
+        'own accuracy checks and seconds, and the answers it read back apart ("read back", "this run").',
         "",
         "| target | preset | failures | suite | cost | lower bound | | lateral [m] | longitudinal [m] | "
         "heading [deg] | accuracy checks | s |",

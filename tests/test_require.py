@@ -255,6 +255,8 @@ def test_interrupted_require_resumes_to_the_same_answer_without_recomputing(tiny
         want.lower_bound_usd,
     )
     assert got.n_checks + got.n_refuted < want.n_checks + want.n_refuted  # the journal's answers were not recomputed
+    # and the result says so: its counts are this run's, the journal's answers counted apart
+    assert (want.n_resumed, got.n_resumed) == (0, len(journal.answers))
 
 
 @pytest.mark.parametrize("change", ["failures", "map", "spec", "budget", "limits", "route", "estimate"])
@@ -297,6 +299,7 @@ def test_resume_with_any_other_input_is_warned_and_starts_afresh(tiny_problem, s
         again = require(target, spec2, checkpoint=ck, resume=True, **other)
     fresh = require(target, spec2, **other)
     assert (again.suite, again.cost_usd) == (fresh.suite, fresh.cost_usd)
+    assert again.n_resumed == 0  # nothing read back
 
 
 def test_require_in_some_conditions_only(tmp_path):

@@ -220,3 +220,49 @@ def test_the_resume_help_says_what_every_run_does():
     for run in RUNS:
         (opt,) = [p for p in cli.commands[run].params if p.name == "resume"]
         assert "a warning names the file" in (opt.help or "") and "computed again and overwritten" in (opt.help or "")
+
+
+def test_a_resumed_require_says_its_counts_are_its_own(tiny_problem, tmp_path):
+    """A require resumed from its own interrupted run's journal reads the answers back and says so
+    in its printout and its JSON (``n_resumed``): the accuracy computations and seconds it prints are
+    this run's alone, not the whole search's. The interrupted run is the library call with a budget
+    of 50_000 (an int; the command's is a float): the journal's fingerprint takes them as one budget
+    (hash the budget as given and the resume is warned about and starts afresh)."""
+    from sensorsel.designs.requirements import DEFAULT_MAP_SIGMA_M, Specification, require
+    from sensorsel.io import results
+    from sensorsel.model.library import load_library
+    from sensorsel.model.problem import build_problem
+
+    study = tmp_path / "study.yaml"
+    small = yaml.safe_load(default_library_path().read_text())
+    small["clock_positions"] = [12, 3, 6, 9]
+    study.with_name("small.yaml").write_text(yaml.safe_dump(small))
+    out = tmp_path / "out"
+    out.mkdir()
+    ck = out / "require.json.checkpoint"
+
+    class Stop(KeyboardInterrupt):
+        pass
+
+    def stop(done: int, total: int) -> None:
+        raise Stop()
+
+    problem = build_problem(load_library(study.with_name("small.yaml")), tiny_problem.scenario)
+    with pytest.raises(Stop):  # the same inputs as the command's, interrupted at its first progress report
+        require(
+            problem,
+            Specification(lateral=0.5, longitudinal=0.5),
+            map_sigma_m=DEFAULT_MAP_SIGMA_M,
+            budget_usd=50_000,
+            checkpoint=ck,
+            progress=stop,
+        )
+    n = len(results.load(ck, "requirement-journal").answers)
+    assert n > 0
+    res = _invoke(_args("require", out, study) + ["--resume"])
+    assert res.exit_code == 0, res.output
+    assert "warning" not in res.stderr  # its own journal: read back, not warned about
+    assert f"resumed from {n} answers of an earlier run, not counted here" in res.stdout
+    assert json.loads((out / "require.json").read_text())["n_resumed"] == n
+    fresh = _invoke(_args("require", tmp_path / "fresh", study))
+    assert fresh.exit_code == 0 and "resumed" not in fresh.stdout

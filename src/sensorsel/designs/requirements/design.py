@@ -116,6 +116,8 @@ class RequireResult:
         n_base_passes: of ``n_checks``, those passes of failing suites the bounds restart from
             (computations that answer no suite asked: the suites the search asked are
             ``n_checks − n_base_passes + n_refuted + n_accepted``).
+        n_resumed: answers read back from an interrupted run's journal (``resume``): not computed
+            again, so the counts and times above are this run's alone (0: the run started afresh).
     """
 
     status: str
@@ -154,6 +156,7 @@ class RequireResult:
     n_short: int = 0
     n_accepted: int = 0
     n_base_passes: int = 0
+    n_resumed: int = 0
 
     @property
     def gap_usd(self) -> float:
@@ -224,7 +227,9 @@ def require_fingerprint(
         model="slam" if map_sigma_m is None else "map",
         map_sigma_m=map_sigma_m,
         failures=failures,
-        budget_usd=budget_usd,
+        # a budget of 50000 and of 50000.0 is one budget (the command line's is a float, a caller's
+        # may be an int): hashed as a float, or a resume would be refused its own journal
+        budget_usd=None if budget_usd is None else float(budget_usd),
         constraints=constraints,
         estimate=estimate,
         engine=engine,
@@ -303,6 +308,7 @@ def require(
             the library cannot meet.
     """
     t0 = time.perf_counter()
+    n_resumed = 0
     check_estimate(estimate)
     if isinstance(failures, bool) or not isinstance(failures, int) or failures < 0:
         raise InputError(f"--failures must be a whole number >= 0, got {failures!r}")
@@ -364,6 +370,7 @@ def require(
         )
         old = _read_journal(path, fp, inputs) if resume else None
         if old is not None:
+            n_resumed = len(old.answers)
             oracle.known = {(r, tuple(s_)): (m, v) for r, s_, m, v in old.answers}
         last = [time.monotonic()]
 
@@ -458,6 +465,7 @@ def require(
         n_short=oracle.n_short,
         n_accepted=oracle.n_accepted,
         n_base_passes=oracle.n_base_passes,
+        n_resumed=n_resumed,
     )
 
 
