@@ -138,9 +138,10 @@ COMMANDS = {
             "n_short",
             "n_accepted",
             "n_base_passes",
+            "n_resumed",
         },
-    ),  # counts of work, not the answer: a resume redoes no journalled work (in process and on workers
-    # the counts are the same: tests/test_distributed.py)
+    ),  # counts of work, not the answer: a resume redoes no journalled work and counts what it read back
+    # (in process and on workers the counts are the same: tests/test_distributed.py)
 }
 
 
