@@ -957,7 +957,9 @@ def _require_table(root: Path) -> list[str]:
         f"{_estimate_words(d)}; 95 % errors (1.96σ) at the worst keyframe of the worst "
         "route, with all sensors working. Presets: Reid et al. 2019 (local streets 0.10 m / 0.10 m / 0.17°, "
         "freeway 0.20 m / 0.48 m / 0.51°). A run resumed from an interrupted one's journal counts its "
-        'own accuracy checks and seconds, and the answers it read back apart ("read back", "this run").',
+        'own accuracy checks and seconds, and the answers it read back apart ("read back", "this run"). '
+        "s: the run's wall time, on whatever machine and load regenerated it (rows regenerated at low "
+        "priority beside other work can take several times their CPU time).",
         "",
         "| target | preset | failures | suite | cost | lower bound | | lateral [m] | longitudinal [m] | "
         "heading [deg] | accuracy checks | s |",
