@@ -41,3 +41,17 @@ def test_angles_beyond_the_fast_path_take_the_remainder(far: float) -> None:
     a[500] = far  # one angle beyond (−3π, 3π) in an array of ordinary ones
     with np.errstate(invalid="ignore"):
         assert _same_bits(a)
+
+
+def test_single_precision_stays_single_bit_for_bit() -> None:
+    """float32 (the association quadrature's bearings) in, float32 out, bit for bit the rule in float32
+    (π and 2π rounded to it), on the fast path's range, its edges and beyond it."""
+    rng = np.random.default_rng(11)
+    pi, two_pi = np.float32(np.pi), np.float32(2.0 * np.pi)
+    a = (rng.uniform(-np.pi, np.pi, 100_000) * 2.9).astype(np.float32)
+    edges = np.array([-pi, pi, two_pi + pi, -two_pi - pi, 0.0, -0.0], np.float32)
+    near = np.concatenate([np.nextafter(edges, np.float32(-np.inf)), np.nextafter(edges, np.float32(np.inf))])
+    for x in (a, edges, near, np.array([1e6, -50.0, 3.5 * np.pi], np.float32)):
+        got = wrap_angle(x)
+        assert got.dtype == np.float32
+        assert got.tobytes() == ((x + pi) % two_pi - pi).tobytes()

@@ -167,10 +167,11 @@ def test_the_quadrature_points_are_scipys_scrambled_sobol_points():
         assert nonlinear._scrambled_sobol(d, log2n, seed).tobytes() == want.tobytes(), (d, log2n, seed)
 
 
+@pytest.mark.parametrize("dtype", [np.float64, nonlinear.QUADRATURE_DTYPE])
 @pytest.mark.parametrize(
     ("n_pairs", "n_points", "rows", "cols"), [(1, 24576, 2, 7), (3, 8192, 2, 7), (809, 512, 1, 3), (2048, 32, 2, 7)]
 )
-def test_the_grid_product_sums_in_the_order_written_out(n_pairs, n_points, rows, cols):
+def test_the_grid_product_sums_in_the_order_written_out(n_pairs, n_points, rows, cols, dtype):
     """The quadrature's A ξ on the grid (np.einsum) against the sums written out, product by product in
     the order of the columns (the oracle), to the bit: the quadrature's numbers depend on no library's
     choice of order or fused multiply-adds. Coefficients over six decades and zero columns (the
@@ -179,7 +180,8 @@ def test_the_grid_product_sums_in_the_order_written_out(n_pairs, n_points, rows,
     a = rng.standard_normal((n_pairs, rows, cols)) * 10.0 ** rng.integers(-3, 3, (n_pairs, rows, cols))
     a[:, :, -1] *= rng.random((n_pairs, rows)) < 0.5
     xi = rng.standard_normal((cols, n_points))
-    written = np.zeros((rows, n_pairs, n_points))
+    a, xi = a.astype(dtype), xi.astype(dtype)  # the quadrature's own precision, and double
+    written = np.zeros((rows, n_pairs, n_points), dtype)
     for r in range(rows):
         for q in range(cols):
             written[r] += a[:, r, q, None] * xi[q]

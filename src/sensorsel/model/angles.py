@@ -17,9 +17,16 @@ def wrap_angle(a: np.ndarray) -> np.ndarray:
     in (−2π, 4π) (every difference of two bearings plus a heading), ``%`` returns x + 2π for x < 0
     (fmod(x) = x exactly, then that addition), x − 2π for x ≥ 2π (fmod's exact result, and the
     subtraction is exact there by Sterbenz's lemma) and x else; an array with other x (or NaN, inf)
-    takes ``%``."""
-    x = np.asarray(a, float) + np.pi
-    if not (np.min(x, initial=0.0) > -_TWO_PI and np.max(x, initial=0.0) < 2.0 * _TWO_PI):
-        return x % _TWO_PI - np.pi
-    x += (x < 0.0) * _TWO_PI - (x >= _TWO_PI) * _TWO_PI  # x + 2π, x − 2π, or x + 0 (the same x)
-    return x - np.pi
+    takes ``%``.
+
+    Single precision stays single (the association quadrature's bearings), π and 2π rounded to it:
+    the same rule and the same argument, bit for bit ``(a + π) % 2π − π`` in float32; every other
+    input is taken as double."""
+    given = np.asarray(a)
+    real: type[np.floating] = np.float32 if given.dtype == np.float32 else np.float64
+    pi, two_pi = real(np.pi), real(_TWO_PI)
+    x: np.ndarray = given.astype(real) + pi
+    if not (np.min(x, initial=0.0) > -two_pi and np.max(x, initial=0.0) < 2 * two_pi):
+        return x % two_pi - pi
+    x += (x < 0.0) * two_pi - (x >= two_pi) * two_pi  # x + 2π, x − 2π, or x + 0 (the same x)
+    return x - pi
