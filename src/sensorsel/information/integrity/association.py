@@ -570,12 +570,13 @@ def _risks(
     near_dist = np.hypot(*(points[near] - b.poses[near_at, :2]).T)
     near_slot = b.slots(near_at, near)
     reach = reach_m[mi]
-    if model == "slam":  # candidates out of the state (a caller's choice) keep the stated reach
+    if model == "slam" and (near_slot < 0).any():  # out of the state (a caller's choice): the stated reach
         in_state = near_slot[pick] >= 0
         reach = np.where(in_state, reach, CANDIDATE_SCALE * b.meas["range_m"][mi] + CANDIDATE_MARGIN_M)
     keep = (cj != b.meas["landmark"][mi]) & (near_dist[pick] <= reach)
-    slot_j = near_slot[pick][keep]
-    pick, mi, cj = pick[keep], mi[keep], cj[keep]
+    # each stage carries the pairs' candidates as positions in ``near`` (``pick``) only: the landmark
+    # and its slot are gathered for the few pairs left at the end
+    pick, mi = pick[keep], mi[keep]
     d = innovation_means(b, points, mi, near, near_at, pick)
     far_k = _FAR_K
     # first, with no candidate's moments, the pairs surely past the far limit: λ = dᵀ S_j⁻¹ d ≥
@@ -591,21 +592,24 @@ def _risks(
     present = np.bincount(pick, minlength=len(near)) > 0
     sd_rel = np.zeros(len(near))
     sd_rel[present] = b.relative_spread(near_at[present], near_slot[present])
-    sd_th = np.sqrt(b.pose_cov[b.at[mi], 2, 2])
-    sd_w = sd_rel[pick]
+    # what depends on the measurement alone or on the candidate alone is computed once each and
+    # gathered per pair (the same operations on the same numbers: the same bits as per pair)
     r_c = np.maximum(near_dist, 1e-9)
-    r_j = r_c[pick]
-    var_b, var_r = b.meas["sigma_bearing_rad"][mi] ** 2, b.meas["sigma_range_m"][mi] ** 2
-    s_bb = var_b + (sd_w / r_j + sd_th) ** 2
-    s_rr = var_r + sd_w**2
-    # the remainder at σ_a = σ_b = sd_w, whitened by R (diagonal): its box once per candidate
-    box = _taylor_box(sd_rel[:, None] * np.ones(2), r_c, far_k)
+    sd_th = np.sqrt(b.pose_cov[:, 2, 2])[b.at][mi]
+    var_b, var_r = (b.meas["sigma_bearing_rad"] ** 2)[mi], (b.meas["sigma_range_m"] ** 2)[mi]
+    s_bb = var_b + ((sd_rel / r_c)[pick] + sd_th) ** 2  # σ_b² + (sd_w/r_j + σ_θ)²
+    s_rr = var_r + (sd_rel**2)[pick]  # σ_r² + sd_w²
+    # the remainder at σ_a = σ_b = sd_w, whitened by R (diagonal: :func:`_whitened` with no cross
+    # term), its box and squares once per candidate
+    rho_b, rho_r, within = _taylor_box(sd_rel[:, None] * np.ones(2), r_c, far_k)
     inv_r = (1.0 / b.meas["sigma_bearing_rad"] ** 2, 1.0 / b.meas["sigma_range_m"] ** 2)
-    rho_up = _whitened(tuple(t[pick] for t in box), inv_r[0][mi], inv_r[1][mi], None)[:, 0]
+    q = (rho_b[:, 0] ** 2)[pick] * inv_r[0][mi] + (rho_r[:, 0] ** 2)[pick] * inv_r[1][mi]
+    rho_up = np.where(within[pick, 0], np.sqrt(q), np.inf)
+    box = (rho_b, rho_r, within)
     rough = np.sqrt(np.maximum(d[:, 0] ** 2 / s_bb, d[:, 1] ** 2 / s_rr)) <= (math.sqrt(gate) + FAR_SIGMAS + rho_up) * (
         1.0 + 1e-9
     )
-    pick, mi, cj, slot_j, d, sd_w = pick[rough], mi[rough], cj[rough], slot_j[rough], d[rough], sd_w[rough]
+    pick, mi, d = pick[rough], mi[rough], d[rough]
     # then from candidate j's moments alone: H_j P H_jᵀ once per (keyframe, candidate), each pair's
     # S_j and λ (cheap: 2 × 2); the test of λ first with the remainder at σ_a, σ_b ≤ sd_w (the same
     # λ and whitening, and the remainder's arithmetic non-decreasing in σ: it drops only pairs the
@@ -623,11 +627,12 @@ def _risks(
         + FAR_SIGMAS
         + _whitened(tuple(t[pick] for t in box), whiten_j[:, 0, 0], whiten_j[:, 1, 1], whiten_j[:, 0, 1])[:, 0]
     )
-    mi, cj, slot_j, back, d = mi[near_enough], cj[near_enough], slot_j[near_enough], back[near_enough], d[near_enough]
+    pick, mi, back, d = pick[near_enough], mi[near_enough], back[near_enough], d[near_enough]
     s_j, s_inv, whiten_j, root_lam = s_j[near_enough], s_inv[near_enough], whiten_j[near_enough], root_lam[near_enough]
     sigma_j, range_j = cand.spread(back)
     close = root_lam <= math.sqrt(gate) + FAR_SIGMAS + _remainder(sigma_j, range_j, whiten_j, far_k)[:, 0]
-    mi, cj, slot_j = mi[close], cj[close], slot_j[close]
+    pick, mi = pick[close], mi[close]
+    cj, slot_j = near[pick], near_slot[pick]
     if len(mi) == 0:
         return MeasurementRisk(est, bnd, ncand, lin)
     rho_j = _remainder(sigma_j[close], range_j[close], whiten_j[close])  # (n, K)
