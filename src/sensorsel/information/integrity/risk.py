@@ -304,9 +304,14 @@ class _Collector:
         np.maximum.at(per_sensor[:, 3], used, bnd_used)
         np.add.at(per_sensor[:, 4], used, bnd_used)
         lo = 0
+        every = bool(mask.all())  # no lever: each keyframe's slices as they are, no masked copies
         for g in self.meas:  # each keyframe's own sums (np.sum's order, as before)
             hi = lo + len(g.landmark)
             keep = mask[lo:hi]
+            if every:
+                estimate[g.keyframe], bound[g.keyframe] = keyframe_risk(est_all[lo:hi], bnd_all[lo:hi])
+                lo = hi
+                continue
             estimate[g.keyframe], bound[g.keyframe] = keyframe_risk(est_all[lo:hi][keep], bnd_all[lo:hi][keep])
             if not keep.all():
                 sensors, counts = np.unique(sensor[lo:hi][~keep], return_counts=True)
