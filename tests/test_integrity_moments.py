@@ -40,24 +40,31 @@ def _slam_like(seed: int, n_landmarks: int = 6):
 
 
 @pytest.mark.parametrize("seed", range(8))
-def test_relative_spread_is_the_root_trace_of_the_relative_error_and_bounds_both_line_of_sight_spreads(seed):
+def test_line_of_sight_bounds_are_the_relative_errors_spreads_and_bound_the_exact_ones(seed):
+    """Batch.line_of_sight_bounds against Cov(w), w = e_l − R(θ) e_xy, from the dense covariance (the
+    oracle): along and across the line of sight to 1e-9, at least line_of_sight_spread's σ_a, σ_b
+    computed from the same numbers (what the exact test reads: the far filter drops a pair only where
+    it would), at most √tr Cov(w), and far below the pose's spread plus the landmark's where their
+    errors are correlated."""
     pose, points, pred, meas = _slam_like(seed)
     b = Batch.of(pose[None, :], [Snapshot.of(pred, meas)])
     n = len(points)
-    slot = np.arange(n)
-    got = b.relative_spread(np.zeros(n, np.int64), slot)
+    got = b.line_of_sight_bounds(np.zeros(n, np.int64), np.arange(n), points)
     cov = np.asarray(pred.covariance)
     c, s = np.cos(pose[2]), np.sin(pose[2])
     rot = np.array([[c, -s], [s, c]])
     for k in range(n):
-        # w = e_l − R(θ) e_xy, a linear map of the state's error
         m = np.zeros((2, cov.shape[0]))
         m[:, 3 + 2 * k : 5 + 2 * k] = np.eye(2)
         m[:, :2] = -rot
         cw = m @ cov @ m.T
-        assert got[k] == pytest.approx(np.sqrt(np.trace(cw)), rel=1e-9)
-        # far below the pose's spread plus the landmark's: their errors are correlated
-        assert got[k] < 0.5 * (
+        rel = points[k] - pose[:2]
+        u = rel / np.hypot(*rel)
+        across = np.array([-u[1], u[0]])
+        assert got[k, 0] == pytest.approx(np.sqrt(u @ cw @ u), rel=1e-9)
+        assert got[k, 1] == pytest.approx(np.sqrt(across @ cw @ across), rel=1e-9)
+        assert np.all(got[k] <= np.sqrt(np.trace(cw)) * (1 + 1e-9))
+        assert np.sqrt(np.trace(cw)) < 0.5 * (
             np.sqrt(cov[0, 0] + cov[1, 1]) + np.sqrt(np.trace(cov[3 + 2 * k : 5 + 2 * k, 3 + 2 * k : 5 + 2 * k]))
         )
         e = np.zeros((1, 5, 5))
@@ -68,12 +75,47 @@ def test_relative_spread_is_the_root_trace_of_the_relative_error_and_bounds_both
         assert rng[0] == pytest.approx(np.hypot(*(points[k] - pose[:2])))
 
 
-def test_relative_spread_of_a_landmark_out_of_the_state_adds_its_prior():
+def test_the_bounds_hold_where_the_relative_error_vanishes():
+    """The margin: a landmark whose error is the pose's exactly (Cov(w) = 0 but for rounding), where
+    the two computations of a variance of ~0 round apart: the bounds stay at least the exact test's
+    spreads (the guard: without the margin a bound rounds below them)."""
+    rng_ = np.random.default_rng(3)
+    pose = np.array([10.0, -4.0, 0.7])
+    points = pose[:2] + rng_.uniform(-30, 30, size=(40, 2))
+    c, s = np.cos(pose[2]), np.sin(pose[2])
+    q = 3 + 2 * len(points)
+    shared = np.zeros((q, 3))  # every landmark moves with the pose: w = 0
+    shared[:2, :2] = np.array([[c, s], [-s, c]])
+    shared[2, 2] = 1.0
+    for k, p in enumerate(points):
+        shared[3 + 2 * k : 5 + 2 * k, :2] = np.eye(2)
+        shared[3 + 2 * k : 5 + 2 * k, 2] = [-(p - pose[:2])[1], (p - pose[:2])[0]]
+    cov = shared @ np.diag([9.0, 9.0, 1e-4]) @ shared.T
+    held = np.arange(len(points), dtype=np.int64)
+    pred = Prediction(keyframe=0, landmarks=held, covariance=cov, prior_sigma_m=100.0)
+    meas = KeyframeMeasurements(
+        0, held[:1], np.zeros(1, np.int64), np.zeros(1), np.ones(1), np.full(1, 0.01), np.full(1, 0.5)
+    )
+    b = Batch.of(pose[None, :], [Snapshot.of(pred, meas)])
+    got = b.line_of_sight_bounds(np.zeros(len(points), np.int64), held, points)
+    for k in range(len(points)):
+        idx = [0, 1, 2, 3 + 2 * k, 4 + 2 * k]
+        sigma, _ = line_of_sight_spread(pose[None, :], points[k : k + 1], cov[np.ix_(idx, idx)][None], 3)
+        assert np.all(sigma[0] <= got[k])
+
+
+def test_line_of_sight_bounds_of_a_landmark_out_of_the_state_add_its_prior():
     pose, points, pred, meas = _slam_like(0)
     b = Batch.of(pose[None, :], [Snapshot.of(pred, meas)])
-    got = b.relative_spread(np.zeros(1, np.int64), np.array([-1]))
+    got = b.line_of_sight_bounds(np.zeros(1, np.int64), np.array([-1]), points[:1])
     cov = np.asarray(pred.covariance)
-    assert got[0] == pytest.approx(np.sqrt(cov[0, 0] + cov[1, 1] + 2 * 100.0**2), rel=1e-9)
+    rel = points[0] - pose[:2]
+    u = rel / np.hypot(*rel)
+    c, s = np.cos(pose[2]), np.sin(pose[2])
+    rot = np.array([[c, -s], [s, c]])
+    pp = rot @ cov[:2, :2] @ rot.T + 100.0**2 * np.eye(2)  # no correlation with a prior's error
+    assert got[0, 0] == pytest.approx(np.sqrt(u @ pp @ u), rel=1e-9)
+    assert got[0, 1] == pytest.approx(np.sqrt(np.array([-u[1], u[0]]) @ pp @ np.array([-u[1], u[0]])), rel=1e-9)
 
 
 @pytest.mark.parametrize("seed", range(6))

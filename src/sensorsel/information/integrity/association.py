@@ -581,27 +581,26 @@ def _risks(
     far_k = _FAR_K
     # first, with no candidate's moments, the pairs surely past the far limit: λ = dᵀ S_j⁻¹ d ≥
     # max(d_b² / S_bb, d_r² / S_rr) (Cauchy–Schwarz), and the predicted bearing's error is
-    # u⊥·w_j / r_j − dθ, the range's u·w_j, w_j's spread in any direction at most sd_w = √tr Cov(w_j)
-    # (Batch.relative_spread, once per (keyframe, candidate): at most the pose's spread plus the
-    # landmark's, and far less where their errors are correlated), so S_bb ≤ σ_b² + (sd_w/r_j + σ_θ)² and
-    # S_rr ≤ σ_r² + sd_w²; the far limit widened by the remainder at k_far with σ_a, σ_b ≤ sd_w,
-    # whitened by R ⪰ S, and by a relative 1e-9 over the rounding of either side. It drops only pairs
-    # the test of λ below drops, most of them on a prior map (KITTI 00's stereo suite: 166k pairs to
-    # 17k); in SLAM, where the pose's and a landmark's errors are metres but correlated, √tr Cov(w_j)
-    # is what drops pairs (432k to 173k)
+    # u⊥·w_j / r_j − dθ, the range's u·w_j, so S_bb ≤ σ_b² + (σ_across/r_j + σ_θ)² and S_rr = σ_r² +
+    # σ_along², σ_along and σ_across w_j's spreads along and across the line of sight, bounded once per
+    # (keyframe, candidate) from the state's 2 × 2 blocks (Batch.line_of_sight_bounds: the pose's and
+    # the landmark's errors correlated, a stereo landmark's running along the line of sight); the far
+    # limit widened by the remainder at k_far with those spreads, whitened by R ⪰ S, and by a relative
+    # 1e-9 over the rounding of either side. It drops only pairs the test of λ below drops (KITTI 00's
+    # stereo suite: 494k pairs to 7k on a prior map, 432k to 36k in SLAM, where √tr Cov(w) left 173k)
     present = np.bincount(pick, minlength=len(near)) > 0
-    sd_rel = np.zeros(len(near))
-    sd_rel[present] = b.relative_spread(near_at[present], near_slot[present])
+    sd_ab = np.zeros((len(near), 2))  # bounds of (σ_a, σ_b) along and across the line of sight
+    sd_ab[present] = b.line_of_sight_bounds(near_at[present], near_slot[present], points[near[present]])
     # what depends on the measurement alone or on the candidate alone is computed once each and
     # gathered per pair (the same operations on the same numbers: the same bits as per pair)
     r_c = np.maximum(near_dist, 1e-9)
     sd_th = np.sqrt(b.pose_cov[:, 2, 2])[b.at][mi]
     var_b, var_r = (b.meas["sigma_bearing_rad"] ** 2)[mi], (b.meas["sigma_range_m"] ** 2)[mi]
-    s_bb = var_b + ((sd_rel / r_c)[pick] + sd_th) ** 2  # σ_b² + (sd_w/r_j + σ_θ)²
-    s_rr = var_r + (sd_rel**2)[pick]  # σ_r² + sd_w²
-    # the remainder at σ_a = σ_b = sd_w, whitened by R (diagonal: :func:`_whitened` with no cross
+    s_bb = var_b + ((sd_ab[:, 1] / r_c)[pick] + sd_th) ** 2  # σ_b² + (σ_across/r_j + σ_θ)²
+    s_rr = var_r + (sd_ab[:, 0] ** 2)[pick]  # σ_r² + σ_along²
+    # the remainder at those bounds of σ_a, σ_b, whitened by R (diagonal: :func:`_whitened` with no cross
     # term), its box and squares once per candidate
-    rho_b, rho_r, within = _taylor_box(sd_rel[:, None] * np.ones(2), r_c, far_k)
+    rho_b, rho_r, within = _taylor_box(sd_ab, r_c, far_k)
     inv_r = (1.0 / b.meas["sigma_bearing_rad"] ** 2, 1.0 / b.meas["sigma_range_m"] ** 2)
     q = (rho_b[:, 0] ** 2)[pick] * inv_r[0][mi] + (rho_r[:, 0] ** 2)[pick] * inv_r[1][mi]
     rho_up = np.where(within[pick, 0], np.sqrt(q), np.inf)
@@ -611,8 +610,8 @@ def _risks(
     )
     pick, mi, d = pick[rough], mi[rough], d[rough]
     # then from candidate j's moments alone: H_j P H_jᵀ once per (keyframe, candidate), each pair's
-    # S_j and λ (cheap: 2 × 2); the test of λ first with the remainder at σ_a, σ_b ≤ sd_w (the same
-    # λ and whitening, and the remainder's arithmetic non-decreasing in σ: it drops only pairs the
+    # S_j and λ (cheap: 2 × 2); the test of λ first with the remainder at those bounds of σ_a, σ_b (the
+    # same λ and whitening, and the remainder's arithmetic non-decreasing in σ: it drops only pairs the
     # test at the candidate's own spreads drops), then at the spreads, computed for the candidates
     # left only; the full moments of those only
     present = np.bincount(pick, minlength=len(near)) > 0

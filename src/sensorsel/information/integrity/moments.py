@@ -241,29 +241,37 @@ class Batch:
         out[both] = self.rows[idx]
         return out
 
-    def relative_spread(self, at: np.ndarray, slot: np.ndarray) -> np.ndarray:
-        """(n,) [m] an upper bound of the std, in any direction, of the error w = e_l − R(θ) e_xy of the
+    def line_of_sight_bounds(self, at: np.ndarray, slot: np.ndarray, points: np.ndarray) -> np.ndarray:
+        """(n, 2) [m] upper bounds of (σ_a, σ_b), the std of the error w = e_l − R(θ) e_xy of the
         estimated position of the landmark at ``slot`` (−1: out of the state, its prior's) of keyframe
-        ``at`` (n,) relative to the pose: √tr Cov(w) (≥ √λmax, hence ≥ σ_a, σ_b of
-        :func:`line_of_sight_spread`), tr Cov(w) = tr E_ll + tr E_pp − 2 tr(R(θ) E_pl), E_pl the
-        covariance of the pose's position error (its own frame) and the landmark's. The pose's and the
-        landmark's errors are correlated in SLAM (metres each, decimetres relative), which √tr E_pp +
-        √tr E_ll ignores. Elementwise; it adds 1e-12 (tr E_ll + tr E_pp), a margin over the rounding of
-        this trace and of line_of_sight_spread's variances (each below ~10 ulp of that sum: |tr(R E_pl)|
-        ≤ √(tr E_ll tr E_pp)), so that the bound holds of the computed σ_a, σ_b too."""
+        ``at`` (n,), true position ``points`` (n, 2), along and across the line of sight from the
+        keyframe's true pose (:func:`line_of_sight_spread`'s, from the same entries of the state:
+        Cov(w) = E_ll + R E_pp Rᵀ − R E_pl − (R E_pl)ᵀ, 2 × 2, elementwise). Each variance adds 1e-12
+        (tr E_ll + tr E_pp), a margin over the rounding of either computation (each below ~10 ulp of
+        that sum: |R E_pl| entries are at most √(tr E_ll tr E_pp)), so that the bounds hold of the
+        computed σ_a, σ_b. At most √tr Cov(w) each, and
+        far below it across the line of sight where a stereo landmark's error runs along it."""
         inside = slot >= 0
-        t_ll = np.full(len(slot), 2.0 * self.prior_sigma_m**2)  # out of the state: σ_p² I, no correlation
-        t_rpl = np.zeros(len(slot))
+        n = len(slot)
+        l00, l11, l01 = np.full(n, self.prior_sigma_m**2), np.full(n, self.prior_sigma_m**2), np.zeros(n)
+        xx, xy, yx, yy = np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n)  # E_pl: 0 out of the state
         a, k = at[inside], self.held_off[at[inside]] + slot[inside]
-        t_ll[inside] = self.blocks[k, 0, 0] + self.blocks[k, 1, 1]
-        # the pose's rows x, y at the landmark's columns x, y (pose_landmark's entries, gathered flat)
-        first = self.rows_off[a] + 3 + 2 * slot[inside]
-        xx, xy = self.rows[first], self.rows[first + 1]
-        yx, yy = self.rows[first + self.width[a]], self.rows[first + self.width[a] + 1]
-        c, s = np.cos(self.poses[a, 2]), np.sin(self.poses[a, 2])
-        t_rpl[inside] = c * xx - s * yx + s * xy + c * yy
-        t_pp = self.pose_cov[at, 0, 0] + self.pose_cov[at, 1, 1]
-        return np.sqrt(np.maximum(t_ll + t_pp - 2.0 * t_rpl, 0.0) + 1e-12 * (t_ll + t_pp))
+        l00[inside], l11[inside], l01[inside] = self.blocks[k, 0, 0], self.blocks[k, 1, 1], self.blocks[k, 0, 1]
+        first = self.rows_off[a] + 3 + 2 * slot[inside]  # the pose's rows x, y at the landmark's columns
+        xx[inside], xy[inside] = self.rows[first], self.rows[first + 1]
+        yx[inside], yy[inside] = self.rows[first + self.width[a]], self.rows[first + self.width[a] + 1]
+        c, s = np.cos(self.poses[at, 2]), np.sin(self.poses[at, 2])
+        p00, p01, p11 = self.pose_cov[at, 0, 0], self.pose_cov[at, 0, 1], self.pose_cov[at, 1, 1]
+        w00 = l00 + (c * c * p00 - 2.0 * c * s * p01 + s * s * p11) - 2.0 * (c * xx - s * yx)
+        w11 = l11 + (s * s * p00 + 2.0 * c * s * p01 + c * c * p11) - 2.0 * (s * xy + c * yy)
+        w01 = l01 + (c * s * (p00 - p11) + (c * c - s * s) * p01) - (c * xy - s * yy) - (s * xx + c * yx)
+        rel = points - self.poses[at, :2]
+        rng = np.maximum(np.hypot(rel[:, 0], rel[:, 1]), 1e-9)
+        ux, uy = rel[:, 0] / rng, rel[:, 1] / rng
+        along = ux * ux * w00 + 2.0 * ux * uy * w01 + uy * uy * w11
+        across = uy * uy * w00 - 2.0 * ux * uy * w01 + ux * ux * w11
+        margin = 1e-12 * (l00 + l11 + p00 + p11)
+        return np.sqrt(np.maximum(np.column_stack([along, across]), 0.0) + margin[:, None])
 
     def spreads(self, *, with_prior: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(B,) each of (sd_xy, sd_th, sd_lm): the predicted pose's position [m] and heading [rad]
