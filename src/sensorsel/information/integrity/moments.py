@@ -252,25 +252,37 @@ class Batch:
         computed σ_a, σ_b. At most √tr Cov(w) each, and
         far below it across the line of sight where a stereo landmark's error runs along it."""
         inside = slot >= 0
-        n = len(slot)
-        l00, l11, l01 = np.full(n, self.prior_sigma_m**2), np.full(n, self.prior_sigma_m**2), np.zeros(n)
-        xx, xy, yx, yy = np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n)  # E_pl: 0 out of the state
-        a, k = at[inside], self.held_off[at[inside]] + slot[inside]
-        l00[inside], l11[inside], l01[inside] = self.blocks[k, 0, 0], self.blocks[k, 1, 1], self.blocks[k, 0, 1]
-        first = self.rows_off[a] + 3 + 2 * slot[inside]  # the pose's rows x, y at the landmark's columns
-        xx[inside], xy[inside] = self.rows[first], self.rows[first + 1]
-        yx[inside], yy[inside] = self.rows[first + self.width[a]], self.rows[first + self.width[a] + 1]
-        c, s = np.cos(self.poses[at, 2]), np.sin(self.poses[at, 2])
-        p00, p01, p11 = self.pose_cov[at, 0, 0], self.pose_cov[at, 0, 1], self.pose_cov[at, 1, 1]
-        w00 = l00 + (c * c * p00 - 2.0 * c * s * p01 + s * s * p11) - 2.0 * (c * xx - s * yx)
-        w11 = l11 + (s * s * p00 + 2.0 * c * s * p01 + c * c * p11) - 2.0 * (s * xy + c * yy)
-        w01 = l01 + (c * s * (p00 - p11) + (c * c - s * s) * p01) - (c * xy - s * yy) - (s * xx + c * yx)
+        # the pose's part per keyframe (R E_pp Rᵀ, R's entries), gathered per candidate (the same bits)
+        c, s = np.cos(self.poses[:, 2]), np.sin(self.poses[:, 2])
+        p00, p01, p11 = self.pose_cov[:, 0, 0], self.pose_cov[:, 0, 1], self.pose_cov[:, 1, 1]
+        q00 = (c * c * p00 - 2.0 * c * s * p01 + s * s * p11)[at]
+        q11 = (s * s * p00 + 2.0 * c * s * p01 + c * c * p11)[at]
+        q01 = (c * s * (p00 - p11) + (c * c - s * s) * p01)[at]
+        t_pp, c, s = (p00 + p11)[at], c[at], s[at]
+        if inside.all():  # SLAM's candidates: every one in the state
+            a, k = at, self.held_off[at] + slot
+            l00, l11, l01 = self.blocks[k, 0, 0], self.blocks[k, 1, 1], self.blocks[k, 0, 1]
+            first = self.rows_off[a] + 3 + 2 * slot  # the pose's rows x, y at the landmark's columns
+            xx, xy = self.rows[first], self.rows[first + 1]
+            yx, yy = self.rows[first + self.width[a]], self.rows[first + self.width[a] + 1]
+        else:  # out of the state: the prior's σ² I, no correlation with the pose (E_pl = 0)
+            n = len(slot)
+            l00, l11, l01 = np.full(n, self.prior_sigma_m**2), np.full(n, self.prior_sigma_m**2), np.zeros(n)
+            xx, xy, yx, yy = np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n)
+            a, k = at[inside], self.held_off[at[inside]] + slot[inside]
+            l00[inside], l11[inside], l01[inside] = self.blocks[k, 0, 0], self.blocks[k, 1, 1], self.blocks[k, 0, 1]
+            first = self.rows_off[a] + 3 + 2 * slot[inside]
+            xx[inside], xy[inside] = self.rows[first], self.rows[first + 1]
+            yx[inside], yy[inside] = self.rows[first + self.width[a]], self.rows[first + self.width[a] + 1]
+        w00 = l00 + q00 - 2.0 * (c * xx - s * yx)
+        w11 = l11 + q11 - 2.0 * (s * xy + c * yy)
+        w01 = l01 + q01 - (c * xy - s * yy) - (s * xx + c * yx)
         rel = points - self.poses[at, :2]
         rng = np.maximum(np.hypot(rel[:, 0], rel[:, 1]), 1e-9)
         ux, uy = rel[:, 0] / rng, rel[:, 1] / rng
         along = ux * ux * w00 + 2.0 * ux * uy * w01 + uy * uy * w11
         across = uy * uy * w00 - 2.0 * ux * uy * w01 + ux * ux * w11
-        margin = 1e-12 * (l00 + l11 + p00 + p11)
+        margin = 1e-12 * (l00 + l11 + t_pp)
         return np.sqrt(np.maximum(np.column_stack([along, across]), 0.0) + margin[:, None])
 
     def spreads(self, *, with_prior: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
