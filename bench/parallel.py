@@ -43,7 +43,11 @@ Both are checked against the measured 2-thread and 1-/2-worker runs (``model_che
 ``--commands greedy,pareto,robust`` adds the rows of ``pareto`` (its rules' budget chains, at
 ``--pareto-budgets``) and ``robust --failures 1`` (its methods) on the same domain: in-process on each
 ``--jobs`` (every evaluator they build traced: the same model) and on each LocalCluster (their plans'
-tasks on the workers: wall, the client's and the workers' CPU, the client's wait).
+tasks on the workers: wall, the client's and the workers' CPU, the client's wait). ``require`` adds
+the domain's ``require`` (``--require-preset``, ``--require-failures``; a map known to 0.05 m, the
+filter's estimate): wall and CPU in-process on each ``--jobs`` and with each route's checks on a
+LocalCluster's workers, the integer programs and accuracy computations and the seconds in each,
+messages and bytes per integer program, and whether every run gave the same result.
 
 Prints one JSON document (and a summary on stderr).
 """
@@ -72,7 +76,7 @@ PREDICT_AT = (1, 2, 4, 8, 16, 64)
 def untimed(text: str) -> object:
     def rec(o: object) -> object:
         if isinstance(o, dict):
-            return {k: rec(v) for k, v in o.items() if k != "seconds"}
+            return {k: rec(v) for k, v in o.items() if not k.startswith("seconds")}  # seconds, seconds_checks, ...
         if isinstance(o, list):
             return [rec(v) for v in o]
         return o
@@ -409,6 +413,87 @@ def command_rows(command: str, domain: Any, args: Any) -> dict[str, Any]:
     }
 
 
+def run_require(domain: Any, args: Any, *, jobs: int = 1, workers: int = 0) -> dict[str, Any]:
+    """The domain's ``require`` (``--require-preset``, ``--require-failures``, the map model at 0.05 m,
+    the filter's estimate) in-process on ``jobs`` threads, or with each route's accuracy on the
+    workers of a LocalCluster of ``workers`` (``evaluator=``, as ``require --workers`` runs it): wall,
+    CPU here (and on the workers), the integer programs and accuracy computations and the time in
+    each, and on a cluster the messages and bytes per integer program."""
+    from sensorsel import api
+    from sensorsel.io import results
+
+    spec = api.preset(args.require_preset)
+    kw = {"map_sigma_m": 0.05, "failures": args.require_failures, "jobs": jobs}
+    row: dict[str, Any] = {"jobs": jobs} if not workers else {"workers": workers}
+    if not workers:
+        c0, t0 = cpu_of_this_process(), time.perf_counter()
+        res = api.run_require(domain, spec, **kw)
+        row.update(wall_s=round(time.perf_counter() - t0, 3), cpu_s=round(cpu_of_this_process() - c0, 3))
+    else:
+        from sensorsel.information.evaluators.distributed import DistributedDomainEvaluator
+        from sensorsel.pipeline.cluster import DaskCluster
+
+        def cpu_now() -> float:
+            import psutil
+
+            t = psutil.Process().cpu_times()
+            return float(t.user + t.system)
+
+        with DaskCluster(workers=workers, echo=lambda line: None) as cluster:
+            client = cluster.client
+            ev = DistributedDomainEvaluator(client, domain)
+            w0 = client.run(cpu_now)
+            c0, t0 = cpu_of_this_process(), time.perf_counter()
+            res = api.run_require(domain, spec, evaluator=ev, **kw)
+            row.update(wall_s=round(time.perf_counter() - t0, 3), cpu_s=round(cpu_of_this_process() - c0, 3))
+            w1 = client.run(cpu_now)
+            programs = max(1, res.iterations)
+            row.update(
+                workers_cpu_s=round(sum(w1[a] - w0[a] for a in w1), 3),
+                messages=ev.n_messages,
+                messages_per_program=round(ev.n_messages / programs, 1),
+                bytes_per_program=round((ev.bytes_sent + ev.bytes_received) / programs, 1),
+                client_wait_s=round(ev.wait_s, 3),
+            )
+    row.update(
+        status=res.status,
+        cost_usd=res.cost_usd,
+        integer_programs=res.iterations,
+        accuracy_computations=res.n_checks,
+        seconds_checks=round(res.seconds_checks, 3),
+        seconds_programs=round(res.seconds_programs, 3),
+        _result=results.dumps(res),
+    )
+    return row
+
+
+def require_rows(domain: Any, args: Any) -> dict[str, Any]:
+    """``require``'s rows: in-process on each --jobs, on each LocalCluster, and whether every run gave
+    the same result (its timings aside)."""
+    runs = [run_require(domain, args, jobs=int(j)) for j in args.jobs.split(",") if j]
+    runs += [run_require(domain, args, workers=int(w)) for w in args.workers.split(",") if w]
+    base = runs[0]
+    for r in runs:
+        where = f"{r['jobs']} thread(s)" if "jobs" in r else f"{r['workers']} worker(s)"
+        print(
+            f"require, {where}: {r['wall_s']:.2f} s wall, {r['cpu_s']:.2f} s CPU here, {r['integer_programs']} "
+            f"integer programs, {r['accuracy_computations']} accuracy computations ({r['seconds_checks']:.1f} s)",
+            file=sys.stderr,
+        )
+    return {
+        "preset": args.require_preset,
+        "failures": args.require_failures,
+        "same_result": all(untimed(r["_result"]) == untimed(base["_result"]) for r in runs),
+        "speedup": {
+            (f"{r['jobs']} threads" if "jobs" in r else f"{r['workers']} workers"): round(
+                base["wall_s"] / r["wall_s"], 2
+            )
+            for r in runs[1:]
+        },
+        "runs": [{k: v for k, v in r.items() if not k.startswith("_")} for r in runs],
+    }
+
+
 def generated_domain(folder: Path, n: int) -> str:
     """A domain file of ``n`` routes: the bundled tiny route, with synthetic landmarks of seeds 1..n."""
     data = REPO / "data" / "kitti_fixtures"
@@ -435,7 +520,9 @@ def main() -> None:
         default=",".join(map(str, PREDICT_AT)),
         help="thread counts whose greedy runs' traces make the model (comma-separated)",
     )
-    ap.add_argument("--commands", default="greedy", help="greedy, pareto, robust (comma-separated)")
+    ap.add_argument("--commands", default="greedy", help="greedy, pareto, robust, require (comma-separated)")
+    ap.add_argument("--require-preset", default="local-streets", help="require's preset (default local-streets)")
+    ap.add_argument("--require-failures", type=int, default=0, help="require's failures (default 0)")
     ap.add_argument("--pareto-budgets", default="20000,50000,110000", help="pareto's budgets (comma-separated) [$]")
     ap.add_argument(
         "--whole",
@@ -565,7 +652,7 @@ def main() -> None:
     out["in_process"] = [{k: v for k, v in r.items() if not k.startswith("_")} for r in runs]
     out["cluster"] = [{k: v for k, v in c.items() if not k.startswith("_")} for c in clusters]
     for command in [c for c in args.commands.split(",") if c and c != "greedy"]:
-        out[command] = command_rows(command, domain, args)
+        out[command] = require_rows(domain, args) if command == "require" else command_rows(command, domain, args)
     out["load_avg_after"] = os.getloadavg()
     print(f"same result everywhere: {same}", file=sys.stderr)
     print(json.dumps(out, indent=2))
