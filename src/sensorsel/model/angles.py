@@ -25,7 +25,7 @@ def wrap_angle(a: np.ndarray) -> np.ndarray:
     given = np.asarray(a)
     real: type[np.floating] = np.float32 if given.dtype == np.float32 else np.float64
     pi, two_pi = real(np.pi), real(_TWO_PI)
-    x: np.ndarray = given.astype(real) + pi
+    x: np.ndarray = given.astype(real, copy=False) + pi
     if not (np.min(x, initial=0.0) > -two_pi and np.max(x, initial=0.0) < 2 * two_pi):
         return x % two_pi - pi
     x += (x < 0.0) * two_pi - (x >= two_pi) * two_pi  # x + 2π, x − 2π, or x + 0 (the same x)
