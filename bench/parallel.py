@@ -138,6 +138,8 @@ def rss() -> int:
 
 
 def cpu_of_this_process() -> float:
+    """The calling process's CPU seconds (user + system): here, and on each worker and the scheduler
+    through ``client.run`` (cloudpickle sends this script's functions by value)."""
     import psutil
 
     t = psutil.Process().cpu_times()
@@ -217,18 +219,12 @@ def run_on_cluster(domain: Any, budget: float, rule: str, workers: int) -> dict[
     from sensorsel.io import results
     from sensorsel.pipeline.cluster import DaskCluster
 
-    def cpu_now() -> float:
-        import psutil
-
-        t = psutil.Process().cpu_times()
-        return float(t.user + t.system)
-
     with DaskCluster(workers=workers, echo=lambda line: None) as cluster:
         client = cluster.client
         mem0, t0 = rss(), time.perf_counter()
         ev = DistributedDomainEvaluator(client, domain)
         build = time.perf_counter() - t0
-        w0, s0 = client.run(cpu_now), client.run_on_scheduler(cpu_now)
+        w0, s0 = client.run(cpu_of_this_process), client.run_on_scheduler(cpu_of_this_process)
         busy0 = ev.busy()
         m0, b0, r0, wait0, rounds0 = ev.n_messages, ev.bytes_sent, ev.bytes_received, ev.wait_s, ev.n_rounds
         c1, t1 = cpu_of_this_process(), time.perf_counter()
@@ -237,7 +233,7 @@ def run_on_cluster(domain: Any, budget: float, rule: str, workers: int) -> dict[
         client_cpu = cpu_of_this_process() - c1
         msgs, sent, recv, wait = ev.n_messages - m0, ev.bytes_sent - b0, ev.bytes_received - r0, ev.wait_s - wait0
         rounds = ev.n_rounds - rounds0
-        w1, s1 = client.run(cpu_now), client.run_on_scheduler(cpu_now)
+        w1, s1 = client.run(cpu_of_this_process), client.run_on_scheduler(cpu_of_this_process)
         client_rss_growth = rss() - mem0
         workers_rss = client.run(rss)
         busy1 = ev.busy()
@@ -353,19 +349,13 @@ def run_command_on_cluster(command: str, domain: Any, args: Any, workers: int) -
     from sensorsel.io import results
     from sensorsel.pipeline.cluster import DaskCluster
 
-    def cpu_now() -> float:
-        import psutil
-
-        t = psutil.Process().cpu_times()
-        return float(t.user + t.system)
-
     with DaskCluster(workers=workers, echo=lambda line: None) as cluster:
         client = cluster.client
-        w0, s0 = client.run(cpu_now), client.run_on_scheduler(cpu_now)
+        w0, s0 = client.run(cpu_of_this_process), client.run_on_scheduler(cpu_of_this_process)
         c0, t0 = cpu_of_this_process(), time.perf_counter()
         res = _run_command(command, domain, args, executor=cluster.executor)
         wall, client_cpu = time.perf_counter() - t0, cpu_of_this_process() - c0
-        w1, s1 = client.run(cpu_now), client.run_on_scheduler(cpu_now)
+        w1, s1 = client.run(cpu_of_this_process), client.run_on_scheduler(cpu_of_this_process)
     return {
         "workers": workers,
         "wall_s": round(wall, 3),
@@ -433,20 +423,14 @@ def run_require(domain: Any, args: Any, *, jobs: int = 1, workers: int = 0) -> d
         from sensorsel.information.evaluators.distributed import DistributedDomainEvaluator
         from sensorsel.pipeline.cluster import DaskCluster
 
-        def cpu_now() -> float:
-            import psutil
-
-            t = psutil.Process().cpu_times()
-            return float(t.user + t.system)
-
         with DaskCluster(workers=workers, echo=lambda line: None) as cluster:
             client = cluster.client
             ev = DistributedDomainEvaluator(client, domain)
-            w0 = client.run(cpu_now)
+            w0 = client.run(cpu_of_this_process)
             c0, t0 = cpu_of_this_process(), time.perf_counter()
             res = api.run_require(domain, spec, evaluator=ev, **kw)
             row.update(wall_s=round(time.perf_counter() - t0, 3), cpu_s=round(cpu_of_this_process() - c0, 3))
-            w1 = client.run(cpu_now)
+            w1 = client.run(cpu_of_this_process)
             programs = max(1, res.iterations)
             row.update(
                 workers_cpu_s=round(sum(w1[a] - w0[a] for a in w1), 3),

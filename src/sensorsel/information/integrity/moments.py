@@ -259,21 +259,24 @@ class Batch:
         q11 = (s * s * p00 + 2.0 * c * s * p01 + c * c * p11)[at]
         q01 = (c * s * (p00 - p11) + (c * c - s * s) * p01)[at]
         t_pp, c, s = (p00 + p11)[at], c[at], s[at]
-        if inside.all():  # SLAM's candidates: every one in the state
-            a, k = at, self.held_off[at] + slot
-            l00, l11, l01 = self.blocks[k, 0, 0], self.blocks[k, 1, 1], self.blocks[k, 0, 1]
-            first = self.rows_off[a] + 3 + 2 * slot  # the pose's rows x, y at the landmark's columns
-            xx, xy = self.rows[first], self.rows[first + 1]
-            yx, yy = self.rows[first + self.width[a]], self.rows[first + self.width[a] + 1]
-        else:  # out of the state: the prior's σ² I, no correlation with the pose (E_pl = 0)
-            n = len(slot)
-            l00, l11, l01 = np.full(n, self.prior_sigma_m**2), np.full(n, self.prior_sigma_m**2), np.zeros(n)
-            xx, xy, yx, yy = np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n)
-            a, k = at[inside], self.held_off[at[inside]] + slot[inside]
-            l00[inside], l11[inside], l01[inside] = self.blocks[k, 0, 0], self.blocks[k, 1, 1], self.blocks[k, 0, 1]
-            first = self.rows_off[a] + 3 + 2 * slot[inside]
-            xx[inside], xy[inside] = self.rows[first], self.rows[first + 1]
-            yx[inside], yy[inside] = self.rows[first + self.width[a]], self.rows[first + self.width[a] + 1]
+        every = bool(inside.all())  # SLAM's candidates: every one in the state, gathered as they are
+        a, sl = (at, slot) if every else (at[inside], slot[inside])
+        k, width = self.held_off[a] + sl, self.width[a]
+        first = self.rows_off[a] + 3 + 2 * sl  # the pose's rows x, y at the landmark's columns
+
+        def placed(x: np.ndarray, out_of_state: float) -> np.ndarray:
+            """``x`` of the landmarks in the state, in place among all (``out_of_state`` elsewhere)."""
+            if every:
+                return x
+            out = np.full(len(slot), out_of_state)
+            out[inside] = x
+            return out
+
+        # out of the state: the prior's σ² I, no correlation with the pose (E_pl = 0)
+        prior = self.prior_sigma_m**2
+        l00, l11, l01 = (placed(self.blocks[k, i, j], v) for i, j, v in ((0, 0, prior), (1, 1, prior), (0, 1, 0.0)))
+        xx, xy = placed(self.rows[first], 0.0), placed(self.rows[first + 1], 0.0)
+        yx, yy = placed(self.rows[first + width], 0.0), placed(self.rows[first + width + 1], 0.0)
         w00 = l00 + q00 - 2.0 * (c * xx - s * yx)
         w11 = l11 + q11 - 2.0 * (s * xy + c * yy)
         w01 = l01 + q01 - (c * xy - s * yy) - (s * xx + c * yx)

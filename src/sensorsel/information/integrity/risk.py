@@ -304,21 +304,18 @@ class _Collector:
         np.maximum.at(per_sensor[:, 3], used, bnd_used)
         np.add.at(per_sensor[:, 4], used, bnd_used)
         lo = 0
-        every = bool(mask.all())  # no lever: each keyframe's slices as they are, no masked copies
         for g in self.meas:  # each keyframe's own sums (np.sum's order, as before)
             hi = lo + len(g.landmark)
             keep = mask[lo:hi]
-            if every:
-                estimate[g.keyframe], bound[g.keyframe] = keyframe_risk(est_all[lo:hi], bnd_all[lo:hi])
-                lo = hi
-                continue
-            estimate[g.keyframe], bound[g.keyframe] = keyframe_risk(est_all[lo:hi][keep], bnd_all[lo:hi][keep])
+            est, bnd = est_all[lo:hi], bnd_all[lo:hi]  # without the lever, the slices as they are
             if not keep.all():
+                est, bnd = est[keep], bnd[keep]
                 sensors, counts = np.unique(sensor[lo:hi][~keep], return_counts=True)
                 left_out.extend(
                     LeftOut(int(g.keyframe), self.sensor_ids[int(s)], int(c))
                     for s, c in zip(sensors.tolist(), counts.tolist())
                 )
+            estimate[g.keyframe], bound[g.keyframe] = keyframe_risk(est, bnd)
             lo = hi
         return bound, estimate, left_out, per_sensor
 
