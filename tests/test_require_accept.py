@@ -141,3 +141,33 @@ def test_a_failing_suites_own_pass_is_the_base_of_its_growths_bounds(suburb_prob
     suite = tuple(sorted((*grown, lib.position("LSC-2"))))
     other.accepts(suburb_problem, suite, mask_of(suite), failed, spec, 0.05)
     assert other.n_passes == 1 and other._bases[-1].mask == failed
+
+
+def test_a_bound_whose_windows_hold_no_added_measurement_is_not_passed(suburb_problem):
+    """A sensor added to the base that measures nothing within a bound's windows leaves the bound
+    there equal to the base's own filter, bit for bit (the same measurements from the same states):
+    it cannot accept, so :class:`~sensorsel.designs.requirements.accept.Bases` skips that pass (counted
+    in ``n_empty``) and still accepts through the next, longer windows where they hold one."""
+    from sensorsel.designs.requirements.accept import Bases, _measures_within
+
+    lib = suburb_problem.library
+    spec = preset("local-streets")
+    grown = tuple(sorted(lib.position(i) for i in GROWN))
+    b = base_of(suburb_problem, grown, mask_of(grown), spec, 0.05)
+    assert b.windows, "the base meets the specification: no windows"
+    silent = [
+        j for j in range(len(lib.ids)) if j not in grown and not _measures_within(suburb_problem, [j], b.windows[0])
+    ]
+    assert silent, "every sensor measures within the first windows: the skip is not exercised"
+    for j in silent:
+        suite = tuple(sorted((*grown, j)))
+        bound = upper_bound(suburb_problem, b, suite, 0.05, b.windows[0])
+        assert np.array_equal(bound, b.filtered), lib.ids[j]
+    # the skip: no pass for the first windows of a silent sensor's suite, and no wrong acceptance
+    bases = Bases()
+    bases._bases = [b]
+    for j in silent:
+        suite = tuple(sorted((*grown, j)))
+        exact = covariance_verdict(forward_pass(suburb_problem, suite, map_sigma_m=0.05).filtered, spec)[0]
+        assert not bases.accepts(suburb_problem, suite, mask_of(suite), None, spec, 0.05) or exact, lib.ids[j]
+    assert bases.n_empty >= len(silent)

@@ -127,3 +127,74 @@ def test_failures_fix_out_what_no_cheaper_suite_holds(library, alpha, cons):
     radar = sub.ids.index("LRR-12")
     assert base + fs.A[0, radar] < best
     assert r.fixed_out >= by_price + (0 if fs.required else 1)  # the radar too, but beside the required sensor
+
+
+@pytest.mark.parametrize("alpha", [0, 1, 2])
+def test_with_the_proved_lower_bound_as_a_row_from_the_first_program_the_answers_stay_the_cheapest(
+    library, alpha, monkeypatch
+):
+    """Once a search's integer programs need branch and bound, each carries the lower bound proved so
+    far as a row and HiGHS stops at the first suite at that cost (:func:`.programs.propose`'s
+    ``floor``). Here that holds from the first program on (the threshold of nodes 0): on the mixed
+    prices, the twelve sensors of one price and under limits, the same cheapest cost as brute force,
+    a lower bound never above it, and every program after the first one carried the row."""
+    from sensorsel.designs.requirements import programs
+
+    monkeypatch.setattr(programs, "FLOOR_AFTER_NODES", 0)
+    rows = []
+    propose = programs.propose
+
+    def counting(s, *a, **kw):
+        rows.append(bool(s.hard and kw.get("floor", 0.0) > 0))
+        return propose(s, *a, **kw)
+
+    monkeypatch.setattr("sensorsel.designs.requirements.solver._propose", counting)
+    for keep, cons in ((KEEP, Constraints()), (SAME_PRICE, Constraints()), (KEEP, Constraints(max_sensors=5))):
+        sub = library.subset(keep)
+        for seed in range(3):
+            meets, viol = _instance(len(sub), seed, [0.3, 0.2, 0.12][alpha])
+            fs = feasible_set(sub, math.inf, cons)
+            best = _brute(fs, meets, alpha)
+            r = cheapest_suite(fs, meets, failures=alpha, violation=viol)
+            assert r.lower_bound <= best + 1e-6
+            if math.isinf(best):
+                assert r.status == "infeasible"
+                continue
+            assert r.status == "optimal" and r.cost == best and fs.fits(r.suite)
+            assert meets_after_failures(meets, [r.suite], failures=alpha) == (True,)
+    assert sum(rows) > 0, "no program carried the row: the floor is not exercised"
+
+
+def test_highs_takes_the_absolute_gap_the_floor_needs():
+    """scipy's ``milp`` passes ``mip_abs_gap`` (an option it does not check itself) to HiGHS verbatim;
+    HiGHS warns (OptimizeWarning) of an option it does not know. A program with the floor row raises
+    no warning at all (propose silences scipy's own note only), and stops at a suite of the floor's
+    cost."""
+    import warnings
+    from types import SimpleNamespace
+
+    from sensorsel.designs.requirements import programs
+    from sensorsel.model.library import load_library
+
+    lib = load_library().subset(SAME_PRICE)
+    fs = feasible_set(lib, math.inf, Constraints())
+    n = len(lib)
+    s = SimpleNamespace(
+        n=n,
+        fs=fs,
+        down=None,
+        up=None,
+        nogoods=[1 << 0],
+        allowed=list(range(n)),
+        fixed_out=0,
+        alpha=0,
+        price=np.asarray(fs.A[0], float),
+        orders=(),
+        hard=True,
+    )
+    s.down = SimpleNamespace(failing=SimpleNamespace(masks=[(1 << n) - 1 - (1 << 3) - (1 << 7)]))  # x3 + x7 >= 1
+    spent = [0.0, 0]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        bound, suite, proved = programs.propose(s, None, spent, floor=float(s.price[3]))
+    assert proved and suite in (1 << 3, 1 << 7) and bound <= s.price[3] + programs.tol(s.price[3])

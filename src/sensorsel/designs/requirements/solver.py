@@ -57,6 +57,10 @@ suite that meets the requirement, whatever its structure; monotonicity only make
    is fixed out of the integer programs and of the growth of failing sets (no suite cheaper than
    c holds it): fewer checks per cut, smaller programs; the lower bound stays valid for every
    suite cheaper than c, which is all the proof needs.
+   Once a program needs branch and bound (:data:`.programs.FLOOR_AFTER_NODES` nodes), every later
+   one carries the lower bound proved so far as a row, cost(x) >= lower: each program's rows only
+   add to the last one's, so the row removes no suite any of them allows, and on a plateau HiGHS
+   stops at the first suite it finds of that cost instead of proving it again.
 
 **With failures** (α >= 1) every check of a suite is α + 1 or more, so the search asks fewer:
 
@@ -257,6 +261,9 @@ class _Search:
         self.nogoods: list[int] = []
         self.met: dict[int, float] = {}  # suites shown to meet the requirement after the failures: cost
         self.orders: tuple[tuple[int, int], ...] = ()  # (w, s): x_w <= x_s in the integer programs (dominance)
+        #: an integer program needed branch and bound (programs.FLOOR_AFTER_NODES): the later ones carry
+        #: the proved lower bound as a row
+        self.hard = False
         #: called before each floor's integer program (raises once the time limit is spent)
         self.before_program: Callable[[], None] = _nothing
 
@@ -615,7 +622,7 @@ def cheapest_suite(
                 break
             if s.alpha and incumbent is not None:
                 s.fix_above(upper, programs)  # the floor rises with the cuts: fewer sensors to grow over
-            solved = _propose(s, left, programs)
+            solved = _propose(s, left, programs, floor=lower)
             iterations += 1
             if solved is None:  # no suite within the rows satisfies every cut: none meets the requirement
                 if incumbent is not None:  # every suite cheaper than the incumbent is ruled out
