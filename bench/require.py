@@ -2,18 +2,22 @@
 bench/require_reference_solver.py) and against its checks without the upper bounds that accept
 suites (:mod:`sensorsel.designs.requirements.accept`), side by side in one process on the same problems.
 
-    python bench/require.py [--kitti-root ../shared/kitti] [--rows tour 03 00 drive helsinki]
+    python bench/require.py [--kitti-root ../shared/kitti] [--rows tour 03 00 drive helsinki fixtures]
                             [--helsinki DIR/domain.yaml] [--presets local-streets freeway]
-                            [--failures 0 1] [--time-limit 300] [--solvers new noaccept reference]
+                            [--failures 0 1] [--time-limit 300] [--solvers new noaccept nofloor reference]
 
 Rows: "tour" is the README's tour (the bundled suburb route), "03" / "00" the KITTI sequences with
 their real pole maps, "drive" a user's own drive (KITTI 00's ground truth as a route file, with
-generated landmarks), "helsinki" the 31 routes `sensorsel osm --sample helsinki` writes; each row is
+generated landmarks), "helsinki" the 31 routes `sensorsel osm --sample helsinki` writes, "fixtures"
+the bundled fixtures' domain (configs/domain_fixtures.yaml, two routes: many integer programs on
+plateaus of one price); each row is
 run for every preset and failure count given, first with the solver of the package, then with the
 reference solver behind the same accuracy oracle (so the two differ only in the search); "noaccept"
 is the package's solver with the oracle's upper bounds off (every suite the smoother does not refute
-gets its own pass, as before they existed). Printed per run: the status, cost and lower bound,
-integer programs, accuracy computations (and the suites the cheap floor refuted), the answers
+gets its own pass, as before they existed); "nofloor" is the package's solver with no integer
+program carrying the proved lower bound as a row (``programs.FLOOR_AFTER_NODES`` out of reach: every
+program proves its optimum by branch and bound, as before). Printed per run: the status, cost and
+lower bound, integer programs, accuracy computations (and the suites the cheap floor refuted), the answers
 inferred from dominance among sensors ("swaps"), the filter passes stopped early ("short") and the
 suites accepted by an upper bound without their pass ("accepted"), the time in checks and in
 programs, the wall time and the process's CPU time (less sensitive to other work on the machine).
@@ -90,6 +94,8 @@ def _problem(row: str, kitti_root: str, helsinki: str | None):
                 "row helsinki: give --helsinki DOMAIN.yaml (written by sensorsel osm --sample helsinki -o DIR)"
             )
         return load_domain(helsinki)
+    if row == "fixtures":
+        return load_domain(str(REPO / "configs" / "domain_fixtures.yaml"))
     return load_problem(ScenarioSpec(seq=row, kitti_root=kitti_root))
 
 
@@ -102,22 +108,26 @@ def main() -> None:
         "--rows",
         nargs="+",
         default=["tour", "03", "00"],
-        help="tour, 03, 00 (real pole maps), drive (00's ground truth, generated landmarks), helsinki",
+        help="tour, 03, 00 (real pole maps), drive (00's ground truth, generated landmarks), helsinki, fixtures",
     )
     ap.add_argument("--helsinki", help="the domain file of `sensorsel osm --sample helsinki -o DIR` (DIR/domain.yaml)")
     ap.add_argument("--presets", nargs="+", default=["local-streets", "freeway"])
     ap.add_argument("--failures", nargs="+", type=int, default=[0, 1])
     ap.add_argument("--time-limit", type=float, default=300.0)
     ap.add_argument(
-        "--solvers", nargs="+", default=["new", "noaccept", "reference"], choices=["new", "noaccept", "reference"]
+        "--solvers",
+        nargs="+",
+        default=["new", "noaccept", "reference"],
+        choices=["new", "noaccept", "nofloor", "reference"],
     )
     a = ap.parse_args()
-    from sensorsel.designs.requirements import design
+    from sensorsel.designs.requirements import design, programs
     from sensorsel.designs.requirements.checks import _Oracle
     from sensorsel.designs.requirements.spec import DEFAULT_MAP_SIGMA_M, preset
 
     package = design.cheapest_suite
-    solvers = {"new": package, "noaccept": package, "reference": _reference()}
+    solvers = {"new": package, "noaccept": package, "nofloor": package, "reference": _reference()}
+    after = programs.FLOOR_AFTER_NODES
     print(
         f"{'row':>5} {'preset':>13} a solver    {'status':>8} {'cost':>9} {'lower':>9} {'programs':>8} {'checks':>6} "
         f"{'refuted':>7} {'swaps':>5} {'short':>5} {'accepted':>8} {'checks s':>8} {'progs s':>8} {'wall s':>7} "
@@ -131,6 +141,7 @@ def main() -> None:
                 for which in a.solvers:
                     design.cheapest_suite = solvers[which]
                     _Oracle.accept = which != "noaccept"
+                    programs.FLOOR_AFTER_NODES = 1 << 62 if which == "nofloor" else after
                     t0, c0 = time.perf_counter(), time.process_time()
                     try:
                         r = design.require(
@@ -143,6 +154,7 @@ def main() -> None:
                     finally:
                         design.cheapest_suite = package
                         _Oracle.accept = True
+                        programs.FLOOR_AFTER_NODES = after
                     dt, cpu = time.perf_counter() - t0, time.process_time() - c0
                     print(
                         f"{row:>5} {name:>13} {alpha} {which:<9} {r.status:>8} {r.cost_usd:>9,.0f} "
