@@ -33,7 +33,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("routes", nargs="*", default=["suburb", "03@1", "00@1"])
     ap.add_argument(
-        "--kitti-root", default=os.environ.get("SENSORSEL_KITTI_ROOT", str(REPO.parent.parent / "shared" / "kitti"))
+        "--kitti-root", default=os.environ.get("SENSORSEL_KITTI_ROOT", str(REPO.parent / "shared" / "kitti"))
     )
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--budget", type=float, default=110_000.0)

@@ -102,7 +102,7 @@ def _problem(row: str, kitti_root: str, helsinki: str | None):
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument(
-        "--kitti-root", default=os.environ.get("SENSORSEL_KITTI_ROOT", str(REPO.parent.parent / "shared" / "kitti"))
+        "--kitti-root", default=os.environ.get("SENSORSEL_KITTI_ROOT", str(REPO.parent / "shared" / "kitti"))
     )
     ap.add_argument(
         "--rows",
