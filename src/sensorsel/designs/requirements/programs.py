@@ -21,12 +21,13 @@ __all__ = ["FLOOR_AFTER_NODES", "MILP_NODE_LIMIT", "floor_cost", "propose", "tol
 #: HiGHS's branch-and-bound node limit per integer program (deterministic, unlike a time limit)
 MILP_NODE_LIMIT = 100_000
 #: once an integer program of a search needs this many branch-and-bound nodes, the search's later
-#: programs carry its proved lower bound as a row (:func:`propose`'s ``floor``). Measured (the
-#: session's closing note): on the bundled fixtures' domain, local streets, the programs' time 97 ->
-#: 29 s and the run's 177 -> 86 s; on the README tour and KITTI 03, whose programs need a few nodes,
-#: nothing changes. Not from the first program: where proving the optimum costs HiGHS little, the
-#: suite it proves optimal was measured to lead to fewer checks than the first one it finds at the
-#: bound (the tour: 37 against 103 programs), and which suite it proposes is all the row changes
+#: programs carry its proved lower bound as a row (:func:`propose`'s ``floor``). Measured side by
+#: side (``bench/require.py --solvers new nofloor``): on the bundled fixtures' domain, local streets,
+#: the programs' time 92 -> 29 s and the run's 164 -> 87 s; on the README tour and KITTI 03, whose
+#: programs need a few nodes, nothing changes. Not from the first program: where proving the optimum
+#: costs HiGHS little, the suite it proves optimal was measured to lead to fewer checks than the
+#: first one it finds at the bound (the tour: 37 against 103 programs), and which suite it proposes
+#: is all the row changes
 FLOOR_AFTER_NODES = 20
 #: two costs closer than this [$] (plus a relative 1e-9) are equal: a tenth of a cent, above the
 #: slack of HiGHS's dual bound (its rows hold to feasibility tolerances, so an optimum's dual bound can
@@ -71,9 +72,9 @@ def propose(
     program's optimum is the last one's, and without the row HiGHS proves it again by branch and
     bound (a second or more on the bundled fixtures' domain, where a weighted set cover of sensors
     of one price gives a weak relaxation); with it, the first suite found at that cost closes the
-    gap. The cost proposed is the same (so is every bound); which of the equally priced suites is
-    proposed may differ. A program that needs :data:`FLOOR_AFTER_NODES` nodes or more sets
-    ``s.hard``."""
+    gap. The cost proposed is the same, and the lower bound the search keeps still only rises; which
+    of the equally priced suites is proposed may differ. A program that needs
+    :data:`FLOOR_AFTER_NODES` nodes or more sets ``s.hard``."""
     from scipy.optimize import Bounds, LinearConstraint, milp
 
     n, fs = s.n, s.fs
