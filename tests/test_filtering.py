@@ -291,3 +291,34 @@ def test_the_state_kept_is_the_fancy_index_bit_for_bit(n_held, n_drop, n_new):
     order = keep[np.argsort(held[keep], kind="stable")]
     idx = np.concatenate([np.arange(3), (3 + 2 * order[:, None] + np.arange(2)).ravel()])
     assert _submatrix(P, idx).tobytes() == P[np.ix_(idx, idx)].tobytes()
+
+
+@pytest.mark.parametrize("map_sigma_m", MODELS)
+def test_excluded_landmarks_are_the_hook_that_drops_them_bit_for_bit(suburb_problem, map_sigma_m):
+    """``exclude`` (a fixed set of landmarks left out, as the upper bounds of ``require`` leave out
+    those their base stopped holding) gives the numbers of a ``use`` hook that drops the same
+    landmarks' measurements at each keyframe, to the bit: from the priors and from another pass's
+    predicted state, over a whole route and a window of it; the counts of measurements made and used
+    too. The oracle is the hook, the pass's older and independent path (its pairs computed again at
+    every keyframe where it drops anything)."""
+    suite = (3, 11, 30, 60)
+    n = suburb_problem.scenario.n_landmarks
+    gone = np.zeros(n, bool)
+    gone[np.random.default_rng(3).choice(n, n // 3, replace=False)] = True
+
+    def drop(pred, meas):
+        return ~gone[meas.landmark]
+
+    kept = {}
+
+    def keep(pred, meas):
+        kept[pred.keyframe] = pred
+        return np.ones(len(meas), bool)
+
+    forward_pass(suburb_problem, (3,), map_sigma_m=map_sigma_m, on_prediction=lambda p, m: keep(p, m))
+    for start, until in ((None, None), (kept[20], 35)):
+        hooked = forward_pass(suburb_problem, suite, map_sigma_m=map_sigma_m, use=drop, start=start, until=until)
+        fixed = forward_pass(suburb_problem, suite, map_sigma_m=map_sigma_m, exclude=gone, start=start, until=until)
+        assert hooked.n_used.sum() < hooked.n_measured.sum()  # the set drops measurements: not a vacuous test
+        for f in ("predicted", "filtered", "n_used", "n_measured"):
+            np.testing.assert_array_equal(getattr(fixed, f), getattr(hooked, f), err_msg=f)

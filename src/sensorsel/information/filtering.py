@@ -197,11 +197,24 @@ class _SuiteMeasurements:
 
     arrays: dict[str, np.ndarray]
     bounds: np.ndarray
+    #: (K + 1,) where each keyframe's measurements begin, those left out (:meth:`without`) included:
+    #: what the suite measured (None: ``bounds``)
+    measured: np.ndarray | None = None
 
     @classmethod
     def of(cls, problem: Problem, suite: Iterable[int]) -> _SuiteMeasurements:
         a = _suite_arrays(problem, suite)
         return cls(a, np.searchsorted(a["pose"], np.arange(problem.scenario.n_poses + 1)))
+
+    def without(self, exclude: np.ndarray) -> _SuiteMeasurements:
+        """These measurements less those of the landmarks ``exclude`` marks ((n_landmarks,) bool), in
+        the same order."""
+        a = self.arrays
+        kept = ~exclude[a["landmark"]]
+        bounds = np.searchsorted(a["pose"][kept], np.arange(len(self.bounds)))
+        return _SuiteMeasurements(
+            {f: v[kept] for f, v in a.items()}, bounds, self.bounds if self.measured is None else self.measured
+        )
 
     def group(self, k: int) -> KeyframeMeasurements:
         """Keyframe ``k``'s measurements."""
@@ -245,6 +258,7 @@ def forward_pass(
     on_prediction: Callable[[Prediction, KeyframeMeasurements], None] | None = None,
     until: int | None = None,
     start: Prediction | None = None,
+    exclude: np.ndarray | None = None,
 ) -> FilterPass:
     """One forward pass over the route (linear in its length), exact: filtered[k] equals GTSAM's
     marginal of X(k) in the graph of the priors, odometry up to k and the used measurements of
@@ -268,6 +282,10 @@ def forward_pass(
     of ``start``'s past and this suite's (used) measurements from ``start.keyframe`` on, which is what a
     caller bounding another suite's covariance from above relies on (``use`` drops the measurements of
     landmarks that past saw but no longer holds).
+
+    ``exclude``: (n_landmarks,) bool, the landmarks whose measurements are not used at any keyframe: a
+    ``use`` fixed before the pass (the same numbers as a hook that drops them), without a call and a
+    keyframe's pairs computed again at every keyframe.
     """
     check_map_sigma(map_sigma_m)
     s = problem.settings
@@ -286,6 +304,10 @@ def forward_pass(
     # on two; a 4-sensor suite's pass on the bundled route 30x slower)
     with _blas_controller().limit(limits=1, user_api="blas"):
         stop = K if until is None else max(0, min(int(until), K))
+        if exclude is not None:
+            # which landmarks leave the state stays the whole suite's (as with a ``use`` hook): an
+            # excluded landmark never enters it
+            measurements = measurements.without(np.asarray(exclude, bool))
         return _pass(problem, measurements, stop, last, odo, odo_cov, prior_sigma, use, on_prediction, start)
 
 
@@ -358,7 +380,8 @@ def _pass(
     K = max(stop - first, 0)  # the keyframes passed: the route's, or its first ones (forward_pass's until)
     predicted, filtered = np.zeros((K, 3, 3)), np.zeros((K, 3, 3))
     n_used = np.zeros(K, np.int64)
-    n_measured = np.diff(measurements.bounds[first : first + K + 1]).astype(np.int64)
+    measured = measurements.bounds if measurements.measured is None else measurements.measured
+    n_measured = np.diff(measured[first : first + K + 1]).astype(np.int64)
     # every keyframe's pairs at once, with every measurement used: what the pass updates with where
     # ``use`` keeps all of a keyframe's measurements (always without ``use``), so a hook costs the
     # pass only its call and, where it leaves measurements out, that keyframe's pairs (the same
@@ -376,7 +399,7 @@ def _pass(
     )
     bounds = np.searchsorted(every.keyframe, np.arange(first, first + K + 1))
     if use is None:
-        n_used = n_measured.copy()
+        n_used = np.diff(measurements.bounds[first : first + K + 1]).astype(np.int64)
     held = np.zeros(0, np.int64)  # sorted landmark indices in the state
     P = np.diag(np.asarray(s.first_pose_sigmas, float) ** 2)  # (3 + 2n)²
     if start is not None:  # another pass's predicted state at keyframe ``first``

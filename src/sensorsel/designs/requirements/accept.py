@@ -125,12 +125,8 @@ def upper_bound(
     keyframe (module docstring): the base's, and G′'s over each of ``windows`` (restart, last keyframe)."""
     cov = base.filtered.copy()
     for a, b in windows:
-
-        def use(_: Prediction, g: KeyframeMeasurements, a: int = a) -> np.ndarray:
-            seen = base.last[g.landmark]
-            return ~((seen >= 0) & (seen < a))  # D: seen by the base before a, never again
-
-        got = forward_pass(problem, suite, map_sigma_m=map_sigma_m, start=base.states[a], until=b + 1, use=use)
+        gone = (base.last >= 0) & (base.last < a)  # D: seen by the base before a, never again
+        got = forward_pass(problem, suite, map_sigma_m=map_sigma_m, start=base.states[a], until=b + 1, exclude=gone)
         cov[a : b + 1] = got.filtered
     return cov
 
