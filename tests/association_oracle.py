@@ -55,11 +55,12 @@ def jacobian(pose: np.ndarray, point: np.ndarray, h: float = 1e-6) -> np.ndarray
 
 
 def joint_covariance(state: np.ndarray, cov: np.ndarray, prior_sigma: float, landmarks: list[int]) -> np.ndarray:
-    """(3 + 2L, 3 + 2L) covariance of (pose, landmarks...) from a prediction's state and prior."""
+    """(3 + 2L, 3 + 2L) covariance of (pose, landmarks...) from a prediction's state (its landmarks in
+    the pass's order, not sorted) and prior."""
     n = 3 + 2 * len(landmarks)
     out = np.zeros((n, n))
     idx = [list(range(3))] + [
-        [3 + 2 * int(np.searchsorted(state, j)) + q for q in range(2)] if j in set(state.tolist()) else None
+        [3 + 2 * int(np.flatnonzero(state == j)[0]) + q for q in range(2)] if j in set(state.tolist()) else None
         for j in landmarks
     ]
     out[:3, :3] = cov[:3, :3]

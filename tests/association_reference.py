@@ -410,12 +410,12 @@ def _noise_inverse(meas: KeyframeMeasurements, mi: np.ndarray) -> np.ndarray:
 
 
 def _slots(state: np.ndarray, landmarks: np.ndarray) -> np.ndarray:
-    """Position of each landmark in the sorted state, or −1."""
+    """Position of each landmark in the state (its landmarks in the pass's order), or −1."""
     if state.size == 0:
         return np.full(len(landmarks), -1, np.int64)
-    pos = np.searchsorted(state, landmarks)
-    pos = np.minimum(pos, len(state) - 1)
-    return np.where(state[pos] == landmarks, pos, -1).astype(np.int64)
+    order = np.argsort(state, kind="stable")
+    pos = np.minimum(np.searchsorted(state[order], landmarks), len(state) - 1)
+    return np.where(state[order[pos]] == landmarks, order[pos], -1).astype(np.int64)
 
 
 @dataclass(frozen=True, eq=False)

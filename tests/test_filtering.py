@@ -176,13 +176,17 @@ def test_prediction_joint_covariance_is_the_dense_inverse(suburb_cut, map_sigma_
     prior = suburb_cut.settings.landmark_prior_sigma_m if map_sigma_m is None else map_sigma_m
     for k in (3, 10, 17):
         p, meas = preds[k]
-        assert p.prior_sigma_m == prior and np.all(np.diff(p.landmarks) > 0)
+        assert p.prior_sigma_m == prior and len(np.unique(p.landmarks)) == len(p.landmarks)
         cov = np.linalg.inv(_dense_information(suburb_cut, suite, k, map_sigma_m))
-        lm = 3 * (k + 1) + 2 * p.landmarks[:, None] + np.arange(2)
-        idx = np.concatenate([np.arange(3 * k, 3 * k + 3), lm.ravel()])
-        want = cov[np.ix_(idx, idx)]
-        assert p.covariance.shape == (3 + 2 * len(p.landmarks),) * 2
-        np.testing.assert_allclose(p.covariance, want, rtol=1e-6, atol=1e-9 * np.abs(want[:3, :3]).max())
+        # the state's own order (landmarks appended as they come, a leaving one's place taken by the
+        # last): each block against the dense inverse's block of the same landmarks; and sorted
+        for q in (p, p.in_landmark_order()):
+            lm = 3 * (k + 1) + 2 * q.landmarks[:, None] + np.arange(2)
+            idx = np.concatenate([np.arange(3 * k, 3 * k + 3), lm.ravel()])
+            want = cov[np.ix_(idx, idx)]
+            assert q.covariance.shape == (3 + 2 * len(q.landmarks),) * 2
+            np.testing.assert_allclose(q.covariance, want, rtol=1e-6, atol=1e-9 * np.abs(want[:3, :3]).max())
+        assert np.all(np.diff(p.in_landmark_order().landmarks) > 0)
         # a landmark measured at k that is not in the state: never measured before, so
         # independent of the pose with its prior covariance (what the docstring promises)
         outside = np.setdiff1d(meas.landmark, p.landmarks)
@@ -274,23 +278,57 @@ def test_accuracy_says_its_estimate_and_old_files_load_as_the_smoother(suburb_pr
 
 @pytest.mark.parametrize(
     ("n_held", "n_drop", "n_new"),
-    [(250, 0, 0), (250, 1, 0), (250, 5, 3), (250, 40, 10), (250, 200, 0), (250, 0, 50), (20, 2, 3), (90, 0, 4)],
+    [
+        (250, 0, 0),
+        (250, 1, 0),
+        (250, 5, 3),
+        (250, 40, 10),
+        (250, 200, 0),
+        (250, 0, 50),
+        (20, 2, 3),
+        (90, 0, 4),
+        (3, 3, 0),
+    ],
 )
-def test_the_state_kept_is_the_fancy_index_bit_for_bit(n_held, n_drop, n_new):
-    """_submatrix (runs of rows copied as slices; a small state's taken) against numpy's
-    P[np.ix_(idx, idx)] (the oracle): landmarks left out, new ones (appended to the state) sorted in
-    among the held, many runs (its fallback past 64), and states of at most _TAKE_ROWS rows (taken)."""
-    from sensorsel.information.filtering import _submatrix
+def test_the_state_kept_is_its_landmarks_rows_and_columns_bit_for_bit(n_held, n_drop, n_new):
+    """The filter's state (_State) over three rounds of landmarks joining then leaving, against the
+    oracle of a dense matrix indexed by landmark (each block written where its landmark's rows are):
+    after each round the state is that matrix's rows and columns of the landmarks it holds, in its
+    order, to the bit; each landmark's slot is its place; the buffer grows past its size."""
+    from sensorsel.information.filtering import _State
 
+    n_ids = 1000
     rng = np.random.default_rng(n_drop + 7 * n_new + n_held)
-    ids = rng.choice(1000, n_held, replace=False)
-    held = np.concatenate([np.sort(ids[: n_held - n_new]), ids[n_held - n_new :]])  # the new ones last, unsorted
-    n = 3 + 2 * len(held)
+    ids = rng.permutation(n_ids)
+    taken = n_held
+
+    def rows(ls):
+        return np.concatenate([np.arange(3), (3 + 2 * np.asarray(ls, np.int64)[:, None] + np.arange(2)).ravel()])
+
+    n = 3 + 2 * n_held
     P = rng.standard_normal((n, n))
-    keep = np.sort(rng.choice(len(held), len(held) - n_drop, replace=False))
-    order = keep[np.argsort(held[keep], kind="stable")]
-    idx = np.concatenate([np.arange(3), (3 + 2 * order[:, None] + np.arange(2)).ravel()])
-    assert _submatrix(P, idx).tobytes() == P[np.ix_(idx, idx)].tobytes()
+    state = _State(P + P.T, ids[:n_held], n_ids)
+    full = np.full((3 + 2 * n_ids,) * 2, np.nan)
+    full[np.ix_(rows(ids[:n_held]), rows(ids[:n_held]))] = P + P.T
+    for _ in range(3):
+        if n_new:
+            new = ids[taken : taken + n_new]
+            taken += n_new
+            was = state.held.copy()
+            cross = rng.standard_normal((2 * n_new, 3 + 2 * len(was)))
+            ll = rng.standard_normal((2 * n_new,) * 2)
+            state.grow(cross, ll + ll.T, new)
+            r_new = rows(new)[3:]
+            full[np.ix_(r_new, rows(was))], full[np.ix_(rows(was), r_new)] = cross, cross.T
+            full[np.ix_(r_new, r_new)] = ll + ll.T
+        gone = np.zeros(len(state.held), bool)
+        gone[rng.choice(len(state.held), min(n_drop, len(state.held)), replace=False)] = True
+        kept = state.held[~gone]
+        state.remove(gone)
+        assert sorted(state.held.tolist()) == sorted(kept.tolist())
+        assert state.P.tobytes() == np.ascontiguousarray(full[np.ix_(rows(state.held), rows(state.held))]).tobytes()
+        assert (state.slot[state.held] == np.arange(len(state.held))).all()
+        assert (state.slot >= 0).sum() == len(state.held)
 
 
 @pytest.mark.parametrize("map_sigma_m", MODELS)

@@ -230,9 +230,9 @@ def test_a_domain_asks_the_route_that_failed_last_first(tiny_problem, suburb_pro
 def test_a_failing_subsets_bad_keyframes_before_the_added_sensor_measures_refute_the_suite(suburb_problem):
     """A suite S of the README tour's growth meets local streets but at keyframe 1 (heading, as the
     car drives; its smoother meets it everywhere); MRR-6 measures nothing before keyframe 16.
-    S + MRR-6's own whole pass equals S's, bit for bit, before 16 (the property the refutation
-    rests on), and fails: the oracle refutes it from S's answer without a pass (with the refutation
-    off, it computes one)."""
+    S + MRR-6's own whole pass equals S's before 16 (the property the refutation rests on: to
+    rounding, as its state also holds landmarks S dropped), and fails: the oracle refutes it from S's
+    answer without a pass (with the refutation off, it computes one)."""
     from sensorsel.designs.requirements.checks import _Oracle
     from sensorsel.information.evaluators.fast import FastEvaluator
 
@@ -245,7 +245,9 @@ def test_a_failing_subsets_bad_keyframes_before_the_added_sensor_measures_refute
     first = int(np.min(p.observations[added].pose))
     assert first == 16
     alone, both = forward_pass(p, s, map_sigma_m=0.05).filtered, forward_pass(p, t, map_sigma_m=0.05).filtered
-    assert np.array_equal(alone[:first], both[:first]) and not np.array_equal(alone[first], both[first])
+    scale = np.abs(alone[:first]).max(axis=(1, 2))[:, None, None]  # each keyframe's largest entry
+    assert np.all(np.abs(both[:first] - alone[:first]) <= 1e-12 * scale)
+    assert not np.allclose(alone[first], both[first], rtol=1e-6, atol=0)
     assert not covariance_verdict(both, spec)[0]
     assert [b.tolist() for b in bad_keyframes(alone, spec)] == [[], [], [1]]
 

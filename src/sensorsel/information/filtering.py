@@ -30,7 +30,9 @@ the covariance P is carried). Per keyframe:
    g joins the update as two rows on the pose, L⁻¹ A with L Lᵀ = I + σ_p² B Bᵀ, and the
    landmark enters afterwards: Cov(l, ·) = G P_x·, Cov(l, l') = G P_xx G'ᵀ + δ D⁻¹.
 3. A landmark the suite never measures after keyframe k leaves the state after k's update (exact:
-   marginalizing a variable no later factor touches).
+   marginalizing a variable no later factor touches). The state keeps its landmarks in the order
+   they came, a leaving one's rows and columns taken by the last one's (:class:`_State`): joining
+   and leaving cost rows and columns, not a copy of the matrix.
 
 ``predicted[k]`` is P_xx after step 1, ``filtered[k]`` after step 2. A landmark outside the state is
 either not yet seen (independent of everything, its prior σ_p² I) or never measured again. The cost
@@ -113,8 +115,10 @@ class Prediction:
 
     Attributes:
         keyframe: k.
-        landmarks: (n,) sorted landmark indices held in the state.
-        covariance: (3 + 2n, 3 + 2n): pose first, then each landmark's (x, y) [m², m·rad, rad²].
+        landmarks: (n,) the landmark indices held in the state, in the state's order (the order they
+            came and left in: not sorted; :meth:`in_landmark_order` sorts them).
+        covariance: (3 + 2n, 3 + 2n): pose first, then each landmark's (x, y) in the order of
+            ``landmarks`` [m², m·rad, rad²].
         prior_sigma_m: the prior std of a landmark not in the state [m]: ``map_sigma_m`` in the
             map model, the problem's weak ``landmark_prior_sigma_m`` in SLAM.
     """
@@ -128,6 +132,14 @@ class Prediction:
     def pose_covariance(self) -> np.ndarray:
         """(3, 3) the predicted covariance of pose k's tangent."""
         return self.covariance[:3, :3]
+
+    def in_landmark_order(self) -> Prediction:
+        """The same prediction with its landmarks sorted (a copy: the covariance's rows and columns
+        permuted, the same numbers)."""
+        order = np.argsort(self.landmarks, kind="stable")
+        idx = np.concatenate([np.arange(3), (3 + 2 * order[:, None] + np.arange(2)).ravel()])
+        cov = np.asarray(self.covariance, float)
+        return Prediction(self.keyframe, self.landmarks[order], cov[idx][:, idx], self.prior_sigma_m)
 
 
 #: decides which of keyframe k's measurements the filter uses: returns a (m,) bool mask
@@ -400,12 +412,13 @@ def _pass(
     bounds = np.searchsorted(every.keyframe, np.arange(first, first + K + 1))
     if use is None:
         n_used = np.diff(measurements.bounds[first : first + K + 1]).astype(np.int64)
-    held = np.zeros(0, np.int64)  # sorted landmark indices in the state
-    P = np.diag(np.asarray(s.first_pose_sigmas, float) ** 2)  # (3 + 2n)²
-    if start is not None:  # another pass's predicted state at keyframe ``first``
-        held, P = np.asarray(start.landmarks, np.int64).copy(), np.array(start.covariance, float)
+    if start is None:
+        state = _State(np.diag(np.asarray(s.first_pose_sigmas, float) ** 2), np.zeros(0, np.int64), len(points))
+    else:  # another pass's predicted state at keyframe ``first``
+        state = _State(np.asarray(start.covariance, float), np.asarray(start.landmarks, np.int64), len(points))
     for i in range(K):  # i: the row of the arrays; k: the keyframe
         k = first + i
+        P = state.P
         if i > 0:  # odometry: pose k − 1 replaced by pose k
             h = odo[k - 1]
             P[:3, 3:] = -h @ P[:3, 3:]
@@ -416,12 +429,12 @@ def _pass(
         if on_prediction is not None or use is not None:
             g = measurements.group(k)  # built for a hook only
             if on_prediction is not None:
-                pred = Prediction(k, held.copy(), P.copy(), prior_sigma)
+                pred = Prediction(k, state.held.copy(), P.copy(), prior_sigma)
                 on_prediction(pred, g)
             elif use is not None:  # valid during the call only (no copy: P is updated in place afterwards)
                 view = P.view()
                 view.flags.writeable = False
-                pred = Prediction(k, held, view, prior_sigma)
+                pred = Prediction(k, state.held, view, prior_sigma)
             if use is not None:
                 mask = np.asarray(use(pred, g), bool)
                 if mask.shape != (len(g),):
@@ -440,17 +453,80 @@ def _pass(
                         prior_sigma,
                     )
         # landmarks measured for the last time leave the state after this update
-        P, held = _update(P, held, pairs, last, k)
-        filtered[i] = P[:3, :3]
+        _update(state, pairs, last, k)
+        filtered[i] = state.P[:3, :3]
     return FilterPass(predicted, filtered, n_used, n_measured)
 
 
-def _update(P: np.ndarray, held: np.ndarray, pairs: _Pairs, last: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
-    """The measurement update of keyframe k (step 2 of the module's docstring), then step 3: the new (P, held)."""
+class _State:
+    """The filter's joint covariance over (pose, the landmarks held), in the top-left corner of a
+    larger buffer, so that a landmark joining or leaving the state costs rows and columns, not a copy
+    of the whole matrix (KITTI 00: ~800 rows copied at nearly every keyframe, a third of the pass).
+
+    The landmarks are held in the order they came and left: a new one is appended; one that leaves
+    is replaced by the last one held (its rows and columns moved over). The order is a fixed function
+    of the measurements, so a pass is deterministic; it is not sorted (:class:`Prediction`).
+
+    Attributes:
+        buf: (C, C) the buffer, C ≥ 3 + 2n; only :attr:`P` is meaningful.
+        held: (n,) the landmark indices held, in the state's order.
+        slot: (n_landmarks,) each landmark's position in ``held``, or −1.
+    """
+
+    def __init__(self, P: np.ndarray, held: np.ndarray, n_landmarks: int) -> None:
+        n = P.shape[0]
+        self.buf = np.empty((n, n))
+        self.buf[:] = P
+        self.held = held.copy()
+        self.slot = np.full(max(n_landmarks, 1), -1, np.int64)
+        self.slot[self.held] = np.arange(len(self.held))
+
+    @property
+    def P(self) -> np.ndarray:
+        """(3 + 2n, 3 + 2n) the joint covariance: a view of the buffer, updated in place."""
+        n = 3 + 2 * len(self.held)
+        return self.buf[:n, :n]
+
+    def grow(self, cross: np.ndarray, ll: np.ndarray, landmarks: np.ndarray) -> None:
+        """Append ``landmarks`` (q,) with their covariance ``ll`` (2q, 2q) and with the state ``cross``
+        (2q, 3 + 2n)."""
+        n, q2 = cross.shape[1], cross.shape[0]
+        m = n + q2
+        if m > self.buf.shape[0]:  # doubled: amortized, a copy per doubling
+            bigger = np.empty((max(m, 2 * self.buf.shape[0]),) * 2)
+            bigger[:n, :n] = self.buf[:n, :n]
+            self.buf = bigger
+        b = self.buf
+        b[n:m, :n], b[:n, n:m], b[n:m, n:m] = cross, cross.T, ll
+        self.slot[landmarks] = len(self.held) + np.arange(len(landmarks))
+        self.held = np.concatenate([self.held, landmarks])
+
+    def remove(self, gone: np.ndarray) -> None:
+        """Marginalize out the landmarks held at positions ``gone`` ((n,) bool over ``held``): each
+        hole below the new size takes the rows and columns of a landmark kept above it (exact: a
+        marginal is the covariance's rows and columns kept, in any order)."""
+        n_kept = len(self.held) - int(gone.sum())
+        holes = np.flatnonzero(gone[:n_kept])
+        movers = n_kept + np.flatnonzero(~gone[n_kept:])  # as many as holes
+        self.slot[self.held[gone]] = -1
+        if len(holes):
+            n, m = 3 + 2 * len(self.held), 3 + 2 * n_kept
+            to = (3 + 2 * holes[:, None] + np.arange(2)).ravel()
+            src = (3 + 2 * movers[:, None] + np.arange(2)).ravel()
+            b = self.buf
+            b[to, :n] = b[src, :n]
+            b[:m, to] = b[:m, src]
+            self.held[holes] = self.held[movers]
+            self.slot[self.held[holes]] = holes
+        self.held = self.held[:n_kept]
+
+
+def _update(state: _State, pairs: _Pairs, last: np.ndarray, k: int) -> None:
+    """The measurement update of keyframe k (step 2 of the module's docstring), then step 3, on ``state``."""
     if len(pairs.landmark):
-        slot = np.searchsorted(held, pairs.landmark)  # where each pair's landmark is (or would be) in the state
-        old = slot < len(held)
-        old[old] = held[slot[old]] == pairs.landmark[old]
+        P = state.P
+        slot = state.slot[pairs.landmark]  # where each pair's landmark is in the state (−1: new)
+        old = slot >= 0
         new = ~old
         any_new = bool(new.any())
         # the rows of the update: old landmarks' measurements, then the new landmarks' factors on the pose
@@ -491,43 +567,7 @@ def _update(P: np.ndarray, held: np.ndarray, pairs: _Pairs, last: np.ndarray, k:
             diagonal = ll.reshape(q, 2, q, 2)  # a view: [i, :, i, :] is new landmark i's own 2 x 2 block
             at = np.arange(q)
             diagonal[at, :, at, :] += pairs.Dinv[new]
-            n_state = P.shape[0]
-            grown = np.empty((n_state + 2 * q, n_state + 2 * q))
-            grown[:n_state, :n_state], grown[n_state:, :n_state] = P, cross
-            grown[:n_state, n_state:], grown[n_state:, n_state:] = cross.T, ll
-            P = grown
-            held = np.concatenate([held, pairs.landmark[new]])
-    keep = last[held] > k
-    if len(held) and (not keep.all() or np.any(np.diff(held) < 0)):
-        order = np.flatnonzero(keep)
-        order = order[np.argsort(held[order], kind="stable")]
-        idx = np.concatenate([np.arange(3), (3 + 2 * order[:, None] + np.arange(2)).ravel()])
-        P, held = _submatrix(P, idx), held[order]
-    return P, held
-
-
-#: the most rows :func:`_submatrix` takes by ``np.take`` (measured: faster up to ~250 rows, then 10x
-#: slower than the slices at 300, the rows no longer in cache)
-_TAKE_ROWS = 192
-
-
-def _submatrix(P: np.ndarray, idx: np.ndarray) -> np.ndarray:
-    """P[np.ix_(idx, idx)], copied block by block: ``idx`` (the state's rows kept, in order) is a few
-    runs of consecutive rows (landmarks leave the state, the new ones are sorted in), so each pair of
-    runs is one rectangular slice, copied at memory speed, where numpy's fancy indexing reads element
-    by element (KITTI 00: 1.2 ms a keyframe at 784 rows, a fifth of the pass). A small state (up to
-    :data:`_TAKE_ROWS` rows: the bundled route's) is taken rows then columns, in a few microseconds
-    where the slices' Python loop costs tens (the README tour's updates re-sort the state at nearly
-    every keyframe). The same numbers."""
-    if len(idx) <= _TAKE_ROWS:
-        return P.take(idx, axis=0).take(idx, axis=1)
-    cut = np.flatnonzero(np.diff(idx) != 1) + 1
-    first = [0, *cut.tolist()]
-    runs = [(int(idx[a]), b - a, a) for a, b in zip(first, [*cut.tolist(), len(idx)])]
-    if len(runs) > 64:  # many runs: the slices' own cost passes the fancy index's
-        return P[np.ix_(idx, idx)]
-    out = np.empty((len(idx), len(idx)))
-    for src_r, n_r, at_r in runs:
-        for src_c, n_c, at_c in runs:
-            out[at_r : at_r + n_r, at_c : at_c + n_c] = P[src_r : src_r + n_r, src_c : src_c + n_c]
-    return out
+            state.grow(cross, ll, pairs.landmark[new])
+    keep = last[state.held] > k
+    if not keep.all():
+        state.remove(~keep)

@@ -120,17 +120,20 @@ def _case(
     pose = np.asarray(model.problem.scenario.keyframes.poses[meas.keyframe], float)
     points = np.asarray(model.problem.scenario.landmarks, float)
     near = np.flatnonzero(np.hypot(*(points - pose[:2]).T) <= reach_m) if len(points) else np.zeros(0, np.int64)
-    state = np.asarray(prediction.landmarks, np.int64)
+    state = np.asarray(prediction.landmarks, np.int64)  # in the pass's order (not sorted)
     if model.model == "slam":
         near = near[np.isin(near, state)]
     cand = np.asarray(near, np.int64)
-    # the prediction's covariance restricted to the pose and the candidates
-    slot = np.searchsorted(state, cand) if state.size else np.zeros(len(cand), np.int64)
+    # the prediction's covariance restricted to the pose and the candidates: each candidate's place
+    # in the sorted state, then in the state itself
+    order = np.argsort(state, kind="stable")
+    pos = np.searchsorted(state[order], cand) if state.size else np.zeros(len(cand), np.int64)
     inside = (
-        (slot < len(state)) & (state[np.minimum(slot, max(len(state) - 1, 0))] == cand)
+        (pos < len(state)) & (state[order[np.minimum(pos, max(len(state) - 1, 0))]] == cand)
         if state.size
         else np.zeros(len(cand), bool)
     )
+    slot = order[np.minimum(pos, max(len(state) - 1, 0))] if state.size else pos
     dim = 3 + 2 * len(cand)
     src = np.full(dim, -1)
     src[:3] = np.arange(3)

@@ -358,9 +358,14 @@ class _Oracle:
 
         Why this is T's own answer: the filter's estimate at keyframe k holds the measurements of
         keyframes up to k only. Before that first keyframe f, T's measurements are S's, in the same
-        order (a suite's measurements are sorted by keyframe, stably), so T's pass computes S's
-        numbers there, bit for bit, and T is bad at each keyframe < f where S was judged bad. Those
-        keyframes alone already break the rank rule (:func:`.truncated.meets_from_bad`): T fails."""
+        order (a suite's measurements are sorted by keyframe, stably), so T's covariances there are
+        S's, and T is bad at each keyframe < f where S was judged bad. Those keyframes alone already
+        break the rank rule (:func:`.truncated.meets_from_bad`): T fails. (Computed, the two passes
+        agree to rounding, not always to the bit: T's state may still hold landmarks S had marginalized
+        out, which T measures again later, and the state's rows then fall elsewhere in the products;
+        ~1e-14 relative on the README tour, far inside the filter's own rounding. A verdict that
+        rounding could turn is a tie of the specification at that keyframe, which the answer's margin
+        line shows.)"""
         if self.estimate != "filter" or not self.refute_before_seen:
             return False
         problem = self.problems[r]

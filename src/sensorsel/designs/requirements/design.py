@@ -188,8 +188,9 @@ class RequireJournal:
     answers: tuple[tuple[int, tuple[int, ...], bool, float | None], ...]
 
 
-#: bumped when what the journal's answers depend on, or how they are computed, changes
-JOURNAL_FORMAT = 2
+#: bumped when what the journal's answers depend on, or how they are computed, changes (3: the
+#: filter's state in the order its landmarks came, its covariances to rounding of 2's)
+JOURNAL_FORMAT = 3
 
 
 def require_fingerprint(

@@ -343,15 +343,17 @@ class AssociationModel:
             return np.zeros(0, np.int64), np.zeros(0, np.int64)
         radius = np.maximum.reduceat(reach_m, b.meas_off[some])  # each keyframe's largest (exact)
         if self.model == "slam":
-            # the state's landmarks (sorted in each keyframe's state) within the radius: a few hundred
-            # distances a keyframe, where the tree's query returns the map's and most are dropped
+            # the state's landmarks within the radius: a few hundred distances a keyframe, where the
+            # tree's query returns the map's and most are dropped
             n_held = np.diff(b.held_off)[some]
             at = np.repeat(some, n_held)
             first = np.cumsum(n_held) - n_held  # where each keyframe's run starts among those taken
             state = b.held[np.repeat(b.held_off[some] - first, n_held) + np.arange(int(n_held.sum()))]
             dist = np.hypot(*(self._points[state] - b.poses[at, :2]).T)
             inside = dist <= np.repeat(radius, n_held)
-            return state[inside], at[inside]
+            # a state is in the pass's order: sorted by keyframe, then landmark, as the map's are
+            key = np.sort(at[inside] * len(self._points) + state[inside])
+            return key % len(self._points), key // len(self._points)
         found = self._tree.query_ball_point(b.poses[some, :2], radius, return_sorted=False)
         counts = np.array([len(x) for x in found], np.int64)
         near = np.fromiter(itertools.chain.from_iterable(found), np.int64, count=int(counts.sum()))

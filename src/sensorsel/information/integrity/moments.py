@@ -31,12 +31,13 @@ _THREE = np.arange(3)
 
 
 def slots(state: np.ndarray, landmarks: np.ndarray) -> np.ndarray:
-    """Position of each landmark in the sorted state, or −1."""
-    if state.size == 0:
+    """Position of each landmark in the state (its landmark indices in any order), or −1."""
+    if state.size == 0 or landmarks.size == 0:
         return np.full(len(landmarks), -1, np.int64)
-    pos = np.searchsorted(state, landmarks)
-    pos = np.minimum(pos, len(state) - 1)
-    return np.where(state[pos] == landmarks, pos, -1).astype(np.int64)
+    # a table over the indices: a gather a landmark, where a search would need the state sorted
+    where = np.full(int(max(state.max(), landmarks.max())) + 1, -1, np.int64)
+    where[state] = np.arange(len(state))
+    return where[landmarks]
 
 
 @dataclass(frozen=True, eq=False)
@@ -46,7 +47,7 @@ class Snapshot:
     Attributes:
         keyframe: k.
         meas: keyframe k's measurements (those whose risks the snapshot is for).
-        held: (n,) sorted landmark indices in the state.
+        held: (n,) the landmark indices in the state, in its order (the pass's: not sorted).
         pose_cov: (3, 3) the pose's covariance.
         rows: (3 + 2q, 3 + 2n) the covariance's rows of the pose, then of each of the q state
             landmarks the keyframe measures (two rows each, in slot order).
@@ -97,7 +98,7 @@ class Snapshot:
             meas,
             held,
             cov[:3, :3].copy(),
-            cov.take(idx, axis=0),
+            cov[idx],  # rows gathered (take would first copy a strided view whole)
             slot,
             row,
             blocks,
@@ -198,8 +199,10 @@ class Batch:
             return np.full(len(landmarks), -1, np.int64)
         scale = int(max(self.held.max(initial=0), np.max(landmarks, initial=0))) + 1
         keys = np.repeat(np.arange(len(self.poses)), np.diff(self.held_off)) * scale + self.held
+        # each state is in the pass's order (not sorted): the keys sorted once for the batch
+        order = np.argsort(keys, kind="stable")
         query = at * scale + landmarks
-        pos = np.minimum(np.searchsorted(keys, query), len(keys) - 1)
+        pos = order[np.minimum(np.searchsorted(keys[order], query), len(keys) - 1)]
         return np.where(keys[pos] == query, pos - self.held_off[at], -1).astype(np.int64)
 
     def pose_landmark(self, at: np.ndarray, slot: np.ndarray) -> np.ndarray:
