@@ -360,3 +360,23 @@ def test_excluded_landmarks_are_the_hook_that_drops_them_bit_for_bit(suburb_prob
         assert hooked.n_used.sum() < hooked.n_measured.sum()  # the set drops measurements: not a vacuous test
         for f in ("predicted", "filtered", "n_used", "n_measured"):
             np.testing.assert_array_equal(getattr(fixed, f), getattr(hooked, f), err_msg=f)
+
+
+def test_a_predictions_slots_are_where_its_landmarks_stand(suburb_problem):
+    """Prediction.slots_of (the pass's own table, and the table built where a prediction has none)
+    against a search of each landmark in ``landmarks`` (the oracle), at every keyframe of a pass
+    whose landmarks come and leave: held ones at their place, others (never seen, or gone) −1."""
+    from sensorsel.information.filtering import Prediction
+
+    preds = []
+    forward_pass(suburb_problem, (3, 11, 30, 60), map_sigma_m=0.05, on_prediction=lambda p, m: preds.append(p))
+    every = np.arange(suburb_problem.scenario.n_landmarks)
+    moved = 0
+    for p in preds:
+        want = np.array([np.flatnonzero(p.landmarks == j)[0] if j in p.landmarks else -1 for j in every])
+        bare = Prediction(p.keyframe, p.landmarks, p.covariance, p.prior_sigma_m)
+        assert p.slot is not None and bare.slot is None
+        np.testing.assert_array_equal(p.slots_of(every), want)
+        np.testing.assert_array_equal(bare.slots_of(every), want)
+        moved += int(np.any(np.diff(p.landmarks) < 0))
+    assert moved > 0  # some state out of landmark order: the look-up cannot lean on a sorted state

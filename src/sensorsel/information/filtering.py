@@ -121,17 +121,30 @@ class Prediction:
             ``landmarks`` [m², m·rad, rad²].
         prior_sigma_m: the prior std of a landmark not in the state [m]: ``map_sigma_m`` in the
             map model, the problem's weak ``landmark_prior_sigma_m`` in SLAM.
+        slot: (n_landmarks,) each of the problem's landmarks' position in ``landmarks`` (−1: not
+            held), the pass's own table; None where not given (:meth:`slots_of` builds one).
     """
 
     keyframe: int
     landmarks: np.ndarray
     covariance: np.ndarray
     prior_sigma_m: float
+    slot: np.ndarray | None = None
 
     @property
     def pose_covariance(self) -> np.ndarray:
         """(3, 3) the predicted covariance of pose k's tangent."""
         return self.covariance[:3, :3]
+
+    def slots_of(self, landmarks: np.ndarray) -> np.ndarray:
+        """(m,) the position of each of ``landmarks`` (m,) in :attr:`landmarks`, or −1."""
+        landmarks = np.asarray(landmarks, np.int64)
+        table = self.slot
+        if table is None:
+            held = np.asarray(self.landmarks, np.int64)
+            table = np.full(int(max(held.max(initial=-1), landmarks.max(initial=-1))) + 1, -1, np.int64)
+            table[held] = np.arange(len(held))
+        return table[landmarks]
 
     def in_landmark_order(self) -> Prediction:
         """The same prediction with its landmarks sorted (a copy: the covariance's rows and columns
@@ -429,12 +442,12 @@ def _pass(
         if on_prediction is not None or use is not None:
             g = measurements.group(k)  # built for a hook only
             if on_prediction is not None:
-                pred = Prediction(k, state.held.copy(), P.copy(), prior_sigma)
+                pred = Prediction(k, state.held.copy(), P.copy(), prior_sigma, state.slot.copy())
                 on_prediction(pred, g)
             elif use is not None:  # valid during the call only (no copy: P is updated in place afterwards)
                 view = P.view()
                 view.flags.writeable = False
-                pred = Prediction(k, state.held, view, prior_sigma)
+                pred = Prediction(k, state.held, view, prior_sigma, state.slot)
             if use is not None:
                 mask = np.asarray(use(pred, g), bool)
                 if mask.shape != (len(g),):

@@ -124,16 +124,9 @@ def _case(
     if model.model == "slam":
         near = near[np.isin(near, state)]
     cand = np.asarray(near, np.int64)
-    # the prediction's covariance restricted to the pose and the candidates: each candidate's place
-    # in the sorted state, then in the state itself
-    order = np.argsort(state, kind="stable")
-    pos = np.searchsorted(state[order], cand) if state.size else np.zeros(len(cand), np.int64)
-    inside = (
-        (pos < len(state)) & (state[order[np.minimum(pos, max(len(state) - 1, 0))]] == cand)
-        if state.size
-        else np.zeros(len(cand), bool)
-    )
-    slot = order[np.minimum(pos, max(len(state) - 1, 0))] if state.size else pos
+    # the prediction's covariance restricted to the pose and the candidates (their places in the state)
+    slot = prediction.slots_of(cand)
+    inside = slot >= 0
     dim = 3 + 2 * len(cand)
     src = np.full(dim, -1)
     src[:3] = np.arange(3)

@@ -24,20 +24,10 @@ from sensorsel.information.filtering import KeyframeMeasurements, Prediction
 from sensorsel.information.linearize import bearing_range_jacobians
 from sensorsel.model.angles import wrap_angle
 
-__all__ = ["Batch", "Candidates", "Snapshot", "slots"]
+__all__ = ["Batch", "Candidates", "Snapshot"]
 
 _TWO = np.arange(2)
 _THREE = np.arange(3)
-
-
-def slots(state: np.ndarray, landmarks: np.ndarray) -> np.ndarray:
-    """Position of each landmark in the state (its landmark indices in any order), or −1."""
-    if state.size == 0 or landmarks.size == 0:
-        return np.full(len(landmarks), -1, np.int64)
-    # a table over the indices: a gather a landmark, where a search would need the state sorted
-    where = np.full(int(max(state.max(), landmarks.max())) + 1, -1, np.int64)
-    where[state] = np.arange(len(state))
-    return where[landmarks]
 
 
 @dataclass(frozen=True, eq=False)
@@ -75,11 +65,12 @@ class Snapshot:
         cov = np.asarray(prediction.covariance, float)
         held = np.array(prediction.landmarks, np.int64)
         n = len(held)
-        slot = slots(held, np.asarray(meas.landmark, np.int64))
+        slot = prediction.slots_of(meas.landmark)  # the pass's own table: a gather
         inside = slot >= 0
         # the state landmarks measured, in slot order, and each measurement's rank among them (the
         # measured slots' sorted unique values: integers, however found)
-        measured = np.unique(slot[inside])
+        some = np.sort(slot[inside])
+        measured = some[np.concatenate([[True], some[1:] != some[:-1]])] if len(some) else some
         row = np.full(len(slot), -1, np.int64)
         row[inside] = 3 + 2 * np.searchsorted(measured, slot[inside])
         idx = np.empty(3 + 2 * len(measured), np.int64)
