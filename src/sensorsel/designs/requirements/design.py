@@ -189,7 +189,7 @@ class RequireJournal:
 
 
 #: bumped when what the journal's answers depend on, or how they are computed, changes (3: the
-#: filter's state in the order its landmarks came, its covariances to rounding of 2's)
+#: filter's state held in the order its landmarks came: its covariances equal format 2's to rounding only)
 JOURNAL_FORMAT = 3
 
 
