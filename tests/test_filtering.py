@@ -348,12 +348,9 @@ def test_excluded_landmarks_are_the_hook_that_drops_them_bit_for_bit(suburb_prob
         return ~gone[meas.landmark]
 
     kept = {}
-
-    def keep(pred, meas):
-        kept[pred.keyframe] = pred
-        return np.ones(len(meas), bool)
-
-    forward_pass(suburb_problem, (3,), map_sigma_m=map_sigma_m, on_prediction=lambda p, m: keep(p, m))
+    forward_pass(
+        suburb_problem, (3,), map_sigma_m=map_sigma_m, on_prediction=lambda p, m: kept.__setitem__(p.keyframe, p)
+    )
     for start, until in ((None, None), (kept[20], 35)):
         hooked = forward_pass(suburb_problem, suite, map_sigma_m=map_sigma_m, use=drop, start=start, until=until)
         fixed = forward_pass(suburb_problem, suite, map_sigma_m=map_sigma_m, exclude=gone, start=start, until=until)

@@ -142,8 +142,7 @@ class Prediction:
         table = self.slot
         if table is None:
             held = np.asarray(self.landmarks, np.int64)
-            table = np.full(int(max(held.max(initial=-1), landmarks.max(initial=-1))) + 1, -1, np.int64)
-            table[held] = np.arange(len(held))
+            table = _slot_table(held, int(max(held.max(initial=-1), landmarks.max(initial=-1))) + 1)
         return table[landmarks]
 
     def in_landmark_order(self) -> Prediction:
@@ -153,6 +152,13 @@ class Prediction:
         idx = np.concatenate([np.arange(3), (3 + 2 * order[:, None] + np.arange(2)).ravel()])
         cov = np.asarray(self.covariance, float)
         return Prediction(self.keyframe, self.landmarks[order], cov[idx][:, idx], self.prior_sigma_m)
+
+
+def _slot_table(held: np.ndarray, size: int) -> np.ndarray:
+    """(size,) each landmark index's position in ``held`` (n,), or −1."""
+    table = np.full(size, -1, np.int64)
+    table[held] = np.arange(len(held))
+    return table
 
 
 #: decides which of keyframe k's measurements the filter uses: returns a (m,) bool mask
@@ -488,12 +494,9 @@ class _State:
     """
 
     def __init__(self, P: np.ndarray, held: np.ndarray, n_landmarks: int) -> None:
-        n = P.shape[0]
-        self.buf = np.empty((n, n))
-        self.buf[:] = P
+        self.buf = np.array(P, float)
         self.held = held.copy()
-        self.slot = np.full(max(n_landmarks, 1), -1, np.int64)
-        self.slot[self.held] = np.arange(len(self.held))
+        self.slot = _slot_table(self.held, max(n_landmarks, 1))
 
     @property
     def P(self) -> np.ndarray:
