@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Sequence
-from typing import Unpack
+from typing import Unpack, cast
 
 import numpy as np
 
@@ -42,7 +42,7 @@ from sensorsel.designs.robust.records import Candidate, MemberWorst, RobustBound
 from sensorsel.designs.robust.select import check_rules_and_methods
 from sensorsel.designs.robust.tasks import ALGORITHM_2, MethodLimits, RobustSettings
 from sensorsel.designs.selection import REL_TOL, check_budget, greedy
-from sensorsel.information.evaluators import DomainEvaluator, Evaluator, as_suite
+from sensorsel.information.evaluators import DomainEvaluator, Evaluator, as_suite, evaluator_for
 from sensorsel.model.constraints import Constraints, FeasibleSet, feasible_set
 from sensorsel.model.problem import Domain
 
@@ -161,7 +161,11 @@ def worst_route_select(
     t_start = time.perf_counter()
     budget, alpha = check_budget(budget_usd), check_alpha(alpha)
     rules = check_rules_and_methods(rules, methods, WORST_METHODS, "method for the worst route")
-    dev = evaluator if evaluator is not None else DomainEvaluator(domain, engine, jobs=jobs, aggregate="normalised")
+    dev = (
+        evaluator
+        if evaluator is not None
+        else cast(DomainEvaluator, evaluator_for(domain, engine, jobs=jobs, aggregate="normalised"))
+    )
     n_start = sum(e.n_evaluations for e in dev.routes)
     routes: list[MemoEvaluator] = [memoized(e) for e in dev.routes]
     names = [r.name for r in domain.routes]

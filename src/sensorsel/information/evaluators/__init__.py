@@ -50,8 +50,14 @@ def evaluator_for(
     target: Target, engine: str | None = None, *, jobs: int = 1, aggregate: str = "normalised"
 ) -> Evaluator:
     """The evaluator of a problem (an engine of :data:`ENGINES`) or of a domain (a
-    :class:`DomainEvaluator` over that engine's per-route evaluators, combined by ``aggregate``)."""
+    :class:`DomainEvaluator` over that engine's per-route evaluators, combined by ``aggregate``; with
+    ``jobs`` of 2 or more and several routes, the routes owned by that many worker processes:
+    :class:`~sensorsel.information.evaluators.processes.ProcessDomainEvaluator`, the same numbers)."""
     if isinstance(target, Domain):
+        if jobs >= 2 and len(target.routes) >= 2:
+            from sensorsel.information.evaluators.processes import ProcessDomainEvaluator
+
+            return ProcessDomainEvaluator(target, engine, processes=jobs, aggregate=aggregate)
         return DomainEvaluator(target, engine, jobs=jobs, aggregate=aggregate)
     check_aggregate(aggregate)  # one route: any aggregate picks the same suites, but a typo is still one
     return make_evaluator(target, engine, jobs=jobs)

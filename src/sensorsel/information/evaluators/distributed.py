@@ -26,8 +26,10 @@ the cluster), which knows no sensor. Importing it imports no Dask: a client is h
 
 from __future__ import annotations
 
+import os
 import pickle
 import time
+import weakref
 from collections.abc import Iterable, Sequence
 from typing import Any
 
@@ -107,9 +109,7 @@ class RouteActor:
         """(seconds this actor spent scoring, calls it answered, its worker's address): the worker's
         share of a run's time; the rest of a step's wall time is the client, the network and Dask's
         actor machinery."""
-        from distributed import get_worker
-
-        return self.busy_s, self.calls, str(get_worker().address)
+        return self.busy_s, self.calls, _where()
 
     def cost(self) -> tuple[float, int]:
         """(seconds to build this route on its worker, resident bytes that added there: its problem and
@@ -138,6 +138,16 @@ class WorkerRoutes:
         return {k: getattr(self.routes[k], method)(*args) for k, (method, args) in calls.items()}
 
 
+def _where() -> str:
+    """This process's place: its Dask worker's address, else its process id (a local worker process)."""
+    try:
+        from distributed import get_worker
+
+        return str(get_worker().address)
+    except (ImportError, ValueError):
+        return f"pid {os.getpid()}"
+
+
 def _rss() -> int:
     """Resident bytes of this process now (psutil, which Dask's distributed itself needs)."""
     import psutil  # type: ignore[import-untyped]
@@ -153,7 +163,9 @@ class _RemoteRoute(Evaluator):
 
     def __init__(self, owner: DistributedDomainEvaluator, k: int) -> None:
         super().__init__(owner.library, jobs=owner.jobs)
-        self.owner, self.k = owner, k
+        # a proxy, not the evaluator: no cycle through its routes, so the evaluator (and a local
+        # evaluator's worker processes) goes when its last user lets go, not at a later collection
+        self.owner, self.k = weakref.proxy(owner), k
 
     def score(self, suite: Iterable[int]) -> float:
         s = as_suite(suite)
@@ -219,6 +231,9 @@ class DistributedDomainEvaluator(DomainEvaluator):
         wait_s: seconds the client spent waiting for answers [s].
     """
 
+    #: errors of a worker's answer raised as they are (the rest mean a lost worker: rebuilt, repeated)
+    _passes_through: tuple[type[Exception], ...] = (SensorselError,)
+
     def __init__(
         self,
         client: Any,
@@ -278,7 +293,7 @@ class DistributedDomainEvaluator(DomainEvaluator):
         for w, (actor, fut) in where.items():
             try:
                 fut.result()
-            except SensorselError:
+            except self._passes_through:
                 raise
             except Exception as exc:  # the worker died while building: once more anywhere
                 if w is None:
@@ -332,7 +347,7 @@ class DistributedDomainEvaluator(DomainEvaluator):
                 if not isinstance(fut, Exception):
                     try:
                         res = fut.result()
-                    except SensorselError:
+                    except self._passes_through:
                         raise
                     except Exception as exc:
                         fut = exc
