@@ -120,6 +120,8 @@ from sensorsel.io.records import SuiteScore
 from sensorsel.io.results import result_kind
 from sensorsel.model.constraints import feasible_set
 from sensorsel.model.problem import Domain, DomainInfo, Problem, ProblemInfo, Target, load_domain, load_problem
+from sensorsel.model.recipes import RouteRecipe
+from sensorsel.pipeline import LocalProcesses, Plan, execute
 from sensorsel.simulation.records import SimulationResult
 
 __all__ = [
@@ -311,10 +313,12 @@ def with_suite_quality(
     engine: str | None = None,
     estimate: str = "filter",
     integrity: IntegritySpec | None = None,
+    jobs: int = 1,
 ) -> Any:
     """``result`` (a frozen record with ``suite``, ``accuracy`` and ``integrity`` fields) with its suite's
     accuracy (:func:`suite_accuracy`) and integrity (:func:`suite_integrity`) on ``target`` filled in:
-    what every selecting command reports of the suite it chose."""
+    what every selecting command reports of the suite it chose. ``jobs``: worker processes for a
+    domain's routes (the filter's estimate: each route's pass in a worker; the same bytes)."""
     if estimate != "filter" or (integrity is not None and integrity.max_association_risk is not None):
         return replace(
             result,
@@ -325,14 +329,27 @@ def with_suite_quality(
     # filtered covariances are the accuracy's (the filter is the same whatever the engine): one pass
     check_estimate(estimate)
     check_map_sigma(map_sigma_m)
-    problems = [(r.name, r.problem) for r in target.routes]
     positions = target.library.resolve_suite(result.suite)
-    passes = [integrity_and_pass(p, positions, integrity, map_sigma_m=map_sigma_m, route=name) for name, p in problems]
-    accuracy = tuple(
-        accuracy_from_covariances(fp.filtered, map_sigma_m=map_sigma_m, route=name, estimate="filter")
-        for (name, _), (_, fp) in zip(problems, passes)
+    routes = [(r.name, r.problem) for r in target.routes]
+    plan = Plan(
+        "route's accuracy and integrity",
+        _route_quality,
+        [(positions, integrity, map_sigma_m, name) for name, _ in routes],
+        states=[RouteRecipe.of(name, p) for name, p in routes],
+        build=RouteRecipe.build,
+        state_of=list(range(len(routes))),
+        local=[p for _, p in routes],
     )
-    return replace(result, accuracy=accuracy, integrity=tuple(ri for ri, _ in passes))
+    quality = execute(plan, LocalProcesses(jobs))
+    return replace(result, accuracy=tuple(a for a, _ in quality), integrity=tuple(i for _, i in quality))
+
+
+def _route_quality(problem: Problem, task: tuple[Any, ...]) -> tuple[RouteAccuracy, RouteIntegrity]:
+    """One route's accuracy and integrity of a suite from one forward pass (a plan's step: ``task``
+    is (positions, integrity spec, map σ [m], route name))."""
+    positions, integrity, map_sigma_m, name = task
+    ri, fp = integrity_and_pass(problem, positions, integrity, map_sigma_m=map_sigma_m, route=name)
+    return accuracy_from_covariances(fp.filtered, map_sigma_m=map_sigma_m, route=name, estimate="filter"), ri
 
 
 def run_greedy(

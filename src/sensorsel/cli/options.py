@@ -608,7 +608,10 @@ def engine_options(fn: Callable[..., Any]) -> Callable[..., Any]:
     """--engine and --jobs."""
     from sensorsel.api import ENGINES
 
-    fn = jobs_option("Threads scoring candidate suites (results do not depend on it).")(fn)
+    fn = jobs_option(
+        "Worker processes owning a domain's routes, or threads for one route's candidates "
+        "(results do not depend on it)."
+    )(fn)
     fn = click.option(
         "--engine",
         type=click.Choice(sorted(ENGINES)),
@@ -823,6 +826,7 @@ class DesignInputs:
             engine=self.engine,
             estimate=self.estimate,
             integrity=self.integrity,
+            jobs=self.jobs,
         )
 
 

@@ -12,7 +12,14 @@ it arrives, so an interrupted run goes on where it stopped. See docs/architectur
 This package is at the base of the layers: it knows nothing of sensors or routes.
 """
 
-from sensorsel.pipeline.executors import ClusterError, DaskExecutor, Executor, InProcess, import_distributed
+from sensorsel.pipeline.executors import (
+    ClusterError,
+    DaskExecutor,
+    Executor,
+    InProcess,
+    LocalProcesses,
+    import_distributed,
+)
 from sensorsel.pipeline.plan import Plan
 from sensorsel.pipeline.run import execute
 from sensorsel.pipeline.store import FileStore, NoStore, Store, digest
@@ -23,6 +30,7 @@ __all__ = [
     "Executor",
     "FileStore",
     "InProcess",
+    "LocalProcesses",
     "NoStore",
     "Plan",
     "Store",

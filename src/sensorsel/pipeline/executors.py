@@ -1,5 +1,6 @@
 """Executors: where a plan's tasks run. :class:`InProcess` here, one after another;
-:class:`DaskExecutor` as Dask tasks on a client's workers (``sensorsel[dask]``)."""
+:class:`LocalProcesses` on worker processes of this machine; :class:`DaskExecutor` as Dask tasks on
+a client's workers (``sensorsel[dask]``)."""
 
 from __future__ import annotations
 
@@ -53,6 +54,47 @@ class InProcess:
                 else:
                     held[k] = plan.build(plan.states[k]) if plan.build is not None else plan.states[k]
             done(i, plan.step(held[k], plan.tasks[i]))
+
+
+class LocalProcesses:
+    """The tasks on ``jobs`` worker processes of this machine, one job per state: a worker builds the
+    state from its recipe (``plan.build``) once and runs every task of it, in task order (a state is
+    one message out, its results one message back). For plans whose states are dear to compute and
+    few (a domain's routes): threads would not run them side by side (numpy and GTSAM's small calls
+    hold the interpreter's lock). Workers are forked from a server process (``multiprocessing``'s
+    forkserver), so a worker starts without importing numpy again; the steps are deterministic, so
+    the bytes are those of an in-process run."""
+
+    def __init__(self, jobs: int) -> None:
+        self.jobs = int(jobs)
+
+    def run(self, plan: Plan[Any], todo: Sequence[int], done: Done) -> None:
+        by_state: dict[int, list[int]] = {}
+        for i in todo:
+            by_state.setdefault(plan.state_index(i), []).append(i)
+        if self.jobs < 2 or len(by_state) < 2:
+            InProcess().run(plan, todo, done)
+            return
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor, as_completed
+
+        ctx = multiprocessing.get_context("forkserver")
+        with ProcessPoolExecutor(max_workers=min(self.jobs, len(by_state)), mp_context=ctx) as pool:
+            futs = {
+                pool.submit(_run_state, plan.build, plan.step, plan.states[k], [plan.tasks[i] for i in ids]): ids
+                for k, ids in by_state.items()
+            }
+            for fut in as_completed(futs):
+                for i, result in zip(futs[fut], fut.result()):
+                    done(i, result)
+
+
+def _run_state(
+    build: Callable[[Any], Any] | None, step: Callable[[Any, Any], Any], state: Any, tasks: list[Any]
+) -> list[Any]:
+    """A worker process's job: the state built (from its recipe) once, then each task on it."""
+    held = build(state) if build is not None else state
+    return [step(held, t) for t in tasks]
 
 
 class DaskExecutor:

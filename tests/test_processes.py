@@ -1,0 +1,125 @@
+"""A domain's routes on worker processes of this machine (what ``--jobs N`` runs on a domain), and the
+plan executor on worker processes: the bytes of one thread, one message per process and round, a lost
+process rebuilt, a worker's own error raised once (not retried), the processes stopped.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sensorsel.api import design_domain, with_suite_quality
+from sensorsel.errors import InputError, SensorselError
+from sensorsel.information.evaluators import DomainEvaluator, evaluator_for
+from sensorsel.information.evaluators.processes import ProcessDomainEvaluator, _WorkerError
+from sensorsel.io import results
+from sensorsel.model.problem import load_domain
+from sensorsel.pipeline import InProcess, LocalProcesses, Plan, execute
+
+REPO = Path(__file__).resolve().parents[1]
+DATA = REPO / "data" / "kitti_fixtures"
+
+
+def _untimed(obj: object) -> object:
+    def rec(o: object) -> object:
+        if isinstance(o, dict):
+            return {k: rec(v) for k, v in o.items() if k != "seconds"}
+        if isinstance(o, list):
+            return [rec(v) for v in o]
+        return o
+
+    return rec(json.loads(results.dumps(obj)))
+
+
+@pytest.fixture(scope="module")
+def domain(tmp_path_factory):
+    """Four routes: the bundled suburb and three synthetic maps along tiny."""
+    tiny = f"route: {DATA / 'poses' / 'tiny.txt'}, format: kitti, times: {DATA / 'sequences' / 'tiny' / 'times.txt'}"
+    text = ["keyframe_rate_hz: 1.0", "routes:", "  - {name: suburb, fixture: suburb}"]
+    text += [f"  - {{name: tiny-{seed}, {tiny}, landmarks: {{synthetic: {{seed: {seed}}}}}}}" for seed in (3, 4, 5)]
+    path = tmp_path_factory.mktemp("four") / "four.yaml"
+    path.write_text("\n".join(text) + "\n")
+    return load_domain(path)
+
+
+def test_greedy_on_processes_is_the_one_thread_bytes_and_jobs_choose_it(domain):
+    here = design_domain(domain, 12_000, evaluator=DomainEvaluator(domain))
+    for n in (1, 2, 3):
+        with ProcessDomainEvaluator(domain, processes=n) as ev:
+            assert len(ev._workers()) == n
+            got = design_domain(domain, 12_000, evaluator=ev)
+        assert _untimed(got) == _untimed(here)
+    assert type(evaluator_for(domain, jobs=1)) is DomainEvaluator
+    ev = evaluator_for(domain, jobs=2)
+    assert isinstance(ev, ProcessDomainEvaluator)
+    ev.close()
+
+
+def test_a_round_is_one_message_per_process_and_scores_are_the_in_process_bytes(domain):
+    here = DomainEvaluator(domain)
+    with ProcessDomainEvaluator(domain, processes=2) as ev:
+        base, n = (0,), len(domain.library)
+        for cand in ([1, 2, 3], list(range(1, n))):
+            m0, r0 = ev.n_messages, ev.n_rounds
+            got = ev.scores_with(base, cand)
+            assert ev.n_rounds - r0 == 1 and ev.n_messages - m0 == 2  # two processes, not four routes
+            np.testing.assert_array_equal(got, here.scores_with(base, cand))
+        np.testing.assert_array_equal(ev.best, here.best)
+
+
+def test_a_killed_process_has_its_routes_rebuilt_with_the_same_bytes(domain):
+    here = DomainEvaluator(domain).scores_with((0,), [1, 2])
+    with ProcessDomainEvaluator(domain, processes=2) as ev:
+        victim = ev._processes[0].process
+        os.kill(victim.pid, signal.SIGKILL)
+        victim.join(timeout=10)
+        np.testing.assert_array_equal(ev.scores_with((0,), [1, 2]), here)
+        assert ev.n_rebuilt >= 1
+        assert len(ev._workers()) == 1  # the survivor now holds every route
+
+
+def test_a_workers_own_error_is_raised_once_not_retried_as_a_lost_process(domain):
+    with ProcessDomainEvaluator(domain, processes=2) as ev:
+        with pytest.raises(_WorkerError, match="AttributeError"):
+            ev._call({0: ("no_such_method", ())})
+        assert ev.n_rebuilt == 0
+        # the user's error found on a worker is the user's error, as in this process
+        with pytest.raises(SensorselError):
+            ev._call({1: ("score", ((999,),))})
+        assert ev.n_rebuilt == 0
+
+
+def test_close_stops_every_process(domain):
+    ev = ProcessDomainEvaluator(domain, processes=2)
+    procs = [w.process for w in ev._processes]
+    assert all(p.is_alive() for p in procs)
+    ev.close()
+    assert not any(p.is_alive() for p in procs)
+
+
+def _square_plus(state: int, task: int) -> int:
+    if task < 0:
+        raise InputError(f"task {task}: negative")
+    return state * state + task
+
+
+def test_the_plan_executor_on_processes_gives_the_in_process_results_in_task_order():
+    plan = Plan("number", _square_plus, [1, 2, 3, 4, 5], states=[10, 20, 30], state_of=[0, 0, 1, 2, 2])
+    want = execute(plan, InProcess())
+    assert execute(plan, LocalProcesses(2)) == want == [101, 102, 403, 904, 905]
+    bad = Plan("number", _square_plus, [1, -1], states=[1, 2], state_of=[0, 1])
+    with pytest.raises(InputError, match="task -1: negative"):
+        execute(bad, LocalProcesses(2))
+
+
+def test_suite_quality_on_processes_is_the_in_process_bytes(domain):
+    res = design_domain(domain, 12_000, evaluator=DomainEvaluator(domain)).greedy
+    one = with_suite_quality(res, domain, jobs=1)
+    two = with_suite_quality(res, domain, jobs=2)
+    assert _untimed(two) == _untimed(one)
+    assert len(one.accuracy) == len(domain.routes) and len(one.integrity) == len(domain.routes)
