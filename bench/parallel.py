@@ -263,6 +263,45 @@ def run_on_cluster(domain: Any, budget: float, rule: str, workers: int) -> dict[
     }
 
 
+def run_on_processes(domain: Any, budget: float, rule: str, processes: int) -> dict[str, Any]:
+    """The lazy greedy with the routes owned by worker processes of this machine
+    (:class:`~sensorsel.information.evaluators.processes.ProcessDomainEvaluator`, what ``--jobs N``
+    runs on a domain): wall, the client's CPU, the workers' CPU (``psutil``), rounds and bytes."""
+    import psutil  # type: ignore[import-untyped]
+
+    from sensorsel.designs.selection import greedy
+    from sensorsel.information.evaluators.processes import ProcessDomainEvaluator
+    from sensorsel.io import results
+
+    def workers_cpu(ev: Any) -> float:
+        return sum(sum(psutil.Process(w.process.pid).cpu_times()[:2]) for w in ev._processes)
+
+    t0 = time.perf_counter()
+    with ProcessDomainEvaluator(domain, processes=processes) as ev:
+        build = time.perf_counter() - t0
+        w0, b0, r0, rounds0, wait0 = workers_cpu(ev), ev.bytes_sent, ev.bytes_received, ev.n_rounds, ev.wait_s
+        c1, t1 = cpu_of_this_process(), time.perf_counter()
+        res = greedy(ev, budget, rule, lazy=True, info=domain.info)
+        wall = time.perf_counter() - t1
+        client_cpu = cpu_of_this_process() - c1
+        w1 = workers_cpu(ev)
+        steps = max(1, len(res.steps))
+        out = {
+            "processes": processes,
+            "build_s": round(build, 3),
+            "greedy_wall_s": round(wall, 3),
+            "client_cpu_s": round(client_cpu, 3),
+            "workers_cpu_s": round(w1 - w0, 3),
+            "client_wait_s": round(ev.wait_s - wait0, 3),
+            "rounds": ev.n_rounds - rounds0,
+            "route_calls_scored_ahead": ev.n_ahead,
+            "route_calls_scored_ahead_used": ev.n_ahead_used,
+            "bytes_per_step": round((ev.bytes_sent - b0 + ev.bytes_received - r0) / steps, 1),
+            "_result": results.dumps(res),
+        }
+    return out
+
+
 def model(
     trace: list[list[float]],
     serial: float,
@@ -498,6 +537,7 @@ def main() -> None:
     ap.add_argument("--rule", default="uniform")
     ap.add_argument("--jobs", default=f"1,{os.cpu_count() or 1}", help="thread counts in-process (comma-separated)")
     ap.add_argument("--workers", default="1,2", help="LocalCluster sizes (comma-separated; empty: none)")
+    ap.add_argument("--processes", default="2", help="worker-process counts in-process (comma-separated; empty: none)")
     ap.add_argument("--generated", type=int, default=0, help="measure a generated domain of N routes instead")
     ap.add_argument(
         "--model-at",
@@ -551,6 +591,15 @@ def main() -> None:
             file=sys.stderr,
         )
     base = runs[0]
+    procs = [run_on_processes(domain, args.budget, args.rule, int(p)) for p in args.processes.split(",") if p]
+    for p in procs:
+        print(
+            f"in-process, {p['processes']} worker process(es): greedy {p['greedy_wall_s']:.2f} s wall "
+            f"({base['greedy_wall_s'] / p['greedy_wall_s']:.2f}x one thread), client CPU {p['client_cpu_s']:.2f} s, "
+            f"workers CPU {p['workers_cpu_s']:.2f} s, {p['rounds']} rounds, "
+            f"{p['route_calls_scored_ahead_used']}/{p['route_calls_scored_ahead']} scored ahead used",
+            file=sys.stderr,
+        )
     clusters = [run_on_cluster(domain, args.budget, args.rule, int(w)) for w in args.workers.split(",") if w]
     for c in clusters:
         print(
@@ -565,7 +614,7 @@ def main() -> None:
         return [untimed(first), *rest]
 
     same = all(parts(r["_result"]) == parts(base["_result"]) for r in runs) and all(
-        untimed(c["_result"]) == parts(base["_result"])[0] for c in clusters
+        untimed(c["_result"]) == parts(base["_result"])[0] for c in clusters + procs
     )
     out["same_result"] = same
     trace, serial = [t for t in base["_trace"] if t], base["serial_cpu_s"]  # rounds with work (none: nothing sent)
@@ -612,6 +661,13 @@ def main() -> None:
                 "predicted_amdahl": pred and pred["amdahl_speedup"],
             }
         )
+    for p in procs:
+        checks.append(
+            {
+                "run": f"{p['processes']} worker processes",
+                "measured_speedup": round(base["greedy_wall_s"] / p["greedy_wall_s"], 2),
+            }
+        )
     for c in clusters:
         pred = out["model"]["cluster"].get(f"at_{c['workers']}")
         checks.append(
@@ -634,6 +690,7 @@ def main() -> None:
             )
     out["model_check"] = checks
     out["in_process"] = [{k: v for k, v in r.items() if not k.startswith("_")} for r in runs]
+    out["processes"] = [{k: v for k, v in p.items() if not k.startswith("_")} for p in procs]
     out["cluster"] = [{k: v for k, v in c.items() if not k.startswith("_")} for c in clusters]
     for command in [c for c in args.commands.split(",") if c and c != "greedy"]:
         out[command] = require_rows(domain, args) if command == "require" else command_rows(command, domain, args)
