@@ -263,10 +263,11 @@ def run_on_cluster(domain: Any, budget: float, rule: str, workers: int) -> dict[
     }
 
 
-def run_on_processes(domain: Any, budget: float, rule: str, processes: int) -> dict[str, Any]:
+def run_on_processes(domain: Any, budget: float, rule: str, processes: int, repeat: int = 1) -> dict[str, Any]:
     """The lazy greedy with the routes owned by worker processes of this machine
     (:class:`~sensorsel.information.evaluators.processes.ProcessDomainEvaluator`, what ``--jobs N``
-    runs on a domain): wall, the client's CPU, the workers' CPU (``psutil``), rounds and bytes."""
+    runs on a domain): wall, the client's CPU, the workers' CPU (``psutil``), rounds and bytes; with
+    ``repeat``, the greedy run again on the same (warm) processes, each run's wall reported."""
     import psutil  # type: ignore[import-untyped]
 
     from sensorsel.designs.selection import greedy
@@ -285,11 +286,17 @@ def run_on_processes(domain: Any, budget: float, rule: str, processes: int) -> d
         wall = time.perf_counter() - t1
         client_cpu = cpu_of_this_process() - c1
         w1 = workers_cpu(ev)
+        again = []
+        for _ in range(repeat - 1):
+            t2 = time.perf_counter()
+            greedy(ev, budget, rule, lazy=True, info=domain.info)
+            again.append(round(time.perf_counter() - t2, 3))
         steps = max(1, len(res.steps))
         out = {
             "processes": processes,
             "build_s": round(build, 3),
             "greedy_wall_s": round(wall, 3),
+            "greedy_wall_again_s": again,
             "client_cpu_s": round(client_cpu, 3),
             "workers_cpu_s": round(w1 - w0, 3),
             "client_wait_s": round(ev.wait_s - wait0, 3),
@@ -538,6 +545,9 @@ def main() -> None:
     ap.add_argument("--jobs", default=f"1,{os.cpu_count() or 1}", help="thread counts in-process (comma-separated)")
     ap.add_argument("--workers", default="1,2", help="LocalCluster sizes (comma-separated; empty: none)")
     ap.add_argument("--processes", default="2", help="worker-process counts in-process (comma-separated; empty: none)")
+    ap.add_argument(
+        "--repeat", type=int, default=1, help="greedy runs on each set of worker processes (warm after the first)"
+    )
     ap.add_argument("--generated", type=int, default=0, help="measure a generated domain of N routes instead")
     ap.add_argument(
         "--model-at",
@@ -591,13 +601,16 @@ def main() -> None:
             file=sys.stderr,
         )
     base = runs[0]
-    procs = [run_on_processes(domain, args.budget, args.rule, int(p)) for p in args.processes.split(",") if p]
+    procs = [
+        run_on_processes(domain, args.budget, args.rule, int(p), args.repeat) for p in args.processes.split(",") if p
+    ]
     for p in procs:
         print(
             f"in-process, {p['processes']} worker process(es): greedy {p['greedy_wall_s']:.2f} s wall "
             f"({base['greedy_wall_s'] / p['greedy_wall_s']:.2f}x one thread), client CPU {p['client_cpu_s']:.2f} s, "
             f"workers CPU {p['workers_cpu_s']:.2f} s, {p['rounds']} rounds, "
-            f"{p['route_calls_scored_ahead_used']}/{p['route_calls_scored_ahead']} scored ahead used",
+            f"{p['route_calls_scored_ahead_used']}/{p['route_calls_scored_ahead']} scored ahead used"
+            + (f"; again (warm): {p['greedy_wall_again_s']} s" if p["greedy_wall_again_s"] else ""),
             file=sys.stderr,
         )
     clusters = [run_on_cluster(domain, args.budget, args.rule, int(w)) for w in args.workers.split(",") if w]

@@ -16,13 +16,13 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 
 from sensorsel.designs.certify import CertifiedGreedyResult
 from sensorsel.designs.selection import GreedyResult, greedy
-from sensorsel.information.evaluators import DomainEvaluator
+from sensorsel.information.evaluators import DomainEvaluator, Evaluator
 from sensorsel.io.progress import Progress
 from sensorsel.io.results import result_kind
 from sensorsel.model.constraints import recorded
@@ -82,14 +82,15 @@ class DomainDesign:
     seconds: float = 0.0
 
 
-def route_share(
-    evaluator: DomainEvaluator, k: int, result: GreedyResult, score: float, *, lazy: bool = True
-) -> RouteShare:
-    """Route ``k``'s share of its best and of its own design for the domain suite of ``result``, whose
-    score f_k(S) on that route is ``score`` [nats] (own design: greedy with ``result``'s rule and
-    budget and limits on the route's own evaluator)."""
-    route, ev = evaluator.domain.routes[k], evaluator.routes[k]
-    own = greedy(ev, result.budget_usd, result.rule, lazy=lazy, constraints=recorded(result.constraints))
+def own_design(route: Evaluator, budget_usd: float, rule: str, lazy: bool, constraints: Any) -> GreedyResult:
+    """A route's own design: greedy on the route's evaluator alone with the domain design's rule,
+    budget and recorded limits (run where the route's evaluator lives: :meth:`DomainEvaluator.apply_routes`)."""
+    return greedy(route, budget_usd, rule, lazy=lazy, constraints=recorded(constraints))
+
+
+def _share(evaluator: DomainEvaluator, k: int, own: GreedyResult, score: float) -> RouteShare:
+    """Route ``k``'s :class:`RouteShare` from its own design and the domain suite's score there [nats]."""
+    route = evaluator.domain.routes[k]
     f_s, f_own = float(score), float(own.score)
     return RouteShare(
         name=route.name,
@@ -126,12 +127,13 @@ def route_breakdown(
     if len(shares) >= n:
         return tuple(shares[:n])
     scores = evaluator.route_scores(evaluator.library.resolve_suite(result.suite))
-    wave = max(1, evaluator.jobs) if record is not None else n
+    wave = evaluator.width if record is not None else n
+    how = (result.budget_usd, result.rule, lazy, result.constraints)
     for start in range(len(shares), n, wave):
         todo = list(range(start, min(n, start + wave)))
-        got = evaluator.map_routes(lambda k: route_share(evaluator, k, result, float(scores[k]), lazy=lazy), todo)
+        got = evaluator.apply_routes(own_design, {k: how for k in todo})
         for k in todo:
-            shares.append(got[k])
+            shares.append(_share(evaluator, k, got[k], float(scores[k])))
             if record is not None:
                 record(tuple(shares))
             if progress:

@@ -105,6 +105,13 @@ class RouteActor:
         """The engine's cheap floor under :meth:`pose_covariances` (None where it has none)."""
         return self.evaluator.pose_covariance_floor(suite, map_sigma_m=map_sigma_m)
 
+    def apply(self, fn: Any, args: tuple[Any, ...]) -> Any:
+        """``fn(this route's evaluator, *args)``: a whole piece of work on this route, done here."""
+        t0 = time.perf_counter()
+        out = fn(self.evaluator, *args)
+        self.busy_s, self.calls = self.busy_s + time.perf_counter() - t0, self.calls + 1
+        return out
+
     def busy(self) -> tuple[float, int, str]:
         """(seconds this actor spent scoring, calls it answered, its worker's address): the worker's
         share of a run's time; the rest of a step's wall time is the client, the network and Dask's
@@ -404,6 +411,17 @@ class DistributedDomainEvaluator(DomainEvaluator):
         running several from client threads at once is not done: the client's calls are not made
         for concurrent callers."""
         return {int(k): one(int(k)) for k in (range(len(self.recipes)) if routes is None else routes)}
+
+    def apply_routes(self, fn: Any, args: dict[int, tuple[Any, ...]]) -> dict[int, Any]:
+        """``fn(route's evaluator, *args[k])`` for each route k, on the workers that hold them, every
+        worker asked at once (one message each): a route's own greedy runs beside its evaluator,
+        not a message per step from here."""
+        return self._call({int(k): ("apply", (fn, a)) for k, a in args.items()})
+
+    @property
+    def width(self) -> int:
+        """How many routes' work runs at once: the workers holding routes."""
+        return max(1, len({id(a) for a in self._actors}))
 
     def _ask_members(
         self, method: str, base: tuple[int, ...], cand: list[int], members: Iterable[int]

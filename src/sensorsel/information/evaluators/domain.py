@@ -229,6 +229,18 @@ class DomainEvaluator(Evaluator):
         time): then every answer is the bytes of a run on one thread."""
         return self._on_threads(one, list(range(len(self.routes))) if routes is None else [int(k) for k in routes])
 
+    def apply_routes(self, fn: Any, args: dict[int, tuple[Any, ...]]) -> dict[int, Any]:
+        """``fn(route's evaluator, *args[k])`` for each route k of ``args``, by route: a whole piece of
+        work on one route (a route's own greedy), run where the route's evaluator lives. ``fn`` is a
+        module-level function (it is pickled by name to reach a worker process) that uses route k's
+        engine alone: the bytes of a run on one thread. Here, on :attr:`jobs` threads."""
+        return self._on_threads(lambda k: fn(self.routes[k], *args[k]), [int(k) for k in args])
+
+    @property
+    def width(self) -> int:
+        """How many routes' work runs at once (:meth:`apply_routes`): here, :attr:`jobs` threads."""
+        return max(1, self.jobs)
+
     def pose_covariances_batch(
         self,
         suites: Sequence[Iterable[int]],
