@@ -411,21 +411,25 @@ class DomainEvaluator(Evaluator):
         (indexed by member; default :attr:`work`): the dearest are started first, so that a large
         route does not start last while the other thread idles (seven KITTI routes x four
         conditions: the members' gain bounds took 4.2 s in route order on 2 threads for 5.6 s CPU)."""
-        if self.jobs < 2 or len(members) < 2:
-            return {k: one(k) for k in members}
-        cost = self.work if work is None else work
-        started = sorted(members, key=lambda k: -float(cost[k]))  # stable: ties in the given order
-        if self._pool is None:
-            self._pool = ThreadPoolExecutor(max_workers=self.jobs, thread_name_prefix="sensorsel-domain")
-            weakref.finalize(self, self._pool.shutdown, wait=False)
+        if self._blas is None:
             self._blas = ThreadpoolController()
-        # BLAS held at one thread by this (calling) thread around the pool's work: each engine also
-        # holds it while it scores, but BLAS's thread count is the process's, and an engine's hold
-        # taken and restored on a pool thread while another route's is held on the other could leave
-        # BLAS on one thread for good (measured: after a domain run numpy's products changed their
-        # last bits); nested under this hold, theirs find one thread and put one back.
-        assert self._blas is not None
+        # BLAS held at one thread by this (calling) thread around the routes' work, on one thread
+        # too: a route's products are small and mid-sized, where BLAS's threads cost more than they
+        # give (16 cores: the seven KITTI routes' greedy on one thread took 5.83 s with 16 BLAS
+        # threads, 4.84 s with one), and the worker processes hold it at one, so every place runs
+        # the same products on one BLAS thread. Each engine also holds it while it scores, but
+        # BLAS's thread count is the process's, and an engine's hold taken and restored on a pool
+        # thread while another route's is held on the other could leave BLAS on one thread for good
+        # (measured: after a domain run numpy's products changed their last bits); nested under
+        # this hold, theirs find one thread and put one back.
         with self._blas.limit(limits=1, user_api="blas"):
+            if self.jobs < 2 or len(members) < 2:
+                return {k: one(k) for k in members}
+            cost = self.work if work is None else work
+            started = sorted(members, key=lambda k: -float(cost[k]))  # stable: ties in the given order
+            if self._pool is None:
+                self._pool = ThreadPoolExecutor(max_workers=self.jobs, thread_name_prefix="sensorsel-domain")
+                weakref.finalize(self, self._pool.shutdown, wait=False)
             got = dict(zip(started, self._pool.map(one, started)))
         return {k: got[k] for k in members}
 
