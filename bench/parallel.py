@@ -286,6 +286,8 @@ def run_on_processes(domain: Any, budget: float, rule: str, processes: int, repe
         wall = time.perf_counter() - t1
         client_cpu = cpu_of_this_process() - c1
         w1 = workers_cpu(ev)
+        rounds, ahead, ahead_used = ev.n_rounds - rounds0, ev.n_ahead, ev.n_ahead_used  # the first run's
+        moved, wait = ev.bytes_sent - b0 + ev.bytes_received - r0, ev.wait_s - wait0
         again = []
         for _ in range(repeat - 1):
             t2 = time.perf_counter()
@@ -299,11 +301,11 @@ def run_on_processes(domain: Any, budget: float, rule: str, processes: int, repe
             "greedy_wall_again_s": again,
             "client_cpu_s": round(client_cpu, 3),
             "workers_cpu_s": round(w1 - w0, 3),
-            "client_wait_s": round(ev.wait_s - wait0, 3),
-            "rounds": ev.n_rounds - rounds0,
-            "route_calls_scored_ahead": ev.n_ahead,
-            "route_calls_scored_ahead_used": ev.n_ahead_used,
-            "bytes_per_step": round((ev.bytes_sent - b0 + ev.bytes_received - r0) / steps, 1),
+            "client_wait_s": round(wait, 3),
+            "rounds": rounds,
+            "route_calls_scored_ahead": ahead,
+            "route_calls_scored_ahead_used": ahead_used,
+            "bytes_per_step": round(moved / steps, 1),
             "_result": results.dumps(res),
         }
     return out
