@@ -16,7 +16,12 @@ import pytest
 from sensorsel.api import design_domain, with_suite_quality
 from sensorsel.errors import InputError, SensorselError
 from sensorsel.information.evaluators import DomainEvaluator, evaluator_for
-from sensorsel.information.evaluators.processes import ProcessDomainEvaluator, _WorkerError
+from sensorsel.information.evaluators.processes import (
+    PROCESSES_FROM_KEYFRAMES,
+    ProcessDomainEvaluator,
+    _WorkerError,
+    on_processes,
+)
 from sensorsel.io import results
 from sensorsel.model.problem import load_domain
 from sensorsel.pipeline import InProcess, LocalProcesses, Plan, execute
@@ -36,15 +41,25 @@ def _untimed(obj: object) -> object:
     return rec(json.loads(results.dumps(obj)))
 
 
-@pytest.fixture(scope="module")
-def domain(tmp_path_factory):
-    """Four routes: the bundled suburb and three synthetic maps along tiny."""
+def _four_routes(folder: Path, rate_hz: float):
+    """Four routes: the bundled suburb and three synthetic maps along tiny, keyframes at ``rate_hz``."""
     tiny = f"route: {DATA / 'poses' / 'tiny.txt'}, format: kitti, times: {DATA / 'sequences' / 'tiny' / 'times.txt'}"
-    text = ["keyframe_rate_hz: 1.0", "routes:", "  - {name: suburb, fixture: suburb}"]
+    text = [f"keyframe_rate_hz: {rate_hz}", "routes:", "  - {name: suburb, fixture: suburb}"]
     text += [f"  - {{name: tiny-{seed}, {tiny}, landmarks: {{synthetic: {{seed: {seed}}}}}}}" for seed in (3, 4, 5)]
-    path = tmp_path_factory.mktemp("four") / "four.yaml"
+    path = folder / f"four-{rate_hz:g}.yaml"
     path.write_text("\n".join(text) + "\n")
     return load_domain(path)
+
+
+@pytest.fixture(scope="module")
+def domain(tmp_path_factory):
+    return _four_routes(tmp_path_factory.mktemp("four"), 1.0)
+
+
+@pytest.fixture(scope="module")
+def dense(tmp_path_factory):
+    """The same four routes at 10 keyframes a second: enough keyframes for worker processes."""
+    return _four_routes(tmp_path_factory.mktemp("dense"), 10.0)
 
 
 def test_greedy_on_processes_is_the_one_thread_bytes_and_jobs_choose_it(domain):
@@ -54,10 +69,19 @@ def test_greedy_on_processes_is_the_one_thread_bytes_and_jobs_choose_it(domain):
             assert len(ev._workers()) == n
             got = design_domain(domain, 12_000, evaluator=ev)
         assert _untimed(got) == _untimed(here)
-    assert type(evaluator_for(domain, jobs=1)) is DomainEvaluator
-    ev = evaluator_for(domain, jobs=2)
+
+
+def test_jobs_choose_processes_from_the_keyframes_of_the_domain(domain, dense):
+    def keyframes(d):
+        return sum(r.problem.scenario.n_poses for r in d.routes)
+
+    assert keyframes(domain) < PROCESSES_FROM_KEYFRAMES <= keyframes(dense)  # 83 and 794
+    assert type(evaluator_for(domain, jobs=2)) is DomainEvaluator  # too small to pay for processes
+    assert type(evaluator_for(dense, jobs=1)) is DomainEvaluator
+    ev = evaluator_for(dense, jobs=2)
     assert isinstance(ev, ProcessDomainEvaluator)
     ev.close()
+    assert on_processes(dense, 2) and not on_processes(dense, 1) and not on_processes(domain, 2)
 
 
 def test_a_round_is_one_message_per_process_and_scores_are_the_in_process_bytes(domain):
@@ -117,9 +141,10 @@ def test_the_plan_executor_on_processes_gives_the_in_process_results_in_task_ord
         execute(bad, LocalProcesses(2))
 
 
-def test_suite_quality_on_processes_is_the_in_process_bytes(domain):
-    res = design_domain(domain, 12_000, evaluator=DomainEvaluator(domain)).greedy
-    one = with_suite_quality(res, domain, jobs=1)
-    two = with_suite_quality(res, domain, jobs=2)
+def test_suite_quality_on_processes_is_the_in_process_bytes(domain, dense):
+    res = design_domain(domain, 12_000, evaluator=DomainEvaluator(domain)).greedy  # a suite to judge
+    one = with_suite_quality(res, dense, jobs=1)
+    two = with_suite_quality(res, dense, jobs=2)
     assert _untimed(two) == _untimed(one)
-    assert len(one.accuracy) == len(domain.routes) and len(one.integrity) == len(domain.routes)
+    assert len(one.accuracy) == len(dense.routes) and len(one.integrity) == len(dense.routes)
+    assert one.accuracy[0].n_keyframes == dense.routes[0].problem.scenario.n_poses

@@ -112,6 +112,7 @@ from sensorsel.information.evaluators.accuracy import (
 from sensorsel.information.evaluators.distributed import (
     DistributedDomainEvaluator,
 )  # imports no Dask: a client is handed in
+from sensorsel.information.evaluators.processes import on_processes
 from sensorsel.information.filtering import ESTIMATES, check_estimate, check_map_sigma
 from sensorsel.information.integrity import IntegritySpec, RouteIntegrity, route_integrity
 from sensorsel.information.integrity.association import gate_of
@@ -340,7 +341,7 @@ def with_suite_quality(
         state_of=list(range(len(routes))),
         local=[p for _, p in routes],
     )
-    quality = execute(plan, LocalProcesses(jobs))
+    quality = execute(plan, LocalProcesses(jobs if on_processes(target, jobs) else 1))
     return replace(result, accuracy=tuple(a for a, _ in quality), integrity=tuple(i for _, i in quality))
 
 

@@ -51,12 +51,13 @@ def evaluator_for(
 ) -> Evaluator:
     """The evaluator of a problem (an engine of :data:`ENGINES`) or of a domain (a
     :class:`DomainEvaluator` over that engine's per-route evaluators, combined by ``aggregate``; with
-    ``jobs`` of 2 or more and several routes, the routes owned by that many worker processes:
-    :class:`~sensorsel.information.evaluators.processes.ProcessDomainEvaluator`, the same numbers)."""
+    ``jobs`` of 2 or more on a domain large enough, the routes owned by that many worker processes:
+    :class:`~sensorsel.information.evaluators.processes.ProcessDomainEvaluator`, the same numbers;
+    :func:`~sensorsel.information.evaluators.processes.on_processes` decides)."""
     if isinstance(target, Domain):
-        if jobs >= 2 and len(target.routes) >= 2:
-            from sensorsel.information.evaluators.processes import ProcessDomainEvaluator
+        from sensorsel.information.evaluators.processes import ProcessDomainEvaluator, on_processes
 
+        if on_processes(target, jobs):
             return ProcessDomainEvaluator(target, engine, processes=jobs, aggregate=aggregate)
         return DomainEvaluator(target, engine, jobs=jobs, aggregate=aggregate)
     check_aggregate(aggregate)  # one route: any aggregate picks the same suites, but a typo is still one

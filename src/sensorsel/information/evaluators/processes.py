@@ -33,9 +33,25 @@ from threadpoolctl import ThreadpoolController
 
 from sensorsel.errors import SensorselError
 from sensorsel.information.evaluators.distributed import DistributedDomainEvaluator, WorkerRoutes
-from sensorsel.model.problem import Domain
+from sensorsel.model.problem import Domain, Target
 
-__all__ = ["ProcessDomainEvaluator"]
+__all__ = ["PROCESSES_FROM_KEYFRAMES", "ProcessDomainEvaluator", "on_processes"]
+
+#: a domain's routes go to worker processes from this many keyframes in all (and 2 routes, 2 jobs):
+#: below, starting and feeding processes costs more than they give (2 cores, build + greedy +
+#: certificate + breakdown at $12,000 on one thread against 2 processes: the two fixture routes, 63
+#: keyframes, 0.29-0.32 s against 0.40 s; ten generated routes, 100, 0.52-0.56 s against 0.51-0.53 s;
+#: thirty, 300, 1.58-1.71 s against 1.27-1.38 s; the suite's accuracy and integrity on thirty, 0.39 s
+#: either way once the processes' server runs)
+PROCESSES_FROM_KEYFRAMES = 300
+
+
+def on_processes(target: Target, jobs: int) -> bool:
+    """Whether ``jobs`` pays for worker processes on ``target``'s routes (several of them, and
+    :data:`PROCESSES_FROM_KEYFRAMES`): a choice of speed alone (the same bytes either way)."""
+    keyframes = sum(r.problem.scenario.n_poses for r in target.routes)
+    return jobs >= 2 and len(target.routes) >= 2 and keyframes >= PROCESSES_FROM_KEYFRAMES
+
 
 #: the module the server process imports before it forks workers (what a worker runs)
 _PRELOAD = __name__
