@@ -20,6 +20,8 @@ import pytest
 
 distributed = pytest.importorskip("distributed")
 
+from domains import untimed  # noqa: E402
+
 from sensorsel.api import (  # noqa: E402
     design_domain,
     suite_accuracy,
@@ -37,19 +39,6 @@ BIN = Path(sys.executable).parent
 ENV = {**os.environ, "PYTHONPATH": str(REPO / "src") + os.pathsep + os.environ.get("PYTHONPATH", "")}
 
 
-def _untimed(obj: object) -> object:
-    """A result's JSON without its timings."""
-
-    def rec(o: object) -> object:
-        if isinstance(o, dict):
-            return {k: rec(v) for k, v in o.items() if k != "seconds"}
-        if isinstance(o, list):
-            return [rec(v) for v in o]
-        return o
-
-    return rec(json.loads(obj if isinstance(obj, str) else results.dumps(obj)))
-
-
 @pytest.fixture(scope="module")
 def domain():
     return load_domain(FIXTURES)
@@ -65,19 +54,19 @@ def test_domain_greedy_on_two_workers_equals_in_process(cluster, domain):
     local = design_domain(domain, 12_000, certify=True)
     ev = DistributedDomainEvaluator(cluster.client, domain)
     remote = design_domain(domain, 12_000, certify=True, evaluator=ev)
-    assert _untimed(remote) == _untimed(local)
+    assert untimed(remote) == untimed(local)
     assert ev.step_bytes and max(s + r for s, r in ev.step_bytes) < 2_000  # suites and numbers, never matrices
 
 
 def test_tradespace_rules_as_tasks_equal_in_process_and_resume(cluster, domain, tmp_path):
     grid, rules = [4_000, 12_000], ["best-of"]  # its two component rules: two tasks
-    local = _untimed(run_tradespace(domain, grid, rules))
-    assert _untimed(run_tradespace(domain, grid, rules, executor=cluster.executor, outdir=str(tmp_path))) == local
+    local = untimed(run_tradespace(domain, grid, rules))
+    assert untimed(run_tradespace(domain, grid, rules, executor=cluster.executor, outdir=str(tmp_path))) == local
     files = sorted((tmp_path / "runs").glob("rule-*.json"))
     assert len(files) == 2
     stamps = [f.stat().st_mtime_ns for f in files]
     assert (
-        _untimed(run_tradespace(domain, grid, rules, executor=cluster.executor, outdir=str(tmp_path), resume=True))
+        untimed(run_tradespace(domain, grid, rules, executor=cluster.executor, outdir=str(tmp_path), resume=True))
         == local
     )
     assert [f.stat().st_mtime_ns for f in files] == stamps  # finished rules were read back, not run again
@@ -92,14 +81,14 @@ def test_resilient_periods_as_tasks_equal_in_process_and_resume(cluster, tmp_pat
     local = resilient_report(problem, 8_000, 1, period_s=20.0, outdir=tmp_path / "here")
     there = tmp_path / "there"
     remote = resilient_report(problem, 8_000, 1, period_s=20.0, outdir=str(there), executor=cluster.executor)
-    assert _untimed(remote) == _untimed(local)
+    assert untimed(remote) == untimed(local)
     files = sorted((there / "periods").glob("period-*.json"))
     assert len(files) == len(local.per_period.periods) > 1
     stamps = [f.stat().st_mtime_ns for f in files]
     again = resilient_report(
         problem, 8_000, 1, period_s=20.0, outdir=str(there), resume=True, executor=cluster.executor
     )
-    assert _untimed(again) == _untimed(local)
+    assert untimed(again) == untimed(local)
     assert [f.stat().st_mtime_ns for f in files] == stamps  # finished periods were read back, not recomputed
 
 
@@ -112,7 +101,7 @@ def test_greedy_interrupted_in_process_resumes_on_two_workers(cluster, domain, t
                 return {k: rec(v) for k, v in o.items() if k != "n_evaluations"}
             return [rec(v) for v in o] if isinstance(o, list) else o
 
-        return rec(_untimed(obj))
+        return rec(untimed(obj))
 
     whole = design_domain(domain, 12_000, certify=True)
     ck = tmp_path / "design.json.checkpoint"
@@ -137,7 +126,7 @@ def test_study_cells_as_tasks_equal_in_process_and_resume(cluster, tmp_path):
     study = load_study(path)
     local = run_study(study)
     remote = run_study(study, executor=cluster.executor, outdir=tmp_path / "out")
-    assert len(remote.rows) == 4 and _untimed(remote) == _untimed(local)
+    assert len(remote.rows) == 4 and untimed(remote) == untimed(local)
 
     def untimed_csv(text: str) -> list[list[str]]:
         return [line.split(",")[:-1] for line in text.splitlines()]  # seconds is the last column
@@ -147,7 +136,7 @@ def test_study_cells_as_tasks_equal_in_process_and_resume(cluster, tmp_path):
     stamps = [f.stat().st_mtime_ns for f in files]
     again = run_study(study, executor=cluster.executor, outdir=tmp_path / "out", resume=True)
     assert again.n_reused == 4 and [f.stat().st_mtime_ns for f in files] == stamps
-    assert _untimed(again)["rows"] == _untimed(local)["rows"]
+    assert untimed(again)["rows"] == untimed(local)["rows"]
 
 
 def test_score_certify_optimal_robust_on_a_domain_equal_in_process(cluster, domain):
@@ -159,21 +148,21 @@ def test_score_certify_optimal_robust_on_a_domain_equal_in_process(cluster, doma
     ev = DistributedDomainEvaluator(cluster.client, domain, aggregate="raw")
     here = DomainEvaluator(domain, aggregate="raw")
     suite = "MRL-roof,HD2K-8,HD2K-2"
-    assert _untimed(score_domain_suite(domain, suite, aggregate="raw", evaluator=ev)) == _untimed(
+    assert untimed(score_domain_suite(domain, suite, aggregate="raw", evaluator=ev)) == untimed(
         score_domain_suite(domain, suite, aggregate="raw")
     )
     res = greedy(here, 6_000, "uniform", info=domain.info)
-    assert _untimed(certify_greedy(ev, res)) == _untimed(certify_greedy(here, res))
-    assert _untimed(optimal(ev, 3_000, max_nodes=4, info=domain.info)) == _untimed(
+    assert untimed(certify_greedy(ev, res)) == untimed(certify_greedy(here, res))
+    assert untimed(optimal(ev, 3_000, max_nodes=4, info=domain.info)) == untimed(
         optimal(here, 3_000, max_nodes=4, info=domain.info)
     )  # small: a few hundred node evaluations
     kw = dict(rules=("uniform",), methods=(), bound_nodes=5)
     # an evaluator given: one run on it, all methods on one memo (the plan of tasks: tests/test_pipeline.py)
-    assert _untimed(run_robust(domain, 3_000, 1, aggregate="raw", evaluator=ev, **kw)) == _untimed(
+    assert untimed(run_robust(domain, 3_000, 1, aggregate="raw", evaluator=ev, **kw)) == untimed(
         run_robust(domain, 3_000, 1, aggregate="raw", evaluator=DomainEvaluator(domain, aggregate="raw"), **kw)
     )
     worst = DistributedDomainEvaluator(cluster.client, domain)  # the worst route: each route's share of its best
-    assert _untimed(run_robust(domain, 3_000, 1, aggregate="worst", evaluator=worst, **kw)) == _untimed(
+    assert untimed(run_robust(domain, 3_000, 1, aggregate="worst", evaluator=worst, **kw)) == untimed(
         run_robust(domain, 3_000, 1, aggregate="worst", **kw)
     )
 
@@ -191,19 +180,20 @@ def test_simulation_runs_as_tasks_equal_in_process(cluster):
     here = simulate(problem, "MRL-roof,HD2K-8", runs=3, seed=5)
     assert sorted(done) == [1, 2, 3]
 
-    def untimed(r: object) -> object:
-        d = _untimed(r)
+    def untimed_run(r: object) -> object:
+        d = untimed(r)
+        assert isinstance(d, dict)
         d.pop("timing")
         return d
 
-    assert untimed(there) == untimed(here)
+    assert untimed_run(there) == untimed_run(here)
 
 
 def test_cli_score_and_simulate_with_workers_print_the_in_process_json(tmp_path):
     score = ["score", "--domain", str(FIXTURES), "--suite", "MRL-roof,HD2K-8", "--json"]
     here, there = _here(*score), _cli(*score, "--workers", "2")
     assert there.returncode == 0 and "LocalCluster of 2 worker processes" in there.stderr, there.stderr
-    assert _untimed(there.stdout) == _untimed(here.stdout)
+    assert untimed(there.stdout) == untimed(here.stdout)
     sim = [
         "simulate",
         "--fixture",
@@ -225,13 +215,14 @@ def test_cli_score_and_simulate_with_workers_print_the_in_process_json(tmp_path)
     )
     assert there.returncode == 0, there.stderr
 
-    def untimed(text: str) -> object:
-        d = _untimed(text)
+    def untimed_runs(text: str) -> object:
+        d = untimed(text)
+        assert isinstance(d, dict)
         for s in d["simulations"]:
             s.pop("timing")
         return d
 
-    assert untimed(there.stdout) == untimed(here.stdout)
+    assert untimed_runs(there.stdout) == untimed_runs(here.stdout)
 
 
 def test_cluster_options_on_one_route_are_a_usage_error_naming_domain():
@@ -271,7 +262,7 @@ def test_a_worker_killed_mid_run_loses_nothing(cluster, domain):
 
     remote = design_domain(domain, 20_000, evaluator=ev, progress=kill_once)
     assert killed and ev.n_rebuilt >= 1
-    assert _untimed(remote) == _untimed(local)
+    assert untimed(remote) == untimed(local)
 
 
 def _free_port() -> int:
@@ -356,7 +347,7 @@ def test_cli_greedy_on_a_scheduler_and_two_workers_started_here(tmp_path, domain
                 integrity=suite_integrity(domain, want.greedy.suite),
             ),
         )
-        assert _untimed(there.stdout) == _untimed(want)
+        assert untimed(there.stdout) == untimed(want)
     finally:
         for p in reversed(procs):
             p.terminate()
@@ -443,7 +434,7 @@ def test_pareto_with_limits_and_slots_on_two_workers_equals_in_process(tmp_path)
     assert there.returncode == 0, there.stderr
     a = (tmp_path / "here" / "tradespace.json").read_text()
     b = (tmp_path / "there" / "tradespace.json").read_text()
-    assert _untimed(b) == _untimed(a)
+    assert untimed(b) == untimed(a)
     # and the limits bite and hold: every run's suite fits, and the library's slots were read
     res = results.load(tmp_path / "there" / "tradespace.json", TradespaceResult)
     c = Constraints.of(limits={"power_w": 40.0}, max_sensors=6)

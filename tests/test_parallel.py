@@ -8,13 +8,14 @@ and 2 threads in-process and on 1 and 2 workers.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 distributed = pytest.importorskip("distributed")
+
+from domains import four_routes, untimed  # noqa: E402
 
 from sensorsel.api import design_domain  # noqa: E402
 from sensorsel.information.evaluators import DomainEvaluator  # noqa: E402
@@ -25,28 +26,6 @@ from sensorsel.pipeline.cluster import DaskCluster  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 FIXTURES = REPO / "configs" / "domain_fixtures.yaml"
-DATA = REPO / "data" / "kitti_fixtures"
-
-
-def _untimed(obj: object) -> object:
-    def rec(o: object) -> object:
-        if isinstance(o, dict):
-            return {k: rec(v) for k, v in o.items() if k != "seconds"}
-        if isinstance(o, list):
-            return [rec(v) for v in o]
-        return o
-
-    return rec(json.loads(results.dumps(obj)))
-
-
-def _four_routes(tmp_path: Path, rate_hz: float) -> Path:
-    """A domain of four routes (the bundled suburb and three synthetic maps along tiny)."""
-    tiny = f"route: {DATA / 'poses' / 'tiny.txt'}, format: kitti, times: {DATA / 'sequences' / 'tiny' / 'times.txt'}"
-    text = [f"keyframe_rate_hz: {rate_hz}", "routes:", "  - {name: suburb, fixture: suburb}"]
-    text += [f"  - {{name: tiny-{seed}, {tiny}, landmarks: {{synthetic: {{seed: {seed}}}}}}}" for seed in (3, 4, 5)]
-    path = tmp_path / f"four-{rate_hz:g}.yaml"
-    path.write_text("\n".join(text) + "\n")
-    return path
 
 
 @pytest.fixture(scope="module")
@@ -56,7 +35,7 @@ def cluster():
 
 
 def test_a_round_is_one_message_per_worker_whatever_the_routes_and_candidates(cluster, tmp_path):
-    domain = load_domain(_four_routes(tmp_path, 1.0))
+    domain = load_domain(four_routes(tmp_path, 1.0))
     ev = DistributedDomainEvaluator(cluster.client, domain)
     here = DomainEvaluator(domain)
     holders = {id(a) for a in ev._actors}
@@ -77,7 +56,7 @@ def test_a_round_is_one_message_per_worker_whatever_the_routes_and_candidates(cl
 def test_bytes_of_a_step_do_not_grow_with_the_keyframes(cluster, tmp_path):
     sizes, poses = [], []
     for rate in (1.0, 3.0):
-        domain = load_domain(_four_routes(tmp_path, rate))
+        domain = load_domain(four_routes(tmp_path, rate))
         poses.append(sum(r.problem.scenario.n_poses for r in domain.routes))
         ev = DistributedDomainEvaluator(cluster.client, domain)
         ev.scores_with((0, 1), list(range(2, len(domain.library))))
@@ -97,8 +76,8 @@ def test_domain_design_same_bytes_on_1_and_2_threads_and_1_and_2_workers(cluster
     runs.append(
         design_domain(domain, 12_000, certify=True, evaluator=DistributedDomainEvaluator(cluster.client, domain))
     )
-    first = _untimed(runs[0])
-    assert all(_untimed(r) == first for r in runs[1:])
+    first = untimed(runs[0])
+    assert all(untimed(r) == first for r in runs[1:])
 
 
 def test_a_checkpointed_domain_design_on_two_threads_records_the_one_thread_breakdown(tmp_path):
@@ -109,7 +88,7 @@ def test_a_checkpointed_domain_design_on_two_threads_records_the_one_thread_brea
     from sensorsel.designs.checkpoint import GreedyCheckpoint
 
     two = design_domain(domain, 12_000, checkpoint=ck, certify=True, jobs=2)
-    assert _untimed(two) == _untimed(one)
+    assert untimed(two) == untimed(one)
     saved = results.load(ck, GreedyCheckpoint)
     assert saved.routes == one.routes  # every route's share, in route order
 
@@ -123,12 +102,12 @@ def test_scoring_ahead_on_idle_threads_and_workers_changes_no_byte_and_no_count(
     # the queue's next route calls ahead; what is used is read back where one thread computes it
     from sensorsel.designs.selection import greedy
 
-    domain = load_domain(_four_routes(tmp_path, 1.0))
+    domain = load_domain(four_routes(tmp_path, 1.0))
     one = DomainEvaluator(domain, jobs=1)
     first = greedy(one, 12_000, lazy=True, info=domain.info)
     assert one.n_ahead == 0  # one thread: nothing is idle
     default = DomainEvaluator(domain, jobs=2)  # by default, too few places to score ahead on
-    assert _untimed(greedy(default, 12_000, lazy=True, info=domain.info)) == _untimed(first) and default.n_ahead == 0
+    assert untimed(greedy(default, 12_000, lazy=True, info=domain.info)) == untimed(first) and default.n_ahead == 0
     for ev in (
         DomainEvaluator(domain, jobs=2),
         DomainEvaluator(domain, jobs=3),
@@ -136,7 +115,7 @@ def test_scoring_ahead_on_idle_threads_and_workers_changes_no_byte_and_no_count(
     ):
         ev.ahead_from = 2  # score ahead on as few places as there are here
         got = greedy(ev, 12_000, lazy=True, info=domain.info)
-        assert _untimed(got) == _untimed(first)  # picks, scores, every step's numbers and the count of evaluations
+        assert untimed(got) == untimed(first)  # picks, scores, every step's numbers and the count of evaluations
         if isinstance(
             ev, DistributedDomainEvaluator
         ):  # its proxies count the greedy's calls alone (not the normalisers)
@@ -159,7 +138,7 @@ def test_what_is_scored_ahead_is_the_route_engines_own_score_of_that_suite(tmp_p
             seen.update({(st.suite, k, c): v for (k, c), v in st.ahead.items()})
             return out
 
-    domain = load_domain(_four_routes(tmp_path, 1.0))
+    domain = load_domain(four_routes(tmp_path, 1.0))
     ev = Watching(domain, jobs=2)
     ev.ahead_from = 2
     greedy(ev, 12_000, lazy=True, info=domain.info)
@@ -175,7 +154,7 @@ def test_a_batch_of_accuracy_checks_is_one_round_with_each_route_engines_bytes(c
     # one message per worker; the oracle is each route's own engine asked for one suite
     from sensorsel.information.evaluators import make_evaluator
 
-    domain = load_domain(_four_routes(tmp_path, 1.0))
+    domain = load_domain(four_routes(tmp_path, 1.0))
     suites = [(0, 5), (1, 2, 3), (4,)]
     alone = {k: make_evaluator(r.problem) for k, r in enumerate(domain.routes)}
     want = {

@@ -5,13 +5,12 @@ process rebuilt, a worker's own error raised once (not retried), the processes s
 
 from __future__ import annotations
 
-import json
 import os
 import signal
-from pathlib import Path
 
 import numpy as np
 import pytest
+from domains import four_routes, untimed
 
 from sensorsel.api import design_domain, with_suite_quality
 from sensorsel.errors import InputError, SensorselError
@@ -22,44 +21,19 @@ from sensorsel.information.evaluators.processes import (
     _WorkerError,
     on_processes,
 )
-from sensorsel.io import results
 from sensorsel.model.problem import load_domain
 from sensorsel.pipeline import InProcess, LocalProcesses, Plan, execute
-
-REPO = Path(__file__).resolve().parents[1]
-DATA = REPO / "data" / "kitti_fixtures"
-
-
-def _untimed(obj: object) -> object:
-    def rec(o: object) -> object:
-        if isinstance(o, dict):
-            return {k: rec(v) for k, v in o.items() if k != "seconds"}
-        if isinstance(o, list):
-            return [rec(v) for v in o]
-        return o
-
-    return rec(json.loads(results.dumps(obj)))
-
-
-def _four_routes(folder: Path, rate_hz: float):
-    """Four routes: the bundled suburb and three synthetic maps along tiny, keyframes at ``rate_hz``."""
-    tiny = f"route: {DATA / 'poses' / 'tiny.txt'}, format: kitti, times: {DATA / 'sequences' / 'tiny' / 'times.txt'}"
-    text = [f"keyframe_rate_hz: {rate_hz}", "routes:", "  - {name: suburb, fixture: suburb}"]
-    text += [f"  - {{name: tiny-{seed}, {tiny}, landmarks: {{synthetic: {{seed: {seed}}}}}}}" for seed in (3, 4, 5)]
-    path = folder / f"four-{rate_hz:g}.yaml"
-    path.write_text("\n".join(text) + "\n")
-    return load_domain(path)
 
 
 @pytest.fixture(scope="module")
 def domain(tmp_path_factory):
-    return _four_routes(tmp_path_factory.mktemp("four"), 1.0)
+    return load_domain(four_routes(tmp_path_factory.mktemp("four"), 1.0))
 
 
 @pytest.fixture(scope="module")
 def dense(tmp_path_factory):
     """The same four routes at 10 keyframes a second: enough keyframes for worker processes."""
-    return _four_routes(tmp_path_factory.mktemp("dense"), 10.0)
+    return load_domain(four_routes(tmp_path_factory.mktemp("dense"), 10.0))
 
 
 def test_greedy_on_processes_is_the_one_thread_bytes_and_jobs_choose_it(domain):
@@ -68,7 +42,7 @@ def test_greedy_on_processes_is_the_one_thread_bytes_and_jobs_choose_it(domain):
         with ProcessDomainEvaluator(domain, processes=n) as ev:
             assert len(ev._workers()) == n
             got = design_domain(domain, 12_000, evaluator=ev)
-        assert _untimed(got) == _untimed(here)
+        assert untimed(got) == untimed(here)
 
 
 def test_jobs_choose_processes_from_the_keyframes_of_the_domain(domain, dense):
@@ -145,6 +119,6 @@ def test_suite_quality_on_processes_is_the_in_process_bytes(domain, dense):
     res = design_domain(domain, 12_000, evaluator=DomainEvaluator(domain)).greedy  # a suite to judge
     one = with_suite_quality(res, dense, jobs=1)
     two = with_suite_quality(res, dense, jobs=2)
-    assert _untimed(two) == _untimed(one)
+    assert untimed(two) == untimed(one)
     assert len(one.accuracy) == len(dense.routes) and len(one.integrity) == len(dense.routes)
     assert one.accuracy[0].n_keyframes == dense.routes[0].problem.scenario.n_poses
