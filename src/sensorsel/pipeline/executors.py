@@ -82,7 +82,9 @@ class LocalProcesses:
         # the server, when this starts it, imports the step's module once: each worker forked from it
         # starts with it imported (else each imports it again, ~0.8 s for the package's façade)
         ctx.set_forkserver_preload([plan.step.__module__])
-        with ProcessPoolExecutor(max_workers=min(self.jobs, len(by_state)), mp_context=ctx) as pool:
+        with ProcessPoolExecutor(
+            max_workers=min(self.jobs, len(by_state)), mp_context=ctx, initializer=_ignore_interrupts
+        ) as pool:
             futs = {
                 pool.submit(_run_state, plan.build, plan.step, plan.states[k], [plan.tasks[i] for i in ids]): ids
                 for k, ids in by_state.items()
@@ -90,6 +92,14 @@ class LocalProcesses:
             for fut in as_completed(futs):
                 for i, result in zip(futs[fut], fut.result()):
                     done(i, result)
+
+
+def _ignore_interrupts() -> None:
+    """A worker process ignores Ctrl-C (it reaches the whole process group): the process that started
+    the pool stops it, and a worker would only print a traceback of its own."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def _run_state(

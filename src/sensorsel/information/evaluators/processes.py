@@ -24,6 +24,7 @@ another (as on a cluster). The workers are stopped by :meth:`ProcessDomainEvalua
 from __future__ import annotations
 
 import multiprocessing
+import signal
 import traceback
 import weakref
 from multiprocessing.connection import Connection
@@ -67,6 +68,9 @@ def _serve(conn: Connection) -> None:
     held at one thread (as the in-process evaluator holds it around its routes' work): N processes
     each with a BLAS thread per core would take turns on the cores (measured on 16 cores: the seven
     KITTI routes' greedy on one thread took 5.83 s with 16 BLAS threads, 4.84 s with one)."""
+    # Ctrl-C reaches the whole process group: the evaluator's process stops its workers (close, or at
+    # exit: they are daemons), so a worker ignores it rather than print a traceback of its own
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     with ThreadpoolController().limit(limits=1, user_api="blas"):
         _answer(conn)
 
