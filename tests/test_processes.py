@@ -22,7 +22,7 @@ from sensorsel.information.evaluators.processes import (
     on_processes,
 )
 from sensorsel.model.problem import load_domain
-from sensorsel.pipeline import InProcess, LocalProcesses, Plan, execute
+from sensorsel.pipeline import ClusterError, InProcess, LocalProcesses, Plan, execute
 
 
 @pytest.fixture(scope="module")
@@ -122,6 +122,16 @@ def test_the_plan_executor_on_processes_gives_the_in_process_results_in_task_ord
     bad = Plan("number", _square_plus, [1, -1], states=[1, 2], state_of=[0, 1])
     with pytest.raises(InputError, match="task -1: negative"):
         execute(bad, LocalProcesses(2))
+
+
+def _die(state: int, task: int) -> int:
+    os._exit(3)  # a worker killed mid-task (out of memory, a signal)
+
+
+def test_a_plan_worker_that_dies_is_one_error_naming_the_tasks():
+    plan = Plan("number", _die, [1, 2], states=[1, 2], state_of=[0, 1])
+    with pytest.raises(ClusterError, match="a worker process running the numbers died"):
+        execute(plan, LocalProcesses(2))
 
 
 def test_suite_quality_on_processes_is_the_in_process_bytes(domain, dense):

@@ -77,6 +77,7 @@ class LocalProcesses:
             return
         import multiprocessing
         from concurrent.futures import ProcessPoolExecutor, as_completed
+        from concurrent.futures.process import BrokenProcessPool
 
         ctx = multiprocessing.get_context("forkserver")
         # the server, when this starts it, imports the step's module once: each worker forked from it
@@ -90,7 +91,11 @@ class LocalProcesses:
                 for k, ids in by_state.items()
             }
             for fut in as_completed(futs):
-                for i, result in zip(futs[fut], fut.result()):
+                try:
+                    got = fut.result()
+                except BrokenProcessPool as exc:  # a worker was killed (out of memory, a signal)
+                    raise ClusterError(f"a worker process running the {plan.name}s died ({exc})") from None
+                for i, result in zip(futs[fut], got):
                     done(i, result)
 
 
