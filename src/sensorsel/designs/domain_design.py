@@ -120,9 +120,9 @@ def route_breakdown(
 
     ``done``: the routes' shares already computed (a prefix, read back from a checkpoint), not
     recomputed. ``record``: called with the shares so far after each route; then the routes run in
-    waves of the evaluator's :attr:`jobs` (an interruption keeps every finished wave), else all at
-    once (the routes' own designs are independent: on the evaluator's threads, each from its route's
-    engine alone)."""
+    waves of the evaluator's :attr:`~DomainEvaluator.width` (an interruption keeps every finished
+    wave), else all at once (the routes' own designs are independent: each runs where its route's
+    evaluator lives, :meth:`~DomainEvaluator.apply_routes`)."""
     shares, n = list(done), len(evaluator.routes)
     if len(shares) >= n:
         return tuple(shares[:n])

@@ -407,9 +407,8 @@ class DistributedDomainEvaluator(DomainEvaluator):
 
     def map_routes(self, one: Any, routes: Sequence[int] | None = None) -> dict[int, Any]:
         """``one(k)`` for each route, one route at a time from the client (each call still goes to
-        the route's worker). A route's own greedy (the breakdown) talks to its actor step by step;
-        running several from client threads at once is not done: the client's calls are not made
-        for concurrent callers."""
+        the route's worker): the client's calls are not made for concurrent callers. Whole pieces of
+        work on each route (a route's own greedy) go to the workers at once: :meth:`apply_routes`."""
         return {int(k): one(int(k)) for k in (range(len(self.recipes)) if routes is None else routes)}
 
     def apply_routes(self, fn: Any, args: dict[int, tuple[Any, ...]]) -> dict[int, Any]:
