@@ -122,7 +122,7 @@ def main() -> None:
     )
     a = ap.parse_args()
     from sensorsel.designs.requirements import design, programs
-    from sensorsel.designs.requirements.checks import _Oracle
+    from sensorsel.designs.requirements.checks import RouteOracle
     from sensorsel.designs.requirements.spec import DEFAULT_MAP_SIGMA_M, preset
 
     package = design.cheapest_suite
@@ -140,7 +140,7 @@ def main() -> None:
             for alpha in a.failures:
                 for which in a.solvers:
                     design.cheapest_suite = solvers[which]
-                    _Oracle.accept = which != "noaccept"
+                    RouteOracle.accept = which != "noaccept"
                     programs.FLOOR_AFTER_NODES = 1 << 62 if which == "nofloor" else after
                     t0, c0 = time.perf_counter(), time.process_time()
                     try:
@@ -153,7 +153,7 @@ def main() -> None:
                         )
                     finally:
                         design.cheapest_suite = package
-                        _Oracle.accept = True
+                        RouteOracle.accept = True
                         programs.FLOOR_AFTER_NODES = after
                     dt, cpu = time.perf_counter() - t0, time.process_time() - c0
                     print(

@@ -11,11 +11,12 @@ DATA = Path(__file__).resolve().parents[1] / "data" / "kitti_fixtures"
 
 
 def untimed(obj: object) -> object:
-    """A result's JSON (a record, or its JSON text) without its timings (every ``seconds`` key)."""
+    """A result's JSON (a record, or its JSON text) without its timings (every ``seconds`` and
+    ``seconds_*`` key)."""
 
     def rec(o: object) -> object:
         if isinstance(o, dict):
-            return {k: rec(v) for k, v in o.items() if k != "seconds"}
+            return {k: rec(v) for k, v in o.items() if k != "seconds" and not k.startswith("seconds_")}
         return [rec(v) for v in o] if isinstance(o, list) else o
 
     return rec(json.loads(obj if isinstance(obj, str) else results.dumps(obj)))

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from sensorsel.designs.requirements.accept import base_of, upper_bound
-from sensorsel.designs.requirements.checks import _Oracle
+from sensorsel.designs.requirements.checks import RouteOracle
 from sensorsel.designs.requirements.oracle import mask_of
 from sensorsel.designs.requirements.spec import Specification, covariance_verdict, preset
 from sensorsel.information.evaluators.fast import FastEvaluator
@@ -59,7 +59,7 @@ def test_the_growth_of_a_failing_set_is_answered_as_the_exact_pass_answers(subur
     lib = suburb_problem.library
     spec = preset("local-streets")
     grown = tuple(sorted(lib.position(i) for i in GROWN))
-    oracle = _Oracle([FastEvaluator(suburb_problem)], ["suburb"], [spec], 0.05, "filter", problems=[suburb_problem])
+    oracle = RouteOracle(FastEvaluator(suburb_problem), suburb_problem, "suburb", spec, 0.05, "filter")
 
     def exact(suite: tuple[int, ...]) -> bool:
         return covariance_verdict(forward_pass(suburb_problem, suite, map_sigma_m=0.05).filtered, spec)[0]
@@ -73,7 +73,7 @@ def test_the_growth_of_a_failing_set_is_answered_as_the_exact_pass_answers(subur
         answers.append(oracle.meets(suite))
         assert answers[-1] == exact(suite), lib.ids[j]
     assert True in answers and False in answers, "the growth never crosses the specification"
-    accepted = oracle._bases[0].n_accepted
+    accepted = oracle.bases.n_accepted
     assert accepted > 0, "no suite was accepted by a bound: the rule is not exercised"
     # the base's pass is counted among the accuracy computations; the accepted suites are not
     assert oracle.n_checks <= len(answers) + 1 - accepted
@@ -119,9 +119,9 @@ def test_a_failing_suites_own_pass_is_the_base_of_its_growths_bounds(suburb_prob
     spec = preset("local-streets")
     grown = tuple(sorted(lib.position(i) for i in ("LRR-7", "HD2K-1", "HD2K-8", "HD2K-12")))
     failed = mask_of(grown)
-    oracle = _Oracle([FastEvaluator(suburb_problem)], ["suburb"], [spec], 0.05, "filter", problems=[suburb_problem])
-    assert not oracle._answer(0, grown)[0] and oracle.n_checks == 1
-    offered = oracle._bases[0]._offered
+    oracle = RouteOracle(FastEvaluator(suburb_problem), suburb_problem, "suburb", spec, 0.05, "filter")
+    assert not oracle._answer(grown)[0] and oracle.n_checks == 1
+    offered = oracle.bases._offered
     assert offered is not None and offered.mask == failed
     assert np.array_equal(offered.filtered, forward_pass(suburb_problem, grown, map_sigma_m=0.05).filtered)
     fresh = base_of(suburb_problem, grown, failed, spec, 0.05)
@@ -129,8 +129,8 @@ def test_a_failing_suites_own_pass_is_the_base_of_its_growths_bounds(suburb_prob
     kept, anew = [], []
     for j in (j for j in range(len(lib.ids)) if j not in grown):
         suite = tuple(sorted((*grown, j)))
-        for got, bases in ((kept, oracle._bases[0]), (anew, Bases())):
-            if bases is oracle._bases[0]:
+        for got, bases in ((kept, oracle.bases), (anew, Bases())):
+            if bases is oracle.bases:
                 bases._bases, bases._offered = [], offered  # each suite from the offered base alone
             got.append(bases.accepts(suburb_problem, suite, mask_of(suite), failed, spec, 0.05))
             assert bases.n_passes == (0 if got is kept else 1)

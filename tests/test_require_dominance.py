@@ -183,7 +183,7 @@ def test_require_stops_passes_early_in_the_brute_forced_case(tiny_problem):
     of both."""
     from test_require import _small
 
-    from sensorsel.designs.requirements.checks import _Oracle
+    from sensorsel.designs.requirements.checks import RouteOracle
     from sensorsel.designs.requirements.design import require
 
     spec = Specification(lateral=0.06, heading=0.1)
@@ -191,22 +191,22 @@ def test_require_stops_passes_early_in_the_brute_forced_case(tiny_problem):
     # with the refutation by a failing subset's early bad keyframes off, the passes stopped early
     # answer what it answered (the same suite, fewer suites refuted without a pass)
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(_Oracle, "refute_before_seen", False)
+        mp.setattr(RouteOracle, "refute_before_seen", False)
         off = require(tiny_problem, spec, map_sigma_m=0.05, constraints=_small(tiny_problem.library))
     assert off.status == "optimal" and 0 < off.n_short < off.n_checks
     assert (r.status, r.suite, r.cost_usd) == (off.status, off.suite, off.cost_usd)
     assert r.n_refuted > off.n_refuted
 
 
-def test_a_domain_asks_the_route_that_failed_last_first(tiny_problem, suburb_problem):
-    """Move to front: after a suite fails on the second route, that route is asked first; every
-    answer is still 'meets on every route' as each route's own whole-pass verdict says."""
-    from sensorsel.designs.requirements.checks import _Oracle
+def test_a_domain_asks_every_route_every_question(tiny_problem, suburb_problem):
+    """A suite that fails one route is still asked of the other (each route learns from every
+    suite), and every answer is 'meets on every route' as each route's own whole-pass verdict says."""
+    from sensorsel.designs.requirements.domain_checks import DomainChecks, Here
     from sensorsel.information.evaluators.fast import FastEvaluator
 
     spec = Specification(lateral=0.2, heading=0.5)
     evs = [FastEvaluator(tiny_problem), FastEvaluator(suburb_problem)]
-    oracle = _Oracle(evs, ["tiny", "suburb"], [spec, spec], 0.05, "filter", problems=[tiny_problem, suburb_problem])
+    oracle = DomainChecks(Here(evs), ["tiny", "suburb"], [spec, spec], 0.05, "filter")
     suites = [
         (LIB.position("LRL-roof"),),
         (LIB.position("HD2K-3"),),
@@ -214,17 +214,22 @@ def test_a_domain_asks_the_route_that_failed_last_first(tiny_problem, suburb_pro
         tuple(LIB.position(x) for x in ("LRR-7", "HD2K-1", "HD2K-5", "HD2K-8")),
         tuple(sorted((LIB.position("LRR-12"), LIB.position("WSC-6")))),
     ]
-    saw_front = False
+    split, asked = False, [0, 0]
     for s in suites:
         truth = [
             covariance_verdict(forward_pass(p, s, map_sigma_m=0.05).filtered, spec)[0]
             for p in (tiny_problem, suburb_problem)
         ]
         assert oracle.meets(s) == all(truth)
-        if not all(truth):
-            assert not truth[oracle.route_order[0]]  # the route that just failed is asked first now
-            saw_front = saw_front or oracle.route_order[0] == 1
-    assert saw_front, "no suite failed on the second route first: the case shows nothing"
+        split = split or truth[0] != truth[1]
+        # each route's own oracle, where it lives, was asked this suite too, and answers as its pass
+        for i, (ev, t) in enumerate(zip(evs, truth)):
+            (route,) = ev.kept.values()
+            assert route.n_asked == asked[i] + 1 and route.meets(s) == t
+            asked[i] = route.n_asked
+    assert split, "no suite met one route and failed the other: the case shows nothing"
+    oracle.close()
+    assert all(not ev.kept for ev in evs)
 
 
 def test_a_failing_subsets_bad_keyframes_before_the_added_sensor_measures_refute_the_suite(suburb_problem):
@@ -233,7 +238,7 @@ def test_a_failing_subsets_bad_keyframes_before_the_added_sensor_measures_refute
     S + MRR-6's own whole pass equals S's before 16 (the property the refutation rests on: to
     rounding, as its state also holds landmarks S dropped), and fails: the oracle refutes it from S's
     answer without a pass (with the refutation off, it computes one)."""
-    from sensorsel.designs.requirements.checks import _Oracle
+    from sensorsel.designs.requirements.checks import RouteOracle
     from sensorsel.information.evaluators.fast import FastEvaluator
 
     p = suburb_problem
@@ -251,8 +256,8 @@ def test_a_failing_subsets_bad_keyframes_before_the_added_sensor_measures_refute
     assert not covariance_verdict(both, spec)[0]
     assert [b.tolist() for b in bad_keyframes(alone, spec)] == [[], [], [1]]
 
-    def oracle() -> _Oracle:
-        o = _Oracle([FastEvaluator(p)], ["suburb"], [spec], 0.05, "filter", problems=[p])
+    def oracle() -> RouteOracle:
+        o = RouteOracle(FastEvaluator(p), p, "suburb", spec, 0.05, "filter")
         assert not o.meets(s)  # by its pass: its bad keyframes kept
         return o
 
@@ -261,7 +266,7 @@ def test_a_failing_subsets_bad_keyframes_before_the_added_sensor_measures_refute
     assert checks > 0 and not on.meets(t)
     assert (on.n_checks, on.n_before_seen) == (checks, 1)
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(_Oracle, "refute_before_seen", False)
+        mp.setattr(RouteOracle, "refute_before_seen", False)
         off = oracle()
         checks = off.n_checks
         assert not off.meets(t)

@@ -5,7 +5,7 @@ bad keyframe: :mod:`.truncated`)."""
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -15,13 +15,20 @@ from sensorsel.designs.requirements.accept import Bases, base_of
 from sensorsel.designs.requirements.oracle import mask_of
 from sensorsel.designs.requirements.spec import RouteVerdict, Specification, covariance_verdict, verdict
 from sensorsel.designs.requirements.truncated import BadKeyframes, bad_keyframes, meets_from_bad
-from sensorsel.information.evaluators import as_suite
 from sensorsel.information.evaluators.accuracy import RouteAccuracy, accuracy_from_covariances
 from sensorsel.information.evaluators.base import Suite
 from sensorsel.information.filtering import forward_pass
 from sensorsel.model.problem import Problem
 
-__all__ = ["FLOOR_KEEP_SHARE", "FLOOR_TRIAL", "RouteEngine", "RouteRequirement", "route_covariances"]
+__all__ = [
+    "COUNTS",
+    "FLOOR_KEEP_SHARE",
+    "FLOOR_TRIAL",
+    "RouteEngine",
+    "RouteOracle",
+    "RouteRequirement",
+    "route_covariances",
+]
 
 
 @dataclass(frozen=True)
@@ -71,23 +78,24 @@ def route_covariances(engine: RouteEngine, suite: Suite, map_sigma_m: float | No
     return engine.pose_covariances(suite, map_sigma_m=map_sigma_m, estimate=estimate)
 
 
-class _Oracle:
-    """Whether a suite meets the requirement on every route, with the answers kept (each costs an
-    accuracy computation per route asked); routes are asked in :attr:`route_order` (the last to
-    fail a suite first) and the first failing one ends the question (the caching keeps the answer
-    the same whichever path asked first).
+class RouteOracle:
+    """Whether a suite meets one route's specification, with the answers kept (each costs an
+    accuracy computation at most once). It lives beside the route's engine (in this process, on a
+    worker process or on a Dask worker: :mod:`.domain_checks`), so everything it learns stays where
+    the route's data is, and a route's answers and counts depend only on the questions asked of it,
+    in their order, never on where it runs.
 
-    The solver's questions are answered from the covariances alone
+    The questions are answered from the covariances alone
     (:func:`~sensorsel.designs.requirements.spec.covariance_verdict`); the full
     :class:`RouteAccuracy` is built only for the suites a result reports.
 
-    Before computing a route's marginals, :meth:`meets` asks the engine's cheap floor under them
+    Before computing the route's marginals, :meth:`meets` asks the engine's cheap floor under them
     (:meth:`~sensorsel.information.evaluators.base.ProblemEvaluator.pose_covariance_floor`): every σ of the floor
     is below the true one, so a specification the floor already misses is missed (monotone in each
     keyframe's errors, whatever the share of keyframes): the suite fails without its marginals. In
     the map model the floor is ~50-90 % of the true σ (KITTI 00, 03) and refutes most failing
-    suites; where it refutes few (:data:`FLOOR_KEEP_SHARE`) it is no longer asked (a choice made
-    from the counts alone, so the answers and the run stay deterministic).
+    suites; where it refutes few (:data:`FLOOR_KEEP_SHARE`) it is no longer asked on this route (a
+    choice made from the route's counts alone, so the answers and the run stay deterministic).
     The floor is under the smoother's marginals, and so under the filter's (which use fewer
     measurements: ⪰ the smoother's at every keyframe): it refutes for either ``estimate``.
 
@@ -105,6 +113,13 @@ class _Oracle:
     pass decides. A base already kept is tried first, before the smoother (its shortest bound costs
     about as much); a new base's pass only where no filter pass stopped early (:mod:`.truncated`)
     answers: that is exact and passes half the route at most.
+
+    Attributes:
+        engine: the route's engine (smoother marginals and the floor); problem: the route's problem
+            (the filter's passes); name, spec: the route's name and specification.
+        known: suite -> (meets, violation or None): answers read back from a journal.
+        log: the answers given since the caller last took them (:meth:`take_log`), as
+            (suite, meets, violation or None), in the order they were found: a journal's entries.
     """
 
     #: whether upper bounds may accept suites (the benchmark turns it off to compare, in one process)
@@ -118,156 +133,141 @@ class _Oracle:
 
     def __init__(
         self,
-        evaluators: Sequence[RouteEngine],
-        names: Sequence[str],
-        specs: Sequence[Specification],
+        engine: RouteEngine,
+        problem: Problem,
+        name: str,
+        spec: Specification,
         map_sigma_m: float | None,
         estimate: str = "filter",
-        *,
-        problems: Sequence[Problem],
+        known: dict[Suite, tuple[bool, float | None]] | None = None,
     ) -> None:
-        self.evaluators, self.names, self.specs, self.map_sigma_m = (
-            list(evaluators),
-            list(names),
-            list(specs),
-            map_sigma_m,
-        )
-        #: each route's problem, in this process whatever engine answers its checks (a cluster's
-        #: worker or here): the passes stopped early and the upper bounds run here, so a run asks and
-        #: counts the same checks on any executor
-        self.problems = list(problems)
-        self._answers: dict[tuple[int, Suite], tuple[bool, float]] = {}
-        self._reports: dict[tuple[int, Suite], tuple[RouteAccuracy, RouteVerdict]] = {}
-        self.estimate = estimate
-        #: (route, suite) -> the smoother's (meets, violation), where the filter's is asked (its floor)
-        self._smoothed: dict[tuple[int, Suite], tuple[bool, float]] = {}
-        self.floor_refuted = 0  # (route, suite) refuted by the cheap floor (decides whether it is still asked)
-        self._refuted: set[tuple[int, Suite]] = set()
-        #: (route, suite) -> (meets, violation or None): answers read back from a journal
-        self.known: dict[tuple[int, Suite], tuple[bool, float | None]] = {}
-        self.n_checks = 0  # marginals computed (route, suite)
-        #: (route, suite) refuted without the judged marginals: by the floor, or (filter) by the smoother
-        #: or a failing subset's bad keyframes
-        self.n_refuted = 0
+        self.engine, self.problem, self.name, self.spec = engine, problem, name, spec
+        self.map_sigma_m, self.estimate = map_sigma_m, estimate
+        self.known: dict[Suite, tuple[bool, float | None]] = dict(known or {})
+        self.log: list[tuple[Suite, bool, float | None]] = []
+        self._answers: dict[Suite, tuple[bool, float]] = {}
+        self._reports: dict[Suite, tuple[RouteAccuracy, RouteVerdict]] = {}
+        #: suite -> the smoother's (meets, violation), where the filter's is asked (its floor)
+        self._smoothed: dict[Suite, tuple[bool, float]] = {}
+        self._refuted: set[Suite] = set()
+        #: suite -> meets, from a pass stopped early (no violation known)
+        self._short: dict[Suite, bool] = {}
+        self.n_asked = 0  # questions asked (meets, violation)
         self.floor_asked = 0
-        self.on_answer: Callable[[], None] | None = None  # called after each new answer (the journal's writer)
-        #: per route, the bad keyframes of the suites seen to fail there (a superset's pass stops after them)
-        self._bad = [BadKeyframes() for _ in self.evaluators]
-        #: the order routes are asked in by :meth:`meets` (the last to fail a suite first)
-        self.route_order = list(range(len(self.evaluators)))
-        #: (route, suite) -> meets, from a pass stopped early (no violation known)
-        self._short: dict[tuple[int, Suite], bool] = {}
+        self.floor_refuted = 0  # refuted by the cheap floor (decides whether it is still asked)
+        self.n_checks = 0  # marginals computed
+        #: refuted without the judged marginals: by the floor, or (filter) by the smoother or a
+        #: failing subset's bad keyframes
+        self.n_refuted = 0
         self.n_short = 0  # of n_checks, passes stopped early
         self.n_before_seen = 0  # of n_refuted, by a failing subset's bad keyframes (_refuted_before_seen)
         self.keyframes_passed = 0  # keyframes the filter passed for the checks (all of them: n_checks · K)
-        #: per route, the minimal suites (bit masks) seen to meet its specification: a suite holding
-        #: one meets it too, with no computation (:meth:`_met_below`)
-        self._met: list[list[int]] = [[] for _ in self.evaluators]
-        self.n_met_below = 0  # (route, suite) questions answered by a subset that meets the route
-        #: per route, the recent suites seen to fail it (bit mask, sensors), oldest first: bases of the bounds
-        self._failed: list[list[tuple[int, int]]] = [[] for _ in self.evaluators]
-        #: per route, the failing suites whose filter states the upper bounds restart from (:mod:`.accept`)
-        self._bases = [Bases() for _ in self.evaluators]
-        #: per route, the first keyframe each library sensor measures anything at (K: never)
-        self._first_seen: dict[int, np.ndarray] = {}
+        self.n_met_below = 0  # questions answered by a subset that meets the route
+        #: the bad keyframes of the suites seen to fail (a superset's pass stops after them)
+        self._bad = BadKeyframes()
+        #: the minimal suites (bit masks) seen to meet the specification: a suite holding one meets
+        #: it too, with no computation (:meth:`_met_below`)
+        self._met: list[int] = []
+        #: the recent suites seen to fail (bit mask, sensors), oldest first: bases of the bounds
+        self._failed: list[tuple[int, int]] = []
+        #: the failing suites whose filter states the upper bounds restart from (:mod:`.accept`)
+        self.bases = Bases()
+        #: the first keyframe each library sensor measures anything at (K: never)
+        self._first_seen: np.ndarray | None = None
 
     @property
     def n_accepted(self) -> int:
-        """(route, suite) answers proved met by an upper bound (:mod:`.accept`), without their pass."""
-        return sum(b.n_accepted for b in self._bases)
+        """Answers proved met by an upper bound (:mod:`.accept`), without their pass."""
+        return self.bases.n_accepted
 
     @property
     def n_base_passes(self) -> int:
         """Of ``n_checks``, the failing suites' passes the upper bounds restart from (no suite is asked by them)."""
-        return sum(b.n_passes for b in self._bases)
+        return self.bases.n_passes
 
-    def answers(self) -> tuple[tuple[int, Suite, bool, float | None], ...]:
-        """Every answer so far, (route, suite, meets, violation or None), in a fixed order."""
-        out: dict[tuple[int, Suite], tuple[bool, float | None]] = dict(self.known)
-        out.update({k: (False, None) for k in self._refuted})
-        out.update({k: (False, v) for k, (m, v) in self._smoothed.items() if not m})
-        # a pass stopped early knows the violation only when it is 0 (the suite meets)
-        out.update({k: (m, 0.0 if m else None) for k, m in self._short.items()})
-        out.update({k: (m, v) for k, (m, v) in self._answers.items()})
-        return tuple((r, s, m, v) for (r, s), (m, v) in sorted(out.items()))
+    def counts(self) -> dict[str, int]:
+        """The route's counts so far, by name (:data:`COUNTS`)."""
+        return {c: int(getattr(self, c)) for c in COUNTS}
 
-    def _answered(self) -> None:
-        if self.on_answer is not None:
-            self.on_answer()
+    def take_log(self) -> list[tuple[Suite, bool, float | None]]:
+        """The answers found since the last call (and forgets them)."""
+        out, self.log = self.log, []
+        return out
 
-    def _answer(self, r: int, suite: Suite) -> tuple[bool, float]:
-        """(meets, violation) of ``suite`` on route ``r``, computed once. With the filter's estimate
-        and the upper bounds on, the pass runs here with its predicted states kept (:func:`.accept.base_of`:
-        the same numbers as the engine's pass), and a suite that fails is offered to the route's
-        bounds as their next base: the failing set a growth asks about is mostly the suite whose
-        pass was computed last, and a base's pass would compute it again."""
-        key = (r, suite)
-        got = self._answers.get(key)
+    def _answered(self, suite: Suite, meets: bool, violation: float | None) -> None:
+        self.log.append((suite, bool(meets), None if violation is None else float(violation)))
+
+    def _answer(self, suite: Suite) -> tuple[bool, float]:
+        """(meets, violation) of ``suite``, computed once. With the filter's estimate and the upper
+        bounds on, the pass runs here with its predicted states kept (:func:`.accept.base_of`: the
+        same numbers as the engine's pass), and a suite that fails is offered to the route's bounds
+        as their next base: the failing set a growth asks about is mostly the suite whose pass was
+        computed last, and a base's pass would compute it again."""
+        got = self._answers.get(suite)
         if got is None:
             base = None
             if self.estimate == "filter" and self.accept and self.keep_states:
-                base = base_of(self.problems[r], suite, mask_of(suite), self.specs[r], self.map_sigma_m)
+                base = base_of(self.problem, suite, mask_of(suite), self.spec, self.map_sigma_m)
                 covariances = base.filtered
             else:
-                covariances = route_covariances(self.evaluators[r], suite, self.map_sigma_m, self.estimate)
-            got = self._answers[key] = covariance_verdict(covariances, self.specs[r])
+                covariances = route_covariances(self.engine, suite, self.map_sigma_m, self.estimate)
+            got = self._answers[suite] = covariance_verdict(covariances, self.spec)
             self.n_checks += 1
             self.keyframes_passed += len(covariances)
             if not got[0] and self.estimate == "filter":
-                self._bad[r].add(mask_of(suite), bad_keyframes(covariances, self.specs[r]))
+                self._bad.add(mask_of(suite), bad_keyframes(covariances, self.spec))
                 if base is not None:
-                    self._bases[r].offer(base)
-            self._answered()
+                    self.bases.offer(base)
+            self._answered(suite, *got)
         return got
 
-    def _short_answer(self, r: int, suite: Suite) -> bool | None:
-        """Whether ``suite`` meets route ``r``'s specification, by a filter pass that stops after the
-        last bad keyframe of a suite inside it seen to fail (:mod:`.truncated`); None where none is
-        known."""
+    def _short_answer(self, suite: Suite) -> bool | None:
+        """Whether ``suite`` meets the specification, by a filter pass that stops after the last bad
+        keyframe of a suite inside it seen to fail (:mod:`.truncated`); None where none is known."""
         if self.estimate != "filter":
             return None
-        problem = self.problems[r]
         mask = mask_of(suite)
-        hit = self._bad[r].shortest(mask)
+        hit = self._bad.shortest(mask)
         if hit is None:
             return None
         until, bad = hit
-        if until > problem.scenario.n_poses // 2:  # little to save: the smoother refutes cheaper first
+        n = self.problem.scenario.n_poses
+        if until > n // 2:  # little to save: the smoother refutes cheaper first
             return None
-        covariances = forward_pass(problem, suite, map_sigma_m=self.map_sigma_m, until=until).filtered
-        now = bad_keyframes(covariances, self.specs[r])
-        still = tuple(np.intersect1d(b, n) for b, n in zip(bad, now))  # good where the subset was good
-        meets = meets_from_bad(still, problem.scenario.n_poses, self.specs[r])
+        covariances = forward_pass(self.problem, suite, map_sigma_m=self.map_sigma_m, until=until).filtered
+        now = bad_keyframes(covariances, self.spec)
+        still = tuple(np.intersect1d(b, n_) for b, n_ in zip(bad, now))  # good where the subset was good
+        meets = meets_from_bad(still, n, self.spec)
         if not meets:
-            self._bad[r].add(mask, still)
-        self._short[(r, suite)] = meets
+            self._bad.add(mask, still)
+        self._short[suite] = meets
         self.n_checks += 1
         self.n_short += 1
         self.keyframes_passed += len(covariances)
-        self._answered()
+        # a pass stopped early knows the violation only when it is 0 (the suite meets)
+        self._answered(suite, meets, 0.0 if meets else None)
         return meets
 
-    def route(self, r: int, suite: Suite) -> tuple[RouteAccuracy, RouteVerdict]:
-        """The suite's accuracy and verdict on route ``r`` (for a report)."""
-        key = (r, suite)
-        got = self._reports.get(key)
+    def route(self, suite: Suite) -> tuple[RouteAccuracy, RouteVerdict]:
+        """The suite's accuracy and verdict on the route (for a report)."""
+        got = self._reports.get(suite)
         if got is None:
             acc = accuracy_from_covariances(
-                route_covariances(self.evaluators[r], suite, self.map_sigma_m, self.estimate),
+                route_covariances(self.engine, suite, self.map_sigma_m, self.estimate),
                 map_sigma_m=self.map_sigma_m,
-                route=self.names[r],
+                route=self.name,
                 estimate=self.estimate,
             )
-            got = self._reports[key] = (acc, verdict(acc, self.specs[r]))
-            if key not in self._answers:
-                self._answers[key] = (got[1].meets, got[1].violation)
+            got = self._reports[suite] = (acc, verdict(acc, self.spec))
+            if suite not in self._answers:
+                self._answers[suite] = (got[1].meets, got[1].violation)
                 self.n_checks += 1
-                self._answered()
+                self._answered(suite, got[1].meets, got[1].violation)
         return got
 
-    def _met_below(self, r: int, mask: int) -> bool:
-        """Whether a suite inside ``mask`` is known to meet route ``r``'s specification: then
-        ``mask`` meets it too, and its violation there is 0, with no computation.
+    def _met_below(self, mask: int) -> bool:
+        """Whether a suite inside ``mask`` is known to meet the specification: then ``mask`` meets
+        it too, and its violation is 0, with no computation.
 
         Why this is the same answer as computing it: a sensor added to a suite only adds
         measurements (factors) to the route's problem, so its information matrix grows in the
@@ -280,78 +280,77 @@ class _Oracle:
         :func:`~sensorsel.designs.requirements.spec.covariance_verdict` would return. The solver's
         own inferences rest on the same monotonicity, over the whole domain; this one is per route,
         so a suite that fails the domain still answers, for its supersets, every route it met."""
-        if any(not m & ~mask for m in self._met[r]):
+        if any(not m & ~mask for m in self._met):
             self.n_met_below += 1
             return True
         return False
 
-    def _note_met(self, r: int, mask: int) -> None:
-        """Keep ``mask`` among route ``r``'s minimal meeting suites (dropping those holding it)."""
-        kept = self._met[r]
-        if any(not m & ~mask for m in kept):
+    def _note_met(self, mask: int) -> None:
+        """Keep ``mask`` among the minimal meeting suites (dropping those holding it)."""
+        if any(not m & ~mask for m in self._met):
             return
-        self._met[r] = [m for m in kept if m & ~mask] + [mask]
+        self._met = [m for m in self._met if m & ~mask] + [mask]
 
-    def _note_failed(self, r: int, mask: int, size: int) -> None:
-        """Keep ``mask`` (``size`` sensors) among route ``r``'s recent failing suites (bases of bounds)."""
-        kept = self._failed[r]
-        kept.append((mask, size))
-        if len(kept) > 2 * RECENT_FAILED:
-            del kept[:-RECENT_FAILED]
+    def _note_failed(self, mask: int, size: int) -> None:
+        """Keep ``mask`` (``size`` sensors) among the recent failing suites (bases of bounds)."""
+        self._failed.append((mask, size))
+        if len(self._failed) > 2 * RECENT_FAILED:
+            del self._failed[:-RECENT_FAILED]
 
     def _use_floor(self) -> bool:
         return self.floor_asked < FLOOR_TRIAL or self.floor_refuted >= FLOOR_KEEP_SHARE * self.floor_asked
 
-    def _route_meets(self, r: int, suite: Suite) -> bool:
+    def meets(self, suite: Suite) -> bool:
+        """Whether ``suite`` (sorted library positions) meets the route's specification."""
+        self.n_asked += 1
         mask = mask_of(suite)
-        if self._met_below(r, mask):
+        if self._met_below(mask):
             return True
-        ok = self._route_meets_asked(r, suite)
+        ok = self._meets_asked(suite)
         if ok:
-            self._note_met(r, mask)
+            self._note_met(mask)
         else:
-            self._note_failed(r, mask, len(suite))
+            self._note_failed(mask, len(suite))
         return ok
 
-    def _route_meets_asked(self, r: int, suite: Suite) -> bool:
-        key = (r, suite)
-        if key in self._answers:
-            return self._answers[key][0]
-        if key in self._refuted:
+    def _meets_asked(self, suite: Suite) -> bool:
+        if suite in self._answers:
+            return self._answers[suite][0]
+        if suite in self._refuted:
             return False
-        if key in self.known:
-            return self.known[key][0]
-        if key in self._short:
-            return self._short[key]
-        if self._refuted_before_seen(r, suite):
-            self._refuted.add(key)
+        if suite in self.known:
+            return self.known[suite][0]
+        if suite in self._short:
+            return self._short[suite]
+        if self._refuted_before_seen(suite):
+            self._refuted.add(suite)
             self.n_refuted += 1
             self.n_before_seen += 1
-            self._answered()
+            self._answered(suite, False, None)
             return False
         if self._use_floor():
-            floor = self.evaluators[r].pose_covariance_floor(suite, map_sigma_m=self.map_sigma_m)
+            floor = self.engine.pose_covariance_floor(suite, map_sigma_m=self.map_sigma_m)
             if floor is not None:
                 self.floor_asked += 1
-                if not covariance_verdict(floor, self.specs[r])[0]:
-                    self._refuted.add(key)
+                if not covariance_verdict(floor, self.spec)[0]:
+                    self._refuted.add(suite)
                     self.n_refuted += 1
                     self.floor_refuted += 1
-                    self._answered()
+                    self._answered(suite, False, None)
                     return False
-        if self._accepted(r, suite, quick=True):  # a kept base's first bound costs less than the smoother
+        if self._accepted(suite, quick=True):  # a kept base's first bound costs less than the smoother
             return True
-        smoothed = self._smoother_verdict(r, suite)
+        smoothed = self._smoother_verdict(suite)
         if smoothed is not None and not smoothed[0]:
             return False
-        short = self._short_answer(r, suite)  # exact, and at most half a pass: before a new base's pass
+        short = self._short_answer(suite)  # exact, and at most half a pass: before a new base's pass
         if short is not None:
             return short
-        if self._accepted(r, suite):
+        if self._accepted(suite):
             return True
-        return self._answer(r, suite)[0]
+        return self._answer(suite)[0]
 
-    def _refuted_before_seen(self, r: int, suite: Suite) -> bool:
+    def _refuted_before_seen(self, suite: Suite) -> bool:
         """Whether a failing suite S inside ``suite`` (T) is over its limits, before the first keyframe
         at which a sensor of T not in S measures anything, at enough keyframes that T fails too (the
         filter's estimate only; no computation).
@@ -368,24 +367,21 @@ class _Oracle:
         line shows.)"""
         if self.estimate != "filter" or not self.refute_before_seen:
             return False
-        problem = self.problems[r]
-        first = self._first_seen.get(r)
-        if first is None:
-            first = self._first_seen[r] = _first_keyframes(problem)
-        n = problem.scenario.n_poses
+        if self._first_seen is None:
+            self._first_seen = _first_keyframes(self.problem)
+        first = self._first_seen
+        n = self.problem.scenario.n_poses
         mask = mask_of(suite)
-        for known, bad in self._bad[r].inside(mask):
+        for known, bad in self._bad.inside(mask):
             f = min((int(first[i]) for i in suite if not known >> i & 1), default=n)
-            if not meets_from_bad(tuple(b[b < f] for b in bad), n, self.specs[r]):
+            if not meets_from_bad(tuple(b[b < f] for b in bad), n, self.spec):
                 return True
         return False
 
-    def _accepted(self, r: int, suite: Suite, quick: bool = False) -> bool:
-        """Whether an upper bound from a failing suite inside ``suite`` proves that it meets route
-        ``r``'s specification (:mod:`.accept`; with the filter's estimate, on a route whose problem
-        is here); then recorded as met (violation 0: the same answer its pass gives). ``quick``:
-        only the first bound of a base already kept."""
-        problem = self.problems[r]
+    def _accepted(self, suite: Suite, quick: bool = False) -> bool:
+        """Whether an upper bound from a failing suite inside ``suite`` proves that it meets the
+        specification (:mod:`.accept`; with the filter's estimate); then recorded as met (violation
+        0: the same answer its pass gives). ``quick``: only the first bound of a base already kept."""
         if not self.accept or self.estimate != "filter":
             return False
         mask = mask_of(suite)
@@ -393,83 +389,72 @@ class _Oracle:
             None
             if quick
             else max(
-                ((n, i, m) for i, (m, n) in enumerate(self._failed[r][-RECENT_FAILED:]) if not m & ~mask),
+                ((n, i, m) for i, (m, n) in enumerate(self._failed[-RECENT_FAILED:]) if not m & ~mask),
                 default=None,
             )
         )
-        bases = self._bases[r]
-        passes = bases.n_passes
-        ok = bases.accepts(
-            problem, suite, mask, None if failed is None else failed[2], self.specs[r], self.map_sigma_m, quick
+        passes = self.bases.n_passes
+        ok = self.bases.accepts(
+            self.problem, suite, mask, None if failed is None else failed[2], self.spec, self.map_sigma_m, quick
         )
-        self.n_checks += bases.n_passes - passes  # a base's pass is an accuracy computation
+        self.n_checks += self.bases.n_passes - passes  # a base's pass is an accuracy computation
         if ok:
-            self._answers[(r, suite)] = (True, 0.0)
-            self._answered()
+            self._answers[suite] = (True, 0.0)
+            self._answered(suite, True, 0.0)
         return ok
 
-    def _smoother_verdict(self, r: int, suite: Suite) -> tuple[bool, float] | None:
-        """The smoother's (meets, violation) on (route, suite) when the filter's is asked (a floor
-        under it: the class's docstring), computed once; None for the smoother's own estimate."""
+    def _smoother_verdict(self, suite: Suite) -> tuple[bool, float] | None:
+        """The smoother's (meets, violation) when the filter's is asked (a floor under it: the
+        class's docstring), computed once; None for the smoother's own estimate."""
         if self.estimate != "filter":
             return None
-        key = (r, suite)
-        got = self._smoothed.get(key)
+        got = self._smoothed.get(suite)
         if got is None:
-            got = self._smoothed[key] = covariance_verdict(
-                route_covariances(self.evaluators[r], suite, self.map_sigma_m, "smoother"), self.specs[r]
+            got = self._smoothed[suite] = covariance_verdict(
+                route_covariances(self.engine, suite, self.map_sigma_m, "smoother"), self.spec
             )
             if not got[0]:
                 self.n_refuted += 1
-                self._answered()
+                self._answered(suite, False, got[1])
         return got
 
-    def meets(self, suite: Suite) -> bool:
-        """Whether ``suite`` meets every route's specification. The routes are asked in
-        :attr:`route_order`: the route that last failed a suite first (a suite that fails a domain
-        mostly fails where the previous one did, and the routes it meets before that cost a check
-        each). The order follows the answers alone, so a run and its resumption ask the same."""
-        s = as_suite(suite)
-        for r in list(self.route_order):
-            if not self._route_meets(r, s):
-                if self.route_order[0] != r:
-                    self.route_order.remove(r)
-                    self.route_order.insert(0, r)
-                return False
-        return True
-
-    def _route_violation(self, r: int, suite: Suite) -> float:
+    def violation(self, suite: Suite) -> float:
+        """How far ``suite`` misses the specification (0 exactly when it meets it)."""
+        self.n_asked += 1
         mask = mask_of(suite)
-        if self._met_below(r, mask):
+        if self._met_below(mask):
             return 0.0
-        v = self._route_violation_asked(r, suite)
+        v = self._violation_asked(suite)
         if v <= 0.0:
-            self._note_met(r, mask)
+            self._note_met(mask)
         else:
-            self._note_failed(r, mask, len(suite))
+            self._note_failed(mask, len(suite))
         return v
 
-    def _route_violation_asked(self, r: int, suite: Suite) -> float:
-        known = self.known.get((r, suite))
-        if known is not None and known[1] is not None and (r, suite) not in self._answers:
+    def _violation_asked(self, suite: Suite) -> float:
+        known = self.known.get(suite)
+        if known is not None and known[1] is not None and suite not in self._answers:
             return known[1]
-        if (r, suite) not in self._answers:
-            smoothed = self._smoother_verdict(r, suite)
+        if suite not in self._answers:
+            smoothed = self._smoother_verdict(suite)
             if smoothed is not None and not smoothed[0]:
                 return smoothed[1]
-            if self._accepted(r, suite):  # it meets: its violation is 0, exactly as its pass gives
+            if self._accepted(suite):  # it meets: its violation is 0, exactly as its pass gives
                 return 0.0
-        return self._answer(r, suite)[1]
+        return self._answer(suite)[1]
 
-    def violation(self, suite: Suite) -> float:
-        s = as_suite(suite)
-        return max(self._route_violation(r, s) for r in range(len(self.evaluators)))
 
-    def report(self, suite: Suite) -> tuple[RouteRequirement, ...]:
-        s = as_suite(suite)
-        return tuple(
-            RouteRequirement(self.names[r], self.specs[r], *self.route(r, s)) for r in range(len(self.evaluators))
-        )
+#: a route oracle's counts, as :meth:`RouteOracle.counts` gives them (summed over a domain's routes)
+COUNTS = (
+    "n_checks",
+    "n_refuted",
+    "n_short",
+    "n_before_seen",
+    "n_met_below",
+    "keyframes_passed",
+    "n_accepted",
+    "n_base_passes",
+)
 
 
 def _first_keyframes(problem: Problem) -> np.ndarray:

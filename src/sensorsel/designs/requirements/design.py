@@ -23,18 +23,20 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any, cast
 
 from sensorsel.designs.inputs import result_fingerprint, route_entry
-from sensorsel.designs.requirements.checks import RouteEngine, RouteRequirement, _Oracle
+from sensorsel.designs.requirements.checks import RouteRequirement
+from sensorsel.designs.requirements.domain_checks import DomainChecks, Here
 from sensorsel.designs.requirements.dominance import information_dominance
 from sensorsel.designs.requirements.integrity import IntegrityRequirement
 from sensorsel.designs.requirements.margin import Margin, margin_of
 from sensorsel.designs.requirements.solver import DEFAULT_TIE_PROGRAMS, cheapest_suite
 from sensorsel.designs.requirements.spec import Specification
 from sensorsel.errors import InputError
-from sensorsel.information.evaluators import Evaluator, as_suite, make_evaluator
+from sensorsel.information.evaluators import Evaluator, as_suite, evaluator_for
 from sensorsel.information.evaluators.accuracy import estimate_label, model_label
-from sensorsel.information.evaluators.base import Suite
+from sensorsel.information.evaluators.base import ProblemEvaluator, Suite
 from sensorsel.information.filtering import check_estimate
 from sensorsel.information.integrity import IntegritySpec, RouteIntegrity
 from sensorsel.io import results
@@ -332,145 +334,156 @@ def require(
     library = target.library
     feas = feasible_set(library, math.inf if budget_usd is None else budget_usd, constraints)
     keep_idx = keep if conditions is not None else list(range(len(problems)))
-    evaluators: list[RouteEngine]
-    if evaluator is not None:
-        remote = list(getattr(evaluator, "routes"))
-        evaluators = [remote[i] for i in keep_idx]
-    else:
-        evaluators = [make_evaluator(p, engine, jobs=jobs) for _, p in problems]
-    oracle = _Oracle(
-        evaluators, [n for n, _ in problems], specs, map_sigma_m, estimate, problems=[p for _, p in problems]
-    )
-    integ: IntegrityRequirement | None = None
-    alone: frozenset[int] = frozenset()
-    if integrity is not None:
-        if integrity.max_association_risk is not None:
-            raise InputError(
-                "--max-association-risk: require judges accuracy with every measurement; "
-                "the lever is not available with require --integrity"
-            )
-        integ = IntegrityRequirement(
-            [p for _, p in problems],
-            [n for n, _ in problems],
-            [i for i in range(len(library)) if i not in feas.excluded],
-            integrity,
-            map_sigma_m,
-        )
-    if checkpoint is not None:
-        path = Path(checkpoint)
-        fp, inputs = require_fingerprint(
-            [p for _, p in problems],
-            specs,
-            map_sigma_m,
-            failures,
-            budget_usd,
-            feas.record,
-            estimate,
-            getattr(evaluator, "engine", None) or evaluators[0].name,
-            integrity,
-        )
-        old = _read_journal(path, fp, inputs) if resume else None
-        if old is not None:
-            n_resumed = len(old.answers)
-            oracle.known = {(r, tuple(s_)): (m, v) for r, s_, m, v in old.answers}
-        last = [time.monotonic()]
-
-        def write(force: bool = False) -> None:
-            if force or time.monotonic() - last[0] >= JOURNAL_EVERY_S:
-                results.save(RequireJournal(fp, inputs, oracle.answers()), path)
-                last[0] = time.monotonic()
-
-        oracle.on_answer = write
-    # the search's settings, whichever predicates it is given
-    search = functools.partial(
-        cheapest_suite, failures=failures, time_limit=time_limit_s, progress=progress, max_tie_programs=max_tie_programs
-    )
+    # the routes' engines, and each route's checks beside its engine (:mod:`.domain_checks`): here,
+    # on worker processes (``jobs`` on a domain large enough) or on a cluster's workers (``evaluator``)
+    own = evaluator_for(target, engine, jobs=jobs) if evaluator is None else None
+    host: Any = evaluator or (own if target.kind == "domain" else Here([cast(ProblemEvaluator, own)]))
+    engine_name = str(getattr(host, "engine", None) or host.routes[0].name)
+    oracle = DomainChecks(host, [n for n, _ in problems], specs, map_sigma_m, estimate, where=keep_idx)
     try:
-        if integ is None:
-            # accuracy alone is monotone in each sensor's information: dominance among sensors holds
-            dominance = information_dominance(
-                [p for _, p in problems], [i for i in range(len(library)) if i not in feas.excluded]
+        integ: IntegrityRequirement | None = None
+        alone: frozenset[int] = frozenset()
+        if integrity is not None:
+            if integrity.max_association_risk is not None:
+                raise InputError(
+                    "--max-association-risk: require judges accuracy with every measurement; "
+                    "the lever is not available with require --integrity"
+                )
+            integ = IntegrityRequirement(
+                [p for _, p in problems],
+                [n for n, _ in problems],
+                [i for i in range(len(library)) if i not in feas.excluded],
+                integrity,
+                map_sigma_m,
             )
-            found = search(feas, oracle.meets, violation=oracle.violation, dominance=dominance)
-        else:
-            checks = integ
-            # monotone: accuracy, and the error tail with every measurement used; then integrity itself
-            down, whole = checks.with_accuracy(oracle.meets)
-            # a sensor whose association floor alone exceeds the requirement is in no suite that meets it
-            # (the floor is anti-monotone): fixed out first, so that no failing set is grown over it
-            alone = frozenset(
-                i
-                for i in range(len(library))
-                if i not in feas.excluded and i not in feas.required and not checks.floor_met((i,))
-            )
-            searched = copy.copy(feas)
-            searched.excluded = feas.excluded | alone
-            found = search(
-                searched, whole, monotone=False, necessary_monotone=down, necessary_antimonotone=checks.floor_met
-            )
-    finally:  # interrupted too (Ctrl-C): nothing learnt is lost
         if checkpoint is not None:
-            oracle.on_answer = None
-            write(force=True)
-    worst: tuple[int, ...] = ()
-    worst_routes: tuple[RouteRequirement, ...] = ()
-    if found.suite is None:
-        # no suite: the accuracy of the best any suite reaches (every allowed sensor, or what is
-        # left of them after the failures the solver names)
-        best = found.best_effort or tuple(i for i in range(len(library)) if i not in feas.excluded and i not in alone)
-        routes = oracle.report(best)
-        integrity_routes = integ.report(as_suite(best)) if integ is not None else ()
-        suite: Suite = ()
-    else:
-        suite = as_suite(found.suite)
-        routes = oracle.report(suite)
-        integrity_routes = integ.report(suite) if integ is not None else ()
-        worst = _worst_failure(oracle, suite, failures)
-        worst_routes = oracle.report(tuple(i for i in suite if i not in worst)) if worst else ()
-    margin = margin_of([(r.route, r.specification, r.accuracy) for r in routes]) if found.suite is not None else None
-    synthetic = tuple(name for name, p in problems if p.scenario.landmark_source.startswith("generated"))
-    return RequireResult(
-        status=found.status,
-        suite=library.suite_ids(suite),
-        cost_usd=float(feas.A[0, list(suite)].sum()) if suite else 0.0,
-        lower_bound_usd=float(found.lower_bound),
-        infeasible_by=found.infeasible_by,
-        stop=found.stop,
-        failures=failures,
-        model="slam" if map_sigma_m is None else "map",
-        map_sigma_m=map_sigma_m,
-        estimate=estimate,
-        routes=routes,
-        worst_failure=library.suite_ids(worst),
-        worst_failure_routes=worst_routes,
-        iterations=int(found.iterations),
-        n_checks=oracle.n_checks,
-        n_refuted=oracle.n_refuted,
-        engine=getattr(evaluator, "engine", None) or evaluators[0].name,
-        budget_usd=budget_usd,
-        constraints=feas.record,
-        problem=target.info,
-        seconds=time.perf_counter() - t0,
-        seconds_checks=found.seconds_checks,
-        seconds_programs=found.seconds_programs,
-        ties=tuple(library.suite_ids(t) for t in found.ties),
-        ties_exhaustive=found.ties_exhaustive,
-        tie_programs=found.tie_programs,
-        margin=margin,
-        synthetic_landmarks=synthetic,
-        integrity=integrity,
-        integrity_routes=integrity_routes,
-        integrity_alone=library.suite_ids(tuple(sorted(alone))),
-        dominated=tuple((library.ids[w], library.ids[s_]) for w, s_ in found.ordered),
-        n_swap_inferred=found.swap_inferred,
-        n_short=oracle.n_short,
-        n_accepted=oracle.n_accepted,
-        n_base_passes=oracle.n_base_passes,
-        n_resumed=n_resumed,
-    )
+            path = Path(checkpoint)
+            fp, inputs = require_fingerprint(
+                [p for _, p in problems],
+                specs,
+                map_sigma_m,
+                failures,
+                budget_usd,
+                feas.record,
+                estimate,
+                engine_name,
+                integrity,
+            )
+            old = _read_journal(path, fp, inputs) if resume else None
+            if old is not None:
+                n_resumed = len(old.answers)
+                oracle.resume({(r, tuple(s_)): (m, v) for r, s_, m, v in old.answers})
+            last = [time.monotonic()]
+
+            def write(force: bool = False) -> None:
+                if force or time.monotonic() - last[0] >= JOURNAL_EVERY_S:
+                    results.save(RequireJournal(fp, inputs, oracle.answers()), path)
+                    last[0] = time.monotonic()
+
+            oracle.on_answer = write
+        # the search's settings, whichever predicates it is given
+        search = functools.partial(
+            cheapest_suite,
+            failures=failures,
+            time_limit=time_limit_s,
+            progress=progress,
+            max_tie_programs=max_tie_programs,
+        )
+        try:
+            if integ is None:
+                # accuracy alone is monotone in each sensor's information: dominance among sensors holds
+                dominance = information_dominance(
+                    [p for _, p in problems], [i for i in range(len(library)) if i not in feas.excluded]
+                )
+                found = search(feas, oracle.meets, violation=oracle.violation, dominance=dominance)
+            else:
+                checks = integ
+                # monotone: accuracy, and the error tail with every measurement used; then integrity itself
+                down, whole = checks.with_accuracy(oracle.meets)
+                # a sensor whose association floor alone exceeds the requirement is in no suite that meets it
+                # (the floor is anti-monotone): fixed out first, so that no failing set is grown over it
+                alone = frozenset(
+                    i
+                    for i in range(len(library))
+                    if i not in feas.excluded and i not in feas.required and not checks.floor_met((i,))
+                )
+                searched = copy.copy(feas)
+                searched.excluded = feas.excluded | alone
+                found = search(
+                    searched, whole, monotone=False, necessary_monotone=down, necessary_antimonotone=checks.floor_met
+                )
+        finally:  # interrupted too (Ctrl-C): nothing learnt is lost
+            if checkpoint is not None:
+                oracle.on_answer = None
+                write(force=True)
+        worst: tuple[int, ...] = ()
+        worst_routes: tuple[RouteRequirement, ...] = ()
+        if found.suite is None:
+            # no suite: the accuracy of the best any suite reaches (every allowed sensor, or what is
+            # left of them after the failures the solver names)
+            best = found.best_effort or tuple(
+                i for i in range(len(library)) if i not in feas.excluded and i not in alone
+            )
+            routes = oracle.report(best)
+            integrity_routes = integ.report(as_suite(best)) if integ is not None else ()
+            suite: Suite = ()
+        else:
+            suite = as_suite(found.suite)
+            routes = oracle.report(suite)
+            integrity_routes = integ.report(suite) if integ is not None else ()
+            worst = _worst_failure(oracle, suite, failures)
+            worst_routes = oracle.report(tuple(i for i in suite if i not in worst)) if worst else ()
+        margin = (
+            margin_of([(r.route, r.specification, r.accuracy) for r in routes]) if found.suite is not None else None
+        )
+        synthetic = tuple(name for name, p in problems if p.scenario.landmark_source.startswith("generated"))
+        return RequireResult(
+            status=found.status,
+            suite=library.suite_ids(suite),
+            cost_usd=float(feas.A[0, list(suite)].sum()) if suite else 0.0,
+            lower_bound_usd=float(found.lower_bound),
+            infeasible_by=found.infeasible_by,
+            stop=found.stop,
+            failures=failures,
+            model="slam" if map_sigma_m is None else "map",
+            map_sigma_m=map_sigma_m,
+            estimate=estimate,
+            routes=routes,
+            worst_failure=library.suite_ids(worst),
+            worst_failure_routes=worst_routes,
+            iterations=int(found.iterations),
+            n_checks=oracle.n_checks,
+            n_refuted=oracle.n_refuted,
+            engine=engine_name,
+            budget_usd=budget_usd,
+            constraints=feas.record,
+            problem=target.info,
+            seconds=time.perf_counter() - t0,
+            seconds_checks=found.seconds_checks,
+            seconds_programs=found.seconds_programs,
+            ties=tuple(library.suite_ids(t) for t in found.ties),
+            ties_exhaustive=found.ties_exhaustive,
+            tie_programs=found.tie_programs,
+            margin=margin,
+            synthetic_landmarks=synthetic,
+            integrity=integrity,
+            integrity_routes=integrity_routes,
+            integrity_alone=library.suite_ids(tuple(sorted(alone))),
+            dominated=tuple((library.ids[w], library.ids[s_]) for w, s_ in found.ordered),
+            n_swap_inferred=found.swap_inferred,
+            n_short=oracle.n_short,
+            n_accepted=oracle.n_accepted,
+            n_base_passes=oracle.n_base_passes,
+            n_resumed=n_resumed,
+        )
+    finally:
+        oracle.close()
+        close = getattr(own, "close", None)
+        if close is not None:
+            close()
 
 
-def _worst_failure(oracle: _Oracle, suite: Suite, failures: int) -> tuple[int, ...]:
+def _worst_failure(oracle: DomainChecks, suite: Suite, failures: int) -> tuple[int, ...]:
     """The ``failures`` sensors of ``suite`` whose loss leaves the largest error relative to the
     bounds (ties: the first in library order); () without failures."""
     if failures <= 0 or len(suite) <= failures:
@@ -478,10 +491,7 @@ def _worst_failure(oracle: _Oracle, suite: Suite, failures: int) -> tuple[int, .
     best: tuple[float, tuple[int, ...]] | None = None
     for lost in itertools.combinations(suite, failures):
         rest = tuple(i for i in suite if i not in lost)
-        margin = max(
-            max(err / bound for _, err, bound, _ in oracle.route(r, rest)[1].worst)
-            for r in range(len(oracle.evaluators))
-        )
+        margin = max(max(err / bound for _, err, bound, _ in route.verdict.worst) for route in oracle.report(rest))
         if best is None or margin > best[0]:
             best = (margin, lost)
     return best[1] if best else ()

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections.abc import Iterable, Sequence
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -130,11 +130,15 @@ class ProblemEvaluator(Evaluator):
     Attributes:
         problem: the library and scenario being scored.
         n_evaluations: each log det computed counts one.
+        kept: work that keeps state beside this route between calls, by a key its caller chooses
+            (a ``require`` run's route oracle, run where the route lives:
+            :meth:`~sensorsel.information.evaluators.domain.DomainEvaluator.apply_routes`).
     """
 
     def __init__(self, problem: Problem, *, jobs: int = 1) -> None:
         super().__init__(problem.library, jobs=jobs)
         self.problem = problem
+        self.kept: dict[str, Any] = {}
         self._baseline: float | None = None
 
     @abstractmethod
