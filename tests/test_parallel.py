@@ -147,27 +147,3 @@ def test_what_is_scored_ahead_is_the_route_engines_own_score_of_that_suite(tmp_p
     for (suite, k, c), v in sorted(seen.items()):
         assert v == fresh[k].scores_with(suite, [c])[0]  # the bytes the round would get asking it
         assert v == pytest.approx(fresh[k].score(suite + (c,)), rel=1e-12)  # the suite scored whole
-
-
-def test_a_batch_of_accuracy_checks_is_one_round_with_each_route_engines_bytes(cluster, tmp_path):
-    # require's proposals checked across suites and routes at once: each route's suites on one thread,
-    # one message per worker; the oracle is each route's own engine asked for one suite
-    from sensorsel.information.evaluators import make_evaluator
-
-    domain = load_domain(four_routes(tmp_path, 1.0))
-    suites = [(0, 5), (1, 2, 3), (4,)]
-    alone = {k: make_evaluator(r.problem) for k, r in enumerate(domain.routes)}
-    want = {
-        (i, k): alone[k].pose_covariances(s, map_sigma_m=0.5, estimate="filter")
-        for i, s in enumerate(suites)
-        for k in alone
-    }
-    remote = DistributedDomainEvaluator(cluster.client, domain)
-    for ev in (DomainEvaluator(domain, jobs=1), DomainEvaluator(domain, jobs=2), remote):
-        m0, r0 = getattr(ev, "n_messages", 0), getattr(ev, "n_rounds", 0)
-        got = ev.pose_covariances_batch(suites, map_sigma_m=0.5, estimate="filter")
-        assert sorted(got) == sorted(want)
-        for key, cov in want.items():
-            np.testing.assert_array_equal(got[key], cov)
-        if ev is remote:
-            assert ev.n_rounds - r0 == 1 and ev.n_messages - m0 == 2  # one round, one message per worker

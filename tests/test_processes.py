@@ -124,6 +124,24 @@ def test_the_plan_executor_on_processes_gives_the_in_process_results_in_task_ord
         execute(bad, LocalProcesses(2))
 
 
+def _where(state: int, task: int) -> tuple[int, int, int]:
+    return state, task, os.getpid()
+
+
+def test_one_state_that_travels_as_it_is_is_cut_into_parts_across_the_processes():
+    """A plan of one state and no recipe (a simulation's draws on one payload) runs on every worker
+    process, in parts, each task on its own state, the results in task order."""
+    from sensorsel.pipeline.executors import PARTS_PER_JOB
+
+    n = 3 * 2 * PARTS_PER_JOB
+    got = execute(Plan("draw", _where, list(range(n)), states=[7]), LocalProcesses(2))
+    assert [(s, t) for s, t, _ in got] == [(7, t) for t in range(n)]
+    assert len({pid for _, _, pid in got}) == 2 and os.getpid() not in {pid for _, _, pid in got}
+    # a state with a recipe (dear to build) stays one job: built once (one job runs here, no process)
+    built = execute(Plan("draw", _where, list(range(n)), states=[7], build=int), LocalProcesses(2))
+    assert len({pid for _, _, pid in built}) == 1
+
+
 def _die(state: int, task: int) -> int:
     os._exit(3)  # a worker killed mid-task (out of memory, a signal)
 

@@ -57,38 +57,55 @@ class InProcess:
 
 
 class LocalProcesses:
-    """The tasks on ``jobs`` worker processes of this machine, one job per state: a worker builds the
-    state from its recipe (``plan.build``) once and runs every task of it, in task order (a state is
-    one message out, its results one message back). For plans whose states are dear to compute and
-    few (a domain's routes): threads would not run them side by side (numpy and GTSAM's small calls
-    hold the interpreter's lock). Workers are forked from a server process (``multiprocessing``'s
-    forkserver), so a worker starts without importing numpy again; the steps are deterministic, so
-    the bytes are those of an in-process run."""
+    """The tasks on ``jobs`` worker processes of this machine. A job is one state's tasks, or part of
+    them: a worker builds the state from its recipe (``plan.build``) once per job and runs the job's
+    tasks on it, in task order (a job is one message out, its results one message back). A state
+    with a recipe is one job (a domain's route: dear to build, few); a state that travels as it is
+    (no ``build``: a simulation's draws on one payload) is cut into :data:`PARTS_PER_JOB` jobs per
+    worker, so that every worker has work and the results (and the progress) come as they finish.
+    Threads would not run these side by side (numpy and GTSAM's small calls hold the interpreter's
+    lock). Workers are forked from a server process (``multiprocessing``'s forkserver; spawn where
+    there is none), so a worker starts without importing numpy again; the steps are deterministic,
+    so the bytes are those of an in-process run."""
 
     def __init__(self, jobs: int) -> None:
         self.jobs = int(jobs)
 
-    def run(self, plan: Plan[Any], todo: Sequence[int], done: Done) -> None:
+    def _jobs(self, plan: Plan[Any], todo: Sequence[int]) -> list[tuple[int, list[int]]]:
+        """(state, its tasks) of each job, in task order."""
         by_state: dict[int, list[int]] = {}
         for i in todo:
             by_state.setdefault(plan.state_index(i), []).append(i)
-        if self.jobs < 2 or len(by_state) < 2:
+        if plan.build is not None:
+            return list(by_state.items())
+        parts = -(-self.jobs * PARTS_PER_JOB // max(len(by_state), 1))
+        out = []
+        for k, ids in by_state.items():
+            size = -(-len(ids) // parts)
+            out += [(k, ids[a : a + size]) for a in range(0, len(ids), size)]
+        return out
+
+    def run(self, plan: Plan[Any], todo: Sequence[int], done: Done) -> None:
+        jobs = self._jobs(plan, todo)
+        if self.jobs < 2 or len(jobs) < 2:
             InProcess().run(plan, todo, done)
             return
         import multiprocessing
         from concurrent.futures import ProcessPoolExecutor, as_completed
         from concurrent.futures.process import BrokenProcessPool
 
-        ctx = multiprocessing.get_context("forkserver")
-        # the server, when this starts it, imports the step's module once: each worker forked from it
-        # starts with it imported (else each imports it again, ~0.8 s for the package's façade)
-        ctx.set_forkserver_preload([plan.step.__module__])
+        methods = multiprocessing.get_all_start_methods()
+        ctx = multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
+        if ctx.get_start_method() == "forkserver":
+            # the server, when this starts it, imports the step's module once: each worker forked from
+            # it starts with it imported (else each imports it again, ~0.8 s for the package's façade)
+            ctx.set_forkserver_preload([plan.step.__module__])
         with ProcessPoolExecutor(
-            max_workers=min(self.jobs, len(by_state)), mp_context=ctx, initializer=_ignore_interrupts
+            max_workers=min(self.jobs, len(jobs)), mp_context=ctx, initializer=_ignore_interrupts
         ) as pool:
             futs = {
                 pool.submit(_run_state, plan.build, plan.step, plan.states[k], [plan.tasks[i] for i in ids]): ids
-                for k, ids in by_state.items()
+                for k, ids in jobs
             }
             for fut in as_completed(futs):
                 try:
@@ -97,6 +114,11 @@ class LocalProcesses:
                     raise ClusterError(f"a worker process running the {plan.name}s died ({exc})") from None
                 for i, result in zip(futs[fut], got):
                     done(i, result)
+
+
+#: jobs per worker process for a state that travels as it is (:class:`LocalProcesses`): results and
+#: progress as they finish, and a slow part does not leave the other workers idle at the end
+PARTS_PER_JOB = 4
 
 
 def _ignore_interrupts() -> None:

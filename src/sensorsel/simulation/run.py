@@ -1,18 +1,17 @@
 """The driver: ``simulate`` checks its arguments, runs the Monte-Carlo draws (in worker processes when
 ``jobs > 1``), predicts the covariance once and summarises everything into a :class:`SimulationResult`.
 
-Worker processes are started by ``forkserver`` (``spawn`` where it does not exist): they never
-inherit the parent's BLAS threads or gtsam objects, and only numbers travel between processes (the
-payload once per worker, the estimates back; see the shared gtsam notes on pickling).
+The draws run on the pipeline's executors: here, on ``jobs`` worker processes
+(:class:`~sensorsel.pipeline.LocalProcesses`, started by ``forkserver``: they never inherit the
+parent's BLAS threads or gtsam objects) or on a cluster. Only numbers travel between processes (the
+payload with each part of the draws, the estimates back; see the shared gtsam notes on pickling).
 """
 
 from __future__ import annotations
 
 import math
-import multiprocessing
 import time
 from collections.abc import Iterable, Sequence
-from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
@@ -21,7 +20,7 @@ from sensorsel.information.evaluators import as_suite
 from sensorsel.information.evaluators.accuracy import Z95, accuracy_from_covariances
 from sensorsel.io.progress import Progress
 from sensorsel.model.problem import Problem
-from sensorsel.pipeline import Executor, Plan, execute
+from sensorsel.pipeline import Executor, LocalProcesses, Plan, execute
 from sensorsel.simulation.consistency import (
     COVARIANCE_NOTE,
     Prediction,
@@ -102,12 +101,9 @@ def simulate(
         None if map_sigma_m is None else float(map_sigma_m),
     )
     t_runs = time.perf_counter()
-    if executor is not None:
-        raw = execute(
-            Plan("simulation run", solve_run, tuple(range(runs)), states=(payload,)), executor, progress=progress
-        )
-    else:
-        raw = _run_all(payload, runs, jobs, progress)
+    # the payload travels to each worker as it is; the draws are cut into parts across them
+    plan = Plan("simulation run", solve_run, tuple(range(runs)), states=(payload,))
+    raw = execute(plan, executor or LocalProcesses(jobs), progress=progress)
     t_cov = time.perf_counter()
     pred = predict(payload)
     t_end = time.perf_counter()
@@ -136,47 +132,6 @@ def _check_args(
         raise InputError(f"noise scale must be a positive number, got {noise_scale!r}")
     if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
         raise InputError(f"jobs must be a positive integer, got {jobs!r}")
-
-
-# ------------------------------------------------------------------------------- process pool
-
-
-def _run_all(payload: Payload, runs: int, jobs: int, progress: Progress | None) -> list[dict]:
-    """Every run's raw output, in run order, in this process or in ``jobs`` workers."""
-    raw: list[dict] = []
-    if jobs == 1 or runs == 1:
-        for r in range(runs):
-            raw.append(solve_run(payload, r))
-            if progress:
-                progress(len(raw), runs)
-        return raw
-    with ProcessPoolExecutor(
-        max_workers=min(jobs, runs), mp_context=_mp_context(), initializer=_init_worker, initargs=(payload,)
-    ) as ex:
-        for out in ex.map(_worker_run, range(runs)):
-            raw.append(out)
-            if progress:
-                progress(len(raw), runs)
-    return raw
-
-
-# worker processes only: the payload they were started with (see _init_worker)
-_WORKER_PAYLOAD: Payload | None = None
-
-
-def _init_worker(payload: Payload) -> None:
-    global _WORKER_PAYLOAD
-    _WORKER_PAYLOAD = payload
-
-
-def _worker_run(run: int) -> dict[str, np.ndarray | float | int]:
-    assert _WORKER_PAYLOAD is not None
-    return solve_run(_WORKER_PAYLOAD, run)
-
-
-def _mp_context() -> multiprocessing.context.BaseContext:
-    methods = multiprocessing.get_all_start_methods()
-    return multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
 
 
 # ---------------------------------------------------------------------------------- summary

@@ -95,12 +95,6 @@ class RouteActor:
         self.busy_s, self.calls = self.busy_s + time.perf_counter() - t0, self.calls + 1
         return out
 
-    def pose_covariances_many(
-        self, suites: list[tuple[int, ...]], map_sigma_m: float | None, estimate: str = "smoother"
-    ) -> list[np.ndarray]:
-        """:meth:`pose_covariances` of each suite, in order (a batch of checks in one message)."""
-        return [self.pose_covariances(s, map_sigma_m, estimate) for s in suites]
-
     def pose_covariance_floor(self, suite: tuple[int, ...], map_sigma_m: float | None) -> np.ndarray | None:
         """The engine's cheap floor under :meth:`pose_covariances` (None where it has none)."""
         return self.evaluator.pose_covariance_floor(suite, map_sigma_m=map_sigma_m)
@@ -454,13 +448,6 @@ class DistributedDomainEvaluator(DomainEvaluator):
         places = sorted(owned.values())
         home = {k: p for p, ks in enumerate(places) for k in ks if k in load}
         return [(frozenset(ks), sum(load.get(k, 0.0) for k in ks)) for ks in places], home
-
-    def _routes_pose_covariances(
-        self, one: Any, batch: list[tuple[int, ...]], routes: list[int], map_sigma_m: float | None, estimate: str
-    ) -> dict[int, list[np.ndarray]]:
-        """Every route's suites in one round: one message per worker, its routes' batches together."""
-        got = self._call({k: ("pose_covariances_many", (batch, map_sigma_m, estimate)) for k in routes})
-        return {k: [np.asarray(c) for c in got[k]] for k in routes}
 
     def busy(self) -> dict[str, tuple[float, int, str]]:
         """Each route's (seconds its actor spent scoring, calls it answered, the worker holding it)."""

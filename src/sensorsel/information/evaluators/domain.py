@@ -241,38 +241,6 @@ class DomainEvaluator(Evaluator):
         """How many routes' work runs at once (:meth:`apply_routes`): here, :attr:`jobs` threads."""
         return max(1, self.jobs)
 
-    def pose_covariances_batch(
-        self,
-        suites: Sequence[Iterable[int]],
-        routes: Sequence[int] | None = None,
-        *,
-        map_sigma_m: float | None = None,
-        estimate: str = "smoother",
-    ) -> dict[tuple[int, int], np.ndarray]:
-        """Every route's pose covariances (K_r, 3, 3) under every suite, by (suite's index, route):
-        a batch of accuracy checks across suites and routes (``require``'s proposals) as one round,
-        each route's suites on one thread (one message per worker on a cluster); the bytes of each
-        route's engine asked alone (:meth:`Evaluator.pose_covariances`)."""
-        batch = [as_suite(s) for s in suites]
-        for s in batch:
-            self._check_positions(s)
-        ks = list(range(len(self.routes))) if routes is None else [int(k) for k in routes]
-
-        def one(k: int) -> list[np.ndarray]:
-            return [
-                np.asarray(self.routes[k].pose_covariances(s, map_sigma_m=map_sigma_m, estimate=estimate))
-                for s in batch
-            ]
-
-        got = self._routes_pose_covariances(one, batch, ks, map_sigma_m, estimate)
-        return {(i, k): got[k][i] for i in range(len(batch)) for k in ks}
-
-    def _routes_pose_covariances(
-        self, one: Any, batch: list[Suite], routes: list[int], map_sigma_m: float | None, estimate: str
-    ) -> dict[int, list[np.ndarray]]:
-        """``one(k)`` of each route on the threads (a cluster's evaluator asks its actors instead)."""
-        return self._on_threads(one, routes, {k: self.work[k] * len(batch) for k in routes})
-
     def combine(self, route_scores: np.ndarray) -> np.ndarray:
         """F from per-route scores of shape (R,) or (R, n), summed in route order."""
         out = np.zeros(np.shape(route_scores)[1:], dtype=float)
