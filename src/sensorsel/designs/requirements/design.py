@@ -452,8 +452,8 @@ def require(
             worst_failure=library.suite_ids(worst),
             worst_failure_routes=worst_routes,
             iterations=int(found.iterations),
-            n_checks=oracle.n_checks,
-            n_refuted=oracle.n_refuted,
+            n_checks=oracle.count("n_checks"),
+            n_refuted=oracle.count("n_refuted"),
             engine=engine_name,
             budget_usd=budget_usd,
             constraints=feas.record,
@@ -471,9 +471,9 @@ def require(
             integrity_alone=library.suite_ids(tuple(sorted(alone))),
             dominated=tuple((library.ids[w], library.ids[s_]) for w, s_ in found.ordered),
             n_swap_inferred=found.swap_inferred,
-            n_short=oracle.n_short,
-            n_accepted=oracle.n_accepted,
-            n_base_passes=oracle.n_base_passes,
+            n_short=oracle.count("n_short"),
+            n_accepted=oracle.count("n_accepted"),
+            n_base_passes=oracle.count("n_base_passes"),
             n_resumed=n_resumed,
         )
     finally:

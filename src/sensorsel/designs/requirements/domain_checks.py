@@ -196,26 +196,6 @@ class DomainChecks:
         """A count of :data:`~.checks.COUNTS` summed over the routes."""
         return sum(c[name] for c in self._counts)
 
-    @property
-    def n_checks(self) -> int:
-        return self.count("n_checks")
-
-    @property
-    def n_refuted(self) -> int:
-        return self.count("n_refuted")
-
-    @property
-    def n_short(self) -> int:
-        return self.count("n_short")
-
-    @property
-    def n_accepted(self) -> int:
-        return self.count("n_accepted")
-
-    @property
-    def n_base_passes(self) -> int:
-        return self.count("n_base_passes")
-
     def close(self) -> None:
         """Drop the routes' oracles where they live (their answers stay in :meth:`answers`)."""
         opened, self._opened = sorted(self._opened), set()
