@@ -50,7 +50,7 @@ class RouteRequirement:
 
 class RouteEngine(Protocol):
     """What require asks of a route's engine: its pose marginals and their cheap floor (a
-    :class:`~sensorsel.information.evaluators.base.ProblemEvaluator`, or a route held by a Dask actor)."""
+    :class:`~sensorsel.information.evaluators.base.ProblemEvaluator`, asked where the route lives)."""
 
     @property
     def name(self) -> str: ...

@@ -95,10 +95,6 @@ class RouteActor:
         self.busy_s, self.calls = self.busy_s + time.perf_counter() - t0, self.calls + 1
         return out
 
-    def pose_covariance_floor(self, suite: tuple[int, ...], map_sigma_m: float | None) -> np.ndarray | None:
-        """The engine's cheap floor under :meth:`pose_covariances` (None where it has none)."""
-        return self.evaluator.pose_covariance_floor(suite, map_sigma_m=map_sigma_m)
-
     def apply(self, fn: Any, args: tuple[Any, ...]) -> Any:
         """``fn(this route's evaluator, *args)``: a whole piece of work on this route, done here."""
         t0 = time.perf_counter()
@@ -198,11 +194,6 @@ class _RemoteRoute(Evaluator):
         s = as_suite(suite)
         self._check_positions(s)
         return np.asarray(self.owner._call({self.k: ("pose_covariances", (s, map_sigma_m, estimate))})[self.k])
-
-    def pose_covariance_floor(self, suite: Iterable[int], *, map_sigma_m: float | None = None) -> np.ndarray | None:
-        s = as_suite(suite)
-        self._check_positions(s)
-        return self.owner._call({self.k: ("pose_covariance_floor", (s, map_sigma_m))})[self.k]
 
 
 def _route_cost(problem: Problem) -> int:
