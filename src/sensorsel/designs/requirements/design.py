@@ -437,7 +437,7 @@ def require(
             margin_of([(r.route, r.specification, r.accuracy) for r in routes]) if found.suite is not None else None
         )
         synthetic = tuple(name for name, p in problems if p.scenario.landmark_source.startswith("generated"))
-        return RequireResult(
+        result = RequireResult(
             status=found.status,
             suite=library.suite_ids(suite),
             cost_usd=float(feas.A[0, list(suite)].sum()) if suite else 0.0,
@@ -476,11 +476,18 @@ def require(
             n_base_passes=oracle.count("n_base_passes"),
             n_resumed=n_resumed,
         )
-    finally:
+    except Exception:
+        oracle.close()  # an error's rounds were answered: the routes' checks can be dropped where they live
+        raise
+    else:
         oracle.close()
+    finally:
+        # interrupted (Ctrl-C), a round's reply may still be on its way: the evaluator this run built
+        # is closed with its workers; a caller's keeps the checks under this run's key until it closes
         close = getattr(own, "close", None)
         if close is not None:
             close()
+    return result
 
 
 def _worst_failure(oracle: DomainChecks, suite: Suite, failures: int) -> tuple[int, ...]:
