@@ -8,6 +8,7 @@ from __future__ import annotations
 import itertools
 import os
 import signal
+from pathlib import Path
 
 import pytest
 from domains import four_routes, untimed
@@ -110,3 +111,30 @@ def test_a_lost_worker_process_reopens_its_routes_checks_with_the_answers_so_far
         assert ev.n_rebuilt >= 1
         assert theirs.answers() == mine.answers()
         theirs.close()
+
+
+def test_ctrl_c_stops_require_on_worker_processes_at_once(tmp_path):
+    """Ctrl-C (SIGINT to the process group) during ``require --domain --jobs 2`` on worker processes:
+    exit 130 with one line, promptly, though a round of the routes' checks may be on its way."""
+    import subprocess
+    import sys
+    import time
+
+    dense = four_routes(tmp_path, 10.0)  # 794 keyframes: the routes go to worker processes
+    cli = str(Path(sys.executable).parent / "sensorsel")
+    args = [cli, "require", "--domain", str(dense), "--preset", "local-streets"]
+    p = subprocess.Popen(
+        [*args, "--jobs", "2", "-o", str(tmp_path / "r.json")],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        start_new_session=True,
+    )
+    time.sleep(8)  # the processes built, the search under way
+    assert p.poll() is None, p.communicate()[1].decode()
+    os.killpg(p.pid, signal.SIGINT)
+    t0 = time.monotonic()
+    _, err = p.communicate(timeout=60)
+    assert p.returncode == 130, err.decode()
+    assert err.decode().strip().splitlines()[-1] == "sensorsel: interrupted"
+    assert time.monotonic() - t0 < 10
+    assert (tmp_path / "r.json.checkpoint").is_file()  # what was learnt is kept for --resume
