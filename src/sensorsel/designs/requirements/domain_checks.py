@@ -104,17 +104,16 @@ class DomainChecks:
         estimate: str = "filter",
         *,
         where: Sequence[int] | None = None,
-        known: dict[tuple[int, Suite], tuple[bool, float | None]] | None = None,
     ) -> None:
         self.host, self.names, self.specs = host, list(names), list(specs)
         self.map_sigma_m, self.estimate = map_sigma_m, estimate
         #: each route's index in ``host`` (a domain's members kept by ``--in``: a subset of its routes)
         self.where = list(range(len(self.names))) if where is None else [int(w) for w in where]
-        self.known = dict(known or {})
+        self.known: dict[tuple[int, Suite], tuple[bool, float | None]] = {}
         self.on_answer: Callable[[], None] | None = None
         self._key = f"require-{uuid.uuid4().hex}"
         #: every answer so far, (route, suite) -> (meets, violation or None): the journal's entries
-        self._answers: dict[tuple[int, Suite], tuple[bool, float | None]] = dict(self.known)
+        self._answers: dict[tuple[int, Suite], tuple[bool, float | None]] = {}
         self._counts: list[dict[str, int]] = [dict.fromkeys(COUNTS, 0) for _ in self.names]
         #: per route, the counts of the oracles it had before one was lost
         self._before: list[dict[str, int]] = [dict.fromkeys(COUNTS, 0) for _ in self.names]
@@ -126,9 +125,6 @@ class DomainChecks:
             raise RuntimeError("resume: the routes' checks have started already")
         self.known = dict(known)
         self._answers.update(self.known)
-
-    def __len__(self) -> int:
-        return len(self.names)
 
     def _open(self, routes: list[int]) -> None:
         """Open the oracles of ``routes`` where they live, with every answer known of each."""
