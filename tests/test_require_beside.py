@@ -138,3 +138,32 @@ def test_ctrl_c_stops_require_on_worker_processes_at_once(tmp_path):
     assert err.decode().strip().splitlines()[-1] == "sensorsel: interrupted"
     assert time.monotonic() - t0 < 10
     assert (tmp_path / "r.json.checkpoint").is_file()  # what was learnt is kept for --resume
+
+
+def test_a_domain_run_interrupted_on_processes_resumes_there_to_the_same_answer(domain, tmp_path):
+    """The journal of a domain run on worker processes holds every route's answers; resumed on
+    processes, each route's checks open with their own and the answer is the uninterrupted one's,
+    with fewer computations."""
+    from test_require import _Interrupt, _stop_after
+
+    from sensorsel.io import results
+
+    spec = preset("freeway")
+    kw = {"map_sigma_m": 0.05, "constraints": _small(domain), "failures": 1}
+    want = require(domain, spec, evaluator=DomainEvaluator(domain), **kw)
+    ck = tmp_path / "r.json.checkpoint"
+    with ProcessDomainEvaluator(domain, processes=2) as ev:
+        with pytest.raises(_Interrupt):
+            require(domain, spec, evaluator=ev, checkpoint=ck, progress=_stop_after(1), **kw)
+    journal = results.load(ck, "requirement-journal")
+    assert {r for r, *_ in journal.answers} == set(range(len(domain.routes)))  # every route's answers
+    with ProcessDomainEvaluator(domain, processes=2) as ev:
+        got = require(domain, spec, evaluator=ev, checkpoint=ck, resume=True, **kw)
+    assert (got.status, got.suite, got.cost_usd, got.lower_bound_usd) == (
+        want.status,
+        want.suite,
+        want.cost_usd,
+        want.lower_bound_usd,
+    )
+    assert got.n_checks + got.n_refuted < want.n_checks + want.n_refuted
+    assert got.n_resumed == len(journal.answers)
