@@ -44,7 +44,7 @@ from sensorsel.io.codec import to_jsonable
 from sensorsel.io.progress import Progress
 from sensorsel.io.results import result_kind
 from sensorsel.model.constraints import Constraints, feasible_set
-from sensorsel.model.problem import Problem, Target, TargetInfo
+from sensorsel.model.problem import Domain, Problem, Target, TargetInfo
 from sensorsel.pipeline.store import digest, load_matching
 
 __all__ = ["RouteRequirement", "RequireResult", "RequireJournal", "require", "require_fingerprint"]
@@ -333,13 +333,23 @@ def require(
         problems, specs = [problems[i] for i in keep], [specs[i] for i in keep]
     library = target.library
     feas = feasible_set(library, math.inf if budget_usd is None else budget_usd, constraints)
-    keep_idx = keep if conditions is not None else list(range(len(problems)))
     # the routes' engines, and each route's checks beside its engine (:mod:`.domain_checks`): here,
-    # on worker processes (``jobs`` on a domain large enough) or on a cluster's workers (``evaluator``)
-    own = evaluator_for(target, engine, jobs=jobs) if evaluator is None else None
-    host: Any = evaluator or (own if target.kind == "domain" else Here([cast(ProblemEvaluator, own)]))
+    # on worker processes (``jobs`` on a domain large enough) or on a cluster's workers (``evaluator``,
+    # which holds every member: those kept by ``conditions`` are found by their place in it)
+    own: Evaluator | None = None
+    host: Any = evaluator
+    where = keep if conditions is not None else None
+    if evaluator is None:
+        # only the members asked about get an engine
+        kept = (
+            target
+            if conditions is None
+            else Domain(tuple(members[i] for i in keep), source=str(getattr(target, "source", "<memory>")))
+        )
+        own, where = evaluator_for(kept, engine, jobs=jobs), None
+        host = own if kept.kind == "domain" else Here([cast(ProblemEvaluator, own)])
     engine_name = str(getattr(host, "engine", None) or host.routes[0].name)
-    oracle = DomainChecks(host, [n for n, _ in problems], specs, map_sigma_m, estimate, where=keep_idx)
+    oracle = DomainChecks(host, [n for n, _ in problems], specs, map_sigma_m, estimate, where=where)
     try:
         integ: IntegrityRequirement | None = None
         alone: frozenset[int] = frozenset()
