@@ -128,6 +128,9 @@ def test_ctrl_c_stops_require_on_worker_processes_at_once(tmp_path):
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         start_new_session=True,
+        # as from a terminal: a test run started in the background (no job control) ignores SIGINT,
+        # and its children would inherit that
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )
     time.sleep(8)  # the processes built, the search under way
     assert p.poll() is None, p.communicate()[1].decode()
