@@ -90,8 +90,6 @@ class DomainChecks:
 
     Attributes:
         names, specs: the routes' names and specifications, in the domain's order.
-        known: (route, suite) -> (meets, violation or None): answers read back from a journal,
-            given to each route's oracle when it opens (:meth:`resume`).
         on_answer: called after each round that found answers (the journal's writer).
     """
 
@@ -109,7 +107,6 @@ class DomainChecks:
         self.map_sigma_m, self.estimate = map_sigma_m, estimate
         #: each route's index in ``host`` (a domain's members kept by ``--in``: a subset of its routes)
         self.where = list(range(len(self.names))) if where is None else [int(w) for w in where]
-        self.known: dict[tuple[int, Suite], tuple[bool, float | None]] = {}
         self.on_answer: Callable[[], None] | None = None
         self._key = f"require-{uuid.uuid4().hex}"
         #: every answer so far, (route, suite) -> (meets, violation or None): the journal's entries
@@ -120,11 +117,11 @@ class DomainChecks:
         self._opened: set[int] = set()
 
     def resume(self, known: dict[tuple[int, Suite], tuple[bool, float | None]]) -> None:
-        """Start from answers read back from a journal (before the first question)."""
+        """Start from answers read back from a journal, (route, suite) -> (meets, violation or None),
+        before the first question: each route's checks open with its own."""
         if self._opened:
             raise RuntimeError("resume: the routes' checks have started already")
-        self.known = dict(known)
-        self._answers.update(self.known)
+        self._answers.update(known)
 
     def _open(self, routes: list[int]) -> None:
         """Open the oracles of ``routes`` where they live, with every answer known of each."""
