@@ -203,3 +203,60 @@ def test_highs_takes_the_absolute_gap_the_floor_needs():
         warnings.simplefilter("error")
         bound, suite, proved = programs.propose(s, None, spent, floor=float(s.price[3]))
     assert proved and suite in (1 << 3, 1 << 7) and bound <= s.price[3] + programs.tol(s.price[3])
+
+
+def _one_swaps_in_order(s, last):
+    """Every suite ``last`` with one member swapped for an outsider of its price, in the documented
+    order (dearest member first, then cheapest outsider; ties by position), by plain sets."""
+    members = sorted((i for i in range(s.n) if last >> i & 1), key=lambda i: (-s.price[i], i))
+    outside = sorted((j for j in s.allowed if not last >> j & 1), key=lambda j: (s.price[j], j))
+    return [last & ~(1 << i) | 1 << j for i in members for j in outside if s.price[i] == s.price[j]]
+
+
+def _satisfies_every_row(s, m) -> bool:
+    inside = lambda a, b: a & ~b == 0  # noqa: E731
+    cuts_ok = all(bin(m & ~f).count("1") >= s.alpha + 1 for f in s.down.failing.masks)
+    return cuts_ok and inside(s.required, m) and not m & s.fixed_out and m not in s.nogoods and s.fits(m)
+
+
+@pytest.mark.parametrize("alpha", [0, 1])
+def test_a_plateau_swap_is_the_first_one_swap_every_row_allows(library, alpha):
+    from sensorsel.designs.requirements.oracle import Monotone, mask_of
+    from sensorsel.designs.requirements.programs import plateau_swap
+    from sensorsel.designs.requirements.solver import _Search
+
+    sub = library.subset(SAME_PRICE)  # twelve sensors of one price: every swap keeps the cost
+    fs = feasible_set(sub, math.inf, Constraints())
+    s = _Search(fs, alpha, Monotone(len(sub), lambda _: False), None, None)
+    last = mask_of([0, 1, 2, 3])
+    lower = s.cost(last)
+    # a failing set known that rules out the first swaps in order (member 0 for outsider 4, ...)
+    s.down.record(mask_of([1, 2, 3, 4, 5] if alpha == 0 else [1, 2, 3, 5]), False)
+    s.fixed_out = mask_of([11])
+    swaps = _one_swaps_in_order(s, last)
+    s.nogoods.append([m for m in swaps if _satisfies_every_row(s, m)][0])  # and a no-good the first left
+    allowed = [m for m in swaps if _satisfies_every_row(s, m)]
+    assert allowed and allowed[0] != swaps[0]  # the first swaps are ruled out: the rows are what picks it
+    assert all(not m >> 11 & 1 for m in allowed)
+    assert plateau_swap(s, last, lower) == allowed[0]
+    # a suite that does not cost the proved lower bound is no optimum of the next program: none
+    assert plateau_swap(s, last, lower - 449.0) is None
+    # every swap ruled out by a cut: none
+    s.down.record(mask_of(range(11)), False)
+    assert plateau_swap(s, last, lower) is None
+
+
+@pytest.mark.parametrize("alpha", [1, 2])
+def test_plateau_swaps_keep_the_brute_force_answer(library, alpha):
+    """With failures the search proposes swaps on plateaus of one price (the symmetric library and
+    the mixed one): the answer stays brute force's, and the swaps are used (they are what is tested)."""
+    used = 0
+    for keep, q in ((SAME_PRICE, [0.3, 0.2, 0.12][alpha]), (KEEP, [0.3, 0.2, 0.12][alpha])):
+        sub = library.subset(keep)
+        for seed in range(3):
+            meets, viol = _instance(len(sub), seed, q)
+            fs = feasible_set(sub, math.inf, Constraints())
+            r = cheapest_suite(fs, meets, failures=alpha, violation=viol)
+            _is_the_brute_force_answer(fs, meets, alpha, r, _brute(fs, meets, alpha))
+            used += r.plateau_swaps
+    assert used > 0

@@ -314,7 +314,9 @@ def _print(res: RequireResult) -> None:
         click.echo(f"worst failure  {','.join(res.worst_failure)}: then")
         _print_routes(res.worst_failure_routes)
     click.echo(
-        f"searched   {res.iterations} integer programs ({res.seconds_programs:.2f} s), {res.n_checks} accuracy "
+        f"searched   {res.iterations} integer programs ({res.seconds_programs:.2f} s)"
+        + (f" and {res.plateau_swaps} plateau swaps" if res.plateau_swaps else "")
+        + f", {res.n_checks} accuracy "
         f"computations ({res.seconds_checks:.2f} s; {res.n_refuted} more suites refuted by a cheap bound"
         + (f", {res.n_accepted} accepted by an upper bound" if res.n_accepted else "")
         + f"), {res.seconds:.2f} s in all"

@@ -76,6 +76,8 @@ class RequireResult:
         worst_failure: with failures, the α sensors whose failure leaves the suite closest to
             missing the requirement (ids), and ``worst_failure_routes`` the accuracy after it.
         iterations: integer programs solved.
+        plateau_swaps: proposals found by a swap on a plateau of one price instead of an integer
+            program (:func:`~sensorsel.designs.requirements.programs.plateau_swap`).
         n_checks: accuracy computations (each about two dense Cholesky factorizations a route).
         n_refuted: (route, suite) pairs refuted without computing their marginals: by the engine's
             cheap floor under them, or (filter) by the smoother's or by a failing suite inside it
@@ -159,6 +161,7 @@ class RequireResult:
     n_accepted: int = 0
     n_base_passes: int = 0
     n_resumed: int = 0
+    plateau_swaps: int = 0
 
     @property
     def gap_usd(self) -> float:
@@ -462,6 +465,7 @@ def require(
             worst_failure=library.suite_ids(worst),
             worst_failure_routes=worst_routes,
             iterations=int(found.iterations),
+            plateau_swaps=int(found.plateau_swaps),
             n_checks=oracle.count("n_checks"),
             n_refuted=oracle.count("n_refuted"),
             engine=engine_name,

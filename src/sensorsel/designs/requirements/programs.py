@@ -177,3 +177,46 @@ def floor_cost(s: Any, programs: list[float], without: int = 0) -> tuple[float, 
         bound = float(res.fun) if dual is None or not math.isfinite(dual) else min(float(res.fun), float(dual))
         return bound, _mask(int(i) for i in np.flatnonzero(res.x > 0.5))
     return (float(dual) if dual is not None and math.isfinite(dual) else 0.0), None
+
+
+def _bits(rows: np.ndarray, n: int) -> np.ndarray:
+    """(R, n) 0/1 of antichain rows of 64-bit words (bit i: library position i)."""
+    if not len(rows):
+        return np.zeros((0, n), np.int32)
+    as_bytes = np.ascontiguousarray(rows.astype("<u8")).view(np.uint8)
+    return np.unpackbits(as_bytes, axis=1, bitorder="little")[:, :n].astype(np.int32)
+
+
+def plateau_swap(s: Any, last: int, lower: float) -> int | None:
+    """A suite of cost ``lower`` [$] that satisfies every row of the next integer program, found
+    without one: ``last`` (the last proposal, which failed) with one of its sensors swapped for one
+    of the same price outside it (dearest member first, cheapest outsider first); None when no
+    swap satisfies them. ``lower`` is a lower bound proved on programs whose rows the next one's
+    only add to (cuts, no-goods and sensors fixed out only grow), so such a suite is an optimum of
+    the next program: the search proposes it and saves the program (on a plateau, many suites of
+    one price ruled out one by one, each program's optimum is the last one's cost)."""
+    if abs(s.cost(last) - lower) > tol(lower):
+        return None
+    n = s.n
+    members = [i for i in s.dear_first if last >> i & 1 and not s.required >> i & 1]
+    outside = [j for j in s.cheap_first if not last >> j & 1 and not s.fixed_out >> j & 1]
+    swaps = [
+        last & ~(1 << i) | 1 << j for i in members for j in outside if abs(s.price[i] - s.price[j]) <= tol(s.price[i])
+    ]
+    swaps = [m for m in swaps if m not in s.nogoods]
+    if not swaps:
+        return None
+    x = np.array([[m >> i & 1 for i in range(n)] for m in swaps], np.int32)  # (C, n)
+    ok = np.ones(len(swaps), bool)
+    if s.down is not None and s.down.failing.masks:  # Σ_{i ∉ M} x_i >= α + 1
+        inside = _bits(s.down.failing._rows[: len(s.down.failing.masks)], n)
+        ok &= np.all(x @ (1 - inside).T >= s.alpha + 1, axis=1)
+    if s.up is not None and s.up.failing.masks:  # Σ_{i ∈ m} x_i <= |m| - 1
+        m_in = _bits(s.up.failing._rows[: len(s.up.failing.masks)], n)
+        ok &= np.all(x @ m_in.T <= m_in.sum(axis=1) - 1, axis=1)
+    for w, v in getattr(s, "orders", ()):  # x_w <= x_v
+        ok &= x[:, w] <= x[:, v]
+    for c in np.flatnonzero(ok):
+        if s.fits(swaps[c]):
+            return swaps[c]
+    return None

@@ -57,6 +57,14 @@ suite that meets the requirement, whatever its structure; monotonicity only make
    is fixed out of the integer programs and of the growth of failing sets (no suite cheaper than
    c holds it): fewer checks per cut, smaller programs; the lower bound stays valid for every
    suite cheaper than c, which is all the proof needs.
+   On such a plateau, once programs are dear (with failures, or once one needed branch and bound),
+   the next proposal is first sought without a program: the last failing proposal with one sensor
+   swapped for one of the same price outside it, if every row allows the result
+   (:func:`.programs.plateau_swap`). Its cost is the lower bound proved on rows the next program's
+   only add to, so it is an optimum of that program: the bound and the proof are unchanged, only
+   which suite of that cost is checked next (measured: the fixtures' domain, local streets, 77 -> 56 s;
+   the tour with one failure 41 -> 22 s). Where programs are cheap and no failure is allowed, HiGHS's
+   own optimum was measured to lead to fewer checks (the tour: 374 against 732), so none is sought.
    Once a program needs branch and bound (:data:`.programs.FLOOR_AFTER_NODES` nodes), every later
    one carries the lower bound proved so far as a row, cost(x) >= lower: each program's rows only
    add to the last one's, so the row removes no suite any of them allows, and on a plateau HiGHS
@@ -113,6 +121,7 @@ from sensorsel.designs.requirements.failures import meets_after_failures
 from sensorsel.designs.requirements.failures import more_cuts as _more_cuts
 from sensorsel.designs.requirements.oracle import AntiMonotone, Exact, Monotone, mask_of, suite_of
 from sensorsel.designs.requirements.programs import MILP_NODE_LIMIT
+from sensorsel.designs.requirements.programs import plateau_swap as _plateau_swap
 from sensorsel.designs.requirements.programs import propose as _propose
 from sensorsel.designs.requirements.programs import tol as _tol
 from sensorsel.io.progress import Progress, report
@@ -171,6 +180,8 @@ class CheapestSuite:
         proved: the answer is proved: optimal (``cost == lower_bound``) or infeasible.
         gap: ``cost - lower_bound`` [$] (0 when proved, inf when no suite was found).
         iterations: integer programs solved (the search; the tie search's are ``tie_programs``).
+        plateau_swaps: proposals found by a swap on a plateau instead of an integer program
+            (:func:`~sensorsel.designs.requirements.programs.plateau_swap`).
         n_checks: calls of the predicates (each on a different suite; answers their structure
             gave are not calls).
         cuts: the failing sets behind the cuts Σ_{i ∉ M} x_i >= failures + 1, maximal among those
@@ -228,6 +239,7 @@ class CheapestSuite:
     fixed_out: int = 0
     ordered: tuple[tuple[int, int], ...] = ()
     swap_inferred: int = 0
+    plateau_swaps: int = 0
 
 
 class _Search:
@@ -575,6 +587,7 @@ def cheapest_suite(
             bin(s.fixed_out).count("1"),
             s.orders,
             s.down.swap_inferred if s.down is not None else 0,
+            swaps_used,
         )
 
     # a tie search under rows x_w <= x_s cannot see suites with w in place of an equally priced s
@@ -585,6 +598,8 @@ def cheapest_suite(
     lower = 0.0 if not s.required else s.cost(s.required)
     iterations = 0
     plateau: dict[float, int] = {}  # failing proposals per cost [$]
+    last: int | None = None  # the last proposal, failed
+    swaps_used = 0
     stop = ""
     try:
         # 1. every allowed sensor together: the most any suite achieves (monotone, or its monotone relaxation)
@@ -622,8 +637,15 @@ def cheapest_suite(
                 break
             if s.alpha and incumbent is not None:
                 s.fix_above(upper, programs)  # the floor rises with the cuts: fewer sensors to grow over
-            solved = _propose(s, left, programs, floor=lower)
-            iterations += 1
+            # on a plateau, where programs are dear (failures, or branch and bound needed), a swap of
+            # the last failing proposal that every row allows is an optimum of the next program
+            swapped = _plateau_swap(s, last, lower) if last is not None and (s.alpha or s.hard) else None
+            if swapped is not None:
+                solved: tuple[float, int | None, bool] | None = (lower, swapped, True)
+                swaps_used += 1
+            else:
+                solved = _propose(s, left, programs, floor=lower)
+                iterations += 1
             if solved is None:  # no suite within the rows satisfies every cut: none meets the requirement
                 if incumbent is not None:  # every suite cheaper than the incumbent is ruled out
                     return _ties(s, incumbent, iterations, max_tie_programs, programs, start, time_limit, result, clock)
@@ -645,6 +667,7 @@ def cheapest_suite(
                     s.fix_above(upper)
                 continue  # when the proposal is the integer program's optimum, the bounds now meet
             s.cut(proposal, part)
+            last = proposal
             if s.alpha and s.monotone:
                 _more_cuts(s, proposal)
             c = round(s.cost(proposal), 6)
