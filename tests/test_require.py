@@ -259,6 +259,16 @@ def test_interrupted_require_resumes_to_the_same_answer_without_recomputing(tiny
     assert (want.n_resumed, got.n_resumed) == (0, len(journal.answers))
 
 
+def test_a_journal_write_waits_nine_times_what_the_last_one_took():
+    """The whole journal is written each time: a write that took 1 s is not repeated for 9 s (a long
+    run's writes stay a tenth of it), and quick writes are 2 s apart, not closer."""
+    from sensorsel.designs.requirements.design import JOURNAL_EVERY_S, journal_due
+
+    assert JOURNAL_EVERY_S == 2.0
+    assert not journal_due(100.0 + 8.9, 100.0, 1.0) and journal_due(100.0 + 9.0, 100.0, 1.0)
+    assert not journal_due(100.0 + 1.9, 100.0, 0.01) and journal_due(100.0 + 2.0, 100.0, 0.01)
+
+
 @pytest.mark.parametrize("change", ["failures", "map", "spec", "budget", "limits", "route", "estimate"])
 def test_resume_with_any_other_input_is_warned_and_starts_afresh(tiny_problem, suburb_problem, tmp_path, change):
     """Each input the answers depend on is in the journal's fingerprint: a resume after changing any
