@@ -4,7 +4,7 @@ suites (:mod:`sensorsel.designs.requirements.accept`), side by side in one proce
 
     python bench/require.py [--kitti-root ../shared/kitti] [--rows tour 03 00 drive helsinki fixtures]
                             [--helsinki DIR/domain.yaml] [--presets local-streets freeway]
-                            [--failures 0 1] [--time-limit 300] [--solvers new noaccept nofloor reference]
+                            [--failures 0 1] [--time-limit 300] [--solvers new noaccept nofloor noswap reference]
 
 Rows: "tour" is the README's tour (the bundled suburb route), "03" / "00" the KITTI sequences with
 their real pole maps, "drive" a user's own drive (KITTI 00's ground truth as a route file, with
@@ -16,9 +16,11 @@ reference solver behind the same accuracy oracle (so the two differ only in the 
 is the package's solver with the oracle's upper bounds off (every suite the smoother does not refute
 gets its own pass, as before they existed); "nofloor" is the package's solver with no integer
 program carrying the proved lower bound as a row (``programs.FLOOR_AFTER_NODES`` out of reach: every
-program proves its optimum by branch and bound, as before). Printed per run: the status, cost and
-lower bound, integer programs, accuracy computations (and the suites the cheap floor refuted), the answers
-inferred from dominance among sensors ("swaps"), the filter passes stopped early ("short") and the
+program proves its optimum by branch and bound, as before); "noswap" is the package's solver
+proposing every suite by an integer program (no plateau swap, ``programs.plateau_swap``). Printed per
+run: the status, cost and lower bound, integer programs and plateau swaps ("pswaps"), accuracy
+computations (and the suites the cheap floor refuted), the answers inferred from dominance among
+sensors ("swaps"), the filter passes stopped early ("short") and the
 suites accepted by an upper bound without their pass ("accepted"), the time in checks and in
 programs, the wall time and the process's CPU time (less sensitive to other work on the machine).
 Timings on a shared machine are noisy: compare the two solvers' columns of one run, and the counts,
@@ -118,18 +120,19 @@ def main() -> None:
         "--solvers",
         nargs="+",
         default=["new", "noaccept", "reference"],
-        choices=["new", "noaccept", "nofloor", "reference"],
+        choices=["new", "noaccept", "nofloor", "noswap", "reference"],
     )
     a = ap.parse_args()
-    from sensorsel.designs.requirements import design, programs
+    from sensorsel.designs.requirements import design, programs, solver
     from sensorsel.designs.requirements.checks import RouteOracle
     from sensorsel.designs.requirements.spec import DEFAULT_MAP_SIGMA_M, preset
 
     package = design.cheapest_suite
-    solvers = {"new": package, "noaccept": package, "nofloor": package, "reference": _reference()}
-    after = programs.FLOOR_AFTER_NODES
+    solvers = {"new": package, "noaccept": package, "nofloor": package, "noswap": package, "reference": _reference()}
+    after, swap = programs.FLOOR_AFTER_NODES, solver._plateau_swap
     print(
-        f"{'row':>5} {'preset':>13} a solver    {'status':>8} {'cost':>9} {'lower':>9} {'programs':>8} {'checks':>6} "
+        f"{'row':>5} {'preset':>13} a solver    {'status':>8} {'cost':>9} {'lower':>9} {'programs':>8} {'pswaps':>6} "
+        f"{'checks':>6} "
         f"{'refuted':>7} {'swaps':>5} {'short':>5} {'accepted':>8} {'checks s':>8} {'progs s':>8} {'wall s':>7} "
         f"{'cpu s':>7}  suite",
         flush=True,
@@ -142,6 +145,7 @@ def main() -> None:
                     design.cheapest_suite = solvers[which]
                     RouteOracle.accept = which != "noaccept"
                     programs.FLOOR_AFTER_NODES = 1 << 62 if which == "nofloor" else after
+                    solver._plateau_swap = (lambda *_: None) if which == "noswap" else swap
                     t0, c0 = time.perf_counter(), time.process_time()
                     try:
                         r = design.require(
@@ -155,11 +159,13 @@ def main() -> None:
                         design.cheapest_suite = package
                         RouteOracle.accept = True
                         programs.FLOOR_AFTER_NODES = after
+                        solver._plateau_swap = swap
                     dt, cpu = time.perf_counter() - t0, time.process_time() - c0
                     print(
                         f"{row:>5} {name:>13} {alpha} {which:<9} {r.status:>8} {r.cost_usd:>9,.0f} "
                         f"{r.lower_bound_usd:>9,.0f} "
-                        f"{r.iterations:>8} {r.n_checks:>6} {r.n_refuted:>7} {getattr(r, 'n_swap_inferred', 0):>5} "
+                        f"{r.iterations:>8} {getattr(r, 'plateau_swaps', 0):>6} "
+                        f"{r.n_checks:>6} {r.n_refuted:>7} {getattr(r, 'n_swap_inferred', 0):>5} "
                         f"{getattr(r, 'n_short', 0):>5} {getattr(r, 'n_accepted', 0):>8} {r.seconds_checks:>8.1f} "
                         f"{r.seconds_programs:>8.1f} {dt:>7.1f} {cpu:>7.1f}  {','.join(r.suite) or '-'}",
                         flush=True,
