@@ -266,3 +266,21 @@ def test_a_resumed_require_says_its_counts_are_its_own(tiny_problem, tmp_path):
     assert json.loads((out / "require.json").read_text())["n_resumed"] == n
     fresh = _invoke(_args("require", tmp_path / "fresh", study))
     assert fresh.exit_code == 0 and "resumed" not in fresh.stdout
+
+
+def test_a_require_stopped_at_its_time_limit_keeps_its_journal_and_resume_goes_on(tmp_path):
+    """The bundled route with one failure takes ~20 s to prove: stopped at 1 s, its gap is written and
+    its journal kept, and --resume reads every answer of it back; a proved answer removes it."""
+    from sensorsel.io import results
+
+    out, ck = tmp_path / "r.json", tmp_path / "r.json.checkpoint"
+    args = ["require", "--preset", "local-streets", "--failures", "1", "--time-limit", "1", "-q", "-o", str(out)]
+    first = CliRunner().invoke(cli, args)
+    assert first.exit_code == 0, first.output
+    assert json.loads(out.read_text())["status"] == "gap" and ck.is_file()
+    n = len(results.load(ck, "requirement-journal").answers)
+    again = CliRunner().invoke(cli, [*args, "--resume"])
+    assert again.exit_code == 0, again.output
+    assert json.loads(out.read_text())["n_resumed"] == n > 0
+    proved = CliRunner().invoke(cli, ["require", "--preset", "freeway", "-q", "-o", str(out)])
+    assert proved.exit_code == 0 and json.loads(out.read_text())["status"] == "optimal" and not ck.exists()

@@ -869,12 +869,15 @@ class ResultFile:
         """FILE.checkpoint, or None without -o."""
         return checkpoint_path(self.output) if self.output else None
 
-    def save(self, result: Any) -> Path | None:
-        """Write ``result`` to -o FILE (nothing without -o) and remove the checkpoint."""
+    def save(self, result: Any, *, unfinished: bool = False) -> Path | None:
+        """Write ``result`` to -o FILE (nothing without -o) and remove the checkpoint, unless the
+        run stopped ``unfinished`` (at a time limit, its answer not proved): then the checkpoint is
+        kept, and --resume goes on from it."""
         if self.output is None or self.checkpoint is None:
             return None
         path = results.save(result, self.output)
-        self.checkpoint.unlink(missing_ok=True)  # the result is written: the run is no longer interrupted
+        if not unfinished:  # the result is written: the run is no longer interrupted
+            self.checkpoint.unlink(missing_ok=True)
         return path
 
 

@@ -98,7 +98,8 @@ from sensorsel.io.files import output_file
 )
 @output_option(
     help="Write the result as JSON (also when no suite meets the specification); the search's answers are "
-    "journalled in FILE.checkpoint as they come (deleted once FILE is written)."
+    "journalled in FILE.checkpoint as they come (deleted once FILE is written, kept when the search "
+    "stopped at --time-limit: --resume goes on from it)."
 )
 @resume_option
 @result_options
@@ -193,7 +194,8 @@ def require_cmd(
             estimate=estimate,
             integrity=integrity,
         )
-    store.save(res)
+    # a search stopped at its time limit keeps its journal: --resume goes on towards the proof
+    store.save(res, unfinished=res.status == "gap")
     if plot_path:
         _plot(
             res,
