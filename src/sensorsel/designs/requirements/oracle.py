@@ -61,6 +61,11 @@ class Antichain:
         self.masks: list[int] = []
         self._rows = np.zeros((16, self.words), dtype=np.uint64)
 
+    def as_words(self) -> np.ndarray:
+        """(len(masks), words) the sets as 64-bit words, word k holding positions 64k..64k+63
+        (a view: valid until the next :meth:`add`)."""
+        return self._rows[: len(self.masks)]
+
     def _w(self, mask: int) -> np.ndarray:
         return np.array([(mask >> (64 * k)) & _WORD for k in range(self.words)], dtype=np.uint64)
 

@@ -180,7 +180,8 @@ def floor_cost(s: Any, programs: list[float], without: int = 0) -> tuple[float, 
 
 
 def _bits(rows: np.ndarray, n: int) -> np.ndarray:
-    """(R, n) 0/1 of antichain rows of 64-bit words (bit i: library position i)."""
+    """(R, n) 0/1 of sets given as rows of 64-bit words (:meth:`.oracle.Antichain.as_words`; bit i:
+    library position i)."""
     if not len(rows):
         return np.zeros((0, n), np.int32)
     as_bytes = np.ascontiguousarray(rows.astype("<u8")).view(np.uint8)
@@ -209,10 +210,10 @@ def plateau_swap(s: Any, last: int, lower: float) -> int | None:
     x = np.array([[m >> i & 1 for i in range(n)] for m in swaps], np.int32)  # (C, n)
     ok = np.ones(len(swaps), bool)
     if s.down is not None and s.down.failing.masks:  # Σ_{i ∉ M} x_i >= α + 1
-        inside = _bits(s.down.failing._rows[: len(s.down.failing.masks)], n)
+        inside = _bits(s.down.failing.as_words(), n)
         ok &= np.all(x @ (1 - inside).T >= s.alpha + 1, axis=1)
     if s.up is not None and s.up.failing.masks:  # Σ_{i ∈ m} x_i <= |m| - 1
-        m_in = _bits(s.up.failing._rows[: len(s.up.failing.masks)], n)
+        m_in = _bits(s.up.failing.as_words(), n)
         ok &= np.all(x @ m_in.T <= m_in.sum(axis=1) - 1, axis=1)
     for w, v in getattr(s, "orders", ()):  # x_w <= x_v
         ok &= x[:, w] <= x[:, v]
