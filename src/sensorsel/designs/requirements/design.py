@@ -403,7 +403,8 @@ def require(
                 t = time.monotonic()
                 if force or journal_due(t, *last):
                     results.save(RequireJournal(fp, inputs, oracle.answers()), path)
-                    last[:] = [time.monotonic(), time.monotonic() - t]
+                    done = time.monotonic()
+                    last[:] = [done, done - t]
 
             oracle.on_answer = write
         # the search's settings, whichever predicates it is given
