@@ -77,8 +77,8 @@ def _gtsam_marginal(problem, suite, k: int, *, map_sigma_m, with_k: bool, use=No
     return gtsam.Marginals(g, values).marginalCovariance(X(k))
 
 
-def _check_against_gtsam(problem, suite, map_sigma_m, use=None, keyframes=None) -> FilterPass:
-    fp = forward_pass(problem, suite, map_sigma_m=map_sigma_m, use=use)
+def _check_against_gtsam(problem, suite, map_sigma_m, use=None, keyframes=None, window=None) -> FilterPass:
+    fp = forward_pass(problem, suite, map_sigma_m=map_sigma_m, use=use, window=window)
     K = problem.scenario.n_poses
     for k in keyframes if keyframes is not None else range(K):
         for with_k, got in ((True, fp.filtered[k]), (False, fp.predicted[k])):
@@ -353,7 +353,9 @@ def test_excluded_landmarks_are_the_hook_that_drops_them_bit_for_bit(suburb_prob
     )
     for start, until in ((None, None), (kept[20], 35)):
         hooked = forward_pass(suburb_problem, suite, map_sigma_m=map_sigma_m, use=drop, start=start, until=until)
-        fixed = forward_pass(suburb_problem, suite, map_sigma_m=map_sigma_m, exclude=gone, start=start, until=until)
+        fixed = forward_pass(
+            suburb_problem, suite, map_sigma_m=map_sigma_m, exclude=gone, start=start, until=until, window=0
+        )
         assert hooked.n_used.sum() < hooked.n_measured.sum()  # the set drops measurements: not a vacuous test
         for f in ("predicted", "filtered", "n_used", "n_measured"):
             np.testing.assert_array_equal(getattr(fixed, f), getattr(hooked, f), err_msg=f)
@@ -377,3 +379,58 @@ def test_a_predictions_slots_are_where_its_landmarks_stand(suburb_problem):
         np.testing.assert_array_equal(bare.slots_of(every), want)
         moved += int(np.any(np.diff(p.landmarks) < 0))
     assert moved > 0  # some state out of landmark order: the look-up cannot lean on a sorted state
+
+
+def _dormant_spans(problem, suite, span: int) -> int:
+    """How many (window, landmark) the windows of ``span`` keyframes from keyframe 0 leave dormant:
+    measured by the suite before the window and after it, not within (from the observations alone)."""
+    seen: dict[int, set[int]] = {}
+    for i in suite:
+        o = problem.observations[i]
+        for k, j in zip(o.pose, o.landmark):
+            seen.setdefault(int(j), set()).add(int(k))
+    count = 0
+    for t0 in range(0, problem.scenario.n_poses, span):
+        for ks in seen.values():
+            if min(ks) < t0 and max(ks) >= t0 + span and not any(t0 <= k < t0 + span for k in ks):
+                count += 1
+    return count
+
+
+@pytest.mark.parametrize("map_sigma_m", MODELS)
+@pytest.mark.parametrize("span", [1, 3, 7])
+def test_windows_give_the_dense_passes_covariances(suburb_problem, map_sigma_m, span):
+    """The pass in windows (the landmarks held but not measured left out of a window's updates and
+    brought back by their conditional on the window's first pose and landmarks) against the dense
+    pass, which updates every landmark held at every keyframe (the oracle): the same predicted and
+    filtered covariances to round-off, over the whole route and from another pass's state with
+    landmarks excluded. The windows leave landmarks dormant (counted from the observations: not a
+    vacuous test), and those come back measured."""
+    kept = {}
+    forward_pass(
+        suburb_problem, (3,), map_sigma_m=map_sigma_m, on_prediction=lambda p, m: kept.__setitem__(p.keyframe, p)
+    )
+    gone = np.zeros(suburb_problem.scenario.n_landmarks, bool)
+    gone[::4] = True
+    suites = ((3, 11, 30, 60), (7, 20, 41), (0, 5, 14, 33, 49))
+    assert sum(_dormant_spans(suburb_problem, suite, span) for suite in suites) > 0
+    for suite in suites:
+        for start, until, exclude in ((None, None, None), (kept[20], 40, gone)):
+            args = dict(map_sigma_m=map_sigma_m, start=start, until=until, exclude=exclude)
+            dense = forward_pass(suburb_problem, suite, window=0, **args)
+            windowed = forward_pass(suburb_problem, suite, window=span, **args)
+            for f in ("predicted", "filtered"):
+                want = getattr(dense, f)
+                np.testing.assert_allclose(
+                    getattr(windowed, f), want, rtol=0, atol=1e-11 * np.abs(want).max(), err_msg=f
+                )
+            for f in ("n_used", "n_measured"):
+                np.testing.assert_array_equal(getattr(windowed, f), getattr(dense, f))
+
+
+def test_windows_equal_gtsam_on_a_cut_of_suburb(suburb_cut):
+    """The pass in windows of 2 keyframes against GTSAM's Marginals on the batch graph (the oracle
+    independent of both passes)."""
+    suite = (7, 20, 41)
+    assert _dormant_spans(suburb_cut, suite, 2) > 0
+    _check_against_gtsam(suburb_cut, suite, 0.05, keyframes=range(0, 18, 2), window=2)
