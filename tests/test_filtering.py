@@ -434,3 +434,23 @@ def test_windows_equal_gtsam_on_a_cut_of_suburb(suburb_cut):
     suite = (7, 20, 41)
     assert _dormant_spans(suburb_cut, suite, 2) > 0
     _check_against_gtsam(suburb_cut, suite, 0.05, keyframes=range(0, 18, 2), window=2)
+
+
+@pytest.mark.parametrize("span", [None, 3])
+def test_states_kept_are_the_whole_predictions_of_the_dense_pass(suburb_problem, span):
+    """``keep_states``: the whole predicted state at each keyframe asked (its landmarks and their
+    covariance, pose included) against the dense pass's prediction there, given to an
+    ``on_prediction`` hook (the oracle): the same landmarks held, the same covariance to round-off,
+    with windows between the keyframes kept; the pose covariances as the pass without states."""
+    suite = (7, 20, 41)
+    seen = {}
+    forward_pass(suburb_problem, suite, map_sigma_m=0.05, on_prediction=lambda p, m: seen.__setitem__(p.keyframe, p))
+    asked = (0, 5, 6, 19, 40, 52)
+    got = forward_pass(suburb_problem, suite, map_sigma_m=0.05, window=span, keep_states=asked)
+    assert sorted(got.states) == list(asked)
+    for k in asked:
+        want, have = seen[k].in_landmark_order(), got.states[k].in_landmark_order()
+        np.testing.assert_array_equal(have.landmarks, want.landmarks)
+        np.testing.assert_allclose(have.covariance, want.covariance, rtol=0, atol=1e-12 * np.abs(want.covariance).max())
+    plain = forward_pass(suburb_problem, suite, map_sigma_m=0.05, window=span)
+    np.testing.assert_allclose(got.filtered, plain.filtered, rtol=0, atol=1e-12 * np.abs(plain.filtered).max())

@@ -46,9 +46,10 @@ smoothed one (PSD order); at the last keyframe they coincide.
 
 from __future__ import annotations
 
+import bisect
 import functools
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.linalg.lapack import dpotrf, dpotrs, dtrtrs
@@ -180,6 +181,8 @@ class FilterPass:
     filtered: np.ndarray
     n_used: np.ndarray
     n_measured: np.ndarray
+    #: keyframe -> the whole predicted state there, at the keyframes ``forward_pass`` was asked to keep
+    states: dict[int, Prediction] = field(default_factory=dict)
 
 
 def _suite_arrays(problem: Problem, suite: Iterable[int]) -> dict[str, np.ndarray]:
@@ -291,6 +294,7 @@ def forward_pass(
     start: Prediction | None = None,
     exclude: np.ndarray | None = None,
     window: int | None = None,
+    keep_states: Iterable[int] = (),
 ) -> FilterPass:
     """One forward pass over the route (linear in its length), exact: filtered[k] equals GTSAM's
     marginal of X(k) in the graph of the priors, odometry up to k and the used measurements of
@@ -324,6 +328,9 @@ def forward_pass(
     its cost model says a window is cheaper than the dense update, 0 never, a positive number in
     windows of that many keyframes wherever a landmark is held and not measured (for tests and
     benches). Without a hook only: ``use`` and ``on_prediction`` are given the whole state.
+
+    ``keep_states``: keyframes whose whole predicted state the result keeps (:attr:`FilterPass.states`,
+    copies; a window ends at each, so they do not stop the windows that ``on_prediction`` would).
     """
     check_map_sigma(map_sigma_m)
     s = problem.settings
@@ -346,7 +353,20 @@ def forward_pass(
             # which landmarks leave the state stays the whole suite's (as with a ``use`` hook): an
             # excluded landmark never enters it
             measurements = measurements.without(np.asarray(exclude, bool))
-        return _pass(problem, measurements, stop, last, odo, odo_cov, prior_sigma, use, on_prediction, start, window)
+        return _pass(
+            problem,
+            measurements,
+            stop,
+            last,
+            odo,
+            odo_cov,
+            prior_sigma,
+            use,
+            on_prediction,
+            start,
+            window,
+            sorted(set(int(k) for k in keep_states)),
+        )
 
 
 @dataclass(frozen=True, eq=False)
@@ -411,6 +431,7 @@ def _pass(
     on_prediction: Callable[[Prediction, KeyframeMeasurements], None] | None,
     start: Prediction | None = None,
     window: int | None = None,
+    keep: list[int] | None = None,
 ) -> FilterPass:
     s = problem.settings
     first = 0 if start is None else int(start.keyframe)
@@ -443,30 +464,17 @@ def _pass(
         state = _State(np.diag(np.asarray(s.first_pose_sigmas, float) ** 2), np.zeros(0, np.int64), len(points))
     else:  # another pass's predicted state at keyframe ``first``
         state = _State(np.asarray(start.covariance, float), np.asarray(start.landmarks, np.int64), len(points))
-    # windows (:class:`_Window`) only where no hook sees the state: a hook is given the whole of it
+    # windows (:class:`_Window`) only where no hook sees the state: a hook is given the whole of it.
+    # A window opens after a keyframe's prediction and closes before one's: the states kept are whole
     windowed = window != 0 and use is None and on_prediction is None
     span = WINDOW_KEYFRAMES if window is None else int(window)
+    keep = keep or []
+    states: dict[int, Prediction] = {}
     open_at, win, win_last = first, None, last
     for i in range(K):  # i: the row of the arrays; k: the keyframe
         k = first + i
-        if windowed:
-            if win is not None and k == win.end:
-                state, win, win_last = win.close(state, last), None, last
-            if win is None and k >= open_at:
-                end = min(k + span, first + K)
-                lo, hi = int(measurements.bounds[k]), int(measurements.bounds[end])
-                opened = _Window.open(
-                    state,
-                    end,
-                    measurements.arrays["landmark"][lo:hi],
-                    2 * int(bounds[end - first] - bounds[i]),
-                    last,
-                    force=window is not None,
-                )
-                if opened is not None:
-                    win, state = opened
-                    win_last = win.last
-                open_at = end
+        if win is not None and k == win.end:
+            state, win, win_last = win.close(state, last), None, last
         P = state.P
         if i > 0:  # odometry: pose k − 1 replaced by pose k
             h = odo[k - 1]
@@ -474,6 +482,24 @@ def _pass(
             P[3:, :3] = P[:3, 3:].T
             P[:3, :3] = h @ P[:3, :3] @ h.T + odo_cov
         predicted[i] = P[:3, :3]
+        at = bisect.bisect_right(keep, k)
+        if at and keep[at - 1] == k:
+            states[k] = Prediction(k, state.held.copy(), P.copy(), prior_sigma)
+        if windowed and win is None and k >= open_at:
+            end = min(k + span, first + K, *keep[at : at + 1])
+            lo, hi = int(measurements.bounds[k]), int(measurements.bounds[end])
+            opened = _Window.open(
+                state,
+                end,
+                measurements.arrays["landmark"][lo:hi],
+                2 * int(bounds[end - first] - bounds[i]),
+                last,
+                force=window is not None,
+            )
+            if opened is not None:
+                win, state = opened
+                win_last = win.last
+            open_at = end
         pairs = _slice(every, bounds[i], bounds[i + 1])
         if on_prediction is not None or use is not None:
             g = measurements.group(k)  # built for a hook only
@@ -504,7 +530,7 @@ def _pass(
         # landmarks measured for the last time leave the state after this update
         _update(state, pairs, win_last, k)
         filtered[i] = state.P[:3, :3]
-    return FilterPass(predicted, filtered, n_used, n_measured)
+    return FilterPass(predicted, filtered, n_used, n_measured, states)
 
 
 class _State:

@@ -37,7 +37,7 @@ import numpy as np
 from sensorsel.designs.requirements.spec import Specification, covariance_verdict
 from sensorsel.designs.requirements.truncated import bad_keyframes
 from sensorsel.information.evaluators.base import Suite
-from sensorsel.information.filtering import KeyframeMeasurements, Prediction, forward_pass
+from sensorsel.information.filtering import Prediction, forward_pass
 from sensorsel.model.problem import Problem
 
 __all__ = ["WINDOWS", "Base", "Bases", "base_of", "upper_bound"]
@@ -90,32 +90,39 @@ def _windows(bad: np.ndarray, states: dict[int, Prediction], window: int) -> tup
 
 def base_of(problem: Problem, suite: Suite, mask: int, spec: Specification, map_sigma_m: float | None) -> Base:
     """One filter pass of the failing ``suite`` with its predicted states kept (at most
-    :data:`STATE_BYTES` of them: every keyframe's, or every 2nd, 4th, ...)."""
-    states: dict[int, Prediction] = {}
-    stride = [1, 0]  # keep every stride-th keyframe; bytes kept
-
-    def keep(pred: Prediction, g: KeyframeMeasurements) -> np.ndarray:
-        # a ``use`` hook that uses every measurement: it sees the pass's state without a copy, and
-        # copies only the states kept (a state of KITTI 00's is ~9 MB)
-        if pred.keyframe % stride[0] == 0:
-            states[pred.keyframe] = Prediction(
-                pred.keyframe, pred.landmarks.copy(), pred.covariance.copy(), pred.prior_sigma_m
-            )
-            stride[1] += pred.covariance.nbytes
-            while stride[1] > STATE_BYTES and stride[0] < len(problem.scenario.keyframes.poses):
-                stride[0] *= 2
-                for k in [k for k in states if k % stride[0]]:
-                    stride[1] -= states.pop(k).covariance.nbytes
-        return np.ones(len(g), bool)
-
-    filtered = forward_pass(problem, suite, map_sigma_m=map_sigma_m, use=keep).filtered
+    :data:`STATE_BYTES` of them: every keyframe's, or every 2nd, 4th, ...: :func:`_stride`)."""
     last = np.full(max(problem.scenario.n_landmarks, 1), -1, np.int64)
+    first = np.full(len(last), len(problem.scenario.keyframes.poses), np.int64)
     for i in suite:
         o = problem.observations[i]
         if len(o):
             np.maximum.at(last, np.asarray(o.landmark, np.int64), np.asarray(o.pose, np.int64))
-    bad = np.unique(np.concatenate(bad_keyframes(filtered, spec)))
-    return Base(mask, filtered, last, states, tuple(_windows(bad, states, w) for w in WINDOWS) if len(bad) else ())
+            np.minimum.at(first, np.asarray(o.landmark, np.int64), np.asarray(o.pose, np.int64))
+    n_keyframes = len(problem.scenario.keyframes.poses)
+    # the states to keep are known before the pass: it runs in windows between them
+    got = forward_pass(
+        problem, suite, map_sigma_m=map_sigma_m, keep_states=range(0, n_keyframes, _stride(first, last, n_keyframes))
+    )
+    states = got.states
+    bad = np.unique(np.concatenate(bad_keyframes(got.filtered, spec)))
+    return Base(mask, got.filtered, last, states, tuple(_windows(bad, states, w) for w in WINDOWS) if len(bad) else ())
+
+
+def _stride(first: np.ndarray, last: np.ndarray, n_keyframes: int) -> int:
+    """The least power of 2 (below ``n_keyframes``, or the first at or above it) such that the
+    predicted states of every stride-th keyframe take at most :data:`STATE_BYTES`: the state at k
+    holds the landmarks first measured before k and measured again at k or later (``first``,
+    ``last``: (n_landmarks,) keyframes; a landmark never measured has first ≥ K)."""
+    k = np.arange(n_keyframes)
+    # landmarks held at k: first < k <= last, by counting the firsts before k minus the lasts before k
+    starts = np.bincount(np.clip(first + 1, 0, n_keyframes), minlength=n_keyframes + 1)[:n_keyframes]
+    ends = np.bincount(np.clip(last[last >= 0] + 1, 0, n_keyframes), minlength=n_keyframes + 1)[:n_keyframes]
+    held = np.cumsum(starts) - np.cumsum(ends)
+    nbytes = (3 + 2 * held) ** 2 * 8
+    stride = 1
+    while nbytes[k % stride == 0].sum() > STATE_BYTES and stride < n_keyframes:
+        stride *= 2
+    return stride
 
 
 def upper_bound(
