@@ -499,6 +499,7 @@ def _pass(
                 measurements.arrays["landmark"][lo:hi],
                 2 * int(bounds[end - first] - bounds[i]),
                 last,
+                keyframes=end - k,
                 force=window is not None,
             )
             if opened is not None:
@@ -608,8 +609,14 @@ class _State:
 #: every third sensor 2.5 / 2.4-3.0 / 3.4 s
 WINDOW_KEYFRAMES = 16
 #: a window is opened where its cost model (flops) is below this share of the dense update's: its
-#: bookkeeping (index copies, a Cholesky) is not in the model
-WINDOW_WORTH = 0.6
+#: bookkeeping (index copies, a Cholesky) is not in the model. With :data:`WINDOW_TOUCH`, measured on
+#: KITTI 00 and the bundled route (5 suites each, CPU of one pass): at 0.6 and no touch a 10-sensor
+#: suite on 00 took 1.16 s, at 0.8 and 16 0.73-0.77 s (the no-LiDAR suite 3.09 -> 2.67-2.73 s); at 1.0
+#: windows opened on the bundled route and made two of its passes 1.4-1.5x slower
+WINDOW_WORTH = 0.8
+#: what an update costs per element of the state beyond its flops, in flops (the product's
+#: temporary and the subtraction: with few rows measured the update is bound by memory, not flops)
+WINDOW_TOUCH = 16
 
 
 @dataclass(frozen=True, eq=False)
@@ -650,7 +657,15 @@ class _Window:
 
     @classmethod
     def open(
-        cls, state: _State, end: int, measured: np.ndarray, rows: int, last: np.ndarray, *, force: bool = False
+        cls,
+        state: _State,
+        end: int,
+        measured: np.ndarray,
+        rows: int,
+        last: np.ndarray,
+        *,
+        keyframes: int = 1,
+        force: bool = False,
     ) -> tuple[_Window, _State] | None:
         """The window ending at ``end`` on the full ``state`` (the landmarks ``measured`` in it,
         ``rows`` measurement rows in all), and the active state to run it on; None when no landmark
@@ -665,8 +680,11 @@ class _Window:
         a, d = 3 + 2 * int(active.sum()), 2 * n_dormant
         n = a + d
         sub = a + 3 + 2 * (int(seen.sum()) - (len(held) - n_dormant))  # with the copy and the new landmarks
-        windowed = sub * sub * rows + 2 * a * a * d + sub * a * d + d * d * a + a**3 / 3
-        if not force and windowed > WINDOW_WORTH * n * n * rows:
+        # an update touches every element of the state a few times beyond its flops (the product's
+        # temporary, the subtraction): WINDOW_TOUCH flops' worth each, per keyframe
+        per = rows + WINDOW_TOUCH * keyframes
+        windowed = sub * sub * per + 2 * a * a * d + sub * a * d + d * d * a + a**3 / 3
+        if not force and windowed > WINDOW_WORTH * n * n * per:
             return None
         at = np.flatnonzero(active)
         off = state.off
