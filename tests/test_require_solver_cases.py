@@ -260,3 +260,41 @@ def test_plateau_swaps_keep_the_brute_force_answer(library, alpha):
             _is_the_brute_force_answer(fs, meets, alpha, r, _brute(fs, meets, alpha))
             used += r.plateau_swaps
     assert used > 0
+
+
+@pytest.mark.parametrize("alpha", [0, 1])
+def test_every_sensor_together_is_checked_only_where_the_greedy_found_nothing(library, alpha):
+    """The check of every allowed sensor together (the infeasibility test) comes after the greedy
+    and only where it found no suite: a suite that meets the requirement shows that every sensor
+    together does. Where nothing meets it, it is still asked and the answer is "infeasible" by the
+    library, as brute force says. Questions (of the requirement and of its violation) recorded by
+    wrapping them (plain functions); the violation is summed over the requirement's six dimensions, so that the greedy
+    (which stops where no single sensor lowers it) reaches a suite."""
+    sub = library.subset(KEEP)
+    universe = tuple(range(len(sub)))
+    r_ = np.random.default_rng(7)
+    w = r_.exponential(1.0, (len(sub), 6)) * (r_.random((len(sub), 6)) < 0.5)
+    for q in ([0.3, 0.2][alpha], 1.5):  # one instance some suite meets, one that nothing meets
+        need = q * w.sum(axis=0) + 1e-9
+        asked: list[tuple[int, ...]] = []
+
+        def meets(s, need=need):
+            return bool(np.all(w[list(s)].sum(axis=0) >= need)) if s else False
+
+        def recorded(s, meets=meets):
+            asked.append(tuple(sorted(s)))
+            return meets(s)
+
+        def violation(s, need=need):
+            asked.append(tuple(sorted(s)))
+            got = w[list(s)].sum(axis=0) if s else np.zeros(6)
+            return float(np.sum(np.maximum(0.0, 1 - got / need)))
+
+        fs = feasible_set(sub, math.inf, Constraints())
+        best = _brute(fs, meets, alpha)
+        r = cheapest_suite(fs, recorded, failures=alpha, violation=violation)
+        _is_the_brute_force_answer(fs, meets, alpha, r, best)
+        if math.isinf(best):  # asked (or known from the greedy's own question about it)
+            assert r.status == "infeasible" and r.infeasible_by == "library" and universe in asked
+        else:
+            assert universe not in asked
