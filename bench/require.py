@@ -4,7 +4,8 @@ suites (:mod:`sensorsel.designs.requirements.accept`), side by side in one proce
 
     python bench/require.py [--kitti-root ../shared/kitti] [--rows tour 03 00 drive helsinki fixtures]
                             [--helsinki DIR/domain.yaml] [--presets local-streets freeway]
-                            [--failures 0 1] [--time-limit 300] [--solvers new noaccept nofloor noswap reference]
+                            [--failures 0 1] [--time-limit 300]
+                            [--solvers new noaccept nofloor noswap dense reference]
 
 Rows: "tour" is the README's tour (the bundled suburb route), "03" / "00" the KITTI sequences with
 their real pole maps, "drive" a user's own drive (KITTI 00's ground truth as a route file, with
@@ -17,7 +18,9 @@ is the package's solver with the oracle's upper bounds off (every suite the smoo
 gets its own pass, as before they existed); "nofloor" is the package's solver with no integer
 program carrying the proved lower bound as a row (``programs.FLOOR_AFTER_NODES`` out of reach: every
 program proves its optimum by branch and bound, as before); "noswap" is the package's solver
-proposing every suite by an integer program (no plateau swap, ``programs.plateau_swap``). Printed per
+proposing every suite by an integer program (no plateau swap, ``programs.plateau_swap``); "dense" is
+the package's solver with the filter's passes dense (no window ever pays:
+``filtering.WINDOW_WORTH`` at 0, so the landmarks held are updated at every keyframe). Printed per
 run: the status, cost and lower bound, integer programs and plateau swaps ("pswaps"), accuracy
 computations (and the suites the cheap floor refuted), the answers inferred from dominance among
 sensors ("swaps"), the filter passes stopped early ("short") and the
@@ -120,16 +123,17 @@ def main() -> None:
         "--solvers",
         nargs="+",
         default=["new", "noaccept", "reference"],
-        choices=["new", "noaccept", "nofloor", "noswap", "reference"],
+        choices=["new", "noaccept", "nofloor", "noswap", "dense", "reference"],
     )
     a = ap.parse_args()
     from sensorsel.designs.requirements import design, programs, solver
     from sensorsel.designs.requirements.checks import RouteOracle
     from sensorsel.designs.requirements.spec import DEFAULT_MAP_SIGMA_M, preset
+    from sensorsel.information import filtering
 
     package = design.cheapest_suite
-    solvers = {"new": package, "noaccept": package, "nofloor": package, "noswap": package, "reference": _reference()}
-    after, swap = programs.FLOOR_AFTER_NODES, solver._plateau_swap
+    solvers = {k: package for k in ("new", "noaccept", "nofloor", "noswap", "dense")} | {"reference": _reference()}
+    after, swap, worth = programs.FLOOR_AFTER_NODES, solver._plateau_swap, filtering.WINDOW_WORTH
     print(
         f"{'row':>5} {'preset':>13} a solver    {'status':>8} {'cost':>9} {'lower':>9} {'programs':>8} {'pswaps':>6} "
         f"{'checks':>6} "
@@ -146,6 +150,7 @@ def main() -> None:
                     RouteOracle.accept = which != "noaccept"
                     programs.FLOOR_AFTER_NODES = 1 << 62 if which == "nofloor" else after
                     solver._plateau_swap = (lambda *_: None) if which == "noswap" else swap
+                    filtering.WINDOW_WORTH = 0.0 if which == "dense" else worth
                     t0, c0 = time.perf_counter(), time.process_time()
                     try:
                         r = design.require(
@@ -160,6 +165,7 @@ def main() -> None:
                         RouteOracle.accept = True
                         programs.FLOOR_AFTER_NODES = after
                         solver._plateau_swap = swap
+                        filtering.WINDOW_WORTH = worth
                     dt, cpu = time.perf_counter() - t0, time.process_time() - c0
                     print(
                         f"{row:>5} {name:>13} {alpha} {which:<9} {r.status:>8} {r.cost_usd:>9,.0f} "

@@ -615,8 +615,13 @@ WINDOW_KEYFRAMES = 16
 #: windows opened on the bundled route and made two of its passes 1.4-1.5x slower
 WINDOW_WORTH = 0.8
 #: what an update costs per element of the state beyond its flops, in flops (the product's
-#: temporary and the subtraction: with few rows measured the update is bound by memory, not flops)
+#: temporary and the subtraction: with few rows measured the update is bound by memory, not flops;
+#: an update's time is this model's count at roughly 3e10 a second on the 2-core machine)
 WINDOW_TOUCH = 16
+#: what opening and closing a window costs beyond its products, in the same units: ~250 µs of index
+#: copies and small calls (the README tour opened 3,167 windows, 1.1 s in all, and ran 4-5 % slower
+#: than dense)
+WINDOW_FIXED = 8e6
 
 
 @dataclass(frozen=True, eq=False)
@@ -671,6 +676,10 @@ class _Window:
         ``rows`` measurement rows in all), and the active state to run it on; None when no landmark
         is dormant, or (unless ``force``) where the dense update costs less (:data:`WINDOW_WORTH`)."""
         held = state.held
+        n = state.off + 2 * len(held)
+        per = rows + WINDOW_TOUCH * keyframes
+        if not force and WINDOW_WORTH * n * n * per <= WINDOW_FIXED:  # not even a window of no cost pays
+            return None
         seen = np.zeros(len(last), bool)
         seen[measured] = True
         active = seen[held]
@@ -678,12 +687,8 @@ class _Window:
         if n_dormant == 0:
             return None
         a, d = 3 + 2 * int(active.sum()), 2 * n_dormant
-        n = a + d
         sub = a + 3 + 2 * (int(seen.sum()) - (len(held) - n_dormant))  # with the copy and the new landmarks
-        # an update touches every element of the state a few times beyond its flops (the product's
-        # temporary, the subtraction): WINDOW_TOUCH flops' worth each, per keyframe
-        per = rows + WINDOW_TOUCH * keyframes
-        windowed = sub * sub * per + 2 * a * a * d + sub * a * d + d * d * a + a**3 / 3
+        windowed = sub * sub * per + 2 * a * a * d + sub * a * d + d * d * a + a**3 / 3 + WINDOW_FIXED
         if not force and windowed > WINDOW_WORTH * n * n * per:
             return None
         at = np.flatnonzero(active)
