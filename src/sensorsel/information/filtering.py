@@ -608,8 +608,8 @@ class _State:
 #: in windows of 8, 1.32-1.34 s in 12-32, 1.61 s in 48; a 4-sensor suite 0.20 / 0.15-0.17 / 0.18 s;
 #: every third sensor 2.5 / 2.4-3.0 / 3.4 s
 WINDOW_KEYFRAMES = 16
-#: a window is opened where its cost model (flops) is below this share of the dense update's: its
-#: bookkeeping (index copies, a Cholesky) is not in the model. With :data:`WINDOW_TOUCH`, measured on
+#: a window is opened where its cost model (flops, :data:`WINDOW_TOUCH`, :data:`WINDOW_FIXED`) is
+#: below this share of the dense update's (the margin for what the model leaves out). Measured on
 #: KITTI 00 and the bundled route (5 suites each, CPU of one pass): at 0.6 and no touch a 10-sensor
 #: suite on 00 took 1.16 s, at 0.8 and 16 0.73-0.77 s (the no-LiDAR suite 3.09 -> 2.67-2.73 s); at 1.0
 #: windows opened on the bundled route and made two of its passes 1.4-1.5x slower
