@@ -155,9 +155,15 @@ class Prediction:
         """The same prediction with its landmarks sorted (a copy: the covariance's rows and columns
         permuted, the same numbers)."""
         order = np.argsort(self.landmarks, kind="stable")
-        idx = np.concatenate([np.arange(3), (3 + 2 * order[:, None] + np.arange(2)).ravel()])
+        idx = np.concatenate([np.arange(3), _landmark_rows(3, order)])
         cov = np.asarray(self.covariance, float)
         return Prediction(self.keyframe, self.landmarks[order], cov[idx][:, idx], self.prior_sigma_m)
+
+
+def _landmark_rows(off: int, slots: np.ndarray) -> np.ndarray:
+    """(2m,) the state rows of the landmarks at ``slots`` (m,), in that order: (x, y) of each, from
+    row ``off`` (3 after the pose; 6 in a window's state, :class:`_Window`)."""
+    return (off + 2 * np.asarray(slots, np.int64)[:, None] + np.arange(2)).ravel()
 
 
 def _slot_table(held: np.ndarray, size: int) -> np.ndarray:
@@ -593,8 +599,8 @@ class _State:
         self.slot[self.held[gone]] = -1
         if len(holes):
             n, m = self.off + 2 * len(self.held), self.off + 2 * n_kept
-            to = (self.off + 2 * holes[:, None] + np.arange(2)).ravel()
-            src = (self.off + 2 * movers[:, None] + np.arange(2)).ravel()
+            to = _landmark_rows(self.off, holes)
+            src = _landmark_rows(self.off, movers)
             b = self.buf
             b[to, :n] = b[src, :n]
             b[:m, to] = b[:m, src]
@@ -683,18 +689,18 @@ class _Window:
         seen = np.zeros(len(last), bool)
         seen[measured] = True
         active = seen[held]
-        n_dormant = len(held) - int(active.sum())
-        if n_dormant == 0:
+        n_active = int(active.sum())
+        if n_active == len(held):  # nothing dormant
             return None
-        a, d = 3 + 2 * int(active.sum()), 2 * n_dormant
-        sub = a + 3 + 2 * (int(seen.sum()) - (len(held) - n_dormant))  # with the copy and the new landmarks
+        a, d = 3 + 2 * n_active, 2 * (len(held) - n_active)
+        sub = a + 3 + 2 * (int(seen.sum()) - n_active)  # with the copy and the new landmarks
         windowed = sub * sub * per + 2 * a * a * d + sub * a * d + d * d * a + a**3 / 3 + WINDOW_FIXED
         if not force and windowed > WINDOW_WORTH * n * n * per:
             return None
         at = np.flatnonzero(active)
         off = state.off
-        idx = np.concatenate([np.arange(3), (off + 2 * at[:, None] + np.arange(2)).ravel()])
-        out = (off + 2 * np.flatnonzero(~active)[:, None] + np.arange(2)).ravel()
+        idx = np.concatenate([np.arange(3), _landmark_rows(off, at)])
+        out = _landmark_rows(off, np.flatnonzero(~active))
         P = state.P
         copy = np.concatenate([np.arange(3), idx])  # the pose twice: the second is the window's first pose
         win_last = last.copy()
@@ -706,9 +712,9 @@ class _Window:
         """The full state at :attr:`end` from the window's active ``state`` (class docstring); the
         landmarks the pass's ``last`` says leave before ``end`` leave."""
         P = state.P
-        a0 = np.concatenate([np.arange(3, 6), (6 + 2 * state.slot[self.active][:, None] + np.arange(2)).ravel()])
+        a0 = np.concatenate([np.arange(3, 6), _landmark_rows(6, state.slot[self.active])])
         kept = state.held[last[state.held] >= self.end]
-        rows = np.concatenate([np.arange(3), (6 + 2 * state.slot[kept][:, None] + np.arange(2)).ravel()])
+        rows = np.concatenate([np.arange(3), _landmark_rows(6, state.slot[kept])])
         factor, info = dpotrf(self.prior, lower=1, clean=1)
         if info != 0:
             raise np.linalg.LinAlgError(f"the covariance at keyframe {self.end} is not positive definite ({info})")
