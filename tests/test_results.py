@@ -44,6 +44,30 @@ def test_written_files_start_with_kind_and_format(score, tmp_path):
         results.load(ScoreResult, path)  # type: ignore[call-overload]
 
 
+def test_a_compact_file_is_one_line_of_the_same_json_and_loads_the_same(greedy_result, tmp_path):
+    """A checkpoint is written on one line (the C encoder): the same JSON values, in the same key
+    order, as the indented file, and the same record read back."""
+    wide, narrow = results.save(greedy_result, tmp_path / "g.json"), tmp_path / "g1.json"
+    results.save(greedy_result, narrow, compact=True)
+    text = narrow.read_text()
+    assert text.count("\n") == 1 and text.endswith("\n") and len(text) < len(wide.read_text())
+    assert list(json.loads(text).items()) == list(json.loads(wide.read_text()).items())
+    assert results.load(narrow) == results.load(wide) == greedy_result
+
+
+def test_leaves_convert_as_the_generic_path_does():
+    """The exact-type shortcuts of to_jsonable give what its generic path gives: a bool stays a bool
+    (not 1), a non-finite float a string, a tuple of tuples nested lists, an int subclass itself."""
+    import enum
+
+    class Level(enum.IntEnum):
+        LOW = 1
+
+    got = codec.to_jsonable((True, 1, 2.5, float("inf"), float("nan"), None, "x", ((1, 2), [3]), Level.LOW))
+    assert got == [True, 1, 2.5, "inf", "nan", None, "x", [[1, 2], [3]], Level.LOW]
+    assert type(got[0]) is bool and type(got[1]) is int
+
+
 def test_a_file_of_another_kind_is_refused_naming_the_file_and_both_kinds(score, tmp_path):
     path = results.save(score, tmp_path / "score.json")
     with pytest.raises(ResultFileError) as exc:

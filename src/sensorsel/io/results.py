@@ -104,14 +104,16 @@ def kind_of(obj: Any) -> str:
     return kind
 
 
-def dumps(obj: Any) -> str:
-    """Deterministic JSON text of a result, with its kind and format in front."""
-    return _dumps(obj, {"kind": kind_of(obj), "format": FORMAT})
+def dumps(obj: Any, *, compact: bool = False) -> str:
+    """Deterministic JSON text of a result, with its kind and format in front (``compact``: on one
+    line, :func:`~sensorsel.io.codec.dumps`)."""
+    return _dumps(obj, {"kind": kind_of(obj), "format": FORMAT}, compact=compact)
 
 
-def save(obj: Any, path: str | Path) -> Path:
-    """Write a result as JSON (with its kind and format), atomically."""
-    return atomic_write_text(path, dumps(obj))
+def save(obj: Any, path: str | Path, *, compact: bool = False) -> Path:
+    """Write a result as JSON (with its kind and format), atomically; ``compact``: on one line (a
+    checkpoint rewritten while a run goes on), read back the same."""
+    return atomic_write_text(path, dumps(obj, compact=compact))
 
 
 Expected = type | str

@@ -402,7 +402,7 @@ def require(
             def write(force: bool = False) -> None:
                 t = time.monotonic()
                 if force or journal_due(t, *last):
-                    results.save(RequireJournal(fp, inputs, oracle.answers()), path)
+                    results.save(RequireJournal(fp, inputs, oracle.answers()), path, compact=True)
                     done = time.monotonic()
                     last[:] = [done, done - t]
 
