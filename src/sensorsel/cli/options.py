@@ -15,7 +15,9 @@ from __future__ import annotations
 import functools
 import math
 import os
+import signal
 import sys
+import threading
 import warnings
 from collections.abc import Callable, Iterator
 from contextlib import AbstractContextManager, ExitStack, contextmanager
@@ -37,10 +39,36 @@ from sensorsel.model.problem import Problem, Target, load_domain, load_problem
 from sensorsel.model.scenario import DEFAULT_OSM_REACH_M, KITTI_ROOT_ENV, ROUTE_FORMATS, ScenarioSpec
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM (a batch system's time limit, ``kill``, a container stopping), raised where the command
+    is as Ctrl-C is: what a run keeps on its way out (a journal, a checkpoint, its workers stopped) is
+    done as after an interrupt, where Python's default would end the process on the spot."""
+
+
+@contextmanager
+def _sigterm_as_interrupt() -> Iterator[None]:
+    """Within: SIGTERM raises :class:`Terminated` once (a second one ends the process at once, as by
+    default: the way out may be what hangs). Only in the main thread, where signals are handled."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def terminate(signum: int, frame: Any) -> None:
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+        raise Terminated()
+
+    previous = signal.signal(signal.SIGTERM, terminate)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
 def run(fn: Callable[..., Any]) -> Callable[..., Any]:
     """Turn sensorsel's input errors into one clear line and exit code 2 (no traceback); print
     sensorsel's warnings (:class:`~sensorsel.errors.SensorselWarning`) as one line
-    ``sensorsel: warning: ...`` on stderr."""
+    ``sensorsel: warning: ...`` on stderr; Ctrl-C and SIGTERM end the command as an interrupt
+    (exit 130 and 143, what it keeps written)."""
 
     @functools.wraps(fn)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
@@ -56,10 +84,14 @@ def run(fn: Callable[..., Any]) -> Callable[..., Any]:
                         shown(message, category, *rest, **kw)
 
                 warnings.showwarning = show
-                return fn(*args, **kwargs)
+                with _sigterm_as_interrupt():
+                    return fn(*args, **kwargs)
         except SensorselError as exc:
             click.echo(f"sensorsel: error: {exc}", err=True)
             sys.exit(2)
+        except Terminated:
+            click.echo("sensorsel: terminated", err=True)
+            sys.exit(143)  # 128 + SIGTERM, as a shell reports a process the signal ended
         except KeyboardInterrupt:
             click.echo("sensorsel: interrupted", err=True)
             sys.exit(130)
