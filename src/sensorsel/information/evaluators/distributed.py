@@ -26,6 +26,7 @@ the cluster), which knows no sensor. Importing it imports no Dask: a client is h
 
 from __future__ import annotations
 
+import concurrent.futures
 import os
 import pickle
 import time
@@ -35,7 +36,6 @@ from typing import Any
 
 import numpy as np
 
-from sensorsel.errors import SensorselError
 from sensorsel.information.evaluators.base import Evaluator, ProblemEvaluator, as_suite
 from sensorsel.information.evaluators.domain import DomainEvaluator, check_aggregate
 from sensorsel.information.evaluators.registry import check_engine, make_evaluator
@@ -223,8 +223,11 @@ class DistributedDomainEvaluator(DomainEvaluator):
         wait_s: seconds the client spent waiting for answers [s].
     """
 
-    #: errors of a worker's answer raised as they are (the rest mean a lost worker: rebuilt, repeated)
-    _passes_through: tuple[type[Exception], ...] = (SensorselError,)
+    #: what a lost worker raises: its actor cannot be reached (OSError: Dask's "Unable to contact
+    #: Actor's worker", a closed comm; the worker processes' ConnectionError), its task was cancelled
+    #: or killed. Only these are repaired (routes rebuilt, calls repeated); any other error is the
+    #: routes' own (bad input, a bug), raised as it is: deterministic, it would recur on every try.
+    _lost: tuple[type[Exception], ...] = (OSError, concurrent.futures.CancelledError)
 
     def __init__(
         self,
@@ -241,6 +244,10 @@ class DistributedDomainEvaluator(DomainEvaluator):
         self.engine = check_engine(engine)
         self.aggregate = check_aggregate(aggregate)
         self.client, self.retries = client, int(retries)
+        if client is not None:  # Dask's own word for a worker that died under a task
+            from distributed.scheduler import KilledWorker
+
+            self._lost = (*self._lost, KilledWorker)
         self.recipes = tuple(RouteRecipe.of(r.name, r.problem) for r in domain.routes)
         self.bytes_sent = self.bytes_received = self.n_rebuilt = self.n_messages = self.n_rounds = 0
         self.wait_s = 0.0
@@ -285,9 +292,7 @@ class DistributedDomainEvaluator(DomainEvaluator):
         for w, (actor, fut) in where.items():
             try:
                 fut.result()
-            except self._passes_through:
-                raise
-            except Exception as exc:  # the worker died while building: once more anywhere
+            except self._lost as exc:  # the worker died while building: once more anywhere
                 if w is None:
                     names = ", ".join(repr(self.recipes[k].name) for k in owned[w])
                     raise ClusterError(
@@ -305,9 +310,7 @@ class DistributedDomainEvaluator(DomainEvaluator):
         where: dict[str, Any] = {"workers": [worker], "allow_other_workers": True} if worker else {}
         try:
             actor = self.client.submit(WorkerRoutes, actor=True, pure=False, **where).result()
-        except SensorselError:
-            raise
-        except Exception:  # the chosen worker is gone: anywhere
+        except self._lost:  # the chosen worker is gone: anywhere
             actor = self.client.submit(WorkerRoutes, actor=True, pure=False).result()
         self.bytes_sent += len(pickle.dumps(recipes))
         self.n_messages += 1
@@ -331,7 +334,7 @@ class DistributedDomainEvaluator(DomainEvaluator):
                 self.n_messages += 1
                 try:
                     futs[g] = actor.call(batch)
-                except Exception as exc:  # the actor's worker is already known to be gone
+                except self._lost as exc:  # the actor's worker is already known to be gone
                     futs[g] = exc
             failed: dict[int, Exception] = {}
             t0 = time.perf_counter()
@@ -339,9 +342,7 @@ class DistributedDomainEvaluator(DomainEvaluator):
                 if not isinstance(fut, Exception):
                     try:
                         res = fut.result()
-                    except self._passes_through:
-                        raise
-                    except Exception as exc:
+                    except self._lost as exc:
                         fut = exc
                     else:
                         self.bytes_received += len(pickle.dumps(res))

@@ -170,8 +170,6 @@ class ProcessDomainEvaluator(DistributedDomainEvaluator):
         InputError: as :class:`DomainEvaluator` (from the workers, which build the routes).
     """
 
-    _passes_through = (SensorselError, _WorkerError)
-
     def __init__(
         self,
         domain: Domain,
