@@ -6,6 +6,7 @@ from __future__ import annotations
 import itertools
 import json
 
+import numpy as np
 import pytest
 from click.testing import CliRunner
 
@@ -142,6 +143,24 @@ def test_infeasible_specification_exits_2_naming_what_fails(tmp_path):
     rec = results.load(out, "requirement")  # the diagnosis is still written
     assert rec.status == "infeasible" and not rec.suite and not rec.routes[0].verdict.meets
     assert json.loads(r.stdout)["status"] == "infeasible"
+
+
+@pytest.mark.parametrize("failures", [0, 1])
+def test_a_specification_nothing_meets_is_answered_from_the_whole_librarys_smoother(suburb_problem, failures):
+    """With the filter's estimate, every sensor together is refuted by its smoother's marginals (a
+    floor under the filter's) before any greedy: one suite refuted, none computed but the report's
+    pass, where the greedy would first grow suites until none helped. The answer is what the
+    filter itself says of every sensor together: it fails at some keyframe."""
+    spec = Specification(lateral=0.002)
+    res = require(suburb_problem, spec, map_sigma_m=0.05, failures=failures)
+    assert res.status == "infeasible" and res.infeasible_by == "library" and not res.suite
+    assert res.n_refuted == 1 and res.iterations == 0
+    from sensorsel.information.filtering import forward_pass
+
+    lateral_sigma = np.sqrt(
+        forward_pass(suburb_problem, range(len(suburb_problem.library)), map_sigma_m=0.05).filtered[:, 1, 1]
+    )
+    assert lateral_sigma.min() > 0.002  # every keyframe's lateral error misses 2 mm, at 1σ already
 
 
 @pytest.mark.parametrize(

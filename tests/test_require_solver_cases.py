@@ -298,3 +298,60 @@ def test_every_sensor_together_is_checked_only_where_the_greedy_found_nothing(li
             assert r.status == "infeasible" and r.infeasible_by == "library" and universe in asked
         else:
             assert universe not in asked
+
+
+@pytest.mark.parametrize("alpha", [0, 1])
+def test_a_cheap_refutation_of_every_sensor_answers_infeasible_before_the_greedy(library, alpha):
+    """``refute`` (a cheap bound: here the requirement with every sensor's weights 20 % larger, which
+    a suite fails only where it fails the requirement) is asked of every allowed sensor together
+    first. Where it refutes them, the answer is brute force's "infeasible" by the library with no
+    question asked of the requirement; where it does not, the search asks the very questions, in
+    the same order, and gives the same answer as without it."""
+    sub = library.subset(KEEP)
+    universe = tuple(range(len(sub)))
+    r_ = np.random.default_rng(7)
+    w = r_.exponential(1.0, (len(sub), 6)) * (r_.random((len(sub), 6)) < 0.5)
+    for q in ([0.3, 0.2][alpha], 1.5):
+        need = q * w.sum(axis=0) + 1e-9
+
+        def meets(s, need=need, scale=1.0):
+            return bool(np.all(scale * w[list(s)].sum(axis=0) >= need)) if s else False
+
+        def run(refute):
+            asked: list[tuple[str, tuple[int, ...]]] = []
+
+            def recorded(s):
+                asked.append(("meets", tuple(sorted(s))))
+                return meets(s)
+
+            def violation(s, need=need):
+                asked.append(("violation", tuple(sorted(s))))
+                got = w[list(s)].sum(axis=0) if s else np.zeros(6)
+                return float(np.sum(np.maximum(0.0, 1 - got / need)))
+
+            fs = feasible_set(sub, math.inf, Constraints())
+            return cheapest_suite(fs, recorded, failures=alpha, violation=violation, refute=refute), asked
+
+        refuted: list[tuple[int, ...]] = []
+
+        def refute(s):
+            refuted.append(tuple(s))
+            return not meets(s, scale=1.2)
+
+        plain, asked_plain = run(None)
+        got, asked = run(refute)
+        assert refuted == [universe]
+        fs = feasible_set(sub, math.inf, Constraints())
+        best = _brute(fs, meets, alpha)
+        _is_the_brute_force_answer(fs, meets, alpha, got, best)
+        if math.isinf(best):
+            assert got.status == "infeasible" and got.infeasible_by == "library" and asked == []
+            assert asked_plain  # without it, the greedy asked its way there
+        else:
+            assert asked == asked_plain
+            assert (got.status, got.suite, got.cost, got.lower_bound) == (
+                plain.status,
+                plain.suite,
+                plain.cost,
+                plain.lower_bound,
+            )

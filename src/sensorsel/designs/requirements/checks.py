@@ -350,6 +350,21 @@ class RouteOracle:
             return True
         return self._answer(suite)[0]
 
+    def refuted_cheaply(self, suite: Suite) -> bool:
+        """Whether ``suite`` is refuted without a filter pass: by its smoother's marginals (the
+        filter's estimate only: with the smoother's, they are the check itself). The search asks
+        this of every allowed sensor together before its greedy, which on a specification no suite
+        meets adds sensors one by one until none helps (KITTI 00: 389 suites and 27 s before the
+        library's own check said so). A refutation is an answer (counted and journalled as
+        :meth:`meets` counts it); a suite not refuted leaves nothing but the smoother's cached
+        verdict, so a search that goes on asks and counts exactly what it would have."""
+        if suite in self._answers:
+            return not self._answers[suite][0]
+        if suite in self.known:
+            return not self.known[suite][0]
+        smoothed = self._smoother_verdict(suite)
+        return smoothed is not None and not smoothed[0]
+
     def _refuted_before_seen(self, suite: Suite) -> bool:
         """Whether a failing suite S inside ``suite`` (T) is over its limits, before the first keyframe
         at which a sensor of T not in S measures anything, at enough keyframes that T fails too (the

@@ -421,7 +421,9 @@ def require(
                 dominance = information_dominance(
                     [p for _, p in problems], [i for i in range(len(library)) if i not in feas.excluded]
                 )
-                found = search(feas, oracle.meets, violation=oracle.violation, dominance=dominance)
+                found = search(
+                    feas, oracle.meets, violation=oracle.violation, dominance=dominance, refute=oracle.refuted_cheaply
+                )
             else:
                 checks = integ
                 # monotone: accuracy, and the error tail with every measurement used; then integrity itself

@@ -169,6 +169,13 @@ class DomainChecks:
         got = self._round("meets", s, list(range(len(self.names))))
         return all(got[r] for r in range(len(self.names)))
 
+    def refuted_cheaply(self, suite: Suite) -> bool:
+        """Whether some route refutes ``suite`` without a filter pass
+        (:meth:`~.checks.RouteOracle.refuted_cheaply`), every route asked at once."""
+        s = as_suite(suite)
+        got = self._round("refuted_cheaply", s, list(range(len(self.names))))
+        return any(got[r] for r in range(len(self.names)))
+
     def violation(self, suite: Suite) -> float:
         """How far ``suite`` misses the specification: the largest route's violation (0 when met)."""
         s = as_suite(suite)

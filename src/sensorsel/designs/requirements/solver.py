@@ -462,6 +462,7 @@ def cheapest_suite(
     progress: Progress | None = None,
     max_tie_programs: int = DEFAULT_TIE_PROGRAMS,
     dominance: Sequence[tuple[int, int]] = (),
+    refute: Callable[[Suite], bool] | None = None,
     clock: Callable[[], float] = time.monotonic,
 ) -> CheapestSuite:
     """The cheapest suite of ``feasible`` that meets a requirement after any ``failures`` of its
@@ -498,6 +499,11 @@ def cheapest_suite(
             the pairs :func:`~sensorsel.designs.requirements.dominance.dominance_order` keeps become
             rows x_w <= x_s of the integer programs (the cheapest cost unchanged; ties among them
             are then not searched exhaustively).
+        refute: with a monotone ``meets``: refute(suite) -> True where a cheap bound shows that
+            the suite fails ``meets`` (False: not shown), asked of every allowed sensor together
+            before the greedy: a requirement nothing meets is then answered without the greedy's
+            suites (its answer is the library's check's: infeasible). Not counted as a call where it
+            refutes nothing, so a search that goes on is the search without it.
         clock: the clock ``time_limit`` is measured on [s] (``time.monotonic``; a test passes one
             that advances per reading, so that the limit falls after a known number of checks).
 
@@ -604,6 +610,26 @@ def cheapest_suite(
     swaps_used = 0
     stop = ""
     try:
+        # 1a. every allowed sensor together, where a cheap bound refutes it: no greedy over a
+        # requirement no suite meets (on KITTI 00 it grew 389 suites, 27 s, before step 1 said so)
+        if refute is not None and s.monotone and s.down is not None:
+            if s.down.before_call is not None:
+                s.down.before_call()
+            t_refute = time.perf_counter()
+            refuted = refute(_suite(s.universe))
+            s.down.seconds += time.perf_counter() - t_refute
+            if refuted:
+                s.down.calls += 1
+                s.down.record(s.universe, False)
+                return result(
+                    "infeasible",
+                    None,
+                    math.inf,
+                    0,
+                    "every allowed sensor together fails",
+                    by="library",
+                    best_effort=s.universe,
+                )
         # 2. the greedy upper bound (its failing suites are the first cuts)
         if violation is not None and s.monotone:
             incumbent = s.greedy()
