@@ -505,25 +505,17 @@ def test_two_local_clusters_at_once_take_no_fixed_port():
     assert not [w for w in seen if "already in use" in str(w.message)], [str(w.message) for w in seen]
 
 
-@pytest.mark.parametrize("where", ["dask", "processes"])
-def test_a_routes_own_error_on_a_worker_is_raised_once_not_repaired_as_a_lost_worker(cluster, domain, where):
+def test_a_routes_own_error_on_a_worker_is_raised_once_not_repaired_as_a_lost_worker(cluster, domain):
     """Only a worker that is gone is repaired (its routes rebuilt, its calls repeated: the kill test
     above); an error of the routes' own code on a live worker would recur on every try, so it is
-    raised at once as what it is, not after rebuilds as "its worker was lost 4 times"."""
-    from sensorsel.information.evaluators.processes import ProcessDomainEvaluator
+    raised at once as what it is, not after rebuilds as "its worker was lost 4 times" (on worker
+    processes: tests/test_processes.py)."""
     from sensorsel.pipeline import ClusterError
 
-    if where == "dask":
-        ev = DistributedDomainEvaluator(cluster.client, domain)
-    else:
-        ev = ProcessDomainEvaluator(domain, processes=2)
-    try:
-        rounds = ev.n_rounds
-        with pytest.raises(Exception) as got:
-            ev._call({0: ("score", ())})  # a caller's bug: the route's method called without its suite
-        assert not isinstance(got.value, (ClusterError, OSError)), got.value
-        assert "TypeError" in f"{type(got.value).__name__}: {got.value}", got.value
-        assert ev.n_rebuilt == 0 and ev.n_rounds == rounds + 1  # one round: no repeat
-    finally:
-        if where == "processes":  # its processes (a Dask evaluator's actors go with the cluster)
-            ev.close()
+    ev = DistributedDomainEvaluator(cluster.client, domain)
+    rounds = ev.n_rounds
+    with pytest.raises(Exception) as got:
+        ev._call({0: ("score", ())})  # a caller's bug: the route's method called without its suite
+    assert not isinstance(got.value, (ClusterError, OSError)), got.value
+    assert "TypeError" in f"{type(got.value).__name__}: {got.value}", got.value
+    assert ev.n_rebuilt == 0 and ev.n_rounds == rounds + 1  # one round: no repeat

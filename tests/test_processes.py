@@ -92,11 +92,15 @@ def test_a_workers_own_error_is_raised_once_not_retried_as_a_lost_process(domain
         assert ev.n_rebuilt == 0
 
 
-def test_ctrl_c_to_the_process_group_leaves_the_workers_to_the_evaluator(domain):
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_ctrl_c_or_sigterm_to_the_process_group_leaves_the_workers_to_the_evaluator(domain, sig):
+    """A terminal's Ctrl-C and a batch system's SIGTERM reach every process of the group: the workers
+    ignore both, so the evaluator's process (which handles both as an interrupt) still has them for
+    its last requests, and stops them itself."""
     here = DomainEvaluator(domain).scores_with((0,), [1, 2])
     with ProcessDomainEvaluator(domain, processes=2) as ev:
         for w in ev._processes:
-            os.kill(w.process.pid, signal.SIGINT)  # what a terminal's Ctrl-C sends each of them
+            os.kill(w.process.pid, sig)
         np.testing.assert_array_equal(ev.scores_with((0,), [1, 2]), here)
         assert ev.n_rebuilt == 0 and all(w.process.is_alive() for w in ev._processes)
 

@@ -68,9 +68,12 @@ def _serve(conn: Connection) -> None:
     held at one thread (as the in-process evaluator holds it around its routes' work): N processes
     each with a BLAS thread per core would take turns on the cores (measured on 16 cores: the seven
     KITTI routes' greedy on one thread took 5.83 s with 16 BLAS threads, 4.84 s with one)."""
-    # Ctrl-C reaches the whole process group: the evaluator's process stops its workers (close, or at
-    # exit: they are daemons), so a worker ignores it rather than print a traceback of its own
+    # Ctrl-C reaches the whole process group, as SIGTERM does from a batch system: the evaluator's
+    # process handles both (its journal written, cli.options) and stops its workers (close: a request
+    # to stop, then SIGKILL; or at exit: they are daemons, and a closed pipe ends them), so a worker
+    # ignores them rather than die under the evaluator's last requests or print a traceback of its own
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
     with ThreadpoolController().limit(limits=1, user_api="blas"):
         _answer(conn)
 
