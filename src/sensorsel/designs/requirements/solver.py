@@ -395,6 +395,23 @@ class _Search:
                 mask &= ~(1 << i)
         return mask
 
+    def refuted_cheaply(self, refute: Callable[[Suite], bool], mask: int) -> bool:
+        """Whether ``refute`` (a cheap bound: :func:`cheapest_suite`) shows that ``mask`` fails the
+        monotone requirement ``down``: then recorded as its answer and counted as a call; where it
+        shows nothing, only its time is counted (the search goes on as without it)."""
+        down = self.down
+        if not self.monotone or down is None:
+            return False
+        if down.before_call is not None:  # the solver's clock, read before every check
+            down.before_call()
+        t = time.perf_counter()
+        refuted = bool(refute(_suite(mask)))
+        down.seconds += time.perf_counter() - t
+        if refuted:
+            down.calls += 1
+            down.record(mask, False)
+        return refuted
+
     def greedy(self, start: int | None = None) -> int | None:
         """Violation removed per dollar, lazily, from ``start`` (the required sensors when None)
         until the suite meets the requirement after α failures (each step improves the failing part
@@ -612,26 +629,9 @@ def cheapest_suite(
     try:
         # 1a. every allowed sensor together, where a cheap bound refutes it: no greedy over a
         # requirement no suite meets (on KITTI 00 it grew 389 suites, 27 s, before step 1 said so)
-        if refute is not None and s.monotone and s.down is not None:
-            if s.down.before_call is not None:
-                s.down.before_call()
-            t_refute = time.perf_counter()
-            refuted = refute(_suite(s.universe))
-            s.down.seconds += time.perf_counter() - t_refute
-            if refuted:
-                s.down.calls += 1
-                s.down.record(s.universe, False)
-                return result(
-                    "infeasible",
-                    None,
-                    math.inf,
-                    0,
-                    "every allowed sensor together fails",
-                    by="library",
-                    best_effort=s.universe,
-                )
+        hopeless = refute is not None and s.refuted_cheaply(refute, s.universe)
         # 2. the greedy upper bound (its failing suites are the first cuts)
-        if violation is not None and s.monotone:
+        if violation is not None and s.monotone and not hopeless:
             incumbent = s.greedy()
         if incumbent is not None and not s.fits(incumbent):  # the greedy only adds what fits: a guard
             incumbent = None
@@ -639,7 +639,7 @@ def cheapest_suite(
         # relaxation). Asked only where the greedy found no suite: a suite that meets the
         # requirement after α failures passes ``down``, and so does every suite holding it (a
         # pass of every sensor on every route was ~a tenth of the Helsinki sample's run)
-        if incumbent is None and s.down is not None and not s.down.passes(s.universe):
+        if hopeless or (incumbent is None and s.down is not None and not s.down.passes(s.universe)):
             return result(
                 "infeasible",
                 None,
