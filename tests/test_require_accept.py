@@ -184,15 +184,20 @@ def test_the_states_kept_are_those_the_byte_budget_allows(suburb_problem, monkey
     predicted state, its bytes; stride doubled from 1 while every stride-th keyframe's take more than
     the budget and the stride is below the route's length)."""
     monkeypatch.setattr(accept, "STATE_BYTES", budget)
+    monkeypatch.setattr(accept, "HORIZON", 8)  # shorter than the route: states keep fewer landmarks
     lib = suburb_problem.library
     S = tuple(sorted(lib.position(i) for i in ("LRR-7", "HD2K-4", "HD2K-9", "LSC-2")))
+    # (landmark, keyframe) some library sensor measures, from the observations themselves
+    measured = {(int(l_), int(k)) for o in suburb_problem.observations for l_, k in zip(o.landmark, o.pose)}
     nbytes = {}
-    forward_pass(
-        suburb_problem,
-        S,
-        map_sigma_m=0.05,
-        on_prediction=lambda p, m: nbytes.__setitem__(p.keyframe, p.covariance.nbytes),
-    )
+
+    def kept_bytes(p, m) -> None:  # the state's marginal over the landmarks measured within the horizon
+        near = [
+            l_ for l_ in p.landmarks.tolist() if any((l_, j) in measured for j in range(p.keyframe, p.keyframe + 9))
+        ]
+        nbytes[p.keyframe] = (3 + 2 * len(near)) ** 2 * 8
+
+    forward_pass(suburb_problem, S, map_sigma_m=0.05, on_prediction=kept_bytes)
     K = suburb_problem.scenario.n_poses
     stride = 1
     while sum(b for k, b in nbytes.items() if k % stride == 0) > budget and stride < K:
@@ -200,3 +205,38 @@ def test_the_states_kept_are_those_the_byte_budget_allows(suburb_problem, monkey
     b = base_of(suburb_problem, S, mask_of(S), Specification(lateral=0.001), 0.05)
     assert sorted(b.states) == list(range(0, K, stride))
     assert sum(s.covariance.nbytes for s in b.states.values()) <= budget or stride >= K
+
+
+@pytest.mark.parametrize("horizon", [2, 6, 12])
+def test_a_state_kept_within_a_horizon_restarts_a_pass_as_the_whole_state_does(suburb_problem, horizon):
+    """A kept state holds only the landmarks some library sensor measures within the horizon after
+    it: no suite measures the others before then, so a pass of a larger suite restarted from it and
+    stopped by then has the whole state's covariances (the marginal is exact), though it holds fewer
+    landmarks (the test is not vacuous)."""
+    lib = suburb_problem.library
+    S = tuple(sorted(lib.position(i) for i in ("LRR-7", "HD2K-1")))
+    T = tuple(sorted(S + tuple(lib.position(i) for i in ("HD2K-5", "LSC-2", "WSC-6"))))
+    K = suburb_problem.scenario.n_poses
+    keep = range(4, K - horizon, 5)
+    whole = forward_pass(suburb_problem, S, map_sigma_m=0.05, keep_states=keep).states
+    near = forward_pass(suburb_problem, S, map_sigma_m=0.05, keep_states=keep, keep_horizon=horizon).states
+    dropped = 0
+    for a in keep:
+        dropped += len(whole[a].landmarks) - len(near[a].landmarks)
+        assert set(near[a].landmarks.tolist()) <= set(whole[a].landmarks.tolist())
+        got = [
+            forward_pass(suburb_problem, T, map_sigma_m=0.05, start=s[a], until=a + horizon + 1).filtered
+            for s in (whole, near)
+        ]
+        np.testing.assert_allclose(got[1], got[0], rtol=0, atol=1e-12 * np.abs(got[0]).max())
+    assert dropped > 0
+
+
+def test_a_bound_past_the_kept_states_horizon_is_refused(suburb_problem):
+    """A bound over more keyframes than the kept states serve would take the landmarks they left out
+    as fresh ones (below the suite's own σ): refused, not computed."""
+    lib = suburb_problem.library
+    S = (lib.position("WSC-12"),)
+    b = base_of(suburb_problem, S, mask_of(S), Specification(lateral=0.001), 0.05)
+    with pytest.raises(ValueError, match="horizon"):
+        upper_bound(suburb_problem, b, S, 0.05, ((0, accept.HORIZON + 1),))

@@ -306,6 +306,7 @@ def forward_pass(
     exclude: np.ndarray | None = None,
     window: int | None = None,
     keep_states: Iterable[int] = (),
+    keep_horizon: int | None = None,
 ) -> FilterPass:
     """One forward pass over the route (linear in its length), exact: filtered[k] equals GTSAM's
     marginal of X(k) in the graph of the priors, odometry up to k and the used measurements of
@@ -342,6 +343,10 @@ def forward_pass(
 
     ``keep_states``: keyframes whose whole predicted state the result keeps (:attr:`FilterPass.states`,
     copies; a window ends at each, so they do not stop the windows that ``on_prediction`` would).
+    ``keep_horizon``: keep of the state at k only the pose and the landmarks some library sensor
+    measures at keyframes k .. k + ``keep_horizon`` (:meth:`~sensorsel.model.problem.Problem.measured_within`):
+    the others are measured by no suite before then, so a pass started there (``start``) that stops
+    by then (``until``) gives the same covariances from either (a marginal, exactly); None: all.
     """
     check_map_sigma(map_sigma_m)
     s = problem.settings
@@ -377,6 +382,7 @@ def forward_pass(
             start,
             window,
             sorted(set(int(k) for k in keep_states)),
+            keep_horizon,
         )
 
 
@@ -443,6 +449,7 @@ def _pass(
     start: Prediction | None = None,
     window: int | None = None,
     keep: list[int] | None = None,
+    keep_horizon: int | None = None,
 ) -> FilterPass:
     s = problem.settings
     first = 0 if start is None else int(start.keyframe)
@@ -495,7 +502,7 @@ def _pass(
         predicted[i] = P[:3, :3]
         at = bisect.bisect_right(keep, k)
         if at and keep[at - 1] == k:
-            states[k] = Prediction(k, state.held.copy(), P.copy(), prior_sigma)
+            states[k] = _kept(problem, state, k, keep_horizon, prior_sigma)
         if windowed and win is None and k >= open_at:
             end = min(k + span, first + K, *keep[at : at + 1])
             lo, hi = int(measurements.bounds[k]), int(measurements.bounds[end])
@@ -543,6 +550,18 @@ def _pass(
         _update(state, pairs, win_last, k)
         filtered[i] = state.P[:3, :3]
     return FilterPass(predicted, filtered, n_used, n_measured, states)
+
+
+def _kept(problem: Problem, state: _State, k: int, horizon: int | None, prior_sigma: float) -> Prediction:
+    """The whole predicted ``state`` at keyframe ``k`` (not in a window), copied; with ``horizon``,
+    its marginal over the pose and the landmarks the library measures within it (forward_pass's
+    ``keep_horizon``)."""
+    assert state.off == 3, "a kept state is whole: no window is open at a kept keyframe"
+    if horizon is None:
+        return Prediction(k, state.held.copy(), state.P.copy(), prior_sigma)
+    near = problem.measured_within(state.held, k, k + horizon)
+    rows = np.concatenate([np.arange(3), _landmark_rows(3, np.flatnonzero(near))])
+    return Prediction(k, state.held[near], state.P[np.ix_(rows, rows)], prior_sigma)
 
 
 class _State:

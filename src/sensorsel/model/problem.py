@@ -301,6 +301,24 @@ class Problem:
         seen = [o.landmark for o in self.observations if len(o)]
         return np.unique(np.concatenate(seen)) if seen else np.zeros(0, dtype=int)
 
+    @cached_property
+    def measured_pairs(self) -> np.ndarray:
+        """Sorted unique ``landmark * n_poses + keyframe`` of every (landmark, keyframe) some library
+        sensor measures (computed once): whether any suite can measure a landmark within a span of
+        keyframes is then two binary searches."""
+        n = self.scenario.n_poses
+        pairs = [
+            np.asarray(o.landmark, np.int64) * n + np.asarray(o.pose, np.int64) for o in self.observations if len(o)
+        ]
+        return np.unique(np.concatenate(pairs)) if pairs else np.zeros(0, np.int64)
+
+    def measured_within(self, landmarks: np.ndarray, first: int, last: int) -> np.ndarray:
+        """(m,) bool: whether some library sensor measures each of ``landmarks`` (m,) at a keyframe
+        in ``first`` .. ``last`` (inclusive)."""
+        n, keys = self.scenario.n_poses, self.measured_pairs
+        base = np.asarray(landmarks, np.int64) * n
+        return np.searchsorted(keys, base + min(last, n - 1), side="right") > np.searchsorted(keys, base + first)
+
     @property
     def n_landmarks_out_of_reach(self) -> int:
         """Landmarks no sensor of the library sees from any keyframe: they add nothing to any suite."""
