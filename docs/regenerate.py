@@ -1181,7 +1181,8 @@ def main(argv: list[str] | None = None) -> int:
             ap.error(f"{a.kitti_root} has no landmarks/03.csv: the real pole maps are needed (or --maps synthetic)")
     root = a.results.resolve()
     timings_path = root / "timings.json"
-    timings = _load(timings_path) or {}
+    # the steps that exist: a step renamed or removed leaves no stale time behind
+    timings = {k: v for k, v in (_load(timings_path) or {}).items() if k.split("/", 1)[-1] in {s.name for s in STEPS}}
     for kind in a.maps:
         ctx = Ctx(
             str(Path(a.kitti_root).resolve()) if a.kitti_root else "",
