@@ -55,3 +55,28 @@ def test_sigterm_writes_the_journal_and_exits_143_without_a_traceback(tmp_path):
     assert "sensorsel: terminated" in err and "Traceback" not in err
     assert _answers(journal) > timed  # written on the way out: what the run learnt after the timed write
     assert not out.exists()  # no result: the run did not end
+
+
+def test_a_command_started_with_sigterm_ignored_keeps_ignoring_it(tmp_path):
+    """A parent that starts sensorsel with SIGTERM ignored (as nohup ignores SIGHUP) means it: the
+    command does not take the signal over, as Python leaves an ignored SIGINT alone."""
+    out = tmp_path / "require.json"
+    proc = subprocess.Popen(
+        [str(Path(sys.executable).parent / "sensorsel"), "require", "--preset", "local-streets", "-q", "-o", str(out)],
+        env=ENV,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+        preexec_fn=lambda: signal.signal(signal.SIGTERM, signal.SIG_IGN),
+    )
+    try:
+        journal = Path(str(out) + ".checkpoint")
+        deadline = time.monotonic() + 120
+        while not journal.exists() and proc.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.01)
+        proc.send_signal(signal.SIGTERM)
+        time.sleep(1.0)
+        assert proc.poll() is None  # still searching: the signal was ignored
+    finally:
+        proc.kill()
+        proc.communicate(timeout=60)

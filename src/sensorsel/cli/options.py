@@ -48,8 +48,9 @@ class Terminated(KeyboardInterrupt):
 @contextmanager
 def _sigterm_as_interrupt() -> Iterator[None]:
     """Within: SIGTERM raises :class:`Terminated` once (a second one ends the process at once, as by
-    default: the way out may be what hangs). Only in the main thread, where signals are handled."""
-    if threading.current_thread() is not threading.main_thread():
+    default: the way out may be what hangs). Only in the main thread, where signals are handled,
+    and not where the process was started with SIGTERM ignored (as Python leaves an ignored SIGINT)."""
+    if threading.current_thread() is not threading.main_thread() or signal.getsignal(signal.SIGTERM) == signal.SIG_IGN:
         yield
         return
 
