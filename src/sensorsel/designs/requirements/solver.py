@@ -41,8 +41,10 @@ suite that meets the requirement, whatever its structure; monotonicity only make
 
 1. One check of every allowed sensor together: if even that fails (``meets``, or ``down`` when the
    requirement is not monotone), no suite meets the requirement ("infeasible", by "library").
-   Asked after step 2, and only where it found no suite (a suite that meets the requirement shows
-   that every allowed sensor together does: monotonicity).
+   First a cheap bound (``refute``: the smoother's marginals, under the filter's) is asked of
+   them, before step 2: where it refutes them, the search ends there, without the greedy's
+   suites. The check itself is asked after step 2, and only where it found no suite (a suite
+   that meets the requirement shows that every allowed sensor together does: monotonicity).
 2. Upper bound (monotone requirements with a ``violation``): a greedy that adds the sensor
    removing the most violation per dollar (lazily) until the suite meets the requirement after α
    failures, then prunes every sensor that is not needed (most expensive first).
