@@ -27,8 +27,9 @@ def _answers(path: Path) -> int:
     return len(json.loads(path.read_text())["answers"])
 
 
-def test_sigterm_writes_the_journal_and_exits_143_without_a_traceback(tmp_path):
-    out = tmp_path / "require.json"
+def _started(out: Path, **popen: object) -> tuple[subprocess.Popen[str], Path]:
+    """The README tour's ``require -o OUT`` as a real process, once its journal is first written
+    (or the process has ended, or two minutes have passed), and the journal's path."""
     journal = Path(str(out) + ".checkpoint")
     proc = subprocess.Popen(
         [str(Path(sys.executable).parent / "sensorsel"), "require", "--preset", "local-streets", "-q", "-o", str(out)],
@@ -36,11 +37,18 @@ def test_sigterm_writes_the_journal_and_exits_143_without_a_traceback(tmp_path):
         stdout=subprocess.DEVNULL,
         stderr=subprocess.PIPE,
         text=True,
+        **popen,  # type: ignore[call-overload]
     )
+    deadline = time.monotonic() + 120
+    while not journal.exists() and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.01)
+    return proc, journal
+
+
+def test_sigterm_writes_the_journal_and_exits_143_without_a_traceback(tmp_path):
+    out = tmp_path / "require.json"
+    proc, journal = _started(out)
     try:
-        deadline = time.monotonic() + 120
-        while not journal.exists() and proc.poll() is None and time.monotonic() < deadline:
-            time.sleep(0.01)
         assert journal.exists(), f"no journal before the run ended (exit {proc.poll()})"
         timed = _answers(journal)
         # half the interval: the next timed write is not due yet, the search goes on learning
@@ -60,20 +68,8 @@ def test_sigterm_writes_the_journal_and_exits_143_without_a_traceback(tmp_path):
 def test_a_command_started_with_sigterm_ignored_keeps_ignoring_it(tmp_path):
     """A parent that starts sensorsel with SIGTERM ignored (as nohup ignores SIGHUP) means it: the
     command does not take the signal over, as Python leaves an ignored SIGINT alone."""
-    out = tmp_path / "require.json"
-    proc = subprocess.Popen(
-        [str(Path(sys.executable).parent / "sensorsel"), "require", "--preset", "local-streets", "-q", "-o", str(out)],
-        env=ENV,
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.PIPE,
-        text=True,
-        preexec_fn=lambda: signal.signal(signal.SIGTERM, signal.SIG_IGN),
-    )
+    proc, _ = _started(tmp_path / "require.json", preexec_fn=lambda: signal.signal(signal.SIGTERM, signal.SIG_IGN))
     try:
-        journal = Path(str(out) + ".checkpoint")
-        deadline = time.monotonic() + 120
-        while not journal.exists() and proc.poll() is None and time.monotonic() < deadline:
-            time.sleep(0.01)
         proc.send_signal(signal.SIGTERM)
         time.sleep(1.0)
         assert proc.poll() is None  # still searching: the signal was ignored
