@@ -232,6 +232,36 @@ def test_a_state_kept_within_a_horizon_restarts_a_pass_as_the_whole_state_does(s
     assert dropped > 0
 
 
+@pytest.mark.parametrize("horizon", [0, 3, 10, 64])
+def test_a_state_kept_within_a_horizon_is_the_whole_states_rows_of_the_landmarks_measured_within_it(
+    suburb_problem, horizon
+):
+    """Each kept state holds, of the whole predicted state, exactly the rows and columns of the pose and
+    of the landmarks some library sensor measures at keyframes k .. k + horizon (the oracle: the
+    observations themselves), bit for bit, in the whole state's order: whether a landmark's next
+    measurement by the suite already says so or the library's are looked up (a horizon past the
+    route's end keeps the whole state; 0 keeps the landmarks measured at k only)."""
+    lib = suburb_problem.library
+    S = tuple(sorted(lib.position(i) for i in ("LRR-7", "HD2K-1", "WSC-6", "LSC-2")))
+    K = suburb_problem.scenario.n_poses
+    measured = {(int(l_), int(k)) for o in suburb_problem.observations for l_, k in zip(o.landmark, o.pose)}
+    whole = forward_pass(suburb_problem, S, map_sigma_m=0.05, keep_states=range(K)).states
+    kept = forward_pass(suburb_problem, S, map_sigma_m=0.05, keep_states=range(K), keep_horizon=horizon).states
+    left_out = 0
+    for k in range(K):
+        w = whole[k]
+        near = [
+            i
+            for i, l_ in enumerate(w.landmarks.tolist())
+            if any((l_, j) in measured for j in range(k, k + horizon + 1))
+        ]
+        rows = np.concatenate([np.arange(3), 3 + 2 * np.repeat(near, 2) + np.tile([0, 1], len(near))]).astype(int)
+        assert kept[k].landmarks.tolist() == w.landmarks[near].tolist(), k
+        assert np.array_equal(kept[k].covariance, w.covariance[np.ix_(rows, rows)]), k
+        left_out += len(w.landmarks) - len(near)
+    assert (left_out == 0) == (horizon >= K)
+
+
 def test_a_bound_past_the_kept_states_horizon_is_refused(suburb_problem):
     """A bound over more keyframes than the kept states serve would take the landmarks they left out
     as fresh ones (below the suite's own σ): refused, not computed."""

@@ -502,7 +502,7 @@ def _pass(
         predicted[i] = P[:3, :3]
         at = bisect.bisect_right(keep, k)
         if at and keep[at - 1] == k:
-            states[k] = _kept(problem, state, k, keep_horizon, prior_sigma)
+            states[k] = _kept(problem, state, k, keep_horizon, prior_sigma, last)
         if windowed and win is None and k >= open_at:
             end = min(k + span, first + K, *keep[at : at + 1])
             lo, hi = int(measurements.bounds[k]), int(measurements.bounds[end])
@@ -552,16 +552,29 @@ def _pass(
     return FilterPass(predicted, filtered, n_used, n_measured, states)
 
 
-def _kept(problem: Problem, state: _State, k: int, horizon: int | None, prior_sigma: float) -> Prediction:
+def _kept(
+    problem: Problem, state: _State, k: int, horizon: int | None, prior_sigma: float, last: np.ndarray
+) -> Prediction:
     """The whole predicted ``state`` at keyframe ``k`` (not in a window), copied; with ``horizon``,
     its marginal over the pose and the landmarks the library measures within it (forward_pass's
-    ``keep_horizon``)."""
+    ``keep_horizon``). ``last``: (n_landmarks,) the pass's last keyframe of each landmark."""
     assert state.off == 3, "a kept state is whole: no window is open at a kept keyframe"
+    held = state.held
     if horizon is None:
-        return Prediction(k, state.held.copy(), state.P.copy(), prior_sigma)
-    near = problem.measured_within(state.held, k, k + horizon)
+        return Prediction(k, held.copy(), state.P.copy(), prior_sigma)
+    # a landmark held at k whose last measurement by the suite is within the horizon is measured by the
+    # library there (the suite's sensors are the library's): only the others are looked up. Near the
+    # route's end (or on a short route) all are near, and the state is copied whole (a bound's base
+    # keeps every keyframe's state there: the index copies were most of its cost on the README tour)
+    at = last[held]
+    near = (at >= k) & (at <= k + horizon)
+    far = np.flatnonzero(~near)
+    if len(far):
+        near[far] = problem.measured_within(held[far], k, k + horizon)
+    if near.all():
+        return Prediction(k, held.copy(), state.P.copy(), prior_sigma)
     rows = np.concatenate([np.arange(3), _landmark_rows(3, np.flatnonzero(near))])
-    return Prediction(k, state.held[near], state.P[np.ix_(rows, rows)], prior_sigma)
+    return Prediction(k, held[near], state.P[np.ix_(rows, rows)], prior_sigma)
 
 
 class _State:

@@ -125,6 +125,14 @@ def _stride(problem: Problem, first: np.ndarray, last: np.ndarray, n_keyframes: 
     measures within :data:`HORIZON` keyframes of k."""
     k = np.arange(n_keyframes)
     seen = np.flatnonzero(last >= 0)
+    # first with every landmark the pass holds at k (first < k <= last), a bound on what the horizon
+    # keeps: where every state fits so, each keyframe's is kept, without a look-up per keyframe (the
+    # README tour's bases: a thousand look-ups a second)
+    step = np.zeros(n_keyframes + 1, np.int64)
+    np.add.at(step, np.minimum(first[seen] + 1, n_keyframes), 1)
+    np.add.at(step, np.minimum(last[seen] + 1, n_keyframes), -1)
+    if (((3 + 2 * np.cumsum(step[:n_keyframes])) ** 2) * 8).sum() <= STATE_BYTES:
+        return 1
     held = np.array(
         [
             int(problem.measured_within(seen[(first[seen] < j) & (j <= last[seen])], j, j + HORIZON).sum())
