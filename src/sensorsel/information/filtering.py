@@ -288,7 +288,7 @@ def keyframe_measurements(problem: Problem, suite: Iterable[int]) -> list[Keyfra
 
 
 @functools.cache
-def _blas_controller() -> ThreadpoolController:
+def blas_controller() -> ThreadpoolController:
     """The process's BLAS libraries, found once: threadpoolctl reads the loaded libraries each time
     it is asked, ~9 ms, most of a small suite's pass on the bundled route."""
     return ThreadpoolController()
@@ -363,7 +363,7 @@ def forward_pass(
     # one BLAS thread: the pass is a sequence of small and mid-sized products, where threads were
     # measured slower (a 300² Cholesky and a 1100²·300 product on 2 busy cores: 10x and 1.2x slower
     # on two; a 4-sensor suite's pass on the bundled route 30x slower)
-    with _blas_controller().limit(limits=1, user_api="blas"):
+    with blas_controller().limit(limits=1, user_api="blas"):
         stop = K if until is None else max(0, min(int(until), K))
         if exclude is not None:
             # which landmarks leave the state stays the whole suite's (as with a ``use`` hook): an

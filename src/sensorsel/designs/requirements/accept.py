@@ -184,6 +184,11 @@ class Bases:
         self._quick: tuple[int, Base | None] | None = None  # (suite, base) of the last quick bound
         self._offered: Base | None = None  # the last failing suite's pass, computed elsewhere (offer)
 
+    @property
+    def newest(self) -> Base:
+        """The base kept last."""
+        return self._bases[-1]
+
     def offer(self, base: Base) -> None:
         """Keep ``base`` (a failing suite's pass with its states, computed by the caller) to stand for
         that suite's own base pass if the next base asked for is that suite's (the last one offered

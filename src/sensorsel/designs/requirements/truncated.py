@@ -30,15 +30,20 @@ __all__ = ["BadKeyframes", "bad_keyframes", "meets_from_bad"]
 Bad = tuple[np.ndarray, ...]
 
 
-def bad_keyframes(covariances: np.ndarray, spec: Specification, keyframes: np.ndarray | None = None) -> Bad:
+def bad_keyframes(
+    covariances: np.ndarray, spec: Specification, keyframes: np.ndarray | None = None, slack: float = 0.0
+) -> Bad:
     """Per component of ``spec``, the keyframes (sorted) where the (k, 3, 3) ``covariances`` exceed its
     limit, as :func:`~sensorsel.designs.requirements.spec.covariance_verdict` judges a keyframe;
-    ``keyframes``: only these of them (indices into ``covariances``; default all)."""
+    ``keyframes``: only these of them (indices into ``covariances``; default all). ``slack``: a
+    keyframe is bad where σ · factor / limit − 1 > ``slack`` (0: the verdict's own test; a bound's
+    callers move it off 0 by its round-off, so that a keyframe the exact pass could judge either way
+    is not decided by a bound)."""
     cov = np.asarray(covariances, dtype=float)
     diag = np.sqrt(np.maximum(np.diagonal(cov, axis1=1, axis2=2), 0.0))
     sig = {"longitudinal": diag[:, 0], "lateral": diag[:, 1], "heading": np.degrees(diag[:, 2])}
     at = np.arange(len(cov)) if keyframes is None else np.asarray(keyframes, np.int64)
-    return tuple(at[(spec.factor * sig[comp][at]) / bound - 1.0 > 0.0] for comp, bound, _ in spec.bounds())
+    return tuple(at[(spec.factor * sig[comp][at]) / bound - 1.0 > slack] for comp, bound, _ in spec.bounds())
 
 
 def meets_from_bad(bad: Bad, n_keyframes: int, spec: Specification) -> bool:
