@@ -1,5 +1,6 @@
 """The README stays short and true: its two commands are CI's, its tour's output is what the
-commands print, its pictures and links exist.
+commands print, its pictures and links exist. The requirements guide's example of an answer on the
+bundled route is checked the same way.
 
 The tour's commands run on the bundled route (no KITTI) in a temporary folder; each line the README
 shows must appear in the command's output, in order (a line ``...`` stands for lines left out; the
@@ -23,14 +24,19 @@ MAX_LINES = 200
 TIME = re.compile(r"\d+(\.\d+)? s\b")
 
 
-def _blocks(lang: str) -> list[str]:
-    return re.findall(r"```" + lang + r"\n(.*?)```", README, flags=re.S)
+#: the requirements guide's example of what an answer says (the bundled route: checked as the tour is)
+GUIDE = (REPO / "docs" / "guide-requirements.md").read_text(encoding="utf-8")
+GUIDE_CHECKED = ("sensorsel require --preset local-streets -q",)
 
 
-def _tour() -> list[tuple[str, list[str]]]:
-    """(command, expected output lines) of each ``$ sensorsel ...`` in the README's console blocks."""
+def _blocks(lang: str, text: str = README) -> list[str]:
+    return re.findall(r"```" + lang + r"\n(.*?)```", text, flags=re.S)
+
+
+def _tour(text: str = README) -> list[tuple[str, list[str]]]:
+    """(command, expected output lines) of each ``$ sensorsel ...`` in the console blocks of ``text``."""
     out: list[tuple[str, list[str]]] = []
-    for block in _blocks("console"):
+    for block in _blocks("console", text):
         for ln in block.splitlines():
             if ln.startswith("$ "):
                 out.append((ln[2:], []))
@@ -59,7 +65,15 @@ def test_pictures_and_links_exist():
         assert (REPO / target).exists(), f"README.md links to {target}, which does not exist"
 
 
-@pytest.mark.parametrize("command,expected", _tour(), ids=[c.split(" -")[0] for c, _ in _tour()])
+def _guide() -> list[tuple[str, list[str]]]:
+    return [(c, e) for c, e in _tour(GUIDE) if c in GUIDE_CHECKED]
+
+
+@pytest.mark.parametrize(
+    "command,expected",
+    _tour() + _guide(),
+    ids=[c.split(" -")[0] for c, _ in _tour()] + ["guide-requirements " + c for c, _ in _guide()],
+)
 def test_tour_prints_what_the_readme_shows(command, expected, tmp_path, monkeypatch):
     argv = shlex.split(command)
     assert argv[0] == "sensorsel"
@@ -77,7 +91,7 @@ def test_tour_prints_what_the_readme_shows(command, expected, tmp_path, monkeypa
         if gap:
             while i < len(got) and got[i] != want:
                 i += 1
-        assert i < len(got) and got[i] == want, f"`{command}` no longer prints, as README.md shows:\n{want}"
+        assert i < len(got) and got[i] == want, f"`{command}` no longer prints, as the docs show:\n{want}"
         i += 1
         gap = False
 
