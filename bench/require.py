@@ -5,7 +5,7 @@ suites (:mod:`sensorsel.designs.requirements.accept`), side by side in one proce
     python bench/require.py [--kitti-root ../shared/kitti] [--rows tour 03 00 drive helsinki fixtures]
                             [--helsinki DIR/domain.yaml] [--presets local-streets freeway]
                             [--failures 0 1] [--time-limit 300]
-                            [--solvers new noaccept nofloor noswap dense reference]
+                            [--solvers new noaccept nowindows nofloor noswap dense reference]
 
 Rows: "tour" is the README's tour (the bundled suburb route), "03" / "00" the KITTI sequences with
 their real pole maps, "drive" a user's own drive (KITTI 00's ground truth as a route file, with
@@ -15,7 +15,9 @@ plateaus of one price); each row is
 run for every preset and failure count given, first with the solver of the package, then with the
 reference solver behind the same accuracy oracle (so the two differ only in the search); "noaccept"
 is the package's solver with the oracle's upper bounds off (every suite the smoother does not refute
-gets its own pass, as before they existed); "nofloor" is the package's solver with no integer
+gets its own pass, as before they existed); "nowindows" is the package's solver with the oracle's
+windows off (no suite decided by the filter's floors and ceilings from a window of the route,
+:mod:`sensorsel.information.window_bounds`); "nofloor" is the package's solver with no integer
 program carrying the proved lower bound as a row (``programs.FLOOR_AFTER_NODES`` out of reach: every
 program proves its optimum by branch and bound, as before); "noswap" is the package's solver
 proposing every suite by an integer program (no plateau swap, ``programs.plateau_swap``); "dense" is
@@ -123,7 +125,7 @@ def main() -> None:
         "--solvers",
         nargs="+",
         default=["new", "noaccept", "reference"],
-        choices=["new", "noaccept", "nofloor", "noswap", "dense", "reference"],
+        choices=["new", "noaccept", "nowindows", "nofloor", "noswap", "dense", "reference"],
     )
     a = ap.parse_args()
     from sensorsel.designs.requirements import design, programs, solver
@@ -132,7 +134,8 @@ def main() -> None:
     from sensorsel.information import filtering
 
     package = design.cheapest_suite
-    solvers = {k: package for k in ("new", "noaccept", "nofloor", "noswap", "dense")} | {"reference": _reference()}
+    solvers = {k: package for k in ("new", "noaccept", "nowindows", "nofloor", "noswap", "dense")}
+    solvers["reference"] = _reference()
     after, swap, worth = programs.FLOOR_AFTER_NODES, solver._plateau_swap, filtering.WINDOW_WORTH
     print(
         f"{'row':>5} {'preset':>13} a solver    {'status':>8} {'cost':>9} {'lower':>9} {'programs':>8} {'pswaps':>6} "
@@ -148,6 +151,7 @@ def main() -> None:
                 for which in a.solvers:
                     design.cheapest_suite = solvers[which]
                     RouteOracle.accept = which != "noaccept"
+                    RouteOracle.window_bounds = which != "nowindows"
                     programs.FLOOR_AFTER_NODES = 1 << 62 if which == "nofloor" else after
                     solver._plateau_swap = (lambda *_: None) if which == "noswap" else swap
                     filtering.WINDOW_WORTH = 0.0 if which == "dense" else worth
@@ -163,6 +167,7 @@ def main() -> None:
                     finally:
                         design.cheapest_suite = package
                         RouteOracle.accept = True
+                        RouteOracle.window_bounds = True
                         programs.FLOOR_AFTER_NODES = after
                         solver._plateau_swap = swap
                         filtering.WINDOW_WORTH = worth

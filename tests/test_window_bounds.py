@@ -235,3 +235,21 @@ def test_a_growth_with_the_windows_asks_fewer_passes(suburb_problem, monkeypatch
         runs[on] = ([oracle.meets(grown)] + [oracle.meets(s) for s in suites], oracle.n_checks)
     assert runs[True][0] == runs[False][0]
     assert runs[True][1] < runs[False][1]
+
+
+def test_the_violation_the_greedy_ranks_by_is_zero_exactly_when_the_pass_meets(suburb_problem):
+    """Asked for a violation (the solver's greedy), the oracle answers 0 exactly for a suite that
+    meets, and for one that fails a positive number no larger than its pass's (the smoother's, or the
+    windows' floors' at its bad keyframes: lower bounds), some of them from the windows."""
+    spec = preset("local-streets")
+    grown, suites = _growth(suburb_problem, spec)
+    oracle = RouteOracle(FastEvaluator(suburb_problem), suburb_problem, "suburb", spec, 0.05, "filter")
+    assert oracle.violation(grown) > 0
+    for suite in suites:
+        meets, exact = covariance_verdict(forward_pass(suburb_problem, suite, map_sigma_m=0.05).filtered, spec)
+        got = oracle.violation(suite)
+        if meets:
+            assert got == 0.0, suburb_problem.library.suite_ids(suite)
+        else:
+            assert 0.0 < got <= exact + 1e-12, suburb_problem.library.suite_ids(suite)  # (a ratio: round-off)
+    assert oracle._window_violations and oracle.n_window_accepted > 0

@@ -177,6 +177,10 @@ class RouteOracle:
         self.n_window_refuted = 0  # of n_refuted, by the windows' floors (:meth:`_window_verdict`)
         self.n_window_accepted = 0  # of n_accepted, by the windows' ceilings
         self._windows: WindowBounds | None = None  # built at its first use
+        self.n_window_bases = 0  # of n_checks, failing suites' passes for the windows' keyframes
+        #: suite -> the violation of a suite the windows refuted: their floors' (a lower bound on the
+        #: pass's, what the solver's greedy ranks it by)
+        self._window_violations: dict[Suite, float] = {}
         #: the bad keyframes of the suites seen to fail (a superset's pass stops after them)
         self._bad = BadKeyframes()
         #: the minimal suites (bit masks) seen to meet the specification: a suite holding one meets
@@ -196,8 +200,9 @@ class RouteOracle:
 
     @property
     def n_base_passes(self) -> int:
-        """Of ``n_checks``, the failing suites' passes the upper bounds restart from (no suite is asked by them)."""
-        return self.bases.n_passes
+        """Of ``n_checks``, the failing suites' passes later checks start from (no suite is asked by
+        them): the upper bounds' states, and the bad keyframes the windows are asked at."""
+        return self.bases.n_passes + self.n_window_bases
 
     def counts(self) -> dict[str, int]:
         """The route's counts so far, by name (:data:`COUNTS`)."""
@@ -367,7 +372,7 @@ class RouteOracle:
             return True
         return self._answer(suite)[0]
 
-    def _window_verdict(self, suite: Suite) -> bool | None:
+    def _window_verdict(self, suite: Suite, rank: bool = False) -> bool | None:
         """Whether ``suite`` meets the specification, decided at the bad keyframes of the failing suites
         inside it (the only keyframes where it can fail: :mod:`.truncated`) by the filter's floors and
         ceilings from a short window before each (:mod:`~sensorsel.information.window_bounds`); None
@@ -375,7 +380,12 @@ class RouteOracle:
         the suite fails (refuted); where the ceilings keep every one of them within, it meets
         (accepted, violation 0): its own pass would judge the same, as a keyframe within
         :data:`WINDOW_SLACK` of its limit is left to the pass. The map model only: in SLAM the
-        ceilings have no landmark to anchor them."""
+        ceilings have no landmark to anchor them.
+
+        ``rank``: the solver's greedy asks for a violation to rank the suite by: a refuted suite's
+        floors are computed at all its candidate keyframes (not only until they refute it), and its
+        violation is their largest excess, with the long windows at its bad keyframes (a lower bound
+        on its pass's, kept in ``_window_violations``; with every keyframe required only)."""
         if self.estimate != "filter" or self.map_sigma_m is None or not self.window_bounds:
             return None
         mask = mask_of(suite)
@@ -400,6 +410,7 @@ class RouteOracle:
         if self._windows is None:
             self._windows = WindowBounds(self.problem, self.map_sigma_m)
         sure = tuple(np.zeros(0, np.int64) for _ in candidates)
+        worst = 0.0  # the largest σ · factor / limit − 1 of a floor over its limit
         # short windows first; the keyframes they leave undecided (the floor within its limit, the
         # ceiling over it) again with long ones (tighter: conditioned on fewer poses, a larger
         # subgraph). In chunks: a suite that fails is mostly refuted by its first keyframes' floors
@@ -411,11 +422,22 @@ class RouteOracle:
                 over = bad_keyframes(floors, self.spec, slack=WINDOW_SLACK)
                 within = bad_keyframes(ceilings, self.spec, slack=-WINDOW_SLACK)
                 sure = tuple(np.union1d(s_, np.intersect1d(chunk[b], c)) for s_, b, c in zip(sure, over, candidates))
-                if not meets_from_bad(sure, n, self.spec):
+                worst = max(worst, covariance_verdict(floors, self.spec)[1])
+                if not meets_from_bad(sure, n, self.spec) and not (rank and lo + WINDOW_KEYFRAMES < len(at)):
                     self._refuted.add(suite)
                     self.n_refuted += 1
                     self.n_window_refuted += 1
-                    self._answered(suite, False, None)
+                    # every keyframe: the violation is the largest excess, at least the floors' (a rank
+                    # rule's is an order statistic over the whole route: not known from a few)
+                    violation = None
+                    if rank and self.spec.at >= 1.0:
+                        # every keyframe required: the violation is the largest excess, over the bad
+                        # keyframes, at least the floors' there (those of the long windows: closer)
+                        if window != WINDOWS[-1]:
+                            bad_at = np.unique(np.concatenate(sure))
+                            worst = covariance_verdict(self._windows(suite, bad_at, WINDOWS[-1])[0], self.spec)[1]
+                        violation = self._window_violations[suite] = worst
+                    self._answered(suite, False, violation)
                     return False
                 undecided.append(
                     tuple(np.setdiff1d(np.intersect1d(chunk[b], c), s_) for s_, b, c in zip(sure, within, candidates))
@@ -436,6 +458,7 @@ class RouteOracle:
         suite = tuple(i for i in range(mask.bit_length()) if mask >> i & 1)
         covariances = forward_pass(self.problem, suite, map_sigma_m=self.map_sigma_m).filtered
         self.n_checks += 1
+        self.n_window_bases += 1
         self.keyframes_passed += len(covariances)
         got = self._answers.setdefault(suite, covariance_verdict(covariances, self.spec))
         if not got[0]:  # (a floor that refuted it at a tie, to round-off, leaves it without bad keyframes)
@@ -548,6 +571,15 @@ class RouteOracle:
             smoothed = self._smoother_verdict(suite)
             if smoothed is not None and not smoothed[0]:
                 return smoothed[1]
+            # the windows: 0 where they accept it (exactly as its pass gives), their floors' excess
+            # where they refute it (a lower bound on its pass's)
+            got = self._window_violations.get(suite)
+            if got is None and suite not in self._refuted:
+                if self._window_verdict(suite, rank=True):
+                    return 0.0
+                got = self._window_violations.get(suite)
+            if got is not None:
+                return got
             if self._accepted(suite):  # it meets: its violation is 0, exactly as its pass gives
                 return 0.0
         return self._answer(suite)[1]

@@ -91,8 +91,9 @@ class RequireResult:
             program (:func:`~sensorsel.designs.requirements.programs.plateau_swap`).
         n_checks: accuracy computations (each about two dense Cholesky factorizations a route).
         n_refuted: (route, suite) pairs refuted without computing their marginals: by the engine's
-            cheap floor under them, or (filter) by the smoother's or by a failing suite inside it
-            that was over its limits before the added sensors measure anything.
+            cheap floor under them, or (filter) by the smoother's, by a failing suite inside it
+            that was over its limits before the added sensors measure anything, or by the filter's
+            floors from a window of the route at that failing suite's bad keyframes.
         engine: the evaluator engine.
         budget_usd: a budget the suite had to keep to, or None.
         constraints: limits besides money, or None.
@@ -125,12 +126,13 @@ class RequireResult:
             an accuracy computation.
         n_short: of ``n_checks``, filter passes stopped after the last keyframe where a suite inside
             the one asked was seen to miss the specification (:mod:`.truncated`).
-        n_accepted: (route, suite) answers proved met by an upper bound restarted from a failing
-            suite inside it (:mod:`.accept`), without the suite's own pass (not in ``n_checks``;
-            the failing suites' passes the bounds restart from are).
-        n_base_passes: of ``n_checks``, those passes of failing suites the bounds restart from
-            (computations that answer no suite asked: the suites the search asked are
-            ``n_checks − n_base_passes + n_refuted + n_accepted``).
+        n_accepted: (route, suite) answers proved met by an upper bound, without the suite's own
+            pass: restarted from a failing suite inside it (:mod:`.accept`), or the filter's ceilings
+            from a window of the route (:mod:`~sensorsel.information.window_bounds`) at that failing
+            suite's bad keyframes (not in ``n_checks``; the failing suites' passes are).
+        n_base_passes: of ``n_checks``, those passes of failing suites the bounds restart from or the
+            windows are asked at the bad keyframes of (computations that answer no suite asked: the
+            suites the search asked are ``n_checks − n_base_passes + n_refuted + n_accepted``).
         n_resumed: answers read back from an interrupted run's journal (``resume``): not computed
             again, so the counts and times above are this run's alone (0: the run started afresh).
     """
