@@ -52,6 +52,16 @@ __all__ = ["WINDOW", "WindowBounds"]
 WINDOW = 16
 
 
+#: a sensor's terms when it measures nothing (what a suite's are concatenated to: typed if it is empty)
+_NO_TERMS = (
+    np.zeros(0, np.int64),
+    np.zeros(0, np.int64),
+    np.zeros((0, 3, 3)),
+    np.zeros((0, 3, 2)),
+    np.zeros((0, 2, 2)),
+)
+
+
 class WindowBounds:
     """The floors and ceilings of the filter's covariance on one route, in one localization model
     (module docstring), with each sensor's measurement terms computed once.
@@ -107,20 +117,10 @@ class WindowBounds:
         whose system is singular is +inf."""
         ks = np.asarray(list(keyframes), np.int64)
         floors, ceilings = np.zeros((len(ks), 3, 3)), np.zeros((len(ks), 3, 3))
-        parts = [self._sensor_terms(int(i)) for i in sorted(set(int(i) for i in suite))]
         if not len(ks):
             return floors, ceilings
-        keyframe, landmark, AA, AB, BB = (
-            (np.concatenate([p[f] for p in parts]) for f in range(5))
-            if parts
-            else (
-                np.zeros(0, np.int64),
-                np.zeros(0, np.int64),
-                np.zeros((0, 3, 3)),
-                np.zeros((0, 3, 2)),
-                np.zeros((0, 2, 2)),
-            )
-        )
+        parts = [_NO_TERMS] + [self._sensor_terms(int(i)) for i in sorted(set(int(i) for i in suite))]
+        keyframe, landmark, AA, AB, BB = (np.concatenate([p[f] for p in parts]) for f in range(5))
         order = np.argsort(keyframe, kind="stable")
         keyframe, landmark, AA, AB, BB = keyframe[order], landmark[order], AA[order], AB[order], BB[order]
         starts = np.searchsorted(keyframe, np.arange(int(ks.max()) + 2))

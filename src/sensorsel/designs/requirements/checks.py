@@ -12,7 +12,7 @@ from typing import Protocol
 import numpy as np
 
 from sensorsel.designs.requirements.accept import Bases, base_of
-from sensorsel.designs.requirements.oracle import mask_of
+from sensorsel.designs.requirements.oracle import mask_of, suite_of
 from sensorsel.designs.requirements.spec import RouteVerdict, Specification, covariance_verdict, verdict
 from sensorsel.designs.requirements.truncated import BadKeyframes, bad_keyframes, meets_from_bad
 from sensorsel.information.evaluators.accuracy import RouteAccuracy, accuracy_from_covariances
@@ -342,11 +342,8 @@ class RouteOracle:
         if suite in self._short:
             return self._short[suite]
         if self._refuted_before_seen(suite):
-            self._refuted.add(suite)
-            self.n_refuted += 1
             self.n_before_seen += 1
-            self._answered(suite, False, None)
-            return False
+            return self._refute(suite)
         window = self._window_verdict(suite)
         if window is not None:
             return window
@@ -355,11 +352,8 @@ class RouteOracle:
             if floor is not None:
                 self.floor_asked += 1
                 if not covariance_verdict(floor, self.spec)[0]:
-                    self._refuted.add(suite)
-                    self.n_refuted += 1
                     self.floor_refuted += 1
-                    self._answered(suite, False, None)
-                    return False
+                    return self._refute(suite)
         if self._accepted(suite, quick=True):  # a kept base's first bound costs less than the smoother
             return True
         smoothed = self._smoother_verdict(suite)
@@ -424,39 +418,47 @@ class RouteOracle:
                 sure = tuple(np.union1d(s_, np.intersect1d(chunk[b], c)) for s_, b, c in zip(sure, over, candidates))
                 worst = max(worst, covariance_verdict(floors, self.spec)[1])
                 if not meets_from_bad(sure, n, self.spec) and not (rank and lo + WINDOW_KEYFRAMES < len(at)):
-                    self._refuted.add(suite)
-                    self.n_refuted += 1
                     self.n_window_refuted += 1
-                    # every keyframe: the violation is the largest excess, at least the floors' (a rank
-                    # rule's is an order statistic over the whole route: not known from a few)
-                    violation = None
-                    if rank and self.spec.at >= 1.0:
-                        # every keyframe required: the violation is the largest excess, over the bad
-                        # keyframes, at least the floors' there (those of the long windows: closer)
-                        if window != WINDOWS[-1]:
-                            bad_at = np.unique(np.concatenate(sure))
-                            worst = covariance_verdict(self._windows(suite, bad_at, WINDOWS[-1])[0], self.spec)[1]
-                        violation = self._window_violations[suite] = worst
-                    self._answered(suite, False, violation)
-                    return False
+                    if not (rank and self.spec.at >= 1.0):  # a rank rule's violation is an order
+                        return self._refute(suite)  # statistic over the whole route: not known from a few
+                    # every keyframe required: the violation is the largest excess, at least the floors'
+                    # at the bad keyframes (those of the long windows there: closer)
+                    if window != WINDOWS[-1]:
+                        bad_at = np.unique(np.concatenate(sure))
+                        worst = covariance_verdict(self._windows(suite, bad_at, WINDOWS[-1])[0], self.spec)[1]
+                    self._window_violations[suite] = worst
+                    return self._refute(suite, worst)
                 undecided.append(
                     tuple(np.setdiff1d(np.intersect1d(chunk[b], c), s_) for s_, b, c in zip(sure, within, candidates))
                 )
             candidates = tuple(np.concatenate(u) for u in zip(*undecided))
             if meets_from_bad(tuple(np.union1d(s_, c) for s_, c in zip(sure, candidates)), n, self.spec):
-                self._answers[suite] = (True, 0.0)
                 self.n_window_accepted += 1
-                self._answered(suite, True, 0.0)
-                return True
+                return self._met_by_bound(suite)
             # the next windows only where these left a component undecided
             at = np.unique(np.concatenate(candidates))
         return None
 
+    def _refute(self, suite: Suite, violation: float | None = None) -> bool:
+        """Record ``suite`` as failing without its pass (by a cheap bound; ``violation``: a lower bound
+        on its pass's where one is known) and answer False."""
+        self._refuted.add(suite)
+        self.n_refuted += 1
+        self._answered(suite, False, violation)
+        return False
+
+    def _met_by_bound(self, suite: Suite) -> bool:
+        """Record ``suite`` as meeting the specification by an upper bound (violation 0, as its pass
+        gives) and answer True."""
+        self._answers[suite] = (True, 0.0)
+        self._answered(suite, True, 0.0)
+        return True
+
     def _bad_keyframes_of(self, mask: int) -> None:
         """Record the bad keyframes of the failing suite ``mask`` from its filter pass (an accuracy
         computation; its answer too, where it is not known yet)."""
-        suite = tuple(i for i in range(mask.bit_length()) if mask >> i & 1)
-        covariances = forward_pass(self.problem, suite, map_sigma_m=self.map_sigma_m).filtered
+        suite = suite_of(mask)
+        covariances = route_covariances(self.engine, suite, self.map_sigma_m, "filter")
         self.n_checks += 1
         self.n_window_bases += 1
         self.keyframes_passed += len(covariances)
@@ -530,10 +532,7 @@ class RouteOracle:
         if self.bases.n_passes > passes:  # a failing suite's whole pass: its bad keyframes, exactly
             base = self.bases.newest
             self._bad.add(base.mask, bad_keyframes(base.filtered, self.spec))
-        if ok:
-            self._answers[suite] = (True, 0.0)
-            self._answered(suite, True, 0.0)
-        return ok
+        return self._met_by_bound(suite) if ok else False
 
     def _smoother_verdict(self, suite: Suite) -> tuple[bool, float] | None:
         """The smoother's (meets, violation) when the filter's is asked (a floor under it: the
