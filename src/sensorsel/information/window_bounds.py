@@ -89,6 +89,7 @@ class WindowBounds:
         self._ht_o_h = self._ht_o @ odo
         self._slot = np.full(max(problem.scenario.n_landmarks, 1), -1, np.int64)
         self._terms: dict[int, tuple[np.ndarray, ...]] = {}
+        self._last: tuple[tuple[int, ...], tuple[np.ndarray, ...]] | None = None
 
     def _sensor_terms(self, i: int) -> tuple[np.ndarray, ...]:
         """Sensor ``i``'s measurements: (keyframe (m,), landmark (m,), AᵀA (m, 3, 3), AᵀB (m, 3, 2),
@@ -119,17 +120,29 @@ class WindowBounds:
         floors, ceilings = np.zeros((len(ks), 3, 3)), np.zeros((len(ks), 3, 3))
         if not len(ks):
             return floors, ceilings
-        parts = [_NO_TERMS] + [self._sensor_terms(int(i)) for i in sorted(set(int(i) for i in suite))]
-        keyframe, landmark, AA, AB, BB = (np.concatenate([p[f] for p in parts]) for f in range(5))
-        order = np.argsort(keyframe, kind="stable")
-        keyframe, landmark, AA, AB, BB = keyframe[order], landmark[order], AA[order], AB[order], BB[order]
+        terms = self._suite_terms(suite)
+        keyframe = terms[0]
         starts = np.searchsorted(keyframe, np.arange(int(ks.max()) + 2))
         w = self.window if window is None else int(window)
         # one BLAS thread: small products, where threads only cost (as in the filter's pass)
         with blas_controller().limit(limits=1, user_api="blas"):
             for out, k in enumerate(ks.tolist()):
-                floors[out], ceilings[out] = self._at(k, w, keyframe, landmark, AA, AB, BB, starts)
+                floors[out], ceilings[out] = self._at(k, w, *terms, starts)
         return floors, ceilings
+
+    def _suite_terms(self, suite: Iterable[int]) -> tuple[np.ndarray, ...]:
+        """The suite's measurement terms (as :meth:`_sensor_terms`' five arrays), concatenated and
+        sorted by keyframe (stable: a keyframe's in the suite's sensor order); the last suite's kept,
+        as its chunks and windows are asked one after another."""
+        key = tuple(sorted(set(int(i) for i in suite)))
+        if self._last is not None and self._last[0] == key:
+            return self._last[1]
+        parts = [_NO_TERMS] + [self._sensor_terms(i) for i in key]
+        keyframe, landmark, AA, AB, BB = (np.concatenate([p[f] for p in parts]) for f in range(5))
+        order = np.argsort(keyframe, kind="stable")
+        terms = (keyframe[order], landmark[order], AA[order], AB[order], BB[order])
+        self._last = (key, terms)
+        return terms
 
     def _at(
         self,
