@@ -52,6 +52,10 @@ __all__ = ["WINDOW", "WindowBounds"]
 WINDOW = 16
 
 
+#: a suite's or a sensor's measurement terms: keyframe (m,), landmark (m,), AᵀA (m, 3, 3), AᵀB (m, 3, 2),
+#: BᵀB (m, 2, 2)
+_Terms = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+
 #: a sensor's terms when it measures nothing (what a suite's are concatenated to: typed if it is empty)
 _NO_TERMS = (
     np.zeros(0, np.int64),
@@ -89,7 +93,7 @@ class WindowBounds:
         self._ht_o_h = self._ht_o @ odo
         self._slot = np.full(max(problem.scenario.n_landmarks, 1), -1, np.int64)
         self._terms: dict[int, tuple[np.ndarray, ...]] = {}
-        self._last: tuple[tuple[int, ...], tuple[np.ndarray, ...]] | None = None
+        self._last: tuple[tuple[int, ...], _Terms] | None = None
 
     def _sensor_terms(self, i: int) -> tuple[np.ndarray, ...]:
         """Sensor ``i``'s measurements: (keyframe (m,), landmark (m,), AᵀA (m, 3, 3), AᵀB (m, 3, 2),
@@ -130,7 +134,7 @@ class WindowBounds:
                 floors[out], ceilings[out] = self._at(k, w, *terms, starts)
         return floors, ceilings
 
-    def _suite_terms(self, suite: Iterable[int]) -> tuple[np.ndarray, ...]:
+    def _suite_terms(self, suite: Iterable[int]) -> _Terms:
         """The suite's measurement terms (as :meth:`_sensor_terms`' five arrays), concatenated and
         sorted by keyframe (stable: a keyframe's in the suite's sensor order); the last suite's kept,
         as its chunks and windows are asked one after another."""
@@ -140,7 +144,7 @@ class WindowBounds:
         parts = [_NO_TERMS] + [self._sensor_terms(i) for i in key]
         keyframe, landmark, AA, AB, BB = (np.concatenate([p[f] for p in parts]) for f in range(5))
         order = np.argsort(keyframe, kind="stable")
-        terms = (keyframe[order], landmark[order], AA[order], AB[order], BB[order])
+        terms: _Terms = (keyframe[order], landmark[order], AA[order], AB[order], BB[order])
         self._last = (key, terms)
         return terms
 
