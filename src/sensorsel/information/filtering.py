@@ -755,9 +755,9 @@ class _Window:
             raise np.linalg.LinAlgError(f"a singular covariance factor at keyframe {self.end} ({info})")
         # P₀ − Σ ⪰ 0 (the window's measurements only take uncertainty away) as R Rᵀ, R of its rank
         # (LAPACK's pivoted Cholesky; what is left below its tolerance, n ε max diag, is round-off),
-        # so that C₀ᵀ P₀⁻¹ (P₀ − Σ) P₀⁻¹ C₀ = X Xᵀ with X = gainᵀ R: a
-        # product with its own transpose (half the flops of two general products, and exactly
-        # symmetric: no symmetrizing pass over the dormant block, the largest of the state)
+        # so that C₀ᵀ P₀⁻¹ (P₀ − Σ) P₀⁻¹ C₀ = X Xᵀ with X = gainᵀ R: a product with its own
+        # transpose (half the flops of two general products, and exactly symmetric: no symmetrizing
+        # pass over the dormant block, the largest of the state)
         reduced, piv, rank, info = dpstrf(self.prior - P[np.ix_(a0, a0)], lower=1)
         if info < 0:
             raise np.linalg.LinAlgError(f"the window's covariance reduction at keyframe {self.end} failed ({info})")
