@@ -166,6 +166,12 @@ def _landmark_rows(off: int, slots: np.ndarray) -> np.ndarray:
     return (off + 2 * np.asarray(slots, np.int64)[:, None] + np.arange(2)).ravel()
 
 
+def _block(P: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+    """P[rows][:, cols], a new array: by two takes (the same numbers as ``P[np.ix_(rows, cols)]``,
+    in ~2/3 of its time on the dormant block of a window)."""
+    return P.take(rows, axis=0).take(cols, axis=1)
+
+
 def _slot_table(held: np.ndarray, size: int) -> np.ndarray:
     """(size,) each landmark index's position in ``held`` (n,), or −1."""
     table = np.full(size, -1, np.int64)
@@ -574,7 +580,7 @@ def _kept(
     if near.all():
         return Prediction(k, held.copy(), state.P.copy(), prior_sigma)
     rows = np.concatenate([np.arange(3), _landmark_rows(3, np.flatnonzero(near))])
-    return Prediction(k, held[near], state.P[np.ix_(rows, rows)], prior_sigma)
+    return Prediction(k, held[near], _block(state.P, rows, rows), prior_sigma)
 
 
 class _State:
@@ -737,8 +743,8 @@ class _Window:
         copy = np.concatenate([np.arange(3), idx])  # the pose twice: the second is the window's first pose
         win_last = last.copy()
         win_last[held[at]] = np.maximum(last[held[at]], end)
-        win = cls(end, held[at], held[~active], P[np.ix_(idx, idx)], P[np.ix_(idx, out)], P[np.ix_(out, out)], win_last)
-        return win, _State(P[np.ix_(copy, copy)], held[at], len(last), off=6)
+        win = cls(end, held[at], held[~active], _block(P, idx, idx), _block(P, idx, out), _block(P, out, out), win_last)
+        return win, _State(_block(P, copy, copy), held[at], len(last), off=6)
 
     def close(self, state: _State, last: np.ndarray) -> _State:
         """The full state at :attr:`end` from the window's active ``state`` (class docstring); the
@@ -758,7 +764,7 @@ class _Window:
         # so that C₀ᵀ P₀⁻¹ (P₀ − Σ) P₀⁻¹ C₀ = X Xᵀ with X = gainᵀ R: a product with its own
         # transpose (half the flops of two general products, and exactly symmetric: no symmetrizing
         # pass over the dormant block, the largest of the state)
-        reduced, piv, rank, info = dpstrf(self.prior - P[np.ix_(a0, a0)], lower=1)
+        reduced, piv, rank, info = dpstrf(self.prior - _block(P, a0, a0), lower=1)
         if info < 0:
             raise np.linalg.LinAlgError(f"the window's covariance reduction at keyframe {self.end} failed ({info})")
         R = np.zeros((len(piv), rank))
@@ -766,8 +772,8 @@ class _Window:
         X = gain.T @ R  # (2d, rank)
         n, d = len(rows), len(self.cross[0])
         full = np.empty((n + d, n + d))
-        full[:n, :n] = P[np.ix_(rows, rows)]
-        full[:n, n:] = P[np.ix_(rows, a0)] @ gain
+        full[:n, :n] = _block(P, rows, rows)
+        full[:n, n:] = _block(P, rows, a0) @ gain
         full[n:, :n] = full[:n, n:].T
         np.subtract(self.dormant_cov, X @ X.T, out=full[n:, n:])
         return _State(full, np.concatenate([kept, self.dormant]), len(last), copy=False)
