@@ -736,9 +736,8 @@ class _Window:
         if not force and windowed > WINDOW_WORTH * n * n * per:
             return None
         at = np.flatnonzero(active)
-        off = state.off
-        idx = np.concatenate([np.arange(3), _landmark_rows(off, at)])
-        out = _landmark_rows(off, np.flatnonzero(~active))
+        idx = np.concatenate([np.arange(3), _landmark_rows(state.off, at)])
+        out = _landmark_rows(state.off, np.flatnonzero(~active))
         P = state.P
         copy = np.concatenate([np.arange(3), idx])  # the pose twice: the second is the window's first pose
         win_last = last.copy()
@@ -764,11 +763,9 @@ class _Window:
         # so that C₀ᵀ P₀⁻¹ (P₀ − Σ) P₀⁻¹ C₀ = X Xᵀ with X = gainᵀ R: a product with its own
         # transpose (half the flops of two general products, and exactly symmetric: no symmetrizing
         # pass over the dormant block, the largest of the state)
-        reduced, piv, rank, info = dpstrf(self.prior - _block(P, a0, a0), lower=1)
-        if info < 0:
-            raise np.linalg.LinAlgError(f"the window's covariance reduction at keyframe {self.end} failed ({info})")
-        R = np.zeros((len(piv), rank))
-        R[piv - 1] = np.tril(reduced[:, :rank])
+        # (info > 0 only says that the rank is below the size; row piv[i] − 1 of R is L's row i)
+        reduced, piv, rank, _ = dpstrf(self.prior - _block(P, a0, a0), lower=1)
+        R = np.tril(reduced[:, :rank])[np.argsort(piv)]
         X = gain.T @ R  # (2d, rank)
         n, d = len(rows), len(self.cross[0])
         full = np.empty((n + d, n + d))
