@@ -31,17 +31,13 @@ for j in 1 2 4 8 "$n"; do
         >"$out/command-jobs-$j.json" 2>/dev/null; } 2>&1
 done 2>&1 | tee "$out/commands.log"
 $py - "$out" "$n" <<'PY' | tee -a "$out/commands.log"
-import json, sys
-def untimed(o):
-    if isinstance(o, dict):
-        return {k: untimed(v) for k, v in o.items() if not k.startswith("seconds")}
-    if isinstance(o, list):
-        return [untimed(x) for x in o]
-    return o
+import sys
+sys.path.insert(0, "bench")
+from untimed import load_untimed
 out, n = sys.argv[1], sys.argv[2]
-ref = untimed(json.load(open(f"{out}/command-jobs-1.json")))
+ref = load_untimed(f"{out}/command-jobs-1.json")
 for j in ["2", "4", "8", n]:
-    same = untimed(json.load(open(f"{out}/command-jobs-{j}.json"))) == ref
+    same = load_untimed(f"{out}/command-jobs-{j}.json") == ref
     print(f"--jobs {j}: the same result as --jobs 1: {same}")
 PY
 rm -f "$out"/command-jobs-*.json

@@ -32,12 +32,8 @@ run() {  # NAME DOMAIN PRESET JOBS
 $py - "$out" <<'PY' | tee -a "$out/require.log"
 import json, sys
 from pathlib import Path
-def untimed(o):
-    if isinstance(o, dict):
-        return {k: untimed(v) for k, v in o.items() if not k.startswith("seconds")}
-    if isinstance(o, list):
-        return [untimed(x) for x in o]
-    return o
+sys.path.insert(0, "bench")
+from untimed import untimed
 out = Path(sys.argv[1])
 for name in ("helsinki", "kitti"):
     runs = sorted(out.glob(f"{name}-jobs-*.json"), key=lambda p: int(p.stem.rsplit("-", 1)[1]))
