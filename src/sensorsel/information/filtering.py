@@ -761,8 +761,8 @@ class _Window:
         # P₀ − Σ ⪰ 0 (the window's measurements only take uncertainty away) as R Rᵀ, R of its rank
         # (LAPACK's pivoted Cholesky; what is left below its tolerance, n ε max diag, is round-off),
         # so that C₀ᵀ P₀⁻¹ (P₀ − Σ) P₀⁻¹ C₀ = X Xᵀ with X = gainᵀ R: a product with its own
-        # transpose (half the flops of two general products, and exactly symmetric: no symmetrizing
-        # pass over the dormant block, the largest of the state)
+        # transpose (half the flops of two general products, and exactly symmetric: the dormant
+        # block, the largest of the state, stays as symmetric as the state was, with no averaging pass)
         # (info > 0 only says that the rank is below the size; row piv[i] − 1 of R is L's row i)
         reduced, piv, rank, _ = dpstrf(self.prior - _block(P, a0, a0), lower=1)
         R = np.tril(reduced[:, :rank])[np.argsort(piv)]
