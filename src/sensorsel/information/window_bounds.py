@@ -57,7 +57,7 @@ WINDOW = 16
 _Terms = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 
 #: a sensor's terms when it measures nothing (what a suite's are concatenated to: typed if it is empty)
-_NO_TERMS = (
+_NO_TERMS: _Terms = (
     np.zeros(0, np.int64),
     np.zeros(0, np.int64),
     np.zeros((0, 3, 3)),
@@ -92,10 +92,10 @@ class WindowBounds:
         self._ht_o = np.transpose(odo, (0, 2, 1)) @ self._odo_info
         self._ht_o_h = self._ht_o @ odo
         self._slot = np.full(max(problem.scenario.n_landmarks, 1), -1, np.int64)
-        self._terms: dict[int, tuple[np.ndarray, ...]] = {}
+        self._terms: dict[int, _Terms] = {}
         self._last: tuple[tuple[int, ...], _Terms] | None = None
 
-    def _sensor_terms(self, i: int) -> tuple[np.ndarray, ...]:
+    def _sensor_terms(self, i: int) -> _Terms:
         """Sensor ``i``'s measurements: (keyframe (m,), landmark (m,), AᵀA (m, 3, 3), AᵀB (m, 3, 2),
         BᵀB (m, 2, 2)) of each one's whitened Jacobian [A | B]."""
         got = self._terms.get(i)
@@ -125,8 +125,7 @@ class WindowBounds:
         if not len(ks):
             return floors, ceilings
         terms = self._suite_terms(suite)
-        keyframe = terms[0]
-        starts = np.searchsorted(keyframe, np.arange(int(ks.max()) + 2))
+        starts = np.searchsorted(terms[0], np.arange(int(ks.max()) + 2))
         w = self.window if window is None else int(window)
         # one BLAS thread: small products, where threads only cost (as in the filter's pass)
         with blas_controller().limit(limits=1, user_api="blas"):
