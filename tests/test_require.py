@@ -111,6 +111,21 @@ def test_require_with_a_limit_equals_brute_force(tiny_problem):
         assert res.status == "optimal" and res.cost_usd == pytest.approx(want[0]) and len(res.suite) <= 2
 
 
+def test_a_search_stopped_before_any_suite_reports_the_empty_suites_accuracy(tiny_problem):
+    """A time limit that stops the search before it finds a suite: no suite, and the routes' accuracy
+    is the empty suite's (the one reported), computed on its own; not a pass of every sensor, which
+    nothing prints and which on a long drive cost more than the limit."""
+    spec = Specification(lateral=0.06, heading=0.1)
+    res = require(tiny_problem, spec, map_sigma_m=0.05, time_limit_s=1e-9)
+    assert res.suite == () and res.status != "infeasible" and res.stop
+    want = route_accuracy(FastEvaluator(tiny_problem), (), map_sigma_m=0.05, estimate="filter")
+    got = res.routes[0].accuracy
+    assert got.lateral_sigma_m == pytest.approx(want.lateral_sigma_m, rel=1e-12)
+    assert got.heading_sigma_deg == pytest.approx(want.heading_sigma_deg, rel=1e-12)
+    every = route_accuracy(FastEvaluator(tiny_problem), range(len(tiny_problem.library)), map_sigma_m=0.05)
+    assert max(every.lateral_sigma_m) < max(got.lateral_sigma_m)  # (the two differ: the test tells them apart)
+
+
 def test_require_cli_end_to_end_and_deterministic(tmp_path):
     out1, out2 = tmp_path / "a.json", tmp_path / "b.json"
     args = ["require", *T, *E, "--preset", "freeway", "--exclude", ",".join(sorted(set(_all_ids()) - set(SMALL)))]
