@@ -5,6 +5,8 @@ exact pass's answers."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -15,7 +17,8 @@ from sensorsel.designs.requirements.truncated import bad_keyframes
 from sensorsel.information.evaluators.fast import FastEvaluator
 from sensorsel.information.filtering import forward_pass
 from sensorsel.information.linearize import bearing_range_jacobians, odometry_jacobians
-from sensorsel.information.window_bounds import WINDOW, WindowBounds
+from sensorsel.information.window_bounds import WINDOW, WindowBounds, pass_flops
+from sensorsel.model.sensing import SensorObservations
 
 SUITES = [
     ("LRR-7", "HD2K-1"),
@@ -253,3 +256,49 @@ def test_the_violation_the_greedy_ranks_by_is_zero_exactly_when_the_pass_meets(s
         else:
             assert 0.0 < got <= exact + 1e-12, suburb_problem.library.suite_ids(suite)  # (a ratio: round-off)
     assert oracle._window_violations and oracle.n_window_accepted > 0
+
+
+def test_a_dear_suite_is_decided_by_the_windows_at_every_keyframe(suburb_problem, monkeypatch):
+    """A suite asked first (no failing suite inside it says where it can fail) whose pass is dear is
+    decided by the windows' bounds at every keyframe: where they decide, the exact pass's answer, both
+    ways among a growth's suites; at the default threshold the bundled route's suites are not dear
+    (their passes are cheap) and the windows are not asked of them there."""
+    spec = preset("local-streets")
+    grown, suites = _growth(suburb_problem, spec)
+    suites = [grown, *suites]
+
+    def verdicts() -> list[bool | None]:
+        # a new oracle each: nothing learnt from the suites before (no failing suite inside is known)
+        return [
+            RouteOracle(FastEvaluator(suburb_problem), suburb_problem, "suburb", spec, 0.05, "filter")._window_verdict(
+                s, scope="dear"
+            )
+            for s in suites
+        ]
+
+    assert all(pass_flops(suburb_problem, s) < checks.DEAR_PASS for s in suites)
+    assert verdicts() == [None] * len(suites)
+    monkeypatch.setattr(checks, "DEAR_PASS", 0.0)
+    got = verdicts()
+    for s, g in zip(suites, got):
+        if g is not None:
+            exact = covariance_verdict(forward_pass(suburb_problem, s, map_sigma_m=0.05).filtered, spec)[0]
+            assert g == exact, suburb_problem.library.suite_ids(s)
+    assert got.count(True) > 0 and got.count(False) > 0
+
+
+def test_the_pass_model_counts_a_hand_worked_route(suburb_problem):
+    """pass_flops on one sensor's hand-made measurements: landmark 0 at keyframes 0, 1, 2 and landmark 1
+    at keyframes 0 and 40 (two runs: 40 apart is past a window). Active a (runs covering k): 2 at 0,
+    1 at 1, 2 and 40; held h (first to last): 2 at 0-2, 1 at 3-40; rows r: 4 at 0, 2 at 1, 2, 40.
+    Updates (3 + 2a)² r: 49·4 + 25·2 · 3 = 346; closes (2(h − a))² 2a / 16: 4·2/16 at keyframes 1
+    and 2 = 1; per keyframe of the route: 347 / K."""
+    pose, landmark = np.array([0, 1, 2, 0, 40]), np.array([0, 0, 0, 1, 1])
+    one = SensorObservations(pose, landmark, *(np.ones(5) for _ in range(4)), sensor=0)
+    empty = SensorObservations(*(np.zeros(0, np.int64) for _ in range(2)), *(np.zeros(0) for _ in range(4)), sensor=1)
+    n = suburb_problem.n_sensors
+    problem = replace(suburb_problem, observations=(one, *(replace(empty, sensor=i) for i in range(1, n))))
+    K = problem.scenario.n_poses
+    assert K > 40
+    assert pass_flops(problem, [0]) == pytest.approx(347 / K, rel=1e-12)
+    assert pass_flops(problem, [1]) == pass_flops(problem, []) == 0.0
