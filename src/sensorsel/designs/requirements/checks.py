@@ -359,20 +359,20 @@ class RouteOracle:
         smoothed = self._smoother_verdict(suite)
         if smoothed is not None and not smoothed[0]:
             return False
-        # a dear pass: the windows at every keyframe, after the cheaper bounds (at ~0.4 s a suite on
-        # KITTI 00, asked first they cost more than the passes they saved)
-        window = self._window_verdict(suite, scope="dear")
-        if window is not None:
-            return window
         short = self._short_answer(suite)  # exact, and at most half a pass: before a new base's pass
         if short is not None:
             return short
         if self._accepted(suite):
             return True
+        # a dear pass: the windows at every keyframe, where nothing cheaper decided (on KITTI 00, asked
+        # before the short pass and the bases, they cost more than the passes they spared)
+        window = self._window_verdict(suite, scope="dear")
+        if window is not None:
+            return window
         return self._answer(suite)[0]
 
     def _window_verdict(
-        self, suite: Suite, rank: bool = False, scope: Literal["known", "dear", "any"] = "any"
+        self, suite: Suite, rank: bool = False, scope: Literal["known", "dear"] = "known"
     ) -> bool | None:
         """Whether ``suite`` meets the specification, decided at the bad keyframes of the failing suites
         inside it (the only keyframes where it can fail: :mod:`.truncated`) by the filter's floors and
@@ -390,7 +390,7 @@ class RouteOracle:
 
         ``scope``: "known", only at the bad keyframes of failing suites inside it (None where they are
         not known, or more than half the route); "dear", at every keyframe where that is so and its
-        pass is dear (:meth:`_dear`), else None; "any", either."""
+        pass is dear (:meth:`_dear`), else None."""
         if self.estimate != "filter" or self.map_sigma_m is None or not self.window_bounds:
             return None
         mask = mask_of(suite)
@@ -592,15 +592,16 @@ class RouteOracle:
                 return smoothed[1]
             # the windows: 0 where they accept it (exactly as its pass gives), their floors' excess
             # where they refute it (a lower bound on its pass's)
-            got = self._window_violations.get(suite)
-            if got is None and suite not in self._refuted:
-                if self._window_verdict(suite, rank=True):
-                    return 0.0
+            for scope in ("known", "dear"):  # (a dear pass's windows at every keyframe: after the bases)
                 got = self._window_violations.get(suite)
-            if got is not None:
-                return got
-            if self._accepted(suite):  # it meets: its violation is 0, exactly as its pass gives
-                return 0.0
+                if got is None and suite not in self._refuted:
+                    if self._window_verdict(suite, rank=True, scope=scope):
+                        return 0.0
+                    got = self._window_violations.get(suite)
+                if got is not None:
+                    return got
+                if scope == "known" and self._accepted(suite):  # it meets: violation 0, as its pass gives
+                    return 0.0
         return self._answer(suite)[1]
 
 
@@ -614,14 +615,13 @@ WINDOW_KEYFRAMES = 16
 #: 0.2 and 2 ms a keyframe for a six-sensor suite
 WINDOWS = (16, 48)
 #: a pass whose model (:func:`~sensorsel.information.window_bounds.pass_flops`) puts a keyframe at
-#: this many flops or more is dear: the windows' bounds are asked at every keyframe before it where no
-#: failing suite inside it says where to look (or says: more than half the route). On a user's drive
-#: (KITTI 00's ground truth, 1,614 generated landmarks) the roof LiDARs alone and six radars model
-#: 0.9-3.2e8 and took 18-40 ms a keyframe, the windows of 16 0.6-1.6 (the long-range LiDAR, 20 s a
-#: pass, accepted by its ceilings in 1 s). At 1e7, KITTI 00's pole map made 53 suites of 30-47
-#: sensors dear (1.2-4.5e7): 20 s of windows that the cheaper bounds after them would have spared
-#: (the search 132.8 s against 120.3 s)
-DEAR_PASS = 5e7
+#: this many flops or more is dear: where no failing suite inside it says where to look (or says: more
+#: than half the route) and nothing cheaper decided it, the windows' bounds are asked at every keyframe
+#: before its pass. On a user's drive (KITTI 00's ground truth, 1,614 generated landmarks) the roof
+#: LiDARs alone and six radars model 0.9-3.2e8 and took 18-40 ms a keyframe, the windows of 16 0.6-1.6
+#: (the long-range LiDAR, 20 s a pass, accepted by its ceilings in 1 s); suites of 10-17 sensors that
+#: meet model 1-6e7 and took 1.5-5 s a pass. Below 1e7 a pass is within a few times the windows' cost
+DEAR_PASS = 1e7
 #: a keyframe within this share of its limit (σ · factor / limit − 1) is not decided by the windows'
 #: bounds: they are computed another way than the pass (equal to round-off where the window reaches
 #: the route's start), so the pass's own verdict there could go either way
