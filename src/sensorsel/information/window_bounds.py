@@ -242,7 +242,8 @@ def pass_flops(problem: Problem, suite: Iterable[int]) -> float:
     landmarks in view (cameras: ~0.1-0.7 ms a keyframe) from one that holds hundreds (a roof LiDAR or
     radars on a user's drive with a loop: 4-40 ms). Measured against the passes (KITTI 00's ground truth
     with 1,614 generated landmarks, its pole map, the README's route; 12 suites each): a pass took
-    about 0.1 ms + 2-4e-10 s per modelled flop a keyframe, and the model ranked them in that order."""
+    0.1 ms plus 1-4e-10 s per modelled flop a keyframe, a factor of 3 either way (two suites whose
+    models differ by less than that can come in either order; the two kinds above do not)."""
     K = problem.scenario.n_poses
     sensors = sorted(set(int(i) for i in suite))
     if not K or not sensors:
@@ -257,7 +258,8 @@ def pass_flops(problem: Problem, suite: Iterable[int]) -> float:
     same = landmark[1:] == landmark[:-1]
 
     def spans(starts: np.ndarray) -> np.ndarray:
-        # (K,) how many runs (a landmark's measurements from a start to the one before the next) cover k
+        # (K,) how many runs cover k: a run is a landmark's measurements from a start up to the last
+        # one before the next start (their keyframes, inclusive)
         ends = np.ones(len(pose), bool)
         ends[:-1] = starts[1:]
         count = np.zeros(K + 1)
