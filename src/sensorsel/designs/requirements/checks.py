@@ -590,19 +590,26 @@ class RouteOracle:
             smoothed = self._smoother_verdict(suite)
             if smoothed is not None and not smoothed[0]:
                 return smoothed[1]
-            # the windows: 0 where they accept it (exactly as its pass gives), their floors' excess
-            # where they refute it (a lower bound on its pass's)
-            for scope in ("known", "dear"):  # (a dear pass's windows at every keyframe: after the bases)
-                got = self._window_violations.get(suite)
-                if got is None and suite not in self._refuted:
-                    if self._window_verdict(suite, rank=True, scope=scope):
-                        return 0.0
-                    got = self._window_violations.get(suite)
-                if got is not None:
-                    return got
-                if scope == "known" and self._accepted(suite):  # it meets: violation 0, as its pass gives
-                    return 0.0
+            got = self._window_violation(suite, "known")
+            if got is not None:
+                return got
+            if self._accepted(suite):  # it meets: its violation is 0, exactly as its pass gives
+                return 0.0
+            got = self._window_violation(suite, "dear")  # a dear pass's windows at every keyframe
+            if got is not None:
+                return got
         return self._answer(suite)[1]
+
+    def _window_violation(self, suite: Suite, scope: Literal["known", "dear"]) -> float | None:
+        """``suite``'s violation from the windows (:meth:`_window_verdict` over ``scope``): 0 where they
+        accept it (exactly as its pass gives), their floors' excess where they refute it (a lower
+        bound on its pass's); None where they do not say."""
+        got = self._window_violations.get(suite)
+        if got is None and suite not in self._refuted:
+            if self._window_verdict(suite, rank=True, scope=scope):
+                return 0.0
+            got = self._window_violations.get(suite)
+        return got
 
 
 #: the keyframes the windows' bounds are computed at together (a suite is refuted after the first

@@ -454,11 +454,11 @@ def require(
             # left of them after the failures the solver names). Stopped before finding a suite: the
             # empty suite's (the one reported), not a pass of every sensor that nothing prints (on a
             # user's drive, 78 s after a 30 s --time-limit)
-            best = (
-                found.best_effort or tuple(i for i in range(len(library)) if i not in feas.excluded and i not in alone)
-                if found.status == "infeasible"
-                else ()
-            )
+            best: Suite = ()
+            if found.status == "infeasible":
+                best = found.best_effort or tuple(
+                    i for i in range(len(library)) if i not in feas.excluded and i not in alone
+                )
             routes = oracle.report(best)
             integrity_routes = integ.report(as_suite(best)) if integ is not None else ()
             suite: Suite = ()
