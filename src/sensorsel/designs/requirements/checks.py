@@ -176,6 +176,7 @@ class RouteOracle:
         self.n_met_below = 0  # questions answered by a subset that meets the route
         self.n_window_refuted = 0  # of n_refuted, by the windows' floors (:meth:`_window_verdict`)
         self.n_window_accepted = 0  # of n_accepted, by the windows' ceilings
+        self.n_visits_accepted = 0  # of those, by the ceilings with the earlier visits (decided nothing else)
         self._windows: WindowBounds | None = None  # built at its first use
         self.n_window_bases = 0  # of n_checks, failing suites' passes for the windows' keyframes
         #: suite -> the violation of a suite the windows refuted: their floors' (a lower bound on the
@@ -380,8 +381,11 @@ class RouteOracle:
         where they do not decide. Where the floors put enough of those keyframes over their limits,
         the suite fails (refuted); where the ceilings keep every one of them within, it meets
         (accepted, violation 0): its own pass would judge the same, as a keyframe within
-        :data:`WINDOW_SLACK` of its limit is left to the pass. The map model only: in SLAM the
-        ceilings have no landmark to anchor them.
+        :data:`WINDOW_SLACK` of its limit is left to the pass. Keyframes the long window leaves
+        undecided get a last ceiling, with the route's earlier visits to the window's landmarks
+        (:meth:`~sensorsel.information.window_bounds.WindowBounds.ceilings_with_visits`: what the
+        filter still knows of them after a loop). The map model only: in SLAM the ceilings have no
+        landmark to anchor them.
 
         ``rank``: the solver's greedy asks for a violation to rank the suite by: a refuted suite's
         floors are computed at all its candidate keyframes (not only until they refute it), and its
@@ -452,6 +456,20 @@ class RouteOracle:
                 return self._met_by_bound(suite)
             # the next windows only where these left a component undecided
             at = np.unique(np.concatenate(candidates))
+        # where the long windows left a keyframe undecided, its ceiling again with the route's earlier
+        # visits to the window's landmarks (after a loop the filter still knows them from then); not
+        # where the window reaches the route's start (its ceiling is the filter's already)
+        late = at[at > WINDOWS[-1]]
+        if not len(late):
+            return None
+        over = bad_keyframes(
+            self._windows.ceilings_with_visits(suite, late, WINDOWS[-1]), self.spec, slack=-WINDOW_SLACK
+        )
+        candidates = tuple(np.setdiff1d(c, np.setdiff1d(late, late[b])) for b, c in zip(over, candidates))
+        if meets_from_bad(tuple(np.union1d(s_, c) for s_, c in zip(sure, candidates)), n, self.spec):
+            self.n_window_accepted += 1
+            self.n_visits_accepted += 1
+            return self._met_by_bound(suite)
         return None
 
     def _dear(self, suite: Suite) -> bool:
