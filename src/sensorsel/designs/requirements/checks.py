@@ -176,7 +176,7 @@ class RouteOracle:
         self.n_met_below = 0  # questions answered by a subset that meets the route
         self.n_window_refuted = 0  # of n_refuted, by the windows' floors (:meth:`_window_verdict`)
         self.n_window_accepted = 0  # of n_accepted, by the windows' ceilings
-        self.n_visits_accepted = 0  # of those, by the ceilings with the earlier visits (decided nothing else)
+        self.n_visits_accepted = 0  # of those, by the ceilings with the earlier visits (the last ones asked)
         self._windows: WindowBounds | None = None  # built at its first use
         self.n_window_bases = 0  # of n_checks, failing suites' passes for the windows' keyframes
         #: suite -> the violation of a suite the windows refuted: their floors' (a lower bound on the
