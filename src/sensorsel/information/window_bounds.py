@@ -130,13 +130,8 @@ class WindowBounds:
         dy in the keyframe's frame [m], dθ [rad]) of ``suite`` (library positions) at each of
         ``keyframes`` (n,), from ``window`` keyframes before each (default: the object's). A ceiling
         whose system is singular is +inf."""
-        ks = np.asarray(list(keyframes), np.int64)
+        ks, terms, starts, w = self._asked(suite, keyframes, window)
         floors, ceilings = np.zeros((len(ks), 3, 3)), np.zeros((len(ks), 3, 3))
-        if not len(ks):
-            return floors, ceilings
-        terms = self._suite_terms(suite)
-        starts = np.searchsorted(terms[0], np.arange(int(ks.max()) + 2))
-        w = self.window if window is None else int(window)
         # one BLAS thread: small products, where threads only cost (as in the filter's pass)
         with blas_controller().limit(limits=1, user_api="blas"):
             for out, k in enumerate(ks.tolist()):
@@ -151,13 +146,9 @@ class WindowBounds:
         docstring): the keyframes before the window that measure a landmark the window measures join
         the subgraph, with their own measurements (of any landmark) and the odometry between those of
         them that follow one another. +inf where the system is singular."""
-        ks = np.asarray(list(keyframes), np.int64)
+        ks, terms, starts, w = self._asked(suite, keyframes, window)
+        keyframe, landmark = terms[0], terms[1]
         out = np.zeros((len(ks), 3, 3))
-        if not len(ks):
-            return out
-        keyframe, landmark, AA, AB, BB = terms = self._suite_terms(suite)
-        starts = np.searchsorted(keyframe, np.arange(int(ks.max()) + 2))
-        w = self.window if window is None else int(window)
         with blas_controller().limit(limits=1, user_api="blas"):
             for i, k in enumerate(ks.tolist()):
                 lo = max(0, k - w)
@@ -172,6 +163,16 @@ class WindowBounds:
                 rows = np.flatnonzero(chosen[keyframe[:inside]])
                 out[i] = self._ceiling_on(poses, rows, *terms)
         return out
+
+    def _asked(
+        self, suite: Iterable[int], keyframes: Iterable[int], window: int | None
+    ) -> tuple[np.ndarray, _Terms, np.ndarray, int]:
+        """The keyframes asked (n,), the suite's terms, where each keyframe's terms begin (up to the last
+        asked) and the window's length (the object's where ``window`` is None)."""
+        ks = np.asarray(list(keyframes), np.int64)
+        terms = self._suite_terms(suite)
+        starts = np.searchsorted(terms[0], np.arange(int(ks.max(initial=0)) + 2))
+        return ks, terms, starts, self.window if window is None else int(window)
 
     def _suite_terms(self, suite: Iterable[int]) -> _Terms:
         """The suite's measurement terms (as :meth:`_sensor_terms`' five arrays), concatenated and

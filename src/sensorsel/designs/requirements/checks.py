@@ -460,23 +460,32 @@ class RouteOracle:
         # visits to the window's landmarks (after a loop the filter still knows them from then); not
         # where the window reaches the route's start (its ceiling is the filter's already)
         late = at[at > WINDOWS[-1]]
-        if not len(late):
+        if not len(late) or not self._met_with_visits(suite, late, sure, candidates):
             return None
-        # in chunks: once the keyframes still over their limits (those not asked yet taken as good)
-        # are enough to fail, the rest cannot accept it (these systems span the visits: up to a few
-        # hundred poses and a thousand landmarks on a user's drive, 0.2 s)
+        self.n_window_accepted += 1
+        self.n_visits_accepted += 1
+        return self._met_by_bound(suite)
+
+    def _met_with_visits(
+        self, suite: Suite, late: np.ndarray, sure: tuple[np.ndarray, ...], candidates: tuple[np.ndarray, ...]
+    ) -> bool:
+        """Whether the ceilings with the earlier visits at the keyframes ``late`` keep enough of them
+        within their limits that ``suite`` meets the specification (``sure``: the keyframes known bad,
+        ``candidates``: those undecided, per component). In chunks: once the keyframes still over their
+        limits (those not asked yet taken as good) are enough to fail, the rest cannot accept it (these
+        systems span the visits: up to a few hundred poses and a thousand landmarks on a user's drive,
+        0.2 s)."""
+        assert self._windows is not None
+        n = self.problem.scenario.n_poses
         for lo in range(0, len(late), WINDOW_KEYFRAMES):
             chunk, rest = late[lo : lo + WINDOW_KEYFRAMES], late[lo + WINDOW_KEYFRAMES :]
             ceilings = self._windows.ceilings_with_visits(suite, chunk, WINDOWS[-1])
             over = bad_keyframes(ceilings, self.spec, slack=-WINDOW_SLACK)
             candidates = tuple(np.setdiff1d(c, np.setdiff1d(chunk, chunk[b])) for b, c in zip(over, candidates))
-            if not meets_from_bad(
-                tuple(np.union1d(s_, np.setdiff1d(c, rest)) for s_, c in zip(sure, candidates)), n, self.spec
-            ):
-                return None
-        self.n_window_accepted += 1
-        self.n_visits_accepted += 1
-        return self._met_by_bound(suite)
+            still = tuple(np.union1d(s_, np.setdiff1d(c, rest)) for s_, c in zip(sure, candidates))
+            if not meets_from_bad(still, n, self.spec):
+                return False
+        return True
 
     def _dear(self, suite: Suite) -> bool:
         """Whether ``suite``'s pass is dear enough (:data:`DEAR_PASS`) that the windows' bounds are
