@@ -5,7 +5,7 @@ suites (:mod:`sensorsel.designs.requirements.accept`), side by side in one proce
     python bench/require.py [--kitti-root ../shared/kitti] [--rows tour 03 00 drive helsinki fixtures]
                             [--helsinki DIR/domain.yaml] [--presets local-streets freeway]
                             [--failures 0 1] [--time-limit 300]
-                            [--solvers new noaccept nowindows nofloor noswap dense reference]
+                            [--solvers new noaccept nowindows nofloor noswap dense nogreedyfloor reference]
 
 Rows: "tour" is the README's tour (the bundled suburb route), "03" / "00" the KITTI sequences with
 their real pole maps, "drive" a user's own drive (KITTI 00's ground truth as a route file, with
@@ -22,7 +22,10 @@ program carrying the proved lower bound as a row (``programs.FLOOR_AFTER_NODES``
 program proves its optimum by branch and bound, as before); "noswap" is the package's solver
 proposing every suite by an integer program (no plateau swap, ``programs.plateau_swap``); "dense" is
 the package's solver with the filter's passes dense (no window ever pays:
-``filtering.WINDOW_WORTH`` at 0, so the landmarks held are updated at every keyframe). Printed per
+``filtering.WINDOW_WORTH`` at 0, so the landmarks held are updated at every keyframe);
+"nogreedyfloor" is the package's solver with its greedy's candidates evaluated without the
+violation's floor (``cheapest_suite(violation_floor=None)``: every candidate the lazy bounds put on
+top gets its violation computed). Printed per
 run: the status, cost and lower bound, integer programs and plateau swaps ("pswaps"), accuracy
 computations (and the suites the cheap floor refuted), the answers inferred from dominance among
 sensors ("swaps"), the filter passes stopped early ("short") and the
@@ -125,7 +128,7 @@ def main() -> None:
         "--solvers",
         nargs="+",
         default=["new", "noaccept", "reference"],
-        choices=["new", "noaccept", "nowindows", "nofloor", "noswap", "dense", "reference"],
+        choices=["new", "noaccept", "nowindows", "nofloor", "noswap", "dense", "nogreedyfloor", "reference"],
     )
     a = ap.parse_args()
     from sensorsel.designs.requirements import design, programs, solver
@@ -136,6 +139,7 @@ def main() -> None:
     package = design.cheapest_suite
     solvers = {k: package for k in ("new", "noaccept", "nowindows", "nofloor", "noswap", "dense")}
     solvers["reference"] = _reference()
+    solvers["nogreedyfloor"] = lambda *args, **kw: package(*args, **{**kw, "violation_floor": None})
     after, swap, worth = programs.FLOOR_AFTER_NODES, solver._plateau_swap, filtering.WINDOW_WORTH
     print(
         f"{'row':>5} {'preset':>13} a solver    {'status':>8} {'cost':>9} {'lower':>9} {'programs':>8} {'pswaps':>6} "

@@ -57,6 +57,10 @@ suite that meets the requirement, whatever its structure; monotonicity only make
 4. When the integer program proposes a second failing suite of one cost (a plateau: many suites of
    sensors of one price), that proposal is completed greedily, for a suite near the lower bound
    early (so the search ends when the bound reaches it, not after every suite of that cost).
+   With a ``violation_floor`` (a cheaper lower bound on the violation), such a completion caps a
+   candidate's lazy bound by its floor before computing its violation, and a suite whose floor is
+   above 0 is known to fail. The first greedy asks every candidate's violation: what it learns
+   (the failing suites, each a cut) is what the first integer programs stand on.
    Once a suite of cost c is known, a sensor that alone with the required ones costs more than c
    is fixed out of the integer programs and of the growth of failing sets (no suite cheaper than
    c holds it): fewer checks per cut, smaller programs; the lower bound stays valid for every
@@ -111,6 +115,7 @@ same inputs give the same answer. A ``time_limit`` makes the answer depend on th
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from collections.abc import Callable, Sequence
@@ -414,11 +419,13 @@ class _Search:
             down.record(mask, False)
         return refuted
 
-    def greedy(self, start: int | None = None) -> int | None:
+    def greedy(self, start: int | None = None, capped: bool = False) -> int | None:
         """Violation removed per dollar, lazily, from ``start`` (the required sensors when None)
         until the suite meets the requirement after α failures (each step improves the failing part
         S minus F); then every sensor not needed is pruned. None when it gets stuck (nothing fits
-        or nothing lowers the violation)."""
+        or nothing lowers the violation). ``capped`` (with a violation floor): a candidate's lazy
+        bound is capped by its floor before its violation is asked, and the violation is asked only
+        where the cap leaves it on top."""
         assert self.down is not None
         suite = self.required if start is None else start
         bound = {i: math.inf for i in self.allowed if not suite >> i & 1 and not self.fixed_out >> i & 1}
@@ -431,13 +438,21 @@ class _Search:
             fits = self.fs.addable(used)
             cands = [i for i in bound if fits[i]]
             fresh: set[int] = set()
+            # this step's upper bounds on a candidate's ratio from the violation's floor: they only
+            # skip candidates the lazy bounds alone would have evaluated and not chosen, so the
+            # choice is the same as without them (a stale bound below the true ratio stays the key)
+            cap: dict[int, float] = {}
             choice = None
             while cands:
-                cands.sort(key=lambda i: (-bound[i], i))
+                cands.sort(key=functools.partial(_lazy_key, bound, fresh, cap))
                 top = cands[0]
                 if top in fresh:
                     choice = top
                     break
+                if capped and top not in cap and self.down.has_floor:
+                    cap[top] = _ratio(base - self.down.violation_floor(part | 1 << top), float(self.price[top]))
+                    if cap[top] < bound[top]:
+                        continue
                 drop = base - self.down.violation(part | 1 << top)
                 bound[top] = _ratio(drop, float(self.price[top]))
                 fresh.add(top)
@@ -461,6 +476,12 @@ def _nothing() -> None:
     pass
 
 
+def _lazy_key(bound: dict[int, float], fresh: set[int], cap: dict[int, float], i: int) -> tuple[float, int]:
+    """The greedy's order of candidate ``i``: its ratio where computed this step, else the least of
+    its lazy bound and its floor's cap; the first in library order among ties."""
+    return (-(bound[i] if i in fresh else min(bound[i], cap.get(i, math.inf))), i)
+
+
 def _ratio(drop: float, price: float) -> float:
     if drop <= 0:
         return 0.0
@@ -473,6 +494,7 @@ def cheapest_suite(
     *,
     failures: int = 0,
     violation: Violation | None = None,
+    violation_floor: Violation | None = None,
     monotone: bool = True,
     necessary_monotone: Meets | None = None,
     necessary_antimonotone: Meets | None = None,
@@ -496,6 +518,10 @@ def cheapest_suite(
         violation: with a monotone ``meets``: violation(suite) -> float >= 0, 0 exactly when
             meets(suite): the greedy upper bound needs it (without it the integer program alone
             finds the suites). Where the solver has called it, it does not call ``meets`` on that suite.
+        violation_floor: with ``violation``: a lower bound on it (<= violation(suite) at every suite)
+            that costs less, or None. The greedy completions of a plateau's proposals (step 4) ask it
+            of a candidate before its violation and skip the candidates whose floor shows they cannot
+            be the step's choice: fewer violations computed.
         monotone: ``meets`` is monotone (S ⊆ T and meets(S) imply meets(T)). False: nothing is
             inferred from its answers; give the relaxations below to make the cuts strong.
         necessary_monotone: with ``monotone=False``, a monotone necessary condition of ``meets``
@@ -542,11 +568,13 @@ def cheapest_suite(
         raise ValueError("relaxations are for a requirement that is not monotone: pass monotone=False")
     if dominance and not monotone:
         raise ValueError("dominance is for a monotone requirement")
+    if violation_floor is not None and violation is None:
+        raise ValueError("a violation floor bounds a violation: pass violation too")
     start = clock()
     alpha = int(failures)
     n = len(feasible.library)
     if monotone:
-        s = _Search(feasible, alpha, Monotone(n, meets, violation, swaps=dominance), None, None)
+        s = _Search(feasible, alpha, Monotone(n, meets, violation, swaps=dominance, floor=violation_floor), None, None)
         s.orders = dominance_order(feasible, dominance)
     else:
         s = _Search(
@@ -707,7 +735,7 @@ def cheapest_suite(
             if violation is not None and s.monotone and plateau[c] == 2 and c < upper - _tol(upper):
                 # a second failing suite of the same cost: the lower bound is on a plateau of suites of
                 # one price (sensors of one model); complete this one greedily, for a suite close to it
-                done = s.greedy(proposal)
+                done = s.greedy(proposal, capped=True)
                 if done is not None and s.fits(done) and s.cost(done) < upper - _tol(upper):
                     incumbent, upper = done, s.cost(done)
                     s.fix_above(upper)
