@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from oracles import cheapest_by_brute_force
 
 from sensorsel.designs.requirements.dominance import dominance_order, information_dominance
 from sensorsel.designs.requirements.solver import cheapest_suite
@@ -68,15 +69,7 @@ def _coverage(weights: np.ndarray, threshold: float):
 
 
 def _brute(feas, meets, alpha: int) -> float | None:
-    best = None
-    for k in range(len(POS) + 1):
-        for combo in itertools.combinations(POS, k):
-            if not feas.fits(combo) or (alpha and len(combo) <= alpha):
-                continue
-            if all(meets(tuple(sorted(set(combo) - set(f)))) for f in itertools.combinations(combo, alpha)):
-                cost = float(feas.A[0, list(combo)].sum())
-                best = cost if best is None or cost < best - 1e-9 else best
-    return best
+    return cheapest_by_brute_force(feas, meets, alpha, POS)
 
 
 def _weight_dominance(weights: np.ndarray) -> list[tuple[int, int]]:

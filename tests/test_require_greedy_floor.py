@@ -1,18 +1,15 @@
 """The greedy's violation floor: a cheaper lower bound on the violation that caps the lazy bounds.
 
 The floor must lie under every violation the route's checks return (the oracle), it must leave the
-proved cheapest cost unchanged (brute force), a greedy completion capped by it must spare
-violations, and round-off in it must not change which of two equally good candidates the greedy
-takes (the slack)."""
+proved cheapest cost unchanged (brute force, here and in ``test_require_solver``), a greedy
+completion capped by it must spare violations, and round-off in it must not change which of two
+equally good candidates the greedy takes (the slack)."""
 
 from __future__ import annotations
 
-import itertools
-
 import numpy as np
 import pytest
-from hypothesis import given, settings
-from hypothesis import strategies as st
+from oracles import cheapest_by_brute_force
 
 from sensorsel.designs.requirements import oracle
 from sensorsel.designs.requirements.domain_checks import DomainChecks, Here
@@ -47,37 +44,6 @@ def _coverage(weights: np.ndarray, threshold: float, lift: float = 1.0):
         return max(0.0, threshold - value(s, lift)) / threshold
 
     return meets, violation, floor
-
-
-def _brute(feas, meets, alpha: int) -> float | None:
-    best = None
-    for k in range(len(POS) + 1):
-        for combo in itertools.combinations(POS, k):
-            if not feas.fits(combo) or (alpha and len(combo) <= alpha):
-                continue
-            if all(meets(tuple(sorted(set(combo) - set(f)))) for f in itertools.combinations(combo, alpha)):
-                c = float(feas.A[0, list(combo)].sum())
-                best = c if best is None or c < best - 1e-9 else best
-    return best
-
-
-@settings(max_examples=20, deadline=None)
-@given(data=st.data())
-def test_with_a_floor_the_cheapest_cost_is_brute_forces(data):
-    rng = np.random.default_rng(data.draw(st.integers(0, 2**31)))
-    weights = np.zeros((len(LIB), 6))
-    weights[POS] = rng.uniform(0.0, 0.7, (len(POS), 6)) * (rng.uniform(size=(len(POS), 6)) < 0.6)
-    threshold = data.draw(st.floats(0.5, 5.5))
-    alpha = data.draw(st.sampled_from([0, 0, 1]))
-    lift = data.draw(st.sampled_from([1.0, 1.1, 2.0]))
-    feas = feasible_set(LIB, float("inf"), OUT)
-    meets, violation, floor = _coverage(weights, threshold, lift)
-    want = _brute(feas, meets, alpha)
-    got = cheapest_suite(feas, meets, failures=alpha, violation=violation, violation_floor=floor)
-    if want is None:
-        assert got.status == "infeasible"
-        return
-    assert got.status == "optimal" and got.cost == pytest.approx(want) and got.lower_bound <= want + 1e-6
 
 
 def _search(feas, meets, violation, floor=None):
@@ -117,7 +83,7 @@ def test_a_capped_completion_spares_violations_and_learns_what_its_floors_refute
     assert asked[True] < asked[False] / 2, asked
     assert refuted and all(search.down.infer(mask_of(s)) is False for s in refuted)
     got = cheapest_suite(feas, meets, violation=violation, violation_floor=floor)
-    assert got.status == "optimal" and got.cost == pytest.approx(_brute(feas, meets, 0))
+    assert got.status == "optimal" and got.cost == pytest.approx(cheapest_by_brute_force(feas, meets, 0, POS))
 
 
 def _tie():

@@ -1,5 +1,5 @@
 """The exact solver of require on synthetic monotone predicates: the answer is the
-brute-force cheapest suite, its lower bound never above it, with failures and limits."""
+brute-force cheapest suite, its lower bound never above it, with failures, limits and violation floors."""
 
 from __future__ import annotations
 
@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from oracles import cheapest_by_brute_force
 
 from sensorsel.designs.requirements.solver import cheapest_suite
 from sensorsel.model.constraints import Constraints, feasible_set
@@ -45,17 +46,8 @@ def _predicate(weights: np.ndarray, threshold: float):
     return (lambda s: value(s) >= threshold - 1e-12), (lambda s: max(0.0, threshold - value(s)) / threshold)
 
 
-def _brute(feas, meets, alpha: int):
-    best = None
-    for k in range(len(POS) + 1):
-        for combo in itertools.combinations(POS, k):
-            if not feas.fits(combo) or (alpha and len(combo) <= alpha):
-                continue
-            if all(meets(tuple(sorted(set(combo) - set(f)))) for f in itertools.combinations(combo, alpha)):
-                c = float(feas.A[0, list(combo)].sum())
-                if best is None or c < best - 1e-9:
-                    best = c
-    return best
+def _brute(feas, meets, alpha: int) -> float | None:
+    return cheapest_by_brute_force(feas, meets, alpha, POS)
 
 
 @settings(max_examples=25, deadline=None)
@@ -78,8 +70,11 @@ def test_solver_equals_brute_force(data):
         budget = data.draw(st.sampled_from([5_000.0, 20_000.0, 150_000.0]))
     feas = feasible_set(LIB, budget, c)
     meets, violation = _predicate(weights, threshold)
+    # a violation floor for the greedy's completions: the shortfall with every weight times lift >= 1
+    lift = data.draw(st.sampled_from([None, 1.0, 1.1, 2.0]))
+    floor = None if lift is None else _predicate(weights * lift, threshold)[1]
     want = _brute(feas, meets, alpha)
-    got = cheapest_suite(feas, meets, failures=alpha, violation=violation)
+    got = cheapest_suite(feas, meets, failures=alpha, violation=violation, violation_floor=floor)
     if want is None:
         assert got.status == "infeasible" and got.suite is None
         return
