@@ -6,14 +6,18 @@ bad keyframe: :mod:`.truncated`)."""
 from __future__ import annotations
 
 from collections.abc import Iterable
-from dataclasses import dataclass
 from typing import Literal, Protocol
 
 import numpy as np
 
 from sensorsel.designs.requirements.accept import Bases, base_of
 from sensorsel.designs.requirements.oracle import mask_of, suite_of
-from sensorsel.designs.requirements.spec import RouteVerdict, Specification, covariance_verdict, verdict
+from sensorsel.designs.requirements.spec import (
+    RouteVerdict,
+    Specification,
+    covariance_verdict,
+    verdict,
+)
 from sensorsel.designs.requirements.truncated import BadKeyframes, bad_keyframes, meets_from_bad
 from sensorsel.information.evaluators.accuracy import RouteAccuracy, accuracy_from_covariances
 from sensorsel.information.evaluators.base import Suite
@@ -27,26 +31,8 @@ __all__ = [
     "FLOOR_TRIAL",
     "RouteEngine",
     "RouteOracle",
-    "RouteRequirement",
     "route_covariances",
 ]
-
-
-@dataclass(frozen=True)
-class RouteRequirement:
-    """One route's specification and how a suite stands against it.
-
-    Attributes:
-        route: the route's name.
-        specification: what the route requires.
-        accuracy: the suite's accuracy there (per keyframe, 1σ).
-        verdict: whether it meets the specification, by how much it misses, where.
-    """
-
-    route: str
-    specification: Specification
-    accuracy: RouteAccuracy
-    verdict: RouteVerdict
 
 
 class RouteEngine(Protocol):

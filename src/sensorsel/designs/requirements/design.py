@@ -26,13 +26,12 @@ from pathlib import Path
 from typing import Any, cast
 
 from sensorsel.designs.inputs import result_fingerprint, route_entry
-from sensorsel.designs.requirements.checks import RouteRequirement
 from sensorsel.designs.requirements.domain_checks import DomainChecks, Here
 from sensorsel.designs.requirements.dominance import information_dominance
 from sensorsel.designs.requirements.integrity import IntegrityRequirement
 from sensorsel.designs.requirements.margin import Margin, margin_of
 from sensorsel.designs.requirements.solver import DEFAULT_TIE_PROGRAMS, cheapest_suite
-from sensorsel.designs.requirements.spec import Specification
+from sensorsel.designs.requirements.spec import RouteRequirement, Specification
 from sensorsel.errors import InputError
 from sensorsel.information.evaluators import Evaluator, as_suite, evaluator_for
 from sensorsel.information.evaluators.accuracy import estimate_label, model_label

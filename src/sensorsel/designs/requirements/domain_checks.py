@@ -37,8 +37,8 @@ import uuid
 from collections.abc import Callable, Sequence
 from typing import Any, Protocol
 
-from sensorsel.designs.requirements.checks import COUNTS, RouteOracle, RouteRequirement
-from sensorsel.designs.requirements.spec import Specification
+from sensorsel.designs.requirements.checks import COUNTS, RouteOracle
+from sensorsel.designs.requirements.spec import RouteRequirement, Specification
 from sensorsel.information.evaluators.base import ProblemEvaluator, Suite, as_suite
 
 __all__ = ["DomainChecks", "Here", "RouteHost"]

@@ -37,6 +37,7 @@ __all__ = [
     "Specification",
     "SpecificationError",
     "RouteVerdict",
+    "RouteRequirement",
     "preset",
     "load_specification_file",
     "specifications_for",
@@ -163,6 +164,23 @@ class RouteVerdict:
                 unit = "deg" if comp == "heading" else "m"
                 out.append(f"{comp} {err:.3f} {unit} > {bound:g} at {len(bad)} keyframes (first {bad[0]})")
         return "; ".join(out)
+
+
+@dataclass(frozen=True)
+class RouteRequirement:
+    """One route's specification and how a suite stands against it.
+
+    Attributes:
+        route: the route's name.
+        specification: what the route requires.
+        accuracy: the suite's accuracy there (per keyframe, 1σ).
+        verdict: whether it meets the specification, by how much it misses, where.
+    """
+
+    route: str
+    specification: Specification
+    accuracy: RouteAccuracy
+    verdict: RouteVerdict
 
 
 def _rank(at: float, k: int) -> int:
