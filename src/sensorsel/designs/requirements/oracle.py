@@ -220,8 +220,7 @@ class Monotone(_Antichains):
         super().__init__(n, passes, Antichain(n, "max"), Antichain(n, "min"))
         self.meeting = self.passing
         self._violation = violation
-        self._floor = floor
-        self.floor_calls = 0  # floors computed (their time is in ``seconds``; they are not checks)
+        self._floor = floor  # its time is in ``seconds``; a floor is not a check (``calls``)
         self.viol: dict[int, float] = {}
         self.swaps = tuple((1 << int(w), 1 << int(s)) for w, s in swaps)
         self.swap_inferred = 0
@@ -273,7 +272,6 @@ class Monotone(_Antichains):
         t = time.perf_counter()
         v = float(self._floor(suite_of(mask)))
         self.seconds += time.perf_counter() - t
-        self.floor_calls += 1
         if not math.isfinite(v) or v < 0:
             raise ValueError(f"violation floor{suite_of(mask)} returned {v!r}: it must be a finite number >= 0")
         v = max(0.0, v - FLOOR_SLACK * (1.0 + v))

@@ -438,9 +438,10 @@ class _Search:
             fits = self.fs.addable(used)
             cands = [i for i in bound if fits[i]]
             fresh: set[int] = set()
-            # this step's upper bounds on a candidate's ratio from the violation's floor: they only
-            # skip candidates the lazy bounds alone would have evaluated and not chosen, so the
-            # choice is the same as without them (a stale bound below the true ratio stays the key)
+            # this step's upper bounds on a candidate's ratio from the violation's floor: from the same
+            # lazy bounds, the step chooses what it would without them, asking fewer violations (a
+            # stale bound below the true ratio stays the key); the bounds it hands to the next step
+            # are then fewer refreshed, so later choices can differ
             cap: dict[int, float] = {}
             choice = None
             while cands:
