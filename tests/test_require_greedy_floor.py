@@ -26,24 +26,21 @@ POS = sorted(LIB.position(i) for i in SMALL)
 OUT = Constraints(exclude=tuple(sorted(set(LIB.ids) - set(SMALL))))
 
 
-def _coverage(weights: np.ndarray, threshold: float, lift: float = 1.0):
+def _coverage(weights: np.ndarray, threshold: float):
     """(meets, violation, floor): meets(S) when Σ_k min(1, Σ_s w) >= threshold (monotone);
-    violation its shortfall; the floor the shortfall of the same sum with every weight times
-    ``lift`` >= 1 (a larger sum: a smaller shortfall, under the violation at every suite)."""
+    violation its shortfall, 0 where it meets; the floor the shortfall itself (exact but for the
+    suites within 1e-12 of the threshold)."""
 
-    def value(s: tuple[int, ...], scale: float) -> float:
-        return float(np.minimum(1.0, scale * weights[list(s)].sum(axis=0)).sum()) if s else 0.0
+    def value(s: tuple[int, ...]) -> float:
+        return float(np.minimum(1.0, weights[list(s)].sum(axis=0)).sum()) if s else 0.0
 
     def meets(s: tuple[int, ...]) -> bool:
-        return value(s, 1.0) >= threshold - 1e-12
-
-    def violation(s: tuple[int, ...]) -> float:
-        return 0.0 if meets(s) else max(0.0, threshold - value(s, 1.0)) / threshold
+        return value(s) >= threshold - 1e-12
 
     def floor(s: tuple[int, ...]) -> float:
-        return max(0.0, threshold - value(s, lift)) / threshold
+        return max(0.0, threshold - value(s)) / threshold
 
-    return meets, violation, floor
+    return meets, (lambda s: 0.0 if meets(s) else floor(s)), floor
 
 
 def _search(feas, meets, violation, floor=None):
