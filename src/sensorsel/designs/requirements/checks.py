@@ -12,12 +12,7 @@ import numpy as np
 
 from sensorsel.designs.requirements.accept import Bases, base_of
 from sensorsel.designs.requirements.oracle import mask_of, suite_of
-from sensorsel.designs.requirements.spec import (
-    RouteVerdict,
-    Specification,
-    covariance_verdict,
-    verdict,
-)
+from sensorsel.designs.requirements.spec import RouteVerdict, Specification, covariance_verdict, verdict
 from sensorsel.designs.requirements.truncated import BadKeyframes, bad_keyframes, meets_from_bad
 from sensorsel.information.evaluators.accuracy import RouteAccuracy, accuracy_from_covariances
 from sensorsel.information.evaluators.base import Suite
