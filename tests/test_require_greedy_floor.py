@@ -116,6 +116,25 @@ def test_a_floor_a_hair_above_the_violation_does_not_change_the_greedys_choice(m
     assert _search(feas, meets, violation, floor).greedy(0, capped=True) == 1 << b | 1 << c
 
 
+def test_a_completion_stops_once_its_failing_suite_costs_its_limit():
+    """From nothing the greedy takes a (failing alone), then c. With a limit at a's price it stops
+    after a: no suite, and none of its second step's violations asked; with a limit above a's price
+    it goes on to the suite it finds without one. (Without the stop, the first search returns a
+    and c.)"""
+    feas, meets, violation, (a, b, c) = _tie()
+    price = feas.A[0]
+    asked: list[tuple[int, ...]] = []
+
+    def counted(s):
+        asked.append(s)
+        return violation(s)
+
+    assert _search(feas, meets, counted).greedy(0, limit=float(price[a])) is None
+    assert not any(a in s and len(s) > 1 for s in asked)  # no candidate of the step after a
+    assert _search(feas, meets, violation).greedy(0, limit=float(price[a] + price[c])) == 1 << a | 1 << c
+    assert _search(feas, meets, violation).greedy(0) == 1 << a | 1 << c
+
+
 def test_a_floor_needs_the_violation_it_bounds():
     feas, meets, violation, _ = _tie()
     with pytest.raises(ValueError, match="violation floor"):
