@@ -5,7 +5,7 @@ suites (:mod:`sensorsel.designs.requirements.accept`), side by side in one proce
     python bench/require.py [--kitti-root ../shared/kitti] [--rows tour 03 00 drive helsinki fixtures]
                             [--helsinki DIR/domain.yaml] [--presets local-streets freeway]
                             [--failures 0 1] [--time-limit 300]
-                            [--solvers new noaccept nowindows nofloor noswap dense nogreedyfloor reference]
+                            [--solvers new noaccept nowindows nofloor noswap dense nogreedyfloor nostop reference]
 
 Rows: "tour" is the README's tour (the bundled suburb route), "03" / "00" the KITTI sequences with
 their real pole maps, "drive" a user's own drive (KITTI 00's ground truth as a route file, with
@@ -25,7 +25,9 @@ the package's solver with the filter's passes dense (no window ever pays:
 ``filtering.WINDOW_WORTH`` at 0, so the landmarks held are updated at every keyframe);
 "nogreedyfloor" is the package's solver with its greedy's candidates evaluated without the
 violation's floor (``cheapest_suite(violation_floor=None)``: every candidate the lazy bounds put on
-top gets its violation computed). Printed per
+top gets its violation computed); "nostop" is the package's solver with its capped completions never
+stopped early (``solver.COMPLETION_GAP_SHARE`` infinite: each completes its suite, as before the
+stop existed). Printed per
 run: the status, cost and lower bound, integer programs and plateau swaps ("pswaps"), accuracy
 computations (and the suites the cheap floor refuted), the answers inferred from dominance among
 sensors ("swaps"), the filter passes stopped early ("short") and the
@@ -41,6 +43,7 @@ from __future__ import annotations
 
 import argparse
 import importlib.util
+import math
 import os
 import sys
 import time
@@ -128,7 +131,7 @@ def main() -> None:
         "--solvers",
         nargs="+",
         default=["new", "noaccept", "reference"],
-        choices=["new", "noaccept", "nowindows", "nofloor", "noswap", "dense", "nogreedyfloor", "reference"],
+        choices=["new", "noaccept", "nowindows", "nofloor", "noswap", "dense", "nogreedyfloor", "nostop", "reference"],
     )
     a = ap.parse_args()
     from sensorsel.designs.requirements import design, programs, solver
@@ -137,10 +140,11 @@ def main() -> None:
     from sensorsel.information import filtering
 
     package = design.cheapest_suite
-    solvers = {k: package for k in ("new", "noaccept", "nowindows", "nofloor", "noswap", "dense")}
+    solvers = {k: package for k in ("new", "noaccept", "nowindows", "nofloor", "noswap", "dense", "nostop")}
     solvers["reference"] = _reference()
     solvers["nogreedyfloor"] = lambda *args, **kw: package(*args, **{**kw, "violation_floor": None})
     after, swap, worth = programs.FLOOR_AFTER_NODES, solver._plateau_swap, filtering.WINDOW_WORTH
+    share = solver.COMPLETION_GAP_SHARE
     print(
         f"{'row':>5} {'preset':>13} a solver    {'status':>8} {'cost':>9} {'lower':>9} {'programs':>8} {'pswaps':>6} "
         f"{'checks':>6} "
@@ -159,6 +163,7 @@ def main() -> None:
                     programs.FLOOR_AFTER_NODES = 1 << 62 if which == "nofloor" else after
                     solver._plateau_swap = (lambda *_: None) if which == "noswap" else swap
                     filtering.WINDOW_WORTH = 0.0 if which == "dense" else worth
+                    solver.COMPLETION_GAP_SHARE = math.inf if which == "nostop" else share
                     t0, c0 = time.perf_counter(), time.process_time()
                     try:
                         r = design.require(
@@ -175,6 +180,7 @@ def main() -> None:
                         programs.FLOOR_AFTER_NODES = after
                         solver._plateau_swap = swap
                         filtering.WINDOW_WORTH = worth
+                        solver.COMPLETION_GAP_SHARE = share
                     dt, cpu = time.perf_counter() - t0, time.process_time() - c0
                     print(
                         f"{row:>5} {name:>13} {alpha} {which:<9} {r.status:>8} {r.cost_usd:>9,.0f} "
