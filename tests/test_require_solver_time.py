@@ -74,18 +74,21 @@ def test_the_greedy_stops_at_the_time_limit(alpha):
     assert cut.iterations == 0 and cut.lower_bound <= full.cost
 
 
-@pytest.mark.parametrize("alpha", [0, 1])
-def test_every_limit_gives_valid_bounds_and_a_suite_that_meets(alpha):
+@pytest.mark.parametrize("alpha, floor", [(0, False), (1, False), (0, True)])
+def test_every_limit_gives_valid_bounds_and_a_suite_that_meets(alpha, floor):
     """Wherever the limit falls (greedy, growth, more cuts, ties), both bounds stay true and the
-    suite reported meets the requirement after the failures."""
+    suite reported meets the requirement after the failures; with a violation floor too (the capped
+    completions, which may stop early, read the same clock)."""
     feas, meets, violation, calls, value = _case(11)
+    # the floor: the violation itself, not counted (a floor is not a check)
+    kw = {"violation": violation, "violation_floor": (lambda s: max(0.0, 6.0 - value(s))) if floor else None}
     best = _brute(feas, value, alpha)
-    full = cheapest_suite(feas, meets, failures=alpha, violation=violation, clock=_Ticks())
+    full = cheapest_suite(feas, meets, failures=alpha, clock=_Ticks(), **kw)
     assert full.status == "optimal" and full.cost == pytest.approx(best)
     seen = set()
     for limit in range(1, full.n_checks + 2 * full.iterations + 8, 3):
         calls.clear()
-        got = cheapest_suite(feas, meets, failures=alpha, violation=violation, time_limit=limit, clock=_Ticks())
+        got = cheapest_suite(feas, meets, failures=alpha, time_limit=limit, clock=_Ticks(), **kw)
         assert got.n_checks == len(calls) <= limit
         assert got.lower_bound <= best + 1e-6
         if got.status == "gap":

@@ -604,10 +604,10 @@ def cheapest_suite(
         )
     programs = [0.0, 0]  # seconds in integer programs, tie programs
     if time_limit is not None:
-        limit = time_limit
+        seconds = float(time_limit)
 
         def before_call() -> None:
-            if clock() - start >= limit:
+            if clock() - start >= seconds:
                 raise _OutOfTime
 
         for p in s.predicates():
@@ -753,8 +753,12 @@ def cheapest_suite(
             if violation is not None and s.monotone and plateau[c] == 2 and c < upper - _tol(upper):
                 # a second failing suite of the same cost: the lower bound is on a plateau of suites of
                 # one price (sensors of one model); complete this one greedily, for a suite close to it
-                limit = lower + COMPLETION_GAP_SHARE * (upper - lower) if s.down.has_floor else math.inf
-                done = s.greedy(proposal, capped=True, limit=limit)
+                give_up = (
+                    lower + COMPLETION_GAP_SHARE * (upper - lower)
+                    if s.down is not None and s.down.has_floor
+                    else math.inf
+                )
+                done = s.greedy(proposal, capped=True, limit=give_up)
                 if done is not None and s.fits(done) and s.cost(done) < upper - _tol(upper):
                     incumbent, upper = done, s.cost(done)
                     s.fix_above(upper)
