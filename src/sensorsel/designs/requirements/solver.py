@@ -59,7 +59,7 @@ suite that meets the requirement, whatever its structure; monotonicity only make
    early (so the search ends when the bound reaches it, not after every suite of that cost).
    With a ``violation_floor`` (a cheaper lower bound on the violation), such a completion caps a
    candidate's lazy bound by its floor before computing its violation, and a suite whose floor is
-   above 0 is known to fail, and it stops (no suite) once its suite, still failing, costs more than
+   above 0 is known to fail, and it stops (no suite) once its suite, still failing, costs at least
    the lower bound plus :data:`COMPLETION_GAP_SHARE` of the gap to the upper bound: a completion
    that ends above that closes little of the gap, and its last steps are its dearest (on KITTI 00 at
    local streets, four completions asked 215 violations, 41 s, for suites of $7,319-8,816 against
@@ -168,7 +168,7 @@ STATUSES = ("optimal", "gap", "infeasible")
 #: integer programs solved (rounds of the hitting set) before stopping with a gap
 DEFAULT_MAX_ITERATIONS = 1000
 
-#: a completion capped by a violation floor stops once its failing suite costs more than the lower
+#: a completion capped by a violation floor stops once its failing suite costs at least the lower
 #: bound plus this share of the gap to the upper bound (module docstring, step 4). Measured against
 #: no such stop (accuracy computations, each search proved the same cost): KITTI 00 local streets
 #: 39 -> 19 (and its completions' violations 41 s -> 11 s), freeway 120 -> 110; the seven KITTI
