@@ -219,6 +219,8 @@ class RequireJournal:
 #: seven routes 409 computations against 246. Not with failures: on KITTI 00 at local streets with
 #: one failure the capped completions led to 226 integer programs and 1,839 accuracy computations
 #: against 164 and 1,273
+#: (The same gate turns on the completions' stop, :data:`.solver.COMPLETION_GAP_SHARE`: it applies to
+#: completions capped by a floor.)
 GREEDY_FLOOR_KEYFRAMES = 200
 #: bumped when what the journal's answers depend on, or how they are computed, changes (3: the
 #: filter's state held in the order its landmarks came: its covariances equal format 2's to rounding only)
