@@ -11,9 +11,16 @@ from typing import Literal, Protocol
 import numpy as np
 
 from sensorsel.designs.requirements.accept import Bases, base_of
-from sensorsel.designs.requirements.oracle import mask_of, suite_of
+from sensorsel.designs.requirements.oracle import Antichain, mask_of, suite_of
 from sensorsel.designs.requirements.spec import RouteVerdict, Specification, covariance_verdict, verdict
-from sensorsel.designs.requirements.truncated import BadKeyframes, bad_keyframes, meets_from_bad
+from sensorsel.designs.requirements.truncated import (
+    BadKeyframes,
+    bad_keyframes,
+    mask_of_bad,
+    meets_from_bad,
+    meets_from_mask,
+    over_limits,
+)
 from sensorsel.information.evaluators.accuracy import RouteAccuracy, accuracy_from_covariances
 from sensorsel.information.evaluators.base import Suite
 from sensorsel.information.filtering import forward_pass
@@ -167,7 +174,7 @@ class RouteOracle:
         self._bad = BadKeyframes()
         #: the minimal suites (bit masks) seen to meet the specification: a suite holding one meets
         #: it too, with no computation (:meth:`_met_below`)
-        self._met: list[int] = []
+        self._met = Antichain(problem.n_sensors, "min")
         #: the recent suites seen to fail (bit mask, sensors), oldest first: bases of the bounds
         self._failed: list[tuple[int, int]] = []
         #: the failing suites whose filter states the upper bounds restart from (:mod:`.accept`)
@@ -281,16 +288,15 @@ class RouteOracle:
         :func:`~sensorsel.designs.requirements.spec.covariance_verdict` would return. The solver's
         own inferences rest on the same monotonicity, over the whole domain; this one is per route,
         so a suite that fails the domain still answers, for its supersets, every route it met."""
-        if any(not m & ~mask for m in self._met):
+        if self._met.holds_one(mask):
             self.n_met_below += 1
             return True
         return False
 
     def _note_met(self, mask: int) -> None:
-        """Keep ``mask`` among the minimal meeting suites (dropping those holding it)."""
-        if any(not m & ~mask for m in self._met):
-            return
-        self._met = [m for m in self._met if m & ~mask] + [mask]
+        """Keep ``mask`` among the minimal meeting suites (dropping those holding it); its callers
+        asked :meth:`_met_below` of it just before (none inside it is kept)."""
+        self._met.add(mask)
 
     def _note_failed(self, mask: int, size: int) -> None:
         """Keep ``mask`` (``size`` sensors) among the recent failing suites (bases of bounds)."""
@@ -388,11 +394,13 @@ class RouteOracle:
             if failed is not None:
                 self._bad_keyframes_of(failed)
                 known = self._bad.inside(mask)
+        # the keyframes still in question, per component, as (C, K) masks (sets of a few keyframes
+        # each, asked thousands of times: masks cost a fraction of numpy's set operations)
         if known:
-            candidates = known[0][1]
+            candidates = mask_of_bad(known[0][1], n)
             for _, bad in known[1:]:
-                candidates = tuple(np.intersect1d(a, b) for a, b in zip(candidates, bad))
-            at = np.unique(np.concatenate(candidates))
+                candidates &= mask_of_bad(bad, n)
+            at = np.flatnonzero(candidates.any(axis=0))
         if known and len(at) <= max(WINDOW_KEYFRAMES, n // 2):
             if scope == "dear":
                 return None  # asked of these keyframes already
@@ -400,43 +408,40 @@ class RouteOracle:
             return None
         else:  # a dear pass (a long route, sensors that hold many landmarks): the windows at every keyframe
             at = np.arange(n)
-            candidates = tuple(at for _ in self.spec.bounds())
+            candidates = np.ones((len(self.spec.bounds()), n), bool)
         if self._windows is None:
             self._windows = WindowBounds(self.problem, self.map_sigma_m)
-        sure = tuple(np.zeros(0, np.int64) for _ in candidates)
+        sure = np.zeros_like(candidates)
         worst = 0.0  # the largest σ · factor / limit − 1 of a floor over its limit
         # short windows first; the keyframes they leave undecided (the floor within its limit, the
         # ceiling over it) again with long ones (tighter: conditioned on fewer poses, a larger
         # subgraph). In chunks: a suite that fails is mostly refuted by its first keyframes' floors
         for window in WINDOWS:
-            undecided = []
+            undecided = np.zeros_like(candidates)
             for lo in range(0, len(at), WINDOW_KEYFRAMES):
                 chunk = at[lo : lo + WINDOW_KEYFRAMES]
                 floors, ceilings = self._windows(suite, chunk, window)
-                over = bad_keyframes(floors, self.spec, slack=WINDOW_SLACK)
-                within = bad_keyframes(ceilings, self.spec, slack=-WINDOW_SLACK)
-                sure = tuple(np.union1d(s_, np.intersect1d(chunk[b], c)) for s_, b, c in zip(sure, over, candidates))
+                asked = candidates[:, chunk]
+                sure[:, chunk] |= over_limits(floors, self.spec, WINDOW_SLACK) & asked
                 worst = max(worst, covariance_verdict(floors, self.spec)[1])
-                if not meets_from_bad(sure, n, self.spec) and not (rank and lo + WINDOW_KEYFRAMES < len(at)):
+                if not meets_from_mask(sure, self.spec) and not (rank and lo + WINDOW_KEYFRAMES < len(at)):
                     self.n_window_refuted += 1
                     if not (rank and self.spec.at >= 1.0):  # a rank rule's violation is an order
                         return self._refute(suite)  # statistic over the whole route: not known from a few
                     # every keyframe required: the violation is the largest excess, at least the floors'
                     # at the bad keyframes (those of the long windows there: closer)
                     if window != WINDOWS[-1]:
-                        bad_at = np.unique(np.concatenate(sure))
+                        bad_at = np.flatnonzero(sure.any(axis=0))
                         worst = covariance_verdict(self._windows(suite, bad_at, WINDOWS[-1])[0], self.spec)[1]
                     self._window_violations[suite] = worst
                     return self._refute(suite, worst)
-                undecided.append(
-                    tuple(np.setdiff1d(np.intersect1d(chunk[b], c), s_) for s_, b, c in zip(sure, within, candidates))
-                )
-            candidates = tuple(np.concatenate(u) for u in zip(*undecided))
-            if meets_from_bad(tuple(np.union1d(s_, c) for s_, c in zip(sure, candidates)), n, self.spec):
+                undecided[:, chunk] = over_limits(ceilings, self.spec, -WINDOW_SLACK) & asked & ~sure[:, chunk]
+            candidates = undecided
+            if meets_from_mask(sure | candidates, self.spec):
                 self.n_window_accepted += 1
                 return self._met_by_bound(suite)
             # the next windows only where these left a component undecided
-            at = np.unique(np.concatenate(candidates))
+            at = np.flatnonzero(candidates.any(axis=0))
         # where the long windows left a keyframe undecided, its ceiling again with the route's earlier
         # visits to the window's landmarks (after a loop the filter still knows them from then); not
         # where the window reaches the route's start (its ceiling is the filter's already)
@@ -447,24 +452,22 @@ class RouteOracle:
         self.n_visits_accepted += 1
         return self._met_by_bound(suite)
 
-    def _met_with_visits(
-        self, suite: Suite, late: np.ndarray, sure: tuple[np.ndarray, ...], candidates: tuple[np.ndarray, ...]
-    ) -> bool:
+    def _met_with_visits(self, suite: Suite, late: np.ndarray, sure: np.ndarray, candidates: np.ndarray) -> bool:
         """Whether the ceilings with the earlier visits at the keyframes ``late`` keep enough of them
         within their limits that ``suite`` meets the specification (``sure``: the keyframes known bad,
-        ``candidates``: those undecided, per component). In chunks: once the keyframes still over their
-        limits (those not asked yet taken as good) are enough to fail, the rest cannot accept it (these
-        systems span the visits: up to a few hundred poses and a thousand landmarks on a user's drive,
-        0.2 s)."""
+        ``candidates``: those undecided, per component, (C, K) masks). In chunks: once the keyframes
+        still over their limits (those not asked yet taken as good) are enough to fail, the rest cannot
+        accept it (these systems span the visits: up to a few hundred poses and a thousand landmarks on
+        a user's drive, 0.2 s)."""
         assert self._windows is not None
-        n = self.problem.scenario.n_poses
+        candidates = candidates.copy()
         for lo in range(0, len(late), WINDOW_KEYFRAMES):
             chunk, rest = late[lo : lo + WINDOW_KEYFRAMES], late[lo + WINDOW_KEYFRAMES :]
             ceilings = self._windows.ceilings_with_visits(suite, chunk, WINDOWS[-1])
-            over = bad_keyframes(ceilings, self.spec, slack=-WINDOW_SLACK)
-            candidates = tuple(np.setdiff1d(c, np.setdiff1d(chunk, chunk[b])) for b, c in zip(over, candidates))
-            still = tuple(np.union1d(s_, np.setdiff1d(c, rest)) for s_, c in zip(sure, candidates))
-            if not meets_from_bad(still, n, self.spec):
+            candidates[:, chunk] &= over_limits(ceilings, self.spec, -WINDOW_SLACK)
+            still = sure | candidates
+            still[:, rest] = sure[:, rest]
+            if not meets_from_mask(still, self.spec):
                 return False
         return True
 
@@ -604,8 +607,7 @@ class RouteOracle:
         smoother's or the filter's violation, or 0 where the smoother meets the specification and
         so the floor does too); 0 where the engine has none. On KITTI 00 ~1/20 of the smoother's
         marginals, and within 0.3 % of their violation for one sensor alone."""
-        mask = mask_of(suite)
-        if any(not m & ~mask for m in self._met):
+        if self._met.holds_one(mask_of(suite)):
             return 0.0
         known = self.known.get(suite)
         if known is not None and known[1] is not None and suite not in self._answers:

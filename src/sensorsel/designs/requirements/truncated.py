@@ -24,26 +24,34 @@ import numpy as np
 
 from sensorsel.designs.requirements.spec import Specification, _rank
 
-__all__ = ["BadKeyframes", "bad_keyframes", "meets_from_bad"]
+__all__ = ["BadKeyframes", "bad_keyframes", "mask_of_bad", "meets_from_bad", "meets_from_mask", "over_limits"]
 
 #: per component of the specification (in ``spec.bounds()`` order): the sorted bad keyframes
 Bad = tuple[np.ndarray, ...]
+
+
+def over_limits(covariances: np.ndarray, spec: Specification, slack: float = 0.0) -> np.ndarray:
+    """(C, k) whether each of the (k, 3, 3) ``covariances`` exceeds each of ``spec``'s C components'
+    limits (in ``spec.bounds()`` order), as
+    :func:`~sensorsel.designs.requirements.spec.covariance_verdict` judges a keyframe: σ · factor /
+    limit − 1 > ``slack`` (0: the verdict's own test; a bound's callers move it off 0 by its
+    round-off, so that a keyframe the exact pass could judge either way is not decided by a bound)."""
+    cov = np.asarray(covariances, dtype=float).reshape(-1, 3, 3)
+    diag = np.sqrt(np.maximum(np.diagonal(cov, axis1=1, axis2=2), 0.0))
+    sig = {"longitudinal": diag[:, 0], "lateral": diag[:, 1], "heading": np.degrees(diag[:, 2])}
+    rows = [(spec.factor * sig[comp]) / bound - 1.0 > slack for comp, bound, _ in spec.bounds()]
+    return np.array(rows, dtype=bool).reshape(len(rows), len(cov))
 
 
 def bad_keyframes(
     covariances: np.ndarray, spec: Specification, keyframes: np.ndarray | None = None, slack: float = 0.0
 ) -> Bad:
     """Per component of ``spec``, the keyframes (sorted) where the (k, 3, 3) ``covariances`` exceed its
-    limit, as :func:`~sensorsel.designs.requirements.spec.covariance_verdict` judges a keyframe;
-    ``keyframes``: only these of them (indices into ``covariances``; default all). ``slack``: a
-    keyframe is bad where σ · factor / limit − 1 > ``slack`` (0: the verdict's own test; a bound's
-    callers move it off 0 by its round-off, so that a keyframe the exact pass could judge either way
-    is not decided by a bound)."""
-    cov = np.asarray(covariances, dtype=float)
-    diag = np.sqrt(np.maximum(np.diagonal(cov, axis1=1, axis2=2), 0.0))
-    sig = {"longitudinal": diag[:, 0], "lateral": diag[:, 1], "heading": np.degrees(diag[:, 2])}
-    at = np.arange(len(cov)) if keyframes is None else np.asarray(keyframes, np.int64)
-    return tuple(at[(spec.factor * sig[comp][at]) / bound - 1.0 > slack] for comp, bound, _ in spec.bounds())
+    limit (:func:`over_limits`, with its ``slack``); ``keyframes``: only these of them (indices into
+    ``covariances``; default all)."""
+    over = over_limits(covariances, spec, slack)
+    at = np.arange(over.shape[1]) if keyframes is None else np.asarray(keyframes, np.int64)
+    return tuple(at[row[at]] for row in over)
 
 
 def meets_from_bad(bad: Bad, n_keyframes: int, spec: Specification) -> bool:
@@ -51,6 +59,21 @@ def meets_from_bad(bad: Bad, n_keyframes: int, spec: Specification) -> bool:
     ``n_keyframes``: each component within its limit at ⌈at·K⌉ keyframes at least."""
     need = _rank(spec.at, n_keyframes) if n_keyframes else 0
     return all(n_keyframes - len(b) >= need for b in bad)
+
+
+def meets_from_mask(bad: np.ndarray, spec: Specification) -> bool:
+    """:func:`meets_from_bad` of the bad keyframes as a (C, K) mask (K: the route's keyframes)."""
+    n_keyframes = bad.shape[1]
+    need = _rank(spec.at, n_keyframes) if n_keyframes else 0
+    return bool((n_keyframes - np.count_nonzero(bad, axis=1) >= need).all())
+
+
+def mask_of_bad(bad: Bad, n_keyframes: int) -> np.ndarray:
+    """(C, K) the bad keyframes ``bad`` (per component) as a mask over the route's K keyframes."""
+    out = np.zeros((len(bad), n_keyframes), bool)
+    for row, b in zip(out, bad):
+        row[b] = True
+    return out
 
 
 class BadKeyframes:
