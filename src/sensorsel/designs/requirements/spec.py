@@ -43,6 +43,7 @@ __all__ = [
     "specifications_for",
     "verdict",
     "covariance_verdict",
+    "component_sigmas",
 ]
 
 #: the default accuracy of a prior map's landmarks [m] for ``require`` (assumed: survey-grade
@@ -207,13 +208,20 @@ def verdict(accuracy: RouteAccuracy, spec: Specification) -> RouteVerdict:
     return RouteVerdict(accuracy.route, violation <= 0.0, max(violation, 0.0), tuple(worst))
 
 
+def component_sigmas(covariances: np.ndarray) -> dict[str, np.ndarray]:
+    """Each component's σ at each of the (K, 3, 3) pose ``covariances`` (Pose2 tangent: x forward,
+    y left [m], θ [rad]): longitudinal and lateral [m], heading [deg], (K,) each; what every verdict
+    of a specification compares with its limits."""
+    cov = np.asarray(covariances, dtype=float)
+    diag = np.sqrt(np.maximum(np.diagonal(cov, axis1=1, axis2=2), 0.0))  # (K, 3): x forward, y left, θ
+    return {"longitudinal": diag[:, 0], "lateral": diag[:, 1], "heading": np.degrees(diag[:, 2])}
+
+
 def covariance_verdict(covariances: np.ndarray, spec: Specification) -> tuple[bool, float]:
     """(meets, violation) of (K, 3, 3) pose covariances against ``spec``: the same numbers as
     :func:`verdict` of their :class:`RouteAccuracy` (the same operations on the same σ), without
     building it: what the solver asks thousands of times."""
-    cov = np.asarray(covariances, dtype=float)
-    diag = np.sqrt(np.maximum(np.diagonal(cov, axis1=1, axis2=2), 0.0))  # (K, 3): x forward, y left, θ
-    sig = {"longitudinal": diag[:, 0], "lateral": diag[:, 1], "heading": np.degrees(diag[:, 2])}
+    sig = component_sigmas(covariances)
     violation = 0.0
     for comp, bound, _ in spec.bounds():
         violation = max(violation, at_rank(spec.factor * sig[comp], spec.at) / bound - 1.0)

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from sensorsel.designs.requirements.spec import Specification, _rank
+from sensorsel.designs.requirements.spec import Specification, _rank, component_sigmas
 
 __all__ = ["BadKeyframes", "bad_keyframes", "mask_of_bad", "meets_from_bad", "meets_from_mask", "over_limits"]
 
@@ -36,11 +36,9 @@ def over_limits(covariances: np.ndarray, spec: Specification, slack: float = 0.0
     :func:`~sensorsel.designs.requirements.spec.covariance_verdict` judges a keyframe: σ · factor /
     limit − 1 > ``slack`` (0: the verdict's own test; a bound's callers move it off 0 by its
     round-off, so that a keyframe the exact pass could judge either way is not decided by a bound)."""
-    cov = np.asarray(covariances, dtype=float).reshape(-1, 3, 3)
-    diag = np.sqrt(np.maximum(np.diagonal(cov, axis1=1, axis2=2), 0.0))
-    sig = {"longitudinal": diag[:, 0], "lateral": diag[:, 1], "heading": np.degrees(diag[:, 2])}
+    sig = component_sigmas(np.asarray(covariances, dtype=float).reshape(-1, 3, 3))
     rows = [(spec.factor * sig[comp]) / bound - 1.0 > slack for comp, bound, _ in spec.bounds()]
-    return np.array(rows, dtype=bool).reshape(len(rows), len(cov))
+    return np.array(rows, dtype=bool).reshape(len(rows), len(sig["lateral"]))
 
 
 def bad_keyframes(
