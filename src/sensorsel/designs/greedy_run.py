@@ -24,6 +24,7 @@ from sensorsel.designs.certify import CertifiedGreedyResult, certificate
 from sensorsel.designs.checkpoint import GreedyInputs, GreedyStore
 from sensorsel.designs.domain_design import DomainDesign, route_breakdown, worst_route
 from sensorsel.designs.options import RunKeywords, RunOptions
+from sensorsel.designs.parts import elapsed_s
 from sensorsel.designs.selection import GreedyResult, check_budget, check_rule, greedy
 from sensorsel.information.evaluators import DomainEvaluator, Evaluator
 from sensorsel.io.progress import Progress
@@ -115,7 +116,7 @@ def domain_design(
         routes=shares,
         worst_route=worst_route(shares),
         domain=ev.domain.info,
-        seconds=round(time.perf_counter() - t0, 6),
+        seconds=elapsed_s(t0),
     )
 
 

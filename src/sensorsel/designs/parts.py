@@ -7,12 +7,15 @@ they live here, below every design. A record lists them among its bases, ``Suite
 ``Provenance`` (``class OptimumResult(SuiteQuality, Provenance, SuiteScore, Budget)``); their fields are
 keyword-only and made with :func:`sensorsel.io.codec.last`, so the record's JSON is its own fields,
 then ``problem, seconds, constraints``, then ``accuracy, integrity``: the bytes it had with the
-fields written out. Each field is documented here once.
+fields written out. Each field is documented here once. :func:`provenance` fills a ``Provenance`` at
+the end of a run and :func:`elapsed_s` is the wall time every design record gives, both written once.
 """
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
+from typing import TypedDict
 
 from sensorsel.information.evaluators.accuracy import RouteAccuracy
 from sensorsel.information.integrity import RouteIntegrity
@@ -20,7 +23,7 @@ from sensorsel.io.codec import last
 from sensorsel.model.constraints import Constraints
 from sensorsel.model.problem import TargetInfo
 
-__all__ = ["Provenance", "SuiteQuality"]
+__all__ = ["Provenance", "ProvenanceFields", "SuiteQuality", "elapsed_s", "provenance"]
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -53,3 +56,23 @@ class SuiteQuality:
 
     accuracy: tuple[RouteAccuracy, ...] = last(())
     integrity: tuple[RouteIntegrity, ...] = last(())
+
+
+class ProvenanceFields(TypedDict):
+    """:class:`Provenance`'s fields as keywords (``Record(..., **provenance(info, t0, limits))``)."""
+
+    problem: TargetInfo | None
+    seconds: float
+    constraints: Constraints | None
+
+
+def elapsed_s(started: float) -> float:
+    """Wall time [s] since ``started`` (a :func:`time.perf_counter` reading), to the microsecond: the
+    ``seconds`` of every design record."""
+    return round(time.perf_counter() - started, 6)
+
+
+def provenance(problem: TargetInfo | None, started: float, constraints: Constraints | None) -> ProvenanceFields:
+    """What a run that began at ``started`` (:func:`time.perf_counter`) was computed on, how long it took
+    until now and the limits it kept: a :class:`Provenance`'s fields, to pass as keywords."""
+    return {"problem": problem, "seconds": elapsed_s(started), "constraints": constraints}

@@ -55,7 +55,7 @@ import numpy as np
 
 from sensorsel.designs.inputs import result_fingerprint
 from sensorsel.designs.options import RunKeywords, RunOptions
-from sensorsel.designs.parts import Provenance
+from sensorsel.designs.parts import Provenance, provenance
 from sensorsel.designs.selection import RULES, GreedyResult, Rule, Step, check_budget, check_rule, greedy
 from sensorsel.errors import InputError
 from sensorsel.information.evaluators import Evaluator, evaluator_for
@@ -566,9 +566,7 @@ def tradespace(
         lazy=lazy,
         share_prefix=share_prefix,
         n_evaluations=n_evals,
-        problem=info,
-        seconds=round(time.perf_counter() - t0, 6),
-        constraints=None if top is None else top.constraints,
+        **provenance(info, t0, None if top is None else top.constraints),
     )
 
 

@@ -44,7 +44,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sensorsel.designs.certify.knapsack import MAX_DP_CELLS, KnapsackSolution, knapsack, packing_bound
-from sensorsel.designs.parts import Provenance
+from sensorsel.designs.parts import Provenance, provenance
 from sensorsel.designs.selection import REL_TOL, GreedyResult, check_budget
 from sensorsel.errors import InputError
 from sensorsel.information.evaluators import Evaluator, make_evaluator
@@ -389,9 +389,7 @@ def _certificate_record(
         knapsack_exact=all(b.knapsack_exact for b in swept_bounds.values()),
         n_evaluations=evaluator.n_evaluations - n0,
         engine=evaluator.name,
-        problem=res.problem,
-        seconds=round(time.perf_counter() - t0, 6),
-        constraints=constraints,
+        **provenance(res.problem, t0, constraints),
     )
 
 

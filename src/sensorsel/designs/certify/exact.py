@@ -45,7 +45,7 @@ from sensorsel.designs.certify.resume import (
     save_checkpoint,
     search_fingerprint,
 )
-from sensorsel.designs.parts import Provenance, SuiteQuality
+from sensorsel.designs.parts import Provenance, SuiteQuality, provenance
 from sensorsel.designs.selection import REL_TOL, RULES, GreedyResult, check_budget, check_rule, greedy
 from sensorsel.errors import InputError
 from sensorsel.information.evaluators import Evaluator
@@ -293,9 +293,7 @@ def optimal(
         greedy_percent_of_bound=100.0 * g_score / upper if upper > 0 else 100.0,
         greedy_certificate_bound=cert_bound,
         engine=ev.name,
-        problem=info,
-        seconds=round(time.perf_counter() - t0, 6),
-        constraints=recorded,
+        **provenance(info, t0, recorded),
     )
 
 

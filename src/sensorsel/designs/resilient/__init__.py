@@ -47,6 +47,7 @@ import time
 from pathlib import Path
 from typing import Any, Unpack
 
+from sensorsel.designs.parts import elapsed_s
 from sensorsel.designs.resilient.algorithm import (
     MAX_FAILURE_SETS,
     check_alpha,
@@ -191,7 +192,7 @@ def resilient_report(
         engine=cmp_.engine,
         comparison=cmp_,
         per_period=per,
-        seconds=round(time.perf_counter() - t0, 6),
+        seconds=elapsed_s(t0),
         method=method,
         robust=choice,
         constraints=recorded(feas),

@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 
 from sensorsel.designs.options import RunOptions
+from sensorsel.designs.parts import provenance
 from sensorsel.designs.resilient.cache import fingerprint, load_matching
 from sensorsel.designs.resilient.records import Comparison, ResilientResult, WorstCase
 from sensorsel.designs.selection import REL_TOL, check_budget, check_rule, greedy
@@ -188,9 +189,7 @@ def resilient_select(
         greedy=run,
         n_evaluations=evaluator.n_evaluations - n0,
         engine=evaluator.name,
-        problem=info,
-        seconds=round(time.perf_counter() - t0, 6),
-        constraints=recorded(feas),
+        **provenance(info, t0, recorded(feas)),
     )
 
 
@@ -298,9 +297,7 @@ def compare(
         resilient_worst=rw,
         engine=ev.name,
         fingerprint=fp,
-        problem=info,
-        seconds=round(time.perf_counter() - t0, 6),
-        constraints=recorded(feas),
+        **provenance(info, t0, recorded(feas)),
     )
     if cache is not None and route is not None:
         results.save(out, cache)

@@ -13,6 +13,7 @@ from typing import Any, Unpack
 import numpy as np
 
 from sensorsel.designs.options import RunKeywords, RunOptions
+from sensorsel.designs.parts import elapsed_s
 from sensorsel.designs.resilient.algorithm import (
     check_alpha,
     check_rule,
@@ -317,7 +318,7 @@ def periods_of(problem: Problem, budget_usd: float, alpha: int, period_s: float,
         engine=name,
         periods=tuple(out),
         grid=make_grid(problem.library, out),
-        seconds=round(time.perf_counter() - t0, 6),
+        seconds=elapsed_s(t0),
         method=method,
         constraints=recorded(feas),
     )

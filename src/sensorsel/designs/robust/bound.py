@@ -76,6 +76,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from sensorsel.designs.certify import MAX_DP_CELLS, cost_units, knapsack, optimal, quiet_stdout
+from sensorsel.designs.parts import elapsed_s
 from sensorsel.designs.resilient import check_alpha, worst_case
 from sensorsel.designs.robust.records import BoundLeaf, RobustBound
 from sensorsel.designs.selection import REL_TOL, check_budget, greedy
@@ -296,7 +297,7 @@ def robust_bound(
             n_nodes=tight.n_nodes + loose.n_nodes,
             n_sweeps=tight.n_sweeps + loose.n_sweeps,
             n_evaluations=evaluator.n_evaluations - n_start,
-            seconds=round(time.perf_counter() - t0, 6),
+            seconds=elapsed_s(t0),
             relaxation=keep.relaxation + note,
         )
     return _case_split(evaluator, budget_usd, alpha, feas, relax_to_budget, start, incumbent, max_nodes)
@@ -529,7 +530,7 @@ def _case_split(
         n_sweeps=sweeps,
         proved=bool(top <= incumbent + tol),
         n_evaluations=ev.n_evaluations - n0,
-        seconds=round(time.perf_counter() - t0, 6),
+        seconds=elapsed_s(t0),
         relaxation=relaxation,
     )
 

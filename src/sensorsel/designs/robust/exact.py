@@ -37,6 +37,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from sensorsel.designs.parts import elapsed_s
 from sensorsel.designs.resilient import check_alpha, worst_case
 from sensorsel.designs.robust.bound import knapsack_drop, knapsack_drop_rows
 from sensorsel.designs.robust.records import RobustOptimum
@@ -170,6 +171,6 @@ def robust_optimum(
         n_pruned=pruned,
         n_evaluations=ev.n_evaluations - n0,
         stop_reason=stop,
-        seconds=round(time.perf_counter() - t0, 6),
+        seconds=elapsed_s(t0),
         constraints=feas.record,
     )

@@ -34,6 +34,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any, Unpack
 
+from sensorsel.designs.parts import provenance
 from sensorsel.designs.resilient import RobustChoice, WorstCase, check_alpha, recorded, worst_case
 from sensorsel.designs.resilient.records import RobustOutcome
 from sensorsel.designs.robust.memo import memoized
@@ -234,9 +235,7 @@ def choose(
         algorithm2_worst_score=a2c.worst_score,
         n_evaluations=work[0],
         engine=engine,
-        problem=info,
-        seconds=round(time.perf_counter() - t_start, 6),
-        constraints=s.constraints,
+        **provenance(info, t_start, s.constraints),
     )
 
 

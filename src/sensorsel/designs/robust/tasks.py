@@ -25,6 +25,7 @@ from typing import Any, TypedDict
 import numpy as np
 
 from sensorsel.designs.inputs import result_fingerprint
+from sensorsel.designs.parts import elapsed_s
 from sensorsel.designs.resilient import ALGORITHM_2, resilient_select, worst_case
 from sensorsel.designs.robust.bound import DEFAULT_BOUND_NODES, robust_bound
 from sensorsel.designs.robust.family import FailureFamily
@@ -149,7 +150,7 @@ def candidate(
         failures=w.failures,
         note=note,
         n_evaluations=ev.n_evaluations - n0,
-        seconds=round(time.perf_counter() - t0, 6),
+        seconds=elapsed_s(t0),
     )
 
 

@@ -33,6 +33,7 @@ from typing import Unpack, cast
 
 import numpy as np
 
+from sensorsel.designs.parts import elapsed_s
 from sensorsel.designs.resilient import check_alpha, recorded, resilient_select, worst_case
 from sensorsel.designs.robust.bound import robust_bound
 from sensorsel.designs.robust.family import FailureFamily, Family
@@ -200,7 +201,7 @@ def worst_route_select(
             failures=per[k][2],
             note=note,
             n_evaluations=work() - n0,
-            seconds=round(time.perf_counter() - t0, 6),
+            seconds=elapsed_s(t0),
             worst_member=names[k],
         )
         cands.append(c)
@@ -259,7 +260,7 @@ def worst_route_select(
             n_sweeps=sweeps,
             proved=bool(value <= inc.worst_score + tol),
             n_evaluations=work() - n0,
-            seconds=round(time.perf_counter() - t0, 6),
+            seconds=elapsed_s(t0),
         )
 
     bnd = bound_now()
@@ -323,7 +324,7 @@ def worst_route_select(
         n_evaluations=work() - n_start,
         engine=dev.engine,
         problem=domain.info,
-        seconds=round(time.perf_counter() - t_start, 6),
+        seconds=elapsed_s(t_start),
         aggregate="worst",
         worst_member=win.worst_member,
         members=members,

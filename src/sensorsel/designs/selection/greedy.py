@@ -42,6 +42,7 @@ from typing import Protocol
 
 import numpy as np
 
+from sensorsel.designs.parts import elapsed_s, provenance
 from sensorsel.designs.selection.records import GreedyResult, Step
 from sensorsel.designs.selection.registry import RULES, check_rule
 from sensorsel.designs.selection.rules import REL_TOL, Rule
@@ -220,7 +221,7 @@ def greedy(
             )
             for c in entry.component_rules
         ]
-        return entry.combine(runs, info=info, seconds=round(time.perf_counter() - t0, 6))
+        return entry.combine(runs, info=info, seconds=elapsed_s(t0))
     t0 = time.perf_counter()
     components = entry.component_rules
     runs = list(journal.runs[: len(components)])
@@ -242,7 +243,7 @@ def greedy(
         journal.record_runs(tuple(runs))
     if isinstance(entry, Rule):
         return runs[0]
-    return entry.combine(runs, info=info, seconds=round(time.perf_counter() - t0, 6))
+    return entry.combine(runs, info=info, seconds=elapsed_s(t0))
 
 
 class Selector:
@@ -377,11 +378,9 @@ class Selector:
             engine=ev.name,
             lazy=self.lazy,
             winning_rule=name,
-            problem=info,
-            seconds=round(time.perf_counter() - t0, 6),
             # required or excluded sensors are no row of A: record them too (an owned sensor's price is
             # not counted, so a certificate that forgot them could bound the wrong problem)
-            constraints=feas.record,
+            **provenance(info, t0, feas.record),
         )
 
     def _relax(

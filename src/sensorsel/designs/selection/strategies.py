@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
+from dataclasses import replace
 from typing import ClassVar
 
 from sensorsel.designs.selection.records import GreedyResult
@@ -40,21 +41,8 @@ class Strategy(ABC):
     def combine(self, runs: Sequence[GreedyResult], *, info: TargetInfo | None, seconds: float) -> GreedyResult:
         """The strategy's result: the kept run, named after the strategy, counting every run's evaluations."""
         best = self.keep(runs)
-        return GreedyResult(
-            rule=self.name,
-            budget_usd=best.budget_usd,
-            suite=best.suite,
-            cost_usd=best.cost_usd,
-            score=best.score,
-            steps=best.steps,
-            stop_reason=best.stop_reason,
-            n_evaluations=sum(r.n_evaluations for r in runs),
-            engine=best.engine,
-            lazy=best.lazy,
-            winning_rule=best.winning_rule,
-            problem=info,
-            seconds=seconds,
-            constraints=best.constraints,
+        return replace(
+            best, rule=self.name, n_evaluations=sum(r.n_evaluations for r in runs), problem=info, seconds=seconds
         )
 
 

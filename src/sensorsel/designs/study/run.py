@@ -14,6 +14,7 @@ from typing import Any
 from sensorsel.designs.greedy_run import GreedyRun, greedy_design
 from sensorsel.designs.inputs import result_fingerprint
 from sensorsel.designs.options import RunOptions
+from sensorsel.designs.parts import elapsed_s
 from sensorsel.designs.resilient import ALGORITHM_2, resilient_select, worst_case
 from sensorsel.designs.robust import robust_select
 from sensorsel.designs.study.records import (
@@ -87,7 +88,7 @@ def run_cell(target: Target, cell: Cell, study: Study, *, jobs: int = 1) -> Stud
         certificate_percent=cert,
         n_evaluations=ev.n_evaluations,
         engine=ev.name,
-        seconds=round(time.perf_counter() - t0, 6),
+        seconds=elapsed_s(t0),
     )
 
 
@@ -196,7 +197,7 @@ def run_study(
         rows=tuple(rows),
         targets=tuple(targets),
         n_reused=n_reused[0],
-        seconds=round(time.perf_counter() - t0, 6),
+        seconds=elapsed_s(t0),
     )
 
 
