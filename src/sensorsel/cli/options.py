@@ -845,6 +845,12 @@ class DesignInputs:
         return running(self.cluster, *bars)
 
     @property
+    def run_options(self) -> dict[str, Any]:
+        """The keywords every design run of :mod:`sensorsel.api` takes from these options, under the
+        names it gives them: the engine, the threads (``jobs``) and the constraints."""
+        return {"engine": self.engine, "jobs": self.jobs, "constraints": self.constraints}
+
+    @property
     def executor(self) -> Any:
         """Where the run's tasks go: the cluster's executor, or None (in this process)."""
         return self.cluster.executor if self.cluster is not None else None

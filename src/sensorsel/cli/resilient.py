@@ -152,11 +152,9 @@ def _report(
 
     target = inputs.target
     how: dict[str, Any] = {
+        **inputs.run_options,
         "rule": rule,
-        "engine": inputs.engine,
-        "jobs": inputs.jobs,
         "method": method,
-        "constraints": inputs.constraints,
     }
     if target.kind != "route":
         return resilient_report(target, budget, alpha, period_s=None, aggregate=inputs.aggregate, **how)

@@ -145,13 +145,11 @@ def robust_cmd(
             target,
             budget,
             alpha,
-            engine=inputs.engine,
-            jobs=inputs.jobs,
+            **inputs.run_options,
             aggregate=aggregate,
             rules=rule_list,
             methods=method_list,
             skip_when_proved=not no_skip,
-            constraints=inputs.constraints,
             **how,
         )
     res = inputs.with_quality(res)

@@ -196,15 +196,13 @@ def greedy_cmd(
     if resume and store.checkpoint is not None and not store.checkpoint.is_file():
         click.echo(f"sensorsel: note: no checkpoint {store.checkpoint}: starting from the first pick", err=True)
     how: dict[str, Any] = {
-        "engine": inputs.engine,
-        "jobs": inputs.jobs,
+        **inputs.run_options,
         "lazy": lazy,
         "certify": certify,
         "progress": progress,
         "certify_progress": cert_progress,
         "checkpoint": store.checkpoint,
         "resume": resume,
-        "constraints": inputs.constraints,
     }
     design: DomainDesign | None = None  # a domain's: its greedy result and each route's share
     with inputs.running(bar, cert_bar):
@@ -333,12 +331,10 @@ def pareto_cmd(
             problem,
             grid,
             names,
-            engine=inputs.engine,
-            jobs=inputs.jobs,
+            **inputs.run_options,
             lazy=lazy,
             aggregate=inputs.aggregate,
             progress=progress,
-            constraints=constraints,
             executor=inputs.executor,
             outdir=out,
             resume=resume,
