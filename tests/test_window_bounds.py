@@ -13,7 +13,7 @@ import pytest
 from sensorsel.designs.requirements import checks
 from sensorsel.designs.requirements.checks import RouteOracle
 from sensorsel.designs.requirements.spec import Z95, Specification, covariance_verdict, preset
-from sensorsel.designs.requirements.truncated import bad_keyframes
+from sensorsel.designs.requirements.truncated import bad_keyframes, floors_to_solve, over_limits
 from sensorsel.information.evaluators.fast import FastEvaluator
 from sensorsel.information.filtering import forward_pass
 from sensorsel.information.linearize import bearing_range_jacobians, odometry_jacobians
@@ -208,6 +208,55 @@ def test_a_longer_window_is_tighter(suburb_problem):
     assert _psd_gap(short[0], long_[0]) >= -1e-9
     finite = np.isfinite(short[1]).all(axis=(1, 2))
     assert _psd_gap(long_[1][finite], short[1][finite]) >= -1e-9
+
+
+def test_the_floors_are_solved_only_where_wanted(suburb_problem):
+    """With ``floors_wanted``, each keyframe's ceiling is the bytes of the call without it, and so is
+    its floor where the callback (given those ceilings) wants it; the others' floors are 0."""
+    suite = _positions(suburb_problem, SUITES[2])
+    K = suburb_problem.scenario.n_poses
+    bounds = WindowBounds(suburb_problem, 0.05)
+    full_floors, full_ceilings = bounds(suite, range(K))
+    seen = []
+
+    def every_third(ceilings: np.ndarray) -> np.ndarray:
+        seen.append(ceilings.copy())
+        return np.arange(len(ceilings)) % 3 == 0
+
+    floors, ceilings = bounds(suite, range(K), floors_wanted=every_third)
+    assert np.array_equal(ceilings, full_ceilings) and np.array_equal(seen[0], full_ceilings)
+    wanted = np.arange(K) % 3 == 0
+    assert np.array_equal(floors[wanted], full_floors[wanted])
+    assert not floors[~wanted].any() and full_floors[~wanted].any()
+
+
+@pytest.mark.parametrize("at", [1.0, 0.9])
+@pytest.mark.parametrize("window", [4, 16])
+def test_the_floors_left_unsolved_change_no_verdict(suburb_problem, at, window):
+    """The floors ``floors_to_solve`` leaves unsolved (0) give every verdict the solved ones give: the
+    keyframes over their limits (with the slack the oracle refutes by, and none), a rank rule's
+    verdict and the violation. On growths of failing suites at limits scaled so that floors fall on
+    both sides of them (not vacuous: some floors are over, some are skipped; a rule that skips them
+    all fails here)."""
+    lib = suburb_problem.library
+    K = suburb_problem.scenario.n_poses
+    bounds = WindowBounds(suburb_problem, 0.05, window)
+    base = _positions(suburb_problem, ("LRR-7", "HD2K-1"))
+    suites = [base] + [tuple(sorted((*base, j))) for j in range(0, len(lib.ids), 5) if j not in base]
+    n_skipped = n_over = 0
+    for scale in (0.6, 1.0):
+        spec = replace(preset("local-streets"), at=at)
+        spec = replace(spec, **{c: getattr(spec, c) * scale for c in ("lateral", "longitudinal", "heading")})
+        for suite in suites:
+            floors, ceilings = bounds(suite, range(K))
+            wanted = floors_to_solve(ceilings, spec, -checks.WINDOW_SLACK)
+            kept = np.where(wanted[:, None, None], floors, 0.0)
+            for slack in (checks.WINDOW_SLACK, 0.0):
+                assert np.array_equal(over_limits(kept, spec, slack), over_limits(floors, spec, slack))
+            assert covariance_verdict(kept, spec) == covariance_verdict(floors, spec)
+            n_skipped += int((~wanted).sum())
+            n_over += int(over_limits(floors, spec, checks.WINDOW_SLACK).any(axis=0).sum())
+    assert n_skipped > 0 and n_over > 0
 
 
 def test_a_window_that_measures_too_little_has_no_ceiling(suburb_problem):

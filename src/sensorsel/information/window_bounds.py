@@ -46,7 +46,8 @@ floor's σ within 10 % below the filter's and the ceiling's within 5 % above at 
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.linalg.lapack import dpotrf, dtrtri
@@ -74,6 +75,21 @@ _NO_TERMS: _Terms = (
     np.zeros((0, 3, 2)),
     np.zeros((0, 2, 2)),
 )
+
+
+@dataclass(frozen=True)
+class _Window:
+    """The system of a keyframe's ceiling: its window's first keyframe ``lo``, where the window's terms
+    begin (``start``), the pose block (3n, 3n), the first pose's prior (None past the route's start),
+    the landmarks measured (L,), their blocks (L, 2, 2) and their coupling to the poses (L, 2, 3n)."""
+
+    lo: int
+    start: int
+    pose: np.ndarray
+    first: np.ndarray | None
+    lms: np.ndarray
+    blocks: np.ndarray
+    coupling: np.ndarray
 
 
 class WindowBounds:
@@ -124,18 +140,34 @@ class WindowBounds:
         return got
 
     def __call__(
-        self, suite: Iterable[int], keyframes: Iterable[int], window: int | None = None
+        self,
+        suite: Iterable[int],
+        keyframes: Iterable[int],
+        window: int | None = None,
+        floors_wanted: Callable[[np.ndarray], np.ndarray] | None = None,
     ) -> tuple[np.ndarray, np.ndarray]:
         """(n, 3, 3) floors and (n, 3, 3) ceilings of the filter's pose covariance (Pose2 tangent: dx,
         dy in the keyframe's frame [m], dθ [rad]) of ``suite`` (library positions) at each of
         ``keyframes`` (n,), from ``window`` keyframes before each (default: the object's). A ceiling
-        whose system is singular is +inf."""
+        whose system is singular is +inf.
+
+        ``floors_wanted``: given the ceilings, which keyframes' floors to solve for ((n,) bool); the
+        others' floors are 0, the trivial floor. A caller that judges a keyframe by its ceiling first
+        (within a limit there, the floor is too) spares the floors' solves there: each system is
+        assembled once and its ceiling solved, then the floors where wanted (the same operations as
+        without: the same bytes)."""
         ks, terms, starts, w = self._asked(suite, keyframes, window)
         floors, ceilings = np.zeros((len(ks), 3, 3)), np.zeros((len(ks), 3, 3))
         # one BLAS thread: small products, where threads only cost (as in the filter's pass)
         with blas_controller().limit(limits=1, user_api="blas"):
+            systems = []
             for out, k in enumerate(ks.tolist()):
-                floors[out], ceilings[out] = self._at(k, w, *terms, starts)
+                system = self._system(k, w, *terms, starts)
+                ceilings[out] = _last_marginal(system.pose, system.first, system.blocks, system.coupling)
+                systems.append(system)
+            wanted = np.ones(len(ks), bool) if floors_wanted is None else np.asarray(floors_wanted(ceilings), bool)
+            for out in np.flatnonzero(wanted).tolist():
+                floors[out] = self._floor(systems[out], terms, starts)
         return floors, ceilings
 
     def ceilings_with_visits(
@@ -188,7 +220,7 @@ class WindowBounds:
         self._last = (key, terms)
         return terms
 
-    def _at(
+    def _system(
         self,
         k: int,
         window: int,
@@ -198,26 +230,28 @@ class WindowBounds:
         AB: np.ndarray,
         BB: np.ndarray,
         starts: np.ndarray,
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """The floor and the ceiling at keyframe ``k`` from the ``window`` keyframes before it, from the
-        suite's measurement terms sorted by keyframe (``starts``: where each keyframe's begin)."""
+    ) -> _Window:
+        """The ceiling's system at keyframe ``k`` from the ``window`` keyframes before it, from the suite's
+        measurement terms sorted by keyframe (``starts``: where each keyframe's begin)."""
         lo = max(0, k - window)
         win = slice(int(starts[lo]), int(starts[k + 1]))
         rel = keyframe[win] - lo
         pose = self._pose_block(np.arange(lo, k + 1), rel, AA[win])
-        # the landmarks the window measures: their blocks (the prior and the window's measurements:
-        # the ceiling's; with the measurements before the window too: the floor's) and their coupling
-        # W to the poses
+        # the landmarks the window measures: their blocks (the prior and the window's measurements) and
+        # their coupling W to the poses
         lms, which, W = self._coupling(landmark[win], rel, AB[win], k - lo + 1)
-        before = self._slots(lms, landmark[: win.start])
-        ceiling_blocks = _sums(which, BB[win], len(lms)) + self._landmark_prior
+        blocks = _sums(which, BB[win], len(lms)) + self._landmark_prior
+        return _Window(lo, win.start, pose, self._first_info if lo == 0 else None, lms, blocks, W)
+
+    def _floor(self, system: _Window, terms: _Terms, starts: np.ndarray) -> np.ndarray:
+        """The floor of ``system``'s keyframe (from :meth:`_system`): its landmarks' blocks with the
+        measurements before the window too, and the odometry from the pose before it as a prior."""
+        landmark, BB = terms[1], terms[4]
+        before = self._slots(system.lms, landmark[: system.start])
         kept = before >= 0
-        floor_blocks = ceiling_blocks + _sums(before[kept], BB[: win.start][kept], len(lms))
-        first = self._first_info if lo == 0 else None
-        return (
-            _last_marginal(pose, self._odo_info if first is None else first, floor_blocks, W),
-            _last_marginal(pose, first, ceiling_blocks, W),
-        )
+        blocks = system.blocks + _sums(before[kept], BB[: system.start][kept], len(system.lms))
+        first = self._odo_info if system.first is None else system.first
+        return _last_marginal(system.pose, first, blocks, system.coupling)
 
     def _ceiling_on(
         self,

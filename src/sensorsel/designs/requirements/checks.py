@@ -16,6 +16,7 @@ from sensorsel.designs.requirements.spec import RouteVerdict, Specification, cov
 from sensorsel.designs.requirements.truncated import (
     BadKeyframes,
     bad_keyframes,
+    floors_to_solve,
     mask_of_bad,
     meets_from_bad,
     meets_from_mask,
@@ -413,6 +414,12 @@ class RouteOracle:
             self._windows = WindowBounds(self.problem, self.map_sigma_m)
         sure = np.zeros_like(candidates)
         worst = 0.0  # the largest σ · factor / limit − 1 of a floor over its limit
+
+        # a floor is solved only where its ceiling is over a limit: elsewhere it is within its limits
+        # too, and decides nothing (:func:`.truncated.floors_to_solve`)
+        def floors_wanted(ceilings: np.ndarray) -> np.ndarray:
+            return floors_to_solve(ceilings, self.spec, -WINDOW_SLACK)
+
         # short windows first; the keyframes they leave undecided (the floor within its limit, the
         # ceiling over it) again with long ones (tighter: conditioned on fewer poses, a larger
         # subgraph). In chunks: a suite that fails is mostly refuted by its first keyframes' floors
@@ -420,7 +427,7 @@ class RouteOracle:
             undecided = np.zeros_like(candidates)
             for lo in range(0, len(at), WINDOW_KEYFRAMES):
                 chunk = at[lo : lo + WINDOW_KEYFRAMES]
-                floors, ceilings = self._windows(suite, chunk, window)
+                floors, ceilings = self._windows(suite, chunk, window, floors_wanted)
                 asked = candidates[:, chunk]
                 sure[:, chunk] |= over_limits(floors, self.spec, WINDOW_SLACK) & asked
                 worst = max(worst, covariance_verdict(floors, self.spec)[1])

@@ -24,7 +24,15 @@ import numpy as np
 
 from sensorsel.designs.requirements.spec import Specification, _rank, component_sigmas
 
-__all__ = ["BadKeyframes", "bad_keyframes", "mask_of_bad", "meets_from_bad", "meets_from_mask", "over_limits"]
+__all__ = [
+    "BadKeyframes",
+    "bad_keyframes",
+    "floors_to_solve",
+    "mask_of_bad",
+    "meets_from_bad",
+    "meets_from_mask",
+    "over_limits",
+]
 
 #: per component of the specification (in ``spec.bounds()`` order): the sorted bad keyframes
 Bad = tuple[np.ndarray, ...]
@@ -39,6 +47,17 @@ def over_limits(covariances: np.ndarray, spec: Specification, slack: float = 0.0
     sig = component_sigmas(np.asarray(covariances, dtype=float).reshape(-1, 3, 3))
     rows = [(spec.factor * sig[comp]) / bound - 1.0 > slack for comp, bound, _ in spec.bounds()]
     return np.array(rows, dtype=bool).reshape(len(rows), len(sig["lateral"]))
+
+
+def floors_to_solve(ceilings: np.ndarray, spec: Specification, slack: float) -> np.ndarray:
+    """(k,) where a floor of the (k, 3, 3) ``ceilings``' keyframes can matter: some component's ceiling
+    over its limit by more than ``slack`` (:func:`over_limits`). Elsewhere every floor, ⪯ its
+    ceiling, is within its limits too (with slack ≥ ``slack``): it is over none of them with any
+    larger slack, adds nothing to a violation (only excesses over a limit do), and a rank rule's
+    order statistic keeps the same values over a limit, so a floor of 0 (the trivial one) there
+    gives the same verdicts (:class:`~sensorsel.information.window_bounds.WindowBounds` solves
+    only these floors)."""
+    return np.asarray(over_limits(ceilings, spec, slack).any(axis=0))
 
 
 def bad_keyframes(
