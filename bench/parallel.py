@@ -47,7 +47,10 @@ tasks on the workers: wall, the client's and the workers' CPU, the client's wait
 the domain's ``require`` (``--require-preset``, ``--require-failures``; a map known to 0.05 m, the
 filter's estimate): wall and CPU in-process on each ``--jobs`` and with each route's checks on a
 LocalCluster's workers, the integer programs and accuracy computations and the seconds in each,
-messages and bytes per integer program, and whether every run gave the same result.
+messages and bytes per integer program, and whether every run gave the same result; and its model
+(``require.model``, :func:`pinned_model`) from the 1-thread run's trace of every question's seconds
+on each route: each route pinned to one place (its oracle learns there), the speed-up at n places,
+and the slowest-route bound no number of places beats, checked against the ``--jobs`` runs.
 
 Prints one JSON document (and a summary on stderr).
 """
@@ -92,6 +95,8 @@ class TracedDomainEvaluator(DomainEvaluator):
 
     def __init__(self, *args: Any, **kw: Any) -> None:
         self.rounds: list[tuple[float, list[float]]] = []
+        #: each round's CPU seconds by route (which route each task was: what pinned routes need)
+        self.route_rounds: list[dict[int, float]] = []
         self._tracing = False
         super().__init__(*args, **kw)
         # each route call on its one thread: a route engine's own threads (it scores a large route's
@@ -104,6 +109,7 @@ class TracedDomainEvaluator(DomainEvaluator):
         if not self._tracing:
             return super()._on_threads(one, members, work)
         times: list[float] = []
+        by_route: dict[int, float] = {}
         lock = threading.Lock()
 
         def timed(k: int) -> Any:
@@ -111,11 +117,13 @@ class TracedDomainEvaluator(DomainEvaluator):
             out = one(k)
             with lock:
                 times.append(time.thread_time() - t0)
+                by_route[k] = by_route.get(k, 0.0) + times[-1]
             return out
 
         t0 = time.perf_counter()
         got = super()._on_threads(timed, members, work)
         self.rounds.append((time.perf_counter() - t0, times))
+        self.route_rounds.append(by_route)
         return got
 
 
@@ -342,6 +350,64 @@ def model(
     return out
 
 
+def pinned_model(
+    route_rounds: list[dict[int, float]], serial: float, n_routes: int, costs: list[float]
+) -> dict[str, Any]:
+    """Predicted seconds and speed-ups of a search whose every round asks each route once and waits
+    for all (``require``'s questions: :mod:`sensorsel.designs.requirements.domain_checks`), from its
+    1-thread trace: ``route_rounds`` each round's CPU seconds by route, ``serial`` the rest.
+
+    ``pinned``: each route stays on one place for the whole search (worker processes, Dask workers:
+    its oracle learns there), placed as the package places them: by ``costs`` (the package's model of
+    a route's work), dearest first to the least loaded; ``pinned_by_seconds``: the same by each
+    route's measured seconds; at n = 2 with at most 16 routes, the best of every placement too.
+    T(n) = serial + the sum over rounds of the most loaded place's seconds.
+    ``slowest_route_bound``: serial + the sum over rounds of the round's slowest route: what no number
+    of places beats while a route's question runs on one core (the speed-up at n = infinity)."""
+    import numpy as np
+
+    work = np.zeros((len(route_rounds), n_routes))
+    for i, r in enumerate(route_rounds):
+        for k, v in r.items():
+            work[i, k] = v
+    t1 = serial + float(work.sum())
+    totals = work.sum(axis=0)
+
+    def makespan(place: np.ndarray, n: int) -> float:
+        loads = np.zeros((len(work), n))
+        for k in range(n_routes):
+            loads[:, place[k]] += work[:, k]
+        return serial + float(loads.max(axis=1).sum())
+
+    out: dict[str, Any] = {"serial_s": round(serial, 3), "rounds": len(route_rounds), "one_place_s": round(t1, 3)}
+
+    def lpt_place(weights: np.ndarray, n: int) -> np.ndarray:
+        place, load = np.zeros(n_routes, int), np.zeros(n)
+        for k in sorted(range(n_routes), key=lambda k: (-weights[k], k)):
+            place[k] = int(np.argmin(load))  # the least loaded, the first among ties (as the package)
+            load[place[k]] += weights[k]
+        return place
+
+    for n in PREDICT_AT[1:]:
+        t = makespan(lpt_place(np.asarray(costs, float), n), n)
+        by_seconds = makespan(lpt_place(totals, n), n)
+        row = {
+            "pinned_s": round(t, 3),
+            "pinned_speedup": round(t1 / t, 2),
+            "pinned_by_seconds_speedup": round(t1 / by_seconds, 2),
+        }
+        if n == 2 and n_routes <= 16:
+            best = min(
+                makespan(np.array([(m >> k) & 1 for k in range(n_routes)]), 2) for m in range(2 ** (n_routes - 1))
+            )
+            row.update(best_placement_s=round(best, 3), best_placement_speedup=round(t1 / best, 2))
+        out[f"at_{n}"] = row
+    bound = serial + float(work.max(axis=1).sum()) if len(work) else serial
+    out["slowest_route_bound_s"] = round(bound, 3)
+    out["slowest_route_bound_speedup"] = round(t1 / bound, 2)
+    return out
+
+
 def run_command_in_process(command: str, domain: Any, args: Any, jobs: int) -> dict[str, Any]:
     """``pareto`` or ``robust --failures 1`` in-process on ``jobs`` threads, every evaluator it builds
     traced (the designs build theirs through ``evaluator_for``): wall, CPU and the model's trace."""
@@ -463,7 +529,20 @@ def run_require(domain: Any, args: Any, *, jobs: int = 1, workers: int = 0) -> d
     spec = api.preset(args.require_preset)
     kw = {"map_sigma_m": 0.05, "failures": args.require_failures, "jobs": jobs}
     row: dict[str, Any] = {"jobs": jobs} if not workers else {"workers": workers}
-    if not workers:
+    if not workers and jobs == 1:  # traced: each question's seconds on each route (the same answers)
+        ev = TracedDomainEvaluator(domain, jobs=1)
+        ev._tracing = True
+        c0, t0 = cpu_of_this_process(), time.perf_counter()
+        res = api.run_require(domain, spec, evaluator=ev, **kw)
+        cpu = cpu_of_this_process() - c0
+        row.update(wall_s=round(time.perf_counter() - t0, 3), cpu_s=round(cpu, 3))
+        serial = max(0.0, cpu - sum(sum(r.values()) for r in ev.route_rounds))
+        # the package's placement of routes on worker processes and workers: its cost model of a route
+        from sensorsel.information.evaluators.distributed import _route_cost
+
+        costs = [float(_route_cost(r.problem)) for r in domain.routes]
+        row["_model"] = pinned_model([r for r in ev.route_rounds if r], serial, len(domain.routes), costs)
+    elif not workers:
         c0, t0 = cpu_of_this_process(), time.perf_counter()
         res = api.run_require(domain, spec, **kw)
         row.update(wall_s=round(time.perf_counter() - t0, 3), cpu_s=round(cpu_of_this_process() - c0, 3))
@@ -506,15 +585,29 @@ def require_rows(domain: Any, args: Any) -> dict[str, Any]:
     runs += [run_require(domain, args, workers=int(w)) for w in args.workers.split(",") if w]
     base = runs[0]
     for r in runs:
-        where = f"{r['jobs']} thread(s)" if "jobs" in r else f"{r['workers']} worker(s)"
+        where = f"--jobs {r['jobs']}" if "jobs" in r else f"{r['workers']} worker(s)"
         print(
             f"require, {where}: {r['wall_s']:.2f} s wall, {r['cpu_s']:.2f} s CPU here, {r['integer_programs']} "
             f"integer programs, {r['accuracy_computations']} accuracy computations ({r['seconds_checks']:.1f} s)",
             file=sys.stderr,
         )
+    model = base.get("_model")
+    checks = []
+    if model is not None:
+        for r in runs[1:]:
+            at = model.get(f"at_{r.get('jobs') or r.get('workers')}", {})
+            checks.append(
+                {
+                    "run": f"--jobs {r['jobs']}" if "jobs" in r else f"{r['workers']} workers",
+                    "measured_speedup": round(base["wall_s"] / r["wall_s"], 2),
+                    "predicted_pinned": at.get("pinned_speedup"),
+                }
+            )
     return {
         "preset": args.require_preset,
         "failures": args.require_failures,
+        "model": model,
+        "model_check": checks,
         "same_result": all(untimed(r["_result"]) == untimed(base["_result"]) for r in runs),
         "speedup": {
             (f"{r['jobs']} threads" if "jobs" in r else f"{r['workers']} workers"): round(
