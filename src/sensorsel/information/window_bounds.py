@@ -78,12 +78,11 @@ _NO_TERMS: _Terms = (
 
 
 @dataclass(frozen=True)
-class _Window:
-    """The system of a keyframe's ceiling: its window's first keyframe ``lo``, where the window's terms
-    begin (``start``), the pose block (3n, 3n), the first pose's prior (None past the route's start),
-    the landmarks measured (L,), their blocks (L, 2, 2) and their coupling to the poses (L, 2, 3n)."""
+class _WindowSystem:
+    """The system of a keyframe's ceiling: where its window's terms begin (``start``), the pose block
+    (3n, 3n), the first pose's prior (None past the route's start), the landmarks measured (L,), their
+    blocks (L, 2, 2) and their coupling to the poses (L, 2, 3n)."""
 
-    lo: int
     start: int
     pose: np.ndarray
     first: np.ndarray | None
@@ -155,7 +154,8 @@ class WindowBounds:
         others' floors are 0, the trivial floor. A caller that judges a keyframe by its ceiling first
         (within a limit there, the floor is too) spares the floors' solves there: each system is
         assembled once and its ceiling solved, then the floors where wanted (the same operations as
-        without: the same bytes)."""
+        without: the same bytes). The systems are held until the callback has answered: ask a chunk
+        of keyframes at a time (a window's system on a long route is up to a few MB)."""
         ks, terms, starts, w = self._asked(suite, keyframes, window)
         floors, ceilings = np.zeros((len(ks), 3, 3)), np.zeros((len(ks), 3, 3))
         # one BLAS thread: small products, where threads only cost (as in the filter's pass)
@@ -164,10 +164,13 @@ class WindowBounds:
             for out, k in enumerate(ks.tolist()):
                 system = self._system(k, w, *terms, starts)
                 ceilings[out] = _last_marginal(system.pose, system.first, system.blocks, system.coupling)
-                systems.append(system)
-            wanted = np.ones(len(ks), bool) if floors_wanted is None else np.asarray(floors_wanted(ceilings), bool)
-            for out in np.flatnonzero(wanted).tolist():
-                floors[out] = self._floor(systems[out], terms, starts)
+                if floors_wanted is None:
+                    floors[out] = self._floor(system, terms)
+                else:
+                    systems.append(system)
+            if floors_wanted is not None:
+                for out in np.flatnonzero(np.asarray(floors_wanted(ceilings), bool)).tolist():
+                    floors[out] = self._floor(systems[out], terms)
         return floors, ceilings
 
     def ceilings_with_visits(
@@ -230,7 +233,7 @@ class WindowBounds:
         AB: np.ndarray,
         BB: np.ndarray,
         starts: np.ndarray,
-    ) -> _Window:
+    ) -> _WindowSystem:
         """The ceiling's system at keyframe ``k`` from the ``window`` keyframes before it, from the suite's
         measurement terms sorted by keyframe (``starts``: where each keyframe's begin)."""
         lo = max(0, k - window)
@@ -241,9 +244,9 @@ class WindowBounds:
         # their coupling W to the poses
         lms, which, W = self._coupling(landmark[win], rel, AB[win], k - lo + 1)
         blocks = _sums(which, BB[win], len(lms)) + self._landmark_prior
-        return _Window(lo, win.start, pose, self._first_info if lo == 0 else None, lms, blocks, W)
+        return _WindowSystem(win.start, pose, self._first_info if lo == 0 else None, lms, blocks, W)
 
-    def _floor(self, system: _Window, terms: _Terms, starts: np.ndarray) -> np.ndarray:
+    def _floor(self, system: _WindowSystem, terms: _Terms) -> np.ndarray:
         """The floor of ``system``'s keyframe (from :meth:`_system`): its landmarks' blocks with the
         measurements before the window too, and the odometry from the pose before it as a prior."""
         landmark, BB = terms[1], terms[4]
