@@ -71,18 +71,22 @@ def bad_keyframes(
     return tuple(at[row[at]] for row in over)
 
 
+def _bad_allowed(n_keyframes: int, spec: Specification) -> int:
+    """How many of a route's ``n_keyframes`` a component may be over its limit at: all but the ⌈at·K⌉
+    the rank rule needs within it."""
+    return n_keyframes - (_rank(spec.at, n_keyframes) if n_keyframes else 0)
+
+
 def meets_from_bad(bad: Bad, n_keyframes: int, spec: Specification) -> bool:
     """Whether a suite with these bad keyframes (per component) meets ``spec`` on a route of
     ``n_keyframes``: each component within its limit at ⌈at·K⌉ keyframes at least."""
-    need = _rank(spec.at, n_keyframes) if n_keyframes else 0
-    return all(n_keyframes - len(b) >= need for b in bad)
+    allowed = _bad_allowed(n_keyframes, spec)
+    return all(len(b) <= allowed for b in bad)
 
 
 def meets_from_mask(bad: np.ndarray, spec: Specification) -> bool:
     """:func:`meets_from_bad` of the bad keyframes as a (C, K) mask (K: the route's keyframes)."""
-    n_keyframes = bad.shape[1]
-    need = _rank(spec.at, n_keyframes) if n_keyframes else 0
-    return bool((n_keyframes - np.count_nonzero(bad, axis=1) >= need).all())
+    return bool((np.count_nonzero(bad, axis=1) <= _bad_allowed(bad.shape[1], spec)).all())
 
 
 def mask_of_bad(bad: Bad, n_keyframes: int) -> np.ndarray:
