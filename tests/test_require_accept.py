@@ -272,3 +272,39 @@ def test_a_bound_past_the_kept_states_horizon_is_refused(suburb_problem):
     b = base_of(suburb_problem, S, mask_of(S), Specification(lateral=0.001), 0.05)
     with pytest.raises(ValueError, match="horizon"):
         upper_bound(suburb_problem, b, S, 0.05, ((0, accept.HORIZON + 1),))
+
+
+@pytest.mark.parametrize("horizon", [0, 3, 10, 64, 10_000])
+def test_the_landmarks_a_kept_state_holds_are_counted_as_the_observations_say(suburb_problem, monkeypatch, horizon):
+    """The count by intervals behind a base's stride (how many landmarks the state kept at keyframe j
+    holds) equals, at every keyframe, the count from the observations themselves: the landmarks the
+    suite measured before j and measures again at j or later, that some library sensor measures at a
+    keyframe in j .. j + horizon (several suites, horizons from none to past the route's end)."""
+    monkeypatch.setattr(accept, "HORIZON", horizon)
+    lib = suburb_problem.library
+    K = suburb_problem.scenario.n_poses
+    measured = {(int(l_), int(k)) for o in suburb_problem.observations for l_, k in zip(o.landmark, o.pose)}
+    counted = 0
+    for ids in (("LRR-7", "HD2K-1", "WSC-6", "LSC-2"), ("WSC-12",), ("LRL-roof", "MRR-3"), ("HD2K-4", "HD2K-5")):
+        suite = [lib.position(i) for i in ids]
+        pairs = {
+            (int(l_), int(k))
+            for i in suite
+            for l_, k in zip(suburb_problem.observations[i].landmark, suburb_problem.observations[i].pose)
+        }
+        first = np.full(suburb_problem.scenario.n_landmarks, K, np.int64)
+        last = np.full(suburb_problem.scenario.n_landmarks, -1, np.int64)
+        for l_, k in pairs:
+            first[l_], last[l_] = min(first[l_], k), max(last[l_], k)
+        oracle = [
+            sum(
+                1
+                for l_ in range(len(last))
+                if first[l_] < j <= last[l_] and any((l_, t) in measured for t in range(j, j + horizon + 1))
+            )
+            for j in range(K)
+        ]
+        got = accept.held_within_horizon(suburb_problem, first, last, K)
+        assert got.tolist() == oracle, ids
+        counted += sum(oracle)
+    assert counted > 0

@@ -133,18 +133,38 @@ def _stride(problem: Problem, first: np.ndarray, last: np.ndarray, n_keyframes: 
     np.add.at(step, np.minimum(last[seen] + 1, n_keyframes), -1)
     if (((3 + 2 * np.cumsum(step[:n_keyframes])) ** 2) * 8).sum() <= STATE_BYTES:
         return 1
-    held = np.array(
-        [
-            int(problem.measured_within(seen[(first[seen] < j) & (j <= last[seen])], j, j + HORIZON).sum())
-            for j in range(n_keyframes)
-        ],
-        np.int64,
-    )
-    nbytes = (3 + 2 * held) ** 2 * 8
+    nbytes = (3 + 2 * held_within_horizon(problem, first, last, n_keyframes)) ** 2 * 8
     stride = 1
     while nbytes[k % stride == 0].sum() > STATE_BYTES and stride < n_keyframes:
         stride *= 2
     return stride
+
+
+def held_within_horizon(problem: Problem, first: np.ndarray, last: np.ndarray, n_keyframes: int) -> np.ndarray:
+    """(n_keyframes,) how many landmarks the state kept at each keyframe j holds: those first measured by
+    the suite before j and again at j or later (``first`` < j <= ``last``, (n_landmarks,) keyframes; a
+    landmark never measured has ``last`` = -1) that some library sensor measures at a keyframe in
+    j .. j + :data:`HORIZON` (:meth:`~sensorsel.model.problem.Problem.measured_within`, asked of every
+    keyframe at once).
+
+    Each (landmark, keyframe t) the library measures makes the keyframes j in [t - HORIZON, t] count
+    that landmark; taken in the order of t, the part of that span the landmark's measurement before it
+    does not already cover is [max(t - HORIZON, t_before + 1), t], so the spans are disjoint and each
+    (j, landmark) is counted once: a count by intervals, in integers (on a user's drive with a loop, a
+    look-up per keyframe was 9 s of a 240 s search)."""
+    n = problem.scenario.n_poses
+    keys = problem.measured_pairs  # sorted landmark * n + keyframe
+    landmark, t = keys // n, keys % n
+    before = np.full(len(keys), -(HORIZON + 2), np.int64)  # no measurement before: nothing covered
+    same = landmark[1:] == landmark[:-1]
+    before[1:][same] = t[:-1][same]
+    lo = np.maximum(np.maximum(t - HORIZON, before + 1), first[landmark] + 1)
+    hi = np.minimum(t, last[landmark])
+    ok = lo <= hi
+    step = np.zeros(n_keyframes + 1, np.int64)
+    np.add.at(step, lo[ok], 1)
+    np.add.at(step, hi[ok] + 1, -1)
+    return np.cumsum(step[:n_keyframes])
 
 
 def upper_bound(
