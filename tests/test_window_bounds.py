@@ -230,6 +230,24 @@ def test_the_floors_are_solved_only_where_wanted(suburb_problem):
     assert not floors[~wanted].any() and full_floors[~wanted].any()
 
 
+@pytest.mark.parametrize("keyframes", [[30, 31], [45], [10, 12, 14], [3]])
+def test_the_ceilings_from_the_windows_measurements_alone_are_the_routes(suburb_problem, keyframes):
+    """Asked at a few keyframes whose windows cover less than half the route, with the floors left to a
+    callback, the ceilings are computed from the windows' measurements alone (the route's are not
+    built), and are the bytes of the call that reads the route's; the floors the callback wants are too."""
+    suite = _positions(suburb_problem, SUITES[2])
+    assert len(suite) > 2  # several sensors: a keyframe's measurements in the suite's order
+    floors, ceilings = WindowBounds(suburb_problem, 0.05, 4)(suite, keyframes)
+    near = WindowBounds(suburb_problem, 0.05, 4)
+    _, got = near(suite, keyframes, floors_wanted=lambda c: np.zeros(len(c), bool))
+    assert near._last is None  # the route's terms were not built
+    assert np.array_equal(got, ceilings)
+    wanted = WindowBounds(suburb_problem, 0.05, 4)
+    got_floors, got = wanted(suite, keyframes, floors_wanted=lambda c: np.ones(len(c), bool))
+    assert np.array_equal(got, ceilings) and np.array_equal(got_floors, floors)
+    assert floors.any()
+
+
 @pytest.mark.parametrize("at", [1.0, 0.9])
 @pytest.mark.parametrize("window", [4, 16])
 def test_the_floors_left_unsolved_change_no_verdict(suburb_problem, at, window):

@@ -79,11 +79,10 @@ _NO_TERMS: _Terms = (
 
 @dataclass(frozen=True)
 class _WindowSystem:
-    """The system of a keyframe's ceiling: where its window's terms begin (``start``), the pose block
-    (3n, 3n), the first pose's prior (None past the route's start), the landmarks measured (L,), their
-    blocks (L, 2, 2) and their coupling to the poses (L, 2, 3n)."""
+    """The system of a keyframe's ceiling: the pose block (3n, 3n), the first pose's prior (None past
+    the route's start), the landmarks measured (L,), their blocks (L, 2, 2) and their coupling to the
+    poses (L, 2, 3n)."""
 
-    start: int
     pose: np.ndarray
     first: np.ndarray | None
     lms: np.ndarray
@@ -156,7 +155,17 @@ class WindowBounds:
         assembled once and its ceiling solved, then the floors where wanted (the same operations as
         without: the same bytes). The systems are held until the callback has answered: ask a chunk
         of keyframes at a time (a window's system on a long route is up to a few MB)."""
-        ks, terms, starts, w = self._asked(suite, keyframes, window)
+        ks = np.asarray(list(keyframes), np.int64)
+        w = self.window if window is None else int(window)
+        key = _suite_key(suite)
+        # a ceiling reads the suite's measurements of its window alone, a floor those before it too: where
+        # the floors may not be wanted and the windows cover less than half the route, the windows'
+        # measurements first (a subsequence of the route's terms, in their order: the same sums), the
+        # route's only once a floor is
+        near = None if floors_wanted is None else self._window_terms(key, ks, w)
+        whole = near is None
+        terms = self._suite_terms(key) if near is None else near
+        starts = _starts(terms, ks)
         floors, ceilings = np.zeros((len(ks), 3, 3)), np.zeros((len(ks), 3, 3))
         # one BLAS thread: small products, where threads only cost (as in the filter's pass)
         with blas_controller().limit(limits=1, user_api="blas"):
@@ -165,12 +174,16 @@ class WindowBounds:
                 system = self._system(k, w, *terms, starts)
                 ceilings[out] = _last_marginal(system.pose, system.first, system.blocks, system.coupling)
                 if floors_wanted is None:
-                    floors[out] = self._floor(system, terms)
+                    floors[out] = self._floor(system, terms, int(starts[max(0, k - w)]))
                 else:
                     systems.append(system)
             if floors_wanted is not None:
-                for out in np.flatnonzero(np.asarray(floors_wanted(ceilings), bool)).tolist():
-                    floors[out] = self._floor(systems[out], terms)
+                wanted = np.flatnonzero(np.asarray(floors_wanted(ceilings), bool)).tolist()
+                if wanted and not whole:
+                    terms = self._suite_terms(key)
+                    starts = _starts(terms, ks)
+                for out in wanted:
+                    floors[out] = self._floor(systems[out], terms, int(starts[max(0, int(ks[out]) - w)]))
         return floors, ceilings
 
     def ceilings_with_visits(
@@ -205,23 +218,43 @@ class WindowBounds:
         """The keyframes asked (n,), the suite's terms, where each keyframe's terms begin (up to the last
         asked) and the window's length (the object's where ``window`` is None)."""
         ks = np.asarray(list(keyframes), np.int64)
-        terms = self._suite_terms(suite)
-        starts = np.searchsorted(terms[0], np.arange(int(ks.max(initial=0)) + 2))
-        return ks, terms, starts, self.window if window is None else int(window)
+        terms = self._suite_terms(_suite_key(suite))
+        return ks, terms, _starts(terms, ks), self.window if window is None else int(window)
 
-    def _suite_terms(self, suite: Iterable[int]) -> _Terms:
-        """The suite's measurement terms (as :meth:`_sensor_terms`' five arrays), concatenated and
-        sorted by keyframe (stable: a keyframe's in the suite's sensor order); the last suite's kept,
-        as its chunks and windows are asked one after another."""
-        key = tuple(sorted(set(int(i) for i in suite)))
+    def _suite_terms(self, key: tuple[int, ...]) -> _Terms:
+        """The measurement terms of the suite ``key`` (sorted distinct library positions), as
+        :meth:`_sensor_terms`' five arrays, concatenated and sorted by keyframe (stable: a keyframe's
+        in the suite's sensor order); the last suite's kept, as its chunks and windows are asked one
+        after another."""
         if self._last is not None and self._last[0] == key:
             return self._last[1]
-        parts = [_NO_TERMS] + [self._sensor_terms(i) for i in key]
-        keyframe, landmark, AA, AB, BB = (np.concatenate([p[f] for p in parts]) for f in range(5))
-        order = np.argsort(keyframe, kind="stable")
-        terms: _Terms = (keyframe[order], landmark[order], AA[order], AB[order], BB[order])
+        terms = _merged([self._sensor_terms(i) for i in key])
         self._last = (key, terms)
         return terms
+
+    def _window_terms(self, key: tuple[int, ...], ks: np.ndarray, window: int) -> _Terms | None:
+        """The terms of :meth:`_suite_terms` whose keyframes lie in the windows of ``window`` keyframes
+        before each of ``ks`` (n,) and at it, in the same order (what the ceilings there read); None
+        where the suite's terms are kept already, or the windows cover half the route or more (the
+        route's terms then cost about as much: on the README tour a build of the windows' alone took
+        longer than the route's)."""
+        if self._last is not None and self._last[0] == key:
+            return None
+        n_poses = self.problem.scenario.n_poses
+        if not len(ks) or not n_poses:
+            return None
+        step = np.bincount(np.maximum(ks - window, 0), minlength=n_poses + 1) - np.bincount(
+            ks + 1, minlength=n_poses + 1
+        )
+        covered = np.cumsum(step[:n_poses]) > 0
+        if 2 * int(covered.sum()) >= n_poses:
+            return None
+        parts: list[_Terms] = []
+        for i in key:
+            keyframe, landmark, AA, AB, BB = self._sensor_terms(i)
+            inside = covered[keyframe]
+            parts.append((keyframe[inside], landmark[inside], AA[inside], AB[inside], BB[inside]))
+        return _merged(parts)
 
     def _system(
         self,
@@ -244,15 +277,16 @@ class WindowBounds:
         # their coupling W to the poses
         lms, which, W = self._coupling(landmark[win], rel, AB[win], k - lo + 1)
         blocks = _sums(which, BB[win], len(lms)) + self._landmark_prior
-        return _WindowSystem(win.start, pose, self._first_info if lo == 0 else None, lms, blocks, W)
+        return _WindowSystem(pose, self._first_info if lo == 0 else None, lms, blocks, W)
 
-    def _floor(self, system: _WindowSystem, terms: _Terms) -> np.ndarray:
+    def _floor(self, system: _WindowSystem, terms: _Terms, start: int) -> np.ndarray:
         """The floor of ``system``'s keyframe (from :meth:`_system`): its landmarks' blocks with the
-        measurements before the window too, and the odometry from the pose before it as a prior."""
+        measurements before the window too (the route's ``terms`` before ``start``, where the window's
+        begin), and the odometry from the pose before it as a prior."""
         landmark, BB = terms[1], terms[4]
-        before = self._slots(system.lms, landmark[: system.start])
+        before = self._slots(system.lms, landmark[:start])
         kept = before >= 0
-        blocks = system.blocks + _sums(before[kept], BB[: system.start][kept], len(system.lms))
+        blocks = system.blocks + _sums(before[kept], BB[:start][kept], len(system.lms))
         first = self._odo_info if system.first is None else system.first
         return _last_marginal(system.pose, first, blocks, system.coupling)
 
@@ -312,6 +346,24 @@ class WindowBounds:
         L = len(lms)
         sums = _sums(which * n_p + rel, AB, L * n_p).reshape(L, n_p, 3, 2)
         return lms, which, np.transpose(sums, (0, 3, 1, 2)).reshape(L, 2, 3 * n_p)
+
+
+def _suite_key(suite: Iterable[int]) -> tuple[int, ...]:
+    """A suite's sorted distinct library positions."""
+    return tuple(sorted(set(int(i) for i in suite)))
+
+
+def _merged(parts: list[_Terms]) -> _Terms:
+    """``parts`` (each sensor's terms, in the suite's sensor order) concatenated and sorted by keyframe
+    (stable: a keyframe's in the parts' order, each part's in its own)."""
+    keyframe, landmark, AA, AB, BB = (np.concatenate([p[f] for p in [_NO_TERMS, *parts]]) for f in range(5))
+    order = np.argsort(keyframe, kind="stable")
+    return keyframe[order], landmark[order], AA[order], AB[order], BB[order]
+
+
+def _starts(terms: _Terms, ks: np.ndarray) -> np.ndarray:
+    """Where each keyframe's terms begin in ``terms`` (sorted by keyframe), for keyframes 0 .. max(ks) + 1."""
+    return np.searchsorted(terms[0], np.arange(int(ks.max(initial=0)) + 2))
 
 
 def _last_marginal(pose: np.ndarray, prior: np.ndarray | None, blocks: np.ndarray, W: np.ndarray) -> np.ndarray:
