@@ -22,6 +22,7 @@ from sensorsel.information.evaluators import (
     register,
 )
 from sensorsel.information.evaluators.fast.blas import Blas
+from sensorsel.information.evaluators.fast.front import _split_runs
 from sensorsel.information.graph import GraphBuilder
 from sensorsel.information.linearize import linearize_library
 
@@ -577,3 +578,12 @@ def test_bases_measuring_the_same_pairs_share_their_layouts_and_give_the_same_bi
     fresh1, fresh2 = FastEvaluator(suburb_problem), FastEvaluator(suburb_problem)
     assert first.tobytes() == fresh1.scores_with((lidar,), cands).tobytes()
     assert second.tobytes() == fresh2.scores_with(s2, cands).tobytes()
+
+
+def test_a_carried_run_is_cut_where_the_eliminated_variables_end():
+    """The backward pass copies each carried run from the quadrant of Σ it lies in: a run over front
+    positions 5..14 with 8 variables eliminated is copied as 5..7 (eliminated) and 8..14 (carried),
+    its old positions cut alike; runs on one side stay whole (worked by hand)."""
+    assert _split_runs([(0, 5, 10)], 8) == [(0, 5, 3), (3, 8, 7)]
+    assert _split_runs([(0, 0, 3), (3, 8, 2), (5, 4, 4)], 8) == [(0, 0, 3), (3, 8, 2), (5, 4, 4)]
+    assert _split_runs([(2, 7, 2)], 8) == [(2, 7, 1), (3, 8, 1)]

@@ -367,14 +367,32 @@ def front_pose_covariances(plan: FrontPlan, kept: Sequence[np.ndarray], n_poses:
         if not ch.segs:
             s_rr = np.zeros((0, 0))
             continue
-        full = np.empty((m, m))
-        full[:m1, :m1] = s_ee
-        full[:m1, m1:] = s_er
-        full[m1:, :m1] = s_er.T
-        full[m1:, m1:] = s_rr
+        # the previous chunk's Σ_RR: the rows and columns of the front's Σ its runs carried, copied
+        # run by run from the quadrant each part of a run lies in (Σ_EE, Σ_ER, Σ_REᵀ, Σ_RR: the front's
+        # whole Σ is not assembled)
         q_prev = sum(length for _, _, length in ch.segs)
-        s_rr = np.empty((q_prev, q_prev))
-        for oi, ni, li in ch.segs:
-            for oj, nj, lj in ch.segs:
-                s_rr[oi : oi + li, oj : oj + lj] = full[ni : ni + li, nj : nj + lj]
+        runs = _split_runs(ch.segs, m1)
+        previous = np.empty((q_prev, q_prev))
+        for oi, ni, li in runs:
+            for oj, nj, lj in runs:
+                if ni < m1:
+                    src = s_ee[ni : ni + li, nj : nj + lj] if nj < m1 else s_er[ni : ni + li, nj - m1 : nj - m1 + lj]
+                elif nj < m1:
+                    src = s_er[nj : nj + lj, ni - m1 : ni - m1 + li].T
+                else:
+                    src = s_rr[ni - m1 : ni - m1 + li, nj - m1 : nj - m1 + lj]
+                previous[oi : oi + li, oj : oj + lj] = src
+        s_rr = previous
     return 0.5 * (out + out.transpose(0, 2, 1))
+
+
+def _split_runs(segs: Sequence[tuple[int, int, int]], m1: int) -> list[tuple[int, int, int]]:
+    """``segs`` ((old position, front position, length) runs) with each run that spans front position
+    ``m1`` cut in two there: every part then lies in the eliminated variables or in the carried ones."""
+    out = []
+    for o, n, length in segs:
+        if n < m1 < n + length:
+            out += [(o, n, m1 - n), (o + m1 - n, m1, n + length - m1)]
+        else:
+            out.append((o, n, length))
+    return out
