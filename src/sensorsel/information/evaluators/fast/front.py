@@ -356,7 +356,7 @@ def front_pose_covariances(plan: FrontPlan, kept: Sequence[np.ndarray], n_poses:
     s_rr = np.zeros((0, 0))
     for ch, top in zip(reversed(plan.chunks), reversed(kept)):
         m, m1 = ch.m, ch.m1
-        u = np.triu(top[:, :m1])
+        u = top[:, :m1]  # U11 in its upper triangle (the solves read no other)
         x = solve_triangular(u, top[:, m1:], lower=False, check_finite=False)  # G11⁻¹ G12 (m1, q)
         u_inv = solve_triangular(u, np.eye(m1), lower=False, check_finite=False)
         s_er = -(x @ s_rr)
