@@ -235,20 +235,21 @@ class WindowBounds:
     def _window_terms(self, key: tuple[int, ...], ks: np.ndarray, window: int) -> _Terms | None:
         """The terms of :meth:`_suite_terms` whose keyframes lie in the windows of ``window`` keyframes
         before each of ``ks`` (n,) and at it, in the same order (what the ceilings there read); None
-        where the suite's terms are kept already, or the windows cover half the route or more (the
-        route's terms then cost about as much: on the README tour a build of the windows' alone took
-        longer than the route's)."""
+        where the suite's terms are kept already, or the windows may cover half the route or more (by
+        their count and their span: the route's terms then cost about as much, and on the README tour
+        a build of the windows' alone took longer than the route's)."""
         if self._last is not None and self._last[0] == key:
             return None
         n_poses = self.problem.scenario.n_poses
         if not len(ks) or not n_poses:
             return None
+        most = min(len(ks) * (window + 1), int(ks.max()) - max(int(ks.min()) - window, 0) + 1)
+        if 2 * most >= n_poses:
+            return None
         step = np.bincount(np.maximum(ks - window, 0), minlength=n_poses + 1) - np.bincount(
             ks + 1, minlength=n_poses + 1
         )
         covered = np.cumsum(step[:n_poses]) > 0
-        if 2 * int(covered.sum()) >= n_poses:
-            return None
         parts: list[_Terms] = []
         for i in key:
             keyframe, landmark, AA, AB, BB = self._sensor_terms(i)
