@@ -150,8 +150,8 @@ def held_within_horizon(problem: Problem, first: np.ndarray, last: np.ndarray, n
     Each (landmark, keyframe t) the library measures makes the keyframes j in [t - HORIZON, t] count
     that landmark; taken in the order of t, the part of that span the landmark's measurement before it
     does not already cover is [max(t - HORIZON, t_before + 1), t], so the spans are disjoint and each
-    (j, landmark) is counted once: a count by intervals, in integers (on a user's drive with a loop, a
-    look-up per keyframe was 9 s of a 240 s search)."""
+    (j, landmark) is counted once: a count by intervals, in integers (a look-up per keyframe was 9 s of
+    a 241 s search on a user's drive with a loop, profiled)."""
     n = problem.scenario.n_poses
     keys = problem.measured_pairs  # sorted landmark * n + keyframe
     landmark, t = keys // n, keys % n
