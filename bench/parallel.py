@@ -66,6 +66,8 @@ import time
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 REPO = Path(__file__).resolve().parents[1]
 # this file's folder holds bench/distributed.py, which would shadow Dask's own `distributed` package
 sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).resolve().parent]
@@ -364,8 +366,6 @@ def pinned_model(
     T(n) = serial + the sum over rounds of the most loaded place's seconds.
     ``slowest_route_bound``: serial + the sum over rounds of the round's slowest route: what no number
     of places beats while a route's question runs on one core (the speed-up at n = infinity)."""
-    import numpy as np
-
     work = np.zeros((len(route_rounds), n_routes))
     for i, r in enumerate(route_rounds):
         for k, v in r.items():

@@ -163,7 +163,6 @@ class WindowBounds:
         # measurements first (a subsequence of the route's terms, in their order: the same sums), the
         # route's only once a floor is
         near = None if floors_wanted is None else self._window_terms(key, ks, w)
-        whole = near is None
         terms = self._suite_terms(key) if near is None else near
         starts = _starts(terms, ks)
         floors, ceilings = np.zeros((len(ks), 3, 3)), np.zeros((len(ks), 3, 3))
@@ -179,7 +178,7 @@ class WindowBounds:
                     systems.append(system)
             if floors_wanted is not None:
                 wanted = np.flatnonzero(np.asarray(floors_wanted(ceilings), bool)).tolist()
-                if wanted and not whole:
+                if wanted and near is not None:
                     terms = self._suite_terms(key)
                     starts = _starts(terms, ks)
                 for out in wanted:
