@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import contextlib
+import os
+import stat
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -31,6 +35,54 @@ def test_atomic_write_replaces_whole_file_and_leaves_no_temporary(tmp_path: Path
     atomic_write_text(target, "second")
     assert target.read_text() == "second"
     assert sorted(p.name for p in target.parent.iterdir()) == ["out.json"]
+
+
+@contextlib.contextmanager
+def _umask(mask: int) -> Iterator[None]:
+    """The process's umask set to ``mask`` for the block (restored after it)."""
+    old = os.umask(mask)
+    try:
+        yield
+    finally:
+        os.umask(old)
+
+
+def _mode(path: Path) -> int:
+    return stat.S_IMODE(path.stat().st_mode)
+
+
+@pytest.mark.skipif(os.name != "posix", reason="permission bits and the umask are POSIX's")
+@pytest.mark.parametrize("mask", [0o022, 0o002, 0o077], ids=lambda m: f"umask-{m:03o}")
+def test_a_new_result_gets_the_permissions_open_would_give_it(tmp_path: Path, mask: int):
+    # what open(path, "w") gives a new file: read-write for all less the umask (a temporary file's
+    # 0o600 would leave a result shared with a group unreadable to it)
+    with _umask(mask):
+        out = atomic_write_text(tmp_path / f"new-{mask:o}.json", "data")
+        with open(tmp_path / f"by-open-{mask:o}.json", "w") as fh:
+            fh.write("data")
+    assert _mode(out) == 0o666 & ~mask == _mode(tmp_path / f"by-open-{mask:o}.json")
+
+
+@pytest.mark.skipif(os.name != "posix", reason="permission bits and the umask are POSIX's")
+def test_a_result_written_again_keeps_its_permissions(tmp_path: Path):
+    target = tmp_path / "out.json"
+    target.write_text("first")
+    with _umask(0o022):
+        for mode in (0o600, 0o664, 0o640):
+            target.chmod(mode)
+            atomic_write_text(target, f"again {mode:o}")
+            assert _mode(target) == mode and target.read_text() == f"again {mode:o}"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.json"]
+
+
+@pytest.mark.skipif(os.name != "posix", reason="permission bits and the umask are POSIX's")
+def test_the_commands_results_and_plots_are_readable_by_the_group_and_others(tmp_path: Path):
+    result, plot = tmp_path / "greedy.json", tmp_path / "scene.png"
+    with _umask(0o022):
+        for args in (["greedy", "--budget", "5000", "-q", "-o", str(result)], ["scene", "-o", str(plot)]):
+            got = CliRunner().invoke(cli, args)
+            assert got.exit_code == 0, got.output
+    assert _mode(result) == _mode(plot) == 0o644
 
 
 def test_write_into_a_file_as_folder_names_the_path(tmp_path: Path):

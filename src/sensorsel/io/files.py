@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import contextlib
 import os
+import stat
 import sys
-import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -24,7 +24,7 @@ def atomic_write_bytes(path: str | Path, data: bytes) -> Path:
         raise OutputError(path, "it is a folder, expected a file name")
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+        fd, tmp = _temporary_beside(path)
     except OSError as exc:
         raise OutputError(path, exc.strerror or str(exc)) from None
     try:
@@ -42,6 +42,40 @@ def atomic_write_bytes(path: str | Path, data: bytes) -> Path:
             raise OutputError(path, exc.strerror or str(exc)) from None
         raise
     return path
+
+
+#: how many random names :func:`_temporary_beside` tries before giving up (each taken only by a file
+#: of that very name: one try in practice)
+_TEMPORARY_TRIES = 100
+
+
+def _temporary_beside(path: Path) -> tuple[int, str]:
+    """A new, empty file in ``path``'s folder, open for writing (its descriptor and name), with the
+    permissions the result should get: ``path``'s own where it exists (a result written again keeps
+    them, as ``open(path, "w")`` would), else read-write for all less the process's umask (what
+    ``open`` gives a new file: 0o644 under the usual umask 022). ``tempfile.mkstemp`` would make it
+    0o600 whatever the umask, so a result shared with a group, or served from a folder, could not be
+    read by the others."""
+    try:
+        keep: int | None = stat.S_IMODE(path.stat().st_mode)
+    except FileNotFoundError:
+        keep = None
+    flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0)
+    for _ in range(_TEMPORARY_TRIES):
+        tmp = path.parent / f".{path.name}.{os.urandom(6).hex()}.tmp"
+        try:
+            fd = os.open(tmp, flags, 0o666)  # the umask applies, as for open()
+        except FileExistsError:
+            continue
+        if keep is not None:
+            try:
+                os.chmod(tmp, keep)
+            except BaseException:
+                os.close(fd)
+                os.unlink(tmp)
+                raise
+        return fd, str(tmp)
+    raise FileExistsError(f"no free temporary name beside {path} after {_TEMPORARY_TRIES} tries")
 
 
 def atomic_write_text(path: str | Path, text: str) -> Path:
