@@ -28,14 +28,13 @@ from __future__ import annotations
 
 import math
 import re
-from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import pytest
 
 from sensorsel import ScenarioSpec, load_problem
-from sensorsel.api import suite_accuracy
+from sensorsel.api import with_suite_quality
 from sensorsel.io import results
 
 try:  # the public API module, where there is one
@@ -106,10 +105,9 @@ def rerun(kitti_root, published):
     # fall-back to generated landmarks that would compare unlike with like)
     problem = load_problem(ScenarioSpec(seq="03", kitti_root=str(kitti_root), landmarks="real"))
     res = run_greedy(problem, BUDGET, "uniform", certify=True)
-    # as `sensorsel greedy` writes it: with the suite's accuracy in metres (the SLAM graph), of the
-    # estimate the published file records (files written before estimates existed: the smoother's)
-    estimate = published[0].accuracy[0].estimate if published[0].accuracy else "filter"
-    res = replace(res, accuracy=suite_accuracy(problem, res.suite, estimate=estimate))
+    # as `sensorsel greedy` writes it: with the suite's accuracy in metres and its integrity (the SLAM
+    # graph, the filter's estimate: the command's defaults)
+    res = with_suite_quality(res, problem)
     return res, results.to_jsonable(res)
 
 
