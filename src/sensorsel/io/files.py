@@ -44,8 +44,8 @@ def atomic_write_bytes(path: str | Path, data: bytes) -> Path:
     return path
 
 
-#: how many random names :func:`_temporary_beside` tries before giving up (each taken only by a file
-#: of that very name: one try in practice)
+#: how many random names :func:`_temporary_beside` tries before giving up (a name is refused only when
+#: a file of that very name exists: one try in practice)
 _TEMPORARY_TRIES = 100
 
 
