@@ -3,6 +3,7 @@ fixtures, the answer against brute force on a small library, bad input one line 
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import json
 
@@ -11,7 +12,7 @@ import pytest
 from click.testing import CliRunner
 
 from sensorsel.cli import cli
-from sensorsel.designs.requirements import Specification, require, verdict
+from sensorsel.designs.requirements import Specification, preset, require, verdict
 from sensorsel.information.evaluators import FastEvaluator
 from sensorsel.information.evaluators.accuracy import route_accuracy
 from sensorsel.io import results
@@ -29,6 +30,11 @@ def _invoke(args):
 
 def _small(library) -> Constraints:
     return Constraints(exclude=tuple(sorted(set(library.ids) - set(SMALL))))
+
+
+def _all_but(problem, kept) -> tuple[str, ...]:
+    """The library's ids but ``kept``: what a Constraints excludes to keep those alone."""
+    return tuple(sorted(set(problem.library.ids) - set(kept)))
 
 
 def _brute_force(
@@ -291,6 +297,58 @@ def test_interrupted_require_resumes_to_the_same_answer_without_recomputing(tiny
     assert got.n_checks + got.n_refuted < want.n_checks + want.n_refuted  # the journal's answers were not recomputed
     # and the result says so: its counts are this run's, the journal's answers counted apart
     assert (want.n_resumed, got.n_resumed) == (0, len(journal.answers))
+
+
+def test_a_run_resumed_with_the_journals_bad_keyframes_computes_fewer_passes(tiny_problem, tmp_path):
+    """Where a failing suite's filter pass is over a limit is journalled beside the answers; a run
+    resumed with it computes fewer passes than one resumed from the answers alone (which computes
+    them again for the windows' bounds), to the same answer."""
+    spec = Specification(lateral=0.06, heading=0.1)
+    kw = {"map_sigma_m": 0.05, "failures": 1, "constraints": _small(tiny_problem.library)}
+    want = require(tiny_problem, spec, **kw)
+    ck = tmp_path / "r.json.checkpoint"
+    with pytest.raises(_Interrupt):
+        require(tiny_problem, spec, checkpoint=ck, progress=_stop_after(1), **kw)
+    journal = results.load(ck, "requirement-journal")
+    assert journal.bad_keyframes
+    bare = tmp_path / "answers-alone.checkpoint"  # as a journal written before the bad keyframes were kept
+    results.save(dataclasses.replace(journal, bad_keyframes=()), bare, compact=True)
+    got = require(tiny_problem, spec, checkpoint=ck, resume=True, **kw)
+    alone = require(tiny_problem, spec, checkpoint=bare, resume=True, **kw)
+    for r in (got, alone):
+        assert (r.status, r.suite, r.cost_usd, r.lower_bound_usd) == (
+            want.status,
+            want.suite,
+            want.cost_usd,
+            want.lower_bound_usd,
+        )
+        assert r.n_resumed == len(journal.answers)
+    assert got.n_checks < alone.n_checks
+
+
+def test_the_journals_bad_keyframes_are_where_each_suites_own_accuracy_is_over_a_limit(suburb_problem, tmp_path):
+    """Every failing suite's bad keyframes the journal holds (from whole passes, passes stopped early,
+    the bounds' bases) are the keyframes its own accuracy's verdict finds over each limit, in the
+    specification's order."""
+    spec = preset("local-streets")
+    kept = [i for i in suburb_problem.library.ids if i.startswith(("HD2K", "WSC"))]
+    ck = tmp_path / "r.json.checkpoint"
+    require(
+        suburb_problem,
+        spec,
+        map_sigma_m=0.05,
+        constraints=Constraints(exclude=_all_but(suburb_problem, kept)),
+        checkpoint=ck,
+    )
+    entries = results.load(ck, "requirement-journal").bad_keyframes
+    assert len(entries) >= 10
+    ev = FastEvaluator(suburb_problem)
+    names = [c for c, _, _ in spec.bounds()]
+    for route, suite, bad in entries:
+        v = verdict(route_accuracy(ev, suite, map_sigma_m=0.05), spec)
+        assert route == 0 and not v.meets
+        over = {c: b for c, _, _, b in v.worst}
+        assert bad == tuple(over[c] for c in names)
 
 
 def test_a_journal_write_waits_nine_times_what_the_last_one_took():

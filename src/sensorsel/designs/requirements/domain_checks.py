@@ -37,7 +37,7 @@ import uuid
 from collections.abc import Callable, Sequence
 from typing import Any, Protocol
 
-from sensorsel.designs.requirements.checks import COUNTS, RouteOracle
+from sensorsel.designs.requirements.checks import COUNTS, BadList, RouteOracle
 from sensorsel.designs.requirements.spec import RouteRequirement, Specification
 from sensorsel.information.evaluators.base import ProblemEvaluator, Suite, as_suite
 
@@ -66,19 +66,20 @@ class Here:
 
 def open_route(engine: ProblemEvaluator, key: str, how: tuple[Any, ...]) -> None:
     """Keep a :class:`RouteOracle` of ``engine``'s route under ``key`` (``how``: its name,
-    specification, map σ, estimate and known answers)."""
-    name, spec, map_sigma_m, estimate, known = how
-    engine.kept[key] = RouteOracle(engine, engine.problem, name, spec, map_sigma_m, estimate, known)
+    specification, map σ, estimate, known answers and the bad keyframes known with them)."""
+    name, spec, map_sigma_m, estimate, known, known_bad = how
+    engine.kept[key] = RouteOracle(engine, engine.problem, name, spec, map_sigma_m, estimate, known, known_bad)
 
 
 def ask_route(engine: ProblemEvaluator, key: str, method: str, suite: Suite) -> Any:
     """``method(suite)`` of the route oracle kept under ``key`` (meets, violation or route), with the
-    answers it found on the way and its counts; :data:`LOST` where it is not kept here."""
+    answers it found on the way, its counts and the failing suites' bad keyframes it found;
+    :data:`LOST` where it is not kept here."""
     oracle = engine.kept.get(key)
     if oracle is None:
         return LOST
     value = getattr(oracle, method)(suite)
-    return value, oracle.take_log(), oracle.counts()
+    return value, oracle.take_log(), oracle.counts(), oracle.take_bad_log()
 
 
 def close_route(engine: ProblemEvaluator, key: str) -> None:
@@ -112,21 +113,34 @@ class DomainChecks:
         self._key = f"require-{uuid.uuid4().hex}"
         #: every answer so far, (route, suite) -> (meets, violation or None): the journal's entries
         self._answers: dict[tuple[int, Suite], tuple[bool, float | None]] = {}
+        #: per route, the failing suites' bad keyframes found so far, in the order they were found
+        #: (journalled beside the answers: a route opened again starts from them)
+        self._bad: list[list[tuple[Suite, BadList]]] = [[] for _ in self.names]
         self._counts: list[dict[str, int]] = [dict.fromkeys(COUNTS, 0) for _ in self.names]
         #: per route, the counts of the oracles it had before one was lost
         self._before: list[dict[str, int]] = [dict.fromkeys(COUNTS, 0) for _ in self.names]
         self._opened: set[int] = set()
 
-    def resume(self, known: dict[tuple[int, Suite], tuple[bool, float | None]]) -> None:
+    def resume(
+        self,
+        known: dict[tuple[int, Suite], tuple[bool, float | None]],
+        known_bad: Sequence[tuple[int, Suite, BadList]] = (),
+    ) -> None:
         """Start from answers read back from a journal, (route, suite) -> (meets, violation or None),
-        before the first question: each route's checks open with its own."""
+        and the failing suites' bad keyframes found with them, (route, suite, bad keyframes) in the
+        order they were found, before the first question: each route's checks open with its own."""
         if self._opened:
             raise RuntimeError("resume: the routes' checks have started already")
         self._answers.update(known)
+        for r, s, bad in known_bad:
+            self._bad[r].append((s, bad))
 
     def _open(self, routes: list[int]) -> None:
         """Open the oracles of ``routes`` where they live, with every answer known of each."""
-        how = {r: (self.names[r], self.specs[r], self.map_sigma_m, self.estimate, self._known_of(r)) for r in routes}
+        how = {
+            r: (self.names[r], self.specs[r], self.map_sigma_m, self.estimate, self._known_of(r), list(self._bad[r]))
+            for r in routes
+        }
         self.host.apply_routes(open_route, {self.where[r]: (self._key, how[r]) for r in routes})
         self._opened.update(routes)
 
@@ -147,13 +161,14 @@ class DomainChecks:
                 reply = got[self.where[r]]
                 if reply == LOST:
                     continue
-                value, log, counts = reply
+                value, log, counts, bad = reply
                 out[r] = value
                 # a route opened again after a lost worker counts afresh: its earlier counts stay
                 self._counts[r] = {c: self._before[r][c] + counts[c] for c in COUNTS}
                 for s, m, v in log:
                     self._answers[(r, s)] = (m, v)
-                found = found or bool(log)
+                self._bad[r].extend(bad)
+                found = found or bool(log) or bool(bad)
             if found and self.on_answer is not None:
                 self.on_answer()
             if not lost:
@@ -199,6 +214,11 @@ class DomainChecks:
     def answers(self) -> tuple[tuple[int, Suite, bool, float | None], ...]:
         """Every answer so far, (route, suite, meets, violation or None), in a fixed order."""
         return tuple((r, s, m, v) for (r, s), (m, v) in sorted(self._answers.items()))
+
+    def bad_keyframes(self) -> tuple[tuple[int, Suite, BadList], ...]:
+        """The failing suites' bad keyframes found so far, (route, suite, bad keyframes per
+        component), route after route, each route's in the order they were found."""
+        return tuple((r, s, bad) for r, found in enumerate(self._bad) for s, bad in found)
 
     def count(self, name: str) -> int:
         """A count of :data:`~.checks.COUNTS` summed over the routes."""

@@ -25,6 +25,7 @@ import numpy as np
 from sensorsel.designs.requirements.spec import Specification, _rank, component_sigmas
 
 __all__ = [
+    "Bad",
     "BadKeyframes",
     "bad_keyframes",
     "floors_to_solve",
