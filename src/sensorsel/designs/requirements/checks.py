@@ -14,8 +14,8 @@ from sensorsel.designs.requirements.accept import Bases, base_of
 from sensorsel.designs.requirements.oracle import Antichain, mask_of, suite_of
 from sensorsel.designs.requirements.spec import RouteVerdict, Specification, covariance_verdict, verdict
 from sensorsel.designs.requirements.truncated import (
-    Bad,
     BadKeyframes,
+    BadList,
     bad_keyframes,
     floors_to_solve,
     mask_of_bad,
@@ -31,18 +31,12 @@ from sensorsel.model.problem import Problem
 
 __all__ = [
     "COUNTS",
-    "BadList",
     "FLOOR_KEEP_SHARE",
     "FLOOR_TRIAL",
     "RouteEngine",
     "RouteOracle",
     "route_covariances",
 ]
-
-
-#: a failing suite's bad keyframes as they travel and are journalled: per component of the
-#: specification, the keyframes (ascending) where it is over its limit
-BadList = tuple[tuple[int, ...], ...]
 
 
 class RouteEngine(Protocol):
@@ -123,10 +117,11 @@ class RouteOracle:
         engine: the route's engine (smoother marginals and the floor); problem: the route's problem
             (the filter's passes); name, spec: the route's name and specification.
         known: suite -> (meets, violation or None): answers read back from a journal.
+        known_bad: (suite, bad keyframes) of failing suites found with them, in their order.
+        bad: the bad keyframes of the suites seen to fail (a superset's pass stops after them, the
+            windows are asked at them); what it records is logged for the journal (its ``take_log``).
         log: the answers given since the caller last took them (:meth:`take_log`), as
             (suite, meets, violation or None), in the order they were found: a journal's entries.
-        bad_log: the failing suites' bad keyframes found since the caller last took them
-            (:meth:`take_bad_log`), as (suite, bad keyframes), in the order they were found.
     """
 
     #: whether upper bounds may accept suites (the benchmark turns it off to compare, in one process)
@@ -151,15 +146,10 @@ class RouteOracle:
         known: dict[Suite, tuple[bool, float | None]] | None = None,
         known_bad: Iterable[tuple[Suite, BadList]] = (),
     ) -> None:
-        """``known``: answers read back from a journal (or kept by the caller when a route is opened
-        again); ``known_bad``: the bad keyframes of failing suites found with them (:attr:`bad_log`),
-        in the order they were found: the windows' verdicts and the passes stopped early start from
-        them as from the suites' own passes, which a resumed run would otherwise compute again."""
         self.engine, self.problem, self.name, self.spec = engine, problem, name, spec
         self.map_sigma_m, self.estimate = map_sigma_m, estimate
         self.known: dict[Suite, tuple[bool, float | None]] = dict(known or {})
         self.log: list[tuple[Suite, bool, float | None]] = []
-        self.bad_log: list[tuple[Suite, BadList]] = []
         self._answers: dict[Suite, tuple[bool, float]] = {}
         self._reports: dict[Suite, tuple[RouteAccuracy, RouteVerdict]] = {}
         #: suite -> the smoother's (meets, violation), where the filter's is asked (its floor)
@@ -186,10 +176,7 @@ class RouteOracle:
         #: suite -> the violation of a suite the windows refuted: their floors' (a lower bound on the
         #: pass's, what the solver's greedy ranks it by)
         self._window_violations: dict[Suite, float] = {}
-        #: the bad keyframes of the suites seen to fail (a superset's pass stops after them)
-        self._bad = BadKeyframes()
-        for s_, bad in known_bad:
-            self._bad.add(mask_of(s_), tuple(np.asarray(b, np.int64) for b in bad))
+        self.bad = BadKeyframes((mask_of(s), b) for s, b in known_bad)
         #: the minimal suites (bit masks) seen to meet the specification: a suite holding one meets
         #: it too, with no computation (:meth:`_met_below`)
         self._met = Antichain(problem.n_sensors, "min")
@@ -220,19 +207,8 @@ class RouteOracle:
         out, self.log = self.log, []
         return out
 
-    def take_bad_log(self) -> list[tuple[Suite, BadList]]:
-        """The failing suites' bad keyframes found since the last call (and forgets them)."""
-        out, self.bad_log = self.bad_log, []
-        return out
-
     def _answered(self, suite: Suite, meets: bool, violation: float | None) -> None:
         self.log.append((suite, bool(meets), None if violation is None else float(violation)))
-
-    def _note_bad(self, mask: int, bad: Bad) -> None:
-        """Record that the failing suite ``mask`` is over its limits exactly at ``bad`` (per
-        component), and log it for the journal."""
-        self._bad.add(mask, bad)
-        self.bad_log.append((suite_of(mask), tuple(tuple(int(k) for k in b) for b in bad)))
 
     def _answer(self, suite: Suite) -> tuple[bool, float]:
         """(meets, violation) of ``suite``, computed once. With the filter's estimate and the upper
@@ -252,7 +228,7 @@ class RouteOracle:
             self.n_checks += 1
             self.keyframes_passed += len(covariances)
             if not got[0] and self.estimate == "filter":
-                self._note_bad(mask_of(suite), bad_keyframes(covariances, self.spec))
+                self.bad.add(mask_of(suite), bad_keyframes(covariances, self.spec))
                 if base is not None:
                     self.bases.offer(base)
             self._answered(suite, *got)
@@ -264,7 +240,7 @@ class RouteOracle:
         if self.estimate != "filter":
             return None
         mask = mask_of(suite)
-        hit = self._bad.shortest(mask)
+        hit = self.bad.shortest(mask)
         if hit is None:
             return None
         until, bad = hit
@@ -276,7 +252,7 @@ class RouteOracle:
         still = tuple(np.intersect1d(b, n_) for b, n_ in zip(bad, now))  # good where the subset was good
         meets = meets_from_bad(still, n, self.spec)
         if not meets:
-            self._note_bad(mask, still)
+            self.bad.add(mask, still)
         self._short[suite] = meets
         self.n_checks += 1
         self.n_short += 1
@@ -415,14 +391,14 @@ class RouteOracle:
             return None
         mask = mask_of(suite)
         n = self.problem.scenario.n_poses
-        known = self._bad.inside(mask)
+        known = self.bad.inside(mask)
         if not known:
             # the failing suite inside it seen last (a growth's failing set, which the growth asks with
             # one sensor more at a time): its bad keyframes from its own pass, once
             failed = next((m for m, _ in reversed(self._failed[-RECENT_FAILED:]) if not m & ~mask), None)
             if failed is not None:
                 self._bad_keyframes_of(failed)
-                known = self._bad.inside(mask)
+                known = self.bad.inside(mask)
         # the keyframes still in question, per component, as (C, K) masks (sets of a few keyframes
         # each, asked thousands of times: masks cost a fraction of numpy's set operations)
         if known:
@@ -536,7 +512,7 @@ class RouteOracle:
         self.keyframes_passed += len(covariances)
         got = self._answers.setdefault(suite, covariance_verdict(covariances, self.spec))
         if not got[0]:  # (a floor that refuted it at a tie, to round-off, leaves it without bad keyframes)
-            self._note_bad(mask, bad_keyframes(covariances, self.spec))
+            self.bad.add(mask, bad_keyframes(covariances, self.spec))
 
     def refuted_cheaply(self, suite: Suite) -> bool:
         """Whether ``suite`` is refuted without a filter pass: by its smoother's marginals (the
@@ -575,7 +551,7 @@ class RouteOracle:
         first = self._first_seen
         n = self.problem.scenario.n_poses
         mask = mask_of(suite)
-        for known, bad in self._bad.inside(mask):
+        for known, bad in self.bad.inside(mask):
             f = min((int(first[i]) for i in suite if not known >> i & 1), default=n)
             if not meets_from_bad(tuple(b[b < f] for b in bad), n, self.spec):
                 return True
@@ -603,7 +579,7 @@ class RouteOracle:
         self.n_checks += self.bases.n_passes - passes  # a base's pass is an accuracy computation
         if self.bases.n_passes > passes:  # a failing suite's whole pass: its bad keyframes, exactly
             base = self.bases.newest
-            self._note_bad(base.mask, bad_keyframes(base.filtered, self.spec))
+            self.bad.add(base.mask, bad_keyframes(base.filtered, self.spec))
         return self._met_by_bound(suite) if ok else False
 
     def _smoother_verdict(self, suite: Suite) -> tuple[bool, float] | None:

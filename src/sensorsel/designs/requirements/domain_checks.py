@@ -37,8 +37,10 @@ import uuid
 from collections.abc import Callable, Sequence
 from typing import Any, Protocol
 
-from sensorsel.designs.requirements.checks import COUNTS, BadList, RouteOracle
+from sensorsel.designs.requirements.checks import COUNTS, RouteOracle
+from sensorsel.designs.requirements.oracle import suite_of
 from sensorsel.designs.requirements.spec import RouteRequirement, Specification
+from sensorsel.designs.requirements.truncated import BadList
 from sensorsel.information.evaluators.base import ProblemEvaluator, Suite, as_suite
 
 __all__ = ["DomainChecks", "Here", "RouteHost"]
@@ -79,7 +81,7 @@ def ask_route(engine: ProblemEvaluator, key: str, method: str, suite: Suite) -> 
     if oracle is None:
         return LOST
     value = getattr(oracle, method)(suite)
-    return value, oracle.take_log(), oracle.counts(), oracle.take_bad_log()
+    return value, oracle.take_log(), oracle.counts(), [(suite_of(m), b) for m, b in oracle.bad.take_log()]
 
 
 def close_route(engine: ProblemEvaluator, key: str) -> None:

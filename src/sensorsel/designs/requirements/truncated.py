@@ -20,6 +20,8 @@ Every comparison is the one :func:`~sensorsel.designs.requirements.spec.covarian
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 import numpy as np
 
 from sensorsel.designs.requirements.spec import Specification, _rank, component_sigmas
@@ -27,6 +29,7 @@ from sensorsel.designs.requirements.spec import Specification, _rank, component_
 __all__ = [
     "Bad",
     "BadKeyframes",
+    "BadList",
     "bad_keyframes",
     "floors_to_solve",
     "mask_of_bad",
@@ -37,6 +40,8 @@ __all__ = [
 
 #: per component of the specification (in ``spec.bounds()`` order): the sorted bad keyframes
 Bad = tuple[np.ndarray, ...]
+#: the same as it travels and is journalled: per component, the bad keyframes (ascending) as integers
+BadList = tuple[tuple[int, ...], ...]
 
 
 def over_limits(covariances: np.ndarray, spec: Specification, slack: float = 0.0) -> np.ndarray:
@@ -101,13 +106,29 @@ def mask_of_bad(bad: Bad, n_keyframes: int) -> np.ndarray:
 class BadKeyframes:
     """The bad keyframes (per component) of the suites that failed on one route, as bit masks of
     library positions; :meth:`shortest` finds, for a suite, a failing subset whose bad keyframes end
-    earliest."""
+    earliest.
 
-    def __init__(self) -> None:
+    ``known``: (mask, bad keyframes) recorded before, in the order they were (a journal's: a resumed
+    run starts from them instead of computing those suites' passes again). What :meth:`add` records
+    is also kept in order until :meth:`take_log` takes it (for the journal)."""
+
+    def __init__(self, known: Iterable[tuple[int, BadList]] = ()) -> None:
         self._known: list[tuple[int, int, Bad]] = []  # (last bad keyframe + 1, mask, bad), kept sorted
+        self._log: list[tuple[int, BadList]] = []
+        for mask, bad in known:
+            self._insert(mask, tuple(np.asarray(b, np.int64) for b in bad))
 
     def add(self, mask: int, bad: Bad) -> None:
         """Record that suite ``mask`` is over its limits exactly (or at most) at ``bad``."""
+        self._insert(mask, bad)
+        self._log.append((mask, tuple(tuple(int(k) for k in b) for b in bad)))
+
+    def take_log(self) -> list[tuple[int, BadList]]:
+        """(mask, bad keyframes) of what :meth:`add` recorded since the last call, in order (and forgets them)."""
+        out, self._log = self._log, []
+        return out
+
+    def _insert(self, mask: int, bad: Bad) -> None:
         until = max((int(b[-1]) + 1 for b in bad if len(b)), default=0)
         self._known.append((until, mask, bad))
         self._known.sort(key=lambda e: (e[0], e[1]))
