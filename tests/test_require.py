@@ -297,6 +297,8 @@ def test_interrupted_require_resumes_to_the_same_answer_without_recomputing(tiny
     assert got.n_checks + got.n_refuted < want.n_checks + want.n_refuted  # the journal's answers were not recomputed
     # and the result says so: its counts are this run's, the journal's answers counted apart
     assert (want.n_resumed, got.n_resumed) == (0, len(journal.answers))
+    # the integer programs the interrupted run solved are read back, not solved again
+    assert journal.programs and got.n_programs_resumed >= len(journal.programs) > want.n_programs_resumed == 0
 
 
 def test_a_run_resumed_with_the_journals_bad_keyframes_computes_fewer_passes(tiny_problem, tmp_path):

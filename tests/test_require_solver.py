@@ -122,3 +122,80 @@ def test_solver_is_deterministic_and_calls_meets_once_per_suite():
         b.iterations,
     )
     assert len(calls) == len(set(calls))
+
+
+def test_a_search_given_the_programs_an_earlier_one_solved_solves_none_again_and_ends_the_same():
+    """The integer programs' answers a search keeps (a require journal's ``programs``), given to the
+    same search again: every program it poses is read back, none is solved again, and the search
+    takes the same path to the same answer."""
+    rng = np.random.default_rng(7)
+    weights = np.zeros((len(LIB), 6))
+    weights[POS] = rng.uniform(0.0, 0.6, (len(POS), 6))
+    meets, violation = _predicate(weights, 4.0)
+    feas = feasible_set(LIB, float("inf"), Constraints(exclude=tuple(sorted(set(LIB.ids) - set(SMALL)))))
+    solved: dict = {}
+    a = cheapest_suite(feas, meets, failures=1, violation=violation, programs_solved=solved)
+    assert solved and a.programs_resumed == 0
+    kept = dict(solved)
+    b = cheapest_suite(feas, meets, failures=1, violation=violation, programs_solved=kept)
+    assert kept == solved  # nothing solved anew
+    assert b.programs_resumed >= len(solved)
+    same = ("suite", "cost", "lower_bound", "status", "cuts", "iterations", "ties", "tie_programs", "plateau_swaps")
+    assert [getattr(b, f) for f in same] == [getattr(a, f) for f in same]
+
+
+def test_an_integer_programs_key_changes_with_any_row_bound_or_option_but_its_time_limit():
+    """A program's kept answer is found by a key of everything it depends on: another coefficient,
+    limit, bound, price or option is another program (its answer is not taken for this one); a time
+    limit alone stops a search, it does not steer it."""
+    from scipy.optimize import LinearConstraint
+
+    from sensorsel.designs.requirements.programs import _key
+
+    n = 5
+    price, lb, ub = np.arange(1.0, n + 1), np.zeros(n), np.ones(n)
+    A = np.array([[1.0, 1, 0, 0, 1], [0, 1, 1, 1, 0]])
+    opts = {"node_limit": 10, "presolve": True}
+
+    def key(price=price, lb=lb, ub=ub, A=A, lo=1.0, opts=opts):
+        return _key(price, lb, ub, [LinearConstraint(A, lo, np.inf)], opts)
+
+    base = key()
+    assert key(opts={**opts, "time_limit": 3.0}) == base == key(A=A.copy())
+    other = A.copy()
+    other[1, 4] = 1.0
+    changed = [
+        key(A=other),
+        key(A=A[:1]),
+        key(lo=2.0),
+        key(ub=np.array([1.0, 1, 0, 1, 1])),
+        key(lb=np.array([0.0, 0, 1, 0, 0])),
+        key(price=price + [0, 0, 0, 0, 1e-6]),
+        key(opts={**opts, "node_limit": 11}),
+    ]
+    assert base not in changed and len(set(changed)) == len(changed)
+
+
+def test_an_answer_a_time_limit_may_have_cut_is_not_kept():
+    """scipy's status 1 under a time limit (HiGHS stopped before its optimum) is not kept: a resumed
+    run would otherwise read a cut search's answer where a whole one belongs; the same program
+    solved without the limit is."""
+    from types import SimpleNamespace
+
+    from scipy.optimize import LinearConstraint
+
+    from sensorsel.designs.requirements.programs import _solve
+
+    rng = np.random.default_rng(0)
+    n = 60
+    s = SimpleNamespace(
+        price=rng.integers(100, 1000, n).astype(float), solved={}, resumed_from=frozenset(), programs_resumed=0
+    )
+    rows = [LinearConstraint((rng.uniform(size=(200, n)) < 0.1).astype(float), 1.0, np.inf)]
+    opts = {"node_limit": 100_000, "mip_rel_gap": 0.0, "presolve": True, "disp": False}
+    cut = _solve(s, np.zeros(n), np.ones(n), rows, {**opts, "time_limit": 1e-9})
+    assert cut.status == 1 and s.solved == {}
+    whole = _solve(s, np.zeros(n), np.ones(n), rows, opts)
+    assert whole.status == 0 and len(s.solved) == 1
+    (kept,) = s.solved.values()
+    assert kept[1:] == (0, tuple(np.flatnonzero(whole.x > 0.5)), whole.fun, whole.mip_dual_bound, whole.mip_node_count)

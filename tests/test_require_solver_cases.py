@@ -196,6 +196,9 @@ def test_highs_takes_the_absolute_gap_the_floor_needs():
         price=np.asarray(fs.A[0], float),
         orders=(),
         hard=True,
+        solved={},
+        resumed_from=frozenset(),
+        programs_resumed=0,
     )
     s.down = SimpleNamespace(failing=SimpleNamespace(masks=[(1 << n) - 1 - (1 << 3) - (1 << 7)]))  # x3 + x7 >= 1
     spent = [0.0, 0]

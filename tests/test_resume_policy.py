@@ -225,7 +225,8 @@ def test_the_resume_help_says_what_every_run_does():
 def test_a_resumed_require_says_its_counts_are_its_own(tiny_problem, tmp_path):
     """A require resumed from its own interrupted run's journal reads the answers back and says so
     in its printout and its JSON (``n_resumed``): the accuracy computations and seconds it prints are
-    this run's alone, not the whole search's. The interrupted run is the library call with a budget
+    this run's alone, not the whole search's; so are the integer programs' solutions it read back
+    (``n_programs_resumed``). The interrupted run is the library call with a budget
     of 50_000 (an int; the command's is a float): the journal's fingerprint takes them as one budget
     (hash the budget as given and the resume is warned about and starts afresh)."""
     from sensorsel.designs.requirements import DEFAULT_MAP_SIGMA_M, Specification, require
@@ -244,11 +245,15 @@ def test_a_resumed_require_says_its_counts_are_its_own(tiny_problem, tmp_path):
     class Stop(KeyboardInterrupt):
         pass
 
+    reports = []
+
     def stop(done: int, total: int) -> None:
-        raise Stop()
+        reports.append(done)
+        if len(reports) == 2:
+            raise Stop()
 
     problem = build_problem(load_library(study.with_name("small.yaml")), tiny_problem.scenario)
-    with pytest.raises(Stop):  # the same inputs as the command's, interrupted at its first progress report
+    with pytest.raises(Stop):  # the same inputs as the command's, interrupted at its second progress report
         require(
             problem,
             Specification(lateral=0.5, longitudinal=0.5),
@@ -257,13 +262,19 @@ def test_a_resumed_require_says_its_counts_are_its_own(tiny_problem, tmp_path):
             checkpoint=ck,
             progress=stop,
         )
-    n = len(results.load(ck, "requirement-journal").answers)
-    assert n > 0
+    journal = results.load(ck, "requirement-journal")
+    n, m = len(journal.answers), len(journal.programs)
+    assert n > 0 and m > 0
     res = _invoke(_args("require", out, study) + ["--resume"])
     assert res.exit_code == 0, res.output
     assert "warning" not in res.stderr  # its own journal: read back, not warned about
-    assert f"resumed from {n} answers of an earlier run, not counted here" in res.stdout
-    assert json.loads((out / "require.json").read_text())["n_resumed"] == n
+    said = json.loads((out / "require.json").read_text())
+    assert said["n_resumed"] == n and said["n_programs_resumed"] >= m
+    k = said["n_programs_resumed"]  # the programs it solved, read back, not solved again
+    assert (
+        f"resumed from {n} answers of an earlier run, not counted here, and {k} of its integer programs' solutions"
+        in (res.stdout)
+    )
     fresh = _invoke(_args("require", tmp_path / "fresh", study))
     assert fresh.exit_code == 0 and "resumed" not in fresh.stdout
 

@@ -320,7 +320,12 @@ def _print(res: RequireResult) -> None:
         f"computations ({res.seconds_checks:.2f} s; {res.n_refuted} more suites refuted by a cheap bound"
         + (f", {res.n_accepted} accepted by an upper bound" if res.n_accepted else "")
         + f"), {res.seconds:.2f} s in all"
-        + (f"; resumed from {res.n_resumed} answers of an earlier run, not counted here" if res.n_resumed else "")
+        + (
+            f"; resumed from {res.n_resumed} answers of an earlier run, not counted here"
+            + (f", and {res.n_programs_resumed} of its integer programs' solutions" if res.n_programs_resumed else "")
+            if res.n_resumed
+            else ""
+        )
     )
 
 

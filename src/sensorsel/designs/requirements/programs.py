@@ -3,11 +3,13 @@ that satisfies the feasible set's rows, every cut and no-good found so far (:mod
 
 from __future__ import annotations
 
+import hashlib
 import math
 import re
 import time
 import warnings
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -16,7 +18,12 @@ from sensorsel.designs.requirements.oracle import mask_of as _mask
 from sensorsel.designs.requirements.oracle import suite_of as _suite
 from sensorsel.io.files import quiet_stdout
 
-__all__ = ["FLOOR_AFTER_NODES", "MILP_NODE_LIMIT", "floor_cost", "propose", "tol"]
+__all__ = ["FLOOR_AFTER_NODES", "MILP_NODE_LIMIT", "Solved", "floor_cost", "propose", "tol"]
+
+#: an integer program's answer as a journal keeps it (:func:`_solve`): (the program's key, scipy's
+#: status, the library positions at 1 in its solution or None, the objective [$] or None, HiGHS's
+#: dual bound [$] or None, its branch-and-bound nodes)
+Solved = tuple[str, int, tuple[int, ...] | None, float | None, float | None, int]
 
 #: HiGHS's branch-and-bound node limit per integer program (deterministic, unlike a time limit)
 MILP_NODE_LIMIT = 100_000
@@ -44,6 +51,68 @@ _FLOOR_MARGIN = 1e-4
 #: bound is optimal. It stays under :data:`_COST_TOL`, so such a suite costs what the cheapest does
 #: by the solver's own equality of costs (:func:`tol`)
 _GAP_ABOVE_MARGIN = 4e-4
+
+
+@dataclass(frozen=True)
+class _Result:
+    """What the search reads of scipy's ``milp`` result: its own, or one read back from a journal."""
+
+    status: int
+    x: np.ndarray | None
+    fun: float | None
+    mip_dual_bound: float | None
+    mip_node_count: int
+
+
+def _key(price: np.ndarray, lb: np.ndarray, ub: np.ndarray, rows: Sequence[Any], options: dict[str, object]) -> str:
+    """sha256 of everything an integer program's answer depends on: the costs, the bounds, every
+    row and HiGHS's options but its time limit (which stops a search, and does not steer it)."""
+    h = hashlib.sha256()
+    for a in (price, lb, ub):
+        h.update(np.ascontiguousarray(a, dtype=float).tobytes() + b"|")
+    for r in rows:
+        A = np.atleast_2d(np.asarray(r.A, dtype=float))
+        h.update(repr(A.shape).encode() + np.ascontiguousarray(A).tobytes())
+        for limit in (r.lb, r.ub):
+            h.update(np.ascontiguousarray(np.broadcast_to(np.asarray(limit, dtype=float), A.shape[:1])).tobytes())
+    h.update(repr(sorted((k, v) for k, v in options.items() if k != "time_limit")).encode())
+    return h.hexdigest()
+
+
+def _solve(s: Any, lb: np.ndarray, ub: np.ndarray, rows: Sequence[Any], options: dict[str, object]) -> _Result:
+    """min ``s.price`` · x over binary x within [``lb``, ``ub``] and ``rows``, by scipy's ``milp``, or
+    its answer kept in ``s.solved`` (key -> :data:`Solved`: a resumed run's journal gives the
+    programs an interrupted run solved, in the order the search poses them again; ``s.resumed_from``
+    holds those keys and ``s.programs_resumed`` counts them as they are read). An answer is kept
+    unless a time limit may have cut it (scipy's status 1 with a ``time_limit``: the node limit alone
+    stops a search where it always does). A journal's answer is an optimum (or the dual bound) of
+    this very program, so the search goes on as sound as if HiGHS had solved it here."""
+    from scipy.optimize import Bounds, milp
+
+    key = _key(s.price, lb, ub, rows, options)
+    got = s.solved.get(key)
+    if got is not None:
+        s.programs_resumed += key in s.resumed_from
+        _, status, ones, fun, dual, nodes = got
+        x = None if ones is None else np.isin(np.arange(len(s.price)), ones).astype(float)
+        return _Result(status, x, fun, dual, nodes)
+    with quiet_stdout(), warnings.catch_warnings():
+        # scipy's milp names mip_abs_gap among the options it does not check itself and passes to
+        # HiGHS verbatim (a RuntimeWarning says so); HiGHS knows it (a test checks that it takes effect)
+        warnings.filterwarnings("ignore", re.escape("Unrecognized options detected: {'mip_abs_gap'}"), RuntimeWarning)
+        res = milp(s.price, integrality=np.ones(len(s.price)), bounds=Bounds(lb, ub), constraints=rows, options=options)
+    dual = getattr(res, "mip_dual_bound", None)
+    out = _Result(
+        int(res.status),
+        res.x,
+        None if res.fun is None else float(res.fun),
+        None if dual is None else float(dual),
+        int(getattr(res, "mip_node_count", 0) or 0),
+    )
+    if out.status != 1 or "time_limit" not in options:
+        ones = None if res.x is None else tuple(int(i) for i in np.flatnonzero(res.x > 0.5))
+        s.solved[key] = (key, out.status, ones, out.fun, out.mip_dual_bound, out.mip_node_count)
+    return out
 
 
 def tol(cost: float) -> float:
@@ -75,7 +144,7 @@ def propose(
     gap. The cost proposed is the same, and the lower bound the search keeps still only rises; which
     of the equally priced suites is proposed may differ. A program that needs
     :data:`FLOOR_AFTER_NODES` nodes or more sets ``s.hard``."""
-    from scipy.optimize import Bounds, LinearConstraint, milp
+    from scipy.optimize import LinearConstraint
 
     n, fs = s.n, s.fs
     cuts = s.down.failing.masks if s.down is not None else []
@@ -124,18 +193,14 @@ def propose(
     if time_left is not None:
         options["time_limit"] = max(time_left, 1e-3)
     t = time.perf_counter()
-    with quiet_stdout(), warnings.catch_warnings():
-        # scipy's milp names mip_abs_gap among the options it does not check itself and passes to
-        # HiGHS verbatim (a RuntimeWarning says so); HiGHS knows it (a test checks that it takes effect)
-        warnings.filterwarnings("ignore", re.escape("Unrecognized options detected: {'mip_abs_gap'}"), RuntimeWarning)
-        res = milp(s.price, integrality=np.ones(n), bounds=Bounds(lb, ub), constraints=rows, options=options)
+    res = _solve(s, lb, ub, rows, options)
     programs[0] += time.perf_counter() - t
-    if (getattr(res, "mip_node_count", 0) or 0) >= FLOOR_AFTER_NODES:
+    if res.mip_node_count >= FLOOR_AFTER_NODES:
         s.hard = True
     if res.status == 2:
         return None
     proposal = _mask(int(i) for i in np.flatnonzero(res.x > 0.5)) if res.x is not None else None
-    dual = getattr(res, "mip_dual_bound", None)
+    dual = res.mip_dual_bound
     if res.status == 0 and res.fun is not None:
         bound = float(res.fun) if dual is None or not math.isfinite(dual) else min(float(res.fun), float(dual))
         return bound, proposal, True
@@ -150,7 +215,7 @@ def floor_cost(s: Any, programs: list[float], without: int = 0) -> tuple[float, 
     required sensors (a suite minus its failed sensors need keep neither); with the optimal suite
     (None when HiGHS stopped at its node limit: the bound is then its dual bound). (inf, None) when
     no suite satisfies the cuts. Its time is added to ``programs[0]``."""
-    from scipy.optimize import Bounds, LinearConstraint, milp
+    from scipy.optimize import LinearConstraint
 
     n = s.n
     cuts = s.down.failing.masks
@@ -161,18 +226,17 @@ def floor_cost(s: Any, programs: list[float], without: int = 0) -> tuple[float, 
     ub[list(_suite(s.fixed_out | without))] = 0.0
     out = np.array([[0.0 if f >> i & 1 else 1.0 for i in range(n)] for f in cuts])
     t = time.perf_counter()
-    with quiet_stdout():
-        res = milp(
-            s.price,
-            integrality=np.ones(n),
-            bounds=Bounds(np.zeros(n), ub),
-            constraints=[LinearConstraint(out, 1.0, np.inf)],
-            options={"node_limit": MILP_NODE_LIMIT, "mip_rel_gap": 0.0, "presolve": True, "disp": False},
-        )
+    res = _solve(
+        s,
+        np.zeros(n),
+        ub,
+        [LinearConstraint(out, 1.0, np.inf)],
+        {"node_limit": MILP_NODE_LIMIT, "mip_rel_gap": 0.0, "presolve": True, "disp": False},
+    )
     programs[0] += time.perf_counter() - t
     if res.status == 2:
         return math.inf, None
-    dual = getattr(res, "mip_dual_bound", None)
+    dual = res.mip_dual_bound
     if res.status == 0 and res.fun is not None and res.x is not None:
         bound = float(res.fun) if dual is None or not math.isfinite(dual) else min(float(res.fun), float(dual))
         return bound, _mask(int(i) for i in np.flatnonzero(res.x > 0.5))

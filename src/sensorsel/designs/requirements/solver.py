@@ -133,7 +133,7 @@ from sensorsel.designs.requirements.failures import floors as _floors
 from sensorsel.designs.requirements.failures import meets_after_failures
 from sensorsel.designs.requirements.failures import more_cuts as _more_cuts
 from sensorsel.designs.requirements.oracle import AntiMonotone, Exact, Monotone, mask_of, suite_of
-from sensorsel.designs.requirements.programs import MILP_NODE_LIMIT
+from sensorsel.designs.requirements.programs import MILP_NODE_LIMIT, Solved
 from sensorsel.designs.requirements.programs import plateau_swap as _plateau_swap
 from sensorsel.designs.requirements.programs import propose as _propose
 from sensorsel.designs.requirements.programs import tol as _tol
@@ -235,6 +235,8 @@ class CheapestSuite:
         ordered: the dominance pairs (w, s) held as x_w <= x_s in the integer programs
             (:func:`~sensorsel.designs.requirements.dominance.dominance_order`), sorted.
         swap_inferred: answers inferred from a dominance swap instead of a call.
+        programs_resumed: integer programs (of ``iterations``, the tie search's and the floors')
+            whose answers were read back from ``solved`` as an earlier run left them, not solved.
     """
 
     suite: Suite | None
@@ -263,6 +265,7 @@ class CheapestSuite:
     ordered: tuple[tuple[int, int], ...] = ()
     swap_inferred: int = 0
     plateau_swaps: int = 0
+    programs_resumed: int = 0
 
 
 class _Search:
@@ -301,6 +304,11 @@ class _Search:
         self.hard = False
         #: called before each floor's integer program (raises once the time limit is spent)
         self.before_program: Callable[[], None] = _nothing
+        #: the integer programs' answers by key (:func:`.programs._solve`), those of ``resumed_from``
+        #: read back from a journal, ``programs_resumed`` of them used so far
+        self.solved: dict[str, Solved] = {}
+        self.resumed_from: frozenset[str] = frozenset()
+        self.programs_resumed = 0
 
     @property
     def monotone(self) -> bool:
@@ -523,6 +531,7 @@ def cheapest_suite(
     dominance: Sequence[tuple[int, int]] = (),
     refute: Callable[[Suite], bool] | None = None,
     clock: Callable[[], float] = time.monotonic,
+    programs_solved: dict[str, Solved] | None = None,
 ) -> CheapestSuite:
     """The cheapest suite of ``feasible`` that meets a requirement after any ``failures`` of its
     sensors fail, with a lower bound on the cost of every such suite (module docstring).
@@ -569,6 +578,9 @@ def cheapest_suite(
             refutes nothing, so a search that goes on is the search without it.
         clock: the clock ``time_limit`` is measured on [s] (``time.monotonic``; a test passes one
             that advances per reading, so that the limit falls after a known number of checks).
+        programs_solved: the integer programs' answers by key (:data:`~.programs.Solved`), shared with the
+            caller: what it holds on entry (a resumed run's journal) answers those programs when the
+            search poses them again, and every program solved is added (the journal's next write).
 
     Returns:
         A :class:`CheapestSuite`.
@@ -602,6 +614,8 @@ def cheapest_suite(
             None if necessary_antimonotone is None else AntiMonotone(n, necessary_antimonotone),
             Exact(n, meets),
         )
+    if programs_solved is not None:  # shared with the caller (its journal), and what it holds read back
+        s.solved, s.resumed_from = programs_solved, frozenset(programs_solved)
     programs = [0.0, 0]  # seconds in integer programs, tie programs
     if time_limit is not None:
         seconds = float(time_limit)
@@ -661,6 +675,7 @@ def cheapest_suite(
             s.orders,
             s.down.swap_inferred if s.down is not None else 0,
             swaps_used,
+            s.programs_resumed,
         )
 
     # a tie search under rows x_w <= x_s cannot see suites with w in place of an equally priced s
