@@ -139,6 +139,7 @@ COMMANDS = {
             "n_accepted",
             "n_base_passes",
             "n_resumed",
+            "n_programs_resumed",
         },
     ),  # counts of work, not the answer: a resume redoes no journalled work and counts what it read back
     # (in process and on workers the counts are the same: tests/test_distributed.py)
