@@ -329,9 +329,9 @@ def test_a_run_resumed_with_the_journals_bad_keyframes_computes_fewer_passes(tin
 
 
 def test_the_journals_bad_keyframes_are_where_each_suites_own_accuracy_is_over_a_limit(suburb_problem, tmp_path):
-    """Every failing suite's bad keyframes the journal holds (from whole passes, passes stopped early,
-    the bounds' bases) are the keyframes its own accuracy's verdict finds over each limit, in the
-    specification's order."""
+    """Every failing suite's bad keyframes the journal holds (whichever check found them: a whole
+    pass, a pass stopped early, a bound's base) are the keyframes its own accuracy's verdict finds
+    over each limit, in the specification's order."""
     spec = preset("local-streets")
     kept = [i for i in suburb_problem.library.ids if i.startswith(("HD2K", "WSC"))]
     ck = tmp_path / "r.json.checkpoint"

@@ -236,7 +236,8 @@ class CheapestSuite:
             (:func:`~sensorsel.designs.requirements.dominance.dominance_order`), sorted.
         swap_inferred: answers inferred from a dominance swap instead of a call.
         programs_resumed: integer programs (of ``iterations``, the tie search's and the floors')
-            whose answers were read back from ``solved`` as an earlier run left them, not solved.
+            whose answers were read back from ``programs_solved`` as an earlier run left them, not
+            solved again.
     """
 
     suite: Suite | None
