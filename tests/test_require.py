@@ -28,13 +28,13 @@ def _invoke(args):
     return CliRunner().invoke(cli, [str(a) for a in args])
 
 
-def _small(library) -> Constraints:
-    return Constraints(exclude=tuple(sorted(set(library.ids) - set(SMALL))))
-
-
-def _all_but(problem, kept) -> tuple[str, ...]:
+def _all_but(library, kept) -> tuple[str, ...]:
     """The library's ids but ``kept``: what a Constraints excludes to keep those alone."""
-    return tuple(sorted(set(problem.library.ids) - set(kept)))
+    return tuple(sorted(set(library.ids) - set(kept)))
+
+
+def _small(library) -> Constraints:
+    return Constraints(exclude=_all_but(library, SMALL))
 
 
 def _brute_force(
@@ -339,7 +339,7 @@ def test_the_journals_bad_keyframes_are_where_each_suites_own_accuracy_is_over_a
         suburb_problem,
         spec,
         map_sigma_m=0.05,
-        constraints=Constraints(exclude=_all_but(suburb_problem, kept)),
+        constraints=Constraints(exclude=_all_but(suburb_problem.library, kept)),
         checkpoint=ck,
     )
     entries = results.load(ck, "requirement-journal").bad_keyframes
