@@ -232,15 +232,15 @@ def test_the_floors_are_solved_only_where_wanted(suburb_problem):
 
 @pytest.mark.parametrize("keyframes", [[30, 31], [45], [10, 12, 14], [3]])
 def test_the_ceilings_from_the_windows_measurements_alone_are_the_routes(suburb_problem, keyframes):
-    """Asked at a few keyframes whose windows cover less than half the route, with the floors left to a
-    callback, the ceilings are computed from the windows' measurements alone (the route's are not
-    built), and are the bytes of the call that reads the route's; the floors the callback wants are too."""
+    """Asked at a few keyframes, with the floors left to a callback, the ceilings are computed from the
+    measurements of the windows' span alone (the route's before it are not gathered), and are the
+    bytes of the call that reads the route's; the floors the callback wants are too."""
     suite = _positions(suburb_problem, SUITES[2])
     assert len(suite) > 2  # several sensors: a keyframe's measurements in the suite's order
     floors, ceilings = WindowBounds(suburb_problem, 0.05, 4)(suite, keyframes)
     near = WindowBounds(suburb_problem, 0.05, 4)
     _, got = near(suite, keyframes, floors_wanted=lambda c: np.zeros(len(c), bool))
-    assert near._last is None  # the route's terms were not built
+    assert near._last is not None and near._last[1:3] == (max(0, min(keyframes) - 4), max(keyframes) + 1)
     assert np.array_equal(got, ceilings)
     wanted = WindowBounds(suburb_problem, 0.05, 4)
     got_floors, got = wanted(suite, keyframes, floors_wanted=lambda c: np.ones(len(c), bool))
@@ -457,3 +457,20 @@ def test_the_pass_model_counts_a_hand_worked_route(suburb_problem):
     assert K > 40
     assert pass_flops(problem, [0]) == pytest.approx(347 / K, rel=1e-12)
     assert pass_flops(problem, [1]) == pass_flops(problem, []) == 0.0
+
+
+def test_a_floor_whose_window_reaches_the_start_is_its_ceiling_solved_again(suburb_problem):
+    """Where the window reaches the route's start (k <= w) nothing lies before it, and the floor given
+    is the ceiling; solving the floor's own system there (the odometry prior replaced by the first
+    pose's, no measurement before the window) gives the same bytes, so the shortcut changes nothing.
+    Past the start the floor is solved, below the ceiling."""
+    suite = _positions(suburb_problem, SUITES[2])
+    w = 6
+    bounds = WindowBounds(suburb_problem, 0.05, w)
+    floors, ceilings = bounds(suite, range(12))
+    terms = bounds._gathered(tuple(sorted(suite)), 0, 12)
+    starts = np.searchsorted(terms[0], np.arange(13))
+    for k in range(w + 1):
+        solved = bounds._floor(bounds._system(k, w, *terms, starts), terms, int(starts[0]))
+        assert np.array_equal(solved, ceilings[k]) and np.array_equal(floors[k], ceilings[k])
+    assert all(not np.array_equal(floors[k], ceilings[k]) for k in range(w + 1, 12))

@@ -46,6 +46,7 @@ floor's σ within 10 % below the filter's and the ceiling's within 5 % above at 
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 
@@ -116,25 +117,32 @@ class WindowBounds:
         self._ht_o = np.transpose(odo, (0, 2, 1)) @ self._odo_info
         self._ht_o_h = self._ht_o @ odo
         self._slot = np.full(max(problem.scenario.n_landmarks, 1), -1, np.int64)
-        self._terms: dict[int, _Terms] = {}
-        self._last: tuple[tuple[int, ...], _Terms] | None = None
+        self._seen = np.zeros(len(self._slot), bool)
+        self._terms: dict[int, tuple[_Terms, np.ndarray]] = {}
+        #: the last suite's terms gathered: (suite, first keyframe, past the last one, terms), kept as
+        #: its chunks and windows are asked one after another
+        self._last: tuple[tuple[int, ...], int, int, _Terms] | None = None
 
-    def _sensor_terms(self, i: int) -> _Terms:
-        """Sensor ``i``'s measurements: (keyframe (m,), landmark (m,), AᵀA (m, 3, 3), AᵀB (m, 3, 2),
-        BᵀB (m, 2, 2)) of each one's whitened Jacobian [A | B]."""
+    def _sensor_terms(self, i: int) -> tuple[_Terms, np.ndarray]:
+        """Sensor ``i``'s measurements, sorted by keyframe (stable): (keyframe (m,), landmark (m,), AᵀA
+        (m, 3, 3), AᵀB (m, 3, 2), BᵀB (m, 2, 2)) of each one's whitened Jacobian [A | B]; and where each
+        keyframe's begin among them ((K + 1,): keyframes 0..K)."""
         got = self._terms.get(i)
         if got is None:
             o = self.problem.observations[i]
-            keyframe, landmark = np.asarray(o.pose, np.int64), np.asarray(o.landmark, np.int64)
+            order = np.argsort(np.asarray(o.pose, np.int64), kind="stable")
+            keyframe, landmark = np.asarray(o.pose, np.int64)[order], np.asarray(o.landmark, np.int64)[order]
             jac = bearing_range_jacobians(
                 np.asarray(self.problem.scenario.keyframes.poses, float)[keyframe],
                 np.asarray(self.problem.scenario.landmarks, float)[landmark],
             )
-            w = 1.0 / np.column_stack([np.asarray(o.sigma_bearing_rad, float), np.asarray(o.sigma_range_m, float)])
-            jac = jac * w[:, :, None]
+            sigmas = np.column_stack([np.asarray(o.sigma_bearing_rad, float), np.asarray(o.sigma_range_m, float)])
+            jac = jac * (1.0 / sigmas[order])[:, :, None]
             A, B = jac[:, :, :3], jac[:, :, 3:]
             At = np.transpose(A, (0, 2, 1))
-            got = self._terms[i] = (keyframe, landmark, At @ A, At @ B, np.transpose(B, (0, 2, 1)) @ B)
+            terms = (keyframe, landmark, At @ A, At @ B, np.transpose(B, (0, 2, 1)) @ B)
+            starts = np.searchsorted(keyframe, np.arange(self.problem.scenario.n_poses + 1))
+            got = self._terms[i] = (terms, starts)
         return got
 
     def __call__(
@@ -158,12 +166,11 @@ class WindowBounds:
         ks = np.asarray(list(keyframes), np.int64)
         w = self.window if window is None else int(window)
         key = _suite_key(suite)
+        stop = int(ks.max(initial=-1)) + 1
         # a ceiling reads the suite's measurements of its window alone, a floor those before it too: where
-        # the floors may not be wanted and the windows cover less than half the route, the windows'
-        # measurements first (a subsequence of the route's terms, in their order: the same sums), the
-        # route's only once a floor is
-        near = None if floors_wanted is None else self._window_terms(key, ks, w)
-        terms = self._suite_terms(key) if near is None else near
+        # the floors may not be wanted, the windows' span first, the route's up to them once a floor is
+        first = 0 if floors_wanted is None or not len(ks) else max(0, int(ks.min()) - w)
+        terms = self._gathered(key, first, stop)
         starts = _starts(terms, ks)
         floors, ceilings = np.zeros((len(ks), 3, 3)), np.zeros((len(ks), 3, 3))
         # one BLAS thread: small products, where threads only cost (as in the filter's pass)
@@ -173,16 +180,16 @@ class WindowBounds:
                 system = self._system(k, w, *terms, starts)
                 ceilings[out] = _last_marginal(system.pose, system.first, system.blocks, system.coupling)
                 if floors_wanted is None:
-                    floors[out] = self._floor(system, terms, int(starts[max(0, k - w)]))
+                    floors[out] = self._floor_of(system, k, w, ceilings[out], terms, starts)
                 else:
                     systems.append(system)
             if floors_wanted is not None:
                 wanted = np.flatnonzero(np.asarray(floors_wanted(ceilings), bool)).tolist()
-                if wanted and near is not None:
-                    terms = self._suite_terms(key)
+                if wanted and first > 0:
+                    terms = self._gathered(key, 0, stop)
                     starts = _starts(terms, ks)
                 for out in wanted:
-                    floors[out] = self._floor(systems[out], terms, int(starts[max(0, int(ks[out]) - w)]))
+                    floors[out] = self._floor_of(systems[out], int(ks[out]), w, ceilings[out], terms, starts)
         return floors, ceilings
 
     def ceilings_with_visits(
@@ -217,44 +224,27 @@ class WindowBounds:
         """The keyframes asked (n,), the suite's terms, where each keyframe's terms begin (up to the last
         asked) and the window's length (the object's where ``window`` is None)."""
         ks = np.asarray(list(keyframes), np.int64)
-        terms = self._suite_terms(_suite_key(suite))
+        terms = self._gathered(_suite_key(suite), 0, int(ks.max(initial=-1)) + 1)
         return ks, terms, _starts(terms, ks), self.window if window is None else int(window)
 
-    def _suite_terms(self, key: tuple[int, ...]) -> _Terms:
-        """The measurement terms of the suite ``key`` (sorted distinct library positions), as
-        :meth:`_sensor_terms`' five arrays, concatenated and sorted by keyframe (stable: a keyframe's
-        in the suite's sensor order); the last suite's kept, as its chunks and windows are asked one
-        after another."""
-        if self._last is not None and self._last[0] == key:
-            return self._last[1]
-        terms = _merged([self._sensor_terms(i) for i in key])
-        self._last = (key, terms)
-        return terms
-
-    def _window_terms(self, key: tuple[int, ...], ks: np.ndarray, window: int) -> _Terms | None:
-        """The terms of :meth:`_suite_terms` whose keyframes lie in the windows of ``window`` keyframes
-        before each of ``ks`` (n,) and at it, in the same order (what the ceilings there read); None
-        where the suite's terms are kept already, or the windows may cover half the route or more (by
-        their count and their span: the route's terms then cost about as much, and on the README tour
-        a build of the windows' alone took longer than the route's)."""
-        if self._last is not None and self._last[0] == key:
-            return None
-        n_poses = self.problem.scenario.n_poses
-        if not len(ks) or not n_poses:
-            return None
-        most = min(len(ks) * (window + 1), int(ks.max()) - max(int(ks.min()) - window, 0) + 1)
-        if 2 * most >= n_poses:
-            return None
-        step = np.bincount(np.maximum(ks - window, 0), minlength=n_poses + 1) - np.bincount(
-            ks + 1, minlength=n_poses + 1
-        )
-        covered = np.cumsum(step[:n_poses]) > 0
-        parts: list[_Terms] = []
+    def _gathered(self, key: tuple[int, ...], first: int, stop: int) -> _Terms:
+        """The measurement terms of the suite ``key`` (sorted distinct library positions) from keyframes
+        ``first`` up to ``stop`` (excluded), as :meth:`_sensor_terms`' five arrays, sorted by keyframe
+        (stable: a keyframe's in the suite's sensor order): the same terms in the same order as the
+        route's, cut to those keyframes, so the same sums. Each sensor's slice is read off where its
+        keyframes begin (not its whole route filtered: a window is a small share of a long route); the
+        last suite's kept, as its chunks and windows are asked one after another."""
+        last = self._last
+        if last is not None and last[0] == key and last[1] <= first and stop <= last[2]:
+            return last[3]
+        parts = []
         for i in key:
-            keyframe, landmark, AA, AB, BB = self._sensor_terms(i)
-            inside = covered[keyframe]
-            parts.append((keyframe[inside], landmark[inside], AA[inside], AB[inside], BB[inside]))
-        return _merged(parts)
+            terms, starts = self._sensor_terms(i)
+            lo, hi = int(starts[first]), int(starts[stop])
+            parts.append(tuple(t[lo:hi] for t in terms))
+        merged = _merged(parts)  # type: ignore[arg-type]
+        self._last = (key, first, stop, merged)
+        return merged
 
     def _system(
         self,
@@ -278,6 +268,17 @@ class WindowBounds:
         lms, which, W = self._coupling(landmark[win], rel, AB[win], k - lo + 1)
         blocks = _sums(which, BB[win], len(lms)) + self._landmark_prior
         return _WindowSystem(pose, self._first_info if lo == 0 else None, lms, blocks, W)
+
+    def _floor_of(
+        self, system: _WindowSystem, k: int, window: int, ceiling: np.ndarray, terms: _Terms, starts: np.ndarray
+    ) -> np.ndarray:
+        """The floor at keyframe ``k`` of ``system`` (its ceiling's, from :meth:`_system`), from the suite's
+        ``terms`` since keyframe 0 (``starts``: where each keyframe's begin). Where the window reaches
+        the route's start nothing lies before it: the floor's system is the ceiling's, and so is its
+        answer (the same bytes), not solved again."""
+        if k <= window:
+            return ceiling
+        return self._floor(system, terms, int(starts[k - window]))
 
     def _floor(self, system: _WindowSystem, terms: _Terms, start: int) -> np.ndarray:
         """The floor of ``system``'s keyframe (from :meth:`_system`): its landmarks' blocks with the
@@ -341,7 +342,10 @@ class WindowBounds:
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The landmarks measured (sorted, L), each measurement's index among them, and W (L, 2, 3 n_p):
         W_lᵀ, landmark l's coupling to the poses, its rows at pose j the sum of its AᵀB there."""
-        lms = np.unique(landmark)
+        seen = self._seen
+        seen[landmark] = True
+        lms = np.flatnonzero(seen)  # np.unique's answer (sorted, distinct) without its sort
+        seen[lms] = False
         which = self._slots(lms, landmark)
         L = len(lms)
         sums = _sums(which * n_p + rel, AB, L * n_p).reshape(L, n_p, 3, 2)
@@ -396,7 +400,7 @@ def _last_marginal(pose: np.ndarray, prior: np.ndarray | None, blocks: np.ndarra
 def _sums(index: np.ndarray, values: np.ndarray, n: int) -> np.ndarray:
     """(n, *values.shape[1:]) the sums of ``values`` (m, ...) by ``index`` (m,) in 0..n − 1."""
     tail = values.shape[1:]
-    size = int(np.prod(tail))
+    size = math.prod(tail)
     flat = (np.asarray(index, np.int64)[:, None] * size + np.arange(size)).ravel()
     sums = np.bincount(flat, values.reshape(-1), minlength=n * size)
     return sums.astype(float, copy=False).reshape((n, *tail))  # (an empty bincount is of integers)
