@@ -233,10 +233,13 @@ class WindowBounds:
         (stable: a keyframe's in the suite's sensor order): the same terms in the same order as the
         route's, cut to those keyframes, so the same sums. Each sensor's slice is read off where its
         keyframes begin (not its whole route filtered: a window is a small share of a long route); the
-        last suite's kept, as its chunks and windows are asked one after another."""
+        last suite's kept, as its chunks and windows are asked one after another (asked again beyond
+        them, its terms to the route's end are gathered: its next chunks are there)."""
         last = self._last
-        if last is not None and last[0] == key and last[1] <= first and stop <= last[2]:
-            return last[3]
+        if last is not None and last[0] == key:
+            if last[1] <= first and stop <= last[2]:
+                return last[3]
+            first, stop = min(first, last[1]), self.problem.scenario.n_poses
         parts = []
         for i in key:
             terms, starts = self._sensor_terms(i)
