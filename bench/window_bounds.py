@@ -85,12 +85,13 @@ def _recorded(problem) -> list[tuple[int, tuple[int, ...], list[int], int | None
 def _module_at(rev: str):
     """window_bounds.py as it was at ``rev``, imported as a module of its own."""
     source = subprocess.run(["git", "show", f"{rev}:{MODULE}"], cwd=REPO, capture_output=True, text=True, check=True)
-    path = Path(tempfile.mkdtemp()) / "window_bounds_before.py"
-    path.write_text(source.stdout)
-    spec = importlib.util.spec_from_file_location("window_bounds_before", path)
-    module = importlib.util.module_from_spec(spec)
-    assert spec.loader is not None
-    spec.loader.exec_module(module)
+    with tempfile.TemporaryDirectory() as folder:  # the file only while it is read
+        path = Path(folder) / "window_bounds_before.py"
+        path.write_text(source.stdout)
+        spec = importlib.util.spec_from_file_location("window_bounds_before", path)
+        module = importlib.util.module_from_spec(spec)
+        assert spec.loader is not None
+        spec.loader.exec_module(module)
     return module
 
 
