@@ -5,7 +5,7 @@ window and which floors the caller wanted), then the calls are replayed in one p
 order, on a fresh object of this version and of the module as it was at ``--against`` (read from
 git: the rest of the package is this version's), alternating over ``--repeat`` rounds.
 
-    python bench/window_bounds.py [--kitti-root ../shared/kitti] [--rows tour tiny 00]
+    python bench/window_bounds.py [--kitti-root ../shared/kitti] [--rows tour tiny 00 drive]
                                   [--against REV] [--repeat 3]
 
 Rows: "tour" the README's tour (the bundled suburb route), "tiny" the bundled tiny fixture, "00"
