@@ -13,7 +13,7 @@ Steps (``python docs/regenerate.py --only integrity-kitti``, or one of them):
                                  require answer and the single sensors)
     integrity-proof03, -proof00  whether any suite of the library can meet 10⁻⁸/h (map model), by
                                  the two monotone bounds; proof00 is slow (the whole library's floor
-                                 on 00) and was not run for the published pages
+                                 on 00 with the lever: 13 min)
     integrity-calibration        simulate --associate on KITTI 03 against the prediction
 
 Each suite is evaluated through the public API (:func:`sensorsel.api.suite_integrity`, the same
