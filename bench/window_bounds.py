@@ -29,28 +29,22 @@ from pathlib import Path
 
 import numpy as np
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from require import _problem as _rows_of_require  # the rows of bench/require.py (tour, 00, drive)
+
 REPO = Path(__file__).resolve().parents[1]
 MODULE = "src/sensorsel/information/window_bounds.py"
 
 
 def _problem(row: str, kitti_root: str):
-    from sensorsel.model.problem import load_problem
-    from sensorsel.model.scenario.loading import ScenarioSpec
-
-    if row == "tour":
-        return load_problem()
+    """The row's problem: the tiny fixture here, every other row as bench/require.py builds it."""
     if row == "tiny":
+        from sensorsel.model.problem import load_problem
+        from sensorsel.model.scenario.loading import ScenarioSpec
+
         return load_problem(ScenarioSpec(fixture="tiny"))
-    if row == "drive":  # a user's own drive: KITTI 00's ground truth as a route file, generated landmarks
-        times = Path(kitti_root) / "sequences" / "00" / "times.txt"
-        return load_problem(
-            ScenarioSpec(
-                poses=str(Path(kitti_root) / "poses" / "00.txt"),
-                times=str(times) if times.is_file() else None,
-                landmarks="synthetic",
-            )
-        )
-    return load_problem(ScenarioSpec(seq=row, kitti_root=kitti_root))
+    return _rows_of_require(row, kitti_root, None)
 
 
 def _recorded(problem) -> list[tuple[int, tuple[int, ...], list[int], int | None, np.ndarray | None]]:
