@@ -1,7 +1,10 @@
-"""DaskCluster's wait for workers: a scheduler that has none is one ClusterError naming the scheduler
-and the timeout, and the client it opened is closed (no half-started cluster is left behind)."""
+"""DaskCluster's workers: a scheduler that has none is one ClusterError naming the scheduler and the
+timeout, and the client it opened is closed (no half-started cluster is left behind); the local
+workers it starts keep glibc's malloc thresholds and one BLAS thread."""
 
 from __future__ import annotations
+
+import os
 
 import pytest
 
@@ -39,7 +42,7 @@ def _local_workers_environ(monkeypatch: pytest.MonkeyPatch, value: str | None) -
         monkeypatch.setenv("MALLOC_TRIM_THRESHOLD_", value)
     names = ("MALLOC_TRIM_THRESHOLD_", "OPENBLAS_NUM_THREADS")
     with DaskCluster(workers=1, echo=lambda line: None) as cluster:
-        (env,) = cluster.client.run(lambda: {n: __import__("os").environ.get(n) for n in names}).values()
+        (env,) = cluster.client.run(lambda: {n: os.environ.get(n) for n in names}).values()
     return env
 
 

@@ -77,11 +77,11 @@ class DaskCluster:
         import importlib.util
         import logging
 
+        import dask
+
         # the dashboard needs bokeh; without it the scheduler's HTTP server still starts, on the
         # default port 8787 unless told otherwise (taken by another cluster: a warning): a free port
         dashboard = importlib.util.find_spec("bokeh") is not None
-        import dask
-
         # the workers keep glibc's own malloc thresholds: Dask's nannies set MALLOC_TRIM_THRESHOLD_
         # to 64 KiB by default (to hand freed memory back to the system promptly), and setting it
         # fixes glibc's mmap threshold too, so every array of more than 128 KiB a route's scoring
