@@ -230,21 +230,30 @@ def test_the_floors_are_solved_only_where_wanted(suburb_problem):
     assert not floors[~wanted].any() and full_floors[~wanted].any()
 
 
-@pytest.mark.parametrize("keyframes", [[30, 31], [45], [10, 12, 14], [3]])
-def test_the_ceilings_from_the_windows_measurements_alone_are_the_routes(suburb_problem, keyframes):
-    """Asked at a few keyframes, with the floors left to a callback, the ceilings are computed from the
-    measurements of the windows' span alone (the route's before it are not gathered), and are the
-    bytes of the call that reads the route's; the floors the callback wants are too."""
+@pytest.mark.parametrize("keyframes", [[30, 31], [45], [10, 12, 14], [3], [10, 30], [40, 8, 12]])
+def test_the_bounds_from_the_windows_measurements_alone_are_the_routes(suburb_problem, keyframes):
+    """Asked at a few keyframes, the ceilings and the floors are computed from the measurements of the
+    windows alone (the keyframes of the windows gathered, not the route's before or between them; a
+    floor's measurements before its window read sensor by sensor), and are the bytes of the calls that
+    read the route up to them, with the floors left to a callback and without."""
     suite = _positions(suburb_problem, SUITES[2])
     assert len(suite) > 2  # several sensors: a keyframe's measurements in the suite's order
-    floors, ceilings = WindowBounds(suburb_problem, 0.05, 4)(suite, keyframes)
-    near = WindowBounds(suburb_problem, 0.05, 4)
-    _, got = near(suite, keyframes, floors_wanted=lambda c: np.zeros(len(c), bool))
-    assert near._last is not None and near._last[1:3] == (max(0, min(keyframes) - 4), max(keyframes) + 1)
-    assert np.array_equal(got, ceilings)
-    wanted = WindowBounds(suburb_problem, 0.05, 4)
-    got_floors, got = wanted(suite, keyframes, floors_wanted=lambda c: np.ones(len(c), bool))
-    assert np.array_equal(got, ceilings) and np.array_equal(got_floors, floors)
+    w = 4
+    windows = np.zeros(suburb_problem.scenario.n_poses + 1, bool)
+    for k in keyframes:
+        windows[max(0, k - w) : k + 1] = True
+    route = WindowBounds(suburb_problem, 0.05, w)
+    route._gathered(tuple(sorted(suite)), ((0, max(keyframes) + 1),))  # the route up to them, kept
+    floors, ceilings = route(suite, keyframes)
+    assert route._last is not None and route._last[1][: max(keyframes) + 1].all()
+    for wanted in (None, lambda c: np.zeros(len(c), bool), lambda c: np.ones(len(c), bool)):
+        near = WindowBounds(suburb_problem, 0.05, w)
+        got_floors, got = near(suite, keyframes, floors_wanted=wanted)
+        assert near._last is not None and np.array_equal(near._last[1], windows)
+        assert np.array_equal(got, ceilings)
+        assert np.array_equal(
+            got_floors, np.zeros_like(floors) if wanted is not None and not wanted([0]).all() else floors
+        )
     assert floors.any()
 
 
@@ -468,9 +477,9 @@ def test_a_floor_whose_window_reaches_the_start_is_its_ceiling_solved_again(subu
     w = 6
     bounds = WindowBounds(suburb_problem, 0.05, w)
     floors, ceilings = bounds(suite, range(12))
-    terms = bounds._gathered(tuple(sorted(suite)), 0, 12)
+    terms = bounds._gathered(tuple(sorted(suite)), ((0, 12),))
     starts = np.searchsorted(terms[0], np.arange(13))
     for k in range(w + 1):
-        solved = bounds._floor(bounds._system(k, w, *terms, starts), terms, int(starts[0]))
+        solved = bounds._floor(bounds._system(k, w, *terms, starts), tuple(sorted(suite)), 0)
         assert np.array_equal(solved, ceilings[k]) and np.array_equal(floors[k], ceilings[k])
     assert all(not np.array_equal(floors[k], ceilings[k]) for k in range(w + 1, 12))

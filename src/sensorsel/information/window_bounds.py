@@ -119,9 +119,9 @@ class WindowBounds:
         self._slot = np.full(max(problem.scenario.n_landmarks, 1), -1, np.int64)
         self._seen = np.zeros(len(self._slot), bool)
         self._terms: dict[int, tuple[_Terms, np.ndarray]] = {}
-        #: the last suite's terms gathered: (suite, first keyframe, past the last one, terms), kept as
-        #: its chunks and windows are asked one after another
-        self._last: tuple[tuple[int, ...], int, int, _Terms] | None = None
+        #: the last suite's terms gathered: (suite, (K + 1,) the keyframes gathered, terms), kept as its
+        #: chunks and windows are asked one after another
+        self._last: tuple[tuple[int, ...], np.ndarray, _Terms] | None = None
 
     def _sensor_terms(self, i: int) -> tuple[_Terms, np.ndarray]:
         """Sensor ``i``'s measurements, sorted by keyframe (stable): (keyframe (m,), landmark (m,), AᵀA
@@ -166,11 +166,9 @@ class WindowBounds:
         ks = np.asarray(list(keyframes), np.int64)
         w = self.window if window is None else int(window)
         key = _suite_key(suite)
-        stop = int(ks.max(initial=-1)) + 1
-        # a ceiling reads the suite's measurements of its window alone, a floor those before it too: where
-        # the floors may not be wanted, the windows' span first, the route's up to them once a floor is
-        first = 0 if floors_wanted is None or not len(ks) else max(0, int(ks.min()) - w)
-        terms = self._gathered(key, first, stop)
+        # the systems read the suite's measurements of their windows alone (a floor's before its window
+        # are read sensor by sensor, for its landmarks only: :meth:`_floor`)
+        terms = self._gathered(key, _runs(ks, w))
         starts = _starts(terms, ks)
         floors, ceilings = np.zeros((len(ks), 3, 3)), np.zeros((len(ks), 3, 3))
         # one BLAS thread: small products, where threads only cost (as in the filter's pass)
@@ -180,16 +178,12 @@ class WindowBounds:
                 system = self._system(k, w, *terms, starts)
                 ceilings[out] = _last_marginal(system.pose, system.first, system.blocks, system.coupling)
                 if floors_wanted is None:
-                    floors[out] = self._floor_of(system, k, w, ceilings[out], terms, starts)
+                    floors[out] = self._floor_of(system, key, k, w, ceilings[out])
                 else:
                     systems.append(system)
             if floors_wanted is not None:
-                wanted = np.flatnonzero(np.asarray(floors_wanted(ceilings), bool)).tolist()
-                if wanted and first > 0:
-                    terms = self._gathered(key, 0, stop)
-                    starts = _starts(terms, ks)
-                for out in wanted:
-                    floors[out] = self._floor_of(systems[out], int(ks[out]), w, ceilings[out], terms, starts)
+                for out in np.flatnonzero(np.asarray(floors_wanted(ceilings), bool)).tolist():
+                    floors[out] = self._floor_of(systems[out], key, int(ks[out]), w, ceilings[out])
         return floors, ceilings
 
     def ceilings_with_visits(
@@ -224,29 +218,42 @@ class WindowBounds:
         """The keyframes asked (n,), the suite's terms, where each keyframe's terms begin (up to the last
         asked) and the window's length (the object's where ``window`` is None)."""
         ks = np.asarray(list(keyframes), np.int64)
-        terms = self._gathered(_suite_key(suite), 0, int(ks.max(initial=-1)) + 1)
+        terms = self._gathered(_suite_key(suite), ((0, int(ks.max(initial=-1)) + 1),))
         return ks, terms, _starts(terms, ks), self.window if window is None else int(window)
 
-    def _gathered(self, key: tuple[int, ...], first: int, stop: int) -> _Terms:
-        """The measurement terms of the suite ``key`` (sorted distinct library positions) from keyframes
-        ``first`` up to ``stop`` (excluded), as :meth:`_sensor_terms`' five arrays, sorted by keyframe
-        (stable: a keyframe's in the suite's sensor order): the same terms in the same order as the
-        route's, cut to those keyframes, so the same sums. Each sensor's slice is read off where its
-        keyframes begin (not its whole route filtered: a window is a small share of a long route); the
-        last suite's kept, as its chunks and windows are asked one after another (asked again beyond
-        them, its terms to the route's end are gathered: its next chunks are there)."""
+    def _gathered(self, key: tuple[int, ...], runs: tuple[tuple[int, int], ...]) -> _Terms:
+        """The measurement terms of the suite ``key`` (sorted distinct library positions) from the
+        keyframes of ``runs`` ((first, stop) each, stop excluded; sorted and apart), as
+        :meth:`_sensor_terms`' five arrays, sorted by keyframe (stable: a keyframe's in the suite's
+        sensor order): the same terms in the same order as the route's, cut to those keyframes, so the
+        same sums. Each sensor's slices are read off where its keyframes begin (not its whole route
+        filtered: the windows are a small share of a long route); the last suite's kept, as its chunks
+        and windows are asked one after another (asked again outside them, the keyframes from the
+        first asked or kept on, to the last kept or, beyond it, to the route's end: its next chunks are
+        there)."""
+        n = self.problem.scenario.n_poses
         last = self._last
         if last is not None and last[0] == key:
-            if last[1] <= first and stop <= last[2]:
-                return last[3]
-            first, stop = min(first, last[1]), self.problem.scenario.n_poses
+            covered = last[1]
+            if all(covered[a:b].all() for a, b in runs):
+                return last[2]
+            kept = np.flatnonzero(covered)
+            stop = max(b for _, b in runs)
+            runs = ((min(runs[0][0], int(kept[0])), n if stop > kept[-1] + 1 else int(kept[-1]) + 1),)
+        covered = np.zeros(n + 1, bool)
+        for a, b in runs:
+            covered[a:b] = True
         parts = []
         for i in key:
             terms, starts = self._sensor_terms(i)
-            lo, hi = int(starts[first]), int(starts[stop])
-            parts.append(tuple(t[lo:hi] for t in terms))
+            if len(runs) == 1:
+                lo, hi = int(starts[runs[0][0]]), int(starts[runs[0][1]])
+                parts.append(tuple(t[lo:hi] for t in terms))
+            else:
+                rows = np.concatenate([np.arange(starts[a], starts[b]) for a, b in runs])
+                parts.append(tuple(t[rows] for t in terms))
         merged = _merged(parts)  # type: ignore[arg-type]
-        self._last = (key, first, stop, merged)
+        self._last = (key, covered, merged)
         return merged
 
     def _system(
@@ -273,24 +280,47 @@ class WindowBounds:
         return _WindowSystem(pose, self._first_info if lo == 0 else None, lms, blocks, W)
 
     def _floor_of(
-        self, system: _WindowSystem, k: int, window: int, ceiling: np.ndarray, terms: _Terms, starts: np.ndarray
+        self, system: _WindowSystem, key: tuple[int, ...], k: int, window: int, ceiling: np.ndarray
     ) -> np.ndarray:
-        """The floor at keyframe ``k`` of ``system`` (its ceiling's, from :meth:`_system`), from the suite's
-        ``terms`` since keyframe 0 (``starts``: where each keyframe's begin). Where the window reaches
-        the route's start nothing lies before it: the floor's system is the ceiling's, and so is its
-        answer (the same bytes), not solved again."""
+        """The floor at keyframe ``k`` of ``system`` (its ceiling's, from :meth:`_system`) for the suite
+        ``key``, the last gathered (:meth:`_gathered`). Where the window reaches the route's start
+        nothing lies before it: the floor's system is the ceiling's, and so is its answer (the same
+        bytes), not solved again."""
         if k <= window:
             return ceiling
-        return self._floor(system, terms, int(starts[k - window]))
+        return self._floor(system, key, k - window)
 
-    def _floor(self, system: _WindowSystem, terms: _Terms, start: int) -> np.ndarray:
-        """The floor of ``system``'s keyframe (from :meth:`_system`): its landmarks' blocks with the
-        measurements before the window too (the route's ``terms`` before ``start``, where the window's
-        begin), and the odometry from the pose before it as a prior."""
-        landmark, BB = terms[1], terms[4]
-        before = self._slots(system.lms, landmark[:start])
-        kept = before >= 0
-        blocks = system.blocks + _sums(before[kept], BB[:start][kept], len(system.lms))
+    def _floor(self, system: _WindowSystem, key: tuple[int, ...], lo: int) -> np.ndarray:
+        """The floor of ``system``'s keyframe (from :meth:`_system`, its window beginning at keyframe
+        ``lo``) for the suite ``key``, the last gathered: its landmarks' blocks with the suite's
+        measurements of them before the window too, and the odometry from the pose before it as a
+        prior.
+
+        Those measurements are the gathered terms' before the window where they hold every keyframe
+        before it; else they are taken from each sensor's own (a few of a long route's, not the route
+        merged up to the window) and put in the suite's order (by keyframe, a keyframe's in the suite's
+        sensor order): the order the merged terms hold them in, so the same sums either way."""
+        assert self._last is not None and self._last[0] == key
+        covered, terms = self._last[1], self._last[2]
+        if covered[:lo].all():
+            start = int(np.searchsorted(terms[0], lo))
+            before = self._slots(system.lms, terms[1][:start])
+            kept = before >= 0
+            which, BB = before[kept], terms[4][:start][kept]
+        else:
+            parts = []
+            slot = self._slot
+            slot[system.lms] = np.arange(len(system.lms))
+            for i in key:
+                (keyframe, landmark, _, _, sensor_BB), at = self._sensor_terms(i)
+                held = slot[landmark[: int(at[lo])]]
+                sel = np.flatnonzero(held >= 0)
+                parts.append((keyframe[sel], held[sel], sensor_BB[sel]))
+            slot[system.lms] = -1
+            order = np.argsort(np.concatenate([np.zeros(0, np.int64), *(p[0] for p in parts)]), kind="stable")
+            which = np.concatenate([np.zeros(0, np.int64), *(p[1] for p in parts)])[order]
+            BB = np.concatenate([np.zeros((0, 2, 2)), *(p[2] for p in parts)])[order]
+        blocks = system.blocks + _sums(which, BB, len(system.lms))
         first = self._odo_info if system.first is None else system.first
         return _last_marginal(system.pose, first, blocks, system.coupling)
 
@@ -366,6 +396,19 @@ def _merged(parts: list[_Terms]) -> _Terms:
     keyframe, landmark, AA, AB, BB = (np.concatenate([p[f] for p in [_NO_TERMS, *parts]]) for f in range(5))
     order = np.argsort(keyframe, kind="stable")
     return keyframe[order], landmark[order], AA[order], AB[order], BB[order]
+
+
+def _runs(ks: np.ndarray, window: int) -> tuple[tuple[int, int], ...]:
+    """The keyframes of the windows of ``window`` keyframes before each of ``ks`` (and it), as sorted
+    runs (first, stop) apart from one another."""
+    runs: list[tuple[int, int]] = []
+    for k in sorted(set(ks.tolist())):
+        lo = max(0, k - window)
+        if runs and lo <= runs[-1][1]:
+            runs[-1] = (runs[-1][0], k + 1)
+        else:
+            runs.append((lo, k + 1))
+    return tuple(runs)
 
 
 def _starts(terms: _Terms, ks: np.ndarray) -> np.ndarray:
