@@ -331,6 +331,36 @@ def test_the_state_kept_is_its_landmarks_rows_and_columns_bit_for_bit(n_held, n_
         assert (state.slot >= 0).sum() == len(state.held)
 
 
+@pytest.mark.parametrize(
+    "runs",
+    [
+        ((0, 400),),  # one stretch
+        ((10, 300), (301, 302), (500, 900)),  # a few, one of a single index
+        ((700, 900), (5, 200)),  # out of order: a stretch of higher indices first
+        tuple((3 * i, 3 * i + 2) for i in range(200)),  # too many pieces: the takes
+        ((0, 2), (7, 9)),  # small: the takes
+    ],
+)
+def test_a_block_copied_by_stretches_is_numpys_block_bit_for_bit(runs):
+    """The filter's block copy (_block) against numpy's P[np.ix_(rows, cols)] on a random matrix, to the
+    bit: rows and columns that run in stretches (copied as slices), in many (copied by takes), and a
+    block too small to look for them; the columns with another set of stretches than the rows."""
+    from sensorsel.information.filtering import BLOCK_PIECES, BLOCK_SLICED_FROM, _block, _stretches
+
+    rng = np.random.default_rng(len(runs))
+    P = rng.standard_normal((1000, 1000))
+    rows = np.concatenate([np.arange(a, b) for a, b in runs])
+    cols = np.concatenate([rows[len(rows) // 3 :], np.arange(950, 1000)])
+    got = _block(P, rows, cols)
+    assert got.shape == (len(rows), len(cols)) and got.flags.c_contiguous
+    assert got.tobytes() == np.ascontiguousarray(P[np.ix_(rows, cols)]).tobytes()
+    assert [(lo, hi) for _, lo, hi in _stretches(rows)] == [(a, b) for a, b in runs if b > a] or len(runs) > 100
+    sliced = (
+        len(rows) * len(cols) >= BLOCK_SLICED_FROM and len(_stretches(rows)) * len(_stretches(cols)) <= BLOCK_PIECES
+    )
+    assert sliced == (len(runs) <= 3 and len(rows) > 100)  # each way is taken by some case
+
+
 @pytest.mark.parametrize("map_sigma_m", MODELS)
 def test_excluded_landmarks_are_the_hook_that_drops_them_bit_for_bit(suburb_problem, map_sigma_m):
     """``exclude`` (a fixed set of landmarks left out, as the upper bounds of ``require`` leave out
