@@ -119,6 +119,7 @@ class WindowBounds:
         self._slot = np.full(max(problem.scenario.n_landmarks, 1), -1, np.int64)
         self._seen = np.zeros(len(self._slot), bool)
         self._terms: dict[int, tuple[_Terms, np.ndarray]] = {}
+        self._bands: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
         #: the last suite's terms gathered: (suite, (K + 1,) the keyframes gathered, terms), kept as its
         #: chunks and windows are asked one after another
         self._last: tuple[tuple[int, ...], np.ndarray, _Terms] | None = None
@@ -353,6 +354,16 @@ class WindowBounds:
         at = np.arange(n_p)
         # sums by np.bincount over flat indices: an order of magnitude below np.add.at's
         diagonal = _sums(rel, AA, n_p)
+        if n_p and int(poses[-1]) - int(poses[0]) == n_p - 1:  # consecutive (a window): a band
+            steps = poses[:-1]
+            diagonal[:-1] += self._ht_o_h[steps]
+            diagonal[1:] += self._odo_info
+            on, above, below = self._band(n_p)
+            flat = np.zeros(9 * n_p * n_p)
+            flat[on] = diagonal.reshape(-1)
+            flat[above] = self._ht_o[steps].reshape(-1)
+            flat[below] = np.transpose(self._ht_o[steps], (0, 2, 1)).reshape(-1)
+            return flat.reshape(3 * n_p, 3 * n_p)
         step = np.flatnonzero(poses[1:] == poses[:-1] + 1)  # poses[t] -> poses[t + 1]: an odometry step
         diagonal[step] += self._ht_o_h[poses[step]]
         diagonal[step + 1] += self._odo_info
@@ -361,6 +372,22 @@ class WindowBounds:
         blocks4[step, :, step + 1, :] = self._ht_o[poses[step]]
         blocks4[step + 1, :, step, :] = np.transpose(self._ht_o[poses[step]], (0, 2, 1))
         return blocks4.reshape(3 * n_p, 3 * n_p)
+
+    def _band(self, n_p: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Where the (3n, 3n) information of ``n_p`` consecutive poses, flattened, holds each pose's 3 x 3
+        block (n, 3, 3), the odometry's block above it (pose t's row, pose t + 1's column; (n - 1, 3, 3))
+        and below it (their transposes' places), each in C order: flat indices, kept per size."""
+        got = self._bands.get(n_p)
+        if got is None:
+            width = 3 * n_p
+            t = np.arange(n_p)[:, None, None]
+            r, c = np.arange(3)[None, :, None], np.arange(3)[None, None, :]
+            on = ((3 * t + r) * width + 3 * t + c).reshape(-1)
+            t = t[:-1]
+            above = ((3 * t + r) * width + 3 * (t + 1) + c).reshape(-1)
+            below = ((3 * (t + 1) + r) * width + 3 * t + c).reshape(-1)
+            got = self._bands[n_p] = (on, above, below)
+        return got
 
     def _slots(self, lms: np.ndarray, landmark: np.ndarray) -> np.ndarray:
         """Each of ``landmark``'s index in ``lms`` (sorted distinct landmarks), -1 where it is not one."""
