@@ -342,22 +342,20 @@ def test_the_state_kept_is_its_landmarks_rows_and_columns_bit_for_bit(n_held, n_
     ],
 )
 def test_a_block_copied_by_stretches_is_numpys_block_bit_for_bit(runs):
-    """The filter's block copy (_block) against numpy's P[np.ix_(rows, cols)] on a random matrix, to the
+    """The filter's block copy (blocks.block) against numpy's P[np.ix_(rows, cols)] on a random matrix, to the
     bit: rows and columns that run in stretches (copied as slices), in many (copied by takes), and a
     block too small to look for them; the columns with another set of stretches than the rows."""
-    from sensorsel.information.filtering import BLOCK_PIECES, BLOCK_SLICED_FROM, _block, _stretches
+    from sensorsel.information.blocks import BLOCK_PIECES, BLOCK_SLICED_FROM, block, stretches
 
     rng = np.random.default_rng(len(runs))
     P = rng.standard_normal((1000, 1000))
     rows = np.concatenate([np.arange(a, b) for a, b in runs])
     cols = np.concatenate([rows[len(rows) // 3 :], np.arange(950, 1000)])
-    got = _block(P, rows, cols)
+    got = block(P, rows, cols)
     assert got.shape == (len(rows), len(cols)) and got.flags.c_contiguous
     assert got.tobytes() == np.ascontiguousarray(P[np.ix_(rows, cols)]).tobytes()
-    assert [(lo, hi) for _, lo, hi in _stretches(rows)] == [(a, b) for a, b in runs if b > a] or len(runs) > 100
-    sliced = (
-        len(rows) * len(cols) >= BLOCK_SLICED_FROM and len(_stretches(rows)) * len(_stretches(cols)) <= BLOCK_PIECES
-    )
+    assert [(lo, hi) for _, lo, hi in stretches(rows)] == [(a, b) for a, b in runs if b > a] or len(runs) > 100
+    sliced = len(rows) * len(cols) >= BLOCK_SLICED_FROM and len(stretches(rows)) * len(stretches(cols)) <= BLOCK_PIECES
     assert sliced == (len(runs) <= 3 and len(rows) > 100)  # each way is taken by some case
 
 

@@ -61,6 +61,7 @@ from scipy.linalg.lapack import dpotrf, dpotrs, dpstrf, dtrtrs
 from threadpoolctl import ThreadpoolController
 
 from sensorsel.errors import InputError
+from sensorsel.information.blocks import block
 from sensorsel.information.linearize import bearing_range_jacobians, odometry_jacobians
 from sensorsel.model.problem import Problem
 
@@ -164,40 +165,6 @@ def _landmark_rows(off: int, slots: np.ndarray) -> np.ndarray:
     """(2m,) the state rows of the landmarks at ``slots`` (m,), in that order: (x, y) of each, from
     row ``off`` (3 after the pose; 6 in a window's state, :class:`_Window`)."""
     return (off + 2 * np.asarray(slots, np.int64)[:, None] + np.arange(2)).ravel()
-
-
-#: a block of at least this many elements is copied by slices where its rows and columns run in a
-#: few stretches (:func:`_block`)
-BLOCK_SLICED_FROM = 1 << 16
-#: the most (row stretch, column stretch) pieces a block is copied in
-BLOCK_PIECES = 64
-
-
-def _block(P: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
-    """P[rows][:, cols], a new array (the same numbers as ``P[np.ix_(rows, cols)]``). A large block
-    whose rows and columns run in a few stretches of consecutive indices (a window's dormant
-    landmarks: mostly those that came first, held in the order they came) is copied a stretch by a
-    stretch, as slices; else by two takes (~2/3 of ``np.ix_``'s time). On a user's drive the
-    dormant blocks of ~1,000 rows ran in 1 to 4 stretches, where the takes cost 4-6 ms each."""
-    if len(rows) * len(cols) < BLOCK_SLICED_FROM:
-        return P.take(rows, axis=0).take(cols, axis=1)
-    row_runs, col_runs = _stretches(rows), _stretches(cols)
-    if len(row_runs) * len(col_runs) > BLOCK_PIECES:
-        return P.take(rows, axis=0).take(cols, axis=1)
-    out = np.empty((len(rows), len(cols)))
-    for at, lo, hi in row_runs:
-        for to, left, right in col_runs:
-            out[at : at + hi - lo, to : to + right - left] = P[lo:hi, left:right]
-    return out
-
-
-def _stretches(index: np.ndarray) -> list[tuple[int, int, int]]:
-    """The runs of consecutive values in ``index`` (n,): (where each begins in ``index``, its first
-    value, past its last)."""
-    index = np.asarray(index, np.int64)
-    begins = np.concatenate([[0], np.flatnonzero(np.diff(index) != 1) + 1]).tolist()
-    ends = [*begins[1:], len(index)]
-    return [(b, int(index[b]), int(index[b]) + e - b) for b, e in zip(begins, ends, strict=True)]
 
 
 def _slot_table(held: np.ndarray, size: int) -> np.ndarray:
@@ -608,7 +575,7 @@ def _kept(
     if near.all():
         return Prediction(k, held.copy(), state.P.copy(), prior_sigma)
     rows = np.concatenate([np.arange(3), _landmark_rows(3, np.flatnonzero(near))])
-    return Prediction(k, held[near], _block(state.P, rows, rows), prior_sigma)
+    return Prediction(k, held[near], block(state.P, rows, rows), prior_sigma)
 
 
 class _State:
@@ -770,8 +737,8 @@ class _Window:
         copy = np.concatenate([np.arange(3), idx])  # the pose twice: the second is the window's first pose
         win_last = last.copy()
         win_last[held[at]] = np.maximum(last[held[at]], end)
-        win = cls(end, held[at], held[~active], _block(P, idx, idx), _block(P, idx, out), _block(P, out, out), win_last)
-        return win, _State(_block(P, copy, copy), held[at], len(last), off=6)
+        win = cls(end, held[at], held[~active], block(P, idx, idx), block(P, idx, out), block(P, out, out), win_last)
+        return win, _State(block(P, copy, copy), held[at], len(last), off=6)
 
     def close(self, state: _State, last: np.ndarray) -> _State:
         """The full state at :attr:`end` from the window's active ``state`` (class docstring); the
@@ -792,13 +759,13 @@ class _Window:
         # transpose (half the flops of two general products, and exactly symmetric: the dormant
         # block, the largest of the state, stays as symmetric as the state was, with no averaging pass)
         # (info > 0 only says that the rank is below the size; row piv[i] − 1 of R is L's row i)
-        reduced, piv, rank, _ = dpstrf(self.prior - _block(P, a0, a0), lower=1)
+        reduced, piv, rank, _ = dpstrf(self.prior - block(P, a0, a0), lower=1)
         R = np.tril(reduced[:, :rank])[np.argsort(piv)]
         X = gain.T @ R  # (2d, rank)
         n, d = len(rows), len(self.cross[0])
         full = np.empty((n + d, n + d))
-        full[:n, :n] = _block(P, rows, rows)
-        full[:n, n:] = _block(P, rows, a0) @ gain
+        full[:n, :n] = block(P, rows, rows)
+        full[:n, n:] = block(P, rows, a0) @ gain
         full[n:, :n] = full[:n, n:].T
         np.subtract(self.dormant_cov, X @ X.T, out=full[n:, n:])
         return _State(full, np.concatenate([kept, self.dormant]), len(last), copy=False)
