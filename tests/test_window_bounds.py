@@ -255,6 +255,10 @@ def test_the_bounds_from_the_windows_measurements_alone_are_the_routes(suburb_pr
             got_floors, np.zeros_like(floors) if wanted is not None and not wanted([0]).all() else floors
         )
     assert floors.any()
+    for asked in (near, WindowBounds(suburb_problem, 0.05, w)):  # no keyframe: nothing (after others or first)
+        none_floors, none_ceilings = asked(suite, [])
+        assert none_floors.shape == none_ceilings.shape == (0, 3, 3)
+        assert np.array_equal(asked(suite, keyframes)[1], ceilings)
 
 
 @pytest.mark.parametrize("at", [1.0, 0.9])

@@ -233,14 +233,16 @@ class WindowBounds:
         first asked or kept on, to the last kept or, beyond it, to the route's end: its next chunks are
         there)."""
         n = self.problem.scenario.n_poses
+        runs = runs or ((0, 0),)  # no keyframe asked: none gathered
         last = self._last
         if last is not None and last[0] == key:
             covered = last[1]
             if all(covered[a:b].all() for a, b in runs):
                 return last[2]
             kept = np.flatnonzero(covered)
-            stop = max(b for _, b in runs)
-            runs = ((min(runs[0][0], int(kept[0])), n if stop > kept[-1] + 1 else int(kept[-1]) + 1),)
+            if len(kept):
+                stop = max(b for _, b in runs)
+                runs = ((min(runs[0][0], int(kept[0])), n if stop > kept[-1] + 1 else int(kept[-1]) + 1),)
         covered = np.zeros(n + 1, bool)
         for a, b in runs:
             covered[a:b] = True
