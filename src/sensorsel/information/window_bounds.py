@@ -307,22 +307,18 @@ class WindowBounds:
         covered, terms = self._last[1], self._last[2]
         if covered[:lo].all():
             start = int(np.searchsorted(terms[0], lo))
-            before = self._slots(system.lms, terms[1][:start])
-            kept = before >= 0
-            which, BB = before[kept], terms[4][:start][kept]
-        else:
+            landmark, BB = terms[1][:start], terms[4][:start]
+        else:  # each sensor's measurements of the window's landmarks before it, merged as a suite's
             parts = []
-            slot = self._slot
-            slot[system.lms] = np.arange(len(system.lms))
             for i in key:
-                (keyframe, landmark, _, _, sensor_BB), at = self._sensor_terms(i)
-                held = slot[landmark[: int(at[lo])]]
-                sel = np.flatnonzero(held >= 0)
-                parts.append((keyframe[sel], held[sel], sensor_BB[sel]))
-            slot[system.lms] = -1
-            order = np.argsort(np.concatenate([np.zeros(0, np.int64), *(p[0] for p in parts)]), kind="stable")
-            which = np.concatenate([np.zeros(0, np.int64), *(p[1] for p in parts)])[order]
-            BB = np.concatenate([np.zeros((0, 2, 2)), *(p[2] for p in parts)])[order]
+                sensor, at = self._sensor_terms(i)
+                before = int(at[lo])
+                sel = np.flatnonzero(self._slots(system.lms, sensor[1][:before]) >= 0)
+                parts.append(tuple(t[sel] for t in sensor))
+            _, landmark, _, _, BB = _merged(parts)  # type: ignore[arg-type]
+        which = self._slots(system.lms, landmark)
+        kept = which >= 0
+        which, BB = which[kept], BB[kept]
         blocks = system.blocks + _sums(which, BB, len(system.lms))
         first = self._odo_info if system.first is None else system.first
         return _last_marginal(system.pose, first, blocks, system.coupling)
@@ -353,7 +349,6 @@ class WindowBounds:
         """(3n, 3n) the information on ``poses`` (n sorted keyframes) of their measurements' AᵀA (``rel``:
         each one's index in ``poses``) and of the odometry between those that follow one another."""
         n_p = len(poses)
-        at = np.arange(n_p)
         # sums by np.bincount over flat indices: an order of magnitude below np.add.at's
         diagonal = _sums(rel, AA, n_p)
         if n_p and int(poses[-1]) - int(poses[0]) == n_p - 1:  # consecutive (a window): a band
@@ -370,6 +365,7 @@ class WindowBounds:
         diagonal[step] += self._ht_o_h[poses[step]]
         diagonal[step + 1] += self._odo_info
         blocks4 = np.zeros((n_p, 3, n_p, 3))
+        at = np.arange(n_p)
         blocks4[at, :, at, :] = diagonal
         blocks4[step, :, step + 1, :] = self._ht_o[poses[step]]
         blocks4[step + 1, :, step, :] = np.transpose(self._ht_o[poses[step]], (0, 2, 1))
