@@ -642,7 +642,8 @@ def engine_options(fn: Callable[..., Any]) -> Callable[..., Any]:
     from sensorsel.api import ENGINES
 
     fn = jobs_option(
-        "Worker processes owning a domain's routes, or threads for one route's candidates "
+        "Worker processes owning a domain's routes, or threads for one route's candidates; "
+        "require on one long route: processes computing its greedy's marginals ahead "
         "(results do not depend on it)."
     )(fn)
     fn = click.option(

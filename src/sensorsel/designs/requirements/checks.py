@@ -5,13 +5,14 @@ bad keyframe: :mod:`.truncated`)."""
 
 from __future__ import annotations
 
-from collections.abc import Iterable
-from typing import Literal, Protocol
+from collections.abc import Iterable, Sequence
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
 from sensorsel.designs.requirements.accept import Bases, base_of
 from sensorsel.designs.requirements.oracle import Antichain, mask_of, suite_of
+from sensorsel.designs.requirements.smoothed import RouteEngine, SmootherFloor, route_covariances
 from sensorsel.designs.requirements.spec import RouteVerdict, Specification, covariance_verdict, verdict
 from sensorsel.designs.requirements.truncated import (
     BadKeyframes,
@@ -29,6 +30,9 @@ from sensorsel.information.filtering import forward_pass
 from sensorsel.information.window_bounds import WindowBounds, pass_flops
 from sensorsel.model.problem import Problem
 
+if TYPE_CHECKING:
+    from sensorsel.information.evaluators.processes import CovariancesAhead
+
 __all__ = [
     "COUNTS",
     "FLOOR_KEEP_SHARE",
@@ -39,20 +43,6 @@ __all__ = [
 ]
 
 
-class RouteEngine(Protocol):
-    """What require asks of a route's engine: its pose marginals and their cheap floor (a
-    :class:`~sensorsel.information.evaluators.base.ProblemEvaluator`, asked where the route lives)."""
-
-    @property
-    def name(self) -> str: ...
-
-    def pose_covariances(
-        self, suite: Iterable[int], *, map_sigma_m: float | None = None, estimate: str = "smoother"
-    ) -> np.ndarray: ...
-
-    def pose_covariance_floor(self, suite: Iterable[int], *, map_sigma_m: float | None = None) -> np.ndarray | None: ...
-
-
 #: the cheap floor under the marginals is asked only while it refutes at least this share of the
 #: suites it is asked about (after :data:`FLOOR_TRIAL` of them): on the bundled suburb route it
 #: refuted 2 % of them and cost a third of a check each; in the map model on KITTI most failing suites
@@ -61,12 +51,6 @@ FLOOR_TRIAL = 40
 #: the most recent failing suites of a route looked through for a bound's base (the growth of a
 #: failing set asks about the set it grows, seen last; a long search holds thousands)
 RECENT_FAILED = 256
-
-
-def route_covariances(engine: RouteEngine, suite: Suite, map_sigma_m: float | None, estimate: str) -> np.ndarray:
-    """The (K, 3, 3) pose covariances ``require`` judges a suite by on one route (the filter's or the
-    smoother's ``estimate``): the one place where it asks a route's engine for them."""
-    return engine.pose_covariances(suite, map_sigma_m=map_sigma_m, estimate=estimate)
 
 
 class RouteOracle:
@@ -145,6 +129,7 @@ class RouteOracle:
         estimate: str = "filter",
         known: dict[Suite, tuple[bool, float | None]] | None = None,
         known_bad: Iterable[tuple[Suite, BadList]] = (),
+        ahead: CovariancesAhead | None = None,
     ) -> None:
         self.engine, self.problem, self.name, self.spec = engine, problem, name, spec
         self.map_sigma_m, self.estimate = map_sigma_m, estimate
@@ -152,8 +137,8 @@ class RouteOracle:
         self.log: list[tuple[Suite, bool, float | None]] = []
         self._answers: dict[Suite, tuple[bool, float]] = {}
         self._reports: dict[Suite, tuple[RouteAccuracy, RouteVerdict]] = {}
-        #: suite -> the smoother's (meets, violation), where the filter's is asked (its floor)
-        self._smoothed: dict[Suite, tuple[bool, float]] = {}
+        #: the smoother's (meets, violation) of the suites, where the filter's is asked (its floor)
+        self.smoother = SmootherFloor(engine, spec, map_sigma_m, ahead)
         self._refuted: set[Suite] = set()
         #: suite -> meets, from a pass stopped early (no violation known)
         self._short: dict[Suite, bool] = {}
@@ -587,15 +572,26 @@ class RouteOracle:
         class's docstring), computed once; None for the smoother's own estimate."""
         if self.estimate != "filter":
             return None
-        got = self._smoothed.get(suite)
-        if got is None:
-            got = self._smoothed[suite] = covariance_verdict(
-                route_covariances(self.engine, suite, self.map_sigma_m, "smoother"), self.spec
-            )
-            if not got[0]:
-                self.n_refuted += 1
-                self._answered(suite, False, got[1])
+        fresh = self.smoother.known(suite) is None
+        got = self.smoother.verdict(suite)
+        if fresh and not got[0]:
+            self.n_refuted += 1
+            self._answered(suite, False, got[1])
         return got
+
+    def look_ahead(self, suites: Sequence[Suite]) -> None:
+        """Told of the suites whose violations are likely asked next, in that order: those whose
+        smoother's marginals :meth:`violation` would compute are computed ahead where the route has
+        workers for it (:meth:`SmootherFloor.look_ahead`). Nothing here is recorded or counted: the
+        answers, and their order, are those of a run without it."""
+        if self.estimate == "filter":
+            self.smoother.look_ahead(
+                [
+                    s
+                    for s in suites
+                    if s not in self._answers and s not in self.known and not self._met.holds_one(mask_of(s))
+                ]
+            )
 
     def violation(self, suite: Suite) -> float:
         """How far ``suite`` misses the specification (0 exactly when it meets it)."""
@@ -625,7 +621,7 @@ class RouteOracle:
             return known[1]
         if suite in self._answers:
             return self._answers[suite][1]
-        smoothed = self._smoothed.get(suite)
+        smoothed = self.smoother.known(suite)
         if smoothed is not None:
             return 0.0 if smoothed[0] else smoothed[1]
         floor = self.engine.pose_covariance_floor(suite, map_sigma_m=self.map_sigma_m)

@@ -23,7 +23,7 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, cast
+from typing import TYPE_CHECKING, Any, cast
 
 from sensorsel.designs.inputs import result_fingerprint, route_entry
 from sensorsel.designs.requirements.domain_checks import DomainChecks, Here
@@ -46,6 +46,9 @@ from sensorsel.io.results import result_kind
 from sensorsel.model.constraints import Constraints, feasible_set
 from sensorsel.model.problem import Domain, Problem, Target, TargetInfo
 from sensorsel.pipeline.store import digest, load_matching
+
+if TYPE_CHECKING:
+    from sensorsel.information.evaluators.processes import CovariancesAhead
 
 __all__ = ["RouteRequirement", "RequireResult", "RequireJournal", "journal_due", "require", "require_fingerprint"]
 
@@ -401,7 +404,8 @@ def require(
         own, where = evaluator_for(kept, engine, jobs=jobs), None
         host = own if kept.kind == "domain" else Here([cast(ProblemEvaluator, own)])
     engine_name = str(getattr(host, "engine", None) or host.routes[0].name)
-    oracle = DomainChecks(host, [n for n, _ in problems], specs, map_sigma_m, estimate, where=where)
+    ahead = _covariances_ahead(host, problems, jobs, engine_name, map_sigma_m, estimate, integrity)
+    oracle = DomainChecks(host, [n for n, _ in problems], specs, map_sigma_m, estimate, where=where, ahead=ahead)
     try:
         integ: IntegrityRequirement | None = None
         alone: frozenset[int] = frozenset()
@@ -473,6 +477,7 @@ def require(
                     violation_floor=oracle.violation_floor if capped else None,
                     dominance=dominance,
                     refute=oracle.refuted_cheaply,
+                    look_ahead=oracle.look_ahead if ahead is not None else None,
                 )
             else:
                 checks = integ
@@ -571,7 +576,36 @@ def require(
         close = getattr(own, "close", None)
         if close is not None:
             close()
+        if ahead is not None:
+            ahead.close()
     return result
+
+
+def _covariances_ahead(
+    host: Any,
+    problems: Sequence[tuple[str, Problem]],
+    jobs: int,
+    engine: str,
+    map_sigma_m: float | None,
+    estimate: str,
+    integrity: IntegritySpec | None,
+) -> CovariancesAhead | None:
+    """Worker processes computing the smoother's covariances the greedy likely asks next
+    (:class:`~sensorsel.information.evaluators.processes.CovariancesAhead`: ``jobs`` − 1 of them),
+    for one route of this process with :data:`~sensorsel.information.evaluators.processes.AHEAD_FROM_KEYFRAMES`
+    keyframes or more, judged by the filter (the smoother's marginals are its floor) on accuracy alone
+    (integrity's search has no greedy); None elsewhere. A choice of speed alone: the same bytes."""
+    if jobs < 2 or not isinstance(host, Here) or len(problems) != 1 or estimate != "filter" or integrity is not None:
+        return None
+    # imported here: a run that starts no process imports no multiprocessing machinery
+    from sensorsel.information.evaluators.processes import AHEAD_FROM_KEYFRAMES, CovariancesAhead
+
+    name, problem = problems[0]
+    if problem.scenario.n_poses < AHEAD_FROM_KEYFRAMES:
+        return None
+    from sensorsel.model.recipes import RouteRecipe
+
+    return CovariancesAhead(RouteRecipe.of(name, problem), engine, jobs - 1, map_sigma_m=map_sigma_m)
 
 
 def _worst_failure(oracle: DomainChecks, suite: Suite, failures: int) -> tuple[int, ...]:

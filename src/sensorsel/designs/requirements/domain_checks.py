@@ -35,13 +35,16 @@ from __future__ import annotations
 
 import uuid
 from collections.abc import Callable, Sequence
-from typing import Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 from sensorsel.designs.requirements.checks import COUNTS, RouteOracle
 from sensorsel.designs.requirements.oracle import suite_of
 from sensorsel.designs.requirements.spec import RouteRequirement, Specification
 from sensorsel.designs.requirements.truncated import BadList
 from sensorsel.information.evaluators.base import ProblemEvaluator, Suite, as_suite
+
+if TYPE_CHECKING:
+    from sensorsel.information.evaluators.processes import CovariancesAhead
 
 __all__ = ["DomainChecks", "Here", "RouteHost"]
 
@@ -68,9 +71,19 @@ class Here:
 
 def open_route(engine: ProblemEvaluator, key: str, how: tuple[Any, ...]) -> None:
     """Keep a :class:`RouteOracle` of ``engine``'s route under ``key`` (``how``: its name,
-    specification, map σ, estimate, known answers and the bad keyframes known with them)."""
-    name, spec, map_sigma_m, estimate, known, known_bad = how
-    engine.kept[key] = RouteOracle(engine, engine.problem, name, spec, map_sigma_m, estimate, known, known_bad)
+    specification, map σ, estimate, known answers, the bad keyframes known with them, and the
+    route's :class:`~sensorsel.information.evaluators.processes.CovariancesAhead` or None)."""
+    name, spec, map_sigma_m, estimate, known, known_bad, ahead = how
+    engine.kept[key] = RouteOracle(
+        engine, engine.problem, name, spec, map_sigma_m, estimate, known, known_bad, ahead=ahead
+    )
+
+
+def look_ahead_route(engine: ProblemEvaluator, key: str, suites: list[Suite]) -> None:
+    """:meth:`~.checks.RouteOracle.look_ahead` of the route oracle kept under ``key`` (if it is)."""
+    oracle = engine.kept.get(key)
+    if oracle is not None:
+        oracle.look_ahead(suites)
 
 
 def ask_route(engine: ProblemEvaluator, key: str, method: str, suite: Suite) -> Any:
@@ -106,8 +119,13 @@ class DomainChecks:
         estimate: str = "filter",
         *,
         where: Sequence[int] | None = None,
+        ahead: CovariancesAhead | None = None,
     ) -> None:
+        if ahead is not None and (len(names) != 1 or not isinstance(host, Here)):
+            raise ValueError("covariances computed ahead are for one route's engine in this process")
         self.host, self.names, self.specs = host, list(names), list(specs)
+        #: the one route's covariances computed ahead on worker processes (a route of this process)
+        self.ahead = ahead
         self.map_sigma_m, self.estimate = map_sigma_m, estimate
         #: each route's index in ``host`` (a domain's members kept by ``--in``: a subset of its routes)
         self.where = list(range(len(self.names))) if where is None else [int(w) for w in where]
@@ -140,7 +158,15 @@ class DomainChecks:
     def _open(self, routes: list[int]) -> None:
         """Open the oracles of ``routes`` where they live, with every answer known of each."""
         how = {
-            r: (self.names[r], self.specs[r], self.map_sigma_m, self.estimate, self._known_of(r), list(self._bad[r]))
+            r: (
+                self.names[r],
+                self.specs[r],
+                self.map_sigma_m,
+                self.estimate,
+                self._known_of(r),
+                list(self._bad[r]),
+                self.ahead,
+            )
             for r in routes
         }
         self.host.apply_routes(open_route, {self.where[r]: (self._key, how[r]) for r in routes})
@@ -199,6 +225,14 @@ class DomainChecks:
         s = as_suite(suite)
         got = self._round("violation", s, list(range(len(self.names))))
         return max(float(got[r]) for r in range(len(self.names)))
+
+    def look_ahead(self, suites: Sequence[Suite]) -> None:
+        """Told of the suites whose violations are likely asked next, in that order (the solver's
+        greedy): with :attr:`ahead`, the route computes what it can of them on its workers
+        meanwhile (:meth:`~.checks.RouteOracle.look_ahead`); the answers are the same either way."""
+        if self.ahead is None or not self._opened:
+            return
+        self.host.apply_routes(look_ahead_route, {self.where[0]: (self._key, [as_suite(s) for s in suites])})
 
     def violation_floor(self, suite: Suite) -> float:
         """A lower bound on :meth:`violation` without an accuracy computation: the largest route's

@@ -216,10 +216,12 @@ class Monotone(_Antichains):
         violation: Callable[[Suite], float] | None = None,
         swaps: Iterable[tuple[int, int]] = (),
         floor: Callable[[Suite], float] | None = None,
+        look_ahead: Callable[[list[Suite]], None] | None = None,
     ) -> None:
         super().__init__(n, passes, Antichain(n, "max"), Antichain(n, "min"))
         self.meeting = self.passing
         self._violation = violation
+        self._look_ahead = look_ahead
         self._floor = floor  # its time is in ``seconds``; a floor is not a check (``calls``)
         self.viol: dict[int, float] = {}
         self.swaps = tuple((1 << int(w), 1 << int(s)) for w, s in swaps)
@@ -255,6 +257,18 @@ class Monotone(_Antichains):
         self.viol[mask] = v
         self.record(mask, v <= 0.0)
         return v
+
+    def look_ahead(self, masks: Iterable[int]) -> None:
+        """Tell the caller's ``look_ahead`` of the suites among ``masks`` whose violations
+        :meth:`violation` would compute (not cached, not known to pass), in their order: the
+        violations likely asked next. Nothing is recorded or counted (its time is in ``seconds``)."""
+        if self._look_ahead is None:
+            return
+        todo = [suite_of(m) for m in masks if m not in self.viol and not self.passing.covers(m)]
+        if todo:
+            t = time.perf_counter()
+            self._look_ahead(todo)
+            self.seconds += time.perf_counter() - t
 
     @property
     def has_floor(self) -> bool:

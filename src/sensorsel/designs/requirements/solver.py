@@ -179,6 +179,9 @@ DEFAULT_MAX_ITERATIONS = 1000
 COMPLETION_GAP_SHARE = 0.5
 #: integer programs spent looking for other suites of the optimal cost once it is proved
 DEFAULT_TIE_PROGRAMS = 4
+#: the greedy tells ``look_ahead`` of the candidate it asks and this many of the next ones of its
+#: lazy queue (the caller gives out as many as it has idle places for)
+LOOK_AHEAD = 8
 
 _mask, _suite = mask_of, suite_of
 
@@ -480,6 +483,10 @@ class _Search:
                     cap[top] = _ratio(base - self.down.violation_floor(part | 1 << top), float(self.price[top]))
                     if cap[top] < bound[top]:
                         continue
+                # this violation and the next candidates', likely asked after it: those after it
+                # computed meanwhile where the caller has places to spare (the same answers, asked
+                # in the same order)
+                self.down.look_ahead(part | 1 << c for c in cands[: 1 + LOOK_AHEAD] if c not in fresh)
                 drop = base - self.down.violation(part | 1 << top)
                 bound[top] = _ratio(drop, float(self.price[top]))
                 fresh.add(top)
@@ -533,6 +540,7 @@ def cheapest_suite(
     refute: Callable[[Suite], bool] | None = None,
     clock: Callable[[], float] = time.monotonic,
     programs_solved: dict[str, Solved] | None = None,
+    look_ahead: Callable[[list[Suite]], None] | None = None,
 ) -> CheapestSuite:
     """The cheapest suite of ``feasible`` that meets a requirement after any ``failures`` of its
     sensors fail, with a lower bound on the cost of every such suite (module docstring).
@@ -579,6 +587,11 @@ def cheapest_suite(
             refutes nothing, so a search that goes on is the search without it.
         clock: the clock ``time_limit`` is measured on [s] (``time.monotonic``; a test passes one
             that advances per reading, so that the limit falls after a known number of checks).
+        look_ahead: with ``violation``: look_ahead(suites), told before a violation is computed of
+            that suite and of those whose violations the greedy likely asks next, in order (the
+            next candidates of its lazy queue), so that a caller with places to spare computes the
+            later ones meanwhile. It must not change any answer (nothing is recorded of it); None:
+            nothing told.
         programs_solved: the integer programs' answers by key (:data:`~.programs.Solved`), shared with the
             caller: what it holds on entry (a resumed run's journal) answers those programs when the
             search poses them again, and every program solved is added (the journal's next write).
@@ -605,7 +618,13 @@ def cheapest_suite(
     alpha = int(failures)
     n = len(feasible.library)
     if monotone:
-        s = _Search(feasible, alpha, Monotone(n, meets, violation, swaps=dominance, floor=violation_floor), None, None)
+        s = _Search(
+            feasible,
+            alpha,
+            Monotone(n, meets, violation, swaps=dominance, floor=violation_floor, look_ahead=look_ahead),
+            None,
+            None,
+        )
         s.orders = dominance_order(feasible, dominance)
     else:
         s = _Search(

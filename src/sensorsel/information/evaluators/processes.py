@@ -27,16 +27,27 @@ import multiprocessing
 import signal
 import traceback
 import weakref
+from collections import OrderedDict
+from collections.abc import Callable, Sequence
 from multiprocessing.connection import Connection
 from typing import Any
 
+import numpy as np
 from threadpoolctl import ThreadpoolController
 
 from sensorsel.errors import SensorselError
+from sensorsel.information.evaluators.base import Suite
 from sensorsel.information.evaluators.distributed import DistributedDomainEvaluator, WorkerRoutes
 from sensorsel.model.problem import Domain, Target
+from sensorsel.model.recipes import RouteRecipe
 
-__all__ = ["PROCESSES_FROM_KEYFRAMES", "ProcessDomainEvaluator", "on_processes"]
+__all__ = [
+    "AHEAD_FROM_KEYFRAMES",
+    "PROCESSES_FROM_KEYFRAMES",
+    "CovariancesAhead",
+    "ProcessDomainEvaluator",
+    "on_processes",
+]
 
 #: a domain's routes go to worker processes from this many keyframes in all (and 2 routes, 2 jobs):
 #: below, starting and feeding processes costs more than they give (2 cores, build + greedy +
@@ -230,3 +241,193 @@ class ProcessDomainEvaluator(DistributedDomainEvaluator):
         recipes = {k: self.recipes[k] for k in routes}
         self.n_messages += 1
         return chosen, chosen.build(recipes, self.engine, self.jobs)
+
+
+#: one route gets worker processes computing its smoother's covariances ahead (``require``'s greedy,
+#: :class:`CovariancesAhead`) from this many keyframes on: KITTI 00's 455 took ~57 ms a suite, the
+#: README tour's 53 ~1.4 ms (there a process's start and its messages cost about what it would save)
+AHEAD_FROM_KEYFRAMES = 300
+#: the covariances computed ahead kept until asked for (the oldest dropped first)
+AHEAD_KEEP = 64
+
+
+class CovariancesAhead:
+    """One route's pose covariances computed ahead of being asked for, on worker processes of this
+    machine that each hold a copy of the route (built from its recipe, as the domain's workers
+    build theirs): while this process computes what a search asks now, the workers compute what it
+    will likely ask next (``require``'s greedy: the next candidates of its lazy queue).
+
+        ahead = CovariancesAhead(RouteRecipe.of(name, problem), "fast", 1, map_sigma_m=0.2)
+        ahead.submit([s2, s3, s4])          # likely asked next: to the idle workers, in this order
+        cov = ahead.take(s1, compute)       # s1 is not given out: compute(s1), here
+        cov = ahead.take(s2, compute)       # s2's (K, 3, 3) covariances from its worker
+        ahead.close()
+
+    Why nothing changes but the time: a worker's engine is built from the same recipe and computes
+    with BLAS on one thread, as this process's engine does (``single_thread``), so its covariances
+    are the bits this process would compute (a test compares them); which suites go ahead, and when,
+    changes only who computes them. A worker takes one suite at a time (never a queue: a suite asked
+    for is done, or being computed, which :meth:`take` waits for, or not given out). A worker that
+    fails or dies is dropped, and what it held is computed here. The first suite of a
+    :meth:`submit` that no worker holds is the one asked now: it stays here (given out, this process
+    would wait for it idle). On KITTI 00 (455 keyframes, local streets) the greedy's 301 smoother
+    marginals took 14.2 s in one process; with one worker, this process computed 147 of them and
+    waited 1.5 s in all for the worker's (docs/guide-requirements.md).
+
+    Args:
+        recipe: the route's recipe (:meth:`~sensorsel.model.recipes.RouteRecipe.of` its problem).
+        engine: the engine's registered name (the one this process uses on the route).
+        processes: worker processes (>= 1).
+        map_sigma_m, estimate: as :meth:`~sensorsel.information.evaluators.base.ProblemEvaluator.pose_covariances`.
+    """
+
+    def __init__(
+        self,
+        recipe: RouteRecipe,
+        engine: str,
+        processes: int,
+        *,
+        map_sigma_m: float | None,
+        estimate: str = "smoother",
+    ) -> None:
+        ctx = multiprocessing.get_context("forkserver")
+        ctx.set_forkserver_preload([_PRELOAD])
+        self._how = (map_sigma_m, estimate)
+        self._workers = [_Worker(ctx, f"ahead{i}") for i in range(max(1, int(processes)))]
+        self._finalizer = weakref.finalize(self, _kill_all, self._workers)
+        #: per worker, what its pipe will answer next: None (its build) or a suite; at most one suite
+        self._pending: dict[str, list[Suite | None]] = {}
+        for w in self._workers:
+            w.build({0: recipe}, engine, 1)
+            self._pending[w.name] = [None]
+        self._done: OrderedDict[Suite, np.ndarray] = OrderedDict()
+        self._next: list[Suite] = []  # the latest suites likely asked next
+        self.n_submitted = 0  # suites given to a worker
+        self.n_taken = 0  # suites asked for that were computed ahead (the others ahead were work lost)
+
+    def __enter__(self) -> CovariancesAhead:
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Stop the workers now (what they compute is of no further use)."""
+        self._finalizer()
+
+    def wait_built(self) -> None:
+        """Wait until every worker has built its route (a search never waits for it: until then its
+        suites are computed here)."""
+        for w in list(self._workers):
+            while None in self._pending.get(w.name, []):
+                self._receive(w)
+
+    @property
+    def workers(self) -> int:
+        """The worker processes still serving (a failed or lost one is dropped; none once closed)."""
+        return len(self._workers)
+
+    @property
+    def pids(self) -> list[int]:
+        """The worker processes' ids, in order."""
+        return [int(w.process.pid or 0) for w in self._workers]
+
+    def submit(self, suites: Sequence[Suite]) -> None:
+        """The suites likely asked next, in order (the latest list replaces the one before). The
+        first that no worker holds is this process's: it is asked first, and computed here (a
+        worker given it would make this process wait for what it could compute itself); the next
+        ones that no worker holds go to the idle workers, one each."""
+        self._next = list(suites)
+        self._collect()
+        self._fill(self._unclaimed(None))
+
+    def take(self, suite: Suite, compute: Callable[[Suite], np.ndarray]) -> np.ndarray:
+        """``suite``'s (K, 3, 3) covariances: done ahead, or waited for while a worker computes them,
+        or ``compute(suite)`` here where no worker holds it (the idle workers are first given the
+        next suites of the latest :meth:`submit`). This process never computes ahead itself: it
+        computes only what it is asked."""
+        self._collect()
+        got = self._done.pop(suite, None)
+        if got is None:
+            w = next((w for w in self._workers if suite in self._pending[w.name]), None)
+            while w is not None and suite in self._pending[w.name]:
+                self._receive(w)
+            got = self._done.pop(suite, None)
+        if got is None:
+            self._fill(suite)
+            return compute(suite)
+        self.n_taken += 1
+        return got
+
+    def _unclaimed(self, mine: Suite | None) -> Suite | None:
+        """The first suite of the latest :meth:`submit` that is not ``mine`` (this process's to
+        compute) and that no one has done or computes."""
+        busy = {s for q in self._pending.values() for s in q if s is not None}
+        return next((s for s in self._next if s != mine and s not in self._done and s not in busy), None)
+
+    def _fill(self, mine: Suite | None) -> None:
+        """Give the idle workers the next suites of the latest :meth:`submit` but ``mine``, one each."""
+        for w in [w for w in self._workers if not self._pending[w.name]]:
+            s = self._unclaimed(mine)
+            if s is None:
+                return
+            if self._send(w, s):
+                self.n_submitted += 1
+
+    def _trim(self) -> None:
+        while len(self._done) > AHEAD_KEEP:
+            self._done.popitem(last=False)
+
+    def _send(self, w: _Worker, suite: Suite) -> bool:
+        try:
+            w.call({0: ("pose_covariances", (suite, *self._how))})
+        except ConnectionError:
+            self._drop(w)
+            return False
+        self._pending[w.name].append(suite)
+        return True
+
+    def _collect(self) -> None:
+        """Read every reply already in a pipe (never waiting)."""
+        for w in list(self._workers):
+            while self._pending.get(w.name) and _ready(w):
+                self._receive(w)
+
+    def _receive(self, w: _Worker) -> None:
+        """Read ``w``'s next reply (waiting for it); a failed or lost worker is dropped."""
+        what = self._pending[w.name][0]
+        try:
+            value = _Reply(w).result()
+        except Exception:  # a worker's failure only loses what it computed ahead
+            self._drop(w)
+            return
+        self._pending[w.name].pop(0)
+        if what is not None:
+            self._done[what] = value[0]
+            self._trim()
+
+    def _drop(self, w: _Worker) -> None:
+        self._workers.remove(w)
+        self._pending[w.name] = []
+        _kill(w)
+
+
+def _ready(w: _Worker) -> bool:
+    try:
+        return bool(w.conn.poll())
+    except (OSError, ValueError):
+        return True  # read it: the reading finds the worker lost
+
+
+def _kill(w: _Worker) -> None:
+    """Stop ``w`` at once (not after its request in hand, as :meth:`_Worker.stop` does)."""
+    if w.process.is_alive():
+        w.process.kill()
+    w.process.join()
+    w.conn.close()
+
+
+def _kill_all(workers: list[_Worker]) -> None:
+    for w in workers:
+        _kill(w)
+    workers.clear()
