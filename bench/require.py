@@ -5,7 +5,7 @@ suites (:mod:`sensorsel.designs.requirements.accept`), side by side in one proce
     python bench/require.py [--kitti-root ../shared/kitti] [--rows tour 03 00 drive helsinki fixtures]
                             [--helsinki DIR/domain.yaml] [--presets local-streets freeway]
                             [--failures 0 1] [--time-limit 300]
-                            [--solvers new noaccept nowindows nofloor noswap dense nogreedyfloor nostop reference]
+                            [--solvers new ahead noaccept nowindows nofloor noswap dense nogreedyfloor nostop reference]
 
 Rows: "tour" is the README's tour (the bundled suburb route), "03" / "00" the KITTI sequences with
 their real pole maps, "drive" a user's own drive (KITTI 00's ground truth as a route file, with
@@ -13,7 +13,10 @@ generated landmarks), "helsinki" the 31 routes `sensorsel osm --sample helsinki`
 the bundled fixtures' domain (configs/domain_fixtures.yaml, two routes: many integer programs on
 plateaus of one price); each row is
 run for every preset and failure count given, first with the solver of the package, then with the
-reference solver behind the same accuracy oracle (so the two differ only in the search); "noaccept"
+reference solver behind the same accuracy oracle (so the two differ only in the search); "ahead" is
+the package's solver at ``jobs=2`` (one route of ``processes.AHEAD_FROM_KEYFRAMES`` keyframes or more:
+a worker process computes the smoother's marginals the greedy likely asks next; the same answer and
+counts, its CPU not in this process's); "noaccept"
 is the package's solver with the oracle's upper bounds off (every suite the smoother does not refute
 gets its own pass, as before they existed); "nowindows" is the package's solver with the oracle's
 windows off (no suite decided by the filter's floors and ceilings from a window of the route,
@@ -131,7 +134,18 @@ def main() -> None:
         "--solvers",
         nargs="+",
         default=["new", "noaccept", "reference"],
-        choices=["new", "noaccept", "nowindows", "nofloor", "noswap", "dense", "nogreedyfloor", "nostop", "reference"],
+        choices=[
+            "new",
+            "ahead",
+            "noaccept",
+            "nowindows",
+            "nofloor",
+            "noswap",
+            "dense",
+            "nogreedyfloor",
+            "nostop",
+            "reference",
+        ],
     )
     a = ap.parse_args()
     from sensorsel.designs.requirements import design, programs, solver
@@ -140,7 +154,7 @@ def main() -> None:
     from sensorsel.information import filtering
 
     package = design.cheapest_suite
-    solvers = {k: package for k in ("new", "noaccept", "nowindows", "nofloor", "noswap", "dense", "nostop")}
+    solvers = {k: package for k in ("new", "ahead", "noaccept", "nowindows", "nofloor", "noswap", "dense", "nostop")}
     solvers["reference"] = _reference()
     solvers["nogreedyfloor"] = lambda *args, **kw: package(*args, **{**kw, "violation_floor": None})
     after, swap, worth = programs.FLOOR_AFTER_NODES, solver._plateau_swap, filtering.WINDOW_WORTH
@@ -172,6 +186,7 @@ def main() -> None:
                             map_sigma_m=DEFAULT_MAP_SIGMA_M,
                             failures=alpha,
                             time_limit_s=a.time_limit,
+                            jobs=2 if which == "ahead" else 1,
                         )
                     finally:
                         design.cheapest_suite = package
