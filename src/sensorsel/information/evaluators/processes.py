@@ -30,7 +30,7 @@ import weakref
 from collections import OrderedDict
 from collections.abc import Callable, Sequence
 from multiprocessing.connection import Connection
-from typing import Any
+from typing import Any, Self
 
 import numpy as np
 from threadpoolctl import ThreadpoolController
@@ -151,25 +151,45 @@ class _Worker:
     def call(self, calls: dict[int, tuple[str, tuple[Any, ...]]]) -> _Reply:
         return self._send("call", calls)
 
-    def stop(self) -> None:
-        try:
-            self.conn.send(None)
-        except (OSError, ValueError):
-            pass
-        self.process.join(timeout=5)
+    def stop(self, now: bool = False) -> None:
+        """Ask the worker to stop after the request in hand (killed if it has not within 5 s), or
+        ``now``: killed at once."""
+        if not now:
+            try:
+                self.conn.send(None)
+            except (OSError, ValueError):
+                pass
+            self.process.join(timeout=5)
         if self.process.is_alive():
             self.process.kill()
-            self.process.join()
+        self.process.join()
         self.conn.close()
 
 
-def _stop_all(workers: list[_Worker]) -> None:
+def _stop_all(workers: list[_Worker], now: bool = False) -> None:
     for w in workers:
-        w.stop()
+        w.stop(now)
     workers.clear()
 
 
-class ProcessDomainEvaluator(DistributedDomainEvaluator):
+class _StopsWorkers:
+    """Worker processes stopped by :meth:`close`, by ``with``, or when the owner is collected (its
+    ``_finalizer``)."""
+
+    _finalizer: weakref.finalize
+
+    def __enter__(self) -> Self:
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Stop the worker processes (nothing can be asked of them afterwards)."""
+        self._finalizer()
+
+
+class ProcessDomainEvaluator(_StopsWorkers, DistributedDomainEvaluator):
     """:class:`DomainEvaluator`'s numbers, the routes owned by ``processes`` worker processes of this
     machine (see the module's documentation).
 
@@ -212,16 +232,6 @@ class ProcessDomainEvaluator(DistributedDomainEvaluator):
             f"engine {self.engine!r}, {self.aggregate})"
         )
 
-    def __enter__(self) -> ProcessDomainEvaluator:
-        return self
-
-    def __exit__(self, *exc: Any) -> None:
-        self.close()
-
-    def close(self) -> None:
-        """Stop the worker processes (the evaluator cannot score afterwards)."""
-        self._finalizer()
-
     def _start(self) -> _Worker:
         w = _Worker(self._ctx, f"p{self._started}")
         self._started += 1
@@ -251,7 +261,7 @@ AHEAD_FROM_KEYFRAMES = 300
 AHEAD_KEEP = 64
 
 
-class CovariancesAhead:
+class CovariancesAhead(_StopsWorkers):
     """One route's pose covariances computed ahead of being asked for, on worker processes of this
     machine that each hold a copy of the route (built from its recipe, as the domain's workers
     build theirs): while this process computes what a search asks now, the workers compute what it
@@ -294,7 +304,8 @@ class CovariancesAhead:
         ctx.set_forkserver_preload([_PRELOAD])
         self._how = (map_sigma_m, estimate)
         self._workers = [_Worker(ctx, f"ahead{i}") for i in range(max(1, int(processes)))]
-        self._finalizer = weakref.finalize(self, _kill_all, self._workers)
+        # stopped at once: what they compute is of no use to anyone else
+        self._finalizer = weakref.finalize(self, _stop_all, self._workers, True)
         #: per worker, what its pipe will answer next: None (its build) or a suite; at most one suite
         self._pending: dict[str, list[Suite | None]] = {}
         for w in self._workers:
@@ -304,16 +315,6 @@ class CovariancesAhead:
         self._next: list[Suite] = []  # the latest suites likely asked next
         self.n_submitted = 0  # suites given to a worker
         self.n_taken = 0  # suites asked for that were computed ahead (the others ahead were work lost)
-
-    def __enter__(self) -> CovariancesAhead:
-        return self
-
-    def __exit__(self, *exc: Any) -> None:
-        self.close()
-
-    def close(self) -> None:
-        """Stop the workers now (what they compute is of no further use)."""
-        self._finalizer()
 
     def wait_built(self) -> None:
         """Wait until every worker has built its route (a search never waits for it: until then its
@@ -409,7 +410,7 @@ class CovariancesAhead:
     def _drop(self, w: _Worker) -> None:
         self._workers.remove(w)
         self._pending[w.name] = []
-        _kill(w)
+        w.stop(now=True)
 
 
 def _ready(w: _Worker) -> bool:
@@ -417,17 +418,3 @@ def _ready(w: _Worker) -> bool:
         return bool(w.conn.poll())
     except (OSError, ValueError):
         return True  # read it: the reading finds the worker lost
-
-
-def _kill(w: _Worker) -> None:
-    """Stop ``w`` at once (not after its request in hand, as :meth:`_Worker.stop` does)."""
-    if w.process.is_alive():
-        w.process.kill()
-    w.process.join()
-    w.conn.close()
-
-
-def _kill_all(workers: list[_Worker]) -> None:
-    for w in workers:
-        _kill(w)
-    workers.clear()
