@@ -268,7 +268,7 @@ class CovariancesAhead(_StopsWorkers):
     will likely ask next (``require``'s greedy: the next candidates of its lazy queue).
 
         ahead = CovariancesAhead(RouteRecipe.of(name, problem), "fast", 1, map_sigma_m=0.2)
-        ahead.submit([s2, s3, s4])          # likely asked next: to the idle workers, in this order
+        ahead.submit([s1, s2, s3])          # s1 asked now; s2, s3 likely next: to the idle workers
         cov = ahead.take(s1, compute)       # s1 is not given out: compute(s1), here
         cov = ahead.take(s2, compute)       # s2's (K, 3, 3) covariances from its worker
         ahead.close()
